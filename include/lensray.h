@@ -1,0 +1,251 @@
+/*
+ * lensray.h: the whole public API of liblensray.
+ *
+ * liblensray renders JSON scenes with Intel Embree 3 and writes the result
+ * as OpenEXR or PNG.  The flow is:
+ *
+ *     lr_scene_load_file()  -> lr_scene       (immutable, shareable)
+ *     lr_scene_camera()     -> lr_camera      (plain struct, yours to edit)
+ *     lr_scene_settings()   -> lr_render_settings
+ *     lr_render()           -> lr_image       (+ lr_render_stats)
+ *     lr_image_write()      -> file, or lr_image_encode() -> memory
+ *
+ * Conventions that hold for every function here:
+ *   - Functions that can fail return an lr_status (LR_OK == 0, errors are
+ *     negative) and, when the caller passes a non-NULL lr_error, fill it
+ *     with a sentence and, for input errors, the JSON path of the field.
+ *   - Whoever allocates frees, through the matching lr_*_free function;
+ *     every lr_*_free(NULL) is a harmless no-op.
+ *   - A loaded lr_scene is read-only: any number of threads may render
+ *     from one scene at once, with different cameras and settings.
+ *   - Rendering is deterministic: the same scene, camera and settings give
+ *     the same bytes for any thread count and tile size.
+ */
+#ifndef LENSRAY_H
+#define LENSRAY_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define LR_VERSION_MAJOR 0
+#define LR_VERSION_MINOR 1
+#define LR_VERSION_PATCH 0
+
+/* The library's version as "MAJOR.MINOR.PATCH"; a static string. */
+const char *lr_version(void);
+
+/* ------------------------------------------------------------------------
+ * Errors
+ * ---------------------------------------------------------------------- */
+
+typedef enum lr_status {
+    LR_OK = 0,
+    LR_ERR_INVALID = -1,   /* bad input: JSON, scene value, OBJ, argument */
+    LR_ERR_IO = -2,        /* a file could not be read or written */
+    LR_ERR_NOMEM = -3,     /* an allocation failed */
+    LR_ERR_EMBREE = -4,    /* Embree reported an error */
+    LR_ERR_CANCELLED = -5, /* the render was cancelled via its flag */
+    LR_ERR_LIMIT = -6      /* a size limit was exceeded */
+} lr_status;
+
+/* Filled by failing calls.  `path` is the JSON path of the offending field
+ * ("objects[3].radius") or "" when the error is not about one field;
+ * `message` is a whole sentence that already includes the path. */
+typedef struct lr_error {
+    lr_status status;
+    char path[256];
+    char message[768];
+} lr_error;
+
+/* A short static name for a status, e.g. "invalid" or "io". */
+const char *lr_status_name(lr_status status);
+
+/* ------------------------------------------------------------------------
+ * Camera
+ * ---------------------------------------------------------------------- */
+
+typedef enum lr_camera_model {
+    LR_CAMERA_PINHOLE = 0
+} lr_camera_model;
+
+/* A camera: a plain struct, so copy and edit it freely.  Directions need
+ * not be normalised; `up` must not be parallel to look_at - position. */
+typedef struct lr_camera {
+    lr_camera_model model;
+    double position[3]; /* eye; default (0, 0, 0) */
+    double look_at[3];  /* default (0, 0, -1) */
+    double up[3];       /* default (0, 1, 0) */
+    double fov;         /* vertical field of view in degrees, (0, 180); 40 */
+} lr_camera;
+
+/* Fills `cam` with the defaults documented above. */
+void lr_camera_default(lr_camera *cam);
+
+/* Checks a camera; LR_ERR_INVALID names the bad field ("camera.fov"). */
+lr_status lr_camera_validate(const lr_camera *cam, lr_error *err);
+
+/* ------------------------------------------------------------------------
+ * Render settings
+ * ---------------------------------------------------------------------- */
+
+typedef enum lr_sampler_kind {
+    LR_SAMPLER_RANDOM = 0
+} lr_sampler_kind;
+
+/* Called from render threads, serialised by the library, after each tile:
+ * `done` of `total` pixels are finished.  Must not call back into lr_render. */
+typedef void (*lr_progress_fn)(void *user, uint64_t done, uint64_t total);
+
+typedef struct lr_render_settings {
+    int width;               /* pixels; default 640 */
+    int height;              /* pixels; default 480 */
+    int spp;                 /* samples per pixel; default 16 */
+    lr_sampler_kind sampler; /* default LR_SAMPLER_RANDOM */
+    uint64_t seed;           /* default 0 */
+    int max_depth;           /* mirror/glass bounces; default 8 */
+    int threads;             /* 0 = all cores (default) */
+    int tile_size;           /* pixels per tile side; default 32 */
+    int want_depth;          /* also produce a Z channel; default 0 */
+    lr_progress_fn progress; /* optional; NULL by default */
+    void *progress_user;
+    /* Optional cancellation flag, polled between tiles: when it becomes
+     * non-zero the render stops and returns LR_ERR_CANCELLED with no image. */
+    const volatile int *cancel;
+} lr_render_settings;
+
+/* Fills `s` with the defaults documented above. */
+void lr_render_settings_default(lr_render_settings *s);
+
+/* Checks settings; LR_ERR_INVALID names the field ("render.spp"). */
+lr_status lr_render_settings_validate(const lr_render_settings *s,
+                                      lr_error *err);
+
+/* ------------------------------------------------------------------------
+ * Scenes
+ * ---------------------------------------------------------------------- */
+
+typedef struct lr_scene lr_scene;
+
+/* Loads a scene from a JSON file (format: docs/scene-format.md).  Mesh
+ * paths are relative to the file's directory.  `overrides` is an array of
+ * `n_overrides` strings "dotted.path=value" applied to the JSON before it
+ * is validated (value parsed as JSON, else taken as a string), e.g.
+ * "camera.fov=30" or "objects[2].radius=0.5"; pass NULL, 0 for none.
+ * On success *out owns a new scene: free it with lr_scene_free.
+ * Errors: LR_ERR_IO (file), LR_ERR_INVALID (JSON, value, OBJ; the path
+ * names the field), LR_ERR_NOMEM, LR_ERR_EMBREE. */
+lr_status lr_scene_load_file(const char *path, const char *const *overrides,
+                             size_t n_overrides, lr_scene **out,
+                             lr_error *err);
+
+/* The same from JSON text of `len` bytes (need not be NUL-terminated).
+ * `base_dir` resolves relative mesh paths; NULL means the current
+ * directory.  The text is not referenced after the call. */
+lr_status lr_scene_load_json(const char *json, size_t len,
+                             const char *base_dir,
+                             const char *const *overrides, size_t n_overrides,
+                             lr_scene **out, lr_error *err);
+
+/* Frees a scene.  No render may be using it.  NULL is a no-op. */
+void lr_scene_free(lr_scene *scene);
+
+/* The camera and render settings the scene file specified (defaults for
+ * what it left out).  The scene keeps no reference to them. */
+void lr_scene_camera(const lr_scene *scene, lr_camera *cam);
+void lr_scene_settings(const lr_scene *scene, lr_render_settings *s);
+
+/* Counts, for reports: primitives (triangles + spheres + planes). */
+size_t lr_scene_primitive_count(const lr_scene *scene);
+
+/* ------------------------------------------------------------------------
+ * Rendering
+ * ---------------------------------------------------------------------- */
+
+typedef struct lr_image lr_image;
+
+typedef struct lr_render_stats {
+    double seconds;        /* wall time of the render */
+    uint64_t samples;      /* camera samples (pixels x spp) */
+    uint64_t rays;         /* all rays traced: camera, shadow, secondary */
+    uint64_t nan_samples;  /* samples dropped for being NaN or Inf */
+    int threads;           /* threads used */
+} lr_render_stats;
+
+/* Renders `scene` through `cam` with `settings`.  On success *out owns a
+ * new image (free with lr_image_free) and, if `stats` is non-NULL, it is
+ * filled.  The scene is only read.  Errors: LR_ERR_INVALID (camera or
+ * settings; the path names the field), LR_ERR_NOMEM, LR_ERR_CANCELLED. */
+lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
+                    const lr_render_settings *settings, lr_image **out,
+                    lr_render_stats *stats, lr_error *err);
+
+/* ------------------------------------------------------------------------
+ * Images
+ * ---------------------------------------------------------------------- */
+
+/* Channel layout of an image: linear RGB radiance, always finite; plus an
+ * optional Z channel (distance along the view axis of the first hit of the
+ * ray through the pixel centre; LR_DEPTH_NONE where it hits nothing). */
+#define LR_DEPTH_NONE 1e10f
+
+int lr_image_width(const lr_image *img);
+int lr_image_height(const lr_image *img);
+/* Pointer to width*height*3 floats, row-major from the top-left pixel,
+ * valid until lr_image_free. */
+const float *lr_image_rgb(const lr_image *img);
+/* Pointer to width*height floats, or NULL when the image has no Z. */
+const float *lr_image_depth(const lr_image *img);
+
+/* A new black image, for callers that build images themselves. */
+lr_status lr_image_create(int width, int height, int with_depth,
+                          lr_image **out, lr_error *err);
+/* Writable pixel access for images made by lr_image_create. */
+float *lr_image_rgb_mut(lr_image *img);
+float *lr_image_depth_mut(lr_image *img);
+
+void lr_image_free(lr_image *img);
+
+typedef enum lr_format {
+    LR_FORMAT_EXR = 0,
+    LR_FORMAT_PNG = 1
+} lr_format;
+
+typedef struct lr_output_options {
+    int exr_half;      /* EXR: RGB as half instead of float32; default 0 */
+    int exr_depth;     /* EXR: also write Z (if the image has it); default 1 */
+    int png_16bit;     /* PNG: 16 bits per channel; default 0 (8) */
+} lr_output_options;
+
+void lr_output_options_default(lr_output_options *o);
+
+/* The format implied by a file name's extension (.exr, .png, any case);
+ * LR_ERR_INVALID for anything else. */
+lr_status lr_format_from_path(const char *path, lr_format *fmt,
+                              lr_error *err);
+
+/* Encodes to memory.  On success *buf is a malloc'ed block of *len bytes
+ * that the caller releases with lr_free.  PNG is sRGB-encoded (IEC
+ * 61966-2-1 transfer curve) and clamped to [0, 1]; EXR is linear. */
+lr_status lr_image_encode(const lr_image *img, lr_format fmt,
+                          const lr_output_options *opts, void **buf,
+                          size_t *len, lr_error *err);
+
+/* Encodes and writes to `path`, the format chosen by its extension.  The
+ * file is written to a temporary name beside it and renamed into place,
+ * so a failed write never leaves a partial image under `path`.
+ * `opts` may be NULL for the defaults. */
+lr_status lr_image_write(const lr_image *img, const char *path,
+                         const lr_output_options *opts, lr_error *err);
+
+/* Releases memory the library handed out (encoded buffers).  NULL is a
+ * no-op. */
+void lr_free(void *p);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* LENSRAY_H */

@@ -1,0 +1,71 @@
+/*
+ * internal.h: what the library's files share and the public header does
+ * not show.  Internal non-static names carry the lr__ prefix.
+ */
+#ifndef LR_INTERNAL_H
+#define LR_INTERNAL_H
+
+#include "lensray.h"
+
+#include <stdarg.h>
+#include <stddef.h>
+
+/* ---- errors (error.c) ------------------------------------------------- */
+
+/* Fills `err` (if non-NULL) with `status`, `path` (may be NULL) and a
+ * printf-style message, and returns `status`.  The message is written as
+ * given: callers include the path in it where it helps the reader. */
+lr_status lr__fail(lr_error *err, lr_status status, const char *path,
+                   const char *fmt, ...)
+    __attribute__((format(printf, 4, 5)));
+
+/* ---- images (image.c) ------------------------------------------------- */
+
+struct lr_image {
+    int width, height;
+    float *rgb;   /* width*height*3, owned */
+    float *depth; /* width*height or NULL, owned */
+};
+
+/* ---- encoders (image_exr.c, image_png.c) ------------------------------ */
+
+/* Each encodes `img` to a malloc'ed buffer (*buf, *len) that the caller
+ * frees with free().  `opts` is never NULL here.  On failure *buf is NULL
+ * and nothing leaks. */
+lr_status lr__encode_exr(const lr_image *img, const lr_output_options *opts,
+                         void **buf, size_t *len, lr_error *err);
+lr_status lr__encode_png(const lr_image *img, const lr_output_options *opts,
+                         void **buf, size_t *len, lr_error *err);
+
+/* sRGB transfer function (IEC 61966-2-1) of a linear value clamped to
+ * [0, 1]; NaN maps to 0. */
+double lr__srgb_encode(double linear);
+
+/* ---- OBJ meshes (obj.c) ----------------------------------------------- */
+
+/* A triangle mesh as read from a Wavefront OBJ file.  Polygons are fan
+ * triangulated.  `normals` is NULL unless the file gave a `vn` for every
+ * corner of every face; then normals[3*k..3*k+2] is the unit normal for
+ * corner k (corner order matches `indices`), i.e. normals are per corner,
+ * not per vertex, because OBJ indexes them independently. */
+typedef struct lr__mesh {
+    size_t n_vertices;
+    float *vertices;   /* 3 * n_vertices, owned */
+    size_t n_triangles;
+    unsigned *indices; /* 3 * n_triangles vertex indices, owned */
+    float *normals;    /* 9 * n_triangles (per corner) or NULL, owned */
+} lr__mesh;
+
+/* Reads an OBJ file.  Understands `v`, `vn`, `f` (with v, v/vt, v//vn,
+ * v/vt/vn corners, negative indices relative to the end of the list so
+ * far) and ignores other statements (vt, o, g, s, usemtl, mtllib, l, p,
+ * comments).  Errors are LR_ERR_IO for an unreadable file and
+ * LR_ERR_INVALID with "FILE:LINE: what is wrong" for malformed input
+ * (bad numbers, zero or out-of-range indices, faces with fewer than three
+ * corners, no faces at all).  `json_path` (e.g. "objects[2].file") goes
+ * into err->path.  On success the caller frees with lr__mesh_free. */
+lr_status lr__obj_load(const char *file, const char *json_path,
+                       lr__mesh *out, lr_error *err);
+void lr__mesh_free(lr__mesh *m);
+
+#endif /* LR_INTERNAL_H */
