@@ -1,0 +1,31 @@
+/*
+ * test.h: shared by the C unit tests (cmocka).  Each tests/test_*.c file
+ * defines an array of CMUnitTest and registers it with LR_TEST_GROUP; the
+ * runner in unit_main.c runs every group (or those named on its command
+ * line) and prints a summary line that tests/run.sh adds up.
+ */
+#ifndef LR_TEST_H
+#define LR_TEST_H
+
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include "lensray.h"
+#include "internal.h"
+
+void lr_test_register(const char *name, const struct CMUnitTest *tests,
+                      size_t n);
+
+#define LR_TEST_GROUP(name, array)                                         \
+    __attribute__((constructor)) static void lr_test_reg_##name(void)      \
+    {                                                                      \
+        lr_test_register(#name, array, sizeof(array) / sizeof(array[0]));  \
+    }
+
+/* Directory for scratch files of this test run (created on first use). */
+const char *lr_test_tmpdir(void);
+
+#endif

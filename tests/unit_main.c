@@ -1,0 +1,72 @@
+/*
+ * unit_main.c: runs every registered cmocka group, or only the groups
+ * named on the command line, and ends with "unit: N passed, N failed".
+ */
+#include "test.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#define MAX_GROUPS 64
+
+static struct {
+    const char *name;
+    const struct CMUnitTest *tests;
+    size_t n;
+} groups[MAX_GROUPS];
+static size_t n_groups;
+
+void lr_test_register(const char *name, const struct CMUnitTest *tests,
+                      size_t n)
+{
+    if (n_groups == MAX_GROUPS) {
+        fprintf(stderr, "unit: too many test groups\n");
+        exit(2);
+    }
+    groups[n_groups].name = name;
+    groups[n_groups].tests = tests;
+    groups[n_groups].n = n;
+    n_groups++;
+}
+
+const char *lr_test_tmpdir(void)
+{
+    static char dir[256];
+    if (dir[0] == '\0') {
+        const char *base = getenv("TMPDIR");
+        snprintf(dir, sizeof dir, "%s/lensray-unit-XXXXXX",
+                 base && *base ? base : "/tmp");
+        if (mkdtemp(dir) == NULL) {
+            perror("mkdtemp");
+            exit(2);
+        }
+    }
+    return dir;
+}
+
+static int wanted(const char *name, int argc, char **argv)
+{
+    if (argc < 2)
+        return 1;
+    for (int i = 1; i < argc; i++)
+        if (strcmp(argv[i], name) == 0)
+            return 1;
+    return 0;
+}
+
+int main(int argc, char **argv)
+{
+    size_t total = 0, failed = 0;
+    for (size_t g = 0; g < n_groups; g++) {
+        if (!wanted(groups[g].name, argc, argv))
+            continue;
+        int f = _cmocka_run_group_tests(groups[g].name, groups[g].tests,
+                                        groups[g].n, NULL, NULL);
+        total += groups[g].n;
+        failed += (size_t)f;
+    }
+    printf("unit: %zu passed, %zu failed\n", total - failed, failed);
+    return failed ? 1 : 0;
+}
