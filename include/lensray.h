@@ -31,12 +31,19 @@
 extern "C" {
 #endif
 
+/* Marks the exported functions; everything else in the library is hidden. */
+#if defined(__GNUC__)
+#define LR_API __attribute__((visibility("default")))
+#else
+#define LR_API
+#endif
+
 #define LR_VERSION_MAJOR 0
 #define LR_VERSION_MINOR 1
 #define LR_VERSION_PATCH 0
 
 /* The library's version as "MAJOR.MINOR.PATCH"; a static string. */
-const char *lr_version(void);
+LR_API const char *lr_version(void);
 
 /* ------------------------------------------------------------------------
  * Errors
@@ -62,7 +69,7 @@ typedef struct lr_error {
 } lr_error;
 
 /* A short static name for a status, e.g. "invalid" or "io". */
-const char *lr_status_name(lr_status status);
+LR_API const char *lr_status_name(lr_status status);
 
 /* ------------------------------------------------------------------------
  * Camera
@@ -83,10 +90,10 @@ typedef struct lr_camera {
 } lr_camera;
 
 /* Fills `cam` with the defaults documented above. */
-void lr_camera_default(lr_camera *cam);
+LR_API void lr_camera_default(lr_camera *cam);
 
 /* Checks a camera; LR_ERR_INVALID names the bad field ("camera.fov"). */
-lr_status lr_camera_validate(const lr_camera *cam, lr_error *err);
+LR_API lr_status lr_camera_validate(const lr_camera *cam, lr_error *err);
 
 /* ------------------------------------------------------------------------
  * Render settings
@@ -118,10 +125,10 @@ typedef struct lr_render_settings {
 } lr_render_settings;
 
 /* Fills `s` with the defaults documented above. */
-void lr_render_settings_default(lr_render_settings *s);
+LR_API void lr_render_settings_default(lr_render_settings *s);
 
 /* Checks settings; LR_ERR_INVALID names the field ("render.spp"). */
-lr_status lr_render_settings_validate(const lr_render_settings *s,
+LR_API lr_status lr_render_settings_validate(const lr_render_settings *s,
                                       lr_error *err);
 
 /* ------------------------------------------------------------------------
@@ -138,28 +145,28 @@ typedef struct lr_scene lr_scene;
  * On success *out owns a new scene: free it with lr_scene_free.
  * Errors: LR_ERR_IO (file), LR_ERR_INVALID (JSON, value, OBJ; the path
  * names the field), LR_ERR_NOMEM, LR_ERR_EMBREE. */
-lr_status lr_scene_load_file(const char *path, const char *const *overrides,
+LR_API lr_status lr_scene_load_file(const char *path, const char *const *overrides,
                              size_t n_overrides, lr_scene **out,
                              lr_error *err);
 
 /* The same from JSON text of `len` bytes (need not be NUL-terminated).
  * `base_dir` resolves relative mesh paths; NULL means the current
  * directory.  The text is not referenced after the call. */
-lr_status lr_scene_load_json(const char *json, size_t len,
+LR_API lr_status lr_scene_load_json(const char *json, size_t len,
                              const char *base_dir,
                              const char *const *overrides, size_t n_overrides,
                              lr_scene **out, lr_error *err);
 
 /* Frees a scene.  No render may be using it.  NULL is a no-op. */
-void lr_scene_free(lr_scene *scene);
+LR_API void lr_scene_free(lr_scene *scene);
 
 /* The camera and render settings the scene file specified (defaults for
  * what it left out).  The scene keeps no reference to them. */
-void lr_scene_camera(const lr_scene *scene, lr_camera *cam);
-void lr_scene_settings(const lr_scene *scene, lr_render_settings *s);
+LR_API void lr_scene_camera(const lr_scene *scene, lr_camera *cam);
+LR_API void lr_scene_settings(const lr_scene *scene, lr_render_settings *s);
 
 /* Counts, for reports: primitives (triangles + spheres + planes). */
-size_t lr_scene_primitive_count(const lr_scene *scene);
+LR_API size_t lr_scene_primitive_count(const lr_scene *scene);
 
 /* ------------------------------------------------------------------------
  * Rendering
@@ -179,7 +186,7 @@ typedef struct lr_render_stats {
  * new image (free with lr_image_free) and, if `stats` is non-NULL, it is
  * filled.  The scene is only read.  Errors: LR_ERR_INVALID (camera or
  * settings; the path names the field), LR_ERR_NOMEM, LR_ERR_CANCELLED. */
-lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
+LR_API lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
                     const lr_render_settings *settings, lr_image **out,
                     lr_render_stats *stats, lr_error *err);
 
@@ -192,22 +199,22 @@ lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
  * ray through the pixel centre; LR_DEPTH_NONE where it hits nothing). */
 #define LR_DEPTH_NONE 1e10f
 
-int lr_image_width(const lr_image *img);
-int lr_image_height(const lr_image *img);
+LR_API int lr_image_width(const lr_image *img);
+LR_API int lr_image_height(const lr_image *img);
 /* Pointer to width*height*3 floats, row-major from the top-left pixel,
  * valid until lr_image_free. */
-const float *lr_image_rgb(const lr_image *img);
+LR_API const float *lr_image_rgb(const lr_image *img);
 /* Pointer to width*height floats, or NULL when the image has no Z. */
-const float *lr_image_depth(const lr_image *img);
+LR_API const float *lr_image_depth(const lr_image *img);
 
 /* A new black image, for callers that build images themselves. */
-lr_status lr_image_create(int width, int height, int with_depth,
+LR_API lr_status lr_image_create(int width, int height, int with_depth,
                           lr_image **out, lr_error *err);
 /* Writable pixel access for images made by lr_image_create. */
-float *lr_image_rgb_mut(lr_image *img);
-float *lr_image_depth_mut(lr_image *img);
+LR_API float *lr_image_rgb_mut(lr_image *img);
+LR_API float *lr_image_depth_mut(lr_image *img);
 
-void lr_image_free(lr_image *img);
+LR_API void lr_image_free(lr_image *img);
 
 typedef enum lr_format {
     LR_FORMAT_EXR = 0,
@@ -220,17 +227,17 @@ typedef struct lr_output_options {
     int png_16bit;     /* PNG: 16 bits per channel; default 0 (8) */
 } lr_output_options;
 
-void lr_output_options_default(lr_output_options *o);
+LR_API void lr_output_options_default(lr_output_options *o);
 
 /* The format implied by a file name's extension (.exr, .png, any case);
  * LR_ERR_INVALID for anything else. */
-lr_status lr_format_from_path(const char *path, lr_format *fmt,
+LR_API lr_status lr_format_from_path(const char *path, lr_format *fmt,
                               lr_error *err);
 
 /* Encodes to memory.  On success *buf is a malloc'ed block of *len bytes
  * that the caller releases with lr_free.  PNG is sRGB-encoded (IEC
  * 61966-2-1 transfer curve) and clamped to [0, 1]; EXR is linear. */
-lr_status lr_image_encode(const lr_image *img, lr_format fmt,
+LR_API lr_status lr_image_encode(const lr_image *img, lr_format fmt,
                           const lr_output_options *opts, void **buf,
                           size_t *len, lr_error *err);
 
@@ -238,12 +245,12 @@ lr_status lr_image_encode(const lr_image *img, lr_format fmt,
  * file is written to a temporary name beside it and renamed into place,
  * so a failed write never leaves a partial image under `path`.
  * `opts` may be NULL for the defaults. */
-lr_status lr_image_write(const lr_image *img, const char *path,
+LR_API lr_status lr_image_write(const lr_image *img, const char *path,
                          const lr_output_options *opts, lr_error *err);
 
 /* Releases memory the library handed out (encoded buffers).  NULL is a
  * no-op. */
-void lr_free(void *p);
+LR_API void lr_free(void *p);
 
 #ifdef __cplusplus
 }
