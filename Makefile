@@ -12,18 +12,24 @@ SANITIZE ?=
 VERSION  := 0.1.0
 SOMAJOR  := 0
 
-# Debian 12 packages the build and the tests need, and how to detect each.
-DEB_PKGS := libembree-dev libopenexr-dev libcjson-dev libpng-dev \
-            libmicrohttpd-dev libcmocka-dev pkg-config bats curl nodejs npm
+# What the build and the tests need: a file or a command, and the Debian 12
+# package that provides it.  Commands are checked as commands, so that a
+# node/npm installed some other way counts too.
+DEPS := /usr/include/embree3/rtcore.h:libembree-dev \
+        /usr/include/OpenEXR/openexr.h:libopenexr-dev \
+        /usr/include/cjson/cJSON.h:libcjson-dev \
+        /usr/include/png.h:libpng-dev \
+        /usr/include/microhttpd.h:libmicrohttpd-dev \
+        /usr/include/cmocka.h:libcmocka-dev \
+        pkg-config:pkg-config bats:bats curl:curl node:nodejs npm:npm
 
-PKGS     := OpenEXR libcjson libpng cmocka
 # Recursive (=) so that pkg-config runs after the dependency check.
 PKG_CFLAGS = $(shell pkg-config --cflags OpenEXR libcjson libpng 2>/dev/null)
 LIB_LIBS   = -lembree3 -lOpenEXRCore-3_1 -lcjson -lpng16 -lz -lpthread -lm
 
 CFLAGS   ?=
 CFLAGS   += -std=c11 $(OPT) -g -Wall -Wextra -Werror -fPIC -D_GNU_SOURCE \
-            -fvisibility=hidden $(SANITIZE)
+            -fvisibility=hidden -Wno-format-truncation $(SANITIZE)
 CPPFLAGS += -Iinclude -Ilib
 LDFLAGS  += $(SANITIZE)
 
@@ -44,8 +50,12 @@ all: $(BUILD)/liblensray.a $(BUILD)/liblensray.so $(BUILD)/lensray $(BUNNY)
 deps: $(DEPS_OK)
 $(DEPS_OK): Makefile
 	@missing=""; \
-	for p in $(DEB_PKGS); do \
-	  dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "ok installed" || missing="$$missing $$p"; \
+	for d in $(DEPS); do \
+	  what=$${d%%:*}; pkg=$${d##*:}; \
+	  case $$what in \
+	    /*) [ -e "$$what" ] || missing="$$missing $$pkg" ;; \
+	    *) command -v "$$what" >/dev/null 2>&1 || missing="$$missing $$pkg" ;; \
+	  esac; \
 	done; \
 	if [ -n "$$missing" ]; then \
 	  if [ "$$(id -u)" = 0 ]; then \

@@ -1,0 +1,34 @@
+/*
+ * film.h: per-pixel accumulation.  Sums are kept in double, so that a
+ * million samples of a constant average back to exactly that constant,
+ * and samples that are NaN or infinite are dropped and counted rather
+ * than poisoning the pixel.
+ */
+#ifndef LR_FILM_H
+#define LR_FILM_H
+
+#include "vec.h"
+
+#include <stdint.h>
+
+typedef struct lr__pixel {
+    double sum[3];
+    uint64_t n;       /* samples added */
+    uint64_t dropped; /* samples rejected as non-finite */
+} lr__pixel;
+
+static inline void lr__pixel_reset(lr__pixel *p)
+{
+    p->sum[0] = p->sum[1] = p->sum[2] = 0.0;
+    p->n = p->dropped = 0;
+}
+
+/* Adds one sample (box filter: every sample weighs the same). */
+void lr__pixel_add(lr__pixel *p, lr__v3 L);
+
+/* The pixel's value: the mean of the accepted samples over all samples
+ * taken (a dropped sample counts as black, which keeps the estimate
+ * unbiased when drops are rare), written as three finite floats. */
+void lr__pixel_resolve(const lr__pixel *p, float out[3]);
+
+#endif

@@ -1,0 +1,305 @@
+/*
+ * image.c: the lr_image container, output options, format detection,
+ * encoding dispatch, atomic file writes and the sRGB transfer curve.
+ * The encoders themselves live in image_exr.c and image_png.c.
+ */
+#include "internal.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <math.h>
+#include <stdatomic.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+
+/* ---- the image container --------------------------------------------- */
+
+lr_status lr_image_create(int width, int height, int with_depth,
+                          lr_image **out, lr_error *err)
+{
+    if (out == NULL)
+        return lr__fail(err, LR_ERR_INVALID, NULL,
+                        "lr_image_create: the output pointer is NULL");
+    *out = NULL;
+    if (width <= 0 || height <= 0)
+        return lr__fail(err, LR_ERR_INVALID, NULL,
+                        "image size %d x %d is invalid: width and height "
+                        "must be positive",
+                        width, height);
+
+    /* Both factors are positive ints, so the pixel count is computed in
+     * size_t and every multiplication is checked before it is made. */
+    size_t pixels = (size_t)width;
+    if (pixels > SIZE_MAX / (size_t)height ||
+        pixels * (size_t)height > SIZE_MAX / (3 * sizeof(float)))
+        return lr__fail(err, LR_ERR_LIMIT, NULL,
+                        "image size %d x %d is too large: its pixels do not "
+                        "fit in this machine's address space",
+                        width, height);
+    pixels *= (size_t)height;
+
+    lr_image *img = calloc(1, sizeof *img);
+    if (img == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL,
+                        "out of memory allocating a %d x %d image", width,
+                        height);
+    img->width = width;
+    img->height = height;
+    img->rgb = calloc(pixels * 3, sizeof(float));
+    if (with_depth && img->rgb != NULL)
+        img->depth = calloc(pixels, sizeof(float));
+    if (img->rgb == NULL || (with_depth && img->depth == NULL)) {
+        lr_image_free(img);
+        return lr__fail(err, LR_ERR_NOMEM, NULL,
+                        "out of memory allocating a %d x %d image", width,
+                        height);
+    }
+    *out = img;
+    return LR_OK;
+}
+
+int lr_image_width(const lr_image *img)
+{
+    return img ? img->width : 0;
+}
+
+int lr_image_height(const lr_image *img)
+{
+    return img ? img->height : 0;
+}
+
+const float *lr_image_rgb(const lr_image *img)
+{
+    return img ? img->rgb : NULL;
+}
+
+const float *lr_image_depth(const lr_image *img)
+{
+    return img ? img->depth : NULL;
+}
+
+float *lr_image_rgb_mut(lr_image *img)
+{
+    return img ? img->rgb : NULL;
+}
+
+float *lr_image_depth_mut(lr_image *img)
+{
+    return img ? img->depth : NULL;
+}
+
+void lr_image_free(lr_image *img)
+{
+    if (img == NULL)
+        return;
+    free(img->rgb);
+    free(img->depth);
+    free(img);
+}
+
+void lr_free(void *p)
+{
+    free(p);
+}
+
+/* ---- options and formats ---------------------------------------------- */
+
+void lr_output_options_default(lr_output_options *o)
+{
+    if (o == NULL)
+        return;
+    o->exr_half = 0;
+    o->exr_depth = 1;
+    o->png_16bit = 0;
+}
+
+lr_status lr_format_from_path(const char *path, lr_format *fmt,
+                              lr_error *err)
+{
+    if (path == NULL || fmt == NULL)
+        return lr__fail(err, LR_ERR_INVALID, NULL,
+                        "lr_format_from_path: path and format pointer must "
+                        "not be NULL");
+
+    /* Only a dot in the last path component starts an extension, so that
+     * "out.d/image" is not mistaken for an image with extension
+     * "d/image". */
+    const char *base = strrchr(path, '/');
+    base = base ? base + 1 : path;
+    const char *dot = strrchr(base, '.');
+    if (dot != NULL && strcasecmp(dot, ".exr") == 0) {
+        *fmt = LR_FORMAT_EXR;
+        return LR_OK;
+    }
+    if (dot != NULL && strcasecmp(dot, ".png") == 0) {
+        *fmt = LR_FORMAT_PNG;
+        return LR_OK;
+    }
+    return lr__fail(err, LR_ERR_INVALID, NULL,
+                    "cannot tell the image format of '%s': the file name "
+                    "must end in .exr or .png (any case)",
+                    path);
+}
+
+/* ---- encoding ---------------------------------------------------------- */
+
+lr_status lr_image_encode(const lr_image *img, lr_format fmt,
+                          const lr_output_options *opts, void **buf,
+                          size_t *len, lr_error *err)
+{
+    if (buf == NULL || len == NULL)
+        return lr__fail(err, LR_ERR_INVALID, NULL,
+                        "lr_image_encode: the output pointers are NULL");
+    *buf = NULL;
+    *len = 0;
+    if (img == NULL || img->rgb == NULL)
+        return lr__fail(err, LR_ERR_INVALID, NULL,
+                        "lr_image_encode: there is no image to encode");
+
+    lr_output_options defaults;
+    if (opts == NULL) {
+        lr_output_options_default(&defaults);
+        opts = &defaults;
+    }
+
+    switch (fmt) {
+    case LR_FORMAT_EXR:
+        return lr__encode_exr(img, opts, buf, len, err);
+    case LR_FORMAT_PNG:
+        return lr__encode_png(img, opts, buf, len, err);
+    }
+    return lr__fail(err, LR_ERR_INVALID, NULL,
+                    "lr_image_encode: unknown image format %d", (int)fmt);
+}
+
+/* ---- writing files ----------------------------------------------------- */
+
+/* Distinguishes temporary names made by different threads of one process;
+ * the process id and the clock tell processes apart. */
+static atomic_uint tmp_counter;
+
+/* Creates a new file "PATH.tmp.PID.N" beside `path` with O_EXCL, so that
+ * an existing file is never reused, and with mode 0666 so the process's
+ * umask decides the final permissions, as it would for a plain fopen()
+ * (mkstemp would leave the image readable by its owner only).  On
+ * success returns the descriptor and stores the malloc'ed name in
+ * *tmp_name; on failure returns -1 with errno set. */
+static int create_temp_beside(const char *path, char **tmp_name)
+{
+    size_t cap = strlen(path) + 64;
+    char *name = malloc(cap);
+    if (name == NULL) {
+        errno = ENOMEM;
+        return -1;
+    }
+    struct timespec ts;
+    clock_gettime(CLOCK_REALTIME, &ts);
+    for (int attempt = 0; attempt < 100; attempt++) {
+        unsigned n = atomic_fetch_add(&tmp_counter, 1u);
+        snprintf(name, cap, "%s.tmp.%ld.%lx.%u", path, (long)getpid(),
+                 (unsigned long)ts.tv_nsec, n);
+        int fd = open(name, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+        if (fd >= 0) {
+            *tmp_name = name;
+            return fd;
+        }
+        if (errno != EEXIST)
+            break;
+    }
+    int saved = errno;
+    free(name);
+    errno = saved;
+    return -1;
+}
+
+/* Writes all `len` bytes, retrying short writes and interruptions. */
+static int write_all(int fd, const unsigned char *p, size_t len)
+{
+    while (len > 0) {
+        ssize_t n = write(fd, p, len);
+        if (n < 0) {
+            if (errno == EINTR)
+                continue;
+            return -1;
+        }
+        p += n;
+        len -= (size_t)n;
+    }
+    return 0;
+}
+
+lr_status lr_image_write(const lr_image *img, const char *path,
+                         const lr_output_options *opts, lr_error *err)
+{
+    if (path == NULL)
+        return lr__fail(err, LR_ERR_INVALID, NULL,
+                        "lr_image_write: the path is NULL");
+    lr_format fmt;
+    lr_status st = lr_format_from_path(path, &fmt, err);
+    if (st != LR_OK)
+        return st;
+
+    void *buf = NULL;
+    size_t len = 0;
+    st = lr_image_encode(img, fmt, opts, &buf, &len, err);
+    if (st != LR_OK)
+        return st;
+
+    char *tmp_name = NULL;
+    const char *what = "create a temporary file for";
+    int fd = create_temp_beside(path, &tmp_name);
+    if (fd < 0)
+        goto io_error;
+
+    what = "write";
+    if (write_all(fd, buf, len) != 0)
+        goto io_error;
+    /* Flushing before the rename means a crash cannot leave a renamed
+     * but empty or truncated file under `path`. */
+    if (fsync(fd) != 0)
+        goto io_error;
+    {
+        int rc = close(fd);
+        fd = -1;
+        if (rc != 0)
+            goto io_error;
+    }
+    what = "rename the finished file to";
+    if (rename(tmp_name, path) != 0)
+        goto io_error;
+
+    free(tmp_name);
+    free(buf);
+    return LR_OK;
+
+io_error:;
+    int saved = errno;
+    if (fd >= 0)
+        close(fd);
+    if (tmp_name != NULL)
+        unlink(tmp_name);
+    free(tmp_name);
+    free(buf);
+    return lr__fail(err, LR_ERR_IO, NULL, "cannot %s '%s': %s", what, path,
+                    strerror(saved));
+}
+
+/* ---- colour ------------------------------------------------------------ */
+
+double lr__srgb_encode(double linear)
+{
+    /* The negated comparison also catches NaN, which maps to black. */
+    if (!(linear > 0.0))
+        return 0.0;
+    if (linear >= 1.0)
+        return 1.0;
+    if (linear <= 0.0031308)
+        return 12.92 * linear;
+    return 1.055 * pow(linear, 1.0 / 2.4) - 0.055;
+}

@@ -1,0 +1,378 @@
+/*
+ * image_exr.c: encodes an lr_image as a single-part scanline OpenEXR file
+ * in memory, with the OpenEXRCore C API (no C++).
+ *
+ * Channels: R, G, B as float32 (or half with opts->exr_half) and Z as
+ * float32 when the image has depth and opts->exr_depth is set; ZIP
+ * compression; Rec.709 / sRGB chromaticities, since the renderer's
+ * linear RGB uses those primaries.
+ *
+ * Non-finite samples are never written: a NaN or infinite R, G or B
+ * becomes 0, and a NaN or infinite Z becomes LR_DEPTH_NONE, the value
+ * that already means "nothing was hit here".  Images from lr_render are
+ * always finite, but images built by callers through lr_image_rgb_mut
+ * need not be, and NaN or Inf in an EXR poisons every filter and
+ * compositing step downstream.  For the same reason half output clamps
+ * magnitudes beyond the largest half (65504) instead of writing Inf.
+ */
+#include "internal.h"
+
+#include <openexr.h>
+
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* ---- the in-memory stream --------------------------------------------- */
+
+/* The output buffer plus what the error handler learnt; it is the
+ * context's user data. */
+typedef struct exr_sink {
+    unsigned char *data;
+    size_t len, cap;
+    int out_of_memory;  /* set when the buffer could not grow */
+    char message[256];  /* the library's first detailed error message */
+} exr_sink;
+
+/* OpenEXRCore reports details through this callback, by default on
+ * stderr; a library must stay quiet, so the first message is kept for
+ * the lr_error instead.  Later messages are usually consequences of the
+ * first. */
+static void sink_error_handler(exr_const_context_t ctxt, exr_result_t code,
+                               const char *msg)
+{
+    (void)code;
+    void *user = NULL;
+    if (ctxt == NULL || exr_get_user_data(ctxt, &user) != EXR_ERR_SUCCESS ||
+        user == NULL)
+        return;
+    exr_sink *sink = user;
+    if (sink->message[0] == '\0')
+        snprintf(sink->message, sizeof sink->message, "%s",
+                 msg ? msg : "");
+}
+
+/* The write callback has pwrite semantics: the library writes the header
+ * and chunks in order, then goes back to fill in the chunk offset table,
+ * so writes may land anywhere, and any gap is zero-filled. */
+static int64_t sink_write(exr_const_context_t ctxt, void *user,
+                          const void *buffer, uint64_t sz, uint64_t offset,
+                          exr_stream_error_func_ptr_t error_cb)
+{
+    exr_sink *sink = user;
+    if (offset > SIZE_MAX || sz > SIZE_MAX - offset) {
+        sink->out_of_memory = 1;
+        error_cb(ctxt, EXR_ERR_OUT_OF_MEMORY,
+                 "the EXR does not fit in memory");
+        return -1;
+    }
+    size_t end = (size_t)offset + (size_t)sz;
+    if (end > sink->cap) {
+        /* Doubling keeps the number of reallocations logarithmic in the
+         * size of the file. */
+        size_t cap = sink->cap ? sink->cap : 4096;
+        while (cap < end)
+            cap = cap > SIZE_MAX / 2 ? end : cap * 2;
+        unsigned char *grown = realloc(sink->data, cap);
+        if (grown == NULL) {
+            sink->out_of_memory = 1;
+            error_cb(ctxt, EXR_ERR_OUT_OF_MEMORY,
+                     "out of memory growing the EXR buffer to %zu bytes",
+                     cap);
+            return -1;
+        }
+        sink->data = grown;
+        sink->cap = cap;
+    }
+    if ((size_t)offset > sink->len)
+        memset(sink->data + sink->len, 0, (size_t)offset - sink->len);
+    memcpy(sink->data + offset, buffer, (size_t)sz);
+    if (end > sink->len)
+        sink->len = end;
+    return (int64_t)sz;
+}
+
+/* ---- sample conversion ------------------------------------------------ */
+
+/* IEEE 754 binary32 to binary16 with round-to-nearest-even, done on the
+ * bits so the result does not depend on the FPU rounding mode.  The
+ * argument must be finite; magnitudes that would round to infinity are
+ * clamped to the largest half, 65504. */
+static uint16_t float_to_half(float f)
+{
+    uint32_t x;
+    memcpy(&x, &f, sizeof x);
+    uint16_t sign = (uint16_t)((x >> 16) & 0x8000u);
+    uint32_t a = x & 0x7fffffffu;
+
+    /* 65520 (0x477ff000) is halfway between 65504 and 2^16; ties go to
+     * the even neighbour, 2^16, which as a half is infinity. */
+    if (a >= 0x477ff000u)
+        return (uint16_t)(sign | 0x7bffu);
+
+    /* Normal halves: at least 2^-14 (0x38800000).  Rebias the exponent
+     * from 127 to 15 and drop 13 mantissa bits, rounding; a carry out of
+     * the mantissa correctly bumps the exponent. */
+    if (a >= 0x38800000u) {
+        uint32_t h = (a - 0x38000000u) >> 13;
+        uint32_t rem = a & 0x1fffu;
+        if (rem > 0x1000u || (rem == 0x1000u && (h & 1u)))
+            h++;
+        return (uint16_t)(sign | h);
+    }
+
+    /* At most 2^-25, half of the smallest subnormal, rounds to zero (the
+     * tie goes to the even zero). */
+    if (a <= 0x33000000u)
+        return sign;
+
+    /* Subnormal halves count units of 2^-24.  The float here is normal
+     * with a biased exponent e in [102, 112], so its value in those units
+     * is the 24-bit significand shifted right by 126 - e, in [14, 24]. */
+    uint32_t e = a >> 23;
+    uint32_t m = (a & 0x7fffffu) | 0x800000u;
+    uint32_t shift = 126u - e;
+    uint32_t h = m >> shift;
+    uint32_t rem = m & ((1u << shift) - 1u);
+    uint32_t halfway = 1u << (shift - 1u);
+    if (rem > halfway || (rem == halfway && (h & 1u)))
+        h++;
+    /* A carry to 0x400 is the smallest normal half, which is right. */
+    return (uint16_t)(sign | h);
+}
+
+static float finite_or(float v, float fallback)
+{
+    return isfinite(v) ? v : fallback;
+}
+
+/* ---- the encoder ------------------------------------------------------ */
+
+enum { CH_R, CH_G, CH_B, CH_Z, CH_COUNT };
+
+/* The primaries and white point of Rec. ITU-R BT.709, which sRGB shares. */
+static const exr_attr_chromaticities_t rec709 = {
+    0.6400f, 0.3300f, 0.3000f, 0.6000f, 0.1500f, 0.0600f, 0.3127f, 0.3290f};
+static const char *const channel_names[CH_COUNT] = {"R", "G", "B", "Z"};
+
+/* Fills the planar staging buffer for scanlines [y0, y0 + lines): one
+ * plane of spc * width samples per channel, in the channel's output type.
+ * Each plane has room for 4-byte samples, halves use half of it. */
+static void stage_chunk(const lr_image *img, int want_z, int half, int y0,
+                        int lines, size_t plane_bytes, unsigned char *stage)
+{
+    size_t w = (size_t)img->width;
+    for (int c = 0; c < CH_COUNT; c++) {
+        if (c == CH_Z && !want_z)
+            continue;
+        unsigned char *plane = stage + (size_t)c * plane_bytes;
+        for (int ly = 0; ly < lines; ly++) {
+            size_t row = (size_t)(y0 + ly) * w;
+            for (size_t x = 0; x < w; x++) {
+                size_t i = (size_t)ly * w + x;
+                if (c == CH_Z) {
+                    float z = finite_or(img->depth[row + x], LR_DEPTH_NONE);
+                    memcpy(plane + 4 * i, &z, 4);
+                } else {
+                    float v = finite_or(img->rgb[3 * (row + x) + (size_t)c],
+                                        0.0f);
+                    if (half) {
+                        uint16_t h = float_to_half(v);
+                        memcpy(plane + 2 * i, &h, 2);
+                    } else {
+                        memcpy(plane + 4 * i, &v, 4);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/* Points the pipeline's channels at their staging planes.  The pipeline
+ * lists channels in the file's order, which OpenEXR sorts by name (B, G,
+ * R, Z), not the order they were added in, so they are matched by name. */
+static exr_result_t bind_channels(exr_encode_pipeline_t *enc, int half,
+                                  size_t plane_bytes, unsigned char *stage,
+                                  int width)
+{
+    for (int i = 0; i < enc->channel_count; i++) {
+        exr_coding_channel_info_t *ch = &enc->channels[i];
+        int c = -1;
+        for (int k = 0; k < CH_COUNT; k++)
+            if (strcmp(ch->channel_name, channel_names[k]) == 0)
+                c = k;
+        if (c < 0)
+            return EXR_ERR_INVALID_ARGUMENT;
+        int bytes = (c != CH_Z && half) ? 2 : 4;
+        ch->user_bytes_per_element = (int16_t)bytes;
+        ch->user_data_type = (uint16_t)(bytes == 2 ? EXR_PIXEL_HALF
+                                                   : EXR_PIXEL_FLOAT);
+        ch->user_pixel_stride = bytes;
+        ch->user_line_stride = bytes * width;
+        ch->encode_from_ptr = stage + (size_t)c * plane_bytes;
+    }
+    return EXR_ERR_SUCCESS;
+}
+
+lr_status lr__encode_exr(const lr_image *img, const lr_output_options *opts,
+                         void **buf, size_t *len, lr_error *err)
+{
+    *buf = NULL;
+    *len = 0;
+
+    const int half = opts->exr_half != 0;
+    const int want_z = opts->exr_depth && img->depth != NULL;
+    const exr_pixel_type_t rgb_type = half ? EXR_PIXEL_HALF : EXR_PIXEL_FLOAT;
+
+    exr_sink *sink = calloc(1, sizeof *sink);
+    if (sink == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL,
+                        "out of memory starting the EXR encoder");
+
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    init.error_handler_fn = sink_error_handler;
+    init.user_data = sink;
+    init.write_fn = sink_write;
+
+    exr_context_t ctxt = NULL;
+    exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
+    int enc_live = 0;
+    unsigned char *stage = NULL;
+    const char *step = "start the encoder";
+    int part = 0;
+    int32_t spc = 0;
+    size_t plane_bytes = 0;
+
+    /* The name is only for messages: a custom write_fn does the I/O. */
+    exr_result_t rv = exr_start_write(&ctxt, "<memory>",
+                                      EXR_WRITE_FILE_DIRECTLY, &init);
+    if (rv != EXR_ERR_SUCCESS)
+        goto fail;
+
+    step = "define the image";
+    rv = exr_add_part(ctxt, NULL, EXR_STORAGE_SCANLINE, &part);
+    if (rv != EXR_ERR_SUCCESS)
+        goto fail;
+    rv = exr_initialize_required_attr_simple(ctxt, part, img->width,
+                                             img->height,
+                                             EXR_COMPRESSION_ZIP);
+    if (rv != EXR_ERR_SUCCESS)
+        goto fail;
+    /* Colour channels are perceptually logarithmic, depth is linear; the
+     * hint only matters to lossy compressors. */
+    for (int c = 0; c < CH_COUNT && rv == EXR_ERR_SUCCESS; c++) {
+        if (c == CH_Z && !want_z)
+            continue;
+        rv = exr_add_channel(ctxt, part, channel_names[c],
+                             c == CH_Z ? EXR_PIXEL_FLOAT : rgb_type,
+                             c == CH_Z ? EXR_PERCEPTUALLY_LINEAR
+                                       : EXR_PERCEPTUALLY_LOGARITHMIC,
+                             1, 1);
+    }
+    if (rv != EXR_ERR_SUCCESS)
+        goto fail;
+    rv = exr_attr_set_chromaticities(ctxt, part, "chromaticities", &rec709);
+    if (rv != EXR_ERR_SUCCESS)
+        goto fail;
+
+    step = "write the header";
+    rv = exr_write_header(ctxt);
+    if (rv != EXR_ERR_SUCCESS)
+        goto fail;
+
+    rv = exr_get_scanlines_per_chunk(ctxt, part, &spc);
+    if (rv != EXR_ERR_SUCCESS)
+        goto fail;
+    if (spc <= 0)
+        spc = 1;
+
+    /* One staging plane per channel, each big enough for a chunk of
+     * float32 samples.  lr_image_create bounds width * height * 12 bytes,
+     * but a chunk can be taller than the image, so check again. */
+    if ((size_t)img->width > SIZE_MAX / CH_COUNT / 4 / (size_t)spc) {
+        exr_finish(&ctxt);
+        free(sink);
+        return lr__fail(err, LR_ERR_LIMIT, NULL,
+                        "cannot encode a %d x %d EXR: a row is too wide",
+                        img->width, img->height);
+    }
+    plane_bytes = (size_t)img->width * (size_t)spc * 4;
+    stage = malloc(plane_bytes * CH_COUNT);
+    if (stage == NULL) {
+        sink->out_of_memory = 1;
+        rv = EXR_ERR_OUT_OF_MEMORY;
+        step = "allocate the staging buffer";
+        goto fail;
+    }
+
+    step = "encode the pixels";
+    for (int y = 0; y < img->height; y += spc) {
+        exr_chunk_info_t cinfo;
+        rv = exr_write_scanline_chunk_info(ctxt, part, y, &cinfo);
+        if (rv != EXR_ERR_SUCCESS)
+            goto fail;
+        stage_chunk(img, want_z, half, cinfo.start_y, cinfo.height,
+                    plane_bytes, stage);
+        if (!enc_live) {
+            rv = exr_encoding_initialize(ctxt, part, &cinfo, &enc);
+            if (rv != EXR_ERR_SUCCESS)
+                goto fail;
+            enc_live = 1;
+            rv = bind_channels(&enc, half, plane_bytes, stage, img->width);
+            if (rv != EXR_ERR_SUCCESS)
+                goto fail;
+            rv = exr_encoding_choose_default_routines(ctxt, part, &enc);
+        } else {
+            /* Reusing the pipeline keeps its buffers; the update resets
+             * the per-chunk channel heights, so bind again. */
+            rv = exr_encoding_update(ctxt, part, &cinfo, &enc);
+            if (rv == EXR_ERR_SUCCESS)
+                rv = bind_channels(&enc, half, plane_bytes, stage,
+                                   img->width);
+        }
+        if (rv != EXR_ERR_SUCCESS)
+            goto fail;
+        rv = exr_encoding_run(ctxt, part, &enc);
+        if (rv != EXR_ERR_SUCCESS)
+            goto fail;
+    }
+
+    step = "finish the file";
+    rv = exr_encoding_destroy(ctxt, &enc);
+    enc_live = 0;
+    if (rv != EXR_ERR_SUCCESS)
+        goto fail;
+    /* exr_finish writes the chunk offset table, so it can fail too. */
+    rv = exr_finish(&ctxt);
+    if (rv != EXR_ERR_SUCCESS)
+        goto fail;
+
+    free(stage);
+    *buf = sink->data;
+    *len = sink->len;
+    free(sink);
+    return LR_OK;
+
+fail:
+    if (enc_live)
+        exr_encoding_destroy(ctxt, &enc);
+    if (ctxt != NULL)
+        exr_finish(&ctxt);
+    free(stage);
+    {
+        lr_status st = (sink->out_of_memory || rv == EXR_ERR_OUT_OF_MEMORY)
+                           ? LR_ERR_NOMEM
+                           : LR_ERR_IO;
+        lr__fail(err, st, NULL,
+                 "cannot encode a %d x %d EXR: failed to %s: %s%s%s%s",
+                 img->width, img->height, step,
+                 exr_get_default_error_message(rv),
+                 sink->message[0] ? " (" : "", sink->message,
+                 sink->message[0] ? ")" : "");
+        free(sink->data);
+        free(sink);
+        return st;
+    }
+}

@@ -1,0 +1,73 @@
+/*
+ * json_util.h: typed, path-naming access to cJSON values, shared by the
+ * scene loader and the override parser.  Every getter fills lr_error with
+ * a sentence that starts with the JSON path of the field.
+ */
+#ifndef LR_JSON_UTIL_H
+#define LR_JSON_UTIL_H
+
+#include "internal.h"
+#include "vec.h"
+
+#include <cjson/cJSON.h>
+
+#define LR__PATH_MAX 256
+
+/* Returns from the calling function when `expr` (an lr_status) fails. */
+#define LR_TRY(expr)                                                       \
+    do {                                                                   \
+        lr_status lr_try_st_ = (expr);                                     \
+        if (lr_try_st_ != LR_OK)                                           \
+            return lr_try_st_;                                             \
+    } while (0)
+
+/* out = parent.key (or key when parent is empty). */
+void lr__path_key(char out[LR__PATH_MAX], const char *parent,
+                  const char *key);
+/* out = parent[i]. */
+void lr__path_index(char out[LR__PATH_MAX], const char *parent, size_t i);
+
+/* "a string", "an array", "the number 3.5", ... for error messages. */
+void lr__json_describe(const cJSON *v, char *out, size_t n);
+
+/* Fails with an error naming the first key of `obj` that is not in the
+ * NULL-terminated `allowed` list, or that appears twice. */
+lr_status lr__json_check_keys(const cJSON *obj, const char *path,
+                              const char *const *allowed, lr_error *err);
+
+/* Getters: `obj` is an object, `key` a member name, `path` the object's
+ * path.  When the member is absent: required -> error, else LR_OK with
+ * *out untouched (so callers preload defaults). */
+lr_status lr__json_number(const cJSON *obj, const char *key,
+                          const char *path, int required, double *out,
+                          lr_error *err);
+lr_status lr__json_int(const cJSON *obj, const char *key, const char *path,
+                       int required, long long min, long long max,
+                       long long *out, lr_error *err);
+lr_status lr__json_bool(const cJSON *obj, const char *key, const char *path,
+                        int required, int *out, lr_error *err);
+/* *out points into the cJSON tree. */
+lr_status lr__json_string(const cJSON *obj, const char *key,
+                          const char *path, int required, const char **out,
+                          lr_error *err);
+/* An array of three finite numbers. */
+lr_status lr__json_vec3(const cJSON *obj, const char *key, const char *path,
+                        int required, lr__v3 *out, lr_error *err);
+/* A colour: one number (grey) or three; all finite and >= 0. */
+lr_status lr__json_rgb(const cJSON *obj, const char *key, const char *path,
+                       int required, lr__v3 *out, lr_error *err);
+
+/* Parses JSON text of `len` bytes with a nesting limit; the error gives
+ * the line and column.  `what` names the text ("scene.json").  The caller
+ * deletes the result with cJSON_Delete. */
+lr_status lr__json_parse(const char *text, size_t len, const char *what,
+                         cJSON **out, lr_error *err);
+
+/* Applies one "dotted.path=value" override to a parsed document: value
+ * is parsed as JSON when it is valid JSON, else taken as a string.  Path
+ * segments are object keys or [index] into arrays ("objects[2].radius");
+ * missing objects on the way are created, array indexes must exist. */
+lr_status lr__json_apply_override(cJSON *root, const char *assignment,
+                                  lr_error *err);
+
+#endif

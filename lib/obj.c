@@ -1,0 +1,691 @@
+/*
+ * obj.c: reading triangle meshes from Wavefront OBJ files.
+ *
+ * The whole file is read into memory first and then split into lines in
+ * place, so a line is a NUL-terminated string that strtod and strtol can
+ * work on without ever running into the next line.  Only geometry is kept:
+ * `v` positions, `vn` normals and `f` faces; everything else an exporter
+ * may write (texture coordinates, groups, materials, lines, points) is
+ * skipped, because the renderer has no use for it.
+ */
+#include "internal.h"
+
+#include <errno.h>
+#include <float.h>
+#include <limits.h>
+#include <locale.h>
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+/* The largest OBJ file we agree to read.  Real scenes are far smaller;
+ * the cap keeps a wrong path (a disk image, /dev/zero) from eating all
+ * memory before the parser gets a chance to reject it. */
+#define OBJ_MAX_BYTES ((size_t)1 << 30)
+
+/* How much of an offending token an error message quotes. */
+#define TOKEN_QUOTE_MAX 40
+
+/* A face corner after its indices were resolved to 0-based positions. */
+typedef struct corner {
+    size_t v;
+    size_t vn;
+    int has_vn;
+} corner;
+
+/* Everything the parser accumulates while it walks the file. */
+typedef struct parser {
+    const char *file;
+    const char *json_path;
+    lr_error *err;
+    locale_t c_locale; /* numbers are always read with a '.' decimal point */
+    size_t line;       /* the line being parsed, for messages */
+
+    float *v; /* 3 per vertex */
+    size_t n_v, cap_v;
+    float *vn; /* 3 per normal, unit length */
+    size_t n_vn, cap_vn;
+    size_t n_vt; /* only counted, so that vt indices can be checked */
+
+    unsigned *idx; /* 3 per triangle */
+    size_t n_tri, cap_idx;
+    float *cn; /* 9 per triangle while every corner so far had a normal */
+    size_t cap_cn;
+    int all_normals;
+
+    corner *corners; /* scratch for the face being parsed */
+    size_t cap_corners;
+} parser;
+
+/* Grows an array so that it holds at least `need` elements of `elem`
+ * bytes, doubling the capacity so that appending stays linear overall.
+ * Returns the (possibly moved) array, or NULL when the size would
+ * overflow or realloc fails; the old array is then still valid, which is
+ * what lets the caller free everything on the error path. */
+static void *grow(void *p, size_t *cap, size_t need, size_t elem)
+{
+    if (need <= *cap)
+        return p;
+    size_t n = *cap ? *cap : 64;
+    while (n < need) {
+        if (n > SIZE_MAX / 2)
+            return NULL;
+        n *= 2;
+    }
+    if (n > SIZE_MAX / elem)
+        return NULL;
+    void *q = realloc(p, n * elem);
+    if (q == NULL)
+        return NULL;
+    *cap = n;
+    return q;
+}
+
+static void parser_free(parser *ps)
+{
+    free(ps->v);
+    free(ps->vn);
+    free(ps->idx);
+    free(ps->cn);
+    free(ps->corners);
+    ps->v = ps->vn = ps->cn = NULL;
+    ps->idx = NULL;
+    ps->corners = NULL;
+}
+
+/* Reports an input error at the current line.  Every parse message has
+ * the "FILE:LINE: " prefix that editors and compilers use, so a user can
+ * jump straight to the culprit. */
+__attribute__((format(printf, 3, 4))) static lr_status
+fail_at(parser *ps, lr_status status, const char *fmt, ...)
+{
+    char what[512];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(what, sizeof what, fmt, ap);
+    va_end(ap);
+    return lr__fail(ps->err, status, ps->json_path, "%s:%zu: %s", ps->file,
+                    ps->line, what);
+}
+
+static lr_status nomem(parser *ps)
+{
+    return fail_at(ps, LR_ERR_NOMEM, "out of memory while reading the mesh");
+}
+
+/* Whitespace between tokens.  A stray '\r' counts too, so CRLF files and
+ * files with odd line endings mid-way parse like plain ones. */
+static int is_blank(char c)
+{
+    return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f';
+}
+
+/* Control bytes that never occur in a text OBJ file.  Finding one means
+ * the path points at something binary, which must not pass as "a file
+ * with no faces" or, worse, as a few accidental statements. */
+static int is_binary_byte(unsigned char c)
+{
+    return (c < 0x20 && c != '\t' && c != '\n' && c != '\r' && c != '\v' &&
+            c != '\f') ||
+           c == 0x7f;
+}
+
+/* Finds the next token after *pp; returns its start and sets *len, or
+ * returns NULL at the end of the line.  Advances *pp past the token. */
+static const char *next_token(const char **pp, size_t *len)
+{
+    const char *p = *pp;
+    while (is_blank(*p))
+        p++;
+    if (*p == '\0') {
+        *pp = p;
+        return NULL;
+    }
+    const char *start = p;
+    while (*p != '\0' && !is_blank(*p))
+        p++;
+    *len = (size_t)(p - start);
+    *pp = p;
+    return start;
+}
+
+static int quote_len(size_t len)
+{
+    return (int)(len < TOKEN_QUOTE_MAX ? len : TOKEN_QUOTE_MAX);
+}
+
+/* Parses one whole token as a finite number that fits a float.  `what`
+ * names the statement for the message. */
+static lr_status parse_number(parser *ps, const char *tok, size_t len,
+                              const char *what, double *out)
+{
+    char *end = NULL;
+    errno = 0;
+    double x = strtod_l(tok, &end, ps->c_locale);
+    if (end == tok || end != tok + len)
+        return fail_at(ps, LR_ERR_INVALID, "bad number '%.*s' in a '%s' line",
+                       quote_len(len), tok, what);
+    /* ERANGE on underflow gives a tiny but usable value; on overflow the
+     * number was written finite and is merely too large. */
+    if (!isfinite(x) && errno != ERANGE)
+        return fail_at(ps, LR_ERR_INVALID,
+                       "non-finite number '%.*s' in a '%s' line",
+                       quote_len(len), tok, what);
+    if (!isfinite(x) || fabs(x) > FLT_MAX)
+        return fail_at(ps, LR_ERR_INVALID,
+                       "number '%.*s' in a '%s' line is too large for a float",
+                       quote_len(len), tok, what);
+    *out = x;
+    return LR_OK;
+}
+
+/* Reads between `min` and `max` numbers from the rest of the line. */
+static lr_status parse_numbers(parser *ps, const char *rest, const char *what,
+                               size_t min, size_t max, double *vals,
+                               size_t *count)
+{
+    size_t n = 0;
+    size_t len = 0;
+    const char *tok = next_token(&rest, &len);
+    while (tok != NULL) {
+        if (n == max)
+            return fail_at(ps, LR_ERR_INVALID,
+                           "too many numbers in a '%s' line (at most %zu)",
+                           what, max);
+        lr_status st = parse_number(ps, tok, len, what, &vals[n]);
+        if (st != LR_OK)
+            return st;
+        n++;
+        tok = next_token(&rest, &len);
+    }
+    if (n < min)
+        return fail_at(ps, LR_ERR_INVALID,
+                       "a '%s' line needs %zu numbers, this one has %zu", what,
+                       min, n);
+    *count = n;
+    return LR_OK;
+}
+
+static lr_status parse_vertex(parser *ps, const char *rest)
+{
+    /* x y z, then optionally w (rational curves; meaningless for a
+     * triangle mesh) or r g b (the vertex colours MeshLab and others
+     * write).  Only x y z are kept, but all must be valid numbers. */
+    double vals[7];
+    size_t n = 0;
+    lr_status st = parse_numbers(ps, rest, "v", 3, 7, vals, &n);
+    if (st != LR_OK)
+        return st;
+    /* Faces store vertex indices as unsigned, so more vertices than that
+     * could not be referenced. */
+    if (ps->n_v >= UINT_MAX)
+        return fail_at(ps, LR_ERR_LIMIT, "more than %u vertices", UINT_MAX);
+    float *v = grow(ps->v, &ps->cap_v, 3 * (ps->n_v + 1), sizeof *v);
+    if (v == NULL)
+        return nomem(ps);
+    ps->v = v;
+    for (int i = 0; i < 3; i++)
+        v[3 * ps->n_v + (size_t)i] = (float)vals[i];
+    ps->n_v++;
+    return LR_OK;
+}
+
+static lr_status parse_normal(parser *ps, const char *rest)
+{
+    double vals[3];
+    size_t n = 0;
+    lr_status st = parse_numbers(ps, rest, "vn", 3, 3, vals, &n);
+    if (st != LR_OK)
+        return st;
+    /* Each component is at most FLT_MAX, so the squares cannot overflow
+     * a double. */
+    double len = sqrt(vals[0] * vals[0] + vals[1] * vals[1] +
+                      vals[2] * vals[2]);
+    if (!(len > 0.0))
+        return fail_at(ps, LR_ERR_INVALID,
+                       "zero-length normal; a 'vn' needs a direction");
+    if (ps->n_vn > SIZE_MAX / 3 - 1)
+        return fail_at(ps, LR_ERR_LIMIT, "too many normals");
+    float *vn = grow(ps->vn, &ps->cap_vn, 3 * (ps->n_vn + 1), sizeof *vn);
+    if (vn == NULL)
+        return nomem(ps);
+    ps->vn = vn;
+    for (int i = 0; i < 3; i++)
+        vn[3 * ps->n_vn + (size_t)i] = (float)(vals[i] / len);
+    ps->n_vn++;
+    return LR_OK;
+}
+
+/* Parses the integer at *pp, which must lie before `end`.  Returns 0 on
+ * success, -1 when there is no integer there and -2 when it does not fit
+ * a long.  The explicit first-character test matters: strtol would skip
+ * whitespace and happily read the next token. */
+static int parse_int(const char **pp, const char *end, long *out)
+{
+    const char *p = *pp;
+    if (p >= end)
+        return -1;
+    if (!((*p >= '0' && *p <= '9') || *p == '-' || *p == '+'))
+        return -1;
+    char *stop = NULL;
+    errno = 0;
+    long x = strtol(p, &stop, 10);
+    if (stop == p || stop > end)
+        return -1;
+    if (errno == ERANGE)
+        return -2;
+    *out = x;
+    *pp = stop;
+    return 0;
+}
+
+static const char *plural(size_t n, const char *one, const char *many)
+{
+    return n == 1 ? one : many;
+}
+
+/* Turns an OBJ index (1-based, or negative counting back from the end of
+ * the list so far) into a 0-based position, or reports it.  `kind` is
+ * "" for vertices, "normal " or "texture " for the others. */
+static lr_status resolve_index(parser *ps, long i, size_t count,
+                               const char *kind, const char *one,
+                               const char *many, size_t *out)
+{
+    if (i == 0)
+        return fail_at(ps, LR_ERR_INVALID,
+                       "face %sindex 0 out of range (OBJ indices start at 1; "
+                       "the file has %zu %s so far)",
+                       kind, count, plural(count, one, many));
+    if (i > 0) {
+        if ((unsigned long)i <= count) {
+            *out = (size_t)i - 1;
+            return LR_OK;
+        }
+    } else {
+        /* -(i + 1) cannot overflow even for LONG_MIN. */
+        unsigned long back = (unsigned long)(-(i + 1)) + 1u;
+        if (back <= count) {
+            *out = count - back;
+            return LR_OK;
+        }
+    }
+    return fail_at(ps, LR_ERR_INVALID,
+                   "face %sindex %ld out of range (the file has %zu %s so far)",
+                   kind, i, count, plural(count, one, many));
+}
+
+/* Parses one corner: v, v/vt, v//vn or v/vt/vn. */
+static lr_status parse_corner(parser *ps, const char *tok, size_t len,
+                              corner *c)
+{
+    const char *end = tok + len;
+    const char *p = tok;
+    long iv = 0, it = 0, in = 0;
+    int have_vt = 0;
+    c->has_vn = 0;
+
+    int r = parse_int(&p, end, &iv);
+    if (r == 0 && p < end) {
+        if (*p != '/') {
+            r = -1;
+        } else {
+            p++;
+            if (p < end && *p != '/') {
+                r = parse_int(&p, end, &it);
+                have_vt = 1;
+            }
+            if (r == 0 && p < end) {
+                if (*p != '/') {
+                    r = -1;
+                } else {
+                    p++;
+                    r = parse_int(&p, end, &in);
+                    c->has_vn = 1;
+                }
+            } else if (r == 0 && !have_vt) {
+                /* "1/" names a texture coordinate and then gives none. */
+                r = -1;
+            }
+        }
+        if (r == 0 && p != end)
+            r = -1;
+    }
+    if (r == -2)
+        return fail_at(ps, LR_ERR_INVALID,
+                       "face index in '%.*s' out of range", quote_len(len),
+                       tok);
+    if (r != 0)
+        return fail_at(ps, LR_ERR_INVALID,
+                       "bad face corner '%.*s' (expected v, v/vt, v//vn or "
+                       "v/vt/vn with integer indices)",
+                       quote_len(len), tok);
+
+    lr_status st =
+        resolve_index(ps, iv, ps->n_v, "", "vertex", "vertices", &c->v);
+    if (st != LR_OK)
+        return st;
+    if (have_vt) {
+        size_t unused = 0;
+        st = resolve_index(ps, it, ps->n_vt, "texture ",
+                           "texture coordinate", "texture coordinates",
+                           &unused);
+        if (st != LR_OK)
+            return st;
+    }
+    if (c->has_vn) {
+        st = resolve_index(ps, in, ps->n_vn, "normal ", "normal", "normals",
+                           &c->vn);
+        if (st != LR_OK)
+            return st;
+    }
+    return LR_OK;
+}
+
+/* Stops collecting per-corner normals: once one corner lacks a normal the
+ * mesh as a whole has none, so the memory can go right away. */
+static void drop_normals(parser *ps)
+{
+    ps->all_normals = 0;
+    free(ps->cn);
+    ps->cn = NULL;
+    ps->cap_cn = 0;
+}
+
+static lr_status parse_face(parser *ps, const char *rest)
+{
+    size_t n = 0;
+    size_t len = 0;
+    int face_normals = 1;
+    const char *tok = next_token(&rest, &len);
+    while (tok != NULL) {
+        if (n == SIZE_MAX / sizeof(corner))
+            return fail_at(ps, LR_ERR_LIMIT, "too many corners in a face");
+        corner *cs = grow(ps->corners, &ps->cap_corners, n + 1, sizeof *cs);
+        if (cs == NULL)
+            return nomem(ps);
+        ps->corners = cs;
+        lr_status st = parse_corner(ps, tok, len, &cs[n]);
+        if (st != LR_OK)
+            return st;
+        if (!cs[n].has_vn)
+            face_normals = 0;
+        n++;
+        tok = next_token(&rest, &len);
+    }
+    if (n < 3)
+        return fail_at(ps, LR_ERR_INVALID,
+                       "a face needs at least 3 corners, this one has %zu", n);
+    if (!face_normals && ps->all_normals)
+        drop_normals(ps);
+
+    /* A polygon with n corners becomes a fan of n - 2 triangles around
+     * its first corner; fine for the convex polygons exporters write. */
+    size_t add = n - 2;
+    if (ps->n_tri > SIZE_MAX / 9 - add)
+        return fail_at(ps, LR_ERR_LIMIT, "too many triangles");
+    size_t tri_after = ps->n_tri + add;
+    unsigned *idx = grow(ps->idx, &ps->cap_idx, 3 * tri_after, sizeof *idx);
+    if (idx == NULL)
+        return nomem(ps);
+    ps->idx = idx;
+    float *cn = NULL;
+    if (ps->all_normals) {
+        cn = grow(ps->cn, &ps->cap_cn, 9 * tri_after, sizeof *cn);
+        if (cn == NULL)
+            return nomem(ps);
+        ps->cn = cn;
+    }
+
+    const corner *cs = ps->corners;
+    for (size_t k = 1; k + 1 < n; k++) {
+        const corner *tri[3] = {&cs[0], &cs[k], &cs[k + 1]};
+        for (int j = 0; j < 3; j++) {
+            /* parse_vertex keeps the vertex count within unsigned. */
+            idx[3 * ps->n_tri + (size_t)j] = (unsigned)tri[j]->v;
+            if (cn != NULL)
+                memcpy(&cn[9 * ps->n_tri + 3 * (size_t)j],
+                       &ps->vn[3 * tri[j]->vn], 3 * sizeof *cn);
+        }
+        ps->n_tri++;
+    }
+    return LR_OK;
+}
+
+/* Parses one logical line, already NUL-terminated. */
+static lr_status parse_line(parser *ps, char *s)
+{
+    char *hash = strchr(s, '#');
+    if (hash != NULL)
+        *hash = '\0';
+    const char *rest = s;
+    size_t len = 0;
+    const char *kw = next_token(&rest, &len);
+    if (kw == NULL)
+        return LR_OK;
+    if (len == 1 && kw[0] == 'v')
+        return parse_vertex(ps, rest);
+    if (len == 2 && kw[0] == 'v' && kw[1] == 'n')
+        return parse_normal(ps, rest);
+    if (len == 1 && kw[0] == 'f')
+        return parse_face(ps, rest);
+    if (len == 2 && kw[0] == 'v' && kw[1] == 't') {
+        ps->n_vt++;
+        return LR_OK;
+    }
+    /* o, g, s, usemtl, mtllib, l, p and anything unknown carry nothing a
+     * triangle mesh needs. */
+    return LR_OK;
+}
+
+/* Splits the buffer into logical lines in place and parses each.  A line
+ * ending in a backslash (outside a comment) continues on the next one;
+ * messages then name the line where the statement began. */
+static lr_status parse_buffer(parser *ps, char *buf, size_t len,
+                              size_t *last_line)
+{
+    char *p = buf;
+    char *end = buf + len;
+    size_t line = 1;
+    /* Noted now because splitting overwrites the newlines. */
+    int ends_with_newline = len > 0 && buf[len - 1] == '\n';
+    /* A UTF-8 byte order mark, as some Windows tools write, is no
+     * statement. */
+    if (len >= 3 && memcmp(p, "\xEF\xBB\xBF", 3) == 0)
+        p += 3;
+    while (p < end) {
+        char *s = p;
+        char *q = p;
+        size_t start_line = line;
+        int in_comment = 0;
+        while (q < end) {
+            unsigned char c = (unsigned char)*q;
+            if (c == '\n') {
+                char *b = q;
+                if (b > s && b[-1] == '\r')
+                    b--;
+                if (!in_comment && b > s && b[-1] == '\\') {
+                    for (char *t = b - 1; t <= q; t++)
+                        *t = ' ';
+                    line++;
+                    q++;
+                    continue;
+                }
+                break;
+            }
+            if (c == '#') {
+                in_comment = 1;
+            } else if (is_binary_byte(c)) {
+                ps->line = line;
+                return fail_at(ps, LR_ERR_INVALID,
+                               "not a text OBJ file (byte 0x%02x at offset "
+                               "%zu)",
+                               c, (size_t)(q - buf));
+            }
+            q++;
+        }
+        char *next = q < end ? q + 1 : end;
+        int had_newline = q < end;
+        /* The buffer has one spare byte past `len`, so this is safe at the
+         * end too. */
+        *q = '\0';
+        ps->line = start_line;
+        lr_status st = parse_line(ps, s);
+        if (st != LR_OK)
+            return st;
+        if (had_newline)
+            line++;
+        p = next;
+    }
+    /* The last line that had content: a final newline starts no line. */
+    *last_line = (ends_with_newline && line > 1) ? line - 1 : line;
+    return LR_OK;
+}
+
+/* Reads the whole file into a NUL-terminated buffer.  Reading in a loop
+ * rather than trusting the size from fstat also copes with pipes and with
+ * files that change while we read them. */
+static lr_status read_file(const char *file, const char *json_path,
+                           char **out, size_t *out_len, lr_error *err)
+{
+    *out = NULL;
+    *out_len = 0;
+    FILE *f = fopen(file, "rb");
+    if (f == NULL)
+        return lr__fail(err, LR_ERR_IO, json_path, "%s: cannot open: %s",
+                        file, strerror(errno));
+
+    /* Two bytes beyond the size: one for the terminating NUL and one so
+     * that the first fread comes up short and shows the end of the file
+     * without another round. */
+    size_t cap = 65536;
+    struct stat sb;
+    if (fstat(fileno(f), &sb) == 0 && S_ISREG(sb.st_mode)) {
+        if ((uintmax_t)sb.st_size > OBJ_MAX_BYTES) {
+            fclose(f);
+            return lr__fail(err, LR_ERR_LIMIT, json_path,
+                            "%s: the file is larger than the %zu MiB limit "
+                            "for OBJ files",
+                            file, OBJ_MAX_BYTES >> 20);
+        }
+        cap = (size_t)sb.st_size + 2;
+    }
+    char *buf = malloc(cap);
+    if (buf == NULL) {
+        fclose(f);
+        return lr__fail(err, LR_ERR_NOMEM, json_path,
+                        "%s: out of memory reading the file", file);
+    }
+    size_t len = 0;
+    for (;;) {
+        if (cap - len < 2) {
+            size_t ncap = cap > OBJ_MAX_BYTES / 2 ? OBJ_MAX_BYTES + 2
+                                                  : cap * 2;
+            char *nbuf = realloc(buf, ncap);
+            if (nbuf == NULL) {
+                free(buf);
+                fclose(f);
+                return lr__fail(err, LR_ERR_NOMEM, json_path,
+                                "%s: out of memory reading the file", file);
+            }
+            buf = nbuf;
+            cap = ncap;
+        }
+        size_t want = cap - len - 1;
+        size_t got = fread(buf + len, 1, want, f);
+        len += got;
+        if (len > OBJ_MAX_BYTES) {
+            free(buf);
+            fclose(f);
+            return lr__fail(err, LR_ERR_LIMIT, json_path,
+                            "%s: the file is larger than the %zu MiB limit "
+                            "for OBJ files",
+                            file, OBJ_MAX_BYTES >> 20);
+        }
+        if (got < want) {
+            if (ferror(f)) {
+                int e = errno;
+                free(buf);
+                fclose(f);
+                return lr__fail(err, LR_ERR_IO, json_path,
+                                "%s: cannot read: %s", file, strerror(e));
+            }
+            break;
+        }
+    }
+    fclose(f);
+    buf[len] = '\0';
+    *out = buf;
+    *out_len = len;
+    return LR_OK;
+}
+
+lr_status lr__obj_load(const char *file, const char *json_path,
+                       lr__mesh *out, lr_error *err)
+{
+    if (out != NULL)
+        memset(out, 0, sizeof *out);
+    if (file == NULL || out == NULL)
+        return lr__fail(err, LR_ERR_INVALID, json_path,
+                        "lr__obj_load: file and out must not be NULL");
+
+    char *buf = NULL;
+    size_t len = 0;
+    lr_status st = read_file(file, json_path, &buf, &len, err);
+    if (st != LR_OK)
+        return st;
+
+    parser ps;
+    memset(&ps, 0, sizeof ps);
+    ps.file = file;
+    ps.json_path = json_path;
+    ps.err = err;
+    ps.all_normals = 1;
+    /* strtod follows LC_NUMERIC, which a host program may have set to a
+     * locale with a decimal comma; OBJ numbers always use a point. */
+    ps.c_locale = newlocale(LC_NUMERIC_MASK, "C", (locale_t)0);
+    if (ps.c_locale == (locale_t)0) {
+        free(buf);
+        return lr__fail(err, LR_ERR_NOMEM, json_path,
+                        "%s: out of memory setting up the number parser",
+                        file);
+    }
+
+    size_t last_line = 1;
+    st = parse_buffer(&ps, buf, len, &last_line);
+    free(buf);
+    freelocale(ps.c_locale);
+    if (st == LR_OK && ps.n_tri == 0) {
+        ps.line = last_line;
+        st = fail_at(&ps, LR_ERR_INVALID,
+                     "the file has no faces ('f' lines), so there is "
+                     "nothing to render");
+    }
+    if (st != LR_OK) {
+        parser_free(&ps);
+        return st;
+    }
+
+    out->n_vertices = ps.n_v;
+    out->vertices = ps.v;
+    out->n_triangles = ps.n_tri;
+    out->indices = ps.idx;
+    out->normals = ps.all_normals ? ps.cn : NULL;
+    if (!ps.all_normals)
+        free(ps.cn);
+    free(ps.vn);
+    free(ps.corners);
+    return LR_OK;
+}
+
+void lr__mesh_free(lr__mesh *m)
+{
+    if (m == NULL)
+        return;
+    free(m->vertices);
+    free(m->indices);
+    free(m->normals);
+    memset(m, 0, sizeof *m);
+}

@@ -1,0 +1,269 @@
+/*
+ * render.c: the render loop: tiles handed out to a pool of threads, the
+ * pixel samples of each pixel accumulated in order by one thread (so the
+ * result does not depend on the thread count or tile size), progress and
+ * cancellation between tiles.
+ */
+#include "camera.h"
+#include "film.h"
+#include "sampler.h"
+#include "shade.h"
+
+#include <math.h>
+#include <pmmintrin.h>
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+#include <xmmintrin.h>
+
+#define MAX_DIM 65536
+#define MAX_PIXELS (1ull << 28)
+#define MAX_SPP (1 << 20)
+#define MAX_THREADS 1024
+
+void lr_render_settings_default(lr_render_settings *s)
+{
+    memset(s, 0, sizeof *s);
+    s->width = 640;
+    s->height = 480;
+    s->spp = 16;
+    s->sampler = LR_SAMPLER_RANDOM;
+    s->seed = 0;
+    s->max_depth = 8;
+    s->threads = 0;
+    s->tile_size = 32;
+    s->want_depth = 0;
+}
+
+lr_status lr_render_settings_validate(const lr_render_settings *s,
+                                      lr_error *err)
+{
+    if (s == NULL)
+        return lr__fail(err, LR_ERR_INVALID, "render", "settings are NULL");
+    if (s->width < 1 || s->width > MAX_DIM)
+        return lr__fail(err, LR_ERR_INVALID, "render.width",
+                        "render.width must be between 1 and %d, got %d",
+                        MAX_DIM, s->width);
+    if (s->height < 1 || s->height > MAX_DIM)
+        return lr__fail(err, LR_ERR_INVALID, "render.height",
+                        "render.height must be between 1 and %d, got %d",
+                        MAX_DIM, s->height);
+    if ((uint64_t)s->width * (uint64_t)s->height > MAX_PIXELS)
+        return lr__fail(err, LR_ERR_INVALID, "render.width",
+                        "render.width x render.height is %llu pixels, more "
+                        "than the limit of %llu",
+                        (unsigned long long)s->width * (unsigned)s->height,
+                        (unsigned long long)MAX_PIXELS);
+    if (s->spp < 1 || s->spp > MAX_SPP)
+        return lr__fail(err, LR_ERR_INVALID, "render.spp",
+                        "render.spp must be between 1 and %d, got %d",
+                        MAX_SPP, s->spp);
+    if (s->sampler != LR_SAMPLER_RANDOM)
+        return lr__fail(err, LR_ERR_INVALID, "render.sampler",
+                        "render.sampler is not a known sampler (%d)",
+                        (int)s->sampler);
+    if (s->max_depth < 0 || s->max_depth > 64)
+        return lr__fail(err, LR_ERR_INVALID, "render.max_depth",
+                        "render.max_depth must be between 0 and 64, got %d",
+                        s->max_depth);
+    if (s->threads < 0 || s->threads > MAX_THREADS)
+        return lr__fail(err, LR_ERR_INVALID, "render.threads",
+                        "render.threads must be between 0 (all cores) and "
+                        "%d, got %d",
+                        MAX_THREADS, s->threads);
+    if (s->tile_size < 1 || s->tile_size > 4096)
+        return lr__fail(err, LR_ERR_INVALID, "render.tile_size",
+                        "render.tile_size must be between 1 and 4096, got %d",
+                        s->tile_size);
+    return LR_OK;
+}
+
+/* State shared by the render threads. */
+typedef struct job {
+    const lr_scene *scene;
+    const lr_render_settings *set;
+    lr__cam cam;
+    lr__sampler sampler;
+    lr_image *img;
+    int tiles_x, tiles_y;
+    atomic_int next_tile;
+    atomic_int cancelled;
+    pthread_mutex_t progress_lock;
+    uint64_t pixels_done;
+} job;
+
+typedef struct worker {
+    job *job;
+    uint64_t rays, samples, dropped;
+} worker;
+
+static void render_pixel(worker *w, int x, int y)
+{
+    job *j = w->job;
+    const lr_render_settings *set = j->set;
+    uint64_t pixel = (uint64_t)y * (uint64_t)set->width + (uint64_t)x;
+    lr__pixel acc;
+    lr__pixel_reset(&acc);
+    for (int s = 0; s < set->spp; s++) {
+        double u[2];
+        lr__sample_2d(&j->sampler, pixel, (uint32_t)s, LR__DIM_PIXEL, u);
+        lr__v3 org, dir;
+        lr__cam_ray(&j->cam, x + u[0], y + u[1], &org, &dir);
+        lr__v3 L = lr__radiance(j->scene, org, dir, 0, set->max_depth,
+                                &w->rays);
+        lr__pixel_add(&acc, L);
+    }
+    w->samples += acc.n;
+    w->dropped += acc.dropped;
+    lr__pixel_resolve(&acc, &j->img->rgb[3 * pixel]);
+
+    if (j->img->depth != NULL) {
+        /* Z: distance along the view axis of the first hit of the ray
+         * through the pixel centre. */
+        lr__v3 org, dir;
+        lr__hit h;
+        lr__cam_ray(&j->cam, x + 0.5, y + 0.5, &org, &dir);
+        w->rays++;
+        float z = LR_DEPTH_NONE;
+        if (lr__trace(j->scene, org, dir, INFINITY, &h)) {
+            double d = h.t * v3_dot(dir, j->cam.forward);
+            if (d < LR_DEPTH_NONE)
+                z = (float)d;
+        }
+        j->img->depth[pixel] = z;
+    }
+}
+
+static void *worker_main(void *arg)
+{
+    worker *w = arg;
+    job *j = w->job;
+    const lr_render_settings *set = j->set;
+    /* Denormals only slow traversal down; Embree recommends FTZ/DAZ. */
+    unsigned csr = _mm_getcsr();
+    _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);
+    _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
+    int n_tiles = j->tiles_x * j->tiles_y;
+    for (;;) {
+        if (set->cancel != NULL && *set->cancel) {
+            atomic_store(&j->cancelled, 1);
+            break;
+        }
+        if (atomic_load(&j->cancelled))
+            break;
+        int t = atomic_fetch_add(&j->next_tile, 1);
+        if (t >= n_tiles)
+            break;
+        int ts = set->tile_size;
+        int x0 = (t % j->tiles_x) * ts, y0 = (t / j->tiles_x) * ts;
+        int x1 = x0 + ts < set->width ? x0 + ts : set->width;
+        int y1 = y0 + ts < set->height ? y0 + ts : set->height;
+        for (int y = y0; y < y1; y++)
+            for (int x = x0; x < x1; x++)
+                render_pixel(w, x, y);
+        pthread_mutex_lock(&j->progress_lock);
+        j->pixels_done += (uint64_t)(x1 - x0) * (uint64_t)(y1 - y0);
+        if (set->progress != NULL)
+            set->progress(set->progress_user, j->pixels_done,
+                          (uint64_t)set->width * (uint64_t)set->height);
+        pthread_mutex_unlock(&j->progress_lock);
+    }
+    _mm_setcsr(csr);
+    return NULL;
+}
+
+static double now_seconds(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
+                    const lr_render_settings *set, lr_image **out,
+                    lr_render_stats *stats, lr_error *err)
+{
+    if (scene == NULL || out == NULL)
+        return lr__fail(err, LR_ERR_INVALID, NULL,
+                        "lr_render: NULL scene or output");
+    *out = NULL;
+    lr_status st = lr_camera_validate(cam, err);
+    if (st != LR_OK)
+        return st;
+    st = lr_render_settings_validate(set, err);
+    if (st != LR_OK)
+        return st;
+
+    double t0 = now_seconds();
+    lr_image *img = NULL;
+    st = lr_image_create(set->width, set->height, set->want_depth, &img, err);
+    if (st != LR_OK)
+        return st;
+
+    job j;
+    memset(&j, 0, sizeof j);
+    j.scene = scene;
+    j.set = set;
+    j.img = img;
+    lr__cam_init(&j.cam, cam, set->width, set->height);
+    lr__sampler_init(&j.sampler, set->sampler, set->seed, set->spp);
+    j.tiles_x = (set->width + set->tile_size - 1) / set->tile_size;
+    j.tiles_y = (set->height + set->tile_size - 1) / set->tile_size;
+    atomic_init(&j.next_tile, 0);
+    atomic_init(&j.cancelled, 0);
+    pthread_mutex_init(&j.progress_lock, NULL);
+
+    int n = set->threads;
+    if (n == 0) {
+        long cores = sysconf(_SC_NPROCESSORS_ONLN);
+        n = cores > 0 ? (int)cores : 1;
+    }
+    if (n > j.tiles_x * j.tiles_y)
+        n = j.tiles_x * j.tiles_y;
+    worker *ws = calloc((size_t)n, sizeof *ws);
+    pthread_t *tids = calloc((size_t)n, sizeof *tids);
+    if (ws == NULL || tids == NULL) {
+        free(ws);
+        free(tids);
+        lr_image_free(img);
+        pthread_mutex_destroy(&j.progress_lock);
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    }
+    /* The calling thread is worker 0; if a thread cannot be started the
+     * others simply take more tiles. */
+    int started = 1;
+    for (int i = 0; i < n; i++)
+        ws[i].job = &j;
+    for (int i = 1; i < n; i++) {
+        if (pthread_create(&tids[i], NULL, worker_main, &ws[i]) != 0)
+            break;
+        started++;
+    }
+    worker_main(&ws[0]);
+    for (int i = 1; i < started; i++)
+        pthread_join(tids[i], NULL);
+    pthread_mutex_destroy(&j.progress_lock);
+
+    lr_render_stats sum;
+    memset(&sum, 0, sizeof sum);
+    for (int i = 0; i < started; i++) {
+        sum.rays += ws[i].rays;
+        sum.samples += ws[i].samples;
+        sum.nan_samples += ws[i].dropped;
+    }
+    free(ws);
+    free(tids);
+    sum.threads = started;
+    sum.seconds = now_seconds() - t0;
+    if (atomic_load(&j.cancelled)) {
+        lr_image_free(img);
+        return lr__fail(err, LR_ERR_CANCELLED, NULL, "render cancelled");
+    }
+    if (stats != NULL)
+        *stats = sum;
+    *out = img;
+    return LR_OK;
+}

@@ -1,0 +1,303 @@
+/*
+ * scene.c: the scene's Embree side: building geometry, committing, and
+ * tracing single rays (closest hit and occlusion), plus the infinite
+ * planes that Embree cannot hold and that are intersected analytically.
+ */
+#include "scene.h"
+
+#include <float.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Embree reports errors through a callback; keep the last message per
+ * device so that the failing call can put it in the lr_error. */
+static _Thread_local char embree_msg[256];
+
+static void on_embree_error(void *user, enum RTCError code, const char *str)
+{
+    (void)user;
+    snprintf(embree_msg, sizeof embree_msg, "Embree error %d: %s", (int)code,
+             str ? str : "(no message)");
+}
+
+static lr_status embree_fail(lr_error *err, const char *what)
+{
+    return lr__fail(err, LR_ERR_EMBREE, NULL, "%s failed: %s", what,
+                    embree_msg[0] ? embree_msg : "unknown Embree error");
+}
+
+lr_status lr__scene_begin(lr_scene *s, lr_error *err)
+{
+    embree_msg[0] = '\0';
+    s->device = rtcNewDevice(NULL);
+    if (s->device == NULL)
+        return embree_fail(err, "creating the Embree device");
+    rtcSetDeviceErrorFunction(s->device, on_embree_error, NULL);
+    s->rtc = rtcNewScene(s->device);
+    if (s->rtc == NULL)
+        return embree_fail(err, "creating the Embree scene");
+    /* Robust traversal: no missed hits at shared triangle edges, which
+     * matters for watertight meshes seen through a lens. */
+    rtcSetSceneFlags(s->rtc, RTC_SCENE_FLAG_ROBUST);
+    rtcSetSceneBuildQuality(s->rtc, RTC_BUILD_QUALITY_HIGH);
+    return LR_OK;
+}
+
+static lr_status push_geom(lr_scene *s, const lr__geom *g, unsigned id,
+                           lr_error *err)
+{
+    if (id != s->n_geoms)
+        return lr__fail(err, LR_ERR_EMBREE, NULL,
+                        "Embree gave geometry ID %u, expected %zu", id,
+                        s->n_geoms);
+    lr__geom *grown = realloc(s->geoms, (s->n_geoms + 1) * sizeof *grown);
+    if (grown == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    s->geoms = grown;
+    s->geoms[s->n_geoms++] = *g;
+    return LR_OK;
+}
+
+static void extend(lr_scene *s, double m)
+{
+    if (m > s->extent)
+        s->extent = m;
+}
+
+lr_status lr__scene_add_triangles(lr_scene *s, const float *vertices,
+                                  size_t n_vertices, const unsigned *indices,
+                                  size_t n_triangles, float *corner_normals,
+                                  int material, lr_error *err)
+{
+    RTCGeometry geom = rtcNewGeometry(s->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    if (geom == NULL) {
+        free(corner_normals);
+        return embree_fail(err, "creating a triangle mesh");
+    }
+    float *vb = rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0,
+                                        RTC_FORMAT_FLOAT3, 3 * sizeof(float),
+                                        n_vertices);
+    unsigned *ib = rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0,
+                                           RTC_FORMAT_UINT3,
+                                           3 * sizeof(unsigned), n_triangles);
+    if (vb == NULL || ib == NULL) {
+        rtcReleaseGeometry(geom);
+        free(corner_normals);
+        return embree_fail(err, "allocating a triangle mesh");
+    }
+    memcpy(vb, vertices, n_vertices * 3 * sizeof(float));
+    memcpy(ib, indices, n_triangles * 3 * sizeof(unsigned));
+    for (size_t i = 0; i < 3 * n_vertices; i++)
+        extend(s, fabs((double)vertices[i]));
+    rtcCommitGeometry(geom);
+    unsigned id = rtcAttachGeometry(s->rtc, geom);
+    rtcReleaseGeometry(geom);
+
+    lr__geom g = {0};
+    g.kind = LR__GEOM_TRIANGLES;
+    g.material = material;
+    g.corner_normals = corner_normals;
+    g.n_triangles = n_triangles;
+    g.vertices = vb;
+    g.indices = ib;
+    lr_status st = push_geom(s, &g, id, err);
+    if (st != LR_OK) {
+        free(corner_normals);
+        return st;
+    }
+    s->n_primitives += n_triangles;
+    return LR_OK;
+}
+
+lr_status lr__scene_add_sphere(lr_scene *s, lr__v3 center, double radius,
+                               int material, lr_error *err)
+{
+    RTCGeometry geom =
+        rtcNewGeometry(s->device, RTC_GEOMETRY_TYPE_SPHERE_POINT);
+    if (geom == NULL)
+        return embree_fail(err, "creating a sphere");
+    float *vb = rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0,
+                                        RTC_FORMAT_FLOAT4, 4 * sizeof(float),
+                                        1);
+    if (vb == NULL) {
+        rtcReleaseGeometry(geom);
+        return embree_fail(err, "allocating a sphere");
+    }
+    vb[0] = (float)center.x;
+    vb[1] = (float)center.y;
+    vb[2] = (float)center.z;
+    vb[3] = (float)radius;
+    extend(s, v3_maxabs(center) + radius);
+    rtcCommitGeometry(geom);
+    unsigned id = rtcAttachGeometry(s->rtc, geom);
+    rtcReleaseGeometry(geom);
+
+    lr__geom g = {0};
+    g.kind = LR__GEOM_SPHERE;
+    g.material = material;
+    g.center = center;
+    g.radius = radius;
+    lr_status st = push_geom(s, &g, id, err);
+    if (st == LR_OK)
+        s->n_primitives++;
+    return st;
+}
+
+lr_status lr__scene_add_plane(lr_scene *s, lr__v3 point, lr__v3 normal,
+                              int material, lr_error *err)
+{
+    lr__geom *grown = realloc(s->planes, (s->n_planes + 1) * sizeof *grown);
+    if (grown == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    s->planes = grown;
+    lr__geom g = {0};
+    g.kind = LR__GEOM_PLANE;
+    g.material = material;
+    g.center = point;
+    g.normal = v3_norm(normal);
+    s->planes[s->n_planes++] = g;
+    s->n_primitives++;
+    return LR_OK;
+}
+
+lr_status lr__scene_commit(lr_scene *s, lr_error *err)
+{
+    embree_msg[0] = '\0';
+    rtcCommitScene(s->rtc);
+    if (rtcGetDeviceError(s->device) != RTC_ERROR_NONE)
+        return embree_fail(err, "building the Embree scene");
+    return LR_OK;
+}
+
+/* ---- tracing ---------------------------------------------------------- */
+
+static void embree_ray(struct RTCRay *r, lr__v3 org, lr__v3 dir, double tfar)
+{
+    r->org_x = (float)org.x;
+    r->org_y = (float)org.y;
+    r->org_z = (float)org.z;
+    r->tnear = 0.0f;
+    r->dir_x = (float)dir.x;
+    r->dir_y = (float)dir.y;
+    r->dir_z = (float)dir.z;
+    r->time = 0.0f;
+    r->tfar = tfar < FLT_MAX ? (float)tfar : FLT_MAX;
+    r->mask = 0xFFFFFFFFu;
+    r->id = 0;
+    r->flags = 0;
+}
+
+/* The nearest infinite plane hit with t in (0, tfar), or -1. */
+static long plane_hit(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
+                      double *t_out)
+{
+    long best = -1;
+    double best_t = tfar;
+    for (size_t i = 0; i < s->n_planes; i++) {
+        const lr__geom *pl = &s->planes[i];
+        double den = v3_dot(dir, pl->normal);
+        if (den == 0.0)
+            continue;
+        double t = v3_dot(v3_sub(pl->center, org), pl->normal) / den;
+        if (t > 0.0 && t < best_t) {
+            best_t = t;
+            best = (long)i;
+        }
+    }
+    *t_out = best_t;
+    return best;
+}
+
+static void finish_hit(lr__hit *h, lr__v3 org, lr__v3 dir, double t,
+                       lr__v3 ng_outward, lr__v3 ns_outward, int material)
+{
+    h->t = t;
+    h->p = v3_madd(org, dir, t);
+    h->material = material;
+    ng_outward = v3_norm(ng_outward);
+    ns_outward = v3_norm(ns_outward);
+    h->entering = v3_dot(dir, ng_outward) < 0.0;
+    h->ng = h->entering ? ng_outward : v3_neg(ng_outward);
+    h->ns = h->entering ? ns_outward : v3_neg(ns_outward);
+    /* An interpolated normal may point below the surface near silhouettes;
+     * fall back to the geometric normal there rather than shade a
+     * surface from behind. */
+    if (v3_dot(h->ns, h->ng) <= 0.0 || !v3_finite(h->ns))
+        h->ns = h->ng;
+    /* Float rounding in Embree's t and in the hit position scales with
+     * the coordinates involved: 2^-17 of them is ~64 float ulps. */
+    double mag = v3_maxabs(h->p) + t * v3_len(dir);
+    h->eps = (1.0 + mag) * 0x1p-17;
+}
+
+int lr__trace(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
+              lr__hit *hit)
+{
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    struct RTCRayHit rh;
+    embree_ray(&rh.ray, org, dir, tfar);
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(s->rtc, &ctx, &rh);
+
+    double t_embree = rh.hit.geomID != RTC_INVALID_GEOMETRY_ID
+                          ? (double)rh.ray.tfar
+                          : tfar;
+    double t_plane;
+    long pl = plane_hit(s, org, dir, t_embree, &t_plane);
+    if (pl >= 0) {
+        const lr__geom *g = &s->planes[pl];
+        finish_hit(hit, org, dir, t_plane, g->normal, g->normal, g->material);
+        return 1;
+    }
+    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID)
+        return 0;
+
+    const lr__geom *g = &s->geoms[rh.hit.geomID];
+    if (g->kind == LR__GEOM_SPHERE) {
+        /* Recompute the normal from the centre in double precision. */
+        lr__v3 p = v3_madd(org, dir, t_embree);
+        lr__v3 n = v3_sub(p, g->center);
+        finish_hit(hit, org, dir, t_embree, n, n, g->material);
+        return 1;
+    }
+    /* Triangles: CCW winding (as OBJ) is the front side. */
+    const unsigned *ix = &g->indices[3 * (size_t)rh.hit.primID];
+    const float *a = &g->vertices[3 * (size_t)ix[0]];
+    const float *b = &g->vertices[3 * (size_t)ix[1]];
+    const float *c = &g->vertices[3 * (size_t)ix[2]];
+    lr__v3 va = v3(a[0], a[1], a[2]);
+    lr__v3 ng = v3_cross(v3_sub(v3(b[0], b[1], b[2]), va),
+                         v3_sub(v3(c[0], c[1], c[2]), va));
+    lr__v3 ns = ng;
+    if (g->corner_normals != NULL) {
+        const float *n = &g->corner_normals[9 * (size_t)rh.hit.primID];
+        double u = rh.hit.u, v = rh.hit.v, w = 1.0 - u - v;
+        ns = v3(w * n[0] + u * n[3] + v * n[6], w * n[1] + u * n[4] + v * n[7],
+                w * n[2] + u * n[5] + v * n[8]);
+    }
+    finish_hit(hit, org, dir, t_embree, ng, ns, g->material);
+    return 1;
+}
+
+int lr__occluded(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar)
+{
+    double t_plane;
+    if (plane_hit(s, org, dir, tfar, &t_plane) >= 0)
+        return 1;
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    struct RTCRay r;
+    embree_ray(&r, org, dir, tfar);
+    rtcOccluded1(s->rtc, &ctx, &r);
+    /* Embree marks an occluded ray by setting tfar to -inf. */
+    return r.tfar < 0.0f;
+}
+
+lr__v3 lr__offset_origin(const lr__hit *hit, lr__v3 dir)
+{
+    double side = v3_dot(dir, hit->ng) >= 0.0 ? 1.0 : -1.0;
+    return v3_madd(hit->p, hit->ng, side * hit->eps);
+}

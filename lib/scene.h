@@ -1,0 +1,122 @@
+/*
+ * scene.h: the loaded scene as the renderer sees it.  Built by
+ * scene_json.c (validation) and scene.c (Embree), read-only afterwards.
+ */
+#ifndef LR_SCENE_H
+#define LR_SCENE_H
+
+#include "internal.h"
+#include "vec.h"
+
+#include <embree3/rtcore.h>
+
+typedef struct lr__material {
+    char *name;        /* owned */
+    lr__v3 diffuse;    /* Lambertian albedo: BRDF = diffuse / pi */
+    lr__v3 specular;   /* normalised Phong weight */
+    double shininess;  /* Phong exponent */
+    lr__v3 reflect;    /* perfect mirror weight */
+    lr__v3 transmit;   /* dielectric weight (refraction + its Fresnel) */
+    double ior;        /* index of refraction inside the object */
+} lr__material;
+
+typedef enum lr__light_kind {
+    LR__LIGHT_POINT,
+    LR__LIGHT_DIRECTIONAL
+} lr__light_kind;
+
+typedef struct lr__light {
+    lr__light_kind kind;
+    lr__v3 position;  /* point */
+    lr__v3 direction; /* directional: unit, the way the light travels */
+    lr__v3 power;     /* point: intensity W/sr; directional: irradiance */
+} lr__light;
+
+typedef enum lr__geom_kind {
+    LR__GEOM_TRIANGLES,
+    LR__GEOM_SPHERE,
+    LR__GEOM_PLANE /* infinite: traced analytically beside Embree */
+} lr__geom_kind;
+
+/* One object of the scene.  For Embree geometries, the index in
+ * scene->geoms is the Embree geometry ID. */
+typedef struct lr__geom {
+    lr__geom_kind kind;
+    int material;          /* index into scene->materials */
+    /* Triangles: per-corner unit shading normals (9 per triangle), or
+     * NULL for flat shading.  Owned. */
+    float *corner_normals;
+    size_t n_triangles;
+    /* Spheres (also mirrored in Embree) and infinite planes. */
+    lr__v3 center;
+    double radius;
+    lr__v3 normal;         /* plane */
+    /* Triangles: Embree's copies of the vertices and indices, valid for
+     * the scene's lifetime (not owned). */
+    const float *vertices;
+    const unsigned *indices;
+} lr__geom;
+
+struct lr_scene {
+    RTCDevice device;
+    RTCScene rtc;
+    lr__material *materials;
+    size_t n_materials;
+    lr__light *lights;
+    size_t n_lights;
+    lr__geom *geoms;       /* Embree geometries, by geometry ID */
+    size_t n_geoms;
+    lr__geom *planes;      /* infinite planes */
+    size_t n_planes;
+    lr__v3 ambient;        /* sum of ambient lights' radiance */
+    lr__v3 background;     /* radiance of escaping rays */
+    size_t n_primitives;
+    double extent;         /* largest coordinate magnitude in the scene */
+    lr_camera camera;
+    lr_render_settings settings;
+};
+
+/* ---- scene.c: Embree side --------------------------------------------- */
+
+/* Creates the device and an empty Embree scene in `s` (zeroed before). */
+lr_status lr__scene_begin(lr_scene *s, lr_error *err);
+/* Adds a triangle mesh; copies the arrays.  `corner_normals` (9 per
+ * triangle) is taken over by the scene (freed with it) and may be NULL. */
+lr_status lr__scene_add_triangles(lr_scene *s, const float *vertices,
+                                  size_t n_vertices, const unsigned *indices,
+                                  size_t n_triangles, float *corner_normals,
+                                  int material, lr_error *err);
+lr_status lr__scene_add_sphere(lr_scene *s, lr__v3 center, double radius,
+                               int material, lr_error *err);
+lr_status lr__scene_add_plane(lr_scene *s, lr__v3 point, lr__v3 normal,
+                              int material, lr_error *err);
+/* Commits the Embree scene: no more geometry after this. */
+lr_status lr__scene_commit(lr_scene *s, lr_error *err);
+
+/* ---- tracing (scene.c) ------------------------------------------------ */
+
+typedef struct lr__hit {
+    double t;
+    lr__v3 p;         /* hit position */
+    lr__v3 ng;        /* unit geometric normal, facing the ray's origin */
+    lr__v3 ns;        /* unit shading normal, same side as ng */
+    int entering;     /* 1 if the ray hit the outside (front) surface */
+    int material;
+    double eps;       /* how far to push a new ray's origin off p */
+} lr__hit;
+
+/* Closest hit along org + t dir with t in (0, tfar); dir need not be unit
+ * length but t is in its units.  Returns 1 on a hit. */
+int lr__trace(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
+              lr__hit *hit);
+/* 1 if anything blocks org + t dir for t in (0, tfar). */
+int lr__occluded(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar);
+
+/* The origin for a ray leaving the hit point towards `dir`: pushed along
+ * the geometric normal, on the side dir points to, by hit->eps, which
+ * grows with the magnitude of the hit position and the ray's length
+ * (float rounding grows with both), so the new ray cannot hit the surface
+ * it starts on. */
+lr__v3 lr__offset_origin(const lr__hit *hit, lr__v3 dir);
+
+#endif

@@ -1,0 +1,272 @@
+/*
+ * lensray: the command-line tool.  A thin client of lensray.h:
+ *
+ *   lensray render SCENE.json -o OUT.exr|OUT.png [--set PATH=VALUE]...
+ *                  [--stats] [--half] [--png16] [--depth] [--quiet]
+ *   lensray version
+ *   lensray --help
+ *
+ * Exit codes: 0 ok, 2 usage, 3 bad scene, 4 I/O, 130 interrupted.
+ */
+#include "lensray.h"
+
+#include <errno.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+enum { EXIT_OK = 0, EXIT_USAGE = 2, EXIT_SCENE = 3, EXIT_IO = 4,
+       EXIT_INTERRUPTED = 130 };
+
+static const char usage_text[] =
+    "usage: lensray render SCENE.json -o OUT.exr|OUT.png [options]\n"
+    "       lensray version\n"
+    "       lensray --help\n"
+    "\n"
+    "render options:\n"
+    "  -o, --output FILE   image to write; the format follows the extension\n"
+    "                      (.exr: linear float, .png: 8-bit sRGB)\n"
+    "  --set PATH=VALUE    override a scene value by its JSON path, e.g.\n"
+    "                      --set camera.fov=30 --set render.spp=64\n"
+    "                      --set 'objects[1].radius=0.5' (VALUE is JSON,\n"
+    "                      or a plain string); may be repeated\n"
+    "  --stats             print a JSON line with time, rays and samples/s\n"
+    "  --half              EXR: write RGB as half floats\n"
+    "  --png16             PNG: 16 bits per channel\n"
+    "  --depth             also render the Z channel (written to EXR)\n"
+    "  -q, --quiet         no progress bar\n"
+    "\n"
+    "exit status: 0 ok, 2 usage, 3 bad scene, 4 I/O error, 130 interrupted\n";
+
+static volatile int cancel_flag;
+
+static void on_signal(int sig)
+{
+    (void)sig;
+    cancel_flag = 1;
+}
+
+static int usage_error(const char *fmt, const char *arg)
+{
+    fprintf(stderr, "lensray: ");
+    fprintf(stderr, fmt, arg);
+    fprintf(stderr, "\nTry 'lensray --help'.\n");
+    return EXIT_USAGE;
+}
+
+/* The progress bar: redrawn at most ten times a second on a terminal. */
+typedef struct progress {
+    double start, last;
+} progress;
+
+static double now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static void on_progress(void *user, uint64_t done, uint64_t total)
+{
+    progress *p = user;
+    double t = now();
+    if (done < total && t - p->last < 0.1)
+        return;
+    p->last = t;
+    double f = total ? (double)done / (double)total : 1.0;
+    int width = 40, filled = (int)(f * width);
+    char bar[64];
+    for (int i = 0; i < width; i++)
+        bar[i] = i < filled ? '#' : '.';
+    bar[width] = '\0';
+    double elapsed = t - p->start;
+    double eta = f > 0 ? elapsed * (1.0 - f) / f : 0.0;
+    fprintf(stderr, "\r[%s] %5.1f%%  %.1fs elapsed, %.1fs left ", bar,
+            100.0 * f, elapsed, eta);
+    if (done >= total)
+        fputc('\n', stderr);
+    fflush(stderr);
+}
+
+static int exit_for(lr_status st)
+{
+    switch (st) {
+    case LR_OK: return EXIT_OK;
+    case LR_ERR_IO: return EXIT_IO;
+    case LR_ERR_CANCELLED: return EXIT_INTERRUPTED;
+    default: return EXIT_SCENE;
+    }
+}
+
+static int cmd_render(int argc, char **argv)
+{
+    const char *scene_path = NULL, *out_path = NULL;
+    int stats = 0, quiet = 0, want_depth = 0;
+    lr_output_options oo;
+    lr_output_options_default(&oo);
+    const char **sets = calloc((size_t)argc, sizeof *sets);
+    size_t n_sets = 0;
+    if (sets == NULL) {
+        fprintf(stderr, "lensray: out of memory\n");
+        return EXIT_IO;
+    }
+    int rc = EXIT_OK;
+    for (int i = 0; i < argc; i++) {
+        const char *a = argv[i];
+        if (strcmp(a, "-o") == 0 || strcmp(a, "--output") == 0) {
+            if (i + 1 >= argc) {
+                rc = usage_error("%s needs a file name", a);
+                goto done;
+            }
+            out_path = argv[++i];
+        } else if (strcmp(a, "--set") == 0) {
+            if (i + 1 >= argc) {
+                rc = usage_error("%s needs PATH=VALUE", a);
+                goto done;
+            }
+            sets[n_sets++] = argv[++i];
+        } else if (strncmp(a, "--set=", 6) == 0) {
+            sets[n_sets++] = a + 6;
+        } else if (strcmp(a, "--stats") == 0) {
+            stats = 1;
+        } else if (strcmp(a, "--half") == 0) {
+            oo.exr_half = 1;
+        } else if (strcmp(a, "--png16") == 0) {
+            oo.png_16bit = 1;
+        } else if (strcmp(a, "--depth") == 0) {
+            want_depth = 1;
+        } else if (strcmp(a, "-q") == 0 || strcmp(a, "--quiet") == 0) {
+            quiet = 1;
+        } else if (a[0] == '-' && a[1] != '\0') {
+            rc = usage_error("unknown option '%s'", a);
+            goto done;
+        } else if (scene_path == NULL) {
+            scene_path = a;
+        } else {
+            rc = usage_error("unexpected argument '%s'", a);
+            goto done;
+        }
+    }
+    if (scene_path == NULL) {
+        rc = usage_error("%s", "render needs a scene file");
+        goto done;
+    }
+    if (out_path == NULL) {
+        rc = usage_error("%s", "render needs an output file: -o OUT.exr or "
+                               "-o OUT.png");
+        goto done;
+    }
+    for (size_t i = 0; i < n_sets; i++)
+        if (strchr(sets[i], '=') == NULL) {
+            rc = usage_error("--set '%s' must look like PATH=VALUE", sets[i]);
+            goto done;
+        }
+
+    /* Check the output name before rendering, so that a long render is
+     * never thrown away for want of a valid file name. */
+    lr_error err;
+    lr_format fmt;
+    if (lr_format_from_path(out_path, &fmt, &err) != LR_OK) {
+        rc = usage_error("%s", err.message);
+        goto done;
+    }
+    {
+        char dir[4096];
+        snprintf(dir, sizeof dir, "%s", out_path);
+        char *slash = strrchr(dir, '/');
+        if (slash == NULL)
+            snprintf(dir, sizeof dir, ".");
+        else if (slash == dir)
+            dir[1] = '\0';
+        else
+            *slash = '\0';
+        if (access(dir, W_OK) != 0) {
+            fprintf(stderr, "lensray: cannot write to %s: %s\n", dir,
+                    strerror(errno));
+            rc = EXIT_IO;
+            goto done;
+        }
+    }
+
+    lr_scene *scene = NULL;
+    lr_status st = lr_scene_load_file(scene_path, sets, n_sets, &scene, &err);
+    if (st != LR_OK) {
+        fprintf(stderr, "lensray: %s\n", err.message);
+        rc = exit_for(st);
+        goto done;
+    }
+    lr_camera cam;
+    lr_render_settings rs;
+    lr_scene_camera(scene, &cam);
+    lr_scene_settings(scene, &rs);
+    if (want_depth)
+        rs.want_depth = 1;
+    progress prog = {now(), 0.0};
+    if (!quiet && isatty(STDERR_FILENO)) {
+        rs.progress = on_progress;
+        rs.progress_user = &prog;
+    }
+    rs.cancel = &cancel_flag;
+    signal(SIGINT, on_signal);
+    signal(SIGTERM, on_signal);
+
+    lr_image *img = NULL;
+    lr_render_stats rst;
+    st = lr_render(scene, &cam, &rs, &img, &rst, &err);
+    if (st != LR_OK) {
+        fprintf(stderr, "\nlensray: %s\n", err.message);
+        rc = exit_for(st);
+        lr_scene_free(scene);
+        goto done;
+    }
+    st = lr_image_write(img, out_path, &oo, &err);
+    if (st != LR_OK) {
+        fprintf(stderr, "lensray: %s\n", err.message);
+        rc = exit_for(st) == EXIT_SCENE ? EXIT_IO : exit_for(st);
+    } else if (stats) {
+        double s = rst.seconds > 0 ? rst.seconds : 1e-9;
+        printf("{\"seconds\": %.6f, \"width\": %d, \"height\": %d, "
+               "\"spp\": %d, \"threads\": %d, \"samples\": %llu, "
+               "\"rays\": %llu, \"samples_per_second\": %.0f, "
+               "\"rays_per_second\": %.0f, \"nan_samples\": %llu, "
+               "\"primitives\": %zu}\n",
+               rst.seconds, rs.width, rs.height, rs.spp, rst.threads,
+               (unsigned long long)rst.samples,
+               (unsigned long long)rst.rays, (double)rst.samples / s,
+               (double)rst.rays / s, (unsigned long long)rst.nan_samples,
+               lr_scene_primitive_count(scene));
+    }
+    if (rst.nan_samples > 0)
+        fprintf(stderr, "lensray: warning: %llu samples were NaN or "
+                        "infinite and were dropped\n",
+                (unsigned long long)rst.nan_samples);
+    lr_image_free(img);
+    lr_scene_free(scene);
+done:
+    free(sets);
+    return rc;
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 2) {
+        fputs(usage_text, stderr);
+        return EXIT_USAGE;
+    }
+    const char *cmd = argv[1];
+    if (strcmp(cmd, "--help") == 0 || strcmp(cmd, "-h") == 0 ||
+        strcmp(cmd, "help") == 0) {
+        fputs(usage_text, stdout);
+        return EXIT_OK;
+    }
+    if (strcmp(cmd, "version") == 0 || strcmp(cmd, "--version") == 0) {
+        printf("lensray %s\n", lr_version());
+        return EXIT_OK;
+    }
+    if (strcmp(cmd, "render") == 0)
+        return cmd_render(argc - 2, argv + 2);
+    return usage_error("unknown command '%s'", cmd);
+}
