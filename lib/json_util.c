@@ -364,7 +364,7 @@ lr_status lr__json_apply_override(cJSON *root, const char *assignment,
             cJSON *child = cJSON_GetObjectItemCaseSensitive(node, key);
             if (last) {
                 if (child != NULL)
-                    cJSON_ReplaceItemViaPointer(node, child, value);
+                    cJSON_ReplaceItemInObjectCaseSensitive(node, key, value);
                 else
                     cJSON_AddItemToObject(node, key, value);
                 return LR_OK;
