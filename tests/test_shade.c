@@ -1,0 +1,371 @@
+/*
+ * test_shade.c: shading against closed-form radiometry, energy
+ * conservation of mirrors and glass, and the render loop's guarantees
+ * (determinism, exact accumulation, depth channel, cancellation).
+ */
+#include "test.h"
+#include "film.h"
+#include "shade.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+static lr_scene *load(const char *json)
+{
+    lr_scene *s = NULL;
+    lr_error err;
+    if (lr_scene_load_json(json, strlen(json), NULL, NULL, 0, &s, &err) !=
+        LR_OK)
+        fail_msg("scene did not load: %s", err.message);
+    return s;
+}
+
+static void assert_rel(double got, double want, double tol, const char *what)
+{
+    if (!(fabs(got - want) <= tol * fabs(want)))
+        fail_msg("%s: got %.12g, expected %.12g (relative tolerance %g)",
+                 what, got, want, tol);
+}
+
+/* A lit Lambertian plane: L = albedo / pi * I cos(theta) / r^2. */
+static void test_lambert_point_light(void **state)
+{
+    (void)state;
+    const double a = 0.6, I = 50.0, hgt = 4.0;
+    lr_scene *s = load(
+        "{\"materials\": {\"m\": {\"diffuse\": 0.6}},"
+        " \"lights\": [{\"type\": \"point\", \"position\": [0, 4, 0],"
+        "   \"intensity\": 50}],"
+        " \"objects\": [{\"type\": \"plane\", \"normal\": [0, 1, 0],"
+        "   \"material\": \"m\"}]}");
+    const double xs[] = {0.0, 1.0, 3.0, 7.0, 20.0};
+    for (size_t i = 0; i < 5; i++) {
+        lr__v3 p = v3(xs[i], 0, -0.5 * xs[i]);
+        lr__v3 eye = v3(0.3, 10, 5);
+        uint64_t rays = 0;
+        lr__v3 L = lr__radiance(s, eye, v3_norm(v3_sub(p, eye)), 0, 4, &rays);
+        double r2 = p.x * p.x + hgt * hgt + p.z * p.z;
+        double cos_t = hgt / sqrt(r2);
+        double want = a / M_PI * I * cos_t / r2;
+        assert_rel(L.x, want, 1e-9, "Lambert radiance");
+        assert_rel(L.z, want, 1e-9, "Lambert radiance (blue)");
+        assert_int_equal(rays, 2); /* camera ray + shadow ray */
+    }
+    lr_scene_free(s);
+}
+
+static void test_shadow_and_ambient(void **state)
+{
+    (void)state;
+    lr_scene *s = load(
+        "{\"materials\": {\"m\": {\"diffuse\": 0.5}},"
+        " \"lights\": [{\"type\": \"point\", \"position\": [0, 4, 0],"
+        "   \"intensity\": 50}, {\"type\": \"ambient\", \"radiance\": 0.2}],"
+        " \"objects\": [{\"type\": \"plane\", \"normal\": [0, 1, 0],"
+        "   \"material\": \"m\"}, {\"type\": \"sphere\", \"center\": [0, 2, 0],"
+        "   \"radius\": 0.5}]}");
+    uint64_t rays = 0;
+    /* Right under the sphere: only the ambient term, albedo * La. */
+    lr__v3 L = lr__radiance(s, v3(0.05, 1, 3), v3_norm(v3(-0.05, -1, -3)), 0,
+                            4, &rays);
+    assert_rel(L.y, 0.5 * 0.2, 1e-12, "shadowed radiance");
+    lr_scene_free(s);
+}
+
+static void test_directional_light(void **state)
+{
+    (void)state;
+    lr_scene *s = load(
+        "{\"materials\": {\"m\": {\"diffuse\": [0.2, 0.4, 0.8]}},"
+        " \"lights\": [{\"type\": \"directional\", \"direction\": [1, -2, 0],"
+        "   \"irradiance\": 3}],"
+        " \"objects\": [{\"type\": \"plane\", \"normal\": [0, 1, 0],"
+        "   \"material\": \"m\"}]}");
+    uint64_t rays = 0;
+    lr__v3 L = lr__radiance(s, v3(0, 5, 5), v3_norm(v3(0, -1, -1)), 0, 4,
+                            &rays);
+    double cos_t = 2.0 / sqrt(5.0);
+    assert_rel(L.x, 0.2 / M_PI * 3 * cos_t, 1e-12, "directional red");
+    assert_rel(L.z, 0.8 / M_PI * 3 * cos_t, 1e-12, "directional blue");
+    lr_scene_free(s);
+}
+
+/* Normalised Phong: ks (n + 2) / (2 pi) cos^n(alpha) E cos(theta). */
+static void test_normalised_phong(void **state)
+{
+    (void)state;
+    lr_scene *s = load(
+        "{\"materials\": {\"m\": {\"specular\": 0.5, \"shininess\": 20}},"
+        " \"lights\": [{\"type\": \"directional\", \"direction\": [1, -1, 0],"
+        "   \"irradiance\": 2}],"
+        " \"objects\": [{\"type\": \"plane\", \"normal\": [0, 1, 0],"
+        "   \"material\": \"m\"}]}");
+    uint64_t rays = 0;
+    double ks = 0.5, n = 20, E = 2, cos_t = sqrt(0.5);
+    /* Looking along the mirror direction: alpha = 0. */
+    lr__v3 L = lr__radiance(s, v3(5, 5, 0), v3_norm(v3(-1, -1, 0)), 0, 4,
+                            &rays);
+    assert_rel(L.x, ks * (n + 2) / (2 * M_PI) * E * cos_t, 1e-12,
+               "Phong at the mirror direction");
+    /* Ten degrees off the mirror direction (in the plane of incidence). */
+    double th = (45.0 + 10.0) * M_PI / 180.0;
+    lr__v3 eye = v3(5 * sin(th), 5 * cos(th), 0);
+    L = lr__radiance(s, eye, v3_norm(v3_neg(eye)), 0, 4, &rays);
+    double want = ks * (n + 2) / (2 * M_PI) * pow(cos(10 * M_PI / 180), n) *
+                  E * cos_t;
+    assert_rel(L.x, want, 1e-9, "Phong 10 degrees off");
+    lr_scene_free(s);
+}
+
+static void test_fresnel(void **state)
+{
+    (void)state;
+    /* Normal incidence: ((n1 - n2) / (n1 + n2))^2 = 0.04 for glass. */
+    assert_rel(lr__fresnel_dielectric(1.0, 1.0 / 1.5), 0.04, 1e-12,
+               "normal incidence");
+    assert_rel(lr__fresnel_dielectric(1.0, 1.5), 0.04, 1e-12,
+               "normal incidence from inside");
+    /* Beyond the critical angle asin(1/1.5) = 41.8 degrees: total. */
+    assert_true(lr__fresnel_dielectric(cos(45 * M_PI / 180), 1.5) == 1.0);
+    /* Grazing incidence reflects everything. */
+    assert_rel(lr__fresnel_dielectric(0.0, 1.0 / 1.5), 1.0, 1e-12,
+               "grazing");
+    /* Brewster's angle atan(1.5): rp = 0, so F = rs^2 / 2. */
+    double tb = atan(1.5), ct = cos(M_PI / 2 - tb);
+    double rs = (cos(tb) - 1.5 * ct) / (cos(tb) + 1.5 * ct);
+    assert_rel(lr__fresnel_dielectric(cos(tb), 1.0 / 1.5), 0.5 * rs * rs,
+               1e-9, "Brewster");
+}
+
+/* A lossless mirror or glass ball in a uniform environment must look
+ * exactly like the environment: energy is neither made nor lost. */
+static void test_energy_mirror_and_glass(void **state)
+{
+    (void)state;
+    const char *mats[] = {"{\"reflect\": 1}",
+                          "{\"transmit\": 1, \"ior\": 1.5}",
+                          "{\"transmit\": 1, \"ior\": 2.4}"};
+    for (size_t k = 0; k < 3; k++) {
+        char json[1024];
+        snprintf(json, sizeof json,
+                 "{\"background\": 0.7, \"materials\": {\"m\": %s},"
+                 " \"objects\": [{\"type\": \"sphere\", \"center\": [0,0,-4],"
+                 " \"radius\": 1, \"material\": \"m\"}]}",
+                 mats[k]);
+        lr_scene *s = load(json);
+        for (int i = 0; i < 50; i++) {
+            double x = -0.99 + 1.98 * i / 49.0;
+            uint64_t rays = 0;
+            lr__v3 d = v3_norm(v3(x / 4.0, 0.1 * x / 4.0, -1));
+            lr__v3 L = lr__radiance(s, v3(0, 0, 0), d, 0, 40, &rays);
+            if (fabs(L.y - 0.7) > 1e-4)
+                fail_msg("%s, ray %d: radiance %.9g, want 0.7", mats[k], i,
+                         L.y);
+        }
+        lr_scene_free(s);
+    }
+}
+
+static void test_film_drops_nan(void **state)
+{
+    (void)state;
+    lr__pixel p;
+    lr__pixel_reset(&p);
+    lr__pixel_add(&p, v3(1, 2, 3));
+    lr__pixel_add(&p, v3(NAN, 0, 0));
+    lr__pixel_add(&p, v3(INFINITY, 0, 0));
+    lr__pixel_add(&p, v3(1, 2, 3));
+    float out[3];
+    lr__pixel_resolve(&p, out);
+    assert_int_equal(p.dropped, 2);
+    assert_true(out[0] == 0.5f && out[1] == 1.0f && out[2] == 1.5f);
+    /* Finite but larger than a float: clamped, never Inf. */
+    lr__pixel_reset(&p);
+    lr__pixel_add(&p, v3(1e300, -1e300, 0));
+    lr__pixel_resolve(&p, out);
+    assert_true(isfinite(out[0]) && isfinite(out[1]));
+}
+
+static lr_image *render(const char *json, int threads, int tile,
+                        lr_render_stats *stats)
+{
+    lr_scene *s = load(json);
+    lr_camera cam;
+    lr_render_settings rs;
+    lr_scene_camera(s, &cam);
+    lr_scene_settings(s, &rs);
+    if (threads >= 0)
+        rs.threads = threads;
+    if (tile > 0)
+        rs.tile_size = tile;
+    lr_image *img = NULL;
+    lr_error err;
+    if (lr_render(s, &cam, &rs, &img, stats, &err) != LR_OK)
+        fail_msg("render failed: %s", err.message);
+    lr_scene_free(s);
+    return img;
+}
+
+/* A constant scene averages back to exactly the constant, even at a very
+ * high sample count (sums are double). */
+static void test_constant_scene_exact(void **state)
+{
+    (void)state;
+    lr_render_stats st;
+    lr_image *img = render("{\"background\": [0.3, 0.1, 0.7],"
+                           " \"render\": {\"width\": 2, \"height\": 2,"
+                           " \"spp\": 65536}}",
+                           -1, 0, &st);
+    const float *px = lr_image_rgb(img);
+    for (int i = 0; i < 4; i++)
+        assert_true(px[3 * i] == 0.3f && px[3 * i + 1] == 0.1f &&
+                    px[3 * i + 2] == 0.7f);
+    assert_int_equal(st.samples, 4 * 65536);
+    assert_int_equal(st.rays, 4 * 65536);
+    lr_image_free(img);
+}
+
+static const char *busy_scene =
+    "{\"render\": {\"width\": 37, \"height\": 23, \"spp\": 3, \"depth\": true},"
+    " \"camera\": {\"position\": [0, 1, 5], \"look_at\": [0, 0.5, 0]},"
+    " \"background\": 0.2,"
+    " \"materials\": {\"g\": {\"transmit\": 1}, \"r\": {\"reflect\": 0.5,"
+    "   \"diffuse\": 0.3}},"
+    " \"lights\": [{\"type\": \"point\", \"position\": [2, 5, 3],"
+    "   \"intensity\": 40}],"
+    " \"objects\": [{\"type\": \"plane\", \"normal\": [0, 1, 0]},"
+    "   {\"type\": \"sphere\", \"center\": [-0.6, 0.5, 0], \"radius\": 0.5,"
+    "    \"material\": \"g\"},"
+    "   {\"type\": \"sphere\", \"center\": [0.6, 0.5, -0.5], \"radius\": 0.5,"
+    "    \"material\": \"r\"}]}";
+
+static void test_deterministic_across_threads_and_tiles(void **state)
+{
+    (void)state;
+    lr_image *ref = render(busy_scene, 1, 64, NULL);
+    const int configs[][2] = {{2, 1}, {3, 5}, {2, 16}, {0, 7}};
+    for (size_t i = 0; i < 4; i++) {
+        lr_image *img = render(busy_scene, configs[i][0], configs[i][1], NULL);
+        assert_memory_equal(lr_image_rgb(ref), lr_image_rgb(img),
+                            37 * 23 * 3 * sizeof(float));
+        assert_memory_equal(lr_image_depth(ref), lr_image_depth(img),
+                            37 * 23 * sizeof(float));
+        lr_image_free(img);
+    }
+    /* And a different seed gives a different image (the seed is used). */
+    lr_scene *s = load(busy_scene);
+    lr_camera cam;
+    lr_render_settings rs;
+    lr_scene_camera(s, &cam);
+    lr_scene_settings(s, &rs);
+    rs.seed = 12345;
+    lr_image *other = NULL;
+    assert_int_equal(lr_render(s, &cam, &rs, &other, NULL, NULL), LR_OK);
+    assert_true(memcmp(lr_image_rgb(ref), lr_image_rgb(other),
+                       37 * 23 * 3 * sizeof(float)) != 0);
+    for (int i = 0; i < 37 * 23 * 3; i++)
+        assert_true(isfinite(lr_image_rgb(other)[i]));
+    lr_image_free(other);
+    lr_scene_free(s);
+    lr_image_free(ref);
+}
+
+/* Z is the distance along the view axis: constant on a plane facing the
+ * camera, LR_DEPTH_NONE where nothing is hit. */
+static void test_depth_channel(void **state)
+{
+    (void)state;
+    lr_image *img = render(
+        "{\"render\": {\"width\": 9, \"height\": 7, \"spp\": 1,"
+        "  \"depth\": true},"
+        " \"camera\": {\"position\": [0, 0, 0], \"look_at\": [0, 0, -1]},"
+        " \"objects\": [{\"type\": \"plane\", \"point\": [0, 0, -7],"
+        "   \"normal\": [0, 0, 1], \"size\": [100, 0.5]}]}",
+        -1, 0, NULL);
+    const float *z = lr_image_depth(img);
+    assert_non_null(z);
+    /* The middle row sees the strip, the top row sees nothing. */
+    for (int x = 0; x < 9; x++) {
+        assert_true(fabsf(z[3 * 9 + x] - 7.0f) < 1e-4f);
+        assert_true(z[x] == LR_DEPTH_NONE);
+    }
+    lr_image_free(img);
+}
+
+static void count_progress(void *user, uint64_t done, uint64_t total)
+{
+    uint64_t *last = user;
+    assert_true(done <= total);
+    assert_true(done > last[0]);
+    last[0] = done;
+    last[1] = total;
+}
+
+static void test_progress_and_cancel(void **state)
+{
+    (void)state;
+    lr_scene *s = load(busy_scene);
+    lr_camera cam;
+    lr_render_settings rs;
+    lr_scene_camera(s, &cam);
+    lr_scene_settings(s, &rs);
+    rs.tile_size = 4;
+    uint64_t seen[2] = {0, 0};
+    rs.progress = count_progress;
+    rs.progress_user = seen;
+    lr_image *img = NULL;
+    assert_int_equal(lr_render(s, &cam, &rs, &img, NULL, NULL), LR_OK);
+    assert_int_equal(seen[0], 37 * 23);
+    assert_int_equal(seen[1], 37 * 23);
+    lr_image_free(img);
+
+    volatile int cancel = 1;
+    rs.progress = NULL;
+    rs.cancel = &cancel;
+    img = (lr_image *)0x1;
+    lr_error err;
+    assert_int_equal(lr_render(s, &cam, &rs, &img, NULL, &err),
+                     LR_ERR_CANCELLED);
+    assert_null(img);
+    lr_scene_free(s);
+}
+
+static void test_render_rejects_bad_arguments(void **state)
+{
+    (void)state;
+    lr_scene *s = load("{}");
+    lr_camera cam;
+    lr_render_settings rs;
+    lr_scene_camera(s, &cam);
+    lr_scene_settings(s, &rs);
+    lr_image *img = NULL;
+    lr_error err;
+    rs.spp = 0;
+    assert_int_equal(lr_render(s, &cam, &rs, &img, NULL, &err),
+                     LR_ERR_INVALID);
+    assert_string_equal(err.path, "render.spp");
+    lr_scene_settings(s, &rs);
+    cam.fov = NAN;
+    assert_int_equal(lr_render(s, &cam, &rs, &img, NULL, &err),
+                     LR_ERR_INVALID);
+    assert_string_equal(err.path, "camera.fov");
+    assert_null(img);
+    lr_scene_free(s);
+}
+
+static const struct CMUnitTest shade_tests[] = {
+    cmocka_unit_test(test_lambert_point_light),
+    cmocka_unit_test(test_shadow_and_ambient),
+    cmocka_unit_test(test_directional_light),
+    cmocka_unit_test(test_normalised_phong),
+    cmocka_unit_test(test_fresnel),
+    cmocka_unit_test(test_energy_mirror_and_glass),
+    cmocka_unit_test(test_film_drops_nan),
+    cmocka_unit_test(test_constant_scene_exact),
+    cmocka_unit_test(test_deterministic_across_threads_and_tiles),
+    cmocka_unit_test(test_depth_channel),
+    cmocka_unit_test(test_progress_and_cancel),
+    cmocka_unit_test(test_render_rejects_bad_arguments),
+};
+LR_TEST_GROUP(shade, shade_tests)
