@@ -34,6 +34,7 @@ CPPFLAGS += -Iinclude -Ilib
 LDFLAGS  += $(SANITIZE)
 
 LIB_SRC  := $(wildcard lib/*.c)
+SVC_SRC  := $(wildcard service/*.c)
 LIB_OBJ  := $(LIB_SRC:%.c=$(BUILD)/obj/%.o)
 TEST_SRC := $(wildcard tests/*.c)
 TEST_OBJ := $(TEST_SRC:%.c=$(BUILD)/obj/%.o)
@@ -41,9 +42,10 @@ TEST_OBJ := $(TEST_SRC:%.c=$(BUILD)/obj/%.o)
 DEPS_OK  := $(BUILD)/.deps-ok
 BUNNY    := scenes/meshes/bunny.obj
 
-.PHONY: all deps test test-unit test-cli render clean install bunny
+.PHONY: all deps test render serve clean install bunny test-sanitize
 
-all: $(BUILD)/liblensray.a $(BUILD)/liblensray.so $(BUILD)/lensray $(BUNNY)
+all: $(BUILD)/liblensray.a $(BUILD)/liblensray.so $(BUILD)/lensray $(BUNNY) \
+     $(if $(SVC_SRC),$(BUILD)/lensrayd)
 
 # ---- dependencies -------------------------------------------------------
 # Installs what is missing when run as root; otherwise names the packages.
@@ -88,6 +90,17 @@ $(BUILD)/liblensray.so: $(BUILD)/liblensray.so.$(VERSION)
 $(BUILD)/lensray: $(BUILD)/obj/tools/lensray.o $(BUILD)/liblensray.a
 	$(CC) $(LDFLAGS) -o $@ $^ $(LIB_LIBS)
 
+# ---- daemon -------------------------------------------------------------
+SVC_OBJ  := $(SVC_SRC:%.c=$(BUILD)/obj/%.o)
+PORT     ?= 8080
+
+$(BUILD)/lensrayd: $(SVC_OBJ) $(BUILD)/liblensray.a
+	$(CC) $(LDFLAGS) -o $@ $^ $(LIB_LIBS) -lmicrohttpd
+
+# Builds and starts the daemon on the built-in scenes (Ctrl-C stops it).
+serve: all $(BUILD)/lensrayd
+	$(BUILD)/lensrayd --port $(PORT) --scenes scenes
+
 # ---- scenes -------------------------------------------------------------
 bunny: $(BUNNY)
 $(BUNNY): scenes/get-bunny.sh scenes/bunny-to-obj.js $(DEPS_OK)
@@ -100,6 +113,13 @@ $(BUILD)/tests/unit: $(TEST_OBJ) $(BUILD)/liblensray.a
 
 test: all $(BUILD)/tests/unit
 	@sh tests/run.sh $(BUILD)
+
+# The whole suite again under AddressSanitizer and UBSan, in its own
+# build directory.
+test-sanitize:
+	$(MAKE) BUILD=build/sanitize OPT=-O1 \
+	  SANITIZE="-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined" \
+	  test
 
 # ---- running ------------------------------------------------------------
 render: all
@@ -114,10 +134,11 @@ install: all
 	ln -sf liblensray.so.$(VERSION) $(DESTDIR)$(PREFIX)/lib/liblensray.so.$(SOMAJOR)
 	ln -sf liblensray.so.$(VERSION) $(DESTDIR)$(PREFIX)/lib/liblensray.so
 	install -m 755 $(BUILD)/lensray $(DESTDIR)$(PREFIX)/bin/
+	if [ -x $(BUILD)/lensrayd ]; then install -m 755 $(BUILD)/lensrayd $(DESTDIR)$(PREFIX)/bin/; fi
 	sed -e 's|@PREFIX@|$(PREFIX)|' -e 's|@VERSION@|$(VERSION)|' lensray.pc.in \
 	  > $(DESTDIR)$(PREFIX)/lib/pkgconfig/lensray.pc
 
 clean:
 	rm -rf $(BUILD)
 
--include $(LIB_OBJ:.o=.d) $(TEST_OBJ:.o=.d) $(BUILD)/obj/tools/lensray.d
+-include $(LIB_OBJ:.o=.d) $(TEST_OBJ:.o=.d) $(SVC_OBJ:.o=.d) $(BUILD)/obj/tools/lensray.d

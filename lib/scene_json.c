@@ -738,6 +738,39 @@ static lr_status parse_render(const cJSON *r, lr_render_settings *rs,
     return lr_render_settings_validate(rs, err);
 }
 
+lr_status lr_camera_apply_json(lr_camera *cam, const char *json, size_t len,
+                               lr_error *err)
+{
+    if (cam == NULL || (json == NULL && len > 0))
+        return lr__fail(err, LR_ERR_INVALID, NULL,
+                        "lr_camera_apply_json: NULL argument");
+    cJSON *root = NULL;
+    LR_TRY(lr__json_parse(json ? json : "", len, "camera", &root, err));
+    lr_camera tmp = *cam;
+    lr_status st = parse_camera(root, &tmp, err);
+    cJSON_Delete(root);
+    if (st == LR_OK)
+        *cam = tmp;
+    return st;
+}
+
+lr_status lr_render_settings_apply_json(lr_render_settings *s,
+                                        const char *json, size_t len,
+                                        lr_error *err)
+{
+    if (s == NULL || (json == NULL && len > 0))
+        return lr__fail(err, LR_ERR_INVALID, NULL,
+                        "lr_render_settings_apply_json: NULL argument");
+    cJSON *root = NULL;
+    LR_TRY(lr__json_parse(json ? json : "", len, "render", &root, err));
+    lr_render_settings tmp = *s;
+    lr_status st = parse_render(root, &tmp, err);
+    cJSON_Delete(root);
+    if (st == LR_OK)
+        *s = tmp;
+    return st;
+}
+
 /* ---- the scene -------------------------------------------------------- */
 
 static lr_status build(lr_scene *s, const cJSON *root, const char *base_dir,

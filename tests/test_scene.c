@@ -276,7 +276,42 @@ static void test_mesh_relative_to_scene_file(void **state)
     lr_scene_free(s);
 }
 
+static void test_apply_json(void **state)
+{
+    (void)state;
+    lr_camera cam;
+    lr_camera_default(&cam);
+    lr_error err;
+    const char *j = "{\"fov\": 25, \"position\": [1, 2, 3]}";
+    assert_int_equal(lr_camera_apply_json(&cam, j, strlen(j), &err), LR_OK);
+    assert_true(cam.fov == 25.0 && cam.position[1] == 2.0);
+    assert_true(cam.look_at[2] == -1.0); /* untouched */
+    lr_camera before = cam;
+    j = "{\"fov\": -5}";
+    assert_int_equal(lr_camera_apply_json(&cam, j, strlen(j), &err),
+                     LR_ERR_INVALID);
+    assert_string_equal(err.path, "camera.fov");
+    assert_memory_equal(&cam, &before, sizeof cam); /* unchanged on error */
+    j = "[1]";
+    assert_int_equal(lr_camera_apply_json(&cam, j, strlen(j), &err),
+                     LR_ERR_INVALID);
+
+    lr_render_settings rs;
+    lr_render_settings_default(&rs);
+    j = "{\"spp\": 5, \"width\": 10}";
+    assert_int_equal(lr_render_settings_apply_json(&rs, j, strlen(j), &err),
+                     LR_OK);
+    assert_int_equal(rs.spp, 5);
+    assert_int_equal(rs.width, 10);
+    assert_int_equal(rs.height, 480);
+    j = "{\"spp\": 5, \"colour\": 1}";
+    assert_int_equal(lr_render_settings_apply_json(&rs, j, strlen(j), &err),
+                     LR_ERR_INVALID);
+    assert_string_equal(err.path, "render.colour");
+}
+
 static const struct CMUnitTest scene_tests[] = {
+    cmocka_unit_test(test_apply_json),
     cmocka_unit_test(test_every_error_names_its_field),
     cmocka_unit_test(test_valid_scene_values),
     cmocka_unit_test(test_defaults),

@@ -1,0 +1,445 @@
+#!/usr/bin/env bats
+# cli.bats: the lensray command-line tool, end to end: exit codes, error
+# messages that name the JSON path, output files (PNG/EXR headers, sizes,
+# atomic replacement), --set overrides, --stats and determinism.
+#
+# Run from the repository root, by tests/run.sh or directly:
+#     LENSRAY_BUILD=build bats tests/cli.bats
+# LENSRAY_BUILD is the build directory (default: build); a relative one is
+# taken relative to the repository root.  Every scene is tiny (16x12, a few
+# samples), so the whole file runs in a few seconds.  No network is used.
+
+bats_require_minimum_version 1.5.0
+
+setup() {
+    REPO="$(cd "$BATS_TEST_DIRNAME/.." && pwd)"
+    local build="${LENSRAY_BUILD:-build}"
+    case "$build" in
+    /*) ;;
+    *) build="$REPO/$build" ;;
+    esac
+    LENSRAY="$build/lensray"
+    if [ ! -x "$LENSRAY" ]; then
+        echo "lensray binary not found at $LENSRAY (run make first)" >&2
+        return 1
+    fi
+
+    T="$BATS_TEST_TMPDIR"
+
+    # The scene most tests use: a red sphere on a finite floor, lit by a
+    # point light and a little ambient light.
+    cat >"$T/scene.json" <<'EOF'
+{
+  "description": "cli.bats test scene",
+  "camera": { "model": "pinhole", "position": [0, 1, 5], "look_at": [0, 0.5, 0],
+              "up": [0, 1, 0], "fov": 40 },
+  "render": { "width": 16, "height": 12, "spp": 2, "max_depth": 2 },
+  "background": [0.2, 0.3, 0.4],
+  "materials": {
+    "red":    { "diffuse": [0.7, 0.1, 0.1], "specular": 0.2, "shininess": 30 },
+    "ground": { "diffuse": 0.5, "reflect": 0.2 }
+  },
+  "lights": [
+    { "type": "point", "position": [3, 5, 4], "intensity": 80 },
+    { "type": "ambient", "radiance": 0.05 }
+  ],
+  "objects": [
+    { "type": "sphere", "center": [0, 1, 0], "radius": 1, "material": "red" },
+    { "type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0], "size": 6,
+      "material": "ground" }
+  ]
+}
+EOF
+}
+
+# ---- helpers ----------------------------------------------------------------
+
+# Writes $T/NAME.json with the given JSON text.
+scene() {
+    printf '%s\n' "$2" >"$T/$1.json"
+}
+
+# Prints the bytes at OFFSET..OFFSET+COUNT-1 of FILE as one hex string.
+hex_bytes() {
+    od -An -v -tx1 -j "$2" -N "$3" "$1" | tr -d ' \n'
+}
+
+# Prints "WIDTH HEIGHT" from a PNG's IHDR chunk; fails if FILE is not a PNG.
+png_size() {
+    [ "$(hex_bytes "$1" 0 8)" = 89504e470d0a1a0a ] || return 1
+    [ "$(hex_bytes "$1" 12 4)" = 49484452 ] || return 1 # "IHDR"
+    local b
+    b="$(hex_bytes "$1" 16 8)"
+    echo "$((16#${b:0:8})) $((16#${b:8:8}))"
+}
+
+# True if DIR contains a leftover temporary file of an atomic write.
+has_temp_files() {
+    local f
+    for f in "$1"/*.tmp.* "$1"/.*.tmp.*; do
+        [ -e "$f" ] && return 0
+    done
+    return 1
+}
+
+# ---- help, version, usage errors --------------------------------------------
+
+@test "--help exits 0 and describes the render command" {
+    run -0 "$LENSRAY" --help
+    [[ "$output" == *"render"* ]]
+    [[ "$output" == *"--set"* ]]
+}
+
+@test "version prints the version from include/lensray.h" {
+    local major minor patch
+    major=$(sed -n 's/^#define LR_VERSION_MAJOR \([0-9]*\).*/\1/p' "$REPO/include/lensray.h")
+    minor=$(sed -n 's/^#define LR_VERSION_MINOR \([0-9]*\).*/\1/p' "$REPO/include/lensray.h")
+    patch=$(sed -n 's/^#define LR_VERSION_PATCH \([0-9]*\).*/\1/p' "$REPO/include/lensray.h")
+    [ -n "$major" ] && [ -n "$minor" ] && [ -n "$patch" ]
+    run -0 "$LENSRAY" version
+    [ "$output" = "lensray $major.$minor.$patch" ]
+}
+
+@test "no arguments is a usage error (2)" {
+    run -2 "$LENSRAY"
+    [[ "$output" == *"usage"* ]]
+}
+
+@test "an unknown command is a usage error (2) that names it" {
+    run -2 "$LENSRAY" frobnicate
+    [[ "$output" == *"frobnicate"* ]]
+}
+
+@test "an unknown option is a usage error (2) that names it" {
+    run -2 "$LENSRAY" render "$T/scene.json" -o "$T/out.png" --frobnicate
+    [[ "$output" == *"--frobnicate"* ]]
+    [ ! -e "$T/out.png" ]
+}
+
+@test "render without -o is a usage error (2)" {
+    run -2 "$LENSRAY" render "$T/scene.json"
+    [[ "$output" == *"-o"* ]]
+}
+
+@test "render without a scene is a usage error (2)" {
+    run -2 "$LENSRAY" render -o "$T/out.png"
+    [ ! -e "$T/out.png" ]
+}
+
+@test "a second scene argument is a usage error (2)" {
+    run -2 "$LENSRAY" render "$T/scene.json" "$T/scene.json" -o "$T/out.png"
+    [ ! -e "$T/out.png" ]
+}
+
+@test "--set without PATH=VALUE is a usage error (2)" {
+    run -2 "$LENSRAY" render "$T/scene.json" -o "$T/out.png" --set camera.fov
+    [[ "$output" == *"camera.fov"* ]]
+}
+
+@test "an output name ending in .jpg is a usage error (2) and writes nothing" {
+    run -2 "$LENSRAY" render "$T/scene.json" -o "$T/out.jpg"
+    [[ "$output" == *".exr"* ]]
+    [[ "$output" == *".png"* ]]
+    [ ! -e "$T/out.jpg" ]
+    ! has_temp_files "$T"
+}
+
+# ---- I/O errors (4) ----------------------------------------------------------
+
+@test "a missing scene file is an I/O error (4) that names it" {
+    run -4 "$LENSRAY" render "$T/no-such-scene.json" -o "$T/out.png"
+    [[ "$output" == *"no-such-scene.json"* ]]
+    [ ! -e "$T/out.png" ]
+}
+
+@test "an output directory that does not exist is an I/O error (4)" {
+    run -4 "$LENSRAY" render "$T/scene.json" -o "$T/no-such-dir/out.png"
+    [[ "$output" == *"no-such-dir"* ]]
+    [ ! -e "$T/no-such-dir" ]
+}
+
+@test "an output 'directory' that is a regular file is an I/O error (4)" {
+    : >"$T/plainfile"
+    run -4 "$LENSRAY" render "$T/scene.json" -o "$T/plainfile/out.png"
+    [ ! -s "$T/plainfile" ]
+}
+
+@test "a read-only output directory is an I/O error (4)" {
+    if [ "$(id -u)" = 0 ]; then
+        skip "root can write to read-only directories"
+    fi
+    mkdir "$T/ro"
+    chmod 555 "$T/ro"
+    run -4 "$LENSRAY" render "$T/scene.json" -o "$T/ro/out.png"
+    chmod 755 "$T/ro"
+    [ ! -e "$T/ro/out.png" ]
+    ! has_temp_files "$T/ro"
+}
+
+# ---- scene errors (3) ---------------------------------------------------------
+
+@test "malformed JSON is a scene error (3) that gives the line" {
+    printf '{\n  "camera": {\n    "fov": 40,\n  }\n}\n' >"$T/bad.json"
+    run -3 "$LENSRAY" render "$T/bad.json" -o "$T/out.png"
+    [[ "$output" == *"line"* ]]
+    [[ "$output" == *"bad.json"* ]]
+    [ ! -e "$T/out.png" ]
+}
+
+@test "an unknown key is a scene error (3) that names its path" {
+    scene typo '{ "camera": { "fvo": 30 } }'
+    run -3 "$LENSRAY" render "$T/typo.json" -o "$T/out.png"
+    [[ "$output" == *"camera.fvo"* ]]
+    [ ! -e "$T/out.png" ]
+}
+
+@test "a negative radius is a scene error (3) that names objects[0].radius" {
+    scene negr '{ "objects": [ { "type": "sphere", "center": [0, 0, -5], "radius": -1 } ] }'
+    run -3 "$LENSRAY" render "$T/negr.json" -o "$T/out.png"
+    [[ "$output" == *"objects[0].radius"* ]]
+}
+
+@test "an unknown material is a scene error (3) that names it" {
+    scene nomat '{ "objects": [ { "type": "sphere", "center": [0, 0, -5], "radius": 1, "material": "unobtainium" } ] }'
+    run -3 "$LENSRAY" render "$T/nomat.json" -o "$T/out.png"
+    [[ "$output" == *"unobtainium"* ]]
+    [[ "$output" == *"objects[0].material"* ]]
+}
+
+@test "a missing mesh file fails and names the file" {
+    scene nomesh '{ "objects": [ { "type": "mesh", "file": "meshes/missing-mesh.obj" } ] }'
+    run "$LENSRAY" render "$T/nomesh.json" -o "$T/out.png"
+    [ "$status" -ne 0 ]
+    [[ "$output" == *"missing-mesh.obj"* ]]
+    [[ "$output" == *"objects[0].file"* ]]
+    [ ! -e "$T/out.png" ]
+}
+
+@test "mesh paths are relative to the scene file, not the current directory" {
+    mkdir -p "$T/scenedir/meshes" "$T/elsewhere"
+    cat >"$T/scenedir/meshes/quad.obj" <<'EOF'
+# a unit quad facing +z
+v -1 -1 0
+v 1 -1 0
+v 1 1 0
+v -1 1 0
+f 1 2 3 4
+EOF
+    scene scenedir/mesh '{
+      "camera": { "position": [0, 0, 4] },
+      "render": { "width": 16, "height": 12, "spp": 1 },
+      "lights": [ { "type": "ambient", "radiance": 1 } ],
+      "objects": [ { "type": "mesh", "file": "meshes/quad.obj", "smooth": true } ]
+    }'
+    cd "$T/elsewhere"
+    run -0 "$LENSRAY" render ../scenedir/mesh.json -o out.png --stats --quiet
+    [ "$(png_size out.png)" = "16 12" ]
+    [[ "$output" == *'"primitives": 2'* ]]
+}
+
+# ---- successful renders --------------------------------------------------------
+
+@test "a PNG render exits 0 and writes a PNG of the scene's size" {
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/out.png"
+    [ "$(hex_bytes "$T/out.png" 0 8)" = 89504e470d0a1a0a ]
+    [ "$(png_size "$T/out.png")" = "16 12" ]
+    ! has_temp_files "$T"
+}
+
+@test "the extension is matched in any case (.PNG)" {
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/out.PNG"
+    [ "$(png_size "$T/out.PNG")" = "16 12" ]
+}
+
+@test "an EXR render starts with the OpenEXR magic number" {
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/out.exr"
+    [ "$(hex_bytes "$T/out.exr" 0 4)" = 762f3101 ]
+}
+
+@test "--half, --depth and --png16 give valid EXR and PNG files" {
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/half.exr" --half
+    [ "$(hex_bytes "$T/half.exr" 0 4)" = 762f3101 ]
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/depth.exr" --depth
+    [ "$(hex_bytes "$T/depth.exr" 0 4)" = 762f3101 ]
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/png16.png" --png16
+    [ "$(png_size "$T/png16.png")" = "16 12" ]
+    # The IHDR bit depth byte follows width and height.
+    [ "$(hex_bytes "$T/png16.png" 24 1)" = 10 ]
+}
+
+@test "--depth adds a Z channel to the EXR header" {
+    if ! command -v python3 >/dev/null 2>&1; then
+        skip "python3 is needed to read the EXR header"
+    fi
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/rgb.exr"
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/rgbz.exr" --depth
+    # Prints the channel names of an EXR file, sorted, comma-separated.
+    channels='
+import struct, sys
+d = open(sys.argv[1], "rb").read()
+i = 8
+def cstr(i):
+    j = d.index(b"\0", i)
+    return d[i:j].decode(), j + 1
+while True:
+    name, i = cstr(i)
+    if not name:
+        break
+    typ, i = cstr(i)
+    size, = struct.unpack("<i", d[i:i + 4])
+    i += 4
+    if name == "channels":
+        k, names = i, []
+        while d[k] != 0:
+            n, k = cstr(k)
+            names.append(n)
+            k += 16
+        print(",".join(sorted(names)))
+    i += size
+'
+    run -0 python3 -c "$channels" "$T/rgb.exr"
+    [ "$output" = "B,G,R" ]
+    run -0 python3 -c "$channels" "$T/rgbz.exr"
+    [ "$output" = "B,G,R,Z" ]
+}
+
+# ---- --set overrides -----------------------------------------------------------
+
+@test "--set render.width and render.height change the PNG size" {
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/out.png" \
+        --set render.width=7 --set render.height=5
+    [ "$(png_size "$T/out.png")" = "7 5" ]
+}
+
+@test "--set=PATH=VALUE is accepted too" {
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/out.png" \
+        --set=render.width=9 --set=render.height=3
+    [ "$(png_size "$T/out.png")" = "9 3" ]
+}
+
+@test "--set adds keys, and whole objects, the file does not have" {
+    scene bare '{ "objects": [ { "type": "sphere", "center": [0, 0, -5], "radius": 1 } ] }'
+    run -0 "$LENSRAY" render "$T/bare.json" -o "$T/out.png" \
+        --set 'render={"width": 6, "height": 4, "spp": 1}' --set render.width=5
+    [ "$(png_size "$T/out.png")" = "5 4" ]
+}
+
+@test "--set camera.fov=500 is a scene error (3) that names camera.fov" {
+    run -3 "$LENSRAY" render "$T/scene.json" -o "$T/out.png" --set camera.fov=500
+    [[ "$output" == *"camera.fov"* ]]
+    [[ "$output" == *"500"* ]]
+    [ ! -e "$T/out.png" ]
+}
+
+@test "--set with an unknown key is rejected like one in the file" {
+    run -3 "$LENSRAY" render "$T/scene.json" -o "$T/out.png" --set camera.fvo=30
+    [[ "$output" == *"camera.fvo"* ]]
+}
+
+@test "--set 'objects[0].radius=2' changes the sphere" {
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/r1.png"
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/r2.png" --set 'objects[0].radius=2'
+    [ "$(png_size "$T/r2.png")" = "16 12" ]
+    ! cmp -s "$T/r1.png" "$T/r2.png"
+}
+
+@test "--set 'objects[0].radius=-2' is validated and names the path" {
+    run -3 "$LENSRAY" render "$T/scene.json" -o "$T/out.png" --set 'objects[0].radius=-2'
+    [[ "$output" == *"objects[0].radius"* ]]
+}
+
+@test "--set 'objects[9].radius=2' is a scene error (3): no such element" {
+    run -3 "$LENSRAY" render "$T/scene.json" -o "$T/out.png" --set 'objects[9].radius=2'
+    [[ "$output" == *"objects[9]"* ]]
+    [ ! -e "$T/out.png" ]
+}
+
+@test "--set with a malformed array index is a scene error (3)" {
+    run -3 "$LENSRAY" render "$T/scene.json" -o "$T/out.png" --set 'objects[x].radius=2'
+    [[ "$output" == *"index"* ]]
+}
+
+# ---- --stats ---------------------------------------------------------------------
+
+@test "--stats prints one JSON line with seconds, rays and samples_per_second" {
+    run -0 --separate-stderr "$LENSRAY" render "$T/scene.json" -o "$T/out.png" --stats
+    [ "${#lines[@]}" -eq 1 ]
+    [[ "$output" == *'"seconds"'* ]]
+    [[ "$output" == *'"rays"'* ]]
+    [[ "$output" == *'"samples_per_second"'* ]]
+    if command -v python3 >/dev/null 2>&1; then
+        run -0 python3 -c '
+import json, sys
+s = json.loads(sys.argv[1])
+assert isinstance(s["seconds"], (int, float)) and s["seconds"] >= 0, s
+assert isinstance(s["rays"], int) and s["rays"] > 0, s
+assert isinstance(s["samples_per_second"], (int, float)), s
+assert s["width"] == 16 and s["height"] == 12 and s["spp"] == 2, s
+assert s["samples"] == 16 * 12 * 2, s
+assert s["rays"] >= s["samples"], s
+' "$output"
+    else
+        [[ "$output" =~ ^\{.*\}$ ]]
+        [[ "$output" =~ \"samples\":\ 384[,}] ]]
+    fi
+}
+
+@test "without --stats nothing is printed on stdout" {
+    run -0 --separate-stderr "$LENSRAY" render "$T/scene.json" -o "$T/out.png"
+    [ -z "$output" ]
+}
+
+# ---- determinism -------------------------------------------------------------------
+
+@test "rendering the same scene twice gives identical bytes" {
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/a.png" --set render.spp=4
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/b.png" --set render.spp=4
+    cmp "$T/a.png" "$T/b.png"
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/a.exr" --depth
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/b.exr" --depth
+    cmp "$T/a.exr" "$T/b.exr"
+}
+
+@test "render.threads=1 and render.threads=2 give identical bytes" {
+    # Small tiles, so that two threads really share the image.
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/t1.png" \
+        --set render.tile_size=4 --set render.threads=1 --set render.spp=4
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/t2.png" \
+        --set render.tile_size=4 --set render.threads=2 --set render.spp=4
+    cmp "$T/t1.png" "$T/t2.png"
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/t1.exr" \
+        --set render.tile_size=4 --set render.threads=1 --set render.spp=4
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/t2.exr" \
+        --set render.tile_size=3 --set render.threads=2 --set render.spp=4
+    cmp "$T/t1.exr" "$T/t2.exr"
+}
+
+@test "a different render.seed gives a different image" {
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/s0.exr" --set render.seed=0
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/s1.exr" --set render.seed=1
+    ! cmp -s "$T/s0.exr" "$T/s1.exr"
+}
+
+# ---- atomic output -----------------------------------------------------------------
+
+@test "rendering onto an existing file replaces it atomically" {
+    mkdir "$T/outdir"
+    printf 'not an image\n' >"$T/outdir/out.png"
+    local before after
+    before=$(stat -c %i "$T/outdir/out.png")
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/outdir/out.png"
+    [ "$(png_size "$T/outdir/out.png")" = "16 12" ]
+    # A new file was renamed over the old one (not rewritten in place) ...
+    after=$(stat -c %i "$T/outdir/out.png")
+    [ "$before" != "$after" ]
+    # ... and nothing else is left in the directory.
+    ! has_temp_files "$T/outdir"
+    [ "$(ls -A "$T/outdir")" = "out.png" ]
+}
+
+@test "a failed render leaves an existing output file untouched" {
+    printf 'previous image\n' >"$T/keep.png"
+    run -3 "$LENSRAY" render "$T/scene.json" -o "$T/keep.png" --set camera.fov=0
+    [ "$(cat "$T/keep.png")" = "previous image" ]
+    ! has_temp_files "$T"
+}
