@@ -74,10 +74,12 @@ $(DEPS_OK): Makefile
 # ---- library ------------------------------------------------------------
 $(BUILD)/obj/%.o: %.c $(DEPS_OK)
 	@mkdir -p $(dir $@)
-	$(CC) $(CPPFLAGS) $(PKG_CFLAGS) $(CFLAGS) -MMD -MP -c $< -o $@
+	@echo "  CC      $<"
+	@$(CC) $(CPPFLAGS) $(PKG_CFLAGS) $(CFLAGS) -MMD -MP -c $< -o $@
 
 $(BUILD)/liblensray.a: $(LIB_OBJ)
-	rm -f $@ && ar rcs $@ $^
+	@echo "  AR      $@"
+	@rm -f $@ && ar rcs $@ $^
 
 $(BUILD)/liblensray.so.$(VERSION): $(LIB_OBJ)
 	$(CC) -shared -Wl,-soname,liblensray.so.$(SOMAJOR) $(LDFLAGS) -o $@ $^ $(LIB_LIBS)

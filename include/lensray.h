@@ -117,6 +117,11 @@ typedef struct lr_render_settings {
     int threads;             /* 0 = all cores (default) */
     int tile_size;           /* pixels per tile side; default 32 */
     int want_depth;          /* also produce a Z channel; default 0 */
+    /* Crop [x0, y0, x1, y1): render only these pixels of the full
+     * width x height frame; the image is (x1-x0) x (y1-y0) and its pixels
+     * are bit-identical to the same pixels of the full render.  All zero
+     * (the default) means the whole frame. */
+    int region[4];
     lr_progress_fn progress; /* optional; NULL by default */
     void *progress_user;
     /* Optional cancellation flag, polled between tiles: when it becomes
@@ -192,6 +197,7 @@ typedef struct lr_image lr_image;
 
 typedef struct lr_render_stats {
     double seconds;        /* wall time of the render */
+    uint64_t pixels;       /* pixels rendered */
     uint64_t samples;      /* camera samples (pixels x spp) */
     uint64_t rays;         /* all rays traced: camera, shadow, secondary */
     uint64_t nan_samples;  /* samples dropped for being NaN or Inf */

@@ -74,6 +74,14 @@ lr_status lr_render_settings_validate(const lr_render_settings *s,
                         "render.threads must be between 0 (all cores) and "
                         "%d, got %d",
                         MAX_THREADS, s->threads);
+    const int *r = s->region;
+    if ((r[0] | r[1] | r[2] | r[3]) != 0 &&
+        !(r[0] >= 0 && r[1] >= 0 && r[2] > r[0] && r[3] > r[1] &&
+          r[2] <= s->width && r[3] <= s->height))
+        return lr__fail(err, LR_ERR_INVALID, "render.region",
+                        "render.region [%d, %d, %d, %d] must satisfy 0 <= x0 "
+                        "< x1 <= width (%d) and 0 <= y0 < y1 <= height (%d)",
+                        r[0], r[1], r[2], r[3], s->width, s->height);
     if (s->tile_size < 1 || s->tile_size > 4096)
         return lr__fail(err, LR_ERR_INVALID, "render.tile_size",
                         "render.tile_size must be between 1 and 4096, got %d",
@@ -88,6 +96,7 @@ typedef struct job {
     lr__cam cam;
     lr__sampler sampler;
     lr_image *img;
+    int x0, y0, x1, y1; /* the region rendered, in frame pixels */
     int tiles_x, tiles_y;
     atomic_int next_tile;
     atomic_int cancelled;
@@ -118,7 +127,9 @@ static void render_pixel(worker *w, int x, int y)
     }
     w->samples += acc.n;
     w->dropped += acc.dropped;
-    lr__pixel_resolve(&acc, &j->img->rgb[3 * pixel]);
+    size_t out = (size_t)(y - j->y0) * (size_t)j->img->width +
+                 (size_t)(x - j->x0);
+    lr__pixel_resolve(&acc, &j->img->rgb[3 * out]);
 
     if (j->img->depth != NULL) {
         /* Z: distance along the view axis of the first hit of the ray
@@ -133,7 +144,7 @@ static void render_pixel(worker *w, int x, int y)
             if (d < LR_DEPTH_NONE)
                 z = (float)d;
         }
-        j->img->depth[pixel] = z;
+        j->img->depth[out] = z;
     }
 }
 
@@ -158,9 +169,10 @@ static void *worker_main(void *arg)
         if (t >= n_tiles)
             break;
         int ts = set->tile_size;
-        int x0 = (t % j->tiles_x) * ts, y0 = (t / j->tiles_x) * ts;
-        int x1 = x0 + ts < set->width ? x0 + ts : set->width;
-        int y1 = y0 + ts < set->height ? y0 + ts : set->height;
+        int x0 = j->x0 + (t % j->tiles_x) * ts;
+        int y0 = j->y0 + (t / j->tiles_x) * ts;
+        int x1 = x0 + ts < j->x1 ? x0 + ts : j->x1;
+        int y1 = y0 + ts < j->y1 ? y0 + ts : j->y1;
         for (int y = y0; y < y1; y++)
             for (int x = x0; x < x1; x++)
                 render_pixel(w, x, y);
@@ -168,7 +180,8 @@ static void *worker_main(void *arg)
         j->pixels_done += (uint64_t)(x1 - x0) * (uint64_t)(y1 - y0);
         if (set->progress != NULL)
             set->progress(set->progress_user, j->pixels_done,
-                          (uint64_t)set->width * (uint64_t)set->height);
+                          (uint64_t)(j->x1 - j->x0) *
+                              (uint64_t)(j->y1 - j->y0));
         pthread_mutex_unlock(&j->progress_lock);
     }
     _mm_setcsr(csr);
@@ -197,21 +210,27 @@ lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
     if (st != LR_OK)
         return st;
 
+    job j;
+    memset(&j, 0, sizeof j);
+    j.x0 = 0, j.y0 = 0, j.x1 = set->width, j.y1 = set->height;
+    if ((set->region[0] | set->region[1] | set->region[2] | set->region[3]))
+        j.x0 = set->region[0], j.y0 = set->region[1],
+        j.x1 = set->region[2], j.y1 = set->region[3];
+
     double t0 = now_seconds();
     lr_image *img = NULL;
-    st = lr_image_create(set->width, set->height, set->want_depth, &img, err);
+    st = lr_image_create(j.x1 - j.x0, j.y1 - j.y0, set->want_depth, &img,
+                         err);
     if (st != LR_OK)
         return st;
 
-    job j;
-    memset(&j, 0, sizeof j);
     j.scene = scene;
     j.set = set;
     j.img = img;
     lr__cam_init(&j.cam, cam, set->width, set->height);
     lr__sampler_init(&j.sampler, set->sampler, set->seed, set->spp);
-    j.tiles_x = (set->width + set->tile_size - 1) / set->tile_size;
-    j.tiles_y = (set->height + set->tile_size - 1) / set->tile_size;
+    j.tiles_x = (j.x1 - j.x0 + set->tile_size - 1) / set->tile_size;
+    j.tiles_y = (j.y1 - j.y0 + set->tile_size - 1) / set->tile_size;
     atomic_init(&j.next_tile, 0);
     atomic_init(&j.cancelled, 0);
     pthread_mutex_init(&j.progress_lock, NULL);
@@ -257,6 +276,7 @@ lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
     free(ws);
     free(tids);
     sum.threads = started;
+    sum.pixels = (uint64_t)(j.x1 - j.x0) * (uint64_t)(j.y1 - j.y0);
     sum.seconds = now_seconds() - t0;
     if (atomic_load(&j.cancelled)) {
         lr_image_free(img);

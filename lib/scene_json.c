@@ -698,7 +698,7 @@ static lr_status parse_render(const cJSON *r, lr_render_settings *rs,
     static const char *const keys[] = {"width",     "height",  "spp",
                                        "sampler",   "seed",    "max_depth",
                                        "threads",   "tile_size", "depth",
-                                       NULL};
+                                       "region",    NULL};
     if (r == NULL)
         return LR_OK;
     if (!cJSON_IsObject(r))
@@ -720,6 +720,22 @@ static lr_status parse_render(const cJSON *r, lr_render_settings *rs,
     LR_TRY(lr__json_int(r, "seed", "render", 0, 0, (1LL << 53), &seed, err));
     LR_TRY(lr__json_bool(r, "depth", "render", 0, &rs->want_depth, err));
     LR_TRY(lr__json_string(r, "sampler", "render", 0, &sampler, err));
+    const cJSON *reg = cJSON_GetObjectItemCaseSensitive(r, "region");
+    if (reg != NULL) {
+        if (!cJSON_IsArray(reg) || cJSON_GetArraySize(reg) != 4)
+            return lr__fail(err, LR_ERR_INVALID, "render.region",
+                            "render.region must be [x0, y0, x1, y1]");
+        int k = 0;
+        for (const cJSON *c = reg->child; c; c = c->next, k++) {
+            double d = c->valuedouble;
+            if (!cJSON_IsNumber(c) || d != floor(d) || d < 0 || d > 65536)
+                return lr__fail(err, LR_ERR_INVALID, "render.region",
+                                "render.region[%d] must be a whole number "
+                                "of pixels between 0 and 65536",
+                                k);
+            rs->region[k] = (int)d;
+        }
+    }
     rs->width = (int)w;
     rs->height = (int)h;
     rs->spp = (int)spp;

@@ -293,6 +293,53 @@ static void test_depth_channel(void **state)
     lr_image_free(img);
 }
 
+/* A region's pixels are bit-identical to the same pixels of the full
+ * frame, so a large job can be split and stitched. */
+static void test_region_matches_full_frame(void **state)
+{
+    (void)state;
+    lr_scene *s = load(busy_scene);
+    lr_camera cam;
+    lr_render_settings rs;
+    lr_scene_camera(s, &cam);
+    lr_scene_settings(s, &rs);
+    lr_image *full = NULL, *crop = NULL;
+    assert_int_equal(lr_render(s, &cam, &rs, &full, NULL, NULL), LR_OK);
+    const int regions[][4] = {{5, 3, 20, 11}, {0, 0, 37, 23}, {36, 22, 37, 23}};
+    for (size_t k = 0; k < 3; k++) {
+        memcpy(rs.region, regions[k], sizeof rs.region);
+        rs.tile_size = 4;
+        lr_render_stats st;
+        assert_int_equal(lr_render(s, &cam, &rs, &crop, &st, NULL), LR_OK);
+        int w = regions[k][2] - regions[k][0], h = regions[k][3] - regions[k][1];
+        assert_int_equal(lr_image_width(crop), w);
+        assert_int_equal(lr_image_height(crop), h);
+        assert_int_equal(st.pixels, (uint64_t)(w * h));
+        for (int y = 0; y < h; y++) {
+            const float *a = lr_image_rgb(full) +
+                             3 * ((y + regions[k][1]) * 37 + regions[k][0]);
+            const float *b = lr_image_rgb(crop) + 3 * y * w;
+            assert_memory_equal(a, b, 3 * (size_t)w * sizeof(float));
+            const float *za = lr_image_depth(full) +
+                              (y + regions[k][1]) * 37 + regions[k][0];
+            assert_memory_equal(za, lr_image_depth(crop) + y * w,
+                                (size_t)w * sizeof(float));
+        }
+        lr_image_free(crop);
+    }
+    /* Regions outside the frame are rejected with the field's name. */
+    const int bad[][4] = {{0, 0, 38, 23}, {5, 5, 5, 9}, {-1, 0, 3, 3}};
+    for (size_t k = 0; k < 3; k++) {
+        memcpy(rs.region, bad[k], sizeof rs.region);
+        lr_error err;
+        assert_int_equal(lr_render(s, &cam, &rs, &crop, NULL, &err),
+                         LR_ERR_INVALID);
+        assert_string_equal(err.path, "render.region");
+    }
+    lr_image_free(full);
+    lr_scene_free(s);
+}
+
 static void count_progress(void *user, uint64_t done, uint64_t total)
 {
     uint64_t *last = user;
@@ -366,6 +413,7 @@ static const struct CMUnitTest shade_tests[] = {
     cmocka_unit_test(test_deterministic_across_threads_and_tiles),
     cmocka_unit_test(test_depth_channel),
     cmocka_unit_test(test_progress_and_cancel),
+    cmocka_unit_test(test_region_matches_full_frame),
     cmocka_unit_test(test_render_rejects_bad_arguments),
 };
 LR_TEST_GROUP(shade, shade_tests)
