@@ -76,17 +76,89 @@ LR_API const char *lr_status_name(lr_status status);
  * ---------------------------------------------------------------------- */
 
 typedef enum lr_camera_model {
-    LR_CAMERA_PINHOLE = 0
+    LR_CAMERA_PINHOLE = 0,  /* ideal pinhole: everything sharp */
+    LR_CAMERA_THINLENS = 1, /* physical thin lens (pbrt, Mitsuba, Blender) */
+    LR_CAMERA_BRACKET = 2   /* the paper's square "bracket" method */
 } lr_camera_model;
 
+typedef enum lr_aperture_shape {
+    LR_APERTURE_DISK = 0,   /* circle of radius aperture_radius */
+    LR_APERTURE_SQUARE = 1, /* half side aperture_radius */
+    LR_APERTURE_POLYGON = 2 /* regular polygon inscribed in the circle */
+} lr_aperture_shape;
+
+typedef enum lr_chromatic_mode {
+    LR_CHROMATIC_OFF = 0,     /* one focus for all light (costs nothing) */
+    LR_CHROMATIC_RGB = 1,     /* the paper: R, G, B each with its focus */
+    LR_CHROMATIC_SPECTRAL = 2 /* wavelength samples through a dispersion
+                                 curve, to sRGB via CIE 1931 */
+} lr_chromatic_mode;
+
+typedef enum lr_focal_model {
+    LR_FOCAL_PAPER = 0,    /* f_c = f_g * n_g / n_c (the paper) */
+    LR_FOCAL_LENSMAKER = 1 /* f(lambda) proportional to 1 / (n(lambda) - 1) */
+} lr_focal_model;
+
+typedef enum lr_glass {
+    LR_GLASS_BK7 = 0,      /* Schott N-BK7 (Sellmeier) */
+    LR_GLASS_F2 = 1,       /* Schott F2 */
+    LR_GLASS_SF11 = 2,     /* Schott SF11 */
+    LR_GLASS_FUSED_SILICA = 3,
+    LR_GLASS_ABBE = 4      /* n_d and V_d, the glTF Abbe-number model */
+} lr_glass;
+
+/* Axial chromatic aberration.  In rgb mode `ior` gives the red, green and
+ * blue indices (green is the reference, focused as the camera says); in
+ * spectral mode the index follows `glass` (or abbe_nd/abbe_vd) and the d
+ * line (587.56 nm) is the reference.  `amplify` scales each index's
+ * difference from the reference, to exaggerate the effect as the paper
+ * does (1 = true glass, 0 = no aberration). */
+typedef struct lr_chromatic {
+    lr_chromatic_mode mode;  /* default LR_CHROMATIC_OFF */
+    lr_focal_model focal_model; /* default LR_FOCAL_PAPER */
+    double ior[3];           /* default 1.50917, 1.51534, 1.51690 */
+    lr_glass glass;          /* default LR_GLASS_BK7 */
+    double abbe_nd, abbe_vd; /* for LR_GLASS_ABBE; default 1.5168, 64.17 */
+    double amplify;          /* default 1 */
+    int wavelengths;         /* spectral samples per camera sample; 8 */
+} lr_chromatic;
+
 /* A camera: a plain struct, so copy and edit it freely.  Directions need
- * not be normalised; `up` must not be parallel to look_at - position. */
+ * not be normalised; `up` must not be parallel to look_at - position.
+ * Which fields matter depends on `model`; the others are ignored. */
 typedef struct lr_camera {
     lr_camera_model model;
     double position[3]; /* eye; default (0, 0, 0) */
     double look_at[3];  /* default (0, 0, -1) */
     double up[3];       /* default (0, 1, 0) */
     double fov;         /* vertical field of view in degrees, (0, 180); 40 */
+
+    /* Thin lens.  The lens sits at `position`; the plane in focus is
+     * perpendicular to the view axis at `focus_distance`.  The aperture is
+     * `aperture_radius` in scene units, or, when f_number > 0, the radius
+     * focal_length_mm / 1000 / (2 f_number): scene units are metres then. */
+    double focus_distance;   /* > 0; default 10 */
+    double aperture_radius;  /* >= 0; default 0 (a pinhole) */
+    double f_number;         /* 0 = use aperture_radius (default) */
+    double focal_length_mm;  /* lens focal length; 0 = unknown (default) */
+    lr_aperture_shape aperture_shape; /* default LR_APERTURE_DISK */
+    int aperture_blades;     /* polygon sides, 3..64; default 6 */
+    double aperture_rotation;/* degrees, counter-clockwise; default 0 */
+    double aperture_ratio;   /* width / height, anamorphic; default 1 */
+    /* Autofocus: when focus_on[0] >= 0, the first hit of the pinhole ray
+     * through pixel (focus_on[0], focus_on[1]) sets the focus (the thin
+     * lens's focus_distance, the bracket's focal_length).  Default -1. */
+    int focus_on[2];
+
+    /* Bracket (the paper).  The image plane is `image_plane_distance` (di)
+     * in front of the eye; the focal plane `focal_length` (f) beyond it.
+     * Rays start in a square of side `aperture` around the pixel on the
+     * image plane and pass through the pixel's focal point. */
+    double image_plane_distance; /* > 0; default 1 */
+    double focal_length;         /* > 0; default 9 */
+    double aperture;             /* >= 0; default 0 */
+
+    lr_chromatic chromatic;
 } lr_camera;
 
 /* Fills `cam` with the defaults documented above. */
@@ -99,8 +171,14 @@ LR_API lr_status lr_camera_validate(const lr_camera *cam, lr_error *err);
  * Render settings
  * ---------------------------------------------------------------------- */
 
+/* How sample values are drawn, for the pixel, lens and wavelength
+ * dimensions alike.  Each value is a pure function of (pixel, sample
+ * index, dimension, seed). */
 typedef enum lr_sampler_kind {
-    LR_SAMPLER_RANDOM = 0
+    LR_SAMPLER_RANDOM = 0,   /* independent uniform numbers */
+    LR_SAMPLER_GRID = 1,     /* cell centres: the paper's unjittered grid */
+    LR_SAMPLER_JITTERED = 2, /* stratified, random offset in each cell */
+    LR_SAMPLER_SOBOL = 3     /* Owen-scrambled Sobol (progressive) */
 } lr_sampler_kind;
 
 /* Called from render threads, serialised by the library, after each tile:
@@ -111,7 +189,7 @@ typedef struct lr_render_settings {
     int width;               /* pixels; default 640 */
     int height;              /* pixels; default 480 */
     int spp;                 /* samples per pixel; default 16 */
-    lr_sampler_kind sampler; /* default LR_SAMPLER_RANDOM */
+    lr_sampler_kind sampler; /* default LR_SAMPLER_JITTERED */
     uint64_t seed;           /* default 0 */
     int max_depth;           /* mirror/glass bounces; default 8 */
     int threads;             /* 0 = all cores (default) */

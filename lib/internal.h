@@ -19,6 +19,15 @@ lr_status lr__fail(lr_error *err, lr_status status, const char *path,
                    const char *fmt, ...)
     __attribute__((format(printf, 4, 5)));
 
+/* ---- limits, shared by the JSON loader and the C API's validation ---- */
+
+#define LR__MAX_DIM 65536          /* pixels per side */
+#define LR__MAX_PIXELS (1ull << 28) /* pixels per image */
+#define LR__MAX_SPP (1 << 20)      /* samples per pixel */
+#define LR__MAX_DEPTH 64           /* bounces */
+#define LR__MAX_THREADS 1024
+#define LR__MAX_TILE 4096
+
 /* ---- images (image.c) ------------------------------------------------- */
 
 struct lr_image {

@@ -170,6 +170,30 @@ lr_status lr__json_string(const cJSON *obj, const char *key,
     return LR_OK;
 }
 
+lr_status lr__json_enum(const cJSON *obj, const char *key, const char *path,
+                        const char *const *names, int *out, lr_error *err)
+{
+    const char *v = NULL;
+    lr_status st = lr__json_string(obj, key, path, 0, &v, err);
+    if (st != LR_OK || v == NULL)
+        return st;
+    char list[256] = "";
+    size_t used = 0;
+    for (int i = 0; names[i] != NULL; i++) {
+        if (strcmp(v, names[i]) == 0) {
+            *out = i;
+            return LR_OK;
+        }
+        if (used < sizeof list)
+            used += (size_t)snprintf(list + used, sizeof list - used,
+                                     "%s\"%s\"", i ? ", " : "", names[i]);
+    }
+    char p[LR__PATH_MAX];
+    lr__path_key(p, path, key);
+    return lr__fail(err, LR_ERR_INVALID, p, "%s must be one of %s, got \"%.60s\"",
+                    p, list, v);
+}
+
 static lr_status numbers(const cJSON *v, const char *p, double *out,
                          const char *want, lr_error *err)
 {
@@ -329,7 +353,9 @@ lr_status lr__json_apply_override(cJSON *root, const char *assignment,
     path[plen] = '\0';
     const char *text = eq + 1;
 
-    cJSON *value = cJSON_Parse(text);
+    /* The whole value must be JSON to count as JSON: "30deg" is the
+     * string "30deg", not the number 30. */
+    cJSON *value = cJSON_ParseWithOpts(text, NULL, 1);
     if (value == NULL)
         value = cJSON_CreateString(text);
     if (value == NULL)

@@ -50,6 +50,11 @@ lr_status lr__json_bool(const cJSON *obj, const char *key, const char *path,
 lr_status lr__json_string(const cJSON *obj, const char *key,
                           const char *path, int required, const char **out,
                           lr_error *err);
+/* A string that must be one of the NULL-terminated `names`; *out is its
+ * index.  The error lists the choices. */
+lr_status lr__json_enum(const cJSON *obj, const char *key, const char *path,
+                        const char *const *names, int *out, lr_error *err);
+
 /* An array of three finite numbers. */
 lr_status lr__json_vec3(const cJSON *obj, const char *key, const char *path,
                         int required, lr__v3 *out, lr_error *err);

@@ -8,6 +8,7 @@
 #include "film.h"
 #include "sampler.h"
 #include "shade.h"
+#include "spectrum.h"
 
 #include <math.h>
 #include <pmmintrin.h>
@@ -19,10 +20,6 @@
 #include <unistd.h>
 #include <xmmintrin.h>
 
-#define MAX_DIM 65536
-#define MAX_PIXELS (1ull << 28)
-#define MAX_SPP (1 << 20)
-#define MAX_THREADS 1024
 
 void lr_render_settings_default(lr_render_settings *s)
 {
@@ -30,7 +27,7 @@ void lr_render_settings_default(lr_render_settings *s)
     s->width = 640;
     s->height = 480;
     s->spp = 16;
-    s->sampler = LR_SAMPLER_RANDOM;
+    s->sampler = LR_SAMPLER_SOBOL;
     s->seed = 0;
     s->max_depth = 8;
     s->threads = 0;
@@ -43,37 +40,37 @@ lr_status lr_render_settings_validate(const lr_render_settings *s,
 {
     if (s == NULL)
         return lr__fail(err, LR_ERR_INVALID, "render", "settings are NULL");
-    if (s->width < 1 || s->width > MAX_DIM)
+    if (s->width < 1 || s->width > LR__MAX_DIM)
         return lr__fail(err, LR_ERR_INVALID, "render.width",
                         "render.width must be between 1 and %d, got %d",
-                        MAX_DIM, s->width);
-    if (s->height < 1 || s->height > MAX_DIM)
+                        LR__MAX_DIM, s->width);
+    if (s->height < 1 || s->height > LR__MAX_DIM)
         return lr__fail(err, LR_ERR_INVALID, "render.height",
                         "render.height must be between 1 and %d, got %d",
-                        MAX_DIM, s->height);
-    if ((uint64_t)s->width * (uint64_t)s->height > MAX_PIXELS)
+                        LR__MAX_DIM, s->height);
+    if ((uint64_t)s->width * (uint64_t)s->height > LR__MAX_PIXELS)
         return lr__fail(err, LR_ERR_INVALID, "render.width",
                         "render.width x render.height is %llu pixels, more "
                         "than the limit of %llu",
                         (unsigned long long)s->width * (unsigned)s->height,
-                        (unsigned long long)MAX_PIXELS);
-    if (s->spp < 1 || s->spp > MAX_SPP)
+                        (unsigned long long)LR__MAX_PIXELS);
+    if (s->spp < 1 || s->spp > LR__MAX_SPP)
         return lr__fail(err, LR_ERR_INVALID, "render.spp",
                         "render.spp must be between 1 and %d, got %d",
-                        MAX_SPP, s->spp);
-    if (s->sampler != LR_SAMPLER_RANDOM)
+                        LR__MAX_SPP, s->spp);
+    if ((int)s->sampler < 0 || s->sampler > LR_SAMPLER_SOBOL)
         return lr__fail(err, LR_ERR_INVALID, "render.sampler",
                         "render.sampler is not a known sampler (%d)",
                         (int)s->sampler);
-    if (s->max_depth < 0 || s->max_depth > 64)
+    if (s->max_depth < 0 || s->max_depth > LR__MAX_DEPTH)
         return lr__fail(err, LR_ERR_INVALID, "render.max_depth",
-                        "render.max_depth must be between 0 and 64, got %d",
-                        s->max_depth);
-    if (s->threads < 0 || s->threads > MAX_THREADS)
+                        "render.max_depth must be between 0 and %d, got %d",
+                        LR__MAX_DEPTH, s->max_depth);
+    if (s->threads < 0 || s->threads > LR__MAX_THREADS)
         return lr__fail(err, LR_ERR_INVALID, "render.threads",
                         "render.threads must be between 0 (all cores) and "
                         "%d, got %d",
-                        MAX_THREADS, s->threads);
+                        LR__MAX_THREADS, s->threads);
     const int *r = s->region;
     if ((r[0] | r[1] | r[2] | r[3]) != 0 &&
         !(r[0] >= 0 && r[1] >= 0 && r[2] > r[0] && r[3] > r[1] &&
@@ -82,10 +79,10 @@ lr_status lr_render_settings_validate(const lr_render_settings *s,
                         "render.region [%d, %d, %d, %d] must satisfy 0 <= x0 "
                         "< x1 <= width (%d) and 0 <= y0 < y1 <= height (%d)",
                         r[0], r[1], r[2], r[3], s->width, s->height);
-    if (s->tile_size < 1 || s->tile_size > 4096)
+    if (s->tile_size < 1 || s->tile_size > LR__MAX_TILE)
         return lr__fail(err, LR_ERR_INVALID, "render.tile_size",
-                        "render.tile_size must be between 1 and 4096, got %d",
-                        s->tile_size);
+                        "render.tile_size must be between 1 and %d, got %d",
+                        LR__MAX_TILE, s->tile_size);
     return LR_OK;
 }
 
@@ -109,6 +106,52 @@ typedef struct worker {
     uint64_t rays, samples, dropped;
 } worker;
 
+/* One camera sample: radiance through film point (fx, fy) and lens
+ * sample u, with whatever chromatic treatment the camera asks for. */
+static void camera_sample(worker *w, uint64_t pixel, uint32_t s, double fx,
+                          double fy, const double u[2], lr__pixel *acc)
+{
+    job *j = w->job;
+    const lr__cam *c = &j->cam;
+    int depth = j->set->max_depth;
+    lr__v3 org, dir;
+    if (!c->chroma_active) {
+        lr__cam_lens_ray(c, fx, fy, u, c->w, &org, &dir);
+        lr__pixel_add(acc, lr__radiance(j->scene, org, dir, 0, depth,
+                                        &w->rays));
+        return;
+    }
+    if (c->chroma.mode == LR_CHROMATIC_RGB) {
+        /* The paper: each channel traced with its own focus, through the
+         * same film point and lens point. */
+        double L[3];
+        for (int ch = 0; ch < 3; ch++) {
+            lr__cam_lens_ray(c, fx, fy, u, c->w_rgb[ch], &org, &dir);
+            lr__v3 Li = lr__radiance(j->scene, org, dir, 0, depth, &w->rays);
+            L[ch] = ch == 0 ? Li.x : ch == 1 ? Li.y : Li.z;
+        }
+        lr__pixel_add(acc, v3(L[0], L[1], L[2]));
+        return;
+    }
+    /* Spectral: N wavelengths stratified over the visible range with one
+     * random offset per sample; each is weighted by the linear-sRGB
+     * colour-matching functions. */
+    int n = c->chroma.wavelengths;
+    double off = lr__sample_1d(&j->sampler, pixel, s, LR__DIM_WAVELENGTH);
+    lr__v3 num = v3(0, 0, 0), den = v3(0, 0, 0);
+    for (int k = 0; k < n; k++) {
+        double nm = LR__LAMBDA_MIN +
+                    (LR__LAMBDA_MAX - LR__LAMBDA_MIN) * (k + off) / n;
+        double W[3];
+        lr__srgb_cmf(nm, W);
+        lr__cam_lens_ray(c, fx, fy, u, lr__cam_power_at(c, nm), &org, &dir);
+        lr__v3 Li = lr__radiance(j->scene, org, dir, 0, depth, &w->rays);
+        num = v3_add(num, v3(W[0] * Li.x, W[1] * Li.y, W[2] * Li.z));
+        den = v3_add(den, v3(W[0], W[1], W[2]));
+    }
+    lr__pixel_add_weighted(acc, num, den);
+}
+
 static void render_pixel(worker *w, int x, int y)
 {
     job *j = w->job;
@@ -117,13 +160,11 @@ static void render_pixel(worker *w, int x, int y)
     lr__pixel acc;
     lr__pixel_reset(&acc);
     for (int s = 0; s < set->spp; s++) {
-        double u[2];
-        lr__sample_2d(&j->sampler, pixel, (uint32_t)s, LR__DIM_PIXEL, u);
-        lr__v3 org, dir;
-        lr__cam_ray(&j->cam, x + u[0], y + u[1], &org, &dir);
-        lr__v3 L = lr__radiance(j->scene, org, dir, 0, set->max_depth,
-                                &w->rays);
-        lr__pixel_add(&acc, L);
+        double up[2], ul[2] = {0.5, 0.5};
+        lr__sample_2d(&j->sampler, pixel, (uint32_t)s, LR__DIM_PIXEL, up);
+        if (j->cam.has_lens)
+            lr__sample_2d(&j->sampler, pixel, (uint32_t)s, LR__DIM_LENS, ul);
+        camera_sample(w, pixel, (uint32_t)s, x + up[0], y + up[1], ul, &acc);
     }
     w->samples += acc.n;
     w->dropped += acc.dropped;
@@ -188,6 +229,45 @@ static void *worker_main(void *arg)
     return NULL;
 }
 
+/* camera.focus_on: focus where the pinhole ray through the pixel's centre
+ * first hits the scene. */
+static lr_status resolve_autofocus(const lr_scene *scene, lr_camera *cam,
+                                   const lr_render_settings *set,
+                                   lr_error *err)
+{
+    if (cam->focus_on[0] < 0 || cam->model == LR_CAMERA_PINHOLE)
+        return LR_OK;
+    int x = cam->focus_on[0], y = cam->focus_on[1];
+    if (x >= set->width || y >= set->height)
+        return lr__fail(err, LR_ERR_INVALID, "camera.focus_on",
+                        "camera.focus_on [%d, %d] is outside the %d x %d "
+                        "image",
+                        x, y, set->width, set->height);
+    lr__cam c;
+    lr__cam_init(&c, cam, set->width, set->height);
+    lr__v3 org, dir;
+    lr__cam_ray(&c, x + 0.5, y + 0.5, &org, &dir);
+    lr__hit h;
+    if (!lr__trace(scene, org, dir, INFINITY, &h))
+        return lr__fail(err, LR_ERR_INVALID, "camera.focus_on",
+                        "camera.focus_on: the ray through pixel [%d, %d] hits "
+                        "nothing to focus on",
+                        x, y);
+    double z = h.t * v3_dot(dir, c.forward);
+    if (cam->model == LR_CAMERA_THINLENS) {
+        cam->focus_distance = z;
+    } else {
+        if (!(z > cam->image_plane_distance))
+            return lr__fail(err, LR_ERR_INVALID, "camera.focus_on",
+                            "camera.focus_on: the hit at depth %g is not "
+                            "beyond the image plane (%g)",
+                            z, cam->image_plane_distance);
+        cam->focal_length = z - cam->image_plane_distance;
+    }
+    cam->focus_on[0] = cam->focus_on[1] = -1;
+    return lr_camera_validate(cam, err);
+}
+
 static double now_seconds(void)
 {
     struct timespec ts;
@@ -210,6 +290,11 @@ lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
     if (st != LR_OK)
         return st;
 
+    lr_camera cam_used = *cam;
+    st = resolve_autofocus(scene, &cam_used, set, err);
+    if (st != LR_OK)
+        return st;
+
     job j;
     memset(&j, 0, sizeof j);
     j.x0 = 0, j.y0 = 0, j.x1 = set->width, j.y1 = set->height;
@@ -227,7 +312,7 @@ lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
     j.scene = scene;
     j.set = set;
     j.img = img;
-    lr__cam_init(&j.cam, cam, set->width, set->height);
+    lr__cam_init(&j.cam, &cam_used, set->width, set->height);
     lr__sampler_init(&j.sampler, set->sampler, set->seed, set->spp);
     j.tiles_x = (j.x1 - j.x0 + set->tile_size - 1) / set->tile_size;
     j.tiles_y = (j.y1 - j.y0 + set->tile_size - 1) / set->tile_size;

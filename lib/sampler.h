@@ -2,7 +2,8 @@
  * sampler.h: the numbers behind every random decision.  A sample value is
  * a pure function of (pixel, sample index, dimension, seed), so any pixel
  * sample can be replayed alone and output does not depend on threads,
- * tiles or regions.  The sampler knows nothing of lenses or films.
+ * tiles or regions.  The sampler knows nothing of lenses or films: the
+ * caller names dimensions, and 2-D requests use dimensions dim, dim + 1.
  */
 #ifndef LR_SAMPLER_H
 #define LR_SAMPLER_H
@@ -14,11 +15,17 @@
 typedef struct lr__sampler {
     lr_sampler_kind kind;
     uint64_t seed;
-    int spp;
+    uint32_t spp;
+    uint32_t nx, ny; /* strata of 2-D grid/jittered: nx * ny >= spp */
 } lr__sampler;
 
-/* Dimensions in use; later effects append theirs. */
-enum { LR__DIM_PIXEL = 0 /* and 1 */, LR__DIM_COUNT = 2 };
+/* The dimensions the renderer uses. */
+enum {
+    LR__DIM_PIXEL = 0,      /* 2-D: position inside the pixel */
+    LR__DIM_LENS = 2,       /* 2-D: position on the aperture */
+    LR__DIM_WAVELENGTH = 4, /* 1-D: offset of the stratified wavelengths */
+    LR__DIM_COUNT = 5
+};
 
 void lr__sampler_init(lr__sampler *s, lr_sampler_kind kind, uint64_t seed,
                       int spp);
@@ -26,11 +33,17 @@ void lr__sampler_init(lr__sampler *s, lr_sampler_kind kind, uint64_t seed,
 /* A number in [0, 1) for (pixel, sample, dim). */
 double lr__sample_1d(const lr__sampler *s, uint64_t pixel, uint32_t sample,
                      uint32_t dim);
-/* A point in [0, 1)^2 from dimensions dim and dim + 1. */
+/* A point in [0, 1)^2 for dimensions dim and dim + 1, stratified jointly
+ * (grid, jittered, sobol) so that the spp points of one pixel cover the
+ * square evenly. */
 void lr__sample_2d(const lr__sampler *s, uint64_t pixel, uint32_t sample,
                    uint32_t dim, double out[2]);
 
 /* The 64-bit mixing function behind the hashes (SplitMix64's finaliser). */
 uint64_t lr__mix64(uint64_t z);
+
+/* A pseudo-random permutation of [0, n): the image of i, for key `key`
+ * (Kensler, "Correlated Multi-Jittered Sampling", 2013). */
+uint32_t lr__permute(uint32_t i, uint32_t n, uint32_t key);
 
 #endif

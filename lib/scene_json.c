@@ -560,8 +560,8 @@ static lr_status parse_object(lr_scene *s, const cJSON *o, const char *p,
             return lr__scene_add_plane(s, xform_point(&x, pt),
                                        xform_normal(&x, n), material, err);
         /* A finite plane: a rectangle centred on `point`, its first side
-         * along the world x axis projected onto the plane (z when the
-         * normal is along x), made of two triangles. */
+         * along the world x axis projected onto the plane (the z axis
+         * when |normal.x| > 0.9), made of two triangles. */
         double w, h;
         lr__path_key(q, p, "size");
         if (cJSON_IsNumber(size)) {
@@ -659,36 +659,148 @@ static lr_status parse_objects(lr_scene *s, const cJSON *objs,
 
 /* ---- camera and render ------------------------------------------------ */
 
+static lr_status parse_chromatic(const cJSON *c, lr_chromatic *ch,
+                                 lr_error *err)
+{
+    static const char *const keys[] = {"mode",     "focal_model", "ior",
+                                       "glass",    "abbe",        "amplify",
+                                       "wavelengths", NULL};
+    static const char *const modes[] = {"off", "rgb", "spectral", NULL};
+    static const char *const models[] = {"paper", "lensmaker", NULL};
+    /* Indexed by lr_glass; "N-BK7" is accepted as Schott's full name. */
+    static const char *const glasses[] = {"BK7", "F2", "SF11",
+                                          "fused_silica", NULL};
+    static const char *const abbe_keys[] = {"n_d", "V_d", NULL};
+    const char *path = "camera.chromatic";
+    if (!cJSON_IsObject(c))
+        return lr__fail(err, LR_ERR_INVALID, path,
+                        "%s must be an object", path);
+    LR_TRY(lr__json_check_keys(c, path, keys, err));
+    int mode = (int)ch->mode, model = (int)ch->focal_model;
+    LR_TRY(lr__json_enum(c, "mode", path, modes, &mode, err));
+    LR_TRY(lr__json_enum(c, "focal_model", path, models, &model, err));
+    ch->mode = (lr_chromatic_mode)mode;
+    ch->focal_model = (lr_focal_model)model;
+    lr__v3 ior = v3a(ch->ior);
+    LR_TRY(lr__json_vec3(c, "ior", path, 0, &ior, err));
+    ch->ior[0] = ior.x, ch->ior[1] = ior.y, ch->ior[2] = ior.z;
+    const cJSON *g = cJSON_GetObjectItemCaseSensitive(c, "glass");
+    const cJSON *abbe = cJSON_GetObjectItemCaseSensitive(c, "abbe");
+    if (g != NULL && abbe != NULL)
+        return lr__fail(err, LR_ERR_INVALID, "camera.chromatic.abbe",
+                        "camera.chromatic: give either glass or abbe, not "
+                        "both");
+    if (g != NULL) {
+        if (cJSON_IsString(g) && strcmp(g->valuestring, "N-BK7") == 0) {
+            ch->glass = LR_GLASS_BK7;
+        } else {
+            int gi = (int)ch->glass;
+            LR_TRY(lr__json_enum(c, "glass", path, glasses, &gi, err));
+            ch->glass = (lr_glass)gi;
+        }
+    }
+    if (abbe != NULL) {
+        const char *ap = "camera.chromatic.abbe";
+        if (!cJSON_IsObject(abbe))
+            return lr__fail(err, LR_ERR_INVALID, ap,
+                            "%s must be an object {\"n_d\": 1.5168, "
+                            "\"V_d\": 64.17}",
+                            ap);
+        LR_TRY(lr__json_check_keys(abbe, ap, abbe_keys, err));
+        LR_TRY(lr__json_number(abbe, "n_d", ap, 1, &ch->abbe_nd, err));
+        LR_TRY(lr__json_number(abbe, "V_d", ap, 1, &ch->abbe_vd, err));
+        ch->glass = LR_GLASS_ABBE;
+    }
+    LR_TRY(lr__json_number(c, "amplify", path, 0, &ch->amplify, err));
+    long long nw = ch->wavelengths;
+    LR_TRY(lr__json_int(c, "wavelengths", path, 0, 1, 64, &nw, err));
+    ch->wavelengths = (int)nw;
+    return LR_OK;
+}
+
+static void set3(double out[3], lr__v3 v)
+{
+    out[0] = v.x;
+    out[1] = v.y;
+    out[2] = v.z;
+}
+
 static lr_status parse_camera(const cJSON *c, lr_camera *cam, lr_error *err)
 {
-    static const char *const keys[] = {"model", "position", "look_at", "up",
-                                       "fov", NULL};
+    static const char *const keys[] = {
+        "model", "position", "look_at", "up", "fov",
+        /* thin lens */
+        "focus_distance", "aperture_radius", "f_number", "focal_length_mm",
+        "aperture_shape", "aperture_blades", "aperture_rotation",
+        "aperture_ratio", "focus_on",
+        /* bracket */
+        "image_plane_distance", "focal_length", "aperture",
+        "chromatic", NULL};
+    static const char *const models[] = {"pinhole", "thinlens", "bracket",
+                                         NULL};
+    static const char *const shapes[] = {"disk", "square", "polygon", NULL};
     if (c == NULL)
         return LR_OK;
     if (!cJSON_IsObject(c))
         return lr__fail(err, LR_ERR_INVALID, "camera",
                         "camera must be an object");
     LR_TRY(lr__json_check_keys(c, "camera", keys, err));
-    const char *model = NULL;
     lr__v3 pos = v3a(cam->position), at = v3a(cam->look_at),
            up = v3a(cam->up);
-    LR_TRY(lr__json_string(c, "model", "camera", 0, &model, err));
+    int model = (int)cam->model, shape = (int)cam->aperture_shape;
+    long long blades = cam->aperture_blades;
+    LR_TRY(lr__json_enum(c, "model", "camera", models, &model, err));
     LR_TRY(lr__json_vec3(c, "position", "camera", 0, &pos, err));
     LR_TRY(lr__json_vec3(c, "look_at", "camera", 0, &at, err));
     LR_TRY(lr__json_vec3(c, "up", "camera", 0, &up, err));
     LR_TRY(lr__json_number(c, "fov", "camera", 0, &cam->fov, err));
-    if (model != NULL) {
-        if (strcmp(model, "pinhole") == 0)
-            cam->model = LR_CAMERA_PINHOLE;
-        else
-            return lr__fail(err, LR_ERR_INVALID, "camera.model",
-                            "camera.model must be \"pinhole\", got \"%s\"",
-                            model);
+    LR_TRY(lr__json_number(c, "focus_distance", "camera", 0,
+                           &cam->focus_distance, err));
+    LR_TRY(lr__json_number(c, "aperture_radius", "camera", 0,
+                           &cam->aperture_radius, err));
+    LR_TRY(lr__json_number(c, "f_number", "camera", 0, &cam->f_number, err));
+    LR_TRY(lr__json_number(c, "focal_length_mm", "camera", 0,
+                           &cam->focal_length_mm, err));
+    LR_TRY(lr__json_enum(c, "aperture_shape", "camera", shapes, &shape, err));
+    LR_TRY(lr__json_int(c, "aperture_blades", "camera", 0, 3, 64, &blades,
+                        err));
+    LR_TRY(lr__json_number(c, "aperture_rotation", "camera", 0,
+                           &cam->aperture_rotation, err));
+    LR_TRY(lr__json_number(c, "aperture_ratio", "camera", 0,
+                           &cam->aperture_ratio, err));
+    LR_TRY(lr__json_number(c, "image_plane_distance", "camera", 0,
+                           &cam->image_plane_distance, err));
+    LR_TRY(lr__json_number(c, "focal_length", "camera", 0,
+                           &cam->focal_length, err));
+    LR_TRY(lr__json_number(c, "aperture", "camera", 0, &cam->aperture, err));
+    const cJSON *fo = cJSON_GetObjectItemCaseSensitive(c, "focus_on");
+    if (fo != NULL && cJSON_IsNull(fo)) {
+        cam->focus_on[0] = cam->focus_on[1] = -1;
+    } else if (fo != NULL) {
+        if (!cJSON_IsArray(fo) || cJSON_GetArraySize(fo) != 2 ||
+            !cJSON_IsNumber(fo->child) || !cJSON_IsNumber(fo->child->next))
+            return lr__fail(err, LR_ERR_INVALID, "camera.focus_on",
+                            "camera.focus_on must be a pixel [x, y] (or "
+                            "null)");
+        for (int i = 0; i < 2; i++) {
+            double v = cJSON_GetArrayItem(fo, i)->valuedouble;
+            if (!(v >= 0 && v <= 65535 && v == floor(v)))
+                return lr__fail(err, LR_ERR_INVALID, "camera.focus_on",
+                                "camera.focus_on[%d] must be a whole pixel "
+                                "index >= 0, got %g",
+                                i, v);
+            cam->focus_on[i] = (int)v;
+        }
     }
-    cam->position[0] = pos.x, cam->position[1] = pos.y,
-    cam->position[2] = pos.z;
-    cam->look_at[0] = at.x, cam->look_at[1] = at.y, cam->look_at[2] = at.z;
-    cam->up[0] = up.x, cam->up[1] = up.y, cam->up[2] = up.z;
+    const cJSON *ch = cJSON_GetObjectItemCaseSensitive(c, "chromatic");
+    if (ch != NULL)
+        LR_TRY(parse_chromatic(ch, &cam->chromatic, err));
+    cam->model = (lr_camera_model)model;
+    cam->aperture_shape = (lr_aperture_shape)shape;
+    cam->aperture_blades = (int)blades;
+    set3(cam->position, pos);
+    set3(cam->look_at, at);
+    set3(cam->up, up);
     return lr_camera_validate(cam, err);
 }
 
@@ -699,6 +811,9 @@ static lr_status parse_render(const cJSON *r, lr_render_settings *rs,
                                        "sampler",   "seed",    "max_depth",
                                        "threads",   "tile_size", "depth",
                                        "region",    NULL};
+    /* Indexed by lr_sampler_kind. */
+    static const char *const samplers[] = {"random", "grid", "jittered",
+                                           "sobol", NULL};
     if (r == NULL)
         return LR_OK;
     if (!cJSON_IsObject(r))
@@ -708,18 +823,20 @@ static lr_status parse_render(const cJSON *r, lr_render_settings *rs,
     long long w = rs->width, h = rs->height, spp = rs->spp,
               depth = rs->max_depth, th = rs->threads, tile = rs->tile_size;
     long long seed = (long long)rs->seed;
-    const char *sampler = NULL;
-    /* Integers are range-checked loosely here (to fit an int) and
-     * precisely by lr_render_settings_validate, which the C API shares. */
-    LR_TRY(lr__json_int(r, "width", "render", 0, INT_MIN, INT_MAX, &w, err));
-    LR_TRY(lr__json_int(r, "height", "render", 0, INT_MIN, INT_MAX, &h, err));
-    LR_TRY(lr__json_int(r, "spp", "render", 0, INT_MIN, INT_MAX, &spp, err));
-    LR_TRY(lr__json_int(r, "max_depth", "render", 0, INT_MIN, INT_MAX, &depth, err));
-    LR_TRY(lr__json_int(r, "threads", "render", 0, INT_MIN, INT_MAX, &th, err));
-    LR_TRY(lr__json_int(r, "tile_size", "render", 0, INT_MIN, INT_MAX, &tile, err));
+    LR_TRY(lr__json_int(r, "width", "render", 0, 1, LR__MAX_DIM, &w, err));
+    LR_TRY(lr__json_int(r, "height", "render", 0, 1, LR__MAX_DIM, &h, err));
+    LR_TRY(lr__json_int(r, "spp", "render", 0, 1, LR__MAX_SPP, &spp, err));
+    LR_TRY(lr__json_int(r, "max_depth", "render", 0, 0, LR__MAX_DEPTH, &depth,
+                        err));
+    LR_TRY(lr__json_int(r, "threads", "render", 0, 0, LR__MAX_THREADS, &th,
+                        err));
+    LR_TRY(lr__json_int(r, "tile_size", "render", 0, 1, LR__MAX_TILE, &tile,
+                        err));
     LR_TRY(lr__json_int(r, "seed", "render", 0, 0, (1LL << 53), &seed, err));
     LR_TRY(lr__json_bool(r, "depth", "render", 0, &rs->want_depth, err));
-    LR_TRY(lr__json_string(r, "sampler", "render", 0, &sampler, err));
+    int kind = (int)rs->sampler;
+    LR_TRY(lr__json_enum(r, "sampler", "render", samplers, &kind, err));
+    rs->sampler = (lr_sampler_kind)kind;
     const cJSON *reg = cJSON_GetObjectItemCaseSensitive(r, "region");
     if (reg != NULL) {
         if (!cJSON_IsArray(reg) || cJSON_GetArraySize(reg) != 4)
@@ -743,14 +860,6 @@ static lr_status parse_render(const cJSON *r, lr_render_settings *rs,
     rs->threads = (int)th;
     rs->tile_size = (int)tile;
     rs->seed = (uint64_t)seed;
-    if (sampler != NULL) {
-        if (strcmp(sampler, "random") == 0)
-            rs->sampler = LR_SAMPLER_RANDOM;
-        else
-            return lr__fail(err, LR_ERR_INVALID, "render.sampler",
-                            "render.sampler must be \"random\", got \"%s\"",
-                            sampler);
-    }
     return lr_render_settings_validate(rs, err);
 }
 

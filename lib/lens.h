@@ -1,0 +1,38 @@
+/*
+ * lens.h: the optics behind the lens models: aperture shapes, glass
+ * dispersion, and how a refractive index moves the focus.  Nothing here
+ * knows about rays or pixels.
+ */
+#ifndef LR_LENS_H
+#define LR_LENS_H
+
+#include "internal.h"
+
+/* Maps u in [0, 1)^2 to a point of the aperture in units of its radius,
+ * uniformly by area and keeping stratification (neighbouring u stay
+ * neighbours): the disk by Shirley & Chiu's concentric mapping, the
+ * square by scaling, a regular polygon by choosing a triangle fan sector
+ * with u[0] and sampling it with a sqrt-warped u[1].  The result is then
+ * rotated by `rotation` (radians) and x is scaled by `ratio`. */
+void lr__aperture_sample(lr_aperture_shape shape, int blades,
+                         double rotation, double ratio, const double u[2],
+                         double *x, double *y);
+
+/* Index of refraction of a glass at `nm` nanometres: Sellmeier for the
+ * catalogue glasses, the Abbe-number model of glTF's
+ * KHR_materials_dispersion for LR_GLASS_ABBE (nd, vd). */
+double lr__glass_index(lr_glass glass, double nd, double vd, double nm);
+
+#define LR__LAMBDA_D 587.5618 /* nm: the helium d line */
+#define LR__LAMBDA_F 486.1327 /* nm: hydrogen F */
+#define LR__LAMBDA_C 656.2725 /* nm: hydrogen C */
+
+/* How a lens's optical power (1 / focal length) scales when the index
+ * changes from the reference n_ref to n: n / n_ref for the paper's
+ * f_c = f_g n_g / n_c, (n - 1) / (n_ref - 1) for the lensmaker's equation
+ * 1/f = (n - 1)(1/R1 - 1/R2).  Working with power rather than focal
+ * length means no division by n - 1, which may approach 0 when an index
+ * difference is amplified. */
+double lr__power_scale(lr_focal_model model, double n_ref, double n);
+
+#endif

@@ -1,0 +1,313 @@
+/*
+ * lensrayd.h: the internal interface between the parts of the lensrayd
+ * render daemon.  Not installed; nothing outside service/ includes it.
+ *
+ * The daemon is a thin client of the public lensray.h API:
+ *
+ *   main.c         flags and environment, signals, startup and shutdown
+ *   http.c         libmicrohttpd setup, routing, bodies, errors, logging
+ *   api.c          job JSON -> validated job spec; the scene listing
+ *   jobs.c         job table, queue, worker pool, retention, cancellation
+ *   scene_cache.c  loaded scenes shared by name and by content hash
+ *   metrics.c      counters and the Prometheus text exposition
+ *   util.c         errors as JSON, clocks, ids, size parsing
+ *   sha256.c       SHA-256, for cache keys and the token comparison
+ *
+ * Threads: libmicrohttpd runs one thread per connection; renders run on
+ * the worker pool of jobs.c and never on an HTTP thread.  Every module
+ * guards its own state with its own mutex; the only nesting is jobs ->
+ * scene cache (a job frees its scene reference), never the other way.
+ */
+#ifndef LENSRAYD_H
+#define LENSRAYD_H
+
+#include "lensray.h"
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include <cjson/cJSON.h>
+
+#define LRD_VERSION "0.1.0"
+
+/* ------------------------------------------------------------------------
+ * Configuration (main.c fills it once, before any thread starts; after
+ * that it is read-only and shared by every thread).
+ * ---------------------------------------------------------------------- */
+
+typedef struct lrd_config {
+    char bind[64];            /* address to listen on */
+    long port;                /* 0 = an ephemeral port, printed at startup */
+    char scenes_dir[4096];    /* absolute, symlinks resolved */
+    long workers;             /* render worker threads */
+    long queue;               /* jobs that may wait beyond the workers */
+    char *token;              /* NULL = no authentication; owned */
+    uint64_t max_body;        /* request body bytes */
+    uint64_t max_pixels;      /* pixels per output image */
+    uint64_t max_samples;     /* pixels x spp per job */
+    double max_render_seconds;/* wall time per render, then "timeout" */
+    uint64_t max_output;      /* encoded image bytes */
+    long max_json_depth;      /* nesting of a request body */
+    long max_connections;     /* open connections, all clients */
+    long max_per_ip;          /* open connections from one address */
+    uint64_t conn_memory;     /* libmicrohttpd memory per connection */
+    long conn_timeout;        /* seconds of silence before a close */
+    double job_ttl;           /* seconds a finished job is kept */
+    long max_finished;        /* finished jobs kept */
+    uint64_t max_retained;    /* image bytes kept by finished jobs */
+    long scene_cache;         /* loaded scenes kept */
+    double shutdown_grace;    /* seconds running jobs get at shutdown */
+} lrd_config;
+
+/* The one configuration; defined in main.c. */
+extern lrd_config lrd_cfg;
+
+/* ------------------------------------------------------------------------
+ * Errors (util.c): what an HTTP error response says.
+ * ---------------------------------------------------------------------- */
+
+typedef struct lrd_err {
+    int http;          /* HTTP status, e.g. 422 */
+    char code[48];     /* machine-readable, e.g. "invalid_value" */
+    char path[300];    /* JSON path of the field, or "" */
+    char message[1024];/* a whole sentence */
+    int retry_after;   /* seconds for Retry-After, 0 for none */
+} lrd_err;
+
+/* Fills *e.  `path` may be NULL.  Returns -1 so that callers can write
+ * `return lrd_fail(...)`. */
+int lrd_fail(lrd_err *e, int http, const char *code, const char *path,
+             const char *fmt, ...)
+    __attribute__((format(printf, 5, 6)));
+
+/* Maps a library error to an HTTP error.  `prefix` ("scene" or NULL) is
+ * put in front of the library's path, so that "objects[2].radius" of an
+ * inline scene becomes "scene.objects[2].radius".  `named_scene` says the
+ * error is in a server-side scene file, which is the server's fault. */
+int lrd_fail_lr(lrd_err *e, const lr_error *le, const char *prefix,
+                int named_scene);
+
+/* The body of an error response, {"error": {...}}; malloc'ed, or NULL
+ * when out of memory. */
+char *lrd_err_json(const lrd_err *e);
+
+/* ------------------------------------------------------------------------
+ * Small utilities (util.c)
+ * ---------------------------------------------------------------------- */
+
+double lrd_monotonic(void); /* seconds, CLOCK_MONOTONIC */
+double lrd_wall(void);      /* seconds since the epoch */
+
+/* "2025-01-31T12:34:56.789Z" into out[32]. */
+void lrd_iso8601(double wall, char out[32]);
+
+/* 32 lowercase hex digits from the kernel's random source into out[33].
+ * Returns 0, or -1 if no randomness could be had. */
+int lrd_random_id(char out[33]);
+
+/* True if `s` is 32 lowercase hex digits. */
+int lrd_is_job_id(const char *s);
+
+/* Parses an unsigned integer with an optional binary suffix k, M, G
+ * (when `sizes`), e.g. "8M".  Returns 0, or -1 on any junk or overflow. */
+int lrd_parse_u64(const char *s, int sizes, uint64_t *out);
+
+/* Parses a finite non-negative decimal number.  0 or -1. */
+int lrd_parse_seconds(const char *s, double *out);
+
+/* Serialises a cJSON value with cJSON_PrintUnformatted; malloc'ed. */
+char *lrd_json_print(const cJSON *v);
+
+/* ------------------------------------------------------------------------
+ * SHA-256 (sha256.c)
+ * ---------------------------------------------------------------------- */
+
+void lrd_sha256(const void *data, size_t len, unsigned char out[32]);
+
+/* Constant-time equality of two byte strings of any lengths: both are
+ * hashed first, so neither the content nor the length of the secret
+ * leaks through the time taken. */
+int lrd_secret_equal(const void *a, size_t alen, const void *b, size_t blen);
+
+/* ------------------------------------------------------------------------
+ * Scene cache (scene_cache.c)
+ * ---------------------------------------------------------------------- */
+
+/* A loaded scene with a reference count.  Holders may read the lr_scene
+ * from any thread; it is freed when the cache has evicted it and the last
+ * holder has released it. */
+typedef struct lrd_scene lrd_scene;
+
+int lrd_scenes_init(void);
+void lrd_scenes_shutdown(void); /* frees every entry; no holders remain */
+
+/* A scene of the scenes directory by name ([A-Za-z0-9_-]{1,64}, the file
+ * DIR/NAME.json).  Returns a new reference, or NULL with *e filled (404
+ * unknown scene, 422 bad name, 500 broken scene file). */
+lrd_scene *lrd_scene_named(const char *name, lrd_err *e);
+
+/* An inline scene: `text` is its JSON (len bytes), mesh paths relative to
+ * the scenes directory.  The caller has already checked the paths.
+ * Returns a new reference, or NULL with *e filled (422 invalid). */
+lrd_scene *lrd_scene_inline(const char *text, size_t len, lrd_err *e);
+
+/* A second reference to the same scene. */
+lrd_scene *lrd_scene_ref(lrd_scene *s);
+void lrd_scene_release(lrd_scene *s); /* NULL is a no-op */
+const lr_scene *lrd_scene_get(const lrd_scene *s);
+/* The scene file's own JSON text as loaded (for the listing); valid while
+ * the reference is held. */
+const char *lrd_scene_text(const lrd_scene *s, size_t *len);
+
+typedef struct lrd_scene_stats {
+    uint64_t hits, misses, loads_failed, evictions;
+    long entries;
+} lrd_scene_stats;
+void lrd_scenes_stats(lrd_scene_stats *out);
+
+/* ------------------------------------------------------------------------
+ * Job specs (api.c): a request body turned into everything a render needs.
+ * ---------------------------------------------------------------------- */
+
+typedef struct lrd_job_spec {
+    lrd_scene *scene;       /* a reference owned by the spec */
+    char scene_name[72];    /* "" for an inline scene */
+    lr_camera cam;
+    lr_render_settings rs;  /* progress/cancel are set by the worker */
+    lr_format format;
+    lr_output_options out;
+    int width, height;      /* of the output image (the region's size) */
+    uint64_t samples;       /* width x height x spp */
+} lrd_job_spec;
+
+/* Parses and validates a job body.  On success *spec owns a scene
+ * reference (release it with lrd_job_spec_clear, or hand it to
+ * lrd_jobs_submit).  Returns 0, or -1 with *e filled. */
+int lrd_api_parse_job(const char *body, size_t len, lrd_job_spec *spec,
+                      lrd_err *e);
+void lrd_job_spec_clear(lrd_job_spec *spec);
+
+/* GET /v1/scenes as a JSON document; malloc'ed, or NULL with *e. */
+char *lrd_api_scenes_json(lrd_err *e);
+
+/* Checks a request body's JSON nesting without parsing it.  0 or -1. */
+int lrd_api_check_depth(const char *body, size_t len, long max_depth,
+                        lrd_err *e);
+
+/* ------------------------------------------------------------------------
+ * Jobs (jobs.c)
+ * ---------------------------------------------------------------------- */
+
+typedef enum lrd_state {
+    LRD_QUEUED = 0,
+    LRD_RUNNING,
+    LRD_DONE,
+    LRD_FAILED,
+    LRD_CANCELLED,
+    LRD_N_STATES
+} lrd_state;
+
+const char *lrd_state_name(lrd_state s);
+
+/* Why a job was cancelled; decides the error it reports. */
+typedef enum lrd_cancel_reason {
+    LRD_CANCEL_NONE = 0,
+    LRD_CANCEL_USER,       /* DELETE /v1/jobs/{id} */
+    LRD_CANCEL_DISCONNECT, /* the client of a synchronous render left */
+    LRD_CANCEL_TIMEOUT,    /* max_render_seconds exceeded */
+    LRD_CANCEL_SHUTDOWN    /* the daemon is stopping */
+} lrd_cancel_reason;
+
+/* An encoded image shared between a job and the responses sending it. */
+typedef struct lrd_blob lrd_blob;
+const void *lrd_blob_data(const lrd_blob *b);
+size_t lrd_blob_len(const lrd_blob *b);
+lrd_blob *lrd_blob_ref(lrd_blob *b);
+void lrd_blob_release(lrd_blob *b); /* NULL is a no-op */
+
+typedef struct lrd_job lrd_job;
+
+int lrd_jobs_start(void);   /* starts the workers; 0 or -1 */
+
+/* Queues a job.  Takes over spec->scene (spec is cleared either way).
+ * `sync` jobs belong to a waiting POST /v1/render and leave the table as
+ * soon as they finish.  On success *out is a new reference to the job.
+ * Errors: 429 queue full (retry_after set), 503 shutting down. */
+int lrd_jobs_submit(lrd_job_spec *spec, int sync, lrd_job **out,
+                    lrd_err *e);
+
+/* A new reference to the job with this id, or NULL. */
+lrd_job *lrd_jobs_find(const char *id);
+void lrd_job_release(lrd_job *j); /* NULL is a no-op */
+const char *lrd_job_id(const lrd_job *j);
+
+/* Waits up to `seconds` for the job to finish; 1 if it has. */
+int lrd_job_wait(lrd_job *j, double seconds);
+
+/* Asks the job to stop: a queued job is cancelled at once, a running one
+ * within a tile.  Returns the state after the call. */
+lrd_state lrd_job_cancel(lrd_job *j, lrd_cancel_reason why);
+
+/* Removes a finished job from the table (DELETE of a finished job).
+ * Returns 0, or -1 if it had not finished. */
+int lrd_job_forget(lrd_job *j);
+
+/* What a finished job produced.  *image is a new reference (or NULL). */
+typedef struct lrd_job_result {
+    lrd_state state;
+    lrd_blob *image;
+    lr_format format;
+    lr_render_stats stats;
+    lrd_err err;           /* for FAILED and CANCELLED */
+    lrd_cancel_reason cancel_reason;
+} lrd_job_result;
+void lrd_job_result_get(lrd_job *j, lrd_job_result *out);
+
+/* The job's status document (GET /v1/jobs/{id}); malloc'ed or NULL. */
+char *lrd_job_status_json(lrd_job *j);
+
+/* Counts for /metrics and the shutdown. */
+typedef struct lrd_jobs_stats {
+    long in_state[LRD_N_STATES];  /* jobs in the table now */
+    uint64_t finished[LRD_N_STATES]; /* ever finished, by final state */
+    long queue_depth;             /* jobs waiting for a worker */
+    long running;                 /* jobs on a worker now */
+    uint64_t rays, samples, pixels, rejected_full;
+    double render_seconds;
+    uint64_t retained_bytes;
+} lrd_jobs_stats;
+void lrd_jobs_stats_get(lrd_jobs_stats *out);
+
+/* Shutdown, in this order: refuse new jobs and cancel the queued ones;
+ * (wait for the running ones); cancel the running ones; join the workers;
+ * free the table. */
+void lrd_jobs_begin_shutdown(void);
+long lrd_jobs_running(void);
+void lrd_jobs_cancel_running(lrd_cancel_reason why);
+void lrd_jobs_stop(void);
+void lrd_jobs_free_all(void);
+
+/* ------------------------------------------------------------------------
+ * HTTP (http.c)
+ * ---------------------------------------------------------------------- */
+
+/* Starts libmicrohttpd; prints the startup line.  0 or -1. */
+int lrd_http_start(void);
+/* Stops accepting connections; requests on open connections get 503. */
+void lrd_http_quiesce(void);
+/* Requests being handled or sent right now. */
+long lrd_http_in_flight(void);
+/* Closes every connection and joins the HTTP threads. */
+void lrd_http_stop(void);
+/* True once shutdown has begun. */
+int lrd_shutting_down(void);
+
+/* ------------------------------------------------------------------------
+ * Metrics (metrics.c)
+ * ---------------------------------------------------------------------- */
+
+void lrd_metrics_request(int status);  /* one answered request */
+/* The /metrics document; malloc'ed or NULL. */
+char *lrd_metrics_text(size_t *len);
+
+#endif /* LENSRAYD_H */
