@@ -155,9 +155,6 @@ lrd_scene *lrd_scene_inline(const char *text, size_t len, lrd_err *e);
 lrd_scene *lrd_scene_ref(lrd_scene *s);
 void lrd_scene_release(lrd_scene *s); /* NULL is a no-op */
 const lr_scene *lrd_scene_get(const lrd_scene *s);
-/* The scene file's own JSON text as loaded (for the listing); valid while
- * the reference is held. */
-const char *lrd_scene_text(const lrd_scene *s, size_t *len);
 
 typedef struct lrd_scene_stats {
     uint64_t hits, misses, loads_failed, evictions;

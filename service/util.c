@@ -1,0 +1,198 @@
+/*
+ * util.c: error responses, clocks, job ids and number parsing shared by
+ * the daemon's modules.
+ */
+#include "lensrayd.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/random.h>
+#include <time.h>
+
+int lrd_fail(lrd_err *e, int http, const char *code, const char *path,
+             const char *fmt, ...)
+{
+    if (e == NULL)
+        return -1;
+    e->http = http;
+    e->retry_after = 0;
+    snprintf(e->code, sizeof e->code, "%s", code);
+    snprintf(e->path, sizeof e->path, "%s", path ? path : "");
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(e->message, sizeof e->message, fmt, ap);
+    va_end(ap);
+    return -1;
+}
+
+int lrd_fail_lr(lrd_err *e, const lr_error *le, const char *prefix,
+                int named_scene)
+{
+    char path[sizeof e->path];
+    char msg[sizeof e->message];
+    /* The library's message starts with its path ("objects[2].radius must
+     * be > 0"); with a prefix the message names the full request path. */
+    if (prefix != NULL && le->path[0] != '\0') {
+        snprintf(path, sizeof path, "%s.%s", prefix, le->path);
+        if (strncmp(le->message, le->path, strlen(le->path)) == 0)
+            snprintf(msg, sizeof msg, "%s.%s", prefix, le->message);
+        else
+            snprintf(msg, sizeof msg, "%s: %s", prefix, le->message);
+    } else if (prefix != NULL) {
+        snprintf(path, sizeof path, "%s", prefix);
+        snprintf(msg, sizeof msg, "%s: %s", prefix, le->message);
+    } else {
+        snprintf(path, sizeof path, "%s", le->path);
+        snprintf(msg, sizeof msg, "%s", le->message);
+    }
+    switch (le->status) {
+    case LR_ERR_INVALID:
+        if (named_scene)
+            return lrd_fail(e, 500, "scene_broken", path,
+                            "the server's scene file is invalid: %s", msg);
+        return lrd_fail(e, 422, "invalid_value", path, "%s", msg);
+    case LR_ERR_IO:
+        if (named_scene)
+            return lrd_fail(e, 500, "scene_broken", path,
+                            "the server's scene cannot be read: %s", msg);
+        return lrd_fail(e, 422, "invalid_value", path, "%s", msg);
+    case LR_ERR_LIMIT:
+        return lrd_fail(e, 413, "too_large", path, "%s", msg);
+    case LR_ERR_NOMEM:
+        return lrd_fail(e, 503, "out_of_memory", path, "%s", msg);
+    case LR_ERR_CANCELLED:
+        return lrd_fail(e, 409, "cancelled", path, "%s", msg);
+    case LR_ERR_EMBREE:
+    case LR_OK:
+    default:
+        return lrd_fail(e, 500, "internal", path, "%s", msg);
+    }
+}
+
+char *lrd_err_json(const lrd_err *e)
+{
+    cJSON *root = cJSON_CreateObject();
+    cJSON *inner = cJSON_AddObjectToObject(root, "error");
+    if (inner == NULL) {
+        cJSON_Delete(root);
+        return NULL;
+    }
+    cJSON_AddStringToObject(inner, "code", e->code);
+    cJSON_AddStringToObject(inner, "message", e->message);
+    if (e->path[0] != '\0')
+        cJSON_AddStringToObject(inner, "path", e->path);
+    char *text = lrd_json_print(root);
+    cJSON_Delete(root);
+    return text;
+}
+
+double lrd_monotonic(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+double lrd_wall(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_REALTIME, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+void lrd_iso8601(double wall, char out[32])
+{
+    time_t secs = (time_t)floor(wall);
+    int ms = (int)((wall - floor(wall)) * 1000.0);
+    if (ms > 999)
+        ms = 999;
+    struct tm tm;
+    gmtime_r(&secs, &tm);
+    char base[24];
+    strftime(base, sizeof base, "%Y-%m-%dT%H:%M:%S", &tm);
+    snprintf(out, 32, "%s.%03dZ", base, ms);
+}
+
+int lrd_random_id(char out[33])
+{
+    unsigned char bytes[16];
+    size_t got = 0;
+    while (got < sizeof bytes) {
+        ssize_t n = getrandom(bytes + got, sizeof bytes - got, 0);
+        if (n < 0) {
+            if (errno == EINTR)
+                continue;
+            return -1;
+        }
+        got += (size_t)n;
+    }
+    static const char hex[] = "0123456789abcdef";
+    for (size_t i = 0; i < sizeof bytes; i++) {
+        out[2 * i] = hex[bytes[i] >> 4];
+        out[2 * i + 1] = hex[bytes[i] & 15];
+    }
+    out[32] = '\0';
+    return 0;
+}
+
+int lrd_is_job_id(const char *s)
+{
+    size_t i = 0;
+    for (; s[i] != '\0'; i++)
+        if (!((s[i] >= '0' && s[i] <= '9') || (s[i] >= 'a' && s[i] <= 'f')))
+            return 0;
+    return i == 32;
+}
+
+int lrd_parse_u64(const char *s, int sizes, uint64_t *out)
+{
+    if (s == NULL || s[0] < '0' || s[0] > '9')
+        return -1; /* strtoull would accept "-1" and " 1" */
+    errno = 0;
+    char *end = NULL;
+    unsigned long long v = strtoull(s, &end, 10);
+    if (errno != 0 || end == s)
+        return -1;
+    unsigned shift = 0;
+    if (sizes && *end != '\0') {
+        switch (*end) {
+        case 'k': case 'K': shift = 10; break;
+        case 'm': case 'M': shift = 20; break;
+        case 'g': case 'G': shift = 30; break;
+        default: return -1;
+        }
+        end++;
+        /* Allow "8M", "8MiB" and "8MB" alike: all binary. */
+        if (strcmp(end, "iB") == 0 || strcmp(end, "B") == 0)
+            end += strlen(end);
+    }
+    if (*end != '\0')
+        return -1;
+    if (shift > 0 && v > (UINT64_MAX >> shift))
+        return -1;
+    *out = (uint64_t)v << shift;
+    return 0;
+}
+
+int lrd_parse_seconds(const char *s, double *out)
+{
+    if (s == NULL || !((s[0] >= '0' && s[0] <= '9') || s[0] == '.'))
+        return -1;
+    errno = 0;
+    char *end = NULL;
+    double v = strtod(s, &end);
+    if (errno != 0 || end == s || *end != '\0' || !isfinite(v) || v < 0)
+        return -1;
+    *out = v;
+    return 0;
+}
+
+char *lrd_json_print(const cJSON *v)
+{
+    return cJSON_PrintUnformatted(v);
+}

@@ -1,0 +1,206 @@
+/*
+ * test_sampler.c: the samplers' defining properties, checked directly:
+ * grid = cell centres, jittered = one point per cell, Sobol = (0,m,2)-net
+ * for every power-of-two prefix, all = pure functions in [0, 1).
+ */
+#include "test.h"
+#include "sampler.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+static void test_permute_is_bijection(void **state)
+{
+    (void)state;
+    const uint32_t sizes[] = {1, 2, 3, 7, 16, 17, 100, 1000};
+    for (size_t k = 0; k < 8; k++) {
+        uint32_t n = sizes[k];
+        unsigned char *seen = calloc(n, 1);
+        assert_non_null(seen);
+        for (uint32_t i = 0; i < n; i++) {
+            uint32_t p = lr__permute(i, n, 0x1234567u + k);
+            assert_true(p < n);
+            assert_false(seen[p]);
+            seen[p] = 1;
+        }
+        free(seen);
+    }
+}
+
+static void test_values_in_unit_interval_and_pure(void **state)
+{
+    (void)state;
+    for (int kind = 0; kind <= LR_SAMPLER_SOBOL; kind++) {
+        lr__sampler s;
+        lr__sampler_init(&s, (lr_sampler_kind)kind, 7, 37);
+        for (uint64_t px = 0; px < 50; px++)
+            for (uint32_t i = 0; i < 37; i++)
+                for (uint32_t d = 0; d < LR__DIM_COUNT; d += 2) {
+                    double a[2], b[2];
+                    lr__sample_2d(&s, px, i, d, a);
+                    lr__sample_2d(&s, px, i, d, b);
+                    assert_true(a[0] >= 0 && a[0] < 1 && a[1] >= 0 && a[1] < 1);
+                    assert_true(a[0] == b[0] && a[1] == b[1]);
+                    double c = lr__sample_1d(&s, px, i, d);
+                    assert_true(c >= 0 && c < 1);
+                }
+    }
+}
+
+static int cmp_pt(const void *a, const void *b)
+{
+    const double *p = a, *q = b;
+    if (p[0] != q[0])
+        return p[0] < q[0] ? -1 : 1;
+    return (p[1] > q[1]) - (p[1] < q[1]);
+}
+
+/* The grid sampler uses exactly the cell centres of a k x k grid, in a
+ * per-pixel order: the paper's unjittered sampling. */
+static void test_grid_is_cell_centres(void **state)
+{
+    (void)state;
+    lr__sampler s;
+    lr__sampler_init(&s, LR_SAMPLER_GRID, 3, 16);
+    double want[16][2], got[16][2];
+    for (int i = 0; i < 16; i++) {
+        want[i][0] = (i % 4 + 0.5) / 4;
+        want[i][1] = (i / 4 + 0.5) / 4;
+    }
+    qsort(want, 16, sizeof want[0], cmp_pt);
+    double first[2] = {0, 0};
+    int differs = 0;
+    for (uint64_t px = 0; px < 20; px++) {
+        for (uint32_t i = 0; i < 16; i++)
+            lr__sample_2d(&s, px, i, LR__DIM_LENS, got[i]);
+        if (px == 0)
+            memcpy(first, got[0], sizeof first);
+        else if (got[0][0] != first[0] || got[0][1] != first[1])
+            differs = 1;
+        qsort(got, 16, sizeof got[0], cmp_pt);
+        assert_memory_equal(want, got, sizeof want);
+    }
+    /* The order is shuffled per pixel (so pixel and lens positions are
+     * not locked together), while the set stays the grid. */
+    assert_true(differs);
+}
+
+static void test_jittered_one_per_cell(void **state)
+{
+    (void)state;
+    const int spps[] = {16, 64, 12};
+    for (int k = 0; k < 3; k++) {
+        lr__sampler s;
+        lr__sampler_init(&s, LR_SAMPLER_JITTERED, 11, spps[k]);
+        int nx = (int)s.nx, ny = (int)s.ny;
+        for (uint64_t px = 0; px < 10; px++) {
+            int count[64] = {0};
+            for (uint32_t i = 0; i < (uint32_t)spps[k]; i++) {
+                double u[2];
+                lr__sample_2d(&s, px, i, LR__DIM_PIXEL, u);
+                int cx = (int)(u[0] * nx), cy = (int)(u[1] * ny);
+                count[cy * nx + cx]++;
+            }
+            for (int c = 0; c < nx * ny; c++)
+                assert_true(count[c] <= 1);
+            /* 1-D strata too. */
+            int c1[64] = {0};
+            for (uint32_t i = 0; i < (uint32_t)spps[k]; i++)
+                c1[(int)(lr__sample_1d(&s, px, i, LR__DIM_WAVELENGTH) *
+                         spps[k])]++;
+            for (int c = 0; c < spps[k]; c++)
+                assert_int_equal(c1[c], 1);
+        }
+    }
+}
+
+/* A (0,m,2)-net: for every a in 0..m, the 2^a x 2^(m-a) elementary
+ * boxes each hold exactly one of the first 2^m points. */
+static int is_net(double (*pts)[2], int m)
+{
+    int n = 1 << m;
+    int *count = calloc((size_t)n, sizeof *count);
+    int ok = 1;
+    for (int a = 0; a <= m && ok; a++) {
+        memset(count, 0, (size_t)n * sizeof *count);
+        int bx = 1 << a, by = 1 << (m - a);
+        for (int i = 0; i < n; i++) {
+            int cx = (int)(pts[i][0] * bx), cy = (int)(pts[i][1] * by);
+            if (++count[cy * bx + cx] > 1)
+                ok = 0;
+        }
+    }
+    free(count);
+    return ok;
+}
+
+static void test_sobol_prefixes_are_nets(void **state)
+{
+    (void)state;
+    lr__sampler s;
+    lr__sampler_init(&s, LR_SAMPLER_SOBOL, 5, 256);
+    static double pts[256][2];
+    for (uint64_t px = 0; px < 12; px++)
+        for (uint32_t d = 0; d < 4; d += 2) {
+            for (uint32_t i = 0; i < 256; i++)
+                lr__sample_2d(&s, px * 7919, i, d, pts[i]);
+            for (int m = 1; m <= 8; m++)
+                if (!is_net(pts, m))
+                    fail_msg("pixel %llu dims %u: first %d points are not a "
+                             "(0,%d,2)-net",
+                             (unsigned long long)px, d, 1 << m, m);
+        }
+    /* Different pixels get different (scrambled) points. */
+    double a[2], b[2];
+    lr__sample_2d(&s, 1, 0, 0, a);
+    lr__sample_2d(&s, 2, 0, 0, b);
+    assert_true(a[0] != b[0]);
+}
+
+/* Sobol's 1-D projection is stratified too: each power-of-two prefix
+ * puts one point in each interval of that many. */
+static void test_sobol_1d_stratified(void **state)
+{
+    (void)state;
+    lr__sampler s;
+    lr__sampler_init(&s, LR_SAMPLER_SOBOL, 9, 64);
+    for (uint64_t px = 0; px < 10; px++)
+        for (int m = 0; m <= 6; m++) {
+            int n = 1 << m, seen[64] = {0};
+            for (int i = 0; i < n; i++)
+                seen[(int)(lr__sample_1d(&s, px, (uint32_t)i,
+                                         LR__DIM_WAVELENGTH) * n)]++;
+            for (int c = 0; c < n; c++)
+                assert_int_equal(seen[c], 1);
+        }
+}
+
+/* Random: mean and variance of a uniform variable. */
+static void test_random_moments(void **state)
+{
+    (void)state;
+    lr__sampler s;
+    lr__sampler_init(&s, LR_SAMPLER_RANDOM, 1, 1);
+    double sum = 0, sum2 = 0;
+    int n = 200000;
+    for (int i = 0; i < n; i++) {
+        double u = lr__sample_1d(&s, (uint64_t)i, 0, 3);
+        sum += u;
+        sum2 += u * u;
+    }
+    double mean = sum / n, var = sum2 / n - mean * mean;
+    assert_true(fabs(mean - 0.5) < 0.005);
+    assert_true(fabs(var - 1.0 / 12) < 0.002);
+}
+
+static const struct CMUnitTest sampler_tests[] = {
+    cmocka_unit_test(test_permute_is_bijection),
+    cmocka_unit_test(test_values_in_unit_interval_and_pure),
+    cmocka_unit_test(test_grid_is_cell_centres),
+    cmocka_unit_test(test_jittered_one_per_cell),
+    cmocka_unit_test(test_sobol_prefixes_are_nets),
+    cmocka_unit_test(test_sobol_1d_stratified),
+    cmocka_unit_test(test_random_moments),
+};
+LR_TEST_GROUP(sampler, sampler_tests)
