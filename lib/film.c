@@ -9,9 +9,6 @@
 void lr__pixel_add(lr__pixel *p, lr__v3 L)
 {
     p->n++;
-    p->wsum[0] += 1.0;
-    p->wsum[1] += 1.0;
-    p->wsum[2] += 1.0;
     if (!v3_finite(L)) {
         p->dropped++;
         return;
@@ -21,25 +18,10 @@ void lr__pixel_add(lr__pixel *p, lr__v3 L)
     p->sum[2] += L.z;
 }
 
-void lr__pixel_add_weighted(lr__pixel *p, lr__v3 num, lr__v3 den)
-{
-    p->n++;
-    if (!v3_finite(num) || !v3_finite(den)) {
-        p->dropped++;
-        return;
-    }
-    p->sum[0] += num.x;
-    p->sum[1] += num.y;
-    p->sum[2] += num.z;
-    p->wsum[0] += den.x;
-    p->wsum[1] += den.y;
-    p->wsum[2] += den.z;
-}
-
 void lr__pixel_resolve(const lr__pixel *p, float out[3])
 {
     for (int c = 0; c < 3; c++) {
-        double v = p->wsum[c] != 0.0 ? p->sum[c] / p->wsum[c] : 0.0;
+        double v = p->n ? p->sum[c] / (double)p->n : 0.0;
         /* Finite doubles can still overflow float: clamp, never write
          * Inf (or NaN) into an image. */
         if (isnan(v))

@@ -15,27 +15,23 @@
 #include <stdint.h>
 
 typedef struct lr__pixel {
-    double sum[3];    /* sum of weight * radiance, per channel */
-    double wsum[3];   /* sum of weights, per channel */
-    uint64_t n;       /* samples added */
+    double sum[3];    /* sum of radiance, per channel */
+    uint64_t n;       /* samples added, dropped ones included */
     uint64_t dropped; /* samples rejected as non-finite */
 } lr__pixel;
 
 static inline void lr__pixel_reset(lr__pixel *p)
 {
-    for (int c = 0; c < 3; c++)
-        p->sum[c] = p->wsum[c] = 0.0;
+    p->sum[0] = p->sum[1] = p->sum[2] = 0.0;
     p->n = p->dropped = 0;
 }
 
 /* Adds one sample of weight 1 (a box filter over the pixel). */
 void lr__pixel_add(lr__pixel *p, lr__v3 L);
 
-/* Adds one sample as a weighted sum `num` = sum of w L and its weights
- * `den` = sum of w, per channel. */
-void lr__pixel_add_weighted(lr__pixel *p, lr__v3 num, lr__v3 den);
-
-/* The pixel's value, sum / wsum per channel, as three finite floats. */
+/* The pixel's value: the mean over all samples taken (a dropped sample
+ * counts as black, which keeps the estimate unbiased when drops are
+ * rare), as three finite floats. */
 void lr__pixel_resolve(const lr__pixel *p, float out[3]);
 
 #endif

@@ -93,6 +93,7 @@ typedef struct job {
     lr__cam cam;
     lr__sampler sampler;
     lr_image *img;
+    lr__v3 mean_cmf;    /* mean of the sRGB matching functions, 380-780 nm */
     int x0, y0, x1, y1; /* the region rendered, in frame pixels */
     int tiles_x, tiles_y;
     atomic_int next_tile;
@@ -134,8 +135,13 @@ static void camera_sample(worker *w, uint64_t pixel, uint32_t s, double fx,
         return;
     }
     /* Spectral: N wavelengths stratified over the visible range with one
-     * random offset per sample; each is weighted by the linear-sRGB
-     * colour-matching functions. */
+     * random offset per sample, each weighted by the linear-sRGB
+     * colour-matching functions W(lambda).  With five or more the weights
+     * are normalised by their own sum in this sample (W's sums then stay
+     * within a factor of 2 of each other for any offset): a uniform white
+     * scene stays exactly white and each wavelength's light is conserved.
+     * With fewer, the sum could approach zero, so the exact mean of W over
+     * the range normalises instead (unbiased, white only on average). */
     int n = c->chroma.wavelengths;
     double off = lr__sample_1d(&j->sampler, pixel, s, LR__DIM_WAVELENGTH);
     lr__v3 num = v3(0, 0, 0), den = v3(0, 0, 0);
@@ -149,7 +155,9 @@ static void camera_sample(worker *w, uint64_t pixel, uint32_t s, double fx,
         num = v3_add(num, v3(W[0] * Li.x, W[1] * Li.y, W[2] * Li.z));
         den = v3_add(den, v3(W[0], W[1], W[2]));
     }
-    lr__pixel_add_weighted(acc, num, den);
+    if (n < 5)
+        den = v3_scale(j->mean_cmf, n);
+    lr__pixel_add(acc, v3(num.x / den.x, num.y / den.y, num.z / den.z));
 }
 
 static void render_pixel(worker *w, int x, int y)
@@ -227,6 +235,21 @@ static void *worker_main(void *arg)
     }
     _mm_setcsr(csr);
     return NULL;
+}
+
+/* The mean of the linear-sRGB matching functions over the sampled range,
+ * by the midpoint rule at 0.25 nm (far finer than the functions vary). */
+static lr__v3 mean_cmf(void)
+{
+    double sum[3] = {0, 0, 0};
+    int n = (int)((LR__LAMBDA_MAX - LR__LAMBDA_MIN) * 4);
+    for (int i = 0; i < n; i++) {
+        double W[3];
+        lr__srgb_cmf(LR__LAMBDA_MIN + (i + 0.5) * 0.25, W);
+        for (int c = 0; c < 3; c++)
+            sum[c] += W[c];
+    }
+    return v3(sum[0] / n, sum[1] / n, sum[2] / n);
 }
 
 /* camera.focus_on: focus where the pinhole ray through the pixel's centre
@@ -313,6 +336,7 @@ lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
     j.set = set;
     j.img = img;
     lr__cam_init(&j.cam, &cam_used, set->width, set->height);
+    j.mean_cmf = mean_cmf();
     lr__sampler_init(&j.sampler, set->sampler, set->seed, set->spp);
     j.tiles_x = (j.x1 - j.x0 + set->tile_size - 1) / set->tile_size;
     j.tiles_y = (j.y1 - j.y0 + set->tile_size - 1) / set->tile_size;

@@ -30,6 +30,10 @@
 
 #define LRD_VERSION "0.1.0"
 
+/* Scene files larger than this are refused; the library has the same
+ * limit for the files it reads itself. */
+#define LRD_MAX_SCENE_FILE ((size_t)64 << 20)
+
 /* ------------------------------------------------------------------------
  * Configuration (main.c fills it once, before any thread starts; after
  * that it is read-only and shared by every thread).
@@ -114,6 +118,10 @@ int lrd_parse_u64(const char *s, int sizes, uint64_t *out);
 
 /* Parses a finite non-negative decimal number.  0 or -1. */
 int lrd_parse_seconds(const char *s, double *out);
+
+/* Reads a whole file of at most `max` bytes (more fails with EFBIG);
+ * malloc'ed and NUL-terminated, or NULL with errno set. */
+char *lrd_read_file(const char *path, size_t max, size_t *len);
 
 /* Serialises a cJSON value with cJSON_PrintUnformatted; malloc'ed. */
 char *lrd_json_print(const cJSON *v);
@@ -303,6 +311,7 @@ int lrd_shutting_down(void);
  * Metrics (metrics.c)
  * ---------------------------------------------------------------------- */
 
+void lrd_metrics_start(void);          /* at startup, before threads */
 void lrd_metrics_request(int status);  /* one answered request */
 /* The /metrics document; malloc'ed or NULL. */
 char *lrd_metrics_text(size_t *len);

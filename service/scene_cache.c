@@ -23,9 +23,6 @@
 #include <string.h>
 #include <sys/stat.h>
 
-/* Scene files larger than this are refused; the library has the same
- * limit for its own reads. */
-#define MAX_SCENE_FILE (64u << 20)
 /* Names remembered by the by-name index. */
 #define MAX_NAMES 256
 
@@ -240,54 +237,6 @@ static int valid_name(const char *name)
     return n >= 1 && n <= 64;
 }
 
-/* Reads a whole file of at most MAX_SCENE_FILE bytes; malloc'ed. */
-static char *read_file(const char *path, size_t *len)
-{
-    FILE *f = fopen(path, "rb");
-    if (f == NULL)
-        return NULL;
-    char *buf = NULL;
-    size_t used = 0, cap = 0;
-    for (;;) {
-        if (used == cap) {
-            if (cap >= MAX_SCENE_FILE) {
-                free(buf);
-                fclose(f);
-                errno = EFBIG;
-                return NULL;
-            }
-            cap = cap ? 2 * cap : 16384;
-            char *grown = realloc(buf, cap + 1);
-            if (grown == NULL) {
-                free(buf);
-                fclose(f);
-                errno = ENOMEM;
-                return NULL;
-            }
-            buf = grown;
-        }
-        size_t got = fread(buf + used, 1, cap - used, f);
-        used += got;
-        if (got == 0)
-            break;
-    }
-    int bad = ferror(f);
-    fclose(f);
-    if (bad) {
-        free(buf);
-        errno = EIO;
-        return NULL;
-    }
-    if (buf == NULL) {
-        buf = malloc(1);
-        if (buf == NULL)
-            return NULL;
-    }
-    buf[used] = '\0';
-    *len = used;
-    return buf;
-}
-
 static int same_file(const name_entry *ne, const struct stat *st)
 {
     return ne->dev == st->st_dev && ne->ino == st->st_ino &&
@@ -361,7 +310,7 @@ lrd_scene *lrd_scene_named(const char *name, lrd_err *e)
     pthread_mutex_unlock(&cache.mu);
 
     size_t len = 0;
-    char *text = read_file(path, &len);
+    char *text = lrd_read_file(path, LRD_MAX_SCENE_FILE, &len);
     if (text == NULL) {
         lrd_fail(e, 500, "scene_broken", "scene",
                  "the scene file of \"%s\" cannot be read: %s", name,

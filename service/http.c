@@ -1,0 +1,746 @@
+/*
+ * http.c: the HTTP side of lensrayd on libmicrohttpd (MHD).
+ *
+ * MHD runs one thread per connection (bounded by --max-connections and
+ * --max-connections-per-ip), so a handler may block: POST /v1/render
+ * queues its job on the worker pool and waits on the job's completion in
+ * the connection's own thread, polling the socket meanwhile so that a
+ * client that hangs up cancels its render.  Renders never run here.
+ *
+ * A request's state (struct req) lives in MHD's per-request context
+ * pointer from the first call of the access handler to the
+ * NOTIFY_COMPLETED callback, which logs the request and frees it.
+ *
+ * Checks happen as early as they can: on the first call, with only the
+ * headers, come shutdown (503), the token (401), the route (404), the
+ * method (405), the content type (415) and a declared Content-Length over
+ * the limit (413), so a refused request never uploads its body.  Bodies
+ * are collected up to --max-body; the JSON is only looked at when it is
+ * complete.
+ */
+#include "lensrayd.h"
+
+#include <microhttpd.h>
+
+#include <arpa/inet.h>
+#include <errno.h>
+#include <netdb.h>
+#include <poll.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+typedef enum route_id {
+    R_NONE = 0,
+    R_HEALTH,
+    R_METRICS,
+    R_SCENES,
+    R_RENDER,
+    R_JOBS,
+    R_JOB,
+    R_JOB_IMAGE
+} route_id;
+
+/* One request, owned by MHD's context pointer. */
+typedef struct req {
+    double t0;
+    char method[16];
+    char path[200];   /* for the log, escaped */
+    route_id route;
+    char job_id[33];  /* from the URL or of the job created, for the log */
+    char *body;       /* malloc'ed; NUL-terminated */
+    size_t len, cap;
+    int too_large;    /* the body outgrew --max-body; the rest is dropped */
+    uint64_t dropped;
+    int answered;     /* a response was queued on the first call */
+    int status;       /* of the response queued, for the log */
+    uint64_t bytes;   /* body bytes of that response */
+} req;
+
+static struct {
+    struct MHD_Daemon *d;
+    MHD_socket quiesced_fd;
+    atomic_long in_flight;
+    atomic_int shutting_down;
+} http = {.quiesced_fd = MHD_INVALID_SOCKET};
+
+int lrd_shutting_down(void) { return atomic_load(&http.shutting_down); }
+long lrd_http_in_flight(void) { return atomic_load(&http.in_flight); }
+
+/* ---- responses ----------------------------------------------------------- */
+
+/* Extra headers as name/value pairs, ended by NULL. */
+static enum MHD_Result queue(struct MHD_Connection *c, req *r, int status,
+                             struct MHD_Response *resp, size_t body_len,
+                             const char *ctype, const char *const *hdrs)
+{
+    if (resp == NULL)
+        return MHD_NO;
+    MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, ctype);
+    MHD_add_response_header(resp, MHD_HTTP_HEADER_CACHE_CONTROL, "no-store");
+    if (r->job_id[0] != '\0')
+        MHD_add_response_header(resp, "X-Lensray-Job-Id", r->job_id);
+    for (size_t i = 0; hdrs != NULL && hdrs[i] != NULL; i += 2)
+        MHD_add_response_header(resp, hdrs[i], hdrs[i + 1]);
+    /* While shutting down, no connection is kept for another request. */
+    if (lrd_shutting_down())
+        MHD_add_response_header(resp, MHD_HTTP_HEADER_CONNECTION, "close");
+    enum MHD_Result ok = MHD_queue_response(c, (unsigned)status, resp);
+    MHD_destroy_response(resp);
+    r->status = status;
+    r->bytes = strcmp(r->method, "HEAD") == 0 ? 0 : body_len;
+    return ok;
+}
+
+/* Sends `body` (malloc'ed, taken over). */
+static enum MHD_Result send_text(struct MHD_Connection *c, req *r,
+                                 int status, const char *ctype, char *body,
+                                 size_t len, const char *const *hdrs)
+{
+    if (body == NULL)
+        return MHD_NO;
+    struct MHD_Response *resp =
+        MHD_create_response_from_buffer(len, body, MHD_RESPMEM_MUST_FREE);
+    if (resp == NULL) {
+        free(body);
+        return MHD_NO;
+    }
+    return queue(c, r, status, resp, len, ctype, hdrs);
+}
+
+static enum MHD_Result send_json(struct MHD_Connection *c, req *r,
+                                 int status, char *json,
+                                 const char *const *hdrs)
+{
+    if (json == NULL)
+        return MHD_NO;
+    size_t len = strlen(json);
+    /* A final newline keeps `curl` output tidy. */
+    char *nl = realloc(json, len + 2);
+    if (nl == NULL) {
+        free(json);
+        return MHD_NO;
+    }
+    nl[len] = '\n';
+    nl[len + 1] = '\0';
+    return send_text(c, r, status, "application/json", nl, len + 1, hdrs);
+}
+
+static enum MHD_Result send_error(struct MHD_Connection *c, req *r,
+                                  const lrd_err *e, const char *allow)
+{
+    const char *hdrs[8];
+    size_t n = 0;
+    char retry[24];
+    if (e->retry_after > 0) {
+        snprintf(retry, sizeof retry, "%d", e->retry_after);
+        hdrs[n++] = MHD_HTTP_HEADER_RETRY_AFTER;
+        hdrs[n++] = retry;
+    }
+    if (e->http == 401) {
+        hdrs[n++] = MHD_HTTP_HEADER_WWW_AUTHENTICATE;
+        hdrs[n++] = "Bearer realm=\"lensrayd\"";
+    }
+    if (allow != NULL) {
+        hdrs[n++] = MHD_HTTP_HEADER_ALLOW;
+        hdrs[n++] = allow;
+    }
+    hdrs[n] = NULL;
+    /* 499 is the log's name for "the client left"; it is never sent. */
+    int status = e->http == 499 ? 409 : e->http;
+    return send_json(c, r, status, lrd_err_json(e), hdrs);
+}
+
+static void release_blob(void *cls)
+{
+    lrd_blob_release(cls);
+}
+
+/* Sends an encoded image; takes over the blob reference. */
+static enum MHD_Result send_image(struct MHD_Connection *c, req *r,
+                                  lrd_blob *img, lr_format fmt,
+                                  const lr_render_stats *st)
+{
+    struct MHD_Response *resp =
+        MHD_create_response_from_buffer_with_free_callback_cls(
+            lrd_blob_len(img), (void *)lrd_blob_data(img), release_blob,
+            img);
+    if (resp == NULL) {
+        lrd_blob_release(img);
+        return MHD_NO;
+    }
+    char secs[32], rays[24], samples[24], disp[96];
+    snprintf(secs, sizeof secs, "%.6f", st->seconds);
+    snprintf(rays, sizeof rays, "%llu", (unsigned long long)st->rays);
+    snprintf(samples, sizeof samples, "%llu",
+             (unsigned long long)st->samples);
+    snprintf(disp, sizeof disp, "inline; filename=\"%s.%s\"", r->job_id,
+             fmt == LR_FORMAT_PNG ? "png" : "exr");
+    const char *hdrs[] = {"X-Lensray-Render-Seconds", secs,
+                          "X-Lensray-Rays",           rays,
+                          "X-Lensray-Samples",        samples,
+                          "Content-Disposition",      disp,
+                          NULL};
+    return queue(c, r, 200, resp, lrd_blob_len(img),
+                 fmt == LR_FORMAT_PNG ? "image/png" : "image/x-exr", hdrs);
+}
+
+/* ---- early checks -------------------------------------------------------- */
+
+static route_id route_of(const char *url, char id[33], const char **allow)
+{
+    id[0] = '\0';
+    if (strcmp(url, "/healthz") == 0) {
+        *allow = "GET, HEAD";
+        return R_HEALTH;
+    }
+    if (strcmp(url, "/metrics") == 0) {
+        *allow = "GET, HEAD";
+        return R_METRICS;
+    }
+    if (strcmp(url, "/v1/scenes") == 0) {
+        *allow = "GET, HEAD";
+        return R_SCENES;
+    }
+    if (strcmp(url, "/v1/render") == 0) {
+        *allow = "POST";
+        return R_RENDER;
+    }
+    if (strcmp(url, "/v1/jobs") == 0) {
+        *allow = "POST";
+        return R_JOBS;
+    }
+    if (strncmp(url, "/v1/jobs/", 9) == 0) {
+        const char *p = url + 9;
+        const char *slash = strchr(p, '/');
+        size_t n = slash ? (size_t)(slash - p) : strlen(p);
+        if (n == 0 || n > 32)
+            return R_NONE;
+        /* An id of the wrong shape is still this route: it gives "no such
+         * job" rather than "no such route". */
+        memcpy(id, p, n);
+        id[n] = '\0';
+        if (slash == NULL) {
+            *allow = "GET, HEAD, DELETE";
+            return R_JOB;
+        }
+        if (strcmp(slash, "/image") == 0) {
+            *allow = "GET, HEAD";
+            return R_JOB_IMAGE;
+        }
+    }
+    return R_NONE;
+}
+
+static int method_allowed(const char *allow, const char *method)
+{
+    size_t n = strlen(method);
+    for (const char *p = allow; *p != '\0';) {
+        const char *comma = strchr(p, ',');
+        size_t len = comma ? (size_t)(comma - p) : strlen(p);
+        if (len == n && strncmp(p, method, n) == 0)
+            return 1;
+        p += len;
+        while (*p == ',' || *p == ' ')
+            p++;
+    }
+    return 0;
+}
+
+static int token_ok(struct MHD_Connection *c)
+{
+    if (lrd_cfg.token == NULL)
+        return 1;
+    const char *h = MHD_lookup_connection_value(c, MHD_HEADER_KIND,
+                                                MHD_HTTP_HEADER_AUTHORIZATION);
+    if (h == NULL)
+        return 0;
+    while (*h == ' ')
+        h++;
+    if (strncasecmp(h, "Bearer ", 7) != 0)
+        return 0;
+    h += 7;
+    while (*h == ' ')
+        h++;
+    size_t n = strlen(h);
+    while (n > 0 && (h[n - 1] == ' ' || h[n - 1] == '\t'))
+        n--;
+    return lrd_secret_equal(h, n, lrd_cfg.token, strlen(lrd_cfg.token));
+}
+
+static int json_content_type(struct MHD_Connection *c)
+{
+    const char *ct = MHD_lookup_connection_value(c, MHD_HEADER_KIND,
+                                                 MHD_HTTP_HEADER_CONTENT_TYPE);
+    if (ct == NULL)
+        return 0;
+    while (*ct == ' ')
+        ct++;
+    static const char want[] = "application/json";
+    if (strncasecmp(ct, want, sizeof want - 1) != 0)
+        return 0;
+    char next = ct[sizeof want - 1];
+    return next == '\0' || next == ';' || next == ' ' || next == '\t';
+}
+
+/* The checks that need only the headers.  Returns 1 when a response has
+ * been queued (or the connection must close), 0 to go on. */
+static int early(struct MHD_Connection *c, req *r, const char *url,
+                 enum MHD_Result *result)
+{
+    lrd_err e;
+    const char *allow = NULL;
+    char id[33];
+    r->route = route_of(url, id, &allow);
+    if (r->route == R_JOB || r->route == R_JOB_IMAGE)
+        snprintf(r->job_id, sizeof r->job_id, "%s", id);
+    int get = strcmp(r->method, "GET") == 0 || strcmp(r->method, "HEAD") == 0;
+
+    if (lrd_shutting_down()) {
+        lrd_fail(&e, 503, "shutting_down", NULL,
+                 "the server is shutting down");
+        e.retry_after = 1;
+    } else if (r->route != R_HEALTH && !token_ok(c)) {
+        lrd_fail(&e, 401, "unauthorized", NULL,
+                 "this server needs the header 'Authorization: Bearer "
+                 "TOKEN' with the right token");
+    } else if (r->route == R_NONE) {
+        lrd_fail(&e, 404, "not_found", NULL, "there is no route %s %s",
+                 r->method, r->path);
+    } else if (!method_allowed(allow, r->method)) {
+        lrd_fail(&e, 405, "method_not_allowed", NULL,
+                 "%s does not allow %s (allowed: %s)", r->path, r->method,
+                 allow);
+    } else if (!get && strcmp(r->method, "POST") == 0 &&
+               !json_content_type(c)) {
+        lrd_fail(&e, 415, "unsupported_media_type", NULL,
+                 "the body must be sent with 'Content-Type: "
+                 "application/json'");
+    } else {
+        const char *cl = MHD_lookup_connection_value(
+            c, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_LENGTH);
+        uint64_t n = 0;
+        if (cl != NULL && lrd_parse_u64(cl, 0, &n) == 0 &&
+            n > lrd_cfg.max_body) {
+            lrd_fail(&e, 413, "body_too_large", NULL,
+                     "the body is %llu bytes, more than the limit of %llu "
+                     "(--max-body)",
+                     (unsigned long long)n,
+                     (unsigned long long)lrd_cfg.max_body);
+        } else {
+            return 0;
+        }
+    }
+    if (r->route != R_JOB && r->route != R_JOB_IMAGE)
+        r->job_id[0] = '\0';
+    r->answered = 1;
+    *result = send_error(c, r, &e, e.http == 405 ? allow : NULL);
+    return 1;
+}
+
+/* ---- handlers ------------------------------------------------------------ */
+
+/* True if the peer has closed its side of the connection. */
+static int client_gone(int fd)
+{
+    if (fd < 0)
+        return 0;
+    struct pollfd p = {.fd = fd, .events = POLLIN | POLLRDHUP};
+    if (poll(&p, 1, 0) <= 0)
+        return 0;
+    if (p.revents & (POLLRDHUP | POLLHUP | POLLERR | POLLNVAL))
+        return 1;
+    if (p.revents & POLLIN) {
+        /* Readable: either a pipelined request (still there) or EOF. */
+        char b;
+        ssize_t n = recv(fd, &b, 1, MSG_PEEK | MSG_DONTWAIT);
+        return n == 0;
+    }
+    return 0;
+}
+
+static enum MHD_Result do_render(struct MHD_Connection *c, req *r)
+{
+    lrd_err e;
+    lrd_job_spec spec;
+    if (lrd_api_parse_job(r->body, r->len, &spec, &e) != 0)
+        return send_error(c, r, &e, NULL);
+    lrd_job *job = NULL;
+    if (lrd_jobs_submit(&spec, 1, &job, &e) != 0)
+        return send_error(c, r, &e, NULL);
+    snprintf(r->job_id, sizeof r->job_id, "%s", lrd_job_id(job));
+
+    const union MHD_ConnectionInfo *ci =
+        MHD_get_connection_info(c, MHD_CONNECTION_INFO_CONNECTION_FD);
+    int fd = ci != NULL ? ci->connect_fd : -1;
+    /* No idle timeout while the render runs: the client is waiting, not
+     * idle.  Setting the timeout again afterwards restarts its clock (MHD
+     * does so when the previous value was zero), so a render longer than
+     * --connection-timeout does not get its connection closed before the
+     * image goes out. */
+    MHD_set_connection_option(c, MHD_CONNECTION_OPTION_TIMEOUT, 0u);
+    while (!lrd_job_wait(job, 0.1)) {
+        if (client_gone(fd)) {
+            lrd_job_cancel(job, LRD_CANCEL_DISCONNECT);
+            lrd_job_release(job);
+            r->status = 499;
+            return MHD_NO; /* closes the connection */
+        }
+    }
+    MHD_set_connection_option(c, MHD_CONNECTION_OPTION_TIMEOUT,
+                              (unsigned)lrd_cfg.conn_timeout);
+    lrd_job_result res;
+    lrd_job_result_get(job, &res);
+    lrd_job_release(job);
+    if (res.state == LRD_DONE && res.image != NULL)
+        return send_image(c, r, res.image, res.format, &res.stats);
+    lrd_blob_release(res.image);
+    return send_error(c, r, &res.err, NULL);
+}
+
+static enum MHD_Result do_submit(struct MHD_Connection *c, req *r)
+{
+    lrd_err e;
+    lrd_job_spec spec;
+    if (lrd_api_parse_job(r->body, r->len, &spec, &e) != 0)
+        return send_error(c, r, &e, NULL);
+    lrd_job *job = NULL;
+    if (lrd_jobs_submit(&spec, 0, &job, &e) != 0)
+        return send_error(c, r, &e, NULL);
+    snprintf(r->job_id, sizeof r->job_id, "%s", lrd_job_id(job));
+    lrd_job_release(job);
+    char href[48];
+    snprintf(href, sizeof href, "/v1/jobs/%s", r->job_id);
+    cJSON *o = cJSON_CreateObject();
+    cJSON_AddStringToObject(o, "id", r->job_id);
+    cJSON_AddStringToObject(o, "status", "queued");
+    cJSON_AddStringToObject(o, "href", href);
+    char *json = lrd_json_print(o);
+    cJSON_Delete(o);
+    const char *hdrs[] = {MHD_HTTP_HEADER_LOCATION, href, NULL};
+    return send_json(c, r, 202, json, hdrs);
+}
+
+static lrd_job *find_or_404(struct MHD_Connection *c, req *r,
+                            enum MHD_Result *result)
+{
+    lrd_job *j = lrd_is_job_id(r->job_id) ? lrd_jobs_find(r->job_id) : NULL;
+    if (j == NULL) {
+        lrd_err e;
+        lrd_fail(&e, 404, "job_not_found", NULL,
+                 "there is no job \"%s\" (finished jobs are kept for %g "
+                 "seconds)",
+                 r->job_id, lrd_cfg.job_ttl);
+        r->job_id[0] = '\0';
+        *result = send_error(c, r, &e, NULL);
+    }
+    return j;
+}
+
+static enum MHD_Result do_job(struct MHD_Connection *c, req *r)
+{
+    enum MHD_Result result = MHD_NO;
+    lrd_job *j = find_or_404(c, r, &result);
+    if (j == NULL)
+        return result;
+    int status = 200;
+    if (strcmp(r->method, "DELETE") == 0) {
+        lrd_job_result before;
+        lrd_job_result_get(j, &before);
+        lrd_blob_release(before.image);
+        if (before.state >= LRD_DONE) {
+            /* Deleting a finished job frees its image at once. */
+            char *json = lrd_job_status_json(j);
+            lrd_job_forget(j);
+            lrd_job_release(j);
+            return send_json(c, r, 200, json, NULL);
+        }
+        /* A running render stops at its next tile; waiting a moment lets
+         * the answer say "cancelled" rather than "running". */
+        if (lrd_job_cancel(j, LRD_CANCEL_USER) == LRD_RUNNING &&
+            !lrd_job_wait(j, 5.0))
+            status = 202;
+    }
+    char *json = lrd_job_status_json(j);
+    lrd_job_release(j);
+    return send_json(c, r, status, json, NULL);
+}
+
+static enum MHD_Result do_job_image(struct MHD_Connection *c, req *r)
+{
+    enum MHD_Result result = MHD_NO;
+    lrd_job *j = find_or_404(c, r, &result);
+    if (j == NULL)
+        return result;
+    lrd_job_result res;
+    lrd_job_result_get(j, &res);
+    lrd_job_release(j);
+    if (res.state == LRD_DONE && res.image != NULL)
+        return send_image(c, r, res.image, res.format, &res.stats);
+    lrd_blob_release(res.image);
+    lrd_err e;
+    if (res.state == LRD_FAILED)
+        lrd_fail(&e, 409, "job_failed", res.err.path,
+                 "the job failed, so it has no image: %s", res.err.message);
+    else if (res.state == LRD_CANCELLED)
+        lrd_fail(&e, 409, "job_cancelled", NULL,
+                 "the job was cancelled, so it has no image");
+    else {
+        lrd_fail(&e, 409, "not_ready",
+                 NULL, "the job is %s; its image is not ready yet",
+                 lrd_state_name(res.state));
+        e.retry_after = 1;
+    }
+    return send_error(c, r, &e, NULL);
+}
+
+static enum MHD_Result dispatch(struct MHD_Connection *c, req *r)
+{
+    lrd_err e;
+    if (r->too_large) {
+        lrd_fail(&e, 413, "body_too_large", NULL,
+                 "the body is more than the limit of %llu bytes "
+                 "(--max-body)",
+                 (unsigned long long)lrd_cfg.max_body);
+        return send_error(c, r, &e, NULL);
+    }
+    switch (r->route) {
+    case R_HEALTH: {
+        lrd_jobs_stats js;
+        lrd_jobs_stats_get(&js);
+        char *json = malloc(160);
+        if (json == NULL)
+            return MHD_NO;
+        snprintf(json, 160,
+                 "{\"status\":\"ok\",\"version\":\"%s\",\"workers\":%ld,"
+                 "\"running\":%ld,\"queue_depth\":%ld}",
+                 LRD_VERSION, lrd_cfg.workers, js.running, js.queue_depth);
+        return send_json(c, r, 200, json, NULL);
+    }
+    case R_METRICS: {
+        size_t len = 0;
+        char *text = lrd_metrics_text(&len);
+        return send_text(c, r, 200, "text/plain; version=0.0.4; charset=utf-8",
+                         text, len, NULL);
+    }
+    case R_SCENES: {
+        char *json = lrd_api_scenes_json(&e);
+        if (json == NULL)
+            return send_error(c, r, &e, NULL);
+        return send_json(c, r, 200, json, NULL);
+    }
+    case R_RENDER:
+        return do_render(c, r);
+    case R_JOBS:
+        return do_submit(c, r);
+    case R_JOB:
+        return do_job(c, r);
+    case R_JOB_IMAGE:
+        return do_job_image(c, r);
+    case R_NONE:
+    default:
+        lrd_fail(&e, 404, "not_found", NULL, "there is no route %s",
+                 r->path);
+        return send_error(c, r, &e, NULL);
+    }
+}
+
+/* Copies a URL for the log with spaces, quotes and control characters
+ * escaped, so that one request is always one parseable line. */
+static void log_path(char *out, size_t n, const char *url)
+{
+    static const char hex[] = "0123456789ABCDEF";
+    size_t o = 0;
+    for (const unsigned char *p = (const unsigned char *)url;
+         *p != '\0' && o + 4 < n; p++) {
+        if (*p <= ' ' || *p >= 127 || *p == '"' || *p == '%') {
+            out[o++] = '%';
+            out[o++] = hex[*p >> 4];
+            out[o++] = hex[*p & 15];
+        } else {
+            out[o++] = (char)*p;
+        }
+    }
+    out[o] = '\0';
+}
+
+static enum MHD_Result on_request(void *cls, struct MHD_Connection *c,
+                                  const char *url, const char *method,
+                                  const char *version,
+                                  const char *upload_data,
+                                  size_t *upload_data_size, void **con_cls)
+{
+    (void)cls;
+    (void)version;
+    req *r = *con_cls;
+    if (r == NULL) {
+        r = calloc(1, sizeof *r);
+        if (r == NULL)
+            return MHD_NO;
+        *con_cls = r;
+        atomic_fetch_add(&http.in_flight, 1);
+        r->t0 = lrd_monotonic();
+        snprintf(r->method, sizeof r->method, "%s", method);
+        log_path(r->path, sizeof r->path, url);
+        enum MHD_Result result = MHD_YES;
+        if (early(c, r, url, &result))
+            return result;
+        return MHD_YES;
+    }
+    if (r->answered) {
+        *upload_data_size = 0;
+        return MHD_YES;
+    }
+    if (*upload_data_size > 0) {
+        size_t n = *upload_data_size;
+        *upload_data_size = 0;
+        if (r->too_large || (r->route != R_RENDER && r->route != R_JOBS)) {
+            /* Dropped, but not forever: a client that keeps streaming
+             * long after the limit loses its connection. */
+            r->dropped += n;
+            return r->dropped > 4 * lrd_cfg.max_body + (1u << 20) ? MHD_NO
+                                                                  : MHD_YES;
+        }
+        if (r->len + n > lrd_cfg.max_body) {
+            r->too_large = 1;
+            free(r->body);
+            r->body = NULL;
+            r->len = r->cap = 0;
+            r->dropped = n;
+            return MHD_YES;
+        }
+        if (r->len + n + 1 > r->cap) {
+            size_t cap = r->cap ? r->cap : 4096;
+            while (cap < r->len + n + 1)
+                cap *= 2;
+            if (cap > lrd_cfg.max_body + 1)
+                cap = lrd_cfg.max_body + 1;
+            char *grown = realloc(r->body, cap);
+            if (grown == NULL)
+                return MHD_NO;
+            r->body = grown;
+            r->cap = cap;
+        }
+        memcpy(r->body + r->len, upload_data, n);
+        r->len += n;
+        r->body[r->len] = '\0';
+        return MHD_YES;
+    }
+    return dispatch(c, r);
+}
+
+static void on_completed(void *cls, struct MHD_Connection *c, void **con_cls,
+                         enum MHD_RequestTerminationCode toe)
+{
+    (void)cls;
+    (void)c;
+    req *r = *con_cls;
+    if (r == NULL)
+        return;
+    *con_cls = NULL;
+    /* A request that got no response was abandoned by its client (or cut
+     * by the shutdown); it is logged as 499, as nginx does. */
+    int status = r->status != 0 ? r->status : 499;
+    double ms = (lrd_monotonic() - r->t0) * 1000.0;
+    char line[512];
+    int n = snprintf(line, sizeof line,
+                     "lensrayd: %s %s %d %llu %.1fms %s%s\n", r->method,
+                     r->path, status, (unsigned long long)r->bytes, ms,
+                     r->job_id[0] ? r->job_id : "-",
+                     toe == MHD_REQUEST_TERMINATED_COMPLETED_OK
+                         ? ""
+                         : " (connection closed early)");
+    /* One write(2) per line keeps lines whole when threads log at once. */
+    if (n > 0) {
+        size_t len = (size_t)n < sizeof line ? (size_t)n : sizeof line - 1;
+        ssize_t w = write(STDERR_FILENO, line, len);
+        (void)w;
+    }
+    lrd_metrics_request(status);
+    free(r->body);
+    free(r);
+    atomic_fetch_sub(&http.in_flight, 1);
+}
+
+/* ---- lifecycle ----------------------------------------------------------- */
+
+int lrd_http_start(void)
+{
+    struct addrinfo hints, *ai = NULL;
+    memset(&hints, 0, sizeof hints);
+    hints.ai_family = AF_UNSPEC;
+    hints.ai_socktype = SOCK_STREAM;
+    hints.ai_flags = AI_PASSIVE;
+    int gai = getaddrinfo(lrd_cfg.bind, NULL, &hints, &ai);
+    if (gai != 0 || ai == NULL) {
+        fprintf(stderr, "lensrayd: cannot use --bind %s: %s\n", lrd_cfg.bind,
+                gai_strerror(gai));
+        return -1;
+    }
+    struct sockaddr_storage sa;
+    memset(&sa, 0, sizeof sa);
+    memcpy(&sa, ai->ai_addr, ai->ai_addrlen);
+    int v6 = ai->ai_family == AF_INET6;
+    freeaddrinfo(ai);
+    if (v6)
+        ((struct sockaddr_in6 *)&sa)->sin6_port = htons((uint16_t)lrd_cfg.port);
+    else
+        ((struct sockaddr_in *)&sa)->sin_port = htons((uint16_t)lrd_cfg.port);
+
+    unsigned flags = MHD_USE_THREAD_PER_CONNECTION |
+                     MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_ITC |
+                     MHD_USE_ERROR_LOG | (v6 ? MHD_USE_IPv6 : 0);
+    http.d = MHD_start_daemon(
+        flags, (uint16_t)lrd_cfg.port, NULL, NULL, on_request, NULL,
+        MHD_OPTION_SOCK_ADDR, (struct sockaddr *)&sa,
+        MHD_OPTION_CONNECTION_LIMIT, (unsigned)lrd_cfg.max_connections,
+        MHD_OPTION_PER_IP_CONNECTION_LIMIT, (unsigned)lrd_cfg.max_per_ip,
+        MHD_OPTION_CONNECTION_MEMORY_LIMIT, (size_t)lrd_cfg.conn_memory,
+        MHD_OPTION_CONNECTION_TIMEOUT, (unsigned)lrd_cfg.conn_timeout,
+        MHD_OPTION_NOTIFY_COMPLETED, on_completed, NULL,
+        MHD_OPTION_LISTENING_ADDRESS_REUSE, 1u, MHD_OPTION_END);
+    if (http.d == NULL) {
+        fprintf(stderr, "lensrayd: cannot listen on %s port %ld (in use, or "
+                        "not an address of this host?)\n",
+                lrd_cfg.bind, lrd_cfg.port);
+        return -1;
+    }
+    const union MHD_DaemonInfo *di =
+        MHD_get_daemon_info(http.d, MHD_DAEMON_INFO_BIND_PORT);
+    unsigned port = di != NULL ? di->port : (unsigned)lrd_cfg.port;
+    char host[INET6_ADDRSTRLEN] = "";
+    if (v6)
+        inet_ntop(AF_INET6, &((struct sockaddr_in6 *)&sa)->sin6_addr, host,
+                  sizeof host);
+    else
+        inet_ntop(AF_INET, &((struct sockaddr_in *)&sa)->sin_addr, host,
+                  sizeof host);
+    fprintf(stderr,
+            "lensrayd: listening on http://%s%s%s:%u (scenes %s, %ld "
+            "worker%s)\n",
+            v6 ? "[" : "", host, v6 ? "]" : "", port, lrd_cfg.scenes_dir,
+            lrd_cfg.workers, lrd_cfg.workers == 1 ? "" : "s");
+    return 0;
+}
+
+void lrd_http_quiesce(void)
+{
+    atomic_store(&http.shutting_down, 1);
+    if (http.d != NULL)
+        http.quiesced_fd = MHD_quiesce_daemon(http.d);
+}
+
+void lrd_http_stop(void)
+{
+    if (http.d != NULL)
+        MHD_stop_daemon(http.d);
+    http.d = NULL;
+    /* The listening socket is ours to close once MHD has stopped. */
+    if (http.quiesced_fd != MHD_INVALID_SOCKET)
+        close(http.quiesced_fd);
+    http.quiesced_fd = MHD_INVALID_SOCKET;
+}

@@ -1,0 +1,752 @@
+/*
+ * jobs.c: the job table, the queue and the worker pool.
+ *
+ * Every job, synchronous or not, goes through one FIFO queue to a fixed
+ * pool of worker threads, so HTTP threads never render and a slow or
+ * vanished client never holds a worker: a worker only writes the encoded
+ * image into the job and moves on.
+ *
+ * Ownership and locking: one mutex, jobs.mu, guards the table, the queue,
+ * every job's mutable fields and every job's reference count.  A job is
+ * referenced by the table while it is listed, by the worker running it and
+ * by each HTTP request holding it; it is freed by whoever drops the last
+ * reference, always after unlocking (freeing releases a scene, which takes
+ * the scene cache's lock).  The job's spec (scene, camera, settings,
+ * output) is immutable once queued and is read without the lock.
+ *
+ * Retention: asynchronous jobs stay in the table when finished, until
+ * lrd_cfg.job_ttl seconds have passed or lrd_cfg.max_finished newer
+ * finished jobs (or lrd_cfg.max_retained image bytes) push them out.
+ * Synchronous jobs leave the table as soon as they finish: their image
+ * goes to the waiting response and nowhere else.
+ */
+#include "lensrayd.h"
+
+#include <math.h>
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+struct lrd_blob {
+    atomic_int refs;
+    void *data; /* from lr_image_encode: released with lr_free */
+    size_t len;
+};
+
+struct lrd_job {
+    char id[33];
+    int refs;
+    int in_table;
+    int sync;
+    lrd_state state;
+    lrd_cancel_reason cancel_reason;
+    /* Polled by lr_render between tiles; written under jobs.mu. */
+    volatile int cancel;
+    lrd_job_spec spec; /* owns a scene reference */
+    double created_wall, started_wall, finished_wall;
+    double created, started, finished; /* monotonic */
+    double encode_seconds;
+    uint64_t done_px, total_px;
+    lrd_blob *image;
+    lr_render_stats stats;
+    lrd_err err;
+    struct lrd_job *prev, *next; /* the table, oldest first */
+    struct lrd_job *qnext;       /* the queue, or the free chain */
+};
+
+static struct {
+    pthread_mutex_t mu;
+    pthread_cond_t work_cv; /* a job was queued, or stop was set */
+    pthread_cond_t done_cv; /* some job finished */
+    lrd_job *head, *tail;
+    lrd_job *qhead, *qtail;
+    long queued, running;
+    long in_state[LRD_N_STATES];
+    uint64_t finished[LRD_N_STATES];
+    uint64_t rays, samples, pixels, rejected_full;
+    double render_seconds;
+    double avg_job_seconds; /* for Retry-After */
+    pthread_t *threads;
+    long n_threads;
+    int stop, shutting_down;
+} jobs = {.mu = PTHREAD_MUTEX_INITIALIZER};
+
+const char *lrd_state_name(lrd_state s)
+{
+    static const char *const names[] = {"queued", "running", "done",
+                                        "failed", "cancelled"};
+    return (unsigned)s < LRD_N_STATES ? names[s] : "unknown";
+}
+
+/* ---- blobs --------------------------------------------------------------- */
+
+const void *lrd_blob_data(const lrd_blob *b) { return b->data; }
+size_t lrd_blob_len(const lrd_blob *b) { return b->len; }
+
+lrd_blob *lrd_blob_ref(lrd_blob *b)
+{
+    atomic_fetch_add(&b->refs, 1);
+    return b;
+}
+
+void lrd_blob_release(lrd_blob *b)
+{
+    if (b != NULL && atomic_fetch_sub(&b->refs, 1) == 1) {
+        lr_free(b->data);
+        free(b);
+    }
+}
+
+/* ---- the table ----------------------------------------------------------- */
+
+static void job_free(lrd_job *j)
+{
+    lrd_job_spec_clear(&j->spec);
+    lrd_blob_release(j->image);
+    free(j);
+}
+
+static void free_chain(lrd_job *j)
+{
+    while (j != NULL) {
+        lrd_job *next = j->qnext;
+        job_free(j);
+        j = next;
+    }
+}
+
+/* Called with jobs.mu held: takes `j` out of the table and drops the
+ * table's reference; a job whose last reference that was is pushed on
+ * *chain for the caller to free after unlocking. */
+static void unlink_locked(lrd_job *j, lrd_job **chain)
+{
+    if (!j->in_table)
+        return;
+    if (j->prev != NULL)
+        j->prev->next = j->next;
+    else
+        jobs.head = j->next;
+    if (j->next != NULL)
+        j->next->prev = j->prev;
+    else
+        jobs.tail = j->prev;
+    j->prev = j->next = NULL;
+    j->in_table = 0;
+    jobs.in_state[j->state]--;
+    if (--j->refs == 0) {
+        j->qnext = *chain;
+        *chain = j;
+    }
+}
+
+static void set_state_locked(lrd_job *j, lrd_state s)
+{
+    if (j->in_table) {
+        jobs.in_state[j->state]--;
+        jobs.in_state[s]++;
+    }
+    j->state = s;
+}
+
+/* Called with jobs.mu held: drops finished asynchronous jobs that are too
+ * old, too many or hold too many image bytes. */
+static void prune_locked(lrd_job **chain)
+{
+    double now = lrd_monotonic();
+    long n_finished = 0;
+    uint64_t bytes = 0;
+    for (lrd_job *j = jobs.head; j != NULL;) {
+        lrd_job *next = j->next;
+        if (j->state >= LRD_DONE) {
+            if (now - j->finished > lrd_cfg.job_ttl) {
+                unlink_locked(j, chain);
+            } else {
+                n_finished++;
+                bytes += j->image ? j->image->len : 0;
+            }
+        }
+        j = next;
+    }
+    /* The newest finished job is kept whatever its size, so that a big
+     * result can always be fetched once. */
+    while (n_finished > lrd_cfg.max_finished ||
+           (bytes > lrd_cfg.max_retained && n_finished > 1)) {
+        lrd_job *oldest = NULL;
+        for (lrd_job *j = jobs.head; j != NULL; j = j->next)
+            if (j->state >= LRD_DONE &&
+                (oldest == NULL || j->finished < oldest->finished))
+                oldest = j;
+        if (oldest == NULL)
+            break;
+        n_finished--;
+        bytes -= oldest->image ? oldest->image->len : 0;
+        unlink_locked(oldest, chain);
+    }
+}
+
+/* Called with jobs.mu held: the job reached a final state. */
+static void finish_locked(lrd_job *j, lrd_state s, lrd_job **chain)
+{
+    set_state_locked(j, s);
+    j->finished = lrd_monotonic();
+    j->finished_wall = lrd_wall();
+    if (j->started == 0) {
+        j->started = j->finished;
+        j->started_wall = j->finished_wall;
+    }
+    jobs.finished[s]++;
+    if (s == LRD_DONE) {
+        jobs.rays += j->stats.rays;
+        jobs.samples += j->stats.samples;
+        jobs.pixels += j->stats.pixels;
+    }
+    if (j->sync)
+        unlink_locked(j, chain);
+    pthread_cond_broadcast(&jobs.done_cv);
+}
+
+static void cancel_error_locked(lrd_job *j, lrd_job **chain)
+{
+    switch (j->cancel_reason) {
+    case LRD_CANCEL_TIMEOUT:
+        lrd_fail(&j->err, 504, "timeout", NULL,
+                 "the render took longer than the limit of %g seconds "
+                 "(--max-render-seconds)",
+                 lrd_cfg.max_render_seconds);
+        finish_locked(j, LRD_FAILED, chain);
+        return;
+    case LRD_CANCEL_SHUTDOWN:
+        lrd_fail(&j->err, 503, "shutting_down", NULL,
+                 "the job was cancelled because the server is shutting "
+                 "down");
+        j->err.retry_after = 1;
+        break;
+    case LRD_CANCEL_DISCONNECT:
+        lrd_fail(&j->err, 499, "client_disconnected", NULL,
+                 "the client of the synchronous render disconnected");
+        break;
+    case LRD_CANCEL_USER:
+    case LRD_CANCEL_NONE:
+    default:
+        lrd_fail(&j->err, 409, "cancelled", NULL,
+                 "the job was cancelled by DELETE /v1/jobs/%s", j->id);
+        break;
+    }
+    finish_locked(j, LRD_CANCELLED, chain);
+}
+
+/* ---- the workers --------------------------------------------------------- */
+
+/* Called by lr_render after each tile, serialised by the library.  It is
+ * also where the time limit is enforced: the library polls the cancel
+ * flag between tiles, so checking the clock after each tile stops an
+ * overlong render as early as any watchdog could. */
+static void on_progress(void *user, uint64_t done, uint64_t total)
+{
+    lrd_job *j = user;
+    pthread_mutex_lock(&jobs.mu);
+    j->done_px = done;
+    j->total_px = total;
+    if (!j->cancel && lrd_cfg.max_render_seconds > 0 &&
+        lrd_monotonic() - j->started > lrd_cfg.max_render_seconds) {
+        j->cancel_reason = LRD_CANCEL_TIMEOUT;
+        j->cancel = 1;
+    }
+    pthread_mutex_unlock(&jobs.mu);
+}
+
+/* Renders and encodes one job, outside the lock; fills the job's result
+ * fields, which nobody else reads until the state says it finished. */
+static lrd_state run(lrd_job *j)
+{
+    const lrd_job_spec *sp = &j->spec;
+    lr_render_settings rs = sp->rs;
+    rs.progress = on_progress;
+    rs.progress_user = j;
+    rs.cancel = &j->cancel;
+    lr_image *img = NULL;
+    lr_render_stats stats;
+    lr_error le;
+    memset(&stats, 0, sizeof stats);
+    lr_status st = lr_render(lrd_scene_get(sp->scene), &sp->cam, &rs, &img,
+                             &stats, &le);
+    if (st == LR_ERR_CANCELLED)
+        return LRD_CANCELLED;
+    if (st != LR_OK) {
+        lrd_fail_lr(&j->err, &le, NULL, 0);
+        return LRD_FAILED;
+    }
+    j->stats = stats;
+    double t0 = lrd_monotonic();
+    void *buf = NULL;
+    size_t len = 0;
+    st = lr_image_encode(img, sp->format, &sp->out, &buf, &len, &le);
+    lr_image_free(img);
+    j->encode_seconds = lrd_monotonic() - t0;
+    if (st != LR_OK) {
+        lrd_fail_lr(&j->err, &le, "output", 0);
+        return LRD_FAILED;
+    }
+    if (len > lrd_cfg.max_output) {
+        lr_free(buf);
+        lrd_fail(&j->err, 413, "image_too_large", "output",
+                 "the encoded image is %zu bytes, more than the limit of "
+                 "%llu (--max-output-bytes)",
+                 len, (unsigned long long)lrd_cfg.max_output);
+        return LRD_FAILED;
+    }
+    lrd_blob *b = malloc(sizeof *b);
+    if (b == NULL) {
+        lr_free(buf);
+        lrd_fail(&j->err, 503, "out_of_memory", NULL, "out of memory");
+        return LRD_FAILED;
+    }
+    atomic_init(&b->refs, 1);
+    b->data = buf;
+    b->len = len;
+    j->image = b;
+    return LRD_DONE;
+}
+
+static void *worker_main(void *arg)
+{
+    (void)arg;
+    pthread_mutex_lock(&jobs.mu);
+    for (;;) {
+        while (!jobs.stop && jobs.qhead == NULL)
+            pthread_cond_wait(&jobs.work_cv, &jobs.mu);
+        if (jobs.qhead == NULL)
+            break; /* stopping, and nothing left */
+        lrd_job *j = jobs.qhead;
+        jobs.qhead = j->qnext;
+        if (jobs.qhead == NULL)
+            jobs.qtail = NULL;
+        j->qnext = NULL;
+        jobs.queued--;
+        jobs.running++;
+        j->refs++; /* the worker's */
+        set_state_locked(j, LRD_RUNNING);
+        j->started = lrd_monotonic();
+        j->started_wall = lrd_wall();
+        pthread_mutex_unlock(&jobs.mu);
+
+        lrd_state result = run(j);
+
+        lrd_job *chain = NULL;
+        pthread_mutex_lock(&jobs.mu);
+        jobs.running--;
+        double took = lrd_monotonic() - j->started;
+        if (result == LRD_DONE) {
+            jobs.render_seconds += j->stats.seconds;
+            jobs.avg_job_seconds = jobs.avg_job_seconds > 0
+                                       ? 0.8 * jobs.avg_job_seconds + 0.2 * took
+                                       : took;
+            finish_locked(j, LRD_DONE, &chain);
+        } else if (result == LRD_CANCELLED) {
+            cancel_error_locked(j, &chain);
+        } else {
+            finish_locked(j, LRD_FAILED, &chain);
+        }
+        prune_locked(&chain);
+        if (--j->refs == 0) {
+            j->qnext = chain;
+            chain = j;
+        }
+        pthread_mutex_unlock(&jobs.mu);
+        free_chain(chain);
+        pthread_mutex_lock(&jobs.mu);
+    }
+    pthread_mutex_unlock(&jobs.mu);
+    return NULL;
+}
+
+int lrd_jobs_start(void)
+{
+    pthread_condattr_t ca;
+    pthread_condattr_init(&ca);
+    pthread_condattr_setclock(&ca, CLOCK_MONOTONIC);
+    pthread_cond_init(&jobs.work_cv, NULL);
+    pthread_cond_init(&jobs.done_cv, &ca);
+    pthread_condattr_destroy(&ca);
+    jobs.threads = calloc((size_t)lrd_cfg.workers, sizeof *jobs.threads);
+    if (jobs.threads == NULL)
+        return -1;
+    for (long i = 0; i < lrd_cfg.workers; i++) {
+        if (pthread_create(&jobs.threads[i], NULL, worker_main, NULL) != 0) {
+            fprintf(stderr, "lensrayd: cannot start worker thread %ld\n",
+                    i + 1);
+            lrd_jobs_stop();
+            return -1;
+        }
+        jobs.n_threads++;
+    }
+    return 0;
+}
+
+/* ---- the API ------------------------------------------------------------- */
+
+int lrd_jobs_submit(lrd_job_spec *spec, int sync, lrd_job **out, lrd_err *e)
+{
+    *out = NULL;
+    lrd_job *j = calloc(1, sizeof *j);
+    if (j == NULL) {
+        lrd_job_spec_clear(spec);
+        return lrd_fail(e, 503, "out_of_memory", NULL, "out of memory");
+    }
+    if (lrd_random_id(j->id) != 0) {
+        free(j);
+        lrd_job_spec_clear(spec);
+        return lrd_fail(e, 500, "internal", NULL,
+                        "no random numbers for a job id");
+    }
+    j->spec = *spec;
+    memset(spec, 0, sizeof *spec); /* the scene reference moved */
+    j->sync = sync;
+    j->created = lrd_monotonic();
+    j->created_wall = lrd_wall();
+    j->total_px = (uint64_t)j->spec.width * (uint64_t)j->spec.height;
+
+    lrd_job *chain = NULL;
+    pthread_mutex_lock(&jobs.mu);
+    int rc = 0;
+    if (jobs.shutting_down) {
+        rc = lrd_fail(e, 503, "shutting_down", NULL,
+                      "the server is shutting down");
+        e->retry_after = 1;
+    } else if (jobs.queued + jobs.running >=
+               lrd_cfg.workers + lrd_cfg.queue) {
+        jobs.rejected_full++;
+        double wait = jobs.avg_job_seconds * (double)(jobs.queued + 1) /
+                      (double)lrd_cfg.workers;
+        int secs = (int)ceil(wait);
+        secs = secs < 1 ? 1 : secs > 3600 ? 3600 : secs;
+        rc = lrd_fail(e, 429, "queue_full", NULL,
+                      "the queue is full: %ld jobs waiting and %ld running "
+                      "(--queue %ld, --workers %ld); retry later",
+                      jobs.queued, jobs.running, lrd_cfg.queue,
+                      lrd_cfg.workers);
+        e->retry_after = secs;
+    } else {
+        j->refs = 2; /* the table's and the caller's */
+        j->in_table = 1;
+        j->state = LRD_QUEUED;
+        jobs.in_state[LRD_QUEUED]++;
+        j->prev = jobs.tail;
+        if (jobs.tail != NULL)
+            jobs.tail->next = j;
+        else
+            jobs.head = j;
+        jobs.tail = j;
+        if (jobs.qtail != NULL)
+            jobs.qtail->qnext = j;
+        else
+            jobs.qhead = j;
+        jobs.qtail = j;
+        jobs.queued++;
+        pthread_cond_signal(&jobs.work_cv);
+        prune_locked(&chain);
+        *out = j;
+    }
+    pthread_mutex_unlock(&jobs.mu);
+    free_chain(chain);
+    if (rc != 0)
+        job_free(j);
+    return rc;
+}
+
+lrd_job *lrd_jobs_find(const char *id)
+{
+    lrd_job *chain = NULL, *found = NULL;
+    pthread_mutex_lock(&jobs.mu);
+    prune_locked(&chain);
+    for (lrd_job *j = jobs.head; j != NULL; j = j->next)
+        if (strcmp(j->id, id) == 0) {
+            j->refs++;
+            found = j;
+            break;
+        }
+    pthread_mutex_unlock(&jobs.mu);
+    free_chain(chain);
+    return found;
+}
+
+void lrd_job_release(lrd_job *j)
+{
+    if (j == NULL)
+        return;
+    pthread_mutex_lock(&jobs.mu);
+    int last = --j->refs == 0;
+    pthread_mutex_unlock(&jobs.mu);
+    if (last)
+        job_free(j);
+}
+
+const char *lrd_job_id(const lrd_job *j) { return j->id; }
+
+int lrd_job_wait(lrd_job *j, double seconds)
+{
+    struct timespec until;
+    clock_gettime(CLOCK_MONOTONIC, &until);
+    double whole = floor(seconds);
+    until.tv_sec += (time_t)whole;
+    until.tv_nsec += (long)((seconds - whole) * 1e9);
+    if (until.tv_nsec >= 1000000000L) {
+        until.tv_sec++;
+        until.tv_nsec -= 1000000000L;
+    }
+    pthread_mutex_lock(&jobs.mu);
+    while (j->state < LRD_DONE) {
+        if (pthread_cond_timedwait(&jobs.done_cv, &jobs.mu, &until) != 0)
+            break;
+    }
+    int finished = j->state >= LRD_DONE;
+    pthread_mutex_unlock(&jobs.mu);
+    return finished;
+}
+
+lrd_state lrd_job_cancel(lrd_job *j, lrd_cancel_reason why)
+{
+    lrd_job *chain = NULL;
+    pthread_mutex_lock(&jobs.mu);
+    if (j->state == LRD_QUEUED) {
+        lrd_job **pp = &jobs.qhead;
+        lrd_job *prev = NULL;
+        while (*pp != NULL && *pp != j) {
+            prev = *pp;
+            pp = &(*pp)->qnext;
+        }
+        if (*pp == j) {
+            *pp = j->qnext;
+            if (jobs.qtail == j)
+                jobs.qtail = prev;
+            j->qnext = NULL;
+            jobs.queued--;
+        }
+        j->cancel_reason = why;
+        cancel_error_locked(j, &chain);
+    } else if (j->state == LRD_RUNNING && !j->cancel) {
+        j->cancel_reason = why;
+        j->cancel = 1;
+    }
+    lrd_state s = j->state;
+    pthread_mutex_unlock(&jobs.mu);
+    free_chain(chain);
+    return s;
+}
+
+int lrd_job_forget(lrd_job *j)
+{
+    lrd_job *chain = NULL;
+    int rc = 0;
+    pthread_mutex_lock(&jobs.mu);
+    if (j->state < LRD_DONE)
+        rc = -1;
+    else
+        unlink_locked(j, &chain);
+    pthread_mutex_unlock(&jobs.mu);
+    free_chain(chain);
+    return rc;
+}
+
+void lrd_job_result_get(lrd_job *j, lrd_job_result *out)
+{
+    memset(out, 0, sizeof *out);
+    pthread_mutex_lock(&jobs.mu);
+    out->state = j->state;
+    out->format = j->spec.format;
+    out->cancel_reason = j->cancel_reason;
+    if (j->state >= LRD_DONE) {
+        out->stats = j->stats;
+        out->err = j->err;
+        if (j->image != NULL)
+            out->image = lrd_blob_ref(j->image);
+    }
+    pthread_mutex_unlock(&jobs.mu);
+}
+
+static void add_time(cJSON *o, const char *key, double wall, int set)
+{
+    if (!set) {
+        cJSON_AddNullToObject(o, key);
+        return;
+    }
+    char iso[32];
+    lrd_iso8601(wall, iso);
+    cJSON_AddStringToObject(o, key, iso);
+}
+
+/* Rounds to microseconds so that the JSON stays short. */
+static double us(double seconds)
+{
+    return round(seconds * 1e6) / 1e6;
+}
+
+char *lrd_job_status_json(lrd_job *j)
+{
+    /* Copy what is needed under the lock, build the JSON without it. */
+    pthread_mutex_lock(&jobs.mu);
+    lrd_job c = *j;
+    size_t image_len = j->image ? j->image->len : 0;
+    int has_image = j->image != NULL;
+    double now = lrd_monotonic();
+    pthread_mutex_unlock(&jobs.mu);
+
+    cJSON *o = cJSON_CreateObject();
+    if (o == NULL)
+        return NULL;
+    cJSON_AddStringToObject(o, "id", c.id);
+    cJSON_AddStringToObject(o, "status", lrd_state_name(c.state));
+    double progress = c.state == LRD_DONE ? 1.0
+                      : c.total_px > 0    ? (double)c.done_px / (double)c.total_px
+                                          : 0.0;
+    cJSON_AddNumberToObject(o, "progress", round(progress * 1e4) / 1e4);
+    if (c.spec.scene_name[0] != '\0')
+        cJSON_AddStringToObject(o, "scene", c.spec.scene_name);
+    else
+        cJSON_AddStringToObject(o, "scene", "(inline)");
+    cJSON_AddNumberToObject(o, "width", c.spec.width);
+    cJSON_AddNumberToObject(o, "height", c.spec.height);
+    cJSON_AddNumberToObject(o, "spp", c.spec.rs.spp);
+    cJSON_AddStringToObject(o, "format",
+                            c.spec.format == LR_FORMAT_PNG ? "png" : "exr");
+    add_time(o, "created_at", c.created_wall, 1);
+    add_time(o, "started_at", c.started_wall, c.state != LRD_QUEUED &&
+                                                  c.started_wall > 0);
+    add_time(o, "finished_at", c.finished_wall, c.state >= LRD_DONE);
+
+    cJSON *t = cJSON_AddObjectToObject(o, "timings");
+    if (t != NULL) {
+        double started = c.state == LRD_QUEUED ? now : c.started;
+        double ended = c.state >= LRD_DONE ? c.finished : now;
+        cJSON_AddNumberToObject(t, "queued_seconds", us(started - c.created));
+        cJSON_AddNumberToObject(t, "render_seconds",
+                                c.state == LRD_QUEUED ? 0.0
+                                : c.state == LRD_DONE
+                                    ? us(c.stats.seconds)
+                                    : us(ended - c.started));
+        cJSON_AddNumberToObject(t, "encode_seconds", us(c.encode_seconds));
+        cJSON_AddNumberToObject(t, "total_seconds", us(ended - c.created));
+    }
+    if (c.state == LRD_DONE) {
+        cJSON *s = cJSON_AddObjectToObject(o, "stats");
+        if (s != NULL) {
+            cJSON_AddNumberToObject(s, "pixels", (double)c.stats.pixels);
+            cJSON_AddNumberToObject(s, "samples", (double)c.stats.samples);
+            cJSON_AddNumberToObject(s, "rays", (double)c.stats.rays);
+            cJSON_AddNumberToObject(s, "nan_samples",
+                                    (double)c.stats.nan_samples);
+            cJSON_AddNumberToObject(s, "threads", c.stats.threads);
+        }
+        if (has_image) {
+            cJSON *im = cJSON_AddObjectToObject(o, "image");
+            char href[64];
+            snprintf(href, sizeof href, "/v1/jobs/%s/image", c.id);
+            if (im != NULL) {
+                cJSON_AddStringToObject(im, "href", href);
+                cJSON_AddStringToObject(im, "content_type",
+                                        c.spec.format == LR_FORMAT_PNG
+                                            ? "image/png"
+                                            : "image/x-exr");
+                cJSON_AddNumberToObject(im, "bytes", (double)image_len);
+            }
+        }
+    }
+    if (c.state == LRD_FAILED || c.state == LRD_CANCELLED) {
+        cJSON *er = cJSON_AddObjectToObject(o, "error");
+        if (er != NULL) {
+            cJSON_AddStringToObject(er, "code", c.err.code);
+            cJSON_AddStringToObject(er, "message", c.err.message);
+            if (c.err.path[0] != '\0')
+                cJSON_AddStringToObject(er, "path", c.err.path);
+        }
+    }
+    char *text = lrd_json_print(o);
+    cJSON_Delete(o);
+    return text;
+}
+
+void lrd_jobs_stats_get(lrd_jobs_stats *out)
+{
+    memset(out, 0, sizeof *out);
+    pthread_mutex_lock(&jobs.mu);
+    for (int s = 0; s < LRD_N_STATES; s++) {
+        out->in_state[s] = jobs.in_state[s];
+        out->finished[s] = jobs.finished[s];
+    }
+    out->queue_depth = jobs.queued;
+    out->running = jobs.running;
+    out->rays = jobs.rays;
+    out->samples = jobs.samples;
+    out->pixels = jobs.pixels;
+    out->rejected_full = jobs.rejected_full;
+    out->render_seconds = jobs.render_seconds;
+    for (lrd_job *j = jobs.head; j != NULL; j = j->next)
+        if (j->image != NULL)
+            out->retained_bytes += j->image->len;
+    pthread_mutex_unlock(&jobs.mu);
+}
+
+/* ---- shutdown ------------------------------------------------------------ */
+
+void lrd_jobs_begin_shutdown(void)
+{
+    lrd_job *chain = NULL;
+    pthread_mutex_lock(&jobs.mu);
+    jobs.shutting_down = 1;
+    while (jobs.qhead != NULL) {
+        lrd_job *j = jobs.qhead;
+        jobs.qhead = j->qnext;
+        j->qnext = NULL;
+        jobs.queued--;
+        j->cancel_reason = LRD_CANCEL_SHUTDOWN;
+        cancel_error_locked(j, &chain);
+    }
+    jobs.qtail = NULL;
+    pthread_mutex_unlock(&jobs.mu);
+    free_chain(chain);
+}
+
+long lrd_jobs_running(void)
+{
+    pthread_mutex_lock(&jobs.mu);
+    long n = jobs.running;
+    pthread_mutex_unlock(&jobs.mu);
+    return n;
+}
+
+void lrd_jobs_cancel_running(lrd_cancel_reason why)
+{
+    pthread_mutex_lock(&jobs.mu);
+    for (lrd_job *j = jobs.head; j != NULL; j = j->next)
+        if (j->state == LRD_RUNNING && !j->cancel) {
+            j->cancel_reason = why;
+            j->cancel = 1;
+        }
+    pthread_mutex_unlock(&jobs.mu);
+}
+
+void lrd_jobs_stop(void)
+{
+    pthread_mutex_lock(&jobs.mu);
+    jobs.stop = 1;
+    pthread_cond_broadcast(&jobs.work_cv);
+    pthread_mutex_unlock(&jobs.mu);
+    for (long i = 0; i < jobs.n_threads; i++)
+        pthread_join(jobs.threads[i], NULL);
+    jobs.n_threads = 0;
+    free(jobs.threads);
+    jobs.threads = NULL;
+}
+
+void lrd_jobs_free_all(void)
+{
+    lrd_job *chain = NULL;
+    pthread_mutex_lock(&jobs.mu);
+    while (jobs.head != NULL)
+        unlink_locked(jobs.head, &chain);
+    pthread_mutex_unlock(&jobs.mu);
+    free_chain(chain);
+}

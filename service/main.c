@@ -1,0 +1,378 @@
+/*
+ * main.c: lensrayd's entry point: flags and environment, startup, and the
+ * graceful shutdown on SIGTERM or SIGINT.
+ *
+ *   lensrayd [--port 8080] [--bind 127.0.0.1] [--scenes DIR] [--workers N]
+ *            [--queue N] [--token-file F] [limits...]
+ *
+ * Every flag --some-name also reads the environment variable
+ * LENSRAYD_SOME_NAME; a flag on the command line wins over the variable.
+ * Exit status: 0 after a clean shutdown, 1 if the server could not start,
+ * 2 for a bad flag or variable.
+ */
+#include "lensrayd.h"
+
+#include <errno.h>
+#include <limits.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+
+lrd_config lrd_cfg;
+
+typedef enum opt_type {
+    T_STR,   /* a string into a char array */
+    T_LONG,  /* a whole number */
+    T_U64,   /* a whole number, or a byte size with k/M/G when `size` */
+    T_SECS   /* seconds, fractions allowed */
+} opt_type;
+
+typedef struct opt {
+    const char *name; /* without the leading "--" */
+    opt_type type;
+    void *ptr;
+    size_t cap;       /* T_STR: size of the array */
+    int size;         /* T_U64: accept k/M/G suffixes */
+    double min, max;
+    const char *help;
+} opt;
+
+static char scenes_arg[4096] = "scenes";
+static char token_file[4096] = "";
+
+#define U64(x) ((double)(x))
+static const opt opts[] = {
+    {"port", T_LONG, &lrd_cfg.port, 0, 0, 0, 65535,
+     "TCP port; 0 picks a free one (printed at startup)"},
+    {"bind", T_STR, lrd_cfg.bind, sizeof lrd_cfg.bind, 0, 0, 0,
+     "address to listen on (IPv4 or IPv6)"},
+    {"scenes", T_STR, scenes_arg, sizeof scenes_arg, 0, 0, 0,
+     "directory of NAME.json scenes and their meshes"},
+    {"workers", T_LONG, &lrd_cfg.workers, 0, 0, 1, 256,
+     "render worker threads (jobs rendered at once)"},
+    {"queue", T_LONG, &lrd_cfg.queue, 0, 0, 0, 100000,
+     "jobs that may wait for a worker; more get 429"},
+    {"token-file", T_STR, token_file, sizeof token_file, 0, 0, 0,
+     "file holding a bearer token that every request but /healthz must "
+     "send"},
+    {"max-body", T_U64, &lrd_cfg.max_body, 0, 1, 1, U64(1) * (1 << 30),
+     "largest request body in bytes (k/M/G suffixes)"},
+    {"max-pixels", T_U64, &lrd_cfg.max_pixels, 0, 0, 1, U64(1ull << 28),
+     "most pixels in one image (of the region, for a crop)"},
+    {"max-samples", T_U64, &lrd_cfg.max_samples, 0, 0, 1, U64(1ull << 50),
+     "most samples (pixels x spp) in one job"},
+    {"max-render-seconds", T_SECS, &lrd_cfg.max_render_seconds, 0, 0, 0, 1e7,
+     "longest render; then it fails with \"timeout\" (0: no limit)"},
+    {"max-output-bytes", T_U64, &lrd_cfg.max_output, 0, 1, 1,
+     U64(1ull << 40), "largest encoded image in bytes"},
+    {"max-json-depth", T_LONG, &lrd_cfg.max_json_depth, 0, 0, 1, 1000,
+     "deepest nesting of a request body"},
+    {"max-connections", T_LONG, &lrd_cfg.max_connections, 0, 0, 1, 10000,
+     "open connections, all clients together"},
+    {"max-connections-per-ip", T_LONG, &lrd_cfg.max_per_ip, 0, 0, 0, 10000,
+     "open connections from one address (0: no limit)"},
+    {"connection-memory", T_U64, &lrd_cfg.conn_memory, 0, 1, 8192,
+     U64(1) * (1 << 30), "memory per connection for headers and buffers"},
+    {"connection-timeout", T_LONG, &lrd_cfg.conn_timeout, 0, 0, 0, 86400,
+     "seconds an idle or stalled connection is kept (0: forever)"},
+    {"job-ttl", T_SECS, &lrd_cfg.job_ttl, 0, 0, 0, 1e7,
+     "seconds a finished job and its image are kept"},
+    {"max-finished-jobs", T_LONG, &lrd_cfg.max_finished, 0, 0, 0, 1000000,
+     "finished jobs kept (the oldest go first)"},
+    {"max-retained-bytes", T_U64, &lrd_cfg.max_retained, 0, 1, 0,
+     U64(1ull << 40), "image bytes kept by finished jobs"},
+    {"scene-cache", T_LONG, &lrd_cfg.scene_cache, 0, 0, 1, 10000,
+     "loaded scenes kept in memory"},
+    {"shutdown-grace", T_SECS, &lrd_cfg.shutdown_grace, 0, 0, 0, 86400,
+     "seconds running jobs get to finish on SIGTERM before they are "
+     "cancelled"},
+};
+#define N_OPTS (sizeof opts / sizeof opts[0])
+
+static void set_defaults(void)
+{
+    snprintf(lrd_cfg.bind, sizeof lrd_cfg.bind, "127.0.0.1");
+    lrd_cfg.port = 8080;
+    lrd_cfg.workers = 1;
+    lrd_cfg.queue = 16;
+    lrd_cfg.max_body = 8u << 20;
+    lrd_cfg.max_pixels = 16777216; /* 16.8 MP: 4096 x 4096 */
+    lrd_cfg.max_samples = 1ull << 33;
+    lrd_cfg.max_render_seconds = 600;
+    lrd_cfg.max_output = 512u << 20;
+    lrd_cfg.max_json_depth = 64;
+    lrd_cfg.max_connections = 64;
+    lrd_cfg.max_per_ip = 16;
+    lrd_cfg.conn_memory = 64u << 10;
+    lrd_cfg.conn_timeout = 30;
+    lrd_cfg.job_ttl = 600;
+    lrd_cfg.max_finished = 100;
+    lrd_cfg.max_retained = 1ull << 30;
+    lrd_cfg.scene_cache = 16;
+    lrd_cfg.shutdown_grace = 10;
+}
+
+/* "max-body" -> "LENSRAYD_MAX_BODY". */
+static void env_name(const char *name, char *out, size_t n)
+{
+    size_t o = (size_t)snprintf(out, n, "LENSRAYD_");
+    for (const char *p = name; *p != '\0' && o + 1 < n; p++)
+        out[o++] = *p == '-' ? '_' : (char)(*p >= 'a' && *p <= 'z'
+                                                ? *p - 'a' + 'A'
+                                                : *p);
+    out[o] = '\0';
+}
+
+/* Sets one option from text; `from` names the source in messages. */
+static int set_opt(const opt *o, const char *value, const char *from)
+{
+    switch (o->type) {
+    case T_STR:
+        if (strlen(value) >= o->cap) {
+            fprintf(stderr, "lensrayd: %s is too long\n", from);
+            return -1;
+        }
+        snprintf(o->ptr, o->cap, "%s", value);
+        return 0;
+    case T_LONG: {
+        uint64_t v = 0;
+        if (lrd_parse_u64(value, 0, &v) != 0 || (double)v < o->min ||
+            (double)v > o->max) {
+            fprintf(stderr,
+                    "lensrayd: %s must be a whole number from %.0f to %.0f, "
+                    "got '%s'\n",
+                    from, o->min, o->max, value);
+            return -1;
+        }
+        *(long *)o->ptr = (long)v;
+        return 0;
+    }
+    case T_U64: {
+        uint64_t v = 0;
+        if (lrd_parse_u64(value, o->size, &v) != 0 || (double)v < o->min ||
+            (double)v > o->max) {
+            fprintf(stderr,
+                    "lensrayd: %s must be a whole number from %.0f to %.0f%s, "
+                    "got '%s'\n",
+                    from, o->min, o->max,
+                    o->size ? " (k, M and G suffixes allowed)" : "", value);
+            return -1;
+        }
+        *(uint64_t *)o->ptr = v;
+        return 0;
+    }
+    case T_SECS: {
+        double v = 0;
+        if (lrd_parse_seconds(value, &v) != 0 || v < o->min || v > o->max) {
+            fprintf(stderr,
+                    "lensrayd: %s must be a number of seconds from %g to %g, "
+                    "got '%s'\n",
+                    from, o->min, o->max, value);
+            return -1;
+        }
+        *(double *)o->ptr = v;
+        return 0;
+    }
+    }
+    return -1;
+}
+
+static void usage(FILE *f)
+{
+    fprintf(f, "usage: lensrayd [options]\n\n"
+               "The lensray HTTP render daemon (API: docs/api.md).\n\n"
+               "options (each also read from the environment variable "
+               "shown):\n");
+    for (size_t i = 0; i < N_OPTS; i++) {
+        char env[64];
+        env_name(opts[i].name, env, sizeof env);
+        fprintf(f, "  --%-24s %s\n  %-26s [%s]\n", opts[i].name,
+                opts[i].help, "", env);
+    }
+    fprintf(f, "  --help                     this text\n"
+               "  --version                  print the version\n\n"
+               "SIGTERM or SIGINT stops the server gracefully; a second one "
+               "cancels running renders at once.\n");
+}
+
+static const opt *find_opt(const char *name, size_t len)
+{
+    for (size_t i = 0; i < N_OPTS; i++)
+        if (strlen(opts[i].name) == len &&
+            strncmp(opts[i].name, name, len) == 0)
+            return &opts[i];
+    return NULL;
+}
+
+/* Returns 0 to go on, 1 to exit 0 (help, version), -1 to exit 2. */
+static int configure(int argc, char **argv)
+{
+    set_defaults();
+    for (size_t i = 0; i < N_OPTS; i++) {
+        char env[64], from[96];
+        env_name(opts[i].name, env, sizeof env);
+        const char *v = getenv(env);
+        snprintf(from, sizeof from, "%s", env);
+        if (v != NULL && v[0] != '\0' && set_opt(&opts[i], v, from) != 0)
+            return -1;
+    }
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
+            usage(stdout);
+            return 1;
+        }
+        if (strcmp(a, "--version") == 0) {
+            printf("lensrayd %s (liblensray %s)\n", LRD_VERSION,
+                   lr_version());
+            return 1;
+        }
+        if (strncmp(a, "--", 2) != 0) {
+            fprintf(stderr, "lensrayd: unexpected argument '%s'\nTry "
+                            "'lensrayd --help'.\n", a);
+            return -1;
+        }
+        const char *name = a + 2;
+        const char *eq = strchr(name, '=');
+        size_t len = eq ? (size_t)(eq - name) : strlen(name);
+        const opt *o = find_opt(name, len);
+        if (o == NULL) {
+            fprintf(stderr, "lensrayd: unknown option '%s'\nTry 'lensrayd "
+                            "--help'.\n", a);
+            return -1;
+        }
+        const char *value = eq ? eq + 1 : NULL;
+        if (value == NULL) {
+            if (i + 1 >= argc) {
+                fprintf(stderr, "lensrayd: --%s needs a value\n", o->name);
+                return -1;
+            }
+            value = argv[++i];
+        }
+        char from[96];
+        snprintf(from, sizeof from, "--%s", o->name);
+        if (set_opt(o, value, from) != 0)
+            return -1;
+    }
+
+    struct stat st;
+    if (realpath(scenes_arg, lrd_cfg.scenes_dir) == NULL ||
+        stat(lrd_cfg.scenes_dir, &st) != 0 || !S_ISDIR(st.st_mode)) {
+        fprintf(stderr, "lensrayd: --scenes %s is not a directory\n",
+                scenes_arg);
+        return -1;
+    }
+    if (token_file[0] != '\0') {
+        size_t len = 0;
+        char *t = lrd_read_file(token_file, 4096, &len);
+        if (t == NULL) {
+            fprintf(stderr, "lensrayd: cannot read --token-file %s: %s\n",
+                    token_file, strerror(errno));
+            return -1;
+        }
+        /* Editors and `echo` add a final newline; it is not the token's. */
+        while (len > 0 && (t[len - 1] == '\n' || t[len - 1] == '\r' ||
+                           t[len - 1] == ' ' || t[len - 1] == '\t'))
+            t[--len] = '\0';
+        if (len == 0 || strlen(t) != len) {
+            fprintf(stderr, "lensrayd: --token-file %s holds no token (or a "
+                            "NUL byte)\n", token_file);
+            free(t);
+            return -1;
+        }
+        lrd_cfg.token = t;
+    }
+    return 0;
+}
+
+/* Waits up to `seconds` for a signal of `set`; returns it, or 0. */
+static int wait_signal(const sigset_t *set, double seconds)
+{
+    struct timespec ts;
+    ts.tv_sec = (time_t)seconds;
+    ts.tv_nsec = (long)((seconds - (double)ts.tv_sec) * 1e9);
+    int sig = sigtimedwait(set, NULL, &ts);
+    return sig > 0 ? sig : 0;
+}
+
+int main(int argc, char **argv)
+{
+    int rc = configure(argc, argv);
+    if (rc != 0) {
+        free(lrd_cfg.token);
+        return rc > 0 ? 0 : 2;
+    }
+
+    /* SIGTERM and SIGINT are blocked in every thread (threads inherit the
+     * mask) and taken synchronously here with sigwait, so no handler runs
+     * in the middle of a lock.  Writes to closed sockets must not kill
+     * the process. */
+    sigset_t set;
+    sigemptyset(&set);
+    sigaddset(&set, SIGTERM);
+    sigaddset(&set, SIGINT);
+    pthread_sigmask(SIG_BLOCK, &set, NULL);
+    signal(SIGPIPE, SIG_IGN);
+
+    lrd_metrics_start();
+    if (lrd_scenes_init() != 0 || lrd_jobs_start() != 0) {
+        free(lrd_cfg.token);
+        return 1;
+    }
+    if (lrd_http_start() != 0) {
+        lrd_jobs_begin_shutdown();
+        lrd_jobs_stop();
+        lrd_jobs_free_all();
+        lrd_scenes_shutdown();
+        free(lrd_cfg.token);
+        return 1;
+    }
+
+    int sig = 0;
+    while (sig == 0) {
+        int got = 0;
+        if (sigwait(&set, &got) == 0)
+            sig = got;
+    }
+
+    /* Shutdown: stop accepting, refuse new work with 503, cancel what is
+     * queued, give running renders the grace period, then cancel them; a
+     * cancelled render ends at its next tile and produces no image, so
+     * nothing partial is ever sent as if it were whole. */
+    fprintf(stderr, "lensrayd: %s: shutting down (up to %gs for running "
+                    "jobs)\n",
+            sig == SIGINT ? "SIGINT" : "SIGTERM", lrd_cfg.shutdown_grace);
+    lrd_http_quiesce();
+    lrd_jobs_begin_shutdown();
+    double deadline = lrd_monotonic() + lrd_cfg.shutdown_grace;
+    int again = 0;
+    while (lrd_jobs_running() > 0 && lrd_monotonic() < deadline && !again)
+        again = wait_signal(&set, 0.05);
+    long left = lrd_jobs_running();
+    if (left > 0) {
+        fprintf(stderr, "lensrayd: cancelling %ld running job%s\n", left,
+                left == 1 ? "" : "s");
+        lrd_jobs_cancel_running(LRD_CANCEL_SHUTDOWN);
+    }
+    fprintf(stderr, "DBG %.3f before %s\n", lrd_monotonic(), "lrd_jobs_stop();");
+    lrd_jobs_stop();
+    /* Answers already being written (an image to a slow client, say) get
+     * a few more seconds before their connections are closed. */
+    double drain = lrd_monotonic() + 5.0;
+    while (lrd_http_in_flight() > 0 && lrd_monotonic() < drain)
+        wait_signal(&set, 0.02);
+    fprintf(stderr, "DBG %.3f before %s\n", lrd_monotonic(), "lrd_http_stop();");
+    lrd_http_stop();
+    fprintf(stderr, "DBG %.3f before %s\n", lrd_monotonic(), "lrd_jobs_free_all();");
+    lrd_jobs_free_all();
+    fprintf(stderr, "DBG %.3f before %s\n", lrd_monotonic(), "lrd_scenes_shutdown();");
+    lrd_scenes_shutdown();
+    fprintf(stderr, "DBG %.3f before %s\n", lrd_monotonic(), "free(lrd_cfg.token);");
+    free(lrd_cfg.token);
+    fprintf(stderr, "lensrayd: stopped\n");
+    return 0;
+}
