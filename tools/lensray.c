@@ -173,6 +173,11 @@ static int cmd_render(int argc, char **argv)
         rc = usage_error("%s", err.message);
         goto done;
     }
+    if (want_depth && fmt != LR_FORMAT_EXR) {
+        rc = usage_error("%s", "--depth needs an .exr output (PNG has no Z "
+                               "channel)");
+        goto done;
+    }
     {
         char dir[4096];
         snprintf(dir, sizeof dir, "%s", out_path);
