@@ -26,6 +26,7 @@
 #include <errno.h>
 #include <netdb.h>
 #include <poll.h>
+#include <stdarg.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -67,6 +68,28 @@ static struct {
     atomic_long in_flight;
     atomic_int shutting_down;
 } http = {.quiesced_fd = MHD_INVALID_SOCKET};
+
+/* Set by a connection thread just before it returns MHD_NO on purpose
+ * (its client left), so that the logger drops MHD's "internal error"
+ * message for that close; MHD logs it from the same thread. */
+static _Thread_local int closing_on_purpose;
+
+/* MHD's own messages (bind failures, resource limits) go to stderr with
+ * the daemon's prefix. */
+static void mhd_log(void *cls, const char *fmt, va_list ap)
+{
+    (void)cls;
+    if (closing_on_purpose) {
+        closing_on_purpose = 0;
+        return;
+    }
+    char msg[512];
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    size_t n = strlen(msg);
+    while (n > 0 && msg[n - 1] == '\n')
+        msg[--n] = '\0';
+    fprintf(stderr, "lensrayd: libmicrohttpd: %s\n", msg);
+}
 
 int lrd_shutting_down(void) { return atomic_load(&http.shutting_down); }
 long lrd_http_in_flight(void) { return atomic_load(&http.in_flight); }
@@ -379,15 +402,16 @@ static enum MHD_Result do_render(struct MHD_Connection *c, req *r)
     int fd = ci != NULL ? ci->connect_fd : -1;
     /* No idle timeout while the render runs: the client is waiting, not
      * idle.  Setting the timeout again afterwards restarts its clock (MHD
-     * does so when the previous value was zero), so a render longer than
-     * --connection-timeout does not get its connection closed before the
-     * image goes out. */
+     * documents this when the previous value was zero), so the render's
+     * duration can never count as idleness and close the connection
+     * before the image goes out, whatever MHD's version measures. */
     MHD_set_connection_option(c, MHD_CONNECTION_OPTION_TIMEOUT, 0u);
     while (!lrd_job_wait(job, 0.1)) {
         if (client_gone(fd)) {
             lrd_job_cancel(job, LRD_CANCEL_DISCONNECT);
             lrd_job_release(job);
             r->status = 499;
+            closing_on_purpose = 1;
             return MHD_NO; /* closes the connection */
         }
     }
@@ -696,6 +720,7 @@ int lrd_http_start(void)
                      MHD_USE_ERROR_LOG | (v6 ? MHD_USE_IPv6 : 0);
     http.d = MHD_start_daemon(
         flags, (uint16_t)lrd_cfg.port, NULL, NULL, on_request, NULL,
+        MHD_OPTION_EXTERNAL_LOGGER, mhd_log, NULL,
         MHD_OPTION_SOCK_ADDR, (struct sockaddr *)&sa,
         MHD_OPTION_CONNECTION_LIMIT, (unsigned)lrd_cfg.max_connections,
         MHD_OPTION_PER_IP_CONNECTION_LIMIT, (unsigned)lrd_cfg.max_per_ip,
@@ -732,6 +757,12 @@ void lrd_http_quiesce(void)
     atomic_store(&http.shutting_down, 1);
     if (http.d != NULL)
         http.quiesced_fd = MHD_quiesce_daemon(http.d);
+    /* MHD no longer accepts, but the socket still listens, so new clients
+     * would wait in the kernel's backlog until the end.  shutdown(2) makes
+     * them be refused at once (a load balancer moves on) while the
+     * descriptor stays valid until MHD_stop_daemon, as MHD requires. */
+    if (http.quiesced_fd != MHD_INVALID_SOCKET)
+        shutdown(http.quiesced_fd, SHUT_RDWR);
 }
 
 void lrd_http_stop(void)

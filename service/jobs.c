@@ -193,10 +193,6 @@ static void finish_locked(lrd_job *j, lrd_state s, lrd_job **chain)
     set_state_locked(j, s);
     j->finished = lrd_monotonic();
     j->finished_wall = lrd_wall();
-    if (j->started == 0) {
-        j->started = j->finished;
-        j->started_wall = j->finished_wall;
-    }
     jobs.finished[s]++;
     if (s == LRD_DONE) {
         jobs.rays += j->stats.rays;
@@ -339,8 +335,8 @@ static void *worker_main(void *arg)
         pthread_mutex_lock(&jobs.mu);
         jobs.running--;
         double took = lrd_monotonic() - j->started;
+        jobs.render_seconds += took;
         if (result == LRD_DONE) {
-            jobs.render_seconds += j->stats.seconds;
             jobs.avg_job_seconds = jobs.avg_job_seconds > 0
                                        ? 0.8 * jobs.avg_job_seconds + 0.2 * took
                                        : took;
@@ -612,21 +608,24 @@ char *lrd_job_status_json(lrd_job *j)
     cJSON_AddNumberToObject(o, "spp", c.spec.rs.spp);
     cJSON_AddStringToObject(o, "format",
                             c.spec.format == LR_FORMAT_PNG ? "png" : "exr");
+    /* A job cancelled in the queue never started: started is 0. */
+    int ran = c.started > 0;
     add_time(o, "created_at", c.created_wall, 1);
-    add_time(o, "started_at", c.started_wall, c.state != LRD_QUEUED &&
-                                                  c.started_wall > 0);
+    add_time(o, "started_at", c.started_wall, ran);
     add_time(o, "finished_at", c.finished_wall, c.state >= LRD_DONE);
 
     cJSON *t = cJSON_AddObjectToObject(o, "timings");
     if (t != NULL) {
-        double started = c.state == LRD_QUEUED ? now : c.started;
         double ended = c.state >= LRD_DONE ? c.finished : now;
-        cJSON_AddNumberToObject(t, "queued_seconds", us(started - c.created));
+        double left_queue = ran ? c.started : ended;
+        cJSON_AddNumberToObject(t, "queued_seconds",
+                                us(left_queue - c.created));
         cJSON_AddNumberToObject(t, "render_seconds",
-                                c.state == LRD_QUEUED ? 0.0
+                                !ran ? 0.0
                                 : c.state == LRD_DONE
                                     ? us(c.stats.seconds)
-                                    : us(ended - c.started));
+                                    : us(ended - c.started -
+                                         c.encode_seconds));
         cJSON_AddNumberToObject(t, "encode_seconds", us(c.encode_seconds));
         cJSON_AddNumberToObject(t, "total_seconds", us(ended - c.created));
     }

@@ -358,20 +358,15 @@ int main(int argc, char **argv)
                 left == 1 ? "" : "s");
         lrd_jobs_cancel_running(LRD_CANCEL_SHUTDOWN);
     }
-    fprintf(stderr, "DBG %.3f before %s\n", lrd_monotonic(), "lrd_jobs_stop();");
     lrd_jobs_stop();
     /* Answers already being written (an image to a slow client, say) get
      * a few more seconds before their connections are closed. */
     double drain = lrd_monotonic() + 5.0;
     while (lrd_http_in_flight() > 0 && lrd_monotonic() < drain)
         wait_signal(&set, 0.02);
-    fprintf(stderr, "DBG %.3f before %s\n", lrd_monotonic(), "lrd_http_stop();");
     lrd_http_stop();
-    fprintf(stderr, "DBG %.3f before %s\n", lrd_monotonic(), "lrd_jobs_free_all();");
     lrd_jobs_free_all();
-    fprintf(stderr, "DBG %.3f before %s\n", lrd_monotonic(), "lrd_scenes_shutdown();");
     lrd_scenes_shutdown();
-    fprintf(stderr, "DBG %.3f before %s\n", lrd_monotonic(), "free(lrd_cfg.token);");
     free(lrd_cfg.token);
     fprintf(stderr, "lensrayd: stopped\n");
     return 0;
