@@ -7,27 +7,21 @@
  *   per dimension pair, so that pixel and lens positions are not
  *   correlated, but every pixel uses the same set of cells.
  * - jittered: the same cells with a random offset inside each.
- * - sobol: the first two dimensions of Sobol's (0,2)-sequence for each
- *   dimension pair, Owen-scrambled with Burley's hash-based nested uniform
- *   scrambling and with the sample index shuffled the same way
- *   ("Practical Hash-based Owen Scrambling", JCGT 9(4), 2020).  Every
- *   power-of-two prefix of a pixel's samples is a (0,m,2)-net.
+ * - sobol: the first four dimensions of Sobol's sequence (direction
+ *   numbers of Joe & Kuo 2008) serve the pixel and lens dimensions
+ *   jointly, so that the 4-D (pixel x lens) integral of depth of field is
+ *   stratified as a whole; further dimensions are padded with
+ *   independently shuffled copies.  Everything is Owen-scrambled with
+ *   Burley's hash-based nested uniform scrambling, and the sample index is
+ *   shuffled the same way ("Practical Hash-based Owen Scrambling", JCGT
+ *   9(4), 2020).  Every power-of-two prefix of a pixel's samples is a
+ *   (0,m,2)-net in the lens dimensions and a (1,m,2)-net in the pixel
+ *   dimensions.
  */
 #include "sampler.h"
 
 #include <math.h>
-
-void lr__sampler_init(lr__sampler *s, lr_sampler_kind kind, uint64_t seed,
-                      int spp)
-{
-    s->kind = kind;
-    s->seed = seed;
-    s->spp = spp > 0 ? (uint32_t)spp : 1;
-    /* The most square grid with at least spp cells. */
-    uint32_t nx = (uint32_t)ceil(sqrt((double)s->spp));
-    s->nx = nx;
-    s->ny = (s->spp + nx - 1) / nx;
-}
+#include <pthread.h>
 
 /* SplitMix64's output function (Steele, Lea & Flood 2014): a bijection on
  * 64-bit words with full avalanche. */
@@ -94,14 +88,51 @@ static uint32_t reverse_bits(uint32_t x)
     return (x >> 16) | (x << 16);
 }
 
-/* Sobol's second dimension, as a 32-bit binary fraction: its generator
- * matrix is Pascal's triangle mod 2 (Kollig & Keller 2002). */
-static uint32_t sobol2(uint32_t i)
+/* Direction numbers of Sobol's first four dimensions as 32-bit binary
+ * fractions, V[d][k] for bit k of the index.  Dimension 0 is van der
+ * Corput's (the identity matrix); the others come from primitive
+ * polynomials of degree s with coefficient bits a and initial numbers
+ * m_1..m_s (Joe & Kuo, new-joe-kuo-6.21201, dimensions 2 to 4):
+ *     x + 1:           s = 1, a = 0, m = 1
+ *     x^2 + x + 1:     s = 2, a = 1, m = 1, 3
+ *     x^3 + x + 1:     s = 3, a = 1, m = 1, 3, 1
+ * extended by the recurrence of Bratley & Fox (Algorithm 659). */
+static uint32_t sobol_v[4][32];
+static pthread_once_t sobol_once = PTHREAD_ONCE_INIT;
+
+static void sobol_init(void)
+{
+    static const struct {
+        unsigned s, a, m[3];
+    } poly[3] = {{1, 0, {1}}, {2, 1, {1, 3}}, {3, 1, {1, 3, 1}}};
+    for (int k = 0; k < 32; k++)
+        sobol_v[0][k] = 1u << (31 - k);
+    for (int d = 1; d < 4; d++) {
+        unsigned s = poly[d - 1].s, a = poly[d - 1].a;
+        uint32_t m[32];
+        for (unsigned k = 0; k < 32; k++) {
+            if (k < s) {
+                m[k] = poly[d - 1].m[k];
+            } else {
+                /* m_k = m_{k-s} ^ 2^s m_{k-s} ^ sum_i 2^i a_i m_{k-i} */
+                uint32_t v = m[k - s] ^ (m[k - s] << s);
+                for (unsigned i = 1; i < s; i++)
+                    if ((a >> (s - 1 - i)) & 1u)
+                        v ^= m[k - i] << i;
+                m[k] = v;
+            }
+            /* v_k = m_k / 2^(k+1), as a 32-bit fraction. */
+            sobol_v[d][k] = m[k] << (31 - k);
+        }
+    }
+}
+
+static uint32_t sobol(uint32_t i, int d)
 {
     uint32_t r = 0;
-    for (uint32_t v = 1u << 31; i != 0; i >>= 1, v ^= v >> 1)
+    for (int k = 0; i != 0; i >>= 1, k++)
         if (i & 1u)
-            r ^= v;
+            r ^= sobol_v[d][k];
     return r;
 }
 
@@ -123,18 +154,39 @@ static uint32_t owen(uint32_t x, uint32_t seed)
     return reverse_bits(lk_permute(reverse_bits(x), seed));
 }
 
-static void sobol_2d(const lr__sampler *s, uint64_t pixel, uint32_t sample,
-                     uint32_t dim, double out[2])
+/* One Owen-scrambled Sobol coordinate.  Dimensions 0..3 share one index
+ * shuffle (a 4-D sequence); from 4 on, each pair of dimensions reuses
+ * Sobol's dimensions 0 and 1 with a shuffle of its own (padding). */
+static double sobol_1d(const lr__sampler *s, uint64_t pixel, uint32_t sample,
+                       uint32_t dim)
 {
-    uint64_t h = hash4(s->seed, pixel, 0xffffffffu, dim);
-    uint32_t idx = owen(sample, (uint32_t)h);
-    uint32_t x = owen(reverse_bits(idx), (uint32_t)(h >> 32));
-    uint32_t y = owen(sobol2(idx), (uint32_t)lr__mix64(h));
-    out[0] = x * 0x1p-32;
-    out[1] = y * 0x1p-32;
+    /* The lens dimensions get Sobol's first two, which form a
+     * (0,2)-sequence: the lens integral is what depth of field is about.
+     * The pixel dimensions get the next two. */
+    static const int map[4] = {2, 3, 0, 1};
+    uint32_t block = dim < 4 ? 0 : dim / 2;
+    int d = dim < 4 ? map[dim] : (int)(dim % 2);
+    uint64_t shuffle = hash4(s->seed, pixel, 0xffffffffu, block);
+    uint32_t idx = owen(sample, (uint32_t)shuffle);
+    uint64_t scramble = hash4(s->seed, pixel, 0xfffffffdu, dim);
+    return owen(sobol(idx, d), (uint32_t)scramble) * 0x1p-32;
 }
 
 /* ---- the public face -------------------------------------------------- */
+
+void lr__sampler_init(lr__sampler *s, lr_sampler_kind kind, uint64_t seed,
+                      int spp)
+{
+    s->kind = kind;
+    s->seed = seed;
+    s->spp = spp > 0 ? (uint32_t)spp : 1;
+    /* The most square grid with at least spp cells. */
+    uint32_t nx = (uint32_t)ceil(sqrt((double)s->spp));
+    s->nx = nx;
+    s->ny = (s->spp + nx - 1) / nx;
+    pthread_once(&sobol_once, sobol_init);
+}
+
 
 double lr__sample_1d(const lr__sampler *s, uint64_t pixel, uint32_t sample,
                      uint32_t dim)
@@ -149,11 +201,8 @@ double lr__sample_1d(const lr__sampler *s, uint64_t pixel, uint32_t sample,
                          : to_unit(hash4(s->seed, pixel, sample, dim));
         return (cell + off) / s->spp;
     }
-    case LR_SAMPLER_SOBOL: {
-        uint64_t h = hash4(s->seed, pixel, 0xffffffffu, dim);
-        uint32_t idx = owen(sample, (uint32_t)h);
-        return owen(reverse_bits(idx), (uint32_t)(h >> 32)) * 0x1p-32;
-    }
+    case LR_SAMPLER_SOBOL:
+        return sobol_1d(s, pixel, sample, dim);
     case LR_SAMPLER_RANDOM:
     default:
         return to_unit(hash4(s->seed, pixel, sample, dim));
@@ -179,7 +228,8 @@ void lr__sample_2d(const lr__sampler *s, uint64_t pixel, uint32_t sample,
         return;
     }
     case LR_SAMPLER_SOBOL:
-        sobol_2d(s, pixel, sample, dim, out);
+        out[0] = sobol_1d(s, pixel, sample, dim);
+        out[1] = sobol_1d(s, pixel, sample, dim + 1);
         return;
     case LR_SAMPLER_RANDOM:
     default:

@@ -115,19 +115,19 @@ static void test_jittered_one_per_cell(void **state)
     }
 }
 
-/* A (0,m,2)-net: for every a in 0..m, the 2^a x 2^(m-a) elementary
- * boxes each hold exactly one of the first 2^m points. */
-static int is_net(double (*pts)[2], int m)
+/* A (t,m,2)-net: for every a in 0..m-t, the 2^a x 2^(m-t-a) elementary
+ * boxes each hold exactly 2^t of the first 2^m points. */
+static int is_net(double (*pts)[2], int m, int t)
 {
-    int n = 1 << m;
-    int *count = calloc((size_t)n, sizeof *count);
+    int n = 1 << m, cells = 1 << (m - t);
+    int *count = calloc((size_t)cells, sizeof *count);
     int ok = 1;
-    for (int a = 0; a <= m && ok; a++) {
-        memset(count, 0, (size_t)n * sizeof *count);
-        int bx = 1 << a, by = 1 << (m - a);
+    for (int a = 0; a <= m - t && ok; a++) {
+        memset(count, 0, (size_t)cells * sizeof *count);
+        int bx = 1 << a, by = 1 << (m - t - a);
         for (int i = 0; i < n; i++) {
             int cx = (int)(pts[i][0] * bx), cy = (int)(pts[i][1] * by);
-            if (++count[cy * bx + cx] > 1)
+            if (++count[cy * bx + cx] > (1 << t))
                 ok = 0;
         }
     }
@@ -141,15 +141,31 @@ static void test_sobol_prefixes_are_nets(void **state)
     lr__sampler s;
     lr__sampler_init(&s, LR_SAMPLER_SOBOL, 5, 256);
     static double pts[256][2];
+    /* The lens gets Sobol's first two dimensions: a (0,2)-sequence.  The
+     * pixel gets the third and fourth, a (t,2)-sequence with t = 2 (their
+     * prefixes are (1,m,2)-nets from m = 5 on).  The padding dimensions
+     * (4, 5) are again a (0,2)-sequence. */
+    const uint32_t dims[3] = {LR__DIM_LENS, LR__DIM_PIXEL, 4};
+    const int tval[3] = {0, 2, 0};
     for (uint64_t px = 0; px < 12; px++)
-        for (uint32_t d = 0; d < 4; d += 2) {
+        for (int k = 0; k < 3; k++) {
             for (uint32_t i = 0; i < 256; i++)
-                lr__sample_2d(&s, px * 7919, i, d, pts[i]);
-            for (int m = 1; m <= 8; m++)
-                if (!is_net(pts, m))
+                lr__sample_2d(&s, px * 7919, i, dims[k], pts[i]);
+            for (int m = tval[k]; m <= 8; m++)
+                if (!is_net(pts, m, m >= 5 && tval[k] ? 1 : tval[k]))
                     fail_msg("pixel %llu dims %u: first %d points are not a "
-                             "(0,%d,2)-net",
-                             (unsigned long long)px, d, 1 << m, m);
+                             "(%d,%d,2)-net",
+                             (unsigned long long)px, dims[k], 1 << m,
+                             tval[k], m);
+            /* Each coordinate alone is stratified: a (0,1)-sequence. */
+            for (int m = 0; m <= 8; m++)
+                for (int c = 0; c < 2; c++) {
+                    int seen[256] = {0}, n = 1 << m;
+                    for (int i = 0; i < n; i++)
+                        seen[(int)(pts[i][c] * n)]++;
+                    for (int b = 0; b < n; b++)
+                        assert_int_equal(seen[b], 1);
+                }
         }
     /* Different pixels get different (scrambled) points. */
     double a[2], b[2];

@@ -1,0 +1,1035 @@
+#!/usr/bin/env bats
+# daemon.bats: lensrayd, the HTTP render daemon, end to end over real
+# sockets with curl: every endpoint, every error status, the token, the
+# limits, concurrency, cancellation, the full queue, a client hanging up,
+# the render time limit, job retention, the scene cache and the graceful
+# shutdown.  Images are decoded (PNG and OpenEXR, by a small Node script
+# written below) and checked: format, size, not blank, and crops
+# bit-identical to the full frame.
+#
+# Run from the repository root, by tests/run.sh or directly:
+#     LENSRAY_BUILD=build bats tests/daemon.bats
+# LENSRAY_BUILD is the build directory (default: build).  Each daemon
+# listens on 127.0.0.1 with --port 0 (the kernel picks a free port, which
+# the daemon prints).  setup_file starts the shared daemon; tests that need
+# special flags start their own.  Every daemon's pid is recorded and
+# teardown/teardown_file kill whatever is left, even after a failure.
+# Renders are tiny, so the file runs in well under a minute.
+
+bats_require_minimum_version 1.5.0
+
+# ---- a job that takes long, but stops quickly when cancelled ---------------
+# 32 x 24 pixels at 200000 spp on one thread is tens of seconds of work, in
+# tiles of 2 x 2 pixels that take a fraction of a second each: the render
+# runs for as long as a test needs and stops within a tile when cancelled.
+slow_job() {
+    printf '{"scene": "tiny", "render": {"width": 32, "height": 24, "spp": %s, "threads": 1, "tile_size": 2}}' \
+        "${1:-200000}"
+}
+
+# ---- daemons ----------------------------------------------------------------
+
+# start_daemon NAME [FLAGS...]: starts lensrayd on a free loopback port with
+# the test scenes; sets DPID, DURL and DLOG.  Environment variables
+# LENSRAYD_* set by the caller reach the daemon.
+start_daemon() {
+    local name=$1
+    shift
+    DLOG="$WORK/$name.log"
+    # fd 3 is bats' own output channel: a daemon that kept it open would
+    # make bats wait for it.
+    "$LENSRAYD" --port 0 --bind 127.0.0.1 --scenes "$WORK/scenes" "$@" \
+        >"$DLOG" 2>&1 3>&- &
+    DPID=$!
+    echo "$DPID" >>"$WORK/pids"
+    TEST_PIDS="${TEST_PIDS:-} $DPID"
+    local port="" i
+    for i in $(seq 1 200); do
+        port=$(sed -n 's|^lensrayd: listening on http://127\.0\.0\.1:\([0-9]*\) .*|\1|p' "$DLOG")
+        [ -n "$port" ] && break
+        if ! kill -0 "$DPID" 2>/dev/null; then
+            echo "lensrayd ($name) exited at startup:" >&2
+            cat "$DLOG" >&2
+            return 1
+        fi
+        sleep 0.05
+    done
+    if [ -z "$port" ]; then
+        echo "lensrayd ($name) printed no listening line:" >&2
+        cat "$DLOG" >&2
+        return 1
+    fi
+    DURL="http://127.0.0.1:$port"
+    for i in $(seq 1 100); do
+        curl -s -o /dev/null --max-time 2 "$DURL/healthz" && return 0
+        sleep 0.05
+    done
+    echo "lensrayd ($name) does not answer /healthz" >&2
+    return 1
+}
+
+# stop_pid PID: SIGTERM, then SIGKILL if it is still there after 10 s.
+stop_pid() {
+    local pid=$1 i
+    kill -TERM "$pid" 2>/dev/null || return 0
+    for i in $(seq 1 100); do
+        kill -0 "$pid" 2>/dev/null || return 0
+        sleep 0.1
+    done
+    kill -KILL "$pid" 2>/dev/null || true
+}
+
+# wait_exit PID SECONDS: waits for a child daemon to exit; its status goes
+# to EXIT_STATUS.  Fails if it is still running after SECONDS.
+wait_exit() {
+    local pid=$1 i
+    for i in $(seq 1 $(($2 * 10))); do
+        if ! kill -0 "$pid" 2>/dev/null; then
+            EXIT_STATUS=0
+            wait "$pid" || EXIT_STATUS=$?
+            return 0
+        fi
+        sleep 0.1
+    done
+    echo "daemon $pid still running after $2 s" >&2
+    return 1
+}
+
+# ---- requests -----------------------------------------------------------------
+
+# req METHOD URL [BODY [CURL ARGS...]]: one request with the token and, with
+# a body, Content-Type: application/json.  Sets CODE; the body is in
+# $T/body and the headers in $T/headers.
+req() {
+    local method=$1 url=$2
+    shift 2
+    local args=()
+    if [ $# -gt 0 ]; then
+        args=(--data-binary "$1" -H 'Content-Type: application/json')
+        shift
+    fi
+    CODE=$(curl -sS --max-time 60 -o "$T/body" -D "$T/headers" \
+        -w '%{http_code}' -X "$method" -H "Authorization: Bearer $TOKEN" \
+        "${args[@]}" "$@" "$url")
+}
+
+# expect CODE: the last request's status, with the body shown if not.
+expect() {
+    if [ "$CODE" != "$1" ]; then
+        echo "expected HTTP $1, got $CODE: $(head -c 600 "$T/body")" >&2
+        return 1
+    fi
+}
+
+# json EXPR [FILE]: evaluates a JavaScript expression on the JSON body (o).
+json() {
+    node -e '
+        const o = JSON.parse(require("fs").readFileSync(process.argv[1], "utf8"));
+        const v = eval(process.argv[2]);
+        console.log(typeof v === "object" && v !== null ? JSON.stringify(v) : v);
+    ' "${2:-$T/body}" "$1"
+}
+
+# header NAME: a header of the last response, without the CR.
+header() {
+    grep -i "^$1:" "$T/headers" | head -n 1 | cut -d: -f2- | tr -d '\r' |
+        sed 's/^ *//'
+}
+
+# expect_error STATUS CODE [PATH]: an error response in the documented shape.
+expect_error() {
+    expect "$1"
+    [ "$(header Content-Type)" = application/json ]
+    local got
+    got=$(json 'o.error.code')
+    if [ "$got" != "$2" ]; then
+        echo "expected error code $2, got $got: $(cat "$T/body")" >&2
+        return 1
+    fi
+    [ -n "$(json 'o.error.message')" ]
+    if [ $# -ge 3 ]; then
+        got=$(json 'o.error.path')
+        if [ "$got" != "$3" ]; then
+            echo "expected error path $3, got $got" >&2
+            return 1
+        fi
+    fi
+}
+
+# metric URL NAME: a sample's value from /metrics (NAME with its labels).
+metric() {
+    curl -s --max-time 10 -H "Authorization: Bearer $TOKEN" "$1/metrics" |
+        awk -v n="$2" '$1 == n { print $2 }'
+}
+
+# poll SECONDS COMMAND...: retries COMMAND every 0.1 s until it succeeds.
+poll() {
+    local tries=$(($1 * 10))
+    shift
+    local i
+    for i in $(seq 1 "$tries"); do
+        "$@" && return 0
+        sleep 0.1
+    done
+    echo "gave up after waiting for: $*" >&2
+    return 1
+}
+
+# job_status URL ID: prints the job's status.
+job_status() {
+    curl -s --max-time 10 -H "Authorization: Bearer $TOKEN" "$1/v1/jobs/$2" >"$T/status.json"
+    json 'o.status' "$T/status.json"
+}
+job_is() { [ "$(job_status "$1" "$2")" = "$3" ]; }
+job_progressing() {
+    job_status "$1" "$2" >/dev/null
+    [ "$(json 'o.status == "running" && o.progress > 0' "$T/status.json")" = true ]
+}
+metric_is() { [ "$(metric "$1" "$2")" = "$3" ]; }
+
+# Prints the bytes at OFFSET..OFFSET+COUNT-1 of FILE as one hex string.
+hex_bytes() {
+    od -An -v -tx1 -j "$2" -N "$3" "$1" | tr -d ' \n'
+}
+
+# image FILE: "png|exr WIDTH HEIGHT CHANNELS", decoded by img.js.
+image() {
+    node "$WORK/img.js" info "$1"
+}
+
+# ---- setup --------------------------------------------------------------------
+
+setup_file() {
+    REPO="$(cd "$BATS_TEST_DIRNAME/.." && pwd)"
+    local build="${LENSRAY_BUILD:-build}"
+    case "$build" in
+    /*) ;;
+    *) build="$REPO/$build" ;;
+    esac
+    export LENSRAYD="$build/lensrayd"
+    if [ ! -x "$LENSRAYD" ]; then
+        echo "lensrayd not found at $LENSRAYD (run make first)" >&2
+        return 1
+    fi
+    # The caller's LENSRAYD_* variables must not change the daemons here.
+    local v
+    for v in $(env | sed -n 's/^\(LENSRAYD_[A-Z_]*\)=.*/\1/p'); do
+        unset "$v"
+    done
+
+    export WORK="$BATS_FILE_TMPDIR"
+    : >"$WORK/pids"
+    mkdir -p "$WORK/scenes/meshes" "$WORK/outside"
+    # Two of the built-in scenes (the bunny needs its fetched mesh), and
+    # the small scene most tests render.
+    cp "$REPO/scenes/cornell.json" "$REPO/scenes/spheres.json" "$WORK/scenes/"
+    cat >"$WORK/scenes/tiny.json" <<'EOF'
+{
+  "description": "daemon.bats test scene",
+  "camera": { "model": "pinhole", "position": [0, 1, 5], "look_at": [0, 0.5, 0],
+              "up": [0, 1, 0], "fov": 40 },
+  "render": { "width": 40, "height": 30, "spp": 2, "max_depth": 2 },
+  "background": [0.2, 0.3, 0.4],
+  "materials": {
+    "red":    { "diffuse": [0.7, 0.1, 0.1], "specular": 0.2, "shininess": 30 },
+    "ground": { "diffuse": 0.5, "reflect": 0.2 }
+  },
+  "lights": [
+    { "type": "point", "position": [3, 5, 4], "intensity": 80 },
+    { "type": "ambient", "radiance": 0.05 }
+  ],
+  "objects": [
+    { "type": "sphere", "center": [0, 1, 0], "radius": 1, "material": "red" },
+    { "type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0], "size": 6,
+      "material": "ground" }
+  ]
+}
+EOF
+    # A mesh inside the scenes directory, and one reached through a
+    # symbolic link that leads outside it.
+    printf 'v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nf 1 2 3\nf 1 3 4\n' \
+        >"$WORK/scenes/meshes/quad.obj"
+    cp "$WORK/scenes/meshes/quad.obj" "$WORK/outside/secret.obj"
+    ln -s "$WORK/outside/secret.obj" "$WORK/scenes/meshes/escape.obj"
+
+    export TOKEN="token-$RANDOM-$RANDOM"
+    printf '%s\n' "$TOKEN" >"$WORK/token"
+
+    write_img_js
+
+    # The shared daemon: two workers, a token, and limits small enough to
+    # reach with small requests.
+    start_daemon main --workers 2 --queue 8 --token-file "$WORK/token" \
+        --max-body 1M --max-pixels 1000000 --max-samples 1000000000
+    export URL="$DURL" MAIN_PID="$DPID" MAIN_LOG="$DLOG"
+}
+
+teardown_file() {
+    local pid
+    for pid in $(cat "$WORK/pids" 2>/dev/null); do
+        stop_pid "$pid"
+    done
+}
+
+setup() {
+    T="$BATS_TEST_TMPDIR"
+    TEST_PIDS=""
+}
+
+teardown() {
+    local pid
+    for pid in $TEST_PIDS; do
+        stop_pid "$pid"
+    done
+}
+
+# The image decoder: PNG (8/16-bit RGB/RGBA) and OpenEXR scanline files
+# (NONE/ZIPS/ZIP, half/float), with nothing but Node's zlib.
+#   info FILE             -> "png|exr WIDTH HEIGHT CHANNELS"
+#   distinct FILE         -> the number of distinct pixel values
+#   crop FULL CROP X0 Y0  -> exit 0 iff every pixel of CROP equals FULL's
+write_img_js() {
+    cat >"$WORK/img.js" <<'EOF'
+'use strict';
+const fs = require('fs');
+const zlib = require('zlib');
+
+function png(buf) {
+  if (buf.subarray(0, 8).toString('hex') !== '89504e470d0a1a0a')
+    throw new Error('not a PNG');
+  let off = 8, w = 0, h = 0, depth = 0, type = 0;
+  const idat = [];
+  while (off < buf.length) {
+    const len = buf.readUInt32BE(off);
+    const kind = buf.toString('latin1', off + 4, off + 8);
+    const data = buf.subarray(off + 8, off + 8 + len);
+    if (kind === 'IHDR') {
+      w = data.readUInt32BE(0); h = data.readUInt32BE(4);
+      depth = data[8]; type = data[9];
+      if (data[12] !== 0) throw new Error('interlaced PNG');
+    } else if (kind === 'IDAT') idat.push(data);
+    else if (kind === 'IEND') break;
+    off += 12 + len;
+  }
+  const ch = type === 2 ? 3 : type === 6 ? 4 : type === 0 ? 1 : 0;
+  if (!ch || (depth !== 8 && depth !== 16)) throw new Error('unsupported PNG');
+  const bpp = ch * depth / 8, stride = w * bpp;
+  const raw = zlib.inflateSync(Buffer.concat(idat));
+  if (raw.length !== h * (stride + 1)) throw new Error('truncated PNG');
+  const out = Buffer.alloc(h * stride);
+  for (let y = 0; y < h; y++) {
+    const f = raw[y * (stride + 1)];
+    const src = raw.subarray(y * (stride + 1) + 1, (y + 1) * (stride + 1));
+    for (let x = 0; x < stride; x++) {
+      const a = x >= bpp ? out[y * stride + x - bpp] : 0;
+      const b = y > 0 ? out[(y - 1) * stride + x] : 0;
+      const c = x >= bpp && y > 0 ? out[(y - 1) * stride + x - bpp] : 0;
+      let v = src[x];
+      if (f === 1) v += a;
+      else if (f === 2) v += b;
+      else if (f === 3) v += (a + b) >> 1;
+      else if (f === 4) {
+        const p = a + b - c, pa = Math.abs(p - a), pb = Math.abs(p - b),
+              pc = Math.abs(p - c);
+        v += pa <= pb && pa <= pc ? a : pb <= pc ? b : c;
+      } else if (f !== 0) throw new Error('bad PNG filter ' + f);
+      out[y * stride + x] = v & 255;
+    }
+  }
+  const px = (x, y) => out.subarray(y * stride + x * bpp,
+                                    y * stride + (x + 1) * bpp).toString('hex');
+  return { kind: 'png', w, h, ch, px };
+}
+
+function exr(buf) {
+  if (buf.readUInt32LE(0) !== 20000630) throw new Error('not an EXR');
+  let off = 8;
+  const cstr = () => { const e = buf.indexOf(0, off);
+                       const s = buf.toString('latin1', off, e); off = e + 1;
+                       return s; };
+  const chans = [];
+  let win = null, comp = -1;
+  for (;;) {
+    const name = cstr();
+    if (name === '') break;
+    cstr();
+    const size = buf.readInt32LE(off); off += 4;
+    const v = buf.subarray(off, off + size);
+    if (name === 'channels') {
+      let o = 0;
+      while (v[o] !== 0) {
+        const e = v.indexOf(0, o);
+        chans.push({ name: v.toString('latin1', o, e), type: v.readInt32LE(e + 1) });
+        o = e + 17;
+      }
+    } else if (name === 'dataWindow') {
+      win = [0, 1, 2, 3].map(i => v.readInt32LE(4 * i));
+    } else if (name === 'compression') comp = v[0];
+    off += size;
+  }
+  if (![0, 2, 3].includes(comp)) throw new Error('compression ' + comp);
+  const w = win[2] - win[0] + 1, h = win[3] - win[1] + 1;
+  const lines = comp === 3 ? 16 : 1;
+  const size = t => (t === 1 ? 2 : 4);
+  const lineBytes = chans.reduce((s, c) => s + size(c.type) * w, 0);
+  const planes = chans.map(() => new Array(w * h));
+  for (let k = 0; k < Math.ceil(h / lines); k++) {
+    const at = Number(buf.readBigUInt64LE(off + 8 * k));
+    const y0 = buf.readInt32LE(at) - win[1];
+    const len = buf.readInt32LE(at + 4);
+    const n = Math.min(lines, h - y0);
+    let data = buf.subarray(at + 8, at + 8 + len);
+    if (comp !== 0 && len < n * lineBytes) {
+      const t = zlib.inflateSync(data);
+      for (let i = 1; i < t.length; i++) t[i] = (t[i - 1] + t[i] - 128) & 255;
+      const o = Buffer.alloc(t.length), half = (t.length + 1) >> 1;
+      for (let i = 0; i < t.length; i++)
+        o[i] = i & 1 ? t[half + (i >> 1)] : t[i >> 1];
+      data = o;
+    }
+    if (data.length !== n * lineBytes) throw new Error('truncated EXR');
+    let p = 0;
+    for (let y = 0; y < n; y++)
+      chans.forEach((c, ci) => {
+        const s = size(c.type);
+        for (let x = 0; x < w; x++, p += s)
+          planes[ci][(y0 + y) * w + x] = data.subarray(p, p + s).toString('hex');
+      });
+  }
+  const px = (x, y) => planes.map(pl => pl[y * w + x]).join('');
+  return { kind: 'exr', w, h, ch: chans.length, px };
+}
+
+function load(file) {
+  const buf = fs.readFileSync(file);
+  return buf[0] === 0x89 ? png(buf) : exr(buf);
+}
+
+const [cmd, ...args] = process.argv.slice(2);
+if (cmd === 'info') {
+  const im = load(args[0]);
+  console.log(`${im.kind} ${im.w} ${im.h} ${im.ch}`);
+} else if (cmd === 'distinct') {
+  const im = load(args[0]), seen = new Set();
+  for (let y = 0; y < im.h; y++)
+    for (let x = 0; x < im.w; x++) seen.add(im.px(x, y));
+  console.log(seen.size);
+} else if (cmd === 'crop') {
+  const full = load(args[0]), crop = load(args[1]);
+  const x0 = +args[2], y0 = +args[3];
+  for (let y = 0; y < crop.h; y++)
+    for (let x = 0; x < crop.w; x++)
+      if (crop.px(x, y) !== full.px(x0 + x, y0 + y)) {
+        console.log(`pixel (${x}, ${y}) of the crop differs`);
+        process.exit(1);
+      }
+  console.log('identical');
+} else {
+  process.exit(2);
+}
+EOF
+}
+
+# ---- startup, health, logging, configuration --------------------------------
+
+@test "startup prints the listening line; /healthz answers without a token" {
+    grep -q "^lensrayd: listening on $URL (scenes $WORK/scenes, 2 workers)\$" "$MAIN_LOG"
+    CODE=$(curl -s -o "$T/body" -D "$T/headers" -w '%{http_code}' "$URL/healthz")
+    expect 200
+    [ "$(header Content-Type)" = application/json ]
+    [ "$(json o.status)" = ok ]
+    [ "$(json o.workers)" = 2 ]
+}
+
+@test "one log line per request: method, path, status, bytes, milliseconds, job id" {
+    req POST "$URL/v1/render" '{"scene": "tiny"}'
+    expect 200
+    local id bytes
+    id=$(header X-Lensray-Job-Id)
+    bytes=$(stat -c %s "$T/body")
+    poll 5 grep -q "^lensrayd: POST /v1/render 200 $bytes [0-9.]*ms $id\$" "$MAIN_LOG"
+    req GET "$URL/no/such/route"
+    poll 5 grep -q '^lensrayd: GET /no/such/route 404 [0-9]* [0-9.]*ms -$' "$MAIN_LOG"
+}
+
+@test "every flag is also a LENSRAYD_* variable, and the flag wins" {
+    LENSRAYD_WORKERS=3 LENSRAYD_QUEUE=1 start_daemon env1
+    CODE=$(curl -s -o "$T/body" -w '%{http_code}' "$DURL/healthz")
+    expect 200
+    [ "$(json o.workers)" = 3 ]
+    LENSRAYD_WORKERS=3 start_daemon env2 --workers 4
+    curl -s -o "$T/body" "$DURL/healthz"
+    [ "$(json o.workers)" = 4 ]
+    # A variable with a bad value stops the daemon with status 2.
+    run -2 env LENSRAYD_MAX_BODY=lots "$LENSRAYD" --port 0 --scenes "$WORK/scenes"
+    [[ "$output" == *"LENSRAYD_MAX_BODY must be"* ]]
+    run -2 "$LENSRAYD" --port 0 --scenes "$WORK/nowhere"
+    [[ "$output" == *"is not a directory"* ]]
+    run -0 "$LENSRAYD" --help
+    [[ "$output" == *"--token-file"* ]]
+    [[ "$output" == *"LENSRAYD_TOKEN_FILE"* ]]
+    [[ "$output" == *"LENSRAYD_SHUTDOWN_GRACE"* ]]
+}
+
+# ---- the token ----------------------------------------------------------------
+
+@test "401 without the token or with a wrong one; /healthz stays open" {
+    CODE=$(curl -s -o "$T/body" -D "$T/headers" -w '%{http_code}' "$URL/v1/scenes")
+    expect_error 401 unauthorized
+    [[ "$(header WWW-Authenticate)" == Bearer* ]]
+    CODE=$(curl -s -o "$T/body" -D "$T/headers" -w '%{http_code}' \
+        -H "Authorization: Bearer ${TOKEN}x" "$URL/v1/scenes")
+    expect_error 401 unauthorized
+    CODE=$(curl -s -o "$T/body" -D "$T/headers" -w '%{http_code}' \
+        -H "Authorization: Basic $TOKEN" "$URL/metrics")
+    expect_error 401 unauthorized
+    # The token is checked before the body is looked at.
+    CODE=$(curl -s -o "$T/body" -D "$T/headers" -w '%{http_code}' \
+        -H 'Content-Type: application/json' -d '{"scene": "tiny"}' "$URL/v1/render")
+    expect_error 401 unauthorized
+    CODE=$(curl -s -o /dev/null -w '%{http_code}' "$URL/healthz")
+    [ "$CODE" = 200 ]
+    req GET "$URL/v1/scenes"
+    expect 200
+}
+
+# ---- scenes -------------------------------------------------------------------
+
+@test "GET /v1/scenes lists the scenes with their default cameras" {
+    req GET "$URL/v1/scenes"
+    expect 200
+    [ "$(json 'o.scenes.map(s => s.name).join(",")')" = cornell,spheres,tiny ]
+    [ "$(json 'o.scenes[0].camera.position')" = '[0,5,16]' ]
+    [ "$(json 'o.scenes[0].camera.look_at')" = '[0,5,0]' ]
+    [ "$(json 'o.scenes[0].camera.fov')" = 40 ]
+    [ "$(json 'o.scenes[0].camera.model')" = pinhole ]
+    [ "$(json 'o.scenes[0].render.width + "x" + o.scenes[0].render.height')" = 512x512 ]
+    [[ "$(json 'o.scenes[0].description')" == *Cornell* ]]
+    [ "$(json 'o.scenes[2].render.spp')" = 2 ]
+    [ "$(json 'o.scenes[2].primitives > 0')" = true ]
+}
+
+# ---- synchronous renders --------------------------------------------------------
+
+@test "POST /v1/render answers with a PNG and the job's headers" {
+    req POST "$URL/v1/render" '{"scene": "tiny", "render": {"width": 32, "height": 24, "spp": 2}}'
+    expect 200
+    [ "$(header Content-Type)" = image/png ]
+    [ "$(hex_bytes "$T/body" 0 8)" = 89504e470d0a1a0a ]
+    [ "$(hex_bytes "$T/body" 12 4)" = 49484452 ] # IHDR
+    [ "$(hex_bytes "$T/body" 16 8)" = 0000002000000018 ] # 32 x 24
+    [ "$(image "$T/body")" = "png 32 24 3" ]
+    [ "$(node "$WORK/img.js" distinct "$T/body")" -gt 20 ] # not blank
+    [[ "$(header X-Lensray-Job-Id)" =~ ^[0-9a-f]{32}$ ]]
+    [ "$(header X-Lensray-Samples)" = $((32 * 24 * 2)) ]
+    [ "$(header X-Lensray-Rays)" -ge $((32 * 24 * 2)) ]
+    [[ "$(header X-Lensray-Render-Seconds)" =~ ^[0-9]+\.[0-9]+$ ]]
+    [ "$(header Content-Length)" = "$(stat -c %s "$T/body")" ]
+}
+
+@test "POST /v1/render answers with OpenEXR: float, half, with depth; 16-bit PNG" {
+    req POST "$URL/v1/render" '{"scene": "tiny", "render": {"width": 32, "height": 24}, "output": {"format": "exr"}}'
+    expect 200
+    [ "$(header Content-Type)" = image/x-exr ]
+    [ "$(hex_bytes "$T/body" 0 4)" = 762f3101 ]
+    [ "$(image "$T/body")" = "exr 32 24 3" ]
+    [ "$(node "$WORK/img.js" distinct "$T/body")" -gt 20 ]
+    local float_size half_size
+    float_size=$(stat -c %s "$T/body")
+    req POST "$URL/v1/render" '{"scene": "tiny", "render": {"width": 32, "height": 24}, "output": {"format": "exr", "half": true, "depth": true}}'
+    expect 200
+    [ "$(hex_bytes "$T/body" 0 4)" = 762f3101 ]
+    [ "$(image "$T/body")" = "exr 32 24 4" ] # B, G, R and Z
+    req POST "$URL/v1/render" '{"scene": "tiny", "render": {"width": 32, "height": 24}, "output": {"format": "exr", "half": true}}'
+    half_size=$(stat -c %s "$T/body")
+    [ "$half_size" -lt "$float_size" ]
+    req POST "$URL/v1/render" '{"scene": "tiny", "render": {"width": 32, "height": 24}, "output": {"format": "png", "bit_depth": 16}}'
+    expect 200
+    [ "$(hex_bytes "$T/body" 24 1)" = 10 ] # bit depth 16
+    [ "$(image "$T/body")" = "png 32 24 3" ]
+}
+
+@test "the scene's camera and render settings are defaults that the job overrides" {
+    req POST "$URL/v1/render" '{"scene": "tiny"}'
+    expect 200
+    [ "$(image "$T/body")" = "png 40 30 3" ] # the scene's own size
+    cp "$T/body" "$T/default.png"
+    req POST "$URL/v1/render" '{"scene": "tiny", "camera": {"fov": 25}}'
+    expect 200
+    [ "$(image "$T/body")" = "png 40 30 3" ]
+    ! cmp -s "$T/body" "$T/default.png"
+    # Restating the scene's own values changes nothing.
+    req POST "$URL/v1/render" '{"scene": "tiny", "camera": {"fov": 40, "position": [0, 1, 5]}, "render": {"spp": 2}}'
+    cmp "$T/body" "$T/default.png"
+    # The newer camera models come through the library's own keys.
+    req POST "$URL/v1/render" '{"scene": "tiny", "camera": {"model": "thinlens", "aperture_radius": 0.2, "focus_distance": 5}}'
+    expect 200
+    ! cmp -s "$T/body" "$T/default.png"
+}
+
+@test "same job, same bytes; queued and synchronous renders agree" {
+    local job='{"scene": "cornell", "render": {"width": 48, "height": 40, "spp": 4, "seed": 7}}'
+    req POST "$URL/v1/render" "$job"
+    expect 200
+    cp "$T/body" "$T/a.png"
+    req POST "$URL/v1/render" "$job"
+    cmp "$T/a.png" "$T/body"
+    req POST "$URL/v1/jobs" "$job"
+    expect 202
+    local id
+    id=$(json o.id)
+    poll 20 job_is "$URL" "$id" done
+    req GET "$URL/v1/jobs/$id/image"
+    expect 200
+    cmp "$T/a.png" "$T/body"
+}
+
+@test "render.region crops are bit-identical to the full frame (EXR float and PNG)" {
+    local size='"width": 48, "height": 40, "spp": 3'
+    req POST "$URL/v1/render" "{\"scene\": \"cornell\", \"render\": {$size}, \"output\": {\"format\": \"exr\"}}"
+    expect 200
+    cp "$T/body" "$T/full.exr"
+    req POST "$URL/v1/render" "{\"scene\": \"cornell\", \"render\": {$size, \"region\": [10, 7, 37, 29]}, \"output\": {\"format\": \"exr\"}}"
+    expect 200
+    cp "$T/body" "$T/crop.exr"
+    [ "$(image "$T/crop.exr")" = "exr 27 22 3" ]
+    run -0 node "$WORK/img.js" crop "$T/full.exr" "$T/crop.exr" 10 7
+    # The comparison does notice a shifted crop.
+    run -1 node "$WORK/img.js" crop "$T/full.exr" "$T/crop.exr" 11 7
+
+    # Stitching: four quadrants make up the frame.
+    req POST "$URL/v1/render" "{\"scene\": \"cornell\", \"render\": {$size}}"
+    cp "$T/body" "$T/full.png"
+    local r
+    for r in "0 0 24 20" "24 0 48 20" "0 20 24 40" "24 20 48 40"; do
+        set -- $r
+        req POST "$URL/v1/render" "{\"scene\": \"cornell\", \"render\": {$size, \"region\": [$1, $2, $3, $4]}}"
+        expect 200
+        [ "$(image "$T/body")" = "png 24 20 3" ]
+        run -0 node "$WORK/img.js" crop "$T/full.png" "$T/body" "$1" "$2"
+    done
+}
+
+@test "inline scenes render, with meshes from the scenes directory" {
+    local scene
+    scene=$(cat "$WORK/scenes/tiny.json")
+    req POST "$URL/v1/render" "{\"scene\": $scene, \"render\": {\"width\": 16, \"height\": 12}}"
+    expect 200
+    [ "$(image "$T/body")" = "png 16 12 3" ]
+    req POST "$URL/v1/render" '{"scene": {"camera": {"position": [0, 3, 3], "look_at": [0, 0, 0]}, "lights": [{"type": "ambient", "radiance": 1}], "objects": [{"type": "mesh", "file": "meshes/quad.obj"}]}, "render": {"width": 16, "height": 12, "spp": 1}}'
+    expect 200
+    [ "$(node "$WORK/img.js" distinct "$T/body")" -gt 1 ] # the quad shows
+}
+
+@test "inline scenes may not reach files outside the scenes directory" {
+    local pre='{"scene": {"objects": [{"type": "sphere", "center": [0, 0, -5], "radius": 1}, {"type": "mesh", "file": '
+    req POST "$URL/v1/render" "$pre \"$WORK/outside/secret.obj\"}]}}"
+    expect_error 422 forbidden_path scene.objects[1].file
+    req POST "$URL/v1/render" "$pre \"meshes/../../outside/secret.obj\"}]}}"
+    expect_error 422 forbidden_path scene.objects[1].file
+    req POST "$URL/v1/render" "$pre \"..\"}]}}"
+    expect_error 422 forbidden_path scene.objects[1].file
+    req POST "$URL/v1/render" "$pre \"meshes/escape.obj\"}]}}" # a symlink out
+    expect_error 422 forbidden_path scene.objects[1].file
+    req POST "$URL/v1/render" "$pre \"meshes/missing.obj\"}]}}"
+    expect_error 422 invalid_value scene.objects[1].file
+    # The error never shows where the scenes directory is.
+    ! grep -q "$WORK" "$T/body"
+    # Scene names cannot be paths either.
+    req POST "$URL/v1/render" '{"scene": "../tiny"}'
+    expect_error 422 invalid_value scene
+}
+
+@test "loaded scenes are cached by name and by content: a focal sweep loads once" {
+    local misses hits fov
+    local scene='{"description": "sweep", "camera": {"position": [0, 1, 6], "look_at": [0, 1, 0]}, "lights": [{"type": "ambient", "radiance": 1}], "objects": [{"type": "sphere", "center": [0, 1, 0], "radius": 1}]}'
+    misses=$(metric "$URL" lensrayd_scene_cache_misses_total)
+    hits=$(metric "$URL" lensrayd_scene_cache_hits_total)
+    for fov in 20 30 40 50; do
+        req POST "$URL/v1/render" "{\"scene\": $scene, \"camera\": {\"fov\": $fov}, \"render\": {\"width\": 8, \"height\": 8, \"spp\": 1}}"
+        expect 200
+    done
+    [ "$(metric "$URL" lensrayd_scene_cache_misses_total)" = $((misses + 1)) ]
+    [ "$(metric "$URL" lensrayd_scene_cache_hits_total)" = $((hits + 3)) ]
+    # By name: the first use may load, the rest hit.
+    req POST "$URL/v1/render" '{"scene": "spheres", "render": {"width": 8, "height": 8, "spp": 1}}'
+    misses=$(metric "$URL" lensrayd_scene_cache_misses_total)
+    for fov in 20 30 40; do
+        req POST "$URL/v1/render" "{\"scene\": \"spheres\", \"camera\": {\"fov\": $fov}, \"render\": {\"width\": 8, \"height\": 8, \"spp\": 1}}"
+        expect 200
+    done
+    [ "$(metric "$URL" lensrayd_scene_cache_misses_total)" = "$misses" ]
+}
+
+# ---- queued jobs --------------------------------------------------------------
+
+@test "POST /v1/jobs queues; GET shows status, progress and timings; then the image" {
+    req POST "$URL/v1/jobs" '{"scene": "tiny", "render": {"width": 32, "height": 24}, "output": {"format": "exr"}}'
+    expect 202
+    local id
+    id=$(json o.id)
+    [[ "$id" =~ ^[0-9a-f]{32}$ ]]
+    [ "$(json o.status)" = queued ]
+    [ "$(header Location)" = "/v1/jobs/$id" ]
+    poll 20 job_is "$URL" "$id" done
+    req GET "$URL/v1/jobs/$id"
+    expect 200
+    [ "$(json o.id)" = "$id" ]
+    [ "$(json o.progress)" = 1 ]
+    [ "$(json 'typeof o.timings.queued_seconds')" = number ]
+    [ "$(json 'o.timings.render_seconds >= 0')" = true ]
+    [ "$(json 'o.timings.total_seconds > 0')" = true ]
+    [ "$(json 'o.created_at <= o.started_at && o.started_at <= o.finished_at')" = true ]
+    [ "$(json o.stats.samples)" = $((32 * 24 * 2)) ]
+    [ "$(json o.image.href)" = "/v1/jobs/$id/image" ]
+    req GET "$URL/v1/jobs/$id/image"
+    expect 200
+    [ "$(header Content-Type)" = image/x-exr ]
+    [ "$(header X-Lensray-Job-Id)" = "$id" ]
+    [ "$(image "$T/body")" = "exr 32 24 3" ]
+    # HEAD tells the size without the body.
+    CODE=$(curl -s -I -o "$T/headers" -w '%{http_code}' -H "Authorization: Bearer $TOKEN" "$URL/v1/jobs/$id/image")
+    expect 200
+    [ "$(header Content-Length)" = "$(stat -c %s "$T/body")" ]
+    # Deleting a finished job drops it and its image.
+    req DELETE "$URL/v1/jobs/$id"
+    expect 200
+    req GET "$URL/v1/jobs/$id"
+    expect_error 404 job_not_found
+}
+
+@test "GET image before the job is done is 409; a failed job reports its error" {
+    start_daemon slow --workers 1
+    req POST "$DURL/v1/jobs" "$(slow_job)"
+    expect 202
+    local id
+    id=$(json o.id)
+    req GET "$DURL/v1/jobs/$id/image"
+    expect_error 409 not_ready
+    [ "$(header Retry-After)" = 1 ]
+    req DELETE "$DURL/v1/jobs/$id"
+    req GET "$DURL/v1/jobs/$id/image"
+    expect_error 409 job_cancelled
+}
+
+@test "DELETE cancels a running job within a tile, and a queued one at once" {
+    start_daemon cancel --workers 1 --queue 4
+    req POST "$DURL/v1/jobs" "$(slow_job)"
+    local running queued
+    running=$(json o.id)
+    req POST "$DURL/v1/jobs" "$(slow_job)"
+    queued=$(json o.id)
+    poll 20 job_progressing "$DURL" "$running"
+    [ "$(job_status "$DURL" "$queued")" = queued ]
+
+    req DELETE "$DURL/v1/jobs/$queued"
+    expect 200
+    [ "$(json o.status)" = cancelled ]
+    [ "$(json o.started_at)" = null ]
+
+    local t0 t1
+    t0=$(date +%s%N)
+    req DELETE "$DURL/v1/jobs/$running"
+    t1=$(date +%s%N)
+    expect 200
+    [ "$(json o.status)" = cancelled ]
+    [ "$(json o.error.code)" = cancelled ]
+    [ "$(json 'o.progress < 1')" = true ]
+    # Within a tile: far sooner than the render's tens of seconds.
+    [ $(((t1 - t0) / 1000000)) -lt 5000 ]
+    [ "$(metric "$DURL" 'lensrayd_jobs_finished_total{state="cancelled"}')" = 2 ]
+    [ "$(metric "$DURL" lensrayd_workers_busy)" = 0 ]
+}
+
+@test "a full queue answers 429 with Retry-After" {
+    start_daemon full --workers 1 --queue 2
+    local ids="" i
+    for i in 1 2 3; do
+        req POST "$DURL/v1/jobs" "$(slow_job)"
+        expect 202
+        ids="$ids $(json o.id)"
+    done
+    req POST "$DURL/v1/jobs" "$(slow_job)"
+    expect_error 429 queue_full
+    [[ "$(header Retry-After)" =~ ^[0-9]+$ ]]
+    req POST "$DURL/v1/render" '{"scene": "tiny"}'
+    expect_error 429 queue_full
+    [ "$(metric "$DURL" lensrayd_jobs_rejected_total)" = 2 ]
+    [ "$(metric "$DURL" lensrayd_queue_depth)" = 2 ]
+    # Room again once a job is gone.
+    for i in $ids; do
+        req DELETE "$DURL/v1/jobs/$i"
+    done
+    req POST "$DURL/v1/render" '{"scene": "tiny"}'
+    expect 200
+}
+
+@test "a client that disconnects from a synchronous render cancels it" {
+    start_daemon hangup --workers 1
+    run curl -s --max-time 1 -o /dev/null -H "Authorization: Bearer $TOKEN" \
+        -H 'Content-Type: application/json' -d "$(slow_job)" "$DURL/v1/render"
+    [ "$status" -eq 28 ] # curl's timeout: it hung up
+    poll 15 metric_is "$DURL" 'lensrayd_jobs_finished_total{state="cancelled"}' 1
+    poll 5 metric_is "$DURL" lensrayd_workers_busy 0
+    grep -q '^lensrayd: POST /v1/render 499 0 ' "$DLOG"
+    # The worker is free for the next job.
+    req POST "$DURL/v1/render" '{"scene": "tiny"}'
+    expect 200
+}
+
+@test "concurrent requests are all answered" {
+    local i
+    for i in $(seq 1 8); do
+        curl -s --max-time 60 -o "$T/c$i.png" -D "$T/h$i" -w '%{http_code}' \
+            -H "Authorization: Bearer $TOKEN" -H 'Content-Type: application/json' \
+            -d "{\"scene\": \"tiny\", \"render\": {\"seed\": $i, \"spp\": 4}}" \
+            "$URL/v1/render" >"$T/code$i" &
+    done
+    for i in $(seq 1 8); do
+        curl -s --max-time 10 -o /dev/null -w '%{http_code}' "$URL/healthz" >"$T/hc$i" &
+    done
+    wait
+    for i in $(seq 1 8); do
+        [ "$(cat "$T/code$i")" = 200 ]
+        [ "$(cat "$T/hc$i")" = 200 ]
+        [ "$(image "$T/c$i.png")" = "png 40 30 3" ]
+        grep -i '^x-lensray-job-id:' "$T/h$i" | tr -d '\r' >>"$T/ids"
+    done
+    [ "$(sort -u "$T/ids" | wc -l)" = 8 ]
+}
+
+@test "render time limit: an overlong render fails with timeout" {
+    start_daemon timeout --workers 1 --max-render-seconds 0.3
+    req POST "$DURL/v1/jobs" "$(slow_job)"
+    local id
+    id=$(json o.id)
+    poll 20 job_is "$DURL" "$id" failed
+    [ "$(json o.error.code "$T/status.json")" = timeout ]
+    req POST "$DURL/v1/render" "$(slow_job)"
+    expect_error 504 timeout
+}
+
+@test "finished jobs are kept for --job-ttl and up to --max-finished-jobs" {
+    start_daemon retain --workers 1 --max-finished-jobs 1 --job-ttl 2
+    req POST "$DURL/v1/jobs" '{"scene": "tiny"}'
+    local first second
+    first=$(json o.id)
+    poll 20 job_is "$DURL" "$first" done
+    req POST "$DURL/v1/jobs" '{"scene": "tiny"}'
+    second=$(json o.id)
+    poll 20 job_is "$DURL" "$second" done
+    req GET "$DURL/v1/jobs/$first"
+    expect_error 404 job_not_found
+    req GET "$DURL/v1/jobs/$second"
+    expect 200
+    sleep 2.2
+    req GET "$DURL/v1/jobs/$second/image"
+    expect_error 404 job_not_found
+}
+
+# ---- errors -------------------------------------------------------------------
+
+@test "400 for malformed JSON and for nesting deeper than the limit" {
+    req POST "$URL/v1/render" '{"scene": "tiny",'
+    expect_error 400 malformed_json
+    req POST "$URL/v1/render" ''
+    expect_error 400 malformed_json
+    req POST "$URL/v1/render" '{"scene": "tiny"} trailing'
+    expect_error 400 malformed_json
+    local deep
+    deep="$(printf '%.0s[' $(seq 1 100))$(printf '%.0s]' $(seq 1 100))"
+    req POST "$URL/v1/render" "$deep"
+    expect_error 400 too_deep
+    # Brackets inside strings are not nesting.
+    req POST "$URL/v1/render" "{\"scene\": \"$deep\"}"
+    expect_error 422 invalid_value scene
+}
+
+@test "404 for an unknown scene, job or route" {
+    req POST "$URL/v1/render" '{"scene": "nosuchscene"}'
+    expect_error 404 scene_not_found scene
+    req GET "$URL/v1/jobs/0123456789abcdef0123456789abcdef"
+    expect_error 404 job_not_found
+    req GET "$URL/v1/jobs/not-an-id/image"
+    expect_error 404 job_not_found
+    req DELETE "$URL/v1/jobs/0123456789abcdef0123456789abcdef"
+    expect_error 404 job_not_found
+    req GET "$URL/v2/render"
+    expect_error 404 not_found
+    req GET "$URL/v1/jobs/0123456789abcdef0123456789abcdef/pixels"
+    expect_error 404 not_found
+}
+
+@test "405 for a wrong method, with Allow" {
+    req GET "$URL/v1/render"
+    expect_error 405 method_not_allowed
+    [ "$(header Allow)" = POST ]
+    req DELETE "$URL/v1/scenes"
+    expect_error 405 method_not_allowed
+    [ "$(header Allow)" = "GET, HEAD" ]
+    req POST "$URL/v1/jobs/0123456789abcdef0123456789abcdef" '{}'
+    expect_error 405 method_not_allowed
+    [ "$(header Allow)" = "GET, HEAD, DELETE" ]
+}
+
+@test "413 for a body, image or job over the limits" {
+    head -c $((1024 * 1024 + 1)) /dev/zero | tr '\0' ' ' >"$T/big.json"
+    req POST "$URL/v1/render" "@$T/big.json"
+    expect_error 413 body_too_large
+    # Without a Content-Length the limit holds as the body streams in.
+    CODE=$(curl -sS -o "$T/body" -D "$T/headers" -w '%{http_code}' \
+        -H "Authorization: Bearer $TOKEN" -H 'Content-Type: application/json' \
+        -H 'Transfer-Encoding: chunked' --data-binary "@$T/big.json" "$URL/v1/render")
+    expect_error 413 body_too_large
+    req POST "$URL/v1/render" '{"scene": "tiny", "render": {"width": 2000, "height": 1000}}'
+    expect_error 413 image_too_large render.width
+    # A crop of that frame is within the pixel limit.
+    req POST "$URL/v1/jobs" '{"scene": "tiny", "render": {"width": 2000, "height": 1000, "region": [0, 0, 8, 8], "spp": 1}}'
+    expect 202
+    req POST "$URL/v1/render" '{"scene": "tiny", "render": {"width": 1000, "height": 1000, "spp": 2000}}'
+    expect_error 413 too_many_samples render.spp
+}
+
+@test "415 for a missing or wrong content type" {
+    CODE=$(curl -s -o "$T/body" -D "$T/headers" -w '%{http_code}' -H "Authorization: Bearer $TOKEN" \
+        -H 'Content-Type: text/plain' -d '{"scene": "tiny"}' "$URL/v1/render")
+    expect_error 415 unsupported_media_type
+    CODE=$(curl -s -o "$T/body" -D "$T/headers" -w '%{http_code}' -H "Authorization: Bearer $TOKEN" \
+        -H 'Content-Type:' -d '{"scene": "tiny"}' "$URL/v1/jobs")
+    expect_error 415 unsupported_media_type
+    req POST "$URL/v1/render" '{"scene": "tiny"}' -H 'Content-Type: application/json; charset=utf-8'
+    expect 200
+}
+
+@test "422 for valid JSON with an invalid value, naming its path" {
+    req POST "$URL/v1/render" '[1, 2]'
+    expect_error 422 invalid_value
+    req POST "$URL/v1/render" '{"camera": {"fov": 30}}'
+    expect_error 422 invalid_value scene
+    req POST "$URL/v1/render" '{"scene": "tiny", "camera": {"fov": 500}}'
+    expect_error 422 invalid_value camera.fov
+    req POST "$URL/v1/render" '{"scene": "tiny", "camera": {"model": "thinlens", "aperture_radius": -1}}'
+    expect_error 422 invalid_value camera.aperture_radius
+    req POST "$URL/v1/render" '{"scene": "tiny", "render": {"spp": 0}}'
+    expect_error 422 invalid_value render.spp
+    req POST "$URL/v1/render" '{"scene": "tiny", "render": {"region": [0, 0, 99, 10]}}'
+    expect_error 422 invalid_value render.region
+    req POST "$URL/v1/render" '{"scene": "tiny", "output": {"format": "gif"}}'
+    expect_error 422 invalid_value output.format
+    req POST "$URL/v1/render" '{"scene": "tiny", "output": {"format": "png", "quality": 9}}'
+    expect_error 422 invalid_value output.quality
+    req POST "$URL/v1/render" '{"scene": "tiny", "output": {"format": "png", "depth": true}}'
+    expect_error 422 invalid_value output.depth
+    req POST "$URL/v1/render" '{"scene": "tiny", "colour": "red"}'
+    expect_error 422 invalid_value colour
+    req POST "$URL/v1/render" '{"scene": "tiny", "scene": "cornell"}'
+    expect_error 422 invalid_value scene
+    req POST "$URL/v1/render" '{"scene": {"objects": [{"type": "sphere", "center": [0, 0, 0], "radius": -2}]}}'
+    expect_error 422 invalid_value scene.objects[0].radius
+    [[ "$(json o.error.message)" == "scene.objects[0].radius must be > 0"* ]]
+}
+
+# ---- metrics ------------------------------------------------------------------
+
+@test "GET /metrics is in the Prometheus text format" {
+    req POST "$URL/v1/render" '{"scene": "tiny"}'
+    req GET "$URL/metrics"
+    expect 200
+    [[ "$(header Content-Type)" == "text/plain; version=0.0.4"* ]]
+    grep -q '^lensrayd_http_requests_total{code="200"} [0-9][0-9]*$' "$T/body"
+    grep -q '^lensrayd_http_requests_total{code="404"} [0-9][0-9]*$' "$T/body"
+    grep -q '^lensrayd_jobs{state="queued"} [0-9]*$' "$T/body"
+    grep -q '^lensrayd_jobs_finished_total{state="done"} [1-9][0-9]*$' "$T/body"
+    grep -q '^lensrayd_queue_depth [0-9]*$' "$T/body"
+    grep -q '^lensrayd_rays_traced_total [1-9][0-9]*$' "$T/body"
+    grep -q '^lensrayd_render_seconds_total [0-9.]*$' "$T/body"
+    grep -q '^# TYPE lensrayd_http_requests_total counter$' "$T/body"
+    # Every line is a comment or "name{labels} value".
+    run grep -Ev '^(# (HELP|TYPE) .*|[a-z_]+(\{[a-z_]+="[^"]*"(,[a-z_]+="[^"]*")*\})? [0-9.e+-]+)$' "$T/body"
+    [ "$status" -eq 1 ]
+}
+
+# ---- shutdown -----------------------------------------------------------------
+
+# read_response FD: reads one HTTP response from an open descriptor into
+# RESP_STATUS and RESP_BODY.
+read_response() {
+    local line len=0
+    IFS= read -r -t 10 line <&"$1" || return 1
+    RESP_STATUS=$(echo "$line" | cut -d' ' -f2)
+    while IFS= read -r -t 10 line <&"$1"; do
+        line=${line%$'\r'}
+        [ -z "$line" ] && break
+        case "${line,,}" in
+        content-length:*) len=${line#*:} && len=${len// /} ;;
+        esac
+    done
+    RESP_BODY=""
+    if [ "$len" -gt 0 ]; then
+        IFS= read -r -N "$len" -t 10 RESP_BODY <&"$1"
+    fi
+}
+
+@test "SIGTERM during a render: 503 for new requests, the render is cancelled after the grace, exit 0" {
+    start_daemon shutdown --workers 1 --queue 4 --shutdown-grace 1
+    local port=${DURL##*:}
+    # A kept-alive connection, open before the shutdown.
+    exec 5<>"/dev/tcp/127.0.0.1/$port"
+    printf 'GET /healthz HTTP/1.1\r\nHost: test\r\n\r\n' >&5
+    read_response 5
+    [ "$RESP_STATUS" = 200 ]
+
+    curl -s --max-time 60 -o "$T/render.out" -D "$T/render.h" -w '%{http_code}' \
+        -H 'Content-Type: application/json' -d "$(slow_job)" "$DURL/v1/render" \
+        >"$T/render.code" &
+    local client=$!
+    req POST "$DURL/v1/jobs" "$(slow_job)" # waits in the queue
+    expect 202
+    poll 20 metric_is "$DURL" lensrayd_workers_busy 1
+
+    kill -TERM "$DPID"
+    poll 5 grep -q 'shutting down' "$DLOG"
+    # Requests on open connections get 503 ...
+    printf 'GET /healthz HTTP/1.1\r\nHost: test\r\n\r\n' >&5
+    read_response 5
+    [ "$RESP_STATUS" = 503 ]
+    [[ "$RESP_BODY" == *'"shutting_down"'* ]]
+    exec 5<&-
+    # ... and new connections are refused.
+    run curl -s --max-time 5 -o /dev/null "$DURL/healthz"
+    [ "$status" -ne 0 ]
+
+    wait_exit "$DPID" 20
+    [ "$EXIT_STATUS" -eq 0 ]
+    wait "$client"
+    # The render did not fit in the grace period: it was cancelled, and the
+    # client got an error, never a partial image.
+    [ "$(cat "$T/render.code")" = 503 ]
+    [ "$(json o.error.code "$T/render.out")" = shutting_down ]
+    grep -q '^lensrayd: cancelling 1 running job$' "$DLOG"
+    grep -q '^lensrayd: stopped$' "$DLOG"
+}
+
+@test "SIGTERM lets a render that fits in the grace period finish and be sent whole" {
+    start_daemon graceful --workers 1 --shutdown-grace 30
+    curl -s --max-time 60 -o "$T/render.out" -w '%{http_code}' \
+        -H 'Content-Type: application/json' -d "$(slow_job 20000)" "$DURL/v1/render" \
+        >"$T/render.code" &
+    local client=$!
+    poll 20 metric_is "$DURL" lensrayd_workers_busy 1
+    kill -TERM "$DPID"
+    wait_exit "$DPID" 40
+    [ "$EXIT_STATUS" -eq 0 ]
+    wait "$client"
+    [ "$(cat "$T/render.code")" = 200 ]
+    [ "$(image "$T/render.out")" = "png 32 24 3" ]
+    ! grep -q 'cancelling' "$DLOG"
+}
+
+@test "SIGINT on an idle daemon exits 0 at once" {
+    start_daemon idle
+    kill -INT "$DPID"
+    wait_exit "$DPID" 5
+    [ "$EXIT_STATUS" -eq 0 ]
+    grep -q '^lensrayd: SIGINT: shutting down' "$DLOG"
+}
