@@ -168,11 +168,9 @@ static void render_pixel(worker *w, int x, int y)
     lr__pixel acc;
     lr__pixel_reset(&acc);
     for (int s = 0; s < set->spp; s++) {
-        double up[2], ul[2] = {0.5, 0.5};
-        lr__sample_2d(&j->sampler, pixel, (uint32_t)s, LR__DIM_PIXEL, up);
-        if (j->cam.has_lens)
-            lr__sample_2d(&j->sampler, pixel, (uint32_t)s, LR__DIM_LENS, ul);
-        camera_sample(w, pixel, (uint32_t)s, x + up[0], y + up[1], ul, &acc);
+        double u[4];
+        lr__sample_pixel_lens(&j->sampler, pixel, (uint32_t)s, u);
+        camera_sample(w, pixel, (uint32_t)s, x + u[0], y + u[1], u + 2, &acc);
     }
     w->samples += acc.n;
     w->dropped += acc.dropped;

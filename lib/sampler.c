@@ -98,6 +98,9 @@ static uint32_t reverse_bits(uint32_t x)
  *     x^3 + x + 1:     s = 3, a = 1, m = 1, 3, 1
  * extended by the recurrence of Bratley & Fox (Algorithm 659). */
 static uint32_t sobol_v[4][32];
+/* sobol_t[d][b][x]: the XOR of the direction numbers for the set bits of
+ * byte value x at byte b of the index, so a point costs four lookups. */
+static uint32_t sobol_t[4][4][256];
 static pthread_once_t sobol_once = PTHREAD_ONCE_INIT;
 
 static void sobol_init(void)
@@ -125,15 +128,21 @@ static void sobol_init(void)
             sobol_v[d][k] = m[k] << (31 - k);
         }
     }
+    for (int d = 0; d < 4; d++)
+        for (int b = 0; b < 4; b++)
+            for (uint32_t x = 0; x < 256; x++) {
+                uint32_t r = 0;
+                for (int k = 0; k < 8; k++)
+                    if (x & (1u << k))
+                        r ^= sobol_v[d][8 * b + k];
+                sobol_t[d][b][x] = r;
+            }
 }
 
 static uint32_t sobol(uint32_t i, int d)
 {
-    uint32_t r = 0;
-    for (int k = 0; i != 0; i >>= 1, k++)
-        if (i & 1u)
-            r ^= sobol_v[d][k];
-    return r;
+    return sobol_t[d][0][i & 0xffu] ^ sobol_t[d][1][(i >> 8) & 0xffu] ^
+           sobol_t[d][2][(i >> 16) & 0xffu] ^ sobol_t[d][3][i >> 24];
 }
 
 /* Laine & Karras' permutation with Burley's constants: output bit k
@@ -172,6 +181,20 @@ static double sobol_1d(const lr__sampler *s, uint64_t pixel, uint32_t sample,
     return owen(sobol(idx, d), (uint32_t)scramble) * 0x1p-32;
 }
 
+/* Pixel and lens dimensions (0..3) in one go: one index shuffle for the
+ * 4-D Sobol point. */
+static void sobol_4d(const lr__sampler *s, uint64_t pixel, uint32_t sample,
+                     double out[4])
+{
+    static const int map[4] = {2, 3, 0, 1};
+    uint64_t shuffle = hash4(s->seed, pixel, 0xffffffffu, 0);
+    uint32_t idx = owen(sample, (uint32_t)shuffle);
+    for (uint32_t dim = 0; dim < 4; dim++) {
+        uint64_t scramble = hash4(s->seed, pixel, 0xfffffffdu, dim);
+        out[dim] = owen(sobol(idx, map[dim]), (uint32_t)scramble) * 0x1p-32;
+    }
+}
+
 /* ---- the public face -------------------------------------------------- */
 
 void lr__sampler_init(lr__sampler *s, lr_sampler_kind kind, uint64_t seed,
@@ -207,6 +230,17 @@ double lr__sample_1d(const lr__sampler *s, uint64_t pixel, uint32_t sample,
     default:
         return to_unit(hash4(s->seed, pixel, sample, dim));
     }
+}
+
+void lr__sample_pixel_lens(const lr__sampler *s, uint64_t pixel,
+                           uint32_t sample, double out[4])
+{
+    if (s->kind == LR_SAMPLER_SOBOL) {
+        sobol_4d(s, pixel, sample, out);
+        return;
+    }
+    lr__sample_2d(s, pixel, sample, LR__DIM_PIXEL, out);
+    lr__sample_2d(s, pixel, sample, LR__DIM_LENS, out + 2);
 }
 
 void lr__sample_2d(const lr__sampler *s, uint64_t pixel, uint32_t sample,

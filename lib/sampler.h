@@ -39,6 +39,11 @@ double lr__sample_1d(const lr__sampler *s, uint64_t pixel, uint32_t sample,
 void lr__sample_2d(const lr__sampler *s, uint64_t pixel, uint32_t sample,
                    uint32_t dim, double out[2]);
 
+/* The pixel (out[0..1]) and lens (out[2..3]) dimensions of one sample at
+ * once: the same values as two lr__sample_2d calls, computed faster. */
+void lr__sample_pixel_lens(const lr__sampler *s, uint64_t pixel,
+                           uint32_t sample, double out[4]);
+
 /* The 64-bit mixing function behind the hashes (SplitMix64's finaliser). */
 uint64_t lr__mix64(uint64_t z);
 

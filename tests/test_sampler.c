@@ -210,7 +210,27 @@ static void test_random_moments(void **state)
     assert_true(fabs(var - 1.0 / 12) < 0.002);
 }
 
+/* The fast 4-D call gives exactly the values of the per-pair calls. */
+static void test_pixel_lens_matches_2d(void **state)
+{
+    (void)state;
+    for (int kind = 0; kind <= LR_SAMPLER_SOBOL; kind++) {
+        lr__sampler s;
+        lr__sampler_init(&s, (lr_sampler_kind)kind, 3, 16);
+        for (uint64_t px = 0; px < 40; px++)
+            for (uint32_t i = 0; i < 16; i++) {
+                double a[4], p[2], l[2];
+                lr__sample_pixel_lens(&s, px, i, a);
+                lr__sample_2d(&s, px, i, LR__DIM_PIXEL, p);
+                lr__sample_2d(&s, px, i, LR__DIM_LENS, l);
+                assert_true(a[0] == p[0] && a[1] == p[1] && a[2] == l[0] &&
+                            a[3] == l[1]);
+            }
+    }
+}
+
 static const struct CMUnitTest sampler_tests[] = {
+    cmocka_unit_test(test_pixel_lens_matches_2d),
     cmocka_unit_test(test_permute_is_bijection),
     cmocka_unit_test(test_values_in_unit_interval_and_pure),
     cmocka_unit_test(test_grid_is_cell_centres),
