@@ -42,7 +42,7 @@ TEST_OBJ := $(TEST_SRC:%.c=$(BUILD)/obj/%.o)
 DEPS_OK  := $(BUILD)/.deps-ok
 BUNNY    := scenes/meshes/bunny.obj
 
-.PHONY: all deps test render serve clean install bunny test-sanitize
+.PHONY: all deps test render serve clean install bunny test-sanitize figures
 
 all: $(BUILD)/liblensray.a $(BUILD)/liblensray.so $(BUILD)/lensray $(BUNNY) \
      $(if $(SVC_SRC),$(BUILD)/lensrayd)
@@ -126,6 +126,10 @@ test-sanitize:
 # ---- running ------------------------------------------------------------
 render: all
 	$(BUILD)/lensray render scenes/spheres.json -o $(BUILD)/spheres.png --stats
+
+# The gallery's pictures (docs/gallery.md), rendered with the CLI.
+figures: all
+	sh docs/figures.sh $(BUILD)/lensray docs/figures
 
 install: all
 	install -d $(DESTDIR)$(PREFIX)/include $(DESTDIR)$(PREFIX)/lib \

@@ -1,0 +1,75 @@
+#!/bin/sh
+# Renders the gallery's figures into docs/figures/ (run by `make figures`).
+# Each figure is one command line below, so any of them can be re-run or
+# tweaked by hand.  Usage: docs/figures.sh [LENSRAY] [OUTDIR]
+set -eu
+LR=${1:-build/lensray}
+OUT=${2:-docs/figures}
+mkdir -p "$OUT"
+
+n=0
+fig() {
+    name=$1
+    shift
+    n=$((n + 1))
+    printf 'figures: [%2d] %s\n' "$n" "$name"
+    "$LR" render "$@" -o "$OUT/$name.png" -q
+}
+
+# The paper's figure 4: a focal sweep of the bunny with the bracket method,
+# unjittered (grid) like the paper's, focal plane at di + f = 5, 9, 15, 23.
+for f in 4 8 14 22; do
+    fig "sweep-f$f" scenes/bunny.json \
+        --set render.width=400 --set render.height=300 --set render.spp=16 \
+        --set render.sampler=grid --set camera.model=bracket \
+        --set camera.image_plane_distance=1 --set camera.focal_length=$f \
+        --set camera.aperture=0.4
+done
+
+# Figure 5: grid (the paper's unjittered method) against jittered, same rays.
+for s in grid jittered; do
+    fig "bunny-$s" scenes/bunny.json \
+        --set render.width=400 --set render.height=300 --set render.spp=16 \
+        --set render.sampler=$s --set camera.model=bracket \
+        --set camera.focal_length=8 --set camera.aperture=0.6
+done
+
+# Figures 6 and 7: axial chromatic aberration on distant objects, the
+# paper's indices as they are, then exaggerated; and without, to compare.
+fig chroma-off scenes/chromatic.json --set camera.chromatic.mode=off \
+    --set camera.aperture=0.5
+fig chroma-true scenes/chromatic.json --set camera.chromatic.amplify=1 \
+    --set camera.aperture=0.5
+fig chroma-x50 scenes/chromatic.json --set camera.chromatic.amplify=50 \
+    --set camera.aperture=0.5
+
+# Spectral against rgb: the same 50 mm f/1.4 thin lens with BK7 glass,
+# 3x the true dispersion, through the lensmaker's equation.
+lens="--set camera.model=thinlens --set camera.focal_length_mm=50 \
+      --set camera.f_number=1.4 --set camera.focus_distance=30"
+# shellcheck disable=SC2086
+fig chroma-rgb scenes/chromatic.json $lens --set render.spp=128 \
+    --set 'camera.chromatic={"mode": "rgb", "focal_model": "lensmaker", "amplify": 3, "ior": [1.51432, 1.51680, 1.52238]}'
+# shellcheck disable=SC2086
+fig chroma-spectral scenes/chromatic.json $lens --set render.spp=128 \
+    --set 'camera.chromatic={"mode": "spectral", "focal_model": "lensmaker", "amplify": 3, "glass": "BK7", "wavelengths": 8}'
+
+# Bokeh: the aperture's shape in the out-of-focus highlights.
+fig bokeh-disk scenes/bokeh.json --set camera.aperture_shape=disk
+fig bokeh-hexagon scenes/bokeh.json --set camera.aperture_shape=polygon \
+    --set camera.aperture_blades=6
+fig bokeh-triangle scenes/bokeh.json --set camera.aperture_shape=polygon \
+    --set camera.aperture_blades=3 --set camera.aperture_rotation=90
+fig bokeh-square scenes/bokeh.json --set camera.aperture_shape=square \
+    --set camera.aperture_rotation=45
+fig bokeh-anamorphic scenes/bokeh.json --set camera.aperture_shape=disk \
+    --set camera.aperture_ratio=0.5
+
+# The row of spheres: pinhole, then thin lens focused on the third sphere.
+fig spheres-pinhole scenes/spheres.json
+fig spheres-thinlens scenes/spheres.json --set camera.model=thinlens \
+    --set camera.aperture_radius=0.2 --set camera.focus_distance=16.5 \
+    --set render.spp=64
+fig cornell scenes/cornell.json --set render.spp=64
+
+echo "figures: $n images in $OUT"
