@@ -236,6 +236,14 @@ static void cancel_error_locked(lrd_job *j, lrd_job **chain)
 
 /* ---- the workers --------------------------------------------------------- */
 
+/* Raises the flag lr_render polls.  The library takes a plain
+ * `const volatile int *`, so its reads are not atomic; the store at least
+ * is, and happens under jobs.mu like every other write to the job. */
+static void set_cancel(lrd_job *j)
+{
+    __atomic_store_n(&j->cancel, 1, __ATOMIC_SEQ_CST);
+}
+
 /* Called by lr_render after each tile, serialised by the library.  It is
  * also where the time limit is enforced: the library polls the cancel
  * flag between tiles, so checking the clock after each tile stops an
@@ -249,46 +257,53 @@ static void on_progress(void *user, uint64_t done, uint64_t total)
     if (!j->cancel && lrd_cfg.max_render_seconds > 0 &&
         lrd_monotonic() - j->started > lrd_cfg.max_render_seconds) {
         j->cancel_reason = LRD_CANCEL_TIMEOUT;
-        j->cancel = 1;
+        set_cancel(j);
     }
     pthread_mutex_unlock(&jobs.mu);
 }
 
-/* Renders and encodes one job, outside the lock; fills the job's result
- * fields, which nobody else reads until the state says it finished. */
-static lrd_state run(lrd_job *j)
+/* What run() produced, published into the job under the lock. */
+typedef struct run_result {
+    lrd_blob *image;
+    lr_render_stats stats;
+    double encode_seconds;
+    lrd_err err;
+} run_result;
+
+/* Renders and encodes one job, outside the lock.  It writes only to *out:
+ * readers such as /metrics and the status document look at the job's
+ * fields at any time, so the worker copies the result in under the lock. */
+static lrd_state run(lrd_job *j, run_result *out)
 {
     const lrd_job_spec *sp = &j->spec;
+    memset(out, 0, sizeof *out);
     lr_render_settings rs = sp->rs;
     rs.progress = on_progress;
     rs.progress_user = j;
     rs.cancel = &j->cancel;
     lr_image *img = NULL;
-    lr_render_stats stats;
     lr_error le;
-    memset(&stats, 0, sizeof stats);
     lr_status st = lr_render(lrd_scene_get(sp->scene), &sp->cam, &rs, &img,
-                             &stats, &le);
+                             &out->stats, &le);
     if (st == LR_ERR_CANCELLED)
         return LRD_CANCELLED;
     if (st != LR_OK) {
-        lrd_fail_lr(&j->err, &le, NULL, 0);
+        lrd_fail_lr(&out->err, &le, NULL, 0);
         return LRD_FAILED;
     }
-    j->stats = stats;
     double t0 = lrd_monotonic();
     void *buf = NULL;
     size_t len = 0;
     st = lr_image_encode(img, sp->format, &sp->out, &buf, &len, &le);
     lr_image_free(img);
-    j->encode_seconds = lrd_monotonic() - t0;
+    out->encode_seconds = lrd_monotonic() - t0;
     if (st != LR_OK) {
-        lrd_fail_lr(&j->err, &le, "output", 0);
+        lrd_fail_lr(&out->err, &le, "output", 0);
         return LRD_FAILED;
     }
     if (len > lrd_cfg.max_output) {
         lr_free(buf);
-        lrd_fail(&j->err, 413, "image_too_large", "output",
+        lrd_fail(&out->err, 413, "image_too_large", "output",
                  "the encoded image is %zu bytes, more than the limit of "
                  "%llu (--max-output-bytes)",
                  len, (unsigned long long)lrd_cfg.max_output);
@@ -297,13 +312,13 @@ static lrd_state run(lrd_job *j)
     lrd_blob *b = malloc(sizeof *b);
     if (b == NULL) {
         lr_free(buf);
-        lrd_fail(&j->err, 503, "out_of_memory", NULL, "out of memory");
+        lrd_fail(&out->err, 503, "out_of_memory", NULL, "out of memory");
         return LRD_FAILED;
     }
     atomic_init(&b->refs, 1);
     b->data = buf;
     b->len = len;
-    j->image = b;
+    out->image = b;
     return LRD_DONE;
 }
 
@@ -329,11 +344,17 @@ static void *worker_main(void *arg)
         j->started_wall = lrd_wall();
         pthread_mutex_unlock(&jobs.mu);
 
-        lrd_state result = run(j);
+        run_result out;
+        lrd_state result = run(j, &out);
 
         lrd_job *chain = NULL;
         pthread_mutex_lock(&jobs.mu);
         jobs.running--;
+        j->image = out.image;
+        j->stats = out.stats;
+        j->encode_seconds = out.encode_seconds;
+        if (result == LRD_FAILED)
+            j->err = out.err;
         double took = lrd_monotonic() - j->started;
         jobs.render_seconds += took;
         if (result == LRD_DONE) {
@@ -525,7 +546,7 @@ lrd_state lrd_job_cancel(lrd_job *j, lrd_cancel_reason why)
         cancel_error_locked(j, &chain);
     } else if (j->state == LRD_RUNNING && !j->cancel) {
         j->cancel_reason = why;
-        j->cancel = 1;
+        set_cancel(j);
     }
     lrd_state s = j->state;
     pthread_mutex_unlock(&jobs.mu);
@@ -722,7 +743,7 @@ void lrd_jobs_cancel_running(lrd_cancel_reason why)
     for (lrd_job *j = jobs.head; j != NULL; j = j->next)
         if (j->state == LRD_RUNNING && !j->cancel) {
             j->cancel_reason = why;
-            j->cancel = 1;
+            set_cancel(j);
         }
     pthread_mutex_unlock(&jobs.mu);
 }

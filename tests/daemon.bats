@@ -140,19 +140,14 @@ header() {
 expect_error() {
     expect "$1"
     [ "$(header Content-Type)" = application/json ]
-    local got
-    got=$(json 'o.error.code')
-    if [ "$got" != "$2" ]; then
-        echo "expected error code $2, got $got: $(cat "$T/body")" >&2
+    # One node run checks the code, that there is a message, and the path.
+    local got want
+    got=$(json '`${o.error.code}|${o.error.message.length > 0}|${o.error.path}`')
+    want="$2|true|${3-}"
+    [ $# -ge 3 ] || got="${got%|*}|"
+    if [ "$got" != "$want" ]; then
+        echo "expected error code|message|path $want, got $got: $(cat "$T/body")" >&2
         return 1
-    fi
-    [ -n "$(json 'o.error.message')" ]
-    if [ $# -ge 3 ]; then
-        got=$(json 'o.error.path')
-        if [ "$got" != "$3" ]; then
-            echo "expected error path $3, got $got" >&2
-            return 1
-        fi
     fi
 }
 
@@ -175,15 +170,17 @@ poll() {
     return 1
 }
 
-# job_status URL ID: prints the job's status.
+# job_status URL ID: prints the job's status; the document stays in
+# $T/status.json.  Polled often, so it reads the compact JSON with sed
+# rather than starting node: "status" is a top-level key only.
 job_status() {
     curl -s --max-time 10 -H "Authorization: Bearer $TOKEN" "$1/v1/jobs/$2" >"$T/status.json"
-    json 'o.status' "$T/status.json"
+    sed -n 's/.*"status":"\([a-z]*\)".*/\1/p' "$T/status.json"
 }
 job_is() { [ "$(job_status "$1" "$2")" = "$3" ]; }
 job_progressing() {
-    job_status "$1" "$2" >/dev/null
-    [ "$(json 'o.status == "running" && o.progress > 0' "$T/status.json")" = true ]
+    [ "$(job_status "$1" "$2")" = running ] &&
+        ! grep -q '"progress":0,' "$T/status.json"
 }
 metric_is() { [ "$(metric "$1" "$2")" = "$3" ]; }
 
@@ -810,7 +807,7 @@ EOF
 }
 
 @test "finished jobs are kept for --job-ttl and up to --max-finished-jobs" {
-    start_daemon retain --workers 1 --max-finished-jobs 1 --job-ttl 2
+    start_daemon retain --workers 1 --max-finished-jobs 1 --job-ttl 1
     req POST "$DURL/v1/jobs" '{"scene": "tiny"}'
     local first second
     first=$(json o.id)
@@ -822,7 +819,7 @@ EOF
     expect_error 404 job_not_found
     req GET "$DURL/v1/jobs/$second"
     expect 200
-    sleep 2.2
+    sleep 1.2
     req GET "$DURL/v1/jobs/$second/image"
     expect_error 404 job_not_found
 }
@@ -1013,7 +1010,7 @@ read_response() {
 @test "SIGTERM lets a render that fits in the grace period finish and be sent whole" {
     start_daemon graceful --workers 1 --shutdown-grace 30
     curl -s --max-time 60 -o "$T/render.out" -w '%{http_code}' \
-        -H 'Content-Type: application/json' -d "$(slow_job 20000)" "$DURL/v1/render" \
+        -H 'Content-Type: application/json' -d "$(slow_job 5000)" "$DURL/v1/render" \
         >"$T/render.code" &
     local client=$!
     poll 20 metric_is "$DURL" lensrayd_workers_busy 1
