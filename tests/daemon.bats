@@ -496,14 +496,24 @@ EOF
     req GET "$URL/v1/scenes"
     expect 200
     [ "$(json 'o.scenes.map(s => s.name).join(",")')" = cornell,spheres,tiny ]
-    [ "$(json 'o.scenes[0].camera.position')" = '[0,5,16]' ]
-    [ "$(json 'o.scenes[0].camera.look_at')" = '[0,5,0]' ]
-    [ "$(json 'o.scenes[0].camera.fov')" = 40 ]
-    [ "$(json 'o.scenes[0].camera.model')" = pinhole ]
-    [ "$(json 'o.scenes[0].render.width + "x" + o.scenes[0].render.height')" = 512x512 ]
-    [[ "$(json 'o.scenes[0].description')" == *Cornell* ]]
-    [ "$(json 'o.scenes[2].render.spp')" = 2 ]
-    [ "$(json 'o.scenes[2].primitives > 0')" = true ]
+    # Each scene's defaults are those its file states.
+    local name i=0 listed file
+    for name in cornell spheres tiny; do
+        listed=$(json "const s = o.scenes[$i]; [s.description, s.camera.position,
+            s.camera.look_at, s.camera.fov, s.render.width, s.render.height,
+            s.render.spp].join(' ')")
+        # (with the scene format's defaults for what a file leaves out)
+        file=$(json "const c = o.camera || {}, r = o.render || {};
+            [o.description || '', c.position || [0, 0, 0], c.look_at || [0, 0, -1],
+             c.fov ?? 40, r.width ?? 640, r.height ?? 480, r.spp ?? 16].join(' ')" \
+            "$WORK/scenes/$name.json")
+        [ "$listed" = "$file" ]
+        i=$((i + 1))
+    done
+    [ "$(json 'o.scenes[2].camera.model')" = pinhole ]
+    [ "$(json 'o.scenes[2].camera.up')" = '[0,1,0]' ]
+    [ "$(json 'o.scenes[2].render.max_depth')" = 2 ]
+    [ "$(json 'o.scenes.every(s => s.primitives > 0)')" = true ]
 }
 
 # ---- synchronous renders --------------------------------------------------------
