@@ -189,7 +189,7 @@ typedef struct lr_render_settings {
     int width;               /* pixels; default 640 */
     int height;              /* pixels; default 480 */
     int spp;                 /* samples per pixel; default 16 */
-    lr_sampler_kind sampler; /* default LR_SAMPLER_JITTERED */
+    lr_sampler_kind sampler; /* default LR_SAMPLER_SOBOL */
     uint64_t seed;           /* default 0 */
     int max_depth;           /* mirror/glass bounces; default 8 */
     int threads;             /* 0 = all cores (default) */

@@ -46,59 +46,58 @@ static int finite3(const double v[3])
 
 #define BAD(path, ...) lr__fail(err, LR_ERR_INVALID, path, __VA_ARGS__)
 
+/* Every field is checked whatever the model, so that a bad value never
+ * waits silently for the day someone switches models. */
 static lr_status validate_lens(const lr_camera *cam, lr_error *err)
 {
-    if (cam->model == LR_CAMERA_THINLENS) {
-        if (!(cam->focus_distance > 0.0 && isfinite(cam->focus_distance)))
-            return BAD("camera.focus_distance",
-                       "camera.focus_distance must be > 0, got %g",
-                       cam->focus_distance);
-        if (!(cam->aperture_radius >= 0.0 && isfinite(cam->aperture_radius)))
-            return BAD("camera.aperture_radius",
-                       "camera.aperture_radius must be >= 0, got %g",
-                       cam->aperture_radius);
-        if (!(cam->focal_length_mm >= 0.0 && isfinite(cam->focal_length_mm)))
-            return BAD("camera.focal_length_mm",
-                       "camera.focal_length_mm must be >= 0, got %g",
-                       cam->focal_length_mm);
-        if (!(cam->f_number >= 0.0 && isfinite(cam->f_number)))
-            return BAD("camera.f_number", "camera.f_number must be >= 0, got %g",
-                       cam->f_number);
-        if (cam->f_number > 0.0 && !(cam->focal_length_mm > 0.0))
-            return BAD("camera.focal_length_mm",
-                       "camera.f_number needs camera.focal_length_mm > 0");
-        if (cam->aperture_shape != LR_APERTURE_DISK &&
-            cam->aperture_shape != LR_APERTURE_SQUARE &&
-            cam->aperture_shape != LR_APERTURE_POLYGON)
-            return BAD("camera.aperture_shape",
-                       "camera.aperture_shape is not a known shape (%d)",
-                       (int)cam->aperture_shape);
-        if (cam->aperture_blades < 3 || cam->aperture_blades > 64)
-            return BAD("camera.aperture_blades",
-                       "camera.aperture_blades must be between 3 and 64, got %d",
-                       cam->aperture_blades);
-        if (!isfinite(cam->aperture_rotation))
-            return BAD("camera.aperture_rotation",
-                       "camera.aperture_rotation must be finite");
-        if (!(cam->aperture_ratio >= 0.01 && cam->aperture_ratio <= 100.0))
-            return BAD("camera.aperture_ratio",
-                       "camera.aperture_ratio must be between 0.01 and 100, "
-                       "got %g",
-                       cam->aperture_ratio);
-    } else if (cam->model == LR_CAMERA_BRACKET) {
-        if (!(cam->image_plane_distance > 0.0 &&
-              isfinite(cam->image_plane_distance)))
-            return BAD("camera.image_plane_distance",
-                       "camera.image_plane_distance must be > 0, got %g",
-                       cam->image_plane_distance);
-        if (!(cam->focal_length > 0.0 && isfinite(cam->focal_length)))
-            return BAD("camera.focal_length",
-                       "camera.focal_length must be > 0, got %g",
-                       cam->focal_length);
-        if (!(cam->aperture >= 0.0 && isfinite(cam->aperture)))
-            return BAD("camera.aperture", "camera.aperture must be >= 0, got %g",
-                       cam->aperture);
-    }
+    if (!(cam->focus_distance > 0.0 && isfinite(cam->focus_distance)))
+        return BAD("camera.focus_distance",
+                   "camera.focus_distance must be > 0, got %g",
+                   cam->focus_distance);
+    if (!(cam->aperture_radius >= 0.0 && isfinite(cam->aperture_radius)))
+        return BAD("camera.aperture_radius",
+                   "camera.aperture_radius must be >= 0, got %g",
+                   cam->aperture_radius);
+    if (!(cam->focal_length_mm >= 0.0 && isfinite(cam->focal_length_mm)))
+        return BAD("camera.focal_length_mm",
+                   "camera.focal_length_mm must be >= 0, got %g",
+                   cam->focal_length_mm);
+    if (!(cam->f_number >= 0.0 && isfinite(cam->f_number)))
+        return BAD("camera.f_number", "camera.f_number must be >= 0, got %g",
+                   cam->f_number);
+    if (cam->f_number > 0.0 && !(cam->focal_length_mm > 0.0))
+        return BAD("camera.focal_length_mm",
+                   "camera.focal_length_mm must be set (> 0) when "
+                   "camera.f_number is");
+    if (cam->aperture_shape != LR_APERTURE_DISK &&
+        cam->aperture_shape != LR_APERTURE_SQUARE &&
+        cam->aperture_shape != LR_APERTURE_POLYGON)
+        return BAD("camera.aperture_shape",
+                   "camera.aperture_shape is not a known shape (%d)",
+                   (int)cam->aperture_shape);
+    if (cam->aperture_blades < 3 || cam->aperture_blades > 64)
+        return BAD("camera.aperture_blades",
+                   "camera.aperture_blades must be between 3 and 64, got %d",
+                   cam->aperture_blades);
+    if (!isfinite(cam->aperture_rotation))
+        return BAD("camera.aperture_rotation",
+                   "camera.aperture_rotation must be finite");
+    if (!(cam->aperture_ratio >= 0.01 && cam->aperture_ratio <= 100.0))
+        return BAD("camera.aperture_ratio",
+                   "camera.aperture_ratio must be between 0.01 and 100, got %g",
+                   cam->aperture_ratio);
+    if (!(cam->image_plane_distance > 0.0 &&
+          isfinite(cam->image_plane_distance)))
+        return BAD("camera.image_plane_distance",
+                   "camera.image_plane_distance must be > 0, got %g",
+                   cam->image_plane_distance);
+    if (!(cam->focal_length > 0.0 && isfinite(cam->focal_length)))
+        return BAD("camera.focal_length",
+                   "camera.focal_length must be > 0, got %g",
+                   cam->focal_length);
+    if (!(cam->aperture >= 0.0 && isfinite(cam->aperture)))
+        return BAD("camera.aperture", "camera.aperture must be >= 0, got %g",
+                   cam->aperture);
     if ((cam->focus_on[0] < 0) != (cam->focus_on[1] < 0))
         return BAD("camera.focus_on",
                    "camera.focus_on must be a pixel [x, y] with x, y >= 0");
@@ -118,12 +117,14 @@ static lr_status validate_chromatic(const lr_camera *cam, lr_error *err)
         return BAD("camera.chromatic.focal_model",
                    "camera.chromatic.focal_model is not a known model (%d)",
                    (int)ch->focal_model);
+    static const char *const ior_path[3] = {"camera.chromatic.ior[0]",
+                                            "camera.chromatic.ior[1]",
+                                            "camera.chromatic.ior[2]"};
     for (int i = 0; i < 3; i++)
         if (!(ch->ior[i] > 1.0 && ch->ior[i] < 4.0))
-            return BAD("camera.chromatic.ior",
-                       "camera.chromatic.ior[%d] must be between 1 and 4 "
-                       "(exclusive), got %g",
-                       i, ch->ior[i]);
+            return BAD(ior_path[i],
+                       "%s must be between 1 and 4 (exclusive), got %g",
+                       ior_path[i], ch->ior[i]);
     if ((int)ch->glass < 0 || ch->glass > LR_GLASS_ABBE)
         return BAD("camera.chromatic.glass",
                    "camera.chromatic.glass is not a known glass (%d)",

@@ -2,10 +2,7 @@
  * film.h: per-pixel accumulation.  Sums are kept in double, so that a
  * million samples of a constant average back to exactly that constant,
  * and samples that are NaN or infinite are dropped (counted as black) and
- * counted rather than poisoning the pixel.  Each channel keeps a weighted
- * sum and the sum of its weights: ordinary samples weigh 1; spectral
- * samples weigh by the colour-matching functions, so that the pixel is
- * a ratio estimate that keeps white exactly white.
+ * counted rather than poisoning the pixel.
  */
 #ifndef LR_FILM_H
 #define LR_FILM_H

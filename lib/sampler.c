@@ -5,7 +5,8 @@
  * - grid: the centres of an nx x ny grid of cells (the paper's unjittered
  *   sampling); which cell a sample index gets is shuffled per pixel and
  *   per dimension pair, so that pixel and lens positions are not
- *   correlated, but every pixel uses the same set of cells.
+ *   correlated, but (when spp fills the grid, nx * ny = spp) every pixel
+ *   uses the same set of cells.
  * - jittered: the same cells with a random offset inside each.
  * - sobol: the first four dimensions of Sobol's sequence (direction
  *   numbers of Joe & Kuo 2008) serve the pixel and lens dimensions

@@ -687,7 +687,7 @@ static lr_status parse_chromatic(const cJSON *c, lr_chromatic *ch,
     const cJSON *g = cJSON_GetObjectItemCaseSensitive(c, "glass");
     const cJSON *abbe = cJSON_GetObjectItemCaseSensitive(c, "abbe");
     if (g != NULL && abbe != NULL)
-        return lr__fail(err, LR_ERR_INVALID, "camera.chromatic.abbe",
+        return lr__fail(err, LR_ERR_INVALID, "camera.chromatic",
                         "camera.chromatic: give either glass or abbe, not "
                         "both");
     if (g != NULL) {

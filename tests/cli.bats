@@ -1,7 +1,8 @@
 #!/usr/bin/env bats
 # cli.bats: the lensray command-line tool, end to end: exit codes, error
 # messages that name the JSON path, output files (PNG/EXR headers, sizes,
-# atomic replacement), --set overrides, --stats and determinism.
+# atomic replacement), --set overrides (including the lens models, samplers
+# and regions), --stats and determinism.
 #
 # Run from the repository root, by tests/run.sh or directly:
 #     LENSRAY_BUILD=build bats tests/cli.bats
@@ -357,6 +358,143 @@ while True:
 @test "--set with a malformed array index is a scene error (3)" {
     run -3 "$LENSRAY" render "$T/scene.json" -o "$T/out.png" --set 'objects[x].radius=2'
     [[ "$output" == *"index"* ]]
+}
+
+# ---- lens models, samplers and regions through --set ----------------------------
+
+# Runs a render of the test scene with the given --set overrides (one
+# override per argument), expects exit status 3, and checks that the
+# message names FIELD and that no image was written.
+#     fails_naming FIELD OVERRIDE...
+fails_naming() {
+    local field="$1" a
+    shift
+    local args=()
+    for a in "$@"; do
+        args+=(--set "$a")
+    done
+    run -3 "$LENSRAY" render "$T/scene.json" -o "$T/bad.png" "${args[@]}"
+    [[ "$output" == *"$field"* ]]
+    [ ! -e "$T/bad.png" ]
+    ! has_temp_files "$T"
+}
+
+@test "a thin-lens render succeeds and is blurred where the pinhole is sharp" {
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/pin.png"
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/thin.png" \
+        --set camera.model=thinlens --set camera.focus_distance=2 \
+        --set camera.aperture_radius=0.3
+    [ "$(png_size "$T/thin.png")" = "16 12" ]
+    ! cmp -s "$T/pin.png" "$T/thin.png"
+}
+
+@test "thin-lens options render: f-number, polygon aperture, autofocus, chromatic" {
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/a.png" \
+        --set camera.model=thinlens --set camera.focal_length_mm=50 \
+        --set camera.f_number=2 --set camera.focus_distance=5 \
+        --set camera.aperture_shape=polygon --set camera.aperture_blades=5 \
+        --set camera.aperture_rotation=90 --set camera.aperture_ratio=1.5 \
+        --set 'camera.focus_on=[8,6]' \
+        --set 'camera.chromatic={"mode": "spectral", "glass": "F2", "wavelengths": 5}'
+    [ "$(png_size "$T/a.png")" = "16 12" ]
+}
+
+@test "a bracket render with rgb chromatic aberration succeeds" {
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/b.png" \
+        --set camera.model=bracket --set camera.aperture=0.2 \
+        --set camera.focal_length=3 \
+        --set 'camera.chromatic={"mode": "rgb", "amplify": 20, "focal_model": "lensmaker"}'
+    [ "$(png_size "$T/b.png")" = "16 12" ]
+}
+
+@test "a zero-aperture thin lens and bracket give the pinhole's PNG byte for byte" {
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/pin.png"
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/thin0.png" \
+        --set camera.model=thinlens --set camera.aperture_radius=0 \
+        --set camera.focus_distance=3
+    cmp "$T/pin.png" "$T/thin0.png"
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/bracket0.png" \
+        --set camera.model=bracket --set camera.aperture=0
+    cmp "$T/pin.png" "$T/bracket0.png"
+}
+
+@test "every sampler name renders" {
+    local s
+    for s in grid jittered random sobol; do
+        run -0 "$LENSRAY" render "$T/scene.json" -o "$T/$s.png" \
+            --set render.sampler=$s --set camera.model=thinlens \
+            --set camera.aperture_radius=0.2 --set camera.focus_distance=4
+        [ "$(png_size "$T/$s.png")" = "16 12" ]
+    done
+}
+
+@test "render.region crops the PNG to x1-x0 by y1-y0 pixels" {
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/crop.png" \
+        --set 'render.region=[2, 3, 10, 9]'
+    [ "$(png_size "$T/crop.png")" = "8 6" ]
+}
+
+@test "camera.aperture_radius=-1 on a thin lens is a scene error (3) naming it" {
+    fails_naming camera.aperture_radius camera.model=thinlens camera.aperture_radius=-1
+    [[ "$output" == *"-1"* ]]
+}
+
+@test "camera.model=fisheye is a scene error (3) that lists the models" {
+    fails_naming camera.model camera.model=fisheye
+    [[ "$output" == *'"fisheye"'* ]]
+    [[ "$output" == *'"pinhole"'* ]]
+    [[ "$output" == *'"thinlens"'* ]]
+    [[ "$output" == *'"bracket"'* ]]
+}
+
+@test "camera.aperture_shape=star is a scene error (3) that lists the shapes" {
+    fails_naming camera.aperture_shape camera.model=thinlens camera.aperture_shape=star
+    [[ "$output" == *'"disk"'* ]]
+    [[ "$output" == *'"polygon"'* ]]
+}
+
+@test "camera.aperture_blades=2 is a scene error (3) naming it" {
+    fails_naming camera.aperture_blades camera.model=thinlens \
+        camera.aperture_shape=polygon camera.aperture_blades=2
+}
+
+@test "camera.chromatic.mode=rainbow is a scene error (3) naming it" {
+    fails_naming camera.chromatic.mode camera.chromatic.mode=rainbow
+    [[ "$output" == *'"spectral"'* ]]
+}
+
+@test "chromatic aberration on a thin lens without focal_length_mm names camera.focal_length_mm" {
+    fails_naming camera.focal_length_mm camera.model=thinlens \
+        camera.aperture_radius=0.1 camera.chromatic.mode=rgb
+}
+
+@test "a thin lens focused inside its focal length with chromatic aberration names camera.focus_distance" {
+    fails_naming camera.focus_distance camera.model=thinlens \
+        camera.focal_length_mm=50 camera.focus_distance=0.05 \
+        camera.chromatic.mode=spectral
+}
+
+@test "render.sampler=magic is a scene error (3) that lists the samplers" {
+    fails_naming render.sampler render.sampler=magic
+    [[ "$output" == *'"sobol"'* ]]
+    [[ "$output" == *'"grid"'* ]]
+}
+
+@test "camera.focus_on outside the image is a scene error (3) naming camera.focus_on" {
+    fails_naming camera.focus_on camera.model=thinlens \
+        camera.aperture_radius=0.1 'camera.focus_on=[9999,0]'
+}
+
+@test "render.region outside the frame is a scene error (3) naming render.region" {
+    fails_naming render.region 'render.region=[0, 0, 17, 12]'
+}
+
+@test "--depth with a .png output is a usage error (2) and writes nothing" {
+    run -2 "$LENSRAY" render "$T/scene.json" -o "$T/depth.png" --depth
+    [[ "$output" == *"--depth"* ]]
+    [[ "$output" == *".exr"* ]]
+    [ ! -e "$T/depth.png" ]
+    ! has_temp_files "$T"
 }
 
 # ---- --stats ---------------------------------------------------------------------

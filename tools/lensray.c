@@ -209,6 +209,14 @@ static int cmd_render(int argc, char **argv)
     lr_scene_settings(scene, &rs);
     if (want_depth)
         rs.want_depth = 1;
+    if (rs.want_depth && fmt != LR_FORMAT_EXR) {
+        /* The scene asks for Z but the output cannot hold it: say so
+         * rather than drop it silently, and skip the work. */
+        fprintf(stderr, "lensray: warning: render.depth is set but %s has no "
+                        "Z channel; write an .exr to keep it\n",
+                out_path);
+        rs.want_depth = 0;
+    }
     progress prog = {now(), 0.0};
     if (!quiet && isatty(STDERR_FILENO)) {
         rs.progress = on_progress;
@@ -222,7 +230,9 @@ static int cmd_render(int argc, char **argv)
     lr_render_stats rst;
     st = lr_render(scene, &cam, &rs, &img, &rst, &err);
     if (st != LR_OK) {
-        fprintf(stderr, "\nlensray: %s\n", err.message);
+        /* End the progress bar's line first, if there is one. */
+        fprintf(stderr, "%slensray: %s\n", rs.progress ? "\n" : "",
+                err.message);
         rc = exit_for(st);
         lr_scene_free(scene);
         goto done;
