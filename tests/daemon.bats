@@ -183,6 +183,11 @@ job_progressing() {
         ! grep -q '"progress":0,' "$T/status.json"
 }
 metric_is() { [ "$(metric "$1" "$2")" = "$3" ]; }
+# True once a worker has taken a job (it may already have finished it).
+render_started() {
+    metric_is "$1" lensrayd_workers_busy 1 ||
+        metric_is "$1" 'lensrayd_jobs_finished_total{state="done"}' 1
+}
 
 # Prints the bytes at OFFSET..OFFSET+COUNT-1 of FILE as one hex string.
 hex_bytes() {
@@ -1023,7 +1028,7 @@ read_response() {
         -H 'Content-Type: application/json' -d "$(slow_job 5000)" "$DURL/v1/render" \
         >"$T/render.code" &
     local client=$!
-    poll 20 metric_is "$DURL" lensrayd_workers_busy 1
+    poll 20 render_started "$DURL"
     kill -TERM "$DPID"
     wait_exit "$DPID" 40
     [ "$EXIT_STATUS" -eq 0 ]
