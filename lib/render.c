@@ -9,6 +9,7 @@
 #include "sampler.h"
 #include "shade.h"
 #include "spectrum.h"
+#include "trace16.h"
 
 #include <math.h>
 #include <pmmintrin.h>
@@ -105,6 +106,7 @@ typedef struct job {
 typedef struct worker {
     job *job;
     uint64_t rays, samples, dropped;
+    lr__pixel *row; /* tile_size accumulators for the packet path */
 } worker;
 
 /* One camera sample: radiance through film point (fx, fy) and lens
@@ -160,23 +162,15 @@ static void camera_sample(worker *w, uint64_t pixel, uint32_t s, double fx,
     lr__pixel_add(acc, v3(num.x / den.x, num.y / den.y, num.z / den.z));
 }
 
-static void render_pixel(worker *w, int x, int y)
+/* Writes a finished pixel (and its Z) into the image. */
+static void store_pixel(worker *w, int x, int y, const lr__pixel *acc)
 {
     job *j = w->job;
-    const lr_render_settings *set = j->set;
-    uint64_t pixel = (uint64_t)y * (uint64_t)set->width + (uint64_t)x;
-    lr__pixel acc;
-    lr__pixel_reset(&acc);
-    for (int s = 0; s < set->spp; s++) {
-        double u[4];
-        lr__sample_pixel_lens(&j->sampler, pixel, (uint32_t)s, u);
-        camera_sample(w, pixel, (uint32_t)s, x + u[0], y + u[1], u + 2, &acc);
-    }
-    w->samples += acc.n;
-    w->dropped += acc.dropped;
+    w->samples += acc->n;
+    w->dropped += acc->dropped;
     size_t out = (size_t)(y - j->y0) * (size_t)j->img->width +
                  (size_t)(x - j->x0);
-    lr__pixel_resolve(&acc, &j->img->rgb[3 * out]);
+    lr__pixel_resolve(acc, &j->img->rgb[3 * out]);
 
     if (j->img->depth != NULL) {
         /* Z: distance along the view axis of the first hit of the ray
@@ -192,6 +186,43 @@ static void render_pixel(worker *w, int x, int y)
                 z = (float)d;
         }
         j->img->depth[out] = z;
+    }
+}
+
+/* The scalar path: one sample at a time, for chromatic aberration, where
+ * each sample needs several rays with different foci. */
+static void render_pixel(worker *w, int x, int y)
+{
+    job *j = w->job;
+    const lr_render_settings *set = j->set;
+    uint64_t pixel = (uint64_t)y * (uint64_t)set->width + (uint64_t)x;
+    lr__pixel acc;
+    lr__pixel_reset(&acc);
+    lr__pixel_sampler ps;
+    lr__pixel_sampler_init(&ps, &j->sampler, pixel);
+    for (int s = 0; s < set->spp; s++) {
+        double u[4];
+        lr__pixel_sampler_get(&ps, (uint32_t)s, u);
+        camera_sample(w, pixel, (uint32_t)s, x + u[0], y + u[1], u + 2, &acc);
+    }
+    store_pixel(w, x, y, &acc);
+}
+
+static void render_tile(worker *w, int x0, int y0, int x1, int y1)
+{
+    job *j = w->job;
+    if (j->cam.chroma_active) {
+        for (int y = y0; y < y1; y++)
+            for (int x = x0; x < x1; x++)
+                render_pixel(w, x, y);
+        return;
+    }
+    lr__trace16 t = {j->scene, &j->cam, &j->sampler, j->set->width,
+                     j->set->spp, j->set->max_depth};
+    for (int y = y0; y < y1; y++) {
+        lr__trace16_row(&t, y, x0, x1, w->row, &w->rays);
+        for (int x = x0; x < x1; x++)
+            store_pixel(w, x, y, &w->row[x - x0]);
     }
 }
 
@@ -220,9 +251,7 @@ static void *worker_main(void *arg)
         int y0 = j->y0 + (t / j->tiles_x) * ts;
         int x1 = x0 + ts < j->x1 ? x0 + ts : j->x1;
         int y1 = y0 + ts < j->y1 ? y0 + ts : j->y1;
-        for (int y = y0; y < y1; y++)
-            for (int x = x0; x < x1; x++)
-                render_pixel(w, x, y);
+        render_tile(w, x0, y0, x1, y1);
         pthread_mutex_lock(&j->progress_lock);
         j->pixels_done += (uint64_t)(x1 - x0) * (uint64_t)(y1 - y0);
         if (set->progress != NULL)
@@ -361,8 +390,22 @@ lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
     /* The calling thread is worker 0; if a thread cannot be started the
      * others simply take more tiles. */
     int started = 1;
-    for (int i = 0; i < n; i++)
+    int alloc_failed = 0;
+    for (int i = 0; i < n; i++) {
         ws[i].job = &j;
+        ws[i].row = malloc((size_t)set->tile_size * sizeof *ws[i].row);
+        if (ws[i].row == NULL)
+            alloc_failed = 1;
+    }
+    if (alloc_failed) {
+        for (int i = 0; i < n; i++)
+            free(ws[i].row);
+        free(ws);
+        free(tids);
+        lr_image_free(img);
+        pthread_mutex_destroy(&j.progress_lock);
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    }
     for (int i = 1; i < n; i++) {
         if (pthread_create(&tids[i], NULL, worker_main, &ws[i]) != 0)
             break;
@@ -375,6 +418,8 @@ lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
 
     lr_render_stats sum;
     memset(&sum, 0, sizeof sum);
+    for (int i = 0; i < n; i++)
+        free(ws[i].row);
     for (int i = 0; i < started; i++) {
         sum.rays += ws[i].rays;
         sum.samples += ws[i].samples;

@@ -183,17 +183,48 @@ static double sobol_1d(const lr__sampler *s, uint64_t pixel, uint32_t sample,
 }
 
 /* Pixel and lens dimensions (0..3) in one go: one index shuffle for the
- * 4-D Sobol point. */
+ * 4-D Sobol point.  The seeds depend on the pixel only. */
+static void sobol_seeds(const lr__sampler *s, uint64_t pixel,
+                        uint32_t *shuffle, uint32_t scramble[4])
+{
+    *shuffle = (uint32_t)hash4(s->seed, pixel, 0xffffffffu, 0);
+    for (uint32_t dim = 0; dim < 4; dim++)
+        scramble[dim] = (uint32_t)hash4(s->seed, pixel, 0xfffffffdu, dim);
+}
+
+static void sobol_4d_seeded(uint32_t shuffle, const uint32_t scramble[4],
+                            uint32_t sample, double out[4])
+{
+    static const int map[4] = {2, 3, 0, 1};
+    uint32_t idx = owen(sample, shuffle);
+    for (int dim = 0; dim < 4; dim++)
+        out[dim] = owen(sobol(idx, map[dim]), scramble[dim]) * 0x1p-32;
+}
+
 static void sobol_4d(const lr__sampler *s, uint64_t pixel, uint32_t sample,
                      double out[4])
 {
-    static const int map[4] = {2, 3, 0, 1};
-    uint64_t shuffle = hash4(s->seed, pixel, 0xffffffffu, 0);
-    uint32_t idx = owen(sample, (uint32_t)shuffle);
-    for (uint32_t dim = 0; dim < 4; dim++) {
-        uint64_t scramble = hash4(s->seed, pixel, 0xfffffffdu, dim);
-        out[dim] = owen(sobol(idx, map[dim]), (uint32_t)scramble) * 0x1p-32;
-    }
+    uint32_t shuffle, scramble[4];
+    sobol_seeds(s, pixel, &shuffle, scramble);
+    sobol_4d_seeded(shuffle, scramble, sample, out);
+}
+
+void lr__pixel_sampler_init(lr__pixel_sampler *ps, const lr__sampler *s,
+                            uint64_t pixel)
+{
+    ps->s = s;
+    ps->pixel = pixel;
+    if (s->kind == LR_SAMPLER_SOBOL)
+        sobol_seeds(s, pixel, &ps->shuffle, ps->scramble);
+}
+
+void lr__pixel_sampler_get(const lr__pixel_sampler *ps, uint32_t sample,
+                           double out[4])
+{
+    if (ps->s->kind == LR_SAMPLER_SOBOL)
+        sobol_4d_seeded(ps->shuffle, ps->scramble, sample, out);
+    else
+        lr__sample_pixel_lens(ps->s, ps->pixel, sample, out);
 }
 
 /* ---- the public face -------------------------------------------------- */

@@ -44,6 +44,21 @@ void lr__sample_2d(const lr__sampler *s, uint64_t pixel, uint32_t sample,
 void lr__sample_pixel_lens(const lr__sampler *s, uint64_t pixel,
                            uint32_t sample, double out[4]);
 
+/* The same values as lr__sample_pixel_lens for one pixel's samples, with
+ * the per-pixel hashing done once: prepare with lr__pixel_sampler_init,
+ * then ask for each sample. */
+typedef struct lr__pixel_sampler {
+    const lr__sampler *s;
+    uint64_t pixel;
+    uint32_t shuffle;     /* sobol: the index shuffle's seed */
+    uint32_t scramble[4]; /* sobol: each dimension's scramble seed */
+} lr__pixel_sampler;
+
+void lr__pixel_sampler_init(lr__pixel_sampler *ps, const lr__sampler *s,
+                            uint64_t pixel);
+void lr__pixel_sampler_get(const lr__pixel_sampler *ps, uint32_t sample,
+                           double out[4]);
+
 /* The 64-bit mixing function behind the hashes (SplitMix64's finaliser). */
 uint64_t lr__mix64(uint64_t z);
 

@@ -241,10 +241,35 @@ int lr__trace(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
     rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
     rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
     rtcIntersect1(s->rtc, &ctx, &rh);
+    return lr__hit_complete(s, org, dir, tfar, rh.hit.geomID, rh.hit.primID,
+                            rh.hit.u, rh.hit.v, rh.ray.tfar, hit);
+}
 
-    double t_embree = rh.hit.geomID != RTC_INVALID_GEOMETRY_ID
-                          ? (double)rh.ray.tfar
-                          : tfar;
+void lr__embree_ray16(struct RTCRayHit16 *rh, int lane, lr__v3 org,
+                      lr__v3 dir, double tfar)
+{
+    rh->ray.org_x[lane] = (float)org.x;
+    rh->ray.org_y[lane] = (float)org.y;
+    rh->ray.org_z[lane] = (float)org.z;
+    rh->ray.tnear[lane] = 0.0f;
+    rh->ray.dir_x[lane] = (float)dir.x;
+    rh->ray.dir_y[lane] = (float)dir.y;
+    rh->ray.dir_z[lane] = (float)dir.z;
+    rh->ray.time[lane] = 0.0f;
+    rh->ray.tfar[lane] = tfar < FLT_MAX ? (float)tfar : FLT_MAX;
+    rh->ray.mask[lane] = 0xFFFFFFFFu;
+    rh->ray.id[lane] = 0;
+    rh->ray.flags[lane] = 0;
+    rh->hit.geomID[lane] = RTC_INVALID_GEOMETRY_ID;
+    rh->hit.instID[0][lane] = RTC_INVALID_GEOMETRY_ID;
+}
+
+int lr__hit_complete(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
+                     unsigned geom_id, unsigned prim_id, float bu, float bv,
+                     float t_hit, lr__hit *hit)
+{
+    double t_embree = geom_id != RTC_INVALID_GEOMETRY_ID ? (double)t_hit
+                                                         : tfar;
     double t_plane;
     long pl = plane_hit(s, org, dir, t_embree, &t_plane);
     if (pl >= 0) {
@@ -252,10 +277,10 @@ int lr__trace(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
         finish_hit(hit, org, dir, t_plane, g->normal, g->normal, g->material);
         return 1;
     }
-    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID)
+    if (geom_id == RTC_INVALID_GEOMETRY_ID)
         return 0;
 
-    const lr__geom *g = &s->geoms[rh.hit.geomID];
+    const lr__geom *g = &s->geoms[geom_id];
     if (g->kind == LR__GEOM_SPHERE) {
         /* Recompute the normal from the centre in double precision. */
         lr__v3 p = v3_madd(org, dir, t_embree);
@@ -264,7 +289,7 @@ int lr__trace(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
         return 1;
     }
     /* Triangles: CCW winding (as OBJ) is the front side. */
-    const unsigned *ix = &g->indices[3 * (size_t)rh.hit.primID];
+    const unsigned *ix = &g->indices[3 * (size_t)prim_id];
     const float *a = &g->vertices[3 * (size_t)ix[0]];
     const float *b = &g->vertices[3 * (size_t)ix[1]];
     const float *c = &g->vertices[3 * (size_t)ix[2]];
@@ -273,13 +298,36 @@ int lr__trace(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
                          v3_sub(v3(c[0], c[1], c[2]), va));
     lr__v3 ns = ng;
     if (g->corner_normals != NULL) {
-        const float *n = &g->corner_normals[9 * (size_t)rh.hit.primID];
-        double u = rh.hit.u, v = rh.hit.v, w = 1.0 - u - v;
+        const float *n = &g->corner_normals[9 * (size_t)prim_id];
+        double u = bu, v = bv, w = 1.0 - u - v;
         ns = v3(w * n[0] + u * n[3] + v * n[6], w * n[1] + u * n[4] + v * n[7],
                 w * n[2] + u * n[5] + v * n[8]);
     }
     finish_hit(hit, org, dir, t_embree, ng, ns, g->material);
     return 1;
+}
+
+void lr__shadow_ray16(struct RTCRay16 *r, int lane, lr__v3 org, lr__v3 dir,
+                      double tfar)
+{
+    r->org_x[lane] = (float)org.x;
+    r->org_y[lane] = (float)org.y;
+    r->org_z[lane] = (float)org.z;
+    r->tnear[lane] = 0.0f;
+    r->dir_x[lane] = (float)dir.x;
+    r->dir_y[lane] = (float)dir.y;
+    r->dir_z[lane] = (float)dir.z;
+    r->time[lane] = 0.0f;
+    r->tfar[lane] = tfar < FLT_MAX ? (float)tfar : FLT_MAX;
+    r->mask[lane] = 0xFFFFFFFFu;
+    r->id[lane] = 0;
+    r->flags[lane] = 0;
+}
+
+int lr__planes_block(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar)
+{
+    double t_plane;
+    return plane_hit(s, org, dir, tfar, &t_plane) >= 0;
 }
 
 int lr__occluded(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar)

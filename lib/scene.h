@@ -112,6 +112,21 @@ int lr__trace(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
 /* 1 if anything blocks org + t dir for t in (0, tfar). */
 int lr__occluded(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar);
 
+/* Packets.  lr__embree_ray16 / lr__shadow_ray16 fill one lane of a
+ * 16-wide packet exactly as lr__trace / lr__occluded fill a single ray;
+ * lr__hit_complete turns Embree's answer for one ray (geom_id
+ * RTC_INVALID_GEOMETRY_ID when it found nothing) into the same hit
+ * lr__trace returns, infinite planes included; lr__planes_block is the
+ * infinite planes' part of lr__occluded. */
+void lr__embree_ray16(struct RTCRayHit16 *rh, int lane, lr__v3 org,
+                      lr__v3 dir, double tfar);
+void lr__shadow_ray16(struct RTCRay16 *r, int lane, lr__v3 org, lr__v3 dir,
+                      double tfar);
+int lr__hit_complete(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
+                     unsigned geom_id, unsigned prim_id, float bu, float bv,
+                     float t_hit, lr__hit *hit);
+int lr__planes_block(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar);
+
 /* The origin for a ray leaving the hit point towards `dir`: pushed along
  * the geometric normal, on the side dir points to, by hit->eps, which
  * grows with the magnitude of the hit position and the ray's length

@@ -30,52 +30,108 @@ static lr__v3 mirror(lr__v3 d, lr__v3 n)
     return v3_madd(d, n, -2.0 * v3_dot(d, n));
 }
 
-static lr__v3 direct(const lr_scene *s, const lr__hit *h,
-                     const lr__material *m, lr__v3 wo, uint64_t *rays)
+lr__v3 lr__ambient(const lr_scene *s, const lr__hit *h)
 {
-    lr__v3 L = v3_mul(s->ambient, m->diffuse);
+    return v3_mul(s->ambient, s->materials[h->material].diffuse);
+}
+
+int lr__light_ray_setup(const lr_scene *s, const lr__hit *h, lr__v3 wo,
+                        size_t i, lr__light_ray *out)
+{
+    const lr__material *m = &s->materials[h->material];
     int has_spec = v3_maxc(m->specular) > 0.0;
-    int has_diff = v3_maxc(m->diffuse) > 0.0;
-    if (!has_spec && !has_diff)
-        return L;
-    double spec_norm = (m->shininess + 2.0) / (2.0 * M_PI);
+    if (!has_spec && !(v3_maxc(m->diffuse) > 0.0))
+        return 0;
+    const lr__light *lt = &s->lights[i];
+    lr__v3 l, E;
+    double dist;
+    if (lt->kind == LR__LIGHT_POINT) {
+        lr__v3 to = v3_sub(lt->position, h->p);
+        double d2 = v3_dot(to, to);
+        if (!(d2 > 0.0))
+            return 0;
+        dist = sqrt(d2);
+        l = v3_scale(to, 1.0 / dist);
+        E = v3_scale(lt->power, 1.0 / d2);
+    } else {
+        l = v3_neg(lt->direction);
+        E = lt->power;
+        dist = INFINITY;
+    }
+    double cos_t = v3_dot(h->ns, l);
+    /* Light from behind the geometric surface never arrives, whatever the
+     * interpolated normal says. */
+    if (cos_t <= 0.0 || v3_dot(h->ng, l) <= 0.0)
+        return 0;
+    lr__v3 f = v3_scale(m->diffuse, 1.0 / M_PI);
+    if (has_spec) {
+        double ca = v3_dot(mirror(v3_neg(l), h->ns), wo);
+        if (ca > 0.0)
+            f = v3_madd(f, m->specular, (m->shininess + 2.0) / (2.0 * M_PI) *
+                                            pow(ca, m->shininess));
+    }
+    out->org = lr__offset_origin(h, l);
+    out->dir = l;
+    out->tfar = isfinite(dist) ? v3_len(v3_sub(lt->position, out->org)) : dist;
+    out->f_E_cos = v3_scale(v3_mul(f, E), cos_t);
+    return 1;
+}
+
+static lr__v3 direct(const lr_scene *s, const lr__hit *h, lr__v3 wo,
+                     uint64_t *rays)
+{
+    lr__v3 L = lr__ambient(s, h);
     for (size_t i = 0; i < s->n_lights; i++) {
-        const lr__light *lt = &s->lights[i];
-        lr__v3 l, E;
-        double dist;
-        if (lt->kind == LR__LIGHT_POINT) {
-            lr__v3 to = v3_sub(lt->position, h->p);
-            double d2 = v3_dot(to, to);
-            if (!(d2 > 0.0))
-                continue;
-            dist = sqrt(d2);
-            l = v3_scale(to, 1.0 / dist);
-            E = v3_scale(lt->power, 1.0 / d2);
-        } else {
-            l = v3_neg(lt->direction);
-            E = lt->power;
-            dist = INFINITY;
-        }
-        double cos_t = v3_dot(h->ns, l);
-        /* Light from behind the geometric surface never arrives, whatever
-         * the interpolated normal says. */
-        if (cos_t <= 0.0 || v3_dot(h->ng, l) <= 0.0)
+        lr__light_ray lr;
+        if (!lr__light_ray_setup(s, h, wo, i, &lr))
             continue;
-        lr__v3 o = lr__offset_origin(h, l);
-        double tfar = dist;
-        if (isfinite(dist))
-            tfar = v3_len(v3_sub(lt->position, o));
         (*rays)++;
-        if (lr__occluded(s, o, l, tfar))
-            continue;
-        lr__v3 f = v3_scale(m->diffuse, 1.0 / M_PI);
-        if (has_spec) {
-            double ca = v3_dot(mirror(v3_neg(l), h->ns), wo);
-            if (ca > 0.0)
-                f = v3_madd(f, m->specular,
-                            spec_norm * pow(ca, m->shininess));
+        if (!lr__occluded(s, lr.org, lr.dir, lr.tfar))
+            L = v3_add(L, lr.f_E_cos);
+    }
+    return L;
+}
+
+lr__v3 lr__secondary(const lr_scene *s, const lr__hit *h, lr__v3 dir,
+                     int depth, int max_depth, uint64_t *rays)
+{
+    lr__v3 L = v3(0, 0, 0);
+    if (depth >= max_depth)
+        return L;
+    const lr__material *m = &s->materials[h->material];
+    /* Mirror weight, plus the part of the dielectric that reflects. */
+    lr__v3 w_refl = m->reflect;
+    lr__v3 w_refr = v3(0, 0, 0);
+    lr__v3 t_dir = v3(0, 0, 0);
+    if (v3_maxc(m->transmit) > 0.0) {
+        double eta = h->entering ? 1.0 / m->ior : m->ior;
+        double cos_i = -v3_dot(dir, h->ns);
+        if (cos_i < 0.0)
+            cos_i = 0.0;
+        double F = lr__fresnel_dielectric(cos_i, eta);
+        w_refl = v3_madd(w_refl, m->transmit, F);
+        if (F < 1.0) {
+            /* Snell's law with the shading normal. */
+            double cos_t = sqrt(1.0 - eta * eta * (1.0 - cos_i * cos_i));
+            t_dir = v3_norm(v3_add(v3_scale(dir, eta),
+                                   v3_scale(h->ns, eta * cos_i - cos_t)));
+            /* Refraction must cross the geometric surface. */
+            if (v3_dot(t_dir, h->ng) < 0.0)
+                w_refr = v3_scale(m->transmit, 1.0 - F);
         }
-        L = v3_add(L, v3_scale(v3_mul(f, E), cos_t));
+    }
+    if (v3_maxc(w_refl) > 0.0) {
+        lr__v3 r = mirror(dir, h->ns);
+        if (v3_dot(r, h->ng) <= 0.0)
+            r = mirror(dir, h->ng);
+        lr__v3 Li = lr__radiance(s, lr__offset_origin(h, r), r, depth + 1,
+                                 max_depth, rays);
+        L = v3_add(L, v3_mul(w_refl, Li));
+    }
+    if (v3_maxc(w_refr) > 0.0) {
+        lr__v3 Li = lr__radiance(s, lr__offset_origin(h, t_dir), t_dir,
+                                 depth + 1, max_depth, rays);
+        L = v3_add(L, v3_mul(w_refr, Li));
     }
     return L;
 }
@@ -87,45 +143,6 @@ lr__v3 lr__radiance(const lr_scene *s, lr__v3 org, lr__v3 dir, int depth,
     (*rays)++;
     if (!lr__trace(s, org, dir, INFINITY, &h))
         return s->background;
-    const lr__material *m = &s->materials[h.material];
-    lr__v3 wo = v3_neg(dir);
-    lr__v3 L = direct(s, &h, m, wo, rays);
-    if (depth >= max_depth)
-        return L;
-
-    /* Mirror weight, plus the part of the dielectric that reflects. */
-    lr__v3 w_refl = m->reflect;
-    lr__v3 w_refr = v3(0, 0, 0);
-    lr__v3 t_dir = v3(0, 0, 0);
-    if (v3_maxc(m->transmit) > 0.0) {
-        double eta = h.entering ? 1.0 / m->ior : m->ior;
-        double cos_i = -v3_dot(dir, h.ns);
-        if (cos_i < 0.0)
-            cos_i = 0.0;
-        double F = lr__fresnel_dielectric(cos_i, eta);
-        w_refl = v3_madd(w_refl, m->transmit, F);
-        if (F < 1.0) {
-            /* Snell's law with the shading normal. */
-            double cos_t = sqrt(1.0 - eta * eta * (1.0 - cos_i * cos_i));
-            t_dir = v3_norm(
-                v3_add(v3_scale(dir, eta), v3_scale(h.ns, eta * cos_i - cos_t)));
-            /* Refraction must cross the geometric surface. */
-            if (v3_dot(t_dir, h.ng) < 0.0)
-                w_refr = v3_scale(m->transmit, 1.0 - F);
-        }
-    }
-    if (v3_maxc(w_refl) > 0.0) {
-        lr__v3 r = mirror(dir, h.ns);
-        if (v3_dot(r, h.ng) <= 0.0)
-            r = mirror(dir, h.ng);
-        lr__v3 Li = lr__radiance(s, lr__offset_origin(&h, r), r, depth + 1,
-                                 max_depth, rays);
-        L = v3_add(L, v3_mul(w_refl, Li));
-    }
-    if (v3_maxc(w_refr) > 0.0) {
-        lr__v3 Li = lr__radiance(s, lr__offset_origin(&h, t_dir), t_dir,
-                                 depth + 1, max_depth, rays);
-        L = v3_add(L, v3_mul(w_refr, Li));
-    }
-    return L;
+    lr__v3 L = direct(s, &h, v3_neg(dir), rays);
+    return v3_add(L, lr__secondary(s, &h, dir, depth, max_depth, rays));
 }

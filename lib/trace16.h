@@ -1,0 +1,30 @@
+/*
+ * trace16.h: camera samples traced sixteen at a time.  The samples of a
+ * pixel are packed into 16-wide Embree packets (the lens samples of one
+ * pixel are coherent: they all pass near one focal point), their
+ * shadow rays likewise, and each lane is shaded exactly as lr__radiance
+ * would shade it.  Used whenever every colour shares one focus.
+ */
+#ifndef LR_TRACE16_H
+#define LR_TRACE16_H
+
+#include "camera.h"
+#include "film.h"
+#include "sampler.h"
+#include "scene.h"
+
+typedef struct lr__trace16 {
+    const lr_scene *scene;
+    const lr__cam *cam;
+    const lr__sampler *sampler;
+    int width;     /* of the full frame, for pixel indices */
+    int spp;
+    int max_depth;
+} lr__trace16;
+
+/* Traces all samples of pixels x0 .. x1-1 of row y, adding them in
+ * sample order to acc[0 .. x1-x0-1], and counts rays into *rays. */
+void lr__trace16_row(const lr__trace16 *t, int y, int x0, int x1,
+                     lr__pixel *acc, uint64_t *rays);
+
+#endif
