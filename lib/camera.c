@@ -273,28 +273,34 @@ void lr__cam_init(lr__cam *c, const lr_camera *cam, int width, int height)
     }
 }
 
+/* The chief ray's direction scaled so that its component along the view
+ * axis is 1: the film point on the image plane at distance 1. */
 static lr__v3 chief_ray(const lr__cam *c, double fx, double fy)
 {
     /* Film to the image plane at distance 1: x right, y up. */
     double sx = (2.0 * fx / c->width - 1.0) * c->half_w;
     double sy = (1.0 - 2.0 * fy / c->height) * c->half_h;
-    return v3_norm(v3_madd(v3_madd(c->forward, c->right, sx), c->up, sy));
+    return v3_madd(v3_madd(c->forward, c->right, sx), c->up, sy);
 }
 
 void lr__cam_ray(const lr__cam *c, double fx, double fy, lr__v3 *org,
                  lr__v3 *dir)
 {
     *org = c->origin;
-    *dir = chief_ray(c, fx, fy);
+    *dir = v3_norm(chief_ray(c, fx, fy));
 }
 
 void lr__cam_lens_ray(const lr__cam *c, double fx, double fy,
                       const double u[2], double w, lr__v3 *org, lr__v3 *dir)
 {
-    lr__v3 d = chief_ray(c, fx, fy);
+    /* D has axial component 1, so the point of the chief ray at axial
+     * distance 1/w is e + D / w, and the ray from the lens point e + off
+     * through it runs along D / w - off, i.e. D - off w (the cos factor
+     * of camera.h's formula is folded into D's length). */
+    lr__v3 D = chief_ray(c, fx, fy);
     if (!c->has_lens) {
         *org = c->origin;
-        *dir = d;
+        *dir = v3_norm(D);
         return;
     }
     double lx, ly;
@@ -302,12 +308,11 @@ void lr__cam_lens_ray(const lr__cam *c, double fx, double fy,
                         &ly);
     lr__v3 off = v3_madd(v3_scale(c->right, lx * c->radius), c->up,
                          ly * c->radius);
-    double cos_t = v3_dot(d, c->forward);
     lr__v3 base = c->origin;
     if (c->model == LR_CAMERA_BRACKET)
-        base = v3_madd(c->origin, d, c->di / cos_t);
+        base = v3_madd(c->origin, D, c->di);
     *org = v3_add(base, off);
-    *dir = v3_norm(v3_madd(d, off, -cos_t * w));
+    *dir = v3_norm(v3_madd(D, off, -w));
 }
 
 double lr__cam_power_at(const lr__cam *c, double nm)

@@ -5,25 +5,41 @@
 
 #include <math.h>
 
+/* sin and cos of t in [-pi/4, pi/4] by their Taylor series to t^13 and
+ * t^14: the first omitted terms are below 2e-13, far under the float
+ * precision the rays are traced in, and much cheaper than libm. */
+static void sincos_quarter(double t, double *s, double *c)
+{
+    double t2 = t * t;
+    *s = t * (1 + t2 * (-1.0 / 6 + t2 * (1.0 / 120 + t2 * (-1.0 / 5040 +
+         t2 * (1.0 / 362880 + t2 * (-1.0 / 39916800 +
+         t2 * (1.0 / 6227020800.0)))))));
+    *c = 1 + t2 * (-0.5 + t2 * (1.0 / 24 + t2 * (-1.0 / 720 +
+         t2 * (1.0 / 40320 + t2 * (-1.0 / 3628800 +
+         t2 * (1.0 / 479001600 + t2 * (-1.0 / 87178291200.0)))))));
+}
+
 static void concentric_disk(const double u[2], double *x, double *y)
 {
     /* Shirley & Chiu, "A Low Distortion Map Between Disk and Square",
-     * 1997, in the branch-light form of pbrt-v4 (SampleUniformDiskConcentric). */
+     * 1997: the square's concentric squares go to the disk's circles. */
     double a = 2.0 * u[0] - 1.0, b = 2.0 * u[1] - 1.0;
     if (a == 0.0 && b == 0.0) {
         *x = *y = 0.0;
         return;
     }
-    double r, phi;
+    double s, c;
     if (fabs(a) > fabs(b)) {
-        r = a;
-        phi = (M_PI / 4.0) * (b / a);
+        /* phi = pi/4 b/a */
+        sincos_quarter((M_PI / 4.0) * (b / a), &s, &c);
+        *x = a * c;
+        *y = a * s;
     } else {
-        r = b;
-        phi = M_PI / 2.0 - (M_PI / 4.0) * (a / b);
+        /* phi = pi/2 - pi/4 a/b: cos(phi) = sin(t), sin(phi) = cos(t) */
+        sincos_quarter((M_PI / 4.0) * (a / b), &s, &c);
+        *x = b * s;
+        *y = b * c;
     }
-    *x = r * cos(phi);
-    *y = r * sin(phi);
 }
 
 static void polygon(int n, const double u[2], double *x, double *y)

@@ -80,13 +80,13 @@ uint32_t lr__permute(uint32_t i, uint32_t l, uint32_t p)
 
 /* ---- Sobol ------------------------------------------------------------ */
 
+static uint8_t rev8[256]; /* bit-reversed bytes, filled by sobol_init */
+
 static uint32_t reverse_bits(uint32_t x)
 {
-    x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
-    x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
-    x = ((x >> 4) & 0x0f0f0f0fu) | ((x & 0x0f0f0f0fu) << 4);
-    x = ((x >> 8) & 0x00ff00ffu) | ((x & 0x00ff00ffu) << 8);
-    return (x >> 16) | (x << 16);
+    return (uint32_t)rev8[x & 0xffu] << 24 |
+           (uint32_t)rev8[(x >> 8) & 0xffu] << 16 |
+           (uint32_t)rev8[(x >> 16) & 0xffu] << 8 | rev8[x >> 24];
 }
 
 /* Direction numbers of Sobol's first four dimensions as 32-bit binary
@@ -100,8 +100,12 @@ static uint32_t reverse_bits(uint32_t x)
  * extended by the recurrence of Bratley & Fox (Algorithm 659). */
 static uint32_t sobol_v[4][32];
 /* sobol_t[d][b][x]: the XOR of the direction numbers for the set bits of
- * byte value x at byte b of the index, so a point costs four lookups. */
+ * byte value x at byte b of the index, so a point costs four lookups.
+ * sobol_rt is the same for the bit-reversed index and gives the
+ * bit-reversed point: Owen scrambling works on reversed bits, so the
+ * fast path never needs to reverse the index or the point before it. */
 static uint32_t sobol_t[4][4][256];
+static uint32_t sobol_rt[4][4][256];
 static pthread_once_t sobol_once = PTHREAD_ONCE_INIT;
 
 static void sobol_init(void)
@@ -129,15 +133,34 @@ static void sobol_init(void)
             sobol_v[d][k] = m[k] << (31 - k);
         }
     }
+    for (uint32_t x = 0; x < 256; x++) {
+        uint8_t r = 0;
+        for (int k = 0; k < 8; k++)
+            if (x & (1u << k))
+                r |= (uint8_t)(0x80u >> k);
+        rev8[x] = r;
+    }
     for (int d = 0; d < 4; d++)
         for (int b = 0; b < 4; b++)
             for (uint32_t x = 0; x < 256; x++) {
-                uint32_t r = 0;
+                uint32_t r = 0, rr = 0;
                 for (int k = 0; k < 8; k++)
-                    if (x & (1u << k))
+                    if (x & (1u << k)) {
                         r ^= sobol_v[d][8 * b + k];
+                        /* Bit 8b + k of a reversed index is bit
+                         * 31 - 8b - k of the index. */
+                        rr ^= reverse_bits(sobol_v[d][31 - 8 * b - k]);
+                    }
                 sobol_t[d][b][x] = r;
+                sobol_rt[d][b][x] = rr;
             }
+}
+
+/* reverse_bits(sobol(reverse_bits(r), d)), from r's bytes. */
+static uint32_t sobol_rev(uint32_t r, int d)
+{
+    return sobol_rt[d][0][r & 0xffu] ^ sobol_rt[d][1][(r >> 8) & 0xffu] ^
+           sobol_rt[d][2][(r >> 16) & 0xffu] ^ sobol_rt[d][3][r >> 24];
 }
 
 static uint32_t sobol(uint32_t i, int d)
@@ -195,10 +218,15 @@ static void sobol_seeds(const lr__sampler *s, uint64_t pixel,
 static void sobol_4d_seeded(uint32_t shuffle, const uint32_t scramble[4],
                             uint32_t sample, double out[4])
 {
+    /* owen(x, s) = rev(lk(rev(x), s)), so with r = lk(rev(sample)) the
+     * shuffled index is rev(r), and each coordinate is
+     * rev(lk(rev(sobol(rev(r))))) = rev(lk(sobol_rev(r))). */
     static const int map[4] = {2, 3, 0, 1};
-    uint32_t idx = owen(sample, shuffle);
+    uint32_t r = lk_permute(reverse_bits(sample), shuffle);
     for (int dim = 0; dim < 4; dim++)
-        out[dim] = owen(sobol(idx, map[dim]), scramble[dim]) * 0x1p-32;
+        out[dim] = reverse_bits(lk_permute(sobol_rev(r, map[dim]),
+                                           scramble[dim])) *
+                   0x1p-32;
 }
 
 static void sobol_4d(const lr__sampler *s, uint64_t pixel, uint32_t sample,
