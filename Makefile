@@ -20,6 +20,7 @@ DEPS := /usr/include/embree3/rtcore.h:libembree-dev \
         /usr/include/cjson/cJSON.h:libcjson-dev \
         /usr/include/png.h:libpng-dev \
         /usr/include/microhttpd.h:libmicrohttpd-dev \
+        /usr/include/openssl/evp.h:libssl-dev \
         /usr/include/cmocka.h:libcmocka-dev \
         pkg-config:pkg-config bats:bats curl:curl node:nodejs npm:npm
 
@@ -77,6 +78,10 @@ $(BUILD)/obj/%.o: %.c $(DEPS_OK)
 	@echo "  CC      $<"
 	@$(CC) $(CPPFLAGS) $(PKG_CFLAGS) $(CFLAGS) -MMD -MP -c $< -o $@
 
+# The packet path's lane loops are written for the vectoriser, which
+# GCC runs in full at -O3 (unless OPT says otherwise, e.g. -O0 to debug).
+$(BUILD)/obj/lib/trace16.o: CFLAGS += $(if $(filter -O2,$(OPT)),-O3)
+
 $(BUILD)/liblensray.a: $(LIB_OBJ)
 	@echo "  AR      $@"
 	@rm -f $@ && ar rcs $@ $^
@@ -97,7 +102,7 @@ SVC_OBJ  := $(SVC_SRC:%.c=$(BUILD)/obj/%.o)
 PORT     ?= 8080
 
 $(BUILD)/lensrayd: $(SVC_OBJ) $(BUILD)/liblensray.a
-	$(CC) $(LDFLAGS) -o $@ $^ $(LIB_LIBS) -lmicrohttpd
+	$(CC) $(LDFLAGS) -o $@ $^ $(LIB_LIBS) -lmicrohttpd -lcrypto
 
 # Builds and starts the daemon on the built-in scenes (Ctrl-C stops it).
 serve: all $(BUILD)/lensrayd
@@ -109,7 +114,15 @@ $(BUNNY): scenes/get-bunny.sh scenes/bunny-to-obj.js $(DEPS_OK)
 	sh scenes/get-bunny.sh $@
 
 # ---- tests --------------------------------------------------------------
-$(BUILD)/tests/unit: $(TEST_OBJ) $(BUILD)/liblensray.a
+# The fuzz targets' code, built without libFuzzer, replays tests/corpus/
+# and fuzz/seeds/ inside the unit tests (tests/test_corpus.c); the job
+# target brings the parts of the daemon that parse a job.
+REPLAY_SRC := fuzz/fuzz_common.c fuzz/fuzz_scene.c fuzz/fuzz_obj.c \
+              $(if $(SVC_SRC),fuzz/fuzz_job.c service/api.c \
+                service/scene_cache.c service/util.c service/sha256.c)
+REPLAY_OBJ := $(REPLAY_SRC:%.c=$(BUILD)/obj/%.o)
+
+$(BUILD)/tests/unit: $(TEST_OBJ) $(REPLAY_OBJ) $(BUILD)/liblensray.a
 	@mkdir -p $(dir $@)
 	$(CC) $(LDFLAGS) -o $@ $^ $(LIB_LIBS) -lcmocka
 
@@ -122,6 +135,63 @@ test-sanitize:
 	$(MAKE) BUILD=build/sanitize OPT=-O1 \
 	  SANITIZE="-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined" \
 	  test
+
+# ---- fuzzing ------------------------------------------------------------
+# libFuzzer targets for the scene, OBJ and job parsers (fuzz/fuzz_*.c),
+# built with clang under AddressSanitizer and UBSan in build/fuzz.  `make
+# fuzz` runs each for FUZZ_SECONDS (clang is installed like the other
+# dependencies, but only for this target).  New corpus entries go to
+# build/fuzz/corpus/NAME, crashes to build/fuzz/crashes/NAME; a crash stops
+# the run.  Copy a fixed crash into tests/corpus/NAME/ and `make test`
+# replays it from then on.  `make fuzz FUZZ=obj` runs one target.
+FUZZ_SECONDS ?= 60
+FUZZ_CC      ?= clang
+FUZZ_BUILD   := build/fuzz
+FUZZ         ?= scene obj $(if $(SVC_SRC),job)
+FUZZ_SAN     := -fsanitize=address,undefined -fno-sanitize-recover=undefined \
+                -fno-omit-frame-pointer -Wno-unknown-warning-option
+FUZZ_OPTS    ?= -timeout=20 -rss_limit_mb=2560 -max_len=8192 -print_final_stats=1
+
+.PHONY: fuzz fuzz-build
+fuzz: fuzz-build
+	@for t in $(FUZZ); do \
+	  mkdir -p $(FUZZ_BUILD)/corpus/$$t $(FUZZ_BUILD)/crashes/$$t; \
+	  echo "make: fuzzing $$t for $(FUZZ_SECONDS) s"; \
+	  LSAN_OPTIONS=suppressions=fuzz/lsan.supp \
+	  $(FUZZ_BUILD)/fuzz_$$t -max_total_time=$(FUZZ_SECONDS) $(FUZZ_OPTS) \
+	    -dict=fuzz/$$t.dict -artifact_prefix=$(FUZZ_BUILD)/crashes/$$t/ \
+	    $(FUZZ_BUILD)/corpus/$$t fuzz/seeds/$$t tests/corpus/$$t || { \
+	    echo "make: fuzz_$$t found a problem; the input is in $(FUZZ_BUILD)/crashes/$$t/"; \
+	    exit 1; }; \
+	done
+
+# The library and the daemon's objects with coverage for libFuzzer, in
+# their own build directory, then the targets linked with libFuzzer.
+fuzz-build: $(FUZZ_BUILD)/.fuzz-deps-ok
+	@$(MAKE) --no-print-directory BUILD=$(FUZZ_BUILD) CC=$(FUZZ_CC) OPT=-O1 \
+	  SANITIZE="-fsanitize=fuzzer-no-link $(FUZZ_SAN)" \
+	  $(FUZZ:%=$(FUZZ_BUILD)/fuzz_%)
+
+# clang, checked and installed by the deps rule above with its own list.
+$(FUZZ_BUILD)/.fuzz-deps-ok: Makefile
+	@$(MAKE) --no-print-directory BUILD=$(FUZZ_BUILD) DEPS="clang:clang" \
+	  DEPS_OK=$@ $@
+
+FUZZ_LINK = $(CC) $(CFLAGS) $(LDFLAGS) -fsanitize=fuzzer -o $@ $^ $(LIB_LIBS)
+FUZZ_JOB_OBJ := $(patsubst %,$(BUILD)/obj/service/%.o,api scene_cache util sha256)
+
+$(BUILD)/fuzz_scene: $(BUILD)/obj/fuzz/lf_scene.o $(BUILD)/obj/fuzz/fuzz_common.o $(BUILD)/liblensray.a
+	$(FUZZ_LINK)
+$(BUILD)/fuzz_obj: $(BUILD)/obj/fuzz/lf_obj.o $(BUILD)/obj/fuzz/fuzz_common.o $(BUILD)/liblensray.a
+	$(FUZZ_LINK)
+$(BUILD)/fuzz_job: $(BUILD)/obj/fuzz/lf_job.o $(BUILD)/obj/fuzz/fuzz_common.o $(FUZZ_JOB_OBJ) $(BUILD)/liblensray.a
+	$(FUZZ_LINK)
+
+# The libFuzzer entry point is compiled in only here.
+$(BUILD)/obj/fuzz/lf_%.o: fuzz/fuzz_%.c $(DEPS_OK)
+	@mkdir -p $(dir $@)
+	@echo "  CC      $< (libFuzzer)"
+	@$(CC) $(CPPFLAGS) $(PKG_CFLAGS) $(CFLAGS) -DLR_FUZZ_LIBFUZZER -MMD -MP -c $< -o $@
 
 # ---- running ------------------------------------------------------------
 render: all
@@ -147,4 +217,5 @@ install: all
 clean:
 	rm -rf $(BUILD)
 
--include $(LIB_OBJ:.o=.d) $(TEST_OBJ:.o=.d) $(SVC_OBJ:.o=.d) $(BUILD)/obj/tools/lensray.d
+-include $(LIB_OBJ:.o=.d) $(TEST_OBJ:.o=.d) $(SVC_OBJ:.o=.d) $(BUILD)/obj/tools/lensray.d \
+         $(REPLAY_OBJ:.o=.d) $(wildcard $(BUILD)/obj/fuzz/lf_*.d)

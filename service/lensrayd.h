@@ -11,7 +11,7 @@
  *   scene_cache.c  loaded scenes shared by name and by content hash
  *   metrics.c      counters and the Prometheus text exposition
  *   util.c         errors as JSON, clocks, ids, size parsing
- *   sha256.c       SHA-256, for cache keys and the token comparison
+ *   sha256.c       SHA-256 (OpenSSL), for cache keys and the token comparison
  *
  * Threads: libmicrohttpd runs one thread per connection; renders run on
  * the worker pool of jobs.c and never on an HTTP thread.  Every module
