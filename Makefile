@@ -124,7 +124,7 @@ REPLAY_OBJ := $(REPLAY_SRC:%.c=$(BUILD)/obj/%.o)
 
 $(BUILD)/tests/unit: $(TEST_OBJ) $(REPLAY_OBJ) $(BUILD)/liblensray.a
 	@mkdir -p $(dir $@)
-	$(CC) $(LDFLAGS) -o $@ $^ $(LIB_LIBS) -lcmocka
+	$(CC) $(LDFLAGS) -o $@ $^ $(LIB_LIBS) -lcmocka $(if $(SVC_SRC),-lcrypto)
 
 test: all $(BUILD)/tests/unit
 	@sh tests/run.sh $(BUILD)
@@ -172,10 +172,13 @@ fuzz-build: $(FUZZ_BUILD)/.fuzz-deps-ok
 	  SANITIZE="-fsanitize=fuzzer-no-link $(FUZZ_SAN)" \
 	  $(FUZZ:%=$(FUZZ_BUILD)/fuzz_%)
 
-# clang, checked and installed by the deps rule above with its own list.
+# clang, checked and installed by the deps rule above with its own list
+# (in that sub-make this file is DEPS_OK, so the rule is left out there).
+ifneq ($(DEPS_OK),$(FUZZ_BUILD)/.fuzz-deps-ok)
 $(FUZZ_BUILD)/.fuzz-deps-ok: Makefile
 	@$(MAKE) --no-print-directory BUILD=$(FUZZ_BUILD) DEPS="clang:clang" \
 	  DEPS_OK=$@ $@
+endif
 
 FUZZ_LINK = $(CC) $(CFLAGS) $(LDFLAGS) -fsanitize=fuzzer -o $@ $^ $(LIB_LIBS)
 FUZZ_JOB_OBJ := $(patsubst %,$(BUILD)/obj/service/%.o,api scene_cache util sha256)
@@ -185,7 +188,7 @@ $(BUILD)/fuzz_scene: $(BUILD)/obj/fuzz/lf_scene.o $(BUILD)/obj/fuzz/fuzz_common.
 $(BUILD)/fuzz_obj: $(BUILD)/obj/fuzz/lf_obj.o $(BUILD)/obj/fuzz/fuzz_common.o $(BUILD)/liblensray.a
 	$(FUZZ_LINK)
 $(BUILD)/fuzz_job: $(BUILD)/obj/fuzz/lf_job.o $(BUILD)/obj/fuzz/fuzz_common.o $(FUZZ_JOB_OBJ) $(BUILD)/liblensray.a
-	$(FUZZ_LINK)
+	$(FUZZ_LINK) -lcrypto
 
 # The libFuzzer entry point is compiled in only here.
 $(BUILD)/obj/fuzz/lf_%.o: fuzz/fuzz_%.c $(DEPS_OK)
