@@ -200,6 +200,22 @@ typedef struct lr_render_settings {
      * are bit-identical to the same pixels of the full render.  All zero
      * (the default) means the whole frame. */
     int region[4];
+    /* Effect planning: per tile, skip lens sampling where no geometry the
+     * tile's lens rays can reach is blurred by more than a quarter pixel,
+     * and trace one ray for all colours where the colours' circles of
+     * confusion differ by less than that.  Default 1; 0 = always simulate
+     * everything. */
+    int plan;
+    /* Adaptive sampling: every pixel first takes adaptive_min_spp
+     * samples; from their spread it is given just enough samples (up to
+     * spp) for a relative standard error of adaptive_threshold, raised to
+     * its 3 x 3 neighbourhood's largest need, so that neighbours of
+     * unconverged pixels keep going.  Default 1; 0 = spp everywhere.
+     * Decisions depend only on a pixel's neighbourhood, so regions and
+     * thread counts still give the same bytes. */
+    int adaptive;
+    double adaptive_threshold; /* default 0.01 */
+    int adaptive_min_spp;      /* default 16 (capped at spp) */
     lr_progress_fn progress; /* optional; NULL by default */
     void *progress_user;
     /* Optional cancellation flag, polled between tiles: when it becomes
@@ -276,10 +292,17 @@ typedef struct lr_image lr_image;
 typedef struct lr_render_stats {
     double seconds;        /* wall time of the render */
     uint64_t pixels;       /* pixels rendered */
-    uint64_t samples;      /* camera samples (pixels x spp) */
+    uint64_t samples;      /* camera samples taken (pixels x spp without
+                              adaptive sampling) */
     uint64_t rays;         /* all rays traced: camera, shadow, secondary */
     uint64_t nan_samples;  /* samples dropped for being NaN or Inf */
     int threads;           /* threads used */
+    /* The plan: what was simulated where, against the full simulation. */
+    uint64_t lens_pixels;    /* pixels whose samples sampled the lens */
+    uint64_t chroma_pixels;  /* pixels traced once per colour/wavelength */
+    uint64_t camera_rays;    /* camera rays traced (apron pilots included) */
+    uint64_t full_camera_rays; /* what plan = 0, adaptive = 0 would trace */
+    uint64_t full_samples;   /* pixels x spp */
 } lr_render_stats;
 
 /* Renders `scene` through `cam` with `settings`.  On success *out owns a

@@ -6,17 +6,39 @@
 #include <stdio.h>
 #include <string.h>
 
+/* When snprintf cut `s` (of capacity `cap`) short, the cut may have
+ * fallen inside a UTF-8 character (messages quote user text): drop the
+ * partial character so that the text stays valid UTF-8. */
+static void trim_partial_utf8(char *s, size_t cap, int wanted)
+{
+    if (wanted < 0 || (size_t)wanted < cap)
+        return;
+    size_t n = strlen(s);
+    size_t i = n;
+    /* Back up over continuation bytes to the last lead byte. */
+    while (i > 0 && ((unsigned char)s[i - 1] & 0xC0) == 0x80 && n - i < 3)
+        i--;
+    if (i == 0)
+        return;
+    unsigned char lead = (unsigned char)s[i - 1];
+    size_t need = lead >= 0xF0 ? 4 : lead >= 0xE0 ? 3 : lead >= 0xC0 ? 2 : 1;
+    if (lead >= 0x80 && n - (i - 1) < need)
+        s[i - 1] = '\0';
+}
+
 lr_status lr__fail(lr_error *err, lr_status status, const char *path,
                    const char *fmt, ...)
 {
     if (err == NULL)
         return status;
     err->status = status;
-    snprintf(err->path, sizeof err->path, "%s", path ? path : "");
+    int w = snprintf(err->path, sizeof err->path, "%s", path ? path : "");
+    trim_partial_utf8(err->path, sizeof err->path, w);
     va_list ap;
     va_start(ap, fmt);
-    vsnprintf(err->message, sizeof err->message, fmt, ap);
+    w = vsnprintf(err->message, sizeof err->message, fmt, ap);
     va_end(ap);
+    trim_partial_utf8(err->message, sizeof err->message, w);
     return status;
 }
 

@@ -16,6 +16,29 @@ void lr__pixel_add(lr__pixel *p, lr__v3 L)
     p->sum[0] += L.x;
     p->sum[1] += L.y;
     p->sum[2] += L.z;
+    double y = lr__luminance(L.x, L.y, L.z);
+    p->sum_y2 += y * y;
+}
+
+int lr__pixel_samples_needed(const lr__pixel *p, double threshold, int lo,
+                             int hi)
+{
+    if (p->n < 2)
+        return hi;
+    double n = (double)p->n;
+    double mean = lr__luminance(p->sum[0], p->sum[1], p->sum[2]) / n;
+    double var = (p->sum_y2 / n - mean * mean) * n / (n - 1.0);
+    if (!(var > 0.0))
+        return lo;
+    /* Standard error sqrt(var / N) relative to the mean, with a floor of
+     * 0.02 on the mean so that near-black pixels do not ask for endless
+     * samples to pin down nothing. */
+    double ref = fabs(mean) + 0.02;
+    double need = var / (threshold * threshold * ref * ref);
+    if (!(need < (double)hi))
+        return hi;
+    int k = ((int)ceil(need) + 15) / 16 * 16;
+    return k < lo ? lo : k > hi ? hi : k;
 }
 
 void lr__pixel_resolve(const lr__pixel *p, float out[3])

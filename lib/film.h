@@ -13,18 +13,31 @@
 
 typedef struct lr__pixel {
     double sum[3];    /* sum of radiance, per channel */
+    double sum_y2;    /* sum of squared luminance, for adaptive sampling */
     uint64_t n;       /* samples added, dropped ones included */
     uint64_t dropped; /* samples rejected as non-finite */
 } lr__pixel;
 
 static inline void lr__pixel_reset(lr__pixel *p)
 {
-    p->sum[0] = p->sum[1] = p->sum[2] = 0.0;
+    p->sum[0] = p->sum[1] = p->sum[2] = p->sum_y2 = 0.0;
     p->n = p->dropped = 0;
 }
 
 /* Adds one sample of weight 1 (a box filter over the pixel). */
 void lr__pixel_add(lr__pixel *p, lr__v3 L);
+
+/* Rec. 709 luminance of a linear RGB value. */
+static inline double lr__luminance(double r, double g, double b)
+{
+    return 0.2126 * r + 0.7152 * g + 0.0722 * b;
+}
+
+/* How many samples in all the pixel needs for a relative standard error
+ * of `threshold` in its luminance, judged from the samples it has (its
+ * pilot), rounded up to a multiple of 16 and clamped to [lo, hi]. */
+int lr__pixel_samples_needed(const lr__pixel *p, double threshold, int lo,
+                             int hi);
 
 /* The pixel's value: the mean over all samples taken (a dropped sample
  * counts as black, which keeps the estimate unbiased when drops are

@@ -12,18 +12,154 @@
 /* Deeper nesting than any scene needs; checked before cJSON recurses. */
 #define MAX_NESTING 64
 
+/* A path longer than LR__PATH_MAX is cut; the cut must not leave half a
+ * UTF-8 character at the end (keys may be any text). */
+static void trim_cut(char *s, int wanted)
+{
+    if (wanted < LR__PATH_MAX)
+        return;
+    size_t n = strlen(s), i = n;
+    while (i > 0 && ((unsigned char)s[i - 1] & 0xC0) == 0x80 && n - i < 3)
+        i--;
+    if (i == 0)
+        return;
+    unsigned char lead = (unsigned char)s[i - 1];
+    size_t need = lead >= 0xF0 ? 4 : lead >= 0xE0 ? 3 : lead >= 0xC0 ? 2 : 1;
+    if (lead >= 0x80 && n - (i - 1) < need)
+        s[i - 1] = '\0';
+}
+
 void lr__path_key(char out[LR__PATH_MAX], const char *parent,
                   const char *key)
 {
+    int w;
     if (parent == NULL || parent[0] == '\0')
-        snprintf(out, LR__PATH_MAX, "%s", key);
+        w = snprintf(out, LR__PATH_MAX, "%s", key);
     else
-        snprintf(out, LR__PATH_MAX, "%s.%s", parent, key);
+        w = snprintf(out, LR__PATH_MAX, "%s.%s", parent, key);
+    trim_cut(out, w);
 }
 
 void lr__path_index(char out[LR__PATH_MAX], const char *parent, size_t i)
 {
-    snprintf(out, LR__PATH_MAX, "%s[%zu]", parent, i);
+    trim_cut(out, snprintf(out, LR__PATH_MAX, "%s[%zu]", parent, i));
+}
+
+/* Length of the valid UTF-8 sequence starting at s (1 to 4), or 0 when
+ * the bytes there are not one (RFC 3629: no overlong forms, no UTF-16
+ * surrogates, nothing beyond U+10FFFF; a NUL ends the text). */
+static size_t utf8_char(const unsigned char *s)
+{
+    unsigned c = s[0];
+    size_t n;
+    unsigned min;
+    if (c < 0x80)
+        return 1;
+    if (c >= 0xC2 && c <= 0xDF)
+        n = 1, min = 0x80;
+    else if (c >= 0xE0 && c <= 0xEF)
+        n = 2, min = 0x800;
+    else if (c >= 0xF0 && c <= 0xF4)
+        n = 3, min = 0x10000;
+    else
+        return 0;
+    unsigned cp = c & (0x3Fu >> n);
+    for (size_t i = 1; i <= n; i++) {
+        if ((s[i] & 0xC0) != 0x80)
+            return 0;
+        cp = (cp << 6) | (s[i] & 0x3Fu);
+    }
+    if (cp < min || cp > 0x10FFFF || (cp >= 0xD800 && cp <= 0xDFFF))
+        return 0;
+    return n + 1;
+}
+
+size_t lr__utf8_invalid_at(const char *s)
+{
+    const unsigned char *p = (const unsigned char *)s;
+    size_t i = 0;
+    while (p[i] != '\0') {
+        size_t n = utf8_char(p + i);
+        if (n == 0)
+            return i;
+        i += n;
+    }
+    return (size_t)-1;
+}
+
+int lr__utf8_prefix(const char *s, int max)
+{
+    const unsigned char *p = (const unsigned char *)s;
+    int i = 0;
+    while (i < max && p[i] != '\0') {
+        size_t n = utf8_char(p + i);
+        if (n == 0)
+            n = 1; /* not UTF-8 anyway: count bytes */
+        if (i + (int)n > max)
+            break;
+        i += (int)n;
+    }
+    return i;
+}
+
+/* `s` with every byte that is not part of valid UTF-8 written as \xNN,
+ * so that a bad key can still be named in a path and a message. */
+static void utf8_escape(const char *s, char *out, size_t cap)
+{
+    const unsigned char *p = (const unsigned char *)s;
+    size_t o = 0;
+    while (*p != '\0' && o + 5 < cap) {
+        size_t n = utf8_char(p);
+        if (n == 0) {
+            o += (size_t)snprintf(out + o, cap - o, "\\x%02x", *p);
+            p++;
+        } else {
+            if (o + n >= cap)
+                break;
+            memcpy(out + o, p, n);
+            o += n;
+            p += n;
+        }
+    }
+    out[o] = '\0';
+}
+
+/* Every key and string of a parsed document must be UTF-8 (RFC 8259);
+ * cJSON passes any bytes through. */
+static lr_status check_utf8(const cJSON *v, const char *path, lr_error *err)
+{
+    char p[LR__PATH_MAX];
+    if (cJSON_IsString(v)) {
+        size_t at = lr__utf8_invalid_at(v->valuestring);
+        if (at != (size_t)-1)
+            return lr__fail(err, LR_ERR_INVALID, path,
+                            "%s: the string is not valid UTF-8 (byte 0x%02x "
+                            "at offset %zu)",
+                            path[0] ? path : "the JSON value",
+                            (unsigned char)v->valuestring[at], at);
+        return LR_OK;
+    }
+    size_t i = 0;
+    for (const cJSON *c = v->child; c != NULL; c = c->next, i++) {
+        if (cJSON_IsObject(v)) {
+            const char *k = c->string ? c->string : "";
+            size_t at = lr__utf8_invalid_at(k);
+            if (at != (size_t)-1) {
+                char shown[LR__PATH_MAX];
+                utf8_escape(k, shown, sizeof shown);
+                lr__path_key(p, path, shown);
+                return lr__fail(err, LR_ERR_INVALID, p,
+                                "%s: the key is not valid UTF-8 (byte 0x%02x "
+                                "at offset %zu)",
+                                p, (unsigned char)k[at], at);
+            }
+            lr__path_key(p, path, k);
+        } else {
+            lr__path_index(p, path, i);
+        }
+        LR_TRY(check_utf8(c, p, err));
+    }
+    return LR_OK;
 }
 
 void lr__json_describe(const cJSON *v, char *out, size_t n)
@@ -33,7 +169,8 @@ void lr__json_describe(const cJSON *v, char *out, size_t n)
     else if (cJSON_IsNumber(v))
         snprintf(out, n, "%.17g", v->valuedouble);
     else if (cJSON_IsString(v))
-        snprintf(out, n, "the string \"%.40s%s\"", v->valuestring,
+        snprintf(out, n, "the string \"%.*s%s\"",
+                 lr__utf8_prefix(v->valuestring, 40), v->valuestring,
                  strlen(v->valuestring) > 40 ? "..." : "");
     else if (cJSON_IsBool(v))
         snprintf(out, n, "%s", cJSON_IsTrue(v) ? "true" : "false");
@@ -190,8 +327,8 @@ lr_status lr__json_enum(const cJSON *obj, const char *key, const char *path,
     }
     char p[LR__PATH_MAX];
     lr__path_key(p, path, key);
-    return lr__fail(err, LR_ERR_INVALID, p, "%s must be one of %s, got \"%.60s\"",
-                    p, list, v);
+    return lr__fail(err, LR_ERR_INVALID, p, "%s must be one of %s, got \"%.*s\"",
+                    p, list, lr__utf8_prefix(v, 60), v);
 }
 
 static lr_status numbers(const cJSON *v, const char *p, double *out,
@@ -287,10 +424,49 @@ static int too_deep(const char *s, size_t len)
     return 0;
 }
 
+/* The offset of the first \u0000 escape inside a string, or len.  cJSON
+ * decodes it to a NUL that silently ends the string ("pinhole\u0000x"
+ * would read as "pinhole"), so such text is refused instead. */
+static size_t nul_escape_at(const char *s, size_t len)
+{
+    int in_str = 0;
+    for (size_t i = 0; i < len; i++) {
+        char c = s[i];
+        if (in_str) {
+            if (c == '\\') {
+                if (i + 5 < len && memcmp(s + i + 1, "u0000", 5) == 0)
+                    return i;
+                i++;
+            } else if (c == '"') {
+                in_str = 0;
+            }
+        } else if (c == '"') {
+            in_str = 1;
+        }
+    }
+    return len;
+}
+
+/* 1-based line and column (in bytes) of offset `off`. */
+static void line_col(const char *text, size_t off, size_t *line, size_t *col)
+{
+    *line = 1;
+    *col = 1;
+    for (size_t i = 0; i < off; i++) {
+        if (text[i] == '\n') {
+            (*line)++;
+            *col = 1;
+        } else {
+            (*col)++;
+        }
+    }
+}
+
 lr_status lr__json_parse(const char *text, size_t len, const char *what,
                          cJSON **out, lr_error *err)
 {
     *out = NULL;
+    size_t line, col;
     if (too_deep(text, len))
         return lr__fail(err, LR_ERR_INVALID, "",
                         "%s: JSON nested deeper than %d levels", what,
@@ -305,15 +481,7 @@ lr_status lr__json_parse(const char *text, size_t len, const char *what,
         const char *at = end ? end : cJSON_GetErrorPtr();
         size_t off = at && at >= text && at <= text + len ? (size_t)(at - text)
                                                            : 0;
-        size_t line = 1, col = 1;
-        for (size_t i = 0; i < off; i++) {
-            if (text[i] == '\n') {
-                line++;
-                col = 1;
-            } else {
-                col++;
-            }
-        }
+        line_col(text, off, &line, &col);
         return lr__fail(err, LR_ERR_INVALID, "",
                         "%s: invalid JSON at line %zu, column %zu", what,
                         line, col);
@@ -330,6 +498,20 @@ lr_status lr__json_parse(const char *text, size_t len, const char *what,
                         "%s: unexpected text after the JSON value at byte %zu",
                         what, off);
     }
+    off = nul_escape_at(text, len);
+    if (off < len) {
+        cJSON_Delete(root);
+        line_col(text, off, &line, &col);
+        return lr__fail(err, LR_ERR_INVALID, "",
+                        "%s: \\u0000 (a NUL character) is not allowed in a "
+                        "string, at line %zu, column %zu",
+                        what, line, col);
+    }
+    lr_status st = check_utf8(root, "", err);
+    if (st != LR_OK) {
+        cJSON_Delete(root);
+        return st;
+    }
     *out = root;
     return LR_OK;
 }
@@ -339,6 +521,12 @@ lr_status lr__json_parse(const char *text, size_t len, const char *what,
 lr_status lr__json_apply_override(cJSON *root, const char *assignment,
                                   lr_error *err)
 {
+    size_t bad = lr__utf8_invalid_at(assignment);
+    if (bad != (size_t)-1)
+        return lr__fail(err, LR_ERR_INVALID, "",
+                        "override: the text is not valid UTF-8 (byte 0x%02x "
+                        "at offset %zu)",
+                        (unsigned char)assignment[bad], bad);
     const char *eq = strchr(assignment, '=');
     if (eq == NULL || eq == assignment)
         return lr__fail(err, LR_ERR_INVALID, "",
@@ -356,6 +544,13 @@ lr_status lr__json_apply_override(cJSON *root, const char *assignment,
     /* The whole value must be JSON to count as JSON: "30deg" is the
      * string "30deg", not the number 30. */
     cJSON *value = cJSON_ParseWithOpts(text, NULL, 1);
+    if (value != NULL && nul_escape_at(text, strlen(text)) < strlen(text)) {
+        cJSON_Delete(value);
+        return lr__fail(err, LR_ERR_INVALID, path,
+                        "override %s: \\u0000 (a NUL character) is not "
+                        "allowed in a string",
+                        path);
+    }
     if (value == NULL)
         value = cJSON_CreateString(text);
     if (value == NULL)

@@ -27,6 +27,13 @@ void lr__path_key(char out[LR__PATH_MAX], const char *parent,
 /* out = parent[i]. */
 void lr__path_index(char out[LR__PATH_MAX], const char *parent, size_t i);
 
+/* The offset of the first byte of `s` that is not part of valid UTF-8
+ * (RFC 3629), or (size_t)-1 when all of it is. */
+size_t lr__utf8_invalid_at(const char *s);
+/* The length of the longest prefix of `s` of at most `max` bytes that
+ * does not cut a UTF-8 character, for "%.*s" in messages. */
+int lr__utf8_prefix(const char *s, int max);
+
 /* "a string", "an array", "the number 3.5", ... for error messages. */
 void lr__json_describe(const cJSON *v, char *out, size_t n);
 
@@ -63,7 +70,8 @@ lr_status lr__json_rgb(const cJSON *obj, const char *key, const char *path,
                        int required, lr__v3 *out, lr_error *err);
 
 /* Parses JSON text of `len` bytes with a nesting limit; the error gives
- * the line and column.  `what` names the text ("scene.json").  The caller
+ * the line and column.  Every key and string must be valid UTF-8 (the
+ * error names the field) and none may contain \u0000.  `what` names the text ("scene.json").  The caller
  * deletes the result with cJSON_Delete. */
 lr_status lr__json_parse(const char *text, size_t len, const char *what,
                          cJSON **out, lr_error *err);

@@ -8,6 +8,7 @@
 #include "film.h"
 #include "sampler.h"
 #include "shade.h"
+#include "plan.h"
 #include "spectrum.h"
 #include "trace16.h"
 
@@ -34,6 +35,10 @@ void lr_render_settings_default(lr_render_settings *s)
     s->threads = 0;
     s->tile_size = 32;
     s->want_depth = 0;
+    s->plan = 1;
+    s->adaptive = 1;
+    s->adaptive_threshold = 0.01;
+    s->adaptive_min_spp = 16;
 }
 
 lr_status lr_render_settings_validate(const lr_render_settings *s,
@@ -72,6 +77,15 @@ lr_status lr_render_settings_validate(const lr_render_settings *s,
                         "render.threads must be between 0 (all cores) and "
                         "%d, got %d",
                         LR__MAX_THREADS, s->threads);
+    if (!(s->adaptive_threshold > 0.0 && s->adaptive_threshold <= 1.0))
+        return lr__fail(err, LR_ERR_INVALID, "render.adaptive.threshold",
+                        "render.adaptive.threshold must be in (0, 1], got %g",
+                        s->adaptive_threshold);
+    if (s->adaptive_min_spp < 1 || s->adaptive_min_spp > LR__MAX_SPP)
+        return lr__fail(err, LR_ERR_INVALID, "render.adaptive.min_spp",
+                        "render.adaptive.min_spp must be between 1 and %d, "
+                        "got %d",
+                        LR__MAX_SPP, s->adaptive_min_spp);
     const int *r = s->region;
     if ((r[0] | r[1] | r[2] | r[3]) != 0 &&
         !(r[0] >= 0 && r[1] >= 0 && r[2] > r[0] && r[3] > r[1] &&
@@ -95,6 +109,7 @@ typedef struct job {
     lr__sampler sampler;
     lr_image *img;
     lr__v3 mean_cmf;    /* mean of the sRGB matching functions, 380-780 nm */
+    lr__plan plan;
     int x0, y0, x1, y1; /* the region rendered, in frame pixels */
     int tiles_x, tiles_y;
     atomic_int next_tile;
@@ -103,10 +118,17 @@ typedef struct job {
     uint64_t pixels_done;
 } job;
 
+/* Tiles are worked in sub-blocks of at most SUB x SUB pixels, plus a
+ * one-pixel apron for adaptive sampling's neighbourhoods. */
+#define SUB 64
+#define SUBA (SUB + 2)
+
 typedef struct worker {
     job *job;
     uint64_t rays, samples, dropped;
-    lr__pixel *row; /* tile_size accumulators for the packet path */
+    uint64_t camera_rays, lens_pixels, chroma_pixels;
+    lr__pixel acc[SUBA * SUBA];
+    int need[SUBA * SUBA];
 } worker;
 
 /* One camera sample: radiance through film point (fx, fy) and lens
@@ -118,13 +140,8 @@ static void camera_sample(worker *w, uint64_t pixel, uint32_t s, double fx,
     const lr__cam *c = &j->cam;
     int depth = j->set->max_depth;
     lr__v3 org, dir;
-    if (!c->chroma_active) {
-        lr__cam_lens_ray(c, fx, fy, u, c->w, &org, &dir);
-        lr__pixel_add(acc, lr__radiance(j->scene, org, dir, 0, depth,
-                                        &w->rays));
-        return;
-    }
     if (c->chroma.mode == LR_CHROMATIC_RGB) {
+        w->camera_rays += 3;
         /* The paper: each channel traced with its own focus, through the
          * same film point and lens point. */
         double L[3];
@@ -145,6 +162,7 @@ static void camera_sample(worker *w, uint64_t pixel, uint32_t s, double fx,
      * With fewer, the sum could approach zero, so the exact mean of W over
      * the range normalises instead (unbiased, white only on average). */
     int n = c->chroma.wavelengths;
+    w->camera_rays += (uint64_t)n;
     double off = lr__sample_1d(&j->sampler, pixel, s, LR__DIM_WAVELENGTH);
     lr__v3 num = v3(0, 0, 0), den = v3(0, 0, 0);
     for (int k = 0; k < n; k++) {
@@ -189,41 +207,100 @@ static void store_pixel(worker *w, int x, int y, const lr__pixel *acc)
     }
 }
 
-/* The scalar path: one sample at a time, for chromatic aberration, where
- * each sample needs several rays with different foci. */
-static void render_pixel(worker *w, int x, int y)
+/* Samples first .. last-1 of pixel (x, y) into *acc, simulating what the
+ * plan says: through the lens or not, one ray or one per colour. */
+static void sample_pixel(worker *w, int x, int y, int first, int last,
+                         lr__pixel *acc)
 {
     job *j = w->job;
-    const lr_render_settings *set = j->set;
-    uint64_t pixel = (uint64_t)y * (uint64_t)set->width + (uint64_t)x;
-    lr__pixel acc;
-    lr__pixel_reset(&acc);
-    lr__pixel_sampler ps;
-    lr__pixel_sampler_init(&ps, &j->sampler, pixel);
-    for (int s = 0; s < set->spp; s++) {
-        double u[4];
-        lr__pixel_sampler_get(&ps, (uint32_t)s, u);
-        camera_sample(w, pixel, (uint32_t)s, x + u[0], y + u[1], u + 2, &acc);
-    }
-    store_pixel(w, x, y, &acc);
-}
-
-static void render_tile(worker *w, int x0, int y0, int x1, int y1)
-{
-    job *j = w->job;
-    if (j->cam.chroma_active) {
-        for (int y = y0; y < y1; y++)
-            for (int x = x0; x < x1; x++)
-                render_pixel(w, x, y);
+    const lr__block_plan *bp = lr__plan_at(&j->plan, x, y);
+    int use_lens = j->cam.has_lens && bp->lens;
+    if (j->cam.chroma_active && use_lens && bp->chroma) {
+        /* The scalar path: several rays per sample, one per focus. */
+        uint64_t pixel = (uint64_t)y * (uint64_t)j->set->width + (uint64_t)x;
+        lr__pixel_sampler ps;
+        lr__pixel_sampler_init(&ps, &j->sampler, pixel);
+        for (int s = first; s < last; s++) {
+            double u[4];
+            lr__pixel_sampler_get(&ps, (uint32_t)s, u);
+            camera_sample(w, pixel, (uint32_t)s, x + u[0], y + u[1], u + 2,
+                          acc);
+        }
         return;
     }
     lr__trace16 t = {j->scene, &j->cam, &j->sampler, j->set->width,
                      j->set->spp, j->set->max_depth};
-    for (int y = y0; y < y1; y++) {
-        lr__trace16_row(&t, y, x0, x1, w->row, &w->rays);
-        for (int x = x0; x < x1; x++)
-            store_pixel(w, x, y, &w->row[x - x0]);
+    lr__trace16_pixel(&t, x, y, first, last, use_lens, acc, &w->rays,
+                      &w->camera_rays);
+}
+
+/* Plan statistics for a finished pixel. */
+static void count_plan(worker *w, int x, int y)
+{
+    job *j = w->job;
+    const lr__block_plan *bp = lr__plan_at(&j->plan, x, y);
+    if (j->cam.has_lens && bp->lens) {
+        w->lens_pixels++;
+        if (j->cam.chroma_active && bp->chroma)
+            w->chroma_pixels++;
     }
+}
+
+/* One sub-block [x0, x1) x [y0, y1) of a tile. */
+static void render_block(worker *w, int x0, int y0, int x1, int y1)
+{
+    job *j = w->job;
+    const lr_render_settings *set = j->set;
+    int spp = set->spp, lo = set->adaptive_min_spp;
+    if (!set->adaptive || lo >= spp) {
+        for (int y = y0; y < y1; y++)
+            for (int x = x0; x < x1; x++) {
+                lr__pixel *a = &w->acc[0];
+                lr__pixel_reset(a);
+                sample_pixel(w, x, y, 0, spp, a);
+                store_pixel(w, x, y, a);
+                count_plan(w, x, y);
+            }
+        return;
+    }
+    /* Adaptive: a pilot of `lo` samples in the block and a one-pixel
+     * apron around it (inside the frame, whatever the region), each
+     * pixel's need from its pilot, then each pixel continues to the
+     * largest need in its 3 x 3 neighbourhood.  Everything a pixel's
+     * count depends on is computed here, so tiles and regions agree. */
+    int ax0 = x0 > 0 ? x0 - 1 : 0, ay0 = y0 > 0 ? y0 - 1 : 0;
+    int ax1 = x1 < set->width ? x1 + 1 : x1;
+    int ay1 = y1 < set->height ? y1 + 1 : y1;
+    int aw = ax1 - ax0;
+    for (int y = ay0; y < ay1; y++)
+        for (int x = ax0; x < ax1; x++) {
+            lr__pixel *a = &w->acc[(y - ay0) * aw + (x - ax0)];
+            lr__pixel_reset(a);
+            sample_pixel(w, x, y, 0, lo, a);
+            w->need[(y - ay0) * aw + (x - ax0)] = lr__pixel_samples_needed(
+                a, set->adaptive_threshold, lo, spp);
+        }
+    for (int y = y0; y < y1; y++)
+        for (int x = x0; x < x1; x++) {
+            int n = lo;
+            for (int ny = y - 1; ny <= y + 1; ny++)
+                for (int nx = x - 1; nx <= x + 1; nx++)
+                    if (nx >= ax0 && nx < ax1 && ny >= ay0 && ny < ay1 &&
+                        w->need[(ny - ay0) * aw + (nx - ax0)] > n)
+                        n = w->need[(ny - ay0) * aw + (nx - ax0)];
+            lr__pixel *a = &w->acc[(y - ay0) * aw + (x - ax0)];
+            sample_pixel(w, x, y, lo, n, a);
+            store_pixel(w, x, y, a);
+            count_plan(w, x, y);
+        }
+}
+
+static void render_tile(worker *w, int x0, int y0, int x1, int y1)
+{
+    for (int y = y0; y < y1; y += SUB)
+        for (int x = x0; x < x1; x += SUB)
+            render_block(w, x, y, x + SUB < x1 ? x + SUB : x1,
+                         y + SUB < y1 ? y + SUB : y1);
 }
 
 static void *worker_main(void *arg)
@@ -364,6 +441,12 @@ lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
     j.img = img;
     lr__cam_init(&j.cam, &cam_used, set->width, set->height);
     j.mean_cmf = mean_cmf();
+    st = lr__plan_build(&j.plan, scene, &j.cam, j.x0, j.y0, j.x1, j.y1,
+                        set->plan, err);
+    if (st != LR_OK) {
+        lr_image_free(img);
+        return st;
+    }
     lr__sampler_init(&j.sampler, set->sampler, set->seed, set->spp);
     j.tiles_x = (j.x1 - j.x0 + set->tile_size - 1) / set->tile_size;
     j.tiles_y = (j.y1 - j.y0 + set->tile_size - 1) / set->tile_size;
@@ -384,28 +467,15 @@ lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
         free(ws);
         free(tids);
         lr_image_free(img);
+        lr__plan_free(&j.plan);
         pthread_mutex_destroy(&j.progress_lock);
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     }
     /* The calling thread is worker 0; if a thread cannot be started the
      * others simply take more tiles. */
     int started = 1;
-    int alloc_failed = 0;
-    for (int i = 0; i < n; i++) {
+    for (int i = 0; i < n; i++)
         ws[i].job = &j;
-        ws[i].row = malloc((size_t)set->tile_size * sizeof *ws[i].row);
-        if (ws[i].row == NULL)
-            alloc_failed = 1;
-    }
-    if (alloc_failed) {
-        for (int i = 0; i < n; i++)
-            free(ws[i].row);
-        free(ws);
-        free(tids);
-        lr_image_free(img);
-        pthread_mutex_destroy(&j.progress_lock);
-        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
-    }
     for (int i = 1; i < n; i++) {
         if (pthread_create(&tids[i], NULL, worker_main, &ws[i]) != 0)
             break;
@@ -418,10 +488,11 @@ lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
 
     lr_render_stats sum;
     memset(&sum, 0, sizeof sum);
-    for (int i = 0; i < n; i++)
-        free(ws[i].row);
     for (int i = 0; i < started; i++) {
         sum.rays += ws[i].rays;
+        sum.camera_rays += ws[i].camera_rays;
+        sum.lens_pixels += ws[i].lens_pixels;
+        sum.chroma_pixels += ws[i].chroma_pixels;
         sum.samples += ws[i].samples;
         sum.nan_samples += ws[i].dropped;
     }
@@ -429,6 +500,14 @@ lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
     free(tids);
     sum.threads = started;
     sum.pixels = (uint64_t)(j.x1 - j.x0) * (uint64_t)(j.y1 - j.y0);
+    sum.full_samples = sum.pixels * (uint64_t)set->spp;
+    uint64_t per_sample = 1;
+    if (j.cam.chroma_active)
+        per_sample = j.cam.chroma.mode == LR_CHROMATIC_RGB
+                         ? 3
+                         : (uint64_t)j.cam.chroma.wavelengths;
+    sum.full_camera_rays = sum.full_samples * per_sample;
+    lr__plan_free(&j.plan);
     sum.seconds = now_seconds() - t0;
     if (atomic_load(&j.cancelled)) {
         lr_image_free(img);

@@ -810,7 +810,8 @@ static lr_status parse_render(const cJSON *r, lr_render_settings *rs,
     static const char *const keys[] = {"width",     "height",  "spp",
                                        "sampler",   "seed",    "max_depth",
                                        "threads",   "tile_size", "depth",
-                                       "region",    NULL};
+                                       "region",    "plan",    "adaptive",
+                                       NULL};
     /* Indexed by lr_sampler_kind. */
     static const char *const samplers[] = {"random", "grid", "jittered",
                                            "sobol", NULL};
@@ -834,6 +835,40 @@ static lr_status parse_render(const cJSON *r, lr_render_settings *rs,
                         err));
     LR_TRY(lr__json_int(r, "seed", "render", 0, 0, (1LL << 53), &seed, err));
     LR_TRY(lr__json_bool(r, "depth", "render", 0, &rs->want_depth, err));
+    LR_TRY(lr__json_bool(r, "plan", "render", 0, &rs->plan, err));
+    const cJSON *ad = cJSON_GetObjectItemCaseSensitive(r, "adaptive");
+    if (ad != NULL && cJSON_IsBool(ad)) {
+        rs->adaptive = cJSON_IsTrue(ad);
+    } else if (ad != NULL) {
+        static const char *const akeys[] = {"threshold", "min_spp", "max_spp",
+                                            NULL};
+        const char *ap = "render.adaptive";
+        if (!cJSON_IsObject(ad))
+            return lr__fail(err, LR_ERR_INVALID, ap,
+                            "%s must be true, false or an object "
+                            "{\"threshold\", \"min_spp\", \"max_spp\"}",
+                            ap);
+        LR_TRY(lr__json_check_keys(ad, ap, akeys, err));
+        long long lo = rs->adaptive_min_spp, hi = -1;
+        LR_TRY(lr__json_number(ad, "threshold", ap, 0,
+                               &rs->adaptive_threshold, err));
+        LR_TRY(lr__json_int(ad, "min_spp", ap, 0, 1, LR__MAX_SPP, &lo, err));
+        LR_TRY(lr__json_int(ad, "max_spp", ap, 0, 1, LR__MAX_SPP, &hi, err));
+        rs->adaptive = 1;
+        rs->adaptive_min_spp = (int)lo;
+        /* The maximum is render.spp itself; max_spp is its other name
+         * here, and the two must agree when both are given. */
+        if (hi > 0) {
+            if (cJSON_GetObjectItemCaseSensitive(r, "spp") != NULL &&
+                hi != spp)
+                return lr__fail(err, LR_ERR_INVALID,
+                                "render.adaptive.max_spp",
+                                "render.adaptive.max_spp (%lld) and render.spp "
+                                "(%lld) disagree; give one of them",
+                                hi, spp);
+            spp = hi;
+        }
+    }
     int kind = (int)rs->sampler;
     LR_TRY(lr__json_enum(r, "sampler", "render", samplers, &kind, err));
     rs->sampler = (lr_sampler_kind)kind;

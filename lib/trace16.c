@@ -84,8 +84,10 @@ static void flush(const lr__trace16 *t, packet *p, lr__pixel *acc,
  * camera.h), computed in floats since Embree traces floats anyway.  The
  * rays are written straight into the packet, and copied to p->org and
  * p->dir so that hits are completed on exactly the ray that was traced. */
-static void camera_rays(const lr__cam *c, packet *p, int n, const float *fx,
-                        const float *fy, const float *lu, const float *lv)
+static void make_camera_rays(const lr__cam *c, int use_lens, packet *p,
+                             int n,
+                        const float *fx, const float *fy, const float *lu,
+                        const float *lv)
 {
     const float sw = (float)(2.0 / c->width), sh = (float)(2.0 / c->height);
     const float hw = (float)c->half_w, hh = (float)c->half_h;
@@ -101,7 +103,7 @@ static void camera_rays(const lr__cam *c, packet *p, int n, const float *fx,
     float lx[LANES], ly[LANES];
     struct RTCRay16 *r = &p->rh.ray;
 
-    if (!c->has_lens) {
+    if (!c->has_lens || !use_lens) {
         for (int i = 0; i < LANES; i++)
             lx[i] = ly[i] = 0.0f;
     } else if (c->shape == LR_APERTURE_DISK && c->rotation == 0.0) {
@@ -163,36 +165,35 @@ static void camera_rays(const lr__cam *c, packet *p, int n, const float *fx,
     }
 }
 
-void lr__trace16_row(const lr__trace16 *t, int y, int x0, int x1,
-                     lr__pixel *acc, uint64_t *rays)
+void lr__trace16_pixel(const lr__trace16 *t, int x, int y, int first,
+                       int last, int use_lens, lr__pixel *acc,
+                       uint64_t *rays, uint64_t *camera_rays)
 {
     packet p;
     float fx[LANES], fy[LANES], lu[LANES], lv[LANES];
     for (int i = 0; i < LANES; i++)
         fx[i] = fy[i] = lu[i] = lv[i] = 0.5f;
-    for (int x = x0; x < x1; x++) {
-        lr__pixel_sampler ps;
-        uint64_t pixel = (uint64_t)y * (uint64_t)t->width + (uint64_t)x;
-        lr__pixel_sampler_init(&ps, t->sampler, pixel);
-        lr__pixel_reset(&acc[x - x0]);
-        /* Packets never mix pixels: which rays share a packet then never
-         * depends on the tile size or region, so neither can the result
-         * (Embree may break exact ties between primitives differently
-         * for differently composed packets). */
-        for (int s0 = 0; s0 < t->spp; s0 += LANES) {
-            int n = t->spp - s0 < LANES ? t->spp - s0 : LANES;
-            for (int i = 0; i < n; i++) {
-                double u[4];
-                lr__pixel_sampler_get(&ps, (uint32_t)(s0 + i), u);
-                fx[i] = (float)(x + u[0]);
-                fy[i] = (float)(y + u[1]);
-                lu[i] = (float)u[2];
-                lv[i] = (float)u[3];
-                p.slot[i] = x - x0;
-            }
-            camera_rays(t->cam, &p, n, fx, fy, lu, lv);
-            p.n = n;
-            flush(t, &p, acc, rays);
+    lr__pixel_sampler ps;
+    uint64_t pixel = (uint64_t)y * (uint64_t)t->width + (uint64_t)x;
+    lr__pixel_sampler_init(&ps, t->sampler, pixel);
+    /* Packets never mix pixels: which rays share a packet then never
+     * depends on the tile size or region, so neither can the result
+     * (Embree may break exact ties between primitives differently for
+     * differently composed packets). */
+    for (int s0 = first; s0 < last; s0 += LANES) {
+        int n = last - s0 < LANES ? last - s0 : LANES;
+        for (int i = 0; i < n; i++) {
+            double u[4];
+            lr__pixel_sampler_get(&ps, (uint32_t)(s0 + i), u);
+            fx[i] = (float)(x + u[0]);
+            fy[i] = (float)(y + u[1]);
+            lu[i] = (float)u[2];
+            lv[i] = (float)u[3];
+            p.slot[i] = 0;
         }
+        make_camera_rays(t->cam, use_lens, &p, n, fx, fy, lu, lv);
+        p.n = n;
+        *camera_rays += (uint64_t)n;
+        flush(t, &p, acc, rays);
     }
 }

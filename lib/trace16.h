@@ -22,9 +22,11 @@ typedef struct lr__trace16 {
     int max_depth;
 } lr__trace16;
 
-/* Traces all samples of pixels x0 .. x1-1 of row y, adding them in
- * sample order to acc[0 .. x1-x0-1], and counts rays into *rays. */
-void lr__trace16_row(const lr__trace16 *t, int y, int x0, int x1,
-                     lr__pixel *acc, uint64_t *rays);
+/* Traces samples first .. last-1 of pixel (x, y), adding them in sample
+ * order to *acc; through the lens if use_lens, else as pinhole rays.
+ * Counts all rays into *rays and the camera rays into *camera_rays. */
+void lr__trace16_pixel(const lr__trace16 *t, int x, int y, int first,
+                       int last, int use_lens, lr__pixel *acc,
+                       uint64_t *rays, uint64_t *camera_rays);
 
 #endif

@@ -33,7 +33,8 @@ static lr_image *render_sets(const char *json, const char *const *sets,
 /* A defocused scene with edges: a lit sphere in front of the focal plane
  * casting a shadow on a ground plane, through a thin lens. */
 static const char *dof_scene =
-    "{\"render\": {\"width\": 32, \"height\": 24, \"max_depth\": 0},"
+    "{\"render\": {\"width\": 32, \"height\": 24, \"max_depth\": 0,"
+    "  \"plan\": false, \"adaptive\": false},"
     " \"camera\": {\"model\": \"thinlens\", \"position\": [0, 1, 4],"
     "  \"look_at\": [0, 0.6, 0], \"fov\": 30, \"aperture_radius\": 0.6,"
     "  \"focus_distance\": 6},"
@@ -119,7 +120,8 @@ static void test_error_falls_faster_when_stratified(void **state)
  * error against the true (smooth) blur has a strong Fourier peak at the
  * lattice frequency; jittered samples spread that error into noise. */
 static const char *point_scene =
-    "{\"render\": {\"width\": 96, \"height\": 96, \"max_depth\": 0},"
+    "{\"render\": {\"width\": 96, \"height\": 96, \"max_depth\": 0,"
+    "  \"plan\": false, \"adaptive\": false},"
     " \"camera\": {\"model\": \"bracket\", \"image_plane_distance\": 1,"
     "  \"focal_length\": 5, \"aperture\": 0.5, \"fov\": 20},"
     " \"materials\": {\"w\": {\"diffuse\": 1}},"

@@ -29,7 +29,7 @@ static void point_scene(char *buf, size_t n, double z, int spp,
 {
     snprintf(buf, n,
              "{\"render\": {\"width\": %d, \"height\": %d, \"spp\": %d,"
-             "  \"sampler\": \"%s\", \"max_depth\": 0},"
+             "  \"sampler\": \"%s\", \"max_depth\": 0, \"adaptive\": false},"
              " \"camera\": {\"position\": [0, 0, 0], \"look_at\": [0, 0, -1],"
              "  \"fov\": %g},"
              " \"materials\": {\"w\": {\"diffuse\": 1}},"
@@ -570,7 +570,8 @@ static void test_energy_conserved(void **state)
     (void)state;
     char json[2048];
     snprintf(json, sizeof json,
-             "{\"render\": {\"width\": %d, \"height\": %d, \"spp\": 256},"
+             "{\"render\": {\"width\": %d, \"height\": %d, \"spp\": 256,"
+             "  \"adaptive\": false},"
              " \"camera\": {\"fov\": %g},"
              " \"materials\": {\"w\": {\"diffuse\": 1}},"
              " \"lights\": [{\"type\": \"ambient\", \"radiance\": 1}],"

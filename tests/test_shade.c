@@ -215,7 +215,7 @@ static void test_constant_scene_exact(void **state)
     lr_render_stats st;
     lr_image *img = render("{\"background\": [0.3, 0.1, 0.7],"
                            " \"render\": {\"width\": 2, \"height\": 2,"
-                           " \"spp\": 65536}}",
+                           " \"spp\": 65536, \"adaptive\": false}}",
                            -1, 0, &st);
     const float *px = lr_image_rgb(img);
     for (int i = 0; i < 4; i++)

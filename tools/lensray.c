@@ -243,16 +243,27 @@ static int cmd_render(int argc, char **argv)
         rc = exit_for(st) == EXIT_SCENE ? EXIT_IO : exit_for(st);
     } else if (stats) {
         double s = rst.seconds > 0 ? rst.seconds : 1e-9;
+        double px = rst.pixels ? (double)rst.pixels : 1.0;
         printf("{\"seconds\": %.6f, \"width\": %d, \"height\": %d, "
                "\"spp\": %d, \"threads\": %d, \"samples\": %llu, "
                "\"rays\": %llu, \"samples_per_second\": %.0f, "
                "\"rays_per_second\": %.0f, \"nan_samples\": %llu, "
-               "\"primitives\": %zu}\n",
+               "\"primitives\": %zu, \"plan\": {\"enabled\": %s, "
+               "\"adaptive\": %s, \"lens_pixels\": %.4f, "
+               "\"chroma_pixels\": %.4f, \"samples\": %llu, "
+               "\"full_samples\": %llu, \"camera_rays\": %llu, "
+               "\"full_camera_rays\": %llu}}\n",
                rst.seconds, rs.width, rs.height, rs.spp, rst.threads,
                (unsigned long long)rst.samples,
                (unsigned long long)rst.rays, (double)rst.samples / s,
                (double)rst.rays / s, (unsigned long long)rst.nan_samples,
-               lr_scene_primitive_count(scene));
+               lr_scene_primitive_count(scene), rs.plan ? "true" : "false",
+               rs.adaptive ? "true" : "false",
+               (double)rst.lens_pixels / px, (double)rst.chroma_pixels / px,
+               (unsigned long long)rst.samples,
+               (unsigned long long)rst.full_samples,
+               (unsigned long long)rst.camera_rays,
+               (unsigned long long)rst.full_camera_rays);
     }
     if (rst.nan_samples > 0)
         fprintf(stderr, "lensray: warning: %llu samples were NaN or "
