@@ -10,10 +10,13 @@
  * u, v units) of where the pinhole sees it, and blurs over a circle of
  * C(Z) = 2 R |1/Z - w| f_px pixels (f_px = H / (2 half_h)).
  *
- * So a block's lens rays can only reach geometry whose pinhole projection
- * meets the block's rectangle grown by R |1/Z - w| at that geometry's
- * depth.  Geometry is bounded by boxes (spheres; triangles in chunks of
- * 64); infinite planes exactly, since 1/Z is linear in (u, v) on a plane.
+ * So a block's lens rays can only reach geometry within its rectangle
+ * grown by R |1/Z - w| at that geometry's depth (box_reached says it in
+ * camera space, which also copes with geometry beside or behind the eye).  Geometry is bounded by boxes (spheres; triangles in chunks of
+ * 64, and big triangles, like a ground quad's, cut into pieces until
+ * each piece's depth extent is small against its distance, so that a
+ * ground plane does not make every block "near"); infinite planes
+ * exactly, since 1/Z is linear in (u, v) on a plane.
  * The block's blur is then at most C at the ends of its depth range.
  */
 #include "plan.h"
@@ -27,8 +30,8 @@
 #define NEAR 1e-6      /* depths below this count as "at the eye" */
 
 typedef struct box {
-    double z0, z1; /* depth range */
-    double u0, u1, v0, v1; /* projected extent (when z0 > NEAR) */
+    double z0, z1;         /* depth range */
+    double x0, x1, y0, y1; /* lateral range, camera space */
 } box;
 
 typedef struct lens {
@@ -61,31 +64,73 @@ static void box_from_points(const lens *L, const lr__v3 *pts, size_t n,
                 hi[k] = c[k];
         }
     }
-    /* The eight corners of the world box, in camera space. */
-    b->z0 = DBL_MAX, b->z1 = -DBL_MAX;
-    b->u0 = b->v0 = DBL_MAX, b->u1 = b->v1 = -DBL_MAX;
-    double cx[8], cy[8], cz[8];
+    /* The camera-space box around the eight corners of the world box. */
+    b->z0 = b->x0 = b->y0 = DBL_MAX;
+    b->z1 = b->x1 = b->y1 = -DBL_MAX;
     for (int k = 0; k < 8; k++) {
         lr__v3 p = v3(k & 1 ? hi[0] : lo[0], k & 2 ? hi[1] : lo[1],
                       k & 4 ? hi[2] : lo[2]);
-        to_cam(L, p, &cx[k], &cy[k], &cz[k]);
-        if (cz[k] < b->z0)
-            b->z0 = cz[k];
-        if (cz[k] > b->z1)
-            b->z1 = cz[k];
+        double x, y, z;
+        to_cam(L, p, &x, &y, &z);
+        b->x0 = fmin(b->x0, x);
+        b->x1 = fmax(b->x1, x);
+        b->y0 = fmin(b->y0, y);
+        b->y1 = fmax(b->y1, y);
+        b->z0 = fmin(b->z0, z);
+        b->z1 = fmax(b->z1, z);
     }
-    if (b->z0 > NEAR)
-        for (int k = 0; k < 8; k++) {
-            double u = cx[k] / cz[k], v = cy[k] / cz[k];
-            if (u < b->u0)
-                b->u0 = u;
-            if (u > b->u1)
-                b->u1 = u;
-            if (v < b->v0)
-                b->v0 = v;
-            if (v > b->v1)
-                b->v1 = v;
-        }
+}
+
+/* Can a lens ray of the block [u0, u1] x [v0, v1] reach box b?  At depth
+ * z the block's lens rays cover the lateral interval
+ * [z u0 - R |1 - z w|, z u1 + R |1 - z w|] (and likewise in y): the
+ * pinhole's footprint widened by where off-centre lens points look.  The
+ * upper end is convex in z and the lower end concave, so over the box's
+ * depths their extremes are at its ends. */
+static int box_reached(const lens *L, const box *b, double u0, double u1,
+                       double v0, double v1)
+{
+    double za = b->z0 > 0.0 ? b->z0 : 0.0, zb = b->z1;
+    if (zb <= 0.0)
+        return 0;
+    double ga = L->R * fabs(1.0 - za * L->w), gb = L->R * fabs(1.0 - zb * L->w);
+    double xr = fmax(za * u1 + ga, zb * u1 + gb);
+    double xl = fmin(za * u0 - ga, zb * u0 - gb);
+    double yr = fmax(za * v1 + ga, zb * v1 + gb);
+    double yl = fmin(za * v0 - ga, zb * v0 - gb);
+    return b->x0 <= xr && b->x1 >= xl && b->y0 <= yr && b->y1 >= yl;
+}
+
+/* Boxes for triangle (a, b, c), cut in four at its edge midpoints while a
+ * piece reaches across more than a quarter of its distance in depth (at
+ * most `depth` times).  Appends to *boxes, growing it as needed; returns
+ * 0 on allocation failure. */
+static int tri_boxes(const lens *L, lr__v3 a, lr__v3 b, lr__v3 c, int depth,
+                     box **boxes, size_t *n, size_t *cap)
+{
+    lr__v3 pts[3] = {a, b, c};
+    box bx;
+    box_from_points(L, pts, 3, &bx);
+    double dist = fmax(fabs(bx.z0), fabs(bx.z1));
+    if (depth > 0 && bx.z1 - bx.z0 > 0.25 * dist) {
+        lr__v3 ab = v3_scale(v3_add(a, b), 0.5);
+        lr__v3 bc = v3_scale(v3_add(b, c), 0.5);
+        lr__v3 ca = v3_scale(v3_add(c, a), 0.5);
+        return tri_boxes(L, a, ab, ca, depth - 1, boxes, n, cap) &&
+               tri_boxes(L, ab, b, bc, depth - 1, boxes, n, cap) &&
+               tri_boxes(L, ca, bc, c, depth - 1, boxes, n, cap) &&
+               tri_boxes(L, ab, bc, ca, depth - 1, boxes, n, cap);
+    }
+    if (*n == *cap) {
+        size_t nc = *cap ? 2 * *cap : 256;
+        box *g = realloc(*boxes, nc * sizeof *g);
+        if (g == NULL)
+            return 0;
+        *boxes = g;
+        *cap = nc;
+    }
+    (*boxes)[(*n)++] = bx;
+    return 1;
 }
 
 /* How far (in u, v) lens rays stray from the pinhole at depths in
@@ -204,35 +249,58 @@ lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
 
     /* Bounding boxes of the geometry in camera space. */
     size_t n_boxes = 0, cap = 0;
-    for (size_t g = 0; g < s->n_geoms; g++)
-        cap += s->geoms[g].kind == LR__GEOM_TRIANGLES
-                   ? (s->geoms[g].n_triangles + CHUNK - 1) / CHUNK
-                   : 1;
-    box *boxes = malloc((cap ? cap : 1) * sizeof *boxes);
-    if (boxes == NULL) {
-        lr__plan_free(p);
-        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
-    }
-    for (size_t g = 0; g < s->n_geoms; g++) {
+    box *boxes = NULL;
+    int ok = 1;
+    for (size_t g = 0; g < s->n_geoms && ok; g++) {
         const lr__geom *geo = &s->geoms[g];
         if (geo->kind == LR__GEOM_SPHERE) {
-            lr__v3 pts[2] = {v3_sub(geo->center, v3(geo->radius, geo->radius,
-                                                    geo->radius)),
-                             v3_add(geo->center, v3(geo->radius, geo->radius,
-                                                    geo->radius))};
-            box_from_points(&L, pts, 2, &boxes[n_boxes++]);
+            lr__v3 r = v3(geo->radius, geo->radius, geo->radius);
+            lr__v3 a = v3_sub(geo->center, r), b = v3_add(geo->center, r);
+            /* A degenerate triangle across the box's diagonal has the
+             * same bounding box, so it can go through tri_boxes. */
+            ok = tri_boxes(&L, a, b, b, 0, &boxes, &n_boxes, &cap);
             continue;
         }
-        for (size_t t0 = 0; t0 < geo->n_triangles; t0 += CHUNK) {
+        if (geo->n_triangles <= 8) {
+            /* Few, probably large triangles (a ground quad): cut them. */
+            for (size_t t = 0; t < geo->n_triangles && ok; t++) {
+                lr__v3 q[3];
+                for (int k = 0; k < 3; k++) {
+                    const float *v =
+                        &geo->vertices[3 * geo->indices[3 * t + k]];
+                    q[k] = v3(v[0], v[1], v[2]);
+                }
+                ok = tri_boxes(&L, q[0], q[1], q[2], 7, &boxes, &n_boxes,
+                               &cap);
+            }
+            continue;
+        }
+        for (size_t t0 = 0; t0 < geo->n_triangles && ok; t0 += CHUNK) {
             lr__v3 pts[3 * CHUNK];
             size_t n = 0;
             for (size_t t = t0; t < geo->n_triangles && t < t0 + CHUNK; t++)
                 for (int k = 0; k < 3; k++) {
-                    const float *v = &geo->vertices[3 * geo->indices[3 * t + k]];
+                    const float *v =
+                        &geo->vertices[3 * geo->indices[3 * t + k]];
                     pts[n++] = v3(v[0], v[1], v[2]);
                 }
+            if (n_boxes == cap) {
+                size_t nc = cap ? 2 * cap : 256;
+                box *gr = realloc(boxes, nc * sizeof *gr);
+                if (gr == NULL) {
+                    ok = 0;
+                    break;
+                }
+                boxes = gr;
+                cap = nc;
+            }
             box_from_points(&L, pts, n, &boxes[n_boxes++]);
         }
+    }
+    if (!ok) {
+        free(boxes);
+        lr__plan_free(p);
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     }
 
     int bx0 = x0 / LR__PLAN_BLOCK, by0 = y0 / LR__PLAN_BLOCK;
@@ -247,21 +315,11 @@ lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
             double zmin = INFINITY, zmax = 0.0;
             for (size_t i = 0; i < n_boxes; i++) {
                 const box *b = &boxes[i];
-                if (b->z1 <= NEAR)
-                    continue; /* wholly behind the eye */
-                if (b->z0 <= NEAR) {
-                    /* Reaches the eye's plane: assume the worst. */
-                    zmin = NEAR;
-                    if (b->z1 > zmax)
-                        zmax = b->z1;
+                if (!box_reached(&L, b, u0, u1, v0, v1))
                     continue;
-                }
-                double g = spread(&L, b->z0, b->z1) + 1e-9;
-                if (b->u1 < u0 - g || b->u0 > u1 + g || b->v1 < v0 - g ||
-                    b->v0 > v1 + g)
-                    continue;
-                if (b->z0 < zmin)
-                    zmin = b->z0;
+                double z0 = b->z0 > NEAR ? b->z0 : NEAR;
+                if (z0 < zmin)
+                    zmin = z0;
                 if (b->z1 > zmax)
                     zmax = b->z1;
             }
