@@ -1,0 +1,214 @@
+/*
+ * test_plan.c: effect planning and adaptive sampling.  The planner may
+ * skip work only where it cannot matter: on scenes built to fool a naive
+ * planner, a planned render's error against a converged reference is no
+ * worse than 1.1x the full simulation's at the same samples per pixel.
+ * Adaptive sampling must keep regions and thread counts bit-identical.
+ */
+#include "test.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+static lr_image *render_sets(const char *json, const char *const *sets,
+                             size_t n, lr_render_stats *st)
+{
+    lr_scene *s = NULL;
+    lr_error err;
+    if (lr_scene_load_json(json, strlen(json), NULL, sets, n, &s, &err) !=
+        LR_OK)
+        fail_msg("scene: %s", err.message);
+    lr_camera cam;
+    lr_render_settings rs;
+    lr_scene_camera(s, &cam);
+    lr_scene_settings(s, &rs);
+    lr_image *img = NULL;
+    if (lr_render(s, &cam, &rs, &img, st, &err) != LR_OK)
+        fail_msg("render: %s", err.message);
+    lr_scene_free(s);
+    return img;
+}
+
+static double rmse(const lr_image *a, const lr_image *b)
+{
+    int n = lr_image_width(a) * lr_image_height(a) * 3;
+    double e = 0;
+    for (int i = 0; i < n; i++) {
+        double d = lr_image_rgb(a)[i] - lr_image_rgb(b)[i];
+        e += d * d;
+    }
+    return sqrt(e / n);
+}
+
+/* A blurred foreground sphere whose blur spills over a sharp, textured
+ * background (strips at the focus distance), under a sky: a planner that
+ * looked only at each pixel's own depth would call the background sharp
+ * and cut the sphere's halo off. */
+static const char *foreground_scene =
+    "{\"render\": {\"width\": 64, \"height\": 48, \"max_depth\": 0},"
+    " \"camera\": {\"model\": \"thinlens\", \"position\": [0, 0, 0],"
+    "  \"look_at\": [0, 0, -1], \"fov\": 30, \"aperture_radius\": 0.12,"
+    "  \"focus_distance\": 10},"
+    " \"background\": [0.3, 0.4, 0.6],"
+    " \"materials\": {\"w\": {\"diffuse\": 0.9}, \"k\": {\"diffuse\": 0.05},"
+    "   \"r\": {\"diffuse\": [0.9, 0.2, 0.1]}},"
+    " \"lights\": [{\"type\": \"ambient\", \"radiance\": 1}],"
+    " \"objects\": ["
+    "  {\"type\": \"plane\", \"point\": [-1.5, -0.6, -10], \"normal\": [0, 0, 1],"
+    "   \"size\": [1, 1.6], \"material\": \"w\"},"
+    "  {\"type\": \"plane\", \"point\": [0, -0.6, -10], \"normal\": [0, 0, 1],"
+    "   \"size\": [1, 1.6], \"material\": \"k\"},"
+    "  {\"type\": \"plane\", \"point\": [1.5, -0.6, -10], \"normal\": [0, 0, 1],"
+    "   \"size\": [1, 1.6], \"material\": \"w\"},"
+    "  {\"type\": \"sphere\", \"center\": [0.3, 0.25, -2.5], \"radius\": 0.25,"
+    "   \"material\": \"r\"}]}";
+
+/* A sharp white sphere in focus on black, with strong chromatic
+ * aberration: only its rim shows colour. */
+static const char *rim_scene =
+    "{\"render\": {\"width\": 64, \"height\": 48, \"max_depth\": 0},"
+    " \"camera\": {\"model\": \"thinlens\", \"position\": [0, 0, 0],"
+    "  \"look_at\": [0, 0, -1], \"fov\": 20, \"aperture_radius\": 0.05,"
+    "  \"focus_distance\": 4, \"focal_length_mm\": 50,"
+    "  \"chromatic\": {\"mode\": \"rgb\", \"amplify\": 3}},"
+    " \"materials\": {\"w\": {\"diffuse\": 1}},"
+    " \"lights\": [{\"type\": \"ambient\", \"radiance\": 1}],"
+    " \"objects\": [{\"type\": \"sphere\", \"center\": [0.1, 0, -4],"
+    "   \"radius\": 0.3, \"material\": \"w\"}]}";
+
+static void guarantee(const char *scene, const char *what)
+{
+    const char *ref_sets[] = {"render.spp=2048", "render.plan=false",
+                              "render.adaptive=false", "render.seed=77"};
+    lr_image *ref = render_sets(scene, ref_sets, 4, NULL);
+    const char *full_sets[] = {"render.spp=64", "render.plan=false",
+                               "render.adaptive=false"};
+    const char *plan_sets[] = {"render.spp=64", "render.plan=true",
+                               "render.adaptive=false"};
+    lr_render_stats sf, sp;
+    lr_image *full = render_sets(scene, full_sets, 3, &sf);
+    lr_image *plan = render_sets(scene, plan_sets, 3, &sp);
+    double ef = rmse(full, ref), ep = rmse(plan, ref);
+    print_message("%s: RMSE full %.5f, planned %.5f (%.3fx); lens on %.0f%% "
+                  "of pixels, colours split on %.0f%%, camera rays %llu of "
+                  "%llu\n",
+                  what, ef, ep, ep / ef, 100.0 * sp.lens_pixels / sp.pixels,
+                  100.0 * sp.chroma_pixels / sp.pixels,
+                  (unsigned long long)sp.camera_rays,
+                  (unsigned long long)sp.full_camera_rays);
+    if (!(ep <= 1.1 * ef))
+        fail_msg("%s: planned error %g is more than 1.1x the full "
+                 "simulation's %g",
+                 what, ep, ef);
+    /* The full simulation really simulates everything. */
+    assert_int_equal(sf.lens_pixels, sf.pixels);
+    lr_image_free(ref);
+    lr_image_free(full);
+    lr_image_free(plan);
+}
+
+static void test_blurred_foreground_over_sharp_background(void **state)
+{
+    (void)state;
+    guarantee(foreground_scene, "blurred foreground");
+}
+
+static void test_chromatic_rim(void **state)
+{
+    (void)state;
+    guarantee(rim_scene, "chromatic rim");
+}
+
+/* The planner does skip work where nothing is blurred: the sky, and a
+ * scene whose only object sits on the focal plane far from the lens. */
+static void test_plan_skips_what_it_can(void **state)
+{
+    (void)state;
+    const char *sets[] = {"render.spp=16", "render.adaptive=false"};
+    lr_render_stats st;
+    lr_image *img = render_sets(foreground_scene, sets, 2, &st);
+    assert_true(st.lens_pixels > 0 && st.lens_pixels < st.pixels);
+    lr_image_free(img);
+    /* A flat card exactly on the focal plane with a tiny aperture: no
+     * block can blur by a quarter pixel, so no lens sampling at all, and
+     * the image equals the pinhole's. */
+    const char *card =
+        "{\"render\": {\"width\": 32, \"height\": 24, \"spp\": 16,"
+        "  \"adaptive\": false},"
+        " \"camera\": {\"model\": \"thinlens\", \"aperture_radius\": 0.001,"
+        "  \"focus_distance\": 5},"
+        " \"lights\": [{\"type\": \"ambient\", \"radiance\": 1}],"
+        " \"objects\": [{\"type\": \"plane\", \"point\": [0.2, 0, -5],"
+        "  \"normal\": [0, 0, 1], \"size\": 1}]}";
+    lr_image *planned = render_sets(card, NULL, 0, &st);
+    assert_int_equal(st.lens_pixels, 0);
+    const char *pin_sets[] = {"camera.model=pinhole"};
+    lr_image *pin = render_sets(card, pin_sets, 1, NULL);
+    assert_memory_equal(lr_image_rgb(planned), lr_image_rgb(pin),
+                        32 * 24 * 3 * sizeof(float));
+    lr_image_free(planned);
+    lr_image_free(pin);
+}
+
+/* Adaptive sampling spends samples where the noise is: a flat region
+ * converges at the pilot, the blurred edges get more; and its choices
+ * depend only on each pixel's neighbourhood, so crops and thread counts
+ * give the same bytes. */
+static void test_adaptive_deterministic(void **state)
+{
+    (void)state;
+    const char *sets[] = {"render.spp=128", "render.threads=1",
+                          "render.tile_size=64"};
+    lr_render_stats st;
+    lr_image *full = render_sets(foreground_scene, sets, 3, &st);
+    assert_true(st.samples < st.full_samples);
+    assert_true(st.samples > (uint64_t)16 * st.pixels);
+    const char *sets2[] = {"render.spp=128", "render.threads=2",
+                           "render.tile_size=5"};
+    lr_image *other = render_sets(foreground_scene, sets2, 3, NULL);
+    assert_memory_equal(lr_image_rgb(full), lr_image_rgb(other),
+                        64 * 48 * 3 * sizeof(float));
+    lr_image_free(other);
+    const char *crop_sets[] = {"render.spp=128", "render.tile_size=7",
+                               "render.region=[13, 9, 41, 30]"};
+    lr_image *crop = render_sets(foreground_scene, crop_sets, 3, NULL);
+    for (int y = 0; y < 21; y++)
+        assert_memory_equal(lr_image_rgb(full) + 3 * ((y + 9) * 64 + 13),
+                            lr_image_rgb(crop) + 3 * y * 28,
+                            28 * 3 * sizeof(float));
+    lr_image_free(crop);
+    lr_image_free(full);
+}
+
+/* Adaptive sampling's error stays near the full simulation's at the
+ * same maximum samples. */
+static void test_adaptive_error(void **state)
+{
+    (void)state;
+    const char *ref_sets[] = {"render.spp=2048", "render.plan=false",
+                              "render.adaptive=false", "render.seed=5"};
+    lr_image *ref = render_sets(foreground_scene, ref_sets, 4, NULL);
+    const char *full_sets[] = {"render.spp=256", "render.adaptive=false"};
+    const char *ad_sets[] = {"render.spp=256"};
+    lr_render_stats st;
+    lr_image *full = render_sets(foreground_scene, full_sets, 2, NULL);
+    lr_image *ad = render_sets(foreground_scene, ad_sets, 1, &st);
+    double ef = rmse(full, ref), ea = rmse(ad, ref);
+    print_message("adaptive: RMSE %.5f with %.1f%% of the samples (full "
+                  "%.5f)\n",
+                  ea, 100.0 * st.samples / st.full_samples, ef);
+    assert_true(ea < 2.0 * ef + 0.002);
+    lr_image_free(ref);
+    lr_image_free(full);
+    lr_image_free(ad);
+}
+
+static const struct CMUnitTest plan_tests[] = {
+    cmocka_unit_test(test_blurred_foreground_over_sharp_background),
+    cmocka_unit_test(test_chromatic_rim),
+    cmocka_unit_test(test_plan_skips_what_it_can),
+    cmocka_unit_test(test_adaptive_deterministic),
+    cmocka_unit_test(test_adaptive_error),
+};
+LR_TEST_GROUP(plan, plan_tests)
