@@ -196,16 +196,25 @@ static enum MHD_Result send_image(struct MHD_Connection *c, req *r,
         lrd_blob_release(img);
         return MHD_NO;
     }
-    char secs[32], rays[24], samples[24], disp[96];
+    char secs[32], rays[24], samples[24], disp[96], plan[160];
     snprintf(secs, sizeof secs, "%.6f", st->seconds);
     snprintf(rays, sizeof rays, "%llu", (unsigned long long)st->rays);
     snprintf(samples, sizeof samples, "%llu",
              (unsigned long long)st->samples);
+    double px = st->pixels ? (double)st->pixels : 1.0;
+    snprintf(plan, sizeof plan,
+             "lens_pixels=%.4f; chroma_pixels=%.4f; camera_rays=%llu; "
+             "full_camera_rays=%llu; full_samples=%llu",
+             (double)st->lens_pixels / px, (double)st->chroma_pixels / px,
+             (unsigned long long)st->camera_rays,
+             (unsigned long long)st->full_camera_rays,
+             (unsigned long long)st->full_samples);
     snprintf(disp, sizeof disp, "inline; filename=\"%s.%s\"", r->job_id,
              fmt == LR_FORMAT_PNG ? "png" : "exr");
     const char *hdrs[] = {"X-Lensray-Render-Seconds", secs,
                           "X-Lensray-Rays",           rays,
                           "X-Lensray-Samples",        samples,
+                          "X-Lensray-Plan",           plan,
                           "Content-Disposition",      disp,
                           NULL};
     return queue(c, r, 200, resp, lrd_blob_len(img),

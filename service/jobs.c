@@ -659,6 +659,21 @@ char *lrd_job_status_json(lrd_job *j)
             cJSON_AddNumberToObject(s, "nan_samples",
                                     (double)c.stats.nan_samples);
             cJSON_AddNumberToObject(s, "threads", c.stats.threads);
+            /* What the plan simulated, against the full simulation. */
+            cJSON *pl = cJSON_AddObjectToObject(s, "plan");
+            double px = c.stats.pixels ? (double)c.stats.pixels : 1.0;
+            if (pl != NULL) {
+                cJSON_AddNumberToObject(pl, "lens_pixels",
+                                        (double)c.stats.lens_pixels / px);
+                cJSON_AddNumberToObject(pl, "chroma_pixels",
+                                        (double)c.stats.chroma_pixels / px);
+                cJSON_AddNumberToObject(pl, "full_samples",
+                                        (double)c.stats.full_samples);
+                cJSON_AddNumberToObject(pl, "camera_rays",
+                                        (double)c.stats.camera_rays);
+                cJSON_AddNumberToObject(pl, "full_camera_rays",
+                                        (double)c.stats.full_camera_rays);
+            }
         }
         if (has_image) {
             cJSON *im = cJSON_AddObjectToObject(o, "image");
