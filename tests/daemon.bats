@@ -20,10 +20,11 @@ bats_require_minimum_version 1.5.0
 
 # ---- a job that takes long, but stops quickly when cancelled ---------------
 # 32 x 24 pixels at 200000 spp on one thread is tens of seconds of work, in
-# tiles of 2 x 2 pixels that take a fraction of a second each: the render
+# tiles of 2 x 2 pixels that take a fraction of a second each (adaptive
+# sampling off, or the flat scene would converge at once): the render
 # runs for as long as a test needs and stops within a tile when cancelled.
 slow_job() {
-    printf '{"scene": "tiny", "render": {"width": 32, "height": 24, "spp": %s, "threads": 1, "tile_size": 2}}' \
+    printf '{"scene": "tiny", "render": {"width": 32, "height": 24, "spp": %s, "threads": 1, "tile_size": 2, "adaptive": false}}' \
         "${1:-200000}"
 }
 
