@@ -99,6 +99,7 @@ static void make_camera_rays(const lr__cam *c, int use_lens, packet *p,
     const float e[3] = {(float)c->origin.x, (float)c->origin.y,
                         (float)c->origin.z};
     const float rad = (float)c->radius, w = (float)c->w;
+    const float ratio = (float)c->ratio;
     const float di = c->model == LR_CAMERA_BRACKET ? (float)c->di : 0.0f;
     float lx[LANES], ly[LANES];
     struct RTCRay16 *r = &p->rh.ray;
@@ -111,18 +112,22 @@ static void make_camera_rays(const lr__cam *c, int use_lens, packet *p,
          * t in [-pi/4, pi/4] by Taylor series (error < 2e-9). */
         for (int i = 0; i < LANES; i++) {
             float a = 2.0f * lu[i] - 1.0f, b = 2.0f * lv[i] - 1.0f;
-            int big_a = fabsf(a) > fabsf(b);
-            float rr = big_a ? a : b;
-            float num = big_a ? b : a;
-            float t = rr != 0.0f ? 0.78539816f * num / rr : 0.0f;
+            /* Blends instead of branches, so the loop vectorises:
+             * m = 1 when |a| > |b|. */
+            float m = (float)(fabsf(a) > fabsf(b));
+            float rr = m * a + (1.0f - m) * b;
+            float num = m * b + (1.0f - m) * a;
+            /* rr = 0 only when a = b = 0, and then num = 0 too. */
+            float den = rr + (float)(rr == 0.0f);
+            float t = 0.78539816f * num / den;
             float t2 = t * t;
             float sn = t * (1.0f + t2 * (-1.0f / 6 + t2 * (1.0f / 120 +
                        t2 * (-1.0f / 5040 + t2 * (1.0f / 362880)))));
             float cs = 1.0f + t2 * (-0.5f + t2 * (1.0f / 24 + t2 *
                        (-1.0f / 720 + t2 * (1.0f / 40320 -
                         t2 * (1.0f / 3628800)))));
-            lx[i] = rr * (big_a ? cs : sn) * (float)c->ratio;
-            ly[i] = rr * (big_a ? sn : cs);
+            lx[i] = rr * (m * cs + (1.0f - m) * sn) * ratio;
+            ly[i] = rr * (m * sn + (1.0f - m) * cs);
         }
     } else {
         for (int i = 0; i < n; i++) {
