@@ -83,6 +83,7 @@ $(BUILD)/obj/%.o: %.c $(DEPS_OK)
 # (-fno-math-errno: sqrtf need not set errno, which would stop it.)
 $(BUILD)/obj/lib/trace16.o: CFLAGS += $(if $(filter -O2,$(OPT)),-O3) \
                                       -fno-math-errno
+$(BUILD)/obj/lib/sampler.o: CFLAGS += $(if $(filter -O2,$(OPT)),-O3)
 
 $(BUILD)/liblensray.a: $(LIB_OBJ)
 	@echo "  AR      $@"

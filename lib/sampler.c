@@ -182,6 +182,12 @@ static uint32_t lk_permute(uint32_t x, uint32_t seed)
     return x;
 }
 
+/* A Sobol value's top 24 bits as a number in [0, 1): exact in float as
+ * well as double, so the vectorised float path and the scalar double
+ * path agree to the bit (24 bits resolve far finer than any pixel or
+ * lens feature). */
+static inline double sobol_unit(uint32_t v) { return (v >> 8) * 0x1p-24; }
+
 static uint32_t owen(uint32_t x, uint32_t seed)
 {
     return reverse_bits(lk_permute(reverse_bits(x), seed));
@@ -202,7 +208,7 @@ static double sobol_1d(const lr__sampler *s, uint64_t pixel, uint32_t sample,
     uint64_t shuffle = hash4(s->seed, pixel, 0xffffffffu, block);
     uint32_t idx = owen(sample, (uint32_t)shuffle);
     uint64_t scramble = hash4(s->seed, pixel, 0xfffffffdu, dim);
-    return owen(sobol(idx, d), (uint32_t)scramble) * 0x1p-32;
+    return sobol_unit(owen(sobol(idx, d), (uint32_t)scramble));
 }
 
 /* Pixel and lens dimensions (0..3) in one go: one index shuffle for the
@@ -224,9 +230,8 @@ static void sobol_4d_seeded(uint32_t shuffle, const uint32_t scramble[4],
     static const int map[4] = {2, 3, 0, 1};
     uint32_t r = lk_permute(reverse_bits(sample), shuffle);
     for (int dim = 0; dim < 4; dim++)
-        out[dim] = reverse_bits(lk_permute(sobol_rev(r, map[dim]),
-                                           scramble[dim])) *
-                   0x1p-32;
+        out[dim] = sobol_unit(
+            reverse_bits(lk_permute(sobol_rev(r, map[dim]), scramble[dim])));
 }
 
 static void sobol_4d(const lr__sampler *s, uint64_t pixel, uint32_t sample,
@@ -244,6 +249,47 @@ void lr__pixel_sampler_init(lr__pixel_sampler *ps, const lr__sampler *s,
     ps->pixel = pixel;
     if (s->kind == LR_SAMPLER_SOBOL)
         sobol_seeds(s, pixel, &ps->shuffle, ps->scramble);
+}
+
+/* reverse_bits by shifts and masks, which vectorises across lanes. */
+static inline uint32_t reverse_bits_swar(uint32_t x)
+{
+    x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
+    x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
+    x = ((x >> 4) & 0x0f0f0f0fu) | ((x & 0x0f0f0f0fu) << 4);
+    x = ((x >> 8) & 0x00ff00ffu) | ((x & 0x00ff00ffu) << 8);
+    return (x >> 16) | (x << 16);
+}
+
+void lr__pixel_sampler_get16(const lr__pixel_sampler *ps, uint32_t first,
+                             int n, float out[4][16])
+{
+    if (ps->s->kind != LR_SAMPLER_SOBOL) {
+        for (int i = 0; i < n; i++) {
+            double u[4];
+            lr__sample_pixel_lens(ps->s, ps->pixel, first + (uint32_t)i, u);
+            for (int d = 0; d < 4; d++)
+                out[d][i] = (float)u[d];
+        }
+        return;
+    }
+    /* sobol_4d_seeded, lane by lane in loops the compiler can vectorise
+     * (only the table lookups stay scalar). */
+    static const int map[4] = {2, 3, 0, 1};
+    uint32_t r[16], v[16];
+    for (int i = 0; i < 16; i++)
+        r[i] = lk_permute(reverse_bits_swar(first + (uint32_t)i),
+                          ps->shuffle);
+    for (int d = 0; d < 4; d++) {
+        for (int i = 0; i < 16; i++)
+            v[i] = sobol_rev(r[i], map[d]);
+        uint32_t seed = ps->scramble[d];
+        for (int i = 0; i < 16; i++)
+            out[d][i] = (float)(int32_t)(reverse_bits_swar(
+                            lk_permute(v[i], seed)) >> 8) *
+                        0x1p-24f;
+    }
+    (void)n;
 }
 
 void lr__pixel_sampler_get(const lr__pixel_sampler *ps, uint32_t sample,

@@ -58,6 +58,11 @@ void lr__pixel_sampler_init(lr__pixel_sampler *ps, const lr__sampler *s,
                             uint64_t pixel);
 void lr__pixel_sampler_get(const lr__pixel_sampler *ps, uint32_t sample,
                            double out[4]);
+/* Samples first .. first+n-1 (n <= 16) at once, the same values as n
+ * calls of lr__pixel_sampler_get, as floats: out[d][i] is dimension d of
+ * sample first + i. */
+void lr__pixel_sampler_get16(const lr__pixel_sampler *ps, uint32_t first,
+                             int n, float out[4][16]);
 
 /* The 64-bit mixing function behind the hashes (SplitMix64's finaliser). */
 uint64_t lr__mix64(uint64_t z);

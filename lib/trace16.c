@@ -187,13 +187,14 @@ void lr__trace16_pixel(const lr__trace16 *t, int x, int y, int first,
      * differently composed packets). */
     for (int s0 = first; s0 < last; s0 += LANES) {
         int n = last - s0 < LANES ? last - s0 : LANES;
+        float u[4][16];
+        lr__pixel_sampler_get16(&ps, (uint32_t)s0, n, u);
         for (int i = 0; i < n; i++) {
-            double u[4];
-            lr__pixel_sampler_get(&ps, (uint32_t)(s0 + i), u);
-            fx[i] = (float)(x + u[0]);
-            fy[i] = (float)(y + u[1]);
-            lu[i] = (float)u[2];
-            lv[i] = (float)u[3];
+            /* In double, as the scalar path does, then rounded once. */
+            fx[i] = (float)(x + (double)u[0][i]);
+            fy[i] = (float)(y + (double)u[1][i]);
+            lu[i] = u[2][i];
+            lv[i] = u[3][i];
             p.slot[i] = 0;
         }
         make_camera_rays(t->cam, use_lens, &p, n, fx, fy, lu, lv);
