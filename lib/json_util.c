@@ -227,25 +227,58 @@ static const cJSON *member(const cJSON *obj, const char *key)
     return cJSON_GetObjectItemCaseSensitive(obj, key);
 }
 
-lr_status lr__json_number(const cJSON *obj, const char *key,
-                          const char *path, int required, double *out,
-                          lr_error *err)
+lr_status lr__json_check_number(double x, const char *p, lr_error *err)
+{
+    if (!isfinite(x))
+        return lr__fail(err, LR_ERR_INVALID, p,
+                        "%s must be a finite number, got %g", p, x);
+    if (fabs(x) > LR__MAX_NUMBER)
+        return lr__fail(err, LR_ERR_INVALID, p,
+                        "%s must be between -1e15 and 1e15, got %g", p, x);
+    return LR_OK;
+}
+
+/* Looks obj.key up and writes its path to p.  A missing key is an error
+ * when required; otherwise LR_OK with *v = NULL. */
+static lr_status find(const cJSON *obj, const char *key, const char *path,
+                      int required, char p[LR__PATH_MAX], const cJSON **v,
+                      lr_error *err)
+{
+    lr__path_key(p, path, key);
+    *v = member(obj, key);
+    if (*v == NULL && required)
+        return lr__fail(err, LR_ERR_INVALID, p, "%s is required", p);
+    return LR_OK;
+}
+
+/* The number at obj.key; `limit` applies LR__MAX_NUMBER (integers have
+ * their own ranges instead). */
+static lr_status get_number(const cJSON *obj, const char *key,
+                            const char *path, int required, int limit,
+                            double *out, lr_error *err)
 {
     char p[LR__PATH_MAX];
-    lr__path_key(p, path, key);
-    const cJSON *v = member(obj, key);
+    const cJSON *v;
+    LR_TRY(find(obj, key, path, required, p, &v, err));
     if (v == NULL)
-        return required ? lr__fail(err, LR_ERR_INVALID, p,
-                                   "%s is required", p)
-                        : LR_OK;
+        return LR_OK;
     if (!cJSON_IsNumber(v))
         return type_error(p, "a number", v, err);
     if (!isfinite(v->valuedouble))
         return lr__fail(err, LR_ERR_INVALID, p,
                         "%s must be a finite number, got %g", p,
                         v->valuedouble);
+    if (limit)
+        LR_TRY(lr__json_check_number(v->valuedouble, p, err));
     *out = v->valuedouble;
     return LR_OK;
+}
+
+lr_status lr__json_number(const cJSON *obj, const char *key,
+                          const char *path, int required, double *out,
+                          lr_error *err)
+{
+    return get_number(obj, key, path, required, 1, out, err);
 }
 
 lr_status lr__json_int(const cJSON *obj, const char *key, const char *path,
@@ -253,14 +286,12 @@ lr_status lr__json_int(const cJSON *obj, const char *key, const char *path,
                        long long *out, lr_error *err)
 {
     char p[LR__PATH_MAX];
-    lr__path_key(p, path, key);
     double d = 0;
-    const cJSON *v = member(obj, key);
+    const cJSON *v;
+    LR_TRY(find(obj, key, path, required, p, &v, err));
     if (v == NULL)
-        return required ? lr__fail(err, LR_ERR_INVALID, p,
-                                   "%s is required", p)
-                        : LR_OK;
-    lr_status st = lr__json_number(obj, key, path, 1, &d, err);
+        return LR_OK;
+    lr_status st = get_number(obj, key, path, 1, 0, &d, err);
     if (st != LR_OK)
         return st;
     if (d != floor(d))
@@ -278,12 +309,10 @@ lr_status lr__json_bool(const cJSON *obj, const char *key, const char *path,
                         int required, int *out, lr_error *err)
 {
     char p[LR__PATH_MAX];
-    lr__path_key(p, path, key);
-    const cJSON *v = member(obj, key);
+    const cJSON *v;
+    LR_TRY(find(obj, key, path, required, p, &v, err));
     if (v == NULL)
-        return required ? lr__fail(err, LR_ERR_INVALID, p,
-                                   "%s is required", p)
-                        : LR_OK;
+        return LR_OK;
     if (!cJSON_IsBool(v))
         return type_error(p, "true or false", v, err);
     *out = cJSON_IsTrue(v);
@@ -295,12 +324,10 @@ lr_status lr__json_string(const cJSON *obj, const char *key,
                           lr_error *err)
 {
     char p[LR__PATH_MAX];
-    lr__path_key(p, path, key);
-    const cJSON *v = member(obj, key);
+    const cJSON *v;
+    LR_TRY(find(obj, key, path, required, p, &v, err));
     if (v == NULL)
-        return required ? lr__fail(err, LR_ERR_INVALID, p,
-                                   "%s is required", p)
-                        : LR_OK;
+        return LR_OK;
     if (!cJSON_IsString(v))
         return type_error(p, "a string", v, err);
     *out = v->valuestring;
@@ -342,10 +369,7 @@ static lr_status numbers(const cJSON *v, const char *p, double *out,
         lr__path_index(pi, p, (size_t)i);
         if (!cJSON_IsNumber(c))
             return type_error(pi, "a number", c, err);
-        if (!isfinite(c->valuedouble))
-            return lr__fail(err, LR_ERR_INVALID, pi,
-                            "%s must be a finite number, got %g", pi,
-                            c->valuedouble);
+        LR_TRY(lr__json_check_number(c->valuedouble, pi, err));
         out[i] = c->valuedouble;
     }
     return LR_OK;
@@ -355,12 +379,10 @@ lr_status lr__json_vec3(const cJSON *obj, const char *key, const char *path,
                         int required, lr__v3 *out, lr_error *err)
 {
     char p[LR__PATH_MAX];
-    lr__path_key(p, path, key);
-    const cJSON *v = member(obj, key);
+    const cJSON *v;
+    LR_TRY(find(obj, key, path, required, p, &v, err));
     if (v == NULL)
-        return required ? lr__fail(err, LR_ERR_INVALID, p,
-                                   "%s is required", p)
-                        : LR_OK;
+        return LR_OK;
     double a[3];
     lr_status st = numbers(v, p, a, "an array of 3 numbers", err);
     if (st == LR_OK)
@@ -372,18 +394,13 @@ lr_status lr__json_rgb(const cJSON *obj, const char *key, const char *path,
                        int required, lr__v3 *out, lr_error *err)
 {
     char p[LR__PATH_MAX];
-    lr__path_key(p, path, key);
-    const cJSON *v = member(obj, key);
+    const cJSON *v;
+    LR_TRY(find(obj, key, path, required, p, &v, err));
     if (v == NULL)
-        return required ? lr__fail(err, LR_ERR_INVALID, p,
-                                   "%s is required", p)
-                        : LR_OK;
+        return LR_OK;
     double a[3];
     if (cJSON_IsNumber(v)) {
-        if (!isfinite(v->valuedouble))
-            return lr__fail(err, LR_ERR_INVALID, p,
-                            "%s must be a finite number, got %g", p,
-                            v->valuedouble);
+        LR_TRY(lr__json_check_number(v->valuedouble, p, err));
         a[0] = a[1] = a[2] = v->valuedouble;
     } else {
         lr_status st =

@@ -25,6 +25,15 @@ void lr_test_register(const char *name, const struct CMUnitTest *tests,
         lr_test_register(#name, array, sizeof(array) / sizeof(array[0]));  \
     }
 
+/* Loads a scene from JSON text with `sets` overrides, renders it with its
+ * own camera and settings, and returns the image (failing the test on
+ * any error); stats may be NULL. */
+lr_image *lr_test_render(const char *json, const char *const *sets,
+                         size_t n_sets, lr_render_stats *stats);
+
+/* Root-mean-square difference of two images of the same size. */
+double lr_test_rmse(const lr_image *a, const lr_image *b);
+
 /* Directory for scratch files of this test run (created on first use). */
 const char *lr_test_tmpdir(void);
 

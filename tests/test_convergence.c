@@ -11,25 +11,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-static lr_image *render_sets(const char *json, const char *const *sets,
-                             size_t n_sets)
-{
-    lr_scene *s = NULL;
-    lr_error err;
-    if (lr_scene_load_json(json, strlen(json), NULL, sets, n_sets, &s, &err) !=
-        LR_OK)
-        fail_msg("scene: %s", err.message);
-    lr_camera cam;
-    lr_render_settings rs;
-    lr_scene_camera(s, &cam);
-    lr_scene_settings(s, &rs);
-    lr_image *img = NULL;
-    if (lr_render(s, &cam, &rs, &img, NULL, &err) != LR_OK)
-        fail_msg("render: %s", err.message);
-    lr_scene_free(s);
-    return img;
-}
-
 /* A defocused scene with edges: a lit sphere in front of the focal plane
  * casting a shadow on a ground plane, through a thin lens. */
 static const char *dof_scene =
@@ -45,17 +26,6 @@ static const char *dof_scene =
     " \"objects\": [{\"type\": \"plane\", \"normal\": [0, 1, 0]},"
     "   {\"type\": \"sphere\", \"center\": [0.3, 0.6, 0.5], \"radius\": 0.6,"
     "    \"material\": \"r\"}]}";
-
-static double rmse(const lr_image *a, const lr_image *b)
-{
-    int n = lr_image_width(a) * lr_image_height(a) * 3;
-    double e = 0;
-    for (int i = 0; i < n; i++) {
-        double d = lr_image_rgb(a)[i] - lr_image_rgb(b)[i];
-        e += d * d;
-    }
-    return sqrt(e / n);
-}
 
 /* Least-squares slope of log(err) against log(spp). */
 static double slope(const double *spp, const double *err, int n)
@@ -76,7 +46,7 @@ static void test_error_falls_faster_when_stratified(void **state)
     (void)state;
     const char *ref_sets[] = {"render.spp=16384", "render.sampler=sobol",
                               "render.seed=99"};
-    lr_image *ref = render_sets(dof_scene, ref_sets, 3);
+    lr_image *ref = lr_test_render(dof_scene, ref_sets, 3, NULL);
     const char *samplers[] = {"random", "jittered", "sobol"};
     const double spps[] = {4, 16, 64, 256};
     double slopes[3];
@@ -92,8 +62,8 @@ static void test_error_falls_faster_when_stratified(void **state)
                 snprintf(b, sizeof b, "render.sampler=%s", samplers[k]);
                 snprintf(c, sizeof c, "render.seed=%d", seed);
                 const char *sets[] = {a, b, c};
-                lr_image *img = render_sets(dof_scene, sets, 3);
-                double e = rmse(img, ref);
+                lr_image *img = lr_test_render(dof_scene, sets, 3, NULL);
+                double e = lr_test_rmse(img, ref);
                 e2 += e * e / 3;
                 lr_image_free(img);
             }
@@ -161,11 +131,11 @@ static void test_grid_artifacts_and_jitter(void **state)
 {
     (void)state;
     const char *ref_sets[] = {"render.spp=4096", "render.sampler=sobol"};
-    lr_image *ref = render_sets(point_scene, ref_sets, 2);
+    lr_image *ref = lr_test_render(point_scene, ref_sets, 2, NULL);
     const char *grid_sets[] = {"render.spp=16", "render.sampler=grid"};
     const char *jit_sets[] = {"render.spp=16", "render.sampler=jittered"};
-    lr_image *grid = render_sets(point_scene, grid_sets, 2);
-    lr_image *jit = render_sets(point_scene, jit_sets, 2);
+    lr_image *grid = lr_test_render(point_scene, grid_sets, 2, NULL);
+    lr_image *jit = lr_test_render(point_scene, jit_sets, 2, NULL);
     /* Blur side S = a |1 - (Z - di) / f| f_px / Z; 4 x 4 lens samples put
      * copies S / 4 apart: frequency 4 / S cycles per pixel. */
     double fpx = 96 / (2 * tan(10 * M_PI / 180));
@@ -177,7 +147,7 @@ static void test_grid_artifacts_and_jitter(void **state)
                   f0, pg, pj);
     assert_true(pg > 5.0);
     assert_true(pj < 3.0);
-    assert_true(rmse(jit, ref) < rmse(grid, ref));
+    assert_true(lr_test_rmse(jit, ref) < lr_test_rmse(grid, ref));
     lr_image_free(ref);
     lr_image_free(grid);
     lr_image_free(jit);

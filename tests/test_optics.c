@@ -39,25 +39,6 @@ static void point_scene(char *buf, size_t n, double z, int spp,
              W, W, spp, sampler, FOV, -z, 0.004 * z);
 }
 
-static lr_image *render_sets(const char *json, const char *const *sets,
-                             size_t n_sets)
-{
-    lr_scene *s = NULL;
-    lr_error err;
-    if (lr_scene_load_json(json, strlen(json), NULL, sets, n_sets, &s, &err) !=
-        LR_OK)
-        fail_msg("scene: %s", err.message);
-    lr_camera cam;
-    lr_render_settings rs;
-    lr_scene_camera(s, &cam);
-    lr_scene_settings(s, &rs);
-    lr_image *img = NULL;
-    if (lr_render(s, &cam, &rs, &img, NULL, &err) != LR_OK)
-        fail_msg("render: %s", err.message);
-    lr_scene_free(s);
-    return img;
-}
-
 typedef struct moments {
     double sum, cx, cy, m2; /* total, centroid, polar second moment */
 } moments;
@@ -122,7 +103,7 @@ static void test_zero_aperture_is_pinhole(void **state)
         char json[2048];
         point_scene(json, sizeof json, 4.0, 4, samplers[k]);
         /* Make it less trivial: a lit plane behind the sphere. */
-        lr_image *pin = render_sets(json, NULL, 0);
+        lr_image *pin = lr_test_render(json, NULL, 0, NULL);
         const char *thin[] = {"camera.model=thinlens",
                               "camera.aperture_radius=0",
                               "camera.focus_distance=2",
@@ -132,9 +113,9 @@ static void test_zero_aperture_is_pinhole(void **state)
                                  "camera.focal_length=3",
                                  "camera.chromatic={\"mode\": \"rgb\", "
                                  "\"amplify\": 10}"};
-        lr_image *a = render_sets(json, thin, 5);
-        lr_image *b = render_sets(json, bracket, 4);
-        lr_image *c = render_sets(json, thin, 4);
+        lr_image *a = lr_test_render(json, thin, 5, NULL);
+        lr_image *b = lr_test_render(json, bracket, 4, NULL);
+        lr_image *c = lr_test_render(json, thin, 4, NULL);
         size_t bytes = (size_t)W * W * 3 * sizeof(float);
         assert_memory_equal(lr_image_rgb(pin), lr_image_rgb(a), bytes);
         assert_memory_equal(lr_image_rgb(pin), lr_image_rgb(b), bytes);
@@ -160,11 +141,11 @@ static void test_thinlens_circle_of_confusion(void **state)
         double z = depths[i];
         char json[2048];
         point_scene(json, sizeof json, z, 128, "sobol");
-        lr_image *pin = render_sets(json, NULL, 0);
+        lr_image *pin = lr_test_render(json, NULL, 0, NULL);
         const char *sets[] = {"camera.model=thinlens",
                               "camera.aperture_radius=0.2",
                               "camera.focus_distance=6"};
-        lr_image *blur = render_sets(json, sets, 3);
+        lr_image *blur = lr_test_render(json, sets, 3, NULL);
         moments m0 = measure(pin, 1), m1 = measure(blur, 1);
         double want = 2.0 * r * fabs(1.0 / z - 1.0 / s) * f_px();
         check_close(diameter(m1.m2 - m0.m2, 1.0 / 8.0), want, 0.05,
@@ -181,11 +162,11 @@ static void test_f_number(void **state)
     char json[2048];
     double z = 2.5, s = 6.0;
     point_scene(json, sizeof json, z, 128, "sobol");
-    lr_image *pin = render_sets(json, NULL, 0);
+    lr_image *pin = lr_test_render(json, NULL, 0, NULL);
     const char *sets[] = {"camera.model=thinlens", "camera.f_number=0.25",
                           "camera.focal_length_mm=100",
                           "camera.focus_distance=6"};
-    lr_image *blur = render_sets(json, sets, 4);
+    lr_image *blur = lr_test_render(json, sets, 4, NULL);
     double r = 0.1 / (2 * 0.25);
     double want = 2.0 * r * fabs(1.0 / z - 1.0 / s) * f_px();
     check_close(diameter(measure(blur, 1).m2 - measure(pin, 1).m2, 0.125),
@@ -204,11 +185,11 @@ static void test_bracket_blur(void **state)
         double z = depths[i];
         char json[2048];
         point_scene(json, sizeof json, z, 128, "sobol");
-        lr_image *pin = render_sets(json, NULL, 0);
+        lr_image *pin = lr_test_render(json, NULL, 0, NULL);
         const char *sets[] = {"camera.model=bracket", "camera.aperture=0.2",
                               "camera.image_plane_distance=1",
                               "camera.focal_length=5"};
-        lr_image *blur = render_sets(json, sets, 4);
+        lr_image *blur = lr_test_render(json, sets, 4, NULL);
         double want = a * fabs(1.0 - (z - di) / f) * f_px() / z;
         check_close(diameter(measure(blur, 1).m2 - measure(pin, 1).m2,
                              1.0 / 6.0),
@@ -295,7 +276,7 @@ static void test_aperture_shapes(void **state)
     char json[2048];
     point_scene(json, sizeof json, z, 1024, "sobol");
     const char *crop = "render.region=[40, 40, 121, 121]";
-    lr_image *pin = render_sets(json, &crop, 1);
+    lr_image *pin = lr_test_render(json, &crop, 1, NULL);
     double m0 = measure(pin, 1).m2;
     const char *shapes[3] = {"square", "disk", "polygon"};
     /* Kernel radii with equal second moments: square half side a has
@@ -310,7 +291,7 @@ static void test_aperture_shapes(void **state)
                               "camera.aperture_radius=0.2",
                               "camera.focus_distance=6",
                               "camera.aperture_blades=6", shape, crop};
-        lr_image *img = render_sets(json, sets, 6);
+        lr_image *img = lr_test_render(json, sets, 6, NULL);
         /* Size: the second moment of the kernel. */
         check_close(sqrt(measure(img, 1).m2 - m0), sqrt(m2[k]), 0.05,
                     shapes[k], z);
@@ -374,9 +355,9 @@ static void test_focal_plane_sharp(void **state)
                           "camera.focus_distance=4"};
     const char *paper[] = {"camera.model=bracket", "camera.aperture=0.2",
                            "camera.focal_length=5"};
-    lr_image *a = render_sets(json, sharp, 3);
-    lr_image *b = render_sets(json, soft, 3);
-    lr_image *c = render_sets(json, paper, 3);
+    lr_image *a = lr_test_render(json, sharp, 3, NULL);
+    lr_image *b = lr_test_render(json, soft, 3, NULL);
+    lr_image *c = lr_test_render(json, paper, 3, NULL);
     double wa = edge_width(a), wb = edge_width(b), wc = edge_width(c);
     if (!(wa <= 1.0 && wc <= 1.0))
         fail_msg("edge on the focal plane is %.2f px (thin lens) and %.2f px "
@@ -433,8 +414,8 @@ static void test_chromatic_focus_rgb(void **state)
             double z = sc[at];
             char json[2048];
             point_scene(json, sizeof json, z, 128, "sobol");
-            lr_image *pin = render_sets(json, NULL, 0);
-            lr_image *img = render_sets(json, sets, 5);
+            lr_image *pin = lr_test_render(json, NULL, 0, NULL);
+            lr_image *img = lr_test_render(json, sets, 5, NULL);
             for (int c = 0; c < 3; c++) {
                 double m2 = measure(img, c).m2 - measure(pin, c).m2;
                 double want = 2 * r * fabs(1.0 / z - 1.0 / sc[c]) * f_px();
@@ -473,8 +454,8 @@ static void test_chromatic_bracket_paper(void **state)
     const char *sets[] = {"camera.model=bracket", "camera.aperture=0.4",
                           "camera.focal_length=5",
                           "camera.chromatic={\"mode\": \"rgb\", \"amplify\": 50}"};
-    lr_image *pin = render_sets(json, NULL, 0);
-    lr_image *img = render_sets(json, sets, 4);
+    lr_image *pin = lr_test_render(json, NULL, 0, NULL);
+    lr_image *img = lr_test_render(json, sets, 4, NULL);
     assert_true(measure(img, 0).m2 - measure(pin, 0).m2 < 0.3);
     const double fc[3] = {fr, f, fb};
     for (int c = 1; c < 3; c++) {
@@ -519,8 +500,8 @@ static void test_chromatic_spectral_order(void **state)
     for (int k = 0; k < 2; k++) {
         char json[2048];
         point_scene(json, sizeof json, z[k], 64, "sobol");
-        lr_image *pin = render_sets(json, NULL, 0);
-        lr_image *img = render_sets(json, sets, 5);
+        lr_image *pin = lr_test_render(json, NULL, 0, NULL);
+        lr_image *img = lr_test_render(json, sets, 5, NULL);
         double mr = measure(img, 0).m2 - measure(pin, 0).m2;
         double mb = measure(img, 2).m2 - measure(pin, 2).m2;
         if (k == 0 ? !(mb < mr) : !(mr < mb))
@@ -543,13 +524,13 @@ static void test_spectral_white_is_white(void **state)
                           "camera.focus_distance=2", "camera.focal_length_mm=50",
                           "camera.chromatic={\"mode\": \"spectral\", "
                           "\"amplify\": 20, \"wavelengths\": 5}"};
-    lr_image *img = render_sets(json, sets, 5);
+    lr_image *img = lr_test_render(json, sets, 5, NULL);
     for (int i = 0; i < 16 * 12 * 3; i++)
         assert_true(lr_image_rgb(img)[i] == 1.0f);
     lr_image_free(img);
     sets[4] = "camera.chromatic={\"mode\": \"spectral\", \"amplify\": 20, "
               "\"wavelengths\": 2}";
-    img = render_sets(json, sets, 5);
+    img = lr_test_render(json, sets, 5, NULL);
     double mean[3] = {0, 0, 0};
     for (int i = 0; i < 16 * 12; i++)
         for (int c = 0; c < 3; c++)
@@ -583,7 +564,7 @@ static void test_energy_conserved(void **state)
              "  {\"type\": \"sphere\", \"center\": [0.4, -0.3, -6],"
              "   \"radius\": 0.15, \"material\": \"w\"}]}",
              W, W, FOV);
-    lr_image *pin = render_sets(json, NULL, 0);
+    lr_image *pin = lr_test_render(json, NULL, 0, NULL);
     double ref = measure(pin, 1).sum;
     const char *thin = "camera.model=thinlens";
     const char *cases[][6] = {
@@ -600,7 +581,7 @@ static void test_energy_conserved(void **state)
     };
     const size_t n_sets[] = {3, 5, 3, 5, 5};
     for (size_t k = 0; k < 5; k++) {
-        lr_image *img = render_sets(json, cases[k], n_sets[k]);
+        lr_image *img = lr_test_render(json, cases[k], n_sets[k], NULL);
         for (int c = 0; c < 3; c++) {
             double got = measure(img, c).sum;
             if (fabs(got - ref) > 0.005 * ref)

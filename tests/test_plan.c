@@ -11,36 +11,6 @@
 #include <stdio.h>
 #include <string.h>
 
-static lr_image *render_sets(const char *json, const char *const *sets,
-                             size_t n, lr_render_stats *st)
-{
-    lr_scene *s = NULL;
-    lr_error err;
-    if (lr_scene_load_json(json, strlen(json), NULL, sets, n, &s, &err) !=
-        LR_OK)
-        fail_msg("scene: %s", err.message);
-    lr_camera cam;
-    lr_render_settings rs;
-    lr_scene_camera(s, &cam);
-    lr_scene_settings(s, &rs);
-    lr_image *img = NULL;
-    if (lr_render(s, &cam, &rs, &img, st, &err) != LR_OK)
-        fail_msg("render: %s", err.message);
-    lr_scene_free(s);
-    return img;
-}
-
-static double rmse(const lr_image *a, const lr_image *b)
-{
-    int n = lr_image_width(a) * lr_image_height(a) * 3;
-    double e = 0;
-    for (int i = 0; i < n; i++) {
-        double d = lr_image_rgb(a)[i] - lr_image_rgb(b)[i];
-        e += d * d;
-    }
-    return sqrt(e / n);
-}
-
 /* A blurred foreground sphere whose blur spills over a sharp, textured
  * background (strips at the focus distance), under a sky: a planner that
  * looked only at each pixel's own depth would call the background sharp
@@ -81,15 +51,15 @@ static void guarantee(const char *scene, const char *what)
 {
     const char *ref_sets[] = {"render.spp=2048", "render.plan=false",
                               "render.adaptive=false", "render.seed=77"};
-    lr_image *ref = render_sets(scene, ref_sets, 4, NULL);
+    lr_image *ref = lr_test_render(scene, ref_sets, 4, NULL);
     const char *full_sets[] = {"render.spp=64", "render.plan=false",
                                "render.adaptive=false"};
     const char *plan_sets[] = {"render.spp=64", "render.plan=true",
                                "render.adaptive=false"};
     lr_render_stats sf, sp;
-    lr_image *full = render_sets(scene, full_sets, 3, &sf);
-    lr_image *plan = render_sets(scene, plan_sets, 3, &sp);
-    double ef = rmse(full, ref), ep = rmse(plan, ref);
+    lr_image *full = lr_test_render(scene, full_sets, 3, &sf);
+    lr_image *plan = lr_test_render(scene, plan_sets, 3, &sp);
+    double ef = lr_test_rmse(full, ref), ep = lr_test_rmse(plan, ref);
     print_message("%s: RMSE full %.5f, planned %.5f (%.3fx); lens on %.0f%% "
                   "of pixels, colours split on %.0f%%, camera rays %llu of "
                   "%llu\n",
@@ -127,7 +97,7 @@ static void test_plan_skips_what_it_can(void **state)
     (void)state;
     const char *sets[] = {"render.spp=16", "render.adaptive=false"};
     lr_render_stats st;
-    lr_image *img = render_sets(foreground_scene, sets, 2, &st);
+    lr_image *img = lr_test_render(foreground_scene, sets, 2, &st);
     assert_true(st.lens_pixels > 0 && st.lens_pixels < st.pixels);
     lr_image_free(img);
     /* A flat card exactly on the focal plane with a tiny aperture: no
@@ -141,10 +111,10 @@ static void test_plan_skips_what_it_can(void **state)
         " \"lights\": [{\"type\": \"ambient\", \"radiance\": 1}],"
         " \"objects\": [{\"type\": \"plane\", \"point\": [0.2, 0, -5],"
         "  \"normal\": [0, 0, 1], \"size\": 1}]}";
-    lr_image *planned = render_sets(card, NULL, 0, &st);
+    lr_image *planned = lr_test_render(card, NULL, 0, &st);
     assert_int_equal(st.lens_pixels, 0);
     const char *pin_sets[] = {"camera.model=pinhole"};
-    lr_image *pin = render_sets(card, pin_sets, 1, NULL);
+    lr_image *pin = lr_test_render(card, pin_sets, 1, NULL);
     assert_memory_equal(lr_image_rgb(planned), lr_image_rgb(pin),
                         32 * 24 * 3 * sizeof(float));
     lr_image_free(planned);
@@ -161,18 +131,18 @@ static void test_adaptive_deterministic(void **state)
     const char *sets[] = {"render.spp=128", "render.threads=1",
                           "render.tile_size=64"};
     lr_render_stats st;
-    lr_image *full = render_sets(foreground_scene, sets, 3, &st);
+    lr_image *full = lr_test_render(foreground_scene, sets, 3, &st);
     assert_true(st.samples < st.full_samples);
     assert_true(st.samples > (uint64_t)16 * st.pixels);
     const char *sets2[] = {"render.spp=128", "render.threads=2",
                            "render.tile_size=5"};
-    lr_image *other = render_sets(foreground_scene, sets2, 3, NULL);
+    lr_image *other = lr_test_render(foreground_scene, sets2, 3, NULL);
     assert_memory_equal(lr_image_rgb(full), lr_image_rgb(other),
                         64 * 48 * 3 * sizeof(float));
     lr_image_free(other);
     const char *crop_sets[] = {"render.spp=128", "render.tile_size=7",
                                "render.region=[13, 9, 41, 30]"};
-    lr_image *crop = render_sets(foreground_scene, crop_sets, 3, NULL);
+    lr_image *crop = lr_test_render(foreground_scene, crop_sets, 3, NULL);
     for (int y = 0; y < 21; y++)
         assert_memory_equal(lr_image_rgb(full) + 3 * ((y + 9) * 64 + 13),
                             lr_image_rgb(crop) + 3 * y * 28,
@@ -188,13 +158,13 @@ static void test_adaptive_error(void **state)
     (void)state;
     const char *ref_sets[] = {"render.spp=2048", "render.plan=false",
                               "render.adaptive=false", "render.seed=5"};
-    lr_image *ref = render_sets(foreground_scene, ref_sets, 4, NULL);
+    lr_image *ref = lr_test_render(foreground_scene, ref_sets, 4, NULL);
     const char *full_sets[] = {"render.spp=256", "render.adaptive=false"};
     const char *ad_sets[] = {"render.spp=256"};
     lr_render_stats st;
-    lr_image *full = render_sets(foreground_scene, full_sets, 2, NULL);
-    lr_image *ad = render_sets(foreground_scene, ad_sets, 1, &st);
-    double ef = rmse(full, ref), ea = rmse(ad, ref);
+    lr_image *full = lr_test_render(foreground_scene, full_sets, 2, NULL);
+    lr_image *ad = lr_test_render(foreground_scene, ad_sets, 1, &st);
+    double ef = lr_test_rmse(full, ref), ea = lr_test_rmse(ad, ref);
     print_message("adaptive: RMSE %.5f with %.1f%% of the samples (full "
                   "%.5f)\n",
                   ea, 100.0 * st.samples / st.full_samples, ef);

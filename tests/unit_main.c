@@ -4,6 +4,7 @@
  */
 #include "test.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -44,6 +45,36 @@ const char *lr_test_tmpdir(void)
         }
     }
     return dir;
+}
+
+lr_image *lr_test_render(const char *json, const char *const *sets,
+                         size_t n_sets, lr_render_stats *stats)
+{
+    lr_scene *s = NULL;
+    lr_error err;
+    if (lr_scene_load_json(json, strlen(json), NULL, sets, n_sets, &s, &err) !=
+        LR_OK)
+        fail_msg("scene: %s", err.message);
+    lr_camera cam;
+    lr_render_settings rs;
+    lr_scene_camera(s, &cam);
+    lr_scene_settings(s, &rs);
+    lr_image *img = NULL;
+    if (lr_render(s, &cam, &rs, &img, stats, &err) != LR_OK)
+        fail_msg("render: %s", err.message);
+    lr_scene_free(s);
+    return img;
+}
+
+double lr_test_rmse(const lr_image *a, const lr_image *b)
+{
+    int n = lr_image_width(a) * lr_image_height(a) * 3;
+    double e = 0;
+    for (int i = 0; i < n; i++) {
+        double d = lr_image_rgb(a)[i] - lr_image_rgb(b)[i];
+        e += d * d;
+    }
+    return sqrt(e / n);
 }
 
 static int wanted(const char *name, int argc, char **argv)
