@@ -218,8 +218,11 @@ typedef struct lr_render_settings {
     int adaptive_min_spp;      /* default 16 (capped at spp) */
     lr_progress_fn progress; /* optional; NULL by default */
     void *progress_user;
-    /* Optional cancellation flag, polled between tiles: when it becomes
-     * non-zero the render stops and returns LR_ERR_CANCELLED with no image. */
+    /* Optional cancellation flag, polled (with an atomic load) between
+     * tiles: when it becomes non-zero the render stops and returns
+     * LR_ERR_CANCELLED with no image (the stats, if asked for, are still
+     * filled).  Set it from another thread with an atomic store
+     * (__atomic_store_n), or from a signal handler. */
     const volatile int *cancel;
 } lr_render_settings;
 
@@ -307,7 +310,7 @@ typedef struct lr_render_stats {
 
 /* Renders `scene` through `cam` with `settings`.  On success *out owns a
  * new image (free with lr_image_free) and, if `stats` is non-NULL, it is
- * filled.  The scene is only read.  Errors: LR_ERR_INVALID (camera or
+ * filled (also when the render was cancelled).  The scene is only read.  Errors: LR_ERR_INVALID (camera or
  * settings; the path names the field), LR_ERR_NOMEM, LR_ERR_CANCELLED. */
 LR_API lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
                     const lr_render_settings *settings, lr_image **out,

@@ -314,7 +314,11 @@ static void *worker_main(void *arg)
     _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
     int n_tiles = j->tiles_x * j->tiles_y;
     for (;;) {
-        if (set->cancel != NULL && *set->cancel) {
+        /* An atomic read, so that a flag set by another thread (with
+         * __atomic_store_n, or a plain store from a signal handler) is
+         * a race-free handshake. */
+        if (set->cancel != NULL &&
+            __atomic_load_n(set->cancel, __ATOMIC_RELAXED)) {
             atomic_store(&j->cancelled, 1);
             break;
         }
@@ -509,12 +513,14 @@ lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
     sum.full_camera_rays = sum.full_samples * per_sample;
     lr__plan_free(&j.plan);
     sum.seconds = now_seconds() - t0;
+    /* The statistics say what was done even when the render was
+     * cancelled, so that callers can account for the rays traced. */
+    if (stats != NULL)
+        *stats = sum;
     if (atomic_load(&j.cancelled)) {
         lr_image_free(img);
         return lr__fail(err, LR_ERR_CANCELLED, NULL, "render cancelled");
     }
-    if (stats != NULL)
-        *stats = sum;
     *out = img;
     return LR_OK;
 }
