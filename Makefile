@@ -30,7 +30,8 @@ LIB_LIBS   = -lembree3 -lOpenEXRCore-3_1 -lcjson -lpng16 -lz -lpthread -lm
 
 CFLAGS   ?=
 CFLAGS   += -std=c11 $(OPT) -g -Wall -Wextra -Werror -fPIC -D_GNU_SOURCE \
-            -fvisibility=hidden -Wno-format-truncation $(SANITIZE)
+            -fvisibility=hidden -Wno-format-truncation -ffp-contract=off \
+            $(SANITIZE)
 CPPFLAGS += -Iinclude -Ilib
 LDFLAGS  += $(SANITIZE)
 

@@ -84,6 +84,10 @@ static void flush(const lr__trace16 *t, packet *p, lr__pixel *acc,
  * camera.h), computed in floats since Embree traces floats anyway.  The
  * rays are written straight into the packet, and copied to p->org and
  * p->dir so that hits are completed on exactly the ray that was traced. */
+/* Built for AVX2 and for any x86-64, chosen at load time (the float
+ * arithmetic is the same in both, lane by lane: no FMA contraction, as
+ * -ffp-contract=off in the Makefile keeps it). */
+__attribute__((target_clones("avx2", "default")))
 static void make_camera_rays(const lr__cam *c, int use_lens, packet *p,
                              int n,
                         const float *fx, const float *fy, const float *lu,
