@@ -42,9 +42,20 @@ void lr__json_describe(const cJSON *v, char *out, size_t n);
 lr_status lr__json_check_keys(const cJSON *obj, const char *path,
                               const char *const *allowed, lr_error *err);
 
+/* The largest magnitude of any number in a scene: far beyond any real
+ * scene, yet small enough that positions, sizes and colours stay well
+ * inside float range (Embree works in float and rejects rays whose
+ * origin lies beyond about 1.8e18) and their products stay finite. */
+#define LR__MAX_NUMBER 1e15
+
+/* Fails unless x is finite and |x| <= LR__MAX_NUMBER; `p` names it. */
+lr_status lr__json_check_number(double x, const char *p, lr_error *err);
+
 /* Getters: `obj` is an object, `key` a member name, `path` the object's
  * path.  When the member is absent: required -> error, else LR_OK with
  * *out untouched (so callers preload defaults). */
+/* A number: finite and within +-LR__MAX_NUMBER.  Integers (lr__json_int)
+ * have only their own range. */
 lr_status lr__json_number(const cJSON *obj, const char *key,
                           const char *path, int required, double *out,
                           lr_error *err);

@@ -595,7 +595,17 @@ static lr_status read_file(const char *file, const char *json_path,
         }
         size_t want = cap - len - 1;
         size_t got = fread(buf + len, 1, want, f);
+        /* Stop at the first chunk with a binary byte: the parser reports
+         * it (with its line) before it could reach anything after it, so
+         * there is no need to read on, and a device that streams bytes
+         * forever (/dev/zero, /dev/urandom) is rejected at once instead
+         * of after the 1 GiB limit. */
+        int binary = 0;
+        for (size_t i = len; i < len + got && !binary; i++)
+            binary = is_binary_byte((unsigned char)buf[i]);
         len += got;
+        if (binary)
+            break;
         if (len > OBJ_MAX_BYTES) {
             free(buf);
             fclose(f);

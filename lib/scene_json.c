@@ -136,6 +136,7 @@ static lr_status parse_transform(const cJSON *list, const char *path,
             lr__path_key(q, p, "scale");
             if (cJSON_IsNumber(v)) {
                 double k = v->valuedouble;
+                LR_TRY(lr__json_check_number(k, q, err));
                 sc = v3(k, k, k);
             } else {
                 st = lr__json_vec3(step, "scale", p, 1, &sc, err);
@@ -456,6 +457,14 @@ static lr_status add_mesh(lr_scene *s, const cJSON *o, const char *p,
     for (size_t v = 0; v < m.n_vertices; v++) {
         lr__v3 q = xform_point(x, v3(m.vertices[3 * v], m.vertices[3 * v + 1],
                                      m.vertices[3 * v + 2]));
+        if (!(v3_maxabs(q) <= LR__MAX_NUMBER)) {
+            free(normals);
+            lr__mesh_free(&m);
+            return lr__fail(err, LR_ERR_INVALID, fp,
+                            "%s: vertex %zu reaches %g from the origin (after "
+                            "the transform), beyond the limit of 1e15",
+                            fp, v + 1, v3_maxabs(q));
+        }
         m.vertices[3 * v] = (float)q.x;
         m.vertices[3 * v + 1] = (float)q.y;
         m.vertices[3 * v + 2] = (float)q.z;
@@ -486,6 +495,21 @@ static lr_status add_mesh(lr_scene *s, const cJSON *o, const char *p,
                                  m.n_triangles, normals, material, err);
     lr__mesh_free(&m);
     return st;
+}
+
+/* Geometry, once transformed, must stay within LR__MAX_NUMBER of the
+ * origin like every number of the file: beyond that Embree's float
+ * rays stop being valid (an Embree assertion aborts the process).  `m` is
+ * the largest coordinate magnitude the object reaches; `p` the field to
+ * blame. */
+static lr_status check_extent(double m, const char *p, lr_error *err)
+{
+    if (!(m <= LR__MAX_NUMBER))
+        return lr__fail(err, LR_ERR_INVALID, p,
+                        "%s: the object reaches %g from the origin, beyond "
+                        "the limit of 1e15",
+                        p, m);
+    return LR_OK;
 }
 
 static lr_status parse_object(lr_scene *s, const cJSON *o, const char *p,
@@ -542,8 +566,10 @@ static lr_status parse_object(lr_scene *s, const cJSON *o, const char *p,
             return lr__fail(err, LR_ERR_INVALID, q,
                             "%s: a sphere can only be scaled uniformly", q);
         }
-        return lr__scene_add_sphere(s, xform_point(&x, c), r * k, material,
-                                    err);
+        lr__v3 cw = xform_point(&x, c);
+        lr__path_key(q, p, tr != NULL ? "transform" : "radius");
+        LR_TRY(check_extent(v3_maxabs(cw) + r * k, q, err));
+        return lr__scene_add_sphere(s, cw, r * k, material, err);
     }
     if (keys == keys_plane) {
         lr__v3 pt = v3(0, 0, 0), n;
@@ -556,9 +582,13 @@ static lr_status parse_object(lr_scene *s, const cJSON *o, const char *p,
         }
         n = v3_norm(n);
         const cJSON *size = cJSON_GetObjectItemCaseSensitive(o, "size");
-        if (size == NULL)
-            return lr__scene_add_plane(s, xform_point(&x, pt),
-                                       xform_normal(&x, n), material, err);
+        if (size == NULL) {
+            lr__v3 pw = xform_point(&x, pt);
+            lr__path_key(q, p, tr != NULL ? "transform" : "point");
+            LR_TRY(check_extent(v3_maxabs(pw), q, err));
+            return lr__scene_add_plane(s, pw, xform_normal(&x, n), material,
+                                       err);
+        }
         /* A finite plane: a rectangle centred on `point`, its first side
          * along the world x axis projected onto the plane (the z axis
          * when |normal.x| > 0.9), made of two triangles. */
@@ -575,10 +605,11 @@ static lr_status parse_object(lr_scene *s, const cJSON *o, const char *p,
             return lr__fail(err, LR_ERR_INVALID, q,
                             "%s must be a number or [width, height]", q);
         }
-        if (!(w > 0 && h > 0 && isfinite(w) && isfinite(h)))
+        if (!(w > 0 && h > 0 && w <= LR__MAX_NUMBER && h <= LR__MAX_NUMBER))
             return lr__fail(err, LR_ERR_INVALID, q,
-                            "%s must be finite and > 0, got [%g, %g]", q, w,
-                            h);
+                            "%s must be finite, > 0 and at most 1e15, got "
+                            "[%g, %g]",
+                            q, w, h);
         lr__v3 ax = fabs(n.x) > 0.9 ? v3(0, 0, 1) : v3(1, 0, 0);
         lr__v3 u = v3_norm(v3_madd(ax, n, -v3_dot(ax, n)));
         lr__v3 v = v3_cross(n, u);
@@ -590,6 +621,8 @@ static lr_status parse_object(lr_scene *s, const cJSON *o, const char *p,
         float verts[12];
         for (int i = 0; i < 4; i++) {
             lr__v3 c = xform_point(&x, corner[i]);
+            lr__path_key(q, p, tr != NULL ? "transform" : "size");
+            LR_TRY(check_extent(v3_maxabs(c), q, err));
             verts[3 * i] = (float)c.x;
             verts[3 * i + 1] = (float)c.y;
             verts[3 * i + 2] = (float)c.z;
@@ -620,12 +653,19 @@ static lr_status parse_object(lr_scene *s, const cJSON *o, const char *p,
                                 "%s must be an array of 3 numbers", pi);
             int j = 0;
             for (const cJSON *c = v->child; c; c = c->next, j++) {
-                if (!cJSON_IsNumber(c) || !isfinite(c->valuedouble))
+                if (!cJSON_IsNumber(c) || !isfinite(c->valuedouble) ||
+                    fabs(c->valuedouble) > LR__MAX_NUMBER)
                     return lr__fail(err, LR_ERR_INVALID, pi,
-                                    "%s[%d] must be a finite number", pi, j);
+                                    "%s[%d] must be a finite number between "
+                                    "-1e15 and 1e15",
+                                    pi, j);
                 a[j] = c->valuedouble;
             }
             pt = xform_point(&x, v3a(a));
+            if (tr != NULL) {
+                lr__path_key(pi, p, "transform");
+                LR_TRY(check_extent(v3_maxabs(pt), pi, err));
+            }
             verts[3 * i] = (float)pt.x;
             verts[3 * i + 1] = (float)pt.y;
             verts[3 * i + 2] = (float)pt.z;
