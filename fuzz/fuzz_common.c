@@ -12,6 +12,8 @@
 
 static _Thread_local char last_failure[2048];
 
+int lr_fuzz_known_bugs_fatal = 0;
+
 const char *lr_fuzz_last_failure(void) { return last_failure; }
 
 int lr_fuzz_report(const char *fmt, ...)
@@ -27,7 +29,7 @@ int lr_fuzz_report(const char *fmt, ...)
  * beyond U+10FFFF.  Error messages quote user text, so a message that is
  * cut in the middle of a character would not be valid UTF-8 any more
  * (and lensrayd copies messages into JSON responses). */
-static int valid_utf8(const char *s)
+int lr_fuzz_valid_utf8(const char *s)
 {
     const unsigned char *p = (const unsigned char *)s;
     while (*p) {
@@ -75,7 +77,7 @@ int lr_fuzz_check_error(const char *what, int status,
     if (err->message[0] == '\0')
         return lr_fuzz_report("%s: status %d with an empty message", what,
                               status);
-    if (!valid_utf8(err->message) || !valid_utf8(err->path))
+    if (!lr_fuzz_valid_utf8(err->message) || !lr_fuzz_valid_utf8(err->path))
         return lr_fuzz_report("%s: the error is not valid UTF-8: %s", what,
                               err->message);
     /* The message is a sentence that names the field it is about. */
