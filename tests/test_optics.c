@@ -85,6 +85,9 @@ static double diameter(double m2_blur, double k)
 static void check_close(double got, double want, double rel,
                         const char *what, double z)
 {
+    print_message("  %-28s depth %6.3f: measured %7.3f px, expected %7.3f px "
+                  "(%+.2f%%)\n",
+                  what, z, got, want, 100.0 * (got - want) / want);
     if (!(fabs(got - want) <= rel * want))
         fail_msg("%s at depth %g: measured %.4g px, expected %.4g px "
                  "(%.1f%% off, allowed %.0f%%)",
