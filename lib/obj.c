@@ -152,9 +152,27 @@ static const char *next_token(const char **pp, size_t *len)
     return start;
 }
 
-static int quote_len(size_t len)
+/* The first TOKEN_QUOTE_MAX bytes of a token for a message, with every
+ * byte outside printable ASCII written as \xNN: a token is binary junk
+ * when it has such bytes, and quoting them raw would make the message
+ * invalid UTF-8 (lensrayd copies messages into JSON). */
+typedef struct quoted {
+    char s[4 * TOKEN_QUOTE_MAX + 1];
+} quoted;
+
+static quoted quote(const char *tok, size_t len)
 {
-    return (int)(len < TOKEN_QUOTE_MAX ? len : TOKEN_QUOTE_MAX);
+    quoted q;
+    size_t o = 0;
+    for (size_t i = 0; i < len && i < TOKEN_QUOTE_MAX; i++) {
+        unsigned char c = (unsigned char)tok[i];
+        if (c >= 0x20 && c < 0x7f)
+            q.s[o++] = (char)c;
+        else
+            o += (size_t)snprintf(q.s + o, sizeof q.s - o, "\\x%02x", c);
+    }
+    q.s[o] = '\0';
+    return q;
 }
 
 /* Parses one whole token as a finite number that fits a float.  `what`
@@ -166,18 +184,18 @@ static lr_status parse_number(parser *ps, const char *tok, size_t len,
     errno = 0;
     double x = strtod_l(tok, &end, ps->c_locale);
     if (end == tok || end != tok + len)
-        return fail_at(ps, LR_ERR_INVALID, "bad number '%.*s' in a '%s' line",
-                       quote_len(len), tok, what);
+        return fail_at(ps, LR_ERR_INVALID, "bad number '%s' in a '%s' line",
+                       quote(tok, len).s, what);
     /* ERANGE on underflow gives a tiny but usable value; on overflow the
      * number was written finite and is merely too large. */
     if (!isfinite(x) && errno != ERANGE)
         return fail_at(ps, LR_ERR_INVALID,
-                       "non-finite number '%.*s' in a '%s' line",
-                       quote_len(len), tok, what);
+                       "non-finite number '%s' in a '%s' line",
+                       quote(tok, len).s, what);
     if (!isfinite(x) || fabs(x) > FLT_MAX)
         return fail_at(ps, LR_ERR_INVALID,
-                       "number '%.*s' in a '%s' line is too large for a float",
-                       quote_len(len), tok, what);
+                       "number '%s' in a '%s' line is too large for a float",
+                       quote(tok, len).s, what);
     *out = x;
     return LR_OK;
 }
@@ -355,13 +373,13 @@ static lr_status parse_corner(parser *ps, const char *tok, size_t len,
     }
     if (r == -2)
         return fail_at(ps, LR_ERR_INVALID,
-                       "face index in '%.*s' out of range", quote_len(len),
-                       tok);
+                       "face index in '%s' out of range",
+                       quote(tok, len).s);
     if (r != 0)
         return fail_at(ps, LR_ERR_INVALID,
-                       "bad face corner '%.*s' (expected v, v/vt, v//vn or "
+                       "bad face corner '%s' (expected v, v/vt, v//vn or "
                        "v/vt/vn with integer indices)",
-                       quote_len(len), tok);
+                       quote(tok, len).s);
 
     lr_status st =
         resolve_index(ps, iv, ps->n_v, "", "vertex", "vertices", &c->v);
