@@ -59,6 +59,44 @@ int lrd_api_check_depth(const char *body, size_t len, long max_depth,
     return 0;
 }
 
+/* The offset of the first byte of `s` (len bytes) that does not start a
+ * valid UTF-8 sequence (RFC 3629: shortest form, no surrogates, at most
+ * U+10FFFF), or len if all of it is valid. */
+static size_t utf8_invalid_at(const char *s, size_t len)
+{
+    const unsigned char *p = (const unsigned char *)s;
+    size_t i = 0;
+    while (i < len) {
+        unsigned c = p[i];
+        size_t n;
+        unsigned min, cp;
+        if (c < 0x80) {
+            i++;
+            continue;
+        }
+        if (c >= 0xC2 && c <= 0xDF)
+            n = 1, min = 0x80;
+        else if (c >= 0xE0 && c <= 0xEF)
+            n = 2, min = 0x800;
+        else if (c >= 0xF0 && c <= 0xF4)
+            n = 3, min = 0x10000;
+        else
+            return i;
+        if (i + n >= len)
+            return i;
+        cp = c & (0x3Fu >> n);
+        for (size_t k = 1; k <= n; k++) {
+            if ((p[i + k] & 0xC0) != 0x80)
+                return i;
+            cp = (cp << 6) | (p[i + k] & 0x3Fu);
+        }
+        if (cp < min || cp > 0x10FFFF || (cp >= 0xD800 && cp <= 0xDFFF))
+            return i;
+        i += n + 1;
+    }
+    return len;
+}
+
 /* Checks an object's keys against a list and for duplicates; `prefix`
  * names the object in the path ("" for the top level). */
 static int check_keys(const cJSON *obj, const char *prefix,
@@ -274,6 +312,13 @@ int lrd_api_parse_job(const char *body, size_t len, lrd_job_spec *spec,
                         "the body is empty; it must be a JSON job object");
     if (lrd_api_check_depth(body, len, lrd_cfg.max_json_depth, e) != 0)
         return -1;
+    /* JSON text is UTF-8 (RFC 8259), and error messages echo keys and
+     * names back inside JSON: bytes that are not UTF-8 would make those
+     * answers invalid JSON, so they are refused here, before parsing. */
+    size_t bad = utf8_invalid_at(body, len);
+    if (bad < len)
+        return lrd_fail(e, 400, "malformed_json", NULL,
+                        "the body is not valid UTF-8 (at byte %zu)", bad);
     const char *end = NULL;
     cJSON *root = cJSON_ParseWithLengthOpts(body, len, &end, 0);
     if (root == NULL) {
