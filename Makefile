@@ -231,6 +231,18 @@ render: all
 figures: all
 	sh docs/figures.sh $(BUILD)/lensray docs/figures
 
+# The benchmark (bench/README.md): lensray against a bare Embree program and
+# Mitsuba 3 on scenes/bench.json; results in $(BUILD)/bench/results.txt.
+# The ceiling is plain C on Embree alone, built portably (no -march).
+BENCH_CFLAGS ?= -std=c11 -O2 -g -Wall -Wextra
+.PHONY: bench
+bench: all $(BUILD)/bench/ceiling
+	sh bench/run.sh $(BUILD)
+
+$(BUILD)/bench/ceiling: bench/ceiling.c $(DEPS_OK)
+	@mkdir -p $(dir $@)
+	$(CC) $(BENCH_CFLAGS) -o $@ bench/ceiling.c -lembree3 -lpthread -lm
+
 install: all
 	install -d $(DESTDIR)$(PREFIX)/include $(DESTDIR)$(PREFIX)/lib \
 	  $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/lib/pkgconfig

@@ -1,0 +1,215 @@
+#!/bin/sh
+# bench/run.sh: the benchmark behind `make bench` (see bench/README.md).
+#
+# Usage: sh bench/run.sh [BUILD_DIR]      (default build; run from the repo root)
+#
+# In one run, on scenes/bench.json:
+#   1. the bare-Embree ceiling (build/bench/ceiling, from bench/ceiling.c);
+#   2. lensray at 1 thread and at all threads, best of BENCH_REPEAT runs, as
+#      shipped (effect planning and adaptive sampling on) and with every
+#      sample traced (render.plan=false, render.adaptive=false);
+#   3. Mitsuba 3.9.1 (llvm_ad_rgb and scalar_rgb), from a virtual
+#      environment under BUILD_DIR/bench/venv, when it can be installed;
+#   4. both renderers at BENCH_REF_SPP spp, and the mean relative difference
+#      between the pictures.
+# Raw outputs go to BUILD_DIR/bench/*.log; bench/summary.py prints the table
+# and writes BUILD_DIR/bench/results.txt.
+#
+# Knobs (environment): BENCH_SPP (lensray timing spp, default 256),
+# BENCH_REPEAT (3), BENCH_REF_SPP (1024), BENCH_MI_SPP (llvm timing spp,
+# 64), BENCH_MI_SCALAR_SPP (16), BENCH_SKIP_MITSUBA=1, BENCH_SAME_NORMALS=0
+# (skips the diagnostic render), DRJIT_LIBLLVM_PATH.
+set -u
+
+BUILD=${1:-build}
+OUT=$BUILD/bench
+LENSRAY=$BUILD/lensray
+CEILING=$OUT/ceiling
+SCENE=scenes/bench.json
+SPP=${BENCH_SPP:-256}
+REPEAT=${BENCH_REPEAT:-3}
+REF_SPP=${BENCH_REF_SPP:-1024}
+MI_SPP=${BENCH_MI_SPP:-64}
+MI_SCALAR_SPP=${BENCH_MI_SCALAR_SPP:-16}
+MITSUBA_VERSION=3.9.1
+VENV=$OUT/venv
+NPROC=$(nproc)
+
+mkdir -p "$OUT"
+rm -f "$OUT"/*.log "$OUT"/results.txt
+say() { echo "bench: $*"; }
+
+[ -x "$LENSRAY" ] || { say "no $LENSRAY (run make)"; exit 1; }
+[ -x "$CEILING" ] || { say "no $CEILING (run make bench)"; exit 1; }
+command -v python3 >/dev/null 2>&1 || { say "python3 is needed (apt-get install python3)"; exit 1; }
+
+# ---- how busy is the machine? --------------------------------------------
+# Cores kept busy by other processes over one second (from /proc/stat).
+busy_cores() {
+    a=$(awk '/^cpu /{print $2+$3+$4+$7+$8, $5+$6}' /proc/stat)
+    sleep 1
+    b=$(awk '/^cpu /{print $2+$3+$4+$7+$8, $5+$6}' /proc/stat)
+    echo "$a $b $NPROC" | awk '{bu=$3-$1; id=$4-$2; t=bu+id; if (t<=0) t=1; printf "%.2f", $5*bu/t}'
+}
+# Waits (up to 15 s) for the other processes to leave the cores alone, and
+# logs how busy the machine was before each section.
+quiet() {
+    n=0
+    while :; do
+        bc=$(busy_cores)
+        if awk "BEGIN{exit !($bc < 0.25)}"; then break; fi
+        n=$((n + 1))
+        if [ $n -ge 8 ]; then
+            say "warning: the machine is busy ($bc cores used by other processes) before $1; measuring anyway"
+            break
+        fi
+        sleep 1
+    done
+    echo "$1 $bc" >> "$OUT/busy.log"
+}
+
+# ---- the machine -----------------------------------------------------------
+{
+    echo "date: $(date -u '+%Y-%m-%d %H:%M:%S UTC')"
+    echo "commit: $(git rev-parse --short HEAD 2>/dev/null || echo unknown)$(git diff --quiet HEAD -- lib include tools 2>/dev/null || echo ' (lib/include/tools modified)')"
+    echo "nproc: $NPROC"
+    echo "cpu: $(awk -F': ' '/^model name/{print $2; exit}' /proc/cpuinfo)"
+    echo "memory: $(awk '/^MemTotal/{printf "%.1f GiB", $2/1048576}' /proc/meminfo)"
+    echo "kernel: $(uname -r)"
+    echo "os: $(. /etc/os-release 2>/dev/null && echo "$PRETTY_NAME")"
+    echo "embree: $(dpkg-query -W -f '${Version}' libembree3-3 2>/dev/null || echo unknown)"
+    echo "cc: $(${CC:-cc} --version | head -1)"
+    echo "spp: $SPP  repeat: $REPEAT  ref_spp: $REF_SPP  mitsuba_spp: llvm $MI_SPP, scalar $MI_SCALAR_SPP"
+} > "$OUT/machine.log"
+cat "$OUT/machine.log"
+
+# ---- 1. the ceiling ----------------------------------------------------------
+quiet ceiling
+say "bare Embree ceiling ($CEILING)"
+"$CEILING" --obj scenes/meshes/bunny.obj --threads "$NPROC" --repeat 5 \
+    > "$OUT/ceiling.log" 2>&1 || say "the ceiling failed (see $OUT/ceiling.log)"
+grep -v '^RESULT' "$OUT/ceiling.log"
+
+# ---- 2. lensray --------------------------------------------------------------
+FULL="--set render.plan=false --set render.adaptive=false"
+if ! "$LENSRAY" render "$SCENE" -o "$OUT/probe.exr" --quiet $FULL \
+        --set render.width=8 --set render.height=8 --set render.spp=1 \
+        >/dev/null 2>&1; then
+    FULL=""   # a lensray without render.plan / render.adaptive
+    say "this lensray has no render.plan/render.adaptive: one mode only"
+fi
+rm -f "$OUT/probe.exr"
+for mode in default full; do
+    if [ $mode = full ]; then
+        [ -n "$FULL" ] || continue
+        sets=$FULL
+    else
+        sets=""
+    fi
+    for t in 1 $NPROC; do
+        [ $t = 1 ] || [ $NPROC -gt 1 ] || continue
+        quiet "lensray-$mode-$t"
+        say "lensray $mode, $t thread(s), $SPP spp, $REPEAT runs"
+        r=0
+        while [ $r -lt $REPEAT ]; do
+            line=$("$LENSRAY" render "$SCENE" -o "$OUT/lensray-timing.exr" --quiet \
+                   --stats --set render.spp="$SPP" --set render.threads="$t" $sets)
+            rc=$?
+            if [ $rc -ne 0 ]; then
+                say "lensray failed (exit $rc)"
+                break
+            fi
+            echo "LENSRAY mode=$mode threads=$t $line" >> "$OUT/lensray.log"
+            echo "$line" | sed 's/, "plan".*//; s/^/  /'
+            r=$((r + 1))
+        done
+    done
+done
+rm -f "$OUT/lensray-timing.exr"
+
+# ---- 3. Mitsuba --------------------------------------------------------------
+mitsuba_ok=0
+if [ "${BENCH_SKIP_MITSUBA:-0}" = 1 ]; then
+    echo "MITSUBA_UNAVAILABLE skipped (BENCH_SKIP_MITSUBA=1)" > "$OUT/mitsuba.log"
+else
+    if ! "$VENV/bin/python" -c "import mitsuba, numpy; assert mitsuba.__version__ == '$MITSUBA_VERSION'" >/dev/null 2>&1; then
+        say "installing Mitsuba $MITSUBA_VERSION into $VENV (the first time only)"
+        rm -rf "$VENV"
+        if ! python3 -m venv "$VENV" > "$OUT/pip.log" 2>&1; then
+            echo "MITSUBA_UNAVAILABLE python3 -m venv failed (apt-get install python3-venv)" > "$OUT/mitsuba.log"
+        elif ! "$VENV/bin/pip" install -q "mitsuba==$MITSUBA_VERSION" numpy >> "$OUT/pip.log" 2>&1; then
+            echo "MITSUBA_UNAVAILABLE pip install mitsuba==$MITSUBA_VERSION failed: $(grep -i error "$OUT/pip.log" | tail -1)" > "$OUT/mitsuba.log"
+        fi
+    fi
+    if "$VENV/bin/python" -c "import mitsuba, numpy" >/dev/null 2>&1; then
+        mitsuba_ok=1
+    fi
+fi
+
+if [ $mitsuba_ok = 1 ]; then
+    # The llvm variants need an LLVM newer than Debian 12's default 14.
+    if [ -z "${DRJIT_LIBLLVM_PATH:-}" ]; then
+        for v in 19 18 17 16 15; do
+            for f in /usr/lib/x86_64-linux-gnu/libLLVM-$v.so /usr/lib/x86_64-linux-gnu/libLLVM-$v.so.1 \
+                     /usr/lib/llvm-$v/lib/libLLVM-$v.so /usr/lib/llvm-$v/lib/libLLVM.so.1; do
+                if [ -e "$f" ]; then DRJIT_LIBLLVM_PATH=$f; break 2; fi
+            done
+        done
+        if [ -z "${DRJIT_LIBLLVM_PATH:-}" ] && [ "$(id -u)" = 0 ] && \
+           apt-cache policy libllvm19 2>/dev/null | grep -q 'Candidate: [0-9]'; then
+            say "installing libllvm19 for Mitsuba's llvm variant"
+            DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libllvm19 >/dev/null 2>&1
+            [ -e /usr/lib/x86_64-linux-gnu/libLLVM-19.so ] && \
+                DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM-19.so
+        fi
+    fi
+    export DRJIT_LIBLLVM_PATH=${DRJIT_LIBLLVM_PATH:-}
+    echo "llvm: ${DRJIT_LIBLLVM_PATH:-none found (needs libllvm >= 15, e.g. apt-get install libllvm19)}" >> "$OUT/machine.log"
+    MI="$VENV/bin/python bench/mitsuba_bench.py --obj scenes/meshes/bunny.obj"
+    if [ -n "$DRJIT_LIBLLVM_PATH" ]; then
+        quiet mitsuba-llvm
+        say "Mitsuba llvm_ad_rgb, $MI_SPP and $((2 * MI_SPP)) spp (LLVM: $DRJIT_LIBLLVM_PATH)"
+        $MI --variant llvm_ad_rgb --spp "$MI_SPP" --repeat 3 >> "$OUT/mitsuba.log" 2>"$OUT/mitsuba-llvm.err" ||
+            echo "MITSUBA_FAILED llvm_ad_rgb (exit $?): $(tail -1 "$OUT/mitsuba-llvm.err")" >> "$OUT/mitsuba.log"
+    else
+        echo "MITSUBA_FAILED llvm_ad_rgb: no libLLVM >= 15 (apt-get install libllvm19)" >> "$OUT/mitsuba.log"
+    fi
+    quiet mitsuba-scalar
+    say "Mitsuba scalar_rgb, $MI_SCALAR_SPP and $((2 * MI_SCALAR_SPP)) spp"
+    $MI --variant scalar_rgb --spp "$MI_SCALAR_SPP" --repeat 2 >> "$OUT/mitsuba.log" 2>"$OUT/mitsuba-scalar.err" ||
+        echo "MITSUBA_FAILED scalar_rgb (exit $?): $(tail -1 "$OUT/mitsuba-scalar.err")" >> "$OUT/mitsuba.log"
+    grep '^MITSUBA' "$OUT/mitsuba.log" | cut -c1-200
+
+    # ---- 4. the same picture? -------------------------------------------------
+    say "reference images at $REF_SPP spp"
+    ref_variant=llvm_ad_rgb
+    grep -q '"variant": "llvm_ad_rgb"' "$OUT/mitsuba.log" || ref_variant=scalar_rgb
+    $MI --variant $ref_variant --no-timing --ref-spp "$REF_SPP" --out "$OUT/mitsuba.exr" \
+        >> "$OUT/mitsuba-ref.log" 2>&1 || say "Mitsuba's reference render failed (see $OUT/mitsuba-ref.log)"
+    "$LENSRAY" render "$SCENE" -o "$OUT/lensray.exr" --quiet --stats \
+        --set render.spp="$REF_SPP" > "$OUT/lensray-ref.log" 2>&1
+    "$LENSRAY" render "$SCENE" -o "$OUT/lensray-seed1.exr" --quiet --stats \
+        --set render.spp="$REF_SPP" --set render.seed=1 >> "$OUT/lensray-ref.log" 2>&1
+    if [ -e "$OUT/mitsuba.exr" ] && [ -e "$OUT/lensray.exr" ]; then
+        "$VENV/bin/python" bench/compare.py "$OUT/lensray.exr" "$OUT/mitsuba.exr" \
+            --label "lensray vs Mitsuba $ref_variant" --diff "$OUT/diff.png" >> "$OUT/compare.log" 2>&1
+        "$VENV/bin/python" bench/compare.py "$OUT/lensray.exr" "$OUT/lensray-seed1.exr" \
+            --label "noise floor: lensray seed 0 vs seed 1" >> "$OUT/compare.log" 2>&1
+        # Diagnostic: Mitsuba given lensray's own smooth normals (area-weighted
+        # vertex normals written into the OBJ), which removes the one
+        # modelling difference between the two scenes.
+        if [ "${BENCH_SAME_NORMALS:-1}" = 1 ] && \
+           $MI --variant $ref_variant --no-timing --ref-spp "$REF_SPP" --same-normals \
+               --out "$OUT/mitsuba-same-normals.exr" >> "$OUT/mitsuba-ref.log" 2>&1; then
+            "$VENV/bin/python" bench/compare.py "$OUT/lensray.exr" "$OUT/mitsuba-same-normals.exr" \
+                --label "diagnostic: lensray vs Mitsuba given lensray's normals" \
+                --diff "$OUT/diff-same-normals.png" >> "$OUT/compare.log" 2>&1
+        fi
+    fi
+else
+    [ -s "$OUT/mitsuba.log" ] || echo "MITSUBA_UNAVAILABLE the virtual environment has no mitsuba" > "$OUT/mitsuba.log"
+    say "Mitsuba: not available ($(sed 's/^MITSUBA_UNAVAILABLE //' "$OUT/mitsuba.log" | head -1))"
+fi
+
+# ---- summary ---------------------------------------------------------------
+python3 bench/summary.py "$OUT" | tee "$OUT/results.txt"
