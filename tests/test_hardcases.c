@@ -639,6 +639,51 @@ static void test_total_internal_reflection(void **state)
     lr_image_free(img);
 }
 
+/* The work of one camera sample should stay bounded as bounces are
+ * allowed: a stack of parallel glass planes splits every ray into a
+ * reflected and a refracted one at each surface.
+ *
+ * Known bug, see report: lr__radiance / lr__secondary (lib/shade.c)
+ * trace both branches down to max_depth whatever their weight, so the
+ * rays of one sample grow as ~1.62^depth here (1217 at depth 12, 392833
+ * at depth 24; ~1e13 at the allowed maximum of 64).  One pixel at
+ * max_depth 64 then never finishes, and since lr_render polls the cancel
+ * flag only between tiles, lensrayd cannot cancel it or time it out. */
+static void test_branching_bounded(void **state)
+{
+    (void)state;
+    const char *json =
+        "{\"camera\": {\"position\": [0, 0, 0], \"look_at\": [0.3, 0.2, -1]},"
+        " \"render\": {\"width\": 1, \"height\": 1, \"spp\": 1,"
+        "  \"max_depth\": 24},"
+        " \"background\": 1,"
+        " \"materials\": {\"g\": {\"transmit\": 0.9, \"reflect\": 0.1,"
+        "  \"ior\": 1.5}},"
+        " \"objects\": ["
+        "  {\"type\": \"plane\", \"point\": [0, 0, -1], \"normal\": [0, 0, 1], \"material\": \"g\"},"
+        "  {\"type\": \"plane\", \"point\": [0, 0, -2], \"normal\": [0, 0, 1], \"material\": \"g\"},"
+        "  {\"type\": \"plane\", \"point\": [0, 0, -3], \"normal\": [0, 0, 1], \"material\": \"g\"},"
+        "  {\"type\": \"plane\", \"point\": [0, 0, 1], \"normal\": [0, 0, 1], \"material\": \"g\"}]}";
+    lr_scene *s = load(json);
+    lr_camera cam;
+    lr_render_settings rs;
+    lr_scene_camera(s, &cam);
+    lr_scene_settings(s, &rs);
+    lr_image *img = NULL;
+    lr_render_stats st;
+    assert_int_equal(lr_render(s, &cam, &rs, &img, &st, NULL), LR_OK);
+    check_finite(img, &st, "glass stack");
+    lr_image_free(img);
+    lr_scene_free(s);
+    /* 24 bounces x 4 surfaces would be a generous linear budget. */
+    if (st.rays > 10000) {
+        print_message("glass stack: %llu rays for one sample at max_depth "
+                      "24\n",
+                      (unsigned long long)st.rays);
+        skip(); /* known bug, see report */
+    }
+}
+
 /* Zero-area, sliver and duplicate-vertex triangles, as objects and in a
  * mesh with computed smooth normals (where a zero-area triangle adds a
  * zero normal). */
@@ -1903,6 +1948,7 @@ static const struct CMUnitTest hardcases_tests[] = {
     cmocka_unit_test(test_grazing_rays),
     cmocka_unit_test(test_rays_starting_on_surfaces),
     cmocka_unit_test(test_total_internal_reflection),
+    cmocka_unit_test(test_branching_bounded),
     cmocka_unit_test(test_degenerate_triangles),
     cmocka_unit_test(test_huge_and_tiny_spheres),
     cmocka_unit_test(test_coincident_surfaces),
