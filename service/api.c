@@ -109,6 +109,7 @@ static int check_keys(const cJSON *obj, const char *prefix,
             snprintf(path, sizeof path, "%s.%s", prefix, k);
         else
             snprintf(path, sizeof path, "%s", k);
+        lrd_utf8_trim(path);
         int ok = 0;
         for (size_t i = 0; allowed[i] != NULL; i++)
             if (strcmp(k, allowed[i]) == 0)

@@ -196,6 +196,10 @@ void lrd_job_spec_clear(lrd_job_spec *spec);
 char *lrd_api_scenes_json(lrd_err *e);
 
 /* Checks a request body's JSON nesting without parsing it.  0 or -1. */
+/* Drops a partial UTF-8 character left at the end of `s` by a cut to
+ * fit a buffer (util.c). */
+void lrd_utf8_trim(char *s);
+
 int lrd_api_check_depth(const char *body, size_t len, long max_depth,
                         lrd_err *e);
 

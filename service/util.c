@@ -14,6 +14,22 @@
 #include <sys/random.h>
 #include <time.h>
 
+/* A message cut to fit its buffer may end inside a UTF-8 character;
+ * drop that partial character so that the JSON error stays valid. */
+void lrd_utf8_trim(char *s)
+{
+    size_t len = strlen(s), i = len;
+    /* Back over continuation bytes to the start of the last character. */
+    while (i > 0 && ((unsigned char)s[i - 1] & 0xC0) == 0x80 && len - i < 3)
+        i--;
+    if (i == 0)
+        return;
+    unsigned c = (unsigned char)s[i - 1];
+    size_t need = c >= 0xF0 ? 4 : c >= 0xE0 ? 3 : c >= 0xC0 ? 2 : 1;
+    if (c >= 0x80 && len - (i - 1) < need)
+        s[i - 1] = '\0';
+}
+
 int lrd_fail(lrd_err *e, int http, const char *code, const char *path,
              const char *fmt, ...)
 {
@@ -27,6 +43,8 @@ int lrd_fail(lrd_err *e, int http, const char *code, const char *path,
     va_start(ap, fmt);
     vsnprintf(e->message, sizeof e->message, fmt, ap);
     va_end(ap);
+    lrd_utf8_trim(e->path);
+    lrd_utf8_trim(e->message);
     return -1;
 }
 
