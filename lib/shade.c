@@ -9,10 +9,19 @@
  * I cos(theta) / r^2.  Directional lights: irradiance E on a surface
  * facing them, E cos(theta).  Ambient: uniform radiance La, reflected as
  * albedo * La without shadowing (the classic ray tracer's ambient term).
+ *
+ * Mirror and glass rays branch (a dielectric both reflects and refracts),
+ * so a tree of them grows exponentially with max_depth: a stack of glass
+ * plates would need ~1.6^depth rays per sample.  A branch whose weight,
+ * multiplied down from the camera ray, falls below LR__MIN_THROUGHPUT is
+ * therefore not traced: it could change the sample by less than that
+ * fraction of the light it carries.
  */
 #include "shade.h"
 
 #include <math.h>
+
+#define LR__MIN_THROUGHPUT 1e-4
 
 double lr__fresnel_dielectric(double cos_i, double eta)
 {
@@ -92,8 +101,12 @@ static lr__v3 direct(const lr_scene *s, const lr__hit *h, lr__v3 wo,
     return L;
 }
 
-lr__v3 lr__secondary(const lr_scene *s, const lr__hit *h, lr__v3 dir,
-                     int depth, int max_depth, uint64_t *rays)
+static lr__v3 radiance(const lr_scene *s, lr__v3 org, lr__v3 dir, int depth,
+                       int max_depth, double throughput, uint64_t *rays);
+
+static lr__v3 secondary(const lr_scene *s, const lr__hit *h, lr__v3 dir,
+                        int depth, int max_depth, double throughput,
+                        uint64_t *rays)
 {
     lr__v3 L = v3(0, 0, 0);
     if (depth >= max_depth)
@@ -120,29 +133,44 @@ lr__v3 lr__secondary(const lr_scene *s, const lr__hit *h, lr__v3 dir,
                 w_refr = v3_scale(m->transmit, 1.0 - F);
         }
     }
-    if (v3_maxc(w_refl) > 0.0) {
+    double t_refl = throughput * v3_maxc(w_refl);
+    if (t_refl >= LR__MIN_THROUGHPUT) {
         lr__v3 r = mirror(dir, h->ns);
         if (v3_dot(r, h->ng) <= 0.0)
             r = mirror(dir, h->ng);
-        lr__v3 Li = lr__radiance(s, lr__offset_origin(h, r), r, depth + 1,
-                                 max_depth, rays);
+        lr__v3 Li = radiance(s, lr__offset_origin(h, r), r, depth + 1,
+                             max_depth, t_refl, rays);
         L = v3_add(L, v3_mul(w_refl, Li));
     }
-    if (v3_maxc(w_refr) > 0.0) {
-        lr__v3 Li = lr__radiance(s, lr__offset_origin(h, t_dir), t_dir,
-                                 depth + 1, max_depth, rays);
+    double t_refr = throughput * v3_maxc(w_refr);
+    if (t_refr >= LR__MIN_THROUGHPUT) {
+        lr__v3 Li = radiance(s, lr__offset_origin(h, t_dir), t_dir,
+                             depth + 1, max_depth, t_refr, rays);
         L = v3_add(L, v3_mul(w_refr, Li));
     }
     return L;
 }
 
-lr__v3 lr__radiance(const lr_scene *s, lr__v3 org, lr__v3 dir, int depth,
-                    int max_depth, uint64_t *rays)
+lr__v3 lr__secondary(const lr_scene *s, const lr__hit *h, lr__v3 dir,
+                     int depth, int max_depth, uint64_t *rays)
+{
+    return secondary(s, h, dir, depth, max_depth, 1.0, rays);
+}
+
+static lr__v3 radiance(const lr_scene *s, lr__v3 org, lr__v3 dir, int depth,
+                       int max_depth, double throughput, uint64_t *rays)
 {
     lr__hit h;
     (*rays)++;
     if (!lr__trace(s, org, dir, INFINITY, &h))
         return s->background;
     lr__v3 L = direct(s, &h, v3_neg(dir), rays);
-    return v3_add(L, lr__secondary(s, &h, dir, depth, max_depth, rays));
+    return v3_add(L, secondary(s, &h, dir, depth, max_depth, throughput,
+                               rays));
+}
+
+lr__v3 lr__radiance(const lr_scene *s, lr__v3 org, lr__v3 dir, int depth,
+                    int max_depth, uint64_t *rays)
+{
+    return radiance(s, org, dir, depth, max_depth, 1.0, rays);
 }
