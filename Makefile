@@ -160,6 +160,16 @@ $(BUILD)/tests/oom: $(BUILD)/obj/tests/oom/oom.o $(BUILD)/liblensray.a
 
 test: $(BUILD)/tests/oom
 
+# ---- soak -----------------------------------------------------------------
+# The daemon under load and abuse for SOAK_SECONDS (tests/soak/soak.sh;
+# `make test` runs a 20 s version, tests/soak.bats).  The summary goes to
+# $(BUILD)/soak/summary.txt; docs/reliability.md has a long run's figures.
+SOAK_SECONDS ?= 300
+
+.PHONY: soak
+soak: all
+	bash tests/soak/soak.sh $(SOAK_SECONDS) $(BUILD)
+
 # ---- fuzzing ------------------------------------------------------------
 # libFuzzer targets for the scene, OBJ and job parsers (fuzz/fuzz_*.c),
 # built with clang under AddressSanitizer and UBSan in build/fuzz.  `make
