@@ -254,6 +254,10 @@ lr_status lr_image_write(const lr_image *img, const char *path,
     char *tmp_name = NULL;
     const char *what = "create a temporary file for";
     int fd = create_temp_beside(path, &tmp_name);
+    if (fd < 0 && errno == ENOMEM && tmp_name == NULL) {
+        free(buf);
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    }
     if (fd < 0)
         goto io_error;
 

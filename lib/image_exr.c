@@ -62,10 +62,15 @@ static int64_t sink_write(exr_const_context_t ctxt, void *user,
                           exr_stream_error_func_ptr_t error_cb)
 {
     exr_sink *sink = user;
+    /* Our own failures are recorded in the sink rather than reported
+     * through error_cb: OpenEXRCore may call the error handler with the
+     * context's lock held, and the handler's exr_get_user_data() would
+     * then wait on that lock forever.  The caller maps out_of_memory to
+     * LR_ERR_NOMEM. */
+    (void)ctxt;
+    (void)error_cb;
     if (offset > SIZE_MAX || sz > SIZE_MAX - offset) {
         sink->out_of_memory = 1;
-        error_cb(ctxt, EXR_ERR_OUT_OF_MEMORY,
-                 "the EXR does not fit in memory");
         return -1;
     }
     size_t end = (size_t)offset + (size_t)sz;
@@ -78,9 +83,6 @@ static int64_t sink_write(exr_const_context_t ctxt, void *user,
         unsigned char *grown = realloc(sink->data, cap);
         if (grown == NULL) {
             sink->out_of_memory = 1;
-            error_cb(ctxt, EXR_ERR_OUT_OF_MEMORY,
-                     "out of memory growing the EXR buffer to %zu bytes",
-                     cap);
             return -1;
         }
         sink->data = grown;

@@ -601,10 +601,17 @@ lr_status lr__json_apply_override(cJSON *root, const char *assignment,
             int last = *s == '\0';
             cJSON *child = cJSON_GetObjectItemCaseSensitive(node, key);
             if (last) {
+                /* Remove and add rather than replace: cJSON's replace
+                 * does not check its copy of the key (a failed copy
+                 * leaves a member without a name), while its add does.
+                 * On failure the value is still ours to free. */
                 if (child != NULL)
-                    cJSON_ReplaceItemInObjectCaseSensitive(node, key, value);
-                else
-                    cJSON_AddItemToObject(node, key, value);
+                    cJSON_DeleteItemFromObjectCaseSensitive(node, key);
+                if (!cJSON_AddItemToObject(node, key, value)) {
+                    cJSON_Delete(value);
+                    return lr__fail(err, LR_ERR_NOMEM, NULL,
+                                    "out of memory");
+                }
                 return LR_OK;
             }
             if (child == NULL) {
