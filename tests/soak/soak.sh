@@ -260,12 +260,15 @@ jobs_client() {
     BODY=$WORK/tmp/jobs.$1
     for ((i = 0; i < 20000; i++)); do
         stop_now && break
-        # A burst past the queue's size: some are refused with 429.
+        # A burst past the queue's size: the first two jobs (and every
+        # fourth) take about a second, so both workers are busy, the queue
+        # fills and the last few are refused with 429.
         ids=()
-        for ((k = 0; k < QUEUE + 4; k++)); do
-            spp=$((k % 3 == 0 ? 64 : 4))
+        for ((k = 0; k < QUEUE + 6; k++)); do
+            spp=4
+            ((k < 2 || k % 4 == 3)) && spp=8000
             req "$log" job_create '202|429' -X POST -H 'Content-Type: application/json' \
-                --data-binary "{\"scene\": \"tiny\", \"render\": {\"width\": 32, \"height\": 24, \"spp\": $spp, \"threads\": 1, \"tile_size\": 8}}" \
+                --data-binary "{\"scene\": \"tiny\", \"render\": {\"width\": 32, \"height\": 24, \"spp\": $spp, \"threads\": 1, \"tile_size\": 4, \"adaptive\": false}}" \
                 "$URL/v1/jobs"
             if [ "$CODE" = 202 ]; then
                 id=$(sed -n 's/.*"id":"\([0-9a-f]*\)".*/\1/p' "$BODY")
