@@ -253,6 +253,47 @@ $(BUILD)/bench/ceiling: bench/ceiling.c $(DEPS_OK)
 	@mkdir -p $(dir $@)
 	$(CC) $(BENCH_CFLAGS) -o $@ bench/ceiling.c -lembree3 -lpthread -lm
 
+# Accuracy against time (docs/accuracy.md): scenes/accuracy-*.json rendered
+# at increasing spp with every sampler, with and without planning and
+# adaptive sampling, measured against references cached in
+# $(BUILD)/accuracy/ref/; rewrites the doc's tables and docs/accuracy-*.png.
+# About 10 minutes on 2 cores the first time, less with the references
+# cached.  ACCURACY_ARGS=--quick is a short smoke run that leaves docs/ alone.
+ACCURACY_DEPS := gnuplot:gnuplot-nox python3:python3
+ACCURACY_ARGS ?=
+.PHONY: accuracy
+accuracy: $(BUILD)/lensray $(BUILD)/accuracy/imgdiff $(BUILD)/accuracy/.deps-ok
+	python3 bench/accuracy/run.py --lensray $(BUILD)/lensray \
+	  --imgdiff $(BUILD)/accuracy/imgdiff --work $(BUILD)/accuracy $(ACCURACY_ARGS)
+
+$(BUILD)/accuracy/imgdiff: bench/accuracy/imgdiff.c $(DEPS_OK)
+	@mkdir -p $(dir $@)
+	$(CC) -std=c11 -O2 -g -Wall -Wextra -Werror -D_GNU_SOURCE $(PKG_CFLAGS) \
+	  -o $@ $< -lOpenEXRCore-3_1 -lm
+
+# gnuplot and python3, installed like the deps above when run as root (with
+# an apt-get update first only when apt does not know the package yet).
+$(BUILD)/accuracy/.deps-ok: Makefile
+	@missing=""; \
+	for d in $(ACCURACY_DEPS); do \
+	  command -v "$${d%%:*}" >/dev/null 2>&1 || missing="$$missing $${d##*:}"; \
+	done; \
+	if [ -n "$$missing" ]; then \
+	  if [ "$$(id -u)" = 0 ]; then \
+	    echo "make: installing missing Debian packages:$$missing"; \
+	    for p in $$missing; do \
+	      apt-cache policy $$p 2>/dev/null | grep -q 'Candidate: [0-9]' || \
+	        { apt-get update -qq || exit 1; break; }; \
+	    done; \
+	    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing >/dev/null || exit 1; \
+	  else \
+	    echo "make: missing Debian packages:$$missing"; \
+	    echo "make: run 'sudo apt-get install$$missing' (or run make as root) and try again"; \
+	    exit 1; \
+	  fi; \
+	fi
+	@mkdir -p $(dir $@) && touch $@
+
 install: all
 	install -d $(DESTDIR)$(PREFIX)/include $(DESTDIR)$(PREFIX)/lib \
 	  $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/lib/pkgconfig
