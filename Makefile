@@ -44,7 +44,7 @@ TEST_OBJ := $(TEST_SRC:%.c=$(BUILD)/obj/%.o)
 DEPS_OK  := $(BUILD)/.deps-ok
 BUNNY    := scenes/meshes/bunny.obj
 
-.PHONY: all deps test render serve clean install bunny test-sanitize figures
+.PHONY: all deps test test-suite render serve clean install bunny test-sanitize figures
 
 all: $(BUILD)/liblensray.a $(BUILD)/liblensray.so $(BUILD)/lensray $(BUNNY) \
      $(if $(SVC_SRC),$(BUILD)/lensrayd)
@@ -130,15 +130,20 @@ $(BUILD)/tests/unit: $(TEST_OBJ) $(REPLAY_OBJ) $(BUILD)/liblensray.a
 	@mkdir -p $(dir $@)
 	$(CC) $(LDFLAGS) -o $@ $^ $(LIB_LIBS) -lcmocka $(if $(SVC_SRC),-lcrypto)
 
-test: all $(BUILD)/tests/unit
+# `make test` runs the whole suite twice: as built, then under
+# AddressSanitizer and UBSan (test-sanitize, in build/sanitize), and ends
+# with one line adding both up.  `make test-suite` is the first half
+# alone, for a quick run.
+test:
+	@sh tests/all.sh "$(MAKE)" $(BUILD)
+
+test-suite: all $(BUILD)/tests/unit
 	@sh tests/run.sh $(BUILD)
 
-# The whole suite again under AddressSanitizer and UBSan, in its own
-# build directory.
 test-sanitize:
 	$(MAKE) BUILD=build/sanitize OPT=-O1 \
 	  SANITIZE="-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined" \
-	  test
+	  test-suite
 
 # ---- out of memory ------------------------------------------------------
 # tests/oom/oom.c fails the library's allocations one by one.  It is linked
@@ -158,7 +163,7 @@ $(BUILD)/tests/oom: $(BUILD)/obj/tests/oom/oom.o $(BUILD)/liblensray.a
 	$(CC) $(LDFLAGS) -no-pie $(OOM_WRAP:%=-Wl,--wrap=%) -o $@ $^ \
 	  $(LIB_LIBS) -lcmocka -ldl
 
-test: $(BUILD)/tests/oom
+test-suite: $(BUILD)/tests/oom
 
 # ---- soak -----------------------------------------------------------------
 # The daemon under load and abuse for SOAK_SECONDS (tests/soak/soak.sh;
