@@ -93,7 +93,12 @@ static int box_reached(const lens *L, const box *b, double u0, double u1,
     double za = b->z0 > 0.0 ? b->z0 : 0.0, zb = b->z1;
     if (zb <= 0.0)
         return 0;
-    double ga = L->R * fabs(1.0 - za * L->w), gb = L->R * fabs(1.0 - zb * L->w);
+    /* Every colour's rays: each focuses at its own 1/w. */
+    double ga = 0.0, gb = 0.0;
+    for (int k = 0; k < L->n_w; k++) {
+        ga = fmax(ga, L->R * fabs(1.0 - za * L->ws[k]));
+        gb = fmax(gb, L->R * fabs(1.0 - zb * L->ws[k]));
+    }
     double xr = fmax(za * u1 + ga, zb * u1 + gb);
     double xl = fmin(za * u0 - ga, zb * u0 - gb);
     double yr = fmax(za * v1 + ga, zb * v1 + gb);
@@ -133,13 +138,17 @@ static int tri_boxes(const lens *L, lr__v3 a, lr__v3 b, lr__v3 c, int depth,
     return 1;
 }
 
-/* How far (in u, v) lens rays stray from the pinhole at depths in
- * [z0, z1]: R |1/Z - w| is largest at an end. */
+/* How far (in u, v) lens rays of any colour stray from the pinhole at
+ * depths in [z0, z1]: R |1/Z - w| is largest at an end. */
 static double spread(const lens *L, double z0, double z1)
 {
-    double a = fabs(1.0 / z0 - L->w);
-    double b = isfinite(z1) ? fabs(1.0 / z1 - L->w) : fabs(L->w);
-    return L->R * (a > b ? a : b);
+    double worst = 0.0;
+    for (int k = 0; k < L->n_w; k++) {
+        double a = fabs(1.0 / z0 - L->ws[k]);
+        double b = isfinite(z1) ? fabs(1.0 / z1 - L->ws[k]) : fabs(L->ws[k]);
+        worst = fmax(worst, fmax(a, b));
+    }
+    return L->R * worst;
 }
 
 /* The depth range of an infinite plane over the rectangle
