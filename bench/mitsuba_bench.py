@@ -170,20 +170,29 @@ def main():
         render(scene, a.spp, 0)
         res['first_render_seconds'] = time.perf_counter() - t0
         render(scene, 2 * a.spp, 1)
-        t1 = t2 = float('inf')
+        t1 = t2 = c1 = c2 = float('inf')
         for r in range(a.repeat):
-            t = time.perf_counter()
+            t, c = time.perf_counter(), time.process_time()
             render(scene, a.spp, 2 + 2 * r)
             t1 = min(t1, time.perf_counter() - t)
-            t = time.perf_counter()
+            c1 = min(c1, time.process_time() - c)
+            t, c = time.perf_counter(), time.process_time()
             render(scene, 2 * a.spp, 3 + 2 * r)
             t2 = min(t2, time.perf_counter() - t)
+            c2 = min(c2, time.process_time() - c)
         res['seconds_spp'] = t1
         res['seconds_2spp'] = t2
         res['samples_per_second_plain'] = pixels * a.spp / t1
         extra = t2 - t1
         res['samples_per_second'] = (pixels * a.spp / extra if extra > 0
                                      else res['samples_per_second_plain'])
+        # CPU time (all threads): an estimate that other processes on the
+        # cores do not drag down, "samples per CPU second times threads".
+        res['cpu_seconds_spp'] = c1
+        res['cpu_seconds_2spp'] = c2
+        cextra = c2 - c1
+        res['samples_per_second_cpu'] = (pixels * a.spp / cextra * res['threads']
+                                         if cextra > 0 else 0.0)
 
     if a.ref_spp > 0 and a.out:
         import numpy as np

@@ -91,13 +91,20 @@ say "bare Embree ceiling ($CEILING)"
 grep -v '^RESULT' "$OUT/ceiling.log"
 
 # ---- 2. lensray --------------------------------------------------------------
+# The probe also gives the CPU time of everything but the render (loading,
+# the BVH, writing), taken off each run's CPU time for the estimates.
 FULL="--set render.plan=false --set render.adaptive=false"
-if ! "$LENSRAY" render "$SCENE" -o "$OUT/probe.exr" --quiet $FULL \
-        --set render.width=8 --set render.height=8 --set render.spp=1 \
-        >/dev/null 2>&1; then
+probe() {
+    python3 bench/cputime.py "$LENSRAY" render "$SCENE" -o "$OUT/probe.exr" --quiet "$@" \
+        --set render.width=8 --set render.height=8 --set render.spp=1 2>/dev/null
+}
+if ! probe $FULL > "$OUT/probe.log"; then
     FULL=""   # a lensray without render.plan / render.adaptive
     say "this lensray has no render.plan/render.adaptive: one mode only"
+    probe > "$OUT/probe.log"
 fi
+OVERHEAD=$(sed -n 's/^CPUTIME cpu_seconds=\([0-9.]*\).*/\1/p' "$OUT/probe.log")
+echo "OVERHEAD cpu_seconds=${OVERHEAD:-0}" >> "$OUT/lensray.log"
 rm -f "$OUT/probe.exr"
 for mode in default full; do
     if [ $mode = full ]; then
@@ -112,14 +119,17 @@ for mode in default full; do
         say "lensray $mode, $t thread(s), $SPP spp, $REPEAT runs"
         r=0
         while [ $r -lt $REPEAT ]; do
-            line=$("$LENSRAY" render "$SCENE" -o "$OUT/lensray-timing.exr" --quiet \
+            out=$(python3 bench/cputime.py "$LENSRAY" render "$SCENE" \
+                   -o "$OUT/lensray-timing.exr" --quiet \
                    --stats --set render.spp="$SPP" --set render.threads="$t" $sets)
             rc=$?
             if [ $rc -ne 0 ]; then
                 say "lensray failed (exit $rc)"
                 break
             fi
-            echo "LENSRAY mode=$mode threads=$t $line" >> "$OUT/lensray.log"
+            line=$(echo "$out" | grep '^{')
+            cpu=$(echo "$out" | sed -n 's/^CPUTIME cpu_seconds=\([0-9.]*\).*/\1/p')
+            echo "LENSRAY mode=$mode threads=$t cpu_seconds=$cpu $line" >> "$OUT/lensray.log"
             echo "$line" | sed 's/, "plan".*//; s/^/  /'
             r=$((r + 1))
         done
