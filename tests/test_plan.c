@@ -92,6 +92,31 @@ static void test_chromatic_rim(void **state)
 
 /* The planner does skip work where nothing is blurred: the sky, and a
  * scene whose only object sits on the focal plane far from the lens. */
+/* Spectral aberration through SF11 glass: the violet halos of bars are
+ * many pixels wider than the reference colour's blur, and reach blocks
+ * that only the halos touch.  (The planner once bounded a block's reach
+ * by the reference colour alone and cut these halos off.) */
+static void test_spectral_halos(void **state)
+{
+    (void)state;
+    const char *json =
+        "{\"render\": {\"width\": 96, \"height\": 64, \"max_depth\": 0},"
+        " \"camera\": {\"model\": \"thinlens\", \"position\": [0, 1.6, 0],"
+        "  \"look_at\": [0, 1, -12], \"fov\": 20, \"focal_length_mm\": 50,"
+        "  \"f_number\": 1.4, \"focus_distance\": 12,"
+        "  \"chromatic\": {\"mode\": \"spectral\", \"glass\": \"SF11\","
+        "   \"focal_model\": \"lensmaker\", \"wavelengths\": 8}},"
+        " \"background\": 0.02,"
+        " \"materials\": {\"w\": {\"diffuse\": 0.9}},"
+        " \"lights\": [{\"type\": \"ambient\", \"radiance\": 1.5}],"
+        " \"objects\": ["
+        "  {\"type\": \"plane\", \"point\": [0, 2.0, -14], \"normal\": [0, 0, 1],"
+        "   \"size\": [3, 0.05], \"material\": \"w\"},"
+        "  {\"type\": \"sphere\", \"center\": [0.6, 1, -12], \"radius\": 0.3,"
+        "   \"material\": \"w\"}]}";
+    guarantee(json, "spectral halos");
+}
+
 static void test_plan_skips_what_it_can(void **state)
 {
     (void)state;
@@ -177,6 +202,7 @@ static void test_adaptive_error(void **state)
 static const struct CMUnitTest plan_tests[] = {
     cmocka_unit_test(test_blurred_foreground_over_sharp_background),
     cmocka_unit_test(test_chromatic_rim),
+    cmocka_unit_test(test_spectral_halos),
     cmocka_unit_test(test_plan_skips_what_it_can),
     cmocka_unit_test(test_adaptive_deterministic),
     cmocka_unit_test(test_adaptive_error),
