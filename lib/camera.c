@@ -39,9 +39,15 @@ void lr_camera_default(lr_camera *cam)
     cam->chromatic.wavelengths = 8;
 }
 
+/* Finite and within +-1e15, the scene format's limit for any number:
+ * beyond it Embree is given rays it cannot trace (and aborts). */
+#define LR__MAX_COORD 1e15
+
+static int ok1(double x) { return isfinite(x) && fabs(x) <= LR__MAX_COORD; }
+
 static int finite3(const double v[3])
 {
-    return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]);
+    return ok1(v[0]) && ok1(v[1]) && ok1(v[2]);
 }
 
 #define BAD(path, ...) lr__fail(err, LR_ERR_INVALID, path, __VA_ARGS__)
@@ -172,11 +178,28 @@ lr_status lr_camera_validate(const lr_camera *cam, lr_error *err)
         return BAD("camera.model", "camera.model is not a known model (%d)",
                    (int)cam->model);
     if (!finite3(cam->position))
-        return BAD("camera.position", "camera.position must be finite");
+        return BAD("camera.position",
+                   "camera.position must be finite and within +-1e15");
     if (!finite3(cam->look_at))
-        return BAD("camera.look_at", "camera.look_at must be finite");
+        return BAD("camera.look_at",
+                   "camera.look_at must be finite and within +-1e15");
     if (!finite3(cam->up))
-        return BAD("camera.up", "camera.up must be finite");
+        return BAD("camera.up", "camera.up must be finite and within +-1e15");
+    /* Lengths in scene units obey the same limit. */
+    const struct {
+        const char *path;
+        double v;
+    } lengths[] = {{"camera.focus_distance", cam->focus_distance},
+                   {"camera.aperture_radius", cam->aperture_radius},
+                   {"camera.focal_length_mm", cam->focal_length_mm},
+                   {"camera.f_number", cam->f_number},
+                   {"camera.image_plane_distance", cam->image_plane_distance},
+                   {"camera.focal_length", cam->focal_length},
+                   {"camera.aperture", cam->aperture}};
+    for (size_t i = 0; i < sizeof lengths / sizeof lengths[0]; i++)
+        if (isfinite(lengths[i].v) && fabs(lengths[i].v) > LR__MAX_COORD)
+            return BAD(lengths[i].path, "%s must be at most 1e15, got %g",
+                       lengths[i].path, lengths[i].v);
     lr__v3 fwd = v3_sub(v3a(cam->look_at), v3a(cam->position));
     double flen = v3_len(fwd);
     if (!(flen > 0.0) || !isfinite(flen))
