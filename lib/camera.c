@@ -200,6 +200,23 @@ lr_status lr_camera_validate(const lr_camera *cam, lr_error *err)
         if (isfinite(lengths[i].v) && fabs(lengths[i].v) > LR__MAX_COORD)
             return BAD(lengths[i].path, "%s must be at most 1e15, got %g",
                        lengths[i].path, lengths[i].v);
+    /* Distances that set a focus are divided into: below 1e-6 the focus
+     * power, and with it the rays' directions, would overflow floats. */
+    const struct {
+        const char *path;
+        double v;
+    } foci[] = {{"camera.focus_distance", cam->focus_distance},
+                {"camera.image_plane_distance", cam->image_plane_distance},
+                {"camera.focal_length", cam->focal_length}};
+    for (size_t i = 0; i < sizeof foci / sizeof foci[0]; i++)
+        if (foci[i].v > 0.0 && foci[i].v < 1e-6)
+            return BAD(foci[i].path, "%s must be at least 1e-6, got %g",
+                       foci[i].path, foci[i].v);
+    if (cam->f_number > 0.0 && cam->f_number < 1e-3)
+        return BAD("camera.f_number",
+                   "camera.f_number must be 0 (unused) or at least 0.001, "
+                   "got %g",
+                   cam->f_number);
     lr__v3 fwd = v3_sub(v3a(cam->look_at), v3a(cam->position));
     double flen = v3_len(fwd);
     if (!(flen > 0.0) || !isfinite(flen))
