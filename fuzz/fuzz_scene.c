@@ -89,24 +89,6 @@ int lr_fuzz_scene(const uint8_t *data, size_t size)
         return rc;
     }
 
-    /* Known bug (see the report): lib/camera.c accepts lenses whose rays
-     * Embree rejects, and Embree then aborts the process (assertion
-     * ray.valid()): a thin lens focused nearer than ~1e-150 (the ray
-     * direction overflows) or with an f-number so small that the radius
-     * is beyond 1.8e18, a bracket focal length below ~1e-150.  Such
-     * cameras are not rendered unless lr_fuzz_known_bugs_fatal. */
-    if (!lr_fuzz_known_bugs_fatal) {
-        double radius = cam.f_number > 0
-                            ? cam.focal_length_mm / 1000.0 / (2 * cam.f_number)
-                            : cam.aperture_radius;
-        if ((cam.model == LR_CAMERA_THINLENS &&
-             (cam.focus_distance < 1e-9 || radius > 1e15)) ||
-            (cam.model == LR_CAMERA_BRACKET && cam.focal_length < 1e-9)) {
-            lr_scene_free(scene);
-            return 0;
-        }
-    }
-
     /* A few pixels at the centre of the frame, cheaply: the geometry of
      * the full frame is kept (so the camera is exactly the scene's). */
     int cx = rs.width / 2, cy = rs.height / 2;
