@@ -23,24 +23,7 @@ lrd_config lrd_cfg;
 
 static void configure(void)
 {
-    lrd_cfg.port = 8080;
-    lrd_cfg.workers = 1;
-    lrd_cfg.queue = 16;
-    lrd_cfg.max_body = 8u << 20;
-    lrd_cfg.max_pixels = 16777216;
-    lrd_cfg.max_samples = 1ull << 33;
-    lrd_cfg.max_render_seconds = 600;
-    lrd_cfg.max_output = 512u << 20;
-    lrd_cfg.max_json_depth = 64;
-    lrd_cfg.max_connections = 64;
-    lrd_cfg.max_per_ip = 16;
-    lrd_cfg.conn_memory = 64u << 10;
-    lrd_cfg.conn_timeout = 30;
-    lrd_cfg.job_ttl = 600;
-    lrd_cfg.max_finished = 100;
-    lrd_cfg.max_retained = 1ull << 30;
-    lrd_cfg.scene_cache = 16;
-    lrd_cfg.shutdown_grace = 10;
+    lrd_config_defaults();
     const char *dir = getenv("LENSRAY_FUZZ_SCENES");
     char resolved[PATH_MAX];
     if (realpath(dir && *dir ? dir : "scenes", resolved) == NULL)

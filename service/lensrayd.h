@@ -196,6 +196,9 @@ void lrd_job_spec_clear(lrd_job_spec *spec);
 char *lrd_api_scenes_json(lrd_err *e);
 
 /* Checks a request body's JSON nesting without parsing it.  0 or -1. */
+/* Sets lrd_cfg to the documented defaults (util.c). */
+void lrd_config_defaults(void);
+
 /* Drops a partial UTF-8 character left at the end of `s` by a cut to
  * fit a buffer (util.c). */
 void lrd_utf8_trim(char *s);

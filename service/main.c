@@ -94,28 +94,6 @@ static const opt opts[] = {
 };
 #define N_OPTS (sizeof opts / sizeof opts[0])
 
-static void set_defaults(void)
-{
-    snprintf(lrd_cfg.bind, sizeof lrd_cfg.bind, "127.0.0.1");
-    lrd_cfg.port = 8080;
-    lrd_cfg.workers = 1;
-    lrd_cfg.queue = 16;
-    lrd_cfg.max_body = 8u << 20;
-    lrd_cfg.max_pixels = 16777216; /* 16.8 MP: 4096 x 4096 */
-    lrd_cfg.max_samples = 1ull << 33;
-    lrd_cfg.max_render_seconds = 600;
-    lrd_cfg.max_output = 512u << 20;
-    lrd_cfg.max_json_depth = 64;
-    lrd_cfg.max_connections = 64;
-    lrd_cfg.max_per_ip = 16;
-    lrd_cfg.conn_memory = 64u << 10;
-    lrd_cfg.conn_timeout = 30;
-    lrd_cfg.job_ttl = 600;
-    lrd_cfg.max_finished = 100;
-    lrd_cfg.max_retained = 1ull << 30;
-    lrd_cfg.scene_cache = 16;
-    lrd_cfg.shutdown_grace = 10;
-}
 
 /* "max-body" -> "LENSRAYD_MAX_BODY". */
 static void env_name(const char *name, char *out, size_t n)
@@ -212,7 +190,7 @@ static const opt *find_opt(const char *name, size_t len)
 /* Returns 0 to go on, 1 to exit 0 (help, version), -1 to exit 2. */
 static int configure(int argc, char **argv)
 {
-    set_defaults();
+    lrd_config_defaults();
     for (size_t i = 0; i < N_OPTS; i++) {
         char env[64], from[96];
         env_name(opts[i].name, env, sizeof env);

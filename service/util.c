@@ -256,3 +256,28 @@ char *lrd_read_file(const char *path, size_t max, size_t *len)
     *len = used;
     return buf;
 }
+
+/* The defaults of every setting, before flags and environment (shared
+ * by main.c and the job fuzzer, so they cannot drift apart). */
+void lrd_config_defaults(void)
+{
+    snprintf(lrd_cfg.bind, sizeof lrd_cfg.bind, "127.0.0.1");
+    lrd_cfg.port = 8080;
+    lrd_cfg.workers = 1;
+    lrd_cfg.queue = 16;
+    lrd_cfg.max_body = 8u << 20;
+    lrd_cfg.max_pixels = 16777216; /* 16.8 MP: 4096 x 4096 */
+    lrd_cfg.max_samples = 1ull << 33;
+    lrd_cfg.max_render_seconds = 600;
+    lrd_cfg.max_output = 512u << 20;
+    lrd_cfg.max_json_depth = 64;
+    lrd_cfg.max_connections = 64;
+    lrd_cfg.max_per_ip = 16;
+    lrd_cfg.conn_memory = 64u << 10;
+    lrd_cfg.conn_timeout = 30;
+    lrd_cfg.job_ttl = 600;
+    lrd_cfg.max_finished = 100;
+    lrd_cfg.max_retained = 1ull << 30;
+    lrd_cfg.scene_cache = 16;
+    lrd_cfg.shutdown_grace = 10;
+}
