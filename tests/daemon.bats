@@ -226,28 +226,7 @@ setup_file() {
     # Two of the built-in scenes (the bunny needs its fetched mesh), and
     # the small scene most tests render.
     cp "$REPO/scenes/cornell.json" "$REPO/scenes/spheres.json" "$WORK/scenes/"
-    cat >"$WORK/scenes/tiny.json" <<'EOF'
-{
-  "description": "daemon.bats test scene",
-  "camera": { "model": "pinhole", "position": [0, 1, 5], "look_at": [0, 0.5, 0],
-              "up": [0, 1, 0], "fov": 40 },
-  "render": { "width": 40, "height": 30, "spp": 2, "max_depth": 2 },
-  "background": [0.2, 0.3, 0.4],
-  "materials": {
-    "red":    { "diffuse": [0.7, 0.1, 0.1], "specular": 0.2, "shininess": 30 },
-    "ground": { "diffuse": 0.5, "reflect": 0.2 }
-  },
-  "lights": [
-    { "type": "point", "position": [3, 5, 4], "intensity": 80 },
-    { "type": "ambient", "radiance": 0.05 }
-  ],
-  "objects": [
-    { "type": "sphere", "center": [0, 1, 0], "radius": 1, "material": "red" },
-    { "type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0], "size": 6,
-      "material": "ground" }
-  ]
-}
-EOF
+    cp "$REPO/tests/data/tiny.json" "$WORK/scenes/tiny.json"
     # A mesh inside the scenes directory, and one reached through a
     # symbolic link that leads outside it.
     printf 'v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nf 1 2 3\nf 1 3 4\n' \

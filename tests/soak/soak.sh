@@ -116,28 +116,8 @@ trap 'exit 130' INT TERM
 trap '' PIPE
 
 # ---- inputs ---------------------------------------------------------------
-cat >"$WORK/scenes/tiny.json" <<'EOF'
-{
-  "description": "soak test scene",
-  "camera": { "model": "pinhole", "position": [0, 1, 5], "look_at": [0, 0.5, 0],
-              "up": [0, 1, 0], "fov": 40 },
-  "render": { "width": 40, "height": 30, "spp": 2, "max_depth": 2 },
-  "background": [0.2, 0.3, 0.4],
-  "materials": {
-    "red":    { "diffuse": [0.7, 0.1, 0.1], "specular": 0.2, "shininess": 30 },
-    "ground": { "diffuse": 0.5, "reflect": 0.2 }
-  },
-  "lights": [
-    { "type": "point", "position": [3, 5, 4], "intensity": 80 },
-    { "type": "ambient", "radiance": 0.05 }
-  ],
-  "objects": [
-    { "type": "sphere", "center": [0, 1, 0], "radius": 1, "material": "red" },
-    { "type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0], "size": 6,
-      "material": "ground" }
-  ]
-}
-EOF
+# The small scene daemon.bats uses too.
+cp "$REPO/tests/data/tiny.json" "$WORK/scenes/tiny.json"
 # Over --max-body (8 MiB), and a body nested 100000 deep (under it).
 head -c $((9 * 1024 * 1024)) /dev/zero | tr '\0' ' ' >"$WORK/big.json"
 {
