@@ -83,7 +83,7 @@ $(BUILD)/obj/%.o: %.c $(DEPS_OK)
 # GCC runs in full at -O3 (unless OPT says otherwise, e.g. -O0 to debug).
 # (-fno-math-errno: sqrtf need not set errno, which would stop it.)
 $(BUILD)/obj/lib/trace16.o: CFLAGS += $(if $(filter -O2,$(OPT)),-O3) \
-                                      -fno-math-errno
+                                      -fno-math-errno -fno-trapping-math
 $(BUILD)/obj/lib/sampler.o: CFLAGS += $(if $(filter -O2,$(OPT)),-O3)
 
 $(BUILD)/liblensray.a: $(LIB_OBJ)

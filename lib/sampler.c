@@ -21,6 +21,7 @@
  */
 #include "sampler.h"
 
+#include <immintrin.h>
 #include <math.h>
 #include <pthread.h>
 
@@ -251,20 +252,145 @@ void lr__pixel_sampler_init(lr__pixel_sampler *ps, const lr__sampler *s,
         sobol_seeds(s, pixel, &ps->shuffle, ps->scramble);
 }
 
-/* reverse_bits by shifts and masks, which vectorises across lanes. */
-static inline uint32_t reverse_bits_swar(uint32_t x)
+int lr__sampler_isa = 0;
+
+/* The Sobol path of lr__pixel_sampler_get16 in AVX2, eight lanes at a
+ * time: table lookups as gathers, bit reversal as byte shuffles. */
+__attribute__((target("avx2")))
+static __m256i rev_bits8(__m256i x)
 {
-    x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
-    x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
-    x = ((x >> 4) & 0x0f0f0f0fu) | ((x & 0x0f0f0f0fu) << 4);
-    x = ((x >> 8) & 0x00ff00ffu) | ((x & 0x00ff00ffu) << 8);
-    return (x >> 16) | (x << 16);
+    /* Reverse the bytes of each lane, then the bits of each byte by a
+     * nibble table. */
+    const __m256i bswap = _mm256_setr_epi8(
+        3, 2, 1, 0, 7, 6, 5, 4, 11, 10, 9, 8, 15, 14, 13, 12,
+        3, 2, 1, 0, 7, 6, 5, 4, 11, 10, 9, 8, 15, 14, 13, 12);
+    const __m256i nib = _mm256_setr_epi8(
+        0x0, 0x8, 0x4, 0xc, 0x2, 0xa, 0x6, 0xe,
+        0x1, 0x9, 0x5, 0xd, 0x3, 0xb, 0x7, 0xf,
+        0x0, 0x8, 0x4, 0xc, 0x2, 0xa, 0x6, 0xe,
+        0x1, 0x9, 0x5, 0xd, 0x3, 0xb, 0x7, 0xf);
+    const __m256i lo4 = _mm256_set1_epi8(0x0f);
+    x = _mm256_shuffle_epi8(x, bswap);
+    __m256i lo = _mm256_shuffle_epi8(nib, _mm256_and_si256(x, lo4));
+    __m256i hi = _mm256_shuffle_epi8(
+        nib, _mm256_and_si256(_mm256_srli_epi16(x, 4), lo4));
+    return _mm256_or_si256(_mm256_slli_epi16(lo, 4), hi);
 }
 
-/* Built twice, for AVX2 (eight 32-bit multiplies at once) and for any
- * x86-64; the loader picks the version the CPU runs.  Both give the same
- * bits: the integer hashing is exact and the float conversion exact. */
-__attribute__((target_clones("avx2", "default")))
+__attribute__((target("avx2")))
+static __m256i lk_permute8(__m256i x, uint32_t seed)
+{
+    x = _mm256_add_epi32(x, _mm256_set1_epi32((int)seed));
+    x = _mm256_xor_si256(x, _mm256_mullo_epi32(x, _mm256_set1_epi32((int)0x6c50b47cu)));
+    x = _mm256_xor_si256(x, _mm256_mullo_epi32(x, _mm256_set1_epi32((int)0xb82f1e52u)));
+    x = _mm256_xor_si256(x, _mm256_mullo_epi32(x, _mm256_set1_epi32((int)0xc7afe638u)));
+    x = _mm256_xor_si256(x, _mm256_mullo_epi32(x, _mm256_set1_epi32((int)0x8d22f6e6u)));
+    return x;
+}
+
+__attribute__((target("avx2")))
+static void sobol16_avx2(const lr__pixel_sampler *ps, uint32_t first,
+                         float out[4][16])
+{
+    static const int map[4] = {2, 3, 0, 1};
+    const __m256i ff = _mm256_set1_epi32(0xff);
+    const __m256 unit = _mm256_set1_ps(0x1p-24f);
+    for (int h = 0; h < 16; h += 8) {
+        __m256i idx = _mm256_add_epi32(
+            _mm256_set1_epi32((int)(first + (uint32_t)h)),
+            _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+        __m256i r = lk_permute8(rev_bits8(idx), ps->shuffle);
+        __m256i b0 = _mm256_and_si256(r, ff);
+        __m256i b1 = _mm256_and_si256(_mm256_srli_epi32(r, 8), ff);
+        __m256i b2 = _mm256_and_si256(_mm256_srli_epi32(r, 16), ff);
+        __m256i b3 = _mm256_srli_epi32(r, 24);
+        for (int d = 0; d < 4; d++) {
+            const uint32_t (*t)[256] = sobol_rt[map[d]];
+            __m256i v = _mm256_xor_si256(
+                _mm256_xor_si256(
+                    _mm256_i32gather_epi32((const int *)t[0], b0, 4),
+                    _mm256_i32gather_epi32((const int *)t[1], b1, 4)),
+                _mm256_xor_si256(
+                    _mm256_i32gather_epi32((const int *)t[2], b2, 4),
+                    _mm256_i32gather_epi32((const int *)t[3], b3, 4)));
+            v = rev_bits8(lk_permute8(v, ps->scramble[d]));
+            __m256 f = _mm256_cvtepi32_ps(_mm256_srli_epi32(v, 8));
+            _mm256_storeu_ps(&out[d][h], _mm256_mul_ps(f, unit));
+        }
+    }
+}
+
+/* The same sixteen lanes at once in AVX-512 (AVX512BW for the byte
+ * shuffles). */
+__attribute__((target("avx512f,avx512bw")))
+static __m512i rev_bits16(__m512i x)
+{
+    const __m512i bswap = _mm512_set4_epi32(0x0c0d0e0f, 0x08090a0b,
+                                            0x04050607, 0x00010203);
+    const __m512i nib = _mm512_set4_epi32(0x0f070b03, 0x0d050901,
+                                          0x0e060a02, 0x0c040800);
+    const __m512i lo4 = _mm512_set1_epi8(0x0f);
+    x = _mm512_shuffle_epi8(x, bswap);
+    __m512i lo = _mm512_shuffle_epi8(nib, _mm512_and_si512(x, lo4));
+    __m512i hi = _mm512_shuffle_epi8(
+        nib, _mm512_and_si512(_mm512_srli_epi16(x, 4), lo4));
+    return _mm512_or_si512(_mm512_slli_epi16(lo, 4), hi);
+}
+
+__attribute__((target("avx512f,avx512bw")))
+static __m512i lk_permute16(__m512i x, uint32_t seed)
+{
+    x = _mm512_add_epi32(x, _mm512_set1_epi32((int)seed));
+    x = _mm512_xor_si512(x, _mm512_mullo_epi32(x, _mm512_set1_epi32((int)0x6c50b47cu)));
+    x = _mm512_xor_si512(x, _mm512_mullo_epi32(x, _mm512_set1_epi32((int)0xb82f1e52u)));
+    x = _mm512_xor_si512(x, _mm512_mullo_epi32(x, _mm512_set1_epi32((int)0xc7afe638u)));
+    x = _mm512_xor_si512(x, _mm512_mullo_epi32(x, _mm512_set1_epi32((int)0x8d22f6e6u)));
+    return x;
+}
+
+__attribute__((target("avx512f,avx512bw")))
+static void sobol16_avx512(const lr__pixel_sampler *ps, uint32_t first,
+                           float out[4][16])
+{
+    static const int map[4] = {2, 3, 0, 1};
+    const __m512i ff = _mm512_set1_epi32(0xff);
+    __m512i idx = _mm512_add_epi32(
+        _mm512_set1_epi32((int)first),
+        _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14,
+                          15));
+    __m512i r = lk_permute16(rev_bits16(idx), ps->shuffle);
+    __m512i b0 = _mm512_and_si512(r, ff);
+    __m512i b1 = _mm512_and_si512(_mm512_srli_epi32(r, 8), ff);
+    __m512i b2 = _mm512_and_si512(_mm512_srli_epi32(r, 16), ff);
+    __m512i b3 = _mm512_srli_epi32(r, 24);
+    for (int d = 0; d < 4; d++) {
+        const uint32_t(*t)[256] = sobol_rt[map[d]];
+        __m512i v = _mm512_xor_si512(
+            _mm512_xor_si512(_mm512_i32gather_epi32(b0, t[0], 4),
+                             _mm512_i32gather_epi32(b1, t[1], 4)),
+            _mm512_xor_si512(_mm512_i32gather_epi32(b2, t[2], 4),
+                             _mm512_i32gather_epi32(b3, t[3], 4)));
+        v = rev_bits16(lk_permute16(v, ps->scramble[d]));
+        __m512 f = _mm512_cvtepi32_ps(_mm512_srli_epi32(v, 8));
+        _mm512_storeu_ps(out[d], _mm512_mul_ps(f, _mm512_set1_ps(0x1p-24f)));
+    }
+}
+
+/* The same in portable C, lane by lane. */
+static void sobol16_c(const lr__pixel_sampler *ps, uint32_t first,
+                      float out[4][16])
+{
+    static const int map[4] = {2, 3, 0, 1};
+    for (int i = 0; i < 16; i++) {
+        uint32_t r = lk_permute(reverse_bits(first + (uint32_t)i),
+                                ps->shuffle);
+        for (int d = 0; d < 4; d++)
+            out[d][i] = (float)(reverse_bits(lk_permute(
+                            sobol_rev(r, map[d]), ps->scramble[d])) >>
+                        8) * 0x1p-24f;
+    }
+}
+
 void lr__pixel_sampler_get16(const lr__pixel_sampler *ps, uint32_t first,
                              int n, float out[4][16])
 {
@@ -277,23 +403,20 @@ void lr__pixel_sampler_get16(const lr__pixel_sampler *ps, uint32_t first,
         }
         return;
     }
-    /* sobol_4d_seeded, lane by lane in loops the compiler can vectorise
-     * (only the table lookups stay scalar). */
-    static const int map[4] = {2, 3, 0, 1};
-    uint32_t r[16], v[16];
-    for (int i = 0; i < 16; i++)
-        r[i] = lk_permute(reverse_bits_swar(first + (uint32_t)i),
-                          ps->shuffle);
-    for (int d = 0; d < 4; d++) {
-        for (int i = 0; i < 16; i++)
-            v[i] = sobol_rev(r[i], map[d]);
-        uint32_t seed = ps->scramble[d];
-        for (int i = 0; i < 16; i++)
-            out[d][i] = (float)(int32_t)(reverse_bits_swar(
-                            lk_permute(v[i], seed)) >> 8) *
-                        0x1p-24f;
-    }
-    (void)n;
+    /* All sixteen lanes, whatever n: the extra ones are harmless.  The
+     * three versions give the same bits (integer arithmetic, and an
+     * exact conversion to float). */
+    int isa = lr__sampler_isa;
+    if (isa == 0)
+        isa = __builtin_cpu_supports("avx512bw") ? 3
+              : __builtin_cpu_supports("avx2")   ? 2
+                                                 : 1;
+    if (isa == 3)
+        sobol16_avx512(ps, first, out);
+    else if (isa == 2)
+        sobol16_avx2(ps, first, out);
+    else
+        sobol16_c(ps, first, out);
 }
 
 void lr__pixel_sampler_get(const lr__pixel_sampler *ps, uint32_t sample,

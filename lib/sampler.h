@@ -71,4 +71,9 @@ uint64_t lr__mix64(uint64_t z);
  * (Kensler, "Correlated Multi-Jittered Sampling", 2013). */
 uint32_t lr__permute(uint32_t i, uint32_t n, uint32_t key);
 
+/* For tests: which version of lr__pixel_sampler_get16's Sobol path
+ * runs: 0 = the best the CPU has (the default), 1 = portable C, 2 = AVX2,
+ * 3 = AVX-512 (setting one the CPU lacks is the caller's fault). */
+extern int lr__sampler_isa;
+
 #endif

@@ -29,4 +29,10 @@ void lr__trace16_pixel(const lr__trace16 *t, int x, int y, int first,
                        int last, int use_lens, lr__pixel *acc,
                        uint64_t *rays, uint64_t *camera_rays);
 
+/* For tests: when nonzero, every lane is completed and shaded by the
+ * scalar code of scene.c and shade.c instead of the vector path, whose
+ * results must match it bit for bit.  Not thread-safe to change during a
+ * render. */
+extern int lr__trace16_scalar_only;
+
 #endif

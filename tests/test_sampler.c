@@ -229,7 +229,53 @@ static void test_pixel_lens_matches_2d(void **state)
     }
 }
 
+/* The sixteen-lane Sobol call, in every version this CPU can run, gives
+ * exactly the values of the one-sample call rounded to float, at small
+ * and at large sample indices (all four index bytes in play). */
+static void test_get16_matches_get(void **state)
+{
+    (void)state;
+    const int has[4] = {0, 1, __builtin_cpu_supports("avx2"),
+                        __builtin_cpu_supports("avx512bw")};
+    lr__sampler s;
+    lr__sampler_init(&s, LR_SAMPLER_SOBOL, 11, 64);
+    static const uint32_t firsts[] = {0, 16, 4096, 0x00fffff0u, 0x7ffffff0u,
+                                      0xfffffff0u};
+    int versions = 0;
+    for (int isa = 1; isa <= 3; isa++) {
+        if (!has[isa])
+            continue;
+        versions++;
+        lr__sampler_isa = isa;
+        for (uint64_t px = 0; px < 3000; px += 37) {
+            lr__pixel_sampler ps;
+            lr__pixel_sampler_init(&ps, &s, px * 7919u);
+            for (size_t k = 0; k < sizeof firsts / sizeof *firsts; k++) {
+                float out[4][16];
+                lr__pixel_sampler_get16(&ps, firsts[k], 16, out);
+                for (int i = 0; i < 16; i++) {
+                    double u[4];
+                    lr__pixel_sampler_get(&ps, firsts[k] + (uint32_t)i, u);
+                    for (int d = 0; d < 4; d++)
+                        if ((float)u[d] != out[d][i]) {
+                            lr__sampler_isa = 0;
+                            fail_msg("isa %d pixel %llu sample %u dim %d: "
+                                     "%.9g against %.9g", isa,
+                                     (unsigned long long)px,
+                                     firsts[k] + (uint32_t)i, d,
+                                     (double)out[d][i], u[d]);
+                        }
+                }
+            }
+        }
+    }
+    lr__sampler_isa = 0;
+    print_message("get16 checked in %d versions\n", versions);
+    assert_true(versions >= 1);
+}
+
 static const struct CMUnitTest sampler_tests[] = {
+    cmocka_unit_test(test_get16_matches_get),
     cmocka_unit_test(test_pixel_lens_matches_2d),
     cmocka_unit_test(test_permute_is_bijection),
     cmocka_unit_test(test_values_in_unit_interval_and_pure),

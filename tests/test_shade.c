@@ -6,6 +6,7 @@
 #include "test.h"
 #include "film.h"
 #include "shade.h"
+#include "trace16.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -401,7 +402,99 @@ static void test_render_rejects_bad_arguments(void **state)
     lr_scene_free(s);
 }
 
+/* The packet tracer shades plain lanes (diffuse triangles) with vector
+ * code and every other lane with the scalar code of shade.c; the two
+ * must agree to the bit.  A scene with both kinds in the same packets:
+ * a smooth-shaded and a flat-shaded sphere mesh (plain), a glossy mesh, a
+ * mirror sphere and a black mesh (scalar), a point and a directional
+ * light and ambient light, through a thin lens; rendered both ways. */
+static void test_vector_shading_matches_scalar(void **state)
+{
+    (void)state;
+    char path[512];
+    snprintf(path, sizeof path, "%s/vecball.obj", lr_test_tmpdir());
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    const int nu = 24, nv = 12;
+    for (int j = 0; j <= nv; j++)
+        for (int i = 0; i < nu; i++) {
+            double th = M_PI * j / nv, ph = 2 * M_PI * i / nu;
+            fprintf(f, "v %.9f %.9f %.9f\n", sin(th) * cos(ph), cos(th),
+                    sin(th) * sin(ph));
+        }
+    for (int j = 0; j < nv; j++)
+        for (int i = 0; i < nu; i++) {
+            int a = j * nu + i + 1, b = j * nu + (i + 1) % nu + 1;
+            fprintf(f, "f %d %d %d\nf %d %d %d\n", a, b, b + nu, a, b + nu,
+                    a + nu);
+        }
+    assert_int_equal(fclose(f), 0);
+    const char *json =
+        "{\"camera\": {\"model\": \"thinlens\", \"position\": [0, 1.5, 6],"
+        "  \"look_at\": [0, 0.5, 0], \"fov\": 50, \"aperture_radius\": 0.15,"
+        "  \"focus_distance\": 6},"
+        " \"render\": {\"width\": 48, \"height\": 36, \"spp\": 32,"
+        "  \"max_depth\": 2, \"plan\": false, \"adaptive\": false},"
+        " \"background\": [0.1, 0.2, 0.3],"
+        " \"materials\": {\"clay\": {\"diffuse\": [0.7, 0.5, 0.3]},"
+        "   \"grey\": {\"diffuse\": 0.5},"
+        "   \"gloss\": {\"diffuse\": 0.3, \"specular\": 0.4, \"shininess\": 20},"
+        "   \"mirror\": {\"diffuse\": 0, \"reflect\": 0.8},"
+        "   \"black\": {\"diffuse\": 0}},"
+        " \"lights\": [{\"type\": \"point\", \"position\": [3, 5, 4],"
+        "   \"intensity\": 40},"
+        "  {\"type\": \"directional\", \"direction\": [-1, -2, -0.5],"
+        "   \"irradiance\": 0.7},"
+        "  {\"type\": \"ambient\", \"radiance\": 0.05}],"
+        " \"objects\": ["
+        "  {\"type\": \"mesh\", \"file\": \"vecball.obj\", \"smooth\": true,"
+        "   \"material\": \"clay\", \"transform\": [{\"translate\": [-1.2, 1, 0]}]},"
+        "  {\"type\": \"mesh\", \"file\": \"vecball.obj\", \"smooth\": true,"
+        "   \"material\": \"gloss\", \"transform\": [{\"translate\": [1.2, 1, -1]}]},"
+        "  {\"type\": \"mesh\", \"file\": \"vecball.obj\", \"material\": \"black\","
+        "   \"transform\": [{\"scale\": 0.4}, {\"translate\": [0, 0.4, 2]}]},"
+        "  {\"type\": \"mesh\", \"file\": \"vecball.obj\", \"material\": \"clay\","
+        "   \"transform\": [{\"scale\": 0.5}, {\"translate\": [0, 0.5, -1.5]}]},"
+        "  {\"type\": \"sphere\", \"center\": [0, 0.6, 0.5], \"radius\": 0.6,"
+        "   \"material\": \"mirror\"},"
+        "  {\"type\": \"plane\", \"point\": [0, 0, 0], \"normal\": [0, 1, 0],"
+        "   \"size\": 20, \"material\": \"grey\"}]}";
+    lr_image *img[2];
+    for (int k = 0; k < 2; k++) {
+        lr_scene *sc = NULL;
+        lr_error err;
+        if (lr_scene_load_json(json, strlen(json), lr_test_tmpdir(), NULL,
+                               0, &sc, &err) != LR_OK)
+            fail_msg("scene did not load: %s", err.message);
+        lr_camera cam;
+        lr_render_settings rs;
+        lr_scene_camera(sc, &cam);
+        lr_scene_settings(sc, &rs);
+        lr__trace16_scalar_only = k;
+        img[k] = NULL;
+        lr_status st = lr_render(sc, &cam, &rs, &img[k], NULL, &err);
+        lr__trace16_scalar_only = 0;
+        if (st != LR_OK)
+            fail_msg("render: %s", err.message);
+        lr_scene_free(sc);
+    }
+    const float *a = lr_image_rgb(img[0]), *b = lr_image_rgb(img[1]);
+    size_t n = 3u * 48u * 36u;
+    double sum = 0;
+    for (size_t i = 0; i < n; i++) {
+        if (memcmp(&a[i], &b[i], sizeof(float)) != 0)
+            fail_msg("value %zu: vector %.9g, scalar %.9g", i, (double)a[i],
+                     (double)b[i]);
+        sum += a[i];
+    }
+    /* Something was lit (a black or empty frame would prove nothing). */
+    assert_true(sum / (double)n > 0.05);
+    lr_image_free(img[0]);
+    lr_image_free(img[1]);
+}
+
 static const struct CMUnitTest shade_tests[] = {
+    cmocka_unit_test(test_vector_shading_matches_scalar),
     cmocka_unit_test(test_lambert_point_light),
     cmocka_unit_test(test_shadow_and_ambient),
     cmocka_unit_test(test_directional_light),
