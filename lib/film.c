@@ -20,6 +20,25 @@ void lr__pixel_add(lr__pixel *p, lr__v3 L)
     p->sum_y2 += y * y;
 }
 
+void lr__pixel_add_n(lr__pixel *p, const lr__v3 *L, int n)
+{
+    /* lr__pixel_add's sums in the same order, in registers. */
+    double s0 = p->sum[0], s1 = p->sum[1], s2 = p->sum[2], sy = p->sum_y2;
+    for (int i = 0; i < n; i++) {
+        if (!v3_finite(L[i])) {
+            p->dropped++;
+            continue;
+        }
+        s0 += L[i].x;
+        s1 += L[i].y;
+        s2 += L[i].z;
+        double y = lr__luminance(L[i].x, L[i].y, L[i].z);
+        sy += y * y;
+    }
+    p->n += (uint64_t)n;
+    p->sum[0] = s0, p->sum[1] = s1, p->sum[2] = s2, p->sum_y2 = sy;
+}
+
 int lr__pixel_samples_needed(const lr__pixel *p, double threshold, int lo,
                              int hi)
 {

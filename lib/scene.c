@@ -163,6 +163,15 @@ lr_status lr__scene_add_plane(lr_scene *s, lr__v3 point, lr__v3 normal,
 
 lr_status lr__scene_commit(lr_scene *s, lr_error *err)
 {
+    for (size_t i = 0; i < s->n_geoms; i++) {
+        lr__geom *g = &s->geoms[i];
+        const lr__material *m = &s->materials[g->material];
+        g->plain = g->kind == LR__GEOM_TRIANGLES && s->n_planes == 0 &&
+                   !(v3_maxc(m->specular) > 0.0) &&
+                   !(v3_maxc(m->reflect) > 0.0) &&
+                   !(v3_maxc(m->transmit) > 0.0) &&
+                   v3_maxc(m->diffuse) > 0.0;
+    }
     embree_msg[0] = '\0';
     rtcCommitScene(s->rtc);
     if (rtcGetDeviceError(s->device) != RTC_ERROR_NONE)

@@ -55,6 +55,11 @@ typedef struct lr__geom {
      * the scene's lifetime (not owned). */
     const float *vertices;
     const unsigned *indices;
+    /* Set by lr__scene_commit: a triangle mesh of a purely diffuse
+     * material (no Phong lobe, mirror or glass, some albedo) in a scene
+     * without infinite planes, which the packet tracer shades with its
+     * vector code (trace16.c). */
+    int plain;
 } lr__geom;
 
 struct lr_scene {

@@ -16,7 +16,8 @@ typedef struct packet {
     struct RTCRay16 shadow __attribute__((aligned(64)));
     int valid[LANES] __attribute__((aligned(64)));
     int n;
-    int slot[LANES];        /* which accumulator each lane adds to */
+    /* The rays in double, filled in only for lanes the scalar code
+     * shades. */
     lr__v3 org[LANES], dir[LANES];
 } packet;
 
@@ -30,15 +31,10 @@ int lr__trace16_scalar_only = 0;
  * (-ffp-contract=off), so each lane's result is the scalar result to the
  * bit: the test suite renders scenes both ways and compares bytes. */
 typedef struct soa_hits {
-    double ox[LANES], oy[LANES], oz[LANES];    /* ray origin */
-    double dx[LANES], dy[LANES], dz[LANES];    /* ray direction */
-    double t[LANES], bu[LANES], bv[LANES];
-    double ax[LANES], ay[LANES], az[LANES];    /* the triangle's corners */
-    double bx[LANES], by[LANES], bz[LANES];
-    double cx[LANES], cy[LANES], cz[LANES];
-    double n[9][LANES];                        /* corner normals */
-    double smooth[LANES];                      /* 1 with corner normals */
-    double kr[LANES], kg[LANES], kb[LANES];    /* diffuse albedo */
+    float v[9][LANES];     /* the triangle's corners a, b, c (x, y, z) */
+    float n[9][LANES];     /* corner normals, zero in flat meshes */
+    float smooth[LANES];   /* 1 with corner normals */
+    double k[3][LANES];    /* diffuse albedo */
     /* Results. */
     double px[LANES], py[LANES], pz[LANES];    /* hit position */
     double gx[LANES], gy[LANES], gz[LANES];    /* ng, facing the ray */
@@ -46,100 +42,72 @@ typedef struct soa_hits {
     double eps[LANES];
 } soa_hits;
 
-/* Is the lane's hit one the vector path shades: a triangle of a purely
- * diffuse material (no Phong lobe, which needs pow, and no mirror or
- * glass rays)?  Infinite planes are tested per ray beside Embree, so a
- * scene with any sends every lane to the scalar path. */
-static int plain_lane(const lr_scene *s, unsigned geom_id, int *material)
-{
-    if (geom_id == RTC_INVALID_GEOMETRY_ID || s->n_planes != 0)
-        return 0;
-    const lr__geom *g = &s->geoms[geom_id];
-    if (g->kind != LR__GEOM_TRIANGLES)
-        return 0;
-    const lr__material *m = &s->materials[g->material];
-    if (v3_maxc(m->specular) > 0.0 || v3_maxc(m->reflect) > 0.0 ||
-        v3_maxc(m->transmit) > 0.0 || !(v3_maxc(m->diffuse) > 0.0))
-        return 0;
-    *material = g->material;
-    return 1;
-}
-
-/* Gathers lane i's triangle into h (scalar: every lane its own mesh). */
+/* Gathers lane i's triangle into h: a plain lane (see lr__geom.plain),
+ * or zeros for a lane that is not, which the vector loops compute on
+ * too and whose results are never read. */
 static void gather_lane(const lr_scene *s, const packet *p, int i,
-                        soa_hits *h)
+                        int plain, soa_hits *h)
 {
+    if (!plain) {
+        for (int k = 0; k < 9; k++)
+            h->v[k][i] = h->n[k][i] = 0.0f;
+        h->smooth[i] = 0.0f;
+        h->k[0][i] = h->k[1][i] = h->k[2][i] = 0.0;
+        return;
+    }
     const lr__geom *g = &s->geoms[p->rh.hit.geomID[i]];
     unsigned prim = p->rh.hit.primID[i];
     const unsigned *ix = &g->indices[3 * (size_t)prim];
-    const float *a = &g->vertices[3 * (size_t)ix[0]];
-    const float *b = &g->vertices[3 * (size_t)ix[1]];
-    const float *c = &g->vertices[3 * (size_t)ix[2]];
-    h->ox[i] = p->org[i].x, h->oy[i] = p->org[i].y, h->oz[i] = p->org[i].z;
-    h->dx[i] = p->dir[i].x, h->dy[i] = p->dir[i].y, h->dz[i] = p->dir[i].z;
-    h->t[i] = p->rh.ray.tfar[i];
-    h->bu[i] = p->rh.hit.u[i];
-    h->bv[i] = p->rh.hit.v[i];
-    h->ax[i] = a[0], h->ay[i] = a[1], h->az[i] = a[2];
-    h->bx[i] = b[0], h->by[i] = b[1], h->bz[i] = b[2];
-    h->cx[i] = c[0], h->cy[i] = c[1], h->cz[i] = c[2];
+    for (int c = 0; c < 3; c++) {
+        const float *v = &g->vertices[3 * (size_t)ix[c]];
+        h->v[3 * c][i] = v[0];
+        h->v[3 * c + 1][i] = v[1];
+        h->v[3 * c + 2][i] = v[2];
+    }
     if (g->corner_normals != NULL) {
         const float *n = &g->corner_normals[9 * (size_t)prim];
         for (int k = 0; k < 9; k++)
             h->n[k][i] = n[k];
-        h->smooth[i] = 1.0;
+        h->smooth[i] = 1.0f;
     } else {
         for (int k = 0; k < 9; k++)
-            h->n[k][i] = 0.0;
-        h->smooth[i] = 0.0;
+            h->n[k][i] = 0.0f;
+        h->smooth[i] = 0.0f;
     }
     const lr__v3 kd = s->materials[g->material].diffuse;
-    h->kr[i] = kd.x, h->kg[i] = kd.y, h->kb[i] = kd.z;
-}
-
-/* Zeros in lane i, which is not plain: the vector loops compute on it
- * too, and their results there are never read. */
-static void gather_lane_blank(soa_hits *h, int i)
-{
-    h->ox[i] = h->oy[i] = h->oz[i] = 0.0;
-    h->dx[i] = h->dy[i] = h->dz[i] = 0.0;
-    h->t[i] = h->bu[i] = h->bv[i] = 0.0;
-    h->ax[i] = h->ay[i] = h->az[i] = 0.0;
-    h->bx[i] = h->by[i] = h->bz[i] = 0.0;
-    h->cx[i] = h->cy[i] = h->cz[i] = 0.0;
-    for (int k = 0; k < 9; k++)
-        h->n[k][i] = 0.0;
-    h->smooth[i] = 0.0;
-    h->kr[i] = h->kg[i] = h->kb[i] = 0.0;
+    h->k[0][i] = kd.x, h->k[1][i] = kd.y, h->k[2][i] = kd.z;
 }
 
 /* finish_hit for all sixteen lanes (lanes that are not plain compute
  * garbage that nobody reads). */
 __attribute__((target_clones("avx2", "default")))
-static void complete_hits(soa_hits *h)
+static void complete_hits(const packet *p, soa_hits *h)
 {
+    const struct RTCRay16 *r = &p->rh.ray;
     for (int i = 0; i < LANES; i++) {
-        /* ng = (b - a) x (c - a) */
-        double e1x = h->bx[i] - h->ax[i], e1y = h->by[i] - h->ay[i],
-               e1z = h->bz[i] - h->az[i];
-        double e2x = h->cx[i] - h->ax[i], e2y = h->cy[i] - h->ay[i],
-               e2z = h->cz[i] - h->az[i];
+        /* ng = (b - a) x (c - a), in double as scene.c does it. */
+        double ax = h->v[0][i], ay = h->v[1][i], az = h->v[2][i];
+        double e1x = (double)h->v[3][i] - ax, e1y = (double)h->v[4][i] - ay,
+               e1z = (double)h->v[5][i] - az;
+        double e2x = (double)h->v[6][i] - ax, e2y = (double)h->v[7][i] - ay,
+               e2z = (double)h->v[8][i] - az;
         double ngx = e1y * e2z - e1z * e2y;
         double ngy = e1z * e2x - e1x * e2z;
         double ngz = e1x * e2y - e1y * e2x;
         /* ns: the corner normals interpolated, or ng. */
-        double u = h->bu[i], v = h->bv[i], w = 1.0 - u - v;
+        double u = p->rh.hit.u[i], v = p->rh.hit.v[i], w = 1.0 - u - v;
         double nsx = w * h->n[0][i] + u * h->n[3][i] + v * h->n[6][i];
         double nsy = w * h->n[1][i] + u * h->n[4][i] + v * h->n[7][i];
         double nsz = w * h->n[2][i] + u * h->n[5][i] + v * h->n[8][i];
-        int smooth = h->smooth[i] != 0.0;
+        int smooth = h->smooth[i] != 0.0f;
         nsx = smooth ? nsx : ngx;
         nsy = smooth ? nsy : ngy;
         nsz = smooth ? nsz : ngz;
-        double t = h->t[i];
-        h->px[i] = h->ox[i] + h->dx[i] * t;
-        h->py[i] = h->oy[i] + h->dy[i] * t;
-        h->pz[i] = h->oz[i] + h->dz[i] * t;
+        double t = r->tfar[i];
+        double dx = r->dir_x[i], dy = r->dir_y[i], dz = r->dir_z[i];
+        h->px[i] = (double)r->org_x[i] + dx * t;
+        h->py[i] = (double)r->org_y[i] + dy * t;
+        h->pz[i] = (double)r->org_z[i] + dz * t;
         /* v3_norm, twice. */
         double lg = sqrt(ngx * ngx + ngy * ngy + ngz * ngz);
         double ig = 1.0 / lg;
@@ -153,7 +121,7 @@ static void complete_hits(soa_hits *h)
         nsx = oks ? nsx * is : nsx;
         nsy = oks ? nsy * is : nsy;
         nsz = oks ? nsz * is : nsz;
-        int entering = h->dx[i] * ngx + h->dy[i] * ngy + h->dz[i] * ngz < 0.0;
+        int entering = dx * ngx + dy * ngy + dz * ngz < 0.0;
         ngx = entering ? ngx : -ngx;
         ngy = entering ? ngy : -ngy;
         ngz = entering ? ngz : -ngz;
@@ -172,8 +140,7 @@ static void complete_hits(soa_hits *h)
         double m = fabs(h->px[i]);
         m = fabs(h->py[i]) > m ? fabs(h->py[i]) : m;
         m = fabs(h->pz[i]) > m ? fabs(h->pz[i]) : m;
-        double dl = sqrt(h->dx[i] * h->dx[i] + h->dy[i] * h->dy[i] +
-                         h->dz[i] * h->dz[i]);
+        double dl = sqrt(dx * dx + dy * dy + dz * dz);
         h->eps[i] = (1.0 + (m + t * dl)) * 0x1p-17;
     }
 }
@@ -220,9 +187,9 @@ static void light_rays(const lr__light *lt, const soa_hits *h, int *ok,
         double orz = h->pz[i] + h->gz[i] * se;
         double qx = lpx - orx, qy = lpy - ory, qz = lpz - orz;
         double tfar = point ? sqrt(qx * qx + qy * qy + qz * qz) : INFINITY;
-        fr[i] = ((h->kr[i] * inv_pi) * Er) * cos_t;
-        fg[i] = ((h->kg[i] * inv_pi) * Eg) * cos_t;
-        fb[i] = ((h->kb[i] * inv_pi) * Eb) * cos_t;
+        fr[i] = ((h->k[0][i] * inv_pi) * Er) * cos_t;
+        fg[i] = ((h->k[1][i] * inv_pi) * Eg) * cos_t;
+        fb[i] = ((h->k[2][i] * inv_pi) * Eb) * cos_t;
         lit_[i] = lit;
         ro[0][i] = orx, ro[1][i] = ory, ro[2][i] = orz;
         rd[0][i] = lx, rd[1][i] = ly, rd[2][i] = lz;
@@ -266,34 +233,35 @@ static void flush(const lr__trace16 *t, packet *p, lr__pixel *acc,
     int has_hit[LANES], plain[LANES], n_plain = 0;
     lr__v3 L[LANES];
     for (int i = 0; i < LANES; i++) {
-        int mat;
-        plain[i] = 0;
+        unsigned g = p->rh.hit.geomID[i];
+        plain[i] = i < p->n && g != RTC_INVALID_GEOMETRY_ID &&
+                   s->geoms[g].plain && !lr__trace16_scalar_only ? -1 : 0;
+        n_plain += plain[i] != 0;
+        gather_lane(s, p, i, plain[i], &sh);
         has_hit[i] = 0;
         if (i >= p->n)
             continue;
-        if (!lr__trace16_scalar_only &&
-            plain_lane(s, p->rh.hit.geomID[i], &mat)) {
-            plain[i] = -1;
+        if (plain[i]) {
             has_hit[i] = 1;
-            n_plain++;
-            gather_lane(s, p, i, &sh);
-            L[i] = v3_mul(s->ambient, s->materials[mat].diffuse);
+            L[i] = v3(s->ambient.x * sh.k[0][i], s->ambient.y * sh.k[1][i],
+                      s->ambient.z * sh.k[2][i]);
             continue;
         }
+        if (g == RTC_INVALID_GEOMETRY_ID && s->n_planes == 0) {
+            L[i] = s->background;   /* what lr__hit_complete would say */
+            continue;
+        }
+        /* The scalar code works in double on the ray as traced. */
+        const struct RTCRay16 *r = &p->rh.ray;
+        p->org[i] = v3(r->org_x[i], r->org_y[i], r->org_z[i]);
+        p->dir[i] = v3(r->dir_x[i], r->dir_y[i], r->dir_z[i]);
         has_hit[i] = lr__hit_complete(
-            s, p->org[i], p->dir[i], INFINITY, p->rh.hit.geomID[i],
-            p->rh.hit.primID[i], p->rh.hit.u[i], p->rh.hit.v[i],
-            p->rh.ray.tfar[i], &hit[i]);
+            s, p->org[i], p->dir[i], INFINITY, g, p->rh.hit.primID[i],
+            p->rh.hit.u[i], p->rh.hit.v[i], p->rh.ray.tfar[i], &hit[i]);
         L[i] = has_hit[i] ? lr__ambient(s, &hit[i]) : s->background;
     }
-    if (n_plain) {
-        /* Lanes that are not plain hold whatever was there; give them
-         * harmless values so the vector loops see no signalling junk. */
-        for (int i = 0; i < LANES; i++)
-            if (!plain[i])
-                gather_lane_blank(&sh, i);
-        complete_hits(&sh);
-    }
+    if (n_plain)
+        complete_hits(p, &sh);
 
     /* One packet of shadow rays per light. */
     ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
@@ -339,12 +307,12 @@ static void flush(const lr__trace16 *t, packet *p, lr__pixel *acc,
         }
     }
 
-    for (int i = 0; i < p->n; i++) {
-        if (!plain[i] && has_hit[i] && t->max_depth > 0)
-            L[i] = v3_add(L[i], lr__secondary(s, &hit[i], p->dir[i], 0,
-                                              t->max_depth, rays));
-        lr__pixel_add(&acc[p->slot[i]], L[i]);
-    }
+    if (t->max_depth > 0)
+        for (int i = 0; i < p->n; i++)
+            if (!plain[i] && has_hit[i])
+                L[i] = v3_add(L[i], lr__secondary(s, &hit[i], p->dir[i], 0,
+                                                  t->max_depth, rays));
+    lr__pixel_add_n(acc, L, p->n);
     p->n = 0;
 }
 
@@ -352,8 +320,8 @@ static void flush(const lr__trace16 *t, packet *p, lr__pixel *acc,
  * samples (lu, lv), in single precision, lane by lane in loops the
  * compiler can vectorise; the same geometry as lr__cam_lens_ray (see
  * camera.h), computed in floats since Embree traces floats anyway.  The
- * rays are written straight into the packet, and copied to p->org and
- * p->dir so that hits are completed on exactly the ray that was traced. */
+ * rays are written straight into the packet; hits are completed on
+ * exactly the ray that was traced, read back from it. */
 /* Built for AVX2 and for any x86-64, chosen at load time (the float
  * arithmetic is the same in both, lane by lane: no FMA contraction, as
  * -ffp-contract=off in the Makefile keeps it). */
@@ -438,10 +406,6 @@ static void make_camera_rays(const lr__cam *c, int use_lens, packet *p,
         p->rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
         p->rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
     }
-    for (int i = 0; i < n; i++) {
-        p->org[i] = v3(r->org_x[i], r->org_y[i], r->org_z[i]);
-        p->dir[i] = v3(r->dir_x[i], r->dir_y[i], r->dir_z[i]);
-    }
 }
 
 void lr__trace16_pixel(const lr__trace16 *t, int x, int y, int first,
@@ -469,7 +433,6 @@ void lr__trace16_pixel(const lr__trace16 *t, int x, int y, int first,
             fy[i] = (float)(y + (double)u[1][i]);
             lu[i] = u[2][i];
             lv[i] = u[3][i];
-            p.slot[i] = 0;
         }
         make_camera_rays(t->cam, use_lens, &p, n, fx, fy, lu, lv);
         p.n = n;
