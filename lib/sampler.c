@@ -107,6 +107,9 @@ static uint32_t sobol_v[4][32];
  * fast path never needs to reverse the index or the point before it. */
 static uint32_t sobol_t[4][4][256];
 static uint32_t sobol_rt[4][4][256];
+/* sobol_rt[d][3] rearranged for sixteen aligned samples (see
+ * sobol16_avx512): sobol_rt16[d][lo][hi] = sobol_rt[d][3][lo + 16 hi]. */
+static uint32_t sobol_rt16[4][16][16] __attribute__((aligned(64)));
 static pthread_once_t sobol_once = PTHREAD_ONCE_INIT;
 
 static void sobol_init(void)
@@ -155,6 +158,10 @@ static void sobol_init(void)
                 sobol_t[d][b][x] = r;
                 sobol_rt[d][b][x] = rr;
             }
+    for (int d = 0; d < 4; d++)
+        for (int lo = 0; lo < 16; lo++)
+            for (int hi = 0; hi < 16; hi++)
+                sobol_rt16[d][lo][hi] = sobol_rt[d][3][lo + 16 * hi];
 }
 
 /* reverse_bits(sobol(reverse_bits(r), d)), from r's bytes. */
@@ -353,12 +360,36 @@ static void sobol16_avx512(const lr__pixel_sampler *ps, uint32_t first,
                            float out[4][16])
 {
     static const int map[4] = {2, 3, 0, 1};
-    const __m512i ff = _mm512_set1_epi32(0xff);
     __m512i idx = _mm512_add_epi32(
         _mm512_set1_epi32((int)first),
         _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14,
                           15));
     __m512i r = lk_permute16(rev_bits16(idx), ps->shuffle);
+    const __m512 unit = _mm512_set1_ps(0x1p-24f);
+    if (first % 16 == 0) {
+        /* Sixteen samples 16q .. 16q + 15: their reversed indices
+         * differ only in bits 28..31, and the shuffle's output bits
+         * 0..27 depend only on its input bits 0..27, so the lanes' r
+         * share bits 0..27: three of the four table lookups are common,
+         * and the fourth picks one of sixteen entries by r's top
+         * nibble: a permute of one row of sobol_rt16, no gathers. */
+        uint32_t r0 = lk_permute(reverse_bits(first), ps->shuffle);
+        __m512i hi = _mm512_srli_epi32(r, 28);
+        unsigned lo = (r0 >> 24) & 0xfu;
+        for (int d = 0; d < 4; d++) {
+            const uint32_t(*t)[256] = sobol_rt[map[d]];
+            uint32_t c = t[0][r0 & 0xffu] ^ t[1][(r0 >> 8) & 0xffu] ^
+                         t[2][(r0 >> 16) & 0xffu];
+            __m512i row = _mm512_load_si512(sobol_rt16[map[d]][lo]);
+            __m512i v = _mm512_xor_si512(_mm512_set1_epi32((int)c),
+                                         _mm512_permutexvar_epi32(hi, row));
+            v = rev_bits16(lk_permute16(v, ps->scramble[d]));
+            __m512 f = _mm512_cvtepi32_ps(_mm512_srli_epi32(v, 8));
+            _mm512_storeu_ps(out[d], _mm512_mul_ps(f, unit));
+        }
+        return;
+    }
+    const __m512i ff = _mm512_set1_epi32(0xff);
     __m512i b0 = _mm512_and_si512(r, ff);
     __m512i b1 = _mm512_and_si512(_mm512_srli_epi32(r, 8), ff);
     __m512i b2 = _mm512_and_si512(_mm512_srli_epi32(r, 16), ff);
@@ -372,7 +403,7 @@ static void sobol16_avx512(const lr__pixel_sampler *ps, uint32_t first,
                              _mm512_i32gather_epi32(b3, t[3], 4)));
         v = rev_bits16(lk_permute16(v, ps->scramble[d]));
         __m512 f = _mm512_cvtepi32_ps(_mm512_srli_epi32(v, 8));
-        _mm512_storeu_ps(out[d], _mm512_mul_ps(f, _mm512_set1_ps(0x1p-24f)));
+        _mm512_storeu_ps(out[d], _mm512_mul_ps(f, unit));
     }
 }
 

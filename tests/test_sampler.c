@@ -239,8 +239,9 @@ static void test_get16_matches_get(void **state)
                         __builtin_cpu_supports("avx512bw")};
     lr__sampler s;
     lr__sampler_init(&s, LR_SAMPLER_SOBOL, 11, 64);
+    /* Aligned starts (multiples of 16, the fast path) and others. */
     static const uint32_t firsts[] = {0, 16, 4096, 0x00fffff0u, 0x7ffffff0u,
-                                      0xfffffff0u};
+                                      0xfffffff0u, 4, 9, 0x12345677u};
     int versions = 0;
     for (int isa = 1; isa <= 3; isa++) {
         if (!has[isa])
