@@ -81,9 +81,13 @@ $(BUILD)/obj/%.o: %.c $(DEPS_OK)
 
 # The packet path's lane loops are written for the vectoriser, which
 # GCC runs in full at -O3 (unless OPT says otherwise, e.g. -O0 to debug).
-# (-fno-math-errno: sqrtf need not set errno, which would stop it.)
+# (-fno-math-errno: sqrtf need not set errno, which would stop it;
+# -fno-trapping-math lets it if-convert the lane loops' selects; neither
+# changes a result.  The AVX-512 clones use 512-bit vectors: 4% faster
+# on the bench scene than 256.)
 $(BUILD)/obj/lib/trace16.o: CFLAGS += $(if $(filter -O2,$(OPT)),-O3) \
-                                      -fno-math-errno -fno-trapping-math
+                                      -fno-math-errno -fno-trapping-math \
+                                      -mprefer-vector-width=512
 $(BUILD)/obj/lib/sampler.o: CFLAGS += $(if $(filter -O2,$(OPT)),-O3)
 
 $(BUILD)/liblensray.a: $(LIB_OBJ)

@@ -80,7 +80,7 @@ static void gather_lane(const lr_scene *s, const packet *p, int i,
 
 /* finish_hit for all sixteen lanes (lanes that are not plain compute
  * garbage that nobody reads). */
-__attribute__((target_clones("avx2", "default")))
+__attribute__((target_clones("avx512f", "avx2", "default")))
 static void complete_hits(const packet *p, soa_hits *h)
 {
     const struct RTCRay16 *r = &p->rh.ray;
@@ -148,7 +148,7 @@ static void complete_hits(const packet *p, soa_hits *h)
 /* lr__light_ray_setup for a diffuse material, all lanes at once: fills
  * the shadow packet's rays, ok[i] (-1 where a shadow ray is needed, in
  * lanes where ok[i] was -1 before) and the contribution f E cos. */
-__attribute__((target_clones("avx2", "default")))
+__attribute__((target_clones("avx512f", "avx2", "default")))
 static void light_rays(const lr__light *lt, const soa_hits *h, int *ok,
                        struct RTCRay16 *r, double fr[LANES],
                        double fg[LANES], double fb[LANES])
@@ -322,10 +322,10 @@ static void flush(const lr__trace16 *t, packet *p, lr__pixel *acc,
  * camera.h), computed in floats since Embree traces floats anyway.  The
  * rays are written straight into the packet; hits are completed on
  * exactly the ray that was traced, read back from it. */
-/* Built for AVX2 and for any x86-64, chosen at load time (the float
- * arithmetic is the same in both, lane by lane: no FMA contraction, as
- * -ffp-contract=off in the Makefile keeps it). */
-__attribute__((target_clones("avx2", "default")))
+/* Built for AVX-512, AVX2 and any x86-64, chosen at load time (the
+ * float arithmetic is the same in all, lane by lane: no FMA contraction,
+ * as -ffp-contract=off in the Makefile keeps it). */
+__attribute__((target_clones("avx512f", "avx2", "default")))
 static void make_camera_rays(const lr__cam *c, int use_lens, packet *p,
                              int n,
                         const float *fx, const float *fy, const float *lu,
