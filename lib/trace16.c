@@ -42,19 +42,13 @@ typedef struct soa_hits {
     double eps[LANES];
 } soa_hits;
 
-/* Gathers lane i's triangle into h: a plain lane (see lr__geom.plain),
- * or zeros for a lane that is not, which the vector loops compute on
- * too and whose results are never read. */
+/* Gathers plain lane i's triangle (see lr__geom.plain) into h.  Lanes
+ * that are not plain keep what they held (zeros, or an earlier packet's
+ * triangle): the vector loops compute on them too, and nobody reads
+ * those results. */
 static void gather_lane(const lr_scene *s, const packet *p, int i,
-                        int plain, soa_hits *h)
+                        soa_hits *h)
 {
-    if (!plain) {
-        for (int k = 0; k < 9; k++)
-            h->v[k][i] = h->n[k][i] = 0.0f;
-        h->smooth[i] = 0.0f;
-        h->k[0][i] = h->k[1][i] = h->k[2][i] = 0.0;
-        return;
-    }
     const lr__geom *g = &s->geoms[p->rh.hit.geomID[i]];
     unsigned prim = p->rh.hit.primID[i];
     const unsigned *ix = &g->indices[3 * (size_t)prim];
@@ -214,8 +208,8 @@ static void light_rays(const lr__light *lt, const soa_hits *h, int *ok,
     }
 }
 
-static void flush(const lr__trace16 *t, packet *p, lr__pixel *acc,
-                  uint64_t *rays)
+static void flush(const lr__trace16 *t, packet *p, soa_hits *sh,
+                  lr__pixel *acc, uint64_t *rays)
 {
     const lr_scene *s = t->scene;
     struct RTCIntersectContext ctx;
@@ -228,7 +222,6 @@ static void flush(const lr__trace16 *t, packet *p, lr__pixel *acc,
 
     /* Each lane is plain (the vector path), scalar (hit completed by
      * lr__hit_complete and shaded by shade.c) or a miss. */
-    soa_hits sh;
     lr__hit hit[LANES];
     int has_hit[LANES], plain[LANES], n_plain = 0;
     lr__v3 L[LANES];
@@ -237,14 +230,15 @@ static void flush(const lr__trace16 *t, packet *p, lr__pixel *acc,
         plain[i] = i < p->n && g != RTC_INVALID_GEOMETRY_ID &&
                    s->geoms[g].plain && !lr__trace16_scalar_only ? -1 : 0;
         n_plain += plain[i] != 0;
-        gather_lane(s, p, i, plain[i], &sh);
+        if (plain[i])
+            gather_lane(s, p, i, sh);
         has_hit[i] = 0;
         if (i >= p->n)
             continue;
         if (plain[i]) {
             has_hit[i] = 1;
-            L[i] = v3(s->ambient.x * sh.k[0][i], s->ambient.y * sh.k[1][i],
-                      s->ambient.z * sh.k[2][i]);
+            L[i] = v3(s->ambient.x * sh->k[0][i], s->ambient.y * sh->k[1][i],
+                      s->ambient.z * sh->k[2][i]);
             continue;
         }
         if (g == RTC_INVALID_GEOMETRY_ID && s->n_planes == 0) {
@@ -261,7 +255,7 @@ static void flush(const lr__trace16 *t, packet *p, lr__pixel *acc,
         L[i] = has_hit[i] ? lr__ambient(s, &hit[i]) : s->background;
     }
     if (n_plain)
-        complete_hits(p, &sh);
+        complete_hits(p, sh);
 
     /* One packet of shadow rays per light. */
     ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
@@ -272,7 +266,7 @@ static void flush(const lr__trace16 *t, packet *p, lr__pixel *acc,
         if (n_plain) {
             for (int i = 0; i < LANES; i++)
                 p->valid[i] = plain[i];
-            light_rays(&s->lights[k], &sh, p->valid, &p->shadow, fr, fg,
+            light_rays(&s->lights[k], sh, p->valid, &p->shadow, fr, fg,
                        fb);
         } else {
             for (int i = 0; i < LANES; i++)
@@ -413,6 +407,8 @@ void lr__trace16_pixel(const lr__trace16 *t, int x, int y, int first,
                        uint64_t *rays, uint64_t *camera_rays)
 {
     packet p;
+    soa_hits sh;
+    memset(&sh, 0, sizeof sh);
     float fx[LANES], fy[LANES], lu[LANES], lv[LANES];
     for (int i = 0; i < LANES; i++)
         fx[i] = fy[i] = lu[i] = lv[i] = 0.5f;
@@ -437,6 +433,6 @@ void lr__trace16_pixel(const lr__trace16 *t, int x, int y, int first,
         make_camera_rays(t->cam, use_lens, &p, n, fx, fy, lu, lv);
         p.n = n;
         *camera_rays += (uint64_t)n;
-        flush(t, &p, acc, rays);
+        flush(t, &p, &sh, acc, rays);
     }
 }
