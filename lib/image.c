@@ -170,9 +170,9 @@ lr_status lr_image_encode(const lr_image *img, lr_format fmt,
 
     switch (fmt) {
     case LR_FORMAT_EXR:
-        return lr__encode_exr(img, opts, buf, len, err);
+        return lr__encode_exr(img, opts, -1, buf, len, err);
     case LR_FORMAT_PNG:
-        return lr__encode_png(img, opts, buf, len, err);
+        return lr__encode_png(img, opts, -1, buf, len, err);
     }
     return lr__fail(err, LR_ERR_INVALID, NULL,
                     "lr_image_encode: unknown image format %d", (int)fmt);
@@ -218,22 +218,6 @@ static int create_temp_beside(const char *path, char **tmp_name)
     return -1;
 }
 
-/* Writes all `len` bytes, retrying short writes and interruptions. */
-static int write_all(int fd, const unsigned char *p, size_t len)
-{
-    while (len > 0) {
-        ssize_t n = write(fd, p, len);
-        if (n < 0) {
-            if (errno == EINTR)
-                continue;
-            return -1;
-        }
-        p += n;
-        len -= (size_t)n;
-    }
-    return 0;
-}
-
 lr_status lr_image_write(const lr_image *img, const char *path,
                          const lr_output_options *opts, lr_error *err)
 {
@@ -245,25 +229,41 @@ lr_status lr_image_write(const lr_image *img, const char *path,
     if (st != LR_OK)
         return st;
 
+    if (img == NULL || img->rgb == NULL)
+        return lr__fail(err, LR_ERR_INVALID, NULL,
+                        "lr_image_write: there is no image to write");
+    lr_output_options defaults;
+    if (opts == NULL) {
+        lr_output_options_default(&defaults);
+        opts = &defaults;
+    }
+
+    /* Encoded straight into a temporary file beside `path`, so the file
+     * never costs its size in memory, then renamed into place. */
+    char *tmp_name = NULL;
+    int fd = create_temp_beside(path, &tmp_name);
+    if (fd < 0 && errno == ENOMEM && tmp_name == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    if (fd < 0) {
+        int saved = errno;
+        return lr__fail(err, LR_ERR_IO, NULL,
+                        "cannot create a temporary file for '%s': %s", path,
+                        strerror(saved));
+    }
+
     void *buf = NULL;
     size_t len = 0;
-    st = lr_image_encode(img, fmt, opts, &buf, &len, err);
-    if (st != LR_OK)
+    st = fmt == LR_FORMAT_EXR
+             ? lr__encode_exr(img, opts, fd, &buf, &len, err)
+             : lr__encode_png(img, opts, fd, &buf, &len, err);
+    if (st != LR_OK) {
+        close(fd);
+        unlink(tmp_name);
+        free(tmp_name);
         return st;
-
-    char *tmp_name = NULL;
-    const char *what = "create a temporary file for";
-    int fd = create_temp_beside(path, &tmp_name);
-    if (fd < 0 && errno == ENOMEM && tmp_name == NULL) {
-        free(buf);
-        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     }
-    if (fd < 0)
-        goto io_error;
 
-    what = "write";
-    if (write_all(fd, buf, len) != 0)
-        goto io_error;
+    const char *what = "flush";
     /* Flushing before the rename means a crash cannot leave a renamed
      * but empty or truncated file under `path`. */
     if (fsync(fd) != 0)
@@ -279,17 +279,14 @@ lr_status lr_image_write(const lr_image *img, const char *path,
         goto io_error;
 
     free(tmp_name);
-    free(buf);
     return LR_OK;
 
 io_error:;
     int saved = errno;
     if (fd >= 0)
         close(fd);
-    if (tmp_name != NULL)
-        unlink(tmp_name);
+    unlink(tmp_name);
     free(tmp_name);
-    free(buf);
     return lr__fail(err, LR_ERR_IO, NULL, "cannot %s '%s': %s", what, path,
                     strerror(saved));
 }

@@ -19,17 +19,21 @@
 
 #include <openexr.h>
 
+#include <errno.h>
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 /* ---- the in-memory stream --------------------------------------------- */
 
 /* The output buffer plus what the error handler learnt; it is the
  * context's user data. */
 typedef struct exr_sink {
+    int fd;             /* >= 0: write to this file instead */
+    int io_errno;       /* the errno of a failed write to fd */
     unsigned char *data;
     size_t len, cap;
     int out_of_memory;  /* set when the buffer could not grow */
@@ -69,6 +73,23 @@ static int64_t sink_write(exr_const_context_t ctxt, void *user,
      * LR_ERR_NOMEM. */
     (void)ctxt;
     (void)error_cb;
+    if (sink->fd >= 0) {
+        const unsigned char *p = buffer;
+        uint64_t left = sz, at = offset;
+        while (left > 0) {
+            ssize_t n = pwrite(sink->fd, p, left, (off_t)at);
+            if (n < 0 && errno == EINTR)
+                continue;
+            if (n <= 0) {
+                sink->io_errno = n < 0 ? errno : EIO;
+                return -1;
+            }
+            p += n;
+            at += (uint64_t)n;
+            left -= (uint64_t)n;
+        }
+        return (int64_t)sz;
+    }
     if (offset > SIZE_MAX || sz > SIZE_MAX - offset) {
         sink->out_of_memory = 1;
         return -1;
@@ -219,7 +240,7 @@ static exr_result_t bind_channels(exr_encode_pipeline_t *enc, int half,
 }
 
 lr_status lr__encode_exr(const lr_image *img, const lr_output_options *opts,
-                         void **buf, size_t *len, lr_error *err)
+                         int fd, void **buf, size_t *len, lr_error *err)
 {
     *buf = NULL;
     *len = 0;
@@ -232,6 +253,7 @@ lr_status lr__encode_exr(const lr_image *img, const lr_output_options *opts,
     if (sink == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL,
                         "out of memory starting the EXR encoder");
+    sink->fd = fd;
 
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
     init.error_handler_fn = sink_error_handler;
@@ -367,12 +389,19 @@ fail:
         lr_status st = (sink->out_of_memory || rv == EXR_ERR_OUT_OF_MEMORY)
                            ? LR_ERR_NOMEM
                            : LR_ERR_IO;
-        lr__fail(err, st, NULL,
-                 "cannot encode a %d x %d EXR: failed to %s: %s%s%s%s",
-                 img->width, img->height, step,
-                 exr_get_default_error_message(rv),
-                 sink->message[0] ? " (" : "", sink->message,
-                 sink->message[0] ? ")" : "");
+        if (sink->io_errno != 0)
+            lr__fail(err, LR_ERR_IO, NULL,
+                     "cannot write a %d x %d EXR: failed to %s: %s",
+                     img->width, img->height, step,
+                     strerror(sink->io_errno));
+        else
+            lr__fail(err, st, NULL,
+                     "cannot encode a %d x %d EXR: failed to %s: %s%s%s%s",
+                     img->width, img->height, step,
+                     exr_get_default_error_message(rv),
+                     sink->message[0] ? " (" : "", sink->message,
+                     sink->message[0] ? ")" : "");
+        st = sink->io_errno != 0 ? LR_ERR_IO : st;
         free(sink->data);
         free(sink);
         return st;

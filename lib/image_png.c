@@ -1,18 +1,23 @@
 /*
- * image_png.c: encodes an lr_image as an sRGB PNG in memory with libpng.
+ * image_png.c: encodes an lr_image as an sRGB PNG with libpng, in memory
+ * or straight into a file.
  * The Z channel, if any, is not stored: PNG has no place for it.
  */
 #include "internal.h"
 
+#include <errno.h>
 #include <png.h>
 #include <setjmp.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 /* The growing output buffer plus what the error callback learnt, passed
  * to the libpng callbacks through their user pointers. */
 typedef struct png_sink {
+    int fd;             /* >= 0: write to this file instead */
+    int io_errno;       /* the errno of a failed write to fd */
     unsigned char *data;
     size_t len, cap;
     int out_of_memory;  /* set when the buffer could not grow */
@@ -42,6 +47,22 @@ static void sink_warning(png_structp png, png_const_charp msg)
 static void sink_write(png_structp png, png_bytep data, png_size_t n)
 {
     png_sink *sink = png_get_io_ptr(png);
+    if (sink->fd >= 0) {
+        while (n > 0) {
+            ssize_t w = write(sink->fd, data, n);
+            if (w < 0 && errno == EINTR)
+                continue;
+            if (w <= 0) {
+                sink->io_errno = w < 0 ? errno : EIO;
+                snprintf(sink->message, sizeof sink->message, "%s",
+                         strerror(sink->io_errno));
+                png_error(png, sink->message);
+            }
+            data += w;
+            n -= (size_t)w;
+        }
+        return;
+    }
     if (n > sink->cap - sink->len) {
         /* Doubling keeps the number of reallocations logarithmic in the
          * size of the file. */
@@ -89,7 +110,7 @@ static void convert_row(const float *src, int width, int sixteen,
 }
 
 lr_status lr__encode_png(const lr_image *img, const lr_output_options *opts,
-                         void **buf, size_t *len, lr_error *err)
+                         int fd, void **buf, size_t *len, lr_error *err)
 {
     *buf = NULL;
     *len = 0;
@@ -111,6 +132,7 @@ lr_status lr__encode_png(const lr_image *img, const lr_output_options *opts,
                         "out of memory encoding a PNG of width %d",
                         img->width);
     }
+    sink->fd = fd;
 
     png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, sink,
                                               sink_error, sink_warning);
@@ -127,8 +149,9 @@ lr_status lr__encode_png(const lr_image *img, const lr_output_options *opts,
         png_destroy_write_struct(&png, &info);
         free(row);
         lr_status st = sink->out_of_memory ? LR_ERR_NOMEM : LR_ERR_IO;
-        lr__fail(err, st, NULL, "cannot encode a %d x %d PNG: %s",
-                 img->width, img->height, sink->message);
+        lr__fail(err, st, NULL, "cannot %s a %d x %d PNG: %s",
+                 sink->io_errno ? "write" : "encode", img->width,
+                 img->height, sink->message);
         free(sink->data);
         free(sink);
         return st;

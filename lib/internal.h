@@ -38,13 +38,16 @@ struct lr_image {
 
 /* ---- encoders (image_exr.c, image_png.c) ------------------------------ */
 
-/* Each encodes `img` to a malloc'ed buffer (*buf, *len) that the caller
- * frees with free().  `opts` is never NULL here.  On failure *buf is NULL
- * and nothing leaks. */
+/* Each encodes `img`: with fd < 0 to a malloc'ed buffer (*buf, *len)
+ * that the caller frees with free(); with fd >= 0 straight into that
+ * file (at offset 0 on, opened for writing and empty), so that a file
+ * never costs its size in memory, and *buf stays NULL.  `opts` is never
+ * NULL here.  On failure *buf is NULL and nothing leaks; a failed write
+ * is LR_ERR_IO with the system's reason. */
 lr_status lr__encode_exr(const lr_image *img, const lr_output_options *opts,
-                         void **buf, size_t *len, lr_error *err);
+                         int fd, void **buf, size_t *len, lr_error *err);
 lr_status lr__encode_png(const lr_image *img, const lr_output_options *opts,
-                         void **buf, size_t *len, lr_error *err);
+                         int fd, void **buf, size_t *len, lr_error *err);
 
 /* sRGB transfer function (IEC 61966-2-1) of a linear value clamped to
  * [0, 1]; NaN maps to 0. */
