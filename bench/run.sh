@@ -221,5 +221,24 @@ else
     say "Mitsuba: not available ($(sed 's/^MITSUBA_UNAVAILABLE //' "$OUT/mitsuba.log" | head -1))"
 fi
 
+# ---- 5. memory ---------------------------------------------------------------
+# Peak RSS of a MEM_W x MEM_H render at MEM_SPP spp (every sample traced,
+# written as EXR) against the film's own size plus what the same process
+# holds for an 8 x 8 render of the scene (the program, Embree's BVH, the
+# mesh): peak_rss_kib of --stats, the process's VmHWM after writing.
+MEM_W=${BENCH_MEM_W:-3840}
+MEM_H=${BENCH_MEM_H:-2160}
+MEM_SPP=${BENCH_MEM_SPP:-64}
+say "peak memory: ${MEM_W} x ${MEM_H} at $MEM_SPP spp, and an 8 x 8 render"
+base=$("$LENSRAY" render "$SCENE" -o "$OUT/mem-small.exr" --quiet --stats \
+        --set render.width=8 --set render.height=8 --set render.spp=1 |
+       sed -n 's/.*"peak_rss_kib": \([0-9]*\).*/\1/p')
+big=$("$LENSRAY" render "$SCENE" -o "$OUT/mem-big.exr" --quiet --stats $FULL \
+        --set render.width="$MEM_W" --set render.height="$MEM_H" --set render.spp="$MEM_SPP" |
+      sed -n 's/.*"peak_rss_kib": \([0-9]*\).*/\1/p')
+echo "MEMORY width=$MEM_W height=$MEM_H spp=$MEM_SPP film_bytes=$((MEM_W * MEM_H * 12)) base_kib=${base:-0} peak_kib=${big:-0}" > "$OUT/memory.log"
+cat "$OUT/memory.log"
+rm -f "$OUT/mem-small.exr" "$OUT/mem-big.exr"
+
 # ---- summary ---------------------------------------------------------------
 python3 bench/summary.py "$OUT" | tee "$OUT/results.txt"

@@ -255,6 +255,21 @@ def main():
             checks.append(('same picture as Mitsuba: mean relative difference < %d%%'
                            % (TARGET_IMAGE * 100), c['mean_rel'] < TARGET_IMAGE,
                            '%.2f%%' % (100 * c['mean_rel'])))
+    for l in read(d, 'memory.log'):
+        if l.startswith('MEMORY '):
+            mm = kv(l)
+            film = mm['film_bytes'] / 1048576.0
+            base, peak = mm['base_kib'] / 1024.0, mm['peak_kib'] / 1024.0
+            if peak > 0:
+                p('memory: %dx%d at %d spp: peak RSS %.1f MiB; film %.1f MiB + the '
+                  'process with the scene (an 8x8 render) %.1f MiB = %.1f MiB; '
+                  'over by %.1f MiB (%.1f%%)'
+                  % (mm['width'], mm['height'], mm['spp'], peak, film, base,
+                     film + base, peak - film - base,
+                     100.0 * (peak - film - base) / (film + base)))
+                checks.append(('peak RSS within film + scene (+5%%)',
+                               peak <= 1.05 * (film + base),
+                               '%.1f of %.1f MiB' % (peak, film + base)))
     p('')
     p('targets (%s):' % how)
     for name, ok, val in checks:

@@ -240,6 +240,19 @@ EOF
 
 # ---- successful renders --------------------------------------------------------
 
+@test "--stats reports the peak memory, which holds the film and not much more" {
+    # 1500 x 1000 RGB floats are 17.2 MiB (17578 KiB); writing the EXR
+    # streams into the file, so the peak stays near film + program + scene
+    # (about 10 MiB more as built, 37 MiB under AddressSanitizer).
+    run -0 "$LENSRAY" render "$BATS_TEST_DIRNAME/data/tiny.json" -o "$T/big.exr" \
+        --set render.width=1500 --set render.height=1000 --set render.spp=1 \
+        --stats --quiet
+    rss=$(echo "$output" | sed -n 's/.*"peak_rss_kib": \([0-9]*\).*/\1/p')
+    [ -n "$rss" ]
+    [ "$rss" -ge 17578 ]
+    [ "$rss" -le $((17578 + 80000)) ]
+}
+
 @test "a PNG render exits 0 and writes a PNG of the scene's size" {
     run -0 "$LENSRAY" render "$T/scene.json" -o "$T/out.png"
     [ "$(hex_bytes "$T/out.png" 0 8)" = 89504e470d0a1a0a ]

@@ -33,7 +33,8 @@ static const char usage_text[] =
     "                      --set camera.fov=30 --set render.spp=64\n"
     "                      --set 'objects[1].radius=0.5' (VALUE is JSON,\n"
     "                      or a plain string); may be repeated\n"
-    "  --stats             print a JSON line with time, rays and samples/s\n"
+    "  --stats             print a JSON line with time, rays, samples/s,\n"
+    "                      the plan and the peak memory (peak_rss_kib)\n"
     "  --half              EXR: write RGB as half floats\n"
     "  --png16             PNG: 16 bits per channel\n"
     "  --depth             also render the Z channel (written to EXR)\n"
@@ -89,6 +90,22 @@ static void on_progress(void *user, uint64_t done, uint64_t total)
     if (done >= total)
         fputc('\n', stderr);
     fflush(stderr);
+}
+
+/* This process's peak resident set size so far in KiB (VmHWM, which
+ * starts afresh at exec, unlike getrusage's maxrss), or -1 if unknown. */
+static long peak_rss_kib(void)
+{
+    FILE *f = fopen("/proc/self/status", "r");
+    if (f == NULL)
+        return -1;
+    char line[256];
+    long kib = -1;
+    while (fgets(line, sizeof line, f) != NULL)
+        if (sscanf(line, "VmHWM: %ld kB", &kib) == 1)
+            break;
+    fclose(f);
+    return kib;
 }
 
 static int exit_for(lr_status st)
@@ -248,7 +265,8 @@ static int cmd_render(int argc, char **argv)
                "\"spp\": %d, \"threads\": %d, \"samples\": %llu, "
                "\"rays\": %llu, \"samples_per_second\": %.0f, "
                "\"rays_per_second\": %.0f, \"nan_samples\": %llu, "
-               "\"primitives\": %zu, \"plan\": {\"enabled\": %s, "
+               "\"primitives\": %zu, \"peak_rss_kib\": %ld, "
+               "\"plan\": {\"enabled\": %s, "
                "\"adaptive\": %s, \"lens_pixels\": %.4f, "
                "\"chroma_pixels\": %.4f, \"samples\": %llu, "
                "\"full_samples\": %llu, \"camera_rays\": %llu, "
@@ -257,7 +275,8 @@ static int cmd_render(int argc, char **argv)
                (unsigned long long)rst.samples,
                (unsigned long long)rst.rays, (double)rst.samples / s,
                (double)rst.rays / s, (unsigned long long)rst.nan_samples,
-               lr_scene_primitive_count(scene), rs.plan ? "true" : "false",
+               lr_scene_primitive_count(scene), peak_rss_kib(),
+               rs.plan ? "true" : "false",
                rs.adaptive ? "true" : "false",
                (double)rst.lens_pixels / px, (double)rst.chroma_pixels / px,
                (unsigned long long)rst.samples,
