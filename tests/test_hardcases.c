@@ -1890,7 +1890,8 @@ static void test_obj_hostile(void **state)
     OBJ("vn-tiny.obj", "vn 1e-320 0 0\nf 1//1 2//1 3//1\n", 4, NULL);
     OBJ("f-one.obj", "f 1\n", 4, "at least 3 corners");
     OBJ("f-bare.obj", "f\n", 4, "at least 3 corners");
-    OBJ("cont-eof.obj", "f 1 2 \\", 4, "bad face corner '\\'");
+    OBJ("cont-eof.obj", "f 1 2 \\", 4,
+        "line continuation '\\' at the end of the file");
     OBJ("later-line.obj", "\n\n\n# comment\n\nf 1 2 9\n", 9, "out of range");
     /* Bytes beyond ASCII in a quoted token are shown as \xNN, so the
      * message stays valid UTF-8 (found by fuzz_obj). */
