@@ -181,35 +181,41 @@ soak: all
 
 # ---- fuzzing ------------------------------------------------------------
 # libFuzzer targets for the scene, OBJ and job parsers (fuzz/fuzz_*.c),
-# built with clang under AddressSanitizer and UBSan in build/fuzz.  `make
-# fuzz` runs each for FUZZ_SECONDS (clang is installed like the other
-# dependencies, but only for this target).  New corpus entries go to
-# build/fuzz/corpus/NAME, crashes to build/fuzz/crashes/NAME; a crash stops
-# the run.  Copy a fixed crash into tests/corpus/NAME/ and `make test`
-# replays it from then on.  `make fuzz FUZZ=obj` runs one target.
-FUZZ_SECONDS ?= 60
-FUZZ_CC      ?= clang
-FUZZ_BUILD   := build/fuzz
-FUZZ         ?= scene obj $(if $(SVC_SRC),job)
-FUZZ_SAN     := -fsanitize=address,undefined -fno-sanitize-recover=undefined \
-                -fno-omit-frame-pointer -Wno-unknown-warning-option \
-                '-Dtarget_clones(...)=unused'
+# built with clang under AddressSanitizer and UBSan in build/fuzz, apart
+# from the other builds.  `make fuzz` runs each for FUZZ_SECONDS (clang is
+# installed like the other dependencies, but only for these targets).  New
+# corpus entries go to build/fuzz/corpus/NAME, crashes to
+# build/fuzz/crashes/NAME; a crash stops the run.  Copy a fixed crash into
+# tests/corpus/NAME/ and `make test` replays it from then on.  `make fuzz
+# FUZZ=obj` runs one target.
+#
+# `make fuzz-ci` is the short, repeatable session that `make test` runs
+# (tests/all.sh): each target for FUZZ_CI_SECONDS from the seeds and
+# tests/corpus only, with a fixed seed, in build/fuzz/ci; it ends with
+# "N passed, N failed", one per target (fuzz/run.sh).
+FUZZ_SECONDS    ?= 60
+FUZZ_CI_SECONDS ?= 20
+FUZZ_CC         ?= clang
+FUZZ_BUILD      := build/fuzz
+FUZZ            ?= scene obj $(if $(SVC_SRC),job)
+FUZZ_SAN        := -fsanitize=address,undefined -fno-sanitize-recover=undefined \
+                   -fno-omit-frame-pointer -Wno-unknown-warning-option \
+                   '-Dtarget_clones(...)=unused'
 # (clang 14 leaves the resolver of a hidden target_clones function
 # undefined at link time; the fuzz build keeps only the default versions.)
-FUZZ_OPTS    ?= -timeout=20 -rss_limit_mb=2560 -max_len=8192 -print_final_stats=1
+FUZZ_OPTS       ?= -timeout=20 -rss_limit_mb=2560 -max_len=8192 -print_final_stats=1
+export FUZZ_OPTS
 
-.PHONY: fuzz fuzz-build
+.PHONY: fuzz fuzz-build fuzz-ci
 fuzz: fuzz-build
-	@for t in $(FUZZ); do \
-	  mkdir -p $(FUZZ_BUILD)/corpus/$$t $(FUZZ_BUILD)/crashes/$$t; \
-	  echo "make: fuzzing $$t for $(FUZZ_SECONDS) s"; \
-	  LSAN_OPTIONS=suppressions=fuzz/lsan.supp \
-	  $(FUZZ_BUILD)/fuzz_$$t -max_total_time=$(FUZZ_SECONDS) $(FUZZ_OPTS) \
-	    -dict=fuzz/$$t.dict -artifact_prefix=$(FUZZ_BUILD)/crashes/$$t/ \
-	    $(FUZZ_BUILD)/corpus/$$t fuzz/seeds/$$t tests/corpus/$$t || { \
-	    echo "make: fuzz_$$t found a problem; the input is in $(FUZZ_BUILD)/crashes/$$t/"; \
-	    exit 1; }; \
-	done
+	@sh fuzz/run.sh explore $(FUZZ_BUILD) $(FUZZ_SECONDS) $(FUZZ)
+
+# A build that fails (no clang, no libFuzzer) fails every target.
+fuzz-ci:
+	@$(MAKE) --no-print-directory fuzz-build || { \
+	  echo "fuzz: the libFuzzer targets did not build (see above)"; \
+	  echo "0 passed, $(words $(FUZZ)) failed"; exit 1; }
+	@sh fuzz/run.sh ci $(FUZZ_BUILD) $(FUZZ_CI_SECONDS) $(FUZZ)
 
 # The library and the daemon's objects with coverage for libFuzzer, in
 # their own build directory, then the targets linked with libFuzzer.
@@ -218,13 +224,34 @@ fuzz-build: $(FUZZ_BUILD)/.fuzz-deps-ok
 	  SANITIZE="-fsanitize=fuzzer-no-link $(FUZZ_SAN)" \
 	  $(FUZZ:%=$(FUZZ_BUILD)/fuzz_%)
 
-# clang, checked and installed by the deps rule above with its own list
-# (in that sub-make this file is DEPS_OK, so the rule is left out there).
-ifneq ($(DEPS_OK),$(FUZZ_BUILD)/.fuzz-deps-ok)
+# clang and its libFuzzer runtime (Debian's libclang-rt-N-dev, which clang
+# only recommends), checked by linking a one-line libFuzzer target, and
+# installed like the deps above when run as root; otherwise named.
+FUZZ_PROBE := int LLVMFuzzerTestOneInput(const char *d, unsigned long n) \
+              { return d == 0 && n > 0; }
 $(FUZZ_BUILD)/.fuzz-deps-ok: Makefile
-	@$(MAKE) --no-print-directory BUILD=$(FUZZ_BUILD) DEPS="clang:clang" \
-	  DEPS_OK=$@ $@
-endif
+	@mkdir -p $(FUZZ_BUILD); log=$(FUZZ_BUILD)/probe.log; \
+	probe() { echo '$(FUZZ_PROBE)' | $(FUZZ_CC) -x c \
+	  -fsanitize=fuzzer,address,undefined -o $(FUZZ_BUILD)/probe - >$$log 2>&1; }; \
+	need() { if command -v $(FUZZ_CC) >/dev/null 2>&1; then \
+	  echo libclang-rt-$$($(FUZZ_CC) -dumpversion | cut -d. -f1)-dev; \
+	  else echo clang; fi; }; \
+	tries=0; \
+	while ! probe; do \
+	  pkg=$$(need); \
+	  if [ "$$(id -u)" != 0 ] || [ $$tries -ge 2 ]; then \
+	    cat $$log; \
+	    echo "make: $(FUZZ_CC) cannot link a libFuzzer target (-fsanitize=fuzzer): missing Debian package $$pkg?"; \
+	    [ "$$(id -u)" = 0 ] || \
+	      echo "make: run 'sudo apt-get install $$pkg' (or run make as root) and try again"; \
+	    exit 1; \
+	  fi; \
+	  echo "make: installing missing Debian packages: $$pkg"; \
+	  [ $$tries -gt 0 ] || apt-get update -qq || exit 1; \
+	  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$pkg >/dev/null || exit 1; \
+	  tries=$$((tries + 1)); \
+	done; \
+	rm -f $(FUZZ_BUILD)/probe $$log; touch $@
 
 FUZZ_LINK = $(CC) $(CFLAGS) $(LDFLAGS) -fsanitize=fuzzer -o $@ $^ $(LIB_LIBS)
 FUZZ_JOB_OBJ := $(patsubst %,$(BUILD)/obj/service/%.o,api scene_cache util sha256)

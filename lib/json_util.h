@@ -87,6 +87,14 @@ lr_status lr__json_rgb(const cJSON *obj, const char *key, const char *path,
 lr_status lr__json_parse(const char *text, size_t len, const char *what,
                          cJSON **out, lr_error *err);
 
+/* 1 if cJSON would parse the text (given the memory): what
+ * cJSON_ParseWithLengthOpts(text, len, NULL, require_null_terminated)
+ * accepts, found without allocating, to tell a syntax error from an
+ * allocation failure when cJSON returns NULL (cJSON_ParseWithOpts is
+ * len = strlen(text) + 1 with require_null_terminated = 1). */
+int lr__json_cjson_accepts(const char *text, size_t len,
+                           int require_null_terminated);
+
 /* Applies one "dotted.path=value" override to a parsed document: value
  * is parsed as JSON when it is valid JSON, else taken as a string.  Path
  * segments are object keys or [index] into arrays ("objects[2].radius");

@@ -500,7 +500,13 @@ static lr_status parse_line(parser *ps, char *s)
 
 /* Splits the buffer into logical lines in place and parses each.  A line
  * ending in a backslash (outside a comment) continues on the next one;
- * messages then name the line where the statement began. */
+ * messages then name the line where the statement began.  A backslash
+ * with no line after it, on the last line or before the final newline,
+ * is an error of its own (it would otherwise be read as part of the
+ * statement: "bad face corner '\'"). */
+static const char continuation_at_end[] =
+    "line continuation '\\' at the end of the file: no line follows it";
+
 static lr_status parse_buffer(parser *ps, char *buf, size_t len,
                               size_t *last_line)
 {
@@ -525,6 +531,11 @@ static lr_status parse_buffer(parser *ps, char *buf, size_t len,
                 if (b > s && b[-1] == '\r')
                     b--;
                 if (!in_comment && b > s && b[-1] == '\\') {
+                    if (q + 1 == end) {
+                        ps->line = line;
+                        return fail_at(ps, LR_ERR_INVALID, "%s",
+                                       continuation_at_end);
+                    }
                     for (char *t = b - 1; t <= q; t++)
                         *t = ' ';
                     line++;
@@ -543,6 +554,16 @@ static lr_status parse_buffer(parser *ps, char *buf, size_t len,
                                c, (size_t)(q - buf));
             }
             q++;
+        }
+        if (q == end && !in_comment) {
+            char *b = q;
+            if (b > s && b[-1] == '\r')
+                b--;
+            if (b > s && b[-1] == '\\') {
+                ps->line = line;
+                return fail_at(ps, LR_ERR_INVALID, "%s",
+                               continuation_at_end);
+            }
         }
         char *next = q < end ? q + 1 : end;
         int had_newline = q < end;

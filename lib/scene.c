@@ -240,9 +240,49 @@ static void finish_hit(lr__hit *h, lr__v3 org, lr__v3 dir, double t,
     h->eps = (1.0 + mag) * 0x1p-17;
 }
 
+/* Embree asserts, aborting the process, on a ray with a component of its
+ * origin or direction beyond FLT_LARGE (1.844e18) or not finite
+ * (RayK::valid() in its BVH intersectors).  Valid scenes make such rays:
+ * a ray grazing an infinite plane (traced here in double) meets it at
+ * t up to about 1e15 / |cos|, 1e19 and far more, and the shadow and
+ * secondary rays start there.  Everything Embree holds lies within 1e15
+ * of the origin (the scene's limits), so such a ray is not given to
+ * Embree: it misses Embree's geometry (a point light that far away gives
+ * nothing measurable anyway), still meets the infinite planes, and is
+ * counted (lr__scene_skipped_rays). */
+#define EMBREE_MAX_COORD 1.8e18
+
+int lr__embree_can_trace(lr__v3 org, lr__v3 dir)
+{
+    /* Written so that NaN fails. */
+    return fabs(org.x) <= EMBREE_MAX_COORD && fabs(org.y) <= EMBREE_MAX_COORD &&
+           fabs(org.z) <= EMBREE_MAX_COORD && fabs(dir.x) <= EMBREE_MAX_COORD &&
+           fabs(dir.y) <= EMBREE_MAX_COORD && fabs(dir.z) <= EMBREE_MAX_COORD;
+}
+
+static void count_skipped(const lr_scene *s)
+{
+    /* The scene is shared by the render's threads, and only this counter
+     * of it changes while they trace (it is never const-defined: scenes
+     * come from calloc). */
+    atomic_fetch_add_explicit(&((lr_scene *)s)->skipped_rays, 1,
+                              memory_order_relaxed);
+}
+
+unsigned long long lr__scene_skipped_rays(const lr_scene *s)
+{
+    return atomic_load_explicit(&((lr_scene *)s)->skipped_rays,
+                                memory_order_relaxed);
+}
+
 int lr__trace(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
               lr__hit *hit)
 {
+    if (!lr__embree_can_trace(org, dir)) {
+        count_skipped(s);
+        return lr__hit_complete(s, org, dir, tfar, RTC_INVALID_GEOMETRY_ID,
+                                0, 0.0f, 0.0f, 0.0f, hit);
+    }
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     struct RTCRayHit rh;
@@ -254,13 +294,32 @@ int lr__trace(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
                             rh.hit.u, rh.hit.v, rh.ray.tfar, hit);
 }
 
+/* A packet lane whose ray Embree would abort on gets a harmless ray
+ * that cannot hit anything instead (tnear 1 > tfar 0; Embree skips such
+ * lanes): to the caller, a miss of Embree's geometry, as in lr__trace.
+ * (The lane fillers do not see the scene, so these are not counted.) */
+static int lane_disabled(lr__v3 *org, lr__v3 *dir, double *tfar,
+                         float *tnear)
+{
+    *tnear = 0.0f;
+    if (lr__embree_can_trace(*org, *dir))
+        return 0;
+    *org = v3(0, 0, 0);
+    *dir = v3(0, 0, 1);
+    *tfar = 0.0;
+    *tnear = 1.0f;
+    return 1;
+}
+
 void lr__embree_ray16(struct RTCRayHit16 *rh, int lane, lr__v3 org,
                       lr__v3 dir, double tfar)
 {
+    float tnear;
+    lane_disabled(&org, &dir, &tfar, &tnear);
     rh->ray.org_x[lane] = (float)org.x;
     rh->ray.org_y[lane] = (float)org.y;
     rh->ray.org_z[lane] = (float)org.z;
-    rh->ray.tnear[lane] = 0.0f;
+    rh->ray.tnear[lane] = tnear;
     rh->ray.dir_x[lane] = (float)dir.x;
     rh->ray.dir_y[lane] = (float)dir.y;
     rh->ray.dir_z[lane] = (float)dir.z;
@@ -336,10 +395,12 @@ int lr__hit_complete(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
 void lr__shadow_ray16(struct RTCRay16 *r, int lane, lr__v3 org, lr__v3 dir,
                       double tfar)
 {
+    float tnear;
+    lane_disabled(&org, &dir, &tfar, &tnear);
     r->org_x[lane] = (float)org.x;
     r->org_y[lane] = (float)org.y;
     r->org_z[lane] = (float)org.z;
-    r->tnear[lane] = 0.0f;
+    r->tnear[lane] = tnear;
     r->dir_x[lane] = (float)dir.x;
     r->dir_y[lane] = (float)dir.y;
     r->dir_z[lane] = (float)dir.z;
@@ -361,6 +422,10 @@ int lr__occluded(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar)
     double t_plane;
     if (plane_hit(s, org, dir, tfar, &t_plane) >= 0)
         return 1;
+    if (!lr__embree_can_trace(org, dir)) {
+        count_skipped(s);
+        return 0;
+    }
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     struct RTCRay r;

@@ -9,6 +9,7 @@
 #include "vec.h"
 
 #include <embree3/rtcore.h>
+#include <stdatomic.h>
 
 typedef struct lr__material {
     char *name;        /* owned */
@@ -79,6 +80,10 @@ struct lr_scene {
     double extent;         /* largest coordinate magnitude in the scene */
     lr_camera camera;
     lr_render_settings settings;
+    /* Rays lr__trace and lr__occluded did not give Embree (see
+     * lr__embree_can_trace), over the scene's life; the one member that
+     * changes while renders share the scene. */
+    atomic_ullong skipped_rays;
 };
 
 /* ---- scene.c: Embree side --------------------------------------------- */
@@ -138,5 +143,14 @@ int lr__planes_block(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar);
  * (float rounding grows with both), so the new ray cannot hit the surface
  * it starts on. */
 lr__v3 lr__offset_origin(const lr__hit *hit, lr__v3 dir);
+
+/* 1 if Embree accepts a ray with this origin and direction: every
+ * component finite and within 1.8e18 (Embree aborts the process on
+ * others).  lr__trace and lr__occluded check it and treat a ray that
+ * fails as missing Embree's geometry (the infinite planes are still
+ * tested), counting it in lr__scene_skipped_rays; callers that fill
+ * packets (lr__embree_ray16, lr__shadow_ray16) must check it themselves. */
+int lr__embree_can_trace(lr__v3 org, lr__v3 dir);
+unsigned long long lr__scene_skipped_rays(const lr_scene *s);
 
 #endif

@@ -1454,6 +1454,48 @@ static void test_embree_invalid_rays(void **state)
     assert_int_equal(b, 0);
 }
 
+/* Fixed bug, guarded here: a camera 1e15 up (within the limits) looking
+ * just below the horizon meets an infinite plane about 1e19 away; the
+ * shadow rays (16-wide packets and single rays) and the mirror rays from
+ * there had coordinates Embree asserts on, and the process aborted
+ * (bvh_intersector_hybrid.cpp and bvh_intersector1.cpp: ray.valid()).
+ * Every path: packets with lights, the scalar shading of a mirror
+ * without lights, the scalar camera path of rgb chromatic aberration
+ * through a thin lens, and the depth channel. */
+static void test_grazing_plane_far_away(void **state)
+{
+    (void)state;
+    const char *json =
+        "{\"camera\": {\"position\": [0, 1e15, 0], \"look_at\": [0, "
+        "999900000000000, -1e15], \"fov\": 0.001, \"focal_length_mm\": 50},"
+        " \"render\": {\"width\": 6, \"height\": 4, \"max_depth\": 3},"
+        " \"materials\": {\"m\": {\"diffuse\": 0.5, \"reflect\": 0.5}},"
+        " \"lights\": [{\"type\": \"point\", \"position\": [0, 10, 0],"
+        " \"intensity\": 5}, {\"type\": \"directional\", \"direction\":"
+        " [0, -1, -1], \"irradiance\": 1}],"
+        " \"objects\": [{\"type\": \"plane\", \"point\": [0, 0, 0],"
+        " \"normal\": [0, 1, 0], \"material\": \"m\"}, {\"type\":"
+        " \"sphere\", \"center\": [0, 0, -5], \"radius\": 1}]}";
+    static const char *const variants[][3] = {
+        {NULL},
+        {"lights=[]"},
+        {"camera.model=thinlens", "camera.aperture_radius=0.1",
+         "camera.chromatic.mode=rgb"},
+        {"render.depth=true"},
+    };
+    for (size_t v = 0; v < sizeof variants / sizeof variants[0]; v++) {
+        size_t n = 0;
+        while (n < 3 && variants[v][n] != NULL)
+            n++;
+        int rc = render_in_child(json, variants[v], n, 0);
+        if (rc != 0)
+            fail_msg("variant %zu (%s): %s %d", v,
+                     n ? variants[v][0] : "as is",
+                     rc >= 100 ? "died on signal" : "render verdict",
+                     rc >= 100 ? rc - 100 : rc);
+    }
+}
+
 static void write_file_for_limit(const char *name, const char *text,
                                  char *path, size_t cap)
 {
@@ -1848,7 +1890,8 @@ static void test_obj_hostile(void **state)
     OBJ("vn-tiny.obj", "vn 1e-320 0 0\nf 1//1 2//1 3//1\n", 4, NULL);
     OBJ("f-one.obj", "f 1\n", 4, "at least 3 corners");
     OBJ("f-bare.obj", "f\n", 4, "at least 3 corners");
-    OBJ("cont-eof.obj", "f 1 2 \\", 4, "bad face corner '\\'");
+    OBJ("cont-eof.obj", "f 1 2 \\", 4,
+        "line continuation '\\' at the end of the file");
     OBJ("later-line.obj", "\n\n\n# comment\n\nf 1 2 9\n", 9, "out of range");
     /* Bytes beyond ASCII in a quoted token are shown as \xNN, so the
      * message stays valid UTF-8 (found by fuzz_obj). */
@@ -1967,6 +2010,7 @@ static const struct CMUnitTest hardcases_tests[] = {
     cmocka_unit_test(test_obj_hostile),
     cmocka_unit_test(test_obj_endless_binary_stream),
     cmocka_unit_test(test_obj_errors_through_scene),
+    cmocka_unit_test(test_grazing_plane_far_away),
 };
 
 LR_TEST_GROUP(hardcases, hardcases_tests)

@@ -382,6 +382,28 @@ static void test_bad_structure(void **state)
      * statement began. */
     load_fail("cont.obj", "v 0 0 0\nv 1 0 0\nv 0 \\\n1 0\nf 1 2 \\\n 9\n",
               "cont.obj:5: face index 9 out of range");
+    /* A continuation with no line after it is named as such, not taken
+     * for a face corner '\', whether the file ends right after it,
+     * after a newline, after CRLF, or it stands alone. */
+    static const char *const cont_end[][2] = {
+        {"f 1 2 3 \\", "contend1.obj:4: line continuation"},
+        {"f 1 2 3 \\\n", "contend2.obj:4: line continuation"},
+        {"f 1 2 3 \\\r\n", "contend3.obj:4: line continuation"},
+        {"f 1 2 3\n\\", "contend4.obj:5: line continuation"},
+    };
+    for (size_t i = 0; i < sizeof cont_end / sizeof cont_end[0]; i++) {
+        char name[32], text[128];
+        snprintf(name, sizeof name, "contend%zu.obj", i + 1);
+        snprintf(text, sizeof text, "v 0 0 0\nv 1 0 0\nv 0 1 0\n%s",
+                 cont_end[i][0]);
+        load_fail(name, text, cont_end[i][1]);
+    }
+    /* ... but in a comment a backslash is only text. */
+    lr__mesh m;
+    load_ok("contcomment.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3 # \\",
+            &m);
+    assert_int_equal(m.n_triangles, 1);
+    lr__mesh_free(&m);
     /* CRLF keeps line numbers right. */
     load_fail("crlfbad.obj", "v 0 0 0\r\nv 1 0 0\r\nv 0 1 0\r\nf 1 2 4\r\n",
               "crlfbad.obj:4: face index 4 out of range");

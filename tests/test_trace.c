@@ -205,7 +205,60 @@ static void test_offset_escapes_surface(void **state)
     }
 }
 
+/* Rays Embree would abort the process on (a component beyond 1.8e18 or
+ * not finite) arise in valid scenes: a camera 1e15 up, looking just
+ * below the horizon, meets an infinite plane 1e19 away, and the shadow
+ * and reflected rays start there.  lr__trace and lr__occluded must not
+ * give them to Embree: a miss of Embree's geometry (the planes still
+ * count), each counted. */
+static void test_rays_beyond_embree(void **state)
+{
+    (void)state;
+    assert_true(lr__embree_can_trace(v3(1.8e18, -1.8e18, 0), v3(0, 0, 1)));
+    assert_false(lr__embree_can_trace(v3(1.9e18, 0, 0), v3(0, 0, 1)));
+    assert_false(lr__embree_can_trace(v3(0, 0, 0), v3(0, -2e18, 1)));
+    assert_false(lr__embree_can_trace(v3(0, NAN, 0), v3(0, 0, 1)));
+    assert_false(lr__embree_can_trace(v3(0, 0, 0), v3(INFINITY, 0, 1)));
+
+    lr_scene *s = scene_of("[{\"type\": \"sphere\", \"center\": [0, 0, -5],"
+                           " \"radius\": 1}, {\"type\": \"plane\","
+                           " \"point\": [0, 0, 0], \"normal\": [0, 1, 0]}]");
+    lr__hit h;
+    /* The far hit, from numbers within the scene's limits. */
+    lr__v3 cam = v3(0, 1e15, 0);
+    lr__v3 dir = v3_norm(v3(0, -1e-4, -1));
+    assert_true(lr__trace(s, cam, dir, INFINITY, &h));
+    assert_true(fabs(h.p.z) > 5e18);
+    assert_false(lr__embree_can_trace(lr__offset_origin(&h, h.ng), h.ng));
+    assert_int_equal(lr__scene_skipped_rays(s), 0);
+
+    /* From there: straight back at the sphere, a miss (Embree skipped);
+     * down, the plane is still hit, in double; up, nothing occludes. */
+    lr__v3 far = v3(0, 1, -1e19);
+    assert_false(lr__trace(s, far, v3(0, 0, 1), INFINITY, &h));
+    assert_int_equal(lr__scene_skipped_rays(s), 1);
+    assert_true(lr__trace(s, far, v3_norm(v3(0, -1, 1)), INFINITY, &h));
+    assert_near(h.t, sqrt(2.0), 1e-9);
+    assert_int_equal(lr__scene_skipped_rays(s), 2);
+    assert_false(lr__occluded(s, far, v3(0, 1, 0), 1e3));
+    assert_int_equal(lr__scene_skipped_rays(s), 3);
+    /* Blocked by the plane: found before Embree is asked, not counted. */
+    assert_true(lr__occluded(s, far, v3_norm(v3(0, -1, 1)), 1e3));
+    assert_int_equal(lr__scene_skipped_rays(s), 3);
+    /* Not finite: a miss. */
+    assert_false(lr__trace(s, v3(0, 0, 0), v3(NAN, 0, -1), INFINITY, &h));
+    assert_false(lr__occluded(s, v3(0, INFINITY, 0), v3(0, 0, -1), 1e3));
+    assert_int_equal(lr__scene_skipped_rays(s), 5);
+    /* Ordinary rays are traced as before and not counted. */
+    assert_true(lr__trace(s, v3(0, 0.5, 0), v3(0, 0, -1), INFINITY, &h));
+    assert_near(h.t, 5.0 - sqrt(0.75), 1e-5);
+    assert_true(lr__occluded(s, v3(0, 0.5, 0), v3(0, 0, -1), 1e3));
+    assert_int_equal(lr__scene_skipped_rays(s), 5);
+    lr_scene_free(s);
+}
+
 static const struct CMUnitTest trace_tests[] = {
+    cmocka_unit_test(test_rays_beyond_embree),
     cmocka_unit_test(test_sphere),
     cmocka_unit_test(test_infinite_plane),
     cmocka_unit_test(test_finite_plane),
