@@ -357,7 +357,7 @@ static __m512i lk_permute16(__m512i x, uint32_t seed)
 
 __attribute__((target("avx512f,avx512bw")))
 static void sobol16_avx512(const lr__pixel_sampler *ps, uint32_t first,
-                           float out[4][16])
+                           int n, float out[4][16])
 {
     static const int map[4] = {2, 3, 0, 1};
     __m512i idx = _mm512_add_epi32(
@@ -366,14 +366,15 @@ static void sobol16_avx512(const lr__pixel_sampler *ps, uint32_t first,
                           15));
     __m512i r = lk_permute16(rev_bits16(idx), ps->shuffle);
     const __m512 unit = _mm512_set1_ps(0x1p-24f);
-    if (first % 16 == 0) {
-        /* Sixteen samples 16q .. 16q + 15: their reversed indices
-         * differ only in bits 28..31, and the shuffle's output bits
-         * 0..27 depend only on its input bits 0..27, so the lanes' r
-         * share bits 0..27: three of the four table lookups are common,
-         * and the fourth picks one of sixteen entries by r's top
-         * nibble: a permute of one row of sobol_rt16, no gathers. */
-        uint32_t r0 = lk_permute(reverse_bits(first), ps->shuffle);
+    if ((first & 15u) + (uint32_t)n <= 16) {
+        /* Samples within one block 16q .. 16q + 15: their reversed
+         * indices differ only in bits 28..31, and the shuffle's output
+         * bits 0..27 depend only on its input bits 0..27, so the lanes'
+         * r share bits 0..27: three of the four table lookups are
+         * common, and the fourth picks one of sixteen entries by r's top
+         * nibble: a permute of one row of sobol_rt16, no gathers.  (Lanes
+         * past n may leave the block; their values are not asked for.) */
+        uint32_t r0 = lk_permute(reverse_bits(first & ~15u), ps->shuffle);
         __m512i hi = _mm512_srli_epi32(r, 28);
         unsigned lo = (r0 >> 24) & 0xfu;
         for (int d = 0; d < 4; d++) {
@@ -443,7 +444,7 @@ void lr__pixel_sampler_get16(const lr__pixel_sampler *ps, uint32_t first,
               : __builtin_cpu_supports("avx2")   ? 2
                                                  : 1;
     if (isa == 3)
-        sobol16_avx512(ps, first, out);
+        sobol16_avx512(ps, first, n, out);
     else if (isa == 2)
         sobol16_avx2(ps, first, out);
     else

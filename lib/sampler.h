@@ -60,7 +60,7 @@ void lr__pixel_sampler_get(const lr__pixel_sampler *ps, uint32_t sample,
                            double out[4]);
 /* Samples first .. first+n-1 (n <= 16) at once, the same values as n
  * calls of lr__pixel_sampler_get, as floats: out[d][i] is dimension d of
- * sample first + i. */
+ * sample first + i.  Lanes n..15 are written with unspecified values. */
 void lr__pixel_sampler_get16(const lr__pixel_sampler *ps, uint32_t first,
                              int n, float out[4][16]);
 

@@ -241,7 +241,8 @@ static void test_get16_matches_get(void **state)
     lr__sampler_init(&s, LR_SAMPLER_SOBOL, 11, 64);
     /* Aligned starts (multiples of 16, the fast path) and others. */
     static const uint32_t firsts[] = {0, 16, 4096, 0x00fffff0u, 0x7ffffff0u,
-                                      0xfffffff0u, 4, 9, 0x12345677u};
+                                      0xfffffff0u, 4, 9, 0x12345677u, 8, 12,
+                                      5, 0xfffffffcu};
     int versions = 0;
     for (int isa = 1; isa <= 3; isa++) {
         if (!has[isa])
@@ -252,9 +253,12 @@ static void test_get16_matches_get(void **state)
             lr__pixel_sampler ps;
             lr__pixel_sampler_init(&ps, &s, px * 7919u);
             for (size_t k = 0; k < sizeof firsts / sizeof *firsts; k++) {
+                /* All sixteen lanes, and a short run inside a block
+                 * (adaptive sampling's small rounds). */
+                int n = k % 2 ? 16 : 4;
                 float out[4][16];
-                lr__pixel_sampler_get16(&ps, firsts[k], 16, out);
-                for (int i = 0; i < 16; i++) {
+                lr__pixel_sampler_get16(&ps, firsts[k], n, out);
+                for (int i = 0; i < n; i++) {
                     double u[4];
                     lr__pixel_sampler_get(&ps, firsts[k] + (uint32_t)i, u);
                     for (int d = 0; d < 4; d++)
