@@ -281,6 +281,20 @@ void lr__pixel_sampler_get16(const lr__pixel_sampler *ps, uint32_t first,
      * (only the table lookups stay scalar). */
     static const int map[4] = {2, 3, 0, 1};
     uint32_t r[16], v[16];
+    if (n < 8) {
+        /* A short run (adaptive sampling's pilot and first rounds): the
+         * same arithmetic, for the lanes asked for only. */
+        for (int i = 0; i < n; i++) {
+            uint32_t ri = lk_permute(reverse_bits_swar(first + (uint32_t)i),
+                                     ps->shuffle);
+            for (int d = 0; d < 4; d++)
+                out[d][i] = (float)(int32_t)(reverse_bits_swar(lk_permute(
+                                sobol_rev(ri, map[d]), ps->scramble[d])) >>
+                                             8) *
+                            0x1p-24f;
+        }
+        return;
+    }
     for (int i = 0; i < 16; i++)
         r[i] = lk_permute(reverse_bits_swar(first + (uint32_t)i),
                           ps->shuffle);
@@ -293,7 +307,6 @@ void lr__pixel_sampler_get16(const lr__pixel_sampler *ps, uint32_t first,
                             lk_permute(v[i], seed)) >> 8) *
                         0x1p-24f;
     }
-    (void)n;
 }
 
 void lr__pixel_sampler_get(const lr__pixel_sampler *ps, uint32_t sample,
