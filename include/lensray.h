@@ -294,6 +294,8 @@ typedef struct lr_image lr_image;
 
 typedef struct lr_render_stats {
     double seconds;        /* wall time of the render */
+    double cpu_seconds;    /* CPU time of the render's threads, together:
+                              its work however busy the machine is */
     uint64_t pixels;       /* pixels rendered */
     uint64_t samples;      /* camera samples taken (pixels x spp without
                               adaptive sampling) */
