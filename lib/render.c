@@ -38,7 +38,7 @@ void lr_render_settings_default(lr_render_settings *s)
     s->plan = 1;
     s->adaptive = 1;
     s->adaptive_threshold = 0.01;
-    s->adaptive_min_spp = 16;
+    s->adaptive_min_spp = 4;
 }
 
 lr_status lr_render_settings_validate(const lr_render_settings *s,
@@ -247,12 +247,45 @@ static void count_plan(worker *w, int x, int y)
     }
 }
 
+/* Adaptive sampling's pilot at pixel (x, y): min_spp samples, or, where
+ * the plan traces the lens in 16-wide packets (lr__trace16_pixel), at
+ * least a packet's worth.  A pixel that goes on after its pilot traces
+ * another, partly filled packet, which costs about as much as three or
+ * four samples more; where the lens blurs, almost every pixel goes on
+ * (lens noise is everywhere), so a small pilot there would only add that
+ * cost, while where nothing is blurred only edges go on.  The plan is
+ * aligned to the frame, so this too is the same for any tile or region. */
+#define PACKET_PILOT 16
+static int pilot_spp(const job *j, int x, int y)
+{
+    int lo = j->set->adaptive_min_spp, spp = j->set->spp;
+    const lr__block_plan *bp = lr__plan_at(&j->plan, x, y);
+    if (j->cam.has_lens && bp->lens && !(j->cam.chroma_active && bp->chroma) &&
+        lo < PACKET_PILOT)
+        lo = PACKET_PILOT;
+    return lo < spp ? lo : spp;
+}
+
+/* Does apron pixel (x, y) matter to the block [x0, x1) x [y0, y1): has it
+ * a neighbour in the block whose pilot leaves it samples to decide on? */
+static int apron_needed(const job *j, int x, int y, int x0, int y0, int x1,
+                        int y1)
+{
+    for (int ny = y - 1; ny <= y + 1; ny++)
+        for (int nx = x - 1; nx <= x + 1; nx++)
+            if (nx >= x0 && nx < x1 && ny >= y0 && ny < y1 &&
+                pilot_spp(j, nx, ny) < j->set->spp)
+                return 1;
+    return 0;
+}
+
 /* One sub-block [x0, x1) x [y0, y1) of a tile. */
 static void render_block(worker *w, int x0, int y0, int x1, int y1)
 {
     job *j = w->job;
     const lr_render_settings *set = j->set;
     int spp = set->spp, lo = set->adaptive_min_spp;
+    double thr = set->adaptive_threshold;
     if (!set->adaptive || lo >= spp) {
         for (int y = y0; y < y1; y++)
             for (int x = x0; x < x1; x++) {
@@ -264,33 +297,48 @@ static void render_block(worker *w, int x0, int y0, int x1, int y1)
             }
         return;
     }
-    /* Adaptive: a pilot of `lo` samples in the block and a one-pixel
-     * apron around it (inside the frame, whatever the region), each
-     * pixel's need from its pilot, then each pixel continues to the
-     * largest need in its 3 x 3 neighbourhood.  Everything a pixel's
-     * count depends on is computed here, so tiles and regions agree. */
+    /* Adaptive.  A pilot (pilot_spp) in the block and a one-pixel apron
+     * around it (inside the frame, whatever the region) gives each pixel
+     * a need; a pixel goes on to at least the largest need in its 3 x 3
+     * neighbourhood (neighbours of unconverged pixels keep going), then
+     * in rounds that at least double its count, judging its own need
+     * again from all its samples after each, until that need is met or
+     * it has spp.  A count depends only on the neighbourhood's pilots and
+     * the pixel's own samples, all computed here, so tiles and regions
+     * agree; and a pixel's first n samples are the full render's first
+     * n, so it is the full render stopped at n. */
     int ax0 = x0 > 0 ? x0 - 1 : 0, ay0 = y0 > 0 ? y0 - 1 : 0;
     int ax1 = x1 < set->width ? x1 + 1 : x1;
     int ay1 = y1 < set->height ? y1 + 1 : y1;
     int aw = ax1 - ax0;
     for (int y = ay0; y < ay1; y++)
         for (int x = ax0; x < ax1; x++) {
-            lr__pixel *a = &w->acc[(y - ay0) * aw + (x - ax0)];
-            lr__pixel_reset(a);
-            sample_pixel(w, x, y, 0, lo, a);
-            w->need[(y - ay0) * aw + (x - ax0)] = lr__pixel_samples_needed(
-                a, set->adaptive_threshold, lo, spp);
+            int i = (y - ay0) * aw + (x - ax0);
+            int p = pilot_spp(j, x, y);
+            int inside = x >= x0 && x < x1 && y >= y0 && y < y1;
+            w->need[i] = 0;
+            if (!inside && !apron_needed(j, x, y, x0, y0, x1, y1))
+                continue;
+            lr__pixel_reset(&w->acc[i]);
+            sample_pixel(w, x, y, 0, p, &w->acc[i]);
+            w->need[i] = lr__pixel_samples_needed(&w->acc[i], thr, p, spp);
         }
     for (int y = y0; y < y1; y++)
         for (int x = x0; x < x1; x++) {
-            int n = lo;
+            lr__pixel *a = &w->acc[(y - ay0) * aw + (x - ax0)];
+            int have = pilot_spp(j, x, y);
+            int want = lr__pixel_samples_needed(a, thr, have, spp);
             for (int ny = y - 1; ny <= y + 1; ny++)
                 for (int nx = x - 1; nx <= x + 1; nx++)
                     if (nx >= ax0 && nx < ax1 && ny >= ay0 && ny < ay1 &&
-                        w->need[(ny - ay0) * aw + (nx - ax0)] > n)
-                        n = w->need[(ny - ay0) * aw + (nx - ax0)];
-            lr__pixel *a = &w->acc[(y - ay0) * aw + (x - ax0)];
-            sample_pixel(w, x, y, lo, n, a);
+                        w->need[(ny - ay0) * aw + (nx - ax0)] > want)
+                        want = w->need[(ny - ay0) * aw + (nx - ax0)];
+            while (want > have) {
+                int next = lr__adaptive_next(have, want, spp);
+                sample_pixel(w, x, y, have, next, a);
+                have = next;
+                want = lr__pixel_samples_needed(a, thr, have, spp);
+            }
             store_pixel(w, x, y, a);
             count_plan(w, x, y);
         }
