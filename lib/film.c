@@ -42,6 +42,15 @@ int lr__pixel_samples_needed(const lr__pixel *p, double threshold, int lo,
     return k < lo ? lo : k;
 }
 
+double lr__pixel_contrast(const lr__pixel *a, const lr__pixel *b)
+{
+    if (a->n == 0 || b->n == 0)
+        return 0.0;
+    double ma = lr__luminance(a->sum[0], a->sum[1], a->sum[2]) / (double)a->n;
+    double mb = lr__luminance(b->sum[0], b->sum[1], b->sum[2]) / (double)b->n;
+    return fabs(ma - mb) / (fmax(fabs(ma), fabs(mb)) + 0.02);
+}
+
 int lr__adaptive_next(int have, int want, int hi)
 {
     long long next = 2LL * have;

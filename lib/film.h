@@ -39,6 +39,10 @@ static inline double lr__luminance(double r, double g, double b)
 int lr__pixel_samples_needed(const lr__pixel *p, double threshold, int lo,
                              int hi);
 
+/* How much the mean luminances of two pixels differ, relative to the
+ * larger (with the same 0.02 floor as lr__pixel_samples_needed). */
+double lr__pixel_contrast(const lr__pixel *a, const lr__pixel *b);
+
 /* Adaptive sampling's schedule: a pixel that has `have` samples (>= 1)
  * and wants `want` > have goes on to have * 2^k, the first such count
  * that reaches `want`, at most `hi`.  From a pilot of min_spp samples

@@ -248,20 +248,20 @@ static void count_plan(worker *w, int x, int y)
 }
 
 /* Adaptive sampling's pilot at pixel (x, y): min_spp samples, or, where
- * the plan traces the lens in 16-wide packets (lr__trace16_pixel), at
- * least a packet's worth.  A pixel that goes on after its pilot traces
- * another, partly filled packet, which costs about as much as three or
- * four samples more; where the lens blurs, almost every pixel goes on
- * (lens noise is everywhere), so a small pilot there would only add that
- * cost, while where nothing is blurred only edges go on.  The plan is
+ * the plan samples the lens, at least a packet's worth (16, the width of
+ * lr__trace16_pixel's packets).  Where the lens blurs, almost every pixel
+ * goes on (lens noise is everywhere), and a pixel that goes on after its
+ * pilot traces another, partly filled packet, which costs about as much
+ * as three or four samples more; a few samples of a blurred (or, with
+ * chromatic aberration, spectral) integrand also judge its spread
+ * poorly.  Where nothing is blurred only edges go on.  The plan is
  * aligned to the frame, so this too is the same for any tile or region. */
 #define PACKET_PILOT 16
 static int pilot_spp(const job *j, int x, int y)
 {
     int lo = j->set->adaptive_min_spp, spp = j->set->spp;
     const lr__block_plan *bp = lr__plan_at(&j->plan, x, y);
-    if (j->cam.has_lens && bp->lens && !(j->cam.chroma_active && bp->chroma) &&
-        lo < PACKET_PILOT)
+    if (j->cam.has_lens && bp->lens && lo < PACKET_PILOT)
         lo = PACKET_PILOT;
     return lo < spp ? lo : spp;
 }
@@ -329,10 +329,20 @@ static void render_block(worker *w, int x0, int y0, int x1, int y1)
             int have = pilot_spp(j, x, y);
             int want = lr__pixel_samples_needed(a, thr, have, spp);
             for (int ny = y - 1; ny <= y + 1; ny++)
-                for (int nx = x - 1; nx <= x + 1; nx++)
-                    if (nx >= ax0 && nx < ax1 && ny >= ay0 && ny < ay1 &&
-                        w->need[(ny - ay0) * aw + (nx - ax0)] > want)
-                        want = w->need[(ny - ay0) * aw + (nx - ax0)];
+                for (int nx = x - 1; nx <= x + 1; nx++) {
+                    if (nx < ax0 || nx >= ax1 || ny < ay0 || ny >= ay1)
+                        continue;
+                    int k = (ny - ay0) * aw + (nx - ax0);
+                    if (w->need[k] > want)
+                        want = w->need[k];
+                    /* An edge along the pixel grid can slip between a
+                     * few samples: a pixel whose pilot differs from a
+                     * neighbour's by more than 10 x the threshold takes
+                     * another round and judges again. */
+                    if (w->need[k] > 0 && want <= have &&
+                        lr__pixel_contrast(a, &w->acc[k]) > 10.0 * thr)
+                        want = have + 1;
+                }
             while (want > have) {
                 int next = lr__adaptive_next(have, want, spp);
                 sample_pixel(w, x, y, have, next, a);
