@@ -327,6 +327,12 @@ static void render_block(worker *w, int x0, int y0, int x1, int y1)
         for (int x = x0; x < x1; x++) {
             lr__pixel *a = &w->acc[(y - ay0) * aw + (x - ax0)];
             int have = pilot_spp(j, x, y);
+            if (have >= spp) {
+                /* The pilot was all of it (a blurred pixel at low spp). */
+                store_pixel(w, x, y, a);
+                count_plan(w, x, y);
+                continue;
+            }
             int want = lr__pixel_samples_needed(a, thr, have, spp);
             for (int ny = y - 1; ny <= y + 1; ny++)
                 for (int nx = x - 1; nx <= x + 1; nx++) {
