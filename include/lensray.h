@@ -213,9 +213,11 @@ typedef struct lr_render_settings {
      * spread it needs enough samples (up to spp) for a relative standard
      * error of adaptive_threshold in its luminance, and goes on to the
      * largest need in its 3 x 3 neighbourhood, so that neighbours of
-     * unconverged pixels keep going; then it goes on in rounds that at
-     * least double its count (min_spp x 2^k, or spp), judging its need
-     * again from all its samples after each.  Default 1; 0 = spp
+     * unconverged pixels keep going (and one round further if its pilot's
+     * mean differs from a neighbour's by more than 10 x the threshold:
+     * an edge along the pixel grid can slip between a few samples); then
+     * it goes on in rounds that at least double its count (min_spp x 2^k,
+     * or spp), judging its need again from all its samples after each.  Default 1; 0 = spp
      * everywhere.  Counts depend only on a pixel's neighbourhood, so
      * regions and thread counts still give the same bytes, and a pixel
      * that stops at n samples has the full render's first n. */

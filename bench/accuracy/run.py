@@ -360,7 +360,8 @@ class Harness:
         """CPU seconds of everything but the render proper (starting the
         process, loading the scene, building the BVH, writing the EXR),
         from the fastest of five renders of one pixel; subtracted from
-        every CPU time of the scene."""
+        the process's CPU time when the CLI does not report the render's
+        own (cpu_seconds); logged either way."""
         out = os.path.join(self.work, "runs", "overhead.exr")
         cpus = []
         for _ in range(5):
@@ -368,7 +369,8 @@ class Harness:
                                                "render.region": "[0, 0, 1, 1]"})
             cpus.append(st["cpu"])
         self.overhead[sc["name"]] = min(cpus)
-        log("accuracy: [%s] fixed CPU cost of a run (subtracted): %s"
+        log("accuracy: [%s] fixed CPU cost of a run (subtracted from the "
+            "process's CPU time only for a CLI without cpu_seconds): %s"
             % (sc["name"], fmt_t(min(cpus))))
 
     def choose_clock(self):
