@@ -206,16 +206,24 @@ typedef struct lr_render_settings {
      * confusion differ by less than that.  Default 1; 0 = always simulate
      * everything. */
     int plan;
-    /* Adaptive sampling: every pixel first takes adaptive_min_spp
-     * samples; from their spread it is given just enough samples (up to
-     * spp) for a relative standard error of adaptive_threshold, raised to
-     * its 3 x 3 neighbourhood's largest need, so that neighbours of
-     * unconverged pixels keep going.  Default 1; 0 = spp everywhere.
-     * Decisions depend only on a pixel's neighbourhood, so regions and
-     * thread counts still give the same bytes. */
+    /* Adaptive sampling: every pixel first takes a pilot of
+     * adaptive_min_spp samples (at least 16 where the plan samples the
+     * lens: blurred pixels nearly all need more, and a second packet of
+     * rays costs more than the samples a small pilot saves); from their
+     * spread it needs enough samples (up to spp) for a relative standard
+     * error of adaptive_threshold in its luminance, and goes on to the
+     * largest need in its 3 x 3 neighbourhood, so that neighbours of
+     * unconverged pixels keep going (and one round further if its pilot's
+     * mean differs from a neighbour's by more than 10 x the threshold:
+     * an edge along the pixel grid can slip between a few samples); then
+     * it goes on in rounds that at least double its count (min_spp x 2^k,
+     * or spp), judging its need again from all its samples after each.  Default 1; 0 = spp
+     * everywhere.  Counts depend only on a pixel's neighbourhood, so
+     * regions and thread counts still give the same bytes, and a pixel
+     * that stops at n samples has the full render's first n. */
     int adaptive;
     double adaptive_threshold; /* default 0.01 */
-    int adaptive_min_spp;      /* default 16 (capped at spp) */
+    int adaptive_min_spp;      /* default 4 (capped at spp) */
     lr_progress_fn progress; /* optional; NULL by default */
     void *progress_user;
     /* Optional cancellation flag, polled (with an atomic load) between
@@ -294,6 +302,8 @@ typedef struct lr_image lr_image;
 
 typedef struct lr_render_stats {
     double seconds;        /* wall time of the render */
+    double cpu_seconds;    /* CPU time of the render's threads, together:
+                              its work however busy the machine is */
     uint64_t pixels;       /* pixels rendered */
     uint64_t samples;      /* camera samples taken (pixels x spp without
                               adaptive sampling) */

@@ -32,6 +32,8 @@
 typedef struct box {
     double z0, z1;         /* depth range */
     double x0, x1, y0, y1; /* lateral range, camera space */
+    size_t skip;           /* > 0: a cut triangle's whole box, followed by
+                              the `skip` boxes of its pieces */
 } box;
 
 typedef struct lens {
@@ -116,16 +118,9 @@ static int tri_boxes(const lens *L, lr__v3 a, lr__v3 b, lr__v3 c, int depth,
     lr__v3 pts[3] = {a, b, c};
     box bx;
     box_from_points(L, pts, 3, &bx);
+    bx.skip = 0;
     double dist = fmax(fabs(bx.z0), fabs(bx.z1));
-    if (depth > 0 && bx.z1 - bx.z0 > 0.25 * dist) {
-        lr__v3 ab = v3_scale(v3_add(a, b), 0.5);
-        lr__v3 bc = v3_scale(v3_add(b, c), 0.5);
-        lr__v3 ca = v3_scale(v3_add(c, a), 0.5);
-        return tri_boxes(L, a, ab, ca, depth - 1, boxes, n, cap) &&
-               tri_boxes(L, ab, b, bc, depth - 1, boxes, n, cap) &&
-               tri_boxes(L, ca, bc, c, depth - 1, boxes, n, cap) &&
-               tri_boxes(L, ab, bc, ca, depth - 1, boxes, n, cap);
-    }
+    int cut = depth > 0 && bx.z1 - bx.z0 > 0.25 * dist;
     if (*n == *cap) {
         size_t nc = *cap ? 2 * *cap : 256;
         box *g = realloc(*boxes, nc * sizeof *g);
@@ -134,7 +129,22 @@ static int tri_boxes(const lens *L, lr__v3 a, lr__v3 b, lr__v3 c, int depth,
         *boxes = g;
         *cap = nc;
     }
-    (*boxes)[(*n)++] = bx;
+    size_t at = (*n)++;
+    (*boxes)[at] = bx;
+    if (cut) {
+        /* The whole triangle's box stays in front of its pieces' (each
+         * inside it), so that a block that cannot reach it, or whose
+         * depths it cannot widen, skips them all. */
+        lr__v3 ab = v3_scale(v3_add(a, b), 0.5);
+        lr__v3 bc = v3_scale(v3_add(b, c), 0.5);
+        lr__v3 ca = v3_scale(v3_add(c, a), 0.5);
+        if (!(tri_boxes(L, a, ab, ca, depth - 1, boxes, n, cap) &&
+              tri_boxes(L, ab, b, bc, depth - 1, boxes, n, cap) &&
+              tri_boxes(L, ca, bc, c, depth - 1, boxes, n, cap) &&
+              tri_boxes(L, ab, bc, ca, depth - 1, boxes, n, cap)))
+            return 0;
+        (*boxes)[at].skip = *n - at - 1;
+    }
     return 1;
 }
 
@@ -303,7 +313,8 @@ lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
                 boxes = gr;
                 cap = nc;
             }
-            box_from_points(&L, pts, n, &boxes[n_boxes++]);
+            box_from_points(&L, pts, n, &boxes[n_boxes]);
+            boxes[n_boxes++].skip = 0;
         }
     }
     if (!ok) {
@@ -324,9 +335,19 @@ lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
             double zmin = INFINITY, zmax = 0.0;
             for (size_t i = 0; i < n_boxes; i++) {
                 const box *b = &boxes[i];
-                if (!box_reached(&L, b, u0, u1, v0, v1))
-                    continue;
                 double z0 = b->z0 > NEAR ? b->z0 : NEAR;
+                /* A box within the depths found so far cannot widen
+                 * them, and one out of reach has no piece in reach
+                 * (box_reached only grows with the box): skip it, and
+                 * its pieces.  A cut triangle's box in reach only leads
+                 * to its pieces. */
+                if ((z0 >= zmin && b->z1 <= zmax) ||
+                    !box_reached(&L, b, u0, u1, v0, v1)) {
+                    i += b->skip;
+                    continue;
+                }
+                if (b->skip > 0)
+                    continue;
                 if (z0 < zmin)
                     zmin = z0;
                 if (b->z1 > zmax)

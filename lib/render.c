@@ -38,7 +38,7 @@ void lr_render_settings_default(lr_render_settings *s)
     s->plan = 1;
     s->adaptive = 1;
     s->adaptive_threshold = 0.01;
-    s->adaptive_min_spp = 16;
+    s->adaptive_min_spp = 4;
 }
 
 lr_status lr_render_settings_validate(const lr_render_settings *s,
@@ -125,6 +125,7 @@ typedef struct job {
 
 typedef struct worker {
     job *job;
+    double cpu; /* CPU seconds of this thread in worker_main */
     uint64_t rays, samples, dropped;
     uint64_t camera_rays, lens_pixels, chroma_pixels;
     lr__pixel acc[SUBA * SUBA];
@@ -246,12 +247,45 @@ static void count_plan(worker *w, int x, int y)
     }
 }
 
+/* Adaptive sampling's pilot at pixel (x, y): min_spp samples, or, where
+ * the plan samples the lens, at least a packet's worth (16, the width of
+ * lr__trace16_pixel's packets).  Where the lens blurs, almost every pixel
+ * goes on (lens noise is everywhere), and a pixel that goes on after its
+ * pilot traces another, partly filled packet, which costs about as much
+ * as three or four samples more; a few samples of a blurred (or, with
+ * chromatic aberration, spectral) integrand also judge its spread
+ * poorly.  Where nothing is blurred only edges go on.  The plan is
+ * aligned to the frame, so this too is the same for any tile or region. */
+#define PACKET_PILOT 16
+static int pilot_spp(const job *j, int x, int y)
+{
+    int lo = j->set->adaptive_min_spp, spp = j->set->spp;
+    const lr__block_plan *bp = lr__plan_at(&j->plan, x, y);
+    if (j->cam.has_lens && bp->lens && lo < PACKET_PILOT)
+        lo = PACKET_PILOT;
+    return lo < spp ? lo : spp;
+}
+
+/* Does apron pixel (x, y) matter to the block [x0, x1) x [y0, y1): has it
+ * a neighbour in the block whose pilot leaves it samples to decide on? */
+static int apron_needed(const job *j, int x, int y, int x0, int y0, int x1,
+                        int y1)
+{
+    for (int ny = y - 1; ny <= y + 1; ny++)
+        for (int nx = x - 1; nx <= x + 1; nx++)
+            if (nx >= x0 && nx < x1 && ny >= y0 && ny < y1 &&
+                pilot_spp(j, nx, ny) < j->set->spp)
+                return 1;
+    return 0;
+}
+
 /* One sub-block [x0, x1) x [y0, y1) of a tile. */
 static void render_block(worker *w, int x0, int y0, int x1, int y1)
 {
     job *j = w->job;
     const lr_render_settings *set = j->set;
     int spp = set->spp, lo = set->adaptive_min_spp;
+    double thr = set->adaptive_threshold;
     if (!set->adaptive || lo >= spp) {
         for (int y = y0; y < y1; y++)
             for (int x = x0; x < x1; x++) {
@@ -263,33 +297,64 @@ static void render_block(worker *w, int x0, int y0, int x1, int y1)
             }
         return;
     }
-    /* Adaptive: a pilot of `lo` samples in the block and a one-pixel
-     * apron around it (inside the frame, whatever the region), each
-     * pixel's need from its pilot, then each pixel continues to the
-     * largest need in its 3 x 3 neighbourhood.  Everything a pixel's
-     * count depends on is computed here, so tiles and regions agree. */
+    /* Adaptive.  A pilot (pilot_spp) in the block and a one-pixel apron
+     * around it (inside the frame, whatever the region) gives each pixel
+     * a need; a pixel goes on to at least the largest need in its 3 x 3
+     * neighbourhood (neighbours of unconverged pixels keep going), then
+     * in rounds that at least double its count, judging its own need
+     * again from all its samples after each, until that need is met or
+     * it has spp.  A count depends only on the neighbourhood's pilots and
+     * the pixel's own samples, all computed here, so tiles and regions
+     * agree; and a pixel's first n samples are the full render's first
+     * n, so it is the full render stopped at n. */
     int ax0 = x0 > 0 ? x0 - 1 : 0, ay0 = y0 > 0 ? y0 - 1 : 0;
     int ax1 = x1 < set->width ? x1 + 1 : x1;
     int ay1 = y1 < set->height ? y1 + 1 : y1;
     int aw = ax1 - ax0;
     for (int y = ay0; y < ay1; y++)
         for (int x = ax0; x < ax1; x++) {
-            lr__pixel *a = &w->acc[(y - ay0) * aw + (x - ax0)];
-            lr__pixel_reset(a);
-            sample_pixel(w, x, y, 0, lo, a);
-            w->need[(y - ay0) * aw + (x - ax0)] = lr__pixel_samples_needed(
-                a, set->adaptive_threshold, lo, spp);
+            int i = (y - ay0) * aw + (x - ax0);
+            int p = pilot_spp(j, x, y);
+            int inside = x >= x0 && x < x1 && y >= y0 && y < y1;
+            w->need[i] = 0;
+            if (!inside && !apron_needed(j, x, y, x0, y0, x1, y1))
+                continue;
+            lr__pixel_reset(&w->acc[i]);
+            sample_pixel(w, x, y, 0, p, &w->acc[i]);
+            w->need[i] = lr__pixel_samples_needed(&w->acc[i], thr, p, spp);
         }
     for (int y = y0; y < y1; y++)
         for (int x = x0; x < x1; x++) {
-            int n = lo;
-            for (int ny = y - 1; ny <= y + 1; ny++)
-                for (int nx = x - 1; nx <= x + 1; nx++)
-                    if (nx >= ax0 && nx < ax1 && ny >= ay0 && ny < ay1 &&
-                        w->need[(ny - ay0) * aw + (nx - ax0)] > n)
-                        n = w->need[(ny - ay0) * aw + (nx - ax0)];
             lr__pixel *a = &w->acc[(y - ay0) * aw + (x - ax0)];
-            sample_pixel(w, x, y, lo, n, a);
+            int have = pilot_spp(j, x, y);
+            if (have >= spp) {
+                /* The pilot was all of it (a blurred pixel at low spp). */
+                store_pixel(w, x, y, a);
+                count_plan(w, x, y);
+                continue;
+            }
+            int want = lr__pixel_samples_needed(a, thr, have, spp);
+            for (int ny = y - 1; ny <= y + 1; ny++)
+                for (int nx = x - 1; nx <= x + 1; nx++) {
+                    if (nx < ax0 || nx >= ax1 || ny < ay0 || ny >= ay1)
+                        continue;
+                    int k = (ny - ay0) * aw + (nx - ax0);
+                    if (w->need[k] > want)
+                        want = w->need[k];
+                    /* An edge along the pixel grid can slip between a
+                     * few samples: a pixel whose pilot differs from a
+                     * neighbour's by more than 10 x the threshold takes
+                     * another round and judges again. */
+                    if (w->need[k] > 0 && want <= have &&
+                        lr__pixel_contrast(a, &w->acc[k]) > 10.0 * thr)
+                        want = have + 1;
+                }
+            while (want > have) {
+                int next = lr__adaptive_next(have, want, spp);
+                sample_pixel(w, x, y, have, next, a);
+                have = next;
+                want = lr__pixel_samples_needed(a, thr, have, spp);
+            }
             store_pixel(w, x, y, a);
             count_plan(w, x, y);
         }
@@ -303,12 +368,22 @@ static void render_tile(worker *w, int x0, int y0, int x1, int y1)
                          y + SUB < y1 ? y + SUB : y1);
 }
 
+/* CPU time of the calling thread. */
+static double thread_cpu_seconds(void)
+{
+    struct timespec ts;
+    if (clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts) != 0)
+        return 0.0;
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
 static void *worker_main(void *arg)
 {
     worker *w = arg;
     job *j = w->job;
     const lr_render_settings *set = j->set;
     /* Denormals only slow traversal down; Embree recommends FTZ/DAZ. */
+    double cpu0 = thread_cpu_seconds();
     unsigned csr = _mm_getcsr();
     _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);
     _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
@@ -342,6 +417,7 @@ static void *worker_main(void *arg)
         pthread_mutex_unlock(&j->progress_lock);
     }
     _mm_setcsr(csr);
+    w->cpu = thread_cpu_seconds() - cpu0;
     return NULL;
 }
 
@@ -433,7 +509,7 @@ lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
         j.x0 = set->region[0], j.y0 = set->region[1],
         j.x1 = set->region[2], j.y1 = set->region[3];
 
-    double t0 = now_seconds();
+    double t0 = now_seconds(), cpu0 = thread_cpu_seconds();
     lr_image *img = NULL;
     st = lr_image_create(j.x1 - j.x0, j.y1 - j.y0, set->want_depth, &img,
                          err);
@@ -488,6 +564,9 @@ lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
     worker_main(&ws[0]);
     for (int i = 1; i < started; i++)
         pthread_join(tids[i], NULL);
+    /* The calling thread's share: the plan and the set-up as well as its
+     * tiles (the other workers' time is all tiles). */
+    ws[0].cpu = thread_cpu_seconds() - cpu0;
     pthread_mutex_destroy(&j.progress_lock);
 
     lr_render_stats sum;
@@ -498,6 +577,7 @@ lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
         sum.lens_pixels += ws[i].lens_pixels;
         sum.chroma_pixels += ws[i].chroma_pixels;
         sum.samples += ws[i].samples;
+        sum.cpu_seconds += ws[i].cpu;
         sum.nan_samples += ws[i].dropped;
     }
     free(ws);

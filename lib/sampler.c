@@ -409,11 +409,11 @@ static void sobol16_avx512(const lr__pixel_sampler *ps, uint32_t first,
 }
 
 /* The same in portable C, lane by lane. */
-static void sobol16_c(const lr__pixel_sampler *ps, uint32_t first,
+static void sobol16_c(const lr__pixel_sampler *ps, uint32_t first, int n,
                       float out[4][16])
 {
     static const int map[4] = {2, 3, 0, 1};
-    for (int i = 0; i < 16; i++) {
+    for (int i = 0; i < n; i++) {
         uint32_t r = lk_permute(reverse_bits(first + (uint32_t)i),
                                 ps->shuffle);
         for (int d = 0; d < 4; d++)
@@ -448,7 +448,7 @@ void lr__pixel_sampler_get16(const lr__pixel_sampler *ps, uint32_t first,
     else if (isa == 2)
         sobol16_avx2(ps, first, out);
     else
-        sobol16_c(ps, first, out);
+        sobol16_c(ps, first, n, out);
 }
 
 void lr__pixel_sampler_get(const lr__pixel_sampler *ps, uint32_t sample,

@@ -176,6 +176,76 @@ static void test_adaptive_deterministic(void **state)
     lr_image_free(full);
 }
 
+/* The schedule itself, on a pinhole view (every pixel's pilot is min_spp,
+ * 4) of two flat cards, light and dark, meeting in a vertical edge down
+ * the middle of pixel column 12: the edge's pilot sees both sides (Sobol's
+ * first four pixel points are two on each side of the pixel's middle), so
+ * that column and its neighbours on both sides go on to spp, and every
+ * other pixel, whose neighbourhood is flat, stops at the pilot.  Each
+ * pixel is the full render stopped at its count, and with min_spp = spp
+ * adaptive sampling is the full render. */
+static void test_adaptive_schedule(void **state)
+{
+    (void)state;
+    /* fov 20 at 24 x 6: half_w = 4 tan(10 deg); the middle of column 12
+     * is 5 half_w / 24 to the right of the axis at depth 5. */
+    double xe = 5.0 * 4.0 * tan(10.0 * M_PI / 180.0) / 24.0;
+    char json[1024];
+    snprintf(json, sizeof json,
+             "{\"render\": {\"width\": 24, \"height\": 6, \"spp\": 64,"
+             "  \"max_depth\": 0, \"threads\": 1},"
+             " \"camera\": {\"model\": \"pinhole\", \"position\": [0, 0, 0],"
+             "  \"look_at\": [0, 0, -1], \"fov\": 20},"
+             " \"materials\": {\"w\": {\"diffuse\": 0.9},"
+             "   \"k\": {\"diffuse\": 0.1}},"
+             " \"lights\": [{\"type\": \"ambient\", \"radiance\": 1}],"
+             " \"objects\": ["
+             "  {\"type\": \"plane\", \"point\": [%.9f, 0, -5],"
+             "   \"normal\": [0, 0, 1], \"size\": [8, 4], \"material\": \"w\"},"
+             "  {\"type\": \"plane\", \"point\": [%.9f, 0, -5],"
+             "   \"normal\": [0, 0, 1], \"size\": [8, 4], \"material\": \"k\"}]}",
+             xe - 4.0, xe + 4.0);
+    const char *full4_sets[] = {"render.adaptive=false", "render.spp=4"};
+    const char *full64_sets[] = {"render.adaptive=false"};
+    lr_image *full4 = lr_test_render(json, full4_sets, 2, NULL);
+    lr_image *full64 = lr_test_render(json, full64_sets, 1, NULL);
+    lr_render_stats st;
+    lr_image *ad = lr_test_render(json, NULL, 0, &st);
+    uint64_t expect = 0;
+    for (int x = 0; x < 24; x++) {
+        int n = x >= 11 && x <= 13 ? 64 : 4;
+        char region[64];
+        snprintf(region, sizeof region, "render.region=[%d, 0, %d, 6]", x,
+                 x + 1);
+        const char *col_sets[] = {region};
+        lr_render_stats cs;
+        lr_image *col = lr_test_render(json, col_sets, 1, &cs);
+        if (cs.samples != (uint64_t)6 * n)
+            fail_msg("column %d took %llu samples, not 6 x %d", x,
+                     (unsigned long long)cs.samples, n);
+        expect += (uint64_t)6 * n;
+        const lr_image *same = n == 64 ? full64 : full4;
+        for (int y = 0; y < 6; y++)
+            assert_memory_equal(lr_image_rgb(ad) + 3 * (y * 24 + x),
+                                lr_image_rgb(same) + 3 * (y * 24 + x),
+                                3 * sizeof(float));
+        lr_image_free(col);
+    }
+    assert_int_equal(st.samples, expect);
+    /* The edge is really there: column 12 is neither card's colour. */
+    float e = lr_image_rgb(full64)[3 * 12];
+    assert_true(e > 0.2f && e < 0.8f);
+    /* min_spp = spp: nothing to decide. */
+    const char *eq_sets[] = {"render.adaptive={\"min_spp\": 64}"};
+    lr_image *eq = lr_test_render(json, eq_sets, 1, NULL);
+    assert_memory_equal(lr_image_rgb(eq), lr_image_rgb(full64),
+                        24 * 6 * 3 * sizeof(float));
+    lr_image_free(eq);
+    lr_image_free(ad);
+    lr_image_free(full4);
+    lr_image_free(full64);
+}
+
 /* Adaptive sampling's error stays near the full simulation's at the
  * same maximum samples. */
 static void test_adaptive_error(void **state)
@@ -206,5 +276,6 @@ static const struct CMUnitTest plan_tests[] = {
     cmocka_unit_test(test_plan_skips_what_it_can),
     cmocka_unit_test(test_adaptive_deterministic),
     cmocka_unit_test(test_adaptive_error),
+    cmocka_unit_test(test_adaptive_schedule),
 };
 LR_TEST_GROUP(plan, plan_tests)

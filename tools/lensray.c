@@ -261,7 +261,7 @@ static int cmd_render(int argc, char **argv)
     } else if (stats) {
         double s = rst.seconds > 0 ? rst.seconds : 1e-9;
         double px = rst.pixels ? (double)rst.pixels : 1.0;
-        printf("{\"seconds\": %.6f, \"width\": %d, \"height\": %d, "
+        printf("{\"seconds\": %.6f, \"cpu_seconds\": %.6f, \"width\": %d, \"height\": %d, "
                "\"spp\": %d, \"threads\": %d, \"samples\": %llu, "
                "\"rays\": %llu, \"samples_per_second\": %.0f, "
                "\"rays_per_second\": %.0f, \"nan_samples\": %llu, "
@@ -271,7 +271,7 @@ static int cmd_render(int argc, char **argv)
                "\"chroma_pixels\": %.4f, \"samples\": %llu, "
                "\"full_samples\": %llu, \"camera_rays\": %llu, "
                "\"full_camera_rays\": %llu}}\n",
-               rst.seconds, rs.width, rs.height, rs.spp, rst.threads,
+               rst.seconds, rst.cpu_seconds, rs.width, rs.height, rs.spp, rst.threads,
                (unsigned long long)rst.samples,
                (unsigned long long)rst.rays, (double)rst.samples / s,
                (double)rst.rays / s, (unsigned long long)rst.nan_samples,
