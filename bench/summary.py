@@ -267,7 +267,7 @@ def main():
                   % (mm['width'], mm['height'], mm['spp'], peak, film, base,
                      film + base, peak - film - base,
                      100.0 * (peak - film - base) / (film + base)))
-                checks.append(('peak RSS within film + scene (+5%%)',
+                checks.append(('peak RSS within film + scene (+5%)',
                                peak <= 1.05 * (film + base),
                                '%.1f of %.1f MiB' % (peak, film + base)))
     p('')
