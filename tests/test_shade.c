@@ -429,7 +429,8 @@ static void test_vector_shading_matches_scalar(void **state)
                     a + nu);
         }
     assert_int_equal(fclose(f), 0);
-    const char *json =
+    char json[8192];
+    int len = snprintf(json, sizeof json,
         "{\"camera\": {\"model\": \"thinlens\", \"position\": [0, 1.5, 6],"
         "  \"look_at\": [0, 0.5, 0], \"fov\": 50, \"aperture_radius\": 0.15,"
         "  \"focus_distance\": 6},"
@@ -447,36 +448,25 @@ static void test_vector_shading_matches_scalar(void **state)
         "   \"irradiance\": 0.7},"
         "  {\"type\": \"ambient\", \"radiance\": 0.05}],"
         " \"objects\": ["
-        "  {\"type\": \"mesh\", \"file\": \"vecball.obj\", \"smooth\": true,"
+        "  {\"type\": \"mesh\", \"file\": \"%s\", \"smooth\": true,"
         "   \"material\": \"clay\", \"transform\": [{\"translate\": [-1.2, 1, 0]}]},"
-        "  {\"type\": \"mesh\", \"file\": \"vecball.obj\", \"smooth\": true,"
+        "  {\"type\": \"mesh\", \"file\": \"%s\", \"smooth\": true,"
         "   \"material\": \"gloss\", \"transform\": [{\"translate\": [1.2, 1, -1]}]},"
-        "  {\"type\": \"mesh\", \"file\": \"vecball.obj\", \"material\": \"black\","
+        "  {\"type\": \"mesh\", \"file\": \"%s\", \"material\": \"black\","
         "   \"transform\": [{\"scale\": 0.4}, {\"translate\": [0, 0.4, 2]}]},"
-        "  {\"type\": \"mesh\", \"file\": \"vecball.obj\", \"material\": \"clay\","
+        "  {\"type\": \"mesh\", \"file\": \"%s\", \"material\": \"clay\","
         "   \"transform\": [{\"scale\": 0.5}, {\"translate\": [0, 0.5, -1.5]}]},"
         "  {\"type\": \"sphere\", \"center\": [0, 0.6, 0.5], \"radius\": 0.6,"
         "   \"material\": \"mirror\"},"
         "  {\"type\": \"plane\", \"point\": [0, 0, 0], \"normal\": [0, 1, 0],"
-        "   \"size\": 20, \"material\": \"grey\"}]}";
+        "   \"size\": 20, \"material\": \"grey\"}]}",
+        path, path, path, path);
+    assert_true(len > 0 && (size_t)len < sizeof json);
     lr_image *img[2];
     for (int k = 0; k < 2; k++) {
-        lr_scene *sc = NULL;
-        lr_error err;
-        if (lr_scene_load_json(json, strlen(json), lr_test_tmpdir(), NULL,
-                               0, &sc, &err) != LR_OK)
-            fail_msg("scene did not load: %s", err.message);
-        lr_camera cam;
-        lr_render_settings rs;
-        lr_scene_camera(sc, &cam);
-        lr_scene_settings(sc, &rs);
         lr__trace16_scalar_only = k;
-        img[k] = NULL;
-        lr_status st = lr_render(sc, &cam, &rs, &img[k], NULL, &err);
+        img[k] = render(json, -1, 0, NULL);
         lr__trace16_scalar_only = 0;
-        if (st != LR_OK)
-            fail_msg("render: %s", err.message);
-        lr_scene_free(sc);
     }
     const float *a = lr_image_rgb(img[0]), *b = lr_image_rgb(img[1]);
     size_t n = 3u * 48u * 36u;
