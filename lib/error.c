@@ -6,10 +6,7 @@
 #include <stdio.h>
 #include <string.h>
 
-/* When snprintf cut `s` (of capacity `cap`) short, the cut may have
- * fallen inside a UTF-8 character (messages quote user text): drop the
- * partial character so that the text stays valid UTF-8. */
-static void trim_partial_utf8(char *s, size_t cap, int wanted)
+void lr__trim_partial_utf8(char *s, size_t cap, int wanted)
 {
     if (wanted < 0 || (size_t)wanted < cap)
         return;
@@ -33,12 +30,12 @@ lr_status lr__fail(lr_error *err, lr_status status, const char *path,
         return status;
     err->status = status;
     int w = snprintf(err->path, sizeof err->path, "%s", path ? path : "");
-    trim_partial_utf8(err->path, sizeof err->path, w);
+    lr__trim_partial_utf8(err->path, sizeof err->path, w);
     va_list ap;
     va_start(ap, fmt);
     w = vsnprintf(err->message, sizeof err->message, fmt, ap);
     va_end(ap);
-    trim_partial_utf8(err->message, sizeof err->message, w);
+    lr__trim_partial_utf8(err->message, sizeof err->message, w);
     return status;
 }
 

@@ -19,6 +19,12 @@ lr_status lr__fail(lr_error *err, lr_status status, const char *path,
                    const char *fmt, ...)
     __attribute__((format(printf, 4, 5)));
 
+/* When snprintf, which wanted `wanted` characters, cut `s` (of capacity
+ * `cap`) short, the cut may have fallen inside a UTF-8 character
+ * (messages and paths quote user text): drops the partial character so
+ * that the text stays valid UTF-8. */
+void lr__trim_partial_utf8(char *s, size_t cap, int wanted);
+
 /* ---- limits, shared by the JSON loader and the C API's validation ---- */
 
 #define LR__MAX_DIM 65536          /* pixels per side */

@@ -13,23 +13,6 @@
 /* Deeper nesting than any scene needs; checked before cJSON recurses. */
 #define MAX_NESTING 64
 
-/* A path longer than LR__PATH_MAX is cut; the cut must not leave half a
- * UTF-8 character at the end (keys may be any text). */
-static void trim_cut(char *s, int wanted)
-{
-    if (wanted < LR__PATH_MAX)
-        return;
-    size_t n = strlen(s), i = n;
-    while (i > 0 && ((unsigned char)s[i - 1] & 0xC0) == 0x80 && n - i < 3)
-        i--;
-    if (i == 0)
-        return;
-    unsigned char lead = (unsigned char)s[i - 1];
-    size_t need = lead >= 0xF0 ? 4 : lead >= 0xE0 ? 3 : lead >= 0xC0 ? 2 : 1;
-    if (lead >= 0x80 && n - (i - 1) < need)
-        s[i - 1] = '\0';
-}
-
 void lr__path_key(char out[LR__PATH_MAX], const char *parent,
                   const char *key)
 {
@@ -38,12 +21,15 @@ void lr__path_key(char out[LR__PATH_MAX], const char *parent,
         w = snprintf(out, LR__PATH_MAX, "%s", key);
     else
         w = snprintf(out, LR__PATH_MAX, "%s.%s", parent, key);
-    trim_cut(out, w);
+    /* A path longer than LR__PATH_MAX is cut, never inside a character
+     * (keys may be any text). */
+    lr__trim_partial_utf8(out, LR__PATH_MAX, w);
 }
 
 void lr__path_index(char out[LR__PATH_MAX], const char *parent, size_t i)
 {
-    trim_cut(out, snprintf(out, LR__PATH_MAX, "%s[%zu]", parent, i));
+    lr__trim_partial_utf8(
+        out, LR__PATH_MAX, snprintf(out, LR__PATH_MAX, "%s[%zu]", parent, i));
 }
 
 /* Length of the valid UTF-8 sequence starting at s (1 to 4), or 0 when
