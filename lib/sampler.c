@@ -112,8 +112,15 @@ static uint32_t sobol_rt[4][4][256];
 static uint32_t sobol_rt16[4][16][16] __attribute__((aligned(64)));
 static pthread_once_t sobol_once = PTHREAD_ONCE_INIT;
 
+/* The best version of lr__pixel_sampler_get16's Sobol path this CPU
+ * runs (see lr__sampler_isa), chosen once by sobol_init. */
+static int sobol_isa;
+
 static void sobol_init(void)
 {
+    sobol_isa = __builtin_cpu_supports("avx512bw") ? 3
+                : __builtin_cpu_supports("avx2")   ? 2
+                                                   : 1;
     static const struct {
         unsigned s, a, m[3];
     } poly[3] = {{1, 0, {1}}, {2, 1, {1, 3}}, {3, 1, {1, 3, 1}}};
@@ -438,11 +445,7 @@ void lr__pixel_sampler_get16(const lr__pixel_sampler *ps, uint32_t first,
     /* All sixteen lanes, whatever n: the extra ones are harmless.  The
      * three versions give the same bits (integer arithmetic, and an
      * exact conversion to float). */
-    int isa = lr__sampler_isa;
-    if (isa == 0)
-        isa = __builtin_cpu_supports("avx512bw") ? 3
-              : __builtin_cpu_supports("avx2")   ? 2
-                                                 : 1;
+    int isa = lr__sampler_isa ? lr__sampler_isa : sobol_isa;
     if (isa == 3)
         sobol16_avx512(ps, first, n, out);
     else if (isa == 2)
