@@ -8,21 +8,13 @@
 
 void lr__pixel_add(lr__pixel *p, lr__v3 L)
 {
-    p->n++;
-    if (!v3_finite(L)) {
-        p->dropped++;
-        return;
-    }
-    p->sum[0] += L.x;
-    p->sum[1] += L.y;
-    p->sum[2] += L.z;
-    double y = lr__luminance(L.x, L.y, L.z);
-    p->sum_y2 += y * y;
+    lr__pixel_add_n(p, &L, 1);
 }
 
 void lr__pixel_add_n(lr__pixel *p, const lr__v3 *L, int n)
 {
-    /* lr__pixel_add's sums in the same order, in registers. */
+    /* Non-finite samples are counted and dropped; the sums are kept in
+     * registers, in sample order. */
     double s0 = p->sum[0], s1 = p->sum[1], s2 = p->sum[2], sy = p->sum_y2;
     for (int i = 0; i < n; i++) {
         if (!v3_finite(L[i])) {

@@ -26,7 +26,7 @@ static inline void lr__pixel_reset(lr__pixel *p)
 
 /* Adds one sample of weight 1 (a box filter over the pixel). */
 void lr__pixel_add(lr__pixel *p, lr__v3 L);
-/* lr__pixel_add of L[0], ..., L[n-1] in that order: the same sums. */
+/* lr__pixel_add of L[0], ..., L[n-1], in that order. */
 void lr__pixel_add_n(lr__pixel *p, const lr__v3 *L, int n);
 
 /* Rec. 709 luminance of a linear RGB value. */
