@@ -149,6 +149,27 @@ lr_status lr_format_from_path(const char *path, lr_format *fmt,
 
 /* ---- encoding ---------------------------------------------------------- */
 
+/* Encodes `img` as `fmt` with `opts` (NULL: the defaults), into the file
+ * `fd` when fd >= 0, else into a malloc'ed buffer (see lr__encode_exr). */
+static lr_status encode(const lr_image *img, lr_format fmt,
+                        const lr_output_options *opts, int fd, void **buf,
+                        size_t *len, lr_error *err)
+{
+    lr_output_options defaults;
+    if (opts == NULL) {
+        lr_output_options_default(&defaults);
+        opts = &defaults;
+    }
+    switch (fmt) {
+    case LR_FORMAT_EXR:
+        return lr__encode_exr(img, opts, fd, buf, len, err);
+    case LR_FORMAT_PNG:
+        return lr__encode_png(img, opts, fd, buf, len, err);
+    }
+    return lr__fail(err, LR_ERR_INVALID, NULL, "unknown image format %d",
+                    (int)fmt);
+}
+
 lr_status lr_image_encode(const lr_image *img, lr_format fmt,
                           const lr_output_options *opts, void **buf,
                           size_t *len, lr_error *err)
@@ -161,21 +182,7 @@ lr_status lr_image_encode(const lr_image *img, lr_format fmt,
     if (img == NULL || img->rgb == NULL)
         return lr__fail(err, LR_ERR_INVALID, NULL,
                         "lr_image_encode: there is no image to encode");
-
-    lr_output_options defaults;
-    if (opts == NULL) {
-        lr_output_options_default(&defaults);
-        opts = &defaults;
-    }
-
-    switch (fmt) {
-    case LR_FORMAT_EXR:
-        return lr__encode_exr(img, opts, -1, buf, len, err);
-    case LR_FORMAT_PNG:
-        return lr__encode_png(img, opts, -1, buf, len, err);
-    }
-    return lr__fail(err, LR_ERR_INVALID, NULL,
-                    "lr_image_encode: unknown image format %d", (int)fmt);
+    return encode(img, fmt, opts, -1, buf, len, err);
 }
 
 /* ---- writing files ----------------------------------------------------- */
@@ -232,11 +239,6 @@ lr_status lr_image_write(const lr_image *img, const char *path,
     if (img == NULL || img->rgb == NULL)
         return lr__fail(err, LR_ERR_INVALID, NULL,
                         "lr_image_write: there is no image to write");
-    lr_output_options defaults;
-    if (opts == NULL) {
-        lr_output_options_default(&defaults);
-        opts = &defaults;
-    }
 
     /* Encoded straight into a temporary file beside `path`, so the file
      * never costs its size in memory, then renamed into place. */
@@ -253,9 +255,7 @@ lr_status lr_image_write(const lr_image *img, const char *path,
 
     void *buf = NULL;
     size_t len = 0;
-    st = fmt == LR_FORMAT_EXR
-             ? lr__encode_exr(img, opts, fd, &buf, &len, err)
-             : lr__encode_png(img, opts, fd, &buf, &len, err);
+    st = encode(img, fmt, opts, fd, &buf, &len, err);
     if (st != LR_OK) {
         close(fd);
         unlink(tmp_name);
