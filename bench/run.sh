@@ -158,23 +158,24 @@ fi
 
 if [ $mitsuba_ok = 1 ]; then
     # The llvm variants need an LLVM newer than Debian 12's default 14.
+    # Dr.Jit 1.5 emits llvm.minimum, which LLVM 15 cannot select (it
+    # aborts with "Cannot select: fminimum"): install 19 even where 15 is
+    # present.
+    if [ -z "${DRJIT_LIBLLVM_PATH:-}" ] && [ ! -e /usr/lib/x86_64-linux-gnu/libLLVM-19.so ] && \
+       [ "$(id -u)" = 0 ] && apt-cache policy libllvm19 2>/dev/null | grep -q 'Candidate: [0-9]'; then
+        say "installing libllvm19 for Mitsuba's llvm variant"
+        DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libllvm19 >/dev/null 2>&1
+    fi
     if [ -z "${DRJIT_LIBLLVM_PATH:-}" ]; then
-        for v in 19 18 17 16 15; do
+        for v in 19 18 17 16; do
             for f in /usr/lib/x86_64-linux-gnu/libLLVM-$v.so /usr/lib/x86_64-linux-gnu/libLLVM-$v.so.1 \
                      /usr/lib/llvm-$v/lib/libLLVM-$v.so /usr/lib/llvm-$v/lib/libLLVM.so.1; do
                 if [ -e "$f" ]; then DRJIT_LIBLLVM_PATH=$f; break 2; fi
             done
         done
-        if [ -z "${DRJIT_LIBLLVM_PATH:-}" ] && [ "$(id -u)" = 0 ] && \
-           apt-cache policy libllvm19 2>/dev/null | grep -q 'Candidate: [0-9]'; then
-            say "installing libllvm19 for Mitsuba's llvm variant"
-            DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libllvm19 >/dev/null 2>&1
-            [ -e /usr/lib/x86_64-linux-gnu/libLLVM-19.so ] && \
-                DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM-19.so
-        fi
     fi
     export DRJIT_LIBLLVM_PATH=${DRJIT_LIBLLVM_PATH:-}
-    echo "llvm: ${DRJIT_LIBLLVM_PATH:-none found (needs libllvm >= 15, e.g. apt-get install libllvm19)}" >> "$OUT/machine.log"
+    echo "llvm: ${DRJIT_LIBLLVM_PATH:-none found (needs libllvm >= 16, e.g. apt-get install libllvm19)}" >> "$OUT/machine.log"
     MI="$VENV/bin/python bench/mitsuba_bench.py --obj scenes/meshes/bunny.obj"
     if [ -n "$DRJIT_LIBLLVM_PATH" ]; then
         quiet mitsuba-llvm
@@ -182,7 +183,7 @@ if [ $mitsuba_ok = 1 ]; then
         $MI --variant llvm_ad_rgb --spp "$MI_SPP" --repeat 3 >> "$OUT/mitsuba.log" 2>"$OUT/mitsuba-llvm.err" ||
             echo "MITSUBA_FAILED llvm_ad_rgb (exit $?): $(tail -1 "$OUT/mitsuba-llvm.err")" >> "$OUT/mitsuba.log"
     else
-        echo "MITSUBA_FAILED llvm_ad_rgb: no libLLVM >= 15 (apt-get install libllvm19)" >> "$OUT/mitsuba.log"
+        echo "MITSUBA_FAILED llvm_ad_rgb: no libLLVM >= 16 (apt-get install libllvm19)" >> "$OUT/mitsuba.log"
     fi
     quiet mitsuba-scalar
     say "Mitsuba scalar_rgb, $MI_SCALAR_SPP and $((2 * MI_SCALAR_SPP)) spp"

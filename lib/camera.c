@@ -1,11 +1,17 @@
 /*
- * camera.c: camera defaults, validation, and film point -> ray for the
- * pinhole, thin-lens and bracket models (see camera.h for the geometry).
+ * camera.c: what every camera model shares: defaults, the checks of the
+ * common fields, the registry of models, the frame (eye, axes, field of
+ * view), the chief ray, chromatic focus, autofocus, and the offset-lens
+ * form that the pinhole, the thin lens and the bracket are drawn with
+ * (camera.h), in scalar and 16-wide versions side by side.
  */
 #include "camera.h"
 #include "lens.h"
+#include "scene.h"
 
+#include <float.h>
 #include <math.h>
+#include <string.h>
 
 void lr_camera_default(lr_camera *cam)
 {
@@ -39,9 +45,28 @@ void lr_camera_default(lr_camera *cam)
     cam->chromatic.wavelengths = 8;
 }
 
-/* Finite and within +-1e15, the scene format's limit for any number:
- * beyond it Embree is given rays it cannot trace (and aborts). */
-#define LR__MAX_COORD 1e15
+/* ---- the registry ----------------------------------------------------- */
+
+const lr__camera_model *const lr__camera_models[] = {
+    &lr__camera_pinhole, &lr__camera_thinlens, &lr__camera_bracket, NULL};
+
+const lr__camera_model *lr__camera_model_named(const char *name)
+{
+    for (int i = 0; lr__camera_models[i] != NULL; i++)
+        if (strcmp(lr__camera_models[i]->name, name) == 0)
+            return lr__camera_models[i];
+    return NULL;
+}
+
+const lr__camera_model *lr__camera_model_of(lr_camera_model id)
+{
+    for (int i = 0; lr__camera_models[i] != NULL; i++)
+        if (lr__camera_models[i]->id == id)
+            return lr__camera_models[i];
+    return NULL;
+}
+
+/* ---- validation ------------------------------------------------------- */
 
 static int ok1(double x) { return isfinite(x) && fabs(x) <= LR__MAX_COORD; }
 
@@ -52,67 +77,25 @@ static int finite3(const double v[3])
 
 #define BAD(path, ...) lr__fail(err, LR_ERR_INVALID, path, __VA_ARGS__)
 
-/* Every field is checked whatever the model, so that a bad value never
- * waits silently for the day someone switches models. */
-static lr_status validate_lens(const lr_camera *cam, lr_error *err)
+lr_status lr__cam_check_length(const char *path, double v, int zero_ok,
+                               int is_focus, lr_error *err)
 {
-    if (!(cam->focus_distance > 0.0 && isfinite(cam->focus_distance)))
-        return BAD("camera.focus_distance",
-                   "camera.focus_distance must be > 0, got %g",
-                   cam->focus_distance);
-    if (!(cam->aperture_radius >= 0.0 && isfinite(cam->aperture_radius)))
-        return BAD("camera.aperture_radius",
-                   "camera.aperture_radius must be >= 0, got %g",
-                   cam->aperture_radius);
-    if (!(cam->focal_length_mm >= 0.0 && isfinite(cam->focal_length_mm)))
-        return BAD("camera.focal_length_mm",
-                   "camera.focal_length_mm must be >= 0, got %g",
-                   cam->focal_length_mm);
-    if (!(cam->f_number >= 0.0 && isfinite(cam->f_number)))
-        return BAD("camera.f_number", "camera.f_number must be >= 0, got %g",
-                   cam->f_number);
-    if (cam->f_number > 0.0 && !(cam->focal_length_mm > 0.0))
-        return BAD("camera.focal_length_mm",
-                   "camera.focal_length_mm must be set (> 0) when "
-                   "camera.f_number is");
-    if (cam->aperture_shape != LR_APERTURE_DISK &&
-        cam->aperture_shape != LR_APERTURE_SQUARE &&
-        cam->aperture_shape != LR_APERTURE_POLYGON)
-        return BAD("camera.aperture_shape",
-                   "camera.aperture_shape is not a known shape (%d)",
-                   (int)cam->aperture_shape);
-    if (cam->aperture_blades < 3 || cam->aperture_blades > 64)
-        return BAD("camera.aperture_blades",
-                   "camera.aperture_blades must be between 3 and 64, got %d",
-                   cam->aperture_blades);
-    if (!isfinite(cam->aperture_rotation))
-        return BAD("camera.aperture_rotation",
-                   "camera.aperture_rotation must be finite");
-    if (!(cam->aperture_ratio >= 0.01 && cam->aperture_ratio <= 100.0))
-        return BAD("camera.aperture_ratio",
-                   "camera.aperture_ratio must be between 0.01 and 100, got %g",
-                   cam->aperture_ratio);
-    if (!(cam->image_plane_distance > 0.0 &&
-          isfinite(cam->image_plane_distance)))
-        return BAD("camera.image_plane_distance",
-                   "camera.image_plane_distance must be > 0, got %g",
-                   cam->image_plane_distance);
-    if (!(cam->focal_length > 0.0 && isfinite(cam->focal_length)))
-        return BAD("camera.focal_length",
-                   "camera.focal_length must be > 0, got %g",
-                   cam->focal_length);
-    if (!(cam->aperture >= 0.0 && isfinite(cam->aperture)))
-        return BAD("camera.aperture", "camera.aperture must be >= 0, got %g",
-                   cam->aperture);
-    if ((cam->focus_on[0] < 0) != (cam->focus_on[1] < 0))
-        return BAD("camera.focus_on",
-                   "camera.focus_on must be a pixel [x, y] with x, y >= 0");
+    if (isfinite(v) && fabs(v) > LR__MAX_COORD)
+        return BAD(path, "%s must be at most 1e15, got %g", path, v);
+    /* Distances that set a focus are divided into: below 1e-6 the focus
+     * power, and with it the rays' directions, would overflow floats. */
+    if (is_focus && v > 0.0 && v < 1e-6)
+        return BAD(path, "%s must be at least 1e-6, got %g", path, v);
+    if (zero_ok && !(v >= 0.0 && isfinite(v)))
+        return BAD(path, "%s must be >= 0, got %g", path, v);
+    if (!zero_ok && !(v > 0.0 && isfinite(v)))
+        return BAD(path, "%s must be > 0, got %g", path, v);
     return LR_OK;
 }
 
-static lr_status validate_chromatic(const lr_camera *cam, lr_error *err)
+/* Chromatic aberration: the same keys for every model with a lens. */
+static lr_status validate_chromatic(const lr_chromatic *ch, lr_error *err)
 {
-    const lr_chromatic *ch = &cam->chromatic;
     if (ch->mode != LR_CHROMATIC_OFF && ch->mode != LR_CHROMATIC_RGB &&
         ch->mode != LR_CHROMATIC_SPECTRAL)
         return BAD("camera.chromatic.mode",
@@ -153,19 +136,6 @@ static lr_status validate_chromatic(const lr_camera *cam, lr_error *err)
                    "camera.chromatic.wavelengths must be between 1 and 64, "
                    "got %d",
                    ch->wavelengths);
-    if (ch->mode != LR_CHROMATIC_OFF && cam->model == LR_CAMERA_THINLENS) {
-        /* The thin lens needs its focal length to know how far the sensor
-         * sits behind it, which sets how each colour's focus moves. */
-        if (!(cam->focal_length_mm > 0.0))
-            return BAD("camera.focal_length_mm",
-                       "camera.focal_length_mm must be set (> 0) for "
-                       "chromatic aberration with the thin lens");
-        if (!(cam->focus_distance * 1000.0 > cam->focal_length_mm))
-            return BAD("camera.focus_distance",
-                       "camera.focus_distance (%g m) must be beyond the focal "
-                       "length (%g mm) to focus",
-                       cam->focus_distance, cam->focal_length_mm);
-    }
     return LR_OK;
 }
 
@@ -173,8 +143,8 @@ lr_status lr_camera_validate(const lr_camera *cam, lr_error *err)
 {
     if (cam == NULL)
         return BAD("camera", "camera is NULL");
-    if (cam->model != LR_CAMERA_PINHOLE && cam->model != LR_CAMERA_THINLENS &&
-        cam->model != LR_CAMERA_BRACKET)
+    const lr__camera_model *model = lr__camera_model_of(cam->model);
+    if (model == NULL)
         return BAD("camera.model", "camera.model is not a known model (%d)",
                    (int)cam->model);
     if (!finite3(cam->position))
@@ -185,38 +155,6 @@ lr_status lr_camera_validate(const lr_camera *cam, lr_error *err)
                    "camera.look_at must be finite and within +-1e15");
     if (!finite3(cam->up))
         return BAD("camera.up", "camera.up must be finite and within +-1e15");
-    /* Lengths in scene units obey the same limit. */
-    const struct {
-        const char *path;
-        double v;
-    } lengths[] = {{"camera.focus_distance", cam->focus_distance},
-                   {"camera.aperture_radius", cam->aperture_radius},
-                   {"camera.focal_length_mm", cam->focal_length_mm},
-                   {"camera.f_number", cam->f_number},
-                   {"camera.image_plane_distance", cam->image_plane_distance},
-                   {"camera.focal_length", cam->focal_length},
-                   {"camera.aperture", cam->aperture}};
-    for (size_t i = 0; i < sizeof lengths / sizeof lengths[0]; i++)
-        if (isfinite(lengths[i].v) && fabs(lengths[i].v) > LR__MAX_COORD)
-            return BAD(lengths[i].path, "%s must be at most 1e15, got %g",
-                       lengths[i].path, lengths[i].v);
-    /* Distances that set a focus are divided into: below 1e-6 the focus
-     * power, and with it the rays' directions, would overflow floats. */
-    const struct {
-        const char *path;
-        double v;
-    } foci[] = {{"camera.focus_distance", cam->focus_distance},
-                {"camera.image_plane_distance", cam->image_plane_distance},
-                {"camera.focal_length", cam->focal_length}};
-    for (size_t i = 0; i < sizeof foci / sizeof foci[0]; i++)
-        if (foci[i].v > 0.0 && foci[i].v < 1e-6)
-            return BAD(foci[i].path, "%s must be at least 1e-6, got %g",
-                       foci[i].path, foci[i].v);
-    if (cam->f_number > 0.0 && cam->f_number < 1e-3)
-        return BAD("camera.f_number",
-                   "camera.f_number must be 0 (unused) or at least 0.001, "
-                   "got %g",
-                   cam->f_number);
     lr__v3 fwd = v3_sub(v3a(cam->look_at), v3a(cam->position));
     double flen = v3_len(fwd);
     if (!(flen > 0.0) || !isfinite(flen))
@@ -235,16 +173,30 @@ lr_status lr_camera_validate(const lr_camera *cam, lr_error *err)
     if (!(cam->fov > 0.0 && cam->fov < 180.0))
         return BAD("camera.fov", "camera.fov must be in (0, 180) degrees, got %g",
                    cam->fov);
-    lr_status st = validate_lens(cam, err);
+    /* Every model checks its fields, in use or not; the one in use last,
+     * with its cross-checks. */
+    for (int i = 0; lr__camera_models[i] != NULL; i++) {
+        if (lr__camera_models[i] == model)
+            continue;
+        lr_status st = lr__camera_models[i]->validate(cam, 0, err);
+        if (st != LR_OK)
+            return st;
+    }
+    if ((cam->focus_on[0] < 0) != (cam->focus_on[1] < 0))
+        return BAD("camera.focus_on",
+                   "camera.focus_on must be a pixel [x, y] with x, y >= 0");
+    lr_status st = validate_chromatic(&cam->chromatic, err);
     if (st != LR_OK)
         return st;
-    return validate_chromatic(cam, err);
+    return model->validate(cam, 1, err);
 }
+
+/* ---- the frame -------------------------------------------------------- */
 
 void lr__cam_init(lr__cam *c, const lr_camera *cam, int width, int height)
 {
     *c = (lr__cam){0};
-    c->model = cam->model;
+    c->model = lr__camera_model_of(cam->model);
     c->origin = v3a(cam->position);
     c->forward = v3_norm(v3_sub(v3a(cam->look_at), c->origin));
     c->right = v3_norm(v3_cross(c->forward, v3a(cam->up)));
@@ -257,42 +209,10 @@ void lr__cam_init(lr__cam *c, const lr_camera *cam, int width, int height)
     c->shape = LR_APERTURE_DISK;
     c->blades = 6;
     c->chroma = cam->chromatic;
+    c->model->setup(c, cam);
 
-    /* Optical power of the whole lens, for the thin lens's chromatic
-     * focus: 1/F.  The bracket's "focal length" f is its own power. */
-    double lens_power = 0.0;
-    if (cam->model == LR_CAMERA_THINLENS) {
-        c->radius = cam->aperture_radius;
-        if (cam->f_number > 0.0)
-            c->radius = cam->focal_length_mm / 1000.0 / (2.0 * cam->f_number);
-        c->shape = cam->aperture_shape;
-        c->blades = cam->aperture_blades;
-        c->rotation = cam->aperture_rotation * M_PI / 180.0;
-        c->ratio = cam->aperture_ratio;
-        c->w = 1.0 / cam->focus_distance;
-        if (cam->focal_length_mm > 0.0)
-            lens_power = 1000.0 / cam->focal_length_mm;
-    } else if (cam->model == LR_CAMERA_BRACKET) {
-        /* The bracket is a square of side `aperture`: half side below. */
-        c->radius = 0.5 * cam->aperture;
-        c->shape = LR_APERTURE_SQUARE;
-        c->di = cam->image_plane_distance;
-        c->w = 1.0 / cam->focal_length;
-    }
-    c->has_lens = cam->model != LR_CAMERA_PINHOLE && c->radius > 0.0;
-
-    /* Chromatic focus.  With the reference index the power is c->w.
-     * Thin lens (sensor fixed at v, 1/v = 1/F - 1/s): the lens power
-     * becomes P(n) = P scale(n), so the plane in focus has
-     * 1/s(n) = P(n) - 1/v = 1/s + P (scale(n) - 1).
-     * Bracket: the paper scales f itself: 1/f(n) = scale(n) / f. */
-    if (cam->model == LR_CAMERA_THINLENS) {
-        c->w_base = c->w - lens_power;
-        c->w_slope = lens_power;
-    } else {
-        c->w_base = 0.0;
-        c->w_slope = c->w;
-    }
+    /* Chromatic focus: the model has set the focus line w(n) = w_base +
+     * w_slope scale(n); with the reference index the power is c->w. */
     const lr_chromatic *ch = &cam->chromatic;
     if (ch->mode == LR_CHROMATIC_RGB) {
         c->n_ref = ch->ior[1];
@@ -330,8 +250,77 @@ void lr__cam_ray(const lr__cam *c, double fx, double fy, lr__v3 *org,
     *dir = v3_norm(chief_ray(c, fx, fy));
 }
 
-void lr__cam_lens_ray(const lr__cam *c, double fx, double fy,
-                      const double u[2], double w, lr__v3 *org, lr__v3 *dir)
+double lr__cam_power_at(const lr__cam *c, double nm)
+{
+    const lr_chromatic *ch = &c->chroma;
+    double n = lr__glass_index(ch->glass, ch->abbe_nd, ch->abbe_vd, nm);
+    n = c->n_ref + ch->amplify * (n - c->n_ref);
+    return c->w_base +
+           c->w_slope * lr__power_scale(ch->focal_model, c->n_ref, n);
+}
+
+void lr__cam_bound(const lr__cam *c, lr__lens_bound *b)
+{
+    /* The colours differ from the reference only in focus power: the
+     * model converts each as it converts its own (a scratch copy of the
+     * camera with that power). */
+    c->model->bound(c, b);
+    b->n_w = 1;
+    if (!c->chroma_active)
+        return;
+    double w1, w2;
+    if (c->chroma.mode == LR_CHROMATIC_RGB) {
+        w1 = c->w_rgb[0];
+        w2 = c->w_rgb[2];
+    } else {
+        w1 = lr__cam_power_at(c, 380.0);
+        w2 = lr__cam_power_at(c, 780.0);
+    }
+    lr__cam tmp = *c;
+    lr__lens_bound bb;
+    tmp.w = w1;
+    c->model->bound(&tmp, &bb);
+    b->ws[1] = bb.ws[0];
+    tmp.w = w2;
+    c->model->bound(&tmp, &bb);
+    b->ws[2] = bb.ws[0];
+    b->n_w = 3;
+}
+
+lr_status lr__cam_autofocus(const lr_scene *scene, lr_camera *cam,
+                            int width, int height, lr_error *err)
+{
+    const lr__camera_model *model = lr__camera_model_of(cam->model);
+    if (cam->focus_on[0] < 0 || model->focus_at == NULL)
+        return LR_OK;
+    int x = cam->focus_on[0], y = cam->focus_on[1];
+    if (x >= width || y >= height)
+        return lr__fail(err, LR_ERR_INVALID, "camera.focus_on",
+                        "camera.focus_on [%d, %d] is outside the %d x %d "
+                        "image",
+                        x, y, width, height);
+    lr__cam c;
+    lr__cam_init(&c, cam, width, height);
+    lr__v3 org, dir;
+    lr__cam_ray(&c, x + 0.5, y + 0.5, &org, &dir);
+    lr__hit h;
+    if (!lr__trace(scene, org, dir, INFINITY, &h))
+        return lr__fail(err, LR_ERR_INVALID, "camera.focus_on",
+                        "camera.focus_on: the ray through pixel [%d, %d] hits "
+                        "nothing to focus on",
+                        x, y);
+    lr_status st = model->focus_at(cam, h.t * v3_dot(dir, c.forward), err);
+    if (st != LR_OK)
+        return st;
+    cam->focus_on[0] = cam->focus_on[1] = -1;
+    return lr_camera_validate(cam, err);
+}
+
+/* ---- the offset-lens form -------------------------------------------- */
+
+void lr__offset_lens_ray(const lr__cam *c, double fx, double fy,
+                         const double u[2], double w, lr__v3 *org,
+                         lr__v3 *dir)
 {
     /* D has axial component 1, so the point of the chief ray at axial
      * distance 1/w is e + D / w, and the ray from the lens point e + off
@@ -349,23 +338,79 @@ void lr__cam_lens_ray(const lr__cam *c, double fx, double fy,
     lr__v3 off = v3_madd(v3_scale(c->right, lx * c->radius), c->up,
                          ly * c->radius);
     lr__v3 base = c->origin;
-    if (c->model == LR_CAMERA_BRACKET)
-        base = v3_madd(c->origin, D, c->di);
+    if (c->base_di != 0.0)
+        base = v3_madd(c->origin, D, c->base_di);
     *org = v3_add(base, off);
     *dir = v3_norm(v3_madd(D, off, -w));
 }
 
-double lr__cam_power_at(const lr__cam *c, double nm)
+/* The same rays for a packet, in single precision, lane by lane in loops
+ * the compiler vectorises, since Embree traces floats anyway; hits are
+ * completed on exactly the ray that was traced, read back from it.  Built
+ * for AVX-512, AVX2 and any x86-64, chosen at load time (the float
+ * arithmetic is the same in all, lane by lane: no FMA contraction, as
+ * -ffp-contract=off in the Makefile keeps it). */
+__attribute__((target_clones("avx512f", "avx2", "default")))
+void lr__offset_lens_rays16(const lr__cam *c, int use_lens, int n,
+                            const float *fx, const float *fy,
+                            const float *lu, const float *lv,
+                            struct RTCRayHit16 *rh)
 {
-    const lr_chromatic *ch = &c->chroma;
-    double n = lr__glass_index(ch->glass, ch->abbe_nd, ch->abbe_vd, nm);
-    n = c->n_ref + ch->amplify * (n - c->n_ref);
-    return c->w_base +
-           c->w_slope * lr__power_scale(ch->focal_model, c->n_ref, n);
+    const float sw = (float)(2.0 / c->width), sh = (float)(2.0 / c->height);
+    const float hw = (float)c->half_w, hh = (float)c->half_h;
+    const float fw[3] = {(float)c->forward.x, (float)c->forward.y,
+                         (float)c->forward.z};
+    const float rt[3] = {(float)c->right.x, (float)c->right.y,
+                         (float)c->right.z};
+    const float up[3] = {(float)c->up.x, (float)c->up.y, (float)c->up.z};
+    const float e[3] = {(float)c->origin.x, (float)c->origin.y,
+                        (float)c->origin.z};
+    const float rad = (float)c->radius, w = (float)c->w;
+    const float di = (float)c->base_di;
+    float lx[16], ly[16];
+    struct RTCRay16 *r = &rh->ray;
+
+    if (!c->has_lens || !use_lens) {
+        for (int i = 0; i < 16; i++)
+            lx[i] = ly[i] = 0.0f;
+    } else {
+        lr__aperture_sample16(c->shape, c->blades, c->rotation, c->ratio, n,
+                              lu, lv, lx, ly);
+    }
+    for (int i = 0; i < 16; i++) {
+        /* D: the chief ray scaled to axial length 1. */
+        float sx = (fx[i] * sw - 1.0f) * hw, sy = (1.0f - fy[i] * sh) * hh;
+        float dx = fw[0] + rt[0] * sx + up[0] * sy;
+        float dy = fw[1] + rt[1] * sx + up[1] * sy;
+        float dz = fw[2] + rt[2] * sx + up[2] * sy;
+        float ox = rad * (rt[0] * lx[i] + up[0] * ly[i]);
+        float oy = rad * (rt[1] * lx[i] + up[1] * ly[i]);
+        float oz = rad * (rt[2] * lx[i] + up[2] * ly[i]);
+        r->org_x[i] = e[0] + dx * di + ox;
+        r->org_y[i] = e[1] + dy * di + oy;
+        r->org_z[i] = e[2] + dz * di + oz;
+        float vx = dx - ox * w, vy = dy - oy * w, vz = dz - oz * w;
+        float inv = 1.0f / sqrtf(vx * vx + vy * vy + vz * vz);
+        r->dir_x[i] = vx * inv;
+        r->dir_y[i] = vy * inv;
+        r->dir_z[i] = vz * inv;
+        r->tnear[i] = 0.0f;
+        r->time[i] = 0.0f;
+        r->tfar[i] = INFINITY;
+        r->mask[i] = 0xFFFFFFFFu;
+        r->id[i] = 0;
+        r->flags[i] = 0;
+        rh->hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
+        rh->hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
+    }
 }
 
-double lr__cam_focus_depth(const lr__cam *c, double w)
+void lr__offset_lens_bound(const lr__cam *c, lr__lens_bound *b)
 {
-    double base = c->model == LR_CAMERA_BRACKET ? c->di : 0.0;
-    return w > 0.0 ? base + 1.0 / w : INFINITY;
+    /* The aperture's farthest point from its centre. */
+    double reach = c->shape == LR_APERTURE_SQUARE ? sqrt(2.0) : 1.0;
+    double ratio = c->ratio > 1.0 ? c->ratio : 1.0;
+    b->R = c->radius * reach * ratio;
+    b->n_w = 1;
+    b->ws[0] = c->w;
 }

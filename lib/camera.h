@@ -1,24 +1,34 @@
 /*
- * camera.h: turns a film position, a lens sample and a focus into a ray.
- * The camera knows nothing of how pixels are stored (it sees continuous
- * film coordinates) and nothing of samplers (it is handed numbers).
+ * camera.h: the camera-model interface.  A camera turns a film position, a
+ * lens sample and a focus power into a ray; it knows nothing of how pixels
+ * are stored (it sees continuous film coordinates) and nothing of samplers
+ * (it is handed numbers).
  *
- * The pinhole, the thin lens and the paper's bracket share one form.  Let
- * d be the unit chief ray through the film point from the eye e, and
- * cos = d . forward.  A lens offset `off` (in the lens plane spanned by
- * right and up) gives the ray
+ * Each model is one file (camera_pinhole.c, camera_thinlens.c,
+ * camera_bracket.c) that fills one lr__camera_model table, listed in
+ * camera.c's registry by its JSON name.  Nothing outside those files asks
+ * which model a camera is: the render loop, the planner, autofocus, the
+ * packet path and the JSON loader go through the table, and an unknown
+ * model is an error.
+ *
+ * The three models so far share one form (the "offset lens", drawn in
+ * camera.c for 1 and 16 rays).  Let D be the chief ray through the film
+ * point from the eye e, scaled to unit length along the view axis.  A
+ * lens offset `off` (in the lens plane spanned by right and up) gives the
+ * ray
  *
  *     origin    = base + off
- *     direction = normalise(d - off * cos * w)
+ *     direction = normalise(D - off * w)
  *
- * which passes through the point of d at axial distance 1/w from `base`'s
+ * which passes through the point of D at axial distance 1/w from `base`'s
  * plane: the focal point.  The thin lens has base = e and w = 1 /
  * focus_distance (Kolb, Mitchell & Hanrahan 1995; pbrt's
  * PerspectiveCamera).  The bracket has base = the pixel's point on the
- * image plane, X = e + d di / cos, and w = 1 / f, so its rays pass through
- * the paper's focal point p = e + (di + f) dp / di d (Lee 2007, Kuang &
- * Lee 2018).  Chromatic aberration changes only w, per channel or per
- * wavelength; w may be 0 (focus at infinity) or negative.
+ * image plane, X = e + D di, and w = 1 / f, so its rays pass through the
+ * paper's focal point p = e + (di + f) dp / di d (Lee 2007, Kuang & Lee
+ * 2018).  The pinhole has no lens.  Chromatic aberration changes only w,
+ * per channel or per wavelength; w may be 0 (focus at infinity) or
+ * negative.
  */
 #ifndef LR_CAMERA_H
 #define LR_CAMERA_H
@@ -26,31 +36,95 @@
 #include "internal.h"
 #include "vec.h"
 
-typedef struct lr__cam {
-    lr_camera_model model;
+#include <embree3/rtcore.h>
+
+typedef struct lr__cam lr__cam;
+
+/* The planner's view of a camera: a thin lens of radius R at the eye
+ * (R: the aperture's farthest point from its axis), such that a ray of
+ * focus power w through any film point strays from the pinhole ray, at
+ * depth Z along the view axis, by at most R |1/Z - w| on the image plane
+ * at distance 1.  Its circle of confusion at depth Z is then at most
+ * 2 R |1/Z - w| pixels x fpx, the bound plan.c works from over a depth
+ * range (at most three powers: the reference and the colours' extremes). */
+typedef struct lr__lens_bound {
+    double R;
+    int n_w;      /* 1, or 3 when the colours focus apart */
+    double ws[3]; /* focus powers at the eye: reference first */
+} lr__lens_bound;
+
+/* One camera model.  Every function receives a camera that passed
+ * lr_camera_validate. */
+typedef struct lr__camera_model {
+    const char *name;   /* in JSON: "camera": {"model": name} */
+    lr_camera_model id; /* in lr_camera.model */
+    /* Checks the model's own fields of `cam`.  It runs for every model
+     * whatever cam->model says (`active` = 0 then), so that a bad value
+     * never waits silently for the day someone switches models; checks
+     * that matter only when the model is in use look at `active`. */
+    lr_status (*validate)(const lr_camera *cam, int active, lr_error *err);
+    /* Fills the model's part of `c` (lr__cam_init has set the frame):
+     * has_lens, radius, shape, ..., w, and the chromatic focus line
+     * w(n) = w_base + w_slope scale(n). */
+    void (*setup)(lr__cam *c, const lr_camera *cam);
+    /* The ray through film point (fx, fy), lens sample u in [0, 1)^2, focus
+     * power w (unit direction).  Without a lens, the pinhole ray. */
+    void (*ray)(const lr__cam *c, double fx, double fy, const double u[2],
+                double w, lr__v3 *org, lr__v3 *dir);
+    /* Camera rays for lanes 0..n-1 of a packet (all 16 lanes are written;
+     * those from n on are copies nobody traces), in float, at focus power
+     * c->w; through the lens only if use_lens. */
+    void (*rays16)(const lr__cam *c, int use_lens, int n, const float *fx,
+                   const float *fy, const float *lu, const float *lv,
+                   struct RTCRayHit16 *rh);
+    /* Autofocus: sets the model's focus so that depth `z` (along the view
+     * axis from the eye) is sharp, or says why it cannot.  NULL: the model
+     * has no focus (camera.focus_on is then ignored). */
+    lr_status (*focus_at)(lr_camera *cam, double z, lr_error *err);
+    /* The planner's bound (see lr__lens_bound), for a camera with a lens. */
+    void (*bound)(const lr__cam *c, lr__lens_bound *b);
+} lr__camera_model;
+
+/* The registry (camera.c): the model called `name`, or the one whose id
+ * is `id`; NULL when there is none. */
+const lr__camera_model *lr__camera_model_named(const char *name);
+const lr__camera_model *lr__camera_model_of(lr_camera_model id);
+/* The models, in registry order, ending with NULL: for listing names in
+ * error messages and docs. */
+extern const lr__camera_model *const lr__camera_models[];
+
+extern const lr__camera_model lr__camera_pinhole;
+extern const lr__camera_model lr__camera_thinlens;
+extern const lr__camera_model lr__camera_bracket;
+
+/* A camera prepared for one film: the frame every model shares, then the
+ * model's own part. */
+struct lr__cam {
+    const lr__camera_model *model;
     lr__v3 origin;
     lr__v3 forward, right, up; /* unit, right-handed */
     double half_h;             /* tan(fov/2): image plane half height at 1 */
     double half_w;             /* half_h * width / height */
     double width, height;      /* film size in pixels (the full frame) */
 
+    /* The offset-lens form (see above). */
     int has_lens;              /* 0: pinhole rays, whatever the model */
-    double radius;             /* thin lens radius; bracket half side */
+    double radius;             /* lens radius; bracket half side */
     lr_aperture_shape shape;
     int blades;
     double rotation;           /* radians */
     double ratio;
-    double di;                 /* bracket: image plane distance */
+    double base_di;            /* rays start at e + D base_di (bracket) */
 
     double w;                  /* focus power without aberration */
     /* Chromatic aberration: power as a function of the index n is
-     * w(n) = w_base + w_slope * power_scale(n), see lr__cam_power. */
+     * w(n) = w_base + w_slope * power_scale(n), see lr__cam_power_at. */
     lr_chromatic chroma;
     double n_ref;              /* reference index (green, or n_d) */
     double w_base, w_slope;
     double w_rgb[3];           /* rgb mode: per channel */
     int chroma_active;         /* 0 when every channel focuses alike */
-} lr__cam;
+};
 
 /* Prepares `c` for a width x height film; `cam` must have passed
  * lr_camera_validate and its autofocus must have been resolved. */
@@ -58,20 +132,56 @@ void lr__cam_init(lr__cam *c, const lr_camera *cam, int width, int height);
 
 /* The pinhole ray through film point (fx, fy), in pixels from the image's
  * top-left corner (pixel (x, y) covers [x, x+1) x [y, y+1)).  `dir` is
- * unit length. */
+ * unit length.  Every model's chief ray. */
 void lr__cam_ray(const lr__cam *c, double fx, double fy, lr__v3 *org,
                  lr__v3 *dir);
 
-/* The ray through film point (fx, fy) and lens sample u in [0, 1)^2 with
+/* The model's ray through film point (fx, fy) and lens sample u with
  * focus power w.  Without a lens it is exactly lr__cam_ray. */
-void lr__cam_lens_ray(const lr__cam *c, double fx, double fy,
-                      const double u[2], double w, lr__v3 *org, lr__v3 *dir);
+static inline void lr__cam_lens_ray(const lr__cam *c, double fx, double fy,
+                                    const double u[2], double w, lr__v3 *org,
+                                    lr__v3 *dir)
+{
+    c->model->ray(c, fx, fy, u, w, org, dir);
+}
 
 /* Focus power for light of wavelength `nm` (spectral mode). */
 double lr__cam_power_at(const lr__cam *c, double nm);
 
-/* Distance (along the view axis, from the eye) of the plane in focus for
- * focus power w: for reports and tests. */
-double lr__cam_focus_depth(const lr__cam *c, double w);
+/* The planner's bound for `c` (see lr__lens_bound): the model's, with the
+ * colours' powers added when chromatic aberration is active. */
+void lr__cam_bound(const lr__cam *c, lr__lens_bound *b);
+
+/* camera.focus_on: focuses *cam on the first hit of the pinhole ray
+ * through that pixel of a width x height frame (the model's focus_at), and
+ * clears focus_on.  No-op when focus_on is unset or the model has no focus.
+ * Errors: LR_ERR_INVALID naming camera.focus_on. */
+struct lr_scene;
+lr_status lr__cam_autofocus(const struct lr_scene *scene, lr_camera *cam,
+                            int width, int height, lr_error *err);
+
+/* ---- the offset-lens form, for the model files ----------------------- */
+
+/* Scalar and 16-wide rays of the offset-lens form: origin
+ * e + D base_di + off, direction D - off w (see the top of this file). */
+void lr__offset_lens_ray(const lr__cam *c, double fx, double fy,
+                         const double u[2], double w, lr__v3 *org,
+                         lr__v3 *dir);
+void lr__offset_lens_rays16(const lr__cam *c, int use_lens, int n,
+                            const float *fx, const float *fy,
+                            const float *lu, const float *lv,
+                            struct RTCRayHit16 *rh);
+/* The bound of an offset lens at the eye: R = the aperture's reach. */
+void lr__offset_lens_bound(const lr__cam *c, lr__lens_bound *b);
+
+/* Finite and within +-1e15, the scene format's limit for any number:
+ * beyond it Embree is given rays it cannot trace (and aborts). */
+#define LR__MAX_COORD 1e15
+
+/* Shared checks for the model files: a length in scene units that must
+ * be > 0 (or >= 0 when zero_ok), finite, at most 1e15, and, when it sets
+ * a focus (divides), at least 1e-6. */
+lr_status lr__cam_check_length(const char *path, double v, int zero_ok,
+                               int is_focus, lr_error *err);
 
 #endif

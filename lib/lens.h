@@ -18,6 +18,16 @@ void lr__aperture_sample(lr_aperture_shape shape, int blades,
                          double rotation, double ratio, const double u[2],
                          double *x, double *y);
 
+/* lr__aperture_sample for the lanes 0..n-1 of a packet, in float; all
+ * 16 lanes of lx, ly are written.  The disk without rotation has a
+ * branch-free version of its own (sin and cos to 2e-9, ample for rays
+ * traced in float), so its points differ from lr__aperture_sample's in
+ * the last float bits; the other shapes round lr__aperture_sample's. */
+void lr__aperture_sample16(lr_aperture_shape shape, int blades,
+                           double rotation, double ratio, int n,
+                           const float *lu, const float *lv, float *lx,
+                           float *ly);
+
 /* Index of refraction of a glass at `nm` nanometres: Sellmeier for the
  * catalogue glasses, the Abbe-number model of glTF's
  * KHR_materials_dispersion for LR_GLASS_ABBE (nd, vd). */

@@ -228,43 +228,18 @@ lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
         return LR_OK;
 
     lens L;
-    /* The aperture's farthest point from its centre. */
-    double reach = c->shape == LR_APERTURE_SQUARE ? sqrt(2.0) : 1.0;
-    double ratio = c->ratio > 1.0 ? c->ratio : 1.0;
-    L.R = c->radius * reach * ratio;
-    L.w = c->w;
-    if (c->model == LR_CAMERA_BRACKET) {
-        /* The equivalent lens at the eye: radius grows by 1 + di/f, focus
-         * at di + f. */
-        L.R *= 1.0 + c->di * c->w;
-        L.w = 1.0 / (c->di + 1.0 / c->w);
-    }
+    lr__lens_bound lb;
+    lr__cam_bound(c, &lb);
+    L.R = lb.R;
+    L.w = lb.ws[0];
     L.fpx = c->height / (2.0 * c->half_h);
     L.e = c->origin;
     L.fwd = c->forward;
     L.right = c->right;
     L.up = c->up;
-    L.n_w = 1;
-    L.ws[0] = L.w;
-    if (c->chroma_active) {
-        /* Other colours differ from the reference only in focus power;
-         * for the bracket, convert like the reference. */
-        double w1, w2;
-        if (c->chroma.mode == LR_CHROMATIC_RGB) {
-            w1 = c->w_rgb[0];
-            w2 = c->w_rgb[2];
-        } else {
-            w1 = lr__cam_power_at(c, 380.0);
-            w2 = lr__cam_power_at(c, 780.0);
-        }
-        if (c->model == LR_CAMERA_BRACKET) {
-            w1 = 1.0 / (c->di + 1.0 / w1);
-            w2 = 1.0 / (c->di + 1.0 / w2);
-        }
-        L.ws[1] = w1;
-        L.ws[2] = w2;
-        L.n_w = 3;
-    }
+    L.n_w = lb.n_w;
+    for (int k = 0; k < lb.n_w; k++)
+        L.ws[k] = lb.ws[k];
 
     /* Bounding boxes of the geometry in camera space. */
     size_t n_boxes = 0, cap = 0;

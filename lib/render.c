@@ -436,45 +436,6 @@ static lr__v3 mean_cmf(void)
     return v3(sum[0] / n, sum[1] / n, sum[2] / n);
 }
 
-/* camera.focus_on: focus where the pinhole ray through the pixel's centre
- * first hits the scene. */
-static lr_status resolve_autofocus(const lr_scene *scene, lr_camera *cam,
-                                   const lr_render_settings *set,
-                                   lr_error *err)
-{
-    if (cam->focus_on[0] < 0 || cam->model == LR_CAMERA_PINHOLE)
-        return LR_OK;
-    int x = cam->focus_on[0], y = cam->focus_on[1];
-    if (x >= set->width || y >= set->height)
-        return lr__fail(err, LR_ERR_INVALID, "camera.focus_on",
-                        "camera.focus_on [%d, %d] is outside the %d x %d "
-                        "image",
-                        x, y, set->width, set->height);
-    lr__cam c;
-    lr__cam_init(&c, cam, set->width, set->height);
-    lr__v3 org, dir;
-    lr__cam_ray(&c, x + 0.5, y + 0.5, &org, &dir);
-    lr__hit h;
-    if (!lr__trace(scene, org, dir, INFINITY, &h))
-        return lr__fail(err, LR_ERR_INVALID, "camera.focus_on",
-                        "camera.focus_on: the ray through pixel [%d, %d] hits "
-                        "nothing to focus on",
-                        x, y);
-    double z = h.t * v3_dot(dir, c.forward);
-    if (cam->model == LR_CAMERA_THINLENS) {
-        cam->focus_distance = z;
-    } else {
-        if (!(z > cam->image_plane_distance))
-            return lr__fail(err, LR_ERR_INVALID, "camera.focus_on",
-                            "camera.focus_on: the hit at depth %g is not "
-                            "beyond the image plane (%g)",
-                            z, cam->image_plane_distance);
-        cam->focal_length = z - cam->image_plane_distance;
-    }
-    cam->focus_on[0] = cam->focus_on[1] = -1;
-    return lr_camera_validate(cam, err);
-}
-
 static double now_seconds(void)
 {
     struct timespec ts;
@@ -498,7 +459,7 @@ lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
         return st;
 
     lr_camera cam_used = *cam;
-    st = resolve_autofocus(scene, &cam_used, set, err);
+    st = lr__cam_autofocus(scene, &cam_used, set->width, set->height, err);
     if (st != LR_OK)
         return st;
 

@@ -2,7 +2,6 @@
  * trace16.c: camera samples in 16-wide packets (see trace16.h).
  */
 #include "trace16.h"
-#include "lens.h"
 #include "shade.h"
 
 #include <float.h>
@@ -311,98 +310,6 @@ static void flush(const lr__trace16 *t, packet *p, soa_hits *sh,
     p->n = 0;
 }
 
-/* Camera rays for lanes 0..n-1 from their film points (fx, fy) and lens
- * samples (lu, lv), in single precision, lane by lane in loops the
- * compiler can vectorise; the same geometry as lr__cam_lens_ray (see
- * camera.h), computed in floats since Embree traces floats anyway.  The
- * rays are written straight into the packet; hits are completed on
- * exactly the ray that was traced, read back from it. */
-/* Built for AVX-512, AVX2 and any x86-64, chosen at load time (the
- * float arithmetic is the same in all, lane by lane: no FMA contraction,
- * as -ffp-contract=off in the Makefile keeps it). */
-__attribute__((target_clones("avx512f", "avx2", "default")))
-static void make_camera_rays(const lr__cam *c, int use_lens, packet *p,
-                             int n,
-                        const float *fx, const float *fy, const float *lu,
-                        const float *lv)
-{
-    const float sw = (float)(2.0 / c->width), sh = (float)(2.0 / c->height);
-    const float hw = (float)c->half_w, hh = (float)c->half_h;
-    const float fw[3] = {(float)c->forward.x, (float)c->forward.y,
-                         (float)c->forward.z};
-    const float rt[3] = {(float)c->right.x, (float)c->right.y,
-                         (float)c->right.z};
-    const float up[3] = {(float)c->up.x, (float)c->up.y, (float)c->up.z};
-    const float e[3] = {(float)c->origin.x, (float)c->origin.y,
-                        (float)c->origin.z};
-    const float rad = (float)c->radius, w = (float)c->w;
-    const float ratio = (float)c->ratio;
-    const float di = c->model == LR_CAMERA_BRACKET ? (float)c->di : 0.0f;
-    float lx[LANES], ly[LANES];
-    struct RTCRay16 *r = &p->rh.ray;
-
-    if (!c->has_lens || !use_lens) {
-        for (int i = 0; i < LANES; i++)
-            lx[i] = ly[i] = 0.0f;
-    } else if (c->shape == LR_APERTURE_DISK && c->rotation == 0.0) {
-        /* Shirley & Chiu's concentric map, branch-free; sin and cos of
-         * t in [-pi/4, pi/4] by Taylor series (error < 2e-9). */
-        for (int i = 0; i < LANES; i++) {
-            float a = 2.0f * lu[i] - 1.0f, b = 2.0f * lv[i] - 1.0f;
-            /* Blends instead of branches, so the loop vectorises:
-             * m = 1 when |a| > |b|. */
-            float m = (float)(fabsf(a) > fabsf(b));
-            float rr = m * a + (1.0f - m) * b;
-            float num = m * b + (1.0f - m) * a;
-            /* rr = 0 only when a = b = 0, and then num = 0 too. */
-            float den = rr + (float)(rr == 0.0f);
-            float t = 0.78539816f * num / den;
-            float t2 = t * t;
-            float sn = t * (1.0f + t2 * (-1.0f / 6 + t2 * (1.0f / 120 +
-                       t2 * (-1.0f / 5040 + t2 * (1.0f / 362880)))));
-            float cs = 1.0f + t2 * (-0.5f + t2 * (1.0f / 24 + t2 *
-                       (-1.0f / 720 + t2 * (1.0f / 40320 -
-                        t2 * (1.0f / 3628800)))));
-            lx[i] = rr * (m * cs + (1.0f - m) * sn) * ratio;
-            ly[i] = rr * (m * sn + (1.0f - m) * cs);
-        }
-    } else {
-        for (int i = 0; i < n; i++) {
-            double u[2] = {lu[i], lv[i]}, x, y;
-            lr__aperture_sample(c->shape, c->blades, c->rotation, c->ratio, u,
-                                &x, &y);
-            lx[i] = (float)x;
-            ly[i] = (float)y;
-        }
-    }
-    for (int i = 0; i < LANES; i++) {
-        /* D: the chief ray scaled to axial length 1. */
-        float sx = (fx[i] * sw - 1.0f) * hw, sy = (1.0f - fy[i] * sh) * hh;
-        float dx = fw[0] + rt[0] * sx + up[0] * sy;
-        float dy = fw[1] + rt[1] * sx + up[1] * sy;
-        float dz = fw[2] + rt[2] * sx + up[2] * sy;
-        float ox = rad * (rt[0] * lx[i] + up[0] * ly[i]);
-        float oy = rad * (rt[1] * lx[i] + up[1] * ly[i]);
-        float oz = rad * (rt[2] * lx[i] + up[2] * ly[i]);
-        r->org_x[i] = e[0] + dx * di + ox;
-        r->org_y[i] = e[1] + dy * di + oy;
-        r->org_z[i] = e[2] + dz * di + oz;
-        float vx = dx - ox * w, vy = dy - oy * w, vz = dz - oz * w;
-        float inv = 1.0f / sqrtf(vx * vx + vy * vy + vz * vz);
-        r->dir_x[i] = vx * inv;
-        r->dir_y[i] = vy * inv;
-        r->dir_z[i] = vz * inv;
-        r->tnear[i] = 0.0f;
-        r->time[i] = 0.0f;
-        r->tfar[i] = INFINITY;
-        r->mask[i] = 0xFFFFFFFFu;
-        r->id[i] = 0;
-        r->flags[i] = 0;
-        p->rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
-        p->rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
-    }
-}
-
 void lr__trace16_pixel(const lr__trace16 *t, int x, int y, int first,
                        int last, int use_lens, lr__pixel *acc,
                        uint64_t *rays, uint64_t *camera_rays)
@@ -431,7 +338,7 @@ void lr__trace16_pixel(const lr__trace16 *t, int x, int y, int first,
             lu[i] = u[2][i];
             lv[i] = u[3][i];
         }
-        make_camera_rays(t->cam, use_lens, &p, n, fx, fy, lu, lv);
+        t->cam->model->rays16(t->cam, use_lens, n, fx, fy, lu, lv, &p.rh);
         p.n = n;
         *camera_rays += (uint64_t)n;
         flush(t, &p, &sh, acc, rays);

@@ -1,0 +1,75 @@
+/*
+ * camera_bracket.c: the paper's square "bracket" (Kuang & Lee 2018,
+ * after Lee 2007).  The image plane is image_plane_distance (di) in front
+ * of the eye and the focal plane focal_length (f) beyond it; rays start
+ * in a square of side `aperture` around the pixel's point on the image
+ * plane and pass through the pixel's focal point
+ * p = e + (di + f) dp / di d.  In camera.h's offset-lens form: base =
+ * e + D di, w = 1 / f, a square lens of half side aperture / 2.
+ *
+ * Chromatic focus: the paper scales f itself, f_c = f_g n_g / n_c (or
+ * the lensmaker's f proportional to 1 / (n - 1)): w(n) = w scale(n).
+ */
+#include "camera.h"
+
+#include <math.h>
+
+#define BAD(path, ...) lr__fail(err, LR_ERR_INVALID, path, __VA_ARGS__)
+
+static lr_status validate(const lr_camera *cam, int active, lr_error *err)
+{
+    (void)active;
+    lr_status st;
+    if ((st = lr__cam_check_length("camera.image_plane_distance",
+                                   cam->image_plane_distance, 0, 1, err)) !=
+            LR_OK ||
+        (st = lr__cam_check_length("camera.focal_length", cam->focal_length,
+                                   0, 1, err)) != LR_OK ||
+        (st = lr__cam_check_length("camera.aperture", cam->aperture, 1, 0,
+                                   err)) != LR_OK)
+        return st;
+    return LR_OK;
+}
+
+static void setup(lr__cam *c, const lr_camera *cam)
+{
+    /* The bracket is a square of side `aperture`: half side below. */
+    c->radius = 0.5 * cam->aperture;
+    c->shape = LR_APERTURE_SQUARE;
+    c->base_di = cam->image_plane_distance;
+    c->w = 1.0 / cam->focal_length;
+    c->has_lens = c->radius > 0.0;
+    c->w_base = 0.0;
+    c->w_slope = c->w;
+}
+
+static lr_status focus_at(lr_camera *cam, double z, lr_error *err)
+{
+    if (!(z > cam->image_plane_distance))
+        return BAD("camera.focus_on",
+                   "camera.focus_on: the hit at depth %g is not beyond the "
+                   "image plane (%g)",
+                   z, cam->image_plane_distance);
+    cam->focal_length = z - cam->image_plane_distance;
+    return LR_OK;
+}
+
+/* Its rays all pass through e + off (1 + di / f): a square lens at the
+ * eye, its radius grown by 1 + di w, focused at di + f. */
+static void bound(const lr__cam *c, lr__lens_bound *b)
+{
+    lr__offset_lens_bound(c, b);
+    b->R *= 1.0 + c->base_di * c->w;
+    b->ws[0] = 1.0 / (c->base_di + 1.0 / c->w);
+}
+
+const lr__camera_model lr__camera_bracket = {
+    .name = "bracket",
+    .id = LR_CAMERA_BRACKET,
+    .validate = validate,
+    .setup = setup,
+    .ray = lr__offset_lens_ray,
+    .rays16 = lr__offset_lens_rays16,
+    .focus_at = focus_at,
+    .bound = bound,
+};
