@@ -85,7 +85,8 @@ $(BUILD)/obj/%.o: %.c $(DEPS_OK)
 # -fno-trapping-math lets it if-convert the lane loops' selects; neither
 # changes a result.  The AVX-512 clones use 512-bit vectors: 4% faster
 # on the bench scene than 256.)
-$(BUILD)/obj/lib/trace16.o $(BUILD)/obj/lib/camera.o $(BUILD)/obj/lib/lens.o: CFLAGS += $(if $(filter -O2,$(OPT)),-O3) \
+$(BUILD)/obj/lib/whitted.o $(BUILD)/obj/lib/trace.o $(BUILD)/obj/lib/camera.o \
+$(BUILD)/obj/lib/lens.o: CFLAGS += $(if $(filter -O2,$(OPT)),-O3) \
                                       -fno-math-errno -fno-trapping-math \
                                       -mprefer-vector-width=512
 $(BUILD)/obj/lib/sampler.o: CFLAGS += $(if $(filter -O2,$(OPT)),-O3)

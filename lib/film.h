@@ -35,23 +35,6 @@ static inline double lr__luminance(double r, double g, double b)
     return 0.2126 * r + 0.7152 * g + 0.0722 * b;
 }
 
-/* How many samples in all the pixel needs for a relative standard error
- * of `threshold` in its luminance, judged from the samples it has, at
- * least `lo` and at most `hi` (2 when it has fewer than two). */
-int lr__pixel_samples_needed(const lr__pixel *p, double threshold, int lo,
-                             int hi);
-
-/* How much the mean luminances of two pixels differ, relative to the
- * larger (with the same 0.02 floor as lr__pixel_samples_needed). */
-double lr__pixel_contrast(const lr__pixel *a, const lr__pixel *b);
-
-/* Adaptive sampling's schedule: a pixel that has `have` samples (>= 1)
- * and wants `want` > have goes on to have * 2^k, the first such count
- * that reaches `want`, at most `hi`.  From a pilot of min_spp samples
- * the counts are min_spp * 2^k (powers of two, the prefixes that Sobol
- * stratifies best, when min_spp is one) and spp. */
-int lr__adaptive_next(int have, int want, int hi);
-
 /* The pixel's value: the mean over all samples taken (a dropped sample
  * counts as black, which keeps the estimate unbiased when drops are
  * rare), as three finite floats. */

@@ -20,6 +20,7 @@
  * The block's blur is then at most C at the ends of its depth range.
  */
 #include "plan.h"
+#include "adaptive.h"
 
 #include <float.h>
 #include <math.h>
@@ -213,9 +214,25 @@ static double chroma_spread(const lens *L, double x0, double x1)
     return 2.0 * L->R * L->fpx * worst;
 }
 
+/* From what the blur bounds allow to what each block does. */
+static void finish(lr__plan *p, const lr__cam *c,
+                   const lr_render_settings *set)
+{
+    for (int i = 0; i < p->bw * p->bh; i++) {
+        lr__block_plan *bp = &p->blocks[i];
+        bp->lens = c->has_lens && bp->lens;
+        bp->chroma = c->chroma_active && bp->lens && bp->chroma;
+        bp->path = bp->chroma ? LR__PATH_COLOURS : LR__PATH_PACKET;
+        bp->pilot = lr__adaptive_pilot(set, bp->lens);
+    }
+}
+
+static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
+                           int x0, int y0, int x1, int y1, lr_error *err);
+
 lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
-                         int x0, int y0, int x1, int y1, int enabled,
-                         lr_error *err)
+                         const lr_render_settings *set, int x0, int y0,
+                         int x1, int y1, lr_error *err)
 {
     p->bw = ((int)c->width + LR__PLAN_BLOCK - 1) / LR__PLAN_BLOCK;
     p->bh = ((int)c->height + LR__PLAN_BLOCK - 1) / LR__PLAN_BLOCK;
@@ -223,10 +240,23 @@ lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
     if (p->blocks == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     for (int i = 0; i < p->bw * p->bh; i++)
-        p->blocks[i] = (lr__block_plan){1, 1};
-    if (!enabled || !c->has_lens)
-        return LR_OK;
+        p->blocks[i] = (lr__block_plan){1, 1, 0, 0};
+    if (set->plan && c->has_lens) {
+        lr_status st = plan_blur(p, s, c, x0, y0, x1, y1, err);
+        if (st != LR_OK) {
+            lr__plan_free(p);
+            return st;
+        }
+    }
+    finish(p, c, set);
+    return LR_OK;
+}
 
+/* Where no colour's blur can reach a quarter pixel, the block needs no
+ * lens; where the colours' blurs differ by less, one ray for all. */
+static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
+                           int x0, int y0, int x1, int y1, lr_error *err)
+{
     lens L;
     lr__lens_bound lb;
     lr__cam_bound(c, &lb);
@@ -294,7 +324,6 @@ lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
     }
     if (!ok) {
         free(boxes);
-        lr__plan_free(p);
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     }
 

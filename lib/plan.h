@@ -5,6 +5,10 @@
  * gives a bound on its circle of confusion: where it is under a quarter
  * pixel the block traces pinhole rays, and where the colours' circles of
  * confusion differ by less than that it traces one ray for all colours.
+ *
+ * The plan is the one record of what to simulate: the render loop, the
+ * sampling code, adaptive sampling and the statistics read it and decide
+ * nothing of their own.
  */
 #ifndef LR_PLAN_H
 #define LR_PLAN_H
@@ -15,9 +19,19 @@
 #define LR__PLAN_BLOCK 16     /* pixels per block side */
 #define LR__PLAN_BLUR_PX 0.25 /* blur below this is not simulated */
 
+/* How a block's samples are traced (sample.c). */
+typedef enum lr__path {
+    LR__PATH_PACKET = 0, /* 16 samples a packet, one focus for all colours */
+    LR__PATH_COLOURS = 1 /* a sample at a time, a ray per colour/wavelength */
+} lr__path;
+
 typedef struct lr__block_plan {
-    unsigned char lens;   /* sample the lens */
-    unsigned char chroma; /* trace each colour / wavelength */
+    unsigned char lens;   /* sample the lens (0: pinhole rays) */
+    unsigned char chroma; /* trace each colour / wavelength on its own */
+    unsigned char path;   /* lr__path */
+    int pilot;            /* samples every pixel takes before adaptive
+                             sampling judges it (adaptive.c); spp when
+                             sampling is not adaptive */
 } lr__block_plan;
 
 typedef struct lr__plan {
@@ -26,11 +40,13 @@ typedef struct lr__plan {
 } lr__plan;
 
 /* Plans the blocks covering [x0, x1) x [y0, y1) of the frame (the others
- * are left planned as "simulate everything").  `enabled` = 0 plans every
- * block as the full simulation.  Returns LR_ERR_NOMEM on failure. */
+ * are planned as the full simulation).  set->plan = 0 plans every block
+ * as the full simulation: the lens sampled wherever the camera has one,
+ * the colours split wherever they focus apart.  Returns LR_ERR_NOMEM on
+ * failure. */
 lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
-                         int x0, int y0, int x1, int y1, int enabled,
-                         lr_error *err);
+                         const lr_render_settings *set, int x0, int y0,
+                         int x1, int y1, lr_error *err);
 void lr__plan_free(lr__plan *p);
 
 static inline const lr__block_plan *lr__plan_at(const lr__plan *p, int x,

@@ -19,6 +19,9 @@ typedef struct lr__material {
     lr__v3 reflect;    /* perfect mirror weight */
     lr__v3 transmit;   /* dielectric weight (refraction + its Fresnel) */
     double ior;        /* index of refraction inside the object */
+    /* Set by lr__scene_commit: a Lambertian lobe with some albedo and
+     * nothing else (no Phong lobe, mirror or glass). */
+    int lambert_only;
 } lr__material;
 
 typedef enum lr__light_kind {
@@ -56,11 +59,6 @@ typedef struct lr__geom {
      * the scene's lifetime (not owned). */
     const float *vertices;
     const unsigned *indices;
-    /* Set by lr__scene_commit: a triangle mesh of a purely diffuse
-     * material (no Phong lobe, mirror or glass, some albedo) in a scene
-     * without infinite planes, which the packet tracer shades with its
-     * vector code (trace16.c). */
-    int plain;
 } lr__geom;
 
 struct lr_scene {
@@ -103,7 +101,7 @@ lr_status lr__scene_add_plane(lr_scene *s, lr__v3 point, lr__v3 normal,
 /* Commits the Embree scene: no more geometry after this. */
 lr_status lr__scene_commit(lr_scene *s, lr_error *err);
 
-/* ---- tracing (scene.c) ------------------------------------------------ */
+/* ---- tracing (trace.c) ------------------------------------------------ */
 
 typedef struct lr__hit {
     double t;
@@ -122,20 +120,45 @@ int lr__trace(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
 /* 1 if anything blocks org + t dir for t in (0, tfar). */
 int lr__occluded(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar);
 
-/* Packets.  lr__embree_ray16 / lr__shadow_ray16 fill one lane of a
- * 16-wide packet exactly as lr__trace / lr__occluded fill a single ray;
+/* Packets.  lr__shadow_ray16 fills one lane of a 16-wide packet exactly
+ * as lr__occluded fills a single ray;
  * lr__hit_complete turns Embree's answer for one ray (geom_id
  * RTC_INVALID_GEOMETRY_ID when it found nothing) into the same hit
  * lr__trace returns, infinite planes included; lr__planes_block is the
  * infinite planes' part of lr__occluded. */
-void lr__embree_ray16(struct RTCRayHit16 *rh, int lane, lr__v3 org,
-                      lr__v3 dir, double tfar);
 void lr__shadow_ray16(struct RTCRay16 *r, int lane, lr__v3 org, lr__v3 dir,
                       double tfar);
 int lr__hit_complete(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
                      unsigned geom_id, unsigned prim_id, float bu, float bv,
                      float t_hit, lr__hit *hit);
 int lr__planes_block(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar);
+
+/* The triangle hits of a packet in structure-of-arrays form, in double:
+ * what lr__hit_complete computes for a triangle, lane by lane in loops the
+ * compiler vectorises.  Every operation is the one the scalar code does,
+ * in the same order, without FMA contraction (-ffp-contract=off), so each
+ * lane's result is the scalar result to the bit (the test suite renders
+ * scenes both ways and compares bytes).  Lanes that were not gathered
+ * keep what they held (zeros, or an earlier packet's triangle): the
+ * vector loops compute on them too, and nobody reads those results, so a
+ * caller zeroes the struct once and then reuses it. */
+typedef struct lr__hits16 {
+    float v[9][16];     /* the triangle's corners a, b, c (x, y, z) */
+    float n[9][16];     /* corner normals, zero in flat meshes */
+    float smooth[16];   /* 1 with corner normals */
+    /* Results. */
+    double px[16], py[16], pz[16];    /* hit position */
+    double gx[16], gy[16], gz[16];    /* ng, facing the ray */
+    double sx[16], sy[16], sz[16];    /* ns */
+    double eps[16];
+} lr__hits16;
+
+/* Copies lane i's triangle (geometry rh->hit.geomID[i], a triangle mesh)
+ * into h. */
+void lr__hits16_gather(const lr_scene *s, const struct RTCRayHit16 *rh,
+                       int i, lr__hits16 *h);
+/* Completes all sixteen lanes from the rays and hits in rh. */
+void lr__hits16_complete(const struct RTCRayHit16 *rh, lr__hits16 *h);
 
 /* The origin for a ray leaving the hit point towards `dir`: pushed along
  * the geometric normal, on the side dir points to, by hit->eps, which
@@ -149,7 +172,7 @@ lr__v3 lr__offset_origin(const lr__hit *hit, lr__v3 dir);
  * others).  lr__trace and lr__occluded check it and treat a ray that
  * fails as missing Embree's geometry (the infinite planes are still
  * tested), counting it in lr__scene_skipped_rays; callers that fill
- * packets (lr__embree_ray16, lr__shadow_ray16) must check it themselves. */
+ * packets (lr__shadow_ray16) must check it themselves. */
 int lr__embree_can_trace(lr__v3 org, lr__v3 dir);
 unsigned long long lr__scene_skipped_rays(const lr_scene *s);
 

@@ -30,7 +30,7 @@
 #include "json_util.h"
 #include "lens.h"
 #include "scene.h"
-#include "shade.h"
+#include "integrator.h"
 #include "spectrum.h"
 
 #include <float.h>

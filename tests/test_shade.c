@@ -5,8 +5,8 @@
  */
 #include "test.h"
 #include "film.h"
-#include "shade.h"
-#include "trace16.h"
+#include "integrator.h"
+
 
 #include <math.h>
 #include <stdio.h>
@@ -464,9 +464,9 @@ static void test_vector_shading_matches_scalar(void **state)
     assert_true(len > 0 && (size_t)len < sizeof json);
     lr_image *img[2];
     for (int k = 0; k < 2; k++) {
-        lr__trace16_scalar_only = k;
+        lr__whitted_scalar_only = k;
         img[k] = render(json, -1, 0, NULL);
-        lr__trace16_scalar_only = 0;
+        lr__whitted_scalar_only = 0;
     }
     const float *a = lr_image_rgb(img[0]), *b = lr_image_rgb(img[1]);
     size_t n = 3u * 48u * 36u;

@@ -1,0 +1,66 @@
+/*
+ * adaptive.h: adaptive sampling's policy: how many samples a pixel takes
+ * first (its pilot), when it has enough, and in what rounds it goes on;
+ * and the loop that applies it to a block of pixels.  What a sample is
+ * (the camera, the integrator) is the caller's: this file sees only the
+ * film's running sums.
+ */
+#ifndef LR_ADAPTIVE_H
+#define LR_ADAPTIVE_H
+
+#include "film.h"
+#include "internal.h"
+
+struct lr__plan;
+
+/* The pilot: samples every pixel takes before it is judged: min_spp, or,
+ * where the lens is sampled, at least a packet's worth (16, the width of
+ * the packet path).  Where the lens blurs, almost every pixel goes on
+ * (lens noise is everywhere), and a pixel that goes on after its pilot
+ * traces another, partly filled packet, which costs about as much as
+ * three or four samples more; a few samples of a blurred (or, with
+ * chromatic aberration, spectral) integrand also judge its spread
+ * poorly.  Where nothing is blurred only edges go on.  At most spp; spp
+ * itself when sampling is not adaptive. */
+int lr__adaptive_pilot(const lr_render_settings *set, int lens);
+
+/* How many samples in all the pixel needs for a relative standard error
+ * of `threshold` in its luminance, judged from the samples it has, at
+ * least `lo` and at most `hi` (2 when it has fewer than two). */
+int lr__pixel_samples_needed(const lr__pixel *p, double threshold, int lo,
+                             int hi);
+
+/* How much the mean luminances of two pixels differ, relative to the
+ * larger (with the same 0.02 floor as lr__pixel_samples_needed). */
+double lr__pixel_contrast(const lr__pixel *a, const lr__pixel *b);
+
+/* Adaptive sampling's schedule: a pixel that has `have` samples (>= 1)
+ * and wants `want` > have goes on to have * 2^k, the first such count
+ * that reaches `want`, at most `hi`.  From a pilot of min_spp samples
+ * the counts are min_spp * 2^k (powers of two, the prefixes that Sobol
+ * stratifies best, when min_spp is one) and spp. */
+int lr__adaptive_next(int have, int want, int hi);
+
+/* How the block loop reaches the caller: `sample` adds samples first ..
+ * last-1 of pixel (x, y) to *acc in order; `store` takes a finished
+ * pixel. */
+typedef struct lr__block_io {
+    void (*sample)(void *ctx, int x, int y, int first, int last,
+                   lr__pixel *acc);
+    void (*store)(void *ctx, int x, int y, const lr__pixel *acc);
+    void *ctx;
+} lr__block_io;
+
+/* The largest block lr__adaptive_block takes, and the scratch it needs:
+ * (LR__BLOCK_MAX + 2)^2 pixels and as many ints (a one-pixel apron). */
+#define LR__BLOCK_MAX 64
+#define LR__BLOCK_APRON ((LR__BLOCK_MAX + 2) * (LR__BLOCK_MAX + 2))
+
+/* Renders pixels [x0, x1) x [y0, y1) (at most LR__BLOCK_MAX a side) of a
+ * frame planned by `plan`, every pixel stored once, in row order. */
+void lr__adaptive_block(const lr_render_settings *set,
+                        const struct lr__plan *plan, int x0, int y0, int x1,
+                        int y1, lr__pixel *acc, int *need,
+                        const lr__block_io *io);
+
+#endif

@@ -1,0 +1,53 @@
+/*
+ * integrator.h: the integrator interface.  An integrator computes the
+ * radiance arriving along camera rays, one ray at a time or a packet of
+ * sixteen; it decides itself which lanes of a packet its vector code can
+ * take and which go one by one.  The render loop (sample.c) knows only
+ * this table.
+ *
+ * Implementations: whitted.c (direct light with hard shadows, mirrors and
+ * glass: the classic ray tracer).
+ */
+#ifndef LR_INTEGRATOR_H
+#define LR_INTEGRATOR_H
+
+#include "scene.h"
+
+#include <stdint.h>
+
+typedef struct lr__integrator {
+    const char *name;
+    /* Radiance arriving at `org` from direction -dir (unit length) along
+     * a camera ray; rays traced are added to *rays. */
+    lr__v3 (*radiance)(const lr_scene *s, int max_depth, lr__v3 org,
+                       lr__v3 dir, uint64_t *rays);
+    /* The same for lanes 0..n-1 (n >= 1) of a packet of camera rays that
+     * the camera filled (not yet traced): L[i] for lane i, each exactly
+     * what `radiance` gives for lane i's ray (as traced, in float). */
+    void (*radiance16)(const lr_scene *s, int max_depth,
+                       struct RTCRayHit16 *rh, int n, lr__v3 L[16],
+                       uint64_t *rays);
+} lr__integrator;
+
+extern const lr__integrator lr__whitted;
+
+/* ---- whitted.c's parts, for tests ------------------------------------ */
+
+/* Radiance arriving at `org` from direction -dir (dir unit length) after
+ * `depth` bounces; mirror and refraction rays are traced while depth <
+ * max_depth.  Adds every ray traced to *rays. */
+lr__v3 lr__radiance(const lr_scene *s, lr__v3 org, lr__v3 dir, int depth,
+                    int max_depth, uint64_t *rays);
+
+/* Fresnel reflectance of a smooth dielectric for unpolarised light, cos_i
+ * the cosine of the incidence angle (>= 0) and eta = n_incident /
+ * n_transmitted.  Returns 1 for total internal reflection.  (Exact
+ * formula, e.g. pbrt-v4 section 9.3.) */
+double lr__fresnel_dielectric(double cos_i, double eta);
+
+/* For tests: when nonzero, radiance16 shades every lane with the scalar
+ * code instead of its vector path, whose results must match it bit for
+ * bit.  Not thread-safe to change during a render. */
+extern int lr__whitted_scalar_only;
+
+#endif

@@ -1,0 +1,158 @@
+/*
+ * sample.c: the samples of one pixel (sample.h).
+ */
+#include "sample.h"
+#include "spectrum.h"
+
+#include <math.h>
+
+/* The mean of the linear-sRGB matching functions over the sampled range,
+ * by the midpoint rule at 0.25 nm (far finer than the functions vary). */
+static lr__v3 mean_cmf(void)
+{
+    double sum[3] = {0, 0, 0};
+    int n = (int)((LR__LAMBDA_MAX - LR__LAMBDA_MIN) * 4);
+    for (int i = 0; i < n; i++) {
+        double W[3];
+        lr__srgb_cmf(LR__LAMBDA_MIN + (i + 0.5) * 0.25, W);
+        for (int c = 0; c < 3; c++)
+            sum[c] += W[c];
+    }
+    return v3(sum[0] / n, sum[1] / n, sum[2] / n);
+}
+
+void lr__shot_init(lr__shot *sh)
+{
+    sh->mean_cmf = mean_cmf();
+}
+
+uint64_t lr__colour_rays(const lr__cam *c)
+{
+    if (!c->chroma_active)
+        return 1;
+    return c->chroma.mode == LR_CHROMATIC_RGB ? 3
+                                              : (uint64_t)c->chroma.wavelengths;
+}
+
+/* One camera sample with a ray per colour: radiance through film point
+ * (fx, fy) and lens sample u. */
+static void colour_sample(const lr__shot *sh, uint64_t pixel, uint32_t s,
+                          double fx, double fy, const double u[2],
+                          lr__pixel *acc, lr__sample_counts *cnt)
+{
+    const lr__cam *c = sh->cam;
+    const lr__integrator *in = sh->integrator;
+    lr__v3 org, dir;
+    if (c->chroma.mode == LR_CHROMATIC_RGB) {
+        cnt->camera_rays += 3;
+        /* The paper: each channel traced with its own focus, through the
+         * same film point and lens point. */
+        double L[3];
+        for (int ch = 0; ch < 3; ch++) {
+            lr__cam_lens_ray(c, fx, fy, u, c->w_rgb[ch], &org, &dir);
+            lr__v3 Li = in->radiance(sh->scene, sh->max_depth, org, dir,
+                                     &cnt->rays);
+            L[ch] = ch == 0 ? Li.x : ch == 1 ? Li.y : Li.z;
+        }
+        lr__pixel_add(acc, v3(L[0], L[1], L[2]));
+        return;
+    }
+    /* Spectral: N wavelengths stratified over the visible range with one
+     * random offset per sample, each weighted by the linear-sRGB
+     * colour-matching functions W(lambda).  With five or more the weights
+     * are normalised by their own sum in this sample (W's sums then stay
+     * within a factor of 2 of each other for any offset): a uniform white
+     * scene stays exactly white and each wavelength's light is conserved.
+     * With fewer, the sum could approach zero, so the exact mean of W over
+     * the range normalises instead (unbiased, white only on average). */
+    int n = c->chroma.wavelengths;
+    cnt->camera_rays += (uint64_t)n;
+    double off = lr__sample_1d(sh->sampler, pixel, s, LR__DIM_WAVELENGTH);
+    lr__v3 num = v3(0, 0, 0), den = v3(0, 0, 0);
+    for (int k = 0; k < n; k++) {
+        double nm = LR__LAMBDA_MIN +
+                    (LR__LAMBDA_MAX - LR__LAMBDA_MIN) * (k + off) / n;
+        double W[3];
+        lr__srgb_cmf(nm, W);
+        lr__cam_lens_ray(c, fx, fy, u, lr__cam_power_at(c, nm), &org, &dir);
+        lr__v3 Li = in->radiance(sh->scene, sh->max_depth, org, dir,
+                                 &cnt->rays);
+        num = v3_add(num, v3(W[0] * Li.x, W[1] * Li.y, W[2] * Li.z));
+        den = v3_add(den, v3(W[0], W[1], W[2]));
+    }
+    if (n < 5)
+        den = v3_scale(sh->mean_cmf, n);
+    lr__pixel_add(acc, v3(num.x / den.x, num.y / den.y, num.z / den.z));
+}
+
+/* Samples of a pixel sixteen at a time: one packet of camera rays from
+ * the camera model, radiance for all of it from the integrator.  Packets
+ * never mix pixels: which rays share a packet then never depends on the
+ * tile size or region, so neither can the result (Embree may break exact
+ * ties between primitives differently for differently composed
+ * packets). */
+static void packet_samples(const lr__shot *sh, int use_lens, int x, int y,
+                           int first, int last, lr__pixel *acc,
+                           lr__sample_counts *cnt)
+{
+    struct RTCRayHit16 rh __attribute__((aligned(64)));
+    float fx[16], fy[16], lu[16], lv[16];
+    for (int i = 0; i < 16; i++)
+        fx[i] = fy[i] = lu[i] = lv[i] = 0.5f;
+    lr__pixel_sampler ps;
+    uint64_t pixel = (uint64_t)y * (uint64_t)sh->width + (uint64_t)x;
+    lr__pixel_sampler_init(&ps, sh->sampler, pixel);
+    for (int s0 = first; s0 < last; s0 += 16) {
+        int n = last - s0 < 16 ? last - s0 : 16;
+        float u[4][16];
+        lr__pixel_sampler_get16(&ps, (uint32_t)s0, n, u);
+        for (int i = 0; i < n; i++) {
+            /* In double, as the scalar path does, then rounded once. */
+            fx[i] = (float)(x + (double)u[0][i]);
+            fy[i] = (float)(y + (double)u[1][i]);
+            lu[i] = u[2][i];
+            lv[i] = u[3][i];
+        }
+        sh->cam->model->rays16(sh->cam, use_lens, n, fx, fy, lu, lv, &rh);
+        cnt->camera_rays += (uint64_t)n;
+        lr__v3 L[16];
+        sh->integrator->radiance16(sh->scene, sh->max_depth, &rh, n, L,
+                                   &cnt->rays);
+        lr__pixel_add_n(acc, L, n);
+    }
+}
+
+void lr__sample_pixel(const lr__shot *sh, const lr__block_plan *bp, int x,
+                      int y, int first, int last, lr__pixel *acc,
+                      lr__sample_counts *cnt)
+{
+    if (bp->path == LR__PATH_PACKET) {
+        packet_samples(sh, bp->lens, x, y, first, last, acc, cnt);
+        return;
+    }
+    uint64_t pixel = (uint64_t)y * (uint64_t)sh->width + (uint64_t)x;
+    lr__pixel_sampler ps;
+    lr__pixel_sampler_init(&ps, sh->sampler, pixel);
+    for (int s = first; s < last; s++) {
+        double u[4];
+        lr__pixel_sampler_get(&ps, (uint32_t)s, u);
+        colour_sample(sh, pixel, (uint32_t)s, x + u[0], y + u[1], u + 2, acc,
+                      cnt);
+    }
+}
+
+float lr__sample_depth(const lr__shot *sh, int x, int y,
+                       lr__sample_counts *cnt)
+{
+    lr__v3 org, dir;
+    lr__hit h;
+    lr__cam_ray(sh->cam, x + 0.5, y + 0.5, &org, &dir);
+    cnt->rays++;
+    float z = LR_DEPTH_NONE;
+    if (lr__trace(sh->scene, org, dir, INFINITY, &h)) {
+        double d = h.t * v3_dot(dir, sh->cam->forward);
+        if (d < LR_DEPTH_NONE)
+            z = (float)d;
+    }
+    return z;
+}

@@ -1,0 +1,52 @@
+/*
+ * sample.h: the samples of one pixel.  Numbers from the sampler, rays
+ * from the camera model, radiance from the integrator, added to the
+ * film in sample order, the way the plan says: a packet of 16 samples at
+ * a time with one focus, or one sample at a time with a ray per colour
+ * (rgb) or wavelength (spectral).  Also the Z channel's ray.
+ */
+#ifndef LR_SAMPLE_H
+#define LR_SAMPLE_H
+
+#include "camera.h"
+#include "film.h"
+#include "integrator.h"
+#include "plan.h"
+#include "sampler.h"
+
+/* What every sample of a render shares; read-only while it runs. */
+typedef struct lr__shot {
+    const lr_scene *scene;
+    const lr__cam *cam;
+    const lr__sampler *sampler;
+    const lr__integrator *integrator;
+    int width;        /* of the full frame, for pixel indices */
+    int max_depth;
+    lr__v3 mean_cmf;  /* mean of the sRGB matching functions, 380-780 nm */
+} lr__shot;
+
+/* Counts a thread keeps. */
+typedef struct lr__sample_counts {
+    uint64_t rays;        /* every ray traced */
+    uint64_t camera_rays; /* camera rays (one per colour where split) */
+} lr__sample_counts;
+
+/* Prepares `sh` (mean_cmf) for the other fields the caller has set. */
+void lr__shot_init(lr__shot *sh);
+
+/* Adds samples first .. last-1 of pixel (x, y) to *acc, in order, as the
+ * block's plan `bp` says. */
+void lr__sample_pixel(const lr__shot *sh, const lr__block_plan *bp, int x,
+                      int y, int first, int last, lr__pixel *acc,
+                      lr__sample_counts *n);
+
+/* Z: the distance along the view axis of the first hit of the pinhole
+ * ray through the centre of pixel (x, y), or LR_DEPTH_NONE. */
+float lr__sample_depth(const lr__shot *sh, int x, int y,
+                       lr__sample_counts *n);
+
+/* Camera rays one sample takes where the colours are split (1 when they
+ * never are): for the full simulation's count in the statistics. */
+uint64_t lr__colour_rays(const lr__cam *c);
+
+#endif

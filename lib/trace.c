@@ -1,0 +1,341 @@
+/*
+ * trace.c: tracing against the scene: closest hit and occlusion for one
+ * ray, Embree's answer turned into a hit (lr__hit_complete) for one ray
+ * and, beside it, for the sixteen lanes of a packet (lr__hits16), and the
+ * infinite planes that Embree cannot hold, intersected analytically in
+ * double.
+ */
+#include "scene.h"
+
+#include <float.h>
+#include <math.h>
+#include <string.h>
+
+static void embree_ray(struct RTCRay *r, lr__v3 org, lr__v3 dir, double tfar)
+{
+    r->org_x = (float)org.x;
+    r->org_y = (float)org.y;
+    r->org_z = (float)org.z;
+    r->tnear = 0.0f;
+    r->dir_x = (float)dir.x;
+    r->dir_y = (float)dir.y;
+    r->dir_z = (float)dir.z;
+    r->time = 0.0f;
+    r->tfar = tfar < FLT_MAX ? (float)tfar : FLT_MAX;
+    r->mask = 0xFFFFFFFFu;
+    r->id = 0;
+    r->flags = 0;
+}
+
+/* The nearest infinite plane hit with t in (0, tfar), or -1. */
+static long plane_hit(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
+                      double *t_out)
+{
+    long best = -1;
+    double best_t = tfar;
+    for (size_t i = 0; i < s->n_planes; i++) {
+        const lr__geom *pl = &s->planes[i];
+        double den = v3_dot(dir, pl->normal);
+        if (den == 0.0)
+            continue;
+        double t = v3_dot(v3_sub(pl->center, org), pl->normal) / den;
+        if (t > 0.0 && t < best_t) {
+            best_t = t;
+            best = (long)i;
+        }
+    }
+    *t_out = best_t;
+    return best;
+}
+
+static void finish_hit(lr__hit *h, lr__v3 org, lr__v3 dir, double t,
+                       lr__v3 ng_outward, lr__v3 ns_outward, int material)
+{
+    h->t = t;
+    h->p = v3_madd(org, dir, t);
+    h->material = material;
+    ng_outward = v3_norm(ng_outward);
+    ns_outward = v3_norm(ns_outward);
+    h->entering = v3_dot(dir, ng_outward) < 0.0;
+    h->ng = h->entering ? ng_outward : v3_neg(ng_outward);
+    h->ns = h->entering ? ns_outward : v3_neg(ns_outward);
+    /* An interpolated normal may point below the surface near silhouettes;
+     * fall back to the geometric normal there rather than shade a
+     * surface from behind. */
+    if (v3_dot(h->ns, h->ng) <= 0.0 || !v3_finite(h->ns))
+        h->ns = h->ng;
+    /* Float rounding in Embree's t and in the hit position scales with
+     * the coordinates involved: 2^-17 of them is ~64 float ulps. */
+    double mag = v3_maxabs(h->p) + t * v3_len(dir);
+    h->eps = (1.0 + mag) * 0x1p-17;
+}
+
+/* Embree asserts, aborting the process, on a ray with a component of its
+ * origin or direction beyond FLT_LARGE (1.844e18) or not finite
+ * (RayK::valid() in its BVH intersectors).  Valid scenes make such rays:
+ * a ray grazing an infinite plane (traced here in double) meets it at
+ * t up to about 1e15 / |cos|, 1e19 and far more, and the shadow and
+ * secondary rays start there.  Everything Embree holds lies within 1e15
+ * of the origin (the scene's limits), so such a ray is not given to
+ * Embree: it misses Embree's geometry (a point light that far away gives
+ * nothing measurable anyway), still meets the infinite planes, and is
+ * counted (lr__scene_skipped_rays). */
+#define EMBREE_MAX_COORD 1.8e18
+
+int lr__embree_can_trace(lr__v3 org, lr__v3 dir)
+{
+    /* Written so that NaN fails. */
+    return fabs(org.x) <= EMBREE_MAX_COORD && fabs(org.y) <= EMBREE_MAX_COORD &&
+           fabs(org.z) <= EMBREE_MAX_COORD && fabs(dir.x) <= EMBREE_MAX_COORD &&
+           fabs(dir.y) <= EMBREE_MAX_COORD && fabs(dir.z) <= EMBREE_MAX_COORD;
+}
+
+static void count_skipped(const lr_scene *s)
+{
+    /* The scene is shared by the render's threads, and only this counter
+     * of it changes while they trace (it is never const-defined: scenes
+     * come from calloc). */
+    atomic_fetch_add_explicit(&((lr_scene *)s)->skipped_rays, 1,
+                              memory_order_relaxed);
+}
+
+unsigned long long lr__scene_skipped_rays(const lr_scene *s)
+{
+    return atomic_load_explicit(&((lr_scene *)s)->skipped_rays,
+                                memory_order_relaxed);
+}
+
+int lr__trace(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
+              lr__hit *hit)
+{
+    if (!lr__embree_can_trace(org, dir)) {
+        count_skipped(s);
+        return lr__hit_complete(s, org, dir, tfar, RTC_INVALID_GEOMETRY_ID,
+                                0, 0.0f, 0.0f, 0.0f, hit);
+    }
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    struct RTCRayHit rh;
+    embree_ray(&rh.ray, org, dir, tfar);
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(s->rtc, &ctx, &rh);
+    return lr__hit_complete(s, org, dir, tfar, rh.hit.geomID, rh.hit.primID,
+                            rh.hit.u, rh.hit.v, rh.ray.tfar, hit);
+}
+
+/* A packet lane whose ray Embree would abort on gets a harmless ray
+ * that cannot hit anything instead (tnear 1 > tfar 0; Embree skips such
+ * lanes): to the caller, a miss of Embree's geometry, as in lr__trace.
+ * (The lane fillers do not see the scene, so these are not counted.) */
+static int lane_disabled(lr__v3 *org, lr__v3 *dir, double *tfar,
+                         float *tnear)
+{
+    *tnear = 0.0f;
+    if (lr__embree_can_trace(*org, *dir))
+        return 0;
+    *org = v3(0, 0, 0);
+    *dir = v3(0, 0, 1);
+    *tfar = 0.0;
+    *tnear = 1.0f;
+    return 1;
+}
+
+int lr__hit_complete(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
+                     unsigned geom_id, unsigned prim_id, float bu, float bv,
+                     float t_hit, lr__hit *hit)
+{
+    double t_embree = geom_id != RTC_INVALID_GEOMETRY_ID ? (double)t_hit
+                                                         : tfar;
+    double t_plane;
+    long pl = plane_hit(s, org, dir, t_embree, &t_plane);
+    if (pl >= 0) {
+        const lr__geom *g = &s->planes[pl];
+        finish_hit(hit, org, dir, t_plane, g->normal, g->normal, g->material);
+        return 1;
+    }
+    if (geom_id == RTC_INVALID_GEOMETRY_ID)
+        return 0;
+
+    const lr__geom *g = &s->geoms[geom_id];
+    if (g->kind == LR__GEOM_SPHERE) {
+        /* Embree found the sphere in float, so on a big sphere its t can
+         * be far off the surface (0.1 units on a radius of 1e6): solve the
+         * quadratic again in double, in the cancellation-free form
+         * (|oc| - r)(|oc| + r) and q = -(b + sign(b) sqrt(disc)), and keep
+         * the root nearest Embree's.  Then the normal from the centre. */
+        double t = t_embree;
+        lr__v3 oc = v3_sub(org, g->center);
+        double a = v3_dot(dir, dir), b = v3_dot(oc, dir);
+        double l = v3_len(oc);
+        double c = (l - g->radius) * (l + g->radius);
+        double disc = b * b - a * c;
+        if (disc >= 0.0 && a > 0.0) {
+            double q = -(b + copysign(sqrt(disc), b));
+            double r1 = q / a, r2 = q != 0.0 ? c / q : r1;
+            double best = fabs(r1 - t) < fabs(r2 - t) ? r1 : r2;
+            if (best > 0.0 && best < tfar)
+                t = best;
+        }
+        lr__v3 p = v3_madd(org, dir, t);
+        lr__v3 n = v3_sub(p, g->center);
+        finish_hit(hit, org, dir, t, n, n, g->material);
+        return 1;
+    }
+    /* Triangles: CCW winding (as OBJ) is the front side. */
+    const unsigned *ix = &g->indices[3 * (size_t)prim_id];
+    const float *a = &g->vertices[3 * (size_t)ix[0]];
+    const float *b = &g->vertices[3 * (size_t)ix[1]];
+    const float *c = &g->vertices[3 * (size_t)ix[2]];
+    lr__v3 va = v3(a[0], a[1], a[2]);
+    lr__v3 ng = v3_cross(v3_sub(v3(b[0], b[1], b[2]), va),
+                         v3_sub(v3(c[0], c[1], c[2]), va));
+    lr__v3 ns = ng;
+    if (g->corner_normals != NULL) {
+        const float *n = &g->corner_normals[9 * (size_t)prim_id];
+        double u = bu, v = bv, w = 1.0 - u - v;
+        ns = v3(w * n[0] + u * n[3] + v * n[6], w * n[1] + u * n[4] + v * n[7],
+                w * n[2] + u * n[5] + v * n[8]);
+    }
+    finish_hit(hit, org, dir, t_embree, ng, ns, g->material);
+    return 1;
+}
+
+void lr__hits16_gather(const lr_scene *s, const struct RTCRayHit16 *rh,
+                       int i, lr__hits16 *h)
+{
+    const lr__geom *g = &s->geoms[rh->hit.geomID[i]];
+    unsigned prim = rh->hit.primID[i];
+    const unsigned *ix = &g->indices[3 * (size_t)prim];
+    for (int c = 0; c < 3; c++) {
+        const float *v = &g->vertices[3 * (size_t)ix[c]];
+        h->v[3 * c][i] = v[0];
+        h->v[3 * c + 1][i] = v[1];
+        h->v[3 * c + 2][i] = v[2];
+    }
+    if (g->corner_normals != NULL) {
+        const float *n = &g->corner_normals[9 * (size_t)prim];
+        for (int k = 0; k < 9; k++)
+            h->n[k][i] = n[k];
+        h->smooth[i] = 1.0f;
+    } else {
+        for (int k = 0; k < 9; k++)
+            h->n[k][i] = 0.0f;
+        h->smooth[i] = 0.0f;
+    }
+}
+
+/* finish_hit, for all sixteen lanes. */
+__attribute__((target_clones("avx512f", "avx2", "default")))
+void lr__hits16_complete(const struct RTCRayHit16 *rh, lr__hits16 *h)
+{
+    const struct RTCRay16 *r = &rh->ray;
+    for (int i = 0; i < 16; i++) {
+        /* ng = (b - a) x (c - a), in double as scene.c does it. */
+        double ax = h->v[0][i], ay = h->v[1][i], az = h->v[2][i];
+        double e1x = (double)h->v[3][i] - ax, e1y = (double)h->v[4][i] - ay,
+               e1z = (double)h->v[5][i] - az;
+        double e2x = (double)h->v[6][i] - ax, e2y = (double)h->v[7][i] - ay,
+               e2z = (double)h->v[8][i] - az;
+        double ngx = e1y * e2z - e1z * e2y;
+        double ngy = e1z * e2x - e1x * e2z;
+        double ngz = e1x * e2y - e1y * e2x;
+        /* ns: the corner normals interpolated, or ng. */
+        double u = rh->hit.u[i], v = rh->hit.v[i], w = 1.0 - u - v;
+        double nsx = w * h->n[0][i] + u * h->n[3][i] + v * h->n[6][i];
+        double nsy = w * h->n[1][i] + u * h->n[4][i] + v * h->n[7][i];
+        double nsz = w * h->n[2][i] + u * h->n[5][i] + v * h->n[8][i];
+        int smooth = h->smooth[i] != 0.0f;
+        nsx = smooth ? nsx : ngx;
+        nsy = smooth ? nsy : ngy;
+        nsz = smooth ? nsz : ngz;
+        double t = r->tfar[i];
+        double dx = r->dir_x[i], dy = r->dir_y[i], dz = r->dir_z[i];
+        h->px[i] = (double)r->org_x[i] + dx * t;
+        h->py[i] = (double)r->org_y[i] + dy * t;
+        h->pz[i] = (double)r->org_z[i] + dz * t;
+        /* v3_norm, twice. */
+        double lg = sqrt(ngx * ngx + ngy * ngy + ngz * ngz);
+        double ig = 1.0 / lg;
+        int okg = lg > 0;
+        ngx = okg ? ngx * ig : ngx;
+        ngy = okg ? ngy * ig : ngy;
+        ngz = okg ? ngz * ig : ngz;
+        double ls = sqrt(nsx * nsx + nsy * nsy + nsz * nsz);
+        double is = 1.0 / ls;
+        int oks = ls > 0;
+        nsx = oks ? nsx * is : nsx;
+        nsy = oks ? nsy * is : nsy;
+        nsz = oks ? nsz * is : nsz;
+        int entering = dx * ngx + dy * ngy + dz * ngz < 0.0;
+        ngx = entering ? ngx : -ngx;
+        ngy = entering ? ngy : -ngy;
+        ngz = entering ? ngz : -ngz;
+        nsx = entering ? nsx : -nsx;
+        nsy = entering ? nsy : -nsy;
+        nsz = entering ? nsz : -nsz;
+        /* (Bitwise & and |, not && and ||: no branches in the loop.) */
+        int bad = (nsx * ngx + nsy * ngy + nsz * ngz <= 0.0) |
+                  !((fabs(nsx) <= DBL_MAX) & (fabs(nsy) <= DBL_MAX) &
+                    (fabs(nsz) <= DBL_MAX));
+        h->sx[i] = bad ? ngx : nsx;
+        h->sy[i] = bad ? ngy : nsy;
+        h->sz[i] = bad ? ngz : nsz;
+        h->gx[i] = ngx, h->gy[i] = ngy, h->gz[i] = ngz;
+        /* v3_maxabs(p) + t |dir| */
+        double m = fabs(h->px[i]);
+        m = fabs(h->py[i]) > m ? fabs(h->py[i]) : m;
+        m = fabs(h->pz[i]) > m ? fabs(h->pz[i]) : m;
+        double dl = sqrt(dx * dx + dy * dy + dz * dz);
+        h->eps[i] = (1.0 + (m + t * dl)) * 0x1p-17;
+    }
+}
+
+void lr__shadow_ray16(struct RTCRay16 *r, int lane, lr__v3 org, lr__v3 dir,
+                      double tfar)
+{
+    float tnear;
+    lane_disabled(&org, &dir, &tfar, &tnear);
+    r->org_x[lane] = (float)org.x;
+    r->org_y[lane] = (float)org.y;
+    r->org_z[lane] = (float)org.z;
+    r->tnear[lane] = tnear;
+    r->dir_x[lane] = (float)dir.x;
+    r->dir_y[lane] = (float)dir.y;
+    r->dir_z[lane] = (float)dir.z;
+    r->time[lane] = 0.0f;
+    r->tfar[lane] = tfar < FLT_MAX ? (float)tfar : FLT_MAX;
+    r->mask[lane] = 0xFFFFFFFFu;
+    r->id[lane] = 0;
+    r->flags[lane] = 0;
+}
+
+int lr__planes_block(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar)
+{
+    double t_plane;
+    return plane_hit(s, org, dir, tfar, &t_plane) >= 0;
+}
+
+int lr__occluded(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar)
+{
+    double t_plane;
+    if (plane_hit(s, org, dir, tfar, &t_plane) >= 0)
+        return 1;
+    if (!lr__embree_can_trace(org, dir)) {
+        count_skipped(s);
+        return 0;
+    }
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    struct RTCRay r;
+    embree_ray(&r, org, dir, tfar);
+    rtcOccluded1(s->rtc, &ctx, &r);
+    /* Embree marks an occluded ray by setting tfar to -inf. */
+    return r.tfar < 0.0f;
+}
+
+lr__v3 lr__offset_origin(const lr__hit *hit, lr__v3 dir)
+{
+    double side = v3_dot(dir, hit->ng) >= 0.0 ? 1.0 : -1.0;
+    return v3_madd(hit->p, hit->ng, side * hit->eps);
+}
