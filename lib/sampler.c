@@ -208,18 +208,20 @@ static uint32_t owen(uint32_t x, uint32_t seed)
     return reverse_bits(lk_permute(reverse_bits(x), seed));
 }
 
+/* Which of Sobol's dimensions each sample dimension (pixel x, y, lens
+ * u, v) takes: the lens gets Sobol's first two, which form a
+ * (0,2)-sequence, since the lens integral is what depth of field is
+ * about; the pixel gets the next two. */
+static const int sobol_dim[4] = {2, 3, 0, 1};
+
 /* One Owen-scrambled Sobol coordinate.  Dimensions 0..3 share one index
  * shuffle (a 4-D sequence); from 4 on, each pair of dimensions reuses
  * Sobol's dimensions 0 and 1 with a shuffle of its own (padding). */
 static double sobol_1d(const lr__sampler *s, uint64_t pixel, uint32_t sample,
                        uint32_t dim)
 {
-    /* The lens dimensions get Sobol's first two, which form a
-     * (0,2)-sequence: the lens integral is what depth of field is about.
-     * The pixel dimensions get the next two. */
-    static const int map[4] = {2, 3, 0, 1};
     uint32_t block = dim < 4 ? 0 : dim / 2;
-    int d = dim < 4 ? map[dim] : (int)(dim % 2);
+    int d = dim < 4 ? sobol_dim[dim] : (int)(dim % 2);
     uint64_t shuffle = hash4(s->seed, pixel, 0xffffffffu, block);
     uint32_t idx = owen(sample, (uint32_t)shuffle);
     uint64_t scramble = hash4(s->seed, pixel, 0xfffffffdu, dim);
@@ -242,11 +244,10 @@ static void sobol_4d_seeded(uint32_t shuffle, const uint32_t scramble[4],
     /* owen(x, s) = rev(lk(rev(x), s)), so with r = lk(rev(sample)) the
      * shuffled index is rev(r), and each coordinate is
      * rev(lk(rev(sobol(rev(r))))) = rev(lk(sobol_rev(r))). */
-    static const int map[4] = {2, 3, 0, 1};
     uint32_t r = lk_permute(reverse_bits(sample), shuffle);
     for (int dim = 0; dim < 4; dim++)
-        out[dim] = sobol_unit(
-            reverse_bits(lk_permute(sobol_rev(r, map[dim]), scramble[dim])));
+        out[dim] = sobol_unit(reverse_bits(
+            lk_permute(sobol_rev(r, sobol_dim[dim]), scramble[dim])));
 }
 
 static void sobol_4d(const lr__sampler *s, uint64_t pixel, uint32_t sample,
@@ -306,7 +307,6 @@ __attribute__((target("avx2")))
 static void sobol16_avx2(const lr__pixel_sampler *ps, uint32_t first,
                          float out[4][16])
 {
-    static const int map[4] = {2, 3, 0, 1};
     const __m256i ff = _mm256_set1_epi32(0xff);
     const __m256 unit = _mm256_set1_ps(0x1p-24f);
     for (int h = 0; h < 16; h += 8) {
@@ -319,7 +319,7 @@ static void sobol16_avx2(const lr__pixel_sampler *ps, uint32_t first,
         __m256i b2 = _mm256_and_si256(_mm256_srli_epi32(r, 16), ff);
         __m256i b3 = _mm256_srli_epi32(r, 24);
         for (int d = 0; d < 4; d++) {
-            const uint32_t (*t)[256] = sobol_rt[map[d]];
+            const uint32_t (*t)[256] = sobol_rt[sobol_dim[d]];
             __m256i v = _mm256_xor_si256(
                 _mm256_xor_si256(
                     _mm256_i32gather_epi32((const int *)t[0], b0, 4),
@@ -366,7 +366,6 @@ __attribute__((target("avx512f,avx512bw")))
 static void sobol16_avx512(const lr__pixel_sampler *ps, uint32_t first,
                            int n, float out[4][16])
 {
-    static const int map[4] = {2, 3, 0, 1};
     __m512i idx = _mm512_add_epi32(
         _mm512_set1_epi32((int)first),
         _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14,
@@ -385,10 +384,10 @@ static void sobol16_avx512(const lr__pixel_sampler *ps, uint32_t first,
         __m512i hi = _mm512_srli_epi32(r, 28);
         unsigned lo = (r0 >> 24) & 0xfu;
         for (int d = 0; d < 4; d++) {
-            const uint32_t(*t)[256] = sobol_rt[map[d]];
+            const uint32_t(*t)[256] = sobol_rt[sobol_dim[d]];
             uint32_t c = t[0][r0 & 0xffu] ^ t[1][(r0 >> 8) & 0xffu] ^
                          t[2][(r0 >> 16) & 0xffu];
-            __m512i row = _mm512_load_si512(sobol_rt16[map[d]][lo]);
+            __m512i row = _mm512_load_si512(sobol_rt16[sobol_dim[d]][lo]);
             __m512i v = _mm512_xor_si512(_mm512_set1_epi32((int)c),
                                          _mm512_permutexvar_epi32(hi, row));
             v = rev_bits16(lk_permute16(v, ps->scramble[d]));
@@ -403,7 +402,7 @@ static void sobol16_avx512(const lr__pixel_sampler *ps, uint32_t first,
     __m512i b2 = _mm512_and_si512(_mm512_srli_epi32(r, 16), ff);
     __m512i b3 = _mm512_srli_epi32(r, 24);
     for (int d = 0; d < 4; d++) {
-        const uint32_t(*t)[256] = sobol_rt[map[d]];
+        const uint32_t(*t)[256] = sobol_rt[sobol_dim[d]];
         __m512i v = _mm512_xor_si512(
             _mm512_xor_si512(_mm512_i32gather_epi32(b0, t[0], 4),
                              _mm512_i32gather_epi32(b1, t[1], 4)),
@@ -419,13 +418,12 @@ static void sobol16_avx512(const lr__pixel_sampler *ps, uint32_t first,
 static void sobol16_c(const lr__pixel_sampler *ps, uint32_t first, int n,
                       float out[4][16])
 {
-    static const int map[4] = {2, 3, 0, 1};
     for (int i = 0; i < n; i++) {
         uint32_t r = lk_permute(reverse_bits(first + (uint32_t)i),
                                 ps->shuffle);
         for (int d = 0; d < 4; d++)
             out[d][i] = (float)(reverse_bits(lk_permute(
-                            sobol_rev(r, map[d]), ps->scramble[d])) >>
+                            sobol_rev(r, sobol_dim[d]), ps->scramble[d])) >>
                         8) * 0x1p-24f;
     }
 }
