@@ -103,15 +103,16 @@ static int light_ray_setup(const lr_scene *s, const lr__hit *h, lr__v3 wo,
     return 1;
 }
 
-/* light_ray_setup for a Lambertian material of albedo k, all lanes
- * at once: fills
- * the shadow packet's rays, ok[i] (-1 where a shadow ray is needed, in
- * lanes where ok[i] was -1 before) and the contribution f E cos. */
+/* light_ray_setup for a Lambertian material of albedo k, all lanes at
+ * once: fills the shadow packet's rays, ok[i] (-1 where a shadow ray is
+ * needed, in lanes where ok[i] was -1 before), the contribution f E cos
+ * (fr, fg, fb) and the shadow rays in double (ro, rd, rt), as
+ * light_ray_setup gives them, for the infinite planes. */
 __attribute__((target_clones("avx512f", "avx2", "default")))
 static void light_rays16(const lr__light *lt, const lr__hits16 *h,
-                        const double k[3][16], int *ok,
-                       struct RTCRay16 *r, double fr[16],
-                       double fg[16], double fb[16])
+                         const double k[3][16], int *ok, struct RTCRay16 *r,
+                         double fr[16], double fg[16], double fb[16],
+                         double ro[3][16], double rd[3][16], double rt[16])
 {
     const int point = lt->kind == LR__LIGHT_POINT;
     const double lpx = lt->position.x, lpy = lt->position.y,
@@ -120,7 +121,6 @@ static void light_rays16(const lr__light *lt, const lr__hits16 *h,
                  ldz = -lt->direction.z;
     const double Pr = lt->power.x, Pg = lt->power.y, Pb = lt->power.z;
     const double inv_pi = 1.0 / M_PI;
-    double ro[3][16], rd[3][16], rt[16];
     int lit_[16];
     for (int i = 0; i < 16; i++) {
         double tox = lpx - h->px[i], toy = lpy - h->py[i],
@@ -262,18 +262,26 @@ lr__v3 lr__radiance(const lr_scene *s, lr__v3 org, lr__v3 dir, int depth,
 int lr__whitted_scalar_only = 0;
 
 /* The vector path takes a lane whose camera ray hit a triangle of a
- * purely Lambertian material: its hit is completed (lr__hits16), its
- * shadow rays set up (light_rays16) and its light added in vector loops.
- * Other lanes go through lr__hit_complete and the scalar shading above.
- * Infinite planes, which Embree does not hold, could be nearer than
- * Embree's hit and block shadow rays: a scene with one sends every lane
- * down the scalar path. */
-static int vector_lane(const lr_scene *s, unsigned g)
+ * purely Lambertian material with no infinite plane in front of it (the
+ * planes, which Embree does not hold, are tested in double as
+ * lr__hit_complete tests them): its hit is completed (lr__hits16), its
+ * shadow rays set up (light_rays16) and its light added in vector loops;
+ * the planes are tested for its shadow rays as lr__occluded tests them.
+ * Other lanes go through lr__hit_complete and the scalar shading above. */
+static int vector_lane(const lr_scene *s, const struct RTCRayHit16 *rh,
+                       int i)
 {
-    return g != RTC_INVALID_GEOMETRY_ID && s->n_planes == 0 &&
-           s->geoms[g].kind == LR__GEOM_TRIANGLES &&
-           s->materials[s->geoms[g].material].lambert_only &&
-           !lr__whitted_scalar_only;
+    unsigned g = rh->hit.geomID[i];
+    if (g == RTC_INVALID_GEOMETRY_ID || lr__whitted_scalar_only ||
+        s->geoms[g].kind != LR__GEOM_TRIANGLES ||
+        !s->materials[s->geoms[g].material].lambert_only)
+        return 0;
+    if (s->n_planes == 0)
+        return 1;
+    const struct RTCRay16 *r = &rh->ray;
+    return !lr__planes_block(s, v3(r->org_x[i], r->org_y[i], r->org_z[i]),
+                             v3(r->dir_x[i], r->dir_y[i], r->dir_z[i]),
+                             (double)r->tfar[i]);
 }
 
 /* What the vector path keeps between packets: its lanes' hits and
@@ -309,7 +317,7 @@ static void radiance16(const lr_scene *s, int max_depth,
     int has_hit[16], vec[16], n_vec = 0;
     for (int i = 0; i < 16; i++) {
         unsigned g = rh->hit.geomID[i];
-        vec[i] = i < n && vector_lane(s, g) ? -1 : 0;
+        vec[i] = i < n && vector_lane(s, rh, i) ? -1 : 0;
         n_vec += vec[i] != 0;
         has_hit[i] = 0;
         if (vec[i]) {
@@ -346,13 +354,13 @@ static void radiance16(const lr_scene *s, int max_depth,
      * faster on the bench scene than the incoherent flag). */
     for (size_t k = 0; k < s->n_lights; k++) {
         light_ray lr[16];
-        double fr[16], fg[16], fb[16];
+        double fr[16], fg[16], fb[16], ro[3][16], rd[3][16], rt[16];
         int any = 0;
         if (n_vec) {
             for (int i = 0; i < 16; i++)
                 valid[i] = vec[i];
             light_rays16(&s->lights[k], &sc->h, (const double(*)[16])sc->k,
-                         valid, &shadow, fr, fg, fb);
+                         valid, &shadow, fr, fg, fb, ro, rd, rt);
         } else {
             for (int i = 0; i < 16; i++)
                 valid[i] = 0;
@@ -378,9 +386,13 @@ static void radiance16(const lr_scene *s, int max_depth,
             /* Embree marks an occluded ray by setting tfar to -inf. */
             if (!valid[i] || !(shadow.tfar[i] >= 0.0f))
                 continue;
-            if (vec[i])
+            if (vec[i] &&
+                (s->n_planes == 0 ||
+                 !lr__planes_block(s, v3(ro[0][i], ro[1][i], ro[2][i]),
+                                   v3(rd[0][i], rd[1][i], rd[2][i]), rt[i])))
                 L[i] = v3_add(L[i], v3(fr[i], fg[i], fb[i]));
-            else if (!lr__planes_block(s, lr[i].org, lr[i].dir, lr[i].tfar))
+            else if (!vec[i] &&
+                     !lr__planes_block(s, lr[i].org, lr[i].dir, lr[i].tfar))
                 L[i] = v3_add(L[i], lr[i].f_E_cos);
         }
     }
