@@ -3,6 +3,12 @@
  * defines an array of CMUnitTest and registers it with LR_TEST_GROUP; the
  * runner in unit_main.c runs every group (or those named on its command
  * line) and prints a summary line that tests/run.sh adds up.
+ *
+ * Skips: a test may skip only for a reason outside the code under test
+ * (a device the machine lacks, a part the build left out), through
+ * lr_test_skip_env with that reason.  A test for a bug never skips: it
+ * fails while the bug is there.  cmocka's own skip() is hidden below, so
+ * that a skip without a stated reason does not compile.
  */
 #ifndef LR_TEST_H
 #define LR_TEST_H
@@ -36,5 +42,18 @@ double lr_test_rmse(const lr_image *a, const lr_image *b);
 
 /* Directory for scratch files of this test run (created on first use). */
 const char *lr_test_tmpdir(void);
+
+/* Ends the current test as skipped because of its environment: prints
+ * "SKIP (environment): REASON" and counts the skip in unit_main.c's
+ * summary line, where a skip is never counted as a pass.  Does not
+ * return. */
+void lr_test_skip_env_at(const char *reason, const char *file, int line);
+#define lr_test_skip_env(reason)                                           \
+    lr_test_skip_env_at((reason), __FILE__, __LINE__)
+
+#undef skip
+#define skip()                                                             \
+    _Static_assert(0, "use lr_test_skip_env(\"reason\") for a skip that "   \
+                      "the environment forces; a bug's test fails instead")
 
 #endif

@@ -1,6 +1,9 @@
 /*
  * unit_main.c: runs every registered cmocka group, or only the groups
- * named on the command line, and ends with "unit: N passed, N failed".
+ * named on the command line, and ends with
+ * "unit: N passed, N failed, N skipped".  A skipped test is counted as
+ * skipped, never as passed; every skip here is an environment skip
+ * (lr_test_skip_env in test.h), each printed with its reason.
  */
 #include "test.h"
 
@@ -18,6 +21,9 @@ static struct {
     size_t n;
 } groups[MAX_GROUPS];
 static size_t n_groups;
+
+/* Skips so far; cmocka's runner returns only the failures. */
+static size_t n_skipped;
 
 void lr_test_register(const char *name, const struct CMUnitTest *tests,
                       size_t n)
@@ -77,6 +83,13 @@ double lr_test_rmse(const lr_image *a, const lr_image *b)
     return sqrt(e / n);
 }
 
+void lr_test_skip_env_at(const char *reason, const char *file, int line)
+{
+    print_message("SKIP (environment): %s\n", reason);
+    n_skipped++;
+    _skip(file, line);
+}
+
 static int wanted(const char *name, int argc, char **argv)
 {
     if (argc < 2)
@@ -98,6 +111,7 @@ int main(int argc, char **argv)
         total += groups[g].n;
         failed += (size_t)f;
     }
-    printf("unit: %zu passed, %zu failed\n", total - failed, failed);
+    printf("unit: %zu passed, %zu failed, %zu skipped\n",
+           total - failed - n_skipped, failed, n_skipped);
     return failed ? 1 : 0;
 }
