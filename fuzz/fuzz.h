@@ -1,7 +1,7 @@
 /*
  * fuzz.h: the entry points of the fuzz targets, shared by the libFuzzer
  * builds (make fuzz) and the corpus replay of the unit tests
- * (tests/test_corpus.c), which links the same code without libFuzzer.
+ * (tests/test_fuzz_replay.c), which links the same code without libFuzzer.
  *
  * Each entry point feeds one input to a parser and checks what the issue
  * promises about bad input: it never crashes (the sanitizers watch that),

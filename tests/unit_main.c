@@ -38,51 +38,6 @@ void lr_test_register(const char *name, const struct CMUnitTest *tests,
     n_groups++;
 }
 
-const char *lr_test_tmpdir(void)
-{
-    static char dir[256];
-    if (dir[0] == '\0') {
-        const char *base = getenv("TMPDIR");
-        snprintf(dir, sizeof dir, "%s/lensray-unit-XXXXXX",
-                 base && *base ? base : "/tmp");
-        if (mkdtemp(dir) == NULL) {
-            perror("mkdtemp");
-            exit(2);
-        }
-    }
-    return dir;
-}
-
-lr_image *lr_test_render(const char *json, const char *const *sets,
-                         size_t n_sets, lr_render_stats *stats)
-{
-    lr_scene *s = NULL;
-    lr_error err;
-    if (lr_scene_load_json(json, strlen(json), NULL, sets, n_sets, &s, &err) !=
-        LR_OK)
-        fail_msg("scene: %s", err.message);
-    lr_camera cam;
-    lr_render_settings rs;
-    lr_scene_camera(s, &cam);
-    lr_scene_settings(s, &rs);
-    lr_image *img = NULL;
-    if (lr_render(s, &cam, &rs, &img, stats, &err) != LR_OK)
-        fail_msg("render: %s", err.message);
-    lr_scene_free(s);
-    return img;
-}
-
-double lr_test_rmse(const lr_image *a, const lr_image *b)
-{
-    int n = lr_image_width(a) * lr_image_height(a) * 3;
-    double e = 0;
-    for (int i = 0; i < n; i++) {
-        double d = lr_image_rgb(a)[i] - lr_image_rgb(b)[i];
-        e += d * d;
-    }
-    return sqrt(e / n);
-}
-
 void lr_test_skip_env_at(const char *reason, const char *file, int line)
 {
     print_message("SKIP (environment): %s\n", reason);

@@ -1,5 +1,5 @@
 /*
- * test_corpus.c: replays the fuzzing corpora.  Every file of
+ * test_fuzz_replay.c: replays the fuzzing corpora.  Every file of
  * tests/corpus/{scene,obj,job}/ (cases the fuzzers found, and hand-written
  * hostile inputs) and of fuzz/seeds/{scene,obj,job}/ goes through the same
  * entry points as the libFuzzer targets (fuzz/fuzz_*.c), built here
@@ -149,10 +149,10 @@ static void test_job_corpus(void **state)
     replay("job", lr_fuzz_job);
 }
 
-static const struct CMUnitTest corpus_tests[] = {
+static const struct CMUnitTest fuzz_replay_tests[] = {
     cmocka_unit_test(test_scene_corpus),
     cmocka_unit_test(test_obj_corpus),
     cmocka_unit_test(test_job_corpus),
 };
 
-LR_TEST_GROUP(corpus, corpus_tests)
+LR_TEST_GROUP(fuzz_replay, fuzz_replay_tests)
