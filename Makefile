@@ -124,8 +124,8 @@ $(BUNNY): scenes/get-bunny.sh scenes/bunny-to-obj.js $(DEPS_OK)
 
 # ---- tests --------------------------------------------------------------
 # The fuzz targets' code, built without libFuzzer, replays tests/corpus/
-# and fuzz/seeds/ inside the unit tests (tests/test_corpus.c); the job
-# target brings the parts of the daemon that parse a job.
+# and fuzz/seeds/ inside the unit tests (tests/test_fuzz_replay.c); the
+# job target brings the parts of the daemon that parse a job.
 REPLAY_SRC := fuzz/fuzz_common.c fuzz/fuzz_scene.c fuzz/fuzz_obj.c \
               $(if $(SVC_SRC),fuzz/fuzz_job.c service/api.c \
                 service/scene_cache.c service/util.c service/sha256.c)

@@ -1,7 +1,7 @@
 /*
  * fuzz.h: the entry points of the fuzz targets, shared by the libFuzzer
  * builds (make fuzz) and the corpus replay of the unit tests
- * (tests/test_corpus.c), which links the same code without libFuzzer.
+ * (tests/test_fuzz_replay.c), which links the same code without libFuzzer.
  *
  * Each entry point feeds one input to a parser and checks what the issue
  * promises about bad input: it never crashes (the sanitizers watch that),
@@ -21,12 +21,6 @@
 int lr_fuzz_scene(const uint8_t *data, size_t size);
 int lr_fuzz_obj(const uint8_t *data, size_t size);
 int lr_fuzz_job(const uint8_t *data, size_t size);
-
-/* When 0 (the default, for fuzzing), inputs that hit a bug already
- * reported (see the comments at each use) are let through or not rendered,
- * so that the fuzzer looks for new ones; the corpus replay sets it to 1
- * for files named knownbug-* to show that the bug is still there. */
-extern int lr_fuzz_known_bugs_fatal;
 
 /* The last broken promise, as a sentence ("" when none). */
 const char *lr_fuzz_last_failure(void);

@@ -12,8 +12,6 @@
 
 static _Thread_local char last_failure[2048];
 
-int lr_fuzz_known_bugs_fatal = 0;
-
 const char *lr_fuzz_last_failure(void) { return last_failure; }
 
 int lr_fuzz_report(const char *fmt, ...)

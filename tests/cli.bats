@@ -167,7 +167,7 @@ has_temp_files() {
 
 @test "a read-only output directory is an I/O error (4)" {
     if [ "$(id -u)" = 0 ]; then
-        skip "root can write to read-only directories"
+        skip "environment: root can write to read-only directories"
     fi
     mkdir "$T/ro"
     chmod 555 "$T/ro"
@@ -283,7 +283,7 @@ EOF
 
 @test "--depth adds a Z channel to the EXR header" {
     if ! command -v python3 >/dev/null 2>&1; then
-        skip "python3 is needed to read the EXR header"
+        skip "environment: python3 is needed to read the EXR header"
     fi
     run -0 "$LENSRAY" render "$T/scene.json" -o "$T/rgb.exr"
     run -0 "$LENSRAY" render "$T/scene.json" -o "$T/rgbz.exr" --depth

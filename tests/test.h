@@ -1,8 +1,15 @@
 /*
- * test.h: shared by the C unit tests (cmocka).  Each tests/test_*.c file
+ * test.h: shared by the C unit tests (cmocka); the helpers live in
+ * helpers.c, the runner in unit_main.c.  Each tests/test_*.c file
  * defines an array of CMUnitTest and registers it with LR_TEST_GROUP; the
  * runner in unit_main.c runs every group (or those named on its command
  * line) and prints a summary line that tests/run.sh adds up.
+ *
+ * Skips: a test may skip only for a reason outside the code under test
+ * (a device the machine lacks, a part the build left out), through
+ * lr_test_skip_env with that reason.  A test for a bug never skips: it
+ * fails while the bug is there.  cmocka's own skip() is hidden below, so
+ * that a skip without a stated reason does not compile.
  */
 #ifndef LR_TEST_H
 #define LR_TEST_H
@@ -36,5 +43,94 @@ double lr_test_rmse(const lr_image *a, const lr_image *b);
 
 /* Directory for scratch files of this test run (created on first use). */
 const char *lr_test_tmpdir(void);
+
+/* Loads a scene from JSON text with `sets` overrides, relative files
+ * from lr_test_tmpdir(); fails the test if it does not load.  The caller
+ * frees the scene. */
+lr_scene *lr_test_load(const char *json, const char *const *sets,
+                       size_t n_sets);
+lr_scene *lr_test_load_json(const char *json);
+
+/* Fails the test unless every value of img (depth too) is finite and, when
+ * st is given, no sample was dropped as NaN or Inf. */
+void lr_test_check_finite(const lr_image *img, const lr_render_stats *st,
+                          const char *what);
+
+/* Renders and checks with lr_test_check_finite; `what` names the case in
+ * a failure.  _sets and _json load the scene first (lr_test_load) and
+ * render it with its own camera and settings.  The caller frees the
+ * image. */
+lr_image *lr_test_render_with(const lr_scene *s, const lr_camera *cam,
+                              const lr_render_settings *rs, const char *what);
+lr_image *lr_test_render_sets(const char *json, const char *const *sets,
+                              size_t n_sets, const char *what);
+lr_image *lr_test_render_json(const char *json, const char *what);
+
+/* Number of colour values (3 per pixel) of img. */
+size_t lr_test_n_values(const lr_image *img);
+
+/* Fails unless a and b have the same size and the same bytes. */
+void lr_test_assert_same_bytes(const lr_image *a, const lr_image *b,
+                               const char *what);
+
+/* How far apart two images of the same size are. */
+typedef struct lr_test_diff {
+    double mean_rel; /* mean |a - b| / mean |a| */
+    double bad_frac; /* fraction of pixels off by more than 5% + 0.02 */
+    double max_abs;
+} lr_test_diff;
+lr_test_diff lr_test_compare(const lr_image *a, const lr_image *b);
+
+/* A small lit scene: a red, a mirror and a glass sphere on a floor under
+ * a point, a directional and an ambient light; `cam` and `render` are
+ * JSON members spliced in.  LR_TEST_CAM_BASE is a camera that sees it. */
+void lr_test_busy_scene(char *out, size_t cap, const char *cam,
+                        const char *render);
+#define LR_TEST_CAM_BASE "\"position\": [0, 1.5, 7], \"look_at\": [0, 0.8, 0]"
+
+/* Fails unless loading the text fails with LR_ERR_INVALID or
+ * LR_ERR_LIMIT, no scene, and a valid UTF-8 message that names the
+ * error's path, which starts with `path` (when not NULL). */
+void lr_test_expect_invalid(const char *json, size_t len, const char *path,
+                            const char *what);
+
+/* Writes len bytes to NAME in lr_test_tmpdir() and its path to `path`. */
+void lr_test_write_file(const char *name, const void *data, size_t len,
+                        char *path, size_t cap);
+void lr_test_write_text(const char *name, const char *text, char *path,
+                        size_t cap);
+
+/* Every field of the scene format: a JSON template with %s where the
+ * value goes (lr_test_field_json fills it in), the path of that value,
+ * and the JSON types it accepts. */
+enum {
+    LR_TEST_NUM = 1,
+    LR_TEST_STR = 2,
+    LR_TEST_BOOL = 4,
+    LR_TEST_NULL = 8,
+    LR_TEST_ARR = 16,
+    LR_TEST_OBJ = 32
+};
+typedef struct lr_test_field {
+    const char *tmpl;
+    const char *path;
+    int accepts;
+} lr_test_field;
+extern const lr_test_field lr_test_fields[];
+extern const size_t lr_test_n_fields;
+void lr_test_field_json(size_t i, const char *value, char *out, size_t cap);
+
+/* Ends the current test as skipped because of its environment: prints
+ * "SKIP (environment): REASON" and counts the skip in unit_main.c's
+ * summary line, where a skip is never counted as a pass.  Does not
+ * return. */
+void lr_test_skip_env_at(const char *reason, const char *file, int line);
+#define lr_test_skip_env(reason)                                           \
+    lr_test_skip_env_at((reason), __FILE__, __LINE__)
+
+#undef skip
+#define skip()                                                             \
+    _Static_assert(0, "use lr_test_skip_env(\"reason\") for a skip that "   \
+                      "the environment forces; a bug's test fails instead")
 
 #endif

@@ -10,30 +10,11 @@
 #include <string.h>
 #include <unistd.h>
 
-/* Writes `len` bytes to NAME in the scratch directory and puts the full
- * path into `path`.  Binary content needs the explicit length. */
-static void write_bytes(const char *name, const char *data, size_t len,
-                        char *path, size_t path_size)
-{
-    int n = snprintf(path, path_size, "%s/%s", lr_test_tmpdir(), name);
-    assert_true(n > 0 && (size_t)n < path_size);
-    FILE *f = fopen(path, "wb");
-    assert_non_null(f);
-    assert_int_equal(fwrite(data, 1, len, f), len);
-    assert_int_equal(fclose(f), 0);
-}
-
-static void write_text(const char *name, const char *text, char *path,
-                       size_t path_size)
-{
-    write_bytes(name, text, strlen(text), path, path_size);
-}
-
 /* Loads text that must parse; the caller frees the mesh. */
 static void load_ok(const char *name, const char *text, lr__mesh *m)
 {
     char path[512];
-    write_text(name, text, path, sizeof path);
+    lr_test_write_text(name, text, path, sizeof path);
     lr_error err;
     memset(&err, 0, sizeof err);
     lr_status st = lr__obj_load(path, "objects[0].file", m, &err);
@@ -48,7 +29,7 @@ static void load_fail_bytes(const char *name, const char *data, size_t len,
                             lr_status status, const char *needle)
 {
     char path[512];
-    write_bytes(name, data, len, path, sizeof path);
+    lr_test_write_file(name, data, len, path, sizeof path);
     lr_error err;
     memset(&err, 0, sizeof err);
     lr__mesh m;
@@ -415,7 +396,7 @@ static void test_size_limit(void **state)
     /* A sparse file just over 1 GiB: the size alone is rejected, so
      * nothing is read or allocated. */
     char path[512];
-    write_text("big.obj", "", path, sizeof path);
+    lr_test_write_text("big.obj", "", path, sizeof path);
     assert_int_equal(truncate(path, ((off_t)1 << 30) + 1), 0);
     lr_error err;
     lr__mesh m;

@@ -12,16 +12,6 @@
 #include <stdio.h>
 #include <string.h>
 
-static lr_scene *load(const char *json)
-{
-    lr_scene *s = NULL;
-    lr_error err;
-    if (lr_scene_load_json(json, strlen(json), NULL, NULL, 0, &s, &err) !=
-        LR_OK)
-        fail_msg("scene did not load: %s", err.message);
-    return s;
-}
-
 static void assert_rel(double got, double want, double tol, const char *what)
 {
     if (!(fabs(got - want) <= tol * fabs(want)))
@@ -34,7 +24,7 @@ static void test_lambert_point_light(void **state)
 {
     (void)state;
     const double a = 0.6, I = 50.0, hgt = 4.0;
-    lr_scene *s = load(
+    lr_scene *s = lr_test_load_json(
         "{\"materials\": {\"m\": {\"diffuse\": 0.6}},"
         " \"lights\": [{\"type\": \"point\", \"position\": [0, 4, 0],"
         "   \"intensity\": 50}],"
@@ -59,7 +49,7 @@ static void test_lambert_point_light(void **state)
 static void test_shadow_and_ambient(void **state)
 {
     (void)state;
-    lr_scene *s = load(
+    lr_scene *s = lr_test_load_json(
         "{\"materials\": {\"m\": {\"diffuse\": 0.5}},"
         " \"lights\": [{\"type\": \"point\", \"position\": [0, 4, 0],"
         "   \"intensity\": 50}, {\"type\": \"ambient\", \"radiance\": 0.2}],"
@@ -77,7 +67,7 @@ static void test_shadow_and_ambient(void **state)
 static void test_directional_light(void **state)
 {
     (void)state;
-    lr_scene *s = load(
+    lr_scene *s = lr_test_load_json(
         "{\"materials\": {\"m\": {\"diffuse\": [0.2, 0.4, 0.8]}},"
         " \"lights\": [{\"type\": \"directional\", \"direction\": [1, -2, 0],"
         "   \"irradiance\": 3}],"
@@ -96,7 +86,7 @@ static void test_directional_light(void **state)
 static void test_normalised_phong(void **state)
 {
     (void)state;
-    lr_scene *s = load(
+    lr_scene *s = lr_test_load_json(
         "{\"materials\": {\"m\": {\"specular\": 0.5, \"shininess\": 20}},"
         " \"lights\": [{\"type\": \"directional\", \"direction\": [1, -1, 0],"
         "   \"irradiance\": 2}],"
@@ -154,7 +144,7 @@ static void test_energy_mirror_and_glass(void **state)
                  " \"objects\": [{\"type\": \"sphere\", \"center\": [0,0,-4],"
                  " \"radius\": 1, \"material\": \"m\"}]}",
                  mats[k]);
-        lr_scene *s = load(json);
+        lr_scene *s = lr_test_load_json(json);
         for (int i = 0; i < 50; i++) {
             double x = -0.99 + 1.98 * i / 49.0;
             uint64_t rays = 0;
@@ -191,7 +181,7 @@ static void test_film_drops_nan(void **state)
 static lr_image *render(const char *json, int threads, int tile,
                         lr_render_stats *stats)
 {
-    lr_scene *s = load(json);
+    lr_scene *s = lr_test_load_json(json);
     lr_camera cam;
     lr_render_settings rs;
     lr_scene_camera(s, &cam);
@@ -255,7 +245,7 @@ static void test_deterministic_across_threads_and_tiles(void **state)
         lr_image_free(img);
     }
     /* And a different seed gives a different image (the seed is used). */
-    lr_scene *s = load(busy_scene);
+    lr_scene *s = lr_test_load_json(busy_scene);
     lr_camera cam;
     lr_render_settings rs;
     lr_scene_camera(s, &cam);
@@ -299,7 +289,7 @@ static void test_depth_channel(void **state)
 static void test_region_matches_full_frame(void **state)
 {
     (void)state;
-    lr_scene *s = load(busy_scene);
+    lr_scene *s = lr_test_load_json(busy_scene);
     lr_camera cam;
     lr_render_settings rs;
     lr_scene_camera(s, &cam);
@@ -353,7 +343,7 @@ static void count_progress(void *user, uint64_t done, uint64_t total)
 static void test_progress_and_cancel(void **state)
 {
     (void)state;
-    lr_scene *s = load(busy_scene);
+    lr_scene *s = lr_test_load_json(busy_scene);
     lr_camera cam;
     lr_render_settings rs;
     lr_scene_camera(s, &cam);
@@ -382,7 +372,7 @@ static void test_progress_and_cancel(void **state)
 static void test_render_rejects_bad_arguments(void **state)
 {
     (void)state;
-    lr_scene *s = load("{}");
+    lr_scene *s = lr_test_load_json("{}");
     lr_camera cam;
     lr_render_settings rs;
     lr_scene_camera(s, &cam);

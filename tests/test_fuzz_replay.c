@@ -1,5 +1,5 @@
 /*
- * test_corpus.c: replays the fuzzing corpora.  Every file of
+ * test_fuzz_replay.c: replays the fuzzing corpora.  Every file of
  * tests/corpus/{scene,obj,job}/ (cases the fuzzers found, and hand-written
  * hostile inputs) and of fuzz/seeds/{scene,obj,job}/ goes through the same
  * entry points as the libFuzzer targets (fuzz/fuzz_*.c), built here
@@ -18,7 +18,7 @@
 #include <string.h>
 
 /* Weak so that a build without service/ still links: the job corpus is
- * then skipped. */
+ * then skipped, as an environment skip (the build left the daemon out). */
 int lr_fuzz_job(const uint8_t *data, size_t size) __attribute__((weak));
 
 static const char *source_dir(void)
@@ -62,8 +62,7 @@ static unsigned char *read_all(const char *path, size_t *len)
 
 /* Feeds every regular file of DIR to fn; returns how many. */
 static size_t replay_dir(const char *dir,
-                         int (*fn)(const uint8_t *, size_t),
-                         size_t *known_bugs)
+                         int (*fn)(const uint8_t *, size_t))
 {
     DIR *d = opendir(dir);
     if (d == NULL)
@@ -96,25 +95,11 @@ static size_t replay_dir(const char *dir,
             snprintf(failure, sizeof failure, "cannot read %s", path);
             break;
         }
-        /* knownbug-* files show a bug outside what these tests may fix
-         * (described in the fuzz target and in the report): they must
-         * still fail, and are counted, so the test is skipped rather than
-         * failed while the bug lasts. */
-        int known = strncmp(names[i], "knownbug-", 9) == 0;
-        lr_fuzz_known_bugs_fatal = known;
+        /* Every file must pass, the cases of fixed bugs included: a bug
+         * that comes back fails the test. */
         int rc = fn(data, len);
-        lr_fuzz_known_bugs_fatal = 0;
         free(data);
-        if (known && rc == 0) {
-            snprintf(failure, sizeof failure,
-                     "%s passes now: the bug seems fixed, drop the "
-                     "\"knownbug-\" from its name",
-                     path);
-        } else if (known) {
-            print_message("known bug still there: %s: %s\n", path,
-                          lr_fuzz_last_failure());
-            (*known_bugs)++;
-        } else if (rc != 0) {
+        if (rc != 0) {
             snprintf(failure, sizeof failure, "%s: %s", path,
                      lr_fuzz_last_failure());
         }
@@ -131,20 +116,17 @@ static void replay(const char *kind, int (*fn)(const uint8_t *, size_t))
 {
     char dir[1024];
     snprintf(dir, sizeof dir, "%s/tests/corpus/%s", source_dir(), kind);
-    size_t known = 0;
-    size_t found = replay_dir(dir, fn, &known);
+    size_t found = replay_dir(dir, fn);
     snprintf(dir, sizeof dir, "%s/fuzz/seeds/%s", source_dir(), kind);
-    size_t seeds = replay_dir(dir, fn, &known);
+    size_t seeds = replay_dir(dir, fn);
     /* An empty replay would pass silently if the tests ran from the
      * wrong directory. */
     if (found + seeds == 0)
         fail_msg("no %s corpus under %s (run from the repository root or "
                  "set LENSRAY_SOURCE_DIR)",
                  kind, source_dir());
-    print_message("corpus %s: %zu found cases (%zu known bugs), %zu seeds\n",
-                  kind, found, known, seeds);
-    if (known > 0)
-        skip(); /* known bug, see report */
+    print_message("corpus %s: %zu found cases, %zu seeds\n", kind, found,
+                  seeds);
 }
 
 static void test_scene_corpus(void **state)
@@ -163,14 +145,14 @@ static void test_job_corpus(void **state)
 {
     (void)state;
     if (lr_fuzz_job == NULL)
-        skip();
+        lr_test_skip_env("this build has no service/, so no job parser");
     replay("job", lr_fuzz_job);
 }
 
-static const struct CMUnitTest corpus_tests[] = {
+static const struct CMUnitTest fuzz_replay_tests[] = {
     cmocka_unit_test(test_scene_corpus),
     cmocka_unit_test(test_obj_corpus),
     cmocka_unit_test(test_job_corpus),
 };
 
-LR_TEST_GROUP(corpus, corpus_tests)
+LR_TEST_GROUP(fuzz_replay, fuzz_replay_tests)
