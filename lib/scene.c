@@ -1,7 +1,8 @@
 /*
  * scene.c: the scene's Embree side: building geometry, committing, and
  * tracing single rays (closest hit and occlusion), plus the infinite
- * planes that Embree cannot hold and that are intersected analytically.
+ * planes that Embree cannot hold and that are intersected analytically;
+ * and the scene's destructor and accessors.
  */
 #include "scene.h"
 
@@ -440,3 +441,33 @@ lr__v3 lr__offset_origin(const lr__hit *hit, lr__v3 dir)
     double side = v3_dot(dir, hit->ng) >= 0.0 ? 1.0 : -1.0;
     return v3_madd(hit->p, hit->ng, side * hit->eps);
 }
+
+/* ---- the scene's life ------------------------------------------------ */
+
+void lr_scene_free(lr_scene *s)
+{
+    if (s == NULL)
+        return;
+    for (size_t i = 0; i < s->n_geoms; i++)
+        free(s->geoms[i].corner_normals);
+    free(s->geoms);
+    free(s->planes);
+    for (size_t i = 0; i < s->n_materials; i++)
+        free(s->materials[i].name);
+    free(s->materials);
+    free(s->lights);
+    if (s->rtc != NULL)
+        rtcReleaseScene(s->rtc);
+    if (s->device != NULL)
+        rtcReleaseDevice(s->device);
+    free(s);
+}
+
+void lr_scene_camera(const lr_scene *s, lr_camera *cam) { *cam = s->camera; }
+
+void lr_scene_settings(const lr_scene *s, lr_render_settings *rs)
+{
+    *rs = s->settings;
+}
+
+size_t lr_scene_primitive_count(const lr_scene *s) { return s->n_primitives; }
