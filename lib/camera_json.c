@@ -235,7 +235,8 @@ lr_status lr_camera_apply_json(lr_camera *cam, const char *json, size_t len,
         return lr__fail(err, LR_ERR_INVALID, NULL,
                         "lr_camera_apply_json: NULL argument");
     cJSON *root = NULL;
-    LR_TRY(lr__json_parse(json ? json : "", len, "camera", &root, err));
+    LR_TRY(lr__json_parse(json ? json : "", len, "camera", "camera",
+                          &root, err));
     lr_camera tmp = *cam;
     lr_status st = lr__camera_from_json(root, &tmp, err);
     cJSON_Delete(root);

@@ -417,7 +417,8 @@ lr_status lr_scene_load_json(const char *json, size_t len,
                         "scene JSON is %zu bytes, more than the limit of %u",
                         len, MAX_SCENE_BYTES);
     cJSON *root = NULL;
-    lr_status st = lr__json_parse(json ? json : "", len, "scene", &root, err);
+    lr_status st = lr__json_parse(json ? json : "", len, "scene", "", &root,
+                                  err);
     if (st != LR_OK)
         return st;
     for (size_t i = 0; i < n_overrides; i++) {

@@ -111,7 +111,8 @@ lr_status lr_render_settings_apply_json(lr_render_settings *s,
         return lr__fail(err, LR_ERR_INVALID, NULL,
                         "lr_render_settings_apply_json: NULL argument");
     cJSON *root = NULL;
-    LR_TRY(lr__json_parse(json ? json : "", len, "render", &root, err));
+    LR_TRY(lr__json_parse(json ? json : "", len, "render", "render",
+                          &root, err));
     lr_render_settings tmp = *s;
     lr_status st = lr__settings_from_json(root, &tmp, err);
     cJSON_Delete(root);
