@@ -250,7 +250,7 @@ LR_API lr_status lr_render_settings_validate(const lr_render_settings *s,
  * leaves out keep their current values.  The keys and rules are those of
  * the scene format's "camera" and "render" objects, and errors name the
  * field as "camera.fov" / "render.spp".  On error *cam / *s is unchanged.
- * Errors: LR_ERR_INVALID. */
+ * Errors: LR_ERR_INVALID, LR_ERR_NOMEM. */
 LR_API lr_status lr_camera_apply_json(lr_camera *cam, const char *json,
                                       size_t len, lr_error *err);
 LR_API lr_status lr_render_settings_apply_json(lr_render_settings *s,

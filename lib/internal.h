@@ -25,6 +25,16 @@ lr_status lr__fail(lr_error *err, lr_status status, const char *path,
  * that the text stays valid UTF-8. */
 void lr__trim_partial_utf8(char *s, size_t cap, int wanted);
 
+/* ---- files (io.c) ---------------------------------------------------- */
+
+/* Reads the whole file at `path` into *out, a malloc'ed buffer of *len
+ * bytes plus a terminating NUL (NULL for an empty file), which the caller
+ * frees.  Errors: LR_ERR_IO (cannot open or read, with the system's
+ * reason), LR_ERR_LIMIT (larger than `max` bytes), LR_ERR_NOMEM; then
+ * *out is NULL. */
+lr_status lr__read_file(const char *path, size_t max, char **out,
+                        size_t *len, lr_error *err);
+
 /* ---- limits, shared by the JSON loader and the C API's validation ---- */
 
 #define LR__MAX_DIM 65536          /* pixels per side */

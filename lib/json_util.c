@@ -5,7 +5,6 @@
 
 #include <errno.h>
 #include <math.h>
-#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -111,11 +110,71 @@ static void utf8_escape(const char *s, char *out, size_t cap)
     out[o] = '\0';
 }
 
+/* The k-th number (from 0) of JSON text that cJSON accepted, and its
+ * length in *n; NULL if there is none.  Outside strings, a number is a
+ * run of [0-9+-.eE] that starts with '-' or a digit. */
+static const char *nth_number(const char *text, size_t len, size_t k,
+                              size_t *n)
+{
+    int in_str = 0;
+    for (size_t i = 0; i < len; i++) {
+        char c = text[i];
+        if (in_str) {
+            if (c == '\\')
+                i++;
+            else if (c == '"')
+                in_str = 0;
+        } else if (c == '"') {
+            in_str = 1;
+        } else if (c == '-' || (c >= '0' && c <= '9')) {
+            size_t j = i;
+            while (j < len && text[j] != '\0' &&
+                   strchr("0123456789+-.eE", text[j]) != NULL)
+                j++;
+            if (k == 0) {
+                *n = j - i;
+                return text + i;
+            }
+            k--;
+            i = j - 1;
+        }
+    }
+    return NULL;
+}
+
+/* A parsed document, walked by check_values. */
+typedef struct value_walk {
+    const char *text; /* what it was parsed from, len bytes */
+    size_t len;
+    size_t numbers; /* numbers passed so far, in document order */
+} value_walk;
+
 /* Every key and string of a parsed document must be UTF-8 (RFC 8259);
- * cJSON passes any bytes through. */
-static lr_status check_utf8(const cJSON *v, const char *path, lr_error *err)
+ * cJSON passes any bytes through.  Every number must be finite: cJSON
+ * reads a number too large for a double (1e400) as infinity, which is
+ * refused here, as written, whatever field it is in. */
+static lr_status check_values(const cJSON *v, const char *path,
+                              value_walk *w, lr_error *err)
 {
     char p[LR__PATH_MAX];
+    if (cJSON_IsNumber(v)) {
+        if (isfinite(v->valuedouble)) {
+            w->numbers++;
+            return LR_OK;
+        }
+        /* The tree and the text list their numbers in the same order. */
+        size_t n = 0;
+        const char *lit = nth_number(w->text, w->len, w->numbers, &n);
+        if (lit == NULL) { /* not for text that cJSON accepted */
+            lit = "";
+            n = 0;
+        }
+        return lr__fail(err, LR_ERR_INVALID, path,
+                        "%s: the number %.*s%s is out of range (larger "
+                        "than any finite double, about 1.8e308)",
+                        path[0] ? path : "the JSON value",
+                        (int)(n > 40 ? 40 : n), lit, n > 40 ? "..." : "");
+    }
     if (cJSON_IsString(v)) {
         size_t at = lr__utf8_invalid_at(v->valuestring);
         if (at != (size_t)-1)
@@ -144,7 +203,7 @@ static lr_status check_utf8(const cJSON *v, const char *path, lr_error *err)
         } else {
             lr__path_index(p, path, i);
         }
-        LR_TRY(check_utf8(c, p, err));
+        LR_TRY(check_values(c, p, w, err));
     }
     return LR_OK;
 }
@@ -153,6 +212,8 @@ void lr__json_describe(const cJSON *v, char *out, size_t n)
 {
     if (v == NULL)
         snprintf(out, n, "nothing");
+    else if (cJSON_IsNumber(v) && isinf(v->valuedouble))
+        snprintf(out, n, "a number too large for a double");
     else if (cJSON_IsNumber(v))
         snprintf(out, n, "%.17g", v->valuedouble);
     else if (cJSON_IsString(v))
@@ -216,6 +277,12 @@ static const cJSON *member(const cJSON *obj, const char *key)
 
 lr_status lr__json_check_number(double x, const char *p, lr_error *err)
 {
+    /* (A tree from lr__json_parse has no infinity: cJSON's reading of a
+     * number too large for a double is refused there, as written.) */
+    if (isinf(x))
+        return lr__fail(err, LR_ERR_INVALID, p,
+                        "%s must be a finite number, got a number too large "
+                        "for a double", p);
     if (!isfinite(x))
         return lr__fail(err, LR_ERR_INVALID, p,
                         "%s must be a finite number, got %g", p, x);
@@ -252,9 +319,7 @@ static lr_status get_number(const cJSON *obj, const char *key,
     if (!cJSON_IsNumber(v))
         return type_error(p, "a number", v, err);
     if (!isfinite(v->valuedouble))
-        return lr__fail(err, LR_ERR_INVALID, p,
-                        "%s must be a finite number, got %g", p,
-                        v->valuedouble);
+        return type_error(p, "a finite number", v, err);
     if (limit)
         LR_TRY(lr__json_check_number(v->valuedouble, p, err));
     *out = v->valuedouble;
@@ -451,261 +516,51 @@ static size_t nul_escape_at(const char *s, size_t len)
     return len;
 }
 
-/* ---- what cJSON would accept ------------------------------------------
+/* ---- cJSON's allocations ---------------------------------------------
  * cJSON returns NULL both for text that is not JSON and when one of its
- * allocations fails, and does not say which.  When it returns NULL, this
- * scan, which allocates nothing, decides: text that cJSON's grammar
- * accepts failed for lack of memory.  It follows cJSON 1.7's parser
- * (parse_value, parse_string, utf16_literal_to_utf8, parse_number,
- * parse_array, parse_object, buffer_skip_whitespace, skip_utf8_bom) step
- * by step, quirks included: any byte up to 32 is white space, "\uZZZZ"
- * reads as U+0000, lone surrogates are refused.  Where cJSON versions
- * differ (numbers over 63 characters: cut at 63 before 1.7.18, whole
- * since and in Debian's 1.7.15 since its fix of CVE-2023-26819), the
- * cJSON in use is asked once (cjson_long_numbers).  The fuzz targets
- * check that the scan and cJSON agree on every input they try.
+ * allocations fails, and does not say which.  So the library gives cJSON
+ * an allocator that is malloc, and that, when malloc fails, says so in a
+ * flag of the calling thread: a parse that returns NULL with the flag set
+ * ran out of memory; without it, the text is not JSON.
  *
- * Why not cJSON_InitHooks with an allocator that records failures: the
- * hooks are one global setting of the process, shared with the
- * application (lensrayd, tests/oom and any program that links both use
- * cJSON themselves), not safe to change while another thread parses, and
- * replacing an application's hooks would free its blocks with the wrong
- * allocator.  This scan needs no global state and works whatever hooks
- * are installed. */
-typedef struct json_scan {
-    const unsigned char *s;
-    size_t len, off, depth;
-} json_scan;
+ * The hooks are one setting for the whole process, which other code may
+ * share (lensrayd uses cJSON too), so they are installed once, by a
+ * constructor that runs when the library is loaded, before main and
+ * before any thread could be parsing; and they are malloc and free
+ * themselves, so other cJSON users in the process allocate as they did.
+ * (cJSON then grows printed text by malloc and copy instead of realloc.)
+ * The flag is thread-local, so parses on other threads cannot touch it.
+ * A program that installs its own hooks after loading the library takes
+ * cJSON's allocations over, and with them this knowledge: its allocation
+ * failures during a parse then read as syntax errors. */
+static _Thread_local int cjson_alloc_failed;
 
-static int scan_can(const json_scan *b, size_t i) { return b->off + i < b->len; }
-
-static void scan_ws(json_scan *b)
+static void *cjson_malloc(size_t n)
 {
-    if (!scan_can(b, 0))
-        return;
-    while (scan_can(b, 0) && b->s[b->off] <= 32)
-        b->off++;
-    if (b->off == b->len)
-        b->off--;
+    void *p = malloc(n);
+    if (p == NULL)
+        cjson_alloc_failed = 1;
+    return p;
 }
 
-/* parse_hex4: 0 for any digit that is not hexadecimal. */
-static unsigned scan_hex4(const unsigned char *p)
+static void cjson_free(void *p) { free(p); }
+
+__attribute__((constructor)) static void install_cjson_hooks(void)
 {
-    unsigned h = 0;
-    for (int i = 0; i < 4; i++) {
-        unsigned c = p[i], d;
-        if (c >= '0' && c <= '9')
-            d = c - '0';
-        else if (c >= 'A' && c <= 'F')
-            d = c - 'A' + 10;
-        else if (c >= 'a' && c <= 'f')
-            d = c - 'a' + 10;
-        else
-            return 0;
-        h = (h << 4) | d;
-    }
-    return h;
+    cJSON_Hooks h = {cjson_malloc, cjson_free};
+    cJSON_InitHooks(&h);
 }
 
-/* Length of the \u escape (6 or 12) at p, before `end`; 0 if refused. */
-static size_t scan_utf16(const unsigned char *p, const unsigned char *end)
+/* cJSON_ParseWithLengthOpts that also says, when it returns NULL, whether
+ * an allocation failed (*nomem = 1) rather than the text. */
+static cJSON *parse(const char *text, size_t len, const char **end,
+                    int require_null_terminated, int *nomem)
 {
-    if (end - p < 6)
-        return 0;
-    unsigned first = scan_hex4(p + 2);
-    if (first >= 0xDC00 && first <= 0xDFFF)
-        return 0;
-    if (first < 0xD800 || first > 0xDBFF)
-        return 6;
-    const unsigned char *q = p + 6;
-    if (end - q < 6 || q[0] != '\\' || q[1] != 'u')
-        return 0;
-    unsigned second = scan_hex4(q + 2);
-    return second >= 0xDC00 && second <= 0xDFFF ? 12 : 0;
-}
-
-static int scan_string(json_scan *b)
-{
-    if (!scan_can(b, 0) || b->s[b->off] != '"')
-        return 0;
-    const unsigned char *start = b->s + b->off + 1, *end = start;
-    while ((size_t)(end - b->s) < b->len && *end != '"') {
-        if (*end == '\\') {
-            if ((size_t)(end + 1 - b->s) >= b->len)
-                return 0;
-            end++;
-        }
-        end++;
-    }
-    if ((size_t)(end - b->s) >= b->len || *end != '"')
-        return 0;
-    for (const unsigned char *p = start; p < end;) {
-        if (*p != '\\') {
-            p++;
-            continue;
-        }
-        size_t n = 2;
-        switch (p[1]) {
-        case 'b': case 'f': case 'n': case 'r': case 't':
-        case '"': case '\\': case '/':
-            break;
-        case 'u':
-            n = scan_utf16(p, end);
-            if (n == 0)
-                return 0;
-            break;
-        default:
-            return 0;
-        }
-        p += n;
-    }
-    b->off = (size_t)(end - b->s) + 1;
-    return 1;
-}
-
-static int scan_digit(unsigned char c) { return c >= '0' && c <= '9'; }
-
-/* 1 if the cJSON in use reads a number of any length, 0 if it reads 63
- * characters at most (or is not known to read more: a failed allocation
- * looks the same, so only the answer 1 is kept).  A number cut at 63
- * leaves characters that no JSON can follow it with, inside an array or
- * an object, so what the cut accepts, the whole reading accepts too:
- * when in doubt, the scan cuts. */
-static atomic_int long_numbers = -1;
-
-static int cjson_long_numbers(void)
-{
-    if (atomic_load(&long_numbers) == 1)
-        return 1;
-    static const char probe[] =
-        "[0000000000000000000000000000000000000000000000000000000000000000]";
-    cJSON *v = cJSON_ParseWithLength(probe, sizeof probe - 1);
-    if (v == NULL)
-        return 0;
-    cJSON_Delete(v);
-    atomic_store(&long_numbers, 1);
-    return 1;
-}
-
-/* parse_number: the run of [0-9+-eE.] goes to strtod, which takes the
- * longest prefix that is a decimal number; nothing taken is an error. */
-static int scan_number(json_scan *b)
-{
-    const unsigned char *s = b->s + b->off;
-    size_t n = 0;
-    while (scan_can(b, n) && s[n] != '\0' &&
-           strchr("0123456789+-eE.", s[n]) != NULL)
-        n++;
-    if (n > 63 && !cjson_long_numbers())
-        n = 63;
-    size_t i = 0, digits = 0;
-    if (i < n && (s[i] == '+' || s[i] == '-'))
-        i++;
-    for (; i < n && scan_digit(s[i]); i++)
-        digits++;
-    if (i < n && s[i] == '.')
-        for (i++; i < n && scan_digit(s[i]); i++)
-            digits++;
-    if (digits == 0)
-        return 0;
-    if (i < n && (s[i] == 'e' || s[i] == 'E')) {
-        size_t j = i + 1;
-        if (j < n && (s[j] == '+' || s[j] == '-'))
-            j++;
-        if (j < n && scan_digit(s[j])) {
-            while (j < n && scan_digit(s[j]))
-                j++;
-            i = j;
-        }
-    }
-    b->off += i;
-    return 1;
-}
-
-static int scan_value(json_scan *b);
-
-/* parse_array and parse_object: `close` is ']' or '}'. */
-static int scan_container(json_scan *b, unsigned char close)
-{
-    if (b->depth >= CJSON_NESTING_LIMIT)
-        return 0;
-    b->depth++;
-    b->off++;
-    scan_ws(b);
-    if (!scan_can(b, 0) || b->s[b->off] != close) {
-        if (!scan_can(b, 0))
-            return 0;
-        b->off--;
-        do {
-            b->off++;
-            scan_ws(b);
-            if (close == '}') {
-                if (!scan_string(b))
-                    return 0;
-                scan_ws(b);
-                if (!scan_can(b, 0) || b->s[b->off] != ':')
-                    return 0;
-                b->off++;
-                scan_ws(b);
-            }
-            if (!scan_value(b))
-                return 0;
-            scan_ws(b);
-        } while (scan_can(b, 0) && b->s[b->off] == ',');
-        if (!scan_can(b, 0) || b->s[b->off] != close)
-            return 0;
-    }
-    b->depth--;
-    b->off++;
-    return 1;
-}
-
-static int scan_literal(json_scan *b, const char *word)
-{
-    size_t n = strlen(word);
-    if (b->off + n > b->len || memcmp(b->s + b->off, word, n) != 0)
-        return 0;
-    b->off += n;
-    return 1;
-}
-
-static int scan_value(json_scan *b)
-{
-    if (scan_literal(b, "null") || scan_literal(b, "false") ||
-        scan_literal(b, "true"))
-        return 1;
-    if (!scan_can(b, 0))
-        return 0;
-    unsigned char c = b->s[b->off];
-    if (c == '"')
-        return scan_string(b);
-    if (c == '-' || scan_digit(c))
-        return scan_number(b);
-    if (c == '[')
-        return scan_container(b, ']');
-    if (c == '{')
-        return scan_container(b, '}');
-    return 0;
-}
-
-int lr__json_cjson_accepts(const char *text, size_t len,
-                           int require_null_terminated)
-{
-    if (text == NULL || len == 0)
-        return 0;
-    json_scan b = {(const unsigned char *)text, len, 0, 0};
-    if (len > 4 && memcmp(text, "\xEF\xBB\xBF", 3) == 0)
-        b.off = 3;
-    scan_ws(&b);
-    if (!scan_value(&b))
-        return 0;
-    if (require_null_terminated) {
-        scan_ws(&b);
-        if (b.off >= len || text[b.off] != '\0')
-            return 0;
-    }
-    return 1;
+    cjson_alloc_failed = 0;
+    cJSON *v = cJSON_ParseWithLengthOpts(text, len, end,
+                                         require_null_terminated);
+    *nomem = v == NULL && cjson_alloc_failed;
+    return v;
 }
 
 /* 1-based line and column (in bytes) of offset `off`. */
@@ -724,7 +579,7 @@ static void line_col(const char *text, size_t off, size_t *line, size_t *col)
 }
 
 lr_status lr__json_parse(const char *text, size_t len, const char *what,
-                         cJSON **out, lr_error *err)
+                         const char *path, cJSON **out, lr_error *err)
 {
     *out = NULL;
     size_t line, col;
@@ -736,8 +591,9 @@ lr_status lr__json_parse(const char *text, size_t len, const char *what,
         return lr__fail(err, LR_ERR_INVALID, "",
                         "%s: JSON text contains a NUL byte", what);
     const char *end = NULL;
-    cJSON *root = cJSON_ParseWithLengthOpts(text, len, &end, 0);
-    if (root == NULL && lr__json_cjson_accepts(text, len, 0))
+    int nomem;
+    cJSON *root = parse(text, len, &end, 0, &nomem);
+    if (nomem)
         return lr__fail(err, LR_ERR_NOMEM, NULL,
                         "%s: out of memory parsing the JSON text", what);
     if (root == NULL) {
@@ -771,7 +627,8 @@ lr_status lr__json_parse(const char *text, size_t len, const char *what,
                         "string, at line %zu, column %zu",
                         what, line, col);
     }
-    lr_status st = check_utf8(root, "", err);
+    value_walk w = {text, len, 0};
+    lr_status st = check_values(root, path, &w, err);
     if (st != LR_OK) {
         cJSON_Delete(root);
         return st;
@@ -807,7 +664,8 @@ lr_status lr__json_apply_override(cJSON *root, const char *assignment,
 
     /* The whole value must be JSON to count as JSON: "30deg" is the
      * string "30deg", not the number 30. */
-    cJSON *value = cJSON_ParseWithOpts(text, NULL, 1);
+    int nomem;
+    cJSON *value = parse(text, strlen(text) + 1, NULL, 1, &nomem);
     if (value != NULL && nul_escape_at(text, strlen(text)) < strlen(text)) {
         cJSON_Delete(value);
         return lr__fail(err, LR_ERR_INVALID, path,
@@ -815,9 +673,17 @@ lr_status lr__json_apply_override(cJSON *root, const char *assignment,
                         "allowed in a string",
                         path);
     }
-    if (value == NULL && lr__json_cjson_accepts(text, strlen(text) + 1, 1))
+    if (nomem)
         return lr__fail(err, LR_ERR_NOMEM, NULL,
                         "override %s: out of memory parsing its value", path);
+    if (value != NULL) {
+        value_walk w = {text, strlen(text), 0};
+        lr_status st = check_values(value, path, &w, err);
+        if (st != LR_OK) {
+            cJSON_Delete(value);
+            return st;
+        }
+    }
     if (value == NULL)
         value = cJSON_CreateString(text);
     if (value == NULL)

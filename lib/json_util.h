@@ -82,18 +82,15 @@ lr_status lr__json_rgb(const cJSON *obj, const char *key, const char *path,
 
 /* Parses JSON text of `len` bytes with a nesting limit; the error gives
  * the line and column.  Every key and string must be valid UTF-8 (the
- * error names the field) and none may contain \u0000.  `what` names the text ("scene.json").  The caller
- * deletes the result with cJSON_Delete. */
+ * error names the field) and none may contain \u0000.  `what` names the
+ * text ("scene.json") in syntax errors; `path` is the JSON path of its
+ * value ("" for a whole scene, "camera" for a camera object) in errors
+ * about a value.  A number too large for a double (1e400) is an error
+ * that quotes it.  LR_ERR_NOMEM when cJSON ran out of memory (told
+ * apart from a syntax error by the library's cJSON hooks, json_util.c).
+ * The caller deletes the result with cJSON_Delete. */
 lr_status lr__json_parse(const char *text, size_t len, const char *what,
-                         cJSON **out, lr_error *err);
-
-/* 1 if cJSON would parse the text (given the memory): what
- * cJSON_ParseWithLengthOpts(text, len, NULL, require_null_terminated)
- * accepts, found without allocating, to tell a syntax error from an
- * allocation failure when cJSON returns NULL (cJSON_ParseWithOpts is
- * len = strlen(text) + 1 with require_null_terminated = 1). */
-int lr__json_cjson_accepts(const char *text, size_t len,
-                           int require_null_terminated);
+                         const char *path, cJSON **out, lr_error *err);
 
 /* Applies one "dotted.path=value" override to a parsed document: value
  * is parsed as JSON when it is valid JSON, else taken as a string.  Path

@@ -1,6 +1,6 @@
 /*
- * scene.c: the scene's Embree side: building geometry and committing it.
- * Tracing is in trace.c.
+ * scene.c: the scene's Embree side: building geometry and committing it;
+ * the scene's destructor and accessors.  Tracing is in trace.c.
  */
 #include "scene.h"
 
@@ -175,3 +175,33 @@ lr_status lr__scene_commit(lr_scene *s, lr_error *err)
         return embree_fail(err, "building the Embree scene");
     return LR_OK;
 }
+
+/* ---- the scene's life ------------------------------------------------ */
+
+void lr_scene_free(lr_scene *s)
+{
+    if (s == NULL)
+        return;
+    for (size_t i = 0; i < s->n_geoms; i++)
+        free(s->geoms[i].corner_normals);
+    free(s->geoms);
+    free(s->planes);
+    for (size_t i = 0; i < s->n_materials; i++)
+        free(s->materials[i].name);
+    free(s->materials);
+    free(s->lights);
+    if (s->rtc != NULL)
+        rtcReleaseScene(s->rtc);
+    if (s->device != NULL)
+        rtcReleaseDevice(s->device);
+    free(s);
+}
+
+void lr_scene_camera(const lr_scene *s, lr_camera *cam) { *cam = s->camera; }
+
+void lr_scene_settings(const lr_scene *s, lr_render_settings *rs)
+{
+    *rs = s->settings;
+}
+
+size_t lr_scene_primitive_count(const lr_scene *s) { return s->n_primitives; }

@@ -1,6 +1,6 @@
 /*
  * scene.h: the loaded scene as the renderer sees it.  Built by
- * scene_json.c (validation) and scene.c (Embree), read-only afterwards.
+ * scene_load.c (validation) and scene.c (Embree), read-only afterwards.
  */
 #ifndef LR_SCENE_H
 #define LR_SCENE_H

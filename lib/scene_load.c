@@ -1,0 +1,480 @@
+/*
+ * scene_load.c: the scene format's top level -> lr_scene: materials,
+ * lights, objects (with camera_json.c, settings_json.c, transform.c and
+ * mesh.c for the parts they hold), from JSON text or a file.  Every
+ * value is validated and every error names its JSON path
+ * ("objects[3].radius must be > 0, got -2").  Unknown and duplicate keys
+ * are errors, so a typo never goes unnoticed.
+ */
+#include "camera_json.h"
+#include "json_util.h"
+#include "mesh.h"
+#include "scene.h"
+#include "settings_json.h"
+#include "transform.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* The largest scene file we read: far beyond any hand-written scene. */
+#define MAX_SCENE_BYTES (64u << 20)
+
+/* ---- materials -------------------------------------------------------- */
+
+static lr_status parse_materials(lr_scene *s, const cJSON *mats,
+                                 lr_error *err)
+{
+    static const char *const keys[] = {"diffuse", "specular", "shininess",
+                                       "reflect", "transmit", "ior", NULL};
+    char p[LR__PATH_MAX];
+    lr_status st;
+    size_t n = 1; /* slot 0 is the default material */
+    if (mats != NULL && !cJSON_IsObject(mats))
+        return lr__fail(err, LR_ERR_INVALID, "materials",
+                        "materials must be an object of named materials");
+    if (mats != NULL)
+        n += (size_t)cJSON_GetArraySize(mats);
+    s->materials = calloc(n, sizeof *s->materials);
+    if (s->materials == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+
+    /* Objects without a material are a matte grey. */
+    lr__material *def = &s->materials[0];
+    def->name = strdup("(default)");
+    if (def->name == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    def->diffuse = v3(0.8, 0.8, 0.8);
+    def->ior = 1.5;
+    s->n_materials = 1;
+    if (mats == NULL)
+        return LR_OK;
+
+    /* Any name is allowed; only duplicates are errors. */
+    for (const cJSON *m = mats->child; m; m = m->next) {
+        lr__path_key(p, "materials", m->string);
+        for (const cJSON *d = m->next; d; d = d->next)
+            if (strcmp(d->string, m->string) == 0)
+                return lr__fail(err, LR_ERR_INVALID, p,
+                                "%s: duplicate material name", p);
+        if (!cJSON_IsObject(m))
+            return lr__fail(err, LR_ERR_INVALID, p,
+                            "%s must be an object", p);
+        st = lr__json_check_keys(m, p, keys, err);
+        if (st != LR_OK)
+            return st;
+        lr__material *mt = &s->materials[s->n_materials];
+        mt->name = strdup(m->string);
+        if (mt->name == NULL)
+            return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+        s->n_materials++;
+        mt->ior = 1.5;
+        LR_TRY(lr__json_rgb(m, "diffuse", p, 0, &mt->diffuse, err));
+        LR_TRY(lr__json_rgb(m, "specular", p, 0, &mt->specular, err));
+        LR_TRY(lr__json_number(m, "shininess", p, 0, &mt->shininess, err));
+        LR_TRY(lr__json_rgb(m, "reflect", p, 0, &mt->reflect, err));
+        LR_TRY(lr__json_rgb(m, "transmit", p, 0, &mt->transmit, err));
+        LR_TRY(lr__json_number(m, "ior", p, 0, &mt->ior, err));
+        char q[LR__PATH_MAX];
+        if (mt->shininess < 0 || mt->shininess > 1e6) {
+            lr__path_key(q, p, "shininess");
+            return lr__fail(err, LR_ERR_INVALID, q,
+                            "%s must be between 0 and 1e6, got %g", q,
+                            mt->shininess);
+        }
+        if (mt->ior < 1.0 || mt->ior > 10.0) {
+            lr__path_key(q, p, "ior");
+            return lr__fail(err, LR_ERR_INVALID, q,
+                            "%s must be between 1 and 10, got %g", q,
+                            mt->ior);
+        }
+    }
+    return LR_OK;
+}
+
+static lr_status find_material(const lr_scene *s, const cJSON *obj,
+                               const char *path, int *out, lr_error *err)
+{
+    const char *name = NULL;
+    lr_status st = lr__json_string(obj, "material", path, 0, &name, err);
+    if (st != LR_OK)
+        return st;
+    *out = 0;
+    if (name == NULL)
+        return LR_OK;
+    for (size_t i = 1; i < s->n_materials; i++)
+        if (strcmp(s->materials[i].name, name) == 0) {
+            *out = (int)i;
+            return LR_OK;
+        }
+    char p[LR__PATH_MAX];
+    lr__path_key(p, path, "material");
+    return lr__fail(err, LR_ERR_INVALID, p,
+                    "%s: no material named \"%s\" in materials", p, name);
+}
+
+/* ---- lights ----------------------------------------------------------- */
+
+static lr_status parse_lights(lr_scene *s, const cJSON *lights,
+                              lr_error *err)
+{
+    static const char *const keys_point[] = {"type", "position",
+                                             "intensity", NULL};
+    static const char *const keys_dir[] = {"type", "direction", "irradiance",
+                                           NULL};
+    static const char *const keys_amb[] = {"type", "radiance", NULL};
+    char p[LR__PATH_MAX];
+    if (lights == NULL)
+        return LR_OK;
+    if (!cJSON_IsArray(lights))
+        return lr__fail(err, LR_ERR_INVALID, "lights",
+                        "lights must be an array");
+    size_t n = (size_t)cJSON_GetArraySize(lights);
+    s->lights = calloc(n ? n : 1, sizeof *s->lights);
+    if (s->lights == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    size_t i = 0;
+    for (const cJSON *l = lights->child; l; l = l->next, i++) {
+        lr__path_index(p, "lights", i);
+        if (!cJSON_IsObject(l))
+            return lr__fail(err, LR_ERR_INVALID, p, "%s must be an object",
+                            p);
+        const char *type = NULL;
+        LR_TRY(lr__json_string(l, "type", p, 1, &type, err));
+        if (strcmp(type, "point") == 0) {
+            lr__light *L = &s->lights[s->n_lights];
+            L->kind = LR__LIGHT_POINT;
+            LR_TRY(lr__json_check_keys(l, p, keys_point, err));
+            LR_TRY(lr__json_vec3(l, "position", p, 1, &L->position, err));
+            LR_TRY(lr__json_rgb(l, "intensity", p, 1, &L->power, err));
+            s->n_lights++;
+        } else if (strcmp(type, "directional") == 0) {
+            lr__light *L = &s->lights[s->n_lights];
+            L->kind = LR__LIGHT_DIRECTIONAL;
+            LR_TRY(lr__json_check_keys(l, p, keys_dir, err));
+            LR_TRY(lr__json_vec3(l, "direction", p, 1, &L->direction, err));
+            LR_TRY(lr__json_rgb(l, "irradiance", p, 1, &L->power, err));
+            if (v3_len(L->direction) == 0.0) {
+                char q[LR__PATH_MAX];
+                lr__path_key(q, p, "direction");
+                return lr__fail(err, LR_ERR_INVALID, q,
+                                "%s must not be the zero vector", q);
+            }
+            L->direction = v3_norm(L->direction);
+            s->n_lights++;
+        } else if (strcmp(type, "ambient") == 0) {
+            lr__v3 r = v3(0, 0, 0);
+            LR_TRY(lr__json_check_keys(l, p, keys_amb, err));
+            LR_TRY(lr__json_rgb(l, "radiance", p, 1, &r, err));
+            s->ambient = v3_add(s->ambient, r);
+        } else {
+            char q[LR__PATH_MAX];
+            lr__path_key(q, p, "type");
+            return lr__fail(err, LR_ERR_INVALID, q,
+                            "%s must be \"point\", \"directional\" or "
+                            "\"ambient\", got \"%s\"",
+                            q, type);
+        }
+    }
+    return LR_OK;
+}
+
+/* ---- objects ---------------------------------------------------------- */
+
+static char *join_path(const char *dir, const char *file)
+{
+    size_t n = strlen(file) + (dir ? strlen(dir) : 0) + 2;
+    char *out = malloc(n);
+    if (out == NULL)
+        return NULL;
+    if (file[0] == '/' || dir == NULL || dir[0] == '\0')
+        snprintf(out, n, "%s", file);
+    else
+        snprintf(out, n, "%s/%s", dir, file);
+    return out;
+}
+
+/* An OBJ mesh: the file is found relative to the scene's directory. */
+static lr_status add_mesh(lr_scene *s, const cJSON *o, const char *p,
+                          const lr__xform *x, int material,
+                          const char *base_dir, lr_error *err)
+{
+    const char *file = NULL;
+    int smooth = -1;
+    LR_TRY(lr__json_string(o, "file", p, 1, &file, err));
+    LR_TRY(lr__json_bool(o, "smooth", p, 0, &smooth, err));
+    char fp[LR__PATH_MAX];
+    lr__path_key(fp, p, "file");
+    char *full = join_path(base_dir, file);
+    if (full == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    lr_status st = lr__scene_add_obj(s, full, fp, smooth, x, material, err);
+    free(full);
+    return st;
+}
+
+static lr_status parse_object(lr_scene *s, const cJSON *o, const char *p,
+                              const char *base_dir, lr_error *err)
+{
+    static const char *const keys_sphere[] = {"type", "material", "transform",
+                                              "center", "radius", NULL};
+    static const char *const keys_plane[] = {"type", "material", "transform",
+                                             "point", "normal", "size", NULL};
+    static const char *const keys_tri[] = {"type", "material", "transform",
+                                           "vertices", NULL};
+    static const char *const keys_mesh[] = {"type", "material", "transform",
+                                            "file", "smooth", NULL};
+    char q[LR__PATH_MAX];
+    const char *type = NULL;
+    if (!cJSON_IsObject(o))
+        return lr__fail(err, LR_ERR_INVALID, p, "%s must be an object", p);
+    LR_TRY(lr__json_string(o, "type", p, 1, &type, err));
+    const char *const *keys = strcmp(type, "sphere") == 0     ? keys_sphere
+                              : strcmp(type, "plane") == 0    ? keys_plane
+                              : strcmp(type, "triangle") == 0 ? keys_tri
+                              : strcmp(type, "mesh") == 0     ? keys_mesh
+                                                              : NULL;
+    if (keys == NULL) {
+        lr__path_key(q, p, "type");
+        return lr__fail(err, LR_ERR_INVALID, q,
+                        "%s must be \"sphere\", \"plane\", \"triangle\" or "
+                        "\"mesh\", got \"%s\"",
+                        q, type);
+    }
+    LR_TRY(lr__json_check_keys(o, p, keys, err));
+    int material = 0;
+    LR_TRY(find_material(s, o, p, &material, err));
+    lr__xform x = lr__xform_identity();
+    const cJSON *tr = cJSON_GetObjectItemCaseSensitive(o, "transform");
+    if (tr != NULL) {
+        lr__path_key(q, p, "transform");
+        LR_TRY(lr__xform_parse(tr, q, &x, err));
+    }
+
+    if (keys == keys_sphere) {
+        lr__v3 c;
+        double r = 0;
+        LR_TRY(lr__json_vec3(o, "center", p, 1, &c, err));
+        LR_TRY(lr__json_number(o, "radius", p, 1, &r, err));
+        if (!(r > 0)) {
+            lr__path_key(q, p, "radius");
+            return lr__fail(err, LR_ERR_INVALID, q,
+                            "%s must be > 0, got %g", q, r);
+        }
+        double k = lr__xform_uniform_scale(&x);
+        if (k < 0) {
+            lr__path_key(q, p, "transform");
+            return lr__fail(err, LR_ERR_INVALID, q,
+                            "%s: a sphere can only be scaled uniformly", q);
+        }
+        lr__v3 cw = lr__xform_point(&x, c);
+        lr__path_key(q, p, tr != NULL ? "transform" : "radius");
+        LR_TRY(lr__check_extent(v3_maxabs(cw) + r * k, q, err));
+        return lr__scene_add_sphere(s, cw, r * k, material, err);
+    }
+    if (keys == keys_plane) {
+        lr__v3 pt = v3(0, 0, 0), n;
+        LR_TRY(lr__json_vec3(o, "point", p, 0, &pt, err));
+        LR_TRY(lr__json_vec3(o, "normal", p, 1, &n, err));
+        if (v3_len(n) == 0.0) {
+            lr__path_key(q, p, "normal");
+            return lr__fail(err, LR_ERR_INVALID, q,
+                            "%s must not be the zero vector", q);
+        }
+        n = v3_norm(n);
+        const cJSON *size = cJSON_GetObjectItemCaseSensitive(o, "size");
+        if (size == NULL) {
+            lr__v3 pw = lr__xform_point(&x, pt);
+            lr__path_key(q, p, tr != NULL ? "transform" : "point");
+            LR_TRY(lr__check_extent(v3_maxabs(pw), q, err));
+            return lr__scene_add_plane(s, pw, lr__xform_normal(&x, n), material,
+                                       err);
+        }
+        /* A finite plane: a rectangle centred on `point` (mesh.c). */
+        double w, h;
+        lr__path_key(q, p, "size");
+        if (cJSON_IsNumber(size)) {
+            w = h = size->valuedouble;
+        } else if (cJSON_IsArray(size) && cJSON_GetArraySize(size) == 2 &&
+                   cJSON_IsNumber(size->child) &&
+                   cJSON_IsNumber(size->child->next)) {
+            w = size->child->valuedouble;
+            h = size->child->next->valuedouble;
+        } else {
+            return lr__fail(err, LR_ERR_INVALID, q,
+                            "%s must be a number or [width, height]", q);
+        }
+        if (!(w > 0 && h > 0 && w <= LR__MAX_NUMBER && h <= LR__MAX_NUMBER))
+            return lr__fail(err, LR_ERR_INVALID, q,
+                            "%s must be finite, > 0 and at most 1e15, got "
+                            "[%g, %g]",
+                            q, w, h);
+        lr__path_key(q, p, tr != NULL ? "transform" : "size");
+        return lr__scene_add_rect(s, pt, n, w, h, &x, material, q, err);
+    }
+    if (keys == keys_tri) {
+        const cJSON *vs = cJSON_GetObjectItemCaseSensitive(o, "vertices");
+        lr__path_key(q, p, "vertices");
+        if (!cJSON_IsArray(vs) || cJSON_GetArraySize(vs) != 3)
+            return lr__fail(err, LR_ERR_INVALID, q,
+                            "%s must be an array of 3 points", q);
+        float verts[9];
+        unsigned idx[3] = {0, 1, 2};
+        int i = 0;
+        for (const cJSON *v = vs->child; v; v = v->next, i++) {
+            char pi[LR__PATH_MAX];
+            lr__path_index(pi, q, (size_t)i);
+            lr__v3 pt;
+            double a[3];
+            if (!cJSON_IsArray(v) || cJSON_GetArraySize(v) != 3)
+                return lr__fail(err, LR_ERR_INVALID, pi,
+                                "%s must be an array of 3 numbers", pi);
+            int j = 0;
+            for (const cJSON *c = v->child; c; c = c->next, j++) {
+                if (!cJSON_IsNumber(c) || !isfinite(c->valuedouble) ||
+                    fabs(c->valuedouble) > LR__MAX_NUMBER)
+                    return lr__fail(err, LR_ERR_INVALID, pi,
+                                    "%s[%d] must be a finite number between "
+                                    "-1e15 and 1e15",
+                                    pi, j);
+                a[j] = c->valuedouble;
+            }
+            pt = lr__xform_point(&x, v3a(a));
+            if (tr != NULL) {
+                lr__path_key(pi, p, "transform");
+                LR_TRY(lr__check_extent(v3_maxabs(pt), pi, err));
+            }
+            verts[3 * i] = (float)pt.x;
+            verts[3 * i + 1] = (float)pt.y;
+            verts[3 * i + 2] = (float)pt.z;
+        }
+        if (lr__xform_det(&x) < 0)
+            idx[1] = 2, idx[2] = 1;
+        return lr__scene_add_triangles(s, verts, 3, idx, 1, NULL, material,
+                                       err);
+    }
+    return add_mesh(s, o, p, &x, material, base_dir, err);
+}
+
+static lr_status parse_objects(lr_scene *s, const cJSON *objs,
+                               const char *base_dir, lr_error *err)
+{
+    char p[LR__PATH_MAX];
+    if (objs == NULL)
+        return LR_OK;
+    if (!cJSON_IsArray(objs))
+        return lr__fail(err, LR_ERR_INVALID, "objects",
+                        "objects must be an array");
+    size_t i = 0;
+    for (const cJSON *o = objs->child; o; o = o->next, i++) {
+        lr__path_index(p, "objects", i);
+        lr_status st = parse_object(s, o, p, base_dir, err);
+        if (st != LR_OK)
+            return st;
+    }
+    return LR_OK;
+}
+
+/* ---- the scene -------------------------------------------------------- */
+
+static lr_status build(lr_scene *s, const cJSON *root, const char *base_dir,
+                       lr_error *err)
+{
+    static const char *const keys[] = {"description", "camera",  "render",
+                                       "background",  "materials", "lights",
+                                       "objects",     NULL};
+    if (!cJSON_IsObject(root))
+        return lr__fail(err, LR_ERR_INVALID, "",
+                        "a scene must be a JSON object");
+    LR_TRY(lr__json_check_keys(root, "", keys, err));
+    const char *desc = NULL;
+    LR_TRY(lr__json_string(root, "description", "", 0, &desc, err));
+    lr_camera_default(&s->camera);
+    lr_render_settings_default(&s->settings);
+    LR_TRY(lr__camera_from_json(cJSON_GetObjectItemCaseSensitive(root, "camera"), &s->camera, err));
+    LR_TRY(lr__settings_from_json(cJSON_GetObjectItemCaseSensitive(root, "render"), &s->settings, err));
+    LR_TRY(lr__json_rgb(root, "background", "", 0, &s->background, err));
+    LR_TRY(parse_materials( s, cJSON_GetObjectItemCaseSensitive(root, "materials"), err));
+    LR_TRY(parse_lights(s, cJSON_GetObjectItemCaseSensitive(root, "lights"), err));
+    LR_TRY(lr__scene_begin(s, err));
+    LR_TRY(parse_objects(s, cJSON_GetObjectItemCaseSensitive(root, "objects"), base_dir, err));
+    LR_TRY(lr__scene_commit(s, err));
+    return LR_OK;
+}
+
+lr_status lr_scene_load_json(const char *json, size_t len,
+                             const char *base_dir,
+                             const char *const *overrides, size_t n_overrides,
+                             lr_scene **out, lr_error *err)
+{
+    if (out == NULL || (json == NULL && len > 0))
+        return lr__fail(err, LR_ERR_INVALID, NULL,
+                        "lr_scene_load_json: NULL argument");
+    *out = NULL;
+    if (len > MAX_SCENE_BYTES)
+        return lr__fail(err, LR_ERR_LIMIT, NULL,
+                        "scene JSON is %zu bytes, more than the limit of %u",
+                        len, MAX_SCENE_BYTES);
+    cJSON *root = NULL;
+    lr_status st = lr__json_parse(json ? json : "", len, "scene", "", &root,
+                                  err);
+    if (st != LR_OK)
+        return st;
+    for (size_t i = 0; i < n_overrides; i++) {
+        st = lr__json_apply_override(root, overrides[i], err);
+        if (st != LR_OK) {
+            cJSON_Delete(root);
+            return st;
+        }
+    }
+    lr_scene *s = calloc(1, sizeof *s);
+    if (s == NULL) {
+        cJSON_Delete(root);
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    }
+    st = build(s, root, base_dir, err);
+    cJSON_Delete(root);
+    if (st != LR_OK) {
+        lr_scene_free(s);
+        return st;
+    }
+    *out = s;
+    return LR_OK;
+}
+
+lr_status lr_scene_load_file(const char *path, const char *const *overrides,
+                             size_t n_overrides, lr_scene **out,
+                             lr_error *err)
+{
+    if (path == NULL || out == NULL)
+        return lr__fail(err, LR_ERR_INVALID, NULL,
+                        "lr_scene_load_file: NULL argument");
+    *out = NULL;
+    char *buf = NULL;
+    size_t len = 0;
+    lr_status st = lr__read_file(path, MAX_SCENE_BYTES, &buf, &len, err);
+    if (st != LR_OK)
+        return st;
+    /* Mesh paths are relative to the scene file's directory. */
+    char dir[4096];
+    snprintf(dir, sizeof dir, "%s", path);
+    char *slash = strrchr(dir, '/');
+    if (slash == NULL)
+        snprintf(dir, sizeof dir, ".");
+    else if (slash == dir)
+        dir[1] = '\0';
+    else
+        *slash = '\0';
+    st = lr_scene_load_json(buf ? buf : "", len, dir, overrides, n_overrides,
+                            out, err);
+    free(buf);
+    /* Name the file in JSON syntax errors, which only say "scene". */
+    if (st == LR_ERR_INVALID && err != NULL &&
+        strncmp(err->message, "scene: ", 7) == 0) {
+        char msg[sizeof err->message];
+        snprintf(msg, sizeof msg, "%s: %s", path, err->message + 7);
+        snprintf(err->message, sizeof err->message, "%s", msg);
+    }
+    return st;
+}

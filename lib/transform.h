@@ -1,0 +1,39 @@
+/*
+ * transform.h: the affine transforms of the scene format's "transform"
+ * lists (translate, rotate, scale), and the limit on how far placed
+ * geometry may reach.
+ */
+#ifndef LR_TRANSFORM_H
+#define LR_TRANSFORM_H
+
+#include "internal.h"
+#include "vec.h"
+
+#include <cjson/cJSON.h>
+
+/* A 3x4 affine transform, row-major: p' = M p + t. */
+typedef struct lr__xform {
+    double m[3][4];
+} lr__xform;
+
+lr__xform lr__xform_identity(void);
+lr__v3 lr__xform_point(const lr__xform *x, lr__v3 p);
+/* A unit normal moved by x (the inverse transpose, up to scale). */
+lr__v3 lr__xform_normal(const lr__xform *x, lr__v3 n);
+/* The determinant of the linear part: negative for a mirroring x. */
+double lr__xform_det(const lr__xform *x);
+/* For spheres: the scale factor when x scales all directions alike,
+ * else -1. */
+double lr__xform_uniform_scale(const lr__xform *x);
+
+/* Reads a JSON list of steps ([{"translate": [x, y, z]}, {"rotate":
+ * {"axis": [x, y, z], "degrees": d}}, {"scale": s or [x, y, z]}]) at
+ * `path`; the first step listed acts first. */
+lr_status lr__xform_parse(const cJSON *list, const char *path,
+                          lr__xform *out, lr_error *err);
+
+/* Fails unless `m`, the largest coordinate magnitude a placed object
+ * reaches, is within LR__MAX_NUMBER; `p` is the field to blame. */
+lr_status lr__check_extent(double m, const char *p, lr_error *err);
+
+#endif
