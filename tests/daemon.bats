@@ -37,6 +37,11 @@ start_daemon() {
     local name=$1
     shift
     DLOG="$WORK/$name.log"
+    # The log exists before the daemon does: the background job opens it
+    # only when it is scheduled, and the sed below must not fail (under
+    # bats' set -e, failing setup_file and with it every test) on a busy
+    # machine where that comes late.
+    : >"$DLOG"
     # fd 3 is bats' own output channel: a daemon that kept it open would
     # make bats wait for it.
     "$LENSRAYD" --port 0 --bind 127.0.0.1 --scenes "$WORK/scenes" "$@" \

@@ -1,6 +1,7 @@
 /*
  * unit_main.c: runs every registered cmocka group, or only the groups
- * named on the command line, and ends with
+ * named on the command line (`unit --list` names them; each is the file
+ * test_NAME.c), and ends with
  * "unit: N passed, N failed, N skipped".  A skipped test is counted as
  * skipped, never as passed; every skip here is an environment skip
  * (lr_test_skip_env in test.h), each printed with its reason.
@@ -57,6 +58,23 @@ static int wanted(const char *name, int argc, char **argv)
 
 int main(int argc, char **argv)
 {
+    if (argc == 2 && strcmp(argv[1], "--list") == 0) {
+        for (size_t g = 0; g < n_groups; g++)
+            printf("%s (%zu test%s)\n", groups[g].name, groups[g].n,
+                   groups[g].n == 1 ? "" : "s");
+        return 0;
+    }
+    /* A misspelt group would otherwise run nothing and pass. */
+    for (int i = 1; i < argc; i++) {
+        size_t g = 0;
+        while (g < n_groups && strcmp(groups[g].name, argv[i]) != 0)
+            g++;
+        if (g == n_groups) {
+            fprintf(stderr, "unit: no test group \"%s\" (--list lists them)\n",
+                    argv[i]);
+            return 2;
+        }
+    }
     size_t total = 0, failed = 0;
     for (size_t g = 0; g < n_groups; g++) {
         if (!wanted(groups[g].name, argc, argv))
