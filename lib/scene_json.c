@@ -3,6 +3,7 @@
  * error names its JSON path ("objects[3].radius must be > 0, got -2").
  * Unknown and duplicate keys are errors, so a typo never goes unnoticed.
  */
+#include "apply_json.h"
 #include "json_util.h"
 #include "scene.h"
 
@@ -429,7 +430,10 @@ static lr_status add_mesh(lr_scene *s, const cJSON *o, const char *p,
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     lr__mesh m;
     memset(&m, 0, sizeof m);
-    st = lr__obj_load(full, fp, &m, err);
+    /* Messages name the file as the scene wrote it, relative to the
+     * scene's directory: base_dir is the caller's business (the daemon's
+     * scenes directory must not show in its answers). */
+    st = lr__obj_load_named(full, file, fp, &m, err);
     free(full);
     if (st != LR_OK) {
         /* Prefix the OBJ error with the field that named the file. */
@@ -938,6 +942,26 @@ static lr_status parse_render(const cJSON *r, lr_render_settings *rs,
     return lr_render_settings_validate(rs, err);
 }
 
+lr_status lr__camera_apply_cjson(lr_camera *cam, const cJSON *obj,
+                                 lr_error *err)
+{
+    lr_camera tmp = *cam;
+    lr_status st = parse_camera(obj, &tmp, err);
+    if (st == LR_OK)
+        *cam = tmp;
+    return st;
+}
+
+lr_status lr__render_apply_cjson(lr_render_settings *s, const cJSON *obj,
+                                 lr_error *err)
+{
+    lr_render_settings tmp = *s;
+    lr_status st = parse_render(obj, &tmp, err);
+    if (st == LR_OK)
+        *s = tmp;
+    return st;
+}
+
 lr_status lr_camera_apply_json(lr_camera *cam, const char *json, size_t len,
                                lr_error *err)
 {
@@ -946,11 +970,8 @@ lr_status lr_camera_apply_json(lr_camera *cam, const char *json, size_t len,
                         "lr_camera_apply_json: NULL argument");
     cJSON *root = NULL;
     LR_TRY(lr__json_parse(json ? json : "", len, "camera", &root, err));
-    lr_camera tmp = *cam;
-    lr_status st = parse_camera(root, &tmp, err);
+    lr_status st = lr__camera_apply_cjson(cam, root, err);
     cJSON_Delete(root);
-    if (st == LR_OK)
-        *cam = tmp;
     return st;
 }
 
@@ -963,11 +984,8 @@ lr_status lr_render_settings_apply_json(lr_render_settings *s,
                         "lr_render_settings_apply_json: NULL argument");
     cJSON *root = NULL;
     LR_TRY(lr__json_parse(json ? json : "", len, "render", &root, err));
-    lr_render_settings tmp = *s;
-    lr_status st = parse_render(root, &tmp, err);
+    lr_status st = lr__render_apply_cjson(s, root, err);
     cJSON_Delete(root);
-    if (st == LR_OK)
-        *s = tmp;
     return st;
 }
 
@@ -985,6 +1003,9 @@ static lr_status build(lr_scene *s, const cJSON *root, const char *base_dir,
     LR_TRY(lr__json_check_keys(root, "", keys, err));
     const char *desc = NULL;
     LR_TRY(lr__json_string(root, "description", "", 0, &desc, err));
+    s->description = strdup(desc ? desc : "");
+    if (s->description == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     lr_camera_default(&s->camera);
     lr_render_settings_default(&s->settings);
     LR_TRY(parse_camera(cJSON_GetObjectItemCaseSensitive(root, "camera"), &s->camera, err));
@@ -1117,6 +1138,7 @@ void lr_scene_free(lr_scene *s)
         free(s->materials[i].name);
     free(s->materials);
     free(s->lights);
+    free(s->description);
     if (s->rtc != NULL)
         rtcReleaseScene(s->rtc);
     if (s->device != NULL)
@@ -1132,3 +1154,8 @@ void lr_scene_settings(const lr_scene *s, lr_render_settings *rs)
 }
 
 size_t lr_scene_primitive_count(const lr_scene *s) { return s->n_primitives; }
+
+const char *lr_scene_description(const lr_scene *s)
+{
+    return s->description ? s->description : "";
+}
