@@ -22,7 +22,8 @@ DEPS := /usr/include/embree3/rtcore.h:libembree-dev \
         /usr/include/microhttpd.h:libmicrohttpd-dev \
         /usr/include/openssl/evp.h:libssl-dev \
         /usr/include/cmocka.h:libcmocka-dev \
-        pkg-config:pkg-config bats:bats curl:curl node:nodejs npm:npm
+        pkg-config:pkg-config bats:bats curl:curl node:nodejs npm:npm \
+        python3:python3
 
 # Recursive (=) so that pkg-config runs after the dependency check.
 PKG_CFLAGS = $(shell pkg-config --cflags OpenEXR libcjson libpng 2>/dev/null)
@@ -44,7 +45,7 @@ TEST_OBJ := $(TEST_SRC:%.c=$(BUILD)/obj/%.o)
 DEPS_OK  := $(BUILD)/.deps-ok
 BUNNY    := scenes/meshes/bunny.obj
 
-.PHONY: all deps test test-suite render serve clean install bunny test-sanitize figures
+.PHONY: all deps test test-suite render serve clean install bunny test-sanitize figures test-api
 
 all: $(BUILD)/liblensray.a $(BUILD)/liblensray.so $(BUILD)/lensray $(BUNNY) \
      $(if $(SVC_SRC),$(BUILD)/lensrayd)
@@ -136,14 +137,46 @@ $(BUILD)/tests/unit: $(TEST_OBJ) $(REPLAY_OBJ) $(BUILD)/liblensray.a
 	$(CC) $(LDFLAGS) -o $@ $^ $(LIB_LIBS) -lcmocka $(if $(SVC_SRC),-lcrypto)
 
 # `make test` runs the whole suite twice: as built, then under
-# AddressSanitizer and UBSan (test-sanitize, in build/sanitize), and ends
-# with one line adding both up.  `make test-suite` is the first half
+# AddressSanitizer and UBSan (test-sanitize, in build/sanitize), then the
+# fuzz session and the API test (test-api), and ends with one line adding
+# them all up.  `make test-suite` is the first half
 # alone, for a quick run.
 test:
 	@sh tests/all.sh "$(MAKE)" $(BUILD)
 
 test-suite: all $(BUILD)/tests/unit
 	@sh tests/run.sh $(BUILD)
+
+# ---- the HTTP API against its spec -----------------------------------------
+# docs/openapi.yaml through openapi-spec-validator, then schemathesis
+# against a live lensrayd (tests/api/run.sh): API_EXAMPLES requests per
+# operation, positive and negative, plus the spec's links; any 5xx or
+# answer the spec does not describe fails.  About a minute.  The Python
+# packages, pinned in tests/api/requirements.txt, go into a virtualenv
+# under build/ (python3-venv is installed like the deps above when run as
+# root and Python cannot make one).
+API_VENV     := $(BUILD)/api-venv
+API_EXAMPLES ?= 100
+
+test-api: all $(API_VENV)/.ok
+	@sh tests/api/run.sh $(BUILD) $(API_VENV) $(API_EXAMPLES)
+
+$(API_VENV)/.ok: tests/api/requirements.txt $(DEPS_OK)
+	@if ! python3 -c 'import ensurepip, venv' >/dev/null 2>&1; then \
+	  if [ "$$(id -u)" = 0 ]; then \
+	    echo "make: installing missing Debian packages: python3-venv"; \
+	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq python3-venv >/dev/null || exit 1; \
+	  else \
+	    echo "make: missing Debian packages: python3-venv"; \
+	    echo "make: run 'sudo apt-get install python3-venv' (or run make as root) and try again"; \
+	    exit 1; \
+	  fi; \
+	fi
+	@rm -rf $(API_VENV) && python3 -m venv $(API_VENV)
+	@echo "  PIP     tests/api/requirements.txt -> $(API_VENV)"
+	@$(API_VENV)/bin/pip install -q --disable-pip-version-check \
+	  -r tests/api/requirements.txt
+	@touch $@
 
 test-sanitize:
 	$(MAKE) BUILD=build/sanitize OPT=-O1 \

@@ -56,7 +56,9 @@ typedef enum lr_status {
     LR_ERR_NOMEM = -3,     /* an allocation failed */
     LR_ERR_EMBREE = -4,    /* Embree reported an error */
     LR_ERR_CANCELLED = -5, /* the render was cancelled via its flag */
-    LR_ERR_LIMIT = -6      /* a size limit was exceeded */
+    LR_ERR_LIMIT = -6,     /* a size limit was exceeded */
+    LR_ERR_SYNTAX = -7     /* text that is not JSON at all (only
+                              lr_job_parse tells this from LR_ERR_INVALID) */
 } lr_status;
 
 /* Filled by failing calls.  `path` is the JSON path of the offending field
@@ -294,6 +296,20 @@ LR_API void lr_scene_settings(const lr_scene *scene, lr_render_settings *s);
 /* Counts, for reports: primitives (triangles + spheres + planes). */
 LR_API size_t lr_scene_primitive_count(const lr_scene *scene);
 
+/* The scene's "description" string, "" when it has none; valid until
+ * lr_scene_free. */
+LR_API const char *lr_scene_description(const lr_scene *scene);
+
+/* The camera and render settings as JSON objects in the scene format
+ * (docs/scene-format.md sections 6 and 7): every key that applies to the
+ * camera's model, so that lr_camera_apply_json of the text on top of
+ * lr_camera_default gives *cam back (and likewise for the settings;
+ * progress and cancel are not JSON and are left out).  Returns compact
+ * text of one line, malloc'ed: release it with lr_free.  NULL when out of
+ * memory. */
+LR_API char *lr_camera_json(const lr_camera *cam);
+LR_API char *lr_render_settings_json(const lr_render_settings *s);
+
 /* ------------------------------------------------------------------------
  * Rendering
  * ---------------------------------------------------------------------- */
@@ -326,6 +342,24 @@ LR_API lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
                     const lr_render_settings *settings, lr_image **out,
                     lr_render_stats *stats, lr_error *err);
 
+/* The statistics of a render as one line of JSON, the same wherever they
+ * are shown (the CLI's --stats, the daemon's job status):
+ *     {"seconds": 0.42, "cpu_seconds": 0.8, "width": 640, "height": 480,
+ *      "spp": 16, "threads": 2, "pixels": ..., "samples": ..., "rays": ...,
+ *      "samples_per_second": ..., "rays_per_second": ..., "nan_samples": 0,
+ *      "primitives": ...,
+ *      "plan": {"enabled": true, "adaptive": true, "lens_pixels": 0.31,
+ *               "chroma_pixels": 0, "samples": ..., "full_samples": ...,
+ *               "camera_rays": ..., "full_camera_rays": ...}}
+ * lens_pixels and chroma_pixels are shares of the pixels (0 to 1); "plan"
+ * is the last member.  `settings` (what the render ran with) gives width,
+ * height, spp and plan.enabled/adaptive, and `scene` gives primitives;
+ * either may be NULL, and then those members are left out.  Returns
+ * malloc'ed text (release with lr_free), or NULL when out of memory. */
+LR_API char *lr_render_stats_json(const lr_render_stats *stats,
+                                  const lr_render_settings *settings,
+                                  const lr_scene *scene);
+
 /* ------------------------------------------------------------------------
  * Images
  * ---------------------------------------------------------------------- */
@@ -352,10 +386,30 @@ LR_API float *lr_image_depth_mut(lr_image *img);
 
 LR_API void lr_image_free(lr_image *img);
 
+/* Image formats.  Their names, MIME types, extensions and what they can
+ * hold come from one table in the library (lib/format.c): clients ask it
+ * rather than keeping their own lists. */
 typedef enum lr_format {
     LR_FORMAT_EXR = 0,
     LR_FORMAT_PNG = 1
 } lr_format;
+
+/* The format's short name, as JSON and file names use it ("exr",
+ * "png"); NULL for a value that is not a format, so that
+ * `for (f = 0; lr_format_name(f) != NULL; f++)` visits every format.
+ * Static strings. */
+LR_API const char *lr_format_name(lr_format fmt);
+/* Its MIME type ("image/x-exr", "image/png"); NULL if not a format. */
+LR_API const char *lr_format_mime(lr_format fmt);
+/* Its file extension with the dot (".exr", ".png"); NULL if not one. */
+LR_API const char *lr_format_extension(lr_format fmt);
+/* 1 if the format can hold a Z (depth) channel, else 0. */
+LR_API int lr_format_has_depth(lr_format fmt);
+/* The format with this name (exact, lower case).  LR_ERR_INVALID for any
+ * other name, with a message that lists the names; `field` names the
+ * JSON field in the message and path (NULL: "format"). */
+LR_API lr_status lr_format_from_name(const char *name, const char *field,
+                                     lr_format *fmt, lr_error *err);
 
 typedef struct lr_output_options {
     int exr_half;      /* EXR: RGB as half instead of float32; default 0 */
@@ -364,6 +418,27 @@ typedef struct lr_output_options {
 } lr_output_options;
 
 LR_API void lr_output_options_default(lr_output_options *o);
+
+/* What to encode: a format, its options, and whether the image carries a
+ * Z channel.  This is the "output" object of a job (docs/api.md):
+ *     {"format": "png" | "exr", "bit_depth": 8 | 16, "half": bool,
+ *      "depth": bool}
+ * Options that do not apply to the format are errors, not ignored. */
+typedef struct lr_output {
+    lr_format format;          /* default LR_FORMAT_PNG */
+    lr_output_options options; /* exr_depth follows `depth` */
+    int depth;                 /* render and write Z; default 0 */
+    int depth_given;           /* 1 when the JSON said "depth" */
+} lr_output;
+
+/* Fills `o` with the defaults above. */
+LR_API void lr_output_default(lr_output *o);
+
+/* Applies the keys of an "output" JSON object (`len` bytes of text) on
+ * top of *o.  Errors (LR_ERR_INVALID) name the field as "output.half";
+ * on error *o is unchanged. */
+LR_API lr_status lr_output_apply_json(lr_output *o, const char *json,
+                                      size_t len, lr_error *err);
 
 /* The format implied by a file name's extension (.exr, .png, any case);
  * LR_ERR_INVALID for anything else. */
@@ -383,6 +458,70 @@ LR_API lr_status lr_image_encode(const lr_image *img, lr_format fmt,
  * `opts` may be NULL for the defaults. */
 LR_API lr_status lr_image_write(const lr_image *img, const char *path,
                          const lr_output_options *opts, lr_error *err);
+
+/* ------------------------------------------------------------------------
+ * Jobs: a render request as one JSON document
+ * ---------------------------------------------------------------------- */
+
+/* A job is the JSON object that lensrayd takes (docs/api.md section 3):
+ *     {"scene": "NAME" | {inline scene}, "camera": {...},
+ *      "render": {...}, "output": {...}}
+ * It is parsed once, by lr_job_parse; the caller then loads the scene it
+ * names (the caller knows where scenes live and may cache them) and takes
+ * the camera, settings and output from the same parse with lr_job_apply,
+ * which validates them once.  Paths in errors are paths in the job
+ * ("camera.fov", "output.half", "scene.objects[2].file"). */
+typedef struct lr_job lr_job;
+
+/* The deepest nesting of arrays and objects the library parses. */
+#define LR_MAX_JSON_DEPTH 64
+
+/* Parses `len` bytes of job text (need not be NUL-terminated; not
+ * referenced after the call) and checks its shape: an object with the
+ * keys above and no others, none twice, "scene" a string or an object,
+ * "camera", "render" and "output" objects.  Nesting deeper than
+ * `max_depth` (capped at LR_MAX_JSON_DEPTH) is refused before parsing.
+ * On success *out owns a new job: free it with lr_job_free.
+ * Errors: LR_ERR_SYNTAX (empty, not UTF-8, not JSON, or text after the
+ * value; the message gives the place), LR_ERR_LIMIT (too deep),
+ * LR_ERR_INVALID (the shape; the path names the key), LR_ERR_NOMEM. */
+LR_API lr_status lr_job_parse(const char *json, size_t len, int max_depth,
+                              lr_job **out, lr_error *err);
+
+/* Frees a job.  NULL is a no-op. */
+LR_API void lr_job_free(lr_job *job);
+
+/* The scene the job names: its name, or NULL for an inline scene. */
+LR_API const char *lr_job_scene_name(const lr_job *job);
+
+/* An inline scene as compact JSON text of *len bytes (for
+ * lr_scene_load_json, and as a cache key: the same scene gives the same
+ * text), or NULL for a named scene.  Valid until lr_job_free. */
+LR_API const char *lr_job_scene_json(const lr_job *job, size_t *len);
+
+/* The mesh files an inline scene names, for a caller that confines them
+ * to a directory: the k-th (from 0) "file" string of scene.objects as
+ * written, and its path in the job ("scene.objects[3].file").  Returns 0
+ * past the last one (and for a named scene).  The strings are valid
+ * until lr_job_free. */
+LR_API int lr_job_mesh_file(const lr_job *job, size_t k, const char **file,
+                            const char **field);
+
+/* Applies the job's "camera", "render" and "output" objects on top of
+ * *cam, *s and *out, which the caller has filled with the scene's own
+ * values (lr_scene_camera, lr_scene_settings) and lr_output_default:
+ * keys the job leaves out keep those values.  The camera and the settings
+ * are validated once each, as a whole, after the job's keys are applied.
+ * Depth: output.depth decides when given; otherwise the job's own
+ * render.depth, then the scene's.  A job that asks for depth (either key
+ * true) with a format without a Z channel is refused, naming the key; a
+ * scene's own render.depth is a default that such a format leaves out.
+ * On return s->want_depth and out->options.exr_depth say whether Z is
+ * rendered and written.  Errors: LR_ERR_INVALID (the path names the
+ * field), LR_ERR_NOMEM; on error the outputs are unspecified. */
+LR_API lr_status lr_job_apply(const lr_job *job, lr_camera *cam,
+                              lr_render_settings *s, lr_output *out,
+                              lr_error *err);
 
 /* Releases memory the library handed out (encoded buffers).  NULL is a
  * no-op. */

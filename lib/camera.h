@@ -40,6 +40,26 @@
 
 typedef struct lr__cam lr__cam;
 
+/* One key of the scene format's "camera" object: read by camera_json.c
+ * into the lr_camera field at `offset`, and written back by it, by type.
+ * The keys every camera takes are camera_json.c's; each model lists its
+ * own in its table below. */
+typedef enum lr__key_type {
+    LR__KEY_NUMBER, /* double */
+    LR__KEY_INT,    /* int: a whole number in [min, max] */
+    LR__KEY_VEC3,   /* double[3] */
+    LR__KEY_ENUM,   /* an enum (int): one of `names`, stored as its index */
+    LR__KEY_CUSTOM  /* read and written by camera_json.c's own code */
+} lr__key_type;
+
+typedef struct lr__camera_key {
+    const char *name;
+    lr__key_type type;
+    size_t offset;            /* of the field in lr_camera */
+    const char *const *names; /* LR__KEY_ENUM: indexed by value, NULL-ended */
+    long long min, max;       /* LR__KEY_INT */
+} lr__camera_key;
+
 /* The planner's view of a camera: a thin lens of radius R at the eye
  * (R: the aperture's farthest point from its axis), such that a ray of
  * focus power w through any film point strays from the pinhole ray, at
@@ -58,6 +78,14 @@ typedef struct lr__lens_bound {
 typedef struct lr__camera_model {
     const char *name;   /* in JSON: "camera": {"model": name} */
     lr_camera_model id; /* in lr_camera.model */
+    /* The model's own keys of the camera object, ending with a NULL name;
+     * every model's keys are accepted whatever the model (so that --set
+     * camera.model=... works on any scene), and written back only for
+     * the model in use. */
+    const lr__camera_key *keys;
+    /* 1 when the model reads camera.focus_on and camera.chromatic (it has
+     * a lens to focus and colours to split). */
+    int lens;
     /* Checks the model's own fields of `cam`.  It runs for every model
      * whatever cam->model says (`active` = 0 then), so that a bad value
      * never waits silently for the day someone switches models; checks

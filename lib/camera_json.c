@@ -1,10 +1,11 @@
 /*
  * camera_json.c: the scene format's "camera" object -> lr_camera, and
- * lr_camera_apply_json.  Every key the camera takes is one row of
- * camera_keys[] below: its name, how it is read, the lr_camera field it
- * fills and the models that read it, so that a model's keys can move to
- * that model's own file as a block of rows.
+ * lr_camera_apply_json.  Every key is one row of a table (lr__camera_key):
+ * the keys every camera takes and the lens keys here, each model's own in
+ * that model's file (camera_*.c).
  */
+#include "apply_json.h"
+#include "camera.h"
 #include "camera_json.h"
 #include "json_util.h"
 
@@ -102,90 +103,52 @@ static lr_status parse_focus_on(const cJSON *fo, lr_camera *cam,
 
 /* ---- the key table ---------------------------------------------------- */
 
-typedef enum key_type {
-    KEY_NUMBER, /* double: a number within +-LR__MAX_NUMBER */
-    KEY_INT,    /* int: a whole number in [min, max] */
-    KEY_VEC3,   /* double[3]: three such numbers */
-    KEY_ENUM,   /* an enum: one of `names`, stored as its index */
-    KEY_OBJECT  /* anything else: read by `parse` */
-} key_type;
-
-/* Which models read a key (the others accept it and ignore it). */
-#define M_PINHOLE (1u << LR_CAMERA_PINHOLE)
-#define M_THINLENS (1u << LR_CAMERA_THINLENS)
-#define M_BRACKET (1u << LR_CAMERA_BRACKET)
-#define M_ALL (M_PINHOLE | M_THINLENS | M_BRACKET)
-
-typedef struct camera_key {
-    const char *name;
-    key_type type;
-    size_t offset;   /* of the field in lr_camera */
-    unsigned models; /* M_* bits */
-    const char *const *names; /* KEY_ENUM: indexed by the enum's value */
-    long long min, max;       /* KEY_INT */
-    lr_status (*parse)(const cJSON *v, lr_camera *cam, lr_error *err);
-} camera_key;
-
-/* Indexed by lr_camera_model and lr_aperture_shape. */
-static const char *const model_names[] = {"pinhole", "thinlens", "bracket",
-                                          NULL};
-static const char *const shape_names[] = {"disk", "square", "polygon", NULL};
-
-_Static_assert(sizeof(lr_camera_model) == sizeof(int) &&
-                   sizeof(lr_aperture_shape) == sizeof(int),
-               "KEY_ENUM fields are stored as int");
+/* camera.model: a name in the registry of camera models (camera.c). */
+static lr_status parse_model(const cJSON *c, lr_camera *cam, lr_error *err)
+{
+    const char *names[16];
+    int n = 0;
+    for (; lr__camera_models[n] != NULL && n < 15; n++)
+        names[n] = lr__camera_models[n]->name;
+    names[n] = NULL;
+    int i = -1;
+    for (int k = 0; k < n; k++)
+        if (lr__camera_models[k]->id == cam->model)
+            i = k;
+    LR_TRY(lr__json_enum(c, "model", "camera", names, &i, err));
+    if (i >= 0)
+        cam->model = lr__camera_models[i]->id;
+    return LR_OK;
+}
 
 #define AT(field) offsetof(lr_camera, field)
 
-/* In the order the keys are read, which decides which error comes first,
- * and listed in "unknown key" errors. */
-static const camera_key camera_keys[] = {
-    {"model", KEY_ENUM, AT(model), M_ALL, model_names, 0, 0, NULL},
-    {"position", KEY_VEC3, AT(position), M_ALL, NULL, 0, 0, NULL},
-    {"look_at", KEY_VEC3, AT(look_at), M_ALL, NULL, 0, 0, NULL},
-    {"up", KEY_VEC3, AT(up), M_ALL, NULL, 0, 0, NULL},
-    {"fov", KEY_NUMBER, AT(fov), M_ALL, NULL, 0, 0, NULL},
-    /* thin lens */
-    {"focus_distance", KEY_NUMBER, AT(focus_distance), M_THINLENS, NULL, 0, 0,
-     NULL},
-    {"aperture_radius", KEY_NUMBER, AT(aperture_radius), M_THINLENS, NULL, 0,
-     0, NULL},
-    {"f_number", KEY_NUMBER, AT(f_number), M_THINLENS, NULL, 0, 0, NULL},
-    {"focal_length_mm", KEY_NUMBER, AT(focal_length_mm), M_THINLENS, NULL, 0,
-     0, NULL},
-    {"aperture_shape", KEY_ENUM, AT(aperture_shape), M_THINLENS, shape_names,
-     0, 0, NULL},
-    {"aperture_blades", KEY_INT, AT(aperture_blades), M_THINLENS, NULL, 3, 64,
-     NULL},
-    {"aperture_rotation", KEY_NUMBER, AT(aperture_rotation), M_THINLENS, NULL,
-     0, 0, NULL},
-    {"aperture_ratio", KEY_NUMBER, AT(aperture_ratio), M_THINLENS, NULL, 0, 0,
-     NULL},
-    /* autofocus sets the thin lens's focus_distance, the bracket's
-     * focal_length */
-    {"focus_on", KEY_OBJECT, AT(focus_on), M_THINLENS | M_BRACKET, NULL, 0, 0,
-     parse_focus_on},
-    /* bracket */
-    {"image_plane_distance", KEY_NUMBER, AT(image_plane_distance), M_BRACKET,
-     NULL, 0, 0, NULL},
-    {"focal_length", KEY_NUMBER, AT(focal_length), M_BRACKET, NULL, 0, 0,
-     NULL},
-    {"aperture", KEY_NUMBER, AT(aperture), M_BRACKET, NULL, 0, 0, NULL},
-    /* every model with a lens */
-    {"chromatic", KEY_OBJECT, AT(chromatic), M_THINLENS | M_BRACKET, NULL, 0,
-     0, parse_chromatic},
+/* The keys every camera takes, before the models' own. */
+static const lr__camera_key common_keys[] = {
+    {"model", LR__KEY_CUSTOM, AT(model), NULL, 0, 0},
+    {"position", LR__KEY_VEC3, AT(position), NULL, 0, 0},
+    {"look_at", LR__KEY_VEC3, AT(look_at), NULL, 0, 0},
+    {"up", LR__KEY_VEC3, AT(up), NULL, 0, 0},
+    {"fov", LR__KEY_NUMBER, AT(fov), NULL, 0, 0},
+    {NULL, 0, 0, NULL, 0, 0},
 };
 
-#define N_KEYS (sizeof camera_keys / sizeof camera_keys[0])
+/* And after them, the keys of models with a lens (lr__camera_model.lens):
+ * autofocus and chromatic aberration. */
+static const lr__camera_key lens_keys[] = {
+    {"focus_on", LR__KEY_CUSTOM, AT(focus_on), NULL, 0, 0},
+    {"chromatic", LR__KEY_CUSTOM, AT(chromatic), NULL, 0, 0},
+    {NULL, 0, 0, NULL, 0, 0},
+};
 
-static lr_status read_key(const cJSON *c, const camera_key *k, lr_camera *cam,
-                          lr_error *err)
+static lr_status read_key(const cJSON *c, const lr__camera_key *k,
+                          lr_camera *cam, lr_error *err)
 {
     void *field = (char *)cam + k->offset;
     switch (k->type) {
-    case KEY_NUMBER:
+    case LR__KEY_NUMBER:
         return lr__json_number(c, k->name, "camera", 0, field, err);
-    case KEY_INT: {
+    case LR__KEY_INT: {
         int *f = field;
         long long v = *f;
         LR_TRY(lr__json_int(c, k->name, "camera", 0, k->min, k->max, &v,
@@ -193,38 +156,64 @@ static lr_status read_key(const cJSON *c, const camera_key *k, lr_camera *cam,
         *f = (int)v;
         return LR_OK;
     }
-    case KEY_VEC3: {
+    case LR__KEY_VEC3: {
         double *f = field;
         lr__v3 v = v3a(f);
         LR_TRY(lr__json_vec3(c, k->name, "camera", 0, &v, err));
         f[0] = v.x, f[1] = v.y, f[2] = v.z;
         return LR_OK;
     }
-    case KEY_ENUM:
+    case LR__KEY_ENUM:
         return lr__json_enum(c, k->name, "camera", k->names, field, err);
-    case KEY_OBJECT: {
+    case LR__KEY_CUSTOM: {
         const cJSON *v = cJSON_GetObjectItemCaseSensitive(c, k->name);
-        return v == NULL ? LR_OK : k->parse(v, cam, err);
+        if (v == NULL)
+            return LR_OK;
+        if (strcmp(k->name, "model") == 0)
+            return parse_model(c, cam, err);
+        if (strcmp(k->name, "focus_on") == 0)
+            return parse_focus_on(v, cam, err);
+        return parse_chromatic(v, cam, err);
     }
     }
     return lr__fail(err, LR_ERR_INVALID, NULL, "camera.%s: unknown key type",
                     k->name);
 }
 
+/* Calls fn on every key, in the order they are read (which decides which
+ * error comes first) and listed in "unknown key" errors: the common keys,
+ * each model's in registry order, the lens keys. */
+#define MAX_KEYS 64
+static size_t all_keys(const lr__camera_key **out)
+{
+    size_t n = 0;
+    for (const lr__camera_key *k = common_keys; k->name != NULL; k++)
+        out[n++] = k;
+    for (int m = 0; lr__camera_models[m] != NULL; m++)
+        for (const lr__camera_key *k = lr__camera_models[m]->keys;
+             k->name != NULL && n < MAX_KEYS - 3; k++)
+            out[n++] = k;
+    for (const lr__camera_key *k = lens_keys; k->name != NULL; k++)
+        out[n++] = k;
+    return n;
+}
+
 lr_status lr__camera_from_json(const cJSON *c, lr_camera *cam, lr_error *err)
 {
-    const char *names[N_KEYS + 1];
+    const lr__camera_key *keys[MAX_KEYS];
+    const char *names[MAX_KEYS + 1];
     if (c == NULL)
         return LR_OK;
     if (!cJSON_IsObject(c))
         return lr__fail(err, LR_ERR_INVALID, "camera",
                         "camera must be an object");
-    for (size_t i = 0; i < N_KEYS; i++)
-        names[i] = camera_keys[i].name;
-    names[N_KEYS] = NULL;
+    size_t n = all_keys(keys);
+    for (size_t i = 0; i < n; i++)
+        names[i] = keys[i]->name;
+    names[n] = NULL;
     LR_TRY(lr__json_check_keys(c, "camera", names, err));
-    for (size_t i = 0; i < N_KEYS; i++)
-        LR_TRY(read_key(c, &camera_keys[i], cam, err));
+    for (size_t i = 0; i < n; i++)
+        LR_TRY(read_key(c, keys[i], cam, err));
     return lr_camera_validate(cam, err);
 }
 
@@ -240,6 +229,16 @@ lr_status lr_camera_apply_json(lr_camera *cam, const char *json, size_t len,
     lr_camera tmp = *cam;
     lr_status st = lr__camera_from_json(root, &tmp, err);
     cJSON_Delete(root);
+    if (st == LR_OK)
+        *cam = tmp;
+    return st;
+}
+
+lr_status lr__camera_apply_cjson(lr_camera *cam, const cJSON *obj,
+                                 lr_error *err)
+{
+    lr_camera tmp = *cam;
+    lr_status st = lr__camera_from_json(obj, &tmp, err);
     if (st == LR_OK)
         *cam = tmp;
     return st;

@@ -49,6 +49,7 @@ const char *lr_status_name(lr_status status)
     case LR_ERR_EMBREE: return "embree";
     case LR_ERR_CANCELLED: return "cancelled";
     case LR_ERR_LIMIT: return "limit";
+    case LR_ERR_SYNTAX: return "syntax";
     }
     return "unknown";
 }

@@ -1,7 +1,8 @@
 /*
- * image.c: the lr_image container, output options, format detection,
- * encoding dispatch, atomic file writes and the sRGB transfer curve.
- * The encoders themselves live in image_exr.c and image_png.c.
+ * image.c: the lr_image container, output options, encoding dispatch,
+ * atomic file writes and the sRGB transfer curve (format names and
+ * extensions: format.c).  The encoders themselves live in image_exr.c
+ * and image_png.c.
  */
 #include "internal.h"
 
@@ -13,7 +14,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <strings.h>
 #include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
@@ -117,34 +117,6 @@ void lr_output_options_default(lr_output_options *o)
     o->exr_half = 0;
     o->exr_depth = 1;
     o->png_16bit = 0;
-}
-
-lr_status lr_format_from_path(const char *path, lr_format *fmt,
-                              lr_error *err)
-{
-    if (path == NULL || fmt == NULL)
-        return lr__fail(err, LR_ERR_INVALID, NULL,
-                        "lr_format_from_path: path and format pointer must "
-                        "not be NULL");
-
-    /* Only a dot in the last path component starts an extension, so that
-     * "out.d/image" is not mistaken for an image with extension
-     * "d/image". */
-    const char *base = strrchr(path, '/');
-    base = base ? base + 1 : path;
-    const char *dot = strrchr(base, '.');
-    if (dot != NULL && strcasecmp(dot, ".exr") == 0) {
-        *fmt = LR_FORMAT_EXR;
-        return LR_OK;
-    }
-    if (dot != NULL && strcasecmp(dot, ".png") == 0) {
-        *fmt = LR_FORMAT_PNG;
-        return LR_OK;
-    }
-    return lr__fail(err, LR_ERR_INVALID, NULL,
-                    "cannot tell the image format of '%s': the file name "
-                    "must end in .exr or .png (any case)",
-                    path);
 }
 
 /* ---- encoding ---------------------------------------------------------- */

@@ -94,6 +94,12 @@ typedef struct lr__mesh {
  * into err->path.  On success the caller frees with lr__mesh_free. */
 lr_status lr__obj_load(const char *file, const char *json_path,
                        lr__mesh *out, lr_error *err);
+/* The same, with messages naming the file as `shown` (e.g. the path
+ * the scene wrote, relative to its directory) rather than `file`, the
+ * path opened. */
+lr_status lr__obj_load_named(const char *file, const char *shown,
+                             const char *json_path, lr__mesh *out,
+                             lr_error *err);
 void lr__mesh_free(lr__mesh *m);
 
 #endif /* LR_INTERNAL_H */

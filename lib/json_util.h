@@ -34,6 +34,16 @@ size_t lr__utf8_invalid_at(const char *s);
  * does not cut a UTF-8 character, for "%.*s" in messages. */
 int lr__utf8_prefix(const char *s, int max);
 
+/* Copies s into out (of capacity cap, NUL-terminated), with every byte
+ * that is not part of valid UTF-8 written as \xHH, for quoting user text
+ * in messages. */
+void lr__utf8_escape(const char *s, char *out, size_t cap);
+
+/* json_parse.c: the offset where JSON text first nests deeper than `max`
+ * brackets (outside strings), or len: a linear scan, so that hostile
+ * input never reaches cJSON's recursive parser. */
+size_t lr__json_depth_at(const char *s, size_t len, int max);
+
 /* "a string", "an array", "the number 3.5", ... for error messages. */
 void lr__json_describe(const cJSON *v, char *out, size_t n);
 

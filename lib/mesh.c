@@ -51,13 +51,13 @@ static float *smooth_normals(const lr__mesh *m)
     return out;
 }
 
-lr_status lr__scene_add_obj(lr_scene *s, const char *file, const char *fp,
-                            int smooth, const lr__xform *x, int material,
-                            lr_error *err)
+lr_status lr__scene_add_obj(lr_scene *s, const char *file,
+                            const char *shown, const char *fp, int smooth,
+                            const lr__xform *x, int material, lr_error *err)
 {
     lr__mesh m;
     memset(&m, 0, sizeof m);
-    lr_status st = lr__obj_load(file, fp, &m, err);
+    lr_status st = lr__obj_load_named(file, shown, fp, &m, err);
     if (st != LR_OK) {
         /* Prefix the OBJ error with the field that named the file. */
         if (err != NULL && strncmp(err->message, fp, strlen(fp)) != 0) {

@@ -586,15 +586,16 @@ static lr_status parse_buffer(parser *ps, char *buf, size_t len,
 /* Reads the whole file into a NUL-terminated buffer.  Reading in a loop
  * rather than trusting the size from fstat also copes with pipes and with
  * files that change while we read them. */
-static lr_status read_file(const char *file, const char *json_path,
-                           char **out, size_t *out_len, lr_error *err)
+static lr_status read_file(const char *file, const char *shown,
+                           const char *json_path, char **out,
+                           size_t *out_len, lr_error *err)
 {
     *out = NULL;
     *out_len = 0;
     FILE *f = fopen(file, "rb");
     if (f == NULL)
         return lr__fail(err, LR_ERR_IO, json_path, "%s: cannot open: %s",
-                        file, strerror(errno));
+                        shown, strerror(errno));
 
     /* Two bytes beyond the size: one for the terminating NUL and one so
      * that the first fread comes up short and shows the end of the file
@@ -607,7 +608,7 @@ static lr_status read_file(const char *file, const char *json_path,
             return lr__fail(err, LR_ERR_LIMIT, json_path,
                             "%s: the file is larger than the %zu MiB limit "
                             "for OBJ files",
-                            file, OBJ_MAX_BYTES >> 20);
+                            shown, OBJ_MAX_BYTES >> 20);
         }
         cap = (size_t)sb.st_size + 2;
     }
@@ -615,7 +616,7 @@ static lr_status read_file(const char *file, const char *json_path,
     if (buf == NULL) {
         fclose(f);
         return lr__fail(err, LR_ERR_NOMEM, json_path,
-                        "%s: out of memory reading the file", file);
+                        "%s: out of memory reading the file", shown);
     }
     size_t len = 0;
     for (;;) {
@@ -627,7 +628,7 @@ static lr_status read_file(const char *file, const char *json_path,
                 free(buf);
                 fclose(f);
                 return lr__fail(err, LR_ERR_NOMEM, json_path,
-                                "%s: out of memory reading the file", file);
+                                "%s: out of memory reading the file", shown);
             }
             buf = nbuf;
             cap = ncap;
@@ -651,7 +652,7 @@ static lr_status read_file(const char *file, const char *json_path,
             return lr__fail(err, LR_ERR_LIMIT, json_path,
                             "%s: the file is larger than the %zu MiB limit "
                             "for OBJ files",
-                            file, OBJ_MAX_BYTES >> 20);
+                            shown, OBJ_MAX_BYTES >> 20);
         }
         if (got < want) {
             if (ferror(f)) {
@@ -659,7 +660,7 @@ static lr_status read_file(const char *file, const char *json_path,
                 free(buf);
                 fclose(f);
                 return lr__fail(err, LR_ERR_IO, json_path,
-                                "%s: cannot read: %s", file, strerror(e));
+                                "%s: cannot read: %s", shown, strerror(e));
             }
             break;
         }
@@ -674,21 +675,30 @@ static lr_status read_file(const char *file, const char *json_path,
 lr_status lr__obj_load(const char *file, const char *json_path,
                        lr__mesh *out, lr_error *err)
 {
+    return lr__obj_load_named(file, file, json_path, out, err);
+}
+
+lr_status lr__obj_load_named(const char *file, const char *shown,
+                             const char *json_path, lr__mesh *out,
+                             lr_error *err)
+{
     if (out != NULL)
         memset(out, 0, sizeof *out);
     if (file == NULL || out == NULL)
         return lr__fail(err, LR_ERR_INVALID, json_path,
                         "lr__obj_load: file and out must not be NULL");
+    if (shown == NULL)
+        shown = file;
 
     char *buf = NULL;
     size_t len = 0;
-    lr_status st = read_file(file, json_path, &buf, &len, err);
+    lr_status st = read_file(file, shown, json_path, &buf, &len, err);
     if (st != LR_OK)
         return st;
 
     parser ps;
     memset(&ps, 0, sizeof ps);
-    ps.file = file;
+    ps.file = shown;
     ps.json_path = json_path;
     ps.err = err;
     ps.all_normals = 1;
@@ -699,7 +709,7 @@ lr_status lr__obj_load(const char *file, const char *json_path,
         free(buf);
         return lr__fail(err, LR_ERR_NOMEM, json_path,
                         "%s: out of memory setting up the number parser",
-                        file);
+                        shown);
     }
 
     size_t last_line = 1;

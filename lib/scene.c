@@ -190,6 +190,7 @@ void lr_scene_free(lr_scene *s)
         free(s->materials[i].name);
     free(s->materials);
     free(s->lights);
+    free(s->description);
     if (s->rtc != NULL)
         rtcReleaseScene(s->rtc);
     if (s->device != NULL)
@@ -205,3 +206,8 @@ void lr_scene_settings(const lr_scene *s, lr_render_settings *rs)
 }
 
 size_t lr_scene_primitive_count(const lr_scene *s) { return s->n_primitives; }
+
+const char *lr_scene_description(const lr_scene *s)
+{
+    return s->description ? s->description : "";
+}

@@ -78,6 +78,7 @@ struct lr_scene {
     double extent;         /* largest coordinate magnitude in the scene */
     lr_camera camera;
     lr_render_settings settings;
+    char *description;     /* the scene's "description", "" if none */
     /* Rays lr__trace and lr__occluded did not give Embree (see
      * lr__embree_can_trace), over the scene's life; the one member that
      * changes while renders share the scene. */

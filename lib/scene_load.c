@@ -209,7 +209,8 @@ static lr_status add_mesh(lr_scene *s, const cJSON *o, const char *p,
     char *full = join_path(base_dir, file);
     if (full == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
-    lr_status st = lr__scene_add_obj(s, full, fp, smooth, x, material, err);
+    lr_status st =
+        lr__scene_add_obj(s, full, file, fp, smooth, x, material, err);
     free(full);
     return st;
 }
@@ -390,6 +391,9 @@ static lr_status build(lr_scene *s, const cJSON *root, const char *base_dir,
     LR_TRY(lr__json_check_keys(root, "", keys, err));
     const char *desc = NULL;
     LR_TRY(lr__json_string(root, "description", "", 0, &desc, err));
+    s->description = strdup(desc ? desc : "");
+    if (s->description == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     lr_camera_default(&s->camera);
     lr_render_settings_default(&s->settings);
     LR_TRY(lr__camera_from_json(cJSON_GetObjectItemCaseSensitive(root, "camera"), &s->camera, err));

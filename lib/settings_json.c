@@ -5,6 +5,7 @@
  * lr_render_settings_apply_json.
  */
 #include "json_util.h"
+#include "apply_json.h"
 #include "settings_json.h"
 
 #include <math.h>
@@ -116,6 +117,16 @@ lr_status lr_render_settings_apply_json(lr_render_settings *s,
     lr_render_settings tmp = *s;
     lr_status st = lr__settings_from_json(root, &tmp, err);
     cJSON_Delete(root);
+    if (st == LR_OK)
+        *s = tmp;
+    return st;
+}
+
+lr_status lr__render_apply_cjson(lr_render_settings *s, const cJSON *obj,
+                                 lr_error *err)
+{
+    lr_render_settings tmp = *s;
+    lr_status st = lr__settings_from_json(obj, &tmp, err);
     if (st == LR_OK)
         *s = tmp;
     return st;

@@ -1,26 +1,24 @@
 /*
  * api.c: what a job body means.  Turns the JSON of POST /v1/render and
- * POST /v1/jobs into a validated lrd_job_spec:
+ * POST /v1/jobs into a validated lrd_job_spec, and builds the scene
+ * listing of GET /v1/scenes.
  *
- *   {"scene": "cornell" | {inline scene},
- *    "camera": {...overrides...}, "render": {...overrides...},
- *    "output": {"format": "png" | "exr", "bit_depth": 8 | 16,
- *               "half": bool, "depth": bool}}
- *
- * The camera and render keys go through lr_camera_apply_json and
- * lr_render_settings_apply_json on top of the scene's own defaults
- * (lr_scene_camera, lr_scene_settings), so the daemon accepts exactly the
- * keys the scene format does, including ones the library adds later.
- * Also builds the scene listing of GET /v1/scenes.
+ * The library reads the job (lr_job_parse: the text is parsed once, its
+ * shape, nesting and UTF-8 checked there) and applies its camera, render
+ * and output members on top of the scene's own values (lr_job_apply,
+ * which validates each once), so the daemon accepts exactly the keys the
+ * scene format does, including ones the library adds later.  What stays
+ * here is the server's own policy: where scenes come from (the cache),
+ * which mesh files an inline scene may reach, and the size limits.
  */
 #include "lensrayd.h"
 
 #include <dirent.h>
-#include <errno.h>
 #include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 void lrd_job_spec_clear(lrd_job_spec *spec)
 {
@@ -28,244 +26,63 @@ void lrd_job_spec_clear(lrd_job_spec *spec)
     spec->scene = NULL;
 }
 
-int lrd_api_check_depth(const char *body, size_t len, long max_depth,
-                        lrd_err *e)
+/* Whether `resolved` (absolute, symlinks resolved) lies strictly inside
+ * the scenes directory (itself absolute and resolved, so "/" is the only
+ * form that ends in a slash). */
+static int inside_scenes_dir(const char *resolved)
 {
-    /* A linear scan that only tracks strings and brackets, so that a body
-     * of a million '[' never reaches cJSON's recursive parser. */
-    long depth = 0;
-    int in_string = 0, escaped = 0;
-    for (size_t i = 0; i < len; i++) {
-        char c = body[i];
-        if (in_string) {
-            if (escaped)
-                escaped = 0;
-            else if (c == '\\')
-                escaped = 1;
-            else if (c == '"')
-                in_string = 0;
-        } else if (c == '"') {
-            in_string = 1;
-        } else if (c == '{' || c == '[') {
-            if (++depth > max_depth)
-                return lrd_fail(e, 400, "too_deep", NULL,
-                                "the JSON body nests deeper than %ld levels "
-                                "(at byte %zu; --max-json-depth)",
-                                max_depth, i);
-        } else if (c == '}' || c == ']') {
-            depth--;
-        }
-    }
-    return 0;
-}
-
-/* The offset of the first byte of `s` (len bytes) that does not start a
- * valid UTF-8 sequence (RFC 3629: shortest form, no surrogates, at most
- * U+10FFFF), or len if all of it is valid. */
-static size_t utf8_invalid_at(const char *s, size_t len)
-{
-    const unsigned char *p = (const unsigned char *)s;
-    size_t i = 0;
-    while (i < len) {
-        unsigned c = p[i];
-        size_t n;
-        unsigned min, cp;
-        if (c < 0x80) {
-            i++;
-            continue;
-        }
-        if (c >= 0xC2 && c <= 0xDF)
-            n = 1, min = 0x80;
-        else if (c >= 0xE0 && c <= 0xEF)
-            n = 2, min = 0x800;
-        else if (c >= 0xF0 && c <= 0xF4)
-            n = 3, min = 0x10000;
-        else
-            return i;
-        if (i + n >= len)
-            return i;
-        cp = c & (0x3Fu >> n);
-        for (size_t k = 1; k <= n; k++) {
-            if ((p[i + k] & 0xC0) != 0x80)
-                return i;
-            cp = (cp << 6) | (p[i + k] & 0x3Fu);
-        }
-        if (cp < min || cp > 0x10FFFF || (cp >= 0xD800 && cp <= 0xDFFF))
-            return i;
-        i += n + 1;
-    }
-    return len;
-}
-
-/* Checks an object's keys against a list and for duplicates; `prefix`
- * names the object in the path ("" for the top level). */
-static int check_keys(const cJSON *obj, const char *prefix,
-                      const char *const *allowed, lrd_err *e)
-{
-    for (const cJSON *c = obj->child; c != NULL; c = c->next) {
-        const char *k = c->string ? c->string : "";
-        char path[300];
-        if (prefix[0] != '\0')
-            snprintf(path, sizeof path, "%s.%s", prefix, k);
-        else
-            snprintf(path, sizeof path, "%s", k);
-        lrd_utf8_trim(path);
-        int ok = 0;
-        for (size_t i = 0; allowed[i] != NULL; i++)
-            if (strcmp(k, allowed[i]) == 0)
-                ok = 1;
-        if (!ok) {
-            char list[256] = "";
-            size_t used = 0;
-            for (size_t i = 0; allowed[i] != NULL && used < sizeof list; i++)
-                used += (size_t)snprintf(list + used, sizeof list - used,
-                                         "%s%s", i ? ", " : "", allowed[i]);
-            return lrd_fail(e, 422, "invalid_value", path,
-                            "%s: unknown key \"%s\" (expected one of: %s)",
-                            path, k, list);
-        }
-        for (const cJSON *d = c->next; d != NULL; d = d->next)
-            if (d->string != NULL && strcmp(d->string, k) == 0)
-                return lrd_fail(e, 422, "invalid_value", path,
-                                "%s: duplicate key \"%s\"", path, k);
-    }
-    return 0;
+    const char *dir = lrd_cfg.scenes_dir;
+    size_t dl = strlen(dir);
+    if (dl > 0 && dir[dl - 1] == '/')
+        dl--;
+    return strncmp(resolved, dir, dl) == 0 && resolved[dl] == '/' &&
+           resolved[dl + 1] != '\0';
 }
 
 /* Inline scenes may only use mesh files inside the scenes directory: no
  * absolute paths, no ".." components, and no symbolic link that resolves
- * outside it.  A missing file is reported here too, so that the error does
- * not show the server's directory layout. */
-static int check_mesh_paths(const cJSON *scene, lrd_err *e)
+ * outside it.  A missing file, or one that is not a regular file (a
+ * directory, the scenes directory itself), is reported here too, so that
+ * the error does not show the server's directory layout. */
+static int check_mesh_path(const char *file, const char *field, lrd_err *e)
 {
-    const cJSON *objs = cJSON_GetObjectItemCaseSensitive(scene, "objects");
-    if (!cJSON_IsArray(objs))
-        return 0; /* the library reports the type error */
-    int i = 0;
-    for (const cJSON *o = objs->child; o != NULL; o = o->next, i++) {
-        const cJSON *f = cJSON_GetObjectItemCaseSensitive(o, "file");
-        if (!cJSON_IsString(f) || f->valuestring[0] == '\0')
-            continue;
-        const char *file = f->valuestring;
-        char path[64];
-        snprintf(path, sizeof path, "scene.objects[%d].file", i);
-        if (file[0] == '/')
-            return lrd_fail(e, 422, "forbidden_path", path,
-                            "%s must be a path relative to the scenes "
-                            "directory, not an absolute path",
-                            path);
-        for (const char *p = file; *p != '\0';) {
-            const char *slash = strchr(p, '/');
-            size_t n = slash ? (size_t)(slash - p) : strlen(p);
-            if (n == 2 && p[0] == '.' && p[1] == '.')
-                return lrd_fail(e, 422, "forbidden_path", path,
-                                "%s must stay inside the scenes directory: "
-                                "\"..\" is not allowed",
-                                path);
-            p += n;
-            if (*p == '/')
-                p++;
-        }
-        char joined[PATH_MAX + 64];
-        snprintf(joined, sizeof joined, "%s/%s", lrd_cfg.scenes_dir, file);
-        char resolved[PATH_MAX];
-        if (realpath(joined, resolved) == NULL)
-            return lrd_fail(e, 422, "invalid_value", path,
-                            "%s: there is no mesh file \"%s\" in the scenes "
-                            "directory",
-                            path, file);
-        size_t dl = strlen(lrd_cfg.scenes_dir);
-        if (strncmp(resolved, lrd_cfg.scenes_dir, dl) != 0 ||
-            resolved[dl] != '/')
-            return lrd_fail(e, 422, "forbidden_path", path,
-                            "%s must stay inside the scenes directory (it "
-                            "leads outside through a symbolic link)",
-                            path);
+    if (file[0] == '/')
+        return lrd_fail(e, 422, "forbidden_path", field,
+                        "%s must be a path relative to the scenes "
+                        "directory, not an absolute path",
+                        field);
+    for (const char *p = file; *p != '\0';) {
+        const char *slash = strchr(p, '/');
+        size_t n = slash ? (size_t)(slash - p) : strlen(p);
+        if (n == 2 && p[0] == '.' && p[1] == '.')
+            return lrd_fail(e, 422, "forbidden_path", field,
+                            "%s must stay inside the scenes directory: "
+                            "\"..\" is not allowed",
+                            field);
+        p += n;
+        if (*p == '/')
+            p++;
     }
-    return 0;
-}
-
-static int parse_output(const cJSON *o, lrd_job_spec *spec, lrd_err *e)
-{
-    static const char *const keys[] = {"format", "bit_depth", "half",
-                                       "depth", NULL};
-    spec->format = LR_FORMAT_PNG;
-    lr_output_options_default(&spec->out);
-    int depth = spec->rs.want_depth;
-    if (o == NULL) {
-        spec->rs.want_depth = 0;
-        return 0;
-    }
-    if (!cJSON_IsObject(o))
-        return lrd_fail(e, 422, "invalid_value", "output",
-                        "output must be an object like {\"format\": "
-                        "\"png\"}");
-    if (check_keys(o, "output", keys, e) != 0)
-        return -1;
-    const cJSON *fmt = cJSON_GetObjectItemCaseSensitive(o, "format");
-    if (fmt != NULL) {
-        if (cJSON_IsString(fmt) && strcmp(fmt->valuestring, "png") == 0)
-            spec->format = LR_FORMAT_PNG;
-        else if (cJSON_IsString(fmt) && strcmp(fmt->valuestring, "exr") == 0)
-            spec->format = LR_FORMAT_EXR;
-        else
-            return lrd_fail(e, 422, "invalid_value", "output.format",
-                            "output.format must be \"png\" or \"exr\"");
-    }
-    int png = spec->format == LR_FORMAT_PNG;
-    const cJSON *bd = cJSON_GetObjectItemCaseSensitive(o, "bit_depth");
-    if (bd != NULL) {
-        if (!png)
-            return lrd_fail(e, 422, "invalid_value", "output.bit_depth",
-                            "output.bit_depth applies to png only");
-        if (!cJSON_IsNumber(bd) ||
-            (bd->valuedouble != 8 && bd->valuedouble != 16))
-            return lrd_fail(e, 422, "invalid_value", "output.bit_depth",
-                            "output.bit_depth must be 8 or 16");
-        spec->out.png_16bit = bd->valuedouble == 16;
-    }
-    const cJSON *half = cJSON_GetObjectItemCaseSensitive(o, "half");
-    if (half != NULL) {
-        if (png)
-            return lrd_fail(e, 422, "invalid_value", "output.half",
-                            "output.half applies to exr only");
-        if (!cJSON_IsBool(half))
-            return lrd_fail(e, 422, "invalid_value", "output.half",
-                            "output.half must be true or false");
-        spec->out.exr_half = cJSON_IsTrue(half);
-    }
-    const cJSON *dp = cJSON_GetObjectItemCaseSensitive(o, "depth");
-    if (dp != NULL) {
-        if (png)
-            return lrd_fail(e, 422, "invalid_value", "output.depth",
-                            "output.depth applies to exr only (png has no "
-                            "depth channel)");
-        if (!cJSON_IsBool(dp))
-            return lrd_fail(e, 422, "invalid_value", "output.depth",
-                            "output.depth must be true or false");
-        depth = cJSON_IsTrue(dp);
-    }
-    /* A Z channel is rendered only when it is written. */
-    spec->rs.want_depth = png ? 0 : depth;
-    spec->out.exr_depth = spec->rs.want_depth;
-    return 0;
-}
-
-/* Applies a "camera" or "render" member through the library. */
-static int apply_member(const cJSON *v, lrd_job_spec *spec, int camera,
-                        lrd_err *e)
-{
-    char *text = lrd_json_print(v);
-    if (text == NULL)
-        return lrd_fail(e, 503, "out_of_memory", NULL, "out of memory");
-    lr_error le;
-    lr_status st = camera ? lr_camera_apply_json(&spec->cam, text,
-                                                 strlen(text), &le)
-                          : lr_render_settings_apply_json(&spec->rs, text,
-                                                          strlen(text), &le);
-    free(text);
-    if (st != LR_OK)
-        return lrd_fail_lr(e, &le, NULL, 0);
+    char joined[PATH_MAX + 64];
+    snprintf(joined, sizeof joined, "%s/%s", lrd_cfg.scenes_dir, file);
+    char resolved[PATH_MAX];
+    struct stat st;
+    if (realpath(joined, resolved) == NULL || stat(resolved, &st) != 0)
+        return lrd_fail(e, 422, "invalid_value", field,
+                        "%s: there is no mesh file \"%s\" in the scenes "
+                        "directory",
+                        field, file);
+    /* Checked before the symbolic links: "." and "meshes/" resolve to
+     * directories inside (or at) the scenes directory, not outside it. */
+    if (!S_ISREG(st.st_mode))
+        return lrd_fail(e, 422, "invalid_value", field,
+                        "%s: \"%s\" is a directory, not a mesh file", field,
+                        file);
+    if (!inside_scenes_dir(resolved))
+        return lrd_fail(e, 422, "forbidden_path", field,
+                        "%s must stay inside the scenes directory (it "
+                        "leads outside through a symbolic link)",
+                        field);
     return 0;
 }
 
@@ -302,93 +119,49 @@ static int check_limits(lrd_job_spec *spec, lrd_err *e)
     return 0;
 }
 
+/* The job's scene: a named one from the cache, or an inline one whose
+ * mesh paths are checked first.  NULL with *e filled on error. */
+static lrd_scene *job_scene(const lr_job *job, lrd_job_spec *spec,
+                            lrd_err *e)
+{
+    const char *name = lr_job_scene_name(job);
+    if (name != NULL) {
+        snprintf(spec->scene_name, sizeof spec->scene_name, "%s", name);
+        return lrd_scene_named(name, e);
+    }
+    const char *file, *field;
+    for (size_t k = 0; lr_job_mesh_file(job, k, &file, &field); k++)
+        if (check_mesh_path(file, field, e) != 0)
+            return NULL;
+    size_t len = 0;
+    const char *text = lr_job_scene_json(job, &len);
+    return lrd_scene_inline(text, len, e);
+}
+
 int lrd_api_parse_job(const char *body, size_t len, lrd_job_spec *spec,
                       lrd_err *e)
 {
-    static const char *const keys[] = {"scene", "camera", "render", "output",
-                                       NULL};
     memset(spec, 0, sizeof *spec);
-    if (len == 0)
-        return lrd_fail(e, 400, "malformed_json", NULL,
-                        "the body is empty; it must be a JSON job object");
-    if (lrd_api_check_depth(body, len, lrd_cfg.max_json_depth, e) != 0)
-        return -1;
-    /* JSON text is UTF-8 (RFC 8259), and error messages echo keys and
-     * names back inside JSON: bytes that are not UTF-8 would make those
-     * answers invalid JSON, so they are refused here, before parsing. */
-    size_t bad = utf8_invalid_at(body, len);
-    if (bad < len)
-        return lrd_fail(e, 400, "malformed_json", NULL,
-                        "the body is not valid UTF-8 (at byte %zu)", bad);
-    const char *end = NULL;
-    cJSON *root = cJSON_ParseWithLengthOpts(body, len, &end, 0);
-    if (root == NULL) {
-        size_t at = end != NULL && end >= body ? (size_t)(end - body) : 0;
-        return lrd_fail(e, 400, "malformed_json", NULL,
-                        "the body is not valid JSON (near byte %zu)", at);
-    }
-    for (const char *p = end; p != NULL && p < body + len; p++)
-        if (*p != ' ' && *p != '\t' && *p != '\r' && *p != '\n') {
-            cJSON_Delete(root);
-            return lrd_fail(e, 400, "malformed_json", NULL,
-                            "the body has text after its JSON value (at "
-                            "byte %zu)",
-                            (size_t)(p - body));
-        }
+    lr_job *job = NULL;
+    lr_error le;
+    lr_status st = lr_job_parse(body, len, (int)lrd_cfg.max_json_depth,
+                                &job, &le);
+    if (st == LR_ERR_SYNTAX)
+        return lrd_fail(e, 400, "malformed_json", NULL, "%s", le.message);
+    if (st == LR_ERR_LIMIT)
+        return lrd_fail(e, 400, "too_deep", NULL, "%s (--max-json-depth)",
+                        le.message);
+    if (st != LR_OK)
+        return lrd_fail_lr(e, &le, NULL, 0);
 
     int rc = -1;
-    if (!cJSON_IsObject(root)) {
-        lrd_fail(e, 422, "invalid_value", NULL,
-                 "the body must be a JSON object: {\"scene\": ..., "
-                 "\"camera\": {...}, \"render\": {...}, \"output\": {...}}");
-        goto out;
-    }
-    if (check_keys(root, "", keys, e) != 0)
-        goto out;
-
-    const cJSON *scene = cJSON_GetObjectItemCaseSensitive(root, "scene");
-    if (cJSON_IsString(scene)) {
-        spec->scene = lrd_scene_named(scene->valuestring, e);
-        snprintf(spec->scene_name, sizeof spec->scene_name, "%s",
-                 scene->valuestring);
-    } else if (cJSON_IsObject(scene)) {
-        if (check_mesh_paths(scene, e) != 0)
-            goto out;
-        char *text = lrd_json_print(scene);
-        if (text == NULL) {
-            lrd_fail(e, 503, "out_of_memory", NULL, "out of memory");
-            goto out;
-        }
-        spec->scene = lrd_scene_inline(text, strlen(text), e);
-        free(text);
-    } else {
-        lrd_fail(e, 422, "invalid_value", "scene",
-                 scene == NULL ? "scene is required: the name of a scene "
-                                 "(GET /v1/scenes) or an inline scene object"
-                               : "scene must be the name of a scene or an "
-                                 "inline scene object");
-        goto out;
-    }
+    spec->scene = job_scene(job, spec, e);
     if (spec->scene == NULL)
         goto out;
-
     lr_scene_camera(lrd_scene_get(spec->scene), &spec->cam);
     lr_scene_settings(lrd_scene_get(spec->scene), &spec->rs);
-    const cJSON *cam = cJSON_GetObjectItemCaseSensitive(root, "camera");
-    if (cam != NULL && apply_member(cam, spec, 1, e) != 0)
-        goto out;
-    const cJSON *ren = cJSON_GetObjectItemCaseSensitive(root, "render");
-    if (ren != NULL && apply_member(ren, spec, 0, e) != 0)
-        goto out;
-    if (parse_output(cJSON_GetObjectItemCaseSensitive(root, "output"), spec,
-                     e) != 0)
-        goto out;
-
-    /* The scene and the overrides were each validated; the combination
-     * (a region that fits the new size, say) is checked once more. */
-    lr_error le;
-    if (lr_camera_validate(&spec->cam, &le) != LR_OK ||
-        lr_render_settings_validate(&spec->rs, &le) != LR_OK) {
+    lr_output_default(&spec->out);
+    if (lr_job_apply(job, &spec->cam, &spec->rs, &spec->out, &le) != LR_OK) {
         lrd_fail_lr(e, &le, NULL, 0);
         goto out;
     }
@@ -396,62 +169,13 @@ int lrd_api_parse_job(const char *body, size_t len, lrd_job_spec *spec,
         goto out;
     rc = 0;
 out:
-    cJSON_Delete(root);
+    lr_job_free(job);
     if (rc != 0)
         lrd_job_spec_clear(spec);
     return rc;
 }
 
 /* ---- GET /v1/scenes ------------------------------------------------------ */
-
-static void set_item(cJSON *obj, const char *key, cJSON *item)
-{
-    if (item == NULL)
-        return;
-    if (cJSON_GetObjectItemCaseSensitive(obj, key) != NULL)
-        cJSON_ReplaceItemInObjectCaseSensitive(obj, key, item);
-    else
-        cJSON_AddItemToObject(obj, key, item);
-}
-
-/* A copy of the file's own object (so that keys this code does not know
- * about, which the library may add later, still show), with the values
- * the library actually loaded put over it. */
-static cJSON *start_from(const cJSON *file_root, const char *key)
-{
-    const cJSON *raw = cJSON_GetObjectItemCaseSensitive(file_root, key);
-    if (cJSON_IsObject(raw))
-        return cJSON_Duplicate(raw, 1);
-    return cJSON_CreateObject();
-}
-
-static cJSON *camera_json(const lr_camera *c, const cJSON *file_root)
-{
-    cJSON *o = start_from(file_root, "camera");
-    if (o == NULL)
-        return NULL;
-    if (c->model == LR_CAMERA_PINHOLE)
-        set_item(o, "model", cJSON_CreateString("pinhole"));
-    set_item(o, "position", cJSON_CreateDoubleArray(c->position, 3));
-    set_item(o, "look_at", cJSON_CreateDoubleArray(c->look_at, 3));
-    set_item(o, "up", cJSON_CreateDoubleArray(c->up, 3));
-    set_item(o, "fov", cJSON_CreateNumber(c->fov));
-    return o;
-}
-
-static cJSON *render_json(const lr_render_settings *s,
-                          const cJSON *file_root)
-{
-    cJSON *o = start_from(file_root, "render");
-    if (o == NULL)
-        return NULL;
-    set_item(o, "width", cJSON_CreateNumber(s->width));
-    set_item(o, "height", cJSON_CreateNumber(s->height));
-    set_item(o, "spp", cJSON_CreateNumber(s->spp));
-    set_item(o, "max_depth", cJSON_CreateNumber(s->max_depth));
-    set_item(o, "seed", cJSON_CreateNumber((double)s->seed));
-    return o;
-}
 
 static int name_cmp(const void *a, const void *b)
 {
@@ -524,32 +248,37 @@ char *lrd_api_scenes_json(lrd_err *e)
             free(names[i]);
             continue;
         }
-        char path[PATH_MAX + 80];
-        snprintf(path, sizeof path, "%s/%s.json", lrd_cfg.scenes_dir,
-                 names[i]);
-        size_t len = 0;
-        char *text = lrd_read_file(path, LRD_MAX_SCENE_FILE, &len);
-        cJSON *file_root = text ? cJSON_ParseWithLength(text, len) : NULL;
-        free(text);
+        const lr_scene *sc = lrd_scene_get(s);
         lr_camera cam;
         lr_render_settings rs;
-        lr_scene_camera(lrd_scene_get(s), &cam);
-        lr_scene_settings(lrd_scene_get(s), &rs);
-        cJSON *item = cJSON_CreateObject();
+        lr_scene_camera(sc, &cam);
+        lr_scene_settings(sc, &rs);
+        char *cam_json = lr_camera_json(&cam);
+        char *rs_json = lr_render_settings_json(&rs);
+        cJSON *item = cam_json && rs_json ? cJSON_CreateObject() : NULL;
+        if (item == NULL) {
+            lr_free(cam_json);
+            lr_free(rs_json);
+            lrd_scene_release(s);
+            for (size_t k = i; k < n; k++)
+                free(names[k]);
+            free(names);
+            cJSON_Delete(root);
+            lrd_fail(e, 503, "out_of_memory", NULL, "out of memory");
+            return NULL;
+        }
         cJSON_AddStringToObject(item, "name", names[i]);
-        const cJSON *desc =
-            cJSON_GetObjectItemCaseSensitive(file_root, "description");
-        if (cJSON_IsString(desc))
-            cJSON_AddStringToObject(item, "description", desc->valuestring);
-        else
-            cJSON_AddStringToObject(item, "description", "");
-        cJSON_AddItemToObject(item, "camera", camera_json(&cam, file_root));
-        cJSON_AddItemToObject(item, "render", render_json(&rs, file_root));
+        cJSON_AddStringToObject(item, "description",
+                                lr_scene_description(sc));
+        /* The library's own JSON of what it loaded, embedded as it is. */
+        cJSON_AddRawToObject(item, "camera", cam_json);
+        cJSON_AddRawToObject(item, "render", rs_json);
+        lr_free(cam_json);
+        lr_free(rs_json);
         cJSON_AddNumberToObject(
             item, "primitives",
-            (double)lr_scene_primitive_count(lrd_scene_get(s)));
+            (double)lr_scene_primitive_count(sc));
         cJSON_AddItemToArray(arr, item);
-        cJSON_Delete(file_root);
         lrd_scene_release(s);
         free(names[i]);
     }

@@ -35,23 +35,15 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
-typedef enum route_id {
-    R_NONE = 0,
-    R_HEALTH,
-    R_METRICS,
-    R_SCENES,
-    R_RENDER,
-    R_JOBS,
-    R_JOB,
-    R_JOB_IMAGE
-} route_id;
+typedef struct req req;
+typedef struct route route;
 
 /* One request, owned by MHD's context pointer. */
-typedef struct req {
+struct req {
     double t0;
     char method[16];
     char path[200];   /* for the log, escaped */
-    route_id route;
+    const route *route; /* NULL until the early checks found one */
     char job_id[33];  /* from the URL or of the job created, for the log */
     char *body;       /* malloc'ed; NUL-terminated */
     size_t len, cap;
@@ -60,7 +52,7 @@ typedef struct req {
     int answered;     /* a response was queued on the first call */
     int status;       /* of the response queued, for the log */
     uint64_t bytes;   /* body bytes of that response */
-} req;
+};
 
 static struct {
     struct MHD_Daemon *d;
@@ -209,79 +201,19 @@ static enum MHD_Result send_image(struct MHD_Connection *c, req *r,
              (unsigned long long)st->camera_rays,
              (unsigned long long)st->full_camera_rays,
              (unsigned long long)st->full_samples);
-    snprintf(disp, sizeof disp, "inline; filename=\"%s.%s\"", r->job_id,
-             fmt == LR_FORMAT_PNG ? "png" : "exr");
+    snprintf(disp, sizeof disp, "inline; filename=\"%s%s\"", r->job_id,
+             lr_format_extension(fmt));
     const char *hdrs[] = {"X-Lensray-Render-Seconds", secs,
                           "X-Lensray-Rays",           rays,
                           "X-Lensray-Samples",        samples,
                           "X-Lensray-Plan",           plan,
                           "Content-Disposition",      disp,
                           NULL};
-    return queue(c, r, 200, resp, lrd_blob_len(img),
-                 fmt == LR_FORMAT_PNG ? "image/png" : "image/x-exr", hdrs);
+    return queue(c, r, 200, resp, lrd_blob_len(img), lr_format_mime(fmt),
+                 hdrs);
 }
 
 /* ---- early checks -------------------------------------------------------- */
-
-static route_id route_of(const char *url, char id[33], const char **allow)
-{
-    id[0] = '\0';
-    if (strcmp(url, "/healthz") == 0) {
-        *allow = "GET, HEAD";
-        return R_HEALTH;
-    }
-    if (strcmp(url, "/metrics") == 0) {
-        *allow = "GET, HEAD";
-        return R_METRICS;
-    }
-    if (strcmp(url, "/v1/scenes") == 0) {
-        *allow = "GET, HEAD";
-        return R_SCENES;
-    }
-    if (strcmp(url, "/v1/render") == 0) {
-        *allow = "POST";
-        return R_RENDER;
-    }
-    if (strcmp(url, "/v1/jobs") == 0) {
-        *allow = "POST";
-        return R_JOBS;
-    }
-    if (strncmp(url, "/v1/jobs/", 9) == 0) {
-        const char *p = url + 9;
-        const char *slash = strchr(p, '/');
-        size_t n = slash ? (size_t)(slash - p) : strlen(p);
-        if (n == 0 || n > 32)
-            return R_NONE;
-        /* An id of the wrong shape is still this route: it gives "no such
-         * job" rather than "no such route". */
-        memcpy(id, p, n);
-        id[n] = '\0';
-        if (slash == NULL) {
-            *allow = "GET, HEAD, DELETE";
-            return R_JOB;
-        }
-        if (strcmp(slash, "/image") == 0) {
-            *allow = "GET, HEAD";
-            return R_JOB_IMAGE;
-        }
-    }
-    return R_NONE;
-}
-
-static int method_allowed(const char *allow, const char *method)
-{
-    size_t n = strlen(method);
-    for (const char *p = allow; *p != '\0';) {
-        const char *comma = strchr(p, ',');
-        size_t len = comma ? (size_t)(comma - p) : strlen(p);
-        if (len == n && strncmp(p, method, n) == 0)
-            return 1;
-        p += len;
-        while (*p == ',' || *p == ' ')
-            p++;
-    }
-    return 0;
-}
 
 static int token_ok(struct MHD_Connection *c)
 {
@@ -317,61 +249,6 @@ static int json_content_type(struct MHD_Connection *c)
         return 0;
     char next = ct[sizeof want - 1];
     return next == '\0' || next == ';' || next == ' ' || next == '\t';
-}
-
-/* The checks that need only the headers.  Returns 1 when a response has
- * been queued (or the connection must close), 0 to go on. */
-static int early(struct MHD_Connection *c, req *r, const char *url,
-                 enum MHD_Result *result)
-{
-    lrd_err e;
-    const char *allow = NULL;
-    char id[33];
-    r->route = route_of(url, id, &allow);
-    if (r->route == R_JOB || r->route == R_JOB_IMAGE)
-        snprintf(r->job_id, sizeof r->job_id, "%s", id);
-    int get = strcmp(r->method, "GET") == 0 || strcmp(r->method, "HEAD") == 0;
-
-    if (lrd_shutting_down()) {
-        lrd_fail(&e, 503, "shutting_down", NULL,
-                 "the server is shutting down");
-        e.retry_after = 1;
-    } else if (r->route != R_HEALTH && !token_ok(c)) {
-        lrd_fail(&e, 401, "unauthorized", NULL,
-                 "this server needs the header 'Authorization: Bearer "
-                 "TOKEN' with the right token");
-    } else if (r->route == R_NONE) {
-        lrd_fail(&e, 404, "not_found", NULL, "there is no route %s %s",
-                 r->method, r->path);
-    } else if (!method_allowed(allow, r->method)) {
-        lrd_fail(&e, 405, "method_not_allowed", NULL,
-                 "%s does not allow %s (allowed: %s)", r->path, r->method,
-                 allow);
-    } else if (!get && strcmp(r->method, "POST") == 0 &&
-               !json_content_type(c)) {
-        lrd_fail(&e, 415, "unsupported_media_type", NULL,
-                 "the body must be sent with 'Content-Type: "
-                 "application/json'");
-    } else {
-        const char *cl = MHD_lookup_connection_value(
-            c, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_LENGTH);
-        uint64_t n = 0;
-        if (cl != NULL && lrd_parse_u64(cl, 0, &n) == 0 &&
-            n > lrd_cfg.max_body) {
-            lrd_fail(&e, 413, "body_too_large", NULL,
-                     "the body is %llu bytes, more than the limit of %llu "
-                     "(--max-body)",
-                     (unsigned long long)n,
-                     (unsigned long long)lrd_cfg.max_body);
-        } else {
-            return 0;
-        }
-    }
-    if (r->route != R_JOB && r->route != R_JOB_IMAGE)
-        r->job_id[0] = '\0';
-    r->answered = 1;
-    *result = send_error(c, r, &e, e.http == 405 ? allow : NULL);
-    return 1;
 }
 
 /* ---- handlers ------------------------------------------------------------ */
@@ -480,24 +357,33 @@ static enum MHD_Result do_job(struct MHD_Connection *c, req *r)
     lrd_job *j = find_or_404(c, r, &result);
     if (j == NULL)
         return result;
-    int status = 200;
-    if (strcmp(r->method, "DELETE") == 0) {
-        lrd_job_result before;
-        lrd_job_result_get(j, &before);
-        lrd_blob_release(before.image);
-        if (before.state >= LRD_DONE) {
-            /* Deleting a finished job frees its image at once. */
-            char *json = lrd_job_status_json(j);
-            lrd_job_forget(j);
-            lrd_job_release(j);
-            return send_json(c, r, 200, json, NULL);
-        }
-        /* A running render stops at its next tile; waiting a moment lets
-         * the answer say "cancelled" rather than "running". */
-        if (lrd_job_cancel(j, LRD_CANCEL_USER) == LRD_RUNNING &&
-            !lrd_job_wait(j, 5.0))
-            status = 202;
+    char *json = lrd_job_status_json(j);
+    lrd_job_release(j);
+    return send_json(c, r, 200, json, NULL);
+}
+
+static enum MHD_Result do_job_delete(struct MHD_Connection *c, req *r)
+{
+    enum MHD_Result result = MHD_NO;
+    lrd_job *j = find_or_404(c, r, &result);
+    if (j == NULL)
+        return result;
+    lrd_job_result before;
+    lrd_job_result_get(j, &before);
+    lrd_blob_release(before.image);
+    if (before.state >= LRD_DONE) {
+        /* Deleting a finished job frees its image at once. */
+        char *json = lrd_job_status_json(j);
+        lrd_job_forget(j);
+        lrd_job_release(j);
+        return send_json(c, r, 200, json, NULL);
     }
+    /* A running render stops at its next tile; waiting a moment lets the
+     * answer say "cancelled" rather than "running". */
+    int status = 200;
+    if (lrd_job_cancel(j, LRD_CANCEL_USER) == LRD_RUNNING &&
+        !lrd_job_wait(j, 5.0))
+        status = 202;
     char *json = lrd_job_status_json(j);
     lrd_job_release(j);
     return send_json(c, r, status, json, NULL);
@@ -531,55 +417,183 @@ static enum MHD_Result do_job_image(struct MHD_Connection *c, req *r)
     return send_error(c, r, &e, NULL);
 }
 
-static enum MHD_Result dispatch(struct MHD_Connection *c, req *r)
+static enum MHD_Result do_health(struct MHD_Connection *c, req *r)
+{
+    lrd_jobs_stats js;
+    lrd_jobs_stats_get(&js);
+    char *json = malloc(160);
+    if (json == NULL)
+        return MHD_NO;
+    snprintf(json, 160,
+             "{\"status\":\"ok\",\"version\":\"%s\",\"workers\":%ld,"
+             "\"running\":%ld,\"queue_depth\":%ld}",
+             LRD_VERSION, lrd_cfg.workers, js.running, js.queue_depth);
+    return send_json(c, r, 200, json, NULL);
+}
+
+static enum MHD_Result do_metrics(struct MHD_Connection *c, req *r)
+{
+    size_t len = 0;
+    char *text = lrd_metrics_text(&len);
+    return send_text(c, r, 200, "text/plain; version=0.0.4; charset=utf-8",
+                     text, len, NULL);
+}
+
+static enum MHD_Result do_scenes(struct MHD_Connection *c, req *r)
 {
     lrd_err e;
+    char *json = lrd_api_scenes_json(&e);
+    if (json == NULL)
+        return send_error(c, r, &e, NULL);
+    return send_json(c, r, 200, json, NULL);
+}
+
+/* ---- routes -------------------------------------------------------------- */
+
+/* A route: a method, a path pattern of literal segments and "{id}" (one
+ * segment of 1 to 32 characters, of any shape: an id of the wrong shape is
+ * still this route, and gets "no such job" rather than "no such route"),
+ * and its handler.  GET routes also answer HEAD (MHD sends no body).
+ * docs/openapi.yaml lists the same routes; tests/api checks them. */
+struct route {
+    const char *method;
+    const char *pattern;
+    enum MHD_Result (*handler)(struct MHD_Connection *c, req *r);
+    int open; /* served without the token (a load balancer's probe) */
+    int body; /* takes a JSON request body */
+};
+
+static const route routes[] = {
+    {"GET", "/healthz", do_health, 1, 0},
+    {"GET", "/metrics", do_metrics, 0, 0},
+    {"GET", "/v1/scenes", do_scenes, 0, 0},
+    {"POST", "/v1/render", do_render, 0, 1},
+    {"POST", "/v1/jobs", do_submit, 0, 1},
+    {"GET", "/v1/jobs/{id}", do_job, 0, 0},
+    {"DELETE", "/v1/jobs/{id}", do_job_delete, 0, 0},
+    {"GET", "/v1/jobs/{id}/image", do_job_image, 0, 0},
+};
+#define N_ROUTES (sizeof routes / sizeof routes[0])
+
+/* Whether `url` matches `pattern`; an {id} segment goes to id[33]. */
+static int match(const char *pattern, const char *url, char id[33])
+{
+    while (*pattern != '\0') {
+        if (strncmp(pattern, "{id}", 4) == 0) {
+            size_t n = strcspn(url, "/");
+            if (n == 0 || n > 32)
+                return 0;
+            memcpy(id, url, n);
+            id[n] = '\0';
+            pattern += 4;
+            url += n;
+        } else if (*pattern++ != *url++) {
+            return 0;
+        }
+    }
+    return *url == '\0';
+}
+
+static int method_is(const route *rt, const char *method)
+{
+    return strcmp(rt->method, method) == 0 ||
+           (strcmp(method, "HEAD") == 0 && strcmp(rt->method, "GET") == 0);
+}
+
+/* Finds the route of `method` and `url`.  Returns it, or NULL with *known
+ * set when the path exists with other methods (listed in allow[], the
+ * Allow header) and *open when that path needs no token. */
+static const route *find_route(const char *method, const char *url,
+                               char id[33], int *known, int *open,
+                               char *allow, size_t cap)
+{
+    const route *found = NULL;
+    size_t used = 0;
+    *known = *open = 0;
+    allow[0] = '\0';
+    for (size_t i = 0; i < N_ROUTES; i++) {
+        if (!match(routes[i].pattern, url, id))
+            continue;
+        *known = 1;
+        *open |= routes[i].open;
+        int n = snprintf(allow + used, cap - used, "%s%s%s",
+                         used ? ", " : "", routes[i].method,
+                         strcmp(routes[i].method, "GET") == 0 ? ", HEAD"
+                                                              : "");
+        if (n > 0 && (size_t)n < cap - used)
+            used += (size_t)n;
+        if (found == NULL && method_is(&routes[i], method))
+            found = &routes[i];
+    }
+    return found;
+}
+
+/* The checks that need only the headers.  Returns 1 when a response has
+ * been queued (or the connection must close), 0 to go on. */
+static int early(struct MHD_Connection *c, req *r, const char *url,
+                 enum MHD_Result *result)
+{
+    lrd_err e;
+    char allow[64], id[33] = "";
+    int known = 0, open = 0;
+    r->route = find_route(r->method, url, id, &known, &open, allow,
+                          sizeof allow);
+    if (known)
+        snprintf(r->job_id, sizeof r->job_id, "%s", id);
+
+    if (lrd_shutting_down()) {
+        lrd_fail(&e, 503, "shutting_down", NULL,
+                 "the server is shutting down");
+        e.retry_after = 1;
+    } else if (!open && !token_ok(c)) {
+        lrd_fail(&e, 401, "unauthorized", NULL,
+                 "this server needs the header 'Authorization: Bearer "
+                 "TOKEN' with the right token");
+    } else if (!known) {
+        lrd_fail(&e, 404, "not_found", NULL, "there is no route %s %s",
+                 r->method, r->path);
+    } else if (r->route == NULL) {
+        lrd_fail(&e, 405, "method_not_allowed", NULL,
+                 "%s does not allow %s (allowed: %s)", r->path, r->method,
+                 allow);
+    } else if (r->route->body && !json_content_type(c)) {
+        lrd_fail(&e, 415, "unsupported_media_type", NULL,
+                 "the body must be sent with 'Content-Type: "
+                 "application/json'");
+    } else {
+        const char *cl = MHD_lookup_connection_value(
+            c, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_LENGTH);
+        uint64_t n = 0;
+        if (cl != NULL && lrd_parse_u64(cl, 0, &n) == 0 &&
+            n > lrd_cfg.max_body) {
+            lrd_fail(&e, 413, "body_too_large", NULL,
+                     "the body is %llu bytes, more than the limit of %llu "
+                     "(--max-body)",
+                     (unsigned long long)n,
+                     (unsigned long long)lrd_cfg.max_body);
+        } else {
+            return 0;
+        }
+    }
+    /* Only an existing job's route names a job in the answer. */
+    if (r->route == NULL || strstr(r->route->pattern, "{id}") == NULL)
+        r->job_id[0] = '\0';
+    r->answered = 1;
+    *result = send_error(c, r, &e, e.http == 405 ? allow : NULL);
+    return 1;
+}
+
+static enum MHD_Result dispatch(struct MHD_Connection *c, req *r)
+{
     if (r->too_large) {
+        lrd_err e;
         lrd_fail(&e, 413, "body_too_large", NULL,
                  "the body is more than the limit of %llu bytes "
                  "(--max-body)",
                  (unsigned long long)lrd_cfg.max_body);
         return send_error(c, r, &e, NULL);
     }
-    switch (r->route) {
-    case R_HEALTH: {
-        lrd_jobs_stats js;
-        lrd_jobs_stats_get(&js);
-        char *json = malloc(160);
-        if (json == NULL)
-            return MHD_NO;
-        snprintf(json, 160,
-                 "{\"status\":\"ok\",\"version\":\"%s\",\"workers\":%ld,"
-                 "\"running\":%ld,\"queue_depth\":%ld}",
-                 LRD_VERSION, lrd_cfg.workers, js.running, js.queue_depth);
-        return send_json(c, r, 200, json, NULL);
-    }
-    case R_METRICS: {
-        size_t len = 0;
-        char *text = lrd_metrics_text(&len);
-        return send_text(c, r, 200, "text/plain; version=0.0.4; charset=utf-8",
-                         text, len, NULL);
-    }
-    case R_SCENES: {
-        char *json = lrd_api_scenes_json(&e);
-        if (json == NULL)
-            return send_error(c, r, &e, NULL);
-        return send_json(c, r, 200, json, NULL);
-    }
-    case R_RENDER:
-        return do_render(c, r);
-    case R_JOBS:
-        return do_submit(c, r);
-    case R_JOB:
-        return do_job(c, r);
-    case R_JOB_IMAGE:
-        return do_job_image(c, r);
-    case R_NONE:
-    default:
-        lrd_fail(&e, 404, "not_found", NULL, "there is no route %s",
-                 r->path);
-        return send_error(c, r, &e, NULL);
-    }
+    return r->route->handler(c, r);
 }
 
 /* Copies a URL for the log with spaces, quotes and control characters
@@ -631,7 +645,7 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c,
     if (*upload_data_size > 0) {
         size_t n = *upload_data_size;
         *upload_data_size = 0;
-        if (r->too_large || (r->route != R_RENDER && r->route != R_JOBS)) {
+        if (r->too_large || !r->route->body) {
             /* Dropped, but not forever: a client that keeps streaming
              * long after the limit loses its connection. */
             r->dropped += n;

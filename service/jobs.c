@@ -294,7 +294,8 @@ static lrd_state run(lrd_job *j, run_result *out)
     double t0 = lrd_monotonic();
     void *buf = NULL;
     size_t len = 0;
-    st = lr_image_encode(img, sp->format, &sp->out, &buf, &len, &le);
+    st = lr_image_encode(img, sp->out.format, &sp->out.options, &buf, &len,
+                         &le);
     lr_image_free(img);
     out->encode_seconds = lrd_monotonic() - t0;
     if (st != LR_OK) {
@@ -573,7 +574,7 @@ void lrd_job_result_get(lrd_job *j, lrd_job_result *out)
     memset(out, 0, sizeof *out);
     pthread_mutex_lock(&jobs.mu);
     out->state = j->state;
-    out->format = j->spec.format;
+    out->format = j->spec.out.format;
     out->cancel_reason = j->cancel_reason;
     if (j->state >= LRD_DONE) {
         out->stats = j->stats;
@@ -627,8 +628,7 @@ char *lrd_job_status_json(lrd_job *j)
     cJSON_AddNumberToObject(o, "width", c.spec.width);
     cJSON_AddNumberToObject(o, "height", c.spec.height);
     cJSON_AddNumberToObject(o, "spp", c.spec.rs.spp);
-    cJSON_AddStringToObject(o, "format",
-                            c.spec.format == LR_FORMAT_PNG ? "png" : "exr");
+    cJSON_AddStringToObject(o, "format", lr_format_name(c.spec.out.format));
     /* A job cancelled in the queue never started: started is 0. */
     int ran = c.started > 0;
     add_time(o, "created_at", c.created_wall, 1);
@@ -651,30 +651,15 @@ char *lrd_job_status_json(lrd_job *j)
         cJSON_AddNumberToObject(t, "total_seconds", us(ended - c.created));
     }
     if (c.state == LRD_DONE) {
-        cJSON *s = cJSON_AddObjectToObject(o, "stats");
-        if (s != NULL) {
-            cJSON_AddNumberToObject(s, "pixels", (double)c.stats.pixels);
-            cJSON_AddNumberToObject(s, "samples", (double)c.stats.samples);
-            cJSON_AddNumberToObject(s, "rays", (double)c.stats.rays);
-            cJSON_AddNumberToObject(s, "nan_samples",
-                                    (double)c.stats.nan_samples);
-            cJSON_AddNumberToObject(s, "threads", c.stats.threads);
-            /* What the plan simulated, against the full simulation. */
-            cJSON *pl = cJSON_AddObjectToObject(s, "plan");
-            double px = c.stats.pixels ? (double)c.stats.pixels : 1.0;
-            if (pl != NULL) {
-                cJSON_AddNumberToObject(pl, "lens_pixels",
-                                        (double)c.stats.lens_pixels / px);
-                cJSON_AddNumberToObject(pl, "chroma_pixels",
-                                        (double)c.stats.chroma_pixels / px);
-                cJSON_AddNumberToObject(pl, "full_samples",
-                                        (double)c.stats.full_samples);
-                cJSON_AddNumberToObject(pl, "camera_rays",
-                                        (double)c.stats.camera_rays);
-                cJSON_AddNumberToObject(pl, "full_camera_rays",
-                                        (double)c.stats.full_camera_rays);
-            }
+        /* The library's stats JSON, the same as the CLI's --stats. */
+        char *stats = lr_render_stats_json(&c.stats, &c.spec.rs,
+                                           lrd_scene_get(c.spec.scene));
+        if (stats == NULL || cJSON_AddRawToObject(o, "stats", stats) == NULL) {
+            lr_free(stats);
+            cJSON_Delete(o);
+            return NULL;
         }
+        lr_free(stats);
         if (has_image) {
             cJSON *im = cJSON_AddObjectToObject(o, "image");
             char href[64];
@@ -682,9 +667,7 @@ char *lrd_job_status_json(lrd_job *j)
             if (im != NULL) {
                 cJSON_AddStringToObject(im, "href", href);
                 cJSON_AddStringToObject(im, "content_type",
-                                        c.spec.format == LR_FORMAT_PNG
-                                            ? "image/png"
-                                            : "image/x-exr");
+                                        lr_format_mime(c.spec.out.format));
                 cJSON_AddNumberToObject(im, "bytes", (double)image_len);
             }
         }

@@ -5,8 +5,10 @@
  * The daemon is a thin client of the public lensray.h API:
  *
  *   main.c         flags and environment, signals, startup and shutdown
- *   http.c         libmicrohttpd setup, routing, bodies, errors, logging
- *   api.c          job JSON -> validated job spec; the scene listing
+ *   http.c         libmicrohttpd setup, the route table, bodies, errors,
+ *                  logging
+ *   api.c          job body -> validated job spec (through lr_job_*);
+ *                  mesh-path confinement; the scene listing
  *   jobs.c         job table, queue, worker pool, retention, cancellation
  *   scene_cache.c  loaded scenes shared by name and by content hash
  *   metrics.c      counters and the Prometheus text exposition
@@ -179,8 +181,7 @@ typedef struct lrd_job_spec {
     char scene_name[72];    /* "" for an inline scene */
     lr_camera cam;
     lr_render_settings rs;  /* progress/cancel are set by the worker */
-    lr_format format;
-    lr_output_options out;
+    lr_output out;          /* format and encoder options */
     int width, height;      /* of the output image (the region's size) */
     uint64_t samples;       /* width x height x spp */
 } lrd_job_spec;
@@ -195,16 +196,12 @@ void lrd_job_spec_clear(lrd_job_spec *spec);
 /* GET /v1/scenes as a JSON document; malloc'ed, or NULL with *e. */
 char *lrd_api_scenes_json(lrd_err *e);
 
-/* Checks a request body's JSON nesting without parsing it.  0 or -1. */
 /* Sets lrd_cfg to the documented defaults (util.c). */
 void lrd_config_defaults(void);
 
 /* Drops a partial UTF-8 character left at the end of `s` by a cut to
  * fit a buffer (util.c). */
 void lrd_utf8_trim(char *s);
-
-int lrd_api_check_depth(const char *body, size_t len, long max_depth,
-                        lrd_err *e);
 
 /* ------------------------------------------------------------------------
  * Jobs (jobs.c)

@@ -537,6 +537,9 @@ EOF
     expect 200
     [ "$(hex_bytes "$T/body" 0 4)" = 762f3101 ]
     [ "$(image "$T/body")" = "exr 32 24 4" ] # B, G, R and Z
+    req POST "$URL/v1/render" '{"scene": "tiny", "render": {"width": 32, "height": 24, "depth": true}, "output": {"format": "exr"}}'
+    expect 200
+    [ "$(image "$T/body")" = "exr 32 24 4" ]
     req POST "$URL/v1/render" '{"scene": "tiny", "render": {"width": 32, "height": 24}, "output": {"format": "exr", "half": true}}'
     half_size=$(stat -c %s "$T/body")
     [ "$half_size" -lt "$float_size" ]
@@ -637,6 +640,39 @@ EOF
     expect_error 422 invalid_value scene
 }
 
+@test "mesh errors of inline scenes name files relative to the scenes directory" {
+    local pre='{"scene": {"objects": [{"type": "mesh", "file": '
+    # A file that is there but is no OBJ: the loader's error names it as
+    # the job did, never with the server's directories.
+    req POST "$URL/v1/render" "$pre \"tiny.json\"}]}}"
+    expect_error 422 invalid_value scene.objects[0].file
+    [[ "$(json o.error.message)" == "scene.objects[0].file: tiny.json:"* ]]
+    ! grep -q "$WORK" "$T/body"
+    # The scenes directory itself and its subdirectories are directories,
+    # not mesh files, whatever way they are spelled (they once read as "a
+    # symbolic link" leading outside).
+    local dir
+    for dir in . ./ meshes meshes/ meshes/.; do
+        req POST "$URL/v1/render" "$pre \"$dir\"}]}}"
+        expect_error 422 invalid_value scene.objects[0].file
+        [[ "$(json o.error.message)" == *"is a directory, not a mesh file"* ]]
+        ! grep -q "$WORK" "$T/body"
+    done
+}
+
+@test "a scenes directory given with a trailing slash or through a symbolic link works" {
+    ln -s "$WORK/scenes" "$WORK/scenes-link"
+    local dir
+    for dir in "$WORK/scenes/" "$WORK/scenes-link" "$WORK/scenes-link/"; do
+        start_daemon "dir-${#dir}" --scenes "$dir" --token-file "$WORK/token"
+        grep -q "(scenes $WORK/scenes, 1 worker)" "$DLOG"
+        req POST "$DURL/v1/render" '{"scene": {"camera": {"position": [0, 3, 3], "look_at": [0, 0, 0]}, "lights": [{"type": "ambient", "radiance": 1}], "objects": [{"type": "mesh", "file": "meshes/quad.obj"}]}, "render": {"width": 8, "height": 6, "spp": 1}}'
+        expect 200
+        req POST "$DURL/v1/render" '{"scene": {"objects": [{"type": "mesh", "file": "meshes/escape.obj"}]}}'
+        expect_error 422 forbidden_path scene.objects[0].file
+    done
+}
+
 @test "loaded scenes are cached by name and by content: a focal sweep loads once" {
     local misses hits fov
     local scene='{"description": "sweep", "camera": {"position": [0, 1, 6], "look_at": [0, 1, 0]}, "lights": [{"type": "ambient", "radiance": 1}], "objects": [{"type": "sphere", "center": [0, 1, 0], "radius": 1}]}'
@@ -678,6 +714,10 @@ EOF
     [ "$(json 'o.timings.total_seconds > 0')" = true ]
     [ "$(json 'o.created_at <= o.started_at && o.started_at <= o.finished_at')" = true ]
     [ "$(json o.stats.samples)" = $((32 * 24 * 2)) ]
+    # The library's stats, with the fields of the CLI's --stats.
+    [ "$(json '[o.stats.width, o.stats.height, o.stats.spp, o.stats.pixels > 0,
+        o.stats.plan.full_samples, typeof o.stats.samples_per_second,
+        typeof o.stats.plan.lens_pixels].join(" ")')" = "32 24 2 true 1536 number number" ]
     [ "$(json o.image.href)" = "/v1/jobs/$id/image" ]
     req GET "$URL/v1/jobs/$id/image"
     expect 200
@@ -917,6 +957,10 @@ EOF
     expect_error 422 invalid_value output.quality
     req POST "$URL/v1/render" '{"scene": "tiny", "output": {"format": "png", "depth": true}}'
     expect_error 422 invalid_value output.depth
+    # render.depth asks for the Z channel as much as output.depth does.
+    req POST "$URL/v1/render" '{"scene": "tiny", "render": {"depth": true}}'
+    expect_error 422 invalid_value render.depth
+    [[ "$(json o.error.message)" == *"png has no depth channel"* ]]
     req POST "$URL/v1/render" '{"scene": "tiny", "colour": "red"}'
     expect_error 422 invalid_value colour
     req POST "$URL/v1/render" '{"scene": "tiny", "scene": "cornell"}'

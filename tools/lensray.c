@@ -190,9 +190,10 @@ static int cmd_render(int argc, char **argv)
         rc = usage_error("%s", err.message);
         goto done;
     }
-    if (want_depth && fmt != LR_FORMAT_EXR) {
-        rc = usage_error("%s", "--depth needs an .exr output (PNG has no Z "
-                               "channel)");
+    if (want_depth && !lr_format_has_depth(fmt)) {
+        rc = usage_error("--depth needs an output that can hold a Z "
+                         "channel, such as .exr (%s has none)",
+                         lr_format_name(fmt));
         goto done;
     }
     {
@@ -226,7 +227,7 @@ static int cmd_render(int argc, char **argv)
     lr_scene_settings(scene, &rs);
     if (want_depth)
         rs.want_depth = 1;
-    if (rs.want_depth && fmt != LR_FORMAT_EXR) {
+    if (rs.want_depth && !lr_format_has_depth(fmt)) {
         /* The scene asks for Z but the output cannot hold it: say so
          * rather than drop it silently, and skip the work. */
         fprintf(stderr, "lensray: warning: render.depth is set but %s has no "
@@ -259,30 +260,16 @@ static int cmd_render(int argc, char **argv)
         fprintf(stderr, "lensray: %s\n", err.message);
         rc = exit_for(st) == EXIT_SCENE ? EXIT_IO : exit_for(st);
     } else if (stats) {
-        double s = rst.seconds > 0 ? rst.seconds : 1e-9;
-        double px = rst.pixels ? (double)rst.pixels : 1.0;
-        printf("{\"seconds\": %.6f, \"cpu_seconds\": %.6f, \"width\": %d, \"height\": %d, "
-               "\"spp\": %d, \"threads\": %d, \"samples\": %llu, "
-               "\"rays\": %llu, \"samples_per_second\": %.0f, "
-               "\"rays_per_second\": %.0f, \"nan_samples\": %llu, "
-               "\"primitives\": %zu, \"peak_rss_kib\": %ld, "
-               "\"plan\": {\"enabled\": %s, "
-               "\"adaptive\": %s, \"lens_pixels\": %.4f, "
-               "\"chroma_pixels\": %.4f, \"samples\": %llu, "
-               "\"full_samples\": %llu, \"camera_rays\": %llu, "
-               "\"full_camera_rays\": %llu}}\n",
-               rst.seconds, rst.cpu_seconds, rs.width, rs.height, rs.spp, rst.threads,
-               (unsigned long long)rst.samples,
-               (unsigned long long)rst.rays, (double)rst.samples / s,
-               (double)rst.rays / s, (unsigned long long)rst.nan_samples,
-               lr_scene_primitive_count(scene), peak_rss_kib(),
-               rs.plan ? "true" : "false",
-               rs.adaptive ? "true" : "false",
-               (double)rst.lens_pixels / px, (double)rst.chroma_pixels / px,
-               (unsigned long long)rst.samples,
-               (unsigned long long)rst.full_samples,
-               (unsigned long long)rst.camera_rays,
-               (unsigned long long)rst.full_camera_rays);
+        /* The library's stats JSON, with this process's peak memory (which
+         * only the CLI can know) as the first member. */
+        char *json = lr_render_stats_json(&rst, &rs, scene);
+        if (json == NULL) {
+            fprintf(stderr, "lensray: out of memory\n");
+            rc = EXIT_IO;
+        } else {
+            printf("{\"peak_rss_kib\": %ld, %s\n", peak_rss_kib(), json + 1);
+        }
+        lr_free(json);
     }
     if (rst.nan_samples > 0)
         fprintf(stderr, "lensray: warning: %llu samples were NaN or "

@@ -1,0 +1,187 @@
+/*
+ * json_write.c: a camera and render settings written back as JSON in
+ * the scene format, the inverse of lr_camera_apply_json (camera_json.c)
+ * and lr_render_settings_apply_json (settings_json.c), for clients that show
+ * what a scene loaded (the daemon's scene listing) or pass settings on.
+ * The unit tests read every value back through the parsers, so the names
+ * here cannot drift from theirs.
+ */
+#include "camera.h"
+
+#include <cjson/cJSON.h>
+
+#include <stdlib.h>
+
+/* Indexed by the enums of lensray.h, as the parsers' tables are. */
+static const char *const samplers[] = {"random", "grid", "jittered",
+                                       "sobol"};
+static const char *const chroma_modes[] = {"off", "rgb", "spectral"};
+static const char *const focal_models[] = {"paper", "lensmaker"};
+static const char *const glasses[] = {"BK7", "F2", "SF11", "fused_silica"};
+
+#define NAME(table, i)                                                     \
+    ((unsigned)(i) < sizeof table / sizeof table[0] ? table[i] : "unknown")
+
+/* Adds and remembers failure: every cJSON_Add* returns NULL when out of
+ * memory, and one check at the end covers them all. */
+typedef struct jb {
+    cJSON *o;
+    int failed;
+} jb;
+
+static void num(jb *b, const char *k, double v)
+{
+    if (cJSON_AddNumberToObject(b->o, k, v) == NULL)
+        b->failed = 1;
+}
+
+static void str(jb *b, const char *k, const char *v)
+{
+    if (cJSON_AddStringToObject(b->o, k, v) == NULL)
+        b->failed = 1;
+}
+
+static void boolean(jb *b, const char *k, int v)
+{
+    if (cJSON_AddBoolToObject(b->o, k, v) == NULL)
+        b->failed = 1;
+}
+
+static void vec(jb *b, const char *k, const double *v, int n)
+{
+    cJSON *a = cJSON_CreateDoubleArray(v, n);
+    if (a == NULL || !cJSON_AddItemToObject(b->o, k, a)) {
+        cJSON_Delete(a);
+        b->failed = 1;
+    }
+}
+
+static void child(jb *b, const char *k, jb *c)
+{
+    c->o = cJSON_AddObjectToObject(b->o, k);
+    c->failed = c->o == NULL;
+}
+
+/* Prints and frees the object; NULL when anything failed. */
+static char *finish(jb *b)
+{
+    char *text = b->failed ? NULL : cJSON_PrintUnformatted(b->o);
+    cJSON_Delete(b->o);
+    return text;
+}
+
+static void chromatic_json(jb *b, const lr_chromatic *ch)
+{
+    jb c;
+    child(b, "chromatic", &c);
+    if (c.failed) {
+        b->failed = 1;
+        return;
+    }
+    str(&c, "mode", NAME(chroma_modes, ch->mode));
+    str(&c, "focal_model", NAME(focal_models, ch->focal_model));
+    vec(&c, "ior", ch->ior, 3);
+    if (ch->glass == LR_GLASS_ABBE) {
+        jb a;
+        child(&c, "abbe", &a);
+        if (!a.failed) {
+            num(&a, "n_d", ch->abbe_nd);
+            num(&a, "V_d", ch->abbe_vd);
+        }
+        c.failed |= a.failed;
+    } else {
+        str(&c, "glass", NAME(glasses, ch->glass));
+    }
+    num(&c, "amplify", ch->amplify);
+    num(&c, "wavelengths", ch->wavelengths);
+    b->failed |= c.failed;
+}
+
+/* One key of a camera model's table (camera.h), by its type. */
+static void camera_key(jb *b, const lr__camera_key *k, const lr_camera *cam)
+{
+    const char *field = (const char *)cam + k->offset;
+    switch (k->type) {
+    case LR__KEY_NUMBER:
+        num(b, k->name, *(const double *)field);
+        break;
+    case LR__KEY_INT:
+        num(b, k->name, *(const int *)field);
+        break;
+    case LR__KEY_VEC3:
+        vec(b, k->name, (const double *)field, 3);
+        break;
+    case LR__KEY_ENUM: {
+        int v = *(const int *)field, n = 0;
+        while (k->names[n] != NULL)
+            n++;
+        str(b, k->name, v >= 0 && v < n ? k->names[v] : "unknown");
+        break;
+    }
+    case LR__KEY_CUSTOM:
+        break; /* the keys every model shares: written below */
+    }
+}
+
+char *lr_camera_json(const lr_camera *cam)
+{
+    if (cam == NULL)
+        return NULL;
+    const lr__camera_model *model = lr__camera_model_of(cam->model);
+    jb b = {cJSON_CreateObject(), 0};
+    if (b.o == NULL)
+        return NULL;
+    str(&b, "model", model != NULL ? model->name : "unknown");
+    vec(&b, "position", cam->position, 3);
+    vec(&b, "look_at", cam->look_at, 3);
+    vec(&b, "up", cam->up, 3);
+    num(&b, "fov", cam->fov);
+    if (model != NULL)
+        for (const lr__camera_key *k = model->keys; k->name != NULL; k++)
+            camera_key(&b, k, cam);
+    if (model != NULL && model->lens) {
+        if (cam->focus_on[0] >= 0) {
+            double at[2] = {cam->focus_on[0], cam->focus_on[1]};
+            vec(&b, "focus_on", at, 2);
+        }
+        if (cam->chromatic.mode != LR_CHROMATIC_OFF)
+            chromatic_json(&b, &cam->chromatic);
+    }
+    return finish(&b);
+}
+
+char *lr_render_settings_json(const lr_render_settings *s)
+{
+    if (s == NULL)
+        return NULL;
+    jb b = {cJSON_CreateObject(), 0};
+    if (b.o == NULL)
+        return NULL;
+    num(&b, "width", s->width);
+    num(&b, "height", s->height);
+    num(&b, "spp", s->spp);
+    str(&b, "sampler", NAME(samplers, s->sampler));
+    num(&b, "seed", (double)s->seed);
+    num(&b, "max_depth", s->max_depth);
+    num(&b, "threads", s->threads);
+    num(&b, "tile_size", s->tile_size);
+    boolean(&b, "depth", s->want_depth);
+    if (s->region[0] | s->region[1] | s->region[2] | s->region[3]) {
+        double r[4] = {s->region[0], s->region[1], s->region[2],
+                       s->region[3]};
+        vec(&b, "region", r, 4);
+    }
+    boolean(&b, "plan", s->plan);
+    if (s->adaptive) {
+        jb a;
+        child(&b, "adaptive", &a);
+        if (!a.failed) {
+            num(&a, "threshold", s->adaptive_threshold);
+            num(&a, "min_spp", s->adaptive_min_spp);
+        }
+        b.failed |= a.failed;
+    } else {
+        boolean(&b, "adaptive", 0);
+    }
+    return finish(&b);
+}
