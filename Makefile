@@ -149,6 +149,36 @@ test-sanitize:
 	  SANITIZE="-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined" \
 	  test-suite
 
+# ---- Python --------------------------------------------------------------
+# The lensray package (python/, docs/python.md) in a virtual environment
+# under $(BUILD)/python: pinned test dependencies (python/tests/
+# requirements.txt; made again when that file changes), the package
+# installed from a copy of python/ so that setuptools' build files stay
+# under build/, then pytest, ending "N passed, N failed".
+PY_VENV := $(BUILD)/python/venv
+PYTHON  ?= python3
+
+$(PY_VENV)/.ok: python/tests/requirements.txt
+	@rm -rf $(PY_VENV) && mkdir -p $(dir $(PY_VENV))
+	@echo "  VENV    $(PY_VENV)"
+	@$(PYTHON) -m venv $(PY_VENV) || { echo "make: $(PYTHON) -m venv failed (Debian: apt-get install python3-venv)"; exit 1; }
+	@$(PY_VENV)/bin/pip install -q --disable-pip-version-check -r python/tests/requirements.txt
+	@touch $@
+
+.PHONY: python test-python
+python: all $(PY_VENV)/.ok
+	@rm -rf $(BUILD)/python/src && mkdir -p $(BUILD)/python/src && \
+	  cp -r python/lensray python/pyproject.toml python/setup.py \
+	  python/README.md $(BUILD)/python/src/
+	@LENSRAY_BUILD=$(abspath $(BUILD)) $(PY_VENV)/bin/pip install -q \
+	  --disable-pip-version-check --no-build-isolation --no-deps \
+	  --force-reinstall $(BUILD)/python/src
+
+test-python: python
+	@cd $(BUILD)/python && PYTHONDONTWRITEBYTECODE=1 \
+	  LENSRAY_BUILD_DIR=$(abspath $(BUILD)) venv/bin/python -m pytest \
+	  -p no:cacheprovider -q $(abspath python/tests)
+
 # ---- out of memory ------------------------------------------------------
 # tests/oom/oom.c fails the library's allocations one by one.  It is linked
 # with --wrap so that every allocation made by liblensray.a's own objects

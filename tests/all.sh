@@ -1,8 +1,8 @@
 #!/bin/sh
 # `make test`: the suite as built, then again under AddressSanitizer and
 # UBSan, then a short libFuzzer session of each fuzz target (make fuzz-ci:
-# one test per target), then one line "N passed, N failed" adding all
-# three up.  Exit status 0 only when every run passed.  Usage:
+# one test per target), then the Python package's pytest suite (make
+# test-python), then one line "N passed, N failed" adding all four up.  Exit status 0 only when every run passed.  Usage:
 # tests/all.sh MAKE BUILD_DIR
 make=${1:-make}
 build=${2:-build}
@@ -10,7 +10,7 @@ mkdir -p "$build"
 total_pass=0
 total_fail=0
 status=0
-for run in test-suite test-sanitize fuzz-ci; do
+for run in test-suite test-sanitize fuzz-ci test-python; do
     log="$build/$run.log"
     echo "==== $run"
     # The log keeps the last line for the count; the exit status comes
