@@ -23,7 +23,7 @@ install``).  ``lensray.library_path()`` says which was loaded.
 """
 
 from ._capi import DEPTH_NONE, library_path
-from ._client import Client, Job
+from ._client import Client, Job, decode_exr, render_split
 from ._core import Image, Scene, encode_png, load, version, write
 from ._errors import CancelledError, LensrayError, LensrayIOError, SceneError
 
@@ -39,9 +39,11 @@ __all__ = [
     "LensrayIOError",
     "Scene",
     "SceneError",
+    "decode_exr",
     "encode_png",
     "library_path",
     "load",
+    "render_split",
     "version",
     "write",
 ]
