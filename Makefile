@@ -303,16 +303,22 @@ $(BUILD)/obj/fuzz/lf_%.o: fuzz/fuzz_%.c $(DEPS_OK)
 render: all
 	$(BUILD)/lensray render scenes/spheres.json -o $(BUILD)/spheres.png --stats
 
-# The gallery's pictures (docs/gallery.md), rendered with the CLI.
-figures: all
+# The gallery's pictures (docs/gallery.md), rendered with the CLI, and the
+# Python guide's sweeps (docs/python.md), plotted with matplotlib.
+figures: all python $(BUILD)/python/.figures-ok
 	sh docs/figures.sh $(BUILD)/lensray docs/figures
+	$(PY_VENV)/bin/python docs/python-sweeps.py docs/figures/python-sweeps.png
+
+$(BUILD)/python/.figures-ok: $(PY_VENV)/.ok python/figures-requirements.txt
+	@$(PY_VENV)/bin/pip install -q --disable-pip-version-check -r python/figures-requirements.txt
+	@touch $@
 
 # The benchmark (bench/README.md): lensray against a bare Embree program and
 # Mitsuba 3 on scenes/bench.json; results in $(BUILD)/bench/results.txt.
 # The ceiling is plain C on Embree alone, built portably (no -march).
 BENCH_CFLAGS ?= -std=c11 -O2 -g -Wall -Wextra
 .PHONY: bench
-bench: all $(BUILD)/bench/ceiling
+bench: all $(BUILD)/bench/ceiling python
 	sh bench/run.sh $(BUILD)
 
 $(BUILD)/bench/ceiling: bench/ceiling.c $(DEPS_OK)

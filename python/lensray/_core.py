@@ -368,9 +368,10 @@ class Scene:
                         flag.value = 1
                     if bar_cls is not None and done[1]:
                         if bar is None:
+                            # delay: no bar for renders under a second.
                             bar = bar_cls(total=done[1], unit="px",
                                           unit_scale=True, leave=False,
-                                          desc="lensray")
+                                          desc="lensray", delay=1.0)
                         bar.update(done[0] - bar.n)
                 if bar is not None:
                     bar.update(done[0] - bar.n)
