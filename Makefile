@@ -307,7 +307,7 @@ render: all
 # Python guide's sweeps (docs/python.md), plotted with matplotlib.
 figures: all python $(BUILD)/python/.figures-ok
 	sh docs/figures.sh $(BUILD)/lensray docs/figures
-	$(PY_VENV)/bin/python docs/python-sweeps.py docs/figures/python-sweeps.png
+	SWEEPS_PNG=docs/figures/python-sweeps.png $(PY_VENV)/bin/python docs/python-sweeps.py
 
 $(BUILD)/python/.figures-ok: $(PY_VENV)/.ok python/figures-requirements.txt
 	@$(PY_VENV)/bin/pip install -q --disable-pip-version-check -r python/figures-requirements.txt

@@ -1,9 +1,7 @@
-# A focus sweep and an f-number sweep with lensray from Python
-# (docs/python.md; `make figures` runs it to make docs/figures/python-sweeps.png).
-import sys
+# A focus sweep and an f-number sweep with lensray from Python (docs/python.md;
+# `make figures` runs it with SWEEPS_PNG=docs/figures/python-sweeps.png).
+import os
 
-import matplotlib
-matplotlib.use("Agg")  # no window: write a file
 import matplotlib.pyplot as plt
 import numpy as np
 
@@ -78,4 +76,4 @@ right.set_xticks(f_numbers, [f"{n:g}" for n in f_numbers])
 left.minorticks_off()
 right.minorticks_off()
 left.legend(fontsize=8)
-fig.savefig(sys.argv[1] if len(sys.argv) > 1 else "sweeps.png", dpi=80)
+fig.savefig(os.environ.get("SWEEPS_PNG", "sweeps.png"), dpi=80)

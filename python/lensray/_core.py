@@ -7,7 +7,7 @@ import json
 import os
 import threading
 from ctypes import byref, c_int, c_size_t, c_void_p
-from typing import Any, Mapping, Optional, Sequence, Union
+from typing import Any, Literal, Mapping, Optional, Sequence, Union, overload
 
 import numpy as np
 
@@ -169,7 +169,7 @@ def write(path: PathLike, array: Any, depth: Any = None, *,
 
 
 def _stats_dict(st: _capi.lr_render_stats) -> dict[str, Any]:
-    return {name: getattr(st, name) for name, _ in st._fields_}
+    return {f[0]: getattr(st, f[0]) for f in st._fields_}
 
 
 def _progress_bar(enabled: Optional[bool]) -> Any:
@@ -271,6 +271,44 @@ class Scene:
                 _raise(st, err)
         return cam, rs
 
+    @overload
+    def render(self, camera: Optional[Mapping[str, Any]] = ...,
+               render: Optional[Mapping[str, Any]] = ...,
+               depth: Literal[False] = ..., stats: Literal[False] = ..., *,
+               progress: Optional[bool] = ...,
+               cancel: Optional[threading.Event] = ...) -> Image: ...
+
+    @overload
+    def render(self, camera: Optional[Mapping[str, Any]] = ...,
+               render: Optional[Mapping[str, Any]] = ...,
+               *, depth: Literal[True], stats: Literal[False] = ...,
+               progress: Optional[bool] = ...,
+               cancel: Optional[threading.Event] = ...
+               ) -> tuple[Image, np.ndarray]: ...
+
+    @overload
+    def render(self, camera: Optional[Mapping[str, Any]] = ...,
+               render: Optional[Mapping[str, Any]] = ...,
+               depth: Literal[False] = ..., *, stats: Literal[True],
+               progress: Optional[bool] = ...,
+               cancel: Optional[threading.Event] = ...
+               ) -> tuple[Image, dict[str, Any]]: ...
+
+    @overload
+    def render(self, camera: Optional[Mapping[str, Any]] = ...,
+               render: Optional[Mapping[str, Any]] = ...,
+               *, depth: Literal[True], stats: Literal[True],
+               progress: Optional[bool] = ...,
+               cancel: Optional[threading.Event] = ...
+               ) -> tuple[Image, np.ndarray, dict[str, Any]]: ...
+
+    @overload
+    def render(self, camera: Optional[Mapping[str, Any]] = ...,
+               render: Optional[Mapping[str, Any]] = ...,
+               depth: bool = ..., stats: bool = ..., *,
+               progress: Optional[bool] = ...,
+               cancel: Optional[threading.Event] = ...) -> Any: ...
+
     def render(self, camera: Optional[Mapping[str, Any]] = None,
                render: Optional[Mapping[str, Any]] = None,
                depth: bool = False, stats: bool = False, *,
@@ -342,7 +380,7 @@ class Scene:
         out = c_void_p()
         st = _capi.lr_render_stats()
         err = _capi.lr_error()
-        result = [None]
+        result: list[Optional[int]] = [None]
         handle = self._handle()
 
         # Completion is signalled with an Event rather than read from the
@@ -397,6 +435,7 @@ class Scene:
                 bar.close()
 
         status = result[0]
+        assert status is not None
         if status != _capi.LR_OK:
             _raise(status, err, _stats_dict(st))
         try:
