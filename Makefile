@@ -165,14 +165,22 @@ $(PY_VENV)/.ok: python/tests/requirements.txt
 	@$(PY_VENV)/bin/pip install -q --disable-pip-version-check -r python/tests/requirements.txt
 	@touch $@
 
-.PHONY: python test-python
+PY_SRC  := rm -rf $(BUILD)/python/src && mkdir -p $(BUILD)/python/src && \
+           cp -r python/lensray python/pyproject.toml python/setup.py \
+           python/README.md $(BUILD)/python/src/
+PY_PIP  := LENSRAY_BUILD=$(abspath $(BUILD)) $(PY_VENV)/bin/pip -q \
+           --disable-pip-version-check
+
+.PHONY: python python-wheel test-python
 python: all $(PY_VENV)/.ok
-	@rm -rf $(BUILD)/python/src && mkdir -p $(BUILD)/python/src && \
-	  cp -r python/lensray python/pyproject.toml python/setup.py \
-	  python/README.md $(BUILD)/python/src/
-	@LENSRAY_BUILD=$(abspath $(BUILD)) $(PY_VENV)/bin/pip install -q \
-	  --disable-pip-version-check --no-build-isolation --no-deps \
-	  --force-reinstall $(BUILD)/python/src
+	@$(PY_SRC)
+	@$(PY_PIP) install --no-build-isolation --no-deps --force-reinstall $(BUILD)/python/src
+
+# A wheel with liblensray inside, for this platform, in $(BUILD)/python/dist.
+python-wheel: all $(PY_VENV)/.ok
+	@$(PY_SRC)
+	@$(PY_PIP) wheel --no-build-isolation --no-deps -w $(BUILD)/python/dist $(BUILD)/python/src
+	@ls $(BUILD)/python/dist/*.whl
 
 test-python: python
 	@cd $(BUILD)/python && PYTHONDONTWRITEBYTECODE=1 \

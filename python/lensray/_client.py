@@ -6,8 +6,8 @@ import json
 import os
 import tempfile
 import time
-import urllib.error
-import urllib.request
+import http.client
+import urllib.parse
 from typing import Any, Mapping, Optional, Union
 
 import numpy as np
@@ -50,9 +50,8 @@ def decode_exr(data: bytes) -> tuple[np.ndarray, Optional[np.ndarray]]:
     return np.ascontiguousarray(rgb), z
 
 
-def _error_from(e: urllib.error.HTTPError) -> LensrayError:
+def _error_from(status: int, reason: str, body: bytes) -> LensrayError:
     """The exception for an error answer ({"error": {code, message, path}})."""
-    body = e.read()
     code, message, path = "", "", ""
     try:
         doc = json.loads(body)["error"]
@@ -61,8 +60,8 @@ def _error_from(e: urllib.error.HTTPError) -> LensrayError:
         path = doc.get("path", "") or ""
     except (ValueError, KeyError, TypeError):
         message = body.decode("utf-8", "replace").strip()
-    message = message or f"HTTP {e.code} {e.reason}"
-    return _error(code, message, path, e.code)
+    message = message or f"HTTP {status} {reason}"
+    return _error(code, message, path, status)
 
 
 def _error(code: str, message: str, path: str,
@@ -92,6 +91,13 @@ class Client:
         self.url = url.rstrip("/")
         self.token = token
         self.timeout = timeout
+        parts = urllib.parse.urlsplit(self.url)
+        if parts.scheme not in ("http", "https") or not parts.netloc:
+            raise ValueError(f"not an http:// or https:// URL: {url!r}")
+        self._conn_cls = (http.client.HTTPSConnection if parts.scheme == "https"
+                          else http.client.HTTPConnection)
+        self._netloc = parts.netloc
+        self._base = parts.path
 
     def __repr__(self) -> str:
         return f"<lensray.Client {self.url}>"
@@ -99,19 +105,25 @@ class Client:
     def _request(self, method: str, path: str, body: Any = None
                  ) -> tuple[bytes, Any]:
         data = None
-        headers = {}
+        headers = {"Connection": "close"}
         if body is not None:
             data = json.dumps(body, default=_json_default).encode()
             headers["Content-Type"] = "application/json"
         if self.token:
             headers["Authorization"] = f"Bearer {self.token}"
-        req = urllib.request.Request(self.url + path, data=data,
-                                     headers=headers, method=method)
+        # http.client rather than urllib, to close the connection the moment
+        # the call is interrupted (Ctrl-C): the daemon cancels a synchronous
+        # render whose client has gone.
+        conn = self._conn_cls(self._netloc, timeout=self.timeout)
         try:
-            with urllib.request.urlopen(req, timeout=self.timeout) as resp:
-                return resp.read(), resp.headers
-        except urllib.error.HTTPError as e:
-            raise _error_from(e) from None
+            conn.request(method, self._base + path, body=data, headers=headers)
+            resp = conn.getresponse()
+            payload = resp.read()
+            if resp.status >= 400:
+                raise _error_from(resp.status, resp.reason, payload)
+            return payload, resp.headers
+        finally:
+            conn.close()
 
     def _json(self, method: str, path: str, body: Any = None) -> Any:
         return json.loads(self._request(method, path, body)[0])

@@ -97,3 +97,32 @@ def test_render_split_stitches_the_full_frame(daemon, spheres):
         assert same_bits(strips, s.render())
     with pytest.raises(ValueError):
         lensray.render_split(c, "spheres", render={"region": [0, 0, 4, 4]})
+
+
+def cancelled_jobs(client) -> int:
+    text = client._request("GET", "/metrics")[0].decode()
+    for line in text.splitlines():
+        if line.startswith('lensrayd_jobs_finished_total{state="cancelled"}'):
+            return int(float(line.split()[-1]))
+    return 0
+
+
+def test_ctrl_c_during_a_synchronous_render_cancels_it_on_the_daemon(daemon):
+    import signal
+    import threading
+    import time
+    c = lensray.Client(daemon.url)
+    before = cancelled_jobs(c)
+    main = threading.main_thread().ident
+    threading.Timer(0.5, signal.pthread_kill, (main, signal.SIGINT)).start()
+    with pytest.raises(KeyboardInterrupt):
+        c.render("spheres", camera=LENS,
+                 render={"width": 320, "height": 180, "spp": 4096,
+                         "adaptive": False, "plan": False, "tile_size": 8})
+    # The connection closed at once, so the daemon cancels the render
+    # (within a tile) and its worker is free again.
+    deadline = time.monotonic() + 20
+    while cancelled_jobs(c) == before and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert cancelled_jobs(c) == before + 1
+    assert c.health()["running"] == 0
