@@ -161,7 +161,13 @@ PYTHON  ?= python3
 $(PY_VENV)/.ok: python/tests/requirements.txt
 	@rm -rf $(PY_VENV) && mkdir -p $(dir $(PY_VENV))
 	@echo "  VENV    $(PY_VENV)"
-	@$(PYTHON) -m venv $(PY_VENV) || { echo "make: $(PYTHON) -m venv failed (Debian: apt-get install python3-venv)"; exit 1; }
+	@$(PYTHON) -m venv $(PY_VENV) >/dev/null 2>&1 || { \
+	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
+	    echo "make: installing missing Debian packages: python3-venv"; \
+	    apt-cache policy python3-venv 2>/dev/null | grep -q 'Candidate: [0-9]' || apt-get update -qq; \
+	    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq python3-venv >/dev/null; \
+	  fi; rm -rf $(PY_VENV); $(PYTHON) -m venv $(PY_VENV); } || { \
+	  echo "make: $(PYTHON) -m venv failed: run 'sudo apt-get install python3-venv' and try again"; exit 1; }
 	@$(PY_VENV)/bin/pip install -q --disable-pip-version-check -r python/tests/requirements.txt
 	@touch $@
 

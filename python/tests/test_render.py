@@ -168,3 +168,23 @@ def test_a_closed_scene_refuses_to_render():
     s.close()
     with pytest.raises(ValueError):
         s.render(render=SMALL)
+
+
+def test_threads_render_one_scene_at_once(spheres):
+    """Two Python threads rendering the same scene with different cameras
+    get what each would alone."""
+    cams = [LENS, {**LENS, "focus_distance": 9}]
+    alone = [spheres.render(camera=c, render=SMALL) for c in cams]
+    got = [None, None]
+
+    def go(i):
+        got[i] = spheres.render(camera=cams[i], render={**SMALL, "threads": 1},
+                                progress=False)
+
+    ts = [threading.Thread(target=go, args=(i,)) for i in range(2)]
+    for t in ts:
+        t.start()
+    for t in ts:
+        t.join()
+    assert all(same_bits(g, a) for g, a in zip(got, alone))
+    assert not same_bits(alone[0], alone[1])
