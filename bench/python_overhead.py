@@ -14,15 +14,20 @@ turns, renders it --repeat times each way:
     (its thread, the progress callback and tqdm bar, the copy into numpy)
     and the CPU time of the whole process over that call (every thread);
     once with the default progress bar and once with progress=False.
-The best of each is compared, as bench/run.sh does for its own timings;
-CPU time is the figure that other processes on the cores hardly change.
+Each turn's Python times are divided by the CLI's of the same turn, and
+the median of those ratios is the overhead: turns share the machine's
+load, so pairing cancels most of it, and CPU time is the figure that other
+processes on the cores change least.  The time spent outside the library
+(Python's wall time minus the library's own, in the same call) is printed
+too: it is the wrapper's cost without any run-to-run noise.
 Prints one line per measurement and a final line
-"PYTHON_OVERHEAD spp=N cli_seconds=... python_seconds=... wall_overhead=...
-cpu_overhead=..." (overheads as fractions: 0.01 is 1%).
+"PYTHON_OVERHEAD spp=N ... wall_overhead=... cpu_overhead=...
+wrapper_seconds=..." (overheads as fractions: 0.01 is 1%).
 """
 import argparse
 import json
 import resource
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -81,22 +86,28 @@ def main():
     def best(xs):
         return min(xs)
 
-    print(f"python_overhead: {a.scene}, spp {spp}, best of {a.repeat}")
-    print(f"  CLI lr_render:               wall {best(cli['wall']):.4f} s  cpu {best(cli['cpu']):.4f} s")
+    def paired(mode, key):
+        """Median over the runs of Python's time / the CLI's in the same
+        turn: turns share the machine's load, so pairing cancels most of it."""
+        return statistics.median(p / c for p, c in zip(py[mode][key], cli[key])) - 1
+
+    print(f"python_overhead: {a.scene}, spp {spp}, {a.repeat} turns")
+    print(f"  CLI lr_render:                     best wall {best(cli['wall']):.4f} s, "
+          f"cpu {best(cli['cpu']):.4f} s")
     for bar in (True, False):
         d = py[bar]
         label = "with the tqdm bar" if bar else "progress=False   "
-        print(f"  Python render() {label}: wall {best(d['wall']):.4f} s  cpu {best(d['cpu']):.4f} s"
-              f"  (the library's own wall {best(d['lib']):.4f} s)")
-    d = py[True]
-    wall = best(d["wall"]) / best(cli["wall"]) - 1
-    cpu = best(d["cpu"]) / best(cli["cpu"]) - 1
-    wall_nobar = best(py[False]["wall"]) / best(cli["wall"]) - 1
-    cpu_nobar = best(py[False]["cpu"]) / best(cli["cpu"]) - 1
+        wrap = statistics.median(w - l for w, l in zip(d["wall"], d["lib"]))
+        print(f"  Python render() {label}: best wall {best(d['wall']):.4f} s, "
+              f"cpu {best(d['cpu']):.4f} s; over the CLI (median of turns): "
+              f"wall {100 * paired(bar, 'wall'):+.2f}%, cpu {100 * paired(bar, 'cpu'):+.2f}%; "
+              f"outside the library {1000 * wrap:.1f} ms")
+    wrap = statistics.median(w - l for w, l in zip(py[True]["wall"], py[True]["lib"]))
     print(f"PYTHON_OVERHEAD spp={spp} cli_seconds={best(cli['wall']):.4f} "
-          f"python_seconds={best(d['wall']):.4f} wall_overhead={wall:.4f} "
-          f"cpu_overhead={cpu:.4f} wall_overhead_nobar={wall_nobar:.4f} "
-          f"cpu_overhead_nobar={cpu_nobar:.4f}")
+          f"python_seconds={best(py[True]['wall']):.4f} "
+          f"wall_overhead={paired(True, 'wall'):.4f} cpu_overhead={paired(True, 'cpu'):.4f} "
+          f"wall_overhead_nobar={paired(False, 'wall'):.4f} "
+          f"cpu_overhead_nobar={paired(False, 'cpu'):.4f} wrapper_seconds={wrap:.4f}")
 
 
 if __name__ == "__main__":

@@ -25,7 +25,7 @@ from ctypes import (
     c_void_p,
 )
 from pathlib import Path
-from typing import Optional
+from typing import Any, Optional
 
 # lr_status
 LR_OK = 0
@@ -192,6 +192,11 @@ _SIGNATURES = {
     "lr_free": (None, [c_void_p]),
 }
 
+# Functions newer than the first release: used when the library has them.
+_OPTIONAL = {
+    "lr_progress_store": (None, [c_void_p, c_uint64, c_uint64]),
+}
+
 # Library file names, most specific first.
 _NAMES = ("liblensray.so.0", "liblensray.so")
 
@@ -245,6 +250,11 @@ def lib() -> ctypes.CDLL:
             fn = getattr(handle, name)
             fn.restype = res
             fn.argtypes = args
+        for name, (res, args) in _OPTIONAL.items():
+            fn = getattr(handle, name, None)
+            if fn is not None:
+                fn.restype = res
+                fn.argtypes = args
         _lib, _lib_path = handle, path
     return _lib
 
@@ -254,3 +264,12 @@ def library_path() -> str:
     lib()
     assert _lib_path is not None
     return _lib_path
+
+
+def progress_store() -> Optional[Any]:
+    """lr_progress_store as an lr_progress_fn for lr_render_settings, or
+    None when the library predates it."""
+    fn = getattr(lib(), "lr_progress_store", None)
+    if fn is None:
+        return None
+    return ctypes.cast(ctypes.cast(fn, c_void_p), lr_progress_fn)

@@ -366,16 +366,22 @@ class Scene:
 
         bar_cls = _progress_bar(progress)
         bar = None
-        done = [0, 0]  # pixels done, total: written by the callback
+        # Pixels done and in all, read by the loop below that draws the bar.
+        # The library's lr_progress_store writes them from the render
+        # threads without entering Python; with an older library a Python
+        # callback does, taking the GIL for a moment after each tile.
+        done: Any = (ctypes.c_uint64 * 2)()
         if bar_cls is not None:
-            # Runs on a render thread, holding the GIL for a moment after
-            # each tile: it only stores two numbers.  The bar is drawn
-            # from this thread.
-            def on_progress(_user: Any, d: int, t: int) -> None:
-                done[0] = d
-                done[1] = t
-            callback = _capi.lr_progress_fn(on_progress)
-            rs.progress = callback
+            store = _capi.progress_store()
+            if store is not None:
+                rs.progress = store
+                rs.progress_user = ctypes.addressof(done)
+            else:
+                def on_progress(_user: Any, d: int, t: int) -> None:
+                    done[0] = d
+                    done[1] = t
+                callback = _capi.lr_progress_fn(on_progress)
+                rs.progress = callback
 
         out = c_void_p()
         st = _capi.lr_render_stats()

@@ -141,10 +141,16 @@ class FakeBar:
         self.closed = True
 
 
-def test_progress_bar_counts_pixels(spheres, monkeypatch):
-    from lensray import _core
+@pytest.mark.parametrize("path", ["lr_progress_store", "python callback"])
+def test_progress_bar_counts_pixels(spheres, monkeypatch, path):
+    from lensray import _capi, _core
     FakeBar.made = []
     monkeypatch.setattr(_core, "_progress_bar", lambda enabled: FakeBar)
+    if path == "lr_progress_store":
+        assert _capi.progress_store() is not None
+    else:
+        # A library without lr_progress_store.
+        monkeypatch.setattr(_capi, "progress_store", lambda: None)
     render = {"width": 160, "height": 90, "spp": 512, "adaptive": False,
               "tile_size": 8, "threads": 1}
     spheres.render(camera=LENS, render=render)
@@ -188,3 +194,11 @@ def test_threads_render_one_scene_at_once(spheres):
         t.join()
     assert all(same_bits(g, a) for g, a in zip(got, alone))
     assert not same_bits(alone[0], alone[1])
+
+
+def test_lr_progress_store_stores_both_numbers():
+    import ctypes
+    from lensray import _capi
+    box = (ctypes.c_uint64 * 2)()
+    _capi.lib().lr_progress_store(ctypes.addressof(box), 2**40 + 3, 2**41 + 5)
+    assert list(box) == [2**40 + 3, 2**41 + 5]
