@@ -2,8 +2,9 @@
 # `make test`: the suite as built, then again under AddressSanitizer and
 # UBSan, then a short libFuzzer session of each fuzz target (make fuzz-ci:
 # one test per target), then the Python package's pytest suite (make
-# test-python), then one line "N passed, N failed" adding all four up.  Exit status 0 only when every run passed.  Usage:
-# tests/all.sh MAKE BUILD_DIR
+# test-python), then one line "N passed, N failed" adding all four up.
+# Exit status 0 only when every run passed.  Usage: tests/all.sh MAKE
+# BUILD_DIR
 make=${1:-make}
 build=${2:-build}
 mkdir -p "$build"
