@@ -68,7 +68,9 @@ class Image(np.ndarray):
         # Reductions (img.mean(), img.max()) give numbers, not 0-d Images.
         if obj.ndim == 0:
             return obj[()]
-        return np.ndarray.__array_wrap__(self, obj, context, return_scalar)
+        if return_scalar:  # numpy 2 passes it; numpy 1 has no such argument
+            return np.ndarray.__array_wrap__(self, obj, context, return_scalar)
+        return np.ndarray.__array_wrap__(self, obj, context)
 
     def _repr_png_(self) -> Optional[bytes]:
         # Slices and reductions of an Image are Images too; only the
@@ -330,8 +332,9 @@ class Scene:
                 ``rays``, ``nan_samples``, ``threads``, and the effect
                 plan's ``lens_pixels``, ``chroma_pixels``, ``camera_rays``,
                 ``full_camera_rays``, ``full_samples``).
-            progress: ``None`` (the default) shows a tqdm bar when tqdm is
-                installed; ``False`` never does; ``True`` requires tqdm.
+            progress: ``None`` (the default) shows a tqdm bar, once the
+                render has taken a second, when tqdm is installed;
+                ``False`` never does; ``True`` requires tqdm.
             cancel: a ``threading.Event``; setting it from another thread
                 stops the render within a tile and raises CancelledError.
 
