@@ -183,6 +183,50 @@ test-sanitize:
 	  SANITIZE="-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined" \
 	  test-suite
 
+# ---- Python --------------------------------------------------------------
+# The lensray package (python/, docs/python.md) in a virtual environment
+# under $(BUILD)/python: pinned test dependencies (python/tests/
+# requirements.txt; made again when that file changes), the package
+# installed from a copy of python/ so that setuptools' build files stay
+# under build/, then pytest, ending "N passed, N failed".
+PY_VENV := $(BUILD)/python/venv
+PYTHON  ?= python3
+
+$(PY_VENV)/.ok: python/tests/requirements.txt
+	@rm -rf $(PY_VENV) && mkdir -p $(dir $(PY_VENV))
+	@echo "  VENV    $(PY_VENV)"
+	@$(PYTHON) -m venv $(PY_VENV) >/dev/null 2>&1 || { \
+	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
+	    echo "make: installing missing Debian packages: python3-venv"; \
+	    apt-cache policy python3-venv 2>/dev/null | grep -q 'Candidate: [0-9]' || apt-get update -qq; \
+	    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq python3-venv >/dev/null; \
+	  fi; rm -rf $(PY_VENV); $(PYTHON) -m venv $(PY_VENV); } || { \
+	  echo "make: $(PYTHON) -m venv failed: run 'sudo apt-get install python3-venv' and try again"; exit 1; }
+	@$(PY_VENV)/bin/pip install -q --disable-pip-version-check -r python/tests/requirements.txt
+	@touch $@
+
+PY_SRC  := rm -rf $(BUILD)/python/src && mkdir -p $(BUILD)/python/src && \
+           cp -r python/lensray python/pyproject.toml python/setup.py \
+           python/README.md $(BUILD)/python/src/
+PY_PIP  := LENSRAY_BUILD=$(abspath $(BUILD)) $(PY_VENV)/bin/pip -q \
+           --disable-pip-version-check
+
+.PHONY: python python-wheel test-python
+python: all $(PY_VENV)/.ok
+	@$(PY_SRC)
+	@$(PY_PIP) install --no-build-isolation --no-deps --force-reinstall $(BUILD)/python/src
+
+# A wheel with liblensray inside, for this platform, in $(BUILD)/python/dist.
+python-wheel: all $(PY_VENV)/.ok
+	@$(PY_SRC)
+	@$(PY_PIP) wheel --no-build-isolation --no-deps -w $(BUILD)/python/dist $(BUILD)/python/src
+	@ls $(BUILD)/python/dist/*.whl
+
+test-python: python
+	@cd $(BUILD)/python && PYTHONDONTWRITEBYTECODE=1 \
+	  LENSRAY_BUILD_DIR=$(abspath $(BUILD)) venv/bin/python -m pytest \
+	  -p no:cacheprovider -q $(abspath python/tests)
+
 # ---- out of memory ------------------------------------------------------
 # tests/oom/oom.c fails the library's allocations one by one.  It is linked
 # with --wrap so that every allocation made by liblensray.a's own objects
@@ -307,9 +351,15 @@ $(BUILD)/obj/fuzz/lf_%.o: fuzz/fuzz_%.c $(DEPS_OK)
 render: all
 	$(BUILD)/lensray render scenes/spheres.json -o $(BUILD)/spheres.png --stats
 
-# The gallery's pictures (docs/gallery.md), rendered with the CLI.
-figures: all
+# The gallery's pictures (docs/gallery.md), rendered with the CLI, and the
+# Python guide's sweeps (docs/python.md), plotted with matplotlib.
+figures: all python $(BUILD)/python/.figures-ok
 	sh docs/figures.sh $(BUILD)/lensray docs/figures
+	SWEEPS_PNG=docs/figures/python-sweeps.png $(PY_VENV)/bin/python docs/python-sweeps.py
+
+$(BUILD)/python/.figures-ok: $(PY_VENV)/.ok python/figures-requirements.txt
+	@$(PY_VENV)/bin/pip install -q --disable-pip-version-check -r python/figures-requirements.txt
+	@touch $@
 
 # The benchmark (bench/README.md): lensray against a bare Embree program and
 # Mitsuba 3 on scenes/bench.json; results in $(BUILD)/bench/results.txt.
@@ -317,6 +367,8 @@ figures: all
 BENCH_CFLAGS ?= -std=c11 -O2 -g -Wall -Wextra
 .PHONY: bench
 bench: all $(BUILD)/bench/ceiling
+	@$(MAKE) --no-print-directory python || \
+	  echo "bench: the Python package could not be set up; its section will be skipped"
 	sh bench/run.sh $(BUILD)
 
 $(BUILD)/bench/ceiling: bench/ceiling.c $(DEPS_OK)

@@ -11,7 +11,10 @@
 #   3. Mitsuba 3.9.1 (llvm_ad_rgb and scalar_rgb), from a virtual
 #      environment under BUILD_DIR/bench/venv, when it can be installed;
 #   4. both renderers at BENCH_REF_SPP spp, and the mean relative difference
-#      between the pictures.
+#      between the pictures;
+#   5. peak memory;
+#   6. the Python package's scene.render() against the CLI for a one-second
+#      render (bench/python_overhead.py).
 # Raw outputs go to BUILD_DIR/bench/*.log; bench/summary.py prints the table
 # and writes BUILD_DIR/bench/results.txt.
 #
@@ -240,6 +243,20 @@ big=$("$LENSRAY" render "$SCENE" -o "$OUT/mem-big.exr" --quiet --stats $FULL \
 echo "MEMORY width=$MEM_W height=$MEM_H spp=$MEM_SPP film_bytes=$((MEM_W * MEM_H * 12)) base_kib=${base:-0} peak_kib=${big:-0}" > "$OUT/memory.log"
 cat "$OUT/memory.log"
 rm -f "$OUT/mem-small.exr" "$OUT/mem-big.exr"
+
+# ---- 6. Python -----------------------------------------------------------------
+# scene.render() from the Python package against the CLI, for a one-second
+# render (bench/python_overhead.py; the venv comes from `make python`).
+if [ -x "$BUILD/python/venv/bin/python" ]; then
+    quiet python
+    say "Python against the CLI, a one-second render"
+    "$BUILD/python/venv/bin/python" bench/python_overhead.py --lensray "$LENSRAY" \
+        --scene "$SCENE" --repeat "$((REPEAT + 2))" > "$OUT/python.log" 2> "$OUT/python.err" ||
+        say "the Python overhead run failed (see $OUT/python.err)"
+    cat "$OUT/python.log"
+else
+    say "Python: no $BUILD/python/venv (make python)"
+fi
 
 # ---- summary ---------------------------------------------------------------
 python3 bench/summary.py "$OUT" | tee "$OUT/results.txt"

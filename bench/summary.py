@@ -3,8 +3,8 @@
 
 Usage: python3 bench/summary.py BUILD/bench
 
-Reads machine.log, ceiling.log, lensray.log, mitsuba.log, compare.log and
-busy.log in that directory and prints the summary (run.sh also writes it
+Reads machine.log, ceiling.log, lensray.log, mitsuba.log, compare.log,
+memory.log, python.log and busy.log in that directory and prints the summary (run.sh also writes it
 to results.txt).  Standard library only.
 
 Which lensray figure is which:
@@ -35,6 +35,7 @@ TARGET_MITSUBA = 1.25
 TARGET_CEILING = 0.60
 TARGET_SCALING = 1.9
 TARGET_IMAGE = 0.02
+TARGET_PYTHON = 0.02
 BUSY = 0.25  # cores used by others that make a section "busy"
 
 
@@ -270,6 +271,18 @@ def main():
                 checks.append(('peak RSS within film + scene (+5%)',
                                peak <= 1.05 * (film + base),
                                '%.1f of %.1f MiB' % (peak, film + base)))
+    for l in read(d, 'python.log'):
+        if l.startswith('PYTHON_OVERHEAD '):
+            po = kv(l)
+            p('python: scene.render() over the CLI\'s render, %d spp (about 1 s): '
+              'wall %+.1f%%, CPU %+.1f%% (with the tqdm bar; without: wall %+.1f%%, '
+              'CPU %+.1f%%); %.1f ms per render outside the library'
+              % (po['spp'], 100 * po['wall_overhead'], 100 * po['cpu_overhead'],
+                 100 * po['wall_overhead_nobar'], 100 * po['cpu_overhead_nobar'],
+                 1000 * po.get('wrapper_seconds', 0)))
+            checks.append(('Python costs at most 2% over the CLI (CPU time)',
+                           po['cpu_overhead'] <= TARGET_PYTHON,
+                           '%+.2f%%' % (100 * po['cpu_overhead'])))
     p('')
     p('targets (%s):' % how)
     for name, ok, val in checks:

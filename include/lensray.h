@@ -187,6 +187,13 @@ typedef enum lr_sampler_kind {
  * `done` of `total` pixels are finished.  Must not call back into lr_render. */
 typedef void (*lr_progress_fn)(void *user, uint64_t done, uint64_t total);
 
+/* A ready-made lr_progress_fn for callers that poll rather than be called:
+ * `user` points to a uint64_t[2] that receives done and total, each with
+ * an atomic store, so that another thread can read them (with atomic
+ * loads) while the render runs.  Language bindings use it to draw a
+ * progress bar without running their own code on the render threads. */
+LR_API void lr_progress_store(void *user, uint64_t done, uint64_t total);
+
 typedef struct lr_render_settings {
     int width;               /* pixels; default 640 */
     int height;              /* pixels; default 480 */

@@ -1,0 +1,522 @@
+"""In-process rendering through liblensray: scenes, renders, images."""
+
+from __future__ import annotations
+
+import ctypes
+import json
+import os
+import threading
+from ctypes import byref, c_int, c_size_t, c_void_p
+from typing import Any, Literal, Mapping, Optional, Sequence, Union, overload
+
+import numpy as np
+
+from . import _capi
+from ._capi import lib
+from ._errors import CancelledError, LensrayError, LensrayIOError, SceneError
+
+PathLike = Union[str, "os.PathLike[str]"]
+Overrides = Union[Mapping[str, Any], Sequence[str], None]
+
+
+def version() -> str:
+    """The version of the loaded liblensray, e.g. ``"0.1.0"``."""
+    return lib().lr_version().decode()
+
+
+def _raise(status: int, err: _capi.lr_error,
+           stats: Optional[dict[str, Any]] = None) -> None:
+    """Raises the exception for a failed call's status and lr_error."""
+    message = err.message.decode("utf-8", "replace")
+    path = err.path.decode("utf-8", "replace")
+    name = (lib().lr_status_name(status) or b"").decode()
+    if status == _capi.LR_ERR_INVALID:
+        raise SceneError(message, path, name)
+    if status == _capi.LR_ERR_IO:
+        raise LensrayIOError(message, path, name)
+    if status == _capi.LR_ERR_CANCELLED:
+        raise CancelledError(message, path, name, stats=stats)
+    if status == _capi.LR_ERR_NOMEM:
+        raise MemoryError(message)
+    raise LensrayError(message, path, name)
+
+
+def _json_default(value: Any) -> Any:
+    # numpy scalars and arrays, as a sweep over np.linspace produces them.
+    if isinstance(value, (np.generic, np.ndarray)):
+        return value.tolist()
+    raise TypeError(f"{type(value).__name__} is not JSON serialisable")
+
+
+def _to_json(value: Any) -> bytes:
+    return json.dumps(value, default=_json_default).encode()
+
+
+class Image(np.ndarray):
+    """A float32 (H, W, 3) array of linear RGB radiance that Jupyter shows.
+
+    It is an ordinary ``numpy.ndarray`` in every other way (a subclass
+    that adds ``_repr_png_``); ``np.asarray(image)`` gives the plain array.
+    The picture is the library's own PNG encoding: sRGB, clamped to [0, 1].
+    """
+
+    def __array_finalize__(self, obj: Any) -> None:
+        pass
+
+    def __array_wrap__(self, obj: Any, context: Any = None,
+                       return_scalar: bool = False) -> Any:
+        # Reductions (img.mean(), img.max()) give numbers, not 0-d Images.
+        if obj.ndim == 0:
+            return obj[()]
+        if return_scalar:  # numpy 2 passes it; numpy 1 has no such argument
+            return np.ndarray.__array_wrap__(self, obj, context, return_scalar)
+        return np.ndarray.__array_wrap__(self, obj, context)
+
+    def _repr_png_(self) -> Optional[bytes]:
+        # Slices and reductions of an Image are Images too; only the
+        # shapes that are pictures are shown as one.
+        if self.ndim != 3 or self.shape[2] != 3 or self.size == 0:
+            return None
+        return encode_png(np.asarray(self))
+
+
+def _as_image(array: Any) -> "np.ndarray":
+    """(H, W, 3) float32, C-contiguous, from anything array-like."""
+    a = np.ascontiguousarray(np.asarray(array, dtype=np.float32))
+    if a.ndim == 2:
+        a = np.repeat(a[:, :, None], 3, axis=2)
+    if a.ndim != 3 or a.shape[2] not in (3, 4) or a.shape[0] < 1 or a.shape[1] < 1:
+        raise ValueError(
+            f"an image must be (H, W, 3) or (H, W); got shape {a.shape}")
+    if a.shape[2] == 4:
+        a = np.ascontiguousarray(a[:, :, :3])
+    return a
+
+
+def _lr_image(array: Any, depth: Any = None) -> c_void_p:
+    """A new lr_image holding a copy of `array` (and `depth`); the caller
+    frees it with lr_image_free."""
+    rgb = _as_image(array)
+    h, w = rgb.shape[:2]
+    z = None
+    if depth is not None:
+        z = np.ascontiguousarray(np.asarray(depth, dtype=np.float32))
+        if z.shape != (h, w):
+            raise ValueError(f"depth must be ({h}, {w}); got {z.shape}")
+    img = c_void_p()
+    err = _capi.lr_error()
+    st = lib().lr_image_create(w, h, 1 if z is not None else 0, byref(img), byref(err))
+    if st != _capi.LR_OK:
+        _raise(st, err)
+    ctypes.memmove(lib().lr_image_rgb_mut(img), rgb.ctypes.data, rgb.nbytes)
+    if z is not None:
+        ctypes.memmove(lib().lr_image_depth_mut(img), z.ctypes.data, z.nbytes)
+    return img
+
+
+def encode_png(array: Any, bits: int = 8) -> bytes:
+    """PNG bytes of an (H, W, 3) linear-RGB array, with the library's own
+    encoder (sRGB transfer curve, clamped to [0, 1]); ``bits`` is 8 or 16."""
+    if bits not in (8, 16):
+        raise ValueError("bits must be 8 or 16")
+    img = _lr_image(array)
+    try:
+        opts = _capi.lr_output_options()
+        lib().lr_output_options_default(byref(opts))
+        opts.png_16bit = 1 if bits == 16 else 0
+        buf = c_void_p()
+        n = c_size_t()
+        err = _capi.lr_error()
+        st = lib().lr_image_encode(img, _capi.LR_FORMAT_PNG, byref(opts),
+                                   byref(buf), byref(n), byref(err))
+        if st != _capi.LR_OK:
+            _raise(st, err)
+        try:
+            return ctypes.string_at(buf, n.value)
+        finally:
+            lib().lr_free(buf)
+    finally:
+        lib().lr_image_free(img)
+
+
+def write(path: PathLike, array: Any, depth: Any = None, *,
+          half: bool = False, png16: bool = False) -> None:
+    """Writes an image with liblensray's own encoders.
+
+    The format follows the extension: ``.exr`` (linear float32 RGB, or half
+    floats with ``half=True``; plus a Z channel when ``depth`` is given) or
+    ``.png`` (sRGB, clamped to [0, 1]; 16 bits per channel with
+    ``png16=True``).  ``array`` is (H, W, 3) linear RGB (an (H, W) array is
+    written as grey; a fourth channel is dropped).  The file is written
+    beside its name and renamed into place, so a failed write never leaves
+    a partial file.
+
+    Raises:
+        SceneError: an extension other than .exr or .png.
+        LensrayIOError: the file could not be written.
+        ValueError: an array of the wrong shape.
+    """
+    img = _lr_image(array, depth)
+    try:
+        opts = _capi.lr_output_options()
+        lib().lr_output_options_default(byref(opts))
+        opts.exr_half = 1 if half else 0
+        opts.png_16bit = 1 if png16 else 0
+        err = _capi.lr_error()
+        st = lib().lr_image_write(img, os.fsencode(path), byref(opts), byref(err))
+        if st != _capi.LR_OK:
+            _raise(st, err)
+    finally:
+        lib().lr_image_free(img)
+
+
+def _stats_dict(st: _capi.lr_render_stats) -> dict[str, Any]:
+    return {f[0]: getattr(st, f[0]) for f in st._fields_}
+
+
+def _progress_bar(enabled: Optional[bool]) -> Any:
+    """A tqdm class, or None when there is to be no bar."""
+    if enabled is False:
+        return None
+    try:
+        from tqdm.auto import tqdm
+    except ImportError:
+        if enabled:
+            raise
+        return None
+    return tqdm
+
+
+class Scene:
+    """A loaded scene: geometry, lights, and its own camera and settings.
+
+    Made by :func:`lensray.load`.  A scene is read-only once loaded: any
+    number of threads may render from it at once with different cameras
+    and settings.  Its memory (meshes, Embree's BVH) is freed when the
+    object is garbage-collected, or at once with :meth:`close` or a
+    ``with`` block.
+    """
+
+    def __init__(self, handle: c_void_p, source: str) -> None:
+        self._h: Optional[c_void_p] = handle
+        self._source = source
+        self._lock = threading.Lock()
+        self._active = 0
+
+    def __repr__(self) -> str:
+        if self._h is None:
+            return f"<lensray.Scene {self._source} (closed)>"
+        w, h = self.size
+        return (f"<lensray.Scene {self._source}: {self.primitive_count} "
+                f"primitives, {w} x {h}>")
+
+    def __enter__(self) -> "Scene":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+    def __del__(self) -> None:
+        try:
+            self.close()
+        except Exception:
+            pass
+
+    def close(self) -> None:
+        """Frees the scene now.  Rendering it afterwards raises ValueError.
+
+        Raises:
+            RuntimeError: a render from another thread is still using it.
+        """
+        with self._lock:
+            if self._active:
+                raise RuntimeError("the scene is being rendered")
+            h, self._h = self._h, None
+        if h is not None:
+            lib().lr_scene_free(h)
+
+    def _handle(self) -> c_void_p:
+        if self._h is None:
+            raise ValueError("the scene is closed")
+        return self._h
+
+    @property
+    def primitive_count(self) -> int:
+        """Triangles + spheres + planes."""
+        return int(lib().lr_scene_primitive_count(self._handle()))
+
+    @property
+    def size(self) -> tuple[int, int]:
+        """The scene's own image size (width, height), before overrides."""
+        rs = _capi.lr_render_settings()
+        lib().lr_scene_settings(self._handle(), byref(rs))
+        return rs.width, rs.height
+
+    def _setup(self, camera: Optional[Mapping[str, Any]],
+               render: Optional[Mapping[str, Any]]
+               ) -> tuple[_capi.lr_camera, _capi.lr_render_settings]:
+        cam = _capi.lr_camera()
+        rs = _capi.lr_render_settings()
+        lib().lr_scene_camera(self._handle(), byref(cam))
+        lib().lr_scene_settings(self._handle(), byref(rs))
+        err = _capi.lr_error()
+        if camera:
+            text = _to_json(dict(camera))
+            st = lib().lr_camera_apply_json(byref(cam), text, len(text), byref(err))
+            if st != _capi.LR_OK:
+                _raise(st, err)
+        if render:
+            text = _to_json(dict(render))
+            st = lib().lr_render_settings_apply_json(byref(rs), text, len(text),
+                                                     byref(err))
+            if st != _capi.LR_OK:
+                _raise(st, err)
+        return cam, rs
+
+    @overload
+    def render(self, camera: Optional[Mapping[str, Any]] = ...,
+               render: Optional[Mapping[str, Any]] = ...,
+               depth: Literal[False] = ..., stats: Literal[False] = ..., *,
+               progress: Optional[bool] = ...,
+               cancel: Optional[threading.Event] = ...) -> Image: ...
+
+    @overload
+    def render(self, camera: Optional[Mapping[str, Any]] = ...,
+               render: Optional[Mapping[str, Any]] = ...,
+               *, depth: Literal[True], stats: Literal[False] = ...,
+               progress: Optional[bool] = ...,
+               cancel: Optional[threading.Event] = ...
+               ) -> tuple[Image, np.ndarray]: ...
+
+    @overload
+    def render(self, camera: Optional[Mapping[str, Any]] = ...,
+               render: Optional[Mapping[str, Any]] = ...,
+               depth: Literal[False] = ..., *, stats: Literal[True],
+               progress: Optional[bool] = ...,
+               cancel: Optional[threading.Event] = ...
+               ) -> tuple[Image, dict[str, Any]]: ...
+
+    @overload
+    def render(self, camera: Optional[Mapping[str, Any]] = ...,
+               render: Optional[Mapping[str, Any]] = ...,
+               *, depth: Literal[True], stats: Literal[True],
+               progress: Optional[bool] = ...,
+               cancel: Optional[threading.Event] = ...
+               ) -> tuple[Image, np.ndarray, dict[str, Any]]: ...
+
+    @overload
+    def render(self, camera: Optional[Mapping[str, Any]] = ...,
+               render: Optional[Mapping[str, Any]] = ...,
+               depth: bool = ..., stats: bool = ..., *,
+               progress: Optional[bool] = ...,
+               cancel: Optional[threading.Event] = ...) -> Any: ...
+
+    def render(self, camera: Optional[Mapping[str, Any]] = None,
+               render: Optional[Mapping[str, Any]] = None,
+               depth: bool = False, stats: bool = False, *,
+               progress: Optional[bool] = None,
+               cancel: Optional[threading.Event] = None) -> Any:
+        """Renders the scene and returns its pixels as numpy arrays.
+
+        Args:
+            camera: keys that override the scene's ``camera`` object, with
+                the scene format's names and rules, e.g.
+                ``{"model": "thinlens", "f_number": 2.8,
+                "focal_length_mm": 50, "focus_distance": 4}``.  Keys left
+                out keep the scene's values.
+            render: keys that override the scene's ``render`` object, e.g.
+                ``{"width": 320, "height": 240, "spp": 64, "seed": 1}``.
+            depth: also return the Z channel.
+            stats: also return the render's statistics as a dict
+                (``seconds``, ``cpu_seconds``, ``pixels``, ``samples``,
+                ``rays``, ``nan_samples``, ``threads``, and the effect
+                plan's ``lens_pixels``, ``chroma_pixels``, ``camera_rays``,
+                ``full_camera_rays``, ``full_samples``).
+            progress: ``None`` (the default) shows a tqdm bar, once the
+                render has taken a second, when tqdm is installed;
+                ``False`` never does; ``True`` requires tqdm.
+            cancel: a ``threading.Event``; setting it from another thread
+                stops the render within a tile and raises CancelledError.
+
+        Returns:
+            ``rgb``: an :class:`Image`, a float32 (H, W, 3) ndarray of
+            linear RGB radiance, rows from the top, bit-identical to the
+            pixels the CLI writes to a float EXR for the same scene and
+            overrides.  With ``depth=True`` a tuple ``(rgb, z)`` where z is
+            float32 (H, W): distance along the view axis of the pixel
+            centre's first hit, 1e10 where the ray hits nothing.  With
+            ``stats=True`` the stats dict is appended: ``(rgb, stats)`` or
+            ``(rgb, z, stats)``.
+
+        The GIL is released while the library renders (on all cores unless
+        ``render={"threads": n}``), so other Python threads keep running.
+        Ctrl-C (KeyboardInterrupt) cancels the render within a tile, waits
+        for its threads to stop, and re-raises KeyboardInterrupt.
+
+        Raises:
+            SceneError: a bad override; ``.path`` names the field
+                (``"camera.aperture_radius"``) and ``.message`` is the
+                library's sentence.
+            CancelledError: ``cancel`` was set; ``.stats`` has what was
+                rendered before it stopped.
+            KeyboardInterrupt: Ctrl-C, after the render has stopped.
+        """
+        cam, rs = self._setup(camera, render)
+        if depth:
+            rs.want_depth = 1
+        flag = c_int(0)
+        rs.cancel = ctypes.pointer(flag)
+
+        bar_cls = _progress_bar(progress)
+        bar = None
+        # Pixels done and in all, read by the loop below that draws the bar.
+        # The library's lr_progress_store writes them from the render
+        # threads without entering Python; with an older library a Python
+        # callback does, taking the GIL for a moment after each tile.
+        done: Any = (ctypes.c_uint64 * 2)()
+        if bar_cls is not None:
+            store = _capi.progress_store()
+            if store is not None:
+                rs.progress = store
+                rs.progress_user = ctypes.addressof(done)
+            else:
+                def on_progress(_user: Any, d: int, t: int) -> None:
+                    done[0] = d
+                    done[1] = t
+                callback = _capi.lr_progress_fn(on_progress)
+                rs.progress = callback
+
+        out = c_void_p()
+        st = _capi.lr_render_stats()
+        err = _capi.lr_error()
+        result: list[Optional[int]] = [None]
+        handle = self._handle()
+
+        # Completion is signalled with an Event rather than read from the
+        # thread: a Thread.join interrupted by Ctrl-C can leave is_alive()
+        # False while the thread still runs (CPython before 3.12).
+        finished = threading.Event()
+
+        def work() -> None:
+            try:
+                result[0] = lib().lr_render(handle, byref(cam), byref(rs),
+                                            byref(out), byref(st), byref(err))
+            finally:
+                finished.set()
+
+        with self._lock:
+            self._active += 1
+        worker = threading.Thread(target=work, name="lensray-render", daemon=True)
+        try:
+            worker.start()
+            try:
+                while not finished.wait(0.1):
+                    if cancel is not None and cancel.is_set():
+                        flag.value = 1
+                    if bar_cls is not None and done[1]:
+                        if bar is None:
+                            # delay: no bar for renders under a second.
+                            bar = bar_cls(total=done[1], unit="px",
+                                          unit_scale=True, leave=False,
+                                          desc="lensray", delay=1.0)
+                        bar.update(done[0] - bar.n)
+                if bar is not None:
+                    bar.update(done[0] - bar.n)
+                worker.join()
+            except BaseException:
+                # Ctrl-C (or any exception in this thread): stop the render
+                # and wait for its threads before anything it uses is
+                # freed; further Ctrl-Cs do not abandon it.
+                flag.value = 1
+                while not finished.is_set():
+                    try:
+                        finished.wait()
+                    except BaseException:
+                        pass
+                worker.join()
+                if out:
+                    lib().lr_image_free(out)
+                raise
+        finally:
+            with self._lock:
+                self._active -= 1
+            if bar is not None:
+                bar.close()
+
+        status = result[0]
+        assert status is not None
+        if status != _capi.LR_OK:
+            _raise(status, err, _stats_dict(st))
+        try:
+            w = lib().lr_image_width(out)
+            h = lib().lr_image_height(out)
+            rgb = np.ctypeslib.as_array(lib().lr_image_rgb(out), shape=(h, w, 3))
+            rgb = rgb.copy().view(Image)
+            z = None
+            if depth:
+                zp = lib().lr_image_depth(out)
+                z = np.ctypeslib.as_array(zp, shape=(h, w)).copy()
+        finally:
+            lib().lr_image_free(out)
+        ret: list[Any] = [rgb]
+        if depth:
+            ret.append(z)
+        if stats:
+            ret.append(_stats_dict(st))
+        return rgb if len(ret) == 1 else tuple(ret)
+
+
+def _override_strings(overrides: Overrides) -> list[bytes]:
+    if overrides is None:
+        return []
+    if isinstance(overrides, Mapping):
+        return [f"{k}={json.dumps(v, default=_json_default)}".encode()
+                for k, v in overrides.items()]
+    if isinstance(overrides, (str, bytes)):
+        raise TypeError("overrides must be a dict or a list of 'path=value' strings")
+    return [s.encode() if isinstance(s, str) else bytes(s) for s in overrides]
+
+
+def load(source: Union[PathLike, Mapping[str, Any]],
+         overrides: Overrides = None, *,
+         base_dir: Optional[PathLike] = None) -> Scene:
+    """Loads a scene from a JSON file or from a dict in the scene format.
+
+    Args:
+        source: the path of a scene file (``"scenes/spheres.json"``; mesh
+            paths are relative to its directory), or a dict with the
+            scene's JSON structure (docs/scene-format.md).
+        overrides: values to change before the scene is checked, by JSON
+            path, as the CLI's ``--set``: a dict
+            ``{"camera.fov": 30, "objects[2].radius": 0.5}`` or a list of
+            ``"path=value"`` strings (the value parsed as JSON, else taken
+            as a string).
+        base_dir: for a dict, the directory its relative mesh paths are
+            resolved from; the current directory by default.
+
+    Returns:
+        A :class:`Scene`; render it with :meth:`Scene.render`.
+
+    Raises:
+        SceneError: bad JSON, an invalid value or a bad mesh; ``.path`` is
+            the field's JSON path (``"objects[3].radius"``) and
+            ``.message`` the library's sentence, which names it too.
+        LensrayIOError: the file (or a mesh) could not be read.
+    """
+    sets = _override_strings(overrides)
+    arr = (ctypes.c_char_p * max(len(sets), 1))(*sets)
+    out = c_void_p()
+    err = _capi.lr_error()
+    if isinstance(source, Mapping):
+        text = _to_json(dict(source))
+        base = os.fsencode(base_dir) if base_dir is not None else None
+        st = lib().lr_scene_load_json(text, len(text), base, arr, len(sets),
+                                      byref(out), byref(err))
+        name = "(dict)"
+    else:
+        st = lib().lr_scene_load_file(os.fsencode(source), arr, len(sets),
+                                      byref(out), byref(err))
+        name = os.fspath(source)
+    if st != _capi.LR_OK:
+        _raise(st, err)
+    return Scene(out, name)

@@ -1,0 +1,128 @@
+"""lensray.Client against a real lensrayd started by a fixture."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import lensray
+
+from conftest import LENS, SCENES, SMALL, same_bits
+
+
+def test_render_by_name_equals_in_process(daemon, spheres):
+    c = lensray.Client(daemon.url)
+    rgb, z = c.render("spheres", camera=LENS, render=SMALL, depth=True)
+    ref, ref_z = spheres.render(camera=LENS, render=SMALL, depth=True)
+    assert rgb.dtype == np.float32 and rgb.shape == ref.shape
+    assert same_bits(rgb, ref) and same_bits(z, ref_z)
+    assert isinstance(rgb, lensray.Image)
+    assert not same_bits(rgb, c.render("spheres", render=SMALL))
+
+
+def test_render_inline_scene_equals_in_process(daemon):
+    doc = json.loads((SCENES / "spheres.json").read_text())
+    doc["objects"][1]["radius"] = 1.5
+    rgb = lensray.Client(daemon.url).render(doc, camera=LENS, render=SMALL)
+    with lensray.load(doc, base_dir=SCENES) as s:
+        assert same_bits(rgb, s.render(camera=LENS, render=SMALL))
+
+
+def test_errors_name_the_field(daemon):
+    c = lensray.Client(daemon.url)
+    with pytest.raises(lensray.SceneError) as e:
+        c.render("spheres", camera={"model": "thinlens", "aperture_radius": -0.5})
+    assert e.value.path == "camera.aperture_radius"
+    assert "must be >= 0" in e.value.message
+    assert e.value.status == "invalid_value" and e.value.http_status == 422
+    with pytest.raises(lensray.SceneError) as e:
+        c.render("no_such_scene")
+    assert e.value.path == "scene" and e.value.http_status == 404
+    doc = json.loads((SCENES / "spheres.json").read_text())
+    doc["objects"][0]["radius"] = -1
+    with pytest.raises(lensray.SceneError) as e:
+        c.submit(doc)
+    assert e.value.path.startswith("scene.objects[0]")
+
+
+def test_submit_wait_result(daemon, spheres):
+    c = lensray.Client(daemon.url)
+    job = c.submit("spheres", camera=LENS, render=SMALL)
+    assert len(job.id) == 32
+    doc = job.wait(timeout=60)
+    assert doc["status"] == "done" and job.status == "done"
+    assert job.progress == 1.0
+    assert same_bits(job.result(), spheres.render(camera=LENS, render=SMALL))
+    # The same job, found again by id, with its Z channel.
+    job2 = c.submit("spheres", render=SMALL, depth=True)
+    rgb, z = c.job(job2.id, depth=True).result(timeout=60)
+    ref, ref_z = spheres.render(render=SMALL, depth=True)
+    assert same_bits(rgb, ref) and same_bits(z, ref_z)
+
+
+def test_cancel_a_running_job(daemon):
+    c = lensray.Client(daemon.url)
+    job = c.submit("spheres", camera=LENS,
+                   render={"width": 320, "height": 180, "spp": 4096,
+                           "adaptive": False, "plan": False, "tile_size": 8})
+    doc = job.cancel()
+    assert doc["status"] in ("cancelled", "running")
+    assert job.wait(timeout=30)["status"] == "cancelled"
+    with pytest.raises(lensray.CancelledError):
+        job.result()
+
+
+def test_token(token_daemon, spheres):
+    d, token = token_daemon
+    with pytest.raises(lensray.LensrayError) as e:
+        lensray.Client(d.url).render("spheres", render=SMALL)
+    assert e.value.http_status == 401 and e.value.status == "unauthorized"
+    rgb = lensray.Client(d.url, token=token).render("spheres", render=SMALL)
+    assert same_bits(rgb, spheres.render(render=SMALL))
+    assert lensray.Client(d.url, token=token).health()["status"] == "ok"
+
+
+def test_render_split_stitches_the_full_frame(daemon, spheres):
+    c = lensray.Client(daemon.url)
+    render = {**SMALL, "height": 55}
+    rgb = lensray.render_split([c, c], "spheres", camera=LENS, render=render, parts=3)
+    assert same_bits(rgb, spheres.render(camera=LENS, render=render))
+    # The scene's own size when the overrides leave it out.
+    doc = json.loads((SCENES / "spheres.json").read_text())
+    doc["render"].update(width=40, height=22, spp=2)
+    strips = lensray.render_split(c, doc, parts=2)
+    with lensray.load(doc, base_dir=SCENES) as s:
+        assert same_bits(strips, s.render())
+    with pytest.raises(ValueError):
+        lensray.render_split(c, "spheres", render={"region": [0, 0, 4, 4]})
+
+
+def cancelled_jobs(client) -> int:
+    text = client._request("GET", "/metrics")[0].decode()
+    for line in text.splitlines():
+        if line.startswith('lensrayd_jobs_finished_total{state="cancelled"}'):
+            return int(float(line.split()[-1]))
+    return 0
+
+
+def test_ctrl_c_during_a_synchronous_render_cancels_it_on_the_daemon(daemon):
+    import signal
+    import threading
+    import time
+    c = lensray.Client(daemon.url)
+    before = cancelled_jobs(c)
+    main = threading.main_thread().ident
+    threading.Timer(0.5, signal.pthread_kill, (main, signal.SIGINT)).start()
+    with pytest.raises(KeyboardInterrupt):
+        c.render("spheres", camera=LENS,
+                 render={"width": 320, "height": 180, "spp": 4096,
+                         "adaptive": False, "plan": False, "tile_size": 8})
+    # The connection closed at once, so the daemon cancels the render
+    # (within a tile) and its worker is free again.
+    deadline = time.monotonic() + 20
+    while cancelled_jobs(c) == before and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert cancelled_jobs(c) == before + 1
+    assert c.health()["running"] == 0

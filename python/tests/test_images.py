@@ -1,0 +1,67 @@
+"""lensray.write and the Jupyter picture, with the library's encoders."""
+
+from __future__ import annotations
+
+import struct
+
+import numpy as np
+import pytest
+
+import lensray
+
+from conftest import LENS, SCENES, SMALL, cli_render, read_exr, same_bits
+
+
+def prefixed(prefix, d):
+    return {f"{prefix}.{k}": v for k, v in d.items()}
+
+
+def test_write_exr_round_trips_through_openexr(tmp_path):
+    rng = np.random.default_rng(1)
+    rgb = rng.random((7, 11, 3), dtype=np.float32) * 100
+    z = rng.random((7, 11), dtype=np.float32)
+    lensray.write(tmp_path / "a.exr", rgb, z)
+    back, zback = read_exr(tmp_path / "a.exr")
+    assert same_bits(back, rgb) and same_bits(zback, z)
+    lensray.write(tmp_path / "b.exr", rgb, half=True)
+    back, zback = read_exr(tmp_path / "b.exr")
+    assert zback is None
+    assert np.allclose(back, rgb, rtol=1e-3) and not same_bits(back, rgb)
+
+
+def test_write_png_matches_the_cli(tmp_path, spheres):
+    """The same render written by the CLI and by lensray.write gives the
+    same PNG file, 8 and 16 bit."""
+    sets = {**prefixed("camera", LENS), **prefixed("render", SMALL)}
+    rgb = spheres.render(camera=LENS, render=SMALL)
+    cli_render(SCENES / "spheres.json", tmp_path / "cli.png", sets)
+    lensray.write(tmp_path / "py.png", rgb)
+    assert (tmp_path / "py.png").read_bytes() == (tmp_path / "cli.png").read_bytes()
+    cli_render(SCENES / "spheres.json", tmp_path / "cli16.png", sets, "--png16")
+    lensray.write(tmp_path / "py16.png", rgb, png16=True)
+    assert (tmp_path / "py16.png").read_bytes() == (tmp_path / "cli16.png").read_bytes()
+    assert rgb._repr_png_() == (tmp_path / "py.png").read_bytes()
+
+
+def test_repr_png_is_a_png_of_the_right_size(spheres):
+    rgb = spheres.render(render=SMALL)
+    png = rgb._repr_png_()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n"
+    w, h = struct.unpack(">II", png[16:24])
+    assert (w, h) == (SMALL["width"], SMALL["height"])
+    # Arithmetic on an Image gives an Image; non-pictures show as text.
+    assert (rgb * 2)._repr_png_() is not None
+    assert rgb[:, :, 0]._repr_png_() is None
+    assert isinstance(rgb.mean(), (float, np.floating))
+
+
+def test_write_refuses_bad_input(tmp_path):
+    with pytest.raises(ValueError):
+        lensray.write(tmp_path / "a.exr", np.zeros((4, 4, 5)))
+    with pytest.raises(ValueError):
+        lensray.write(tmp_path / "a.exr", np.zeros((4, 4, 3)), np.zeros((3, 4)))
+    with pytest.raises(lensray.SceneError):
+        lensray.write(tmp_path / "a.tiff", np.zeros((4, 4, 3)))
+    with pytest.raises(lensray.LensrayIOError):
+        lensray.write(tmp_path / "no" / "dir" / "a.png", np.zeros((4, 4, 3)))
+    assert not (tmp_path / "a.exr").exists()
