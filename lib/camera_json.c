@@ -21,11 +21,6 @@ static lr_status parse_chromatic(const cJSON *c, lr_camera *cam,
     static const char *const keys[] = {"mode",     "focal_model", "ior",
                                        "glass",    "abbe",        "amplify",
                                        "wavelengths", NULL};
-    static const char *const modes[] = {"off", "rgb", "spectral", NULL};
-    static const char *const models[] = {"paper", "lensmaker", NULL};
-    /* Indexed by lr_glass; "N-BK7" is accepted as Schott's full name. */
-    static const char *const glasses[] = {"BK7", "F2", "SF11",
-                                          "fused_silica", NULL};
     static const char *const abbe_keys[] = {"n_d", "V_d", NULL};
     const char *path = "camera.chromatic";
     lr_chromatic *ch = &cam->chromatic;
@@ -34,8 +29,10 @@ static lr_status parse_chromatic(const cJSON *c, lr_camera *cam,
                         "%s must be an object", path);
     LR_TRY(lr__json_check_keys(c, path, keys, err));
     int mode = (int)ch->mode, model = (int)ch->focal_model;
-    LR_TRY(lr__json_enum(c, "mode", path, modes, &mode, err));
-    LR_TRY(lr__json_enum(c, "focal_model", path, models, &model, err));
+    LR_TRY(lr__json_enum(c, "mode", path, lr__chroma_mode_names, &mode,
+                         err));
+    LR_TRY(lr__json_enum(c, "focal_model", path, lr__focal_model_names,
+                         &model, err));
     ch->mode = (lr_chromatic_mode)mode;
     ch->focal_model = (lr_focal_model)model;
     lr__v3 ior = v3a(ch->ior);
@@ -48,11 +45,12 @@ static lr_status parse_chromatic(const cJSON *c, lr_camera *cam,
                         "camera.chromatic: give either glass or abbe, not "
                         "both");
     if (g != NULL) {
+        /* "N-BK7" is accepted as Schott's full name. */
         if (cJSON_IsString(g) && strcmp(g->valuestring, "N-BK7") == 0) {
             ch->glass = LR_GLASS_BK7;
         } else {
             int gi = (int)ch->glass;
-            LR_TRY(lr__json_enum(c, "glass", path, glasses, &gi, err));
+            LR_TRY(lr__json_enum(c, "glass", path, lr__glass_names, &gi, err));
             ch->glass = (lr_glass)gi;
         }
     }

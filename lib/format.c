@@ -1,8 +1,8 @@
 /*
  * format.c: the table of image formats: names, MIME types, extensions and
  * what each can hold.  Everything that names a format (file extensions,
- * a job's output.format, the daemon's Content-Type) asks this table, so a
- * new format is one new row here and one encoder.
+ * a job's output.format, the daemon's Content-Type, the encoder to call)
+ * asks this table, so a new format is one new row here and one encoder.
  */
 #include "internal.h"
 
@@ -15,12 +15,13 @@ typedef struct format_info {
     const char *mime;      /* Content-Type */
     const char *extension; /* with the dot, matched in any case */
     int has_depth;         /* can hold a Z channel */
+    lr__encoder encode;    /* image_<name>.c */
 } format_info;
 
 /* Indexed by lr_format. */
 static const format_info formats[] = {
-    [LR_FORMAT_EXR] = {"exr", "image/x-exr", ".exr", 1},
-    [LR_FORMAT_PNG] = {"png", "image/png", ".png", 0},
+    [LR_FORMAT_EXR] = {"exr", "image/x-exr", ".exr", 1, lr__encode_exr},
+    [LR_FORMAT_PNG] = {"png", "image/png", ".png", 0, lr__encode_png},
 };
 #define N_FORMATS (sizeof formats / sizeof formats[0])
 
@@ -47,6 +48,11 @@ const char *lr_format_extension(lr_format fmt)
 int lr_format_has_depth(lr_format fmt)
 {
     return info(fmt) ? info(fmt)->has_depth : 0;
+}
+
+lr__encoder lr__format_encoder(lr_format fmt)
+{
+    return info(fmt) ? info(fmt)->encode : NULL;
 }
 
 /* "\"exr\" or \"png\"" (quoted = 1) or ".exr or .png" (quoted = 0). */

@@ -132,14 +132,11 @@ static lr_status encode(const lr_image *img, lr_format fmt,
         lr_output_options_default(&defaults);
         opts = &defaults;
     }
-    switch (fmt) {
-    case LR_FORMAT_EXR:
-        return lr__encode_exr(img, opts, fd, buf, len, err);
-    case LR_FORMAT_PNG:
-        return lr__encode_png(img, opts, fd, buf, len, err);
-    }
-    return lr__fail(err, LR_ERR_INVALID, NULL, "unknown image format %d",
-                    (int)fmt);
+    lr__encoder enc = lr__format_encoder(fmt);
+    if (enc == NULL)
+        return lr__fail(err, LR_ERR_INVALID, NULL, "unknown image format %d",
+                        (int)fmt);
+    return enc(img, opts, fd, buf, len, err);
 }
 
 lr_status lr_image_encode(const lr_image *img, lr_format fmt,

@@ -27,13 +27,19 @@ void lr__trim_partial_utf8(char *s, size_t cap, int wanted);
 
 /* ---- files (io.c) ---------------------------------------------------- */
 
-/* Reads the whole file at `path` into *out, a malloc'ed buffer of *len
- * bytes plus a terminating NUL (NULL for an empty file), which the caller
- * frees.  Errors: LR_ERR_IO (cannot open or read, with the system's
- * reason), LR_ERR_LIMIT (larger than `max` bytes), LR_ERR_NOMEM; then
- * *out is NULL. */
-lr_status lr__read_file(const char *path, size_t max, char **out,
-                        size_t *len, lr_error *err);
+/* Reads the whole file `file` into *out, a malloc'ed buffer of *len bytes
+ * plus a terminating NUL, which the caller frees.  Messages name the file
+ * as `shown` ("FILE: cannot open: reason") and err->path is `json_path`
+ * (may be NULL); `what` names the kind of file in the size-limit message
+ * ("OBJ files").  When `stop` is given, reading ends after the first
+ * chunk for which it returns nonzero (the caller's parser rejects the
+ * file there anyway).  Errors: LR_ERR_IO (cannot open or read, with the
+ * system's reason), LR_ERR_LIMIT (larger than `max` bytes),
+ * LR_ERR_NOMEM; then *out is NULL. */
+lr_status lr__read_file(const char *file, const char *shown,
+                        const char *json_path, size_t max, const char *what,
+                        int (*stop)(const char *chunk, size_t n), char **out,
+                        size_t *out_len, lr_error *err);
 
 /* ---- limits, shared by the JSON loader and the C API's validation ---- */
 
@@ -60,6 +66,9 @@ struct lr_image {
  * never costs its size in memory, and *buf stays NULL.  `opts` is never
  * NULL here.  On failure *buf is NULL and nothing leaks; a failed write
  * is LR_ERR_IO with the system's reason. */
+typedef lr_status (*lr__encoder)(const lr_image *img,
+                                 const lr_output_options *opts, int fd,
+                                 void **buf, size_t *len, lr_error *err);
 lr_status lr__encode_exr(const lr_image *img, const lr_output_options *opts,
                          int fd, void **buf, size_t *len, lr_error *err);
 lr_status lr__encode_png(const lr_image *img, const lr_output_options *opts,
@@ -68,6 +77,9 @@ lr_status lr__encode_png(const lr_image *img, const lr_output_options *opts,
 /* sRGB transfer function (IEC 61966-2-1) of a linear value clamped to
  * [0, 1]; NaN maps to 0. */
 double lr__srgb_encode(double linear);
+
+/* The encoder of a format (format.c's table), or NULL for an unknown one. */
+lr__encoder lr__format_encoder(lr_format fmt);
 
 /* ---- OBJ meshes (obj.c) ----------------------------------------------- */
 

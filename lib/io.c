@@ -1,58 +1,93 @@
 /*
- * io.c: reading a whole file into memory, for the scene loader.
+ * io.c: reading a whole file into memory, with a size limit (scene files,
+ * OBJ files).
  */
 #include "internal.h"
 
 #include <errno.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
-lr_status lr__read_file(const char *path, size_t max, char **out,
+/* Reading in a loop rather than trusting the size from fstat also copes
+ * with pipes and with files that change while we read them. */
+lr_status lr__read_file(const char *file, const char *shown,
+                        const char *json_path, size_t max, const char *what,
+                        int (*stop)(const char *chunk, size_t n), char **out,
                         size_t *out_len, lr_error *err)
 {
     *out = NULL;
     *out_len = 0;
-    FILE *f = fopen(path, "rb");
+    FILE *f = fopen(file, "rb");
     if (f == NULL)
-        return lr__fail(err, LR_ERR_IO, NULL, "cannot open %s: %s", path,
-                        strerror(errno));
-    char *buf = NULL;
-    size_t len = 0, cap = 0;
-    lr_status st = LR_OK;
-    for (;;) {
-        if (len == cap) {
-            if (cap >= max) {
-                st = lr__fail(err, LR_ERR_LIMIT, NULL,
-                              "%s is larger than the limit of %zu bytes",
-                              path, max);
-                break;
-            }
-            cap = cap ? 2 * cap : 65536;
-            /* One byte more for the terminating NUL. */
-            char *grown = realloc(buf, cap + 1);
-            if (grown == NULL) {
-                st = lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
-                break;
-            }
-            buf = grown;
+        return lr__fail(err, LR_ERR_IO, json_path, "%s: cannot open: %s",
+                        shown, strerror(errno));
+
+    /* Two bytes beyond the size: one for the terminating NUL and one so
+     * that the first fread comes up short and shows the end of the file
+     * without another round. */
+    size_t cap = 65536;
+    struct stat sb;
+    if (fstat(fileno(f), &sb) == 0 && S_ISREG(sb.st_mode)) {
+        if ((uintmax_t)sb.st_size > max) {
+            fclose(f);
+            return lr__fail(err, LR_ERR_LIMIT, json_path,
+                            "%s: the file is larger than the %zu MiB limit "
+                            "for %s",
+                            shown, max >> 20, what);
         }
-        size_t got = fread(buf + len, 1, cap - len, f);
+        cap = (size_t)sb.st_size + 2;
+    }
+    char *buf = malloc(cap);
+    if (buf == NULL) {
+        fclose(f);
+        return lr__fail(err, LR_ERR_NOMEM, json_path,
+                        "%s: out of memory reading the file", shown);
+    }
+    size_t len = 0;
+    for (;;) {
+        if (cap - len < 2) {
+            size_t ncap = cap > max / 2 ? max + 2 : cap * 2;
+            char *nbuf = realloc(buf, ncap);
+            if (nbuf == NULL) {
+                free(buf);
+                fclose(f);
+                return lr__fail(err, LR_ERR_NOMEM, json_path,
+                                "%s: out of memory reading the file", shown);
+            }
+            buf = nbuf;
+            cap = ncap;
+        }
+        size_t want = cap - len - 1;
+        size_t got = fread(buf + len, 1, want, f);
+        /* The caller's parser would stop here anyway (stop). */
+        int stopped = stop != NULL && stop(buf + len, got);
         len += got;
-        if (got == 0) {
-            if (ferror(f))
-                st = lr__fail(err, LR_ERR_IO, NULL, "cannot read %s: %s",
-                              path, strerror(errno));
+        if (stopped)
+            break;
+        if (len > max) {
+            free(buf);
+            fclose(f);
+            return lr__fail(err, LR_ERR_LIMIT, json_path,
+                            "%s: the file is larger than the %zu MiB limit "
+                            "for %s",
+                            shown, max >> 20, what);
+        }
+        if (got < want) {
+            if (ferror(f)) {
+                int e = errno;
+                free(buf);
+                fclose(f);
+                return lr__fail(err, LR_ERR_IO, json_path,
+                                "%s: cannot read: %s", shown, strerror(e));
+            }
             break;
         }
     }
     fclose(f);
-    if (st != LR_OK) {
-        free(buf);
-        return st;
-    }
-    if (buf != NULL)
-        buf[len] = '\0';
+    buf[len] = '\0';
     *out = buf;
     *out_len = len;
     return LR_OK;

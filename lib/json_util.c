@@ -11,6 +11,21 @@
 #include <string.h>
 
 
+const char *const lr__sampler_names[] = {"random", "grid", "jittered",
+                                        "sobol", NULL};
+int lr__sampler_count(void)
+{
+    int n = 0;
+    while (lr__sampler_names[n] != NULL)
+        n++;
+    return n;
+}
+
+const char *const lr__chroma_mode_names[] = {"off", "rgb", "spectral", NULL};
+const char *const lr__focal_model_names[] = {"paper", "lensmaker", NULL};
+const char *const lr__glass_names[] = {"BK7", "F2", "SF11", "fused_silica",
+                                       NULL};
+
 void lr__path_key(char out[LR__PATH_MAX], const char *parent,
                   const char *key)
 {

@@ -7,20 +7,23 @@
  * here cannot drift from theirs.
  */
 #include "camera.h"
+#include "json_util.h"
 
 #include <cjson/cJSON.h>
 
 #include <stdlib.h>
 
-/* Indexed by the enums of lensray.h, as the parsers' tables are. */
-static const char *const samplers[] = {"random", "grid", "jittered",
-                                       "sobol"};
-static const char *const chroma_modes[] = {"off", "rgb", "spectral"};
-static const char *const focal_models[] = {"paper", "lensmaker"};
-static const char *const glasses[] = {"BK7", "F2", "SF11", "fused_silica"};
+/* The enums are named by json_util.c's tables, as the parsers name them. */
 
-#define NAME(table, i)                                                     \
-    ((unsigned)(i) < sizeof table / sizeof table[0] ? table[i] : "unknown")
+/* names[i] of a NULL-ended table, or "unknown". */
+static const char *name_of(const char *const *names, int i)
+{
+    for (int k = 0; names[k] != NULL; k++)
+        if (k == i)
+            return names[k];
+    return "unknown";
+}
+#define NAME(table, i) name_of(table, (int)(i))
 
 /* Adds and remembers failure: every cJSON_Add* returns NULL when out of
  * memory, and one check at the end covers them all. */
@@ -78,8 +81,8 @@ static void chromatic_json(jb *b, const lr_chromatic *ch)
         b->failed = 1;
         return;
     }
-    str(&c, "mode", NAME(chroma_modes, ch->mode));
-    str(&c, "focal_model", NAME(focal_models, ch->focal_model));
+    str(&c, "mode", NAME(lr__chroma_mode_names, ch->mode));
+    str(&c, "focal_model", NAME(lr__focal_model_names, ch->focal_model));
     vec(&c, "ior", ch->ior, 3);
     if (ch->glass == LR_GLASS_ABBE) {
         jb a;
@@ -90,7 +93,7 @@ static void chromatic_json(jb *b, const lr_chromatic *ch)
         }
         c.failed |= a.failed;
     } else {
-        str(&c, "glass", NAME(glasses, ch->glass));
+        str(&c, "glass", NAME(lr__glass_names, ch->glass));
     }
     num(&c, "amplify", ch->amplify);
     num(&c, "wavelengths", ch->wavelengths);
@@ -160,7 +163,7 @@ char *lr_render_settings_json(const lr_render_settings *s)
     num(&b, "width", s->width);
     num(&b, "height", s->height);
     num(&b, "spp", s->spp);
-    str(&b, "sampler", NAME(samplers, s->sampler));
+    str(&b, "sampler", NAME(lr__sampler_names, s->sampler));
     num(&b, "seed", (double)s->seed);
     num(&b, "max_depth", s->max_depth);
     num(&b, "threads", s->threads);

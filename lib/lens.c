@@ -88,48 +88,6 @@ void lr__aperture_sample(lr_aperture_shape shape, int blades,
     *y = py;
 }
 
-__attribute__((target_clones("avx512f", "avx2", "default")))
-void lr__aperture_sample16(lr_aperture_shape shape, int blades,
-                           double rotation, double ratio, int n,
-                           const float *lu, const float *lv, float *lx,
-                           float *ly)
-{
-    if (shape == LR_APERTURE_DISK && rotation == 0.0) {
-        /* Shirley & Chiu's concentric map, branch-free; sin and cos of
-         * t in [-pi/4, pi/4] by Taylor series (error < 2e-9). */
-        const float fr = (float)ratio;
-        for (int i = 0; i < 16; i++) {
-            float a = 2.0f * lu[i] - 1.0f, b = 2.0f * lv[i] - 1.0f;
-            /* Blends instead of branches, so the loop vectorises:
-             * m = 1 when |a| > |b|. */
-            float m = (float)(fabsf(a) > fabsf(b));
-            float rr = m * a + (1.0f - m) * b;
-            float num = m * b + (1.0f - m) * a;
-            /* rr = 0 only when a = b = 0, and then num = 0 too. */
-            float den = rr + (float)(rr == 0.0f);
-            float t = 0.78539816f * num / den;
-            float t2 = t * t;
-            float sn = t * (1.0f + t2 * (-1.0f / 6 + t2 * (1.0f / 120 +
-                       t2 * (-1.0f / 5040 + t2 * (1.0f / 362880)))));
-            float cs = 1.0f + t2 * (-0.5f + t2 * (1.0f / 24 + t2 *
-                       (-1.0f / 720 + t2 * (1.0f / 40320 -
-                        t2 * (1.0f / 3628800)))));
-            lx[i] = rr * (m * cs + (1.0f - m) * sn) * fr;
-            ly[i] = rr * (m * sn + (1.0f - m) * cs);
-        }
-        return;
-    }
-    for (int i = 0; i < 16; i++) {
-        double x = 0.0, y = 0.0;
-        if (i < n) {
-            double u[2] = {lu[i], lv[i]};
-            lr__aperture_sample(shape, blades, rotation, ratio, u, &x, &y);
-        }
-        lx[i] = (float)x;
-        ly[i] = (float)y;
-    }
-}
-
 /* Sellmeier coefficients B1..B3, C1..C3 (um^2), from the Schott catalogue
  * (N-BK7, F2, SF11) and Malitson 1965 (fused silica); see
  * ../shared/optics-reference.md, where they reproduce n_d and V_d. */

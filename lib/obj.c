@@ -133,6 +133,19 @@ static int is_binary_byte(unsigned char c)
            c == 0x7f;
 }
 
+/* Reading a file stops at the first chunk with a binary byte: the parser
+ * reports it (with its line) before it could reach anything after it, so
+ * there is no need to read on, and a device that streams bytes forever
+ * (/dev/zero, /dev/urandom) is rejected at once instead of after the
+ * 1 GiB limit. */
+static int stop_at_binary(const char *chunk, size_t n)
+{
+    for (size_t i = 0; i < n; i++)
+        if (is_binary_byte((unsigned char)chunk[i]))
+            return 1;
+    return 0;
+}
+
 /* Finds the next token after *pp; returns its start and sets *len, or
  * returns NULL at the end of the line.  Advances *pp past the token. */
 static const char *next_token(const char **pp, size_t *len)
@@ -583,95 +596,6 @@ static lr_status parse_buffer(parser *ps, char *buf, size_t len,
     return LR_OK;
 }
 
-/* Reads the whole file into a NUL-terminated buffer.  Reading in a loop
- * rather than trusting the size from fstat also copes with pipes and with
- * files that change while we read them. */
-static lr_status read_file(const char *file, const char *shown,
-                           const char *json_path, char **out,
-                           size_t *out_len, lr_error *err)
-{
-    *out = NULL;
-    *out_len = 0;
-    FILE *f = fopen(file, "rb");
-    if (f == NULL)
-        return lr__fail(err, LR_ERR_IO, json_path, "%s: cannot open: %s",
-                        shown, strerror(errno));
-
-    /* Two bytes beyond the size: one for the terminating NUL and one so
-     * that the first fread comes up short and shows the end of the file
-     * without another round. */
-    size_t cap = 65536;
-    struct stat sb;
-    if (fstat(fileno(f), &sb) == 0 && S_ISREG(sb.st_mode)) {
-        if ((uintmax_t)sb.st_size > OBJ_MAX_BYTES) {
-            fclose(f);
-            return lr__fail(err, LR_ERR_LIMIT, json_path,
-                            "%s: the file is larger than the %zu MiB limit "
-                            "for OBJ files",
-                            shown, OBJ_MAX_BYTES >> 20);
-        }
-        cap = (size_t)sb.st_size + 2;
-    }
-    char *buf = malloc(cap);
-    if (buf == NULL) {
-        fclose(f);
-        return lr__fail(err, LR_ERR_NOMEM, json_path,
-                        "%s: out of memory reading the file", shown);
-    }
-    size_t len = 0;
-    for (;;) {
-        if (cap - len < 2) {
-            size_t ncap = cap > OBJ_MAX_BYTES / 2 ? OBJ_MAX_BYTES + 2
-                                                  : cap * 2;
-            char *nbuf = realloc(buf, ncap);
-            if (nbuf == NULL) {
-                free(buf);
-                fclose(f);
-                return lr__fail(err, LR_ERR_NOMEM, json_path,
-                                "%s: out of memory reading the file", shown);
-            }
-            buf = nbuf;
-            cap = ncap;
-        }
-        size_t want = cap - len - 1;
-        size_t got = fread(buf + len, 1, want, f);
-        /* Stop at the first chunk with a binary byte: the parser reports
-         * it (with its line) before it could reach anything after it, so
-         * there is no need to read on, and a device that streams bytes
-         * forever (/dev/zero, /dev/urandom) is rejected at once instead
-         * of after the 1 GiB limit. */
-        int binary = 0;
-        for (size_t i = len; i < len + got && !binary; i++)
-            binary = is_binary_byte((unsigned char)buf[i]);
-        len += got;
-        if (binary)
-            break;
-        if (len > OBJ_MAX_BYTES) {
-            free(buf);
-            fclose(f);
-            return lr__fail(err, LR_ERR_LIMIT, json_path,
-                            "%s: the file is larger than the %zu MiB limit "
-                            "for OBJ files",
-                            shown, OBJ_MAX_BYTES >> 20);
-        }
-        if (got < want) {
-            if (ferror(f)) {
-                int e = errno;
-                free(buf);
-                fclose(f);
-                return lr__fail(err, LR_ERR_IO, json_path,
-                                "%s: cannot read: %s", shown, strerror(e));
-            }
-            break;
-        }
-    }
-    fclose(f);
-    buf[len] = '\0';
-    *out = buf;
-    *out_len = len;
-    return LR_OK;
-}
-
 lr_status lr__obj_load(const char *file, const char *json_path,
                        lr__mesh *out, lr_error *err)
 {
@@ -692,7 +616,9 @@ lr_status lr__obj_load_named(const char *file, const char *shown,
 
     char *buf = NULL;
     size_t len = 0;
-    lr_status st = read_file(file, shown, json_path, &buf, &len, err);
+    lr_status st = lr__read_file(file, shown, json_path, OBJ_MAX_BYTES,
+                                 "OBJ files", stop_at_binary, &buf, &len,
+                                 err);
     if (st != LR_OK)
         return st;
 

@@ -457,7 +457,8 @@ lr_status lr_scene_load_file(const char *path, const char *const *overrides,
     *out = NULL;
     char *buf = NULL;
     size_t len = 0;
-    lr_status st = lr__read_file(path, MAX_SCENE_BYTES, &buf, &len, err);
+    lr_status st = lr__read_file(path, path, NULL, MAX_SCENE_BYTES,
+                                 "scene files", NULL, &buf, &len, err);
     if (st != LR_OK)
         return st;
     /* Mesh paths are relative to the scene file's directory. */

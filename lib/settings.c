@@ -2,7 +2,7 @@
  * settings.c: render settings: their defaults and their checks (the
  * public lr_render_settings_default and lr_render_settings_validate).
  */
-#include "internal.h"
+#include "json_util.h"
 
 #include <string.h>
 
@@ -47,7 +47,7 @@ lr_status lr_render_settings_validate(const lr_render_settings *s,
         return lr__fail(err, LR_ERR_INVALID, "render.spp",
                         "render.spp must be between 1 and %d, got %d",
                         LR__MAX_SPP, s->spp);
-    if ((int)s->sampler < 0 || s->sampler > LR_SAMPLER_SOBOL)
+    if ((int)s->sampler < 0 || (int)s->sampler >= lr__sampler_count())
         return lr__fail(err, LR_ERR_INVALID, "render.sampler",
                         "render.sampler is not a known sampler (%d)",
                         (int)s->sampler);

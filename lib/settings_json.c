@@ -18,9 +18,6 @@ lr_status lr__settings_from_json(const cJSON *r, lr_render_settings *rs,
                                        "threads",   "tile_size", "depth",
                                        "region",    "plan",    "adaptive",
                                        NULL};
-    /* Indexed by lr_sampler_kind. */
-    static const char *const samplers[] = {"random", "grid", "jittered",
-                                           "sobol", NULL};
     if (r == NULL)
         return LR_OK;
     if (!cJSON_IsObject(r))
@@ -76,7 +73,8 @@ lr_status lr__settings_from_json(const cJSON *r, lr_render_settings *rs,
         }
     }
     int kind = (int)rs->sampler;
-    LR_TRY(lr__json_enum(r, "sampler", "render", samplers, &kind, err));
+    LR_TRY(lr__json_enum(r, "sampler", "render", lr__sampler_names, &kind,
+                         err));
     rs->sampler = (lr_sampler_kind)kind;
     const cJSON *reg = cJSON_GetObjectItemCaseSensitive(r, "region");
     if (reg != NULL) {

@@ -109,10 +109,13 @@ static int light_ray_setup(const lr_scene *s, const lr__hit *h, lr__v3 wo,
  * (fr, fg, fb) and the shadow rays in double (ro, rd, rt), as
  * light_ray_setup gives them, for the infinite planes. */
 __attribute__((target_clones("avx512f", "avx2", "default")))
-static void light_rays16(const lr__light *lt, const lr__hits16 *h,
-                         const double k[3][16], int *ok, struct RTCRay16 *r,
-                         double fr[16], double fg[16], double fb[16],
-                         double ro[3][16], double rd[3][16], double rt[16])
+static void light_rays16(const lr__light *restrict lt,
+                         const lr__hits16 *restrict h,
+                         const double k[restrict 3][16], int *restrict ok,
+                         struct RTCRay16 *restrict r, double fr[restrict 16],
+                         double fg[restrict 16], double fb[restrict 16],
+                         double ro[restrict 3][16], double rd[restrict 3][16],
+                         double rt[restrict 16])
 {
     const int point = lt->kind == LR__LIGHT_POINT;
     const double lpx = lt->position.x, lpy = lt->position.y,
