@@ -224,11 +224,8 @@ lr_status lr_camera_apply_json(lr_camera *cam, const char *json, size_t len,
     cJSON *root = NULL;
     LR_TRY(lr__json_parse(json ? json : "", len, "camera", "camera",
                           &root, err));
-    lr_camera tmp = *cam;
-    lr_status st = lr__camera_from_json(root, &tmp, err);
+    lr_status st = lr__camera_apply_cjson(cam, root, err);
     cJSON_Delete(root);
-    if (st == LR_OK)
-        *cam = tmp;
     return st;
 }
 

@@ -112,11 +112,8 @@ lr_status lr_render_settings_apply_json(lr_render_settings *s,
     cJSON *root = NULL;
     LR_TRY(lr__json_parse(json ? json : "", len, "render", "render",
                           &root, err));
-    lr_render_settings tmp = *s;
-    lr_status st = lr__settings_from_json(root, &tmp, err);
+    lr_status st = lr__render_apply_cjson(s, root, err);
     cJSON_Delete(root);
-    if (st == LR_OK)
-        *s = tmp;
     return st;
 }
 

@@ -281,6 +281,15 @@ EOF
     [ "$(hex_bytes "$T/png16.png" 24 1)" = 10 ]
 }
 
+@test "--half with a PNG and --png16 with an EXR are usage errors, not ignored" {
+    run -2 "$LENSRAY" render "$T/scene.json" -o "$T/x.png" --half
+    [[ "$output" == *"--half: output.half applies to exr only, not png"* ]]
+    [ ! -e "$T/x.png" ]
+    run -2 "$LENSRAY" render "$T/scene.json" -o "$T/x.exr" --png16
+    [[ "$output" == *"--png16: output.bit_depth applies to png only, not exr"* ]]
+    [ ! -e "$T/x.exr" ]
+}
+
 @test "--depth adds a Z channel to the EXR header" {
     if ! command -v python3 >/dev/null 2>&1; then
         skip "environment: python3 is needed to read the EXR header"

@@ -190,6 +190,25 @@ static int cmd_render(int argc, char **argv)
         rc = usage_error("%s", err.message);
         goto done;
     }
+    /* The format's options by the library's rules (lr_output), so that
+     * --half with a .png, say, is refused rather than ignored. */
+    if (oo.exr_half || oo.png_16bit) {
+        char spec[128];
+        lr_output out;
+        lr_output_default(&out);
+        snprintf(spec, sizeof spec, "{\"format\": \"%s\"%s%s}",
+                 lr_format_name(fmt), oo.exr_half ? ", \"half\": true" : "",
+                 oo.png_16bit ? ", \"bit_depth\": 16" : "");
+        if (lr_output_apply_json(&out, spec, strlen(spec), &err) != LR_OK) {
+            char msg[sizeof err.message + 32];
+            snprintf(msg, sizeof msg, "%s: %s",
+                     strcmp(err.path, "output.half") == 0 ? "--half"
+                                                          : "--png16",
+                     err.message);
+            rc = usage_error("%s", msg);
+            goto done;
+        }
+    }
     if (want_depth && !lr_format_has_depth(fmt)) {
         rc = usage_error("--depth needs an output that can hold a Z "
                          "channel, such as .exr (%s has none)",
