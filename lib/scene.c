@@ -169,6 +169,11 @@ lr_status lr__scene_commit(lr_scene *s, lr_error *err)
                           !(v3_maxc(m->transmit) > 0.0) &&
                           v3_maxc(m->diffuse) > 0.0;
     }
+    for (size_t i = 0; i < s->n_geoms; i++) {
+        lr__geom *g = &s->geoms[i];
+        g->lambert_triangles = g->kind == LR__GEOM_TRIANGLES &&
+                               s->materials[g->material].lambert_only;
+    }
     embree_msg[0] = '\0';
     rtcCommitScene(s->rtc);
     if (rtcGetDeviceError(s->device) != RTC_ERROR_NONE)

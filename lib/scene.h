@@ -55,6 +55,9 @@ typedef struct lr__geom {
     lr__v3 center;
     double radius;
     lr__v3 normal;         /* plane */
+    /* Set by lr__scene_commit: a triangle mesh whose material is
+     * lambert_only (a fact the integrator's vector path asks per lane). */
+    int lambert_triangles;
     /* Triangles: Embree's copies of the vertices and indices, valid for
      * the scene's lifetime (not owned). */
     const float *vertices;

@@ -275,9 +275,7 @@ static int vector_lane(const lr_scene *s, const struct RTCRayHit16 *rh,
                        int i)
 {
     unsigned g = rh->hit.geomID[i];
-    if (g == RTC_INVALID_GEOMETRY_ID || lr__whitted_scalar_only ||
-        s->geoms[g].kind != LR__GEOM_TRIANGLES ||
-        !s->materials[s->geoms[g].material].lambert_only)
+    if (g == RTC_INVALID_GEOMETRY_ID || !s->geoms[g].lambert_triangles)
         return 0;
     if (s->n_planes == 0)
         return 1;
@@ -298,9 +296,9 @@ typedef struct scratch16 {
  * one packet at a time. */
 static _Thread_local scratch16 tls_scratch;
 
-static void radiance16(const lr_scene *s, int max_depth,
-                       struct RTCRayHit16 *rh, int n, lr__v3 L[16],
-                       uint64_t *rays)
+static void radiance16(const lr_scene *restrict s, int max_depth,
+                       struct RTCRayHit16 *restrict rh, int n,
+                       lr__v3 L[restrict 16], uint64_t *restrict rays)
 {
     scratch16 *sc = &tls_scratch;
     struct RTCRay16 shadow __attribute__((aligned(64)));
@@ -318,9 +316,10 @@ static void radiance16(const lr_scene *s, int max_depth,
     lr__hit hit[16];
     lr__v3 org[16], dir[16];
     int has_hit[16], vec[16], n_vec = 0;
+    const int vector_ok = !lr__whitted_scalar_only;
     for (int i = 0; i < 16; i++) {
         unsigned g = rh->hit.geomID[i];
-        vec[i] = i < n && vector_lane(s, rh, i) ? -1 : 0;
+        vec[i] = i < n && vector_ok && vector_lane(s, rh, i) ? -1 : 0;
         n_vec += vec[i] != 0;
         has_hit[i] = 0;
         if (vec[i]) {
