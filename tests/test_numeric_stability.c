@@ -241,7 +241,7 @@ static void test_total_internal_reflection(void **state)
  * Tracing both branches down to max_depth whatever their weight made the
  * rays of one sample grow as ~1.62^depth here (1217 at depth 12, 392833
  * at depth 24; ~1e13 at the allowed maximum of 64), so one pixel could
- * never finish.  lib/shade.c now drops branches whose weight from the
+ * never finish.  lib/whitted.c now drops branches whose weight from the
  * camera falls below 1e-4. */
 static void test_branching_bounded(void **state)
 {
