@@ -66,7 +66,7 @@ def main():
     cli = {"wall": [], "cpu": []}
     py = {True: {"wall": [], "cpu": [], "lib": []}, False: {"wall": [], "cpu": [], "lib": []}}
     with tempfile.TemporaryDirectory() as tmp:
-        for _ in range(a.repeat):
+        for turn in range(a.repeat):
             out = subprocess.run(
                 [a.lensray, "render", a.scene, "-o", f"{tmp}/cli.exr", "--quiet",
                  "--stats", "--set", f"render.spp={spp}"],
@@ -74,7 +74,9 @@ def main():
             s = json.loads(next(l for l in out.splitlines() if l.startswith("{")))
             cli["wall"].append(s["seconds"])
             cli["cpu"].append(s["cpu_seconds"])
-            for bar in (True, False):
+            # The two Python runs take turns going first, so that neither
+            # always follows the CLI's process (a cold start, a busy core).
+            for bar in ((True, False) if turn % 2 == 0 else (False, True)):
                 c0, t0 = cpu_now(), time.perf_counter()
                 _, st = scene.render(render=render, stats=True,
                                      progress=None if bar else False)
