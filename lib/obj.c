@@ -6,9 +6,10 @@
  * work on without ever running into the next line.  Only geometry is kept:
  * `v` positions, `vn` normals and `f` faces; everything else an exporter
  * may write (texture coordinates, groups, materials, lines, points) is
- * skipped, because the renderer has no use for it.
+ * skipped, because the renderer has no use for it.  Faces (`f`) are
+ * obj_face.c's; the parser's state is in obj.h.
  */
-#include "internal.h"
+#include "obj.h"
 
 #include <errno.h>
 #include <float.h>
@@ -19,53 +20,18 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 
 /* The largest OBJ file we agree to read.  Real scenes are far smaller;
  * the cap keeps a wrong path (a disk image, /dev/zero) from eating all
  * memory before the parser gets a chance to reject it. */
 #define OBJ_MAX_BYTES ((size_t)1 << 30)
 
-/* How much of an offending token an error message quotes. */
-#define TOKEN_QUOTE_MAX 40
-
-/* A face corner after its indices were resolved to 0-based positions. */
-typedef struct corner {
-    size_t v;
-    size_t vn;
-    int has_vn;
-} corner;
-
-/* Everything the parser accumulates while it walks the file. */
-typedef struct parser {
-    const char *file;
-    const char *json_path;
-    lr_error *err;
-    locale_t c_locale; /* numbers are always read with a '.' decimal point */
-    size_t line;       /* the line being parsed, for messages */
-
-    float *v; /* 3 per vertex */
-    size_t n_v, cap_v;
-    float *vn; /* 3 per normal, unit length */
-    size_t n_vn, cap_vn;
-    size_t n_vt; /* only counted, so that vt indices can be checked */
-
-    unsigned *idx; /* 3 per triangle */
-    size_t n_tri, cap_idx;
-    float *cn; /* 9 per triangle while every corner so far had a normal */
-    size_t cap_cn;
-    int all_normals;
-
-    corner *corners; /* scratch for the face being parsed */
-    size_t cap_corners;
-} parser;
-
 /* Grows an array so that it holds at least `need` elements of `elem`
  * bytes, doubling the capacity so that appending stays linear overall.
  * Returns the (possibly moved) array, or NULL when the size would
  * overflow or realloc fails; the old array is then still valid, which is
  * what lets the caller free everything on the error path. */
-static void *grow(void *p, size_t *cap, size_t need, size_t elem)
+void *lr__obj_grow(void *p, size_t *cap, size_t need, size_t elem)
 {
     if (need <= *cap)
         return p;
@@ -99,8 +65,7 @@ static void parser_free(parser *ps)
 /* Reports an input error at the current line.  Every parse message has
  * the "FILE:LINE: " prefix that editors and compilers use, so a user can
  * jump straight to the culprit. */
-__attribute__((format(printf, 3, 4))) static lr_status
-fail_at(parser *ps, lr_status status, const char *fmt, ...)
+lr_status lr__obj_fail_at(parser *ps, lr_status status, const char *fmt, ...)
 {
     char what[512];
     va_list ap;
@@ -111,9 +76,9 @@ fail_at(parser *ps, lr_status status, const char *fmt, ...)
                     ps->line, what);
 }
 
-static lr_status nomem(parser *ps)
+lr_status lr__obj_nomem(parser *ps)
 {
-    return fail_at(ps, LR_ERR_NOMEM, "out of memory while reading the mesh");
+    return lr__obj_fail_at(ps, LR_ERR_NOMEM, "out of memory while reading the mesh");
 }
 
 /* Whitespace between tokens.  A stray '\r' counts too, so CRLF files and
@@ -148,7 +113,7 @@ static int stop_at_binary(const char *chunk, size_t n)
 
 /* Finds the next token after *pp; returns its start and sets *len, or
  * returns NULL at the end of the line.  Advances *pp past the token. */
-static const char *next_token(const char **pp, size_t *len)
+const char *lr__obj_next_token(const char **pp, size_t *len)
 {
     const char *p = *pp;
     while (is_blank(*p))
@@ -165,17 +130,9 @@ static const char *next_token(const char **pp, size_t *len)
     return start;
 }
 
-/* The first TOKEN_QUOTE_MAX bytes of a token for a message, with every
- * byte outside printable ASCII written as \xNN: a token is binary junk
- * when it has such bytes, and quoting them raw would make the message
- * invalid UTF-8 (lensrayd copies messages into JSON). */
-typedef struct quoted {
-    char s[4 * TOKEN_QUOTE_MAX + 1];
-} quoted;
-
-static quoted quote(const char *tok, size_t len)
+lr__obj_quoted lr__obj_quote(const char *tok, size_t len)
 {
-    quoted q;
+    lr__obj_quoted q;
     size_t o = 0;
     for (size_t i = 0; i < len && i < TOKEN_QUOTE_MAX; i++) {
         unsigned char c = (unsigned char)tok[i];
@@ -197,18 +154,18 @@ static lr_status parse_number(parser *ps, const char *tok, size_t len,
     errno = 0;
     double x = strtod_l(tok, &end, ps->c_locale);
     if (end == tok || end != tok + len)
-        return fail_at(ps, LR_ERR_INVALID, "bad number '%s' in a '%s' line",
-                       quote(tok, len).s, what);
+        return lr__obj_fail_at(ps, LR_ERR_INVALID, "bad number '%s' in a '%s' line",
+                       lr__obj_quote(tok, len).s, what);
     /* ERANGE on underflow gives a tiny but usable value; on overflow the
      * number was written finite and is merely too large. */
     if (!isfinite(x) && errno != ERANGE)
-        return fail_at(ps, LR_ERR_INVALID,
+        return lr__obj_fail_at(ps, LR_ERR_INVALID,
                        "non-finite number '%s' in a '%s' line",
-                       quote(tok, len).s, what);
+                       lr__obj_quote(tok, len).s, what);
     if (!isfinite(x) || fabs(x) > FLT_MAX)
-        return fail_at(ps, LR_ERR_INVALID,
+        return lr__obj_fail_at(ps, LR_ERR_INVALID,
                        "number '%s' in a '%s' line is too large for a float",
-                       quote(tok, len).s, what);
+                       lr__obj_quote(tok, len).s, what);
     *out = x;
     return LR_OK;
 }
@@ -220,20 +177,20 @@ static lr_status parse_numbers(parser *ps, const char *rest, const char *what,
 {
     size_t n = 0;
     size_t len = 0;
-    const char *tok = next_token(&rest, &len);
+    const char *tok = lr__obj_next_token(&rest, &len);
     while (tok != NULL) {
         if (n == max)
-            return fail_at(ps, LR_ERR_INVALID,
+            return lr__obj_fail_at(ps, LR_ERR_INVALID,
                            "too many numbers in a '%s' line (at most %zu)",
                            what, max);
         lr_status st = parse_number(ps, tok, len, what, &vals[n]);
         if (st != LR_OK)
             return st;
         n++;
-        tok = next_token(&rest, &len);
+        tok = lr__obj_next_token(&rest, &len);
     }
     if (n < min)
-        return fail_at(ps, LR_ERR_INVALID,
+        return lr__obj_fail_at(ps, LR_ERR_INVALID,
                        "a '%s' line needs %zu numbers, this one has %zu", what,
                        min, n);
     *count = n;
@@ -253,10 +210,10 @@ static lr_status parse_vertex(parser *ps, const char *rest)
     /* Faces store vertex indices as unsigned, so more vertices than that
      * could not be referenced. */
     if (ps->n_v >= UINT_MAX)
-        return fail_at(ps, LR_ERR_LIMIT, "more than %u vertices", UINT_MAX);
-    float *v = grow(ps->v, &ps->cap_v, 3 * (ps->n_v + 1), sizeof *v);
+        return lr__obj_fail_at(ps, LR_ERR_LIMIT, "more than %u vertices", UINT_MAX);
+    float *v = lr__obj_grow(ps->v, &ps->cap_v, 3 * (ps->n_v + 1), sizeof *v);
     if (v == NULL)
-        return nomem(ps);
+        return lr__obj_nomem(ps);
     ps->v = v;
     for (int i = 0; i < 3; i++)
         v[3 * ps->n_v + (size_t)i] = (float)vals[i];
@@ -276,212 +233,17 @@ static lr_status parse_normal(parser *ps, const char *rest)
     double len = sqrt(vals[0] * vals[0] + vals[1] * vals[1] +
                       vals[2] * vals[2]);
     if (!(len > 0.0))
-        return fail_at(ps, LR_ERR_INVALID,
+        return lr__obj_fail_at(ps, LR_ERR_INVALID,
                        "zero-length normal; a 'vn' needs a direction");
     if (ps->n_vn > SIZE_MAX / 3 - 1)
-        return fail_at(ps, LR_ERR_LIMIT, "too many normals");
-    float *vn = grow(ps->vn, &ps->cap_vn, 3 * (ps->n_vn + 1), sizeof *vn);
+        return lr__obj_fail_at(ps, LR_ERR_LIMIT, "too many normals");
+    float *vn = lr__obj_grow(ps->vn, &ps->cap_vn, 3 * (ps->n_vn + 1), sizeof *vn);
     if (vn == NULL)
-        return nomem(ps);
+        return lr__obj_nomem(ps);
     ps->vn = vn;
     for (int i = 0; i < 3; i++)
         vn[3 * ps->n_vn + (size_t)i] = (float)(vals[i] / len);
     ps->n_vn++;
-    return LR_OK;
-}
-
-/* Parses the integer at *pp, which must lie before `end`.  Returns 0 on
- * success, -1 when there is no integer there and -2 when it does not fit
- * a long.  The explicit first-character test matters: strtol would skip
- * whitespace and happily read the next token. */
-static int parse_int(const char **pp, const char *end, long *out)
-{
-    const char *p = *pp;
-    if (p >= end)
-        return -1;
-    if (!((*p >= '0' && *p <= '9') || *p == '-' || *p == '+'))
-        return -1;
-    char *stop = NULL;
-    errno = 0;
-    long x = strtol(p, &stop, 10);
-    if (stop == p || stop > end)
-        return -1;
-    if (errno == ERANGE)
-        return -2;
-    *out = x;
-    *pp = stop;
-    return 0;
-}
-
-static const char *plural(size_t n, const char *one, const char *many)
-{
-    return n == 1 ? one : many;
-}
-
-/* Turns an OBJ index (1-based, or negative counting back from the end of
- * the list so far) into a 0-based position, or reports it.  `kind` is
- * "" for vertices, "normal " or "texture " for the others. */
-static lr_status resolve_index(parser *ps, long i, size_t count,
-                               const char *kind, const char *one,
-                               const char *many, size_t *out)
-{
-    if (i == 0)
-        return fail_at(ps, LR_ERR_INVALID,
-                       "face %sindex 0 out of range (OBJ indices start at 1; "
-                       "the file has %zu %s so far)",
-                       kind, count, plural(count, one, many));
-    if (i > 0) {
-        if ((unsigned long)i <= count) {
-            *out = (size_t)i - 1;
-            return LR_OK;
-        }
-    } else {
-        /* -(i + 1) cannot overflow even for LONG_MIN. */
-        unsigned long back = (unsigned long)(-(i + 1)) + 1u;
-        if (back <= count) {
-            *out = count - back;
-            return LR_OK;
-        }
-    }
-    return fail_at(ps, LR_ERR_INVALID,
-                   "face %sindex %ld out of range (the file has %zu %s so far)",
-                   kind, i, count, plural(count, one, many));
-}
-
-/* Parses one corner: v, v/vt, v//vn or v/vt/vn. */
-static lr_status parse_corner(parser *ps, const char *tok, size_t len,
-                              corner *c)
-{
-    const char *end = tok + len;
-    const char *p = tok;
-    long iv = 0, it = 0, in = 0;
-    int have_vt = 0;
-    c->has_vn = 0;
-
-    int r = parse_int(&p, end, &iv);
-    if (r == 0 && p < end) {
-        if (*p != '/') {
-            r = -1;
-        } else {
-            p++;
-            if (p < end && *p != '/') {
-                r = parse_int(&p, end, &it);
-                have_vt = 1;
-            }
-            if (r == 0 && p < end) {
-                if (*p != '/') {
-                    r = -1;
-                } else {
-                    p++;
-                    r = parse_int(&p, end, &in);
-                    c->has_vn = 1;
-                }
-            } else if (r == 0 && !have_vt) {
-                /* "1/" names a texture coordinate and then gives none. */
-                r = -1;
-            }
-        }
-        if (r == 0 && p != end)
-            r = -1;
-    }
-    if (r == -2)
-        return fail_at(ps, LR_ERR_INVALID,
-                       "face index in '%s' out of range",
-                       quote(tok, len).s);
-    if (r != 0)
-        return fail_at(ps, LR_ERR_INVALID,
-                       "bad face corner '%s' (expected v, v/vt, v//vn or "
-                       "v/vt/vn with integer indices)",
-                       quote(tok, len).s);
-
-    lr_status st =
-        resolve_index(ps, iv, ps->n_v, "", "vertex", "vertices", &c->v);
-    if (st != LR_OK)
-        return st;
-    if (have_vt) {
-        size_t unused = 0;
-        st = resolve_index(ps, it, ps->n_vt, "texture ",
-                           "texture coordinate", "texture coordinates",
-                           &unused);
-        if (st != LR_OK)
-            return st;
-    }
-    if (c->has_vn) {
-        st = resolve_index(ps, in, ps->n_vn, "normal ", "normal", "normals",
-                           &c->vn);
-        if (st != LR_OK)
-            return st;
-    }
-    return LR_OK;
-}
-
-/* Stops collecting per-corner normals: once one corner lacks a normal the
- * mesh as a whole has none, so the memory can go right away. */
-static void drop_normals(parser *ps)
-{
-    ps->all_normals = 0;
-    free(ps->cn);
-    ps->cn = NULL;
-    ps->cap_cn = 0;
-}
-
-static lr_status parse_face(parser *ps, const char *rest)
-{
-    size_t n = 0;
-    size_t len = 0;
-    int face_normals = 1;
-    const char *tok = next_token(&rest, &len);
-    while (tok != NULL) {
-        if (n == SIZE_MAX / sizeof(corner))
-            return fail_at(ps, LR_ERR_LIMIT, "too many corners in a face");
-        corner *cs = grow(ps->corners, &ps->cap_corners, n + 1, sizeof *cs);
-        if (cs == NULL)
-            return nomem(ps);
-        ps->corners = cs;
-        lr_status st = parse_corner(ps, tok, len, &cs[n]);
-        if (st != LR_OK)
-            return st;
-        if (!cs[n].has_vn)
-            face_normals = 0;
-        n++;
-        tok = next_token(&rest, &len);
-    }
-    if (n < 3)
-        return fail_at(ps, LR_ERR_INVALID,
-                       "a face needs at least 3 corners, this one has %zu", n);
-    if (!face_normals && ps->all_normals)
-        drop_normals(ps);
-
-    /* A polygon with n corners becomes a fan of n - 2 triangles around
-     * its first corner; fine for the convex polygons exporters write. */
-    size_t add = n - 2;
-    if (ps->n_tri > SIZE_MAX / 9 - add)
-        return fail_at(ps, LR_ERR_LIMIT, "too many triangles");
-    size_t tri_after = ps->n_tri + add;
-    unsigned *idx = grow(ps->idx, &ps->cap_idx, 3 * tri_after, sizeof *idx);
-    if (idx == NULL)
-        return nomem(ps);
-    ps->idx = idx;
-    float *cn = NULL;
-    if (ps->all_normals) {
-        cn = grow(ps->cn, &ps->cap_cn, 9 * tri_after, sizeof *cn);
-        if (cn == NULL)
-            return nomem(ps);
-        ps->cn = cn;
-    }
-
-    const corner *cs = ps->corners;
-    for (size_t k = 1; k + 1 < n; k++) {
-        const corner *tri[3] = {&cs[0], &cs[k], &cs[k + 1]};
-        for (int j = 0; j < 3; j++) {
-            /* parse_vertex keeps the vertex count within unsigned. */
-            idx[3 * ps->n_tri + (size_t)j] = (unsigned)tri[j]->v;
-            if (cn != NULL)
-                memcpy(&cn[9 * ps->n_tri + 3 * (size_t)j],
-                       &ps->vn[3 * tri[j]->vn], 3 * sizeof *cn);
-        }
-        ps->n_tri++;
-    }
     return LR_OK;
 }
 
@@ -493,7 +255,7 @@ static lr_status parse_line(parser *ps, char *s)
         *hash = '\0';
     const char *rest = s;
     size_t len = 0;
-    const char *kw = next_token(&rest, &len);
+    const char *kw = lr__obj_next_token(&rest, &len);
     if (kw == NULL)
         return LR_OK;
     if (len == 1 && kw[0] == 'v')
@@ -501,7 +263,7 @@ static lr_status parse_line(parser *ps, char *s)
     if (len == 2 && kw[0] == 'v' && kw[1] == 'n')
         return parse_normal(ps, rest);
     if (len == 1 && kw[0] == 'f')
-        return parse_face(ps, rest);
+        return lr__obj_parse_face(ps, rest);
     if (len == 2 && kw[0] == 'v' && kw[1] == 't') {
         ps->n_vt++;
         return LR_OK;
@@ -546,7 +308,7 @@ static lr_status parse_buffer(parser *ps, char *buf, size_t len,
                 if (!in_comment && b > s && b[-1] == '\\') {
                     if (q + 1 == end) {
                         ps->line = line;
-                        return fail_at(ps, LR_ERR_INVALID, "%s",
+                        return lr__obj_fail_at(ps, LR_ERR_INVALID, "%s",
                                        continuation_at_end);
                     }
                     for (char *t = b - 1; t <= q; t++)
@@ -561,7 +323,7 @@ static lr_status parse_buffer(parser *ps, char *buf, size_t len,
                 in_comment = 1;
             } else if (is_binary_byte(c)) {
                 ps->line = line;
-                return fail_at(ps, LR_ERR_INVALID,
+                return lr__obj_fail_at(ps, LR_ERR_INVALID,
                                "not a text OBJ file (byte 0x%02x at offset "
                                "%zu)",
                                c, (size_t)(q - buf));
@@ -574,7 +336,7 @@ static lr_status parse_buffer(parser *ps, char *buf, size_t len,
                 b--;
             if (b > s && b[-1] == '\\') {
                 ps->line = line;
-                return fail_at(ps, LR_ERR_INVALID, "%s",
+                return lr__obj_fail_at(ps, LR_ERR_INVALID, "%s",
                                continuation_at_end);
             }
         }
@@ -644,7 +406,7 @@ lr_status lr__obj_load_named(const char *file, const char *shown,
     freelocale(ps.c_locale);
     if (st == LR_OK && ps.n_tri == 0) {
         ps.line = last_line;
-        st = fail_at(&ps, LR_ERR_INVALID,
+        st = lr__obj_fail_at(&ps, LR_ERR_INVALID,
                      "the file has no faces ('f' lines), so there is "
                      "nothing to render");
     }
