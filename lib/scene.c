@@ -162,17 +162,14 @@ lr_status lr__scene_add_plane(lr_scene *s, lr__v3 point, lr__v3 normal,
 
 lr_status lr__scene_commit(lr_scene *s, lr_error *err)
 {
-    for (size_t i = 0; i < s->n_materials; i++) {
-        lr__material *m = &s->materials[i];
-        m->lambert_only = !(v3_maxc(m->specular) > 0.0) &&
-                          !(v3_maxc(m->reflect) > 0.0) &&
-                          !(v3_maxc(m->transmit) > 0.0) &&
-                          v3_maxc(m->diffuse) > 0.0;
-    }
     for (size_t i = 0; i < s->n_geoms; i++) {
         lr__geom *g = &s->geoms[i];
+        const lr__material *m = &s->materials[g->material];
         g->lambert_triangles = g->kind == LR__GEOM_TRIANGLES &&
-                               s->materials[g->material].lambert_only;
+                               !(v3_maxc(m->specular) > 0.0) &&
+                               !(v3_maxc(m->reflect) > 0.0) &&
+                               !(v3_maxc(m->transmit) > 0.0) &&
+                               v3_maxc(m->diffuse) > 0.0;
     }
     embree_msg[0] = '\0';
     rtcCommitScene(s->rtc);

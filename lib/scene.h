@@ -19,9 +19,6 @@ typedef struct lr__material {
     lr__v3 reflect;    /* perfect mirror weight */
     lr__v3 transmit;   /* dielectric weight (refraction + its Fresnel) */
     double ior;        /* index of refraction inside the object */
-    /* Set by lr__scene_commit: a Lambertian lobe with some albedo and
-     * nothing else (no Phong lobe, mirror or glass). */
-    int lambert_only;
 } lr__material;
 
 typedef enum lr__light_kind {
@@ -55,8 +52,10 @@ typedef struct lr__geom {
     lr__v3 center;
     double radius;
     lr__v3 normal;         /* plane */
-    /* Set by lr__scene_commit: a triangle mesh whose material is
-     * lambert_only (a fact the integrator's vector path asks per lane). */
+    /* Set by lr__scene_commit: a triangle mesh whose material is a
+     * Lambertian lobe with some albedo and nothing else (no Phong lobe,
+     * mirror or glass): a fact the integrator's vector path asks per
+     * lane. */
     int lambert_triangles;
     /* Triangles: Embree's copies of the vertices and indices, valid for
      * the scene's lifetime (not owned). */
