@@ -515,6 +515,12 @@ PHASE=shutdown
 echo shutdown >"$WORK/phase"
 SLOG=$WORK/logs/shutdown
 SD_PIDS=()
+# Jobs left from the load would hold queue places the three queued below
+# need (a 429 there is not the case under test): let them drain first.
+for _ in $(seq 1 300); do
+    curl -s --max-time 2 "$URL/healthz" | grep -q '"running":0,"queue_depth":0' && break
+    sleep 0.1
+done
 # Two synchronous renders of several seconds, one per worker (tiles of
 # 2 x 2 stop quickly when cancelled): they finish within --shutdown-grace
 # (200) or are cancelled at its end (503).
