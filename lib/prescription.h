@@ -1,0 +1,151 @@
+/*
+ * prescription.h: a real lens as a list of surfaces (a "prescription"),
+ * its glasses, its readers, and the rays traced through it.
+ *
+ * Coordinates are the optical designer's: millimetres, the optical axis
+ * is z, the first surface's vertex is at z = 0 and light from the object
+ * travels toward +z.  Surface i's vertex is at z_i = sum of the
+ * thicknesses before it.  A radius is positive when the centre of
+ * curvature lies toward +z (the image), as in Zemax, Code V, pbrt-v4's
+ * lens files and every patent.
+ *
+ * Ownership: an lr__rx is a plain value (fixed arrays, no pointers), so
+ * it is copied with `=` and freed with nothing.
+ *
+ * Who writes what:
+ *   glass.c             the catalogue, lr__glass_index, nearest names
+ *   rx_json.c           lensray's JSON form
+ *   rx_pbrt.c           pbrt-v4's lens files
+ *   rx_zmx.c            Zemax sequential .zmx files
+ *   rx_check.c          lr__rx_check (geometry that can be built)
+ *   paraxial.c          first-order data by a y-nu trace
+ *   rx_trace.c          real rays, surface by surface
+ */
+#ifndef LR_PRESCRIPTION_H
+#define LR_PRESCRIPTION_H
+
+#include "internal.h"
+
+/* At most this many surfaces in one prescription (the largest published
+ * camera lenses have about 40). */
+#define LR__RX_MAX_SURFACES 64
+/* Even aspheric terms: A4 r^4 + A6 r^6 + ... + A18 r^18. */
+#define LR__RX_MAX_ASPH 8
+
+/* Wavelengths of the Fraunhofer lines, nm (Schott's catalogue). */
+#define LR__NM_d 587.5618
+#define LR__NM_F 486.1327
+#define LR__NM_C 656.2725
+
+/* ---- glass (glass.c) --------------------------------------------------- */
+
+typedef enum lr__glass_kind {
+    LR__GLASS_AIR,       /* n = 1 at every wavelength */
+    LR__GLASS_SELLMEIER, /* n^2 - 1 = sum B_i l^2 / (l^2 - C_i), l in um */
+    LR__GLASS_ABBE,      /* from nd and vd alone (see glass.c) */
+    LR__GLASS_CONSTANT   /* nd at every wavelength (pbrt-v4's files) */
+} lr__glass_kind;
+
+typedef struct lr__glass {
+    lr__glass_kind kind;
+    char name[32];     /* the catalogue name, or "" when given by numbers */
+    double B[3], C[3]; /* SELLMEIER; C in um^2 */
+    double nd, vd;     /* ABBE and CONSTANT (vd unused there) */
+} lr__glass;
+
+/* The refractive index of `g` at wavelength `nm`, in nanometres. */
+double lr__glass_index(const lr__glass *g, double nm);
+
+/* The catalogue glass called `name` (case-insensitive; "air" is air).
+ * Returns 0 and fills *g, or -1 when there is none; then `near` (if not
+ * NULL) gets up to three nearest catalogue names, comma-separated, for
+ * the error message. */
+int lr__glass_named(const char *name, lr__glass *g, char *near,
+                    size_t near_cap);
+
+/* ---- the prescription -------------------------------------------------- */
+
+typedef struct lr__surface {
+    double radius;        /* mm; 0: flat */
+    double thickness;     /* mm to the next surface's vertex (the last
+                             surface: to the image plane at infinity focus) */
+    double semi_aperture; /* mm: rays farther from the axis are blocked */
+    double conic;         /* k: 0 sphere, -1 paraboloid */
+    double asph[LR__RX_MAX_ASPH]; /* A4, A6, ...: sag += A_{2j+4} r^(2j+4) */
+    int stop;             /* 1: the aperture stop (f_number scales its
+                             semi_aperture; it still refracts if curved) */
+    lr__glass after;      /* the medium from this surface to the next */
+} lr__surface;
+
+typedef struct lr__rx {
+    char name[128];
+    char source[512];     /* where the numbers come from */
+    int n;                /* surfaces used in s[] */
+    int stop;             /* index of the stop surface */
+    lr__surface s[LR__RX_MAX_SURFACES];
+} lr__rx;
+
+/* ---- readers (rx_json.c, rx_pbrt.c, rx_zmx.c) --------------------------- */
+
+struct cJSON;
+/* lensray's JSON form, from a parsed object.  Error paths start with
+ * `path` ("camera.lens" for an inline lens, "" for a lens file) and name
+ * the surface and field: "camera.lens.surfaces[3].material". */
+lr_status lr__rx_from_json(const struct cJSON *o, const char *path,
+                           lr__rx *rx, lr_error *err);
+/* pbrt-v4's lens file text, and a Zemax .zmx file's text.  Messages name
+ * the file as `shown` and the line: "double-gauss.dat:7: ...". */
+lr_status lr__rx_from_pbrt(const char *text, size_t len, const char *shown,
+                           lr__rx *rx, lr_error *err);
+lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
+                          lr__rx *rx, lr_error *err);
+/* Reads a file in whichever form its name says (.json, .dat or .txt for
+ * pbrt, .zmx), then checks it with lr__rx_check.  `shown` names the file
+ * in messages, `json_path` is the error path (may be NULL). */
+lr_status lr__rx_load_file(const char *file, const char *shown,
+                           const char *json_path, lr__rx *rx, lr_error *err);
+
+/* Checks that `rx` can be built and forms an image: one stop, positive
+ * semi-apertures, no two surfaces cutting through each other within
+ * their apertures, a positive finite focal length.  Messages name the
+ * surface ("surfaces[4]: ...") after `path`. */
+lr_status lr__rx_check(const lr__rx *rx, const char *path, lr_error *err);
+
+/* ---- first-order data (paraxial.c) --------------------------------------- */
+
+typedef struct lr__paraxial {
+    double efl, bfl, ffl;  /* mm; bfl from the last surface, ffl from the
+                              first (negative: in front of it) */
+    double f_number;       /* efl / entrance pupil diameter, object at
+                              infinity, the stop as given */
+    double enp_pos, enp_diam; /* entrance pupil, from the first surface */
+    double exp_pos, exp_diam; /* exit pupil, from the last surface */
+    double total_track;    /* first vertex to the image plane (the last
+                              thickness included) */
+} lr__paraxial;
+
+/* A paraxial (y-nu) trace at wavelength `nm`. */
+lr_status lr__rx_paraxial(const lr__rx *rx, double nm, lr__paraxial *p,
+                          lr_error *err);
+
+/* ---- real rays (rx_trace.c) -------------------------------------------------- */
+
+/* The vertices' z, and the image plane's (after the last thickness),
+ * as laid out by lr__rx_layout: z[i] for surface i, z[rx->n] the image. */
+void lr__rx_layout(const lr__rx *rx, double *z);
+
+/* Traces one ray through every surface of `rx` at wavelength `nm`.
+ * `o` and `d` (unit) are in lens coordinates; the ray starts in the
+ * medium before surface 0 (toward_image = 1: from the object side, o
+ * before the first vertex) or after the last surface (toward_image = 0:
+ * from the image side, travelling toward -z).  `z` is lr__rx_layout's.
+ * `stop_scale` scales the stop's semi-aperture (f-number; 1 as given).
+ * On success returns 1 and replaces o, d with the ray leaving the last
+ * surface crossed (d unit); returns 0 when the ray misses a surface, is
+ * blocked by a semi-aperture or the stop, or is totally internally
+ * reflected. */
+int lr__rx_trace(const lr__rx *rx, const double *z, double nm,
+                 double stop_scale, int toward_image, double o[3],
+                 double d[3]);
+
+#endif
