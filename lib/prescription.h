@@ -105,6 +105,17 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
 lr_status lr__rx_load_file(const char *file, const char *shown,
                            const char *json_path, lr__rx *rx, lr_error *err);
 
+/* Resolves a camera's "lens" name to a file: `name` relative to
+ * `base_dir` (the scene's directory; NULL or "": the working directory)
+ * if that file exists, else a shipped lens in the lens directory
+ * ($LENSRAY_LENS_DIR, else the repository's lenses/ compiled in as
+ * LR_LENS_DIR) named with or without its extension (.json, .zmx, .dat).
+ * Fills `out` (capacity `cap`) with the path to open.  LR_ERR_INVALID
+ * when there is none, with a message that lists the shipped names;
+ * LR_ERR_LIMIT when the path does not fit. */
+lr_status lr__rx_find(const char *name, const char *base_dir, char *out,
+                      size_t cap, lr_error *err);
+
 /* Checks that `rx` can be built and forms an image: one stop, positive
  * semi-apertures, no two surfaces cutting through each other within
  * their apertures, a positive finite focal length.  Messages name the
