@@ -92,6 +92,9 @@ $(BUILD)/obj/lib/lens.o: CFLAGS += $(if $(filter -O2,$(OPT)),-O3) \
                                       -fno-math-errno -fno-trapping-math \
                                       -mprefer-vector-width=512
 $(BUILD)/obj/lib/sampler.o: CFLAGS += $(if $(filter -O2,$(OPT)),-O3)
+# The shipped lenses' directory, compiled in (LENSRAY_LENS_DIR overrides
+# it at run time): lib/rx_file.c.
+$(BUILD)/obj/lib/rx_file.o: CPPFLAGS += -DLR_LENS_DIR='"$(abspath lenses)"'
 
 $(BUILD)/liblensray.a: $(LIB_OBJ)
 	@echo "  AR      $@"
