@@ -369,6 +369,7 @@ typedef struct lr_render_stats {
     uint64_t camera_rays;    /* camera rays traced (apron pilots included) */
     uint64_t full_camera_rays; /* what plan = 0, adaptive = 0 would trace */
     uint64_t full_samples;   /* pixels x spp */
+    uint64_t lens_blocked;   /* camera rays a real lens stopped */
 } lr_render_stats;
 
 /* Renders `scene` through `cam` with `settings`.  On success *out owns a

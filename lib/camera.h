@@ -139,11 +139,18 @@ extern const lr__camera_model lr__camera_thinlens;
 extern const lr__camera_model lr__camera_bracket;
 extern const lr__camera_model lr__camera_lens;
 
+/* Where the rays from a film point at one distance from the axis that
+ * get through the lens cross the rear vertex's plane (camera_lens.c): in
+ * the frame of the radial direction, inside the disk of radius `rad`
+ * about (cx, 0), and inside the rectangle |x - cx| <= hx, |y| <= hy. */
+typedef struct lr__pupil {
+    double cx, rad, hx, hy;
+} lr__pupil;
+
 /* A real lens prepared for one film (camera_lens.c): where the sensor
  * sits, the stop's scale, the indices at the fixed wavelengths, and the
- * exit-pupil bounds per film radius (a disk on the rear vertex's plane,
- * centred on the radial line, that every ray getting through crosses). */
-#define LR__PUPIL_N 24
+ * exit-pupil bounds at LR__PUPIL_N + 1 film radii from 0 to the corner. */
+#define LR__PUPIL_N 32
 typedef struct lr__lens_cam {
     const struct lr_lens *L;
     double mm;                 /* scene units per millimetre */
@@ -154,7 +161,7 @@ typedef struct lr__lens_cam {
     double n_ref[LR__RX_MAX_SURFACES];    /* indices at c->nm_ref */
     double n_rgb[3][LR__RX_MAX_SURFACES]; /* and at nm_rgb */
     double pupil_rmax;         /* film radius of the table's last entry */
-    double pupil_c[LR__PUPIL_N + 1], pupil_r[LR__PUPIL_N + 1];
+    lr__pupil pupil[LR__PUPIL_N + 1];
     double inv_E0;             /* 1 / the on-axis irradiance integral */
 } lr__lens_cam;
 

@@ -119,7 +119,7 @@ static double axial_reach(const lr_lens *L, const double *n, double s)
 /* ---- exit-pupil bounds ----------------------------------------------------- */
 
 #define G_COARSE 24
-#define G_FINE 96
+#define G_FINE 128
 
 typedef struct pupil_job {
     const lr__cam *c;
@@ -127,95 +127,126 @@ typedef struct pupil_job {
     int n_sets;
 } pupil_job;
 
-/* Traces from sensor point (r, 0) to rear-plane point (x, y) with every
- * index set; 1 if any gets through.  *cos4 gets cos^4 of the first. */
-static int passes(const pupil_job *j, double r, double x, double y,
-                  double *cos4)
+/* Which of up to 16 rear-plane points (x, y) rays from sensor point
+ * (r, 0) get through with any of the index sets: ok[i]; cos4[i] gets
+ * cos^4 of each ray's angle to the axis. */
+static void passes16(const pupil_job *j, double r, int m, const double *x,
+                     const double *y, int *ok, double *cos4)
 {
     const lr__lens_cam *lc = &j->c->lens;
     const lr_lens *L = lc->L;
-    double dx = x - r, dy = y, dz = lc->z_rear - lc->z_sensor;
-    double len = sqrt(dx * dx + dy * dy + dz * dz);
-    double ct = -dz / len;
-    *cos4 = ct * ct * ct * ct;
+    double o[3][16], d[3][16], dz = lc->z_rear - lc->z_sensor;
+    int alive[16];
+    for (int i = 0; i < 16; i++)
+        ok[i] = 0;
     for (int k = 0; k < j->n_sets; k++) {
-        double o[3] = {r, 0, lc->z_sensor}, d[3] = {dx / len, dy / len,
-                                                    dz / len};
-        if (lr__rx_trace_n(&L->rx, L->z, j->nsets[k], lc->stop_scale, 0, o,
-                           d))
-            return 1;
+        for (int i = 0; i < 16; i++) {
+            int l = i < m ? i : 0;
+            double dx = x[l] - r, dy = y[l];
+            double len = sqrt(dx * dx + dy * dy + dz * dz);
+            double ct = -dz / len;
+            cos4[i] = ct * ct * ct * ct;
+            o[0][i] = r, o[1][i] = 0.0, o[2][i] = lc->z_sensor;
+            d[0][i] = dx / len, d[1][i] = dy / len, d[2][i] = dz / len;
+            alive[i] = i < m;
+        }
+        lr__rx_trace16(&L->rx, L->z, j->nsets[k], lc->stop_scale, o, d,
+                       alive);
+        for (int i = 0; i < m; i++)
+            ok[i] |= alive[i];
     }
-    return 0;
 }
 
-/* The bound of interval [ra, rb] of film radii: a disk centred at
- * (*cx, 0) of radius *rad.  For ra = 0 also E0 (on-axis irradiance
- * integral, white scene). */
-static void pupil_interval(const pupil_job *j, double ra, double rb,
-                           double *cx, double *rad, double *E0)
+/* Calls fn on every point of a g x g grid over [x0, x1] x [y0, y1] (cell
+ * centres) that rays from film radius r pass, 16 points at a time. */
+typedef void (*grid_fn)(void *ctx, double x, double y, double cos4);
+static void grid_pass(const pupil_job *j, double r, double x0, double y0,
+                      double cw, double ch, int g, grid_fn fn, void *ctx)
+{
+    double x[16], y[16], c4[16];
+    int ok[16], m = 0;
+    for (int iy = 0; iy < g; iy++)
+        for (int ix = 0; ix < g; ix++) {
+            x[m] = x0 + (ix + 0.5) * cw, y[m] = y0 + (iy + 0.5) * ch;
+            if (++m < 16 && !(iy == g - 1 && ix == g - 1))
+                continue;
+            passes16(j, r, m, x, y, ok, c4);
+            for (int i = 0; i < m; i++)
+                if (ok[i])
+                    fn(ctx, x[i], y[i], c4[i]);
+            m = 0;
+        }
+}
+
+typedef struct extent {
+    double x0, x1, y0, y1; /* of the points that pass */
+    double *pts;           /* and the points, when kept */
+    int np, cap;
+    double e0;             /* sum of cos^4 (for E0) */
+} extent;
+
+static void grow(void *ctx, double x, double y, double cos4)
+{
+    extent *e = ctx;
+    e->x0 = fmin(e->x0, x), e->x1 = fmax(e->x1, x);
+    e->y0 = fmin(e->y0, y), e->y1 = fmax(e->y1, y);
+    e->e0 += cos4;
+    if (e->pts != NULL && e->np < e->cap) {
+        e->pts[2 * e->np] = x, e->pts[2 * e->np + 1] = y;
+        e->np++;
+    }
+}
+
+/* The bounds for film radius r (lr__pupil), from a coarse grid over the
+ * rear element and a fine one over what passed; for r = 0 also *E0, the
+ * on-axis irradiance integral for a white scene.  The bounds reach one
+ * fine cell beyond the outermost grid points that pass (the region's
+ * edge lies within a cell of them); test_lens_camera.c checks that no
+ * ray outside them gets through. */
+static void pupil_point(const pupil_job *j, double r, lr__pupil *P,
+                        double *E0)
 {
     const lr__lens_cam *lc = &j->c->lens;
     const lr_lens *L = lc->L;
     double S = 1.5 * L->rx.s[L->rx.n - 1].semi_aperture;
-    double film[2] = {ra, rb};
-    double x0 = INFINITY, x1 = -INFINITY, y0 = INFINITY, y1 = -INFINITY;
-    double cell = 2.0 * S / G_COARSE, c4;
-    for (int f = 0; f < 2; f++)
-        for (int iy = 0; iy < G_COARSE; iy++)
-            for (int ix = 0; ix < G_COARSE; ix++) {
-                double x = -S + (ix + 0.5) * cell, y = -S + (iy + 0.5) * cell;
-                if (passes(j, film[f], x, y, &c4)) {
-                    x0 = fmin(x0, x), x1 = fmax(x1, x);
-                    y0 = fmin(y0, y), y1 = fmax(y1, y);
-                }
-            }
-    *cx = 0.0, *rad = 0.0;
+    double cell = 2.0 * S / G_COARSE;
+    extent co = {INFINITY, -INFINITY, INFINITY, -INFINITY, NULL, 0, 0, 0};
+    grid_pass(j, r, -S, -S, cell, cell, G_COARSE, grow, &co);
+    *P = (lr__pupil){0, 0, 0, 0};
     if (E0 != NULL)
         *E0 = 0.0;
-    if (!(x0 <= x1))
+    if (!(co.x0 <= co.x1))
         return; /* nothing gets through */
-    x0 -= cell, x1 += cell, y0 -= cell, y1 += cell;
+    double x0 = co.x0 - cell, x1 = co.x1 + cell;
+    double y0 = co.y0 - cell, y1 = co.y1 + cell;
     double cxw = (x1 - x0) / G_FINE, cyw = (y1 - y0) / G_FINE;
-    double fx0 = INFINITY, fx1 = -INFINITY;
-    /* Two passes over the fine grid: the centre from the extent, then
-     * the radius about it.  The grid points that pass are kept. */
-    double *pts = malloc(sizeof *pts * 2 * G_FINE * G_FINE * 2);
-    int np = 0;
-    double e0 = 0.0, Z = lc->z_sensor - lc->z_rear;
-    for (int f = 0; f < 2; f++)
-        for (int iy = 0; iy < G_FINE; iy++)
-            for (int ix = 0; ix < G_FINE; ix++) {
-                double x = x0 + (ix + 0.5) * cxw, y = y0 + (iy + 0.5) * cyw;
-                if (!passes(j, film[f], x, y, &c4))
-                    continue;
-                fx0 = fmin(fx0, x), fx1 = fmax(fx1, x);
-                if (pts != NULL) {
-                    pts[2 * np] = x, pts[2 * np + 1] = y;
-                    np++;
-                }
-                if (f == 0 && E0 != NULL)
-                    e0 += c4 / (Z * Z);
-            }
+    extent fi = {INFINITY, -INFINITY, INFINITY, -INFINITY, NULL, 0,
+                 G_FINE * G_FINE, 0};
+    fi.pts = malloc(sizeof *fi.pts * 2 * (size_t)fi.cap);
+    grid_pass(j, r, x0, y0, cxw, cyw, G_FINE, grow, &fi);
+    double Z = lc->z_sensor - lc->z_rear;
     if (E0 != NULL)
-        *E0 = e0 * cxw * cyw;
-    if (!(fx0 <= fx1)) { /* too thin for the fine grid: the coarse box */
-        *cx = 0.5 * (x0 + x1);
-        *rad = 0.5 * hypot(x1 - x0, y1 - y0);
-        free(pts);
+        *E0 = fi.e0 * cxw * cyw / (Z * Z);
+    double margin = fmax(cxw, cyw);
+    if (!(fi.x0 <= fi.x1)) { /* too thin for the fine grid: the coarse box */
+        P->cx = 0.5 * (x0 + x1);
+        P->hx = 0.5 * (x1 - x0), P->hy = fmax(y1, -y0);
+        P->rad = hypot(P->hx, P->hy);
+        free(fi.pts);
         return;
     }
-    *cx = 0.5 * (fx0 + fx1);
-    double m = 0.0;
-    if (pts != NULL) {
-        for (int i = 0; i < np; i++)
-            m = fmax(m, hypot(pts[2 * i] - *cx, pts[2 * i + 1]));
-    } else {
-        m = 0.5 * hypot(x1 - x0, y1 - y0);
+    P->cx = 0.5 * (fi.x0 + fi.x1);
+    P->hx = 0.5 * (fi.x1 - fi.x0) + margin;
+    P->hy = fmax(fi.y1, -fi.y0) + margin;
+    double m = hypot(P->hx, P->hy); /* out of memory: the box's corner */
+    if (fi.pts != NULL) {
+        m = 0.0;
+        for (int i = 0; i < fi.np; i++)
+            m = fmax(m, hypot(fi.pts[2 * i] - P->cx, fi.pts[2 * i + 1]));
+        m += margin;
     }
-    free(pts);
-    /* A grid point's cell reaches half a diagonal beyond it; the pupil
-     * also moves between the interval's ends: one and a half cells. */
-    *rad = m + 1.5 * fmax(cxw, cyw);
+    free(fi.pts);
+    P->rad = m;
 }
 
 /* Fills c->lens's pupil table, from the lens's cache when it has it. */
@@ -229,8 +260,7 @@ static void pupils(lr__cam *c, int colours)
     for (int i = 0; i < L->n_pupils; i++) {
         const lr__pupil_entry *e = &L->pupils[i];
         if (memcmp(e->key, key, sizeof key) == 0) {
-            for (int k = 0; k < LR__PUPIL_N; k++)
-                lc->pupil_c[k] = e->c[k], lc->pupil_r[k] = e->r[k];
+            memcpy(lc->pupil, e->p, sizeof lc->pupil);
             lc->inv_E0 = e->inv_E0;
             pthread_mutex_unlock(&L->mu);
             return;
@@ -251,21 +281,16 @@ static void pupils(lr__cam *c, int colours)
         j.nsets[j.n_sets++] = n_hi;
     }
     double E0 = 0.0;
-    for (int k = 0; k < LR__PUPIL_N; k++) {
-        double ra = lc->pupil_rmax * k / LR__PUPIL_N;
-        double rb = lc->pupil_rmax * (k + 1) / LR__PUPIL_N;
-        pupil_interval(&j, ra, rb, &lc->pupil_c[k], &lc->pupil_r[k],
-                       k == 0 ? &E0 : NULL);
-    }
+    for (int k = 0; k <= LR__PUPIL_N; k++)
+        pupil_point(&j, lc->pupil_rmax * k / LR__PUPIL_N, &lc->pupil[k],
+                    k == 0 ? &E0 : NULL);
     lc->inv_E0 = E0 > 0.0 ? 1.0 / E0 : 0.0;
 
     pthread_mutex_lock(&L->mu);
     lr__pupil_entry *e = &L->pupils[L->next_pupil];
     memcpy(e->key, key, sizeof key);
-    for (int k = 0; k < LR__PUPIL_N; k++)
-        e->c[k] = lc->pupil_c[k], e->r[k] = lc->pupil_r[k];
+    memcpy(e->p, lc->pupil, sizeof lc->pupil);
     e->inv_E0 = lc->inv_E0;
-    e->n = LR__PUPIL_N;
     L->next_pupil = (L->next_pupil + 1) % LR__PUPIL_CACHE;
     if (L->n_pupils < LR__PUPIL_CACHE)
         L->n_pupils++;
@@ -334,14 +359,6 @@ static void setup(lr__cam *c, const lr_camera *cam)
 
 /* ---- rays ----------------------------------------------------------------------- */
 
-/* The sensor point of film point (fx, fy), in mm (top of file). */
-static void sensor_at(const lr__lens_cam *lc, const lr__cam *c, double fx,
-                      double fy, double *x, double *y)
-{
-    *x = (0.5 - fx / c->width) * lc->sensor_w;
-    *y = (fy / c->height - 0.5) * lc->sensor_h;
-}
-
 /* From lens coordinates (mm, about the sensor's centre) to the scene. */
 static void to_world(const lr__cam *c, const double o[3], const double d[3],
                      lr__v3 *org, lr__v3 *dir)
@@ -353,6 +370,56 @@ static void to_world(const lr__cam *c, const double o[3], const double d[3],
     *org = v3_madd(c->origin, p, lc->mm);
     *dir = v3_norm(v3_madd(v3_madd(v3_scale(c->right, d[0]), c->up, d[1]),
                            c->forward, -d[2]));
+}
+
+/* The bounds at film radius r: the table's, interpolated. */
+static lr__pupil pupil_at(const lr__lens_cam *lc, double r)
+{
+    double t = r / lc->pupil_rmax * LR__PUPIL_N;
+    int k = (int)t;
+    k = k < LR__PUPIL_N - 1 ? k : LR__PUPIL_N - 1;
+    double f = t - k;
+    const lr__pupil *a = &lc->pupil[k], *b = &lc->pupil[k + 1];
+    return (lr__pupil){a->cx + f * (b->cx - a->cx),
+                       a->rad + f * (b->rad - a->rad),
+                       a->hx + f * (b->hx - a->hx),
+                       a->hy + f * (b->hy - a->hy)};
+}
+
+/* The first half of a camera ray: the sensor point, the point aimed at
+ * in the smaller of the film radius's two bounds (a disk by the
+ * concentric map, or a rectangle: both uniform by area), the unit
+ * direction, and the sample's weight before the lens has its say (0: the
+ * bounds are empty). */
+static double lens_start(const lr__cam *c, double fx, double fy,
+                         const double u[2], double o[3], double d[3])
+{
+    const lr__lens_cam *lc = &c->lens;
+    double xs = (0.5 - fx / c->width) * lc->sensor_w;
+    double ys = (fy / c->height - 0.5) * lc->sensor_h;
+    double r = hypot(xs, ys);
+    lr__pupil P = pupil_at(lc, r);
+    double ex = r > 0.0 ? xs / r : 1.0, ey = r > 0.0 ? ys / r : 0.0;
+    double a, b, area;
+    double disk = M_PI * P.rad * P.rad, rect = 4.0 * P.hx * P.hy;
+    if (disk <= rect) {
+        lr__aperture_sample(LR_APERTURE_DISK, 0, 0.0, 1.0, u, &a, &b);
+        a *= P.rad, b *= P.rad, area = disk;
+    } else {
+        a = (2.0 * u[0] - 1.0) * P.hx, b = (2.0 * u[1] - 1.0) * P.hy;
+        area = rect;
+    }
+    a += P.cx;
+    /* (a, b) along and across the radial direction. */
+    double qx = ex * a - ey * b, qy = ey * a + ex * b;
+    double dz = lc->z_rear - lc->z_sensor;
+    o[0] = xs, o[1] = ys, o[2] = lc->z_sensor;
+    d[0] = qx - xs, d[1] = qy - ys, d[2] = dz;
+    double len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    for (int k = 0; k < 3; k++)
+        d[k] /= len;
+    double ct = -d[2];
+    return area * ct * ct * ct * ct / (dz * dz) * lc->inv_E0;
 }
 
 static double lens_ray(const lr__cam *c, double fx, double fy,
@@ -374,85 +441,132 @@ static double lens_ray(const lr__cam *c, double fx, double fy,
             n = nbuf;
         }
     }
-    double xs, ys;
-    sensor_at(lc, c, fx, fy, &xs, &ys);
-    double r = hypot(xs, ys);
-    int k = (int)(r / lc->pupil_rmax * LR__PUPIL_N);
-    if (k >= LR__PUPIL_N)
-        k = LR__PUPIL_N - 1;
-    double ex = r > 0.0 ? xs / r : 1.0, ey = r > 0.0 ? ys / r : 0.0;
-    double lx, ly;
-    lr__aperture_sample(LR_APERTURE_DISK, 0, 0.0, 1.0, u, &lx, &ly);
-    double rad = lc->pupil_r[k], cx = lc->pupil_c[k];
-    double qx = ex * cx + rad * lx, qy = ey * cx + rad * ly;
-    double dz = lc->z_rear - lc->z_sensor;
-    double o[3] = {xs, ys, lc->z_sensor}, d[3] = {qx - xs, qy - ys, dz};
-    double len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-    for (int a = 0; a < 3; a++)
-        d[a] /= len;
-    double ct = -d[2];
-    if (rad > 0.0 &&
-        lr__rx_trace_n(&L->rx, L->z, n, lc->stop_scale, 0, o, d)) {
+    double o[3], d[3];
+    double wt = lens_start(c, fx, fy, u, o, d);
+    if (wt > 0.0 && lr__rx_trace_n(&L->rx, L->z, n, lc->stop_scale, 0, o, d)) {
         to_world(c, o, d, org, dir);
-        return M_PI * rad * rad * ct * ct * ct * ct / (dz * dz) * lc->inv_E0;
+        return wt;
     }
     *org = c->origin;
     *dir = c->forward;
     return 0.0;
 }
 
+/* Sixteen rays at c->nm_ref, in float from end to end (lens_start and
+ * lens_ray's arithmetic lane by lane, the disk from the packet aperture
+ * map, the glass from lr__rx_trace16f): the same distribution as
+ * lens_ray's, not the same bits. */
+__attribute__((target_clones("avx512f", "avx2", "default")))
 static void lens_rays16(const lr__cam *c, int use_lens, int n,
                         const float *fx, const float *fy, const float *lu,
                         const float *lv, struct RTCRayHit16 *rh, float *wt)
 {
     (void)use_lens; /* a real lens is always sampled */
-    struct RTCRay16 *r = &rh->ray;
+    const lr__lens_cam *lc = &c->lens;
+    float lx[16], ly[16], o[3][16], d[3][16], w[16];
+    float tb[4][LR__PUPIL_N + 1];
+    int alive[16];
+    for (int k = 0; k <= LR__PUPIL_N; k++) {
+        tb[0][k] = (float)lc->pupil[k].cx, tb[1][k] = (float)lc->pupil[k].rad;
+        tb[2][k] = (float)lc->pupil[k].hx, tb[3][k] = (float)lc->pupil[k].hy;
+    }
+    lr__aperture_sample16(LR_APERTURE_DISK, 0, 0.0, 1.0, n, lu, lv, lx, ly);
+    const float iw = (float)(1.0 / c->width), ih = (float)(1.0 / c->height);
+    const float sw = (float)lc->sensor_w, sh = (float)lc->sensor_h;
+    const float kr = (float)(LR__PUPIL_N / lc->pupil_rmax);
+    const float zs = (float)lc->z_sensor, dz = (float)(lc->z_rear -
+                                                       lc->z_sensor);
+    const float wk = (float)(1.0 / ((lc->z_rear - lc->z_sensor) *
+                                    (lc->z_rear - lc->z_sensor)) *
+                             lc->inv_E0);
+    const float pi = (float)M_PI;
     for (int i = 0; i < 16; i++) {
-        int k = i < n ? i : 0;
-        double u[2] = {lu[k], lv[k]};
-        lr__v3 org, dir;
-        wt[i] = (float)lens_ray(c, fx[k], fy[k], u, c->w, c->nm_ref, &org,
-                                &dir);
-        r->org_x[i] = (float)org.x;
-        r->org_y[i] = (float)org.y;
-        r->org_z[i] = (float)org.z;
-        r->dir_x[i] = (float)dir.x;
-        r->dir_y[i] = (float)dir.y;
-        r->dir_z[i] = (float)dir.z;
-        r->tnear[i] = 0.0f;
-        r->time[i] = 0.0f;
-        r->tfar[i] = INFINITY;
-        r->mask[i] = 0xFFFFFFFFu;
-        r->id[i] = 0;
-        r->flags[i] = 0;
+        float xs = (0.5f - fx[i] * iw) * sw, ys = (fy[i] * ih - 0.5f) * sh;
+        float r = sqrtf(xs * xs + ys * ys);
+        float t = r * kr;
+        int k = (int)t;
+        k = k < LR__PUPIL_N - 1 ? k : LR__PUPIL_N - 1;
+        float f = t - (float)k;
+        float cx = tb[0][k] + f * (tb[0][k + 1] - tb[0][k]);
+        float rad = tb[1][k] + f * (tb[1][k + 1] - tb[1][k]);
+        float hx = tb[2][k] + f * (tb[2][k + 1] - tb[2][k]);
+        float hy = tb[3][k] + f * (tb[3][k + 1] - tb[3][k]);
+        float disk = pi * rad * rad, rect = 4.0f * hx * hy;
+        int use_disk = disk <= rect;
+        float a = use_disk ? rad * lx[i] : (2.0f * lu[i] - 1.0f) * hx;
+        float b = use_disk ? rad * ly[i] : (2.0f * lv[i] - 1.0f) * hy;
+        float area = use_disk ? disk : rect;
+        a += cx;
+        float ir = r > 0.0f ? 1.0f / r : 0.0f;
+        float ex = r > 0.0f ? xs * ir : 1.0f, ey = ys * ir;
+        float dx = ex * a - ey * b - xs, dy = ey * a + ex * b - ys;
+        float inv = 1.0f / sqrtf(dx * dx + dy * dy + dz * dz);
+        float ct = -dz * inv;
+        o[0][i] = xs, o[1][i] = ys, o[2][i] = zs;
+        d[0][i] = dx * inv, d[1][i] = dy * inv, d[2][i] = dz * inv;
+        w[i] = wk * area * ct * ct * ct * ct;
+        alive[i] = (i < n) & (area > 0.0f);
+    }
+    lr__rx_trace16f(&lc->L->rx, lc->L->z, lc->n_ref, lc->stop_scale, o, d,
+                    alive);
+    const float R[3] = {(float)c->right.x, (float)c->right.y,
+                        (float)c->right.z};
+    const float U[3] = {(float)c->up.x, (float)c->up.y, (float)c->up.z};
+    const float F[3] = {(float)c->forward.x, (float)c->forward.y,
+                        (float)c->forward.z};
+    const float E[3] = {(float)c->origin.x, (float)c->origin.y,
+                        (float)c->origin.z};
+    const float mm = (float)lc->mm;
+    struct RTCRay16 *ray = &rh->ray;
+    float *org[3] = {ray->org_x, ray->org_y, ray->org_z};
+    float *dir[3] = {ray->dir_x, ray->dir_y, ray->dir_z};
+    for (int a = 0; a < 3; a++)
+        for (int i = 0; i < 16; i++) {
+            float zo = o[2][i] - zs;
+            float p = R[a] * o[0][i] + U[a] * o[1][i] - F[a] * zo;
+            float v = R[a] * d[0][i] + U[a] * d[1][i] - F[a] * d[2][i];
+            org[a][i] = alive[i] ? E[a] + p * mm : E[a];
+            dir[a][i] = alive[i] ? v : F[a];
+        }
+    /* The glass left the directions unit up to rounding (rx_trace.c):
+     * once here, exactly unit for the integrator. */
+    for (int i = 0; i < 16; i++) {
+        float inv = 1.0f / sqrtf(dir[0][i] * dir[0][i] + dir[1][i] * dir[1][i] +
+                                 dir[2][i] * dir[2][i]);
+        dir[0][i] *= inv, dir[1][i] *= inv, dir[2][i] *= inv;
+    }
+    for (int i = 0; i < 16; i++) {
+        wt[i] = alive[i] ? w[i] : 0.0f;
+        ray->tnear[i] = 0.0f;
+        ray->time[i] = 0.0f;
+        ray->tfar[i] = INFINITY;
+        ray->mask[i] = 0xFFFFFFFFu;
+        ray->id[i] = 0;
+        ray->flags[i] = 0;
         rh->hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
         rh->hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
     }
 }
 
 /* The ray from the film point through the middle of its exit-pupil
- * bound (the stop's centre, near enough, for depth and autofocus); the
+ * bounds (the stop's centre, near enough, for depth and autofocus); the
  * frame's pinhole ray where that is blocked. */
 static void lens_chief(const lr__cam *c, double fx, double fy, lr__v3 *org,
                        lr__v3 *dir)
 {
     const lr__lens_cam *lc = &c->lens;
-    double xs, ys;
-    sensor_at(lc, c, fx, fy, &xs, &ys);
+    double xs = (0.5 - fx / c->width) * lc->sensor_w;
+    double ys = (fy / c->height - 0.5) * lc->sensor_h;
     double r = hypot(xs, ys);
-    int k = (int)(r / lc->pupil_rmax * LR__PUPIL_N);
-    if (k >= LR__PUPIL_N)
-        k = LR__PUPIL_N - 1;
+    lr__pupil P = pupil_at(lc, r);
     double ex = r > 0.0 ? xs / r : 1.0, ey = r > 0.0 ? ys / r : 0.0;
-    double q[2] = {ex * lc->pupil_c[k], ey * lc->pupil_c[k]};
     double o[3] = {xs, ys, lc->z_sensor};
-    double d[3] = {q[0] - xs, q[1] - ys, lc->z_rear - lc->z_sensor};
+    double d[3] = {ex * P.cx - xs, ey * P.cx - ys, lc->z_rear - lc->z_sensor};
     double len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
     for (int a = 0; a < 3; a++)
         d[a] /= len;
-    if (lc->pupil_r[k] > 0.0 &&
-        lr__rx_trace_n(&lc->L->rx, lc->L->z, lc->n_ref, lc->stop_scale, 0,
-                       o, d)) {
+    if (P.rad > 0.0 && lr__rx_trace_n(&lc->L->rx, lc->L->z, lc->n_ref,
+                                      lc->stop_scale, 0, o, d)) {
         to_world(c, o, d, org, dir);
         return;
     }

@@ -9,6 +9,7 @@
 #ifndef LR_LENS_LOAD_H
 #define LR_LENS_LOAD_H
 
+#include "camera.h"
 #include "prescription.h"
 
 #include <pthread.h>
@@ -27,9 +28,8 @@ typedef struct lr__lens_first {
 /* One cached exit-pupil table (camera_lens.c fills it). */
 typedef struct lr__pupil_entry {
     double key[5]; /* z_sensor, stop_scale, rmax, colour set, z_rear */
-    double c[32], r[32];
+    lr__pupil p[LR__PUPIL_N + 1];
     double inv_E0;
-    int n;
 } lr__pupil_entry;
 
 #define LR__PUPIL_CACHE 64

@@ -167,4 +167,24 @@ int lr__rx_trace_n(const lr__rx *rx, const double *z, const double *n_after,
                    double stop_scale, int toward_image, double o[3],
                    double d[3]);
 
+/* One step of lr__rx_trace_n: through surface i alone. */
+int lr__rx_trace_surface(const lr__rx *rx, const double *z,
+                         const double *n_after, double stop_scale, int i,
+                         int toward_image, double o[3], double d[3]);
+
+/* Sixteen rays from the image side (toward_image = 0) at once: o[axis]
+ * [lane] and d[axis][lane] as in lr__rx_trace_n, for the lanes whose
+ * alive[] is 1; a lane the lens stops gets alive[] = 0 (its o and d are
+ * then meaningless).  Each lane's result is lr__rx_trace_n's, bit for
+ * bit. */
+void lr__rx_trace16(const lr__rx *rx, const double *z, const double *n_after,
+                    double stop_scale, double (*o)[16], double (*d)[16],
+                    int *alive);
+
+/* The same in float, for the packet camera: close to lr__rx_trace16's
+ * rays (float rounding), not equal to them. */
+void lr__rx_trace16f(const lr__rx *rx, const double *z,
+                     const double *n_after, double stop_scale,
+                     float (*o)[16], float (*d)[16], int *alive);
+
 #endif

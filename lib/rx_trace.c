@@ -160,6 +160,27 @@ static int refract(double d[3], const double nrm[3], double n1, double n2)
     return 1;
 }
 
+int lr__rx_trace_surface(const lr__rx *rx, const double *z,
+                         const double *n_after, double stop_scale, int i,
+                         int toward_image, double o[3], double d[3])
+{
+    const lr__surface *s = &rx->s[i];
+    double ol[3] = {o[0], o[1], o[2] - z[i]}, p[3], nrm[3];
+    if (!intersect(s, ol, d, p, nrm))
+        return 0;
+    double lim = s->semi_aperture * (i == rx->stop ? stop_scale : 1.0);
+    if (p[0] * p[0] + p[1] * p[1] > lim * lim)
+        return 0;
+    o[0] = p[0];
+    o[1] = p[1];
+    o[2] = p[2] + z[i];
+    /* Media on either side of surface i. */
+    double before = i > 0 ? n_after[i - 1] : 1.0;
+    double after = n_after[i];
+    return toward_image ? refract(d, nrm, before, after)
+                        : refract(d, nrm, after, before);
+}
+
 int lr__rx_trace_n(const lr__rx *rx, const double *z, const double *n_after,
                    double stop_scale, int toward_image, double o[3],
                    double d[3])
@@ -167,22 +188,8 @@ int lr__rx_trace_n(const lr__rx *rx, const double *z, const double *n_after,
     int n = rx->n;
     for (int step = 0; step < n; step++) {
         int i = toward_image ? step : n - 1 - step;
-        const lr__surface *s = &rx->s[i];
-        double ol[3] = {o[0], o[1], o[2] - z[i]}, p[3], nrm[3];
-        if (!intersect(s, ol, d, p, nrm))
-            return 0;
-        double lim = s->semi_aperture * (i == rx->stop ? stop_scale : 1.0);
-        if (p[0] * p[0] + p[1] * p[1] > lim * lim)
-            return 0;
-        o[0] = p[0];
-        o[1] = p[1];
-        o[2] = p[2] + z[i];
-        /* Media on either side of surface i. */
-        double before = i > 0 ? n_after[i - 1] : 1.0;
-        double after = n_after[i];
-        int ok = toward_image ? refract(d, nrm, before, after)
-                              : refract(d, nrm, after, before);
-        if (!ok)
+        if (!lr__rx_trace_surface(rx, z, n_after, stop_scale, i,
+                                  toward_image, o, d))
             return 0;
     }
     return 1;
@@ -195,4 +202,94 @@ int lr__rx_trace(const lr__rx *rx, const double *z, double nm,
     double n_after[LR__RX_MAX_SURFACES];
     lr__rx_indices(rx, nm, n_after);
     return lr__rx_trace_n(rx, z, n_after, stop_scale, toward_image, o, d);
+}
+
+/* ---- sixteen rays at once -------------------------------------------------- */
+
+/* The same trace for lanes where alive[i] is 1, in loops over the lanes
+ * that the compiler vectorises (target_clones picks AVX-512, AVX2 or
+ * plain x86-64 at load time): the same operations in the same order as
+ * the scalar code, in double, with selects for its early returns, so each
+ * lane gets the scalar trace's bits.  Aspheric surfaces (Newton's method,
+ * a loop of its own length per ray) go lane by lane through the scalar
+ * code. */
+__attribute__((target_clones("avx512f", "avx2", "default")))
+void lr__rx_trace16(const lr__rx *rx, const double *z, const double *n_after,
+                    double stop_scale, double (*o)[16], double (*d)[16],
+                    int *alive)
+{
+    int n = rx->n;
+    for (int step = 0; step < n; step++) {
+        int i = n - 1 - step;
+        const lr__surface *s = &rx->s[i];
+        if (has_asph(s)) {
+            for (int l = 0; l < 16; l++) {
+                if (!alive[l])
+                    continue;
+                double ol[3] = {o[0][l], o[1][l], o[2][l] - z[i]}, p[3],
+                       nrm[3], dl[3] = {d[0][l], d[1][l], d[2][l]};
+                double lim = s->semi_aperture * (i == rx->stop ? stop_scale
+                                                               : 1.0);
+                double before = i > 0 ? n_after[i - 1] : 1.0;
+                if (!intersect(s, ol, dl, p, nrm) ||
+                    p[0] * p[0] + p[1] * p[1] > lim * lim ||
+                    !refract(dl, nrm, n_after[i], before)) {
+                    alive[l] = 0;
+                    continue;
+                }
+                o[0][l] = p[0], o[1][l] = p[1], o[2][l] = p[2] + z[i];
+                d[0][l] = dl[0], d[1][l] = dl[1], d[2][l] = dl[2];
+            }
+            continue;
+        }
+        const double c = s->radius != 0.0 ? 1.0 / s->radius : 0.0;
+        const double k1 = 1.0 + s->conic;
+        const double lim = s->semi_aperture * (i == rx->stop ? stop_scale
+                                                             : 1.0);
+        const double lim2 = lim * lim, zi = z[i];
+        const double n1 = n_after[i], n2 = i > 0 ? n_after[i - 1] : 1.0;
+        const int bend = n1 != n2;
+        const double eta = n1 / n2;
+        for (int l = 0; l < 16; l++) {
+            double ox = o[0][l], oy = o[1][l], oz = o[2][l] - zi;
+            double dx = d[0][l], dy = d[1][l], dz = d[2][l];
+            double A = c * (dx * dx + dy * dy + k1 * dz * dz);
+            double B = c * (ox * dx + oy * dy + k1 * oz * dz) - dz;
+            double C = c * (ox * ox + oy * oy + k1 * oz * oz) - 2.0 * oz;
+            double disc = B * B - A * C;
+            int ok = disc >= 0.0;
+            double den = B + copysign(sqrt(ok ? disc : 0.0), B);
+            ok &= den != 0.0;
+            double t = -C / (den != 0.0 ? den : 1.0);
+            ok &= isfinite(t);
+            double px = ox + t * dx, py = oy + t * dy, pz = oz + t * dz;
+            double gx = -c * px, gy = -c * py, gz = 1.0 - c * k1 * pz;
+            ok &= gz > 0.0;
+            double len = sqrt(gx * gx + gy * gy + gz * gz);
+            double mx = gx / len, my = gy / len, mz = gz / len;
+            ok &= !(px * px + py * py > lim2);
+            /* Refraction (refract() above, from n1 into n2). */
+            double cosi = -(mx * dx + my * dy + mz * dz);
+            double sg = cosi < 0.0 ? -1.0 : 1.0;
+            mx = cosi < 0.0 ? -mx : mx;
+            my = cosi < 0.0 ? -my : my;
+            mz = cosi < 0.0 ? -mz : mz;
+            cosi = cosi * sg;
+            double k = 1.0 - eta * eta * (1.0 - cosi * cosi);
+            ok &= !bend || k >= 0.0;
+            double f = eta * cosi - sqrt(k >= 0.0 ? k : 0.0);
+            double ex = eta * dx + f * mx, ey = eta * dy + f * my,
+                   ez = eta * dz + f * mz;
+            double el = sqrt(ex * ex + ey * ey + ez * ez);
+            ex /= el, ey /= el, ez /= el;
+            int live = alive[l] & ok;
+            alive[l] = live;
+            o[0][l] = live ? px : o[0][l];
+            o[1][l] = live ? py : o[1][l];
+            o[2][l] = live ? pz + zi : o[2][l];
+            d[0][l] = live && bend ? ex : dx;
+            d[1][l] = live && bend ? ey : dy;
+            d[2][l] = live && bend ? ez : dz;
+        }
+    }
 }

@@ -52,6 +52,7 @@ static void colour_sample(const lr__shot *sh, uint64_t pixel, uint32_t s,
             double wt = lr__cam_lens_ray(c, fx, fy, u, c->w_rgb[ch],
                                          c->lens.nm_rgb[ch], &org, &dir);
             lr__v3 Li = v3(0, 0, 0);
+            cnt->lens_blocked += wt == 0.0;
             if (wt != 0.0)
                 Li = v3_scale(in->radiance(sh->scene, sh->max_depth, org,
                                            dir, &cnt->rays),
@@ -81,6 +82,7 @@ static void colour_sample(const lr__shot *sh, uint64_t pixel, uint32_t s,
         double wt = lr__cam_lens_ray(c, fx, fy, u, lr__cam_power_at(c, nm),
                                      nm, &org, &dir);
         lr__v3 Li = v3(0, 0, 0);
+        cnt->lens_blocked += wt == 0.0;
         if (wt != 0.0)
             Li = v3_scale(in->radiance(sh->scene, sh->max_depth, org, dir,
                                        &cnt->rays),
@@ -129,8 +131,10 @@ static void packet_samples(const lr__shot *sh, int use_lens, int x, int y,
         sh->integrator->radiance16(sh->scene, sh->max_depth, &rh, n, L,
                                    &cnt->rays);
         if (sh->cam->weighted)
-            for (int i = 0; i < n; i++)
+            for (int i = 0; i < n; i++) {
                 L[i] = v3_scale(L[i], wt[i]);
+                cnt->lens_blocked += wt[i] == 0.0f;
+            }
         lr__pixel_add_n(acc, L, n);
     }
 }

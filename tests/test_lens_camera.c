@@ -244,6 +244,77 @@ static void test_lens_written_back(void **state)
     lr_scene_free(s);
 }
 
+/* The exit-pupil bounds lose no light: at film points from the centre
+ * to the corner, the mean weight of the camera's samples (its estimate of
+ * the irradiance there, relative to the centre's) equals a brute-force
+ * integral of cos^4 / Z^2 over every rear-plane point whose ray gets
+ * through, on a grid over three times the rear element.  A bound that
+ * clipped the pupil would come out low by the share it clipped. */
+static void check_irradiance(const char *lens, double f_number)
+{
+    char extra[128];
+    snprintf(extra, sizeof extra, ", \"focus_distance\": 3, \"f_number\": %g",
+             f_number);
+    lr_scene *s = lens_scene(lens, extra, "[]", 300, 200, 1);
+    lr_camera cam;
+    lr_scene_camera(s, &cam);
+    lr__cam c;
+    lr__cam_init(&c, &cam, 300, 200);
+    const lr__lens_cam *lc = &c.lens;
+    const lr_lens *L = lc->L;
+    double Z = lc->z_sensor - lc->z_rear;
+    double S = 1.5 * L->rx.s[L->rx.n - 1].semi_aperture;
+    const int G = 300;
+    double cell = 2 * S / G, E0 = 0;
+    double worst = 0;
+    for (int k = 0; k < 5; k++) {
+        double t = k / 4.0 * 0.98; /* along the diagonal, 0 to the corner */
+        double fx = 150 + 150 * t, fy = 100 + 100 * t;
+        double xs = (0.5 - fx / 300) * lc->sensor_w;
+        double ys = (fy / 200 - 0.5) * lc->sensor_h;
+        double E = 0;
+        for (int iy = 0; iy < G; iy++)
+            for (int ix = 0; ix < G; ix++) {
+                double qx = -S + (ix + 0.5) * cell, qy = -S + (iy + 0.5) * cell;
+                double d[3] = {qx - xs, qy - ys, -Z};
+                double len = sqrt(d[0] * d[0] + d[1] * d[1] + Z * Z);
+                for (int a = 0; a < 3; a++)
+                    d[a] /= len;
+                double o[3] = {xs, ys, lc->z_sensor}, ct = -d[2];
+                if (lr__rx_trace_n(&L->rx, L->z, lc->n_ref, lc->stop_scale, 0,
+                                   o, d))
+                    E += ct * ct * ct * ct / (Z * Z) * cell * cell;
+            }
+        if (k == 0)
+            E0 = E;
+        double sum = 0;
+        const int M = 256;
+        for (int i = 0; i < M; i++)
+            for (int j = 0; j < M; j++) {
+                double u[2] = {(i + 0.5) / M, (j + 0.5) / M};
+                lr__v3 org, dir;
+                sum += lr__cam_lens_ray(&c, fx, fy, u, c.w, c.nm_ref, &org,
+                                        &dir);
+            }
+        double got = sum / (M * M), want = E / E0;
+        print_message("%s f/%g, film %.2f of the way to the corner: "
+                      "camera %.5f, integral %.5f\n",
+                      lr_lens_name(L), f_number, t, got, want);
+        if (want > 0.01)
+            worst = fmax(worst, fabs(got / want - 1));
+    }
+    assert_true(worst < 0.01);
+    lr_scene_free(s);
+}
+
+static void test_pupil_bounds_lose_no_light(void **state)
+{
+    (void)state;
+    check_irradiance(singlet, 0);
+    check_irradiance("\"double-gauss-50\"", 0);
+    check_irradiance("\"double-gauss-50\"", 5.6);
+}
+
 static const struct CMUnitTest lens_camera_tests[] = {
     cmocka_unit_test(test_thin_singlet_matches_thin_lens),
     cmocka_unit_test(test_few_rays_lost_on_axis),
@@ -251,6 +322,7 @@ static const struct CMUnitTest lens_camera_tests[] = {
     cmocka_unit_test(test_white_surround),
     cmocka_unit_test(test_errors_name_the_field),
     cmocka_unit_test(test_lens_written_back),
+    cmocka_unit_test(test_pupil_bounds_lose_no_light),
 };
 
 LR_TEST_GROUP(lens_camera, lens_camera_tests)

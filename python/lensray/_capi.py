@@ -131,6 +131,7 @@ class lr_render_stats(Structure):
         ("camera_rays", c_uint64),
         ("full_camera_rays", c_uint64),
         ("full_samples", c_uint64),
+        ("lens_blocked", c_uint64),
     ]
 
 
