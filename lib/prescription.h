@@ -13,7 +13,7 @@
  * it is copied with `=` and freed with nothing.
  *
  * Who writes what:
- *   glass.c             the catalogue, lr__glass_index, nearest names
+ *   glass.c             the catalogue, lr__glass_index_at, nearest names
  *   rx_json.c           lensray's JSON form
  *   rx_pbrt.c           pbrt-v4's lens files
  *   rx_zmx.c            Zemax sequential .zmx files
@@ -53,8 +53,10 @@ typedef struct lr__glass {
     double nd, vd;     /* ABBE and CONSTANT (vd unused there) */
 } lr__glass;
 
-/* The refractive index of `g` at wavelength `nm`, in nanometres. */
-double lr__glass_index(const lr__glass *g, double nm);
+/* The refractive index of `g` at wavelength `nm`, in nanometres.  (Not
+ * lr__glass_index: lens.h has that name for the thin-lens models' glass
+ * enum, and both headers meet in one program.) */
+double lr__glass_index_at(const lr__glass *g, double nm);
 
 /* The catalogue glass called `name` (case-insensitive; "air" is air).
  * Returns 0 and fills *g, or -1 when there is none; then `near` (if not
