@@ -13,8 +13,8 @@ Glasses: catalogue names go to ray-optics' own catalogue (the makers'
 data as opticalglass ships it); {nd, vd} glasses are given to ray-optics
 as their index at each traced wavelength by lensray's stated model,
 n = nd + B (1/l^2 - 1/ld^2), B = (nd - 1) / (vd (1/lF^2 - 1/lC^2)), since
-ray-optics' model glass is another model.  Ends "lenses: N passed, N
-failed" and exits non-zero on any failure.
+ray-optics' model glass is another model.  Ends "N passed, N
+failed" (one per lens) and exits non-zero on any failure.
 """
 import json
 import math
@@ -235,7 +235,7 @@ def main():
     print("worst: EFL %.2e, BFL %.2e (relative); image height %.2e, "
           "distortion %.2e (of the focal length)" %
           (worst["efl"], worst["bfl"], worst["height"], worst["dist"]))
-    print("lenses: %d passed, %d failed" % (passed, failed))
+    print("%d passed, %d failed" % (passed, failed))
     return 1 if failed else 0
 
 
