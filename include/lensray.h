@@ -80,8 +80,17 @@ LR_API const char *lr_status_name(lr_status status);
 typedef enum lr_camera_model {
     LR_CAMERA_PINHOLE = 0,  /* ideal pinhole: everything sharp */
     LR_CAMERA_THINLENS = 1, /* physical thin lens (pbrt, Mitsuba, Blender) */
-    LR_CAMERA_BRACKET = 2   /* the paper's square "bracket" method */
+    LR_CAMERA_BRACKET = 2,  /* the paper's square "bracket" method */
+    LR_CAMERA_LENS = 3      /* a real lens, traced surface by surface */
 } lr_camera_model;
+
+/* A real lens prescription, loaded by lr_lens_load (or by a scene whose
+ * camera names one).  Loaded lenses are immutable, shared and never
+ * freed: they live as long as the process (one per distinct
+ * prescription, at most LR_MAX_LENSES), so an lr_camera that points to
+ * one can be copied freely. */
+typedef struct lr_lens lr_lens;
+#define LR_MAX_LENSES 256
 
 typedef enum lr_aperture_shape {
     LR_APERTURE_DISK = 0,   /* circle of radius aperture_radius */
@@ -161,7 +170,28 @@ typedef struct lr_camera {
     double aperture;             /* >= 0; default 0 */
 
     lr_chromatic chromatic;
+
+    /* Real lens ("lens").  `position` is the sensor's centre; the lens
+     * sits in front of it along the view axis, and unit focusing moves it
+     * so that the plane `focus_distance` (scene units, from the sensor)
+     * is sharp at the primary wavelength.  f_number > 0 closes the stop
+     * to that f-number at infinity (clamped to the lens's widest); 0 is
+     * fully open.  fov is unused: the lens and the sensor set the view. */
+    const lr_lens *lens;    /* NULL until a lens is given */
+    double sensor_width_mm; /* default 36; the height follows the image */
+    double scene_unit_mm;   /* millimetres per scene unit; default 1000 */
 } lr_camera;
+
+/* Loads the lens `lens`: a prescription file (lensray JSON, pbrt-v4's
+ * .dat, Zemax .zmx) relative to `base_dir` (NULL: the working
+ * directory), or a shipped lens by name ("double-gauss-50").  *out is
+ * shared and never freed (see lr_lens).  Errors name the file, line,
+ * surface and field. */
+LR_API lr_status lr_lens_load(const char *lens, const char *base_dir,
+                              const lr_lens **out, lr_error *err);
+/* The lens's name as given to lr_lens_load or in the scene, or "" for
+ * an inline prescription; a string owned by the lens. */
+LR_API const char *lr_lens_name(const lr_lens *lens);
 
 /* Fills `cam` with the defaults documented above. */
 LR_API void lr_camera_default(lr_camera *cam);

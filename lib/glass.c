@@ -21,7 +21,7 @@ static const catalogue_glass catalogue[] = {
 };
 #define N_CATALOGUE (sizeof catalogue / sizeof catalogue[0])
 
-double lr__glass_index_at(const lr__glass *g, double nm)
+double lr__glass_n(const lr__glass *g, double nm)
 {
     switch (g->kind) {
     case LR__GLASS_SELLMEIER: {

@@ -25,7 +25,7 @@ static m2 mul(m2 x, m2 y) /* x after y */
 
 static double n_before(const lr__rx *rx, int i, double nm)
 {
-    return i == 0 ? 1.0 : lr__glass_index_at(&rx->s[i - 1].after, nm);
+    return i == 0 ? 1.0 : lr__glass_n(&rx->s[i - 1].after, nm);
 }
 
 /* Refraction at surface i. */
@@ -33,7 +33,7 @@ static m2 refract(const lr__rx *rx, int i, double nm)
 {
     const lr__surface *s = &rx->s[i];
     double c = s->radius != 0 ? 1.0 / s->radius : 0.0;
-    double phi = (lr__glass_index_at(&s->after, nm) - n_before(rx, i, nm)) * c;
+    double phi = (lr__glass_n(&s->after, nm) - n_before(rx, i, nm)) * c;
     m2 r = {1, 0, -phi, 1};
     return r;
 }
@@ -41,7 +41,7 @@ static m2 refract(const lr__rx *rx, int i, double nm)
 /* The gap after surface i. */
 static m2 gap(const lr__rx *rx, int i, double nm)
 {
-    m2 t = {1, rx->s[i].thickness / lr__glass_index_at(&rx->s[i].after, nm),
+    m2 t = {1, rx->s[i].thickness / lr__glass_n(&rx->s[i].after, nm),
             0, 1};
     return t;
 }

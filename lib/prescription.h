@@ -13,7 +13,7 @@
  * it is copied with `=` and freed with nothing.
  *
  * Who writes what:
- *   glass.c             the catalogue, lr__glass_index_at, nearest names
+ *   glass.c             the catalogue, lr__glass_n, nearest names
  *   rx_json.c           lensray's JSON form
  *   rx_pbrt.c           pbrt-v4's lens files
  *   rx_zmx.c            Zemax sequential .zmx files
@@ -53,10 +53,8 @@ typedef struct lr__glass {
     double nd, vd;     /* ABBE and CONSTANT (vd unused there) */
 } lr__glass;
 
-/* The refractive index of `g` at wavelength `nm`, in nanometres.  (Not
- * lr__glass_index: lens.h has that name for the thin-lens models' glass
- * enum, and both headers meet in one program.) */
-double lr__glass_index_at(const lr__glass *g, double nm);
+/* The refractive index of `g` at wavelength `nm`, in nanometres. */
+double lr__glass_n(const lr__glass *g, double nm);
 
 /* The catalogue glass called `name` (case-insensitive; "air" is air).
  * Returns 0 and fills *g, or -1 when there is none; then `near` (if not
@@ -165,5 +163,13 @@ void lr__rx_layout(const lr__rx *rx, double *z);
 int lr__rx_trace(const lr__rx *rx, const double *z, double nm,
                  double stop_scale, int toward_image, double o[3],
                  double d[3]);
+
+/* The same with the indices given: n_after[i] is the index of the medium
+ * after surface i at the ray's wavelength (lr__rx_indices fills it), so
+ * that a camera computes them once per wavelength, not once per ray. */
+void lr__rx_indices(const lr__rx *rx, double nm, double *n_after);
+int lr__rx_trace_n(const lr__rx *rx, const double *z, const double *n_after,
+                   double stop_scale, int toward_image, double o[3],
+                   double d[3]);
 
 #endif

@@ -63,7 +63,7 @@ lr_status lr__rx_check(const lr__rx *rx, const char *path, lr_error *err)
                             "surface's edge (radius %g, conic %g)",
                             p, s->semi_aperture, s->radius, s->conic);
         for (double nm = 380; nm <= 780; nm += 50) {
-            double n = lr__glass_index_at(&s->after, nm);
+            double n = lr__glass_n(&s->after, nm);
             if (!(n >= 1.0 && n < 5.0))
                 return lr__fail(err, LR_ERR_INVALID, p,
                                 "%s.material: index %g at %g nm is not a "

@@ -69,11 +69,11 @@ static lr_status material(const cJSON *s, const char *sp, lr__glass *g,
         g->kind = LR__GLASS_SELLMEIER;
         memcpy(g->B, v, sizeof g->B);
         memcpy(g->C, v + 3, sizeof g->C);
-        g->nd = lr__glass_index_at(g, LR__NM_d);
+        g->nd = lr__glass_n(g, LR__NM_d);
         /* Between the F and C lines the index must be a real refractive
          * index: a pole of the formula there is a typing error. */
         for (double nm = LR__NM_F - 100; nm <= LR__NM_C + 100; nm += 10) {
-            double n = lr__glass_index_at(g, nm);
+            double n = lr__glass_n(g, nm);
             double l2 = nm * nm * 1e-6, n2 = 1;
             for (int i = 0; i < 3; i++)
                 n2 += g->B[i] * l2 / (l2 - g->C[i]);

@@ -15,7 +15,7 @@
 
 static double index_after(const lr__rx *rx, int i, double nm)
 {
-    return i < 0 ? 1.0 : lr__glass_index_at(&rx->s[i].after, nm);
+    return i < 0 ? 1.0 : lr__glass_n(&rx->s[i].after, nm);
 }
 
 /* Refraction at surface i on (y, u), light going toward +z. */

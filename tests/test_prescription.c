@@ -33,9 +33,9 @@ static void test_catalogue_matches_makers_data(void **state)
         char near[128];
         assert_int_equal(lr__glass_named(table[i].name, &g, near,
                                          sizeof near), 0);
-        double nd = lr__glass_index_at(&g, LR__NM_d);
-        double nF = lr__glass_index_at(&g, LR__NM_F);
-        double nC = lr__glass_index_at(&g, LR__NM_C);
+        double nd = lr__glass_n(&g, LR__NM_d);
+        double nF = lr__glass_n(&g, LR__NM_F);
+        double nC = lr__glass_n(&g, LR__NM_C);
         double vd = (nd - 1) / (nF - nC);
         worst_n = fmax(worst_n, fabs(nd - table[i].nd));
         worst_v = fmax(worst_v, fabs(vd - table[i].vd));
@@ -67,30 +67,30 @@ static void test_classic_glasses_by_hand(void **state)
     for (size_t i = 0; i < sizeof sheet / sizeof sheet[0]; i++) {
         lr__glass g;
         assert_int_equal(lr__glass_named(sheet[i].name, &g, NULL, 0), 0);
-        assert_true(fabs(lr__glass_index_at(&g, LR__NM_d) - sheet[i].nd) <
+        assert_true(fabs(lr__glass_n(&g, LR__NM_d) - sheet[i].nd) <
                     6e-6);
-        assert_true(fabs(lr__glass_index_at(&g, LR__NM_F) - sheet[i].nF) <
+        assert_true(fabs(lr__glass_n(&g, LR__NM_F) - sheet[i].nF) <
                     6e-6);
-        assert_true(fabs(lr__glass_index_at(&g, LR__NM_C) - sheet[i].nC) <
+        assert_true(fabs(lr__glass_n(&g, LR__NM_C) - sheet[i].nC) <
                     6e-6);
     }
     lr__glass air;
     assert_int_equal(lr__glass_named("AIR", &air, NULL, 0), 0);
-    assert_true(lr__glass_index_at(&air, 400) == 1.0);
+    assert_true(lr__glass_n(&air, 400) == 1.0);
 }
 
 static void test_abbe_model(void **state)
 {
     (void)state;
     lr__glass g = {.kind = LR__GLASS_ABBE, .nd = 1.6727, .vd = 32.2};
-    double nd = lr__glass_index_at(&g, LR__NM_d);
-    double dF = lr__glass_index_at(&g, LR__NM_F) - lr__glass_index_at(&g, LR__NM_C);
+    double nd = lr__glass_n(&g, LR__NM_d);
+    double dF = lr__glass_n(&g, LR__NM_F) - lr__glass_n(&g, LR__NM_C);
     assert_true(fabs(nd - 1.6727) < 1e-14);
     assert_true(fabs(dF - 0.6727 / 32.2) < 1e-14);
     /* Normal dispersion: blue bends more. */
-    assert_true(lr__glass_index_at(&g, 450) > lr__glass_index_at(&g, 650));
+    assert_true(lr__glass_n(&g, 450) > lr__glass_n(&g, 650));
     lr__glass c = {.kind = LR__GLASS_CONSTANT, .nd = 1.5};
-    assert_true(lr__glass_index_at(&c, 400) == 1.5);
+    assert_true(lr__glass_n(&c, 400) == 1.5);
 }
 
 static void test_nearest_names(void **state)
@@ -153,7 +153,7 @@ static void test_json_reader(void **state)
                                ""),
                   &rx, &err),
         LR_OK);
-    assert_true(fabs(lr__glass_index_at(&rx.s[1].after, LR__NM_d) - 1.5168) <
+    assert_true(fabs(lr__glass_n(&rx.s[1].after, LR__NM_d) - 1.5168) <
                 1e-5);
 }
 
