@@ -561,6 +561,40 @@ LR_API lr_status lr_job_apply(const lr_job *job, lr_camera *cam,
                               lr_render_settings *s, lr_output *out,
                               lr_error *err);
 
+/* ------------------------------------------------------------------------
+ * Real lenses (issue 12; docs/lenses.md)
+ * ---------------------------------------------------------------------- */
+
+/* A lens prescription's first-order data and real chief rays, as one
+ * JSON object: name, source, wavelength_nm, efl_mm, bfl_mm (from the
+ * last surface), ffl_mm (from the first; negative: in front of it),
+ * f_number, entrance_pupil and exit_pupil {position_mm (from the first
+ * and the last surface), diameter_mm}, total_track_mm, and fields, one
+ * per angle: angle_deg, image_height_mm (the real chief ray, aimed at
+ * the stop's centre, at `nm` on the paraxial focal plane),
+ * distortion_percent (against efl tan(angle)) and lateral_color_um (the
+ * chief ray's height at 486.1 nm minus at 656.3 nm); a value that does
+ * not exist (a ray that cannot pass) is null.  `lens` is a file relative
+ * to `base_dir` (NULL: the working directory) or a shipped lens's name
+ * (.json, .zmx or .dat, with or without the extension).  Angles are in
+ * degrees, object at infinity, |angle| < 90, at most 64; `nm` in [300,
+ * 2000] (587.5618 is the d line).  *json is malloc'ed text: release it
+ * with lr_free.  Errors: LR_ERR_INVALID (no such lens, with the shipped
+ * names; a bad prescription, naming its file and line or field; a bad
+ * argument), LR_ERR_IO, LR_ERR_LIMIT, LR_ERR_NOMEM; then *json is NULL. */
+LR_API lr_status lr_lens_describe(const char *lens, const char *base_dir,
+                                  const double *field_angles_deg,
+                                  int n_angles, double nm, char **json,
+                                  lr_error *err);
+
+/* The same for every shipped lens, as {"lenses": [{"id": NAME, ...},
+ * ...]} sorted by name (NAME is the file's name without extension).  A
+ * shipped lens that fails to load is listed with an "error" message
+ * instead of its data.  Ownership and errors as lr_lens_describe. */
+LR_API lr_status lr_lenses_describe(const double *field_angles_deg,
+                                    int n_angles, double nm, char **json,
+                                    lr_error *err);
+
 /* Releases memory the library handed out (encoded buffers).  NULL is a
  * no-op. */
 LR_API void lr_free(void *p);

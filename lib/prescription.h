@@ -116,6 +116,11 @@ lr_status lr__rx_load_file(const char *file, const char *shown,
 lr_status lr__rx_find(const char *name, const char *base_dir, char *out,
                       size_t cap, lr_error *err);
 
+/* The shipped lenses' names: the files in the lens directory (see
+ * lr__rx_find) ending in .json, .zmx, .dat or .txt, without the
+ * extension, sorted.  Fills at most `max` and returns how many. */
+int lr__rx_shipped(char (*names)[64], int max);
+
 /* Checks that `rx` can be built and forms an image: one stop, positive
  * semi-apertures, no two surfaces cutting through each other within
  * their apertures, a positive finite focal length.  Messages name the

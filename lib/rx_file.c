@@ -36,23 +36,17 @@ static int is_file(const char *p)
 
 static int cmp(const void *a, const void *b)
 {
-    return strcmp(*(char *const *)a, *(char *const *)b);
+    return strcmp((const char *)a, (const char *)b);
 }
 
-/* "a, b, c": the shipped lenses' names, sorted, without extensions. */
-static void shipped(char *out, size_t cap)
+int lr__rx_shipped(char (*names)[64], int max)
 {
-    char names[64][64];
-    char *sorted[64];
     int n = 0;
-    out[0] = '\0';
     DIR *d = opendir(lens_dir());
-    if (d == NULL) {
-        snprintf(out, cap, "none (no directory %s)", lens_dir());
-        return;
-    }
+    if (d == NULL)
+        return 0;
     struct dirent *e;
-    while (n < 64 && (e = readdir(d)) != NULL) {
+    while (n < max && (e = readdir(d)) != NULL) {
         const char *dot = strrchr(e->d_name, '.');
         if (dot == NULL || e->d_name[0] == '.')
             continue;
@@ -61,22 +55,30 @@ static void shipped(char *out, size_t cap)
                 (size_t)(dot - e->d_name) < sizeof names[0]) {
                 snprintf(names[n], sizeof names[0], "%.*s",
                          (int)(dot - e->d_name), e->d_name);
-                sorted[n] = names[n];
                 n++;
                 break;
             }
     }
     closedir(d);
-    qsort(sorted, (size_t)n, sizeof sorted[0], cmp);
+    qsort(names, (size_t)n, sizeof names[0], cmp);
+    return n;
+}
+
+/* "a, b, c": the shipped lenses' names, for an error message. */
+static void shipped(char *out, size_t cap)
+{
+    char names[64][64];
+    int n = lr__rx_shipped(names, 64);
     size_t o = 0;
+    out[0] = '\0';
     for (int i = 0; i < n && o < cap; i++) {
-        int w = snprintf(out + o, cap - o, "%s%s", i ? ", " : "", sorted[i]);
+        int w = snprintf(out + o, cap - o, "%s%s", i ? ", " : "", names[i]);
         if (w < 0)
             break;
         o += (size_t)w;
     }
     if (n == 0)
-        snprintf(out, cap, "none");
+        snprintf(out, cap, "none (in %s)", lens_dir());
 }
 
 lr_status lr__rx_find(const char *name, const char *base_dir, char *out,

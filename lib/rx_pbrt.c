@@ -12,6 +12,7 @@
  * then taken as the paraxial back focal length at the d line.
  */
 #include "prescription.h"
+#include "json_util.h"
 
 #include <ctype.h>
 #include <math.h>
@@ -70,22 +71,29 @@ lr_status lr__rx_from_pbrt(const char *text, size_t len, const char *shown,
             return lr__fail(err, LR_ERR_INVALID, NULL,
                             "%s:%d: a NUL byte in the text", shown, line);
         if (hash != NULL) {
-            /* Comments: the first names the lens, all are its source. */
+            /* Comments: the first names the lens, all are its source
+             * (bytes that are not UTF-8 written as \xHH). */
             const char *c = hash + 1;
             while (c < eol && (*c == ' ' || *c == '\t' || *c == '#'))
                 c++;
             const char *ce = eol;
             while (ce > c && isspace((unsigned char)ce[-1]))
                 ce--;
-            if (ce > c && !named) {
-                snprintf(rx->name, sizeof rx->name, "%.*s",
-                         (int)(ce - c), c);
+            char raw[160], esc[160];
+            size_t k = (size_t)(ce - c) < sizeof raw - 1 ? (size_t)(ce - c)
+                                                         : sizeof raw - 1;
+            memcpy(raw, c, k);
+            raw[k] = '\0';
+            lr__utf8_escape(raw, esc, sizeof esc);
+            if (k > 0 && !named) {
+                snprintf(rx->name, sizeof rx->name, "%s", esc);
+                lr__trim_partial_utf8(rx->name, sizeof rx->name,
+                                      (int)strlen(esc) + 1);
                 named = 1;
             }
-            if (ce > c && src + 2 < sizeof rx->source) {
+            if (k > 0 && src + 2 < sizeof rx->source) {
                 int w = snprintf(rx->source + src, sizeof rx->source - src,
-                                 "%s%.*s", src ? "; " : "", (int)(ce - c),
-                                 c);
+                                 "%s%s", src ? "; " : "", esc);
                 src = w < 0 ? src : src + (size_t)w;
                 if (src >= sizeof rx->source)
                     src = sizeof rx->source - 1;
@@ -96,16 +104,22 @@ lr_status lr__rx_from_pbrt(const char *text, size_t len, const char *shown,
         double v[5];
         const char *bad = p;
         int k = numbers(p, stop_at, v, 5, &bad);
-        if (k < 0)
+        if (k < 0) {
+            /* The word as text: bounded by the line, escaped. */
+            char raw[48], esc[200];
+            size_t m = 0;
+            while (bad + m < stop_at && m < sizeof raw - 1 &&
+                   !isspace((unsigned char)bad[m]))
+                m++;
+            memcpy(raw, bad, m);
+            raw[m] = '\0';
+            lr__utf8_escape(raw, esc, sizeof esc);
             return lr__fail(err, LR_ERR_INVALID, NULL,
-                            "%s:%d: \"%.*s\" is not a number (a line is: "
+                            "%s:%d: \"%s\" is not a number (a line is: "
                             "radius thickness index aperture-diameter "
                             "[abbe], in mm)",
-                            shown, line,
-                            (int)strcspn(bad, " \t\r\n#") > 40
-                                ? 40
-                                : (int)strcspn(bad, " \t\r\n#"),
-                            bad);
+                            shown, line, esc);
+        }
         p = eol < end ? eol + 1 : end;
         if (k == 0)
             continue;

@@ -11,6 +11,7 @@
  * both are read.
  */
 #include "prescription.h"
+#include "json_util.h"
 
 #include <ctype.h>
 #include <math.h>
@@ -93,6 +94,17 @@ static int number(const char *w, double *x)
     return *end == '\0' && !isnan(*x) ? 0 : -1;
 }
 
+/* A word of the file, quoted in a message: at most 40 bytes, escaped
+ * where it is not UTF-8. */
+static const char *quote(const char *w, char *buf, size_t cap)
+{
+    char raw[41];
+    snprintf(raw, sizeof raw, "%s", w ? w : "");
+    lr__trim_partial_utf8(raw, sizeof raw, (int)strlen(w ? w : "") + 1);
+    lr__utf8_escape(raw, buf, cap);
+    return buf;
+}
+
 typedef struct zsurf {
     double curv, disz, diam, coni, parm[9];
     int stop, has_diam, line;
@@ -135,7 +147,7 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
             break;
         }
         int indented = *p == ' ' || *p == '\t';
-        char *w[16];
+        char *w[16], q[200];
         int k = words(p, w);
         p = eol < end ? eol + 1 : end;
         if (k == 0)
@@ -148,7 +160,7 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
             double x;
             if (k < 2 || number(w[1], &x) != 0 || x != nz) {
                 FAIL("%s:%d: SURF %s out of order (expected SURF %d)",
-                     shown, line, k > 1 ? w[1] : "", nz);
+                     shown, line, quote(k > 1 ? w[1] : "", q, sizeof q), nz);
                 break;
             }
             if (nz == LR__RX_MAX_SURFACES + 2) {
@@ -170,7 +182,7 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
                 (k < 2 || strcasecmp(w[1], "SEQ") != 0))
                 FAIL("%s:%d: MODE %s: only sequential files (MODE SEQ) "
                      "are read",
-                     shown, line, k > 1 ? w[1] : "");
+                     shown, line, quote(k > 1 ? w[1] : "", q, sizeof q));
             else if (strcmp(w[0], "UNIT") == 0 && k >= 2) {
                 if (strcasecmp(w[1], "MM") == 0)
                     unit = 1;
@@ -184,14 +196,20 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
                 else
                     FAIL("%s:%d: UNIT %s: lens units must be MM, CM, IN "
                          "or METER",
-                         shown, line, w[1]);
+                         shown, line, quote(w[1], q, sizeof q));
             } else if (strcmp(w[0], "NAME") == 0 && k >= 2 && !rx->name[0]) {
+                char raw[128];
                 size_t o = 0;
-                for (int i = 1; i < k && o + 1 < sizeof rx->name; i++) {
-                    int m = snprintf(rx->name + o, sizeof rx->name - o,
-                                     "%s%s", i > 1 ? " " : "", w[i]);
+                raw[0] = '\0';
+                for (int i = 1; i < k && o + 1 < sizeof raw; i++) {
+                    int m = snprintf(raw + o, sizeof raw - o, "%s%s",
+                                     i > 1 ? " " : "", w[i]);
                     o = m < 0 ? o : o + (size_t)m;
                 }
+                lr__trim_partial_utf8(raw, sizeof raw, (int)o + 1);
+                lr__utf8_escape(raw, rx->name, sizeof rx->name);
+                lr__trim_partial_utf8(rx->name, sizeof rx->name,
+                                      (int)strlen(rx->name) + 1);
             }
             continue;
         }
@@ -203,7 +221,7 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
                           strcmp(w[1], "EVENASPH") != 0))
                 FAIL("%s:%d: surface type %s is not supported (STANDARD "
                      "and EVENASPH are)",
-                     shown, line, k > 1 ? w[1] : "(none)");
+                     shown, line, quote(k > 1 ? w[1] : "(none)", q, sizeof q));
         } else if (strcmp(w[0], "CURV") == 0) {
             if (!num_ok || !isfinite(x) || fabs(x) > 1e6)
                 FAIL("%s:%d: CURV needs a finite curvature", shown, line);
@@ -239,7 +257,7 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
             char near[128];
             if (k < 2 || strcasecmp(w[1], "MIRROR") == 0) {
                 FAIL("%s:%d: GLAS %s: mirrors are not supported", shown,
-                     line, k > 1 ? w[1] : "");
+                     line, quote(k > 1 ? w[1] : "", q, sizeof q));
             } else if (lr__glass_named(w[1], &z->glass, near,
                                        sizeof near) != 0) {
                 /* A model glass: GLAS name 1 0 nd vd ... */
@@ -252,13 +270,13 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
                     z->glass.nd = nd;
                     z->glass.vd = vd;
                 } else
-                    FAIL("%s:%d: unknown glass \"%.40s\"; nearest: %s",
-                         shown, line, w[1], near);
+                    FAIL("%s:%d: unknown glass \"%s\"; nearest: %s",
+                         shown, line, quote(w[1], q, sizeof q), near);
             }
         } else if (!in(w[0], cosmetic)) {
-            FAIL("%s:%d: %.8s changes the optics in a way lensray does not "
+            FAIL("%s:%d: %s changes the optics in a way lensray does not "
                  "model",
-                 shown, line, w[0]);
+                 shown, line, quote(w[0], q, sizeof q));
         }
     }
     /* SURF 0 (the object) and the last (the image) are not surfaces. */
