@@ -80,6 +80,12 @@ static int intersect(const lr__surface *s, const double o[3],
     if (den == 0.0)
         return 0;
     double t = -C / den;
+    /* A ray that starts beyond the centre of curvature (a wide gap
+     * before a strongly curved surface) meets the far sheet first: then
+     * the other root, -den / A, is the vertex sheet's (where the
+     * quadric's gradient points toward +z, see below). */
+    if (A != 0.0 && !(1.0 - c * k1 * (o[2] + t * d[2]) > 0.0))
+        t = -den / A;
     if (!isfinite(t))
         return 0;
     for (int a = 0; a < 3; a++)
@@ -261,6 +267,8 @@ void lr__rx_trace16(const lr__rx *rx, const double *z, const double *n_after,
             double den = B + copysign(sqrt(ok ? disc : 0.0), B);
             ok &= den != 0.0;
             double t = -C / (den != 0.0 ? den : 1.0);
+            double t2 = -den / (A != 0.0 ? A : 1.0); /* see intersect() */
+            t = A != 0.0 && !(1.0 - c * k1 * (oz + t * dz) > 0.0) ? t2 : t;
             ok &= isfinite(t);
             double px = ox + t * dx, py = oy + t * dy, pz = oz + t * dz;
             double gx = -c * px, gy = -c * py, gz = 1.0 - c * k1 * pz;

@@ -94,6 +94,10 @@ void lr__rx_trace16f(const lr__rx *rx, const double *z,
             float den = B + copysignf(sqrtf(ok ? disc : 0.0f), B);
             ok &= den != 0.0f;
             float t = -C / (den != 0.0f ? den : 1.0f);
+            /* A start beyond the centre of curvature: the other root (as
+             * in rx_trace.c's intersect). */
+            float t2 = -den / (A != 0.0f ? A : 1.0f);
+            t = A != 0.0f && !(1.0f - c * k1 * (oz + t * dz) > 0.0f) ? t2 : t;
             ok &= isfinite(t);
             float px = ox + t * dx, py = oy + t * dy, pz = oz + t * dz;
             float gx = -c * px, gy = -c * py, gz = 1.0f - c * k1 * pz;

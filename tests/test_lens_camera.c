@@ -315,6 +315,135 @@ static void test_pupil_bounds_lose_no_light(void **state)
     check_irradiance("\"double-gauss-50\"", 5.6);
 }
 
+/* The real chief ray's image height (mm) of a field angle at `nm`, from
+ * lr_lens_describe (the prescription's own analysis, which aims each
+ * chief ray at the stop's centre from infinity; tests/lenses/compare.py
+ * checks it against ray-optics). */
+static double chief_height(const char *lens, double deg, double nm)
+{
+    char *json = NULL;
+    lr_error err;
+    assert_int_equal(lr_lens_describe(lens, NULL, &deg, 1, nm, &json, &err),
+                     LR_OK);
+    cJSON *root = cJSON_Parse(json);
+    assert_non_null(root);
+    const cJSON *f = cJSON_GetArrayItem(
+        cJSON_GetObjectItemCaseSensitive(root, "fields"), 0);
+    const cJSON *h = cJSON_GetObjectItemCaseSensitive(f, "image_height_mm");
+    assert_true(cJSON_IsNumber(h));
+    double v = h->valuedouble;
+    cJSON_Delete(root);
+    lr_free(json);
+    return v;
+}
+
+/* Centroid (pixels, x) of channel ch of an image. */
+static double centroid_x(const lr_image *img, int ch, double *total)
+{
+    const float *p = lr_image_rgb(img);
+    int w = lr_image_width(img), h = lr_image_height(img);
+    double sum = 0, sx = 0;
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            double v = p[3 * (y * w + x) + ch];
+            sum += v, sx += v * (x + 0.5);
+        }
+    *total = sum;
+    return sx / sum;
+}
+
+/* Where a collimated beam from field angle `deg` (toward +x in the
+ * scene, so toward -x in the lens) lands on the camera's sensor at `nm`:
+ * the mean x of the rays, traced from the object side on a fine grid
+ * over the first surface (equal power each), that get through.  This is
+ * the other direction from the camera's rays (sensor to scene, sampled
+ * in exit-pupil bounds, then through Embree), so it checks them. */
+static double beam_centroid(const lr__cam *c, double deg, double nm)
+{
+    const lr_lens *L = c->lens.L;
+    double n_after[LR__RX_MAX_SURFACES];
+    lr__rx_indices(&L->rx, nm, n_after);
+    double th = deg * M_PI / 180, S = L->rx.s[0].semi_aperture;
+    double sx = 0;
+    int n = 0;
+    const int G = 400;
+    for (int iy = 0; iy < G; iy++)
+        for (int ix = 0; ix < G; ix++) {
+            double o[3] = {-S + (ix + 0.5) * 2 * S / G,
+                           -S + (iy + 0.5) * 2 * S / G, -1e-9};
+            double d[3] = {-sin(th), 0, cos(th)};
+            /* Back along the ray to just before the first vertex. */
+            o[0] -= d[0] * 100, o[2] -= d[2] * 100;
+            if (!lr__rx_trace_n(&L->rx, L->z, n_after, c->lens.stop_scale, 1,
+                                o, d))
+                continue;
+            double t = (c->lens.z_sensor - o[2]) / d[2];
+            sx += o[0] + t * d[0];
+            n++;
+        }
+    assert_true(n > 100);
+    return sx / n;
+}
+
+/* A small distant sphere's image, rendered through the lens, is centred
+ * where the lens puts a beam from its direction (within 0.1 px), channel
+ * by channel in rgb mode: so the colours' split is the lens's lateral
+ * colour at the channels' wavelengths (610 and 465 nm).  The real chief
+ * ray's height, from lr_lens_describe, is printed beside it (the beam's
+ * centroid differs from it by the coma at f/8 and by the blue's focus
+ * shift). */
+static void test_point_image_where_the_lens_puts_it(void **state)
+{
+    (void)state;
+    const char *lens = "fisheye-10";
+    const double deg[] = {0.0, 30.0, 55.0};
+    const int W = 241, H = 41;
+    const double sensor = 24.0; /* mm: the fisheye's image circle */
+    for (int k = 0; k < 3; k++) {
+        double th = deg[k] * M_PI / 180;
+        /* 1 km away at angle th to the right, half a pixel across. */
+        char obj[256], extra[256];
+        snprintf(obj, sizeof obj,
+                 "[{\"type\": \"sphere\", \"center\": [%.17g, 0, %.17g],"
+                 " \"radius\": 5, \"material\": \"w\"}]",
+                 1000 * sin(th), -1000 * cos(th));
+        snprintf(extra, sizeof extra,
+                 ", \"focus_distance\": 1000, \"f_number\": 8,"
+                 " \"sensor_width_mm\": %g,"
+                 " \"chromatic\": {\"mode\": \"rgb\"}",
+                 sensor);
+        char quoted[64];
+        snprintf(quoted, sizeof quoted, "\"%s\"", lens);
+        lr_scene *s = lens_scene(quoted, extra, obj, W, H, 64);
+        lr_camera cam;
+        lr_scene_camera(s, &cam);
+        lr_render_settings rs;
+        lr_scene_settings(s, &rs);
+        lr_image *img = lr_test_render_with(s, &cam, &rs, "beam centroid");
+        lr__cam c;
+        lr__cam_init(&c, &cam, W, H);
+        double px = sensor / W, tot;
+        double split[2];
+        for (int ch = 0; ch < 3; ch += 2) {
+            double nm = ch == 0 ? 610.0 : 465.0;
+            /* The film's x grows to the right; the sensor's to the left
+             * (the image is inverted, camera_lens.c). */
+            double want = W / 2.0 - beam_centroid(&c, deg[k], nm) / px;
+            double chief = W / 2.0 + chief_height(lens, deg[k], nm) / px;
+            double got = centroid_x(img, ch, &tot);
+            split[ch / 2] = got;
+            print_message("%s %g deg, %g nm: image centroid %.3f px, beam "
+                          "%.3f px (%+.3f), chief ray %.3f px\n",
+                          lens, deg[k], nm, got, want, got - want, chief);
+            assert_true(tot > 0);
+            assert_true(fabs(got - want) < 0.1);
+        }
+        print_message("  red - blue: %.3f px\n", split[0] - split[1]);
+        lr_image_free(img);
+        lr_scene_free(s);
+    }
+}
+
 static const struct CMUnitTest lens_camera_tests[] = {
     cmocka_unit_test(test_thin_singlet_matches_thin_lens),
     cmocka_unit_test(test_few_rays_lost_on_axis),
@@ -323,6 +452,7 @@ static const struct CMUnitTest lens_camera_tests[] = {
     cmocka_unit_test(test_errors_name_the_field),
     cmocka_unit_test(test_lens_written_back),
     cmocka_unit_test(test_pupil_bounds_lose_no_light),
+    cmocka_unit_test(test_point_image_where_the_lens_puts_it),
 };
 
 LR_TEST_GROUP(lens_camera, lens_camera_tests)
