@@ -150,7 +150,7 @@ typedef struct lr__pupil {
 /* A real lens prepared for one film (camera_lens.c): where the sensor
  * sits, the stop's scale, the indices at the fixed wavelengths, and the
  * exit-pupil bounds at LR__PUPIL_N + 1 film radii from 0 to the corner. */
-#define LR__PUPIL_N 32
+#define LR__PUPIL_N 48
 typedef struct lr__lens_cam {
     const struct lr_lens *L;
     double mm;                 /* scene units per millimetre */

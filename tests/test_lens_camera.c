@@ -248,12 +248,48 @@ static void test_lens_written_back(void **state)
  * to the corner, the mean weight of the camera's samples (its estimate of
  * the irradiance there, relative to the centre's) equals a brute-force
  * integral of cos^4 / Z^2 over every rear-plane point whose ray gets
- * through, on a grid over three times the rear element.  A bound that
- * clipped the pupil would come out low by the share it clipped. */
-static void check_irradiance(const char *lens, double f_number)
+ * through: on a grid over three times the rear element, then a finer one
+ * over where rays passed (plus two coarse cells).  A bound that clipped
+ * the pupil would come out low by the share it clipped. */
+static double brute_irradiance(const lr__cam *c, double xs, double ys)
+{
+    const lr__lens_cam *lc = &c->lens;
+    const lr_lens *L = lc->L;
+    double Z = lc->z_sensor - lc->z_rear;
+    double S = 1.5 * L->rx.s[L->rx.n - 1].semi_aperture;
+    double x0 = -S, y0 = -S, w = 2 * S, h = 2 * S, E = 0;
+    for (int pass = 0; pass < 2; pass++) {
+        const int G = pass == 0 ? 80 : 300;
+        double cw = w / G, ch = h / G;
+        double bx0 = INFINITY, bx1 = -INFINITY, by0 = INFINITY, by1 = -INFINITY;
+        E = 0;
+        for (int iy = 0; iy < G; iy++)
+            for (int ix = 0; ix < G; ix++) {
+                double qx = x0 + (ix + 0.5) * cw, qy = y0 + (iy + 0.5) * ch;
+                double d[3] = {qx - xs, qy - ys, -Z};
+                double len = sqrt(d[0] * d[0] + d[1] * d[1] + Z * Z);
+                for (int a = 0; a < 3; a++)
+                    d[a] /= len;
+                double o[3] = {xs, ys, lc->z_sensor}, ct = -d[2];
+                if (!lr__rx_trace_n(&L->rx, L->z, lc->n_ref, lc->stop_scale,
+                                    0, o, d))
+                    continue;
+                E += ct * ct * ct * ct / (Z * Z) * cw * ch;
+                bx0 = fmin(bx0, qx), bx1 = fmax(bx1, qx);
+                by0 = fmin(by0, qy), by1 = fmax(by1, qy);
+            }
+        if (!(bx0 <= bx1))
+            return 0;
+        x0 = bx0 - 2 * cw, y0 = by0 - 2 * ch;
+        w = bx1 - bx0 + 4 * cw, h = by1 - by0 + 4 * ch;
+    }
+    return E;
+}
+
+static void check_irradiance(const char *lens, double f_number, int points)
 {
     char extra[128];
-    snprintf(extra, sizeof extra, ", \"focus_distance\": 3, \"f_number\": %g",
+    snprintf(extra, sizeof extra, ", \"focus_distance\": 10, \"f_number\": %g",
              f_number);
     lr_scene *s = lens_scene(lens, extra, "[]", 300, 200, 1);
     lr_camera cam;
@@ -261,47 +297,54 @@ static void check_irradiance(const char *lens, double f_number)
     lr__cam c;
     lr__cam_init(&c, &cam, 300, 200);
     const lr__lens_cam *lc = &c.lens;
-    const lr_lens *L = lc->L;
-    double Z = lc->z_sensor - lc->z_rear;
-    double S = 1.5 * L->rx.s[L->rx.n - 1].semi_aperture;
-    const int G = 300;
-    double cell = 2 * S / G, E0 = 0;
-    double worst = 0;
-    for (int k = 0; k < 5; k++) {
-        double t = k / 4.0 * 0.98; /* along the diagonal, 0 to the corner */
+    double E0 = brute_irradiance(&c, 0, 0), worst = 0;
+    for (int k = 0; k < points; k++) {
+        /* Along the diagonal, from the centre to the corner. */
+        double t = k / (points - 1.0) * 0.98;
         double fx = 150 + 150 * t, fy = 100 + 100 * t;
         double xs = (0.5 - fx / 300) * lc->sensor_w;
         double ys = (fy / 200 - 0.5) * lc->sensor_h;
-        double E = 0;
-        for (int iy = 0; iy < G; iy++)
-            for (int ix = 0; ix < G; ix++) {
-                double qx = -S + (ix + 0.5) * cell, qy = -S + (iy + 0.5) * cell;
-                double d[3] = {qx - xs, qy - ys, -Z};
-                double len = sqrt(d[0] * d[0] + d[1] * d[1] + Z * Z);
-                for (int a = 0; a < 3; a++)
-                    d[a] /= len;
-                double o[3] = {xs, ys, lc->z_sensor}, ct = -d[2];
-                if (lr__rx_trace_n(&L->rx, L->z, lc->n_ref, lc->stop_scale, 0,
-                                   o, d))
-                    E += ct * ct * ct * ct / (Z * Z) * cell * cell;
-            }
-        if (k == 0)
-            E0 = E;
-        double sum = 0;
-        const int M = 256;
+        double want = brute_irradiance(&c, xs, ys) / E0, sum = 0;
+        /* Jittered: cell centres would count the pupil's edge with a
+         * systematic error of its own (1.5% here). */
+        const int M = 128;
+        uint64_t rng = 0x9E3779B97F4A7C15ull + (uint64_t)k;
         for (int i = 0; i < M; i++)
             for (int j = 0; j < M; j++) {
-                double u[2] = {(i + 0.5) / M, (j + 0.5) / M};
+                double r1 = ((rng = rng * 6364136223846793005ull + 1442695040888963407ull) >> 11) * 0x1p-53;
+                double r2 = ((rng = rng * 6364136223846793005ull + 1442695040888963407ull) >> 11) * 0x1p-53;
+                double u[2] = {(i + r1) / M, (j + r2) / M};
                 lr__v3 org, dir;
                 sum += lr__cam_lens_ray(&c, fx, fy, u, c.w, c.nm_ref, &org,
                                         &dir);
             }
-        double got = sum / (M * M), want = E / E0;
-        print_message("%s f/%g, film %.2f of the way to the corner: "
-                      "camera %.5f, integral %.5f\n",
-                      lr_lens_name(L), f_number, t, got, want);
+        double got = sum / (M * M);
+        /* And the packet camera's own float code, sixteen at a time. */
+        double sum16 = 0;
+        for (int i = 0; i < M * M; i += 16) {
+            float fx16[16], fy16[16], lu[16], lv[16], wt[16];
+            for (int l = 0; l < 16; l++) {
+                int q = i + l;
+                double r1 = ((rng = rng * 6364136223846793005ull + 1442695040888963407ull) >> 11) * 0x1p-53;
+                double r2 = ((rng = rng * 6364136223846793005ull + 1442695040888963407ull) >> 11) * 0x1p-53;
+                fx16[l] = (float)fx, fy16[l] = (float)fy;
+                lu[l] = (float)((q % M + r1) / M);
+                lv[l] = (float)((q / M + r2) / M);
+            }
+            struct RTCRayHit16 rh;
+            c.model->rays16(&c, 1, 16, fx16, fy16, lu, lv, &rh, wt);
+            for (int l = 0; l < 16; l++)
+                sum16 += wt[l];
+        }
+        double got16 = sum16 / (M * M);
+        if (points <= 5 || fabs(got / want - 1) > 0.005 ||
+            fabs(got16 / want - 1) > 0.005)
+            print_message("%s f/%g, film %.3f of the way to the corner: "
+                          "camera %.5f (packets %.5f), integral %.5f\n",
+                          lr_lens_name(lc->L), f_number, t, got, got16, want);
         if (want > 0.01)
-            worst = fmax(worst, fabs(got / want - 1));
+            worst = fmax(worst, fmax(fabs(got / want - 1),
+                                     fabs(got16 / want - 1)));
     }
     assert_true(worst < 0.01);
     lr_scene_free(s);
@@ -310,9 +353,12 @@ static void check_irradiance(const char *lens, double f_number)
 static void test_pupil_bounds_lose_no_light(void **state)
 {
     (void)state;
-    check_irradiance(singlet, 0);
-    check_irradiance("\"double-gauss-50\"", 0);
-    check_irradiance("\"double-gauss-50\"", 5.6);
+    check_irradiance(singlet, 0, 5);
+    check_irradiance("\"double-gauss-50\"", 0, 5);
+    check_irradiance("\"double-gauss-50\"", 5.6, 5);
+    /* Finely, where elements start to cut the pupil one after another
+     * (bounds interpolated in proportion lost 1-3.5% in rings there). */
+    check_irradiance("\"wide-22\"", 8, 36);
 }
 
 /* The real chief ray's image height (mm) of a field angle at `nm`, from
