@@ -73,3 +73,34 @@ fig spheres-thinlens scenes/spheres.json --set camera.model=thinlens \
 fig cornell scenes/cornell.json --set render.spp=64
 
 echo "figures: $n images in $OUT"
+
+# Real lenses (docs/lenses.md): a checkerboard 10 m away (100 m for the
+# telephoto) through the fisheye, the wide angle and the telephoto.
+fig lens-chart-fisheye scenes/lens-chart.json --set camera.lens=fisheye-10 \
+    --set camera.sensor_width_mm=24 --set render.width=480 --set render.height=480
+fig lens-chart-wide scenes/lens-chart.json --set camera.lens=wide-22
+fig lens-chart-tele scenes/lens-chart.json --set camera.lens=telephoto-250 \
+    --set camera.position='[0, 0, 100]' --set camera.focus_distance=100
+# Lateral colour: the telephoto's top-right corner, spectral, at full size.
+fig lens-fringe-tele scenes/lens-chart.json --set camera.lens=telephoto-250 \
+    --set camera.position='[0, 0, 100]' --set camera.focus_distance=100 \
+    --set render.width=1440 --set render.height=960 --set render.spp=128 \
+    --set 'render.region=[1200, 0, 1440, 160]' \
+    --set 'camera.chromatic={"mode": "spectral", "wavelengths": 8}'
+fig lens-fringe-tele-off scenes/lens-chart.json --set camera.lens=telephoto-250 \
+    --set camera.position='[0, 0, 100]' --set camera.focus_distance=100 \
+    --set render.width=1440 --set render.height=960 --set render.spp=128 \
+    --set 'render.region=[1200, 0, 1440, 160]'
+# Bokeh across the frame: the double Gauss wide open (cat's eyes at the
+# edges) and at f/4 (round everywhere); the Petzval's swirl.
+fig lens-bokeh-f2 scenes/lens-bokeh.json --set render.spp=512
+fig lens-bokeh-f4 scenes/lens-bokeh.json --set render.spp=512 --set camera.f_number=4
+fig lens-bokeh-petzval scenes/lens-bokeh.json --set render.spp=512 \
+    --set camera.lens=petzval
+# Focus breathing: the chart 30 m away through the double Gauss at f/16,
+# focused at 30 m and at 0.4 m (unit focusing moves the lens out 8 mm:
+# the view narrows, the chart's squares grow).
+fig lens-breathe-far scenes/lens-chart.json --set camera.lens=double-gauss-50 \
+    --set camera.position='[0, 0, 30]' --set camera.focus_distance=30 --set camera.f_number=16
+fig lens-breathe-near scenes/lens-chart.json --set camera.lens=double-gauss-50 \
+    --set camera.position='[0, 0, 30]' --set camera.focus_distance=0.4 --set camera.f_number=16
