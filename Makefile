@@ -166,7 +166,9 @@ API_EXAMPLES ?= 100
 test-api: all $(API_VENV)/.ok
 	@sh tests/api/run.sh $(BUILD) $(API_VENV) $(API_EXAMPLES)
 
-$(API_VENV)/.ok: tests/api/requirements.txt $(DEPS_OK)
+# A virtualenv $(1) with the pinned packages of $(2), for the recipe of
+# $(1)/.ok (test-api's and test-lenses').
+define make_venv
 	@if ! python3 -c 'import ensurepip, venv' >/dev/null 2>&1; then \
 	  if [ "$$(id -u)" = 0 ]; then \
 	    echo "make: installing missing Debian packages: python3-venv"; \
@@ -177,11 +179,14 @@ $(API_VENV)/.ok: tests/api/requirements.txt $(DEPS_OK)
 	    exit 1; \
 	  fi; \
 	fi
-	@rm -rf $(API_VENV) && python3 -m venv $(API_VENV)
-	@echo "  PIP     tests/api/requirements.txt -> $(API_VENV)"
-	@$(API_VENV)/bin/pip install -q --disable-pip-version-check \
-	  -r tests/api/requirements.txt
-	@touch $@
+	@rm -rf $(1) && python3 -m venv $(1)
+	@echo "  PIP     $(2) -> $(1)"
+	@$(1)/bin/pip install -q --disable-pip-version-check -r $(2)
+	@touch $(1)/.ok
+endef
+
+$(API_VENV)/.ok: tests/api/requirements.txt $(DEPS_OK)
+	$(call make_venv,$(API_VENV),tests/api/requirements.txt)
 
 # ---- lenses against an optical design program ---------------------------
 # `lensray lens` on every shipped lens and on tests/data/lenses/ against
@@ -199,21 +204,7 @@ test-lenses: $(BUILD)/lensray $(LENS_VENV)/.ok
 	  $(LENS_CHECKED)
 
 $(LENS_VENV)/.ok: tests/lenses/requirements.txt $(DEPS_OK)
-	@if ! python3 -c 'import ensurepip, venv' >/dev/null 2>&1; then \
-	  if [ "$$(id -u)" = 0 ]; then \
-	    echo "make: installing missing Debian packages: python3-venv"; \
-	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq python3-venv >/dev/null || exit 1; \
-	  else \
-	    echo "make: missing Debian packages: python3-venv"; \
-	    echo "make: run 'sudo apt-get install python3-venv' (or run make as root) and try again"; \
-	    exit 1; \
-	  fi; \
-	fi
-	@rm -rf $(LENS_VENV) && python3 -m venv $(LENS_VENV)
-	@echo "  PIP     tests/lenses/requirements.txt -> $(LENS_VENV)"
-	@$(LENS_VENV)/bin/pip install -q --disable-pip-version-check \
-	  -r tests/lenses/requirements.txt
-	@touch $@
+	$(call make_venv,$(LENS_VENV),tests/lenses/requirements.txt)
 
 test-sanitize:
 	$(MAKE) BUILD=build/sanitize OPT=-O1 \
