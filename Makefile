@@ -112,7 +112,21 @@ $(BUILD)/lensray: $(BUILD)/obj/tools/lensray.o $(BUILD)/liblensray.a
 SVC_OBJ  := $(SVC_SRC:%.c=$(BUILD)/obj/%.o)
 PORT     ?= 8080
 
-$(BUILD)/lensrayd: $(SVC_OBJ) $(BUILD)/liblensray.a
+# The page (service/ui/, docs/page.md) goes into the binary as C arrays.
+UI_FILES := $(wildcard service/ui/*.html service/ui/*.css service/ui/*.js)
+UI_OBJ   := $(BUILD)/obj/gen/ui_files.o
+
+$(BUILD)/gen/ui_files.c: service/ui/embed.sh $(UI_FILES)
+	@mkdir -p $(dir $@)
+	@echo "  EMBED   $(UI_FILES)"
+	@sh service/ui/embed.sh $@ $(UI_FILES)
+
+$(UI_OBJ): $(BUILD)/gen/ui_files.c service/lensrayd.h $(DEPS_OK)
+	@mkdir -p $(dir $@)
+	@echo "  CC      $<"
+	@$(CC) $(CPPFLAGS) -Iservice $(PKG_CFLAGS) $(CFLAGS) -c $< -o $@
+
+$(BUILD)/lensrayd: $(SVC_OBJ) $(UI_OBJ) $(BUILD)/liblensray.a
 	$(CC) $(LDFLAGS) -o $@ $^ $(LIB_LIBS) -lmicrohttpd -lcrypto
 
 # Builds and starts the daemon on the built-in scenes (Ctrl-C stops it).
