@@ -242,6 +242,41 @@ test-python: python
 	  LENSRAY_BUILD_DIR=$(abspath $(BUILD)) venv/bin/python -m pytest \
 	  -p no:cacheprovider -q $(abspath python/tests)
 
+# ---- the page in a browser ---------------------------------------------------
+# tests/page.bats drives lensrayd's page (docs/page.md) in Debian's headless
+# Chromium through Selenium (Debian's python3, not a virtualenv): installed
+# like the deps above when run as root (apt-get update first only when apt
+# does not know a package yet), otherwise named.  Only the tests need them.
+PAGE_DEPS := chromium:chromium chromedriver:chromium-driver \
+             /usr/lib/python3/dist-packages/selenium/__init__.py:python3-selenium
+
+$(BUILD)/.page-deps-ok: Makefile
+	@missing=""; \
+	for d in $(PAGE_DEPS); do \
+	  what=$${d%%:*}; pkg=$${d##*:}; \
+	  case $$what in \
+	    /*) [ -e "$$what" ] || missing="$$missing $$pkg" ;; \
+	    *) command -v "$$what" >/dev/null 2>&1 || missing="$$missing $$pkg" ;; \
+	  esac; \
+	done; \
+	if [ -n "$$missing" ]; then \
+	  if [ "$$(id -u)" = 0 ]; then \
+	    echo "make: installing missing Debian packages:$$missing"; \
+	    for p in $$missing; do \
+	      apt-cache policy $$p 2>/dev/null | grep -q 'Candidate: [0-9]' || \
+	        { apt-get update -qq || exit 1; break; }; \
+	    done; \
+	    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing >/dev/null || exit 1; \
+	  else \
+	    echo "make: missing Debian packages:$$missing"; \
+	    echo "make: run 'sudo apt-get install$$missing' (or run make as root) and try again"; \
+	    exit 1; \
+	  fi; \
+	fi
+	@mkdir -p $(dir $@) && touch $@
+
+test-suite: $(BUILD)/.page-deps-ok
+
 # ---- out of memory ------------------------------------------------------
 # tests/oom/oom.c fails the library's allocations one by one.  It is linked
 # with --wrap so that every allocation made by liblensray.a's own objects
