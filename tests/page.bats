@@ -56,11 +56,12 @@ teardown_file() {
 browser_check() {
     command -v chromium >/dev/null ||
         skip "environment: chromium is not installed (make installs chromium, chromium-driver and python3-selenium as root)"
-    if ! grep -qx "ok $1" "$WORK/browser/results" 2>/dev/null; then
+    if ! grep -Eq "^ok $1(:|\$)" "$WORK/browser/results" 2>/dev/null; then
         grep "^fail $1" "$WORK/browser/results" 2>/dev/null || true
         cat "$WORK/browser.log"
         return 1
     fi
+    grep "^ok $1" "$WORK/browser/results"
 }
 
 # json FILE EXPR: a Python expression of the document `d` in FILE.

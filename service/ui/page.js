@@ -364,9 +364,13 @@ function setStatus(text, error) {
   $("status").className = error ? "error" : "";
 }
 
+// Every change starts a series; the body's data-series and data-state
+// say which one the page is on and whether its picture is finished.
 function changed() {
   state.changedAt = performance.now();
   state.firstMs = undefined;
+  document.body.dataset.state = "rendering";
+  document.body.dataset.series = String(state.generation + 1);
   run();
 }
 

@@ -123,6 +123,19 @@ def wait_done(driver):
     until(driver, "the page to finish its picture", lambda: body_data(driver, "state") == "done")
 
 
+def series(driver):
+    return int(body_data(driver, "series") or 0)
+
+
+def act(driver, action):
+    """Does `action` (a change on the page) and waits for the picture of
+    the series it started to finish."""
+    before = series(driver)
+    action()
+    until(driver, "a new series", lambda: series(driver) > before)
+    wait_done(driver)
+
+
 def open_page(driver, daemon):
     driver.get(daemon.url + "/")
     until(driver, "the token form", lambda: driver.find_element(By.ID, "token").is_displayed())
@@ -187,13 +200,15 @@ def check_load(driver, daemon, ctx):
 
 
 def move_focus(driver):
-    slider = driver.find_element(By.ID, "key-focus_distance")
-    slider.send_keys(Keys.ARROW_RIGHT)
+    """One step of the focus slider: the thin lens's focus distance, or
+    the bracket's focal length."""
+    sliders = (driver.find_elements(By.ID, "key-focus_distance") or
+               driver.find_elements(By.ID, "key-focal_length"))
+    sliders[0].send_keys(Keys.ARROW_RIGHT)
 
 
 def check_cancel(driver, daemon, ctx):
-    Select(driver.find_element(By.ID, "model")).select_by_value("thinlens")
-    wait_done(driver)
+    act(driver, lambda: Select(driver.find_element(By.ID, "model")).select_by_value("thinlens"))
     # The one worker is kept busy by a long job of the test's own, so the
     # page's jobs wait in the queue: the superseded one is certainly not
     # finished when the slider moves again.
@@ -215,9 +230,11 @@ def check_cancel(driver, daemon, ctx):
         st = daemon.wait_job(first, ["cancelled", "done", "failed"])
         assert st["status"] == "cancelled", "the superseded job ended %s" % st["status"]
         assert daemon.json("GET", "/v1/jobs/" + second)["status"] in ("queued", "running", "done")
+        detail = "job %s cancelled, %s after it" % (first[:8], second[:8])
     finally:
         daemon.call("DELETE", "/v1/jobs/" + blocker)
     wait_done(driver)
+    return detail
 
 
 def check_focus(driver, daemon, ctx):
@@ -234,19 +251,16 @@ def check_focus(driver, daemon, ctx):
     px, py = pixel_of(cam, w, h, target["center"])
     img = driver.find_element(By.ID, "picture")
     cw, ch = img.size["width"], img.size["height"]
-    ActionChains(driver).move_to_element_with_offset(
-        img, int(px / w * cw - cw / 2), int(py / h * ch - ch / 2)).click().perform()
-    until(driver, "the page to name the pixel it focused on",
-          lambda: driver.find_element(By.ID, "focus-pixel").get_attribute("data-pixel"))
+    act(driver, lambda: ActionChains(driver).move_to_element_with_offset(
+        img, int(px / w * cw - cw / 2), int(py / h * ch - ch / 2)).click().perform())
     x, y = map(int, driver.find_element(By.ID, "focus-pixel").get_attribute("data-pixel").split(","))
     want = depth_at(cam, w, h, x, y, spheres)
     assert want is not None, "pixel %d,%d hits no sphere" % (x, y)
-    until(driver, "the focus distance to change",
-          lambda: driver.find_element(By.ID, "focus-distance").get_attribute("data-value") not in ("", before))
-    wait_done(driver)
     got = float(driver.find_element(By.ID, "focus-distance").get_attribute("data-value"))
+    assert got != float(before or 0), "the focus distance did not change"
     assert abs(got - want) <= 0.02 * want, "focus %.4f, the sphere is at depth %.4f" % (got, want)
-    ctx["focus"] = (x, y, got, want)
+    return "pixel %d,%d: shown %.4f, sphere depth %.4f (%+.2g%%), before %s" % (
+        x, y, got, want, 100 * (got - want) / want, before)
 
 
 def check_overlay(driver, daemon, ctx):
@@ -273,9 +287,9 @@ def check_overlay(driver, daemon, ctx):
         "const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;"
         "let n = 0; for (let i = 3; i < d.length; i += 4) if (d[i] > 0) n++; return n;")
     assert painted > 0, "the overlay is empty"
-    ctx["screenshot_overlay"] = True
     driver.find_element(By.ID, "show-plan").click()
     assert not overlay.is_displayed(), "the overlay does not hide"
+    return "%d lens blocks of %d, as the plan" % (lens, plan["columns"] * plan["rows"])
 
 
 def check_download(driver, daemon, ctx):
@@ -286,6 +300,7 @@ def check_download(driver, daemon, ctx):
     got = open(path, "rb").read()
     want = daemon.call("GET", "/v1/jobs/%s/image" % shown)
     assert got == want, "the download (%d bytes) differs from the API's image (%d bytes)" % (len(got), len(want))
+    return "%d bytes, equal" % len(got)
 
 
 CHECKS = [("load", check_load), ("cancel", check_cancel), ("focus", check_focus),
@@ -309,8 +324,8 @@ def run_checks(build, out):
                 results.append("fail %s: not run, %s failed first" % (name, broken))
                 continue
             try:
-                fn(driver, daemon, ctx)
-                results.append("ok " + name)
+                detail = fn(driver, daemon, ctx)
+                results.append("ok " + name + (": " + detail if detail else ""))
             except Exception as e:  # a check's failure, reported by name
                 results.append("fail %s: %s: %s" % (name, type(e).__name__, e))
                 broken = name
@@ -345,15 +360,12 @@ def measure(build, out, shots=None):
         if shots:
             names = ["spheres", "bokeh", "chromatic"]
         for name in names:
-            Select(driver.find_element(By.ID, "scene")).select_by_value(name)
-            wait_done(driver)
+            act(driver, lambda: Select(driver.find_element(By.ID, "scene")).select_by_value(name))
             if Select(driver.find_element(By.ID, "model")).first_selected_option.get_attribute("value") == "pinhole":
-                Select(driver.find_element(By.ID, "model")).select_by_value("thinlens")
-                wait_done(driver)
+                act(driver, lambda: Select(driver.find_element(By.ID, "model")).select_by_value("thinlens"))
             times = []
             for _ in range(5):
-                move_focus(driver)
-                wait_done(driver)
+                act(driver, lambda: move_focus(driver))
                 times.append(float(body_data(driver, "firstPictureMs")))
             st = daemon.json("GET", "/v1/jobs/" + body_data(driver, "shown"))
             times.sort()
