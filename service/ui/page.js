@@ -40,6 +40,7 @@ const state = {
   model: null,      // an entry of options.camera_models
   values: {},       // camera key -> value, as the controls say
   focusOn: null,    // [x, y] until the daemon has resolved it
+  chromatic: {},    // the scene's camera.chromatic
   generation: 0,    // bumped by every change
   active: null,     // the job being rendered: {id, generation, deleted}
   shown: null,      // the job whose picture is shown: {id, body, status, blob, plan}
@@ -174,6 +175,14 @@ function chooseScene(name) {
   state.values = {};
   for (const [k, v] of Object.entries(state.scene.camera))
     if (!FRAME_KEYS.includes(k)) state.values[k] = v;
+  // The scene's chromatic object, sent back with the page's mode and
+  // amplify on top (its glass, indices and focal model stay the scene's).
+  state.chromatic = Object.assign({}, state.scene.camera.chromatic || {});
+  $("chroma-mode").value = state.chromatic.mode || "off";
+  $("chroma-amplify").value = state.chromatic.amplify === undefined ? 1 : state.chromatic.amplify;
+  $("chroma-amplify-value").textContent = $("chroma-amplify").value;
+  $("focus-pixel").textContent = "";
+  $("focus-pixel").dataset.pixel = "";
   const spp = state.scene.render.spp;
   $("spp").value = String(SPP_CHOICES.find((c) => c >= spp) || SPP_CHOICES[SPP_CHOICES.length - 1]);
   $("sampler").value = state.scene.render.sampler;
@@ -188,8 +197,11 @@ function jobBody(spp, format) {
   for (const key of Object.keys(state.model.defaults))
     if (!FRAME_KEYS.includes(key) && key in state.values) camera[key] = state.values[key];
   if (state.model.autofocus && state.focusOn) camera.focus_on = state.focusOn;
-  if (state.model.chromatic && $("chroma-mode").value !== "off")
-    camera.chromatic = {mode: $("chroma-mode").value, amplify: Number($("chroma-amplify").value)};
+  // "off" is sent too: a job's camera keys only replace the scene's.
+  if (state.model.chromatic)
+    camera.chromatic = $("chroma-mode").value === "off" ? {mode: "off"} :
+      Object.assign({}, state.chromatic, {mode: $("chroma-mode").value,
+                                          amplify: Number($("chroma-amplify").value)});
   const scale = Number($("size").value);
   return {
     scene: state.scene.name,
@@ -236,7 +248,8 @@ async function renderJob(body, generation) {
     if (st.camera) showFocus(st.camera);
     if (st.status === "done" || st.status === "failed" || st.status === "cancelled") return st;
     setStatus("rendering " + body.render.spp + " spp: " + Math.round(st.progress * 100) + "%");
-    await sleep(st.status === "queued" ? 150 : 60);
+    // Polled often: a 1-spp picture takes tens of milliseconds.
+    await sleep(st.status === "queued" ? 50 : 25);
   }
 }
 
@@ -350,8 +363,21 @@ function drawPlan(plan) {
     for (let x = 0; x < row.length; x++) {
       const c = Number(row[x]);
       const px = x * plan.block, py = y * plan.block;
-      if (c & 1) { lens++; g.fillStyle = "rgba(0, 170, 255, 0.35)"; g.fillRect(px, py, plan.block, plan.block); }
-      if (c & 2) { chroma++; g.strokeStyle = "rgba(255, 0, 200, 0.9)"; g.strokeRect(px + 1.5, py + 1.5, plan.block - 3, plan.block - 3); }
+      if (c & 1) {
+        lens++;
+        g.fillStyle = "rgba(0, 150, 255, 0.3)";
+        g.fillRect(px, py, plan.block, plan.block);
+        g.strokeStyle = "rgba(0, 200, 255, 0.9)";
+        g.strokeRect(px + 0.5, py + 0.5, plan.block - 1, plan.block - 1);
+      }
+      if (c & 2) {
+        chroma++;
+        g.strokeStyle = "rgba(255, 0, 200, 0.95)";
+        g.beginPath();
+        g.moveTo(px + 2, py + plan.block - 2);
+        g.lineTo(px + plan.block - 2, py + 2);
+        g.stroke();
+      }
     }
   });
   cv.dataset.lensBlocks = String(lens);
