@@ -55,6 +55,11 @@ static cJSON *model_item(int id)
     cJSON *lt = lens != NULL ? cJSON_Parse(lens) : NULL;
     lr_free(lens);
     cJSON *item = cJSON_CreateObject();
+    if (item == NULL) {
+        cJSON_Delete(lt);
+        cJSON_Delete(defaults);
+        return NULL;
+    }
     cJSON_AddStringToObject(item, "name", name);
     cJSON_AddBoolToObject(
         item, "autofocus",
