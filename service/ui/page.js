@@ -141,6 +141,12 @@ function buildCameraKeys() {
       input.step = "any";
       input.value = state.values[key];
       input.addEventListener("change", () => { state.values[key] = Number(input.value); changed(); });
+    } else if (typeof def === "string") {
+      // A name the page has no list for (a lens of a model to come, say).
+      input = document.createElement("input");
+      input.type = "text";
+      input.value = state.values[key];
+      input.addEventListener("change", () => { state.values[key] = input.value; changed(); });
     } else {
       continue;  // sent back as the scene or the model has it
     }
@@ -288,7 +294,10 @@ async function show(st, body, generation, first) {
   const plan = await apiJSON("GET", "/v1/jobs/" + st.id + "/plan");
   if (generation !== state.generation) return;
   const img = $("picture");
-  const loaded = new Promise((r) => { img.onload = r; });
+  const loaded = new Promise((r, fail) => {
+    img.onload = r;
+    img.onerror = () => fail(new Error("the browser could not show job " + st.id + "'s image"));
+  });
   if (state.shown && state.shown.url) URL.revokeObjectURL(state.shown.url);
   const url = URL.createObjectURL(blob);
   img.src = url;
