@@ -87,11 +87,15 @@ $(BUILD)/obj/%.o: %.c $(DEPS_OK)
 # changes a result.  The AVX-512 clones use 512-bit vectors: 4% faster
 # on the bench scene than 256.)
 $(BUILD)/obj/lib/whitted.o $(BUILD)/obj/lib/trace.o $(BUILD)/obj/lib/camera.o \
-$(BUILD)/obj/lib/sample.o \
-$(BUILD)/obj/lib/lens.o: CFLAGS += $(if $(filter -O2,$(OPT)),-O3) \
+$(BUILD)/obj/lib/sample.o $(BUILD)/obj/lib/rx_trace.o \
+$(BUILD)/obj/lib/rx_trace16f.o $(BUILD)/obj/lib/camera_lens.o $(BUILD)/obj/lib/lens.o: CFLAGS += $(if $(filter -O2,$(OPT)),-O3) \
                                       -fno-math-errno -fno-trapping-math \
                                       -mprefer-vector-width=512
 $(BUILD)/obj/lib/sampler.o: CFLAGS += $(if $(filter -O2,$(OPT)),-O3)
+
+# The shipped lenses' directory, compiled in (LENSRAY_LENS_DIR overrides
+# it at run time): lib/rx_file.c.
+$(BUILD)/obj/lib/rx_file.o: CPPFLAGS += -DLR_LENS_DIR='"$(abspath lenses)"'
 
 $(BUILD)/liblensray.a: $(LIB_OBJ)
 	@echo "  AR      $@"
@@ -142,7 +146,7 @@ $(BUNNY): scenes/get-bunny.sh scenes/bunny-to-obj.js $(DEPS_OK)
 # The fuzz targets' code, built without libFuzzer, replays tests/corpus/
 # and fuzz/seeds/ inside the unit tests (tests/test_fuzz_replay.c); the
 # job target brings the parts of the daemon that parse a job.
-REPLAY_SRC := fuzz/fuzz_common.c fuzz/fuzz_scene.c fuzz/fuzz_obj.c \
+REPLAY_SRC := fuzz/fuzz_common.c fuzz/fuzz_scene.c fuzz/fuzz_obj.c fuzz/fuzz_lens.c \
               $(if $(SVC_SRC),fuzz/fuzz_job.c service/api.c \
                 service/scene_cache.c service/util.c service/sha256.c)
 REPLAY_OBJ := $(REPLAY_SRC:%.c=$(BUILD)/obj/%.o)
@@ -191,6 +195,38 @@ $(API_VENV)/.ok: tests/api/requirements.txt $(DEPS_OK)
 	@echo "  PIP     tests/api/requirements.txt -> $(API_VENV)"
 	@$(API_VENV)/bin/pip install -q --disable-pip-version-check \
 	  -r tests/api/requirements.txt
+	@touch $@
+
+# ---- lenses against an optical design program ---------------------------
+# `lensray lens` on every shipped lens and on tests/data/lenses/ against
+# ray-optics (tests/lenses/compare.py, pinned in tests/lenses/
+# requirements.txt, in a virtualenv under build/ made like test-api's):
+# EFL, BFL, pupils, real chief-ray heights, distortion and lateral colour.
+# Ends "N passed, N failed", one per lens.  About 15 s once the
+# virtualenv exists.
+LENS_VENV := $(BUILD)/lens-venv
+
+.PHONY: test-lenses
+LENS_CHECKED := $(wildcard lenses/*.json) $(wildcard tests/data/lenses/*)
+test-lenses: $(BUILD)/lensray $(LENS_VENV)/.ok
+	@$(LENS_VENV)/bin/python tests/lenses/compare.py $(BUILD)/lensray \
+	  $(LENS_CHECKED)
+
+$(LENS_VENV)/.ok: tests/lenses/requirements.txt $(DEPS_OK)
+	@if ! python3 -c 'import ensurepip, venv' >/dev/null 2>&1; then \
+	  if [ "$$(id -u)" = 0 ]; then \
+	    echo "make: installing missing Debian packages: python3-venv"; \
+	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq python3-venv >/dev/null || exit 1; \
+	  else \
+	    echo "make: missing Debian packages: python3-venv"; \
+	    echo "make: run 'sudo apt-get install python3-venv' (or run make as root) and try again"; \
+	    exit 1; \
+	  fi; \
+	fi
+	@rm -rf $(LENS_VENV) && python3 -m venv $(LENS_VENV)
+	@echo "  PIP     tests/lenses/requirements.txt -> $(LENS_VENV)"
+	@$(LENS_VENV)/bin/pip install -q --disable-pip-version-check \
+	  -r tests/lenses/requirements.txt
 	@touch $@
 
 test-sanitize:
@@ -313,7 +349,7 @@ soak: all
 	bash tests/soak/soak.sh $(SOAK_SECONDS) $(BUILD)
 
 # ---- fuzzing ------------------------------------------------------------
-# libFuzzer targets for the scene, OBJ and job parsers (fuzz/fuzz_*.c),
+# libFuzzer targets for the scene, OBJ, lens and job parsers (fuzz/fuzz_*.c),
 # built with clang under AddressSanitizer and UBSan in build/fuzz, apart
 # from the other builds.  `make fuzz` runs each for FUZZ_SECONDS (clang is
 # installed like the other dependencies, but only for these targets).  New
@@ -330,7 +366,7 @@ FUZZ_SECONDS    ?= 60
 FUZZ_CI_SECONDS ?= 20
 FUZZ_CC         ?= clang
 FUZZ_BUILD      := build/fuzz
-FUZZ            ?= scene obj $(if $(SVC_SRC),job)
+FUZZ            ?= scene obj lens $(if $(SVC_SRC),job)
 FUZZ_SAN        := -fsanitize=address,undefined -fno-sanitize-recover=undefined \
                    -fno-omit-frame-pointer -Wno-unknown-warning-option \
                    '-Dtarget_clones(...)=unused'
@@ -392,6 +428,8 @@ FUZZ_JOB_OBJ := $(patsubst %,$(BUILD)/obj/service/%.o,api scene_cache util sha25
 $(BUILD)/fuzz_scene: $(BUILD)/obj/fuzz/lf_scene.o $(BUILD)/obj/fuzz/fuzz_common.o $(BUILD)/liblensray.a
 	$(FUZZ_LINK)
 $(BUILD)/fuzz_obj: $(BUILD)/obj/fuzz/lf_obj.o $(BUILD)/obj/fuzz/fuzz_common.o $(BUILD)/liblensray.a
+	$(FUZZ_LINK)
+$(BUILD)/fuzz_lens: $(BUILD)/obj/fuzz/lf_lens.o $(BUILD)/obj/fuzz/fuzz_common.o $(BUILD)/liblensray.a
 	$(FUZZ_LINK)
 $(BUILD)/fuzz_job: $(BUILD)/obj/fuzz/lf_job.o $(BUILD)/obj/fuzz/fuzz_common.o $(FUZZ_JOB_OBJ) $(BUILD)/liblensray.a
 	$(FUZZ_LINK) -lcrypto

@@ -258,5 +258,13 @@ else
     say "Python: no $BUILD/python/venv (make python)"
 fi
 
+# ---- 7. a real lens -------------------------------------------------------------
+# The double Gauss against the thin lens, in turns (bench/lens.py).
+quiet lens
+say "a real lens: the double Gauss at f/2.8 against the thin lens, every sample traced"
+python3 bench/lens.py "$LENSRAY" "$SCENE" --turns "$((REPEAT + 2))" > "$OUT/lens.log" ||
+    say "the real-lens run failed"
+cat "$OUT/lens.log"
+
 # ---- summary ---------------------------------------------------------------
 python3 bench/summary.py "$OUT" | tee "$OUT/results.txt"

@@ -283,6 +283,21 @@ def main():
             checks.append(('Python costs at most 2% over the CLI (CPU time)',
                            po['cpu_overhead'] <= TARGET_PYTHON,
                            '%+.2f%%' % (100 * po['cpu_overhead'])))
+    for l in read(d, 'lens.log'):
+        if l.startswith('LENS '):
+            le = kv(l)
+            p('real lens: the double Gauss at f/2.8 on the bench scene, every sample '
+              'traced, 1 thread: %.2f M samples/s against the thin lens\'s %.2f M '
+              '(%.2f, min CPU of %d turns each); rays the lens stops: %.1f%% on axis '
+              'at full aperture, %.1f%% over the frame'
+              % (le['lens_samples_per_second'] / 1e6, le['thin_samples_per_second'] / 1e6,
+                 le['ratio'], le['turns'], 100 * le['lost_axis_open'],
+                 100 * le['lost_frame_open']))
+            checks.append(('real lens at least half the thin lens\'s samples/s',
+                           le['ratio'] >= 0.5, '%.2f' % le['ratio']))
+            checks.append(('real lens loses under 10% of rays on axis, open',
+                           le['lost_axis_open'] < 0.10,
+                           '%.1f%%' % (100 * le['lost_axis_open'])))
     p('')
     p('targets (%s):' % how)
     for name, ok, val in checks:

@@ -80,8 +80,17 @@ LR_API const char *lr_status_name(lr_status status);
 typedef enum lr_camera_model {
     LR_CAMERA_PINHOLE = 0,  /* ideal pinhole: everything sharp */
     LR_CAMERA_THINLENS = 1, /* physical thin lens (pbrt, Mitsuba, Blender) */
-    LR_CAMERA_BRACKET = 2   /* the paper's square "bracket" method */
+    LR_CAMERA_BRACKET = 2,  /* the paper's square "bracket" method */
+    LR_CAMERA_LENS = 3      /* a real lens, traced surface by surface */
 } lr_camera_model;
+
+/* A real lens prescription, loaded by lr_lens_load (or by a scene whose
+ * camera names one).  Loaded lenses are immutable, shared and never
+ * freed: they live as long as the process (one per distinct
+ * prescription, at most LR_MAX_LENSES), so an lr_camera that points to
+ * one can be copied freely. */
+typedef struct lr_lens lr_lens;
+#define LR_MAX_LENSES 256
 
 typedef enum lr_aperture_shape {
     LR_APERTURE_DISK = 0,   /* circle of radius aperture_radius */
@@ -161,7 +170,28 @@ typedef struct lr_camera {
     double aperture;             /* >= 0; default 0 */
 
     lr_chromatic chromatic;
+
+    /* Real lens ("lens").  `position` is the sensor's centre; the lens
+     * sits in front of it along the view axis, and unit focusing moves it
+     * so that the plane `focus_distance` (scene units, from the sensor)
+     * is sharp at the primary wavelength.  f_number > 0 closes the stop
+     * to that f-number at infinity (clamped to the lens's widest); 0 is
+     * fully open.  fov is unused: the lens and the sensor set the view. */
+    const lr_lens *lens;    /* NULL until a lens is given */
+    double sensor_width_mm; /* default 36; the height follows the image */
+    double scene_unit_mm;   /* millimetres per scene unit; default 1000 */
 } lr_camera;
+
+/* Loads the lens `lens`: a prescription file (lensray JSON, pbrt-v4's
+ * .dat, Zemax .zmx) relative to `base_dir` (NULL: the working
+ * directory), or a shipped lens by name ("double-gauss-50").  *out is
+ * shared and never freed (see lr_lens).  Errors name the file, line,
+ * surface and field. */
+LR_API lr_status lr_lens_load(const char *lens, const char *base_dir,
+                              const lr_lens **out, lr_error *err);
+/* The lens's name as given to lr_lens_load or in the scene, or "" for
+ * an inline prescription; a string owned by the lens. */
+LR_API const char *lr_lens_name(const lr_lens *lens);
 
 /* Fills `cam` with the defaults documented above. */
 LR_API void lr_camera_default(lr_camera *cam);
@@ -339,6 +369,7 @@ typedef struct lr_render_stats {
     uint64_t camera_rays;    /* camera rays traced (apron pilots included) */
     uint64_t full_camera_rays; /* what plan = 0, adaptive = 0 would trace */
     uint64_t full_samples;   /* pixels x spp */
+    uint64_t lens_blocked;   /* camera rays a real lens stopped */
 } lr_render_stats;
 
 /* Renders `scene` through `cam` with `settings`.  On success *out owns a
@@ -560,6 +591,40 @@ LR_API int lr_job_mesh_file(const lr_job *job, size_t k, const char **file,
 LR_API lr_status lr_job_apply(const lr_job *job, lr_camera *cam,
                               lr_render_settings *s, lr_output *out,
                               lr_error *err);
+
+/* ------------------------------------------------------------------------
+ * Real lenses (issue 12; docs/lenses.md)
+ * ---------------------------------------------------------------------- */
+
+/* A lens prescription's first-order data and real chief rays, as one
+ * JSON object: name, source, wavelength_nm, efl_mm, bfl_mm (from the
+ * last surface), ffl_mm (from the first; negative: in front of it),
+ * f_number, entrance_pupil and exit_pupil {position_mm (from the first
+ * and the last surface), diameter_mm}, total_track_mm, and fields, one
+ * per angle: angle_deg, image_height_mm (the real chief ray, aimed at
+ * the stop's centre, at `nm` on the paraxial focal plane),
+ * distortion_percent (against efl tan(angle)) and lateral_color_um (the
+ * chief ray's height at 486.1 nm minus at 656.3 nm); a value that does
+ * not exist (a ray that cannot pass) is null.  `lens` is a file relative
+ * to `base_dir` (NULL: the working directory) or a shipped lens's name
+ * (.json, .zmx or .dat, with or without the extension).  Angles are in
+ * degrees, object at infinity, |angle| < 90, at most 64; `nm` in [300,
+ * 2000] (587.5618 is the d line).  *json is malloc'ed text: release it
+ * with lr_free.  Errors: LR_ERR_INVALID (no such lens, with the shipped
+ * names; a bad prescription, naming its file and line or field; a bad
+ * argument), LR_ERR_IO, LR_ERR_LIMIT, LR_ERR_NOMEM; then *json is NULL. */
+LR_API lr_status lr_lens_describe(const char *lens, const char *base_dir,
+                                  const double *field_angles_deg,
+                                  int n_angles, double nm, char **json,
+                                  lr_error *err);
+
+/* The same for every shipped lens, as {"lenses": [{"id": NAME, ...},
+ * ...]} sorted by name (NAME is the file's name without extension).  A
+ * shipped lens that fails to load is listed with an "error" message
+ * instead of its data.  Ownership and errors as lr_lens_describe. */
+LR_API lr_status lr_lenses_describe(const double *field_angles_deg,
+                                    int n_angles, double nm, char **json,
+                                    lr_error *err);
 
 /* Releases memory the library handed out (encoded buffers).  NULL is a
  * no-op. */

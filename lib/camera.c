@@ -43,12 +43,16 @@ void lr_camera_default(lr_camera *cam)
     cam->chromatic.abbe_vd = 64.17;
     cam->chromatic.amplify = 1.0;
     cam->chromatic.wavelengths = 8;
+    cam->lens = NULL;
+    cam->sensor_width_mm = 36.0;
+    cam->scene_unit_mm = 1000.0;
 }
 
 /* ---- the registry ----------------------------------------------------- */
 
 const lr__camera_model *const lr__camera_models[] = {
-    &lr__camera_pinhole, &lr__camera_thinlens, &lr__camera_bracket, NULL};
+    &lr__camera_pinhole, &lr__camera_thinlens, &lr__camera_bracket,
+    &lr__camera_lens, NULL};
 
 const lr__camera_model *lr__camera_model_named(const char *name)
 {
@@ -209,11 +213,14 @@ void lr__cam_init(lr__cam *c, const lr_camera *cam, int width, int height)
     c->shape = LR_APERTURE_DISK;
     c->blades = 6;
     c->chroma = cam->chromatic;
+    c->nm_ref = LR__NM_d;
     c->model->setup(c, cam);
 
     /* Chromatic focus: the model has set the focus line w(n) = w_base +
      * w_slope scale(n); with the reference index the power is c->w. */
     const lr_chromatic *ch = &cam->chromatic;
+    if (c->chroma_fixed)
+        return;
     if (ch->mode == LR_CHROMATIC_RGB) {
         c->n_ref = ch->ior[1];
         for (int i = 0; i < 3; i++) {
@@ -246,6 +253,10 @@ static lr__v3 chief_ray(const lr__cam *c, double fx, double fy)
 void lr__cam_ray(const lr__cam *c, double fx, double fy, lr__v3 *org,
                  lr__v3 *dir)
 {
+    if (c->model->chief != NULL) {
+        c->model->chief(c, fx, fy, org, dir);
+        return;
+    }
     *org = c->origin;
     *dir = v3_norm(chief_ray(c, fx, fy));
 }
@@ -309,7 +320,12 @@ lr_status lr__cam_autofocus(const lr_scene *scene, lr_camera *cam,
                         "camera.focus_on: the ray through pixel [%d, %d] hits "
                         "nothing to focus on",
                         x, y);
-    lr_status st = model->focus_at(cam, h.t * v3_dot(dir, c.forward), err);
+    /* Depth along the view axis from the camera's position (a real
+     * lens's chief ray starts at its front element, not there; for the
+     * other models the second term is exactly 0). */
+    double z = h.t * v3_dot(dir, c.forward) +
+               v3_dot(v3_sub(org, c.origin), c.forward);
+    lr_status st = model->focus_at(cam, z, err);
     if (st != LR_OK)
         return st;
     cam->focus_on[0] = cam->focus_on[1] = -1;
@@ -318,10 +334,11 @@ lr_status lr__cam_autofocus(const lr_scene *scene, lr_camera *cam,
 
 /* ---- the offset-lens form -------------------------------------------- */
 
-void lr__offset_lens_ray(const lr__cam *c, double fx, double fy,
-                         const double u[2], double w, lr__v3 *org,
-                         lr__v3 *dir)
+double lr__offset_lens_ray(const lr__cam *c, double fx, double fy,
+                           const double u[2], double w, double nm,
+                           lr__v3 *org, lr__v3 *dir)
 {
+    (void)nm;
     /* D has axial component 1, so the point of the chief ray at axial
      * distance 1/w is e + D / w, and the ray from the lens point e + off
      * through it runs along D / w - off, i.e. D - off w (the cos factor
@@ -330,7 +347,7 @@ void lr__offset_lens_ray(const lr__cam *c, double fx, double fy,
     if (!c->has_lens) {
         *org = c->origin;
         *dir = v3_norm(D);
-        return;
+        return 1.0;
     }
     double lx, ly;
     lr__aperture_sample(c->shape, c->blades, c->rotation, c->ratio, u, &lx,
@@ -342,6 +359,7 @@ void lr__offset_lens_ray(const lr__cam *c, double fx, double fy,
         base = v3_madd(c->origin, D, c->base_di);
     *org = v3_add(base, off);
     *dir = v3_norm(v3_madd(D, off, -w));
+    return 1.0;
 }
 
 /* The same rays for a packet, in single precision, lane by lane in loops
@@ -354,8 +372,9 @@ __attribute__((target_clones("avx512f", "avx2", "default")))
 void lr__offset_lens_rays16(const lr__cam *c, int use_lens, int n,
                             const float *fx, const float *fy,
                             const float *lu, const float *lv,
-                            struct RTCRayHit16 *rh)
+                            struct RTCRayHit16 *rh, float *wt)
 {
+    (void)wt; /* every ray weighs 1 */
     const float sw = (float)(2.0 / c->width), sh = (float)(2.0 / c->height);
     const float hw = (float)c->half_w, hh = (float)c->half_h;
     const float fw[3] = {(float)c->forward.x, (float)c->forward.y,

@@ -34,6 +34,7 @@
 #define LR_CAMERA_H
 
 #include "internal.h"
+#include "prescription.h"
 #include "vec.h"
 
 #include <embree3/rtcore.h>
@@ -95,21 +96,33 @@ typedef struct lr__camera_model {
      * has_lens, radius, shape, ..., w, and the chromatic focus line
      * w(n) = w_base + w_slope scale(n). */
     void (*setup)(lr__cam *c, const lr_camera *cam);
-    /* The ray through film point (fx, fy), lens sample u in [0, 1)^2, focus
-     * power w (unit direction).  Without a lens, the pinhole ray. */
-    void (*ray)(const lr__cam *c, double fx, double fy, const double u[2],
-                double w, lr__v3 *org, lr__v3 *dir);
+    /* The ray through film point (fx, fy), lens sample u in [0, 1)^2, for
+     * light of focus power w (the offset-lens models) and wavelength nm
+     * (models that trace glass); unit direction.  Without a lens, the
+     * pinhole ray.  Returns the ray's weight: 1 for the offset-lens
+     * models; for a real lens, the radiometric weight of the sample
+     * (0: the lens blocked it; the ray is then harmless but meaningless). */
+    double (*ray)(const lr__cam *c, double fx, double fy, const double u[2],
+                  double w, double nm, lr__v3 *org, lr__v3 *dir);
     /* Camera rays for lanes 0..n-1 of a packet (all 16 lanes are written;
      * those from n on are copies nobody traces), in float, at focus power
-     * c->w; through the lens only if use_lens. */
+     * c->w and wavelength c->nm_ref; through the lens only if use_lens.
+     * Models whose rays have weights (c->weighted) write them to wt[];
+     * the others leave wt alone. */
     void (*rays16)(const lr__cam *c, int use_lens, int n, const float *fx,
                    const float *fy, const float *lu, const float *lv,
-                   struct RTCRayHit16 *rh);
+                   struct RTCRayHit16 *rh, float *wt);
+    /* The chief ray through film point (fx, fy), for depth, autofocus and
+     * the planner; NULL: the frame's pinhole ray (lr__cam_ray). */
+    void (*chief)(const lr__cam *c, double fx, double fy, lr__v3 *org,
+                  lr__v3 *dir);
     /* Autofocus: sets the model's focus so that depth `z` (along the view
      * axis from the eye) is sharp, or says why it cannot.  NULL: the model
      * has no focus (camera.focus_on is then ignored). */
     lr_status (*focus_at)(lr_camera *cam, double z, lr_error *err);
-    /* The planner's bound (see lr__lens_bound), for a camera with a lens. */
+    /* The planner's bound (see lr__lens_bound), for a camera with a lens;
+     * NULL when the model has no safe bound: the lens is then sampled
+     * everywhere. */
     void (*bound)(const lr__cam *c, lr__lens_bound *b);
 } lr__camera_model;
 
@@ -124,6 +137,33 @@ extern const lr__camera_model *const lr__camera_models[];
 extern const lr__camera_model lr__camera_pinhole;
 extern const lr__camera_model lr__camera_thinlens;
 extern const lr__camera_model lr__camera_bracket;
+extern const lr__camera_model lr__camera_lens;
+
+/* Where the rays from a film point at one distance from the axis that
+ * get through the lens cross the rear vertex's plane (camera_lens.c): in
+ * the frame of the radial direction, inside the disk of radius `rad`
+ * about (cx, 0), and inside the rectangle |x - cx| <= hx, |y| <= hy. */
+typedef struct lr__pupil {
+    double cx, rad, hx, hy;
+} lr__pupil;
+
+/* A real lens prepared for one film (camera_lens.c): where the sensor
+ * sits, the stop's scale, the indices at the fixed wavelengths, and the
+ * exit-pupil bounds at LR__PUPIL_N + 1 film radii from 0 to the corner. */
+#define LR__PUPIL_N 32
+typedef struct lr__lens_cam {
+    const struct lr_lens *L;
+    double mm;                 /* scene units per millimetre */
+    double sensor_w, sensor_h; /* mm */
+    double z_sensor, z_rear;   /* lens coordinates (prescription.h) */
+    double stop_scale;         /* f_number's scale of the stop */
+    double nm_rgb[3];          /* rgb mode: the channels' wavelengths */
+    double n_ref[LR__RX_MAX_SURFACES];    /* indices at c->nm_ref */
+    double n_rgb[3][LR__RX_MAX_SURFACES]; /* and at nm_rgb */
+    double pupil_rmax;         /* film radius of the table's last entry */
+    lr__pupil pupil[LR__PUPIL_N + 1];
+    double inv_E0;             /* 1 / the on-axis irradiance integral */
+} lr__lens_cam;
 
 /* A camera prepared for one film: the frame every model shares, then the
  * model's own part. */
@@ -152,6 +192,12 @@ struct lr__cam {
     double w_base, w_slope;
     double w_rgb[3];           /* rgb mode: per channel */
     int chroma_active;         /* 0 when every channel focuses alike */
+
+    int chroma_fixed;          /* 1: setup has set chroma_active itself
+                                  (colours from glass, not a focus line) */
+    double nm_ref;             /* the wavelength traced without colours */
+    int weighted;              /* 1: rays carry weights (a real lens) */
+    lr__lens_cam lens;         /* the "lens" model's part */
 };
 
 /* Prepares `c` for a width x height film; `cam` must have passed
@@ -166,11 +212,11 @@ void lr__cam_ray(const lr__cam *c, double fx, double fy, lr__v3 *org,
 
 /* The model's ray through film point (fx, fy) and lens sample u with
  * focus power w.  Without a lens it is exactly lr__cam_ray. */
-static inline void lr__cam_lens_ray(const lr__cam *c, double fx, double fy,
-                                    const double u[2], double w, lr__v3 *org,
-                                    lr__v3 *dir)
+static inline double lr__cam_lens_ray(const lr__cam *c, double fx, double fy,
+                                      const double u[2], double w, double nm,
+                                      lr__v3 *org, lr__v3 *dir)
 {
-    c->model->ray(c, fx, fy, u, w, org, dir);
+    return c->model->ray(c, fx, fy, u, w, nm, org, dir);
 }
 
 /* Focus power for light of wavelength `nm` (spectral mode). */
@@ -192,13 +238,13 @@ lr_status lr__cam_autofocus(const struct lr_scene *scene, lr_camera *cam,
 
 /* Scalar and 16-wide rays of the offset-lens form: origin
  * e + D base_di + off, direction D - off w (see the top of this file). */
-void lr__offset_lens_ray(const lr__cam *c, double fx, double fy,
-                         const double u[2], double w, lr__v3 *org,
-                         lr__v3 *dir);
+double lr__offset_lens_ray(const lr__cam *c, double fx, double fy,
+                           const double u[2], double w, double nm,
+                           lr__v3 *org, lr__v3 *dir);
 void lr__offset_lens_rays16(const lr__cam *c, int use_lens, int n,
                             const float *fx, const float *fy,
                             const float *lu, const float *lv,
-                            struct RTCRayHit16 *rh);
+                            struct RTCRayHit16 *rh, float *wt);
 /* The bound of an offset lens at the eye: R = the aperture's reach. */
 void lr__offset_lens_bound(const lr__cam *c, lr__lens_bound *b);
 

@@ -7,6 +7,7 @@
 #include "apply_json.h"
 #include "camera.h"
 #include "camera_json.h"
+#include "lens_load.h"
 #include "json_util.h"
 
 #include <math.h>
@@ -140,7 +141,8 @@ static const lr__camera_key lens_keys[] = {
 };
 
 static lr_status read_key(const cJSON *c, const lr__camera_key *k,
-                          lr_camera *cam, lr_error *err)
+                          lr_camera *cam, const char *base_dir,
+                          lr_error *err)
 {
     void *field = (char *)cam + k->offset;
     switch (k->type) {
@@ -171,6 +173,9 @@ static lr_status read_key(const cJSON *c, const lr__camera_key *k,
             return parse_model(c, cam, err);
         if (strcmp(k->name, "focus_on") == 0)
             return parse_focus_on(v, cam, err);
+        if (strcmp(k->name, "lens") == 0)
+            return lr__lens_from_json(v, "camera.lens", base_dir, &cam->lens,
+                                      err);
         return parse_chromatic(v, cam, err);
     }
     }
@@ -189,14 +194,21 @@ static size_t all_keys(const lr__camera_key **out)
         out[n++] = k;
     for (int m = 0; lr__camera_models[m] != NULL; m++)
         for (const lr__camera_key *k = lr__camera_models[m]->keys;
-             k->name != NULL && n < MAX_KEYS - 3; k++)
-            out[n++] = k;
+             k->name != NULL && n < MAX_KEYS - 3; k++) {
+            /* Models may share a key (focus_distance): read it once. */
+            size_t seen = 0;
+            while (seen < n && strcmp(out[seen]->name, k->name) != 0)
+                seen++;
+            if (seen == n)
+                out[n++] = k;
+        }
     for (const lr__camera_key *k = lens_keys; k->name != NULL; k++)
         out[n++] = k;
     return n;
 }
 
-lr_status lr__camera_from_json(const cJSON *c, lr_camera *cam, lr_error *err)
+lr_status lr__camera_from_json(const cJSON *c, lr_camera *cam,
+                               const char *base_dir, lr_error *err)
 {
     const lr__camera_key *keys[MAX_KEYS];
     const char *names[MAX_KEYS + 1];
@@ -211,7 +223,7 @@ lr_status lr__camera_from_json(const cJSON *c, lr_camera *cam, lr_error *err)
     names[n] = NULL;
     LR_TRY(lr__json_check_keys(c, "camera", names, err));
     for (size_t i = 0; i < n; i++)
-        LR_TRY(read_key(c, keys[i], cam, err));
+        LR_TRY(read_key(c, keys[i], cam, base_dir, err));
     return lr_camera_validate(cam, err);
 }
 
@@ -233,7 +245,7 @@ lr_status lr__camera_apply_cjson(lr_camera *cam, const cJSON *obj,
                                  lr_error *err)
 {
     lr_camera tmp = *cam;
-    lr_status st = lr__camera_from_json(obj, &tmp, err);
+    lr_status st = lr__camera_from_json(obj, &tmp, NULL, err);
     if (st == LR_OK)
         *cam = tmp;
     return st;

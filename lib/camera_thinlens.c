@@ -55,7 +55,8 @@ static lr_status validate(const lr_camera *cam, int active, lr_error *err)
                    "camera.f_number must be 0 (unused) or at least 0.001, "
                    "got %g",
                    cam->f_number);
-    if (cam->f_number > 0.0 && !(cam->focal_length_mm > 0.0))
+    /* Only in use: the lens model reads f_number without a focal length. */
+    if (active && cam->f_number > 0.0 && !(cam->focal_length_mm > 0.0))
         return BAD("camera.focal_length_mm",
                    "camera.focal_length_mm must be set (> 0) when "
                    "camera.f_number is");

@@ -8,10 +8,12 @@
  */
 #include "camera.h"
 #include "json_util.h"
+#include "lens_load.h"
 
 #include <cjson/cJSON.h>
 
 #include <stdlib.h>
+#include <string.h>
 
 /* The enums are named by json_util.c's tables, as the parsers name them. */
 
@@ -122,7 +124,16 @@ static void camera_key(jb *b, const lr__camera_key *k, const lr_camera *cam)
         break;
     }
     case LR__KEY_CUSTOM:
-        break; /* the keys every model shares: written below */
+        /* The lens model's prescription: its name, or the inline object;
+         * the keys every model shares are written below. */
+        if (strcmp(k->name, "lens") == 0 && cam->lens != NULL) {
+            cJSON *v = lr__lens_to_json(cam->lens);
+            if (v == NULL || !cJSON_AddItemToObject(b->o, "lens", v)) {
+                cJSON_Delete(v);
+                b->failed = 1;
+            }
+        }
+        break;
     }
 }
 

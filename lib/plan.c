@@ -241,7 +241,8 @@ lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     for (int i = 0; i < p->bw * p->bh; i++)
         p->blocks[i] = (lr__block_plan){1, 1, 0, 0};
-    if (set->plan && c->has_lens) {
+    /* A model with no safe bound samples its lens everywhere. */
+    if (set->plan && c->has_lens && c->model->bound != NULL) {
         lr_status st = plan_blur(p, s, c, x0, y0, x1, y1, err);
         if (st != LR_OK) {
             lr__plan_free(p);

@@ -13,7 +13,7 @@
  * it is copied with `=` and freed with nothing.
  *
  * Who writes what:
- *   glass.c             the catalogue, lr__glass_index, nearest names
+ *   glass.c             the catalogue, lr__glass_n, nearest names
  *   rx_json.c           lensray's JSON form
  *   rx_pbrt.c           pbrt-v4's lens files
  *   rx_zmx.c            Zemax sequential .zmx files
@@ -54,7 +54,7 @@ typedef struct lr__glass {
 } lr__glass;
 
 /* The refractive index of `g` at wavelength `nm`, in nanometres. */
-double lr__glass_index(const lr__glass *g, double nm);
+double lr__glass_n(const lr__glass *g, double nm);
 
 /* The catalogue glass called `name` (case-insensitive; "air" is air).
  * Returns 0 and fills *g, or -1 when there is none; then `near` (if not
@@ -105,6 +105,22 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
 lr_status lr__rx_load_file(const char *file, const char *shown,
                            const char *json_path, lr__rx *rx, lr_error *err);
 
+/* Resolves a camera's "lens" name to a file: `name` relative to
+ * `base_dir` (the scene's directory; NULL or "": the working directory)
+ * if that file exists, else a shipped lens in the lens directory
+ * ($LENSRAY_LENS_DIR, else the repository's lenses/ compiled in as
+ * LR_LENS_DIR) named with or without its extension (.json, .zmx, .dat).
+ * Fills `out` (capacity `cap`) with the path to open.  LR_ERR_INVALID
+ * when there is none, with a message that lists the shipped names;
+ * LR_ERR_LIMIT when the path does not fit. */
+lr_status lr__rx_find(const char *name, const char *base_dir, char *out,
+                      size_t cap, lr_error *err);
+
+/* The shipped lenses' names: the files in the lens directory (see
+ * lr__rx_find) ending in .json, .zmx, .dat or .txt, without the
+ * extension, sorted.  Fills at most `max` and returns how many. */
+int lr__rx_shipped(char (*names)[64], int max);
+
 /* Checks that `rx` can be built and forms an image: one stop, positive
  * semi-apertures, no two surfaces cutting through each other within
  * their apertures, a positive finite focal length.  Messages name the
@@ -147,5 +163,33 @@ void lr__rx_layout(const lr__rx *rx, double *z);
 int lr__rx_trace(const lr__rx *rx, const double *z, double nm,
                  double stop_scale, int toward_image, double o[3],
                  double d[3]);
+
+/* The same with the indices given: n_after[i] is the index of the medium
+ * after surface i at the ray's wavelength (lr__rx_indices fills it), so
+ * that a camera computes them once per wavelength, not once per ray. */
+void lr__rx_indices(const lr__rx *rx, double nm, double *n_after);
+int lr__rx_trace_n(const lr__rx *rx, const double *z, const double *n_after,
+                   double stop_scale, int toward_image, double o[3],
+                   double d[3]);
+
+/* One step of lr__rx_trace_n: through surface i alone. */
+int lr__rx_trace_surface(const lr__rx *rx, const double *z,
+                         const double *n_after, double stop_scale, int i,
+                         int toward_image, double o[3], double d[3]);
+
+/* Sixteen rays from the image side (toward_image = 0) at once: o[axis]
+ * [lane] and d[axis][lane] as in lr__rx_trace_n, for the lanes whose
+ * alive[] is 1; a lane the lens stops gets alive[] = 0 (its o and d are
+ * then meaningless).  Each lane's result is lr__rx_trace_n's, bit for
+ * bit. */
+void lr__rx_trace16(const lr__rx *rx, const double *z, const double *n_after,
+                    double stop_scale, double (*o)[16], double (*d)[16],
+                    int *alive);
+
+/* The same in float, for the packet camera: close to lr__rx_trace16's
+ * rays (float rounding), not equal to them. */
+void lr__rx_trace16f(const lr__rx *rx, const double *z,
+                     const double *n_after, double stop_scale,
+                     float (*o)[16], float (*d)[16], int *alive);
 
 #endif

@@ -242,6 +242,7 @@ lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
     for (int i = 0; i < started; i++) {
         sum.rays += ws[i].counts.rays;
         sum.camera_rays += ws[i].counts.camera_rays;
+        sum.lens_blocked += ws[i].counts.lens_blocked;
         sum.lens_pixels += ws[i].lens_pixels;
         sum.chroma_pixels += ws[i].chroma_pixels;
         sum.samples += ws[i].samples;

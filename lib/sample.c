@@ -49,9 +49,14 @@ static void colour_sample(const lr__shot *sh, uint64_t pixel, uint32_t s,
          * same film point and lens point. */
         double L[3];
         for (int ch = 0; ch < 3; ch++) {
-            lr__cam_lens_ray(c, fx, fy, u, c->w_rgb[ch], &org, &dir);
-            lr__v3 Li = in->radiance(sh->scene, sh->max_depth, org, dir,
-                                     &cnt->rays);
+            double wt = lr__cam_lens_ray(c, fx, fy, u, c->w_rgb[ch],
+                                         c->lens.nm_rgb[ch], &org, &dir);
+            lr__v3 Li = v3(0, 0, 0);
+            cnt->lens_blocked += wt == 0.0;
+            if (wt != 0.0)
+                Li = v3_scale(in->radiance(sh->scene, sh->max_depth, org,
+                                           dir, &cnt->rays),
+                              wt);
             L[ch] = ch == 0 ? Li.x : ch == 1 ? Li.y : Li.z;
         }
         lr__pixel_add(acc, v3(L[0], L[1], L[2]));
@@ -74,9 +79,14 @@ static void colour_sample(const lr__shot *sh, uint64_t pixel, uint32_t s,
                     (LR__LAMBDA_MAX - LR__LAMBDA_MIN) * (k + off) / n;
         double W[3];
         lr__srgb_cmf(nm, W);
-        lr__cam_lens_ray(c, fx, fy, u, lr__cam_power_at(c, nm), &org, &dir);
-        lr__v3 Li = in->radiance(sh->scene, sh->max_depth, org, dir,
-                                 &cnt->rays);
+        double wt = lr__cam_lens_ray(c, fx, fy, u, lr__cam_power_at(c, nm),
+                                     nm, &org, &dir);
+        lr__v3 Li = v3(0, 0, 0);
+        cnt->lens_blocked += wt == 0.0;
+        if (wt != 0.0)
+            Li = v3_scale(in->radiance(sh->scene, sh->max_depth, org, dir,
+                                       &cnt->rays),
+                          wt);
         num = v3_add(num, v3(W[0] * Li.x, W[1] * Li.y, W[2] * Li.z));
         den = v3_add(den, v3(W[0], W[1], W[2]));
     }
@@ -113,11 +123,18 @@ static void packet_samples(const lr__shot *sh, int use_lens, int x, int y,
             lu[i] = u[2][i];
             lv[i] = u[3][i];
         }
-        sh->cam->model->rays16(sh->cam, use_lens, n, fx, fy, lu, lv, &rh);
+        float wt[16];
+        sh->cam->model->rays16(sh->cam, use_lens, n, fx, fy, lu, lv, &rh,
+                               wt);
         cnt->camera_rays += (uint64_t)n;
         lr__v3 L[16];
         sh->integrator->radiance16(sh->scene, sh->max_depth, &rh, n, L,
                                    &cnt->rays);
+        if (sh->cam->weighted)
+            for (int i = 0; i < n; i++) {
+                L[i] = v3_scale(L[i], wt[i]);
+                cnt->lens_blocked += wt[i] == 0.0f;
+            }
         lr__pixel_add_n(acc, L, n);
     }
 }
@@ -150,7 +167,11 @@ float lr__sample_depth(const lr__shot *sh, int x, int y,
     cnt->rays++;
     float z = LR_DEPTH_NONE;
     if (lr__trace(sh->scene, org, dir, INFINITY, &h)) {
-        double d = h.t * v3_dot(dir, sh->cam->forward);
+        /* From the camera's position along the view axis (the second
+         * term is exactly 0 unless a real lens's chief ray starts at
+         * its front element). */
+        double d = h.t * v3_dot(dir, sh->cam->forward) +
+                   v3_dot(v3_sub(org, sh->cam->origin), sh->cam->forward);
         if (d < LR_DEPTH_NONE)
             z = (float)d;
     }

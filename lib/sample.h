@@ -29,6 +29,7 @@ typedef struct lr__shot {
 typedef struct lr__sample_counts {
     uint64_t rays;        /* every ray traced */
     uint64_t camera_rays; /* camera rays (one per colour where split) */
+    uint64_t lens_blocked; /* of those, stopped by a real lens */
 } lr__sample_counts;
 
 /* Prepares `sh` (mean_cmf) for the other fields the caller has set. */

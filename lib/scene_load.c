@@ -396,7 +396,7 @@ static lr_status build(lr_scene *s, const cJSON *root, const char *base_dir,
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     lr_camera_default(&s->camera);
     lr_render_settings_default(&s->settings);
-    LR_TRY(lr__camera_from_json(cJSON_GetObjectItemCaseSensitive(root, "camera"), &s->camera, err));
+    LR_TRY(lr__camera_from_json(cJSON_GetObjectItemCaseSensitive(root, "camera"), &s->camera, base_dir ? base_dir : ".", err));
     LR_TRY(lr__settings_from_json(cJSON_GetObjectItemCaseSensitive(root, "render"), &s->settings, err));
     LR_TRY(lr__json_rgb(root, "background", "", 0, &s->background, err));
     LR_TRY(parse_materials( s, cJSON_GetObjectItemCaseSensitive(root, "materials"), err));

@@ -66,11 +66,12 @@ char *lr_render_stats_json(const lr_render_stats *st,
     put(&b,
         "\"lens_pixels\": %.4f, \"chroma_pixels\": %.4f, \"samples\": %llu, "
         "\"full_samples\": %llu, \"camera_rays\": %llu, "
-        "\"full_camera_rays\": %llu}}",
+        "\"full_camera_rays\": %llu, \"lens_blocked\": %llu}}",
         (double)st->lens_pixels / px, (double)st->chroma_pixels / px,
         (unsigned long long)st->samples,
         (unsigned long long)st->full_samples,
         (unsigned long long)st->camera_rays,
-        (unsigned long long)st->full_camera_rays);
+        (unsigned long long)st->full_camera_rays,
+        (unsigned long long)st->lens_blocked);
     return b.used < sizeof b.buf ? strdup(b.buf) : NULL;
 }

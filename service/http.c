@@ -451,6 +451,21 @@ static enum MHD_Result do_scenes(struct MHD_Connection *c, req *r)
     return send_json(c, r, 200, json, NULL);
 }
 
+/* The shipped lenses (lenses/) with their first-order data and real chief
+ * rays at 0, 10 and 20 degrees, at the d line (lr_lenses_describe). */
+static enum MHD_Result do_lenses(struct MHD_Connection *c, req *r)
+{
+    static const double angles[] = {0, 10, 20};
+    lr_error le;
+    char *json = NULL;
+    if (lr_lenses_describe(angles, 3, 587.5618, &json, &le) != LR_OK) {
+        lrd_err e;
+        lrd_fail_lr(&e, &le, NULL, 0);
+        return send_error(c, r, &e, NULL);
+    }
+    return send_json(c, r, 200, json, NULL);
+}
+
 static enum MHD_Result do_options(struct MHD_Connection *c, req *r)
 {
     lrd_err e;
@@ -518,6 +533,7 @@ static const route routes[] = {
     {"GET", "/healthz", do_health, 1, 0},
     {"GET", "/metrics", do_metrics, 0, 0},
     {"GET", "/v1/scenes", do_scenes, 0, 0},
+    {"GET", "/v1/lenses", do_lenses, 0, 0},
     {"POST", "/v1/render", do_render, 0, 1},
     {"POST", "/v1/jobs", do_submit, 0, 1},
     {"GET", "/v1/jobs/{id}", do_job, 0, 0},

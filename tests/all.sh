@@ -3,7 +3,8 @@
 # UBSan, then a short libFuzzer session of each fuzz target (make fuzz-ci:
 # one test per target), then the HTTP API against docs/openapi.yaml (make
 # test-api: the spec validator and schemathesis on a live daemon), then the
-# Python package's pytest suite (make test-python), then one line "N
+# Python package's pytest suite (make test-python), then the lenses against
+# ray-optics (make test-lenses), then one line "N
 # passed, N failed, N skipped" adding them all up (tests/run.sh says which
 # skips are allowed; the other steps have none).  Exit status 0 only when
 # every run exited 0, which tests/run.sh does not do for a failure or a
@@ -15,7 +16,7 @@ total_pass=0
 total_fail=0
 total_skip=0
 status=0
-for run in test-suite test-sanitize fuzz-ci test-api test-python; do
+for run in test-suite test-sanitize fuzz-ci test-api test-python test-lenses; do
     log="$build/$run.log"
     echo "==== $run"
     # The log keeps the last line for the count; the exit status comes

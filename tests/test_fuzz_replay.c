@@ -141,6 +141,12 @@ static void test_obj_corpus(void **state)
     replay("obj", lr_fuzz_obj);
 }
 
+static void test_lens_corpus(void **state)
+{
+    (void)state;
+    replay("lens", lr_fuzz_lens);
+}
+
 static void test_job_corpus(void **state)
 {
     (void)state;
@@ -152,6 +158,7 @@ static void test_job_corpus(void **state)
 static const struct CMUnitTest fuzz_replay_tests[] = {
     cmocka_unit_test(test_scene_corpus),
     cmocka_unit_test(test_obj_corpus),
+    cmocka_unit_test(test_lens_corpus),
     cmocka_unit_test(test_job_corpus),
 };
 

@@ -128,7 +128,7 @@ static void test_infinity_in_a_tree(void **state)
     lr_camera cam;
     lr_camera_default(&cam);
     lr_error err;
-    assert_int_equal(lr__camera_from_json(c, &cam, &err), LR_ERR_INVALID);
+    assert_int_equal(lr__camera_from_json(c, &cam, NULL, &err), LR_ERR_INVALID);
     assert_string_equal(err.message, "camera.fov must be a finite number, "
                                      "got a number too large for a double");
     cJSON_DeleteItemFromObject(c, "fov");
@@ -137,7 +137,7 @@ static void test_infinity_in_a_tree(void **state)
     cJSON_AddItemToArray(pos, cJSON_CreateNumber(0));
     cJSON_AddItemToArray(pos, cJSON_CreateNumber(-INFINITY));
     cJSON_AddItemToArray(pos, cJSON_CreateNumber(0));
-    assert_int_equal(lr__camera_from_json(c, &cam, &err), LR_ERR_INVALID);
+    assert_int_equal(lr__camera_from_json(c, &cam, NULL, &err), LR_ERR_INVALID);
     assert_string_equal(err.message, "camera.position[1] must be a finite "
                                      "number, got a number too large for a "
                                      "double");

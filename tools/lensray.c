@@ -23,6 +23,7 @@ enum { EXIT_OK = 0, EXIT_USAGE = 2, EXIT_SCENE = 3, EXIT_IO = 4,
 
 static const char usage_text[] =
     "usage: lensray render SCENE.json -o OUT.exr|OUT.png [options]\n"
+    "       lensray lens FILE|NAME [--field-angles A,B,...] [--wavelength NM]\n"
     "       lensray version\n"
     "       lensray --help\n"
     "\n"
@@ -40,7 +41,14 @@ static const char usage_text[] =
     "  --depth             also render the Z channel (written to EXR)\n"
     "  -q, --quiet         no progress bar\n"
     "\n"
-    "exit status: 0 ok, 2 usage, 3 bad scene, 4 I/O error, 130 interrupted\n";
+    "lens: prints a lens's first-order data and real chief rays as one JSON\n"
+    "object (docs/lenses.md); FILE is a .json, .zmx or pbrt .dat lens, NAME\n"
+    "a shipped lens (lenses/)\n"
+    "  --field-angles A,B  field angles in degrees, object at infinity\n"
+    "  --wavelength NM     primary wavelength (default 587.5618, the d line)\n"
+    "\n"
+    "exit status: 0 ok, 2 usage, 3 bad scene or lens, 4 I/O error,\n"
+    "130 interrupted\n";
 
 static volatile int cancel_flag;
 
@@ -301,6 +309,56 @@ done:
     return rc;
 }
 
+/* `lensray lens FILE|NAME [--field-angles A,B,...] [--wavelength NM]` */
+static int cmd_lens(int argc, char **argv)
+{
+    const char *lens = NULL;
+    double angles[64], nm = 587.5618;
+    int n = 0;
+    for (int i = 0; i < argc; i++) {
+        const char *a = argv[i];
+        if (strcmp(a, "--field-angles") == 0 || strcmp(a, "--wavelength") == 0) {
+            if (i + 1 >= argc)
+                return usage_error("%s needs a value", a);
+            const char *v = argv[++i];
+            char *end;
+            if (strcmp(a, "--wavelength") == 0) {
+                nm = strtod(v, &end);
+                if (end == v || *end != '\0')
+                    return usage_error("--wavelength '%s' is not a number", v);
+                continue;
+            }
+            n = 0;
+            while (*v) {
+                if (n == 64)
+                    return usage_error("%s", "at most 64 field angles");
+                angles[n++] = strtod(v, &end);
+                if (end == v || (*end != ',' && *end != '\0'))
+                    return usage_error("--field-angles '%s': want numbers "
+                                       "separated by commas", argv[i]);
+                v = *end == ',' ? end + 1 : end;
+            }
+        } else if (a[0] == '-' && a[1] != '\0')
+            return usage_error("unknown option '%s'", a);
+        else if (lens != NULL)
+            return usage_error("unexpected argument '%s'", a);
+        else
+            lens = a;
+    }
+    if (lens == NULL)
+        return usage_error("%s", "lens needs a lens file or a shipped lens's name");
+    char *json = NULL;
+    lr_error err;
+    lr_status st = lr_lens_describe(lens, NULL, angles, n, nm, &json, &err);
+    if (st != LR_OK) {
+        fprintf(stderr, "lensray: %s\n", err.message);
+        return st == LR_ERR_IO ? EXIT_IO : EXIT_SCENE;
+    }
+    puts(json);
+    lr_free(json);
+    return EXIT_OK;
+}
+
 int main(int argc, char **argv)
 {
     if (argc < 2) {
@@ -319,5 +377,7 @@ int main(int argc, char **argv)
     }
     if (strcmp(cmd, "render") == 0)
         return cmd_render(argc - 2, argv + 2);
+    if (strcmp(cmd, "lens") == 0)
+        return cmd_lens(argc - 2, argv + 2);
     return usage_error("unknown command '%s'", cmd);
 }

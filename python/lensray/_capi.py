@@ -85,6 +85,9 @@ class lr_camera(Structure):
         ("focal_length", c_double),
         ("aperture", c_double),
         ("chromatic", lr_chromatic),
+        ("lens", c_void_p),  # const lr_lens *: shared, never freed
+        ("sensor_width_mm", c_double),
+        ("scene_unit_mm", c_double),
     ]
 
 
@@ -128,6 +131,7 @@ class lr_render_stats(Structure):
         ("camera_rays", c_uint64),
         ("full_camera_rays", c_uint64),
         ("full_samples", c_uint64),
+        ("lens_blocked", c_uint64),
     ]
 
 

@@ -1,0 +1,603 @@
+/*
+ * camera_lens.c: a real lens, traced surface by surface at the ray's
+ * wavelength (Kolb, Mitchell & Hanrahan 1995, "A realistic camera model
+ * for computer graphics"; pbrt-v4's RealisticCamera for the exit-pupil
+ * bounds).
+ *
+ * Frames.  The prescription's coordinates (prescription.h) have the
+ * object toward -z; the camera looks along `forward`, so lens x = right,
+ * lens y = up, lens z = -forward, and the sensor's centre, at lens z =
+ * z_sensor, is the camera's `position`.  A lens forms an inverted image,
+ * so film point (fx, fy) is sensor point (-x, -y) of the upright one: the
+ * picture comes out the right way up, as a camera's does.
+ *
+ * A camera ray starts at a sensor point p, aims at a point q of the disk
+ * that bounds the exit pupil for p's distance from the axis (on the
+ * plane of the rear vertex, z_rear), and is traced toward the object;
+ * it is lost where an element, the stop or total internal reflection
+ * stops it.  Radiometry: the irradiance at p is E = int L cos^4(theta) /
+ * Z^2 dA over the rear plane (Z = z_sensor - z_rear; Kolb et al. eq. 3),
+ * so a sample drawn uniformly from the disk of area A weighs A cos^4 / Z^2,
+ * divided by E for a white scene at the centre of the sensor: the
+ * centre of a uniform scene renders at its radiance at every f-number,
+ * as with the thin lens, and the corners darken by the lens's own
+ * vignetting and cos^4.
+ *
+ * Focus (unit focusing): the whole lens moves by y from its infinity
+ * position so that the plane at distance D from the sensor is sharp at
+ * the d line.  With F, F' the focal points and f the focal length,
+ * Newton's equation x x' = f^2 (x = object to F, x' = F' to image) with
+ * x' = y and x = D - (z_F' - z_F) - y gives y^2 - (D - L) y + f^2 = 0,
+ * L = z_F' - z_F: y = ((D - L) - sqrt((D - L)^2 - 4 f^2)) / 2, which needs
+ * D >= L + 2f (the nearest focus).  The prescription's last thickness is
+ * the infinity position (its designer's best focus), y is added to it.
+ */
+#include "camera.h"
+#include "lens.h"
+#include "lens_load.h"
+
+#include <math.h>
+#include <stddef.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define AT(field) offsetof(lr_camera, field)
+
+static const lr__camera_key keys[] = {
+    {"lens", LR__KEY_CUSTOM, AT(lens), NULL, 0, 0},
+    {"sensor_width_mm", LR__KEY_NUMBER, AT(sensor_width_mm), NULL, 0, 0},
+    {"scene_unit_mm", LR__KEY_NUMBER, AT(scene_unit_mm), NULL, 0, 0},
+    {"focus_distance", LR__KEY_NUMBER, AT(focus_distance), NULL, 0, 0},
+    {"f_number", LR__KEY_NUMBER, AT(f_number), NULL, 0, 0},
+    {NULL, 0, 0, NULL, 0, 0},
+};
+
+#define BAD(path, ...) lr__fail(err, LR_ERR_INVALID, path, __VA_ARGS__)
+
+/* The wavelengths of the rgb mode's channels: near the peaks of the
+ * linear-sRGB colour-matching functions (spectrum.c). */
+static const double rgb_nm[3] = {610.0, 550.0, 465.0};
+
+/* The nearest focus, in mm from the sensor (top of file). */
+static double nearest_mm(const lr_lens *L)
+{
+    double Ld = L->first.z_Fp - L->first.z_F;
+    return Ld + 2.0 * L->first.efl;
+}
+
+static lr_status validate(const lr_camera *cam, int active, lr_error *err)
+{
+    lr_status st;
+    if ((st = lr__cam_check_length("camera.sensor_width_mm",
+                                   cam->sensor_width_mm, 0, 0, err)) != LR_OK ||
+        (st = lr__cam_check_length("camera.scene_unit_mm", cam->scene_unit_mm,
+                                   0, 0, err)) != LR_OK)
+        return st;
+    if (!active)
+        return LR_OK;
+    if (cam->lens == NULL)
+        return BAD("camera.lens",
+                   "camera.lens must name a lens for the \"lens\" model");
+    double D = cam->focus_distance * cam->scene_unit_mm;
+    double near = nearest_mm(cam->lens);
+    if (!(D > near * (1.0 + 1e-9)))
+        return BAD("camera.focus_distance",
+                   "camera.focus_distance (%g, %g mm from the sensor) is "
+                   "nearer than this lens focuses: at least %g mm",
+                   cam->focus_distance, D, near);
+    return LR_OK;
+}
+
+/* Indices after each surface at `nm`, the dispersion scaled by amplify
+ * about the d line's indices. */
+static void indices(const lr__cam *c, double nm, double *n)
+{
+    const lr__rx *rx = &c->lens.L->rx;
+    lr__rx_indices(rx, nm, n);
+    double a = c->chroma.amplify;
+    if (a != 1.0)
+        for (int i = 0; i < rx->n; i++)
+            n[i] = c->lens.n_ref[i] + a * (n[i] - c->lens.n_ref[i]);
+}
+
+/* The widest axial parallel ray that gets through with the stop scaled
+ * by s, at the d line (bisection: rays below it pass). */
+static double axial_reach(const lr_lens *L, const double *n, double s)
+{
+    double lo = 0.0, hi = L->rx.s[0].semi_aperture;
+    for (int it = 0; it < 40; it++) {
+        double mid = 0.5 * (lo + hi);
+        double o[3] = {0, mid, -1.0}, d[3] = {0, 0, 1};
+        if (lr__rx_trace_n(&L->rx, L->z, n, s, 1, o, d))
+            lo = mid;
+        else
+            hi = mid;
+    }
+    return lo;
+}
+
+/* ---- exit-pupil bounds ----------------------------------------------------- */
+
+#define G_COARSE 24
+#define G_FINE 128
+
+typedef struct pupil_job {
+    const lr__cam *c;
+    const double *nsets[4];
+    int n_sets;
+} pupil_job;
+
+/* Which of up to 16 rear-plane points (x, y) rays from sensor point
+ * (r, 0) get through with any of the index sets: ok[i]; cos4[i] gets
+ * cos^4 of each ray's angle to the axis. */
+static void passes16(const pupil_job *j, double r, int m, const double *x,
+                     const double *y, int *ok, double *cos4)
+{
+    const lr__lens_cam *lc = &j->c->lens;
+    const lr_lens *L = lc->L;
+    double o[3][16], d[3][16], dz = lc->z_rear - lc->z_sensor;
+    int alive[16];
+    for (int i = 0; i < 16; i++)
+        ok[i] = 0;
+    for (int k = 0; k < j->n_sets; k++) {
+        for (int i = 0; i < 16; i++) {
+            int l = i < m ? i : 0;
+            double dx = x[l] - r, dy = y[l];
+            double len = sqrt(dx * dx + dy * dy + dz * dz);
+            double ct = -dz / len;
+            cos4[i] = ct * ct * ct * ct;
+            o[0][i] = r, o[1][i] = 0.0, o[2][i] = lc->z_sensor;
+            d[0][i] = dx / len, d[1][i] = dy / len, d[2][i] = dz / len;
+            alive[i] = i < m;
+        }
+        lr__rx_trace16(&L->rx, L->z, j->nsets[k], lc->stop_scale, o, d,
+                       alive);
+        for (int i = 0; i < m; i++)
+            ok[i] |= alive[i];
+    }
+}
+
+/* Calls fn on every point of a g x g grid over [x0, x1] x [y0, y1] (cell
+ * centres) that rays from film radius r pass, 16 points at a time. */
+typedef void (*grid_fn)(void *ctx, double x, double y, double cos4);
+static void grid_pass(const pupil_job *j, double r, double x0, double y0,
+                      double cw, double ch, int g, grid_fn fn, void *ctx)
+{
+    double x[16], y[16], c4[16];
+    int ok[16], m = 0;
+    for (int iy = 0; iy < g; iy++)
+        for (int ix = 0; ix < g; ix++) {
+            x[m] = x0 + (ix + 0.5) * cw, y[m] = y0 + (iy + 0.5) * ch;
+            if (++m < 16 && !(iy == g - 1 && ix == g - 1))
+                continue;
+            passes16(j, r, m, x, y, ok, c4);
+            for (int i = 0; i < m; i++)
+                if (ok[i])
+                    fn(ctx, x[i], y[i], c4[i]);
+            m = 0;
+        }
+}
+
+typedef struct extent {
+    double x0, x1, y0, y1; /* of the points that pass */
+    double *pts;           /* and the points, when kept */
+    int np, cap;
+    double e0;             /* sum of cos^4 (for E0) */
+} extent;
+
+static void grow(void *ctx, double x, double y, double cos4)
+{
+    extent *e = ctx;
+    e->x0 = fmin(e->x0, x), e->x1 = fmax(e->x1, x);
+    e->y0 = fmin(e->y0, y), e->y1 = fmax(e->y1, y);
+    e->e0 += cos4;
+    if (e->pts != NULL && e->np < e->cap) {
+        e->pts[2 * e->np] = x, e->pts[2 * e->np + 1] = y;
+        e->np++;
+    }
+}
+
+/* The bounds for film radius r (lr__pupil), from a coarse grid over the
+ * rear element and a fine one over what passed; for r = 0 also *E0, the
+ * on-axis irradiance integral for a white scene.  The bounds reach one
+ * fine cell beyond the outermost grid points that pass (the region's
+ * edge lies within a cell of them); test_lens_camera.c checks that no
+ * ray outside them gets through. */
+static void pupil_point(const pupil_job *j, double r, lr__pupil *P,
+                        double *E0)
+{
+    const lr__lens_cam *lc = &j->c->lens;
+    const lr_lens *L = lc->L;
+    double S = 1.5 * L->rx.s[L->rx.n - 1].semi_aperture;
+    double cell = 2.0 * S / G_COARSE;
+    extent co = {INFINITY, -INFINITY, INFINITY, -INFINITY, NULL, 0, 0, 0};
+    grid_pass(j, r, -S, -S, cell, cell, G_COARSE, grow, &co);
+    *P = (lr__pupil){0, 0, 0, 0};
+    if (E0 != NULL)
+        *E0 = 0.0;
+    if (!(co.x0 <= co.x1))
+        return; /* nothing gets through */
+    double x0 = co.x0 - cell, x1 = co.x1 + cell;
+    double y0 = co.y0 - cell, y1 = co.y1 + cell;
+    double cxw = (x1 - x0) / G_FINE, cyw = (y1 - y0) / G_FINE;
+    extent fi = {INFINITY, -INFINITY, INFINITY, -INFINITY, NULL, 0,
+                 G_FINE * G_FINE, 0};
+    fi.pts = malloc(sizeof *fi.pts * 2 * (size_t)fi.cap);
+    grid_pass(j, r, x0, y0, cxw, cyw, G_FINE, grow, &fi);
+    double Z = lc->z_sensor - lc->z_rear;
+    if (E0 != NULL)
+        *E0 = fi.e0 * cxw * cyw / (Z * Z);
+    double margin = fmax(cxw, cyw);
+    if (!(fi.x0 <= fi.x1)) { /* too thin for the fine grid: the coarse box */
+        P->cx = 0.5 * (x0 + x1);
+        P->hx = 0.5 * (x1 - x0), P->hy = fmax(y1, -y0);
+        P->rad = hypot(P->hx, P->hy);
+        free(fi.pts);
+        return;
+    }
+    P->cx = 0.5 * (fi.x0 + fi.x1);
+    P->hx = 0.5 * (fi.x1 - fi.x0) + margin;
+    P->hy = fmax(fi.y1, -fi.y0) + margin;
+    double m = hypot(P->hx, P->hy); /* out of memory: the box's corner */
+    if (fi.pts != NULL) {
+        m = 0.0;
+        for (int i = 0; i < fi.np; i++)
+            m = fmax(m, hypot(fi.pts[2 * i] - P->cx, fi.pts[2 * i + 1]));
+        m += margin;
+    }
+    free(fi.pts);
+    P->rad = m;
+}
+
+/* Fills c->lens's pupil table, from the lens's cache when it has it. */
+static void pupils(lr__cam *c, int colours)
+{
+    lr__lens_cam *lc = &c->lens;
+    lr_lens *L = (lr_lens *)lc->L; /* the cache is mutable, under L->mu */
+    double key[5] = {lc->z_sensor, lc->stop_scale, lc->pupil_rmax,
+                     colours + 10.0 * c->chroma.amplify, lc->z_rear};
+    pthread_mutex_lock(&L->mu);
+    for (int i = 0; i < L->n_pupils; i++) {
+        const lr__pupil_entry *e = &L->pupils[i];
+        if (memcmp(e->key, key, sizeof key) == 0) {
+            memcpy(lc->pupil, e->p, sizeof lc->pupil);
+            lc->inv_E0 = e->inv_E0;
+            pthread_mutex_unlock(&L->mu);
+            return;
+        }
+    }
+    pthread_mutex_unlock(&L->mu);
+
+    /* Every colour the render traces must fit in the bounds. */
+    double n_lo[LR__RX_MAX_SURFACES], n_hi[LR__RX_MAX_SURFACES];
+    pupil_job j = {c, {lc->n_ref}, 1};
+    if (colours == 1) {
+        for (int k = 0; k < 3; k++)
+            j.nsets[j.n_sets++] = lc->n_rgb[k];
+    } else if (colours == 2) {
+        indices(c, 380.0, n_lo);
+        indices(c, 780.0, n_hi);
+        j.nsets[j.n_sets++] = n_lo;
+        j.nsets[j.n_sets++] = n_hi;
+    }
+    double E0 = 0.0;
+    for (int k = 0; k <= LR__PUPIL_N; k++)
+        pupil_point(&j, lc->pupil_rmax * k / LR__PUPIL_N, &lc->pupil[k],
+                    k == 0 ? &E0 : NULL);
+    lc->inv_E0 = E0 > 0.0 ? 1.0 / E0 : 0.0;
+
+    pthread_mutex_lock(&L->mu);
+    lr__pupil_entry *e = &L->pupils[L->next_pupil];
+    memcpy(e->key, key, sizeof key);
+    memcpy(e->p, lc->pupil, sizeof lc->pupil);
+    e->inv_E0 = lc->inv_E0;
+    L->next_pupil = (L->next_pupil + 1) % LR__PUPIL_CACHE;
+    if (L->n_pupils < LR__PUPIL_CACHE)
+        L->n_pupils++;
+    pthread_mutex_unlock(&L->mu);
+}
+
+/* ---- setup ------------------------------------------------------------------ */
+
+static void setup(lr__cam *c, const lr_camera *cam)
+{
+    lr__lens_cam *lc = &c->lens;
+    const lr_lens *L = cam->lens;
+    lc->L = L;
+    c->has_lens = 1;
+    c->weighted = 1;
+    c->chroma_fixed = 1;
+    lc->mm = 1.0 / cam->scene_unit_mm;
+    lc->sensor_w = cam->sensor_width_mm;
+    lc->sensor_h = cam->sensor_width_mm * c->height / c->width;
+    lc->pupil_rmax = 0.5 * hypot(lc->sensor_w, lc->sensor_h);
+
+    /* Focus (top of file). */
+    double D = cam->focus_distance * cam->scene_unit_mm;
+    double f = L->first.efl, Ld = L->first.z_Fp - L->first.z_F;
+    double disc = (D - Ld) * (D - Ld) - 4.0 * f * f;
+    double y = 0.5 * ((D - Ld) - sqrt(disc > 0.0 ? disc : 0.0));
+    lc->z_sensor = L->z[L->rx.n] + y;
+    lc->z_rear = L->z[L->rx.n - 1];
+
+    /* The frame's field of view, for whoever reads it: the sensor seen
+     * from the rear principal point. */
+    c->half_h = 0.5 * lc->sensor_h / (f + y);
+    c->half_w = 0.5 * lc->sensor_w / (f + y);
+
+    lr__rx_indices(&L->rx, c->nm_ref, lc->n_ref);
+    for (int k = 0; k < 3; k++) {
+        lc->nm_rgb[k] = rgb_nm[k];
+        indices(c, rgb_nm[k], lc->n_rgb[k]);
+    }
+
+    /* The stop: closed until the widest axial ray is efl / (2 N) high. */
+    lc->stop_scale = 1.0;
+    if (cam->f_number > 0.0) {
+        double want = f / (2.0 * cam->f_number);
+        if (axial_reach(L, lc->n_ref, 1.0) > want) {
+            double lo = 0.0, hi = 1.0;
+            for (int it = 0; it < 40; it++) {
+                double mid = 0.5 * (lo + hi);
+                if (axial_reach(L, lc->n_ref, mid) > want)
+                    hi = mid;
+                else
+                    lo = mid;
+            }
+            lc->stop_scale = hi;
+        }
+    }
+    int colours = 0;
+    c->chroma_active = 0;
+    if (c->chroma.mode != LR_CHROMATIC_OFF && L->dispersive &&
+        c->chroma.amplify != 0.0) {
+        c->chroma_active = 1;
+        colours = c->chroma.mode == LR_CHROMATIC_RGB ? 1 : 2;
+    }
+    pupils(c, colours);
+}
+
+/* ---- rays ----------------------------------------------------------------------- */
+
+/* From lens coordinates (mm, about the sensor's centre) to the scene. */
+static void to_world(const lr__cam *c, const double o[3], const double d[3],
+                     lr__v3 *org, lr__v3 *dir)
+{
+    const lr__lens_cam *lc = &c->lens;
+    double zo = o[2] - lc->z_sensor;
+    lr__v3 p = v3_madd(v3_madd(v3_scale(c->right, o[0]), c->up, o[1]),
+                       c->forward, -zo);
+    *org = v3_madd(c->origin, p, lc->mm);
+    *dir = v3_norm(v3_madd(v3_madd(v3_scale(c->right, d[0]), c->up, d[1]),
+                           c->forward, -d[2]));
+}
+
+/* The bounds at film radius r: the table's, interpolated. */
+static lr__pupil pupil_at(const lr__lens_cam *lc, double r)
+{
+    double t = r / lc->pupil_rmax * LR__PUPIL_N;
+    int k = (int)t;
+    k = k < LR__PUPIL_N - 1 ? k : LR__PUPIL_N - 1;
+    double f = t - k;
+    const lr__pupil *a = &lc->pupil[k], *b = &lc->pupil[k + 1];
+    return (lr__pupil){a->cx + f * (b->cx - a->cx),
+                       a->rad + f * (b->rad - a->rad),
+                       a->hx + f * (b->hx - a->hx),
+                       a->hy + f * (b->hy - a->hy)};
+}
+
+/* The first half of a camera ray: the sensor point, the point aimed at
+ * in the smaller of the film radius's two bounds (a disk by the
+ * concentric map, or a rectangle: both uniform by area), the unit
+ * direction, and the sample's weight before the lens has its say (0: the
+ * bounds are empty). */
+static double lens_start(const lr__cam *c, double fx, double fy,
+                         const double u[2], double o[3], double d[3])
+{
+    const lr__lens_cam *lc = &c->lens;
+    double xs = (0.5 - fx / c->width) * lc->sensor_w;
+    double ys = (fy / c->height - 0.5) * lc->sensor_h;
+    double r = hypot(xs, ys);
+    lr__pupil P = pupil_at(lc, r);
+    double ex = r > 0.0 ? xs / r : 1.0, ey = r > 0.0 ? ys / r : 0.0;
+    double a, b, area;
+    double disk = M_PI * P.rad * P.rad, rect = 4.0 * P.hx * P.hy;
+    if (disk <= rect) {
+        lr__aperture_sample(LR_APERTURE_DISK, 0, 0.0, 1.0, u, &a, &b);
+        a *= P.rad, b *= P.rad, area = disk;
+    } else {
+        a = (2.0 * u[0] - 1.0) * P.hx, b = (2.0 * u[1] - 1.0) * P.hy;
+        area = rect;
+    }
+    a += P.cx;
+    /* (a, b) along and across the radial direction. */
+    double qx = ex * a - ey * b, qy = ey * a + ex * b;
+    double dz = lc->z_rear - lc->z_sensor;
+    o[0] = xs, o[1] = ys, o[2] = lc->z_sensor;
+    d[0] = qx - xs, d[1] = qy - ys, d[2] = dz;
+    double len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    for (int k = 0; k < 3; k++)
+        d[k] /= len;
+    double ct = -d[2];
+    return area * ct * ct * ct * ct / (dz * dz) * lc->inv_E0;
+}
+
+static double lens_ray(const lr__cam *c, double fx, double fy,
+                       const double u[2], double w, double nm, lr__v3 *org,
+                       lr__v3 *dir)
+{
+    (void)w;
+    const lr__lens_cam *lc = &c->lens;
+    const lr_lens *L = lc->L;
+    double nbuf[LR__RX_MAX_SURFACES];
+    const double *n = lc->n_ref;
+    if (nm != c->nm_ref) {
+        n = NULL;
+        for (int k = 0; k < 3; k++)
+            if (nm == lc->nm_rgb[k])
+                n = lc->n_rgb[k];
+        if (n == NULL) {
+            indices(c, nm, nbuf);
+            n = nbuf;
+        }
+    }
+    double o[3], d[3];
+    double wt = lens_start(c, fx, fy, u, o, d);
+    if (wt > 0.0 && lr__rx_trace_n(&L->rx, L->z, n, lc->stop_scale, 0, o, d)) {
+        to_world(c, o, d, org, dir);
+        return wt;
+    }
+    *org = c->origin;
+    *dir = c->forward;
+    return 0.0;
+}
+
+/* Sixteen rays at c->nm_ref, in float from end to end (lens_start and
+ * lens_ray's arithmetic lane by lane, the disk from the packet aperture
+ * map, the glass from lr__rx_trace16f): the same distribution as
+ * lens_ray's, not the same bits. */
+__attribute__((target_clones("avx512f", "avx2", "default")))
+static void lens_rays16(const lr__cam *c, int use_lens, int n,
+                        const float *fx, const float *fy, const float *lu,
+                        const float *lv, struct RTCRayHit16 *rh, float *wt)
+{
+    (void)use_lens; /* a real lens is always sampled */
+    const lr__lens_cam *lc = &c->lens;
+    float lx[16], ly[16], o[3][16], d[3][16], w[16];
+    float tb[4][LR__PUPIL_N + 1];
+    int alive[16];
+    for (int k = 0; k <= LR__PUPIL_N; k++) {
+        tb[0][k] = (float)lc->pupil[k].cx, tb[1][k] = (float)lc->pupil[k].rad;
+        tb[2][k] = (float)lc->pupil[k].hx, tb[3][k] = (float)lc->pupil[k].hy;
+    }
+    lr__aperture_sample16(LR_APERTURE_DISK, 0, 0.0, 1.0, n, lu, lv, lx, ly);
+    const float iw = (float)(1.0 / c->width), ih = (float)(1.0 / c->height);
+    const float sw = (float)lc->sensor_w, sh = (float)lc->sensor_h;
+    const float kr = (float)(LR__PUPIL_N / lc->pupil_rmax);
+    const float zs = (float)lc->z_sensor, dz = (float)(lc->z_rear -
+                                                       lc->z_sensor);
+    const float wk = (float)(1.0 / ((lc->z_rear - lc->z_sensor) *
+                                    (lc->z_rear - lc->z_sensor)) *
+                             lc->inv_E0);
+    const float pi = (float)M_PI;
+    for (int i = 0; i < 16; i++) {
+        float xs = (0.5f - fx[i] * iw) * sw, ys = (fy[i] * ih - 0.5f) * sh;
+        float r = sqrtf(xs * xs + ys * ys);
+        float t = r * kr;
+        int k = (int)t;
+        k = k < LR__PUPIL_N - 1 ? k : LR__PUPIL_N - 1;
+        float f = t - (float)k;
+        float cx = tb[0][k] + f * (tb[0][k + 1] - tb[0][k]);
+        float rad = tb[1][k] + f * (tb[1][k + 1] - tb[1][k]);
+        float hx = tb[2][k] + f * (tb[2][k + 1] - tb[2][k]);
+        float hy = tb[3][k] + f * (tb[3][k + 1] - tb[3][k]);
+        float disk = pi * rad * rad, rect = 4.0f * hx * hy;
+        int use_disk = disk <= rect;
+        float a = use_disk ? rad * lx[i] : (2.0f * lu[i] - 1.0f) * hx;
+        float b = use_disk ? rad * ly[i] : (2.0f * lv[i] - 1.0f) * hy;
+        float area = use_disk ? disk : rect;
+        a += cx;
+        float ir = r > 0.0f ? 1.0f / r : 0.0f;
+        float ex = r > 0.0f ? xs * ir : 1.0f, ey = ys * ir;
+        float dx = ex * a - ey * b - xs, dy = ey * a + ex * b - ys;
+        float inv = 1.0f / sqrtf(dx * dx + dy * dy + dz * dz);
+        float ct = -dz * inv;
+        o[0][i] = xs, o[1][i] = ys, o[2][i] = zs;
+        d[0][i] = dx * inv, d[1][i] = dy * inv, d[2][i] = dz * inv;
+        w[i] = wk * area * ct * ct * ct * ct;
+        alive[i] = (i < n) & (area > 0.0f);
+    }
+    lr__rx_trace16f(&lc->L->rx, lc->L->z, lc->n_ref, lc->stop_scale, o, d,
+                    alive);
+    const float R[3] = {(float)c->right.x, (float)c->right.y,
+                        (float)c->right.z};
+    const float U[3] = {(float)c->up.x, (float)c->up.y, (float)c->up.z};
+    const float F[3] = {(float)c->forward.x, (float)c->forward.y,
+                        (float)c->forward.z};
+    const float E[3] = {(float)c->origin.x, (float)c->origin.y,
+                        (float)c->origin.z};
+    const float mm = (float)lc->mm;
+    struct RTCRay16 *ray = &rh->ray;
+    float *org[3] = {ray->org_x, ray->org_y, ray->org_z};
+    float *dir[3] = {ray->dir_x, ray->dir_y, ray->dir_z};
+    for (int a = 0; a < 3; a++)
+        for (int i = 0; i < 16; i++) {
+            float zo = o[2][i] - zs;
+            float p = R[a] * o[0][i] + U[a] * o[1][i] - F[a] * zo;
+            float v = R[a] * d[0][i] + U[a] * d[1][i] - F[a] * d[2][i];
+            org[a][i] = alive[i] ? E[a] + p * mm : E[a];
+            dir[a][i] = alive[i] ? v : F[a];
+        }
+    /* The glass left the directions unit up to rounding (rx_trace.c):
+     * once here, exactly unit for the integrator. */
+    for (int i = 0; i < 16; i++) {
+        float inv = 1.0f / sqrtf(dir[0][i] * dir[0][i] + dir[1][i] * dir[1][i] +
+                                 dir[2][i] * dir[2][i]);
+        dir[0][i] *= inv, dir[1][i] *= inv, dir[2][i] *= inv;
+    }
+    for (int i = 0; i < 16; i++) {
+        wt[i] = alive[i] ? w[i] : 0.0f;
+        ray->tnear[i] = 0.0f;
+        ray->time[i] = 0.0f;
+        ray->tfar[i] = INFINITY;
+        ray->mask[i] = 0xFFFFFFFFu;
+        ray->id[i] = 0;
+        ray->flags[i] = 0;
+        rh->hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
+        rh->hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
+    }
+}
+
+/* The ray from the film point through the middle of its exit-pupil
+ * bounds (the stop's centre, near enough, for depth and autofocus); the
+ * frame's pinhole ray where that is blocked. */
+static void lens_chief(const lr__cam *c, double fx, double fy, lr__v3 *org,
+                       lr__v3 *dir)
+{
+    const lr__lens_cam *lc = &c->lens;
+    double xs = (0.5 - fx / c->width) * lc->sensor_w;
+    double ys = (fy / c->height - 0.5) * lc->sensor_h;
+    double r = hypot(xs, ys);
+    lr__pupil P = pupil_at(lc, r);
+    double ex = r > 0.0 ? xs / r : 1.0, ey = r > 0.0 ? ys / r : 0.0;
+    double o[3] = {xs, ys, lc->z_sensor};
+    double d[3] = {ex * P.cx - xs, ey * P.cx - ys, lc->z_rear - lc->z_sensor};
+    double len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    for (int a = 0; a < 3; a++)
+        d[a] /= len;
+    if (P.rad > 0.0 && lr__rx_trace_n(&lc->L->rx, lc->L->z, lc->n_ref,
+                                      lc->stop_scale, 0, o, d)) {
+        to_world(c, o, d, org, dir);
+        return;
+    }
+    *org = c->origin;
+    *dir = v3_norm(v3_madd(v3_madd(c->forward, c->right,
+                                   (2.0 * fx / c->width - 1.0) * c->half_w),
+                           c->up, (1.0 - 2.0 * fy / c->height) * c->half_h));
+}
+
+static lr_status focus_at(lr_camera *cam, double z, lr_error *err)
+{
+    if (cam->lens != NULL &&
+        !(z * cam->scene_unit_mm > nearest_mm(cam->lens) * (1.0 + 1e-9)))
+        return BAD("camera.focus_on",
+                   "camera.focus_on: the point is %g mm from the sensor, "
+                   "nearer than this lens focuses (at least %g mm)",
+                   z * cam->scene_unit_mm, nearest_mm(cam->lens));
+    cam->focus_distance = z;
+    return LR_OK;
+}
+
+const lr__camera_model lr__camera_lens = {
+    .name = "lens",
+    .id = LR_CAMERA_LENS,
+    .keys = keys,
+    .lens = 1,
+    .validate = validate,
+    .setup = setup,
+    .ray = lens_ray,
+    .rays16 = lens_rays16,
+    .chief = lens_chief,
+    .focus_at = focus_at,
+    .bound = NULL,
+};

@@ -1,0 +1,62 @@
+/*
+ * lens_load.h: loaded real lenses (lr_lens), shared by every camera that
+ * names them (lens_load.c).
+ *
+ * Ownership: lenses are interned, one per distinct prescription, and
+ * never freed (lensray.h, lr_lens), so cameras hold plain pointers.  The
+ * cache of exit-pupil tables inside each lens is guarded by its mutex.
+ */
+#ifndef LR_LENS_LOAD_H
+#define LR_LENS_LOAD_H
+
+#include "camera.h"
+#include "prescription.h"
+
+#include <pthread.h>
+
+struct cJSON;
+
+/* First-order data at the d line from real rays of tiny height (the
+ * limit the paraxial trace computes; these go through the same code as
+ * every camera ray). */
+typedef struct lr__lens_first {
+    double efl;        /* mm */
+    double z_F, z_Fp;  /* front and rear focal points, lens coordinates */
+    double enp_radius; /* entrance pupil radius with the stop fully open */
+} lr__lens_first;
+
+/* One cached exit-pupil table (camera_lens.c fills it). */
+typedef struct lr__pupil_entry {
+    double key[5]; /* z_sensor, stop_scale, rmax, colour set, z_rear */
+    lr__pupil p[LR__PUPIL_N + 1];
+    double inv_E0;
+} lr__pupil_entry;
+
+#define LR__PUPIL_CACHE 64
+
+struct lr_lens {
+    lr__rx rx;
+    char *ref;   /* the name or file as given; NULL for an inline lens */
+    char *json;  /* an inline lens: its object as compact JSON text */
+    double z[LR__RX_MAX_SURFACES + 1]; /* lr__rx_layout */
+    int dispersive;                    /* some glass's index varies */
+    lr__lens_first first;
+    pthread_mutex_t mu;
+    int n_pupils, next_pupil;
+    lr__pupil_entry pupils[LR__PUPIL_CACHE];
+};
+
+/* camera.lens from the scene format: a string (a file relative to
+ * base_dir, or a shipped lens's name) or an inline prescription object.
+ * With base_dir NULL (a job's or an API caller's override, which have no
+ * scene directory) only shipped names and inline objects are accepted, so
+ * a daemon never opens a path a client chose.  Errors name `path`. */
+lr_status lr__lens_from_json(const struct cJSON *v, const char *path,
+                             const char *base_dir, const lr_lens **out,
+                             lr_error *err);
+
+/* The value to write back for camera.lens: a string or an object;
+ * NULL when out of memory. */
+struct cJSON *lr__lens_to_json(const lr_lens *lens);
+
+#endif

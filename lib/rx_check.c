@@ -1,0 +1,100 @@
+/*
+ * rx_check.c: lr__rx_check, whether a prescription can be built and
+ * forms an image.  Readers check their own syntax; this checks the
+ * geometry, whatever the form the lens came in.
+ */
+#include "prescription.h"
+#include "json_util.h"
+
+#include <math.h>
+#include <stdio.h>
+
+/* The surface's sag at height h (Zemax's even asphere: the conic term
+ * c h^2 / (1 + sqrt(1 - (1 + k) c^2 h^2)) plus A4 h^4 + A6 h^6 + ...);
+ * NaN where the conic is not defined. */
+static double sag(const lr__surface *s, double h)
+{
+    double c = s->radius != 0 ? 1.0 / s->radius : 0.0;
+    double q = 1.0 - (1.0 + s->conic) * c * c * h * h;
+    if (q < 0)
+        return NAN;
+    double z = c * h * h / (1.0 + sqrt(q)), h2 = h * h, hp = h2 * h2;
+    for (int j = 0; j < LR__RX_MAX_ASPH; j++, hp *= h2)
+        z += s->asph[j] * hp;
+    return z;
+}
+
+lr_status lr__rx_check(const lr__rx *rx, const char *path, lr_error *err)
+{
+    char sp[LR__PATH_MAX], p[LR__PATH_MAX];
+    lr__path_key(sp, path, "surfaces");
+    if (rx->n < 1 || rx->n > LR__RX_MAX_SURFACES)
+        return lr__fail(err, LR_ERR_INVALID, sp,
+                        "%s: %d surfaces; a lens has 1 to %d", sp, rx->n,
+                        LR__RX_MAX_SURFACES);
+    int stops = 0;
+    for (int i = 0; i < rx->n; i++)
+        stops += rx->s[i].stop != 0;
+    if (stops == 0 || rx->stop < 0 || rx->stop >= rx->n ||
+        !rx->s[rx->stop].stop)
+        return lr__fail(err, LR_ERR_INVALID, sp,
+                        "%s: no aperture stop (mark one surface "
+                        "\"stop\": true)",
+                        sp);
+    if (stops > 1)
+        return lr__fail(err, LR_ERR_INVALID, sp,
+                        "%s: %d stops; a lens has one", sp, stops);
+    for (int i = 0; i < rx->n; i++) {
+        const lr__surface *s = &rx->s[i];
+        lr__path_index(p, sp, (size_t)i);
+        if (!(s->semi_aperture > 0) || !isfinite(s->semi_aperture))
+            return lr__fail(err, LR_ERR_INVALID, p,
+                            "%s.semi_aperture must be > 0, got %g", p,
+                            s->semi_aperture);
+        if (!(s->thickness >= 0) || !isfinite(s->thickness) ||
+            !isfinite(s->radius) || !isfinite(s->conic))
+            return lr__fail(err, LR_ERR_INVALID, p,
+                            "%s: radius, thickness and conic must be "
+                            "finite, thickness >= 0",
+                            p);
+        if (isnan(sag(s, s->semi_aperture)))
+            return lr__fail(err, LR_ERR_INVALID, p,
+                            "%s.semi_aperture: %g mm is beyond the "
+                            "surface's edge (radius %g, conic %g)",
+                            p, s->semi_aperture, s->radius, s->conic);
+        for (double nm = 380; nm <= 780; nm += 50) {
+            double n = lr__glass_n(&s->after, nm);
+            if (!(n >= 1.0 && n < 5.0))
+                return lr__fail(err, LR_ERR_INVALID, p,
+                                "%s.material: index %g at %g nm is not a "
+                                "refractive index",
+                                p, n, nm);
+        }
+    }
+    /* Neighbours must not cut through each other within their common
+     * aperture: z_i + sag_i(h) <= z_i + t_i + sag_{i+1}(h).  Sampled at
+     * 65 heights; a touch (a cemented edge) is allowed. */
+    for (int i = 0; i + 1 < rx->n; i++) {
+        const lr__surface *a = &rx->s[i], *b = &rx->s[i + 1];
+        double hmax = fmin(a->semi_aperture, b->semi_aperture);
+        for (int k = 0; k <= 64; k++) {
+            double h = hmax * k / 64.0;
+            double g = a->thickness + sag(b, h) - sag(a, h);
+            if (g < -1e-9 * (1.0 + a->thickness)) {
+                lr__path_index(p, sp, (size_t)(i + 1));
+                return lr__fail(err, LR_ERR_INVALID, p,
+                                "%s cuts through surfaces[%d] at %.4g mm "
+                                "from the axis (they cross by %.4g mm)",
+                                p, i, h, -g);
+            }
+        }
+    }
+    lr__paraxial px;
+    lr_error e2;
+    if (lr__rx_paraxial(rx, LR__NM_d, &px, &e2) != LR_OK || !(px.efl > 0))
+        return lr__fail(err, LR_ERR_INVALID, sp,
+                        "%s: the lens forms no image of a distant object "
+                        "(focal length %g mm)",
+                        sp, px.efl);
+    return LR_OK;
+}

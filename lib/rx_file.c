@@ -1,0 +1,177 @@
+/*
+ * rx_file.c: a lens prescription from a file: finding it (the scene's
+ * directory, then the shipped lenses) and reading it in the form its
+ * name says.
+ */
+#include "prescription.h"
+#include "json_util.h"
+
+#include <dirent.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+#include <sys/stat.h>
+
+#ifndef LR_LENS_DIR
+#define LR_LENS_DIR "lenses"
+#endif
+
+/* A lens file is small; 1 MiB leaves a hundredfold margin. */
+#define MAX_LENS_BYTES (1u << 20)
+
+static const char *const exts[] = {".json", ".zmx", ".dat", ".txt", NULL};
+
+static const char *lens_dir(void)
+{
+    const char *d = getenv("LENSRAY_LENS_DIR");
+    return d != NULL && d[0] ? d : LR_LENS_DIR;
+}
+
+static int is_file(const char *p)
+{
+    struct stat sb;
+    return stat(p, &sb) == 0 && S_ISREG(sb.st_mode);
+}
+
+static int cmp(const void *a, const void *b)
+{
+    return strcmp((const char *)a, (const char *)b);
+}
+
+int lr__rx_shipped(char (*names)[64], int max)
+{
+    int n = 0;
+    DIR *d = opendir(lens_dir());
+    if (d == NULL)
+        return 0;
+    struct dirent *e;
+    while (n < max && (e = readdir(d)) != NULL) {
+        const char *dot = strrchr(e->d_name, '.');
+        if (dot == NULL || e->d_name[0] == '.')
+            continue;
+        for (int k = 0; exts[k]; k++)
+            if (strcasecmp(dot, exts[k]) == 0 &&
+                (size_t)(dot - e->d_name) < sizeof names[0]) {
+                snprintf(names[n], sizeof names[0], "%.*s",
+                         (int)(dot - e->d_name), e->d_name);
+                n++;
+                break;
+            }
+    }
+    closedir(d);
+    qsort(names, (size_t)n, sizeof names[0], cmp);
+    return n;
+}
+
+/* "a, b, c": the shipped lenses' names, for an error message. */
+static void shipped(char *out, size_t cap)
+{
+    char names[64][64];
+    int n = lr__rx_shipped(names, 64);
+    size_t o = 0;
+    out[0] = '\0';
+    for (int i = 0; i < n && o < cap; i++) {
+        int w = snprintf(out + o, cap - o, "%s%s", i ? ", " : "", names[i]);
+        if (w < 0)
+            break;
+        o += (size_t)w;
+    }
+    if (n == 0)
+        snprintf(out, cap, "none (in %s)", lens_dir());
+}
+
+lr_status lr__rx_find(const char *name, const char *base_dir, char *out,
+                      size_t cap, lr_error *err)
+{
+    char shown[96];
+    lr__utf8_escape(name, shown, sizeof shown);
+    if (name[0] == '\0')
+        return lr__fail(err, LR_ERR_INVALID, NULL,
+                        "a lens name must not be empty");
+    int w;
+    if (name[0] == '/' || base_dir == NULL || base_dir[0] == '\0')
+        w = snprintf(out, cap, "%s", name);
+    else
+        w = snprintf(out, cap, "%s/%s", base_dir, name);
+    if (w < 0 || (size_t)w >= cap)
+        return lr__fail(err, LR_ERR_LIMIT, NULL, "lens \"%s\": path too long",
+                        shown);
+    if (is_file(out))
+        return LR_OK;
+    /* A shipped lens: a plain name, with or without its extension. */
+    if (strchr(name, '/') == NULL) {
+        w = snprintf(out, cap, "%s/%s", lens_dir(), name);
+        if (w > 0 && (size_t)w < cap && is_file(out))
+            return LR_OK;
+        for (int k = 0; exts[k]; k++) {
+            w = snprintf(out, cap, "%s/%s%s", lens_dir(), name, exts[k]);
+            if (w > 0 && (size_t)w < cap && is_file(out))
+                return LR_OK;
+        }
+    }
+    char list[512];
+    shipped(list, sizeof list);
+    out[0] = '\0';
+    return lr__fail(err, LR_ERR_INVALID, NULL,
+                    "lens \"%s\": no such file%s%s, and no shipped lens of "
+                    "that name; shipped lenses: %s",
+                    shown, base_dir && base_dir[0] ? " in " : "",
+                    base_dir && base_dir[0] ? base_dir : "", list);
+}
+
+/* Puts "shown: " before a reader's message (JSON lens files name fields,
+ * not the file). */
+static void prefix(lr_error *err, const char *shown)
+{
+    if (err == NULL)
+        return;
+    char m[sizeof err->message];
+    snprintf(m, sizeof m, "%s", err->message);
+    int w = snprintf(err->message, sizeof err->message, "%s: %s", shown, m);
+    lr__trim_partial_utf8(err->message, sizeof err->message, w);
+}
+
+lr_status lr__rx_load_file(const char *file, const char *shown,
+                           const char *json_path, lr__rx *rx, lr_error *err)
+{
+    const char *dot = strrchr(file, '.');
+    int kind = -1;
+    for (int k = 0; dot != NULL && exts[k]; k++)
+        if (strcasecmp(dot, exts[k]) == 0)
+            kind = k;
+    if (kind < 0)
+        return lr__fail(err, LR_ERR_INVALID, json_path,
+                        "%s: a lens file must end in .json (lensray), .zmx "
+                        "(Zemax) or .dat/.txt (pbrt-v4)",
+                        shown);
+    char *text = NULL;
+    size_t len = 0;
+    LR_TRY(lr__read_file(file, shown, json_path, MAX_LENS_BYTES,
+                         "lens files", NULL, &text, &len, err));
+    lr_status st;
+    if (kind == 0) {
+        cJSON *o = NULL;
+        st = lr__json_parse(text, len, shown, "", &o, err);
+        if (st == LR_OK) {
+            st = lr__rx_from_json(o, "", rx, err);
+            if (st != LR_OK)
+                prefix(err, shown);
+        }
+        cJSON_Delete(o);
+    } else if (kind == 1)
+        st = lr__rx_from_zmx(text, len, shown, rx, err);
+    else
+        st = lr__rx_from_pbrt(text, len, shown, rx, err);
+    free(text);
+    if (st == LR_OK) {
+        st = lr__rx_check(rx, "", err);
+        if (st != LR_OK)
+            prefix(err, shown);
+    }
+    if (st != LR_OK && err != NULL) {
+        if (json_path != NULL)
+            snprintf(err->path, sizeof err->path, "%s", json_path);
+    }
+    return st;
+}

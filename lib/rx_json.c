@@ -1,0 +1,235 @@
+/*
+ * rx_json.c: lensray's JSON form of a prescription (docs/lenses.md):
+ * {"name", "source", "notes", "surfaces": [{radius, thickness, material,
+ * semi_aperture, conic, aspheric, stop}, ...]}, surfaces from the object
+ * side.  Every error names the surface and the field.
+ */
+#include "prescription.h"
+#include "json_util.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+/* Lengths beyond a kilometre are no camera lens; the bound keeps every
+ * later sum finite. */
+#define MAX_MM 1e6
+
+static lr_status material(const cJSON *s, const char *sp, lr__glass *g,
+                          lr_error *err)
+{
+    char p[LR__PATH_MAX];
+    lr__path_key(p, sp, "material");
+    const cJSON *m = cJSON_GetObjectItemCaseSensitive(s, "material");
+    memset(g, 0, sizeof *g);
+    if (m == NULL) {
+        g->kind = LR__GLASS_AIR;
+        g->nd = 1.0;
+        return LR_OK;
+    }
+    if (cJSON_IsString(m)) {
+        char near[128], shown[96];
+        if (lr__glass_named(m->valuestring, g, near, sizeof near) == 0)
+            return LR_OK;
+        lr__utf8_escape(m->valuestring, shown, sizeof shown);
+        return lr__fail(err, LR_ERR_INVALID, p,
+                        "%s: unknown glass \"%s\"; nearest: %s", p, shown,
+                        near);
+    }
+    if (!cJSON_IsObject(m)) {
+        char what[64];
+        lr__json_describe(m, what, sizeof what);
+        return lr__fail(err, LR_ERR_INVALID, p,
+                        "%s must be \"air\", a catalogue glass name, "
+                        "{\"nd\", \"vd\"} or {\"sellmeier\": [B1, B2, B3, "
+                        "C1, C2, C3]}, got %s",
+                        p, what);
+    }
+    static const char *const keys[] = {"nd", "vd", "sellmeier", "name",
+                                       NULL};
+    LR_TRY(lr__json_check_keys(m, p, keys, err));
+    const cJSON *sell = cJSON_GetObjectItemCaseSensitive(m, "sellmeier");
+    if (sell != NULL) {
+        char q[LR__PATH_MAX];
+        lr__path_key(q, p, "sellmeier");
+        if (!cJSON_IsArray(sell) || cJSON_GetArraySize(sell) != 6)
+            return lr__fail(err, LR_ERR_INVALID, q,
+                            "%s must be an array of 6 numbers [B1, B2, B3, "
+                            "C1, C2, C3] (C in um^2)",
+                            q);
+        double v[6];
+        for (int i = 0; i < 6; i++) {
+            const cJSON *x = cJSON_GetArrayItem(sell, i);
+            if (!cJSON_IsNumber(x) || !isfinite(x->valuedouble) ||
+                fabs(x->valuedouble) > 1e6)
+                return lr__fail(err, LR_ERR_INVALID, q,
+                                "%s[%d] must be a finite number", q, i);
+            v[i] = x->valuedouble;
+        }
+        g->kind = LR__GLASS_SELLMEIER;
+        memcpy(g->B, v, sizeof g->B);
+        memcpy(g->C, v + 3, sizeof g->C);
+        g->nd = lr__glass_n(g, LR__NM_d);
+        /* Between the F and C lines the index must be a real refractive
+         * index: a pole of the formula there is a typing error. */
+        for (double nm = LR__NM_F - 100; nm <= LR__NM_C + 100; nm += 10) {
+            double n = lr__glass_n(g, nm);
+            double l2 = nm * nm * 1e-6, n2 = 1;
+            for (int i = 0; i < 3; i++)
+                n2 += g->B[i] * l2 / (l2 - g->C[i]);
+            if (!(n2 >= 1.0 && n2 <= 25.0) || !isfinite(n))
+                return lr__fail(err, LR_ERR_INVALID, q,
+                                "%s gives no refractive index between 1 and "
+                                "5 at %g nm",
+                                q, nm);
+        }
+        return LR_OK;
+    }
+    double nd = 0, vd = 0;
+    LR_TRY(lr__json_number(m, "nd", p, 1, &nd, err));
+    if (!(nd >= 1.0 && nd <= 5.0)) {
+        char q[LR__PATH_MAX];
+        lr__path_key(q, p, "nd");
+        return lr__fail(err, LR_ERR_INVALID, q,
+                        "%s must be between 1 and 5, got %g", q, nd);
+    }
+    g->nd = nd;
+    g->kind = LR__GLASS_CONSTANT;
+    if (cJSON_GetObjectItemCaseSensitive(m, "vd") != NULL) {
+        LR_TRY(lr__json_number(m, "vd", p, 1, &vd, err));
+        /* Optical glasses have 15 < vd < 100; 5 and 200 leave room. */
+        if (!(vd >= 5.0 && vd <= 200.0)) {
+            char q[LR__PATH_MAX];
+            lr__path_key(q, p, "vd");
+            return lr__fail(err, LR_ERR_INVALID, q,
+                            "%s must be between 5 and 200, got %g", q, vd);
+        }
+        g->vd = vd;
+        g->kind = nd > 1.0 ? LR__GLASS_ABBE : LR__GLASS_CONSTANT;
+    }
+    return LR_OK;
+}
+
+static lr_status length(const cJSON *s, const char *key, const char *sp,
+                        double lo, double *out, lr_error *err)
+{
+    LR_TRY(lr__json_number(s, key, sp, 0, out, err));
+    if (!(*out >= lo && fabs(*out) <= MAX_MM)) {
+        char p[LR__PATH_MAX];
+        lr__path_key(p, sp, key);
+        return lr__fail(err, LR_ERR_INVALID, p,
+                        "%s must be %s %g mm, got %g", p,
+                        lo > -MAX_MM ? "between" : "within +-",
+                        lo > -MAX_MM ? lo : MAX_MM, *out);
+    }
+    return LR_OK;
+}
+
+static lr_status surface(const cJSON *s, const char *sp, lr__surface *out,
+                         lr_error *err)
+{
+    static const char *const keys[] = {"radius", "thickness", "material",
+                                       "semi_aperture", "conic", "aspheric",
+                                       "stop", "comment", NULL};
+    if (!cJSON_IsObject(s))
+        return lr__fail(err, LR_ERR_INVALID, sp, "%s must be an object",
+                        sp);
+    LR_TRY(lr__json_check_keys(s, sp, keys, err));
+    memset(out, 0, sizeof *out);
+    LR_TRY(length(s, "radius", sp, -MAX_MM, &out->radius, err));
+    if (cJSON_GetObjectItemCaseSensitive(s, "thickness") == NULL) {
+        char p[LR__PATH_MAX];
+        lr__path_key(p, sp, "thickness");
+        return lr__fail(err, LR_ERR_INVALID, p, "%s is required", p);
+    }
+    LR_TRY(length(s, "thickness", sp, 0, &out->thickness, err));
+    if (cJSON_GetObjectItemCaseSensitive(s, "semi_aperture") == NULL) {
+        char p[LR__PATH_MAX];
+        lr__path_key(p, sp, "semi_aperture");
+        return lr__fail(err, LR_ERR_INVALID, p, "%s is required", p);
+    }
+    LR_TRY(length(s, "semi_aperture", sp, 0, &out->semi_aperture, err));
+    LR_TRY(length(s, "conic", sp, -MAX_MM, &out->conic, err));
+    int stop = 0;
+    LR_TRY(lr__json_bool(s, "stop", sp, 0, &stop, err));
+    out->stop = stop;
+    const cJSON *a = cJSON_GetObjectItemCaseSensitive(s, "aspheric");
+    if (a != NULL) {
+        char p[LR__PATH_MAX];
+        lr__path_key(p, sp, "aspheric");
+        if (!cJSON_IsArray(a) || cJSON_GetArraySize(a) > LR__RX_MAX_ASPH)
+            return lr__fail(err, LR_ERR_INVALID, p,
+                            "%s must be an array of at most %d numbers "
+                            "[A4, A6, ...]",
+                            p, LR__RX_MAX_ASPH);
+        for (int i = 0; i < cJSON_GetArraySize(a); i++) {
+            const cJSON *x = cJSON_GetArrayItem(a, i);
+            if (!cJSON_IsNumber(x) || !isfinite(x->valuedouble) ||
+                fabs(x->valuedouble) > 1e3)
+                return lr__fail(err, LR_ERR_INVALID, p,
+                                "%s[%d] must be a finite number within "
+                                "+-1000",
+                                p, i);
+            out->asph[i] = x->valuedouble;
+        }
+    }
+    if (!stop && cJSON_GetObjectItemCaseSensitive(s, "material") == NULL) {
+        char p[LR__PATH_MAX];
+        lr__path_key(p, sp, "material");
+        return lr__fail(err, LR_ERR_INVALID, p,
+                        "%s is required (\"air\" or a glass)", p);
+    }
+    return material(s, sp, &out->after, err);
+}
+
+lr_status lr__rx_from_json(const cJSON *o, const char *path, lr__rx *rx,
+                           lr_error *err)
+{
+    static const char *const keys[] = {"name", "source", "notes",
+                                       "surfaces", NULL};
+    if (path == NULL)
+        path = "";
+    memset(rx, 0, sizeof *rx);
+    rx->stop = -1;
+    if (!cJSON_IsObject(o))
+        return lr__fail(err, LR_ERR_INVALID, path,
+                        "%s%sa lens must be an object with \"surfaces\"",
+                        path, path[0] ? ": " : "");
+    LR_TRY(lr__json_check_keys(o, path, keys, err));
+    const char *name = NULL, *source = NULL;
+    LR_TRY(lr__json_string(o, "name", path, 0, &name, err));
+    LR_TRY(lr__json_string(o, "source", path, 0, &source, err));
+    if (name != NULL)
+        snprintf(rx->name, sizeof rx->name, "%.*s",
+                 lr__utf8_prefix(name, (int)sizeof rx->name - 1), name);
+    if (source != NULL)
+        snprintf(rx->source, sizeof rx->source, "%.*s",
+                 lr__utf8_prefix(source, (int)sizeof rx->source - 1),
+                 source);
+    char sp[LR__PATH_MAX];
+    lr__path_key(sp, path, "surfaces");
+    const cJSON *arr = cJSON_GetObjectItemCaseSensitive(o, "surfaces");
+    if (!cJSON_IsArray(arr) || cJSON_GetArraySize(arr) < 1)
+        return lr__fail(err, LR_ERR_INVALID, sp,
+                        "%s must be a non-empty array of surfaces", sp);
+    int n = cJSON_GetArraySize(arr);
+    if (n > LR__RX_MAX_SURFACES)
+        return lr__fail(err, LR_ERR_LIMIT, sp,
+                        "%s has %d surfaces; at most %d are allowed", sp, n,
+                        LR__RX_MAX_SURFACES);
+    for (int i = 0; i < n; i++) {
+        char p[LR__PATH_MAX];
+        lr__path_index(p, sp, (size_t)i);
+        LR_TRY(surface(cJSON_GetArrayItem(arr, i), p, &rx->s[i], err));
+        if (rx->s[i].stop) {
+            if (rx->stop >= 0)
+                return lr__fail(err, LR_ERR_INVALID, p,
+                                "%s.stop: a second stop (surfaces[%d] is "
+                                "one already)",
+                                p, rx->stop);
+            rx->stop = i;
+        }
+    }
+    rx->n = n;
+    return LR_OK;
+}

@@ -1,0 +1,303 @@
+/*
+ * rx_trace.c: real rays through a prescription, surface by surface
+ * (prescription.h).
+ *
+ * Each surface is a conic of revolution plus even aspheric terms, its
+ * vertex at (0, 0, z_i):
+ *
+ *     sag(r) = c r^2 / (1 + sqrt(1 - (1 + k) c^2 r^2)) + sum A_j r^j
+ *
+ * (c = 1 / radius, k = conic).  Without aspheric terms the surface is the
+ * quadric c (x^2 + y^2) + c (1 + k) z^2 - 2 z = 0, met in closed form;
+ * with them, Newton's method on z - sag(r) starts from the quadric's
+ * point (Spencer & Murty 1962, "General ray-tracing procedure", JOSA 52).
+ * Refraction is the vector form of Snell's law (optics-reference.md).
+ */
+#include "prescription.h"
+
+#include <math.h>
+
+void lr__rx_layout(const lr__rx *rx, double *z)
+{
+    z[0] = 0.0;
+    for (int i = 0; i < rx->n; i++)
+        z[i + 1] = z[i] + rx->s[i].thickness;
+}
+
+void lr__rx_indices(const lr__rx *rx, double nm, double *n_after)
+{
+    for (int i = 0; i < rx->n; i++)
+        n_after[i] = lr__glass_n(&rx->s[i].after, nm);
+}
+
+static int has_asph(const lr__surface *s)
+{
+    for (int j = 0; j < LR__RX_MAX_ASPH; j++)
+        if (s->asph[j] != 0.0)
+            return 1;
+    return 0;
+}
+
+/* d sag / d r at r (r > 0), and the sag, of surface s; 0 when r lies
+ * beyond the conic's reach (1 - (1 + k) c^2 r^2 < 0). */
+static int sag_at(const lr__surface *s, double r, double *sag, double *slope)
+{
+    double c = s->radius != 0.0 ? 1.0 / s->radius : 0.0;
+    double q = 1.0 - (1.0 + s->conic) * c * c * r * r;
+    if (q < 0.0)
+        return 0;
+    double sq = sqrt(q);
+    *sag = c * r * r / (1.0 + sq);
+    *slope = sq > 0.0 ? c * r / sq : INFINITY;
+    double rp = r * r * r; /* r^3 */
+    for (int j = 0; j < LR__RX_MAX_ASPH; j++) {
+        double e = 4.0 + 2.0 * j; /* exponent */
+        *sag += s->asph[j] * rp * r;
+        *slope += s->asph[j] * e * rp;
+        rp *= r * r;
+    }
+    return 1;
+}
+
+/* Where the ray o + t d (o relative to the vertex) meets surface s: sets
+ * the point p and the unit normal nrm (pointing toward +z).  0 on a
+ * miss. */
+static int intersect(const lr__surface *s, const double o[3],
+                     const double d[3], double p[3], double nrm[3])
+{
+    double c = s->radius != 0.0 ? 1.0 / s->radius : 0.0;
+    double k1 = 1.0 + s->conic;
+    /* A t^2 + 2 B t + C = 0; the root taken is the one that becomes
+     * -C / 2B as the curvature goes to 0, i.e. the sheet through the
+     * vertex (not the far side of a sphere). */
+    double A = c * (d[0] * d[0] + d[1] * d[1] + k1 * d[2] * d[2]);
+    double B = c * (o[0] * d[0] + o[1] * d[1] + k1 * o[2] * d[2]) - d[2];
+    double C = c * (o[0] * o[0] + o[1] * o[1] + k1 * o[2] * o[2]) - 2.0 * o[2];
+    double disc = B * B - A * C;
+    if (disc < 0.0)
+        return 0;
+    double den = B + copysign(sqrt(disc), B);
+    if (den == 0.0)
+        return 0;
+    double t = -C / den;
+    /* A ray that starts beyond the centre of curvature (a wide gap
+     * before a strongly curved surface) meets the far sheet first: then
+     * the other root, -den / A, is the vertex sheet's (where the
+     * quadric's gradient points toward +z, see below). */
+    if (A != 0.0 && !(1.0 - c * k1 * (o[2] + t * d[2]) > 0.0))
+        t = -den / A;
+    if (!isfinite(t))
+        return 0;
+    for (int a = 0; a < 3; a++)
+        p[a] = o[a] + t * d[a];
+    int asph = has_asph(s);
+    if (asph) {
+        /* Newton on F(t) = z(t) - sag(r(t)). */
+        for (int it = 0; it < 30; it++) {
+            double r = hypot(p[0], p[1]), sag, slope;
+            if (!sag_at(s, r, &sag, &slope))
+                return 0;
+            double F = p[2] - sag;
+            double gx = r > 0 ? -slope * p[0] / r : 0.0;
+            double gy = r > 0 ? -slope * p[1] / r : 0.0;
+            double dF = gx * d[0] + gy * d[1] + d[2];
+            if (dF == 0.0 || !isfinite(dF))
+                return 0;
+            double dt = F / dF;
+            t -= dt;
+            for (int a = 0; a < 3; a++)
+                p[a] = o[a] + t * d[a];
+            if (fabs(dt) < 1e-13)
+                break;
+        }
+    }
+    /* The normal: the gradient of z - sag(r), or of the quadric. */
+    double g[3];
+    if (asph) {
+        double r = hypot(p[0], p[1]), sag, slope;
+        if (!sag_at(s, r, &sag, &slope))
+            return 0;
+        g[0] = r > 0 ? -slope * p[0] / r : 0.0;
+        g[1] = r > 0 ? -slope * p[1] / r : 0.0;
+        g[2] = 1.0;
+    } else {
+        /* Half the gradient of c(x^2+y^2) + c k1 z^2 - 2z, negated so
+         * that it points toward +z at the vertex. */
+        g[0] = -c * p[0];
+        g[1] = -c * p[1];
+        g[2] = 1.0 - c * k1 * p[2];
+        /* Past the conic's equator the gradient turns away from +z: the
+         * ray met the surface's far side. */
+        if (g[2] <= 0.0)
+            return 0;
+    }
+    double len = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+    for (int a = 0; a < 3; a++)
+        nrm[a] = g[a] / len;
+    return 1;
+}
+
+/* Refracts unit d at unit normal nrm from index n1 into n2; 0 on total
+ * internal reflection. */
+static int refract(double d[3], const double nrm[3], double n1, double n2)
+{
+    if (n1 == n2)
+        return 1;
+    double m[3] = {nrm[0], nrm[1], nrm[2]};
+    double cosi = -(m[0] * d[0] + m[1] * d[1] + m[2] * d[2]);
+    if (cosi < 0.0) { /* the normal must face the incoming ray */
+        for (int a = 0; a < 3; a++)
+            m[a] = -m[a];
+        cosi = -cosi;
+    }
+    double eta = n1 / n2;
+    double k = 1.0 - eta * eta * (1.0 - cosi * cosi);
+    if (k < 0.0)
+        return 0;
+    double f = eta * cosi - sqrt(k);
+    double len = 0.0;
+    for (int a = 0; a < 3; a++) {
+        d[a] = eta * d[a] + f * m[a];
+        len += d[a] * d[a];
+    }
+    len = sqrt(len);
+    for (int a = 0; a < 3; a++)
+        d[a] /= len;
+    return 1;
+}
+
+int lr__rx_trace_surface(const lr__rx *rx, const double *z,
+                         const double *n_after, double stop_scale, int i,
+                         int toward_image, double o[3], double d[3])
+{
+    const lr__surface *s = &rx->s[i];
+    double ol[3] = {o[0], o[1], o[2] - z[i]}, p[3], nrm[3];
+    if (!intersect(s, ol, d, p, nrm))
+        return 0;
+    double lim = s->semi_aperture * (i == rx->stop ? stop_scale : 1.0);
+    if (p[0] * p[0] + p[1] * p[1] > lim * lim)
+        return 0;
+    o[0] = p[0];
+    o[1] = p[1];
+    o[2] = p[2] + z[i];
+    /* Media on either side of surface i. */
+    double before = i > 0 ? n_after[i - 1] : 1.0;
+    double after = n_after[i];
+    return toward_image ? refract(d, nrm, before, after)
+                        : refract(d, nrm, after, before);
+}
+
+int lr__rx_trace_n(const lr__rx *rx, const double *z, const double *n_after,
+                   double stop_scale, int toward_image, double o[3],
+                   double d[3])
+{
+    int n = rx->n;
+    for (int step = 0; step < n; step++) {
+        int i = toward_image ? step : n - 1 - step;
+        if (!lr__rx_trace_surface(rx, z, n_after, stop_scale, i,
+                                  toward_image, o, d))
+            return 0;
+    }
+    return 1;
+}
+
+int lr__rx_trace(const lr__rx *rx, const double *z, double nm,
+                 double stop_scale, int toward_image, double o[3],
+                 double d[3])
+{
+    double n_after[LR__RX_MAX_SURFACES];
+    lr__rx_indices(rx, nm, n_after);
+    return lr__rx_trace_n(rx, z, n_after, stop_scale, toward_image, o, d);
+}
+
+/* ---- sixteen rays at once -------------------------------------------------- */
+
+/* The same trace for lanes where alive[i] is 1, in loops over the lanes
+ * that the compiler vectorises (target_clones picks AVX-512, AVX2 or
+ * plain x86-64 at load time): the same operations in the same order as
+ * the scalar code, in double, with selects for its early returns, so each
+ * lane gets the scalar trace's bits.  Aspheric surfaces (Newton's method,
+ * a loop of its own length per ray) go lane by lane through the scalar
+ * code. */
+__attribute__((target_clones("avx512f", "avx2", "default")))
+void lr__rx_trace16(const lr__rx *rx, const double *z, const double *n_after,
+                    double stop_scale, double (*o)[16], double (*d)[16],
+                    int *alive)
+{
+    int n = rx->n;
+    for (int step = 0; step < n; step++) {
+        int i = n - 1 - step;
+        const lr__surface *s = &rx->s[i];
+        if (has_asph(s)) {
+            for (int l = 0; l < 16; l++) {
+                if (!alive[l])
+                    continue;
+                double ol[3] = {o[0][l], o[1][l], o[2][l] - z[i]}, p[3],
+                       nrm[3], dl[3] = {d[0][l], d[1][l], d[2][l]};
+                double lim = s->semi_aperture * (i == rx->stop ? stop_scale
+                                                               : 1.0);
+                double before = i > 0 ? n_after[i - 1] : 1.0;
+                if (!intersect(s, ol, dl, p, nrm) ||
+                    p[0] * p[0] + p[1] * p[1] > lim * lim ||
+                    !refract(dl, nrm, n_after[i], before)) {
+                    alive[l] = 0;
+                    continue;
+                }
+                o[0][l] = p[0], o[1][l] = p[1], o[2][l] = p[2] + z[i];
+                d[0][l] = dl[0], d[1][l] = dl[1], d[2][l] = dl[2];
+            }
+            continue;
+        }
+        const double c = s->radius != 0.0 ? 1.0 / s->radius : 0.0;
+        const double k1 = 1.0 + s->conic;
+        const double lim = s->semi_aperture * (i == rx->stop ? stop_scale
+                                                             : 1.0);
+        const double lim2 = lim * lim, zi = z[i];
+        const double n1 = n_after[i], n2 = i > 0 ? n_after[i - 1] : 1.0;
+        const int bend = n1 != n2;
+        const double eta = n1 / n2;
+        for (int l = 0; l < 16; l++) {
+            double ox = o[0][l], oy = o[1][l], oz = o[2][l] - zi;
+            double dx = d[0][l], dy = d[1][l], dz = d[2][l];
+            double A = c * (dx * dx + dy * dy + k1 * dz * dz);
+            double B = c * (ox * dx + oy * dy + k1 * oz * dz) - dz;
+            double C = c * (ox * ox + oy * oy + k1 * oz * oz) - 2.0 * oz;
+            double disc = B * B - A * C;
+            int ok = disc >= 0.0;
+            double den = B + copysign(sqrt(ok ? disc : 0.0), B);
+            ok &= den != 0.0;
+            double t = -C / (den != 0.0 ? den : 1.0);
+            double t2 = -den / (A != 0.0 ? A : 1.0); /* see intersect() */
+            t = A != 0.0 && !(1.0 - c * k1 * (oz + t * dz) > 0.0) ? t2 : t;
+            ok &= isfinite(t);
+            double px = ox + t * dx, py = oy + t * dy, pz = oz + t * dz;
+            double gx = -c * px, gy = -c * py, gz = 1.0 - c * k1 * pz;
+            ok &= gz > 0.0;
+            double len = sqrt(gx * gx + gy * gy + gz * gz);
+            double mx = gx / len, my = gy / len, mz = gz / len;
+            ok &= !(px * px + py * py > lim2);
+            /* Refraction (refract() above, from n1 into n2). */
+            double cosi = -(mx * dx + my * dy + mz * dz);
+            double sg = cosi < 0.0 ? -1.0 : 1.0;
+            mx = cosi < 0.0 ? -mx : mx;
+            my = cosi < 0.0 ? -my : my;
+            mz = cosi < 0.0 ? -mz : mz;
+            cosi = cosi * sg;
+            double k = 1.0 - eta * eta * (1.0 - cosi * cosi);
+            ok &= !bend || k >= 0.0;
+            double f = eta * cosi - sqrt(k >= 0.0 ? k : 0.0);
+            double ex = eta * dx + f * mx, ey = eta * dy + f * my,
+                   ez = eta * dz + f * mz;
+            double el = sqrt(ex * ex + ey * ey + ez * ez);
+            ex /= el, ey /= el, ez /= el;
+            int live = alive[l] & ok;
+            alive[l] = live;
+            o[0][l] = live ? px : o[0][l];
+            o[1][l] = live ? py : o[1][l];
+            o[2][l] = live ? pz + zi : o[2][l];
+            d[0][l] = live && bend ? ex : dx;
+            d[1][l] = live && bend ? ey : dy;
+            d[2][l] = live && bend ? ez : dz;
+        }
+    }
+}

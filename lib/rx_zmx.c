@@ -1,0 +1,334 @@
+/*
+ * rx_zmx.c: Zemax (OpticStudio) sequential .zmx files.  Read: UNIT,
+ * MODE, NAME and NOTE at the top; per surface (the indented lines after
+ * "SURF k") TYPE STANDARD or EVENASPH, CURV, CONI, PARM (the even
+ * asphere's r^2 ... r^16 terms), DISZ, GLAS, DIAM (a semi-diameter),
+ * STOP.  SURF 0 is the object (at infinity here) and the last SURF the
+ * image.  Per-surface lines that only draw or annotate (COMM, HIDE, SLAB,
+ * MEMA, POPS, COAT, FLAP, ...) are ignored; any other per-surface line
+ * changes the optics in a way lensray does not model, and is an error
+ * that names its line.  Zemax writes UTF-16 files as often as ASCII ones;
+ * both are read.
+ */
+#include "prescription.h"
+#include "json_util.h"
+
+#include <ctype.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define MAX_MM 1e6
+
+/* Lines of a surface that draw, annotate or set solves on values that
+ * are given anyway: ignored. */
+static const char *const cosmetic[] = {
+    "COMM", "HIDE", "SLAB", "MEMA", "POPS", "COAT", "FLAP", "VPAR", "VCON",
+    "VDSZ", "VCRV", "PPAR", "PZUP", "MAZH", "XDAT", "CMMP", "OEMA", "ISNH",
+    "TCE", "BLNK", "FIMP", NULL};
+
+static int in(const char *w, const char *const *list)
+{
+    for (int i = 0; list[i]; i++)
+        if (strcmp(w, list[i]) == 0)
+            return 1;
+    return 0;
+}
+
+/* The text as 8-bit characters: UTF-16LE (with its byte order mark)
+ * narrowed, anything else copied.  NULL when out of memory; *bad is set
+ * for a character beyond ASCII in a UTF-16 file (names are ASCII). */
+static char *narrow(const char *text, size_t len, size_t *out_len, int *bad)
+{
+    const unsigned char *u = (const unsigned char *)text;
+    int utf16 = len >= 2 && u[0] == 0xFF && u[1] == 0xFE;
+    size_t n = utf16 ? (len - 2) / 2 : len;
+    char *s = malloc(n + 1);
+    if (s == NULL)
+        return NULL;
+    *bad = 0;
+    for (size_t i = 0; i < n; i++) {
+        if (utf16) {
+            unsigned c = u[2 + 2 * i] | (unsigned)u[3 + 2 * i] << 8;
+            if (c > 0x7F && !*bad)
+                *bad = 1;
+            s[i] = c > 0x7F ? '?' : (char)c;
+        } else
+            s[i] = text[i];
+    }
+    s[n] = '\0';
+    *out_len = n;
+    return s;
+}
+
+/* Splits the line into at most 16 words (in place). */
+static int words(char *line, char **w)
+{
+    int n = 0;
+    char *p = line;
+    while (*p && n < 16) {
+        while (*p && isspace((unsigned char)*p))
+            p++;
+        if (!*p)
+            break;
+        w[n++] = p;
+        while (*p && !isspace((unsigned char)*p))
+            p++;
+        if (*p)
+            *p++ = '\0';
+    }
+    return n;
+}
+
+static int number(const char *w, double *x)
+{
+    char *end;
+    if (w == NULL)
+        return -1;
+    if (strcasecmp(w, "INFINITY") == 0) {
+        *x = INFINITY;
+        return 0;
+    }
+    *x = strtod(w, &end);
+    return *end == '\0' && !isnan(*x) ? 0 : -1;
+}
+
+/* A word of the file, quoted in a message: at most 40 bytes, escaped
+ * where it is not UTF-8. */
+static const char *quote(const char *w, char *buf, size_t cap)
+{
+    char raw[41];
+    snprintf(raw, sizeof raw, "%s", w ? w : "");
+    lr__trim_partial_utf8(raw, sizeof raw, (int)strlen(w ? w : "") + 1);
+    lr__utf8_escape(raw, buf, cap);
+    return buf;
+}
+
+typedef struct zsurf {
+    double curv, disz, diam, coni, parm[9];
+    int stop, has_diam, line;
+    lr__glass glass;
+} zsurf;
+
+#define FAIL(...) (st = lr__fail(err, LR_ERR_INVALID, NULL, __VA_ARGS__))
+
+lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
+                          lr__rx *rx, lr_error *err)
+{
+    memset(rx, 0, sizeof *rx);
+    rx->stop = -1;
+    size_t n8;
+    int bad;
+    char *s = narrow(text, len, &n8, &bad);
+    if (s == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "%s: out of memory",
+                        shown);
+    zsurf *zs = calloc(LR__RX_MAX_SURFACES + 2, sizeof *zs);
+    if (zs == NULL) {
+        free(s);
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "%s: out of memory",
+                        shown);
+    }
+    lr_status st = LR_OK;
+    double unit = 1.0;
+    int nz = 0, cur = -1, line = 0;
+    char *p = s, *end = s + n8;
+    if (bad)
+        FAIL("%s: a character beyond ASCII in a UTF-16 file", shown);
+    while (st == LR_OK && p < end) {
+        char *eol = memchr(p, '\n', (size_t)(end - p));
+        if (eol == NULL)
+            eol = end;
+        *eol = '\0';
+        line++;
+        if (memchr(p, '\0', (size_t)(eol - p)) != NULL) {
+            FAIL("%s:%d: a NUL byte in the text", shown, line);
+            break;
+        }
+        int indented = *p == ' ' || *p == '\t';
+        char *w[16], q[200];
+        int k = words(p, w);
+        p = eol < end ? eol + 1 : end;
+        if (k == 0)
+            continue;
+        for (char *c = w[0]; *c; c++)
+            *c = (char)toupper((unsigned char)*c);
+        if (!indented)
+            cur = -1;
+        if (strcmp(w[0], "SURF") == 0 && !indented) {
+            double x;
+            if (k < 2 || number(w[1], &x) != 0 || x != nz) {
+                FAIL("%s:%d: SURF %s out of order (expected SURF %d)",
+                     shown, line, quote(k > 1 ? w[1] : "", q, sizeof q), nz);
+                break;
+            }
+            if (nz == LR__RX_MAX_SURFACES + 2) {
+                st = lr__fail(err, LR_ERR_LIMIT, NULL,
+                              "%s:%d: more than %d surfaces", shown, line,
+                              LR__RX_MAX_SURFACES);
+                break;
+            }
+            cur = nz++;
+            zs[cur].line = line;
+            zs[cur].glass.kind = LR__GLASS_AIR;
+            zs[cur].glass.nd = 1;
+            continue;
+        }
+        if (cur < 0) {
+            /* The system's lines: only the units and the mode change what
+             * the surfaces mean. */
+            if (strcmp(w[0], "MODE") == 0 &&
+                (k < 2 || strcasecmp(w[1], "SEQ") != 0))
+                FAIL("%s:%d: MODE %s: only sequential files (MODE SEQ) "
+                     "are read",
+                     shown, line, quote(k > 1 ? w[1] : "", q, sizeof q));
+            else if (strcmp(w[0], "UNIT") == 0 && k >= 2) {
+                if (strcasecmp(w[1], "MM") == 0)
+                    unit = 1;
+                else if (strcasecmp(w[1], "CM") == 0)
+                    unit = 10;
+                else if (strcasecmp(w[1], "IN") == 0)
+                    unit = 25.4;
+                else if (strcasecmp(w[1], "METER") == 0 ||
+                         strcasecmp(w[1], "M") == 0)
+                    unit = 1000;
+                else
+                    FAIL("%s:%d: UNIT %s: lens units must be MM, CM, IN "
+                         "or METER",
+                         shown, line, quote(w[1], q, sizeof q));
+            } else if (strcmp(w[0], "NAME") == 0 && k >= 2 && !rx->name[0]) {
+                char raw[128];
+                size_t o = 0;
+                raw[0] = '\0';
+                for (int i = 1; i < k && o + 1 < sizeof raw; i++) {
+                    int m = snprintf(raw + o, sizeof raw - o, "%s%s",
+                                     i > 1 ? " " : "", w[i]);
+                    o = m < 0 ? o : o + (size_t)m;
+                }
+                lr__trim_partial_utf8(raw, sizeof raw, (int)o + 1);
+                lr__utf8_escape(raw, rx->name, sizeof rx->name);
+                lr__trim_partial_utf8(rx->name, sizeof rx->name,
+                                      (int)strlen(rx->name) + 1);
+            }
+            continue;
+        }
+        zsurf *z = &zs[cur];
+        double x = 0;
+        int num_ok = k >= 2 && number(w[1], &x) == 0;
+        if (strcmp(w[0], "TYPE") == 0) {
+            if (k < 2 || (strcmp(w[1], "STANDARD") != 0 &&
+                          strcmp(w[1], "EVENASPH") != 0))
+                FAIL("%s:%d: surface type %s is not supported (STANDARD "
+                     "and EVENASPH are)",
+                     shown, line, quote(k > 1 ? w[1] : "(none)", q, sizeof q));
+        } else if (strcmp(w[0], "CURV") == 0) {
+            if (!num_ok || !isfinite(x) || fabs(x) > 1e6)
+                FAIL("%s:%d: CURV needs a finite curvature", shown, line);
+            z->curv = x;
+        } else if (strcmp(w[0], "CONI") == 0) {
+            if (!num_ok || !isfinite(x) || fabs(x) > 1e6)
+                FAIL("%s:%d: CONI needs a finite conic constant", shown,
+                     line);
+            z->coni = x;
+        } else if (strcmp(w[0], "DISZ") == 0) {
+            if (!num_ok || (isfinite(x) && fabs(x) * unit > MAX_MM) ||
+                (!isfinite(x) && cur != 0))
+                FAIL("%s:%d: DISZ needs a finite thickness within 1 km",
+                     shown, line);
+            z->disz = x;
+        } else if (strcmp(w[0], "DIAM") == 0) {
+            if (!num_ok || !isfinite(x) || x < 0 || x * unit > MAX_MM)
+                FAIL("%s:%d: DIAM needs a semi-diameter >= 0", shown, line);
+            z->diam = x;
+            z->has_diam = 1;
+        } else if (strcmp(w[0], "STOP") == 0) {
+            z->stop = 1;
+        } else if (strcmp(w[0], "PARM") == 0) {
+            double v = 0;
+            if (!num_ok || x != floor(x) || x < 0 || x > 8 || k < 3 ||
+                number(w[2], &v) != 0 || !isfinite(v))
+                FAIL("%s:%d: PARM needs an index 1 to 8 and a finite "
+                     "value",
+                     shown, line);
+            else
+                z->parm[(int)x] = v;
+        } else if (strcmp(w[0], "GLAS") == 0) {
+            char near[128];
+            if (k < 2 || strcasecmp(w[1], "MIRROR") == 0) {
+                FAIL("%s:%d: GLAS %s: mirrors are not supported", shown,
+                     line, quote(k > 1 ? w[1] : "", q, sizeof q));
+            } else if (lr__glass_named(w[1], &z->glass, near,
+                                       sizeof near) != 0) {
+                /* A model glass: GLAS name 1 0 nd vd ... */
+                double flag, nd, vd;
+                if (k >= 6 && number(w[2], &flag) == 0 && flag == 1 &&
+                    number(w[4], &nd) == 0 && number(w[5], &vd) == 0 &&
+                    nd >= 1 && nd <= 5 && vd >= 5 && vd <= 200) {
+                    memset(&z->glass, 0, sizeof z->glass);
+                    z->glass.kind = LR__GLASS_ABBE;
+                    z->glass.nd = nd;
+                    z->glass.vd = vd;
+                } else
+                    FAIL("%s:%d: unknown glass \"%s\"; nearest: %s",
+                         shown, line, quote(w[1], q, sizeof q), near);
+            }
+        } else if (!in(w[0], cosmetic)) {
+            FAIL("%s:%d: %s changes the optics in a way lensray does not "
+                 "model",
+                 shown, line, quote(w[0], q, sizeof q));
+        }
+    }
+    /* SURF 0 (the object) and the last (the image) are not surfaces. */
+    if (st == LR_OK && nz < 3)
+        FAIL("%s: %d SURF entries; a lens needs the object, at least one "
+             "surface and the image",
+             shown, nz);
+    for (int i = 1; st == LR_OK && i < nz - 1; i++) {
+        zsurf *z = &zs[i];
+        lr__surface *o = &rx->s[i - 1];
+        if (!z->has_diam || z->diam <= 0) {
+            FAIL("%s:%d: SURF %d has no semi-diameter (DIAM)", shown,
+                 z->line, i);
+            break;
+        }
+        if (z->parm[1] != 0) {
+            FAIL("%s:%d: SURF %d has an r^2 aspheric term (PARM 1), which "
+                 "lensray does not model",
+                 shown, z->line, i);
+            break;
+        }
+        if (z->disz < 0) {
+            FAIL("%s:%d: SURF %d: a negative thickness (DISZ %g)", shown,
+                 z->line, i, z->disz);
+            break;
+        }
+        o->radius = z->curv != 0 ? unit / z->curv : 0;
+        o->thickness = z->disz * unit;
+        o->semi_aperture = z->diam * unit;
+        o->conic = z->coni;
+        /* PARM 2..8: r^4 ... r^16; in the lens's units, so A_k scales
+         * as unit^(1-k). */
+        for (int j = 2; j <= 8; j++)
+            o->asph[j - 2] = z->parm[j] * pow(unit, 1 - 2 * j);
+        o->after = z->glass;
+        o->stop = z->stop;
+        if (z->stop) {
+            if (rx->stop >= 0) {
+                FAIL("%s:%d: a second STOP", shown, z->line);
+                break;
+            }
+            rx->stop = i - 1;
+        }
+    }
+    if (st == LR_OK && zs[0].stop)
+        FAIL("%s:%d: the stop is on the object surface", shown, zs[0].line);
+    if (st == LR_OK && nz >= 2 && zs[nz - 1].stop)
+        FAIL("%s:%d: the stop is on the image surface", shown,
+             zs[nz - 1].line);
+    if (st == LR_OK)
+        rx->n = nz - 2;
+    free(zs);
+    free(s);
+    return st;
+}

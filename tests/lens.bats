@@ -1,0 +1,101 @@
+#!/usr/bin/env bats
+# lens.bats: `lensray lens`, end to end: the JSON it prints, the three
+# prescription forms, and its errors (exit codes, messages that name the
+# field or the file and line, the shipped names for an unknown lens).
+# The numbers themselves are checked against ray-optics by make
+# test-lenses and against matrices by tests/test_paraxial.c; here, their
+# shape and a few that a patent or a formula gives.
+#
+#     LENSRAY_BUILD=build bats tests/lens.bats
+
+bats_require_minimum_version 1.5.0
+
+setup() {
+    REPO="$(cd "$BATS_TEST_DIRNAME/.." && pwd)"
+    local build="${LENSRAY_BUILD:-build}"
+    case "$build" in
+    /*) ;;
+    *) build="$REPO/$build" ;;
+    esac
+    LENSRAY="$build/lensray"
+    [ -x "$LENSRAY" ] || { echo "no $LENSRAY (run make first)" >&2; return 1; }
+    T="$BATS_TEST_TMPDIR"
+    cd "$REPO"
+}
+
+# Prints the value of a JSON expression over the output, e.g. j efl_mm.
+j() {
+    python3 -c 'import json,sys; d=json.load(sys.stdin); print(eval(sys.argv[1], {}, {"d": d}))' "$1"
+}
+
+@test "a shipped lens by name: the fields asked for, in order" {
+    run -0 "$LENSRAY" lens double-gauss-50 --field-angles 0,10,-10
+    [ "$(echo "$output" | j 'len(d["fields"])')" = 3 ]
+    [ "$(echo "$output" | j 'd["fields"][1]["angle_deg"]')" = 10 ]
+    # The image is symmetric in the field angle.
+    [ "$(echo "$output" | j 'abs(d["fields"][1]["image_height_mm"] + d["fields"][2]["image_height_mm"]) < 1e-9')" = True ]
+    # Tronnier's patent: f = 50 at 1:2, back focus 0.71436 f.
+    [ "$(echo "$output" | j 'abs(d["efl_mm"] - 50) < 0.05 and abs(d["bfl_mm"] / d["efl_mm"] - 0.71436) < 5e-5')" = True ]
+    [ "$(echo "$output" | j 'abs(d["f_number"] - 2) < 0.05')" = True ]
+    for k in efl_mm bfl_mm ffl_mm f_number total_track_mm wavelength_nm; do
+        echo "$output" | j "d['$k']" >/dev/null
+    done
+}
+
+@test "--wavelength moves the focus: blue focuses nearer than red" {
+    run -0 "$LENSRAY" lens double-gauss-50.json --wavelength 450
+    blue=$(echo "$output" | j 'd["bfl_mm"]')
+    run -0 "$LENSRAY" lens double-gauss-50 --wavelength 650
+    red=$(echo "$output" | j 'd["bfl_mm"]')
+    python3 -c "import sys; sys.exit(0 if $blue < $red else 1)"
+}
+
+@test "a pbrt-v4 file and a Zemax file by path" {
+    run -0 "$LENSRAY" lens tests/data/lenses/dgauss.50mm.dat --field-angles 5
+    [ "$(echo "$output" | j 'd["name"]')" = "D-GAUSS F/2 22deg HFOV" ]
+    run -0 "$LENSRAY" lens tests/data/lenses/cooke-triplet.zmx
+    [ "$(echo "$output" | j 'round(d["efl_mm"], 2)')" = 50.02 ]
+}
+
+@test "a thin singlet: the lensmaker's focal length" {
+    # 1/f = (n - 1)(1/R1 - 1/R2) for a thin lens; n = 1.5, R = +-100: f = 100
+    # (0.3 mm high, so that its 1 um thickness holds at the rim).
+    cat >"$T/thin.json" <<'J'
+{"surfaces": [{"stop": true, "thickness": 0, "semi_aperture": 0.3},
+ {"radius": 100, "thickness": 0.001, "material": {"nd": 1.5}, "semi_aperture": 0.3},
+ {"radius": -100, "thickness": 100, "material": "air", "semi_aperture": 0.3}]}
+J
+    run -0 "$LENSRAY" lens "$T/thin.json"
+    [ "$(echo "$output" | j 'abs(d["efl_mm"] - 100) < 1e-3')" = True ]
+}
+
+@test "an unknown lens lists the shipped ones" {
+    run -3 "$LENSRAY" lens double-gauss-55
+    [[ "$output" == *'lens "double-gauss-55": no such file'* ]]
+    [[ "$output" == *"shipped lenses: double-gauss-50, fisheye-10, petzval, telephoto-250, wide-22"* ]]
+}
+
+@test "errors name the field, or the file and line" {
+    cat >"$T/bad.json" <<'J'
+{"surfaces": [{"stop": true, "thickness": 1, "semi_aperture": 5},
+ {"radius": 50, "thickness": 4, "material": "N-BK8", "semi_aperture": 10},
+ {"radius": -50, "thickness": 48, "material": "air", "semi_aperture": 10}]}
+J
+    run -3 "$LENSRAY" lens "$T/bad.json"
+    [[ "$output" == *'surfaces[1].material: unknown glass "N-BK8"; nearest: N-BK7'* ]]
+    printf '0 1 0 10\n50 4 1.5 20\n-50 4x 1 20\n' >"$T/bad.dat"
+    run -3 "$LENSRAY" lens "$T/bad.dat"
+    [[ "$output" == *'bad.dat:3: "4x" is not a number'* ]]
+    printf 'SURF 0\n  DISZ INFINITY\nSURF 1\n  TYPE TOROIDAL\n' >"$T/bad.zmx"
+    run -3 "$LENSRAY" lens "$T/bad.zmx"
+    [[ "$output" == *'bad.zmx:4: surface type TOROIDAL is not supported'* ]]
+}
+
+@test "usage errors exit 2" {
+    run -2 "$LENSRAY" lens
+    run -2 "$LENSRAY" lens petzval --field-angles 1,x
+    run -2 "$LENSRAY" lens petzval --wavelength
+    run -2 "$LENSRAY" lens petzval --bogus
+    run -3 "$LENSRAY" lens petzval --field-angles 95
+    [[ "$output" == *"field angle 95"* ]]
+}

@@ -1,0 +1,458 @@
+/*
+ * test_lens_camera.c: the "lens" camera model against optics computed
+ * here: a thin singlet against the thin lens's circle of confusion, the
+ * focus against the lens equation, a point's image against its real
+ * chief ray, the red-blue split against the lateral colour, a white
+ * scene against the radiometric normalisation, and its errors.
+ */
+#include "test.h"
+#include "camera.h"
+#include "lens_load.h"
+#include "scene.h"
+
+#include <cjson/cJSON.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* A biconvex singlet of index 1.5, radii +-R and 0.01 mm thick (its edge
+ * at the 0.7 mm semi-aperture is 0.005 mm thick): f = R by the
+ * lensmaker's equation, the stop (radius a) right behind it, the last
+ * thickness f (infinity focus).  Its spherical aberration is the only
+ * difference from a thin lens that is left: relative to the circles
+ * measured below it grows as a (4% at a = 4.5 mm, 1.3% at 1.5 mm), so
+ * the stop is small. */
+#define SINGLET_R 100.0
+#define SINGLET_T 0.01
+#define SINGLET_A 0.5
+static const char singlet[] =
+    "{\"name\": \"thin singlet\", \"surfaces\": ["
+    " {\"radius\": 100, \"thickness\": 0.01, \"material\": {\"nd\": 1.5},"
+    "  \"semi_aperture\": 0.7},"
+    " {\"radius\": -100, \"thickness\": 0.000001, \"material\": \"air\","
+    "  \"semi_aperture\": 0.7},"
+    " {\"stop\": true, \"thickness\": 100, \"semi_aperture\": 0.5}]}";
+
+/* The singlet's focal length: the thick lens's lensmaker's equation,
+ * 1/f = (n - 1) (2/R + (n - 1) t / (n R^2)) for radii +R and -R. */
+static double singlet_f(void)
+{
+    double n = 1.5, R = SINGLET_R, t = SINGLET_T;
+    return 1.0 / ((n - 1.0) * (2.0 / R - (n - 1.0) * t / (n * R * R)));
+}
+
+/* A scene of one object with the lens camera at the origin looking down
+ * -z; `objects` is the JSON of the objects array. */
+static lr_scene *lens_scene(const char *lens, const char *camera_extra,
+                            const char *objects, int w, int h, int spp)
+{
+    size_t n = strlen(lens) + strlen(camera_extra) + strlen(objects) + 1024;
+    char *json = malloc(n);
+    assert_non_null(json);
+    snprintf(json, n,
+             "{\"render\": {\"width\": %d, \"height\": %d, \"spp\": %d,"
+             "  \"max_depth\": 0, \"adaptive\": false},"
+             " \"camera\": {\"model\": \"lens\", \"lens\": %s,"
+             "  \"position\": [0, 0, 0], \"look_at\": [0, 0, -1] %s},"
+             " \"materials\": {\"w\": {\"diffuse\": 1}},"
+             " \"lights\": [{\"type\": \"ambient\", \"radiance\": 1}],"
+             " \"objects\": %s}",
+             w, h, spp, lens, camera_extra, objects);
+    lr_scene *s = lr_test_load_json(json);
+    free(json);
+    return s;
+}
+
+/* Thin singlet: the footprint of the rays from the centre of the film on
+ * a plane at distance Z from the sensor is a disk of radius
+ * a |1 - s_Z / s_f| (s_f, s_Z: the focused and the measured plane's
+ * distances from the lens), the thin lens's circle of confusion.  Its
+ * radius is measured as sqrt(2) x the rms distance of the hits from their
+ * mean (a uniform disk's second moment is r^2 / 2). */
+static void test_thin_singlet_matches_thin_lens(void **state)
+{
+    (void)state;
+    const double D = 2.0, f = singlet_f(); /* focus: 2 m from the sensor */
+    lr_scene *s = lens_scene(singlet, ", \"focus_distance\": 2",
+                             "[{\"type\": \"sphere\", \"center\": [0, 0, -50],"
+                             "  \"radius\": 1, \"material\": \"w\"}]",
+                             64, 64, 1);
+    lr_camera cam;
+    lr_scene_camera(s, &cam);
+    lr__cam c;
+    lr__cam_init(&c, &cam, 64, 64);
+    /* The lens equation with v + s_f = D (in mm). */
+    double Dm = D * 1000.0;
+    double v = 0.5 * (Dm - sqrt(Dm * Dm - 4.0 * Dm * f));
+    double s_f = Dm - v;
+    double worst = 0.0;
+    for (int k = 0; k < 3; k++) {
+        double Zm = (k == 0 ? 1.0 : k == 1 ? 4.0 : 10.0) * 1000.0;
+        double s_Z = Zm - v;
+        double want = SINGLET_A * fabs(1.0 - s_Z / s_f);
+        double sx = 0, sy = 0, sxx = 0;
+        int n = 0;
+        for (int i = 0; i < 200; i++)
+            for (int j = 0; j < 200; j++) {
+                double u[2] = {(i + 0.5) / 200, (j + 0.5) / 200};
+                lr__v3 o, d;
+                double wt = lr__cam_lens_ray(&c, 32.0, 32.0, u, c.w,
+                                             c.nm_ref, &o, &d);
+                if (wt == 0.0)
+                    continue;
+                double t = (-Zm / 1000.0 - o.z) / d.z;
+                double x = (o.x + t * d.x) * 1000, y = (o.y + t * d.y) * 1000;
+                sx += x, sy += y, sxx += x * x + y * y;
+                n++;
+            }
+        assert_true(n > 1000);
+        double mx = sx / n, my = sy / n;
+        double got = sqrt(2.0 * (sxx / n - mx * mx - my * my));
+        print_message("singlet: footprint at %g m: %.5f mm, thin lens %.5f "
+                      "mm (%.3f%%)\n",
+                      Zm / 1000, got, want, 100 * (got / want - 1));
+        worst = fmax(worst, fabs(got / want - 1.0));
+    }
+    assert_true(worst < 0.01);
+    lr_scene_free(s);
+}
+
+/* The share of camera rays the lens stops, on axis at full aperture:
+ * the exit-pupil bounds must waste few. */
+static void test_few_rays_lost_on_axis(void **state)
+{
+    (void)state;
+    lr_scene *s = lens_scene(singlet, ", \"focus_distance\": 2",
+                             "[{\"type\": \"sphere\", \"center\": [0, 0, -50],"
+                             "  \"radius\": 1, \"material\": \"w\"}]",
+                             64, 64, 1);
+    lr_camera cam;
+    lr_scene_camera(s, &cam);
+    lr__cam c;
+    lr__cam_init(&c, &cam, 64, 64);
+    int lost = 0, n = 0;
+    for (int i = 0; i < 100; i++)
+        for (int j = 0; j < 100; j++, n++) {
+            double u[2] = {(i + 0.5) / 100, (j + 0.5) / 100};
+            lr__v3 o, d;
+            lost += lr__cam_lens_ray(&c, 32, 32, u, c.w, c.nm_ref, &o, &d) ==
+                    0.0;
+        }
+    print_message("singlet: %.1f%% of rays lost on axis\n", 100.0 * lost / n);
+    assert_true(lost < 0.10 * n);
+    lr_scene_free(s);
+}
+
+/* Autofocus: the sphere's front at 3 m from the sensor becomes the
+ * focus distance. */
+static void test_autofocus_on_a_pixel(void **state)
+{
+    (void)state;
+    lr_scene *s = lens_scene(singlet,
+                             ", \"focus_distance\": 10, \"focus_on\": [32, 32]",
+                             "[{\"type\": \"sphere\", \"center\": [0, 0, -4],"
+                             "  \"radius\": 1, \"material\": \"w\"}]",
+                             64, 64, 1);
+    lr_camera cam;
+    lr_scene_camera(s, &cam);
+    lr_error err;
+    assert_int_equal(lr__cam_autofocus(s, &cam, 64, 64, &err), LR_OK);
+    print_message("autofocus: %.6f m (the sphere's front: 3 m)\n",
+                  cam.focus_distance);
+    assert_true(fabs(cam.focus_distance - 3.0) < 1e-3);
+    lr_scene_free(s);
+}
+
+/* A uniform white surround renders 1 at the centre of the film (the
+ * normalisation), and darker, never brighter, at the corners. */
+static void test_white_surround(void **state)
+{
+    (void)state;
+    lr_scene *s = lens_scene(singlet, ", \"focus_distance\": 5",
+                             "[{\"type\": \"sphere\", \"center\": [0, 0, 0],"
+                             "  \"radius\": 100, \"material\": \"w\"}]",
+                             33, 33, 256);
+    lr_camera cam;
+    lr_scene_camera(s, &cam);
+    lr_render_settings rs;
+    lr_scene_settings(s, &rs);
+    lr_image *img = lr_test_render_with(s, &cam, &rs, "white surround");
+    const float *p = lr_image_rgb(img);
+    double centre = p[3 * (16 * 33 + 16)];
+    double corner = p[0];
+    print_message("white surround: centre %.4f, corner %.4f\n", centre,
+                  corner);
+    assert_true(fabs(centre - 1.0) < 0.02);
+    assert_true(corner < centre);
+    lr_image_free(img);
+    lr_scene_free(s);
+}
+
+static void expect_error(const char *camera_extra, const char *path,
+                         const char *words)
+{
+    char json[2048];
+    snprintf(json, sizeof json,
+             "{\"camera\": {\"model\": \"lens\" %s},"
+             " \"objects\": [{\"type\": \"sphere\", \"center\": [0, 0, -5],"
+             " \"radius\": 1}]}",
+             camera_extra);
+    lr_scene *s = NULL;
+    lr_error err;
+    lr_status st = lr_scene_load_json(json, strlen(json), NULL, NULL, 0, &s,
+                                      &err);
+    print_message("error: %s\n", err.message);
+    assert_int_equal(st, LR_ERR_INVALID);
+    assert_string_equal(err.path, path);
+    assert_non_null(strstr(err.message, words));
+}
+
+static void test_errors_name_the_field(void **state)
+{
+    (void)state;
+    expect_error("", "camera.lens", "must name a lens");
+    char buf[1024];
+    snprintf(buf, sizeof buf, ", \"lens\": %s, \"focus_distance\": 0.3",
+             singlet);
+    expect_error(buf, "camera.focus_distance", "nearer than this lens");
+    snprintf(buf, sizeof buf, ", \"lens\": %s, \"sensor_width_mm\": -1",
+             singlet);
+    expect_error(buf, "camera.sensor_width_mm", "must be > 0");
+    expect_error(", \"lens\": 7", "camera.lens", "must be a lens");
+}
+
+/* The camera writes its lens back: an inline prescription as the same
+ * object, and reading the JSON back gives the same (interned) lens. */
+static void test_lens_written_back(void **state)
+{
+    (void)state;
+    lr_scene *s = lens_scene(singlet, "", "[]", 8, 8, 1);
+    lr_camera cam;
+    lr_scene_camera(s, &cam);
+    char *json = lr_camera_json(&cam);
+    assert_non_null(json);
+    assert_non_null(strstr(json, "\"model\":\"lens\""));
+    assert_non_null(strstr(json, "thin singlet"));
+    lr_camera again;
+    lr_camera_default(&again);
+    lr_error err;
+    assert_int_equal(lr_camera_apply_json(&again, json, strlen(json), &err),
+                     LR_OK);
+    assert_ptr_equal(again.lens, cam.lens);
+    lr_free(json);
+    lr_scene_free(s);
+}
+
+/* The exit-pupil bounds lose no light: at film points from the centre
+ * to the corner, the mean weight of the camera's samples (its estimate of
+ * the irradiance there, relative to the centre's) equals a brute-force
+ * integral of cos^4 / Z^2 over every rear-plane point whose ray gets
+ * through, on a grid over three times the rear element.  A bound that
+ * clipped the pupil would come out low by the share it clipped. */
+static void check_irradiance(const char *lens, double f_number)
+{
+    char extra[128];
+    snprintf(extra, sizeof extra, ", \"focus_distance\": 3, \"f_number\": %g",
+             f_number);
+    lr_scene *s = lens_scene(lens, extra, "[]", 300, 200, 1);
+    lr_camera cam;
+    lr_scene_camera(s, &cam);
+    lr__cam c;
+    lr__cam_init(&c, &cam, 300, 200);
+    const lr__lens_cam *lc = &c.lens;
+    const lr_lens *L = lc->L;
+    double Z = lc->z_sensor - lc->z_rear;
+    double S = 1.5 * L->rx.s[L->rx.n - 1].semi_aperture;
+    const int G = 300;
+    double cell = 2 * S / G, E0 = 0;
+    double worst = 0;
+    for (int k = 0; k < 5; k++) {
+        double t = k / 4.0 * 0.98; /* along the diagonal, 0 to the corner */
+        double fx = 150 + 150 * t, fy = 100 + 100 * t;
+        double xs = (0.5 - fx / 300) * lc->sensor_w;
+        double ys = (fy / 200 - 0.5) * lc->sensor_h;
+        double E = 0;
+        for (int iy = 0; iy < G; iy++)
+            for (int ix = 0; ix < G; ix++) {
+                double qx = -S + (ix + 0.5) * cell, qy = -S + (iy + 0.5) * cell;
+                double d[3] = {qx - xs, qy - ys, -Z};
+                double len = sqrt(d[0] * d[0] + d[1] * d[1] + Z * Z);
+                for (int a = 0; a < 3; a++)
+                    d[a] /= len;
+                double o[3] = {xs, ys, lc->z_sensor}, ct = -d[2];
+                if (lr__rx_trace_n(&L->rx, L->z, lc->n_ref, lc->stop_scale, 0,
+                                   o, d))
+                    E += ct * ct * ct * ct / (Z * Z) * cell * cell;
+            }
+        if (k == 0)
+            E0 = E;
+        double sum = 0;
+        const int M = 256;
+        for (int i = 0; i < M; i++)
+            for (int j = 0; j < M; j++) {
+                double u[2] = {(i + 0.5) / M, (j + 0.5) / M};
+                lr__v3 org, dir;
+                sum += lr__cam_lens_ray(&c, fx, fy, u, c.w, c.nm_ref, &org,
+                                        &dir);
+            }
+        double got = sum / (M * M), want = E / E0;
+        print_message("%s f/%g, film %.2f of the way to the corner: "
+                      "camera %.5f, integral %.5f\n",
+                      lr_lens_name(L), f_number, t, got, want);
+        if (want > 0.01)
+            worst = fmax(worst, fabs(got / want - 1));
+    }
+    assert_true(worst < 0.01);
+    lr_scene_free(s);
+}
+
+static void test_pupil_bounds_lose_no_light(void **state)
+{
+    (void)state;
+    check_irradiance(singlet, 0);
+    check_irradiance("\"double-gauss-50\"", 0);
+    check_irradiance("\"double-gauss-50\"", 5.6);
+}
+
+/* The real chief ray's image height (mm) of a field angle at `nm`, from
+ * lr_lens_describe (the prescription's own analysis, which aims each
+ * chief ray at the stop's centre from infinity; tests/lenses/compare.py
+ * checks it against ray-optics). */
+static double chief_height(const char *lens, double deg, double nm)
+{
+    char *json = NULL;
+    lr_error err;
+    assert_int_equal(lr_lens_describe(lens, NULL, &deg, 1, nm, &json, &err),
+                     LR_OK);
+    cJSON *root = cJSON_Parse(json);
+    assert_non_null(root);
+    const cJSON *f = cJSON_GetArrayItem(
+        cJSON_GetObjectItemCaseSensitive(root, "fields"), 0);
+    const cJSON *h = cJSON_GetObjectItemCaseSensitive(f, "image_height_mm");
+    assert_true(cJSON_IsNumber(h));
+    double v = h->valuedouble;
+    cJSON_Delete(root);
+    lr_free(json);
+    return v;
+}
+
+/* Centroid (pixels, x) of channel ch of an image. */
+static double centroid_x(const lr_image *img, int ch, double *total)
+{
+    const float *p = lr_image_rgb(img);
+    int w = lr_image_width(img), h = lr_image_height(img);
+    double sum = 0, sx = 0;
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            double v = p[3 * (y * w + x) + ch];
+            sum += v, sx += v * (x + 0.5);
+        }
+    *total = sum;
+    return sx / sum;
+}
+
+/* Where a collimated beam from field angle `deg` (toward +x in the
+ * scene, so toward -x in the lens) lands on the camera's sensor at `nm`:
+ * the mean x of the rays, traced from the object side on a fine grid
+ * over the first surface (equal power each), that get through.  This is
+ * the other direction from the camera's rays (sensor to scene, sampled
+ * in exit-pupil bounds, then through Embree), so it checks them. */
+static double beam_centroid(const lr__cam *c, double deg, double nm)
+{
+    const lr_lens *L = c->lens.L;
+    double n_after[LR__RX_MAX_SURFACES];
+    lr__rx_indices(&L->rx, nm, n_after);
+    double th = deg * M_PI / 180, S = L->rx.s[0].semi_aperture;
+    double sx = 0;
+    int n = 0;
+    const int G = 400;
+    for (int iy = 0; iy < G; iy++)
+        for (int ix = 0; ix < G; ix++) {
+            double o[3] = {-S + (ix + 0.5) * 2 * S / G,
+                           -S + (iy + 0.5) * 2 * S / G, -1e-9};
+            double d[3] = {-sin(th), 0, cos(th)};
+            /* Back along the ray to just before the first vertex. */
+            o[0] -= d[0] * 100, o[2] -= d[2] * 100;
+            if (!lr__rx_trace_n(&L->rx, L->z, n_after, c->lens.stop_scale, 1,
+                                o, d))
+                continue;
+            double t = (c->lens.z_sensor - o[2]) / d[2];
+            sx += o[0] + t * d[0];
+            n++;
+        }
+    assert_true(n > 100);
+    return sx / n;
+}
+
+/* A small distant sphere's image, rendered through the lens, is centred
+ * where the lens puts a beam from its direction (within 0.1 px), channel
+ * by channel in rgb mode: so the colours' split is the lens's lateral
+ * colour at the channels' wavelengths (610 and 465 nm).  The real chief
+ * ray's height, from lr_lens_describe, is printed beside it (the beam's
+ * centroid differs from it by the coma at f/8 and by the blue's focus
+ * shift). */
+static void test_point_image_where_the_lens_puts_it(void **state)
+{
+    (void)state;
+    const char *lens = "fisheye-10";
+    const double deg[] = {0.0, 30.0, 55.0};
+    const int W = 241, H = 41;
+    const double sensor = 24.0; /* mm: the fisheye's image circle */
+    for (int k = 0; k < 3; k++) {
+        double th = deg[k] * M_PI / 180;
+        /* 1 km away at angle th to the right, half a pixel across. */
+        char obj[256], extra[256];
+        snprintf(obj, sizeof obj,
+                 "[{\"type\": \"sphere\", \"center\": [%.17g, 0, %.17g],"
+                 " \"radius\": 5, \"material\": \"w\"}]",
+                 1000 * sin(th), -1000 * cos(th));
+        snprintf(extra, sizeof extra,
+                 ", \"focus_distance\": 1000, \"f_number\": 8,"
+                 " \"sensor_width_mm\": %g,"
+                 " \"chromatic\": {\"mode\": \"rgb\"}",
+                 sensor);
+        char quoted[64];
+        snprintf(quoted, sizeof quoted, "\"%s\"", lens);
+        lr_scene *s = lens_scene(quoted, extra, obj, W, H, 64);
+        lr_camera cam;
+        lr_scene_camera(s, &cam);
+        lr_render_settings rs;
+        lr_scene_settings(s, &rs);
+        lr_image *img = lr_test_render_with(s, &cam, &rs, "beam centroid");
+        lr__cam c;
+        lr__cam_init(&c, &cam, W, H);
+        double px = sensor / W, tot;
+        double split[2];
+        for (int ch = 0; ch < 3; ch += 2) {
+            double nm = ch == 0 ? 610.0 : 465.0;
+            /* The film's x grows to the right; the sensor's to the left
+             * (the image is inverted, camera_lens.c). */
+            double want = W / 2.0 - beam_centroid(&c, deg[k], nm) / px;
+            double chief = W / 2.0 + chief_height(lens, deg[k], nm) / px;
+            double got = centroid_x(img, ch, &tot);
+            split[ch / 2] = got;
+            print_message("%s %g deg, %g nm: image centroid %.3f px, beam "
+                          "%.3f px (%+.3f), chief ray %.3f px\n",
+                          lens, deg[k], nm, got, want, got - want, chief);
+            assert_true(tot > 0);
+            assert_true(fabs(got - want) < 0.1);
+        }
+        print_message("  red - blue: %.3f px\n", split[0] - split[1]);
+        lr_image_free(img);
+        lr_scene_free(s);
+    }
+}
+
+static const struct CMUnitTest lens_camera_tests[] = {
+    cmocka_unit_test(test_thin_singlet_matches_thin_lens),
+    cmocka_unit_test(test_few_rays_lost_on_axis),
+    cmocka_unit_test(test_autofocus_on_a_pixel),
+    cmocka_unit_test(test_white_surround),
+    cmocka_unit_test(test_errors_name_the_field),
+    cmocka_unit_test(test_lens_written_back),
+    cmocka_unit_test(test_pupil_bounds_lose_no_light),
+    cmocka_unit_test(test_point_image_where_the_lens_puts_it),
+};
+
+LR_TEST_GROUP(lens_camera, lens_camera_tests)

@@ -1,0 +1,506 @@
+/*
+ * test_prescription.c: the glass catalogue against the makers' own nd and
+ * vd, the three prescription readers (what they read, and an error that
+ * names the field or the line for what they refuse), lr__rx_check and
+ * finding a lens by name.
+ */
+#include "test.h"
+#include "prescription.h"
+#include "json_util.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* The catalogue as generated, with the makers' stated nd and vd: the
+ * truth that the Sellmeier terms must reproduce. */
+static const struct {
+    const char *name, *maker;
+    double B[3], C[3], nd, vd;
+} table[] = {
+#include "glass_table.h"
+};
+#define N_TABLE (sizeof table / sizeof table[0])
+
+static void test_catalogue_matches_makers_data(void **state)
+{
+    (void)state;
+    assert_true(N_TABLE >= 60);
+    double worst_n = 0, worst_v = 0;
+    for (size_t i = 0; i < N_TABLE; i++) {
+        lr__glass g;
+        char near[128];
+        assert_int_equal(lr__glass_named(table[i].name, &g, near,
+                                         sizeof near), 0);
+        double nd = lr__glass_n(&g, LR__NM_d);
+        double nF = lr__glass_n(&g, LR__NM_F);
+        double nC = lr__glass_n(&g, LR__NM_C);
+        double vd = (nd - 1) / (nF - nC);
+        worst_n = fmax(worst_n, fabs(nd - table[i].nd));
+        worst_v = fmax(worst_v, fabs(vd - table[i].vd));
+        /* Schott states nd to 5 decimals and vd to 2, Ohara to 6 and 6:
+         * the formula must land within half a unit of the last digit
+         * Schott prints (plus 1e-6 for the fit, as the makers quote). */
+        if (fabs(nd - table[i].nd) > 6e-6 || fabs(vd - table[i].vd) > 0.006)
+            fail_msg("%s %s: nd %.6f (stated %.6f), vd %.3f (stated %.3f)",
+                     table[i].maker, table[i].name, nd, table[i].nd, vd,
+                     table[i].vd);
+    }
+    print_message("glass: %zu glasses; worst |nd - stated| %.2g, "
+                  "|vd - stated| %.2g\n",
+                  N_TABLE, worst_n, worst_v);
+}
+
+static void test_classic_glasses_by_hand(void **state)
+{
+    (void)state;
+    /* Schott's data sheets (2017): N-BK7 nd 1.51680, nF 1.52238, nC
+     * 1.51432; F2 nd 1.62004, nF 1.63208, nC 1.61503; N-SK16 nd 1.62041,
+     * nF 1.62756, nC 1.61727. */
+    static const struct {
+        const char *name;
+        double nd, nF, nC;
+    } sheet[] = {{"N-BK7", 1.51680, 1.52238, 1.51432},
+                 {"f2", 1.62004, 1.63208, 1.61503},
+                 {"N-SK16", 1.62041, 1.62756, 1.61727}};
+    for (size_t i = 0; i < sizeof sheet / sizeof sheet[0]; i++) {
+        lr__glass g;
+        assert_int_equal(lr__glass_named(sheet[i].name, &g, NULL, 0), 0);
+        assert_true(fabs(lr__glass_n(&g, LR__NM_d) - sheet[i].nd) <
+                    6e-6);
+        assert_true(fabs(lr__glass_n(&g, LR__NM_F) - sheet[i].nF) <
+                    6e-6);
+        assert_true(fabs(lr__glass_n(&g, LR__NM_C) - sheet[i].nC) <
+                    6e-6);
+    }
+    lr__glass air;
+    assert_int_equal(lr__glass_named("AIR", &air, NULL, 0), 0);
+    assert_true(lr__glass_n(&air, 400) == 1.0);
+}
+
+static void test_abbe_model(void **state)
+{
+    (void)state;
+    lr__glass g = {.kind = LR__GLASS_ABBE, .nd = 1.6727, .vd = 32.2};
+    double nd = lr__glass_n(&g, LR__NM_d);
+    double dF = lr__glass_n(&g, LR__NM_F) - lr__glass_n(&g, LR__NM_C);
+    assert_true(fabs(nd - 1.6727) < 1e-14);
+    assert_true(fabs(dF - 0.6727 / 32.2) < 1e-14);
+    /* Normal dispersion: blue bends more. */
+    assert_true(lr__glass_n(&g, 450) > lr__glass_n(&g, 650));
+    lr__glass c = {.kind = LR__GLASS_CONSTANT, .nd = 1.5};
+    assert_true(lr__glass_n(&c, 400) == 1.5);
+}
+
+static void test_nearest_names(void **state)
+{
+    (void)state;
+    lr__glass g;
+    char near[128];
+    assert_int_equal(lr__glass_named("N-BK8", &g, near, sizeof near), -1);
+    assert_non_null(strstr(near, "N-BK7"));
+    assert_int_equal(strncmp(near, "N-BK7, ", 7), 0);
+    assert_int_equal(lr__glass_named("S-LAH5", &g, near, sizeof near), -1);
+    assert_non_null(strstr(near, "S-LAH5"));
+}
+
+/* ---- readers ------------------------------------------------------------ */
+
+static lr_status from_json(const char *text, lr__rx *rx, lr_error *err)
+{
+    cJSON *o = NULL;
+    lr_status st = lr__json_parse(text, strlen(text), "lens", "", &o, err);
+    if (st == LR_OK)
+        st = lr__rx_from_json(o, "camera.lens", rx, err);
+    if (st == LR_OK)
+        st = lr__rx_check(rx, "camera.lens", err);
+    cJSON_Delete(o);
+    return st;
+}
+
+#define SINGLET_JSON(glass, extra)                                          \
+    "{\"name\": \"t\", \"surfaces\": ["                                      \
+    "{\"stop\": true, \"thickness\": 1, \"semi_aperture\": 5},"              \
+    "{\"radius\": 50, \"thickness\": 4, \"material\": " glass                \
+    ", \"semi_aperture\": 10" extra "},"                                     \
+    "{\"radius\": -50, \"thickness\": 48, \"material\": \"air\","            \
+    " \"semi_aperture\": 10}]}"
+
+static void test_json_reader(void **state)
+{
+    (void)state;
+    lr__rx rx;
+    lr_error err;
+    assert_int_equal(from_json(SINGLET_JSON("\"N-BK7\"", ""), &rx, &err),
+                     LR_OK);
+    assert_int_equal(rx.n, 3);
+    assert_int_equal(rx.stop, 0);
+    assert_true(rx.s[1].radius == 50 && rx.s[1].thickness == 4);
+    assert_int_equal(rx.s[1].after.kind, LR__GLASS_SELLMEIER);
+    assert_int_equal(rx.s[2].after.kind, LR__GLASS_AIR);
+    assert_int_equal(from_json(SINGLET_JSON("{\"nd\": 1.6, \"vd\": 40}",
+                                            ", \"conic\": -1, \"aspheric\": "
+                                            "[1e-6, -2e-9]"),
+                               &rx, &err),
+                     LR_OK);
+    assert_int_equal(rx.s[1].after.kind, LR__GLASS_ABBE);
+    assert_true(rx.s[1].conic == -1 && rx.s[1].asph[1] == -2e-9);
+    assert_int_equal(
+        from_json(SINGLET_JSON("{\"sellmeier\": [1.03961212, 0.231792344, "
+                               "1.01046945, 0.00600069867, 0.0200179144, "
+                               "103.560653]}",
+                               ""),
+                  &rx, &err),
+        LR_OK);
+    assert_true(fabs(lr__glass_n(&rx.s[1].after, LR__NM_d) - 1.5168) <
+                1e-5);
+}
+
+static void expect_json_error(const char *text, const char *path,
+                              const char *words)
+{
+    lr__rx rx;
+    lr_error err;
+    memset(&err, 0, sizeof err);
+    lr_status st = from_json(text, &rx, &err);
+    if (st == LR_OK)
+        fail_msg("accepted: %s", text);
+    if (strcmp(err.path, path) != 0 || strstr(err.message, words) == NULL)
+        fail_msg("wanted path %s and \"%s\", got path %s: %s", path, words,
+                 err.path, err.message);
+}
+
+static void test_json_errors(void **state)
+{
+    (void)state;
+    expect_json_error(SINGLET_JSON("\"N-BK8\"", ""),
+                      "camera.lens.surfaces[1].material",
+                      "camera.lens.surfaces[1].material: unknown glass "
+                      "\"N-BK8\"; nearest: N-BK7");
+    expect_json_error(SINGLET_JSON("{\"nd\": 0.5}", ""),
+                      "camera.lens.surfaces[1].material.nd", "between 1");
+    expect_json_error(SINGLET_JSON("{\"nd\": 1.5, \"vd\": 1}", ""),
+                      "camera.lens.surfaces[1].material.vd", "between 5");
+    expect_json_error(SINGLET_JSON("{\"sellmeier\": [1, 2]}", ""),
+                      "camera.lens.surfaces[1].material.sellmeier",
+                      "6 numbers");
+    expect_json_error(SINGLET_JSON("{\"sellmeier\": [1, 0, 0, 0.35, 0, 0]}",
+                                   ""),
+                      "camera.lens.surfaces[1].material.sellmeier",
+                      "no refractive index");
+    expect_json_error(SINGLET_JSON("7", ""),
+                      "camera.lens.surfaces[1].material", "catalogue glass");
+    expect_json_error(SINGLET_JSON("\"N-BK7\"", ", \"thickness\": 2"),
+                      "camera.lens.surfaces[1].thickness", "duplicate key");
+    expect_json_error(SINGLET_JSON("\"N-BK7\"", ", \"radius_mm\": 2"),
+                      "camera.lens.surfaces[1].radius_mm", "radius_mm");
+    expect_json_error(SINGLET_JSON("\"N-BK7\"", ", \"stop\": true"),
+                      "camera.lens.surfaces[1]", "a second stop");
+    expect_json_error(SINGLET_JSON("\"N-BK7\"", ", \"aspheric\": [1, \"x\"]"),
+                      "camera.lens.surfaces[1].aspheric", "aspheric[1]");
+    expect_json_error("{\"surfaces\": [{\"radius\": 50, \"thickness\": 4, "
+                      "\"material\": \"N-BK7\", \"semi_aperture\": 10}, "
+                      "{\"radius\": -50, \"thickness\": 40, \"material\": "
+                      "\"air\", \"semi_aperture\": 10}]}",
+                      "camera.lens.surfaces", "no aperture stop");
+    expect_json_error("{\"surfaces\": [{\"stop\": true, \"thickness\": 1, "
+                      "\"semi_aperture\": 5}, {\"radius\": 50, "
+                      "\"thickness\": 4, \"material\": \"N-BK7\"}]}",
+                      "camera.lens.surfaces[1].semi_aperture", "required");
+    expect_json_error("{\"surfaces\": [{\"stop\": true, \"semi_aperture\": "
+                      "5}]}",
+                      "camera.lens.surfaces[0].thickness", "required");
+    expect_json_error("{\"surfaces\": []}", "camera.lens.surfaces",
+                      "non-empty");
+    expect_json_error("[1]", "camera.lens", "an object");
+    /* Geometry (lr__rx_check): a lens too thin for its curves, an
+     * aperture wider than the sphere, a lens that diverges. */
+    expect_json_error("{\"surfaces\": [{\"stop\": true, \"thickness\": 1, "
+                      "\"semi_aperture\": 5}, {\"radius\": 20, "
+                      "\"thickness\": 0.5, \"material\": \"N-BK7\", "
+                      "\"semi_aperture\": 10}, {\"radius\": -20, "
+                      "\"thickness\": 20, \"material\": \"air\", "
+                      "\"semi_aperture\": 10}]}",
+                      "camera.lens.surfaces[2]", "cuts through surfaces[1]");
+    expect_json_error("{\"surfaces\": [{\"stop\": true, \"thickness\": 1, "
+                      "\"semi_aperture\": 5}, {\"radius\": 8, "
+                      "\"thickness\": 9, \"material\": \"N-BK7\", "
+                      "\"semi_aperture\": 10}, {\"radius\": -20, "
+                      "\"thickness\": 20, \"material\": \"air\", "
+                      "\"semi_aperture\": 8}]}",
+                      "camera.lens.surfaces[1]", "beyond the surface's edge");
+    expect_json_error("{\"surfaces\": [{\"stop\": true, \"thickness\": 1, "
+                      "\"semi_aperture\": 5}, {\"radius\": -50, "
+                      "\"thickness\": 2, \"material\": \"N-BK7\", "
+                      "\"semi_aperture\": 10}, {\"radius\": 50, "
+                      "\"thickness\": 20, \"material\": \"air\", "
+                      "\"semi_aperture\": 10}]}",
+                      "camera.lens.surfaces", "forms no image");
+}
+
+static lr_status pbrt(const char *text, lr__rx *rx, lr_error *err)
+{
+    lr_status st = lr__rx_from_pbrt(text, strlen(text), "t.dat", rx, err);
+    return st == LR_OK ? lr__rx_check(rx, "", err) : st;
+}
+
+static void test_pbrt_reader(void **state)
+{
+    (void)state;
+    lr__rx rx;
+    lr_error err;
+    /* pbrt-v4-scenes lenses/dgauss.50mm.dat, as distributed. */
+    const char *dgauss =
+        "# D-GAUSS F/2 22deg HFOV\t\t\t\n"
+        "# US patent 2,673,491 Tronnier\"\t\t\t\n"
+        "#    radius\t axpos\tN\taperture\n"
+        "29.475\t3.76\t1.67\t25.2\n84.83\t0.12\t1\t25.2\n"
+        "19.275\t4.025\t1.67\t23\n40.77\t3.275\t1.699\t23\n"
+        "12.75\t5.705\t1\t18\n0\t4.5\t0\t17.1\n"
+        "-14.495\t1.18\t1.603\t17\n40.77\t6.065\t1.658\t20\n"
+        "-20.385\t0.19\t1\t20\n437.065\t3.22\t1.717\t20\n"
+        "-39.73\t0\t1\t20\n";
+    assert_int_equal(pbrt(dgauss, &rx, &err), LR_OK);
+    assert_int_equal(rx.n, 11);
+    assert_int_equal(rx.stop, 5);
+    assert_string_equal(rx.name, "D-GAUSS F/2 22deg HFOV");
+    assert_true(rx.s[0].semi_aperture == 12.6);
+    assert_int_equal(rx.s[0].after.kind, LR__GLASS_CONSTANT);
+    assert_int_equal(rx.s[5].after.kind, LR__GLASS_AIR);
+    assert_true(rx.s[3].after.nd == 1.699);
+    /* The last thickness became the paraxial back focus. */
+    lr__paraxial p;
+    assert_int_equal(lr__rx_paraxial(&rx, LR__NM_d, &p, &err), LR_OK);
+    assert_true(fabs(rx.s[10].thickness - p.bfl) < 1e-12);
+    assert_true(fabs(p.efl - 50) < 1.0);
+    /* A fifth column gives dispersion. */
+    assert_int_equal(pbrt("0 1 0 10\n50 4 1.5168 20 64.17\n-50 40 1 20\n",
+                          &rx, &err),
+                     LR_OK);
+    assert_int_equal(rx.s[1].after.kind, LR__GLASS_ABBE);
+    assert_true(rx.s[1].after.vd == 64.17);
+}
+
+static void expect_text_error(lr_status (*read)(const char *, lr__rx *,
+                                                lr_error *),
+                              const char *text, const char *words)
+{
+    lr__rx rx;
+    lr_error err;
+    memset(&err, 0, sizeof err);
+    if (read(text, &rx, &err) == LR_OK)
+        fail_msg("accepted: %s", text);
+    if (strstr(err.message, words) == NULL)
+        fail_msg("wanted \"%s\", got: %s", words, err.message);
+}
+
+static void test_pbrt_errors(void **state)
+{
+    (void)state;
+    expect_text_error(pbrt, "0 1 0 10\n50 4 1.5x 20\n", "t.dat:2: \"1.5x\"");
+    expect_text_error(pbrt, "# c\n0 1 0 10\n50 4 1.5\n", "t.dat:3: 3 numbers");
+    expect_text_error(pbrt, "0 1 0 10\n50 -4 1.5 20\n", "t.dat:2: thickness");
+    expect_text_error(pbrt, "0 1 0 10\n50 4 1.5 0\n", "t.dat:2: aperture");
+    expect_text_error(pbrt, "0 1 0 10\n0 4 0 20\n", "t.dat:2: a second stop");
+    expect_text_error(pbrt, "0 1 0 10\n50 4 0.5 20\n", "t.dat:2: index");
+    expect_text_error(pbrt, "0 1 0 10\n50 4 1.5 20 300\n", "t.dat:2: an Abbe");
+    expect_text_error(pbrt, "0 1 0 10\n50 4 1.5 20 50 7\n", "t.dat:2:");
+    expect_text_error(pbrt, "# nothing\n", "t.dat: no surfaces");
+    expect_text_error(pbrt, "50 4 1.5 20\n-50 40 1 20\n", "no aperture stop");
+    expect_text_error(pbrt, "0 1 0 10\n50 4 1.5 20\n-50 1e9 1 20\n",
+                      "t.dat:3: \"1e9\"");
+}
+
+static lr_status zmx(const char *text, lr__rx *rx, lr_error *err)
+{
+    lr_status st = lr__rx_from_zmx(text, strlen(text), "t.zmx", rx, err);
+    return st == LR_OK ? lr__rx_check(rx, "", err) : st;
+}
+
+#define ZMX_HEAD                                                           \
+    "VERS 140124 255 123457\r\nMODE SEQ\r\nNAME a test singlet\r\n"         \
+    "UNIT MM X W X CM MR CPMM\r\nENPD 10\r\n"                               \
+    "SURF 0\r\n  TYPE STANDARD\r\n  CURV 0.0\r\n  DISZ INFINITY\r\n"
+#define ZMX_TAIL                                                           \
+    "SURF 3\r\n  TYPE STANDARD\r\n  CURV -2.0E-2\r\n  DISZ 48\r\n"           \
+    "  DIAM 10 0 0 0 1 \"\"\r\nSURF 4\r\n  TYPE STANDARD\r\n  CURV 0\r\n"    \
+    "  DIAM 5\r\nTOL TOFF 0 0 0 0 0 0 0\r\n"
+
+static void test_zmx_reader(void **state)
+{
+    (void)state;
+    lr__rx rx;
+    lr_error err;
+    const char *ok = ZMX_HEAD
+        "SURF 1\r\n  STOP\r\n  TYPE STANDARD\r\n  CURV 0\r\n  DISZ 1\r\n"
+        "  DIAM 5\r\n  COMM front stop\r\n"
+        "SURF 2\r\n  TYPE EVENASPH\r\n  CURV 2.0E-2 0 0 0 0 \"\"\r\n"
+        "  CONI -0.5\r\n  PARM 1 0\r\n  PARM 2 1.0E-6\r\n  PARM 3 -2E-9\r\n"
+        "  DISZ 4\r\n  GLAS N-BK7 0 0 1.5168 64.17 0 0 0 0 0 0\r\n"
+        "  DIAM 10 1 0 0 1 \"\"\r\n  HIDE 0 0 0 0 0 0 0 0 0 0\r\n" ZMX_TAIL;
+    assert_int_equal(zmx(ok, &rx, &err), LR_OK);
+    assert_int_equal(rx.n, 3);
+    assert_int_equal(rx.stop, 0);
+    assert_string_equal(rx.name, "a test singlet");
+    assert_true(rx.s[1].radius == 50 && rx.s[2].radius == -50);
+    assert_true(rx.s[1].conic == -0.5 && rx.s[1].asph[0] == 1e-6 &&
+                rx.s[1].asph[1] == -2e-9);
+    assert_true(rx.s[2].thickness == 48 && rx.s[1].semi_aperture == 10);
+    assert_string_equal(rx.s[1].after.name, "N-BK7");
+    /* The same file in UTF-16 (Zemax's usual encoding). */
+    size_t n = strlen(ok);
+    char *u16 = malloc(2 * n + 2);
+    assert_non_null(u16);
+    u16[0] = (char)0xFF;
+    u16[1] = (char)0xFE;
+    for (size_t i = 0; i < n; i++) {
+        u16[2 + 2 * i] = ok[i];
+        u16[3 + 2 * i] = 0;
+    }
+    lr__rx r16;
+    assert_int_equal(lr__rx_from_zmx(u16, 2 * n + 2, "t.zmx", &r16, &err),
+                     LR_OK);
+    free(u16);
+    assert_int_equal(memcmp(&rx, &r16, sizeof rx), 0);
+    /* A model glass (nd, vd) and centimetres. */
+    assert_int_equal(
+        zmx("UNIT CM X W X CM MR CPMM\r\nSURF 0\r\n  DISZ INFINITY\r\n"
+            "SURF 1\r\n  STOP\r\n  DIAM 0.5\r\n  DISZ 0.1\r\n"
+            "SURF 2\r\n  CURV 0.2\r\n  DISZ 0.4\r\n"
+            "  GLAS ___BLANK 1 0 1.6 40 0 0 0 0 0 0\r\n  DIAM 1\r\n"
+            "SURF 3\r\n  CURV -0.2\r\n  DISZ 4\r\n  DIAM 1\r\nSURF 4\r\n",
+            &rx, &err),
+        LR_OK);
+    assert_int_equal(rx.s[1].after.kind, LR__GLASS_ABBE);
+    assert_true(fabs(rx.s[1].radius - 50) < 1e-12 &&
+                fabs(rx.s[1].thickness - 4) < 1e-12);
+}
+
+static void test_zmx_errors(void **state)
+{
+    (void)state;
+    expect_text_error(zmx,
+                      ZMX_HEAD "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ 1\r\n"
+                               "SURF 2\r\n  TYPE COORDBRK\r\n",
+                      "t.zmx:15: surface type COORDBRK");
+    expect_text_error(zmx,
+                      ZMX_HEAD "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ 1\r\n"
+                               "SURF 2\r\n  CURV 0.02\r\n  GLAS N-BK8 0 0 "
+                               "1.5 60\r\n",
+                      "t.zmx:16: unknown glass \"N-BK8\"; nearest: N-BK7");
+    expect_text_error(zmx,
+                      ZMX_HEAD "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ 1\r\n"
+                               "  GLAS MIRROR 0 0\r\n",
+                      "t.zmx:14: GLAS MIRROR");
+    expect_text_error(zmx,
+                      ZMX_HEAD "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ 1\r\n"
+                               "  SQAP 2 2\r\n",
+                      "t.zmx:14: SQAP changes the optics");
+    expect_text_error(zmx,
+                      ZMX_HEAD "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ x\r\n",
+                      "t.zmx:13: DISZ");
+    expect_text_error(zmx,
+                      ZMX_HEAD "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ 1\r\n"
+                               "SURF 2\r\n  TYPE EVENASPH\r\n  CURV 0.02\r\n"
+                               "  PARM 1 0.1\r\n  DISZ 4\r\n  DIAM 10\r\n"
+                               "  GLAS N-BK7\r\n" ZMX_TAIL,
+                      "r^2 aspheric term");
+    expect_text_error(zmx, "MODE NSC\r\n", "t.zmx:1: MODE NSC");
+    expect_text_error(zmx, "UNIT FT\r\n", "t.zmx:1: UNIT FT");
+    expect_text_error(zmx, ZMX_HEAD "SURF 2\r\n", "t.zmx:10: SURF 2 out of "
+                                                  "order");
+    expect_text_error(zmx,
+                      ZMX_HEAD "SURF 1\r\n  STOP\r\n  DISZ 1\r\n"
+                               "SURF 2\r\n  CURV 0.02\r\n  DISZ 4\r\n"
+                               "  DIAM 10\r\n  GLAS N-BK7\r\n" ZMX_TAIL,
+                      "t.zmx:10: SURF 1 has no semi-diameter");
+    expect_text_error(zmx, ZMX_HEAD, "1 SURF entries");
+}
+
+static void test_find_and_load(void **state)
+{
+    (void)state;
+    char path[4096];
+    lr_error err;
+    lr__rx rx;
+    /* Every shipped lens, by name with and without its extension, loads
+     * and is checked. */
+    const char *names[] = {"double-gauss-50", "wide-22.json",
+                           "telephoto-250", "fisheye-10", "petzval"};
+    for (size_t i = 0; i < sizeof names / sizeof names[0]; i++) {
+        assert_int_equal(lr__rx_find(names[i], "/nonexistent", path,
+                                     sizeof path, &err),
+                         LR_OK);
+        if (lr__rx_load_file(path, names[i], "camera.lens", &rx, &err) !=
+            LR_OK)
+            fail_msg("%s: %s", names[i], err.message);
+        assert_true(rx.source[0] != '\0');
+        int glass = 0;
+        for (int k = 0; k < rx.n; k++)
+            glass += rx.s[k].after.kind == LR__GLASS_ABBE ||
+                     rx.s[k].after.kind == LR__GLASS_SELLMEIER;
+        assert_true(glass >= 2); /* they disperse */
+    }
+    assert_int_equal(lr__rx_find("double-gauss-51", NULL, path, sizeof path,
+                                 &err),
+                     LR_ERR_INVALID);
+    assert_non_null(strstr(err.message, "double-gauss-50, fisheye-10"));
+    /* A file next to the scene wins; LENSRAY_LENS_DIR moves the shipped
+     * ones. */
+    char file[512];
+    snprintf(file, sizeof file, "%s/my.dat", lr_test_tmpdir());
+    FILE *f = fopen(file, "w");
+    assert_non_null(f);
+    fputs("0 1 0 10\n50 4 1.5168 20\n-50 47 1 20\n", f);
+    fclose(f);
+    assert_int_equal(lr__rx_find("my.dat", lr_test_tmpdir(), path,
+                                 sizeof path, &err),
+                     LR_OK);
+    assert_string_equal(path, file);
+    assert_int_equal(lr__rx_load_file(path, "my.dat", NULL, &rx, &err),
+                     LR_OK);
+    setenv("LENSRAY_LENS_DIR", lr_test_tmpdir(), 1);
+    assert_int_equal(lr__rx_find("my", NULL, path, sizeof path, &err),
+                     LR_OK);
+    assert_int_equal(lr__rx_find("petzval", NULL, path, sizeof path, &err),
+                     LR_ERR_INVALID);
+    assert_non_null(strstr(err.message, "shipped lenses: my"));
+    unsetenv("LENSRAY_LENS_DIR");
+    /* A lens file's errors name the file. */
+    snprintf(file, sizeof file, "%s/bad.json", lr_test_tmpdir());
+    f = fopen(file, "w");
+    assert_non_null(f);
+    fputs("{\"surfaces\": [{\"stop\": true, \"thickness\": 1, "
+          "\"semi_aperture\": 5}, {\"radius\": 50, \"thickness\": 4, "
+          "\"material\": \"N-BK8\", \"semi_aperture\": 10}]}",
+          f);
+    fclose(f);
+    assert_int_equal(lr__rx_load_file(file, "bad.json", "camera.lens", &rx,
+                                      &err),
+                     LR_ERR_INVALID);
+    assert_string_equal(err.path, "camera.lens");
+    assert_non_null(strstr(err.message, "bad.json: surfaces[1].material: "
+                                        "unknown glass \"N-BK8\""));
+    assert_int_equal(lr__rx_load_file("x.lens", "x.lens", NULL, &rx, &err),
+                     LR_ERR_INVALID);
+    assert_int_equal(lr__rx_load_file("/nonexistent/x.zmx", "x.zmx", NULL,
+                                      &rx, &err),
+                     LR_ERR_IO);
+}
+
+static const struct CMUnitTest prescription_tests[] = {
+    cmocka_unit_test(test_catalogue_matches_makers_data),
+    cmocka_unit_test(test_classic_glasses_by_hand),
+    cmocka_unit_test(test_abbe_model),
+    cmocka_unit_test(test_nearest_names),
+    cmocka_unit_test(test_json_reader),
+    cmocka_unit_test(test_json_errors),
+    cmocka_unit_test(test_pbrt_reader),
+    cmocka_unit_test(test_pbrt_errors),
+    cmocka_unit_test(test_zmx_reader),
+    cmocka_unit_test(test_zmx_errors),
+    cmocka_unit_test(test_find_and_load),
+};
+
+LR_TEST_GROUP(prescription, prescription_tests)
