@@ -106,14 +106,15 @@ json() {
 @test "GET /v1/options lists the library's camera models with their keys, samplers and chromatic modes" {
     start_daemon
     curl -s -o "$WORK/options" "$DURL/v1/options"
-    [ "$(json "$WORK/options" '" ".join(m["name"] for m in d["camera_models"])')" = "pinhole thinlens bracket" ]
+    [ "$(json "$WORK/options" '" ".join(m["name"] for m in d["camera_models"])')" = "pinhole thinlens bracket lens" ]
     [ "$(json "$WORK/options" '[m for m in d["camera_models"] if m["name"] == "thinlens"][0]["defaults"]["focus_distance"]')" = 10 ]
-    [ "$(json "$WORK/options" '[m["autofocus"] for m in d["camera_models"]]')" = "[False, True, True]" ]
+    [ "$(json "$WORK/options" '[m["autofocus"] for m in d["camera_models"]]')" = "[False, True, True, True]" ]
     [ "$(json "$WORK/options" '" ".join(d["samplers"])')" = "random grid jittered sobol" ]
     [ "$(json "$WORK/options" '" ".join(d["chromatic_modes"])')" = "off rgb spectral" ]
-    # Every model's defaults are a camera the daemon accepts.
-    for m in pinhole thinlens bracket; do
-        cam=$(json "$WORK/options" "json.dumps([m for m in d['camera_models'] if m['name'] == '$m'][0]['defaults'])")
+    # Every model's defaults are a camera the daemon accepts (the lens
+    # model's with a lens named, as it has no default lens).
+    for m in pinhole thinlens bracket lens; do
+        cam=$(json "$WORK/options" "json.dumps(dict([m for m in d['camera_models'] if m['name'] == '$m'][0]['defaults'], **({'lens': 'double-gauss-50'} if '$m' == 'lens' else {})))")
         run curl -s -o /dev/null -w '%{http_code}' "$DURL/v1/render" -H 'Content-Type: application/json' \
             -d "{\"scene\": \"tiny\", \"camera\": $cam, \"render\": {\"width\": 8, \"height\": 6, \"spp\": 1}}"
         [ "$output" = 200 ]
@@ -196,4 +197,8 @@ t=-e[1]/d[1]; print(t*sum(d[i]*f[i] for i in range(3)))')
 
 @test "browser: the PNG download equals the API's image byte for byte" {
     browser_check download
+}
+
+@test "browser: the lens model and the shipped lenses come from the daemon, and the page renders through one" {
+    browser_check lens
 }

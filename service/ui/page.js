@@ -15,6 +15,7 @@
 const KEY_HINTS = {
   fov: {min: 5, max: 120, step: 0.5, label: "field of view (degrees)"},
   focus_distance: {min: 0.1, max: 200, log: true, label: "focus distance"},
+  sensor_width_mm: {min: 4, max: 60, step: 0.5, label: "sensor width (mm)"},
   aperture_radius: {min: 0, max: 2, step: 0.005, label: "aperture radius"},
   f_number: {min: 0, max: 32, step: 0.1, label: "f-number (0: use the radius)"},
   focal_length_mm: {min: 0, max: 300, step: 1, label: "focal length (mm)"},
@@ -36,6 +37,7 @@ const state = {
   token: sessionStorage.getItem("lensray-token") || "",
   options: null,
   scenes: [],
+  lenses: [],       // GET /v1/lenses: the ids of the shipped lenses
   scene: null,
   model: null,      // an entry of options.camera_models
   values: {},       // camera key -> value, as the controls say
@@ -102,10 +104,28 @@ function shortNumber(v) {
   return typeof v === "number" ? String(Number(v.toPrecision(5))) : String(v);
 }
 
+// The "lens" model names its prescription in camera.lens, a key its
+// default camera leaves out (there is no default lens): the page offers the
+// daemon's shipped lenses for it.
+function lensChoice(box) {
+  if (state.model.name !== "lens" || !state.lenses.length) return;
+  if (!state.lenses.includes(state.values.lens)) state.values.lens = state.lenses[0];
+  const label = document.createElement("label");
+  label.textContent = "lens ";
+  const input = document.createElement("select");
+  state.lenses.forEach((id) => option(input, id));
+  input.id = "key-lens";
+  input.value = state.values.lens;
+  input.addEventListener("change", () => { state.values.lens = input.value; changed(); });
+  label.append(input);
+  box.appendChild(label);
+}
+
 // One control per key of the model that the scene does not place.
 function buildCameraKeys() {
   const box = $("camera-keys");
   box.replaceChildren();
+  lensChoice(box);
   for (const [key, def] of Object.entries(state.model.defaults)) {
     if (FRAME_KEYS.includes(key)) continue;
     if (!(key in state.values)) state.values[key] = def;
@@ -202,6 +222,7 @@ function jobBody(spp, format) {
   const camera = {model: state.model.name};
   for (const key of Object.keys(state.model.defaults))
     if (!FRAME_KEYS.includes(key) && key in state.values) camera[key] = state.values[key];
+  if ($("key-lens")) camera.lens = state.values.lens;
   if (state.model.autofocus && state.focusOn) camera.focus_on = state.focusOn;
   // "off" is sent too: a job's camera keys only replace the scene's.
   if (state.model.chromatic)
@@ -441,6 +462,9 @@ async function start() {
   try {
     state.options = await apiJSON("GET", "/v1/options");
     state.scenes = (await apiJSON("GET", "/v1/scenes")).scenes;
+    // A daemon without real lenses has no such route (404): none offered.
+    const lenses = await api("GET", "/v1/lenses");
+    if (lenses.ok) state.lenses = (await lenses.json()).lenses.map((l) => l.id);
   } catch (e) {
     if (e.message !== "unauthorized") setStatus(e.message, true);
     return;

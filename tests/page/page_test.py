@@ -303,8 +303,25 @@ def check_download(driver, daemon, ctx):
     return "%d bytes, equal" % len(got)
 
 
+def check_lens(driver, daemon, ctx):
+    """The lens model, which GET /v1/options lists from the library, with
+    a lens from GET /v1/lenses: the page renders through it."""
+    models = [o.get_attribute("value") for o in Select(driver.find_element(By.ID, "model")).options]
+    want = [m["name"] for m in daemon.json("GET", "/v1/options")["camera_models"]]
+    assert models == want, "the page offers %s, the daemon %s" % (models, want)
+    act(driver, lambda: Select(driver.find_element(By.ID, "model")).select_by_value("lens"))
+    lenses = [o.get_attribute("value") for o in Select(driver.find_element(By.ID, "key-lens")).options]
+    ids = [l["id"] for l in daemon.json("GET", "/v1/lenses")["lenses"]]
+    assert lenses == ids, "the page offers lenses %s, the daemon %s" % (lenses, ids)
+    act(driver, lambda: Select(driver.find_element(By.ID, "key-lens")).select_by_value(ids[-1]))
+    st = daemon.json("GET", "/v1/jobs/" + body_data(driver, "shown"))
+    assert st["status"] == "done" and st["camera"]["model"] == "lens" and \
+        st["camera"]["lens"] == ids[-1], "the picture is not through %s: %s" % (ids[-1], st["camera"])
+    return "%s through %s" % (st["camera"]["model"], st["camera"]["lens"])
+
+
 CHECKS = [("load", check_load), ("cancel", check_cancel), ("focus", check_focus),
-          ("overlay", check_overlay), ("download", check_download)]
+          ("overlay", check_overlay), ("download", check_download), ("lens", check_lens)]
 
 
 def run_checks(build, out):
