@@ -116,7 +116,21 @@ $(BUILD)/lensray: $(BUILD)/obj/tools/lensray.o $(BUILD)/liblensray.a
 SVC_OBJ  := $(SVC_SRC:%.c=$(BUILD)/obj/%.o)
 PORT     ?= 8080
 
-$(BUILD)/lensrayd: $(SVC_OBJ) $(BUILD)/liblensray.a
+# The page (service/ui/, docs/page.md) goes into the binary as C arrays.
+UI_FILES := $(wildcard service/ui/*.html service/ui/*.css service/ui/*.js)
+UI_OBJ   := $(BUILD)/obj/gen/ui_files.o
+
+$(BUILD)/gen/ui_files.c: service/ui/embed.sh $(UI_FILES)
+	@mkdir -p $(dir $@)
+	@echo "  EMBED   $(UI_FILES)"
+	@sh service/ui/embed.sh $@ $(UI_FILES)
+
+$(UI_OBJ): $(BUILD)/gen/ui_files.c service/lensrayd.h $(DEPS_OK)
+	@mkdir -p $(dir $@)
+	@echo "  CC      $<"
+	@$(CC) $(CPPFLAGS) -Iservice $(PKG_CFLAGS) $(CFLAGS) -c $< -o $@
+
+$(BUILD)/lensrayd: $(SVC_OBJ) $(UI_OBJ) $(BUILD)/liblensray.a
 	$(CC) $(LDFLAGS) -o $@ $^ $(LIB_LIBS) -lmicrohttpd -lcrypto
 
 # Builds and starts the daemon on the built-in scenes (Ctrl-C stops it).
@@ -254,6 +268,46 @@ test-python: python
 	@cd $(BUILD)/python && PYTHONDONTWRITEBYTECODE=1 \
 	  LENSRAY_BUILD_DIR=$(abspath $(BUILD)) venv/bin/python -m pytest \
 	  -p no:cacheprovider -q $(abspath python/tests)
+
+# $(call install_missing,WHAT:PACKAGE ...): a recipe line that finds each
+# WHAT (an absolute path, or a command) and installs the Debian PACKAGE of
+# those missing when run as root, with an apt-get update first only when
+# apt does not know a package yet; otherwise it names them and fails.
+install_missing = @missing=""; \
+	for d in $(1); do \
+	  what=$${d%%:*}; pkg=$${d\#\#*:}; \
+	  case $$what in \
+	    /*) [ -e "$$what" ] || missing="$$missing $$pkg" ;; \
+	    *) command -v "$$what" >/dev/null 2>&1 || missing="$$missing $$pkg" ;; \
+	  esac; \
+	done; \
+	if [ -n "$$missing" ]; then \
+	  if [ "$$(id -u)" = 0 ]; then \
+	    echo "make: installing missing Debian packages:$$missing"; \
+	    for p in $$missing; do \
+	      apt-cache policy $$p 2>/dev/null | grep -q 'Candidate: [0-9]' || \
+	        { apt-get update -qq || exit 1; break; }; \
+	    done; \
+	    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing >/dev/null || exit 1; \
+	  else \
+	    echo "make: missing Debian packages:$$missing"; \
+	    echo "make: run 'sudo apt-get install$$missing' (or run make as root) and try again"; \
+	    exit 1; \
+	  fi; \
+	fi
+
+# ---- the page in a browser ---------------------------------------------------
+# tests/page.bats drives lensrayd's page (docs/page.md) in Debian's headless
+# Chromium through Selenium (Debian's python3, not a virtualenv), installed
+# by install_missing.  Only the tests need them.
+PAGE_DEPS := chromium:chromium chromedriver:chromium-driver \
+             /usr/lib/python3/dist-packages/selenium/__init__.py:python3-selenium
+
+$(BUILD)/.page-deps-ok: Makefile
+	$(call install_missing,$(PAGE_DEPS))
+	@mkdir -p $(dir $@) && touch $@
+
+test-suite: $(BUILD)/.page-deps-ok
 
 # ---- out of memory ------------------------------------------------------
 # tests/oom/oom.c fails the library's allocations one by one.  It is linked
@@ -423,27 +477,9 @@ $(BUILD)/accuracy/imgdiff: bench/accuracy/imgdiff.c $(DEPS_OK)
 	$(CC) -std=c11 -O2 -g -Wall -Wextra -Werror -D_GNU_SOURCE $(PKG_CFLAGS) \
 	  -o $@ $< -lOpenEXRCore-3_1 -lm
 
-# gnuplot and python3, installed like the deps above when run as root (with
-# an apt-get update first only when apt does not know the package yet).
+# gnuplot and python3, installed by install_missing.
 $(BUILD)/accuracy/.deps-ok: Makefile
-	@missing=""; \
-	for d in $(ACCURACY_DEPS); do \
-	  command -v "$${d%%:*}" >/dev/null 2>&1 || missing="$$missing $${d##*:}"; \
-	done; \
-	if [ -n "$$missing" ]; then \
-	  if [ "$$(id -u)" = 0 ]; then \
-	    echo "make: installing missing Debian packages:$$missing"; \
-	    for p in $$missing; do \
-	      apt-cache policy $$p 2>/dev/null | grep -q 'Candidate: [0-9]' || \
-	        { apt-get update -qq || exit 1; break; }; \
-	    done; \
-	    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing >/dev/null || exit 1; \
-	  else \
-	    echo "make: missing Debian packages:$$missing"; \
-	    echo "make: run 'sudo apt-get install$$missing' (or run make as root) and try again"; \
-	    exit 1; \
-	  fi; \
-	fi
+	$(call install_missing,$(ACCURACY_DEPS))
 	@mkdir -p $(dir $@) && touch $@
 
 install: all

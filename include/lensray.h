@@ -398,6 +398,37 @@ LR_API char *lr_render_stats_json(const lr_render_stats *stats,
                                   const lr_render_settings *settings,
                                   const lr_scene *scene);
 
+/* What lr_render decides before it traces, for callers that show it (the
+ * daemon's page: the focus a click chose, where the lens was simulated).
+ *
+ * lr_camera_autofocus resolves camera.focus_on as lr_render does for a
+ * width x height frame: the model's focus (the thin lens's
+ * focus_distance, the bracket's focal_length) is set from the first hit
+ * of the pinhole ray through that pixel's centre, and focus_on is cleared.
+ * Rendering the result gives the same bytes as rendering *cam unresolved.
+ * No-op when focus_on is unset or the model has no focus.  Errors:
+ * LR_ERR_INVALID (the camera, or focus_on outside the frame or on
+ * nothing); on error *cam is unchanged. */
+LR_API lr_status lr_camera_autofocus(const lr_scene *scene, lr_camera *cam,
+                                     int width, int height, lr_error *err);
+
+/* The plan of a render (render.plan): per block of LR_PLAN_BLOCK x
+ * LR_PLAN_BLOCK pixels of the whole frame, row by row, whether the lens
+ * was sampled (LR_PLAN_LENS) and each colour traced on its own
+ * (LR_PLAN_CHROMA).  It is the record lr_render works from, built the same
+ * way (autofocus first); blocks outside settings->region are planned as
+ * the full simulation.  On success *cells is columns x rows bytes,
+ * malloc'ed: release it with lr_free.  Errors: LR_ERR_INVALID (camera or
+ * settings), LR_ERR_NOMEM. */
+#define LR_PLAN_BLOCK 16
+#define LR_PLAN_LENS 1
+#define LR_PLAN_CHROMA 2
+LR_API lr_status lr_render_plan_map(const lr_scene *scene,
+                                    const lr_camera *cam,
+                                    const lr_render_settings *settings,
+                                    unsigned char **cells, int *columns,
+                                    int *rows, lr_error *err);
+
 /* ------------------------------------------------------------------------
  * Images
  * ---------------------------------------------------------------------- */

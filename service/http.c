@@ -421,13 +421,16 @@ static enum MHD_Result do_health(struct MHD_Connection *c, req *r)
 {
     lrd_jobs_stats js;
     lrd_jobs_stats_get(&js);
-    char *json = malloc(160);
+    char *json = malloc(200);
     if (json == NULL)
         return MHD_NO;
-    snprintf(json, 160,
+    /* token_required lets the page ask for the token before its first
+     * call rather than after a 401. */
+    snprintf(json, 200,
              "{\"status\":\"ok\",\"version\":\"%s\",\"workers\":%ld,"
-             "\"running\":%ld,\"queue_depth\":%ld}",
-             LRD_VERSION, lrd_cfg.workers, js.running, js.queue_depth);
+             "\"running\":%ld,\"queue_depth\":%ld,\"token_required\":%s}",
+             LRD_VERSION, lrd_cfg.workers, js.running, js.queue_depth,
+             lrd_cfg.token != NULL ? "true" : "false");
     return send_json(c, r, 200, json, NULL);
 }
 
@@ -463,6 +466,54 @@ static enum MHD_Result do_lenses(struct MHD_Connection *c, req *r)
     return send_json(c, r, 200, json, NULL);
 }
 
+static enum MHD_Result do_options(struct MHD_Connection *c, req *r)
+{
+    lrd_err e;
+    char *json = lrd_options_json(&e);
+    if (json == NULL)
+        return send_error(c, r, &e, NULL);
+    return send_json(c, r, 200, json, NULL);
+}
+
+static enum MHD_Result do_job_plan(struct MHD_Connection *c, req *r)
+{
+    enum MHD_Result result = MHD_NO;
+    lrd_job *j = find_or_404(c, r, &result);
+    if (j == NULL)
+        return result;
+    lrd_err e;
+    char *json = lrd_job_plan_json(j, &e);
+    lrd_job_release(j);
+    if (json == NULL)
+        return send_error(c, r, &e, NULL);
+    return send_json(c, r, 200, json, NULL);
+}
+
+/* The page's files (ui.c).  They are open: the page must load before it
+ * can ask for the token, and it holds no secret.  The policy keeps it to
+ * its own files and this server, as it is written to be. */
+static enum MHD_Result do_ui(struct MHD_Connection *c, req *r)
+{
+    /* The route matched the path exactly, so the log's copy is it. */
+    const lrd_ui_file *f = lrd_ui_find(r->path);
+    if (f == NULL) {
+        lrd_err e;
+        lrd_fail(&e, 404, "not_found", NULL,
+                 "there is no route %s %s (the page is off: --no-ui)",
+                 r->method, r->path);
+        return send_error(c, r, &e, NULL);
+    }
+    struct MHD_Response *resp = MHD_create_response_from_buffer(
+        f->len, (void *)f->data, MHD_RESPMEM_PERSISTENT);
+    const char *hdrs[] = {
+        "Content-Security-Policy",
+        "default-src 'none'; script-src 'self'; style-src 'self'; "
+        "img-src 'self' blob: data:; connect-src 'self'; "
+        "frame-ancestors 'none'",
+        "X-Content-Type-Options", "nosniff", NULL};
+    return queue(c, r, 200, resp, f->len, f->content_type, hdrs);
+}
+
 /* ---- routes -------------------------------------------------------------- */
 
 /* A route: a method, a path pattern of literal segments and "{id}" (one
@@ -488,6 +539,11 @@ static const route routes[] = {
     {"GET", "/v1/jobs/{id}", do_job, 0, 0},
     {"DELETE", "/v1/jobs/{id}", do_job_delete, 0, 0},
     {"GET", "/v1/jobs/{id}/image", do_job_image, 0, 0},
+    {"GET", "/v1/jobs/{id}/plan", do_job_plan, 0, 0},
+    {"GET", "/v1/options", do_options, 0, 0},
+    {"GET", "/", do_ui, 1, 0},
+    {"GET", "/ui/page.js", do_ui, 1, 0},
+    {"GET", "/ui/page.css", do_ui, 1, 0},
 };
 #define N_ROUTES (sizeof routes / sizeof routes[0])
 

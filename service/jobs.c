@@ -503,6 +503,7 @@ void lrd_job_release(lrd_job *j)
 }
 
 const char *lrd_job_id(const lrd_job *j) { return j->id; }
+const lrd_job_spec *lrd_job_spec_of(const lrd_job *j) { return &j->spec; }
 
 int lrd_job_wait(lrd_job *j, double seconds)
 {
@@ -629,6 +630,16 @@ char *lrd_job_status_json(lrd_job *j)
     cJSON_AddNumberToObject(o, "height", c.spec.height);
     cJSON_AddNumberToObject(o, "spp", c.spec.rs.spp);
     cJSON_AddStringToObject(o, "format", lr_format_name(c.spec.out.format));
+    /* The camera the render uses, its autofocus resolved (one ray): what
+     * a click on the page focused on.  The spec is immutable and the
+     * caller's reference keeps its scene. */
+    char *cam = lrd_spec_camera_json(&j->spec);
+    if (cam == NULL || cJSON_AddRawToObject(o, "camera", cam) == NULL) {
+        lr_free(cam);
+        cJSON_Delete(o);
+        return NULL;
+    }
+    lr_free(cam);
     /* A job cancelled in the queue never started: started is 0. */
     int ran = c.started > 0;
     add_time(o, "created_at", c.created_wall, 1);

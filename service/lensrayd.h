@@ -14,6 +14,9 @@
  *   metrics.c      counters and the Prometheus text exposition
  *   util.c         errors as JSON, clocks, ids, size parsing
  *   sha256.c       SHA-256 (OpenSSL), for cache keys and the token comparison
+ *   inspect.c      what the page shows: models and names, a job's resolved
+ *                  camera, a job's plan
+ *   ui.c           the page (service/ui/, embedded at build time)
  *
  * Threads: libmicrohttpd runs one thread per connection; renders run on
  * the worker pool of jobs.c and never on an HTTP thread.  Every module
@@ -63,6 +66,7 @@ typedef struct lrd_config {
     uint64_t max_retained;    /* image bytes kept by finished jobs */
     long scene_cache;         /* loaded scenes kept */
     double shutdown_grace;    /* seconds running jobs get at shutdown */
+    long no_ui;               /* 1: GET / and the page's files are 404 */
 } lrd_config;
 
 /* The one configuration; defined in main.c. */
@@ -272,6 +276,10 @@ typedef struct lrd_job_result {
 } lrd_job_result;
 void lrd_job_result_get(lrd_job *j, lrd_job_result *out);
 
+/* The job's spec: immutable once queued, so read without a lock; valid
+ * while the caller holds its reference to the job. */
+const lrd_job_spec *lrd_job_spec_of(const lrd_job *j);
+
 /* The job's status document (GET /v1/jobs/{id}); malloc'ed or NULL. */
 char *lrd_job_status_json(lrd_job *j);
 
@@ -310,6 +318,36 @@ long lrd_http_in_flight(void);
 void lrd_http_stop(void);
 /* True once shutdown has begun. */
 int lrd_shutting_down(void);
+
+/* ------------------------------------------------------------------------
+ * What the page shows (inspect.c) and the page itself (ui.c)
+ * ---------------------------------------------------------------------- */
+
+/* GET /v1/options: {"camera_models": [{"name", "autofocus", "chromatic",
+ * "defaults"}], "samplers": [...], "chromatic_modes": [...]}, found by
+ * asking the library; malloc'ed, or NULL with *e. */
+char *lrd_options_json(lrd_err *e);
+
+/* The camera a job renders with, its autofocus resolved (as lr_render
+ * resolves it; unresolved when it fails): lr_camera_json text, release
+ * with lr_free; NULL when out of memory. */
+char *lrd_spec_camera_json(const lrd_job_spec *spec);
+
+/* GET /v1/jobs/{id}/plan: the job's plan map (lr_render_plan_map) as
+ * JSON; malloc'ed, or NULL with *e. */
+char *lrd_job_plan_json(lrd_job *j, lrd_err *e);
+
+/* A file of the page, generated from service/ui/ into ui_files.c. */
+typedef struct lrd_ui_file {
+    const char *path;          /* the URL path: "/", "/ui/page.js" */
+    const char *content_type;
+    const unsigned char *data;
+    size_t len;
+} lrd_ui_file;
+extern const lrd_ui_file lrd_ui_files[]; /* ended by a NULL path */
+
+/* The page's file at `path`, or NULL (also for every path with --no-ui). */
+const lrd_ui_file *lrd_ui_find(const char *path);
 
 /* ------------------------------------------------------------------------
  * Metrics (metrics.c)

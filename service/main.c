@@ -29,7 +29,8 @@ typedef enum opt_type {
     T_STR,   /* a string into a char array */
     T_LONG,  /* a whole number */
     T_U64,   /* a whole number, or a byte size with k/M/G when `size` */
-    T_SECS   /* seconds, fractions allowed */
+    T_SECS,  /* seconds, fractions allowed */
+    T_FLAG   /* on when given without a value; 0 or 1 with one */
 } opt_type;
 
 typedef struct opt {
@@ -91,6 +92,8 @@ static const opt opts[] = {
     {"shutdown-grace", T_SECS, &lrd_cfg.shutdown_grace, 0, 0, 0, 86400,
      "seconds running jobs get to finish on SIGTERM before they are "
      "cancelled"},
+    {"no-ui", T_FLAG, &lrd_cfg.no_ui, 0, 0, 0, 1,
+     "do not serve the page at / (docs/page.md): 404 instead"},
 };
 #define N_OPTS (sizeof opts / sizeof opts[0])
 
@@ -117,7 +120,8 @@ static int set_opt(const opt *o, const char *value, const char *from)
         }
         snprintf(o->ptr, o->cap, "%s", value);
         return 0;
-    case T_LONG: {
+    case T_LONG:
+    case T_FLAG: {
         uint64_t v = 0;
         if (lrd_parse_u64(value, 0, &v) != 0 || (double)v < o->min ||
             (double)v > o->max) {
@@ -225,6 +229,8 @@ static int configure(int argc, char **argv)
             return -1;
         }
         const char *value = eq ? eq + 1 : NULL;
+        if (value == NULL && o->type == T_FLAG)
+            value = "1";
         if (value == NULL) {
             if (i + 1 >= argc) {
                 fprintf(stderr, "lensrayd: --%s needs a value\n", o->name);

@@ -280,4 +280,5 @@ void lrd_config_defaults(void)
     lrd_cfg.max_retained = 1ull << 30;
     lrd_cfg.scene_cache = 16;
     lrd_cfg.shutdown_grace = 10;
+    lrd_cfg.no_ui = 0;
 }
