@@ -413,14 +413,7 @@ void lr__offset_lens_rays16(const lr__cam *c, int use_lens, int n,
         r->dir_x[i] = vx * inv;
         r->dir_y[i] = vy * inv;
         r->dir_z[i] = vz * inv;
-        r->tnear[i] = 0.0f;
-        r->time[i] = 0.0f;
-        r->tfar[i] = INFINITY;
-        r->mask[i] = 0xFFFFFFFFu;
-        r->id[i] = 0;
-        r->flags[i] = 0;
-        rh->hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
-        rh->hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
+        lr__ray16_open(rh, i);
     }
 }
 

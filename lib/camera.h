@@ -38,6 +38,7 @@
 #include "vec.h"
 
 #include <embree3/rtcore.h>
+#include <math.h>
 
 typedef struct lr__cam lr__cam;
 
@@ -247,6 +248,20 @@ void lr__offset_lens_rays16(const lr__cam *c, int use_lens, int n,
                             struct RTCRayHit16 *rh, float *wt);
 /* The bound of an offset lens at the eye: R = the aperture's reach. */
 void lr__offset_lens_bound(const lr__cam *c, lr__lens_bound *b);
+
+/* The fields of packet lane i that every camera ray shares: from t = 0
+ * to infinity, no time, all masks, nothing hit yet. */
+static inline void lr__ray16_open(struct RTCRayHit16 *rh, int i)
+{
+    rh->ray.tnear[i] = 0.0f;
+    rh->ray.time[i] = 0.0f;
+    rh->ray.tfar[i] = INFINITY;
+    rh->ray.mask[i] = 0xFFFFFFFFu;
+    rh->ray.id[i] = 0;
+    rh->ray.flags[i] = 0;
+    rh->hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
+    rh->hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
+}
 
 /* Finite and within +-1e15, the scene format's limit for any number:
  * beyond it Embree is given rays it cannot trace (and aborts). */

@@ -372,6 +372,24 @@ static void to_world(const lr__cam *c, const double o[3], const double d[3],
                            c->forward, -d[2]));
 }
 
+/* Film point (fx, fy) on the sensor, in mm (top of file), with its
+ * distance from the axis and the unit vector of its radial direction. */
+typedef struct sensor_pt {
+    double x, y, r, ex, ey;
+} sensor_pt;
+
+static sensor_pt sensor_at(const lr__cam *c, double fx, double fy)
+{
+    const lr__lens_cam *lc = &c->lens;
+    sensor_pt p;
+    p.x = (0.5 - fx / c->width) * lc->sensor_w;
+    p.y = (fy / c->height - 0.5) * lc->sensor_h;
+    p.r = hypot(p.x, p.y);
+    p.ex = p.r > 0.0 ? p.x / p.r : 1.0;
+    p.ey = p.r > 0.0 ? p.y / p.r : 0.0;
+    return p;
+}
+
 /* The bounds at film radius r, between the table's two neighbouring
  * entries a and b: centred in proportion, as large as the larger of the
  * two plus half the distance their centres move.  Sizes interpolated in
@@ -399,11 +417,9 @@ static double lens_start(const lr__cam *c, double fx, double fy,
                          const double u[2], double o[3], double d[3])
 {
     const lr__lens_cam *lc = &c->lens;
-    double xs = (0.5 - fx / c->width) * lc->sensor_w;
-    double ys = (fy / c->height - 0.5) * lc->sensor_h;
-    double r = hypot(xs, ys);
-    lr__pupil P = pupil_at(lc, r);
-    double ex = r > 0.0 ? xs / r : 1.0, ey = r > 0.0 ? ys / r : 0.0;
+    sensor_pt sp = sensor_at(c, fx, fy);
+    double xs = sp.x, ys = sp.y, ex = sp.ex, ey = sp.ey;
+    lr__pupil P = pupil_at(lc, sp.r);
     double a, b, area;
     double disk = M_PI * P.rad * P.rad, rect = 4.0 * P.hx * P.hy;
     if (disk <= rect) {
@@ -543,14 +559,7 @@ static void lens_rays16(const lr__cam *c, int use_lens, int n,
     }
     for (int i = 0; i < 16; i++) {
         wt[i] = alive[i] ? w[i] : 0.0f;
-        ray->tnear[i] = 0.0f;
-        ray->time[i] = 0.0f;
-        ray->tfar[i] = INFINITY;
-        ray->mask[i] = 0xFFFFFFFFu;
-        ray->id[i] = 0;
-        ray->flags[i] = 0;
-        rh->hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
-        rh->hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
+        lr__ray16_open(rh, i);
     }
 }
 
@@ -561,11 +570,9 @@ static void lens_chief(const lr__cam *c, double fx, double fy, lr__v3 *org,
                        lr__v3 *dir)
 {
     const lr__lens_cam *lc = &c->lens;
-    double xs = (0.5 - fx / c->width) * lc->sensor_w;
-    double ys = (fy / c->height - 0.5) * lc->sensor_h;
-    double r = hypot(xs, ys);
-    lr__pupil P = pupil_at(lc, r);
-    double ex = r > 0.0 ? xs / r : 1.0, ey = r > 0.0 ? ys / r : 0.0;
+    sensor_pt sp = sensor_at(c, fx, fy);
+    double xs = sp.x, ys = sp.y, ex = sp.ex, ey = sp.ey;
+    lr__pupil P = pupil_at(lc, sp.r);
     double o[3] = {xs, ys, lc->z_sensor};
     double d[3] = {ex * P.cx - xs, ey * P.cx - ys, lc->z_rear - lc->z_sensor};
     double len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);

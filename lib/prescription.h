@@ -85,6 +85,16 @@ typedef struct lr__rx {
     lr__surface s[LR__RX_MAX_SURFACES];
 } lr__rx;
 
+/* 1 when the surface has even aspheric terms (traced by Newton's method,
+ * ray by ray). */
+static inline int lr__rx_aspheric(const lr__surface *s)
+{
+    for (int j = 0; j < LR__RX_MAX_ASPH; j++)
+        if (s->asph[j] != 0.0)
+            return 1;
+    return 0;
+}
+
 /* ---- readers (rx_json.c, rx_pbrt.c, rx_zmx.c) --------------------------- */
 
 struct cJSON;

@@ -30,14 +30,6 @@ void lr__rx_indices(const lr__rx *rx, double nm, double *n_after)
         n_after[i] = lr__glass_n(&rx->s[i].after, nm);
 }
 
-static int has_asph(const lr__surface *s)
-{
-    for (int j = 0; j < LR__RX_MAX_ASPH; j++)
-        if (s->asph[j] != 0.0)
-            return 1;
-    return 0;
-}
-
 /* d sag / d r at r (r > 0), and the sag, of surface s; 0 when r lies
  * beyond the conic's reach (1 - (1 + k) c^2 r^2 < 0). */
 static int sag_at(const lr__surface *s, double r, double *sag, double *slope)
@@ -90,7 +82,7 @@ static int intersect(const lr__surface *s, const double o[3],
         return 0;
     for (int a = 0; a < 3; a++)
         p[a] = o[a] + t * d[a];
-    int asph = has_asph(s);
+    int asph = lr__rx_aspheric(s);
     if (asph) {
         /* Newton on F(t) = z(t) - sag(r(t)). */
         for (int it = 0; it < 30; it++) {
@@ -228,7 +220,7 @@ void lr__rx_trace16(const lr__rx *rx, const double *z, const double *n_after,
     for (int step = 0; step < n; step++) {
         int i = n - 1 - step;
         const lr__surface *s = &rx->s[i];
-        if (has_asph(s)) {
+        if (lr__rx_aspheric(s)) {
             for (int l = 0; l < 16; l++) {
                 if (!alive[l])
                     continue;

@@ -8,14 +8,6 @@
 
 #include <math.h>
 
-static int has_asph(const lr__surface *s)
-{
-    for (int j = 0; j < LR__RX_MAX_ASPH; j++)
-        if (s->asph[j] != 0.0)
-            return 1;
-    return 0;
-}
-
 /* The packet camera's version: lr__rx_trace16's loop in float, one
  * AVX-512 vector for the sixteen lanes (Embree traces floats anyway; a
  * lens's millimetres keep 1e-6 mm in float).  Two square roots and a
@@ -35,7 +27,7 @@ void lr__rx_trace16f(const lr__rx *rx, const double *z,
     for (int step = 0; step < n; step++) {
         int i = n - 1 - step;
         const lr__surface *s = &rx->s[i];
-        if (has_asph(s)) {
+        if (lr__rx_aspheric(s)) {
             /* Newton's method, in double, lane by lane: the scalar code
              * through this one surface. */
             for (int l = 0; l < 16; l++) {
