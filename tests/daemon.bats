@@ -847,7 +847,9 @@ EOF
 }
 
 @test "finished jobs are kept for --job-ttl and up to --max-finished-jobs" {
-    start_daemon retain --workers 1 --max-finished-jobs 1 --job-ttl 1
+    # A TTL of 4 s: with 1 s, a machine busy enough to stretch the polls
+    # past it saw the first job expire before it was ever seen done.
+    start_daemon retain --workers 1 --max-finished-jobs 1 --job-ttl 4
     req POST "$DURL/v1/jobs" '{"scene": "tiny"}'
     local first second
     first=$(json o.id)
@@ -859,7 +861,7 @@ EOF
     expect_error 404 job_not_found
     req GET "$DURL/v1/jobs/$second"
     expect 200
-    sleep 1.2
+    sleep 4.5
     req GET "$DURL/v1/jobs/$second/image"
     expect_error 404 job_not_found
 }
