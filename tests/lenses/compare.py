@@ -18,8 +18,10 @@ failed" (one per lens) and exits non-zero on any failure.
 """
 import json
 import math
+import os
 import subprocess
 import sys
+import tempfile
 import warnings
 
 warnings.filterwarnings("ignore")
@@ -143,7 +145,11 @@ def ours(lensray, lens, angles, nm):
 
 
 def main():
-    lensray, lenses = sys.argv[1], sys.argv[2:]
+    lensray = os.path.abspath(sys.argv[1])
+    lenses = [os.path.abspath(p) for p in sys.argv[2:]]
+    # ray-optics' .zmx reader writes zmx_read_lens.log where it runs:
+    # somewhere that is not the source tree.
+    os.chdir(tempfile.mkdtemp(prefix="lensray-compare-"))
     passed = failed = 0
     worst = {"efl": 0, "bfl": 0, "height": 0, "dist": 0}
     for lens in lenses:
