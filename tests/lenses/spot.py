@@ -169,8 +169,8 @@ def render(lensray, tmp, name, f_number, focus_mm, dist, h, radius_mm,
     # region around where ray-optics puts it is rendered.
     half = int(math.ceil(1.25 * reach / pitch)) + 4
     sx, sy = centre
-    # Film x grows to the left of the sensor's x, film y with the
-    # sensor's -y... both as camera_lens.c's lens_start maps them.
+    # Film x runs against the sensor's x, film y with the sensor's y, as
+    # camera_lens.c's lens_start maps them (the picture comes out upright).
     W = 2 * (int(abs(sx) / pitch) + half + 2)
     H = 2 * (int(abs(sy) / pitch) + half + 2)
     fx, fy = W / 2 - sx / pitch, H / 2 + sy / pitch
