@@ -163,8 +163,8 @@ class Lens:
 
 def render(lensray, tmp, name, f_number, focus_mm, dist, h, radius_mm,
            centre, reach, pitch):
-    """The rendered blur's (polar second moment in mm^2, centroid (x, y) in mm on
-    the sensor, share of its light on the region's border)."""
+    """The rendered blur's (polar second moment in mm^2, centroid (x, y)
+    in mm on the sensor, share of its light on the region's border)."""
     # A frame centred on the axis, large enough to hold the spot; only a
     # region around where ray-optics puts it is rendered.
     half = int(math.ceil(1.25 * reach / pitch)) + 4
