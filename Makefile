@@ -206,9 +206,10 @@ $(API_VENV)/.ok: tests/api/requirements.txt $(DEPS_OK)
 # `lensray lens` on every shipped lens and on tests/data/lenses/ against
 # ray-optics (tests/lenses/compare.py, pinned in tests/lenses/
 # requirements.txt, in a virtualenv under build/ made like test-api's):
-# EFL, BFL, pupils, real chief-ray heights, distortion and lateral colour.
-# Ends "N passed, N failed", one per lens.  About 15 s once the
-# virtualenv exists.
+# EFL, BFL, pupils, real chief-ray heights, distortion and lateral colour;
+# then a defocused point's rendered blur against ray-optics' spot diagram
+# (tests/lenses/spot.py).  Ends "N passed, N failed", one per lens and one
+# per spot case.  About 30 s once the virtualenv exists.
 LENS_VENV := $(BUILD)/lens-venv
 
 .PHONY: test-lenses

@@ -13,8 +13,10 @@ Glasses: catalogue names go to ray-optics' own catalogue (the makers'
 data as opticalglass ships it); {nd, vd} glasses are given to ray-optics
 as their index at each traced wavelength by lensray's stated model,
 n = nd + B (1/l^2 - 1/ld^2), B = (nd - 1) / (vd (1/lF^2 - 1/lC^2)), since
-ray-optics' model glass is another model.  Ends "N passed, N
-failed" (one per lens) and exits non-zero on any failure.
+ray-optics' model glass is another model.  Then spot.py's cases: a
+defocused point's rendered blur against ray-optics' spot diagram.  Ends
+"N passed, N failed" (one per lens and one per spot case) and exits
+non-zero on any failure.
 """
 import json
 import math
@@ -241,6 +243,9 @@ def main():
     print("worst: EFL %.2e, BFL %.2e (relative); image height %.2e, "
           "distortion %.2e (of the focal length)" %
           (worst["efl"], worst["bfl"], worst["height"], worst["dist"]))
+    import spot  # it builds its lenses with this file's functions
+    p, f = spot.run(lensray)
+    passed, failed = passed + p, failed + f
     print("%d passed, %d failed" % (passed, failed))
     return 1 if failed else 0
 
