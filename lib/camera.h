@@ -163,6 +163,11 @@ typedef struct lr__lens_cam {
     double n_rgb[3][LR__RX_MAX_SURFACES]; /* and at nm_rgb */
     double pupil_rmax;         /* film radius of the table's last entry */
     lr__pupil pupil[LR__PUPIL_N + 1];
+    /* Per interval k of film radii, the bounds pupil_at gives there
+     * (camera_lens.c), in float for the packet path: the centre at the
+     * interval's start and its change across it, radius, half sides. */
+    float band_cx[LR__PUPIL_N], band_dcx[LR__PUPIL_N];
+    float band_rad[LR__PUPIL_N], band_hx[LR__PUPIL_N], band_hy[LR__PUPIL_N];
     double inv_E0;             /* 1 / the on-axis irradiance integral */
 } lr__lens_cam;
 

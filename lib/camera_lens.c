@@ -297,6 +297,8 @@ static void pupils(lr__cam *c, int colours)
     pthread_mutex_unlock(&L->mu);
 }
 
+static lr__pupil pupil_at(const lr__lens_cam *lc, double r);
+
 /* ---- setup ------------------------------------------------------------------ */
 
 static void setup(lr__cam *c, const lr_camera *cam)
@@ -355,6 +357,14 @@ static void setup(lr__cam *c, const lr_camera *cam)
         colours = c->chroma.mode == LR_CHROMATIC_RGB ? 1 : 2;
     }
     pupils(c, colours);
+    for (int k = 0; k < LR__PUPIL_N; k++) {
+        lr__pupil a = pupil_at(lc, lc->pupil_rmax * k / LR__PUPIL_N);
+        lc->band_cx[k] = (float)a.cx;
+        lc->band_dcx[k] = (float)(lc->pupil[k + 1].cx - lc->pupil[k].cx);
+        lc->band_rad[k] = (float)a.rad;
+        lc->band_hx[k] = (float)a.hx;
+        lc->band_hy[k] = (float)a.hy;
+    }
 }
 
 /* ---- rays ----------------------------------------------------------------------- */
@@ -484,12 +494,7 @@ static void lens_rays16(const lr__cam *c, int use_lens, int n,
     (void)use_lens; /* a real lens is always sampled */
     const lr__lens_cam *lc = &c->lens;
     float lx[16], ly[16], o[3][16], d[3][16], w[16];
-    float tb[4][LR__PUPIL_N + 1];
     int alive[16];
-    for (int k = 0; k <= LR__PUPIL_N; k++) {
-        tb[0][k] = (float)lc->pupil[k].cx, tb[1][k] = (float)lc->pupil[k].rad;
-        tb[2][k] = (float)lc->pupil[k].hx, tb[3][k] = (float)lc->pupil[k].hy;
-    }
     lr__aperture_sample16(LR_APERTURE_DISK, 0, 0.0, 1.0, n, lu, lv, lx, ly);
     const float iw = (float)(1.0 / c->width), ih = (float)(1.0 / c->height);
     const float sw = (float)lc->sensor_w, sh = (float)lc->sensor_h;
@@ -507,12 +512,9 @@ static void lens_rays16(const lr__cam *c, int use_lens, int n,
         int k = (int)t;
         k = k < LR__PUPIL_N - 1 ? k : LR__PUPIL_N - 1;
         float f = t - (float)k;
-        /* pupil_at's bounds. */
-        float cx = tb[0][k] + f * (tb[0][k + 1] - tb[0][k]);
-        float move = 0.5f * fabsf(tb[0][k + 1] - tb[0][k]);
-        float rad = fmaxf(tb[1][k], tb[1][k + 1]) + move;
-        float hx = fmaxf(tb[2][k], tb[2][k + 1]) + move;
-        float hy = fmaxf(tb[3][k], tb[3][k + 1]);
+        /* pupil_at's bounds, from the interval's table. */
+        float cx = lc->band_cx[k] + f * lc->band_dcx[k];
+        float rad = lc->band_rad[k], hx = lc->band_hx[k], hy = lc->band_hy[k];
         float disk = pi * rad * rad, rect = 4.0f * hx * hy;
         int use_disk = disk <= rect;
         float a = use_disk ? rad * lx[i] : (2.0f * lu[i] - 1.0f) * hx;
