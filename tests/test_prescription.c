@@ -76,9 +76,9 @@ static void test_hoya_matches_equivalents(void **state)
 {
     (void)state;
     static const char *pairs[][2] = {
-        {"BSC7", "N-BK7"},     {"FC5", "N-FK5"},   {"FCD1", "S-FPL51"},
-        {"BAC4", "N-BAK4"},    {"BACD16", "N-SK16"}, {"NBFD13", "S-LAH53"},
-        {"TAF3", "N-LASF44"},  {"E-FD5", "N-SF5"}, {"E-FDS1", "N-SF66"}};
+        {"BSC7", "N-BK7"},    {"FC5", "N-FK5"},     {"FCD1", "S-FPL51"},
+        {"BAC4", "N-BAK4"},   {"BACD16", "N-SK16"}, {"NBFD13", "S-LAH53"},
+        {"TAF3", "N-LASF44"}, {"E-FD5", "N-SF5"},   {"E-FDS1", "N-SF66"}};
     double worst = 0;
     for (size_t i = 0; i < sizeof pairs / sizeof pairs[0]; i++) {
         lr__glass h, s;
