@@ -64,6 +64,9 @@ static int glass_equal(const lr__glass *a, const lr__glass *b)
     for (int i = 0; i < 3; i++)
         if (a->B[i] != b->B[i] || a->C[i] != b->C[i])
             return 0;
+    for (int i = 0; i < 6; i++)
+        if (a->A[i] != b->A[i])
+            return 0;
     return a->nd == b->nd && a->vd == b->vd;
 }
 

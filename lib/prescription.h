@@ -43,13 +43,16 @@ typedef enum lr__glass_kind {
     LR__GLASS_AIR,       /* n = 1 at every wavelength */
     LR__GLASS_SELLMEIER, /* n^2 - 1 = sum B_i l^2 / (l^2 - C_i), l in um */
     LR__GLASS_ABBE,      /* from nd and vd alone (see glass.c) */
-    LR__GLASS_CONSTANT   /* nd at every wavelength (pbrt-v4's files) */
+    LR__GLASS_CONSTANT,  /* nd at every wavelength (pbrt-v4's files) */
+    LR__GLASS_LAURENT    /* HOYA's power series: n^2 = A0 + A1 l^2 +
+                          * A2 l^-2 + A3 l^-4 + A4 l^-6 + A5 l^-8, l in um */
 } lr__glass_kind;
 
 typedef struct lr__glass {
     lr__glass_kind kind;
     char name[32];     /* the catalogue name, or "" when given by numbers */
     double B[3], C[3]; /* SELLMEIER; C in um^2 */
+    double A[6];       /* LAURENT: A0..A5 */
     double nd, vd;     /* ABBE and CONSTANT (vd unused there) */
 } lr__glass;
 
