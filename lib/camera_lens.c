@@ -562,6 +562,9 @@ static void lens_rays16(const lr__cam *c, int use_lens, int n,
     for (int i = 0; i < 16; i++) {
         wt[i] = alive[i] ? w[i] : 0.0f;
         lr__ray16_open(rh, i);
+        /* A ray the lens stopped is inactive for Embree (tnear > tfar):
+         * not traced, it shades as a miss, weighted 0. */
+        rh->ray.tfar[i] = alive[i] ? INFINITY : -INFINITY;
     }
 }
 
