@@ -22,6 +22,8 @@ DEPS := /usr/include/embree3/rtcore.h:libembree-dev \
         /usr/include/microhttpd.h:libmicrohttpd-dev \
         /usr/include/openssl/evp.h:libssl-dev \
         /usr/include/cmocka.h:libcmocka-dev \
+        curl-config:libcurl4-openssl-dev \
+        /usr/sbin/nginx:nginx \
         pkg-config:pkg-config bats:bats curl:curl node:nodejs npm:npm \
         python3:python3
 
@@ -105,8 +107,10 @@ $(BUILD)/liblensray.so: $(BUILD)/liblensray.so.$(VERSION)
 	ln -sf liblensray.so.$(VERSION) $@
 
 # ---- command-line tool --------------------------------------------------
-$(BUILD)/lensray: $(BUILD)/obj/tools/lensray.o $(BUILD)/liblensray.a
-	$(CC) $(LDFLAGS) -o $@ $^ $(LIB_LIBS)
+# tools/remote.c renders on daemons (--remote) through libcurl.
+CLI_OBJ  := $(patsubst %.c,$(BUILD)/obj/%.o,$(wildcard tools/*.c))
+$(BUILD)/lensray: $(CLI_OBJ) $(BUILD)/liblensray.a
+	$(CC) $(LDFLAGS) -o $@ $^ $(LIB_LIBS) -lcurl
 
 # ---- daemon -------------------------------------------------------------
 SVC_OBJ  := $(SVC_SRC:%.c=$(BUILD)/obj/%.o)
@@ -118,6 +122,18 @@ $(BUILD)/lensrayd: $(SVC_OBJ) $(BUILD)/liblensray.a
 # Builds and starts the daemon on the built-in scenes (Ctrl-C stops it).
 serve: all $(BUILD)/lensrayd
 	$(BUILD)/lensrayd --port $(PORT) --scenes scenes
+
+# ---- the farm -------------------------------------------------------------
+# FARM_N daemons on loopback ports behind nginx on FARM_PORT
+# (farm/farm.sh, farm/nginx.conf.in; docs/deploy.md for real machines).
+# Pids and logs go to $(BUILD)/farm; `make farm-stop` stops exactly those.
+FARM_N    ?= 3
+FARM_PORT ?= 8090
+.PHONY: farm farm-stop
+farm: all
+	sh farm/farm.sh start $(BUILD) $(FARM_N) $(FARM_PORT)
+farm-stop:
+	sh farm/farm.sh stop $(BUILD)
 
 # ---- scenes -------------------------------------------------------------
 bunny: $(BUNNY)
@@ -433,6 +449,6 @@ install: all
 clean:
 	rm -rf $(BUILD)
 
--include $(LIB_OBJ:.o=.d) $(TEST_OBJ:.o=.d) $(SVC_OBJ:.o=.d) $(BUILD)/obj/tools/lensray.d \
+-include $(LIB_OBJ:.o=.d) $(TEST_OBJ:.o=.d) $(SVC_OBJ:.o=.d) $(CLI_OBJ:.o=.d) \
          $(REPLAY_OBJ:.o=.d) $(wildcard $(BUILD)/obj/fuzz/lf_*.d) \
          $(BUILD)/obj/tests/oom/oom.d

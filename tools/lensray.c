@@ -3,12 +3,15 @@
  *
  *   lensray render SCENE.json -o OUT.exr|OUT.png [--set PATH=VALUE]...
  *                  [--stats] [--half] [--png16] [--depth] [--quiet]
+ *                  [--remote URL [--parts N] [--parallel K] [--retries R]
+ *                   [--token-file F]]
  *   lensray version
  *   lensray --help
  *
  * Exit codes: 0 ok, 2 usage, 3 bad scene, 4 I/O, 130 interrupted.
  */
 #include "lensray.h"
+#include "remote.h"
 
 #include <errno.h>
 #include <signal.h>
@@ -39,6 +42,16 @@ static const char usage_text[] =
     "  --png16             PNG: 16 bits per channel\n"
     "  --depth             also render the Z channel (written to EXR)\n"
     "  -q, --quiet         no progress bar\n"
+    "\n"
+    "rendering on daemons (docs/deploy.md):\n"
+    "  --remote URL        render on lensrayd at URL (one daemon, or many\n"
+    "                      behind a balancer) as region parts, stitched into\n"
+    "                      the same pixels as a local render; the scene's\n"
+    "                      meshes are read from the daemons' scenes directory\n"
+    "  --parts N           parts to cut the frame into (default 16)\n"
+    "  --parallel K        parts sent at a time (default 4)\n"
+    "  --retries R         further attempts of a failed part (default 4)\n"
+    "  --token-file F      the daemons' bearer token, first line of F\n"
     "\n"
     "exit status: 0 ok, 2 usage, 3 bad scene, 4 I/O error, 130 interrupted\n";
 
@@ -108,6 +121,77 @@ static long peak_rss_kib(void)
     return kib;
 }
 
+/* A whole number in [lo, hi] from the whole of `s`: 0, or -1. */
+static int parse_int(const char *s, int lo, int hi, int *out)
+{
+    char *end;
+    errno = 0;
+    long v = strtol(s, &end, 10);
+    if (errno != 0 || end == s || *end != '\0' || v < lo || v > hi)
+        return -1;
+    *out = (int)v;
+    return 0;
+}
+
+/* The first line of `path`, trailing whitespace dropped, as lensrayd
+ * reads its --token-file.  0, or -1 with the reason printed. */
+static int read_token(const char *path, char *out, size_t size)
+{
+    FILE *f = fopen(path, "r");
+    if (f == NULL || fgets(out, (int)size, f) == NULL) {
+        fprintf(stderr, "lensray: --token-file %s: %s\n", path,
+                f == NULL ? strerror(errno) : "the file is empty");
+        if (f != NULL)
+            fclose(f);
+        return -1;
+    }
+    fclose(f);
+    size_t n = strlen(out);
+    while (n > 0 && (out[n - 1] == '\n' || out[n - 1] == '\r' ||
+                     out[n - 1] == ' ' || out[n - 1] == '\t'))
+        out[--n] = '\0';
+    return 0;
+}
+
+/* The scene file's text, for --remote: malloc'ed, or NULL with the
+ * reason printed. */
+static char *read_text(const char *path, size_t *len)
+{
+    FILE *f = fopen(path, "rb");
+    char *buf = NULL;
+    size_t cap = 0;
+    *len = 0;
+    if (f == NULL) {
+        fprintf(stderr, "lensray: %s: %s\n", path, strerror(errno));
+        return NULL;
+    }
+    for (;;) {
+        if (*len == cap) {
+            cap = cap ? cap * 2 : 65536;
+            char *grown = realloc(buf, cap);
+            if (grown == NULL) {
+                fprintf(stderr, "lensray: out of memory\n");
+                free(buf);
+                fclose(f);
+                return NULL;
+            }
+            buf = grown;
+        }
+        size_t got = fread(buf + *len, 1, cap - *len, f);
+        *len += got;
+        if (got == 0)
+            break;
+    }
+    int bad = ferror(f);
+    fclose(f);
+    if (bad) {
+        fprintf(stderr, "lensray: %s: read error\n", path);
+        free(buf);
+        return NULL;
+    }
+    return buf;
+}
+
 static int exit_for(lr_status st)
 {
     switch (st) {
@@ -118,12 +202,47 @@ static int exit_for(lr_status st)
     }
 }
 
+/* Writes the image; the exit status. */
+static int write_image(const lr_image *img, const char *path,
+                       const lr_output_options *oo)
+{
+    lr_error err;
+    lr_status st = lr_image_write(img, path, oo, &err);
+    if (st == LR_OK)
+        return EXIT_OK;
+    fprintf(stderr, "lensray: %s\n", err.message);
+    return exit_for(st) == EXIT_SCENE ? EXIT_IO : exit_for(st);
+}
+
+/* --remote: the frame on the daemons (tools/remote.c); the exit status.
+ * With --stats, one JSON line of what it took. */
+static int render_remote(const remote_options *ro, const char *scene_path,
+                         const lr_camera *cam, const lr_render_settings *rs,
+                         lr_image **img, int stats)
+{
+    size_t len;
+    char *text = read_text(scene_path, &len);
+    if (text == NULL)
+        return EXIT_IO;
+    remote_stats st;
+    int rc = remote_render(ro, text, len, cam, rs, img, &st);
+    free(text);
+    if (rc == EXIT_OK && stats)
+        printf("{\"remote\": true, \"seconds\": %.3f, \"parts\": %d, "
+               "\"requests\": %d, \"retries\": %d}\n",
+               st.seconds, st.parts, st.attempts, st.retries);
+    return rc;
+}
+
 static int cmd_render(int argc, char **argv)
 {
     const char *scene_path = NULL, *out_path = NULL;
     int stats = 0, quiet = 0, want_depth = 0;
     lr_output_options oo;
     lr_output_options_default(&oo);
+    remote_options ro = {NULL, NULL, 16, 4, 4, 0, &cancel_flag};
+    const char *token_file = NULL, *remote_flag = NULL;
+    char token[512];
     const char **sets = calloc((size_t)argc, sizeof *sets);
     size_t n_sets = 0;
     if (sets == NULL) {
@@ -157,6 +276,32 @@ static int cmd_render(int argc, char **argv)
             want_depth = 1;
         } else if (strcmp(a, "-q") == 0 || strcmp(a, "--quiet") == 0) {
             quiet = 1;
+        } else if (strcmp(a, "--remote") == 0 ||
+                   strcmp(a, "--token-file") == 0) {
+            if (i + 1 >= argc) {
+                rc = usage_error("%s needs a value", a);
+                goto done;
+            }
+            if (a[2] == 'r')
+                ro.url = argv[++i];
+            else
+                token_file = argv[++i];
+        } else if (strcmp(a, "--parts") == 0 ||
+                   strcmp(a, "--parallel") == 0 ||
+                   strcmp(a, "--retries") == 0) {
+            int *dst = strcmp(a, "--parts") == 0      ? &ro.parts
+                       : strcmp(a, "--parallel") == 0 ? &ro.parallel
+                                                      : &ro.retries;
+            int lo = dst == &ro.retries ? 0 : 1;
+            if (i + 1 >= argc || parse_int(argv[i + 1], lo, 100000, dst) != 0) {
+                char what[64];
+                snprintf(what, sizeof what, "%s needs a whole number from %d "
+                         "to 100000", a, lo);
+                rc = usage_error("%s", what);
+                goto done;
+            }
+            i++;
+            remote_flag = a;
         } else if (a[0] == '-' && a[1] != '\0') {
             rc = usage_error("unknown option '%s'", a);
             goto done;
@@ -176,11 +321,33 @@ static int cmd_render(int argc, char **argv)
                                "-o OUT.png");
         goto done;
     }
-    for (size_t i = 0; i < n_sets; i++)
+    for (size_t i = 0; i < n_sets; i++) {
         if (strchr(sets[i], '=') == NULL) {
             rc = usage_error("--set '%s' must look like PATH=VALUE", sets[i]);
             goto done;
         }
+        /* The daemons get the scene file as it is, with the camera and
+         * settings as this process reads them: other overrides would not
+         * reach them. */
+        if (ro.url != NULL && strncmp(sets[i], "camera.", 7) != 0 &&
+            strncmp(sets[i], "render.", 7) != 0) {
+            rc = usage_error("--set '%s': with --remote only camera.* and "
+                             "render.* can be overridden", sets[i]);
+            goto done;
+        }
+    }
+    if (ro.url == NULL && (token_file != NULL || remote_flag != NULL)) {
+        rc = usage_error("%s is for --remote",
+                         token_file != NULL ? "--token-file" : remote_flag);
+        goto done;
+    }
+    if (token_file != NULL) {
+        if (read_token(token_file, token, sizeof token) != 0) {
+            rc = EXIT_IO;
+            goto done;
+        }
+        ro.token = token;
+    }
 
     /* Check the output name before rendering, so that a long render is
      * never thrown away for want of a valid file name. */
@@ -265,6 +432,16 @@ static int cmd_render(int argc, char **argv)
 
     lr_image *img = NULL;
     lr_render_stats rst;
+    memset(&rst, 0, sizeof rst);
+    if (ro.url != NULL) {
+        ro.quiet = quiet;
+        rc = render_remote(&ro, scene_path, &cam, &rs, &img, stats);
+        if (rc == EXIT_OK)
+            rc = write_image(img, out_path, &oo);
+        lr_image_free(img);
+        lr_scene_free(scene);
+        goto done;
+    }
     st = lr_render(scene, &cam, &rs, &img, &rst, &err);
     if (st != LR_OK) {
         /* End the progress bar's line first, if there is one. */
