@@ -142,13 +142,24 @@ static void end_part(CURLM *multi, part *p)
     p->headers = NULL;
 }
 
-/* The daemon's error answer is JSON with a "message"; the first line of
- * the body (cut to fit) says enough for a person either way. */
+/* The daemon's error answer is JSON whose "message" names the field and
+ * the limit (docs/api.md, section 5): that string when there is one (its
+ * escapes left as they are), else the first line of the body (a proxy's
+ * page), cut to fit. */
 static void answer_text(const part *p, char *out, size_t size)
 {
     size_t n = p->len < size - 1 ? p->len : size - 1;
     memcpy(out, p->answer ? (const char *)p->answer : "", n);
     out[n] = '\0';
+    static const char key[] = "\"message\":\"";
+    char *m = strstr(out, key);
+    if (m != NULL) {
+        char *s = m + sizeof key - 1, *e = s;
+        while (*e != '\0' && !(*e == '"' && e[-1] != '\\'))
+            e++;
+        *e = '\0';
+        memmove(out, s, (size_t)(e - s) + 1);
+    }
     char *nl = strchr(out, '\n');
     if (nl != NULL)
         *nl = '\0';

@@ -1,0 +1,182 @@
+#!/usr/bin/env bats
+# farm.bats: the render farm (issue 14) on loopback: three lensrayd behind
+# nginx (farm/farm.sh, as `make farm` starts it), and `lensray render
+# --remote`.  A frame cut into 12 parts equals the local render byte for
+# byte (the output file, EXR with Z and PNG); a daemon SIGKILLed while it
+# holds a part does not stop the frame; a client whose daemon disappears
+# sends its part again.  Nothing waits for a time to pass: a daemon is
+# held with SIGSTOP until the test kills it, so the order of events is
+# fixed.
+#
+#     LENSRAY_BUILD=build bats tests/farm.bats
+
+bats_require_minimum_version 1.5.0
+
+setup_file() {
+    REPO="$(cd "$BATS_TEST_DIRNAME/.." && pwd)"
+    local build="${LENSRAY_BUILD:-build}"
+    case "$build" in
+    /*) ;;
+    *) build="$REPO/$build" ;;
+    esac
+    export BUILD="$build" LENSRAY="$build/lensray"
+    export FARM="$BATS_FILE_TMPDIR/farm"
+    # The caller's LENSRAYD_* variables must not change the daemons here.
+    local v
+    for v in $(env | sed -n 's/^\(LENSRAYD_[A-Z_]*\)=.*/\1/p'); do
+        unset "$v"
+    done
+    # nginx needs a fixed port: try a few random ones, in case another
+    # program on this machine has the first.
+    local i port
+    for i in 1 2 3 4 5; do
+        port=$((20000 + $(od -An -N2 -tu2 /dev/urandom) % 40000))
+        if (cd "$REPO" && sh farm/farm.sh start "$BUILD" 3 "$port" "$FARM") \
+            >"$BATS_FILE_TMPDIR/farm-start.log" 2>&1 3>&-; then
+            export URL="http://127.0.0.1:$port"
+            return 0
+        fi
+    done
+    cat "$BATS_FILE_TMPDIR/farm-start.log" >&2
+    return 1
+}
+
+teardown_file() {
+    (cd "$REPO" && sh farm/farm.sh stop "$BUILD" "$FARM") >/dev/null 2>&1 || true
+}
+
+teardown() {
+    local pid
+    for pid in ${CLIENT_PID:-} ${SOLO_PID:-}; do
+        kill -KILL "$pid" 2>/dev/null || true
+        wait "$pid" 2>/dev/null || true
+    done
+}
+
+SIZE="--set render.width=160 --set render.height=120 --set render.spp=8"
+
+# pid_of NAME: the pid farm.sh recorded for daemon NAME.
+pid_of() {
+    sed -n "s/^$1 //p" "$FARM/pids"
+}
+
+# wait_for FILE PATTERN: until FILE has a line matching PATTERN (grep -E),
+# or the process CLIENT_PID has ended.  Fails if the pattern never came.
+wait_for() {
+    while ! grep -qE "$2" "$1" 2>/dev/null; do
+        kill -0 "$CLIENT_PID" 2>/dev/null || break
+        sleep 0.05
+    done
+    grep -qE "$2" "$1"
+}
+
+@test "farm: the pids file names three daemons and nginx, all alive" {
+    [ "$(wc -l <"$FARM/pids")" -eq 4 ]
+    for name in daemon-1 daemon-2 daemon-3 nginx; do
+        kill -0 "$(pid_of $name)"
+    done
+    run curl -sf "$URL/healthz"
+    [ "$status" -eq 0 ]
+    [[ "$output" == *'"status":"ok"'* ]]
+}
+
+@test "12 parts through nginx equal the local render byte for byte (EXR with Z, PNG)" {
+    cd "$REPO"
+    for scene in spheres cornell; do
+        "$LENSRAY" render scenes/$scene.json -o "$BATS_TEST_TMPDIR/local.exr" $SIZE --depth -q
+        run -0 "$LENSRAY" render scenes/$scene.json -o "$BATS_TEST_TMPDIR/farm.exr" $SIZE --depth \
+            --remote "$URL" --parts 12 --parallel 6 --stats
+        [[ "$output" == *'"parts": 12'* ]]
+        cmp "$BATS_TEST_TMPDIR/local.exr" "$BATS_TEST_TMPDIR/farm.exr"
+    done
+    "$LENSRAY" render scenes/spheres.json -o "$BATS_TEST_TMPDIR/local.png" $SIZE -q
+    "$LENSRAY" render scenes/spheres.json -o "$BATS_TEST_TMPDIR/farm.png" $SIZE -q \
+        --remote "$URL" --parts 12
+    cmp "$BATS_TEST_TMPDIR/local.png" "$BATS_TEST_TMPDIR/farm.png"
+    # The parts were spread: every daemon served some.
+    for k in 1 2 3; do
+        grep -q "upstream=\[127.0.0.1:$(cat "$FARM/daemon-$k.port")\] ustatus=\[200\]" \
+            "$FARM/nginx-access.log"
+    done
+}
+
+@test "a daemon SIGKILLed while it holds a part: the frame completes, equal to the local render" {
+    cd "$REPO"
+    "$LENSRAY" render scenes/spheres.json -o "$BATS_TEST_TMPDIR/local.exr" $SIZE -q
+    local victim port
+    victim=$(pid_of daemon-2)
+    port=$(cat "$FARM/daemon-2.port")
+    : >"$FARM/nginx-access.log"
+    # Stopped, daemon-2 still accepts connections (the kernel does), so
+    # nginx gives it one of the first three parts, which cannot finish
+    # until it is killed.
+    kill -STOP "$victim"
+    "$LENSRAY" render scenes/spheres.json -o "$BATS_TEST_TMPDIR/farm.exr" $SIZE \
+        --remote "$URL" --parts 12 --parallel 3 --stats \
+        >"$BATS_TEST_TMPDIR/out" 2>"$BATS_TEST_TMPDIR/err" 3>&- &
+    CLIENT_PID=$!
+    # Mid-frame: another daemon has finished a part.
+    wait_for "$BATS_TEST_TMPDIR/err" ' of 12 parts$'
+    kill -0 "$CLIENT_PID"
+    kill -KILL "$victim"
+    wait "$CLIENT_PID"
+    CLIENT_PID=
+    cmp "$BATS_TEST_TMPDIR/local.exr" "$BATS_TEST_TMPDIR/farm.exr"
+    grep -q '"parts": 12' "$BATS_TEST_TMPDIR/out"
+    # nginx sent a part to the victim first, then to another daemon.
+    grep -qE "upstream=\[127.0.0.1:$port, 127.0.0.1:[0-9]+\] ustatus=\[502, 200\]" \
+        "$FARM/nginx-access.log"
+}
+
+@test "a part whose daemon disappears is sent again by the client" {
+    cd "$REPO"
+    "$LENSRAY" render scenes/cornell.json -o "$BATS_TEST_TMPDIR/local.exr" $SIZE -q
+    local log="$BATS_TEST_TMPDIR/solo.log" port
+    "$BUILD/lensrayd" --port 0 --bind 127.0.0.1 --scenes scenes >"$log" 2>&1 3>&- &
+    SOLO_PID=$!
+    until port=$(sed -n 's|^lensrayd: listening on http://127\.0\.0\.1:\([0-9]*\) .*|\1|p' "$log") && [ -n "$port" ]; do
+        kill -0 "$SOLO_PID"
+        sleep 0.05
+    done
+    kill -STOP "$SOLO_PID"
+    "$LENSRAY" render scenes/cornell.json -o "$BATS_TEST_TMPDIR/farm.exr" $SIZE \
+        --remote "http://127.0.0.1:$port" --parts 4 --parallel 2 --retries 12 --stats \
+        >"$BATS_TEST_TMPDIR/out" 2>"$BATS_TEST_TMPDIR/err" 3>&- &
+    CLIENT_PID=$!
+    kill -KILL "$SOLO_PID"
+    # The client saw its daemon go, and waits to send the part again.
+    wait_for "$BATS_TEST_TMPDIR/err" 'failed .*sending it again'
+    "$BUILD/lensrayd" --port "$port" --bind 127.0.0.1 --scenes scenes >"$log" 2>&1 3>&- &
+    SOLO_PID=$!
+    wait "$CLIENT_PID"
+    CLIENT_PID=
+    cmp "$BATS_TEST_TMPDIR/local.exr" "$BATS_TEST_TMPDIR/farm.exr"
+    ! grep -q '"retries": 0' "$BATS_TEST_TMPDIR/out"
+}
+
+@test "--remote: a part the daemon refuses stops the render with its message (exit 3)" {
+    cd "$REPO"
+    run -3 "$LENSRAY" render scenes/spheres.json -o "$BATS_TEST_TMPDIR/x.png" \
+        --set render.width=5000 --set render.height=5000 --set render.spp=1 \
+        --remote "$URL" --parts 1 -q
+    [[ "$output" == *"refused: HTTP 413: the image would have 25000000 pixels"*"--max-pixels"* ]]
+    [ ! -e "$BATS_TEST_TMPDIR/x.png" ]
+}
+
+@test "--remote: no daemon at URL: the parts are tried --retries + 1 times, exit 4" {
+    cd "$REPO"
+    run -4 "$LENSRAY" render scenes/spheres.json -o "$BATS_TEST_TMPDIR/x.png" \
+        $SIZE --remote "http://127.0.0.1:1" --parts 2 --retries 1
+    [[ "$output" == *"failed 2 times"* ]]
+    [ ! -e "$BATS_TEST_TMPDIR/x.png" ]
+}
+
+@test "--remote: usage errors name the flag" {
+    run -2 "$LENSRAY" render scenes/spheres.json -o x.png --parts 3
+    [[ "$output" == *"--parts is for --remote"* ]]
+    run -2 "$LENSRAY" render scenes/spheres.json -o x.png --remote "$URL" --parts 0
+    [[ "$output" == *"--parts needs a whole number"* ]]
+    run -2 "$LENSRAY" render scenes/spheres.json -o x.png --remote "$URL" \
+        --set 'objects[0].radius=2'
+    [[ "$output" == *"only camera.* and render.*"* ]]
+}
