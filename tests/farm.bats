@@ -89,6 +89,14 @@ wait_for() {
         [[ "$output" == *'"parts": 12'* ]]
         cmp "$BATS_TEST_TMPDIR/local.exr" "$BATS_TEST_TMPDIR/farm.exr"
     done
+    # A scene's own region: the parts cut the crop, and the file keeps its
+    # place in the frame (data and display windows, spp, seed, camera).
+    local crop="--set render.region=[7,9,150,101]"
+    "$LENSRAY" render scenes/spheres.json -o "$BATS_TEST_TMPDIR/local.exr" $SIZE $crop -q
+    "$LENSRAY" render scenes/spheres.json -o "$BATS_TEST_TMPDIR/farm.exr" $SIZE $crop -q \
+        --remote "$URL" --parts 12
+    cmp "$BATS_TEST_TMPDIR/local.exr" "$BATS_TEST_TMPDIR/farm.exr"
+    grep -q lensrayCamera "$BATS_TEST_TMPDIR/farm.exr"
     "$LENSRAY" render scenes/spheres.json -o "$BATS_TEST_TMPDIR/local.png" $SIZE -q
     "$LENSRAY" render scenes/spheres.json -o "$BATS_TEST_TMPDIR/farm.png" $SIZE -q \
         --remote "$URL" --parts 12

@@ -60,7 +60,7 @@ static int channel_index(const char *name)
 }
 
 int exr_crop_place(const void *buf, size_t len, lr_image *dst, int x0, int y0,
-                   int w, int h, char *msg, size_t msg_size)
+                   int fx, int fy, int w, int h, char *msg, size_t msg_size)
 {
     mem_stream m = {buf, len};
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
@@ -101,9 +101,9 @@ int exr_crop_place(const void *buf, size_t len, lr_image *dst, int x0, int y0,
                  cw, ch, w, h);
         goto done;
     }
-    if ((dw.min.x != 0 || dw.min.y != 0) && (dw.min.x != x0 || dw.min.y != y0)) {
+    if (dw.min.x != fx || dw.min.y != fy) {
         snprintf(msg, msg_size, "the image's data window starts at %d, %d, "
-                 "not at the part's %d, %d", dw.min.x, dw.min.y, x0, y0);
+                 "not at the part's %d, %d", dw.min.x, dw.min.y, fx, fy);
         goto done;
     }
     int found[4] = {0, 0, 0, 0};

@@ -10,14 +10,14 @@
 
 #include <stddef.h>
 
-/* Decodes the single-part scanline EXR in buf[0 .. len) and copies its
- * R, G, B (and Z, when `dst` has a Z channel) into `dst` at x0, y0.  The
- * crop must be exactly w x h pixels and, when its data window does not
- * start at 0, 0 (a crop that carries its place in the frame), start at
- * x0, y0.  Values are copied bit for bit; a NaN or infinite one is an
- * error, never written.  Returns 0; or -1 with the reason in msg (a
- * sentence, at most msg_size bytes), and dst partly written. */
+/* Decodes the single-part scanline EXR in buf[0 .. len), a crop whose
+ * data window must be exactly the w x h pixels at fx, fy of its frame
+ * (lr_image_set_frame), and copies its R, G, B (and Z, when `dst` has a
+ * Z channel) into `dst` at x0, y0.  Values are copied bit for bit; a NaN
+ * or infinite one is an error, never written.  Returns 0; or -1 with the
+ * reason in msg (a sentence, at most msg_size bytes), and dst partly
+ * written. */
 int exr_crop_place(const void *buf, size_t len, lr_image *dst, int x0, int y0,
-                   int w, int h, char *msg, size_t msg_size);
+                   int fx, int fy, int w, int h, char *msg, size_t msg_size);
 
 #endif

@@ -189,6 +189,15 @@ int remote_render(const remote_options *o, const char *scene, size_t len,
         fprintf(stderr, "lensray: %s\n", err.message);
         return EXIT_IO;
     }
+    /* A crop of the frame carries its place, as lr_render's does. */
+    if ((box[0] != 0 || box[1] != 0 || box[2] != rs->width ||
+         box[3] != rs->height) &&
+        lr_image_set_frame(img, rs->width, rs->height, box[0], box[1], cam, rs,
+                           &err) != LR_OK) {
+        fprintf(stderr, "lensray: %s\n", err.message);
+        lr_image_free(img);
+        return EXIT_IO;
+    }
     char endpoint[2048];
     size_t ul = strlen(o->url);
     snprintf(endpoint, sizeof endpoint, "%.*s/v1/render",
@@ -255,6 +264,7 @@ int remote_render(const remote_options *o, const char *scene, size_t len,
             } else if (status == 200) {
                 int x0 = p->region[0] - box[0], y0 = p->region[1] - box[1];
                 if (exr_crop_place(p->answer, p->len, img, x0, y0,
+                                   p->region[0], p->region[1],
                                    p->region[2] - p->region[0],
                                    p->region[3] - p->region[1], why,
                                    sizeof why) != 0)
