@@ -110,7 +110,7 @@ $(BUILD)/liblensray.so: $(BUILD)/liblensray.so.$(VERSION)
 # tools/remote.c renders on daemons (--remote) through libcurl.
 CLI_OBJ  := $(patsubst %.c,$(BUILD)/obj/%.o,$(wildcard tools/*.c))
 $(BUILD)/lensray: $(CLI_OBJ) $(BUILD)/liblensray.a
-	$(CC) $(LDFLAGS) -o $@ $^ $(LIB_LIBS) -lcurl
+	$(CC) $(LDFLAGS) -o $@ $^ $(LIB_LIBS) -lcurl -lcrypto
 
 # ---- daemon -------------------------------------------------------------
 SVC_OBJ  := $(SVC_SRC:%.c=$(BUILD)/obj/%.o)

@@ -9,7 +9,8 @@
 #
 # DIR gets everything: nginx.conf, the pids (DIR/pids, one "name pid"
 # per line), the daemons' logs (daemon-K.log, their ports in
-# daemon-K.port) and nginx's logs.  `stop` ends exactly the processes in
+# daemon-K.port), nginx's logs, and DIR/assets, the assets directory the
+# daemons share (PUT /v1/assets; on real machines, an NFS mount).  `stop` ends exactly the processes in
 # DIR/pids.  FARM_FLAGS adds flags to every daemon (for example
 # "--token-file F" or "--workers 2"); FARM_SCENES is their scenes
 # directory (default: scenes).
@@ -68,7 +69,7 @@ if [ -f "$dir/pids" ]; then
     echo "farm.sh: a farm is already running from $dir (make farm-stop)" >&2
     exit 1
 fi
-mkdir -p "$dir/tmp"
+mkdir -p "$dir/tmp" "$dir/assets"
 dir=$(cd "$dir" && pwd)
 : >"$dir/pids"
 trap 'echo "farm.sh: start failed; stopping what started" >&2; stop_farm "$dir"' EXIT
@@ -80,7 +81,7 @@ while [ $k -le "$n" ]; do
     : >"$log"
     # shellcheck disable=SC2086  # FARM_FLAGS is a list of flags
     "$build/lensrayd" --port 0 --bind 127.0.0.1 --scenes "$scenes" \
-        ${FARM_FLAGS:-} >"$log" 2>&1 3>&- &
+        --assets "$dir/assets" ${FARM_FLAGS:-} >"$log" 2>&1 3>&- &
     echo "daemon-$k $!" >>"$dir/pids"
     p=""
     i=0

@@ -448,19 +448,57 @@ static enum MHD_Result do_scenes(struct MHD_Connection *c, req *r)
     return send_json(c, r, 200, json, NULL);
 }
 
+/* The asset's name: the last segment of the path (the route's {hash}). */
+static const char *asset_hex(const req *r)
+{
+    const char *slash = strrchr(r->path, '/');
+    return slash ? slash + 1 : r->path;
+}
+
+/* PUT /v1/assets/{sha256}: 201 when stored now, 200 when it was there. */
+static enum MHD_Result do_asset_put(struct MHD_Connection *c, req *r)
+{
+    lrd_err e;
+    int created = 0;
+    if (lrd_asset_put(asset_hex(r), r->body ? r->body : "", r->len, &created,
+                      &e) != 0)
+        return send_error(c, r, &e, NULL);
+    char *json = NULL;
+    if (asprintf(&json, "{\"sha256\":\"%s\",\"bytes\":%zu,\"created\":%s}",
+                 asset_hex(r), r->len, created ? "true" : "false") < 0)
+        return MHD_NO;
+    return send_json(c, r, created ? 201 : 200, json, NULL);
+}
+
+/* GET (and HEAD) /v1/assets/{sha256}: whether the asset is here. */
+static enum MHD_Result do_asset_get(struct MHD_Connection *c, req *r)
+{
+    lrd_err e;
+    uint64_t size = 0;
+    if (lrd_asset_stat(asset_hex(r), &size, &e) != 0)
+        return send_error(c, r, &e, NULL);
+    char *json = NULL;
+    if (asprintf(&json, "{\"sha256\":\"%s\",\"bytes\":%llu}", asset_hex(r),
+                 (unsigned long long)size) < 0)
+        return MHD_NO;
+    return send_json(c, r, 200, json, NULL);
+}
+
 /* ---- routes -------------------------------------------------------------- */
 
 /* A route: a method, a path pattern of literal segments and "{id}" (one
  * segment of 1 to 32 characters, of any shape: an id of the wrong shape is
- * still this route, and gets "no such job" rather than "no such route"),
- * and its handler.  GET routes also answer HEAD (MHD sends no body).
+ * still this route, and gets "no such job" rather than "no such route";
+ * "{hash}" likewise, of 1 to 64 characters, read by the handler from the
+ * path), and its handler.  GET routes also answer HEAD (MHD sends no body).
  * docs/openapi.yaml lists the same routes; tests/api checks them. */
 struct route {
     const char *method;
     const char *pattern;
     enum MHD_Result (*handler)(struct MHD_Connection *c, req *r);
     int open; /* served without the token (a load balancer's probe) */
-    int body; /* takes a JSON request body */
+    int body; /* takes a request body: 1 JSON, 2 any type up to
+                 --max-asset-bytes */
 };
 
 static const route routes[] = {
@@ -472,14 +510,29 @@ static const route routes[] = {
     {"GET", "/v1/jobs/{id}", do_job, 0, 0},
     {"DELETE", "/v1/jobs/{id}", do_job_delete, 0, 0},
     {"GET", "/v1/jobs/{id}/image", do_job_image, 0, 0},
+    {"PUT", "/v1/assets/{hash}", do_asset_put, 0, 2},
+    {"GET", "/v1/assets/{hash}", do_asset_get, 0, 0},
 };
 #define N_ROUTES (sizeof routes / sizeof routes[0])
+
+/* The largest body the route takes. */
+static uint64_t body_limit(const req *r)
+{
+    return r->route != NULL && r->route->body == 2 ? lrd_cfg.max_asset
+                                                   : lrd_cfg.max_body;
+}
 
 /* Whether `url` matches `pattern`; an {id} segment goes to id[33]. */
 static int match(const char *pattern, const char *url, char id[33])
 {
     while (*pattern != '\0') {
-        if (strncmp(pattern, "{id}", 4) == 0) {
+        if (strncmp(pattern, "{hash}", 6) == 0) {
+            size_t n = strcspn(url, "/");
+            if (n == 0 || n > 64)
+                return 0;
+            pattern += 6;
+            url += n;
+        } else if (strncmp(pattern, "{id}", 4) == 0) {
             size_t n = strcspn(url, "/");
             if (n == 0 || n > 32)
                 return 0;
@@ -556,7 +609,7 @@ static int early(struct MHD_Connection *c, req *r, const char *url,
         lrd_fail(&e, 405, "method_not_allowed", NULL,
                  "%s does not allow %s (allowed: %s)", r->path, r->method,
                  allow);
-    } else if (r->route->body && !json_content_type(c)) {
+    } else if (r->route->body == 1 && !json_content_type(c)) {
         lrd_fail(&e, 415, "unsupported_media_type", NULL,
                  "the body must be sent with 'Content-Type: "
                  "application/json'");
@@ -565,12 +618,13 @@ static int early(struct MHD_Connection *c, req *r, const char *url,
             c, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_LENGTH);
         uint64_t n = 0;
         if (cl != NULL && lrd_parse_u64(cl, 0, &n) == 0 &&
-            n > lrd_cfg.max_body) {
+            n > body_limit(r)) {
             lrd_fail(&e, 413, "body_too_large", NULL,
                      "the body is %llu bytes, more than the limit of %llu "
-                     "(--max-body)",
-                     (unsigned long long)n,
-                     (unsigned long long)lrd_cfg.max_body);
+                     "(%s)",
+                     (unsigned long long)n, (unsigned long long)body_limit(r),
+                     r->route->body == 2 ? "--max-asset-bytes"
+                                         : "--max-body");
         } else {
             return 0;
         }
@@ -588,9 +642,9 @@ static enum MHD_Result dispatch(struct MHD_Connection *c, req *r)
     if (r->too_large) {
         lrd_err e;
         lrd_fail(&e, 413, "body_too_large", NULL,
-                 "the body is more than the limit of %llu bytes "
-                 "(--max-body)",
-                 (unsigned long long)lrd_cfg.max_body);
+                 "the body is more than the limit of %llu bytes (%s)",
+                 (unsigned long long)body_limit(r),
+                 r->route->body == 2 ? "--max-asset-bytes" : "--max-body");
         return send_error(c, r, &e, NULL);
     }
     return r->route->handler(c, r);
@@ -649,10 +703,10 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c,
             /* Dropped, but not forever: a client that keeps streaming
              * long after the limit loses its connection. */
             r->dropped += n;
-            return r->dropped > 4 * lrd_cfg.max_body + (1u << 20) ? MHD_NO
-                                                                  : MHD_YES;
+            return r->dropped > 4 * body_limit(r) + (1u << 20) ? MHD_NO
+                                                               : MHD_YES;
         }
-        if (r->len + n > lrd_cfg.max_body) {
+        if (r->len + n > body_limit(r)) {
             r->too_large = 1;
             free(r->body);
             r->body = NULL;
@@ -664,8 +718,8 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c,
             size_t cap = r->cap ? r->cap : 4096;
             while (cap < r->len + n + 1)
                 cap *= 2;
-            if (cap > lrd_cfg.max_body + 1)
-                cap = lrd_cfg.max_body + 1;
+            if (cap > body_limit(r) + 1)
+                cap = body_limit(r) + 1;
             char *grown = realloc(r->body, cap);
             if (grown == NULL)
                 return MHD_NO;

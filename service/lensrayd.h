@@ -45,6 +45,8 @@ typedef struct lrd_config {
     char bind[64];            /* address to listen on */
     long port;                /* 0 = an ephemeral port, printed at startup */
     char scenes_dir[4096];    /* absolute, symlinks resolved */
+    char assets_dir[4096];    /* absolute, or "" for no asset store */
+    uint64_t max_asset;       /* bytes of one asset (PUT /v1/assets) */
     long workers;             /* render worker threads */
     long queue;               /* jobs that may wait beyond the workers */
     char *token;              /* NULL = no authentication; owned */
@@ -192,6 +194,32 @@ typedef struct lrd_job_spec {
 int lrd_api_parse_job(const char *body, size_t len, lrd_job_spec *spec,
                       lrd_err *e);
 void lrd_job_spec_clear(lrd_job_spec *spec);
+
+/* ------------------------------------------------------------------------
+ * Assets (assets.c): files named by the SHA-256 of their bytes in
+ * --assets DIR, which inline scenes name as "sha256:HEX".
+ * ---------------------------------------------------------------------- */
+
+/* Whether `hex` is an asset name: 64 lowercase hex digits. */
+int lrd_asset_name_ok(const char *hex);
+
+/* Stores len bytes as asset `hex` unless it is there already (*created
+ * says which).  0, or -1 with *e: 404 no store, 422 a bad name or bytes
+ * whose SHA-256 is not `hex` (nothing stored), 507 the disk failed. */
+int lrd_asset_put(const char *hex, const void *data, size_t len,
+                  int *created, lrd_err *e);
+
+/* Whether asset `hex` is there, and its size.  0, or -1 with *e (404). */
+int lrd_asset_stat(const char *hex, uint64_t *size, lrd_err *e);
+
+/* Checks a mesh file "sha256:HEX" of an inline scene at `field`: 0, or
+ * -1 with a 422 that names the field and the asset the server lacks. */
+int lrd_asset_check_ref(const char *file, const char *field, lrd_err *e);
+
+/* The scene text with every "sha256:HEX" string replaced by the asset's
+ * path; malloc'ed (*out_len bytes, NUL-terminated), NULL when out of
+ * memory. */
+char *lrd_assets_resolve(const char *text, size_t len, size_t *out_len);
 
 /* GET /v1/scenes as a JSON document; malloc'ed, or NULL with *e. */
 char *lrd_api_scenes_json(lrd_err *e);

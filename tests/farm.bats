@@ -19,7 +19,7 @@ setup_file() {
     /*) ;;
     *) build="$REPO/$build" ;;
     esac
-    export BUILD="$build" LENSRAY="$build/lensray"
+    export REPO BUILD="$build" LENSRAY="$build/lensray"
     export FARM="$BATS_FILE_TMPDIR/farm"
     # The caller's LENSRAYD_* variables must not change the daemons here.
     local v
@@ -187,4 +187,101 @@ wait_for() {
     run -2 "$LENSRAY" render scenes/spheres.json -o x.png --remote "$URL" \
         --set 'objects[0].radius=2'
     [[ "$output" == *"only camera.* and render.*"* ]]
+}
+
+# ---- assets -----------------------------------------------------------------
+
+# put_asset FILE [HASH]: PUT FILE as asset HASH (its own by default)
+# through nginx; sets status and output (the body).
+put_asset() {
+    local hash=${2:-$(sha256sum "$1" | cut -c1-64)}
+    run curl -s -o "$BATS_TEST_TMPDIR/body" -w '%{http_code}' -X PUT \
+        -H 'Content-Type: application/octet-stream' --data-binary "@$1" \
+        "$URL/v1/assets/$hash"
+    status=$output
+    output=$(cat "$BATS_TEST_TMPDIR/body")
+}
+
+@test "assets: PUT stores once (201, then 200), GET and HEAD tell whether it is there" {
+    local f="$BATS_TEST_TMPDIR/quad.obj" hash
+    printf 'v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nf 1 2 3\nf 1 3 4\n# %s\n' \
+        "$BATS_TEST_NAME" >"$f"
+    hash=$(sha256sum "$f" | cut -c1-64)
+    run curl -s -o /dev/null -w '%{http_code}' -I "$URL/v1/assets/$hash"
+    [ "$output" = 404 ]
+    put_asset "$f"
+    [ "$status" = 201 ]
+    [[ "$output" == *"\"created\":true"* ]]
+    cmp "$f" "$FARM/assets/$hash"
+    put_asset "$f"
+    [ "$status" = 200 ]
+    [[ "$output" == *"\"created\":false"* ]]
+    run curl -s -o /dev/null -w '%{http_code}' -I "$URL/v1/assets/$hash"
+    [ "$output" = 200 ]
+    run curl -s "$URL/v1/assets/$hash"
+    [[ "$output" == *"\"bytes\":$(wc -c <"$f")"* ]]
+}
+
+@test "assets: a body whose hash is not the name, a bad name, a scene naming a missing asset: 4xx naming it" {
+    local f="$BATS_TEST_TMPDIR/x.obj" other
+    printf 'v 0 0 0\n' >"$f"
+    other=$(printf 'something else' | sha256sum | cut -c1-64)
+    put_asset "$f" "$other"
+    [ "$status" = 422 ]
+    [[ "$output" == *'"code":"asset_hash_mismatch"'*"sha256:$other was not stored"* ]]
+    [ ! -e "$FARM/assets/$other" ]
+    put_asset "$f" NOT-A-HASH
+    [ "$status" = 422 ]
+    [[ "$output" == *"64 lowercase hex digits"* ]]
+    run curl -s -w ' %{http_code}' -H 'Content-Type: application/json' \
+        "$URL/v1/render" -d "{\"scene\": {\"objects\": [{\"type\": \"mesh\", \"file\": \"sha256:$other\", \"material\": \"m\"}], \"materials\": {\"m\": {\"diffuse\": 0.5}}}, \"render\": {\"width\": 8, \"height\": 8, \"spp\": 1}}"
+    [[ "$output" == *'"code":"asset_not_found"'*"scene.objects[0].file: this server has no asset sha256:$other"*'"path":"scene.objects[0].file"'*" 422" ]]
+}
+
+@test "assets: one over --max-asset-bytes is refused with 413 naming the limit" {
+    local log="$BATS_TEST_TMPDIR/solo.log" port f="$BATS_TEST_TMPDIR/big"
+    mkdir -p "$BATS_TEST_TMPDIR/assets"
+    head -c 5000 /dev/zero >"$f"
+    "$BUILD/lensrayd" --port 0 --bind 127.0.0.1 --scenes "$REPO/scenes" \
+        --assets "$BATS_TEST_TMPDIR/assets" --max-asset-bytes 4k >"$log" 2>&1 3>&- &
+    SOLO_PID=$!
+    until port=$(sed -n 's|^lensrayd: listening on http://127\.0\.0\.1:\([0-9]*\) .*|\1|p' "$log") && [ -n "$port" ]; do
+        kill -0 "$SOLO_PID" || { cat "$log"; false; }
+        sleep 0.05
+    done
+    run curl -s -w ' %{http_code}' -X PUT --data-binary "@$f" \
+        "http://127.0.0.1:$port/v1/assets/$(sha256sum "$f" | cut -c1-64)"
+    [[ "$output" == *"more than the limit of 4096 (--max-asset-bytes)"*" 413" ]]
+    [ -z "$(ls "$BATS_TEST_TMPDIR/assets")" ]
+}
+
+@test "assets: the client sends a mesh once, all three daemons render with it, equal to the local render" {
+    cd "$REPO"
+    [ -f scenes/meshes/bunny.obj ] || skip "environment: scenes/meshes/bunny.obj was not fetched (make bunny)"
+    local hash
+    hash=$(sha256sum scenes/meshes/bunny.obj | cut -c1-64)
+    rm -f "$FARM/assets/$hash"
+    "$LENSRAY" render scenes/bunny.json -o "$BATS_TEST_TMPDIR/local.exr" $SIZE -q
+    : >"$FARM/nginx-access.log"
+    for k in 1 2 3; do : >"$FARM/daemon-$k.log"; done
+    run -0 "$LENSRAY" render scenes/bunny.json -o "$BATS_TEST_TMPDIR/farm.exr" $SIZE -q \
+        --remote "$URL" --parts 12 --parallel 6 --stats
+    [[ "$output" == *'"assets": 1, "uploaded": 1'* ]]
+    cmp "$BATS_TEST_TMPDIR/local.exr" "$BATS_TEST_TMPDIR/farm.exr"
+    cmp scenes/meshes/bunny.obj "$FARM/assets/$hash"
+    [ "$(grep -c '"PUT /v1/assets/' "$FARM/nginx-access.log")" -eq 1 ]
+    # Every daemon still alive rendered parts that name the asset.
+    local k served=0
+    for k in 1 2 3; do
+        if kill -0 "$(pid_of daemon-$k)" 2>/dev/null; then
+            grep -q 'POST /v1/render 200' "$FARM/daemon-$k.log"
+            served=$((served + 1))
+        fi
+    done
+    [ "$served" -ge 2 ]
+    # Again: the daemons have it, nothing is sent.
+    run -0 "$LENSRAY" render scenes/bunny.json -o "$BATS_TEST_TMPDIR/farm.exr" $SIZE -q \
+        --remote "$URL" --parts 12 --stats
+    [[ "$output" == *'"assets": 1, "uploaded": 0'* ]]
+    [ "$(grep -c '"PUT /v1/assets/' "$FARM/nginx-access.log")" -eq 1 ]
 }

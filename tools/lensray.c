@@ -224,13 +224,27 @@ static int render_remote(const remote_options *ro, const char *scene_path,
     char *text = read_text(scene_path, &len);
     if (text == NULL)
         return EXIT_IO;
+    /* Mesh paths are relative to the scene file's directory. */
+    char dir[4096];
+    snprintf(dir, sizeof dir, "%s", scene_path);
+    char *slash = strrchr(dir, '/');
+    if (slash == NULL)
+        snprintf(dir, sizeof dir, ".");
+    else if (slash == dir)
+        dir[1] = '\0';
+    else
+        *slash = '\0';
+    remote_options o = *ro;
+    o.scene_dir = dir;
     remote_stats st;
-    int rc = remote_render(ro, text, len, cam, rs, img, &st);
+    int rc = remote_render(&o, text, len, cam, rs, img, &st);
     free(text);
     if (rc == EXIT_OK && stats)
         printf("{\"remote\": true, \"seconds\": %.3f, \"parts\": %d, "
-               "\"requests\": %d, \"retries\": %d}\n",
-               st.seconds, st.parts, st.attempts, st.retries);
+               "\"requests\": %d, \"retries\": %d, \"assets\": %d, "
+               "\"uploaded\": %d}\n",
+               st.seconds, st.parts, st.attempts, st.retries, st.assets,
+               st.uploaded);
     return rc;
 }
 
@@ -240,7 +254,7 @@ static int cmd_render(int argc, char **argv)
     int stats = 0, quiet = 0, want_depth = 0;
     lr_output_options oo;
     lr_output_options_default(&oo);
-    remote_options ro = {NULL, NULL, 16, 4, 4, 0, &cancel_flag};
+    remote_options ro = {NULL, NULL, 16, 4, 4, 0, &cancel_flag, NULL};
     const char *token_file = NULL, *remote_flag = NULL;
     char token[512];
     const char **sets = calloc((size_t)argc, sizeof *sets);

@@ -12,6 +12,7 @@
  */
 #include "remote.h"
 
+#include "assets.h"
 #include "exr_crop.h"
 
 #include <curl/curl.h>
@@ -202,6 +203,20 @@ int remote_render(const remote_options *o, const char *scene, size_t len,
     size_t ul = strlen(o->url);
     snprintf(endpoint, sizeof endpoint, "%.*s/v1/render",
              (int)(ul > 0 && o->url[ul - 1] == '/' ? ul - 1 : ul), o->url);
+    char *sent = NULL;
+    size_t sent_len = 0;
+    assets_stats as;
+    int arc = assets_send(o->url, o->token, scene, len, o->scene_dir, &sent,
+                          &sent_len, &as);
+    stats->assets = as.files;
+    stats->uploaded = as.uploaded;
+    if (arc != 0) {
+        lr_image_free(img);
+        curl_global_cleanup();
+        return arc;
+    }
+    scene = sent;
+    len = sent_len;
     char *cam_json = lr_camera_json(cam);
     part *parts = calloc((size_t)n, sizeof *parts);
     CURLM *multi = curl_multi_init();
@@ -329,6 +344,7 @@ done:
     if (multi != NULL)
         curl_multi_cleanup(multi);
     lr_free(cam_json);
+    free(sent);
     lr_image_free(img);
     stats->parts = n;
     stats->seconds = now() - t0;

@@ -19,6 +19,7 @@ typedef struct remote_options {
     int retries;           /* further attempts of a failed part */
     int quiet;             /* no progress lines */
     const volatile int *cancel; /* stops the render when non-zero */
+    const char *scene_dir; /* the scene file's directory: its meshes */
 } remote_options;
 
 /* What remote_render did, for --stats. */
@@ -27,12 +28,16 @@ typedef struct remote_stats {
     int parts;
     int attempts;          /* requests sent, retries included */
     int retries;
+    int assets;            /* mesh files the scene names */
+    int uploaded;          /* of them, sent because the daemons lacked them */
 } remote_stats;
 
 /* Renders the scene whose file text is scene[0 .. len) through `cam` with
  * `rs` (both as the local render would use them; rs->want_depth asks for
  * Z) as parts on o->url, and stitches them into *out, a new image that
- * the caller frees with lr_image_free.  Every part is a POST /v1/render
+ * the caller frees with lr_image_free.  First the scene's mesh files go
+ * to the daemons as assets, those they lack (tools/assets.c).  Every
+ * part is a POST /v1/render
  * of the scene inline with the camera and settings as JSON and
  * render.region set to the part, answered as a float32 EXR.  A part that
  * fails for a reason that can pass (no connection, 5xx, 429, a broken
