@@ -75,13 +75,16 @@ dir=$(cd "$dir" && pwd)
 trap 'echo "farm.sh: start failed; stopping what started" >&2; stop_farm "$dir"' EXIT
 
 servers=""
+nodes=""
+jobmap=""
 k=1
 while [ $k -le "$n" ]; do
     log="$dir/daemon-$k.log"
     : >"$log"
     # shellcheck disable=SC2086  # FARM_FLAGS is a list of flags
     "$build/lensrayd" --port 0 --bind 127.0.0.1 --scenes "$scenes" \
-        --assets "$dir/assets" ${FARM_FLAGS:-} >"$log" 2>&1 3>&- &
+        --assets "$dir/assets" --id-prefix "$(printf %02x "$k")" \
+        ${FARM_FLAGS:-} >"$log" 2>&1 3>&- &
     echo "daemon-$k $!" >>"$dir/pids"
     p=""
     i=0
@@ -95,13 +98,17 @@ while [ $k -le "$n" ]; do
     [ -n "$p" ] || { echo "farm.sh: daemon-$k printed no port" >&2; exit 1; }
     echo "$p" >"$dir/daemon-$k.port"
     servers="$servers        server 127.0.0.1:$p max_fails=1 fail_timeout=10s;\\n"
+    node=$(printf %02x "$k")
+    nodes="$nodes    upstream lensrayd_$node { server 127.0.0.1:$p; }\\n"
+    jobmap="$jobmap        \"~^/v1/jobs/$node[0-9a-f]{30}\" lensrayd_$node;\\n"
     k=$((k + 1))
 done
 
 user=""
 [ "$(id -u)" != 0 ] || user="user $(id -un);"
 sed -e "s|@DIR@|$dir|g" -e "s|@PORT@|$port|g" -e "s|@N@|$n|g" \
-    -e "s|@USER@|$user|" -e "s|@SERVERS@|$servers|" \
+    -e "s|@USER@|$user|" -e "s|@SERVERS@|$servers|g" \
+    -e "s|@NODES@|$nodes|" -e "s|@JOBMAP@|$jobmap|" \
     "$here/nginx.conf.in" >"$dir/nginx.conf"
 "$nginx" -e "$dir/nginx-error.log" -p "$dir" -c "$dir/nginx.conf" >&2
 i=0

@@ -272,15 +272,62 @@ static int client_gone(int fd)
     return 0;
 }
 
-static enum MHD_Result do_render(struct MHD_Connection *c, req *r)
+/* The request's Idempotency-Key into key[]: "" without one.  0, or -1
+ * with *e (422) for a key that is empty, too long or not printable ASCII
+ * without spaces. */
+static int idempotency_key(struct MHD_Connection *c, char key[LRD_KEY_MAX + 1],
+                           lrd_err *e)
+{
+    const char *k = MHD_lookup_connection_value(c, MHD_HEADER_KIND,
+                                                "Idempotency-Key");
+    key[0] = '\0';
+    if (k == NULL)
+        return 0;
+    size_t n = strlen(k);
+    int ok = n > 0 && n <= LRD_KEY_MAX;
+    for (size_t i = 0; ok && i < n; i++)
+        ok = k[i] > ' ' && k[i] < 127;
+    if (!ok)
+        return lrd_fail(e, 422, "invalid_value", NULL,
+                        "the Idempotency-Key header must be 1 to %d "
+                        "printable ASCII characters without spaces",
+                        LRD_KEY_MAX);
+    memcpy(key, k, n + 1);
+    return 0;
+}
+
+/* Parses the body and queues its job, or finds the job an earlier
+ * request with the same Idempotency-Key made.  NULL after an error
+ * answer was queued in *result. */
+static lrd_job *submit(struct MHD_Connection *c, req *r, int sync,
+                       int *existing, enum MHD_Result *result)
 {
     lrd_err e;
+    char key[LRD_KEY_MAX + 1];
+    unsigned char hash[32];
     lrd_job_spec spec;
-    if (lrd_api_parse_job(r->body, r->len, &spec, &e) != 0)
-        return send_error(c, r, &e, NULL);
     lrd_job *job = NULL;
-    if (lrd_jobs_submit(&spec, 1, &job, &e) != 0)
-        return send_error(c, r, &e, NULL);
+    if (idempotency_key(c, key, &e) != 0 ||
+        lrd_api_parse_job(r->body, r->len, &spec, &e) != 0) {
+        *result = send_error(c, r, &e, NULL);
+        return NULL;
+    }
+    lrd_sha256(r->body ? r->body : "", r->len, hash);
+    if (lrd_jobs_submit(&spec, sync, key, hash, &job, existing, &e) != 0) {
+        *result = send_error(c, r, &e, NULL);
+        return NULL;
+    }
+    snprintf(r->job_id, sizeof r->job_id, "%s", lrd_job_id(job));
+    return job;
+}
+
+static enum MHD_Result do_render(struct MHD_Connection *c, req *r)
+{
+    enum MHD_Result result = MHD_NO;
+    int existing = 0;
+    lrd_job *job = submit(c, r, 1, &existing, &result);
+    if (job == NULL)
+        return result;
     snprintf(r->job_id, sizeof r->job_id, "%s", lrd_job_id(job));
 
     const union MHD_ConnectionInfo *ci =
@@ -294,7 +341,10 @@ static enum MHD_Result do_render(struct MHD_Connection *c, req *r)
     MHD_set_connection_option(c, MHD_CONNECTION_OPTION_TIMEOUT, 0u);
     while (!lrd_job_wait(job, 0.1)) {
         if (client_gone(fd)) {
-            lrd_job_cancel(job, LRD_CANCEL_DISCONNECT);
+            /* A render with an Idempotency-Key goes on for the retry
+             * that will come; the others stop. */
+            if (!lrd_job_keyed(job))
+                lrd_job_cancel(job, LRD_CANCEL_DISCONNECT);
             lrd_job_release(job);
             r->status = 499;
             closing_on_purpose = 1;
@@ -314,14 +364,11 @@ static enum MHD_Result do_render(struct MHD_Connection *c, req *r)
 
 static enum MHD_Result do_submit(struct MHD_Connection *c, req *r)
 {
-    lrd_err e;
-    lrd_job_spec spec;
-    if (lrd_api_parse_job(r->body, r->len, &spec, &e) != 0)
-        return send_error(c, r, &e, NULL);
-    lrd_job *job = NULL;
-    if (lrd_jobs_submit(&spec, 0, &job, &e) != 0)
-        return send_error(c, r, &e, NULL);
-    snprintf(r->job_id, sizeof r->job_id, "%s", lrd_job_id(job));
+    enum MHD_Result result = MHD_NO;
+    int existing = 0;
+    lrd_job *job = submit(c, r, 0, &existing, &result);
+    if (job == NULL)
+        return result;
     lrd_job_release(job);
     char href[48];
     snprintf(href, sizeof href, "/v1/jobs/%s", r->job_id);
@@ -331,7 +378,10 @@ static enum MHD_Result do_submit(struct MHD_Connection *c, req *r)
     cJSON_AddStringToObject(o, "href", href);
     char *json = lrd_json_print(o);
     cJSON_Delete(o);
-    const char *hdrs[] = {MHD_HTTP_HEADER_LOCATION, href, NULL};
+    /* A retry gets the first answer again, and is told so. */
+    const char *hdrs[] = {MHD_HTTP_HEADER_LOCATION, href,
+                          existing ? "Idempotent-Replayed" : NULL, "true",
+                          NULL};
     return send_json(c, r, 202, json, hdrs);
 }
 
@@ -351,12 +401,48 @@ static lrd_job *find_or_404(struct MHD_Connection *c, req *r,
     return j;
 }
 
+/* A whole number in [lo, hi] from query argument `name`; *out keeps its
+ * value when the argument is absent.  0, or -1 with *e (422). */
+static int query_long(struct MHD_Connection *c, const char *name, long lo,
+                      long hi, long *out, lrd_err *e)
+{
+    const char *v = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND,
+                                                name);
+    uint64_t n = 0;
+    if (v == NULL)
+        return 0;
+    if (lrd_parse_u64(v, 0, &n) != 0 || n < (uint64_t)lo || n > (uint64_t)hi)
+        return lrd_fail(e, 422, "invalid_value", name,
+                        "%s must be a whole number from %ld to %ld, got "
+                        "\"%.40s\"", name, lo, hi, v);
+    *out = (long)n;
+    return 0;
+}
+
 static enum MHD_Result do_job(struct MHD_Connection *c, req *r)
 {
     enum MHD_Result result = MHD_NO;
+    lrd_err e;
+    long wait = -1;
+    /* ?wait=SECONDS: answer when the status changes (or after that long),
+     * so that a client follows a job without polling. */
+    if (query_long(c, "wait", 0, 60, &wait, &e) != 0) {
+        r->job_id[0] = '\0';
+        return send_error(c, r, &e, NULL);
+    }
     lrd_job *j = find_or_404(c, r, &result);
     if (j == NULL)
         return result;
+    lrd_job_result now;
+    lrd_job_result_get(j, &now);
+    lrd_blob_release(now.image);
+    /* A finished job changes no more: answer at once. */
+    if (wait > 0 && now.state < LRD_DONE) {
+        MHD_set_connection_option(c, MHD_CONNECTION_OPTION_TIMEOUT, 0u);
+        lrd_job_wait_change(j, now.state, (double)wait);
+        MHD_set_connection_option(c, MHD_CONNECTION_OPTION_TIMEOUT,
+                                  (unsigned)lrd_cfg.conn_timeout);
+    }
     char *json = lrd_job_status_json(j);
     lrd_job_release(j);
     return send_json(c, r, 200, json, NULL);
@@ -448,6 +534,39 @@ static enum MHD_Result do_scenes(struct MHD_Connection *c, req *r)
     return send_json(c, r, 200, json, NULL);
 }
 
+/* GET /v1/jobs?status=S&key=K&after=ID&limit=N: this daemon's jobs. */
+static enum MHD_Result do_jobs_list(struct MHD_Connection *c, req *r)
+{
+    lrd_err e;
+    long limit = 100;
+    int status = -1;
+    const char *s = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND,
+                                                "status");
+    if (s != NULL) {
+        for (int i = 0; i < LRD_N_STATES; i++)
+            if (strcmp(s, lrd_state_name((lrd_state)i)) == 0)
+                status = i;
+        if (status < 0) {
+            lrd_fail(&e, 422, "invalid_value", "status",
+                     "status must be one of queued, running, done, failed, "
+                     "cancelled, got \"%.40s\"", s);
+            return send_error(c, r, &e, NULL);
+        }
+    }
+    if (query_long(c, "limit", 1, 1000, &limit, &e) != 0)
+        return send_error(c, r, &e, NULL);
+    const char *key = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND,
+                                                  "key");
+    const char *after = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND,
+                                                    "after");
+    char *json = lrd_jobs_list_json(status, key, after, limit);
+    if (json == NULL) {
+        lrd_fail(&e, 503, "out_of_memory", NULL, "out of memory");
+        return send_error(c, r, &e, NULL);
+    }
+    return send_json(c, r, 200, json, NULL);
+}
+
 /* The asset's name: the last segment of the path (the route's {hash}). */
 static const char *asset_hex(const req *r)
 {
@@ -510,6 +629,7 @@ static const route routes[] = {
     {"GET", "/v1/jobs/{id}", do_job, 0, 0},
     {"DELETE", "/v1/jobs/{id}", do_job_delete, 0, 0},
     {"GET", "/v1/jobs/{id}/image", do_job_image, 0, 0},
+    {"GET", "/v1/jobs", do_jobs_list, 0, 0},
     {"PUT", "/v1/assets/{hash}", do_asset_put, 0, 2},
     {"GET", "/v1/assets/{hash}", do_asset_get, 0, 0},
 };

@@ -47,6 +47,8 @@ typedef struct lrd_config {
     char scenes_dir[4096];    /* absolute, symlinks resolved */
     char assets_dir[4096];    /* absolute, or "" for no asset store */
     uint64_t max_asset;       /* bytes of one asset (PUT /v1/assets) */
+    char id_prefix[9];        /* the start of every job id: a balancer
+                                 routes a job's requests on it */
     long workers;             /* render worker threads */
     long queue;               /* jobs that may wait beyond the workers */
     char *token;              /* NULL = no authentication; owned */
@@ -266,12 +268,36 @@ typedef struct lrd_job lrd_job;
 
 int lrd_jobs_start(void);   /* starts the workers; 0 or -1 */
 
+/* The longest Idempotency-Key: printable ASCII without spaces. */
+#define LRD_KEY_MAX 64
+
 /* Queues a job.  Takes over spec->scene (spec is cleared either way).
  * `sync` jobs belong to a waiting POST /v1/render and leave the table as
- * soon as they finish.  On success *out is a new reference to the job.
- * Errors: 429 queue full (retry_after set), 503 shutting down. */
-int lrd_jobs_submit(lrd_job_spec *spec, int sync, lrd_job **out,
-                    lrd_err *e);
+ * soon as they finish, unless they have a key.  With a `key` (an
+ * Idempotency-Key; NULL or "" for none) and `body_hash` (the SHA-256 of
+ * the request), a job already in the table with that key is returned
+ * instead (*existing = 1) and nothing is queued.  On success *out is a
+ * new reference to the job.  Errors: 422 idempotency_key_reused (the key
+ * came with another request), 429 queue full (retry_after set), 503
+ * shutting down. */
+int lrd_jobs_submit(lrd_job_spec *spec, int sync, const char *key,
+                    const unsigned char body_hash[32], lrd_job **out,
+                    int *existing, lrd_err *e);
+
+/* Whether the job came with an Idempotency-Key. */
+int lrd_job_keyed(const lrd_job *j);
+
+/* Waits up to `seconds` while the job is in state `from`; returns the
+ * state then. */
+lrd_state lrd_job_wait_change(lrd_job *j, lrd_state from, double seconds);
+
+/* GET /v1/jobs: the status documents of the table's jobs, oldest first,
+ * in state `status` (-1: any) and with Idempotency-Key `key` (NULL: any),
+ * after the job `after` (NULL: from the first), at most `limit`, as
+ * {"jobs": [...], "next": ID or null}.  malloc'ed; NULL when out of
+ * memory. */
+char *lrd_jobs_list_json(int status, const char *key, const char *after,
+                         long limit);
 
 /* A new reference to the job with this id, or NULL. */
 lrd_job *lrd_jobs_find(const char *id);

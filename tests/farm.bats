@@ -285,3 +285,134 @@ put_asset() {
     [[ "$output" == *'"assets": 1, "uploaded": 0'* ]]
     [ "$(grep -c '"PUT /v1/assets/' "$FARM/nginx-access.log")" -eq 1 ]
 }
+
+# ---- jobs through the balancer -----------------------------------------------
+
+JOB='{"scene": "spheres", "render": {"width": 48, "height": 32, "spp": 2}}'
+
+# done_total: jobs the three daemons finished "done", added up (a killed
+# daemon counts nothing).
+done_total() {
+    local k p sum=0 n
+    for k in 1 2 3; do
+        p=$(cat "$FARM/daemon-$k.port")
+        n=$(curl -s "http://127.0.0.1:$p/metrics" |
+            sed -n 's/^lensrayd_jobs_finished_total{state="done"} //p')
+        sum=$((sum + ${n:-0}))
+    done
+    echo "$sum"
+}
+
+# json_field FIELD: the string value of "FIELD" in the JSON on stdin.
+json_field() {
+    sed -n "s/.*\"$1\":\"\\([^\"]*\\)\".*/\\1/p"
+}
+
+@test "jobs through nginx: status, image and DELETE reach the daemon whose prefix the id has" {
+    local i id ids=""
+    for i in 1 2 3 4 5 6; do
+        id=$(curl -sf "$URL/v1/jobs" -H 'Content-Type: application/json' -d "$JOB" | json_field id)
+        [[ "$id" =~ ^0[123][0-9a-f]{30}$ ]]
+        ids="$ids $id"
+    done
+    for id in $ids; do
+        # ?wait=60 answers when the status changes; a tiny job is done
+        # after at most two changes.
+        local st=""
+        for i in 1 2 3; do
+            st=$(curl -sf "$URL/v1/jobs/$id?wait=60" | json_field status)
+            [ "$st" = done ] && break
+        done
+        [ "$st" = done ]
+        run curl -s -o /dev/null -w '%{http_code}' "$URL/v1/jobs/$id/image"
+        [ "$output" = 200 ]
+        run curl -s -o /dev/null -w '%{http_code}' -X DELETE "$URL/v1/jobs/$id"
+        [ "$output" = 200 ]
+        run curl -s -o /dev/null -w '%{http_code}' "$URL/v1/jobs/$id"
+        [ "$output" = 404 ]
+    done
+    # Ids from at least two daemons were seen (least_conn spreads them).
+    [ "$(echo $ids | tr ' ' '\n' | cut -c1-2 | sort -u | wc -l)" -ge 2 ]
+}
+
+@test "Idempotency-Key: a retried POST /v1/jobs and POST /v1/render through nginx render once" {
+    local before id1 id2 key="retry-$RANDOM-$$"
+    before=$(done_total)
+    id1=$(curl -sf "$URL/v1/jobs" -H 'Content-Type: application/json' -H "Idempotency-Key: $key" -d "$JOB" | json_field id)
+    run curl -sf -D "$BATS_TEST_TMPDIR/h" "$URL/v1/jobs" -H 'Content-Type: application/json' \
+        -H "Idempotency-Key: $key" -d "$JOB"
+    id2=$(echo "$output" | json_field id)
+    [ -n "$id1" ] && [ "$id1" = "$id2" ]
+    grep -qi '^Idempotent-Replayed: true' "$BATS_TEST_TMPDIR/h"
+    run curl -sf "$URL/v1/jobs/$id1?wait=60"
+    run curl -sf "$URL/v1/jobs/$id1?wait=60"
+    [[ "$output" == *'"status":"done"'* ]]
+    # The same key with another body is refused.
+    run curl -s -w ' %{http_code}' "$URL/v1/jobs" -H 'Content-Type: application/json' \
+        -H "Idempotency-Key: $key" -d '{"scene": "cornell"}'
+    [[ "$output" == *'"code":"idempotency_key_reused"'*" 422" ]]
+    # A synchronous render retried: the same job, the same bytes.
+    local hdr="Idempotency-Key: sync-$key"
+    curl -sf -D "$BATS_TEST_TMPDIR/h1" -o "$BATS_TEST_TMPDIR/a.png" "$URL/v1/render" \
+        -H 'Content-Type: application/json' -H "$hdr" -d "$JOB"
+    curl -sf -D "$BATS_TEST_TMPDIR/h2" -o "$BATS_TEST_TMPDIR/b.png" "$URL/v1/render" \
+        -H 'Content-Type: application/json' -H "$hdr" -d "$JOB"
+    cmp "$BATS_TEST_TMPDIR/a.png" "$BATS_TEST_TMPDIR/b.png"
+    [ "$(grep -i '^X-Lensray-Job-Id' "$BATS_TEST_TMPDIR/h1")" = "$(grep -i '^X-Lensray-Job-Id' "$BATS_TEST_TMPDIR/h2")" ]
+    # Two jobs rendered in all, for five requests.
+    [ "$(done_total)" -eq $((before + 2)) ]
+}
+
+@test "a synchronous render with a key is found by its key while it runs, and cancelled through nginx" {
+    local key="watch-$RANDOM-$$" id=""
+    # Long enough that it is running when DELETE comes (it stops within a
+    # tile): 32 x 24 at 200000 spp on one thread.
+    curl -s -o "$BATS_TEST_TMPDIR/out" -w '%{http_code}' "$URL/v1/render" \
+        -H 'Content-Type: application/json' -H "Idempotency-Key: $key" \
+        -d '{"scene": "spheres", "render": {"width": 32, "height": 24, "spp": 200000, "threads": 1, "tile_size": 2, "adaptive": false}}' \
+        >"$BATS_TEST_TMPDIR/code" 3>&- &
+    CLIENT_PID=$!
+    while [ -z "$id" ]; do
+        kill -0 "$CLIENT_PID"
+        id=$(curl -sf "$URL/v1/jobs?key=$key" | json_field id)
+        [ -n "$id" ] || sleep 0.05
+    done
+    run curl -sf "$URL/v1/jobs/$id"
+    [[ "$output" == *"\"idempotency_key\":\"$key\""* ]]
+    run curl -s -o /dev/null -w '%{http_code}' -X DELETE "$URL/v1/jobs/$id"
+    [[ "$output" == 20[02] ]]
+    wait "$CLIENT_PID"
+    CLIENT_PID=
+    [ "$(cat "$BATS_TEST_TMPDIR/code")" = 409 ]
+    grep -q '"code":"cancelled"' "$BATS_TEST_TMPDIR/out"
+}
+
+@test "GET /v1/jobs: filtered by status, paged with limit and after" {
+    local log="$BATS_TEST_TMPDIR/solo.log" port u i first next
+    "$BUILD/lensrayd" --port 0 --bind 127.0.0.1 --scenes "$REPO/scenes" >"$log" 2>&1 3>&- &
+    SOLO_PID=$!
+    until port=$(sed -n 's|^lensrayd: listening on http://127\.0\.0\.1:\([0-9]*\) .*|\1|p' "$log") && [ -n "$port" ]; do
+        kill -0 "$SOLO_PID"
+        sleep 0.05
+    done
+    u="http://127.0.0.1:$port"
+    for i in 1 2 3; do
+        curl -sf "$u/v1/jobs" -H 'Content-Type: application/json' -d "$JOB" >/dev/null
+    done
+    # The last one done means all are: one worker, in order.
+    id=$(curl -sf "$u/v1/jobs?limit=3" | grep -o '"id":"[0-9a-f]*"' | tail -1 | cut -d'"' -f4)
+    until curl -sf "$u/v1/jobs/$id?wait=60" | grep -q '"status":"done"'; do :; done
+    run curl -sf "$u/v1/jobs?status=done&limit=2"
+    [ "$(echo "$output" | grep -o '"status":"done"' | wc -l)" -eq 2 ]
+    next=$(echo "$output" | json_field next)
+    [ -n "$next" ]
+    run curl -sf "$u/v1/jobs?status=done&limit=2&after=$next"
+    [ "$(echo "$output" | grep -o '"status":"done"' | wc -l)" -eq 1 ]
+    [[ "$output" == *'"next":null'* ]]
+    run curl -sf "$u/v1/jobs?status=queued"
+    [[ "$output" == '{"jobs":[],"next":null}' ]]
+    run curl -s -w ' %{http_code}' "$u/v1/jobs?status=bogus"
+    [[ "$output" == *'"path":"status"'*" 422" ]]
+    run curl -s -w ' %{http_code}' "$u/v1/jobs?limit=0"
+    [[ "$output" == *'"path":"limit"'*" 422" ]]
+}
