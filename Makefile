@@ -146,7 +146,8 @@ $(BUNNY): scenes/get-bunny.sh scenes/bunny-to-obj.js $(DEPS_OK)
 # job target brings the parts of the daemon that parse a job.
 REPLAY_SRC := fuzz/fuzz_common.c fuzz/fuzz_scene.c fuzz/fuzz_obj.c \
               $(if $(SVC_SRC),fuzz/fuzz_job.c service/api.c \
-                service/scene_cache.c service/util.c service/sha256.c)
+                service/scene_cache.c service/util.c service/sha256.c \
+                service/assets.c)
 REPLAY_OBJ := $(REPLAY_SRC:%.c=$(BUILD)/obj/%.o)
 
 $(BUILD)/tests/unit: $(TEST_OBJ) $(REPLAY_OBJ) $(BUILD)/liblensray.a
@@ -349,7 +350,7 @@ $(FUZZ_BUILD)/.fuzz-deps-ok: Makefile
 	rm -f $(FUZZ_BUILD)/probe $$log; touch $@
 
 FUZZ_LINK = $(CC) $(CFLAGS) $(LDFLAGS) -fsanitize=fuzzer -o $@ $^ $(LIB_LIBS)
-FUZZ_JOB_OBJ := $(patsubst %,$(BUILD)/obj/service/%.o,api scene_cache util sha256)
+FUZZ_JOB_OBJ := $(patsubst %,$(BUILD)/obj/service/%.o,api scene_cache util sha256 assets)
 
 $(BUILD)/fuzz_scene: $(BUILD)/obj/fuzz/lf_scene.o $(BUILD)/obj/fuzz/fuzz_common.o $(BUILD)/liblensray.a
 	$(FUZZ_LINK)

@@ -152,6 +152,8 @@ static lrd_scene *job_scene(const lr_job *job, lrd_job_spec *spec,
     }
     lrd_scene *s = lrd_scene_inline(resolved, rlen, e);
     free(resolved);
+    if (s == NULL)
+        lrd_assets_unresolve(e->message, sizeof e->message);
     return s;
 }
 

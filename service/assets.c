@@ -56,18 +56,26 @@ static int name_ok(const char *hex, const char *field, lrd_err *e)
     return 0;
 }
 
-int lrd_asset_stat(const char *hex, uint64_t *size, lrd_err *e)
+/* Whether asset `hex` is in the store (a regular file), and its size. */
+static int asset_exists(const char *hex, uint64_t *size)
 {
-    if (store_ready(e) != 0 || name_ok(hex, NULL, e) != 0)
-        return -1;
     char path[PATH_MAX + 80];
     asset_path(hex, path, sizeof path);
     struct stat st;
     if (stat(path, &st) != 0 || !S_ISREG(st.st_mode))
+        return 0;
+    *size = (uint64_t)st.st_size;
+    return 1;
+}
+
+int lrd_asset_stat(const char *hex, uint64_t *size, lrd_err *e)
+{
+    if (store_ready(e) != 0 || name_ok(hex, NULL, e) != 0)
+        return -1;
+    if (!asset_exists(hex, size))
         return lrd_fail(e, 404, "asset_not_found", NULL,
                         "there is no asset sha256:%s here (send it with "
                         "PUT /v1/assets/%s)", hex, hex);
-    *size = (uint64_t)st.st_size;
     return 0;
 }
 
@@ -92,8 +100,8 @@ int lrd_asset_put(const char *hex, const void *data, size_t len,
                         got, hex, hex);
     char path[PATH_MAX + 80], tmp[PATH_MAX + 120];
     asset_path(hex, path, sizeof path);
-    struct stat st;
-    if (stat(path, &st) == 0 && S_ISREG(st.st_mode))
+    uint64_t size;
+    if (asset_exists(hex, &size))
         return 0; /* the same name is the same bytes: nothing to do */
     snprintf(tmp, sizeof tmp, "%s/.tmp-%s-%ld", lrd_cfg.assets_dir, hex,
              (long)getpid());
@@ -141,10 +149,8 @@ int lrd_asset_check_ref(const char *file, const char *field, lrd_err *e)
                         "assets (--assets DIR)", field, file);
     if (name_ok(hex, field, e) != 0)
         return -1;
-    char path[PATH_MAX + 80];
-    asset_path(hex, path, sizeof path);
-    struct stat st;
-    if (stat(path, &st) != 0 || !S_ISREG(st.st_mode))
+    uint64_t size;
+    if (!asset_exists(hex, &size))
         return lrd_fail(e, 422, "asset_not_found", field,
                         "%s: this server has no asset %s (send it first with "
                         "PUT /v1/assets/%s)", field, file, hex);
@@ -194,4 +200,20 @@ char *lrd_assets_resolve(const char *text, size_t len, size_t *out_len)
     out[o] = '\0';
     *out_len = o;
     return out;
+}
+
+void lrd_assets_unresolve(char *msg, size_t size)
+{
+    char prefix[sizeof lrd_cfg.assets_dir + 1];
+    snprintf(prefix, sizeof prefix, "%s/", lrd_cfg.assets_dir);
+    size_t pl = strlen(prefix);
+    char *hit;
+    while (pl > 1 && (hit = strstr(msg, prefix)) != NULL) {
+        /* "DIR/HEX" -> "sha256:HEX": 7 bytes in place of pl. */
+        size_t tail = strlen(hit + pl) + 1;
+        if (pl < 7 && strlen(msg) + 7 - pl >= size)
+            break;
+        memmove(hit + 7, hit + pl, tail);
+        memcpy(hit, "sha256:", 7);
+    }
 }

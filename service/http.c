@@ -534,12 +534,38 @@ static enum MHD_Result do_scenes(struct MHD_Connection *c, req *r)
     return send_json(c, r, 200, json, NULL);
 }
 
+/* Remembers the first query parameter that GET /v1/jobs does not know. */
+static enum MHD_Result unknown_arg(void *cls, enum MHD_ValueKind kind,
+                                   const char *key, const char *value)
+{
+    (void)kind;
+    (void)value;
+    static const char *const known[] = {"status", "key", "after", "limit"};
+    char *first = cls;
+    for (size_t i = 0; i < sizeof known / sizeof known[0]; i++)
+        if (key != NULL && strcmp(key, known[i]) == 0)
+            return MHD_YES;
+    if (first[0] == '\0')
+        snprintf(first, 64, "%s", key != NULL && key[0] ? key : "(empty)");
+    return MHD_YES;
+}
+
 /* GET /v1/jobs?status=S&key=K&after=ID&limit=N: this daemon's jobs. */
 static enum MHD_Result do_jobs_list(struct MHD_Connection *c, req *r)
 {
     lrd_err e;
     long limit = 100;
     int status = -1;
+    /* An unknown parameter is refused, as an unknown key of a job is,
+     * rather than ignored (a misspelt filter would list everything). */
+    char unknown[64] = "";
+    MHD_get_connection_values(c, MHD_GET_ARGUMENT_KIND, unknown_arg, unknown);
+    if (unknown[0] != '\0') {
+        lrd_fail(&e, 422, "invalid_value", NULL,
+                 "unknown query parameter \"%s\" (expected status, key, "
+                 "after, limit)", unknown);
+        return send_error(c, r, &e, NULL);
+    }
     const char *s = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND,
                                                 "status");
     if (s != NULL) {
@@ -559,6 +585,22 @@ static enum MHD_Result do_jobs_list(struct MHD_Connection *c, req *r)
                                                   "key");
     const char *after = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND,
                                                     "after");
+    if (after != NULL && !lrd_is_job_id(after)) {
+        lrd_fail(&e, 422, "invalid_value", "after",
+                 "after must be a job id (32 lowercase hex digits), got "
+                 "\"%.40s\"", after);
+        return send_error(c, r, &e, NULL);
+    }
+    size_t kn = key != NULL ? strlen(key) : 1;
+    int key_ok = kn > 0 && kn <= LRD_KEY_MAX;
+    for (size_t i = 0; key != NULL && key_ok && i < kn; i++)
+        key_ok = key[i] > ' ' && key[i] < 127;
+    if (!key_ok) {
+        lrd_fail(&e, 422, "invalid_value", "key",
+                 "key must be an Idempotency-Key: 1 to %d printable ASCII "
+                 "characters without spaces", LRD_KEY_MAX);
+        return send_error(c, r, &e, NULL);
+    }
     char *json = lrd_jobs_list_json(status, key, after, limit);
     if (json == NULL) {
         lrd_fail(&e, 503, "out_of_memory", NULL, "out of memory");

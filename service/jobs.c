@@ -549,7 +549,8 @@ void lrd_job_release(lrd_job *j)
 
 const char *lrd_job_id(const lrd_job *j) { return j->id; }
 
-int lrd_job_wait(lrd_job *j, double seconds)
+/* The monotonic time `seconds` from now, for pthread_cond_timedwait. */
+static struct timespec deadline(double seconds)
 {
     struct timespec until;
     clock_gettime(CLOCK_MONOTONIC, &until);
@@ -560,6 +561,12 @@ int lrd_job_wait(lrd_job *j, double seconds)
         until.tv_sec++;
         until.tv_nsec -= 1000000000L;
     }
+    return until;
+}
+
+int lrd_job_wait(lrd_job *j, double seconds)
+{
+    struct timespec until = deadline(seconds);
     pthread_mutex_lock(&jobs.mu);
     while (j->state < LRD_DONE) {
         if (pthread_cond_timedwait(&jobs.done_cv, &jobs.mu, &until) != 0)
@@ -572,15 +579,7 @@ int lrd_job_wait(lrd_job *j, double seconds)
 
 lrd_state lrd_job_wait_change(lrd_job *j, lrd_state from, double seconds)
 {
-    struct timespec until;
-    clock_gettime(CLOCK_MONOTONIC, &until);
-    double whole = floor(seconds);
-    until.tv_sec += (time_t)whole;
-    until.tv_nsec += (long)((seconds - whole) * 1e9);
-    if (until.tv_nsec >= 1000000000L) {
-        until.tv_sec++;
-        until.tv_nsec -= 1000000000L;
-    }
+    struct timespec until = deadline(seconds);
     pthread_mutex_lock(&jobs.mu);
     while (j->state == from && !jobs.shutting_down) {
         if (pthread_cond_timedwait(&jobs.done_cv, &jobs.mu, &until) != 0)

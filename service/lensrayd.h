@@ -223,6 +223,10 @@ int lrd_asset_check_ref(const char *file, const char *field, lrd_err *e);
  * memory. */
 char *lrd_assets_resolve(const char *text, size_t len, size_t *out_len);
 
+/* Puts "sha256:" back where a message names an asset by its path, so
+ * that errors do not show the server's directories. */
+void lrd_assets_unresolve(char *msg, size_t size);
+
 /* GET /v1/scenes as a JSON document; malloc'ed, or NULL with *e. */
 char *lrd_api_scenes_json(lrd_err *e);
 

@@ -236,6 +236,15 @@ put_asset() {
     run curl -s -w ' %{http_code}' -H 'Content-Type: application/json' \
         "$URL/v1/render" -d "{\"scene\": {\"objects\": [{\"type\": \"mesh\", \"file\": \"sha256:$other\", \"material\": \"m\"}], \"materials\": {\"m\": {\"diffuse\": 0.5}}}, \"render\": {\"width\": 8, \"height\": 8, \"spp\": 1}}"
     [[ "$output" == *'"code":"asset_not_found"'*"scene.objects[0].file: this server has no asset sha256:$other"*'"path":"scene.objects[0].file"'*" 422" ]]
+    # A broken mesh asset is named by its hash, not by the server's path.
+    printf 'v 0 0 0\nf 1 2 3\n' >"$f"
+    put_asset "$f"
+    local h
+    h=$(sha256sum "$f" | cut -c1-64)
+    run curl -s -w ' %{http_code}' -H 'Content-Type: application/json' \
+        "$URL/v1/render" -d "{\"scene\": {\"objects\": [{\"type\": \"mesh\", \"file\": \"sha256:$h\"}]}, \"render\": {\"width\": 8, \"height\": 8, \"spp\": 1}}"
+    [[ "$output" == *"scene.objects[0].file: sha256:$h:2: face index"*" 422" ]]
+    [[ "$output" != *"$FARM"* ]]
 }
 
 @test "assets: one over --max-asset-bytes is refused with 413 naming the limit" {
@@ -415,4 +424,8 @@ json_field() {
     [[ "$output" == *'"path":"status"'*" 422" ]]
     run curl -s -w ' %{http_code}' "$u/v1/jobs?limit=0"
     [[ "$output" == *'"path":"limit"'*" 422" ]]
+    run curl -s -w ' %{http_code}' "$u/v1/jobs?stauts=done"
+    [[ "$output" == *'unknown query parameter \"stauts\"'*" 422" ]]
+    run curl -s -w ' %{http_code}' "$u/v1/jobs?after=nope"
+    [[ "$output" == *'"path":"after"'*" 422" ]]
 }

@@ -17,8 +17,7 @@
 
 enum { EXIT_SCENE = 3, EXIT_IO = 4 };
 
-/* The whole file, malloc'ed, or NULL with errno. */
-static unsigned char *slurp(const char *path, size_t *len)
+unsigned char *read_whole_file(const char *path, size_t *len)
 {
     FILE *f = fopen(path, "rb");
     if (f == NULL)
@@ -154,7 +153,7 @@ int assets_send(const char *url, const char *token, const char *scene,
         else
             snprintf(path, sizeof path, "%s/%s", dir, file->valuestring);
         size_t flen = 0;
-        unsigned char *data = slurp(path, &flen);
+        unsigned char *data = read_whole_file(path, &flen);
         if (data == NULL) {
             fprintf(stderr, "lensray: objects[%d].file: %s: %s\n", i, path,
                     strerror(errno));

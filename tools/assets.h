@@ -23,6 +23,10 @@ typedef struct assets_stats {
  * the meshes).  Returns 0, or the CLI's exit status 3 (the scene or a
  * file cannot be read) or 4 (the daemons refused or could not be
  * reached), with the reason printed. */
+/* The whole file at `path` (*len bytes), malloc'ed (free with free()),
+ * or NULL with errno set. */
+unsigned char *read_whole_file(const char *path, size_t *len);
+
 int assets_send(const char *url, const char *token, const char *scene,
                 size_t len, const char *dir, char **out, size_t *out_len,
                 assets_stats *stats);

@@ -11,6 +11,7 @@
  * Exit codes: 0 ok, 2 usage, 3 bad scene, 4 I/O, 130 interrupted.
  */
 #include "lensray.h"
+#include "assets.h"
 #include "remote.h"
 
 #include <errno.h>
@@ -153,43 +154,17 @@ static int read_token(const char *path, char *out, size_t size)
     return 0;
 }
 
-/* The scene file's text, for --remote: malloc'ed, or NULL with the
- * reason printed. */
-static char *read_text(const char *path, size_t *len)
+/* The directory part of `path` ("." for a bare name, "/" at the root). */
+static void dir_of(const char *path, char *dir, size_t size)
 {
-    FILE *f = fopen(path, "rb");
-    char *buf = NULL;
-    size_t cap = 0;
-    *len = 0;
-    if (f == NULL) {
-        fprintf(stderr, "lensray: %s: %s\n", path, strerror(errno));
-        return NULL;
-    }
-    for (;;) {
-        if (*len == cap) {
-            cap = cap ? cap * 2 : 65536;
-            char *grown = realloc(buf, cap);
-            if (grown == NULL) {
-                fprintf(stderr, "lensray: out of memory\n");
-                free(buf);
-                fclose(f);
-                return NULL;
-            }
-            buf = grown;
-        }
-        size_t got = fread(buf + *len, 1, cap - *len, f);
-        *len += got;
-        if (got == 0)
-            break;
-    }
-    int bad = ferror(f);
-    fclose(f);
-    if (bad) {
-        fprintf(stderr, "lensray: %s: read error\n", path);
-        free(buf);
-        return NULL;
-    }
-    return buf;
+    snprintf(dir, size, "%s", path);
+    char *slash = strrchr(dir, '/');
+    if (slash == NULL)
+        snprintf(dir, size, ".");
+    else if (slash == dir)
+        dir[1] = '\0';
+    else
+        *slash = '\0';
 }
 
 static int exit_for(lr_status st)
@@ -221,19 +196,14 @@ static int render_remote(const remote_options *ro, const char *scene_path,
                          lr_image **img, int stats)
 {
     size_t len;
-    char *text = read_text(scene_path, &len);
-    if (text == NULL)
+    char *text = (char *)read_whole_file(scene_path, &len);
+    if (text == NULL) {
+        fprintf(stderr, "lensray: %s: %s\n", scene_path, strerror(errno));
         return EXIT_IO;
+    }
     /* Mesh paths are relative to the scene file's directory. */
     char dir[4096];
-    snprintf(dir, sizeof dir, "%s", scene_path);
-    char *slash = strrchr(dir, '/');
-    if (slash == NULL)
-        snprintf(dir, sizeof dir, ".");
-    else if (slash == dir)
-        dir[1] = '\0';
-    else
-        *slash = '\0';
+    dir_of(scene_path, dir, sizeof dir);
     remote_options o = *ro;
     o.scene_dir = dir;
     remote_stats st;
@@ -398,14 +368,7 @@ static int cmd_render(int argc, char **argv)
     }
     {
         char dir[4096];
-        snprintf(dir, sizeof dir, "%s", out_path);
-        char *slash = strrchr(dir, '/');
-        if (slash == NULL)
-            snprintf(dir, sizeof dir, ".");
-        else if (slash == dir)
-            dir[1] = '\0';
-        else
-            *slash = '\0';
+        dir_of(out_path, dir, sizeof dir);
         if (access(dir, W_OK) != 0) {
             fprintf(stderr, "lensray: cannot write to %s: %s\n", dir,
                     strerror(errno));
