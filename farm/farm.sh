@@ -71,6 +71,8 @@ if [ -f "$dir/pids" ]; then
 fi
 mkdir -p "$dir/tmp" "$dir/assets"
 dir=$(cd "$dir" && pwd)
+# A smaller farm than the last one leaves no stale logs or ports behind.
+rm -f "$dir"/daemon-*.log "$dir"/daemon-*.port
 : >"$dir/pids"
 trap 'echo "farm.sh: start failed; stopping what started" >&2; stop_farm "$dir"' EXIT
 
