@@ -22,6 +22,8 @@ DEPS := /usr/include/embree3/rtcore.h:libembree-dev \
         /usr/include/microhttpd.h:libmicrohttpd-dev \
         /usr/include/openssl/evp.h:libssl-dev \
         /usr/include/cmocka.h:libcmocka-dev \
+        curl-config:libcurl4-openssl-dev \
+        /usr/sbin/nginx:nginx \
         pkg-config:pkg-config bats:bats curl:curl node:nodejs npm:npm \
         python3:python3
 
@@ -109,8 +111,10 @@ $(BUILD)/liblensray.so: $(BUILD)/liblensray.so.$(VERSION)
 	ln -sf liblensray.so.$(VERSION) $@
 
 # ---- command-line tool --------------------------------------------------
-$(BUILD)/lensray: $(BUILD)/obj/tools/lensray.o $(BUILD)/liblensray.a
-	$(CC) $(LDFLAGS) -o $@ $^ $(LIB_LIBS)
+# tools/remote.c renders on daemons (--remote) through libcurl.
+CLI_OBJ  := $(patsubst %.c,$(BUILD)/obj/%.o,$(wildcard tools/*.c))
+$(BUILD)/lensray: $(CLI_OBJ) $(BUILD)/liblensray.a
+	$(CC) $(LDFLAGS) -o $@ $^ $(LIB_LIBS) -lcurl -lcrypto
 
 # ---- daemon -------------------------------------------------------------
 SVC_OBJ  := $(SVC_SRC:%.c=$(BUILD)/obj/%.o)
@@ -137,6 +141,18 @@ $(BUILD)/lensrayd: $(SVC_OBJ) $(UI_OBJ) $(BUILD)/liblensray.a
 serve: all $(BUILD)/lensrayd
 	$(BUILD)/lensrayd --port $(PORT) --scenes scenes
 
+# ---- the farm -------------------------------------------------------------
+# FARM_N daemons on loopback ports behind nginx on FARM_PORT
+# (farm/farm.sh, farm/nginx.conf.in; docs/deploy.md for real machines).
+# Pids and logs go to $(BUILD)/farm; `make farm-stop` stops exactly those.
+FARM_N    ?= 3
+FARM_PORT ?= 8090
+.PHONY: farm farm-stop
+farm: all
+	sh farm/farm.sh start $(BUILD) $(FARM_N) $(FARM_PORT)
+farm-stop:
+	sh farm/farm.sh stop $(BUILD)
+
 # ---- scenes -------------------------------------------------------------
 bunny: $(BUNNY)
 $(BUNNY): scenes/get-bunny.sh scenes/bunny-to-obj.js $(DEPS_OK)
@@ -148,7 +164,8 @@ $(BUNNY): scenes/get-bunny.sh scenes/bunny-to-obj.js $(DEPS_OK)
 # job target brings the parts of the daemon that parse a job.
 REPLAY_SRC := fuzz/fuzz_common.c fuzz/fuzz_scene.c fuzz/fuzz_obj.c fuzz/fuzz_lens.c \
               $(if $(SVC_SRC),fuzz/fuzz_job.c service/api.c \
-                service/scene_cache.c service/util.c service/sha256.c)
+                service/scene_cache.c service/util.c service/sha256.c \
+                service/assets.c)
 REPLAY_OBJ := $(REPLAY_SRC:%.c=$(BUILD)/obj/%.o)
 
 $(BUILD)/tests/unit: $(TEST_OBJ) $(REPLAY_OBJ) $(BUILD)/liblensray.a
@@ -415,7 +432,7 @@ $(FUZZ_BUILD)/.fuzz-deps-ok: Makefile
 	rm -f $(FUZZ_BUILD)/probe $$log; touch $@
 
 FUZZ_LINK = $(CC) $(CFLAGS) $(LDFLAGS) -fsanitize=fuzzer -o $@ $^ $(LIB_LIBS)
-FUZZ_JOB_OBJ := $(patsubst %,$(BUILD)/obj/service/%.o,api scene_cache util sha256)
+FUZZ_JOB_OBJ := $(patsubst %,$(BUILD)/obj/service/%.o,api scene_cache util sha256 assets)
 
 $(BUILD)/fuzz_scene: $(BUILD)/obj/fuzz/lf_scene.o $(BUILD)/obj/fuzz/fuzz_common.o $(BUILD)/liblensray.a
 	$(FUZZ_LINK)
@@ -499,6 +516,6 @@ install: all
 clean:
 	rm -rf $(BUILD)
 
--include $(LIB_OBJ:.o=.d) $(TEST_OBJ:.o=.d) $(SVC_OBJ:.o=.d) $(BUILD)/obj/tools/lensray.d \
+-include $(LIB_OBJ:.o=.d) $(TEST_OBJ:.o=.d) $(SVC_OBJ:.o=.d) $(CLI_OBJ:.o=.d) \
          $(REPLAY_OBJ:.o=.d) $(wildcard $(BUILD)/obj/fuzz/lf_*.d) \
          $(BUILD)/obj/tests/oom/oom.d

@@ -14,7 +14,9 @@
 #      between the pictures;
 #   5. peak memory;
 #   6. the Python package's scene.render() against the CLI for a one-second
-#      render (bench/python_overhead.py).
+#      render (bench/python_overhead.py);
+#   7. the farm: a batch of parts on 1 and 2 daemons behind nginx, and a
+#      frame whole against 16 parts (bench/farm.sh).
 # Raw outputs go to BUILD_DIR/bench/*.log; bench/summary.py prints the table
 # and writes BUILD_DIR/bench/results.txt.
 #
@@ -266,5 +268,13 @@ python3 bench/lens.py "$LENSRAY" "$SCENE" --turns "$((REPEAT + 2))" > "$OUT/lens
     say "the real-lens run failed"
 cat "$OUT/lens.log"
 
+# ---- 8. the farm ---------------------------------------------------------------
+# A batch of parts on 1 and 2 daemons behind nginx, and a frame whole
+# against 16 parts (bench/farm.sh, docs/deploy.md).
+quiet farm
+sh bench/farm.sh "$BUILD" > "$OUT/farm.log" 2>&1 || say "the farm section failed (see $OUT/farm.log)"
+cat "$OUT/farm.log"
+
 # ---- summary ---------------------------------------------------------------
 python3 bench/summary.py "$OUT" | tee "$OUT/results.txt"
+[ -f "$OUT/farm.txt" ] && cat "$OUT/farm.txt" | tee -a "$OUT/results.txt"

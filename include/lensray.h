@@ -455,6 +455,22 @@ LR_API float *lr_image_depth_mut(lr_image *img);
 
 LR_API void lr_image_free(lr_image *img);
 
+/* Records that `img` is the crop of a frame_w x frame_h frame whose
+ * top-left pixel is x0, y0, rendered through `cam` with `s` (its spp and
+ * seed are kept, and the camera as lr_camera_json writes it).  An EXR of
+ * the image then has its data window at x0, y0 inside a display window
+ * of the whole frame, as OpenEXR intends for crops, and the attributes
+ * samplesPerPixel (int), lensraySeed (string, decimal) and lensrayCamera
+ * (string, JSON), so that a compositing tool places it without help.
+ * lr_render does this for every crop (render.region); a caller that
+ * assembles the same crop from parts does it to write the same file.
+ * Errors: LR_ERR_INVALID (the image does not fit the frame there; the
+ * image is unchanged), LR_ERR_NOMEM. */
+LR_API lr_status lr_image_set_frame(lr_image *img, int frame_w, int frame_h,
+                                    int x0, int y0, const lr_camera *cam,
+                                    const lr_render_settings *s,
+                                    lr_error *err);
+
 /* Image formats.  Their names, MIME types, extensions and what they can
  * hold come from one table in the library (lib/format.c): clients ask it
  * rather than keeping their own lists. */

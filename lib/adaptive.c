@@ -136,12 +136,19 @@ void lr__adaptive_block(const lr_render_settings *set, const lr__plan *plan,
                         lr__pixel_contrast(a, &acc[k]) > 10.0 * thr)
                         want = have + 1;
                 }
+            /* The rounds go into a copy: acc keeps every pixel's pilot,
+             * so that the contrast test above compares pilots with
+             * pilots, as in a tile or a crop where the neighbour is an
+             * apron pixel that never goes on.  (Comparing with a
+             * neighbour's later rounds made a crop's edge differ from
+             * the full render.) */
+            lr__pixel px = *a;
             while (want > have) {
                 int next = lr__adaptive_next(have, want, spp);
-                io->sample(io->ctx, x, y, have, next, a);
+                io->sample(io->ctx, x, y, have, next, &px);
                 have = next;
-                want = lr__pixel_samples_needed(a, thr, have, spp);
+                want = lr__pixel_samples_needed(&px, thr, have, spp);
             }
-            io->store(io->ctx, x, y, a);
+            io->store(io->ctx, x, y, &px);
         }
 }

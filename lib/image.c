@@ -100,7 +100,33 @@ void lr_image_free(lr_image *img)
         return;
     free(img->rgb);
     free(img->depth);
+    free(img->camera);
     free(img);
+}
+
+lr_status lr_image_set_frame(lr_image *img, int frame_w, int frame_h, int x0,
+                             int y0, const lr_camera *cam,
+                             const lr_render_settings *s, lr_error *err)
+{
+    if (img == NULL || cam == NULL || s == NULL)
+        return lr__fail(err, LR_ERR_INVALID, NULL,
+                        "lr_image_set_frame: a pointer is NULL");
+    if (x0 < 0 || y0 < 0 || frame_w <= 0 || frame_h <= 0 ||
+        img->width > frame_w - x0 || img->height > frame_h - y0)
+        return lr__fail(err, LR_ERR_INVALID, NULL,
+                        "a %d x %d image at %d, %d does not fit a %d x %d "
+                        "frame", img->width, img->height, x0, y0, frame_w,
+                        frame_h);
+    char *camera = lr_camera_json(cam);
+    if (camera == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    free(img->camera);
+    img->camera = camera;
+    img->frame_w = frame_w, img->frame_h = frame_h;
+    img->x0 = x0, img->y0 = y0;
+    img->spp = s->spp;
+    img->seed = s->seed;
+    return LR_OK;
 }
 
 void lr_free(void *p)

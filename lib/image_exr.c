@@ -14,6 +14,9 @@
  * need not be, and NaN or Inf in an EXR poisons every filter and
  * compositing step downstream.  For the same reason half output clamps
  * magnitudes beyond the largest half (65504) instead of writing Inf.
+ *
+ * A crop (lr_image_set_frame) has its data window at its place inside a
+ * display window of the whole frame, and says how it was rendered.
  */
 #include "internal.h"
 
@@ -183,6 +186,35 @@ static const char *const channel_names[CH_COUNT] = {"R", "G", "B", "Z"};
 /* Fills the planar staging buffer for scanlines [y0, y0 + lines): one
  * plane of spc * width samples per channel, in the channel's output type.
  * Each plane has room for 4-byte samples, halves use half of it. */
+/* A crop's place and making (lr_image_set_frame): the data window where
+ * the crop sits inside a display window of the whole frame, the way
+ * OpenEXR ("Technical Introduction", data and display windows) and pbrt-v4
+ * write crops, and how it was rendered.  The seed is a string: EXR has no
+ * 64-bit integer attribute.  No render time: the same job must keep giving
+ * the same bytes (docs/api.md, "Determinism"). */
+static exr_result_t set_crop_attrs(exr_context_t ctxt, int part,
+                                   const lr_image *img)
+{
+    exr_attr_box2i_t display, data;
+    display.min.x = 0, display.min.y = 0;
+    display.max.x = img->frame_w - 1, display.max.y = img->frame_h - 1;
+    data.min.x = img->x0, data.min.y = img->y0;
+    data.max.x = img->x0 + img->width - 1;
+    data.max.y = img->y0 + img->height - 1;
+    char seed[24];
+    snprintf(seed, sizeof seed, "%llu", (unsigned long long)img->seed);
+    exr_result_t rv = exr_set_display_window(ctxt, part, &display);
+    if (rv == EXR_ERR_SUCCESS)
+        rv = exr_set_data_window(ctxt, part, &data);
+    if (rv == EXR_ERR_SUCCESS)
+        rv = exr_attr_set_int(ctxt, part, "samplesPerPixel", img->spp);
+    if (rv == EXR_ERR_SUCCESS)
+        rv = exr_attr_set_string(ctxt, part, "lensraySeed", seed);
+    if (rv == EXR_ERR_SUCCESS && img->camera != NULL)
+        rv = exr_attr_set_string(ctxt, part, "lensrayCamera", img->camera);
+    return rv;
+}
+
 static void stage_chunk(const lr_image *img, int want_z, int half, int y0,
                         int lines, size_t plane_bytes, unsigned char *stage)
 {
@@ -300,6 +332,12 @@ lr_status lr__encode_exr(const lr_image *img, const lr_output_options *opts,
     rv = exr_attr_set_chromaticities(ctxt, part, "chromaticities", &rec709);
     if (rv != EXR_ERR_SUCCESS)
         goto fail;
+    if (img->frame_w > 0) {
+        step = "describe the crop";
+        rv = set_crop_attrs(ctxt, part, img);
+        if (rv != EXR_ERR_SUCCESS)
+            goto fail;
+    }
 
     step = "write the header";
     rv = exr_write_header(ctxt);
@@ -332,12 +370,15 @@ lr_status lr__encode_exr(const lr_image *img, const lr_output_options *opts,
     }
 
     step = "encode the pixels";
-    for (int y = 0; y < img->height; y += spc) {
+    /* Chunks are named by their first line in the data window's
+     * coordinates: a crop's start at its row in the frame. */
+    int top = img->frame_w > 0 ? img->y0 : 0;
+    for (int y = top; y < top + img->height; y += spc) {
         exr_chunk_info_t cinfo;
         rv = exr_write_scanline_chunk_info(ctxt, part, y, &cinfo);
         if (rv != EXR_ERR_SUCCESS)
             goto fail;
-        stage_chunk(img, want_z, half, cinfo.start_y, cinfo.height,
+        stage_chunk(img, want_z, half, cinfo.start_y - top, cinfo.height,
                     plane_bytes, stage);
         if (!enc_live) {
             rv = exr_encoding_initialize(ctxt, part, &cinfo, &enc);

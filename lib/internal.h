@@ -56,6 +56,13 @@ struct lr_image {
     int width, height;
     float *rgb;   /* width*height*3, owned */
     float *depth; /* width*height or NULL, owned */
+    /* A crop's place in its frame and how it was rendered, for the EXR
+     * header (lr_image_set_frame); frame_w == 0: the image is a frame of
+     * its own and the header says nothing more. */
+    int frame_w, frame_h, x0, y0;
+    int spp;
+    uint64_t seed;
+    char *camera; /* lr_camera_json text, owned, or NULL */
 };
 
 /* ---- encoders (image_exr.c, image_png.c) ------------------------------ */

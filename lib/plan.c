@@ -243,7 +243,14 @@ lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
         p->blocks[i] = (lr__block_plan){1, 1, 0, 0};
     /* A model with no safe bound samples its lens everywhere. */
     if (set->plan && c->has_lens && c->model->bound != NULL) {
-        lr_status st = plan_blur(p, s, c, x0, y0, x1, y1, err);
+        /* Adaptive sampling reads the pilots of a one-pixel apron around
+         * the region (adaptive.c), and a pilot follows its block's plan:
+         * the apron's blocks are planned too, or a crop's edge pixels
+         * would differ from the full render's. */
+        int gx0 = x0 > 0 ? x0 - 1 : 0, gy0 = y0 > 0 ? y0 - 1 : 0;
+        int gx1 = x1 < (int)c->width ? x1 + 1 : x1;
+        int gy1 = y1 < (int)c->height ? y1 + 1 : y1;
+        lr_status st = plan_blur(p, s, c, gx0, gy0, gx1, gy1, err);
         if (st != LR_OK) {
             lr__plan_free(p);
             return st;

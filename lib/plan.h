@@ -39,8 +39,9 @@ typedef struct lr__plan {
     lr__block_plan *blocks; /* bw * bh, owned */
 } lr__plan;
 
-/* Plans the blocks covering [x0, x1) x [y0, y1) of the frame (the others
- * are planned as the full simulation).  set->plan = 0 plans every block
+/* Plans the blocks covering [x0, x1) x [y0, y1) of the frame and the
+ * one-pixel apron around it that adaptive sampling reads (the others are
+ * planned as the full simulation).  set->plan = 0 plans every block
  * as the full simulation: the lens sampled wherever the camera has one,
  * the colours split wherever they focus apart.  Returns LR_ERR_NOMEM on
  * failure. */

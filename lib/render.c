@@ -179,6 +179,15 @@ lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
     if (st != LR_OK)
         return st;
 
+    /* A crop carries its place and its making into its file's header. */
+    if (j.x0 != 0 || j.y0 != 0 || j.x1 != set->width || j.y1 != set->height) {
+        st = lr_image_set_frame(img, set->width, set->height, j.x0, j.y0, cam,
+                                set, err);
+        if (st != LR_OK) {
+            lr_image_free(img);
+            return st;
+        }
+    }
     j.set = set;
     j.img = img;
     lr__cam_init(&j.cam, &cam_used, set->width, set->height);

@@ -130,12 +130,31 @@ static lrd_scene *job_scene(const lr_job *job, lrd_job_spec *spec,
         return lrd_scene_named(name, e);
     }
     const char *file, *field;
-    for (size_t k = 0; lr_job_mesh_file(job, k, &file, &field); k++)
-        if (check_mesh_path(file, field, e) != 0)
+    int assets = 0;
+    for (size_t k = 0; lr_job_mesh_file(job, k, &file, &field); k++) {
+        int asset = strncmp(file, "sha256:", 7) == 0;
+        assets |= asset;
+        if ((asset ? lrd_asset_check_ref(file, field, e)
+                   : check_mesh_path(file, field, e)) != 0)
             return NULL;
+    }
     size_t len = 0;
     const char *text = lr_job_scene_json(job, &len);
-    return lrd_scene_inline(text, len, e);
+    if (!assets)
+        return lrd_scene_inline(text, len, e);
+    /* The assets' paths in place of their names; the text still names
+     * each by its content, so it stays a good cache key. */
+    size_t rlen = 0;
+    char *resolved = lrd_assets_resolve(text, len, &rlen);
+    if (resolved == NULL) {
+        lrd_fail(e, 503, "out_of_memory", NULL, "out of memory");
+        return NULL;
+    }
+    lrd_scene *s = lrd_scene_inline(resolved, rlen, e);
+    free(resolved);
+    if (s == NULL)
+        lrd_assets_unresolve(e->message, sizeof e->message);
+    return s;
 }
 
 int lrd_api_parse_job(const char *body, size_t len, lrd_job_spec *spec,

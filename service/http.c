@@ -272,15 +272,62 @@ static int client_gone(int fd)
     return 0;
 }
 
-static enum MHD_Result do_render(struct MHD_Connection *c, req *r)
+/* The request's Idempotency-Key into key[]: "" without one.  0, or -1
+ * with *e (422) for a key that is empty, too long or not printable ASCII
+ * without spaces. */
+static int idempotency_key(struct MHD_Connection *c, char key[LRD_KEY_MAX + 1],
+                           lrd_err *e)
+{
+    const char *k = MHD_lookup_connection_value(c, MHD_HEADER_KIND,
+                                                "Idempotency-Key");
+    key[0] = '\0';
+    if (k == NULL)
+        return 0;
+    size_t n = strlen(k);
+    int ok = n > 0 && n <= LRD_KEY_MAX;
+    for (size_t i = 0; ok && i < n; i++)
+        ok = k[i] > ' ' && k[i] < 127;
+    if (!ok)
+        return lrd_fail(e, 422, "invalid_value", NULL,
+                        "the Idempotency-Key header must be 1 to %d "
+                        "printable ASCII characters without spaces",
+                        LRD_KEY_MAX);
+    memcpy(key, k, n + 1);
+    return 0;
+}
+
+/* Parses the body and queues its job, or finds the job an earlier
+ * request with the same Idempotency-Key made.  NULL after an error
+ * answer was queued in *result. */
+static lrd_job *submit(struct MHD_Connection *c, req *r, int sync,
+                       int *existing, enum MHD_Result *result)
 {
     lrd_err e;
+    char key[LRD_KEY_MAX + 1];
+    unsigned char hash[32];
     lrd_job_spec spec;
-    if (lrd_api_parse_job(r->body, r->len, &spec, &e) != 0)
-        return send_error(c, r, &e, NULL);
     lrd_job *job = NULL;
-    if (lrd_jobs_submit(&spec, 1, &job, &e) != 0)
-        return send_error(c, r, &e, NULL);
+    if (idempotency_key(c, key, &e) != 0 ||
+        lrd_api_parse_job(r->body, r->len, &spec, &e) != 0) {
+        *result = send_error(c, r, &e, NULL);
+        return NULL;
+    }
+    lrd_sha256(r->body ? r->body : "", r->len, hash);
+    if (lrd_jobs_submit(&spec, sync, key, hash, &job, existing, &e) != 0) {
+        *result = send_error(c, r, &e, NULL);
+        return NULL;
+    }
+    snprintf(r->job_id, sizeof r->job_id, "%s", lrd_job_id(job));
+    return job;
+}
+
+static enum MHD_Result do_render(struct MHD_Connection *c, req *r)
+{
+    enum MHD_Result result = MHD_NO;
+    int existing = 0;
+    lrd_job *job = submit(c, r, 1, &existing, &result);
+    if (job == NULL)
+        return result;
     snprintf(r->job_id, sizeof r->job_id, "%s", lrd_job_id(job));
 
     const union MHD_ConnectionInfo *ci =
@@ -294,7 +341,10 @@ static enum MHD_Result do_render(struct MHD_Connection *c, req *r)
     MHD_set_connection_option(c, MHD_CONNECTION_OPTION_TIMEOUT, 0u);
     while (!lrd_job_wait(job, 0.1)) {
         if (client_gone(fd)) {
-            lrd_job_cancel(job, LRD_CANCEL_DISCONNECT);
+            /* A render with an Idempotency-Key goes on for the retry
+             * that will come; the others stop. */
+            if (!lrd_job_keyed(job))
+                lrd_job_cancel(job, LRD_CANCEL_DISCONNECT);
             lrd_job_release(job);
             r->status = 499;
             closing_on_purpose = 1;
@@ -314,14 +364,11 @@ static enum MHD_Result do_render(struct MHD_Connection *c, req *r)
 
 static enum MHD_Result do_submit(struct MHD_Connection *c, req *r)
 {
-    lrd_err e;
-    lrd_job_spec spec;
-    if (lrd_api_parse_job(r->body, r->len, &spec, &e) != 0)
-        return send_error(c, r, &e, NULL);
-    lrd_job *job = NULL;
-    if (lrd_jobs_submit(&spec, 0, &job, &e) != 0)
-        return send_error(c, r, &e, NULL);
-    snprintf(r->job_id, sizeof r->job_id, "%s", lrd_job_id(job));
+    enum MHD_Result result = MHD_NO;
+    int existing = 0;
+    lrd_job *job = submit(c, r, 0, &existing, &result);
+    if (job == NULL)
+        return result;
     lrd_job_release(job);
     char href[48];
     snprintf(href, sizeof href, "/v1/jobs/%s", r->job_id);
@@ -331,7 +378,10 @@ static enum MHD_Result do_submit(struct MHD_Connection *c, req *r)
     cJSON_AddStringToObject(o, "href", href);
     char *json = lrd_json_print(o);
     cJSON_Delete(o);
-    const char *hdrs[] = {MHD_HTTP_HEADER_LOCATION, href, NULL};
+    /* A retry gets the first answer again, and is told so. */
+    const char *hdrs[] = {MHD_HTTP_HEADER_LOCATION, href,
+                          existing ? "Idempotent-Replayed" : NULL, "true",
+                          NULL};
     return send_json(c, r, 202, json, hdrs);
 }
 
@@ -351,12 +401,48 @@ static lrd_job *find_or_404(struct MHD_Connection *c, req *r,
     return j;
 }
 
+/* A whole number in [lo, hi] from query argument `name`; *out keeps its
+ * value when the argument is absent.  0, or -1 with *e (422). */
+static int query_long(struct MHD_Connection *c, const char *name, long lo,
+                      long hi, long *out, lrd_err *e)
+{
+    const char *v = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND,
+                                                name);
+    uint64_t n = 0;
+    if (v == NULL)
+        return 0;
+    if (lrd_parse_u64(v, 0, &n) != 0 || n < (uint64_t)lo || n > (uint64_t)hi)
+        return lrd_fail(e, 422, "invalid_value", name,
+                        "%s must be a whole number from %ld to %ld, got "
+                        "\"%.40s\"", name, lo, hi, v);
+    *out = (long)n;
+    return 0;
+}
+
 static enum MHD_Result do_job(struct MHD_Connection *c, req *r)
 {
     enum MHD_Result result = MHD_NO;
+    lrd_err e;
+    long wait = -1;
+    /* ?wait=SECONDS: answer when the status changes (or after that long),
+     * so that a client follows a job without polling. */
+    if (query_long(c, "wait", 0, 60, &wait, &e) != 0) {
+        r->job_id[0] = '\0';
+        return send_error(c, r, &e, NULL);
+    }
     lrd_job *j = find_or_404(c, r, &result);
     if (j == NULL)
         return result;
+    lrd_job_result now;
+    lrd_job_result_get(j, &now);
+    lrd_blob_release(now.image);
+    /* A finished job changes no more: answer at once. */
+    if (wait > 0 && now.state < LRD_DONE) {
+        MHD_set_connection_option(c, MHD_CONNECTION_OPTION_TIMEOUT, 0u);
+        lrd_job_wait_change(j, now.state, (double)wait);
+        MHD_set_connection_option(c, MHD_CONNECTION_OPTION_TIMEOUT,
+                                  (unsigned)lrd_cfg.conn_timeout);
+    }
     char *json = lrd_job_status_json(j);
     lrd_job_release(j);
     return send_json(c, r, 200, json, NULL);
@@ -514,19 +600,132 @@ static enum MHD_Result do_ui(struct MHD_Connection *c, req *r)
     return queue(c, r, 200, resp, f->len, f->content_type, hdrs);
 }
 
+/* Remembers the first query parameter that GET /v1/jobs does not know. */
+static enum MHD_Result unknown_arg(void *cls, enum MHD_ValueKind kind,
+                                   const char *key, const char *value)
+{
+    (void)kind;
+    (void)value;
+    static const char *const known[] = {"status", "key", "after", "limit"};
+    char *first = cls;
+    for (size_t i = 0; i < sizeof known / sizeof known[0]; i++)
+        if (key != NULL && strcmp(key, known[i]) == 0)
+            return MHD_YES;
+    if (first[0] == '\0')
+        snprintf(first, 64, "%s", key != NULL && key[0] ? key : "(empty)");
+    return MHD_YES;
+}
+
+/* GET /v1/jobs?status=S&key=K&after=ID&limit=N: this daemon's jobs. */
+static enum MHD_Result do_jobs_list(struct MHD_Connection *c, req *r)
+{
+    lrd_err e;
+    long limit = 100;
+    int status = -1;
+    /* An unknown parameter is refused, as an unknown key of a job is,
+     * rather than ignored (a misspelt filter would list everything). */
+    char unknown[64] = "";
+    MHD_get_connection_values(c, MHD_GET_ARGUMENT_KIND, unknown_arg, unknown);
+    if (unknown[0] != '\0') {
+        lrd_fail(&e, 422, "invalid_value", NULL,
+                 "unknown query parameter \"%s\" (expected status, key, "
+                 "after, limit)", unknown);
+        return send_error(c, r, &e, NULL);
+    }
+    const char *s = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND,
+                                                "status");
+    if (s != NULL) {
+        for (int i = 0; i < LRD_N_STATES; i++)
+            if (strcmp(s, lrd_state_name((lrd_state)i)) == 0)
+                status = i;
+        if (status < 0) {
+            lrd_fail(&e, 422, "invalid_value", "status",
+                     "status must be one of queued, running, done, failed, "
+                     "cancelled, got \"%.40s\"", s);
+            return send_error(c, r, &e, NULL);
+        }
+    }
+    if (query_long(c, "limit", 1, 1000, &limit, &e) != 0)
+        return send_error(c, r, &e, NULL);
+    const char *key = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND,
+                                                  "key");
+    const char *after = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND,
+                                                    "after");
+    if (after != NULL && !lrd_is_job_id(after)) {
+        lrd_fail(&e, 422, "invalid_value", "after",
+                 "after must be a job id (32 lowercase hex digits), got "
+                 "\"%.40s\"", after);
+        return send_error(c, r, &e, NULL);
+    }
+    size_t kn = key != NULL ? strlen(key) : 1;
+    int key_ok = kn > 0 && kn <= LRD_KEY_MAX;
+    for (size_t i = 0; key != NULL && key_ok && i < kn; i++)
+        key_ok = key[i] > ' ' && key[i] < 127;
+    if (!key_ok) {
+        lrd_fail(&e, 422, "invalid_value", "key",
+                 "key must be an Idempotency-Key: 1 to %d printable ASCII "
+                 "characters without spaces", LRD_KEY_MAX);
+        return send_error(c, r, &e, NULL);
+    }
+    char *json = lrd_jobs_list_json(status, key, after, limit);
+    if (json == NULL) {
+        lrd_fail(&e, 503, "out_of_memory", NULL, "out of memory");
+        return send_error(c, r, &e, NULL);
+    }
+    return send_json(c, r, 200, json, NULL);
+}
+
+/* The asset's name: the last segment of the path (the route's {hash}). */
+static const char *asset_hex(const req *r)
+{
+    const char *slash = strrchr(r->path, '/');
+    return slash ? slash + 1 : r->path;
+}
+
+/* PUT /v1/assets/{sha256}: 201 when stored now, 200 when it was there. */
+static enum MHD_Result do_asset_put(struct MHD_Connection *c, req *r)
+{
+    lrd_err e;
+    int created = 0;
+    if (lrd_asset_put(asset_hex(r), r->body ? r->body : "", r->len, &created,
+                      &e) != 0)
+        return send_error(c, r, &e, NULL);
+    char *json = NULL;
+    if (asprintf(&json, "{\"sha256\":\"%s\",\"bytes\":%zu,\"created\":%s}",
+                 asset_hex(r), r->len, created ? "true" : "false") < 0)
+        return MHD_NO;
+    return send_json(c, r, created ? 201 : 200, json, NULL);
+}
+
+/* GET (and HEAD) /v1/assets/{sha256}: whether the asset is here. */
+static enum MHD_Result do_asset_get(struct MHD_Connection *c, req *r)
+{
+    lrd_err e;
+    uint64_t size = 0;
+    if (lrd_asset_stat(asset_hex(r), &size, &e) != 0)
+        return send_error(c, r, &e, NULL);
+    char *json = NULL;
+    if (asprintf(&json, "{\"sha256\":\"%s\",\"bytes\":%llu}", asset_hex(r),
+                 (unsigned long long)size) < 0)
+        return MHD_NO;
+    return send_json(c, r, 200, json, NULL);
+}
+
 /* ---- routes -------------------------------------------------------------- */
 
 /* A route: a method, a path pattern of literal segments and "{id}" (one
  * segment of 1 to 32 characters, of any shape: an id of the wrong shape is
- * still this route, and gets "no such job" rather than "no such route"),
- * and its handler.  GET routes also answer HEAD (MHD sends no body).
+ * still this route, and gets "no such job" rather than "no such route";
+ * "{hash}" likewise, of 1 to 64 characters, read by the handler from the
+ * path), and its handler.  GET routes also answer HEAD (MHD sends no body).
  * docs/openapi.yaml lists the same routes; tests/api checks them. */
 struct route {
     const char *method;
     const char *pattern;
     enum MHD_Result (*handler)(struct MHD_Connection *c, req *r);
     int open; /* served without the token (a load balancer's probe) */
-    int body; /* takes a JSON request body */
+    int body; /* takes a request body: 1 JSON, 2 any type up to
+                 --max-asset-bytes */
 };
 
 static const route routes[] = {
@@ -544,14 +743,30 @@ static const route routes[] = {
     {"GET", "/", do_ui, 1, 0},
     {"GET", "/ui/page.js", do_ui, 1, 0},
     {"GET", "/ui/page.css", do_ui, 1, 0},
+    {"GET", "/v1/jobs", do_jobs_list, 0, 0},
+    {"PUT", "/v1/assets/{hash}", do_asset_put, 0, 2},
+    {"GET", "/v1/assets/{hash}", do_asset_get, 0, 0},
 };
 #define N_ROUTES (sizeof routes / sizeof routes[0])
+
+/* The largest body the route takes. */
+static uint64_t body_limit(const req *r)
+{
+    return r->route != NULL && r->route->body == 2 ? lrd_cfg.max_asset
+                                                   : lrd_cfg.max_body;
+}
 
 /* Whether `url` matches `pattern`; an {id} segment goes to id[33]. */
 static int match(const char *pattern, const char *url, char id[33])
 {
     while (*pattern != '\0') {
-        if (strncmp(pattern, "{id}", 4) == 0) {
+        if (strncmp(pattern, "{hash}", 6) == 0) {
+            size_t n = strcspn(url, "/");
+            if (n == 0 || n > 64)
+                return 0;
+            pattern += 6;
+            url += n;
+        } else if (strncmp(pattern, "{id}", 4) == 0) {
             size_t n = strcspn(url, "/");
             if (n == 0 || n > 32)
                 return 0;
@@ -628,7 +843,7 @@ static int early(struct MHD_Connection *c, req *r, const char *url,
         lrd_fail(&e, 405, "method_not_allowed", NULL,
                  "%s does not allow %s (allowed: %s)", r->path, r->method,
                  allow);
-    } else if (r->route->body && !json_content_type(c)) {
+    } else if (r->route->body == 1 && !json_content_type(c)) {
         lrd_fail(&e, 415, "unsupported_media_type", NULL,
                  "the body must be sent with 'Content-Type: "
                  "application/json'");
@@ -637,12 +852,13 @@ static int early(struct MHD_Connection *c, req *r, const char *url,
             c, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_LENGTH);
         uint64_t n = 0;
         if (cl != NULL && lrd_parse_u64(cl, 0, &n) == 0 &&
-            n > lrd_cfg.max_body) {
+            n > body_limit(r)) {
             lrd_fail(&e, 413, "body_too_large", NULL,
                      "the body is %llu bytes, more than the limit of %llu "
-                     "(--max-body)",
-                     (unsigned long long)n,
-                     (unsigned long long)lrd_cfg.max_body);
+                     "(%s)",
+                     (unsigned long long)n, (unsigned long long)body_limit(r),
+                     r->route->body == 2 ? "--max-asset-bytes"
+                                         : "--max-body");
         } else {
             return 0;
         }
@@ -660,9 +876,9 @@ static enum MHD_Result dispatch(struct MHD_Connection *c, req *r)
     if (r->too_large) {
         lrd_err e;
         lrd_fail(&e, 413, "body_too_large", NULL,
-                 "the body is more than the limit of %llu bytes "
-                 "(--max-body)",
-                 (unsigned long long)lrd_cfg.max_body);
+                 "the body is more than the limit of %llu bytes (%s)",
+                 (unsigned long long)body_limit(r),
+                 r->route->body == 2 ? "--max-asset-bytes" : "--max-body");
         return send_error(c, r, &e, NULL);
     }
     return r->route->handler(c, r);
@@ -721,10 +937,10 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c,
             /* Dropped, but not forever: a client that keeps streaming
              * long after the limit loses its connection. */
             r->dropped += n;
-            return r->dropped > 4 * lrd_cfg.max_body + (1u << 20) ? MHD_NO
-                                                                  : MHD_YES;
+            return r->dropped > 4 * body_limit(r) + (1u << 20) ? MHD_NO
+                                                               : MHD_YES;
         }
-        if (r->len + n > lrd_cfg.max_body) {
+        if (r->len + n > body_limit(r)) {
             r->too_large = 1;
             free(r->body);
             r->body = NULL;
@@ -736,8 +952,8 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c,
             size_t cap = r->cap ? r->cap : 4096;
             while (cap < r->len + n + 1)
                 cap *= 2;
-            if (cap > lrd_cfg.max_body + 1)
-                cap = lrd_cfg.max_body + 1;
+            if (cap > body_limit(r) + 1)
+                cap = body_limit(r) + 1;
             char *grown = realloc(r->body, cap);
             if (grown == NULL)
                 return MHD_NO;

@@ -38,6 +38,8 @@ struct lrd_blob {
 
 struct lrd_job {
     char id[33];
+    char key[LRD_KEY_MAX + 1];  /* Idempotency-Key, or "" */
+    unsigned char body_hash[32]; /* SHA-256 of the request, with a key */
     int refs;
     int in_table;
     int sync;
@@ -149,6 +151,8 @@ static void set_state_locked(lrd_job *j, lrd_state s)
         jobs.in_state[s]++;
     }
     j->state = s;
+    /* Waiters on any change (GET /v1/jobs/{id}?wait=) re-check. */
+    pthread_cond_broadcast(&jobs.done_cv);
 }
 
 /* Called with jobs.mu held: drops finished asynchronous jobs that are too
@@ -199,7 +203,9 @@ static void finish_locked(lrd_job *j, lrd_state s, lrd_job **chain)
         jobs.samples += j->stats.samples;
         jobs.pixels += j->stats.pixels;
     }
-    if (j->sync)
+    /* A synchronous job with an Idempotency-Key stays, so that a retry
+     * of its request gets its image rather than a second render. */
+    if (j->sync && j->key[0] == '\0')
         unlink_locked(j, chain);
     pthread_cond_broadcast(&jobs.done_cv);
 }
@@ -406,9 +412,42 @@ int lrd_jobs_start(void)
 
 /* ---- the API ------------------------------------------------------------- */
 
-int lrd_jobs_submit(lrd_job_spec *spec, int sync, lrd_job **out, lrd_err *e)
+int lrd_jobs_submit(lrd_job_spec *spec, int sync, const char *key,
+                    const unsigned char body_hash[32], lrd_job **out,
+                    int *existing, lrd_err *e)
 {
     *out = NULL;
+    *existing = 0;
+    if (key != NULL && key[0] != '\0') {
+        /* A request seen before: its job, whatever its state. */
+        lrd_job *chain = NULL, *found = NULL;
+        int clash = 0;
+        pthread_mutex_lock(&jobs.mu);
+        prune_locked(&chain);
+        for (lrd_job *j = jobs.head; j != NULL; j = j->next)
+            if (strcmp(j->key, key) == 0) {
+                clash = memcmp(j->body_hash, body_hash, 32) != 0;
+                if (!clash) {
+                    j->refs++;
+                    found = j;
+                }
+                break;
+            }
+        pthread_mutex_unlock(&jobs.mu);
+        free_chain(chain);
+        if (clash) {
+            lrd_job_spec_clear(spec);
+            return lrd_fail(e, 422, "idempotency_key_reused", NULL,
+                            "the Idempotency-Key \"%s\" was used for another "
+                            "request; a key names one request", key);
+        }
+        if (found != NULL) {
+            lrd_job_spec_clear(spec);
+            *out = found;
+            *existing = 1;
+            return 0;
+        }
+    }
     lrd_job *j = calloc(1, sizeof *j);
     if (j == NULL) {
         lrd_job_spec_clear(spec);
@@ -419,6 +458,12 @@ int lrd_jobs_submit(lrd_job_spec *spec, int sync, lrd_job **out, lrd_err *e)
         lrd_job_spec_clear(spec);
         return lrd_fail(e, 500, "internal", NULL,
                         "no random numbers for a job id");
+    }
+    /* The daemon's prefix names it in the id (--id-prefix). */
+    memcpy(j->id, lrd_cfg.id_prefix, strlen(lrd_cfg.id_prefix));
+    if (key != NULL) {
+        snprintf(j->key, sizeof j->key, "%s", key);
+        memcpy(j->body_hash, body_hash, 32);
     }
     j->spec = *spec;
     memset(spec, 0, sizeof *spec); /* the scene reference moved */
@@ -505,7 +550,8 @@ void lrd_job_release(lrd_job *j)
 const char *lrd_job_id(const lrd_job *j) { return j->id; }
 const lrd_job_spec *lrd_job_spec_of(const lrd_job *j) { return &j->spec; }
 
-int lrd_job_wait(lrd_job *j, double seconds)
+/* The monotonic time `seconds` from now, for pthread_cond_timedwait. */
+static struct timespec deadline(double seconds)
 {
     struct timespec until;
     clock_gettime(CLOCK_MONOTONIC, &until);
@@ -516,6 +562,12 @@ int lrd_job_wait(lrd_job *j, double seconds)
         until.tv_sec++;
         until.tv_nsec -= 1000000000L;
     }
+    return until;
+}
+
+int lrd_job_wait(lrd_job *j, double seconds)
+{
+    struct timespec until = deadline(seconds);
     pthread_mutex_lock(&jobs.mu);
     while (j->state < LRD_DONE) {
         if (pthread_cond_timedwait(&jobs.done_cv, &jobs.mu, &until) != 0)
@@ -524,6 +576,78 @@ int lrd_job_wait(lrd_job *j, double seconds)
     int finished = j->state >= LRD_DONE;
     pthread_mutex_unlock(&jobs.mu);
     return finished;
+}
+
+lrd_state lrd_job_wait_change(lrd_job *j, lrd_state from, double seconds)
+{
+    struct timespec until = deadline(seconds);
+    pthread_mutex_lock(&jobs.mu);
+    while (j->state == from && !jobs.shutting_down) {
+        if (pthread_cond_timedwait(&jobs.done_cv, &jobs.mu, &until) != 0)
+            break;
+    }
+    lrd_state now = j->state;
+    pthread_mutex_unlock(&jobs.mu);
+    return now;
+}
+
+int lrd_job_keyed(const lrd_job *j)
+{
+    return j->key[0] != '\0';
+}
+
+char *lrd_jobs_list_json(int status, const char *key, const char *after,
+                         long limit)
+{
+    /* The ids of the page first, under the lock; then each status
+     * document, as GET /v1/jobs/{id} builds it. */
+    char (*ids)[33] = calloc((size_t)limit + 1, sizeof *ids);
+    if (ids == NULL)
+        return NULL;
+    long n = 0;
+    int more = 0, started = after == NULL || after[0] == '\0';
+    lrd_job *chain = NULL;
+    pthread_mutex_lock(&jobs.mu);
+    prune_locked(&chain);
+    for (lrd_job *j = jobs.head; j != NULL; j = j->next) {
+        if (!started) {
+            started = strcmp(j->id, after) == 0;
+            continue;
+        }
+        if ((status >= 0 && (int)j->state != status) ||
+            (key != NULL && key[0] != '\0' && strcmp(j->key, key) != 0))
+            continue;
+        if (n == limit) {
+            more = 1;
+            break;
+        }
+        snprintf(ids[n++], sizeof ids[0], "%s", j->id);
+    }
+    pthread_mutex_unlock(&jobs.mu);
+    free_chain(chain);
+    cJSON *o = cJSON_CreateObject();
+    cJSON *arr = o ? cJSON_AddArrayToObject(o, "jobs") : NULL;
+    for (long i = 0; arr != NULL && i < n; i++) {
+        lrd_job *j = lrd_jobs_find(ids[i]);
+        if (j == NULL)
+            continue; /* dropped meanwhile */
+        char *doc = lrd_job_status_json(j);
+        lrd_job_release(j);
+        cJSON *item = doc ? cJSON_Parse(doc) : NULL;
+        free(doc);
+        if (item != NULL)
+            cJSON_AddItemToArray(arr, item);
+    }
+    if (o != NULL) {
+        if (more && n > 0)
+            cJSON_AddStringToObject(o, "next", ids[n - 1]);
+        else
+            cJSON_AddNullToObject(o, "next");
+    }
+    free(ids);
+    char *text = o ? lrd_json_print(o) : NULL;
+    cJSON_Delete(o);
+    return text;
 }
 
 lrd_state lrd_job_cancel(lrd_job *j, lrd_cancel_reason why)
@@ -618,6 +742,8 @@ char *lrd_job_status_json(lrd_job *j)
         return NULL;
     cJSON_AddStringToObject(o, "id", c.id);
     cJSON_AddStringToObject(o, "status", lrd_state_name(c.state));
+    if (c.key[0] != '\0')
+        cJSON_AddStringToObject(o, "idempotency_key", c.key);
     double progress = c.state == LRD_DONE ? 1.0
                       : c.total_px > 0    ? (double)c.done_px / (double)c.total_px
                                           : 0.0;

@@ -48,6 +48,10 @@ typedef struct lrd_config {
     char bind[64];            /* address to listen on */
     long port;                /* 0 = an ephemeral port, printed at startup */
     char scenes_dir[4096];    /* absolute, symlinks resolved */
+    char assets_dir[4096];    /* absolute, or "" for no asset store */
+    uint64_t max_asset;       /* bytes of one asset (PUT /v1/assets) */
+    char id_prefix[9];        /* the start of every job id: a balancer
+                                 routes a job's requests on it */
     long workers;             /* render worker threads */
     long queue;               /* jobs that may wait beyond the workers */
     char *token;              /* NULL = no authentication; owned */
@@ -197,6 +201,36 @@ int lrd_api_parse_job(const char *body, size_t len, lrd_job_spec *spec,
                       lrd_err *e);
 void lrd_job_spec_clear(lrd_job_spec *spec);
 
+/* ------------------------------------------------------------------------
+ * Assets (assets.c): files named by the SHA-256 of their bytes in
+ * --assets DIR, which inline scenes name as "sha256:HEX".
+ * ---------------------------------------------------------------------- */
+
+/* Whether `hex` is an asset name: 64 lowercase hex digits. */
+int lrd_asset_name_ok(const char *hex);
+
+/* Stores len bytes as asset `hex` unless it is there already (*created
+ * says which).  0, or -1 with *e: 404 no store, 422 a bad name or bytes
+ * whose SHA-256 is not `hex` (nothing stored), 507 the disk failed. */
+int lrd_asset_put(const char *hex, const void *data, size_t len,
+                  int *created, lrd_err *e);
+
+/* Whether asset `hex` is there, and its size.  0, or -1 with *e (404). */
+int lrd_asset_stat(const char *hex, uint64_t *size, lrd_err *e);
+
+/* Checks a mesh file "sha256:HEX" of an inline scene at `field`: 0, or
+ * -1 with a 422 that names the field and the asset the server lacks. */
+int lrd_asset_check_ref(const char *file, const char *field, lrd_err *e);
+
+/* The scene text with every "sha256:HEX" string replaced by the asset's
+ * path; malloc'ed (*out_len bytes, NUL-terminated), NULL when out of
+ * memory. */
+char *lrd_assets_resolve(const char *text, size_t len, size_t *out_len);
+
+/* Puts "sha256:" back where a message names an asset by its path, so
+ * that errors do not show the server's directories. */
+void lrd_assets_unresolve(char *msg, size_t size);
+
 /* GET /v1/scenes as a JSON document; malloc'ed, or NULL with *e. */
 char *lrd_api_scenes_json(lrd_err *e);
 
@@ -242,12 +276,36 @@ typedef struct lrd_job lrd_job;
 
 int lrd_jobs_start(void);   /* starts the workers; 0 or -1 */
 
+/* The longest Idempotency-Key: printable ASCII without spaces. */
+#define LRD_KEY_MAX 64
+
 /* Queues a job.  Takes over spec->scene (spec is cleared either way).
  * `sync` jobs belong to a waiting POST /v1/render and leave the table as
- * soon as they finish.  On success *out is a new reference to the job.
- * Errors: 429 queue full (retry_after set), 503 shutting down. */
-int lrd_jobs_submit(lrd_job_spec *spec, int sync, lrd_job **out,
-                    lrd_err *e);
+ * soon as they finish, unless they have a key.  With a `key` (an
+ * Idempotency-Key; NULL or "" for none) and `body_hash` (the SHA-256 of
+ * the request), a job already in the table with that key is returned
+ * instead (*existing = 1) and nothing is queued.  On success *out is a
+ * new reference to the job.  Errors: 422 idempotency_key_reused (the key
+ * came with another request), 429 queue full (retry_after set), 503
+ * shutting down. */
+int lrd_jobs_submit(lrd_job_spec *spec, int sync, const char *key,
+                    const unsigned char body_hash[32], lrd_job **out,
+                    int *existing, lrd_err *e);
+
+/* Whether the job came with an Idempotency-Key. */
+int lrd_job_keyed(const lrd_job *j);
+
+/* Waits up to `seconds` while the job is in state `from`; returns the
+ * state then. */
+lrd_state lrd_job_wait_change(lrd_job *j, lrd_state from, double seconds);
+
+/* GET /v1/jobs: the status documents of the table's jobs, oldest first,
+ * in state `status` (-1: any) and with Idempotency-Key `key` (NULL: any),
+ * after the job `after` (NULL: from the first), at most `limit`, as
+ * {"jobs": [...], "next": ID or null}.  malloc'ed; NULL when out of
+ * memory. */
+char *lrd_jobs_list_json(int status, const char *key, const char *after,
+                         long limit);
 
 /* A new reference to the job with this id, or NULL. */
 lrd_job *lrd_jobs_find(const char *id);

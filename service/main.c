@@ -45,6 +45,7 @@ typedef struct opt {
 
 static char scenes_arg[4096] = "scenes";
 static char token_file[4096] = "";
+static char assets_arg[4096] = "";
 
 #define U64(x) ((double)(x))
 static const opt opts[] = {
@@ -58,6 +59,14 @@ static const opt opts[] = {
      "render worker threads (jobs rendered at once)"},
     {"queue", T_LONG, &lrd_cfg.queue, 0, 0, 0, 100000,
      "jobs that may wait for a worker; more get 429"},
+    {"assets", T_STR, assets_arg, sizeof assets_arg, 0, 0, 0,
+     "directory of content-addressed assets (PUT /v1/assets/{sha256}); "
+     "shared by the daemons behind one balancer; none by default"},
+    {"max-asset-bytes", T_U64, &lrd_cfg.max_asset, 0, 1, 1,
+     U64(1ull << 40), "largest asset in bytes (k/M/G suffixes)"},
+    {"id-prefix", T_STR, lrd_cfg.id_prefix, sizeof lrd_cfg.id_prefix, 0, 0,
+     0, "1 to 8 lowercase hex digits that start every job id, so that a "
+     "balancer sends a job's requests to this daemon"},
     {"token-file", T_STR, token_file, sizeof token_file, 0, 0, 0,
      "file holding a bearer token that every request but /healthz must "
      "send"},
@@ -249,6 +258,20 @@ static int configure(int argc, char **argv)
         stat(lrd_cfg.scenes_dir, &st) != 0 || !S_ISDIR(st.st_mode)) {
         fprintf(stderr, "lensrayd: --scenes %s is not a directory\n",
                 scenes_arg);
+        return -1;
+    }
+    if (strspn(lrd_cfg.id_prefix, "0123456789abcdef") !=
+        strlen(lrd_cfg.id_prefix)) {
+        fprintf(stderr, "lensrayd: --id-prefix must be 1 to 8 lowercase hex "
+                        "digits, got '%s'\n", lrd_cfg.id_prefix);
+        return -1;
+    }
+    if (assets_arg[0] != '\0' &&
+        (realpath(assets_arg, lrd_cfg.assets_dir) == NULL ||
+         stat(lrd_cfg.assets_dir, &st) != 0 || !S_ISDIR(st.st_mode) ||
+         access(lrd_cfg.assets_dir, W_OK) != 0)) {
+        fprintf(stderr, "lensrayd: --assets %s is not a directory this "
+                        "process can write to\n", assets_arg);
         return -1;
     }
     if (token_file[0] != '\0') {

@@ -266,6 +266,7 @@ void lrd_config_defaults(void)
     lrd_cfg.workers = 1;
     lrd_cfg.queue = 16;
     lrd_cfg.max_body = 8u << 20;
+    lrd_cfg.max_asset = 64u << 20;
     lrd_cfg.max_pixels = 16777216; /* 16.8 MP: 4096 x 4096 */
     lrd_cfg.max_samples = 1ull << 33;
     lrd_cfg.max_render_seconds = 600;

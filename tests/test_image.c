@@ -157,6 +157,9 @@ typedef struct decoded_exr {
     exr_compression_t compression;
     int has_chroma;
     exr_attr_chromaticities_t chroma;
+    exr_attr_box2i_t data_window, display_window;
+    int spp;                         /* samplesPerPixel, -1 if absent */
+    char seed[32], camera[512];      /* lensraySeed, lensrayCamera or "" */
 } decoded_exr;
 
 static int64_t exr_mem_read(exr_const_context_t ctxt, void *user,
@@ -213,6 +216,22 @@ static void decode_exr(const void *buf, size_t len, decoded_exr *out)
 
     exr_attr_box2i_t dw;
     assert_int_equal(exr_get_data_window(ctxt, 0, &dw), EXR_ERR_SUCCESS);
+    out->data_window = dw;
+    assert_int_equal(exr_get_display_window(ctxt, 0, &out->display_window),
+                     EXR_ERR_SUCCESS);
+    int32_t spp = -1;
+    const char *str = NULL;
+    int32_t n = 0;
+    out->spp = exr_attr_get_int(ctxt, 0, "samplesPerPixel", &spp) ==
+                       EXR_ERR_SUCCESS
+                   ? spp
+                   : -1;
+    if (exr_attr_get_string(ctxt, 0, "lensraySeed", &n, &str) ==
+        EXR_ERR_SUCCESS)
+        snprintf(out->seed, sizeof out->seed, "%.*s", (int)n, str);
+    if (exr_attr_get_string(ctxt, 0, "lensrayCamera", &n, &str) ==
+        EXR_ERR_SUCCESS)
+        snprintf(out->camera, sizeof out->camera, "%.*s", (int)n, str);
     out->width = dw.max.x - dw.min.x + 1;
     out->height = dw.max.y - dw.min.y + 1;
 
@@ -519,6 +538,68 @@ static void test_exr_float(void **state)
         assert_memory_equal(&B[i], &rgb[3 * i + 2], sizeof(float));
         assert_memory_equal(&Z[i], &z[i], sizeof(float));
     }
+    free_exr(&d);
+    lr_free(buf);
+    lr_image_free(img);
+}
+
+/* A crop (lr_image_set_frame) is written where it sits: its data window
+ * at its place inside a display window of the whole frame, as OpenEXR
+ * defines the two windows, with how it was rendered; its pixels are the
+ * image's.  A frame of its own keeps the two windows equal and has none
+ * of the attributes.  A crop that does not fit its frame is refused. */
+static void test_exr_crop_window(void **state)
+{
+    (void)state;
+    const int w = 9, h = 20;
+    lr_image *img = make_image(w, h, 0);
+    lr_camera cam;
+    lr_camera_default(&cam);
+    lr_render_settings rs;
+    lr_render_settings_default(&rs);
+    rs.spp = 37;
+    rs.seed = 18446744073709551615ull;
+    lr_error err;
+    assert_int_equal(lr_image_set_frame(img, 100, 50, 91, 31, &cam, &rs,
+                                        &err), LR_ERR_INVALID);
+    assert_non_null(strstr(err.message, "does not fit"));
+    lr_output_options opts;
+    lr_output_options_default(&opts);
+    void *buf = NULL;
+    size_t len = 0;
+    encode_or_fail(img, LR_FORMAT_EXR, &opts, &buf, &len);
+    decoded_exr d;
+    decode_exr(buf, len, &d);
+    assert_int_equal(d.data_window.min.x, 0);
+    assert_int_equal(d.display_window.max.x, w - 1);
+    assert_int_equal(d.display_window.max.y, h - 1);
+    assert_int_equal(d.spp, -1);
+    assert_string_equal(d.camera, "");
+    free_exr(&d);
+    lr_free(buf);
+
+    assert_int_equal(lr_image_set_frame(img, 100, 50, 91, 30, &cam, &rs,
+                                        &err), LR_OK);
+    encode_or_fail(img, LR_FORMAT_EXR, &opts, &buf, &len);
+    decode_exr(buf, len, &d);
+    assert_int_equal(d.width, w);
+    assert_int_equal(d.height, h);
+    assert_int_equal(d.data_window.min.x, 91);
+    assert_int_equal(d.data_window.min.y, 30);
+    assert_int_equal(d.data_window.max.x, 99);
+    assert_int_equal(d.data_window.max.y, 49);
+    assert_int_equal(d.display_window.min.x, 0);
+    assert_int_equal(d.display_window.min.y, 0);
+    assert_int_equal(d.display_window.max.x, 99);
+    assert_int_equal(d.display_window.max.y, 49);
+    assert_int_equal(d.spp, 37);
+    assert_string_equal(d.seed, "18446744073709551615");
+    char *cam_json = lr_camera_json(&cam);
+    assert_string_equal(d.camera, cam_json);
+    lr_free(cam_json);
+    const float *rgb = lr_image_rgb(img), *G = exr_plane(&d, "G");
+    for (size_t i = 0; i < (size_t)w * h; i++)
+        assert_memory_equal(&G[i], &rgb[3 * i + 1], sizeof(float));
     free_exr(&d);
     lr_free(buf);
     lr_image_free(img);
@@ -865,6 +946,7 @@ static const struct CMUnitTest image_tests[] = {
     cmocka_unit_test(test_png_16bit),
     cmocka_unit_test(test_png_nonfinite),
     cmocka_unit_test(test_exr_float),
+    cmocka_unit_test(test_exr_crop_window),
     cmocka_unit_test(test_exr_half),
     cmocka_unit_test(test_exr_depth_option),
     cmocka_unit_test(test_exr_nonfinite),

@@ -3,12 +3,16 @@
  *
  *   lensray render SCENE.json -o OUT.exr|OUT.png [--set PATH=VALUE]...
  *                  [--stats] [--half] [--png16] [--depth] [--quiet]
+ *                  [--remote URL [--parts N] [--parallel K] [--retries R]
+ *                   [--token-file F]]
  *   lensray version
  *   lensray --help
  *
  * Exit codes: 0 ok, 2 usage, 3 bad scene, 4 I/O, 130 interrupted.
  */
 #include "lensray.h"
+#include "assets.h"
+#include "remote.h"
 
 #include <errno.h>
 #include <signal.h>
@@ -40,6 +44,16 @@ static const char usage_text[] =
     "  --png16             PNG: 16 bits per channel\n"
     "  --depth             also render the Z channel (written to EXR)\n"
     "  -q, --quiet         no progress bar\n"
+    "\n"
+    "rendering on daemons (docs/deploy.md):\n"
+    "  --remote URL        render on lensrayd at URL (one daemon, or many\n"
+    "                      behind a balancer) as region parts, stitched into\n"
+    "                      the same pixels as a local render; the scene's\n"
+    "                      meshes are read from the daemons' scenes directory\n"
+    "  --parts N           parts to cut the frame into (default 16)\n"
+    "  --parallel K        parts sent at a time (default 4)\n"
+    "  --retries R         further attempts of a failed part (default 4)\n"
+    "  --token-file F      the daemons' bearer token, first line of F\n"
     "\n"
     "lens: prints a lens's first-order data and real chief rays as one JSON\n"
     "object (docs/lenses.md); FILE is a .json, .zmx or pbrt .dat lens, NAME\n"
@@ -116,6 +130,51 @@ static long peak_rss_kib(void)
     return kib;
 }
 
+/* A whole number in [lo, hi] from the whole of `s`: 0, or -1. */
+static int parse_int(const char *s, int lo, int hi, int *out)
+{
+    char *end;
+    errno = 0;
+    long v = strtol(s, &end, 10);
+    if (errno != 0 || end == s || *end != '\0' || v < lo || v > hi)
+        return -1;
+    *out = (int)v;
+    return 0;
+}
+
+/* The first line of `path`, trailing whitespace dropped, as lensrayd
+ * reads its --token-file.  0, or -1 with the reason printed. */
+static int read_token(const char *path, char *out, size_t size)
+{
+    FILE *f = fopen(path, "r");
+    if (f == NULL || fgets(out, (int)size, f) == NULL) {
+        fprintf(stderr, "lensray: --token-file %s: %s\n", path,
+                f == NULL ? strerror(errno) : "the file is empty");
+        if (f != NULL)
+            fclose(f);
+        return -1;
+    }
+    fclose(f);
+    size_t n = strlen(out);
+    while (n > 0 && (out[n - 1] == '\n' || out[n - 1] == '\r' ||
+                     out[n - 1] == ' ' || out[n - 1] == '\t'))
+        out[--n] = '\0';
+    return 0;
+}
+
+/* The directory part of `path` ("." for a bare name, "/" at the root). */
+static void dir_of(const char *path, char *dir, size_t size)
+{
+    snprintf(dir, size, "%s", path);
+    char *slash = strrchr(dir, '/');
+    if (slash == NULL)
+        snprintf(dir, size, ".");
+    else if (slash == dir)
+        dir[1] = '\0';
+    else
+        *slash = '\0';
+}
+
 static int exit_for(lr_status st)
 {
     switch (st) {
@@ -126,12 +185,56 @@ static int exit_for(lr_status st)
     }
 }
 
+/* Writes the image; the exit status. */
+static int write_image(const lr_image *img, const char *path,
+                       const lr_output_options *oo)
+{
+    lr_error err;
+    lr_status st = lr_image_write(img, path, oo, &err);
+    if (st == LR_OK)
+        return EXIT_OK;
+    fprintf(stderr, "lensray: %s\n", err.message);
+    return exit_for(st) == EXIT_SCENE ? EXIT_IO : exit_for(st);
+}
+
+/* --remote: the frame on the daemons (tools/remote.c); the exit status.
+ * With --stats, one JSON line of what it took. */
+static int render_remote(const remote_options *ro, const char *scene_path,
+                         const lr_camera *cam, const lr_render_settings *rs,
+                         lr_image **img, int stats)
+{
+    size_t len;
+    char *text = (char *)read_whole_file(scene_path, &len);
+    if (text == NULL) {
+        fprintf(stderr, "lensray: %s: %s\n", scene_path, strerror(errno));
+        return EXIT_IO;
+    }
+    /* Mesh paths are relative to the scene file's directory. */
+    char dir[4096];
+    dir_of(scene_path, dir, sizeof dir);
+    remote_options o = *ro;
+    o.scene_dir = dir;
+    remote_stats st;
+    int rc = remote_render(&o, text, len, cam, rs, img, &st);
+    free(text);
+    if (rc == EXIT_OK && stats)
+        printf("{\"remote\": true, \"seconds\": %.3f, \"parts\": %d, "
+               "\"requests\": %d, \"retries\": %d, \"assets\": %d, "
+               "\"uploaded\": %d}\n",
+               st.seconds, st.parts, st.attempts, st.retries, st.assets,
+               st.uploaded);
+    return rc;
+}
+
 static int cmd_render(int argc, char **argv)
 {
     const char *scene_path = NULL, *out_path = NULL;
     int stats = 0, quiet = 0, want_depth = 0;
     lr_output_options oo;
     lr_output_options_default(&oo);
+    remote_options ro = {NULL, NULL, 16, 4, 4, 0, &cancel_flag, NULL};
+    const char *token_file = NULL, *remote_flag = NULL;
+    char token[512];
     const char **sets = calloc((size_t)argc, sizeof *sets);
     size_t n_sets = 0;
     if (sets == NULL) {
@@ -165,6 +268,32 @@ static int cmd_render(int argc, char **argv)
             want_depth = 1;
         } else if (strcmp(a, "-q") == 0 || strcmp(a, "--quiet") == 0) {
             quiet = 1;
+        } else if (strcmp(a, "--remote") == 0 ||
+                   strcmp(a, "--token-file") == 0) {
+            if (i + 1 >= argc) {
+                rc = usage_error("%s needs a value", a);
+                goto done;
+            }
+            if (a[2] == 'r')
+                ro.url = argv[++i];
+            else
+                token_file = argv[++i];
+        } else if (strcmp(a, "--parts") == 0 ||
+                   strcmp(a, "--parallel") == 0 ||
+                   strcmp(a, "--retries") == 0) {
+            int *dst = strcmp(a, "--parts") == 0      ? &ro.parts
+                       : strcmp(a, "--parallel") == 0 ? &ro.parallel
+                                                      : &ro.retries;
+            int lo = dst == &ro.retries ? 0 : 1;
+            if (i + 1 >= argc || parse_int(argv[i + 1], lo, 100000, dst) != 0) {
+                char what[64];
+                snprintf(what, sizeof what, "%s needs a whole number from %d "
+                         "to 100000", a, lo);
+                rc = usage_error("%s", what);
+                goto done;
+            }
+            i++;
+            remote_flag = a;
         } else if (a[0] == '-' && a[1] != '\0') {
             rc = usage_error("unknown option '%s'", a);
             goto done;
@@ -184,11 +313,33 @@ static int cmd_render(int argc, char **argv)
                                "-o OUT.png");
         goto done;
     }
-    for (size_t i = 0; i < n_sets; i++)
+    for (size_t i = 0; i < n_sets; i++) {
         if (strchr(sets[i], '=') == NULL) {
             rc = usage_error("--set '%s' must look like PATH=VALUE", sets[i]);
             goto done;
         }
+        /* The daemons get the scene file as it is, with the camera and
+         * settings as this process reads them: other overrides would not
+         * reach them. */
+        if (ro.url != NULL && strncmp(sets[i], "camera.", 7) != 0 &&
+            strncmp(sets[i], "render.", 7) != 0) {
+            rc = usage_error("--set '%s': with --remote only camera.* and "
+                             "render.* can be overridden", sets[i]);
+            goto done;
+        }
+    }
+    if (ro.url == NULL && (token_file != NULL || remote_flag != NULL)) {
+        rc = usage_error("%s is for --remote",
+                         token_file != NULL ? "--token-file" : remote_flag);
+        goto done;
+    }
+    if (token_file != NULL) {
+        if (read_token(token_file, token, sizeof token) != 0) {
+            rc = EXIT_IO;
+            goto done;
+        }
+        ro.token = token;
+    }
 
     /* Check the output name before rendering, so that a long render is
      * never thrown away for want of a valid file name. */
@@ -225,14 +376,7 @@ static int cmd_render(int argc, char **argv)
     }
     {
         char dir[4096];
-        snprintf(dir, sizeof dir, "%s", out_path);
-        char *slash = strrchr(dir, '/');
-        if (slash == NULL)
-            snprintf(dir, sizeof dir, ".");
-        else if (slash == dir)
-            dir[1] = '\0';
-        else
-            *slash = '\0';
+        dir_of(out_path, dir, sizeof dir);
         if (access(dir, W_OK) != 0) {
             fprintf(stderr, "lensray: cannot write to %s: %s\n", dir,
                     strerror(errno));
@@ -273,6 +417,16 @@ static int cmd_render(int argc, char **argv)
 
     lr_image *img = NULL;
     lr_render_stats rst;
+    memset(&rst, 0, sizeof rst);
+    if (ro.url != NULL) {
+        ro.quiet = quiet;
+        rc = render_remote(&ro, scene_path, &cam, &rs, &img, stats);
+        if (rc == EXIT_OK)
+            rc = write_image(img, out_path, &oo);
+        lr_image_free(img);
+        lr_scene_free(scene);
+        goto done;
+    }
     st = lr_render(scene, &cam, &rs, &img, &rst, &err);
     if (st != LR_OK) {
         /* End the progress bar's line first, if there is one. */

@@ -50,13 +50,13 @@ fi
 # without a token is the bats suites' business.
 token="api-$(od -An -N8 -tx1 /dev/urandom | tr -d ' \n')"
 printf '%s\n' "$token" >"$work/token"
-mkdir -p "$work/scenes/meshes"
+mkdir -p "$work/scenes/meshes" "$work/assets"
 cp scenes/spheres.json scenes/cornell.json tests/data/tiny.json "$work/scenes/"
 [ -f scenes/meshes/bunny.obj ] && cp scenes/meshes/bunny.obj "$work/scenes/meshes/"
 "$build/lensrayd" --port 0 --bind 127.0.0.1 --scenes "$work/scenes" \
     --workers 1 --queue 4 --max-body 64k --max-pixels 16384 \
     --max-samples 100000 --max-render-seconds 60 --job-ttl 60 \
-    --token-file "$work/token" \
+    --token-file "$work/token" --assets "$work/assets" --max-asset-bytes 64k \
     >"$work/daemon.log" 2>&1 &
 pid=$!
 port=""

@@ -1,0 +1,130 @@
+#!/bin/sh
+# farm.sh: a render farm on this machine: N lensrayd daemons on loopback
+# ports the kernel picks, and nginx in front of them on PORT, from
+# farm/nginx.conf.in.  `make farm` and `make farm-stop` call it; so do
+# tests/farm.bats and bench/farm.sh.
+#
+#   farm.sh start BUILD N PORT [DIR]   DIR defaults to BUILD/farm
+#   farm.sh stop  BUILD [DIR]
+#
+# DIR gets everything: nginx.conf, the pids (DIR/pids, one "name pid"
+# per line), the daemons' logs (daemon-K.log, their ports in
+# daemon-K.port), nginx's logs, and DIR/assets, the assets directory the
+# daemons share (PUT /v1/assets; on real machines, an NFS mount).  `stop` ends exactly the processes in
+# DIR/pids.  FARM_FLAGS adds flags to every daemon (for example
+# "--token-file F" or "--workers 2"); FARM_SCENES is their scenes
+# directory (default: scenes).
+set -eu
+here=$(cd "$(dirname "$0")" && pwd)
+cmd=${1:?usage: farm.sh start|stop BUILD ...}
+build=${2:?usage: farm.sh start|stop BUILD ...}
+
+stop_farm() {
+    dir=$1
+    [ -f "$dir/pids" ] || return 0
+    while read -r name pid; do
+        if [ "$name" = nginx ]; then
+            # nginx's master writes its own pid file; QUIT lets it finish
+            # the requests it holds.
+            kill -QUIT "$pid" 2>/dev/null || true
+        else
+            kill -TERM "$pid" 2>/dev/null || true
+        fi
+    done <"$dir/pids"
+    # Wait up to 15 s for each, then SIGKILL what is left.
+    while read -r name pid; do
+        i=0
+        while kill -0 "$pid" 2>/dev/null && [ $i -lt 150 ]; do
+            sleep 0.1
+            i=$((i + 1))
+        done
+        kill -KILL "$pid" 2>/dev/null || true
+    done <"$dir/pids"
+    rm -f "$dir/pids"
+    echo "farm: stopped ($dir)"
+}
+
+case $cmd in
+stop)
+    stop_farm "${3:-$build/farm}"
+    exit 0
+    ;;
+start) ;;
+*)
+    echo "farm.sh: unknown command '$cmd' (start or stop)" >&2
+    exit 2
+    ;;
+esac
+
+n=${3:?usage: farm.sh start BUILD N PORT [DIR]}
+port=${4:?usage: farm.sh start BUILD N PORT [DIR]}
+dir=${5:-$build/farm}
+scenes=${FARM_SCENES:-scenes}
+nginx=$(command -v nginx || echo /usr/sbin/nginx)
+case $n in '' | *[!0-9]* | 0)
+    echo "farm.sh: FARM_N must be a positive number, got '$n'" >&2
+    exit 2 ;;
+esac
+if [ -f "$dir/pids" ]; then
+    echo "farm.sh: a farm is already running from $dir (make farm-stop)" >&2
+    exit 1
+fi
+mkdir -p "$dir/tmp" "$dir/assets"
+dir=$(cd "$dir" && pwd)
+# A smaller farm than the last one leaves no stale logs or ports behind.
+rm -f "$dir"/daemon-*.log "$dir"/daemon-*.port
+: >"$dir/pids"
+trap 'echo "farm.sh: start failed; stopping what started" >&2; stop_farm "$dir"' EXIT
+
+servers=""
+nodes=""
+jobmap=""
+k=1
+while [ $k -le "$n" ]; do
+    log="$dir/daemon-$k.log"
+    : >"$log"
+    # shellcheck disable=SC2086  # FARM_FLAGS is a list of flags
+    "$build/lensrayd" --port 0 --bind 127.0.0.1 --scenes "$scenes" \
+        --assets "$dir/assets" --id-prefix "$(printf %02x "$k")" \
+        ${FARM_FLAGS:-} >"$log" 2>&1 3>&- &
+    echo "daemon-$k $!" >>"$dir/pids"
+    p=""
+    i=0
+    while [ -z "$p" ] && [ $i -lt 600 ]; do
+        p=$(sed -n 's|^lensrayd: listening on http://127\.0\.0\.1:\([0-9]*\) .*|\1|p' "$log")
+        [ -n "$p" ] && break
+        kill -0 "$!" 2>/dev/null || { cat "$log" >&2; exit 1; }
+        sleep 0.05
+        i=$((i + 1))
+    done
+    [ -n "$p" ] || { echo "farm.sh: daemon-$k printed no port" >&2; exit 1; }
+    echo "$p" >"$dir/daemon-$k.port"
+    servers="$servers        server 127.0.0.1:$p max_fails=1 fail_timeout=10s;\\n"
+    node=$(printf %02x "$k")
+    nodes="$nodes    upstream lensrayd_$node { server 127.0.0.1:$p; }\\n"
+    jobmap="$jobmap        \"~^/v1/jobs/$node[0-9a-f]{30}\" lensrayd_$node;\\n"
+    k=$((k + 1))
+done
+
+user=""
+[ "$(id -u)" != 0 ] || user="user $(id -un);"
+sed -e "s|@DIR@|$dir|g" -e "s|@PORT@|$port|g" -e "s|@N@|$n|g" \
+    -e "s|@USER@|$user|" -e "s|@SERVERS@|$servers|g" \
+    -e "s|@NODES@|$nodes|" -e "s|@JOBMAP@|$jobmap|" \
+    "$here/nginx.conf.in" >"$dir/nginx.conf"
+"$nginx" -e "$dir/nginx-error.log" -p "$dir" -c "$dir/nginx.conf" >&2
+i=0
+while [ ! -s "$dir/nginx.pid" ] && [ $i -lt 100 ]; do
+    sleep 0.05
+    i=$((i + 1))
+done
+[ -s "$dir/nginx.pid" ] || { echo "farm.sh: nginx wrote no pid" >&2; exit 1; }
+echo "nginx $(cat "$dir/nginx.pid")" >>"$dir/pids"
+i=0
+until curl -sf -o /dev/null --max-time 2 "http://127.0.0.1:$port/healthz"; do
+    i=$((i + 1))
+    [ $i -lt 100 ] || { echo "farm.sh: nginx does not answer on $port" >&2; exit 1; }
+    sleep 0.05
+done
+trap - EXIT
+echo "farm: $n daemons behind nginx on http://127.0.0.1:$port (pids and logs in $dir)"

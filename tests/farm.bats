@@ -1,0 +1,431 @@
+#!/usr/bin/env bats
+# farm.bats: the render farm (issue 14) on loopback: three lensrayd behind
+# nginx (farm/farm.sh, as `make farm` starts it), and `lensray render
+# --remote`.  A frame cut into 12 parts equals the local render byte for
+# byte (the output file, EXR with Z and PNG); a daemon SIGKILLed while it
+# holds a part does not stop the frame; a client whose daemon disappears
+# sends its part again.  Nothing waits for a time to pass: a daemon is
+# held with SIGSTOP until the test kills it, so the order of events is
+# fixed.
+#
+#     LENSRAY_BUILD=build bats tests/farm.bats
+
+bats_require_minimum_version 1.5.0
+
+setup_file() {
+    REPO="$(cd "$BATS_TEST_DIRNAME/.." && pwd)"
+    local build="${LENSRAY_BUILD:-build}"
+    case "$build" in
+    /*) ;;
+    *) build="$REPO/$build" ;;
+    esac
+    export REPO BUILD="$build" LENSRAY="$build/lensray"
+    export FARM="$BATS_FILE_TMPDIR/farm"
+    # The caller's LENSRAYD_* variables must not change the daemons here.
+    local v
+    for v in $(env | sed -n 's/^\(LENSRAYD_[A-Z_]*\)=.*/\1/p'); do
+        unset "$v"
+    done
+    # nginx needs a fixed port: try a few random ones, in case another
+    # program on this machine has the first.
+    local i port
+    for i in 1 2 3 4 5; do
+        port=$((20000 + $(od -An -N2 -tu2 /dev/urandom) % 40000))
+        if (cd "$REPO" && sh farm/farm.sh start "$BUILD" 3 "$port" "$FARM") \
+            >"$BATS_FILE_TMPDIR/farm-start.log" 2>&1 3>&-; then
+            export URL="http://127.0.0.1:$port"
+            return 0
+        fi
+    done
+    cat "$BATS_FILE_TMPDIR/farm-start.log" >&2
+    return 1
+}
+
+teardown_file() {
+    (cd "$REPO" && sh farm/farm.sh stop "$BUILD" "$FARM") >/dev/null 2>&1 || true
+}
+
+teardown() {
+    local pid
+    for pid in ${CLIENT_PID:-} ${SOLO_PID:-}; do
+        kill -KILL "$pid" 2>/dev/null || true
+        wait "$pid" 2>/dev/null || true
+    done
+}
+
+SIZE="--set render.width=160 --set render.height=120 --set render.spp=8"
+
+# pid_of NAME: the pid farm.sh recorded for daemon NAME.
+pid_of() {
+    sed -n "s/^$1 //p" "$FARM/pids"
+}
+
+# wait_for FILE PATTERN: until FILE has a line matching PATTERN (grep -E),
+# or the process CLIENT_PID has ended.  Fails if the pattern never came.
+wait_for() {
+    while ! grep -qE "$2" "$1" 2>/dev/null; do
+        kill -0 "$CLIENT_PID" 2>/dev/null || break
+        sleep 0.05
+    done
+    grep -qE "$2" "$1"
+}
+
+@test "farm: the pids file names three daemons and nginx, all alive" {
+    [ "$(wc -l <"$FARM/pids")" -eq 4 ]
+    for name in daemon-1 daemon-2 daemon-3 nginx; do
+        kill -0 "$(pid_of $name)"
+    done
+    run curl -sf "$URL/healthz"
+    [ "$status" -eq 0 ]
+    [[ "$output" == *'"status":"ok"'* ]]
+}
+
+@test "12 parts through nginx equal the local render byte for byte (EXR with Z, PNG)" {
+    cd "$REPO"
+    for scene in spheres cornell; do
+        "$LENSRAY" render scenes/$scene.json -o "$BATS_TEST_TMPDIR/local.exr" $SIZE --depth -q
+        run -0 "$LENSRAY" render scenes/$scene.json -o "$BATS_TEST_TMPDIR/farm.exr" $SIZE --depth \
+            --remote "$URL" --parts 12 --parallel 6 --stats
+        [[ "$output" == *'"parts": 12'* ]]
+        cmp "$BATS_TEST_TMPDIR/local.exr" "$BATS_TEST_TMPDIR/farm.exr"
+    done
+    # A scene's own region: the parts cut the crop, and the file keeps its
+    # place in the frame (data and display windows, spp, seed, camera).
+    local crop="--set render.region=[7,9,150,101]"
+    "$LENSRAY" render scenes/spheres.json -o "$BATS_TEST_TMPDIR/local.exr" $SIZE $crop -q
+    "$LENSRAY" render scenes/spheres.json -o "$BATS_TEST_TMPDIR/farm.exr" $SIZE $crop -q \
+        --remote "$URL" --parts 12
+    cmp "$BATS_TEST_TMPDIR/local.exr" "$BATS_TEST_TMPDIR/farm.exr"
+    grep -q lensrayCamera "$BATS_TEST_TMPDIR/farm.exr"
+    "$LENSRAY" render scenes/spheres.json -o "$BATS_TEST_TMPDIR/local.png" $SIZE -q
+    "$LENSRAY" render scenes/spheres.json -o "$BATS_TEST_TMPDIR/farm.png" $SIZE -q \
+        --remote "$URL" --parts 12
+    cmp "$BATS_TEST_TMPDIR/local.png" "$BATS_TEST_TMPDIR/farm.png"
+    # The parts were spread: every daemon served some.
+    for k in 1 2 3; do
+        grep -q "upstream=\[127.0.0.1:$(cat "$FARM/daemon-$k.port")\] ustatus=\[200\]" \
+            "$FARM/nginx-access.log"
+    done
+}
+
+@test "a daemon SIGKILLed while it holds a part: the frame completes, equal to the local render" {
+    cd "$REPO"
+    "$LENSRAY" render scenes/spheres.json -o "$BATS_TEST_TMPDIR/local.exr" $SIZE -q
+    local victim port
+    victim=$(pid_of daemon-2)
+    port=$(cat "$FARM/daemon-2.port")
+    : >"$FARM/nginx-access.log"
+    # Stopped, daemon-2 still accepts connections (the kernel does), so
+    # nginx gives it one of the first three parts, which cannot finish
+    # until it is killed.
+    kill -STOP "$victim"
+    "$LENSRAY" render scenes/spheres.json -o "$BATS_TEST_TMPDIR/farm.exr" $SIZE \
+        --remote "$URL" --parts 12 --parallel 3 --stats \
+        >"$BATS_TEST_TMPDIR/out" 2>"$BATS_TEST_TMPDIR/err" 3>&- &
+    CLIENT_PID=$!
+    # Mid-frame: another daemon has finished a part.
+    wait_for "$BATS_TEST_TMPDIR/err" ' of 12 parts$'
+    kill -0 "$CLIENT_PID"
+    kill -KILL "$victim"
+    wait "$CLIENT_PID"
+    CLIENT_PID=
+    cmp "$BATS_TEST_TMPDIR/local.exr" "$BATS_TEST_TMPDIR/farm.exr"
+    grep -q '"parts": 12' "$BATS_TEST_TMPDIR/out"
+    # nginx sent a part to the victim first, then to another daemon.
+    grep -qE "upstream=\[127.0.0.1:$port, 127.0.0.1:[0-9]+\] ustatus=\[502, 200\]" \
+        "$FARM/nginx-access.log"
+}
+
+@test "a part whose daemon disappears is sent again by the client" {
+    cd "$REPO"
+    "$LENSRAY" render scenes/cornell.json -o "$BATS_TEST_TMPDIR/local.exr" $SIZE -q
+    local log="$BATS_TEST_TMPDIR/solo.log" port
+    "$BUILD/lensrayd" --port 0 --bind 127.0.0.1 --scenes scenes >"$log" 2>&1 3>&- &
+    SOLO_PID=$!
+    until port=$(sed -n 's|^lensrayd: listening on http://127\.0\.0\.1:\([0-9]*\) .*|\1|p' "$log") && [ -n "$port" ]; do
+        kill -0 "$SOLO_PID"
+        sleep 0.05
+    done
+    kill -STOP "$SOLO_PID"
+    "$LENSRAY" render scenes/cornell.json -o "$BATS_TEST_TMPDIR/farm.exr" $SIZE \
+        --remote "http://127.0.0.1:$port" --parts 4 --parallel 2 --retries 12 --stats \
+        >"$BATS_TEST_TMPDIR/out" 2>"$BATS_TEST_TMPDIR/err" 3>&- &
+    CLIENT_PID=$!
+    kill -KILL "$SOLO_PID"
+    # The client saw its daemon go, and waits to send the part again.
+    wait_for "$BATS_TEST_TMPDIR/err" 'failed .*sending it again'
+    "$BUILD/lensrayd" --port "$port" --bind 127.0.0.1 --scenes scenes >"$log" 2>&1 3>&- &
+    SOLO_PID=$!
+    wait "$CLIENT_PID"
+    CLIENT_PID=
+    cmp "$BATS_TEST_TMPDIR/local.exr" "$BATS_TEST_TMPDIR/farm.exr"
+    ! grep -q '"retries": 0' "$BATS_TEST_TMPDIR/out"
+}
+
+@test "--remote: a part the daemon refuses stops the render with its message (exit 3)" {
+    cd "$REPO"
+    run -3 "$LENSRAY" render scenes/spheres.json -o "$BATS_TEST_TMPDIR/x.png" \
+        --set render.width=5000 --set render.height=5000 --set render.spp=1 \
+        --remote "$URL" --parts 1 -q
+    [[ "$output" == *"refused: HTTP 413: the image would have 25000000 pixels"*"--max-pixels"* ]]
+    [ ! -e "$BATS_TEST_TMPDIR/x.png" ]
+}
+
+@test "--remote: no daemon at URL: the parts are tried --retries + 1 times, exit 4" {
+    cd "$REPO"
+    run -4 "$LENSRAY" render scenes/spheres.json -o "$BATS_TEST_TMPDIR/x.png" \
+        $SIZE --remote "http://127.0.0.1:1" --parts 2 --retries 1
+    [[ "$output" == *"failed 2 times"* ]]
+    [ ! -e "$BATS_TEST_TMPDIR/x.png" ]
+}
+
+@test "--remote: usage errors name the flag" {
+    run -2 "$LENSRAY" render scenes/spheres.json -o x.png --parts 3
+    [[ "$output" == *"--parts is for --remote"* ]]
+    run -2 "$LENSRAY" render scenes/spheres.json -o x.png --remote "$URL" --parts 0
+    [[ "$output" == *"--parts needs a whole number"* ]]
+    run -2 "$LENSRAY" render scenes/spheres.json -o x.png --remote "$URL" \
+        --set 'objects[0].radius=2'
+    [[ "$output" == *"only camera.* and render.*"* ]]
+}
+
+# ---- assets -----------------------------------------------------------------
+
+# put_asset FILE [HASH]: PUT FILE as asset HASH (its own by default)
+# through nginx; sets status and output (the body).
+put_asset() {
+    local hash=${2:-$(sha256sum "$1" | cut -c1-64)}
+    run curl -s -o "$BATS_TEST_TMPDIR/body" -w '%{http_code}' -X PUT \
+        -H 'Content-Type: application/octet-stream' --data-binary "@$1" \
+        "$URL/v1/assets/$hash"
+    status=$output
+    output=$(cat "$BATS_TEST_TMPDIR/body")
+}
+
+@test "assets: PUT stores once (201, then 200), GET and HEAD tell whether it is there" {
+    local f="$BATS_TEST_TMPDIR/quad.obj" hash
+    printf 'v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nf 1 2 3\nf 1 3 4\n# %s\n' \
+        "$BATS_TEST_NAME" >"$f"
+    hash=$(sha256sum "$f" | cut -c1-64)
+    run curl -s -o /dev/null -w '%{http_code}' -I "$URL/v1/assets/$hash"
+    [ "$output" = 404 ]
+    put_asset "$f"
+    [ "$status" = 201 ]
+    [[ "$output" == *"\"created\":true"* ]]
+    cmp "$f" "$FARM/assets/$hash"
+    put_asset "$f"
+    [ "$status" = 200 ]
+    [[ "$output" == *"\"created\":false"* ]]
+    run curl -s -o /dev/null -w '%{http_code}' -I "$URL/v1/assets/$hash"
+    [ "$output" = 200 ]
+    run curl -s "$URL/v1/assets/$hash"
+    [[ "$output" == *"\"bytes\":$(wc -c <"$f")"* ]]
+}
+
+@test "assets: a body whose hash is not the name, a bad name, a scene naming a missing asset: 4xx naming it" {
+    local f="$BATS_TEST_TMPDIR/x.obj" other
+    printf 'v 0 0 0\n' >"$f"
+    other=$(printf 'something else' | sha256sum | cut -c1-64)
+    put_asset "$f" "$other"
+    [ "$status" = 422 ]
+    [[ "$output" == *'"code":"asset_hash_mismatch"'*"sha256:$other was not stored"* ]]
+    [ ! -e "$FARM/assets/$other" ]
+    put_asset "$f" NOT-A-HASH
+    [ "$status" = 422 ]
+    [[ "$output" == *"64 lowercase hex digits"* ]]
+    run curl -s -w ' %{http_code}' -H 'Content-Type: application/json' \
+        "$URL/v1/render" -d "{\"scene\": {\"objects\": [{\"type\": \"mesh\", \"file\": \"sha256:$other\", \"material\": \"m\"}], \"materials\": {\"m\": {\"diffuse\": 0.5}}}, \"render\": {\"width\": 8, \"height\": 8, \"spp\": 1}}"
+    [[ "$output" == *'"code":"asset_not_found"'*"scene.objects[0].file: this server has no asset sha256:$other"*'"path":"scene.objects[0].file"'*" 422" ]]
+    # A broken mesh asset is named by its hash, not by the server's path.
+    printf 'v 0 0 0\nf 1 2 3\n' >"$f"
+    put_asset "$f"
+    local h
+    h=$(sha256sum "$f" | cut -c1-64)
+    run curl -s -w ' %{http_code}' -H 'Content-Type: application/json' \
+        "$URL/v1/render" -d "{\"scene\": {\"objects\": [{\"type\": \"mesh\", \"file\": \"sha256:$h\"}]}, \"render\": {\"width\": 8, \"height\": 8, \"spp\": 1}}"
+    [[ "$output" == *"scene.objects[0].file: sha256:$h:2: face index"*" 422" ]]
+    [[ "$output" != *"$FARM"* ]]
+}
+
+@test "assets: one over --max-asset-bytes is refused with 413 naming the limit" {
+    local log="$BATS_TEST_TMPDIR/solo.log" port f="$BATS_TEST_TMPDIR/big"
+    mkdir -p "$BATS_TEST_TMPDIR/assets"
+    head -c 5000 /dev/zero >"$f"
+    "$BUILD/lensrayd" --port 0 --bind 127.0.0.1 --scenes "$REPO/scenes" \
+        --assets "$BATS_TEST_TMPDIR/assets" --max-asset-bytes 4k >"$log" 2>&1 3>&- &
+    SOLO_PID=$!
+    until port=$(sed -n 's|^lensrayd: listening on http://127\.0\.0\.1:\([0-9]*\) .*|\1|p' "$log") && [ -n "$port" ]; do
+        kill -0 "$SOLO_PID" || { cat "$log"; false; }
+        sleep 0.05
+    done
+    run curl -s -w ' %{http_code}' -X PUT --data-binary "@$f" \
+        "http://127.0.0.1:$port/v1/assets/$(sha256sum "$f" | cut -c1-64)"
+    [[ "$output" == *"more than the limit of 4096 (--max-asset-bytes)"*" 413" ]]
+    [ -z "$(ls "$BATS_TEST_TMPDIR/assets")" ]
+}
+
+@test "assets: the client sends a mesh once, all three daemons render with it, equal to the local render" {
+    cd "$REPO"
+    [ -f scenes/meshes/bunny.obj ] || skip "environment: scenes/meshes/bunny.obj was not fetched (make bunny)"
+    local hash
+    hash=$(sha256sum scenes/meshes/bunny.obj | cut -c1-64)
+    rm -f "$FARM/assets/$hash"
+    "$LENSRAY" render scenes/bunny.json -o "$BATS_TEST_TMPDIR/local.exr" $SIZE -q
+    : >"$FARM/nginx-access.log"
+    for k in 1 2 3; do : >"$FARM/daemon-$k.log"; done
+    run -0 "$LENSRAY" render scenes/bunny.json -o "$BATS_TEST_TMPDIR/farm.exr" $SIZE -q \
+        --remote "$URL" --parts 12 --parallel 6 --stats
+    [[ "$output" == *'"assets": 1, "uploaded": 1'* ]]
+    cmp "$BATS_TEST_TMPDIR/local.exr" "$BATS_TEST_TMPDIR/farm.exr"
+    cmp scenes/meshes/bunny.obj "$FARM/assets/$hash"
+    [ "$(grep -c '"PUT /v1/assets/' "$FARM/nginx-access.log")" -eq 1 ]
+    # Every daemon still alive rendered parts that name the asset.
+    local k served=0
+    for k in 1 2 3; do
+        if kill -0 "$(pid_of daemon-$k)" 2>/dev/null; then
+            grep -q 'POST /v1/render 200' "$FARM/daemon-$k.log"
+            served=$((served + 1))
+        fi
+    done
+    [ "$served" -ge 2 ]
+    # Again: the daemons have it, nothing is sent.
+    run -0 "$LENSRAY" render scenes/bunny.json -o "$BATS_TEST_TMPDIR/farm.exr" $SIZE -q \
+        --remote "$URL" --parts 12 --stats
+    [[ "$output" == *'"assets": 1, "uploaded": 0'* ]]
+    [ "$(grep -c '"PUT /v1/assets/' "$FARM/nginx-access.log")" -eq 1 ]
+}
+
+# ---- jobs through the balancer -----------------------------------------------
+
+JOB='{"scene": "spheres", "render": {"width": 48, "height": 32, "spp": 2}}'
+
+# done_total: jobs the three daemons finished "done", added up (a killed
+# daemon counts nothing).
+done_total() {
+    local k p sum=0 n
+    for k in 1 2 3; do
+        p=$(cat "$FARM/daemon-$k.port")
+        n=$(curl -s "http://127.0.0.1:$p/metrics" |
+            sed -n 's/^lensrayd_jobs_finished_total{state="done"} //p')
+        sum=$((sum + ${n:-0}))
+    done
+    echo "$sum"
+}
+
+# json_field FIELD: the string value of "FIELD" in the JSON on stdin.
+json_field() {
+    sed -n "s/.*\"$1\":\"\\([^\"]*\\)\".*/\\1/p"
+}
+
+@test "jobs through nginx: status, image and DELETE reach the daemon whose prefix the id has" {
+    local i id ids=""
+    for i in 1 2 3 4 5 6; do
+        id=$(curl -sf "$URL/v1/jobs" -H 'Content-Type: application/json' -d "$JOB" | json_field id)
+        [[ "$id" =~ ^0[123][0-9a-f]{30}$ ]]
+        ids="$ids $id"
+    done
+    for id in $ids; do
+        # ?wait=60 answers when the status changes; a tiny job is done
+        # after at most two changes.
+        local st=""
+        for i in 1 2 3; do
+            st=$(curl -sf "$URL/v1/jobs/$id?wait=60" | json_field status)
+            [ "$st" = done ] && break
+        done
+        [ "$st" = done ]
+        run curl -s -o /dev/null -w '%{http_code}' "$URL/v1/jobs/$id/image"
+        [ "$output" = 200 ]
+        run curl -s -o /dev/null -w '%{http_code}' -X DELETE "$URL/v1/jobs/$id"
+        [ "$output" = 200 ]
+        run curl -s -o /dev/null -w '%{http_code}' "$URL/v1/jobs/$id"
+        [ "$output" = 404 ]
+    done
+    # Ids from at least two daemons were seen (least_conn spreads them).
+    [ "$(echo $ids | tr ' ' '\n' | cut -c1-2 | sort -u | wc -l)" -ge 2 ]
+}
+
+@test "Idempotency-Key: a retried POST /v1/jobs and POST /v1/render through nginx render once" {
+    local before id1 id2 key="retry-$RANDOM-$$"
+    before=$(done_total)
+    id1=$(curl -sf "$URL/v1/jobs" -H 'Content-Type: application/json' -H "Idempotency-Key: $key" -d "$JOB" | json_field id)
+    run curl -sf -D "$BATS_TEST_TMPDIR/h" "$URL/v1/jobs" -H 'Content-Type: application/json' \
+        -H "Idempotency-Key: $key" -d "$JOB"
+    id2=$(echo "$output" | json_field id)
+    [ -n "$id1" ] && [ "$id1" = "$id2" ]
+    grep -qi '^Idempotent-Replayed: true' "$BATS_TEST_TMPDIR/h"
+    run curl -sf "$URL/v1/jobs/$id1?wait=60"
+    run curl -sf "$URL/v1/jobs/$id1?wait=60"
+    [[ "$output" == *'"status":"done"'* ]]
+    # The same key with another body is refused.
+    run curl -s -w ' %{http_code}' "$URL/v1/jobs" -H 'Content-Type: application/json' \
+        -H "Idempotency-Key: $key" -d '{"scene": "cornell"}'
+    [[ "$output" == *'"code":"idempotency_key_reused"'*" 422" ]]
+    # A synchronous render retried: the same job, the same bytes.
+    local hdr="Idempotency-Key: sync-$key"
+    curl -sf -D "$BATS_TEST_TMPDIR/h1" -o "$BATS_TEST_TMPDIR/a.png" "$URL/v1/render" \
+        -H 'Content-Type: application/json' -H "$hdr" -d "$JOB"
+    curl -sf -D "$BATS_TEST_TMPDIR/h2" -o "$BATS_TEST_TMPDIR/b.png" "$URL/v1/render" \
+        -H 'Content-Type: application/json' -H "$hdr" -d "$JOB"
+    cmp "$BATS_TEST_TMPDIR/a.png" "$BATS_TEST_TMPDIR/b.png"
+    [ "$(grep -i '^X-Lensray-Job-Id' "$BATS_TEST_TMPDIR/h1")" = "$(grep -i '^X-Lensray-Job-Id' "$BATS_TEST_TMPDIR/h2")" ]
+    # Two jobs rendered in all, for five requests.
+    [ "$(done_total)" -eq $((before + 2)) ]
+}
+
+@test "a synchronous render with a key is found by its key while it runs, and cancelled through nginx" {
+    local key="watch-$RANDOM-$$" id=""
+    # Long enough that it is running when DELETE comes (it stops within a
+    # tile): 32 x 24 at 200000 spp on one thread.
+    curl -s -o "$BATS_TEST_TMPDIR/out" -w '%{http_code}' "$URL/v1/render" \
+        -H 'Content-Type: application/json' -H "Idempotency-Key: $key" \
+        -d '{"scene": "spheres", "render": {"width": 32, "height": 24, "spp": 200000, "threads": 1, "tile_size": 2, "adaptive": false}}' \
+        >"$BATS_TEST_TMPDIR/code" 3>&- &
+    CLIENT_PID=$!
+    while [ -z "$id" ]; do
+        kill -0 "$CLIENT_PID"
+        id=$(curl -sf "$URL/v1/jobs?key=$key" | json_field id)
+        [ -n "$id" ] || sleep 0.05
+    done
+    run curl -sf "$URL/v1/jobs/$id"
+    [[ "$output" == *"\"idempotency_key\":\"$key\""* ]]
+    run curl -s -o /dev/null -w '%{http_code}' -X DELETE "$URL/v1/jobs/$id"
+    [[ "$output" == 20[02] ]]
+    wait "$CLIENT_PID"
+    CLIENT_PID=
+    [ "$(cat "$BATS_TEST_TMPDIR/code")" = 409 ]
+    grep -q '"code":"cancelled"' "$BATS_TEST_TMPDIR/out"
+}
+
+@test "GET /v1/jobs: filtered by status, paged with limit and after" {
+    local log="$BATS_TEST_TMPDIR/solo.log" port u i first next
+    "$BUILD/lensrayd" --port 0 --bind 127.0.0.1 --scenes "$REPO/scenes" >"$log" 2>&1 3>&- &
+    SOLO_PID=$!
+    until port=$(sed -n 's|^lensrayd: listening on http://127\.0\.0\.1:\([0-9]*\) .*|\1|p' "$log") && [ -n "$port" ]; do
+        kill -0 "$SOLO_PID"
+        sleep 0.05
+    done
+    u="http://127.0.0.1:$port"
+    for i in 1 2 3; do
+        curl -sf "$u/v1/jobs" -H 'Content-Type: application/json' -d "$JOB" >/dev/null
+    done
+    # The last one done means all are: one worker, in order.
+    id=$(curl -sf "$u/v1/jobs?limit=3" | grep -o '"id":"[0-9a-f]*"' | tail -1 | cut -d'"' -f4)
+    until curl -sf "$u/v1/jobs/$id?wait=60" | grep -q '"status":"done"'; do :; done
+    run curl -sf "$u/v1/jobs?status=done&limit=2"
+    [ "$(echo "$output" | grep -o '"status":"done"' | wc -l)" -eq 2 ]
+    next=$(echo "$output" | json_field next)
+    [ -n "$next" ]
+    run curl -sf "$u/v1/jobs?status=done&limit=2&after=$next"
+    [ "$(echo "$output" | grep -o '"status":"done"' | wc -l)" -eq 1 ]
+    [[ "$output" == *'"next":null'* ]]
+    run curl -sf "$u/v1/jobs?status=queued"
+    [[ "$output" == '{"jobs":[],"next":null}' ]]
+    run curl -s -w ' %{http_code}' "$u/v1/jobs?status=bogus"
+    [[ "$output" == *'"path":"status"'*" 422" ]]
+    run curl -s -w ' %{http_code}' "$u/v1/jobs?limit=0"
+    [[ "$output" == *'"path":"limit"'*" 422" ]]
+    run curl -s -w ' %{http_code}' "$u/v1/jobs?stauts=done"
+    [[ "$output" == *'unknown query parameter \"stauts\"'*" 422" ]]
+    run curl -s -w ' %{http_code}' "$u/v1/jobs?after=nope"
+    [[ "$output" == *'"path":"after"'*" 422" ]]
+}
