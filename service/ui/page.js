@@ -17,7 +17,7 @@ const KEY_HINTS = {
   focus_distance: {min: 0.1, max: 200, log: true, label: "focus distance"},
   sensor_width_mm: {min: 4, max: 60, step: 0.5, label: "sensor width (mm)"},
   aperture_radius: {min: 0, max: 2, step: 0.005, label: "aperture radius"},
-  f_number: {min: 0, max: 32, step: 0.1, label: "f-number (0: use the radius)"},
+  f_number: {min: 0, max: 32, step: 0.1, label: "f-number (0: the thin lens uses its radius, a real lens its own stop)"},
   focal_length_mm: {min: 0, max: 300, step: 1, label: "focal length (mm)"},
   aperture_shape: {choices: ["disk", "square", "polygon"], label: "aperture shape"},
   aperture_blades: {min: 3, max: 16, step: 1, label: "aperture blades"},

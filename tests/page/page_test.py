@@ -416,6 +416,16 @@ def measure(build, out, shots=None):
                   % (name, st["width"], st["height"], times[2], times[0], times[4]))
             if shots:
                 screenshot(driver, name, shots)
+        if shots:
+            # The real lens: spheres through the shipped double Gauss.
+            act(driver, lambda: Select(driver.find_element(By.ID, "scene")).select_by_value("spheres"))
+            act(driver, lambda: Select(driver.find_element(By.ID, "model")).select_by_value("lens"))
+            if Select(driver.find_element(By.ID, "key-lens")).first_selected_option.get_attribute("value") != "double-gauss-50":
+                act(driver, lambda: Select(driver.find_element(By.ID, "key-lens")).select_by_value("double-gauss-50"))
+            img = driver.find_element(By.ID, "picture")
+            act(driver, lambda: ActionChains(driver).move_to_element_with_offset(
+                img, int(-0.04 * img.size["width"]), int(0.02 * img.size["height"])).click().perform())
+            driver.save_screenshot(os.path.join(shots, "page-lens.png"))
     finally:
         driver.quit()
         daemon.stop()
