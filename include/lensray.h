@@ -183,6 +183,17 @@ typedef enum lr_sampler_kind {
     LR_SAMPLER_SOBOL = 3     /* Owen-scrambled Sobol (progressive) */
 } lr_sampler_kind;
 
+/* How radiance is computed along camera rays (render.integrator). */
+typedef enum lr_integrator_kind {
+    /* Direct light with hard shadows, mirror and glass rays: the classic
+     * ray tracer (the default; scenes that name none keep their pixels). */
+    LR_INTEGRATOR_WHITTED = 0,
+    /* Unidirectional path tracing with next-event estimation and multiple
+     * importance sampling: area lights (emission), environment light,
+     * rough metal and glass, indirect light. */
+    LR_INTEGRATOR_PATH = 1
+} lr_integrator_kind;
+
 /* Called from render threads, serialised by the library, after each tile:
  * `done` of `total` pixels are finished.  Must not call back into lr_render. */
 typedef void (*lr_progress_fn)(void *user, uint64_t done, uint64_t total);
@@ -200,7 +211,9 @@ typedef struct lr_render_settings {
     int spp;                 /* samples per pixel; default 16 */
     lr_sampler_kind sampler; /* default LR_SAMPLER_SOBOL */
     uint64_t seed;           /* default 0 */
-    int max_depth;           /* mirror/glass bounces; default 8 */
+    /* Bounces after the first hit: mirror/glass rays (whitted), any
+     * scattering (path; Mitsuba's max_depth is this + 2); default 8 */
+    int max_depth;
     int threads;             /* 0 = all cores (default) */
     int tile_size;           /* pixels per tile side; default 32 */
     int want_depth;          /* also produce a Z channel; default 0 */
@@ -241,6 +254,7 @@ typedef struct lr_render_settings {
      * filled).  Set it from another thread with an atomic store
      * (__atomic_store_n), or from a signal handler. */
     const volatile int *cancel;
+    lr_integrator_kind integrator; /* default LR_INTEGRATOR_WHITTED */
 } lr_render_settings;
 
 /* Fills `s` with the defaults documented above. */

@@ -42,6 +42,7 @@ static void colour_sample(const lr__shot *sh, uint64_t pixel, uint32_t s,
 {
     const lr__cam *c = sh->cam;
     const lr__integrator *in = sh->integrator;
+    const lr__sample_id id = {sh->sampler, pixel, s};
     lr__v3 org, dir;
     if (c->chroma.mode == LR_CHROMATIC_RGB) {
         cnt->camera_rays += 3;
@@ -51,7 +52,7 @@ static void colour_sample(const lr__shot *sh, uint64_t pixel, uint32_t s,
         for (int ch = 0; ch < 3; ch++) {
             lr__cam_lens_ray(c, fx, fy, u, c->w_rgb[ch], &org, &dir);
             lr__v3 Li = in->radiance(sh->scene, sh->max_depth, org, dir,
-                                     &cnt->rays);
+                                     &id, &cnt->rays);
             L[ch] = ch == 0 ? Li.x : ch == 1 ? Li.y : Li.z;
         }
         lr__pixel_add(acc, v3(L[0], L[1], L[2]));
@@ -75,7 +76,7 @@ static void colour_sample(const lr__shot *sh, uint64_t pixel, uint32_t s,
         double W[3];
         lr__srgb_cmf(nm, W);
         lr__cam_lens_ray(c, fx, fy, u, lr__cam_power_at(c, nm), &org, &dir);
-        lr__v3 Li = in->radiance(sh->scene, sh->max_depth, org, dir,
+        lr__v3 Li = in->radiance(sh->scene, sh->max_depth, org, dir, &id,
                                  &cnt->rays);
         num = v3_add(num, v3(W[0] * Li.x, W[1] * Li.y, W[2] * Li.z));
         den = v3_add(den, v3(W[0], W[1], W[2]));
@@ -116,7 +117,8 @@ static void packet_samples(const lr__shot *sh, int use_lens, int x, int y,
         sh->cam->model->rays16(sh->cam, use_lens, n, fx, fy, lu, lv, &rh);
         cnt->camera_rays += (uint64_t)n;
         lr__v3 L[16];
-        sh->integrator->radiance16(sh->scene, sh->max_depth, &rh, n, L,
+        const lr__sample_id id = {sh->sampler, pixel, (uint32_t)s0};
+        sh->integrator->radiance16(sh->scene, sh->max_depth, &rh, n, &id, L,
                                    &cnt->rays);
         lr__pixel_add_n(acc, L, n);
     }
