@@ -226,6 +226,7 @@ int lr__bsdf_sample(const lr__bsdf *f, lr__v3 wo_w, double u_lobe,
     if (!(f->p[lobe] > 0.0))
         return 0;
     double a = f->m->roughness;
+    int sampled_above = 1; /* the side the sampled lobe sends wi to */
     *delta = 0;
     switch (lobe) {
     case DIFFUSE: {
@@ -269,6 +270,7 @@ int lr__bsdf_sample(const lr__bsdf *f, lr__v3 wo_w, double u_lobe,
         double lo = acc - f->p[DIELECTRIC];
         double uf = (u_lobe - lo) / f->p[DIELECTRIC];
         int refl = uf < F;
+        sampled_above = refl;
         if (refl)
             wi = v3_sub(v3_scale(m, 2.0 * v3_dot(wo, m)), wo);
         else if (!refract(wo, m, f->eta, &wi))
@@ -284,7 +286,10 @@ int lr__bsdf_sample(const lr__bsdf *f, lr__v3 wo_w, double u_lobe,
         break;
     }
     }
-    if (wi.z == 0.0)
+    /* A reflection must stay above the surface and a refraction go below
+     * it; a sample that does not (a facet seen at a grazing angle) is
+     * lost, as in Mitsuba, and not counted as the other lobe. */
+    if (wi.z == 0.0 || (wi.z > 0.0) != sampled_above)
         return 0;
     *wi_w = to_world(f, wi);
     lr__v3 val = lr__bsdf_eval(f, wo_w, *wi_w, pdf);

@@ -30,11 +30,20 @@ void lr__envmap_free(lr__envmap *e)
     free(e);
 }
 
+/* OpenEXR prints its errors to stderr unless told otherwise; ours go in
+ * the lr_error. */
+static void quiet(exr_const_context_t ctxt, exr_result_t code,
+                  const char *msg)
+{
+    (void)ctxt, (void)code, (void)msg;
+}
+
 /* Reads R, G, B of a single-part scanline EXR into e->rgb. */
 static lr_status read_exr(lr__envmap *e, const char *path, const char *file,
                           const char *blame, lr_error *err)
 {
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    init.error_handler_fn = quiet;
     exr_context_t ctxt = NULL;
     if (exr_start_read(&ctxt, path, &init) != EXR_ERR_SUCCESS)
         return lr__fail(err, LR_ERR_INVALID, blame,
