@@ -115,7 +115,7 @@ static void test_emitting_box(void **state)
     const int depths[] = {0, 1, 3, 6, 64};
     for (int i = 0; i < 5; i++) {
         char json[2048], what[64];
-        box_scene(json, sizeof json, 0.5, depths[i], 1024);
+        box_scene(json, sizeof json, 0.5, depths[i], 4096);
         lr_image *img = lr_test_render_json(json, "emitting box");
         /* Le (1 - a^(n+2)) / (1 - a): the geometric sum. */
         double want = (1.0 - pow(0.5, depths[i] + 2)) / 0.5;
