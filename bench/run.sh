@@ -14,7 +14,9 @@
 #      between the pictures;
 #   5. peak memory;
 #   6. the Python package's scene.render() against the CLI for a one-second
-#      render (bench/python_overhead.py).
+#      render (bench/python_overhead.py);
+#   7. the path-traced Cornell box against Mitsuba llvm_ad_rgb `path`
+#      (bench/path/speed.py).
 # Raw outputs go to BUILD_DIR/bench/*.log; bench/summary.py prints the table
 # and writes BUILD_DIR/bench/results.txt.
 #
@@ -230,5 +232,20 @@ else
     say "Python: no $BUILD/python/venv (make python)"
 fi
 
+# ---- 7. path tracing -----------------------------------------------------------
+# The path-traced Cornell box against Mitsuba llvm_ad_rgb `path`: samples per
+# second and time to relative MSE 1e-4 (bench/path/speed.py; reported, not
+# asserted).
+if [ $mitsuba_ok = 1 ] && [ -n "${DRJIT_LIBLLVM_PATH:-}" ]; then
+    quiet path
+    say "path tracing: the Cornell box, lensray against Mitsuba llvm_ad_rgb"
+    "$VENV/bin/python" bench/path/speed.py --lensray "$LENSRAY" --out "$OUT/path" \
+        > "$OUT/path.log" 2> "$OUT/path.err" || say "the path-tracing section failed (see $OUT/path.err)"
+else
+    echo "PATHSPEED_UNAVAILABLE Mitsuba llvm_ad_rgb is not available" > "$OUT/path.log"
+fi
+cat "$OUT/path.log"
+
 # ---- summary ---------------------------------------------------------------
 python3 bench/summary.py "$OUT" | tee "$OUT/results.txt"
+grep '^PATHSPEED' "$OUT/path.log" >> "$OUT/results.txt"

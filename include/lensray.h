@@ -520,9 +520,10 @@ LR_API const char *lr_job_scene_name(const lr_job *job);
  * text), or NULL for a named scene.  Valid until lr_job_free. */
 LR_API const char *lr_job_scene_json(const lr_job *job, size_t *len);
 
-/* The mesh files an inline scene names, for a caller that confines them
- * to a directory: the k-th (from 0) "file" string of scene.objects as
- * written, and its path in the job ("scene.objects[3].file").  Returns 0
+/* The files an inline scene names, for a caller that confines them to a
+ * directory: the k-th (from 0) "file" string of scene.objects as written,
+ * then scene.environment.file, and its path in the job
+ * ("scene.objects[3].file", "scene.environment.file").  Returns 0
  * past the last one (and for a named scene).  The strings are valid
  * until lr_job_free. */
 LR_API int lr_job_mesh_file(const lr_job *job, size_t k, const char **file,
