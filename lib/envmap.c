@@ -261,16 +261,36 @@ int lr__env_is_light(const lr_scene *s)
     return s->env != NULL || v3_maxc(s->background) > 0.0;
 }
 
+/* Bilinear between texel centres, wrapping in u and clamping in v, as
+ * Mitsuba's envmap looks up its image.  Sampling stays piecewise
+ * constant: MIS needs only that both strategies see the same radiance,
+ * not that the density follow it exactly. */
+static lr__v3 lookup(const lr__envmap *e, double u, double v)
+{
+    double x = u * e->w - 0.5, y = v * e->h - 0.5;
+    double fx = floor(x), fy = floor(y);
+    double tx = x - fx, ty = y - fy;
+    int x0 = (int)fx, y0 = (int)fy;
+    lr__v3 acc = v3(0, 0, 0);
+    for (int j = 0; j < 2; j++)
+        for (int i = 0; i < 2; i++) {
+            int xi = ((x0 + i) % e->w + e->w) % e->w;
+            int yj = y0 + j < 0 ? 0 : y0 + j >= e->h ? e->h - 1 : y0 + j;
+            double wgt = (i ? tx : 1.0 - tx) * (j ? ty : 1.0 - ty);
+            const float *p = &e->rgb[3 * ((size_t)yj * (size_t)e->w + (size_t)xi)];
+            acc = v3_madd(acc, v3(p[0], p[1], p[2]), wgt);
+        }
+    return v3_scale(acc, e->intensity);
+}
+
 lr__v3 lr__env_radiance(const lr_scene *s, lr__v3 dir)
 {
     const lr__envmap *e = s->env;
     if (e == NULL)
         return s->background;
     double u, v;
-    int x, y;
     to_uv(e, dir, &u, &v);
-    const float *p = texel(e, u, v, &x, &y);
-    return v3_scale(v3(p[0], p[1], p[2]), e->intensity);
+    return lookup(e, u, v);
 }
 
 lr__v3 lr__envmap_sample(const lr_scene *s, const double u[2], lr__v3 *L,
@@ -300,8 +320,7 @@ lr__v3 lr__envmap_sample(const lr_scene *s, const double u[2], lr__v3 *L,
     double lx = st * sin(phi), ly = cos(theta), lz = -st * cos(phi);
     lr__v3 d = v3(e->cos_r * lx + e->sin_r * lz, ly,
                   -e->sin_r * lx + e->cos_r * lz);
-    const float *p = &e->rgb[3 * ((size_t)y * (size_t)e->w + (size_t)x)];
-    *L = v3_scale(v3(p[0], p[1], p[2]), e->intensity);
+    *L = lookup(e, uu, vv);
     double p_uv = e->row_weight[y] * (cdf[x] - c0) * e->w * e->h;
     *pdf = st > 0.0 ? p_uv / (2.0 * M_PI * M_PI * st) : 0.0;
     return d;

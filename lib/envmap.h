@@ -6,7 +6,8 @@
  *
  * Directions map to the image as in Mitsuba 3's `envmap` emitter, so that
  * one file lights both renderers the same way: u = atan2(x, -z) / (2 pi)
- * (wrapped to [0, 1)), v = acos(y) / pi, +y up, row 0 at the top.
+ * (wrapped to [0, 1)), v = acos(y) / pi, +y up, row 0 at the top, looked
+ * up bilinearly between texel centres.
  */
 #ifndef LR_ENVMAP_H
 #define LR_ENVMAP_H
