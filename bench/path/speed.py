@@ -2,7 +2,7 @@
 """speed.py: the path-traced Cornell box (scenes.py), lensray against
 Mitsuba 3 `llvm_ad_rgb` with its `path` integrator, side by side in one run.
 
-Both render the same scene description at 256 x 256, max_depth 6 here
+Both render the same scene description at 128 x 128, max_depth 6 here
 (Mitsuba's 8: the same paths).  Reported, not asserted:
   * samples per second: W H spp / t at --spp and 2 --spp, the rate from
     the difference (so start-up, scene build and Mitsuba's kernel
@@ -38,7 +38,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     ap.add_argument('--lensray', default='build/lensray')
     ap.add_argument('--out', default='build/bench/path')
-    ap.add_argument('--size', type=int, default=256)
+    ap.add_argument('--size', type=int, default=128)
     ap.add_argument('--depth', type=int, default=6)
     ap.add_argument('--spp', type=int, default=64, help='timing spp')
     ap.add_argument('--repeat', type=int, default=2)
