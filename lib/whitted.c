@@ -21,6 +21,7 @@
  * fraction of the light it carries.
  */
 #include "integrator.h"
+#include "light.h"
 
 #include <float.h>
 #include <math.h>
@@ -255,7 +256,7 @@ static lr__v3 radiance(const lr_scene *s, lr__v3 org, lr__v3 dir, int depth,
     lr__hit h;
     (*rays)++;
     if (!lr__trace(s, org, dir, INFINITY, &h))
-        return s->background;
+        return lr__env_radiance(s, dir);
     lr__v3 L = v3_add(emitted(s, &h), direct(s, &h, v3_neg(dir), rays));
     return v3_add(L, secondary(s, &h, dir, depth, max_depth, throughput,
                                rays));
@@ -345,7 +346,12 @@ static void radiance16(const lr_scene *restrict s, int max_depth,
             continue;
         }
         if (g == RTC_INVALID_GEOMETRY_ID && s->n_planes == 0) {
-            L[i] = s->background;   /* what lr__hit_complete would say */
+            /* What lr__hit_complete would say. */
+            const struct RTCRay16 *r = &rh->ray;
+            L[i] = s->env == NULL ? s->background
+                                  : lr__env_radiance(s, v3_norm(v3(r->dir_x[i],
+                                                               r->dir_y[i],
+                                                               r->dir_z[i])));
             continue;
         }
         /* The scalar code works in double on the ray as traced. */
@@ -356,7 +362,7 @@ static void radiance16(const lr_scene *restrict s, int max_depth,
                                       rh->hit.primID[i], rh->hit.u[i],
                                       rh->hit.v[i], rh->ray.tfar[i], &hit[i]);
         L[i] = has_hit[i] ? v3_add(emitted(s, &hit[i]), ambient(s, &hit[i]))
-                          : s->background;
+                          : lr__env_radiance(s, v3_norm(dir[i]));
     }
     if (n_vec)
         lr__hits16_complete(rh, &sc->h);

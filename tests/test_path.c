@@ -228,6 +228,33 @@ static void test_plane_under_envmap(void **state)
     lr_image_free(img);
 }
 
+/* Both integrators show the map where rays escape: a constant map of 0.7
+ * renders 0.7 x intensity everywhere. */
+static void test_envmap_seen_by_both(void **state)
+{
+    (void)state;
+    lr_image *map = NULL;
+    assert_int_equal(lr_image_create(8, 4, 0, &map, NULL), LR_OK);
+    float *px = lr_image_rgb_mut(map);
+    for (int i = 0; i < 8 * 4 * 3; i++)
+        px[i] = 0.7f;
+    char path[1024];
+    snprintf(path, sizeof path, "%s/const.exr", lr_test_tmpdir());
+    assert_int_equal(lr_image_write(map, path, NULL, NULL), LR_OK);
+    lr_image_free(map);
+    const char *json =
+        "{\"render\": {\"width\": 8, \"height\": 8, \"spp\": 4},"
+        " \"environment\": {\"file\": \"const.exr\", \"intensity\": 2},"
+        " \"background\": 5}";
+    const char *path_set[] = {"render.integrator=path"};
+    lr_image *w = lr_test_render_json(json, "envmap, whitted");
+    lr_image *p = lr_test_render_sets(json, path_set, 1, "envmap, path");
+    expect(w, 0, 0, 8, 8, 1.4, 1e-6, 1e-6, "whitted sees the map (not background)");
+    expect(p, 0, 0, 8, 8, 1.4, 1e-6, 1e-6, "path sees the map (not background)");
+    lr_image_free(w);
+    lr_image_free(p);
+}
+
 /* ---- bokeh of a small emitter ----------------------------------------- */
 
 #define BW 161
@@ -450,6 +477,7 @@ static const struct CMUnitTest tests[] = {
     cmocka_unit_test(test_emitting_box),
     cmocka_unit_test(test_plane_under_sky),
     cmocka_unit_test(test_plane_under_envmap),
+    cmocka_unit_test(test_envmap_seen_by_both),
     cmocka_unit_test(test_emitter_bokeh),
     cmocka_unit_test(test_ggx_visible_normals_integrate_to_one),
     cmocka_unit_test(test_ggx_sampling_matches_evaluation),
