@@ -321,6 +321,36 @@ static void test_emitter_bokeh(void **state)
     }
 }
 
+/* ---- determinism ------------------------------------------------------ */
+
+/* Paths are pure functions of their sample: one thread or two, tiles of
+ * 32 or 5, every sampler: the same bytes; and a region is the same
+ * pixels of the full frame. */
+static void test_path_is_deterministic(void **state)
+{
+    (void)state;
+    const char *samplers[] = {"sobol", "random", "jittered", "grid"};
+    for (int k = 0; k < 4; k++) {
+        char json[2048], smp[64];
+        box_scene(json, sizeof json, 0.7, 8, 16);
+        snprintf(smp, sizeof smp, "render.sampler=%s", samplers[k]);
+        const char *a[] = {smp, "render.threads=1"};
+        const char *b[] = {smp, "render.threads=2", "render.tile_size=5"};
+        lr_image *x = lr_test_render_sets(json, a, 2, "1 thread");
+        lr_image *y = lr_test_render_sets(json, b, 3, "2 threads, tiles of 5");
+        lr_test_assert_same_bytes(x, y, "path: threads and tiles");
+        const char *c[] = {smp, "render.region=[2, 3, 7, 8]"};
+        lr_image *z = lr_test_render_sets(json, c, 2, "region");
+        const float *px = lr_image_rgb(x), *pz = lr_image_rgb(z);
+        for (int yy = 3; yy < 8; yy++)
+            assert_memory_equal(&px[3 * (yy * 8 + 2)], &pz[3 * ((yy - 3) * 5)],
+                                5 * 3 * sizeof(float));
+        lr_image_free(x);
+        lr_image_free(y);
+        lr_image_free(z);
+    }
+}
+
 /* ---- GGX -------------------------------------------------------------- */
 
 /* Heitz 2014, eq. 13: int G1(v, m) max(0, v.m) D(m) dm = cos(theta_v): the
@@ -479,6 +509,7 @@ static const struct CMUnitTest tests[] = {
     cmocka_unit_test(test_plane_under_envmap),
     cmocka_unit_test(test_envmap_seen_by_both),
     cmocka_unit_test(test_emitter_bokeh),
+    cmocka_unit_test(test_path_is_deterministic),
     cmocka_unit_test(test_ggx_visible_normals_integrate_to_one),
     cmocka_unit_test(test_ggx_sampling_matches_evaluation),
     cmocka_unit_test(test_bad_input),
