@@ -47,7 +47,7 @@ TEST_OBJ := $(TEST_SRC:%.c=$(BUILD)/obj/%.o)
 DEPS_OK  := $(BUILD)/.deps-ok
 BUNNY    := scenes/meshes/bunny.obj
 
-.PHONY: all deps test test-suite render serve clean install bunny test-sanitize figures test-api
+.PHONY: all deps test test-suite render serve clean install bunny test-sanitize figures test-api compare-path
 
 all: $(BUILD)/liblensray.a $(BUILD)/liblensray.so $(BUILD)/lensray $(BUNNY) \
      $(if $(SVC_SRC),$(BUILD)/lensrayd)
@@ -476,6 +476,16 @@ bench: all $(BUILD)/bench/ceiling
 $(BUILD)/bench/ceiling: bench/ceiling.c $(DEPS_OK)
 	@mkdir -p $(dir $@)
 	$(CC) $(BENCH_CFLAGS) -o $@ bench/ceiling.c -lembree3 -lpthread -lm
+
+# The path integrator against Mitsuba 3's `path` on a Cornell box with an
+# area light and an environment-lit scene with rough metal and glass
+# (bench/path/compare.py; docs/path-tracing.md): 128 x 128 at 1024 spp,
+# about 3 minutes on 2 cores, so not part of `make test`.  Mitsuba goes
+# into $(BUILD)/bench/venv as for `make bench`.  Fails if a target (mean
+# block difference < 1%, 90th percentile < 3%) is missed.
+.PHONY: compare-path
+compare-path: $(BUILD)/lensray
+	sh bench/path/run.sh $(BUILD) compare
 
 # Accuracy against time (docs/accuracy.md): scenes/accuracy-*.json rendered
 # at increasing spp with every sampler, with and without planning and

@@ -15,7 +15,10 @@
 #   5. peak memory;
 #   6. the Python package's scene.render() against the CLI for a one-second
 #      render (bench/python_overhead.py);
-#   7. the farm: a batch of parts on 1 and 2 daemons behind nginx, and a
+#   7. a real lens: the double Gauss against the thin lens (bench/lens.py);
+#   8. the path-traced Cornell box against Mitsuba llvm_ad_rgb `path`
+#      (bench/path/speed.py);
+#   9. the farm: a batch of parts on 1 and 2 daemons behind nginx, and a
 #      frame whole against 16 parts (bench/farm.sh).
 # Raw outputs go to BUILD_DIR/bench/*.log; bench/summary.py prints the table
 # and writes BUILD_DIR/bench/results.txt.
@@ -36,7 +39,6 @@ REPEAT=${BENCH_REPEAT:-3}
 REF_SPP=${BENCH_REF_SPP:-1024}
 MI_SPP=${BENCH_MI_SPP:-64}
 MI_SCALAR_SPP=${BENCH_MI_SCALAR_SPP:-16}
-MITSUBA_VERSION=3.9.1
 VENV=$OUT/venv
 NPROC=$(nproc)
 
@@ -143,43 +145,16 @@ done
 rm -f "$OUT/lensray-timing.exr"
 
 # ---- 3. Mitsuba --------------------------------------------------------------
+. bench/mitsuba_env.sh
 mitsuba_ok=0
 if [ "${BENCH_SKIP_MITSUBA:-0}" = 1 ]; then
     echo "MITSUBA_UNAVAILABLE skipped (BENCH_SKIP_MITSUBA=1)" > "$OUT/mitsuba.log"
 else
-    if ! "$VENV/bin/python" -c "import mitsuba, numpy; assert mitsuba.__version__ == '$MITSUBA_VERSION'" >/dev/null 2>&1; then
-        say "installing Mitsuba $MITSUBA_VERSION into $VENV (the first time only)"
-        rm -rf "$VENV"
-        if ! python3 -m venv "$VENV" > "$OUT/pip.log" 2>&1; then
-            echo "MITSUBA_UNAVAILABLE python3 -m venv failed (apt-get install python3-venv)" > "$OUT/mitsuba.log"
-        elif ! "$VENV/bin/pip" install -q "mitsuba==$MITSUBA_VERSION" numpy >> "$OUT/pip.log" 2>&1; then
-            echo "MITSUBA_UNAVAILABLE pip install mitsuba==$MITSUBA_VERSION failed: $(grep -i error "$OUT/pip.log" | tail -1)" > "$OUT/mitsuba.log"
-        fi
-    fi
-    if "$VENV/bin/python" -c "import mitsuba, numpy" >/dev/null 2>&1; then
-        mitsuba_ok=1
-    fi
+    mitsuba_setup "$VENV" "$OUT/pip.log" > "$OUT/mitsuba.log"
 fi
 
 if [ $mitsuba_ok = 1 ]; then
-    # The llvm variants need an LLVM newer than Debian 12's default 14.
-    # Dr.Jit 1.5 emits llvm.minimum, which LLVM 15 cannot select (it
-    # aborts with "Cannot select: fminimum"): install 19 even where 15 is
-    # present.
-    if [ -z "${DRJIT_LIBLLVM_PATH:-}" ] && [ ! -e /usr/lib/x86_64-linux-gnu/libLLVM-19.so ] && \
-       [ "$(id -u)" = 0 ] && apt-cache policy libllvm19 2>/dev/null | grep -q 'Candidate: [0-9]'; then
-        say "installing libllvm19 for Mitsuba's llvm variant"
-        DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libllvm19 >/dev/null 2>&1
-    fi
-    if [ -z "${DRJIT_LIBLLVM_PATH:-}" ]; then
-        for v in 19 18 17 16; do
-            for f in /usr/lib/x86_64-linux-gnu/libLLVM-$v.so /usr/lib/x86_64-linux-gnu/libLLVM-$v.so.1 \
-                     /usr/lib/llvm-$v/lib/libLLVM-$v.so /usr/lib/llvm-$v/lib/libLLVM.so.1; do
-                if [ -e "$f" ]; then DRJIT_LIBLLVM_PATH=$f; break 2; fi
-            done
-        done
-    fi
-    export DRJIT_LIBLLVM_PATH=${DRJIT_LIBLLVM_PATH:-}
+    mitsuba_llvm
     echo "llvm: ${DRJIT_LIBLLVM_PATH:-none found (needs libllvm >= 16, e.g. apt-get install libllvm19)}" >> "$OUT/machine.log"
     MI="$VENV/bin/python bench/mitsuba_bench.py --obj scenes/meshes/bunny.obj"
     if [ -n "$DRJIT_LIBLLVM_PATH" ]; then
@@ -268,7 +243,21 @@ python3 bench/lens.py "$LENSRAY" "$SCENE" --turns "$((REPEAT + 2))" > "$OUT/lens
     say "the real-lens run failed"
 cat "$OUT/lens.log"
 
-# ---- 8. the farm ---------------------------------------------------------------
+# ---- 8. path tracing -----------------------------------------------------------
+# The path-traced Cornell box against Mitsuba llvm_ad_rgb `path`: samples per
+# second and time to relative MSE 1e-4 (bench/path/speed.py; reported, not
+# asserted).
+if [ $mitsuba_ok = 1 ] && [ -n "${DRJIT_LIBLLVM_PATH:-}" ]; then
+    quiet path
+    say "path tracing: the Cornell box, lensray against Mitsuba llvm_ad_rgb"
+    "$VENV/bin/python" bench/path/speed.py --lensray "$LENSRAY" --out "$OUT/path" \
+        > "$OUT/path.log" 2> "$OUT/path.err" || say "the path-tracing section failed (see $OUT/path.err)"
+else
+    echo "PATHSPEED_UNAVAILABLE Mitsuba llvm_ad_rgb is not available" > "$OUT/path.log"
+fi
+cat "$OUT/path.log"
+
+# ---- 9. the farm ---------------------------------------------------------------
 # A batch of parts on 1 and 2 daemons behind nginx, and a frame whole
 # against 16 parts (bench/farm.sh, docs/deploy.md).
 quiet farm
@@ -277,4 +266,5 @@ cat "$OUT/farm.log"
 
 # ---- summary ---------------------------------------------------------------
 python3 bench/summary.py "$OUT" | tee "$OUT/results.txt"
+grep '^PATHSPEED' "$OUT/path.log" >> "$OUT/results.txt"
 [ -f "$OUT/farm.txt" ] && cat "$OUT/farm.txt" | tee -a "$OUT/results.txt"

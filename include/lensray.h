@@ -213,6 +213,17 @@ typedef enum lr_sampler_kind {
     LR_SAMPLER_SOBOL = 3     /* Owen-scrambled Sobol (progressive) */
 } lr_sampler_kind;
 
+/* How radiance is computed along camera rays (render.integrator). */
+typedef enum lr_integrator_kind {
+    /* Direct light with hard shadows, mirror and glass rays: the classic
+     * ray tracer (the default; scenes that name none keep their pixels). */
+    LR_INTEGRATOR_WHITTED = 0,
+    /* Unidirectional path tracing with next-event estimation and multiple
+     * importance sampling: area lights (emission), environment light,
+     * rough metal and glass, indirect light. */
+    LR_INTEGRATOR_PATH = 1
+} lr_integrator_kind;
+
 /* Called from render threads, serialised by the library, after each tile:
  * `done` of `total` pixels are finished.  Must not call back into lr_render. */
 typedef void (*lr_progress_fn)(void *user, uint64_t done, uint64_t total);
@@ -230,7 +241,9 @@ typedef struct lr_render_settings {
     int spp;                 /* samples per pixel; default 16 */
     lr_sampler_kind sampler; /* default LR_SAMPLER_SOBOL */
     uint64_t seed;           /* default 0 */
-    int max_depth;           /* mirror/glass bounces; default 8 */
+    /* Bounces after the first hit: mirror/glass rays (whitted), any
+     * scattering (path; Mitsuba's max_depth is this + 2); default 8 */
+    int max_depth;
     int threads;             /* 0 = all cores (default) */
     int tile_size;           /* pixels per tile side; default 32 */
     int want_depth;          /* also produce a Z channel; default 0 */
@@ -271,6 +284,7 @@ typedef struct lr_render_settings {
      * filled).  Set it from another thread with an atomic store
      * (__atomic_store_n), or from a signal handler. */
     const volatile int *cancel;
+    lr_integrator_kind integrator; /* default LR_INTEGRATOR_WHITTED */
 } lr_render_settings;
 
 /* Fills `s` with the defaults documented above. */
@@ -584,9 +598,10 @@ LR_API const char *lr_job_scene_name(const lr_job *job);
  * text), or NULL for a named scene.  Valid until lr_job_free. */
 LR_API const char *lr_job_scene_json(const lr_job *job, size_t *len);
 
-/* The mesh files an inline scene names, for a caller that confines them
- * to a directory: the k-th (from 0) "file" string of scene.objects as
- * written, and its path in the job ("scene.objects[3].file").  Returns 0
+/* The files an inline scene names, for a caller that confines them to a
+ * directory: the k-th (from 0) "file" string of scene.objects as written,
+ * then scene.environment.file, and its path in the job
+ * ("scene.objects[3].file", "scene.environment.file").  Returns 0
  * past the last one (and for a named scene).  The strings are valid
  * until lr_job_free. */
 LR_API int lr_job_mesh_file(const lr_job *job, size_t k, const char **file,

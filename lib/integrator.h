@@ -6,30 +6,47 @@
  * this table.
  *
  * Implementations: whitted.c (direct light with hard shadows, mirrors and
- * glass: the classic ray tracer).
+ * glass: the classic ray tracer) and path.c (path tracing), chosen by
+ * render.integrator through lr__integrator_for.
  */
 #ifndef LR_INTEGRATOR_H
 #define LR_INTEGRATOR_H
 
+#include "sampler.h"
 #include "scene.h"
 
 #include <stdint.h>
+
+/* Which camera sample a ray belongs to: an integrator that makes random
+ * decisions draws them from `sampler` for (pixel, sample, its own
+ * dimensions >= LR__DIM_COUNT), so they stay a pure function of the
+ * sample.  In a packet, lane i is sample `sample + i`. */
+typedef struct lr__sample_id {
+    const lr__sampler *sampler;
+    uint64_t pixel;
+    uint32_t sample;
+} lr__sample_id;
 
 typedef struct lr__integrator {
     const char *name;
     /* Radiance arriving at `org` from direction -dir (unit length) along
      * a camera ray; rays traced are added to *rays. */
     lr__v3 (*radiance)(const lr_scene *s, int max_depth, lr__v3 org,
-                       lr__v3 dir, uint64_t *rays);
+                       lr__v3 dir, const lr__sample_id *id, uint64_t *rays);
     /* The same for lanes 0..n-1 (n >= 1) of a packet of camera rays that
      * the camera filled (not yet traced): L[i] for lane i, each exactly
      * what `radiance` gives for lane i's ray (as traced, in float). */
     void (*radiance16)(const lr_scene *s, int max_depth,
-                       struct RTCRayHit16 *rh, int n, lr__v3 L[16],
+                       struct RTCRayHit16 *rh, int n,
+                       const lr__sample_id *id, lr__v3 L[16],
                        uint64_t *rays);
 } lr__integrator;
 
 extern const lr__integrator lr__whitted;
+extern const lr__integrator lr__path_tracer;
+
+/* The integrator for render.integrator's value. */
+const lr__integrator *lr__integrator_for(lr_integrator_kind kind);
 
 /* ---- whitted.c's parts, for tests ------------------------------------ */
 

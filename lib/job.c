@@ -44,28 +44,38 @@ void lr_job_free(lr_job *job)
     free(job);
 }
 
-/* Records the inline scene's mesh files: objects[i].file strings. */
+static void add_file(lr_job *job, const cJSON *f, const char *field)
+{
+    if (!cJSON_IsString(f) || f->valuestring[0] == '\0')
+        return;
+    mesh_ref *m = &job->meshes[job->n_meshes++];
+    m->file = f->valuestring;
+    snprintf(m->field, sizeof m->field, "%s", field);
+}
+
+/* Records the files an inline scene reads: objects[i].file strings and
+ * environment.file. */
 static lr_status collect_meshes(lr_job *job, const cJSON *scene,
                                 lr_error *err)
 {
     const cJSON *objs = cJSON_GetObjectItemCaseSensitive(scene, "objects");
-    if (!cJSON_IsArray(objs))
-        return LR_OK; /* the scene loader reports the type error */
-    size_t n = (size_t)cJSON_GetArraySize(objs);
-    if (n == 0)
+    const cJSON *env = cJSON_GetObjectItemCaseSensitive(scene, "environment");
+    size_t n = cJSON_IsArray(objs) ? (size_t)cJSON_GetArraySize(objs) : 0;
+    /* Type errors are the scene loader's to report. */
+    if (n == 0 && !cJSON_IsObject(env))
         return LR_OK;
-    job->meshes = calloc(n, sizeof *job->meshes);
+    job->meshes = calloc(n + 1, sizeof *job->meshes);
     if (job->meshes == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     size_t i = 0;
-    for (const cJSON *o = objs->child; o != NULL; o = o->next, i++) {
-        const cJSON *f = cJSON_GetObjectItemCaseSensitive(o, "file");
-        if (!cJSON_IsString(f) || f->valuestring[0] == '\0')
-            continue;
-        mesh_ref *m = &job->meshes[job->n_meshes++];
-        m->file = f->valuestring;
-        snprintf(m->field, sizeof m->field, "scene.objects[%zu].file", i);
+    char field[48];
+    for (const cJSON *o = n ? objs->child : NULL; o != NULL; o = o->next, i++) {
+        snprintf(field, sizeof field, "scene.objects[%zu].file", i);
+        add_file(job, cJSON_GetObjectItemCaseSensitive(o, "file"), field);
     }
+    if (cJSON_IsObject(env))
+        add_file(job, cJSON_GetObjectItemCaseSensitive(env, "file"),
+                 "scene.environment.file");
     return LR_OK;
 }
 

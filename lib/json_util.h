@@ -44,6 +44,7 @@ void lr__utf8_escape(const char *s, char *out, size_t cap);
  * and the writer (json_write.c) alike (json_util.c). */
 extern const char *const lr__sampler_names[];      /* lr_sampler_kind */
 int lr__sampler_count(void); /* entries in lr__sampler_names */
+extern const char *const lr__integrator_names[];   /* lr_integrator_kind */
 extern const char *const lr__chroma_mode_names[];  /* lr_chromatic_mode */
 extern const char *const lr__focal_model_names[];  /* lr_focal_model */
 extern const char *const lr__glass_names[];        /* lr_glass, but ABBE */

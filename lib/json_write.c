@@ -176,6 +176,7 @@ char *lr_render_settings_json(const lr_render_settings *s)
     num(&b, "spp", s->spp);
     str(&b, "sampler", NAME(lr__sampler_names, s->sampler));
     num(&b, "seed", (double)s->seed);
+    str(&b, "integrator", NAME(lr__integrator_names, s->integrator));
     num(&b, "max_depth", s->max_depth);
     num(&b, "threads", s->threads);
     num(&b, "tile_size", s->tile_size);

@@ -42,6 +42,7 @@ static void colour_sample(const lr__shot *sh, uint64_t pixel, uint32_t s,
 {
     const lr__cam *c = sh->cam;
     const lr__integrator *in = sh->integrator;
+    const lr__sample_id id = {sh->sampler, pixel, s};
     lr__v3 org, dir;
     if (c->chroma.mode == LR_CHROMATIC_RGB) {
         cnt->camera_rays += 3;
@@ -55,7 +56,7 @@ static void colour_sample(const lr__shot *sh, uint64_t pixel, uint32_t s,
             cnt->lens_blocked += wt == 0.0;
             if (wt != 0.0)
                 Li = v3_scale(in->radiance(sh->scene, sh->max_depth, org,
-                                           dir, &cnt->rays),
+                                           dir, &id, &cnt->rays),
                               wt);
             L[ch] = ch == 0 ? Li.x : ch == 1 ? Li.y : Li.z;
         }
@@ -85,7 +86,7 @@ static void colour_sample(const lr__shot *sh, uint64_t pixel, uint32_t s,
         cnt->lens_blocked += wt == 0.0;
         if (wt != 0.0)
             Li = v3_scale(in->radiance(sh->scene, sh->max_depth, org, dir,
-                                       &cnt->rays),
+                                       &id, &cnt->rays),
                           wt);
         num = v3_add(num, v3(W[0] * Li.x, W[1] * Li.y, W[2] * Li.z));
         den = v3_add(den, v3(W[0], W[1], W[2]));
@@ -128,7 +129,8 @@ static void packet_samples(const lr__shot *sh, int use_lens, int x, int y,
                                wt);
         cnt->camera_rays += (uint64_t)n;
         lr__v3 L[16];
-        sh->integrator->radiance16(sh->scene, sh->max_depth, &rh, n, L,
+        const lr__sample_id id = {sh->sampler, pixel, (uint32_t)s0};
+        sh->integrator->radiance16(sh->scene, sh->max_depth, &rh, n, &id, L,
                                    &cnt->rays);
         if (sh->cam->weighted)
             for (int i = 0; i < n; i++) {

@@ -3,6 +3,8 @@
  * the scene's destructor and accessors.  Tracing is in trace.c.
  */
 #include "scene.h"
+#include "envmap.h"
+#include "light.h"
 
 #include <float.h>
 #include <stdio.h>
@@ -169,8 +171,12 @@ lr_status lr__scene_commit(lr_scene *s, lr_error *err)
                                !(v3_maxc(m->specular) > 0.0) &&
                                !(v3_maxc(m->reflect) > 0.0) &&
                                !(v3_maxc(m->transmit) > 0.0) &&
-                               v3_maxc(m->diffuse) > 0.0;
+                               v3_maxc(m->diffuse) > 0.0 &&
+                               !(v3_maxc(m->emission) > 0.0);
     }
+    lr_status st = lr__emitters_build(s, err);
+    if (st != LR_OK)
+        return st;
     embree_msg[0] = '\0';
     rtcCommitScene(s->rtc);
     if (rtcGetDeviceError(s->device) != RTC_ERROR_NONE)
@@ -192,6 +198,9 @@ void lr_scene_free(lr_scene *s)
         free(s->materials[i].name);
     free(s->materials);
     free(s->lights);
+    free(s->emitters);
+    free(s->emitter_cdf);
+    lr__envmap_free(s->env);
     free(s->description);
     if (s->rtc != NULL)
         rtcReleaseScene(s->rtc);

@@ -19,7 +19,21 @@ typedef struct lr__material {
     lr__v3 reflect;    /* perfect mirror weight */
     lr__v3 transmit;   /* dielectric weight (refraction + its Fresnel) */
     double ior;        /* index of refraction inside the object */
+    lr__v3 emission;   /* radiance leaving the front side (area light) */
+    /* GGX alpha of the mirror and glass lobes (0: smooth).  Rough
+     * lobes are the path integrator's; Whitted treats them as smooth. */
+    double roughness;
 } lr__material;
+
+/* One emitting primitive: a triangle of an emissive mesh or an emissive
+ * sphere (light.c). */
+typedef struct lr__emitter {
+    unsigned geom;     /* in scene->geoms */
+    unsigned prim;     /* triangle index; 0 for a sphere */
+    double area;
+} lr__emitter;
+
+typedef struct lr__envmap lr__envmap; /* envmap.c */
 
 typedef enum lr__light_kind {
     LR__LIGHT_POINT,
@@ -57,6 +71,9 @@ typedef struct lr__geom {
      * mirror or glass): a fact the integrator's vector path asks per
      * lane. */
     int lambert_triangles;
+    /* Emissive geometry: the index in scene->emitters of its first
+     * primitive (triangle i is emitters[emitter + i]); -1 if none. */
+    long emitter;
     /* Triangles: Embree's copies of the vertices and indices, valid for
      * the scene's lifetime (not owned). */
     const float *vertices;
@@ -76,6 +93,14 @@ struct lr_scene {
     size_t n_planes;
     lr__v3 ambient;        /* sum of ambient lights' radiance */
     lr__v3 background;     /* radiance of escaping rays */
+    /* The "environment" map (NULL: the uniform background), and where it
+     * came from, for the JSON writer. */
+    lr__envmap *env;
+    /* Area lights, chosen in proportion to power (cdf[i] = sum of the
+     * first i + 1 powers / total); light.c. */
+    lr__emitter *emitters;
+    double *emitter_cdf;
+    size_t n_emitters;
     size_t n_primitives;
     double extent;         /* largest coordinate magnitude in the scene */
     lr_camera camera;
@@ -101,7 +126,8 @@ lr_status lr__scene_add_sphere(lr_scene *s, lr__v3 center, double radius,
                                int material, lr_error *err);
 lr_status lr__scene_add_plane(lr_scene *s, lr__v3 point, lr__v3 normal,
                               int material, lr_error *err);
-/* Commits the Embree scene: no more geometry after this. */
+/* Commits the Embree scene: no more geometry after this.  Builds the
+ * emitter list (lr__emitters_build). */
 lr_status lr__scene_commit(lr_scene *s, lr_error *err);
 
 /* ---- tracing (trace.c) ------------------------------------------------ */
@@ -114,6 +140,8 @@ typedef struct lr__hit {
     int entering;     /* 1 if the ray hit the outside (front) surface */
     int material;
     double eps;       /* how far to push a new ray's origin off p */
+    long geom;        /* Embree geometry ID; -1 for an infinite plane */
+    unsigned prim;    /* triangle index in it */
 } lr__hit;
 
 /* Closest hit along org + t dir with t in (0, tfar); dir need not be unit

@@ -1,12 +1,13 @@
 /*
  * scene_load.c: the scene format's top level -> lr_scene: materials,
- * lights, objects (with camera_json.c, settings_json.c, transform.c and
+ * lights, environment, objects (with camera_json.c, settings_json.c, transform.c and
  * mesh.c for the parts they hold), from JSON text or a file.  Every
  * value is validated and every error names its JSON path
  * ("objects[3].radius must be > 0, got -2").  Unknown and duplicate keys
  * are errors, so a typo never goes unnoticed.
  */
 #include "camera_json.h"
+#include "envmap.h"
 #include "json_util.h"
 #include "mesh.h"
 #include "scene.h"
@@ -26,8 +27,9 @@
 static lr_status parse_materials(lr_scene *s, const cJSON *mats,
                                  lr_error *err)
 {
-    static const char *const keys[] = {"diffuse", "specular", "shininess",
-                                       "reflect", "transmit", "ior", NULL};
+    static const char *const keys[] = {"diffuse",  "specular", "shininess",
+                                       "reflect",  "transmit", "ior",
+                                       "emission", "roughness", NULL};
     char p[LR__PATH_MAX];
     lr_status st;
     size_t n = 1; /* slot 0 is the default material */
@@ -76,7 +78,15 @@ static lr_status parse_materials(lr_scene *s, const cJSON *mats,
         LR_TRY(lr__json_rgb(m, "reflect", p, 0, &mt->reflect, err));
         LR_TRY(lr__json_rgb(m, "transmit", p, 0, &mt->transmit, err));
         LR_TRY(lr__json_number(m, "ior", p, 0, &mt->ior, err));
+        LR_TRY(lr__json_rgb(m, "emission", p, 0, &mt->emission, err));
+        LR_TRY(lr__json_number(m, "roughness", p, 0, &mt->roughness, err));
         char q[LR__PATH_MAX];
+        if (!(mt->roughness >= 0.0 && mt->roughness <= 1.0)) {
+            lr__path_key(q, p, "roughness");
+            return lr__fail(err, LR_ERR_INVALID, q,
+                            "%s must be between 0 and 1, got %g", q,
+                            mt->roughness);
+        }
         if (mt->shininess < 0 || mt->shininess > 1e6) {
             lr__path_key(q, p, "shininess");
             return lr__fail(err, LR_ERR_INVALID, q,
@@ -377,6 +387,45 @@ static lr_status parse_objects(lr_scene *s, const cJSON *objs,
     return LR_OK;
 }
 
+/* ---- the environment -------------------------------------------------- */
+
+/* "environment": {"file", "intensity", "rotation_deg"}: a lat-long EXR
+ * (envmap.h) relative to the scene's directory. */
+static lr_status parse_environment(lr_scene *s, const cJSON *e,
+                                   const char *base_dir, lr_error *err)
+{
+    static const char *const keys[] = {"file", "intensity", "rotation_deg",
+                                       NULL};
+    const char *p = "environment";
+    if (e == NULL)
+        return LR_OK;
+    if (!cJSON_IsObject(e))
+        return lr__fail(err, LR_ERR_INVALID, p,
+                        "environment must be an object {\"file\", "
+                        "\"intensity\", \"rotation_deg\"}");
+    LR_TRY(lr__json_check_keys(e, p, keys, err));
+    const char *file = NULL;
+    double intensity = 1.0, rot = 0.0;
+    LR_TRY(lr__json_string(e, "file", p, 1, &file, err));
+    LR_TRY(lr__json_number(e, "intensity", p, 0, &intensity, err));
+    LR_TRY(lr__json_number(e, "rotation_deg", p, 0, &rot, err));
+    if (!(intensity >= 0.0 && intensity <= 1e12))
+        return lr__fail(err, LR_ERR_INVALID, "environment.intensity",
+                        "environment.intensity must be between 0 and 1e12, "
+                        "got %g", intensity);
+    if (!(fabs(rot) <= 1e6))
+        return lr__fail(err, LR_ERR_INVALID, "environment.rotation_deg",
+                        "environment.rotation_deg must be between -1e6 and "
+                        "1e6, got %g", rot);
+    char *full = join_path(base_dir, file);
+    if (full == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    lr_status st = lr__envmap_load(full, file, "environment.file", intensity,
+                                   rot, &s->env, err);
+    free(full);
+    return st;
+}
+
 /* ---- the scene -------------------------------------------------------- */
 
 static lr_status build(lr_scene *s, const cJSON *root, const char *base_dir,
@@ -384,7 +433,7 @@ static lr_status build(lr_scene *s, const cJSON *root, const char *base_dir,
 {
     static const char *const keys[] = {"description", "camera",  "render",
                                        "background",  "materials", "lights",
-                                       "objects",     NULL};
+                                       "objects",     "environment", NULL};
     if (!cJSON_IsObject(root))
         return lr__fail(err, LR_ERR_INVALID, "",
                         "a scene must be a JSON object");
@@ -399,6 +448,7 @@ static lr_status build(lr_scene *s, const cJSON *root, const char *base_dir,
     LR_TRY(lr__camera_from_json(cJSON_GetObjectItemCaseSensitive(root, "camera"), &s->camera, base_dir ? base_dir : ".", err));
     LR_TRY(lr__settings_from_json(cJSON_GetObjectItemCaseSensitive(root, "render"), &s->settings, err));
     LR_TRY(lr__json_rgb(root, "background", "", 0, &s->background, err));
+    LR_TRY(parse_environment(s, cJSON_GetObjectItemCaseSensitive(root, "environment"), base_dir, err));
     LR_TRY(parse_materials( s, cJSON_GetObjectItemCaseSensitive(root, "materials"), err));
     LR_TRY(parse_lights(s, cJSON_GetObjectItemCaseSensitive(root, "lights"), err));
     LR_TRY(lr__scene_begin(s, err));

@@ -51,6 +51,11 @@ lr_status lr_render_settings_validate(const lr_render_settings *s,
         return lr__fail(err, LR_ERR_INVALID, "render.sampler",
                         "render.sampler is not a known sampler (%d)",
                         (int)s->sampler);
+    if (s->integrator != LR_INTEGRATOR_WHITTED &&
+        s->integrator != LR_INTEGRATOR_PATH)
+        return lr__fail(err, LR_ERR_INVALID, "render.integrator",
+                        "render.integrator is not a known integrator (%d)",
+                        (int)s->integrator);
     if (s->max_depth < 0 || s->max_depth > LR__MAX_DEPTH)
         return lr__fail(err, LR_ERR_INVALID, "render.max_depth",
                         "render.max_depth must be between 0 and %d, got %d",

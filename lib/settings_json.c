@@ -1,7 +1,7 @@
 /*
  * settings_json.c: the scene format's "render" object ->
  * lr_render_settings (size, samples, sampler, seed, depth, threads,
- * tiles, region, planning, adaptive sampling), and
+ * tiles, region, planning, adaptive sampling, integrator), and
  * lr_render_settings_apply_json.
  */
 #include "json_util.h"
@@ -17,7 +17,7 @@ lr_status lr__settings_from_json(const cJSON *r, lr_render_settings *rs,
                                        "sampler",   "seed",    "max_depth",
                                        "threads",   "tile_size", "depth",
                                        "region",    "plan",    "adaptive",
-                                       NULL};
+                                       "integrator", NULL};
     if (r == NULL)
         return LR_OK;
     if (!cJSON_IsObject(r))
@@ -76,6 +76,10 @@ lr_status lr__settings_from_json(const cJSON *r, lr_render_settings *rs,
     LR_TRY(lr__json_enum(r, "sampler", "render", lr__sampler_names, &kind,
                          err));
     rs->sampler = (lr_sampler_kind)kind;
+    int integ = (int)rs->integrator;
+    LR_TRY(lr__json_enum(r, "integrator", "render", lr__integrator_names,
+                         &integ, err));
+    rs->integrator = (lr_integrator_kind)integ;
     const cJSON *reg = cJSON_GetObjectItemCaseSensitive(r, "region");
     if (reg != NULL) {
         if (!cJSON_IsArray(reg) || cJSON_GetArraySize(reg) != 4)

@@ -152,10 +152,14 @@ int lr__hit_complete(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
     if (pl >= 0) {
         const lr__geom *g = &s->planes[pl];
         finish_hit(hit, org, dir, t_plane, g->normal, g->normal, g->material);
+        hit->geom = -1;
+        hit->prim = 0;
         return 1;
     }
     if (geom_id == RTC_INVALID_GEOMETRY_ID)
         return 0;
+    hit->geom = (long)geom_id;
+    hit->prim = prim_id;
 
     const lr__geom *g = &s->geoms[geom_id];
     if (g->kind == LR__GEOM_SPHERE) {

@@ -21,6 +21,7 @@
  * fraction of the light it carries.
  */
 #include "integrator.h"
+#include "light.h"
 
 #include <float.h>
 #include <math.h>
@@ -55,6 +56,13 @@ static lr__v3 mirror(lr__v3 d, lr__v3 n)
 static lr__v3 ambient(const lr_scene *s, const lr__hit *h)
 {
     return v3_mul(s->ambient, s->materials[h->material].diffuse);
+}
+
+/* Emission seen at a hit: the front side of an emissive surface.  (Whitted
+ * sees area lights but is not lit by them; the path integrator is.) */
+static lr__v3 emitted(const lr_scene *s, const lr__hit *h)
+{
+    return h->entering ? s->materials[h->material].emission : v3(0, 0, 0);
 }
 
 /* The unshadowed contribution of light `i` at hit `h` seen from
@@ -248,8 +256,8 @@ static lr__v3 radiance(const lr_scene *s, lr__v3 org, lr__v3 dir, int depth,
     lr__hit h;
     (*rays)++;
     if (!lr__trace(s, org, dir, INFINITY, &h))
-        return s->background;
-    lr__v3 L = direct(s, &h, v3_neg(dir), rays);
+        return lr__env_radiance(s, dir);
+    lr__v3 L = v3_add(emitted(s, &h), direct(s, &h, v3_neg(dir), rays));
     return v3_add(L, secondary(s, &h, dir, depth, max_depth, throughput,
                                rays));
 }
@@ -298,8 +306,10 @@ static _Thread_local scratch16 tls_scratch;
 
 static void radiance16(const lr_scene *restrict s, int max_depth,
                        struct RTCRayHit16 *restrict rh, int n,
-                       lr__v3 L[restrict 16], uint64_t *restrict rays)
+                       const lr__sample_id *id, lr__v3 L[restrict 16],
+                       uint64_t *restrict rays)
 {
+    (void)id; /* Whitted's rays make no random decisions. */
     scratch16 *sc = &tls_scratch;
     struct RTCRay16 shadow __attribute__((aligned(64)));
     int valid[16] __attribute__((aligned(64)));
@@ -336,7 +346,12 @@ static void radiance16(const lr_scene *restrict s, int max_depth,
             continue;
         }
         if (g == RTC_INVALID_GEOMETRY_ID && s->n_planes == 0) {
-            L[i] = s->background;   /* what lr__hit_complete would say */
+            /* What lr__hit_complete would say. */
+            const struct RTCRay16 *r = &rh->ray;
+            L[i] = s->env == NULL ? s->background
+                                  : lr__env_radiance(s, v3_norm(v3(r->dir_x[i],
+                                                               r->dir_y[i],
+                                                               r->dir_z[i])));
             continue;
         }
         /* The scalar code works in double on the ray as traced. */
@@ -346,7 +361,8 @@ static void radiance16(const lr_scene *restrict s, int max_depth,
         has_hit[i] = lr__hit_complete(s, org[i], dir[i], INFINITY, g,
                                       rh->hit.primID[i], rh->hit.u[i],
                                       rh->hit.v[i], rh->ray.tfar[i], &hit[i]);
-        L[i] = has_hit[i] ? ambient(s, &hit[i]) : s->background;
+        L[i] = has_hit[i] ? v3_add(emitted(s, &hit[i]), ambient(s, &hit[i]))
+                          : lr__env_radiance(s, v3_norm(dir[i]));
     }
     if (n_vec)
         lr__hits16_complete(rh, &sc->h);
@@ -407,8 +423,9 @@ static void radiance16(const lr_scene *restrict s, int max_depth,
 }
 
 static lr__v3 radiance1(const lr_scene *s, int max_depth, lr__v3 org,
-                        lr__v3 dir, uint64_t *rays)
+                        lr__v3 dir, const lr__sample_id *id, uint64_t *rays)
 {
+    (void)id;
     return lr__radiance(s, org, dir, 0, max_depth, rays);
 }
 

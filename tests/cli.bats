@@ -354,6 +354,16 @@ while True:
     [ ! -e "$T/out.png" ]
 }
 
+@test "render.integrator=path renders the scene differently; an unknown integrator names the field" {
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/w.exr" -q
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/p.exr" -q --set render.integrator=path
+    ! cmp -s "$T/w.exr" "$T/p.exr"
+    run -3 "$LENSRAY" render "$T/scene.json" -o "$T/out.png" --set render.integrator=bidir
+    [[ "$output" == *"render.integrator"* ]]
+    [[ "$output" == *"bidir"* ]]
+    [ ! -e "$T/out.png" ]
+}
+
 @test "--set with an unknown key is rejected like one in the file" {
     run -3 "$LENSRAY" render "$T/scene.json" -o "$T/out.png" --set camera.fvo=30
     [[ "$output" == *"camera.fvo"* ]]

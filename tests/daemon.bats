@@ -633,6 +633,9 @@ EOF
     expect_error 422 forbidden_path scene.objects[1].file
     req POST "$URL/v1/render" "$pre \"meshes/missing.obj\"}]}}"
     expect_error 422 invalid_value scene.objects[1].file
+    # The environment map is confined the same way.
+    req POST "$URL/v1/render" "{\"scene\": {\"environment\": {\"file\": \"$WORK/outside/secret.obj\"}}}"
+    expect_error 422 forbidden_path scene.environment.file
     # The error never shows where the scenes directory is.
     ! grep -q "$WORK" "$T/body"
     # Scene names cannot be paths either.

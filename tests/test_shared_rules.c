@@ -360,6 +360,16 @@ static void test_job_scene_and_meshes(void **state)
     assert_string_equal(field, "scene.objects[3].file");
     assert_int_equal(lr_job_mesh_file(job, 2, &file, &field), 0);
     lr_job_free(job);
+    /* The environment map is a file the scene reads too. */
+    assert_int_equal(parse("{\"scene\": {\"environment\": {\"file\": "
+                           "\"sky.exr\"}}}",
+                           &job, &err),
+                     LR_OK);
+    assert_int_equal(lr_job_mesh_file(job, 0, &file, &field), 1);
+    assert_string_equal(file, "sky.exr");
+    assert_string_equal(field, "scene.environment.file");
+    assert_int_equal(lr_job_mesh_file(job, 1, &file, &field), 0);
+    lr_job_free(job);
 }
 
 /* Applies a job on top of the defaults with the scene's depth `scene_z`;

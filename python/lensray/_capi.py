@@ -114,6 +114,7 @@ class lr_render_settings(Structure):
         ("progress", lr_progress_fn),
         ("progress_user", c_void_p),
         ("cancel", POINTER(c_int)),
+        ("integrator", c_int),
     ]
 
 

@@ -1,0 +1,343 @@
+/*
+ * envmap.c: the environment light (envmap.h).  Sampling is the
+ * piecewise-constant 2-D distribution of pbrt-v3 (section 13.6.7, and
+ * 14.2.4 for the map): a row by its marginal weight, then a column
+ * within it, each texel weighted by its luminance x sin(theta) at its
+ * centre, so that the density over the sphere is
+ * p(u, v) / (2 pi^2 sin(theta)).
+ */
+#include "envmap.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <openexr.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Larger maps are refused: 16k x 8k RGB float is 1.5 GB already. */
+#define LR__ENV_MAX_DIM 16384
+
+void lr__envmap_free(lr__envmap *e)
+{
+    if (e == NULL)
+        return;
+    free(e->rgb);
+    free(e->row_cdf);
+    free(e->col_cdf);
+    free(e->row_weight);
+    free(e->file);
+    free(e);
+}
+
+/* OpenEXR prints its errors to stderr unless told otherwise; ours go in
+ * the lr_error. */
+static void quiet(exr_const_context_t ctxt, exr_result_t code,
+                  const char *msg)
+{
+    (void)ctxt, (void)code, (void)msg;
+}
+
+/* Reads R, G, B of a single-part scanline EXR into e->rgb. */
+static lr_status read_exr(lr__envmap *e, const char *path, const char *file,
+                          const char *blame, lr_error *err)
+{
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    init.error_handler_fn = quiet;
+    exr_context_t ctxt = NULL;
+    if (exr_start_read(&ctxt, path, &init) != EXR_ERR_SUCCESS)
+        return lr__fail(err, LR_ERR_INVALID, blame,
+                        "%s: %s cannot be read as OpenEXR", blame, file);
+    lr_status st = LR_OK;
+    exr_storage_t storage;
+    exr_attr_box2i_t dw;
+    const exr_attr_chlist_t *chl = NULL;
+    int32_t spc = 0;
+    float *plane[3] = {NULL, NULL, NULL};
+    if (exr_get_storage(ctxt, 0, &storage) != EXR_ERR_SUCCESS ||
+        storage != EXR_STORAGE_SCANLINE ||
+        exr_get_data_window(ctxt, 0, &dw) != EXR_ERR_SUCCESS ||
+        exr_get_channels(ctxt, 0, &chl) != EXR_ERR_SUCCESS ||
+        exr_get_scanlines_per_chunk(ctxt, 0, &spc) != EXR_ERR_SUCCESS ||
+        spc < 1) {
+        st = lr__fail(err, LR_ERR_INVALID, blame,
+                      "%s: %s is not a scanline OpenEXR image", blame, file);
+        goto done;
+    }
+    long long w = (long long)dw.max.x - dw.min.x + 1;
+    long long h = (long long)dw.max.y - dw.min.y + 1;
+    if (w < 1 || h < 1 || w > LR__ENV_MAX_DIM || h > LR__ENV_MAX_DIM) {
+        st = lr__fail(err, LR_ERR_INVALID, blame,
+                      "%s: %s is %lld x %lld pixels; an environment map "
+                      "must be 1 to %d on each side",
+                      blame, file, w, h, LR__ENV_MAX_DIM);
+        goto done;
+    }
+    e->w = (int)w, e->h = (int)h;
+    size_t n = (size_t)w * (size_t)h;
+    static const char *const names[3] = {"R", "G", "B"};
+    int found = 0;
+    for (int i = 0; i < chl->num_channels; i++)
+        for (int c = 0; c < 3; c++)
+            found |= strcmp(chl->entries[i].name.str, names[c]) == 0 ? 1 << c
+                                                                     : 0;
+    if (found != 7) {
+        st = lr__fail(err, LR_ERR_INVALID, blame,
+                      "%s: %s needs channels R, G and B", blame, file);
+        goto done;
+    }
+    for (int c = 0; c < 3; c++) {
+        plane[c] = calloc(n, sizeof(float));
+        if (plane[c] == NULL) {
+            st = lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+            goto done;
+        }
+    }
+    for (long long y = dw.min.y; y <= dw.max.y; y += spc) {
+        exr_chunk_info_t ci;
+        exr_decode_pipeline_t dec = EXR_DECODE_PIPELINE_INITIALIZER;
+        if (exr_read_scanline_chunk_info(ctxt, 0, (int)y, &ci) !=
+                EXR_ERR_SUCCESS ||
+            exr_decoding_initialize(ctxt, 0, &ci, &dec) != EXR_ERR_SUCCESS) {
+            st = lr__fail(err, LR_ERR_INVALID, blame,
+                          "%s: %s: bad chunk at line %lld", blame, file, y);
+            goto done;
+        }
+        size_t first = (size_t)(ci.start_y - dw.min.y) * (size_t)w;
+        for (int i = 0; i < dec.channel_count; i++) {
+            exr_coding_channel_info_t *ch = &dec.channels[i];
+            int c = -1;
+            for (int k = 0; k < 3; k++)
+                if (strcmp(ch->channel_name, names[k]) == 0)
+                    c = k;
+            if (c < 0 || ch->height < 1) {
+                ch->decode_to_ptr = NULL;
+                continue;
+            }
+            ch->decode_to_ptr = (uint8_t *)(plane[c] + first);
+            ch->user_bytes_per_element = 4;
+            ch->user_data_type = EXR_PIXEL_FLOAT;
+            ch->user_pixel_stride = 4;
+            ch->user_line_stride = 4 * (int32_t)w;
+        }
+        int ok = exr_decoding_choose_default_routines(ctxt, 0, &dec) ==
+                     EXR_ERR_SUCCESS &&
+                 exr_decoding_run(ctxt, 0, &dec) == EXR_ERR_SUCCESS;
+        exr_decoding_destroy(ctxt, &dec);
+        if (!ok) {
+            st = lr__fail(err, LR_ERR_INVALID, blame,
+                          "%s: %s: cannot decode line %lld", blame, file, y);
+            goto done;
+        }
+    }
+    e->rgb = malloc(3 * n * sizeof(float));
+    if (e->rgb == NULL) {
+        st = lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+        goto done;
+    }
+    for (size_t i = 0; i < n; i++)
+        for (int c = 0; c < 3; c++) {
+            float v = plane[c][i];
+            if (!isfinite(v) || v < 0.0f) {
+                st = lr__fail(err, LR_ERR_INVALID, blame,
+                              "%s: %s: pixel (%zu, %zu) channel %s is %g; "
+                              "radiance must be finite and >= 0",
+                              blame, file, i % (size_t)w, i / (size_t)w,
+                              names[c], (double)v);
+                goto done;
+            }
+            e->rgb[3 * i + c] = v;
+        }
+done:
+    for (int c = 0; c < 3; c++)
+        free(plane[c]);
+    exr_finish(&ctxt);
+    return st;
+}
+
+/* The sampling tables: rows by marginal weight, columns within rows. */
+static lr_status build_cdf(lr__envmap *e, lr_error *err)
+{
+    int w = e->w, h = e->h;
+    e->row_cdf = malloc((size_t)h * sizeof(double));
+    e->row_weight = malloc((size_t)h * sizeof(double));
+    e->col_cdf = malloc((size_t)w * (size_t)h * sizeof(double));
+    if (e->row_cdf == NULL || e->row_weight == NULL || e->col_cdf == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    double total = 0.0;
+    for (int y = 0; y < h; y++) {
+        double sin_t = sin(M_PI * (y + 0.5) / h);
+        double *cdf = &e->col_cdf[(size_t)y * (size_t)w];
+        double row = 0.0;
+        for (int x = 0; x < w; x++) {
+            const float *p = &e->rgb[3 * ((size_t)y * (size_t)w + (size_t)x)];
+            row += lr__luminance(v3(p[0], p[1], p[2])) * sin_t;
+            cdf[x] = row;
+        }
+        for (int x = 0; x < w; x++)
+            cdf[x] = row > 0.0 ? cdf[x] / row : (x + 1.0) / w;
+        e->row_weight[y] = row;
+        total += row;
+        e->row_cdf[y] = total;
+    }
+    for (int y = 0; y < h; y++) {
+        e->row_cdf[y] = total > 0.0 ? e->row_cdf[y] / total : (y + 1.0) / h;
+        e->row_weight[y] = total > 0.0 ? e->row_weight[y] / total : 1.0 / h;
+    }
+    return LR_OK;
+}
+
+lr_status lr__envmap_load(const char *path, const char *file,
+                          const char *blame, double intensity,
+                          double rotation_deg, lr__envmap **out,
+                          lr_error *err)
+{
+    *out = NULL;
+    lr__envmap *e = calloc(1, sizeof *e);
+    if (e == NULL || (e->file = strdup(file)) == NULL) {
+        free(e);
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    }
+    e->intensity = intensity;
+    e->rotation_deg = rotation_deg;
+    e->cos_r = cos(rotation_deg * M_PI / 180.0);
+    e->sin_r = sin(rotation_deg * M_PI / 180.0);
+    /* OpenEXR's own message for a missing file says less than this. */
+    FILE *fp = fopen(path, "rb");
+    if (fp == NULL) {
+        int e_no = errno;
+        lr__envmap_free(e);
+        return lr__fail(err, LR_ERR_IO, blame, "%s: %s: %s", blame, file,
+                        strerror(e_no));
+    }
+    fclose(fp);
+    lr_status st = read_exr(e, path, file, blame, err);
+    if (st == LR_OK)
+        st = build_cdf(e, err);
+    if (st != LR_OK) {
+        lr__envmap_free(e);
+        return st;
+    }
+    *out = e;
+    return LR_OK;
+}
+
+/* Index of the first entry of cdf[0..n) greater than u. */
+static int find(const double *cdf, int n, double u)
+{
+    int lo = 0, hi = n - 1;
+    while (lo < hi) {
+        int mid = (lo + hi) / 2;
+        if (cdf[mid] > u)
+            hi = mid;
+        else
+            lo = mid + 1;
+    }
+    return lo;
+}
+
+/* World direction -> the map's (u, v), undoing the rotation about +y. */
+static void to_uv(const lr__envmap *e, lr__v3 d, double *u, double *v)
+{
+    double x = e->cos_r * d.x - e->sin_r * d.z;
+    double z = e->sin_r * d.x + e->cos_r * d.z;
+    double uu = atan2(x, -z) / (2.0 * M_PI);
+    *u = uu - floor(uu);
+    *v = acos(fmax(-1.0, fmin(1.0, d.y))) / M_PI;
+}
+
+static const float *texel(const lr__envmap *e, double u, double v, int *ix,
+                          int *iy)
+{
+    int x = (int)(u * e->w), y = (int)(v * e->h);
+    x = x < 0 ? 0 : x >= e->w ? e->w - 1 : x;
+    y = y < 0 ? 0 : y >= e->h ? e->h - 1 : y;
+    *ix = x, *iy = y;
+    return &e->rgb[3 * ((size_t)y * (size_t)e->w + (size_t)x)];
+}
+
+int lr__env_is_light(const lr_scene *s)
+{
+    return s->env != NULL || v3_maxc(s->background) > 0.0;
+}
+
+/* Bilinear between texel centres, wrapping in u and clamping in v, as
+ * Mitsuba's envmap looks up its image.  Sampling stays piecewise
+ * constant: MIS needs only that both strategies see the same radiance,
+ * not that the density follow it exactly. */
+static lr__v3 lookup(const lr__envmap *e, double u, double v)
+{
+    double x = u * e->w - 0.5, y = v * e->h - 0.5;
+    double fx = floor(x), fy = floor(y);
+    double tx = x - fx, ty = y - fy;
+    int x0 = (int)fx, y0 = (int)fy;
+    lr__v3 acc = v3(0, 0, 0);
+    for (int j = 0; j < 2; j++)
+        for (int i = 0; i < 2; i++) {
+            int xi = ((x0 + i) % e->w + e->w) % e->w;
+            int yj = y0 + j < 0 ? 0 : y0 + j >= e->h ? e->h - 1 : y0 + j;
+            double wgt = (i ? tx : 1.0 - tx) * (j ? ty : 1.0 - ty);
+            const float *p = &e->rgb[3 * ((size_t)yj * (size_t)e->w + (size_t)xi)];
+            acc = v3_madd(acc, v3(p[0], p[1], p[2]), wgt);
+        }
+    return v3_scale(acc, e->intensity);
+}
+
+lr__v3 lr__env_radiance(const lr_scene *s, lr__v3 dir)
+{
+    const lr__envmap *e = s->env;
+    if (e == NULL)
+        return s->background;
+    double u, v;
+    to_uv(e, dir, &u, &v);
+    return lookup(e, u, v);
+}
+
+lr__v3 lr__envmap_sample(const lr_scene *s, const double u[2], lr__v3 *L,
+                         double *pdf)
+{
+    const lr__envmap *e = s->env;
+    if (e == NULL) {
+        /* Uniform over the sphere: z = 1 - 2 u0, pdf 1 / (4 pi). */
+        double z = 1.0 - 2.0 * u[0], r = sqrt(fmax(0.0, 1.0 - z * z));
+        double phi = 2.0 * M_PI * u[1];
+        *L = s->background;
+        *pdf = 1.0 / (4.0 * M_PI);
+        return v3(r * cos(phi), r * sin(phi), z);
+    }
+    int y = find(e->row_cdf, e->h, u[0]);
+    double r0 = y > 0 ? e->row_cdf[y - 1] : 0.0;
+    double dv = (u[0] - r0) / fmax(e->row_cdf[y] - r0, 1e-300);
+    const double *cdf = &e->col_cdf[(size_t)y * (size_t)e->w];
+    int x = find(cdf, e->w, u[1]);
+    double c0 = x > 0 ? cdf[x - 1] : 0.0;
+    double du = (u[1] - c0) / fmax(cdf[x] - c0, 1e-300);
+    double uu = (x + fmin(fmax(du, 0.0), 1.0)) / e->w;
+    double vv = (y + fmin(fmax(dv, 0.0), 1.0)) / e->h;
+    double theta = vv * M_PI, phi = uu * 2.0 * M_PI;
+    double st = sin(theta);
+    /* The map's frame, then the rotation about +y. */
+    double lx = st * sin(phi), ly = cos(theta), lz = -st * cos(phi);
+    lr__v3 d = v3(e->cos_r * lx + e->sin_r * lz, ly,
+                  -e->sin_r * lx + e->cos_r * lz);
+    *L = lookup(e, uu, vv);
+    double p_uv = e->row_weight[y] * (cdf[x] - c0) * e->w * e->h;
+    *pdf = st > 0.0 ? p_uv / (2.0 * M_PI * M_PI * st) : 0.0;
+    return d;
+}
+
+double lr__envmap_pdf(const lr_scene *s, lr__v3 dir)
+{
+    const lr__envmap *e = s->env;
+    if (e == NULL)
+        return 1.0 / (4.0 * M_PI);
+    double u, v;
+    int x, y;
+    to_uv(e, dir, &u, &v);
+    texel(e, u, v, &x, &y);
+    const double *cdf = &e->col_cdf[(size_t)y * (size_t)e->w];
+    double c0 = x > 0 ? cdf[x - 1] : 0.0;
+    double p_uv = e->row_weight[y] * (cdf[x] - c0) * e->w * e->h;
+    double st = sin(v * M_PI);
+    return st > 0.0 ? p_uv / (2.0 * M_PI * M_PI * st) : 0.0;
+}

@@ -1,0 +1,48 @@
+/*
+ * envmap.h: the environment light: a latitude-longitude EXR image read
+ * with OpenEXRCore, scaled by `intensity` and turned by `rotation_deg`
+ * about +y, importance-sampled by luminance; or, without a map, the
+ * uniform `background` radiance, sampled uniformly over the sphere.
+ *
+ * Directions map to the image as in Mitsuba 3's `envmap` emitter, so that
+ * one file lights both renderers the same way: u = atan2(x, -z) / (2 pi)
+ * (wrapped to [0, 1)), v = acos(y) / pi, +y up, row 0 at the top, looked
+ * up bilinearly between texel centres.
+ */
+#ifndef LR_ENVMAP_H
+#define LR_ENVMAP_H
+
+#include "light.h"
+
+struct lr__envmap {
+    int w, h;
+    float *rgb;          /* w * h * 3, linear, finite, >= 0; owned */
+    double *row_cdf;     /* h: rows' cumulative weights, last = 1 */
+    double *col_cdf;     /* w * h: within each row, last = 1 */
+    double *row_weight;  /* h: each row's share of the total */
+    double intensity;
+    double rotation_deg;
+    double cos_r, sin_r;
+    char *file;          /* as given in the scene; owned */
+};
+
+/* Reads `path` (the file named `file` in the scene, at JSON path
+ * `blame`); LR_ERR_INVALID or LR_ERR_IO names the file and what is wrong
+ * (not an EXR, no R, G, B channels, a pixel that is NaN, infinite or
+ * negative, too large).  *out is the caller's, freed with
+ * lr__envmap_free. */
+lr_status lr__envmap_load(const char *path, const char *file,
+                          const char *blame, double intensity,
+                          double rotation_deg, lr__envmap **out,
+                          lr_error *err);
+void lr__envmap_free(lr__envmap *e);
+
+/* A direction towards the environment, sampled by luminance x the
+ * latitude's solid angle (uniformly without a map), its radiance *L and
+ * solid-angle density *pdf (0 when the sample is unusable). */
+lr__v3 lr__envmap_sample(const lr_scene *s, const double u[2], lr__v3 *L,
+                         double *pdf);
+/* The density of lr__envmap_sample for direction dir. */
+double lr__envmap_pdf(const lr_scene *s, lr__v3 dir);
+
+#endif

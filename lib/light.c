@@ -1,0 +1,272 @@
+/*
+ * light.c: light sampling for the path integrator (light.h): the list of
+ * area lights, the pick of one light, sampling a point on a triangle (by
+ * area) or a sphere (by the solid angle it subtends), and the densities
+ * of those choices for multiple importance sampling.  The environment's
+ * own sampling is envmap.c.
+ */
+#include "light.h"
+#include "envmap.h"
+
+#include <math.h>
+#include <stdlib.h>
+
+static void tri_corners(const lr_scene *s, unsigned g, unsigned prim,
+                        lr__v3 v[3])
+{
+    const lr__geom *G = &s->geoms[g];
+    const unsigned *ix = &G->indices[3 * (size_t)prim];
+    for (int c = 0; c < 3; c++) {
+        const float *p = &G->vertices[3 * (size_t)ix[c]];
+        v[c] = v3(p[0], p[1], p[2]);
+    }
+}
+
+lr_status lr__emitters_build(lr_scene *s, lr_error *err)
+{
+    size_t n = 0;
+    for (size_t g = 0; g < s->n_geoms; g++) {
+        lr__geom *G = &s->geoms[g];
+        G->emitter = -1;
+        if (!(lr__luminance(s->materials[G->material].emission) > 0.0))
+            continue;
+        G->emitter = (long)n;
+        n += G->kind == LR__GEOM_TRIANGLES ? G->n_triangles : 1;
+    }
+    if (n == 0)
+        return LR_OK;
+    s->emitters = malloc(n * sizeof *s->emitters);
+    s->emitter_cdf = malloc(n * sizeof *s->emitter_cdf);
+    if (s->emitters == NULL || s->emitter_cdf == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    double total = 0.0;
+    size_t k = 0;
+    for (size_t g = 0; g < s->n_geoms; g++) {
+        const lr__geom *G = &s->geoms[g];
+        if (G->emitter < 0)
+            continue;
+        double lum = lr__luminance(s->materials[G->material].emission);
+        size_t m = G->kind == LR__GEOM_TRIANGLES ? G->n_triangles : 1;
+        for (size_t i = 0; i < m; i++, k++) {
+            double area;
+            if (G->kind == LR__GEOM_TRIANGLES) {
+                lr__v3 v[3];
+                tri_corners(s, (unsigned)g, (unsigned)i, v);
+                area = 0.5 * v3_len(v3_cross(v3_sub(v[1], v[0]),
+                                             v3_sub(v[2], v[0])));
+            } else {
+                area = 4.0 * M_PI * G->radius * G->radius;
+            }
+            s->emitters[k] = (lr__emitter){(unsigned)g, (unsigned)i, area};
+            total += area * lum;
+            s->emitter_cdf[k] = total;
+        }
+    }
+    s->n_emitters = n;
+    for (size_t i = 0; i < n; i++)
+        s->emitter_cdf[i] = total > 0.0 ? s->emitter_cdf[i] / total
+                                        : (double)(i + 1) / (double)n;
+    return LR_OK;
+}
+
+/* The kinds of light a pick chooses among, each with probability 1 /
+ * kinds. */
+static int kinds(const lr_scene *s, int *area, int *env, int *delta)
+{
+    *area = s->n_emitters > 0;
+    *env = lr__env_is_light(s);
+    *delta = s->n_lights > 0;
+    return *area + *env + *delta;
+}
+
+/* Probability that the power pick chooses emitter i. */
+static double emitter_prob(const lr_scene *s, size_t i)
+{
+    return s->emitter_cdf[i] - (i > 0 ? s->emitter_cdf[i - 1] : 0.0);
+}
+
+/* Index of the emitter whose cdf interval holds u. */
+static size_t emitter_find(const lr_scene *s, double u)
+{
+    size_t lo = 0, hi = s->n_emitters - 1;
+    while (lo < hi) {
+        size_t mid = (lo + hi) / 2;
+        if (s->emitter_cdf[mid] > u)
+            hi = mid;
+        else
+            lo = mid + 1;
+    }
+    return lo;
+}
+
+/* Solid-angle density of a point sampled uniformly on an area A, seen
+ * from distance d at cosine cos_l to its normal: d^2 / (A |cos_l|). */
+static double area_to_solid(double area, double d2, double cos_l)
+{
+    double c = fabs(cos_l);
+    return c > 0.0 && area > 0.0 ? d2 / (area * c) : 0.0;
+}
+
+/* 1 - cos(theta_max) of the cone a sphere of radius r at distance d
+ * subtends, written as sin^2 / (1 + cos) so that it keeps its digits for
+ * small, far spheres. */
+static double cone_one_minus_cos(double r, double d)
+{
+    double sin2 = r * r / (d * d);
+    double cos_max = sqrt(fmax(0.0, 1.0 - sin2));
+    return sin2 / (1.0 + cos_max);
+}
+
+/* Samples emitter e from p: point q, its normal, the density. */
+static int sample_emitter(const lr_scene *s, const lr__emitter *e, lr__v3 p,
+                          const double u[2], lr__v3 *q, lr__v3 *nq,
+                          double *pdf)
+{
+    const lr__geom *G = &s->geoms[e->geom];
+    if (G->kind == LR__GEOM_TRIANGLES) {
+        /* Uniform on the triangle: b0 = 1 - sqrt(u0), b1 = u1 sqrt(u0)
+         * (pbrt-v3, section 13.6.3). */
+        lr__v3 v[3];
+        tri_corners(s, e->geom, e->prim, v);
+        double su = sqrt(u[0]);
+        double b0 = 1.0 - su, b1 = u[1] * su;
+        *q = v3_add(v3_add(v3_scale(v[0], b0), v3_scale(v[1], b1)),
+                    v3_scale(v[2], 1.0 - b0 - b1));
+        *nq = v3_norm(v3_cross(v3_sub(v[1], v[0]), v3_sub(v[2], v[0])));
+        lr__v3 to = v3_sub(*q, p);
+        double d2 = v3_dot(to, to);
+        *pdf = area_to_solid(e->area, d2, v3_dot(*nq, v3_scale(to, 1.0 / sqrt(d2))));
+        return *pdf > 0.0;
+    }
+    lr__v3 wc = v3_sub(G->center, p);
+    double dc = v3_len(wc), r = G->radius;
+    if (dc <= r * (1.0 + 1e-9)) {
+        /* Inside (or on) the sphere: uniform by area (z = 1 - 2 u0). */
+        double z = 1.0 - 2.0 * u[0], sr = sqrt(fmax(0.0, 1.0 - z * z));
+        double phi = 2.0 * M_PI * u[1];
+        *nq = v3(sr * cos(phi), sr * sin(phi), z);
+        *q = v3_madd(G->center, *nq, r);
+        lr__v3 to = v3_sub(*q, p);
+        double d2 = v3_dot(to, to);
+        *pdf = area_to_solid(e->area, d2,
+                             v3_dot(*nq, v3_scale(to, 1.0 / sqrt(d2))));
+        return *pdf > 0.0;
+    }
+    /* Outside: uniform in the cone the sphere subtends (pbrt-v3, section
+     * 14.2.2), the point being where the sampled direction meets it. */
+    wc = v3_scale(wc, 1.0 / dc);
+    double omc = cone_one_minus_cos(r, dc);
+    double cos_t = 1.0 - u[0] * omc;
+    double sin_t = sqrt(fmax(0.0, 1.0 - cos_t * cos_t));
+    double phi = 2.0 * M_PI * u[1];
+    lr__v3 a = fabs(wc.x) > 0.9 ? v3(0, 1, 0) : v3(1, 0, 0);
+    lr__v3 t1 = v3_norm(v3_cross(a, wc)), t2 = v3_cross(wc, t1);
+    lr__v3 w = v3_add(v3_scale(wc, cos_t),
+                      v3_add(v3_scale(t1, sin_t * cos(phi)),
+                             v3_scale(t2, sin_t * sin(phi))));
+    /* Nearest intersection of p + t w with the sphere. */
+    double b = dc * cos_t;
+    double t = b - sqrt(fmax(0.0, r * r - dc * dc * sin_t * sin_t));
+    *q = v3_madd(p, w, t);
+    *nq = v3_norm(v3_sub(*q, G->center));
+    *pdf = omc > 0.0 ? 1.0 / (2.0 * M_PI * omc) : 0.0;
+    return *pdf > 0.0;
+}
+
+int lr__light_sample_from(const lr_scene *s, lr__v3 p, double u_pick,
+                          const double u[2], lr__light_sample *out)
+{
+    int ka, ke, kd;
+    int nk = kinds(s, &ka, &ke, &kd);
+    if (nk == 0)
+        return 0;
+    int k = (int)(u_pick * nk);
+    if (k >= nk)
+        k = nk - 1;
+    /* The rest of u_pick, rescaled, picks within the kind. */
+    double v = u_pick * nk - k;
+    double pk = 1.0 / nk;
+    if (ka && k == 0) {
+        size_t i = emitter_find(s, v);
+        const lr__emitter *e = &s->emitters[i];
+        lr__v3 q, nq;
+        double pdf;
+        if (!sample_emitter(s, e, p, u, &q, &nq, &pdf))
+            return 0;
+        lr__v3 to = v3_sub(q, p);
+        double d = v3_len(to);
+        out->dir = v3_scale(to, 1.0 / d);
+        /* One-sided: only the front (outward, counter-clockwise) side
+         * emits. */
+        if (!(v3_dot(out->dir, nq) < 0.0))
+            return 0;
+        out->dist = d;
+        out->L = s->materials[s->geoms[e->geom].material].emission;
+        out->pdf = pk * emitter_prob(s, i) * pdf;
+        out->delta = 0;
+        return out->pdf > 0.0;
+    }
+    k -= ka;
+    if (ke && k == 0) {
+        double pdf;
+        out->dir = lr__envmap_sample(s, u, &out->L, &pdf);
+        out->dist = INFINITY;
+        out->pdf = pk * pdf;
+        out->delta = 0;
+        return out->pdf > 0.0;
+    }
+    size_t i = (size_t)(v * (double)s->n_lights);
+    if (i >= s->n_lights)
+        i = s->n_lights - 1;
+    const lr__light *lt = &s->lights[i];
+    out->delta = 1;
+    out->pdf = pk / (double)s->n_lights;
+    if (lt->kind == LR__LIGHT_POINT) {
+        lr__v3 to = v3_sub(lt->position, p);
+        double d2 = v3_dot(to, to);
+        if (!(d2 > 0.0))
+            return 0;
+        out->dist = sqrt(d2);
+        out->dir = v3_scale(to, 1.0 / out->dist);
+        out->L = v3_scale(lt->power, 1.0 / d2);
+    } else {
+        out->dir = v3_neg(lt->direction);
+        out->dist = INFINITY;
+        out->L = lt->power;
+    }
+    return 1;
+}
+
+double lr__light_pdf_area(const lr_scene *s, lr__v3 p, lr__v3 q,
+                          lr__v3 ng_q, unsigned g, unsigned prim)
+{
+    int ka, ke, kd;
+    int nk = kinds(s, &ka, &ke, &kd);
+    const lr__geom *G = &s->geoms[g];
+    if (!ka || G->emitter < 0)
+        return 0.0;
+    size_t i = (size_t)G->emitter + prim;
+    double pe = emitter_prob(s, i) / nk;
+    lr__v3 to = v3_sub(q, p);
+    double d2 = v3_dot(to, to);
+    if (!(d2 > 0.0))
+        return 0.0;
+    double cos_l = v3_dot(ng_q, v3_scale(to, 1.0 / sqrt(d2)));
+    if (G->kind == LR__GEOM_SPHERE) {
+        double dc = v3_len(v3_sub(G->center, p));
+        if (dc > G->radius * (1.0 + 1e-9)) {
+            double omc = cone_one_minus_cos(G->radius, dc);
+            return omc > 0.0 ? pe / (2.0 * M_PI * omc) : 0.0;
+        }
+    }
+    return pe * area_to_solid(s->emitters[i].area, d2, cos_l);
+}
+
+double lr__light_pdf_env(const lr_scene *s, lr__v3 dir)
+{
+    int ka, ke, kd;
+    int nk = kinds(s, &ka, &ke, &kd);
+    if (!ke)
+        return 0.0;
+    return lr__envmap_pdf(s, dir) / nk;
+}

@@ -1,0 +1,517 @@
+/*
+ * test_path.c: the path integrator against closed forms, not against its
+ * own output:
+ *   - the white furnace: a diffuse sphere of albedo 1 under a uniform sky
+ *     of radiance L is L everywhere;
+ *   - a closed box of albedo a whose walls emit Le: with max_depth n the
+ *     camera sees Le (1 + a + ... + a^(n+1)) (every bounce stays inside);
+ *   - a diffuse plane under a uniform sky: albedo x L;
+ *   - a plane under an environment map: (albedo / pi) x the map's
+ *     cosine-weighted integral over the upper hemisphere, by quadrature
+ *     of the map as documented (exercises the map's mapping, lookup,
+ *     sampling density and MIS);
+ *   - a small emitter through the thin lens: its blur is the circle of
+ *     confusion, C = 2 r |1/Z - 1/s| f_px;
+ *   - GGX: the visible-normal density integrates to 1 (Heitz 2014's weak
+ *     white furnace), and sampled rough lobes agree with their evaluated
+ *     albedo (quadrature of f cos);
+ *   - bad input names its field and file.
+ */
+#include "test.h"
+#include "bsdf.h"
+#include "scene.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+/* Mean and largest relative deviation from `want` over every value of
+ * channel 0..2 of img inside the pixel rectangle [x0, x1) x [y0, y1). */
+static void deviation(const lr_image *img, int x0, int y0, int x1, int y1,
+                      double want, double *mean_rel, double *max_rel)
+{
+    const float *p = lr_image_rgb(img);
+    int w = lr_image_width(img);
+    double sum = 0.0, mx = 0.0;
+    size_t n = 0;
+    for (int y = y0; y < y1; y++)
+        for (int x = x0; x < x1; x++)
+            for (int c = 0; c < 3; c++) {
+                double v = p[3 * (y * w + x) + c];
+                sum += v;
+                mx = fmax(mx, fabs(v - want) / want);
+                n++;
+            }
+    *mean_rel = (sum / n - want) / want;
+    *max_rel = mx;
+}
+
+static void expect(const lr_image *img, int x0, int y0, int x1, int y1,
+                   double want, double tol_mean, double tol_pixel,
+                   const char *what)
+{
+    double mean_rel, max_rel;
+    deviation(img, x0, y0, x1, y1, want, &mean_rel, &max_rel);
+    print_message("  %-40s want %.6g: mean %+.4f%%, worst pixel %.3f%%\n",
+                  what, want, 100 * mean_rel, 100 * max_rel);
+    if (!(fabs(mean_rel) <= tol_mean) || !(max_rel <= tol_pixel))
+        fail_msg("%s: mean off by %.4f%% (allowed %.3f%%), worst pixel "
+                 "%.3f%% (allowed %.2f%%)",
+                 what, 100 * mean_rel, 100 * tol_mean, 100 * max_rel,
+                 100 * tol_pixel);
+}
+
+/* ---- white furnace ---------------------------------------------------- */
+
+/* The sphere fills the middle of the frame; the corners see the sky. */
+static void test_white_furnace(void **state)
+{
+    (void)state;
+    const char *json =
+        "{\"render\": {\"width\": 12, \"height\": 12, \"spp\": 4096,"
+        "  \"integrator\": \"path\", \"adaptive\": false, \"max_depth\": 8},"
+        " \"camera\": {\"position\": [0, 0, 4], \"look_at\": [0, 0, 0],"
+        "  \"fov\": 20},"
+        " \"background\": 0.5,"
+        " \"materials\": {\"w\": {\"diffuse\": 1}},"
+        " \"objects\": [{\"type\": \"sphere\", \"center\": [0, 0, 0],"
+        "  \"radius\": 1, \"material\": \"w\"}]}";
+    lr_image *img = lr_test_render_json(json, "white furnace");
+    expect(img, 0, 0, 12, 12, 0.5, 1e-3, 1e-2, "white furnace, albedo 1");
+    lr_image_free(img);
+}
+
+/* ---- the emitting box ------------------------------------------------- */
+
+/* Six inward-facing walls of the cube [-1, 1]^3 (the camera inside), of
+ * albedo a and emission Le. */
+static void box_scene(char *buf, size_t n, double a, int depth, int spp)
+{
+    static const char *const walls[6] = {
+        "[0, -1, 0], \"normal\": [0, 1, 0]", "[0, 1, 0], \"normal\": [0, -1, 0]",
+        "[-1, 0, 0], \"normal\": [1, 0, 0]", "[1, 0, 0], \"normal\": [-1, 0, 0]",
+        "[0, 0, -1], \"normal\": [0, 0, 1]", "[0, 0, 1], \"normal\": [0, 0, -1]"};
+    int k = snprintf(buf, n,
+                     "{\"render\": {\"width\": 8, \"height\": 8, \"spp\": %d,"
+                     "  \"integrator\": \"path\", \"adaptive\": false,"
+                     "  \"max_depth\": %d},"
+                     " \"camera\": {\"position\": [0.1, 0.2, 0.3],"
+                     "  \"look_at\": [1, 0.5, -1], \"fov\": 90},"
+                     " \"materials\": {\"w\": {\"diffuse\": %g,"
+                     "  \"emission\": 1}},"
+                     " \"objects\": [",
+                     spp, depth, a);
+    for (int i = 0; i < 6; i++)
+        k += snprintf(buf + k, n - (size_t)k,
+                      "%s{\"type\": \"plane\", \"point\": %s, \"size\": 2,"
+                      " \"material\": \"w\"}",
+                      i ? ", " : "", walls[i]);
+    snprintf(buf + k, n - (size_t)k, "]}");
+}
+
+static void test_emitting_box(void **state)
+{
+    (void)state;
+    const int depths[] = {0, 1, 3, 6, 64};
+    for (int i = 0; i < 5; i++) {
+        char json[2048], what[64];
+        box_scene(json, sizeof json, 0.5, depths[i], 4096);
+        lr_image *img = lr_test_render_json(json, "emitting box");
+        /* Le (1 - a^(n+2)) / (1 - a): the geometric sum. */
+        double want = (1.0 - pow(0.5, depths[i] + 2)) / 0.5;
+        snprintf(what, sizeof what, "box, albedo 0.5, max_depth %d",
+                 depths[i]);
+        expect(img, 0, 0, 8, 8, want, 2e-3, 3e-2, what);
+        lr_image_free(img);
+    }
+}
+
+/* ---- a plane under the sky -------------------------------------------- */
+
+static void test_plane_under_sky(void **state)
+{
+    (void)state;
+    const char *json =
+        "{\"render\": {\"width\": 16, \"height\": 8, \"spp\": 1024,"
+        "  \"integrator\": \"path\", \"adaptive\": false},"
+        " \"camera\": {\"position\": [0, 1, 0], \"look_at\": [0, 0, -1],"
+        "  \"fov\": 30},"
+        " \"background\": [2, 1, 0.5],"
+        " \"materials\": {\"g\": {\"diffuse\": 0.3}},"
+        " \"objects\": [{\"type\": \"plane\", \"point\": [0, 0, 0],"
+        "  \"normal\": [0, 1, 0], \"material\": \"g\"}]}";
+    lr_image *img = lr_test_render_json(json, "plane under sky");
+    /* Channel by channel: albedo x L. */
+    const float *p = lr_image_rgb(img);
+    const double L[3] = {2, 1, 0.5};
+    double worst = 0.0;
+    for (int i = 0; i < 16 * 8; i++)
+        for (int c = 0; c < 3; c++)
+            worst = fmax(worst, fabs(p[3 * i + c] - 0.3 * L[c]) / (0.3 * L[c]));
+    print_message("  plane under a uniform sky: worst pixel %.4f%% off "
+                  "albedo x L\n", 100 * worst);
+    if (!(worst <= 1e-2))
+        fail_msg("plane under a uniform sky: a pixel is %.3f%% off albedo x L",
+                 100 * worst);
+    lr_image_free(img);
+}
+
+/* ---- a plane under an environment map --------------------------------- */
+
+#define ENV_W 32
+#define ENV_H 16
+
+/* The map: 1 everywhere, 40 in a patch above the horizon. */
+static double env_value(int x, int y)
+{
+    return (x >= 5 && x < 9 && y >= 3 && y < 6) ? 40.0 : 1.0;
+}
+
+static void test_plane_under_envmap(void **state)
+{
+    (void)state;
+    lr_image *map = NULL;
+    assert_int_equal(lr_image_create(ENV_W, ENV_H, 0, &map, NULL), LR_OK);
+    float *px = lr_image_rgb_mut(map);
+    for (int y = 0; y < ENV_H; y++)
+        for (int x = 0; x < ENV_W; x++)
+            for (int c = 0; c < 3; c++)
+                px[3 * (y * ENV_W + x) + c] = (float)env_value(x, y);
+    char path[1024];
+    snprintf(path, sizeof path, "%s/env.exr", lr_test_tmpdir());
+    assert_int_equal(lr_image_write(map, path, NULL, NULL), LR_OK);
+    lr_image_free(map);
+    /* Irradiance on a plane facing +y: the map as documented (texel
+     * centres at ((x + 0.5) / W, (y + 0.5) / H), bilinear between them,
+     * wrapping in u, clamped in v; v = theta / pi from +y) integrated
+     * with cos(theta) over the upper hemisphere by the midpoint rule. */
+    double E = 0.0;
+    const int NT = 1024, NP = 2048;
+    for (int i = 0; i < NT; i++) {
+        double th = (M_PI / 2) * (i + 0.5) / NT;
+        double y = th / M_PI * ENV_H - 0.5;
+        int y0 = (int)floor(y);
+        double ty = y - y0;
+        int ya = y0 < 0 ? 0 : y0, yb = y0 + 1 >= ENV_H ? ENV_H - 1 : y0 + 1;
+        double row = 0.0;
+        for (int j = 0; j < NP; j++) {
+            double x = (j + 0.5) / NP * ENV_W - 0.5;
+            int x0 = (int)floor(x);
+            double tx = x - x0;
+            int xa = (x0 + ENV_W) % ENV_W, xb = (x0 + 1) % ENV_W;
+            row += (1 - ty) * ((1 - tx) * env_value(xa, ya) + tx * env_value(xb, ya)) +
+                   ty * ((1 - tx) * env_value(xa, yb) + tx * env_value(xb, yb));
+        }
+        E += row / NP * 2 * M_PI * cos(th) * sin(th) * (M_PI / 2) / NT;
+    }
+    double want = 0.5 / M_PI * E;
+    const char *json =
+        "{\"render\": {\"width\": 8, \"height\": 8, \"spp\": 2048,"
+        "  \"integrator\": \"path\", \"adaptive\": false},"
+        " \"camera\": {\"position\": [0, 1, 0], \"look_at\": [0, 0, 0.01],"
+        "  \"fov\": 20},"
+        " \"environment\": {\"file\": \"env.exr\"},"
+        " \"materials\": {\"g\": {\"diffuse\": 0.5}},"
+        " \"objects\": [{\"type\": \"plane\", \"point\": [0, 0, 0],"
+        "  \"normal\": [0, 1, 0], \"material\": \"g\"}]}";
+    lr_image *img = lr_test_render_json(json, "plane under envmap");
+    expect(img, 0, 0, 8, 8, want, 3e-3, 3e-2, "plane under an environment map");
+    lr_image_free(img);
+
+    /* Turned by 90 degrees about +y, the patch moves but the plane's
+     * irradiance does not. */
+    const char *sets[] = {"environment.rotation_deg=90",
+                          "environment.intensity=2"};
+    img = lr_test_render_sets(json, sets, 2, "rotated envmap");
+    expect(img, 0, 0, 8, 8, 2 * want, 3e-3, 3e-2,
+           "the same map turned 90 degrees, x 2");
+    lr_image_free(img);
+}
+
+/* Both integrators show the map where rays escape: a constant map of 0.7
+ * renders 0.7 x intensity everywhere. */
+static void test_envmap_seen_by_both(void **state)
+{
+    (void)state;
+    lr_image *map = NULL;
+    assert_int_equal(lr_image_create(8, 4, 0, &map, NULL), LR_OK);
+    float *px = lr_image_rgb_mut(map);
+    for (int i = 0; i < 8 * 4 * 3; i++)
+        px[i] = 0.7f;
+    char path[1024];
+    snprintf(path, sizeof path, "%s/const.exr", lr_test_tmpdir());
+    assert_int_equal(lr_image_write(map, path, NULL, NULL), LR_OK);
+    lr_image_free(map);
+    const char *json =
+        "{\"render\": {\"width\": 8, \"height\": 8, \"spp\": 4},"
+        " \"environment\": {\"file\": \"const.exr\", \"intensity\": 2},"
+        " \"background\": 5}";
+    const char *path_set[] = {"render.integrator=path"};
+    lr_image *w = lr_test_render_json(json, "envmap, whitted");
+    lr_image *p = lr_test_render_sets(json, path_set, 1, "envmap, path");
+    expect(w, 0, 0, 8, 8, 1.4, 1e-6, 1e-6, "whitted sees the map (not background)");
+    expect(p, 0, 0, 8, 8, 1.4, 1e-6, 1e-6, "path sees the map (not background)");
+    lr_image_free(w);
+    lr_image_free(p);
+}
+
+/* ---- bokeh of a small emitter ----------------------------------------- */
+
+#define BW 161
+#define BFOV 20.0
+
+static void centroid_m2(const lr_image *img, double *m2)
+{
+    const float *p = lr_image_rgb(img);
+    double sum = 0, cx = 0, cy = 0;
+    for (int y = 0; y < BW; y++)
+        for (int x = 0; x < BW; x++) {
+            double v = p[3 * (y * BW + x)];
+            sum += v, cx += v * (x + 0.5), cy += v * (y + 0.5);
+        }
+    cx /= sum, cy /= sum;
+    double m = 0;
+    for (int y = 0; y < BW; y++)
+        for (int x = 0; x < BW; x++) {
+            double v = p[3 * (y * BW + x)];
+            m += v * ((x + 0.5 - cx) * (x + 0.5 - cx) +
+                      (y + 0.5 - cy) * (y + 0.5 - cy));
+        }
+    *m2 = m / sum;
+}
+
+/* As test_optics.c's circle of confusion, with the sphere an emitter on
+ * black lit by nothing else: what the path integrator sees directly.
+ * Disk kernel: second moment C^2 / 8. */
+static void test_emitter_bokeh(void **state)
+{
+    (void)state;
+    const double r = 0.2, s = 6.0, depths[] = {2.5, 20.0};
+    double f_px = BW / (2.0 * tan(BFOV * M_PI / 360.0));
+    for (int i = 0; i < 2; i++) {
+        double z = depths[i];
+        char json[2048];
+        snprintf(json, sizeof json,
+                 "{\"render\": {\"width\": %d, \"height\": %d, \"spp\": 128,"
+                 "  \"integrator\": \"path\", \"adaptive\": false},"
+                 " \"camera\": {\"position\": [0, 0, 0],"
+                 "  \"look_at\": [0, 0, -1], \"fov\": %g},"
+                 " \"materials\": {\"e\": {\"diffuse\": 0, \"emission\": 5}},"
+                 " \"objects\": [{\"type\": \"sphere\", \"center\": [0, 0, %.17g],"
+                 "  \"radius\": %.17g, \"material\": \"e\"}]}",
+                 BW, BW, BFOV, -z, 0.004 * z);
+        lr_image *pin = lr_test_render_json(json, "emitter, pinhole");
+        const char *sets[] = {"camera.model=thinlens",
+                              "camera.aperture_radius=0.2",
+                              "camera.focus_distance=6"};
+        lr_image *blur = lr_test_render_sets(json, sets, 3, "emitter bokeh");
+        double m0, m1;
+        centroid_m2(pin, &m0);
+        centroid_m2(blur, &m1);
+        double got = sqrt((m1 - m0) * 8.0);
+        double want = 2.0 * r * fabs(1.0 / z - 1.0 / s) * f_px;
+        print_message("  emitter bokeh at depth %5.1f: %.3f px, circle of "
+                      "confusion %.3f px (%+.2f%%)\n",
+                      z, got, want, 100 * (got - want) / want);
+        if (!(fabs(got - want) <= 0.05 * want))
+            fail_msg("emitter bokeh at depth %g: %.4g px, want %.4g px", z,
+                     got, want);
+        lr_image_free(pin);
+        lr_image_free(blur);
+    }
+}
+
+/* ---- determinism ------------------------------------------------------ */
+
+/* Paths are pure functions of their sample: one thread or two, tiles of
+ * 32 or 5, every sampler: the same bytes; and a region is the same
+ * pixels of the full frame. */
+static void test_path_is_deterministic(void **state)
+{
+    (void)state;
+    const char *samplers[] = {"sobol", "random", "jittered", "grid"};
+    for (int k = 0; k < 4; k++) {
+        char json[2048], smp[64];
+        box_scene(json, sizeof json, 0.7, 8, 16);
+        snprintf(smp, sizeof smp, "render.sampler=%s", samplers[k]);
+        const char *a[] = {smp, "render.threads=1"};
+        const char *b[] = {smp, "render.threads=2", "render.tile_size=5"};
+        lr_image *x = lr_test_render_sets(json, a, 2, "1 thread");
+        lr_image *y = lr_test_render_sets(json, b, 3, "2 threads, tiles of 5");
+        lr_test_assert_same_bytes(x, y, "path: threads and tiles");
+        const char *c[] = {smp, "render.region=[2, 3, 7, 8]"};
+        lr_image *z = lr_test_render_sets(json, c, 2, "region");
+        const float *px = lr_image_rgb(x), *pz = lr_image_rgb(z);
+        for (int yy = 3; yy < 8; yy++)
+            assert_memory_equal(&px[3 * (yy * 8 + 2)], &pz[3 * ((yy - 3) * 5)],
+                                5 * 3 * sizeof(float));
+        lr_image_free(x);
+        lr_image_free(y);
+        lr_image_free(z);
+    }
+}
+
+/* ---- GGX -------------------------------------------------------------- */
+
+/* Heitz 2014, eq. 13: int G1(v, m) max(0, v.m) D(m) dm = cos(theta_v): the
+ * visible-normal density integrates to 1, by the midpoint rule over the
+ * hemisphere of m. */
+static void test_ggx_visible_normals_integrate_to_one(void **state)
+{
+    (void)state;
+    const double alphas[] = {0.05, 0.3, 0.8};
+    const double thetas[] = {0.0, 0.7, 1.4};
+    for (int a = 0; a < 3; a++)
+        for (int t = 0; t < 3; t++) {
+            lr__v3 v = v3(sin(thetas[t]), 0, cos(thetas[t]));
+            /* Midpoint rule in cos(theta_m), finer near the pole where
+             * narrow lobes live. */
+            const int NP = 100;
+            double sum = 0.0;
+            const double edges[3] = {0.0, 0.95, 1.0};
+            const int steps[2] = {1000, 8000};
+            for (int part = 0; part < 2; part++)
+                for (int i = 0; i < steps[part]; i++) {
+                    double dc = (edges[part + 1] - edges[part]) / steps[part];
+                    double c = edges[part] + (i + 0.5) * dc;
+                    double sn = sqrt(1 - c * c);
+                    for (int j = 0; j < NP; j++) {
+                        double ph = 2 * M_PI * (j + 0.5) / NP;
+                        lr__v3 m = v3(sn * cos(ph), sn * sin(ph), c);
+                        double vm = v3_dot(v, m);
+                        sum += lr__ggx_g1(v.z, vm, alphas[a]) * fmax(vm, 0) *
+                               lr__ggx_d(c, alphas[a]) * dc * 2 * M_PI / NP;
+                    }
+                }
+            sum /= v.z;
+            if (!(fabs(sum - 1.0) < 5e-3))
+                fail_msg("GGX alpha %g, theta %g: visible normals integrate "
+                         "to %.5f, not 1",
+                         alphas[a], thetas[t], sum);
+        }
+}
+
+/* The rough lobes' albedo two ways: the mean of sampled weights
+ * (f cos / pdf, from lr__bsdf_sample) and the quadrature of f cos over
+ * the sphere (lr__bsdf_eval), which share no code but the formulas. */
+static void test_ggx_sampling_matches_evaluation(void **state)
+{
+    (void)state;
+    static const char *const mats[] = {
+        "{\"reflect\": 1, \"roughness\": 0.3}",
+        "{\"transmit\": 1, \"roughness\": 0.3, \"ior\": 1.5}",
+        "{\"transmit\": 1, \"roughness\": 0.6, \"ior\": 1.33}"};
+    for (int k = 0; k < 3; k++)
+        for (int side = 0; side < 2; side++) {
+            char json[512];
+            snprintf(json, sizeof json,
+                     "{\"materials\": {\"m\": %s}, \"objects\": [{\"type\":"
+                     " \"sphere\", \"center\": [0, 0, 0], \"radius\": 1,"
+                     " \"material\": \"m\"}]}",
+                     mats[k]);
+            lr_scene *s = lr_test_load_json(json);
+            lr__hit h;
+            /* From outside, then from inside the sphere. */
+            lr__v3 org = side ? v3(0, 0, 0) : v3(0.3, 0.2, 3);
+            lr__v3 dir = v3_norm(side ? v3(0.2, 0.1, 1) : v3(0, 0, -1));
+            assert_true(lr__trace(s, org, dir, INFINITY, &h));
+            lr__bsdf f;
+            lr__bsdf_init(&f, s, &h);
+            lr__v3 wo = v3_neg(dir);
+            double mc = 0.0;
+            const int N = 100000;
+            for (int i = 0; i < N; i++) {
+                /* A 2-D lattice for the normal, a third number for the
+                 * lobe (the Fresnel choice). */
+                double u[2] = {(i + 0.5) / N, fmod(i * 0.6180339887498949, 1)};
+                double ul = fmod(i * 0.7548776662466927 + 0.1, 1);
+                lr__v3 wi, wgt;
+                double pdf;
+                int delta;
+                if (lr__bsdf_sample(&f, wo, ul, u, &wi, &wgt, &pdf, &delta))
+                    mc += wgt.x;
+            }
+            mc /= N;
+            double q = 0.0;
+            const int NT = 1000, NP = 400;
+            for (int i = 0; i < NT; i++) {
+                double c = -1 + 2 * (i + 0.5) / NT, sn = sqrt(1 - c * c);
+                for (int j = 0; j < NP; j++) {
+                    double ph = 2 * M_PI * (j + 0.5) / NP;
+                    lr__v3 loc = v3(sn * cos(ph), sn * sin(ph), c);
+                    lr__v3 wi = v3_add(v3_add(v3_scale(f.t, loc.x),
+                                              v3_scale(f.b, loc.y)),
+                                       v3_scale(f.n, loc.z));
+                    double pdf;
+                    lr__v3 val = lr__bsdf_eval(&f, wo, wi, &pdf);
+                    q += val.x * fabs(c) * (2.0 / NT) * (2 * M_PI / NP);
+                }
+            }
+            print_message("  %s from %s: sampled albedo %.4f, quadrature "
+                          "%.4f\n",
+                          mats[k], side ? "inside" : "outside", mc, q);
+            if (!(fabs(mc - q) <= 0.01 * q + 1e-3))
+                fail_msg("%s from %s: sampled albedo %.5f, quadrature %.5f",
+                         mats[k], side ? "inside" : "outside", mc, q);
+            lr_scene_free(s);
+        }
+}
+
+/* ---- bad input -------------------------------------------------------- */
+
+static void test_bad_input(void **state)
+{
+    (void)state;
+    const char *a = "{\"render\": {\"integrator\": \"bidir\"}}";
+    lr_test_expect_invalid(a, strlen(a), "render.integrator", "integrator");
+    const char *b = "{\"materials\": {\"m\": {\"roughness\": 2}}}";
+    lr_test_expect_invalid(b, strlen(b), "materials.m.roughness",
+                           "roughness > 1");
+    const char *c = "{\"materials\": {\"m\": {\"emission\": -1}}}";
+    lr_test_expect_invalid(c, strlen(c), "materials.m.emission",
+                           "negative emission");
+    const char *d = "{\"environment\": {\"intensity\": 1}}";
+    lr_test_expect_invalid(d, strlen(d), "environment.file", "no file");
+    /* A file that is not an EXR, and one that is missing: the message
+     * names the file. */
+    char path[1024];
+    lr_test_write_text("not-an-exr.exr", "hello", path, sizeof path);
+    const char *e = "{\"environment\": {\"file\": \"not-an-exr.exr\"}}";
+    lr_test_expect_invalid(e, strlen(e), "environment.file", "not an EXR");
+    lr_scene *s = NULL;
+    lr_error err;
+    const char *f = "{\"environment\": {\"file\": \"missing.exr\"}}";
+    assert_int_equal(lr_scene_load_json(f, strlen(f), lr_test_tmpdir(), NULL,
+                                        0, &s, &err),
+                     LR_ERR_IO);
+    assert_null(s);
+    assert_non_null(strstr(err.message, "missing.exr"));
+    /* A map with a negative pixel is refused, naming the pixel.  (NaN
+     * cannot be made this way: our EXR writer never writes one.) */
+    lr_image *map = NULL;
+    assert_int_equal(lr_image_create(4, 2, 0, &map, NULL), LR_OK);
+    lr_image_rgb_mut(map)[3 * 5 + 1] = -1.0f;
+    snprintf(path, sizeof path, "%s/nan.exr", lr_test_tmpdir());
+    assert_int_equal(lr_image_write(map, path, NULL, NULL), LR_OK);
+    lr_image_free(map);
+    const char *g = "{\"environment\": {\"file\": \"nan.exr\"}}";
+    assert_int_equal(lr_scene_load_json(g, strlen(g), lr_test_tmpdir(), NULL,
+                                        0, &s, &err),
+                     LR_ERR_INVALID);
+    assert_non_null(strstr(err.message, "nan.exr"));
+    assert_non_null(strstr(err.message, "(1, 1)"));
+}
+
+static const struct CMUnitTest tests[] = {
+    cmocka_unit_test(test_white_furnace),
+    cmocka_unit_test(test_emitting_box),
+    cmocka_unit_test(test_plane_under_sky),
+    cmocka_unit_test(test_plane_under_envmap),
+    cmocka_unit_test(test_envmap_seen_by_both),
+    cmocka_unit_test(test_emitter_bokeh),
+    cmocka_unit_test(test_path_is_deterministic),
+    cmocka_unit_test(test_ggx_visible_normals_integrate_to_one),
+    cmocka_unit_test(test_ggx_sampling_matches_evaluation),
+    cmocka_unit_test(test_bad_input),
+};
+LR_TEST_GROUP(path, tests)
