@@ -53,18 +53,22 @@ static void add_file(lr_job *job, const cJSON *f, const char *field)
     snprintf(m->field, sizeof m->field, "%s", field);
 }
 
-/* Records the files an inline scene reads: objects[i].file strings and
- * environment.file. */
+/* Records the files an inline scene reads: objects[i].file strings,
+ * environment.file, and camera.lens when it is a path (a name without a
+ * '/' is a file in the scenes directory or a shipped lens: both safe). */
 static lr_status collect_meshes(lr_job *job, const cJSON *scene,
                                 lr_error *err)
 {
     const cJSON *objs = cJSON_GetObjectItemCaseSensitive(scene, "objects");
     const cJSON *env = cJSON_GetObjectItemCaseSensitive(scene, "environment");
+    const cJSON *lens = cJSON_GetObjectItemCaseSensitive(
+        cJSON_GetObjectItemCaseSensitive(scene, "camera"), "lens");
+    int lens_path = cJSON_IsString(lens) && strchr(lens->valuestring, '/');
     size_t n = cJSON_IsArray(objs) ? (size_t)cJSON_GetArraySize(objs) : 0;
     /* Type errors are the scene loader's to report. */
-    if (n == 0 && !cJSON_IsObject(env))
+    if (n == 0 && !cJSON_IsObject(env) && !lens_path)
         return LR_OK;
-    job->meshes = calloc(n + 1, sizeof *job->meshes);
+    job->meshes = calloc(n + 2, sizeof *job->meshes);
     if (job->meshes == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     size_t i = 0;
@@ -76,6 +80,8 @@ static lr_status collect_meshes(lr_job *job, const cJSON *scene,
     if (cJSON_IsObject(env))
         add_file(job, cJSON_GetObjectItemCaseSensitive(env, "file"),
                  "scene.environment.file");
+    if (lens_path)
+        add_file(job, lens, "scene.camera.lens");
     return LR_OK;
 }
 

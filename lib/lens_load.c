@@ -7,6 +7,7 @@
 
 #include <cjson/cJSON.h>
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -157,7 +158,16 @@ static lr_status load_named(const char *name, const char *base_dir,
                             lr_error *err)
 {
     char file[4096];
-    LR_TRY(lr__rx_find(name, base_dir, file, sizeof file, err));
+    lr_status st = lr__rx_find(name, base_dir, file, sizeof file, err);
+    if (st != LR_OK) {
+        if (err != NULL && err->path[0] == '\0') {
+            /* Name the field: "camera.lens: lens \"x\": no such file...". */
+            char msg[sizeof err->message];
+            snprintf(msg, sizeof msg, "%s: %s", path, err->message);
+            lr__fail(err, st, path, "%s", msg);
+        }
+        return st;
+    }
     lr__rx rx;
     memset(&rx, 0, sizeof rx);
     LR_TRY(lr__rx_load_file(file, name, path, &rx, err));

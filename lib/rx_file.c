@@ -113,11 +113,13 @@ lr_status lr__rx_find(const char *name, const char *base_dir, char *out,
     char list[512];
     shipped(list, sizeof list);
     out[0] = '\0';
+    /* The directory is not named: a daemon's error must not show where
+     * its scenes live. */
     return lr__fail(err, LR_ERR_INVALID, NULL,
-                    "lens \"%s\": no such file%s%s, and no shipped lens of "
+                    "lens \"%s\": no such file%s, and no shipped lens of "
                     "that name; shipped lenses: %s",
-                    shown, base_dir && base_dir[0] ? " in " : "",
-                    base_dir && base_dir[0] ? base_dir : "", list);
+                    shown, base_dir && base_dir[0] ? " beside the scene" : "",
+                    list);
 }
 
 /* Puts "shown: " before a reader's message (JSON lens files name fields,

@@ -636,6 +636,12 @@ EOF
     # The environment map is confined the same way.
     req POST "$URL/v1/render" "{\"scene\": {\"environment\": {\"file\": \"$WORK/outside/secret.obj\"}}}"
     expect_error 422 forbidden_path scene.environment.file
+    # So is a real lens's prescription file; a job's own camera override
+    # takes only shipped names and inline prescriptions.
+    req POST "$URL/v1/render" "{\"scene\": {\"camera\": {\"model\": \"lens\", \"lens\": \"../outside/secret.zmx\"}}}"
+    expect_error 422 forbidden_path scene.camera.lens
+    req POST "$URL/v1/render" '{"scene": "tiny", "camera": {"model": "lens", "lens": "../outside/secret.zmx"}}'
+    expect_error 422 invalid_value camera.lens
     # The error never shows where the scenes directory is.
     ! grep -q "$WORK" "$T/body"
     # Scene names cannot be paths either.

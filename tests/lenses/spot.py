@@ -195,9 +195,11 @@ def render(lensray, tmp, name, f_number, focus_mm, dist, h, radius_mm,
     subprocess.run([lensray, "render", path, "-o", out, "--quiet"],
                    check=True)
     img = read_exr(out)
-    # The image is the region's (scene-format.md, render.region).
+    # The EXR places the region's pixels (its data window) in the whole
+    # frame (its display window); read_exr returns the frame.
     v = img["R"] + img["G"] + img["B"]
-    assert v.shape == (reg[3] - reg[1], reg[2] - reg[0]), v.shape
+    assert v.shape == (H, W), v.shape
+    v = v[reg[1]:reg[3], reg[0]:reg[2]]
     tot = v.sum()
     border = (v[0].sum() + v[-1].sum() + v[1:-1, 0].sum() +
               v[1:-1, -1].sum()) / tot
