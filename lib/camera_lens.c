@@ -78,6 +78,13 @@ static lr_status validate(const lr_camera *cam, int active, lr_error *err)
     if (cam->lens == NULL)
         return BAD("camera.lens",
                    "camera.lens must name a lens for the \"lens\" model");
+    /* The exit-pupil search (pupil_point) resolves stops down to about
+     * 1/400 of the rear element: f/128 on every shipped lens. */
+    if (cam->f_number > 128.0)
+        return BAD("camera.f_number",
+                   "camera.f_number must be at most 128 for a real lens, "
+                   "got %g",
+                   cam->f_number);
     double D = cam->focus_distance * cam->scene_unit_mm;
     double near = nearest_mm(cam->lens);
     if (!(D > near * (1.0 + 1e-9)))
@@ -209,9 +216,15 @@ static void pupil_point(const pupil_job *j, double r, lr__pupil *P,
     const lr__lens_cam *lc = &j->c->lens;
     const lr_lens *L = lc->L;
     double S = 1.5 * L->rx.s[L->rx.n - 1].semi_aperture;
-    double cell = 2.0 * S / G_COARSE;
+    /* A stopped-down lens's pupil can fall between the coarse grid's
+     * points (at f/22 the double Gauss's is 1.6 mm across, the cells
+     * 1.25 mm): then finer grids, four and sixteen times. */
+    double cell = 0;
     extent co = {INFINITY, -INFINITY, INFINITY, -INFINITY, NULL, 0, 0, 0};
-    grid_pass(j, r, -S, -S, cell, cell, G_COARSE, grow, &co);
+    for (int g = G_COARSE; g <= 16 * G_COARSE && !(co.x0 <= co.x1); g *= 4) {
+        cell = 2.0 * S / g;
+        grid_pass(j, r, -S, -S, cell, cell, g, grow, &co);
+    }
     *P = (lr__pupil){0, 0, 0, 0};
     if (E0 != NULL)
         *E0 = 0.0;
