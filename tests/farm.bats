@@ -279,11 +279,16 @@ put_asset() {
     cmp "$BATS_TEST_TMPDIR/local.exr" "$BATS_TEST_TMPDIR/farm.exr"
     cmp scenes/meshes/bunny.obj "$FARM/assets/$hash"
     [ "$(grep -c '"PUT /v1/assets/' "$FARM/nginx-access.log")" -eq 1 ]
-    # Every daemon still alive rendered parts that name the asset.
-    local k served=0
+    # Every daemon still alive renders a scene that names the asset, asked
+    # directly (which daemon nginx gave which part depends on timing).
+    local k served=0 body
+    body="{\"scene\": {\"camera\": {\"position\": [0, 4, 30], \"look_at\": [0, 4, 0]}, \"lights\": [{\"type\": \"ambient\", \"radiance\": 1}], \"objects\": [{\"type\": \"mesh\", \"file\": \"sha256:$hash\"}]}, \"render\": {\"width\": 8, \"height\": 8, \"spp\": 1}}"
     for k in 1 2 3; do
         if kill -0 "$(pid_of daemon-$k)" 2>/dev/null; then
-            grep -q 'POST /v1/render 200' "$FARM/daemon-$k.log"
+            run -0 curl -s -o /dev/null -w '%{http_code}' -X POST \
+                -H 'Content-Type: application/json' --data-binary "$body" \
+                "http://127.0.0.1:$(cat "$FARM/daemon-$k.port")/v1/render"
+            [ "$output" = 200 ]
             served=$((served + 1))
         fi
     done
