@@ -224,19 +224,15 @@ void lr__rx_trace16(const lr__rx *rx, const double *z, const double *n_after,
             for (int l = 0; l < 16; l++) {
                 if (!alive[l])
                     continue;
-                double ol[3] = {o[0][l], o[1][l], o[2][l] - z[i]}, p[3],
-                       nrm[3], dl[3] = {d[0][l], d[1][l], d[2][l]};
-                double lim = s->semi_aperture * (i == rx->stop ? stop_scale
-                                                               : 1.0);
-                double before = i > 0 ? n_after[i - 1] : 1.0;
-                if (!intersect(s, ol, dl, p, nrm) ||
-                    p[0] * p[0] + p[1] * p[1] > lim * lim ||
-                    !refract(dl, nrm, n_after[i], before)) {
+                double ol[3] = {o[0][l], o[1][l], o[2][l]},
+                       dl[3] = {d[0][l], d[1][l], d[2][l]};
+                if (!lr__rx_trace_surface(rx, z, n_after, stop_scale, i, 0,
+                                          ol, dl)) {
                     alive[l] = 0;
                     continue;
                 }
-                o[0][l] = p[0], o[1][l] = p[1], o[2][l] = p[2] + z[i];
-                d[0][l] = dl[0], d[1][l] = dl[1], d[2][l] = dl[2];
+                for (int a = 0; a < 3; a++)
+                    o[a][l] = ol[a], d[a][l] = dl[a];
             }
             continue;
         }

@@ -64,6 +64,23 @@ static lr_scene *lens_scene(const char *lens, const char *camera_extra,
     return s;
 }
 
+/* The camera of a lens_scene (one sample per pixel) in *cam, prepared in
+ * *c for its w x h film.  The caller frees the scene. */
+static lr_scene *lens_cam(const char *lens, const char *camera_extra,
+                          const char *objects, int w, int h, lr_camera *cam,
+                          lr__cam *c)
+{
+    lr_scene *s = lens_scene(lens, camera_extra, objects, w, h, 1);
+    lr_scene_camera(s, cam);
+    lr__cam_init(c, cam, w, h);
+    return s;
+}
+
+/* The singlet focused 2 m away with a sphere far behind: the set-up of
+ * the footprint and lost-ray tests. */
+#define SINGLET_AT_2M singlet, ", \"focus_distance\": 2", \
+    "[{\"type\": \"sphere\", \"center\": [0, 0, -50], \"radius\": 1}]", 64, 64
+
 /* Thin singlet: the footprint of the rays from the centre of the film on
  * a plane at distance Z from the sensor is a disk of radius
  * a |1 - s_Z / s_f| (s_f, s_Z: the focused and the measured plane's
@@ -74,14 +91,9 @@ static void test_thin_singlet_matches_thin_lens(void **state)
 {
     (void)state;
     const double D = 2.0, f = singlet_f(); /* focus: 2 m from the sensor */
-    lr_scene *s = lens_scene(singlet, ", \"focus_distance\": 2",
-                             "[{\"type\": \"sphere\", \"center\": [0, 0, -50],"
-                             "  \"radius\": 1, \"material\": \"w\"}]",
-                             64, 64, 1);
     lr_camera cam;
-    lr_scene_camera(s, &cam);
     lr__cam c;
-    lr__cam_init(&c, &cam, 64, 64);
+    lr_scene *s = lens_cam(SINGLET_AT_2M, &cam, &c);
     /* The lens equation with v + s_f = D (in mm). */
     double Dm = D * 1000.0;
     double v = 0.5 * (Dm - sqrt(Dm * Dm - 4.0 * Dm * f));
@@ -123,14 +135,9 @@ static void test_thin_singlet_matches_thin_lens(void **state)
 static void test_few_rays_lost_on_axis(void **state)
 {
     (void)state;
-    lr_scene *s = lens_scene(singlet, ", \"focus_distance\": 2",
-                             "[{\"type\": \"sphere\", \"center\": [0, 0, -50],"
-                             "  \"radius\": 1, \"material\": \"w\"}]",
-                             64, 64, 1);
     lr_camera cam;
-    lr_scene_camera(s, &cam);
     lr__cam c;
-    lr__cam_init(&c, &cam, 64, 64);
+    lr_scene *s = lens_cam(SINGLET_AT_2M, &cam, &c);
     int lost = 0, n = 0;
     for (int i = 0; i < 100; i++)
         for (int j = 0; j < 100; j++, n++) {
@@ -301,11 +308,9 @@ static void check_irradiance(const char *lens, double f_number, int points)
     char extra[128];
     snprintf(extra, sizeof extra, ", \"focus_distance\": 10, \"f_number\": %g",
              f_number);
-    lr_scene *s = lens_scene(lens, extra, "[]", 300, 200, 1);
     lr_camera cam;
-    lr_scene_camera(s, &cam);
     lr__cam c;
-    lr__cam_init(&c, &cam, 300, 200);
+    lr_scene *s = lens_cam(lens, extra, "[]", 300, 200, &cam, &c);
     const lr__lens_cam *lc = &c.lens;
     double E0 = brute_irradiance(&c, 0, 0), worst = 0;
     for (int k = 0; k < points; k++) {
