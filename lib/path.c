@@ -203,14 +203,7 @@ static void radiance16(const lr_scene *s, int max_depth,
                        struct RTCRayHit16 *rh, int n, const lr__sample_id *id,
                        lr__v3 L[16], uint64_t *rays)
 {
-    int valid[16] __attribute__((aligned(64)));
-    struct RTCIntersectContext ctx;
-    rtcInitIntersectContext(&ctx);
-    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-    for (int i = 0; i < 16; i++)
-        valid[i] = i < n ? -1 : 0;
-    rtcIntersect16(valid, s->rtc, &ctx, rh);
-    *rays += (uint64_t)n;
+    lr__intersect16(s, rh, n, rays);
     for (int i = 0; i < n; i++) {
         const struct RTCRay16 *r = &rh->ray;
         lr__v3 org = v3(r->org_x[i], r->org_y[i], r->org_z[i]);

@@ -150,6 +150,10 @@ int lr__trace(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
               lr__hit *hit);
 /* 1 if anything blocks org + t dir for t in (0, tfar). */
 int lr__occluded(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar);
+/* The closest hits of lanes 0..n-1 of a packet of camera rays (Embree's
+ * answer in rh, coherent), counted in *rays. */
+void lr__intersect16(const lr_scene *s, struct RTCRayHit16 *rh, int n,
+                     uint64_t *rays);
 
 /* Packets.  lr__shadow_ray16 fills one lane of a 16-wide packet exactly
  * as lr__occluded fills a single ray;

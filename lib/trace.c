@@ -296,6 +296,19 @@ int lr__planes_block(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar)
     return plane_hit(s, org, dir, tfar, &t_plane) >= 0;
 }
 
+void lr__intersect16(const lr_scene *s, struct RTCRayHit16 *rh, int n,
+                     uint64_t *rays)
+{
+    int valid[16] __attribute__((aligned(64)));
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    for (int i = 0; i < 16; i++)
+        valid[i] = i < n ? -1 : 0;
+    rtcIntersect16(valid, s->rtc, &ctx, rh);
+    *rays += (uint64_t)n;
+}
+
 int lr__occluded(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar)
 {
     double t_plane;

@@ -312,14 +312,12 @@ static void radiance16(const lr_scene *restrict s, int max_depth,
     (void)id; /* Whitted's rays make no random decisions. */
     scratch16 *sc = &tls_scratch;
     struct RTCRay16 shadow __attribute__((aligned(64)));
+    lr__intersect16(s, rh, n, rays);
+    /* For the shadow packets below. */
     int valid[16] __attribute__((aligned(64)));
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-    for (int i = 0; i < 16; i++)
-        valid[i] = i < n ? -1 : 0;
-    rtcIntersect16(valid, s->rtc, &ctx, rh);
-    *rays += (uint64_t)n;
 
     /* Each lane is a vector lane, a scalar lane (hit completed by
      * lr__hit_complete, shaded by the scalar code) or a miss. */
