@@ -19,6 +19,7 @@ DEPS := /usr/include/embree3/rtcore.h:libembree-dev \
         /usr/include/OpenEXR/openexr.h:libopenexr-dev \
         /usr/include/cjson/cJSON.h:libcjson-dev \
         /usr/include/png.h:libpng-dev \
+        /usr/include/jpeglib.h:libjpeg62-turbo-dev \
         /usr/include/microhttpd.h:libmicrohttpd-dev \
         /usr/include/openssl/evp.h:libssl-dev \
         /usr/include/cmocka.h:libcmocka-dev \
@@ -29,7 +30,7 @@ DEPS := /usr/include/embree3/rtcore.h:libembree-dev \
 
 # Recursive (=) so that pkg-config runs after the dependency check.
 PKG_CFLAGS = $(shell pkg-config --cflags OpenEXR libcjson libpng 2>/dev/null)
-LIB_LIBS   = -lembree3 -lOpenEXRCore-3_1 -lcjson -lpng16 -lz -lpthread -lm
+LIB_LIBS   = -lembree3 -lOpenEXRCore-3_1 -lcjson -lpng16 -ljpeg -lz -lpthread -lm
 
 CFLAGS   ?=
 CFLAGS   += -std=c11 $(OPT) -g -Wall -Wextra -Werror -fPIC -D_GNU_SOURCE \

@@ -8,6 +8,8 @@
 #include "internal.h"
 #include "vec.h"
 
+#include "texture.h"
+
 #include <embree3/rtcore.h>
 #include <stdatomic.h>
 
@@ -23,6 +25,15 @@ typedef struct lr__material {
     /* GGX alpha of the mirror and glass lobes (0: smooth).  Rough
      * lobes are the path integrator's; Whitted treats them as smooth. */
     double roughness;
+    /* Textures (texture.h) multiply the factors above, as glTF's factors
+     * do: diffuse x the texture's RGB, emission x RGB, roughness x the
+     * roughness_channel (0 = R; glTF packs roughness in G = 1).  NULL:
+     * none.  Not owned: the scene owns them (lr_scene.textures). */
+    lr__texture *diffuse_tex, *emission_tex, *roughness_tex;
+    int roughness_channel;
+    /* The texture files as the scene JSON wrote them, for the writer
+     * (json_write.c); NULL when none.  Owned. */
+    char *diffuse_file, *emission_file, *roughness_file;
 } lr__material;
 
 /* One emitting primitive: a triangle of an emissive mesh or an emissive
@@ -61,6 +72,11 @@ typedef struct lr__geom {
     /* Triangles: per-corner unit shading normals (9 per triangle), or
      * NULL for flat shading.  Owned. */
     float *corner_normals;
+    /* Triangles: per-corner texture coordinates (6 per triangle: u, v of
+     * corners a, b, c), or NULL when the mesh has none.  Owned.  A loader
+     * sets it right after lr__scene_add_triangles, on
+     * s->geoms[s->n_geoms - 1]. */
+    float *corner_uv;
     size_t n_triangles;
     /* Spheres (also mirrored in Embree) and infinite planes. */
     lr__v3 center;
@@ -106,6 +122,13 @@ struct lr_scene {
     lr_camera camera;
     lr_render_settings settings;
     char *description;     /* the scene's "description", "" if none */
+    /* Every texture the materials use, each loaded once; owned. */
+    lr__texture **textures;
+    size_t n_textures;
+    /* For lr__scene_texture: where each texture came from (owned path
+     * and srgb flag; NULL path for one made in memory). */
+    char **texture_paths;
+    int *texture_srgb;
     /* Rays lr__trace and lr__occluded did not give Embree (see
      * lr__embree_can_trace), over the scene's life; the one member that
      * changes while renders share the scene. */
@@ -126,6 +149,20 @@ lr_status lr__scene_add_sphere(lr_scene *s, lr__v3 center, double radius,
                                int material, lr_error *err);
 lr_status lr__scene_add_plane(lr_scene *s, lr__v3 point, lr__v3 normal,
                               int material, lr_error *err);
+/* A texture for the scene's materials: the file at `path` decoded with
+ * `srgb` (lr__texture_load), loaded once per (path, srgb) and kept by
+ * the scene (freed with it).  NULL with err filled on error. */
+lr__texture *lr__scene_texture(lr_scene *s, const char *path, int srgb,
+                               lr_error *err);
+/* The same with messages naming the file as `shown`. */
+lr__texture *lr__scene_texture_named(lr_scene *s, const char *path,
+                                     const char *shown, int srgb,
+                                     lr_error *err);
+/* Takes over a texture made in memory: freed with the scene.  Returns
+ * LR_OK, or LR_ERR_NOMEM when it could not be recorded (then it is freed
+ * at once, and the caller reports the error). */
+lr_status lr__scene_texture_add(lr_scene *s, lr__texture *t);
+
 /* Commits the Embree scene: no more geometry after this.  Builds the
  * emitter list (lr__emitters_build). */
 lr_status lr__scene_commit(lr_scene *s, lr_error *err);
