@@ -26,8 +26,9 @@ typedef struct lr__material {
      * lobes are the path integrator's; Whitted treats them as smooth. */
     double roughness;
     /* Textures (texture.h) multiply the factors above, as glTF's factors
-     * do: diffuse x the texture's RGB, emission x RGB, roughness x the
-     * roughness_channel (0 = R; glTF packs roughness in G = 1).  NULL:
+     * do: diffuse x the texture's RGB, emission x RGB, roughness (an
+     * alpha) x r^2 where r, the roughness_channel (0 = R; glTF packs
+     * roughness in G = 1), is a perceptual roughness as in glTF.  NULL:
      * none.  Not owned: the scene owns them (lr_scene.textures). */
     lr__texture *diffuse_tex, *emission_tex, *roughness_tex;
     int roughness_channel;
@@ -179,7 +180,50 @@ typedef struct lr__hit {
     double eps;       /* how far to push a new ray's origin off p */
     long geom;        /* Embree geometry ID; -1 for an infinite plane */
     unsigned prim;    /* triangle index in it */
+    /* Texture coordinates (lr__triangle_uv, lr__sphere_uv); has_uv 0 on
+     * an infinite plane and a mesh without them. */
+    int has_uv;
+    double uv[2];
 } lr__hit;
+
+/* The texture coordinates of triangle `prim` of g at Embree's
+ * barycentrics (bu, bv) (the point (1 - bu - bv) a + bu b + bv c): the
+ * corners' uv interpolated alike.  Returns 0 when g has none.  The one
+ * formula for the scalar hit, the packet lanes and sampled light points,
+ * so that all three see the same texel. */
+static inline int lr__triangle_uv(const lr__geom *g, unsigned prim,
+                                  double bu, double bv, double uv[2])
+{
+    if (g->corner_uv == NULL)
+        return 0;
+    const float *t = &g->corner_uv[6 * (size_t)prim];
+    double w = 1.0 - bu - bv;
+    uv[0] = w * t[0] + bu * t[2] + bv * t[4];
+    uv[1] = w * t[1] + bu * t[3] + bv * t[5];
+    return 1;
+}
+
+/* A sphere's texture coordinates at unit outward normal n, a lat-long
+ * map wrapped like a globe: the image's centre column faces +z, u grows
+ * towards +x, its top row is the +y pole:
+ * u = 1/2 + atan2(n.x, n.z) / (2 pi), v = 1 - acos(n.y) / pi. */
+void lr__sphere_uv(lr__v3 n, double uv[2]);
+
+/* ---- materials at a hit (material.c) ---------------------------------- */
+
+/* Material `material` at texture coordinates uv: the scene's own record
+ * when it has no texture (or has_uv is 0: the factors alone), else *tmp
+ * filled with the factors times the textures.  Valid while the scene and
+ * *tmp are. */
+const lr__material *lr__material_at(const lr_scene *s, int material,
+                                    int has_uv, const double uv[2],
+                                    lr__material *tmp);
+static inline const lr__material *lr__hit_material(const lr_scene *s,
+                                                   const lr__hit *h,
+                                                   lr__material *tmp)
+{
+    return lr__material_at(s, h->material, h->has_uv, h->uv, tmp);
+}
 
 /* Closest hit along org + t dir with t in (0, tfar); dir need not be unit
  * length but t is in its units.  Returns 1 on a hit. */
