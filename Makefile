@@ -47,11 +47,12 @@ TEST_OBJ := $(TEST_SRC:%.c=$(BUILD)/obj/%.o)
 
 DEPS_OK  := $(BUILD)/.deps-ok
 BUNNY    := scenes/meshes/bunny.obj
+TEXTURES := $(patsubst %,scenes/textures/%.png,tiles globe sign scratches)
 
 .PHONY: all deps test test-suite render serve clean install bunny test-sanitize figures test-api compare-path
 
 all: $(BUILD)/liblensray.a $(BUILD)/liblensray.so $(BUILD)/lensray $(BUNNY) \
-     $(if $(SVC_SRC),$(BUILD)/lensrayd)
+     $(TEXTURES) $(if $(SVC_SRC),$(BUILD)/lensrayd)
 
 # ---- dependencies -------------------------------------------------------
 # Installs what is missing when run as root; otherwise names the packages.
@@ -159,11 +160,16 @@ bunny: $(BUNNY)
 $(BUNNY): scenes/get-bunny.sh scenes/bunny-to-obj.js $(DEPS_OK)
 	sh scenes/get-bunny.sh $@
 
+# scenes/textured.json's images, written by a script (never committed).
+$(TEXTURES) &: scenes/make-textures.py $(DEPS_OK)
+	python3 scenes/make-textures.py scenes/textures
+
 # ---- tests --------------------------------------------------------------
 # The fuzz targets' code, built without libFuzzer, replays tests/corpus/
 # and fuzz/seeds/ inside the unit tests (tests/test_fuzz_replay.c); the
 # job target brings the parts of the daemon that parse a job.
 REPLAY_SRC := fuzz/fuzz_common.c fuzz/fuzz_scene.c fuzz/fuzz_obj.c fuzz/fuzz_lens.c \
+              fuzz/fuzz_texture.c \
               $(if $(SVC_SRC),fuzz/fuzz_job.c service/api.c \
                 service/scene_cache.c service/util.c service/sha256.c \
                 service/assets.c)
@@ -359,7 +365,8 @@ soak: all
 	bash tests/soak/soak.sh $(SOAK_SECONDS) $(BUILD)
 
 # ---- fuzzing ------------------------------------------------------------
-# libFuzzer targets for the scene, OBJ, lens and job parsers (fuzz/fuzz_*.c),
+# libFuzzer targets for the scene, OBJ, lens and job parsers and the texture
+# decoders (fuzz/fuzz_*.c),
 # built with clang under AddressSanitizer and UBSan in build/fuzz, apart
 # from the other builds.  `make fuzz` runs each for FUZZ_SECONDS (clang is
 # installed like the other dependencies, but only for these targets).  New
@@ -376,7 +383,7 @@ FUZZ_SECONDS    ?= 60
 FUZZ_CI_SECONDS ?= 20
 FUZZ_CC         ?= clang
 FUZZ_BUILD      := build/fuzz
-FUZZ            ?= scene obj lens $(if $(SVC_SRC),job)
+FUZZ            ?= scene obj lens texture $(if $(SVC_SRC),job)
 FUZZ_SAN        := -fsanitize=address,undefined -fno-sanitize-recover=undefined \
                    -fno-omit-frame-pointer -Wno-unknown-warning-option \
                    '-Dtarget_clones(...)=unused'
@@ -440,6 +447,8 @@ $(BUILD)/fuzz_scene: $(BUILD)/obj/fuzz/lf_scene.o $(BUILD)/obj/fuzz/fuzz_common.
 $(BUILD)/fuzz_obj: $(BUILD)/obj/fuzz/lf_obj.o $(BUILD)/obj/fuzz/fuzz_common.o $(BUILD)/liblensray.a
 	$(FUZZ_LINK)
 $(BUILD)/fuzz_lens: $(BUILD)/obj/fuzz/lf_lens.o $(BUILD)/obj/fuzz/fuzz_common.o $(BUILD)/liblensray.a
+	$(FUZZ_LINK)
+$(BUILD)/fuzz_texture: $(BUILD)/obj/fuzz/lf_texture.o $(BUILD)/obj/fuzz/fuzz_common.o $(BUILD)/liblensray.a
 	$(FUZZ_LINK)
 $(BUILD)/fuzz_job: $(BUILD)/obj/fuzz/lf_job.o $(BUILD)/obj/fuzz/fuzz_common.o $(FUZZ_JOB_OBJ) $(BUILD)/liblensray.a
 	$(FUZZ_LINK) -lcrypto

@@ -357,6 +357,7 @@ static void checker_projection(void **state)
             checked++;
         }
     assert_true(checked > 1000);
+    print_message("checker: %d pixels predicted\n", checked);
     lr_image_free(img);
 }
 
