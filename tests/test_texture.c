@@ -292,25 +292,6 @@ static void jpeg_levels(void **state)
 
 /* ---- EXR through the library's encoder -------------------------------- */
 
-/* Writes a w x h EXR whose pixel (x, y) is f(x, y) into the scratch dir;
- * returns its path in `path`. */
-static void write_exr(const char *name, int w, int h,
-                      void (*f)(int x, int y, float rgb[3]), char *path,
-                      size_t cap)
-{
-    lr_image *img = NULL;
-    lr_error err;
-    assert_int_equal(lr_image_create(w, h, 0, &img, &err), LR_OK);
-    float *px = lr_image_rgb_mut(img);
-    for (int y = 0; y < h; y++)
-        for (int x = 0; x < w; x++)
-            f(x, y, &px[3 * ((size_t)y * w + x)]);
-    snprintf(path, cap, "%s/%s", lr_test_tmpdir(), name);
-    if (lr_image_write(img, path, NULL, &err) != LR_OK)
-        fail_msg("%s", err.message);
-    lr_image_free(img);
-}
-
 static void ramp(int x, int y, float rgb[3])
 {
     rgb[0] = (float)x, rgb[1] = (float)y, rgb[2] = (float)(x * 10 + y);
@@ -320,7 +301,7 @@ static void exr_exact(void **state)
 {
     (void)state;
     char path[512];
-    write_exr("ramp.exr", 4, 2, ramp, path, sizeof path);
+    lr_test_write_exr("ramp.exr", 4, 2, ramp, path, sizeof path);
     lr_error err;
     lr__texture *t = lr__texture_load(path, 1, &err);
     if (t == NULL)
@@ -344,7 +325,7 @@ static void bilinear_and_wrap(void **state)
 {
     (void)state;
     char path[512];
-    write_exr("ramp2.exr", 4, 2, ramp, path, sizeof path);
+    lr_test_write_exr("ramp2.exr", 4, 2, ramp, path, sizeof path);
     lr_error err;
     lr__texture *t = lr__texture_load(path, 0, &err);
     assert_non_null(t);
@@ -421,7 +402,7 @@ static void truncated_files(void **state)
     all_prefixes_fail(&b, "cut.jpg");
     free(b.p);
     char path[512];
-    write_exr("cut.exr", 4, 2, ramp, path, sizeof path);
+    lr_test_write_exr("cut.exr", 4, 2, ramp, path, sizeof path);
     FILE *f = fopen(path, "rb");
     assert_non_null(f);
     b = (bytes){0};
