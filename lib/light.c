@@ -223,7 +223,8 @@ int lr__light_sample_from(const lr_scene *s, lr__v3 p, double u_pick,
             return 0;
         out->dist = d;
         const lr__geom *G = &s->geoms[e->geom];
-        if (G->kind == LR__GEOM_SPHERE) {
+        if (G->kind == LR__GEOM_SPHERE &&
+            lr__material_textured(&s->materials[G->material])) {
             has_uv = 1;
             lr__sphere_uv(nq, uv);
         }

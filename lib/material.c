@@ -19,14 +19,10 @@ static lr__v3 times_rgb(lr__v3 k, const lr__texture *t, const double uv[2])
     return v3(k.x * c[0], k.y * c[1], k.z * c[2]);
 }
 
-const lr__material *lr__material_at(const lr_scene *s, int material,
-                                    int has_uv, const double uv[2],
-                                    lr__material *tmp)
+const lr__material *lr__material_textures(const lr__material *m,
+                                          const double uv[2],
+                                          lr__material *tmp)
 {
-    const lr__material *m = &s->materials[material];
-    if (!has_uv || (m->diffuse_tex == NULL && m->emission_tex == NULL &&
-                    m->roughness_tex == NULL))
-        return m;
     *tmp = *m;
     if (m->diffuse_tex != NULL)
         tmp->diffuse = times_rgb(m->diffuse, m->diffuse_tex, uv);

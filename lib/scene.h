@@ -180,8 +180,9 @@ typedef struct lr__hit {
     double eps;       /* how far to push a new ray's origin off p */
     long geom;        /* Embree geometry ID; -1 for an infinite plane */
     unsigned prim;    /* triangle index in it */
-    /* Texture coordinates (lr__triangle_uv, lr__sphere_uv); has_uv 0 on
-     * an infinite plane and a mesh without them. */
+    /* Texture coordinates (lr__triangle_uv, lr__sphere_uv), computed
+     * only where the material has a texture; has_uv 0 otherwise, on an
+     * infinite plane and on a mesh without them. */
     int has_uv;
     double uv[2];
 } lr__hit;
@@ -211,13 +212,33 @@ void lr__sphere_uv(lr__v3 n, double uv[2]);
 
 /* ---- materials at a hit (material.c) ---------------------------------- */
 
+/* Whether a material has any texture. */
+static inline int lr__material_textured(const lr__material *m)
+{
+    return m->diffuse_tex != NULL || m->emission_tex != NULL ||
+           m->roughness_tex != NULL;
+}
+
+/* *tmp = m with its textures applied at uv; returns tmp (material.c). */
+const lr__material *lr__material_textures(const lr__material *m,
+                                          const double uv[2],
+                                          lr__material *tmp);
+
 /* Material `material` at texture coordinates uv: the scene's own record
  * when it has no texture (or has_uv is 0: the factors alone), else *tmp
  * filled with the factors times the textures.  Valid while the scene and
- * *tmp are. */
-const lr__material *lr__material_at(const lr_scene *s, int material,
-                                    int has_uv, const double uv[2],
-                                    lr__material *tmp);
+ * *tmp are.  (Inline: every hit asks, and untextured scenes must not pay
+ * a call for it.) */
+static inline const lr__material *lr__material_at(const lr_scene *s,
+                                                  int material, int has_uv,
+                                                  const double uv[2],
+                                                  lr__material *tmp)
+{
+    const lr__material *m = &s->materials[material];
+    if (!has_uv || !lr__material_textured(m))
+        return m;
+    return lr__material_textures(m, uv, tmp);
+}
 static inline const lr__material *lr__hit_material(const lr_scene *s,
                                                    const lr__hit *h,
                                                    lr__material *tmp)

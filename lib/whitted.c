@@ -339,12 +339,15 @@ static void radiance16(const lr_scene *restrict s, int max_depth,
             /* A textured albedo, looked up where lr__hit_complete would
              * (the same barycentrics, the same formula). */
             const lr__geom *G = &s->geoms[g];
-            double uv[2];
-            int has_uv = lr__triangle_uv(G, rh->hit.primID[i], rh->hit.u[i],
-                                         rh->hit.v[i], uv);
-            lr__material tmp;
-            const lr__v3 kd =
-                lr__material_at(s, G->material, has_uv, uv, &tmp)->diffuse;
+            lr__v3 kd = s->materials[G->material].diffuse;
+            if (s->materials[G->material].diffuse_tex != NULL) {
+                double uv[2];
+                lr__material tmp;
+                int has_uv = lr__triangle_uv(G, rh->hit.primID[i],
+                                             rh->hit.u[i], rh->hit.v[i], uv);
+                kd = lr__material_at(s, G->material, has_uv, uv, &tmp)
+                         ->diffuse;
+            }
             sc->k[0][i] = kd.x, sc->k[1][i] = kd.y, sc->k[2][i] = kd.z;
         }
         if (i >= n)
