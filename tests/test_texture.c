@@ -489,6 +489,12 @@ static void garbage_and_huge(void **state)
     assert_int_equal(err.status, LR_ERR_LIMIT);
     assert_non_null(strstr(err.message, "big.jpg is 65000 x 65000 pixels"));
     free(b.p);
+    /* An EXR one texel wider than the limit. */
+    char path[512];
+    lr_test_write_exr("wide.exr", LR__TEX_MAX_DIM + 1, 1, ramp, path,
+                      sizeof path);
+    assert_null(lr__texture_load(path, 0, &err));
+    assert_non_null(strstr(err.message, "wide.exr is 16385 x 1 pixels"));
     /* A missing file names itself. */
     assert_null(lr__texture_load("/nonexistent/t.png", 1, &err));
     assert_int_equal(err.status, LR_ERR_IO);

@@ -8,6 +8,7 @@
  */
 #include "test.h"
 #include "integrator.h"
+#include "light.h"
 #include "scene.h"
 
 #include <math.h>
@@ -353,6 +354,56 @@ static void checker_projection(void **state)
     lr_image_free(img);
 }
 
+/* ---- a light sample sees the texel a ray sees -------------------------- */
+
+/* An emission texture varying in u and v on a quad and on a sphere: for
+ * light samples spread over each, the radiance the sample carries equals
+ * the emission a ray along the sampled direction finds at its hit. */
+static void sampled_emission_matches_hit(void **state)
+{
+    (void)state;
+    write_exr("emit.exr", 8, 8, checker);
+    static const char *const objs[] = {
+        "{\"type\": \"plane\", \"point\": [0.3, 2, -0.2], \"normal\":"
+        " [0.1, -1, 0.2], \"size\": [2, 1.5], \"material\": \"e\"}",
+        "{\"type\": \"sphere\", \"center\": [0.5, 3, -1], \"radius\": 0.8,"
+        " \"material\": \"e\"}"};
+    for (int k = 0; k < 2; k++) {
+        char json[1024];
+        snprintf(json, sizeof json,
+                 "{\"materials\": {\"e\": {\"emission_texture\": "
+                 "\"emit.exr\", \"emission\": [1, 2, 3]}},"
+                 " \"objects\": [%s]}",
+                 objs[k]);
+        lr_scene *s = lr_test_load_json(json);
+        int n = 0, varied = 0;
+        double first = -1;
+        for (int i = 0; i < 32; i++)
+            for (int j = 0; j < 32; j++) {
+                double u[2] = {(i + 0.37) / 32, (j + 0.61) / 32};
+                lr__light_sample ls;
+                if (!lr__light_sample_from(s, v3(0, 0, 0), 0.5, u, &ls))
+                    continue;
+                lr__hit h;
+                assert_true(lr__trace(s, v3(0, 0, 0), ls.dir, INFINITY, &h));
+                lr__material tmp;
+                lr__v3 e = lr__hit_material(s, &h, &tmp)->emission;
+                if (fabs(e.x - ls.L.x) > 1e-4 || fabs(e.y - ls.L.y) > 1e-4 ||
+                    fabs(e.z - ls.L.z) > 1e-4)
+                    fail_msg("%s: sample (%g, %g): light sample %g %g %g, "
+                             "hit %g %g %g",
+                             k ? "sphere" : "quad", u[0], u[1], ls.L.x,
+                             ls.L.y, ls.L.z, e.x, e.y, e.z);
+                if (first < 0)
+                    first = e.x;
+                varied |= fabs(e.x - first) > 0.1;
+                n++;
+            }
+        assert_true(n > 200 && varied);
+        lr_scene_free(s);
+    }
+}
+
 /* ---- the daemon confines texture paths -------------------------------- */
 
 static void job_lists_textures(void **state)
@@ -388,6 +439,7 @@ static const struct CMUnitTest tests[] = {
     cmocka_unit_test_setup(constant_texture_identity, setup_one),
     cmocka_unit_test(vector_lanes_textured),
     cmocka_unit_test(checker_projection),
+    cmocka_unit_test(sampled_emission_matches_hit),
     cmocka_unit_test(job_lists_textures),
 };
 
