@@ -345,6 +345,14 @@ LR_API lr_status lr_scene_load_json(const char *json, size_t len,
  * scenes; the path is copied.  Errors: LR_ERR_LIMIT (path too long). */
 LR_API lr_status lr_assets_dir_set(const char *dir, lr_error *err);
 
+/* Whether a member named `key` of a scene object holds a file reference
+ * (a string: a path relative to the scene's directory, an absolute path
+ * or an asset "sha256:HEX"): "file" (objects, environment) and each
+ * other key the loader reads a file from.  camera.lens is apart: it is
+ * a file, a shipped lens's name or an inline prescription.  For clients
+ * that send a scene elsewhere with its files (lensray render --remote). */
+LR_API int lr_scene_file_key(const char *key);
+
 /* Frees a scene.  No render may be using it.  NULL is a no-op. */
 LR_API void lr_scene_free(lr_scene *scene);
 

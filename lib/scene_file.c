@@ -17,6 +17,11 @@ static const char *const file_keys[] = {
     "file", "diffuse_texture", "emission_texture", "roughness_texture",
     NULL};
 
+int lr_scene_file_key(const char *key)
+{
+    return key != NULL && lr__scene_file_key(key);
+}
+
 int lr__scene_file_key(const char *key)
 {
     for (size_t i = 0; file_keys[i] != NULL; i++)
