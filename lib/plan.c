@@ -53,11 +53,12 @@ static void to_cam(const lens *L, lr__v3 p, double *x, double *y, double *z)
     *z = v3_dot(r, L->fwd);
 }
 
-static void box_from_points(const lens *L, const lr__v3 *pts, size_t n,
-                            box *b)
+/* The world-space bounds of n points: lo[3], hi[3]. */
+static void world_bounds(const lr__v3 *pts, size_t n, double lo[3],
+                         double hi[3])
 {
-    double lo[3] = {DBL_MAX, DBL_MAX, DBL_MAX},
-           hi[3] = {-DBL_MAX, -DBL_MAX, -DBL_MAX};
+    lo[0] = lo[1] = lo[2] = DBL_MAX;
+    hi[0] = hi[1] = hi[2] = -DBL_MAX;
     for (size_t i = 0; i < n; i++) {
         double c[3] = {pts[i].x, pts[i].y, pts[i].z};
         for (int k = 0; k < 3; k++) {
@@ -67,6 +68,12 @@ static void box_from_points(const lens *L, const lr__v3 *pts, size_t n,
                 hi[k] = c[k];
         }
     }
+}
+
+/* The camera-space box around the world box [lo, hi]. */
+static void box_from_bounds(const lens *L, const double lo[3],
+                            const double hi[3], box *b)
+{
     /* The camera-space box around the eight corners of the world box. */
     b->z0 = b->x0 = b->y0 = DBL_MAX;
     b->z1 = b->x1 = b->y1 = -DBL_MAX;
@@ -82,6 +89,44 @@ static void box_from_points(const lens *L, const lr__v3 *pts, size_t n,
         b->z0 = fmin(b->z0, z);
         b->z1 = fmax(b->z1, z);
     }
+}
+
+static void box_from_points(const lens *L, const lr__v3 *pts, size_t n,
+                            box *b)
+{
+    double lo[3], hi[3];
+    world_bounds(pts, n, lo, hi);
+    box_from_bounds(L, lo, hi, b);
+}
+
+/* The points of triangles [t0, t0 + CHUNK) of g (fewer at the end):
+ * their number. */
+static size_t chunk_points(const lr__geom *g, size_t t0, lr__v3 *pts)
+{
+    size_t n = 0;
+    for (size_t t = t0; t < g->n_triangles && t < t0 + CHUNK; t++)
+        for (int k = 0; k < 3; k++) {
+            const float *v = &g->vertices[3 * g->indices[3 * t + k]];
+            pts[n++] = v3(v[0], v[1], v[2]);
+        }
+    return n;
+}
+
+lr_status lr__plan_chunk_bounds(lr__geom *g, lr_error *err)
+{
+    if (g->kind != LR__GEOM_TRIANGLES || g->n_triangles <= LR__PLAN_FEW)
+        return LR_OK;
+    size_t n_chunks = (g->n_triangles + CHUNK - 1) / CHUNK;
+    g->chunk_bounds = malloc(n_chunks * 6 * sizeof *g->chunk_bounds);
+    if (g->chunk_bounds == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    for (size_t c = 0; c < n_chunks; c++) {
+        lr__v3 pts[3 * CHUNK];
+        size_t n = chunk_points(g, c * CHUNK, pts);
+        world_bounds(pts, n, &g->chunk_bounds[6 * c],
+                     &g->chunk_bounds[6 * c + 3]);
+    }
+    return LR_OK;
 }
 
 /* Can a lens ray of the block [u0, u1] x [v0, v1] reach box b?  At depth
@@ -293,7 +338,7 @@ static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
             ok = tri_boxes(&L, a, b, b, 0, &boxes, &n_boxes, &cap);
             continue;
         }
-        if (geo->n_triangles <= 8) {
+        if (geo->n_triangles <= LR__PLAN_FEW) {
             /* Few, probably large triangles (a ground quad): cut them. */
             for (size_t t = 0; t < geo->n_triangles && ok; t++) {
                 lr__v3 q[3];
@@ -307,15 +352,10 @@ static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
             }
             continue;
         }
+        /* Many triangles: a box per CHUNK of them, from the world bounds
+         * lr__scene_commit kept (the same for every render, so a frame
+         * cut into parts does not find them again for each part). */
         for (size_t t0 = 0; t0 < geo->n_triangles && ok; t0 += CHUNK) {
-            lr__v3 pts[3 * CHUNK];
-            size_t n = 0;
-            for (size_t t = t0; t < geo->n_triangles && t < t0 + CHUNK; t++)
-                for (int k = 0; k < 3; k++) {
-                    const float *v =
-                        &geo->vertices[3 * geo->indices[3 * t + k]];
-                    pts[n++] = v3(v[0], v[1], v[2]);
-                }
             if (n_boxes == cap) {
                 size_t nc = cap ? 2 * cap : 256;
                 box *gr = realloc(boxes, nc * sizeof *gr);
@@ -326,7 +366,8 @@ static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
                 boxes = gr;
                 cap = nc;
             }
-            box_from_points(&L, pts, n, &boxes[n_boxes]);
+            const double *wb = &geo->chunk_bounds[6 * (t0 / CHUNK)];
+            box_from_bounds(&L, wb, wb + 3, &boxes[n_boxes]);
             boxes[n_boxes++].skip = 0;
         }
     }

@@ -5,6 +5,7 @@
 #include "scene.h"
 #include "envmap.h"
 #include "light.h"
+#include "plan.h"
 
 #include <float.h>
 #include <stdio.h>
@@ -173,6 +174,9 @@ lr_status lr__scene_commit(lr_scene *s, lr_error *err)
                                !(v3_maxc(m->transmit) > 0.0) &&
                                v3_maxc(m->diffuse) > 0.0 &&
                                !(v3_maxc(m->emission) > 0.0);
+        lr_status st = lr__plan_chunk_bounds(g, err);
+        if (st != LR_OK)
+            return st;
     }
     lr_status st = lr__emitters_build(s, err);
     if (st != LR_OK)
@@ -190,8 +194,10 @@ void lr_scene_free(lr_scene *s)
 {
     if (s == NULL)
         return;
-    for (size_t i = 0; i < s->n_geoms; i++)
+    for (size_t i = 0; i < s->n_geoms; i++) {
         free(s->geoms[i].corner_normals);
+        free(s->geoms[i].chunk_bounds);
+    }
     free(s->geoms);
     free(s->planes);
     for (size_t i = 0; i < s->n_materials; i++)

@@ -78,6 +78,10 @@ typedef struct lr__geom {
      * the scene's lifetime (not owned). */
     const float *vertices;
     const unsigned *indices;
+    /* Triangle meshes the planner cuts into chunks: each chunk's world
+     * bounds, lo x, y, z then hi x, y, z (lr__plan_chunk_bounds, at
+     * commit).  Owned; NULL otherwise. */
+    double *chunk_bounds;
 } lr__geom;
 
 struct lr_scene {
