@@ -24,6 +24,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -305,6 +306,115 @@ lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
     return LR_OK;
 }
 
+/* ---- the boxes, kept for the next plan with the same camera ------------- */
+
+/* The camera-space boxes of a scene's geometry for one camera, shared by
+ * the plans that use them (refs, under the cache's lock) and immutable. */
+typedef struct boxset {
+    int refs;
+    lens key;
+    size_t n;
+    box *boxes;
+} boxset;
+
+struct lr__plan_cache {
+    pthread_mutex_t lock;
+    boxset *last;
+};
+
+struct lr__plan_cache *lr__plan_cache_new(void)
+{
+    struct lr__plan_cache *c = calloc(1, sizeof *c);
+    if (c != NULL && pthread_mutex_init(&c->lock, NULL) != 0) {
+        free(c);
+        c = NULL;
+    }
+    return c;
+}
+
+static void boxset_unref(boxset *b)
+{
+    if (b != NULL && --b->refs == 0) {
+        free(b->boxes);
+        free(b);
+    }
+}
+
+void lr__plan_cache_free(struct lr__plan_cache *c)
+{
+    if (c == NULL)
+        return;
+    boxset_unref(c->last);
+    pthread_mutex_destroy(&c->lock);
+    free(c);
+}
+
+/* Whether two cameras give the same boxes: every input of tri_boxes and
+ * box_from_bounds, compared exactly. */
+static int same_lens(const lens *a, const lens *b)
+{
+    if (a->R != b->R || a->w != b->w || a->fpx != b->fpx ||
+        a->n_w != b->n_w)
+        return 0;
+    const lr__v3 *va[4] = {&a->e, &a->fwd, &a->right, &a->up};
+    const lr__v3 *vb[4] = {&b->e, &b->fwd, &b->right, &b->up};
+    for (int k = 0; k < 4; k++)
+        if (va[k]->x != vb[k]->x || va[k]->y != vb[k]->y ||
+            va[k]->z != vb[k]->z)
+            return 0;
+    for (int k = 0; k < a->n_w; k++)
+        if (a->ws[k] != b->ws[k])
+            return 0;
+    return 1;
+}
+
+static int make_boxes(const lr_scene *s, const lens *L, box **out,
+                      size_t *out_n);
+
+/* The boxes for camera L: the cache's when it holds this camera's, else
+ * made now and left in the cache for the next plan.  A reference the
+ * caller drops with put_boxes; NULL when out of memory. */
+static boxset *get_boxes(const lr_scene *s, const lens *L)
+{
+    struct lr__plan_cache *c = s->plan_cache;
+    if (c != NULL) {
+        pthread_mutex_lock(&c->lock);
+        boxset *hit = c->last;
+        if (hit != NULL && same_lens(&hit->key, L))
+            hit->refs++;
+        else
+            hit = NULL;
+        pthread_mutex_unlock(&c->lock);
+        if (hit != NULL)
+            return hit;
+    }
+    boxset *b = calloc(1, sizeof *b);
+    if (b == NULL || !make_boxes(s, L, &b->boxes, &b->n)) {
+        free(b);
+        return NULL;
+    }
+    b->key = *L;
+    b->refs = 1;
+    if (c != NULL) {
+        pthread_mutex_lock(&c->lock);
+        boxset_unref(c->last);
+        c->last = b;
+        b->refs++;
+        pthread_mutex_unlock(&c->lock);
+    }
+    return b;
+}
+
+static void put_boxes(const lr_scene *s, boxset *b)
+{
+    struct lr__plan_cache *c = s->plan_cache;
+    if (c != NULL)
+        pthread_mutex_lock(&c->lock);
+    boxset_unref(b);
+    if (c != NULL)
+        pthread_mutex_unlock(&c->lock);
+}
+
 /* Where no colour's blur can reach a quarter pixel, the block needs no
  * lens; where the colours' blurs differ by less, one ray for all. */
 static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
@@ -324,57 +434,11 @@ static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
     for (int k = 0; k < lb.n_w; k++)
         L.ws[k] = lb.ws[k];
 
-    /* Bounding boxes of the geometry in camera space. */
-    size_t n_boxes = 0, cap = 0;
-    box *boxes = NULL;
-    int ok = 1;
-    for (size_t g = 0; g < s->n_geoms && ok; g++) {
-        const lr__geom *geo = &s->geoms[g];
-        if (geo->kind == LR__GEOM_SPHERE) {
-            lr__v3 r = v3(geo->radius, geo->radius, geo->radius);
-            lr__v3 a = v3_sub(geo->center, r), b = v3_add(geo->center, r);
-            /* A degenerate triangle across the box's diagonal has the
-             * same bounding box, so it can go through tri_boxes. */
-            ok = tri_boxes(&L, a, b, b, 0, &boxes, &n_boxes, &cap);
-            continue;
-        }
-        if (geo->n_triangles <= LR__PLAN_FEW) {
-            /* Few, probably large triangles (a ground quad): cut them. */
-            for (size_t t = 0; t < geo->n_triangles && ok; t++) {
-                lr__v3 q[3];
-                for (int k = 0; k < 3; k++) {
-                    const float *v =
-                        &geo->vertices[3 * geo->indices[3 * t + k]];
-                    q[k] = v3(v[0], v[1], v[2]);
-                }
-                ok = tri_boxes(&L, q[0], q[1], q[2], 7, &boxes, &n_boxes,
-                               &cap);
-            }
-            continue;
-        }
-        /* Many triangles: a box per CHUNK of them, from the world bounds
-         * lr__scene_commit kept (the same for every render, so a frame
-         * cut into parts does not find them again for each part). */
-        for (size_t t0 = 0; t0 < geo->n_triangles && ok; t0 += CHUNK) {
-            if (n_boxes == cap) {
-                size_t nc = cap ? 2 * cap : 256;
-                box *gr = realloc(boxes, nc * sizeof *gr);
-                if (gr == NULL) {
-                    ok = 0;
-                    break;
-                }
-                boxes = gr;
-                cap = nc;
-            }
-            const double *wb = &geo->chunk_bounds[6 * (t0 / CHUNK)];
-            box_from_bounds(&L, wb, wb + 3, &boxes[n_boxes]);
-            boxes[n_boxes++].skip = 0;
-        }
-    }
-    if (!ok) {
-        free(boxes);
+    boxset *set = get_boxes(s, &L);
+    if (set == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
-    }
+    const box *boxes = set->boxes;
+    size_t n_boxes = set->n;
 
     int bx0 = x0 / LR__PLAN_BLOCK, by0 = y0 / LR__PLAN_BLOCK;
     int bx1 = (x1 - 1) / LR__PLAN_BLOCK, by1 = (y1 - 1) / LR__PLAN_BLOCK;
@@ -443,7 +507,7 @@ static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
             bp->chroma = L.n_w > 1 &&
                          chroma_spread(&L, x_lo, x_hi) >= LR__PLAN_BLUR_PX;
         }
-    free(boxes);
+    put_boxes(s, set);
     return LR_OK;
 }
 
@@ -451,4 +515,64 @@ void lr__plan_free(lr__plan *p)
 {
     free(p->blocks);
     p->blocks = NULL;
+}
+
+/* Bounding boxes of the geometry in camera space, for camera L: 1, or 0
+ * when out of memory. */
+static int make_boxes(const lr_scene *s, const lens *L, box **out,
+                      size_t *out_n)
+{
+    size_t n_boxes = 0, cap = 0;
+    box *boxes = NULL;
+    int ok = 1;
+    for (size_t g = 0; g < s->n_geoms && ok; g++) {
+        const lr__geom *geo = &s->geoms[g];
+        if (geo->kind == LR__GEOM_SPHERE) {
+            lr__v3 r = v3(geo->radius, geo->radius, geo->radius);
+            lr__v3 a = v3_sub(geo->center, r), b = v3_add(geo->center, r);
+            /* A degenerate triangle across the box's diagonal has the
+             * same bounding box, so it can go through tri_boxes. */
+            ok = tri_boxes(L, a, b, b, 0, &boxes, &n_boxes, &cap);
+            continue;
+        }
+        if (geo->n_triangles <= LR__PLAN_FEW) {
+            /* Few, probably large triangles (a ground quad): cut them. */
+            for (size_t t = 0; t < geo->n_triangles && ok; t++) {
+                lr__v3 q[3];
+                for (int k = 0; k < 3; k++) {
+                    const float *v =
+                        &geo->vertices[3 * geo->indices[3 * t + k]];
+                    q[k] = v3(v[0], v[1], v[2]);
+                }
+                ok = tri_boxes(L, q[0], q[1], q[2], 7, &boxes, &n_boxes,
+                               &cap);
+            }
+            continue;
+        }
+        /* Many triangles: a box per CHUNK of them, from the world bounds
+         * lr__scene_commit kept (the same for every render, so a frame
+         * cut into parts does not find them again for each part). */
+        for (size_t t0 = 0; t0 < geo->n_triangles && ok; t0 += CHUNK) {
+            if (n_boxes == cap) {
+                size_t nc = cap ? 2 * cap : 256;
+                box *gr = realloc(boxes, nc * sizeof *gr);
+                if (gr == NULL) {
+                    ok = 0;
+                    break;
+                }
+                boxes = gr;
+                cap = nc;
+            }
+            const double *wb = &geo->chunk_bounds[6 * (t0 / CHUNK)];
+            box_from_bounds(L, wb, wb + 3, &boxes[n_boxes]);
+            boxes[n_boxes++].skip = 0;
+        }
+    }
+    if (!ok) {
+        free(boxes);
+        return 0;
+    }
+    *out = boxes;
+    *out_n = n_boxes;
+    return 1;
 }

@@ -60,6 +60,12 @@ void lr__plan_free(lr__plan *p);
  * spares each part of a split frame).  LR_ERR_NOMEM on failure. */
 lr_status lr__plan_chunk_bounds(lr__geom *g, lr_error *err);
 
+/* The scene's cache of camera-space boxes (lr_scene.plan_cache): made by
+ * lr__scene_commit (NULL when out of memory: then every plan finds its
+ * boxes alone), freed with the scene when no render uses it. */
+struct lr__plan_cache *lr__plan_cache_new(void);
+void lr__plan_cache_free(struct lr__plan_cache *c);
+
 static inline const lr__block_plan *lr__plan_at(const lr__plan *p, int x,
                                                 int y)
 {

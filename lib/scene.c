@@ -181,6 +181,8 @@ lr_status lr__scene_commit(lr_scene *s, lr_error *err)
     lr_status st = lr__emitters_build(s, err);
     if (st != LR_OK)
         return st;
+    /* Without it (out of memory) each plan finds its boxes alone. */
+    s->plan_cache = lr__plan_cache_new();
     embree_msg[0] = '\0';
     rtcCommitScene(s->rtc);
     if (rtcGetDeviceError(s->device) != RTC_ERROR_NONE)
@@ -207,6 +209,7 @@ void lr_scene_free(lr_scene *s)
     free(s->emitters);
     free(s->emitter_cdf);
     lr__envmap_free(s->env);
+    lr__plan_cache_free(s->plan_cache);
     free(s->description);
     if (s->rtc != NULL)
         rtcReleaseScene(s->rtc);

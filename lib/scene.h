@@ -111,9 +111,13 @@ struct lr_scene {
     lr_render_settings settings;
     char *description;     /* the scene's "description", "" if none */
     /* Rays lr__trace and lr__occluded did not give Embree (see
-     * lr__embree_can_trace), over the scene's life; the one member that
+     * lr__embree_can_trace), over the scene's life; with plan_cache, what
      * changes while renders share the scene. */
     atomic_ullong skipped_rays;
+    /* The planner's camera-space boxes for the last camera it planned
+     * (plan.c), behind their own lock: the parts of a split frame share
+     * one camera, so only the first part finds them.  Made at commit. */
+    struct lr__plan_cache *plan_cache;
 };
 
 /* ---- scene.c: Embree side --------------------------------------------- */
