@@ -9,7 +9,8 @@
 #      BENCH_FARM_PARTS parts (default 16) on 1 daemon, then through nginx
 #      on 2 (one worker each: on 2 cores, one core per daemon);
 #   2. the overhead of splitting: the frame whole (one part) against 16
-#      parts, both on one daemon at all threads, one part at a time.
+#      parts, both on one daemon (one worker) at all threads, the parts
+#      two in flight so that the worker never waits for the client.
 # Each set-up runs BENCH_REPEAT times (default 3), in turn with the one it
 # is compared with; the least wall time and the least daemon CPU time are
 # kept (other load only adds to them), and the rays and samples the
@@ -104,13 +105,27 @@ once "$nginx_url" 4 4 1 >/dev/null
 say "farm: $PARTS parts of scenes/bench.json at $SPP spp, render.threads=1, best of $REPEAT"
 tp=$(pair "$one_url $PARTS 2 1" "$nginx_url $PARTS 4 1")
 say "farm: 1 daemon, 2 daemons behind nginx: $tp"
-say "farm: whole frame against 16 parts, one daemon, all threads, one part at a time"
-ov=$(pair "$one_url 1 1 0" "$one_url 16 1 0")
+# Two parts in flight on the daemon's one worker, so that the next part
+# waits in its queue while the client takes the last one in: the daemon
+# never idles for a round trip (as --parallel is meant to be used).
+say "farm: whole frame against 16 parts, one daemon, all threads, 2 parts in flight"
+ov=$(pair "$one_url 1 1 0" "$one_url 16 2 0")
 say "farm: whole, 16 parts: $ov"
+# A part's fixed cost: the daemons' CPU for 100 one-row parts at 1 spp
+# (parsing, the scene cache, the plan, threads, the EXR, HTTP), asked
+# straight with curl so that the client's share is left out.
+body='{"scene": "bench", "render": {"spp": 1, "threads": 0, "region": [0, 100, 640, 101]}, "output": {"format": "exr"}}'
+c0=$(daemon_cpu)
+for i in $(seq 100); do
+    curl -s -o /dev/null -H 'Content-Type: application/json' -d "$body" "$one_url/v1/render"
+done
+fixed=$(echo "$c0 $(daemon_cpu)" | awk '{printf "%.2f", 10 * ($2 - $1)}')
+say "farm: a part's fixed cost $fixed ms"
 # The machine is shared: how busy it was, from /proc/loadavg.
 load=$(cut -d' ' -f1 /proc/loadavg)
 {
     echo "farm (scenes/bench.json 640 x 480, $SPP spp, $(nproc) cores, least of $REPEAT runs taken in turn, load average $load):"
     echo "$tp" | awk -v n="$PARTS" '{printf "  batch of %d parts, render.threads=1: 1 daemon %.3f s, 2 daemons %.3f s: %.2fx wall (target >= 1.8x); daemons'"'"' CPU %.2f s and %.2f s (%.1f ms and %.1f ms a part)\n", n, $1, $6, $1 / $6, $2, $7, 1000 * $2 / n, 1000 * $7 / n}'
     echo "$ov" | awk '{printf "  one frame whole %.3f s, in 16 parts %.3f s: overhead %+.1f%% wall, %+.1f%% daemon CPU (%.2f s against %.2f s), %+.2f%% rays, %+.2f%% samples, scene loads %d and %d (target < 5%%)\n", $1, $6, 100 * ($6 / $1 - 1), 100 * ($7 / $2 - 1), $7, $2, 100 * ($8 / $3 - 1), 100 * ($9 / $4 - 1), $5, $10}'
+    echo "$ov $fixed" | awk '{printf "  a part'"'"'s fixed cost %.2f ms of daemon CPU (100 one-row parts at 1 spp): 16 parts add %.1f%% to the whole frame'"'"'s %.2f s\n", $11, 100 * 16 * $11 / 1000 / $2, $2}'
 } | tee "$OUT/farm.txt"
