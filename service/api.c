@@ -163,7 +163,14 @@ static lrd_scene *asset_scene(const char *ref, lrd_err *e)
     lr_status st = lr_job_parse(wrapped, (size_t)n, (int)lrd_cfg.max_json_depth,
                                 &job, &le);
     free(wrapped);
+    if (st == LR_OK && lr_job_scene_name(job) != NULL) {
+        /* A JSON string: a name, not a scene; never followed further. */
+        st = LR_ERR_INVALID;
+        snprintf(le.message, sizeof le.message, "it is a JSON string, not "
+                 "a scene object");
+    }
     if (st != LR_OK) {
+        lr_job_free(job);
         lrd_fail(e, 422, "invalid_value", "scene", "scene: the asset %s is "
                  "not a scene: %s", ref, le.message);
         return NULL;

@@ -428,6 +428,14 @@ EOF_SCENE
     run curl -s -w ' %{http_code}' -H 'Content-Type: application/json' "$URL/v1/render" \
         -d "{\"scene\": \"sha256:$missing\"}"
     [[ "$output" == *'"code":"asset_not_found"'*"scene: this server has no asset sha256:$missing"*" 422" ]]
+    # A scene asset that is not a scene object (here a JSON string naming
+    # another asset) is refused, not followed.
+    local f="$BATS_TEST_TMPDIR/not-a-scene.json"
+    printf '"sha256:%s"' "$missing" >"$f"
+    put_asset "$f"
+    run curl -s -w ' %{http_code}' -H 'Content-Type: application/json' "$URL/v1/render" \
+        -d "{\"scene\": \"sha256:$(sha256sum "$f" | cut -c1-64)\"}"
+    [[ "$output" == *"is not a scene: it is a JSON string, not a scene object"*" 422" ]]
     run curl -s -w ' %{http_code}' -H 'Content-Type: application/json' "$URL/v1/render" \
         -d '{"scene": {"environment": {"file": "sha256:12ab"}}}'
     [[ "$output" == *"64 lowercase hex digits"*'"path":"scene.environment.file"'*" 422" ]]
