@@ -416,32 +416,33 @@ EOF_SCENE
     [[ "$output" == *'"assets": 2, "uploaded": 0'* ]]
 }
 
+# render_post JOB: POST /v1/render of JOB through nginx; output is the
+# answer's body and its status after a space.
+render_post() {
+    run curl -s -w ' %{http_code}' -H 'Content-Type: application/json' \
+        "$URL/v1/render" -d "$1"
+}
+
 @test "assets: a lens, an environment map or a scene the daemon lacks: 422 naming the field and the asset" {
-    local missing scene
+    local missing
     missing=$(printf 'not stored %s' "$BATS_TEST_NAME" | sha256sum | cut -c1-64)
-    run curl -s -w ' %{http_code}' -H 'Content-Type: application/json' "$URL/v1/render" \
-        -d "{\"scene\": {\"camera\": {\"model\": \"lens\", \"lens\": \"sha256:$missing\"}}}"
+    render_post "{\"scene\": {\"camera\": {\"model\": \"lens\", \"lens\": \"sha256:$missing\"}}}"
     [[ "$output" == *'"code":"asset_not_found"'*"scene.camera.lens: this server has no asset sha256:$missing"*'"path":"scene.camera.lens"'*" 422" ]]
-    run curl -s -w ' %{http_code}' -H 'Content-Type: application/json' "$URL/v1/render" \
-        -d "{\"scene\": {\"environment\": {\"file\": \"sha256:$missing\"}}}"
+    render_post "{\"scene\": {\"environment\": {\"file\": \"sha256:$missing\"}}}"
     [[ "$output" == *'"code":"asset_not_found"'*'"path":"scene.environment.file"'*" 422" ]]
-    run curl -s -w ' %{http_code}' -H 'Content-Type: application/json' "$URL/v1/render" \
-        -d "{\"scene\": \"sha256:$missing\"}"
+    render_post "{\"scene\": \"sha256:$missing\"}"
     [[ "$output" == *'"code":"asset_not_found"'*"scene: this server has no asset sha256:$missing"*" 422" ]]
     # A scene asset that is not a scene object (here a JSON string naming
     # another asset) is refused, not followed.
     local f="$BATS_TEST_TMPDIR/not-a-scene.json"
     printf '"sha256:%s"' "$missing" >"$f"
     put_asset "$f"
-    run curl -s -w ' %{http_code}' -H 'Content-Type: application/json' "$URL/v1/render" \
-        -d "{\"scene\": \"sha256:$(sha256sum "$f" | cut -c1-64)\"}"
+    render_post "{\"scene\": \"sha256:$(sha256sum "$f" | cut -c1-64)\"}"
     [[ "$output" == *"is not a scene: it is a JSON string, not a scene object"*" 422" ]]
-    run curl -s -w ' %{http_code}' -H 'Content-Type: application/json' "$URL/v1/render" \
-        -d '{"scene": {"environment": {"file": "sha256:12ab"}}}'
+    render_post '{"scene": {"environment": {"file": "sha256:12ab"}}}'
     [[ "$output" == *"64 lowercase hex digits"*'"path":"scene.environment.file"'*" 422" ]]
     # A lens file of the scenes directory stays confined to it.
-    run curl -s -w ' %{http_code}' -H 'Content-Type: application/json' "$URL/v1/render" \
-        -d '{"scene": {"camera": {"model": "lens", "lens": "../lenses/double-gauss-50.json"}}}'
+    render_post '{"scene": {"camera": {"model": "lens", "lens": "../lenses/double-gauss-50.json"}}}'
     [[ "$output" == *'"code":"forbidden_path"'*'"path":"scene.camera.lens"'*" 422" ]]
 }
 

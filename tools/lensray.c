@@ -324,8 +324,15 @@ static int render_remote(const render_job *r)
 {
     remote_frame *frames = calloc((size_t)r->n_scenes, sizeof *frames);
     int *number = calloc((size_t)r->n_scenes, sizeof *number);
+    char (*dirs)[4096] = NULL;
     int n = 0, rc = EXIT_OK;
     if (frames == NULL || number == NULL) {
+        fprintf(stderr, "lensray: out of memory\n");
+        rc = EXIT_IO;
+        goto done;
+    }
+    dirs = calloc((size_t)r->n_scenes, sizeof *dirs);
+    if (dirs == NULL) {
         fprintf(stderr, "lensray: out of memory\n");
         rc = EXIT_IO;
         goto done;
@@ -355,6 +362,9 @@ static int render_remote(const render_job *r)
             continue;
         }
         f->scene_path = r->scenes[i];
+        /* Its files are relative to the scene file's directory. */
+        dir_of(r->scenes[i], dirs[n], sizeof dirs[n]);
+        f->scene_dir = dirs[n];
         f->scene = text;
         f->len = len;
         number[n++] = i;
@@ -380,6 +390,7 @@ done:
         free((char *)frames[i].scene);
     free(frames);
     free(number);
+    free(dirs);
     return rc;
 }
 

@@ -388,17 +388,7 @@ static int prepare_frame(batch *b, int fi, assets_session *as)
         fprintf(stderr, "lensray: out of memory\n");
         return EXIT_IO;
     }
-    /* Files are relative to the scene file's directory. */
-    char dir[4096];
-    snprintf(dir, sizeof dir, "%s", in->scene_path);
-    char *slash = strrchr(dir, '/');
-    if (slash == NULL)
-        snprintf(dir, sizeof dir, ".");
-    else if (slash == dir)
-        dir[1] = '\0';
-    else
-        *slash = '\0';
-    int rc = assets_prepare(as, in->scene, in->len, cam_json, dir,
+    int rc = assets_prepare(as, in->scene, in->len, cam_json, in->scene_dir,
                             in->scene_path, &f->scene, &f->len, &f->cam_json);
     lr_free(cam_json);
     if (rc != 0)

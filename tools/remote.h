@@ -23,11 +23,12 @@ typedef struct remote_options {
     const volatile int *cancel; /* stops the render when non-zero */
 } remote_options;
 
-/* One frame of a batch: the scene file's text and path (its directory
- * holds the files it names), and the camera and settings as the local
- * render would use them (rs.want_depth asks for Z). */
+/* One frame of a batch: the scene file's path, directory and text, and
+ * the camera and settings as the local render would use them
+ * (rs.want_depth asks for Z). */
 typedef struct remote_frame {
     const char *scene_path;
+    const char *scene_dir; /* the directory its relative files are in */
     const char *scene;
     size_t len;
     lr_camera cam;
