@@ -61,8 +61,9 @@ void lr__plan_free(lr__plan *p);
 lr_status lr__plan_chunk_bounds(lr__geom *g, lr_error *err);
 
 /* The scene's cache of camera-space boxes (lr_scene.plan_cache): made by
- * lr__scene_commit (NULL when out of memory: then every plan finds its
- * boxes alone), freed with the scene when no render uses it. */
+ * lr__scene_commit (NULL when out of memory), freed with the scene when
+ * no render uses it.  A plan of a scene without one finds its boxes
+ * alone. */
 struct lr__plan_cache *lr__plan_cache_new(void);
 void lr__plan_cache_free(struct lr__plan_cache *c);
 

@@ -181,8 +181,9 @@ lr_status lr__scene_commit(lr_scene *s, lr_error *err)
     lr_status st = lr__emitters_build(s, err);
     if (st != LR_OK)
         return st;
-    /* Without it (out of memory) each plan finds its boxes alone. */
     s->plan_cache = lr__plan_cache_new();
+    if (s->plan_cache == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     embree_msg[0] = '\0';
     rtcCommitScene(s->rtc);
     if (rtcGetDeviceError(s->device) != RTC_ERROR_NONE)
