@@ -9,8 +9,12 @@
 #      BENCH_FARM_PARTS parts (default 16) on 1 daemon, then through nginx
 #      on 2 (one worker each: on 2 cores, one core per daemon);
 #   2. the overhead of splitting: the frame whole (one part) against 16
-#      parts, both on one daemon at all threads, one part at a time.
-# Each time is the best of BENCH_REPEAT runs (default 3).  The ratios are
+#      parts, both on one daemon (one worker) at all threads, the parts
+#      two in flight so that the worker never waits for the client.
+# Each set-up runs BENCH_REPEAT times (default 3), in turn with the one it
+# is compared with; the least wall time and the least daemon CPU time are
+# kept (other load only adds to them), and the rays and samples the
+# daemons counted show the work itself, exactly.  The ratios are
 # reported, never asserted: this machine is shared.  Output: lines on
 # stdout and BUILD_DIR/bench/farm.txt.
 set -u
@@ -48,37 +52,80 @@ daemon_cpu() {
     done | awk -v t="$tck" '{s += $1} END {printf "%.2f", s / t}'
 }
 
-# best URL PARTS PARALLEL THREADS: the best wall time of REPEAT renders;
-# CPU gets the daemons' CPU seconds per render (the mean).
-best() {
-    b=""
-    c0=$(daemon_cpu)
+# metric NAME: NAME (a counter of /metrics) summed over the daemons.
+metric() {
+    for f in "$DIR"/daemon-*.port; do
+        curl -s "http://127.0.0.1:$(cat "$f")/metrics" | sed -n "s/^$1 //p"
+    done | awk '{s += $1} END {printf "%.0f", s}'
+}
+
+# once URL PARTS PARALLEL THREADS: one render; prints its wall seconds,
+# the daemons' CPU seconds, and the rays, samples and scene-cache misses
+# the daemons counted for it (exact, whatever the load).
+once() {
+    c0=$(daemon_cpu) r0=$(metric lensrayd_rays_traced_total)
+    s0=$(metric lensrayd_samples_total) m0=$(metric lensrayd_scene_cache_misses_total)
+    t0=$(date +%s.%N)
+    "$LENSRAY" render scenes/bench.json -o "$OUT/farm-out.exr" -q \
+        --set render.spp="$SPP" --set render.threads="$4" \
+        --remote "$1" --parts "$2" --parallel "$3" || exit 1
+    t1=$(date +%s.%N)
+    echo "$t0 $t1 $c0 $(daemon_cpu) $r0 $(metric lensrayd_rays_traced_total)" \
+         "$s0 $(metric lensrayd_samples_total) $m0 $(metric lensrayd_scene_cache_misses_total)" |
+        awk '{printf "%.3f %.2f %d %d %d\n", $2 - $1, $4 - $3, $6 - $5, $8 - $7, $10 - $9}'
+}
+
+# pair A B: REPEAT renders of each of the two set-ups (each "URL PARTS
+# PARALLEL THREADS"), taken in turn so that a change in the machine's
+# load falls on both; prints for each the least wall and the least CPU
+# (a busy machine only ever adds to either), then its rays, samples and
+# cache misses (of the last run; they do not vary):
+# "wallA cpuA raysA samplesA missesA wallB cpuB raysB samplesB missesB".
+pair() {
+    : >"$OUT/farm-a.txt"
+    : >"$OUT/farm-b.txt"
     for r in $(seq "$REPEAT"); do
-        t0=$(date +%s.%N)
-        "$LENSRAY" render scenes/bench.json -o "$OUT/farm-out.exr" -q \
-            --set render.spp="$SPP" --set render.threads="$4" \
-            --remote "$1" --parts "$2" --parallel "$3" || exit 1
-        t=$(echo "$t0 $(date +%s.%N)" | awk '{printf "%.3f", $2 - $1}')
-        b=$(echo "${b:-$t} $t" | awk '{print ($2 < $1) ? $2 : $1}')
+        # shellcheck disable=SC2086
+        once $1 >>"$OUT/farm-a.txt"
+        # shellcheck disable=SC2086
+        once $2 >>"$OUT/farm-b.txt"
     done
-    echo "$b $(echo "$c0 $(daemon_cpu) $REPEAT" | awk '{printf "%.2f", ($2 - $1) / $3}')"
+    for f in "$OUT/farm-a.txt" "$OUT/farm-b.txt"; do
+        awk 'NR == 1 || $1 < w {w = $1} NR == 1 || $2 < c {c = $2}
+             {r = $3; s = $4; m = $5} END {printf "%.3f %.2f %d %d %d ", w, c, r, s, m}' "$f"
+    done
+    echo
 }
 
 # A first render sends the bunny's mesh and loads the scene on both
 # daemons (each caches it), so that no timed run pays for that.
-best "$nginx_url" 4 4 1 >/dev/null
+once "$nginx_url" 4 4 1 >/dev/null
+once "$nginx_url" 4 4 1 >/dev/null
 
 say "farm: $PARTS parts of scenes/bench.json at $SPP spp, render.threads=1, best of $REPEAT"
-t1=$(best "$one_url" "$PARTS" 2 1)
-t2=$(best "$nginx_url" "$PARTS" 4 1)
-say "farm: 1 daemon $t1, 2 daemons behind nginx $t2 (wall s, daemons' CPU s)"
-whole=$(best "$one_url" 1 1 0)
-split=$(best "$one_url" 16 1 0)
-say "farm: whole frame $whole, as 16 parts $split (one daemon, all threads, one part at a time)"
+tp=$(pair "$one_url $PARTS 2 1" "$nginx_url $PARTS 4 1")
+say "farm: 1 daemon, 2 daemons behind nginx: $tp"
+# Two parts in flight on the daemon's one worker, so that the next part
+# waits in its queue while the client takes the last one in: the daemon
+# never idles for a round trip (as --parallel is meant to be used).
+say "farm: whole frame against 16 parts, one daemon, all threads, 2 parts in flight"
+ov=$(pair "$one_url 1 1 0" "$one_url 16 2 0")
+say "farm: whole, 16 parts: $ov"
+# A part's fixed cost: the daemons' CPU for 100 one-row parts at 1 spp
+# (parsing, the scene cache, the plan, threads, the EXR, HTTP), asked
+# straight with curl so that the client's share is left out.
+body='{"scene": "bench", "render": {"spp": 1, "threads": 0, "region": [0, 100, 640, 101]}, "output": {"format": "exr"}}'
+c0=$(daemon_cpu)
+for i in $(seq 100); do
+    curl -s -o /dev/null -H 'Content-Type: application/json' -d "$body" "$one_url/v1/render"
+done
+fixed=$(echo "$c0 $(daemon_cpu)" | awk '{printf "%.2f", 10 * ($2 - $1)}')
+say "farm: a part's fixed cost $fixed ms"
 # The machine is shared: how busy it was, from /proc/loadavg.
 load=$(cut -d' ' -f1 /proc/loadavg)
 {
-    echo "farm (scenes/bench.json 640 x 480, $SPP spp, $(nproc) cores, best of $REPEAT, load average $load):"
-    echo "$t1 $t2" | awk '{printf "  batch of '"$PARTS"' parts, render.threads=1: 1 daemon %.3f s, 2 daemons %.3f s: %.2fx (target >= 1.8x); daemons'"'"' CPU %.2f s and %.2f s\n", $1, $3, $1 / $3, $2, $4}'
-    echo "$whole $split" | awk '{printf "  one frame whole %.3f s, in 16 parts %.3f s: overhead %+.1f%% wall, %+.1f%% daemon CPU (%.2f s against %.2f s) (target < 5%%)\n", $1, $3, 100 * ($3 / $1 - 1), 100 * ($4 / $2 - 1), $4, $2}'
+    echo "farm (scenes/bench.json 640 x 480, $SPP spp, $(nproc) cores, least of $REPEAT runs taken in turn, load average $load):"
+    echo "$tp" | awk -v n="$PARTS" '{printf "  batch of %d parts, render.threads=1: 1 daemon %.3f s, 2 daemons %.3f s: %.2fx wall (target >= 1.8x); daemons'"'"' CPU %.2f s and %.2f s (%.1f ms and %.1f ms a part)\n", n, $1, $6, $1 / $6, $2, $7, 1000 * $2 / n, 1000 * $7 / n}'
+    echo "$ov" | awk '{printf "  one frame whole %.3f s, in 16 parts %.3f s: overhead %+.1f%% wall, %+.1f%% daemon CPU (%.2f s against %.2f s), %+.2f%% rays, %+.2f%% samples, scene loads %d and %d (target < 5%%)\n", $1, $6, 100 * ($6 / $1 - 1), 100 * ($7 / $2 - 1), $7, $2, 100 * ($8 / $3 - 1), 100 * ($9 / $4 - 1), $5, $10}'
+    echo "$ov $fixed" | awk '{printf "  a part'"'"'s fixed cost %.2f ms of daemon CPU (100 one-row parts at 1 spp): 16 parts add %.1f%% to the whole frame'"'"'s %.2f s\n", $11, 100 * 16 * $11 / 1000 / $2, $2}'
 } | tee "$OUT/farm.txt"

@@ -336,6 +336,23 @@ LR_API lr_status lr_scene_load_json(const char *json, size_t len,
                              const char *const *overrides, size_t n_overrides,
                              lr_scene **out, lr_error *err);
 
+/* Sets the process's assets directory: where a scene's file reference
+ * "sha256:HEX" (any key that names a file: objects[].file,
+ * environment.file, camera.lens, ...) is found, as the file named HEX,
+ * the SHA-256 of its bytes (docs/api.md, "Assets").  NULL or "" unsets
+ * it; then $LENSRAY_ASSETS_DIR is used when set, else such references
+ * are refused (LR_ERR_INVALID naming the field).  Call it before loading
+ * scenes; the path is copied.  Errors: LR_ERR_LIMIT (path too long). */
+LR_API lr_status lr_assets_dir_set(const char *dir, lr_error *err);
+
+/* Whether a member named `key` of a scene object holds a file reference
+ * (a string: a path relative to the scene's directory, an absolute path
+ * or an asset "sha256:HEX"): "file" (objects, environment) and each
+ * other key the loader reads a file from.  camera.lens is apart: it is
+ * a file, a shipped lens's name or an inline prescription.  For clients
+ * that send a scene elsewhere with its files (lensray render --remote). */
+LR_API int lr_scene_file_key(const char *key);
+
 /* Frees a scene.  No render may be using it.  NULL is a no-op. */
 LR_API void lr_scene_free(lr_scene *scene);
 
@@ -599,14 +616,15 @@ LR_API const char *lr_job_scene_name(const lr_job *job);
 LR_API const char *lr_job_scene_json(const lr_job *job, size_t *len);
 
 /* The files an inline scene names, for a caller that confines them to a
- * directory: the k-th (from 0) "file" string of scene.objects as written,
- * then scene.environment.file, then scene.camera.lens when it is a path
- * (has a '/'), then each material's diffuse_texture, emission_texture and
- * roughness_texture, and its path in the job ("scene.objects[3].file",
- * "scene.environment.file", "scene.camera.lens",
- * "scene.materials.brick.diffuse_texture").  Returns 0
- * past the last one (and for a named scene).  The strings are valid
- * until lr_job_free. */
+ * directory: the k-th (from 0) file reference as written, in document
+ * order: every string under a key that names a file (objects[i].file,
+ * environment.file, a material's textures: all keys that the loader
+ * resolves through the same function, so a new file key is listed here
+ * too), and camera.lens when it is a path (has a '/') or an asset
+ * ("sha256:HEX"); and its path in the job ("scene.objects[3].file",
+ * "scene.environment.file", "scene.camera.lens").  Returns 0 past the
+ * last one (and for a named scene).  The strings are valid until
+ * lr_job_free. */
 LR_API int lr_job_mesh_file(const lr_job *job, size_t k, const char **file,
                             const char **field);
 

@@ -15,15 +15,15 @@
  */
 #include "apply_json.h"
 #include "json_util.h"
+#include "scene_file.h"
 
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 typedef struct mesh_ref {
-    const char *file; /* into the tree */
-    /* "scene.objects[12].file", "scene.materials.NAME.diffuse_texture" */
-    char field[LR__PATH_MAX];
+    const char *file;         /* into the tree */
+    char field[LR__PATH_MAX]; /* "scene.objects[12].file" */
 } mesh_ref;
 
 struct lr_job {
@@ -32,7 +32,7 @@ struct lr_job {
     char *scene_json;         /* compact text of an inline scene, or NULL */
     size_t scene_len;
     mesh_ref *meshes;
-    size_t n_meshes;
+    size_t n_meshes, cap_meshes;
 };
 
 void lr_job_free(lr_job *job)
@@ -45,62 +45,52 @@ void lr_job_free(lr_job *job)
     free(job);
 }
 
-static void add_file(lr_job *job, const cJSON *f, const char *field)
+static lr_status add_file(lr_job *job, const cJSON *f, const char *field,
+                          lr_error *err)
 {
     if (!cJSON_IsString(f) || f->valuestring[0] == '\0')
-        return;
+        return LR_OK;
+    if (job->n_meshes == job->cap_meshes) {
+        size_t cap = job->cap_meshes ? 2 * job->cap_meshes : 8;
+        mesh_ref *grown = realloc(job->meshes, cap * sizeof *grown);
+        if (grown == NULL)
+            return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+        job->meshes = grown;
+        job->cap_meshes = cap;
+    }
     mesh_ref *m = &job->meshes[job->n_meshes++];
     m->file = f->valuestring;
     snprintf(m->field, sizeof m->field, "%s", field);
+    return LR_OK;
 }
 
-/* A material's keys that name files (material_json.c). */
-static const char *const texture_keys[] = {
-    "diffuse_texture", "emission_texture", "roughness_texture"};
-#define N_TEXTURE_KEYS (sizeof texture_keys / sizeof *texture_keys)
-
-/* Records the files an inline scene reads: objects[i].file strings,
- * environment.file, camera.lens when it is a path (a name without a
- * '/' is a file in the scenes directory or a shipped lens: both safe),
- * and the materials' textures. */
-static lr_status collect_meshes(lr_job *job, const cJSON *scene,
-                                lr_error *err)
+/* Records every file an inline scene reads: each string under a key that
+ * names a file (lr__scene_file_key: objects[i].file, environment.file,
+ * textures, ...), wherever it stands, and camera.lens when it is a path
+ * (has a '/') or an asset (a plain name is a file in the scenes directory
+ * or a shipped lens: both safe).  Type errors are the scene loader's to
+ * report. */
+static lr_status collect_files(lr_job *job, const cJSON *node,
+                               const char *path, int depth, lr_error *err)
 {
-    const cJSON *objs = cJSON_GetObjectItemCaseSensitive(scene, "objects");
-    const cJSON *env = cJSON_GetObjectItemCaseSensitive(scene, "environment");
-    const cJSON *lens = cJSON_GetObjectItemCaseSensitive(
-        cJSON_GetObjectItemCaseSensitive(scene, "camera"), "lens");
-    int lens_path = cJSON_IsString(lens) && strchr(lens->valuestring, '/');
-    const cJSON *mats = cJSON_GetObjectItemCaseSensitive(scene, "materials");
-    size_t n = cJSON_IsArray(objs) ? (size_t)cJSON_GetArraySize(objs) : 0;
-    size_t n_mats =
-        cJSON_IsObject(mats) ? (size_t)cJSON_GetArraySize(mats) : 0;
-    /* Type errors are the scene loader's to report. */
-    if (n == 0 && n_mats == 0 && !cJSON_IsObject(env) && !lens_path)
-        return LR_OK;
-    job->meshes = calloc(n + 2 + N_TEXTURE_KEYS * n_mats, sizeof *job->meshes);
-    if (job->meshes == NULL)
-        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     size_t i = 0;
-    char field[48];
-    for (const cJSON *o = n ? objs->child : NULL; o != NULL; o = o->next, i++) {
-        snprintf(field, sizeof field, "scene.objects[%zu].file", i);
-        add_file(job, cJSON_GetObjectItemCaseSensitive(o, "file"), field);
-    }
-    if (cJSON_IsObject(env))
-        add_file(job, cJSON_GetObjectItemCaseSensitive(env, "file"),
-                 "scene.environment.file");
-    if (lens_path)
-        add_file(job, lens, "scene.camera.lens");
-    for (const cJSON *m = n_mats ? mats->child : NULL; m != NULL; m = m->next)
-        for (size_t k = 0; k < N_TEXTURE_KEYS; k++) {
-            /* (The field names the material as the loader's paths do.) */
-            char mp[LR__PATH_MAX], tf[LR__PATH_MAX];
-            lr__path_key(mp, "scene.materials", m->string);
-            lr__path_key(tf, mp, texture_keys[k]);
-            add_file(job, cJSON_GetObjectItemCaseSensitive(m, texture_keys[k]),
-                     tf);
+    for (const cJSON *c = node->child; c != NULL; c = c->next, i++) {
+        char p[LR__PATH_MAX];
+        if (cJSON_IsArray(node))
+            lr__path_index(p, path, i);
+        else
+            lr__path_key(p, path, c->string);
+        if (cJSON_IsString(c) && c->string != NULL) {
+            int lens = depth == 1 && strcmp(c->string, "lens") == 0 &&
+                       strcmp(path, "scene.camera") == 0 &&
+                       (strchr(c->valuestring, '/') != NULL ||
+                        strncmp(c->valuestring, "sha256:", 7) == 0);
+            if (lens || lr__scene_file_key(c->string))
+                LR_TRY(add_file(job, c, p, err));
+        } else if (cJSON_IsObject(c) || cJSON_IsArray(c)) {
+            LR_TRY(collect_files(job, c, p, depth + 1, err));
         }
+    }
     return LR_OK;
 }
 
@@ -140,7 +130,7 @@ static lr_status check_shape(lr_job *job, lr_error *err)
     if (job->scene_json == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     job->scene_len = strlen(job->scene_json);
-    return collect_meshes(job, scene, err);
+    return collect_files(job, scene, "scene", 0, err);
 }
 
 lr_status lr_job_parse(const char *json, size_t len, int max_depth,

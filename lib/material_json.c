@@ -4,23 +4,11 @@
  * where the format is 8- or 16-bit; roughness is data, kept linear.
  */
 #include "material_json.h"
+#include "scene_file.h"
 
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-char *lr__join_path(const char *dir, const char *file)
-{
-    size_t n = strlen(file) + (dir ? strlen(dir) : 0) + 2;
-    char *out = malloc(n);
-    if (out == NULL)
-        return NULL;
-    if (file[0] == '/' || dir == NULL || dir[0] == '\0')
-        snprintf(out, n, "%s", file);
-    else
-        snprintf(out, n, "%s/%s", dir, file);
-    return out;
-}
 
 /* One texture key: loads its file (if present) into *tex, keeps the name
  * as written in *file. */
@@ -40,15 +28,14 @@ static lr_status one(lr_scene *s, const cJSON *m, const char *p,
         return lr__fail(err, LR_ERR_INVALID, q,
                         "%s must name an image file (PNG, JPEG or OpenEXR)",
                         q);
+    /* Through the one resolver of file keys, so "sha256:" assets work. */
+    char full[4096];
+    LR_TRY(lr__scene_file(name, base_dir, q, full, sizeof full, err));
     *file = strdup(name);
-    char *full = lr__join_path(base_dir, name);
-    if (*file == NULL || full == NULL) {
-        free(full);
+    if (*file == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
-    }
     lr_error e;
     *tex = lr__scene_texture_named(s, full, name, srgb, &e);
-    free(full);
     if (*tex == NULL)
         return lr__fail(err, e.status, q, "%s: %s", q, e.message);
     return LR_OK;

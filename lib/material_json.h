@@ -32,8 +32,4 @@ const char *lr__material_texture_key(const lr__material *mt);
 lr_status lr__material_check_uvs(const lr_scene *s, size_t g0, size_t p0,
                                  const char *p, lr_error *err);
 
-/* dir/file, or file when it is absolute or dir is NULL or empty;
- * malloc'ed (NULL when out of memory). */
-char *lr__join_path(const char *dir, const char *file);
-
 #endif

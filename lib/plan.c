@@ -24,6 +24,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -53,11 +54,12 @@ static void to_cam(const lens *L, lr__v3 p, double *x, double *y, double *z)
     *z = v3_dot(r, L->fwd);
 }
 
-static void box_from_points(const lens *L, const lr__v3 *pts, size_t n,
-                            box *b)
+/* The world-space bounds of n points: lo[3], hi[3]. */
+static void world_bounds(const lr__v3 *pts, size_t n, double lo[3],
+                         double hi[3])
 {
-    double lo[3] = {DBL_MAX, DBL_MAX, DBL_MAX},
-           hi[3] = {-DBL_MAX, -DBL_MAX, -DBL_MAX};
+    lo[0] = lo[1] = lo[2] = DBL_MAX;
+    hi[0] = hi[1] = hi[2] = -DBL_MAX;
     for (size_t i = 0; i < n; i++) {
         double c[3] = {pts[i].x, pts[i].y, pts[i].z};
         for (int k = 0; k < 3; k++) {
@@ -67,6 +69,12 @@ static void box_from_points(const lens *L, const lr__v3 *pts, size_t n,
                 hi[k] = c[k];
         }
     }
+}
+
+/* The camera-space box around the world box [lo, hi]. */
+static void box_from_bounds(const lens *L, const double lo[3],
+                            const double hi[3], box *b)
+{
     /* The camera-space box around the eight corners of the world box. */
     b->z0 = b->x0 = b->y0 = DBL_MAX;
     b->z1 = b->x1 = b->y1 = -DBL_MAX;
@@ -82,6 +90,44 @@ static void box_from_points(const lens *L, const lr__v3 *pts, size_t n,
         b->z0 = fmin(b->z0, z);
         b->z1 = fmax(b->z1, z);
     }
+}
+
+static void box_from_points(const lens *L, const lr__v3 *pts, size_t n,
+                            box *b)
+{
+    double lo[3], hi[3];
+    world_bounds(pts, n, lo, hi);
+    box_from_bounds(L, lo, hi, b);
+}
+
+/* The points of triangles [t0, t0 + CHUNK) of g (fewer at the end):
+ * their number. */
+static size_t chunk_points(const lr__geom *g, size_t t0, lr__v3 *pts)
+{
+    size_t n = 0;
+    for (size_t t = t0; t < g->n_triangles && t < t0 + CHUNK; t++)
+        for (int k = 0; k < 3; k++) {
+            const float *v = &g->vertices[3 * g->indices[3 * t + k]];
+            pts[n++] = v3(v[0], v[1], v[2]);
+        }
+    return n;
+}
+
+lr_status lr__plan_chunk_bounds(lr__geom *g, lr_error *err)
+{
+    if (g->kind != LR__GEOM_TRIANGLES || g->n_triangles <= LR__PLAN_FEW)
+        return LR_OK;
+    size_t n_chunks = (g->n_triangles + CHUNK - 1) / CHUNK;
+    g->chunk_bounds = malloc(n_chunks * 6 * sizeof *g->chunk_bounds);
+    if (g->chunk_bounds == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    for (size_t c = 0; c < n_chunks; c++) {
+        lr__v3 pts[3 * CHUNK];
+        size_t n = chunk_points(g, c * CHUNK, pts);
+        world_bounds(pts, n, &g->chunk_bounds[6 * c],
+                     &g->chunk_bounds[6 * c + 3]);
+    }
+    return LR_OK;
 }
 
 /* Can a lens ray of the block [u0, u1] x [v0, v1] reach box b?  At depth
@@ -260,6 +306,115 @@ lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
     return LR_OK;
 }
 
+/* ---- the boxes, kept for the next plan with the same camera ------------- */
+
+/* The camera-space boxes of a scene's geometry for one camera, shared by
+ * the plans that use them (refs, under the cache's lock) and immutable. */
+typedef struct boxset {
+    int refs;
+    lens key;
+    size_t n;
+    box *boxes;
+} boxset;
+
+struct lr__plan_cache {
+    pthread_mutex_t lock;
+    boxset *last;
+};
+
+struct lr__plan_cache *lr__plan_cache_new(void)
+{
+    struct lr__plan_cache *c = calloc(1, sizeof *c);
+    if (c != NULL && pthread_mutex_init(&c->lock, NULL) != 0) {
+        free(c);
+        c = NULL;
+    }
+    return c;
+}
+
+static void boxset_unref(boxset *b)
+{
+    if (b != NULL && --b->refs == 0) {
+        free(b->boxes);
+        free(b);
+    }
+}
+
+void lr__plan_cache_free(struct lr__plan_cache *c)
+{
+    if (c == NULL)
+        return;
+    boxset_unref(c->last);
+    pthread_mutex_destroy(&c->lock);
+    free(c);
+}
+
+/* Whether two cameras give the same boxes: every input of tri_boxes and
+ * box_from_bounds, compared exactly. */
+static int same_lens(const lens *a, const lens *b)
+{
+    if (a->R != b->R || a->w != b->w || a->fpx != b->fpx ||
+        a->n_w != b->n_w)
+        return 0;
+    const lr__v3 *va[4] = {&a->e, &a->fwd, &a->right, &a->up};
+    const lr__v3 *vb[4] = {&b->e, &b->fwd, &b->right, &b->up};
+    for (int k = 0; k < 4; k++)
+        if (va[k]->x != vb[k]->x || va[k]->y != vb[k]->y ||
+            va[k]->z != vb[k]->z)
+            return 0;
+    for (int k = 0; k < a->n_w; k++)
+        if (a->ws[k] != b->ws[k])
+            return 0;
+    return 1;
+}
+
+static int make_boxes(const lr_scene *s, const lens *L, box **out,
+                      size_t *out_n);
+
+/* The boxes for camera L: the cache's when it holds this camera's, else
+ * made now and left in the cache for the next plan.  A reference the
+ * caller drops with put_boxes; NULL when out of memory. */
+static boxset *get_boxes(const lr_scene *s, const lens *L)
+{
+    struct lr__plan_cache *c = s->plan_cache;
+    if (c != NULL) {
+        pthread_mutex_lock(&c->lock);
+        boxset *hit = c->last;
+        if (hit != NULL && same_lens(&hit->key, L))
+            hit->refs++;
+        else
+            hit = NULL;
+        pthread_mutex_unlock(&c->lock);
+        if (hit != NULL)
+            return hit;
+    }
+    boxset *b = calloc(1, sizeof *b);
+    if (b == NULL || !make_boxes(s, L, &b->boxes, &b->n)) {
+        free(b);
+        return NULL;
+    }
+    b->key = *L;
+    b->refs = 1;
+    if (c != NULL) {
+        pthread_mutex_lock(&c->lock);
+        boxset_unref(c->last);
+        c->last = b;
+        b->refs++;
+        pthread_mutex_unlock(&c->lock);
+    }
+    return b;
+}
+
+static void put_boxes(const lr_scene *s, boxset *b)
+{
+    struct lr__plan_cache *c = s->plan_cache;
+    if (c != NULL)
+        pthread_mutex_lock(&c->lock);
+    boxset_unref(b);
+    if (c != NULL)
+        pthread_mutex_unlock(&c->lock);
+}
+
 /* Where no colour's blur can reach a quarter pixel, the block needs no
  * lens; where the colours' blurs differ by less, one ray for all. */
 static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
@@ -279,61 +434,11 @@ static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
     for (int k = 0; k < lb.n_w; k++)
         L.ws[k] = lb.ws[k];
 
-    /* Bounding boxes of the geometry in camera space. */
-    size_t n_boxes = 0, cap = 0;
-    box *boxes = NULL;
-    int ok = 1;
-    for (size_t g = 0; g < s->n_geoms && ok; g++) {
-        const lr__geom *geo = &s->geoms[g];
-        if (geo->kind == LR__GEOM_SPHERE) {
-            lr__v3 r = v3(geo->radius, geo->radius, geo->radius);
-            lr__v3 a = v3_sub(geo->center, r), b = v3_add(geo->center, r);
-            /* A degenerate triangle across the box's diagonal has the
-             * same bounding box, so it can go through tri_boxes. */
-            ok = tri_boxes(&L, a, b, b, 0, &boxes, &n_boxes, &cap);
-            continue;
-        }
-        if (geo->n_triangles <= 8) {
-            /* Few, probably large triangles (a ground quad): cut them. */
-            for (size_t t = 0; t < geo->n_triangles && ok; t++) {
-                lr__v3 q[3];
-                for (int k = 0; k < 3; k++) {
-                    const float *v =
-                        &geo->vertices[3 * geo->indices[3 * t + k]];
-                    q[k] = v3(v[0], v[1], v[2]);
-                }
-                ok = tri_boxes(&L, q[0], q[1], q[2], 7, &boxes, &n_boxes,
-                               &cap);
-            }
-            continue;
-        }
-        for (size_t t0 = 0; t0 < geo->n_triangles && ok; t0 += CHUNK) {
-            lr__v3 pts[3 * CHUNK];
-            size_t n = 0;
-            for (size_t t = t0; t < geo->n_triangles && t < t0 + CHUNK; t++)
-                for (int k = 0; k < 3; k++) {
-                    const float *v =
-                        &geo->vertices[3 * geo->indices[3 * t + k]];
-                    pts[n++] = v3(v[0], v[1], v[2]);
-                }
-            if (n_boxes == cap) {
-                size_t nc = cap ? 2 * cap : 256;
-                box *gr = realloc(boxes, nc * sizeof *gr);
-                if (gr == NULL) {
-                    ok = 0;
-                    break;
-                }
-                boxes = gr;
-                cap = nc;
-            }
-            box_from_points(&L, pts, n, &boxes[n_boxes]);
-            boxes[n_boxes++].skip = 0;
-        }
-    }
-    if (!ok) {
-        free(boxes);
+    boxset *set = get_boxes(s, &L);
+    if (set == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
-    }
+    const box *boxes = set->boxes;
+    size_t n_boxes = set->n;
 
     int bx0 = x0 / LR__PLAN_BLOCK, by0 = y0 / LR__PLAN_BLOCK;
     int bx1 = (x1 - 1) / LR__PLAN_BLOCK, by1 = (y1 - 1) / LR__PLAN_BLOCK;
@@ -402,7 +507,7 @@ static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
             bp->chroma = L.n_w > 1 &&
                          chroma_spread(&L, x_lo, x_hi) >= LR__PLAN_BLUR_PX;
         }
-    free(boxes);
+    put_boxes(s, set);
     return LR_OK;
 }
 
@@ -410,4 +515,64 @@ void lr__plan_free(lr__plan *p)
 {
     free(p->blocks);
     p->blocks = NULL;
+}
+
+/* Bounding boxes of the geometry in camera space, for camera L: 1, or 0
+ * when out of memory. */
+static int make_boxes(const lr_scene *s, const lens *L, box **out,
+                      size_t *out_n)
+{
+    size_t n_boxes = 0, cap = 0;
+    box *boxes = NULL;
+    int ok = 1;
+    for (size_t g = 0; g < s->n_geoms && ok; g++) {
+        const lr__geom *geo = &s->geoms[g];
+        if (geo->kind == LR__GEOM_SPHERE) {
+            lr__v3 r = v3(geo->radius, geo->radius, geo->radius);
+            lr__v3 a = v3_sub(geo->center, r), b = v3_add(geo->center, r);
+            /* A degenerate triangle across the box's diagonal has the
+             * same bounding box, so it can go through tri_boxes. */
+            ok = tri_boxes(L, a, b, b, 0, &boxes, &n_boxes, &cap);
+            continue;
+        }
+        if (geo->n_triangles <= LR__PLAN_FEW) {
+            /* Few, probably large triangles (a ground quad): cut them. */
+            for (size_t t = 0; t < geo->n_triangles && ok; t++) {
+                lr__v3 q[3];
+                for (int k = 0; k < 3; k++) {
+                    const float *v =
+                        &geo->vertices[3 * geo->indices[3 * t + k]];
+                    q[k] = v3(v[0], v[1], v[2]);
+                }
+                ok = tri_boxes(L, q[0], q[1], q[2], 7, &boxes, &n_boxes,
+                               &cap);
+            }
+            continue;
+        }
+        /* Many triangles: a box per CHUNK of them, from the world bounds
+         * lr__scene_commit kept (the same for every render, so a frame
+         * cut into parts does not find them again for each part). */
+        for (size_t t0 = 0; t0 < geo->n_triangles && ok; t0 += CHUNK) {
+            if (n_boxes == cap) {
+                size_t nc = cap ? 2 * cap : 256;
+                box *gr = realloc(boxes, nc * sizeof *gr);
+                if (gr == NULL) {
+                    ok = 0;
+                    break;
+                }
+                boxes = gr;
+                cap = nc;
+            }
+            const double *wb = &geo->chunk_bounds[6 * (t0 / CHUNK)];
+            box_from_bounds(L, wb, wb + 3, &boxes[n_boxes]);
+            boxes[n_boxes++].skip = 0;
+        }
+    }
+    if (!ok) {
+        free(boxes);
+        return 0;
+    }
+    *out = boxes;
+    *out_n = n_boxes;
+    return 1;
 }

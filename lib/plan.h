@@ -50,6 +50,23 @@ lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
                          int x1, int y1, lr_error *err);
 void lr__plan_free(lr__plan *p);
 
+/* Meshes of at most this many triangles are planned triangle by triangle
+ * (a ground quad); larger ones by the bounds of chunks of triangles. */
+#define LR__PLAN_FEW 8
+
+/* For lr__scene_commit: keeps in g->chunk_bounds the world bounds the
+ * planner needs of a triangle mesh of more than LR__PLAN_FEW triangles
+ * (they depend only on the scene; computing them once, not per render,
+ * spares each part of a split frame).  LR_ERR_NOMEM on failure. */
+lr_status lr__plan_chunk_bounds(lr__geom *g, lr_error *err);
+
+/* The scene's cache of camera-space boxes (lr_scene.plan_cache): made by
+ * lr__scene_commit (NULL when out of memory), freed with the scene when
+ * no render uses it.  A plan of a scene without one finds its boxes
+ * alone. */
+struct lr__plan_cache *lr__plan_cache_new(void);
+void lr__plan_cache_free(struct lr__plan_cache *c);
+
 static inline const lr__block_plan *lr__plan_at(const lr__plan *p, int x,
                                                 int y)
 {

@@ -5,6 +5,7 @@
  */
 #include "prescription.h"
 #include "json_util.h"
+#include "scene_file.h"
 
 #include <dirent.h>
 #include <stdio.h>
@@ -89,6 +90,9 @@ lr_status lr__rx_find(const char *name, const char *base_dir, char *out,
     if (name[0] == '\0')
         return lr__fail(err, LR_ERR_INVALID, NULL,
                         "a lens name must not be empty");
+    /* An asset is found where every scene file is, or not at all. */
+    if (strncmp(name, "sha256:", 7) == 0)
+        return lr__scene_file(name, base_dir, NULL, out, cap, err);
     int w;
     if (name[0] == '/' || base_dir == NULL || base_dir[0] == '\0')
         w = snprintf(out, cap, "%s", name);
@@ -134,6 +138,27 @@ static void prefix(lr_error *err, const char *shown)
     lr__trim_partial_utf8(err->message, sizeof err->message, w);
 }
 
+/* The form of a lens file without its name: lensray JSON starts with
+ * '{'; a Zemax file has a SURF line (and is often UTF-16, whose BOM or
+ * zero bytes show it); the rest is read as pbrt-v4's table.  Returns an
+ * index into exts. */
+static int sniff(const char *text, size_t len)
+{
+    size_t i = 0;
+    while (i < len && (text[i] == ' ' || text[i] == '\t' || text[i] == '\r' ||
+                       text[i] == '\n'))
+        i++;
+    if (i < len && text[i] == '{')
+        return 0;
+    if (len >= 2 && ((unsigned char)text[0] == 0xff ||
+                     (unsigned char)text[0] == 0xfe || memchr(text, 0, len)))
+        return 1;
+    for (size_t k = 0; k + 5 <= len; k++)
+        if ((k == 0 || text[k - 1] == '\n') && memcmp(text + k, "SURF ", 5) == 0)
+            return 1;
+    return 2;
+}
+
 lr_status lr__rx_load_file(const char *file, const char *shown,
                            const char *json_path, lr__rx *rx, lr_error *err)
 {
@@ -142,7 +167,9 @@ lr_status lr__rx_load_file(const char *file, const char *shown,
     for (int k = 0; dot != NULL && exts[k]; k++)
         if (strcasecmp(dot, exts[k]) == 0)
             kind = k;
-    if (kind < 0)
+    /* An asset has no name but its hash: its form is read from it. */
+    int asset = lr__scene_file_is_asset(shown);
+    if (kind < 0 && !asset)
         return lr__fail(err, LR_ERR_INVALID, json_path,
                         "%s: a lens file must end in .json (lensray), .zmx "
                         "(Zemax) or .dat/.txt (pbrt-v4)",
@@ -151,6 +178,8 @@ lr_status lr__rx_load_file(const char *file, const char *shown,
     size_t len = 0;
     LR_TRY(lr__read_file(file, shown, json_path, MAX_LENS_BYTES,
                          "lens files", NULL, &text, &len, err));
+    if (asset)
+        kind = sniff(text, len);
     lr_status st;
     if (kind == 0) {
         cJSON *o = NULL;

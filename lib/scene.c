@@ -5,6 +5,7 @@
 #include "scene.h"
 #include "envmap.h"
 #include "light.h"
+#include "plan.h"
 
 #include <float.h>
 #include <stdio.h>
@@ -173,10 +174,16 @@ lr_status lr__scene_commit(lr_scene *s, lr_error *err)
                                !(v3_maxc(m->transmit) > 0.0) &&
                                v3_maxc(m->diffuse) > 0.0 &&
                                !(v3_maxc(m->emission) > 0.0);
+        lr_status st = lr__plan_chunk_bounds(g, err);
+        if (st != LR_OK)
+            return st;
     }
     lr_status st = lr__emitters_build(s, err);
     if (st != LR_OK)
         return st;
+    s->plan_cache = lr__plan_cache_new();
+    if (s->plan_cache == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     embree_msg[0] = '\0';
     rtcCommitScene(s->rtc);
     if (rtcGetDeviceError(s->device) != RTC_ERROR_NONE)
@@ -193,6 +200,7 @@ void lr_scene_free(lr_scene *s)
     for (size_t i = 0; i < s->n_geoms; i++) {
         free(s->geoms[i].corner_normals);
         free(s->geoms[i].corner_uv);
+        free(s->geoms[i].chunk_bounds);
     }
     free(s->geoms);
     free(s->planes);
@@ -214,6 +222,7 @@ void lr_scene_free(lr_scene *s)
     free(s->emitters);
     free(s->emitter_cdf);
     lr__envmap_free(s->env);
+    lr__plan_cache_free(s->plan_cache);
     free(s->description);
     if (s->rtc != NULL)
         rtcReleaseScene(s->rtc);

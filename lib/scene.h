@@ -95,6 +95,10 @@ typedef struct lr__geom {
      * the scene's lifetime (not owned). */
     const float *vertices;
     const unsigned *indices;
+    /* Triangle meshes the planner cuts into chunks: each chunk's world
+     * bounds, lo x, y, z then hi x, y, z (lr__plan_chunk_bounds, at
+     * commit).  Owned; NULL otherwise. */
+    double *chunk_bounds;
 } lr__geom;
 
 struct lr_scene {
@@ -131,9 +135,13 @@ struct lr_scene {
     char **texture_paths;
     int *texture_srgb;
     /* Rays lr__trace and lr__occluded did not give Embree (see
-     * lr__embree_can_trace), over the scene's life; the one member that
+     * lr__embree_can_trace), over the scene's life; with plan_cache, what
      * changes while renders share the scene. */
     atomic_ullong skipped_rays;
+    /* The planner's camera-space boxes for the last camera it planned
+     * (plan.c), behind their own lock: the parts of a split frame share
+     * one camera, so only the first part finds them.  Made at commit. */
+    struct lr__plan_cache *plan_cache;
 };
 
 /* ---- scene.c: Embree side --------------------------------------------- */

@@ -12,6 +12,7 @@
 #include "material_json.h"
 #include "mesh.h"
 #include "scene.h"
+#include "scene_file.h"
 #include "settings_json.h"
 #include "transform.h"
 
@@ -201,12 +202,8 @@ static lr_status parse_lights(lr_scene *s, const cJSON *lights,
 
 /* ---- objects ---------------------------------------------------------- */
 
-static char *join_path(const char *dir, const char *file)
-{
-    return lr__join_path(dir, file);
-}
-
-/* An OBJ mesh: the file is found relative to the scene's directory. */
+/* An OBJ mesh: the file is found relative to the scene's directory, or
+ * among the assets (lr__scene_file). */
 static lr_status add_mesh(lr_scene *s, const cJSON *o, const char *p,
                           const lr__xform *x, int material,
                           const char *base_dir, lr_error *err)
@@ -217,13 +214,9 @@ static lr_status add_mesh(lr_scene *s, const cJSON *o, const char *p,
     LR_TRY(lr__json_bool(o, "smooth", p, 0, &smooth, err));
     char fp[LR__PATH_MAX];
     lr__path_key(fp, p, "file");
-    char *full = join_path(base_dir, file);
-    if (full == NULL)
-        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
-    lr_status st =
-        lr__scene_add_obj(s, full, file, fp, smooth, x, material, err);
-    free(full);
-    return st;
+    char full[4096];
+    LR_TRY(lr__scene_file(file, base_dir, fp, full, sizeof full, err));
+    return lr__scene_add_obj(s, full, file, fp, smooth, x, material, err);
 }
 
 static lr_status parse_object(lr_scene *s, const cJSON *o, const char *p,
@@ -421,13 +414,11 @@ static lr_status parse_environment(lr_scene *s, const cJSON *e,
         return lr__fail(err, LR_ERR_INVALID, "environment.rotation_deg",
                         "environment.rotation_deg must be between -1e6 and "
                         "1e6, got %g", rot);
-    char *full = join_path(base_dir, file);
-    if (full == NULL)
-        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
-    lr_status st = lr__envmap_load(full, file, "environment.file", intensity,
-                                   rot, &s->env, err);
-    free(full);
-    return st;
+    char full[4096];
+    LR_TRY(lr__scene_file(file, base_dir, "environment.file", full,
+                          sizeof full, err));
+    return lr__envmap_load(full, file, "environment.file", intensity, rot,
+                           &s->env, err);
 }
 
 /* ---- the scene -------------------------------------------------------- */

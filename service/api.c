@@ -119,42 +119,79 @@ static int check_limits(lrd_job_spec *spec, lrd_err *e)
     return 0;
 }
 
-/* The job's scene: a named one from the cache, or an inline one whose
- * mesh paths are checked first.  NULL with *e filled on error. */
+/* An inline scene (of a job, or read from a scene asset): its files are
+ * checked first, each an asset the server has or a file inside the
+ * scenes directory; the library finds both (lr_assets_dir_set).  NULL
+ * with *e filled on error. */
+static lrd_scene *inline_scene(const lr_job *job, lrd_err *e)
+{
+    const char *file, *field;
+    for (size_t k = 0; lr_job_mesh_file(job, k, &file, &field); k++)
+        if ((strncmp(file, "sha256:", 7) == 0
+                 ? lrd_asset_check_ref(file, field, e)
+                 : check_mesh_path(file, field, e)) != 0)
+            return NULL;
+    size_t len = 0;
+    const char *text = lr_job_scene_json(job, &len);
+    return lrd_scene_inline(text, len, e);
+}
+
+/* "scene": "sha256:HEX": a scene file sent as an asset, read as an
+ * inline scene would be (its own files are assets or inside the scenes
+ * directory, never beside it).  NULL with *e filled on error. */
+static lrd_scene *asset_scene(const char *ref, lrd_err *e)
+{
+    if (lrd_asset_check_ref(ref, "scene", e) != 0)
+        return NULL;
+    char path[PATH_MAX + 80];
+    snprintf(path, sizeof path, "%s/%s", lrd_cfg.assets_dir, ref + 7);
+    size_t len = 0;
+    char *text = lrd_read_file(path, LRD_MAX_SCENE_FILE, &len);
+    /* {"scene": TEXT}: a job whose scene is the file, so that its files
+     * are listed by the same rule as an inline scene's. */
+    char *wrapped = text ? malloc(len + 16) : NULL;
+    if (wrapped == NULL) {
+        free(text);
+        lrd_fail(e, 500, "scene_broken", "scene",
+                 "scene: the asset %s cannot be read", ref);
+        return NULL;
+    }
+    int n = snprintf(wrapped, len + 16, "{\"scene\": %.*s\n}", (int)len, text);
+    free(text);
+    lr_job *job = NULL;
+    lr_error le;
+    lr_status st = lr_job_parse(wrapped, (size_t)n, (int)lrd_cfg.max_json_depth,
+                                &job, &le);
+    free(wrapped);
+    if (st == LR_OK && lr_job_scene_name(job) != NULL) {
+        /* A JSON string: a name, not a scene; never followed further. */
+        st = LR_ERR_INVALID;
+        snprintf(le.message, sizeof le.message, "it is a JSON string, not "
+                 "a scene object");
+    }
+    if (st != LR_OK) {
+        lr_job_free(job);
+        lrd_fail(e, 422, "invalid_value", "scene", "scene: the asset %s is "
+                 "not a scene: %s", ref, le.message);
+        return NULL;
+    }
+    lrd_scene *s = inline_scene(job, e);
+    lr_job_free(job);
+    return s;
+}
+
+/* The job's scene: a named one from the cache, a scene asset, or an
+ * inline one.  NULL with *e filled on error. */
 static lrd_scene *job_scene(const lr_job *job, lrd_job_spec *spec,
                             lrd_err *e)
 {
     const char *name = lr_job_scene_name(job);
-    if (name != NULL) {
-        snprintf(spec->scene_name, sizeof spec->scene_name, "%s", name);
-        return lrd_scene_named(name, e);
-    }
-    const char *file, *field;
-    int assets = 0;
-    for (size_t k = 0; lr_job_mesh_file(job, k, &file, &field); k++) {
-        int asset = strncmp(file, "sha256:", 7) == 0;
-        assets |= asset;
-        if ((asset ? lrd_asset_check_ref(file, field, e)
-                   : check_mesh_path(file, field, e)) != 0)
-            return NULL;
-    }
-    size_t len = 0;
-    const char *text = lr_job_scene_json(job, &len);
-    if (!assets)
-        return lrd_scene_inline(text, len, e);
-    /* The assets' paths in place of their names; the text still names
-     * each by its content, so it stays a good cache key. */
-    size_t rlen = 0;
-    char *resolved = lrd_assets_resolve(text, len, &rlen);
-    if (resolved == NULL) {
-        lrd_fail(e, 503, "out_of_memory", NULL, "out of memory");
-        return NULL;
-    }
-    lrd_scene *s = lrd_scene_inline(resolved, rlen, e);
-    free(resolved);
-    if (s == NULL)
-        lrd_assets_unresolve(e->message, sizeof e->message);
-    return s;
+    if (name == NULL)
+        return inline_scene(job, e);
+    snprintf(spec->scene_name, sizeof spec->scene_name, "%s", name);
+    if (strncmp(name, "sha256:", 7) == 0)
+        return asset_scene(name, e);
+    return lrd_scene_named(name, e);
 }
 
 int lrd_api_parse_job(const char *body, size_t len, lrd_job_spec *spec,

@@ -1,6 +1,7 @@
 /*
  * assets.c: the content-addressed asset store (PUT and GET/HEAD
- * /v1/assets/{sha256}, and "sha256:HEX" mesh files in inline scenes).
+ * /v1/assets/{sha256}, and the checks of "sha256:HEX" files in inline
+ * scenes; the library opens them, lr_assets_dir_set).
  *
  * An asset is a file named by the SHA-256 of its bytes, as 64 lowercase
  * hex digits, in --assets DIR.  Because the name is the content, a PUT
@@ -155,65 +156,4 @@ int lrd_asset_check_ref(const char *file, const char *field, lrd_err *e)
                         "%s: this server has no asset %s (send it first with "
                         "PUT /v1/assets/%s)", field, file, hex);
     return 0;
-}
-
-char *lrd_assets_resolve(const char *text, size_t len, size_t *out_len)
-{
-    /* Each "sha256:HEX" string becomes the asset's path, a JSON string
-     * with the directory's quotes and backslashes escaped.  Strings are
-     * replaced wherever they stand; a "sha256:" string that is not a
-     * mesh file would only become a path, which changes no render. */
-    static const char key[] = "\"sha256:";
-    char dir[2 * sizeof lrd_cfg.assets_dir];
-    size_t dl = 0;
-    for (const char *p = lrd_cfg.assets_dir; *p != '\0'; p++) {
-        if (*p == '"' || *p == '\\')
-            dir[dl++] = '\\';
-        dir[dl++] = *p;
-    }
-    dir[dl] = '\0';
-    size_t count = 0;
-    for (const char *p = text; (p = memmem(p, len - (size_t)(p - text), key,
-                                           sizeof key - 1)) != NULL;
-         p++)
-        count++;
-    size_t cap = len + count * (dl + 2) + 1;
-    char *out = malloc(cap);
-    if (out == NULL)
-        return NULL;
-    size_t o = 0;
-    const char *p = text, *end = text + len;
-    while (p < end) {
-        const char *hit = memmem(p, (size_t)(end - p), key, sizeof key - 1);
-        if (hit == NULL || end - hit < 8 + 64 + 1 || hit[8 + 64] != '"') {
-            size_t n = hit ? (size_t)(hit - p) + 1 : (size_t)(end - p);
-            memcpy(out + o, p, n);
-            o += n;
-            p += n;
-            continue;
-        }
-        memcpy(out + o, p, (size_t)(hit - p));
-        o += (size_t)(hit - p);
-        o += (size_t)snprintf(out + o, cap - o, "\"%s/%.64s\"", dir, hit + 8);
-        p = hit + 8 + 64 + 1;
-    }
-    out[o] = '\0';
-    *out_len = o;
-    return out;
-}
-
-void lrd_assets_unresolve(char *msg, size_t size)
-{
-    char prefix[sizeof lrd_cfg.assets_dir + 1];
-    snprintf(prefix, sizeof prefix, "%s/", lrd_cfg.assets_dir);
-    size_t pl = strlen(prefix);
-    char *hit;
-    while (pl > 1 && (hit = strstr(msg, prefix)) != NULL) {
-        /* "DIR/HEX" -> "sha256:HEX": 7 bytes in place of pl. */
-        size_t tail = strlen(hit + pl) + 1;
-        if (pl < 7 && strlen(msg) + 7 - pl >= size)
-            break;
-        memmove(hit + 7, hit + pl, tail);
-        memcpy(hit, "sha256:", 7);
-    }
 }

@@ -218,18 +218,10 @@ int lrd_asset_put(const char *hex, const void *data, size_t len,
 /* Whether asset `hex` is there, and its size.  0, or -1 with *e (404). */
 int lrd_asset_stat(const char *hex, uint64_t *size, lrd_err *e);
 
-/* Checks a mesh file "sha256:HEX" of an inline scene at `field`: 0, or
- * -1 with a 422 that names the field and the asset the server lacks. */
+/* Checks a file "sha256:HEX" of an inline scene (or the job's scene
+ * itself) at `field`: 0, or -1 with a 422 that names the field and the
+ * asset the server lacks. */
 int lrd_asset_check_ref(const char *file, const char *field, lrd_err *e);
-
-/* The scene text with every "sha256:HEX" string replaced by the asset's
- * path; malloc'ed (*out_len bytes, NUL-terminated), NULL when out of
- * memory. */
-char *lrd_assets_resolve(const char *text, size_t len, size_t *out_len);
-
-/* Puts "sha256:" back where a message names an asset by its path, so
- * that errors do not show the server's directories. */
-void lrd_assets_unresolve(char *msg, size_t size);
 
 /* GET /v1/scenes as a JSON document; malloc'ed, or NULL with *e. */
 char *lrd_api_scenes_json(lrd_err *e);

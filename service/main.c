@@ -274,6 +274,12 @@ static int configure(int argc, char **argv)
                         "process can write to\n", assets_arg);
         return -1;
     }
+    /* The library finds "sha256:HEX" files of every kind there (and,
+     * without --assets, nowhere: not in a directory the environment
+     * happens to name). */
+    if (lrd_cfg.assets_dir[0] == '\0')
+        unsetenv("LENSRAY_ASSETS_DIR");
+    lr_assets_dir_set(lrd_cfg.assets_dir, NULL);
     if (token_file[0] != '\0') {
         size_t len = 0;
         char *t = lrd_read_file(token_file, 4096, &len);

@@ -300,6 +300,152 @@ put_asset() {
     [ "$(grep -c '"PUT /v1/assets/' "$FARM/nginx-access.log")" -eq 1 ]
 }
 
+# frame K X [SPP [WIDTH]]: scene file K of a small animation, the camera
+# at x = X, naming the quad mesh beside it (written once).
+frame() {
+    local dir="$BATS_TEST_TMPDIR/frames"
+    mkdir -p "$dir"
+    [ -f "$dir/quad.obj" ] ||
+        printf 'v -2 0 -2\nv 2 0 -2\nv 2 0 2\nv -2 0 2\nf 1 3 2\nf 1 4 3\n# %s\n' \
+            "$BATS_TEST_NAME" >"$dir/quad.obj"
+    printf '{"camera": {"position": [%s, 2, 6], "look_at": [0, 0.5, 0], "fov": 45},
+ "render": {"width": %s, "height": 90, "spp": %s},
+ "lights": [{"type": "point", "position": [4, 8, 4], "intensity": 400}, {"type": "ambient", "radiance": 0.1}],
+ "materials": {"ground": {"diffuse": 0.6}, "red": {"diffuse": [0.8, 0.2, 0.1]}},
+ "objects": [{"type": "mesh", "file": "quad.obj", "material": "ground"},
+             {"type": "sphere", "center": [0, 1, 0], "radius": 1, "material": "red"}]}\n' \
+        "$2" "${4:-120}" "${3:-6}" >"$dir/f$1.json"
+    echo "$dir/f$1.json"
+}
+
+@test "a batch of 3 frames through nginx: one queue of parts, each file equal to its local render; the mesh they share is sent once" {
+    local f1 f2 f3 k
+    f1=$(frame 1 -1) f2=$(frame 2 0) f3=$(frame 3 1)
+    "$LENSRAY" render "$f1" "$f2" "$f3" -o "$BATS_TEST_TMPDIR/local-%02d.exr" -q
+    run -0 "$LENSRAY" render "$f1" "$f2" "$f3" -o "$BATS_TEST_TMPDIR/farm-%02d.exr" \
+        --remote "$URL" --parts 4 --parallel 6 --stats
+    [[ "$output" == *'"frames": 3, "failed": 0, "parts": 12'*'"assets": 1, "uploaded": 1'* ]]
+    [[ "$output" == *"frame 3/3 part "*" of 12 parts, "*" of 3 frames"* ]]
+    for k in 01 02 03; do
+        cmp "$BATS_TEST_TMPDIR/local-$k.exr" "$BATS_TEST_TMPDIR/farm-$k.exr"
+    done
+    # The frames differ (the camera moves), so each file is its own frame.
+    ! cmp -s "$BATS_TEST_TMPDIR/farm-01.exr" "$BATS_TEST_TMPDIR/farm-02.exr"
+}
+
+@test "a batch whose middle frame the daemons refuse: it is reported, the others are written, exit 3" {
+    local f1 f2 f3
+    # 1024 x 90 at 2^20 spp in 4 parts is ~2.4e10 samples a part, over
+    # the daemons' --max-samples (2^33): 413 too_many_samples.
+    f1=$(frame 1 -1) f2=$(frame 2 0 1048576 1024) f3=$(frame 3 1)
+    "$LENSRAY" render "$f1" "$f3" -o "$BATS_TEST_TMPDIR/local-%d.exr" -q
+    run -3 "$LENSRAY" render "$f1" "$f2" "$f3" -o "$BATS_TEST_TMPDIR/farm-%d.exr" \
+        --remote "$URL" --parts 4 --stats
+    [[ "$output" == *"frame 2/3 part "*" refused: HTTP 413: "*"(--max-samples)"* ]]
+    [[ "$output" == *"frame 2/3 ($f2) failed; the other frames go on"* ]]
+    [[ "$output" == *"2 of 3 frames written, 1 failed"* ]]
+    [[ "$output" == *'"frames": 2, "failed": 1'* ]]
+    cmp "$BATS_TEST_TMPDIR/local-1.exr" "$BATS_TEST_TMPDIR/farm-1.exr"
+    cmp "$BATS_TEST_TMPDIR/local-2.exr" "$BATS_TEST_TMPDIR/farm-3.exr"
+    [ ! -e "$BATS_TEST_TMPDIR/farm-2.exr" ]
+}
+
+@test "batch output names: several scenes need a frame number in -o; %%, %d and %0Nd" {
+    local f1 f2
+    f1=$(frame 1 -1) f2=$(frame 2 0)
+    run -2 "$LENSRAY" render "$f1" "$f2" -o "$BATS_TEST_TMPDIR/out.exr" --remote "$URL"
+    [[ "$output" == *"several scenes need an output name with one frame number"* ]]
+    run -2 "$LENSRAY" render "$f1" "$f2" -o "$BATS_TEST_TMPDIR/out-%d-%d.exr"
+    run -2 "$LENSRAY" render "$f1" "$f2" -o "$BATS_TEST_TMPDIR/out-%s.exr"
+    run -0 "$LENSRAY" render "$f1" "$f2" -o "$BATS_TEST_TMPDIR/100%%-%03d.png" -q \
+        --set render.spp=1 --remote "$URL" --parts 2
+    [ -f "$BATS_TEST_TMPDIR/100%-001.png" ] && [ -f "$BATS_TEST_TMPDIR/100%-002.png" ]
+}
+
+@test "assets: a scene's lens file and environment map go once; all three daemons render the sha256: scene, equal to the local render" {
+    local dir="$BATS_TEST_TMPDIR/lensenv" lh eh k port scene job
+    mkdir -p "$dir"
+    # The lens: the shipped double Gauss with a comment-free JSON tail that
+    # makes its bytes (and so its hash) this test's own.
+    { cat "$REPO/lenses/double-gauss-50.json"; echo "  "; } >"$dir/mylens.json"
+    "$LENSRAY" render "$REPO/scenes/spheres.json" -o "$dir/sky.exr" -q \
+        --set render.width=32 --set render.height=16 --set render.spp=1
+    cat >"$dir/scene.json" <<'EOF_SCENE'
+{"camera": {"model": "lens", "lens": "mylens.json", "position": [0, 0, 5], "look_at": [0, 0, 0], "sensor_width_mm": 36, "focus_distance": 5},
+ "render": {"width": 64, "height": 48, "spp": 4, "integrator": "path"},
+ "environment": {"file": "sky.exr"},
+ "materials": {"m": {"diffuse": 0.5}},
+ "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "m"}]}
+EOF_SCENE
+    lh=$(sha256sum "$dir/mylens.json" | cut -c1-64)
+    eh=$(sha256sum "$dir/sky.exr" | cut -c1-64)
+    "$LENSRAY" render "$dir/scene.json" -o "$dir/local.exr" -q
+    : >"$FARM/nginx-access.log"
+    run -0 "$LENSRAY" render "$dir/scene.json" -o "$dir/farm.exr" -q \
+        --remote "$URL" --parts 8 --parallel 6 --stats
+    [[ "$output" == *'"assets": 2, "uploaded": 2'* ]]
+    cmp "$dir/local.exr" "$dir/farm.exr"
+    cmp "$dir/mylens.json" "$FARM/assets/$lh"
+    cmp "$dir/sky.exr" "$FARM/assets/$eh"
+    [ "$(grep -c '"PUT /v1/assets/' "$FARM/nginx-access.log")" -eq 2 ]
+    # The scene as the daemons get it, and the scene itself as an asset:
+    # every live daemon renders both, asked directly, equal to the local
+    # render (a whole frame in one answer).
+    sed "s/mylens.json/sha256:$lh/; s/sky.exr/sha256:$eh/" "$dir/scene.json" >"$dir/hashed.json"
+    put_asset "$dir/hashed.json"
+    [ "$status" = 201 ]
+    local sh served=0
+    sh=$(sha256sum "$dir/hashed.json" | cut -c1-64)
+    for k in 1 2 3; do
+        kill -0 "$(pid_of daemon-$k)" 2>/dev/null || continue
+        port=$(cat "$FARM/daemon-$k.port")
+        for job in "{\"scene\": $(cat "$dir/hashed.json"), \"output\": {\"format\": \"exr\"}}" \
+                   "{\"scene\": \"sha256:$sh\", \"output\": {\"format\": \"exr\"}}"; do
+            rm -f "$dir/d.exr"
+            run -0 curl -s -o "$dir/d.exr" -w '%{http_code}' -H 'Content-Type: application/json' \
+                --data-binary "$job" "http://127.0.0.1:$port/v1/render"
+            [ "$output" = 200 ]
+            cmp "$dir/local.exr" "$dir/d.exr"
+        done
+        served=$((served + 1))
+    done
+    [ "$served" -ge 2 ]
+    # A second render sends nothing.
+    run -0 "$LENSRAY" render "$dir/scene.json" -o "$dir/farm.exr" -q \
+        --remote "$URL" --parts 8 --stats
+    [[ "$output" == *'"assets": 2, "uploaded": 0'* ]]
+}
+
+# render_post JOB: POST /v1/render of JOB through nginx; output is the
+# answer's body and its status after a space.
+render_post() {
+    run curl -s -w ' %{http_code}' -H 'Content-Type: application/json' \
+        "$URL/v1/render" -d "$1"
+}
+
+@test "assets: a lens, an environment map or a scene the daemon lacks: 422 naming the field and the asset" {
+    local missing
+    missing=$(printf 'not stored %s' "$BATS_TEST_NAME" | sha256sum | cut -c1-64)
+    render_post "{\"scene\": {\"camera\": {\"model\": \"lens\", \"lens\": \"sha256:$missing\"}}}"
+    [[ "$output" == *'"code":"asset_not_found"'*"scene.camera.lens: this server has no asset sha256:$missing"*'"path":"scene.camera.lens"'*" 422" ]]
+    render_post "{\"scene\": {\"environment\": {\"file\": \"sha256:$missing\"}}}"
+    [[ "$output" == *'"code":"asset_not_found"'*'"path":"scene.environment.file"'*" 422" ]]
+    render_post "{\"scene\": \"sha256:$missing\"}"
+    [[ "$output" == *'"code":"asset_not_found"'*"scene: this server has no asset sha256:$missing"*" 422" ]]
+    # A scene asset that is not a scene object (here a JSON string naming
+    # another asset) is refused, not followed.
+    local f="$BATS_TEST_TMPDIR/not-a-scene.json"
+    printf '"sha256:%s"' "$missing" >"$f"
+    put_asset "$f"
+    render_post "{\"scene\": \"sha256:$(sha256sum "$f" | cut -c1-64)\"}"
+    [[ "$output" == *"is not a scene: it is a JSON string, not a scene object"*" 422" ]]
+    render_post '{"scene": {"environment": {"file": "sha256:12ab"}}}'
+    [[ "$output" == *"64 lowercase hex digits"*'"path":"scene.environment.file"'*" 422" ]]
+    # A lens file of the scenes directory stays confined to it.
+    render_post '{"scene": {"camera": {"model": "lens", "lens": "../lenses/double-gauss-50.json"}}}'
+    [[ "$output" == *'"code":"forbidden_path"'*'"path":"scene.camera.lens"'*" 422" ]]
+}
+
 # ---- jobs through the balancer -----------------------------------------------
 
 JOB='{"scene": "spheres", "render": {"width": 48, "height": 32, "spp": 2}}'

@@ -10,6 +10,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 /* ---- formats ---------------------------------------------------------- */
 
@@ -372,6 +373,131 @@ static void test_job_scene_and_meshes(void **state)
     lr_job_free(job);
 }
 
+/* Every key that names a file is listed, wherever it stands (a
+ * material's texture too), and camera.lens when it is a path or an
+ * asset; a shipped lens's name is not a file. */
+static void test_job_files_every_key(void **state)
+{
+    (void)state;
+    lr_job *job = NULL;
+    lr_error err;
+    static const char hex[] = "sha256:0123456789abcdef0123456789abcdef"
+                              "0123456789abcdef0123456789abcdef";
+    char json[1024];
+    snprintf(json, sizeof json,
+             "{\"scene\": {\"camera\": {\"model\": \"lens\", \"lens\": \"%s\"},"
+             " \"materials\": {\"m\": {\"diffuse_texture\": \"t.png\"}},"
+             " \"environment\": {\"file\": \"%s\"}}}", hex, hex);
+    assert_int_equal(parse(json, &job, &err), LR_OK);
+    const char *file, *field;
+    assert_int_equal(lr_job_mesh_file(job, 0, &file, &field), 1);
+    assert_string_equal(file, hex);
+    assert_string_equal(field, "scene.camera.lens");
+    assert_int_equal(lr_job_mesh_file(job, 1, &file, &field), 1);
+    assert_string_equal(file, "t.png");
+    assert_string_equal(field, "scene.materials.m.diffuse_texture");
+    assert_int_equal(lr_job_mesh_file(job, 2, &file, &field), 1);
+    assert_string_equal(field, "scene.environment.file");
+    assert_int_equal(lr_job_mesh_file(job, 3, &file, &field), 0);
+    lr_job_free(job);
+    assert_int_equal(parse("{\"scene\": {\"camera\": {\"lens\": "
+                           "\"double-gauss-50\"}}}", &job, &err), LR_OK);
+    assert_int_equal(lr_job_mesh_file(job, 0, &file, &field), 0);
+    lr_job_free(job);
+    assert_true(lr_scene_file_key("file"));
+    assert_true(lr_scene_file_key("roughness_texture"));
+    assert_false(lr_scene_file_key("lens"));
+    assert_false(lr_scene_file_key("material"));
+}
+
+/* "sha256:HEX" is found in the assets directory for every file key (a
+ * mesh and a lens here), and refused, naming the field, without one,
+ * when the asset is missing, or when the name is not a hash. */
+static void test_asset_references(void **state)
+{
+    (void)state;
+    char dir[] = "/tmp/lensray-assets-XXXXXX";
+    assert_non_null(mkdtemp(dir));
+    /* A quad stored under a made-up hash: the loader trusts the name
+     * (the daemon checks it when the asset is PUT). */
+    static const char quad[] = "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\n"
+                               "f 1 2 3\nf 1 3 4\n";
+    static const char h1[] = "1111111111111111111111111111111111111111111111"
+                             "111111111111111111";
+    char path[512];
+    snprintf(path, sizeof path, "%s/%s", dir, h1);
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs(quad, f);
+    fclose(f);
+    char scene[512];
+    snprintf(scene, sizeof scene,
+             "{\"objects\": [{\"type\": \"mesh\", \"file\": \"sha256:%s\"}]}",
+             h1);
+    lr_scene *sc = NULL;
+    lr_error err;
+    unsetenv("LENSRAY_ASSETS_DIR");
+    assert_int_equal(lr_assets_dir_set(NULL, &err), LR_OK);
+    assert_int_equal(lr_scene_load_json(scene, strlen(scene), ".", NULL, 0,
+                                        &sc, &err),
+                     LR_ERR_INVALID);
+    assert_string_equal(err.path, "objects[0].file");
+    assert_non_null(strstr(err.message, "no assets directory"));
+    assert_int_equal(lr_assets_dir_set(dir, &err), LR_OK);
+    assert_int_equal(lr_scene_load_json(scene, strlen(scene), ".", NULL, 0,
+                                        &sc, &err),
+                     LR_OK);
+    lr_scene_free(sc);
+    /* The asset's own messages name it by its reference, not the path. */
+    scene[strlen(scene) - 5] = '2';
+    assert_int_equal(lr_scene_load_json(scene, strlen(scene), ".", NULL, 0,
+                                        &sc, &err),
+                     LR_ERR_INVALID);
+    assert_string_equal(err.path, "objects[0].file");
+    assert_non_null(strstr(err.message, "there is no asset sha256:"));
+    assert_null(strstr(err.message, dir));
+    const char *bad = "{\"objects\": [{\"type\": \"mesh\", \"file\": "
+                      "\"sha256:ABC\"}]}";
+    assert_int_equal(lr_scene_load_json(bad, strlen(bad), ".", NULL, 0, &sc,
+                                        &err),
+                     LR_ERR_INVALID);
+    assert_non_null(strstr(err.message, "64 lowercase hex digits"));
+    /* Lens assets: each form (lensray JSON, Zemax, pbrt) is read from
+     * the bytes, since the name says nothing. */
+    static const char *const lenses[] = {
+        "lenses/double-gauss-50.json", "tests/data/lenses/cooke-triplet.zmx",
+        "tests/data/lenses/dgauss.50mm.dat"};
+    for (size_t k = 0; k < 3; k++) {
+        char hex[65];
+        snprintf(hex, sizeof hex, "%064zu", k + 7);
+        snprintf(path, sizeof path, "%s/%s", dir, hex);
+        FILE *in = fopen(lenses[k], "rb"), *out = fopen(path, "wb");
+        assert_non_null(in);
+        assert_non_null(out);
+        char buf[4096];
+        size_t n;
+        while ((n = fread(buf, 1, sizeof buf, in)) > 0)
+            assert_int_equal(fwrite(buf, 1, n, out), n);
+        fclose(in);
+        fclose(out);
+        snprintf(scene, sizeof scene,
+                 "{\"camera\": {\"model\": \"lens\", \"lens\": \"sha256:%s\"}}",
+                 hex);
+        if (lr_scene_load_json(scene, strlen(scene), ".", NULL, 0, &sc,
+                               &err) != LR_OK)
+            fail_msg("%s as an asset: %s", lenses[k], err.message);
+        lr_camera cam;
+        lr_scene_camera(sc, &cam);
+        assert_non_null(cam.lens);
+        lr_scene_free(sc);
+        unlink(path);
+    }
+    assert_int_equal(lr_assets_dir_set(NULL, &err), LR_OK);
+    snprintf(path, sizeof path, "%s/%s", dir, h1);
+    unlink(path);
+    rmdir(dir);
+}
+
 /* Applies a job on top of the defaults with the scene's depth `scene_z`;
  * returns the status, the error path in err. */
 static lr_status apply(const char *json, int scene_z, lr_render_settings *s,
@@ -449,6 +575,8 @@ static const struct CMUnitTest tests[] = {
     cmocka_unit_test(test_scene_description),
     cmocka_unit_test(test_job_parse_errors),
     cmocka_unit_test(test_job_scene_and_meshes),
+    cmocka_unit_test(test_job_files_every_key),
+    cmocka_unit_test(test_asset_references),
     cmocka_unit_test(test_job_apply_depth),
 };
 LR_TEST_GROUP(shared_rules, tests)

@@ -419,10 +419,11 @@ static void job_lists_textures(void **state)
     assert_int_equal(lr_job_parse(body, strlen(body), 64, &job, &err), LR_OK);
     const char *file, *field;
     static const char *const want[][2] = {
-        {"m.obj", "scene.objects[0].file"},
+        /* In document order (lr_job_mesh_file). */
         {"../x.png", "scene.materials.a.diffuse_texture"},
         {"/etc/passwd", "scene.materials.b.emission_texture"},
-        {"r.png", "scene.materials.b.roughness_texture"}};
+        {"r.png", "scene.materials.b.roughness_texture"},
+        {"m.obj", "scene.objects[0].file"}};
     size_t k = 0;
     for (; lr_job_mesh_file(job, k, &file, &field); k++) {
         assert_true(k < 4);

@@ -1,10 +1,12 @@
 /*
- * assets.c: a scene's mesh files sent once as content-addressed assets
+ * assets.c: a scene's files sent once as content-addressed assets
  * (assets.h).  The scene is read with cJSON, whose printer writes each
  * number so that it reads back to the same double (%1.15g, or %1.17g when
  * that does not), so the rewritten scene renders the same pixels.
  */
 #include "assets.h"
+
+#include "lensray.h"
 
 #include <cjson/cJSON.h>
 #include <curl/curl.h>
@@ -14,6 +16,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 enum { EXIT_SCENE = 3, EXIT_IO = 4 };
 
@@ -127,94 +130,242 @@ static long request(const char *url, const char *token, const char *hex,
     return status;
 }
 
-int assets_send(const char *url, const char *token, const char *scene,
-                size_t len, const char *dir, char **out, size_t *out_len,
-                assets_stats *stats)
+/* A file the session has met: its path as read, its hash, and whether
+ * the daemons have it now (then it is never asked about again). */
+typedef struct known {
+    char *path;
+    char hex[65];
+} known;
+
+struct assets_session {
+    const char *url, *token;
+    int store;       /* 0 once the daemons said they keep no assets */
+    known *files;
+    int n, cap, uploaded;
+};
+
+assets_session *assets_open(const char *url, const char *token)
 {
-    memset(stats, 0, sizeof *stats);
-    *out = NULL;
-    cJSON *root = cJSON_ParseWithLength(scene, len);
-    if (root == NULL) {
-        fprintf(stderr, "lensray: the scene is not JSON\n");
+    assets_session *s = calloc(1, sizeof *s);
+    if (s != NULL) {
+        s->url = url;
+        s->token = token;
+        s->store = 1;
+    }
+    return s;
+}
+
+void assets_close(assets_session *s)
+{
+    if (s == NULL)
+        return;
+    for (int i = 0; i < s->n; i++)
+        free(s->files[i].path);
+    free(s->files);
+    free(s);
+}
+
+void assets_counts(const assets_session *s, int *files, int *uploaded)
+{
+    *files = s->n;
+    *uploaded = s->uploaded;
+}
+
+/* Makes sure the daemons have the file at `path` (named at `field` of
+ * `what`) and gives its hash in hex[65].  0; 1 when the daemons keep no
+ * assets (the session remembers it); or an exit status, printed. */
+static int ensure(assets_session *s, const char *path, const char *what,
+                  const char *field, char hex[65])
+{
+    for (int i = 0; i < s->n; i++)
+        if (strcmp(s->files[i].path, path) == 0) {
+            memcpy(hex, s->files[i].hex, 65);
+            return 0;
+        }
+    size_t flen = 0;
+    unsigned char *data = read_whole_file(path, &flen);
+    if (data == NULL) {
+        fprintf(stderr, "lensray: %s: %s: %s: %s\n", what, field, path,
+                strerror(errno));
         return EXIT_SCENE;
     }
-    int rc = EXIT_IO, store = 1;
-    const cJSON *objects = cJSON_GetObjectItemCaseSensitive(root, "objects");
-    int n = cJSON_IsArray(objects) ? cJSON_GetArraySize(objects) : 0;
-    for (int i = 0; i < n && store; i++) {
-        cJSON *file = cJSON_GetObjectItemCaseSensitive(
-            cJSON_GetArrayItem(objects, i), "file");
-        if (!cJSON_IsString(file) || strncmp(file->valuestring, "sha256:", 7) == 0)
-            continue;
-        stats->files++;
-        char path[4096];
-        if (file->valuestring[0] == '/')
-            snprintf(path, sizeof path, "%s", file->valuestring);
-        else
-            snprintf(path, sizeof path, "%s/%s", dir, file->valuestring);
-        size_t flen = 0;
-        unsigned char *data = read_whole_file(path, &flen);
-        if (data == NULL) {
-            fprintf(stderr, "lensray: objects[%d].file: %s: %s\n", i, path,
-                    strerror(errno));
-            rc = EXIT_SCENE;
-            goto done;
+    sha256_hex(data, flen, hex);
+    answer a;
+    int rc = EXIT_IO;
+    long status = request(s->url, s->token, hex, NULL, 0, &a);
+    /* A HEAD answer has no body, so a daemon without an asset store
+     * is told apart by the PUT's answer (404 no_asset_store). */
+    if (status == 404) {
+        status = request(s->url, s->token, hex, data, flen, &a);
+        if (status == 404 && strstr(a.text, "no_asset_store") != NULL) {
+            s->store = 0;
+            rc = 1;
+            goto out;
         }
-        char hex[65];
-        sha256_hex(data, flen, hex);
-        answer a;
-        long status = request(url, token, hex, NULL, 0, &a);
-        /* A HEAD answer has no body, so a daemon without an asset store
-         * is told apart by the PUT's answer (404 no_asset_store). */
-        if (status == 404) {
-            status = request(url, token, hex, data, flen, &a);
-            if (status == 404 && strstr(a.text, "no_asset_store") != NULL) {
-                store = 0;
-            } else if (status == 201 || status == 200) {
-                stats->uploaded++;
-            } else {
-                fprintf(stderr, "lensray: objects[%d].file: sending %s as "
-                                "asset sha256:%s failed: %s%s\n",
-                        i, path, hex, status < 0 ? "" : "HTTP ",
-                        status < 0 ? a.text : a.text[0] ? a.text : "?");
-                free(data);
-                goto done;
-            }
-        } else if (status != 200) {
-            fprintf(stderr, "lensray: asking %s for asset sha256:%s failed: "
-                            "%s (HTTP %ld)\n", url, hex, a.text, status);
-            free(data);
-            goto done;
+        if (status != 201 && status != 200) {
+            fprintf(stderr, "lensray: %s: %s: sending %s as asset sha256:%s "
+                            "failed: %s%s\n",
+                    what, field, path, hex, status < 0 ? "" : "HTTP ",
+                    status < 0 ? a.text : a.text[0] ? a.text : "?");
+            goto out;
         }
-        free(data);
-        if (store) {
-            char ref[80];
-            snprintf(ref, sizeof ref, "sha256:%s", hex);
-            if (cJSON_SetValuestring(file, ref) == NULL) {
-                fprintf(stderr, "lensray: out of memory\n");
-                goto done;
-            }
-        }
+        s->uploaded++;
+    } else if (status != 200) {
+        fprintf(stderr, "lensray: asking %s for asset sha256:%s failed: "
+                        "%s (HTTP %ld)\n", s->url, hex, a.text, status);
+        goto out;
     }
-    if (!store || stats->files == 0) {
-        *out = malloc(len + 1);
-        if (*out == NULL) {
-            fprintf(stderr, "lensray: out of memory\n");
-            goto done;
-        }
-        memcpy(*out, scene, len);
-        (*out)[len] = '\0';
-        *out_len = len;
+    if (s->n == s->cap) {
+        int cap = s->cap ? 2 * s->cap : 8;
+        known *grown = realloc(s->files, (size_t)cap * sizeof *grown);
+        if (grown == NULL)
+            goto oom;
+        s->files = grown;
+        s->cap = cap;
+    }
+    s->files[s->n].path = strdup(path);
+    if (s->files[s->n].path == NULL)
+        goto oom;
+    memcpy(s->files[s->n].hex, hex, 65);
+    s->n++;
+    rc = 0;
+    goto out;
+oom:
+    fprintf(stderr, "lensray: out of memory\n");
+out:
+    free(data);
+    return rc;
+}
+
+/* `ref` relative to dir (or absolute), in out. */
+static void joined(const char *dir, const char *ref, char *out, size_t size)
+{
+    if (ref[0] == '/')
+        snprintf(out, size, "%s", ref);
+    else
+        snprintf(out, size, "%s/%s", dir, ref);
+}
+
+static int is_file(const char *path)
+{
+    struct stat st;
+    return stat(path, &st) == 0 && S_ISREG(st.st_mode);
+}
+
+/* Sends the file `node` names and makes it "sha256:HEX"; 0, 1 (no asset
+ * store) or an exit status. */
+static int send_ref(assets_session *s, cJSON *node, const char *dir,
+                    const char *what, const char *field)
+{
+    char path[4096], hex[65], ref[80];
+    joined(dir, node->valuestring, path, sizeof path);
+    int rc = ensure(s, path, what, field, hex);
+    if (rc != 0)
+        return rc;
+    snprintf(ref, sizeof ref, "sha256:%s", hex);
+    if (cJSON_SetValuestring(node, ref) == NULL) {
+        fprintf(stderr, "lensray: out of memory\n");
+        return EXIT_IO;
+    }
+    return 0;
+}
+
+/* A lens that is a file beside the scene (not a shipped lens's name nor
+ * an inline prescription) is sent like any file. */
+static int send_lens(assets_session *s, cJSON *camera, const char *dir,
+                     const char *what, const char *field)
+{
+    cJSON *lens = cJSON_GetObjectItemCaseSensitive(camera, "lens");
+    char path[4096];
+    if (!cJSON_IsString(lens) || strncmp(lens->valuestring, "sha256:", 7) == 0)
+        return 0;
+    joined(dir, lens->valuestring, path, sizeof path);
+    return is_file(path) ? send_ref(s, lens, dir, what, field) : 0;
+}
+
+/* Every string under a file key, wherever it stands in the scene (the
+ * library's rule, lr_scene_file_key), with its JSON path for messages. */
+static int send_files(assets_session *s, cJSON *node, const char *path,
+                      const char *dir, const char *what)
+{
+    int i = 0;
+    for (cJSON *c = node->child; c != NULL && s->store; c = c->next, i++) {
+        char p[512];
+        if (cJSON_IsArray(node))
+            snprintf(p, sizeof p, "%s[%d]", path, i);
+        else
+            snprintf(p, sizeof p, "%s%s%s", path, path[0] ? "." : "",
+                     c->string);
+        int rc = 0;
+        if (cJSON_IsString(c) && c->string != NULL &&
+            lr_scene_file_key(c->string) && c->valuestring[0] != '\0' &&
+            strncmp(c->valuestring, "sha256:", 7) != 0)
+            rc = send_ref(s, c, dir, what, p);
+        else if (cJSON_IsObject(c) || cJSON_IsArray(c))
+            rc = send_files(s, c, p, dir, what);
+        if (rc != 0)
+            return rc;
+    }
+    return 0;
+}
+
+static char *copy_text(const char *text, size_t len)
+{
+    char *out = malloc(len + 1);
+    if (out != NULL) {
+        memcpy(out, text, len);
+        out[len] = '\0';
+    }
+    return out;
+}
+
+int assets_prepare(assets_session *s, const char *scene, size_t len,
+                   const char *cam_json, const char *dir, const char *what,
+                   char **scene_out, size_t *scene_out_len, char **cam_out)
+{
+    *scene_out = NULL;
+    *cam_out = NULL;
+    cJSON *root = cJSON_ParseWithLength(scene, len);
+    cJSON *cam = cJSON_Parse(cam_json);
+    int rc = EXIT_IO;
+    if (root == NULL) {
+        fprintf(stderr, "lensray: %s: the scene is not JSON\n", what);
+        rc = EXIT_SCENE;
+        goto done;
+    }
+    if (cam == NULL)
+        goto oom;
+    rc = 0;
+    if (s->store)
+        rc = send_files(s, root, "", dir, what);
+    if (rc == 0 && s->store)
+        rc = send_lens(s, cJSON_GetObjectItemCaseSensitive(root, "camera"),
+                       dir, what, "camera.lens");
+    if (rc == 0 && s->store)
+        rc = send_lens(s, cam, dir, what, "camera.lens");
+    if (rc > 1)
+        goto done;
+    if (!s->store) {
+        /* The daemons read the files from their scenes directory. */
+        *scene_out = copy_text(scene, len);
+        *cam_out = copy_text(cam_json, strlen(cam_json));
+        *scene_out_len = len;
     } else {
-        *out = cJSON_PrintUnformatted(root);
-        if (*out == NULL) {
-            fprintf(stderr, "lensray: out of memory\n");
-            goto done;
-        }
-        *out_len = strlen(*out);
+        *scene_out = cJSON_PrintUnformatted(root);
+        *cam_out = cJSON_PrintUnformatted(cam);
+        *scene_out_len = *scene_out ? strlen(*scene_out) : 0;
     }
     rc = 0;
+    if (*scene_out != NULL && *cam_out != NULL)
+        goto done;
+oom:
+    fprintf(stderr, "lensray: out of memory\n");
+    rc = EXIT_IO;
+    free(*scene_out);
+    free(*cam_out);
+    *scene_out = *cam_out = NULL;
 done:
     cJSON_Delete(root);
+    cJSON_Delete(cam);
     return rc;
 }

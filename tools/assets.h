@@ -1,34 +1,46 @@
 /*
- * assets.h: before a --remote render, the scene's mesh files go to the
- * daemons as content-addressed assets (PUT /v1/assets/{sha256}, only
- * those a HEAD says are missing), and the scene sent names them as
- * "sha256:HEX" (docs/api.md, Assets).
+ * assets.h: before a --remote render, the files a scene names (meshes,
+ * the environment map, a lens file, textures: every key the library
+ * reads a file from, lr_scene_file_key, and camera.lens when it is a
+ * file) go to the daemons as content-addressed assets (PUT
+ * /v1/assets/{sha256}, only those a HEAD says are missing), and the
+ * scene sent names them as "sha256:HEX" (docs/api.md, Assets).
  */
 #ifndef LENSRAY_ASSETS_H
 #define LENSRAY_ASSETS_H
 
 #include <stddef.h>
 
-typedef struct assets_stats {
-    int files;    /* mesh files the scene names */
-    int uploaded; /* of them, sent because the daemons lacked them */
-} assets_stats;
-
-/* Reads the scene text scene[0 .. len), whose relative mesh paths are
- * relative to `dir`, and for each objects[i].file: hashes the file, asks
- * url whether it has that asset and sends it if not.  *out gets the scene
- * text with each file replaced by "sha256:HEX" (malloc'ed, *out_len
- * bytes; free it with free()), or a copy of the text when the daemons
- * keep no assets (404 no_asset_store: their scenes directory must hold
- * the meshes).  Returns 0, or the CLI's exit status 3 (the scene or a
- * file cannot be read) or 4 (the daemons refused or could not be
- * reached), with the reason printed. */
 /* The whole file at `path` (*len bytes), malloc'ed (free with free()),
  * or NULL with errno set. */
 unsigned char *read_whole_file(const char *path, size_t *len);
 
-int assets_send(const char *url, const char *token, const char *scene,
-                size_t len, const char *dir, char **out, size_t *out_len,
-                assets_stats *stats);
+/* What one batch sends: the files it has hashed, whether the daemons keep
+ * assets at all.  A file named by several frames is read, hashed and
+ * asked about once. */
+typedef struct assets_session assets_session;
+
+/* A session for the daemons at url (bearer token or NULL); NULL when out
+ * of memory.  Free with assets_close (NULL is a no-op). */
+assets_session *assets_open(const char *url, const char *token);
+void assets_close(assets_session *s);
+
+/* Distinct files the session's scenes named, and how many of them were
+ * sent because the daemons lacked them. */
+void assets_counts(const assets_session *s, int *files, int *uploaded);
+
+/* Reads the scene text scene[0 .. len), whose relative paths are relative
+ * to `dir`, and the camera JSON `cam_json` (lr_camera_json), and for each
+ * file either names: hashes it, asks the daemons whether they have that
+ * asset and sends it if not.  *scene_out and *cam_out get the texts with
+ * each file replaced by "sha256:HEX" (malloc'ed, NUL-terminated; free
+ * them with free()), or copies when the daemons keep no assets (404
+ * no_asset_store: their scenes directory must hold the files).  `what`
+ * starts each message (the scene's path).  Returns 0, or the CLI's exit
+ * status 3 (the scene or a file cannot be read) or 4 (the daemons
+ * refused or could not be reached), with the reason printed. */
+int assets_prepare(assets_session *s, const char *scene, size_t len,
+                   const char *cam_json, const char *dir, const char *what,
+                   char **scene_out, size_t *scene_out_len, char **cam_out);
 
 #endif

@@ -1,7 +1,8 @@
 /*
  * lensray: the command-line tool.  A thin client of lensray.h:
  *
- *   lensray render SCENE.json -o OUT.exr|OUT.png [--set PATH=VALUE]...
+ *   lensray render SCENE.json... -o OUT.exr|OUT.png|OUT-%04d.exr
+ *                  [--set PATH=VALUE]...
  *                  [--stats] [--half] [--png16] [--depth] [--quiet]
  *                  [--remote URL [--parts N] [--parallel K] [--retries R]
  *                   [--token-file F]]
@@ -12,6 +13,7 @@
  */
 #include "lensray.h"
 #include "assets.h"
+#include "outname.h"
 #include "remote.h"
 
 #include <errno.h>
@@ -26,14 +28,16 @@ enum { EXIT_OK = 0, EXIT_USAGE = 2, EXIT_SCENE = 3, EXIT_IO = 4,
        EXIT_INTERRUPTED = 130 };
 
 static const char usage_text[] =
-    "usage: lensray render SCENE.json -o OUT.exr|OUT.png [options]\n"
+    "usage: lensray render SCENE.json... -o OUT.exr|OUT.png [options]\n"
     "       lensray lens FILE|NAME [--field-angles A,B,...] [--wavelength NM]\n"
     "       lensray version\n"
     "       lensray --help\n"
     "\n"
     "render options:\n"
     "  -o, --output FILE   image to write; the format follows the extension\n"
-    "                      (.exr: linear float, .png: 8-bit sRGB)\n"
+    "                      (.exr: linear float, .png: 8-bit sRGB); with\n"
+    "                      several scenes (frames), a name with a frame\n"
+    "                      number, %d or %04d: the scene's place, from 1\n"
     "  --set PATH=VALUE    override a scene value by its JSON path, e.g.\n"
     "                      --set camera.fov=30 --set render.spp=64\n"
     "                      --set 'objects[1].radius=0.5' (VALUE is JSON,\n"
@@ -48,8 +52,9 @@ static const char usage_text[] =
     "rendering on daemons (docs/deploy.md):\n"
     "  --remote URL        render on lensrayd at URL (one daemon, or many\n"
     "                      behind a balancer) as region parts, stitched into\n"
-    "                      the same pixels as a local render; the scene's\n"
-    "                      meshes are read from the daemons' scenes directory\n"
+    "                      the same pixels as a local render; the files the\n"
+    "                      scene names are sent to daemons that lack them;\n"
+    "                      several scenes are one queue of parts\n"
     "  --parts N           parts to cut the frame into (default 16)\n"
     "  --parallel K        parts sent at a time (default 4)\n"
     "  --retries R         further attempts of a failed part (default 4)\n"
@@ -197,250 +202,84 @@ static int write_image(const lr_image *img, const char *path,
     return exit_for(st) == EXIT_SCENE ? EXIT_IO : exit_for(st);
 }
 
-/* --remote: the frame on the daemons (tools/remote.c); the exit status.
- * With --stats, one JSON line of what it took. */
-static int render_remote(const remote_options *ro, const char *scene_path,
-                         const lr_camera *cam, const lr_render_settings *rs,
-                         lr_image **img, int stats)
+/* What `lensray render` was asked, once its arguments are read. */
+typedef struct render_job {
+    const char **scenes;   /* the scene files, in order */
+    int n_scenes;
+    const char *out;       /* the output, or a pattern with a frame number */
+    int numbered;          /* out holds a frame number (outname.h) */
+    const char **sets;
+    size_t n_sets;
+    int stats, quiet, want_depth;
+    lr_output_options oo;
+    lr_format fmt;
+    remote_options ro;
+} render_job;
+
+/* The output file of frame i (from 0). */
+static void frame_out(const render_job *r, int i, char *out, size_t size)
 {
-    size_t len;
-    char *text = (char *)read_whole_file(scene_path, &len);
-    if (text == NULL) {
-        fprintf(stderr, "lensray: %s: %s\n", scene_path, strerror(errno));
-        return EXIT_IO;
-    }
-    /* Mesh paths are relative to the scene file's directory. */
-    char dir[4096];
-    dir_of(scene_path, dir, sizeof dir);
-    remote_options o = *ro;
-    o.scene_dir = dir;
-    remote_stats st;
-    int rc = remote_render(&o, text, len, cam, rs, img, &st);
-    free(text);
-    if (rc == EXIT_OK && stats)
-        printf("{\"remote\": true, \"seconds\": %.3f, \"parts\": %d, "
-               "\"requests\": %d, \"retries\": %d, \"assets\": %d, "
-               "\"uploaded\": %d}\n",
-               st.seconds, st.parts, st.attempts, st.retries, st.assets,
-               st.uploaded);
-    return rc;
+    if (!r->numbered || outname_frame(r->out, i + 1, out, size) != 0)
+        snprintf(out, size, "%s", r->out);
 }
 
-static int cmd_render(int argc, char **argv)
+/* The scene at `path` with the --set overrides; its camera and settings
+ * as this render uses them.  0, or an exit status, printed. */
+static int load_scene(const render_job *r, const char *path, lr_scene **scene,
+                      lr_camera *cam, lr_render_settings *rs,
+                      const char *out_path)
 {
-    const char *scene_path = NULL, *out_path = NULL;
-    int stats = 0, quiet = 0, want_depth = 0;
-    lr_output_options oo;
-    lr_output_options_default(&oo);
-    remote_options ro = {NULL, NULL, 16, 4, 4, 0, &cancel_flag, NULL};
-    const char *token_file = NULL, *remote_flag = NULL;
-    char token[512];
-    const char **sets = calloc((size_t)argc, sizeof *sets);
-    size_t n_sets = 0;
-    if (sets == NULL) {
-        fprintf(stderr, "lensray: out of memory\n");
-        return EXIT_IO;
-    }
-    int rc = EXIT_OK;
-    for (int i = 0; i < argc; i++) {
-        const char *a = argv[i];
-        if (strcmp(a, "-o") == 0 || strcmp(a, "--output") == 0) {
-            if (i + 1 >= argc) {
-                rc = usage_error("%s needs a file name", a);
-                goto done;
-            }
-            out_path = argv[++i];
-        } else if (strcmp(a, "--set") == 0) {
-            if (i + 1 >= argc) {
-                rc = usage_error("%s needs PATH=VALUE", a);
-                goto done;
-            }
-            sets[n_sets++] = argv[++i];
-        } else if (strncmp(a, "--set=", 6) == 0) {
-            sets[n_sets++] = a + 6;
-        } else if (strcmp(a, "--stats") == 0) {
-            stats = 1;
-        } else if (strcmp(a, "--half") == 0) {
-            oo.exr_half = 1;
-        } else if (strcmp(a, "--png16") == 0) {
-            oo.png_16bit = 1;
-        } else if (strcmp(a, "--depth") == 0) {
-            want_depth = 1;
-        } else if (strcmp(a, "-q") == 0 || strcmp(a, "--quiet") == 0) {
-            quiet = 1;
-        } else if (strcmp(a, "--remote") == 0 ||
-                   strcmp(a, "--token-file") == 0) {
-            if (i + 1 >= argc) {
-                rc = usage_error("%s needs a value", a);
-                goto done;
-            }
-            if (a[2] == 'r')
-                ro.url = argv[++i];
-            else
-                token_file = argv[++i];
-        } else if (strcmp(a, "--parts") == 0 ||
-                   strcmp(a, "--parallel") == 0 ||
-                   strcmp(a, "--retries") == 0) {
-            int *dst = strcmp(a, "--parts") == 0      ? &ro.parts
-                       : strcmp(a, "--parallel") == 0 ? &ro.parallel
-                                                      : &ro.retries;
-            int lo = dst == &ro.retries ? 0 : 1;
-            if (i + 1 >= argc || parse_int(argv[i + 1], lo, 100000, dst) != 0) {
-                char what[64];
-                snprintf(what, sizeof what, "%s needs a whole number from %d "
-                         "to 100000", a, lo);
-                rc = usage_error("%s", what);
-                goto done;
-            }
-            i++;
-            remote_flag = a;
-        } else if (a[0] == '-' && a[1] != '\0') {
-            rc = usage_error("unknown option '%s'", a);
-            goto done;
-        } else if (scene_path == NULL) {
-            scene_path = a;
-        } else {
-            rc = usage_error("unexpected argument '%s'", a);
-            goto done;
-        }
-    }
-    if (scene_path == NULL) {
-        rc = usage_error("%s", "render needs a scene file");
-        goto done;
-    }
-    if (out_path == NULL) {
-        rc = usage_error("%s", "render needs an output file: -o OUT.exr or "
-                               "-o OUT.png");
-        goto done;
-    }
-    for (size_t i = 0; i < n_sets; i++) {
-        if (strchr(sets[i], '=') == NULL) {
-            rc = usage_error("--set '%s' must look like PATH=VALUE", sets[i]);
-            goto done;
-        }
-        /* The daemons get the scene file as it is, with the camera and
-         * settings as this process reads them: other overrides would not
-         * reach them. */
-        if (ro.url != NULL && strncmp(sets[i], "camera.", 7) != 0 &&
-            strncmp(sets[i], "render.", 7) != 0) {
-            rc = usage_error("--set '%s': with --remote only camera.* and "
-                             "render.* can be overridden", sets[i]);
-            goto done;
-        }
-    }
-    if (ro.url == NULL && (token_file != NULL || remote_flag != NULL)) {
-        rc = usage_error("%s is for --remote",
-                         token_file != NULL ? "--token-file" : remote_flag);
-        goto done;
-    }
-    if (token_file != NULL) {
-        if (read_token(token_file, token, sizeof token) != 0) {
-            rc = EXIT_IO;
-            goto done;
-        }
-        ro.token = token;
-    }
-
-    /* Check the output name before rendering, so that a long render is
-     * never thrown away for want of a valid file name. */
     lr_error err;
-    lr_format fmt;
-    if (lr_format_from_path(out_path, &fmt, &err) != LR_OK) {
-        rc = usage_error("%s", err.message);
-        goto done;
-    }
-    /* The format's options by the library's rules (lr_output), so that
-     * --half with a .png, say, is refused rather than ignored. */
-    if (oo.exr_half || oo.png_16bit) {
-        char spec[128];
-        lr_output out;
-        lr_output_default(&out);
-        snprintf(spec, sizeof spec, "{\"format\": \"%s\"%s%s}",
-                 lr_format_name(fmt), oo.exr_half ? ", \"half\": true" : "",
-                 oo.png_16bit ? ", \"bit_depth\": 16" : "");
-        if (lr_output_apply_json(&out, spec, strlen(spec), &err) != LR_OK) {
-            char msg[sizeof err.message + 32];
-            snprintf(msg, sizeof msg, "%s: %s",
-                     strcmp(err.path, "output.half") == 0 ? "--half"
-                                                          : "--png16",
-                     err.message);
-            rc = usage_error("%s", msg);
-            goto done;
-        }
-    }
-    if (want_depth && !lr_format_has_depth(fmt)) {
-        rc = usage_error("--depth needs an output that can hold a Z "
-                         "channel, such as .exr (%s has none)",
-                         lr_format_name(fmt));
-        goto done;
-    }
-    {
-        char dir[4096];
-        dir_of(out_path, dir, sizeof dir);
-        if (access(dir, W_OK) != 0) {
-            fprintf(stderr, "lensray: cannot write to %s: %s\n", dir,
-                    strerror(errno));
-            rc = EXIT_IO;
-            goto done;
-        }
-    }
-
-    lr_scene *scene = NULL;
-    lr_status st = lr_scene_load_file(scene_path, sets, n_sets, &scene, &err);
+    lr_status st = lr_scene_load_file(path, r->sets, r->n_sets, scene, &err);
     if (st != LR_OK) {
         fprintf(stderr, "lensray: %s\n", err.message);
-        rc = exit_for(st);
-        goto done;
+        return exit_for(st);
     }
-    lr_camera cam;
-    lr_render_settings rs;
-    lr_scene_camera(scene, &cam);
-    lr_scene_settings(scene, &rs);
-    if (want_depth)
-        rs.want_depth = 1;
-    if (rs.want_depth && !lr_format_has_depth(fmt)) {
+    lr_scene_camera(*scene, cam);
+    lr_scene_settings(*scene, rs);
+    if (r->want_depth)
+        rs->want_depth = 1;
+    if (rs->want_depth && !lr_format_has_depth(r->fmt)) {
         /* The scene asks for Z but the output cannot hold it: say so
          * rather than drop it silently, and skip the work. */
         fprintf(stderr, "lensray: warning: render.depth is set but %s has no "
                         "Z channel; write an .exr to keep it\n",
                 out_path);
-        rs.want_depth = 0;
+        rs->want_depth = 0;
     }
+    return EXIT_OK;
+}
+
+/* One scene rendered here into out_path; the exit status. */
+static int render_local(const render_job *r, const char *scene_path,
+                        const char *out_path)
+{
+    lr_scene *scene = NULL;
+    lr_camera cam;
+    lr_render_settings rs;
+    int rc = load_scene(r, scene_path, &scene, &cam, &rs, out_path);
+    if (rc != EXIT_OK)
+        return rc;
     progress prog = {now(), 0.0};
-    if (!quiet && isatty(STDERR_FILENO)) {
+    if (!r->quiet && isatty(STDERR_FILENO)) {
         rs.progress = on_progress;
         rs.progress_user = &prog;
     }
     rs.cancel = &cancel_flag;
-    signal(SIGINT, on_signal);
-    signal(SIGTERM, on_signal);
-
     lr_image *img = NULL;
     lr_render_stats rst;
     memset(&rst, 0, sizeof rst);
-    if (ro.url != NULL) {
-        ro.quiet = quiet;
-        rc = render_remote(&ro, scene_path, &cam, &rs, &img, stats);
-        if (rc == EXIT_OK)
-            rc = write_image(img, out_path, &oo);
-        lr_image_free(img);
-        lr_scene_free(scene);
-        goto done;
-    }
-    st = lr_render(scene, &cam, &rs, &img, &rst, &err);
+    lr_error err;
+    lr_status st = lr_render(scene, &cam, &rs, &img, &rst, &err);
     if (st != LR_OK) {
         /* End the progress bar's line first, if there is one. */
         fprintf(stderr, "%slensray: %s\n", rs.progress ? "\n" : "",
                 err.message);
-        rc = exit_for(st);
         lr_scene_free(scene);
-        goto done;
+        return exit_for(st);
     }
-    st = lr_image_write(img, out_path, &oo, &err);
-    if (st != LR_OK) {
-        fprintf(stderr, "lensray: %s\n", err.message);
-        rc = exit_for(st) == EXIT_SCENE ? EXIT_IO : exit_for(st);
-    } else if (stats) {
+    rc = write_image(img, out_path, &r->oo);
+    if (rc == EXIT_OK && r->stats) {
         /* The library's stats JSON, with this process's peak memory (which
          * only the CLI can know) as the first member. */
         char *json = lr_render_stats_json(&rst, &rs, scene);
@@ -458,8 +297,296 @@ static int cmd_render(int argc, char **argv)
                 (unsigned long long)rst.nan_samples);
     lr_image_free(img);
     lr_scene_free(scene);
+    return rc;
+}
+
+/* remote_render's callback: frame k of `frames` is done; writes it. */
+typedef struct remote_out {
+    const render_job *r;
+    const int *number;     /* each frame's place among the scenes */
+} remote_out;
+
+static int write_frame(void *user, int k, lr_image *img)
+{
+    const remote_out *w = user;
+    char out_path[4096];
+    frame_out(w->r, w->number[k], out_path, sizeof out_path);
+    int rc = write_image(img, out_path, &w->r->oo);
+    lr_image_free(img);
+    return rc;
+}
+
+/* --remote: every scene's frame on the daemons, as one batch of parts
+ * (tools/remote.c); a scene that cannot be read fails alone.  The exit
+ * status: 0, or the first failure's.  With --stats, one JSON line of
+ * what it took. */
+static int render_remote(const render_job *r)
+{
+    remote_frame *frames = calloc((size_t)r->n_scenes, sizeof *frames);
+    int *number = calloc((size_t)r->n_scenes, sizeof *number);
+    char (*dirs)[4096] = NULL;
+    int n = 0, rc = EXIT_OK;
+    if (frames == NULL || number == NULL) {
+        fprintf(stderr, "lensray: out of memory\n");
+        rc = EXIT_IO;
+        goto done;
+    }
+    dirs = calloc((size_t)r->n_scenes, sizeof *dirs);
+    if (dirs == NULL) {
+        fprintf(stderr, "lensray: out of memory\n");
+        rc = EXIT_IO;
+        goto done;
+    }
+    for (int i = 0; i < r->n_scenes; i++) {
+        remote_frame *f = &frames[n];
+        char out_path[4096];
+        frame_out(r, i, out_path, sizeof out_path);
+        lr_scene *scene = NULL;
+        int frc = load_scene(r, r->scenes[i], &scene, &f->cam, &f->rs,
+                             out_path);
+        /* The scene is read here only for its camera and settings. */
+        lr_scene_free(scene);
+        size_t len = 0;
+        char *text = NULL;
+        if (frc == EXIT_OK) {
+            text = (char *)read_whole_file(r->scenes[i], &len);
+            if (text == NULL) {
+                fprintf(stderr, "lensray: %s: %s\n", r->scenes[i],
+                        strerror(errno));
+                frc = EXIT_IO;
+            }
+        }
+        if (frc != EXIT_OK) {
+            if (rc == EXIT_OK)
+                rc = frc;
+            continue;
+        }
+        f->scene_path = r->scenes[i];
+        /* Its files are relative to the scene file's directory. */
+        dir_of(r->scenes[i], dirs[n], sizeof dirs[n]);
+        f->scene_dir = dirs[n];
+        f->scene = text;
+        f->len = len;
+        number[n++] = i;
+    }
+    remote_out w = {r, number};
+    remote_stats st;
+    memset(&st, 0, sizeof st);
+    int rrc = n > 0 ? remote_render(&r->ro, frames, n, write_frame, &w, &st)
+                    : EXIT_OK;
+    if (rc == EXIT_OK)
+        rc = rrc;
+    if (r->n_scenes > 1 && rc != EXIT_OK && rrc != EXIT_INTERRUPTED)
+        fprintf(stderr, "lensray: %d of %d frames written, %d failed\n",
+                st.frames, r->n_scenes, r->n_scenes - st.frames);
+    if (r->stats && rrc != EXIT_INTERRUPTED)
+        printf("{\"remote\": true, \"seconds\": %.3f, \"frames\": %d, "
+               "\"failed\": %d, \"parts\": %d, \"requests\": %d, "
+               "\"retries\": %d, \"assets\": %d, \"uploaded\": %d}\n",
+               st.seconds, st.frames, r->n_scenes - st.frames, st.parts,
+               st.attempts, st.retries, st.assets, st.uploaded);
 done:
-    free(sets);
+    for (int i = 0; frames != NULL && i < n; i++)
+        free((char *)frames[i].scene);
+    free(frames);
+    free(number);
+    free(dirs);
+    return rc;
+}
+
+static int cmd_render(int argc, char **argv)
+{
+    render_job r;
+    memset(&r, 0, sizeof r);
+    lr_output_options_default(&r.oo);
+    r.ro = (remote_options){NULL, NULL, 16, 4, 4, 0, &cancel_flag};
+    const char *token_file = NULL, *remote_flag = NULL;
+    char token[512];
+    r.sets = calloc((size_t)argc + 1, sizeof *r.sets);
+    r.scenes = calloc((size_t)argc + 1, sizeof *r.scenes);
+    if (r.sets == NULL || r.scenes == NULL) {
+        fprintf(stderr, "lensray: out of memory\n");
+        free(r.sets);
+        free(r.scenes);
+        return EXIT_IO;
+    }
+    int rc = EXIT_OK;
+    for (int i = 0; i < argc; i++) {
+        const char *a = argv[i];
+        if (strcmp(a, "-o") == 0 || strcmp(a, "--output") == 0) {
+            if (i + 1 >= argc) {
+                rc = usage_error("%s needs a file name", a);
+                goto done;
+            }
+            r.out = argv[++i];
+        } else if (strcmp(a, "--set") == 0) {
+            if (i + 1 >= argc) {
+                rc = usage_error("%s needs PATH=VALUE", a);
+                goto done;
+            }
+            r.sets[r.n_sets++] = argv[++i];
+        } else if (strncmp(a, "--set=", 6) == 0) {
+            r.sets[r.n_sets++] = a + 6;
+        } else if (strcmp(a, "--stats") == 0) {
+            r.stats = 1;
+        } else if (strcmp(a, "--half") == 0) {
+            r.oo.exr_half = 1;
+        } else if (strcmp(a, "--png16") == 0) {
+            r.oo.png_16bit = 1;
+        } else if (strcmp(a, "--depth") == 0) {
+            r.want_depth = 1;
+        } else if (strcmp(a, "-q") == 0 || strcmp(a, "--quiet") == 0) {
+            r.quiet = 1;
+        } else if (strcmp(a, "--remote") == 0 ||
+                   strcmp(a, "--token-file") == 0) {
+            if (i + 1 >= argc) {
+                rc = usage_error("%s needs a value", a);
+                goto done;
+            }
+            if (a[2] == 'r')
+                r.ro.url = argv[++i];
+            else
+                token_file = argv[++i];
+        } else if (strcmp(a, "--parts") == 0 ||
+                   strcmp(a, "--parallel") == 0 ||
+                   strcmp(a, "--retries") == 0) {
+            int *dst = strcmp(a, "--parts") == 0      ? &r.ro.parts
+                       : strcmp(a, "--parallel") == 0 ? &r.ro.parallel
+                                                      : &r.ro.retries;
+            int lo = dst == &r.ro.retries ? 0 : 1;
+            if (i + 1 >= argc || parse_int(argv[i + 1], lo, 100000, dst) != 0) {
+                char what[64];
+                snprintf(what, sizeof what, "%s needs a whole number from %d "
+                         "to 100000", a, lo);
+                rc = usage_error("%s", what);
+                goto done;
+            }
+            i++;
+            remote_flag = a;
+        } else if (a[0] == '-' && a[1] != '\0') {
+            rc = usage_error("unknown option '%s'", a);
+            goto done;
+        } else {
+            r.scenes[r.n_scenes++] = a;
+        }
+    }
+    if (r.n_scenes == 0) {
+        rc = usage_error("%s", "render needs a scene file");
+        goto done;
+    }
+    if (r.out == NULL) {
+        rc = usage_error("%s", "render needs an output file: -o OUT.exr or "
+                               "-o OUT.png");
+        goto done;
+    }
+    r.numbered = outname_check(r.out) == 1;
+    if (r.n_scenes > 1 && !r.numbered) {
+        rc = usage_error("-o '%s': several scenes need an output name with "
+                         "one frame number, such as -o out-%%04d.exr",
+                         r.out);
+        goto done;
+    }
+    for (size_t i = 0; i < r.n_sets; i++) {
+        if (strchr(r.sets[i], '=') == NULL) {
+            rc = usage_error("--set '%s' must look like PATH=VALUE", r.sets[i]);
+            goto done;
+        }
+        /* The daemons get the scene file as it is, with the camera and
+         * settings as this process reads them: other overrides would not
+         * reach them. */
+        if (r.ro.url != NULL && strncmp(r.sets[i], "camera.", 7) != 0 &&
+            strncmp(r.sets[i], "render.", 7) != 0) {
+            rc = usage_error("--set '%s': with --remote only camera.* and "
+                             "render.* can be overridden", r.sets[i]);
+            goto done;
+        }
+    }
+    if (r.ro.url == NULL && (token_file != NULL || remote_flag != NULL)) {
+        rc = usage_error("%s is for --remote",
+                         token_file != NULL ? "--token-file" : remote_flag);
+        goto done;
+    }
+    if (token_file != NULL) {
+        if (read_token(token_file, token, sizeof token) != 0) {
+            rc = EXIT_IO;
+            goto done;
+        }
+        r.ro.token = token;
+    }
+
+    /* Check the output names before rendering, so that a long render is
+     * never thrown away for want of a valid file name. */
+    lr_error err;
+    if (lr_format_from_path(r.out, &r.fmt, &err) != LR_OK) {
+        rc = usage_error("%s", err.message);
+        goto done;
+    }
+    /* The format's options by the library's rules (lr_output), so that
+     * --half with a .png, say, is refused rather than ignored. */
+    if (r.oo.exr_half || r.oo.png_16bit) {
+        char spec[128];
+        lr_output out;
+        lr_output_default(&out);
+        snprintf(spec, sizeof spec, "{\"format\": \"%s\"%s%s}",
+                 lr_format_name(r.fmt), r.oo.exr_half ? ", \"half\": true" : "",
+                 r.oo.png_16bit ? ", \"bit_depth\": 16" : "");
+        if (lr_output_apply_json(&out, spec, strlen(spec), &err) != LR_OK) {
+            char msg[sizeof err.message + 32];
+            snprintf(msg, sizeof msg, "%s: %s",
+                     strcmp(err.path, "output.half") == 0 ? "--half"
+                                                          : "--png16",
+                     err.message);
+            rc = usage_error("%s", msg);
+            goto done;
+        }
+    }
+    if (r.want_depth && !lr_format_has_depth(r.fmt)) {
+        rc = usage_error("--depth needs an output that can hold a Z "
+                         "channel, such as .exr (%s has none)",
+                         lr_format_name(r.fmt));
+        goto done;
+    }
+    for (int i = 0; i < r.n_scenes; i++) {
+        char out_path[4096], dir[4096];
+        frame_out(&r, i, out_path, sizeof out_path);
+        dir_of(out_path, dir, sizeof dir);
+        if (access(dir, W_OK) != 0) {
+            fprintf(stderr, "lensray: cannot write to %s: %s\n", dir,
+                    strerror(errno));
+            rc = EXIT_IO;
+            goto done;
+        }
+    }
+
+    signal(SIGINT, on_signal);
+    signal(SIGTERM, on_signal);
+    if (r.ro.url != NULL) {
+        r.ro.quiet = r.quiet;
+        rc = render_remote(&r);
+        goto done;
+    }
+    /* Here, one scene after another; one that fails does not stop the
+     * others, and the exit status is the first failure's. */
+    int written = 0;
+    for (int i = 0; i < r.n_scenes && !cancel_flag; i++) {
+        char out_path[4096];
+        frame_out(&r, i, out_path, sizeof out_path);
+        int frc = render_local(&r, r.scenes[i], out_path);
+        written += frc == EXIT_OK;
+        if (frc != EXIT_OK && rc == EXIT_OK)
+            rc = frc;
+        if (frc != EXIT_OK && r.n_scenes > 1)
+            fprintf(stderr, "lensray: frame %d/%d (%s) failed\n", i + 1,
+                    r.n_scenes, r.scenes[i]);
+    }
+    if (cancel_flag)
+        rc = EXIT_INTERRUPTED;
+    else if (r.n_scenes > 1 && rc != EXIT_OK)
+        fprintf(stderr, "lensray: %d of %d frames written, %d failed\n",
+                written, r.n_scenes, r.n_scenes - written);
+done:
+    free(r.sets);
+    free(r.scenes);
     return rc;
 }
 

@@ -1,10 +1,12 @@
 /*
- * remote.c: a frame as region parts on lensrayd daemons (remote.h).
+ * remote.c: frames as region parts on lensrayd daemons (remote.h).
  *
- * The frame (or the scene's own render.region) is cut into bands of rows,
- * the parts.  Parts run o->parallel at a time through one libcurl multi
- * handle; each answer, a float32 EXR, is placed straight into the frame
- * (exr_crop.c).  Because every pixel's samples depend only on (pixel,
+ * Each frame (or the scene's own render.region) is cut into bands of
+ * rows, the parts.  The parts of all frames form one queue, sent in frame
+ * order o->parallel at a time through one libcurl multi handle, so the
+ * daemons never wait for a frame's last part before the next frame
+ * starts; a frame's image exists from its first part to its last.  Each
+ * answer, a float32 EXR, is placed straight into its frame (exr_crop.c).  Because every pixel's samples depend only on (pixel,
  * sample, dimension, seed), a part's pixels are those of the whole
  * render (docs/architecture.md, "Rules that keep pixels the same"), so
  * the stitched floats, written by the same encoder, are the local
@@ -28,12 +30,13 @@ enum { EXIT_OK = 0, EXIT_SCENE = 3, EXIT_IO = 4, EXIT_INTERRUPTED = 130 };
 enum part_state { PART_WAITING, PART_RUNNING, PART_DONE };
 
 typedef struct part {
-    int index;
+    int frame;             /* index into the frames */
+    int index;             /* within its frame */
     int region[4];         /* [x0, y0, x1, y1) in the frame */
     enum part_state state;
     int attempts;
     double not_before;     /* a retried part waits until then */
-    char *body;            /* the job, JSON */
+    char *body;            /* the job, JSON, while the part runs */
     unsigned char *answer; /* the answer's body as it arrives */
     size_t len, cap;
     int too_big;           /* the answer outgrew its buffer's limit */
@@ -141,6 +144,8 @@ static void end_part(CURLM *multi, part *p)
     }
     curl_slist_free_all(p->headers);
     p->headers = NULL;
+    free(p->body);
+    p->body = NULL;
 }
 
 /* The daemon's error answer is JSON whose "message" names the field and
@@ -166,187 +171,330 @@ static void answer_text(const part *p, char *out, size_t size)
         *nl = '\0';
 }
 
-int remote_render(const remote_options *o, const char *scene, size_t len,
-                  const lr_camera *cam, const lr_render_settings *rs,
-                  lr_image **out, remote_stats *stats)
+/* A frame of the batch as it is sent and stitched. */
+typedef struct frame {
+    char *scene;           /* the text sent: files named by their hashes */
+    size_t len;
+    char *cam_json;        /* the camera sent */
+    int box[4];            /* the frame's region: [x0, y0, x1, y1) */
+    int first, n_parts;    /* its parts: parts[first .. first + n_parts) */
+    int done_parts;
+    int status;            /* nonzero once it failed: its exit status */
+    lr_image *img;         /* from its first part on, until handed over */
+} frame;
+
+typedef struct batch {
+    const remote_options *o;
+    const remote_frame *in;
+    int n;
+    frame *frames;
+    part *parts;
+    int n_parts;
+    CURLM *multi;
+    int running, left;     /* parts in flight; parts not yet finished */
+    int status;            /* the first failed frame's exit status */
+    char endpoint[2048];
+} batch;
+
+/* "part 3/16" for one frame, "frame 2/5 part 3/16" in a batch. */
+static void label(const batch *b, const part *p, char *out, size_t size)
 {
-    *out = NULL;
+    const frame *f = &b->frames[p->frame];
+    if (b->n == 1)
+        snprintf(out, size, "part %d/%d", p->index + 1, f->n_parts);
+    else
+        snprintf(out, size, "frame %d/%d part %d/%d", p->frame + 1, b->n,
+                 p->index + 1, f->n_parts);
+}
+
+/* The frame fails with `status`: its running parts are stopped, its
+ * waiting ones dropped, its image freed; the other frames go on. */
+static void fail_frame(batch *b, int fi, int status)
+{
+    frame *f = &b->frames[fi];
+    if (f->status != 0)
+        return;
+    f->status = status;
+    if (b->status == 0)
+        b->status = status;
+    for (int i = f->first; i < f->first + f->n_parts; i++) {
+        part *p = &b->parts[i];
+        if (p->state == PART_RUNNING) {
+            end_part(b->multi, p);
+            b->running--;
+        }
+        if (p->state != PART_DONE)
+            b->left--;
+        p->state = PART_DONE;
+    }
+    lr_image_free(f->img);
+    f->img = NULL;
+    if (b->n > 1)
+        fprintf(stderr, "lensray: frame %d/%d (%s) failed; the other frames "
+                        "go on\n", fi + 1, b->n, b->in[fi].scene_path);
+}
+
+/* The frame's image, made when its first part starts: the frame's
+ * region, carrying its place when it is a crop, as lr_render's does.
+ * 0, or -1 with the reason printed. */
+static int frame_image(batch *b, int fi)
+{
+    frame *f = &b->frames[fi];
+    const lr_render_settings *rs = &b->in[fi].rs;
+    lr_error err;
+    if (f->img != NULL)
+        return 0;
+    if (lr_image_create(f->box[2] - f->box[0], f->box[3] - f->box[1],
+                        rs->want_depth, &f->img, &err) != LR_OK ||
+        ((f->box[0] != 0 || f->box[1] != 0 || f->box[2] != rs->width ||
+          f->box[3] != rs->height) &&
+         lr_image_set_frame(f->img, rs->width, rs->height, f->box[0],
+                            f->box[1], &b->in[fi].cam, rs, &err) != LR_OK)) {
+        fprintf(stderr, "lensray: %s\n", err.message);
+        return -1;
+    }
+    return 0;
+}
+
+/* Starts the waiting parts whose time has come, in order, up to
+ * o->parallel in flight.  0, or -1 (out of memory, printed). */
+static int start_parts(batch *b, remote_stats *stats)
+{
+    double t = now();
+    for (int i = 0; i < b->n_parts && b->running < b->o->parallel; i++) {
+        part *p = &b->parts[i];
+        if (p->state != PART_WAITING || p->not_before > t)
+            continue;
+        frame *f = &b->frames[p->frame];
+        if (frame_image(b, p->frame) != 0) {
+            fail_frame(b, p->frame, EXIT_IO);
+            continue;
+        }
+        p->body = part_body(f->scene, f->len, f->cam_json,
+                            &b->in[p->frame].rs, p->region);
+        if (p->body == NULL || start_part(b->multi, p, b->o, b->endpoint) != 0) {
+            fprintf(stderr, "lensray: out of memory\n");
+            return -1;
+        }
+        b->running++;
+        stats->attempts++;
+    }
+    return 0;
+}
+
+/* One part's answer: placed, or sent again, or its frame failed. */
+static void finish_part(batch *b, part *p, CURLcode res, remote_done done,
+                        void *user, remote_stats *stats)
+{
+    const remote_options *o = b->o;
+    frame *f = &b->frames[p->frame];
+    long status = 0;
+    curl_easy_getinfo(p->easy, CURLINFO_RESPONSE_CODE, &status);
+    char why[512], name[64];
+    label(b, p, name, sizeof name);
+    int retry = 0;
+    if (res != CURLE_OK) {
+        snprintf(why, sizeof why, "%s", p->too_big
+                     ? "the answer is larger than the part's image"
+                     : curl_easy_strerror(res));
+        retry = 1;
+    } else if (status == 200) {
+        int x0 = p->region[0] - f->box[0], y0 = p->region[1] - f->box[1];
+        if (exr_crop_place(p->answer, p->len, f->img, x0, y0, p->region[0],
+                           p->region[1], p->region[2] - p->region[0],
+                           p->region[3] - p->region[1], why,
+                           sizeof why) != 0)
+            retry = 1;
+    } else {
+        char text[400];
+        answer_text(p, text, sizeof text);
+        snprintf(why, sizeof why, "HTTP %ld: %s", status, text);
+        /* 4xx is the request's fault and would come again; 408 and 429
+         * (queue full) are the daemon's state. */
+        retry = status >= 500 || status == 408 || status == 429;
+        if (!retry) {
+            fprintf(stderr, "%slensray: %s refused: %s\n",
+                    o->quiet ? "" : "\n", name, why);
+            fail_frame(b, p->frame,
+                       status == 401 || status == 403 ? EXIT_IO : EXIT_SCENE);
+            return;
+        }
+    }
+    end_part(b->multi, p);
+    b->running--;
+    if (!retry) {
+        p->state = PART_DONE;
+        b->left--;
+        f->done_parts++;
+        if (!o->quiet) {
+            if (b->n == 1)
+                fprintf(stderr, "lensray: %s done (rows %d-%d), %d of %d "
+                                "parts\n", name, p->region[1],
+                        p->region[3] - 1, f->done_parts, f->n_parts);
+            else
+                fprintf(stderr, "lensray: %s done (rows %d-%d), %d of %d "
+                                "parts, %d of %d frames\n", name,
+                        p->region[1], p->region[3] - 1,
+                        b->n_parts - b->left, b->n_parts,
+                        stats->frames + (f->done_parts == f->n_parts), b->n);
+        }
+        if (f->done_parts == f->n_parts) {
+            lr_image *img = f->img;
+            f->img = NULL;
+            int rc = done(user, p->frame, img);
+            if (rc != 0) {
+                f->status = rc;
+                if (b->status == 0)
+                    b->status = rc;
+            } else {
+                stats->frames++;
+            }
+        }
+        return;
+    }
+    if (p->attempts > o->retries) {
+        fprintf(stderr, "lensray: %s failed %d times, the last: %s\n", name,
+                p->attempts, why);
+        p->state = PART_DONE; /* not running: fail_frame leaves it */
+        b->left--;
+        fail_frame(b, p->frame, EXIT_IO);
+        return;
+    }
+    stats->retries++;
+    /* Wait a little longer each time (0.25 s, 0.5 s, ... up to 4 s), so
+     * that a daemon that is restarting is not hammered. */
+    double wait = 0.25 * (double)(1 << (p->attempts < 5 ? p->attempts - 1 : 4));
+    p->not_before = now() + wait;
+    p->state = PART_WAITING;
+    if (!o->quiet)
+        fprintf(stderr, "lensray: %s failed (%s); sending it again "
+                        "(attempt %d of %d)\n",
+                name, why, p->attempts + 1, o->retries + 1);
+}
+
+/* The frame's text and camera as sent, and its parts: bands of rows of
+ * its region.  0, or an exit status (the frame failed, printed). */
+static int prepare_frame(batch *b, int fi, assets_session *as)
+{
+    const remote_frame *in = &b->in[fi];
+    frame *f = &b->frames[fi];
+    const lr_render_settings *rs = &in->rs;
+    int box[4] = {0, 0, rs->width, rs->height};
+    if (rs->region[0] | rs->region[1] | rs->region[2] | rs->region[3])
+        memcpy(box, rs->region, sizeof box);
+    memcpy(f->box, box, sizeof box);
+    char *cam_json = lr_camera_json(&in->cam);
+    if (cam_json == NULL) {
+        fprintf(stderr, "lensray: out of memory\n");
+        return EXIT_IO;
+    }
+    int rc = assets_prepare(as, in->scene, in->len, cam_json, in->scene_dir,
+                            in->scene_path, &f->scene, &f->len, &f->cam_json);
+    lr_free(cam_json);
+    if (rc != 0)
+        return rc;
+    int rows = box[3] - box[1];
+    f->n_parts = b->o->parts < rows ? b->o->parts : rows;
+    for (int i = 0; i < f->n_parts; i++) {
+        part *p = &b->parts[f->first + i];
+        p->frame = fi;
+        p->index = i;
+        /* Band i holds rows [rows * i / n, rows * (i + 1) / n). */
+        p->region[0] = box[0];
+        p->region[2] = box[2];
+        p->region[1] = box[1] + (int)((long long)rows * i / f->n_parts);
+        p->region[3] = box[1] + (int)((long long)rows * (i + 1) / f->n_parts);
+    }
+    return 0;
+}
+
+int remote_render(const remote_options *o, const remote_frame *frames,
+                  int n, remote_done done, void *user, remote_stats *stats)
+{
     memset(stats, 0, sizeof *stats);
     double t0 = now();
     if (curl_global_init(CURL_GLOBAL_DEFAULT) != CURLE_OK) {
         fprintf(stderr, "lensray: libcurl cannot start\n");
         return EXIT_IO;
     }
-    /* The frame to cut: the scene's own region, or the whole frame. */
-    int box[4] = {0, 0, rs->width, rs->height};
-    if (rs->region[0] | rs->region[1] | rs->region[2] | rs->region[3])
-        memcpy(box, rs->region, sizeof box);
-    int rows = box[3] - box[1];
-    int n = o->parts < rows ? o->parts : rows;
-    lr_error err;
-    lr_image *img = NULL;
-    if (lr_image_create(box[2] - box[0], rows, rs->want_depth, &img, &err) !=
-        LR_OK) {
-        fprintf(stderr, "lensray: %s\n", err.message);
-        return EXIT_IO;
-    }
-    /* A crop of the frame carries its place, as lr_render's does. */
-    if ((box[0] != 0 || box[1] != 0 || box[2] != rs->width ||
-         box[3] != rs->height) &&
-        lr_image_set_frame(img, rs->width, rs->height, box[0], box[1], cam, rs,
-                           &err) != LR_OK) {
-        fprintf(stderr, "lensray: %s\n", err.message);
-        lr_image_free(img);
-        return EXIT_IO;
-    }
-    char endpoint[2048];
+    batch b;
+    memset(&b, 0, sizeof b);
+    b.o = o;
+    b.in = frames;
+    b.n = n;
     size_t ul = strlen(o->url);
-    snprintf(endpoint, sizeof endpoint, "%.*s/v1/render",
+    snprintf(b.endpoint, sizeof b.endpoint, "%.*s/v1/render",
              (int)(ul > 0 && o->url[ul - 1] == '/' ? ul - 1 : ul), o->url);
-    char *sent = NULL;
-    size_t sent_len = 0;
-    assets_stats as;
-    int arc = assets_send(o->url, o->token, scene, len, o->scene_dir, &sent,
-                          &sent_len, &as);
-    stats->assets = as.files;
-    stats->uploaded = as.uploaded;
-    if (arc != 0) {
-        lr_image_free(img);
-        curl_global_cleanup();
-        return arc;
-    }
-    scene = sent;
-    len = sent_len;
-    char *cam_json = lr_camera_json(cam);
-    part *parts = calloc((size_t)n, sizeof *parts);
-    CURLM *multi = curl_multi_init();
     int rc = EXIT_IO;
-    if (cam_json == NULL || parts == NULL || multi == NULL) {
+    /* Room for every frame's parts; a frame uses at most o->parts. */
+    size_t most = 0;
+    for (int i = 0; i < n; i++) {
+        const lr_render_settings *rs = &frames[i].rs;
+        int rows = (rs->region[0] | rs->region[1] | rs->region[2] |
+                    rs->region[3]) ? rs->region[3] - rs->region[1]
+                                   : rs->height;
+        most += (size_t)(o->parts < rows ? o->parts : rows);
+    }
+    assets_session *as = assets_open(o->url, o->token);
+    b.frames = calloc((size_t)n, sizeof *b.frames);
+    b.parts = calloc(most ? most : 1, sizeof *b.parts);
+    b.multi = curl_multi_init();
+    if (as == NULL || b.frames == NULL || b.parts == NULL || b.multi == NULL) {
         fprintf(stderr, "lensray: out of memory\n");
         goto done;
     }
     for (int i = 0; i < n; i++) {
-        part *p = &parts[i];
-        p->index = i;
-        /* Band i holds rows [rows * i / n, rows * (i + 1) / n). */
-        p->region[0] = box[0];
-        p->region[2] = box[2];
-        p->region[1] = box[1] + (int)((long long)rows * i / n);
-        p->region[3] = box[1] + (int)((long long)rows * (i + 1) / n);
-        p->body = part_body(scene, len, cam_json, rs, p->region);
-        if (p->body == NULL) {
-            fprintf(stderr, "lensray: out of memory\n");
-            goto done;
-        }
+        b.frames[i].first = b.n_parts;
+        int frc = prepare_frame(&b, i, as);
+        b.n_parts += b.frames[i].n_parts;
+        b.left += b.frames[i].n_parts;
+        if (frc != 0)
+            fail_frame(&b, i, frc);
     }
-    int done = 0, running = 0;
-    while (done < n) {
+    while (b.left > 0) {
         if (o->cancel != NULL && *o->cancel) {
             rc = EXIT_INTERRUPTED;
             goto done;
         }
-        double t = now();
-        for (int i = 0; i < n && running < o->parallel; i++) {
-            part *p = &parts[i];
-            if (p->state != PART_WAITING || p->not_before > t)
-                continue;
-            if (start_part(multi, p, o, endpoint) != 0) {
-                fprintf(stderr, "lensray: out of memory\n");
-                goto done;
-            }
-            running++;
-            stats->attempts++;
-        }
+        if (start_parts(&b, stats) != 0)
+            goto done;
         int still = 0;
-        curl_multi_perform(multi, &still);
+        curl_multi_perform(b.multi, &still);
         CURLMsg *msg;
-        int left;
-        while ((msg = curl_multi_info_read(multi, &left)) != NULL) {
+        int queued;
+        while ((msg = curl_multi_info_read(b.multi, &queued)) != NULL) {
             if (msg->msg != CURLMSG_DONE)
                 continue;
             part *p = NULL;
             curl_easy_getinfo(msg->easy_handle, CURLINFO_PRIVATE, (char **)&p);
-            CURLcode res = msg->data.result;
-            long status = 0;
-            curl_easy_getinfo(p->easy, CURLINFO_RESPONSE_CODE, &status);
-            char why[512];
-            int retry = 0;
-            if (res != CURLE_OK) {
-                snprintf(why, sizeof why, "%s", p->too_big
-                             ? "the answer is larger than the part's image"
-                             : curl_easy_strerror(res));
-                retry = 1;
-            } else if (status == 200) {
-                int x0 = p->region[0] - box[0], y0 = p->region[1] - box[1];
-                if (exr_crop_place(p->answer, p->len, img, x0, y0,
-                                   p->region[0], p->region[1],
-                                   p->region[2] - p->region[0],
-                                   p->region[3] - p->region[1], why,
-                                   sizeof why) != 0)
-                    retry = 1;
-            } else {
-                char text[400];
-                answer_text(p, text, sizeof text);
-                snprintf(why, sizeof why, "HTTP %ld: %s", status, text);
-                /* 4xx is the request's fault and would come again; 408
-                 * and 429 (queue full) are the daemon's state. */
-                retry = status >= 500 || status == 408 || status == 429;
-                if (!retry) {
-                    fprintf(stderr, "%slensray: part %d/%d refused: %s\n",
-                            o->quiet ? "" : "\n", p->index + 1, n, why);
-                    rc = status == 401 || status == 403 ? EXIT_IO : EXIT_SCENE;
-                    goto done;
-                }
-            }
-            end_part(multi, p);
-            running--;
-            if (!retry) {
-                p->state = PART_DONE;
-                done++;
-                if (!o->quiet)
-                    fprintf(stderr, "lensray: part %d/%d done (rows %d-%d), "
-                                    "%d of %d parts\n",
-                            p->index + 1, n, p->region[1], p->region[3] - 1,
-                            done, n);
-                continue;
-            }
-            if (p->attempts > o->retries) {
-                fprintf(stderr, "lensray: part %d/%d failed %d times, the "
-                                "last: %s\n",
-                        p->index + 1, n, p->attempts, why);
-                goto done;
-            }
-            stats->retries++;
-            /* Wait a little longer each time (0.25 s, 0.5 s, ... up to
-             * 4 s), so that a daemon that is restarting is not hammered. */
-            double wait = 0.25 * (double)(1 << (p->attempts < 5 ? p->attempts - 1 : 4));
-            p->not_before = now() + wait;
-            p->state = PART_WAITING;
-            if (!o->quiet)
-                fprintf(stderr, "lensray: part %d/%d failed (%s); sending "
-                                "it again (attempt %d of %d)\n",
-                        p->index + 1, n, why, p->attempts + 1, o->retries + 1);
+            /* A part of a frame that failed meanwhile is already ended. */
+            if (p->state == PART_RUNNING)
+                finish_part(&b, p, msg->data.result, done, user, stats);
         }
-        if (done < n)
-            curl_multi_poll(multi, NULL, 0, running > 0 ? 100 : 50, NULL);
+        if (b.left > 0)
+            curl_multi_poll(b.multi, NULL, 0, b.running > 0 ? 100 : 50, NULL);
     }
-    rc = EXIT_OK;
-    *out = img;
-    img = NULL;
+    rc = b.status;
 done:
-    if (parts != NULL)
-        for (int i = 0; i < n; i++) {
-            end_part(multi, &parts[i]);
-            free(parts[i].body);
-            free(parts[i].answer);
-        }
-    free(parts);
-    if (multi != NULL)
-        curl_multi_cleanup(multi);
-    lr_free(cam_json);
-    free(sent);
-    lr_image_free(img);
-    stats->parts = n;
+    for (int i = 0; b.parts != NULL && i < b.n_parts; i++) {
+        end_part(b.multi, &b.parts[i]);
+        free(b.parts[i].answer);
+    }
+    for (int i = 0; b.frames != NULL && i < n; i++) {
+        if (b.frames[i].status != 0)
+            stats->failed++;
+        free(b.frames[i].scene);
+        free(b.frames[i].cam_json);
+        lr_image_free(b.frames[i].img);
+    }
+    if (as != NULL)
+        assets_counts(as, &stats->assets, &stats->uploaded);
+    assets_close(as);
+    free(b.frames);
+    free(b.parts);
+    if (b.multi != NULL)
+        curl_multi_cleanup(b.multi);
+    stats->parts = b.n_parts;
     stats->seconds = now() - t0;
     curl_global_cleanup();
     return rc;

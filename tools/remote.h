@@ -1,8 +1,10 @@
 /*
- * remote.h: `lensray render --remote URL`: one frame rendered as region
+ * remote.h: `lensray render --remote URL`: frames rendered as region
  * parts on lensrayd daemons (one daemon, or many behind a balancer such
- * as the farm's nginx) and stitched into the image a local render gives,
- * bit for bit (docs/deploy.md says which settings that needs).
+ * as the farm's nginx) and stitched into the images a local render gives,
+ * bit for bit (docs/deploy.md says which settings that needs).  A batch
+ * of frames is one queue of parts, so every daemon stays busy across the
+ * frames' boundaries.
  */
 #ifndef LENSRAY_REMOTE_H
 #define LENSRAY_REMOTE_H
@@ -14,39 +16,57 @@
 typedef struct remote_options {
     const char *url;       /* the daemon or balancer, "http://host:port" */
     const char *token;     /* bearer token, or NULL */
-    int parts;             /* parts to cut the frame into (bands of rows) */
+    int parts;             /* parts to cut each frame into (bands of rows) */
     int parallel;          /* parts in flight at once */
     int retries;           /* further attempts of a failed part */
     int quiet;             /* no progress lines */
     const volatile int *cancel; /* stops the render when non-zero */
-    const char *scene_dir; /* the scene file's directory: its meshes */
 } remote_options;
+
+/* One frame of a batch: the scene file's path, directory and text, and
+ * the camera and settings as the local render would use them
+ * (rs.want_depth asks for Z). */
+typedef struct remote_frame {
+    const char *scene_path;
+    const char *scene_dir; /* the directory its relative files are in */
+    const char *scene;
+    size_t len;
+    lr_camera cam;
+    lr_render_settings rs;
+} remote_frame;
 
 /* What remote_render did, for --stats. */
 typedef struct remote_stats {
     double seconds;
-    int parts;
+    int frames;            /* frames finished and handed to `done` */
+    int failed;            /* frames that failed */
+    int parts;             /* parts of all frames */
     int attempts;          /* requests sent, retries included */
     int retries;
-    int assets;            /* mesh files the scene names */
+    int assets;            /* distinct files the scenes name */
     int uploaded;          /* of them, sent because the daemons lacked them */
 } remote_stats;
 
-/* Renders the scene whose file text is scene[0 .. len) through `cam` with
- * `rs` (both as the local render would use them; rs->want_depth asks for
- * Z) as parts on o->url, and stitches them into *out, a new image that
- * the caller frees with lr_image_free.  First the scene's mesh files go
- * to the daemons as assets, those they lack (tools/assets.c).  Every
- * part is a POST /v1/render
- * of the scene inline with the camera and settings as JSON and
- * render.region set to the part, answered as a float32 EXR.  A part that
+/* Called once per frame that completes, in the order they complete, with
+ * the stitched image (the callee owns it and frees it with
+ * lr_image_free); returns 0, or an exit status that makes the frame
+ * count as failed. */
+typedef int (*remote_done)(void *user, int frame, lr_image *img);
+
+/* Renders frames[0 .. n) as parts on o->url.  First each scene's files go
+ * to the daemons as assets, those they lack (tools/assets.c).  Every part
+ * is a POST /v1/render of the scene inline with the camera and settings
+ * as JSON and render.region set to the part, answered as a float32 EXR;
+ * parts are sent in frame order, o->parallel at a time.  A part that
  * fails for a reason that can pass (no connection, 5xx, 429, a broken
  * image) is sent again, up to o->retries times; one the daemon refuses
- * (4xx) stops the render.  Returns the CLI's exit status: 0, 3 (the
- * daemon refused the scene: its message is printed), 4 (I/O: the
- * daemons could not be reached or kept failing), 130 (cancelled). */
-int remote_render(const remote_options *o, const char *scene, size_t len,
-                  const lr_camera *cam, const lr_render_settings *rs,
-                  lr_image **out, remote_stats *stats);
+ * (4xx), or one that keeps failing, fails its frame: the frame is
+ * reported, its other parts are dropped, and the other frames go on.
+ * Returns the CLI's exit status: 0 when every frame was handed to
+ * `done`; otherwise that of the first frame that failed: 3 (the daemon
+ * refused the scene: its message is printed), 4 (I/O: the daemons could
+ * not be reached or kept failing); 130 when cancelled. */
+int remote_render(const remote_options *o, const remote_frame *frames,
+                  int n, remote_done done, void *user, remote_stats *stats);
 
 #endif
