@@ -126,8 +126,7 @@ double lr__pixel_contrast(const lr__pixel *a, const lr__pixel *b)
  * at most c / n: n = c / threshold samples bound it by the threshold.
  * (For the shuffled strata of grid and jittered prefixes the bound holds
  * on average, not for every pixel.) */
-int lr__edge_samples_needed(double contrast, double threshold, int have,
-                            int hi)
+int lr__edge_samples_needed(double contrast, double threshold, int have, int hi)
 {
     double need = contrast / threshold;
     if (!(need > (double)have))

@@ -187,8 +187,8 @@ char *lr_render_settings_json(const lr_render_settings *s)
         vec(&b, "region", r, 4);
     }
     boolean(&b, "plan", s->plan);
-    if (s->adaptive && (s->adaptive_threshold > 0.0 ||
-                        s->adaptive_min_spp > 0)) {
+    if (s->adaptive &&
+        (s->adaptive_threshold > 0.0 || s->adaptive_min_spp > 0)) {
         jb a;
         child(&b, "adaptive", &a);
         /* 0 (derived from spp) is written as the key's absence. */

@@ -207,8 +207,8 @@ static void schedule(const char *json, const char *adaptive, int lo)
         lr_render_stats cs;
         lr_image *col = lr_test_render(json, col_sets, 2, &cs);
         if (cs.samples != (uint64_t)6 * n)
-            fail_msg("%s: column %d took %llu samples, not 6 x %d", adaptive,
-                     x, (unsigned long long)cs.samples, n);
+            fail_msg("%s: column %d took %llu samples, not 6 x %d", adaptive, x,
+                     (unsigned long long)cs.samples, n);
         expect += (uint64_t)6 * n;
         const lr_image *same = n == 64 ? full64 : flo;
         for (int y = 0; y < 6; y++)
@@ -248,8 +248,7 @@ static void test_adaptive_schedule(void **state)
              "   \"normal\": [0, 0, 1], \"size\": [8, 4], \"material\": \"k\"}]}",
              xe - 4.0, xe + 4.0);
     schedule(json, "render.adaptive=true", 16);
-    schedule(json, "render.adaptive={\"threshold\": 0.01, \"min_spp\": 4}",
-             4);
+    schedule(json, "render.adaptive={\"threshold\": 0.01, \"min_spp\": 4}", 4);
     /* min_spp = spp: nothing to decide. */
     const char *eq_sets[] = {"render.adaptive={\"min_spp\": 64}"};
     const char *full64_sets[] = {"render.adaptive=false"};
@@ -285,8 +284,7 @@ static void test_adaptive_error(void **state)
         ea[i] = lr_test_rmse(ad, ref);
         print_message("%s: adaptive RMSE %.5f with %.1f%% of the samples "
                       "(full %.5f)\n",
-                      spp, ea[i], 100.0 * st.samples / st.full_samples,
-                      ef[i]);
+                      spp, ea[i], 100.0 * st.samples / st.full_samples, ef[i]);
         if (!(ea[i] <= 1.1 * ef[i]))
             fail_msg("%s: adaptive RMSE %g is more than 1.1x the full "
                      "simulation's %g",
