@@ -263,19 +263,25 @@ typedef struct lr_render_settings {
      * lens: blurred pixels nearly all need more, and a second packet of
      * rays costs more than the samples a small pilot saves); from their
      * spread it needs enough samples (up to spp) for a relative standard
-     * error of adaptive_threshold in its luminance, and goes on to the
-     * largest need in its 3 x 3 neighbourhood, so that neighbours of
-     * unconverged pixels keep going (and one round further if its pilot's
-     * mean differs from a neighbour's by more than 10 x the threshold:
-     * an edge along the pixel grid can slip between a few samples); then
-     * it goes on in rounds that at least double its count (min_spp x 2^k,
-     * or spp), judging its need again from all its samples after each.  Default 1; 0 = spp
-     * everywhere.  Counts depend only on a pixel's neighbourhood, so
-     * regions and thread counts still give the same bytes, and a pixel
-     * that stops at n samples has the full render's first n. */
+     * error of adaptive_threshold in each colour channel (relative to
+     * sqrt(mean^2 + 0.01)), and goes on to the largest need in its 3 x 3
+     * neighbourhood, so that neighbours of unconverged pixels keep going,
+     * and to contrast / threshold samples where its pilot's mean differs
+     * from a neighbour's by that relative contrast (an edge along the
+     * pixel grid can cut a sliver that the pilot missed); then it goes on
+     * in rounds that at least double its count (min_spp x 2^k, or spp),
+     * judging its need again from all its samples after each.  0 for
+     * either (the default) derives it from spp, so that more samples
+     * always buy less error: threshold 3 / spp, min_spp the power of two
+     * at or above sqrt(spp), at least 16 (spp itself up to 16: no
+     * adaptive sampling there).  Default 1; 0 = spp everywhere.  Counts
+     * depend only on a pixel's neighbourhood, so regions and thread
+     * counts still give the same bytes, and a pixel that stops at n
+     * samples has the full render's first n. */
     int adaptive;
-    double adaptive_threshold; /* default 0.01 */
-    int adaptive_min_spp;      /* default 4 (capped at spp) */
+    double adaptive_threshold; /* default 0: 3 / spp */
+    int adaptive_min_spp;      /* default 0: max(16, sqrt(spp)) (capped at
+                                  spp) */
     lr_progress_fn progress; /* optional; NULL by default */
     void *progress_user;
     /* Optional cancellation flag, polled (with an atomic load) between

@@ -17,14 +17,65 @@
 
 #define PACKET_PILOT 16
 
+/* The threshold when none is given: 3 / spp.  Cycles likewise derives
+ * its noise threshold from the sample count when it is left at 0
+ * (Blender 2.83 onwards: "automatic setting based on number of AA
+ * samples"); the form here is ours.  A threshold falling as 1 / spp
+ * tightens faster than the N^-1/2 at which a pixel's standard error
+ * falls, so a pixel stops early only where its error is already below
+ * what the full budget buys, and the bar keeps moving with the budget.
+ * The factor 3 comes from measurement (make accuracy, docs/accuracy.md,
+ * and tests/test_plan.c's blurred foreground): with 1 / spp hardly
+ * anything stopped early on the defocused scene; with 10 / spp the
+ * error at 16 to 64 spp was up to 9x the full simulation's.  No floor:
+ * a larger spp always asks for less error. */
+#define AUTO_THRESHOLD 3.0
+
+double lr__adaptive_threshold(const lr_render_settings *set)
+{
+    if (set->adaptive_threshold > 0.0)
+        return set->adaptive_threshold;
+    double t = AUTO_THRESHOLD / (double)set->spp;
+    return t < 1.0 ? t : 1.0;
+}
+
+/* The minimum when none is given: the power of two at or above
+ * sqrt(spp), at least a packet of 16.  It grows with spp so that thin
+ * features the pilot missed are found (the widest sliver n Sobol samples
+ * can miss is 1/n of the pixel: lr__edge_samples_needed), while a flat
+ * pixel's sqrt(spp) samples are a vanishing share of the budget; a
+ * power of two keeps Sobol's prefix a (0, k, 2)-net.  At least 16
+ * because the first packet costs the same whatever its lanes (the speed
+ * issue measured 0.48 us per pixel's first packet), so a smaller pilot
+ * saves little and judges the spread worse.  (Cycles too picks its
+ * minimum automatically when it is 0.) */
+int lr__adaptive_min(const lr_render_settings *set)
+{
+    if (set->adaptive_min_spp > 0)
+        return set->adaptive_min_spp;
+    int m = PACKET_PILOT;
+    while ((double)m * m < (double)set->spp)
+        m *= 2;
+    return m;
+}
+
 int lr__adaptive_pilot(const lr_render_settings *set, int lens)
 {
-    int lo = set->adaptive_min_spp, spp = set->spp;
+    int lo = lr__adaptive_min(set), spp = set->spp;
     if (!set->adaptive || lo >= spp)
         return spp;
     if (lens && lo < PACKET_PILOT)
         lo = PACKET_PILOT;
     return lo < spp ? lo : spp;
+}
+
+/* The squared scale an error is measured against, per channel: relMSE's
+ * r^2 + 0.01 (Rousselle, Knaus and Zwicker 2011, the measure of
+ * docs/accuracy.md), so that near-black pixels do not ask for endless
+ * samples to pin down nothing. */
+static double scale2(double mean)
+{
+    return mean * mean + 0.01;
 }
 
 int lr__pixel_samples_needed(const lr__pixel *p, double threshold, int lo,
@@ -33,16 +84,20 @@ int lr__pixel_samples_needed(const lr__pixel *p, double threshold, int lo,
     /* One sample says nothing about the spread: judge again after two. */
     if (p->n < 2)
         return 2 < hi ? 2 : hi;
-    double n = (double)p->n;
-    double mean = lr__luminance(p->sum[0], p->sum[1], p->sum[2]) / n;
-    double var = (p->sum_y2 / n - mean * mean) * n / (n - 1.0);
-    if (!(var > 0.0))
+    double n = (double)p->n, need = 0.0;
+    /* Per channel, the standard error sqrt(var / N) relative to the
+     * scale must reach the threshold: N = var / (threshold^2 scale^2).
+     * Colour noise (a spectral render's) can leave luminance steady, so
+     * every channel is judged, not their luminance. */
+    for (int c = 0; c < 3; c++) {
+        double mean = p->sum[c] / n;
+        double var = (p->sum2[c] / n - mean * mean) * n / (n - 1.0);
+        double k = var / (threshold * threshold * scale2(mean));
+        if (k > need)
+            need = k;
+    }
+    if (!(need > 0.0))
         return lo;
-    /* Standard error sqrt(var / N) relative to the mean, with a floor of
-     * 0.02 on the mean so that near-black pixels do not ask for endless
-     * samples to pin down nothing. */
-    double ref = fabs(mean) + 0.02;
-    double need = var / (threshold * threshold * ref * ref);
     if (!(need < (double)hi))
         return hi;
     int k = (int)ceil(need);
@@ -53,9 +108,30 @@ double lr__pixel_contrast(const lr__pixel *a, const lr__pixel *b)
 {
     if (a->n == 0 || b->n == 0)
         return 0.0;
-    double ma = lr__luminance(a->sum[0], a->sum[1], a->sum[2]) / (double)a->n;
-    double mb = lr__luminance(b->sum[0], b->sum[1], b->sum[2]) / (double)b->n;
-    return fabs(ma - mb) / (fmax(fabs(ma), fabs(mb)) + 0.02);
+    double c = 0.0;
+    for (int i = 0; i < 3; i++) {
+        double ma = a->sum[i] / (double)a->n, mb = b->sum[i] / (double)b->n;
+        double d = fabs(ma - mb) / sqrt(fmax(scale2(ma), scale2(mb)));
+        if (d > c)
+            c = d;
+    }
+    return c;
+}
+
+/* A sliver of the pixel that all n samples missed, next to a neighbour
+ * of relative contrast c, errs by its width times c.  The first n = 2^k
+ * Sobol points fall one in each of n strips 1/n wide along either axis
+ * (a (0, k, 2)-net: Niederreiter 1992, Theorem 4.10, and Owen's
+ * scrambling keeps it), so the sliver is at most 1/n wide and the error
+ * at most c / n: n = c / threshold samples bound it by the threshold.
+ * (For the shuffled strata of grid and jittered prefixes the bound holds
+ * on average, not for every pixel.) */
+int lr__edge_samples_needed(double contrast, double threshold, int have, int hi)
+{
+    double need = contrast / threshold;
+    if (!(need > (double)have))
+        return 0;
+    return need < (double)hi ? (int)ceil(need) : hi;
 }
 
 int lr__adaptive_next(int have, int want, int hi)
@@ -84,8 +160,8 @@ void lr__adaptive_block(const lr_render_settings *set, const lr__plan *plan,
                         int *need, const lr__block_io *io)
 {
     int spp = set->spp;
-    double thr = set->adaptive_threshold;
-    if (!set->adaptive || set->adaptive_min_spp >= spp) {
+    double thr = lr__adaptive_threshold(set);
+    if (!set->adaptive || lr__adaptive_min(set) >= spp) {
         for (int y = y0; y < y1; y++)
             for (int x = x0; x < x1; x++) {
                 lr__pixel *a = &acc[0];
@@ -132,9 +208,12 @@ void lr__adaptive_block(const lr_render_settings *set, const lr__plan *plan,
                      * few samples: a pixel whose pilot differs from a
                      * neighbour's by more than 10 x the threshold takes
                      * another round and judges again. */
-                    if (need[k] > 0 && want <= have &&
-                        lr__pixel_contrast(a, &acc[k]) > 10.0 * thr)
-                        want = have + 1;
+                    if (need[k] > 0) {
+                        int e = lr__edge_samples_needed(
+                            lr__pixel_contrast(a, &acc[k]), thr, have, spp);
+                        if (e > want)
+                            want = e;
+                    }
                 }
             /* The rounds go into a copy: acc keeps every pixel's pilot,
              * so that the contrast test above compares pilots with

@@ -13,15 +13,21 @@
 
 struct lr__plan;
 
-/* The pilot: samples every pixel takes before it is judged: min_spp, or,
- * where the lens is sampled, at least a packet's worth (16, the width of
- * the packet path).  Where the lens blurs, almost every pixel goes on
- * (lens noise is everywhere), and a pixel that goes on after its pilot
- * traces another, partly filled packet, which costs about as much as
- * three or four samples more; a few samples of a blurred (or, with
- * chromatic aberration, spectral) integrand also judge its spread
- * poorly.  Where nothing is blurred only edges go on.  At most spp; spp
- * itself when sampling is not adaptive. */
+/* The threshold and the minimum that a render uses: the settings' own
+ * when given (> 0), otherwise derived from spp so that a larger budget
+ * always buys less error (adaptive.c says how). */
+double lr__adaptive_threshold(const lr_render_settings *set);
+int lr__adaptive_min(const lr_render_settings *set);
+
+/* The pilot: samples every pixel takes before it is judged: the minimum
+ * (lr__adaptive_min), or, where the lens is sampled, at least a packet's
+ * worth (16, the width of the packet path).  Where the lens blurs, almost
+ * every pixel goes on (lens noise is everywhere), and a pixel that goes
+ * on after its pilot traces another, partly filled packet, which costs
+ * about as much as three or four samples more; a few samples of a
+ * blurred (or, with chromatic aberration, spectral) integrand also judge
+ * its spread poorly.  Where nothing is blurred only edges go on.  At
+ * most spp; spp itself when sampling is not adaptive. */
 int lr__adaptive_pilot(const lr_render_settings *set, int lens);
 
 /* How many samples in all the pixel needs for a relative standard error
@@ -33,6 +39,13 @@ int lr__pixel_samples_needed(const lr__pixel *p, double threshold, int lo,
 /* How much the mean luminances of two pixels differ, relative to the
  * larger (with the same 0.02 floor as lr__pixel_samples_needed). */
 double lr__pixel_contrast(const lr__pixel *a, const lr__pixel *b);
+
+/* How many samples in all a pixel needs, at most `hi`, so that a sliver
+ * of its area that all its samples missed, next to an edge of relative
+ * contrast `contrast`, errs by at most `threshold`: contrast / threshold
+ * (0 when that is no more than `have`). */
+int lr__edge_samples_needed(double contrast, double threshold, int have,
+                            int hi);
 
 /* Adaptive sampling's schedule: a pixel that has `have` samples (>= 1)
  * and wants `want` > have goes on to have * 2^k, the first such count

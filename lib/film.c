@@ -15,7 +15,8 @@ void lr__pixel_add_n(lr__pixel *p, const lr__v3 *L, int n)
 {
     /* Non-finite samples are counted and dropped; the sums are kept in
      * registers, in sample order. */
-    double s0 = p->sum[0], s1 = p->sum[1], s2 = p->sum[2], sy = p->sum_y2;
+    double s0 = p->sum[0], s1 = p->sum[1], s2 = p->sum[2];
+    double q0 = p->sum2[0], q1 = p->sum2[1], q2 = p->sum2[2];
     for (int i = 0; i < n; i++) {
         if (!v3_finite(L[i])) {
             p->dropped++;
@@ -24,11 +25,13 @@ void lr__pixel_add_n(lr__pixel *p, const lr__v3 *L, int n)
         s0 += L[i].x;
         s1 += L[i].y;
         s2 += L[i].z;
-        double y = lr__luminance(L[i].x, L[i].y, L[i].z);
-        sy += y * y;
+        q0 += L[i].x * L[i].x;
+        q1 += L[i].y * L[i].y;
+        q2 += L[i].z * L[i].z;
     }
     p->n += (uint64_t)n;
-    p->sum[0] = s0, p->sum[1] = s1, p->sum[2] = s2, p->sum_y2 = sy;
+    p->sum[0] = s0, p->sum[1] = s1, p->sum[2] = s2;
+    p->sum2[0] = q0, p->sum2[1] = q1, p->sum2[2] = q2;
 }
 
 void lr__pixel_resolve(const lr__pixel *p, float out[3])

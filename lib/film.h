@@ -13,14 +13,15 @@
 
 typedef struct lr__pixel {
     double sum[3];    /* sum of radiance, per channel */
-    double sum_y2;    /* sum of squared luminance, for adaptive sampling */
+    double sum2[3];   /* sum of squares, per channel (adaptive sampling) */
     uint64_t n;       /* samples added, dropped ones included */
     uint64_t dropped; /* samples rejected as non-finite */
 } lr__pixel;
 
 static inline void lr__pixel_reset(lr__pixel *p)
 {
-    p->sum[0] = p->sum[1] = p->sum[2] = p->sum_y2 = 0.0;
+    p->sum[0] = p->sum[1] = p->sum[2] = 0.0;
+    p->sum2[0] = p->sum2[1] = p->sum2[2] = 0.0;
     p->n = p->dropped = 0;
 }
 

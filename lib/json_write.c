@@ -187,16 +187,18 @@ char *lr_render_settings_json(const lr_render_settings *s)
         vec(&b, "region", r, 4);
     }
     boolean(&b, "plan", s->plan);
-    if (s->adaptive) {
+    if (s->adaptive &&
+        (s->adaptive_threshold > 0.0 || s->adaptive_min_spp > 0)) {
         jb a;
         child(&b, "adaptive", &a);
-        if (!a.failed) {
+        /* 0 (derived from spp) is written as the key's absence. */
+        if (!a.failed && s->adaptive_threshold > 0.0)
             num(&a, "threshold", s->adaptive_threshold);
+        if (!a.failed && s->adaptive_min_spp > 0)
             num(&a, "min_spp", s->adaptive_min_spp);
-        }
         b.failed |= a.failed;
     } else {
-        boolean(&b, "adaptive", 0);
+        boolean(&b, "adaptive", s->adaptive);
     }
     return finish(&b);
 }

@@ -20,8 +20,9 @@ void lr_render_settings_default(lr_render_settings *s)
     s->want_depth = 0;
     s->plan = 1;
     s->adaptive = 1;
-    s->adaptive_threshold = 0.01;
-    s->adaptive_min_spp = 4;
+    /* 0: derived from spp (adaptive.c). */
+    s->adaptive_threshold = 0.0;
+    s->adaptive_min_spp = 0;
 }
 
 lr_status lr_render_settings_validate(const lr_render_settings *s,
@@ -65,14 +66,15 @@ lr_status lr_render_settings_validate(const lr_render_settings *s,
                         "render.threads must be between 0 (all cores) and "
                         "%d, got %d",
                         LR__MAX_THREADS, s->threads);
-    if (!(s->adaptive_threshold > 0.0 && s->adaptive_threshold <= 1.0))
+    if (!(s->adaptive_threshold >= 0.0 && s->adaptive_threshold <= 1.0))
         return lr__fail(err, LR_ERR_INVALID, "render.adaptive.threshold",
-                        "render.adaptive.threshold must be in (0, 1], got %g",
+                        "render.adaptive.threshold must be 0 (from spp) or "
+                        "in (0, 1], got %g",
                         s->adaptive_threshold);
-    if (s->adaptive_min_spp < 1 || s->adaptive_min_spp > LR__MAX_SPP)
+    if (s->adaptive_min_spp < 0 || s->adaptive_min_spp > LR__MAX_SPP)
         return lr__fail(err, LR_ERR_INVALID, "render.adaptive.min_spp",
-                        "render.adaptive.min_spp must be between 1 and %d, "
-                        "got %d",
+                        "render.adaptive.min_spp must be 0 (from spp) or "
+                        "between 1 and %d, got %d",
                         LR__MAX_SPP, s->adaptive_min_spp);
     const int *r = s->region;
     if ((r[0] | r[1] | r[2] | r[3]) != 0 &&

@@ -55,7 +55,7 @@ lr_status lr__settings_from_json(const cJSON *r, lr_render_settings *rs,
         long long lo = rs->adaptive_min_spp, hi = -1;
         LR_TRY(lr__json_number(ad, "threshold", ap, 0,
                                &rs->adaptive_threshold, err));
-        LR_TRY(lr__json_int(ad, "min_spp", ap, 0, 1, LR__MAX_SPP, &lo, err));
+        LR_TRY(lr__json_int(ad, "min_spp", ap, 0, 0, LR__MAX_SPP, &lo, err));
         LR_TRY(lr__json_int(ad, "max_spp", ap, 0, 1, LR__MAX_SPP, &hi, err));
         rs->adaptive = 1;
         rs->adaptive_min_spp = (int)lo;

@@ -176,14 +176,56 @@ static void test_adaptive_deterministic(void **state)
     lr_image_free(full);
 }
 
-/* The schedule itself, on a pinhole view (every pixel's pilot is min_spp,
- * 4) of two flat cards, light and dark, meeting in a vertical edge down
- * the middle of pixel column 12: the edge's pilot sees both sides (Sobol's
- * first four pixel points are two on each side of the pixel's middle), so
- * that column and its neighbours on both sides go on to spp, and every
- * other pixel, whose neighbourhood is flat, stops at the pilot.  Each
- * pixel is the full render stopped at its count, and with min_spp = spp
- * adaptive sampling is the full render. */
+/* The schedule itself, on a pinhole view of two flat cards, light and
+ * dark, meeting in a vertical edge down the middle of pixel column 12.
+ * With nothing given, the minimum at 64 spp is 16 (a packet; the power
+ * of two at or above sqrt(64) is less); with {"threshold": 0.01,
+ * "min_spp": 4} it is 4, as asked.  Either way every pixel's pilot is that minimum, the edge's
+ * pilot sees both sides (Sobol's first four pixel points are two on each
+ * side of the pixel's middle), so that column and its neighbours on both
+ * sides go on to spp, and every other pixel, whose neighbourhood is flat,
+ * stops at the pilot.  Each pixel is the full render stopped at its
+ * count, and with min_spp = spp adaptive sampling is the full render. */
+static void schedule(const char *json, const char *adaptive, int lo)
+{
+    char full_lo[32];
+    snprintf(full_lo, sizeof full_lo, "render.spp=%d", lo);
+    const char *lo_sets[] = {"render.adaptive=false", full_lo};
+    const char *full64_sets[] = {"render.adaptive=false"};
+    lr_image *flo = lr_test_render(json, lo_sets, 2, NULL);
+    lr_image *full64 = lr_test_render(json, full64_sets, 1, NULL);
+    lr_render_stats st;
+    const char *ad_sets[] = {adaptive};
+    lr_image *ad = lr_test_render(json, ad_sets, 1, &st);
+    uint64_t expect = 0;
+    for (int x = 0; x < 24; x++) {
+        int n = x >= 11 && x <= 13 ? 64 : lo;
+        char region[64];
+        snprintf(region, sizeof region, "render.region=[%d, 0, %d, 6]", x,
+                 x + 1);
+        const char *col_sets[] = {adaptive, region};
+        lr_render_stats cs;
+        lr_image *col = lr_test_render(json, col_sets, 2, &cs);
+        if (cs.samples != (uint64_t)6 * n)
+            fail_msg("%s: column %d took %llu samples, not 6 x %d", adaptive, x,
+                     (unsigned long long)cs.samples, n);
+        expect += (uint64_t)6 * n;
+        const lr_image *same = n == 64 ? full64 : flo;
+        for (int y = 0; y < 6; y++)
+            assert_memory_equal(lr_image_rgb(ad) + 3 * (y * 24 + x),
+                                lr_image_rgb(same) + 3 * (y * 24 + x),
+                                3 * sizeof(float));
+        lr_image_free(col);
+    }
+    assert_int_equal(st.samples, expect);
+    /* The edge is really there: column 12 is neither card's colour. */
+    float e = lr_image_rgb(full64)[3 * 12];
+    assert_true(e > 0.2f && e < 0.8f);
+    lr_image_free(ad);
+    lr_image_free(flo);
+    lr_image_free(full64);
+}
+
 static void test_adaptive_schedule(void **state)
 {
     (void)state;
@@ -205,68 +247,63 @@ static void test_adaptive_schedule(void **state)
              "  {\"type\": \"plane\", \"point\": [%.9f, 0, -5],"
              "   \"normal\": [0, 0, 1], \"size\": [8, 4], \"material\": \"k\"}]}",
              xe - 4.0, xe + 4.0);
-    const char *full4_sets[] = {"render.adaptive=false", "render.spp=4"};
-    const char *full64_sets[] = {"render.adaptive=false"};
-    lr_image *full4 = lr_test_render(json, full4_sets, 2, NULL);
-    lr_image *full64 = lr_test_render(json, full64_sets, 1, NULL);
-    lr_render_stats st;
-    lr_image *ad = lr_test_render(json, NULL, 0, &st);
-    uint64_t expect = 0;
-    for (int x = 0; x < 24; x++) {
-        int n = x >= 11 && x <= 13 ? 64 : 4;
-        char region[64];
-        snprintf(region, sizeof region, "render.region=[%d, 0, %d, 6]", x,
-                 x + 1);
-        const char *col_sets[] = {region};
-        lr_render_stats cs;
-        lr_image *col = lr_test_render(json, col_sets, 1, &cs);
-        if (cs.samples != (uint64_t)6 * n)
-            fail_msg("column %d took %llu samples, not 6 x %d", x,
-                     (unsigned long long)cs.samples, n);
-        expect += (uint64_t)6 * n;
-        const lr_image *same = n == 64 ? full64 : full4;
-        for (int y = 0; y < 6; y++)
-            assert_memory_equal(lr_image_rgb(ad) + 3 * (y * 24 + x),
-                                lr_image_rgb(same) + 3 * (y * 24 + x),
-                                3 * sizeof(float));
-        lr_image_free(col);
-    }
-    assert_int_equal(st.samples, expect);
-    /* The edge is really there: column 12 is neither card's colour. */
-    float e = lr_image_rgb(full64)[3 * 12];
-    assert_true(e > 0.2f && e < 0.8f);
+    schedule(json, "render.adaptive=true", 16);
+    schedule(json, "render.adaptive={\"threshold\": 0.01, \"min_spp\": 4}", 4);
     /* min_spp = spp: nothing to decide. */
     const char *eq_sets[] = {"render.adaptive={\"min_spp\": 64}"};
+    const char *full64_sets[] = {"render.adaptive=false"};
+    lr_image *full64 = lr_test_render(json, full64_sets, 1, NULL);
     lr_image *eq = lr_test_render(json, eq_sets, 1, NULL);
     assert_memory_equal(lr_image_rgb(eq), lr_image_rgb(full64),
                         24 * 6 * 3 * sizeof(float));
     lr_image_free(eq);
-    lr_image_free(ad);
-    lr_image_free(full4);
     lr_image_free(full64);
 }
 
-/* Adaptive sampling's error stays near the full simulation's at the
- * same maximum samples. */
+/* Adaptive sampling follows the budget: at 64 and at 256 spp its error
+ * against a converged reference is within 1.1x (RMSE; 1.21x in MSE) of
+ * the full simulation's at the same spp, so four times the samples cut
+ * its error about as much as they cut the full simulation's.  (With the
+ * fixed threshold of 0.01 that was the default before, the adaptive
+ * render's error levelled off: docs/accuracy.md.) */
 static void test_adaptive_error(void **state)
 {
     (void)state;
     const char *ref_sets[] = {"render.spp=2048", "render.plan=false",
                               "render.adaptive=false", "render.seed=5"};
     lr_image *ref = lr_test_render(foreground_scene, ref_sets, 4, NULL);
-    const char *full_sets[] = {"render.spp=256", "render.adaptive=false"};
-    const char *ad_sets[] = {"render.spp=256"};
-    lr_render_stats st;
-    lr_image *full = lr_test_render(foreground_scene, full_sets, 2, NULL);
-    lr_image *ad = lr_test_render(foreground_scene, ad_sets, 1, &st);
-    double ef = lr_test_rmse(full, ref), ea = lr_test_rmse(ad, ref);
-    print_message("adaptive: RMSE %.5f with %.1f%% of the samples (full "
-                  "%.5f)\n",
-                  ea, 100.0 * st.samples / st.full_samples, ef);
-    assert_true(ea < 2.0 * ef + 0.002);
+    double ef[2], ea[2];
+    for (int i = 0; i < 2; i++) {
+        const char *spp = i == 0 ? "render.spp=64" : "render.spp=256";
+        const char *full_sets[] = {spp, "render.adaptive=false"};
+        const char *ad_sets[] = {spp};
+        lr_render_stats st;
+        lr_image *full = lr_test_render(foreground_scene, full_sets, 2, NULL);
+        lr_image *ad = lr_test_render(foreground_scene, ad_sets, 1, &st);
+        ef[i] = lr_test_rmse(full, ref);
+        ea[i] = lr_test_rmse(ad, ref);
+        print_message("%s: adaptive RMSE %.5f with %.1f%% of the samples "
+                      "(full %.5f)\n",
+                      spp, ea[i], 100.0 * st.samples / st.full_samples, ef[i]);
+        if (!(ea[i] <= 1.1 * ef[i]))
+            fail_msg("%s: adaptive RMSE %g is more than 1.1x the full "
+                     "simulation's %g",
+                     spp, ea[i], ef[i]);
+        /* It does skip samples where the picture is flat. */
+        assert_true(st.samples < st.full_samples);
+        lr_image_free(full);
+        lr_image_free(ad);
+    }
+    /* The fall from 64 to 256 spp, in MSE, at least 0.8 of the full
+     * simulation's. */
+    double fall_a = ea[0] * ea[0] / (ea[1] * ea[1]);
+    double fall_f = ef[0] * ef[0] / (ef[1] * ef[1]);
+    print_message("MSE falls %.2fx adaptive, %.2fx full\n", fall_a, fall_f);
+    if (!(fall_a >= 0.8 * fall_f))
+        fail_msg("4x the samples cut the adaptive MSE %.2fx, the full "
+                 "simulation's %.2fx",
+                 fall_a, fall_f);
     lr_image_free(ref);
-    lr_image_free(full);
-    lr_image_free(ad);
 }
 
 static const struct CMUnitTest plan_tests[] = {

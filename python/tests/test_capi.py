@@ -52,8 +52,9 @@ def test_defaults_read_through_the_structs():
     rs = _capi.lr_render_settings()
     _capi.lib().lr_render_settings_default(_capi.ctypes.byref(rs))
     assert (rs.width, rs.height, rs.spp, rs.max_depth, rs.tile_size) == (640, 480, 16, 8, 32)
-    assert (rs.plan, rs.adaptive, rs.adaptive_min_spp) == (1, 1, 4)
-    assert rs.adaptive_threshold == 0.01
+    # 0: the threshold and the minimum are derived from spp.
+    assert (rs.plan, rs.adaptive, rs.adaptive_min_spp) == (1, 1, 0)
+    assert rs.adaptive_threshold == 0
     assert not rs.progress and not rs.cancel
 
 
