@@ -62,21 +62,19 @@ static lr__v3 to_world(const lr__bsdf *f, lr__v3 v)
  * the time of libm's sincos, which was 5% of a Cornell box render). */
 static void sincos_2pi(double u, double *sn, double *cs)
 {
-    double q = floor(4.0 * u + 0.5);
-    double x = 2.0 * M_PI * (u - 0.25 * q), x2 = x * x;
+    int k = (int)(4.0 * u + 0.5);
+    double x = 2.0 * M_PI * (u - 0.25 * k), x2 = x * x;
     double s = x * (1.0 + x2 * (-1.0 / 6 + x2 * (1.0 / 120 + x2 * (
                    -1.0 / 5040 + x2 * (1.0 / 362880 + x2 * (
                    -1.0 / 39916800 + x2 * (1.0 / 6227020800.0)))))));
     double c = 1.0 + x2 * (-0.5 + x2 * (1.0 / 24 + x2 * (-1.0 / 720 + x2 * (
                    1.0 / 40320 + x2 * (-1.0 / 3628800 + x2 * (
                    1.0 / 479001600.0 - x2 / 87178291200.0))))));
-    /* (sin, cos) of x + q pi / 2. */
-    switch ((int)q & 3) {
-    case 0: *sn = s, *cs = c; break;
-    case 1: *sn = c, *cs = -s; break;
-    case 2: *sn = -s, *cs = -c; break;
-    default: *sn = -c, *cs = s; break;
-    }
+    /* (sin, cos) of x + q pi / 2, chosen without branches (q is as
+     * random as u). */
+    double sw[2] = {s, c};
+    *sn = (k & 2 ? -1.0 : 1.0) * sw[k & 1];
+    *cs = ((k + 1) & 2 ? -1.0 : 1.0) * sw[(k & 1) ^ 1];
 }
 
 /* ---- GGX -------------------------------------------------------------- */

@@ -265,6 +265,17 @@ void lr__pixel_pairs_get(const lr__pixel_pairs *pp, uint32_t sample,
             lk_permute(sobol_rev(r, d), pp->scramble[k][d])));
 }
 
+double lr__pixel_pairs_get1(const lr__pixel_pairs *pp, uint32_t sample,
+                            uint32_t dim)
+{
+    uint32_t k = (dim - pp->first) / 2, d = dim & 1u;
+    if (dim < pp->first || k >= pp->n)
+        return lr__sample_1d(pp->s, pp->pixel, sample, dim);
+    uint32_t r = lk_permute(reverse_bits(sample), pp->shuffle[k]);
+    return sobol_unit(reverse_bits(
+        lk_permute(sobol_rev(r, (int)d), pp->scramble[k][d])));
+}
+
 /* Pixel and lens dimensions (0..3) in one go: one index shuffle for the
  * 4-D Sobol point.  The seeds depend on the pixel only. */
 static void sobol_seeds(const lr__sampler *s, uint64_t pixel,

@@ -89,6 +89,10 @@ void lr__pixel_pairs_init(lr__pixel_pairs *pp, const lr__sampler *s,
 /* lr__sample_2d(s, pixel, sample, dim, out) for the prepared pixel. */
 void lr__pixel_pairs_get(const lr__pixel_pairs *pp, uint32_t sample,
                          uint32_t dim, double out[2]);
+/* lr__sample_1d(s, pixel, sample, dim) for the prepared pixel (any dim:
+ * one coordinate of its pair). */
+double lr__pixel_pairs_get1(const lr__pixel_pairs *pp, uint32_t sample,
+                            uint32_t dim);
 
 /* The 64-bit mixing function behind the hashes (SplitMix64's finaliser). */
 uint64_t lr__mix64(uint64_t z);
