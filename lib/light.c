@@ -64,16 +64,21 @@ lr_status lr__emitters_build(lr_scene *s, lr_error *err)
         double lum = emitter_luminance(&s->materials[G->material]);
         size_t m = G->kind == LR__GEOM_TRIANGLES ? G->n_triangles : 1;
         for (size_t i = 0; i < m; i++, k++) {
-            double area;
+            lr__emitter *e = &s->emitters[k];
+            *e = (lr__emitter){.geom = (unsigned)g, .prim = (unsigned)i};
             if (G->kind == LR__GEOM_TRIANGLES) {
                 lr__v3 v[3];
                 tri_corners(s, (unsigned)g, (unsigned)i, v);
-                area = 0.5 * v3_len(v3_cross(v3_sub(v[1], v[0]),
-                                             v3_sub(v[2], v[0])));
+                e->a = v[0];
+                e->e1 = v3_sub(v[1], v[0]);
+                e->e2 = v3_sub(v[2], v[0]);
+                lr__v3 c = v3_cross(e->e1, e->e2);
+                e->area = 0.5 * v3_len(c);
+                e->n = v3_norm(c);
             } else {
-                area = 4.0 * M_PI * G->radius * G->radius;
+                e->area = 4.0 * M_PI * G->radius * G->radius;
             }
-            s->emitters[k] = (lr__emitter){(unsigned)g, (unsigned)i, area};
+            double area = e->area;
             total += area * lum;
             s->emitter_cdf[k] = total;
         }
@@ -143,18 +148,16 @@ static int sample_emitter(const lr_scene *s, const lr__emitter *e, lr__v3 p,
     if (G->kind == LR__GEOM_TRIANGLES) {
         /* Uniform on the triangle: b0 = 1 - sqrt(u0), b1 = u1 sqrt(u0)
          * (pbrt-v3, section 13.6.3). */
-        lr__v3 v[3];
-        tri_corners(s, e->geom, e->prim, v);
         double su = sqrt(u[0]);
-        double b0 = 1.0 - su, b1 = u[1] * su;
-        *q = v3_add(v3_add(v3_scale(v[0], b0), v3_scale(v[1], b1)),
-                    v3_scale(v[2], 1.0 - b0 - b1));
-        /* Embree's barycentrics of q are (b1, 1 - b0 - b1). */
-        *has_uv = lr__triangle_uv(G, e->prim, b1, 1.0 - b0 - b1, uv);
-        *nq = v3_norm(v3_cross(v3_sub(v[1], v[0]), v3_sub(v[2], v[0])));
+        double b1 = u[1] * su, b2 = su - b1;
+        /* a + b1 (b - a) + b2 (c - a), with b0 = 1 - su. */
+        *q = v3_add(e->a, v3_add(v3_scale(e->e1, b1), v3_scale(e->e2, b2)));
+        /* Embree's barycentrics of q are (b1, b2). */
+        *has_uv = lr__triangle_uv(G, e->prim, b1, b2, uv);
+        *nq = e->n;
         lr__v3 to = v3_sub(*q, p);
         double d2 = v3_dot(to, to);
-        *pdf = area_to_solid(e->area, d2, v3_dot(*nq, v3_scale(to, 1.0 / sqrt(d2))));
+        *pdf = area_to_solid(e->area, d2, v3_dot(*nq, to) / sqrt(d2));
         return *pdf > 0.0;
     }
     *has_uv = 0;

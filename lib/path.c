@@ -15,17 +15,22 @@
  *
  * Depth: render.max_depth counts bounces after the first hit, as for
  * Whitted: 0 is direct light only; Mitsuba's max_depth is this + 2.
- * From the fourth surface on, Russian roulette ends a path with
+ * From the fifth surface on, Russian roulette ends a path with
  * probability 1 - min(0.95, max throughput) (throughput taken without
  * the 1/eta^2 of glass, as pbrt-v4 does, so that light inside glass is
- * not cut short).
+ * not cut short).  That start is Mitsuba 3's default (rr_depth 5, its
+ * depth counting surfaces from 1), so both trace the same paths; started
+ * at the third surface, the Cornell box's relative MSE at equal spp was
+ * 43% higher for 19% fewer rays (bench/path, docs/path-tracing.md).
  *
  * Random numbers: every decision is a pure function of (pixel, sample,
  * dimension, seed), dimensions 6 + 8 k .. 6 + 8 k + 6 for the k-th
  * surface (see rnd1), so a path is a pure function of its sample.
  *
- * Camera rays: a packet of sixteen is traced together (rtcIntersect16);
- * each lane then goes on alone, since bounced rays are incoherent.
+ * Packets: the sixteen samples of a camera packet (one pixel's) go
+ * through their bounces together: each bounce's shadow rays are traced
+ * as one packet (rtcOccluded16) and the continuation rays as another
+ * (rtcIntersect16), the shading stays per lane (trace_paths).
  */
 #include "bsdf.h"
 #include "integrator.h"
@@ -35,7 +40,7 @@
 
 #define DIM_FIRST 6
 #define DIMS_PER_BOUNCE 8
-#define RR_FROM 3
+#define RR_FROM 5
 
 static double mis(double a, double b)
 {
@@ -43,46 +48,74 @@ static double mis(double a, double b)
     return a + b > 0.0 ? a / (a + b) : 0.0;
 }
 
-/* A path's random numbers.  The first surface draws from the render's
- * sampler (stratified where the sampler is: that is where it pays), the
- * later ones from a hash of (seed, pixel, sample, dimension), a quarter
- * of the cost of a scrambled Sobol dimension (the sampler was 22% of a
- * Cornell box render). */
+/* A path's random numbers.  The first SOBOL_BOUNCES surfaces draw from
+ * the render's sampler (stratified where the sampler is: that is where
+ * it pays), through the pixel's pairs prepared once per packet
+ * (sampler.h: no hashing per number); the later ones from a hash of
+ * (seed, pixel, sample, dimension).  Three surfaces rather than one
+ * lowered the Cornell box's relative MSE at equal spp by 6%; the
+ * prepared pairs made them cheaper than one had been. */
+#define SOBOL_BOUNCES 3
+#define DIM_SOBOL_END (DIM_FIRST + DIMS_PER_BOUNCE * SOBOL_BOUNCES)
+#define SOBOL_PAIRS (DIMS_PER_BOUNCE / 2 * SOBOL_BOUNCES)
+
 typedef struct rng {
     const lr__sample_id *id;
-    uint64_t key; /* hash of (seed, pixel, sample) */
+    const lr__pixel_pairs *pairs; /* the pixel's, from DIM_FIRST on */
+    uint64_t key;                 /* hash of (seed, pixel, sample) */
 } rng;
 
-static double rnd1(const rng *r, uint32_t dim)
+static double hashed(const rng *r, uint32_t dim)
 {
-    if (dim < DIM_FIRST + DIMS_PER_BOUNCE)
-        return lr__sample_1d(r->id->sampler, r->id->pixel, r->id->sample,
-                             dim);
     uint64_t h = lr__mix64(r->key ^ ((uint64_t)dim * 0x9e3779b97f4a7c15ull));
     return (double)(h >> 11) * 0x1p-53;
 }
 
 static void rnd2(const rng *r, uint32_t dim, double u[2])
 {
-    if (dim < DIM_FIRST + DIMS_PER_BOUNCE) {
-        lr__sample_2d(r->id->sampler, r->id->pixel, r->id->sample, dim, u);
+    if (dim < DIM_SOBOL_END) {
+        lr__pixel_pairs_get(r->pairs, r->id->sample, dim, u);
         return;
     }
-    u[0] = rnd1(r, dim);
-    u[1] = rnd1(r, dim + 1);
+    u[0] = hashed(r, dim);
+    u[1] = hashed(r, dim + 1);
 }
 
-/* Light sampled from hit h towards a light, weighted: f cos Le w / pdf,
- * or 0 if blocked. */
-static lr__v3 next_event(const lr_scene *s, const lr__hit *h,
-                         const lr__bsdf *f, lr__v3 wo,
-                         const rng *id, uint32_t dim, uint64_t *rays)
+static double rnd1(const rng *r, uint32_t dim)
+{
+    if (dim < DIM_SOBOL_END)
+        return lr__pixel_pairs_get1(r->pairs, r->id->sample, dim);
+    return hashed(r, dim);
+}
+
+/* One path of a packet, between bounces. */
+typedef struct lane {
+    lr__sample_id id;
+    rng r;
+    lr__v3 L, beta;
+    lr__v3 org, dir;    /* the ray traced next (dir unit) */
+    lr__v3 prev_p;      /* where dir was sampled */
+    double prev_pdf;    /* its BSDF density (solid angle) */
+    int prev_delta;     /* 1 if from a delta lobe or the camera */
+    double eta_scale;   /* product of eta^2 crossed, for roulette */
+    /* This bounce's light sample: c is added if the shadow ray from
+     * s_org along s_dir is clear up to s_tfar. */
+    int shadow;
+    lr__v3 s_org, s_dir, s_c;
+    double s_tfar;
+} lane;
+
+/* Light sampled from hit h towards a light: the lane's shadow ray and
+ * its weighted contribution f cos Le w / pdf, to count if the ray is
+ * clear; 0 if there is nothing to trace. */
+static int next_event(const lr_scene *s, const lr__hit *h, const lr__bsdf *f,
+                      lr__v3 wo, uint32_t dim, lane *p)
 {
     double u[2];
-    rnd2(id, dim, u);
+    rnd2(&p->r, dim, u);
     lr__light_sample ls;
-    if (!lr__light_sample_from(s, h->p, rnd1(id, dim + 4), u, &ls))
-        return v3(0, 0, 0);
+    if (!lr__light_sample_from(s, h->p, rnd1(&p->r, dim + 4), u, &ls))
+        return 0;
     /* Light from behind the geometric surface arrives only through a
      * transmitting lobe, which evaluates it. */
     double bpdf;
@@ -90,137 +123,198 @@ static lr__v3 next_event(const lr_scene *s, const lr__hit *h,
     double cos_i = fabs(v3_dot(ls.dir, h->ns));
     lr__v3 c = v3_scale(v3_mul(fv, ls.L), cos_i / ls.pdf);
     if (!(v3_maxc(c) > 0.0))
-        return v3(0, 0, 0);
+        return 0;
     if (!ls.delta)
         c = v3_scale(c, mis(ls.pdf, bpdf));
-    lr__v3 org = lr__offset_origin(h, ls.dir);
-    double tfar = INFINITY;
+    p->s_c = v3_mul(p->beta, c);
+    p->s_org = lr__offset_origin(h, ls.dir);
+    p->s_dir = ls.dir;
+    p->s_tfar = INFINITY;
     if (isfinite(ls.dist)) {
         /* Stop short of the light's own surface (relative, as Mitsuba's
          * shadow epsilon). */
         lr__v3 q = v3_madd(h->p, ls.dir, ls.dist);
-        tfar = v3_len(v3_sub(q, org)) * (1.0 - 1e-4);
+        p->s_tfar = v3_len(v3_sub(q, p->s_org)) * (1.0 - 1e-4);
     }
-    (*rays)++;
-    if (lr__occluded(s, org, ls.dir, tfar))
-        return v3(0, 0, 0);
-    return c;
+    return 1;
 }
 
-/* The path from org along dir; if first is not NULL, the camera ray's
- * hit is already known (*first, valid when first_ok). */
-static lr__v3 path(const lr_scene *s, int max_depth, lr__v3 org, lr__v3 dir,
-                   const lr__sample_id *id, const lr__hit *first,
-                   int first_ok, uint64_t *rays)
+/* The lane's surface (or escape, hit == 0) at bounce `depth`: light
+ * found there, its light sample (p->shadow) and the next ray.  Returns 1
+ * if the path goes on. */
+static int bounce(const lr_scene *s, int max_depth, int depth, int hit,
+                  const lr__hit *h, lane *p)
 {
-    lr__v3 L = v3(0, 0, 0), beta = v3(1, 1, 1);
-    double eta_scale = 1.0; /* product of eta^2 crossed, for roulette */
-    double prev_pdf = 0.0;
-    int prev_delta = 1; /* the camera ray: nothing to weigh against */
-    lr__v3 prev_p = org;
-    dir = v3_norm(dir);
-    const rng r = {id, lr__mix64(lr__mix64(id->sampler->seed ^
-                                           lr__mix64(id->pixel)) ^
-                                 id->sample)};
-    for (int depth = 0;; depth++) {
-        lr__hit h;
-        int hit;
-        if (depth == 0 && first != NULL) {
-            hit = first_ok;
-            if (hit)
-                h = *first;
-        } else {
-            (*rays)++;
-            hit = lr__trace(s, org, dir, INFINITY, &h);
-        }
-        if (!hit) {
-            lr__v3 Le = lr__env_radiance(s, dir);
-            double w = prev_delta ? 1.0
-                                  : mis(prev_pdf, lr__light_pdf_env(s, dir));
-            L = v3_add(L, v3_scale(v3_mul(beta, Le), w));
-            break;
-        }
-        lr__material mt;
-        const lr__material *m = lr__hit_material(s, &h, &mt);
-        if (h.entering && v3_maxc(m->emission) > 0.0) {
-            double w = 1.0;
-            if (!prev_delta && h.geom >= 0)
-                w = mis(prev_pdf, lr__light_pdf_area(s, prev_p, h.p, h.ng,
-                                                     (unsigned)h.geom,
-                                                     h.prim));
-            L = v3_add(L, v3_scale(v3_mul(beta, m->emission), w));
-        }
-        if (depth > max_depth)
-            break;
-        lr__v3 wo = v3_neg(dir);
-        L = v3_add(L, v3_mul(beta, v3_mul(m->diffuse, s->ambient)));
-        lr__bsdf f;
-        lr__bsdf_init(&f, m, &h);
-        uint32_t dim = DIM_FIRST + DIMS_PER_BOUNCE * (uint32_t)depth;
-        if (lr__bsdf_has_smooth_lobes(&f))
-            L = v3_add(L, v3_mul(beta, next_event(s, &h, &f, wo, &r, dim,
-                                                  rays)));
-        double u[2];
-        rnd2(&r, dim + 2, u);
-        lr__v3 wi, weight;
-        double pdf;
-        int delta;
-        if (!lr__bsdf_sample(&f, wo, rnd1(&r, dim + 5), u, &wi, &weight,
-                             &pdf, &delta))
-            break;
-        /* A sampled direction must leave on the side the lobe says: in
-         * front of the geometric surface for reflection, behind it for
-         * transmission (shading normals can disagree). */
-        int through = v3_dot(wi, h.ns) < 0.0;
-        if ((v3_dot(wi, h.ng) < 0.0) != through)
-            break;
-        if (through && v3_maxc(m->transmit) > 0.0)
-            eta_scale *= f.eta * f.eta;
-        beta = v3_mul(beta, weight);
-        prev_pdf = pdf;
-        prev_delta = delta;
-        prev_p = h.p;
-        org = lr__offset_origin(&h, wi);
-        dir = wi;
-        if (depth + 1 >= RR_FROM) {
-            double q = fmin(0.95, v3_maxc(beta) * eta_scale);
-            if (!(rnd1(&r, dim + 6) < q))
-                break;
-            beta = v3_scale(beta, 1.0 / q);
-        }
-        if (!v3_finite(beta))
-            break;
+    p->shadow = 0;
+    if (!hit) {
+        lr__v3 Le = lr__env_radiance(s, p->dir);
+        double w = p->prev_delta ? 1.0
+                                 : mis(p->prev_pdf,
+                                       lr__light_pdf_env(s, p->dir));
+        p->L = v3_add(p->L, v3_scale(v3_mul(p->beta, Le), w));
+        return 0;
     }
-    return L;
+    lr__material mt;
+    const lr__material *m = lr__hit_material(s, h, &mt);
+    if (h->entering && v3_maxc(m->emission) > 0.0) {
+        double w = 1.0;
+        if (!p->prev_delta && h->geom >= 0)
+            w = mis(p->prev_pdf, lr__light_pdf_area(s, p->prev_p, h->p, h->ng,
+                                                    (unsigned)h->geom,
+                                                    h->prim));
+        p->L = v3_add(p->L, v3_scale(v3_mul(p->beta, m->emission), w));
+    }
+    if (depth > max_depth)
+        return 0;
+    lr__v3 wo = v3_neg(p->dir);
+    p->L = v3_add(p->L, v3_mul(p->beta, v3_mul(m->diffuse, s->ambient)));
+    lr__bsdf f;
+    lr__bsdf_init(&f, m, h);
+    uint32_t dim = DIM_FIRST + DIMS_PER_BOUNCE * (uint32_t)depth;
+    if (lr__bsdf_has_smooth_lobes(&f))
+        p->shadow = next_event(s, h, &f, wo, dim, p);
+    double u[2];
+    rnd2(&p->r, dim + 2, u);
+    lr__v3 wi, weight;
+    double pdf;
+    int delta;
+    if (!lr__bsdf_sample(&f, wo, rnd1(&p->r, dim + 5), u, &wi, &weight,
+                         &pdf, &delta))
+        return 0;
+    /* A sampled direction must leave on the side the lobe says: in
+     * front of the geometric surface for reflection, behind it for
+     * transmission (shading normals can disagree). */
+    int through = v3_dot(wi, h->ns) < 0.0;
+    if ((v3_dot(wi, h->ng) < 0.0) != through)
+        return 0;
+    if (through && v3_maxc(m->transmit) > 0.0)
+        p->eta_scale *= f.eta * f.eta;
+    p->beta = v3_mul(p->beta, weight);
+    p->prev_pdf = pdf;
+    p->prev_delta = delta;
+    p->prev_p = h->p;
+    p->org = lr__offset_origin(h, wi);
+    p->dir = wi;
+    if (depth + 1 >= RR_FROM) {
+        double q = fmin(0.95, v3_maxc(p->beta) * p->eta_scale);
+        if (!(rnd1(&p->r, dim + 6) < q))
+            return 0;
+        p->beta = v3_scale(p->beta, 1.0 / q);
+    }
+    return v3_finite(p->beta);
+}
+
+/* The paths of lanes 0..n-1 (n >= 1) of a packet of camera rays that the
+ * camera filled, all samples of one pixel: the camera rays are traced
+ * together, then each bounce's shadow rays together (rtcOccluded16) and
+ * its continuation rays together (rtcIntersect16).  Bounced rays are
+ * incoherent, but in a scene of a few primitives the cost of a ray is
+ * mostly Embree's per-call work, which a packet shares; a lane's result
+ * is what it would be traced alone. */
+static void trace_paths(const lr_scene *s, int max_depth,
+                        struct RTCRayHit16 *rh, int n,
+                        const lr__sample_id *id, lr__v3 L[16],
+                        uint64_t *rays)
+{
+    lr__intersect16(s, rh, n, rays);
+    lr__pixel_pairs pairs;
+    lr__pixel_pairs_init(&pairs, id->sampler, id->pixel, DIM_FIRST,
+                         n > 1 ? SOBOL_PAIRS : 0);
+    lane P[16];
+    int alive[16];
+    lr__v3 raw_org[16], raw_dir[16];
+    for (int i = 0; i < n; i++) {
+        lane *p = &P[i];
+        const struct RTCRay16 *r = &rh->ray;
+        raw_org[i] = v3(r->org_x[i], r->org_y[i], r->org_z[i]);
+        raw_dir[i] = v3(r->dir_x[i], r->dir_y[i], r->dir_z[i]);
+        p->id = *id;
+        p->id.sample = id->sample + (uint32_t)i;
+        p->r = (rng){&p->id, &pairs,
+                     lr__mix64(lr__mix64(id->sampler->seed ^
+                                         lr__mix64(id->pixel)) ^
+                               p->id.sample)};
+        p->L = v3(0, 0, 0);
+        p->beta = v3(1, 1, 1);
+        p->org = p->prev_p = raw_org[i];
+        p->dir = v3_norm(raw_dir[i]);
+        p->prev_pdf = 0.0;
+        p->prev_delta = 1; /* the camera ray: nothing to weigh against */
+        p->eta_scale = 1.0;
+        alive[i] = 1;
+    }
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    for (int depth = 0;; depth++) {
+        /* This bounce's surfaces, light samples and next rays. */
+        struct RTCRay16 sh __attribute__((aligned(64)));
+        int valid[16] __attribute__((aligned(64)));
+        int shadows = 0;
+        for (int i = 0; i < 16; i++)
+            valid[i] = 0;
+        for (int i = 0; i < n; i++) {
+            if (!alive[i])
+                continue;
+            lane *p = &P[i];
+            /* The camera ray's hit with the ray as the camera made it. */
+            lr__v3 org = depth == 0 ? raw_org[i] : p->org;
+            lr__v3 dir = depth == 0 ? raw_dir[i] : p->dir;
+            lr__hit h;
+            int hit = lr__hit_complete(s, org, dir, INFINITY,
+                                       rh->hit.geomID[i], rh->hit.primID[i],
+                                       rh->hit.u[i], rh->hit.v[i],
+                                       rh->ray.tfar[i], &h);
+            alive[i] = bounce(s, max_depth, depth, hit, &h, p);
+            if (!p->shadow)
+                continue;
+            (*rays)++;
+            if (lr__planes_block(s, p->s_org, p->s_dir, p->s_tfar))
+                continue;
+            lr__shadow_ray16(&sh, i, p->s_org, p->s_dir, p->s_tfar);
+            valid[i] = -1;
+            shadows++;
+        }
+        if (shadows) {
+            rtcOccluded16(valid, s->rtc, &ctx, &sh);
+            /* Embree marks an occluded ray by setting tfar to -inf. */
+            for (int i = 0; i < n; i++)
+                if (valid[i] && sh.tfar[i] >= 0.0f)
+                    P[i].L = v3_add(P[i].L, P[i].s_c);
+        }
+        int go = 0;
+        for (int i = 0; i < 16; i++) {
+            valid[i] = i < n && alive[i] ? -1 : 0;
+            if (!valid[i])
+                continue;
+            lr__shadow_ray16(&rh->ray, i, P[i].org, P[i].dir, INFINITY);
+            rh->hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
+            rh->hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
+            go++;
+        }
+        if (!go)
+            break;
+        rtcIntersect16(valid, s->rtc, &ctx, rh);
+        *rays += (uint64_t)go;
+    }
+    for (int i = 0; i < n; i++)
+        L[i] = P[i].L;
 }
 
 static lr__v3 radiance1(const lr_scene *s, int max_depth, lr__v3 org,
                         lr__v3 dir, const lr__sample_id *id, uint64_t *rays)
 {
-    return path(s, max_depth, org, dir, id, NULL, 0, rays);
-}
-
-static void radiance16(const lr_scene *s, int max_depth,
-                       struct RTCRayHit16 *rh, int n, const lr__sample_id *id,
-                       lr__v3 L[16], uint64_t *rays)
-{
-    lr__intersect16(s, rh, n, rays);
-    for (int i = 0; i < n; i++) {
-        const struct RTCRay16 *r = &rh->ray;
-        lr__v3 org = v3(r->org_x[i], r->org_y[i], r->org_z[i]);
-        lr__v3 dir = v3(r->dir_x[i], r->dir_y[i], r->dir_z[i]);
-        lr__hit h;
-        int ok = lr__hit_complete(s, org, dir, INFINITY, rh->hit.geomID[i],
-                                  rh->hit.primID[i], rh->hit.u[i],
-                                  rh->hit.v[i], rh->ray.tfar[i], &h);
-        lr__sample_id lane = *id;
-        lane.sample = id->sample + (uint32_t)i;
-        L[i] = path(s, max_depth, org, dir, &lane, &h, ok, rays);
-    }
+    /* A packet of one, so that a ray gives what it gives in a packet. */
+    struct RTCRayHit16 rh __attribute__((aligned(64)));
+    lr__shadow_ray16(&rh.ray, 0, org, dir, INFINITY);
+    rh.hit.geomID[0] = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.instID[0][0] = RTC_INVALID_GEOMETRY_ID;
+    lr__v3 L[16];
+    trace_paths(s, max_depth, &rh, 1, id, L, rays);
+    return L[0];
 }
 
 const lr__integrator lr__path_tracer = {
     .name = "path",
     .radiance = radiance1,
-    .radiance16 = radiance16,
+    .radiance16 = trace_paths,
 };

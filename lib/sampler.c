@@ -228,6 +228,54 @@ static double sobol_1d(const lr__sampler *s, uint64_t pixel, uint32_t sample,
     return sobol_unit(owen(sobol(idx, d), (uint32_t)scramble));
 }
 
+void lr__pixel_pairs_init(lr__pixel_pairs *pp, const lr__sampler *s,
+                          uint64_t pixel, uint32_t first, uint32_t n)
+{
+    pp->s = s;
+    pp->pixel = pixel;
+    pp->first = first;
+    pp->n = 0;
+    /* Only the padding pairs have a shuffle of their own. */
+    if (s->kind != LR_SAMPLER_SOBOL || first < 4 || (first & 1u))
+        return;
+    pp->n = n < LR__PAIRS_MAX ? n : LR__PAIRS_MAX;
+    for (uint32_t k = 0; k < pp->n; k++) {
+        uint32_t dim = first + 2 * k;
+        /* sobol_1d's seeds for dim and dim + 1. */
+        pp->shuffle[k] = (uint32_t)hash4(s->seed, pixel, 0xffffffffu, dim / 2);
+        for (uint32_t j = 0; j < 2; j++)
+            pp->scramble[k][j] =
+                (uint32_t)hash4(s->seed, pixel, 0xfffffffdu, dim + j);
+    }
+}
+
+void lr__pixel_pairs_get(const lr__pixel_pairs *pp, uint32_t sample,
+                         uint32_t dim, double out[2])
+{
+    uint32_t k = (dim - pp->first) / 2;
+    if (dim < pp->first || k >= pp->n || (dim & 1u)) {
+        lr__sample_2d(pp->s, pp->pixel, sample, dim, out);
+        return;
+    }
+    /* As sobol_4d_seeded: r = lk(rev(sample)) is the reversed shuffled
+     * index, and each coordinate rev(lk(sobol_rev(r, d))). */
+    uint32_t r = lk_permute(reverse_bits(sample), pp->shuffle[k]);
+    for (int d = 0; d < 2; d++)
+        out[d] = sobol_unit(reverse_bits(
+            lk_permute(sobol_rev(r, d), pp->scramble[k][d])));
+}
+
+double lr__pixel_pairs_get1(const lr__pixel_pairs *pp, uint32_t sample,
+                            uint32_t dim)
+{
+    uint32_t k = (dim - pp->first) / 2, d = dim & 1u;
+    if (dim < pp->first || k >= pp->n)
+        return lr__sample_1d(pp->s, pp->pixel, sample, dim);
+    uint32_t r = lk_permute(reverse_bits(sample), pp->shuffle[k]);
+    return sobol_unit(reverse_bits(
+        lk_permute(sobol_rev(r, (int)d), pp->scramble[k][d])));
+}
+
 /* Pixel and lens dimensions (0..3) in one go: one index shuffle for the
  * 4-D Sobol point.  The seeds depend on the pixel only. */
 static void sobol_seeds(const lr__sampler *s, uint64_t pixel,

@@ -43,6 +43,10 @@ typedef struct lr__emitter {
     unsigned geom;     /* in scene->geoms */
     unsigned prim;     /* triangle index; 0 for a sphere */
     double area;
+    /* A triangle's corner a, edges b - a and c - a, and unit normal
+     * (counter-clockwise front), kept in double so that sampling does
+     * not read and convert the mesh again for every light sample. */
+    lr__v3 a, e1, e2, n;
 } lr__emitter;
 
 typedef struct lr__envmap lr__envmap; /* envmap.c */

@@ -229,6 +229,36 @@ static void test_pixel_lens_matches_2d(void **state)
     }
 }
 
+/* The prepared pairs (the path integrator's bounce dimensions) give
+ * exactly lr__sample_2d's and lr__sample_1d's values, inside the
+ * prepared range and outside it, for every sampler, at small and large
+ * sample indices. */
+static void test_pairs_match_2d(void **state)
+{
+    (void)state;
+    for (int kind = 0; kind <= LR_SAMPLER_SOBOL; kind++) {
+        lr__sampler s;
+        lr__sampler_init(&s, (lr_sampler_kind)kind, 5, 64);
+        for (uint64_t px = 0; px < 12; px++) {
+            lr__pixel_pairs pp;
+            lr__pixel_pairs_init(&pp, &s, px, 6, 4);
+            for (uint32_t i = 0; i < 300; i += 7) {
+                uint32_t smp = i * 1234567u;
+                for (uint32_t dim = 4; dim < 20; dim++) {
+                    double a[2], b[2];
+                    if ((dim & 1u) == 0) {
+                        lr__pixel_pairs_get(&pp, smp, dim, a);
+                        lr__sample_2d(&s, px, smp, dim, b);
+                        assert_true(a[0] == b[0] && a[1] == b[1]);
+                    }
+                    assert_true(lr__pixel_pairs_get1(&pp, smp, dim) ==
+                                lr__sample_1d(&s, px, smp, dim));
+                }
+            }
+        }
+    }
+}
+
 /* The sixteen-lane Sobol call, in every version this CPU can run, gives
  * exactly the values of the one-sample call rounded to float, at small
  * and at large sample indices (all four index bytes in play). */
@@ -282,6 +312,7 @@ static void test_get16_matches_get(void **state)
 static const struct CMUnitTest sampler_tests[] = {
     cmocka_unit_test(test_get16_matches_get),
     cmocka_unit_test(test_pixel_lens_matches_2d),
+    cmocka_unit_test(test_pairs_match_2d),
     cmocka_unit_test(test_permute_is_bijection),
     cmocka_unit_test(test_values_in_unit_interval_and_pure),
     cmocka_unit_test(test_grid_is_cell_centres),

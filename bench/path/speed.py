@@ -14,6 +14,12 @@ Both render the same scene description at 128 x 128, max_depth 6 here
     adaptive sampling on (threshold --threshold, spp as the cap), Mitsuba
     with its independent sampler (Dr.Jit's default).
 
+Every time is taken twice: wall clock and CPU time (all threads, user +
+system: the renderer's own process for Mitsuba, the child's for lensray),
+which other work on a shared machine inflates far less.  The summary's
+rate_ratio and time_ratio are wall-clock; cpu_rate_ratio and
+cpu_time_ratio the same from CPU time.
+
 Prints "PATHSPEED {json}" lines: one per renderer and a summary.
 """
 import argparse
@@ -30,8 +36,31 @@ import scenes  # noqa: E402
 TARGET = 1e-4
 
 
+def rnd(x):
+    return None if x is None else round(x, 2)
+
+
 def rel_mse(x, r):
     return float((((x - r) ** 2) / (r * r + 0.01)).mean())
+
+
+def children_cpu():
+    t = os.times()
+    return t.children_user + t.children_system
+
+
+def hit_time(pts, k):
+    """The time (column k of pts' (spp, wall, cpu, error) rows) at which
+    the error reaches TARGET, interpolated log-log; None if it never
+    does."""
+    if pts and pts[0][3] <= TARGET:
+        return pts[0][k]
+    for p0, p1 in zip(pts, pts[1:]):
+        e0, e1 = p0[3], p1[3]
+        if e0 > TARGET >= e1 and e1 > 0:
+            f = (math.log(e0) - math.log(TARGET)) / (math.log(e0) - math.log(e1))
+            return math.exp(math.log(p0[k]) + f * (math.log(p1[k]) - math.log(p0[k])))
+    return None
 
 
 def main():
@@ -59,10 +88,10 @@ def main():
     def mitsuba(spp, seed=0):
         scene = mi.load_dict(scenes.mitsuba_dict(mi, sc, W, H, spp, a.depth,
                                                  seed=seed))
-        t = time.time()
+        t, c = time.time(), time.process_time()
         img = np.array(mi.render(scene, spp=spp, seed=seed),
                        dtype=np.float64)[..., :3]
-        return img, time.time() - t
+        return img, time.time() - t, time.process_time() - c
 
     def lensray(spp, adaptive):
         path = os.path.join(a.out, 'cornell.json')
@@ -70,11 +99,11 @@ def main():
         with open(path, 'w') as f:
             json.dump(scenes.lensray_json(sc, W, H, spp, a.depth, extra), f)
         exr = os.path.join(a.out, 'cornell-lensray.exr')
-        t = time.time()
+        t, c = time.time(), children_cpu()
         subprocess.run([a.lensray, 'render', path, '-o', exr, '-q'],
                        check=True)
-        dt = time.time() - t
-        return np.array(mi.Bitmap(exr), dtype=np.float64)[..., :3], dt
+        dt, dc = time.time() - t, children_cpu() - c
+        return np.array(mi.Bitmap(exr), dtype=np.float64)[..., :3], dt, dc
 
     # The reference, in passes of 512 spp with different seeds, kept as two
     # halves: their difference measures the reference's own noise, which
@@ -97,36 +126,35 @@ def main():
     out = {}
     for name, fn in (('lensray', lambda s: lensray(s, False)),
                      ('mitsuba_llvm_ad_rgb', lambda s: mitsuba(s))):
-        t1 = min(fn(a.spp)[1] for _ in range(a.repeat))
-        t2 = min(fn(4 * a.spp)[1] for _ in range(a.repeat))
-        # The difference drops start-up and kernel compilation; on a busy
-        # machine it can come out <= 0, and then only the plain rate at
-        # 4 x spp is reported.
-        rate = W * H * 3 * a.spp / (t2 - t1) if t2 > t1 else None
-        plain = W * H * 4 * a.spp / t2
-        out[name] = {'samples_per_s': None if rate is None else round(rate),
-                     'plain_samples_per_s': round(plain)}
+        # Best of --repeat, wall and CPU each.
+        r1 = [fn(a.spp)[1:] for _ in range(a.repeat)]
+        r2 = [fn(4 * a.spp)[1:] for _ in range(a.repeat)]
+        res = {}
+        for key, k in (('', 0), ('cpu_', 1)):
+            t1, t2 = min(r[k] for r in r1), min(r[k] for r in r2)
+            # The difference drops start-up and kernel compilation; on a
+            # busy machine it can come out <= 0, and then only the plain
+            # rate at 4 x spp is reported.
+            rate = W * H * 3 * a.spp / (t2 - t1) if t2 > t1 else None
+            res[key + 'samples_per_s'] = None if rate is None else round(rate)
+            res[key + 'plain_samples_per_s'] = round(W * H * 4 * a.spp / t2)
+        out[name] = res
 
     for name, fn in (('lensray', lambda s: lensray(s, {'threshold': a.threshold})),
                      ('mitsuba_llvm_ad_rgb', lambda s: mitsuba(s))):
         pts = []
         spp = 4
         while spp <= a.max_spp:
-            img, t = fn(spp)
+            img, t, c = fn(spp)
             e = rel_mse(img, ref) - ref_noise
-            pts.append((spp, t, e))
+            pts.append((spp, t, c, e))
             if e <= TARGET:
                 break
             spp *= 2
-        t_hit = None
-        for (s0, t0, e0), (s1, t1, e1) in zip(pts, pts[1:]):
-            if e0 > TARGET >= e1:
-                f = (math.log(e0) - math.log(TARGET)) / (math.log(e0) - math.log(e1))
-                t_hit = math.exp(math.log(t0) + f * (math.log(t1) - math.log(t0)))
-        if pts and pts[0][2] <= TARGET:
-            t_hit = pts[0][1]
-        out[name].update({'seconds_to_relmse_1e-4': None if t_hit is None else round(t_hit, 2),
-                          'curve': [[s, round(t, 3), float('%.3g' % e)] for s, t, e in pts]})
+        out[name].update({'seconds_to_relmse_1e-4': rnd(hit_time(pts, 1)),
+                          'cpu_seconds_to_relmse_1e-4': rnd(hit_time(pts, 2)),
+                          'curve': [[s, round(t, 3), round(c, 3), float('%.3g' % e)]
+                                    for s, t, c, e in pts]})
         print('PATHSPEED ' + json.dumps(dict(renderer=name, **out[name])), flush=True)
 
     L, M = out['lensray'], out['mitsuba_llvm_ad_rgb']
@@ -134,11 +162,14 @@ def main():
                'max_depth': a.depth, 'mitsuba_max_depth': a.depth + 2,
                'ref_spp': a.ref_spp, 'ref_relmse': float('%.3g' % ref_noise),
                'lensray_adaptive_threshold': a.threshold,
+               'curve_columns': ['spp', 'wall_s', 'cpu_s', 'relmse'],
                'plain_rate_ratio': round(L['plain_samples_per_s'] / M['plain_samples_per_s'], 3)}
-    if L['samples_per_s'] and M['samples_per_s']:
-        summary['rate_ratio'] = round(L['samples_per_s'] / M['samples_per_s'], 3)
-    if L['seconds_to_relmse_1e-4'] and M['seconds_to_relmse_1e-4']:
-        summary['time_ratio'] = round(M['seconds_to_relmse_1e-4'] / L['seconds_to_relmse_1e-4'], 3)
+    for p in ('', 'cpu_'):
+        if L[p + 'samples_per_s'] and M[p + 'samples_per_s']:
+            summary[p + 'rate_ratio'] = round(L[p + 'samples_per_s'] / M[p + 'samples_per_s'], 3)
+        k = p + 'seconds_to_relmse_1e-4'
+        if L[k] and M[k]:
+            summary[p + 'time_ratio'] = round(M[k] / L[k], 3)
     print('PATHSPEED ' + json.dumps(summary), flush=True)
 
 
