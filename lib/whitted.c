@@ -332,7 +332,7 @@ static void radiance16(const lr_scene *restrict s, int max_depth,
         has_hit[i] = 0;
         if (vec[i]) {
             lr__hits16_gather(s, rh, i, &sc->h);
-            const lr__v3 kd = s->materials[s->geoms[g].material].diffuse;
+            const lr__v3 kd = s->geoms[g].albedo;
             sc->k[0][i] = kd.x, sc->k[1][i] = kd.y, sc->k[2][i] = kd.z;
         }
         if (i >= n)
