@@ -28,10 +28,12 @@ static lr_status embree_fail(lr_error *err, const char *what)
                     embree_msg[0] ? embree_msg : "unknown Embree error");
 }
 
+const char *lr__embree_config = NULL;
+
 lr_status lr__scene_begin(lr_scene *s, lr_error *err)
 {
     embree_msg[0] = '\0';
-    s->device = rtcNewDevice(NULL);
+    s->device = rtcNewDevice(lr__embree_config);
     if (s->device == NULL)
         return embree_fail(err, "creating the Embree device");
     rtcSetDeviceErrorFunction(s->device, on_embree_error, NULL);

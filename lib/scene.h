@@ -137,6 +137,10 @@ lr_status lr__scene_add_plane(lr_scene *s, lr__v3 point, lr__v3 normal,
 /* Commits the Embree scene: no more geometry after this.  Builds the
  * emitter list (lr__emitters_build). */
 lr_status lr__scene_commit(lr_scene *s, lr_error *err);
+/* The configuration string scenes give rtcNewDevice (NULL: Embree's
+ * defaults, the best code for this CPU).  The tests set it to run
+ * Embree's code for other CPUs ("isa=avx2", "isa=sse4.2"). */
+extern const char *lr__embree_config;
 
 /* ---- tracing (trace.c) ------------------------------------------------ */
 
@@ -174,6 +178,13 @@ void lr__shadow_ray16(struct RTCRay16 *r, int lane, lr__v3 org, lr__v3 dir,
 int lr__hit_complete(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
                      unsigned geom_id, unsigned prim_id, float bu, float bv,
                      float t_hit, lr__hit *hit);
+/* Gives the lanes of r that valid masks off (valid[i] == 0) the harmless
+ * ray lane_disabled gives (origin 0, direction +z, tnear 1 > tfar 0).
+ * Call it before rtcOccluded16 on a packet whose masked lanes hold
+ * anything: Embree's AVX2 code (on a CPU without AVX-512) checks those
+ * lanes too, and a NaN there aborts the process ("Assertion
+ * `all(valid, ray.valid())' failed" in occludedCoherent). */
+void lr__ray16_quiet_lanes(struct RTCRay16 *r, const int *valid);
 int lr__planes_block(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar);
 
 /* The triangle hits of a packet in structure-of-arrays form, in double:

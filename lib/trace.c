@@ -278,6 +278,22 @@ void lr__shadow_ray16(struct RTCRay16 *r, int lane, lr__v3 org, lr__v3 dir,
     r->flags[lane] = 0;
 }
 
+__attribute__((target_clones("avx512f", "avx2", "default")))
+void lr__ray16_quiet_lanes(struct RTCRay16 *r, const int *valid)
+{
+    for (int i = 0; i < 16; i++) {
+        int off = valid[i] == 0;
+        r->org_x[i] = off ? 0.0f : r->org_x[i];
+        r->org_y[i] = off ? 0.0f : r->org_y[i];
+        r->org_z[i] = off ? 0.0f : r->org_z[i];
+        r->dir_x[i] = off ? 0.0f : r->dir_x[i];
+        r->dir_y[i] = off ? 0.0f : r->dir_y[i];
+        r->dir_z[i] = off ? 1.0f : r->dir_z[i];
+        r->tnear[i] = off ? 1.0f : r->tnear[i];
+        r->tfar[i] = off ? 0.0f : r->tfar[i];
+    }
+}
+
 int lr__planes_block(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar)
 {
     double t_plane;

@@ -406,6 +406,9 @@ static void radiance16(const lr_scene *restrict s, int max_depth,
         }
         if (!any)
             continue;
+        /* The masked lanes hold what light_rays16 made of lanes without
+         * a hit (NaN where the camera ray missed), or nothing at all. */
+        lr__ray16_quiet_lanes(&shadow, valid);
         rtcOccluded16(valid, s->rtc, &ctx, &shadow);
         *rays += (uint64_t)any;
         for (int i = 0; i < n; i++) {
