@@ -513,12 +513,10 @@ static void test_packets_on_every_embree_isa(void **state)
 {
     (void)state;
     char path[512];
-    snprintf(path, sizeof path, "%s/isa-tet.obj", lr_test_tmpdir());
-    FILE *f = fopen(path, "w");
-    assert_non_null(f);
-    fputs("v -1 0 -1\nv 1 0 -1\nv 0 0 1\nv 0 1.5 0\n"
-          "f 1 3 2\nf 1 2 4\nf 2 3 4\nf 3 1 4\n", f);
-    assert_int_equal(fclose(f), 0);
+    lr_test_write_text("isa-tet.obj",
+                       "v -1 0 -1\nv 1 0 -1\nv 0 0 1\nv 0 1.5 0\n"
+                       "f 1 3 2\nf 1 2 4\nf 2 3 4\nf 3 1 4\n",
+                       path, sizeof path);
     char json[2048];
     int len = snprintf(json, sizeof json,
         "{\"camera\": {\"model\": \"thinlens\", \"position\": [0, 0.8, 4],"
