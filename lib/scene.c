@@ -29,10 +29,12 @@ static lr_status embree_fail(lr_error *err, const char *what)
                     embree_msg[0] ? embree_msg : "unknown Embree error");
 }
 
+const char *lr__embree_config = NULL;
+
 lr_status lr__scene_begin(lr_scene *s, lr_error *err)
 {
     embree_msg[0] = '\0';
-    s->device = rtcNewDevice(NULL);
+    s->device = rtcNewDevice(lr__embree_config);
     if (s->device == NULL)
         return embree_fail(err, "creating the Embree device");
     rtcSetDeviceErrorFunction(s->device, on_embree_error, NULL);
@@ -163,6 +165,28 @@ lr_status lr__scene_add_plane(lr_scene *s, lr__v3 point, lr__v3 normal,
     return LR_OK;
 }
 
+/* The unit geometric normals of a mesh's triangles, as lr__hit_complete
+ * and finish_hit compute them (the same operations in the same order, so
+ * the same bits): malloc'd, 3 per triangle; NULL when out of memory. */
+static double *face_normals(const lr__geom *g)
+{
+    /* (At least one, so that NULL means out of memory.) */
+    double *ng = malloc(3 * (g->n_triangles + 1) * sizeof *ng);
+    if (ng == NULL)
+        return NULL;
+    for (size_t t = 0; t < g->n_triangles; t++) {
+        const unsigned *ix = &g->indices[3 * t];
+        const float *a = &g->vertices[3 * (size_t)ix[0]];
+        const float *b = &g->vertices[3 * (size_t)ix[1]];
+        const float *c = &g->vertices[3 * (size_t)ix[2]];
+        lr__v3 va = v3(a[0], a[1], a[2]);
+        lr__v3 n = v3_norm(v3_cross(v3_sub(v3(b[0], b[1], b[2]), va),
+                                    v3_sub(v3(c[0], c[1], c[2]), va)));
+        ng[3 * t] = n.x, ng[3 * t + 1] = n.y, ng[3 * t + 2] = n.z;
+    }
+    return ng;
+}
+
 lr_status lr__scene_commit(lr_scene *s, lr_error *err)
 {
     for (size_t i = 0; i < s->n_geoms; i++) {
@@ -177,6 +201,13 @@ lr_status lr__scene_commit(lr_scene *s, lr_error *err)
         lr_status st = lr__plan_chunk_bounds(g, err);
         if (st != LR_OK)
             return st;
+        if (!g->lambert_triangles)
+            continue;
+        g->albedo = m->diffuse;
+        free(g->face_ng);
+        g->face_ng = face_normals(g);
+        if (g->face_ng == NULL)
+            return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     }
     lr_status st = lr__emitters_build(s, err);
     if (st != LR_OK)
@@ -201,6 +232,7 @@ void lr_scene_free(lr_scene *s)
         free(s->geoms[i].corner_normals);
         free(s->geoms[i].corner_uv);
         free(s->geoms[i].chunk_bounds);
+        free(s->geoms[i].face_ng);
     }
     free(s->geoms);
     free(s->planes);

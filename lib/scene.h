@@ -92,6 +92,14 @@ typedef struct lr__geom {
      * mirror or glass): a fact the integrator's vector path asks per
      * lane. */
     int lambert_triangles;
+    /* Set with lambert_triangles: each triangle's unit geometric normal
+     * (b - a) x (c - a) / |...|, in double from the float corners, as
+     * lr__hit_complete computes it (3 per triangle; owned), and the
+     * material's albedo.  The vector path reads them per lane instead of
+     * the index, three corners and a material: one cache line and no
+     * chain of dependent loads. */
+    double *face_ng;
+    lr__v3 albedo;
     /* Emissive geometry: the index in scene->emitters of its first
      * primitive (triangle i is emitters[emitter + i]); -1 if none. */
     long emitter;
@@ -179,6 +187,10 @@ lr_status lr__scene_texture_add(lr_scene *s, lr__texture *t);
 /* Commits the Embree scene: no more geometry after this.  Builds the
  * emitter list (lr__emitters_build). */
 lr_status lr__scene_commit(lr_scene *s, lr_error *err);
+/* The configuration string scenes give rtcNewDevice (NULL: Embree's
+ * defaults, the best code for this CPU).  The tests set it to run
+ * Embree's code for other CPUs ("isa=avx2", "isa=sse4.2"). */
+extern const char *lr__embree_config;
 
 /* ---- tracing (trace.c) ------------------------------------------------ */
 
@@ -280,6 +292,13 @@ void lr__shadow_ray16(struct RTCRay16 *r, int lane, lr__v3 org, lr__v3 dir,
 int lr__hit_complete(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
                      unsigned geom_id, unsigned prim_id, float bu, float bv,
                      float t_hit, lr__hit *hit);
+/* Gives the lanes of r that valid masks off (valid[i] == 0) the harmless
+ * ray lane_disabled gives (origin 0, direction +z, tnear 1 > tfar 0).
+ * Call it before rtcOccluded16 on a packet whose masked lanes hold
+ * anything: Embree's AVX2 code (on a CPU without AVX-512) checks those
+ * lanes too, and a NaN there aborts the process ("Assertion
+ * `all(valid, ray.valid())' failed" in occludedCoherent). */
+void lr__ray16_quiet_lanes(struct RTCRay16 *r, const int *valid);
 int lr__planes_block(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar);
 
 /* The triangle hits of a packet in structure-of-arrays form, in double:
@@ -292,7 +311,7 @@ int lr__planes_block(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar);
  * vector loops compute on them too, and nobody reads those results, so a
  * caller zeroes the struct once and then reuses it. */
 typedef struct lr__hits16 {
-    float v[9][16];     /* the triangle's corners a, b, c (x, y, z) */
+    double ng[3][16];   /* the triangle's unit normal (lr__geom.face_ng) */
     float n[9][16];     /* corner normals, zero in flat meshes */
     float smooth[16];   /* 1 with corner normals */
     /* Results. */
@@ -302,22 +321,19 @@ typedef struct lr__hits16 {
     double eps[16];
 } lr__hits16;
 
-/* Copies lane i's triangle (geometry rh->hit.geomID[i], a triangle mesh)
- * into h.  (Inline: it runs for every lane of every packet, and as a call
- * it cost 8% of a render.) */
+/* Copies lane i's triangle (geometry rh->hit.geomID[i], a triangle mesh
+ * with lambert_triangles set) into h.  (Inline: it runs for every lane of
+ * every packet, and as a call it cost 8% of a render.) */
 static inline void lr__hits16_gather(const lr_scene *s,
                                      const struct RTCRayHit16 *rh, int i,
                                      lr__hits16 *h)
 {
     const lr__geom *g = &s->geoms[rh->hit.geomID[i]];
     unsigned prim = rh->hit.primID[i];
-    const unsigned *ix = &g->indices[3 * (size_t)prim];
-    for (int c = 0; c < 3; c++) {
-        const float *v = &g->vertices[3 * (size_t)ix[c]];
-        h->v[3 * c][i] = v[0];
-        h->v[3 * c + 1][i] = v[1];
-        h->v[3 * c + 2][i] = v[2];
-    }
+    const double *ng = &g->face_ng[3 * (size_t)prim];
+    h->ng[0][i] = ng[0];
+    h->ng[1][i] = ng[1];
+    h->ng[2][i] = ng[2];
     if (g->corner_normals != NULL) {
         const float *n = &g->corner_normals[9 * (size_t)prim];
         for (int k = 0; k < 9; k++)

@@ -218,20 +218,21 @@ void lr__hits16_complete(const struct RTCRayHit16 *rh, lr__hits16 *h)
 {
     const struct RTCRay16 *r = &rh->ray;
     for (int i = 0; i < 16; i++) {
-        /* ng = (b - a) x (c - a), in double as scene.c does it. */
-        double ax = h->v[0][i], ay = h->v[1][i], az = h->v[2][i];
-        double e1x = (double)h->v[3][i] - ax, e1y = (double)h->v[4][i] - ay,
-               e1z = (double)h->v[5][i] - az;
-        double e2x = (double)h->v[6][i] - ax, e2y = (double)h->v[7][i] - ay,
-               e2z = (double)h->v[8][i] - az;
-        double ngx = e1y * e2z - e1z * e2y;
-        double ngy = e1z * e2x - e1x * e2z;
-        double ngz = e1x * e2y - e1y * e2x;
-        /* ns: the corner normals interpolated, or ng. */
+        /* ng: unit already (scene.c's face_normals). */
+        double ngx = h->ng[0][i], ngy = h->ng[1][i], ngz = h->ng[2][i];
+        /* ns: the corner normals interpolated and normalised (v3_norm),
+         * or in flat meshes ng (the scalar code normalises the same
+         * cross product for both). */
         double u = rh->hit.u[i], v = rh->hit.v[i], w = 1.0 - u - v;
         double nsx = w * h->n[0][i] + u * h->n[3][i] + v * h->n[6][i];
         double nsy = w * h->n[1][i] + u * h->n[4][i] + v * h->n[7][i];
         double nsz = w * h->n[2][i] + u * h->n[5][i] + v * h->n[8][i];
+        double ls = sqrt(nsx * nsx + nsy * nsy + nsz * nsz);
+        double is = 1.0 / ls;
+        int oks = ls > 0;
+        nsx = oks ? nsx * is : nsx;
+        nsy = oks ? nsy * is : nsy;
+        nsz = oks ? nsz * is : nsz;
         int smooth = h->smooth[i] != 0.0f;
         nsx = smooth ? nsx : ngx;
         nsy = smooth ? nsy : ngy;
@@ -241,19 +242,6 @@ void lr__hits16_complete(const struct RTCRayHit16 *rh, lr__hits16 *h)
         h->px[i] = (double)r->org_x[i] + dx * t;
         h->py[i] = (double)r->org_y[i] + dy * t;
         h->pz[i] = (double)r->org_z[i] + dz * t;
-        /* v3_norm, twice. */
-        double lg = sqrt(ngx * ngx + ngy * ngy + ngz * ngz);
-        double ig = 1.0 / lg;
-        int okg = lg > 0;
-        ngx = okg ? ngx * ig : ngx;
-        ngy = okg ? ngy * ig : ngy;
-        ngz = okg ? ngz * ig : ngz;
-        double ls = sqrt(nsx * nsx + nsy * nsy + nsz * nsz);
-        double is = 1.0 / ls;
-        int oks = ls > 0;
-        nsx = oks ? nsx * is : nsx;
-        nsy = oks ? nsy * is : nsy;
-        nsz = oks ? nsz * is : nsz;
         int entering = dx * ngx + dy * ngy + dz * ngz < 0.0;
         ngx = entering ? ngx : -ngx;
         ngy = entering ? ngy : -ngy;
@@ -295,6 +283,22 @@ void lr__shadow_ray16(struct RTCRay16 *r, int lane, lr__v3 org, lr__v3 dir,
     r->mask[lane] = 0xFFFFFFFFu;
     r->id[lane] = 0;
     r->flags[lane] = 0;
+}
+
+__attribute__((target_clones("avx512f", "avx2", "default")))
+void lr__ray16_quiet_lanes(struct RTCRay16 *r, const int *valid)
+{
+    for (int i = 0; i < 16; i++) {
+        int off = valid[i] == 0;
+        r->org_x[i] = off ? 0.0f : r->org_x[i];
+        r->org_y[i] = off ? 0.0f : r->org_y[i];
+        r->org_z[i] = off ? 0.0f : r->org_z[i];
+        r->dir_x[i] = off ? 0.0f : r->dir_x[i];
+        r->dir_y[i] = off ? 0.0f : r->dir_y[i];
+        r->dir_z[i] = off ? 1.0f : r->dir_z[i];
+        r->tnear[i] = off ? 1.0f : r->tnear[i];
+        r->tfar[i] = off ? 0.0f : r->tfar[i];
+    }
 }
 
 int lr__planes_block(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar)
