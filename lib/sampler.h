@@ -23,7 +23,7 @@ typedef struct lr__sampler {
 enum {
     LR__DIM_PIXEL = 0,      /* 2-D: position inside the pixel */
     LR__DIM_LENS = 2,       /* 2-D: position on the aperture */
-    LR__DIM_WAVELENGTH = 4, /* 1-D: offset of the stratified wavelengths */
+    LR__DIM_WAVELENGTH = 4, /* 1-D: the sample's wavelength (spectral) */
     LR__DIM_COUNT = 5
 };
 
@@ -63,6 +63,13 @@ void lr__pixel_sampler_get(const lr__pixel_sampler *ps, uint32_t sample,
  * sample first + i.  Lanes n..15 are written with unspecified values. */
 void lr__pixel_sampler_get16(const lr__pixel_sampler *ps, uint32_t first,
                              int n, float out[4][16]);
+
+/* Dimension 4 of a sample (LR__DIM_WAVELENGTH), stratified jointly with
+ * the pixel and lens dimensions where the sampler can: for sobol, the
+ * fifth dimension of the same 5-D Sobol point (so a pixel's samples
+ * spread over pixel, lens and wavelength together); for the others,
+ * lr__sample_1d's value. */
+double lr__pixel_sampler_dim4(const lr__pixel_sampler *ps, uint32_t sample);
 
 /* The 64-bit mixing function behind the hashes (SplitMix64's finaliser). */
 uint64_t lr__mix64(uint64_t z);
