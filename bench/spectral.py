@@ -111,7 +111,7 @@ def main():
 
     full = {"render.plan": "false", "render.adaptive": "false"}
     ladder_old = [8, 16, 32, 64, 128] if not o.quick else [8, 16]
-    ladder_new = [4, 8, 16, 32, 64, 128, 256] if not o.quick else [4, 8, 16]
+    ladder_new = [8, 16, 32, 64, 128] if not o.quick else [4, 8, 16]
     configs = []
     if o.old:
         for wl in (8, 16):
@@ -121,11 +121,13 @@ def main():
                                 ladder_old))
     configs.append(("new", o.new, "plan+adaptive, default wavelengths", {},
                     ladder_new))
-    for wl in (1, 2, 4):
+    for wl in (4, 8, 16):
+        configs.append(("new", o.new, "full, %d wavelengths" % wl,
+                        dict(full, **{"camera.chromatic.wavelengths": wl}),
+                        ladder_new))
+    for wl in (4, 16):
         configs.append(("new", o.new, "plan+adaptive, %d wavelengths" % wl,
                         {"camera.chromatic.wavelengths": wl}, ladder_new))
-    configs.append(("new", o.new, "full, default wavelengths", full,
-                    ladder_new))
 
     results = []
     for who, binary, name, sets, ladder in configs:
