@@ -159,9 +159,28 @@ def main():
         print("| %s | %s | %s | %s | %.2e (%.2f s) |" % (
             r["binary"], r["config"], "%.3f" % t if t else "never",
             ratio, r["points"][-1][1], r["points"][-1][0]))
+    # Bias: NEW in the reference's own configuration, a third seed.  With
+    # no bias between the methods, its distance to either reference is
+    # about the references' distance to each other (each is the sum of
+    # two images' noise, all three alike).
+    bias = None
+    if o.old:
+        out = os.path.join(o.work, "runs", "new-converged.exr")
+        render(o.new, out, {
+            "render.spp": o.ref_spp, "render.plan": "false",
+            "render.adaptive": "false", "render.sampler": "sobol",
+            "render.seed": 1000003, "camera.chromatic.wavelengths": 32})
+        bias = {"new_ref1": relmse(o.imgdiff, refs[0], out),
+                "new_ref2": relmse(o.imgdiff, refs[1], out),
+                "ref1_ref2": 2 * ref_noise}
+        print("\nconverged (sobol, %d spp, 32 wavelengths, full): relMSE new "
+              "vs old seed 1: %.2e, new vs old seed 2: %.2e; old seed 1 vs "
+              "old seed 2: %.2e" % (o.ref_spp, bias["new_ref1"],
+                                    bias["new_ref2"], bias["ref1_ref2"]))
     with open(os.path.join(o.work, "results.json"), "w") as f:
         json.dump({"reference_noise": ref_noise, "ref_spp": o.ref_spp,
-                   "results": results, "best_old": best_old}, f, indent=1)
+                   "results": results, "best_old": best_old, "bias": bias},
+                  f, indent=1)
     load = os.getloadavg()
     print("\n%d s wall; load average now %.1f %.1f %.1f" % (
         time.time() - started, *load))

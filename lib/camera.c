@@ -8,6 +8,7 @@
 #include "camera.h"
 #include "lens.h"
 #include "scene.h"
+#include "wavelength.h"
 
 #include <float.h>
 #include <math.h>
@@ -42,7 +43,7 @@ void lr_camera_default(lr_camera *cam)
     cam->chromatic.abbe_nd = 1.5168;
     cam->chromatic.abbe_vd = 64.17;
     cam->chromatic.amplify = 1.0;
-    cam->chromatic.wavelengths = 8;
+    cam->chromatic.wavelengths = LR__WL_PER_SAMPLE;
     cam->lens = NULL;
     cam->sensor_width_mm = 36.0;
     cam->scene_unit_mm = 1000.0;

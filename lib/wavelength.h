@@ -62,6 +62,6 @@ static inline double lr__wl_lerp(const float *f, double nm)
 /* Wavelengths a spectral camera sample traces when the scene does not
  * say (camera.chromatic.wavelengths): chosen by bench/spectral.py, see
  * docs/spectral.md. */
-#define LR__WL_PER_SAMPLE 1
+#define LR__WL_PER_SAMPLE 16
 
 #endif
