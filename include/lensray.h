@@ -132,7 +132,7 @@ typedef struct lr_chromatic {
     double abbe_nd, abbe_vd; /* for LR_GLASS_ABBE; default 1.5168, 64.17 */
     double amplify;          /* default 1 */
     int wavelengths;         /* spectral mode: wavelengths per camera
-                                sample (besides the reference ray); 16 */
+                                sample (besides the reference ray); 8 */
 } lr_chromatic;
 
 /* A camera: a plain struct, so copy and edit it freely.  Directions need

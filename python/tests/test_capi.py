@@ -47,7 +47,7 @@ def test_defaults_read_through_the_structs():
     assert (cam.fov, cam.focus_distance, cam.aperture_blades) == (40, 10, 6)
     assert list(cam.look_at) == [0, 0, -1] and list(cam.focus_on) == [-1, -1]
     assert (cam.image_plane_distance, cam.focal_length) == (1, 9)
-    assert (cam.chromatic.amplify, cam.chromatic.wavelengths) == (1, 16)
+    assert (cam.chromatic.amplify, cam.chromatic.wavelengths) == (1, 8)
     assert cam.chromatic.abbe_nd == 1.5168 and cam.chromatic.abbe_vd == 64.17
     rs = _capi.lr_render_settings()
     _capi.lib().lr_render_settings_default(_capi.ctypes.byref(rs))
