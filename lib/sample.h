@@ -2,8 +2,9 @@
  * sample.h: the samples of one pixel.  Numbers from the sampler, rays
  * from the camera model, radiance from the integrator, added to the
  * film in sample order, the way the plan says: a packet of 16 samples at
- * a time with one focus, or one sample at a time with a ray per colour
- * (rgb) or wavelength (spectral).  Also the Z channel's ray.
+ * a time with one focus, or with the colours split: one sample at a time
+ * with a ray per colour (rgb), or spectral.c's samples (spectral).  Also
+ * the Z channel's ray.
  */
 #ifndef LR_SAMPLE_H
 #define LR_SAMPLE_H
