@@ -487,6 +487,26 @@ $(BUILD)/bench/ceiling: bench/ceiling.c $(DEPS_OK)
 	@mkdir -p $(dir $@)
 	$(CC) $(BENCH_CFLAGS) -o $@ bench/ceiling.c -lembree3 -lpthread -lm
 
+# Spectral chromatic aberration, old against new (bench/spectral.py,
+# docs/spectral.md): time to relative MSE 1e-3 on scenes/accuracy-chroma.json
+# for lensray built from SPECTRAL_BASE (main before issue 17's spectral
+# sampling; built once into $(BUILD)/bench/spectral-base) and for this
+# tree, side by side in one run.  About 3 minutes of CPU, more under load,
+# so not part of `make bench`.
+SPECTRAL_BASE ?= 4b3bd1b
+.PHONY: bench-spectral
+bench-spectral: $(BUILD)/lensray $(BUILD)/accuracy/imgdiff $(BUILD)/bench/spectral-base/lensray
+	python3 bench/spectral.py --old $(BUILD)/bench/spectral-base/lensray \
+	  --new $(BUILD)/lensray --imgdiff $(BUILD)/accuracy/imgdiff \
+	  --work $(BUILD)/bench/spectral
+
+$(BUILD)/bench/spectral-base/lensray: $(DEPS_OK)
+	rm -rf $(BUILD)/bench/spectral-base.src && mkdir -p $(BUILD)/bench/spectral-base.src
+	git archive $(SPECTRAL_BASE) | tar -x -C $(BUILD)/bench/spectral-base.src
+	$(MAKE) -C $(BUILD)/bench/spectral-base.src BUILD=build build/lensray
+	@mkdir -p $(dir $@)
+	cp $(BUILD)/bench/spectral-base.src/build/lensray $@
+
 # The path integrator against Mitsuba 3's `path` on a Cornell box with an
 # area light and an environment-lit scene with rough metal and glass
 # (bench/path/compare.py; docs/path-tracing.md): 128 x 128 at 1024 spp,

@@ -131,7 +131,8 @@ typedef struct lr_chromatic {
     lr_glass glass;          /* default LR_GLASS_BK7 */
     double abbe_nd, abbe_vd; /* for LR_GLASS_ABBE; default 1.5168, 64.17 */
     double amplify;          /* default 1 */
-    int wavelengths;         /* spectral samples per camera sample; 8 */
+    int wavelengths;         /* spectral mode: wavelengths per camera
+                                sample (besides the reference ray); 8 */
 } lr_chromatic;
 
 /* A camera: a plain struct, so copy and edit it freely.  Directions need

@@ -8,6 +8,7 @@
 #include "camera.h"
 #include "lens.h"
 #include "scene.h"
+#include "wavelength.h"
 
 #include <float.h>
 #include <math.h>
@@ -42,7 +43,7 @@ void lr_camera_default(lr_camera *cam)
     cam->chromatic.abbe_nd = 1.5168;
     cam->chromatic.abbe_vd = 64.17;
     cam->chromatic.amplify = 1.0;
-    cam->chromatic.wavelengths = 8;
+    cam->chromatic.wavelengths = LR__WL_PER_SAMPLE;
     cam->lens = NULL;
     cam->sensor_width_mm = 36.0;
     cam->scene_unit_mm = 1000.0;
@@ -368,13 +369,11 @@ double lr__offset_lens_ray(const lr__cam *c, double fx, double fy,
  * for AVX-512, AVX2 and any x86-64, chosen at load time (the float
  * arithmetic is the same in all, lane by lane: no FMA contraction, as
  * -ffp-contract=off in the Makefile keeps it). */
-__attribute__((target_clones("avx512f", "avx2", "default")))
-void lr__offset_lens_rays16(const lr__cam *c, int use_lens, int n,
-                            const float *fx, const float *fy,
-                            const float *lu, const float *lv,
-                            struct RTCRayHit16 *rh, float *wt)
+static inline __attribute__((always_inline)) void
+offset_lens_rays16(const lr__cam *c, int use_lens, int n, const float *fx,
+                   const float *fy, const float *lu, const float *lv,
+                   const float *wl, struct RTCRayHit16 *rh)
 {
-    (void)wt; /* every ray weighs 1 */
     const float sw = (float)(2.0 / c->width), sh = (float)(2.0 / c->height);
     const float hw = (float)c->half_w, hh = (float)c->half_h;
     const float fw[3] = {(float)c->forward.x, (float)c->forward.y,
@@ -408,13 +407,35 @@ void lr__offset_lens_rays16(const lr__cam *c, int use_lens, int n,
         r->org_x[i] = e[0] + dx * di + ox;
         r->org_y[i] = e[1] + dy * di + oy;
         r->org_z[i] = e[2] + dz * di + oz;
-        float vx = dx - ox * w, vy = dy - oy * w, vz = dz - oz * w;
+        /* Each lane's own focus power (spectral), or the camera's. */
+        float wi = wl != NULL ? wl[i] : w;
+        float vx = dx - ox * wi, vy = dy - oy * wi, vz = dz - oz * wi;
         float inv = 1.0f / sqrtf(vx * vx + vy * vy + vz * vz);
         r->dir_x[i] = vx * inv;
         r->dir_y[i] = vy * inv;
         r->dir_z[i] = vz * inv;
         lr__ray16_open(rh, i);
     }
+}
+
+__attribute__((target_clones("avx512f", "avx2", "default")))
+void lr__offset_lens_rays16(const lr__cam *c, int use_lens, int n,
+                            const float *fx, const float *fy,
+                            const float *lu, const float *lv,
+                            struct RTCRayHit16 *rh, float *wt)
+{
+    (void)wt; /* every ray weighs 1 */
+    offset_lens_rays16(c, use_lens, n, fx, fy, lu, lv, NULL, rh);
+}
+
+__attribute__((target_clones("avx512f", "avx2", "default")))
+void lr__offset_lens_rays16_w(const lr__cam *c, int n, const float *fx,
+                              const float *fy, const float *lu,
+                              const float *lv, const float *w,
+                              struct RTCRayHit16 *rh, float *wt)
+{
+    (void)wt;
+    offset_lens_rays16(c, 1, n, fx, fy, lu, lv, w, rh);
 }
 
 void lr__offset_lens_bound(const lr__cam *c, lr__lens_bound *b)

@@ -113,6 +113,12 @@ typedef struct lr__camera_model {
     void (*rays16)(const lr__cam *c, int use_lens, int n, const float *fx,
                    const float *fy, const float *lu, const float *lv,
                    struct RTCRayHit16 *rh, float *wt);
+    /* Spectral mode: rays16 through the lens with a focus power of each
+     * lane's own, w[i] (lanes at different wavelengths); NULL when the
+     * model has none, and its spectral samples take `ray` one by one. */
+    void (*rays16_w)(const lr__cam *c, int n, const float *fx,
+                     const float *fy, const float *lu, const float *lv,
+                     const float *w, struct RTCRayHit16 *rh, float *wt);
     /* The chief ray through film point (fx, fy), for depth, autofocus and
      * the planner; NULL: the frame's pinhole ray (lr__cam_ray). */
     void (*chief)(const lr__cam *c, double fx, double fy, lr__v3 *org,
@@ -251,6 +257,10 @@ void lr__offset_lens_rays16(const lr__cam *c, int use_lens, int n,
                             const float *fx, const float *fy,
                             const float *lu, const float *lv,
                             struct RTCRayHit16 *rh, float *wt);
+void lr__offset_lens_rays16_w(const lr__cam *c, int n, const float *fx,
+                              const float *fy, const float *lu,
+                              const float *lv, const float *w,
+                              struct RTCRayHit16 *rh, float *wt);
 /* The bound of an offset lens at the eye: R = the aperture's reach. */
 void lr__offset_lens_bound(const lr__cam *c, lr__lens_bound *b);
 

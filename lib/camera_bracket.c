@@ -83,6 +83,7 @@ const lr__camera_model lr__camera_bracket = {
     .setup = setup,
     .ray = lr__offset_lens_ray,
     .rays16 = lr__offset_lens_rays16,
+    .rays16_w = lr__offset_lens_rays16_w,
     .focus_at = focus_at,
     .bound = bound,
 };

@@ -128,6 +128,7 @@ const lr__camera_model lr__camera_thinlens = {
     .setup = setup,
     .ray = lr__offset_lens_ray,
     .rays16 = lr__offset_lens_rays16,
+    .rays16_w = lr__offset_lens_rays16_w,
     .focus_at = focus_at,
     .bound = lr__offset_lens_bound,
 };

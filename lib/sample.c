@@ -2,49 +2,32 @@
  * sample.c: the samples of one pixel (sample.h).
  */
 #include "sample.h"
-#include "spectrum.h"
+#include "spectral.h"
 
 #include <math.h>
-
-/* The mean of the linear-sRGB matching functions over the sampled range,
- * by the midpoint rule at 0.25 nm (far finer than the functions vary). */
-static lr__v3 mean_cmf(void)
-{
-    double sum[3] = {0, 0, 0};
-    int n = (int)((LR__LAMBDA_MAX - LR__LAMBDA_MIN) * 4);
-    for (int i = 0; i < n; i++) {
-        double W[3];
-        lr__srgb_cmf(LR__LAMBDA_MIN + (i + 0.5) * 0.25, W);
-        for (int c = 0; c < 3; c++)
-            sum[c] += W[c];
-    }
-    return v3(sum[0] / n, sum[1] / n, sum[2] / n);
-}
-
-void lr__shot_init(lr__shot *sh)
-{
-    sh->mean_cmf = mean_cmf();
-}
 
 uint64_t lr__colour_rays(const lr__cam *c)
 {
     if (!c->chroma_active)
         return 1;
-    return c->chroma.mode == LR_CHROMATIC_RGB ? 3
-                                              : (uint64_t)c->chroma.wavelengths;
+    /* Spectral: the wavelengths and the reference ray (spectral.c). */
+    return c->chroma.mode == LR_CHROMATIC_RGB
+               ? 3
+               : (uint64_t)c->chroma.wavelengths + 1;
 }
 
 /* One camera sample with a ray per colour: radiance through film point
  * (fx, fy) and lens sample u. */
-static void colour_sample(const lr__shot *sh, uint64_t pixel, uint32_t s,
-                          double fx, double fy, const double u[2],
-                          lr__pixel *acc, lr__sample_counts *cnt)
+static void colour_sample(const lr__shot *sh, const lr__pixel_sampler *ps,
+                          uint64_t pixel, uint32_t s, double fx, double fy,
+                          const double u[2], lr__pixel *acc,
+                          lr__sample_counts *cnt)
 {
     const lr__cam *c = sh->cam;
     const lr__integrator *in = sh->integrator;
-    const lr__sample_id id = {sh->sampler, pixel, s};
-    lr__v3 org, dir;
     if (c->chroma.mode == LR_CHROMATIC_RGB) {
+        const lr__sample_id id = {sh->sampler, pixel, s};
+        lr__v3 org, dir;
         cnt->camera_rays += 3;
         /* The paper: each channel traced with its own focus, through the
          * same film point and lens point. */
@@ -63,37 +46,7 @@ static void colour_sample(const lr__shot *sh, uint64_t pixel, uint32_t s,
         lr__pixel_add(acc, v3(L[0], L[1], L[2]));
         return;
     }
-    /* Spectral: N wavelengths stratified over the visible range with one
-     * random offset per sample, each weighted by the linear-sRGB
-     * colour-matching functions W(lambda).  With five or more the weights
-     * are normalised by their own sum in this sample (W's sums then stay
-     * within a factor of 2 of each other for any offset): a uniform white
-     * scene stays exactly white and each wavelength's light is conserved.
-     * With fewer, the sum could approach zero, so the exact mean of W over
-     * the range normalises instead (unbiased, white only on average). */
-    int n = c->chroma.wavelengths;
-    cnt->camera_rays += (uint64_t)n;
-    double off = lr__sample_1d(sh->sampler, pixel, s, LR__DIM_WAVELENGTH);
-    lr__v3 num = v3(0, 0, 0), den = v3(0, 0, 0);
-    for (int k = 0; k < n; k++) {
-        double nm = LR__LAMBDA_MIN +
-                    (LR__LAMBDA_MAX - LR__LAMBDA_MIN) * (k + off) / n;
-        double W[3];
-        lr__srgb_cmf(nm, W);
-        double wt = lr__cam_lens_ray(c, fx, fy, u, lr__cam_power_at(c, nm),
-                                     nm, &org, &dir);
-        lr__v3 Li = v3(0, 0, 0);
-        cnt->lens_blocked += wt == 0.0;
-        if (wt != 0.0)
-            Li = v3_scale(in->radiance(sh->scene, sh->max_depth, org, dir,
-                                       &id, &cnt->rays),
-                          wt);
-        num = v3_add(num, v3(W[0] * Li.x, W[1] * Li.y, W[2] * Li.z));
-        den = v3_add(den, v3(W[0], W[1], W[2]));
-    }
-    if (n < 5)
-        den = v3_scale(sh->mean_cmf, n);
-    lr__pixel_add(acc, v3(num.x / den.x, num.y / den.y, num.z / den.z));
+    lr__spectral_sample(sh, ps, s, fx, fy, u, acc, cnt);
 }
 
 /* Samples of a pixel sixteen at a time: one packet of camera rays from
@@ -168,14 +121,19 @@ void lr__sample_pixel(const lr__shot *sh, const lr__block_plan *bp, int x,
         packet_samples(sh, bp->lens, x, y, first, last, acc, cnt);
         return;
     }
+    if (sh->cam->chroma.mode == LR_CHROMATIC_SPECTRAL &&
+        sh->cam->model->rays16_w != NULL) {
+        lr__spectral_packets(sh, x, y, first, last, acc, cnt);
+        return;
+    }
     uint64_t pixel = (uint64_t)y * (uint64_t)sh->width + (uint64_t)x;
     lr__pixel_sampler ps;
     lr__pixel_sampler_init(&ps, sh->sampler, pixel);
     for (int s = first; s < last; s++) {
         double u[4];
         lr__pixel_sampler_get(&ps, (uint32_t)s, u);
-        colour_sample(sh, pixel, (uint32_t)s, x + u[0], y + u[1], u + 2, acc,
-                      cnt);
+        colour_sample(sh, &ps, pixel, (uint32_t)s, x + u[0], y + u[1], u + 2,
+                      acc, cnt);
     }
 }
 

@@ -2,8 +2,9 @@
  * sample.h: the samples of one pixel.  Numbers from the sampler, rays
  * from the camera model, radiance from the integrator, added to the
  * film in sample order, the way the plan says: a packet of 16 samples at
- * a time with one focus, or one sample at a time with a ray per colour
- * (rgb) or wavelength (spectral).  Also the Z channel's ray.
+ * a time with one focus, or with the colours split: one sample at a time
+ * with a ray per colour (rgb), or spectral.c's samples (spectral).  Also
+ * the Z channel's ray.
  */
 #ifndef LR_SAMPLE_H
 #define LR_SAMPLE_H
@@ -13,6 +14,7 @@
 #include "integrator.h"
 #include "plan.h"
 #include "sampler.h"
+#include "wavelength.h"
 
 /* What every sample of a render shares; read-only while it runs. */
 typedef struct lr__shot {
@@ -22,8 +24,13 @@ typedef struct lr__shot {
     const lr__integrator *integrator;
     int width;        /* of the full frame, for pixel indices */
     int max_depth;
-    lr__v3 mean_cmf;  /* mean of the sRGB matching functions, 380-780 nm */
+    /* Spectral mode: the camera's focus power at each whole nanometre
+     * from 380 to 780 (lr__cam_power_at), read linearly between. */
+    float wl_power[LR__WL_NODES];
 } lr__shot;
+
+/* Prepares `sh` (wl_power) for the other fields the caller has set. */
+void lr__shot_init(lr__shot *sh);
 
 /* Counts a thread keeps. */
 typedef struct lr__sample_counts {
@@ -31,9 +38,6 @@ typedef struct lr__sample_counts {
     uint64_t camera_rays; /* camera rays (one per colour where split) */
     uint64_t lens_blocked; /* of those, stopped by a real lens */
 } lr__sample_counts;
-
-/* Prepares `sh` (mean_cmf) for the other fields the caller has set. */
-void lr__shot_init(lr__shot *sh);
 
 /* Adds samples first .. last-1 of pixel (x, y) to *acc, in order, as the
  * block's plan `bp` says. */

@@ -90,23 +90,24 @@ static uint32_t reverse_bits(uint32_t x)
            (uint32_t)rev8[(x >> 16) & 0xffu] << 8 | rev8[x >> 24];
 }
 
-/* Direction numbers of Sobol's first four dimensions as 32-bit binary
+/* Direction numbers of Sobol's first five dimensions as 32-bit binary
  * fractions, V[d][k] for bit k of the index.  Dimension 0 is van der
  * Corput's (the identity matrix); the others come from primitive
  * polynomials of degree s with coefficient bits a and initial numbers
- * m_1..m_s (Joe & Kuo, new-joe-kuo-6.21201, dimensions 2 to 4):
+ * m_1..m_s (Joe & Kuo, new-joe-kuo-6.21201, dimensions 2 to 5):
  *     x + 1:           s = 1, a = 0, m = 1
  *     x^2 + x + 1:     s = 2, a = 1, m = 1, 3
  *     x^3 + x + 1:     s = 3, a = 1, m = 1, 3, 1
+ *     x^3 + x^2 + 1:   s = 3, a = 2, m = 1, 1, 1   (the wavelength's)
  * extended by the recurrence of Bratley & Fox (Algorithm 659). */
-static uint32_t sobol_v[4][32];
+static uint32_t sobol_v[5][32];
 /* sobol_t[d][b][x]: the XOR of the direction numbers for the set bits of
  * byte value x at byte b of the index, so a point costs four lookups.
  * sobol_rt is the same for the bit-reversed index and gives the
  * bit-reversed point: Owen scrambling works on reversed bits, so the
  * fast path never needs to reverse the index or the point before it. */
-static uint32_t sobol_t[4][4][256];
-static uint32_t sobol_rt[4][4][256];
+static uint32_t sobol_t[5][4][256];
+static uint32_t sobol_rt[5][4][256];
 /* sobol_rt[d][3] rearranged for sixteen aligned samples (see
  * sobol16_avx512): sobol_rt16[d][lo][hi] = sobol_rt[d][3][lo + 16 hi]. */
 static uint32_t sobol_rt16[4][16][16] __attribute__((aligned(64)));
@@ -123,10 +124,11 @@ static void sobol_init(void)
                                                    : 1;
     static const struct {
         unsigned s, a, m[3];
-    } poly[3] = {{1, 0, {1}}, {2, 1, {1, 3}}, {3, 1, {1, 3, 1}}};
+    } poly[4] = {{1, 0, {1}}, {2, 1, {1, 3}}, {3, 1, {1, 3, 1}},
+                 {3, 2, {1, 1, 1}}};
     for (int k = 0; k < 32; k++)
         sobol_v[0][k] = 1u << (31 - k);
-    for (int d = 1; d < 4; d++) {
+    for (int d = 1; d < 5; d++) {
         unsigned s = poly[d - 1].s, a = poly[d - 1].a;
         uint32_t m[32];
         for (unsigned k = 0; k < 32; k++) {
@@ -151,7 +153,7 @@ static void sobol_init(void)
                 r |= (uint8_t)(0x80u >> k);
         rev8[x] = r;
     }
-    for (int d = 0; d < 4; d++)
+    for (int d = 0; d < 5; d++)
         for (int b = 0; b < 4; b++)
             for (uint32_t x = 0; x < 256; x++) {
                 uint32_t r = 0, rr = 0;
@@ -507,6 +509,18 @@ void lr__pixel_sampler_get(const lr__pixel_sampler *ps, uint32_t sample,
         sobol_4d_seeded(ps->shuffle, ps->scramble, sample, out);
     else
         lr__sample_pixel_lens(ps->s, ps->pixel, sample, out);
+}
+
+double lr__pixel_sampler_dim4(const lr__pixel_sampler *ps, uint32_t sample)
+{
+    const lr__sampler *s = ps->s;
+    if (s->kind != LR_SAMPLER_SOBOL)
+        return lr__sample_1d(s, ps->pixel, sample, 4);
+    /* Sobol's fifth dimension under the index shuffle of the first four
+     * (sobol_4d_seeded), with a scramble of its own. */
+    uint32_t scramble = (uint32_t)hash4(s->seed, ps->pixel, 0xfffffffdu, 4);
+    uint32_t r = lk_permute(reverse_bits(sample), ps->shuffle);
+    return sobol_unit(reverse_bits(lk_permute(sobol_rev(r, 4), scramble)));
 }
 
 /* ---- the public face -------------------------------------------------- */

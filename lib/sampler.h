@@ -23,7 +23,7 @@ typedef struct lr__sampler {
 enum {
     LR__DIM_PIXEL = 0,      /* 2-D: position inside the pixel */
     LR__DIM_LENS = 2,       /* 2-D: position on the aperture */
-    LR__DIM_WAVELENGTH = 4, /* 1-D: offset of the stratified wavelengths */
+    LR__DIM_WAVELENGTH = 4, /* 1-D: the sample's wavelength (spectral) */
     LR__DIM_COUNT = 5
 };
 
@@ -93,6 +93,13 @@ void lr__pixel_pairs_get(const lr__pixel_pairs *pp, uint32_t sample,
  * one coordinate of its pair). */
 double lr__pixel_pairs_get1(const lr__pixel_pairs *pp, uint32_t sample,
                             uint32_t dim);
+
+/* Dimension 4 of a sample (LR__DIM_WAVELENGTH), stratified jointly with
+ * the pixel and lens dimensions where the sampler can: for sobol, the
+ * fifth dimension of the same 5-D Sobol point (so a pixel's samples
+ * spread over pixel, lens and wavelength together); for the others,
+ * lr__sample_1d's value. */
+double lr__pixel_sampler_dim4(const lr__pixel_sampler *ps, uint32_t sample);
 
 /* The 64-bit mixing function behind the hashes (SplitMix64's finaliser). */
 uint64_t lr__mix64(uint64_t z);

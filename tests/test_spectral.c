@@ -1,0 +1,237 @@
+/*
+ * test_spectral.c: spectral mode's estimator (lib/spectral.c) against
+ * colour science computed here: the CIE 1931 functions (the Wyman,
+ * Sloan & Shirley 2013 fit, typed from the paper), the sRGB matrix
+ * (IEC 61966-2-1), N-BK7's Sellmeier coefficients (Schott) and the thin
+ * lens's blur, integrated by quadrature.  Nothing expected here comes
+ * from the code under test.
+ */
+#include "test.h"
+#include "wavelength.h"
+
+#include <math.h>
+#include <stdio.h>
+
+/* ---- the independent model ---------------------------------------------- */
+
+static double lobe(double x, double mu, double s1, double s2)
+{
+    double t = (x - mu) / (x < mu ? s1 : s2);
+    return exp(-0.5 * t * t);
+}
+
+/* Linear-sRGB matching functions at nm. */
+static void cmf(double nm, double out[3])
+{
+    double X = 1.056 * lobe(nm, 599.8, 37.9, 31.0) +
+               0.362 * lobe(nm, 442.0, 16.0, 26.7) -
+               0.065 * lobe(nm, 501.1, 20.4, 26.2);
+    double Y = 0.821 * lobe(nm, 568.8, 46.9, 40.5) +
+               0.286 * lobe(nm, 530.9, 16.3, 31.1);
+    double Z = 1.217 * lobe(nm, 437.0, 11.8, 36.0) +
+               0.681 * lobe(nm, 459.0, 26.0, 13.8);
+    out[0] = 3.2404542 * X - 1.5371385 * Y - 0.4985314 * Z;
+    out[1] = -0.9692660 * X + 1.8760108 * Y + 0.0415560 * Z;
+    out[2] = 0.0556434 * X - 0.2040259 * Y + 1.0572252 * Z;
+}
+
+static double bk7(double nm)
+{
+    const double B[3] = {1.03961212, 0.231792344, 1.01046945};
+    const double C[3] = {0.00600069867, 0.0200179144, 103.560653};
+    double L2 = nm * nm * 1e-6, n2 = 1;
+    for (int i = 0; i < 3; i++)
+        n2 += B[i] * L2 / (L2 - C[i]);
+    return sqrt(n2);
+}
+
+/* The scene: a white bar (film columns a..b at the frame's centre row)
+ * on black, at the depth the d line focuses, seen through a thin lens of
+ * N-BK7 with its dispersion amplified AMP times (lensmaker's model). */
+#define IW 48
+#define IH 16
+#define FOV 10.0
+#define R 0.05   /* aperture radius, m */
+#define F 0.05   /* focal length, m */
+#define S 2.0    /* focus and bar depth, m */
+#define AMP 3.0
+#define BAR 0.02 /* bar half width, m */
+
+/* Blur radius in pixels at nm: R |1/S - w| f_px, where w is the depth in
+ * focus's reciprocal, 1/F_c - 1/v, with v the image distance at the d
+ * line and F_c = F (n_d - 1) / (n - 1). */
+static double blur_px(double nm)
+{
+    double nd = bk7(587.5618);
+    double n = nd + AMP * (bk7(nm) - nd);
+    double Fc = F * (nd - 1) / (n - 1);
+    double v = 1 / (1 / F - 1 / S);
+    double w = 1 / Fc - 1 / v;
+    double fpx = IH / (2 * tan(FOV * M_PI / 360));
+    return R * fabs(1 / S - w) * fpx;
+}
+
+/* The part of a disk of radius r (about the origin) beyond the line at
+ * signed distance -d, i.e. {x > -d}: circular segment area / disk area. */
+static double beyond(double d, double r)
+{
+    if (r < 1e-9)
+        return d > 0 ? 1 : 0;
+    double t = d / r;
+    if (t >= 1)
+        return 1;
+    if (t <= -1)
+        return 0;
+    return 0.5 + (t * sqrt(1 - t * t) + asin(t)) / M_PI;
+}
+
+/* Expected value of channel c in column i: the film box over the pixel
+ * (x by 16-point midpoints) and the normalised matching functions over
+ * 380..780 nm (0.5 nm midpoints) of the fraction of the blur disk on the
+ * bar. */
+static void expected_column(int i, double out[3])
+{
+    double fpx = IH / (2 * tan(FOV * M_PI / 360));
+    double a = IW / 2.0 - BAR / S * fpx, b = IW / 2.0 + BAR / S * fpx;
+    double num[3] = {0, 0, 0}, den[3] = {0, 0, 0};
+    for (int k = 0; k < 800; k++) {
+        double nm = 380 + (k + 0.5) * 0.5, Wc[3];
+        cmf(nm, Wc);
+        double r = blur_px(nm), v = 0;
+        for (int j = 0; j < 16; j++) {
+            double x = i + (j + 0.5) / 16;
+            v += (beyond(x - a, r) - beyond(x - b, r)) / 16;
+        }
+        for (int c = 0; c < 3; c++) {
+            num[c] += Wc[c] * v;
+            den[c] += Wc[c];
+        }
+    }
+    for (int c = 0; c < 3; c++)
+        out[c] = num[c] / den[c];
+}
+
+static void bar_scene(char *buf, size_t n, int spp, const char *extra)
+{
+    snprintf(buf, n,
+             "{\"render\": {\"width\": %d, \"height\": %d, \"spp\": %d,"
+             "  \"max_depth\": 0, \"adaptive\": false%s},"
+             " \"camera\": {\"model\": \"thinlens\", \"position\": [0, 0, 0],"
+             "  \"look_at\": [0, 0, -1], \"fov\": %g, \"focus_distance\": %g,"
+             "  \"focal_length_mm\": %g, \"aperture_radius\": %g,"
+             "  \"chromatic\": {\"mode\": \"spectral\", \"glass\": \"N-BK7\","
+             "   \"focal_model\": \"lensmaker\", \"amplify\": %g}},"
+             " \"materials\": {\"w\": {\"diffuse\": 1}},"
+             " \"lights\": [{\"type\": \"ambient\", \"radiance\": 1}],"
+             " \"objects\": [{\"type\": \"plane\", \"point\": [0, 0, %g],"
+             "  \"normal\": [0, 0, 1], \"size\": [%g, 10], \"material\": \"w\"}]}",
+             IW, IH, spp, extra, FOV, S, F * 1000, R, AMP, -S, 2 * BAR);
+}
+
+/* ---- tests ------------------------------------------------------------- */
+
+/* The mean colour of each column of a defocused, dispersed white bar
+ * against the CIE integral of its blurred profile.  The rows of a column
+ * are independent estimates of the same value: their spread gives the
+ * standard error, and each column must lie within 4 of them (plus 2e-3
+ * for the renderer's 1 nm tables and float rays) of the integral. */
+static void test_white_bar_matches_cie_integral(void **state)
+{
+    (void)state;
+    /* The blur must really vary with the wavelength for this to test
+     * anything: 7.5 px at 400 nm, 0 at the d line, 1.2 at 650. */
+    assert_true(blur_px(400) > 5.0 && blur_px(650) < 2.0);
+    char json[4096];
+    const char *samplers[] = {"sobol", "random"};
+    for (int sm = 0; sm < 2; sm++) {
+        char extra[64];
+        snprintf(extra, sizeof extra, ", \"sampler\": \"%s\"", samplers[sm]);
+        bar_scene(json, sizeof json, 64, extra);
+        lr_image *img = lr_test_render(json, NULL, 0, NULL);
+        const float *p = lr_image_rgb(img);
+        int coloured = 0;
+        for (int i = 0; i < IW; i++) {
+            double e[3];
+            expected_column(i, e);
+            coloured += fabs(e[2] - e[0]) > 0.05;
+            for (int c = 0; c < 3; c++) {
+                double s = 0, s2 = 0;
+                for (int y = 0; y < IH; y++) {
+                    double v = p[3 * (y * IW + i) + c];
+                    s += v;
+                    s2 += v * v;
+                }
+                double mean = s / IH;
+                double se = sqrt(fmax(s2 / IH - mean * mean, 0) / (IH - 1));
+                if (fabs(mean - e[c]) > 4 * se + 2e-3)
+                    fail_msg("%s: column %d channel %d: %g, the CIE integral "
+                             "%g (standard error %g)",
+                             samplers[sm], i, c, mean, e[c], se);
+            }
+        }
+        /* The fringes are there (the bar is not just white). */
+        assert_true(coloured >= 4);
+        lr_image_free(img);
+    }
+}
+
+/* A grey card filling the frame: every wavelength's ray sees the
+ * reference's grey, so spectral mode gives exactly the image without
+ * colours (no colour noise, however spread the rays). */
+static void test_grey_card_is_exact(void **state)
+{
+    (void)state;
+    const char *json =
+        "{\"render\": {\"width\": 24, \"height\": 16, \"spp\": 8,"
+        "  \"max_depth\": 0, \"adaptive\": false, \"plan\": false},"
+        " \"camera\": {\"model\": \"thinlens\", \"fov\": 10,"
+        "  \"focus_distance\": 1, \"aperture_radius\": 0.05,"
+        "  \"focal_length_mm\": 50,"
+        "  \"look_at\": [0, 0, -1], \"position\": [0, 0, 0],"
+        "  \"chromatic\": {\"mode\": \"spectral\", \"amplify\": 50,"
+        "   \"wavelengths\": 3}},"
+        " \"materials\": {\"g\": {\"diffuse\": 0.18}},"
+        " \"lights\": [{\"type\": \"ambient\", \"radiance\": 1}],"
+        " \"objects\": [{\"type\": \"plane\", \"normal\": [0, 0, 1],"
+        "  \"point\": [0, 0, -3], \"material\": \"g\"}]}";
+    const char *off[] = {"camera.chromatic.mode=off"};
+    lr_image *a = lr_test_render(json, NULL, 0, NULL);
+    lr_image *b = lr_test_render(json, off, 1, NULL);
+    lr_test_assert_same_bytes(a, b, "grey card, spectral against off");
+    lr_image_free(a);
+    lr_image_free(b);
+}
+
+/* The sampling density and the weights agree: the weights' mean over u
+ * (stratified, 2^16 points) is each normalised function's integral, 1,
+ * and the density integrates to 1 over the range. */
+static void test_wavelength_weights_integrate_to_one(void **state)
+{
+    (void)state;
+    lr__wl_init();
+    const int N = 1 << 16;
+    double sum[3] = {0, 0, 0};
+    for (int i = 0; i < N; i++) {
+        double w[3];
+        double nm = lr__wl_sample((i + 0.5) / N, w);
+        assert_true(nm >= 380 && nm <= 780);
+        for (int c = 0; c < 3; c++)
+            sum[c] += w[c] / N;
+    }
+    for (int c = 0; c < 3; c++)
+        if (fabs(sum[c] - 1) > 1e-4)
+            fail_msg("channel %d: mean weight %.6f", c, sum[c]);
+    double P = 0;
+    for (int k = 0; k < 4000; k++)
+        P += lr__wl_pdf(380 + (k + 0.5) * 0.1) * 0.1;
+    assert_true(fabs(P - 1) < 1e-3);
+    /* More samples where the matching functions are large. */
+    assert_true(lr__wl_pdf(550) > 10 * lr__wl_pdf(770));
+}
+
+static const struct CMUnitTest spectral_tests[] = {
+    cmocka_unit_test(test_white_bar_matches_cie_integral),
+    cmocka_unit_test(test_grey_card_is_exact),
+    cmocka_unit_test(test_wavelength_weights_integrate_to_one),
+};
+LR_TEST_GROUP(spectral, spectral_tests)
