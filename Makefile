@@ -18,6 +18,7 @@ SOMAJOR  := 0
 DEPS := /usr/include/embree3/rtcore.h:libembree-dev \
         /usr/include/OpenEXR/openexr.h:libopenexr-dev \
         /usr/include/cjson/cJSON.h:libcjson-dev \
+        /usr/include/assimp/cimport.h:libassimp-dev \
         /usr/include/png.h:libpng-dev \
         /usr/include/microhttpd.h:libmicrohttpd-dev \
         /usr/include/openssl/evp.h:libssl-dev \
@@ -28,8 +29,9 @@ DEPS := /usr/include/embree3/rtcore.h:libembree-dev \
         python3:python3
 
 # Recursive (=) so that pkg-config runs after the dependency check.
-PKG_CFLAGS = $(shell pkg-config --cflags OpenEXR libcjson libpng 2>/dev/null)
-LIB_LIBS   = -lembree3 -lOpenEXRCore-3_1 -lcjson -lpng16 -lz -lpthread -lm
+PKG_CFLAGS = $(shell pkg-config --cflags OpenEXR libcjson libpng assimp 2>/dev/null)
+LIB_LIBS   = -lembree3 -lOpenEXRCore-3_1 -lcjson -lpng16 -lz -lpthread -lm \
+             $(shell pkg-config --libs assimp 2>/dev/null || echo -lassimp)
 
 CFLAGS   ?=
 CFLAGS   += -std=c11 $(OPT) -g -Wall -Wextra -Werror -fPIC -D_GNU_SOURCE \

@@ -106,6 +106,9 @@ struct lr_scene {
     lr_camera camera;
     lr_render_settings settings;
     char *description;     /* the scene's "description", "" if none */
+    /* What the loaders read but ignored, one line each ("" if nothing;
+     * NULL until the first), for lr_scene_warnings. */
+    char *warnings;
     /* Rays lr__trace and lr__occluded did not give Embree (see
      * lr__embree_can_trace), over the scene's life; the one member that
      * changes while renders share the scene. */
@@ -126,6 +129,10 @@ lr_status lr__scene_add_sphere(lr_scene *s, lr__v3 center, double radius,
                                int material, lr_error *err);
 lr_status lr__scene_add_plane(lr_scene *s, lr__v3 point, lr__v3 normal,
                               int material, lr_error *err);
+/* Appends a line to s->warnings (dropped when out of memory: a warning
+ * never fails a load). */
+void lr__scene_warn(lr_scene *s, const char *fmt, ...)
+    __attribute__((format(printf, 2, 3)));
 /* Commits the Embree scene: no more geometry after this.  Builds the
  * emitter list (lr__emitters_build). */
 lr_status lr__scene_commit(lr_scene *s, lr_error *err);
