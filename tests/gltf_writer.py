@@ -319,7 +319,18 @@ def scene_gallery():
     return g
 
 
-SCENES = {"tri": scene_tri, "camera-light": scene_camera_light,
+def scene_normals():
+    """One triangle with a tilted vertex normal (0.6, 0, 0.8) under a
+    non-uniform scale (2, 1, 1): its normal must move by the inverse
+    transpose."""
+    g = Gltf()
+    m = g.mesh([0, 0, 0, 1, 0, 0, 0, 1, 0], [0, 1, 2],
+               normals=[0.6, 0, 0.8] * 3)
+    g.node(mesh=m, scale=[2, 1, 1])
+    return g
+
+
+SCENES = {"tri": scene_tri, "normals": scene_normals, "camera-light": scene_camera_light,
           "materials": scene_materials, "gallery": scene_gallery}
 
 if __name__ == "__main__":

@@ -1,7 +1,7 @@
 /*
  * lensray: the command-line tool.  A thin client of lensray.h:
  *
- *   lensray render SCENE.json -o OUT.exr|OUT.png [--set PATH=VALUE]...
+ *   lensray render SCENE.json|SCENE.glb|SCENE.gltf -o OUT.exr|OUT.png [--set PATH=VALUE]...
  *                  [--stats] [--half] [--png16] [--depth] [--quiet]
  *                  [--remote URL [--parts N] [--parallel K] [--retries R]
  *                   [--token-file F]]
@@ -26,7 +26,7 @@ enum { EXIT_OK = 0, EXIT_USAGE = 2, EXIT_SCENE = 3, EXIT_IO = 4,
        EXIT_INTERRUPTED = 130 };
 
 static const char usage_text[] =
-    "usage: lensray render SCENE.json -o OUT.exr|OUT.png [options]\n"
+    "usage: lensray render SCENE.json|SCENE.glb -o OUT.exr|OUT.png [options]\n"
     "       lensray lens FILE|NAME [--field-angles A,B,...] [--wavelength NM]\n"
     "       lensray version\n"
     "       lensray --help\n"
@@ -391,6 +391,13 @@ static int cmd_render(int argc, char **argv)
         fprintf(stderr, "lensray: %s\n", err.message);
         rc = exit_for(st);
         goto done;
+    }
+    /* What the loader ignored (glTF features), one line each. */
+    for (const char *w = lr_scene_warnings(scene); *w;) {
+        const char *nl = strchr(w, '\n');
+        int len = nl ? (int)(nl - w) : (int)strlen(w);
+        fprintf(stderr, "lensray: warning: %.*s\n", len, w);
+        w += len + (nl != NULL);
     }
     lr_camera cam;
     lr_render_settings rs;
