@@ -165,6 +165,7 @@ $(BUNNY): scenes/get-bunny.sh scenes/bunny-to-obj.js $(DEPS_OK)
 # and fuzz/seeds/ inside the unit tests (tests/test_fuzz_replay.c); the
 # job target brings the parts of the daemon that parse a job.
 REPLAY_SRC := fuzz/fuzz_common.c fuzz/fuzz_scene.c fuzz/fuzz_obj.c fuzz/fuzz_lens.c \
+              fuzz/fuzz_gltf.c \
               $(if $(SVC_SRC),fuzz/fuzz_job.c service/api.c \
                 service/scene_cache.c service/util.c service/sha256.c \
                 service/assets.c)
@@ -360,7 +361,7 @@ soak: all
 	bash tests/soak/soak.sh $(SOAK_SECONDS) $(BUILD)
 
 # ---- fuzzing ------------------------------------------------------------
-# libFuzzer targets for the scene, OBJ, lens and job parsers (fuzz/fuzz_*.c),
+# libFuzzer targets for the scene, OBJ, lens, glTF and job parsers (fuzz/fuzz_*.c),
 # built with clang under AddressSanitizer and UBSan in build/fuzz, apart
 # from the other builds.  `make fuzz` runs each for FUZZ_SECONDS (clang is
 # installed like the other dependencies, but only for these targets).  New
@@ -377,7 +378,7 @@ FUZZ_SECONDS    ?= 60
 FUZZ_CI_SECONDS ?= 20
 FUZZ_CC         ?= clang
 FUZZ_BUILD      := build/fuzz
-FUZZ            ?= scene obj lens $(if $(SVC_SRC),job)
+FUZZ            ?= scene obj lens gltf $(if $(SVC_SRC),job)
 FUZZ_SAN        := -fsanitize=address,undefined -fno-sanitize-recover=undefined \
                    -fno-omit-frame-pointer -Wno-unknown-warning-option \
                    '-Dtarget_clones(...)=unused'
@@ -441,6 +442,8 @@ $(BUILD)/fuzz_scene: $(BUILD)/obj/fuzz/lf_scene.o $(BUILD)/obj/fuzz/fuzz_common.
 $(BUILD)/fuzz_obj: $(BUILD)/obj/fuzz/lf_obj.o $(BUILD)/obj/fuzz/fuzz_common.o $(BUILD)/liblensray.a
 	$(FUZZ_LINK)
 $(BUILD)/fuzz_lens: $(BUILD)/obj/fuzz/lf_lens.o $(BUILD)/obj/fuzz/fuzz_common.o $(BUILD)/liblensray.a
+	$(FUZZ_LINK)
+$(BUILD)/fuzz_gltf: $(BUILD)/obj/fuzz/lf_gltf.o $(BUILD)/obj/fuzz/fuzz_common.o $(BUILD)/liblensray.a
 	$(FUZZ_LINK)
 $(BUILD)/fuzz_job: $(BUILD)/obj/fuzz/lf_job.o $(BUILD)/obj/fuzz/fuzz_common.o $(FUZZ_JOB_OBJ) $(BUILD)/liblensray.a
 	$(FUZZ_LINK) -lcrypto
