@@ -797,8 +797,11 @@ lr_status lr__gltf_doc_load(const char *file, const char *shown,
         st = lr__json_parse(json ? json : "", n, shown, "", &d->root, &e2);
         if (st == LR_ERR_NOMEM)
             lr__fail(err, st, NULL, "out of memory");
-        else if (st != LR_OK)
+        else if (st != LR_OK && strncmp(e2.message, shown, strlen(shown)) == 0 &&
+                 e2.message[strlen(shown)] == ':')
             lr__fail(err, st, fp, "%s: %s", fp, e2.message);
+        else if (st != LR_OK)
+            lr__fail(err, st, fp, "%s: %s: %s", fp, shown, e2.message);
         else if (!cJSON_IsObject(d->root))
             st = lr__gltf_fail(d, err, "a glTF file must be a JSON object");
     }
