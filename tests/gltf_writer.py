@@ -275,8 +275,8 @@ def scene_gallery():
     wood = g.image_png(png_rgb(64, 64, lambda x, y: (
         150 + (x * 7 % 40), 90 + (x * 3 % 30), 50)))
     pos, idx, nrm, uv = quad(1)
-    uv = [c * 6 for c in uv]
-    floor = g.mesh([c * 12 for c in pos], idx, nrm, uv, g.material({
+    uv = [c * 50 for c in uv]
+    floor = g.mesh([c * 100 for c in pos], idx, nrm, uv, g.material({
         "name": "floor", "pbrMetallicRoughness": {
             "baseColorTexture": {"index": tex}, "metallicFactor": 0,
             "roughnessFactor": 0.6}}))
@@ -297,22 +297,22 @@ def scene_gallery():
             "baseColorFactor": [1.0, 0.78, 0.34, 1], "metallicFactor": 1,
             "roughnessFactor": 0.25}}))
     g.node(mesh=gold, translation=[0.3, 0.6, 0.4])
-    lpos, lidx, lnrm, _ = sphere(0.04, 8, 4)
+    lpos, lidx, lnrm, _ = sphere(0.06, 8, 4)
     g.use_extension("KHR_materials_emissive_strength")
     for i, col in enumerate([(1, 0.6, 0.2), (1, 0.8, 0.5), (0.6, 0.8, 1)]):
         lamp = g.mesh(lpos, lidx, lnrm, material=g.material({
             "name": "lamp%d" % i, "emissiveFactor": list(col),
             "extensions": {"KHR_materials_emissive_strength": {
-                "emissiveStrength": 60}},
+                "emissiveStrength": 15}},
             "pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1]}}))
-        for k in range(4):
-            g.node(mesh=lamp, translation=[-4 + 2.7 * k + i * 0.8,
-                                           0.8 + 0.9 * ((k + i) % 3),
-                                           -9 - 2 * i])
+        for k in range(5):
+            g.node(mesh=lamp, translation=[-7 + 3.3 * k + i * 1.1,
+                                           0.9 + 1.1 * ((k + i) % 3),
+                                           -11 - 2.5 * i])
     cam = g.camera({"type": "perspective", "perspective": {
         "yfov": 0.6, "aspectRatio": 1.5, "znear": 0.1},
-        "extras": {"lensray": {"focus_distance": 4.6, "f_number": 1.8,
-                               "focal_length_mm": 50}}})
+        "extras": {"lensray": {"focus_distance": 3.6, "f_number": 1.4,
+                               "focal_length_mm": 85}}})
     a = -math.atan2(1.0, 4.5) / 2
     g.node(camera=cam, translation=[0, 1.6, 4.3],
            rotation=[math.sin(a), 0, 0, math.cos(a)])
