@@ -732,6 +732,8 @@ static lr_status check_images(lr__gltf_doc *d, const char *dir, lr_error *err)
             snprintf(p, sizeof p, "materials[%d].%s", i, slots[k][1]);
             if (o != NULL)
                 LR_TRY(get_index(d, o, p, "index", nt, &x, err));
+            if (o != NULL && x < 0)
+                return lr__gltf_fail(d, err, "%s.index is required", p);
         }
     }
     return LR_OK;

@@ -146,10 +146,11 @@ lr_status lr__gltf_lights(lr_scene *s, const lr__gltf_doc *d,
          node = node->next, i++) {
         const cJSON *ext = lr__gltf_member(node, "extensions",
                                            "KHR_lights_punctual");
-        if (!active[i] || ext == NULL)
+        const cJSON *li = cJSON_GetObjectItemCaseSensitive(ext, "light");
+        /* check_nodes made `light`, when present, an index of lights. */
+        if (!active[i] || li == NULL)
             continue;
-        int k = (int)cJSON_GetObjectItemCaseSensitive(ext, "light")
-                    ->valuedouble;
+        int k = (int)li->valuedouble;
         const cJSON *l = cJSON_GetArrayItem(lights, k);
         char p[96];
         snprintf(p, sizeof p, "extensions.KHR_lights_punctual.lights[%d]", k);
