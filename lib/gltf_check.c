@@ -228,6 +228,19 @@ static lr_status read_blob(lr__gltf_doc *d, const char *dir, const char *path,
         if (full == NULL)
             return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
         snprintf(full, plen, "%s/%s", dir, uri);
+        /* A symbolic link must not lead out of the directory either. */
+        char *rdir = realpath(dir, NULL), *rfile = realpath(full, NULL);
+        int out = rdir != NULL && rfile != NULL &&
+                  (strncmp(rfile, rdir, strlen(rdir)) != 0 ||
+                   (rfile[strlen(rdir)] != '/' && strcmp(rdir, "/") != 0));
+        free(rdir);
+        free(rfile);
+        if (out) {
+            free(full);
+            return lr__gltf_fail(d, err, "%s.uri \"%.80s\" leads out of the "
+                                 "glTF's directory (a symbolic link)", path,
+                                 uri);
+        }
         char *data = NULL;
         size_t n = 0;
         lr_error e2;

@@ -17,6 +17,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #define PI 3.14159265358979323846
 
@@ -315,6 +317,18 @@ static void test_hostile(void **state)
                LR_ERR_INVALID, "\"..\"");
     expect_bad("scheme.gltf", "buffers.0.uri", "\"file:///etc/passwd\"",
                LR_ERR_INVALID, "scheme");
+    /* A symbolic link beside the glTF that leads out of its directory. */
+    char dir[512], link[600];
+    snprintf(dir, sizeof dir, "%s/sub", lr_test_tmpdir());
+    mkdir(dir, 0755);
+    lr_test_write_text("outside.bin", "0123456789012345678901234567890123"
+                                      "456789012345678",
+                       link, sizeof link);
+    snprintf(link, sizeof link, "%s/link.bin", dir);
+    unlink(link);
+    assert_int_equal(symlink("../outside.bin", link), 0);
+    expect_bad("sub/link.gltf", "buffers.0.uri", "\"link.bin\"",
+               LR_ERR_INVALID, "symbolic link");
     expect_bad("cycle.gltf", "nodes.0.children", "[1]", LR_ERR_INVALID,
                "nodes[");
     expect_bad("index.gltf", "meshes.0.primitives",
