@@ -286,7 +286,7 @@ static lr_status place_node(placer *pl, const struct aiNode *n, lr_error *err)
             return lr__gltf_fail(pl->d, err, "libassimp returned a node "
                                  "\"%.40s\" the file does not have",
                                  n->mName.data);
-        lr__xform x = lr__gltf_compose(&pl->o->place, &pl->world[i]);
+        lr__xform x = lr__xform_mul(&pl->o->place, &pl->world[i]);
         for (unsigned k = 0; k < n->mNumMeshes; k++)
             if (n->mMeshes[k] < pl->sc->mNumMeshes)
                 LR_TRY(add_mesh(pl, pl->sc->mMeshes[n->mMeshes[k]], &x,

@@ -822,14 +822,7 @@ lr_status lr__gltf_doc_load(const char *file, const char *shown,
     }
     /* External files are relative to the glTF's directory. */
     char dir[4096];
-    snprintf(dir, sizeof dir, "%s", file);
-    char *slash = strrchr(dir, '/');
-    if (slash == NULL)
-        snprintf(dir, sizeof dir, ".");
-    else if (slash == dir)
-        dir[1] = '\0';
-    else
-        *slash = '\0';
+    lr__dir_of(file, dir, sizeof dir);
     if (st == LR_OK)
         st = check_top(d, err);
     if (st == LR_OK)

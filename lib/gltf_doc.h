@@ -83,8 +83,6 @@ void lr__gltf_release(const struct aiScene *sc);
  * Both arrays have d->n_nodes elements; the caller frees them. */
 lr_status lr__gltf_world(const lr__gltf_doc *d, lr__xform **world,
                          unsigned char **active, lr_error *err);
-/* a then b: the transform p -> b(a(p)). */
-lr__xform lr__gltf_compose(const lr__xform *b, const lr__xform *a);
 
 /* KHR_lights_punctual's lights of the active nodes, into s->lights. */
 lr_status lr__gltf_lights(lr_scene *s, const lr__gltf_doc *d,

@@ -14,19 +14,6 @@
 
 #define PI 3.14159265358979323846
 
-lr__xform lr__gltf_compose(const lr__xform *b, const lr__xform *a)
-{
-    lr__xform r;
-    for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 4; j++) {
-            double v = j == 3 ? b->m[i][3] : 0.0;
-            for (int k = 0; k < 3; k++)
-                v += b->m[i][k] * a->m[k][j];
-            r.m[i][j] = v;
-        }
-    return r;
-}
-
 static double num(const cJSON *a, int i)
 {
     return cJSON_GetArrayItem(a, i)->valuedouble;
@@ -77,7 +64,7 @@ static void walk(const cJSON *nodes, int i, const lr__xform *parent,
 {
     const cJSON *node = cJSON_GetArrayItem(nodes, i);
     lr__xform l = local(node);
-    world[i] = lr__gltf_compose(parent, &l);
+    world[i] = lr__xform_mul(parent, &l);
     active[i] = 1;
     int n;
     const cJSON *ch = lr__gltf_array(node, "children", &n);
@@ -184,7 +171,7 @@ lr_status lr__gltf_lights(lr_scene *s, const lr__gltf_doc *d,
             lr__gltf_warn(s, d, "%s is a spot light: rendered as a point "
                           "light of the same intensity in every direction "
                           "(its cone is ignored)", p);
-        lr__xform m = lr__gltf_compose(place, &world[i]);
+        lr__xform m = lr__xform_mul(place, &world[i]);
         lr__light L;
         memset(&L, 0, sizeof L);
         /* glTF gives candela (point, spot) and lux (directional); taken
@@ -302,7 +289,7 @@ lr_status lr__gltf_camera(lr_scene *s, const lr__gltf_doc *d,
     LR_TRY(get_num(d, persp, p, "aspectRatio", 1e-6, 1e6, &aspect, err));
     if (yfov < 0)
         return lr__gltf_fail(d, err, "%s.yfov is required", p);
-    lr__xform m = lr__gltf_compose(&o->place, &world[node]);
+    lr__xform m = lr__xform_mul(&o->place, &world[node]);
     /* The camera looks down its node's -z with +y up (spec 3.10.1). */
     lr__v3 eye = lr__xform_point(&m, v3(0, 0, 0));
     lr__v3 fwd = v3_sub(lr__xform_point(&m, v3(0, 0, -1)), eye);

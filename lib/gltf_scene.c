@@ -60,18 +60,9 @@ lr_status lr__gltf_scene_load(const char *path, const char *const *overrides,
                               lr_error *err)
 {
     char dir[4096];
-    snprintf(dir, sizeof dir, "%s", path);
-    char *slash = strrchr(dir, '/');
-    const char *name = path;
-    if (slash == NULL) {
-        snprintf(dir, sizeof dir, ".");
-    } else {
-        name = path + (slash - dir) + 1;
-        if (slash == dir)
-            dir[1] = '\0';
-        else
-            *slash = '\0';
-    }
+    lr__dir_of(path, dir, sizeof dir);
+    const char *slash = strrchr(path, '/');
+    const char *name = slash ? slash + 1 : path;
     char *text = scene_text(name);
     if (text == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");

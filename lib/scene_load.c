@@ -557,14 +557,7 @@ lr_status lr_scene_load_file(const char *path, const char *const *overrides,
         return st;
     /* Mesh paths are relative to the scene file's directory. */
     char dir[4096];
-    snprintf(dir, sizeof dir, "%s", path);
-    char *slash = strrchr(dir, '/');
-    if (slash == NULL)
-        snprintf(dir, sizeof dir, ".");
-    else if (slash == dir)
-        dir[1] = '\0';
-    else
-        *slash = '\0';
+    lr__dir_of(path, dir, sizeof dir);
     st = lr_scene_load_json(buf ? buf : "", len, dir, overrides, n_overrides,
                             out, err);
     free(buf);
