@@ -261,6 +261,30 @@ def scene_materials():
     return g
 
 
+def scene_mapping():
+    """One triangle per material, for the mapping table's test: a partly
+    metallic, partly transmissive, rough, emissive material (with
+    KHR_materials_transmission, _ior and _emissive_strength), and a
+    primitive without a material (the spec's default)."""
+    g = Gltf()
+    for e in ("KHR_materials_transmission", "KHR_materials_ior",
+              "KHR_materials_emissive_strength"):
+        g.use_extension(e)
+    m = g.mesh([0, 0, 0, 1, 0, 0, 0, 1, 0], [0, 1, 2], material=g.material({
+        "name": "mixed", "emissiveFactor": [0.5, 0.25, 1],
+        "pbrMetallicRoughness": {"baseColorFactor": [0.9, 0.8, 0.7, 1],
+                                 "metallicFactor": 0.25,
+                                 "roughnessFactor": 0.6},
+        "extensions": {
+            "KHR_materials_transmission": {"transmissionFactor": 0.5},
+            "KHR_materials_ior": {"ior": 1.33},
+            "KHR_materials_emissive_strength": {"emissiveStrength": 4}}}))
+    plain = g.mesh([0, 0, 1, 1, 0, 1, 0, 1, 1], [0, 1, 2])
+    g.node(mesh=m)
+    g.node(mesh=plain)
+    return g
+
+
 def checker_png(n=64, cells=8, a=(230, 220, 200), b=(40, 60, 90)):
     return png_rgb(n, n, lambda x, y: a if (x * cells // n + y * cells // n)
                    % 2 == 0 else b)
@@ -330,7 +354,8 @@ def scene_normals():
     return g
 
 
-SCENES = {"tri": scene_tri, "normals": scene_normals, "camera-light": scene_camera_light,
+SCENES = {"tri": scene_tri, "normals": scene_normals,
+          "mapping": scene_mapping, "camera-light": scene_camera_light,
           "materials": scene_materials, "gallery": scene_gallery}
 
 if __name__ == "__main__":

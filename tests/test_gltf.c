@@ -252,6 +252,36 @@ static void test_materials(void **state)
     lr_scene_free(s);
 }
 
+/* The mapping table of docs/gltf.md, value by value. */
+static void test_material_mapping(void **state)
+{
+    (void)state;
+    make("mapping", "mapping.gltf");
+    lr_scene *s = lr_test_load_json(
+        "{\"objects\": [{\"type\": \"gltf\", \"file\": \"mapping.gltf\"}]}");
+    assert_int_equal(s->n_geoms, 2);
+    const lr__material *m = &s->materials[s->geoms[0].material];
+    const lr__material *def = &s->materials[s->geoms[1].material];
+    static const double b[3] = {0.9, 0.8, 0.7}, e[3] = {0.5, 0.25, 1};
+    double mc[3] = {m->reflect.x, m->reflect.y, m->reflect.z};
+    double dc[3] = {m->diffuse.x, m->diffuse.y, m->diffuse.z};
+    double tc[3] = {m->transmit.x, m->transmit.y, m->transmit.z};
+    double ec[3] = {m->emission.x, m->emission.y, m->emission.z};
+    for (int k = 0; k < 3; k++) {
+        assert_true(fabs(mc[k] - 0.25 * b[k]) < 1e-12);        /* m b */
+        assert_true(fabs(dc[k] - 0.75 * 0.5 * b[k]) < 1e-12);  /* (1-m)(1-t) b */
+        assert_true(fabs(tc[k] - 0.75 * 0.5 * b[k]) < 1e-12);  /* (1-m) t b */
+        assert_true(fabs(ec[k] - 4 * e[k]) < 1e-12);           /* x strength */
+    }
+    assert_true(fabs(m->roughness - 0.36) < 1e-12);            /* r^2 */
+    assert_true(fabs(m->ior - 1.33) < 1e-12);
+    assert_true(m->specular.x == 0 && m->shininess == 0);
+    /* The spec's default material: base 1, metallic 1, roughness 1. */
+    assert_true(def->reflect.x == 1 && def->reflect.y == 1 &&
+                def->diffuse.x == 0 && def->roughness == 1);
+    lr_scene_free(s);
+}
+
 /* ---- hostile files ---------------------------------------------------------- */
 
 /* Writes tri.gltf with member `key` ("array.index.member") set to the
@@ -378,6 +408,7 @@ static const struct CMUnitTest tests[] = {
     cmocka_unit_test(test_camera_projection),
     cmocka_unit_test(test_point_light_irradiance),
     cmocka_unit_test(test_materials),
+    cmocka_unit_test(test_material_mapping),
     cmocka_unit_test(test_hostile),
 };
 LR_TEST_GROUP(gltf, tests)
