@@ -20,6 +20,7 @@ DEPS := /usr/include/embree3/rtcore.h:libembree-dev \
         /usr/include/cjson/cJSON.h:libcjson-dev \
         /usr/include/assimp/cimport.h:libassimp-dev \
         /usr/include/png.h:libpng-dev \
+        /usr/include/jpeglib.h:libjpeg62-turbo-dev \
         /usr/include/microhttpd.h:libmicrohttpd-dev \
         /usr/include/openssl/evp.h:libssl-dev \
         /usr/include/cmocka.h:libcmocka-dev \
@@ -30,7 +31,7 @@ DEPS := /usr/include/embree3/rtcore.h:libembree-dev \
 
 # Recursive (=) so that pkg-config runs after the dependency check.
 PKG_CFLAGS = $(shell pkg-config --cflags OpenEXR libcjson libpng assimp 2>/dev/null)
-LIB_LIBS   = -lembree3 -lOpenEXRCore-3_1 -lcjson -lpng16 -lz -lpthread -lm \
+LIB_LIBS   = -lembree3 -lOpenEXRCore-3_1 -lcjson -lpng16 -ljpeg -lz -lpthread -lm \
              $(shell pkg-config --libs assimp 2>/dev/null || echo -lassimp)
 
 CFLAGS   ?=
@@ -48,11 +49,12 @@ TEST_OBJ := $(TEST_SRC:%.c=$(BUILD)/obj/%.o)
 
 DEPS_OK  := $(BUILD)/.deps-ok
 BUNNY    := scenes/meshes/bunny.obj
+TEXTURES := $(patsubst %,scenes/textures/%.png,tiles globe sign scratches)
 
 .PHONY: all deps test test-suite render serve clean install bunny test-sanitize figures test-api compare-path
 
 all: $(BUILD)/liblensray.a $(BUILD)/liblensray.so $(BUILD)/lensray $(BUNNY) \
-     $(if $(SVC_SRC),$(BUILD)/lensrayd)
+     $(TEXTURES) $(if $(SVC_SRC),$(BUILD)/lensrayd)
 
 # ---- dependencies -------------------------------------------------------
 # Installs what is missing when run as root; otherwise names the packages.
@@ -160,12 +162,17 @@ bunny: $(BUNNY)
 $(BUNNY): scenes/get-bunny.sh scenes/bunny-to-obj.js $(DEPS_OK)
 	sh scenes/get-bunny.sh $@
 
+# scenes/textured.json's images, written by a script (never committed).
+$(TEXTURES) &: scenes/make-textures.py $(DEPS_OK)
+	python3 scenes/make-textures.py scenes/textures
+
 # ---- tests --------------------------------------------------------------
 # The fuzz targets' code, built without libFuzzer, replays tests/corpus/
 # and fuzz/seeds/ inside the unit tests (tests/test_fuzz_replay.c); the
 # job target brings the parts of the daemon that parse a job.
 REPLAY_SRC := fuzz/fuzz_common.c fuzz/fuzz_scene.c fuzz/fuzz_obj.c fuzz/fuzz_lens.c \
               fuzz/fuzz_gltf.c \
+              fuzz/fuzz_texture.c \
               $(if $(SVC_SRC),fuzz/fuzz_job.c service/api.c \
                 service/scene_cache.c service/util.c service/sha256.c \
                 service/assets.c)
@@ -361,7 +368,8 @@ soak: all
 	bash tests/soak/soak.sh $(SOAK_SECONDS) $(BUILD)
 
 # ---- fuzzing ------------------------------------------------------------
-# libFuzzer targets for the scene, OBJ, lens, glTF and job parsers (fuzz/fuzz_*.c),
+# libFuzzer targets for the scene, OBJ, lens, glTF and job parsers and the
+# texture decoders (fuzz/fuzz_*.c),
 # built with clang under AddressSanitizer and UBSan in build/fuzz, apart
 # from the other builds.  `make fuzz` runs each for FUZZ_SECONDS (clang is
 # installed like the other dependencies, but only for these targets).  New
@@ -378,7 +386,7 @@ FUZZ_SECONDS    ?= 60
 FUZZ_CI_SECONDS ?= 20
 FUZZ_CC         ?= clang
 FUZZ_BUILD      := build/fuzz
-FUZZ            ?= scene obj lens gltf $(if $(SVC_SRC),job)
+FUZZ            ?= scene obj lens gltf texture $(if $(SVC_SRC),job)
 FUZZ_SAN        := -fsanitize=address,undefined -fno-sanitize-recover=undefined \
                    -fno-omit-frame-pointer -Wno-unknown-warning-option \
                    '-Dtarget_clones(...)=unused'
@@ -444,6 +452,8 @@ $(BUILD)/fuzz_obj: $(BUILD)/obj/fuzz/lf_obj.o $(BUILD)/obj/fuzz/fuzz_common.o $(
 $(BUILD)/fuzz_lens: $(BUILD)/obj/fuzz/lf_lens.o $(BUILD)/obj/fuzz/fuzz_common.o $(BUILD)/liblensray.a
 	$(FUZZ_LINK)
 $(BUILD)/fuzz_gltf: $(BUILD)/obj/fuzz/lf_gltf.o $(BUILD)/obj/fuzz/fuzz_common.o $(BUILD)/liblensray.a
+	$(FUZZ_LINK)
+$(BUILD)/fuzz_texture: $(BUILD)/obj/fuzz/lf_texture.o $(BUILD)/obj/fuzz/fuzz_common.o $(BUILD)/liblensray.a
 	$(FUZZ_LINK)
 $(BUILD)/fuzz_job: $(BUILD)/obj/fuzz/lf_job.o $(BUILD)/obj/fuzz/fuzz_common.o $(FUZZ_JOB_OBJ) $(BUILD)/liblensray.a
 	$(FUZZ_LINK) -lcrypto

@@ -126,3 +126,7 @@ fig lens-breathe-far scenes/lens-chart.json --set camera.lens=double-gauss-50 \
     --set camera.position='[0, 0, 30]' --set camera.focus_distance=30 --set camera.f_number=16
 fig lens-breathe-near scenes/lens-chart.json --set camera.lens=double-gauss-50 \
     --set camera.position='[0, 0, 30]' --set camera.focus_distance=0.4 --set camera.f_number=16
+# Textures (scenes/textured.json, images from scenes/make-textures.py):
+# a tiled floor, a lat-long map on a sphere, roughness in bands on metal,
+# and an emission texture that lights the scene; path traced.
+fig textured scenes/textured.json --set render.spp=256

@@ -607,8 +607,10 @@ LR_API const char *lr_job_scene_json(const lr_job *job, size_t *len);
 /* The files an inline scene names, for a caller that confines them to a
  * directory: the k-th (from 0) "file" string of scene.objects as written,
  * then scene.environment.file, then scene.camera.lens when it is a path
- * (has a '/'), and its path in the job ("scene.objects[3].file",
- * "scene.environment.file", "scene.camera.lens").  Returns 0
+ * (has a '/'), then each material's diffuse_texture, emission_texture and
+ * roughness_texture, and its path in the job ("scene.objects[3].file",
+ * "scene.environment.file", "scene.camera.lens",
+ * "scene.materials.brick.diffuse_texture").  Returns 0
  * past the last one (and for a named scene).  The strings are valid
  * until lr_job_free. */
 LR_API int lr_job_mesh_file(const lr_job *job, size_t k, const char **file,

@@ -12,9 +12,8 @@ enum { DIFFUSE, PHONG, CONDUCTOR, DIELECTRIC };
  * GGX lobe that narrow only adds noise. */
 #define LR__MIN_ROUGHNESS 1e-3
 
-void lr__bsdf_init(lr__bsdf *f, const lr_scene *s, const lr__hit *h)
+void lr__bsdf_init(lr__bsdf *f, const lr__material *m, const lr__hit *h)
 {
-    const lr__material *m = &s->materials[h->material];
     f->m = m;
     f->n = h->ns;
     /* An orthonormal basis from one vector (Duff et al. 2017). */

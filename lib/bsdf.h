@@ -27,8 +27,9 @@ typedef struct lr__bsdf {
     double p[4];
 } lr__bsdf;
 
-/* Prepares the BSDF of the material at hit h. */
-void lr__bsdf_init(lr__bsdf *f, const lr_scene *s, const lr__hit *h);
+/* Prepares the BSDF of material m (the hit's, textures applied:
+ * lr__hit_material) at hit h; f keeps m, which must outlive it. */
+void lr__bsdf_init(lr__bsdf *f, const lr__material *m, const lr__hit *h);
 
 /* Whether any lobe is not a delta (next-event estimation is worth it). */
 int lr__bsdf_has_smooth_lobes(const lr__bsdf *f);

@@ -7,16 +7,18 @@
  * p(u, v) / (2 pi^2 sin(theta)).
  */
 #include "envmap.h"
+#include "exr_read.h"
 
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
-#include <openexr.h>
 #include <stdlib.h>
 #include <string.h>
 
 /* Larger maps are refused: 16k x 8k RGB float is 1.5 GB already. */
 #define LR__ENV_MAX_DIM 16384
+/* The file is read whole first: 16k x 8k RGB half-float is 768 MB. */
+#define LR__ENV_MAX_BYTES ((size_t)1 << 30)
 
 void lr__envmap_free(lr__envmap *e)
 {
@@ -30,106 +32,33 @@ void lr__envmap_free(lr__envmap *e)
     free(e);
 }
 
-/* OpenEXR prints its errors to stderr unless told otherwise; ours go in
- * the lr_error. */
-static void quiet(exr_const_context_t ctxt, exr_result_t code,
-                  const char *msg)
-{
-    (void)ctxt, (void)code, (void)msg;
-}
-
 /* Reads R, G, B of a single-part scanline EXR into e->rgb. */
 static lr_status read_exr(lr__envmap *e, const char *path, const char *file,
                           const char *blame, lr_error *err)
 {
-    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
-    init.error_handler_fn = quiet;
-    exr_context_t ctxt = NULL;
-    if (exr_start_read(&ctxt, path, &init) != EXR_ERR_SUCCESS)
-        return lr__fail(err, LR_ERR_INVALID, blame,
-                        "%s: %s cannot be read as OpenEXR", blame, file);
-    lr_status st = LR_OK;
-    exr_storage_t storage;
-    exr_attr_box2i_t dw;
-    const exr_attr_chlist_t *chl = NULL;
-    int32_t spc = 0;
-    float *plane[3] = {NULL, NULL, NULL};
-    if (exr_get_storage(ctxt, 0, &storage) != EXR_ERR_SUCCESS ||
-        storage != EXR_STORAGE_SCANLINE ||
-        exr_get_data_window(ctxt, 0, &dw) != EXR_ERR_SUCCESS ||
-        exr_get_channels(ctxt, 0, &chl) != EXR_ERR_SUCCESS ||
-        exr_get_scanlines_per_chunk(ctxt, 0, &spc) != EXR_ERR_SUCCESS ||
-        spc < 1) {
-        st = lr__fail(err, LR_ERR_INVALID, blame,
-                      "%s: %s is not a scanline OpenEXR image", blame, file);
-        goto done;
-    }
-    long long w = (long long)dw.max.x - dw.min.x + 1;
-    long long h = (long long)dw.max.y - dw.min.y + 1;
-    if (w < 1 || h < 1 || w > LR__ENV_MAX_DIM || h > LR__ENV_MAX_DIM) {
-        st = lr__fail(err, LR_ERR_INVALID, blame,
-                      "%s: %s is %lld x %lld pixels; an environment map "
-                      "must be 1 to %d on each side",
-                      blame, file, w, h, LR__ENV_MAX_DIM);
-        goto done;
-    }
-    e->w = (int)w, e->h = (int)h;
-    size_t n = (size_t)w * (size_t)h;
+    char shown[600];
+    snprintf(shown, sizeof shown, "%s: %s", blame, file);
+    char *buf = NULL;
+    size_t len = 0;
+    lr_status st = lr__read_file(path, shown, blame, LR__ENV_MAX_BYTES,
+                                 "environment maps", NULL, &buf, &len, err);
+    if (st != LR_OK)
+        return st;
+    lr__exr_planes px;
+    st = lr__exr_read(buf, len, shown, blame, "an environment map",
+                      LR__ENV_MAX_DIM, &px, err);
+    free(buf);
+    if (st != LR_OK)
+        return st;
     static const char *const names[3] = {"R", "G", "B"};
-    int found = 0;
-    for (int i = 0; i < chl->num_channels; i++)
-        for (int c = 0; c < 3; c++)
-            found |= strcmp(chl->entries[i].name.str, names[c]) == 0 ? 1 << c
-                                                                     : 0;
-    if (found != 7) {
+    if (px.plane[LR__EXR_R] == NULL || px.plane[LR__EXR_G] == NULL ||
+        px.plane[LR__EXR_B] == NULL) {
         st = lr__fail(err, LR_ERR_INVALID, blame,
                       "%s: %s needs channels R, G and B", blame, file);
         goto done;
     }
-    for (int c = 0; c < 3; c++) {
-        plane[c] = calloc(n, sizeof(float));
-        if (plane[c] == NULL) {
-            st = lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
-            goto done;
-        }
-    }
-    for (long long y = dw.min.y; y <= dw.max.y; y += spc) {
-        exr_chunk_info_t ci;
-        exr_decode_pipeline_t dec = EXR_DECODE_PIPELINE_INITIALIZER;
-        if (exr_read_scanline_chunk_info(ctxt, 0, (int)y, &ci) !=
-                EXR_ERR_SUCCESS ||
-            exr_decoding_initialize(ctxt, 0, &ci, &dec) != EXR_ERR_SUCCESS) {
-            st = lr__fail(err, LR_ERR_INVALID, blame,
-                          "%s: %s: bad chunk at line %lld", blame, file, y);
-            goto done;
-        }
-        size_t first = (size_t)(ci.start_y - dw.min.y) * (size_t)w;
-        for (int i = 0; i < dec.channel_count; i++) {
-            exr_coding_channel_info_t *ch = &dec.channels[i];
-            int c = -1;
-            for (int k = 0; k < 3; k++)
-                if (strcmp(ch->channel_name, names[k]) == 0)
-                    c = k;
-            if (c < 0 || ch->height < 1) {
-                ch->decode_to_ptr = NULL;
-                continue;
-            }
-            ch->decode_to_ptr = (uint8_t *)(plane[c] + first);
-            ch->user_bytes_per_element = 4;
-            ch->user_data_type = EXR_PIXEL_FLOAT;
-            ch->user_pixel_stride = 4;
-            ch->user_line_stride = 4 * (int32_t)w;
-        }
-        int ok = exr_decoding_choose_default_routines(ctxt, 0, &dec) ==
-                     EXR_ERR_SUCCESS &&
-                 exr_decoding_run(ctxt, 0, &dec) == EXR_ERR_SUCCESS;
-        exr_decoding_destroy(ctxt, &dec);
-        if (!ok) {
-            st = lr__fail(err, LR_ERR_INVALID, blame,
-                          "%s: %s: cannot decode line %lld", blame, file, y);
-            goto done;
-        }
-    }
+    e->w = px.w, e->h = px.h;
+    size_t n = (size_t)px.w * (size_t)px.h;
     e->rgb = malloc(3 * n * sizeof(float));
     if (e->rgb == NULL) {
         st = lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
@@ -137,21 +66,19 @@ static lr_status read_exr(lr__envmap *e, const char *path, const char *file,
     }
     for (size_t i = 0; i < n; i++)
         for (int c = 0; c < 3; c++) {
-            float v = plane[c][i];
+            float v = px.plane[c][i];
             if (!isfinite(v) || v < 0.0f) {
                 st = lr__fail(err, LR_ERR_INVALID, blame,
                               "%s: %s: pixel (%zu, %zu) channel %s is %g; "
                               "radiance must be finite and >= 0",
-                              blame, file, i % (size_t)w, i / (size_t)w,
-                              names[c], (double)v);
+                              blame, file, i % (size_t)px.w,
+                              i / (size_t)px.w, names[c], (double)v);
                 goto done;
             }
             e->rgb[3 * i + c] = v;
         }
 done:
-    for (int c = 0; c < 3; c++)
-        free(plane[c]);
-    exr_finish(&ctxt);
+    lr__exr_planes_free(&px);
     return st;
 }
 

@@ -105,12 +105,15 @@ typedef struct lr__mesh {
     size_t n_triangles;
     unsigned *indices; /* 3 * n_triangles vertex indices, owned */
     float *normals;    /* 9 * n_triangles (per corner) or NULL, owned */
+    /* 6 * n_triangles texture coordinates (u, v per corner) or NULL
+     * unless every corner of every face named a `vt`; owned. */
+    float *uvs;
 } lr__mesh;
 
-/* Reads an OBJ file.  Understands `v`, `vn`, `f` (with v, v/vt, v//vn,
- * v/vt/vn corners, negative indices relative to the end of the list so
- * far) and ignores other statements (vt, o, g, s, usemtl, mtllib, l, p,
- * comments).  Errors are LR_ERR_IO for an unreadable file and
+/* Reads an OBJ file.  Understands `v`, `vn`, `vt` (u [v [w]]; v
+ * defaults to 0, w is ignored), `f` (with v, v/vt, v//vn, v/vt/vn
+ * corners, negative indices relative to the end of the list so far) and
+ * ignores other statements (o, g, s, usemtl, mtllib, l, p, comments).  Errors are LR_ERR_IO for an unreadable file and
  * LR_ERR_INVALID with "FILE:LINE: what is wrong" for malformed input
  * (bad numbers, zero or out-of-range indices, faces with fewer than three
  * corners, no faces at all).  `json_path` (e.g. "objects[2].file") goes

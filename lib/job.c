@@ -22,7 +22,8 @@
 
 typedef struct mesh_ref {
     const char *file; /* into the tree */
-    char field[48];   /* "scene.objects[12].file" */
+    /* "scene.objects[12].file", "scene.materials.NAME.diffuse_texture" */
+    char field[LR__PATH_MAX];
 } mesh_ref;
 
 struct lr_job {
@@ -53,9 +54,15 @@ static void add_file(lr_job *job, const cJSON *f, const char *field)
     snprintf(m->field, sizeof m->field, "%s", field);
 }
 
+/* A material's keys that name files (material_json.c). */
+static const char *const texture_keys[] = {
+    "diffuse_texture", "emission_texture", "roughness_texture"};
+#define N_TEXTURE_KEYS (sizeof texture_keys / sizeof *texture_keys)
+
 /* Records the files an inline scene reads: objects[i].file strings,
- * environment.file, and camera.lens when it is a path (a name without a
- * '/' is a file in the scenes directory or a shipped lens: both safe). */
+ * environment.file, camera.lens when it is a path (a name without a
+ * '/' is a file in the scenes directory or a shipped lens: both safe),
+ * and the materials' textures. */
 static lr_status collect_meshes(lr_job *job, const cJSON *scene,
                                 lr_error *err)
 {
@@ -64,11 +71,14 @@ static lr_status collect_meshes(lr_job *job, const cJSON *scene,
     const cJSON *lens = cJSON_GetObjectItemCaseSensitive(
         cJSON_GetObjectItemCaseSensitive(scene, "camera"), "lens");
     int lens_path = cJSON_IsString(lens) && strchr(lens->valuestring, '/');
+    const cJSON *mats = cJSON_GetObjectItemCaseSensitive(scene, "materials");
     size_t n = cJSON_IsArray(objs) ? (size_t)cJSON_GetArraySize(objs) : 0;
+    size_t n_mats =
+        cJSON_IsObject(mats) ? (size_t)cJSON_GetArraySize(mats) : 0;
     /* Type errors are the scene loader's to report. */
-    if (n == 0 && !cJSON_IsObject(env) && !lens_path)
+    if (n == 0 && n_mats == 0 && !cJSON_IsObject(env) && !lens_path)
         return LR_OK;
-    job->meshes = calloc(n + 2, sizeof *job->meshes);
+    job->meshes = calloc(n + 2 + N_TEXTURE_KEYS * n_mats, sizeof *job->meshes);
     if (job->meshes == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     size_t i = 0;
@@ -82,6 +92,15 @@ static lr_status collect_meshes(lr_job *job, const cJSON *scene,
                  "scene.environment.file");
     if (lens_path)
         add_file(job, lens, "scene.camera.lens");
+    for (const cJSON *m = n_mats ? mats->child : NULL; m != NULL; m = m->next)
+        for (size_t k = 0; k < N_TEXTURE_KEYS; k++) {
+            /* (The field names the material as the loader's paths do.) */
+            char mp[LR__PATH_MAX], tf[LR__PATH_MAX];
+            lr__path_key(mp, "scene.materials", m->string);
+            lr__path_key(tf, mp, texture_keys[k]);
+            add_file(job, cJSON_GetObjectItemCaseSensitive(m, texture_keys[k]),
+                     tf);
+        }
     return LR_OK;
 }
 

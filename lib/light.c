@@ -22,13 +22,29 @@ static void tri_corners(const lr_scene *s, unsigned g, unsigned prim,
     }
 }
 
+/* The luminance an emitter's power is taken from: the emission's, times
+ * its texture's mean (per channel) where it has one.  Only the choice
+ * among emitters uses it (their density, which MIS and next-event
+ * estimation share), so the estimate stays unbiased; a texture that
+ * varies much over one mesh makes that mesh's triangles chosen by area
+ * alone, not by their own texels. */
+static double emitter_luminance(const lr__material *m)
+{
+    const lr__texture *t = m->emission_tex;
+    if (t == NULL)
+        return lr__luminance(m->emission);
+    return lr__luminance(v3(m->emission.x * t->mean[0],
+                            m->emission.y * t->mean[1],
+                            m->emission.z * t->mean[2]));
+}
+
 lr_status lr__emitters_build(lr_scene *s, lr_error *err)
 {
     size_t n = 0;
     for (size_t g = 0; g < s->n_geoms; g++) {
         lr__geom *G = &s->geoms[g];
         G->emitter = -1;
-        if (!(lr__luminance(s->materials[G->material].emission) > 0.0))
+        if (!(emitter_luminance(&s->materials[G->material]) > 0.0))
             continue;
         G->emitter = (long)n;
         n += G->kind == LR__GEOM_TRIANGLES ? G->n_triangles : 1;
@@ -45,7 +61,7 @@ lr_status lr__emitters_build(lr_scene *s, lr_error *err)
         const lr__geom *G = &s->geoms[g];
         if (G->emitter < 0)
             continue;
-        double lum = lr__luminance(s->materials[G->material].emission);
+        double lum = emitter_luminance(&s->materials[G->material]);
         size_t m = G->kind == LR__GEOM_TRIANGLES ? G->n_triangles : 1;
         for (size_t i = 0; i < m; i++, k++) {
             double area;
@@ -117,10 +133,11 @@ static double cone_one_minus_cos(double r, double d)
     return sin2 / (1.0 + cos_max);
 }
 
-/* Samples emitter e from p: point q, its normal, the density. */
+/* Samples emitter e from p: point q, its normal, the density, and its
+ * texture coordinates (*has_uv 0 when none). */
 static int sample_emitter(const lr_scene *s, const lr__emitter *e, lr__v3 p,
                           const double u[2], lr__v3 *q, lr__v3 *nq,
-                          double *pdf)
+                          double *pdf, int *has_uv, double uv[2])
 {
     const lr__geom *G = &s->geoms[e->geom];
     if (G->kind == LR__GEOM_TRIANGLES) {
@@ -132,12 +149,15 @@ static int sample_emitter(const lr_scene *s, const lr__emitter *e, lr__v3 p,
         double b0 = 1.0 - su, b1 = u[1] * su;
         *q = v3_add(v3_add(v3_scale(v[0], b0), v3_scale(v[1], b1)),
                     v3_scale(v[2], 1.0 - b0 - b1));
+        /* Embree's barycentrics of q are (b1, 1 - b0 - b1). */
+        *has_uv = lr__triangle_uv(G, e->prim, b1, 1.0 - b0 - b1, uv);
         *nq = v3_norm(v3_cross(v3_sub(v[1], v[0]), v3_sub(v[2], v[0])));
         lr__v3 to = v3_sub(*q, p);
         double d2 = v3_dot(to, to);
         *pdf = area_to_solid(e->area, d2, v3_dot(*nq, v3_scale(to, 1.0 / sqrt(d2))));
         return *pdf > 0.0;
     }
+    *has_uv = 0;
     lr__v3 wc = v3_sub(G->center, p);
     double dc = v3_len(wc), r = G->radius;
     if (dc <= r * (1.0 + 1e-9)) {
@@ -190,8 +210,9 @@ int lr__light_sample_from(const lr_scene *s, lr__v3 p, double u_pick,
         size_t i = emitter_find(s, v);
         const lr__emitter *e = &s->emitters[i];
         lr__v3 q, nq;
-        double pdf;
-        if (!sample_emitter(s, e, p, u, &q, &nq, &pdf))
+        double pdf, uv[2];
+        int has_uv;
+        if (!sample_emitter(s, e, p, u, &q, &nq, &pdf, &has_uv, uv))
             return 0;
         lr__v3 to = v3_sub(q, p);
         double d = v3_len(to);
@@ -201,7 +222,14 @@ int lr__light_sample_from(const lr_scene *s, lr__v3 p, double u_pick,
         if (!(v3_dot(out->dir, nq) < 0.0))
             return 0;
         out->dist = d;
-        out->L = s->materials[s->geoms[e->geom].material].emission;
+        const lr__geom *G = &s->geoms[e->geom];
+        if (G->kind == LR__GEOM_SPHERE &&
+            lr__material_textured(&s->materials[G->material])) {
+            has_uv = 1;
+            lr__sphere_uv(nq, uv);
+        }
+        lr__material mt;
+        out->L = lr__material_at(s, G->material, has_uv, uv, &mt)->emission;
         out->pdf = pk * emitter_prob(s, i) * pdf;
         out->delta = 0;
         return out->pdf > 0.0;

@@ -119,9 +119,19 @@ lr_status lr__scene_add_obj(lr_scene *s, const char *file,
                     normals[9 * t + 3 + k] = normals[9 * t + 6 + k];
                     normals[9 * t + 6 + k] = f;
                 }
+            if (m.uvs != NULL)
+                for (int k = 0; k < 2; k++) {
+                    float f = m.uvs[6 * t + 2 + k];
+                    m.uvs[6 * t + 2 + k] = m.uvs[6 * t + 4 + k];
+                    m.uvs[6 * t + 4 + k] = f;
+                }
         }
     st = lr__scene_add_triangles(s, m.vertices, m.n_vertices, m.indices,
                                  m.n_triangles, normals, material, err);
+    if (st == LR_OK) {
+        s->geoms[s->n_geoms - 1].corner_uv = m.uvs;
+        m.uvs = NULL;
+    }
     lr__mesh_free(&m);
     return st;
 }
@@ -150,5 +160,22 @@ lr_status lr__scene_add_rect(lr_scene *s, lr__v3 pt, lr__v3 n, double w,
     if (lr__xform_det(x) < 0) {
         idx[1] = 2, idx[2] = 1, idx[4] = 3, idx[5] = 2;
     }
-    return lr__scene_add_triangles(s, verts, 4, idx, 2, NULL, material, err);
+    /* Texture coordinates: (0, 0) at the first corner, u along the first
+     * side, v along the second, (1, 1) at the opposite corner. */
+    static const float corner_uv[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+    float *uv = malloc(12 * sizeof *uv);
+    if (uv == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    for (int k = 0; k < 6; k++) {
+        uv[2 * k] = corner_uv[idx[k]][0];
+        uv[2 * k + 1] = corner_uv[idx[k]][1];
+    }
+    lr_status st =
+        lr__scene_add_triangles(s, verts, 4, idx, 2, NULL, material, err);
+    if (st != LR_OK) {
+        free(uv);
+        return st;
+    }
+    s->geoms[s->n_geoms - 1].corner_uv = uv;
+    return LR_OK;
 }

@@ -4,9 +4,9 @@
  * The whole file is read into memory first and then split into lines in
  * place, so a line is a NUL-terminated string that strtod and strtol can
  * work on without ever running into the next line.  Only geometry is kept:
- * `v` positions, `vn` normals and `f` faces; everything else an exporter
- * may write (texture coordinates, groups, materials, lines, points) is
- * skipped, because the renderer has no use for it.  Faces (`f`) are
+ * `v` positions, `vn` normals, `vt` texture coordinates and `f` faces;
+ * everything else an exporter may write (groups, materials, lines,
+ * points) is skipped, because the renderer has no use for it.  Faces (`f`) are
  * obj_face.c's; the parser's state is in obj.h.
  */
 #include "obj.h"
@@ -54,10 +54,12 @@ static void parser_free(parser *ps)
 {
     free(ps->v);
     free(ps->vn);
+    free(ps->vt);
     free(ps->idx);
     free(ps->cn);
+    free(ps->cuv);
     free(ps->corners);
-    ps->v = ps->vn = ps->cn = NULL;
+    ps->v = ps->vn = ps->cn = ps->vt = ps->cuv = NULL;
     ps->idx = NULL;
     ps->corners = NULL;
 }
@@ -247,6 +249,27 @@ static lr_status parse_normal(parser *ps, const char *rest)
     return LR_OK;
 }
 
+/* vt u [v [w]]: a texture coordinate; v defaults to 0 and w (3-D
+ * textures) is checked and dropped. */
+static lr_status parse_texcoord(parser *ps, const char *rest)
+{
+    double vals[3] = {0, 0, 0};
+    size_t n = 0;
+    lr_status st = parse_numbers(ps, rest, "vt", 1, 3, vals, &n);
+    if (st != LR_OK)
+        return st;
+    if (ps->n_vt > SIZE_MAX / 2 - 1)
+        return lr__obj_fail_at(ps, LR_ERR_LIMIT, "too many texture coordinates");
+    float *vt = lr__obj_grow(ps->vt, &ps->cap_vt, 2 * (ps->n_vt + 1), sizeof *vt);
+    if (vt == NULL)
+        return lr__obj_nomem(ps);
+    ps->vt = vt;
+    vt[2 * ps->n_vt] = (float)vals[0];
+    vt[2 * ps->n_vt + 1] = (float)vals[1];
+    ps->n_vt++;
+    return LR_OK;
+}
+
 /* Parses one logical line, already NUL-terminated. */
 static lr_status parse_line(parser *ps, char *s)
 {
@@ -264,10 +287,8 @@ static lr_status parse_line(parser *ps, char *s)
         return parse_normal(ps, rest);
     if (len == 1 && kw[0] == 'f')
         return lr__obj_parse_face(ps, rest);
-    if (len == 2 && kw[0] == 'v' && kw[1] == 't') {
-        ps->n_vt++;
-        return LR_OK;
-    }
+    if (len == 2 && kw[0] == 'v' && kw[1] == 't')
+        return parse_texcoord(ps, rest);
     /* o, g, s, usemtl, mtllib, l, p and anything unknown carry nothing a
      * triangle mesh needs. */
     return LR_OK;
@@ -390,6 +411,7 @@ lr_status lr__obj_load_named(const char *file, const char *shown,
     ps.json_path = json_path;
     ps.err = err;
     ps.all_normals = 1;
+    ps.all_uvs = 1;
     /* strtod follows LC_NUMERIC, which a host program may have set to a
      * locale with a decimal comma; OBJ numbers always use a point. */
     ps.c_locale = newlocale(LC_NUMERIC_MASK, "C", (locale_t)0);
@@ -422,7 +444,11 @@ lr_status lr__obj_load_named(const char *file, const char *shown,
     out->normals = ps.all_normals ? ps.cn : NULL;
     if (!ps.all_normals)
         free(ps.cn);
+    out->uvs = ps.all_uvs ? ps.cuv : NULL;
+    if (!ps.all_uvs)
+        free(ps.cuv);
     free(ps.vn);
+    free(ps.vt);
     free(ps.corners);
     return LR_OK;
 }
@@ -434,5 +460,6 @@ void lr__mesh_free(lr__mesh *m)
     free(m->vertices);
     free(m->indices);
     free(m->normals);
+    free(m->uvs);
     memset(m, 0, sizeof *m);
 }

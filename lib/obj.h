@@ -19,7 +19,9 @@
 typedef struct corner {
     size_t v;
     size_t vn;
+    size_t vt;
     int has_vn;
+    int has_vt;
 } corner;
 
 /* Everything the parser accumulates while it walks the file. */
@@ -34,13 +36,17 @@ typedef struct parser {
     size_t n_v, cap_v;
     float *vn; /* 3 per normal, unit length */
     size_t n_vn, cap_vn;
-    size_t n_vt; /* only counted, so that vt indices can be checked */
+    float *vt; /* 2 per texture coordinate */
+    size_t n_vt, cap_vt;
 
     unsigned *idx; /* 3 per triangle */
     size_t n_tri, cap_idx;
     float *cn; /* 9 per triangle while every corner so far had a normal */
     size_t cap_cn;
     int all_normals;
+    float *cuv; /* 6 per triangle while every corner so far had a vt */
+    size_t cap_cuv;
+    int all_uvs;
 
     corner *corners; /* scratch for the face being parsed */
     size_t cap_corners;

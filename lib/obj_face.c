@@ -79,6 +79,7 @@ static lr_status parse_corner(parser *ps, const char *tok, size_t len,
     long iv = 0, it = 0, in = 0;
     int have_vt = 0;
     c->has_vn = 0;
+    c->has_vt = 0;
 
     int r = parse_int(&p, end, &iv);
     if (r == 0 && p < end) {
@@ -121,12 +122,12 @@ static lr_status parse_corner(parser *ps, const char *tok, size_t len,
     if (st != LR_OK)
         return st;
     if (have_vt) {
-        size_t unused = 0;
         st = resolve_index(ps, it, ps->n_vt, "texture ",
                            "texture coordinate", "texture coordinates",
-                           &unused);
+                           &c->vt);
         if (st != LR_OK)
             return st;
+        c->has_vt = 1;
     }
     if (c->has_vn) {
         st = resolve_index(ps, in, ps->n_vn, "normal ", "normal", "normals",
@@ -135,6 +136,15 @@ static lr_status parse_corner(parser *ps, const char *tok, size_t len,
             return st;
     }
     return LR_OK;
+}
+
+/* Stops collecting per-corner texture coordinates, as drop_normals. */
+static void drop_uvs(parser *ps)
+{
+    ps->all_uvs = 0;
+    free(ps->cuv);
+    ps->cuv = NULL;
+    ps->cap_cuv = 0;
 }
 
 /* Stops collecting per-corner normals: once one corner lacks a normal the
@@ -151,7 +161,7 @@ lr_status lr__obj_parse_face(parser *ps, const char *rest)
 {
     size_t n = 0;
     size_t len = 0;
-    int face_normals = 1;
+    int face_normals = 1, face_uvs = 1;
     const char *tok = lr__obj_next_token(&rest, &len);
     while (tok != NULL) {
         if (n == SIZE_MAX / sizeof(corner))
@@ -165,6 +175,8 @@ lr_status lr__obj_parse_face(parser *ps, const char *rest)
             return st;
         if (!cs[n].has_vn)
             face_normals = 0;
+        if (!cs[n].has_vt)
+            face_uvs = 0;
         n++;
         tok = lr__obj_next_token(&rest, &len);
     }
@@ -173,6 +185,8 @@ lr_status lr__obj_parse_face(parser *ps, const char *rest)
                        "a face needs at least 3 corners, this one has %zu", n);
     if (!face_normals && ps->all_normals)
         drop_normals(ps);
+    if (!face_uvs && ps->all_uvs)
+        drop_uvs(ps);
 
     /* A polygon with n corners becomes a fan of n - 2 triangles around
      * its first corner; fine for the convex polygons exporters write. */
@@ -191,6 +205,13 @@ lr_status lr__obj_parse_face(parser *ps, const char *rest)
             return lr__obj_nomem(ps);
         ps->cn = cn;
     }
+    float *cuv = NULL;
+    if (ps->all_uvs) {
+        cuv = lr__obj_grow(ps->cuv, &ps->cap_cuv, 6 * tri_after, sizeof *cuv);
+        if (cuv == NULL)
+            return lr__obj_nomem(ps);
+        ps->cuv = cuv;
+    }
 
     const corner *cs = ps->corners;
     for (size_t k = 1; k + 1 < n; k++) {
@@ -201,6 +222,9 @@ lr_status lr__obj_parse_face(parser *ps, const char *rest)
             if (cn != NULL)
                 memcpy(&cn[9 * ps->n_tri + 3 * (size_t)j],
                        &ps->vn[3 * tri[j]->vn], 3 * sizeof *cn);
+            if (cuv != NULL)
+                memcpy(&cuv[6 * ps->n_tri + 2 * (size_t)j],
+                       &ps->vt[2 * tri[j]->vt], 2 * sizeof *cuv);
         }
         ps->n_tri++;
     }

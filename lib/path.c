@@ -140,7 +140,8 @@ static lr__v3 path(const lr_scene *s, int max_depth, lr__v3 org, lr__v3 dir,
             L = v3_add(L, v3_scale(v3_mul(beta, Le), w));
             break;
         }
-        const lr__material *m = &s->materials[h.material];
+        lr__material mt;
+        const lr__material *m = lr__hit_material(s, &h, &mt);
         if (h.entering && v3_maxc(m->emission) > 0.0) {
             double w = 1.0;
             if (!prev_delta && h.geom >= 0)
@@ -154,7 +155,7 @@ static lr__v3 path(const lr_scene *s, int max_depth, lr__v3 org, lr__v3 dir,
         lr__v3 wo = v3_neg(dir);
         L = v3_add(L, v3_mul(beta, v3_mul(m->diffuse, s->ambient)));
         lr__bsdf f;
-        lr__bsdf_init(&f, s, &h);
+        lr__bsdf_init(&f, m, &h);
         uint32_t dim = DIM_FIRST + DIMS_PER_BOUNCE * (uint32_t)depth;
         if (lr__bsdf_has_smooth_lobes(&f))
             L = v3_add(L, v3_mul(beta, next_event(s, &h, &f, wo, &r, dim,

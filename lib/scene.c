@@ -191,12 +191,25 @@ void lr_scene_free(lr_scene *s)
 {
     if (s == NULL)
         return;
-    for (size_t i = 0; i < s->n_geoms; i++)
+    for (size_t i = 0; i < s->n_geoms; i++) {
         free(s->geoms[i].corner_normals);
+        free(s->geoms[i].corner_uv);
+    }
     free(s->geoms);
     free(s->planes);
-    for (size_t i = 0; i < s->n_materials; i++)
+    for (size_t i = 0; i < s->n_materials; i++) {
         free(s->materials[i].name);
+        free(s->materials[i].diffuse_file);
+        free(s->materials[i].emission_file);
+        free(s->materials[i].roughness_file);
+    }
+    for (size_t i = 0; i < s->n_textures; i++) {
+        lr__texture_free(s->textures[i]);
+        free(s->texture_paths[i]);
+    }
+    free(s->textures);
+    free(s->texture_paths);
+    free(s->texture_srgb);
     free(s->materials);
     free(s->lights);
     free(s->emitters);

@@ -8,6 +8,8 @@
 #include "internal.h"
 #include "vec.h"
 
+#include "texture.h"
+
 #include <embree3/rtcore.h>
 #include <stdatomic.h>
 
@@ -23,6 +25,16 @@ typedef struct lr__material {
     /* GGX alpha of the mirror and glass lobes (0: smooth).  Rough
      * lobes are the path integrator's; Whitted treats them as smooth. */
     double roughness;
+    /* Textures (texture.h) multiply the factors above, as glTF's factors
+     * do: diffuse x the texture's RGB, emission x RGB, roughness (an
+     * alpha) x r^2 where r, the roughness_channel (0 = R; glTF packs
+     * roughness in G = 1), is a perceptual roughness as in glTF.  NULL:
+     * none.  Not owned: the scene owns them (lr_scene.textures). */
+    lr__texture *diffuse_tex, *emission_tex, *roughness_tex;
+    int roughness_channel;
+    /* The texture files as the scene JSON wrote them, for the writer
+     * (json_write.c); NULL when none.  Owned. */
+    char *diffuse_file, *emission_file, *roughness_file;
 } lr__material;
 
 /* One emitting primitive: a triangle of an emissive mesh or an emissive
@@ -61,6 +73,11 @@ typedef struct lr__geom {
     /* Triangles: per-corner unit shading normals (9 per triangle), or
      * NULL for flat shading.  Owned. */
     float *corner_normals;
+    /* Triangles: per-corner texture coordinates (6 per triangle: u, v of
+     * corners a, b, c), or NULL when the mesh has none.  Owned.  A loader
+     * sets it right after lr__scene_add_triangles, on
+     * s->geoms[s->n_geoms - 1]. */
+    float *corner_uv;
     size_t n_triangles;
     /* Spheres (also mirrored in Embree) and infinite planes. */
     lr__v3 center;
@@ -106,6 +123,13 @@ struct lr_scene {
     lr_camera camera;
     lr_render_settings settings;
     char *description;     /* the scene's "description", "" if none */
+    /* Every texture the materials use, each loaded once; owned. */
+    lr__texture **textures;
+    size_t n_textures;
+    /* For lr__scene_texture: where each texture came from (owned path
+     * and srgb flag; NULL path for one made in memory). */
+    char **texture_paths;
+    int *texture_srgb;
     /* What the loaders read but ignored, one line each ("" if nothing;
      * NULL until the first), for lr_scene_warnings. */
     char *warnings;
@@ -129,6 +153,20 @@ lr_status lr__scene_add_sphere(lr_scene *s, lr__v3 center, double radius,
                                int material, lr_error *err);
 lr_status lr__scene_add_plane(lr_scene *s, lr__v3 point, lr__v3 normal,
                               int material, lr_error *err);
+/* A texture for the scene's materials: the file at `path` decoded with
+ * `srgb` (lr__texture_load), loaded once per (path, srgb) and kept by
+ * the scene (freed with it).  NULL with err filled on error. */
+lr__texture *lr__scene_texture(lr_scene *s, const char *path, int srgb,
+                               lr_error *err);
+/* The same with messages naming the file as `shown`. */
+lr__texture *lr__scene_texture_named(lr_scene *s, const char *path,
+                                     const char *shown, int srgb,
+                                     lr_error *err);
+/* Takes over a texture made in memory: freed with the scene.  Returns
+ * LR_OK, or LR_ERR_NOMEM when it could not be recorded (then it is freed
+ * at once, and the caller reports the error). */
+lr_status lr__scene_texture_add(lr_scene *s, lr__texture *t);
+
 /* Appends a line to s->warnings (dropped when out of memory: a warning
  * never fails a load). */
 void lr__scene_warn(lr_scene *s, const char *fmt, ...)
@@ -149,7 +187,71 @@ typedef struct lr__hit {
     double eps;       /* how far to push a new ray's origin off p */
     long geom;        /* Embree geometry ID; -1 for an infinite plane */
     unsigned prim;    /* triangle index in it */
+    /* Texture coordinates (lr__triangle_uv, lr__sphere_uv), computed
+     * only where the material has a texture; has_uv 0 otherwise, on an
+     * infinite plane and on a mesh without them. */
+    int has_uv;
+    double uv[2];
 } lr__hit;
+
+/* The texture coordinates of triangle `prim` of g at Embree's
+ * barycentrics (bu, bv) (the point (1 - bu - bv) a + bu b + bv c): the
+ * corners' uv interpolated alike.  Returns 0 when g has none.  The one
+ * formula for the scalar hit, the packet lanes and sampled light points,
+ * so that all three see the same texel. */
+static inline int lr__triangle_uv(const lr__geom *g, unsigned prim,
+                                  double bu, double bv, double uv[2])
+{
+    if (g->corner_uv == NULL)
+        return 0;
+    const float *t = &g->corner_uv[6 * (size_t)prim];
+    double w = 1.0 - bu - bv;
+    uv[0] = w * t[0] + bu * t[2] + bv * t[4];
+    uv[1] = w * t[1] + bu * t[3] + bv * t[5];
+    return 1;
+}
+
+/* A sphere's texture coordinates at unit outward normal n, a lat-long
+ * map wrapped like a globe: the image's centre column faces +z, u grows
+ * towards +x, its top row is the +y pole:
+ * u = 1/2 + atan2(n.x, n.z) / (2 pi), v = 1 - acos(n.y) / pi. */
+void lr__sphere_uv(lr__v3 n, double uv[2]);
+
+/* ---- materials at a hit (material.c) ---------------------------------- */
+
+/* Whether a material has any texture. */
+static inline int lr__material_textured(const lr__material *m)
+{
+    return m->diffuse_tex != NULL || m->emission_tex != NULL ||
+           m->roughness_tex != NULL;
+}
+
+/* *tmp = m with its textures applied at uv; returns tmp (material.c). */
+const lr__material *lr__material_textures(const lr__material *m,
+                                          const double uv[2],
+                                          lr__material *tmp);
+
+/* Material `material` at texture coordinates uv: the scene's own record
+ * when it has no texture (or has_uv is 0: the factors alone), else *tmp
+ * filled with the factors times the textures.  Valid while the scene and
+ * *tmp are.  (Inline: every hit asks, and untextured scenes must not pay
+ * a call for it.) */
+static inline const lr__material *lr__material_at(const lr_scene *s,
+                                                  int material, int has_uv,
+                                                  const double uv[2],
+                                                  lr__material *tmp)
+{
+    const lr__material *m = &s->materials[material];
+    if (!has_uv || !lr__material_textured(m))
+        return m;
+    return lr__material_textures(m, uv, tmp);
+}
+static inline const lr__material *lr__hit_material(const lr_scene *s,
+                                                   const lr__hit *h,
+                                                   lr__material *tmp)
+{
+    return lr__material_at(s, h->material, h->has_uv, h->uv, tmp);
+}
 
 /* Closest hit along org + t dir with t in (0, tfar); dir need not be unit
  * length but t is in its units.  Returns 1 on a hit. */

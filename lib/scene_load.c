@@ -10,6 +10,7 @@
 #include "envmap.h"
 #include "gltf.h"
 #include "json_util.h"
+#include "material_json.h"
 #include "mesh.h"
 #include "scene.h"
 #include "settings_json.h"
@@ -26,11 +27,14 @@
 /* ---- materials -------------------------------------------------------- */
 
 static lr_status parse_materials(lr_scene *s, const cJSON *mats,
-                                 lr_error *err)
+                                 const char *base_dir, lr_error *err)
 {
-    static const char *const keys[] = {"diffuse",  "specular", "shininess",
-                                       "reflect",  "transmit", "ior",
-                                       "emission", "roughness", NULL};
+    static const char *const keys[] = {
+        "diffuse",          "specular",          "shininess",
+        "reflect",          "transmit",          "ior",
+        "emission",         "roughness",         "diffuse_texture",
+        "emission_texture", "roughness_texture", "roughness_channel",
+        NULL};
     char p[LR__PATH_MAX];
     lr_status st;
     size_t n = 1; /* slot 0 is the default material */
@@ -81,6 +85,11 @@ static lr_status parse_materials(lr_scene *s, const cJSON *mats,
         LR_TRY(lr__json_number(m, "ior", p, 0, &mt->ior, err));
         LR_TRY(lr__json_rgb(m, "emission", p, 0, &mt->emission, err));
         LR_TRY(lr__json_number(m, "roughness", p, 0, &mt->roughness, err));
+        int given =
+            (cJSON_HasObjectItem(m, "diffuse") ? LR__GIVEN_DIFFUSE : 0) |
+            (cJSON_HasObjectItem(m, "emission") ? LR__GIVEN_EMISSION : 0) |
+            (cJSON_HasObjectItem(m, "roughness") ? LR__GIVEN_ROUGHNESS : 0);
+        LR_TRY(lr__material_textures_json(s, mt, m, p, base_dir, given, err));
         char q[LR__PATH_MAX];
         if (!(mt->roughness >= 0.0 && mt->roughness <= 1.0)) {
             lr__path_key(q, p, "roughness");
@@ -195,15 +204,7 @@ static lr_status parse_lights(lr_scene *s, const cJSON *lights,
 
 static char *join_path(const char *dir, const char *file)
 {
-    size_t n = strlen(file) + (dir ? strlen(dir) : 0) + 2;
-    char *out = malloc(n);
-    if (out == NULL)
-        return NULL;
-    if (file[0] == '/' || dir == NULL || dir[0] == '\0')
-        snprintf(out, n, "%s", file);
-    else
-        snprintf(out, n, "%s/%s", dir, file);
-    return out;
+    return lr__join_path(dir, file);
 }
 
 /* An OBJ mesh: the file is found relative to the scene's directory. */
@@ -418,7 +419,10 @@ static lr_status parse_objects(lr_scene *s, const cJSON *objs,
     size_t i = 0;
     for (const cJSON *o = objs->child; o; o = o->next, i++) {
         lr__path_index(p, "objects", i);
+        size_t g0 = s->n_geoms, p0 = s->n_planes;
         lr_status st = parse_object(s, o, p, base_dir, height_given, err);
+        if (st == LR_OK)
+            st = lr__material_check_uvs(s, g0, p0, p, err);
         if (st != LR_OK)
             return st;
     }
@@ -487,7 +491,7 @@ static lr_status build(lr_scene *s, const cJSON *root, const char *base_dir,
     LR_TRY(lr__settings_from_json(cJSON_GetObjectItemCaseSensitive(root, "render"), &s->settings, err));
     LR_TRY(lr__json_rgb(root, "background", "", 0, &s->background, err));
     LR_TRY(parse_environment(s, cJSON_GetObjectItemCaseSensitive(root, "environment"), base_dir, err));
-    LR_TRY(parse_materials( s, cJSON_GetObjectItemCaseSensitive(root, "materials"), err));
+    LR_TRY(parse_materials( s, cJSON_GetObjectItemCaseSensitive(root, "materials"), base_dir, err));
     LR_TRY(parse_lights(s, cJSON_GetObjectItemCaseSensitive(root, "lights"), err));
     LR_TRY(lr__scene_begin(s, err));
     /* A glTF camera's aspect ratio sets the height the scene left out. */

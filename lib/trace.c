@@ -51,6 +51,7 @@ static long plane_hit(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
 static void finish_hit(lr__hit *h, lr__v3 org, lr__v3 dir, double t,
                        lr__v3 ng_outward, lr__v3 ns_outward, int material)
 {
+    h->has_uv = 0;
     h->t = t;
     h->p = v3_madd(org, dir, t);
     h->material = material;
@@ -184,6 +185,10 @@ int lr__hit_complete(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
         lr__v3 p = v3_madd(org, dir, t);
         lr__v3 n = v3_sub(p, g->center);
         finish_hit(hit, org, dir, t, n, n, g->material);
+        if (lr__material_textured(&s->materials[g->material])) {
+            hit->has_uv = 1;
+            lr__sphere_uv(v3_norm(n), hit->uv);
+        }
         return 1;
     }
     /* Triangles: CCW winding (as OBJ) is the front side. */
@@ -202,6 +207,8 @@ int lr__hit_complete(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
                 w * n[2] + u * n[5] + v * n[8]);
     }
     finish_hit(hit, org, dir, t_embree, ng, ns, g->material);
+    if (lr__material_textured(&s->materials[g->material]))
+        hit->has_uv = lr__triangle_uv(g, prim_id, bu, bv, hit->uv);
     return 1;
 }
 

@@ -52,27 +52,28 @@ static lr__v3 mirror(lr__v3 d, lr__v3 n)
     return v3_madd(d, n, -2.0 * v3_dot(d, n));
 }
 
-/* The ambient term: albedo x ambient radiance. */
-static lr__v3 ambient(const lr_scene *s, const lr__hit *h)
+/* The ambient term: albedo x ambient radiance.  (m: the hit's material
+ * with its textures applied, lr__hit_material.) */
+static lr__v3 ambient(const lr_scene *s, const lr__material *m)
 {
-    return v3_mul(s->ambient, s->materials[h->material].diffuse);
+    return v3_mul(s->ambient, m->diffuse);
 }
 
 /* Emission seen at a hit: the front side of an emissive surface.  (Whitted
  * sees area lights but is not lit by them; the path integrator is.) */
-static lr__v3 emitted(const lr_scene *s, const lr__hit *h)
+static lr__v3 emitted(const lr__material *m, const lr__hit *h)
 {
-    return h->entering ? s->materials[h->material].emission : v3(0, 0, 0);
+    return h->entering ? m->emission : v3(0, 0, 0);
 }
 
 /* The unshadowed contribution of light `i` at hit `h` seen from
  * direction wo; returns 0 when the light cannot contribute (behind the
  * surface, or the material reflects nothing), so no shadow ray is
  * needed. */
-static int light_ray_setup(const lr_scene *s, const lr__hit *h, lr__v3 wo,
-                        size_t i, light_ray *out)
+static int light_ray_setup(const lr_scene *s, const lr__material *m,
+                           const lr__hit *h, lr__v3 wo, size_t i,
+                           light_ray *out)
 {
-    const lr__material *m = &s->materials[h->material];
     int has_spec = v3_maxc(m->specular) > 0.0;
     if (!has_spec && !(v3_maxc(m->diffuse) > 0.0))
         return 0;
@@ -185,13 +186,13 @@ static void light_rays16(const lr__light *restrict lt,
     }
 }
 
-static lr__v3 direct(const lr_scene *s, const lr__hit *h, lr__v3 wo,
-                     uint64_t *rays)
+static lr__v3 direct(const lr_scene *s, const lr__material *m,
+                     const lr__hit *h, lr__v3 wo, uint64_t *rays)
 {
-    lr__v3 L = ambient(s, h);
+    lr__v3 L = ambient(s, m);
     for (size_t i = 0; i < s->n_lights; i++) {
         light_ray lr;
-        if (!light_ray_setup(s, h, wo, i, &lr))
+        if (!light_ray_setup(s, m, h, wo, i, &lr))
             continue;
         (*rays)++;
         if (!lr__occluded(s, lr.org, lr.dir, lr.tfar))
@@ -203,14 +204,13 @@ static lr__v3 direct(const lr_scene *s, const lr__hit *h, lr__v3 wo,
 static lr__v3 radiance(const lr_scene *s, lr__v3 org, lr__v3 dir, int depth,
                        int max_depth, double throughput, uint64_t *rays);
 
-static lr__v3 secondary(const lr_scene *s, const lr__hit *h, lr__v3 dir,
-                        int depth, int max_depth, double throughput,
-                        uint64_t *rays)
+static lr__v3 secondary(const lr_scene *s, const lr__material *m,
+                        const lr__hit *h, lr__v3 dir, int depth,
+                        int max_depth, double throughput, uint64_t *rays)
 {
     lr__v3 L = v3(0, 0, 0);
     if (depth >= max_depth)
         return L;
-    const lr__material *m = &s->materials[h->material];
     /* Mirror weight, plus the part of the dielectric that reflects. */
     lr__v3 w_refl = m->reflect;
     lr__v3 w_refr = v3(0, 0, 0);
@@ -257,8 +257,10 @@ static lr__v3 radiance(const lr_scene *s, lr__v3 org, lr__v3 dir, int depth,
     (*rays)++;
     if (!lr__trace(s, org, dir, INFINITY, &h))
         return lr__env_radiance(s, dir);
-    lr__v3 L = v3_add(emitted(s, &h), direct(s, &h, v3_neg(dir), rays));
-    return v3_add(L, secondary(s, &h, dir, depth, max_depth, throughput,
+    lr__material mt;
+    const lr__material *m = lr__hit_material(s, &h, &mt);
+    lr__v3 L = v3_add(emitted(m, &h), direct(s, m, &h, v3_neg(dir), rays));
+    return v3_add(L, secondary(s, m, &h, dir, depth, max_depth, throughput,
                                rays));
 }
 
@@ -322,6 +324,8 @@ static void radiance16(const lr_scene *restrict s, int max_depth,
     /* Each lane is a vector lane, a scalar lane (hit completed by
      * lr__hit_complete, shaded by the scalar code) or a miss. */
     lr__hit hit[16];
+    lr__material mt[16];
+    const lr__material *m[16];
     lr__v3 org[16], dir[16];
     int has_hit[16], vec[16], n_vec = 0;
     const int vector_ok = !lr__whitted_scalar_only;
@@ -332,7 +336,18 @@ static void radiance16(const lr_scene *restrict s, int max_depth,
         has_hit[i] = 0;
         if (vec[i]) {
             lr__hits16_gather(s, rh, i, &sc->h);
-            const lr__v3 kd = s->materials[s->geoms[g].material].diffuse;
+            /* A textured albedo, looked up where lr__hit_complete would
+             * (the same barycentrics, the same formula). */
+            const lr__geom *G = &s->geoms[g];
+            lr__v3 kd = s->materials[G->material].diffuse;
+            if (s->materials[G->material].diffuse_tex != NULL) {
+                double uv[2];
+                lr__material tmp;
+                int has_uv = lr__triangle_uv(G, rh->hit.primID[i],
+                                             rh->hit.u[i], rh->hit.v[i], uv);
+                kd = lr__material_at(s, G->material, has_uv, uv, &tmp)
+                         ->diffuse;
+            }
             sc->k[0][i] = kd.x, sc->k[1][i] = kd.y, sc->k[2][i] = kd.z;
         }
         if (i >= n)
@@ -359,7 +374,9 @@ static void radiance16(const lr_scene *restrict s, int max_depth,
         has_hit[i] = lr__hit_complete(s, org[i], dir[i], INFINITY, g,
                                       rh->hit.primID[i], rh->hit.u[i],
                                       rh->hit.v[i], rh->ray.tfar[i], &hit[i]);
-        L[i] = has_hit[i] ? v3_add(emitted(s, &hit[i]), ambient(s, &hit[i]))
+        if (has_hit[i])
+            m[i] = lr__hit_material(s, &hit[i], &mt[i]);
+        L[i] = has_hit[i] ? v3_add(emitted(m[i], &hit[i]), ambient(s, m[i]))
                           : lr__env_radiance(s, v3_norm(dir[i]));
     }
     if (n_vec)
@@ -387,7 +404,8 @@ static void radiance16(const lr_scene *restrict s, int max_depth,
                 continue;
             }
             if (i < n && has_hit[i] &&
-                light_ray_setup(s, &hit[i], v3_neg(dir[i]), k, &lr[i])) {
+                light_ray_setup(s, m[i], &hit[i], v3_neg(dir[i]), k,
+                                &lr[i])) {
                 valid[i] = -1;
                 lr__shadow_ray16(&shadow, i, lr[i].org, lr[i].dir,
                                  lr[i].tfar);
@@ -416,8 +434,8 @@ static void radiance16(const lr_scene *restrict s, int max_depth,
     if (max_depth > 0)
         for (int i = 0; i < n; i++)
             if (!vec[i] && has_hit[i])
-                L[i] = v3_add(L[i], secondary(s, &hit[i], dir[i], 0, max_depth,
-                                               1.0, rays));
+                L[i] = v3_add(L[i], secondary(s, m[i], &hit[i], dir[i], 0,
+                                              max_depth, 1.0, rays));
 }
 
 static lr__v3 radiance1(const lr_scene *s, int max_depth, lr__v3 org,

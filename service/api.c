@@ -69,14 +69,14 @@ static int check_mesh_path(const char *file, const char *field, lrd_err *e)
     struct stat st;
     if (realpath(joined, resolved) == NULL || stat(resolved, &st) != 0)
         return lrd_fail(e, 422, "invalid_value", field,
-                        "%s: there is no mesh file \"%s\" in the scenes "
+                        "%s: there is no file \"%s\" in the scenes "
                         "directory",
                         field, file);
     /* Checked before the symbolic links: "." and "meshes/" resolve to
      * directories inside (or at) the scenes directory, not outside it. */
     if (!S_ISREG(st.st_mode))
         return lrd_fail(e, 422, "invalid_value", field,
-                        "%s: \"%s\" is a directory, not a mesh file", field,
+                        "%s: \"%s\" is a directory, not a file", field,
                         file);
     if (!inside_scenes_dir(resolved))
         return lrd_fail(e, 422, "forbidden_path", field,

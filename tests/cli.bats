@@ -216,6 +216,24 @@ has_temp_files() {
     [ ! -e "$T/out.png" ]
 }
 
+@test "a texture that is not an image is a scene error (3) naming the file and key" {
+    printf 'GIF89a not really' >"$T/tex.png"
+    scene badtex '{ "materials": { "m": { "diffuse_texture": "tex.png" } } }'
+    run -3 "$LENSRAY" render "$T/badtex.json" -o "$T/out.png"
+    [[ "$output" == *"materials.m.diffuse_texture: tex.png is not a PNG, JPEG or OpenEXR image"* ]]
+    [ ! -e "$T/out.png" ]
+}
+
+@test "the shipped textured scene renders with both integrators" {
+    local integ
+    for integ in path whitted; do
+        run -0 "$LENSRAY" render "$REPO/scenes/textured.json" -o "$T/tex-$integ.png" -q \
+            --set render.width=24 --set render.height=16 --set render.spp=2 \
+            --set render.integrator=$integ
+        [ "$(png_size "$T/tex-$integ.png")" = "24 16" ]
+    done
+}
+
 @test "mesh paths are relative to the scene file, not the current directory" {
     mkdir -p "$T/scenedir/meshes" "$T/elsewhere"
     cat >"$T/scenedir/meshes/quad.obj" <<'EOF'

@@ -636,6 +636,13 @@ EOF
     # The environment map is confined the same way.
     req POST "$URL/v1/render" "{\"scene\": {\"environment\": {\"file\": \"$WORK/outside/secret.obj\"}}}"
     expect_error 422 forbidden_path scene.environment.file
+    # So are the materials' textures.
+    req POST "$URL/v1/render" "{\"scene\": {\"materials\": {\"m\": {\"diffuse_texture\": \"$WORK/outside/secret.obj\"}}}}"
+    expect_error 422 forbidden_path scene.materials.m.diffuse_texture
+    req POST "$URL/v1/render" '{"scene": {"materials": {"m": {"roughness_texture": "meshes/../../outside/secret.obj"}}}}'
+    expect_error 422 forbidden_path scene.materials.m.roughness_texture
+    req POST "$URL/v1/render" '{"scene": {"materials": {"m": {"emission_texture": "meshes/escape.obj"}}}}'
+    expect_error 422 forbidden_path scene.materials.m.emission_texture
     # So is a real lens's prescription file; a job's own camera override
     # takes only shipped names and inline prescriptions.
     req POST "$URL/v1/render" "{\"scene\": {\"camera\": {\"model\": \"lens\", \"lens\": \"../outside/secret.zmx\"}}}"
@@ -687,7 +694,7 @@ EOF
     for dir in . ./ meshes meshes/ meshes/.; do
         req POST "$URL/v1/render" "$pre \"$dir\"}]}}"
         expect_error 422 invalid_value scene.objects[0].file
-        [[ "$(json o.error.message)" == *"is a directory, not a mesh file"* ]]
+        [[ "$(json o.error.message)" == *"is a directory, not a file"* ]]
         ! grep -q "$WORK" "$T/body"
     done
 }

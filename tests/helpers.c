@@ -245,6 +245,24 @@ void lr_test_write_text(const char *name, const char *text, char *path,
     lr_test_write_file(name, text, strlen(text), path, cap);
 }
 
+void lr_test_write_exr(const char *name, int w, int h,
+                       void (*f)(int x, int y, float rgb[3]), char *path,
+                       size_t cap)
+{
+    lr_image *img = NULL;
+    lr_error err;
+    assert_int_equal(lr_image_create(w, h, 0, &img, &err), LR_OK);
+    float *px = lr_image_rgb_mut(img);
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++)
+            f(x, y, &px[3 * ((size_t)y * w + x)]);
+    int n = snprintf(path, cap, "%s/%s", lr_test_tmpdir(), name);
+    assert_true(n > 0 && (size_t)n < cap);
+    if (lr_image_write(img, path, NULL, &err) != LR_OK)
+        fail_msg("%s", err.message);
+    lr_image_free(img);
+}
+
 /* One line per field of the format: a JSON template with %s where the
  * value goes, the path of that value, and the JSON types it accepts. */
 #define OBJ_S                                                              \
@@ -332,6 +350,14 @@ const lr_test_field lr_test_fields[] = {
      LR_TEST_NUM | LR_TEST_ARR},
     {"{\"materials\": {\"m\": {\"roughness\": %s}}}",
      "materials.m.roughness", LR_TEST_NUM},
+    {"{\"materials\": {\"m\": {\"diffuse_texture\": %s}}}",
+     "materials.m.diffuse_texture", LR_TEST_STR},
+    {"{\"materials\": {\"m\": {\"emission_texture\": %s}}}",
+     "materials.m.emission_texture", LR_TEST_STR},
+    {"{\"materials\": {\"m\": {\"roughness_texture\": %s}}}",
+     "materials.m.roughness_texture", LR_TEST_STR},
+    {"{\"materials\": {\"m\": {\"roughness_channel\": %s}}}",
+     "materials.m.roughness_channel", LR_TEST_NUM},
     {"{\"environment\": %s}", "environment", LR_TEST_OBJ},
     {"{\"environment\": {\"file\": %s}}", "environment.file", LR_TEST_STR},
     {"{\"lights\": [%s]}", "lights[0]", LR_TEST_OBJ},

@@ -99,6 +99,12 @@ void lr_test_write_file(const char *name, const void *data, size_t len,
                         char *path, size_t cap);
 void lr_test_write_text(const char *name, const char *text, char *path,
                         size_t cap);
+/* Writes a w x h EXR (the library's encoder: float R, G, B, stored
+ * exactly) whose pixel (x, y), row 0 at the top, is f(x, y), into the
+ * scratch directory under `name`; its path goes into `path`. */
+void lr_test_write_exr(const char *name, int w, int h,
+                       void (*f)(int x, int y, float rgb[3]), char *path,
+                       size_t cap);
 
 /* Every field of the scene format: a JSON template with %s where the
  * value goes (lr_test_field_json fills it in), the path of that value,

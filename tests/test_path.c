@@ -416,7 +416,7 @@ static void test_ggx_sampling_matches_evaluation(void **state)
             lr__v3 dir = v3_norm(side ? v3(0.2, 0.1, 1) : v3(0, 0, -1));
             assert_true(lr__trace(s, org, dir, INFINITY, &h));
             lr__bsdf f;
-            lr__bsdf_init(&f, s, &h);
+            lr__bsdf_init(&f, &s->materials[h.material], &h);
             lr__v3 wo = v3_neg(dir);
             double mc = 0.0;
             const int N = 100000;

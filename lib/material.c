@@ -1,0 +1,45 @@
+/*
+ * material.c: a material's values at a point: its factors times its
+ * textures (scene.h), and where a point of a sphere is in a texture.
+ */
+#include "scene.h"
+
+#include <math.h>
+
+void lr__sphere_uv(lr__v3 n, double uv[2])
+{
+    uv[0] = 0.5 + atan2(n.x, n.z) / (2.0 * M_PI);
+    uv[1] = 1.0 - acos(fmax(-1.0, fmin(1.0, n.y))) / M_PI;
+}
+
+static lr__v3 times_rgb(lr__v3 k, const lr__texture *t, const double uv[2])
+{
+    float c[4];
+    lr__texture_lookup(t, uv[0], uv[1], c);
+    return v3(k.x * c[0], k.y * c[1], k.z * c[2]);
+}
+
+const lr__material *lr__material_textures(const lr__material *m,
+                                          const double uv[2],
+                                          lr__material *tmp)
+{
+    *tmp = *m;
+    if (m->diffuse_tex != NULL)
+        tmp->diffuse = times_rgb(m->diffuse, m->diffuse_tex, uv);
+    if (m->emission_tex != NULL)
+        tmp->emission = times_rgb(m->emission, m->emission_tex, uv);
+    if (m->roughness_tex != NULL) {
+        float c[4];
+        lr__texture_lookup(m->roughness_tex, uv[0], uv[1], c);
+        int k = m->roughness_channel >= 0 && m->roughness_channel < 4
+                    ? m->roughness_channel
+                    : 0;
+        /* The texture holds perceptual roughness r, as glTF's does, and
+         * `roughness` is a GGX alpha (glTF's alpha = r^2, Burley 2012 via
+         * the glTF 2.0 specification, appendix B): alpha = roughness r^2,
+         * so that a glTF factor f stored as f^2 gives (f r)^2. */
+        double r = fmin(1.0, fmax(0.0, c[k]));
+        tmp->roughness = m->roughness * (r * r);
+    }
+    return tmp;
+}
