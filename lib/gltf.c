@@ -14,9 +14,14 @@
  *   emission = emissiveFactor x KHR_materials_emissive_strength
  * The dielectric's 4 % specular layer (F0 = 0.04) is left out: lensray's
  * diffuse lobe has no Fresnel coat to put it on.
+ * Textures (texture.h) multiply the factors, as in glTF: baseColorTexture
+ * the diffuse albedo (sRGB), emissiveTexture the emission (sRGB), and the
+ * G channel of metallicRoughnessTexture the perceptual roughness (linear;
+ * lensray squares it).
  */
 #include "gltf_doc.h"
 #include "json_util.h"
+#include "texture.h"
 
 #include <assimp/scene.h>
 #include <math.h>
@@ -94,9 +99,114 @@ static void warn_ignored(lr_scene *s, const lr__gltf_doc *d, const cJSON *m,
                           e->string);
 }
 
+/* The bytes of images[i]: a file or data: URI (read by gltf_check.c), or
+ * a bufferView. */
+static int image_bytes(const lr__gltf_doc *d, int i, const unsigned char **b,
+                       size_t *n)
+{
+    int ni, nv;
+    const cJSON *im = cJSON_GetArrayItem(lr__gltf_array(d->root, "images",
+                                                        &ni), i);
+    const cJSON *uri = cJSON_GetObjectItemCaseSensitive(im, "uri");
+    if (cJSON_IsString(uri)) {
+        const lr__gltf_blob *bl = lr__gltf_blob_find(d, uri->valuestring);
+        if (bl == NULL)
+            return 0;
+        *b = bl->data;
+        *n = bl->n;
+        return 1;
+    }
+    const cJSON *v = cJSON_GetArrayItem(
+        lr__gltf_array(d->root, "bufferViews", &nv),
+        (int)cJSON_GetNumberValue(
+            cJSON_GetObjectItemCaseSensitive(im, "bufferView")));
+    const cJSON *off = cJSON_GetObjectItemCaseSensitive(v, "byteOffset");
+    size_t buf = (size_t)cJSON_GetNumberValue(
+        cJSON_GetObjectItemCaseSensitive(v, "buffer"));
+    *b = d->buffers[buf].data + (size_t)(off ? off->valuedouble : 0);
+    *n = (size_t)cJSON_GetNumberValue(
+        cJSON_GetObjectItemCaseSensitive(v, "byteLength"));
+    return 1;
+}
+
+/* The texture of the textureInfo `info` (materials[..].SLOT), decoded
+ * once per image and colour space and kept by the scene; *out NULL when
+ * the slot is empty or its texture has no image. */
+static lr_status slot_texture(lr_scene *s, lr__gltf_doc *d, const cJSON *info,
+                              const char *p, int srgb, lr__texture **out,
+                              lr_error *err)
+{
+    *out = NULL;
+    if (!cJSON_IsObject(info))
+        return LR_OK;
+    int nt;
+    const cJSON *tex = cJSON_GetArrayItem(
+        lr__gltf_array(d->root, "textures", &nt),
+        (int)cJSON_GetNumberValue(
+            cJSON_GetObjectItemCaseSensitive(info, "index")));
+    const cJSON *src = cJSON_GetObjectItemCaseSensitive(tex, "source");
+    if (src == NULL) {
+        lr__gltf_warn(s, d, "%s: its texture has no source image (a "
+                      "texture extension?): ignored", p);
+        return LR_OK;
+    }
+    const cJSON *tc = cJSON_GetObjectItemCaseSensitive(info, "texCoord");
+    if (tc != NULL && cJSON_GetNumberValue(tc) != 0)
+        lr__gltf_warn(s, d, "%s.texCoord: only TEXCOORD_0 is read", p);
+    if (lr__gltf_member(info, "extensions", "KHR_texture_transform"))
+        lr__gltf_warn(s, d, "%s: KHR_texture_transform is ignored", p);
+    int ns;
+    const cJSON *si = cJSON_GetObjectItemCaseSensitive(tex, "sampler");
+    const cJSON *smp = si == NULL ? NULL
+                                  : cJSON_GetArrayItem(
+                                        lr__gltf_array(d->root, "samplers",
+                                                       &ns),
+                                        (int)si->valuedouble);
+    static const char *const wraps[] = {"wrapS", "wrapT"};
+    for (int k = 0; smp && k < 2; k++) {
+        const cJSON *w = cJSON_GetObjectItemCaseSensitive(smp, wraps[k]);
+        if (w != NULL && cJSON_GetNumberValue(w) != 10497)
+            lr__gltf_warn(s, d, "%s: the sampler's %s is ignored (textures "
+                          "repeat)", p, wraps[k]);
+    }
+    int image = (int)src->valuedouble;
+    for (size_t i = 0; i < d->n_tex; i++)
+        if (d->tex[i].image == image && d->tex[i].srgb == srgb) {
+            *out = d->tex[i].t;
+            return LR_OK;
+        }
+    const unsigned char *bytes = NULL;
+    size_t n = 0;
+    char name[300];
+    snprintf(name, sizeof name, "%s: images[%d]", d->shown, image);
+    if (!image_bytes(d, image, &bytes, &n))
+        return lr__gltf_fail(d, err, "images[%d] has no data", image);
+    lr_error e2;
+    lr__texture *t = lr__texture_load_memory(bytes, n, name, srgb, &e2);
+    if (t == NULL) {
+        if (e2.status == LR_ERR_NOMEM)
+            return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+        return lr__fail(err, e2.status, d->fp, "%s: %s (for %s)", d->fp,
+                        e2.message, p);
+    }
+    struct lr__gltf_tex *grown = realloc(d->tex, (d->n_tex + 1) *
+                                                     sizeof *grown);
+    if (grown == NULL) {
+        lr__texture_free(t);
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    }
+    d->tex = grown;
+    LR_TRY(lr__scene_texture_add(s, t));
+    d->tex[d->n_tex].image = image;
+    d->tex[d->n_tex].srgb = srgb;
+    d->tex[d->n_tex++].t = t;
+    *out = t;
+    return LR_OK;
+}
+
 /* The glTF material `m` (NULL: the spec's default material, 3.9.6) as
  * lensray's, appended to s->materials. */
-static lr_status add_material(lr_scene *s, const lr__gltf_doc *d,
+static lr_status add_material(lr_scene *s, lr__gltf_doc *d,
                               const cJSON *m, int index, lr_error *err)
 {
     char p[48];
@@ -153,6 +263,31 @@ static lr_status add_material(lr_scene *s, const lr__gltf_doc *d,
     mt->roughness = rough * rough;
     mt->emission = v3_scale(v3(emissive[0], emissive[1], emissive[2]),
                             strength);
+    /* The textures: slots of this material, decoded (or found) now. */
+    snprintf(q, sizeof q, "%s.pbrMetallicRoughness.baseColorTexture", p);
+    lr__texture *t;
+    LR_TRY(slot_texture(s, d, cJSON_GetObjectItemCaseSensitive(
+                                  pbr, "baseColorTexture"),
+                        q, 1, &t, err));
+    s->materials[s->n_materials - 1].diffuse_tex = t;
+    if (t != NULL && metal > 0)
+        lr__gltf_warn(s, d, "%s tints only the diffuse part: the metallic "
+                      "part reflects baseColorFactor's colour", q);
+    snprintf(q, sizeof q, "%s.emissiveTexture", p);
+    LR_TRY(slot_texture(s, d, cJSON_GetObjectItemCaseSensitive(
+                                  m, "emissiveTexture"),
+                        q, 1, &t, err));
+    s->materials[s->n_materials - 1].emission_tex = t;
+    snprintf(q, sizeof q, "%s.pbrMetallicRoughness.metallicRoughnessTexture",
+             p);
+    LR_TRY(slot_texture(s, d, cJSON_GetObjectItemCaseSensitive(
+                                  pbr, "metallicRoughnessTexture"),
+                        q, 0, &t, err));
+    s->materials[s->n_materials - 1].roughness_tex = t;
+    s->materials[s->n_materials - 1].roughness_channel = 1;
+    if (t != NULL)
+        lr__gltf_warn(s, d, "%s: its metallic channel (B) is ignored; "
+                      "roughness (G) is read", q);
     return LR_OK;
 }
 
@@ -160,7 +295,7 @@ static lr_status add_material(lr_scene *s, const lr__gltf_doc *d,
 
 typedef struct placer {
     lr_scene *s;
-    const lr__gltf_doc *d;
+    lr__gltf_doc *d;
     const struct aiScene *sc;
     const lr__xform *world;
     const lr__gltf_options *o;
@@ -212,15 +347,28 @@ static lr_status add_mesh(placer *pl, const struct aiMesh *am,
     unsigned *idx = malloc((size_t)am->mNumFaces * 3 * sizeof *idx);
     float *cn = am->mNormals ? malloc((size_t)am->mNumFaces * 9 * sizeof *cn)
                              : NULL;
-    if (v == NULL || idx == NULL || (am->mNormals && cn == NULL)) {
-        free(v), free(idx), free(cn);
+    /* UVs: TEXCOORD_0, which assimp has already turned to v = 0 at the
+     * image's bottom (texture.h's convention); a textured material on a
+     * primitive without them samples the texel at (0, 0). */
+    const lr__material *mt = &pl->s->materials[material];
+    int textured = mt->diffuse_tex || mt->emission_tex || mt->roughness_tex;
+    const struct aiVector3D *tc = am->mTextureCoords[0];
+    float *uv = tc || textured ? calloc((size_t)am->mNumFaces * 6, sizeof *uv)
+                               : NULL;
+    if (v == NULL || idx == NULL || (am->mNormals && cn == NULL) ||
+        ((tc || textured) && uv == NULL)) {
+        free(v), free(idx), free(cn), free(uv);
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     }
+    if (textured && tc == NULL)
+        lr__gltf_warn(pl->s, pl->d, "material %s is textured but a mesh "
+                      "using it has no TEXCOORD_0: its texels at (0, 0) are "
+                      "used", mt->name);
     for (size_t i = 0; i < nv; i++) {
         const struct aiVector3D *q = &am->mVertices[i];
         lr__v3 w = lr__xform_point(x, v3(q->x, q->y, q->z));
         if (!(v3_maxabs(w) <= LR__MAX_NUMBER)) {
-            free(v), free(idx), free(cn);
+            free(v), free(idx), free(cn), free(uv);
             return lr__gltf_fail(pl->d, err, "a vertex reaches %g from the "
                                  "origin after the transforms, beyond the "
                                  "limit of 1e15", v3_maxabs(w));
@@ -245,6 +393,10 @@ static lr_status add_mesh(placer *pl, const struct aiMesh *am,
             continue; /* cannot happen after gltf_check.c; never trusted */
         for (int k = 0; k < 3; k++) {
             idx[3 * nt + (size_t)k] = c[k];
+            if (tc != NULL) {
+                uv[6 * nt + 2 * (size_t)k] = tc[c[k]].x;
+                uv[6 * nt + 2 * (size_t)k + 1] = tc[c[k]].y;
+            }
             if (cn == NULL)
                 continue;
             const struct aiVector3D *n = &am->mNormals[c[k]];
@@ -270,6 +422,11 @@ static lr_status add_mesh(placer *pl, const struct aiMesh *am,
                                      err);
     else
         free(cn);
+    /* The scene takes the UVs over once the mesh is in. */
+    if (nt > 0 && st == LR_OK)
+        pl->s->geoms[pl->s->n_geoms - 1].corner_uv = uv;
+    else
+        free(uv);
     free(v);
     free(idx);
     return st;

@@ -63,6 +63,7 @@ void lr__gltf_doc_free(lr__gltf_doc *d)
     }
     free(d->blobs);
     free(d->buffers);
+    free(d->tex);
     cJSON_Delete(d->root);
     free(d->bytes);
     memset(d, 0, sizeof *d);

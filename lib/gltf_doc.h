@@ -38,6 +38,13 @@ typedef struct lr__gltf_doc {
     } *buffers;           /* owned */
     size_t n_buffers;
     int n_nodes;
+    /* Textures decoded so far, one per (image, srgb); the scene owns
+     * the textures, this only finds them again. */
+    struct lr__gltf_tex {
+        int image, srgb;
+        struct lr__texture *t;
+    } *tex;               /* owned */
+    size_t n_tex;
 } lr__gltf_doc;
 
 /* Reads `file` and its external files and checks everything libassimp

@@ -285,6 +285,28 @@ def scene_mapping():
     return g
 
 
+def scene_textured():
+    """Two 2 x 2 quads facing +z: at x = -1.5 a base-colour texture, at
+    x = 1.5 an emissive one, each a 2 x 2 PNG with red top left, green
+    top right, blue bottom left, white bottom right.  glTF's UV (0, 0) is
+    the image's top left; the quad's UVs put it at the top-left corner."""
+    g = Gltf()
+    cols = {(0, 0): (255, 0, 0), (1, 0): (0, 255, 0), (0, 1): (0, 0, 255),
+            (1, 1): (255, 255, 255)}
+    tex = g.image_png(png_rgb(2, 2, lambda x, y: cols[(x, y)]))
+    pos, idx, nrm, uv = quad(2)
+    base = g.mesh(pos, idx, nrm, uv, g.material({
+        "name": "base", "pbrMetallicRoughness": {
+            "baseColorTexture": {"index": tex}, "metallicFactor": 0}}))
+    glow = g.mesh(pos, idx, nrm, uv, g.material({
+        "name": "glow", "emissiveFactor": [1, 1, 1],
+        "emissiveTexture": {"index": tex},
+        "pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1]}}))
+    g.node(mesh=base, translation=[-1.5, 0, 0])
+    g.node(mesh=glow, translation=[1.5, 0, 0])
+    return g
+
+
 def checker_png(n=64, cells=8, a=(230, 220, 200), b=(40, 60, 90)):
     return png_rgb(n, n, lambda x, y: a if (x * cells // n + y * cells // n)
                    % 2 == 0 else b)
@@ -355,7 +377,8 @@ def scene_normals():
 
 
 SCENES = {"tri": scene_tri, "normals": scene_normals,
-          "mapping": scene_mapping, "camera-light": scene_camera_light,
+          "mapping": scene_mapping, "textured": scene_textured,
+          "camera-light": scene_camera_light,
           "materials": scene_materials, "gallery": scene_gallery}
 
 if __name__ == "__main__":

@@ -282,6 +282,48 @@ static void test_material_mapping(void **state)
     lr_scene_free(s);
 }
 
+static void test_textures(void **state)
+{
+    (void)state;
+    make("textured", "textured.glb");
+    /* 81 x 41 pixels, 10 to a unit at the quads (10 units away): pixel
+     * (i, j) looks at x = (i - 40) / 10, y = (20 - j) / 10, so that pixel
+     * centres fall on the texel centres, half a unit in from each corner:
+     * x = -2, -1 (base colour quad), 1, 2 (emissive), y = +-0.5. */
+    char json[1024];
+    snprintf(json, sizeof json,
+             "{\"camera\": {\"position\": [0, 0, 10], \"look_at\": [0, 0, 0],"
+             " \"fov\": %.17g}, \"render\": {\"width\": 81, \"height\": 41,"
+             " \"spp\": 1, \"sampler\": \"grid\"},"
+             " \"lights\": [{\"type\": \"directional\", \"direction\": [0, 0,"
+             " -1], \"irradiance\": %.17g}],"
+             " \"objects\": [{\"type\": \"gltf\", \"file\": \"textured.glb\"}]}",
+             2 * atan(0.205) * 180 / PI, PI);
+    lr_scene *s = lr_test_load_json(json);
+    lr_image *img = render(s);
+    const float *rgb = lr_image_rgb(img);
+    /* Red top left, green top right, blue bottom left, white bottom
+     * right: glTF's UV (0, 0) is the image's top left. */
+    static const double want[4][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1},
+                                      {1, 1, 1}};
+    static const int at[2][4][2] = {{{20, 15}, {30, 15}, {20, 25}, {30, 25}},
+                                    {{50, 15}, {60, 15}, {50, 25}, {60, 25}}};
+    for (int quad = 0; quad < 2; quad++)
+        for (int k = 0; k < 4; k++) {
+            int x = at[quad][k][0], y = at[quad][k][1];
+            const float *px = &rgb[3 * (y * 81 + x)];
+            /* Base colour: albedo / pi x pi; emission: the texel. */
+            for (int c = 0; c < 3; c++)
+                if (!(fabs(px[c] - want[k][c]) < 1e-3))
+                    fail_msg("%s quad, pixel (%d, %d): (%g, %g, %g), want "
+                             "texel %d", quad ? "emissive" : "base", x, y,
+                             (double)px[0], (double)px[1], (double)px[2],
+                             k);
+        }
+    lr_image_free(img);
+    lr_scene_free(s);
+}
+
 /* ---- hostile files ---------------------------------------------------------- */
 
 /* Writes tri.gltf with member `key` ("array.index.member") set to the
@@ -372,6 +414,41 @@ static void test_hostile(void **state)
                "{\"KHR_lights_punctual\": {\"light\": 0}}", LR_ERR_INVALID,
                "nodes[1].light");
 
+    /* An image that is no image: the error names the file, the image
+     * and the material slot that uses it. */
+    make("textured", "textured.gltf");
+    char tpath[512];
+    snprintf(tpath, sizeof tpath, "%s/textured.gltf", lr_test_tmpdir());
+    FILE *tf = fopen(tpath, "rb");
+    assert_non_null(tf);
+    static char ttext[1 << 16];
+    size_t tn = fread(ttext, 1, sizeof ttext - 1, tf);
+    fclose(tf);
+    ttext[tn] = '\0';
+    cJSON *troot = cJSON_Parse(ttext);
+    cJSON *im = cJSON_GetArrayItem(cJSON_GetObjectItem(troot, "images"), 0);
+    cJSON_DeleteItemFromObject(im, "bufferView");
+    cJSON_DeleteItemFromObject(im, "mimeType");
+    cJSON_AddStringToObject(im, "uri", "data:image/png;base64,bm90IGFuIGltYWdl");
+    char *tout = cJSON_Print(troot);
+    lr_test_write_text("badimage.gltf", tout, tpath, sizeof tpath);
+    free(tout);
+    cJSON_Delete(troot);
+    {
+        const char *json = "{\"objects\": [{\"type\": \"gltf\", "
+                           "\"file\": \"badimage.gltf\"}]}";
+        lr_scene *s = NULL;
+        lr_error err;
+        assert_int_not_equal(lr_scene_load_json(json, strlen(json),
+                                                lr_test_tmpdir(), NULL, 0, &s,
+                                                &err),
+                             LR_OK);
+        assert_null(s);
+        if (!strstr(err.message, "badimage.gltf: images[0]") ||
+            !strstr(err.message, "baseColorTexture"))
+            fail_msg("bad image: \"%s\"", err.message);
+    }
+
     /* A GLB cut short anywhere is an error, never a crash. */
     make("tri", "tri.glb");
     char path[512];
@@ -409,6 +486,7 @@ static const struct CMUnitTest tests[] = {
     cmocka_unit_test(test_point_light_irradiance),
     cmocka_unit_test(test_materials),
     cmocka_unit_test(test_material_mapping),
+    cmocka_unit_test(test_textures),
     cmocka_unit_test(test_hostile),
 };
 LR_TEST_GROUP(gltf, tests)
