@@ -83,11 +83,11 @@ fig cornell scenes/cornell.json --set render.spp=64
 G=$(mktemp -d)
 python3 tests/gltf_writer.py gallery "$G/gallery.glb"
 python3 docs/gltf-sky.py "$G/sky.exr"
-fig gltf-thinlens "$G/gallery.glb" --set render.width=720 --set render.spp=256 \
+fig gltf-thinlens "$G/gallery.glb" --set render.width=600 --set render.spp=192 \
     --set 'environment={"file": "sky.exr"}'
 cat >"$G/lens.json" <<'EOF2'
 {"camera": {"model": "lens", "lens": "double-gauss-50"},
- "render": {"width": 720, "height": 480, "spp": 256, "integrator": "path"},
+ "render": {"width": 600, "height": 400, "spp": 192, "integrator": "path"},
  "environment": {"file": "sky.exr"},
  "objects": [{"type": "gltf", "file": "gallery.glb", "camera": true}]}
 EOF2
