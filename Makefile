@@ -18,6 +18,7 @@ SOMAJOR  := 0
 DEPS := /usr/include/embree3/rtcore.h:libembree-dev \
         /usr/include/OpenEXR/openexr.h:libopenexr-dev \
         /usr/include/cjson/cJSON.h:libcjson-dev \
+        /usr/include/assimp/cimport.h:libassimp-dev \
         /usr/include/png.h:libpng-dev \
         /usr/include/jpeglib.h:libjpeg62-turbo-dev \
         /usr/include/microhttpd.h:libmicrohttpd-dev \
@@ -29,8 +30,9 @@ DEPS := /usr/include/embree3/rtcore.h:libembree-dev \
         python3:python3
 
 # Recursive (=) so that pkg-config runs after the dependency check.
-PKG_CFLAGS = $(shell pkg-config --cflags OpenEXR libcjson libpng 2>/dev/null)
-LIB_LIBS   = -lembree3 -lOpenEXRCore-3_1 -lcjson -lpng16 -ljpeg -lz -lpthread -lm
+PKG_CFLAGS = $(shell pkg-config --cflags OpenEXR libcjson libpng assimp 2>/dev/null)
+LIB_LIBS   = -lembree3 -lOpenEXRCore-3_1 -lcjson -lpng16 -ljpeg -lz -lpthread -lm \
+             $(shell pkg-config --libs assimp 2>/dev/null || echo -lassimp)
 
 CFLAGS   ?=
 CFLAGS   += -std=c11 $(OPT) -g -Wall -Wextra -Werror -fPIC -D_GNU_SOURCE \
@@ -169,6 +171,7 @@ $(TEXTURES) &: scenes/make-textures.py $(DEPS_OK)
 # and fuzz/seeds/ inside the unit tests (tests/test_fuzz_replay.c); the
 # job target brings the parts of the daemon that parse a job.
 REPLAY_SRC := fuzz/fuzz_common.c fuzz/fuzz_scene.c fuzz/fuzz_obj.c fuzz/fuzz_lens.c \
+              fuzz/fuzz_gltf.c \
               fuzz/fuzz_texture.c \
               $(if $(SVC_SRC),fuzz/fuzz_job.c service/api.c \
                 service/scene_cache.c service/util.c service/sha256.c \
@@ -365,8 +368,8 @@ soak: all
 	bash tests/soak/soak.sh $(SOAK_SECONDS) $(BUILD)
 
 # ---- fuzzing ------------------------------------------------------------
-# libFuzzer targets for the scene, OBJ, lens and job parsers and the texture
-# decoders (fuzz/fuzz_*.c),
+# libFuzzer targets for the scene, OBJ, lens, glTF and job parsers and the
+# texture decoders (fuzz/fuzz_*.c),
 # built with clang under AddressSanitizer and UBSan in build/fuzz, apart
 # from the other builds.  `make fuzz` runs each for FUZZ_SECONDS (clang is
 # installed like the other dependencies, but only for these targets).  New
@@ -383,7 +386,7 @@ FUZZ_SECONDS    ?= 60
 FUZZ_CI_SECONDS ?= 20
 FUZZ_CC         ?= clang
 FUZZ_BUILD      := build/fuzz
-FUZZ            ?= scene obj lens texture $(if $(SVC_SRC),job)
+FUZZ            ?= scene obj lens gltf texture $(if $(SVC_SRC),job)
 FUZZ_SAN        := -fsanitize=address,undefined -fno-sanitize-recover=undefined \
                    -fno-omit-frame-pointer -Wno-unknown-warning-option \
                    '-Dtarget_clones(...)=unused'
@@ -447,6 +450,8 @@ $(BUILD)/fuzz_scene: $(BUILD)/obj/fuzz/lf_scene.o $(BUILD)/obj/fuzz/fuzz_common.
 $(BUILD)/fuzz_obj: $(BUILD)/obj/fuzz/lf_obj.o $(BUILD)/obj/fuzz/fuzz_common.o $(BUILD)/liblensray.a
 	$(FUZZ_LINK)
 $(BUILD)/fuzz_lens: $(BUILD)/obj/fuzz/lf_lens.o $(BUILD)/obj/fuzz/fuzz_common.o $(BUILD)/liblensray.a
+	$(FUZZ_LINK)
+$(BUILD)/fuzz_gltf: $(BUILD)/obj/fuzz/lf_gltf.o $(BUILD)/obj/fuzz/fuzz_common.o $(BUILD)/liblensray.a
 	$(FUZZ_LINK)
 $(BUILD)/fuzz_texture: $(BUILD)/obj/fuzz/lf_texture.o $(BUILD)/obj/fuzz/fuzz_common.o $(BUILD)/liblensray.a
 	$(FUZZ_LINK)

@@ -22,6 +22,7 @@ int lr_fuzz_scene(const uint8_t *data, size_t size);
 int lr_fuzz_obj(const uint8_t *data, size_t size);
 int lr_fuzz_job(const uint8_t *data, size_t size);
 int lr_fuzz_lens(const uint8_t *data, size_t size);
+int lr_fuzz_gltf(const uint8_t *data, size_t size);
 int lr_fuzz_texture(const uint8_t *data, size_t size);
 
 /* The last broken promise, as a sentence ("" when none). */

@@ -323,7 +323,9 @@ LR_API lr_status lr_render_settings_apply_json(lr_render_settings *s,
 
 typedef struct lr_scene lr_scene;
 
-/* Loads a scene from a JSON file (format: docs/scene-format.md).  Mesh
+/* Loads a scene from a JSON file (format: docs/scene-format.md), or a
+ * glTF 2.0 file (a name ending in .gltf or .glb whose first bytes are
+ * those of one: the scene of docs/gltf.md, "A glTF file alone").  Mesh
  * paths are relative to the file's directory.  `overrides` is an array of
  * `n_overrides` strings "dotted.path=value" applied to the JSON before it
  * is validated (value parsed as JSON, else taken as a string), e.g.
@@ -367,6 +369,10 @@ LR_API void lr_scene_free(lr_scene *scene);
  * what it left out).  The scene keeps no reference to them. */
 LR_API void lr_scene_camera(const lr_scene *scene, lr_camera *cam);
 LR_API void lr_scene_settings(const lr_scene *scene, lr_render_settings *s);
+
+/* What loading read but ignored (parts of a glTF file lensray does not
+ * render), one line each, "" when nothing was.  Owned by the scene. */
+LR_API const char *lr_scene_warnings(const lr_scene *scene);
 
 /* Counts, for reports: primitives (triangles + spheres + planes). */
 LR_API size_t lr_scene_primitive_count(const lr_scene *scene);

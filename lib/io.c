@@ -13,6 +13,18 @@
 
 /* Reading in a loop rather than trusting the size from fstat also copes
  * with pipes and with files that change while we read them. */
+void lr__dir_of(const char *path, char *dir, size_t cap)
+{
+    snprintf(dir, cap, "%s", path);
+    char *slash = strrchr(dir, '/');
+    if (slash == NULL)
+        snprintf(dir, cap, ".");
+    else if (slash == dir)
+        dir[1] = '\0';
+    else
+        *slash = '\0';
+}
+
 lr_status lr__read_file(const char *file, const char *shown,
                         const char *json_path, size_t max, const char *what,
                         int (*stop)(const char *chunk, size_t n), char **out,

@@ -8,6 +8,7 @@
 #include "plan.h"
 
 #include <float.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -256,11 +257,35 @@ void lr_scene_free(lr_scene *s)
     lr__envmap_free(s->env);
     lr__plan_cache_free(s->plan_cache);
     free(s->description);
+    free(s->warnings);
     if (s->rtc != NULL)
         rtcReleaseScene(s->rtc);
     if (s->device != NULL)
         rtcReleaseDevice(s->device);
     free(s);
+}
+
+void lr__scene_warn(lr_scene *s, const char *fmt, ...)
+{
+    char line[512];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(line, sizeof line, fmt, ap);
+    va_end(ap);
+    size_t have = s->warnings ? strlen(s->warnings) : 0;
+    /* A file with many ignored parts should not grow this without end. */
+    if (have > 16384)
+        return;
+    char *w = realloc(s->warnings, have + strlen(line) + 2);
+    if (w == NULL)
+        return;
+    snprintf(w + have, strlen(line) + 2, "%s\n", line);
+    s->warnings = w;
+}
+
+const char *lr_scene_warnings(const lr_scene *s)
+{
+    return s != NULL && s->warnings != NULL ? s->warnings : "";
 }
 
 void lr_scene_camera(const lr_scene *s, lr_camera *cam) { *cam = s->camera; }

@@ -146,6 +146,9 @@ struct lr_scene {
      * and srgb flag; NULL path for one made in memory). */
     char **texture_paths;
     int *texture_srgb;
+    /* What the loaders read but ignored, one line each ("" if nothing;
+     * NULL until the first), for lr_scene_warnings. */
+    char *warnings;
     /* Rays lr__trace and lr__occluded did not give Embree (see
      * lr__embree_can_trace), over the scene's life; with plan_cache, what
      * changes while renders share the scene. */
@@ -184,6 +187,10 @@ lr__texture *lr__scene_texture_named(lr_scene *s, const char *path,
  * at once, and the caller reports the error). */
 lr_status lr__scene_texture_add(lr_scene *s, lr__texture *t);
 
+/* Appends a line to s->warnings (dropped when out of memory: a warning
+ * never fails a load). */
+void lr__scene_warn(lr_scene *s, const char *fmt, ...)
+    __attribute__((format(printf, 2, 3)));
 /* Commits the Embree scene: no more geometry after this.  Builds the
  * emitter list (lr__emitters_build). */
 lr_status lr__scene_commit(lr_scene *s, lr_error *err);

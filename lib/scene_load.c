@@ -8,6 +8,7 @@
  */
 #include "camera_json.h"
 #include "envmap.h"
+#include "gltf.h"
 #include "json_util.h"
 #include "material_json.h"
 #include "mesh.h"
@@ -219,8 +220,39 @@ static lr_status add_mesh(lr_scene *s, const cJSON *o, const char *p,
     return lr__scene_add_obj(s, full, file, fp, smooth, x, material, err);
 }
 
+/* A glTF file: meshes, materials, lights and, with "camera", the camera
+ * (gltf.h). */
+static lr_status add_gltf(lr_scene *s, const cJSON *o, const char *p,
+                          const lr__xform *x, const char *base_dir,
+                          int height_given, lr_error *err)
+{
+    const char *file = NULL;
+    char q[LR__PATH_MAX];
+    LR_TRY(lr__json_string(o, "file", p, 1, &file, err));
+    lr__gltf_options go = {*x, LR__GLTF_CAMERA_NONE, NULL, height_given};
+    const cJSON *cam = cJSON_GetObjectItemCaseSensitive(o, "camera");
+    if (cJSON_IsTrue(cam)) {
+        go.camera = LR__GLTF_CAMERA_FIRST;
+    } else if (cJSON_IsString(cam)) {
+        go.camera = LR__GLTF_CAMERA_NAMED;
+        go.camera_name = cam->valuestring;
+    } else if (cam != NULL && !cJSON_IsFalse(cam)) {
+        lr__path_key(q, p, "camera");
+        return lr__fail(err, LR_ERR_INVALID, q,
+                        "%s must be true, false or a camera's name", q);
+    }
+    lr__path_key(q, p, "file");
+    /* Through the one resolver of file keys ("sha256:" assets too; a
+     * .glb, or a .gltf whose buffers and images are data: URIs, works as
+     * an asset, since an asset has no directory of neighbours). */
+    char full[4096];
+    LR_TRY(lr__scene_file(file, base_dir, q, full, sizeof full, err));
+    return lr__scene_add_gltf(s, full, file, q, &go, err);
+}
+
 static lr_status parse_object(lr_scene *s, const cJSON *o, const char *p,
-                              const char *base_dir, lr_error *err)
+                              const char *base_dir, int height_given,
+                              lr_error *err)
 {
     static const char *const keys_sphere[] = {"type", "material", "transform",
                                               "center", "radius", NULL};
@@ -230,6 +262,8 @@ static lr_status parse_object(lr_scene *s, const cJSON *o, const char *p,
                                            "vertices", NULL};
     static const char *const keys_mesh[] = {"type", "material", "transform",
                                             "file", "smooth", NULL};
+    static const char *const keys_gltf[] = {"type", "transform", "file",
+                                            "camera", NULL};
     char q[LR__PATH_MAX];
     const char *type = NULL;
     if (!cJSON_IsObject(o))
@@ -239,12 +273,13 @@ static lr_status parse_object(lr_scene *s, const cJSON *o, const char *p,
                               : strcmp(type, "plane") == 0    ? keys_plane
                               : strcmp(type, "triangle") == 0 ? keys_tri
                               : strcmp(type, "mesh") == 0     ? keys_mesh
+                              : strcmp(type, "gltf") == 0     ? keys_gltf
                                                               : NULL;
     if (keys == NULL) {
         lr__path_key(q, p, "type");
         return lr__fail(err, LR_ERR_INVALID, q,
-                        "%s must be \"sphere\", \"plane\", \"triangle\" or "
-                        "\"mesh\", got \"%s\"",
+                        "%s must be \"sphere\", \"plane\", \"triangle\", "
+                        "\"mesh\" or \"gltf\", got \"%s\"",
                         q, type);
     }
     LR_TRY(lr__json_check_keys(o, p, keys, err));
@@ -359,11 +394,14 @@ static lr_status parse_object(lr_scene *s, const cJSON *o, const char *p,
         return lr__scene_add_triangles(s, verts, 3, idx, 1, NULL, material,
                                        err);
     }
+    if (keys == keys_gltf)
+        return add_gltf(s, o, p, &x, base_dir, height_given, err);
     return add_mesh(s, o, p, &x, material, base_dir, err);
 }
 
 static lr_status parse_objects(lr_scene *s, const cJSON *objs,
-                               const char *base_dir, lr_error *err)
+                               const char *base_dir, int height_given,
+                               lr_error *err)
 {
     char p[LR__PATH_MAX];
     if (objs == NULL)
@@ -375,7 +413,7 @@ static lr_status parse_objects(lr_scene *s, const cJSON *objs,
     for (const cJSON *o = objs->child; o; o = o->next, i++) {
         lr__path_index(p, "objects", i);
         size_t g0 = s->n_geoms, p0 = s->n_planes;
-        lr_status st = parse_object(s, o, p, base_dir, err);
+        lr_status st = parse_object(s, o, p, base_dir, height_given, err);
         if (st == LR_OK)
             st = lr__material_check_uvs(s, g0, p0, p, err);
         if (st != LR_OK)
@@ -447,7 +485,11 @@ static lr_status build(lr_scene *s, const cJSON *root, const char *base_dir,
     LR_TRY(parse_materials( s, cJSON_GetObjectItemCaseSensitive(root, "materials"), base_dir, err));
     LR_TRY(parse_lights(s, cJSON_GetObjectItemCaseSensitive(root, "lights"), err));
     LR_TRY(lr__scene_begin(s, err));
-    LR_TRY(parse_objects(s, cJSON_GetObjectItemCaseSensitive(root, "objects"), base_dir, err));
+    /* A glTF camera's aspect ratio sets the height the scene left out. */
+    int height_given = cJSON_GetObjectItemCaseSensitive(
+                           cJSON_GetObjectItemCaseSensitive(root, "render"),
+                           "height") != NULL;
+    LR_TRY(parse_objects(s, cJSON_GetObjectItemCaseSensitive(root, "objects"), base_dir, height_given, err));
     LR_TRY(lr__scene_commit(s, err));
     return LR_OK;
 }
@@ -500,6 +542,8 @@ lr_status lr_scene_load_file(const char *path, const char *const *overrides,
         return lr__fail(err, LR_ERR_INVALID, NULL,
                         "lr_scene_load_file: NULL argument");
     *out = NULL;
+    if (lr__gltf_is_file(path))
+        return lr__gltf_scene_load(path, overrides, n_overrides, out, err);
     char *buf = NULL;
     size_t len = 0;
     lr_status st = lr__read_file(path, path, NULL, MAX_SCENE_BYTES,
@@ -508,14 +552,7 @@ lr_status lr_scene_load_file(const char *path, const char *const *overrides,
         return st;
     /* Mesh paths are relative to the scene file's directory. */
     char dir[4096];
-    snprintf(dir, sizeof dir, "%s", path);
-    char *slash = strrchr(dir, '/');
-    if (slash == NULL)
-        snprintf(dir, sizeof dir, ".");
-    else if (slash == dir)
-        dir[1] = '\0';
-    else
-        *slash = '\0';
+    lr__dir_of(path, dir, sizeof dir);
     st = lr_scene_load_json(buf ? buf : "", len, dir, overrides, n_overrides,
                             out, err);
     free(buf);

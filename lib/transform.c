@@ -16,8 +16,7 @@ lr__xform lr__xform_identity(void)
     return x;
 }
 
-/* a * b: apply b first, then a. */
-static lr__xform xform_mul(const lr__xform *a, const lr__xform *b)
+lr__xform lr__xform_mul(const lr__xform *a, const lr__xform *b)
 {
     lr__xform r;
     for (int i = 0; i < 3; i++)
@@ -182,7 +181,7 @@ lr_status lr__xform_parse(const cJSON *list, const char *path,
                             q, kind);
         }
         /* Steps apply in list order: the first one listed acts first. */
-        *out = xform_mul(&x, out);
+        *out = lr__xform_mul(&x, out);
     }
     return LR_OK;
 }

@@ -17,6 +17,8 @@ typedef struct lr__xform {
 } lr__xform;
 
 lr__xform lr__xform_identity(void);
+/* a * b: apply b first, then a. */
+lr__xform lr__xform_mul(const lr__xform *a, const lr__xform *b);
 lr__v3 lr__xform_point(const lr__xform *x, lr__v3 p);
 /* A unit normal moved by x (the inverse transpose, up to scale). */
 lr__v3 lr__xform_normal(const lr__xform *x, lr__v3 n);

@@ -1,7 +1,7 @@
 #!/usr/bin/env bats
 # cli.bats: the lensray command-line tool, end to end: exit codes, error
 # messages that name the JSON path, output files (PNG/EXR headers, sizes,
-# atomic replacement), --set overrides (including the lens models, samplers
+# atomic replacement), glTF files alone, --set overrides (including the lens models, samplers
 # and regions), --stats and determinism.
 #
 # Run from the repository root, by tests/run.sh or directly:
@@ -630,4 +630,36 @@ assert s["rays"] >= s["samples"], s
     run -3 "$LENSRAY" render "$T/scene.json" -o "$T/keep.png" --set camera.fov=0
     [ "$(cat "$T/keep.png")" = "previous image" ]
     ! has_temp_files "$T"
+}
+
+# ---- glTF files -----------------------------------------------------------------
+
+@test "a .glb renders alone, through its own camera, its aspect ratio setting the height" {
+    python3 "$BATS_TEST_DIRNAME/gltf_writer.py" camera-light "$T/cl.glb"
+    run -0 "$LENSRAY" render "$T/cl.glb" -o "$T/cl.png" --set render.width=30 \
+        --set render.spp=2
+    [ "$(png_size "$T/cl.png")" = "30 20" ] # aspectRatio 1.5
+    [ -z "$output" ]
+    # A .gltf without a camera is framed automatically.
+    python3 "$BATS_TEST_DIRNAME/gltf_writer.py" tri "$T/tri.gltf"
+    run -0 "$LENSRAY" render "$T/tri.gltf" -o "$T/tri.png" --set render.width=16 \
+        --set render.height=12 --set render.spp=2
+    [ "$(png_size "$T/tri.png")" = "16 12" ]
+}
+
+@test "glTF: ignored parts are warned about, bad files are exit 3 naming the file and field" {
+    python3 "$BATS_TEST_DIRNAME/gltf_writer.py" camera-light "$T/cl.gltf"
+    sed 's/"type": "point"/"type": "spot"/' "$T/cl.gltf" >"$T/spot.gltf"
+    run -0 "$LENSRAY" render "$T/spot.gltf" -o "$T/spot.png" --set render.width=12 \
+        --set render.spp=1
+    [[ "$output" == *"lensray: warning: spot.gltf: extensions.KHR_lights_punctual.lights[0] is a spot light"* ]]
+    python3 "$BATS_TEST_DIRNAME/gltf_writer.py" tri "$T/tri.glb"
+    head -c 500 "$T/tri.glb" >"$T/cut.glb"
+    run -3 "$LENSRAY" render "$T/cut.glb" -o "$T/cut.png"
+    [[ "$output" == *"cut.glb: the GLB header says"*"truncated"* ]]
+    [ ! -e "$T/cut.png" ]
+    sed '0,/"count": 4,/s//"count": 3000000,/' "$T/cl.gltf" >"$T/count.gltf"
+    ! cmp -s "$T/cl.gltf" "$T/count.gltf"
+    run -3 "$LENSRAY" render "$T/count.gltf" -o "$T/count.png"
+    [[ "$output" == *"count.gltf: accessors["*"elements reach byte"* ]]
 }

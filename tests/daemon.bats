@@ -656,6 +656,29 @@ EOF
     expect_error 422 invalid_value scene
 }
 
+@test "glTF objects are confined: the file, and every file it names" {
+    local d="$WORK/scenes/meshes"
+    python3 "$BATS_TEST_DIRNAME/gltf_writer.py" tri "$d/tri.glb"
+    python3 "$BATS_TEST_DIRNAME/gltf_writer.py" tri "$WORK/outside/tri.glb"
+    local cam='"camera": {"position": [0.6, 0.3, 3], "look_at": [0.6, 0.3, 0]}'
+    req POST "$URL/v1/render" "{\"scene\": {$cam, \"lights\": [{\"type\": \"ambient\", \"radiance\": 1}], \"objects\": [{\"type\": \"gltf\", \"file\": \"meshes/tri.glb\"}]}, \"render\": {\"width\": 16, \"height\": 12, \"spp\": 1}}"
+    expect 200
+    [ "$(node "$WORK/img.js" distinct "$T/body")" -gt 1 ] # the triangle shows
+    req POST "$URL/v1/render" '{"scene": {"objects": [{"type": "gltf", "file": "../outside/tri.glb"}]}}'
+    expect_error 422 forbidden_path scene.objects[0].file
+    # A glTF inside the directory that names a buffer outside it.
+    sed 's|"uri": "data:[^"]*"|"uri": "../../outside/secret.obj"|' \
+        <(python3 "$BATS_TEST_DIRNAME/gltf_writer.py" tri /dev/stdout) >"$d/leak.gltf"
+    grep -q 'outside/secret.obj' "$d/leak.gltf"
+    req POST "$URL/v1/render" '{"scene": {"objects": [{"type": "gltf", "file": "meshes/leak.gltf"}]}}'
+    expect_error 422 invalid_value scene.objects[0].file
+    [[ "$(json o.error.message)" == *'leak.gltf: buffers[0].uri "../../outside/secret.obj" has a ".." segment'* ]]
+    ! grep -q "$WORK" "$T/body"
+    # The daemon still serves.
+    req GET "$URL/healthz"
+    expect 200
+}
+
 @test "mesh errors of inline scenes name files relative to the scenes directory" {
     local pre='{"scene": {"objects": [{"type": "mesh", "file": '
     # A file that is there but is no OBJ: the loader's error names it as

@@ -1,7 +1,7 @@
 /*
  * test_fuzz_replay.c: replays the fuzzing corpora.  Every file of
- * tests/corpus/{scene,obj,lens,texture,job}/ (cases the fuzzers found, and
- * hand-written hostile inputs) and of fuzz/seeds/ likewise goes through the same
+ * tests/corpus/{scene,obj,lens,gltf,texture,job}/ (cases the fuzzers
+ * found, and hand-written hostile inputs) and of fuzz/seeds/ likewise goes through the same
  * entry points as the libFuzzer targets (fuzz/fuzz_*.c), built here
  * without libFuzzer.  Each input must keep the promises those entry
  * points check (no crash, a clean error naming its field, finite renders
@@ -147,6 +147,12 @@ static void test_lens_corpus(void **state)
     replay("lens", lr_fuzz_lens);
 }
 
+static void test_gltf_corpus(void **state)
+{
+    (void)state;
+    replay("gltf", lr_fuzz_gltf);
+}
+
 static void test_texture_corpus(void **state)
 {
     (void)state;
@@ -165,6 +171,7 @@ static const struct CMUnitTest fuzz_replay_tests[] = {
     cmocka_unit_test(test_scene_corpus),
     cmocka_unit_test(test_obj_corpus),
     cmocka_unit_test(test_lens_corpus),
+    cmocka_unit_test(test_gltf_corpus),
     cmocka_unit_test(test_texture_corpus),
     cmocka_unit_test(test_job_corpus),
 };

@@ -1,7 +1,7 @@
 /*
  * lensray: the command-line tool.  A thin client of lensray.h:
  *
- *   lensray render SCENE.json... -o OUT.exr|OUT.png|OUT-%04d.exr
+ *   lensray render SCENE.json|SCENE.glb|SCENE.gltf... -o OUT.exr|OUT.png|OUT-%04d.exr
  *                  [--set PATH=VALUE]...
  *                  [--stats] [--half] [--png16] [--depth] [--quiet]
  *                  [--remote URL [--parts N] [--parallel K] [--retries R]
@@ -21,6 +21,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -28,7 +29,7 @@ enum { EXIT_OK = 0, EXIT_USAGE = 2, EXIT_SCENE = 3, EXIT_IO = 4,
        EXIT_INTERRUPTED = 130 };
 
 static const char usage_text[] =
-    "usage: lensray render SCENE.json... -o OUT.exr|OUT.png [options]\n"
+    "usage: lensray render SCENE.json|SCENE.glb... -o OUT.exr|OUT.png [options]\n"
     "       lensray lens FILE|NAME [--field-angles A,B,...] [--wavelength NM]\n"
     "       lensray version\n"
     "       lensray --help\n"
@@ -235,6 +236,13 @@ static int load_scene(const render_job *r, const char *path, lr_scene **scene,
         fprintf(stderr, "lensray: %s\n", err.message);
         return exit_for(st);
     }
+    /* What the loader ignored (glTF features), one line each. */
+    for (const char *w = lr_scene_warnings(*scene); *w;) {
+        const char *nl = strchr(w, '\n');
+        int len = nl ? (int)(nl - w) : (int)strlen(w);
+        fprintf(stderr, "lensray: warning: %.*s\n", len, w);
+        w += len + (nl != NULL);
+    }
     lr_scene_camera(*scene, cam);
     lr_scene_settings(*scene, rs);
     if (r->want_depth)
@@ -316,6 +324,15 @@ static int write_frame(void *user, int k, lr_image *img)
     return rc;
 }
 
+/* Whether `path` names a glTF file (lr_scene_load_file's test: the
+ * extension, any case). */
+static int is_gltf_path(const char *path)
+{
+    const char *dot = strrchr(path, '.');
+    return dot != NULL &&
+           (strcasecmp(dot, ".glb") == 0 || strcasecmp(dot, ".gltf") == 0);
+}
+
 /* --remote: every scene's frame on the daemons, as one batch of parts
  * (tools/remote.c); a scene that cannot be read fails alone.  The exit
  * status: 0, or the first failure's.  With --stats, one JSON line of
@@ -342,8 +359,18 @@ static int render_remote(const render_job *r)
         char out_path[4096];
         frame_out(r, i, out_path, sizeof out_path);
         lr_scene *scene = NULL;
-        int frc = load_scene(r, r->scenes[i], &scene, &f->cam, &f->rs,
+        int frc;
+        if (is_gltf_path(r->scenes[i])) {
+            /* The daemons take scene JSON; a glTF travels as an asset. */
+            fprintf(stderr, "lensray: %s: --remote renders scene JSON files; "
+                            "place the glTF in one as an object "
+                            "{\"type\": \"gltf\", \"file\": \"...\"} "
+                            "(docs/gltf.md)\n", r->scenes[i]);
+            frc = EXIT_USAGE;
+        } else {
+            frc = load_scene(r, r->scenes[i], &scene, &f->cam, &f->rs,
                              out_path);
+        }
         /* The scene is read here only for its camera and settings. */
         lr_scene_free(scene);
         size_t len = 0;

@@ -1,0 +1,251 @@
+/*
+ * gltf_assimp.c: the meshes of a checked glTF document (gltf_check.c)
+ * decoded by libassimp.  assimp is given only what it must decode, the
+ * geometry: a glTF that this file prints from the checked tree with
+ * nothing but asset, scenes, nodes (renamed "n<index>", so that its nodes
+ * map back to the document's), meshes, accessors, bufferViews, buffers
+ * (renamed "lr-buffer-<index>.bin") and materials reduced to names
+ * ("m<index>").  It reads files only through the aiFileIO below, which
+ * serves that text and the checked buffers from memory and nothing else:
+ * assimp never opens a file of its own, never sees a GLB container,
+ * base64, an image, a camera, a light, an animation or a skin.
+ */
+#include "gltf_doc.h"
+#include "json_util.h"
+
+#include <assimp/cfileio.h>
+#include <assimp/cimport.h>
+#include <assimp/postprocess.h>
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define MAIN_NAME "lensray.gltf"
+
+/* ---- the document assimp reads ------------------------------------------ */
+
+/* Copies the members `keys` of o into a new object (NULL on no memory). */
+static cJSON *pick(const cJSON *o, const char *const *keys)
+{
+    cJSON *out = cJSON_CreateObject();
+    for (int k = 0; out != NULL && keys[k]; k++) {
+        const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, keys[k]);
+        if (v == NULL)
+            continue;
+        cJSON *c = cJSON_Duplicate(v, 1);
+        if (c == NULL || !cJSON_AddItemToObject(out, keys[k], c)) {
+            cJSON_Delete(c);
+            cJSON_Delete(out);
+            return NULL;
+        }
+    }
+    return out;
+}
+
+/* Each element of root[key] reduced to `keys`, renamed by `rename`
+ * ("n%d") when given; 0 on no memory. */
+static int copy_array(cJSON *dst, const cJSON *root, const char *key,
+                      const char *const *keys, const char *rename)
+{
+    int n;
+    const cJSON *a = lr__gltf_array(root, key, &n);
+    if (a == NULL)
+        return 1;
+    cJSON *out = cJSON_AddArrayToObject(dst, key);
+    if (out == NULL)
+        return 0;
+    int i = 0;
+    for (const cJSON *e = a->child; e; e = e->next, i++) {
+        cJSON *c = pick(e, keys);
+        if (c == NULL || !cJSON_AddItemToArray(out, c)) {
+            cJSON_Delete(c);
+            return 0;
+        }
+        char name[32];
+        if (rename != NULL) {
+            snprintf(name, sizeof name, rename, i);
+            if (cJSON_AddStringToObject(c, "name", name) == NULL)
+                return 0;
+        }
+    }
+    return 1;
+}
+
+static char *assimp_text(const lr__gltf_doc *d)
+{
+    static const char *const k_scene[] = {"nodes", NULL};
+    static const char *const k_node[] = {"children", "mesh", "matrix",
+                                         "translation", "rotation", "scale",
+                                         NULL};
+    static const char *const k_mesh[] = {"primitives", NULL};
+    static const char *const k_acc[] = {"bufferView", "byteOffset",
+                                        "componentType", "normalized",
+                                        "count", "type", NULL};
+    static const char *const k_view[] = {"buffer", "byteOffset",
+                                         "byteLength", "byteStride", NULL};
+    static const char *const k_buf[] = {"byteLength", NULL};
+    static const char *const k_none[] = {NULL};
+    static const char *const k_prim[] = {"attributes", "indices", "material",
+                                         "mode", NULL};
+    cJSON *r = cJSON_CreateObject();
+    int ok = r != NULL;
+    cJSON *asset = ok ? cJSON_AddObjectToObject(r, "asset") : NULL;
+    ok = ok && asset && cJSON_AddStringToObject(asset, "version", "2.0");
+    const cJSON *sc = cJSON_GetObjectItemCaseSensitive(d->root, "scene");
+    ok = ok && (sc == NULL ||
+                cJSON_AddNumberToObject(r, "scene", sc->valuedouble));
+    ok = ok && copy_array(r, d->root, "scenes", k_scene, NULL) &&
+         copy_array(r, d->root, "nodes", k_node, "n%d") &&
+         copy_array(r, d->root, "meshes", k_mesh, NULL) &&
+         copy_array(r, d->root, "accessors", k_acc, NULL) &&
+         copy_array(r, d->root, "bufferViews", k_view, NULL) &&
+         copy_array(r, d->root, "buffers", k_buf, "lr-buffer-%d.bin") &&
+         copy_array(r, d->root, "materials", k_none, "m%d");
+    /* Primitives keep only their geometry; buffers are named by uri. */
+    const cJSON *meshes = cJSON_GetObjectItemCaseSensitive(r, "meshes");
+    for (cJSON *m = ok && meshes ? meshes->child : NULL; m && ok;
+         m = m->next) {
+        cJSON *prims = cJSON_GetObjectItemCaseSensitive(m, "primitives");
+        for (cJSON *p = prims->child; p && ok; p = p->next) {
+            cJSON *c = pick(p, k_prim);
+            ok = c != NULL && cJSON_ReplaceItemViaPointer(prims, p, c);
+            p = c;
+        }
+    }
+    const cJSON *bufs = cJSON_GetObjectItemCaseSensitive(r, "buffers");
+    for (cJSON *b = ok && bufs ? bufs->child : NULL; b && ok; b = b->next) {
+        cJSON *name = cJSON_DetachItemFromObject(b, "name");
+        ok = name && cJSON_AddItemToObject(b, "uri", name);
+    }
+    char *text = ok ? cJSON_PrintUnformatted(r) : NULL;
+    cJSON_Delete(r);
+    return text;
+}
+
+/* ---- files from memory ---------------------------------------------------- */
+
+typedef struct mem_file {
+    struct aiFile f;
+    const unsigned char *data;
+    size_t n, at;
+} mem_file;
+
+typedef struct mem_fs {
+    const lr__gltf_doc *d;
+    const char *text;
+} mem_fs;
+
+static size_t mf_read(struct aiFile *f, char *buf, size_t size, size_t count)
+{
+    mem_file *m = (mem_file *)f;
+    if (size == 0)
+        return 0;
+    size_t items = (m->n - m->at) / size;
+    if (items > count)
+        items = count;
+    memcpy(buf, m->data + m->at, items * size);
+    m->at += items * size;
+    return items;
+}
+
+static size_t mf_write(struct aiFile *f, const char *b, size_t s, size_t c)
+{
+    (void)f, (void)b, (void)s, (void)c;
+    return 0;
+}
+
+static size_t mf_tell(struct aiFile *f) { return ((mem_file *)f)->at; }
+static size_t mf_size(struct aiFile *f) { return ((mem_file *)f)->n; }
+static void mf_flush(struct aiFile *f) { (void)f; }
+
+static enum aiReturn mf_seek(struct aiFile *f, size_t off, enum aiOrigin o)
+{
+    mem_file *m = (mem_file *)f;
+    size_t to = o == aiOrigin_SET   ? off
+                : o == aiOrigin_CUR ? m->at + off
+                                    : m->n + off;
+    if (to > m->n || (o == aiOrigin_CUR && to < m->at))
+        return aiReturn_FAILURE;
+    m->at = to;
+    return aiReturn_SUCCESS;
+}
+
+static struct aiFile *fs_open(struct aiFileIO *io, const char *name,
+                              const char *mode)
+{
+    const mem_fs *fs = (const mem_fs *)io->UserData;
+    if (mode == NULL || mode[0] != 'r')
+        return NULL;
+    const char *base = strrchr(name, '/');
+    base = base ? base + 1 : name;
+    const unsigned char *data = NULL;
+    size_t n = 0;
+    char *end = NULL;
+    unsigned long b = strncmp(base, "lr-buffer-", 10) == 0
+                          ? strtoul(base + 10, &end, 10)
+                          : 0;
+    if (strcmp(base, MAIN_NAME) == 0) {
+        data = (const unsigned char *)fs->text;
+        n = strlen(fs->text);
+    } else if (end != NULL && end > base + 10 && strcmp(end, ".bin") == 0 &&
+               b < fs->d->n_buffers) {
+        data = fs->d->buffers[b].data;
+        n = fs->d->buffers[b].n;
+    } else {
+        return NULL;
+    }
+    mem_file *m = calloc(1, sizeof *m);
+    if (m == NULL)
+        return NULL;
+    m->f.ReadProc = mf_read;
+    m->f.WriteProc = mf_write;
+    m->f.TellProc = mf_tell;
+    m->f.FileSizeProc = mf_size;
+    m->f.SeekProc = mf_seek;
+    m->f.FlushProc = mf_flush;
+    m->data = data;
+    m->n = n;
+    return &m->f;
+}
+
+static void fs_close(struct aiFileIO *io, struct aiFile *f)
+{
+    (void)io;
+    free(f);
+}
+
+/* assimp keeps its last error in one global string. */
+static pthread_mutex_t import_lock = PTHREAD_MUTEX_INITIALIZER;
+
+lr_status lr__gltf_import(const lr__gltf_doc *d, const struct aiScene **out,
+                          lr_error *err)
+{
+    *out = NULL;
+    char *text = assimp_text(d);
+    if (text == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    mem_fs fs = {d, text};
+    struct aiFileIO io = {fs_open, fs_close, (aiUserData)&fs};
+    pthread_mutex_lock(&import_lock);
+    /* Triangulate: polygons' fans; SortByPType: points and lines apart
+     * (gltf.c skips them); nothing that moves or merges vertices, so that
+     * the triangles are the file's. */
+    const struct aiScene *sc = aiImportFileEx(
+        MAIN_NAME, aiProcess_Triangulate | aiProcess_SortByPType, &io);
+    char why[300] = "";
+    if (sc == NULL)
+        snprintf(why, sizeof why, "%s", aiGetErrorString());
+    pthread_mutex_unlock(&import_lock);
+    free(text);
+    if (sc == NULL)
+        return lr__gltf_fail(d, err, "libassimp could not read it: %s", why);
+    *out = sc;
+    return LR_OK;
+}
+
+void lr__gltf_release(const struct aiScene *sc)
+{
+    if (sc != NULL)
+        aiReleaseImport(sc);
+}

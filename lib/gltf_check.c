@@ -1,0 +1,844 @@
+/*
+ * gltf_check.c: a glTF file read and checked before libassimp sees it
+ * (gltf_doc.h).  assimp trusts much of what a file says (an accessor's
+ * count, a child's index, a GLB chunk's length), so everything it would
+ * trust is checked here, against the glTF 2.0 specification (Khronos,
+ * sections 3.6 "Binary data", 3.7 "Geometry", 4.4 "GLB file format"), and
+ * every error names the field.  gltf.c then hands assimp a copy of the
+ * JSON that this file printed, and files only through its own reader.
+ */
+#include "gltf_doc.h"
+#include "json_util.h"
+
+#include <math.h>
+#include <stdarg.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* The largest glTF (or GLB) and the largest file it may name. */
+#define MAX_GLTF_BYTES (512u << 20)
+
+lr_status lr__gltf_fail(const lr__gltf_doc *d, lr_error *err, const char *fmt,
+                        ...)
+{
+    char what[600];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(what, sizeof what, fmt, ap);
+    va_end(ap);
+    return lr__fail(err, LR_ERR_INVALID, d->fp, "%s: %s: %s", d->fp, d->shown,
+                    what);
+}
+
+const cJSON *lr__gltf_array(const cJSON *o, const char *key, int *n)
+{
+    const cJSON *a = cJSON_GetObjectItemCaseSensitive(o, key);
+    *n = cJSON_IsArray(a) ? cJSON_GetArraySize(a) : 0;
+    return cJSON_IsArray(a) ? a : NULL;
+}
+
+const cJSON *lr__gltf_member(const cJSON *o, const char *k1, const char *k2)
+{
+    const cJSON *a = cJSON_GetObjectItemCaseSensitive(o, k1);
+    const cJSON *b = cJSON_IsObject(a) ? cJSON_GetObjectItemCaseSensitive(a, k2)
+                                       : NULL;
+    return cJSON_IsObject(b) ? b : NULL;
+}
+
+const lr__gltf_blob *lr__gltf_blob_find(const lr__gltf_doc *d, const char *uri)
+{
+    for (size_t i = 0; i < d->n_blobs; i++)
+        if (strcmp(d->blobs[i].uri, uri) == 0)
+            return &d->blobs[i];
+    return NULL;
+}
+
+void lr__gltf_doc_free(lr__gltf_doc *d)
+{
+    for (size_t i = 0; i < d->n_blobs; i++) {
+        free(d->blobs[i].uri);
+        free(d->blobs[i].data);
+    }
+    free(d->blobs);
+    free(d->buffers);
+    free(d->tex);
+    cJSON_Delete(d->root);
+    free(d->bytes);
+    memset(d, 0, sizeof *d);
+}
+
+/* ---- small readers ------------------------------------------------------ */
+
+/* An optional non-negative integer member below `lim` (lim 0: no limit);
+ * *out = dflt when absent. */
+static lr_status get_uint(const lr__gltf_doc *d, const cJSON *o,
+                          const char *path, const char *key, double lim,
+                          long long dflt, long long *out, lr_error *err)
+{
+    const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, key);
+    *out = dflt;
+    if (v == NULL)
+        return LR_OK;
+    double x = cJSON_IsNumber(v) ? v->valuedouble : -1;
+    if (!(x >= 0 && x == floor(x) && x <= 4e9 && (lim == 0 || x < lim))) {
+        if (lim > 0)
+            return lr__gltf_fail(d, err, "%s.%s must be an index below %.0f",
+                                 path, key, lim);
+        return lr__gltf_fail(d, err, "%s.%s must be a whole number >= 0",
+                             path, key);
+    }
+    *out = (long long)x;
+    return LR_OK;
+}
+
+/* An optional index into an array of n; -1 when absent. */
+static lr_status get_index(const lr__gltf_doc *d, const cJSON *o,
+                           const char *path, const char *key, int n,
+                           long long *out, lr_error *err)
+{
+    const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, key);
+    *out = -1;
+    if (v == NULL)
+        return LR_OK;
+    if (n == 0)
+        return lr__gltf_fail(d, err, "%s.%s refers to an element of an "
+                             "empty or missing array", path, key);
+    return get_uint(d, o, path, key, n, -1, out, err);
+}
+
+/* An optional array of exactly n finite numbers. */
+static lr_status check_numbers(const lr__gltf_doc *d, const cJSON *o,
+                               const char *path, const char *key, int n,
+                               lr_error *err)
+{
+    const cJSON *a = cJSON_GetObjectItemCaseSensitive(o, key);
+    if (a == NULL)
+        return LR_OK;
+    int ok = cJSON_IsArray(a) && cJSON_GetArraySize(a) == n;
+    for (const cJSON *c = ok ? a->child : NULL; c; c = c->next)
+        ok = ok && cJSON_IsNumber(c) && fabs(c->valuedouble) <= 1e15;
+    if (!ok)
+        return lr__gltf_fail(d, err, "%s.%s must be an array of %d finite "
+                             "numbers", path, key, n);
+    return LR_OK;
+}
+
+/* ---- external files ----------------------------------------------------- */
+
+/* A relative path below the glTF's directory: no scheme, no absolute
+ * path, no ".." segment, no percent escapes or backslashes (which could
+ * spell either), no control characters. */
+static const char *bad_uri(const char *u)
+{
+    if (u[0] == '\0')
+        return "is empty";
+    if (u[0] == '/')
+        return "is an absolute path";
+    if (strchr(u, ':') != NULL)
+        return "names a URI scheme (only data: URIs and relative paths "
+               "are read)";
+    if (strchr(u, '%') != NULL || strchr(u, '\\') != NULL)
+        return "has a percent escape or a backslash";
+    for (const char *p = u; *p; p++)
+        if ((unsigned char)*p < 0x20)
+            return "has a control character";
+    for (const char *p = u; p != NULL; p = strchr(p, '/')) {
+        if (*p == '/')
+            p++;
+        if (p[0] == '.' && p[1] == '.' && (p[2] == '/' || p[2] == '\0'))
+            return "has a \"..\" segment";
+    }
+    return NULL;
+}
+
+static int b64_value(int c)
+{
+    if (c >= 'A' && c <= 'Z')
+        return c - 'A';
+    if (c >= 'a' && c <= 'z')
+        return c - 'a' + 26;
+    if (c >= '0' && c <= '9')
+        return c - '0' + 52;
+    return c == '+' ? 62 : c == '/' ? 63 : -1;
+}
+
+/* Decodes the base64 data: URI `u` (RFC 2397, RFC 4648 section 4). */
+static lr_status decode_data_uri(const lr__gltf_doc *d, const char *path,
+                                 const char *u, unsigned char **out,
+                                 size_t *n, lr_error *err)
+{
+    const char *comma = strchr(u, ',');
+    if (comma == NULL || comma - u < 12 ||
+        strncmp(comma - 7, ";base64", 7) != 0)
+        return lr__gltf_fail(d, err, "%s.uri: a data: URI must be base64 "
+                             "(\"data:...;base64,...\")", path);
+    const char *s = comma + 1;
+    size_t len = strlen(s);
+    unsigned char *buf = malloc(len / 4 * 3 + 3);
+    if (buf == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    size_t k = 0, i;
+    unsigned acc = 0;
+    int bits = 0;
+    for (i = 0; i < len && s[i] != '='; i++) {
+        int v = b64_value((unsigned char)s[i]);
+        if (v < 0) {
+            free(buf);
+            return lr__gltf_fail(d, err, "%s.uri: byte %zu of the base64 "
+                                 "data is not base64", path, i);
+        }
+        acc = (acc << 6) | (unsigned)v;
+        bits += 6;
+        if (bits >= 8) {
+            bits -= 8;
+            buf[k++] = (unsigned char)(acc >> bits);
+        }
+    }
+    *out = buf;
+    *n = k;
+    return LR_OK;
+}
+
+/* Reads the file `uri` (relative to the glTF's directory `dir`) into a
+ * new blob. */
+static lr_status read_blob(lr__gltf_doc *d, const char *dir, const char *path,
+                           const char *uri, lr__gltf_blob **out,
+                           lr_error *err)
+{
+    const lr__gltf_blob *seen = lr__gltf_blob_find(d, uri);
+    if (seen != NULL) {
+        *out = (lr__gltf_blob *)seen;
+        return LR_OK;
+    }
+    const char *why = strncmp(uri, "data:", 5) == 0 ? NULL : bad_uri(uri);
+    if (why != NULL)
+        return lr__gltf_fail(d, err, "%s.uri \"%.80s\" %s", path, uri, why);
+    lr__gltf_blob *b = realloc(d->blobs, (d->n_blobs + 1) * sizeof *b);
+    if (b == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    d->blobs = b;
+    b = &d->blobs[d->n_blobs];
+    memset(b, 0, sizeof *b);
+    if (strncmp(uri, "data:", 5) == 0) {
+        LR_TRY(decode_data_uri(d, path, uri, &b->data, &b->n, err));
+    } else {
+        size_t plen = strlen(dir) + strlen(uri) + 2;
+        char *full = malloc(plen);
+        if (full == NULL)
+            return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+        snprintf(full, plen, "%s/%s", dir, uri);
+        /* A symbolic link must not lead out of the directory either. */
+        char *rdir = realpath(dir, NULL), *rfile = realpath(full, NULL);
+        int out = rdir != NULL && rfile != NULL &&
+                  (strncmp(rfile, rdir, strlen(rdir)) != 0 ||
+                   (rfile[strlen(rdir)] != '/' && strcmp(rdir, "/") != 0));
+        free(rdir);
+        free(rfile);
+        if (out) {
+            free(full);
+            return lr__gltf_fail(d, err, "%s.uri \"%.80s\" leads out of the "
+                                 "glTF's directory (a symbolic link)", path,
+                                 uri);
+        }
+        char *data = NULL;
+        size_t n = 0;
+        lr_error e2;
+        lr_status st = lr__read_file(full, uri, NULL, MAX_GLTF_BYTES,
+                                     "files a glTF names", NULL, &data, &n,
+                                     &e2);
+        free(full);
+        if (st != LR_OK) {
+            if (st == LR_ERR_NOMEM)
+                return lr__fail(err, st, NULL, "out of memory");
+            return lr__fail(err, st, d->fp, "%s: %s: %s.uri: %s", d->fp,
+                            d->shown, path, e2.message);
+        }
+        b->data = (unsigned char *)data;
+        b->n = n;
+    }
+    b->uri = strdup(uri);
+    if (b->uri == NULL) {
+        free(b->data);
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    }
+    d->n_blobs++;
+    *out = b;
+    return LR_OK;
+}
+
+/* ---- the container -------------------------------------------------------- */
+
+static uint32_t le32(const unsigned char *p)
+{
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 |
+           (uint32_t)p[3] << 24;
+}
+
+/* The GLB header and chunks (spec 4.4): the JSON chunk's text in *json. */
+static lr_status read_glb(lr__gltf_doc *d, const char **json, size_t *n,
+                          lr_error *err)
+{
+    const unsigned char *b = d->bytes;
+    if (d->n_bytes < 20)
+        return lr__gltf_fail(d, err, "a GLB file needs a 12-byte header "
+                             "and a chunk; this one has %zu bytes",
+                             d->n_bytes);
+    if (le32(b + 4) != 2)
+        return lr__gltf_fail(d, err, "GLB version %u (only 2 is read)",
+                             (unsigned)le32(b + 4));
+    size_t total = le32(b + 8);
+    if (total > d->n_bytes || total < 20)
+        return lr__gltf_fail(d, err, "the GLB header says %zu bytes, the "
+                             "file has %zu (truncated?)", total, d->n_bytes);
+    size_t jlen = le32(b + 12);
+    if (memcmp(b + 16, "JSON", 4) != 0)
+        return lr__gltf_fail(d, err, "the first GLB chunk must be JSON");
+    if (jlen > total - 20)
+        return lr__gltf_fail(d, err, "the GLB JSON chunk of %zu bytes runs "
+                             "past the file's end (truncated?)", jlen);
+    *json = (const char *)b + 20;
+    *n = jlen;
+    size_t at = 20 + jlen;
+    if (at + 8 <= total) {
+        size_t blen = le32(b + at);
+        if (memcmp(b + at + 4, "BIN\0", 4) != 0)
+            return lr__gltf_fail(d, err, "the second GLB chunk must be BIN");
+        if (blen > total - at - 8)
+            return lr__gltf_fail(d, err, "the GLB BIN chunk of %zu bytes "
+                                 "runs past the file's end (truncated?)",
+                                 blen);
+        d->bin = b + at + 8;
+        d->n_bin = blen;
+    }
+    return LR_OK;
+}
+
+/* ---- the document ------------------------------------------------------- */
+
+/* Extensions lensray reads or may ignore without changing the geometry;
+ * a file that requires any other is refused. */
+static const char *const known_ext[] = {
+    "KHR_lights_punctual", "KHR_materials_emissive_strength",
+    "KHR_materials_transmission", "KHR_materials_ior",
+    "KHR_materials_specular", "KHR_materials_clearcoat",
+    "KHR_materials_sheen", "KHR_materials_volume", "KHR_texture_transform",
+    "KHR_materials_unlit", NULL};
+
+static lr_status check_buffers(lr__gltf_doc *d, const char *dir,
+                               lr_error *err)
+{
+    int n;
+    const cJSON *a = lr__gltf_array(d->root, "buffers", &n);
+    d->buffers = calloc(n ? (size_t)n : 1, sizeof *d->buffers);
+    if (d->buffers == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    d->n_buffers = (size_t)n;
+    int i = 0;
+    char p[64];
+    for (const cJSON *b = a ? a->child : NULL; b; b = b->next, i++) {
+        snprintf(p, sizeof p, "buffers[%d]", i);
+        long long len;
+        LR_TRY(get_uint(d, b, p, "byteLength", 0, -1, &len, err));
+        if (len < 1 || len > MAX_GLTF_BYTES)
+            return lr__gltf_fail(d, err, "%s.byteLength must be between 1 "
+                                 "and %u", p, MAX_GLTF_BYTES);
+        const cJSON *uri = cJSON_GetObjectItemCaseSensitive(b, "uri");
+        if (uri != NULL && !cJSON_IsString(uri))
+            return lr__gltf_fail(d, err, "%s.uri must be a string", p);
+        const unsigned char *data;
+        size_t have;
+        if (uri == NULL) {
+            if (i != 0 || d->bin == NULL)
+                return lr__gltf_fail(d, err, "%s has no uri (only a GLB's "
+                                     "first buffer, its BIN chunk, may "
+                                     "have none)", p);
+            data = d->bin;
+            have = d->n_bin;
+        } else {
+            lr__gltf_blob *bl;
+            LR_TRY(read_blob(d, dir, p, uri->valuestring, &bl, err));
+            data = bl->data;
+            have = bl->n;
+        }
+        if ((size_t)len > have)
+            return lr__gltf_fail(d, err, "%s.byteLength is %lld but its data "
+                                 "has %zu bytes", p, len, have);
+        d->buffers[i].data = data;
+        d->buffers[i].n = (size_t)len;
+    }
+    return LR_OK;
+}
+
+static lr_status check_views(lr__gltf_doc *d, lr_error *err)
+{
+    int n;
+    const cJSON *a = lr__gltf_array(d->root, "bufferViews", &n);
+    int i = 0;
+    char p[64];
+    for (const cJSON *v = a ? a->child : NULL; v; v = v->next, i++) {
+        snprintf(p, sizeof p, "bufferViews[%d]", i);
+        long long b, off, len, stride;
+        LR_TRY(get_index(d, v, p, "buffer", (int)d->n_buffers, &b, err));
+        LR_TRY(get_uint(d, v, p, "byteOffset", 0, 0, &off, err));
+        LR_TRY(get_uint(d, v, p, "byteLength", 0, -1, &len, err));
+        LR_TRY(get_uint(d, v, p, "byteStride", 0, 0, &stride, err));
+        if (b < 0 || len < 1)
+            return lr__gltf_fail(d, err, "%s needs a buffer and a "
+                                 "byteLength >= 1", p);
+        if ((unsigned long long)off + (unsigned long long)len >
+            d->buffers[b].n)
+            return lr__gltf_fail(d, err, "%s: bytes %lld to %lld are "
+                                 "beyond buffers[%lld]'s %zu", p, off,
+                                 off + len, b, d->buffers[b].n);
+        if (stride != 0 && (stride < 4 || stride > 252 || stride % 4 != 0))
+            return lr__gltf_fail(d, err, "%s.byteStride must be a multiple "
+                                 "of 4 from 4 to 252, got %lld", p, stride);
+    }
+    return LR_OK;
+}
+
+static int component_size(long long t)
+{
+    switch (t) {
+    case 5120: case 5121: return 1;
+    case 5122: case 5123: return 2;
+    case 5125: case 5126: return 4;
+    default: return 0;
+    }
+}
+
+static int type_count(const char *t)
+{
+    static const char *const names[] = {"SCALAR", "VEC2", "VEC3", "VEC4",
+                                        "MAT2", "MAT3", "MAT4"};
+    static const int counts[] = {1, 2, 3, 4, 4, 9, 16};
+    for (int i = 0; i < 7; i++)
+        if (strcmp(t, names[i]) == 0)
+            return counts[i];
+    return 0;
+}
+
+/* Every accessor must lie within its bufferView (spec 3.6.2.4): the last
+ * element ends at byteOffset + stride (count - 1) + element size. */
+static lr_status check_accessors(lr__gltf_doc *d, lr_error *err)
+{
+    int n, nv;
+    const cJSON *a = lr__gltf_array(d->root, "accessors", &n);
+    const cJSON *views = lr__gltf_array(d->root, "bufferViews", &nv);
+    int i = 0;
+    char p[64];
+    for (const cJSON *x = a ? a->child : NULL; x; x = x->next, i++) {
+        snprintf(p, sizeof p, "accessors[%d]", i);
+        long long v, off, ct, count, stride, vlen;
+        LR_TRY(get_index(d, x, p, "bufferView", nv, &v, err));
+        if (v < 0)
+            return lr__gltf_fail(d, err, "%s has no bufferView (lensray "
+                                 "does not read zero-filled accessors)", p);
+        if (cJSON_GetObjectItemCaseSensitive(x, "sparse") != NULL)
+            return lr__gltf_fail(d, err, "%s.sparse: sparse accessors are "
+                                 "not read", p);
+        LR_TRY(get_uint(d, x, p, "byteOffset", 0, 0, &off, err));
+        LR_TRY(get_uint(d, x, p, "componentType", 0, 0, &ct, err));
+        LR_TRY(get_uint(d, x, p, "count", 0, 0, &count, err));
+        const cJSON *t = cJSON_GetObjectItemCaseSensitive(x, "type");
+        int csize = component_size(ct);
+        int k = cJSON_IsString(t) ? type_count(t->valuestring) : 0;
+        if (csize == 0)
+            return lr__gltf_fail(d, err, "%s.componentType %lld is not one "
+                                 "of 5120, 5121, 5122, 5123, 5125, 5126", p,
+                                 ct);
+        if (k == 0)
+            return lr__gltf_fail(d, err, "%s.type must be SCALAR, VEC2, "
+                                 "VEC3, VEC4, MAT2, MAT3 or MAT4", p);
+        if (count < 1)
+            return lr__gltf_fail(d, err, "%s.count must be >= 1", p);
+        if (off % csize != 0)
+            return lr__gltf_fail(d, err, "%s.byteOffset %lld is not a "
+                                 "multiple of its component size %d", p,
+                                 off, csize);
+        const cJSON *view = cJSON_GetArrayItem(views, (int)v);
+        LR_TRY(get_uint(d, view, "bufferView", "byteStride", 0, 0, &stride,
+                        err));
+        LR_TRY(get_uint(d, view, "bufferView", "byteLength", 0, 0, &vlen,
+                        err));
+        long long elem = (long long)k * csize;
+        if (stride == 0)
+            stride = elem;
+        if (stride < elem)
+            return lr__gltf_fail(d, err, "%s: elements of %lld bytes do not "
+                                 "fit bufferViews[%lld].byteStride %lld", p,
+                                 elem, v, stride);
+        unsigned long long end = (unsigned long long)off +
+                                 (unsigned long long)stride *
+                                     (unsigned long long)(count - 1) +
+                                 (unsigned long long)elem;
+        if (end > (unsigned long long)vlen)
+            return lr__gltf_fail(d, err, "%s: %lld elements reach byte %llu "
+                                 "of bufferViews[%lld], which has %lld", p,
+                                 count, end, v, vlen);
+    }
+    return LR_OK;
+}
+
+/* The accessor's componentType and type must be what `attr` allows. */
+static lr_status check_attribute(const lr__gltf_doc *d, const char *p,
+                                 const char *attr, long long acc,
+                                 long long *count, lr_error *err)
+{
+    int n;
+    const cJSON *a = cJSON_GetArrayItem(lr__gltf_array(d->root, "accessors",
+                                                       &n), (int)acc);
+    const cJSON *t = cJSON_GetObjectItemCaseSensitive(a, "type");
+    double ct = cJSON_GetNumberValue(cJSON_GetObjectItemCaseSensitive(
+        a, "componentType"));
+    *count = (long long)cJSON_GetNumberValue(
+        cJSON_GetObjectItemCaseSensitive(a, "count"));
+    const char *want = NULL;
+    if (strcmp(attr, "POSITION") == 0 || strcmp(attr, "NORMAL") == 0)
+        want = ct == 5126 && strcmp(t->valuestring, "VEC3") == 0
+                   ? NULL
+                   : "VEC3 of floats (5126)";
+    else if (strncmp(attr, "TEXCOORD_", 9) == 0)
+        want = (ct == 5126 || ct == 5121 || ct == 5123) &&
+                       strcmp(t->valuestring, "VEC2") == 0
+                   ? NULL
+                   : "VEC2 of floats or unsigned bytes or shorts";
+    else if (strcmp(attr, "indices") == 0)
+        want = (ct == 5121 || ct == 5123 || ct == 5125) &&
+                       strcmp(t->valuestring, "SCALAR") == 0
+                   ? NULL
+                   : "SCALAR of unsigned bytes, shorts or ints";
+    if (want != NULL)
+        return lr__gltf_fail(d, err, "%s.%s: accessors[%lld] must be a %s",
+                             p, attr, acc, want);
+    return LR_OK;
+}
+
+/* The index accessor's values must name vertices that exist. */
+static lr_status check_index_values(const lr__gltf_doc *d, const char *p,
+                                    long long acc, long long n_vertices,
+                                    lr_error *err)
+{
+    int n;
+    const cJSON *root = d->root;
+    const cJSON *a = cJSON_GetArrayItem(lr__gltf_array(root, "accessors", &n),
+                                        (int)acc);
+    long long vi = (long long)cJSON_GetNumberValue(
+        cJSON_GetObjectItemCaseSensitive(a, "bufferView"));
+    const cJSON *v = cJSON_GetArrayItem(lr__gltf_array(root, "bufferViews",
+                                                       &n), (int)vi);
+    long long b = (long long)cJSON_GetNumberValue(
+        cJSON_GetObjectItemCaseSensitive(v, "buffer"));
+    const cJSON *vo = cJSON_GetObjectItemCaseSensitive(v, "byteOffset");
+    const cJSON *ao = cJSON_GetObjectItemCaseSensitive(a, "byteOffset");
+    const cJSON *vs = cJSON_GetObjectItemCaseSensitive(v, "byteStride");
+    size_t off = (size_t)(vo ? vo->valuedouble : 0) +
+                 (size_t)(ao ? ao->valuedouble : 0);
+    int ct = (int)cJSON_GetNumberValue(
+        cJSON_GetObjectItemCaseSensitive(a, "componentType"));
+    size_t cs = (size_t)component_size(ct);
+    size_t stride = vs ? (size_t)vs->valuedouble : cs;
+    long long count = (long long)cJSON_GetNumberValue(
+        cJSON_GetObjectItemCaseSensitive(a, "count"));
+    const unsigned char *base = d->buffers[b].data + off;
+    for (long long i = 0; i < count; i++) {
+        const unsigned char *q = base + (size_t)i * stride;
+        unsigned long x = cs == 1 ? q[0]
+                          : cs == 2 ? (unsigned long)(q[0] | q[1] << 8)
+                                    : (unsigned long)le32(q);
+        if ((long long)x >= n_vertices)
+            return lr__gltf_fail(d, err, "%s.indices: index %lld is %lu, "
+                                 "beyond the %lld vertices", p, i, x,
+                                 n_vertices);
+    }
+    return LR_OK;
+}
+
+static lr_status check_meshes(lr__gltf_doc *d, lr_error *err)
+{
+    int n, nacc, nmat;
+    const cJSON *a = lr__gltf_array(d->root, "meshes", &n);
+    lr__gltf_array(d->root, "accessors", &nacc);
+    lr__gltf_array(d->root, "materials", &nmat);
+    int i = 0;
+    char p[96];
+    for (const cJSON *m = a ? a->child : NULL; m; m = m->next, i++) {
+        int np;
+        const cJSON *prims = lr__gltf_array(m, "primitives", &np);
+        if (np == 0)
+            return lr__gltf_fail(d, err, "meshes[%d].primitives must be a "
+                                 "non-empty array", i);
+        int j = 0;
+        for (const cJSON *pr = prims->child; pr; pr = pr->next, j++) {
+            snprintf(p, sizeof p, "meshes[%d].primitives[%d]", i, j);
+            const cJSON *at = cJSON_GetObjectItemCaseSensitive(pr,
+                                                               "attributes");
+            if (!cJSON_IsObject(at) ||
+                !cJSON_GetObjectItemCaseSensitive(at, "POSITION"))
+                return lr__gltf_fail(d, err, "%s.attributes must be an "
+                                     "object with POSITION", p);
+            long long nvert = 0, cnt, x, mode;
+            char q[128];
+            snprintf(q, sizeof q, "%s.attributes", p);
+            LR_TRY(get_index(d, at, q, "POSITION", nacc, &x, err));
+            LR_TRY(check_attribute(d, q, "POSITION", x, &nvert, err));
+            for (const cJSON *c = at->child; c; c = c->next) {
+                LR_TRY(get_index(d, at, q, c->string, nacc, &x, err));
+                LR_TRY(check_attribute(d, q, c->string, x, &cnt, err));
+                if (cnt != nvert)
+                    return lr__gltf_fail(d, err, "%s.%s has %lld elements, "
+                                         "POSITION %lld", q, c->string, cnt,
+                                         nvert);
+            }
+            LR_TRY(get_index(d, pr, p, "indices", nacc, &x, err));
+            if (x >= 0) {
+                LR_TRY(check_attribute(d, p, "indices", x, &cnt, err));
+                LR_TRY(check_index_values(d, p, x, nvert, err));
+            }
+            LR_TRY(get_index(d, pr, p, "material", nmat, &x, err));
+            LR_TRY(get_uint(d, pr, p, "mode", 7, 4, &mode, err));
+        }
+    }
+    return LR_OK;
+}
+
+/* The node graph must be a forest (spec 3.5.3): every node the child of
+ * at most one parent, no cycle, scene roots without parents. */
+static lr_status check_nodes(lr__gltf_doc *d, lr_error *err)
+{
+    int n, nmesh, ncam, nlight, nsc;
+    const cJSON *a = lr__gltf_array(d->root, "nodes", &n);
+    lr__gltf_array(d->root, "meshes", &nmesh);
+    lr__gltf_array(d->root, "cameras", &ncam);
+    lr__gltf_array(lr__gltf_member(d->root, "extensions",
+                                   "KHR_lights_punctual"),
+                   "lights", &nlight);
+    d->n_nodes = n;
+    int *parent = malloc((n ? (size_t)n : 1) * sizeof *parent);
+    if (parent == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    for (int i = 0; i < n; i++)
+        parent[i] = -1;
+    lr_status st = LR_OK;
+    char p[64];
+    int i = 0;
+    for (const cJSON *o = a ? a->child : NULL; o && st == LR_OK;
+         o = o->next, i++) {
+        snprintf(p, sizeof p, "nodes[%d]", i);
+        long long x;
+        if (!cJSON_IsObject(o)) {
+            st = lr__gltf_fail(d, err, "%s must be an object", p);
+            break;
+        }
+        if ((st = get_index(d, o, p, "mesh", nmesh, &x, err)) ||
+            (st = get_index(d, o, p, "camera", ncam, &x, err)) ||
+            (st = check_numbers(d, o, p, "matrix", 16, err)) ||
+            (st = check_numbers(d, o, p, "translation", 3, err)) ||
+            (st = check_numbers(d, o, p, "rotation", 4, err)) ||
+            (st = check_numbers(d, o, p, "scale", 3, err)))
+            break;
+        const cJSON *l = lr__gltf_member(o, "extensions",
+                                         "KHR_lights_punctual");
+        if (l != NULL &&
+            (st = get_index(d, l, p, "light", nlight, &x, err)) != LR_OK)
+            break;
+        int nc;
+        const cJSON *ch = lr__gltf_array(o, "children", &nc);
+        if (ch == NULL && cJSON_GetObjectItemCaseSensitive(o, "children")) {
+            st = lr__gltf_fail(d, err, "%s.children must be an array", p);
+            break;
+        }
+        for (const cJSON *c = ch ? ch->child : NULL; c; c = c->next) {
+            double v = cJSON_IsNumber(c) ? c->valuedouble : -1;
+            if (!(v >= 0 && v < n && v == floor(v))) {
+                st = lr__gltf_fail(d, err, "%s.children must be indices "
+                                   "below %d", p, n);
+                break;
+            }
+            if (parent[(int)v] >= 0 || (int)v == i) {
+                st = lr__gltf_fail(d, err, "nodes[%d] is the child of more "
+                                   "than one node (or of itself)", (int)v);
+                break;
+            }
+            parent[(int)v] = i;
+        }
+    }
+    /* Without a second parent, a cycle is a walk up that never ends. */
+    for (int k = 0; k < n && st == LR_OK; k++) {
+        int up = k, steps = 0;
+        while (up >= 0 && steps <= n) {
+            up = parent[up];
+            steps++;
+        }
+        if (up >= 0)
+            st = lr__gltf_fail(d, err, "nodes[%d] is its own ancestor", k);
+    }
+    const cJSON *scenes = lr__gltf_array(d->root, "scenes", &nsc);
+    int si = 0;
+    for (const cJSON *s = scenes ? scenes->child : NULL; s && st == LR_OK;
+         s = s->next, si++) {
+        int nr;
+        const cJSON *r = lr__gltf_array(s, "nodes", &nr);
+        for (const cJSON *c = r ? r->child : NULL; c; c = c->next) {
+            double v = cJSON_IsNumber(c) ? c->valuedouble : -1;
+            if (!(v >= 0 && v < n && v == floor(v)) || parent[(int)v] >= 0) {
+                st = lr__gltf_fail(d, err, "scenes[%d].nodes must be "
+                                   "indices of root nodes", si);
+                break;
+            }
+        }
+    }
+    free(parent);
+    if (st != LR_OK)
+        return st;
+    long long sc;
+    return get_index(d, d->root, "", "scene", nsc, &sc, err);
+}
+
+/* Images (a file, a data: URI or a bufferView), textures and the texture
+ * references of materials. */
+static lr_status check_images(lr__gltf_doc *d, const char *dir, lr_error *err)
+{
+    int ni, nt, nv, nm, nsamp;
+    const cJSON *imgs = lr__gltf_array(d->root, "images", &ni);
+    const cJSON *texs = lr__gltf_array(d->root, "textures", &nt);
+    const cJSON *mats = lr__gltf_array(d->root, "materials", &nm);
+    lr__gltf_array(d->root, "bufferViews", &nv);
+    lr__gltf_array(d->root, "samplers", &nsamp);
+    char p[96];
+    int i = 0;
+    long long x;
+    for (const cJSON *im = imgs ? imgs->child : NULL; im; im = im->next) {
+        snprintf(p, sizeof p, "images[%d]", i++);
+        const cJSON *uri = cJSON_GetObjectItemCaseSensitive(im, "uri");
+        LR_TRY(get_index(d, im, p, "bufferView", nv, &x, err));
+        if (cJSON_IsString(uri)) {
+            lr__gltf_blob *b;
+            LR_TRY(read_blob(d, dir, p, uri->valuestring, &b, err));
+        } else if (x < 0) {
+            return lr__gltf_fail(d, err, "%s needs a uri or a bufferView",
+                                 p);
+        }
+    }
+    i = 0;
+    for (const cJSON *t = texs ? texs->child : NULL; t; t = t->next) {
+        snprintf(p, sizeof p, "textures[%d]", i++);
+        LR_TRY(get_index(d, t, p, "source", ni, &x, err));
+        LR_TRY(get_index(d, t, p, "sampler", nsamp, &x, err));
+    }
+    static const char *const slots[][2] = {
+        {"pbrMetallicRoughness", "baseColorTexture"},
+        {"pbrMetallicRoughness", "metallicRoughnessTexture"},
+        {NULL, "emissiveTexture"}, {NULL, "normalTexture"},
+        {NULL, "occlusionTexture"}};
+    i = 0;
+    for (const cJSON *m = mats ? mats->child : NULL; m; m = m->next, i++) {
+        if (!cJSON_IsObject(m))
+            return lr__gltf_fail(d, err, "materials[%d] must be an object",
+                                 i);
+        for (int k = 0; k < 5; k++) {
+            const cJSON *o = slots[k][0]
+                                 ? lr__gltf_member(m, slots[k][0], slots[k][1])
+                                 : cJSON_GetObjectItemCaseSensitive(
+                                       m, slots[k][1]);
+            snprintf(p, sizeof p, "materials[%d].%s", i, slots[k][1]);
+            if (o != NULL)
+                LR_TRY(get_index(d, o, p, "index", nt, &x, err));
+            if (o != NULL && x < 0)
+                return lr__gltf_fail(d, err, "%s.index is required", p);
+        }
+    }
+    return LR_OK;
+}
+
+static lr_status check_top(lr__gltf_doc *d, lr_error *err)
+{
+    const cJSON *asset = cJSON_GetObjectItemCaseSensitive(d->root, "asset");
+    const cJSON *ver = cJSON_GetObjectItemCaseSensitive(asset, "version");
+    if (!cJSON_IsString(ver) || strncmp(ver->valuestring, "2.", 2) != 0)
+        return lr__gltf_fail(d, err, "asset.version must be \"2.0\" (glTF 1 "
+                             "and others are not read)");
+    int n;
+    const cJSON *req = lr__gltf_array(d->root, "extensionsRequired", &n);
+    for (const cJSON *e = req ? req->child : NULL; e; e = e->next) {
+        int k = 0;
+        while (cJSON_IsString(e) && known_ext[k] &&
+               strcmp(known_ext[k], e->valuestring) != 0)
+            k++;
+        if (!cJSON_IsString(e) || known_ext[k] == NULL)
+            return lr__gltf_fail(d, err, "extensionsRequired: %.60s is not "
+                                 "read by lensray",
+                                 cJSON_IsString(e) ? e->valuestring : "?");
+    }
+    /* Arrays the checks index must be arrays of objects when present. */
+    static const char *const arrays[] = {
+        "buffers", "bufferViews", "accessors", "meshes", "nodes", "scenes",
+        "materials", "textures", "images", "samplers", "cameras", NULL};
+    for (int k = 0; arrays[k]; k++) {
+        const cJSON *a = cJSON_GetObjectItemCaseSensitive(d->root, arrays[k]);
+        if (a == NULL)
+            continue;
+        if (!cJSON_IsArray(a))
+            return lr__gltf_fail(d, err, "%s must be an array", arrays[k]);
+        int i = 0;
+        for (const cJSON *c = a->child; c; c = c->next, i++)
+            if (!cJSON_IsObject(c))
+                return lr__gltf_fail(d, err, "%s[%d] must be an object",
+                                     arrays[k], i);
+    }
+    return LR_OK;
+}
+
+lr_status lr__gltf_doc_load(const char *file, const char *shown,
+                            const char *fp, lr__gltf_doc *d, lr_error *err)
+{
+    memset(d, 0, sizeof *d);
+    d->fp = fp;
+    d->shown = shown;
+    char *buf = NULL;
+    lr_status st = lr__read_file(file, shown, fp, MAX_GLTF_BYTES,
+                                 "glTF files", NULL, &buf, &d->n_bytes, err);
+    if (st != LR_OK)
+        return st;
+    d->bytes = (unsigned char *)buf;
+    const char *json = buf;
+    size_t n = d->n_bytes;
+    d->glb = n >= 4 && memcmp(buf, "glTF", 4) == 0;
+    if (d->glb)
+        st = read_glb(d, &json, &n, err);
+    if (st == LR_OK) {
+        lr_error e2;
+        st = lr__json_parse(json ? json : "", n, shown, "", &d->root, &e2);
+        if (st == LR_ERR_NOMEM)
+            lr__fail(err, st, NULL, "out of memory");
+        else if (st != LR_OK && strncmp(e2.message, shown, strlen(shown)) == 0 &&
+                 e2.message[strlen(shown)] == ':')
+            lr__fail(err, st, fp, "%s: %s", fp, e2.message);
+        else if (st != LR_OK)
+            lr__fail(err, st, fp, "%s: %s: %s", fp, shown, e2.message);
+        else if (!cJSON_IsObject(d->root))
+            st = lr__gltf_fail(d, err, "a glTF file must be a JSON object");
+    }
+    /* External files are relative to the glTF's directory. */
+    char dir[4096];
+    lr__dir_of(file, dir, sizeof dir);
+    if (st == LR_OK)
+        st = check_top(d, err);
+    if (st == LR_OK)
+        st = check_buffers(d, dir, err);
+    if (st == LR_OK)
+        st = check_views(d, err);
+    if (st == LR_OK)
+        st = check_accessors(d, err);
+    if (st == LR_OK)
+        st = check_meshes(d, err);
+    if (st == LR_OK)
+        st = check_nodes(d, err);
+    if (st == LR_OK)
+        st = check_images(d, dir, err);
+    if (st != LR_OK)
+        lr__gltf_doc_free(d);
+    return st;
+}

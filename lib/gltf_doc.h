@@ -1,0 +1,111 @@
+/*
+ * gltf_doc.h: a glTF file read and checked before libassimp sees it
+ * (gltf_check.c), shared by the glTF loader's files (gltf.c: meshes and
+ * materials through assimp; gltf_nodes.c: node transforms, the camera and
+ * the lights).  Private to them.
+ */
+#ifndef LR_GLTF_DOC_H
+#define LR_GLTF_DOC_H
+
+#include "gltf.h"
+#include "internal.h"
+
+#include <cjson/cJSON.h>
+
+/* One file the glTF names (a buffer or an image), read whole. */
+typedef struct lr__gltf_blob {
+    char *uri;            /* as the glTF wrote it; owned */
+    unsigned char *data;  /* owned */
+    size_t n;
+} lr__gltf_blob;
+
+typedef struct lr__gltf_doc {
+    const char *fp;       /* JSON path of the field naming the file */
+    const char *shown;    /* the file's name in messages */
+    int glb;              /* binary container */
+    unsigned char *bytes; /* the whole file; owned */
+    size_t n_bytes;
+    const unsigned char *bin; /* GLB BIN chunk inside bytes, or NULL */
+    size_t n_bin;
+    cJSON *root;          /* the JSON document; owned */
+    lr__gltf_blob *blobs; /* external files, owned */
+    size_t n_blobs;
+    /* Each buffer's bytes (in `bytes`, bin or a blob) and its
+     * byteLength, checked to be no more than the data. */
+    struct lr__gltf_buffer {
+        const unsigned char *data;
+        size_t n;
+    } *buffers;           /* owned */
+    size_t n_buffers;
+    int n_nodes;
+    /* Textures decoded so far, one per (image, srgb); the scene owns
+     * the textures, this only finds them again. */
+    struct lr__gltf_tex {
+        int image, srgb;
+        struct lr__texture *t;
+    } *tex;               /* owned */
+    size_t n_tex;
+} lr__gltf_doc;
+
+/* Reads `file` and its external files and checks everything libassimp
+ * would otherwise trust: the GLB container, the JSON's shape, every index
+ * between arrays, every accessor within its bufferView within its buffer,
+ * the node graph (a tree: no cycles, no node twice), paths of external
+ * files.  On error the doc is freed. */
+lr_status lr__gltf_doc_load(const char *file, const char *shown,
+                            const char *fp, lr__gltf_doc *d, lr_error *err);
+void lr__gltf_doc_free(lr__gltf_doc *d);
+
+/* An input error about the file: "FP: SHOWN: what". */
+__attribute__((format(printf, 3, 4))) lr_status
+lr__gltf_fail(const lr__gltf_doc *d, lr_error *err, const char *fmt, ...);
+
+/* The bytes of external file `uri` (read by lr__gltf_doc_load), or NULL. */
+const lr__gltf_blob *lr__gltf_blob_find(const lr__gltf_doc *d,
+                                        const char *uri);
+
+/* o[k1][k2] when both are objects, else NULL. */
+const cJSON *lr__gltf_member(const cJSON *o, const char *k1, const char *k2);
+
+/* A member that must be an array (or absent: NULL, n = 0). */
+const cJSON *lr__gltf_array(const cJSON *o, const char *key, int *n);
+
+/* ---- gltf_assimp.c ---- */
+
+struct aiScene;
+/* The document's meshes decoded by libassimp (gltf_assimp.c says what it
+ * is given); its aiNodes are named "n<node index>", its materials
+ * "m<material index>" (a primitive without one gets assimp's default,
+ * which has no such name).  Release with lr__gltf_release. */
+lr_status lr__gltf_import(const lr__gltf_doc *d, const struct aiScene **out,
+                          lr_error *err);
+void lr__gltf_release(const struct aiScene *sc);
+
+/* ---- gltf_nodes.c ---- */
+
+/* Every node's world transform (node to the glTF's world, before the
+ * object's placement), from its matrix or its translation, rotation and
+ * scale (spec 3.5.2: M = T R S; a matrix is column-major), and which
+ * nodes the displayed scene ("scene", else scenes[0], else none) holds.
+ * Both arrays have d->n_nodes elements; the caller frees them. */
+lr_status lr__gltf_world(const lr__gltf_doc *d, lr__xform **world,
+                         unsigned char **active, lr_error *err);
+
+/* KHR_lights_punctual's lights of the active nodes, into s->lights. */
+lr_status lr__gltf_lights(lr_scene *s, const lr__gltf_doc *d,
+                          const lr__xform *world, const unsigned char *active,
+                          const lr__xform *place, lr_error *err);
+
+/* The camera the options ask for, into s->camera (and the image height
+ * from its aspect ratio); [lo, hi] is the box of the placed meshes, for
+ * the auto-framed view when the file has no camera. */
+lr_status lr__gltf_camera(lr_scene *s, const lr__gltf_doc *d,
+                          const lr__xform *world, const unsigned char *active,
+                          const lr__gltf_options *o, lr__v3 lo, lr__v3 hi,
+                          lr_error *err);
+
+/* Adds a line to the scene's warnings (scene.c keeps them). */
+void lr__gltf_warn(lr_scene *s, const lr__gltf_doc *d, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+
+#endif

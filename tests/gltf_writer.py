@@ -1,0 +1,388 @@
+#!/usr/bin/env python3
+"""gltf_writer.py: writes small glTF 2.0 files (.gltf with a base64 buffer,
+or .glb) for the tests, the fuzz seeds and the gallery, from Python lists,
+with the standard library only.  Nothing is downloaded.
+
+    python3 tests/gltf_writer.py NAME OUT     writes one of the named scenes
+                                              below (OUT ends in .gltf/.glb)
+
+The glTF layout follows the specification (Khronos, glTF 2.0, sections
+3.6 "Binary data storage", 3.7 "Geometry", 4.4 "GLB file format").
+"""
+import base64
+import json
+import math
+import struct
+import sys
+import zlib
+
+FLOAT, USHORT, UINT = 5126, 5123, 5125
+
+
+class Gltf:
+    def __init__(self):
+        self.doc = {"asset": {"version": "2.0", "generator": "lensray tests"},
+                    "scenes": [{"nodes": []}], "scene": 0, "nodes": [],
+                    "meshes": [], "accessors": [], "bufferViews": [],
+                    "buffers": []}
+        self.bin = bytearray()
+
+    def _view(self, data, target=None):
+        while len(self.bin) % 4:
+            self.bin.append(0)
+        v = {"buffer": 0, "byteOffset": len(self.bin), "byteLength": len(data)}
+        if target:
+            v["target"] = target
+        self.bin += data
+        self.doc["bufferViews"].append(v)
+        return len(self.doc["bufferViews"]) - 1
+
+    def accessor(self, values, kind, comp=FLOAT, target=None):
+        """values: a flat list; kind: SCALAR, VEC2, VEC3."""
+        n = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4}[kind]
+        fmt = {FLOAT: "f", USHORT: "H", UINT: "I"}[comp]
+        view = self._view(struct.pack("<%d%s" % (len(values), fmt), *values),
+                          target)
+        a = {"bufferView": view, "componentType": comp,
+             "count": len(values) // n, "type": kind}
+        if kind == "VEC3" and comp == FLOAT:
+            a["min"] = [min(values[k::3]) for k in range(3)]
+            a["max"] = [max(values[k::3]) for k in range(3)]
+        self.doc["accessors"].append(a)
+        return len(self.doc["accessors"]) - 1
+
+    def mesh(self, positions, indices, normals=None, uvs=None, material=None):
+        attrs = {"POSITION": self.accessor(positions, "VEC3", target=34962)}
+        if normals is not None:
+            attrs["NORMAL"] = self.accessor(normals, "VEC3", target=34962)
+        if uvs is not None:
+            attrs["TEXCOORD_0"] = self.accessor(uvs, "VEC2", target=34962)
+        prim = {"attributes": attrs,
+                "indices": self.accessor(indices, "SCALAR", UINT, 34963)}
+        if material is not None:
+            prim["material"] = material
+        self.doc["meshes"].append({"primitives": [prim]})
+        return len(self.doc["meshes"]) - 1
+
+    def node(self, root=True, **kw):
+        self.doc["nodes"].append(kw)
+        i = len(self.doc["nodes"]) - 1
+        if root:
+            self.doc["scenes"][0]["nodes"].append(i)
+        return i
+
+    def material(self, m):
+        self.doc.setdefault("materials", []).append(m)
+        return len(self.doc["materials"]) - 1
+
+    def camera(self, c):
+        self.doc.setdefault("cameras", []).append(c)
+        return len(self.doc["cameras"]) - 1
+
+    def light(self, light):
+        ext = self.doc.setdefault("extensions", {}).setdefault(
+            "KHR_lights_punctual", {"lights": []})
+        self.doc.setdefault("extensionsUsed", [])
+        if "KHR_lights_punctual" not in self.doc["extensionsUsed"]:
+            self.doc["extensionsUsed"].append("KHR_lights_punctual")
+        ext["lights"].append(light)
+        return len(ext["lights"]) - 1
+
+    def use_extension(self, name):
+        used = self.doc.setdefault("extensionsUsed", [])
+        if name not in used:
+            used.append(name)
+
+    def image_png(self, png, mime="image/png"):
+        """An image stored in the buffer (a bufferView), and its texture."""
+        view = self._view(png)
+        self.doc.setdefault("images", []).append(
+            {"bufferView": view, "mimeType": mime})
+        self.doc.setdefault("samplers", [{}])
+        self.doc.setdefault("textures", []).append(
+            {"source": len(self.doc["images"]) - 1, "sampler": 0})
+        return len(self.doc["textures"]) - 1
+
+    def gltf_text(self, bin_uri=None):
+        doc = json.loads(json.dumps(self.doc))
+        if bin_uri is None:
+            bin_uri = ("data:application/octet-stream;base64," +
+                       base64.b64encode(bytes(self.bin)).decode())
+        doc["buffers"] = [{"uri": bin_uri, "byteLength": len(self.bin)}]
+        return json.dumps(doc, indent=1)
+
+    def glb_bytes(self):
+        doc = json.loads(json.dumps(self.doc))
+        doc["buffers"] = [{"byteLength": len(self.bin)}]
+        js = json.dumps(doc).encode()
+        js += b" " * (-len(js) % 4)
+        bn = bytes(self.bin) + b"\0" * (-len(self.bin) % 4)
+        total = 12 + 8 + len(js) + 8 + len(bn)
+        return (struct.pack("<4sII", b"glTF", 2, total) +
+                struct.pack("<I4s", len(js), b"JSON") + js +
+                struct.pack("<I4s", len(bn), b"BIN\0") + bn)
+
+    def write(self, path):
+        if path.endswith(".glb"):
+            with open(path, "wb") as f:
+                f.write(self.glb_bytes())
+        else:
+            with open(path, "w") as f:
+                f.write(self.gltf_text())
+
+
+def png_rgb(w, h, pixel):
+    """An 8-bit RGB PNG; pixel(x, y) gives (r, g, b) bytes, y = 0 on top
+    (PNG specification, 2nd ed., sections 5 and 11.2)."""
+    raw = bytearray()
+    for y in range(h):
+        raw.append(0)
+        for x in range(w):
+            raw += bytes(pixel(x, y))
+
+    def chunk(kind, data):
+        return (struct.pack(">I", len(data)) + kind + data +
+                struct.pack(">I", zlib.crc32(kind + data) & 0xffffffff))
+    return (b"\x89PNG\r\n\x1a\n" +
+            chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0)) +
+            chunk(b"IDAT", zlib.compress(bytes(raw))) + chunk(b"IEND", b""))
+
+
+# ---- shapes ------------------------------------------------------------
+
+def quad(size=1.0):
+    """A square in the z = 0 plane facing +z, corners at +-size/2."""
+    h = size / 2
+    pos = [-h, -h, 0, h, -h, 0, h, h, 0, -h, h, 0]
+    return pos, [0, 1, 2, 0, 2, 3], [0, 0, 1] * 4, [0, 1, 1, 1, 1, 0, 0, 0]
+
+
+def box(sx, sy, sz):
+    """An axis-aligned box centred on the origin, outward normals."""
+    pos, nrm, uv, idx = [], [], [], []
+    for axis in range(3):
+        for sign in (-1, 1):
+            n = [0, 0, 0]
+            n[axis] = sign
+            u, v = [a for a in range(3) if a != axis]
+            if sign < 0:
+                u, v = v, u
+            base = len(pos) // 3
+            for cu, cv in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
+                p = [0, 0, 0]
+                p[axis] = sign
+                p[u], p[v] = cu, cv
+                pos += [p[0] * sx / 2, p[1] * sy / 2, p[2] * sz / 2]
+                nrm += n
+                uv += [(cu + 1) / 2, (1 - cv) / 2]
+            idx += [base, base + 1, base + 2, base, base + 2, base + 3]
+    return pos, idx, nrm, uv
+
+
+def sphere(r, nu=24, nv=12):
+    pos, nrm, uv, idx = [], [], [], []
+    for j in range(nv + 1):
+        th = math.pi * j / nv
+        for i in range(nu + 1):
+            ph = 2 * math.pi * i / nu
+            n = [math.sin(th) * math.cos(ph), math.cos(th),
+                 -math.sin(th) * math.sin(ph)]
+            pos += [r * c for c in n]
+            nrm += n
+            uv += [i / nu, j / nv]
+    for j in range(nv):
+        for i in range(nu):
+            a = j * (nu + 1) + i
+            b = a + nu + 1
+            idx += [a, b, a + 1, a + 1, b, b + 1]
+    return pos, idx, nrm, uv
+
+
+# ---- named scenes --------------------------------------------------------
+
+def scene_tri():
+    """One triangle under a chain of two node transforms (matrix, then
+    TRS): tests/gltf.bats renders it against the same triangle moved by
+    tests/gltf_check.py and written as OBJ."""
+    g = Gltf()
+    m = g.mesh([0, 0, 0, 1, 0, 0, 0, 1, 0], [0, 1, 2],
+               material=g.material({"pbrMetallicRoughness": {
+                   "baseColorFactor": [0.8, 0.4, 0.2, 1],
+                   "metallicFactor": 0}}))
+    child = g.node(root=False, mesh=m, translation=[0.25, -0.5, 0.125],
+                   rotation=[0, 0, 0.38268343236508984, 0.9238795325112867],
+                   scale=[1.5, 0.75, 1.0])
+    g.node(children=[child],
+           matrix=[0.8, 0, 0.6, 0, 0, 1, 0, 0, -0.6, 0, 0.8, 0, 0.5, 0.25, -1, 1])
+    return g
+
+
+def scene_camera_light():
+    """A floor (y = 0, 8 x 8) of base colour 0.5 under a point light of
+    20 cd at (0, 2, 0), seen by a glTF camera (yfov 0.7, aspect 1.5)."""
+    g = Gltf()
+    pos, idx, nrm, _ = quad(8)
+    floor = g.mesh(pos, idx, nrm, material=g.material({
+        "name": "floor", "pbrMetallicRoughness": {
+            "baseColorFactor": [0.5, 0.5, 0.5, 1], "metallicFactor": 0,
+            "roughnessFactor": 1}}))
+    # Rotated -90 degrees about x: +z becomes +y (the floor faces up).
+    s = math.sqrt(0.5)
+    g.node(mesh=floor, rotation=[-s, 0, 0, s])
+    cam = g.camera({"type": "perspective", "name": "main",
+                    "perspective": {"yfov": 0.7, "aspectRatio": 1.5,
+                                    "znear": 0.1}})
+    # The camera looks down -z of its node: placed at (0, 3, 4), tilted
+    # down by atan(3/4) about x.
+    a = -math.atan2(3, 4) / 2
+    g.node(camera=cam, name="cam", translation=[0, 3, 4],
+           rotation=[math.sin(a), 0, 0, math.cos(a)])
+    li = g.light({"type": "point", "intensity": 20, "color": [1, 1, 1]})
+    g.node(extensions={"KHR_lights_punctual": {"light": li}},
+           translation=[0, 2, 0])
+    return g
+
+
+def scene_materials():
+    """A mirror (metallic 1, roughness 0, base colour 0.9) and a diffuse
+    panel side by side, for tests/gltf.bats' material test."""
+    g = Gltf()
+    pos, idx, nrm, _ = quad(2)
+    mirror = g.mesh(pos, idx, nrm, material=g.material({
+        "name": "mirror", "pbrMetallicRoughness": {
+            "baseColorFactor": [0.9, 0.9, 0.9, 1], "metallicFactor": 1,
+            "roughnessFactor": 0}}))
+    matte = g.mesh(pos, idx, nrm, material=g.material({
+        "name": "matte", "pbrMetallicRoughness": {
+            "baseColorFactor": [0.2, 0.6, 0.4, 1], "metallicFactor": 0,
+            "roughnessFactor": 1}}))
+    g.node(mesh=mirror, translation=[-1.5, 0, 0])
+    g.node(mesh=matte, translation=[1.5, 0, 0])
+    return g
+
+
+def scene_mapping():
+    """One triangle per material, for the mapping table's test: a partly
+    metallic, partly transmissive, rough, emissive material (with
+    KHR_materials_transmission, _ior and _emissive_strength), and a
+    primitive without a material (the spec's default)."""
+    g = Gltf()
+    for e in ("KHR_materials_transmission", "KHR_materials_ior",
+              "KHR_materials_emissive_strength"):
+        g.use_extension(e)
+    m = g.mesh([0, 0, 0, 1, 0, 0, 0, 1, 0], [0, 1, 2], material=g.material({
+        "name": "mixed", "emissiveFactor": [0.5, 0.25, 1],
+        "pbrMetallicRoughness": {"baseColorFactor": [0.9, 0.8, 0.7, 1],
+                                 "metallicFactor": 0.25,
+                                 "roughnessFactor": 0.6},
+        "extensions": {
+            "KHR_materials_transmission": {"transmissionFactor": 0.5},
+            "KHR_materials_ior": {"ior": 1.33},
+            "KHR_materials_emissive_strength": {"emissiveStrength": 4}}}))
+    plain = g.mesh([0, 0, 1, 1, 0, 1, 0, 1, 1], [0, 1, 2])
+    g.node(mesh=m)
+    g.node(mesh=plain)
+    return g
+
+
+def scene_textured():
+    """Two 2 x 2 quads facing +z: at x = -1.5 a base-colour texture, at
+    x = 1.5 an emissive one, each a 2 x 2 PNG with red top left, green
+    top right, blue bottom left, white bottom right.  glTF's UV (0, 0) is
+    the image's top left; the quad's UVs put it at the top-left corner."""
+    g = Gltf()
+    cols = {(0, 0): (255, 0, 0), (1, 0): (0, 255, 0), (0, 1): (0, 0, 255),
+            (1, 1): (255, 255, 255)}
+    tex = g.image_png(png_rgb(2, 2, lambda x, y: cols[(x, y)]))
+    pos, idx, nrm, uv = quad(2)
+    base = g.mesh(pos, idx, nrm, uv, g.material({
+        "name": "base", "pbrMetallicRoughness": {
+            "baseColorTexture": {"index": tex}, "metallicFactor": 0}}))
+    glow = g.mesh(pos, idx, nrm, uv, g.material({
+        "name": "glow", "emissiveFactor": [1, 1, 1],
+        "emissiveTexture": {"index": tex},
+        "pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1]}}))
+    g.node(mesh=base, translation=[-1.5, 0, 0])
+    g.node(mesh=glow, translation=[1.5, 0, 0])
+    return g
+
+
+def checker_png(n=64, cells=8, a=(230, 220, 200), b=(40, 60, 90)):
+    return png_rgb(n, n, lambda x, y: a if (x * cells // n + y * cells // n)
+                   % 2 == 0 else b)
+
+
+def scene_gallery():
+    """The gallery scene: a textured floor and boxes, a glossy sphere, and
+    small emissive night lights far behind, for the thin lens and the real
+    lens (docs/figures.sh)."""
+    g = Gltf()
+    tex = g.image_png(checker_png(256, 16))
+    wood = g.image_png(png_rgb(64, 64, lambda x, y: (
+        150 + (x * 7 % 40), 90 + (x * 3 % 30), 50)))
+    pos, idx, nrm, uv = quad(1)
+    uv = [c * 50 for c in uv]
+    floor = g.mesh([c * 100 for c in pos], idx, nrm, uv, g.material({
+        "name": "floor", "pbrMetallicRoughness": {
+            "baseColorTexture": {"index": tex}, "metallicFactor": 0,
+            "roughnessFactor": 0.6}}))
+    s = math.sqrt(0.5)
+    g.node(mesh=floor, rotation=[-s, 0, 0, s])
+    bpos, bidx, bnrm, buv = box(0.8, 0.8, 0.8)
+    crate = g.mesh(bpos, bidx, bnrm, buv, g.material({
+        "name": "crate", "pbrMetallicRoughness": {
+            "baseColorTexture": {"index": wood}, "metallicFactor": 0,
+            "roughnessFactor": 0.8}}))
+    g.node(mesh=crate, translation=[-1.2, 0.4, -0.5],
+           rotation=[0, math.sin(0.3), 0, math.cos(0.3)])
+    g.node(mesh=crate, translation=[1.4, 0.4, -2.5],
+           rotation=[0, math.sin(-0.2), 0, math.cos(-0.2)])
+    spos, sidx, snrm, suv = sphere(0.6, 48, 24)
+    gold = g.mesh(spos, sidx, snrm, suv, g.material({
+        "name": "gold", "pbrMetallicRoughness": {
+            "baseColorFactor": [1.0, 0.78, 0.34, 1], "metallicFactor": 1,
+            "roughnessFactor": 0.25}}))
+    g.node(mesh=gold, translation=[0.3, 0.6, 0.4])
+    lpos, lidx, lnrm, _ = sphere(0.06, 8, 4)
+    g.use_extension("KHR_materials_emissive_strength")
+    for i, col in enumerate([(1, 0.6, 0.2), (1, 0.8, 0.5), (0.6, 0.8, 1)]):
+        lamp = g.mesh(lpos, lidx, lnrm, material=g.material({
+            "name": "lamp%d" % i, "emissiveFactor": list(col),
+            "extensions": {"KHR_materials_emissive_strength": {
+                "emissiveStrength": 15}},
+            "pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1]}}))
+        for k in range(5):
+            g.node(mesh=lamp, translation=[-7 + 3.3 * k + i * 1.1,
+                                           0.9 + 1.1 * ((k + i) % 3),
+                                           -11 - 2.5 * i])
+    cam = g.camera({"type": "perspective", "perspective": {
+        "yfov": 0.6, "aspectRatio": 1.5, "znear": 0.1},
+        "extras": {"lensray": {"focus_distance": 3.6, "f_number": 1.4,
+                               "focal_length_mm": 85}}})
+    a = -math.atan2(1.0, 4.5) / 2
+    g.node(camera=cam, translation=[0, 1.6, 4.3],
+           rotation=[math.sin(a), 0, 0, math.cos(a)])
+    return g
+
+
+def scene_normals():
+    """One triangle with a tilted vertex normal (0.6, 0, 0.8) under a
+    non-uniform scale (2, 1, 1): its normal must move by the inverse
+    transpose."""
+    g = Gltf()
+    m = g.mesh([0, 0, 0, 1, 0, 0, 0, 1, 0], [0, 1, 2],
+               normals=[0.6, 0, 0.8] * 3)
+    g.node(mesh=m, scale=[2, 1, 1])
+    return g
+
+
+SCENES = {"tri": scene_tri, "normals": scene_normals,
+          "mapping": scene_mapping, "textured": scene_textured,
+          "camera-light": scene_camera_light,
+          "materials": scene_materials, "gallery": scene_gallery}
+
+if __name__ == "__main__":
+    if len(sys.argv) != 3 or sys.argv[1] not in SCENES:
+        sys.exit("usage: gltf_writer.py %s OUT.gltf|OUT.glb"
+                 % "|".join(SCENES))
+    SCENES[sys.argv[1]]().write(sys.argv[2])

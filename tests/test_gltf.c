@@ -1,0 +1,488 @@
+/*
+ * test_gltf.c: glTF 2.0 scenes (lib/gltf*.c, docs/gltf.md) against truth
+ * computed here: a mesh under node transforms renders as the same
+ * triangle moved by this file's own matrices and written as OBJ (bit for
+ * bit); the glTF camera's rays (yfov, aspect ratio, node rotation) hit
+ * the floor where this file's projection says; a point light's
+ * irradiance is I cos(theta) / d^2; metallic 1 is our mirror and base
+ * colour our albedo; normals move by the inverse transpose; hostile files
+ * get errors that name the field.  The files come from
+ * tests/gltf_writer.py (python3, a build dependency).
+ */
+#include "test.h"
+#include "scene.h"
+
+#include <cjson/cJSON.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#define PI 3.14159265358979323846
+
+/* Writes scene NAME of tests/gltf_writer.py to FILE in the scratch
+ * directory. */
+static void make(const char *name, const char *file)
+{
+    const char *src = getenv("LENSRAY_SOURCE_DIR");
+    char cmd[1024];
+    snprintf(cmd, sizeof cmd, "python3 %s/tests/gltf_writer.py %s %s/%s",
+             src && *src ? src : ".", name, lr_test_tmpdir(), file);
+    assert_int_equal(system(cmd), 0);
+}
+
+/* Renders with the scene's own camera and settings (finite, checked). */
+static lr_image *render(lr_scene *s)
+{
+    lr_camera cam;
+    lr_render_settings rs;
+    lr_scene_camera(s, &cam);
+    lr_scene_settings(s, &rs);
+    return lr_test_render_with(s, &cam, &rs, "glTF scene");
+}
+
+/* ---- transforms ----------------------------------------------------------- */
+
+/* tri: the triangle (0,0,0), (1,0,0), (0,1,0) in a child node (T, R =
+ * 45 degrees about z, S = (1.5, 0.75, 1)) of a node whose matrix rotates
+ * about y (cos 0.8, sin -0.6) and translates by (0.5, 0.25, -1). */
+static void tri_world(const double v[3], double out[3])
+{
+    double c = cos(PI / 4), s = sin(PI / 4);
+    double p[3] = {1.5 * v[0], 0.75 * v[1], v[2]};
+    double q[3] = {c * p[0] - s * p[1] + 0.25, s * p[0] + c * p[1] - 0.5,
+                   p[2] + 0.125};
+    /* The matrix's columns are where the axes go: x -> (0.8, 0, 0.6),
+     * z -> (-0.6, 0, 0.8). */
+    out[0] = 0.8 * q[0] - 0.6 * q[2] + 0.5;
+    out[1] = q[1] + 0.25;
+    out[2] = 0.6 * q[0] + 0.8 * q[2] - 1;
+}
+
+static void test_transform_matches_obj(void **state)
+{
+    (void)state;
+    make("tri", "tri.gltf");
+    char obj[512] = "";
+    static const double tri[3][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+    for (int i = 0; i < 3; i++) {
+        double w[3];
+        tri_world(tri[i], w);
+        size_t n = strlen(obj);
+        snprintf(obj + n, sizeof obj - n, "v %.9g %.9g %.9g\n", (float)w[0],
+                 (float)w[1], (float)w[2]);
+    }
+    strcat(obj, "f 1 2 3\n");
+    char path[512];
+    lr_test_write_text("tri.obj", obj, path, sizeof path);
+    static const char *const integrators[] = {"whitted", "path"};
+    for (int k = 0; k < 2; k++) {
+        char json[1024];
+        const char *fmt =
+            "{\"camera\": {\"position\": [0.6, 0.3, 3], \"look_at\": [0.6, "
+            "0.3, -1], \"fov\": 50},"
+            " \"render\": {\"width\": 48, \"height\": 32, \"spp\": 4, "
+            "\"integrator\": \"%s\"}, \"background\": [0.2, 0.3, 0.4],"
+            " \"lights\": [{\"type\": \"point\", \"position\": [1, 2, 3], "
+            "\"intensity\": 10}],"
+            " \"materials\": {\"m\": {\"diffuse\": [0.8, 0.4, 0.2], "
+            "\"roughness\": 1}},"
+            " \"objects\": [%s]}";
+        snprintf(json, sizeof json, fmt, integrators[k],
+                 "{\"type\": \"gltf\", \"file\": \"tri.gltf\"}");
+        lr_scene *a = lr_test_load_json(json);
+        snprintf(json, sizeof json, fmt, integrators[k],
+                 "{\"type\": \"mesh\", \"file\": \"tri.obj\", \"material\": "
+                 "\"m\"}");
+        lr_scene *b = lr_test_load_json(json);
+        for (int i = 0; i < 9; i++)
+            if (a->geoms[0].vertices[i] != b->geoms[0].vertices[i])
+                fail_msg("vertex value %d: glTF %.9g, OBJ %.9g", i,
+                         (double)a->geoms[0].vertices[i],
+                         (double)b->geoms[0].vertices[i]);
+        lr_image *ia = render(a), *ib = render(b);
+        const float *pa = lr_image_rgb(ia);
+        /* The triangle is in the picture, not only the background. */
+        int lit = 0;
+        for (int i = 0; i < 48 * 32; i++)
+            lit += pa[3 * i] != 0.2f;
+        assert_true(lit > 50);
+        lr_test_assert_same_bytes(ia, ib, "glTF against OBJ");
+        lr_image_free(ia);
+        lr_image_free(ib);
+        lr_scene_free(a);
+        lr_scene_free(b);
+    }
+}
+
+static void test_normals_inverse_transpose(void **state)
+{
+    (void)state;
+    make("normals", "normals.glb");
+    lr_scene *s = lr_test_load_json(
+        "{\"objects\": [{\"type\": \"gltf\", \"file\": \"normals.glb\"}]}");
+    assert_int_equal(s->n_geoms, 1);
+    const float *n = s->geoms[0].corner_normals;
+    assert_non_null(n);
+    /* Scale (2, 1, 1): the inverse transpose scales x by 1/2. */
+    double want[3] = {0.3, 0, 0.8}, len = sqrt(0.09 + 0.64);
+    for (int c = 0; c < 3; c++)
+        for (int k = 0; k < 3; k++)
+            assert_true(fabs(n[3 * c + k] - want[k] / len) < 1e-6);
+    lr_scene_free(s);
+}
+
+/* ---- camera and light ------------------------------------------------------ */
+
+/* camera-light: the camera at (0, 3, 4) pitched down by atan(3/4), yfov
+ * 0.7, aspect 1.5; a floor y = 0 of albedo 0.5; 20 cd at (0, 2, 0). */
+static lr_scene *camera_light_scene(void)
+{
+    make("camera-light", "camera-light.glb");
+    return lr_test_load_json(
+        "{\"render\": {\"width\": 60, \"spp\": 1, \"sampler\": \"grid\","
+        " \"depth\": true}, \"objects\": [{\"type\": \"gltf\", "
+        "\"file\": \"camera-light.glb\", \"camera\": true}]}");
+}
+
+/* The unit direction through the centre of pixel (x, y) of a w x h image,
+ * from the projection: the view basis of the camera's node. */
+static void pixel_dir(int x, int y, int w, int h, double d[3], double fwd[3])
+{
+    double a = atan2(3, 4); /* pitch down */
+    double t = tan(0.35), asp = (double)w / h;
+    double sx = (2 * (x + 0.5) / w - 1) * t * asp;
+    double sy = (1 - 2 * (y + 0.5) / h) * t;
+    /* Camera axes: right (1,0,0), up (0, cos a, -sin a), back (0, sin a,
+     * cos a); the ray is right sx + up sy - back. */
+    double v[3] = {sx, sy * cos(a) - sin(a), -sy * sin(a) - cos(a)};
+    double len = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    for (int k = 0; k < 3; k++)
+        d[k] = v[k] / len;
+    fwd[0] = 0, fwd[1] = -sin(a), fwd[2] = -cos(a);
+}
+
+static void test_camera_projection(void **state)
+{
+    (void)state;
+    lr_scene *s = camera_light_scene();
+    lr_render_settings rs;
+    lr_scene_settings(s, &rs);
+    assert_int_equal(rs.width, 60);
+    assert_int_equal(rs.height, 40); /* 60 / aspectRatio 1.5 */
+    lr_image *img = render(s);
+    const float *z = lr_image_depth(img);
+    static const int px[][2] = {{0, 39}, {59, 39}, {30, 20}, {5, 12},
+                                {44, 30}};
+    for (int i = 0; i < 5; i++) {
+        double d[3], f[3];
+        pixel_dir(px[i][0], px[i][1], 60, 40, d, f);
+        double t = 3 / -d[1]; /* to the floor y = 0 from y = 3 */
+        double want = t * (d[0] * f[0] + d[1] * f[1] + d[2] * f[2]);
+        double got = z[px[i][1] * 60 + px[i][0]];
+        if (!(fabs(got - want) < 1e-4 * want))
+            fail_msg("pixel (%d, %d): depth %.7g, projection says %.7g",
+                     px[i][0], px[i][1], got, want);
+    }
+    lr_image_free(img);
+    lr_scene_free(s);
+}
+
+static void test_point_light_irradiance(void **state)
+{
+    (void)state;
+    lr_scene *s = camera_light_scene();
+    lr_image *img = render(s);
+    const float *rgb = lr_image_rgb(img);
+    static const int px[][2] = {{30, 20}, {10, 35}, {50, 25}, {30, 5}};
+    for (int i = 0; i < 4; i++) {
+        double d[3], f[3];
+        pixel_dir(px[i][0], px[i][1], 60, 40, d, f);
+        double t = 3 / -d[1];
+        double p[3] = {t * d[0], 0, 4 + t * d[2]};
+        double r2 = p[0] * p[0] + 4 + p[2] * p[2];
+        /* Lambertian radiance: albedo / pi x I cos(theta) / d^2, with
+         * cos(theta) = 2 / d for the light 2 above the floor. */
+        double want = 0.5 / PI * 20 * (2 / sqrt(r2)) / r2;
+        double got = rgb[3 * (px[i][1] * 60 + px[i][0]) + 1];
+        if (!(fabs(got - want) < 1e-4 * want))
+            fail_msg("pixel (%d, %d): %.7g, I cos / d^2 says %.7g", px[i][0],
+                     px[i][1], got, want);
+    }
+    lr_image_free(img);
+    lr_scene_free(s);
+}
+
+/* ---- materials ------------------------------------------------------------- */
+
+static void test_materials(void **state)
+{
+    (void)state;
+    make("materials", "materials.gltf");
+    /* Panels at x = -1.5 (metallic 1, roughness 0, base 0.9) and 1.5
+     * (metallic 0, base (0.2, 0.6, 0.4)), facing +z; the light falls
+     * straight on them, the camera looks straight at them. */
+    lr_scene *s = lr_test_load_json(
+        "{\"camera\": {\"position\": [0, 0, 10], \"look_at\": [0, 0, 0], "
+        "\"fov\": 30}, \"render\": {\"width\": 40, \"height\": 20, \"spp\": 1,"
+        " \"sampler\": \"grid\"}, \"background\": [0.2, 0.3, 0.4],"
+        " \"lights\": [{\"type\": \"directional\", \"direction\": [0, 0, -1],"
+        " \"irradiance\": 2}],"
+        " \"objects\": [{\"type\": \"gltf\", \"file\": \"materials.gltf\"}]}");
+    lr_image *img = render(s);
+    const float *rgb = lr_image_rgb(img);
+    /* Pixel centres over each panel (10 units away, 30 degrees: the
+     * panels span about 7 pixels each side of x = 20 +- 8). */
+    const float *mirror = &rgb[3 * (10 * 40 + 12)];
+    const float *matte = &rgb[3 * (10 * 40 + 27)];
+    static const double bg[3] = {0.2, 0.3, 0.4}, alb[3] = {0.2, 0.6, 0.4};
+    for (int k = 0; k < 3; k++) {
+        /* A perfect mirror of reflectance 0.9 shows 0.9 x the sky. */
+        assert_true(fabs(mirror[k] - 0.9 * bg[k]) < 1e-6);
+        /* Lambert: albedo / pi x irradiance. */
+        assert_true(fabs(matte[k] - alb[k] / PI * 2) < 1e-6);
+    }
+    lr_image_free(img);
+    lr_scene_free(s);
+}
+
+/* The mapping table of docs/gltf.md, value by value. */
+static void test_material_mapping(void **state)
+{
+    (void)state;
+    make("mapping", "mapping.gltf");
+    lr_scene *s = lr_test_load_json(
+        "{\"objects\": [{\"type\": \"gltf\", \"file\": \"mapping.gltf\"}]}");
+    assert_int_equal(s->n_geoms, 2);
+    const lr__material *m = &s->materials[s->geoms[0].material];
+    const lr__material *def = &s->materials[s->geoms[1].material];
+    static const double b[3] = {0.9, 0.8, 0.7}, e[3] = {0.5, 0.25, 1};
+    double mc[3] = {m->reflect.x, m->reflect.y, m->reflect.z};
+    double dc[3] = {m->diffuse.x, m->diffuse.y, m->diffuse.z};
+    double tc[3] = {m->transmit.x, m->transmit.y, m->transmit.z};
+    double ec[3] = {m->emission.x, m->emission.y, m->emission.z};
+    for (int k = 0; k < 3; k++) {
+        assert_true(fabs(mc[k] - 0.25 * b[k]) < 1e-12);        /* m b */
+        assert_true(fabs(dc[k] - 0.75 * 0.5 * b[k]) < 1e-12);  /* (1-m)(1-t) b */
+        assert_true(fabs(tc[k] - 0.75 * 0.5 * b[k]) < 1e-12);  /* (1-m) t b */
+        assert_true(fabs(ec[k] - 4 * e[k]) < 1e-12);           /* x strength */
+    }
+    assert_true(fabs(m->roughness - 0.36) < 1e-12);            /* r^2 */
+    assert_true(fabs(m->ior - 1.33) < 1e-12);
+    assert_true(m->specular.x == 0 && m->shininess == 0);
+    /* The spec's default material: base 1, metallic 1, roughness 1. */
+    assert_true(def->reflect.x == 1 && def->reflect.y == 1 &&
+                def->diffuse.x == 0 && def->roughness == 1);
+    lr_scene_free(s);
+}
+
+static void test_textures(void **state)
+{
+    (void)state;
+    make("textured", "textured.glb");
+    /* 81 x 41 pixels, 10 to a unit at the quads (10 units away): pixel
+     * (i, j) looks at x = (i - 40) / 10, y = (20 - j) / 10, so that pixel
+     * centres fall on the texel centres, half a unit in from each corner:
+     * x = -2, -1 (base colour quad), 1, 2 (emissive), y = +-0.5. */
+    char json[1024];
+    snprintf(json, sizeof json,
+             "{\"camera\": {\"position\": [0, 0, 10], \"look_at\": [0, 0, 0],"
+             " \"fov\": %.17g}, \"render\": {\"width\": 81, \"height\": 41,"
+             " \"spp\": 1, \"sampler\": \"grid\"},"
+             " \"lights\": [{\"type\": \"directional\", \"direction\": [0, 0,"
+             " -1], \"irradiance\": %.17g}],"
+             " \"objects\": [{\"type\": \"gltf\", \"file\": \"textured.glb\"}]}",
+             2 * atan(0.205) * 180 / PI, PI);
+    lr_scene *s = lr_test_load_json(json);
+    lr_image *img = render(s);
+    const float *rgb = lr_image_rgb(img);
+    /* Red top left, green top right, blue bottom left, white bottom
+     * right: glTF's UV (0, 0) is the image's top left. */
+    static const double want[4][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1},
+                                      {1, 1, 1}};
+    static const int at[2][4][2] = {{{20, 15}, {30, 15}, {20, 25}, {30, 25}},
+                                    {{50, 15}, {60, 15}, {50, 25}, {60, 25}}};
+    for (int quad = 0; quad < 2; quad++)
+        for (int k = 0; k < 4; k++) {
+            int x = at[quad][k][0], y = at[quad][k][1];
+            const float *px = &rgb[3 * (y * 81 + x)];
+            /* Base colour: albedo / pi x pi; emission: the texel. */
+            for (int c = 0; c < 3; c++)
+                if (!(fabs(px[c] - want[k][c]) < 1e-3))
+                    fail_msg("%s quad, pixel (%d, %d): (%g, %g, %g), want "
+                             "texel %d", quad ? "emissive" : "base", x, y,
+                             (double)px[0], (double)px[1], (double)px[2],
+                             k);
+        }
+    lr_image_free(img);
+    lr_scene_free(s);
+}
+
+/* ---- hostile files ---------------------------------------------------------- */
+
+/* Writes tri.gltf with member `key` ("array.index.member") set to the
+ * JSON `value` as NAME and expects loading it to fail with
+ * `status`, naming `what`. */
+static void expect_bad(const char *name, const char *key, const char *value,
+                       lr_status status, const char *what)
+{
+    char path[512];
+    snprintf(path, sizeof path, "%s/tri.gltf", lr_test_tmpdir());
+    FILE *f = fopen(path, "rb");
+    assert_non_null(f);
+    static char text[1 << 16];
+    size_t n = fread(text, 1, sizeof text - 1, f);
+    fclose(f);
+    text[n] = '\0';
+    cJSON *root = cJSON_Parse(text);
+    assert_non_null(root);
+    /* key: "top.index.member" addresses one member. */
+    char k[128];
+    snprintf(k, sizeof k, "%s", key);
+    char *dot1 = strchr(k, '.'), *dot2 = dot1 ? strchr(dot1 + 1, '.') : NULL;
+    assert_non_null(dot2);
+    *dot1 = *dot2 = '\0';
+    cJSON *o = cJSON_GetArrayItem(cJSON_GetObjectItem(root, k),
+                                  atoi(dot1 + 1));
+    assert_non_null(o);
+    cJSON_DeleteItemFromObject(o, dot2 + 1);
+    cJSON_AddItemToObject(o, dot2 + 1, cJSON_Parse(value));
+    char *out = cJSON_Print(root);
+    lr_test_write_text(name, out, path, sizeof path);
+    free(out);
+    cJSON_Delete(root);
+    char json[256];
+    snprintf(json, sizeof json,
+             "{\"objects\": [{\"type\": \"gltf\", \"file\": \"%s\"}]}", name);
+    lr_scene *s = NULL;
+    lr_error err;
+    lr_status st = lr_scene_load_json(json, strlen(json), lr_test_tmpdir(),
+                                      NULL, 0, &s, &err);
+    assert_null(s);
+    if (st != status || strstr(err.message, what) == NULL ||
+        strstr(err.message, "objects[0].file") == NULL ||
+        strstr(err.message, name) == NULL)
+        fail_msg("%s: status %d, message \"%s\"", name, st, err.message);
+}
+
+static void test_hostile(void **state)
+{
+    (void)state;
+    make("tri", "tri.gltf");
+    expect_bad("count.gltf", "accessors.0.count", "1000000000",
+               LR_ERR_INVALID, "accessors[0]");
+    expect_bad("view.gltf", "accessors.1.bufferView", "99", LR_ERR_INVALID,
+               "accessors[1].bufferView");
+    expect_bad("offset.gltf", "bufferViews.0.byteOffset", "4000000000",
+               LR_ERR_INVALID, "bufferViews[0]");
+    expect_bad("missing.gltf", "buffers.0.uri", "\"missing.bin\"", LR_ERR_IO,
+               "missing.bin");
+    expect_bad("abs.gltf", "buffers.0.uri", "\"/etc/passwd\"",
+               LR_ERR_INVALID, "absolute");
+    expect_bad("dotdot.gltf", "buffers.0.uri", "\"a/../../x.bin\"",
+               LR_ERR_INVALID, "\"..\"");
+    expect_bad("scheme.gltf", "buffers.0.uri", "\"file:///etc/passwd\"",
+               LR_ERR_INVALID, "scheme");
+    /* A symbolic link beside the glTF that leads out of its directory. */
+    char dir[512], link[600];
+    snprintf(dir, sizeof dir, "%s/sub", lr_test_tmpdir());
+    mkdir(dir, 0755);
+    lr_test_write_text("outside.bin", "0123456789012345678901234567890123"
+                                      "456789012345678",
+                       link, sizeof link);
+    snprintf(link, sizeof link, "%s/link.bin", dir);
+    unlink(link);
+    assert_int_equal(symlink("../outside.bin", link), 0);
+    expect_bad("sub/link.gltf", "buffers.0.uri", "\"link.bin\"",
+               LR_ERR_INVALID, "symbolic link");
+    expect_bad("cycle.gltf", "nodes.0.children", "[1]", LR_ERR_INVALID,
+               "nodes[");
+    expect_bad("index.gltf", "meshes.0.primitives",
+               "[{\"attributes\": {\"POSITION\": 0}, \"indices\": 0}]",
+               LR_ERR_INVALID, "indices");
+    expect_bad("range.gltf", "accessors.0.count", "2", LR_ERR_INVALID,
+               "beyond the 2 vertices");
+    expect_bad("matrix.gltf", "nodes.1.matrix", "[1, 2]", LR_ERR_INVALID,
+               "nodes[1].matrix");
+    expect_bad("light.gltf", "nodes.1.extensions",
+               "{\"KHR_lights_punctual\": {\"light\": 0}}", LR_ERR_INVALID,
+               "nodes[1].light");
+
+    /* An image that is no image: the error names the file, the image
+     * and the material slot that uses it. */
+    make("textured", "textured.gltf");
+    char tpath[512];
+    snprintf(tpath, sizeof tpath, "%s/textured.gltf", lr_test_tmpdir());
+    FILE *tf = fopen(tpath, "rb");
+    assert_non_null(tf);
+    static char ttext[1 << 16];
+    size_t tn = fread(ttext, 1, sizeof ttext - 1, tf);
+    fclose(tf);
+    ttext[tn] = '\0';
+    cJSON *troot = cJSON_Parse(ttext);
+    cJSON *im = cJSON_GetArrayItem(cJSON_GetObjectItem(troot, "images"), 0);
+    cJSON_DeleteItemFromObject(im, "bufferView");
+    cJSON_DeleteItemFromObject(im, "mimeType");
+    cJSON_AddStringToObject(im, "uri", "data:image/png;base64,bm90IGFuIGltYWdl");
+    char *tout = cJSON_Print(troot);
+    lr_test_write_text("badimage.gltf", tout, tpath, sizeof tpath);
+    free(tout);
+    cJSON_Delete(troot);
+    {
+        const char *json = "{\"objects\": [{\"type\": \"gltf\", "
+                           "\"file\": \"badimage.gltf\"}]}";
+        lr_scene *s = NULL;
+        lr_error err;
+        assert_int_not_equal(lr_scene_load_json(json, strlen(json),
+                                                lr_test_tmpdir(), NULL, 0, &s,
+                                                &err),
+                             LR_OK);
+        assert_null(s);
+        if (!strstr(err.message, "badimage.gltf: images[0]") ||
+            !strstr(err.message, "baseColorTexture"))
+            fail_msg("bad image: \"%s\"", err.message);
+    }
+
+    /* A GLB cut short anywhere is an error, never a crash. */
+    make("tri", "tri.glb");
+    char path[512];
+    snprintf(path, sizeof path, "%s/tri.glb", lr_test_tmpdir());
+    FILE *f = fopen(path, "rb");
+    assert_non_null(f);
+    unsigned char glb[4096];
+    size_t n = fread(glb, 1, sizeof glb, f);
+    fclose(f);
+    for (size_t cut = 0; cut < n; cut += 7) {
+        lr_test_write_file("cut.glb", glb, cut, path, sizeof path);
+        const char *json =
+            "{\"objects\": [{\"type\": \"gltf\", \"file\": \"cut.glb\"}]}";
+        lr_scene *s = NULL;
+        lr_error err;
+        lr_status st = lr_scene_load_json(json, strlen(json),
+                                          lr_test_tmpdir(), NULL, 0, &s,
+                                          &err);
+        assert_null(s);
+        assert_int_equal(st, LR_ERR_INVALID);
+        assert_non_null(strstr(err.message, "cut.glb"));
+    }
+    lr_test_expect_invalid(
+        "{\"objects\": [{\"type\": \"gltf\", \"file\": \"tri.glb\", "
+        "\"material\": \"x\"}]}",
+        strlen("{\"objects\": [{\"type\": \"gltf\", \"file\": "
+               "\"tri.glb\", \"material\": \"x\"}]}"),
+        "objects[0]", "material");
+}
+
+static const struct CMUnitTest tests[] = {
+    cmocka_unit_test(test_transform_matches_obj),
+    cmocka_unit_test(test_normals_inverse_transpose),
+    cmocka_unit_test(test_camera_projection),
+    cmocka_unit_test(test_point_light_irradiance),
+    cmocka_unit_test(test_materials),
+    cmocka_unit_test(test_material_mapping),
+    cmocka_unit_test(test_textures),
+    cmocka_unit_test(test_hostile),
+};
+LR_TEST_GROUP(gltf, tests)
