@@ -60,6 +60,14 @@ pid_of() {
     sed -n "s/^$1 //p" "$FARM/pids"
 }
 
+# alive PID: the process runs.  kill -0 alone is not enough: a daemon
+# SIGKILLed by an earlier test stays a zombie until PID 1 reaps it, and
+# not every PID 1 (a container's, say) reaps promptly.
+alive() {
+    kill -0 "$1" 2>/dev/null || return 1
+    [ "$(sed 's/^.*) //' "/proc/$1/stat" 2>/dev/null | cut -c1)" != Z ]
+}
+
 # wait_for FILE PATTERN: until FILE has a line matching PATTERN (grep -E),
 # or the process CLIENT_PID has ended.  Fails if the pattern never came.
 wait_for() {
@@ -284,7 +292,7 @@ put_asset() {
     local k served=0 body
     body="{\"scene\": {\"camera\": {\"position\": [0, 4, 30], \"look_at\": [0, 4, 0]}, \"lights\": [{\"type\": \"ambient\", \"radiance\": 1}], \"objects\": [{\"type\": \"mesh\", \"file\": \"sha256:$hash\"}]}, \"render\": {\"width\": 8, \"height\": 8, \"spp\": 1}}"
     for k in 1 2 3; do
-        if kill -0 "$(pid_of daemon-$k)" 2>/dev/null; then
+        if alive "$(pid_of daemon-$k)"; then
             run -0 curl -s -o /dev/null -w '%{http_code}' -X POST \
                 -H 'Content-Type: application/json' --data-binary "$body" \
                 "http://127.0.0.1:$(cat "$FARM/daemon-$k.port")/v1/render"
@@ -397,7 +405,7 @@ EOF_SCENE
     local sh served=0
     sh=$(sha256sum "$dir/hashed.json" | cut -c1-64)
     for k in 1 2 3; do
-        kill -0 "$(pid_of daemon-$k)" 2>/dev/null || continue
+        alive "$(pid_of daemon-$k)" || continue
         port=$(cat "$FARM/daemon-$k.port")
         for job in "{\"scene\": $(cat "$dir/hashed.json"), \"output\": {\"format\": \"exr\"}}" \
                    "{\"scene\": \"sha256:$sh\", \"output\": {\"format\": \"exr\"}}"; do
