@@ -82,15 +82,7 @@ static void packet_samples(const lr__shot *sh, int use_lens, int x, int y,
         int n_packets = 0;
         for (int s0 = b0; s0 < last && n_packets < PACKETS_AHEAD; s0 += 16) {
             int n = last - s0 < 16 ? last - s0 : 16;
-            float u[4][16];
-            lr__pixel_sampler_get16(&ps, (uint32_t)s0, n, u);
-            for (int i = 0; i < n; i++) {
-                /* In double, as the scalar path does, then rounded once. */
-                fx[i] = (float)(x + (double)u[0][i]);
-                fy[i] = (float)(y + (double)u[1][i]);
-                lu[i] = u[2][i];
-                lv[i] = u[3][i];
-            }
+            lr__packet_coords(&ps, x, y, (uint32_t)s0, n, fx, fy, lu, lv);
             sh->cam->model->rays16(sh->cam, use_lens, n, fx, fy, lu, lv,
                                    &rh[n_packets], wt[n_packets]);
             n_packets++;

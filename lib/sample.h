@@ -54,4 +54,22 @@ float lr__sample_depth(const lr__shot *sh, int x, int y,
  * never are): for the full simulation's count in the statistics. */
 uint64_t lr__colour_rays(const lr__cam *c);
 
+/* The film (fx, fy) and lens (lu, lv) coordinates of samples s0 ..
+ * s0 + n - 1 of pixel (x, y), one lane each: the film position summed in
+ * double, as the scalar path does, then rounded once.  The packet paths
+ * of sample.c and spectral.c both fill their lanes with it. */
+static inline void lr__packet_coords(const lr__pixel_sampler *ps, int x,
+                                     int y, uint32_t s0, int n, float fx[16],
+                                     float fy[16], float lu[16], float lv[16])
+{
+    float u[4][16];
+    lr__pixel_sampler_get16(ps, s0, n, u);
+    for (int i = 0; i < n; i++) {
+        fx[i] = (float)(x + (double)u[0][i]);
+        fy[i] = (float)(y + (double)u[1][i]);
+        lu[i] = u[2][i];
+        lv[i] = u[3][i];
+    }
+}
+
 #endif

@@ -117,17 +117,10 @@ void lr__spectral_packets(const lr__shot *sh, int x, int y, int first,
     int m = c->chroma.wavelengths;
     for (int s0 = first; s0 < last; s0 += 16) {
         int n = last - s0 < 16 ? last - s0 : 16;
-        float u[4][16];
         double u4[16];
-        lr__pixel_sampler_get16(&ps, (uint32_t)s0, n, u);
-        for (int i = 0; i < n; i++) {
-            /* In double, as the scalar path does, then rounded once. */
-            fx[i] = (float)(x + (double)u[0][i]);
-            fy[i] = (float)(y + (double)u[1][i]);
-            lu[i] = u[2][i];
-            lv[i] = u[3][i];
+        lr__packet_coords(&ps, x, y, (uint32_t)s0, n, fx, fy, lu, lv);
+        for (int i = 0; i < n; i++)
             u4[i] = lr__pixel_sampler_dim4(&ps, (uint32_t)(s0 + i));
-        }
         const lr__sample_id id = {sh->sampler, pixel, (uint32_t)s0};
         lr__v3 Lr[16], sum[16], L[16];
         c->model->rays16(c, 1, n, fx, fy, lu, lv, &rh, lw);
