@@ -540,10 +540,32 @@ LR_API int lr_format_has_depth(lr_format fmt);
 LR_API lr_status lr_format_from_name(const char *name, const char *field,
                                      lr_format *fmt, lr_error *err);
 
+/* OpenEXR's lossless compressions (OpenEXR "Technical Introduction",
+ * "Data Compression").  ZIP, the default, makes the smallest files of
+ * rendered images; NONE costs a sixth of ZIP's time for about 3.5x the
+ * bytes (a farm's parts on a local network: bench/README.md). */
+typedef enum lr_exr_compression {
+    LR_EXR_ZIP = 0, /* "zip": zlib over 16 scanlines */
+    LR_EXR_NONE,    /* "none" */
+    LR_EXR_ZIPS,    /* "zips": zlib per scanline */
+    LR_EXR_RLE,     /* "rle": run lengths */
+    LR_EXR_PIZ      /* "piz": wavelet and Huffman, for grainy images */
+} lr_exr_compression;
+
+/* The name of an EXR compression ("zip"), and the compression of a name;
+ * an unknown name is LR_ERR_INVALID naming `field` (default
+ * "compression") and listing the names. */
+LR_API const char *lr_exr_compression_name(lr_exr_compression c);
+LR_API lr_status lr_exr_compression_from_name(const char *name,
+                                              const char *field,
+                                              lr_exr_compression *c,
+                                              lr_error *err);
+
 typedef struct lr_output_options {
     int exr_half;      /* EXR: RGB as half instead of float32; default 0 */
     int exr_depth;     /* EXR: also write Z (if the image has it); default 1 */
     int png_16bit;     /* PNG: 16 bits per channel; default 0 (8) */
+    lr_exr_compression exr_compression; /* EXR; default LR_EXR_ZIP */
 } lr_output_options;
 
 LR_API void lr_output_options_default(lr_output_options *o);
@@ -551,7 +573,8 @@ LR_API void lr_output_options_default(lr_output_options *o);
 /* What to encode: a format, its options, and whether the image carries a
  * Z channel.  This is the "output" object of a job (docs/api.md):
  *     {"format": "png" | "exr", "bit_depth": 8 | 16, "half": bool,
- *      "depth": bool}
+ *      "depth": bool, "compression": "zip" | "none" | "zips" | "rle" |
+ *      "piz"}
  * Options that do not apply to the format are errors, not ignored. */
 typedef struct lr_output {
     lr_format format;          /* default LR_FORMAT_PNG */

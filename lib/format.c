@@ -89,6 +89,33 @@ lr_status lr_format_from_name(const char *name, const char *field,
     return lr__fail(err, LR_ERR_INVALID, f, "%s must be %s", f, names);
 }
 
+/* In lr_exr_compression's order. */
+static const char *const exr_compressions[] = {"zip", "none", "zips", "rle",
+                                               "piz"};
+enum { N_EXR_COMPRESSIONS = sizeof exr_compressions / sizeof *exr_compressions };
+
+const char *lr_exr_compression_name(lr_exr_compression c)
+{
+    return (unsigned)c < N_EXR_COMPRESSIONS ? exr_compressions[c] : NULL;
+}
+
+lr_status lr_exr_compression_from_name(const char *name, const char *field,
+                                       lr_exr_compression *c, lr_error *err)
+{
+    const char *f = field ? field : "compression";
+    if (c == NULL)
+        return lr__fail(err, LR_ERR_INVALID, NULL,
+                        "lr_exr_compression_from_name: the pointer is NULL");
+    for (size_t i = 0; name != NULL && i < N_EXR_COMPRESSIONS; i++)
+        if (strcmp(name, exr_compressions[i]) == 0) {
+            *c = (lr_exr_compression)i;
+            return LR_OK;
+        }
+    return lr__fail(err, LR_ERR_INVALID, f,
+                    "%s must be \"zip\", \"none\", \"zips\", \"rle\" or "
+                    "\"piz\"", f);
+}
+
 lr_status lr_format_from_path(const char *path, lr_format *fmt,
                               lr_error *err)
 {

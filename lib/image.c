@@ -142,6 +142,7 @@ void lr_output_options_default(lr_output_options *o)
         return;
     o->exr_half = 0;
     o->exr_depth = 1;
+    o->exr_compression = LR_EXR_ZIP;
     o->png_16bit = 0;
 }
 

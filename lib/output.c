@@ -1,6 +1,7 @@
 /*
  * output.c: what to encode, from a job's "output" object: the format by
- * name (format.c's table), bit depth, half floats and the Z channel.
+ * name (format.c's table), bit depth, half floats, the Z channel and the
+ * EXR compression.
  * Options that do not apply to the chosen format are refused rather than
  * ignored, so a client never gets an image other than the one it asked
  * for.
@@ -24,7 +25,7 @@ lr_status lr__output_apply_cjson(lr_output *o, const cJSON *obj,
                                  lr_error *err)
 {
     static const char *const keys[] = {"format", "bit_depth", "half",
-                                       "depth", NULL};
+                                       "depth", "compression", NULL};
     const char *path = "output";
     if (obj == NULL)
         return LR_OK;
@@ -59,6 +60,16 @@ lr_status lr__output_apply_cjson(lr_output *o, const cJSON *obj,
                             "output.half applies to exr only, not %s", name);
         LR_TRY(lr__json_bool(obj, "half", path, 0, &t.options.exr_half,
                              err));
+    }
+    const cJSON *comp = cJSON_GetObjectItemCaseSensitive(obj, "compression");
+    if (comp != NULL) {
+        if (!exr)
+            return lr__fail(err, LR_ERR_INVALID, "output.compression",
+                            "output.compression applies to exr only, not %s",
+                            name);
+        LR_TRY(lr_exr_compression_from_name(
+            cJSON_IsString(comp) ? comp->valuestring : NULL,
+            "output.compression", &t.options.exr_compression, err));
     }
     if (cJSON_GetObjectItemCaseSensitive(obj, "depth") != NULL) {
         if (!lr_format_has_depth(t.format))

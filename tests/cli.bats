@@ -299,6 +299,20 @@ EOF
     [ "$(hex_bytes "$T/png16.png" 24 1)" = 10 ]
 }
 
+@test "--compression picks the EXR compression, and a wrong name or a PNG is a usage error" {
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/zip.exr" -q
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/none.exr" -q --compression none
+    # Uncompressed float RGB is at least 12 bytes a pixel.
+    [ "$(wc -c < "$T/none.exr")" -gt "$(wc -c < "$T/zip.exr")" ]
+    [ "$(wc -c < "$T/none.exr")" -gt $((16 * 12 * 12)) ]
+    run -2 "$LENSRAY" render "$T/scene.json" -o "$T/x.exr" --compression lzw
+    [[ "$output" == *'--compression: output.compression must be "zip", "none", "zips", "rle" or "piz"'* ]]
+    [ ! -e "$T/x.exr" ]
+    run -2 "$LENSRAY" render "$T/scene.json" -o "$T/x.png" --compression zip
+    [[ "$output" == *"--compression: output.compression applies to exr only, not png"* ]]
+    [ ! -e "$T/x.png" ]
+}
+
 @test "--half with a PNG and --png16 with an EXR are usage errors, not ignored" {
     run -2 "$LENSRAY" render "$T/scene.json" -o "$T/x.png" --half
     [[ "$output" == *"--half: output.half applies to exr only, not png"* ]]

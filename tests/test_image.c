@@ -355,11 +355,12 @@ static void test_create_and_access(void **state)
     lr_image_free(NULL);
     lr_free(NULL);
 
-    lr_output_options o = {7, 7, 7};
+    lr_output_options o = {7, 7, 7, LR_EXR_PIZ};
     lr_output_options_default(&o);
     assert_int_equal(o.exr_half, 0);
     assert_int_equal(o.exr_depth, 1);
     assert_int_equal(o.png_16bit, 0);
+    assert_int_equal(o.exr_compression, LR_EXR_ZIP);
 }
 
 static void test_format_from_path(void **state)
@@ -500,6 +501,22 @@ static void test_png_nonfinite(void **state)
 
 /* ---- EXR --------------------------------------------------------------- */
 
+/* The decoded R, G, B and Z planes are the image's floats, bit for bit. */
+static void assert_exr_is_image(const decoded_exr *d, const lr_image *img)
+{
+    const int w = lr_image_width(img), h = lr_image_height(img);
+    const float *rgb = lr_image_rgb(img);
+    const float *z = lr_image_depth(img);
+    const float *R = exr_plane(d, "R"), *G = exr_plane(d, "G"),
+                *B = exr_plane(d, "B"), *Z = exr_plane(d, "Z");
+    for (size_t i = 0; i < (size_t)w * h; i++) {
+        assert_memory_equal(&R[i], &rgb[3 * i + 0], sizeof(float));
+        assert_memory_equal(&G[i], &rgb[3 * i + 1], sizeof(float));
+        assert_memory_equal(&B[i], &rgb[3 * i + 2], sizeof(float));
+        assert_memory_equal(&Z[i], &z[i], sizeof(float));
+    }
+}
+
 static void test_exr_float(void **state)
 {
     (void)state;
@@ -528,18 +545,101 @@ static void test_exr_float(void **state)
     assert_float_equal(d.chroma.red_x, 0.64, 1e-6);
     assert_float_equal(d.chroma.white_y, 0.329, 1e-6);
 
-    const float *rgb = lr_image_rgb(img);
-    const float *z = lr_image_depth(img);
-    const float *R = exr_plane(&d, "R"), *G = exr_plane(&d, "G"),
-                *B = exr_plane(&d, "B"), *Z = exr_plane(&d, "Z");
-    for (size_t i = 0; i < (size_t)w * h; i++) {
-        assert_memory_equal(&R[i], &rgb[3 * i + 0], sizeof(float));
-        assert_memory_equal(&G[i], &rgb[3 * i + 1], sizeof(float));
-        assert_memory_equal(&B[i], &rgb[3 * i + 2], sizeof(float));
-        assert_memory_equal(&Z[i], &z[i], sizeof(float));
-    }
+    assert_exr_is_image(&d, img);
     free_exr(&d);
     lr_free(buf);
+    lr_image_free(img);
+}
+
+/* Every lossless compression the output offers (output.compression)
+ * writes that compression in the header and decodes to the same floats:
+ * a 37 x 41 image with depth, 3 ZIP chunks and one partial. */
+static void test_exr_compressions(void **state)
+{
+    (void)state;
+    const int w = 37, h = 41;
+    lr_image *img = make_image(w, h, 1);
+    static const struct {
+        lr_exr_compression ours;
+        exr_compression_t file;
+    } kinds[] = {{LR_EXR_ZIP, EXR_COMPRESSION_ZIP},
+                 {LR_EXR_NONE, EXR_COMPRESSION_NONE},
+                 {LR_EXR_ZIPS, EXR_COMPRESSION_ZIPS},
+                 {LR_EXR_RLE, EXR_COMPRESSION_RLE},
+                 {LR_EXR_PIZ, EXR_COMPRESSION_PIZ}};
+    for (size_t k = 0; k < sizeof kinds / sizeof kinds[0]; k++) {
+        lr_output_options opts;
+        lr_output_options_default(&opts);
+        opts.exr_compression = kinds[k].ours;
+        void *buf = NULL;
+        size_t len = 0;
+        encode_or_fail(img, LR_FORMAT_EXR, &opts, &buf, &len);
+        decoded_exr d;
+        decode_exr(buf, len, &d);
+        assert_int_equal(d.compression, kinds[k].file);
+        assert_exr_is_image(&d, img);
+        if (kinds[k].ours == LR_EXR_NONE)
+            assert_true(len > (size_t)w * h * 16);
+        free_exr(&d);
+        lr_free(buf);
+    }
+    lr_image_free(img);
+}
+
+/* The chunks are compressed on several threads and written in order
+ * (image_exr.c): every thread count writes the same bytes, and they
+ * decode to the image.  A crop placed at row 7 of its frame (chunks named
+ * by their rows in the frame), 533 rows (34 chunks, the last partial),
+ * with depth, in float and in half. */
+static void test_exr_threads_same_bytes(void **state)
+{
+    (void)state;
+    const int w = 61, h = 533;
+    lr_image *img = make_image(w, h, 1);
+    lr_camera cam;
+    lr_camera_default(&cam);
+    lr_render_settings rs;
+    lr_render_settings_default(&rs);
+    lr_error err;
+    assert_int_equal(lr_image_set_frame(img, 80, 600, 5, 7, &cam, &rs, &err),
+                     LR_OK);
+    for (int half = 0; half <= 1; half++) {
+        lr_output_options opts;
+        lr_output_options_default(&opts);
+        opts.exr_half = half;
+        void *one = NULL;
+        size_t one_len = 0;
+        lr__exr_threads = 1;
+        encode_or_fail(img, LR_FORMAT_EXR, &opts, &one, &one_len);
+        static const int counts[] = {2, 3, 8, 40};
+        for (size_t k = 0; k < sizeof counts / sizeof counts[0]; k++) {
+            lr__exr_threads = counts[k];
+            void *buf = NULL;
+            size_t len = 0;
+            encode_or_fail(img, LR_FORMAT_EXR, &opts, &buf, &len);
+            assert_int_equal(len, one_len);
+            assert_memory_equal(buf, one, len);
+            lr_free(buf);
+        }
+        lr__exr_threads = 0;
+        decoded_exr d;
+        decode_exr(one, one_len, &d);
+        assert_int_equal(d.data_window.min.y, 7);
+        assert_int_equal(d.data_window.max.y, 7 + h - 1);
+        const float *rgb = lr_image_rgb(img);
+        const float *z = lr_image_depth(img);
+        const float *R = exr_plane(&d, "R"), *Z = exr_plane(&d, "Z");
+        for (size_t i = 0; i < (size_t)w * h; i++) {
+            if (!half)
+                assert_memory_equal(&R[i], &rgb[3 * i], sizeof(float));
+            else
+                assert_true(fabsf(R[i] - rgb[3 * i]) <=
+                            fabsf(rgb[3 * i]) * 1e-3f + 1e-7f);
+            assert_memory_equal(&Z[i], &z[i], sizeof(float));
+        }
+        free_exr(&d);
+        lr_free(one);
+    }
     lr_image_free(img);
 }
 
@@ -947,6 +1047,8 @@ static const struct CMUnitTest image_tests[] = {
     cmocka_unit_test(test_png_nonfinite),
     cmocka_unit_test(test_exr_float),
     cmocka_unit_test(test_exr_crop_window),
+    cmocka_unit_test(test_exr_threads_same_bytes),
+    cmocka_unit_test(test_exr_compressions),
     cmocka_unit_test(test_exr_half),
     cmocka_unit_test(test_exr_depth_option),
     cmocka_unit_test(test_exr_nonfinite),

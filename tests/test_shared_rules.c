@@ -80,6 +80,18 @@ static void test_output_json(void **state)
     assert_int_equal(o.options.exr_depth, 1);
     assert_int_equal(output("{\"bit_depth\": 16}", &o, &err), LR_OK);
     assert_int_equal(o.options.png_16bit, 1);
+    assert_int_equal(o.options.exr_compression, LR_EXR_ZIP);
+    static const char *const comps[] = {"zip", "none", "zips", "rle", "piz"};
+    for (int c = 0; c < 5; c++) {
+        char json[96];
+        snprintf(json, sizeof json,
+                 "{\"format\": \"exr\", \"compression\": \"%s\"}",
+                 comps[c]);
+        assert_int_equal(output(json, &o, &err), LR_OK);
+        assert_int_equal(o.options.exr_compression, c);
+        assert_string_equal(lr_exr_compression_name(o.options.exr_compression),
+                            comps[c]);
+    }
 
     /* Options that do not apply are refused, naming the field. */
     static const struct {
@@ -94,6 +106,10 @@ static void test_output_json(void **state)
         {"{\"bit_depth\": 12}", "output.bit_depth"},
         {"{\"format\": \"exr\", \"half\": 1}", "output.half"},
         {"{\"quality\": 9}", "output.quality"},
+        {"{\"compression\": \"zip\"}", "output.compression"},
+        {"{\"format\": \"exr\", \"compression\": \"lzw\"}",
+         "output.compression"},
+        {"{\"format\": \"exr\", \"compression\": 2}", "output.compression"},
         {"[]", "output"},
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {

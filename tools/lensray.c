@@ -3,7 +3,8 @@
  *
  *   lensray render SCENE.json|SCENE.glb|SCENE.gltf... -o OUT.exr|OUT.png|OUT-%04d.exr
  *                  [--set PATH=VALUE]...
- *                  [--stats] [--half] [--png16] [--depth] [--quiet]
+ *                  [--stats] [--half] [--compression NAME] [--png16]
+ *                  [--depth] [--quiet]
  *                  [--remote URL [--parts N] [--parallel K] [--retries R]
  *                   [--token-file F]]
  *   lensray version
@@ -15,6 +16,8 @@
 #include "assets.h"
 #include "outname.h"
 #include "remote.h"
+
+#include <cjson/cJSON.h>
 
 #include <errno.h>
 #include <signal.h>
@@ -46,6 +49,7 @@ static const char usage_text[] =
     "  --stats             print a JSON line with time, rays, samples/s,\n"
     "                      the plan and the peak memory (peak_rss_kib)\n"
     "  --half              EXR: write RGB as half floats\n"
+    "  --compression NAME  EXR: zip (default), none, zips, rle or piz\n"
     "  --png16             PNG: 16 bits per channel\n"
     "  --depth             also render the Z channel (written to EXR)\n"
     "  -q, --quiet         no progress bar\n"
@@ -213,6 +217,7 @@ typedef struct render_job {
     size_t n_sets;
     int stats, quiet, want_depth;
     lr_output_options oo;
+    const char *compression; /* --compression NAME, or NULL */
     lr_format fmt;
     remote_options ro;
 } render_job;
@@ -458,6 +463,12 @@ static int cmd_render(int argc, char **argv)
             r.stats = 1;
         } else if (strcmp(a, "--half") == 0) {
             r.oo.exr_half = 1;
+        } else if (strcmp(a, "--compression") == 0) {
+            if (i + 1 >= argc) {
+                rc = usage_error("%s needs a name", a);
+                goto done;
+            }
+            r.compression = argv[++i];
         } else if (strcmp(a, "--png16") == 0) {
             r.oo.png_16bit = 1;
         } else if (strcmp(a, "--depth") == 0) {
@@ -550,18 +561,38 @@ static int cmd_render(int argc, char **argv)
     }
     /* The format's options by the library's rules (lr_output), so that
      * --half with a .png, say, is refused rather than ignored. */
-    if (r.oo.exr_half || r.oo.png_16bit) {
-        char spec[128];
+    if (r.oo.exr_half || r.oo.png_16bit || r.compression != NULL) {
         lr_output out;
         lr_output_default(&out);
-        snprintf(spec, sizeof spec, "{\"format\": \"%s\"%s%s}",
-                 lr_format_name(r.fmt), r.oo.exr_half ? ", \"half\": true" : "",
-                 r.oo.png_16bit ? ", \"bit_depth\": 16" : "");
-        if (lr_output_apply_json(&out, spec, strlen(spec), &err) != LR_OK) {
+        cJSON *spec = cJSON_CreateObject();
+        char *text = NULL;
+        if (spec != NULL) {
+            cJSON_AddStringToObject(spec, "format", lr_format_name(r.fmt));
+            if (r.oo.exr_half)
+                cJSON_AddTrueToObject(spec, "half");
+            if (r.oo.png_16bit)
+                cJSON_AddNumberToObject(spec, "bit_depth", 16);
+            if (r.compression != NULL)
+                cJSON_AddStringToObject(spec, "compression", r.compression);
+            text = cJSON_PrintUnformatted(spec);
+            cJSON_Delete(spec);
+        }
+        if (text == NULL) {
+            fprintf(stderr, "lensray: out of memory\n");
+            rc = 1;
+            goto done;
+        }
+        lr_status ost = lr_output_apply_json(&out, text, strlen(text), &err);
+        cJSON_free(text);
+        if (ost == LR_OK)
+            r.oo.exr_compression = out.options.exr_compression;
+        if (ost != LR_OK) {
             char msg[sizeof err.message + 32];
             snprintf(msg, sizeof msg, "%s: %s",
                      strcmp(err.path, "output.half") == 0 ? "--half"
-                                                          : "--png16",
+                     : strcmp(err.path, "output.compression") == 0
+                         ? "--compression"
+                         : "--png16",
                      err.message);
             rc = usage_error("%s", msg);
             goto done;

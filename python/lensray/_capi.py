@@ -141,6 +141,7 @@ class lr_output_options(Structure):
         ("exr_half", c_int),
         ("exr_depth", c_int),
         ("png_16bit", c_int),
+        ("exr_compression", c_int),
     ]
 
 
