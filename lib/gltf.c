@@ -15,9 +15,10 @@
  * The dielectric's 4 % specular layer (F0 = 0.04) is left out: lensray's
  * diffuse lobe has no Fresnel coat to put it on.
  * Textures (texture.h) multiply the factors, as in glTF: baseColorTexture
- * the diffuse albedo (sRGB), emissiveTexture the emission (sRGB), and the
- * G channel of metallicRoughnessTexture the perceptual roughness (linear;
- * lensray squares it).
+ * the base colour b (sRGB), emissiveTexture the emission (sRGB), and the
+ * metallicRoughnessTexture's G the perceptual roughness and its B the
+ * metallic m (linear; lensray squares the roughness).  The split above
+ * is then made at each point (scene.h, pbr_split).
  */
 #include "gltf_doc.h"
 #include "json_util.h"
@@ -269,10 +270,7 @@ static lr_status add_material(lr_scene *s, lr__gltf_doc *d,
     LR_TRY(slot_texture(s, d, cJSON_GetObjectItemCaseSensitive(
                                   pbr, "baseColorTexture"),
                         q, 1, &t, err));
-    s->materials[s->n_materials - 1].diffuse_tex = t;
-    if (t != NULL && metal > 0)
-        lr__gltf_warn(s, d, "%s tints only the diffuse part: the metallic "
-                      "part reflects baseColorFactor's colour", q);
+    lr__texture *base_tex = t;
     snprintf(q, sizeof q, "%s.emissiveTexture", p);
     LR_TRY(slot_texture(s, d, cJSON_GetObjectItemCaseSensitive(
                                   m, "emissiveTexture"),
@@ -283,11 +281,22 @@ static lr_status add_material(lr_scene *s, lr__gltf_doc *d,
     LR_TRY(slot_texture(s, d, cJSON_GetObjectItemCaseSensitive(
                                   pbr, "metallicRoughnessTexture"),
                         q, 0, &t, err));
-    s->materials[s->n_materials - 1].roughness_tex = t;
-    s->materials[s->n_materials - 1].roughness_channel = 1;
-    if (t != NULL)
-        lr__gltf_warn(s, d, "%s: its metallic channel (B) is ignored; "
-                      "roughness (G) is read", q);
+    mt = &s->materials[s->n_materials - 1];
+    mt->roughness_tex = t;
+    mt->roughness_channel = 1;
+    /* Where metal can vary or be tinted by a texture, the lobes are split
+     * point by point (lr__material_textures); without metal, the base
+     * colour texture is the diffuse albedo's, as before. */
+    if (metal > 0 && (base_tex != NULL || t != NULL)) {
+        mt->pbr_split = 1;
+        mt->base = b;
+        mt->metal = metal;
+        mt->trans = trans;
+        mt->base_tex = base_tex;
+        mt->metal_tex = t;
+    } else {
+        mt->diffuse_tex = base_tex;
+    }
     return LR_OK;
 }
 

@@ -1,6 +1,7 @@
 /*
  * material.c: a material's values at a point: its factors times its
- * textures (scene.h), and where a point of a sphere is in a texture.
+ * textures (scene.h), a glTF material's base colour split by its
+ * metallic texture, and where a point of a sphere is in a texture.
  */
 #include "scene.h"
 
@@ -24,6 +25,18 @@ const lr__material *lr__material_textures(const lr__material *m,
                                           lr__material *tmp)
 {
     *tmp = *m;
+    if (m->pbr_split) {
+        lr__v3 b = m->base_tex ? times_rgb(m->base, m->base_tex, uv) : m->base;
+        double metal = m->metal;
+        if (m->metal_tex != NULL) {
+            float c[4];
+            lr__texture_lookup(m->metal_tex, uv[0], uv[1], c);
+            metal *= fmin(1.0, fmax(0.0, c[2]));
+        }
+        tmp->reflect = v3_scale(b, metal);
+        tmp->diffuse = v3_scale(b, (1 - metal) * (1 - m->trans));
+        tmp->transmit = v3_scale(b, (1 - metal) * m->trans);
+    }
     if (m->diffuse_tex != NULL)
         tmp->diffuse = times_rgb(m->diffuse, m->diffuse_tex, uv);
     if (m->emission_tex != NULL)

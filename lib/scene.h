@@ -32,6 +32,17 @@ typedef struct lr__material {
      * none.  Not owned: the scene owns them (lr_scene.textures). */
     lr__texture *diffuse_tex, *emission_tex, *roughness_tex;
     int roughness_channel;
+    /* A glTF metallic-roughness material whose textures vary its metal
+     * (gltf.c): when pbr_split, lr__material_textures splits the base
+     * colour b = base x base_tex's RGB by the metallic m = metal x
+     * metal_tex's B (glTF packs metalness in B) point by point:
+     * reflect = m b, diffuse = (1 - m)(1 - trans) b, transmit =
+     * (1 - m) trans b (the glTF 2.0 specification, appendix B).  The
+     * factors above hold the untextured split.  Textures not owned. */
+    int pbr_split;
+    lr__v3 base;
+    double metal, trans;
+    lr__texture *base_tex, *metal_tex;
     /* The texture files as the scene JSON wrote them, for the writer
      * (json_write.c); NULL when none.  Owned. */
     char *diffuse_file, *emission_file, *roughness_file;

@@ -307,6 +307,27 @@ def scene_textured():
     return g
 
 
+def scene_metal_texture():
+    """One 2 x 2 quad, metallicFactor 0.5 and roughnessFactor 1, with a
+    2 x 2 base-colour texture (pixel (x, y) from the top left: red,
+    white / white, green) and a metallic-roughness texture whose B
+    (metallic) is 255, 0 / 102, 255 and G (roughness) 255 everywhere."""
+    g = Gltf()
+    cols = {(0, 0): (255, 0, 0), (1, 0): (255, 255, 255),
+            (0, 1): (255, 255, 255), (1, 1): (0, 255, 0)}
+    metal = {(0, 0): 255, (1, 0): 0, (0, 1): 102, (1, 1): 255}
+    base = g.image_png(png_rgb(2, 2, lambda x, y: cols[(x, y)]))
+    mr = g.image_png(png_rgb(2, 2, lambda x, y: (0, 255, metal[(x, y)])))
+    pos, idx, nrm, uv = quad(2)
+    m = g.mesh(pos, idx, nrm, uv, g.material({
+        "name": "metal", "pbrMetallicRoughness": {
+            "baseColorTexture": {"index": base},
+            "metallicRoughnessTexture": {"index": mr},
+            "metallicFactor": 0.5}}))
+    g.node(mesh=m)
+    return g
+
+
 def checker_png(n=64, cells=8, a=(230, 220, 200), b=(40, 60, 90)):
     return png_rgb(n, n, lambda x, y: a if (x * cells // n + y * cells // n)
                    % 2 == 0 else b)
@@ -378,6 +399,7 @@ def scene_normals():
 
 SCENES = {"tri": scene_tri, "normals": scene_normals,
           "mapping": scene_mapping, "textured": scene_textured,
+          "metal-texture": scene_metal_texture,
           "camera-light": scene_camera_light,
           "materials": scene_materials, "gallery": scene_gallery}
 

@@ -320,6 +320,43 @@ static void test_textures(void **state)
     lr_scene_free(s);
 }
 
+/* The metallic texture's B scales metallicFactor and splits the textured
+ * base colour b point by point (glTF 2.0, appendix B): reflect = m b,
+ * diffuse = (1 - m) b.  Checked at the four texel centres (texel (x, y)
+ * from the image's top left is at u = (x + 0.5) / 2, v = 1 - (y + 0.5) /
+ * 2 in lensray's lookup), with metallicFactor 0.5: m = 0.5 B / 255. */
+static void test_metal_texture(void **state)
+{
+    (void)state;
+    make("metal-texture", "metal.glb");
+    lr_scene *s = lr_test_load_json(
+        "{\"objects\": [{\"type\": \"gltf\", \"file\": \"metal.glb\"}]}");
+    const lr__material *m = &s->materials[s->geoms[0].material];
+    static const double base[2][2][3] = {{{1, 0, 0}, {1, 1, 1}},
+                                         {{1, 1, 1}, {0, 1, 0}}};
+    static const double metal[2][2] = {{1, 0}, {0.4, 1}}; /* B / 255 */
+    for (int y = 0; y < 2; y++)
+        for (int x = 0; x < 2; x++) {
+            double uv[2] = {(x + 0.5) / 2, 1 - (y + 0.5) / 2};
+            lr__material tmp;
+            const lr__material *at = lr__material_textures(m, uv, &tmp);
+            double mm = 0.5 * metal[y][x];
+            const double *b = base[y][x];
+            double got[2][3] = {{at->reflect.x, at->reflect.y, at->reflect.z},
+                                {at->diffuse.x, at->diffuse.y, at->diffuse.z}};
+            for (int c = 0; c < 3; c++) {
+                if (!(fabs(got[0][c] - mm * b[c]) < 1e-6 &&
+                      fabs(got[1][c] - (1 - mm) * b[c]) < 1e-6))
+                    fail_msg("texel (%d, %d) channel %d: reflect %g diffuse "
+                             "%g, want %g and %g", x, y, c, got[0][c],
+                             got[1][c], mm * b[c], (1 - mm) * b[c]);
+            }
+            assert_true(at->transmit.x == 0 && at->transmit.y == 0);
+            assert_true(fabs(at->roughness - 1) < 1e-6);
+        }
+    lr_scene_free(s);
+}
+
 /* ---- hostile files ---------------------------------------------------------- */
 
 /* Writes tri.gltf with member `key` ("array.index.member") set to the
@@ -483,6 +520,7 @@ static const struct CMUnitTest tests[] = {
     cmocka_unit_test(test_materials),
     cmocka_unit_test(test_material_mapping),
     cmocka_unit_test(test_textures),
+    cmocka_unit_test(test_metal_texture),
     cmocka_unit_test(test_hostile),
 };
 LR_TEST_GROUP(gltf, tests)
