@@ -167,10 +167,25 @@ lr_status lr__gltf_lights(lr_scene *s, const lr__gltf_doc *d,
         if (cJSON_GetObjectItemCaseSensitive(l, "range") != NULL)
             lr__gltf_warn(s, d, "%s.range is ignored (lights fall off as "
                           "1/d^2 without a cut-off)", p);
-        if (t[0] == 's')
-            lr__gltf_warn(s, d, "%s is a spot light: rendered as a point "
-                          "light of the same intensity in every direction "
-                          "(its cone is ignored)", p);
+        /* The spec's cone defaults: inner 0, outer pi/4, and 0 <= inner
+         * < outer <= pi/2. */
+        double inner = 0, outer = M_PI / 4;
+        if (t[0] == 's') {
+            const cJSON *sp = cJSON_GetObjectItemCaseSensitive(l, "spot");
+            char q[112];
+            snprintf(q, sizeof q, "%s.spot", p);
+            if (sp != NULL && !cJSON_IsObject(sp))
+                return lr__gltf_fail(d, err, "%s must be an object", q);
+            LR_TRY(get_num(d, sp, q, "innerConeAngle", 0, M_PI / 2, &inner,
+                           err));
+            LR_TRY(get_num(d, sp, q, "outerConeAngle", 0, M_PI / 2, &outer,
+                           err));
+            if (!(outer > 0 && inner < outer))
+                return lr__gltf_fail(d, err, "%s: innerConeAngle (%g) must "
+                                     "be less than outerConeAngle (%g), "
+                                     "which must be more than 0", q, inner,
+                                     outer);
+        }
         lr__xform m = lr__xform_mul(place, &world[i]);
         lr__light L;
         memset(&L, 0, sizeof L);
@@ -178,18 +193,21 @@ lr_status lr__gltf_lights(lr_scene *s, const lr__gltf_doc *d,
          * as W/sr and W/m^2 of lensray's RGB radiometry, unscaled, as
          * glTF viewers do (docs/gltf.md). */
         L.power = v3(c[0] * intensity, c[1] * intensity, c[2] * intensity);
+        /* Directional and spot lights shine down their node's -z. */
+        lr__v3 o = lr__xform_point(&m, v3(0, 0, 0));
+        lr__v3 f = v3_sub(lr__xform_point(&m, v3(0, 0, -1)), o);
+        if (t[0] != 'p' && !(v3_len(f) > 0))
+            return lr__gltf_fail(d, err, "nodes[%d] squashes the "
+                                 "direction of %s to nothing", i, p);
         if (dir) {
             L.kind = LR__LIGHT_DIRECTIONAL;
-            lr__v3 o = lr__xform_point(&m, v3(0, 0, 0));
-            lr__v3 f = v3_sub(lr__xform_point(&m, v3(0, 0, -1)), o);
-            if (!(v3_len(f) > 0))
-                return lr__gltf_fail(d, err, "nodes[%d] squashes the "
-                                     "direction of %s to nothing", i, p);
             L.direction = v3_norm(f);
         } else {
             L.kind = LR__LIGHT_POINT;
-            L.position = lr__xform_point(&m, v3(0, 0, 0));
+            L.position = o;
             LR_TRY(lr__check_extent(v3_maxabs(L.position), d->fp, err));
+            if (t[0] == 's')
+                lr__spot_set(&L, f, inner, outer);
         }
         lr__light *grown = realloc(s->lights,
                                    (s->n_lights + 1) * sizeof *grown);

@@ -259,7 +259,7 @@ int lr__light_sample_from(const lr_scene *s, lr__v3 p, double u_pick,
             return 0;
         out->dist = sqrt(d2);
         out->dir = v3_scale(to, 1.0 / out->dist);
-        out->L = v3_scale(lt->power, 1.0 / d2);
+        out->L = v3_scale(lt->power, lr__spot_falloff(lt, out->dir) / d2);
     } else {
         out->dir = v3_neg(lt->direction);
         out->dist = INFINITY;
@@ -300,4 +300,15 @@ double lr__light_pdf_env(const lr_scene *s, lr__v3 dir)
     if (!ke)
         return 0.0;
     return lr__envmap_pdf(s, dir) / nk;
+}
+
+void lr__spot_set(lr__light *lt, lr__v3 dir, double inner, double outer)
+{
+    lt->spot = 1;
+    lt->direction = v3_norm(dir);
+    double ci = cos(inner), co = cos(outer);
+    /* The caller keeps inner < outer, so ci > co; a hair of room keeps a
+     * hard-edged cone (inner = outer, refused upstream) finite anyway. */
+    lt->cone_scale = 1.0 / fmax(ci - co, 1e-9);
+    lt->cone_offset = -co * lt->cone_scale;
 }

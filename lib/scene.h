@@ -70,9 +70,36 @@ typedef enum lr__light_kind {
 typedef struct lr__light {
     lr__light_kind kind;
     lr__v3 position;  /* point */
-    lr__v3 direction; /* directional: unit, the way the light travels */
-    lr__v3 power;     /* point: intensity W/sr; directional: irradiance */
+    lr__v3 direction; /* directional, spot: unit, the way the light travels
+                         (a spot's cone axis) */
+    lr__v3 power;     /* point: intensity W/sr (a spot's on its axis);
+                         directional: irradiance */
+    /* A spot light is a point light whose intensity falls to 0 between
+     * two cones about `direction` (lr__spot_falloff). */
+    int spot;
+    double cone_scale, cone_offset;
 } lr__light;
+
+/* The share of a point light's intensity sent towards a point that sees
+ * it in unit direction l: 1, or for a spot with inner and outer cone
+ * half-angles ci, co, a = (cos t - cos co) / (cos ci - cos co) clamped to
+ * [0, 1], squared, where t is the angle off the axis (the falloff of
+ * glTF's KHR_lights_punctual: scale = 1 / (cos ci - cos co), offset =
+ * -cos co x scale). */
+static inline double lr__spot_falloff(const lr__light *lt, lr__v3 l)
+{
+    if (!lt->spot)
+        return 1.0;
+    double cd = -(l.x * lt->direction.x + l.y * lt->direction.y +
+                  l.z * lt->direction.z);
+    double a = cd * lt->cone_scale + lt->cone_offset;
+    a = a < 0.0 ? 0.0 : a > 1.0 ? 1.0 : a;
+    return a * a;
+}
+
+/* Makes *lt a spot: axis `dir` (non-zero; normalised here) and cone
+ * half-angles inner < outer in radians, 0 <= inner, outer <= pi/2. */
+void lr__spot_set(lr__light *lt, lr__v3 dir, double inner, double outer);
 
 typedef enum lr__geom_kind {
     LR__GEOM_TRIANGLES,

@@ -145,6 +145,9 @@ static lr_status parse_lights(lr_scene *s, const cJSON *lights,
     static const char *const keys_dir[] = {"type", "direction", "irradiance",
                                            NULL};
     static const char *const keys_amb[] = {"type", "radiance", NULL};
+    static const char *const keys_spot[] = {"type", "position", "direction",
+                                            "intensity", "inner_angle",
+                                            "outer_angle", NULL};
     char p[LR__PATH_MAX];
     if (lights == NULL)
         return LR_OK;
@@ -184,6 +187,38 @@ static lr_status parse_lights(lr_scene *s, const cJSON *lights,
             }
             L->direction = v3_norm(L->direction);
             s->n_lights++;
+        } else if (strcmp(type, "spot") == 0) {
+            lr__light *L = &s->lights[s->n_lights];
+            L->kind = LR__LIGHT_POINT;
+            LR_TRY(lr__json_check_keys(l, p, keys_spot, err));
+            LR_TRY(lr__json_vec3(l, "position", p, 1, &L->position, err));
+            LR_TRY(lr__json_rgb(l, "intensity", p, 1, &L->power, err));
+            lr__v3 dir = v3(0, -1, 0);
+            LR_TRY(lr__json_vec3(l, "direction", p, 1, &dir, err));
+            /* glTF's defaults (KHR_lights_punctual): 0 and 45 degrees. */
+            double inner = 0, outer = 45;
+            LR_TRY(lr__json_number(l, "inner_angle", p, 0, &inner, err));
+            LR_TRY(lr__json_number(l, "outer_angle", p, 0, &outer, err));
+            char q[LR__PATH_MAX];
+            if (v3_len(dir) == 0.0) {
+                lr__path_key(q, p, "direction");
+                return lr__fail(err, LR_ERR_INVALID, q,
+                                "%s must not be the zero vector", q);
+            }
+            if (!(outer > 0 && outer <= 90)) {
+                lr__path_key(q, p, "outer_angle");
+                return lr__fail(err, LR_ERR_INVALID, q,
+                                "%s must be more than 0 and at most 90 "
+                                "(degrees off the axis), got %g", q, outer);
+            }
+            if (!(inner >= 0 && inner < outer)) {
+                lr__path_key(q, p, "inner_angle");
+                return lr__fail(err, LR_ERR_INVALID, q,
+                                "%s must be at least 0 and less than "
+                                "outer_angle (%g), got %g", q, outer, inner);
+            }
+            lr__spot_set(L, dir, inner * M_PI / 180, outer * M_PI / 180);
+            s->n_lights++;
         } else if (strcmp(type, "ambient") == 0) {
             lr__v3 r = v3(0, 0, 0);
             LR_TRY(lr__json_check_keys(l, p, keys_amb, err));
@@ -193,8 +228,8 @@ static lr_status parse_lights(lr_scene *s, const cJSON *lights,
             char q[LR__PATH_MAX];
             lr__path_key(q, p, "type");
             return lr__fail(err, LR_ERR_INVALID, q,
-                            "%s must be \"point\", \"directional\" or "
-                            "\"ambient\", got \"%s\"",
+                            "%s must be \"point\", \"spot\", "
+                            "\"directional\" or \"ambient\", got \"%s\"",
                             q, type);
         }
     }

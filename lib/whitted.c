@@ -87,7 +87,7 @@ static int light_ray_setup(const lr_scene *s, const lr__material *m,
             return 0;
         dist = sqrt(d2);
         l = v3_scale(to, 1.0 / dist);
-        E = v3_scale(lt->power, 1.0 / d2);
+        E = v3_scale(lt->power, lr__spot_falloff(lt, l) / d2);
     } else {
         l = v3_neg(lt->direction);
         E = lt->power;
@@ -133,16 +133,25 @@ static void light_rays16(const lr__light *restrict lt,
                  ldz = -lt->direction.z;
     const double Pr = lt->power.x, Pg = lt->power.y, Pb = lt->power.z;
     const double inv_pi = 1.0 / M_PI;
+    /* lr__spot_falloff, spelled out for the lanes (1 for a plain point
+     * light, so that its bits are the same as before spots existed). */
+    const int spot = lt->spot;
+    const double sdx = lt->direction.x, sdy = lt->direction.y,
+                 sdz = lt->direction.z;
+    const double cs = lt->cone_scale, co = lt->cone_offset;
     int lit_[16];
     for (int i = 0; i < 16; i++) {
         double tox = lpx - h->px[i], toy = lpy - h->py[i],
                toz = lpz - h->pz[i];
         double d2 = tox * tox + toy * toy + toz * toz;
         double dist = sqrt(d2);
-        double id = 1.0 / dist, id2 = 1.0 / d2;
+        double id = 1.0 / dist;
         double lx = point ? tox * id : ldx;
         double ly = point ? toy * id : ldy;
         double lz = point ? toz * id : ldz;
+        double a = -(lx * sdx + ly * sdy + lz * sdz) * cs + co;
+        a = a < 0.0 ? 0.0 : a > 1.0 ? 1.0 : a;
+        double id2 = (spot ? a * a : 1.0) / d2;
         double Er = point ? Pr * id2 : Pr;
         double Eg = point ? Pg * id2 : Pg;
         double Eb = point ? Pb * id2 : Pb;

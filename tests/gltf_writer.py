@@ -217,9 +217,10 @@ def scene_tri():
     return g
 
 
-def scene_camera_light():
+def scene_camera_light(light=True):
     """A floor (y = 0, 8 x 8) of base colour 0.5 under a point light of
-    20 cd at (0, 2, 0), seen by a glTF camera (yfov 0.7, aspect 1.5)."""
+    20 cd at (0, 2, 0) (none with light=False), seen by a glTF camera
+    (yfov 0.7, aspect 1.5)."""
     g = Gltf()
     pos, idx, nrm, _ = quad(8)
     floor = g.mesh(pos, idx, nrm, material=g.material({
@@ -237,9 +238,23 @@ def scene_camera_light():
     a = -math.atan2(3, 4) / 2
     g.node(camera=cam, name="cam", translation=[0, 3, 4],
            rotation=[math.sin(a), 0, 0, math.cos(a)])
-    li = g.light({"type": "point", "intensity": 20, "color": [1, 1, 1]})
-    g.node(extensions={"KHR_lights_punctual": {"light": li}},
-           translation=[0, 2, 0])
+    if light:
+        li = g.light({"type": "point", "intensity": 20, "color": [1, 1, 1]})
+        g.node(extensions={"KHR_lights_punctual": {"light": li}},
+               translation=[0, 2, 0])
+    return g
+
+
+def scene_spot_light():
+    """scene_camera_light's floor and camera under a spot light of 20 cd
+    at (0, 2, 0) shining straight down (its node turned -90 degrees about
+    x), cone half-angles 0.3 and 0.6 radians."""
+    g = scene_camera_light()
+    g.doc["extensions"]["KHR_lights_punctual"]["lights"][0] = {
+        "type": "spot", "intensity": 20, "color": [1, 1, 1],
+        "spot": {"innerConeAngle": 0.3, "outerConeAngle": 0.6}}
+    s = math.sqrt(0.5)
+    g.doc["nodes"][-1]["rotation"] = [-s, 0, 0, s]
     return g
 
 
@@ -400,6 +415,8 @@ def scene_normals():
 SCENES = {"tri": scene_tri, "normals": scene_normals,
           "mapping": scene_mapping, "textured": scene_textured,
           "metal-texture": scene_metal_texture,
+          "spot-light": scene_spot_light,
+          "camera-floor": lambda: scene_camera_light(light=False),
           "camera-light": scene_camera_light,
           "materials": scene_materials, "gallery": scene_gallery}
 

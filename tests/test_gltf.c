@@ -10,6 +10,7 @@
  * tests/gltf_writer.py (python3, a build dependency).
  */
 #include "test.h"
+#include "integrator.h"
 #include "scene.h"
 
 #include <cjson/cJSON.h>
@@ -213,6 +214,96 @@ static void test_point_light_irradiance(void **state)
     }
     lr_image_free(img);
     lr_scene_free(s);
+}
+
+/* A spot light: every floor pixel of the camera-light view against
+ * albedo / pi x I cos / d^2 x the cone's falloff computed here from the
+ * angle off the axis (KHR_lights_punctual: ((cos t - cos outer) / (cos
+ * inner - cos outer)) clamped to [0, 1], squared), under Whitted's
+ * vector and scalar paths and the path tracer.  The same light from a
+ * glTF file (radians, the node's -z) and from scene JSON (degrees). */
+static void check_spot(lr_scene *s, double inner, double outer,
+                       const char *what)
+{
+    int seen[3] = {0, 0, 0}; /* inside the inner cone, between, outside */
+    for (int pass = 0; pass < 3; pass++) {
+        lr__whitted_scalar_only = pass == 1;
+        lr_camera cam;
+        lr_render_settings rs;
+        lr_scene_camera(s, &cam);
+        lr_scene_settings(s, &rs);
+        if (pass == 2)
+            rs.integrator = LR_INTEGRATOR_PATH;
+        lr_image *img = lr_test_render_with(s, &cam, &rs, what);
+        lr__whitted_scalar_only = 0;
+        const float *rgb = lr_image_rgb(img);
+        for (int y = 0; y < 40; y++)
+            for (int x = 0; x < 60; x++) {
+                double d[3], f[3];
+                pixel_dir(x, y, 60, 40, d, f);
+                double t = 3 / -d[1];
+                double p[3] = {t * d[0], 0, 4 + t * d[2]};
+                if (!(d[1] < 0) || fabs(p[0]) > 3.9 || fabs(p[2]) > 3.9)
+                    continue;
+                double r2 = p[0] * p[0] + 4 + p[2] * p[2];
+                double c = 2 / sqrt(r2); /* cos off the axis = cos theta */
+                double a = (c - cos(outer)) / (cos(inner) - cos(outer));
+                a = a < 0 ? 0 : a > 1 ? 1 : a;
+                seen[a >= 1 ? 0 : a > 0 ? 1 : 2]++;
+                double want = 0.5 / PI * 20 * a * a * c / r2;
+                double got = rgb[3 * (y * 60 + x) + 1];
+                if (!(fabs(got - want) <= 1e-4 * want + 1e-7))
+                    fail_msg("%s, pass %d, pixel (%d, %d): %.7g, the cone "
+                             "says %.7g", what, pass, x, y, got, want);
+            }
+        lr_image_free(img);
+    }
+    for (int k = 0; k < 3; k++)
+        assert_true(seen[k] > 0);
+}
+
+static void test_spot_light(void **state)
+{
+    (void)state;
+    make("spot-light", "spot-light.glb");
+    lr_scene *s = lr_test_load_json(
+        "{\"render\": {\"width\": 60, \"spp\": 1, \"sampler\": \"grid\"},"
+        " \"objects\": [{\"type\": \"gltf\", \"file\": \"spot-light.glb\","
+        " \"camera\": true}]}");
+    assert_null(strstr(lr_scene_warnings(s), "spot"));
+    check_spot(s, 0.3, 0.6, "glTF spot");
+    lr_scene_free(s);
+    /* The floor and camera of camera-light.glb without its point light,
+     * under a JSON spot: degrees, a direction that need not be unit. */
+    make("camera-floor", "camera-floor.glb");
+    s = lr_test_load_json(
+        "{\"render\": {\"width\": 60, \"spp\": 1, \"sampler\": \"grid\"},"
+        " \"lights\": [{\"type\": \"spot\", \"position\": [0, 2, 0],"
+        " \"direction\": [0, -3, 0], \"intensity\": 20,"
+        " \"inner_angle\": 10, \"outer_angle\": 50}],"
+        " \"objects\": [{\"type\": \"gltf\", \"file\": \"camera-floor.glb\","
+        " \"camera\": true}]}");
+    check_spot(s, 10 * PI / 180, 50 * PI / 180, "JSON spot");
+    lr_scene_free(s);
+    static const struct {
+        const char *light, *path;
+    } bad[] = {
+        {"\"inner_angle\": 50, \"outer_angle\": 50", "lights[0].inner_angle"},
+        {"\"inner_angle\": -1", "lights[0].inner_angle"},
+        {"\"outer_angle\": 0", "lights[0].outer_angle"},
+        {"\"outer_angle\": 91", "lights[0].outer_angle"},
+        {"\"direction\": [0, 0, 0]", "lights[0].direction"},
+        {"\"irradiance\": 1", "lights[0].irradiance"},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        char json[512];
+        snprintf(json, sizeof json,
+                 "{\"lights\": [{\"type\": \"spot\", \"position\": [0, 2, 0],"
+                 " \"intensity\": 1, %s%s}]}", bad[i].light,
+                 strstr(bad[i].light, "direction") ? ""
+                                                   : ", \"direction\": [0, -1, 0]");
+        lr_test_expect_invalid(json, strlen(json), bad[i].path, NULL);
+    }
 }
 
 /* ---- materials ------------------------------------------------------------- */
@@ -521,6 +612,7 @@ static const struct CMUnitTest tests[] = {
     cmocka_unit_test(test_material_mapping),
     cmocka_unit_test(test_textures),
     cmocka_unit_test(test_metal_texture),
+    cmocka_unit_test(test_spot_light),
     cmocka_unit_test(test_hostile),
 };
 LR_TEST_GROUP(gltf, tests)
