@@ -663,10 +663,10 @@ assert s["rays"] >= s["samples"], s
 
 @test "glTF: ignored parts are warned about, bad files are exit 3 naming the file and field" {
     python3 "$BATS_TEST_DIRNAME/gltf_writer.py" camera-light "$T/cl.gltf"
-    sed 's/"type": "point"/"type": "spot"/' "$T/cl.gltf" >"$T/spot.gltf"
-    run -0 "$LENSRAY" render "$T/spot.gltf" -o "$T/spot.png" --set render.width=12 \
+    sed 's/"type": "point"/"type": "point", "range": 5/' "$T/cl.gltf" >"$T/range.gltf"
+    run -0 "$LENSRAY" render "$T/range.gltf" -o "$T/range.png" --set render.width=12 \
         --set render.spp=1
-    [[ "$output" == *"lensray: warning: spot.gltf: extensions.KHR_lights_punctual.lights[0] is a spot light"* ]]
+    [[ "$output" == *"lensray: warning: range.gltf: extensions.KHR_lights_punctual.lights[0].range is ignored"* ]]
     python3 "$BATS_TEST_DIRNAME/gltf_writer.py" tri "$T/tri.glb"
     head -c 500 "$T/tri.glb" >"$T/cut.glb"
     run -3 "$LENSRAY" render "$T/cut.glb" -o "$T/cut.png"

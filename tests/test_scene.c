@@ -65,7 +65,7 @@ static const bad_case bad_cases[] = {
     {"{\"materials\": {\"m\": {}, \"m\": {}}}", LR_ERR_INVALID, "materials.m", "duplicate"},
     {"{\"materials\": {\"m\": 3}}", LR_ERR_INVALID, "materials.m", "object"},
     {"{\"lights\": {}}", LR_ERR_INVALID, "lights", "array"},
-    {"{\"lights\": [{\"type\": \"spot\"}]}", LR_ERR_INVALID, "lights[0].type", "spot"},
+    {"{\"lights\": [{\"type\": \"area\"}]}", LR_ERR_INVALID, "lights[0].type", "area"},
     {"{\"lights\": [{\"position\": [0,0,0]}]}", LR_ERR_INVALID, "lights[0].type", "required"},
     {"{\"lights\": [{\"type\": \"point\", \"position\": [0,0,0]}]}", LR_ERR_INVALID, "lights[0].intensity", "required"},
     {"{\"lights\": [{\"type\": \"point\", \"position\": [0,0,0], \"intensity\": 1, \"radius\": 2}]}", LR_ERR_INVALID, "lights[0].radius", "unknown key"},
