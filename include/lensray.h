@@ -345,6 +345,15 @@ LR_API lr_status lr_scene_load_json(const char *json, size_t len,
                              const char *const *overrides, size_t n_overrides,
                              lr_scene **out, lr_error *err);
 
+/* For a scene `s` that lr_scene_load_file loaded from the glTF file
+ * `path`: the scene JSON that renders the same, for a client that sends
+ * the scene elsewhere (lensray --remote): the file (by its name, relative
+ * to its directory) as a {"type": "gltf", "camera": true} object, the
+ * path tracer, and the background the loader chose (docs/gltf.md).
+ * Malloc'ed text to release with lr_free; NULL when `path` is not a glTF
+ * file or memory ran out. */
+LR_API char *lr_gltf_scene_json(const char *path, const lr_scene *s);
+
 /* Sets the process's assets directory: where a scene's file reference
  * "sha256:HEX" (any key that names a file: objects[].file,
  * environment.file, camera.lens, ...) is found, as the file named HEX,

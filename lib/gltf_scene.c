@@ -1,6 +1,7 @@
 /*
  * gltf_scene.c: a glTF file alone as a scene (`lensray render x.glb`):
- * the file placed by a scene that lensray writes for it (gltf.h).
+ * the file placed by a scene that lensray writes for it (gltf.h), and
+ * that scene's text for a client that sends it on (lr_gltf_scene_json).
  */
 #include "gltf.h"
 
@@ -35,24 +36,47 @@ int lr__gltf_is_file(const char *path)
     return i < n && b[i] == '{';
 }
 
-/* The JSON of the scene around the file `name`. */
-static char *scene_text(const char *name)
+/* The JSON of the scene around the file `name`, with a background when
+ * `bg` is not NULL. */
+static char *scene_text(const char *name, const lr__v3 *bg)
 {
     cJSON *root = cJSON_CreateObject();
     cJSON *render = cJSON_AddObjectToObject(root, "render");
     cJSON *objs = cJSON_AddArrayToObject(root, "objects");
     cJSON *o = cJSON_CreateObject();
     char *text = NULL;
-    if (render && objs && o && cJSON_AddItemToArray(objs, o) &&
-        cJSON_AddStringToObject(render, "integrator", "path") &&
-        cJSON_AddStringToObject(o, "type", "gltf") &&
-        cJSON_AddStringToObject(o, "file", name) &&
-        cJSON_AddTrueToObject(o, "camera"))
+    int ok = render && objs && o && cJSON_AddItemToArray(objs, o) &&
+             cJSON_AddStringToObject(render, "integrator", "path") &&
+             cJSON_AddStringToObject(o, "type", "gltf") &&
+             cJSON_AddStringToObject(o, "file", name) &&
+             cJSON_AddTrueToObject(o, "camera");
+    if (ok && bg != NULL) {
+        /* cJSON prints a double with enough digits to read it back. */
+        const double c[3] = {bg->x, bg->y, bg->z};
+        cJSON *a = cJSON_CreateDoubleArray(c, 3);
+        ok = a != NULL && cJSON_AddItemToObject(root, "background", a);
+        if (a != NULL && !ok)
+            cJSON_Delete(a);
+    }
+    if (ok)
         text = cJSON_PrintUnformatted(root);
     else if (o != NULL && (objs == NULL || objs->child != o))
         cJSON_Delete(o);
     cJSON_Delete(root);
     return text;
+}
+
+static const char *base_name(const char *path)
+{
+    const char *slash = strrchr(path, '/');
+    return slash ? slash + 1 : path;
+}
+
+char *lr_gltf_scene_json(const char *path, const lr_scene *s)
+{
+    if (path == NULL || s == NULL || !lr__gltf_is_file(path))
+        return NULL;
+    return scene_text(base_name(path), &s->background);
 }
 
 lr_status lr__gltf_scene_load(const char *path, const char *const *overrides,
@@ -61,9 +85,7 @@ lr_status lr__gltf_scene_load(const char *path, const char *const *overrides,
 {
     char dir[4096];
     lr__dir_of(path, dir, sizeof dir);
-    const char *slash = strrchr(path, '/');
-    const char *name = slash ? slash + 1 : path;
-    char *text = scene_text(name);
+    char *text = scene_text(base_name(path), NULL);
     if (text == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     lr_status st = lr_scene_load_json(text, strlen(text), dir, overrides,

@@ -308,6 +308,26 @@ put_asset() {
     [ "$(grep -c '"PUT /v1/assets/' "$FARM/nginx-access.log")" -eq 1 ]
 }
 
+@test "a glTF file alone through the farm: sent as an asset, equal to the local render" {
+    local dir="$BATS_TEST_TMPDIR/gltf"
+    mkdir -p "$dir"
+    # A file without lights (lit by the white sky the loader gives it)
+    # and one with a point light and its own camera.
+    python3 "$REPO/tests/gltf_writer.py" camera-floor "$dir/floor.glb"
+    python3 "$REPO/tests/gltf_writer.py" camera-light "$dir/lit.glb"
+    local f
+    for f in floor lit; do
+        "$LENSRAY" render "$dir/$f.glb" -o "$dir/$f-local.exr" -q \
+            --set render.width=40 --set render.spp=4
+        run -0 "$LENSRAY" render "$dir/$f.glb" -o "$dir/$f-farm.exr" -q \
+            --set render.width=40 --set render.spp=4 --remote "$URL" --parts 5 --stats
+        [[ "$output" == *'"assets": 1'* ]]
+        cmp "$dir/$f-local.exr" "$dir/$f-farm.exr"
+    done
+    # The white sky is what lights the first: its render is not black.
+    ! cmp -s "$dir/floor-farm.exr" "$dir/lit-farm.exr"
+}
+
 # frame K X [SPP [WIDTH]]: scene file K of a small animation, the camera
 # at x = X, naming the quad mesh beside it (written once).
 frame() {

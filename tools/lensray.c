@@ -329,15 +329,6 @@ static int write_frame(void *user, int k, lr_image *img)
     return rc;
 }
 
-/* Whether `path` names a glTF file (lr_scene_load_file's test: the
- * extension, any case). */
-static int is_gltf_path(const char *path)
-{
-    const char *dot = strrchr(path, '.');
-    return dot != NULL &&
-           (strcasecmp(dot, ".glb") == 0 || strcasecmp(dot, ".gltf") == 0);
-}
-
 /* --remote: every scene's frame on the daemons, as one batch of parts
  * (tools/remote.c); a scene that cannot be read fails alone.  The exit
  * status: 0, or the first failure's.  With --stats, one JSON line of
@@ -364,23 +355,16 @@ static int render_remote(const render_job *r)
         char out_path[4096];
         frame_out(r, i, out_path, sizeof out_path);
         lr_scene *scene = NULL;
-        int frc;
-        if (is_gltf_path(r->scenes[i])) {
-            /* The daemons take scene JSON; a glTF travels as an asset. */
-            fprintf(stderr, "lensray: %s: --remote renders scene JSON files; "
-                            "place the glTF in one as an object "
-                            "{\"type\": \"gltf\", \"file\": \"...\"} "
-                            "(docs/gltf.md)\n", r->scenes[i]);
-            frc = EXIT_USAGE;
-        } else {
-            frc = load_scene(r, r->scenes[i], &scene, &f->cam, &f->rs,
+        int frc = load_scene(r, r->scenes[i], &scene, &f->cam, &f->rs,
                              out_path);
-        }
+        /* The daemons take scene JSON: a glTF file goes as the scene the
+         * library made for it, the file itself as an asset. */
+        char *text = frc == EXIT_OK ? lr_gltf_scene_json(r->scenes[i], scene)
+                                    : NULL;
         /* The scene is read here only for its camera and settings. */
         lr_scene_free(scene);
-        size_t len = 0;
-        char *text = NULL;
-        if (frc == EXIT_OK) {
+        size_t len = text != NULL ? strlen(text) : 0;
+        if (frc == EXIT_OK && text == NULL) {
             text = (char *)read_whole_file(r->scenes[i], &len);
             if (text == NULL) {
                 fprintf(stderr, "lensray: %s: %s\n", r->scenes[i],
