@@ -207,8 +207,8 @@ API_EXAMPLES ?= 100
 test-api: all $(API_VENV)/.ok
 	@sh tests/api/run.sh $(BUILD) $(API_VENV) $(API_EXAMPLES)
 
-# A virtualenv $(1) with the pinned packages of $(2), for the recipe of
-# $(1)/.ok (test-api's and test-lenses').
+# A virtualenv $(1) with the pinned packages of $(2) (pip flags $(3)), for
+# the recipe of $(1)/.ok (test-api's and test-lenses').
 define make_venv
 	@if ! python3 -c 'import ensurepip, venv' >/dev/null 2>&1; then \
 	  if [ "$$(id -u)" = 0 ]; then \
@@ -222,7 +222,7 @@ define make_venv
 	fi
 	@rm -rf $(1) && python3 -m venv $(1)
 	@echo "  PIP     $(2) -> $(1)"
-	@$(1)/bin/pip install -q --disable-pip-version-check -r $(2)
+	@$(1)/bin/pip install -q --disable-pip-version-check $(3) -r $(2)
 	@touch $(1)/.ok
 endef
 
@@ -246,7 +246,7 @@ test-lenses: $(BUILD)/lensray $(LENS_VENV)/.ok
 	  $(LENS_CHECKED)
 
 $(LENS_VENV)/.ok: tests/lenses/requirements.txt $(DEPS_OK)
-	$(call make_venv,$(LENS_VENV),tests/lenses/requirements.txt)
+	$(call make_venv,$(LENS_VENV),tests/lenses/requirements.txt,--no-deps)
 
 test-sanitize:
 	$(MAKE) BUILD=build/sanitize OPT=-O1 \

@@ -21,6 +21,7 @@ non-zero on any failure.
 import json
 import math
 import os
+import pathlib
 import subprocess
 import sys
 import tempfile
@@ -30,10 +31,20 @@ warnings.filterwarnings("ignore")
 import logging
 logging.disable(logging.CRITICAL)
 
-from rayoptics.environment import (OpticalModel, PupilSpec, FieldSpec,
-                                   WvlSpec, open_model)
+# Straight from the modules, not rayoptics.environment: that one imports
+# the Qt GUI, and PySide6 is 1 GB of the virtualenv (requirements.txt).
+from rayoptics.optical.opticalmodel import OpticalModel
+from rayoptics.raytr.opticalspec import PupilSpec, FieldSpec, WvlSpec
+from rayoptics.zemax import zmxread
 from rayoptics.raytr import trace
 from opticalglass.opticalmedium import InterpolatedMedium
+
+
+def open_model(path):
+    """A .zmx file as an optical model (what rayoptics' open_model does
+    for one: its reader updates the model)."""
+    opm, _info = zmxread.read_lens_file(pathlib.Path(path))
+    return opm
 
 ND, NF, NC = 587.5618, 486.1327, 656.2725
 WVLS = (NF, ND, NC)
