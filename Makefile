@@ -292,6 +292,11 @@ python-wheel: all $(PY_VENV)/.ok
 	@$(PY_PIP) wheel --no-build-isolation --no-deps -w $(BUILD)/python/dist $(BUILD)/python/src
 	@ls $(BUILD)/python/dist/*.whl
 
+# The Python virtualenvs of test-api, test-python and test-lenses
+# (tests/all.sh makes them while the C suites run).
+.PHONY: venvs
+venvs: $(API_VENV)/.ok $(PY_VENV)/.ok $(LENS_VENV)/.ok
+
 test-python: python
 	@cd $(BUILD)/python && PYTHONDONTWRITEBYTECODE=1 \
 	  LENSRAY_BUILD_DIR=$(abspath $(BUILD)) venv/bin/python -m pytest \

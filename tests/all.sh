@@ -16,7 +16,20 @@ total_pass=0
 total_fail=0
 total_skip=0
 status=0
+# The Python virtualenvs (downloads: minutes on a clean machine, mostly
+# waiting on the network) are made in the background while the C suites
+# run; the first step that uses them waits.  The Debian packages come
+# first, so that two makes never run apt-get at once.
+$make --no-print-directory deps
+{ $make --no-print-directory venvs >"$build/venvs.log" 2>&1; echo $? >"$build/venvs.rc"; } &
+venvs=$!
 for run in test-suite test-sanitize fuzz-ci test-api test-python test-lenses; do
+    if [ "$run" = test-api ] && [ -n "$venvs" ]; then
+        wait "$venvs"
+        venvs=
+        # A failure shows here; the steps below then say what they lack.
+        [ "$(cat "$build/venvs.rc")" -eq 0 ] || cat "$build/venvs.log"
+    fi
     log="$build/$run.log"
     echo "==== $run"
     # The log keeps the last line for the count; the exit status comes
