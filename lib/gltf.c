@@ -77,6 +77,53 @@ static lr_status colour(const lr__gltf_doc *d, const cJSON *o, const char *p,
     return LR_OK;
 }
 
+/* `n` numbers of magnitude at most 1e6 at o.key (absent: left as they
+ * are). */
+static lr_status numbers(const lr__gltf_doc *d, const cJSON *o, const char *p,
+                         const char *key, int n, double *out, lr_error *err)
+{
+    const cJSON *a = cJSON_GetObjectItemCaseSensitive(o, key);
+    if (a == NULL)
+        return LR_OK;
+    int ok = n == 1 ? cJSON_IsNumber(a)
+                    : cJSON_IsArray(a) && cJSON_GetArraySize(a) == n;
+    for (int i = 0; ok && i < n; i++) {
+        const cJSON *v = n == 1 ? a : cJSON_GetArrayItem(a, i);
+        ok = cJSON_IsNumber(v) && fabs(v->valuedouble) <= 1e6;
+        out[i] = ok ? v->valuedouble : 0;
+    }
+    if (!ok)
+        return lr__gltf_fail(d, err, "%s.%s must be %s from -1e6 to 1e6", p,
+                             key, n == 1 ? "a number" : "2 numbers");
+    return LR_OK;
+}
+
+/* KHR_texture_transform of a textureInfo at `p` as lensray's map.  The
+ * extension maps glTF's coordinates (v down the image) by translation x
+ * rotation x scale, its GLSL read column by column:
+ *   u' = cos r sx u - sin r sy v + ox,  v' = sin r sx u + cos r sy v + oy;
+ * lensray's v is 1 - glTF's on both sides, which the constants absorb. */
+static lr_status uv_transform(const lr__gltf_doc *d, const cJSON *ext,
+                              const char *p, lr__uv_xf *xf, lr_error *err)
+{
+    char q[160];
+    snprintf(q, sizeof q, "%s.extensions.KHR_texture_transform", p);
+    if (!cJSON_IsObject(ext))
+        return lr__gltf_fail(d, err, "%s must be an object", q);
+    double off[2] = {0, 0}, sc[2] = {1, 1}, rot = 0;
+    LR_TRY(numbers(d, ext, q, "offset", 2, off, err));
+    LR_TRY(numbers(d, ext, q, "scale", 2, sc, err));
+    LR_TRY(numbers(d, ext, q, "rotation", 1, &rot, err));
+    double c = cos(rot), s = sin(rot);
+    double a = c * sc[0], b = -s * sc[1], e = s * sc[0], f = c * sc[1];
+    /* With v = 1 - w (w glTF's): u' = a u + b (1 - v) + ox, and
+     * v' = 1 - (e u + f (1 - v) + oy). */
+    xf->on = 1;
+    xf->m[0] = a, xf->m[1] = -b, xf->m[2] = b + off[0];
+    xf->m[3] = -e, xf->m[4] = f, xf->m[5] = 1 - f - off[1];
+    return LR_OK;
+}
+
 /* Warns once per material about each part lensray ignores. */
 static void warn_ignored(lr_scene *s, const lr__gltf_doc *d, const cJSON *m,
                          const char *p)
@@ -135,9 +182,10 @@ static int image_bytes(const lr__gltf_doc *d, int i, const unsigned char **b,
  * the slot is empty or its texture has no image. */
 static lr_status slot_texture(lr_scene *s, lr__gltf_doc *d, const cJSON *info,
                               const char *p, int srgb, lr__texture **out,
-                              lr_error *err)
+                              lr__uv_xf *xf, lr_error *err)
 {
     *out = NULL;
+    memset(xf, 0, sizeof *xf);
     if (!cJSON_IsObject(info))
         return LR_OK;
     int nt;
@@ -154,8 +202,15 @@ static lr_status slot_texture(lr_scene *s, lr__gltf_doc *d, const cJSON *info,
     const cJSON *tc = cJSON_GetObjectItemCaseSensitive(info, "texCoord");
     if (tc != NULL && cJSON_GetNumberValue(tc) != 0)
         lr__gltf_warn(s, d, "%s.texCoord: only TEXCOORD_0 is read", p);
-    if (lr__gltf_member(info, "extensions", "KHR_texture_transform"))
-        lr__gltf_warn(s, d, "%s: KHR_texture_transform is ignored", p);
+    const cJSON *ext = lr__gltf_member(info, "extensions",
+                                       "KHR_texture_transform");
+    if (ext != NULL) {
+        LR_TRY(uv_transform(d, ext, p, xf, err));
+        const cJSON *etc = cJSON_GetObjectItemCaseSensitive(ext, "texCoord");
+        if (etc != NULL && cJSON_GetNumberValue(etc) != 0)
+            lr__gltf_warn(s, d, "%s.extensions.KHR_texture_transform."
+                          "texCoord: only TEXCOORD_0 is read", p);
+    }
     int ns;
     const cJSON *si = cJSON_GetObjectItemCaseSensitive(tex, "sampler");
     const cJSON *smp = si == NULL ? NULL
@@ -267,21 +322,25 @@ static lr_status add_material(lr_scene *s, lr__gltf_doc *d,
     /* The textures: slots of this material, decoded (or found) now. */
     snprintf(q, sizeof q, "%s.pbrMetallicRoughness.baseColorTexture", p);
     lr__texture *t;
+    lr__uv_xf xf_colour, xf_emission, xf_rough;
     LR_TRY(slot_texture(s, d, cJSON_GetObjectItemCaseSensitive(
                                   pbr, "baseColorTexture"),
-                        q, 1, &t, err));
+                        q, 1, &t, &xf_colour, err));
     lr__texture *base_tex = t;
     snprintf(q, sizeof q, "%s.emissiveTexture", p);
     LR_TRY(slot_texture(s, d, cJSON_GetObjectItemCaseSensitive(
                                   m, "emissiveTexture"),
-                        q, 1, &t, err));
+                        q, 1, &t, &xf_emission, err));
     s->materials[s->n_materials - 1].emission_tex = t;
     snprintf(q, sizeof q, "%s.pbrMetallicRoughness.metallicRoughnessTexture",
              p);
     LR_TRY(slot_texture(s, d, cJSON_GetObjectItemCaseSensitive(
                                   pbr, "metallicRoughnessTexture"),
-                        q, 0, &t, err));
+                        q, 0, &t, &xf_rough, err));
     mt = &s->materials[s->n_materials - 1];
+    mt->xf_colour = xf_colour;
+    mt->xf_emission = xf_emission;
+    mt->xf_rough = xf_rough;
     mt->roughness_tex = t;
     mt->roughness_channel = 1;
     /* Where metal can vary or be tinted by a texture, the lobes are split

@@ -13,10 +13,24 @@ void lr__sphere_uv(lr__v3 n, double uv[2])
     uv[1] = 1.0 - acos(fmax(-1.0, fmin(1.0, n.y))) / M_PI;
 }
 
-static lr__v3 times_rgb(lr__v3 k, const lr__texture *t, const double uv[2])
+/* The texel of `t` at uv moved by `xf`. */
+static void lookup(const lr__texture *t, const lr__uv_xf *xf,
+                   const double uv[2], float c[4])
+{
+    if (!xf->on) {
+        lr__texture_lookup(t, uv[0], uv[1], c);
+        return;
+    }
+    const double *m = xf->m;
+    lr__texture_lookup(t, m[0] * uv[0] + m[1] * uv[1] + m[2],
+                       m[3] * uv[0] + m[4] * uv[1] + m[5], c);
+}
+
+static lr__v3 times_rgb(lr__v3 k, const lr__texture *t, const lr__uv_xf *xf,
+                        const double uv[2])
 {
     float c[4];
-    lr__texture_lookup(t, uv[0], uv[1], c);
+    lookup(t, xf, uv, c);
     return v3(k.x * c[0], k.y * c[1], k.z * c[2]);
 }
 
@@ -26,11 +40,13 @@ const lr__material *lr__material_textures(const lr__material *m,
 {
     *tmp = *m;
     if (m->pbr_split) {
-        lr__v3 b = m->base_tex ? times_rgb(m->base, m->base_tex, uv) : m->base;
+        lr__v3 b = m->base_tex ? times_rgb(m->base, m->base_tex,
+                                           &m->xf_colour, uv)
+                               : m->base;
         double metal = m->metal;
         if (m->metal_tex != NULL) {
             float c[4];
-            lr__texture_lookup(m->metal_tex, uv[0], uv[1], c);
+            lookup(m->metal_tex, &m->xf_rough, uv, c);
             metal *= fmin(1.0, fmax(0.0, c[2]));
         }
         tmp->reflect = v3_scale(b, metal);
@@ -38,12 +54,14 @@ const lr__material *lr__material_textures(const lr__material *m,
         tmp->transmit = v3_scale(b, (1 - metal) * m->trans);
     }
     if (m->diffuse_tex != NULL)
-        tmp->diffuse = times_rgb(m->diffuse, m->diffuse_tex, uv);
+        tmp->diffuse = times_rgb(m->diffuse, m->diffuse_tex, &m->xf_colour,
+                                 uv);
     if (m->emission_tex != NULL)
-        tmp->emission = times_rgb(m->emission, m->emission_tex, uv);
+        tmp->emission = times_rgb(m->emission, m->emission_tex,
+                                  &m->xf_emission, uv);
     if (m->roughness_tex != NULL) {
         float c[4];
-        lr__texture_lookup(m->roughness_tex, uv[0], uv[1], c);
+        lookup(m->roughness_tex, &m->xf_rough, uv, c);
         int k = m->roughness_channel >= 0 && m->roughness_channel < 4
                     ? m->roughness_channel
                     : 0;

@@ -13,6 +13,14 @@
 #include <embree3/rtcore.h>
 #include <stdatomic.h>
 
+/* An affine map of texture coordinates (lensray's: v up), applied before
+ * a lookup: u' = m[0] u + m[1] v + m[2], v' = m[3] u + m[4] v + m[5];
+ * `on` 0 is the identity.  glTF's KHR_texture_transform (gltf.c). */
+typedef struct lr__uv_xf {
+    int on;
+    double m[6];
+} lr__uv_xf;
+
 typedef struct lr__material {
     char *name;        /* owned */
     lr__v3 diffuse;    /* Lambertian albedo: BRDF = diffuse / pi */
@@ -43,6 +51,10 @@ typedef struct lr__material {
     lr__v3 base;
     double metal, trans;
     lr__texture *base_tex, *metal_tex;
+    /* The coordinates of each slot's lookups: the colour (diffuse_tex or
+     * base_tex), the emission, and roughness_tex and metal_tex (glTF
+     * packs both in one texture). */
+    lr__uv_xf xf_colour, xf_emission, xf_rough;
     /* The texture files as the scene JSON wrote them, for the writer
      * (json_write.c); NULL when none.  Owned. */
     char *diffuse_file, *emission_file, *roughness_file;

@@ -245,6 +245,27 @@ def scene_camera_light(light=True):
     return g
 
 
+def scene_texture_transform():
+    """One 2 x 2 quad whose base colour texture (2 x 2: red, green / blue,
+    white from the top left) has KHR_texture_transform offset (0.25, 0.1),
+    rotation 0.3 and scale (1.5, -0.7)."""
+    g = Gltf()
+    g.use_extension("KHR_texture_transform")
+    cols = {(0, 0): (255, 0, 0), (1, 0): (0, 255, 0), (0, 1): (0, 0, 255),
+            (1, 1): (255, 255, 255)}
+    tex = g.image_png(png_rgb(2, 2, lambda x, y: cols[(x, y)]))
+    pos, idx, nrm, uv = quad(2)
+    m = g.mesh(pos, idx, nrm, uv, g.material({
+        "name": "moved", "pbrMetallicRoughness": {
+            "baseColorTexture": {"index": tex, "extensions": {
+                "KHR_texture_transform": {"offset": [0.25, 0.1],
+                                          "rotation": 0.3,
+                                          "scale": [1.5, -0.7]}}},
+            "metallicFactor": 0}}))
+    g.node(mesh=m)
+    return g
+
+
 def scene_spot_light():
     """scene_camera_light's floor and camera under a spot light of 20 cd
     at (0, 2, 0) shining straight down (its node turned -90 degrees about
@@ -416,6 +437,7 @@ SCENES = {"tri": scene_tri, "normals": scene_normals,
           "mapping": scene_mapping, "textured": scene_textured,
           "metal-texture": scene_metal_texture,
           "spot-light": scene_spot_light,
+          "texture-transform": scene_texture_transform,
           "camera-floor": lambda: scene_camera_light(light=False),
           "camera-light": scene_camera_light,
           "materials": scene_materials, "gallery": scene_gallery}

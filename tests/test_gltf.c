@@ -448,6 +448,41 @@ static void test_metal_texture(void **state)
     lr_scene_free(s);
 }
 
+/* KHR_texture_transform: for each texel centre (x + 0.5, y + 0.5) / 2
+ * (plus a whole repeat, to check wrapping), this test inverts the
+ * extension's map (translation x rotation x scale, its GLSL read column by
+ * column: g' = R S g + o, R = [[cos, -sin], [sin, cos]]) to find the glTF
+ * coordinates g that land there, turns them into lensray's (v = 1 -
+ * glTF's), and expects that texel's colour. */
+static void test_texture_transform(void **state)
+{
+    (void)state;
+    make("texture-transform", "tt.glb");
+    lr_scene *s = lr_test_load_json(
+        "{\"objects\": [{\"type\": \"gltf\", \"file\": \"tt.glb\"}]}");
+    assert_null(strstr(lr_scene_warnings(s), "KHR_texture_transform"));
+    const lr__material *m = &s->materials[s->geoms[0].material];
+    static const double cols[2][2][3] = {{{1, 0, 0}, {0, 1, 0}},
+                                         {{0, 0, 1}, {1, 1, 1}}};
+    const double ox = 0.25, oy = 0.1, r = 0.3, sx = 1.5, sy = -0.7;
+    for (int y = 0; y < 2; y++)
+        for (int x = 0; x < 2; x++) {
+            double gx = (x + 0.5) / 2 + 1 - ox, gy = (y + 0.5) / 2 - 1 - oy;
+            /* S^-1 R^-1 (g' - o); R^-1 is R of -r. */
+            double px = (cos(r) * gx + sin(r) * gy) / sx;
+            double py = (-sin(r) * gx + cos(r) * gy) / sy;
+            double uv[2] = {px, 1 - py};
+            lr__material tmp;
+            const lr__material *at = lr__material_textures(m, uv, &tmp);
+            double got[3] = {at->diffuse.x, at->diffuse.y, at->diffuse.z};
+            for (int c = 0; c < 3; c++)
+                if (!(fabs(got[c] - cols[y][x][c]) < 1e-4))
+                    fail_msg("texel (%d, %d): (%g, %g, %g)", x, y, got[0],
+                             got[1], got[2]);
+        }
+    lr_scene_free(s);
+}
+
 /* ---- hostile files ---------------------------------------------------------- */
 
 /* Writes tri.gltf with member `key` ("array.index.member") set to the
@@ -613,6 +648,7 @@ static const struct CMUnitTest tests[] = {
     cmocka_unit_test(test_textures),
     cmocka_unit_test(test_metal_texture),
     cmocka_unit_test(test_spot_light),
+    cmocka_unit_test(test_texture_transform),
     cmocka_unit_test(test_hostile),
 };
 LR_TEST_GROUP(gltf, tests)
