@@ -388,7 +388,7 @@ soak: all
 # tests/corpus only, with a fixed seed, in build/fuzz/ci; it ends with
 # "N passed, N failed", one per target (fuzz/run.sh).
 FUZZ_SECONDS    ?= 60
-FUZZ_CI_SECONDS ?= 20
+FUZZ_CI_SECONDS ?= 10
 FUZZ_CC         ?= clang
 FUZZ_BUILD      := build/fuzz
 FUZZ            ?= scene obj lens gltf texture $(if $(SVC_SRC),job)
