@@ -297,7 +297,8 @@ void lr__sphere_uv(lr__v3 n, double uv[2]);
 static inline int lr__material_textured(const lr__material *m)
 {
     return m->diffuse_tex != NULL || m->emission_tex != NULL ||
-           m->roughness_tex != NULL;
+           m->roughness_tex != NULL || m->base_tex != NULL ||
+           m->metal_tex != NULL;
 }
 
 /* *tmp = m with its textures applied at uv; returns tmp (material.c). */

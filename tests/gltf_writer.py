@@ -343,23 +343,24 @@ def scene_textured():
     return g
 
 
-def scene_metal_texture():
+def scene_metal_texture(mr=True):
     """One 2 x 2 quad, metallicFactor 0.5 and roughnessFactor 1, with a
     2 x 2 base-colour texture (pixel (x, y) from the top left: red,
     white / white, green) and a metallic-roughness texture whose B
-    (metallic) is 255, 0 / 102, 255 and G (roughness) 255 everywhere."""
+    (metallic) is 255, 0 / 102, 255 and G (roughness) 255 everywhere
+    (none with mr=False)."""
     g = Gltf()
     cols = {(0, 0): (255, 0, 0), (1, 0): (255, 255, 255),
             (0, 1): (255, 255, 255), (1, 1): (0, 255, 0)}
     metal = {(0, 0): 255, (1, 0): 0, (0, 1): 102, (1, 1): 255}
     base = g.image_png(png_rgb(2, 2, lambda x, y: cols[(x, y)]))
-    mr = g.image_png(png_rgb(2, 2, lambda x, y: (0, 255, metal[(x, y)])))
+    mr_tex = g.image_png(png_rgb(2, 2, lambda x, y: (0, 255, metal[(x, y)])))
     pos, idx, nrm, uv = quad(2)
+    pbr = {"baseColorTexture": {"index": base}, "metallicFactor": 0.5}
+    if mr:
+        pbr["metallicRoughnessTexture"] = {"index": mr_tex}
     m = g.mesh(pos, idx, nrm, uv, g.material({
-        "name": "metal", "pbrMetallicRoughness": {
-            "baseColorTexture": {"index": base},
-            "metallicRoughnessTexture": {"index": mr},
-            "metallicFactor": 0.5}}))
+        "name": "metal", "pbrMetallicRoughness": pbr}))
     g.node(mesh=m)
     return g
 
@@ -436,6 +437,7 @@ def scene_normals():
 SCENES = {"tri": scene_tri, "normals": scene_normals,
           "mapping": scene_mapping, "textured": scene_textured,
           "metal-texture": scene_metal_texture,
+          "metal-base-texture": lambda: scene_metal_texture(mr=False),
           "spot-light": scene_spot_light,
           "texture-transform": scene_texture_transform,
           "camera-floor": lambda: scene_camera_light(light=False),

@@ -423,6 +423,8 @@ static void test_metal_texture(void **state)
     lr_scene *s = lr_test_load_json(
         "{\"objects\": [{\"type\": \"gltf\", \"file\": \"metal.glb\"}]}");
     const lr__material *m = &s->materials[s->geoms[0].material];
+    /* A hit on it computes its texture coordinates (trace.c). */
+    assert_true(lr__material_textured(m));
     static const double base[2][2][3] = {{{1, 0, 0}, {1, 1, 1}},
                                          {{1, 1, 1}, {0, 1, 0}}};
     static const double metal[2][2] = {{1, 0}, {0.4, 1}}; /* B / 255 */
@@ -446,6 +448,38 @@ static void test_metal_texture(void **state)
             assert_true(fabs(at->roughness - 1) < 1e-6);
         }
     lr_scene_free(s);
+    /* Rendered: Whitted's mirror sends each pixel to the white
+     * background behind the camera, and nothing lights the diffuse part,
+     * so a texel centre's pixel is m b; again without the metallic
+     * texture (m = 0.5 everywhere), where only the base colour is
+     * textured.  41 x 41 pixels, 10 to a unit at the quad: texel (x, y)
+     * at pixel (15 + 10 x, 15 + 10 y). */
+    make("metal-base-texture", "metal-base.glb");
+    for (int k = 0; k < 2; k++) {
+        char json[512];
+        snprintf(json, sizeof json,
+                 "{\"camera\": {\"position\": [0, 0, 10], \"look_at\": [0, 0, 0],"
+                 " \"fov\": %.17g}, \"render\": {\"width\": 41, \"height\": 41,"
+                 " \"spp\": 1, \"sampler\": \"grid\"}, \"background\": 1,"
+                 " \"objects\": [{\"type\": \"gltf\", \"file\": \"%s\"}]}",
+                 2 * atan(0.205) * 180 / PI, k ? "metal-base.glb" : "metal.glb");
+        s = lr_test_load_json(json);
+        lr_image *img = render(s);
+        const float *rgb = lr_image_rgb(img);
+        for (int y = 0; y < 2; y++)
+            for (int x = 0; x < 2; x++)
+                for (int c = 0; c < 3; c++) {
+                    double mm = 0.5 * (k ? 1 : metal[y][x]);
+                    double want = mm * base[y][x][c];
+                    double got = rgb[3 * ((15 + 10 * y) * 41 + 15 + 10 * x) + c];
+                    if (!(fabs(got - want) < 1e-4))
+                        fail_msg("%s: rendered texel (%d, %d) channel %d: %g, "
+                                 "want m b = %g", k ? "base only" : "metal",
+                                 x, y, c, got, want);
+                }
+        lr_image_free(img);
+        lr_scene_free(s);
+    }
 }
 
 /* KHR_texture_transform: for each texel centre (x + 0.5, y + 0.5) / 2
