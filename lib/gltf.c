@@ -128,8 +128,7 @@ static lr_status uv_transform(const lr__gltf_doc *d, const cJSON *ext,
 static void warn_ignored(lr_scene *s, const lr__gltf_doc *d, const cJSON *m,
                          const char *p)
 {
-    static const char *const slots[] = {"normalTexture", "occlusionTexture",
-                                        NULL};
+    static const char *const slots[] = {"occlusionTexture", NULL};
     for (int k = 0; slots[k]; k++)
         if (cJSON_GetObjectItemCaseSensitive(m, slots[k]))
             lr__gltf_warn(s, d, "%s.%s is ignored", p, slots[k]);
@@ -337,7 +336,19 @@ static lr_status add_material(lr_scene *s, lr__gltf_doc *d,
     LR_TRY(slot_texture(s, d, cJSON_GetObjectItemCaseSensitive(
                                   pbr, "metallicRoughnessTexture"),
                         q, 0, &t, &xf_rough, err));
+    lr__texture *rough_tex = t;
+    snprintf(q, sizeof q, "%s.normalTexture", p);
+    const cJSON *nt = cJSON_GetObjectItemCaseSensitive(m, "normalTexture");
+    lr__uv_xf xf_normal;
+    LR_TRY(slot_texture(s, d, nt, q, 0, &t, &xf_normal, err));
+    double nscale = 1;
+    if (t != NULL)
+        LR_TRY(numbers(d, nt, q, "scale", 1, &nscale, err));
     mt = &s->materials[s->n_materials - 1];
+    mt->normal_tex = t;
+    mt->normal_scale = nscale;
+    mt->xf_normal = xf_normal;
+    t = rough_tex;
     mt->xf_colour = xf_colour;
     mt->xf_emission = xf_emission;
     mt->xf_rough = xf_rough;

@@ -198,10 +198,17 @@ lr_status lr__scene_commit(lr_scene *s, lr_error *err)
                                !(v3_maxc(m->reflect) > 0.0) &&
                                !(v3_maxc(m->transmit) > 0.0) &&
                                v3_maxc(m->diffuse) > 0.0 &&
-                               !(v3_maxc(m->emission) > 0.0);
+                               !(v3_maxc(m->emission) > 0.0) &&
+                               m->normal_tex == NULL;
         lr_status st = lr__plan_chunk_bounds(g, err);
         if (st != LR_OK)
             return st;
+        if (g->kind == LR__GEOM_TRIANGLES && m->normal_tex != NULL &&
+            g->corner_uv != NULL && g->tangents == NULL) {
+            g->tangents = lr__triangle_tangents(g);
+            if (g->tangents == NULL)
+                return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+        }
         if (!g->lambert_triangles)
             continue;
         g->albedo = m->diffuse;
@@ -232,6 +239,7 @@ void lr_scene_free(lr_scene *s)
     for (size_t i = 0; i < s->n_geoms; i++) {
         free(s->geoms[i].corner_normals);
         free(s->geoms[i].corner_uv);
+        free(s->geoms[i].tangents);
         free(s->geoms[i].chunk_bounds);
         free(s->geoms[i].face_ng);
     }

@@ -55,6 +55,12 @@ typedef struct lr__material {
      * base_tex), the emission, and roughness_tex and metal_tex (glTF
      * packs both in one texture). */
     lr__uv_xf xf_colour, xf_emission, xf_rough;
+    /* A tangent-space normal map (glTF's normalTexture, linear RGB:
+     * n = 2 c - 1, x and y times normal_scale), on triangle meshes with
+     * texture coordinates; it bends the shading normal (trace.c). */
+    lr__texture *normal_tex;
+    double normal_scale;
+    lr__uv_xf xf_normal;
     /* The texture files as the scene JSON wrote them, for the writer
      * (json_write.c); NULL when none.  Owned. */
     char *diffuse_file, *emission_file, *roughness_file;
@@ -132,6 +138,11 @@ typedef struct lr__geom {
      * sets it right after lr__scene_add_triangles, on
      * s->geoms[s->n_geoms - 1]. */
     float *corner_uv;
+    /* Triangles with a normal-mapped material and corner_uv: each
+     * triangle's tangent and bitangent (6 floats: dP/du and dP/dv from
+     * its corners' positions and uvs), or NULL.  Set by lr__scene_commit.
+     * Owned. */
+    float *tangents;
     size_t n_triangles;
     /* Spheres (also mirrored in Embree) and infinite planes. */
     lr__v3 center;
@@ -291,6 +302,17 @@ static inline int lr__triangle_uv(const lr__geom *g, unsigned prim,
  * u = 1/2 + atan2(n.x, n.z) / (2 pi), v = 1 - acos(n.y) / pi. */
 void lr__sphere_uv(lr__v3 n, double uv[2]);
 
+/* The shading normal of triangle `prim` of g (a mesh with tangents) bent
+ * by its material's normal map at uv: ns_front is the unit shading normal
+ * on the front side.  Returns the unit bent normal on the front side, or
+ * ns_front where the map says nothing usable (material.c). */
+lr__v3 lr__normal_mapped(const lr__geom *g, const lr__material *m,
+                         unsigned prim, const double uv[2], lr__v3 ns_front);
+
+/* The tangents of lr__geom (6 floats per triangle), or NULL when out of
+ * memory (material.c). */
+float *lr__triangle_tangents(const lr__geom *g);
+
 /* ---- materials at a hit (material.c) ---------------------------------- */
 
 /* Whether a material has any texture. */
@@ -298,7 +320,7 @@ static inline int lr__material_textured(const lr__material *m)
 {
     return m->diffuse_tex != NULL || m->emission_tex != NULL ||
            m->roughness_tex != NULL || m->base_tex != NULL ||
-           m->metal_tex != NULL;
+           m->metal_tex != NULL || m->normal_tex != NULL;
 }
 
 /* *tmp = m with its textures applied at uv; returns tmp (material.c). */

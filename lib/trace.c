@@ -207,8 +207,19 @@ int lr__hit_complete(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
                 w * n[2] + u * n[5] + v * n[8]);
     }
     finish_hit(hit, org, dir, t_embree, ng, ns, g->material);
-    if (lr__material_textured(&s->materials[g->material]))
+    const lr__material *m = &s->materials[g->material];
+    if (lr__material_textured(m))
         hit->has_uv = lr__triangle_uv(g, prim_id, bu, bv, hit->uv);
+    if (m->normal_tex != NULL && hit->has_uv && g->tangents != NULL) {
+        /* Bent on the front side, then turned to the ray's like ns; a
+         * bend past the surface's horizon keeps the unbent normal, as
+         * finish_hit does for interpolated ones. */
+        lr__v3 front = hit->entering ? hit->ns : v3_neg(hit->ns);
+        lr__v3 n = lr__normal_mapped(g, m, prim_id, hit->uv, front);
+        n = hit->entering ? n : v3_neg(n);
+        if (v3_dot(n, hit->ng) > 0.0)
+            hit->ns = n;
+    }
     return 1;
 }
 

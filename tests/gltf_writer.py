@@ -266,6 +266,24 @@ def scene_texture_transform():
     return g
 
 
+def scene_normal_map():
+    """One 2 x 2 quad facing +z, base colour 0.5, with a 2 x 2 normal map
+    (pixel (x, y) from the top left): tilted towards +u (204, 128, 230),
+    towards +y up the image (128, 204, 230) / flat (128, 128, 255),
+    towards -u and down (60, 70, 230); normalTexture.scale 0.8."""
+    g = Gltf()
+    cols = {(0, 0): (204, 128, 230), (1, 0): (128, 204, 230),
+            (0, 1): (128, 128, 255), (1, 1): (60, 70, 230)}
+    tex = g.image_png(png_rgb(2, 2, lambda x, y: cols[(x, y)]))
+    pos, idx, nrm, uv = quad(2)
+    m = g.mesh(pos, idx, nrm, uv, g.material({
+        "name": "bumpy", "normalTexture": {"index": tex, "scale": 0.8},
+        "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1],
+                                 "metallicFactor": 0}}))
+    g.node(mesh=m)
+    return g
+
+
 def scene_spot_light():
     """scene_camera_light's floor and camera under a spot light of 20 cd
     at (0, 2, 0) shining straight down (its node turned -90 degrees about
@@ -439,6 +457,7 @@ SCENES = {"tri": scene_tri, "normals": scene_normals,
           "metal-texture": scene_metal_texture,
           "metal-base-texture": lambda: scene_metal_texture(mr=False),
           "spot-light": scene_spot_light,
+          "normal-map": scene_normal_map,
           "texture-transform": scene_texture_transform,
           "camera-floor": lambda: scene_camera_light(light=False),
           "camera-light": scene_camera_light,

@@ -517,6 +517,60 @@ static void test_texture_transform(void **state)
     lr_scene_free(s);
 }
 
+/* A normal map bends the shading normal as glTF 2.0 (3.9.3) defines it:
+ * n = normalize(T x + B y + N z) with (x, y, z) = 2 texel - 1, x and y
+ * times normalTexture.scale, T along increasing u (+x on this quad), B
+ * up the image (+y), N the quad's normal (+z).  Each texel centre's
+ * Lambertian radiance under a directional light, albedo / pi E n.l,
+ * computed here from the texel bytes, under Whitted's scalar path and
+ * the path tracer (the map keeps the mesh off the vector paths). */
+static void test_normal_map(void **state)
+{
+    (void)state;
+    make("normal-map", "bumpy.glb");
+    static const double lt[3] = {0.5, 0.4, 0.7681145747868608}; /* unit */
+    char json[640];
+    snprintf(json, sizeof json,
+             "{\"camera\": {\"position\": [0, 0, 10], \"look_at\": [0, 0, 0],"
+             " \"fov\": %.17g}, \"render\": {\"width\": 41, \"height\": 41,"
+             " \"spp\": 1, \"sampler\": \"grid\"},"
+             " \"lights\": [{\"type\": \"directional\", \"direction\":"
+             " [%.17g, %.17g, %.17g], \"irradiance\": 2}],"
+             " \"objects\": [{\"type\": \"gltf\", \"file\": \"bumpy.glb\"}]}",
+             2 * atan(0.205) * 180 / PI, -lt[0], -lt[1], -lt[2]);
+    lr_scene *s = lr_test_load_json(json);
+    assert_null(strstr(lr_scene_warnings(s), "normalTexture"));
+    static const int bytes[2][2][3] = {{{204, 128, 230}, {128, 204, 230}},
+                                       {{128, 128, 255}, {60, 70, 230}}};
+    for (int pass = 0; pass < 2; pass++) {
+        lr_camera cam;
+        lr_render_settings rs;
+        lr_scene_camera(s, &cam);
+        lr_scene_settings(s, &rs);
+        if (pass)
+            rs.integrator = LR_INTEGRATOR_PATH;
+        lr_image *img = lr_test_render_with(s, &cam, &rs, "normal map");
+        const float *rgb = lr_image_rgb(img);
+        for (int y = 0; y < 2; y++)
+            for (int x = 0; x < 2; x++) {
+                const int *b = bytes[y][x];
+                double n[3] = {(2 * b[0] / 255.0 - 1) * 0.8,
+                               (2 * b[1] / 255.0 - 1) * 0.8,
+                               2 * b[2] / 255.0 - 1};
+                double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+                double cosl = (n[0] * lt[0] + n[1] * lt[1] + n[2] * lt[2]) / len;
+                double want = 0.5 / PI * 2 * cosl;
+                double got = rgb[3 * ((15 + 10 * y) * 41 + 15 + 10 * x)];
+                if (!(fabs(got - want) < 1e-4 * want))
+                    fail_msg("%s, texel (%d, %d): %.7g, the bent normal says "
+                             "%.7g (unbent %.7g)", pass ? "path" : "whitted",
+                             x, y, got, want, 0.5 / PI * 2 * lt[2]);
+            }
+        lr_image_free(img);
+    }
+    lr_scene_free(s);
+}
+
 /* ---- hostile files ---------------------------------------------------------- */
 
 /* Writes tri.gltf with member `key` ("array.index.member") set to the
@@ -683,6 +737,7 @@ static const struct CMUnitTest tests[] = {
     cmocka_unit_test(test_metal_texture),
     cmocka_unit_test(test_spot_light),
     cmocka_unit_test(test_texture_transform),
+    cmocka_unit_test(test_normal_map),
     cmocka_unit_test(test_hostile),
 };
 LR_TEST_GROUP(gltf, tests)
