@@ -7,6 +7,8 @@
  */
 #include "test.h"
 
+#include "adaptive.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -306,6 +308,59 @@ static void test_adaptive_error(void **state)
     lr_image_free(ref);
 }
 
+/* The contrast test reads views made once per pixel (means, roots of
+ * the scales); it must give, to the bit, the formula it replaced: per
+ * channel |ma - mb| / sqrt(fmax(ma^2 + 0.01, mb^2 + 0.01)), the largest,
+ * 0 without samples.  Pixels from ordinary to overflowing scales. */
+static double reference_contrast(const lr__pixel *a, const lr__pixel *b)
+{
+    if (a->n == 0 || b->n == 0)
+        return 0.0;
+    double c = 0.0;
+    for (int i = 0; i < 3; i++) {
+        double ma = a->sum[i] / (double)a->n, mb = b->sum[i] / (double)b->n;
+        double d = fabs(ma - mb) /
+                   sqrt(fmax(ma * ma + 0.01, mb * mb + 0.01));
+        if (d > c)
+            c = d;
+    }
+    return c;
+}
+
+static void test_pilot_contrast_exact(void **state)
+{
+    (void)state;
+    static const double scales[] = {0.0, 1e-3, 0.3, 1.0, 7.0, 1e6, 1e200};
+    static const unsigned ns[] = {0, 1, 2, 3, 16, 17, 1000};
+    uint64_t rng = 0x9e3779b97f4a7c15ull;
+    int checked = 0;
+    for (int t = 0; t < 20000; t++) {
+        lr__pixel px[2];
+        for (int j = 0; j < 2; j++) {
+            lr__pixel_reset(&px[j]);
+            rng = rng * 6364136223846793005ull + 1442695040888963407ull;
+            px[j].n = ns[(rng >> 33) % 7];
+            double s = scales[(rng >> 40) % 7];
+            for (int c = 0; c < 3; c++) {
+                rng = rng * 6364136223846793005ull + 1442695040888963407ull;
+                /* Often equal sums, so that equal roots meet too. */
+                double u = (double)(rng >> 11) * 0x1p-53;
+                px[j].sum[c] = t % 5 == 0 ? s : u * s * (double)px[j].n;
+            }
+        }
+        lr__pilot_view va, vb;
+        lr__pilot_view_make(&px[0], &va);
+        lr__pilot_view_make(&px[1], &vb);
+        double want = reference_contrast(&px[0], &px[1]);
+        double got = lr__pilot_contrast(&va, &vb);
+        if (memcmp(&want, &got, sizeof want) != 0)
+            fail_msg("pilot %d: contrast %.17g, the formula gives %.17g", t,
+                     got, want);
+        checked += want > 0.0;
+    }
+    assert_true(checked > 1000);
+}
+
 static const struct CMUnitTest plan_tests[] = {
     cmocka_unit_test(test_blurred_foreground_over_sharp_background),
     cmocka_unit_test(test_chromatic_rim),
@@ -314,5 +369,6 @@ static const struct CMUnitTest plan_tests[] = {
     cmocka_unit_test(test_adaptive_deterministic),
     cmocka_unit_test(test_adaptive_error),
     cmocka_unit_test(test_adaptive_schedule),
+    cmocka_unit_test(test_pilot_contrast_exact),
 };
 LR_TEST_GROUP(plan, plan_tests)
