@@ -257,8 +257,8 @@ typedef struct lr_render_settings {
      * tile's lens rays can reach is blurred by more than a quarter pixel,
      * and trace one ray for all colours where the colours' circles of
      * confusion differ by less than that (with LR_SAMPLER_GRID and
-     * adaptive sampling on, the lens is sampled everywhere: only its blur
-     * dithers the grid's fixed positions).  Default 1; 0 = always
+     * adaptive sampling on, the lens is sampled wherever a tile can reach
+     * geometry: only its blur dithers the grid's fixed positions).  Default 1; 0 = always
      * simulate everything. */
     int plan;
     /* Adaptive sampling: every pixel first takes a pilot of
