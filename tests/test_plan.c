@@ -324,9 +324,7 @@ static lr_image *render_focus(const char *const *sets, size_t n)
     lr_render_settings rs;
     lr_scene_camera(s, &c);
     lr_scene_settings(s, &rs);
-    lr_image *img = NULL;
-    if (lr_render(s, &c, &rs, &img, NULL, &err) != LR_OK)
-        fail_msg("render: %s", err.message);
+    lr_image *img = lr_test_render_with(s, &c, &rs, "accuracy-focus");
     lr_scene_free(s);
     return img;
 }
