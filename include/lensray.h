@@ -256,8 +256,10 @@ typedef struct lr_render_settings {
     /* Effect planning: per tile, skip lens sampling where no geometry the
      * tile's lens rays can reach is blurred by more than a quarter pixel,
      * and trace one ray for all colours where the colours' circles of
-     * confusion differ by less than that.  Default 1; 0 = always simulate
-     * everything. */
+     * confusion differ by less than that (with LR_SAMPLER_GRID and
+     * adaptive sampling on, the lens is sampled wherever a tile can reach
+     * geometry: only its blur dithers the grid's fixed positions).  Default 1; 0 = always
+     * simulate everything. */
     int plan;
     /* Adaptive sampling: every pixel first takes a pilot of
      * adaptive_min_spp samples (at least 16 where the plan samples the

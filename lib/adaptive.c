@@ -104,18 +104,61 @@ int lr__pixel_samples_needed(const lr__pixel *p, double threshold, int lo,
     return k < lo ? lo : k;
 }
 
-double lr__pixel_contrast(const lr__pixel *a, const lr__pixel *b)
+/* fmax as glibc has it (the non-NaN one), inline: a call per channel
+ * and neighbour was a measurable share of the rule's cost. */
+static inline double max_number(double a, double b)
 {
-    if (a->n == 0 || b->n == 0)
-        return 0.0;
+    if (isnan(a))
+        return b;
+    if (isnan(b))
+        return a;
+    return a > b ? a : b;
+}
+
+void lr__pilot_view_make(const lr__pixel *p, lr__pilot_view *v)
+{
+    for (int i = 0; i < 3; i++) {
+        /* No samples: a NaN mean makes every contrast with it NaN, which
+         * lr__pilot_contrast ignores, so it is 0. */
+        double m = p->n ? p->sum[i] / (double)p->n : NAN;
+        v->mean[i] = m;
+        v->root[i] = sqrt(scale2(m));
+    }
+}
+
+/* The relative contrast of two pilots: per channel |ma - mb| over the
+ * square root of the larger scale, the largest of the three.  sqrt is
+ * correctly rounded, so monotonic: the root of the larger scale is the
+ * larger root, taken from the views without a square root per pair. */
+static inline double contrast(const lr__pilot_view *a,
+                              const lr__pilot_view *b)
+{
     double c = 0.0;
     for (int i = 0; i < 3; i++) {
-        double ma = a->sum[i] / (double)a->n, mb = b->sum[i] / (double)b->n;
-        double d = fabs(ma - mb) / sqrt(fmax(scale2(ma), scale2(mb)));
+        double d = fabs(a->mean[i] - b->mean[i]) /
+                   max_number(a->root[i], b->root[i]);
         if (d > c)
             c = d;
     }
     return c;
+}
+
+double lr__pilot_contrast(const lr__pilot_view *a, const lr__pilot_view *b)
+{
+    return contrast(a, b);
+}
+
+/* Can contrast(a, b) exceed `bound`?  0 only when it cannot: in some
+ * channel |ma - mb| > bound x root, a product instead of a division.
+ * NaN differences (ignored by contrast) say no too. */
+static inline int may_exceed(const lr__pilot_view *a, const lr__pilot_view *b,
+                             double bound)
+{
+    for (int i = 0; i < 3; i++)
+        if (fabs(a->mean[i] - b->mean[i]) >
+            bound * max_number(a->root[i], b->root[i]))
+            return 1;
+    return 0;
 }
 
 /* A sliver of the pixel that all n samples missed, next to a neighbour
@@ -156,11 +199,14 @@ static int apron_needed(const lr__plan *plan, int spp, int x, int y, int x0,
 }
 
 void lr__adaptive_block(const lr_render_settings *set, const lr__plan *plan,
-                        int x0, int y0, int x1, int y1, lr__pixel *acc,
-                        int *need, const lr__block_io *io)
+                        int x0, int y0, int x1, int y1,
+                        lr__block_scratch *scratch, const lr__block_io *io)
 {
     int spp = set->spp;
     double thr = lr__adaptive_threshold(set);
+    lr__pixel *acc = scratch->acc;
+    int *need = scratch->need;
+    lr__pilot_view *view = scratch->view;
     if (!set->adaptive || lr__adaptive_min(set) >= spp) {
         for (int y = y0; y < y1; y++)
             for (int x = x0; x < x1; x++) {
@@ -186,35 +232,56 @@ void lr__adaptive_block(const lr_render_settings *set, const lr__plan *plan,
             lr__pixel_reset(&acc[i]);
             io->sample(io->ctx, x, y, 0, p, &acc[i]);
             need[i] = lr__pixel_samples_needed(&acc[i], thr, p, spp);
+            lr__pilot_view_make(&acc[i], &view[i]);
         }
     for (int y = y0; y < y1; y++)
         for (int x = x0; x < x1; x++) {
-            lr__pixel *a = &acc[(y - ay0) * aw + (x - ax0)];
+            int i = (y - ay0) * aw + (x - ax0);
+            lr__pixel *a = &acc[i];
             int have = lr__plan_at(plan, x, y)->pilot;
             if (have >= spp) {
                 /* The pilot was all of it (a blurred pixel at low spp). */
                 io->store(io->ctx, x, y, a);
                 continue;
             }
-            int want = lr__pixel_samples_needed(a, thr, have, spp);
-            for (int ny = y - 1; ny <= y + 1; ny++)
-                for (int nx = x - 1; nx <= x + 1; nx++) {
-                    if (nx < ax0 || nx >= ax1 || ny < ay0 || ny >= ay1)
-                        continue;
+            /* need[i] is the pixel's own need, judged from its pilot;
+             * neighbours of unconverged pixels keep going. */
+            int want = need[i];
+            int nx0 = x > ax0 ? x - 1 : x, nx1 = x + 1 < ax1 ? x + 1 : x;
+            int ny0 = y > ay0 ? y - 1 : y, ny1 = y + 1 < ay1 ? y + 1 : y;
+            for (int ny = ny0; ny <= ny1; ny++)
+                for (int nx = nx0; nx <= nx1; nx++) {
                     int k = (ny - ay0) * aw + (nx - ax0);
                     if (need[k] > want)
                         want = need[k];
-                    /* An edge along the pixel grid can slip between a
-                     * few samples: a pixel whose pilot differs from a
-                     * neighbour's by more than 10 x the threshold takes
-                     * another round and judges again. */
-                    if (need[k] > 0) {
-                        int e = lr__edge_samples_needed(
-                            lr__pixel_contrast(a, &acc[k]), thr, have, spp);
-                        if (e > want)
-                            want = e;
+                }
+            /* An edge along the pixel grid can slip between a few
+             * samples: a pixel whose pilot differs from a neighbour's
+             * takes the samples that bound the error of a sliver it
+             * missed (lr__edge_samples_needed, which grows with the
+             * contrast, so the largest decides).  That adds samples only
+             * where contrast / thr > want, so a pair whose contrast is
+             * surely below want x thr (with a margin of 1e-9 that covers
+             * the few roundings on either side) needs no division.  A
+             * bound so small that the product could underflow checks
+             * nothing. */
+            double bound = (double)want * thr * (1.0 - 1e-9);
+            if (!(bound > 1e-200))
+                bound = 0.0;
+            double cmax = 0.0;
+            for (int ny = ny0; ny <= ny1; ny++)
+                for (int nx = nx0; nx <= nx1; nx++) {
+                    int k = (ny - ay0) * aw + (nx - ax0);
+                    if (need[k] > 0 && k != i &&
+                        may_exceed(&view[i], &view[k], bound)) {
+                        double c = contrast(&view[i], &view[k]);
+                        if (c > cmax)
+                            cmax = c;
                     }
                 }
+            int e = lr__edge_samples_needed(cmax, thr, have, spp);
+            if (e > want)
+                want = e;
             /* The rounds go into a copy: acc keeps every pixel's pilot,
              * so that the contrast test above compares pilots with
              * pilots, as in a tile or a crop where the neighbour is an
@@ -226,7 +293,9 @@ void lr__adaptive_block(const lr_render_settings *set, const lr__plan *plan,
                 int next = lr__adaptive_next(have, want, spp);
                 io->sample(io->ctx, x, y, have, next, &px);
                 have = next;
-                want = lr__pixel_samples_needed(&px, thr, have, spp);
+                /* With all spp there is nothing left to judge. */
+                if (have < spp)
+                    want = lr__pixel_samples_needed(&px, thr, have, spp);
             }
             io->store(io->ctx, x, y, &px);
         }

@@ -36,10 +36,6 @@ int lr__adaptive_pilot(const lr_render_settings *set, int lens);
 int lr__pixel_samples_needed(const lr__pixel *p, double threshold, int lo,
                              int hi);
 
-/* How much the mean luminances of two pixels differ, relative to the
- * larger (with the same 0.02 floor as lr__pixel_samples_needed). */
-double lr__pixel_contrast(const lr__pixel *a, const lr__pixel *b);
-
 /* How many samples in all a pixel needs, at most `hi`, so that a sliver
  * of its area that all its samples missed, next to an edge of relative
  * contrast `contrast`, errs by at most `threshold`: contrast / threshold
@@ -64,16 +60,38 @@ typedef struct lr__block_io {
     void *ctx;
 } lr__block_io;
 
+/* What the neighbours' contrast test reads of a pixel's pilot, made once
+ * per pixel rather than once per neighbour that reads it: per channel
+ * the mean and the square root of its error scale (adaptive.c). */
+typedef struct lr__pilot_view {
+    double mean[3];
+    double root[3];
+} lr__pilot_view;
+
 /* The largest block lr__adaptive_block takes, and the scratch it needs:
- * (LR__BLOCK_MAX + 2)^2 pixels and as many ints (a one-pixel apron). */
+ * (LR__BLOCK_MAX + 2)^2 pixels (a one-pixel apron). */
 #define LR__BLOCK_MAX 64
 #define LR__BLOCK_APRON ((LR__BLOCK_MAX + 2) * (LR__BLOCK_MAX + 2))
+
+typedef struct lr__block_scratch {
+    lr__pixel acc[LR__BLOCK_APRON];     /* every pixel's pilot */
+    int need[LR__BLOCK_APRON];          /* its need; 0: not sampled */
+    lr__pilot_view view[LR__BLOCK_APRON];
+} lr__block_scratch;
 
 /* Renders pixels [x0, x1) x [y0, y1) (at most LR__BLOCK_MAX a side) of a
  * frame planned by `plan`, every pixel stored once, in row order. */
 void lr__adaptive_block(const lr_render_settings *set,
                         const struct lr__plan *plan, int x0, int y0, int x1,
-                        int y1, lr__pixel *acc, int *need,
+                        int y1, lr__block_scratch *scratch,
                         const lr__block_io *io);
+
+/* A pixel's view (a mean of NaN per channel when it has no samples). */
+void lr__pilot_view_make(const lr__pixel *p, lr__pilot_view *v);
+
+/* How much two pixels' means differ, relative to the larger: per channel
+ * |ma - mb| / sqrt(max(ma^2, mb^2) + 0.01), the largest of the three
+ * (0 when either has no samples). */
+double lr__pilot_contrast(const lr__pilot_view *a, const lr__pilot_view *b);
 
 #endif

@@ -45,8 +45,7 @@ typedef struct worker {
     double cpu; /* CPU seconds of this thread in worker_main */
     lr__sample_counts counts;
     uint64_t samples, dropped, lens_pixels, chroma_pixels;
-    lr__pixel acc[LR__BLOCK_APRON];
-    int need[LR__BLOCK_APRON];
+    lr__block_scratch scratch;
 } worker;
 
 static void sample_cb(void *ctx, int x, int y, int first, int last,
@@ -82,7 +81,7 @@ static void render_tile(worker *w, int x0, int y0, int x1, int y1)
             lr__adaptive_block(w->r->set, &w->r->plan, x, y,
                                x + LR__BLOCK_MAX < x1 ? x + LR__BLOCK_MAX : x1,
                                y + LR__BLOCK_MAX < y1 ? y + LR__BLOCK_MAX : y1,
-                               w->acc, w->need, &io);
+                               &w->scratch, &io);
 }
 
 /* CPU time of the calling thread. */

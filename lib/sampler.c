@@ -538,6 +538,10 @@ void lr__sampler_init(lr__sampler *s, lr_sampler_kind kind, uint64_t seed,
     pthread_once(&sobol_once, sobol_init);
 }
 
+int lr__sampler_fixed_positions(lr_sampler_kind kind)
+{
+    return kind == LR_SAMPLER_GRID;
+}
 
 double lr__sample_1d(const lr__sampler *s, uint64_t pixel, uint32_t sample,
                      uint32_t dim)

@@ -30,6 +30,11 @@ enum {
 void lr__sampler_init(lr__sampler *s, lr_sampler_kind kind, uint64_t seed,
                       int spp);
 
+/* 1 when every pixel's samples take the same positions in the pixel
+ * (the grid sampler's cell centres), so that nothing varies between
+ * pixels but what the lens and the scene add. */
+int lr__sampler_fixed_positions(lr_sampler_kind kind);
+
 /* A number in [0, 1) for (pixel, sample, dim). */
 double lr__sample_1d(const lr__sampler *s, uint64_t pixel, uint32_t sample,
                      uint32_t dim);

@@ -212,6 +212,7 @@ lr_status lr__scene_commit(lr_scene *s, lr_error *err)
         if (!g->lambert_triangles)
             continue;
         g->albedo = m->diffuse;
+        g->albedo_textured = m->diffuse_tex != NULL;
         free(g->face_ng);
         g->face_ng = face_normals(g);
         if (g->face_ng == NULL)

@@ -161,6 +161,10 @@ typedef struct lr__geom {
      * chain of dependent loads. */
     double *face_ng;
     lr__v3 albedo;
+    /* Set with lambert_triangles: the albedo comes from a texture (the
+     * material's diffuse_tex), read here rather than through the
+     * material, one dependent load less per lane. */
+    int albedo_textured;
     /* Emissive geometry: the index in scene->emitters of its first
      * primitive (triangle i is emitters[emitter + i]); -1 if none. */
     long emitter;

@@ -359,7 +359,7 @@ static void radiance16(const lr_scene *restrict s, int max_depth,
              * (the same barycentrics, the same formula). */
             const lr__geom *G = &s->geoms[g];
             lr__v3 kd = G->albedo;
-            if (s->materials[G->material].diffuse_tex != NULL) {
+            if (G->albedo_textured) {
                 double uv[2];
                 lr__material tmp;
                 int has_uv = lr__triangle_uv(G, rh->hit.primID[i],
