@@ -15,17 +15,24 @@
  *    flat area gets no colour noise even where its rays spread, and only
  *    the colour fringes are sampled.
  *
- * 2. m wavelengths (camera.chromatic.wavelengths) drawn by lr__wl_sample
- *    from u_k = frac(u + k / m), k = 0 .. m-1, where u is the sample's
- *    dimension 4, stratified together with its pixel and lens position
- *    (lr__pixel_sampler_dim4).  These are the hero wavelength and its
- *    evenly rotated companions of Wilkie, Nawaz, Droske, Weidlich &
- *    Hanika, "Hero Wavelength Spectral Sampling" (EGSR 2014), rotated in
- *    the sample space rather than in nanometres: every u_k is then
- *    uniform, every wavelength has the same density, so the balance
- *    heuristic gives each the MIS weight 1 / m, and
+ * 2. m wavelengths (camera.chromatic.wavelengths), one in each stratum
+ *    of the sampling space: l_k from u_k = (v + k) / m, k = 0 .. m-1,
+ *    where v is the sample's dimension 4, stratified together with its
+ *    pixel and lens position (lr__pixel_sampler_dim4), and lr__wl_sample
+ *    turns u into a wavelength with the density of wavelength.h.  Each
+ *    stratum has probability 1 / m, so (stratified sampling, one sample a
+ *    stratum)
  *
- *        F = L_r + (1 / m) sum_k w(l_k) (L(l_k) - L_r).
+ *        F = L_r + (1 / m) sum_k w(l_k) (L(l_k) - L_r)
+ *
+ *    is unbiased.  v itself, not frac(m v), offsets the strata: the
+ *    pixel's samples then spread over lens and offset jointly, as Sobol's
+ *    dimensions 2 to 4 do, where frac(m v) keeps only the low digits of
+ *    dimension 4 (those the net leaves least stratified).  This is the
+ *    hero wavelength with evenly rotated companions of Wilkie, Nawaz,
+ *    Droske, Weidlich & Hanika, "Hero Wavelength Spectral Sampling" (EGSR
+ *    2014), in the sample space, with the hero drawn from the first
+ *    stratum.
  *
  * The m + 1 rays of a sample share its film and lens point; in packets,
  * each of the m + 1 is a packet of sixteen samples.  Where the plan finds
@@ -45,18 +52,18 @@ void lr__shot_init(lr__shot *sh)
      * (the most dispersive glass shipped) is off by at most 1.4e-6, 1.5e-5
      * of its range over the spectrum (checked against Sellmeier at 0.1
      * nm); the power is kept in float, as the rays are traced, anyway. */
-    lr__wl_init();
+    float power[LR__WL_NODES];
+    int spectral = sh->cam->chroma.mode == LR_CHROMATIC_SPECTRAL;
     for (int j = 0; j < LR__WL_NODES; j++)
-        sh->wl_power[j] = sh->cam->chroma.mode == LR_CHROMATIC_SPECTRAL
-                              ? (float)lr__cam_power_at(sh->cam, 380.0 + j)
-                              : (float)sh->cam->w;
+        power[j] = spectral ? (float)lr__cam_power_at(sh->cam, 380.0 + j)
+                            : (float)sh->cam->w;
+    lr__wl_table_init(&sh->wl, power, sh->cam->w);
 }
 
-/* Companion k of m for a sample whose dimension 4 is u: frac(u + k / m). */
-static double companion(double u, int k, int m)
+/* Stratum k of m for a sample whose dimension 4 is v: (v + k) / m. */
+static double stratum(double v, int k, int m)
 {
-    double v = u + (double)k / m;
-    return v < 1.0 ? v : v - 1.0;
+    return (v + k) / m;
 }
 
 static lr__v3 weighted_diff(const double w[3], lr__v3 L, lr__v3 Lr)
@@ -86,10 +93,9 @@ void lr__spectral_sample(const lr__shot *sh, const lr__pixel_sampler *ps,
     lr__v3 sum = v3(0, 0, 0);
     for (int k = 0; k < m; k++) {
         double W[3];
-        double nm = lr__wl_sample(companion(u4, k, m), W);
-        double wt = lr__cam_lens_ray(c, fx, fy, u,
-                                     lr__wl_lerp(sh->wl_power, nm), nm, &org,
-                                     &dir);
+        float pw;
+        double nm = lr__wl_sample(&sh->wl, stratum(u4, k, m), W, &pw);
+        double wt = lr__cam_lens_ray(c, fx, fy, u, pw, nm, &org, &dir);
         lr__v3 Li = v3(0, 0, 0);
         cnt->lens_blocked += wt == 0.0;
         if (wt != 0.0)
@@ -131,10 +137,8 @@ void lr__spectral_packets(const lr__shot *sh, int x, int y, int first,
             sum[i] = v3(0, 0, 0);
         for (int k = 0; k < m; k++) {
             double W[16][3];
-            for (int i = 0; i < n; i++) {
-                double nm = lr__wl_sample(companion(u4[i], k, m), W[i]);
-                pw[i] = (float)lr__wl_lerp(sh->wl_power, nm);
-            }
+            for (int i = 0; i < n; i++)
+                lr__wl_sample(&sh->wl, stratum(u4[i], k, m), W[i], &pw[i]);
             c->model->rays16_w(c, n, fx, fy, lu, lv, pw, &rh, lw);
             sh->integrator->radiance16(sh->scene, sh->max_depth, &rh, n, &id,
                                        L, &cnt->rays);
