@@ -155,14 +155,17 @@ void lr__spectral_packets(const lr__shot *sh, int x, int y, int first,
         for (int i = 0; i < n; i++)
             sum[i] = v3(0, 0, 0);
         for (int k = 0; k < m; k++) {
-            double W[16][3];
-            for (int i = 0; i < n; i++)
-                lr__wl_sample(&sh->wl, stratum(u4[i], k, m), W[i], &pw[i]);
+            float uk[16], W[3][16];
+            for (int i = 0; i < 16; i++)
+                uk[i] = (float)stratum(i < n ? u4[i] : 0.0, k, m);
+            lr__wl_sample16(&sh->wl, uk, W, pw);
             c->model->rays16_w(c, n, fx, fy, lu, lv, pw, &rh, lw);
             sh->integrator->radiance16(sh->scene, sh->max_depth, &rh, n, &id,
                                        L, &cnt->rays);
-            for (int i = 0; i < n; i++)
-                sum[i] = v3_add(sum[i], weighted_diff(W[i], L[i], Lr[i]));
+            for (int i = 0; i < n; i++) {
+                double Wi[3] = {W[0][i], W[1][i], W[2][i]};
+                sum[i] = v3_add(sum[i], weighted_diff(Wi, L[i], Lr[i]));
+            }
         }
         for (int i = 0; i < n; i++)
             sum[i] = v3_add(Lr[i], v3_scale(sum[i], 1.0 / m));

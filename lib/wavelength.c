@@ -72,6 +72,32 @@ void lr__wl_table_init(lr__wl_table *t, const float *power, double p_ref)
     t->lam[LR__WL_CELLS] = LR__LAMBDA_MAX;
 }
 
+__attribute__((target_clones("avx512f", "avx2", "default")))
+void lr__wl_sample16(const lr__wl_table *restrict t, const float u[restrict 16],
+                     float w[restrict 3][16], float power[restrict 16])
+{
+    const float *lam = t->lam, *node = &t->node[0][0];
+    for (int i = 0; i < 16; i++) {
+        float x = u[i] * LR__WL_CELLS;
+        int k = (int)x;
+        k = k < 0 ? 0 : k;
+        k = k > LR__WL_CELLS - 1 ? LR__WL_CELLS - 1 : k;
+        float l0 = lam[k], dl = lam[k + 1] - l0;
+        float nm = l0 + (x - (float)k) * dl;
+        float inv_p = LR__WL_CELLS * dl;
+        float y = nm - 380.0f;
+        int j = (int)y;
+        j = j < 0 ? 0 : j;
+        j = j > LR__WL_NODES - 2 ? LR__WL_NODES - 2 : j;
+        float f = y - (float)j;
+        int a = 4 * j, b = 4 * j + 4;
+        w[0][i] = (node[a] + f * (node[b] - node[a])) * inv_p;
+        w[1][i] = (node[a + 1] + f * (node[b + 1] - node[a + 1])) * inv_p;
+        w[2][i] = (node[a + 2] + f * (node[b + 2] - node[a + 2])) * inv_p;
+        power[i] = node[a + 3] + f * (node[b + 3] - node[a + 3]);
+    }
+}
+
 double lr__wl_pdf(const lr__wl_table *t, double nm)
 {
     if (!(nm >= LR__LAMBDA_MIN && nm < LR__LAMBDA_MAX))

@@ -86,6 +86,17 @@ static inline double lr__wl_sample(const lr__wl_table *t, double u,
     return nm;
 }
 
+/* lr__wl_sample for sixteen lanes at once, in float, for the packet
+ * path (vectorised; the AVX-512, AVX2 and portable versions give the same
+ * bits): lane i draws from u[i] and gets weights w[c][i] and focus power
+ * power[i].  Float keeps the weights exact for the density the lanes
+ * were drawn with (the cell's width is the same float difference in
+ * both); the wavelength itself is not returned, as the packets trace
+ * with the power alone. */
+void lr__wl_sample16(const lr__wl_table *restrict t,
+                     const float u[restrict 16], float w[restrict 3][16],
+                     float power[restrict 16]);
+
 /* The density (per nm) with which lr__wl_sample draws `nm`: 0 outside
  * 380 to 780 nm. */
 double lr__wl_pdf(const lr__wl_table *t, double nm);

@@ -251,6 +251,31 @@ static void test_wavelength_weights_integrate_to_one(void **state)
         /* More samples where the matching functions are large. */
         assert_true(lr__wl_pdf(tabs[k], 550) > 5 * lr__wl_pdf(tabs[k], 770));
     }
+    /* The packets' float version draws the same: weights and power as the
+     * scalar's (float rounding), and weights that average to 1 too. */
+    double sum16[3] = {0, 0, 0};
+    const int N16 = 1 << 12;
+    for (int i0 = 0; i0 < N16; i0 += 16) {
+        float u[16], w16[3][16], p16[16];
+        for (int i = 0; i < 16; i++)
+            u[i] = (float)((i0 + i + 0.5) / N16);
+        lr__wl_sample16(&disp, u, w16, p16);
+        for (int i = 0; i < 16; i++) {
+            double ws[3];
+            float ps;
+            lr__wl_sample(&disp, u[i], ws, &ps);
+            assert_true(fabs(p16[i] - ps) < 1e-6);
+            for (int c = 0; c < 3; c++) {
+                if (fabs(w16[c][i] - ws[c]) > 1e-5 * (1 + fabs(ws[c])))
+                    fail_msg("u %g channel %d: float %g, double %g", u[i], c,
+                             w16[c][i], ws[c]);
+                sum16[c] += w16[c][i] / N16;
+            }
+        }
+    }
+    for (int c = 0; c < 3; c++)
+        if (fabs(sum16[c] - 1) > 1e-3)
+            fail_msg("float weights, channel %d: mean %.6f", c, sum16[c]);
     /* The power the table gives back is the camera's. */
     double w[3];
     float pw;
