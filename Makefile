@@ -94,7 +94,8 @@ $(BUILD)/obj/%.o: %.c $(DEPS_OK)
 # on the bench scene than 256.)
 $(BUILD)/obj/lib/whitted.o $(BUILD)/obj/lib/trace.o $(BUILD)/obj/lib/camera.o \
 $(BUILD)/obj/lib/sample.o $(BUILD)/obj/lib/rx_trace.o \
-$(BUILD)/obj/lib/rx_trace16f.o $(BUILD)/obj/lib/camera_lens.o $(BUILD)/obj/lib/lens.o: CFLAGS += $(if $(filter -O2,$(OPT)),-O3) \
+$(BUILD)/obj/lib/rx_trace16f.o $(BUILD)/obj/lib/camera_lens.o $(BUILD)/obj/lib/lens.o \
+$(BUILD)/obj/lib/wavelength.o: CFLAGS += $(if $(filter -O2,$(OPT)),-O3) \
                                       -fno-math-errno -fno-trapping-math \
                                       -mprefer-vector-width=512
 $(BUILD)/obj/lib/sampler.o: CFLAGS += $(if $(filter -O2,$(OPT)),-O3)

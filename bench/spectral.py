@@ -8,7 +8,7 @@ Renders scenes/accuracy-chroma.json (the `make accuracy` chroma scene)
 with two binaries side by side in one run: OLD (a build of `main` before
 issue 17's spectral sampling) in the configurations docs/accuracy.md
 found best (sobol, full simulation and plan+adaptive, 8 and 16
-wavelengths a sample), and NEW with 4, 8 and 16 (its default) wavelengths
+wavelengths a sample), and NEW with 4, 8 (its default) and 16 wavelengths
 a sample, full and plan+adaptive.  (The scene itself asks for 8.)  Every image is compared with one reference made by
 OLD (sobol, full simulation, 32 wavelengths a sample, --ref-spp samples,
 two seeds: half their relMSE is the reference's own noise), cached in

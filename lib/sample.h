@@ -24,12 +24,12 @@ typedef struct lr__shot {
     const lr__integrator *integrator;
     int width;        /* of the full frame, for pixel indices */
     int max_depth;
-    /* Spectral mode: the camera's focus power at each whole nanometre
-     * from 380 to 780 (lr__cam_power_at), read linearly between. */
-    float wl_power[LR__WL_NODES];
+    /* Spectral mode: where wavelengths are drawn, their weights and the
+     * camera's focus power (lr__cam_power_at) at each (wavelength.h). */
+    lr__wl_table wl;
 } lr__shot;
 
-/* Prepares `sh` (wl_power) for the other fields the caller has set. */
+/* Prepares `sh` (wl) for the other fields the caller has set. */
 void lr__shot_init(lr__shot *sh);
 
 /* Counts a thread keeps. */

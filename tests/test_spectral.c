@@ -177,12 +177,14 @@ static void test_white_bar_matches_cie_integral(void **state)
 
 /* A grey card filling the frame: every wavelength's ray sees the
  * reference's grey, so spectral mode gives exactly the image without
- * colours (no colour noise, however spread the rays). */
+ * colours (no colour noise, however spread the rays).  40 samples: three
+ * packets, the later two (one partial) controlled by the first's
+ * reference rays. */
 static void test_grey_card_is_exact(void **state)
 {
     (void)state;
     const char *json =
-        "{\"render\": {\"width\": 24, \"height\": 16, \"spp\": 8,"
+        "{\"render\": {\"width\": 24, \"height\": 16, \"spp\": 40,"
         "  \"max_depth\": 0, \"adaptive\": false, \"plan\": false},"
         " \"camera\": {\"model\": \"thinlens\", \"fov\": 10,"
         "  \"focus_distance\": 1, \"aperture_radius\": 0.05,"
@@ -202,31 +204,90 @@ static void test_grey_card_is_exact(void **state)
     lr_image_free(b);
 }
 
-/* The sampling density and the weights agree: the weights' mean over u
- * (stratified, 2^16 points) is each normalised function's integral, 1,
- * and the density integrates to 1 over the range. */
-static void test_wavelength_weights_integrate_to_one(void **state)
+/* Mean weights over u (stratified, 2^16 points) per channel, and the
+ * density's integral over the range (0.1 nm steps). */
+static void weight_means(const lr__wl_table *t, double sum[3], double *P)
 {
-    (void)state;
-    lr__wl_init();
     const int N = 1 << 16;
-    double sum[3] = {0, 0, 0};
+    sum[0] = sum[1] = sum[2] = 0;
     for (int i = 0; i < N; i++) {
         double w[3];
-        double nm = lr__wl_sample((i + 0.5) / N, w);
+        double nm = lr__wl_sample(t, (i + 0.5) / N, w, NULL);
         assert_true(nm >= 380 && nm <= 780);
         for (int c = 0; c < 3; c++)
             sum[c] += w[c] / N;
     }
-    for (int c = 0; c < 3; c++)
-        if (fabs(sum[c] - 1) > 1e-4)
-            fail_msg("channel %d: mean weight %.6f", c, sum[c]);
-    double P = 0;
+    *P = 0;
     for (int k = 0; k < 4000; k++)
-        P += lr__wl_pdf(380 + (k + 0.5) * 0.1) * 0.1;
-    assert_true(fabs(P - 1) < 1e-3);
-    /* More samples where the matching functions are large. */
-    assert_true(lr__wl_pdf(550) > 10 * lr__wl_pdf(770));
+        *P += lr__wl_pdf(t, 380 + (k + 0.5) * 0.1) * 0.1;
+}
+
+/* The sampling density and the weights agree: the weights' mean over u is
+ * each normalised function's integral, 1, and the density integrates to
+ * 1 over the range, without dispersion (p ~ |w|) and with (p also ~
+ * sqrt(|P(l) - P_ref|), mixed with 10% of p ~ |w|). */
+static void test_wavelength_weights_integrate_to_one(void **state)
+{
+    (void)state;
+    static lr__wl_table flat, disp;
+    float power[LR__WL_NODES];
+    /* A Cauchy-like dispersion: power falls with wavelength, equal to the
+     * reference (1) at the d line. */
+    for (int j = 0; j < LR__WL_NODES; j++) {
+        double l = (380.0 + j) / 1000.0;
+        power[j] = (float)(1 + 0.01 * (1 / (l * l) - 1 / (0.5875618 * 0.5875618)));
+    }
+    lr__wl_table_init(&flat, NULL, 1.0);
+    lr__wl_table_init(&disp, power, 1.0);
+    const lr__wl_table *tabs[2] = {&flat, &disp};
+    for (int k = 0; k < 2; k++) {
+        double sum[3], P;
+        weight_means(tabs[k], sum, &P);
+        for (int c = 0; c < 3; c++)
+            if (fabs(sum[c] - 1) > 1e-4)
+                fail_msg("table %d, channel %d: mean weight %.6f", k, c,
+                         sum[c]);
+        assert_true(fabs(P - 1) < 1e-3);
+        /* More samples where the matching functions are large. */
+        assert_true(lr__wl_pdf(tabs[k], 550) > 5 * lr__wl_pdf(tabs[k], 770));
+    }
+    /* The packets' float version draws the same: weights and power as the
+     * scalar's (float rounding), and weights that average to 1 too. */
+    double sum16[3] = {0, 0, 0};
+    const int N16 = 1 << 12;
+    for (int i0 = 0; i0 < N16; i0 += 16) {
+        float u[16], w16[3][16], p16[16];
+        for (int i = 0; i < 16; i++)
+            u[i] = (float)((i0 + i + 0.5) / N16);
+        lr__wl_sample16(&disp, u, w16, p16);
+        for (int i = 0; i < 16; i++) {
+            double ws[3];
+            float ps;
+            lr__wl_sample(&disp, u[i], ws, &ps);
+            assert_true(fabs(p16[i] - ps) < 1e-6);
+            for (int c = 0; c < 3; c++) {
+                if (fabs(w16[c][i] - ws[c]) > 1e-5 * (1 + fabs(ws[c])))
+                    fail_msg("u %g channel %d: float %g, double %g", u[i], c,
+                             w16[c][i], ws[c]);
+                sum16[c] += w16[c][i] / N16;
+            }
+        }
+    }
+    for (int c = 0; c < 3; c++)
+        if (fabs(sum16[c] - 1) > 1e-3)
+            fail_msg("float weights, channel %d: mean %.6f", c, sum16[c]);
+    /* The power the table gives back is the camera's. */
+    double w[3];
+    float pw;
+    double nm = lr__wl_sample(&disp, 0.3, w, &pw);
+    assert_true(fabs(pw - lr__wl_lerp(power, nm)) < 1e-6);
+    /* With dispersion, the wavelengths far from the d line gain density
+     * against those near it (the edge factor), and the density near the
+     * d line keeps at least the defensive 10% of p ~ |w|'s. */
+    double near = lr__wl_pdf(&disp, 588) / lr__wl_pdf(&flat, 588);
+    double far = lr__wl_pdf(&disp, 430) / lr__wl_pdf(&flat, 430);
+    assert_true(far > 2 * near);
+    assert_true(near > 0.1);
 }
 
 static const struct CMUnitTest spectral_tests[] = {
