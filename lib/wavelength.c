@@ -39,6 +39,10 @@ void lr__wl_table_init(lr__wl_table *t, const float *power, double p_ref)
     double dmax = 0.0;
     for (int j = 0; power && j < LR__WL_NODES; j++)
         dmax = fmax(dmax, fabs(power[j] - p_ref));
+    /* A power that is not finite anywhere (an extreme glass) says nothing
+     * about edges: p ~ |w| then, and the rays report the rest. */
+    if (!isfinite(dmax) || !isfinite(p_ref))
+        dmax = 0.0;
     /* p per bin, at its centre (from the float tables, as the weights
      * will read them). */
     double pdf[BINS], cdf[BINS + 1], total = 0.0;
@@ -49,10 +53,10 @@ void lr__wl_table_init(lr__wl_table *t, const float *power, double p_ref)
             s += v * v;
         }
         double edge = 1.0;
-        if (dmax > 0.0)
-            edge = (1.0 - DEFENSIVE) *
-                       sqrt(fabs(lr__wl_lerp(power, nm) - p_ref) / dmax) +
-                   DEFENSIVE;
+        if (dmax > 0.0) {
+            double d = fabs(lr__wl_lerp(power, nm) - p_ref) / dmax;
+            edge = (1.0 - DEFENSIVE) * sqrt(d <= 1.0 ? d : 1.0) + DEFENSIVE;
+        }
         pdf[j] = sqrt(s) * edge;
         total += pdf[j];
     }
