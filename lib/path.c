@@ -275,6 +275,9 @@ static void trace_paths(const lr_scene *s, int max_depth,
             shadows++;
         }
         if (shadows) {
+            /* Embree's code for CPUs without AVX-512 checks every lane's
+             * ray, masked or not, and aborts on garbage. */
+            lr__ray16_quiet_lanes(&sh, valid);
             rtcOccluded16(valid, s->rtc, &ctx, &sh);
             /* Embree marks an occluded ray by setting tfar to -inf. */
             for (int i = 0; i < n; i++)
@@ -293,6 +296,7 @@ static void trace_paths(const lr_scene *s, int max_depth,
         }
         if (!go)
             break;
+        lr__ray16_quiet_lanes(&rh->ray, valid);
         rtcIntersect16(valid, s->rtc, &ctx, rh);
         *rays += (uint64_t)go;
     }
@@ -305,7 +309,9 @@ static lr__v3 radiance1(const lr_scene *s, int max_depth, lr__v3 org,
 {
     /* A packet of one, so that a ray gives what it gives in a packet. */
     struct RTCRayHit16 rh __attribute__((aligned(64)));
+    int valid[16] = {-1};
     lr__shadow_ray16(&rh.ray, 0, org, dir, INFINITY);
+    lr__ray16_quiet_lanes(&rh.ray, valid);
     rh.hit.geomID[0] = RTC_INVALID_GEOMETRY_ID;
     rh.hit.instID[0][0] = RTC_INVALID_GEOMETRY_ID;
     lr__v3 L[16];
