@@ -36,12 +36,13 @@
 #include "bsdf.h"
 #include "integrator.h"
 #include "light.h"
+#include "path.h"
 
 #include <math.h>
 
 #define DIM_FIRST 6
-#define DIMS_PER_BOUNCE 8
-#define RR_FROM 5
+#define DIMS_PER_BOUNCE LR__PATH_DIMS
+#define RR_FROM LR__PATH_RR_FROM
 
 static double mis(double a, double b)
 {
@@ -88,20 +89,7 @@ static void bounce_numbers(const lr__pixel_pairs *pairs, uint64_t key[16],
     }
 }
 
-/* One path of a packet, between bounces. */
-typedef struct lane {
-    lr__v3 L, beta;
-    lr__v3 org, dir;    /* the ray traced next (dir unit) */
-    lr__v3 prev_p;      /* where dir was sampled */
-    double prev_pdf;    /* its BSDF density (solid angle) */
-    int prev_delta;     /* 1 if from a delta lobe or the camera */
-    double eta_scale;   /* product of eta^2 crossed, for roulette */
-    /* This bounce's light sample: c is added if the shadow ray from
-     * s_org along s_dir is clear up to s_tfar. */
-    int shadow;
-    lr__v3 s_org, s_dir, s_c;
-    double s_tfar;
-} lane;
+typedef lr__path_lane lane;
 
 /* Light sampled from hit h towards a light: the lane's shadow ray and
  * its weighted contribution f cos Le w / pdf, to count if the ray is
@@ -234,6 +222,7 @@ static void trace_paths(const lr_scene *s, int max_depth,
     }
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
+    int vec = lr__path16_scene_ok(s);
     for (int depth = 0;; depth++) {
         /* This bounce's surfaces, light samples and next rays. */
         struct RTCRay16 sh __attribute__((aligned(64)));
@@ -243,23 +232,47 @@ static void trace_paths(const lr_scene *s, int max_depth,
             valid[i] = 0;
         double U[DIMS_PER_BOUNCE][16];
         bounce_numbers(&pairs, key, alive, n, id->sample, depth, U);
-        for (int i = 0; i < n; i++) {
-            if (!alive[i])
+        /* Lanes on flat Lambertian triangles bounce together (path16.c),
+         * the others alone; either way with the same result. */
+        int take[16] = {0}, taken = 0;
+        double horg[3][16], hdir[3][16];
+        for (int i = 0; i < n && vec && depth <= max_depth; i++) {
+            unsigned g = rh->hit.geomID[i];
+            if (!alive[i] || g == RTC_INVALID_GEOMETRY_ID ||
+                !lr__path16_geom_ok(s, g))
                 continue;
+            lr__v3 org = depth == 0 ? raw_org[i] : P[i].org;
+            lr__v3 dir = depth == 0 ? raw_dir[i] : P[i].dir;
+            horg[0][i] = org.x, horg[1][i] = org.y, horg[2][i] = org.z;
+            hdir[0][i] = dir.x, hdir[1][i] = dir.y, hdir[2][i] = dir.z;
+            take[i] = 1;
+            taken++;
+        }
+        if (taken)
+            lr__path16_lambert(s, depth, take,
+                               (const double (*)[16])horg,
+                               (const double (*)[16])hdir, rh,
+                               (const double (*)[16])U, P, alive);
+        for (int i = 0; i < n; i++) {
             lane *p = &P[i];
-            /* The camera ray's hit with the ray as the camera made it. */
-            lr__v3 org = depth == 0 ? raw_org[i] : p->org;
-            lr__v3 dir = depth == 0 ? raw_dir[i] : p->dir;
-            lr__hit h;
-            int hit = lr__hit_complete(s, org, dir, INFINITY,
-                                       rh->hit.geomID[i], rh->hit.primID[i],
-                                       rh->hit.u[i], rh->hit.v[i],
-                                       rh->ray.tfar[i], &h);
-            /* (Dimension 7 of a bounce is not used.) */
-            double v[DIMS_PER_BOUNCE] = {0};
-            for (int j = 0; j < DIMS_PER_BOUNCE - 1; j++)
-                v[j] = U[j][i];
-            alive[i] = bounce(s, max_depth, depth, hit, &h, v, p);
+            if (!take[i]) {
+                if (!alive[i])
+                    continue;
+                /* The camera ray's hit with the ray as the camera made
+                 * it. */
+                lr__v3 org = depth == 0 ? raw_org[i] : p->org;
+                lr__v3 dir = depth == 0 ? raw_dir[i] : p->dir;
+                lr__hit h;
+                int hit = lr__hit_complete(s, org, dir, INFINITY,
+                                           rh->hit.geomID[i],
+                                           rh->hit.primID[i], rh->hit.u[i],
+                                           rh->hit.v[i], rh->ray.tfar[i], &h);
+                /* (Dimension 7 of a bounce is not used.) */
+                double v[DIMS_PER_BOUNCE] = {0};
+                for (int j = 0; j < DIMS_PER_BOUNCE - 1; j++)
+                    v[j] = U[j][i];
+                alive[i] = bounce(s, max_depth, depth, hit, &h, v, p);
+            }
             if (!p->shadow)
                 continue;
             (*rays)++;
