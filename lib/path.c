@@ -286,7 +286,7 @@ static void trace_paths(const lr_scene *s, int max_depth,
             /* Embree's code for CPUs without AVX-512 checks every lane's
              * ray, masked or not, and aborts on garbage. */
             lr__ray16_quiet_lanes(&sh, valid);
-            rtcOccluded16(valid, s->rtc, &ctx, &sh);
+            lr__paths_occluded16(s, valid, &ctx, &sh);
             /* Embree marks an occluded ray by setting tfar to -inf. */
             for (int i = 0; i < n; i++)
                 if (valid[i] && sh.tfar[i] >= 0.0f)
@@ -305,7 +305,7 @@ static void trace_paths(const lr_scene *s, int max_depth,
         if (!go)
             break;
         lr__ray16_quiet_lanes(&rh->ray, valid);
-        rtcIntersect16(valid, s->rtc, &ctx, rh);
+        lr__paths_intersect16(s, valid, &ctx, rh);
         *rays += (uint64_t)go;
     }
     for (int i = 0; i < n; i++)
