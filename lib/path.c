@@ -223,6 +223,9 @@ static void trace_paths(const lr_scene *s, int max_depth,
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     int vec = lr__path16_scene_ok(s);
+    lr__path16 w16;
+    if (vec)
+        lr__path16_begin(s, &w16);
     for (int depth = 0;; depth++) {
         /* This bounce's surfaces, light samples and next rays. */
         struct RTCRay16 sh __attribute__((aligned(64)));
@@ -249,7 +252,7 @@ static void trace_paths(const lr_scene *s, int max_depth,
             taken++;
         }
         if (taken)
-            lr__path16_lambert(s, depth, take,
+            lr__path16_lambert(s, &w16, depth, take,
                                (const double (*)[16])horg,
                                (const double (*)[16])hdir, rh,
                                (const double (*)[16])U, P, alive);

@@ -19,10 +19,11 @@
 
 #include <float.h>
 #include <math.h>
+#include <string.h>
 
 int lr__path16_enabled = 1;
 
-#define MAX_EMITTERS 16
+#define MAX_EMITTERS LR__PATH16_EMITTERS
 
 int lr__path16_scene_ok(const lr_scene *s)
 {
@@ -39,13 +40,6 @@ int lr__path16_scene_ok(const lr_scene *s)
     return 1;
 }
 
-int lr__path16_geom_ok(const lr_scene *s, unsigned g)
-{
-    const lr__geom *G = &s->geoms[g];
-    return G->lambert_triangles && G->corner_normals == NULL &&
-           !lr__material_textured(&s->materials[G->material]);
-}
-
 /* v3_maxc's comparisons. */
 static inline double maxc3(double x, double y, double z)
 {
@@ -53,18 +47,6 @@ static inline double maxc3(double x, double y, double z)
     m = y > m ? y : m;
     return z > m ? z : m;
 }
-
-/* The emitters, by index: what light.c reads of each. */
-typedef struct emitters16 {
-    double cdf[MAX_EMITTERS]; /* +inf past the last but one */
-    double prob[MAX_EMITTERS];
-    double ax[MAX_EMITTERS], ay[MAX_EMITTERS], az[MAX_EMITTERS];
-    double e1x[MAX_EMITTERS], e1y[MAX_EMITTERS], e1z[MAX_EMITTERS];
-    double e2x[MAX_EMITTERS], e2y[MAX_EMITTERS], e2z[MAX_EMITTERS];
-    double nx[MAX_EMITTERS], ny[MAX_EMITTERS], nz[MAX_EMITTERS];
-    double area[MAX_EMITTERS];
-    double lr[MAX_EMITTERS], lg[MAX_EMITTERS], lb[MAX_EMITTERS];
-} emitters16;
 
 static void emitters_get(const lr_scene *s, emitters16 *E)
 {
@@ -87,30 +69,6 @@ static void emitters_get(const lr_scene *s, emitters16 *E)
         E->lr[i] = le.x, E->lg[i] = le.y, E->lb[i] = le.z;
     }
 }
-
-/* The lanes' inputs and outputs, as arrays. */
-typedef struct lanes16 {
-    double ox[16], oy[16], oz[16];    /* the ray that hit */
-    double dx[16], dy[16], dz[16];
-    double wx[16], wy[16], wz[16];    /* the path's unit direction */
-    double t[16];
-    double nx[16], ny[16], nz[16];    /* face normal */
-    double ar[16], ag[16], ab[16];    /* albedo */
-    double br[16], bg[16], bb[16];    /* throughput */
-    double Lr[16], Lg[16], Lb[16];
-    double eta_scale[16];
-    /* The emitter each lane's light sample picked (emitters16). */
-    double ax[16], ay[16], az[16], e1x[16], e1y[16], e1z[16];
-    double e2x[16], e2y[16], e2z[16], enx[16], eny[16], enz[16];
-    double area[16], prob[16], ler[16], leg[16], leb[16];
-    /* Results. */
-    double shadow[16], alive[16];   /* 1 or 0 */
-    double sox[16], soy[16], soz[16], sdx[16], sdy[16], sdz[16];
-    double scr[16], scg[16], scb[16], stfar[16];
-    double px[16], py[16], pz[16];
-    double nox[16], noy[16], noz[16], ndx[16], ndy[16], ndz[16];
-    double pdf[16];
-} lanes16;
 
 __attribute__((target_clones("avx512f", "avx2", "default")))
 static void lambert16(lr__v3 amb, int rr,
@@ -246,62 +204,67 @@ static void lambert16(lr__v3 amb, int rr,
     }
 }
 
-void lr__path16_lambert(const lr_scene *s, int depth, const int take[16],
-                        const double hit_org[3][16],
+void lr__path16_begin(const lr_scene *s, lr__path16 *w)
+{
+    emitters_get(s, &w->E);
+    memset(&w->l, 0, sizeof w->l);
+}
+
+void lr__path16_lambert(const lr_scene *s, lr__path16 *w, int depth,
+                        const int take[16], const double hit_org[3][16],
                         const double hit_dir[3][16],
                         const struct RTCRayHit16 *rh,
                         const double u[LR__PATH_DIMS][16],
                         lr__path_lane P[16], int alive[16])
 {
-    emitters16 E;
-    emitters_get(s, &E);
-    lanes16 l = {0};
+    const emitters16 *E = &w->E;
+    lanes16 *l = &w->l;
     for (int i = 0; i < 16; i++) {
         if (!take[i])
             continue;
         const lr__path_lane *p = &P[i];
         const lr__geom *g = &s->geoms[rh->hit.geomID[i]];
         const double *n = &g->face_ng[3 * (size_t)rh->hit.primID[i]];
-        l.ox[i] = hit_org[0][i], l.oy[i] = hit_org[1][i], l.oz[i] = hit_org[2][i];
-        l.dx[i] = hit_dir[0][i], l.dy[i] = hit_dir[1][i], l.dz[i] = hit_dir[2][i];
-        l.wx[i] = p->dir.x, l.wy[i] = p->dir.y, l.wz[i] = p->dir.z;
-        l.t[i] = rh->ray.tfar[i];
-        l.nx[i] = n[0], l.ny[i] = n[1], l.nz[i] = n[2];
+        l->ox[i] = hit_org[0][i], l->oy[i] = hit_org[1][i], l->oz[i] = hit_org[2][i];
+        l->dx[i] = hit_dir[0][i], l->dy[i] = hit_dir[1][i], l->dz[i] = hit_dir[2][i];
+        l->wx[i] = p->dir.x, l->wy[i] = p->dir.y, l->wz[i] = p->dir.z;
+        l->t[i] = rh->ray.tfar[i];
+        l->nx[i] = n[0], l->ny[i] = n[1], l->nz[i] = n[2];
         lr__v3 a = s->materials[g->material].diffuse;
-        l.ar[i] = a.x, l.ag[i] = a.y, l.ab[i] = a.z;
-        l.br[i] = p->beta.x, l.bg[i] = p->beta.y, l.bb[i] = p->beta.z;
-        l.Lr[i] = p->L.x, l.Lg[i] = p->L.y, l.Lb[i] = p->L.z;
-        l.eta_scale[i] = p->eta_scale;
+        l->ar[i] = a.x, l->ag[i] = a.y, l->ab[i] = a.z;
+        l->br[i] = p->beta.x, l->bg[i] = p->beta.y, l->bb[i] = p->beta.z;
+        l->Lr[i] = p->L.x, l->Lg[i] = p->L.y, l->Lb[i] = p->L.z;
+        l->eta_scale[i] = p->eta_scale;
         /* light.c's pick: one kind of light (area), so u_pick * 1 - 0
          * picks among the emitters. */
         double upick = u[4][i] * 1 - 0;
         int k = 0;
         for (int j = 0; j < MAX_EMITTERS; j++)
-            k += E.cdf[j] <= upick;
-        l.ax[i] = E.ax[k], l.ay[i] = E.ay[k], l.az[i] = E.az[k];
-        l.e1x[i] = E.e1x[k], l.e1y[i] = E.e1y[k], l.e1z[i] = E.e1z[k];
-        l.e2x[i] = E.e2x[k], l.e2y[i] = E.e2y[k], l.e2z[i] = E.e2z[k];
-        l.enx[i] = E.nx[k], l.eny[i] = E.ny[k], l.enz[i] = E.nz[k];
-        l.area[i] = E.area[k], l.prob[i] = E.prob[k];
-        l.ler[i] = E.lr[k], l.leg[i] = E.lg[k], l.leb[i] = E.lb[k];
+            k += E->cdf[j] <= upick;
+        l->ax[i] = E->ax[k], l->ay[i] = E->ay[k], l->az[i] = E->az[k];
+        l->e1x[i] = E->e1x[k], l->e1y[i] = E->e1y[k], l->e1z[i] = E->e1z[k];
+        l->e2x[i] = E->e2x[k], l->e2y[i] = E->e2y[k], l->e2z[i] = E->e2z[k];
+        l->enx[i] = E->nx[k], l->eny[i] = E->ny[k], l->enz[i] = E->nz[k];
+        l->area[i] = E->area[k], l->prob[i] = E->prob[k];
+        l->ler[i] = E->lr[k], l->leg[i] = E->lg[k], l->leb[i] = E->lb[k];
     }
-    lambert16(s->ambient, depth + 1 >= LR__PATH_RR_FROM, u, &l);
+    lambert16(s->ambient, depth + 1 >= LR__PATH_RR_FROM, u, l);
     for (int i = 0; i < 16; i++) {
         if (!take[i])
             continue;
         lr__path_lane *p = &P[i];
-        p->L = v3(l.Lr[i], l.Lg[i], l.Lb[i]);
-        p->shadow = l.shadow[i] != 0.0;
-        p->s_org = v3(l.sox[i], l.soy[i], l.soz[i]);
-        p->s_dir = v3(l.sdx[i], l.sdy[i], l.sdz[i]);
-        p->s_c = v3(l.scr[i], l.scg[i], l.scb[i]);
-        p->s_tfar = l.stfar[i];
-        p->beta = v3(l.br[i], l.bg[i], l.bb[i]);
-        p->prev_pdf = l.pdf[i];
+        p->L = v3(l->Lr[i], l->Lg[i], l->Lb[i]);
+        p->shadow = l->shadow[i] != 0.0;
+        p->s_org = v3(l->sox[i], l->soy[i], l->soz[i]);
+        p->s_dir = v3(l->sdx[i], l->sdy[i], l->sdz[i]);
+        p->s_c = v3(l->scr[i], l->scg[i], l->scb[i]);
+        p->s_tfar = l->stfar[i];
+        p->beta = v3(l->br[i], l->bg[i], l->bb[i]);
+        p->prev_pdf = l->pdf[i];
         p->prev_delta = 0;
-        p->prev_p = v3(l.px[i], l.py[i], l.pz[i]);
-        p->org = v3(l.nox[i], l.noy[i], l.noz[i]);
-        p->dir = v3(l.ndx[i], l.ndy[i], l.ndz[i]);
-        alive[i] = l.alive[i] != 0.0;
+        p->prev_p = v3(l->px[i], l->py[i], l->pz[i]);
+        p->org = v3(l->nox[i], l->noy[i], l->noz[i]);
+        p->dir = v3(l->ndx[i], l->ndy[i], l->ndz[i]);
+        alive[i] = l->alive[i] != 0.0;
     }
 }
