@@ -226,6 +226,9 @@ static void trace_paths(const lr_scene *s, int max_depth,
     lr__path16 w16;
     if (vec)
         lr__path16_begin(s, &w16);
+    /* A bounce's numbers; lanes that are done keep their last ones (the
+     * vector loops compute on every lane). */
+    double U[DIMS_PER_BOUNCE][16] = {{0}};
     for (int depth = 0;; depth++) {
         /* This bounce's surfaces, light samples and next rays. */
         struct RTCRay16 sh __attribute__((aligned(64)));
@@ -233,7 +236,6 @@ static void trace_paths(const lr_scene *s, int max_depth,
         int shadows = 0;
         for (int i = 0; i < 16; i++)
             valid[i] = 0;
-        double U[DIMS_PER_BOUNCE][16];
         bounce_numbers(&pairs, key, alive, n, id->sample, depth, U);
         /* Lanes on flat Lambertian triangles bounce together (path16.c),
          * the others alone; either way with the same result. */
