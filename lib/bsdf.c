@@ -55,27 +55,6 @@ static lr__v3 to_world(const lr__bsdf *f, lr__v3 v)
                   v3_scale(f->n, v.z));
 }
 
-/* sin and cos of 2 pi u for u in [0, 1): the angle is brought to
- * [-pi/4, pi/4] around a multiple q of pi/2 and the Taylor series taken
- * to x^13 and x^14, whose next terms are below 2e-14 there (a quarter of
- * the time of libm's sincos, which was 5% of a Cornell box render). */
-static void sincos_2pi(double u, double *sn, double *cs)
-{
-    int k = (int)(4.0 * u + 0.5);
-    double x = 2.0 * M_PI * (u - 0.25 * k), x2 = x * x;
-    double s = x * (1.0 + x2 * (-1.0 / 6 + x2 * (1.0 / 120 + x2 * (
-                   -1.0 / 5040 + x2 * (1.0 / 362880 + x2 * (
-                   -1.0 / 39916800 + x2 * (1.0 / 6227020800.0)))))));
-    double c = 1.0 + x2 * (-0.5 + x2 * (1.0 / 24 + x2 * (-1.0 / 720 + x2 * (
-                   1.0 / 40320 + x2 * (-1.0 / 3628800 + x2 * (
-                   1.0 / 479001600.0 - x2 / 87178291200.0))))));
-    /* (sin, cos) of x + q pi / 2, chosen without branches (q is as
-     * random as u). */
-    double sw[2] = {s, c};
-    *sn = (k & 2 ? -1.0 : 1.0) * sw[k & 1];
-    *cs = ((k + 1) & 2 ? -1.0 : 1.0) * sw[(k & 1) ^ 1];
-}
-
 /* ---- GGX -------------------------------------------------------------- */
 
 double lr__ggx_d(double cos_m, double alpha)
@@ -106,7 +85,7 @@ lr__v3 lr__ggx_sample_vn(lr__v3 v, double alpha, const double u[2])
                             : v3(1.0, 0.0, 0.0);
     lr__v3 t2 = v3_cross(vh, t1);
     double r = sqrt(u[0]), sp, cp;
-    sincos_2pi(u[1], &sp, &cp);
+    lr__sincos_2pi(u[1], &sp, &cp);
     double p1 = r * cp, p2 = r * sp;
     double s = 0.5 * (1.0 + vh.z);
     p2 = (1.0 - s) * sqrt(fmax(0.0, 1.0 - p1 * p1)) + s * p2;
@@ -260,7 +239,7 @@ int lr__bsdf_sample(const lr__bsdf *f, lr__v3 wo_w, double u_lobe,
         /* Cosine-weighted (Malley's method, concentric disk: pbrt-v3
          * 13.6.3 uses the same density). */
         double r = sqrt(u[0]), sp, cp;
-        sincos_2pi(u[1], &sp, &cp);
+        lr__sincos_2pi(u[1], &sp, &cp);
         wi = v3(r * cp, r * sp, sqrt(fmax(0.0, 1.0 - u[0])));
         break;
     }

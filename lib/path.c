@@ -25,7 +25,8 @@
  *
  * Random numbers: every decision is a pure function of (pixel, sample,
  * dimension, seed), dimensions 6 + 8 k .. 6 + 8 k + 6 for the k-th
- * surface (see rnd1), so a path is a pure function of its sample.
+ * surface (see bounce_numbers), so a path is a pure function of its
+ * sample.
  *
  * Packets: the sixteen samples of a camera packet (one pixel's) go
  * through their bounces together: each bounce's shadow rays are traced
@@ -35,12 +36,13 @@
 #include "bsdf.h"
 #include "integrator.h"
 #include "light.h"
+#include "path.h"
 
 #include <math.h>
 
 #define DIM_FIRST 6
-#define DIMS_PER_BOUNCE 8
-#define RR_FROM 5
+#define DIMS_PER_BOUNCE LR__PATH_DIMS
+#define RR_FROM LR__PATH_RR_FROM
 
 static double mis(double a, double b)
 {
@@ -59,62 +61,44 @@ static double mis(double a, double b)
 #define DIM_SOBOL_END (DIM_FIRST + DIMS_PER_BOUNCE * SOBOL_BOUNCES)
 #define SOBOL_PAIRS (DIMS_PER_BOUNCE / 2 * SOBOL_BOUNCES)
 
-typedef struct rng {
-    const lr__sample_id *id;
-    const lr__pixel_pairs *pairs; /* the pixel's, from DIM_FIRST on */
-    uint64_t key;                 /* hash of (seed, pixel, sample) */
-} rng;
-
-static double hashed(const rng *r, uint32_t dim)
+/* The numbers of bounce `depth` of lanes 0..n-1 that are alive, all at
+ * once: u[j][i] is dimension DIM_FIRST + DIMS_PER_BOUNCE depth + j of
+ * lane i's sample (first + i).  The Sobol pairs are computed for all
+ * sixteen lanes in one vectorised loop (lr__pixel_pairs_get16), the
+ * hashed ones lane by lane; either way a lane's numbers are those of its
+ * sample alone. */
+static void bounce_numbers(const lr__pixel_pairs *pairs, uint64_t key[16],
+                           const int alive[16], int n, uint32_t first,
+                           int depth, double u[DIMS_PER_BOUNCE][16])
 {
-    uint64_t h = lr__mix64(r->key ^ ((uint64_t)dim * 0x9e3779b97f4a7c15ull));
-    return (double)(h >> 11) * 0x1p-53;
-}
-
-static void rnd2(const rng *r, uint32_t dim, double u[2])
-{
+    uint32_t dim = DIM_FIRST + DIMS_PER_BOUNCE * (uint32_t)depth;
     if (dim < DIM_SOBOL_END) {
-        lr__pixel_pairs_get(r->pairs, r->id->sample, dim, u);
+        for (uint32_t j = 0; j < DIMS_PER_BOUNCE; j += 2)
+            lr__pixel_pairs_get16(pairs, first, n, dim + j,
+                                  (double (*)[16])u[j]);
         return;
     }
-    u[0] = hashed(r, dim);
-    u[1] = hashed(r, dim + 1);
+    for (int i = 0; i < n; i++) {
+        if (!alive[i])
+            continue;
+        for (uint32_t j = 0; j < DIMS_PER_BOUNCE - 1; j++) {
+            uint64_t h = lr__mix64(key[i] ^ ((uint64_t)(dim + j) *
+                                             0x9e3779b97f4a7c15ull));
+            u[j][i] = (double)(h >> 11) * 0x1p-53;
+        }
+    }
 }
 
-static double rnd1(const rng *r, uint32_t dim)
-{
-    if (dim < DIM_SOBOL_END)
-        return lr__pixel_pairs_get1(r->pairs, r->id->sample, dim);
-    return hashed(r, dim);
-}
-
-/* One path of a packet, between bounces. */
-typedef struct lane {
-    lr__sample_id id;
-    rng r;
-    lr__v3 L, beta;
-    lr__v3 org, dir;    /* the ray traced next (dir unit) */
-    lr__v3 prev_p;      /* where dir was sampled */
-    double prev_pdf;    /* its BSDF density (solid angle) */
-    int prev_delta;     /* 1 if from a delta lobe or the camera */
-    double eta_scale;   /* product of eta^2 crossed, for roulette */
-    /* This bounce's light sample: c is added if the shadow ray from
-     * s_org along s_dir is clear up to s_tfar. */
-    int shadow;
-    lr__v3 s_org, s_dir, s_c;
-    double s_tfar;
-} lane;
+typedef lr__path_lane lane;
 
 /* Light sampled from hit h towards a light: the lane's shadow ray and
  * its weighted contribution f cos Le w / pdf, to count if the ray is
  * clear; 0 if there is nothing to trace. */
 static int next_event(const lr_scene *s, const lr__hit *h, const lr__bsdf *f,
-                      lr__v3 wo, uint32_t dim, lane *p)
+                      lr__v3 wo, const double v[DIMS_PER_BOUNCE], lane *p)
 {
-    double u[2];
-    rnd2(&p->r, dim, u);
     lr__light_sample ls;
-    if (!lr__light_sample_from(s, h->p, rnd1(&p->r, dim + 4), u, &ls))
+    if (!lr__light_sample_from(s, h->p, v[4], v, &ls))
         return 0;
     /* Light from behind the geometric surface arrives only through a
      * transmitting lobe, which evaluates it. */
@@ -143,7 +127,7 @@ static int next_event(const lr_scene *s, const lr__hit *h, const lr__bsdf *f,
  * found there, its light sample (p->shadow) and the next ray.  Returns 1
  * if the path goes on. */
 static int bounce(const lr_scene *s, int max_depth, int depth, int hit,
-                  const lr__hit *h, lane *p)
+                  const lr__hit *h, const double v[DIMS_PER_BOUNCE], lane *p)
 {
     p->shadow = 0;
     if (!hit) {
@@ -170,16 +154,12 @@ static int bounce(const lr_scene *s, int max_depth, int depth, int hit,
     p->L = v3_add(p->L, v3_mul(p->beta, v3_mul(m->diffuse, s->ambient)));
     lr__bsdf f;
     lr__bsdf_init(&f, m, h);
-    uint32_t dim = DIM_FIRST + DIMS_PER_BOUNCE * (uint32_t)depth;
     if (lr__bsdf_has_smooth_lobes(&f))
-        p->shadow = next_event(s, h, &f, wo, dim, p);
-    double u[2];
-    rnd2(&p->r, dim + 2, u);
+        p->shadow = next_event(s, h, &f, wo, v, p);
     lr__v3 wi, weight;
     double pdf;
     int delta;
-    if (!lr__bsdf_sample(&f, wo, rnd1(&p->r, dim + 5), u, &wi, &weight,
-                         &pdf, &delta))
+    if (!lr__bsdf_sample(&f, wo, v[5], v + 2, &wi, &weight, &pdf, &delta))
         return 0;
     /* A sampled direction must leave on the side the lobe says: in
      * front of the geometric surface for reflection, behind it for
@@ -197,7 +177,7 @@ static int bounce(const lr_scene *s, int max_depth, int depth, int hit,
     p->dir = wi;
     if (depth + 1 >= RR_FROM) {
         double q = fmin(0.95, v3_maxc(p->beta) * p->eta_scale);
-        if (!(rnd1(&p->r, dim + 6) < q))
+        if (!(v[6] < q))
             return 0;
         p->beta = v3_scale(p->beta, 1.0 / q);
     }
@@ -222,18 +202,15 @@ static void trace_paths(const lr_scene *s, int max_depth,
                          n > 1 ? SOBOL_PAIRS : 0);
     lane P[16];
     int alive[16];
+    uint64_t key[16]; /* hash of (seed, pixel, sample), for hashed numbers */
     lr__v3 raw_org[16], raw_dir[16];
     for (int i = 0; i < n; i++) {
         lane *p = &P[i];
         const struct RTCRay16 *r = &rh->ray;
         raw_org[i] = v3(r->org_x[i], r->org_y[i], r->org_z[i]);
         raw_dir[i] = v3(r->dir_x[i], r->dir_y[i], r->dir_z[i]);
-        p->id = *id;
-        p->id.sample = id->sample + (uint32_t)i;
-        p->r = (rng){&p->id, &pairs,
-                     lr__mix64(lr__mix64(id->sampler->seed ^
-                                         lr__mix64(id->pixel)) ^
-                               p->id.sample)};
+        key[i] = lr__mix64(lr__mix64(id->sampler->seed ^ lr__mix64(id->pixel)) ^
+                           (id->sample + (uint32_t)i));
         p->L = v3(0, 0, 0);
         p->beta = v3(1, 1, 1);
         p->org = p->prev_p = raw_org[i];
@@ -245,6 +222,13 @@ static void trace_paths(const lr_scene *s, int max_depth,
     }
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
+    int vec = lr__path16_scene_ok(s);
+    lr__path16 w16;
+    if (vec)
+        lr__path16_begin(s, &w16);
+    /* A bounce's numbers; lanes that are done keep their last ones (the
+     * vector loops compute on every lane). */
+    double U[DIMS_PER_BOUNCE][16] = {{0}};
     for (int depth = 0;; depth++) {
         /* This bounce's surfaces, light samples and next rays. */
         struct RTCRay16 sh __attribute__((aligned(64)));
@@ -252,19 +236,48 @@ static void trace_paths(const lr_scene *s, int max_depth,
         int shadows = 0;
         for (int i = 0; i < 16; i++)
             valid[i] = 0;
-        for (int i = 0; i < n; i++) {
-            if (!alive[i])
+        bounce_numbers(&pairs, key, alive, n, id->sample, depth, U);
+        /* Lanes on flat Lambertian triangles bounce together (path16.c),
+         * the others alone; either way with the same result. */
+        int take[16] = {0}, taken = 0;
+        double horg[3][16], hdir[3][16];
+        for (int i = 0; i < n && vec && depth <= max_depth; i++) {
+            unsigned g = rh->hit.geomID[i];
+            if (!alive[i] || g == RTC_INVALID_GEOMETRY_ID ||
+                !lr__path16_geom_ok(s, g))
                 continue;
+            lr__v3 org = depth == 0 ? raw_org[i] : P[i].org;
+            lr__v3 dir = depth == 0 ? raw_dir[i] : P[i].dir;
+            horg[0][i] = org.x, horg[1][i] = org.y, horg[2][i] = org.z;
+            hdir[0][i] = dir.x, hdir[1][i] = dir.y, hdir[2][i] = dir.z;
+            take[i] = 1;
+            taken++;
+        }
+        if (taken)
+            lr__path16_lambert(s, &w16, depth, take,
+                               (const double (*)[16])horg,
+                               (const double (*)[16])hdir, rh,
+                               (const double (*)[16])U, P, alive);
+        for (int i = 0; i < n; i++) {
             lane *p = &P[i];
-            /* The camera ray's hit with the ray as the camera made it. */
-            lr__v3 org = depth == 0 ? raw_org[i] : p->org;
-            lr__v3 dir = depth == 0 ? raw_dir[i] : p->dir;
-            lr__hit h;
-            int hit = lr__hit_complete(s, org, dir, INFINITY,
-                                       rh->hit.geomID[i], rh->hit.primID[i],
-                                       rh->hit.u[i], rh->hit.v[i],
-                                       rh->ray.tfar[i], &h);
-            alive[i] = bounce(s, max_depth, depth, hit, &h, p);
+            if (!take[i]) {
+                if (!alive[i])
+                    continue;
+                /* The camera ray's hit with the ray as the camera made
+                 * it. */
+                lr__v3 org = depth == 0 ? raw_org[i] : p->org;
+                lr__v3 dir = depth == 0 ? raw_dir[i] : p->dir;
+                lr__hit h;
+                int hit = lr__hit_complete(s, org, dir, INFINITY,
+                                           rh->hit.geomID[i],
+                                           rh->hit.primID[i], rh->hit.u[i],
+                                           rh->hit.v[i], rh->ray.tfar[i], &h);
+                /* (Dimension 7 of a bounce is not used.) */
+                double v[DIMS_PER_BOUNCE] = {0};
+                for (int j = 0; j < DIMS_PER_BOUNCE - 1; j++)
+                    v[j] = U[j][i];
+                alive[i] = bounce(s, max_depth, depth, hit, &h, v, p);
+            }
             if (!p->shadow)
                 continue;
             (*rays)++;
@@ -275,7 +288,10 @@ static void trace_paths(const lr_scene *s, int max_depth,
             shadows++;
         }
         if (shadows) {
-            rtcOccluded16(valid, s->rtc, &ctx, &sh);
+            /* Embree's code for CPUs without AVX-512 checks every lane's
+             * ray, masked or not, and aborts on garbage. */
+            lr__ray16_quiet_lanes(&sh, valid);
+            lr__paths_occluded16(s, valid, &ctx, &sh);
             /* Embree marks an occluded ray by setting tfar to -inf. */
             for (int i = 0; i < n; i++)
                 if (valid[i] && sh.tfar[i] >= 0.0f)
@@ -293,7 +309,8 @@ static void trace_paths(const lr_scene *s, int max_depth,
         }
         if (!go)
             break;
-        rtcIntersect16(valid, s->rtc, &ctx, rh);
+        lr__ray16_quiet_lanes(&rh->ray, valid);
+        lr__paths_intersect16(s, valid, &ctx, rh);
         *rays += (uint64_t)go;
     }
     for (int i = 0; i < n; i++)
@@ -305,7 +322,9 @@ static lr__v3 radiance1(const lr_scene *s, int max_depth, lr__v3 org,
 {
     /* A packet of one, so that a ray gives what it gives in a packet. */
     struct RTCRayHit16 rh __attribute__((aligned(64)));
+    int valid[16] = {-1};
     lr__shadow_ray16(&rh.ray, 0, org, dir, INFINITY);
+    lr__ray16_quiet_lanes(&rh.ray, valid);
     rh.hit.geomID[0] = RTC_INVALID_GEOMETRY_ID;
     rh.hit.instID[0][0] = RTC_INVALID_GEOMETRY_ID;
     lr__v3 L[16];

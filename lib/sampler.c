@@ -278,6 +278,54 @@ double lr__pixel_pairs_get1(const lr__pixel_pairs *pp, uint32_t sample,
         lk_permute(sobol_rev(r, (int)d), pp->scramble[k][d])));
 }
 
+/* reverse_bits without its table, so that a loop of it vectorises. */
+static inline uint32_t reverse_bits_arith(uint32_t x)
+{
+    x = __builtin_bswap32(x);
+    x = (x >> 4 & 0x0f0f0f0fu) | (x & 0x0f0f0f0fu) << 4;
+    x = (x >> 2 & 0x33333333u) | (x & 0x33333333u) << 2;
+    return (x >> 1 & 0x55555555u) | (x & 0x55555555u) << 1;
+}
+
+/* lr__pixel_pairs_get for sixteen consecutive samples, as a loop over
+ * the lanes that GCC vectorises (gathers for the Sobol table): the
+ * integer steps are the same, so each lane's values are the same bits. */
+__attribute__((target_clones("avx512f", "avx2", "default")))
+static void pairs16_sobol(const lr__pixel_pairs *pp, uint32_t k,
+                          uint32_t first, double out[2][16])
+{
+    uint32_t shuffle = pp->shuffle[k], s0 = pp->scramble[k][0],
+             s1 = pp->scramble[k][1];
+    for (uint32_t i = 0; i < 16; i++) {
+        uint32_t r = lk_permute(reverse_bits_arith(first + i), shuffle);
+        /* Sobol's dimension 0 is van der Corput's: sobol_rev(r, 0) = r
+         * reversed. */
+        uint32_t v0 = reverse_bits_arith(r);
+        uint32_t v1 = sobol_rt[1][0][r & 0xffu] ^
+                      sobol_rt[1][1][(r >> 8) & 0xffu] ^
+                      sobol_rt[1][2][(r >> 16) & 0xffu] ^
+                      sobol_rt[1][3][r >> 24];
+        out[0][i] = sobol_unit(reverse_bits_arith(lk_permute(v0, s0)));
+        out[1][i] = sobol_unit(reverse_bits_arith(lk_permute(v1, s1)));
+    }
+}
+
+void lr__pixel_pairs_get16(const lr__pixel_pairs *pp, uint32_t first,
+                           int n, uint32_t dim, double out[2][16])
+{
+    uint32_t k = (dim - pp->first) / 2;
+    if (dim < pp->first || k >= pp->n || (dim & 1u)) {
+        for (uint32_t i = 0; i < (uint32_t)n; i++) {
+            double u[2];
+            lr__sample_2d(pp->s, pp->pixel, first + i, dim, u);
+            out[0][i] = u[0];
+            out[1][i] = u[1];
+        }
+        return;
+    }
+    pairs16_sobol(pp, k, first, out);
+}
+
 /* Pixel and lens dimensions (0..3) in one go: one index shuffle for the
  * 4-D Sobol point.  The seeds depend on the pixel only. */
 static void sobol_seeds(const lr__sampler *s, uint64_t pixel,

@@ -94,6 +94,11 @@ void lr__pixel_pairs_init(lr__pixel_pairs *pp, const lr__sampler *s,
 /* lr__sample_2d(s, pixel, sample, dim, out) for the prepared pixel. */
 void lr__pixel_pairs_get(const lr__pixel_pairs *pp, uint32_t sample,
                          uint32_t dim, double out[2]);
+/* lr__pixel_pairs_get for samples first .. first + n - 1 (n <= 16) at
+ * once (dim even): out[j][i] is dimension dim + j of sample first + i;
+ * lanes n..15 get unspecified values. */
+void lr__pixel_pairs_get16(const lr__pixel_pairs *pp, uint32_t first,
+                           int n, uint32_t dim, double out[2][16]);
 /* lr__sample_1d(s, pixel, sample, dim) for the prepared pixel (any dim:
  * one coordinate of its pair). */
 double lr__pixel_pairs_get1(const lr__pixel_pairs *pp, uint32_t sample,

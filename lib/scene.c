@@ -228,7 +228,7 @@ lr_status lr__scene_commit(lr_scene *s, lr_error *err)
     rtcCommitScene(s->rtc);
     if (rtcGetDeviceError(s->device) != RTC_ERROR_NONE)
         return embree_fail(err, "building the Embree scene");
-    return LR_OK;
+    return lr__spheres_build(s, err);
 }
 
 /* ---- the scene's life ------------------------------------------------ */
@@ -267,6 +267,8 @@ void lr_scene_free(lr_scene *s)
     lr__plan_cache_free(s->plan_cache);
     free(s->description);
     free(s->warnings);
+    if (s->rtc_few != NULL)
+        rtcReleaseScene(s->rtc_few);
     if (s->rtc != NULL)
         rtcReleaseScene(s->rtc);
     if (s->device != NULL)

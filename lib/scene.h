@@ -178,9 +178,21 @@ typedef struct lr__geom {
     double *chunk_bounds;
 } lr__geom;
 
+/* A sphere spheres.c meets itself (its geometry's center and radius). */
+#define LR__FEW_SPHERES 8
+typedef struct lr__few_sphere {
+    double cx, cy, cz, r;
+    unsigned id;           /* its Embree geometry ID */
+} lr__few_sphere;
+
 struct lr_scene {
     RTCDevice device;
     RTCScene rtc;
+    /* With 1 to LR__FEW_SPHERES spheres: Embree's scene of everything
+     * else, and the spheres (spheres.c); else NULL and 0. */
+    RTCScene rtc_few;
+    lr__few_sphere few[LR__FEW_SPHERES];
+    size_t n_few;
     lr__material *materials;
     size_t n_materials;
     lr__light *lights;
@@ -364,6 +376,21 @@ int lr__occluded(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar);
  * answer in rh, coherent), counted in *rays. */
 void lr__intersect16(const lr_scene *s, struct RTCRayHit16 *rh, int n,
                      uint64_t *rays);
+
+/* The path integrator's packets (spheres.c): rtcIntersect16 and
+ * rtcOccluded16 on the scene, the spheres met in double when it has a
+ * few; the same answers (a sphere hit's t is solved again by
+ * lr__hit_complete).  lr__spheres_build, at commit, makes the scene
+ * without spheres. */
+lr_status lr__spheres_build(lr_scene *s, lr_error *err);
+/* 0: scenes loaded from now on keep Embree's spheres (for tests). */
+extern int lr__few_spheres_enabled;
+void lr__paths_intersect16(const lr_scene *s, const int *valid,
+                           struct RTCIntersectContext *ctx,
+                           struct RTCRayHit16 *rh);
+void lr__paths_occluded16(const lr_scene *s, const int *valid,
+                          struct RTCIntersectContext *ctx,
+                          struct RTCRay16 *r);
 
 /* Packets.  lr__shadow_ray16 fills one lane of a 16-wide packet exactly
  * as lr__occluded fills a single ray;

@@ -442,3 +442,33 @@ void lr_test_field_json(size_t i, const char *value, char *out, size_t cap)
         snprintf(out, cap, lr_test_fields[i].tmpl, value);
     }
 }
+
+const char *const *lr_test_embree_isas(int *n)
+{
+    static const char *const isa[3] = {NULL, "isa=sse4.2", "isa=avx2"};
+    *n = __builtin_cpu_supports("avx2") ? 3 : 2;
+    return isa;
+}
+
+double lr_test_finite_mean(const lr_image *img, const char *what)
+{
+    const float *px = lr_image_rgb(img);
+    size_t n = lr_test_n_values(img);
+    double sum = 0;
+    for (size_t i = 0; i < n; i++) {
+        if (!isfinite(px[i]))
+            fail_msg("%s: value %zu is %g", what, i, (double)px[i]);
+        sum += px[i];
+    }
+    return sum / (double)n;
+}
+
+void lr_test_isa_means_agree(const double *mean, const char *const *isa,
+                             int n)
+{
+    assert_true(mean[0] > 0.01);
+    for (int k = 1; k < n; k++)
+        if (!(fabs(mean[k] - mean[0]) <= 0.01 * mean[0]))
+            fail_msg("%s: mean %.9g, default %.9g", isa[k], mean[k],
+                     mean[0]);
+}

@@ -69,6 +69,19 @@ lr_image *lr_test_render_json(const char *json, const char *what);
 /* Number of colour values (3 per pixel) of img. */
 size_t lr_test_n_values(const lr_image *img);
 
+/* Embree configurations for a test of packets on every ISA: the
+ * default (the best the CPU has), SSE4.2 (every x86-64 CPU Embree 3 runs
+ * on) and, where the CPU has it, AVX2 (Embree refuses an ISA the CPU
+ * lacks).  Their number in *n; NULL names the default. */
+const char *const *lr_test_embree_isas(int *n);
+/* The mean of img's colour values; fails the test (naming `what`) at a
+ * value that is not finite. */
+double lr_test_finite_mean(const lr_image *img, const char *what);
+/* Fails unless mean[0] > 0.01 (lit) and each other mean[k] is within
+ * 1% of it (Embree's code for each ISA may round differently). */
+void lr_test_isa_means_agree(const double *mean,
+                             const char *const *isa, int n);
+
 /* Fails unless a and b have the same size and the same bytes. */
 void lr_test_assert_same_bytes(const lr_image *a, const lr_image *b,
                                const char *what);

@@ -232,7 +232,7 @@ static void test_pixel_lens_matches_2d(void **state)
 /* The prepared pairs (the path integrator's bounce dimensions) give
  * exactly lr__sample_2d's and lr__sample_1d's values, inside the
  * prepared range and outside it, for every sampler, at small and large
- * sample indices. */
+ * sample indices, one at a time and sixteen at once. */
 static void test_pairs_match_2d(void **state)
 {
     (void)state;
@@ -253,6 +253,21 @@ static void test_pairs_match_2d(void **state)
                     }
                     assert_true(lr__pixel_pairs_get1(&pp, smp, dim) ==
                                 lr__sample_1d(&s, px, smp, dim));
+                }
+            }
+            /* Sixteen samples at once (lr__pixel_pairs_get16), from
+             * aligned and unaligned first samples, n = 16 and n = 5. */
+            for (uint32_t f = 0; f < 5; f++) {
+                uint32_t first = f * 987654321u;
+                for (uint32_t dim = 4; dim < 20; dim += 2) {
+                    double u[2][16];
+                    int n = dim == 10 ? 5 : 16;
+                    lr__pixel_pairs_get16(&pp, first, n, dim, u);
+                    for (int i = 0; i < n; i++) {
+                        double b[2];
+                        lr__sample_2d(&s, px, first + (uint32_t)i, dim, b);
+                        assert_true(u[0][i] == b[0] && u[1][i] == b[1]);
+                    }
                 }
             }
         }

@@ -533,33 +533,18 @@ static void test_packets_on_every_embree_isa(void **state)
         "   \"size\": 20, \"material\": \"clay\"}]}",
         path);
     assert_true(len > 0 && (size_t)len < sizeof json);
-    /* Embree refuses an ISA the CPU lacks; SSE4.2 is in every x86-64 CPU
-     * Embree 3 runs its SSE4.2 code on. */
-    const char *isa[3] = {NULL, "isa=sse4.2", "isa=avx2"};
-    int n_isa = __builtin_cpu_supports("avx2") ? 3 : 2;
+    int n_isa;
+    const char *const *isa = lr_test_embree_isas(&n_isa);
     double mean[3];
-    size_t n = 3u * 24u * 16u;
     for (int k = 0; k < n_isa; k++) {
         lr__embree_config = isa[k];
         lr_image *img = render(json, 1, 0, NULL);
         lr__embree_config = NULL;
-        const float *px = lr_image_rgb(img);
-        double sum = 0;
-        for (size_t i = 0; i < n; i++) {
-            if (!isfinite(px[i]))
-                fail_msg("%s: value %zu is %g", isa[k] ? isa[k] : "default",
-                         i, (double)px[i]);
-            sum += px[i];
-        }
-        mean[k] = sum / (double)n;
+        mean[k] = lr_test_finite_mean(img, isa[k] ? isa[k] : "default");
         lr_image_free(img);
     }
     /* Lit, and not everywhere (hits and misses in the same packets). */
-    assert_true(mean[0] > 0.01);
-    for (int k = 1; k < n_isa; k++)
-        if (!(fabs(mean[k] - mean[0]) <= 0.01 * mean[0]))
-            fail_msg("%s: mean %.9g, default %.9g", isa[k], mean[k],
-                     mean[0]);
+    lr_test_isa_means_agree(mean, isa, n_isa);
 }
 
 static const struct CMUnitTest shade_tests[] = {

@@ -20,7 +20,9 @@ which other work on a shared machine inflates far less.  The summary's
 rate_ratio and time_ratio are wall-clock; cpu_rate_ratio and
 cpu_time_ratio the same from CPU time.
 
-Prints "PATHSPEED {json}" lines: one per renderer and a summary.
+Prints "PATHSPEED {json}" lines: one per renderer and a summary per
+lensray (with --lensray-base, a second lensray measured in the same run:
+a change against the binary before it, under the same load).
 """
 import argparse
 import json
@@ -66,6 +68,9 @@ def hit_time(pts, k):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     ap.add_argument('--lensray', default='build/lensray')
+    ap.add_argument('--lensray-base', default=None,
+                    help='a second lensray (e.g. built from an older commit), '
+                         'measured in the same run as "lensray_base"')
     ap.add_argument('--out', default='build/bench/path')
     ap.add_argument('--size', type=int, default=128)
     ap.add_argument('--depth', type=int, default=6)
@@ -93,14 +98,14 @@ def main():
                        dtype=np.float64)[..., :3]
         return img, time.time() - t, time.process_time() - c
 
-    def lensray(spp, adaptive):
+    def lensray(spp, adaptive, binary=a.lensray):
         path = os.path.join(a.out, 'cornell.json')
         extra = {'adaptive': adaptive}
         with open(path, 'w') as f:
             json.dump(scenes.lensray_json(sc, W, H, spp, a.depth, extra), f)
         exr = os.path.join(a.out, 'cornell-lensray.exr')
         t, c = time.time(), children_cpu()
-        subprocess.run([a.lensray, 'render', path, '-o', exr, '-q'],
+        subprocess.run([binary, 'render', path, '-o', exr, '-q'],
                        check=True)
         dt, dc = time.time() - t, children_cpu() - c
         return np.array(mi.Bitmap(exr), dtype=np.float64)[..., :3], dt, dc
@@ -123,9 +128,17 @@ def main():
     ref_noise = rel_mse(half_a, half_b) / 4
 
     mitsuba(4)  # compiles the kernel
+    # Each renderer in turn, the base lensray (if any) between the two, so
+    # that a change is measured against the same Mitsuba run.
+    names = ['lensray'] + (['lensray_base'] if a.lensray_base else []) + \
+        ['mitsuba_llvm_ad_rgb']
+    binary = {'lensray': a.lensray, 'lensray_base': a.lensray_base}
     out = {}
-    for name, fn in (('lensray', lambda s: lensray(s, False)),
-                     ('mitsuba_llvm_ad_rgb', lambda s: mitsuba(s))):
+    for name in names:
+        if name == 'mitsuba_llvm_ad_rgb':
+            fn = mitsuba
+        else:
+            fn = (lambda b: lambda s: lensray(s, False, b))(binary[name])
         # Best of --repeat, wall and CPU each.
         r1 = [fn(a.spp)[1:] for _ in range(a.repeat)]
         r2 = [fn(4 * a.spp)[1:] for _ in range(a.repeat)]
@@ -140,8 +153,12 @@ def main():
             res[key + 'plain_samples_per_s'] = round(W * H * 4 * a.spp / t2)
         out[name] = res
 
-    for name, fn in (('lensray', lambda s: lensray(s, {'threshold': a.threshold})),
-                     ('mitsuba_llvm_ad_rgb', lambda s: mitsuba(s))):
+    adaptive = {'threshold': a.threshold}
+    for name in names:
+        if name == 'mitsuba_llvm_ad_rgb':
+            fn = mitsuba
+        else:
+            fn = (lambda b: lambda s: lensray(s, adaptive, b))(binary[name])
         pts = []
         spp = 4
         while spp <= a.max_spp:
@@ -157,8 +174,15 @@ def main():
                                     for s, t, c, e in pts]})
         print('PATHSPEED ' + json.dumps(dict(renderer=name, **out[name])), flush=True)
 
-    L, M = out['lensray'], out['mitsuba_llvm_ad_rgb']
-    summary = {'scene': 'cornell (bench/path/scenes.py)', 'size': [W, H],
+    M = out['mitsuba_llvm_ad_rgb']
+    for name in names[:-1]:
+        summarise(a, W, H, ref_noise, name, out[name], M)
+
+
+def summarise(a, W, H, ref_noise, name, L, M):
+    """Prints the summary line of lensray `name` (L) against Mitsuba (M)."""
+    summary = {'lensray': name, 'scene': 'cornell (bench/path/scenes.py)',
+               'size': [W, H], 'load_average': [round(x, 2) for x in os.getloadavg()],
                'max_depth': a.depth, 'mitsuba_max_depth': a.depth + 2,
                'ref_spp': a.ref_spp, 'ref_relmse': float('%.3g' % ref_noise),
                'lensray_adaptive_threshold': a.threshold,
