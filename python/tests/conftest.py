@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import os
 import re
+import signal
 import subprocess
 import threading
 from pathlib import Path
@@ -21,6 +22,13 @@ import pytest
 REPO = Path(__file__).resolve().parents[2]
 BUILD = Path(os.environ.get("LENSRAY_BUILD_DIR", REPO / "build")).resolve()
 SCENES = REPO / "scenes"
+
+# Python turns SIGINT into KeyboardInterrupt only when its parent left
+# SIGINT alone; a make started in the background by a non-interactive
+# shell (`make test &`, some CI runners) ignores it, and the Ctrl-C tests
+# would then see their render run to the end.  Restore the default here,
+# for this process and the Python processes the tests start.
+signal.signal(signal.SIGINT, signal.default_int_handler)
 
 # A small, fast version of the spheres scene with a thin lens: the blur
 # makes every pixel depend on the lens samples as well as the pixel's.
