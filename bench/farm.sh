@@ -11,7 +11,7 @@
 #   2. the overhead of splitting: the frame whole (one part) against 16
 #      parts, both on one daemon (one worker) at all threads, the parts
 #      two in flight so that the worker never waits for the client.
-# Each set-up runs BENCH_REPEAT times (default 3), in turn with the one it
+# Each set-up runs BENCH_FARM_REPEAT times (default 5), in turn with the one it
 # is compared with; the least wall time and the least daemon CPU time are
 # kept (other load only adds to them), and the rays and samples the
 # daemons counted show the work itself, exactly.  The ratios are
@@ -22,7 +22,7 @@ BUILD=${1:-build}
 OUT=$BUILD/bench
 LENSRAY=$BUILD/lensray
 PARTS=${BENCH_FARM_PARTS:-16}
-REPEAT=${BENCH_REPEAT:-3}
+REPEAT=${BENCH_FARM_REPEAT:-5}
 SPP=${BENCH_FARM_SPP:-64}
 DIR=$OUT/farm
 mkdir -p "$OUT"
@@ -114,7 +114,7 @@ say "farm: whole, 16 parts: $ov"
 # A part's fixed cost: the daemons' CPU for 100 one-row parts at 1 spp
 # (parsing, the scene cache, the plan, threads, the EXR, HTTP), asked
 # straight with curl so that the client's share is left out.
-body='{"scene": "bench", "render": {"spp": 1, "threads": 0, "region": [0, 100, 640, 101]}, "output": {"format": "exr"}}'
+body='{"scene": "bench", "render": {"spp": 1, "threads": 0, "region": [0, 100, 640, 101]}, "output": {"format": "exr", "compression": "none"}}'
 c0=$(daemon_cpu)
 for i in $(seq 100); do
     curl -s -o /dev/null -H 'Content-Type: application/json' -d "$body" "$one_url/v1/render"

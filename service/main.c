@@ -321,6 +321,13 @@ int main(int argc, char **argv)
      * freed, and RSS climbs in 8 MiB steps to several times what is in
      * use.  Blocks over 1 MiB go straight to mmap and back instead. */
     mallopt(M_MMAP_THRESHOLD, 1 << 20);
+    /* Setting that threshold also fixes glibc's trim threshold at 128 KiB,
+     * so a render's blocks under 1 MiB (its workers' scratch, about 250
+     * KiB a thread) were given back to the kernel when freed and faulted
+     * in, zeroed, by the next render: 1.8 ms of a farm part's 1.9 ms of
+     * daemon CPU went there (perf, 200 one-row parts).  Keeping up to
+     * 32 MiB of free heap makes it 1.2 ms, for 0.8 MiB more RSS. */
+    mallopt(M_TRIM_THRESHOLD, 32 << 20);
     int rc = configure(argc, argv);
     if (rc != 0) {
         free(lrd_cfg.token);
