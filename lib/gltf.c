@@ -318,52 +318,49 @@ static lr_status add_material(lr_scene *s, lr__gltf_doc *d,
     mt->roughness = rough * rough;
     mt->emission = v3_scale(v3(emissive[0], emissive[1], emissive[2]),
                             strength);
-    /* The textures: slots of this material, decoded (or found) now. */
+    /* The textures: slots of this material, decoded (or found) now.  The
+     * material is filled in after all of them. */
+    lr__texture *base_tex, *emission_tex, *rough_tex, *normal_tex;
+    lr__uv_xf xf_colour, xf_emission, xf_rough, xf_normal;
     snprintf(q, sizeof q, "%s.pbrMetallicRoughness.baseColorTexture", p);
-    lr__texture *t;
-    lr__uv_xf xf_colour, xf_emission, xf_rough;
     LR_TRY(slot_texture(s, d, cJSON_GetObjectItemCaseSensitive(
                                   pbr, "baseColorTexture"),
-                        q, 1, &t, &xf_colour, err));
-    lr__texture *base_tex = t;
+                        q, 1, &base_tex, &xf_colour, err));
     snprintf(q, sizeof q, "%s.emissiveTexture", p);
     LR_TRY(slot_texture(s, d, cJSON_GetObjectItemCaseSensitive(
                                   m, "emissiveTexture"),
-                        q, 1, &t, &xf_emission, err));
-    s->materials[s->n_materials - 1].emission_tex = t;
+                        q, 1, &emission_tex, &xf_emission, err));
     snprintf(q, sizeof q, "%s.pbrMetallicRoughness.metallicRoughnessTexture",
              p);
     LR_TRY(slot_texture(s, d, cJSON_GetObjectItemCaseSensitive(
                                   pbr, "metallicRoughnessTexture"),
-                        q, 0, &t, &xf_rough, err));
-    lr__texture *rough_tex = t;
+                        q, 0, &rough_tex, &xf_rough, err));
     snprintf(q, sizeof q, "%s.normalTexture", p);
     const cJSON *nt = cJSON_GetObjectItemCaseSensitive(m, "normalTexture");
-    lr__uv_xf xf_normal;
-    LR_TRY(slot_texture(s, d, nt, q, 0, &t, &xf_normal, err));
+    LR_TRY(slot_texture(s, d, nt, q, 0, &normal_tex, &xf_normal, err));
     double nscale = 1;
-    if (t != NULL)
+    if (normal_tex != NULL)
         LR_TRY(numbers(d, nt, q, "scale", 1, &nscale, err));
     mt = &s->materials[s->n_materials - 1];
-    mt->normal_tex = t;
+    mt->emission_tex = emission_tex;
+    mt->xf_emission = xf_emission;
+    mt->roughness_tex = rough_tex;
+    mt->roughness_channel = 1;
+    mt->xf_rough = xf_rough;
+    mt->xf_colour = xf_colour;
+    mt->normal_tex = normal_tex;
     mt->normal_scale = nscale;
     mt->xf_normal = xf_normal;
-    t = rough_tex;
-    mt->xf_colour = xf_colour;
-    mt->xf_emission = xf_emission;
-    mt->xf_rough = xf_rough;
-    mt->roughness_tex = t;
-    mt->roughness_channel = 1;
     /* Where metal can vary or be tinted by a texture, the lobes are split
      * point by point (lr__material_textures); without metal, the base
      * colour texture is the diffuse albedo's, as before. */
-    if (metal > 0 && (base_tex != NULL || t != NULL)) {
+    if (metal > 0 && (base_tex != NULL || rough_tex != NULL)) {
         mt->pbr_split = 1;
         mt->base = b;
         mt->metal = metal;
         mt->trans = trans;
         mt->base_tex = base_tex;
-        mt->metal_tex = t;
+        mt->metal_tex = rough_tex;
     } else {
         mt->diffuse_tex = base_tex;
     }

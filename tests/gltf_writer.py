@@ -150,6 +150,14 @@ def png_rgb(w, h, pixel):
 
 # ---- shapes ------------------------------------------------------------
 
+def corners_png():
+    """A 2 x 2 PNG: red top left, green top right, blue bottom left, white
+    bottom right."""
+    cols = {(0, 0): (255, 0, 0), (1, 0): (0, 255, 0), (0, 1): (0, 0, 255),
+            (1, 1): (255, 255, 255)}
+    return png_rgb(2, 2, lambda x, y: cols[(x, y)])
+
+
 def quad(size=1.0):
     """A square in the z = 0 plane facing +z, corners at +-size/2."""
     h = size / 2
@@ -251,9 +259,7 @@ def scene_texture_transform():
     rotation 0.3 and scale (1.5, -0.7)."""
     g = Gltf()
     g.use_extension("KHR_texture_transform")
-    cols = {(0, 0): (255, 0, 0), (1, 0): (0, 255, 0), (0, 1): (0, 0, 255),
-            (1, 1): (255, 255, 255)}
-    tex = g.image_png(png_rgb(2, 2, lambda x, y: cols[(x, y)]))
+    tex = g.image_png(corners_png())
     pos, idx, nrm, uv = quad(2)
     m = g.mesh(pos, idx, nrm, uv, g.material({
         "name": "moved", "pbrMetallicRoughness": {
@@ -345,9 +351,7 @@ def scene_textured():
     top right, blue bottom left, white bottom right.  glTF's UV (0, 0) is
     the image's top left; the quad's UVs put it at the top-left corner."""
     g = Gltf()
-    cols = {(0, 0): (255, 0, 0), (1, 0): (0, 255, 0), (0, 1): (0, 0, 255),
-            (1, 1): (255, 255, 255)}
-    tex = g.image_png(png_rgb(2, 2, lambda x, y: cols[(x, y)]))
+    tex = g.image_png(corners_png())
     pos, idx, nrm, uv = quad(2)
     base = g.mesh(pos, idx, nrm, uv, g.material({
         "name": "base", "pbrMetallicRoughness": {
