@@ -4,8 +4,9 @@
  *
  * Channels: R, G, B as float32 (or half with opts->exr_half) and Z as
  * float32 when the image has depth and opts->exr_depth is set; ZIP
- * compression unless opts->exr_compression says another; Rec.709 / sRGB chromaticities, since the renderer's
- * linear RGB uses those primaries.
+ * compression unless opts->exr_compression says another; Rec.709 / sRGB
+ * chromaticities, since the renderer's linear RGB uses those primaries.
+ * Large images are compressed on several threads (encode_chunks).
  *
  * Non-finite samples are never written: a NaN or infinite R, G or B
  * becomes 0, and a NaN or infinite Z becomes LR_DEPTH_NONE, the value
@@ -23,8 +24,8 @@
 #include <openexr.h>
 
 #include <errno.h>
-#include <pthread.h>
 #include <math.h>
+#include <pthread.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -272,6 +273,20 @@ static exr_result_t bind_channels(exr_encode_pipeline_t *enc, int half,
     return EXR_ERR_SUCCESS;
 }
 
+/* OpenEXRCore's code for the options' compression; ZIP for a value out
+ * of range (lr_output_options_default's). */
+static exr_compression_t exr_compression(const lr_output_options *opts)
+{
+    switch (opts->exr_compression) {
+    case LR_EXR_NONE: return EXR_COMPRESSION_NONE;
+    case LR_EXR_ZIPS: return EXR_COMPRESSION_ZIPS;
+    case LR_EXR_RLE: return EXR_COMPRESSION_RLE;
+    case LR_EXR_PIZ: return EXR_COMPRESSION_PIZ;
+    case LR_EXR_ZIP:
+    default: return EXR_COMPRESSION_ZIP;
+    }
+}
+
 /* ---- the chunks, compressed in parallel ------------------------------- */
 
 /* Compressing is nearly all of an EXR's encoding time (ZIP: about 80 ms
@@ -279,9 +294,12 @@ static exr_result_t bind_channels(exr_encode_pipeline_t *enc, int half,
  * and the whole of the farm client's time after the last part arrives).
  * Each chunk compresses on its own (OpenEXRCore's encode pipeline is
  * "meant to be used by separate threads ... accessing the same context
- * concurrently", openexr_encode.h), so threads compress chunks into
- * their own buffers, and the chunks are then written in file order: the
- * bytes are the same as one thread writing each chunk as it goes. */
+ * concurrently", openexr_encode.h), so threads compress a batch of chunks
+ * into their own buffers, and the batch is then written in file order:
+ * the bytes are the same as one thread writing each chunk as it goes,
+ * which is what one thread does.  Batches keep what is held in memory to
+ * a few chunks a thread, so that a file written to `fd` still never costs
+ * its size in memory. */
 
 typedef struct exr_blob {
     unsigned char *data;
@@ -292,19 +310,23 @@ typedef struct chunk_job {
     exr_context_t ctxt;
     int part;
     const lr_image *img;
-    int want_z, half, spc, first, step;
+    int want_z, half, spc;
+    int first, end, step;  /* chunks first, first + step, ... below end */
     size_t plane_bytes;
-    exr_blob *blobs;       /* one per chunk, filled by the workers */
+    /* The batch's compressed chunks, chunk k at blobs[k - base]; NULL:
+     * each chunk is written as it is made (one thread). */
+    exr_blob *blobs;
+    int base;
     int chunk;             /* the chunk being compressed */
     exr_result_t rv;
 } chunk_job;
 
-/* The pipeline's last step: keeps the compressed chunk for writing in
- * order later (the bytes the default step would write now). */
+/* The pipeline's last step in a batch: keeps the compressed chunk for
+ * writing in order later (the bytes the default step would write now). */
 static exr_result_t keep_chunk(exr_encode_pipeline_t *enc)
 {
     chunk_job *job = enc->encoding_user_data;
-    exr_blob *b = &job->blobs[job->chunk];
+    exr_blob *b = &job->blobs[job->chunk - job->base];
     b->data = malloc(enc->compressed_bytes ? enc->compressed_bytes : 1);
     if (b->data == NULL)
         return EXR_ERR_OUT_OF_MEMORY;
@@ -313,12 +335,11 @@ static exr_result_t keep_chunk(exr_encode_pipeline_t *enc)
     return EXR_ERR_SUCCESS;
 }
 
-/* Compresses chunks first, first + step, ... into job->blobs. */
+/* Compresses (and, without blobs, writes) the job's chunks. */
 static void *compress_chunks(void *arg)
 {
     chunk_job *job = arg;
     const lr_image *img = job->img;
-    int n = (img->height + job->spc - 1) / job->spc;
     int top = img->frame_w > 0 ? img->y0 : 0;
     exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
     int live = 0;
@@ -326,7 +347,8 @@ static void *compress_chunks(void *arg)
     unsigned char *stage = malloc(job->plane_bytes * CH_COUNT);
     if (stage == NULL)
         rv = EXR_ERR_OUT_OF_MEMORY;
-    for (int k = job->first; k < n && rv == EXR_ERR_SUCCESS; k += job->step) {
+    for (int k = job->first; k < job->end && rv == EXR_ERR_SUCCESS;
+         k += job->step) {
         /* Chunks are named by their first line in the data window's
          * coordinates: a crop's start at its row in the frame. */
         exr_chunk_info_t cinfo;
@@ -353,11 +375,13 @@ static void *compress_chunks(void *arg)
                                img->width);
         if (rv != EXR_ERR_SUCCESS)
             break;
-        /* Not the default order check: the chunks are written in order
-         * by encode_chunks, after every worker is done. */
-        enc.yield_until_ready_fn = NULL;
-        enc.write_fn = keep_chunk;
-        enc.encoding_user_data = job;
+        if (job->blobs != NULL) {
+            /* Not the default order check: encode_chunks writes the
+             * batch in order once every worker is done. */
+            enc.yield_until_ready_fn = NULL;
+            enc.write_fn = keep_chunk;
+            enc.encoding_user_data = job;
+        }
         job->chunk = k;
         rv = exr_encoding_run(job->ctxt, job->part, &enc);
     }
@@ -368,26 +392,12 @@ static void *compress_chunks(void *arg)
     return NULL;
 }
 
+int lr__exr_threads = 0;
+
 /* Threads for an image of `height` rows in chunks of `spc`: the online
  * cores, at most 8, and none beyond the first for fewer than 8 chunks
  * per thread (a farm's part of 30 rows has 2 chunks: starting a thread
  * would cost more than it saves). */
-/* OpenEXRCore's code for the options' compression; ZIP for a value out
- * of range (lr_output_options_default's). */
-static exr_compression_t exr_compression(const lr_output_options *opts)
-{
-    switch (opts->exr_compression) {
-    case LR_EXR_NONE: return EXR_COMPRESSION_NONE;
-    case LR_EXR_ZIPS: return EXR_COMPRESSION_ZIPS;
-    case LR_EXR_RLE: return EXR_COMPRESSION_RLE;
-    case LR_EXR_PIZ: return EXR_COMPRESSION_PIZ;
-    case LR_EXR_ZIP:
-    default: return EXR_COMPRESSION_ZIP;
-    }
-}
-
-int lr__exr_threads = 0;
-
 static int encode_threads(int height, int spc)
 {
     if (lr__exr_threads > 0)
@@ -400,47 +410,62 @@ static int encode_threads(int height, int spc)
     return t;
 }
 
-/* Compresses every chunk on `threads` threads (fewer if a thread cannot
- * be started), then writes them in file order. */
+/* Compresses and writes every chunk: on this thread alone, or in batches
+ * of 16 chunks a thread on `threads` threads (fewer if a thread cannot
+ * be started). */
 static exr_result_t encode_chunks(exr_context_t ctxt, int part,
                                   const lr_image *img, int want_z, int half,
                                   int spc, size_t plane_bytes, int threads)
 {
     int n = (img->height + spc - 1) / spc;
     int top = img->frame_w > 0 ? img->y0 : 0;
-    exr_blob *blobs = calloc((size_t)n, sizeof *blobs);
+    chunk_job one = {ctxt, part, img, want_z, half, spc, 0, n, 1,
+                     plane_bytes, NULL, 0, 0, EXR_ERR_SUCCESS};
+    if (threads <= 1) {
+        compress_chunks(&one);
+        return one.rv;
+    }
+    int batch = 16 * threads;
+    exr_blob *blobs = calloc((size_t)batch, sizeof *blobs);
     chunk_job *jobs = calloc((size_t)threads, sizeof *jobs);
     pthread_t *tids = calloc((size_t)threads, sizeof *tids);
     exr_result_t rv = EXR_ERR_SUCCESS;
-    if (blobs == NULL || jobs == NULL || tids == NULL) {
+    if (blobs == NULL || jobs == NULL || tids == NULL)
         rv = EXR_ERR_OUT_OF_MEMORY;
-        goto done;
+    for (int b0 = 0; b0 < n && rv == EXR_ERR_SUCCESS; b0 += batch) {
+        int end = b0 + batch < n ? b0 + batch : n;
+        for (int t = 0; t < threads; t++) {
+            jobs[t] = one;
+            jobs[t].first = b0 + t;
+            jobs[t].end = end;
+            jobs[t].step = threads;
+            jobs[t].blobs = blobs;
+            jobs[t].base = b0;
+        }
+        /* Worker 0 is this thread; a thread that cannot start leaves its
+         * chunks to this one, below. */
+        int started = 0;
+        for (int t = 1; t < threads; t++) {
+            if (pthread_create(&tids[t], NULL, compress_chunks, &jobs[t]))
+                break;
+            started = t;
+        }
+        compress_chunks(&jobs[0]);
+        for (int t = 1; t <= started; t++)
+            pthread_join(tids[t], NULL);
+        for (int t = started + 1; t < threads; t++)
+            compress_chunks(&jobs[t]);
+        for (int t = 0; t < threads && rv == EXR_ERR_SUCCESS; t++)
+            rv = jobs[t].rv;
+        for (int k = b0; k < end; k++) {
+            exr_blob *bl = &blobs[k - b0];
+            if (rv == EXR_ERR_SUCCESS)
+                rv = exr_write_scanline_chunk(ctxt, part, top + k * spc,
+                                              bl->data, bl->len);
+            free(bl->data);
+            bl->data = NULL;
+        }
     }
-    int started = 0;
-    for (int t = 0; t < threads; t++) {
-        jobs[t] = (chunk_job){ctxt, part, img, want_z, half, spc, t, threads,
-                              plane_bytes, blobs, 0, EXR_ERR_SUCCESS};
-    }
-    /* Worker 0 is this thread; a thread that cannot start leaves its
-     * chunks to this one, below. */
-    for (int t = 1; t < threads; t++) {
-        if (pthread_create(&tids[t], NULL, compress_chunks, &jobs[t]) != 0)
-            break;
-        started = t;
-    }
-    compress_chunks(&jobs[0]);
-    for (int t = 1; t <= started; t++)
-        pthread_join(tids[t], NULL);
-    for (int t = started + 1; t < threads; t++)
-        compress_chunks(&jobs[t]);
-    for (int t = 0; t < threads && rv == EXR_ERR_SUCCESS; t++)
-        rv = jobs[t].rv;
-    for (int k = 0; k < n && rv == EXR_ERR_SUCCESS; k++)
-        rv = exr_write_scanline_chunk(ctxt, part, top + k * spc,
-                                      blobs[k].data, blobs[k].len);
-done:
-    for (int k = 0; blobs != NULL && k < n; k++)
-        free(blobs[k].data);
     free(blobs);
     free(jobs);
     free(tids);
