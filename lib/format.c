@@ -55,21 +55,31 @@ lr__encoder lr__format_encoder(lr_format fmt)
     return info(fmt) ? info(fmt)->encode : NULL;
 }
 
-/* "\"exr\" or \"png\"" (quoted = 1) or ".exr or .png" (quoted = 0). */
-static void list_names(char *out, size_t cap, int quoted)
+/* name(0), ..., name(n - 1) joined as "a, b or c", each in quotes when
+ * `quoted`. */
+static void join_names(char *out, size_t cap, size_t n,
+                       const char *(*name)(size_t), int quoted)
 {
     size_t used = 0;
     out[0] = '\0';
-    for (size_t i = 0; i < N_FORMATS && used < cap; i++) {
-        const char *sep = i == 0 ? "" : i + 1 == N_FORMATS ? " or " : ", ";
-        int n = quoted ? snprintf(out + used, cap - used, "%s\"%s\"", sep,
-                                  formats[i].name)
-                       : snprintf(out + used, cap - used, "%s%s", sep,
-                                  formats[i].extension);
-        if (n < 0)
+    for (size_t i = 0; i < n && used < cap; i++) {
+        const char *sep = i == 0 ? "" : i + 1 == n ? " or " : ", ";
+        int k = snprintf(out + used, cap - used,
+                         quoted ? "%s\"%s\"" : "%s%s", sep, name(i));
+        if (k < 0)
             break;
-        used += (size_t)n;
+        used += (size_t)k;
     }
+}
+
+static const char *format_name(size_t i) { return formats[i].name; }
+static const char *format_ext(size_t i) { return formats[i].extension; }
+
+/* "\"exr\" or \"png\"" (quoted = 1) or ".exr or .png" (quoted = 0). */
+static void list_names(char *out, size_t cap, int quoted)
+{
+    join_names(out, cap, N_FORMATS, quoted ? format_name : format_ext,
+               quoted);
 }
 
 lr_status lr_format_from_name(const char *name, const char *field,
@@ -94,6 +104,11 @@ static const char *const exr_compressions[] = {"zip", "none", "zips", "rle",
                                                "piz"};
 enum { N_EXR_COMPRESSIONS = sizeof exr_compressions / sizeof *exr_compressions };
 
+static const char *compression_name(size_t i)
+{
+    return exr_compressions[i];
+}
+
 const char *lr_exr_compression_name(lr_exr_compression c)
 {
     return (unsigned)c < N_EXR_COMPRESSIONS ? exr_compressions[c] : NULL;
@@ -111,9 +126,9 @@ lr_status lr_exr_compression_from_name(const char *name, const char *field,
             *c = (lr_exr_compression)i;
             return LR_OK;
         }
-    return lr__fail(err, LR_ERR_INVALID, f,
-                    "%s must be \"zip\", \"none\", \"zips\", \"rle\" or "
-                    "\"piz\"", f);
+    char names[96];
+    join_names(names, sizeof names, N_EXR_COMPRESSIONS, compression_name, 1);
+    return lr__fail(err, LR_ERR_INVALID, f, "%s must be %s", f, names);
 }
 
 lr_status lr_format_from_path(const char *path, lr_format *fmt,
