@@ -568,8 +568,6 @@ static int cmd_render(int argc, char **argv)
         }
         lr_status ost = lr_output_apply_json(&out, text, strlen(text), &err);
         cJSON_free(text);
-        if (ost == LR_OK)
-            r.oo.exr_compression = out.options.exr_compression;
         if (ost != LR_OK) {
             char msg[sizeof err.message + 32];
             snprintf(msg, sizeof msg, "%s: %s",
@@ -581,6 +579,8 @@ static int cmd_render(int argc, char **argv)
             rc = usage_error("%s", msg);
             goto done;
         }
+        /* Only the compression is new to r.oo; the flags set the rest. */
+        r.oo.exr_compression = out.options.exr_compression;
     }
     if (r.want_depth && !lr_format_has_depth(r.fmt)) {
         rc = usage_error("--depth needs an output that can hold a Z "

@@ -99,7 +99,7 @@ static char *part_body(const char *scene, size_t len, const char *cam_json,
     char *rs_json = lr_render_settings_json(&s);
     if (rs_json == NULL)
         return NULL;
-    char output[64];
+    char output[96];
     snprintf(output, sizeof output,
              "{\"format\": \"exr\", \"compression\": \"none\", "
              "\"depth\": %s}",
