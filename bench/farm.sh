@@ -3,8 +3,10 @@
 #
 #   sh bench/farm.sh BUILD_DIR          (from the repo root)
 #
-# On scenes/bench.json at 640 x 480 (bench/README.md), with the farm of
-# farm/farm.sh on loopback:
+# On scenes/bench.json at 640 x 480 (bench/README.md), at each sample
+# count of BENCH_FARM_SPP (default "64 256": a frame of 0.5 s of one core,
+# where the client's own 0.1 s weighs, and one of 2 s, nearer what a farm
+# is for), with the farm of farm/farm.sh on loopback:
 #   1. throughput of a batch of parts at render.threads=1: the frame as
 #      BENCH_FARM_PARTS parts (default 16) on 1 daemon, then through nginx
 #      on 2 (one worker each: on 2 cores, one core per daemon);
@@ -23,7 +25,7 @@ OUT=$BUILD/bench
 LENSRAY=$BUILD/lensray
 PARTS=${BENCH_FARM_PARTS:-16}
 REPEAT=${BENCH_FARM_REPEAT:-5}
-SPP=${BENCH_FARM_SPP:-64}
+SPPS=${BENCH_FARM_SPP:-64 256}
 DIR=$OUT/farm
 mkdir -p "$OUT"
 say() { echo "bench: $*"; }
@@ -99,18 +101,32 @@ pair() {
 
 # A first render sends the bunny's mesh and loads the scene on both
 # daemons (each caches it), so that no timed run pays for that.
+SPP=16
 once "$nginx_url" 4 4 1 >/dev/null
 once "$nginx_url" 4 4 1 >/dev/null
 
-say "farm: $PARTS parts of scenes/bench.json at $SPP spp, render.threads=1, best of $REPEAT"
-tp=$(pair "$one_url $PARTS 2 1" "$nginx_url $PARTS 4 1")
-say "farm: 1 daemon, 2 daemons behind nginx: $tp"
-# Two parts in flight on the daemon's one worker, so that the next part
-# waits in its queue while the client takes the last one in: the daemon
-# never idles for a round trip (as --parallel is meant to be used).
-say "farm: whole frame against 16 parts, one daemon, all threads, 2 parts in flight"
-ov=$(pair "$one_url 1 1 0" "$one_url 16 2 0")
-say "farm: whole, 16 parts: $ov"
+# pair_at SPP: both comparisons at SPP samples a pixel; prints the
+# throughput pair's line, then the overhead pair's.
+pair_at() {
+    SPP=$1
+    say "farm: $PARTS parts of scenes/bench.json at $SPP spp, render.threads=1, best of $REPEAT"
+    tp=$(pair "$one_url $PARTS 2 1" "$nginx_url $PARTS 4 1")
+    say "farm: 1 daemon, 2 daemons behind nginx: $tp"
+    # Two parts in flight on the daemon's one worker, so that the next
+    # part waits in its queue while the client takes the last one in: the
+    # daemon never idles for a round trip (as --parallel is meant to be
+    # used).
+    say "farm: whole frame against 16 parts, one daemon, all threads, 2 parts in flight"
+    ov=$(pair "$one_url 1 1 0" "$one_url 16 2 0")
+    say "farm: whole, 16 parts: $ov"
+    echo "$SPP $tp" >>"$OUT/farm-tp.txt"
+    echo "$SPP $ov" >>"$OUT/farm-ov.txt"
+}
+: >"$OUT/farm-tp.txt"
+: >"$OUT/farm-ov.txt"
+for spp in $SPPS; do
+    pair_at "$spp"
+done
 # A part's fixed cost: the daemons' CPU for 100 one-row parts at 1 spp
 # (parsing, the scene cache, the plan, threads, the EXR, HTTP), asked
 # straight with curl so that the client's share is left out.
@@ -124,8 +140,8 @@ say "farm: a part's fixed cost $fixed ms"
 # The machine is shared: how busy it was, from /proc/loadavg.
 load=$(cut -d' ' -f1 /proc/loadavg)
 {
-    echo "farm (scenes/bench.json 640 x 480, $SPP spp, $(nproc) cores, least of $REPEAT runs taken in turn, load average $load):"
-    echo "$tp" | awk -v n="$PARTS" '{printf "  batch of %d parts, render.threads=1: 1 daemon %.3f s, 2 daemons %.3f s: %.2fx wall (target >= 1.8x); daemons'"'"' CPU %.2f s and %.2f s (%.1f ms and %.1f ms a part)\n", n, $1, $6, $1 / $6, $2, $7, 1000 * $2 / n, 1000 * $7 / n}'
-    echo "$ov" | awk '{printf "  one frame whole %.3f s, in 16 parts %.3f s: overhead %+.1f%% wall, %+.1f%% daemon CPU (%.2f s against %.2f s), %+.2f%% rays, %+.2f%% samples, scene loads %d and %d (target < 5%%)\n", $1, $6, 100 * ($6 / $1 - 1), 100 * ($7 / $2 - 1), $7, $2, 100 * ($8 / $3 - 1), 100 * ($9 / $4 - 1), $5, $10}'
-    echo "$ov $fixed" | awk '{printf "  a part'"'"'s fixed cost %.2f ms of daemon CPU (100 one-row parts at 1 spp): 16 parts add %.1f%% to the whole frame'"'"'s %.2f s\n", $11, 100 * 16 * $11 / 1000 / $2, $2}'
+    echo "farm (scenes/bench.json 640 x 480, $(nproc) cores, least of $REPEAT runs taken in turn, load average $load):"
+    awk -v n="$PARTS" '{printf "  %d spp, a batch of %d parts, render.threads=1: 1 daemon %.3f s, 2 daemons %.3f s: %.2fx wall (target >= 1.8x); daemons'"'"' CPU %.2f s and %.2f s (%.1f ms and %.1f ms a part)\n", $1, n, $2, $7, $2 / $7, $3, $8, 1000 * $3 / n, 1000 * $8 / n}' "$OUT/farm-tp.txt"
+    awk '{printf "  %d spp, one frame whole %.3f s, in 16 parts %.3f s: overhead %+.1f%% wall, %+.1f%% daemon CPU (%.2f s against %.2f s), %+.2f%% rays, %+.2f%% samples, scene loads %d and %d (target < 5%%)\n", $1, $2, $7, 100 * ($7 / $2 - 1), 100 * ($8 / $3 - 1), $8, $3, 100 * ($9 / $4 - 1), 100 * ($10 / $5 - 1), $6, $11}' "$OUT/farm-ov.txt"
+    head -1 "$OUT/farm-ov.txt" | awk -v f="$fixed" '{printf "  a part'"'"'s fixed cost %.2f ms of daemon CPU (100 one-row parts at 1 spp): 16 parts add %.1f%% to the %d-spp whole frame'"'"'s %.2f s\n", f, 100 * 16 * f / 1000 / $3, $1, $3}'
 } | tee "$OUT/farm.txt"
