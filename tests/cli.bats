@@ -96,7 +96,9 @@ has_temp_files() {
     major=$(sed -n 's/^#define LR_VERSION_MAJOR \([0-9]*\).*/\1/p' "$REPO/include/lensray.h")
     minor=$(sed -n 's/^#define LR_VERSION_MINOR \([0-9]*\).*/\1/p' "$REPO/include/lensray.h")
     patch=$(sed -n 's/^#define LR_VERSION_PATCH \([0-9]*\).*/\1/p' "$REPO/include/lensray.h")
-    [ -n "$major" ] && [ -n "$minor" ] && [ -n "$patch" ]
+    [ -n "$major" ]
+    [ -n "$minor" ]
+    [ -n "$patch" ]
     run -0 "$LENSRAY" version
     [ "$output" = "lensray $major.$minor.$patch" ]
 }

@@ -353,12 +353,31 @@ frame() {
     run -0 "$LENSRAY" render "$f1" "$f2" "$f3" -o "$BATS_TEST_TMPDIR/farm-%02d.exr" \
         --remote "$URL" --parts 4 --parallel 6 --stats
     [[ "$output" == *'"frames": 3, "failed": 0, "parts": 12'*'"assets": 1, "uploaded": 1'* ]]
-    [[ "$output" == *"frame 3/3 part "*" of 12 parts, "*" of 3 frames"* ]]
+    [[ "$output" == *"frame 3/3 part "*"/4 done (rows "*"), "*" of 3 frames"* ]]
     for k in 01 02 03; do
         cmp "$BATS_TEST_TMPDIR/local-$k.exr" "$BATS_TEST_TMPDIR/farm-$k.exr"
     done
     # The frames differ (the camera moves), so each file is its own frame.
     ! cmp -s "$BATS_TEST_TMPDIR/farm-01.exr" "$BATS_TEST_TMPDIR/farm-02.exr"
+}
+
+@test "a batch reads each frame when its parts are needed: with one part in flight, frame 2's unreadable scene is reported after frame 1's third part, and frames 1 and 3 are written" {
+    local f1 f3
+    f1=$(frame 1 -1) f3=$(frame 3 1)
+    run -4 "$LENSRAY" render "$f1" "$BATS_TEST_TMPDIR/missing.json" "$f3" \
+        -o "$BATS_TEST_TMPDIR/farm-%d.exr" --remote "$URL" --parts 4 --parallel 1
+    # Frame 2 is read once frame 1's last part has been sent, which with
+    # one part in flight is after its third part came back.
+    local third missing
+    third=$(grep -n "frame 1/3 part 3/4 done" <<<"$output" | cut -d: -f1)
+    missing=$(grep -n "missing.json" <<<"$output" | head -1 | cut -d: -f1)
+    [ -n "$third" ]
+    [ -n "$missing" ]
+    [ "$third" -lt "$missing" ]
+    [[ "$output" == *"2 of 3 frames written, 1 failed"* ]]
+    [ -s "$BATS_TEST_TMPDIR/farm-1.exr" ]
+    [ -s "$BATS_TEST_TMPDIR/farm-3.exr" ]
+    [ ! -e "$BATS_TEST_TMPDIR/farm-2.exr" ]
 }
 
 @test "a batch whose middle frame the daemons refuse: it is reported, the others are written, exit 3" {
@@ -387,7 +406,8 @@ frame() {
     run -2 "$LENSRAY" render "$f1" "$f2" -o "$BATS_TEST_TMPDIR/out-%s.exr"
     run -0 "$LENSRAY" render "$f1" "$f2" -o "$BATS_TEST_TMPDIR/100%%-%03d.png" -q \
         --set render.spp=1 --remote "$URL" --parts 2
-    [ -f "$BATS_TEST_TMPDIR/100%-001.png" ] && [ -f "$BATS_TEST_TMPDIR/100%-002.png" ]
+    [ -f "$BATS_TEST_TMPDIR/100%-001.png" ]
+    [ -f "$BATS_TEST_TMPDIR/100%-002.png" ]
 }
 
 @test "assets: a scene's lens file and environment map go once; all three daemons render the sha256: scene, equal to the local render" {
@@ -530,7 +550,8 @@ json_field() {
     run curl -sf -D "$BATS_TEST_TMPDIR/h" "$URL/v1/jobs" -H 'Content-Type: application/json' \
         -H "Idempotency-Key: $key" -d "$JOB"
     id2=$(echo "$output" | json_field id)
-    [ -n "$id1" ] && [ "$id1" = "$id2" ]
+    [ -n "$id1" ]
+    [ "$id1" = "$id2" ]
     grep -qi '^Idempotent-Replayed: true' "$BATS_TEST_TMPDIR/h"
     run curl -sf "$URL/v1/jobs/$id1?wait=60"
     run curl -sf "$URL/v1/jobs/$id1?wait=60"

@@ -144,7 +144,8 @@ json() {
     share=$(json "$WORK/status" 'd["stats"]["plan"]["lens_pixels"]')
     echo "plan map: $lens lens pixels of 24000; the render: a share of $share"
     "$PY" -c "import sys; sys.exit(abs($lens / 24000 - $share) > 0.5e-4)"
-    [ "$lens" -gt 0 ] && [ "$lens" -lt 24000 ]
+    [ "$lens" -gt 0 ]
+    [ "$lens" -lt 24000 ]
     run curl -s -o /dev/null -w '%{http_code}' "$DURL/v1/jobs/0123456789abcdef0123456789abcdef/plan"
     [ "$output" = 404 ]
     kill -TERM "$DPID"

@@ -313,100 +313,81 @@ static int render_local(const render_job *r, const char *scene_path,
     return rc;
 }
 
-/* remote_render's callback: frame k of `frames` is done; writes it. */
-typedef struct remote_out {
+/* remote_render's callbacks' state: the job, and each frame's directory
+ * (the scenes' relative files are found there). */
+typedef struct remote_io {
     const render_job *r;
-    const int *number;     /* each frame's place among the scenes */
-} remote_out;
+    char (*dirs)[4096];
+} remote_io;
 
+/* remote_render's load: scene k read here for its camera and settings, and
+ * its text as the daemons take it: a glTF file goes as the scene the
+ * library made for it, the file itself as an asset. */
+static int load_frame(void *user, int k, remote_frame *f)
+{
+    const remote_io *io = user;
+    const render_job *r = io->r;
+    const char *path = r->scenes[k];
+    f->scene_path = path;
+    char out_path[4096];
+    frame_out(r, k, out_path, sizeof out_path);
+    lr_scene *scene = NULL;
+    int rc = load_scene(r, path, &scene, &f->cam, &f->rs, out_path);
+    if (rc != EXIT_OK)
+        return rc;
+    char *text = lr_gltf_scene_json(path, scene);
+    lr_scene_free(scene);
+    size_t len = text != NULL ? strlen(text) : 0;
+    if (text == NULL) {
+        text = (char *)read_whole_file(path, &len);
+        if (text == NULL) {
+            fprintf(stderr, "lensray: %s: %s\n", path, strerror(errno));
+            return EXIT_IO;
+        }
+    }
+    dir_of(path, io->dirs[k], sizeof io->dirs[k]);
+    f->scene_dir = io->dirs[k];
+    f->scene = text;
+    f->len = len;
+    return EXIT_OK;
+}
+
+/* remote_render's done: frame k is stitched; writes it. */
 static int write_frame(void *user, int k, lr_image *img)
 {
-    const remote_out *w = user;
+    const remote_io *io = user;
     char out_path[4096];
-    frame_out(w->r, w->number[k], out_path, sizeof out_path);
-    int rc = write_image(img, out_path, &w->r->oo);
+    frame_out(io->r, k, out_path, sizeof out_path);
+    int rc = write_image(img, out_path, &io->r->oo);
     lr_image_free(img);
     return rc;
 }
 
 /* --remote: every scene's frame on the daemons, as one batch of parts
- * (tools/remote.c); a scene that cannot be read fails alone.  The exit
- * status: 0, or the first failure's.  With --stats, one JSON line of
- * what it took. */
+ * (tools/remote.c), each scene read when the batch reaches it; a scene
+ * that cannot be read fails alone.  The exit status: 0, or the first
+ * failure's.  With --stats, one JSON line of what it took. */
 static int render_remote(const render_job *r)
 {
-    remote_frame *frames = calloc((size_t)r->n_scenes, sizeof *frames);
-    int *number = calloc((size_t)r->n_scenes, sizeof *number);
-    char (*dirs)[4096] = NULL;
-    int n = 0, rc = EXIT_OK;
-    if (frames == NULL || number == NULL) {
+    remote_io io = {r, calloc((size_t)r->n_scenes, sizeof *io.dirs)};
+    if (io.dirs == NULL) {
         fprintf(stderr, "lensray: out of memory\n");
-        rc = EXIT_IO;
-        goto done;
+        return EXIT_IO;
     }
-    dirs = calloc((size_t)r->n_scenes, sizeof *dirs);
-    if (dirs == NULL) {
-        fprintf(stderr, "lensray: out of memory\n");
-        rc = EXIT_IO;
-        goto done;
-    }
-    for (int i = 0; i < r->n_scenes; i++) {
-        remote_frame *f = &frames[n];
-        char out_path[4096];
-        frame_out(r, i, out_path, sizeof out_path);
-        lr_scene *scene = NULL;
-        int frc = load_scene(r, r->scenes[i], &scene, &f->cam, &f->rs,
-                             out_path);
-        /* The daemons take scene JSON: a glTF file goes as the scene the
-         * library made for it, the file itself as an asset. */
-        char *text = frc == EXIT_OK ? lr_gltf_scene_json(r->scenes[i], scene)
-                                    : NULL;
-        /* The scene is read here only for its camera and settings. */
-        lr_scene_free(scene);
-        size_t len = text != NULL ? strlen(text) : 0;
-        if (frc == EXIT_OK && text == NULL) {
-            text = (char *)read_whole_file(r->scenes[i], &len);
-            if (text == NULL) {
-                fprintf(stderr, "lensray: %s: %s\n", r->scenes[i],
-                        strerror(errno));
-                frc = EXIT_IO;
-            }
-        }
-        if (frc != EXIT_OK) {
-            if (rc == EXIT_OK)
-                rc = frc;
-            continue;
-        }
-        f->scene_path = r->scenes[i];
-        /* Its files are relative to the scene file's directory. */
-        dir_of(r->scenes[i], dirs[n], sizeof dirs[n]);
-        f->scene_dir = dirs[n];
-        f->scene = text;
-        f->len = len;
-        number[n++] = i;
-    }
-    remote_out w = {r, number};
     remote_stats st;
     memset(&st, 0, sizeof st);
-    int rrc = n > 0 ? remote_render(&r->ro, frames, n, write_frame, &w, &st)
-                    : EXIT_OK;
-    if (rc == EXIT_OK)
-        rc = rrc;
-    if (r->n_scenes > 1 && rc != EXIT_OK && rrc != EXIT_INTERRUPTED)
+    int rc = remote_render(&r->ro, r->n_scenes, load_frame, write_frame, &io,
+                           &st);
+    if (r->n_scenes > 1 && rc != EXIT_OK && rc != EXIT_INTERRUPTED)
         fprintf(stderr, "lensray: %d of %d frames written, %d failed\n",
                 st.frames, r->n_scenes, r->n_scenes - st.frames);
-    if (r->stats && rrc != EXIT_INTERRUPTED)
+    if (r->stats && rc != EXIT_INTERRUPTED)
         printf("{\"remote\": true, \"seconds\": %.3f, \"frames\": %d, "
                "\"failed\": %d, \"parts\": %d, \"requests\": %d, "
                "\"retries\": %d, \"assets\": %d, \"uploaded\": %d}\n",
                st.seconds, st.frames, r->n_scenes - st.frames, st.parts,
                st.attempts, st.retries, st.assets, st.uploaded);
-done:
-    for (int i = 0; frames != NULL && i < n; i++)
-        free((char *)frames[i].scene);
-    free(frames);
-    free(number);
-    free(dirs);
+    free(io.dirs);
     return rc;
 }
 

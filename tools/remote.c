@@ -5,7 +5,10 @@
  * rows, the parts.  The parts of all frames form one queue, sent in frame
  * order o->parallel at a time through one libcurl multi handle, so the
  * daemons never wait for a frame's last part before the next frame
- * starts; a frame's image exists from its first part to its last.  Each
+ * starts; a frame's image exists from its first part to its last.  A
+ * frame is read (its scene loaded, its files hashed and uploaded) only
+ * when the queue runs short of parts to send, so the first part of a
+ * long batch leaves after one frame's reading, not all of them.  Each
  * answer, a float32 EXR, is placed straight into its frame (exr_crop.c).  Because every pixel's samples depend only on (pixel,
  * sample, dimension, seed), a part's pixels are those of the whole
  * render (docs/architecture.md, "Rules that keep pixels the same"), so
@@ -184,7 +187,9 @@ typedef struct frame {
     size_t len;
     char *cam_json;        /* the camera sent */
     int box[4];            /* the frame's region: [x0, y0, x1, y1) */
-    int first, n_parts;    /* its parts: parts[first .. first + n_parts) */
+    remote_frame in;       /* as the caller's load filled it */
+    part *parts;           /* its n_parts parts, from its reading on */
+    int n_parts;
     int done_parts;
     int status;            /* nonzero once it failed: its exit status */
     lr_image *img;         /* from its first part on, until handed over */
@@ -192,13 +197,16 @@ typedef struct frame {
 
 typedef struct batch {
     const remote_options *o;
-    const remote_frame *in;
     int n;
     frame *frames;
-    part *parts;
-    int n_parts;
+    int read;              /* frames[0 .. read) have been read */
+    int n_parts;           /* parts of the frames read */
+    remote_load load;
+    void *user;
+    assets_session *as;
     CURLM *multi;
-    int running, left;     /* parts in flight; parts not yet finished */
+    int running, left;     /* parts in flight; parts read, not finished */
+    int waiting;           /* parts read and not yet sent */
     int status;            /* the first failed frame's exit status */
     char endpoint[2048];
 } batch;
@@ -224,12 +232,14 @@ static void fail_frame(batch *b, int fi, int status)
     f->status = status;
     if (b->status == 0)
         b->status = status;
-    for (int i = f->first; i < f->first + f->n_parts; i++) {
-        part *p = &b->parts[i];
+    for (int i = 0; i < f->n_parts; i++) {
+        part *p = &f->parts[i];
         if (p->state == PART_RUNNING) {
             end_part(b->multi, p);
             b->running--;
         }
+        if (p->state == PART_WAITING)
+            b->waiting--;
         if (p->state != PART_DONE)
             b->left--;
         p->state = PART_DONE;
@@ -238,7 +248,8 @@ static void fail_frame(batch *b, int fi, int status)
     f->img = NULL;
     if (b->n > 1)
         fprintf(stderr, "lensray: frame %d/%d (%s) failed; the other frames "
-                        "go on\n", fi + 1, b->n, b->in[fi].scene_path);
+                        "go on\n", fi + 1, b->n,
+                f->in.scene_path != NULL ? f->in.scene_path : "?");
 }
 
 /* The frame's image, made when its first part starts: the frame's
@@ -247,7 +258,7 @@ static void fail_frame(batch *b, int fi, int status)
 static int frame_image(batch *b, int fi)
 {
     frame *f = &b->frames[fi];
-    const lr_render_settings *rs = &b->in[fi].rs;
+    const lr_render_settings *rs = &f->in.rs;
     lr_error err;
     if (f->img != NULL)
         return 0;
@@ -256,7 +267,7 @@ static int frame_image(batch *b, int fi)
         ((f->box[0] != 0 || f->box[1] != 0 || f->box[2] != rs->width ||
           f->box[3] != rs->height) &&
          lr_image_set_frame(f->img, rs->width, rs->height, f->box[0],
-                            f->box[1], &b->in[fi].cam, rs, &err) != LR_OK)) {
+                            f->box[1], &f->in.cam, rs, &err) != LR_OK)) {
         fprintf(stderr, "lensray: %s\n", err.message);
         return -1;
     }
@@ -268,23 +279,27 @@ static int frame_image(batch *b, int fi)
 static int start_parts(batch *b, remote_stats *stats)
 {
     double t = now();
-    for (int i = 0; i < b->n_parts && b->running < b->o->parallel; i++) {
-        part *p = &b->parts[i];
-        if (p->state != PART_WAITING || p->not_before > t)
-            continue;
-        frame *f = &b->frames[p->frame];
-        if (frame_image(b, p->frame) != 0) {
-            fail_frame(b, p->frame, EXIT_IO);
-            continue;
+    for (int fi = 0; fi < b->read && b->running < b->o->parallel; fi++) {
+        frame *f = &b->frames[fi];
+        for (int i = 0; i < f->n_parts && b->running < b->o->parallel; i++) {
+            part *p = &f->parts[i];
+            if (p->state != PART_WAITING || p->not_before > t)
+                continue;
+            if (frame_image(b, fi) != 0) {
+                fail_frame(b, fi, EXIT_IO);
+                break;
+            }
+            p->body = part_body(f->scene, f->len, f->cam_json, &f->in.rs,
+                                p->region);
+            if (p->body == NULL ||
+                start_part(b->multi, p, b->o, b->endpoint) != 0) {
+                fprintf(stderr, "lensray: out of memory\n");
+                return -1;
+            }
+            b->running++;
+            b->waiting--;
+            stats->attempts++;
         }
-        p->body = part_body(f->scene, f->len, f->cam_json,
-                            &b->in[p->frame].rs, p->region);
-        if (p->body == NULL || start_part(b->multi, p, b->o, b->endpoint) != 0) {
-            fprintf(stderr, "lensray: out of memory\n");
-            return -1;
-        }
-        b->running++;
-        stats->attempts++;
     }
     return 0;
 }
@@ -340,9 +355,8 @@ static void finish_part(batch *b, part *p, CURLcode res, remote_done done,
                         p->region[3] - 1, f->done_parts, f->n_parts);
             else
                 fprintf(stderr, "lensray: %s done (rows %d-%d), %d of %d "
-                                "parts, %d of %d frames\n", name,
+                                "frames\n", name,
                         p->region[1], p->region[3] - 1,
-                        b->n_parts - b->left, b->n_parts,
                         stats->frames + (f->done_parts == f->n_parts), b->n);
         }
         if (f->done_parts == f->n_parts) {
@@ -373,18 +387,27 @@ static void finish_part(batch *b, part *p, CURLcode res, remote_done done,
     double wait = 0.25 * (double)(1 << (p->attempts < 5 ? p->attempts - 1 : 4));
     p->not_before = now() + wait;
     p->state = PART_WAITING;
+    b->waiting++;
     if (!o->quiet)
         fprintf(stderr, "lensray: %s failed (%s); sending it again "
                         "(attempt %d of %d)\n",
                 name, why, p->attempts + 1, o->retries + 1);
 }
 
-/* The frame's text and camera as sent, and its parts: bands of rows of
- * its region.  0, or an exit status (the frame failed, printed). */
-static int prepare_frame(batch *b, int fi, assets_session *as)
+/* Reads the next frame: the caller's load, then its text and camera as
+ * sent (its files named by their hashes, uploaded where missing), and its
+ * parts: bands of rows of its region.  A frame that cannot be read fails
+ * alone (printed); -1 only when out of memory (printed). */
+static int read_frame(batch *b)
 {
-    const remote_frame *in = &b->in[fi];
+    int fi = b->read++;
     frame *f = &b->frames[fi];
+    remote_frame *in = &f->in;
+    int rc = b->load(b->user, fi, in);
+    if (rc != 0) {
+        fail_frame(b, fi, rc);
+        return 0;
+    }
     const lr_render_settings *rs = &in->rs;
     int box[4] = {0, 0, rs->width, rs->height};
     if (rs->region[0] | rs->region[1] | rs->region[2] | rs->region[3])
@@ -393,30 +416,41 @@ static int prepare_frame(batch *b, int fi, assets_session *as)
     char *cam_json = lr_camera_json(&in->cam);
     if (cam_json == NULL) {
         fprintf(stderr, "lensray: out of memory\n");
-        return EXIT_IO;
+        return -1;
     }
-    int rc = assets_prepare(as, in->scene, in->len, cam_json, in->scene_dir,
-                            in->scene_path, &f->scene, &f->len, &f->cam_json);
+    rc = assets_prepare(b->as, in->scene, in->len, cam_json, in->scene_dir,
+                        in->scene_path, &f->scene, &f->len, &f->cam_json);
     lr_free(cam_json);
-    if (rc != 0)
-        return rc;
+    if (rc != 0) {
+        fail_frame(b, fi, rc);
+        return 0;
+    }
     int rows = box[3] - box[1];
-    f->n_parts = b->o->parts < rows ? b->o->parts : rows;
-    for (int i = 0; i < f->n_parts; i++) {
-        part *p = &b->parts[f->first + i];
+    int n_parts = b->o->parts < rows ? b->o->parts : rows;
+    f->parts = calloc((size_t)(n_parts > 0 ? n_parts : 1), sizeof *f->parts);
+    if (f->parts == NULL) {
+        fprintf(stderr, "lensray: out of memory\n");
+        return -1;
+    }
+    f->n_parts = n_parts;
+    for (int i = 0; i < n_parts; i++) {
+        part *p = &f->parts[i];
         p->frame = fi;
         p->index = i;
         /* Band i holds rows [rows * i / n, rows * (i + 1) / n). */
         p->region[0] = box[0];
         p->region[2] = box[2];
-        p->region[1] = box[1] + (int)((long long)rows * i / f->n_parts);
-        p->region[3] = box[1] + (int)((long long)rows * (i + 1) / f->n_parts);
+        p->region[1] = box[1] + (int)((long long)rows * i / n_parts);
+        p->region[3] = box[1] + (int)((long long)rows * (i + 1) / n_parts);
     }
+    b->n_parts += n_parts;
+    b->left += n_parts;
+    b->waiting += n_parts;
     return 0;
 }
 
-int remote_render(const remote_options *o, const remote_frame *frames,
-                  int n, remote_done done, void *user, remote_stats *stats)
+int remote_render(const remote_options *o, int n, remote_load load,
+                  remote_done done, void *user, remote_stats *stats)
 {
     memset(stats, 0, sizeof *stats);
     double t0 = now();
@@ -427,41 +461,30 @@ int remote_render(const remote_options *o, const remote_frame *frames,
     batch b;
     memset(&b, 0, sizeof b);
     b.o = o;
-    b.in = frames;
     b.n = n;
+    b.load = load;
+    b.user = user;
     size_t ul = strlen(o->url);
     snprintf(b.endpoint, sizeof b.endpoint, "%.*s/v1/render",
              (int)(ul > 0 && o->url[ul - 1] == '/' ? ul - 1 : ul), o->url);
     int rc = EXIT_IO;
-    /* Room for every frame's parts; a frame uses at most o->parts. */
-    size_t most = 0;
-    for (int i = 0; i < n; i++) {
-        const lr_render_settings *rs = &frames[i].rs;
-        int rows = (rs->region[0] | rs->region[1] | rs->region[2] |
-                    rs->region[3]) ? rs->region[3] - rs->region[1]
-                                   : rs->height;
-        most += (size_t)(o->parts < rows ? o->parts : rows);
-    }
-    assets_session *as = assets_open(o->url, o->token);
-    b.frames = calloc((size_t)n, sizeof *b.frames);
-    b.parts = calloc(most ? most : 1, sizeof *b.parts);
+    b.as = assets_open(o->url, o->token);
+    b.frames = calloc((size_t)(n > 0 ? n : 1), sizeof *b.frames);
     b.multi = curl_multi_init();
-    if (as == NULL || b.frames == NULL || b.parts == NULL || b.multi == NULL) {
+    if (b.as == NULL || b.frames == NULL || b.multi == NULL) {
         fprintf(stderr, "lensray: out of memory\n");
         goto done;
     }
-    for (int i = 0; i < n; i++) {
-        b.frames[i].first = b.n_parts;
-        int frc = prepare_frame(&b, i, as);
-        b.n_parts += b.frames[i].n_parts;
-        b.left += b.frames[i].n_parts;
-        if (frc != 0)
-            fail_frame(&b, i, frc);
-    }
-    while (b.left > 0) {
+    while (b.left > 0 || b.read < n) {
         if (o->cancel != NULL && *o->cancel) {
             rc = EXIT_INTERRUPTED;
             goto done;
+        }
+        /* The next frame is read once fewer parts wait than can be in
+         * flight, so that a daemon that frees up finds one to take. */
+        if (b.read < n && b.waiting < o->parallel) {
+            if (read_frame(&b) != 0)
+                goto done;
         }
         if (start_parts(&b, stats) != 0)
             goto done;
@@ -484,27 +507,30 @@ int remote_render(const remote_options *o, const remote_frame *frames,
          * other parts' sockets first left a daemon's queue empty for up to
          * a whole part's render (or 50 ms with one part in flight), the
          * farm's splitting overhead (bench/README.md). */
-        if (b.left > 0 && finished == 0)
+        if (b.left > 0 && finished == 0 &&
+            !(b.read < n && b.waiting < o->parallel))
             curl_multi_poll(b.multi, NULL, 0, b.running > 0 ? 100 : 50, NULL);
     }
     rc = b.status;
 done:
-    for (int i = 0; b.parts != NULL && i < b.n_parts; i++) {
-        end_part(b.multi, &b.parts[i]);
-        free(b.parts[i].answer);
-    }
-    for (int i = 0; b.frames != NULL && i < n; i++) {
-        if (b.frames[i].status != 0)
+    for (int i = 0; b.frames != NULL && i < b.read; i++) {
+        frame *f = &b.frames[i];
+        for (int k = 0; k < f->n_parts; k++) {
+            end_part(b.multi, &f->parts[k]);
+            free(f->parts[k].answer);
+        }
+        if (f->status != 0)
             stats->failed++;
-        free(b.frames[i].scene);
-        free(b.frames[i].cam_json);
-        lr_image_free(b.frames[i].img);
+        free(f->parts);
+        free(f->scene);
+        free(f->cam_json);
+        free((char *)f->in.scene);
+        lr_image_free(f->img);
     }
-    if (as != NULL)
-        assets_counts(as, &stats->assets, &stats->uploaded);
-    assets_close(as);
+    if (b.as != NULL)
+        assets_counts(b.as, &stats->assets, &stats->uploaded);
+    assets_close(b.as);
     free(b.frames);
-    free(b.parts);
     if (b.multi != NULL)
         curl_multi_cleanup(b.multi);
     stats->parts = b.n_parts;

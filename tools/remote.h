@@ -25,7 +25,8 @@ typedef struct remote_options {
 
 /* One frame of a batch: the scene file's path, directory and text, and
  * the camera and settings as the local render would use them
- * (rs.want_depth asks for Z). */
+ * (rs.want_depth asks for Z).  remote_render owns `scene` (malloc'ed) and
+ * frees it; the paths are the caller's and must outlive the call. */
 typedef struct remote_frame {
     const char *scene_path;
     const char *scene_dir; /* the directory its relative files are in */
@@ -34,6 +35,11 @@ typedef struct remote_frame {
     lr_camera cam;
     lr_render_settings rs;
 } remote_frame;
+
+/* Fills *out (zeroed) with frame k, read when the batch reaches it;
+ * returns 0, or an exit status (the reason printed) that fails that frame
+ * alone.  scene_path should be set even on failure: the failure names it. */
+typedef int (*remote_load)(void *user, int frame, remote_frame *out);
 
 /* What remote_render did, for --stats. */
 typedef struct remote_stats {
@@ -53,8 +59,11 @@ typedef struct remote_stats {
  * count as failed. */
 typedef int (*remote_done)(void *user, int frame, lr_image *img);
 
-/* Renders frames[0 .. n) as parts on o->url.  First each scene's files go
- * to the daemons as assets, those they lack (tools/assets.c).  Every part
+/* Renders frames 0 .. n - 1 as parts on o->url.  Each frame is read
+ * through `load` when the queue of parts to send runs shorter than
+ * o->parallel (so a batch starts after one frame's reading, and reading
+ * overlaps the daemons' work); then its scene's files go to the daemons
+ * as assets, those they lack (tools/assets.c).  Every part
  * is a POST /v1/render of the scene inline with the camera and settings
  * as JSON and render.region set to the part, answered as a float32 EXR;
  * parts are sent in frame order, o->parallel at a time.  A part that
@@ -66,7 +75,7 @@ typedef int (*remote_done)(void *user, int frame, lr_image *img);
  * `done`; otherwise that of the first frame that failed: 3 (the daemon
  * refused the scene: its message is printed), 4 (I/O: the daemons could
  * not be reached or kept failing); 130 when cancelled. */
-int remote_render(const remote_options *o, const remote_frame *frames,
-                  int n, remote_done done, void *user, remote_stats *stats);
+int remote_render(const remote_options *o, int n, remote_load load,
+                  remote_done done, void *user, remote_stats *stats);
 
 #endif
