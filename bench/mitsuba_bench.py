@@ -42,7 +42,7 @@ import sys
 import time
 
 
-def build_scene(mi, obj, width, height, spp, sampler, obj_normals):
+def build_scene(mi, obj, width, height, spp, sampler, obj_normals, robust=False):
     T = mi.ScalarTransform4f
     bunny_bsdf = {'type': 'twosided',
                   'material': {'type': 'diffuse',
@@ -52,6 +52,9 @@ def build_scene(mi, obj, width, height, spp, sampler, obj_normals):
                                 'reflectance': {'type': 'rgb', 'value': [0.5, 0.5, 0.5]}}}
     scene = {
         'type': 'scene',
+        # Embree's robust traversal, lensray's only mode (lib/scene.c);
+        # Mitsuba's default is off.
+        'embree_use_robust_intersections': robust,
         'integrator': {'type': 'direct', 'emitter_samples': 1, 'bsdf_samples': 0,
                        'hide_emitters': True},
         'sensor': {
@@ -133,6 +136,8 @@ def main():
     ap.add_argument('--same-normals', action='store_true',
                     help="give Mitsuba lensray's smooth normals in the OBJ")
     ap.add_argument('--no-timing', action='store_true')
+    ap.add_argument('--robust', action='store_true',
+                    help="Embree's robust traversal, as lensray traces")
     a = ap.parse_args()
 
     import drjit as dr
@@ -161,7 +166,9 @@ def main():
         return img
 
     t0 = time.perf_counter()
-    scene = build_scene(mi, obj, a.width, a.height, a.spp, a.sampler, a.same_normals)
+    scene = build_scene(mi, obj, a.width, a.height, a.spp, a.sampler, a.same_normals,
+                        a.robust)
+    res['robust'] = a.robust
     res['load_seconds'] = time.perf_counter() - t0
 
     if not a.no_timing:

@@ -6,9 +6,11 @@
 # In one run, on scenes/bench.json:
 #   1. the bare-Embree ceiling (build/bench/ceiling, from bench/ceiling.c);
 #   2. lensray at 1 thread and at all threads, best of BENCH_REPEAT runs, as
-#      shipped (effect planning and adaptive sampling on) and with every
-#      sample traced (render.plan=false, render.adaptive=false);
-#   3. Mitsuba 3.9.1 (llvm_ad_rgb and scalar_rgb), from a virtual
+#      shipped (effect planning and adaptive sampling on), with every
+#      sample traced (render.plan=false, render.adaptive=false), and so
+#      without robust traversal (accel.robust=false, Mitsuba's default);
+#   3. Mitsuba 3.9.1 (llvm_ad_rgb, also with robust traversal, and
+#      scalar_rgb), from a virtual
 #      environment under BUILD_DIR/bench/venv, when it can be installed;
 #   4. both renderers at BENCH_REF_SPP spp, and the mean relative difference
 #      between the pictures;
@@ -113,10 +115,17 @@ fi
 OVERHEAD=$(sed -n 's/^CPUTIME cpu_seconds=\([0-9.]*\).*/\1/p' "$OUT/probe.log")
 echo "OVERHEAD cpu_seconds=${OVERHEAD:-0}" >> "$OUT/lensray.log"
 rm -f "$OUT/probe.exr"
-for mode in default full; do
+# "fast": every sample traced without Embree's robust traversal
+# (accel.robust=false), which is how Mitsuba traces by default: the
+# like-for-like pair of its llvm run (Mitsuba with robust traversal is
+# the pair of "full").
+for mode in default full fast; do
     if [ $mode = full ]; then
         [ -n "$FULL" ] || continue
         sets=$FULL
+    elif [ $mode = fast ]; then
+        [ -n "$FULL" ] || continue
+        sets="$FULL --set accel.robust=false"
     else
         sets=""
     fi
@@ -162,6 +171,10 @@ if [ $mitsuba_ok = 1 ]; then
         say "Mitsuba llvm_ad_rgb, $MI_SPP and $((2 * MI_SPP)) spp (LLVM: $DRJIT_LIBLLVM_PATH)"
         $MI --variant llvm_ad_rgb --spp "$MI_SPP" --repeat 3 >> "$OUT/mitsuba.log" 2>"$OUT/mitsuba-llvm.err" ||
             echo "MITSUBA_FAILED llvm_ad_rgb (exit $?): $(tail -1 "$OUT/mitsuba-llvm.err")" >> "$OUT/mitsuba.log"
+        quiet mitsuba-llvm-robust
+        say "Mitsuba llvm_ad_rgb with robust traversal, as lensray's default traces"
+        $MI --variant llvm_ad_rgb --spp "$MI_SPP" --repeat 3 --robust >> "$OUT/mitsuba.log" 2>"$OUT/mitsuba-llvm.err" ||
+            echo "MITSUBA_FAILED llvm_ad_rgb robust (exit $?): $(tail -1 "$OUT/mitsuba-llvm.err")" >> "$OUT/mitsuba.log"
     else
         echo "MITSUBA_FAILED llvm_ad_rgb: no libLLVM >= 16 (apt-get install libllvm19)" >> "$OUT/mitsuba.log"
     fi

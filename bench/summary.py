@@ -117,7 +117,7 @@ def main():
     for l in read(d, 'mitsuba.log'):
         if l.startswith('MITSUBA '):
             j = json.loads(l[len('MITSUBA '):])
-            mits[j['variant']] = j
+            mits[j['variant'] + (' robust' if j.get('robust') else '')] = j
         elif l.startswith('MITSUBA_FAILED') or l.startswith('MITSUBA_UNAVAILABLE'):
             mits_msgs.append(l.split(' ', 1)[1] if ' ' in l else l)
 
@@ -162,13 +162,16 @@ def main():
     if runs.get(('full', 1)) or runs.get(('full', T)):
         row('lensray, every sample traced', best('full', 1), best('full', T),
             best('full', 1, 'cpu_rate'), best('full', T, 'cpu_rate'))
+    if runs.get(('fast', 1)) or runs.get(('fast', T)):
+        row('lensray, every sample, accel.robust=false', best('fast', 1), best('fast', T),
+            best('fast', 1, 'cpu_rate'), best('fast', T, 'cpu_rate'))
     if runs.get(('default', 1)) or runs.get(('default', T)):
         row('lensray as shipped (samples taken)', best('default', 1), best('default', T),
             best('default', 1, 'cpu_rate'), best('default', T, 'cpu_rate'))
         row('lensray as shipped (effective W*H*spp/s)', best('default', 1, 'effective'),
             best('default', T, 'effective'), best('default', 1, 'cpu_effective'),
             best('default', T, 'cpu_effective'))
-    for v in ('llvm_ad_rgb', 'scalar_rgb'):
+    for v in ('llvm_ad_rgb', 'llvm_ad_rgb robust', 'scalar_rgb'):
         if v in mits:
             j = mits[v]
             row('Mitsuba %s %s' % (j['mitsuba'], v), None, j['samples_per_second'],
@@ -201,7 +204,7 @@ def main():
           % (mode, t, m(b['samples_per_second']),
              m(statistics.median(s['samples_per_second'] for s in rs)), len(rs),
              m(b['rays_per_second']), b['seconds'], b['samples'], b['full']))
-    for v in ('llvm_ad_rgb', 'scalar_rgb'):
+    for v in ('llvm_ad_rgb', 'llvm_ad_rgb robust', 'scalar_rgb'):
         if v in mits:
             j = mits[v]
             p('Mitsuba %s: %.3f s at %d spp, %.3f s at %d spp (plain rate %s M samples/s), '
@@ -241,6 +244,16 @@ def main():
             if v == 'llvm_ad_rgb':
                 checks.append(('lensray >= %.2fx Mitsuba llvm_ad_rgb' % TARGET_MITSUBA,
                                r >= TARGET_MITSUBA, '%.2fx' % r))
+    # Like for like: the same Embree traversal on both sides (issue 17's
+    # per-sample target; Mitsuba's default is not robust, lensray's is).
+    for mode, v, what in (('full', 'llvm_ad_rgb robust', 'both robust'),
+                          ('fast', 'llvm_ad_rgb', 'neither robust')):
+        ours = best(mode, T, key_full)
+        if v in mits and ours:
+            mv = mits[v].get('samples_per_second_cpu') if est else mits[v]['samples_per_second']
+            if mv:
+                p('  like for like, %s: lensray (every sample traced) / Mitsuba llvm_ad_rgb: '
+                  '%.2fx' % (what, ours / mv))
     if o1 and oN and T > 1:
         r = oN / o1
         checks.append(('%d threads >= %.1fx 1 thread%s' % (T, TARGET_SCALING,

@@ -32,6 +32,11 @@ static lr_status embree_fail(lr_error *err, const char *what)
 
 const char *lr__embree_config = NULL;
 
+enum RTCSceneFlags lr__scene_flags(const lr_scene *s)
+{
+    return s->not_robust ? RTC_SCENE_FLAG_NONE : RTC_SCENE_FLAG_ROBUST;
+}
+
 lr_status lr__scene_begin(lr_scene *s, lr_error *err)
 {
     embree_msg[0] = '\0';
@@ -42,9 +47,12 @@ lr_status lr__scene_begin(lr_scene *s, lr_error *err)
     s->rtc = rtcNewScene(s->device);
     if (s->rtc == NULL)
         return embree_fail(err, "creating the Embree scene");
-    /* Robust traversal: no missed hits at shared triangle edges, which
-     * matters for watertight meshes seen through a lens. */
-    rtcSetSceneFlags(s->rtc, RTC_SCENE_FLAG_ROBUST);
+    /* Robust traversal ("avoids optimizations that reduce arithmetic
+     * accuracy", for rays through the edges of neighbouring primitives,
+     * rtcSetSceneFlags(3)) unless the scene's "accel" turns it off: it
+     * costs about 12% of a bench render (docs/scene-format.md), and
+     * Mitsuba 3 leaves it off by default. */
+    rtcSetSceneFlags(s->rtc, lr__scene_flags(s));
     rtcSetSceneBuildQuality(s->rtc, RTC_BUILD_QUALITY_HIGH);
     return LR_OK;
 }

@@ -191,6 +191,9 @@ struct lr_scene {
     /* With 1 to LR__FEW_SPHERES spheres: Embree's scene of everything
      * else, and the spheres (spheres.c); else NULL and 0. */
     RTCScene rtc_few;
+    /* "accel": {"robust": false}: both Embree scenes built without
+     * RTC_SCENE_FLAG_ROBUST (zero, the default, builds them robust). */
+    int not_robust;
     lr__few_sphere few[LR__FEW_SPHERES];
     size_t n_few;
     lr__material *materials;
@@ -238,8 +241,11 @@ struct lr_scene {
 
 /* ---- scene.c: Embree side --------------------------------------------- */
 
-/* Creates the device and an empty Embree scene in `s` (zeroed before). */
+/* Creates the device and an empty Embree scene in `s` (zeroed before but
+ * for s->not_robust). */
 lr_status lr__scene_begin(lr_scene *s, lr_error *err);
+/* The flags both of s's Embree scenes are built with. */
+enum RTCSceneFlags lr__scene_flags(const lr_scene *s);
 /* Adds a triangle mesh; copies the arrays.  `corner_normals` (9 per
  * triangle) is taken over by the scene (freed with it) and may be NULL. */
 lr_status lr__scene_add_triangles(lr_scene *s, const float *vertices,

@@ -459,6 +459,24 @@ static lr_status parse_objects(lr_scene *s, const cJSON *objs,
 
 /* ---- the environment -------------------------------------------------- */
 
+/* "accel": {"robust": true|false}: Embree's robust traversal, on unless
+ * the scene turns it off (lr__scene_begin; docs/scene-format.md has what
+ * each costs and changes). */
+static lr_status parse_accel(lr_scene *s, const cJSON *a, lr_error *err)
+{
+    static const char *const keys[] = {"robust", NULL};
+    if (a == NULL)
+        return LR_OK;
+    if (!cJSON_IsObject(a))
+        return lr__fail(err, LR_ERR_INVALID, "accel",
+                        "accel must be an object {\"robust\": true|false}");
+    LR_TRY(lr__json_check_keys(a, "accel", keys, err));
+    int robust = 1;
+    LR_TRY(lr__json_bool(a, "robust", "accel", 0, &robust, err));
+    s->not_robust = !robust;
+    return LR_OK;
+}
+
 /* "environment": {"file", "intensity", "rotation_deg"}: a lat-long EXR
  * (envmap.h) relative to the scene's directory. */
 static lr_status parse_environment(lr_scene *s, const cJSON *e,
@@ -501,7 +519,8 @@ static lr_status build(lr_scene *s, const cJSON *root, const char *base_dir,
 {
     static const char *const keys[] = {"description", "camera",  "render",
                                        "background",  "materials", "lights",
-                                       "objects",     "environment", NULL};
+                                       "objects",     "environment",
+                                       "accel",       NULL};
     if (!cJSON_IsObject(root))
         return lr__fail(err, LR_ERR_INVALID, "",
                         "a scene must be a JSON object");
@@ -519,6 +538,7 @@ static lr_status build(lr_scene *s, const cJSON *root, const char *base_dir,
     LR_TRY(parse_environment(s, cJSON_GetObjectItemCaseSensitive(root, "environment"), base_dir, err));
     LR_TRY(parse_materials( s, cJSON_GetObjectItemCaseSensitive(root, "materials"), base_dir, err));
     LR_TRY(parse_lights(s, cJSON_GetObjectItemCaseSensitive(root, "lights"), err));
+    LR_TRY(parse_accel(s, cJSON_GetObjectItemCaseSensitive(root, "accel"), err));
     LR_TRY(lr__scene_begin(s, err));
     /* A glTF camera's aspect ratio sets the height the scene left out. */
     int height_given = cJSON_GetObjectItemCaseSensitive(

@@ -40,7 +40,7 @@ lr_status lr__spheres_build(lr_scene *s, lr_error *err)
         return lr__fail(err, LR_ERR_EMBREE, NULL,
                         "creating the Embree scene without spheres");
     /* As the main scene (scene.c). */
-    rtcSetSceneFlags(s->rtc_few, RTC_SCENE_FLAG_ROBUST);
+    rtcSetSceneFlags(s->rtc_few, lr__scene_flags(s));
     rtcSetSceneBuildQuality(s->rtc_few, RTC_BUILD_QUALITY_HIGH);
     for (size_t g = 0; g < s->n_geoms; g++) {
         const lr__geom *G = &s->geoms[g];

@@ -30,6 +30,9 @@ static const bad_case bad_cases[] = {
     {"{", LR_ERR_INVALID, "", "line 1"},
     {"{\"camera\": {}}\n  x", LR_ERR_INVALID, "", "unexpected text"},
     {"[1, 2]", LR_ERR_INVALID, "", "JSON object"},
+    {"{\"accel\": true}", LR_ERR_INVALID, "accel", "must be an object"},
+    {"{\"accel\": {\"robust\": 1}}", LR_ERR_INVALID, "accel.robust", "true or false"},
+    {"{\"accel\": {\"fast\": true}}", LR_ERR_INVALID, "accel.fast", "unknown key"},
     {"{\"camra\": {}}", LR_ERR_INVALID, "camra", "unknown key"},
     {"{\"camera\": {\"fvo\": 30}}", LR_ERR_INVALID, "camera.fvo", "unknown key \"fvo\""},
     {"{\"camera\": {\"fov\": 30, \"fov\": 40}}", LR_ERR_INVALID, "camera.fov", "duplicate"},
@@ -175,8 +178,32 @@ static void test_defaults(void **state)
     assert_int_equal(rdef.width, 640);
     assert_int_equal(rdef.height, 480);
     assert_int_equal(rdef.spp, 16);
+    /* Embree's traversal is robust unless the scene says otherwise. */
+    assert_int_equal(rtcGetSceneFlags(s->rtc), RTC_SCENE_FLAG_ROBUST);
     lr_scene_free(s);
     lr_scene_free(NULL); /* a harmless no-op */
+}
+
+/* "accel": {"robust": false} reaches both Embree scenes (the path
+ * integrator's second one exists with 1 to 8 spheres). */
+static void test_accel_robust(void **state)
+{
+    (void)state;
+    static const char *const json[] = {
+        "{\"accel\": {\"robust\": false}, \"render\": {\"integrator\": \"path\"}, " BASE_OBJS "}",
+        "{\"accel\": {\"robust\": true}, \"render\": {\"integrator\": \"path\"}, " BASE_OBJS "}",
+    };
+    for (int k = 0; k < 2; k++) {
+        lr_scene *s = NULL;
+        lr_error err;
+        assert_int_equal(load(json[k], &s, &err), LR_OK);
+        enum RTCSceneFlags want = k == 0 ? RTC_SCENE_FLAG_NONE
+                                         : RTC_SCENE_FLAG_ROBUST;
+        assert_int_equal(rtcGetSceneFlags(s->rtc), want);
+        assert_non_null(s->rtc_few);
+        assert_int_equal(rtcGetSceneFlags(s->rtc_few), want);
+        lr_scene_free(s);
+    }
 }
 
 static void test_overrides(void **state)
@@ -315,6 +342,7 @@ static const struct CMUnitTest scene_tests[] = {
     cmocka_unit_test(test_every_error_names_its_field),
     cmocka_unit_test(test_valid_scene_values),
     cmocka_unit_test(test_defaults),
+    cmocka_unit_test(test_accel_robust),
     cmocka_unit_test(test_overrides),
     cmocka_unit_test(test_load_file_errors),
     cmocka_unit_test(test_mesh_relative_to_scene_file),
