@@ -11,6 +11,9 @@
 # skip without an environment reason.  Usage: tests/all.sh MAKE BUILD_DIR
 make=${1:-make}
 build=${2:-build}
+# Each step's builds (the library as built, under ASan, for libFuzzer)
+# compile on every core; the tests themselves are run as each step says.
+jobs=$(nproc 2>/dev/null || echo 2)
 mkdir -p "$build"
 total_pass=0
 total_fail=0
@@ -34,7 +37,7 @@ for run in test-suite test-sanitize fuzz-ci test-api test-python test-lenses; do
     echo "==== $run"
     # The log keeps the last line for the count; the exit status comes
     # through a file, since a pipeline's status is its last command's.
-    { $make --no-print-directory "$run"; echo $? > "$log.rc"; } 2>&1 | tee "$log"
+    { $make -j"$jobs" --no-print-directory "$run"; echo $? > "$log.rc"; } 2>&1 | tee "$log"
     rc=$(cat "$log.rc")
     line=$(grep -E '^[0-9]+ passed, [0-9]+ failed' "$log" | tail -n 1)
     if [ -z "$line" ]; then

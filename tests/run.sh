@@ -23,25 +23,17 @@ skipped=0
 unexplained=0
 log=$(mktemp)
 notes=$(mktemp)
-trap 'rm -f "$log" "$notes"' EXIT
-
-# Each C test binary ends with "NAME: N passed, N failed, N skipped".
-for prog in unit oom; do
-    "$build/tests/$prog" 2>&1 | tee "$log"
-    line=$(grep "^$prog: [0-9]* passed, [0-9]* failed" "$log" | tail -n 1)
-    if [ -n "$line" ]; then
-        p=$(echo "$line" | sed "s/^$prog: \([0-9]*\) passed.*/\1/")
-        f=$(echo "$line" | sed 's/.* \([0-9]*\) failed.*/\1/')
-        s=$(echo "$line" | sed -n 's/.* \([0-9]*\) skipped.*/\1/p')
-        passed=$((passed + p))
-        failed=$((failed + f))
-        skipped=$((skipped + ${s:-0}))
-        grep '^SKIP (environment): ' "$log" | sed "s/^/$prog: /" >>"$notes"
-    else
-        echo "run.sh: the $prog test binary crashed or printed no summary"
-        failed=$((failed + 1))
-    fi
-done
+# The C test binaries run in the background, one after the other, while
+# the bats suites run here, so that both cores are busy (most tests use
+# one).  Their output is shown after the suites'.
+clog=$(mktemp -d)
+trap 'rm -f "$log" "$notes"; rm -rf "$clog"' EXIT
+(
+    for prog in unit oom; do
+        "$build/tests/$prog" >"$clog/$prog.log" 2>&1
+    done
+) &
+cpid=$!
 
 for suite in tests/*.bats; do
     [ -e "$suite" ] || continue
@@ -62,6 +54,25 @@ for suite in tests/*.bats; do
         failed=$((failed + plan - all_ok - bad))
     fi
     [ -n "$plan" ] || failed=$((failed + 1))
+done
+
+# Each C test binary ends with "NAME: N passed, N failed, N skipped".
+wait "$cpid"
+for prog in unit oom; do
+    cat "$clog/$prog.log"
+    line=$(grep "^$prog: [0-9]* passed, [0-9]* failed" "$clog/$prog.log" | tail -n 1)
+    if [ -n "$line" ]; then
+        p=$(echo "$line" | sed "s/^$prog: \([0-9]*\) passed.*/\1/")
+        f=$(echo "$line" | sed 's/.* \([0-9]*\) failed.*/\1/')
+        s=$(echo "$line" | sed -n 's/.* \([0-9]*\) skipped.*/\1/p')
+        passed=$((passed + p))
+        failed=$((failed + f))
+        skipped=$((skipped + ${s:-0}))
+        grep '^SKIP (environment): ' "$clog/$prog.log" | sed "s/^/$prog: /" >>"$notes"
+    else
+        echo "run.sh: the $prog test binary crashed or printed no summary"
+        failed=$((failed + 1))
+    fi
 done
 
 if [ -s "$notes" ]; then
