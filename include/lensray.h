@@ -347,6 +347,22 @@ LR_API lr_status lr_scene_load_json(const char *json, size_t len,
                              const char *const *overrides, size_t n_overrides,
                              lr_scene **out, lr_error *err);
 
+/* The camera and render settings of the scene file at `path` with the
+ * overrides, as lr_scene_load_file then lr_scene_camera and
+ * lr_scene_settings give them, without loading the rest: for a client
+ * that renders the scene elsewhere (lensray --remote) and needs only to
+ * cut the frame.  The top-level keys, the camera (with its lens file) and
+ * the render settings are checked; materials, lights and objects are not
+ * read, so their errors come from whoever loads the scene.  A glTF file,
+ * or a scene that takes the camera of a glTF file it places, is loaded
+ * whole, since the camera comes from that file.  Errors: those of
+ * lr_scene_load_file. */
+LR_API lr_status lr_scene_read_settings(const char *path,
+                                        const char *const *overrides,
+                                        size_t n_overrides, lr_camera *cam,
+                                        lr_render_settings *rs,
+                                        lr_error *err);
+
 /* For a scene `s` that lr_scene_load_file loaded from the glTF file
  * `path`: the scene JSON that renders the same, for a client that sends
  * the scene elsewhere (lensray --remote): the file (by its name, relative

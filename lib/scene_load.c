@@ -514,17 +514,19 @@ static lr_status parse_environment(lr_scene *s, const cJSON *e,
 
 /* ---- the scene -------------------------------------------------------- */
 
-static lr_status build(lr_scene *s, const cJSON *root, const char *base_dir,
-                       lr_error *err)
-{
-    static const char *const keys[] = {"description", "camera",  "render",
+/* A scene's top-level keys (docs/scene-format.md, section 5). */
+static const char *const top_keys[] = {"description", "camera",  "render",
                                        "background",  "materials", "lights",
                                        "objects",     "environment",
                                        "accel",       NULL};
+
+static lr_status build(lr_scene *s, const cJSON *root, const char *base_dir,
+                       lr_error *err)
+{
     if (!cJSON_IsObject(root))
         return lr__fail(err, LR_ERR_INVALID, "",
                         "a scene must be a JSON object");
-    LR_TRY(lr__json_check_keys(root, "", keys, err));
+    LR_TRY(lr__json_check_keys(root, "", top_keys, err));
     const char *desc = NULL;
     LR_TRY(lr__json_string(root, "description", "", 0, &desc, err));
     s->description = strdup(desc ? desc : "");
@@ -549,6 +551,29 @@ static lr_status build(lr_scene *s, const cJSON *root, const char *base_dir,
     return LR_OK;
 }
 
+/* The scene JSON of `len` bytes parsed, with the overrides applied: the
+ * first step of both loaders below.  *root is the caller's to delete. */
+static lr_status parse_scene(const char *json, size_t len,
+                             const char *const *overrides, size_t n_overrides,
+                             cJSON **root, lr_error *err)
+{
+    if (len > MAX_SCENE_BYTES)
+        return lr__fail(err, LR_ERR_LIMIT, NULL,
+                        "scene JSON is %zu bytes, more than the limit of %u",
+                        len, MAX_SCENE_BYTES);
+    *root = NULL;
+    LR_TRY(lr__json_parse(json ? json : "", len, "scene", "", root, err));
+    for (size_t i = 0; i < n_overrides; i++) {
+        lr_status st = lr__json_apply_override(*root, overrides[i], err);
+        if (st != LR_OK) {
+            cJSON_Delete(*root);
+            *root = NULL;
+            return st;
+        }
+    }
+    return LR_OK;
+}
+
 lr_status lr_scene_load_json(const char *json, size_t len,
                              const char *base_dir,
                              const char *const *overrides, size_t n_overrides,
@@ -558,34 +583,112 @@ lr_status lr_scene_load_json(const char *json, size_t len,
         return lr__fail(err, LR_ERR_INVALID, NULL,
                         "lr_scene_load_json: NULL argument");
     *out = NULL;
-    if (len > MAX_SCENE_BYTES)
-        return lr__fail(err, LR_ERR_LIMIT, NULL,
-                        "scene JSON is %zu bytes, more than the limit of %u",
-                        len, MAX_SCENE_BYTES);
     cJSON *root = NULL;
-    lr_status st = lr__json_parse(json ? json : "", len, "scene", "", &root,
-                                  err);
-    if (st != LR_OK)
-        return st;
-    for (size_t i = 0; i < n_overrides; i++) {
-        st = lr__json_apply_override(root, overrides[i], err);
-        if (st != LR_OK) {
-            cJSON_Delete(root);
-            return st;
-        }
-    }
+    LR_TRY(parse_scene(json, len, overrides, n_overrides, &root, err));
     lr_scene *s = calloc(1, sizeof *s);
     if (s == NULL) {
         cJSON_Delete(root);
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     }
-    st = build(s, root, base_dir, err);
+    lr_status st = build(s, root, base_dir, err);
     cJSON_Delete(root);
     if (st != LR_OK) {
         lr_scene_free(s);
         return st;
     }
     *out = s;
+    return LR_OK;
+}
+
+/* Whether some object of the scene is a glTF file whose camera the scene
+ * takes: that camera, and the height its aspect sets, come from the file. */
+static int takes_gltf_camera(const cJSON *root)
+{
+    const cJSON *o;
+    cJSON_ArrayForEach(o, cJSON_GetObjectItemCaseSensitive(root, "objects"))
+    {
+        const cJSON *t = cJSON_GetObjectItemCaseSensitive(o, "type");
+        const cJSON *c = cJSON_GetObjectItemCaseSensitive(o, "camera");
+        if (cJSON_IsString(t) && strcmp(t->valuestring, "gltf") == 0 &&
+            c != NULL && !cJSON_IsFalse(c))
+            return 1;
+    }
+    return 0;
+}
+
+/* Names the file in JSON syntax errors, which only say "scene". */
+static void name_file(const char *path, lr_status st, lr_error *err)
+{
+    if (st == LR_ERR_INVALID && err != NULL &&
+        strncmp(err->message, "scene: ", 7) == 0) {
+        char msg[sizeof err->message];
+        snprintf(msg, sizeof msg, "%s: %s", path, err->message + 7);
+        snprintf(err->message, sizeof err->message, "%s", msg);
+    }
+}
+
+/* The whole scene loaded, for its camera and settings. */
+static lr_status settings_of_loaded(const char *path,
+                                    const char *const *overrides,
+                                    size_t n_overrides, lr_camera *cam,
+                                    lr_render_settings *rs, lr_error *err)
+{
+    lr_scene *s = NULL;
+    LR_TRY(lr_scene_load_file(path, overrides, n_overrides, &s, err));
+    lr_scene_camera(s, cam);
+    lr_scene_settings(s, rs);
+    lr_scene_free(s);
+    return LR_OK;
+}
+
+lr_status lr_scene_read_settings(const char *path,
+                                 const char *const *overrides,
+                                 size_t n_overrides, lr_camera *cam,
+                                 lr_render_settings *rs, lr_error *err)
+{
+    if (path == NULL || cam == NULL || rs == NULL)
+        return lr__fail(err, LR_ERR_INVALID, NULL,
+                        "lr_scene_read_settings: NULL argument");
+    if (lr__gltf_is_file(path))
+        return settings_of_loaded(path, overrides, n_overrides, cam, rs, err);
+    char *buf = NULL;
+    size_t len = 0;
+    LR_TRY(lr__read_file(path, path, NULL, MAX_SCENE_BYTES, "scene files",
+                         NULL, &buf, &len, err));
+    cJSON *root = NULL;
+    lr_status st = parse_scene(buf, len, overrides, n_overrides, &root, err);
+    free(buf);
+    if (st != LR_OK) {
+        name_file(path, st, err);
+        return st;
+    }
+    if (takes_gltf_camera(root)) {
+        cJSON_Delete(root);
+        return settings_of_loaded(path, overrides, n_overrides, cam, rs, err);
+    }
+    /* What build() does first, up to the render settings. */
+    char dir[4096];
+    lr__dir_of(path, dir, sizeof dir);
+    lr_camera c;
+    lr_render_settings r;
+    lr_camera_default(&c);
+    lr_render_settings_default(&r);
+    if (!cJSON_IsObject(root))
+        st = lr__fail(err, LR_ERR_INVALID, "",
+                      "a scene must be a JSON object");
+    if (st == LR_OK)
+        st = lr__json_check_keys(root, "", top_keys, err);
+    if (st == LR_OK)
+        st = lr__camera_from_json(cJSON_GetObjectItemCaseSensitive(root, "camera"),
+                                  &c, dir, err);
+    if (st == LR_OK)
+        st = lr__settings_from_json(cJSON_GetObjectItemCaseSensitive(root, "render"),
+                                    &r, err);
+    cJSON_Delete(root);
+    if (st != LR_OK)
+        return st;
+    *cam = c;
+    *rs = r;
     return LR_OK;
 }
 
@@ -611,12 +714,6 @@ lr_status lr_scene_load_file(const char *path, const char *const *overrides,
     st = lr_scene_load_json(buf ? buf : "", len, dir, overrides, n_overrides,
                             out, err);
     free(buf);
-    /* Name the file in JSON syntax errors, which only say "scene". */
-    if (st == LR_ERR_INVALID && err != NULL &&
-        strncmp(err->message, "scene: ", 7) == 0) {
-        char msg[sizeof err->message];
-        snprintf(msg, sizeof msg, "%s: %s", path, err->message + 7);
-        snprintf(err->message, sizeof err->message, "%s", msg);
-    }
+    name_file(path, st, err);
     return st;
 }

@@ -165,6 +165,40 @@ static void pixel_dir(int x, int y, int w, int h, double d[3], double fwd[3])
     fwd[0] = 0, fwd[1] = -sin(a), fwd[2] = -cos(a);
 }
 
+/* lr_scene_read_settings takes a glTF camera from the file, as the whole
+ * load does: the scene JSON placing the file with "camera": true (the
+ * height from its aspect) and the .glb file alone. */
+static void test_read_settings_gltf_camera(void **state)
+{
+    (void)state;
+    make("camera-light", "camera-light.glb");
+    char json[512], glb[512];
+    snprintf(json, sizeof json, "%s/camera-light.json", lr_test_tmpdir());
+    snprintf(glb, sizeof glb, "%s/camera-light.glb", lr_test_tmpdir());
+    FILE *f = fopen(json, "w");
+    assert_non_null(f);
+    fputs("{\"render\": {\"width\": 60}, \"objects\": [{\"type\": "
+          "\"gltf\", \"file\": \"camera-light.glb\", \"camera\": true}]}", f);
+    fclose(f);
+    const char *paths[] = {json, glb};
+    for (int k = 0; k < 2; k++) {
+        lr_scene *s = NULL;
+        lr_error err;
+        assert_int_equal(lr_scene_load_file(paths[k], NULL, 0, &s, &err), LR_OK);
+        lr_camera cam_full, cam;
+        lr_render_settings rs_full, rs;
+        lr_scene_camera(s, &cam_full);
+        lr_scene_settings(s, &rs_full);
+        lr_scene_free(s);
+        assert_int_equal(lr_scene_read_settings(paths[k], NULL, 0, &cam, &rs,
+                                                &err), LR_OK);
+        assert_memory_equal(&cam, &cam_full, sizeof cam);
+        assert_memory_equal(&rs, &rs_full, sizeof rs);
+        if (k == 0)
+            assert_int_equal(rs.height, 40); /* 60 / aspect 1.5 */
+    }
+}
+
 static void test_camera_projection(void **state)
 {
     (void)state;
@@ -730,6 +764,7 @@ static const struct CMUnitTest tests[] = {
     cmocka_unit_test(test_transform_matches_obj),
     cmocka_unit_test(test_normals_inverse_transpose),
     cmocka_unit_test(test_camera_projection),
+    cmocka_unit_test(test_read_settings_gltf_camera),
     cmocka_unit_test(test_point_light_irradiance),
     cmocka_unit_test(test_materials),
     cmocka_unit_test(test_material_mapping),

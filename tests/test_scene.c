@@ -250,6 +250,94 @@ static void test_overrides(void **state)
     }
 }
 
+/* lr_scene_read_settings gives what the whole load gives, byte for byte,
+ * for every shipped scene with and without overrides; it does not read
+ * the objects (a missing mesh is not its error); and its errors on the
+ * parts it reads are the loader's. */
+static void test_read_settings(void **state)
+{
+    (void)state;
+    static const char *const scenes[] = {
+        "spheres", "cornell", "bunny", "bokeh", "chromatic", "bench",
+        "accuracy-focus", "accuracy-defocus", "accuracy-chroma", "textured",
+        "lens-bokeh", "lens-chart"};
+    static const char *const sets[] = {"camera.fov=33", "render.spp=7",
+                                       "render.region=[1,2,30,40]"};
+    for (size_t i = 0; i < sizeof scenes / sizeof *scenes; i++) {
+        for (size_t n = 0; n <= 3; n += 3) {
+            char path[256];
+            snprintf(path, sizeof path, "scenes/%s.json", scenes[i]);
+            lr_scene *s = NULL;
+            lr_error err;
+            lr_camera cam_full, cam;
+            lr_render_settings rs_full, rs;
+            memset(&cam_full, 0, sizeof cam_full);
+            memset(&cam, 0xAB, sizeof cam);
+            memset(&rs_full, 0, sizeof rs_full);
+            memset(&rs, 0xAB, sizeof rs);
+            if (lr_scene_load_file(path, sets, n, &s, &err) != LR_OK)
+                fail_msg("%s: %s", path, err.message);
+            lr_scene_camera(s, &cam_full);
+            lr_scene_settings(s, &rs_full);
+            lr_scene_free(s);
+            if (lr_scene_read_settings(path, sets, n, &cam, &rs, &err) != LR_OK)
+                fail_msg("%s: %s", path, err.message);
+            assert_memory_equal(&cam, &cam_full, sizeof cam);
+            assert_memory_equal(&rs, &rs_full, sizeof rs);
+        }
+    }
+    /* A scene whose mesh is missing: its camera and settings still read. */
+    char path[512];
+    snprintf(path, sizeof path, "%s/no-mesh.json", lr_test_tmpdir());
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs("{\"render\": {\"width\": 33}, \"objects\": [{\"type\": \"mesh\", "
+          "\"file\": \"absent.obj\"}]}", f);
+    fclose(f);
+    lr_camera cam;
+    lr_render_settings rs;
+    lr_error err;
+    assert_int_equal(lr_scene_read_settings(path, NULL, 0, &cam, &rs, &err),
+                     LR_OK);
+    assert_int_equal(rs.width, 33);
+    /* The errors of what it reads: the loader's, with the path named. */
+    static const char *const bad[][2] = {
+        {"{\"camra\": {}}", "camra"},
+        {"{\"camera\": {\"fov\": 0}}", "camera.fov"},
+        {"{\"render\": {\"spp\": 0}}", "render.spp"},
+        {"{\"accel\": 2}", "accel"},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
+        f = fopen(path, "w");
+        assert_non_null(f);
+        fputs(bad[i][0], f);
+        fclose(f);
+        lr_scene *s = NULL;
+        lr_error full;
+        lr_status want = lr_scene_load_file(path, NULL, 0, &s, &full);
+        assert_int_not_equal(want, LR_OK);
+        if (strcmp(bad[i][1], "accel") == 0) {
+            /* accel is the objects' side: not read here. */
+            assert_int_equal(lr_scene_read_settings(path, NULL, 0, &cam, &rs,
+                                                    &err), LR_OK);
+            continue;
+        }
+        assert_int_equal(lr_scene_read_settings(path, NULL, 0, &cam, &rs, &err),
+                         want);
+        assert_string_equal(err.path, bad[i][1]);
+        assert_string_equal(err.message, full.message);
+    }
+    f = fopen(path, "w");
+    assert_non_null(f);
+    fputs("{\"camera\": ", f);
+    fclose(f);
+    assert_int_equal(lr_scene_read_settings(path, NULL, 0, &cam, &rs, &err),
+                     LR_ERR_INVALID);
+    assert_non_null(strstr(err.message, "no-mesh.json"));
+    assert_int_equal(lr_scene_read_settings("/nonexistent/x.json", NULL, 0,
+                                            &cam, &rs, &err), LR_ERR_IO);
+}
+
 static void test_load_file_errors(void **state)
 {
     (void)state;
@@ -345,6 +433,7 @@ static const struct CMUnitTest scene_tests[] = {
     cmocka_unit_test(test_accel_robust),
     cmocka_unit_test(test_overrides),
     cmocka_unit_test(test_load_file_errors),
+    cmocka_unit_test(test_read_settings),
     cmocka_unit_test(test_mesh_relative_to_scene_file),
 };
 LR_TEST_GROUP(scene, scene_tests)

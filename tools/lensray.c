@@ -229,6 +229,23 @@ static void frame_out(const render_job *r, int i, char *out, size_t size)
         snprintf(out, size, "%s", r->out);
 }
 
+/* The render's wishes that the output cannot hold, and --depth: applied
+ * to the settings the scene gave, as both loaders below use them. */
+static void fit_output(const render_job *r, lr_render_settings *rs,
+                       const char *out_path)
+{
+    if (r->want_depth)
+        rs->want_depth = 1;
+    if (rs->want_depth && !lr_format_has_depth(r->fmt)) {
+        /* The scene asks for Z but the output cannot hold it: say so
+         * rather than drop it silently, and skip the work. */
+        fprintf(stderr, "lensray: warning: render.depth is set but %s has no "
+                        "Z channel; write an .exr to keep it\n",
+                out_path);
+        rs->want_depth = 0;
+    }
+}
+
 /* The scene at `path` with the --set overrides; its camera and settings
  * as this render uses them.  0, or an exit status, printed. */
 static int load_scene(const render_job *r, const char *path, lr_scene **scene,
@@ -250,16 +267,7 @@ static int load_scene(const render_job *r, const char *path, lr_scene **scene,
     }
     lr_scene_camera(*scene, cam);
     lr_scene_settings(*scene, rs);
-    if (r->want_depth)
-        rs->want_depth = 1;
-    if (rs->want_depth && !lr_format_has_depth(r->fmt)) {
-        /* The scene asks for Z but the output cannot hold it: say so
-         * rather than drop it silently, and skip the work. */
-        fprintf(stderr, "lensray: warning: render.depth is set but %s has no "
-                        "Z channel; write an .exr to keep it\n",
-                out_path);
-        rs->want_depth = 0;
-    }
+    fit_output(r, rs, out_path);
     return EXIT_OK;
 }
 
@@ -313,6 +321,14 @@ static int render_local(const render_job *r, const char *scene_path,
     return rc;
 }
 
+/* A name that lr_scene_load_file reads as glTF, when its bytes are. */
+static int is_gltf_name(const char *path)
+{
+    size_t n = strlen(path);
+    return (n >= 5 && strcmp(path + n - 5, ".gltf") == 0) ||
+           (n >= 4 && strcmp(path + n - 4, ".glb") == 0);
+}
+
 /* remote_render's callbacks' state: the job, and each frame's directory
  * (the scenes' relative files are found there). */
 typedef struct remote_io {
@@ -331,13 +347,32 @@ static int load_frame(void *user, int k, remote_frame *f)
     f->scene_path = path;
     char out_path[4096];
     frame_out(r, k, out_path, sizeof out_path);
-    lr_scene *scene = NULL;
-    int rc = load_scene(r, path, &scene, &f->cam, &f->rs, out_path);
-    if (rc != EXIT_OK)
-        return rc;
-    char *text = lr_gltf_scene_json(path, scene);
-    lr_scene_free(scene);
-    size_t len = text != NULL ? strlen(text) : 0;
+    char *text = NULL;
+    size_t len = 0;
+    if (is_gltf_name(path)) {
+        /* The daemons take scene JSON: the scene the library makes of the
+         * file, which goes as an asset. */
+        lr_scene *scene = NULL;
+        int rc = load_scene(r, path, &scene, &f->cam, &f->rs, out_path);
+        if (rc != EXIT_OK)
+            return rc;
+        text = lr_gltf_scene_json(path, scene);
+        lr_scene_free(scene);
+        if (text != NULL)
+            len = strlen(text);
+    } else {
+        /* Only the camera and settings: the meshes are the daemons' to
+         * load (reading them here cost each frame their parsing and a BVH
+         * built for nothing). */
+        lr_error err;
+        lr_status st = lr_scene_read_settings(path, r->sets, r->n_sets,
+                                              &f->cam, &f->rs, &err);
+        if (st != LR_OK) {
+            fprintf(stderr, "lensray: %s\n", err.message);
+            return exit_for(st);
+        }
+        fit_output(r, &f->rs, out_path);
+    }
     if (text == NULL) {
         text = (char *)read_whole_file(path, &len);
         if (text == NULL) {
