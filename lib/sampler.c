@@ -559,16 +559,6 @@ void lr__pixel_sampler_get(const lr__pixel_sampler *ps, uint32_t sample,
         lr__sample_pixel_lens(ps->s, ps->pixel, sample, out);
 }
 
-void lr__pixel_sampler_share_lens(lr__pixel_sampler *ps,
-                                  const lr__pixel_sampler *lens)
-{
-    if (ps->s->kind != LR_SAMPLER_SOBOL)
-        return;
-    ps->shuffle = lens->shuffle;
-    ps->scramble[2] = lens->scramble[2];
-    ps->scramble[3] = lens->scramble[3];
-}
-
 double lr__pixel_sampler_dim4(const lr__pixel_sampler *ps, uint32_t sample)
 {
     const lr__sampler *s = ps->s;

@@ -63,15 +63,6 @@ void lr__pixel_sampler_init(lr__pixel_sampler *ps, const lr__sampler *s,
                             uint64_t pixel);
 void lr__pixel_sampler_get(const lr__pixel_sampler *ps, uint32_t sample,
                            double out[4]);
-/* Makes sample k of the pixel `ps` serves take lens point k of `lens`
- * (another pixel's sampler), its film position and dimension 4 staying
- * its own.  Sobol: the index shuffle and the lens dimensions' scrambles
- * become lens's, so a pixel's samples are still one scrambled net over
- * film, lens and dimension 4, and its film and dimension-4 scrambles stay
- * independent of every other pixel's.  The other samplers: no change
- * (their callers take the lens values from `lens` themselves). */
-void lr__pixel_sampler_share_lens(lr__pixel_sampler *ps,
-                                  const lr__pixel_sampler *lens);
 /* Samples first .. first+n-1 (n <= 16) at once, the same values as n
  * calls of lr__pixel_sampler_get, as floats: out[d][i] is dimension d of
  * sample first + i.  Lanes n..15 are written with unspecified values. */
