@@ -13,6 +13,7 @@
 
 #include <math.h>
 #include <stdio.h>
+#include <string.h>
 
 /* ---- the independent model ---------------------------------------------- */
 
@@ -217,6 +218,69 @@ static void test_white_bar_matches_cie_integral(void **state)
     }
 }
 
+/* The film shift of splat.c is the thin lens's focus change: the ray at
+ * power w + t through film point f + t shift (rays16_w, the packets'
+ * spectral rays) is the ray at w through f (rays16), for lens points
+ * across the aperture (polygonal and stretched too) and t of either
+ * sign. */
+static void test_thin_lens_shift_is_a_focus_change(void **state)
+{
+    (void)state;
+    const char *shapes[] = {"\"disk\"", "\"polygon\", \"aperture_blades\": 5,"
+                                         " \"aperture_ratio\": 1.7"};
+    for (int k = 0; k < 2; k++) {
+        char json[1024];
+        snprintf(json, sizeof json,
+                 "{\"camera\": {\"model\": \"thinlens\", \"fov\": 30,"
+                 " \"focus_distance\": 2, \"focal_length_mm\": 50,"
+                 " \"aperture_radius\": 0.05, \"aperture_shape\": %s,"
+                 " \"chromatic\": {\"mode\": \"spectral\"}},"
+                 " \"objects\": []}",
+                 shapes[k]);
+        lr_scene *sc = lr_test_load_json(json);
+        lr_camera camera;
+        lr_scene_camera(sc, &camera);
+        lr__cam c;
+        lr__cam_init(&c, &camera, IW, IH);
+        assert_non_null(c.model->shift16);
+        float fx[16], fy[16], lu[16], lv[16], sx[16], sy[16], wt[16];
+        float gx[16], gy[16], w[16];
+        for (int i = 0; i < 16; i++) {
+            fx[i] = 3.25f + 2.5f * i;
+            fy[i] = 1.5f + 0.75f * i;
+            lu[i] = (i * 7 % 16 + 0.5f) / 16;
+            lv[i] = (i * 11 % 16 + 0.5f) / 16;
+        }
+        c.model->shift16(&c, 16, lu, lv, sx, sy);
+        for (int sgn = -1; sgn <= 1; sgn += 2) {
+            float t = sgn * 2.5f;
+            for (int i = 0; i < 16; i++) {
+                gx[i] = fx[i] + t * sx[i];
+                gy[i] = fy[i] + t * sy[i];
+                w[i] = (float)c.w + t;
+            }
+            struct RTCRayHit16 a __attribute__((aligned(64)));
+            struct RTCRayHit16 b __attribute__((aligned(64)));
+            c.model->rays16(&c, 1, 16, fx, fy, lu, lv, &a, wt);
+            c.model->rays16_w(&c, 16, gx, gy, lu, lv, w, &b, wt);
+            /* The film points move by pixels (a wrong sign or scale
+             * would show). */
+            float most = 0.0f;
+            for (int i = 0; i < 16; i++)
+                most = fmaxf(most, fmaxf(fabsf(t * sx[i]), fabsf(t * sy[i])));
+            assert_true(most > 2.0f);
+            for (int i = 0; i < 16; i++) {
+                assert_float_equal(a.ray.org_x[i], b.ray.org_x[i], 1e-6);
+                assert_float_equal(a.ray.org_y[i], b.ray.org_y[i], 1e-6);
+                assert_float_equal(a.ray.dir_x[i], b.ray.dir_x[i], 1e-5);
+                assert_float_equal(a.ray.dir_y[i], b.ray.dir_y[i], 1e-5);
+                assert_float_equal(a.ray.dir_z[i], b.ray.dir_z[i], 1e-5);
+            }
+        }
+        lr_scene_free(sc);
+    }
+}
+
 /* Splatting credits a pixel from rays of pixels up to the longest film
  * shift away, outside a crop and the frame too: a crop is still the full
  * frame's pixels bit for bit, and one thread gives what two do.  40
@@ -362,6 +426,7 @@ static void test_wavelength_weights_integrate_to_one(void **state)
 static const struct CMUnitTest spectral_tests[] = {
     cmocka_unit_test(test_white_bar_matches_cie_integral),
     cmocka_unit_test(test_grey_card_is_exact),
+    cmocka_unit_test(test_thin_lens_shift_is_a_focus_change),
     cmocka_unit_test(test_splat_crop_and_threads_exact),
     cmocka_unit_test(test_wavelength_weights_integrate_to_one),
 };
