@@ -21,35 +21,35 @@
  * L_d being the radiance of the d-line ray.
  *
  * One film offset and lens point for every pixel.  Sample k of every
- * pixel P goes through film point P + δ_k and lens point h_k, the same
- * (δ_k, h_k) for all pixels: a 4-D sequence of the sampler's own, under
+ * pixel P goes through film point P + d_k and lens point h_k, the same
+ * (d_k, h_k) for all pixels: a 4-D sequence of the sampler's own, under
  * an identity no pixel has (a scrambled Sobol net over the samples).
  * Then each wavelength l of sample k of P is the d-line ray through
- * P + δ_k - t(l) v_k, and that film point lies in exactly one pixel Q,
- * whose own sample k is the d-line ray through Q + δ_k, at the same
- * offset in its pixel:  Q = P - D with D = floor(δ_k + t(l) v_k).
- * Replacing the one by the other moves the film point by
- * frac(δ_k + t v_k) - δ_k, less than a pixel, and since δ_k is uniform
- * over the pixel and the same for all, P + δ_k - t v_k and
- * Q + δ_k cover the film alike: over δ_k (for each h and l),
+ * P + d_k - t(l) v_k, and that film point lies in exactly one pixel Q,
+ * whose own sample k is the d-line ray through Q + d_k, at the same
+ * offset in its pixel: Q = P - D with D = floor(d_k + t(l) v_k).  The
+ * one is taken for the other:
  *
- *     E[L_d(Q + δ_k, h)] = E[L_d(P + δ_k - t v, h)] = int_P L_d(x - t v, h) dx
+ *     Q + d_k = P - t v_k + frac(d_k + t v_k),
  *
- * (both are the integral of L_d over the unit square P - t v, the first
- * cut into the parts that fall in whole pixels).  So
+ * and as d_k is uniform over the unit square given h_k (each point of a
+ * scrambled net is; the grid sampler's fixed cell centres are its own
+ * approximation here as everywhere), so is frac(d_k + t v_k) (a translation
+ * modulo 1): Q + d_k is uniform over the square P - t v_k, as
+ * P + d_k - t v_k is, and the two rays' radiance has the same mean.  So
  *
- *     Î_k(P) = int dl w(l) L_d(P - D(l) + δ_k, h_k)
+ *     I_k(P) = int dl w(l) L_d(P - D(l) + d_k, h_k)
  *
  * is unbiased for I(P): every wavelength of every pixel's sample reuses
  * a ray traced once per pixel, with no ray traced per wavelength.
  * Along the spectrum D(l) is constant between the values of t where
- * δ_k + t v_k crosses a pixel's side, so with
+ * d_k + t v_k crosses a pixel's side, so with
  *
- *     G_c(σ) = int dl w_c(l) [t(l) <= σ]      (t monotonic in l)
+ *     G_c(s) = int dl w_c(l) [t(l) <= s]      (t monotonic in l)
  *
  * the integral is exactly a sum over those pieces [a, b] of t:
  *
- *     Î_k(P) = L_k(P) + sum_pieces (G_c(b) - G_c(a)) (L_k(P - D) - L_k(P))
+ *     I_k(P) = L_k(P) + sum_pieces (G_c(b) - G_c(a)) (L_k(P - D) - L_k(P))
  *
  * written about L_k(P), the pixel's own ray (D = 0 at t = 0): the pieces'
  * weights sum to 1, and on an area of one radiance every term but the
@@ -61,10 +61,10 @@
  * G is made once per render from the tables spectral.c samples
  * (wavelength.h: w and P at whole nanometres, linear between; the mass
  * of a linear w along a linear t in each nanometre, exactly), at GRID + 1
- * values of σ and linear between, scaled to end at exactly 1.  The
+ * values of s and linear between, scaled to end at exactly 1.  The
  * weights are then exact for matching functions whose mass in each cell
- * of σ is the tables' and spread evenly in σ across it (on
- * accuracy-chroma's SF11 a cell spans at most 0.3 nm).
+ * of s is the tables' and spread evenly in s across it (on
+ * accuracy-chroma's SF11 a cell spans at most 0.37 nm, at 780 nm).
  *
  * What sharing costs.  A pixel's samples are still a scrambled net over
  * its area and the lens, so its error is what it would be with a net of
@@ -89,7 +89,7 @@
 
 #define BAND 16   /* rows a unit */
 #define GROUP 16  /* samples a group: one packet of each origin */
-#define GRID 4096 /* cells of σ in the table of G */
+#define GRID 4096 /* cells of s in the table of G */
 
 /* The sampler identity of the shared film offsets and lens points: no
  * pixel has it (pixels are numbered y W + x, or with bit 63 set outside
@@ -168,8 +168,8 @@ int lr__splat_applies(const lr__cam *c)
     return margin_of(c) > 0;
 }
 
-/* G_c(σ) at the grid: each nanometre's mass of its linear w over the part
- * [0, f] where t <= σ is a f + (b - a) f^2 / 2 when t rises through it
+/* G_c(s) at the grid: each nanometre's mass of its linear w over the part
+ * [0, f] where t <= s is a f + (b - a) f^2 / 2 when t rises through it
  * (the rest of it when t falls); 0 below its range of t, all of it
  * above. */
 static void make_table(lr__splat *sp, const lr__wl_table *wl, double w_ref)
@@ -192,7 +192,7 @@ static void make_table(lr__splat *sp, const lr__wl_table *wl, double w_ref)
         for (int c = 0; c < 3; c++)
             mass[c] = 0.5 * ((double)na[c] + nb[c]);
         double lo = fmin(ta, tb), hi = fmax(ta, tb);
-        /* Grid points k with σ_k in [lo, hi) take a part; above, all. */
+        /* Grid points k with s_k in [lo, hi) take a part; above, all. */
         int k0 = range > 0.0 ? (int)ceil((lo - sp->t_lo) * sp->inv_dt) : 0;
         int k1 = range > 0.0 ? (int)ceil((hi - sp->t_lo) * sp->inv_dt) : 0;
         k0 = k0 < 0 ? 0 : k0 > GRID + 1 ? GRID + 1 : k0;
@@ -237,8 +237,8 @@ static void G_at(const lr__splat *sp, double sig, double out[3])
         out[c] = sp->G[k][c] + f * (sp->G[k + 1][c] - sp->G[k][c]);
 }
 
-/* The pieces of sample (dx, dy) (the offset δ in the pixel), v: the
- * pixel steps D = floor(δ + t v) along t in [t_lo, t_hi] and the weight
+/* The pieces of sample (dx, dy) (the offset d in the pixel), v: the
+ * pixel steps D = floor(d + t v) along t in [t_lo, t_hi] and the weight
  * G(b) - G(a) of each.  At most max pieces (2 margin + 3 suffice). */
 typedef struct piece {
     int dx, dy;
@@ -440,7 +440,7 @@ static void phase_b(lr__splat *sp, int g, int r0, int r1, int worker)
     for (int i = 0; i < n; i++) {
         piece *pc_i = pcs + (size_t)i * maxp;
         np[i] = pieces_of(sp, dx[i], dy[i], vx[i], vy[i], pc_i, maxp);
-        /* D = floor(δ + t v) is within the margin by its choice; a piece
+        /* D = floor(d + t v) is within the margin by its choice; a piece
          * beyond it (never) would read outside the origins. */
         for (int p = 0; p < np[i]; p++)
             if (abs(pc_i[p].dx) > M || abs(pc_i[p].dy) > M)
