@@ -84,6 +84,7 @@
 #include <float.h>
 #include <math.h>
 #include <pthread.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -110,9 +111,11 @@ struct lr__splat {
     lr__pixel_sampler shared; /* the film offsets and lens points */
     double t_lo, t_hi, inv_dt;
     double G[GRID + 1][3];
-    float *L;     /* per origin, GROUP samples x 3: phase A's radiance of
-                     the group being summed */
+    float *L;     /* phase A's radiance of the group being summed: a plane
+                     of the origins per sample and channel */
+    size_t origins;
     double *sums; /* per region pixel, 3 */
+    double *rows; /* per worker: a row of the region, 3 planes */
     pthread_mutex_t lock;
     pthread_cond_t cond;
     int *a_done, *b_done; /* per group: units finished in each phase */
@@ -315,6 +318,7 @@ int lr__splat_units(const lr__splat *sp)
 static void splat_free_parts(lr__splat *sp)
 {
     free(sp->L);
+    free(sp->rows);
     free(sp->sums);
     free(sp->a_done);
     free(sp->b_done);
@@ -345,7 +349,10 @@ lr_status lr__splat_new(const lr__shot *sh, int spp, int x0, int y0, int x1,
     sp->n_groups = (spp + GROUP - 1) / GROUP;
     size_t origins = (size_t)sp->ow * (size_t)sp->oh;
     size_t px = (size_t)(x1 - x0) * (size_t)(y1 - y0);
+    sp->origins = origins;
     sp->L = malloc(origins * GROUP * 3 * sizeof(float));
+    sp->rows = malloc((size_t)workers * 3 * (size_t)(x1 - x0) *
+                      sizeof *sp->rows);
     sp->sums = calloc(3 * px, sizeof *sp->sums);
     sp->a_done = calloc((size_t)sp->n_groups, sizeof *sp->a_done);
     sp->b_done = calloc((size_t)sp->n_groups, sizeof *sp->b_done);
@@ -353,8 +360,8 @@ lr_status lr__splat_new(const lr__shot *sh, int spp, int x0, int y0, int x1,
     sp->max_pieces = 4 * M + 4;
     sp->pieces = malloc((size_t)workers * GROUP * (size_t)sp->max_pieces *
                         sizeof *sp->pieces);
-    if (sp->L == NULL || sp->sums == NULL || sp->a_done == NULL || sp->b_done == NULL ||
-        sp->pieces == NULL) {
+    if (sp->L == NULL || sp->rows == NULL || sp->sums == NULL ||
+        sp->a_done == NULL || sp->b_done == NULL || sp->pieces == NULL) {
         splat_free_parts(sp);
         free(sp);
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
@@ -367,11 +374,16 @@ lr_status lr__splat_new(const lr__shot *sh, int spp, int x0, int y0, int x1,
     return LR_OK;
 }
 
-static float *L_at(const lr__splat *sp, int g, int x, int y)
+/* Channel c of sample i of the group (the planes are the origins' rows,
+ * so that a pixel's neighbours along a row are neighbours in memory). */
+static float *L_plane(const lr__splat *sp, int i, int c)
 {
-    size_t o = (size_t)(y - sp->oy0) * (size_t)sp->ow + (size_t)(x - sp->ox0);
-    (void)g; /* one group at a time */
-    return sp->L + o * GROUP * 3;
+    return sp->L + (size_t)(3 * i + c) * sp->origins;
+}
+
+static size_t origin_at(const lr__splat *sp, int x, int y)
+{
+    return (size_t)(y - sp->oy0) * (size_t)sp->ow + (size_t)(x - sp->ox0);
 }
 
 /* The shared offsets and lens points of group g (lanes n..15 harmless). */
@@ -409,7 +421,7 @@ static void phase_a(lr__splat *sp, int g, int r0, int r1,
             sh->integrator->radiance16(sh->scene, sh->max_depth, &rh, n, &sid,
                                        L, &cnt->rays);
             cnt->camera_rays += (uint64_t)n;
-            float *dst = L_at(sp, g, x, y);
+            size_t at = origin_at(sp, x, y);
             for (int i = 0; i < n; i++) {
                 /* A non-finite radiance counts as black (film.c's rule). */
                 if (!isfinite(L[i].x) || !isfinite(L[i].y) ||
@@ -417,9 +429,9 @@ static void phase_a(lr__splat *sp, int g, int r0, int r1,
                     L[i] = v3(0, 0, 0);
                     ++*dropped;
                 }
-                dst[3 * i] = (float)L[i].x;
-                dst[3 * i + 1] = (float)L[i].y;
-                dst[3 * i + 2] = (float)L[i].z;
+                L_plane(sp, i, 0)[at] = (float)L[i].x;
+                L_plane(sp, i, 1)[at] = (float)L[i].y;
+                L_plane(sp, i, 2)[at] = (float)L[i].z;
             }
         }
 }
@@ -446,23 +458,33 @@ static void phase_b(lr__splat *sp, int g, int r0, int r1, int worker)
             if (abs(pc_i[p].dx) > M || abs(pc_i[p].dy) > M)
                 pc_i[p] = (piece){0, 0, {0.0, 0.0, 0.0}};
     }
-    for (int y = r0; y < r1; y++)
-        for (int x = sp->x0; x < sp->x1; x++) {
-            double *sum =
-                &sp->sums[3 * ((size_t)(y - sp->y0) * W + (x - sp->x0))];
-            const float *own = L_at(sp, g, x, y);
-            for (int i = 0; i < n; i++) {
-                double acc[3] = {own[3 * i], own[3 * i + 1], own[3 * i + 2]};
+    /* Row by row, sample by sample, piece by piece: each pixel's own
+     * additions in the order the estimate is written, L_k(P) first; the
+     * loops over a row run along memory. */
+    double *row = sp->rows + (size_t)worker * 3 * (size_t)W;
+    for (int y = r0; y < r1; y++) {
+        double *sum = &sp->sums[3 * (size_t)(y - sp->y0) * (size_t)W];
+        size_t at = origin_at(sp, sp->x0, y);
+        for (int i = 0; i < n; i++) {
+            for (int ch = 0; ch < 3; ch++) {
+                const float *own = L_plane(sp, i, ch) + at;
+                double *acc = row + (size_t)ch * W;
+                for (int x = 0; x < W; x++)
+                    acc[x] = own[x];
                 for (int p = 0; p < np[i]; p++) {
                     const piece *q = &pcs[(size_t)i * maxp + p];
-                    const float *o = L_at(sp, g, x - q->dx, y - q->dy) + 3 * i;
-                    for (int ch = 0; ch < 3; ch++)
-                        acc[ch] += q->w[ch] * ((double)o[ch] - own[3 * i + ch]);
+                    const float *o =
+                        own - ((ptrdiff_t)q->dy * sp->ow + q->dx);
+                    double w = q->w[ch];
+                    for (int x = 0; x < W; x++)
+                        acc[x] += w * ((double)o[x] - own[x]);
                 }
-                for (int ch = 0; ch < 3; ch++)
-                    sum[ch] += acc[ch];
             }
+            for (int x = 0; x < W; x++)
+                for (int ch = 0; ch < 3; ch++)
+                    sum[3 * x + ch] += row[(size_t)ch * W + x];
         }
+    }
 }
 
 static void wait_count(lr__splat *sp, const int *count, int at_least)
