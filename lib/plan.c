@@ -290,9 +290,9 @@ lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     for (int i = 0; i < p->bw * p->bh; i++)
         p->blocks[i] = (lr__block_plan){1, 1, 0, 0};
-    /* Splatting credits each ray to every pixel its spectrum crosses:
-     * about twenty on accuracy-chroma, where the packets of spectral.c
-     * credit one (docs/spectral.md measures both). */
+    /* Splatting traces one ray a pixel and sample for the whole
+     * spectrum, where spectral.c's packets trace one a wavelength
+     * (docs/spectral.md measures both). */
     p->splat = lr__splat_applies(c);
     /* A model with no safe bound samples its lens everywhere. */
     if (set->plan && !p->splat && c->has_lens && c->model->bound != NULL) {

@@ -111,7 +111,7 @@ struct lr__splat {
     lr__pixel_sampler shared; /* the film offsets and lens points */
     double t_lo, t_hi, inv_dt;
     double G[GRID + 1][3];
-    float *L;     /* phase A's radiance of the group being summed: a plane
+    float *L; /* phase A's radiance of the group being summed: a plane
                      of the origins per sample and channel */
     size_t origins;
     double *sums; /* per region pixel, 3 */
@@ -392,8 +392,8 @@ static void group_coords(const lr__splat *sp, int g, int n, float dx[16],
 {
     for (int i = 0; i < 16; i++)
         dx[i] = dy[i] = lu[i] = lv[i] = 0.5f;
-    lr__packet_coords(&sp->shared, 0, 0, (uint32_t)(g * GROUP), n, dx, dy,
-                      lu, lv);
+    lr__packet_coords(&sp->shared, 0, 0, (uint32_t)(g * GROUP), n, dx, dy, lu,
+                      lv);
 }
 
 /* Phase A: group g's rays of the origins in rows [r0, r1), kept. */
@@ -473,8 +473,7 @@ static void phase_b(lr__splat *sp, int g, int r0, int r1, int worker)
                     acc[x] = own[x];
                 for (int p = 0; p < np[i]; p++) {
                     const piece *q = &pcs[(size_t)i * maxp + p];
-                    const float *o =
-                        own - ((ptrdiff_t)q->dy * sp->ow + q->dx);
+                    const float *o = own - ((ptrdiff_t)q->dy * sp->ow + q->dx);
                     double w = q->w[ch];
                     for (int x = 0; x < W; x++)
                         acc[x] += w * ((double)o[x] - own[x]);
