@@ -438,6 +438,26 @@ void lr__offset_lens_rays16_w(const lr__cam *c, int n, const float *fx,
     offset_lens_rays16(c, 1, n, fx, fy, lu, lv, w, rh);
 }
 
+void lr__offset_lens_shift16(const lr__cam *c, int n, const float *lu,
+                             const float *lv, float *sx, float *sy)
+{
+    /* The ray through film point D (axial length 1) at power w has
+     * direction D - off w from e + off (the top of camera.h); at power
+     * w + t through D + t off it has the same direction from the same
+     * point.  On the film, t off = t R (lx right + ly up) is t R fpx lx
+     * pixels right and t R fpx ly up (rows grow downwards), with fpx =
+     * H / (2 half_h) = W / (2 half_w).  The lens point is the one the
+     * packet's rays take (lr__aperture_sample16 on the same numbers). */
+    float lx[16], ly[16];
+    lr__aperture_sample16(c->shape, c->blades, c->rotation, c->ratio, n, lu,
+                          lv, lx, ly);
+    double k = c->radius * c->height / (2.0 * c->half_h);
+    for (int i = 0; i < 16; i++) {
+        sx[i] = (float)(k * lx[i]);
+        sy[i] = (float)(-k * ly[i]);
+    }
+}
+
 void lr__offset_lens_bound(const lr__cam *c, lr__lens_bound *b)
 {
     /* The aperture's farthest point from its centre. */

@@ -119,6 +119,16 @@ typedef struct lr__camera_model {
     void (*rays16_w)(const lr__cam *c, int n, const float *fx,
                      const float *fy, const float *lu, const float *lv,
                      const float *w, struct RTCRayHit16 *rh, float *wt);
+    /* Spectral splatting (splat.c): for lanes 0..n-1's lens samples, the
+     * film shift (sx[i], sy[i]) in pixels per unit of focus power such
+     * that the ray at power c->w + t through film point (fx + t sx,
+     * fy + t sy) is the ray at power c->w through (fx, fy): a change of
+     * focus is a film shift proportional to the lens point.  NULL when
+     * the model has no such shift (the bracket, whose lens point moves
+     * with the power, and the real lens): its spectral samples are traced
+     * pixel by pixel. */
+    void (*shift16)(const lr__cam *c, int n, const float *lu,
+                    const float *lv, float *sx, float *sy);
     /* The chief ray through film point (fx, fy), for depth, autofocus and
      * the planner; NULL: the frame's pinhole ray (lr__cam_ray). */
     void (*chief)(const lr__cam *c, double fx, double fy, lr__v3 *org,
@@ -261,6 +271,9 @@ void lr__offset_lens_rays16_w(const lr__cam *c, int n, const float *fx,
                               const float *fy, const float *lu,
                               const float *lv, const float *w,
                               struct RTCRayHit16 *rh, float *wt);
+/* shift16 of the offset-lens form with base_di = 0 (the thin lens). */
+void lr__offset_lens_shift16(const lr__cam *c, int n, const float *lu,
+                             const float *lv, float *sx, float *sy);
 /* The bound of an offset lens at the eye: R = the aperture's reach. */
 void lr__offset_lens_bound(const lr__cam *c, lr__lens_bound *b);
 

@@ -129,6 +129,7 @@ const lr__camera_model lr__camera_thinlens = {
     .ray = lr__offset_lens_ray,
     .rays16 = lr__offset_lens_rays16,
     .rays16_w = lr__offset_lens_rays16_w,
+    .shift16 = lr__offset_lens_shift16,
     .focus_at = focus_at,
     .bound = lr__offset_lens_bound,
 };

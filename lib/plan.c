@@ -22,6 +22,7 @@
 #include "plan.h"
 #include "adaptive.h"
 #include "sampler.h"
+#include "splat.h"
 
 #include <float.h>
 #include <math.h>
@@ -289,8 +290,12 @@ lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     for (int i = 0; i < p->bw * p->bh; i++)
         p->blocks[i] = (lr__block_plan){1, 1, 0, 0};
+    /* Splatting traces one ray a pixel and sample for the whole
+     * spectrum, where spectral.c's packets trace one a wavelength
+     * (docs/spectral.md measures both). */
+    p->splat = lr__splat_applies(c);
     /* A model with no safe bound samples its lens everywhere. */
-    if (set->plan && c->has_lens && c->model->bound != NULL) {
+    if (set->plan && !p->splat && c->has_lens && c->model->bound != NULL) {
         /* Adaptive sampling reads the pilots of a one-pixel apron around
          * the region (adaptive.c), and a pilot follows its block's plan:
          * the apron's blocks are planned too, or a crop's edge pixels

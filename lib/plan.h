@@ -35,6 +35,11 @@ typedef struct lr__block_plan {
 } lr__block_plan;
 
 typedef struct lr__plan {
+    /* 1: the whole render is traced by spectral splatting (splat.h:
+     * spectral mode with a thin lens), which simulates every block in
+     * full and takes spp samples in every pixel (no adaptive sampling);
+     * the blocks below are then the full simulation's. */
+    int splat;
     int bw, bh;             /* blocks across and down the frame */
     lr__block_plan *blocks; /* bw * bh, owned */
 } lr__plan;

@@ -13,6 +13,7 @@
 #include "plan.h"
 #include "sample.h"
 #include "sampler.h"
+#include "splat.h"
 
 #include <math.h>
 #include <pmmintrin.h>
@@ -31,6 +32,7 @@ typedef struct render {
     lr__sampler sampler;
     lr__shot shot;
     lr__plan plan;
+    lr__splat *splat; /* the plan's splat mode: its units replace tiles */
     lr_image *img;
     int x0, y0, x1, y1; /* the region rendered, in frame pixels */
     int tiles_x, tiles_y;
@@ -42,6 +44,7 @@ typedef struct render {
 
 typedef struct worker {
     render *r;
+    int index; /* 0 .. threads - 1 */
     double cpu; /* CPU seconds of this thread in worker_main */
     lr__sample_counts counts;
     uint64_t samples, dropped, lens_pixels, chroma_pixels;
@@ -103,7 +106,8 @@ static void *worker_main(void *arg)
     unsigned csr = _mm_getcsr();
     _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);
     _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
-    int n_tiles = j->tiles_x * j->tiles_y;
+    int n_tiles = j->splat != NULL ? lr__splat_units(j->splat)
+                                   : j->tiles_x * j->tiles_y;
     for (;;) {
         /* An atomic read, so that a flag set by another thread (with
          * __atomic_store_n, or a plain store from a signal handler) is
@@ -118,14 +122,21 @@ static void *worker_main(void *arg)
         int t = atomic_fetch_add(&j->next_tile, 1);
         if (t >= n_tiles)
             break;
-        int ts = set->tile_size;
-        int x0 = j->x0 + (t % j->tiles_x) * ts;
-        int y0 = j->y0 + (t / j->tiles_x) * ts;
-        int x1 = x0 + ts < j->x1 ? x0 + ts : j->x1;
-        int y1 = y0 + ts < j->y1 ? y0 + ts : j->y1;
-        render_tile(w, x0, y0, x1, y1);
+        uint64_t done;
+        if (j->splat != NULL) {
+            done = lr__splat_unit(j->splat, t, w->index, &w->counts,
+                                  &w->dropped);
+        } else {
+            int ts = set->tile_size;
+            int x0 = j->x0 + (t % j->tiles_x) * ts;
+            int y0 = j->y0 + (t / j->tiles_x) * ts;
+            int x1 = x0 + ts < j->x1 ? x0 + ts : j->x1;
+            int y1 = y0 + ts < j->y1 ? y0 + ts : j->y1;
+            render_tile(w, x0, y0, x1, y1);
+            done = (uint64_t)(x1 - x0) * (uint64_t)(y1 - y0);
+        }
         pthread_mutex_lock(&j->progress_lock);
-        j->pixels_done += (uint64_t)(x1 - x0) * (uint64_t)(y1 - y0);
+        j->pixels_done += done;
         if (set->progress != NULL)
             set->progress(set->progress_user, j->pixels_done,
                           (uint64_t)(j->x1 - j->x0) *
@@ -220,23 +231,34 @@ lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
         long cores = sysconf(_SC_NPROCESSORS_ONLN);
         n = cores > 0 ? (int)cores : 1;
     }
-    if (n > j.tiles_x * j.tiles_y)
+    if (n > j.tiles_x * j.tiles_y && !j.plan.splat)
         n = j.tiles_x * j.tiles_y;
-    worker *ws = calloc((size_t)n, sizeof *ws);
-    pthread_t *tids = calloc((size_t)n, sizeof *tids);
+    st = LR_OK;
+    if (j.plan.splat) {
+        st = lr__splat_new(&j.shot, set->spp, j.x0, j.y0, j.x1, j.y1, n, img,
+                           &j.splat, err);
+        if (st == LR_OK && n > lr__splat_units(j.splat))
+            n = lr__splat_units(j.splat);
+    }
+    worker *ws = st == LR_OK ? calloc((size_t)n, sizeof *ws) : NULL;
+    pthread_t *tids = st == LR_OK ? calloc((size_t)n, sizeof *tids) : NULL;
     if (ws == NULL || tids == NULL) {
         free(ws);
         free(tids);
+        lr__splat_free(j.splat);
         lr_image_free(img);
         lr__plan_free(&j.plan);
         pthread_mutex_destroy(&j.progress_lock);
-        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+        return st != LR_OK ? st
+                           : lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     }
     /* The calling thread is worker 0; if a thread cannot be started the
      * others simply take more tiles. */
     int started = 1;
-    for (int i = 0; i < n; i++)
+    for (int i = 0; i < n; i++) {
         ws[i].r = &j;
+        ws[i].index = i;
+    }
     for (int i = 1; i < n; i++) {
         if (pthread_create(&tids[i], NULL, worker_main, &ws[i]) != 0)
             break;
@@ -266,6 +288,14 @@ lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
     free(tids);
     sum.threads = started;
     sum.pixels = (uint64_t)(j.x1 - j.x0) * (uint64_t)(j.y1 - j.y0);
+    if (j.splat != NULL) {
+        /* Every pixel takes spp samples, the lens and the colours. */
+        if (!atomic_load(&j.cancelled))
+            lr__splat_resolve(j.splat);
+        lr__splat_free(j.splat);
+        sum.samples = sum.pixels * (uint64_t)set->spp;
+        sum.lens_pixels = sum.chroma_pixels = sum.pixels;
+    }
     sum.full_samples = sum.pixels * (uint64_t)set->spp;
     sum.full_camera_rays = sum.full_samples * lr__colour_rays(&j.cam);
     lr__plan_free(&j.plan);

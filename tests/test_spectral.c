@@ -6,11 +6,14 @@
  * lens's blur, integrated by quadrature.  Nothing expected here comes
  * from the code under test.
  */
+#include "camera.h"
+#include "plan.h"
 #include "test.h"
 #include "wavelength.h"
 
 #include <math.h>
 #include <stdio.h>
+#include <string.h>
 
 /* ---- the independent model ---------------------------------------------- */
 
@@ -128,13 +131,40 @@ static void bar_scene(char *buf, size_t n, int spp, const char *extra)
              IW, IH, spp, extra, FOV, S, F * 1000, R, AMP, -S, 2 * BAR);
 }
 
+/* Whether the plan of the scene `json` (with `sets`) traces it by
+ * spectral splatting (splat.c). */
+static int plan_splats(const char *json, const char *const *sets,
+                       size_t n_sets)
+{
+    lr_scene *s = lr_test_load(json, sets, n_sets);
+    lr_camera cam;
+    lr_render_settings rs;
+    lr_scene_camera(s, &cam);
+    lr_scene_settings(s, &rs);
+    lr__cam c;
+    lr__cam_init(&c, &cam, rs.width, rs.height);
+    lr__plan p;
+    lr_error err;
+    assert_int_equal(lr__plan_build(&p, s, &c, &rs, 0, 0, rs.width,
+                                    rs.height, &err),
+                     LR_OK);
+    int splat = p.splat;
+    lr__plan_free(&p);
+    lr_scene_free(s);
+    return splat;
+}
+
 /* ---- tests ------------------------------------------------------------- */
 
 /* The mean colour of each column of a defocused, dispersed white bar
- * against the CIE integral of its blurred profile.  The rows of a column
- * are independent estimates of the same value: their spread gives the
- * standard error, and each column must lie within 4 of them (plus 2e-3
- * for the renderer's 1 nm tables and float rays) of the integral. */
+ * against the CIE integral of its blurred profile.  Splatting gives every
+ * pixel of a render the same film offsets and lens points (splat.c), so
+ * the rows of a column (the bar is the same in every row) are one
+ * estimate; renders with SEEDS seeds are independent ones: their spread
+ * gives the standard error, and each column's mean must lie within 4 of
+ * them (plus 2e-3 for the renderer's 1 nm tables and float rays) of the
+ * integral. */
+#define SEEDS 12
 static void test_white_bar_matches_cie_integral(void **state)
 {
     (void)state;
@@ -144,11 +174,25 @@ static void test_white_bar_matches_cie_integral(void **state)
     char json[4096];
     const char *samplers[] = {"sobol", "random"};
     for (int sm = 0; sm < 2; sm++) {
-        char extra[64];
-        snprintf(extra, sizeof extra, ", \"sampler\": \"%s\"", samplers[sm]);
-        bar_scene(json, sizeof json, 64, extra);
-        lr_image *img = lr_test_render(json, NULL, 0, NULL);
-        const float *p = lr_image_rgb(img);
+        static double col[SEEDS][IW][3];
+        for (int k = 0; k < SEEDS; k++) {
+            char extra[96];
+            snprintf(extra, sizeof extra,
+                     ", \"sampler\": \"%s\", \"seed\": %d", samplers[sm],
+                     k + 1);
+            bar_scene(json, sizeof json, 64, extra);
+            assert_true(plan_splats(json, NULL, 0));
+            lr_image *img = lr_test_render(json, NULL, 0, NULL);
+            const float *p = lr_image_rgb(img);
+            for (int i = 0; i < IW; i++)
+                for (int c = 0; c < 3; c++) {
+                    double s = 0;
+                    for (int y = 0; y < IH; y++)
+                        s += p[3 * (y * IW + i) + c];
+                    col[k][i][c] = s / IH;
+                }
+            lr_image_free(img);
+        }
         int coloured = 0;
         for (int i = 0; i < IW; i++) {
             double e[3];
@@ -156,13 +200,13 @@ static void test_white_bar_matches_cie_integral(void **state)
             coloured += fabs(e[2] - e[0]) > 0.05;
             for (int c = 0; c < 3; c++) {
                 double s = 0, s2 = 0;
-                for (int y = 0; y < IH; y++) {
-                    double v = p[3 * (y * IW + i) + c];
-                    s += v;
-                    s2 += v * v;
+                for (int k = 0; k < SEEDS; k++) {
+                    s += col[k][i][c];
+                    s2 += col[k][i][c] * col[k][i][c];
                 }
-                double mean = s / IH;
-                double se = sqrt(fmax(s2 / IH - mean * mean, 0) / (IH - 1));
+                double mean = s / SEEDS;
+                double se =
+                    sqrt(fmax(s2 / SEEDS - mean * mean, 0) / (SEEDS - 1));
                 if (fabs(mean - e[c]) > 4 * se + 2e-3)
                     fail_msg("%s: column %d channel %d: %g, the CIE integral "
                              "%g (standard error %g)",
@@ -171,8 +215,96 @@ static void test_white_bar_matches_cie_integral(void **state)
         }
         /* The fringes are there (the bar is not just white). */
         assert_true(coloured >= 4);
-        lr_image_free(img);
     }
+}
+
+/* The film shift of splat.c is the thin lens's focus change: the ray at
+ * power w + t through film point f + t shift (rays16_w, the packets'
+ * spectral rays) is the ray at w through f (rays16), for lens points
+ * across the aperture (polygonal and stretched too) and t of either
+ * sign. */
+static void test_thin_lens_shift_is_a_focus_change(void **state)
+{
+    (void)state;
+    const char *shapes[] = {"\"disk\"", "\"polygon\", \"aperture_blades\": 5,"
+                                         " \"aperture_ratio\": 1.7"};
+    for (int k = 0; k < 2; k++) {
+        char json[1024];
+        snprintf(json, sizeof json,
+                 "{\"camera\": {\"model\": \"thinlens\", \"fov\": 30,"
+                 " \"focus_distance\": 2, \"focal_length_mm\": 50,"
+                 " \"aperture_radius\": 0.05, \"aperture_shape\": %s,"
+                 " \"chromatic\": {\"mode\": \"spectral\"}},"
+                 " \"objects\": []}",
+                 shapes[k]);
+        lr_scene *sc = lr_test_load_json(json);
+        lr_camera camera;
+        lr_scene_camera(sc, &camera);
+        lr__cam c;
+        lr__cam_init(&c, &camera, IW, IH);
+        assert_non_null(c.model->shift16);
+        float fx[16], fy[16], lu[16], lv[16], sx[16], sy[16], wt[16];
+        float gx[16], gy[16], w[16];
+        for (int i = 0; i < 16; i++) {
+            fx[i] = 3.25f + 2.5f * i;
+            fy[i] = 1.5f + 0.75f * i;
+            lu[i] = (i * 7 % 16 + 0.5f) / 16;
+            lv[i] = (i * 11 % 16 + 0.5f) / 16;
+        }
+        c.model->shift16(&c, 16, lu, lv, sx, sy);
+        for (int sgn = -1; sgn <= 1; sgn += 2) {
+            float t = sgn * 2.5f;
+            for (int i = 0; i < 16; i++) {
+                gx[i] = fx[i] + t * sx[i];
+                gy[i] = fy[i] + t * sy[i];
+                w[i] = (float)c.w + t;
+            }
+            struct RTCRayHit16 a __attribute__((aligned(64)));
+            struct RTCRayHit16 b __attribute__((aligned(64)));
+            c.model->rays16(&c, 1, 16, fx, fy, lu, lv, &a, wt);
+            c.model->rays16_w(&c, 16, gx, gy, lu, lv, w, &b, wt);
+            /* The film points move by pixels (a wrong sign or scale
+             * would show). */
+            float most = 0.0f;
+            for (int i = 0; i < 16; i++)
+                most = fmaxf(most, fmaxf(fabsf(t * sx[i]), fabsf(t * sy[i])));
+            assert_true(most > 2.0f);
+            for (int i = 0; i < 16; i++) {
+                assert_float_equal(a.ray.org_x[i], b.ray.org_x[i], 1e-6);
+                assert_float_equal(a.ray.org_y[i], b.ray.org_y[i], 1e-6);
+                assert_float_equal(a.ray.dir_x[i], b.ray.dir_x[i], 1e-5);
+                assert_float_equal(a.ray.dir_y[i], b.ray.dir_y[i], 1e-5);
+                assert_float_equal(a.ray.dir_z[i], b.ray.dir_z[i], 1e-5);
+            }
+        }
+        lr_scene_free(sc);
+    }
+}
+
+/* Splatting credits a pixel from rays of pixels up to the longest film
+ * shift away, outside a crop and the frame too: a crop is still the full
+ * frame's pixels bit for bit, and one thread gives what two do.  40
+ * samples: groups of 16, the last partial. */
+static void test_splat_crop_and_threads_exact(void **state)
+{
+    (void)state;
+    char json[4096];
+    bar_scene(json, sizeof json, 40, ", \"threads\": 1");
+    assert_true(plan_splats(json, NULL, 0));
+    lr_image *full = lr_test_render(json, NULL, 0, NULL);
+    const char *two[] = {"render.threads=2"};
+    lr_image *b = lr_test_render(json, two, 1, NULL);
+    lr_test_assert_same_bytes(full, b, "splatting, 1 thread against 2");
+    lr_image_free(b);
+    const char *crop[] = {"render.region=[19, 3, 31, 12]",
+                          "render.threads=2"};
+    lr_image *c = lr_test_render(json, crop, 2, NULL);
+    const float *f = lr_image_rgb(full), *p = lr_image_rgb(c);
+    for (int y = 3; y < 12; y++)
+        assert_memory_equal(&p[3 * (y - 3) * 12], &f[3 * (y * IW + 19)],
+                            12 * 3 * sizeof(float));
+    lr_image_free(c);
+    lr_image_free(full);
 }
 
 /* A grey card filling the frame: every wavelength's ray sees the
@@ -197,6 +329,7 @@ static void test_grey_card_is_exact(void **state)
         " \"objects\": [{\"type\": \"plane\", \"normal\": [0, 0, 1],"
         "  \"point\": [0, 0, -3], \"material\": \"g\"}]}";
     const char *off[] = {"camera.chromatic.mode=off"};
+    assert_true(plan_splats(json, NULL, 0));
     lr_image *a = lr_test_render(json, NULL, 0, NULL);
     lr_image *b = lr_test_render(json, off, 1, NULL);
     lr_test_assert_same_bytes(a, b, "grey card, spectral against off");
@@ -293,6 +426,8 @@ static void test_wavelength_weights_integrate_to_one(void **state)
 static const struct CMUnitTest spectral_tests[] = {
     cmocka_unit_test(test_white_bar_matches_cie_integral),
     cmocka_unit_test(test_grey_card_is_exact),
+    cmocka_unit_test(test_thin_lens_shift_is_a_focus_change),
+    cmocka_unit_test(test_splat_crop_and_threads_exact),
     cmocka_unit_test(test_wavelength_weights_integrate_to_one),
 };
 LR_TEST_GROUP(spectral, spectral_tests)
