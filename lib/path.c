@@ -196,7 +196,7 @@ static void trace_paths(const lr_scene *s, int max_depth,
                         const lr__sample_id *id, lr__v3 L[16],
                         uint64_t *rays)
 {
-    lr__intersect16(s, rh, n, rays);
+    lr__paths_camera16(s, rh, n, rays);
     lr__pixel_pairs pairs;
     lr__pixel_pairs_init(&pairs, id->sampler, id->pixel, DIM_FIRST,
                          n > 1 ? SOBOL_PAIRS : 0);

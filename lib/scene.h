@@ -185,14 +185,29 @@ typedef struct lr__few_sphere {
     unsigned id;           /* its Embree geometry ID */
 } lr__few_sphere;
 
+/* A path-traced scene's triangles when it has no more than
+ * LR__FEW_TRIANGLES (and nothing else but spheres): each triangle's
+ * corner a and edges b - a, c - a in double from Embree's float corners,
+ * its geometry and primitive IDs (few_triangles.c). */
+#define LR__FEW_TRIANGLES 32
+typedef struct lr__few_triangles {
+    size_t n;              /* 0: Embree meets the triangles */
+    double ax[LR__FEW_TRIANGLES], ay[LR__FEW_TRIANGLES], az[LR__FEW_TRIANGLES];
+    double e1x[LR__FEW_TRIANGLES], e1y[LR__FEW_TRIANGLES], e1z[LR__FEW_TRIANGLES];
+    double e2x[LR__FEW_TRIANGLES], e2y[LR__FEW_TRIANGLES], e2z[LR__FEW_TRIANGLES];
+    unsigned geom[LR__FEW_TRIANGLES], prim[LR__FEW_TRIANGLES];
+} lr__few_triangles;
+
 struct lr_scene {
     RTCDevice device;
     RTCScene rtc;
     /* With 1 to LR__FEW_SPHERES spheres: Embree's scene of everything
-     * else, and the spheres (spheres.c); else NULL and 0. */
+     * else, and the spheres (spheres.c); else NULL and 0.  NULL too when
+     * few_tris holds every triangle: then no Embree scene is asked. */
     RTCScene rtc_few;
     lr__few_sphere few[LR__FEW_SPHERES];
     size_t n_few;
+    lr__few_triangles few_tris;
     lr__material *materials;
     size_t n_materials;
     lr__light *lights;
@@ -385,6 +400,29 @@ void lr__intersect16(const lr_scene *s, struct RTCRayHit16 *rh, int n,
 lr_status lr__spheres_build(lr_scene *s, lr_error *err);
 /* 0: scenes loaded from now on keep Embree's spheres (for tests). */
 extern int lr__few_spheres_enabled;
+/* The camera rays of a packet of n lanes (lr__intersect16, or in a scene
+ * of a few primitives lr__paths_intersect16: the same hits as
+ * continuation rays find). */
+void lr__paths_camera16(const lr_scene *s, struct RTCRayHit16 *rh, int n,
+                        uint64_t *rays);
+
+/* few_triangles.c.  Fills s->few_tris and returns 1 if the scene's
+ * Embree geometries are spheres and 1 to LR__FEW_TRIANGLES triangles
+ * (and lr__few_triangles_enabled); else leaves few_tris.n 0 and returns
+ * 0.  At commit, by lr__spheres_build. */
+int lr__few_triangles_build(lr_scene *s);
+/* 0: scenes loaded from now on leave their triangles to Embree (tests). */
+extern int lr__few_triangles_enabled;
+/* The nearest triangle hit of each lane with valid[i] set, t in (tnear,
+ * tfar), written as rtcIntersect16 would write it (tfar, geomID, primID,
+ * u, v, instID); tbest[i] is that t in double, or the lane's tfar. */
+void lr__few_triangles_intersect16(const lr__few_triangles *T,
+                                   const int *valid, struct RTCRayHit16 *rh,
+                                   double tbest[16]);
+/* Sets tfar to -inf (rtcOccluded16's mark) in each lane with valid[i]
+ * set whose ray meets a triangle at t in (tnear, tfar). */
+void lr__few_triangles_occluded16(const lr__few_triangles *T,
+                                  const int *valid, struct RTCRay16 *r);
 void lr__paths_intersect16(const lr_scene *s, const int *valid,
                            struct RTCIntersectContext *ctx,
                            struct RTCRayHit16 *rh);

@@ -33,7 +33,23 @@ lr_status lr__spheres_build(lr_scene *s, lr_error *err)
     size_t n = 0;
     for (size_t g = 0; g < s->n_geoms; g++)
         n += s->geoms[g].kind == LR__GEOM_SPHERE;
-    if (n == 0 || n > LR__FEW_SPHERES)
+    if (n > LR__FEW_SPHERES)
+        return LR_OK;
+    if (lr__few_triangles_build(s)) {
+        /* No Embree scene: the triangles in few_triangles.c, the spheres
+         * here. */
+        for (size_t g = 0; g < s->n_geoms; g++) {
+            const lr__geom *G = &s->geoms[g];
+            if (G->kind != LR__GEOM_SPHERE)
+                continue;
+            lr__few_sphere *f = &s->few[s->n_few++];
+            f->cx = G->center.x, f->cy = G->center.y, f->cz = G->center.z;
+            f->r = G->radius;
+            f->id = (unsigned)g;
+        }
+        return LR_OK;
+    }
+    if (n == 0)
         return LR_OK;
     s->rtc_few = rtcNewScene(s->device);
     if (s->rtc_few == NULL)
@@ -89,16 +105,21 @@ void lr__paths_intersect16(const lr_scene *s, const int *valid,
                            struct RTCIntersectContext *ctx,
                            struct RTCRayHit16 *rh)
 {
-    if (s->rtc_few == NULL) {
+    double tri_t[16];
+    if (s->few_tris.n > 0) {
+        lr__few_triangles_intersect16(&s->few_tris, valid, rh, tri_t);
+    } else if (s->rtc_few == NULL) {
         rtcIntersect16(valid, s->rtc, ctx, rh);
         return;
+    } else {
+        rtcIntersect16(valid, s->rtc_few, ctx, rh);
     }
-    rtcIntersect16(valid, s->rtc_few, ctx, rh);
     const struct RTCRay16 *r = &rh->ray;
     for (int i = 0; i < 16; i++) {
         if (!valid[i])
             continue;
-        double tfar = r->tfar[i], tnear = r->tnear[i];
+        double tfar = s->few_tris.n > 0 ? tri_t[i] : r->tfar[i];
+        double tnear = r->tnear[i];
         long best = -1;
         for (size_t j = 0; j < s->n_few; j++) {
             double t = sphere_t(&s->few[j], r->org_x[i], r->org_y[i],
@@ -123,7 +144,7 @@ void lr__paths_occluded16(const lr_scene *s, const int *valid,
                           struct RTCIntersectContext *ctx,
                           struct RTCRay16 *r)
 {
-    if (s->rtc_few == NULL) {
+    if (s->rtc_few == NULL && s->few_tris.n == 0) {
         rtcOccluded16(valid, s->rtc, ctx, r);
         return;
     }
@@ -145,6 +166,26 @@ void lr__paths_occluded16(const lr_scene *s, const int *valid,
             }
         any |= rest[i];
     }
-    if (any)
+    if (!any)
+        return;
+    if (s->few_tris.n > 0)
+        lr__few_triangles_occluded16(&s->few_tris, rest, r);
+    else
         rtcOccluded16(rest, s->rtc_few, ctx, r);
+}
+
+void lr__paths_camera16(const lr_scene *s, struct RTCRayHit16 *rh, int n,
+                        uint64_t *rays)
+{
+    if (s->few_tris.n == 0) {
+        lr__intersect16(s, rh, n, rays);
+        return;
+    }
+    int valid[16] __attribute__((aligned(64)));
+    for (int i = 0; i < 16; i++)
+        valid[i] = i < n ? -1 : 0;
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    lr__paths_intersect16(s, valid, &ctx, rh);
+    *rays += (uint64_t)n;
 }
