@@ -94,76 +94,58 @@ int lr__few_triangles_build(lr_scene *s)
     } while (0)
 
 __attribute__((target_clones("avx512f", "avx2", "default")))
-void lr__few_triangles_intersect16(const lr__few_triangles *T,
-                                   const int *valid, struct RTCRayHit16 *rh,
-                                   double tbest[16])
+void lr__few_triangles_intersect(const lr__few_triangles *T,
+                                 lr__rays_packed *P, double tri[16],
+                                 double u[16], double v[16])
 {
-    const struct RTCRay16 *r = &rh->ray;
-    double ox[16], oy[16], oz[16], dx[16], dy[16], dz[16], tn[16];
     /* The best hit so far: t = bn / bd, u = bu / bd, v = bv / bd. */
-    double bn[16], bd[16], bu[16], bv[16], best[16];
-    for (int i = 0; i < 16; i++) {
-        ox[i] = r->org_x[i], oy[i] = r->org_y[i], oz[i] = r->org_z[i];
-        dx[i] = r->dir_x[i], dy[i] = r->dir_y[i], dz[i] = r->dir_z[i];
-        tn[i] = r->tnear[i];
-        bn[i] = r->tfar[i];
-        bd[i] = 1.0;
-        bu[i] = bv[i] = 0.0;
-        best[i] = -1.0;
-    }
+    double bn[16], bd[16], bu[16], bv[16];
     int n = (int)T->n;
-    for (int k = 0; k < n; k++)
-        for (int i = 0; i < 16; i++) {
-            double D, U, V, N;
-            int ok;
-            MT_TEST(T, k, ox[i], oy[i], oz[i], dx[i], dy[i], dz[i], tn[i], D,
-                    U, V, N, ok);
-            int hit = ok & (N * bd[i] < bn[i] * D);
-            bn[i] = hit ? N : bn[i];
-            bd[i] = hit ? D : bd[i];
-            bu[i] = hit ? U : bu[i];
-            bv[i] = hit ? V : bv[i];
-            best[i] = hit ? (double)k : best[i];
+    for (int c0 = 0; c0 < P->m8; c0 += 8) {
+        for (int i = c0; i < c0 + 8; i++) {
+            bn[i] = P->tf[i];
+            bd[i] = 1.0;
+            bu[i] = bv[i] = 0.0;
+            tri[i] = -1.0;
         }
-    for (int i = 0; i < 16; i++) {
-        tbest[i] = bn[i] / bd[i];
-        if (!valid[i] || best[i] < 0.0)
-            continue;
-        size_t k = (size_t)best[i];
-        rh->ray.tfar[i] = (float)tbest[i];
-        rh->hit.geomID[i] = T->geom[k];
-        rh->hit.primID[i] = T->prim[k];
-        rh->hit.u[i] = (float)(bu[i] / bd[i]);
-        rh->hit.v[i] = (float)(bv[i] / bd[i]);
-        rh->hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
+        for (int k = 0; k < n; k++)
+            for (int i = c0; i < c0 + 8; i++) {
+                double D, U, V, N;
+                int ok;
+                MT_TEST(T, k, P->ox[i], P->oy[i], P->oz[i], P->dx[i],
+                        P->dy[i], P->dz[i], P->tn[i], D, U, V, N, ok);
+                int hit = ok & (N * bd[i] < bn[i] * D);
+                bn[i] = hit ? N : bn[i];
+                bd[i] = hit ? D : bd[i];
+                bu[i] = hit ? U : bu[i];
+                bv[i] = hit ? V : bv[i];
+                tri[i] = hit ? (double)k : tri[i];
+            }
+        for (int i = c0; i < c0 + 8; i++) {
+            double inv = 1.0 / bd[i];
+            P->tf[i] = bn[i] * inv;
+            u[i] = bu[i] * inv;
+            v[i] = bv[i] * inv;
+        }
     }
 }
 
 __attribute__((target_clones("avx512f", "avx2", "default")))
-void lr__few_triangles_occluded16(const lr__few_triangles *T,
-                                  const int *valid, struct RTCRay16 *r)
+void lr__few_triangles_occluded(const lr__few_triangles *T,
+                                const lr__rays_packed *P, double occ[16])
 {
-    double ox[16], oy[16], oz[16], dx[16], dy[16], dz[16], tn[16], tf[16];
-    double hit_any[16];
-    for (int i = 0; i < 16; i++) {
-        ox[i] = r->org_x[i], oy[i] = r->org_y[i], oz[i] = r->org_z[i];
-        dx[i] = r->dir_x[i], dy[i] = r->dir_y[i], dz[i] = r->dir_z[i];
-        tn[i] = r->tnear[i];
-        tf[i] = r->tfar[i];
-        hit_any[i] = 0.0;
-    }
     int n = (int)T->n;
-    for (int k = 0; k < n; k++)
-        for (int i = 0; i < 16; i++) {
-            double D, U, V, N;
-            int ok;
-            MT_TEST(T, k, ox[i], oy[i], oz[i], dx[i], dy[i], dz[i], tn[i], D,
-                    U, V, N, ok);
-            int hit = ok & (N < tf[i] * D);
-            hit_any[i] = hit ? 1.0 : hit_any[i];
-        }
-    /* Embree's mark of an occluded ray. */
-    for (int i = 0; i < 16; i++)
-        if (valid[i] && hit_any[i] != 0.0)
-            r->tfar[i] = -INFINITY;
+    for (int c0 = 0; c0 < P->m8; c0 += 8) {
+        for (int i = c0; i < c0 + 8; i++)
+            occ[i] = 0.0;
+        for (int k = 0; k < n; k++)
+            for (int i = c0; i < c0 + 8; i++) {
+                double D, U, V, N;
+                int ok;
+                MT_TEST(T, k, P->ox[i], P->oy[i], P->oz[i], P->dx[i],
+                        P->dy[i], P->dz[i], P->tn[i], D, U, V, N, ok);
+                int hit = ok & (N < P->tf[i] * D);
+                occ[i] = hit ? 1.0 : occ[i];
+            }
+    }
 }

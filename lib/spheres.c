@@ -77,46 +77,78 @@ lr_status lr__spheres_build(lr_scene *s, lr_error *err)
     return LR_OK;
 }
 
-/* Each lane's nearest sphere hit with t in (tnear[i], tfar[i]): tfar[i]
- * becomes its t and best[i] the sphere's index (else tfar and best
- * stay).  The cancellation-free quadratic of trace.c's sphere refinement
- * (l = |o - c|, c' = (l - r)(l + r), q = -(b + sign(b) sqrt(disc)), the
- * roots q / a and c' / q), for all sixteen lanes in one loop that GCC
- * vectorises (-fno-trapping-math in the Makefile lets it compute every
- * lane's square roots and quotients, and select): one sphere test per
- * lane in turn had cost 11% of the Cornell box's CPU time, this costs
- * a third of that (perf, one thread).  A lane with a negative
- * discriminant or a zero direction computes NaN or infinite roots that
- * the selects refuse. */
-__attribute__((target_clones("avx512f", "avx2", "default")))
-static void spheres16(const lr_scene *s, const struct RTCRay16 *r,
-                      const double tnear[16], double tfar[16],
-                      double best[16])
+/* Packs the lanes with valid[i] set (lr__rays_packed).  The lane list
+ * is made without a branch per lane (which mispredicted often enough to
+ * cost 5% of the Cornell box's CPU time), then the rays gathered. */
+static void pack(const int *valid, const struct RTCRay16 *r,
+                 lr__rays_packed *P)
 {
-    for (size_t j = 0; j < s->n_few; j++) {
-        const lr__few_sphere *f = &s->few[j];
-        double cx = f->cx, cy = f->cy, cz = f->cz, rad = f->r;
-        for (int i = 0; i < 16; i++) {
-            double dx = r->dir_x[i], dy = r->dir_y[i], dz = r->dir_z[i];
-            double ocx = r->org_x[i] - cx, ocy = r->org_y[i] - cy,
-                   ocz = r->org_z[i] - cz;
-            double a = dx * dx + dy * dy + dz * dz;
-            double b = ocx * dx + ocy * dy + ocz * dz;
-            double l = sqrt(ocx * ocx + ocy * ocy + ocz * ocz);
-            double c = (l - rad) * (l + rad);
-            double disc = b * b - a * c;
-            int ok = (disc >= 0.0) & (a > 0.0);
-            double sq = sqrt(disc > 0.0 ? disc : 0.0);
-            double q = -(b + (b < 0.0 ? -sq : sq));
-            double r1 = q / a;
-            double r2 = q != 0.0 ? c / (q != 0.0 ? q : 1.0) : r1;
-            double lo = r1 < r2 ? r1 : r2, hi = r1 < r2 ? r2 : r1;
-            double tf = tfar[i], tn = tnear[i];
-            int lo_in = (lo > tn) & (lo < tf), hi_in = (hi > tn) & (hi < tf);
-            double t = lo_in ? lo : hi;
-            int hit = ok & (lo_in | hi_in);
-            tfar[i] = hit ? t : tf;
-            best[i] = hit ? (double)j : best[i];
+    int m = 0;
+    for (int i = 0; i < 16; i++) {
+        P->lane[m] = i;
+        m += valid[i] != 0;
+    }
+    for (int c = 0; c < m; c++) {
+        int i = P->lane[c];
+        P->ox[c] = r->org_x[i], P->oy[c] = r->org_y[i], P->oz[c] = r->org_z[i];
+        P->dx[c] = r->dir_x[i], P->dy[c] = r->dir_y[i], P->dz[c] = r->dir_z[i];
+        P->tn[c] = r->tnear[i];
+        P->tf[c] = r->tfar[i];
+    }
+    P->m = m;
+    P->m8 = (m + 7) & ~7;
+    for (int c = m; c < P->m8; c++) {
+        P->ox[c] = P->oy[c] = P->oz[c] = 0.0;
+        P->dx[c] = P->dy[c] = 0.0;
+        P->dz[c] = 1.0;
+        P->tn[c] = 1.0;
+        P->tf[c] = 0.0;
+    }
+}
+
+/* Each entry's nearest sphere hit with t in (tn, tf): tf[c] becomes its
+ * t and sph[c] the sphere's index (else tf stays and sph is -1).  The
+ * cancellation-free quadratic of trace.c's sphere refinement (l = |o -
+ * c|, c' = (l - r)(l + r), q = -(b + sign(b) sqrt(disc)), the roots q /
+ * a and c' / q), eight entries at a time in loops that GCC vectorises
+ * (-fno-trapping-math in the Makefile lets it compute every entry's
+ * square roots and quotients, and select): one sphere test per lane in
+ * turn had cost 11% of the Cornell box's CPU time.  An entry with a
+ * negative discriminant or a zero direction computes NaN or infinite
+ * roots that the selects refuse. */
+__attribute__((target_clones("avx512f", "avx2", "default")))
+static void spheres_packed(const lr_scene *s, lr__rays_packed *P,
+                           double sph[16])
+{
+    for (int c0 = 0; c0 < P->m8; c0 += 8) {
+        for (int i = c0; i < c0 + 8; i++)
+            sph[i] = -1.0;
+        for (size_t j = 0; j < s->n_few; j++) {
+            const lr__few_sphere *f = &s->few[j];
+            double cx = f->cx, cy = f->cy, cz = f->cz, rad = f->r;
+            for (int i = c0; i < c0 + 8; i++) {
+                double dx = P->dx[i], dy = P->dy[i], dz = P->dz[i];
+                double ocx = P->ox[i] - cx, ocy = P->oy[i] - cy,
+                       ocz = P->oz[i] - cz;
+                double a = dx * dx + dy * dy + dz * dz;
+                double b = ocx * dx + ocy * dy + ocz * dz;
+                double l = sqrt(ocx * ocx + ocy * ocy + ocz * ocz);
+                double c = (l - rad) * (l + rad);
+                double disc = b * b - a * c;
+                int ok = (disc >= 0.0) & (a > 0.0);
+                double sq = sqrt(disc > 0.0 ? disc : 0.0);
+                double q = -(b + (b < 0.0 ? -sq : sq));
+                double r1 = q / a;
+                double r2 = q != 0.0 ? c / (q != 0.0 ? q : 1.0) : r1;
+                double lo = r1 < r2 ? r1 : r2, hi = r1 < r2 ? r2 : r1;
+                double tf = P->tf[i], tn = P->tn[i];
+                int lo_in = (lo > tn) & (lo < tf);
+                int hi_in = (hi > tn) & (hi < tf);
+                double t = lo_in ? lo : hi;
+                int hit = ok & (lo_in | hi_in);
+                P->tf[i] = hit ? t : tf;
+                sph[i] = hit ? (double)j : sph[i];
+            }
         }
     }
 }
@@ -125,32 +157,36 @@ void lr__paths_intersect16(const lr_scene *s, const int *valid,
                            struct RTCIntersectContext *ctx,
                            struct RTCRayHit16 *rh)
 {
-    double tfar[16], tnear[16], best[16];
-    if (s->few_tris.n > 0) {
-        lr__few_triangles_intersect16(&s->few_tris, valid, rh, tfar);
-    } else if (s->rtc_few == NULL) {
-        rtcIntersect16(valid, s->rtc, ctx, rh);
-        return;
-    } else {
+    const lr__few_triangles *T = &s->few_tris;
+    if (T->n == 0) {
+        if (s->rtc_few == NULL) {
+            rtcIntersect16(valid, s->rtc, ctx, rh);
+            return;
+        }
         rtcIntersect16(valid, s->rtc_few, ctx, rh);
-        for (int i = 0; i < 16; i++)
-            tfar[i] = rh->ray.tfar[i];
     }
-    if (s->n_few == 0)
-        return;
-    for (int i = 0; i < 16; i++) {
-        tnear[i] = rh->ray.tnear[i];
-        best[i] = -1.0;
-    }
-    spheres16(s, &rh->ray, tnear, tfar, best);
-    for (int i = 0; i < 16; i++) {
-        if (!valid[i] || best[i] < 0.0)
-            continue;
-        size_t j = (size_t)best[i];
-        rh->ray.tfar[i] = (float)tfar[i];
-        rh->hit.geomID[i] = s->few[j].id;
-        rh->hit.primID[i] = 0;
-        rh->hit.u[i] = rh->hit.v[i] = 0.0f;
+    lr__rays_packed P;
+    double tri[16], u[16], v[16], sph[16];
+    pack(valid, &rh->ray, &P);
+    if (T->n > 0)
+        lr__few_triangles_intersect(T, &P, tri, u, v);
+    spheres_packed(s, &P, sph);
+    for (int c = 0; c < P.m; c++) {
+        int i = P.lane[c];
+        if (sph[c] >= 0.0) {
+            rh->hit.geomID[i] = s->few[(size_t)sph[c]].id;
+            rh->hit.primID[i] = 0;
+            rh->hit.u[i] = rh->hit.v[i] = 0.0f;
+        } else if (T->n > 0 && tri[c] >= 0.0) {
+            size_t k = (size_t)tri[c];
+            rh->hit.geomID[i] = T->geom[k];
+            rh->hit.primID[i] = T->prim[k];
+            rh->hit.u[i] = (float)u[c];
+            rh->hit.v[i] = (float)v[c];
+        } else {
+            continue; /* Embree's answer, or none */
+        }
+        rh->ray.tfar[i] = (float)P.tf[c];
         rh->hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
     }
 }
@@ -159,34 +195,35 @@ void lr__paths_occluded16(const lr_scene *s, const int *valid,
                           struct RTCIntersectContext *ctx,
                           struct RTCRay16 *r)
 {
-    if (s->rtc_few == NULL && s->few_tris.n == 0) {
+    const lr__few_triangles *T = &s->few_tris;
+    if (s->rtc_few == NULL && T->n == 0) {
         rtcOccluded16(valid, s->rtc, ctx, r);
+        return;
+    }
+    lr__rays_packed P;
+    double sph[16], occ[16];
+    pack(valid, r, &P);
+    spheres_packed(s, &P, sph);
+    if (T->n > 0) {
+        lr__few_triangles_occluded(T, &P, occ);
+        for (int c = 0; c < P.m; c++)
+            if (sph[c] >= 0.0 || occ[c] != 0.0)
+                r->tfar[P.lane[c]] = -INFINITY; /* Embree's mark */
         return;
     }
     /* The spheres first: a ray they block needs no Embree. */
     int rest[16] __attribute__((aligned(64)));
-    double tfar[16], tnear[16], best[16];
-    for (int i = 0; i < 16; i++) {
-        tnear[i] = r->tnear[i];
-        tfar[i] = r->tfar[i];
-        best[i] = -1.0;
-    }
-    spheres16(s, r, tnear, tfar, best);
     int any = 0;
-    for (int i = 0; i < 16; i++) {
+    for (int i = 0; i < 16; i++)
         rest[i] = valid[i];
-        if (valid[i] && best[i] >= 0.0) {
-            /* Embree's mark of an occluded ray. */
-            r->tfar[i] = -INFINITY;
-            rest[i] = 0;
+    for (int c = 0; c < P.m; c++)
+        if (sph[c] >= 0.0) {
+            r->tfar[P.lane[c]] = -INFINITY;
+            rest[P.lane[c]] = 0;
         }
+    for (int i = 0; i < 16; i++)
         any |= rest[i];
-    }
-    if (!any)
-        return;
-    if (s->few_tris.n > 0)
-        lr__few_triangles_occluded16(&s->few_tris, rest, r);
-    else
+    if (any)
         rtcOccluded16(rest, s->rtc_few, ctx, r);
 }
 
