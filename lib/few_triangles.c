@@ -57,6 +57,9 @@ int lr__few_triangles_build(lr_scene *s)
             T->e2x[k] = (double)c[0] - a[0];
             T->e2y[k] = (double)c[1] - a[1];
             T->e2z[k] = (double)c[2] - a[2];
+            T->nx[k] = T->e1y[k] * T->e2z[k] - T->e1z[k] * T->e2y[k];
+            T->ny[k] = T->e1z[k] * T->e2x[k] - T->e1x[k] * T->e2z[k];
+            T->nz[k] = T->e1x[k] * T->e2y[k] - T->e1y[k] * T->e2x[k];
             T->geom[k] = (unsigned)g;
             T->prim[k] = (unsigned)t;
         }
@@ -64,32 +67,32 @@ int lr__few_triangles_build(lr_scene *s)
     return 1;
 }
 
-/* Lane i's ray against triangle k (Moller & Trumbore 1997, "Fast,
- * minimum storage ray-triangle intersection"), without its divisions:
- * with D = |det| and the signs of u det, v det, t det turned by det's,
- * u = U / D, v = V / D, t = N / D, and a hit is 0 <= U, V, U + V <= D,
- * tnear D < N and N / D nearer than the best so far, bn / bd (D, bd > 0:
- * N bd < bn D).  One division per lane at the end instead of one per
- * triangle: the intersection's CPU time fell by about a half (vdivpd is
- * slow).  A ray in the triangle's plane (D = 0) passes every test only
- * if N > 0 and N 1 < bn 0, which cannot be.  The tests are combined with
- * & so that GCC vectorises the loop (-fno-trapping-math in the Makefile
- * lets it compute them all). */
+/* Entry i's ray against triangle k (Moller & Trumbore 1997, "Fast,
+ * minimum storage ray-triangle intersection", with the triangle's normal
+ * n = e1 x e2 precomputed: with T = o - a and C = T x d, det = -d.n,
+ * u det = e2.C, v det = -e1.C, t det = T.n, by the triple products'
+ * rotation; 33 operations where the textbook's order takes 41), without
+ * its divisions: with D = |det| and the signs of u det, v det, t det
+ * turned by det's, u = U / D, v = V / D, t = N / D, and a hit is 0 <= U,
+ * V, U + V <= D, tnear D < N and N / D nearer than the best so far,
+ * bn / bd (D, bd > 0: N bd < bn D).  One division per entry at the end
+ * instead of one per triangle: vdivpd is slow, and the intersection's
+ * CPU time fell by about a half.  A ray in the triangle's plane (D = 0)
+ * passes every test only if N > 0 and N 1 < bn 0, which cannot be.  The
+ * tests are combined with & so that GCC vectorises the loop
+ * (-fno-trapping-math in the Makefile lets it compute them all). */
 #define MT_TEST(T, k, ox, oy, oz, dx, dy, dz, tn, D, U, V, N, hit_ok)       \
     do {                                                                    \
-        double px = dy * T->e2z[k] - dz * T->e2y[k];                        \
-        double py = dz * T->e2x[k] - dx * T->e2z[k];                        \
-        double pz = dx * T->e2y[k] - dy * T->e2x[k];                        \
-        double det = T->e1x[k] * px + T->e1y[k] * py + T->e1z[k] * pz;      \
-        double sg = det < 0.0 ? -1.0 : 1.0;                                 \
-        D = det * sg;                                                       \
-        double sx = ox - T->ax[k], sy = oy - T->ay[k], sz = oz - T->az[k];  \
-        U = (sx * px + sy * py + sz * pz) * sg;                             \
-        double qx = sy * T->e1z[k] - sz * T->e1y[k];                        \
-        double qy = sz * T->e1x[k] - sx * T->e1z[k];                        \
-        double qz = sx * T->e1y[k] - sy * T->e1x[k];                        \
-        V = (dx * qx + dy * qy + dz * qz) * sg;                             \
-        N = (T->e2x[k] * qx + T->e2y[k] * qy + T->e2z[k] * qz) * sg;        \
+        double tx = ox - T->ax[k], ty = oy - T->ay[k], tz = oz - T->az[k];  \
+        double cx = ty * dz - tz * dy;                                      \
+        double cy = tz * dx - tx * dz;                                      \
+        double cz = tx * dy - ty * dx;                                      \
+        double dn = dx * T->nx[k] + dy * T->ny[k] + dz * T->nz[k];          \
+        double sg = dn > 0.0 ? -1.0 : 1.0; /* the sign of det = -dn */      \
+        D = dn * -sg;                                                       \
+        U = (T->e2x[k] * cx + T->e2y[k] * cy + T->e2z[k] * cz) * sg;        \
+        V = (T->e1x[k] * cx + T->e1y[k] * cy + T->e1z[k] * cz) * -sg;       \
+        N = (tx * T->nx[k] + ty * T->ny[k] + tz * T->nz[k]) * sg;           \
         hit_ok = (U >= 0.0) & (V >= 0.0) & (U + V <= D) & (N > tn * D);     \
     } while (0)
 

@@ -187,14 +187,16 @@ typedef struct lr__few_sphere {
 
 /* A path-traced scene's triangles when it has no more than
  * LR__FEW_TRIANGLES (and nothing else but spheres): each triangle's
- * corner a and edges b - a, c - a in double from Embree's float corners,
- * its geometry and primitive IDs (few_triangles.c). */
+ * corner a, edges e1 = b - a, e2 = c - a and normal e1 x e2 in double
+ * from Embree's float corners, its geometry and primitive IDs
+ * (few_triangles.c). */
 #define LR__FEW_TRIANGLES 32
 typedef struct lr__few_triangles {
     size_t n;              /* 0: Embree meets the triangles */
     double ax[LR__FEW_TRIANGLES], ay[LR__FEW_TRIANGLES], az[LR__FEW_TRIANGLES];
     double e1x[LR__FEW_TRIANGLES], e1y[LR__FEW_TRIANGLES], e1z[LR__FEW_TRIANGLES];
     double e2x[LR__FEW_TRIANGLES], e2y[LR__FEW_TRIANGLES], e2z[LR__FEW_TRIANGLES];
+    double nx[LR__FEW_TRIANGLES], ny[LR__FEW_TRIANGLES], nz[LR__FEW_TRIANGLES];
     unsigned geom[LR__FEW_TRIANGLES], prim[LR__FEW_TRIANGLES];
 } lr__few_triangles;
 
