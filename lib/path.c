@@ -223,6 +223,7 @@ static void trace_paths(const lr_scene *s, int max_depth,
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     int vec = lr__path16_scene_ok(s);
+    int packed = lr__paths_packed(s);
     lr__path16 w16;
     if (vec)
         lr__path16_begin(s, &w16);
@@ -234,6 +235,10 @@ static void trace_paths(const lr_scene *s, int max_depth,
         struct RTCRay16 sh __attribute__((aligned(64)));
         int valid[16] __attribute__((aligned(64)));
         int shadows = 0;
+        /* Shadow rays straight to spheres.c in double, where it meets
+         * every primitive itself (no float packet to fill and unpack). */
+        lr__rays_packed sp;
+        sp.m = 0;
         for (int i = 0; i < 16; i++)
             valid[i] = 0;
         bounce_numbers(&pairs, key, alive, n, id->sample, depth, U);
@@ -283,11 +288,22 @@ static void trace_paths(const lr_scene *s, int max_depth,
             (*rays)++;
             if (lr__planes_block(s, p->s_org, p->s_dir, p->s_tfar))
                 continue;
-            lr__shadow_ray16(&sh, i, p->s_org, p->s_dir, p->s_tfar);
-            valid[i] = -1;
+            if (packed) {
+                lr__rays_packed_add(&sp, i, p->s_org, p->s_dir, p->s_tfar);
+            } else {
+                lr__shadow_ray16(&sh, i, p->s_org, p->s_dir, p->s_tfar);
+                valid[i] = -1;
+            }
             shadows++;
         }
-        if (shadows) {
+        if (shadows && packed) {
+            double occ[16];
+            lr__paths_occluded_packed(s, &sp, occ);
+            for (int c = 0; c < sp.m; c++)
+                if (occ[c] == 0.0)
+                    P[sp.lane[c]].L = v3_add(P[sp.lane[c]].L,
+                                             P[sp.lane[c]].s_c);
+        } else if (shadows) {
             /* Embree's code for CPUs without AVX-512 checks every lane's
              * ray, masked or not, and aborts on garbage. */
             lr__ray16_quiet_lanes(&sh, valid);

@@ -426,6 +426,22 @@ typedef struct lr__rays_packed {
     int lane[16];
     double ox[16], oy[16], oz[16], dx[16], dy[16], dz[16], tn[16], tf[16];
 } lr__rays_packed;
+/* Adds packet lane `lane`'s ray (org, dir, up to tfar; tnear 0) to P in
+ * double, without a float rounding; a ray Embree could not take
+ * (lr__embree_can_trace) meets nothing, as lr__shadow_ray16 makes it.
+ * Set P->m = 0 before the first. */
+void lr__rays_packed_add(lr__rays_packed *P, int lane, lr__v3 org,
+                         lr__v3 dir, double tfar);
+/* Whether the scene's path packets skip Embree altogether (few_tris
+ * holds its triangles), so that lr__paths_occluded_packed serves it. */
+static inline int lr__paths_packed(const lr_scene *s)
+{
+    return s->few_tris.n > 0;
+}
+/* occ[c] = 1 if P's entry c meets a sphere or triangle at t in (tnear,
+ * tfar), else 0, in a scene lr__paths_packed accepts. */
+void lr__paths_occluded_packed(const lr_scene *s, lr__rays_packed *P,
+                               double occ[16]);
 /* The nearest triangle of each entry with t in (tn, tf): tf[c] becomes
  * its t, tri[c] its index in T, u[c], v[c] its barycentrics (Embree's
  * convention); entries without a hit keep tf and get tri -1. */

@@ -77,6 +77,19 @@ lr_status lr__spheres_build(lr_scene *s, lr_error *err)
     return LR_OK;
 }
 
+/* Entries m .. m8 - 1: rays that meet nothing. */
+static void pad(lr__rays_packed *P)
+{
+    P->m8 = (P->m + 7) & ~7;
+    for (int c = P->m; c < P->m8; c++) {
+        P->ox[c] = P->oy[c] = P->oz[c] = 0.0;
+        P->dx[c] = P->dy[c] = 0.0;
+        P->dz[c] = 1.0;
+        P->tn[c] = 1.0;
+        P->tf[c] = 0.0;
+    }
+}
+
 /* Packs the lanes with valid[i] set (lr__rays_packed).  The lane list
  * is made without a branch per lane (which mispredicted often enough to
  * cost 5% of the Cornell box's CPU time), then the rays gathered. */
@@ -96,14 +109,24 @@ static void pack(const int *valid, const struct RTCRay16 *r,
         P->tf[c] = r->tfar[i];
     }
     P->m = m;
-    P->m8 = (m + 7) & ~7;
-    for (int c = m; c < P->m8; c++) {
-        P->ox[c] = P->oy[c] = P->oz[c] = 0.0;
-        P->dx[c] = P->dy[c] = 0.0;
-        P->dz[c] = 1.0;
+    pad(P);
+}
+
+void lr__rays_packed_add(lr__rays_packed *P, int lane, lr__v3 org,
+                         lr__v3 dir, double tfar)
+{
+    int c = P->m++;
+    P->lane[c] = lane;
+    if (!lr__embree_can_trace(org, dir)) {
+        org = v3(0, 0, 0), dir = v3(0, 0, 1);
+        tfar = 0.0;
         P->tn[c] = 1.0;
-        P->tf[c] = 0.0;
+    } else {
+        P->tn[c] = 0.0;
     }
+    P->ox[c] = org.x, P->oy[c] = org.y, P->oz[c] = org.z;
+    P->dx[c] = dir.x, P->dy[c] = dir.y, P->dz[c] = dir.z;
+    P->tf[c] = tfar;
 }
 
 /* Each entry's nearest sphere hit with t in (tn, tf): tf[c] becomes its
@@ -203,14 +226,14 @@ void lr__paths_occluded16(const lr_scene *s, const int *valid,
     lr__rays_packed P;
     double sph[16], occ[16];
     pack(valid, r, &P);
-    spheres_packed(s, &P, sph);
     if (T->n > 0) {
-        lr__few_triangles_occluded(T, &P, occ);
+        lr__paths_occluded_packed(s, &P, occ);
         for (int c = 0; c < P.m; c++)
-            if (sph[c] >= 0.0 || occ[c] != 0.0)
+            if (occ[c] != 0.0)
                 r->tfar[P.lane[c]] = -INFINITY; /* Embree's mark */
         return;
     }
+    spheres_packed(s, &P, sph);
     /* The spheres first: a ray they block needs no Embree. */
     int rest[16] __attribute__((aligned(64)));
     int any = 0;
@@ -225,6 +248,17 @@ void lr__paths_occluded16(const lr_scene *s, const int *valid,
         any |= rest[i];
     if (any)
         rtcOccluded16(rest, s->rtc_few, ctx, r);
+}
+
+void lr__paths_occluded_packed(const lr_scene *s, lr__rays_packed *P,
+                               double occ[16])
+{
+    double sph[16];
+    pad(P);
+    spheres_packed(s, P, sph);
+    lr__few_triangles_occluded(&s->few_tris, P, occ);
+    for (int c = 0; c < P->m; c++)
+        occ[c] = sph[c] >= 0.0 ? 1.0 : occ[c];
 }
 
 void lr__paths_camera16(const lr_scene *s, struct RTCRayHit16 *rh, int n,
