@@ -314,6 +314,21 @@ static void trace_paths(const lr_scene *s, int max_depth,
                     P[i].L = v3_add(P[i].L, P[i].s_c);
         }
         int go = 0;
+        if (packed) {
+            /* The continuation rays too, in double (what reads a hit
+             * reads the ray from P, and t from rh). */
+            lr__rays_packed cp;
+            cp.m = 0;
+            for (int i = 0; i < n; i++)
+                if (alive[i])
+                    lr__rays_packed_add(&cp, i, P[i].org, P[i].dir, INFINITY);
+            go = cp.m;
+            if (!go)
+                break;
+            lr__paths_intersect_packed(s, &cp, rh);
+            *rays += (uint64_t)go;
+            continue;
+        }
         for (int i = 0; i < 16; i++) {
             valid[i] = i < n && alive[i] ? -1 : 0;
             if (!valid[i])

@@ -442,6 +442,12 @@ static inline int lr__paths_packed(const lr_scene *s)
  * tfar), else 0, in a scene lr__paths_packed accepts. */
 void lr__paths_occluded_packed(const lr_scene *s, lr__rays_packed *P,
                                double occ[16]);
+/* Each entry's nearest sphere or triangle hit, written into rh's lane
+ * as lr__paths_intersect16 writes it (geomID, primID, u, v, tfar;
+ * geomID RTC_INVALID_GEOMETRY_ID for a miss), in a scene
+ * lr__paths_packed accepts.  rh's rays are neither read nor written. */
+void lr__paths_intersect_packed(const lr_scene *s, lr__rays_packed *P,
+                                struct RTCRayHit16 *rh);
 /* The nearest triangle of each entry with t in (tn, tf): tf[c] becomes
  * its t, tri[c] its index in T, u[c], v[c] its barycentrics (Embree's
  * convention); entries without a hit keep tf and get tri -1. */

@@ -250,6 +250,34 @@ void lr__paths_occluded16(const lr_scene *s, const int *valid,
         rtcOccluded16(rest, s->rtc_few, ctx, r);
 }
 
+void lr__paths_intersect_packed(const lr_scene *s, lr__rays_packed *P,
+                                struct RTCRayHit16 *rh)
+{
+    const lr__few_triangles *T = &s->few_tris;
+    double tri[16], u[16], v[16], sph[16];
+    pad(P);
+    lr__few_triangles_intersect(T, P, tri, u, v);
+    spheres_packed(s, P, sph);
+    for (int c = 0; c < P->m; c++) {
+        int i = P->lane[c];
+        rh->hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
+        rh->ray.tfar[i] = (float)P->tf[c];
+        if (sph[c] >= 0.0) {
+            rh->hit.geomID[i] = s->few[(size_t)sph[c]].id;
+            rh->hit.primID[i] = 0;
+            rh->hit.u[i] = rh->hit.v[i] = 0.0f;
+        } else if (tri[c] >= 0.0) {
+            size_t k = (size_t)tri[c];
+            rh->hit.geomID[i] = T->geom[k];
+            rh->hit.primID[i] = T->prim[k];
+            rh->hit.u[i] = (float)u[c];
+            rh->hit.v[i] = (float)v[c];
+        } else {
+            rh->hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
+        }
+    }
+}
+
 void lr__paths_occluded_packed(const lr_scene *s, lr__rays_packed *P,
                                double occ[16])
 {
