@@ -186,18 +186,26 @@ typedef struct lr__few_sphere {
 } lr__few_sphere;
 
 /* A path-traced scene's triangles when it has no more than
- * LR__FEW_TRIANGLES (and nothing else but spheres): each triangle's
- * corner a, edges e1 = b - a, e2 = c - a and normal e1 x e2 in double
- * from Embree's float corners, its geometry and primitive IDs
- * (few_triangles.c). */
+ * LR__FEW_TRIANGLES (and nothing else but spheres), as shapes
+ * (few_triangles.c): a triangle (x, s1, s2), or a parallelogram that
+ * two triangles of a mesh (x, s1, s2) and (y, s1, s2) with x + y = s1 +
+ * s2 make (a rectangle object's two).  Each shape's corner x, edges e1 =
+ * s1 - x, e2 = s2 - x and normal e1 x e2 in double from Embree's float
+ * corners; then per triangle its geometry and primitive IDs and where
+ * its own corners b and c are among (x or y, s1, s2). */
 #define LR__FEW_TRIANGLES 32
 typedef struct lr__few_triangles {
-    size_t n;              /* 0: Embree meets the triangles */
+    size_t n;              /* triangles; 0: Embree meets them */
+    int n_shapes;
     double ax[LR__FEW_TRIANGLES], ay[LR__FEW_TRIANGLES], az[LR__FEW_TRIANGLES];
     double e1x[LR__FEW_TRIANGLES], e1y[LR__FEW_TRIANGLES], e1z[LR__FEW_TRIANGLES];
     double e2x[LR__FEW_TRIANGLES], e2y[LR__FEW_TRIANGLES], e2z[LR__FEW_TRIANGLES];
     double nx[LR__FEW_TRIANGLES], ny[LR__FEW_TRIANGLES], nz[LR__FEW_TRIANGLES];
+    double quad[LR__FEW_TRIANGLES];      /* 1: a parallelogram */
+    int first[LR__FEW_TRIANGLES];        /* its triangle (x, s1, s2) */
+    int second[LR__FEW_TRIANGLES];       /* (y, s1, s2), or -1 */
     unsigned geom[LR__FEW_TRIANGLES], prim[LR__FEW_TRIANGLES];
+    unsigned char corner_b[LR__FEW_TRIANGLES], corner_c[LR__FEW_TRIANGLES];
 } lr__few_triangles;
 
 struct lr_scene {
@@ -449,8 +457,9 @@ void lr__paths_occluded_packed(const lr_scene *s, lr__rays_packed *P,
 void lr__paths_intersect_packed(const lr_scene *s, lr__rays_packed *P,
                                 struct RTCRayHit16 *rh);
 /* The nearest triangle of each entry with t in (tn, tf): tf[c] becomes
- * its t, tri[c] its index in T, u[c], v[c] its barycentrics (Embree's
- * convention); entries without a hit keep tf and get tri -1. */
+ * its t, tri[c] its index in T (geom, prim), u[c], v[c] its
+ * barycentrics (Embree's convention); entries without a hit keep tf and
+ * get tri -1. */
 void lr__few_triangles_intersect(const lr__few_triangles *T,
                                  lr__rays_packed *P, double tri[16],
                                  double u[16], double v[16]);
