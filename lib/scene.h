@@ -554,7 +554,14 @@ lr__v3 lr__offset_origin(const lr__hit *hit, lr__v3 dir);
  * fails as missing Embree's geometry (the infinite planes are still
  * tested), counting it in lr__scene_skipped_rays; callers that fill
  * packets (lr__shadow_ray16) must check it themselves. */
-int lr__embree_can_trace(lr__v3 org, lr__v3 dir);
+#define LR__EMBREE_MAX_COORD 1.8e18
+static inline int lr__embree_can_trace(lr__v3 org, lr__v3 dir)
+{
+    /* Written so that NaN fails; & rather than && (no branch each). */
+    const double m = LR__EMBREE_MAX_COORD;
+    return (fabs(org.x) <= m) & (fabs(org.y) <= m) & (fabs(org.z) <= m) &
+           (fabs(dir.x) <= m) & (fabs(dir.y) <= m) & (fabs(dir.z) <= m);
+}
 unsigned long long lr__scene_skipped_rays(const lr_scene *s);
 
 #endif

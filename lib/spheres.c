@@ -131,9 +131,11 @@ void lr__rays_packed_add(lr__rays_packed *P, int lane, lr__v3 org,
 
 /* Each entry's nearest sphere hit with t in (tn, tf): tf[c] becomes its
  * t and sph[c] the sphere's index (else tf stays and sph is -1).  The
- * cancellation-free quadratic of trace.c's sphere refinement (l = |o -
- * c|, c' = (l - r)(l + r), q = -(b + sign(b) sqrt(disc)), the roots q /
- * a and c' / q), eight entries at a time in loops that GCC vectorises
+ * quadratic as trace.c's sphere refinement solves it (q = -(b + sign(b)
+ * sqrt(disc)), the roots q / a and c / q), but with c = |o - c|^2 - r^2
+ * rather than (l - r)(l + r), l = |o - c|: a square root less, and
+ * lr__hit_complete solves the chosen sphere's t again in that careful
+ * form anyway.  Eight entries at a time in loops that GCC vectorises
  * (-fno-trapping-math in the Makefile lets it compute every entry's
  * square roots and quotients, and select): one sphere test per lane in
  * turn had cost 11% of the Cornell box's CPU time.  An entry with a
@@ -148,15 +150,14 @@ static void spheres_packed(const lr_scene *s, lr__rays_packed *P,
             sph[i] = -1.0;
         for (size_t j = 0; j < s->n_few; j++) {
             const lr__few_sphere *f = &s->few[j];
-            double cx = f->cx, cy = f->cy, cz = f->cz, rad = f->r;
+            double cx = f->cx, cy = f->cy, cz = f->cz, r2 = f->r * f->r;
             for (int i = c0; i < c0 + 8; i++) {
                 double dx = P->dx[i], dy = P->dy[i], dz = P->dz[i];
                 double ocx = P->ox[i] - cx, ocy = P->oy[i] - cy,
                        ocz = P->oz[i] - cz;
                 double a = dx * dx + dy * dy + dz * dz;
                 double b = ocx * dx + ocy * dy + ocz * dz;
-                double l = sqrt(ocx * ocx + ocy * ocy + ocz * ocz);
-                double c = (l - rad) * (l + rad);
+                double c = ocx * ocx + ocy * ocy + ocz * ocz - r2;
                 double disc = b * b - a * c;
                 int ok = (disc >= 0.0) & (a > 0.0);
                 double sq = sqrt(disc > 0.0 ? disc : 0.0);
