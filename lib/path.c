@@ -224,7 +224,8 @@ static void trace_paths(const lr_scene *s, int max_depth,
     rtcInitIntersectContext(&ctx);
     int vec = lr__path16_scene_ok(s);
     int packed = lr__paths_packed(s);
-    lr__path16 w16;
+    /* One per thread, zero at the start (lr__path16_begin). */
+    static _Thread_local lr__path16 w16;
     if (vec)
         lr__path16_begin(s, &w16);
     /* A bounce's numbers; lanes that are done keep their last ones (the
