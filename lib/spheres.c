@@ -177,6 +177,32 @@ static void spheres_packed(const lr_scene *s, lr__rays_packed *P,
     }
 }
 
+/* Entry c's hit, a sphere (sph[c] >= 0) or else a triangle (tri[c] >=
+ * 0), written into its lane of rh as rtcIntersect16 writes it; 0 if it
+ * has neither (rh untouched). */
+static int write_hit(const lr_scene *s, const lr__rays_packed *P, int c,
+                     const double *sph, const double *tri, const double *u,
+                     const double *v, struct RTCRayHit16 *rh)
+{
+    int i = P->lane[c];
+    if (sph[c] >= 0.0) {
+        rh->hit.geomID[i] = s->few[(size_t)sph[c]].id;
+        rh->hit.primID[i] = 0;
+        rh->hit.u[i] = rh->hit.v[i] = 0.0f;
+    } else if (tri[c] >= 0.0) {
+        size_t k = (size_t)tri[c];
+        rh->hit.geomID[i] = s->few_tris.geom[k];
+        rh->hit.primID[i] = s->few_tris.prim[k];
+        rh->hit.u[i] = (float)u[c];
+        rh->hit.v[i] = (float)v[c];
+    } else {
+        return 0;
+    }
+    rh->ray.tfar[i] = (float)P->tf[c];
+    rh->hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
+    return 1;
+}
+
 void lr__paths_intersect16(const lr_scene *s, const int *valid,
                            struct RTCIntersectContext *ctx,
                            struct RTCRayHit16 *rh)
@@ -195,24 +221,12 @@ void lr__paths_intersect16(const lr_scene *s, const int *valid,
     if (T->n > 0)
         lr__few_triangles_intersect(T, &P, tri, u, v);
     spheres_packed(s, &P, sph);
-    for (int c = 0; c < P.m; c++) {
-        int i = P.lane[c];
-        if (sph[c] >= 0.0) {
-            rh->hit.geomID[i] = s->few[(size_t)sph[c]].id;
-            rh->hit.primID[i] = 0;
-            rh->hit.u[i] = rh->hit.v[i] = 0.0f;
-        } else if (T->n > 0 && tri[c] >= 0.0) {
-            size_t k = (size_t)tri[c];
-            rh->hit.geomID[i] = T->geom[k];
-            rh->hit.primID[i] = T->prim[k];
-            rh->hit.u[i] = (float)u[c];
-            rh->hit.v[i] = (float)v[c];
-        } else {
-            continue; /* Embree's answer, or none */
-        }
-        rh->ray.tfar[i] = (float)P.tf[c];
-        rh->hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
-    }
+    if (T->n == 0)
+        for (int c = 0; c < P.m; c++)
+            tri[c] = -1.0;
+    /* Lanes that met neither keep Embree's answer, or none. */
+    for (int c = 0; c < P.m; c++)
+        write_hit(s, &P, c, sph, tri, u, v, rh);
 }
 
 void lr__paths_occluded16(const lr_scene *s, const int *valid,
@@ -259,24 +273,11 @@ void lr__paths_intersect_packed(const lr_scene *s, lr__rays_packed *P,
     pad(P);
     lr__few_triangles_intersect(T, P, tri, u, v);
     spheres_packed(s, P, sph);
-    for (int c = 0; c < P->m; c++) {
-        int i = P->lane[c];
-        rh->hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
-        rh->ray.tfar[i] = (float)P->tf[c];
-        if (sph[c] >= 0.0) {
-            rh->hit.geomID[i] = s->few[(size_t)sph[c]].id;
-            rh->hit.primID[i] = 0;
-            rh->hit.u[i] = rh->hit.v[i] = 0.0f;
-        } else if (tri[c] >= 0.0) {
-            size_t k = (size_t)tri[c];
-            rh->hit.geomID[i] = T->geom[k];
-            rh->hit.primID[i] = T->prim[k];
-            rh->hit.u[i] = (float)u[c];
-            rh->hit.v[i] = (float)v[c];
-        } else {
-            rh->hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
+    for (int c = 0; c < P->m; c++)
+        if (!write_hit(s, P, c, sph, tri, u, v, rh)) {
+            rh->hit.geomID[P->lane[c]] = RTC_INVALID_GEOMETRY_ID;
+            rh->hit.instID[0][P->lane[c]] = RTC_INVALID_GEOMETRY_ID;
         }
-    }
 }
 
 void lr__paths_occluded_packed(const lr_scene *s, lr__rays_packed *P,
