@@ -73,7 +73,12 @@ static void bounce_numbers(const lr__pixel_pairs *pairs, uint64_t key[16],
 {
     uint32_t dim = DIM_FIRST + DIMS_PER_BOUNCE * (uint32_t)depth;
     if (dim < DIM_SOBOL_END) {
-        for (uint32_t j = 0; j < DIMS_PER_BOUNCE; j += 2)
+        /* Dimension 6 (roulette's) only where roulette is played, and 7
+         * never: a bounce before RR_FROM takes three pairs, not four
+         * (the Sobol pairs were 9% of the Cornell box's CPU time). */
+        uint32_t end = depth + 1 >= RR_FROM ? DIMS_PER_BOUNCE
+                                            : DIMS_PER_BOUNCE - 2;
+        for (uint32_t j = 0; j < end; j += 2)
             lr__pixel_pairs_get16(pairs, first, n, dim + j,
                                   (double (*)[16])u[j]);
         return;
@@ -196,7 +201,7 @@ static void trace_paths(const lr_scene *s, int max_depth,
                         const lr__sample_id *id, lr__v3 L[16],
                         uint64_t *rays)
 {
-    lr__intersect16(s, rh, n, rays);
+    lr__paths_camera16(s, rh, n, rays);
     lr__pixel_pairs pairs;
     lr__pixel_pairs_init(&pairs, id->sampler, id->pixel, DIM_FIRST,
                          n > 1 ? SOBOL_PAIRS : 0);
@@ -223,7 +228,9 @@ static void trace_paths(const lr_scene *s, int max_depth,
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     int vec = lr__path16_scene_ok(s);
-    lr__path16 w16;
+    int packed = lr__paths_packed(s);
+    /* One per thread, zero at the start (lr__path16_begin). */
+    static _Thread_local lr__path16 w16;
     if (vec)
         lr__path16_begin(s, &w16);
     /* A bounce's numbers; lanes that are done keep their last ones (the
@@ -234,6 +241,10 @@ static void trace_paths(const lr_scene *s, int max_depth,
         struct RTCRay16 sh __attribute__((aligned(64)));
         int valid[16] __attribute__((aligned(64)));
         int shadows = 0;
+        /* Shadow rays straight to spheres.c in double, where it meets
+         * every primitive itself (no float packet to fill and unpack). */
+        lr__rays_packed sp;
+        sp.m = 0;
         for (int i = 0; i < 16; i++)
             valid[i] = 0;
         bounce_numbers(&pairs, key, alive, n, id->sample, depth, U);
@@ -283,11 +294,22 @@ static void trace_paths(const lr_scene *s, int max_depth,
             (*rays)++;
             if (lr__planes_block(s, p->s_org, p->s_dir, p->s_tfar))
                 continue;
-            lr__shadow_ray16(&sh, i, p->s_org, p->s_dir, p->s_tfar);
-            valid[i] = -1;
+            if (packed) {
+                lr__rays_packed_add(&sp, i, p->s_org, p->s_dir, p->s_tfar);
+            } else {
+                lr__shadow_ray16(&sh, i, p->s_org, p->s_dir, p->s_tfar);
+                valid[i] = -1;
+            }
             shadows++;
         }
-        if (shadows) {
+        if (shadows && packed) {
+            double occ[16];
+            lr__paths_occluded_packed(s, &sp, occ);
+            for (int c = 0; c < sp.m; c++)
+                if (occ[c] == 0.0)
+                    P[sp.lane[c]].L = v3_add(P[sp.lane[c]].L,
+                                             P[sp.lane[c]].s_c);
+        } else if (shadows) {
             /* Embree's code for CPUs without AVX-512 checks every lane's
              * ray, masked or not, and aborts on garbage. */
             lr__ray16_quiet_lanes(&sh, valid);
@@ -298,6 +320,21 @@ static void trace_paths(const lr_scene *s, int max_depth,
                     P[i].L = v3_add(P[i].L, P[i].s_c);
         }
         int go = 0;
+        if (packed) {
+            /* The continuation rays too, in double (what reads a hit
+             * reads the ray from P, and t from rh). */
+            lr__rays_packed cp;
+            cp.m = 0;
+            for (int i = 0; i < n; i++)
+                if (alive[i])
+                    lr__rays_packed_add(&cp, i, P[i].org, P[i].dir, INFINITY);
+            go = cp.m;
+            if (!go)
+                break;
+            lr__paths_intersect_packed(s, &cp, rh);
+            *rays += (uint64_t)go;
+            continue;
+        }
         for (int i = 0; i < 16; i++) {
             valid[i] = i < n && alive[i] ? -1 : 0;
             if (!valid[i])

@@ -19,7 +19,6 @@
 
 #include <float.h>
 #include <math.h>
-#include <string.h>
 
 int lr__path16_enabled = 1;
 
@@ -207,7 +206,6 @@ static void lambert16(lr__v3 amb, int rr,
 void lr__path16_begin(const lr_scene *s, lr__path16 *w)
 {
     emitters_get(s, &w->E);
-    memset(&w->l, 0, sizeof w->l);
 }
 
 void lr__path16_lambert(const lr_scene *s, lr__path16 *w, int depth,

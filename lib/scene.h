@@ -185,17 +185,42 @@ typedef struct lr__few_sphere {
     unsigned id;           /* its Embree geometry ID */
 } lr__few_sphere;
 
+/* A path-traced scene's triangles when it has no more than
+ * LR__FEW_TRIANGLES (and nothing else but spheres), as shapes
+ * (few_triangles.c): a triangle (x, s1, s2), or a parallelogram that
+ * two triangles of a mesh (x, s1, s2) and (y, s1, s2) with x + y = s1 +
+ * s2 make (a rectangle object's two).  Each shape's corner x, edges e1 =
+ * s1 - x, e2 = s2 - x and normal e1 x e2 in double from Embree's float
+ * corners; then per triangle its geometry and primitive IDs and where
+ * its own corners b and c are among (x or y, s1, s2). */
+#define LR__FEW_TRIANGLES 32
+typedef struct lr__few_triangles {
+    size_t n;              /* triangles; 0: Embree meets them */
+    int n_shapes;
+    double ax[LR__FEW_TRIANGLES], ay[LR__FEW_TRIANGLES], az[LR__FEW_TRIANGLES];
+    double e1x[LR__FEW_TRIANGLES], e1y[LR__FEW_TRIANGLES], e1z[LR__FEW_TRIANGLES];
+    double e2x[LR__FEW_TRIANGLES], e2y[LR__FEW_TRIANGLES], e2z[LR__FEW_TRIANGLES];
+    double nx[LR__FEW_TRIANGLES], ny[LR__FEW_TRIANGLES], nz[LR__FEW_TRIANGLES];
+    double quad[LR__FEW_TRIANGLES];      /* 1: a parallelogram */
+    int first[LR__FEW_TRIANGLES];        /* its triangle (x, s1, s2) */
+    int second[LR__FEW_TRIANGLES];       /* (y, s1, s2), or -1 */
+    unsigned geom[LR__FEW_TRIANGLES], prim[LR__FEW_TRIANGLES];
+    unsigned char corner_b[LR__FEW_TRIANGLES], corner_c[LR__FEW_TRIANGLES];
+} lr__few_triangles;
+
 struct lr_scene {
     RTCDevice device;
     RTCScene rtc;
     /* With 1 to LR__FEW_SPHERES spheres: Embree's scene of everything
-     * else, and the spheres (spheres.c); else NULL and 0. */
+     * else, and the spheres (spheres.c); else NULL and 0.  NULL too when
+     * few_tris holds every triangle: then no Embree scene is asked. */
     RTCScene rtc_few;
     /* "accel": {"robust": false}: both Embree scenes built without
      * RTC_SCENE_FLAG_ROBUST (zero, the default, builds them robust). */
     int not_robust;
     lr__few_sphere few[LR__FEW_SPHERES];
     size_t n_few;
+    lr__few_triangles few_tris;
     lr__material *materials;
     size_t n_materials;
     lr__light *lights;
@@ -391,6 +416,62 @@ void lr__intersect16(const lr_scene *s, struct RTCRayHit16 *rh, int n,
 lr_status lr__spheres_build(lr_scene *s, lr_error *err);
 /* 0: scenes loaded from now on keep Embree's spheres (for tests). */
 extern int lr__few_spheres_enabled;
+/* The camera rays of a packet of n lanes (lr__intersect16, or in a scene
+ * of a few primitives lr__paths_intersect16: the same hits as
+ * continuation rays find). */
+void lr__paths_camera16(const lr_scene *s, struct RTCRayHit16 *rh, int n,
+                        uint64_t *rays);
+
+/* few_triangles.c.  Fills s->few_tris and returns 1 if the scene's
+ * Embree geometries are spheres and 1 to LR__FEW_TRIANGLES triangles
+ * (and lr__few_triangles_enabled); else leaves few_tris.n 0 and returns
+ * 0.  At commit, by lr__spheres_build. */
+int lr__few_triangles_build(lr_scene *s);
+/* 0: scenes loaded from now on leave their triangles to Embree (tests). */
+extern int lr__few_triangles_enabled;
+/* A packet's valid lanes' rays packed to the front, in double
+ * (spheres.c fills it): entry c is packet lane lane[c], c < m; entries
+ * m .. m8 - 1 (m8: m rounded up to a multiple of 8, the lane loops'
+ * step) hold rays that meet nothing (tnear 1, tfar 0).  The lane loops
+ * then cost what the live lanes need: on the Cornell box a continuation
+ * packet had 10.6 live lanes of 16 on average, a shadow packet 7.4. */
+typedef struct lr__rays_packed {
+    int m, m8;
+    int lane[16];
+    double ox[16], oy[16], oz[16], dx[16], dy[16], dz[16], tn[16], tf[16];
+} lr__rays_packed;
+/* Adds packet lane `lane`'s ray (org, dir, up to tfar; tnear 0) to P in
+ * double, without a float rounding; a ray Embree could not take
+ * (lr__embree_can_trace) meets nothing, as lr__shadow_ray16 makes it.
+ * Set P->m = 0 before the first. */
+void lr__rays_packed_add(lr__rays_packed *P, int lane, lr__v3 org,
+                         lr__v3 dir, double tfar);
+/* Whether the scene's path packets skip Embree altogether (few_tris
+ * holds its triangles), so that lr__paths_occluded_packed serves it. */
+static inline int lr__paths_packed(const lr_scene *s)
+{
+    return s->few_tris.n > 0;
+}
+/* occ[c] = 1 if P's entry c meets a sphere or triangle at t in (tnear,
+ * tfar), else 0, in a scene lr__paths_packed accepts. */
+void lr__paths_occluded_packed(const lr_scene *s, lr__rays_packed *P,
+                               double occ[16]);
+/* Each entry's nearest sphere or triangle hit, written into rh's lane
+ * as lr__paths_intersect16 writes it (geomID, primID, u, v, tfar;
+ * geomID RTC_INVALID_GEOMETRY_ID for a miss), in a scene
+ * lr__paths_packed accepts.  rh's rays are neither read nor written. */
+void lr__paths_intersect_packed(const lr_scene *s, lr__rays_packed *P,
+                                struct RTCRayHit16 *rh);
+/* The nearest triangle of each entry with t in (tn, tf): tf[c] becomes
+ * its t, tri[c] its index in T (geom, prim), u[c], v[c] its
+ * barycentrics (Embree's convention); entries without a hit keep tf and
+ * get tri -1. */
+void lr__few_triangles_intersect(const lr__few_triangles *T,
+                                 lr__rays_packed *P, double tri[16],
+                                 double u[16], double v[16]);
+/* occ[c] = 1 if entry c meets a triangle at t in (tn, tf), else 0. */
+void lr__few_triangles_occluded(const lr__few_triangles *T,
+                                const lr__rays_packed *P, double occ[16]);
 void lr__paths_intersect16(const lr_scene *s, const int *valid,
                            struct RTCIntersectContext *ctx,
                            struct RTCRayHit16 *rh);
@@ -479,7 +560,14 @@ lr__v3 lr__offset_origin(const lr__hit *hit, lr__v3 dir);
  * fails as missing Embree's geometry (the infinite planes are still
  * tested), counting it in lr__scene_skipped_rays; callers that fill
  * packets (lr__shadow_ray16) must check it themselves. */
-int lr__embree_can_trace(lr__v3 org, lr__v3 dir);
+#define LR__EMBREE_MAX_COORD 1.8e18
+static inline int lr__embree_can_trace(lr__v3 org, lr__v3 dir)
+{
+    /* Written so that NaN fails; & rather than && (no branch each). */
+    const double m = LR__EMBREE_MAX_COORD;
+    return (fabs(org.x) <= m) & (fabs(org.y) <= m) & (fabs(org.z) <= m) &
+           (fabs(dir.x) <= m) & (fabs(dir.y) <= m) & (fabs(dir.z) <= m);
+}
 unsigned long long lr__scene_skipped_rays(const lr_scene *s);
 
 #endif

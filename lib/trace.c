@@ -80,16 +80,9 @@ static void finish_hit(lr__hit *h, lr__v3 org, lr__v3 dir, double t,
  * of the origin (the scene's limits), so such a ray is not given to
  * Embree: it misses Embree's geometry (a point light that far away gives
  * nothing measurable anyway), still meets the infinite planes, and is
- * counted (lr__scene_skipped_rays). */
-#define EMBREE_MAX_COORD 1.8e18
-
-int lr__embree_can_trace(lr__v3 org, lr__v3 dir)
-{
-    /* Written so that NaN fails. */
-    return fabs(org.x) <= EMBREE_MAX_COORD && fabs(org.y) <= EMBREE_MAX_COORD &&
-           fabs(org.z) <= EMBREE_MAX_COORD && fabs(dir.x) <= EMBREE_MAX_COORD &&
-           fabs(dir.y) <= EMBREE_MAX_COORD && fabs(dir.z) <= EMBREE_MAX_COORD;
-}
+ * counted (lr__scene_skipped_rays).
+ * (The bound, LR__EMBREE_MAX_COORD, and the test, lr__embree_can_trace,
+ * are in scene.h: inline, as the path integrator asks it per ray.) */
 
 static void count_skipped(const lr_scene *s)
 {
