@@ -23,6 +23,7 @@ Conventions that make the two the same picture:
     an illuminant and comes out tinted (see mitsuba_bench.py).
 """
 import math
+import os
 
 
 def frame(n):
@@ -82,6 +83,19 @@ ENVLIT = {
 
 SCENES = {'cornell': CORNELL, 'envlit': ENVLIT}
 
+# The Cornell box with the bunny (scenes/meshes/bunny.obj, 3,674
+# triangles, flat-shaded on both sides) in place of the white sphere: a
+# scene that lensray traces with Embree (few_triangles.c and spheres.c
+# take only scenes of at most 32 triangles and 8 spheres), for speed.py
+# --scene bunny-box.
+BUNNY = os.path.join(os.path.dirname(os.path.abspath(__file__)),
+                     '..', '..', 'scenes', 'meshes', 'bunny.obj')
+BUNNY_BOX = dict(CORNELL, name='bunny-box', objects=[
+    o for o in CORNELL['objects'] if o.get('radius') != 2] + [
+    {'type': 'mesh', 'file': os.path.abspath(BUNNY), 'smooth': False,
+     'material': 'white', 'scale': 0.45, 'translate': [-2, 0, -6.5]}])
+SPEED_SCENES = {'cornell': CORNELL, 'bunny-box': BUNNY_BOX}
+
 
 def sky(w=128, h=64):
     """The environment map: a blue-to-white sky over a dark ground and a
@@ -111,8 +125,16 @@ def lensray_json(sc, width, height, spp, max_depth, extra=None):
     r = {'width': width, 'height': height, 'spp': spp, 'max_depth': max_depth,
          'integrator': 'path', 'adaptive': False}
     r.update(extra or {})
+    objs = []
+    for o in sc['objects']:
+        if o['type'] == 'mesh':
+            o = {'type': 'mesh', 'file': o['file'], 'smooth': o['smooth'],
+                 'material': o['material'],
+                 'transform': [{'scale': o['scale']},
+                               {'translate': o['translate']}]}
+        objs.append(o)
     out = {'camera': dict(sc['camera'], model='pinhole'), 'render': r,
-           'materials': sc['materials'], 'objects': sc['objects']}
+           'materials': sc['materials'], 'objects': objs}
     if 'environment' in sc:
         out['environment'] = sc['environment']
     return out
@@ -162,6 +184,9 @@ def mitsuba_dict(mi, sc, width, height, spp, max_depth, env_path=None,
         if o['type'] == 'sphere':
             s = {'type': 'sphere', 'center': o['center'],
                  'radius': float(o['radius'])}
+        elif o['type'] == 'mesh':
+            s = {'type': 'obj', 'filename': o['file'], 'face_normals': True,
+                 'to_world': T().translate(o['translate']).scale(o['scale'])}
         else:
             n = o['normal']
             u, v = frame(n)

@@ -72,6 +72,9 @@ def main():
                     help='a second lensray (e.g. built from an older commit), '
                          'measured in the same run as "lensray_base"')
     ap.add_argument('--out', default='build/bench/path')
+    ap.add_argument('--scene', default='cornell', choices=sorted(scenes.SPEED_SCENES),
+                    help='the Cornell box (the issue\'s scene), or it with the '
+                         'bunny, traced with Embree')
     ap.add_argument('--size', type=int, default=128)
     ap.add_argument('--depth', type=int, default=6)
     ap.add_argument('--spp', type=int, default=64, help='timing spp')
@@ -87,7 +90,7 @@ def main():
     import numpy as np
     mi.set_variant('llvm_ad_rgb')
     os.makedirs(a.out, exist_ok=True)
-    sc = scenes.CORNELL
+    sc = scenes.SPEED_SCENES[a.scene]
     W = H = a.size
 
     def mitsuba(spp, seed=0):
@@ -99,11 +102,11 @@ def main():
         return img, time.time() - t, time.process_time() - c
 
     def lensray(spp, adaptive, binary=a.lensray):
-        path = os.path.join(a.out, 'cornell.json')
+        path = os.path.join(a.out, a.scene + '.json')
         extra = {'adaptive': adaptive}
         with open(path, 'w') as f:
             json.dump(scenes.lensray_json(sc, W, H, spp, a.depth, extra), f)
-        exr = os.path.join(a.out, 'cornell-lensray.exr')
+        exr = os.path.join(a.out, a.scene + '-lensray.exr')
         t, c = time.time(), children_cpu()
         subprocess.run([binary, 'render', path, '-o', exr, '-q'],
                        check=True)
@@ -114,7 +117,8 @@ def main():
     # halves: their difference measures the reference's own noise, which
     # adds to every measured error (E (x - r)^2 = E (x - t)^2 + E (r - t)^2)
     # and is subtracted.
-    ref_path = os.path.join(a.out, 'ref2-%d-%d-%d.npz' % (W, a.depth, a.ref_spp))
+    ref_path = os.path.join(a.out, 'ref2-%s%d-%d-%d.npz' % (
+        '' if a.scene == 'cornell' else a.scene + '-', W, a.depth, a.ref_spp))
     if os.path.exists(ref_path):
         z = np.load(ref_path)
         half_a, half_b = z['a'], z['b']
@@ -181,7 +185,7 @@ def main():
 
 def summarise(a, W, H, ref_noise, name, L, M):
     """Prints the summary line of lensray `name` (L) against Mitsuba (M)."""
-    summary = {'lensray': name, 'scene': 'cornell (bench/path/scenes.py)',
+    summary = {'lensray': name, 'scene': '%s (bench/path/scenes.py)' % a.scene,
                'size': [W, H], 'load_average': [round(x, 2) for x in os.getloadavg()],
                'max_depth': a.depth, 'mitsuba_max_depth': a.depth + 2,
                'ref_spp': a.ref_spp, 'ref_relmse': float('%.3g' % ref_noise),
