@@ -172,13 +172,18 @@ static void test_read_settings_gltf_camera(void **state)
 {
     (void)state;
     make("camera-light", "camera-light.glb");
-    char json[512], glb[512];
-    snprintf(json, sizeof json, "%s/camera-light.json", lr_test_tmpdir());
+    /* The scene in a directory of its own: a .json in the shared
+     * temporary directory would be listed as a lens by test_prescription's
+     * LENSRAY_LENS_DIR check. */
+    char dir[512], json[600], glb[512];
+    snprintf(dir, sizeof dir, "%s/read-settings", lr_test_tmpdir());
+    mkdir(dir, 0700);
+    snprintf(json, sizeof json, "%s/camera-light.json", dir);
     snprintf(glb, sizeof glb, "%s/camera-light.glb", lr_test_tmpdir());
     FILE *f = fopen(json, "w");
     assert_non_null(f);
     fputs("{\"render\": {\"width\": 60}, \"objects\": [{\"type\": "
-          "\"gltf\", \"file\": \"camera-light.glb\", \"camera\": true}]}", f);
+          "\"gltf\", \"file\": \"../camera-light.glb\", \"camera\": true}]}", f);
     fclose(f);
     const char *paths[] = {json, glb};
     for (int k = 0; k < 2; k++) {

@@ -8,6 +8,7 @@
 #include <stdio.h>
 #include <math.h>
 #include <string.h>
+#include <sys/stat.h>
 
 static lr_status load(const char *json, lr_scene **out, lr_error *err)
 {
@@ -287,8 +288,12 @@ static void test_read_settings(void **state)
         }
     }
     /* A scene whose mesh is missing: its camera and settings still read. */
-    char path[512];
-    snprintf(path, sizeof path, "%s/no-mesh.json", lr_test_tmpdir());
+    /* In a directory of its own: a .json in the shared temporary
+     * directory would be listed as a lens by test_prescription. */
+    char dir[512], path[600];
+    snprintf(dir, sizeof dir, "%s/read-settings", lr_test_tmpdir());
+    mkdir(dir, 0700);
+    snprintf(path, sizeof path, "%s/no-mesh.json", dir);
     FILE *f = fopen(path, "w");
     assert_non_null(f);
     fputs("{\"render\": {\"width\": 33}, \"objects\": [{\"type\": \"mesh\", "
