@@ -133,6 +133,13 @@ typedef struct lr_chromatic {
     double amplify;          /* default 1 */
     int wavelengths;         /* spectral mode: wavelengths per camera
                                 sample (besides the reference ray); 8 */
+    int splat;               /* spectral mode through the thin lens: 1
+                                (default) credits each traced ray to every
+                                pixel its colours' focus shifts it into,
+                                with the samples' film offsets and lens
+                                points shared by all pixels; 0 traces each
+                                pixel's own wavelengths (docs/lens-models.md
+                                4.4) */
 } lr_chromatic;
 
 /* A camera: a plain struct, so copy and edit it freely.  Directions need

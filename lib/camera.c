@@ -44,6 +44,7 @@ void lr_camera_default(lr_camera *cam)
     cam->chromatic.abbe_vd = 64.17;
     cam->chromatic.amplify = 1.0;
     cam->chromatic.wavelengths = LR__WL_PER_SAMPLE;
+    cam->chromatic.splat = 1;
     cam->lens = NULL;
     cam->sensor_width_mm = 36.0;
     cam->scene_unit_mm = 1000.0;

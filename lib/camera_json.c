@@ -21,7 +21,7 @@ static lr_status parse_chromatic(const cJSON *c, lr_camera *cam,
 {
     static const char *const keys[] = {"mode",     "focal_model", "ior",
                                        "glass",    "abbe",        "amplify",
-                                       "wavelengths", NULL};
+                                       "wavelengths", "splat", NULL};
     static const char *const abbe_keys[] = {"n_d", "V_d", NULL};
     const char *path = "camera.chromatic";
     lr_chromatic *ch = &cam->chromatic;
@@ -71,6 +71,7 @@ static lr_status parse_chromatic(const cJSON *c, lr_camera *cam,
     long long nw = ch->wavelengths;
     LR_TRY(lr__json_int(c, "wavelengths", path, 0, 1, 64, &nw, err));
     ch->wavelengths = (int)nw;
+    LR_TRY(lr__json_bool(c, "splat", path, 0, &ch->splat, err));
     return LR_OK;
 }
 

@@ -99,6 +99,7 @@ static void chromatic_json(jb *b, const lr_chromatic *ch)
     }
     num(&c, "amplify", ch->amplify);
     num(&c, "wavelengths", ch->wavelengths);
+    boolean(&c, "splat", ch->splat);
     b->failed |= c.failed;
 }
 

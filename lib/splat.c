@@ -144,7 +144,7 @@ static int shift_nodes(const lr__cam *c, double t[LR__WL_NODES])
 static int margin_of(const lr__cam *c)
 {
     if (!c->chroma_active || c->chroma.mode != LR_CHROMATIC_SPECTRAL ||
-        c->model->shift16 == NULL)
+        !c->chroma.splat || c->model->shift16 == NULL)
         return 0;
     double t[LR__WL_NODES], tmax = 0.0;
     if (!shift_nodes(c, t))

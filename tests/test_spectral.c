@@ -291,7 +291,16 @@ static void test_splat_crop_and_threads_exact(void **state)
     char json[4096];
     bar_scene(json, sizeof json, 40, ", \"threads\": 1");
     assert_true(plan_splats(json, NULL, 0));
+    /* camera.chromatic.splat = false: each pixel's own wavelengths, a
+     * different picture of the same scene. */
+    const char *own[] = {"camera.chromatic.splat=false"};
+    assert_false(plan_splats(json, own, 1));
     lr_image *full = lr_test_render(json, NULL, 0, NULL);
+    lr_image *unsplat = lr_test_render(json, own, 1, NULL);
+    assert_memory_not_equal(lr_image_rgb(full), lr_image_rgb(unsplat),
+                            sizeof(float) * 3 * lr_image_width(full) *
+                                lr_image_height(full));
+    lr_image_free(unsplat);
     const char *two[] = {"render.threads=2"};
     lr_image *b = lr_test_render(json, two, 1, NULL);
     lr_test_assert_same_bytes(full, b, "splatting, 1 thread against 2");

@@ -62,6 +62,7 @@ class lr_chromatic(Structure):
         ("abbe_vd", c_double),
         ("amplify", c_double),
         ("wavelengths", c_int),
+        ("splat", c_int),
     ]
 
 
