@@ -112,6 +112,20 @@ pair_at() {
     say "farm: $PARTS parts of scenes/bench.json at $SPP spp, render.threads=1, best of $REPEAT"
     tp=$(pair "$one_url $PARTS 2 1" "$nginx_url $PARTS 4 1")
     say "farm: 1 daemon, 2 daemons behind nginx: $tp"
+    # What two cores give the same frame here and now, without the farm:
+    # a local render on 1 thread against 2 (this VM's own 2-core scaling
+    # drifts between runs), least wall of REPEAT each, taken in turn.
+    lc=$(for r in $(seq "$REPEAT"); do
+        for t in 1 2; do
+            t0=$(date +%s.%N)
+            "$LENSRAY" render scenes/bench.json -o "$OUT/farm-local.exr" -q \
+                --set render.spp="$SPP" --set render.threads="$t"
+            echo "$t $t0 $(date +%s.%N)"
+        done
+    done | awk '{d = $3 - $2; if (!($1 in m) || d < m[$1]) m[$1] = d}
+                END {printf "%.3f %.3f", m[1], m[2]}')
+    say "farm: the frame rendered locally on 1 and 2 threads: $lc"
+    echo "$SPP $lc" >>"$OUT/farm-local.txt"
     # Two parts in flight on the daemon's one worker, so that the next
     # part waits in its queue while the client takes the last one in: the
     # daemon never idles for a round trip (as --parallel is meant to be
@@ -124,6 +138,7 @@ pair_at() {
 }
 : >"$OUT/farm-tp.txt"
 : >"$OUT/farm-ov.txt"
+: >"$OUT/farm-local.txt"
 for spp in $SPPS; do
     pair_at "$spp"
 done
@@ -142,6 +157,7 @@ load=$(cut -d' ' -f1 /proc/loadavg)
 {
     echo "farm (scenes/bench.json 640 x 480, $(nproc) cores, least of $REPEAT runs taken in turn, load average $load):"
     awk -v n="$PARTS" '{printf "  %d spp, a batch of %d parts, render.threads=1: 1 daemon %.3f s, 2 daemons %.3f s: %.2fx wall (target >= 1.8x); daemons'"'"' CPU %.2f s and %.2f s (%.1f ms and %.1f ms a part)\n", $1, n, $2, $7, $2 / $7, $3, $8, 1000 * $3 / n, 1000 * $8 / n}' "$OUT/farm-tp.txt"
+    awk '{printf "  %d spp, the same frame rendered locally (no farm): 1 thread %.3f s, 2 threads %.3f s: %.2fx, what two cores gave here in this run\n", $1, $2, $3, $2 / $3}' "$OUT/farm-local.txt"
     awk '{printf "  %d spp, one frame whole %.3f s, in 16 parts %.3f s: overhead %+.1f%% wall, %+.1f%% daemon CPU (%.2f s against %.2f s), %+.2f%% rays, %+.2f%% samples, scene loads %d and %d (target < 5%%)\n", $1, $2, $7, 100 * ($7 / $2 - 1), 100 * ($8 / $3 - 1), $8, $3, 100 * ($9 / $4 - 1), 100 * ($10 / $5 - 1), $6, $11}' "$OUT/farm-ov.txt"
     head -1 "$OUT/farm-ov.txt" | awk -v f="$fixed" '{printf "  a part'"'"'s fixed cost %.2f ms of daemon CPU (100 one-row parts at 1 spp): 16 parts add %.1f%% to the %d-spp whole frame'"'"'s %.2f s\n", f, 100 * 16 * f / 1000 / $3, $1, $3}'
 } | tee "$OUT/farm.txt"
