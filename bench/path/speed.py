@@ -72,6 +72,11 @@ def main():
                     help='a second lensray (e.g. built from an older commit), '
                          'measured in the same run as "lensray_base"')
     ap.add_argument('--out', default='build/bench/path')
+    ap.add_argument('--lensray-set', action='append', default=[],
+                    metavar='KEY=VALUE',
+                    help='a --set for every lensray render, e.g. '
+                         'accel.robust=false (Mitsuba traces without '
+                         'robust traversal)')
     ap.add_argument('--scene', default='cornell', choices=sorted(scenes.SPEED_SCENES),
                     help='the Cornell box (the issue\'s scene), or it with the '
                          'bunny, traced with Embree')
@@ -108,7 +113,8 @@ def main():
             json.dump(scenes.lensray_json(sc, W, H, spp, a.depth, extra), f)
         exr = os.path.join(a.out, a.scene + '-lensray.exr')
         t, c = time.time(), children_cpu()
-        subprocess.run([binary, 'render', path, '-o', exr, '-q'],
+        sets = [x for kv in a.lensray_set for x in ('--set', kv)]
+        subprocess.run([binary, 'render', path, '-o', exr, '-q'] + sets,
                        check=True)
         dt, dc = time.time() - t, children_cpu() - c
         return np.array(mi.Bitmap(exr), dtype=np.float64)[..., :3], dt, dc
