@@ -1046,7 +1046,7 @@ class Report:
         if scene not in self.h.refs or not self.configs(scene, "colour"):
             return
         cfgs = self.configs(scene, "colour")
-        lines = ["| colour model | rays per sample | " + " | ".join(
+        lines = ["| colour model | camera rays per sample | " + " | ".join(
             "relMSE at %s" % fmt_t(t) for t in EQUAL_TIMES) +
             " | " + " | ".join("time to %s" % fmt_e(t) for t in ERROR_TARGETS[:2]) +
             " | relMSE at max spp (bias floor) | slope |",
@@ -1061,8 +1061,13 @@ class Report:
                 last = pts[-1][2]
                 s, _ = fit_slope(curve(self.rows, scene, cfg, x="mean_spp"),
                                  self.h.refs[scene]["floor"])
+                # Measured at the top of the ladder: splatting traces one
+                # ray a sample (and its margin), whatever n says.
+                rps = ("%.1f" % (last["camera_rays"] / last["samples"])
+                       if last["camera_rays"] != "" and last["samples"]
+                       else "3" if n is None else str(n))
                 lines.append("| %s | %s | %s | %s | %s (%d spp) | %s |" % (
-                    cfg, "3" if n is None else str(n),
+                    cfg, rps,
                     " | ".join(fmt_e(error_at(pts, t)) for t in EQUAL_TIMES),
                     " | ".join(self.time_cell(scene, cfg, t) for t in ERROR_TARGETS[:2]),
                     fmt_e(last["relmse"]), last["spp"],
