@@ -243,6 +243,9 @@ static void fail_frame(batch *b, int fi, int status)
         if (p->state != PART_DONE)
             b->left--;
         p->state = PART_DONE;
+        free(p->answer);
+        p->answer = NULL;
+        p->len = p->cap = 0;
     }
     lr_image_free(f->img);
     f->img = NULL;
@@ -346,6 +349,12 @@ static void finish_part(batch *b, part *p, CURLcode res, remote_done done,
     b->running--;
     if (!retry) {
         p->state = PART_DONE;
+        /* Placed: its answer (the part's floats, 16 bytes a pixel) is not
+         * kept to the end of the batch, which for a long batch of large
+         * frames would hold every frame's pixels twice. */
+        free(p->answer);
+        p->answer = NULL;
+        p->len = p->cap = 0;
         b->left--;
         f->done_parts++;
         if (!o->quiet) {
