@@ -326,6 +326,12 @@ put_asset() {
     done
     # The white sky is what lights the first: its render is not black.
     ! cmp -s "$dir/floor-farm.exr" "$dir/lit-farm.exr"
+    # The extension in any case, as the library reads it (the client sent
+    # an upper-case .GLB's bytes as scene JSON).
+    cp "$dir/lit.glb" "$dir/LIT.GLB"
+    "$LENSRAY" render "$dir/LIT.GLB" -o "$dir/upper-farm.exr" -q \
+        --set render.width=40 --set render.spp=4 --remote "$URL" --parts 5
+    cmp "$dir/lit-local.exr" "$dir/upper-farm.exr"
 }
 
 # frame K X [SPP [WIDTH]]: scene file K of a small animation, the camera

@@ -321,12 +321,13 @@ static int render_local(const render_job *r, const char *scene_path,
     return rc;
 }
 
-/* A name that lr_scene_load_file reads as glTF, when its bytes are. */
+/* A name that lr_scene_load_file reads as glTF, when its bytes are: its
+ * extension, in any case, as the library tests it. */
 static int is_gltf_name(const char *path)
 {
     size_t n = strlen(path);
-    return (n >= 5 && strcmp(path + n - 5, ".gltf") == 0) ||
-           (n >= 4 && strcmp(path + n - 4, ".glb") == 0);
+    return (n >= 5 && strcasecmp(path + n - 5, ".gltf") == 0) ||
+           (n >= 4 && strcasecmp(path + n - 4, ".glb") == 0);
 }
 
 /* remote_render's callbacks' state: the job, and each frame's directory
