@@ -358,8 +358,8 @@ LR_API lr_status lr_scene_load_json(const char *json, size_t len,
  * overrides, as lr_scene_load_file then lr_scene_camera and
  * lr_scene_settings give them, without loading the rest: for a client
  * that renders the scene elsewhere (lensray --remote) and needs only to
- * cut the frame.  The top-level keys, the camera (with its lens file) and
- * the render settings are checked; materials, lights and objects are not
+ * cut the frame.  The top-level keys, the description, the camera (with
+ * its lens file) and the render settings are checked; materials, lights and objects are not
  * read, so their errors come from whoever loads the scene.  A glTF file,
  * or a scene that takes the camera of a glTF file it places, is loaded
  * whole, since the camera comes from that file.  Errors: those of

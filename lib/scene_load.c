@@ -514,28 +514,40 @@ static lr_status parse_environment(lr_scene *s, const cJSON *e,
 
 /* ---- the scene -------------------------------------------------------- */
 
-/* A scene's top-level keys (docs/scene-format.md, section 5). */
-static const char *const top_keys[] = {"description", "camera",  "render",
+/* A scene's head, as build() and lr_scene_read_settings read it, in the
+ * order of docs/scene-format.md: the top-level keys, the description
+ * (*desc points into root, NULL when there is none), the camera over its
+ * defaults (its files relative to base_dir, NULL: ".") and the render
+ * settings over theirs. */
+static lr_status read_head(const cJSON *root, const char *base_dir,
+                           const char **desc, lr_camera *cam,
+                           lr_render_settings *rs, lr_error *err)
+{
+    /* docs/scene-format.md, section 5. */
+    static const char *const keys[] = {"description", "camera",  "render",
                                        "background",  "materials", "lights",
                                        "objects",     "environment",
                                        "accel",       NULL};
+    if (!cJSON_IsObject(root))
+        return lr__fail(err, LR_ERR_INVALID, "",
+                        "a scene must be a JSON object");
+    LR_TRY(lr__json_check_keys(root, "", keys, err));
+    *desc = NULL;
+    LR_TRY(lr__json_string(root, "description", "", 0, desc, err));
+    lr_camera_default(cam);
+    lr_render_settings_default(rs);
+    LR_TRY(lr__camera_from_json(cJSON_GetObjectItemCaseSensitive(root, "camera"), cam, base_dir ? base_dir : ".", err));
+    return lr__settings_from_json(cJSON_GetObjectItemCaseSensitive(root, "render"), rs, err);
+}
 
 static lr_status build(lr_scene *s, const cJSON *root, const char *base_dir,
                        lr_error *err)
 {
-    if (!cJSON_IsObject(root))
-        return lr__fail(err, LR_ERR_INVALID, "",
-                        "a scene must be a JSON object");
-    LR_TRY(lr__json_check_keys(root, "", top_keys, err));
-    const char *desc = NULL;
-    LR_TRY(lr__json_string(root, "description", "", 0, &desc, err));
+    const char *desc;
+    LR_TRY(read_head(root, base_dir, &desc, &s->camera, &s->settings, err));
     s->description = strdup(desc ? desc : "");
     if (s->description == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
-    lr_camera_default(&s->camera);
-    lr_render_settings_default(&s->settings);
-    LR_TRY(lr__camera_from_json(cJSON_GetObjectItemCaseSensitive(root, "camera"), &s->camera, base_dir ? base_dir : ".", err));
-    LR_TRY(lr__settings_from_json(cJSON_GetObjectItemCaseSensitive(root, "render"), &s->settings, err));
     LR_TRY(lr__json_rgb(root, "background", "", 0, &s->background, err));
     LR_TRY(parse_environment(s, cJSON_GetObjectItemCaseSensitive(root, "environment"), base_dir, err));
     LR_TRY(parse_materials( s, cJSON_GetObjectItemCaseSensitive(root, "materials"), base_dir, err));
@@ -666,24 +678,12 @@ lr_status lr_scene_read_settings(const char *path,
         cJSON_Delete(root);
         return settings_of_loaded(path, overrides, n_overrides, cam, rs, err);
     }
-    /* What build() does first, up to the render settings. */
     char dir[4096];
     lr__dir_of(path, dir, sizeof dir);
+    const char *desc;
     lr_camera c;
     lr_render_settings r;
-    lr_camera_default(&c);
-    lr_render_settings_default(&r);
-    if (!cJSON_IsObject(root))
-        st = lr__fail(err, LR_ERR_INVALID, "",
-                      "a scene must be a JSON object");
-    if (st == LR_OK)
-        st = lr__json_check_keys(root, "", top_keys, err);
-    if (st == LR_OK)
-        st = lr__camera_from_json(cJSON_GetObjectItemCaseSensitive(root, "camera"),
-                                  &c, dir, err);
-    if (st == LR_OK)
-        st = lr__settings_from_json(cJSON_GetObjectItemCaseSensitive(root, "render"),
-                                    &r, err);
+    st = read_head(root, dir, &desc, &c, &r, err);
     cJSON_Delete(root);
     if (st != LR_OK)
         return st;
