@@ -158,6 +158,16 @@ static void end_part(CURLM *multi, part *p)
     p->body = NULL;
 }
 
+/* A part that is over (placed, or its frame failed) gives its answer
+ * back: the part's floats, 16 bytes a pixel, kept to the end of a long
+ * batch of large frames would hold every frame's pixels a second time. */
+static void drop_answer(part *p)
+{
+    free(p->answer);
+    p->answer = NULL;
+    p->len = p->cap = 0;
+}
+
 /* The daemon's error answer is JSON whose "message" names the field and
  * the limit (docs/api.md, section 5): that string when there is one (its
  * escapes left as they are), else the first line of the body (a proxy's
@@ -243,9 +253,7 @@ static void fail_frame(batch *b, int fi, int status)
         if (p->state != PART_DONE)
             b->left--;
         p->state = PART_DONE;
-        free(p->answer);
-        p->answer = NULL;
-        p->len = p->cap = 0;
+        drop_answer(p);
     }
     lr_image_free(f->img);
     f->img = NULL;
@@ -349,12 +357,7 @@ static void finish_part(batch *b, part *p, CURLcode res, remote_done done,
     b->running--;
     if (!retry) {
         p->state = PART_DONE;
-        /* Placed: its answer (the part's floats, 16 bytes a pixel) is not
-         * kept to the end of the batch, which for a long batch of large
-         * frames would hold every frame's pixels twice. */
-        free(p->answer);
-        p->answer = NULL;
-        p->len = p->cap = 0;
+        drop_answer(p);
         b->left--;
         f->done_parts++;
         if (!o->quiet) {
@@ -430,6 +433,9 @@ static int read_frame(batch *b)
     rc = assets_prepare(b->as, in->scene, in->len, cam_json, in->scene_dir,
                         in->scene_path, &f->scene, &f->len, &f->cam_json);
     lr_free(cam_json);
+    /* What is sent is f->scene, its files named by their hashes. */
+    free((char *)in->scene);
+    in->scene = NULL;
     if (rc != 0) {
         fail_frame(b, fi, rc);
         return 0;
@@ -491,10 +497,9 @@ int remote_render(const remote_options *o, int n, remote_load load,
         }
         /* The next frame is read once fewer parts wait than can be in
          * flight, so that a daemon that frees up finds one to take. */
-        if (b.read < n && b.waiting < o->parallel) {
-            if (read_frame(&b) != 0)
-                goto done;
-        }
+        int short_of_parts = b.read < n && b.waiting < o->parallel;
+        if (short_of_parts && read_frame(&b) != 0)
+            goto done;
         if (start_parts(&b, stats) != 0)
             goto done;
         int still = 0;
@@ -516,8 +521,7 @@ int remote_render(const remote_options *o, int n, remote_load load,
          * other parts' sockets first left a daemon's queue empty for up to
          * a whole part's render (or 50 ms with one part in flight), the
          * farm's splitting overhead (bench/README.md). */
-        if (b.left > 0 && finished == 0 &&
-            !(b.read < n && b.waiting < o->parallel))
+        if (b.left > 0 && finished == 0 && !short_of_parts)
             curl_multi_poll(b.multi, NULL, 0, b.running > 0 ? 100 : 50, NULL);
     }
     rc = b.status;
