@@ -21,6 +21,7 @@ DEPS := /usr/include/embree3/rtcore.h:libembree-dev \
         /usr/include/assimp/cimport.h:libassimp-dev \
         /usr/include/png.h:libpng-dev \
         /usr/include/jpeglib.h:libjpeg62-turbo-dev \
+        /usr/include/libdeflate.h:libdeflate-dev \
         /usr/include/microhttpd.h:libmicrohttpd-dev \
         /usr/include/openssl/evp.h:libssl-dev \
         /usr/include/cmocka.h:libcmocka-dev \
@@ -31,7 +32,7 @@ DEPS := /usr/include/embree3/rtcore.h:libembree-dev \
 
 # Recursive (=) so that pkg-config runs after the dependency check.
 PKG_CFLAGS = $(shell pkg-config --cflags OpenEXR libcjson libpng assimp 2>/dev/null)
-LIB_LIBS   = -lembree3 -lOpenEXRCore-3_1 -lcjson -lpng16 -ljpeg -lz -lpthread -lm \
+LIB_LIBS   = -lembree3 -lOpenEXRCore-3_1 -lcjson -lpng16 -ljpeg -ldeflate -lz -lpthread -lm \
              $(shell pkg-config --libs assimp 2>/dev/null || echo -lassimp)
 
 CFLAGS   ?=
@@ -100,6 +101,8 @@ $(BUILD)/obj/lib/wavelength.o: CFLAGS += $(if $(filter -O2,$(OPT)),-O3) \
                                       -fno-math-errno -fno-trapping-math \
                                       -mprefer-vector-width=512
 $(BUILD)/obj/lib/sampler.o: CFLAGS += $(if $(filter -O2,$(OPT)),-O3)
+# The EXR ZIP transform's byte loops (exr_zip.c), vectorised.
+$(BUILD)/obj/lib/exr_zip.o: CFLAGS += $(if $(filter -O2,$(OPT)),-O3)
 
 # The shipped lenses' directory, compiled in (LENSRAY_LENS_DIR overrides
 # it at run time): lib/rx_file.c.

@@ -9,7 +9,10 @@
 # is for), with the farm of farm/farm.sh on loopback:
 #   1. throughput of a batch of parts at render.threads=1: the frame as
 #      BENCH_FARM_PARTS parts (default 16) on 1 daemon, then through nginx
-#      on 2 (one worker each: on 2 cores, one core per daemon);
+#      on 2 (one worker each: on 2 cores, one core per daemon); once for
+#      one frame, and once for a batch of BENCH_FARM_FRAMES frames
+#      (default 4), where the client's start and each frame's writing
+#      overlap other frames' parts, as in an animation;
 #   2. the overhead of splitting: the frame whole (one part) against 16
 #      parts, both on one daemon (one worker) at all threads, the parts
 #      two in flight so that the worker never waits for the client.
@@ -24,6 +27,7 @@ BUILD=${1:-build}
 OUT=$BUILD/bench
 LENSRAY=$BUILD/lensray
 PARTS=${BENCH_FARM_PARTS:-16}
+FRAMES=${BENCH_FARM_FRAMES:-4}
 REPEAT=${BENCH_FARM_REPEAT:-5}
 SPPS=${BENCH_FARM_SPP:-64 256}
 DIR=$OUT/farm
@@ -61,14 +65,17 @@ metric() {
     done | awk '{s += $1} END {printf "%.0f", s}'
 }
 
-# once URL PARTS PARALLEL THREADS: one render; prints its wall seconds,
+# once URL PARTS PARALLEL THREADS [FRAMES]: one render of FRAMES frames
+# (default 1) of the bench scene; prints its wall seconds,
 # the daemons' CPU seconds, and the rays, samples and scene-cache misses
 # the daemons counted for it (exact, whatever the load).
 once() {
     c0=$(daemon_cpu) r0=$(metric lensrayd_rays_traced_total)
     s0=$(metric lensrayd_samples_total) m0=$(metric lensrayd_scene_cache_misses_total)
+    scenes=$(for f in $(seq "${5:-1}"); do echo scenes/bench.json; done)
     t0=$(date +%s.%N)
-    "$LENSRAY" render scenes/bench.json -o "$OUT/farm-out.exr" -q \
+    # shellcheck disable=SC2086
+    "$LENSRAY" render $scenes -o "$OUT/farm-out%d.exr" -q \
         --set render.spp="$SPP" --set render.threads="$4" \
         --remote "$1" --parts "$2" --parallel "$3" || exit 1
     t1=$(date +%s.%N)
@@ -112,6 +119,9 @@ pair_at() {
     say "farm: $PARTS parts of scenes/bench.json at $SPP spp, render.threads=1, best of $REPEAT"
     tp=$(pair "$one_url $PARTS 2 1" "$nginx_url $PARTS 4 1")
     say "farm: 1 daemon, 2 daemons behind nginx: $tp"
+    say "farm: the same for a batch of $FRAMES frames"
+    tpb=$(pair "$one_url $PARTS 2 1 $FRAMES" "$nginx_url $PARTS 4 1 $FRAMES")
+    say "farm: $FRAMES frames, 1 daemon, 2 daemons behind nginx: $tpb"
     # What two cores give the same frame here and now, without the farm:
     # a local render on 1 thread against 2 (this VM's own 2-core scaling
     # drifts between runs), least wall of REPEAT each, taken in turn.
@@ -134,9 +144,11 @@ pair_at() {
     ov=$(pair "$one_url 1 1 0" "$one_url 16 2 0")
     say "farm: whole, 16 parts: $ov"
     echo "$SPP $tp" >>"$OUT/farm-tp.txt"
+    echo "$SPP $tpb" >>"$OUT/farm-tpb.txt"
     echo "$SPP $ov" >>"$OUT/farm-ov.txt"
 }
 : >"$OUT/farm-tp.txt"
+: >"$OUT/farm-tpb.txt"
 : >"$OUT/farm-ov.txt"
 : >"$OUT/farm-local.txt"
 for spp in $SPPS; do
@@ -157,6 +169,7 @@ load=$(cut -d' ' -f1 /proc/loadavg)
 {
     echo "farm (scenes/bench.json 640 x 480, $(nproc) cores, least of $REPEAT runs taken in turn, load average $load):"
     awk -v n="$PARTS" '{printf "  %d spp, a batch of %d parts, render.threads=1: 1 daemon %.3f s, 2 daemons %.3f s: %.2fx wall (target >= 1.8x); daemons'"'"' CPU %.2f s and %.2f s (%.1f ms and %.1f ms a part)\n", $1, n, $2, $7, $2 / $7, $3, $8, 1000 * $3 / n, 1000 * $8 / n}' "$OUT/farm-tp.txt"
+    awk -v n="$PARTS" -v f="$FRAMES" '{printf "  %d spp, a batch of %d frames of %d parts, render.threads=1: 1 daemon %.3f s, 2 daemons %.3f s (%.3f s and %.3f s a frame): %.2fx wall (target >= 1.8x); daemons'"'"' CPU %.2f s and %.2f s\n", $1, f, n, $2, $7, $2 / f, $7 / f, $2 / $7, $3, $8}' "$OUT/farm-tpb.txt"
     awk '{printf "  %d spp, the same frame rendered locally (no farm): 1 thread %.3f s, 2 threads %.3f s: %.2fx, what two cores gave here in this run\n", $1, $2, $3, $2 / $3}' "$OUT/farm-local.txt"
     awk '{printf "  %d spp, one frame whole %.3f s, in 16 parts %.3f s: overhead %+.1f%% wall, %+.1f%% daemon CPU (%.2f s against %.2f s), %+.2f%% rays, %+.2f%% samples, scene loads %d and %d (target < 5%%)\n", $1, $2, $7, 100 * ($7 / $2 - 1), 100 * ($8 / $3 - 1), $8, $3, 100 * ($9 / $4 - 1), 100 * ($10 / $5 - 1), $6, $11}' "$OUT/farm-ov.txt"
     head -1 "$OUT/farm-ov.txt" | awk -v f="$fixed" '{printf "  a part'"'"'s fixed cost %.2f ms of daemon CPU (100 one-row parts at 1 spp): 16 parts add %.1f%% to the %d-spp whole frame'"'"'s %.2f s\n", f, 100 * 16 * f / 1000 / $3, $1, $3}'

@@ -20,6 +20,7 @@
  * display window of the whole frame, and says how it was rendered.
  */
 #include "internal.h"
+#include "exr_zip.h"
 
 #include <openexr.h>
 
@@ -319,6 +320,8 @@ typedef struct chunk_job {
     int base;
     int chunk;             /* the chunk being compressed */
     exr_result_t rv;
+    int zip;               /* ZIP or ZIPS: compress with exr_zip.c */
+    lr__exr_zip *deflate;  /* this job's, while it runs */
 } chunk_job;
 
 /* The pipeline's last step in a batch: keeps the compressed chunk for
@@ -335,6 +338,23 @@ static exr_result_t keep_chunk(exr_encode_pipeline_t *enc)
     return EXR_ERR_SUCCESS;
 }
 
+/* The pipeline's compression step for ZIP and ZIPS (exr_zip.h says
+ * why): the chunk in the job's own buffer, or the packed bytes when
+ * deflate does not pay, as the pipeline expects. */
+static exr_result_t zip_chunk(exr_encode_pipeline_t *enc)
+{
+    chunk_job *job = enc->encoding_user_data;
+    const unsigned char *out;
+    size_t len;
+    if (lr__exr_zip_chunk(job->deflate, enc->packed_buffer, enc->packed_bytes,
+                          &out, &len) != 0)
+        return EXR_ERR_OUT_OF_MEMORY;
+    enc->compressed_buffer = (void *)out;
+    enc->compressed_bytes = len;
+    enc->compressed_alloc_size = 0;
+    return EXR_ERR_SUCCESS;
+}
+
 /* Compresses (and, without blobs, writes) the job's chunks. */
 static void *compress_chunks(void *arg)
 {
@@ -345,7 +365,8 @@ static void *compress_chunks(void *arg)
     int live = 0;
     exr_result_t rv = EXR_ERR_SUCCESS;
     unsigned char *stage = malloc(job->plane_bytes * CH_COUNT);
-    if (stage == NULL)
+    job->deflate = job->zip ? lr__exr_zip_new() : NULL;
+    if (stage == NULL || (job->zip && job->deflate == NULL))
         rv = EXR_ERR_OUT_OF_MEMORY;
     for (int k = job->first; k < job->end && rv == EXR_ERR_SUCCESS;
          k += job->step) {
@@ -375,18 +396,28 @@ static void *compress_chunks(void *arg)
                                img->width);
         if (rv != EXR_ERR_SUCCESS)
             break;
+        enc.encoding_user_data = job;
+        if (job->zip)
+            enc.compress_fn = zip_chunk;
         if (job->blobs != NULL) {
             /* Not the default order check: encode_chunks writes the
              * batch in order once every worker is done. */
             enc.yield_until_ready_fn = NULL;
             enc.write_fn = keep_chunk;
-            enc.encoding_user_data = job;
         }
         job->chunk = k;
         rv = exr_encoding_run(job->ctxt, job->part, &enc);
+        /* zip_chunk's buffer is the job's (or the packed one): the
+         * pipeline must not free or reuse it as its own. */
+        if (job->zip) {
+            enc.compressed_buffer = NULL;
+            enc.compressed_alloc_size = 0;
+        }
     }
     if (live)
         exr_encoding_destroy(job->ctxt, &enc);
+    lr__exr_zip_free(job->deflate);
+    job->deflate = NULL;
     free(stage);
     job->rv = rv;
     return NULL;
@@ -415,12 +446,13 @@ static int encode_threads(int height, int spc)
  * be started). */
 static exr_result_t encode_chunks(exr_context_t ctxt, int part,
                                   const lr_image *img, int want_z, int half,
-                                  int spc, size_t plane_bytes, int threads)
+                                  int spc, size_t plane_bytes, int threads,
+                                  int zip)
 {
     int n = (img->height + spc - 1) / spc;
     int top = img->frame_w > 0 ? img->y0 : 0;
     chunk_job one = {ctxt, part, img, want_z, half, spc, 0, n, 1,
-                     plane_bytes, NULL, 0, 0, EXR_ERR_SUCCESS};
+                     plane_bytes, NULL, 0, 0, EXR_ERR_SUCCESS, zip, NULL};
     if (threads <= 1) {
         compress_chunks(&one);
         return one.rv;
@@ -561,8 +593,11 @@ lr_status lr__encode_exr(const lr_image *img, const lr_output_options *opts,
     plane_bytes = (size_t)img->width * (size_t)spc * 4;
 
     step = "encode the pixels";
+    exr_compression_t comp = exr_compression(opts);
     rv = encode_chunks(ctxt, part, img, want_z, half, spc, plane_bytes,
-                       encode_threads(img->height, spc));
+                       encode_threads(img->height, spc),
+                       comp == EXR_COMPRESSION_ZIP ||
+                           comp == EXR_COMPRESSION_ZIPS);
     if (rv != EXR_ERR_SUCCESS)
         goto fail;
 

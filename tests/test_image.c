@@ -586,6 +586,53 @@ static void test_exr_compressions(void **state)
     lr_image_free(img);
 }
 
+/* A chunk that deflate cannot shrink is stored raw, as OpenEXR expects
+ * (exr_zip.h): floats of random bits (any exponent but Inf/NaN's) give
+ * such chunks, and ZIP and ZIPS files of them still decode to the same
+ * floats through OpenEXRCore's own reader, beside a ZIP chunk that does
+ * shrink (the last rows are zeros). */
+static void test_exr_zip_incompressible(void **state)
+{
+    (void)state;
+    const int w = 29, h = 40;
+    lr_image *img = NULL;
+    lr_error err;
+    assert_int_equal(lr_image_create(w, h, 1, &img, &err), LR_OK);
+    float *rgb = lr_image_rgb_mut(img), *z = lr_image_depth_mut(img);
+    uint64_t x = 0x9e3779b97f4a7c15ull;
+    for (size_t i = 0; i < (size_t)w * h * 4; i++) {
+        x = x * 6364136223846793005ull + 1442695040888963407ull;
+        uint32_t bits = (uint32_t)(x >> 32);
+        uint32_t e = 1 + (uint32_t)((x >> 8) % 254);
+        bits = (bits & 0x807fffffu) | (e << 23);
+        float v;
+        memcpy(&v, &bits, sizeof v);
+        if (i >= (size_t)w * 32 * 4)
+            v = 0.0f;
+        if (i < (size_t)w * h * 3)
+            rgb[i] = v;
+        else
+            z[i - (size_t)w * h * 3] = v;
+    }
+    static const lr_exr_compression kinds[] = {LR_EXR_ZIP, LR_EXR_ZIPS};
+    for (size_t k = 0; k < 2; k++) {
+        lr_output_options opts;
+        lr_output_options_default(&opts);
+        opts.exr_compression = kinds[k];
+        void *buf = NULL;
+        size_t len = 0;
+        encode_or_fail(img, LR_FORMAT_EXR, &opts, &buf, &len);
+        decoded_exr d;
+        decode_exr(buf, len, &d);
+        assert_exr_is_image(&d, img);
+        /* Nearly raw: the random rows cannot be made smaller. */
+        assert_true(len > (size_t)w * 32 * 16);
+        free_exr(&d);
+        lr_free(buf);
+    }
+    lr_image_free(img);
+}
+
 /* The chunks are compressed on several threads and written in order
  * (image_exr.c): every thread count writes the same bytes, and they
  * decode to the image.  A crop placed at row 7 of its frame (chunks named
@@ -1048,6 +1095,7 @@ static const struct CMUnitTest image_tests[] = {
     cmocka_unit_test(test_exr_float),
     cmocka_unit_test(test_exr_crop_window),
     cmocka_unit_test(test_exr_threads_same_bytes),
+    cmocka_unit_test(test_exr_zip_incompressible),
     cmocka_unit_test(test_exr_compressions),
     cmocka_unit_test(test_exr_half),
     cmocka_unit_test(test_exr_depth_option),

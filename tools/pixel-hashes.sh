@@ -1,7 +1,9 @@
 #!/bin/sh
 # Prints one line per render of a fixed matrix: every shipped scene, every
 # camera model, sampler, chromatic mode, plan/adaptive setting, thread
-# count and a crop, each with the SHA-256 of the rendered EXR.  Run it
+# count and a crop, each with the SHA-256 of the rendered EXR (stored
+# uncompressed, so that the hash is of the pixels, not of the deflate
+# coder that packed them).  Run it
 # before and after a refactor and diff the outputs: a refactor must keep
 # every line.  Usage: tools/pixel-hashes.sh [BUILD_DIR] > hashes.txt
 build=${1:-build}
@@ -13,7 +15,7 @@ r() {  # r SCENE NAME ARGS...: render small and print "name hash"
     scene=$1; name=$2; shift 2
     n=$((n + 1))
     out="$tmp/$n.exr"
-    if "$bin" render "scenes/$scene.json" -o "$out" -q \
+    if "$bin" render "scenes/$scene.json" -o "$out" -q --compression none \
         --set render.width=96 --set render.height=64 "$@" 2>"$tmp/err"; then
         echo "$scene $name $(sha256sum < "$out" | cut -c1-16)"
     else
@@ -55,5 +57,5 @@ done
 # The shipped scenes at their own size and samples, as make render/figures do.
 for s in spheres chromatic bench; do
     n=$((n + 1))
-    "$bin" render "scenes/$s.json" -o "$tmp/full$n.exr" -q && echo "$s as-shipped $(sha256sum < "$tmp/full$n.exr" | cut -c1-16)"
+    "$bin" render "scenes/$s.json" -o "$tmp/full$n.exr" -q --compression none && echo "$s as-shipped $(sha256sum < "$tmp/full$n.exr" | cut -c1-16)"
 done
