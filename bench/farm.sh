@@ -14,8 +14,10 @@
 #      (default 4), where the client's start and each frame's writing
 #      overlap other frames' parts, as in an animation;
 #   2. the overhead of splitting: the frame whole (one part) against 16
-#      parts, both on one daemon (one worker) at all threads, the parts
-#      two in flight so that the worker never waits for the client.
+#      parts, both on one daemon at all threads, with two workers (the
+#      farm's default, farm/farm.sh) and the parts three in flight, so
+#      that one part's last tiles overlap the next part and no worker
+#      waits for the client.
 # Each set-up runs BENCH_FARM_REPEAT times (default 5), in turn with the one it
 # is compared with; the least wall time and the least daemon CPU time are
 # kept (other load only adds to them), and the rays and samples the
@@ -34,33 +36,45 @@ DIR=$OUT/farm
 mkdir -p "$OUT"
 say() { echo "bench: $*"; }
 
-sh farm/farm.sh stop "$BUILD" "$DIR" >/dev/null 2>&1
-port=""
-for i in 1 2 3 4 5; do
-    p=$((20000 + $(od -An -N2 -tu2 /dev/urandom) % 40000))
-    if sh farm/farm.sh start "$BUILD" 2 "$p" "$DIR" >"$OUT/farm-start.log" 2>&1; then
-        port=$p
-        break
-    fi
-done
-[ -n "$port" ] || { say "the farm did not start:"; cat "$OUT/farm-start.log"; exit 1; }
-trap 'sh farm/farm.sh stop "$BUILD" "$DIR" >/dev/null 2>&1' EXIT
+DIR2=$OUT/farm-ov
+# start_farm N WORKERS DIR: a farm of N daemons of WORKERS workers on a
+# free port; prints the port.
+start_farm() {
+    sh farm/farm.sh stop "$BUILD" "$3" >/dev/null 2>&1
+    for i in 1 2 3 4 5; do
+        p=$((20000 + $(od -An -N2 -tu2 /dev/urandom) % 40000))
+        if FARM_WORKERS=$2 sh farm/farm.sh start "$BUILD" "$1" "$p" "$3" \
+            >"$OUT/farm-start.log" 2>&1; then
+            echo "$p"
+            return 0
+        fi
+    done
+    say "the farm did not start:" >&2
+    cat "$OUT/farm-start.log" >&2
+    return 1
+}
+# The throughput farm: one worker a daemon, so that at render.threads=1
+# each daemon is one core.
+port=$(start_farm 2 1 "$DIR") || exit 1
+trap 'sh farm/farm.sh stop "$BUILD" "$DIR" >/dev/null 2>&1; sh farm/farm.sh stop "$BUILD" "$DIR2" >/dev/null 2>&1' EXIT
+port2=$(start_farm 1 2 "$DIR2") || exit 1
 nginx_url="http://127.0.0.1:$port"
 one_url="http://127.0.0.1:$(cat "$DIR/daemon-1.port")"
+ov_url="http://127.0.0.1:$(cat "$DIR2/daemon-1.port")"
 
 # The daemons' CPU time so far, in seconds (utime + stime of each pid in
 # the farm's pids file, /proc/PID/stat fields 14 and 15): the work a
 # render cost them, however busy the machine is.
 daemon_cpu() {
     tck=$(getconf CLK_TCK)
-    grep '^daemon-' "$DIR/pids" | while read -r _ pid; do
+    grep -h '^daemon-' "$DIR/pids" "$DIR2/pids" | while read -r _ pid; do
         awk '{print $14 + $15}' "/proc/$pid/stat"
     done | awk -v t="$tck" '{s += $1} END {printf "%.2f", s / t}'
 }
 
 # metric NAME: NAME (a counter of /metrics) summed over the daemons.
 metric() {
-    for f in "$DIR"/daemon-*.port; do
+    for f in "$DIR"/daemon-*.port "$DIR2"/daemon-*.port; do
         curl -s "http://127.0.0.1:$(cat "$f")/metrics" | sed -n "s/^$1 //p"
     done | awk '{s += $1} END {printf "%.0f", s}'
 }
@@ -111,6 +125,7 @@ pair() {
 SPP=16
 once "$nginx_url" 4 4 1 >/dev/null
 once "$nginx_url" 4 4 1 >/dev/null
+once "$ov_url" 2 2 0 >/dev/null
 
 # pair_at SPP: both comparisons at SPP samples a pixel; prints the
 # throughput pair's line, then the overhead pair's.
@@ -136,12 +151,12 @@ pair_at() {
                 END {printf "%.3f %.3f", m[1], m[2]}')
     say "farm: the frame rendered locally on 1 and 2 threads: $lc"
     echo "$SPP $lc" >>"$OUT/farm-local.txt"
-    # Two parts in flight on the daemon's one worker, so that the next
-    # part waits in its queue while the client takes the last one in: the
-    # daemon never idles for a round trip (as --parallel is meant to be
-    # used).
-    say "farm: whole frame against 16 parts, one daemon, all threads, 2 parts in flight"
-    ov=$(pair "$one_url 1 1 0" "$one_url 16 2 0")
+    # Three parts in flight on the daemon's two workers, so that the
+    # next part waits in its queue while the client takes the last one
+    # in: the daemon never idles for a round trip (as --parallel is meant
+    # to be used).
+    say "farm: whole frame against 16 parts, one daemon of 2 workers, all threads, 3 parts in flight"
+    ov=$(pair "$ov_url 1 1 0" "$ov_url 16 3 0")
     say "farm: whole, 16 parts: $ov"
     echo "$SPP $tp" >>"$OUT/farm-tp.txt"
     echo "$SPP $tpb" >>"$OUT/farm-tpb.txt"

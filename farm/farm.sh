@@ -11,8 +11,10 @@
 # per line), the daemons' logs (daemon-K.log, their ports in
 # daemon-K.port), nginx's logs, and DIR/assets, the assets directory the
 # daemons share (PUT /v1/assets; on real machines, an NFS mount).  `stop` ends exactly the processes in
-# DIR/pids.  FARM_FLAGS adds flags to every daemon (for example
-# "--token-file F" or "--workers 2"); FARM_SCENES is their scenes
+# DIR/pids.  Each daemon renders FARM_WORKERS jobs at once (default 2:
+# while one part's last tiles finish on one core, the next part starts on
+# the other; docs/deploy.md measures it).  FARM_FLAGS adds flags to every
+# daemon (for example "--token-file F"); FARM_SCENES is their scenes
 # directory (default: scenes).
 set -eu
 here=$(cd "$(dirname "$0")" && pwd)
@@ -86,7 +88,7 @@ while [ $k -le "$n" ]; do
     # shellcheck disable=SC2086  # FARM_FLAGS is a list of flags
     "$build/lensrayd" --port 0 --bind 127.0.0.1 --scenes "$scenes" \
         --assets "$dir/assets" --id-prefix "$(printf %02x "$k")" \
-        ${FARM_FLAGS:-} >"$log" 2>&1 3>&- &
+        --workers "${FARM_WORKERS:-2}" ${FARM_FLAGS:-} >"$log" 2>&1 3>&- &
     echo "daemon-$k $!" >>"$dir/pids"
     p=""
     i=0
