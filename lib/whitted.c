@@ -325,6 +325,34 @@ __attribute__((noinline)) static scratch16 *thread_scratch(void)
     return &tls_scratch;
 }
 
+/* A vector lane's light, kept per channel (v[0..2][i]): ambient x
+ * albedo to start with, then each light's contribution added where its
+ * shadow ray got through, in the order of the lights, as the scalar code
+ * adds them.  Lanes without a shadow ray keep their value. */
+static void vector_start16(const lr_scene *s, const double k[3][16],
+                           double v[restrict 3][16])
+{
+    for (int c = 0; c < 3; c++) {
+        double a = c == 0 ? s->ambient.x : c == 1 ? s->ambient.y
+                                                  : s->ambient.z;
+        for (int i = 0; i < 16; i++)
+            v[c][i] = a * k[c][i];
+    }
+}
+
+static void vector_add16(const int *valid, const struct RTCRay16 *shadow,
+                         const double fr[16], const double fg[16],
+                         const double fb[16], double v[restrict 3][16])
+{
+    /* Embree marks an occluded ray by setting tfar to -inf. */
+    for (int i = 0; i < 16; i++) {
+        int lit = (valid[i] != 0) & (shadow->tfar[i] >= 0.0f);
+        v[0][i] = lit ? v[0][i] + fr[i] : v[0][i];
+        v[1][i] = lit ? v[1][i] + fg[i] : v[1][i];
+        v[2][i] = lit ? v[2][i] + fb[i] : v[2][i];
+    }
+}
+
 static void radiance16(const lr_scene *restrict s, int max_depth,
                        struct RTCRayHit16 *restrict rh, int n,
                        const lr__sample_id *id, lr__v3 L[restrict 16],
@@ -341,19 +369,32 @@ static void radiance16(const lr_scene *restrict s, int max_depth,
     ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
 
     /* Each lane is a vector lane, a scalar lane (hit completed by
-     * lr__hit_complete, shaded by the scalar code) or a miss. */
+     * lr__hit_complete, shaded by the scalar code) or a miss.  Only the
+     * scalar lanes need the per-lane loops further down. */
     lr__hit hit[16];
     lr__material mt[16];
     const lr__material *m[16];
     lr__v3 org[16], dir[16];
-    int has_hit[16], vec[16], n_vec = 0;
+    int has_hit[16], vec[16], n_vec = 0, n_scalar = 0;
     const int vector_ok = !lr__whitted_scalar_only;
-    for (int i = 0; i < 16; i++) {
+    /* A miss with no infinite plane to meet: what lr__hit_complete would
+     * say (a third of the bench scene's packets miss in every lane). */
+    const int miss_is_sky = s->n_planes == 0;
+    for (int i = 0; i < n; i++) {
         unsigned g = rh->hit.geomID[i];
-        vec[i] = i < n && vector_ok && vector_lane(s, rh, i) ? -1 : 0;
-        n_vec += vec[i] != 0;
+        vec[i] = 0;
         has_hit[i] = 0;
-        if (vec[i]) {
+        if (g == RTC_INVALID_GEOMETRY_ID && miss_is_sky) {
+            const struct RTCRay16 *r = &rh->ray;
+            L[i] = s->env == NULL ? s->background
+                                  : lr__env_radiance(s, v3_norm(v3(r->dir_x[i],
+                                                               r->dir_y[i],
+                                                               r->dir_z[i])));
+            continue;
+        }
+        if (vector_ok && vector_lane(s, rh, i)) {
+            vec[i] = -1;
+            n_vec++;
             lr__hits16_gather(s, rh, i, &sc->h);
             /* A textured albedo, looked up where lr__hit_complete would
              * (the same barycentrics, the same formula). */
@@ -368,25 +409,10 @@ static void radiance16(const lr_scene *restrict s, int max_depth,
                          ->diffuse;
             }
             sc->k[0][i] = kd.x, sc->k[1][i] = kd.y, sc->k[2][i] = kd.z;
-        }
-        if (i >= n)
-            continue;
-        if (vec[i]) {
-            has_hit[i] = 1;
-            L[i] = v3(s->ambient.x * sc->k[0][i], s->ambient.y * sc->k[1][i],
-                      s->ambient.z * sc->k[2][i]);
-            continue;
-        }
-        if (g == RTC_INVALID_GEOMETRY_ID && s->n_planes == 0) {
-            /* What lr__hit_complete would say. */
-            const struct RTCRay16 *r = &rh->ray;
-            L[i] = s->env == NULL ? s->background
-                                  : lr__env_radiance(s, v3_norm(v3(r->dir_x[i],
-                                                               r->dir_y[i],
-                                                               r->dir_z[i])));
             continue;
         }
         /* The scalar code works in double on the ray as traced. */
+        n_scalar++;
         const struct RTCRay16 *r = &rh->ray;
         org[i] = v3(r->org_x[i], r->org_y[i], r->org_z[i]);
         dir[i] = v3(r->dir_x[i], r->dir_y[i], r->dir_z[i]);
@@ -398,8 +424,15 @@ static void radiance16(const lr_scene *restrict s, int max_depth,
         L[i] = has_hit[i] ? v3_add(emitted(m[i], &hit[i]), ambient(s, m[i]))
                           : lr__env_radiance(s, v3_norm(dir[i]));
     }
-    if (n_vec)
+    if (n_vec == 0 && n_scalar == 0)
+        return; /* every lane missed */
+    for (int i = n; i < 16; i++)
+        vec[i] = 0;
+    double v[3][16] __attribute__((aligned(64)));
+    if (n_vec) {
         lr__hits16_complete(rh, &sc->h);
+        vector_start16(s, (const double(*)[16])sc->k, v);
+    }
 
     /* One packet of shadow rays per light.  They are coherent too: they
      * leave the few surface points one pixel sees for one light (6%
@@ -408,22 +441,18 @@ static void radiance16(const lr_scene *restrict s, int max_depth,
         light_ray lr[16];
         double fr[16], fg[16], fb[16], ro[3][16], rd[3][16], rt[16];
         int any = 0;
+        for (int i = 0; i < 16; i++)
+            valid[i] = vec[i];
         if (n_vec) {
-            for (int i = 0; i < 16; i++)
-                valid[i] = vec[i];
             light_rays16(&s->lights[k], &sc->h, (const double(*)[16])sc->k,
                          valid, &shadow, fr, fg, fb, ro, rd, rt);
-        } else {
             for (int i = 0; i < 16; i++)
-                valid[i] = 0;
-        }
-        for (int i = 0; i < 16; i++) {
-            if (vec[i]) {
                 any += valid[i] != 0;
+        }
+        for (int i = 0; i < n && n_scalar; i++) {
+            if (vec[i] || !has_hit[i])
                 continue;
-            }
-            if (i < n && has_hit[i] &&
-                light_ray_setup(s, m[i], &hit[i], v3_neg(dir[i]), k,
+            if (light_ray_setup(s, m[i], &hit[i], v3_neg(dir[i]), k,
                                 &lr[i])) {
                 valid[i] = -1;
                 lr__shadow_ray16(&shadow, i, lr[i].org, lr[i].dir,
@@ -438,22 +467,34 @@ static void radiance16(const lr_scene *restrict s, int max_depth,
         lr__ray16_quiet_lanes(&shadow, valid);
         rtcOccluded16(valid, s->rtc, &ctx, &shadow);
         *rays += (uint64_t)any;
+        if (n_vec && s->n_planes == 0) {
+            vector_add16(valid, &shadow, fr, fg, fb, v);
+            if (!n_scalar)
+                continue;
+        }
         for (int i = 0; i < n; i++) {
             /* Embree marks an occluded ray by setting tfar to -inf. */
             if (!valid[i] || !(shadow.tfar[i] >= 0.0f))
                 continue;
-            if (vec[i] &&
-                (s->n_planes == 0 ||
-                 !lr__planes_block(s, v3(ro[0][i], ro[1][i], ro[2][i]),
-                                   v3(rd[0][i], rd[1][i], rd[2][i]), rt[i])))
-                L[i] = v3_add(L[i], v3(fr[i], fg[i], fb[i]));
-            else if (!vec[i] &&
-                     !lr__planes_block(s, lr[i].org, lr[i].dir, lr[i].tfar))
+            if (vec[i] && s->n_planes != 0 &&
+                !lr__planes_block(s, v3(ro[0][i], ro[1][i], ro[2][i]),
+                                  v3(rd[0][i], rd[1][i], rd[2][i]), rt[i])) {
+                v[0][i] = v[0][i] + fr[i];
+                v[1][i] = v[1][i] + fg[i];
+                v[2][i] = v[2][i] + fb[i];
+            } else if (!vec[i] &&
+                       !lr__planes_block(s, lr[i].org, lr[i].dir,
+                                         lr[i].tfar)) {
                 L[i] = v3_add(L[i], lr[i].f_E_cos);
+            }
         }
     }
+    if (n_vec)
+        for (int i = 0; i < n; i++)
+            if (vec[i])
+                L[i] = v3(v[0][i], v[1][i], v[2][i]);
 
-    if (max_depth > 0)
+    if (max_depth > 0 && n_scalar)
         for (int i = 0; i < n; i++)
             if (!vec[i] && has_hit[i])
                 L[i] = v3_add(L[i], secondary(s, m[i], &hit[i], dir[i], 0,
