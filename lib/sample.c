@@ -72,20 +72,29 @@ static void packet_samples(const lr__shot *sh, int use_lens, int x, int y,
 {
     struct RTCRayHit16 rh[PACKETS_AHEAD] __attribute__((aligned(64)));
     float wt[PACKETS_AHEAD][16];
-    float fx[16], fy[16], lu[16], lv[16];
-    for (int i = 0; i < 16; i++)
-        fx[i] = fy[i] = lu[i] = lv[i] = 0.5f;
+    float fx[PACKETS_AHEAD][16], fy[PACKETS_AHEAD][16];
+    float lu[PACKETS_AHEAD][16], lv[PACKETS_AHEAD][16];
+    for (int p = 0; p < PACKETS_AHEAD; p++)
+        for (int i = 0; i < 16; i++)
+            fx[p][i] = fy[p][i] = lu[p][i] = lv[p][i] = 0.5f;
     lr__pixel_sampler ps;
     uint64_t pixel = (uint64_t)y * (uint64_t)sh->width + (uint64_t)x;
     lr__pixel_sampler_init(&ps, sh->sampler, pixel);
     for (int b0 = first; b0 < last; b0 += 16 * PACKETS_AHEAD) {
+        /* All the packets' sample values first, then all their rays:
+         * each step's chains then overlap across the packets. */
         int n_packets = 0;
         for (int s0 = b0; s0 < last && n_packets < PACKETS_AHEAD; s0 += 16) {
             int n = last - s0 < 16 ? last - s0 : 16;
-            lr__packet_coords(&ps, x, y, (uint32_t)s0, n, fx, fy, lu, lv);
-            sh->cam->model->rays16(sh->cam, use_lens, n, fx, fy, lu, lv,
-                                   &rh[n_packets], wt[n_packets]);
+            lr__packet_coords(&ps, x, y, (uint32_t)s0, n, fx[n_packets],
+                              fy[n_packets], lu[n_packets], lv[n_packets]);
             n_packets++;
+        }
+        for (int p = 0; p < n_packets; p++) {
+            int s0 = b0 + 16 * p;
+            int n = last - s0 < 16 ? last - s0 : 16;
+            sh->cam->model->rays16(sh->cam, use_lens, n, fx[p], fy[p], lu[p],
+                                   lv[p], &rh[p], wt[p]);
         }
         for (int p = 0; p < n_packets; p++) {
             int s0 = b0 + 16 * p;

@@ -116,9 +116,11 @@ static int light_ray_setup(const lr_scene *s, const lr__material *m,
  * once: fills the shadow packet's rays, ok[i] (-1 where a shadow ray is
  * needed, in lanes where ok[i] was -1 before), the contribution f E cos
  * (fr, fg, fb) and the shadow rays in double (ro, rd, rt), as
- * light_ray_setup gives them, for the infinite planes. */
+ * light_ray_setup gives them, for the infinite planes.  Returns the
+ * number of lanes that need a shadow ray (counted here, from registers:
+ * read back from ok[], it waited for the stores). */
 __attribute__((target_clones("avx512f", "avx2", "default")))
-static void light_rays16(const lr__light *restrict lt,
+static int light_rays16(const lr__light *restrict lt,
                          const lr__hits16 *restrict h,
                          const double k[restrict 3][16], int *restrict ok,
                          struct RTCRay16 *restrict r, double fr[restrict 16],
@@ -178,8 +180,11 @@ static void light_rays16(const lr__light *restrict lt,
     }
     /* (Apart: the vectoriser takes loops of one element width more
      * readily.) */
+    int count = 0;
     for (int i = 0; i < 16; i++) {
-        ok[i] = -((ok[i] != 0) & lit_[i]);
+        int need = (ok[i] != 0) & lit_[i];
+        count += need;
+        ok[i] = -need;
         r->org_x[i] = (float)ro[0][i];
         r->org_y[i] = (float)ro[1][i];
         r->org_z[i] = (float)ro[2][i];
@@ -193,6 +198,7 @@ static void light_rays16(const lr__light *restrict lt,
         r->id[i] = 0;
         r->flags[i] = 0;
     }
+    return count;
 }
 
 static lr__v3 direct(const lr_scene *s, const lr__material *m,
@@ -444,10 +450,9 @@ static void radiance16(const lr_scene *restrict s, int max_depth,
         for (int i = 0; i < 16; i++)
             valid[i] = vec[i];
         if (n_vec) {
-            light_rays16(&s->lights[k], &sc->h, (const double(*)[16])sc->k,
-                         valid, &shadow, fr, fg, fb, ro, rd, rt);
-            for (int i = 0; i < 16; i++)
-                any += valid[i] != 0;
+            any = light_rays16(&s->lights[k], &sc->h,
+                               (const double(*)[16])sc->k, valid, &shadow,
+                               fr, fg, fb, ro, rd, rt);
         }
         for (int i = 0; i < n && n_scalar; i++) {
             if (vec[i] || !has_hit[i])
