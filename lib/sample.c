@@ -74,9 +74,6 @@ static void packet_samples(const lr__shot *sh, int use_lens, int x, int y,
     float wt[PACKETS_AHEAD][16];
     float fx[PACKETS_AHEAD][16], fy[PACKETS_AHEAD][16];
     float lu[PACKETS_AHEAD][16], lv[PACKETS_AHEAD][16];
-    for (int p = 0; p < PACKETS_AHEAD; p++)
-        for (int i = 0; i < 16; i++)
-            fx[p][i] = fy[p][i] = lu[p][i] = lv[p][i] = 0.5f;
     lr__pixel_sampler ps;
     uint64_t pixel = (uint64_t)y * (uint64_t)sh->width + (uint64_t)x;
     lr__pixel_sampler_init(&ps, sh->sampler, pixel);

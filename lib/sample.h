@@ -56,7 +56,8 @@ uint64_t lr__colour_rays(const lr__cam *c);
 
 /* The film (fx, fy) and lens (lu, lv) coordinates of samples s0 ..
  * s0 + n - 1 of pixel (x, y), one lane each: the film position summed in
- * double, as the scalar path does, then rounded once.  The packet paths
+ * double, as the scalar path does, then rounded once.  Lanes n to 15 get
+ * the pixel's centre and the lens's.  The packet paths
  * of sample.c and spectral.c both fill their lanes with it. */
 static inline void lr__packet_coords(const lr__pixel_sampler *ps, int x,
                                      int y, uint32_t s0, int n, float fx[16],
@@ -82,6 +83,11 @@ static inline void lr__packet_coords(const lr__pixel_sampler *ps, int x,
         lu[i] = u[2][i];
         lv[i] = u[3][i];
     }
+    /* The lanes past n: any ray the camera makes of them is masked off,
+     * but Embree's AVX2 code checks masked lanes for NaN. */
+    for (int i = n; i < 16; i++)
+        fx[i] = (float)x + 0.5f, fy[i] = (float)y + 0.5f,
+        lu[i] = lv[i] = 0.5f;
 }
 
 #endif
