@@ -93,20 +93,30 @@ static void packet_samples(const lr__shot *sh, int use_lens, int x, int y,
             sh->cam->model->rays16(sh->cam, use_lens, n, fx[p], fy[p], lu[p],
                                    lv[p], &rh[p], wt[p]);
         }
+        int ns[PACKETS_AHEAD];
+        lr__sample_id id[PACKETS_AHEAD];
+        lr__v3 L[PACKETS_AHEAD][16];
         for (int p = 0; p < n_packets; p++) {
             int s0 = b0 + 16 * p;
-            int n = last - s0 < 16 ? last - s0 : 16;
-            cnt->camera_rays += (uint64_t)n;
-            lr__v3 L[16];
-            const lr__sample_id id = {sh->sampler, pixel, (uint32_t)s0};
-            sh->integrator->radiance16(sh->scene, sh->max_depth, &rh[p], n,
-                                       &id, L, &cnt->rays);
+            ns[p] = last - s0 < 16 ? last - s0 : 16;
+            id[p] = (lr__sample_id){sh->sampler, pixel, (uint32_t)s0};
+            cnt->camera_rays += (uint64_t)ns[p];
+        }
+        if (sh->integrator->radiance16_n != NULL)
+            sh->integrator->radiance16_n(sh->scene, sh->max_depth, rh, ns,
+                                         n_packets, id, L, &cnt->rays);
+        else
+            for (int p = 0; p < n_packets; p++)
+                sh->integrator->radiance16(sh->scene, sh->max_depth, &rh[p],
+                                           ns[p], &id[p], L[p], &cnt->rays);
+        for (int p = 0; p < n_packets; p++) {
+            int n = ns[p];
             if (sh->cam->weighted)
                 for (int i = 0; i < n; i++) {
-                    L[i] = v3_scale(L[i], wt[p][i]);
+                    L[p][i] = v3_scale(L[p][i], wt[p][i]);
                     cnt->lens_blocked += wt[p][i] == 0.0f;
                 }
-            lr__pixel_add_n(acc, L, n);
+            lr__pixel_add_n(acc, L[p], n);
         }
     }
 }
