@@ -513,10 +513,47 @@ static void radiance16(const lr_scene *s, int max_depth,
     shade16(s, max_depth, rh, n, L, rays);
 }
 
-/* Every packet's camera rays traced before any packet is shaded: the
- * hits of all but the last have left the store buffer by the time they
- * are read (reading them right after rtcIntersect16 stalled: an eighth
- * of radiance16's time on the bench scene, perf). */
+/* A packet whose every lane is a miss (no infinite planes) or a vector
+ * lane: shade16 would use none of its scalar code. */
+static int all_vector(const lr_scene *s, const struct RTCRayHit16 *rh, int n)
+{
+    if (lr__whitted_scalar_only || s->n_planes != 0)
+        return 0;
+    for (int i = 0; i < n; i++) {
+        unsigned g = rh->hit.geomID[i];
+        if (g != RTC_INVALID_GEOMETRY_ID && !s->geoms[g].lambert_triangles)
+            return 0;
+    }
+    return 1;
+}
+
+/* What such a packet keeps between the steps of radiance16_n. */
+typedef struct batch16 {
+    scratch16 sc; /* its lanes' hits and albedos, as shade16's */
+    double v[3][16];
+    double fr[16], fg[16], fb[16], ro[3][16], rd[3][16], rt[16];
+    int vec[16], valid[16];
+    int n_vec, any;
+    struct RTCRay16 shadow __attribute__((aligned(64)));
+} batch16;
+
+#define LR__BATCH_MAX 8
+static _Thread_local batch16 tls_batch[LR__BATCH_MAX];
+
+/* (A call, as for thread_scratch.) */
+__attribute__((noinline)) static batch16 *thread_batch(void)
+{
+    return tls_batch;
+}
+
+/* Every packet's camera rays traced before any packet is shaded, and the
+ * packets with vector lanes only shaded step by step together: all their
+ * hits completed and shadow rays made, then all their shadow packets
+ * traced, then their light added.  So one packet's arithmetic (its square
+ * roots and divisions queue for the one divider) overlaps another's
+ * gathers, and Embree's results, written by masked stores that a load
+ * right after waits for, are read a packet later.  Each packet's rays,
+ * Embree calls and arithmetic are the ones shade16 gives it alone. */
 static void radiance16_n(const lr_scene *s, int max_depth,
                          struct RTCRayHit16 *rh, const int *n, int count,
                          const lr__sample_id *id, lr__v3 (*L)[16],
@@ -525,8 +562,92 @@ static void radiance16_n(const lr_scene *s, int max_depth,
     (void)id;
     for (int p = 0; p < count; p++)
         lr__intersect16(s, &rh[p], n[p], rays);
-    for (int p = 0; p < count; p++)
-        shade16(s, max_depth, &rh[p], n[p], L[p], rays);
+    batch16 *B = thread_batch();
+    int of[LR__BATCH_MAX], nb = 0;
+    for (int p = 0; p < count; p++) {
+        if (nb < LR__BATCH_MAX && all_vector(s, &rh[p], n[p]))
+            of[nb++] = p;
+        else
+            shade16(s, max_depth, &rh[p], n[p], L[p], rays);
+    }
+    for (int b = 0; b < nb; b++) {
+        int p = of[b];
+        batch16 *bt = &B[b];
+        const struct RTCRayHit16 *r = &rh[p];
+        bt->n_vec = 0;
+        for (int i = 0; i < 16; i++)
+            bt->vec[i] = 0;
+        for (int i = 0; i < n[p]; i++) {
+            unsigned g = r->hit.geomID[i];
+            if (g == RTC_INVALID_GEOMETRY_ID) {
+                L[p][i] = s->env == NULL
+                              ? s->background
+                              : lr__env_radiance(s, v3_norm(v3(r->ray.dir_x[i],
+                                                               r->ray.dir_y[i],
+                                                               r->ray.dir_z[i])));
+                continue;
+            }
+            bt->vec[i] = -1;
+            bt->n_vec++;
+            lr__hits16_gather(s, r, i, &bt->sc.h);
+            /* As shade16 looks the albedo up. */
+            const lr__geom *G = &s->geoms[g];
+            lr__v3 kd = G->albedo;
+            if (G->albedo_textured) {
+                double uv[2];
+                lr__material tmp;
+                int has_uv = lr__triangle_uv(G, r->hit.primID[i], r->hit.u[i],
+                                             r->hit.v[i], uv);
+                kd = lr__material_at(s, G->material, has_uv, uv, &tmp)
+                         ->diffuse;
+            }
+            bt->sc.k[0][i] = kd.x, bt->sc.k[1][i] = kd.y,
+            bt->sc.k[2][i] = kd.z;
+        }
+        if (bt->n_vec) {
+            lr__hits16_complete(r, &bt->sc.h);
+            vector_start16(s, (const double(*)[16])bt->sc.k, bt->v);
+        }
+    }
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    for (size_t k = 0; k < s->n_lights; k++) {
+        for (int b = 0; b < nb; b++) {
+            batch16 *bt = &B[b];
+            bt->any = 0;
+            if (!bt->n_vec)
+                continue;
+            for (int i = 0; i < 16; i++)
+                bt->valid[i] = bt->vec[i];
+            bt->any = light_rays16(&s->lights[k], &bt->sc.h,
+                                   (const double(*)[16])bt->sc.k, bt->valid,
+                                   &bt->shadow, bt->fr, bt->fg, bt->fb,
+                                   bt->ro, bt->rd, bt->rt);
+            if (bt->any)
+                lr__ray16_quiet_lanes(&bt->shadow, bt->valid);
+        }
+        for (int b = 0; b < nb; b++) {
+            batch16 *bt = &B[b];
+            if (!bt->any)
+                continue;
+            rtcOccluded16(bt->valid, s->rtc, &ctx, &bt->shadow);
+            *rays += (uint64_t)bt->any;
+        }
+        for (int b = 0; b < nb; b++) {
+            batch16 *bt = &B[b];
+            if (bt->any)
+                vector_add16(bt->valid, &bt->shadow, bt->fr, bt->fg, bt->fb,
+                             bt->v);
+        }
+    }
+    for (int b = 0; b < nb; b++) {
+        int p = of[b];
+        batch16 *bt = &B[b];
+        for (int i = 0; i < n[p]; i++)
+            if (bt->vec[i])
+                L[p][i] = v3(bt->v[0][i], bt->v[1][i], bt->v[2][i]);
+    }
 }
 
 static lr__v3 radiance1(const lr_scene *s, int max_depth, lr__v3 org,
