@@ -217,6 +217,22 @@ void lr__cam_init(lr__cam *c, const lr_camera *cam, int width, int height)
     c->chroma = cam->chromatic;
     c->nm_ref = LR__NM_d;
     c->model->setup(c, cam);
+    /* The packet rays' constants, rounded as offset_lens_rays16 rounded
+     * them per call. */
+    c->f16.sw = (float)(2.0 / c->width);
+    c->f16.sh = (float)(2.0 / c->height);
+    c->f16.hw = (float)c->half_w;
+    c->f16.hh = (float)c->half_h;
+    const lr__v3 *frame[4] = {&c->forward, &c->right, &c->up, &c->origin};
+    float *f16[4] = {c->f16.fw, c->f16.rt, c->f16.up, c->f16.e};
+    for (int k = 0; k < 4; k++) {
+        f16[k][0] = (float)frame[k]->x;
+        f16[k][1] = (float)frame[k]->y;
+        f16[k][2] = (float)frame[k]->z;
+    }
+    c->f16.rad = (float)c->radius;
+    c->f16.w = (float)c->w;
+    c->f16.di = (float)c->base_di;
 
     /* Chromatic focus: the model has set the focus line w(n) = w_base +
      * w_slope scale(n); with the reference index the power is c->w. */
@@ -375,17 +391,17 @@ offset_lens_rays16(const lr__cam *c, int use_lens, int n, const float *fx,
                    const float *fy, const float *lu, const float *lv,
                    const float *wl, struct RTCRayHit16 *rh)
 {
-    const float sw = (float)(2.0 / c->width), sh = (float)(2.0 / c->height);
-    const float hw = (float)c->half_w, hh = (float)c->half_h;
-    const float fw[3] = {(float)c->forward.x, (float)c->forward.y,
-                         (float)c->forward.z};
-    const float rt[3] = {(float)c->right.x, (float)c->right.y,
-                         (float)c->right.z};
-    const float up[3] = {(float)c->up.x, (float)c->up.y, (float)c->up.z};
-    const float e[3] = {(float)c->origin.x, (float)c->origin.y,
-                        (float)c->origin.z};
-    const float rad = (float)c->radius, w = (float)c->w;
-    const float di = (float)c->base_di;
+    /* A copy in locals: the ray stores below could alias *c for all
+     * the compiler knows, and through pointers into c it no longer
+     * vectorises the loop. */
+    const float sw = c->f16.sw, sh = c->f16.sh;
+    const float hw = c->f16.hw, hh = c->f16.hh;
+    const float fw[3] = {c->f16.fw[0], c->f16.fw[1], c->f16.fw[2]};
+    const float rt[3] = {c->f16.rt[0], c->f16.rt[1], c->f16.rt[2]};
+    const float up[3] = {c->f16.up[0], c->f16.up[1], c->f16.up[2]};
+    const float e[3] = {c->f16.e[0], c->f16.e[1], c->f16.e[2]};
+    const float rad = c->f16.rad, w = c->f16.w;
+    const float di = c->f16.di;
     float lx[16], ly[16];
     struct RTCRay16 *r = &rh->ray;
 

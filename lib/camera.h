@@ -205,6 +205,14 @@ struct lr__cam {
     double rotation;           /* radians */
     double ratio;
     double base_di;            /* rays start at e + D base_di (bracket) */
+    /* The frame and lens above rounded to float, for the packet rays
+     * (lr__offset_lens_rays16): made once by lr__cam_init, not per
+     * packet (two divisions and sixteen conversions a call). */
+    struct {
+        float sw, sh, hw, hh;  /* 2 / width, 2 / height, half_w, half_h */
+        float fw[3], rt[3], up[3], e[3];
+        float rad, w, di;
+    } f16;
 
     double w;                  /* focus power without aberration */
     /* Chromatic aberration: power as a function of the index n is

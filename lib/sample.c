@@ -72,35 +72,51 @@ static void packet_samples(const lr__shot *sh, int use_lens, int x, int y,
 {
     struct RTCRayHit16 rh[PACKETS_AHEAD] __attribute__((aligned(64)));
     float wt[PACKETS_AHEAD][16];
-    float fx[16], fy[16], lu[16], lv[16];
-    for (int i = 0; i < 16; i++)
-        fx[i] = fy[i] = lu[i] = lv[i] = 0.5f;
+    float fx[PACKETS_AHEAD][16], fy[PACKETS_AHEAD][16];
+    float lu[PACKETS_AHEAD][16], lv[PACKETS_AHEAD][16];
     lr__pixel_sampler ps;
     uint64_t pixel = (uint64_t)y * (uint64_t)sh->width + (uint64_t)x;
     lr__pixel_sampler_init(&ps, sh->sampler, pixel);
     for (int b0 = first; b0 < last; b0 += 16 * PACKETS_AHEAD) {
+        /* All the packets' sample values first, then all their rays:
+         * each step's chains then overlap across the packets. */
         int n_packets = 0;
         for (int s0 = b0; s0 < last && n_packets < PACKETS_AHEAD; s0 += 16) {
             int n = last - s0 < 16 ? last - s0 : 16;
-            lr__packet_coords(&ps, x, y, (uint32_t)s0, n, fx, fy, lu, lv);
-            sh->cam->model->rays16(sh->cam, use_lens, n, fx, fy, lu, lv,
-                                   &rh[n_packets], wt[n_packets]);
+            lr__packet_coords(&ps, x, y, (uint32_t)s0, n, fx[n_packets],
+                              fy[n_packets], lu[n_packets], lv[n_packets]);
             n_packets++;
         }
         for (int p = 0; p < n_packets; p++) {
             int s0 = b0 + 16 * p;
             int n = last - s0 < 16 ? last - s0 : 16;
-            cnt->camera_rays += (uint64_t)n;
-            lr__v3 L[16];
-            const lr__sample_id id = {sh->sampler, pixel, (uint32_t)s0};
-            sh->integrator->radiance16(sh->scene, sh->max_depth, &rh[p], n,
-                                       &id, L, &cnt->rays);
+            sh->cam->model->rays16(sh->cam, use_lens, n, fx[p], fy[p], lu[p],
+                                   lv[p], &rh[p], wt[p]);
+        }
+        int ns[PACKETS_AHEAD];
+        lr__sample_id id[PACKETS_AHEAD];
+        lr__v3 L[PACKETS_AHEAD][16];
+        for (int p = 0; p < n_packets; p++) {
+            int s0 = b0 + 16 * p;
+            ns[p] = last - s0 < 16 ? last - s0 : 16;
+            id[p] = (lr__sample_id){sh->sampler, pixel, (uint32_t)s0};
+            cnt->camera_rays += (uint64_t)ns[p];
+        }
+        if (sh->integrator->radiance16_n != NULL)
+            sh->integrator->radiance16_n(sh->scene, sh->max_depth, rh, ns,
+                                         n_packets, id, L, &cnt->rays);
+        else
+            for (int p = 0; p < n_packets; p++)
+                sh->integrator->radiance16(sh->scene, sh->max_depth, &rh[p],
+                                           ns[p], &id[p], L[p], &cnt->rays);
+        for (int p = 0; p < n_packets; p++) {
+            int n = ns[p];
             if (sh->cam->weighted)
                 for (int i = 0; i < n; i++) {
-                    L[i] = v3_scale(L[i], wt[p][i]);
+                    L[p][i] = v3_scale(L[p][i], wt[p][i]);
                     cnt->lens_blocked += wt[p][i] == 0.0f;
                 }
-            lr__pixel_add_n(acc, L, n);
+            lr__pixel_add_n(acc, L[p], n);
         }
     }
 }

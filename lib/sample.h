@@ -56,7 +56,8 @@ uint64_t lr__colour_rays(const lr__cam *c);
 
 /* The film (fx, fy) and lens (lu, lv) coordinates of samples s0 ..
  * s0 + n - 1 of pixel (x, y), one lane each: the film position summed in
- * double, as the scalar path does, then rounded once.  The packet paths
+ * double, as the scalar path does, then rounded once.  Lanes n to 15 get
+ * the pixel's centre and the lens's.  The packet paths
  * of sample.c and spectral.c both fill their lanes with it. */
 static inline void lr__packet_coords(const lr__pixel_sampler *ps, int x,
                                      int y, uint32_t s0, int n, float fx[16],
@@ -64,12 +65,29 @@ static inline void lr__packet_coords(const lr__pixel_sampler *ps, int x,
 {
     float u[4][16];
     lr__pixel_sampler_get16(ps, s0, n, u);
+    if (n == 16) {
+        /* A full packet, the common case, in a loop of known length:
+         * for n lanes the compiler copies lu and lv by `rep movs`,
+         * whose start-up alone cost a third of packet_samples. */
+        for (int i = 0; i < 16; i++) {
+            fx[i] = (float)(x + (double)u[0][i]);
+            fy[i] = (float)(y + (double)u[1][i]);
+            lu[i] = u[2][i];
+            lv[i] = u[3][i];
+        }
+        return;
+    }
     for (int i = 0; i < n; i++) {
         fx[i] = (float)(x + (double)u[0][i]);
         fy[i] = (float)(y + (double)u[1][i]);
         lu[i] = u[2][i];
         lv[i] = u[3][i];
     }
+    /* The lanes past n: any ray the camera makes of them is masked off,
+     * but Embree's AVX2 code checks masked lanes for NaN. */
+    for (int i = n; i < 16; i++)
+        fx[i] = (float)x + 0.5f, fy[i] = (float)y + 0.5f,
+        lu[i] = lv[i] = 0.5f;
 }
 
 #endif

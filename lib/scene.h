@@ -510,7 +510,7 @@ int lr__planes_block(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar);
  * caller zeroes the struct once and then reuses it. */
 typedef struct lr__hits16 {
     double ng[3][16];   /* the triangle's unit normal (lr__geom.face_ng) */
-    float n[9][16];     /* corner normals, zero in flat meshes */
+    float n[9][16];     /* corner normals (flat meshes: not written) */
     float smooth[16];   /* 1 with corner normals */
     /* Results. */
     double px[16], py[16], pz[16];    /* hit position */
@@ -538,8 +538,8 @@ static inline void lr__hits16_gather(const lr_scene *s,
             h->n[k][i] = n[k];
         h->smooth[i] = 1.0f;
     } else {
-        for (int k = 0; k < 9; k++)
-            h->n[k][i] = 0.0f;
+        /* n keeps what it held: lr__hits16_complete takes ng in this
+         * lane whatever it computes from n. */
         h->smooth[i] = 0.0f;
     }
 }

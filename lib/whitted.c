@@ -116,9 +116,11 @@ static int light_ray_setup(const lr_scene *s, const lr__material *m,
  * once: fills the shadow packet's rays, ok[i] (-1 where a shadow ray is
  * needed, in lanes where ok[i] was -1 before), the contribution f E cos
  * (fr, fg, fb) and the shadow rays in double (ro, rd, rt), as
- * light_ray_setup gives them, for the infinite planes. */
+ * light_ray_setup gives them, for the infinite planes.  Returns the
+ * number of lanes that need a shadow ray (counted here, from registers:
+ * read back from ok[], it waited for the stores). */
 __attribute__((target_clones("avx512f", "avx2", "default")))
-static void light_rays16(const lr__light *restrict lt,
+static int light_rays16(const lr__light *restrict lt,
                          const lr__hits16 *restrict h,
                          const double k[restrict 3][16], int *restrict ok,
                          struct RTCRay16 *restrict r, double fr[restrict 16],
@@ -178,8 +180,11 @@ static void light_rays16(const lr__light *restrict lt,
     }
     /* (Apart: the vectoriser takes loops of one element width more
      * readily.) */
+    int count = 0;
     for (int i = 0; i < 16; i++) {
-        ok[i] = -((ok[i] != 0) & lit_[i]);
+        int need = (ok[i] != 0) & lit_[i];
+        count += need;
+        ok[i] = -need;
         r->org_x[i] = (float)ro[0][i];
         r->org_y[i] = (float)ro[1][i];
         r->org_z[i] = (float)ro[2][i];
@@ -193,6 +198,7 @@ static void light_rays16(const lr__light *restrict lt,
         r->id[i] = 0;
         r->flags[i] = 0;
     }
+    return count;
 }
 
 static lr__v3 direct(const lr_scene *s, const lr__material *m,
@@ -325,15 +331,41 @@ __attribute__((noinline)) static scratch16 *thread_scratch(void)
     return &tls_scratch;
 }
 
-static void radiance16(const lr_scene *restrict s, int max_depth,
-                       struct RTCRayHit16 *restrict rh, int n,
-                       const lr__sample_id *id, lr__v3 L[restrict 16],
-                       uint64_t *restrict rays)
+/* A vector lane's light, kept per channel (v[0..2][i]): ambient x
+ * albedo to start with, then each light's contribution added where its
+ * shadow ray got through, in the order of the lights, as the scalar code
+ * adds them.  Lanes without a shadow ray keep their value. */
+static void vector_start16(const lr_scene *s, const double k[3][16],
+                           double v[restrict 3][16])
 {
-    (void)id; /* Whitted's rays make no random decisions. */
+    for (int c = 0; c < 3; c++) {
+        double a = c == 0 ? s->ambient.x : c == 1 ? s->ambient.y
+                                                  : s->ambient.z;
+        for (int i = 0; i < 16; i++)
+            v[c][i] = a * k[c][i];
+    }
+}
+
+static void vector_add16(const int *valid, const struct RTCRay16 *shadow,
+                         const double fr[16], const double fg[16],
+                         const double fb[16], double v[restrict 3][16])
+{
+    /* Embree marks an occluded ray by setting tfar to -inf. */
+    for (int i = 0; i < 16; i++) {
+        int lit = (valid[i] != 0) & (shadow->tfar[i] >= 0.0f);
+        v[0][i] = lit ? v[0][i] + fr[i] : v[0][i];
+        v[1][i] = lit ? v[1][i] + fg[i] : v[1][i];
+        v[2][i] = lit ? v[2][i] + fb[i] : v[2][i];
+    }
+}
+
+/* radiance16 for a packet whose camera rays have been traced. */
+static void shade16(const lr_scene *restrict s, int max_depth,
+                    struct RTCRayHit16 *restrict rh, int n,
+                    lr__v3 L[restrict 16], uint64_t *restrict rays)
+{
     scratch16 *sc = thread_scratch();
     struct RTCRay16 shadow __attribute__((aligned(64)));
-    lr__intersect16(s, rh, n, rays);
     /* For the shadow packets below. */
     int valid[16] __attribute__((aligned(64)));
     struct RTCIntersectContext ctx;
@@ -341,19 +373,32 @@ static void radiance16(const lr_scene *restrict s, int max_depth,
     ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
 
     /* Each lane is a vector lane, a scalar lane (hit completed by
-     * lr__hit_complete, shaded by the scalar code) or a miss. */
+     * lr__hit_complete, shaded by the scalar code) or a miss.  Only the
+     * scalar lanes need the per-lane loops further down. */
     lr__hit hit[16];
     lr__material mt[16];
     const lr__material *m[16];
     lr__v3 org[16], dir[16];
-    int has_hit[16], vec[16], n_vec = 0;
+    int has_hit[16], vec[16], n_vec = 0, n_scalar = 0;
     const int vector_ok = !lr__whitted_scalar_only;
-    for (int i = 0; i < 16; i++) {
+    /* A miss with no infinite plane to meet: what lr__hit_complete would
+     * say (a third of the bench scene's packets miss in every lane). */
+    const int miss_is_sky = s->n_planes == 0;
+    for (int i = 0; i < n; i++) {
         unsigned g = rh->hit.geomID[i];
-        vec[i] = i < n && vector_ok && vector_lane(s, rh, i) ? -1 : 0;
-        n_vec += vec[i] != 0;
+        vec[i] = 0;
         has_hit[i] = 0;
-        if (vec[i]) {
+        if (g == RTC_INVALID_GEOMETRY_ID && miss_is_sky) {
+            const struct RTCRay16 *r = &rh->ray;
+            L[i] = s->env == NULL ? s->background
+                                  : lr__env_radiance(s, v3_norm(v3(r->dir_x[i],
+                                                               r->dir_y[i],
+                                                               r->dir_z[i])));
+            continue;
+        }
+        if (vector_ok && vector_lane(s, rh, i)) {
+            vec[i] = -1;
+            n_vec++;
             lr__hits16_gather(s, rh, i, &sc->h);
             /* A textured albedo, looked up where lr__hit_complete would
              * (the same barycentrics, the same formula). */
@@ -368,25 +413,10 @@ static void radiance16(const lr_scene *restrict s, int max_depth,
                          ->diffuse;
             }
             sc->k[0][i] = kd.x, sc->k[1][i] = kd.y, sc->k[2][i] = kd.z;
-        }
-        if (i >= n)
-            continue;
-        if (vec[i]) {
-            has_hit[i] = 1;
-            L[i] = v3(s->ambient.x * sc->k[0][i], s->ambient.y * sc->k[1][i],
-                      s->ambient.z * sc->k[2][i]);
-            continue;
-        }
-        if (g == RTC_INVALID_GEOMETRY_ID && s->n_planes == 0) {
-            /* What lr__hit_complete would say. */
-            const struct RTCRay16 *r = &rh->ray;
-            L[i] = s->env == NULL ? s->background
-                                  : lr__env_radiance(s, v3_norm(v3(r->dir_x[i],
-                                                               r->dir_y[i],
-                                                               r->dir_z[i])));
             continue;
         }
         /* The scalar code works in double on the ray as traced. */
+        n_scalar++;
         const struct RTCRay16 *r = &rh->ray;
         org[i] = v3(r->org_x[i], r->org_y[i], r->org_z[i]);
         dir[i] = v3(r->dir_x[i], r->dir_y[i], r->dir_z[i]);
@@ -398,8 +428,15 @@ static void radiance16(const lr_scene *restrict s, int max_depth,
         L[i] = has_hit[i] ? v3_add(emitted(m[i], &hit[i]), ambient(s, m[i]))
                           : lr__env_radiance(s, v3_norm(dir[i]));
     }
-    if (n_vec)
+    if (n_vec == 0 && n_scalar == 0)
+        return; /* every lane missed */
+    for (int i = n; i < 16; i++)
+        vec[i] = 0;
+    double v[3][16] __attribute__((aligned(64)));
+    if (n_vec) {
         lr__hits16_complete(rh, &sc->h);
+        vector_start16(s, (const double(*)[16])sc->k, v);
+    }
 
     /* One packet of shadow rays per light.  They are coherent too: they
      * leave the few surface points one pixel sees for one light (6%
@@ -408,22 +445,17 @@ static void radiance16(const lr_scene *restrict s, int max_depth,
         light_ray lr[16];
         double fr[16], fg[16], fb[16], ro[3][16], rd[3][16], rt[16];
         int any = 0;
+        for (int i = 0; i < 16; i++)
+            valid[i] = vec[i];
         if (n_vec) {
-            for (int i = 0; i < 16; i++)
-                valid[i] = vec[i];
-            light_rays16(&s->lights[k], &sc->h, (const double(*)[16])sc->k,
-                         valid, &shadow, fr, fg, fb, ro, rd, rt);
-        } else {
-            for (int i = 0; i < 16; i++)
-                valid[i] = 0;
+            any = light_rays16(&s->lights[k], &sc->h,
+                               (const double(*)[16])sc->k, valid, &shadow,
+                               fr, fg, fb, ro, rd, rt);
         }
-        for (int i = 0; i < 16; i++) {
-            if (vec[i]) {
-                any += valid[i] != 0;
+        for (int i = 0; i < n && n_scalar; i++) {
+            if (vec[i] || !has_hit[i])
                 continue;
-            }
-            if (i < n && has_hit[i] &&
-                light_ray_setup(s, m[i], &hit[i], v3_neg(dir[i]), k,
+            if (light_ray_setup(s, m[i], &hit[i], v3_neg(dir[i]), k,
                                 &lr[i])) {
                 valid[i] = -1;
                 lr__shadow_ray16(&shadow, i, lr[i].org, lr[i].dir,
@@ -438,26 +470,184 @@ static void radiance16(const lr_scene *restrict s, int max_depth,
         lr__ray16_quiet_lanes(&shadow, valid);
         rtcOccluded16(valid, s->rtc, &ctx, &shadow);
         *rays += (uint64_t)any;
+        if (n_vec && s->n_planes == 0) {
+            vector_add16(valid, &shadow, fr, fg, fb, v);
+            if (!n_scalar)
+                continue;
+        }
         for (int i = 0; i < n; i++) {
             /* Embree marks an occluded ray by setting tfar to -inf. */
             if (!valid[i] || !(shadow.tfar[i] >= 0.0f))
                 continue;
-            if (vec[i] &&
-                (s->n_planes == 0 ||
-                 !lr__planes_block(s, v3(ro[0][i], ro[1][i], ro[2][i]),
-                                   v3(rd[0][i], rd[1][i], rd[2][i]), rt[i])))
-                L[i] = v3_add(L[i], v3(fr[i], fg[i], fb[i]));
-            else if (!vec[i] &&
-                     !lr__planes_block(s, lr[i].org, lr[i].dir, lr[i].tfar))
+            if (vec[i] && s->n_planes != 0 &&
+                !lr__planes_block(s, v3(ro[0][i], ro[1][i], ro[2][i]),
+                                  v3(rd[0][i], rd[1][i], rd[2][i]), rt[i])) {
+                v[0][i] = v[0][i] + fr[i];
+                v[1][i] = v[1][i] + fg[i];
+                v[2][i] = v[2][i] + fb[i];
+            } else if (!vec[i] &&
+                       !lr__planes_block(s, lr[i].org, lr[i].dir,
+                                         lr[i].tfar)) {
                 L[i] = v3_add(L[i], lr[i].f_E_cos);
+            }
         }
     }
+    if (n_vec)
+        for (int i = 0; i < n; i++)
+            if (vec[i])
+                L[i] = v3(v[0][i], v[1][i], v[2][i]);
 
-    if (max_depth > 0)
+    if (max_depth > 0 && n_scalar)
         for (int i = 0; i < n; i++)
             if (!vec[i] && has_hit[i])
                 L[i] = v3_add(L[i], secondary(s, m[i], &hit[i], dir[i], 0,
                                               max_depth, 1.0, rays));
+}
+
+static void radiance16(const lr_scene *s, int max_depth,
+                       struct RTCRayHit16 *rh, int n,
+                       const lr__sample_id *id, lr__v3 L[16], uint64_t *rays)
+{
+    (void)id; /* Whitted's rays make no random decisions. */
+    lr__intersect16(s, rh, n, rays);
+    shade16(s, max_depth, rh, n, L, rays);
+}
+
+/* A packet whose every lane is a miss (no infinite planes) or a vector
+ * lane: shade16 would use none of its scalar code. */
+static int all_vector(const lr_scene *s, const struct RTCRayHit16 *rh, int n)
+{
+    if (lr__whitted_scalar_only || s->n_planes != 0)
+        return 0;
+    for (int i = 0; i < n; i++) {
+        unsigned g = rh->hit.geomID[i];
+        if (g != RTC_INVALID_GEOMETRY_ID && !s->geoms[g].lambert_triangles)
+            return 0;
+    }
+    return 1;
+}
+
+/* What such a packet keeps between the steps of radiance16_n. */
+typedef struct batch16 {
+    scratch16 sc; /* its lanes' hits and albedos, as shade16's */
+    double v[3][16];
+    double fr[16], fg[16], fb[16], ro[3][16], rd[3][16], rt[16];
+    int vec[16], valid[16];
+    int n_vec, any;
+    struct RTCRay16 shadow __attribute__((aligned(64)));
+} batch16;
+
+#define LR__BATCH_MAX 8
+static _Thread_local batch16 tls_batch[LR__BATCH_MAX];
+
+/* (A call, as for thread_scratch.) */
+__attribute__((noinline)) static batch16 *thread_batch(void)
+{
+    return tls_batch;
+}
+
+/* Every packet's camera rays traced before any packet is shaded, and the
+ * packets with vector lanes only shaded step by step together: all their
+ * hits completed and shadow rays made, then all their shadow packets
+ * traced, then their light added.  So one packet's arithmetic (its square
+ * roots and divisions queue for the one divider) overlaps another's
+ * gathers, and Embree's results, written by masked stores that a load
+ * right after waits for, are read a packet later.  Each packet's rays,
+ * Embree calls and arithmetic are the ones shade16 gives it alone. */
+static void radiance16_n(const lr_scene *s, int max_depth,
+                         struct RTCRayHit16 *rh, const int *n, int count,
+                         const lr__sample_id *id, lr__v3 (*L)[16],
+                         uint64_t *rays)
+{
+    (void)id;
+    for (int p = 0; p < count; p++)
+        lr__intersect16(s, &rh[p], n[p], rays);
+    batch16 *B = thread_batch();
+    int of[LR__BATCH_MAX], nb = 0;
+    for (int p = 0; p < count; p++) {
+        if (nb < LR__BATCH_MAX && all_vector(s, &rh[p], n[p]))
+            of[nb++] = p;
+        else
+            shade16(s, max_depth, &rh[p], n[p], L[p], rays);
+    }
+    for (int b = 0; b < nb; b++) {
+        int p = of[b];
+        batch16 *bt = &B[b];
+        const struct RTCRayHit16 *r = &rh[p];
+        bt->n_vec = 0;
+        for (int i = 0; i < 16; i++)
+            bt->vec[i] = 0;
+        for (int i = 0; i < n[p]; i++) {
+            unsigned g = r->hit.geomID[i];
+            if (g == RTC_INVALID_GEOMETRY_ID) {
+                L[p][i] = s->env == NULL
+                              ? s->background
+                              : lr__env_radiance(s, v3_norm(v3(r->ray.dir_x[i],
+                                                               r->ray.dir_y[i],
+                                                               r->ray.dir_z[i])));
+                continue;
+            }
+            bt->vec[i] = -1;
+            bt->n_vec++;
+            lr__hits16_gather(s, r, i, &bt->sc.h);
+            /* As shade16 looks the albedo up. */
+            const lr__geom *G = &s->geoms[g];
+            lr__v3 kd = G->albedo;
+            if (G->albedo_textured) {
+                double uv[2];
+                lr__material tmp;
+                int has_uv = lr__triangle_uv(G, r->hit.primID[i], r->hit.u[i],
+                                             r->hit.v[i], uv);
+                kd = lr__material_at(s, G->material, has_uv, uv, &tmp)
+                         ->diffuse;
+            }
+            bt->sc.k[0][i] = kd.x, bt->sc.k[1][i] = kd.y,
+            bt->sc.k[2][i] = kd.z;
+        }
+        if (bt->n_vec) {
+            lr__hits16_complete(r, &bt->sc.h);
+            vector_start16(s, (const double(*)[16])bt->sc.k, bt->v);
+        }
+    }
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    for (size_t k = 0; k < s->n_lights; k++) {
+        for (int b = 0; b < nb; b++) {
+            batch16 *bt = &B[b];
+            bt->any = 0;
+            if (!bt->n_vec)
+                continue;
+            for (int i = 0; i < 16; i++)
+                bt->valid[i] = bt->vec[i];
+            bt->any = light_rays16(&s->lights[k], &bt->sc.h,
+                                   (const double(*)[16])bt->sc.k, bt->valid,
+                                   &bt->shadow, bt->fr, bt->fg, bt->fb,
+                                   bt->ro, bt->rd, bt->rt);
+            if (bt->any)
+                lr__ray16_quiet_lanes(&bt->shadow, bt->valid);
+        }
+        for (int b = 0; b < nb; b++) {
+            batch16 *bt = &B[b];
+            if (!bt->any)
+                continue;
+            rtcOccluded16(bt->valid, s->rtc, &ctx, &bt->shadow);
+            *rays += (uint64_t)bt->any;
+        }
+        for (int b = 0; b < nb; b++) {
+            batch16 *bt = &B[b];
+            if (bt->any)
+                vector_add16(bt->valid, &bt->shadow, bt->fr, bt->fg, bt->fb,
+                             bt->v);
+        }
+    }
+    for (int b = 0; b < nb; b++) {
+        int p = of[b];
+        batch16 *bt = &B[b];
+        for (int i = 0; i < n[p]; i++)
+            if (bt->vec[i])
+                L[p][i] = v3(bt->v[0][i], bt->v[1][i], bt->v[2][i]);
+    }
 }
 
 static lr__v3 radiance1(const lr_scene *s, int max_depth, lr__v3 org,
@@ -471,4 +661,5 @@ const lr__integrator lr__whitted = {
     .name = "whitted",
     .radiance = radiance1,
     .radiance16 = radiance16,
+    .radiance16_n = radiance16_n,
 };
