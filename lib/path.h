@@ -26,20 +26,11 @@ typedef struct lr__path_lane {
     double s_tfar;
 } lr__path_lane;
 
-/* Whether path16.c can take this scene's flat Lambertian triangles: no
- * infinite planes, and its only lights are at most 16 emitting
- * triangles without textures (no environment, point or directional
- * light).  Cheap: a few fields. */
+/* Whether path16.c's vector bounce can take this scene's Lambertian
+ * hits: no infinite planes, and its only lights are at most 16
+ * emitting triangles without textures (no environment, point or
+ * directional light).  Cheap: a few fields. */
 int lr__path16_scene_ok(const lr_scene *s);
-
-/* Whether a hit on geometry g (a valid Embree ID) can go to path16.c:
- * a flat triangle mesh whose material is Lambertian and untextured. */
-static inline int lr__path16_geom_ok(const lr_scene *s, unsigned g)
-{
-    const lr__geom *G = &s->geoms[g];
-    return G->lambert_triangles && G->corner_normals == NULL &&
-           !lr__material_textured(&s->materials[G->material]);
-}
 
 #define LR__PATH16_EMITTERS 16
 
@@ -53,62 +44,89 @@ typedef struct emitters16 {
     double nx[LR__PATH16_EMITTERS], ny[LR__PATH16_EMITTERS], nz[LR__PATH16_EMITTERS];
     double area[LR__PATH16_EMITTERS];
     double lr[LR__PATH16_EMITTERS], lg[LR__PATH16_EMITTERS], lb[LR__PATH16_EMITTERS];
+    int n; /* how many */
 } emitters16;
 
-/* The lanes' inputs and outputs, as arrays. */
-typedef struct lanes16 {
-    double ox[16], oy[16], oz[16];    /* the ray that hit */
-    double dx[16], dy[16], dz[16];
-    double wx[16], wy[16], wz[16];    /* the path's unit direction */
-    double t[16];
-    double nx[16], ny[16], nz[16];    /* face normal */
-    double ar[16], ag[16], ab[16];    /* albedo */
-    double br[16], bg[16], bb[16];    /* throughput */
+/* The sixteen paths of a packet between bounces, as arrays: lane i's
+ * lr__path_lane is element i of each (path.c copies a lane out to shade
+ * it alone and back).  Kept as arrays through the whole bounce so that
+ * the vector bounce, the packing of rays and the sums read and write
+ * them in place: gathering lanes into arrays and scattering them back
+ * per bounce had been a fifth of the Cornell box's CPU time. */
+typedef struct lr__paths16 {
     double Lr[16], Lg[16], Lb[16];
-    double eta_scale[16];
-    /* The emitter each lane's light sample picked (emitters16). */
-    double ax[16], ay[16], az[16], e1x[16], e1y[16], e1z[16];
-    double e2x[16], e2y[16], e2z[16], enx[16], eny[16], enz[16];
-    double area[16], prob[16], ler[16], leg[16], leb[16];
-    /* Results. */
-    double shadow[16], alive[16];   /* 1 or 0 */
+    double br[16], bg[16], bb[16];    /* throughput */
+    double ox[16], oy[16], oz[16];    /* the ray traced next */
+    double dx[16], dy[16], dz[16];    /* (unit) */
+    double ppx[16], ppy[16], ppz[16]; /* prev_p */
+    double ppdf[16], pdelta[16];      /* prev_pdf, prev_delta (1 or 0) */
+    double eta[16];                   /* eta_scale */
+    double alive[16];                 /* 1 or 0 */
+    /* This bounce's light sample (shadow 1 or 0). */
+    double shadow[16];
     double sox[16], soy[16], soz[16], sdx[16], sdy[16], sdz[16];
     double scr[16], scg[16], scb[16], stfar[16];
-    double px[16], py[16], pz[16];
-    double nox[16], noy[16], noz[16], ndx[16], ndy[16], ndz[16];
-    double pdf[16];
-} lanes16;
+} lr__paths16;
 
-/* path16.c's working space for one packet's paths: the scene's
- * emitters as arrays, and the lanes'. */
+/* A bounce's hits that path16.c shades (take 1), as arrays. */
+typedef struct lr__hits16p {
+    double take[16];
+    double t[16];
+    double nx[16], ny[16], nz[16];    /* unit geometric normal */
+    double ar[16], ag[16], ab[16];    /* albedo */
+    double dx[16], dy[16], dz[16];    /* the ray's direction */
+} lr__hits16p;
+
+/* path16.c's working space for one packet's paths (one per thread): the
+ * scene's emitters, the paths, this bounce's hits, and the camera rays'
+ * directions as the camera made them (the first hit is completed with
+ * those). */
 typedef struct lr__path16 {
     emitters16 E;
-    lanes16 l;
+    lr__paths16 S;
+    lr__hits16p H;
+    double cdx[16], cdy[16], cdz[16];
+    int vec; /* lr__path16_scene_ok */
 } lr__path16;
 
-/* Prepares w for a packet (once, before its first bounce): its
- * emitters.  The lanes are the caller's to zero once (a thread's w
- * serves all its packets: zeroing its 9 KB per packet was 2.5% of the
- * Cornell box's CPU time). */
-void lr__path16_begin(const lr_scene *s, lr__path16 *w);
+/* Starts w on a packet of camera rays (lanes 0..n-1 of rh, which the
+ * camera filled): the paths' state, and (if vec) the emitters. */
+void lr__path16_begin(const lr_scene *s, lr__path16 *w,
+                      const struct RTCRayHit16 *rh, int n);
 
-/* The bounce of the lanes i with take[i] set, all at once: each did
- * hit a triangle that lr__path16_geom_ok accepts (rh: Embree's answer
- * for the ray from hit_org[.][i] along hit_dir[.][i]), at a depth <=
- * max_depth, in a scene that lr__path16_scene_ok accepts.  Does what
- * path.c's bounce does for such a hit, operation for operation (so each
- * lane's result is the same to the bit): ambient light, the light
- * sample (P[i].shadow, s_*), the BSDF sample and roulette (P[i].beta,
- * org, dir, prev_*); alive[i] says whether the path goes on.  u[j][i]
- * is the lane's j-th number of this bounce.  Lanes not taken keep in w
- * what they held (zeros, or an earlier bounce's or packet's): the
- * vector loop computes on them too, and nobody reads those results. */
+/* Whether lane i's hit at bounce `depth` (rh: the answer for the ray
+ * w->S holds, or at depth 0 the camera's) can go to the vector bounce:
+ * an untextured Lambertian flat triangle or sphere, in a scene
+ * lr__path16_scene_ok accepts.  If so fills w->H's lane i and sets
+ * take; else clears take. */
+int lr__path16_take(const lr_scene *s, lr__path16 *w, int depth, int i,
+                    const struct RTCRayHit16 *rh);
+
+/* The bounce of the lanes with w->H.take[i] set, all at once, at a
+ * depth <= max_depth: what path.c's bounce does for such a hit,
+ * operation for operation (so each lane's result is the same to the
+ * bit): ambient light, the light sample (S.shadow, s*), the BSDF sample
+ * and roulette (S.b*, o*, d*, pp*, alive).  u[j][i] is lane i's j-th
+ * number of this bounce.  Other lanes keep what they hold. */
 void lr__path16_lambert(const lr_scene *s, lr__path16 *w, int depth,
-                        const int take[16], const double hit_org[3][16],
-                        const double hit_dir[3][16],
-                        const struct RTCRayHit16 *rh,
-                        const double u[LR__PATH_DIMS][16],
-                        lr__path_lane P[16], int alive[16]);
+                        const double u[LR__PATH_DIMS][16]);
+
+/* The hashed numbers u[j][i], j < LR__PATH_DIMS - 1, of dimension dim +
+ * j for the sixteen lanes' keys (path.c's bounce_numbers: lanes that
+ * are done get numbers too, which nobody reads). */
+void lr__path16_hashed(const uint64_t key[16], uint32_t dim,
+                       double u[LR__PATH_DIMS][16]);
+
+/* The lanes with a light sample to test (S.shadow), packed into P in
+ * lane order as lr__rays_packed_add packs them; returns how many. */
+int lr__path16_pack_shadows(const lr__paths16 *S, lr__rays_packed *P);
+
+/* The live lanes' next rays (S.o*, S.d*; tfar infinite), the same way. */
+int lr__path16_pack_rays(const lr__paths16 *S, lr__rays_packed *P);
+
+/* L += s_c for packed shadow entry c with occ[c] == 0. */
+void lr__path16_unoccluded(lr__paths16 *S, const lr__rays_packed *P,
+                           const double occ[16]);
 
 /* 0 turns path16.c off (path.c shades every lane alone): for the test
  * that the two agree to the bit. */
