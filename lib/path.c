@@ -252,16 +252,10 @@ static void trace_paths(const lr_scene *s, int max_depth,
         /* This bounce's surfaces, light samples and next rays: lanes on
          * untextured Lambertian surfaces together (path16.c), the
          * others alone; either way with the same result. */
-        int taken = 0;
-        for (int i = 0; i < n; i++) {
-            S->shadow[i] = 0.0;
-            w16.H.take[i] = 0.0;
-            if (S->alive[i] != 0.0 && depth <= max_depth)
-                taken += lr__path16_take(s, &w16, depth, i, rh);
-        }
-        for (int i = 0; i < n; i++) {
-            if (S->alive[i] == 0.0 || w16.H.take[i] != 0.0)
-                continue;
+        int alone[16];
+        int m = lr__path16_sort(s, &w16, depth, max_depth, n, rh, alone);
+        for (int c = 0; c < m; c++) {
+            int i = alone[c];
             lane p;
             lane_get(S, i, &p);
             /* The camera ray's hit with the ray as the camera made it. */
@@ -279,19 +273,17 @@ static void trace_paths(const lr_scene *s, int max_depth,
             int alive = bounce(s, max_depth, depth, hit, &h, v, &p);
             lane_put(&p, alive, S, i);
         }
-        if (taken)
+        if (w16.vec)
             lr__path16_lambert(s, &w16, depth, (const double (*)[16])U);
         /* The shadow rays: those an infinite plane blocks are done. */
-        for (int i = 0; i < n; i++) {
-            if (S->shadow[i] == 0.0)
-                continue;
-            (*rays)++;
-            if (s->n_planes > 0 &&
+        for (int i = 0; i < n; i++)
+            *rays += S->shadow[i] != 0.0;
+        for (int i = 0; i < n && s->n_planes > 0; i++)
+            if (S->shadow[i] != 0.0 &&
                 lr__planes_block(s, v3(S->sox[i], S->soy[i], S->soz[i]),
                                  v3(S->sdx[i], S->sdy[i], S->sdz[i]),
                                  S->stfar[i]))
                 S->shadow[i] = 0.0;
-        }
         if (packed) {
             /* Straight to spheres.c and few_triangles.c in double, which
              * meet every primitive themselves (no float packet to fill

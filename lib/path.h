@@ -94,13 +94,15 @@ typedef struct lr__path16 {
 void lr__path16_begin(const lr_scene *s, lr__path16 *w,
                       const struct RTCRayHit16 *rh, int n);
 
-/* Whether lane i's hit at bounce `depth` (rh: the answer for the ray
- * w->S holds, or at depth 0 the camera's) can go to the vector bounce:
- * an untextured Lambertian flat triangle or sphere, in a scene
- * lr__path16_scene_ok accepts.  If so fills w->H's lane i and sets
- * take; else clears take. */
-int lr__path16_take(const lr_scene *s, lr__path16 *w, int depth, int i,
-                    const struct RTCRayHit16 *rh);
+/* Sorts the live lanes of 0..n-1 at bounce `depth` (rh: the answer for
+ * the rays w->S holds, or at depth 0 the camera's): those the vector
+ * bounce takes (an untextured Lambertian flat triangle or sphere, at a
+ * depth <= max_depth, in a scene lr__path16_scene_ok accepts) get
+ * w->H.take and their hit in w->H; the others are listed in alone[],
+ * in order, their count returned.  Clears every lane's S.shadow. */
+int lr__path16_sort(const lr_scene *s, lr__path16 *w, int depth,
+                    int max_depth, int n, const struct RTCRayHit16 *rh,
+                    int alone[16]);
 
 /* The bounce of the lanes with w->H.take[i] set, all at once, at a
  * depth <= max_depth: what path.c's bounce does for such a hit,

@@ -54,8 +54,9 @@ static inline double maxc3(double x, double y, double z)
 
 static void emitters_get(const lr_scene *s, emitters16 *E)
 {
+    /* (Past n, at least to 2, the last repeated: lambert16 reads [1].) */
     size_t n = s->n_emitters;
-    for (size_t i = 0; i < MAX_EMITTERS; i++) {
+    for (size_t i = 0; i < n || i < 2; i++) {
         size_t k = i < n ? i : n - 1;
         const lr__emitter *e = &s->emitters[k];
         /* emitter_find's binary search gives the first index whose cdf
@@ -84,86 +85,103 @@ static int lambertian(const lr__material *m)
            !(v3_maxc(m->emission) > 0.0) && !lr__material_textured(m);
 }
 
-int lr__path16_take(const lr_scene *s, lr__path16 *w, int depth, int i,
-                    const struct RTCRayHit16 *rh)
+/* Whether lane i's hit can go to the vector bounce; if so fills H's
+ * lane i. */
+static int take(const lr_scene *s, lr__path16 *w, int depth, int i,
+                const struct RTCRayHit16 *rh)
 {
     lr__hits16p *H = &w->H;
     const lr__paths16 *S = &w->S;
-    H->take[i] = 0.0;
     unsigned g = rh->hit.geomID[i];
-    if (!w->vec || g == RTC_INVALID_GEOMETRY_ID)
+    if (g == RTC_INVALID_GEOMETRY_ID)
         return 0;
     const lr__geom *G = &s->geoms[g];
-    const lr__material *m = &s->materials[G->material];
     if (G->lambert_triangles) {
-        if (G->corner_normals != NULL || lr__material_textured(m))
+        if (G->corner_normals != NULL || G->albedo_textured ||
+            lr__material_textured(&s->materials[G->material]))
             return 0;
         const double *n = &G->face_ng[3 * (size_t)rh->hit.primID[i]];
         H->t[i] = rh->ray.tfar[i];
         H->nx[i] = n[0], H->ny[i] = n[1], H->nz[i] = n[2];
-    } else if (G->kind == LR__GEOM_SPHERE && lambertian(m)) {
-        /* lr__hit_complete's sphere: t solved again in double near the
-         * intersector's, then the normal from the centre. */
-        lr__v3 org = v3(S->ox[i], S->oy[i], S->oz[i]);
-        lr__v3 dir = depth == 0 ? v3(w->cdx[i], w->cdy[i], w->cdz[i])
-                                : v3(S->dx[i], S->dy[i], S->dz[i]);
-        double t = (double)rh->ray.tfar[i];
-        lr__v3 oc = v3_sub(org, G->center);
-        double a = v3_dot(dir, dir), b = v3_dot(oc, dir);
-        double l = v3_len(oc);
-        double c = (l - G->radius) * (l + G->radius);
-        double disc = b * b - a * c;
-        if (disc >= 0.0 && a > 0.0) {
-            double q = -(b + copysign(sqrt(disc), b));
-            double r1 = q / a, r2 = q != 0.0 ? c / q : r1;
-            double best = fabs(r1 - t) < fabs(r2 - t) ? r1 : r2;
-            if (best > 0.0 && best < INFINITY)
-                t = best;
-        }
-        lr__v3 n = v3_norm(v3_sub(v3_madd(org, dir, t), G->center));
-        H->t[i] = t;
-        H->nx[i] = n.x, H->ny[i] = n.y, H->nz[i] = n.z;
-    } else {
-        return 0;
+        H->ar[i] = G->albedo.x, H->ag[i] = G->albedo.y, H->ab[i] = G->albedo.z;
+        return 1;
     }
+    const lr__material *m = &s->materials[G->material];
+    if (G->kind != LR__GEOM_SPHERE || !lambertian(m))
+        return 0;
+    /* lr__hit_complete's sphere: t solved again in double near the
+     * intersector's, then the normal from the centre. */
+    lr__v3 org = v3(S->ox[i], S->oy[i], S->oz[i]);
+    lr__v3 dir = depth == 0 ? v3(w->cdx[i], w->cdy[i], w->cdz[i])
+                            : v3(S->dx[i], S->dy[i], S->dz[i]);
+    double t = (double)rh->ray.tfar[i];
+    lr__v3 oc = v3_sub(org, G->center);
+    double a = v3_dot(dir, dir), b = v3_dot(oc, dir);
+    double l = v3_len(oc);
+    double c = (l - G->radius) * (l + G->radius);
+    double disc = b * b - a * c;
+    if (disc >= 0.0 && a > 0.0) {
+        double q = -(b + copysign(sqrt(disc), b));
+        double r1 = q / a, r2 = q != 0.0 ? c / q : r1;
+        double best = fabs(r1 - t) < fabs(r2 - t) ? r1 : r2;
+        if (best > 0.0 && best < INFINITY)
+            t = best;
+    }
+    lr__v3 n = v3_norm(v3_sub(v3_madd(org, dir, t), G->center));
+    H->t[i] = t;
+    H->nx[i] = n.x, H->ny[i] = n.y, H->nz[i] = n.z;
     H->ar[i] = m->diffuse.x, H->ag[i] = m->diffuse.y, H->ab[i] = m->diffuse.z;
-    H->take[i] = 1.0;
     return 1;
 }
 
-__attribute__((target_clones("avx512f", "avx2", "default")))
-static void lambert16(lr__v3 amb, int rr, const double (*restrict u)[16],
-                      const emitters16 *restrict E,
-                      const lr__hits16p *restrict H, lr__paths16 *restrict S)
+int lr__path16_sort(const lr_scene *s, lr__path16 *w, int depth,
+                    int max_depth, int n, const struct RTCRayHit16 *rh,
+                    int alone[16])
 {
-    /* light.c's pick: one kind of light (area), so u_pick * 1 - 0 picks
-     * among the emitters: emitter_find's binary search gives the count
-     * of the cdfs before the last that do not exceed u (they never
-     * decrease). */
-    int pick[16];
-    for (int i = 0; i < 16; i++)
-        pick[i] = 0;
-    for (int j = 0; j + 1 < E->n; j++)
-        for (int i = 0; i < 16; i++)
-            pick[i] += E->cdf[j] <= u[4][i] * 1 - 0;
-    /* The picked emitters' fields, selected emitter by emitter (as
-     * gathers in the main loop they kept GCC from vectorising it, and
-     * in a loop of their own GCC left them scalar). */
+    lr__paths16 *S = &w->S;
+    lr__hits16p *H = &w->H;
+    int vec = w->vec && depth <= max_depth, m = 0;
+    for (int i = 0; i < 16; i++) {
+        S->shadow[i] = 0.0;
+        H->take[i] = 0.0;
+    }
+    for (int i = 0; i < n; i++) {
+        if (S->alive[i] == 0.0)
+            continue;
+        int t = vec && take(s, w, depth, i, rh);
+        H->take[i] = t;
+        alone[m] = i;
+        m += !t;
+    }
+    return m;
+}
+
+/* The emitter each lane's light sample picked: its fields (with more
+ * than two emitters; lambert16). */
+typedef struct picked16 {
     double ax[16], ay[16], az[16], e1x[16], e1y[16], e1z[16], e2x[16],
-        e2y[16], e2z[16], enx_[16], eny_[16], enz_[16], area_[16],
-        prob[16], ler[16], leg[16], leb[16];
-    for (int j = 0; j < E->n; j++)
-        for (int i = 0; i < 16; i++) {
-            int sel = j == 0 || pick[i] == j;
-#define PICK(a, f) a[i] = sel ? E->f[j] : a[i]
-            PICK(ax, ax), PICK(ay, ay), PICK(az, az);
-            PICK(e1x, e1x), PICK(e1y, e1y), PICK(e1z, e1z);
-            PICK(e2x, e2x), PICK(e2y, e2y), PICK(e2z, e2z);
-            PICK(enx_, nx), PICK(eny_, ny), PICK(enz_, nz);
-            PICK(area_, area), PICK(prob, prob);
-            PICK(ler, lr), PICK(leg, lg), PICK(leb, lb);
-#undef PICK
-        }
+        e2y[16], e2z[16], nx[16], ny[16], nz[16], area[16], prob[16],
+        lr[16], lg[16], lb[16];
+} picked16;
+
+/* lambert16's loop over the lanes; `two` constant in each call, so
+ * that GCC makes one loop for each (a select on it in one loop kept the
+ * loop from vectorising). */
+static inline __attribute__((always_inline)) void
+lanes16(lr__v3 amb, int rr, const double (*restrict u)[16],
+        const emitters16 *restrict E, const lr__hits16p *restrict H,
+        lr__paths16 *restrict S, const double *restrict pick,
+        const picked16 *restrict K, const int two)
+{
+    /* The first two emitters' fields, loaded here: loads under a select
+     * in the loop kept GCC from vectorising it.  (E's entries past n
+     * repeat the last, so [1] is there.) */
+#define LOAD2(f) const double f##_0 = E->f[0], f##_1 = E->f[1]
+    LOAD2(ax); LOAD2(ay); LOAD2(az); LOAD2(e1x); LOAD2(e1y); LOAD2(e1z);
+    LOAD2(e2x); LOAD2(e2y); LOAD2(e2z); LOAD2(nx); LOAD2(ny); LOAD2(nz);
+    LOAD2(area); LOAD2(prob); LOAD2(lr); LOAD2(lg); LOAD2(lb);
+#undef LOAD2
+#define EF(a, f) (two ? (pick[i] != 0.0 ? f##_1 : f##_0) : K->f[i])
     for (int i = 0; i < 16; i++) {
         int take = H->take[i] != 0.0;
         /* ---- the hit (trace.c's finish_hit, flat: ns = ng) ---- */
@@ -202,14 +220,14 @@ static void lambert16(lr__v3 amb, int rr, const double (*restrict u)[16],
         /* ---- the light sample (light.c, path.c's next_event) ---- */
         double su = sqrt(u[0][i]);
         double b1 = u[1][i] * su, b2 = su - b1;
-        double qx = ax[i] + (e1x[i] * b1 + e2x[i] * b2);
-        double qy = ay[i] + (e1y[i] * b1 + e2y[i] * b2);
-        double qz = az[i] + (e1z[i] * b1 + e2z[i] * b2);
-        double enx = enx_[i], eny = eny_[i], enz = enz_[i];
+        double qx = EF(ax, ax) + (EF(e1x, e1x) * b1 + EF(e2x, e2x) * b2);
+        double qy = EF(ay, ay) + (EF(e1y, e1y) * b1 + EF(e2y, e2y) * b2);
+        double qz = EF(az, az) + (EF(e1z, e1z) * b1 + EF(e2z, e2z) * b2);
+        double enx = EF(enx_, nx), eny = EF(eny_, ny), enz = EF(enz_, nz);
         double tox = qx - px, toy = qy - py, toz = qz - pz;
         double d2 = tox * tox + toy * toy + toz * toz;
         double cl = fabs((enx * tox + eny * toy + enz * toz) / sqrt(d2));
-        double area = area_[i];
+        double area = EF(area_, area);
         /* (Conditions as 1.0 or 0.0 in doubles, selected rather than
          * combined as ints: GCC vectorises those selects.) */
         double spdf = cl > 0.0 ? (area > 0.0 ? d2 / (area * cl) : 0.0) : 0.0;
@@ -218,7 +236,7 @@ static void lambert16(lr__v3 amb, int rr, const double (*restrict u)[16],
         double inv = 1.0 / d;
         double lx = tox * inv, ly = toy * inv, lz = toz * inv;
         shadow = lx * enx + ly * eny + lz * enz < 0.0 ? shadow : 0.0;
-        double lpdf = 1.0 * prob[i] * spdf;
+        double lpdf = 1.0 * EF(prob, prob) * spdf;
         shadow = lpdf > 0.0 ? shadow : 0.0;
         /* lr__bsdf_eval: the diffuse lobe, both sides above. */
         double wil_z = lx * gx + ly * gy + lz * gz;
@@ -229,8 +247,8 @@ static void lambert16(lr__v3 amb, int rr, const double (*restrict u)[16],
         double bpdf = above != 0.0 ? 0.0 + p0 * wil_z / M_PI : 0.0;
         double cos_i = fabs(lx * gx + ly * gy + lz * gz);
         double ci = cos_i / lpdf;
-        double cr = fr * ler[i] * ci, cg = fg * leg[i] * ci,
-               cb = fbb * leb[i] * ci;
+        double cr = fr * EF(ler, lr) * ci, cg = fg * EF(leg, lg) * ci,
+               cb = fbb * EF(leb, lb) * ci;
         shadow = maxc3(cr, cg, cb) > 0.0 ? shadow : 0.0;
         double ma = lpdf * lpdf, mb = bpdf * bpdf;
         double w = ma + mb > 0.0 ? ma / (ma + mb) : 0.0;
@@ -299,7 +317,45 @@ static void lambert16(lr__v3 amb, int rr, const double (*restrict u)[16],
         SET(dx, wx), SET(dy, wy), SET(dz, wz);
         SET(alive, alive);
 #undef SET
+#undef EF
     }
+}
+
+
+__attribute__((target_clones("avx512f", "avx2", "default")))
+static void lambert16(lr__v3 amb, int rr, const double (*restrict u)[16],
+                      const emitters16 *restrict E,
+                      const lr__hits16p *restrict H, lr__paths16 *restrict S)
+{
+    /* light.c's pick: one kind of light (area), so u_pick * 1 - 0 picks
+     * among the emitters: emitter_find's binary search gives the count
+     * of the cdfs before the last that do not exceed u (they never
+     * decrease). */
+    double pick[16];
+    for (int i = 0; i < 16; i++)
+        pick[i] = 0.0;
+    for (int j = 0; j + 1 < E->n; j++)
+        for (int i = 0; i < 16; i++)
+            pick[i] += E->cdf[j] <= u[4][i] * 1 - 0 ? 1.0 : 0.0;
+    /* The picked emitter's fields: with one or two emitters (a
+     * rectangle light) selected in the loop from the two; with more,
+     * copied lane by lane first (a select per emitter in a loop of its
+     * own kept GCC from vectorising, as did gathers in the loop). */
+    picked16 K;
+    if (E->n <= 2) {
+        lanes16(amb, rr, u, E, H, S, pick, &K, 1);
+        return;
+    }
+    for (int i = 0; i < 16; i++) {
+        int k = (int)pick[i];
+        K.ax[i] = E->ax[k], K.ay[i] = E->ay[k], K.az[i] = E->az[k];
+        K.e1x[i] = E->e1x[k], K.e1y[i] = E->e1y[k], K.e1z[i] = E->e1z[k];
+        K.e2x[i] = E->e2x[k], K.e2y[i] = E->e2y[k], K.e2z[i] = E->e2z[k];
+        K.nx[i] = E->nx[k], K.ny[i] = E->ny[k], K.nz[i] = E->nz[k];
+        K.area[i] = E->area[k], K.prob[i] = E->prob[k];
+        K.lr[i] = E->lr[k], K.lg[i] = E->lg[k], K.lb[i] = E->lb[k];
+    }
+    lanes16(amb, rr, u, E, H, S, pick, &K, 0);
 }
 
 void lr__path16_begin(const lr_scene *s, lr__path16 *w,
