@@ -44,11 +44,7 @@
 #define DIMS_PER_BOUNCE LR__PATH_DIMS
 #define RR_FROM LR__PATH_RR_FROM
 
-static double mis(double a, double b)
-{
-    a *= a, b *= b;
-    return a + b > 0.0 ? a / (a + b) : 0.0;
-}
+#define mis lr__path_mis
 
 /* A path's random numbers.  The first SOBOL_BOUNCES surfaces draw from
  * the render's sampler (stratified where the sampler is: that is where
@@ -68,8 +64,9 @@ static double mis(double a, double b)
  * hashed ones likewise (lr__path16_hashed); either way a lane's numbers
  * are those of its sample alone. */
 static void bounce_numbers(const lr__pixel_pairs *pairs,
-                           const uint64_t key[16], int n, uint32_t first,
-                           int depth, double u[DIMS_PER_BOUNCE][16])
+                           const uint64_t key[16], const double alive[16],
+                           int n, uint32_t first, int depth,
+                           double u[DIMS_PER_BOUNCE][16])
 {
     uint32_t dim = DIM_FIRST + DIMS_PER_BOUNCE * (uint32_t)depth;
     if (dim < DIM_SOBOL_END) {
@@ -83,7 +80,7 @@ static void bounce_numbers(const lr__pixel_pairs *pairs,
                                   (double (*)[16])u[j]);
         return;
     }
-    lr__path16_hashed(key, dim, u);
+    lr__path16_hashed(key, alive, dim, u);
 }
 
 typedef lr__path_lane lane;
@@ -248,7 +245,7 @@ static void trace_paths(const lr_scene *s, int max_depth,
      * vector loops compute on every lane). */
     double U[DIMS_PER_BOUNCE][16] = {{0}};
     for (int depth = 0;; depth++) {
-        bounce_numbers(&pairs, key, n, id->sample, depth, U);
+        bounce_numbers(&pairs, key, S->alive, n, id->sample, depth, U);
         /* This bounce's surfaces, light samples and next rays: lanes on
          * untextured Lambertian surfaces together (path16.c), the
          * others alone; either way with the same result. */

@@ -26,6 +26,14 @@ typedef struct lr__path_lane {
     double s_tfar;
 } lr__path_lane;
 
+/* The power heuristic's weight of density a against b (Veach 1997,
+ * section 9.2.4, beta = 2). */
+static inline double lr__path_mis(double a, double b)
+{
+    a *= a, b *= b;
+    return a + b > 0.0 ? a / (a + b) : 0.0;
+}
+
 /* Whether path16.c's vector bounce can take this scene's Lambertian
  * hits: no infinite planes, and its only lights are at most 16
  * emitting triangles without textures (no environment, point or
@@ -98,8 +106,10 @@ void lr__path16_begin(const lr_scene *s, lr__path16 *w,
  * the rays w->S holds, or at depth 0 the camera's): those the vector
  * bounce takes (an untextured Lambertian flat triangle or sphere, at a
  * depth <= max_depth, in a scene lr__path16_scene_ok accepts) get
- * w->H.take and their hit in w->H; the others are listed in alone[],
- * in order, their count returned.  Clears every lane's S.shadow. */
+ * w->H.take and their hit in w->H; in such a scene a lane whose ray
+ * left it is done here (its background light added); the others are
+ * listed in alone[], in order, their count returned.  Clears every
+ * lane's S.shadow. */
 int lr__path16_sort(const lr_scene *s, lr__path16 *w, int depth,
                     int max_depth, int n, const struct RTCRayHit16 *rh,
                     int alone[16]);
@@ -114,10 +124,10 @@ void lr__path16_lambert(const lr_scene *s, lr__path16 *w, int depth,
                         const double u[LR__PATH_DIMS][16]);
 
 /* The hashed numbers u[j][i], j < LR__PATH_DIMS - 1, of dimension dim +
- * j for the sixteen lanes' keys (path.c's bounce_numbers: lanes that
- * are done get numbers too, which nobody reads). */
-void lr__path16_hashed(const uint64_t key[16], uint32_t dim,
-                       double u[LR__PATH_DIMS][16]);
+ * j for the keys of the lanes with alive[i] set (path.c's
+ * bounce_numbers); the other lanes' u keep what they hold. */
+void lr__path16_hashed(const uint64_t key[16], const double alive[16],
+                       uint32_t dim, double u[LR__PATH_DIMS][16]);
 
 /* The lanes with a light sample to test (S.shadow), packed into P in
  * lane order as lr__rays_packed_add packs them; returns how many. */

@@ -148,6 +148,20 @@ int lr__path16_sort(const lr_scene *s, lr__path16 *w, int depth,
     for (int i = 0; i < n; i++) {
         if (S->alive[i] == 0.0)
             continue;
+        if (w->vec && rh->hit.geomID[i] == RTC_INVALID_GEOMETRY_ID) {
+            /* path.c's bounce for a path that leaves the scene, at any
+             * depth: in a scene lr__path16_scene_ok accepts the
+             * environment is no light (no map, a black background), so
+             * its radiance is the background and its density 0. */
+            double wt = S->pdelta[i] != 0.0 ? 1.0
+                                            : lr__path_mis(S->ppdf[i], 0.0);
+            lr__v3 L = v3(S->Lr[i], S->Lg[i], S->Lb[i]);
+            lr__v3 beta = v3(S->br[i], S->bg[i], S->bb[i]);
+            L = v3_add(L, v3_scale(v3_mul(beta, s->background), wt));
+            S->Lr[i] = L.x, S->Lg[i] = L.y, S->Lb[i] = L.z;
+            S->alive[i] = 0.0;
+            continue;
+        }
         int t = vec && take(s, w, depth, i, rh);
         H->take[i] = t;
         alone[m] = i;
@@ -401,6 +415,17 @@ void lr__path16_lambert(const lr_scene *s, lr__path16 *w, int depth,
     lambert16(s->ambient, depth + 1 >= LR__PATH_RR_FROM, u, &w->E, H, &w->S);
 }
 
+/* The lanes with mask[i] set, in order, without a branch per lane. */
+static int lanes_of(const double mask[16], int lane[16])
+{
+    int m = 0;
+    for (int i = 0; i < 16; i++) {
+        lane[m] = i;
+        m += mask[i] != 0.0;
+    }
+    return m;
+}
+
 /* x y mod 2^64 from 32-bit halves: AVX2 and AVX-512F multiply 32 x 32
  * -> 64 bits in vectors, not 64 x 64 (that is AVX-512DQ's, which GCC's
  * target_clones cannot name alone), so GCC vectorises this form. */
@@ -410,8 +435,16 @@ static inline uint64_t mul64(uint64_t x, uint64_t y)
     return xl * yl + ((xh * yl + xl * yh) << 32);
 }
 
-/* sampler.c's lr__mix64 (splitmix64's finaliser), the same values. */
+/* sampler.c's lr__mix64 (splitmix64's finaliser), the same values:
+ * with the 64-bit multiply, and from halves (mul64). */
 static inline uint64_t mix64(uint64_t z)
+{
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return z ^ (z >> 31);
+}
+
+static inline uint64_t mix64_halves(uint64_t z)
 {
     z = mul64(z ^ (z >> 30), 0xbf58476d1ce4e5b9ull);
     z = mul64(z ^ (z >> 27), 0x94d049bb133111ebull);
@@ -429,49 +462,82 @@ static inline double small_to_double(uint64_t x)
     return b.d - 0x1p52;
 }
 
-__attribute__((target_clones("avx512f", "avx2", "default")))
-void lr__path16_hashed(const uint64_t key[16], uint32_t dim,
-                       double u[LR__PATH_DIMS][16])
+/* The live lanes' numbers, packed (as hashes of a lane each, there is
+ * nothing to gain from computing the others).  `wide`: the form for
+ * AVX-512 vectors, the 64-bit products and conversions from 32-bit
+ * halves; else the plain one, which stays scalar (with four lanes to an
+ * AVX2 vector the halves cost more than scalar code, by callgrind). */
+static inline __attribute__((always_inline)) void
+hashed_lanes(const uint64_t *restrict key, int m, uint32_t dim,
+             double (*restrict h)[16], const int wide)
 {
     for (uint32_t j = 0; j < LR__PATH_DIMS - 1; j++) {
         uint64_t c = (uint64_t)(dim + j) * 0x9e3779b97f4a7c15ull;
-        for (int i = 0; i < 16; i++) {
+        for (int i = 0; i < m; i++) {
             /* (double)(h >> 11) * 2^-53 as path.c's scalar code had it:
              * h >> 11 < 2^53 is hi 2^32 + lo, each part exact as a
              * double, and so is their sum. */
-            uint64_t x = mix64(key[i] ^ c) >> 11;
-            double d = small_to_double(x >> 32) * 0x1p32 +
-                       small_to_double(x & 0xffffffffull);
-            u[j][i] = d * 0x1p-53;
+            if (wide) {
+                uint64_t x = mix64_halves(key[i] ^ c) >> 11;
+                double d = small_to_double(x >> 32) * 0x1p32 +
+                           small_to_double(x & 0xffffffffull);
+                h[j][i] = d * 0x1p-53;
+            } else {
+                h[j][i] = (double)(mix64(key[i] ^ c) >> 11) * 0x1p-53;
+            }
         }
     }
 }
 
-/* The lanes with mask[i] set, in order, without a branch per lane. */
-static int lanes_of(const double mask[16], int lane[16])
+__attribute__((target("avx512f")))
+static void hashed_avx512(const uint64_t *restrict key, int m, uint32_t dim,
+                          double (*restrict h)[16])
 {
-    int m = 0;
-    for (int i = 0; i < 16; i++) {
-        lane[m] = i;
-        m += mask[i] != 0.0;
-    }
-    return m;
+    hashed_lanes(key, m, dim, h, 1);
 }
 
-/* Entry c of P: the ray from (ox, oy, oz) along (dx, dy, dz) up to tf,
- * as lr__rays_packed_add makes it. */
-static inline void entry(lr__rays_packed *P, int c, double ox, double oy,
-                         double oz, double dx, double dy, double dz,
-                         double tf)
+static void hashed(const uint64_t *restrict key, int m, uint32_t dim,
+                   double (*restrict h)[16])
 {
-    lr__v3 o = v3(ox, oy, oz), d = v3(dx, dy, dz);
-    int ok = lr__embree_can_trace(o, d);
-    P->ox[c] = ok ? ox : 0.0, P->oy[c] = ok ? oy : 0.0;
-    P->oz[c] = ok ? oz : 0.0;
-    P->dx[c] = ok ? dx : 0.0, P->dy[c] = ok ? dy : 0.0;
-    P->dz[c] = ok ? dz : 1.0;
-    P->tn[c] = ok ? 0.0 : 1.0;
-    P->tf[c] = ok ? tf : 0.0;
+    if (__builtin_cpu_supports("avx512f"))
+        hashed_avx512(key, m, dim, h);
+    else
+        hashed_lanes(key, m, dim, h, 0);
+}
+
+void lr__path16_hashed(const uint64_t key[16], const double alive[16],
+                       uint32_t dim, double u[LR__PATH_DIMS][16])
+{
+    int lane[16];
+    uint64_t k[16] = {0};
+    double h[LR__PATH_DIMS - 1][16];
+    int m = lanes_of(alive, lane);
+    for (int c = 0; c < m; c++)
+        k[c] = key[lane[c]];
+    hashed(k, m, dim, h);
+    for (int j = 0; j < LR__PATH_DIMS - 1; j++)
+        for (int c = 0; c < m; c++)
+            u[j][lane[c]] = h[j][c];
+}
+
+/* Entries 0..m-1 of P as lr__rays_packed_add leaves them: a ray Embree
+ * could not take (lr__embree_can_trace) meets nothing.  In a loop of
+ * its own over the packed entries, which GCC vectorises. */
+__attribute__((target_clones("avx512f", "avx2", "default")))
+static void quiet(lr__rays_packed *P, int m)
+{
+    const double lim = LR__EMBREE_MAX_COORD;
+    for (int c = 0; c < m; c++) {
+        int ok = (fabs(P->ox[c]) <= lim) & (fabs(P->oy[c]) <= lim) &
+                 (fabs(P->oz[c]) <= lim) & (fabs(P->dx[c]) <= lim) &
+                 (fabs(P->dy[c]) <= lim) & (fabs(P->dz[c]) <= lim);
+        P->ox[c] = ok ? P->ox[c] : 0.0, P->oy[c] = ok ? P->oy[c] : 0.0;
+        P->oz[c] = ok ? P->oz[c] : 0.0;
+        P->dx[c] = ok ? P->dx[c] : 0.0, P->dy[c] = ok ? P->dy[c] : 0.0;
+        P->dz[c] = ok ? P->dz[c] : 1.0;
+        P->tn[c] = ok ? 0.0 : 1.0;
+        P->tf[c] = ok ? P->tf[c] : 0.0;
+    }
 }
 
 int lr__path16_pack_shadows(const lr__paths16 *S, lr__rays_packed *P)
@@ -479,9 +545,11 @@ int lr__path16_pack_shadows(const lr__paths16 *S, lr__rays_packed *P)
     int m = lanes_of(S->shadow, P->lane);
     for (int c = 0; c < m; c++) {
         int i = P->lane[c];
-        entry(P, c, S->sox[i], S->soy[i], S->soz[i], S->sdx[i], S->sdy[i],
-              S->sdz[i], S->stfar[i]);
+        P->ox[c] = S->sox[i], P->oy[c] = S->soy[i], P->oz[c] = S->soz[i];
+        P->dx[c] = S->sdx[i], P->dy[c] = S->sdy[i], P->dz[c] = S->sdz[i];
+        P->tf[c] = S->stfar[i];
     }
+    quiet(P, m);
     P->m = m;
     return m;
 }
@@ -491,9 +559,11 @@ int lr__path16_pack_rays(const lr__paths16 *S, lr__rays_packed *P)
     int m = lanes_of(S->alive, P->lane);
     for (int c = 0; c < m; c++) {
         int i = P->lane[c];
-        entry(P, c, S->ox[i], S->oy[i], S->oz[i], S->dx[i], S->dy[i],
-              S->dz[i], INFINITY);
+        P->ox[c] = S->ox[i], P->oy[c] = S->oy[i], P->oz[c] = S->oz[i];
+        P->dx[c] = S->dx[i], P->dy[c] = S->dy[i], P->dz[c] = S->dz[i];
+        P->tf[c] = INFINITY;
     }
+    quiet(P, m);
     P->m = m;
     return m;
 }
