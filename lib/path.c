@@ -282,22 +282,21 @@ static void trace_paths(const lr_scene *s, int max_depth,
                                  S->stfar[i]))
                 S->shadow[i] = 0.0;
         if (packed) {
-            /* Straight to spheres.c and few_triangles.c in double, which
+            /* The shadow rays and the continuation rays together,
+             * straight to spheres.c and few_triangles.c in double, which
              * meet every primitive themselves (no float packet to fill
-             * and unpack). */
-            lr__rays_packed sp;
-            if (lr__path16_pack_shadows(S, &sp)) {
-                double occ[16];
-                lr__paths_occluded_packed(s, &sp, occ);
-                lr__path16_unoccluded(S, &sp, occ);
+             * and unpack).  (What reads a hit reads the ray from S, and
+             * t from rh.) */
+            lr__rays_packed P;
+            int ns = lr__path16_pack_shadows(S, &P);
+            int go = lr__path16_pack_rays(S, &P);
+            if (ns + go > 0) {
+                double occ[LR__PACKED];
+                lr__paths_trace_packed(s, &P, ns, rh, occ);
+                lr__path16_unoccluded(S, &P, ns, occ);
             }
-            /* The continuation rays too (what reads a hit reads the ray
-             * from S, and t from rh). */
-            lr__rays_packed cp;
-            int go = lr__path16_pack_rays(S, &cp);
             if (!go)
                 break;
-            lr__paths_intersect_packed(s, &cp, rh);
             *rays += (uint64_t)go;
             continue;
         }

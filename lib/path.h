@@ -129,16 +129,17 @@ void lr__path16_lambert(const lr_scene *s, lr__path16 *w, int depth,
 void lr__path16_hashed(const uint64_t key[16], const double alive[16],
                        uint32_t dim, double u[LR__PATH_DIMS][16]);
 
-/* The lanes with a light sample to test (S.shadow), packed into P in
- * lane order as lr__rays_packed_add packs them; returns how many. */
+/* The lanes with a light sample to test (S.shadow), packed into P's
+ * first entries in lane order (P->m set); returns how many. */
 int lr__path16_pack_shadows(const lr__paths16 *S, lr__rays_packed *P);
 
-/* The live lanes' next rays (S.o*, S.d*; tfar infinite), the same way. */
+/* The live lanes' next rays (S.o*, S.d*; tfar infinite), added to P
+ * after its P->m entries; returns how many. */
 int lr__path16_pack_rays(const lr__paths16 *S, lr__rays_packed *P);
 
-/* L += s_c for packed shadow entry c with occ[c] == 0. */
-void lr__path16_unoccluded(lr__paths16 *S, const lr__rays_packed *P,
-                           const double occ[16]);
+/* L += s_c for packed shadow entry c < ns with occ[c] == 0. */
+void lr__path16_unoccluded(lr__paths16 *S, const lr__rays_packed *P, int ns,
+                           const double occ[LR__PACKED]);
 
 /* 0 turns path16.c off (path.c shades every lane alone): for the test
  * that the two agree to the bit. */

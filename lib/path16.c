@@ -520,14 +520,14 @@ void lr__path16_hashed(const uint64_t key[16], const double alive[16],
             u[j][lane[c]] = h[j][c];
 }
 
-/* Entries 0..m-1 of P as lr__rays_packed_add leaves them: a ray Embree
- * could not take (lr__embree_can_trace) meets nothing.  In a loop of
+/* Entries c0..m-1 of P with tnear 0, but a ray Embree could not take
+ * (lr__embree_can_trace) meets nothing, as lr__shadow_ray16 makes it.  In a loop of
  * its own over the packed entries, which GCC vectorises. */
 __attribute__((target_clones("avx512f", "avx2", "default")))
-static void quiet(lr__rays_packed *P, int m)
+static void quiet(lr__rays_packed *P, int c0, int m)
 {
     const double lim = LR__EMBREE_MAX_COORD;
-    for (int c = 0; c < m; c++) {
+    for (int c = c0; c < m; c++) {
         int ok = (fabs(P->ox[c]) <= lim) & (fabs(P->oy[c]) <= lim) &
                  (fabs(P->oz[c]) <= lim) & (fabs(P->dx[c]) <= lim) &
                  (fabs(P->dy[c]) <= lim) & (fabs(P->dz[c]) <= lim);
@@ -549,29 +549,30 @@ int lr__path16_pack_shadows(const lr__paths16 *S, lr__rays_packed *P)
         P->dx[c] = S->sdx[i], P->dy[c] = S->sdy[i], P->dz[c] = S->sdz[i];
         P->tf[c] = S->stfar[i];
     }
-    quiet(P, m);
+    quiet(P, 0, m);
     P->m = m;
     return m;
 }
 
 int lr__path16_pack_rays(const lr__paths16 *S, lr__rays_packed *P)
 {
-    int m = lanes_of(S->alive, P->lane);
-    for (int c = 0; c < m; c++) {
+    int m0 = P->m;
+    int m = lanes_of(S->alive, P->lane + m0);
+    for (int c = m0; c < m0 + m; c++) {
         int i = P->lane[c];
         P->ox[c] = S->ox[i], P->oy[c] = S->oy[i], P->oz[c] = S->oz[i];
         P->dx[c] = S->dx[i], P->dy[c] = S->dy[i], P->dz[c] = S->dz[i];
         P->tf[c] = INFINITY;
     }
-    quiet(P, m);
-    P->m = m;
+    quiet(P, m0, m0 + m);
+    P->m = m0 + m;
     return m;
 }
 
-void lr__path16_unoccluded(lr__paths16 *S, const lr__rays_packed *P,
-                           const double occ[16])
+void lr__path16_unoccluded(lr__paths16 *S, const lr__rays_packed *P, int ns,
+                           const double occ[LR__PACKED])
 {
-    for (int c = 0; c < P->m; c++) {
+    for (int c = 0; c < ns; c++) {
         int i = P->lane[c];
         if (occ[c] == 0.0) {
             S->Lr[i] = S->Lr[i] + S->scr[i];
