@@ -173,7 +173,8 @@ int lr__few_triangles_build(lr_scene *s)
 
 __attribute__((target_clones("avx512f", "avx2", "default")))
 void lr__few_triangles_intersect(const lr__few_triangles *T,
-                                 lr__rays_packed *P, double tri[LR__PACKED],
+                                 lr__rays_packed *P, int c0,
+                                 double tri[LR__PACKED],
                                  double u[LR__PACKED], double v[LR__PACKED])
 {
     /* The best hit so far: t = bn / bd, and (s, t) = (bu, bv) / bd in
@@ -207,7 +208,9 @@ void lr__few_triangles_intersect(const lr__few_triangles *T,
     /* The triangle of the shape, and its barycentrics: in (x, s1, s2)
      * the weights are (1 - s - t, s, t); in (y, s1, s2), since y = s1 +
      * s2 - x, they are (s + t - 1, 1 - t, 1 - s). */
-    for (int c = 0; c < P->m; c++) {
+    for (int c = 0; c < c0; c++)
+        tri[c] = best[c];
+    for (int c = c0; c < P->m; c++) {
         tri[c] = -1.0;
         if (best[c] < 0.0)
             continue;

@@ -80,7 +80,11 @@ static void bounce_numbers(const lr__pixel_pairs *pairs,
                                   (double (*)[16])u[j]);
         return;
     }
-    lr__path16_hashed(key, alive, dim, u);
+    /* (Again dimension 6 only where roulette is played.) */
+    lr__path16_hashed(key, alive, dim,
+                      depth + 1 >= RR_FROM ? DIMS_PER_BOUNCE - 1
+                                           : DIMS_PER_BOUNCE - 2,
+                      u);
 }
 
 typedef lr__path_lane lane;

@@ -123,18 +123,21 @@ int lr__path16_sort(const lr_scene *s, lr__path16 *w, int depth,
 void lr__path16_lambert(const lr_scene *s, lr__path16 *w, int depth,
                         const double u[LR__PATH_DIMS][16]);
 
-/* The hashed numbers u[j][i], j < LR__PATH_DIMS - 1, of dimension dim +
- * j for the keys of the lanes with alive[i] set (path.c's
- * bounce_numbers); the other lanes' u keep what they hold. */
+/* The hashed numbers u[j][i], j < dims, of dimension dim + j for the
+ * keys of the lanes with alive[i] set (path.c's bounce_numbers); the
+ * other lanes' u keep what they hold. */
 void lr__path16_hashed(const uint64_t key[16], const double alive[16],
-                       uint32_t dim, double u[LR__PATH_DIMS][16]);
+                       uint32_t dim, int dims, double u[LR__PATH_DIMS][16]);
 
 /* The lanes with a light sample to test (S.shadow), packed into P's
- * first entries in lane order (P->m set); returns how many. */
+ * first entries in lane order (P->m set); returns how many.  The bounds
+ * are checked by lr__path16_pack_rays, which must follow. */
 int lr__path16_pack_shadows(const lr__paths16 *S, lr__rays_packed *P);
 
 /* The live lanes' next rays (S.o*, S.d*; tfar infinite), added to P
- * after its P->m entries; returns how many. */
+ * after its P->m entries; returns how many.  Every entry that Embree
+ * could not take (lr__embree_can_trace) then meets nothing, as
+ * lr__shadow_ray16 makes it. */
 int lr__path16_pack_rays(const lr__paths16 *S, lr__rays_packed *P);
 
 /* L += s_c for packed shadow entry c < ns with occ[c] == 0. */

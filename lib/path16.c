@@ -468,11 +468,11 @@ static inline double small_to_double(uint64_t x)
  * halves; else the plain one, which stays scalar (with four lanes to an
  * AVX2 vector the halves cost more than scalar code, by callgrind). */
 static inline __attribute__((always_inline)) void
-hashed_lanes(const uint64_t *restrict key, int m, uint32_t dim,
+hashed_lanes(const uint64_t *restrict key, int m, uint32_t dim, int dims,
              double (*restrict h)[16], const int wide)
 {
-    for (uint32_t j = 0; j < LR__PATH_DIMS - 1; j++) {
-        uint64_t c = (uint64_t)(dim + j) * 0x9e3779b97f4a7c15ull;
+    for (int j = 0; j < dims; j++) {
+        uint64_t c = (uint64_t)(dim + (uint32_t)j) * 0x9e3779b97f4a7c15ull;
         for (int i = 0; i < m; i++) {
             /* (double)(h >> 11) * 2^-53 as path.c's scalar code had it:
              * h >> 11 < 2^53 is hi 2^32 + lo, each part exact as a
@@ -491,22 +491,22 @@ hashed_lanes(const uint64_t *restrict key, int m, uint32_t dim,
 
 __attribute__((target("avx512f")))
 static void hashed_avx512(const uint64_t *restrict key, int m, uint32_t dim,
-                          double (*restrict h)[16])
+                          int dims, double (*restrict h)[16])
 {
-    hashed_lanes(key, m, dim, h, 1);
+    hashed_lanes(key, m, dim, dims, h, 1);
 }
 
 static void hashed(const uint64_t *restrict key, int m, uint32_t dim,
-                   double (*restrict h)[16])
+                   int dims, double (*restrict h)[16])
 {
     if (__builtin_cpu_supports("avx512f"))
-        hashed_avx512(key, m, dim, h);
+        hashed_avx512(key, m, dim, dims, h);
     else
-        hashed_lanes(key, m, dim, h, 0);
+        hashed_lanes(key, m, dim, dims, h, 0);
 }
 
 void lr__path16_hashed(const uint64_t key[16], const double alive[16],
-                       uint32_t dim, double u[LR__PATH_DIMS][16])
+                       uint32_t dim, int dims, double u[LR__PATH_DIMS][16])
 {
     int lane[16];
     uint64_t k[16] = {0};
@@ -514,8 +514,8 @@ void lr__path16_hashed(const uint64_t key[16], const double alive[16],
     int m = lanes_of(alive, lane);
     for (int c = 0; c < m; c++)
         k[c] = key[lane[c]];
-    hashed(k, m, dim, h);
-    for (int j = 0; j < LR__PATH_DIMS - 1; j++)
+    hashed(k, m, dim, dims, h);
+    for (int j = 0; j < dims; j++)
         for (int c = 0; c < m; c++)
             u[j][lane[c]] = h[j][c];
 }
@@ -549,7 +549,6 @@ int lr__path16_pack_shadows(const lr__paths16 *S, lr__rays_packed *P)
         P->dx[c] = S->sdx[i], P->dy[c] = S->sdy[i], P->dz[c] = S->sdz[i];
         P->tf[c] = S->stfar[i];
     }
-    quiet(P, 0, m);
     P->m = m;
     return m;
 }
@@ -564,8 +563,9 @@ int lr__path16_pack_rays(const lr__paths16 *S, lr__rays_packed *P)
         P->dx[c] = S->dx[i], P->dy[c] = S->dy[i], P->dz[c] = S->dz[i];
         P->tf[c] = INFINITY;
     }
-    quiet(P, m0, m0 + m);
     P->m = m0 + m;
+    /* (Both kinds' bounds checked here, in one call.) */
+    quiet(P, 0, m0 + m);
     return m;
 }
 

@@ -466,9 +466,11 @@ void lr__paths_trace_packed(const lr_scene *s, lr__rays_packed *P, int ns,
 /* The nearest triangle of each entry with t in (tn, tf): tf[c] becomes
  * its t, tri[c] its index in T (geom, prim), u[c], v[c] its
  * barycentrics (Embree's convention); entries without a hit keep tf and
- * get tri -1. */
+ * get tri -1.  Entries c < c0 (shadow rays) get only tri >= 0 for a hit
+ * (the shape's index) and no barycentrics. */
 void lr__few_triangles_intersect(const lr__few_triangles *T,
-                                 lr__rays_packed *P, double tri[LR__PACKED],
+                                 lr__rays_packed *P, int c0,
+                                 double tri[LR__PACKED],
                                  double u[LR__PACKED], double v[LR__PACKED]);
 /* occ[c] = 1 if entry c meets a triangle at t in (tn, tf), else 0. */
 void lr__few_triangles_occluded(const lr__few_triangles *T,

@@ -202,7 +202,7 @@ void lr__paths_intersect16(const lr_scene *s, const int *valid,
     double tri[LR__PACKED], u[LR__PACKED], v[LR__PACKED], sph[LR__PACKED];
     pack(valid, &rh->ray, &P);
     if (T->n > 0)
-        lr__few_triangles_intersect(T, &P, tri, u, v);
+        lr__few_triangles_intersect(T, &P, 0, tri, u, v);
     spheres_packed(s, &P, sph);
     if (T->n == 0)
         for (int c = 0; c < P.m; c++)
@@ -259,7 +259,7 @@ void lr__paths_trace_packed(const lr_scene *s, lr__rays_packed *P, int ns,
     const lr__few_triangles *T = &s->few_tris;
     double tri[LR__PACKED], u[LR__PACKED], v[LR__PACKED], sph[LR__PACKED];
     pad(P);
-    lr__few_triangles_intersect(T, P, tri, u, v);
+    lr__few_triangles_intersect(T, P, ns, tri, u, v);
     spheres_packed(s, P, sph);
     for (int c = 0; c < ns; c++)
         occ[c] = sph[c] >= 0.0 || tri[c] >= 0.0 ? 1.0 : 0.0;
