@@ -304,23 +304,12 @@ static void trace_paths(const lr_scene *s, int max_depth,
             *rays += (uint64_t)go;
             continue;
         }
+        /* Embree's code for CPUs without AVX-512 checks every lane's
+         * ray, masked or not, and aborts on garbage: the lanes without a
+         * ray are quieted. */
         struct RTCRay16 sh __attribute__((aligned(64)));
         int valid[16] __attribute__((aligned(64)));
-        int shadows = 0;
-        for (int i = 0; i < 16; i++) {
-            valid[i] = 0;
-            if (i >= n || S->shadow[i] == 0.0)
-                continue;
-            lr__shadow_ray16(&sh, i, v3(S->sox[i], S->soy[i], S->soz[i]),
-                             v3(S->sdx[i], S->sdy[i], S->sdz[i]),
-                             S->stfar[i]);
-            valid[i] = -1;
-            shadows++;
-        }
-        if (shadows) {
-            /* Embree's code for CPUs without AVX-512 checks every lane's
-             * ray, masked or not, and aborts on garbage. */
-            lr__ray16_quiet_lanes(&sh, valid);
+        if (lr__path16_shadows16(S, &sh, valid)) {
             lr__paths_occluded16(s, valid, &ctx, &sh);
             /* Embree marks an occluded ray by setting tfar to -inf. */
             for (int i = 0; i < n; i++)
@@ -330,20 +319,9 @@ static void trace_paths(const lr_scene *s, int max_depth,
                     S->Lb[i] = S->Lb[i] + S->scb[i];
                 }
         }
-        int go = 0;
-        for (int i = 0; i < 16; i++) {
-            valid[i] = i < n && S->alive[i] != 0.0 ? -1 : 0;
-            if (!valid[i])
-                continue;
-            lr__shadow_ray16(&rh->ray, i, v3(S->ox[i], S->oy[i], S->oz[i]),
-                             v3(S->dx[i], S->dy[i], S->dz[i]), INFINITY);
-            rh->hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
-            rh->hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
-            go++;
-        }
+        int go = lr__path16_rays16(S, rh, valid);
         if (!go)
             break;
-        lr__ray16_quiet_lanes(&rh->ray, valid);
         lr__paths_intersect16(s, valid, &ctx, rh);
         *rays += (uint64_t)go;
     }

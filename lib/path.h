@@ -140,6 +140,16 @@ int lr__path16_pack_shadows(const lr__paths16 *S, lr__rays_packed *P);
  * lr__shadow_ray16 makes it. */
 int lr__path16_pack_rays(const lr__paths16 *S, lr__rays_packed *P);
 
+/* The shadow rays (S.shadow) into r, and the live lanes' next rays
+ * (S.alive) into rh's rays (their hits' geomID and instID unset), as
+ * lr__shadow_ray16 fills a lane and lr__ray16_quiet_lanes quiets the
+ * others, all sixteen lanes at once; valid[i] -1 for a ray, else 0.
+ * Return how many rays. */
+int lr__path16_shadows16(const lr__paths16 *S, struct RTCRay16 *r,
+                         int valid[16]);
+int lr__path16_rays16(const lr__paths16 *S, struct RTCRayHit16 *rh,
+                      int valid[16]);
+
 /* L += s_c for packed shadow entry c < ns with occ[c] == 0. */
 void lr__path16_unoccluded(lr__paths16 *S, const lr__rays_packed *P, int ns,
                            const double occ[LR__PACKED]);

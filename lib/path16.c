@@ -581,3 +581,64 @@ void lr__path16_unoccluded(lr__paths16 *S, const lr__rays_packed *P, int ns,
         }
     }
 }
+
+/* Lanes with on[i] set as lr__shadow_ray16 fills them (the ray from o
+ * along d up to tf: in float, a ray Embree could not take made one that
+ * meets nothing), the others as lr__ray16_quiet_lanes leaves them;
+ * valid[i] -1 or 0.  Returns how many are on.  (Constant `next`: tf is
+ * infinite.) */
+static inline __attribute__((always_inline)) int
+ray16_fill(const double *restrict ox, const double *restrict oy,
+           const double *restrict oz, const double *restrict dx,
+           const double *restrict dy, const double *restrict dz,
+           const double *restrict tf, const double *restrict on_,
+           struct RTCRay16 *restrict r, int *restrict valid, const int next)
+{
+    const double lim = LR__EMBREE_MAX_COORD;
+    int count = 0;
+    for (int i = 0; i < 16; i++) {
+        int on = on_[i] != 0.0;
+        double t = next ? INFINITY : tf[i];
+        int ok = (fabs(ox[i]) <= lim) & (fabs(oy[i]) <= lim) &
+                 (fabs(oz[i]) <= lim) & (fabs(dx[i]) <= lim) &
+                 (fabs(dy[i]) <= lim) & (fabs(dz[i]) <= lim);
+        int use = on & ok;
+        r->org_x[i] = use ? (float)ox[i] : 0.0f;
+        r->org_y[i] = use ? (float)oy[i] : 0.0f;
+        r->org_z[i] = use ? (float)oz[i] : 0.0f;
+        r->dir_x[i] = use ? (float)dx[i] : 0.0f;
+        r->dir_y[i] = use ? (float)dy[i] : 0.0f;
+        r->dir_z[i] = use ? (float)dz[i] : 1.0f;
+        r->tnear[i] = use ? 0.0f : 1.0f;
+        r->tfar[i] = use ? (t < FLT_MAX ? (float)t : FLT_MAX) : 0.0f;
+        r->time[i] = 0.0f;
+        r->mask[i] = 0xFFFFFFFFu;
+        r->id[i] = 0;
+        r->flags[i] = 0;
+        valid[i] = on ? -1 : 0;
+        count += on;
+    }
+    return count;
+}
+
+__attribute__((target_clones("avx512f", "avx2", "default")))
+int lr__path16_shadows16(const lr__paths16 *S, struct RTCRay16 *r,
+                         int valid[16])
+{
+    return ray16_fill(S->sox, S->soy, S->soz, S->sdx, S->sdy, S->sdz,
+                      S->stfar, S->shadow, r, valid, 0);
+}
+
+__attribute__((target_clones("avx512f", "avx2", "default")))
+int lr__path16_rays16(const lr__paths16 *S, struct RTCRayHit16 *rh,
+                      int valid[16])
+{
+    int go = ray16_fill(S->ox, S->oy, S->oz, S->dx, S->dy, S->dz, NULL,
+                        S->alive, &rh->ray, valid, 1);
+    for (int i = 0; i < 16; i++) {
+        unsigned none = RTC_INVALID_GEOMETRY_ID;
+        rh->hit.geomID[i] = valid[i] ? none : rh->hit.geomID[i];
+        rh->hit.instID[0][i] = valid[i] ? none : rh->hit.instID[0][i];
+    }
+    return go;
+}
