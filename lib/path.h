@@ -41,6 +41,7 @@ static inline double lr__path_mis(double a, double b)
 int lr__path16_scene_ok(const lr_scene *s);
 
 #define LR__PATH16_EMITTERS 16
+#define LR__PATH16_KINDS 64
 
 /* The emitters, by index: what light.c reads of each. */
 typedef struct emitters16 {
@@ -95,6 +96,9 @@ typedef struct lr__path16 {
     lr__hits16p H;
     double cdx[16], cdy[16], cdz[16];
     int vec; /* lr__path16_scene_ok */
+    /* How the vector bounce takes geometry g < LR__PATH16_KINDS, found
+     * at its first hit in the packet (0: not yet). */
+    unsigned char kind[LR__PATH16_KINDS];
 } lr__path16;
 
 /* Starts w on a packet of camera rays (lanes 0..n-1 of rh, which the

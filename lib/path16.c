@@ -85,32 +85,41 @@ static int lambertian(const lr__material *m)
            !(v3_maxc(m->emission) > 0.0) && !lr__material_textured(m);
 }
 
-/* Whether lane i's hit can go to the vector bounce; if so fills H's
- * lane i. */
-static int take(const lr_scene *s, lr__path16 *w, int depth, int i,
-                const struct RTCRayHit16 *rh)
+/* The lanes with mask[i] set, in order, without a branch per lane. */
+static int lanes_of(const double mask[16], int lane[16])
+{
+    int m = 0;
+    for (int i = 0; i < 16; i++) {
+        lane[m] = i;
+        m += mask[i] != 0.0;
+    }
+    return m;
+}
+
+enum { ALONE = 1, FLAT = 2, SPHERE = 3 };
+
+/* How the vector bounce takes a hit on geometry G: FLAT (an untextured
+ * Lambertian flat triangle), SPHERE (an untextured Lambertian sphere),
+ * or ALONE (path.c's scalar bounce). */
+static int kind_of(const lr_scene *s, const lr__geom *G)
+{
+    const lr__material *m = &s->materials[G->material];
+    if (G->lambert_triangles)
+        return G->corner_normals != NULL || G->albedo_textured ||
+                       lr__material_textured(m)
+                   ? ALONE
+                   : FLAT;
+    return G->kind == LR__GEOM_SPHERE && lambertian(m) ? SPHERE : ALONE;
+}
+
+/* Lane i's hit on a sphere (kind SPHERE) into H: lr__hit_complete's
+ * sphere, t solved again in double near the intersector's, then the
+ * normal from the centre. */
+static void sphere_hit(const lr__geom *G, lr__path16 *w, int depth, int i,
+                       const struct RTCRayHit16 *rh)
 {
     lr__hits16p *H = &w->H;
     const lr__paths16 *S = &w->S;
-    unsigned g = rh->hit.geomID[i];
-    if (g == RTC_INVALID_GEOMETRY_ID)
-        return 0;
-    const lr__geom *G = &s->geoms[g];
-    if (G->lambert_triangles) {
-        if (G->corner_normals != NULL || G->albedo_textured ||
-            lr__material_textured(&s->materials[G->material]))
-            return 0;
-        const double *n = &G->face_ng[3 * (size_t)rh->hit.primID[i]];
-        H->t[i] = rh->ray.tfar[i];
-        H->nx[i] = n[0], H->ny[i] = n[1], H->nz[i] = n[2];
-        H->ar[i] = G->albedo.x, H->ag[i] = G->albedo.y, H->ab[i] = G->albedo.z;
-        return 1;
-    }
-    const lr__material *m = &s->materials[G->material];
-    if (G->kind != LR__GEOM_SPHERE || !lambertian(m))
-        return 0;
-    /* lr__hit_complete's sphere: t solved again in double near the
-     * intersector's, then the normal from the centre. */
     lr__v3 org = v3(S->ox[i], S->oy[i], S->oz[i]);
     lr__v3 dir = depth == 0 ? v3(w->cdx[i], w->cdy[i], w->cdz[i])
                             : v3(S->dx[i], S->dy[i], S->dz[i]);
@@ -130,8 +139,6 @@ static int take(const lr_scene *s, lr__path16 *w, int depth, int i,
     lr__v3 n = v3_norm(v3_sub(v3_madd(org, dir, t), G->center));
     H->t[i] = t;
     H->nx[i] = n.x, H->ny[i] = n.y, H->nz[i] = n.z;
-    H->ar[i] = m->diffuse.x, H->ag[i] = m->diffuse.y, H->ab[i] = m->diffuse.z;
-    return 1;
 }
 
 int lr__path16_sort(const lr_scene *s, lr__path16 *w, int depth,
@@ -141,14 +148,17 @@ int lr__path16_sort(const lr_scene *s, lr__path16 *w, int depth,
     lr__paths16 *S = &w->S;
     lr__hits16p *H = &w->H;
     int vec = w->vec && depth <= max_depth, m = 0;
+    (void)n; /* (lanes n..15 are never alive) */
+    int live[16];
+    int nl = lanes_of(S->alive, live);
     for (int i = 0; i < 16; i++) {
         S->shadow[i] = 0.0;
         H->take[i] = 0.0;
     }
-    for (int i = 0; i < n; i++) {
-        if (S->alive[i] == 0.0)
-            continue;
-        if (w->vec && rh->hit.geomID[i] == RTC_INVALID_GEOMETRY_ID) {
+    for (int c = 0; c < nl; c++) {
+        int i = live[c];
+        unsigned g = rh->hit.geomID[i];
+        if (w->vec && g == RTC_INVALID_GEOMETRY_ID) {
             /* path.c's bounce for a path that leaves the scene, at any
              * depth: in a scene lr__path16_scene_ok accepts the
              * environment is no light (no map, a black background), so
@@ -162,10 +172,32 @@ int lr__path16_sort(const lr_scene *s, lr__path16 *w, int depth,
             S->alive[i] = 0.0;
             continue;
         }
-        int t = vec && take(s, w, depth, i, rh);
-        H->take[i] = t;
+        int k = ALONE;
+        if (vec) {
+            /* A geometry's kind asked once per packet (the first 64). */
+            const lr__geom *G = &s->geoms[g];
+            if (g < LR__PATH16_KINDS) {
+                k = w->kind[g];
+                if (k == 0)
+                    k = w->kind[g] = (unsigned char)kind_of(s, G);
+            } else {
+                k = kind_of(s, G);
+            }
+            if (k == FLAT) {
+                const double *nn = &G->face_ng[3 * (size_t)rh->hit.primID[i]];
+                H->t[i] = rh->ray.tfar[i];
+                H->nx[i] = nn[0], H->ny[i] = nn[1], H->nz[i] = nn[2];
+                H->ar[i] = G->albedo.x, H->ag[i] = G->albedo.y;
+                H->ab[i] = G->albedo.z;
+            } else if (k == SPHERE) {
+                sphere_hit(G, w, depth, i, rh);
+                lr__v3 a = s->materials[G->material].diffuse;
+                H->ar[i] = a.x, H->ag[i] = a.y, H->ab[i] = a.z;
+            }
+        }
+        H->take[i] = k != ALONE;
         alone[m] = i;
-        m += !t;
+        m += k == ALONE;
     }
     return m;
 }
@@ -378,6 +410,7 @@ void lr__path16_begin(const lr_scene *s, lr__path16 *w,
     w->vec = lr__path16_scene_ok(s);
     if (w->vec)
         emitters_get(s, &w->E);
+    memset(w->kind, 0, sizeof w->kind);
     lr__paths16 *S = &w->S;
     const struct RTCRay16 *r = &rh->ray;
     for (int i = 0; i < 16; i++) {
@@ -413,17 +446,6 @@ void lr__path16_lambert(const lr_scene *s, lr__path16 *w, int depth,
     memcpy(H->dy, depth == 0 ? w->cdy : S->dy, sizeof H->dy);
     memcpy(H->dz, depth == 0 ? w->cdz : S->dz, sizeof H->dz);
     lambert16(s->ambient, depth + 1 >= LR__PATH_RR_FROM, u, &w->E, H, &w->S);
-}
-
-/* The lanes with mask[i] set, in order, without a branch per lane. */
-static int lanes_of(const double mask[16], int lane[16])
-{
-    int m = 0;
-    for (int i = 0; i < 16; i++) {
-        lane[m] = i;
-        m += mask[i] != 0.0;
-    }
-    return m;
 }
 
 /* x y mod 2^64 from 32-bit halves: AVX2 and AVX-512F multiply 32 x 32
