@@ -29,9 +29,11 @@
  * sample.
  *
  * Packets: the sixteen samples of a camera packet (one pixel's) go
- * through their bounces together: each bounce's shadow rays are traced
- * as one packet (rtcOccluded16) and the continuation rays as another
- * (rtcIntersect16), the shading stays per lane (trace_paths).
+ * through their bounces together, kept as arrays (path16.c): each
+ * bounce's shadow rays are traced as one packet (rtcOccluded16) and the
+ * continuation rays as another (rtcIntersect16), or in a scene of a few
+ * primitives both in one pass; lanes on Lambertian surfaces are shaded
+ * in path16.c's vector loops, the others here one by one (trace_paths).
  */
 #include "bsdf.h"
 #include "integrator.h"

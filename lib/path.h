@@ -1,7 +1,9 @@
 /*
- * path.h: what the path integrator's two files share: a path between
- * bounces (path.c follows it lane by lane) and the bounce of sixteen
- * lanes at once on Lambertian triangles (path16.c).
+ * path.h: what the path integrator's two files share: a packet's sixteen
+ * paths between bounces, as arrays (lr__paths16) and one lane of them as
+ * a struct (lr__path_lane, which path.c shades alone), and path16.c's
+ * work on all sixteen at once: the bounce on Lambertian surfaces, the
+ * rays' packing, the hashed numbers.
  */
 #ifndef LR_PATH_H
 #define LR_PATH_H
@@ -11,7 +13,7 @@
 #define LR__PATH_DIMS 8 /* random numbers per bounce (7 used) */
 #define LR__PATH_RR_FROM 5
 
-/* One path of a packet, between bounces. */
+/* One path of a packet, between bounces (path.c's scalar bounce). */
 typedef struct lr__path_lane {
     lr__v3 L, beta;
     lr__v3 org, dir;    /* the ray traced next (dir unit) */
