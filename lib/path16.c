@@ -452,8 +452,15 @@ void lr__path16_begin(const lr_scene *s, lr__path16 *w,
 void lr__path16_lambert(const lr_scene *s, lr__path16 *w, int depth,
                         const double u[LR__PATH_DIMS][16])
 {
-    /* The ray that hit: at depth 0 the camera's, as it made it. */
+    /* Nothing to do where no lane was taken (past max_depth, or only
+     * lanes shaded alone live). */
     lr__hits16p *H = &w->H;
+    double any = 0.0;
+    for (int i = 0; i < 16; i++)
+        any += H->take[i];
+    if (any == 0.0)
+        return;
+    /* The ray that hit: at depth 0 the camera's, as it made it. */
     const lr__paths16 *S = &w->S;
     memcpy(H->dx, depth == 0 ? w->cdx : S->dx, sizeof H->dx);
     memcpy(H->dy, depth == 0 ? w->cdy : S->dy, sizeof H->dy);
