@@ -1,9 +1,9 @@
 /*
  * path.h: what the path integrator's two files share: a packet's sixteen
  * paths between bounces, as arrays (lr__paths16) and one lane of them as
- * a struct (lr__path_lane, which path.c shades alone), and path16.c's
- * work on all sixteen at once: the bounce on Lambertian surfaces, the
- * rays' packing, the hashed numbers.
+ * a struct (lr__path_lane, which path.c shades alone), and the work on
+ * all sixteen at once: the bounce on Lambertian surfaces (path16.c), the
+ * rays' packing and the hashed numbers (path16_rays.c).
  */
 #ifndef LR_PATH_H
 #define LR_PATH_H
@@ -27,6 +27,19 @@ typedef struct lr__path_lane {
     lr__v3 s_org, s_dir, s_c;
     double s_tfar;
 } lr__path_lane;
+
+/* The lanes with mask[i] set, in order, in lane[0..m-1]; returns m.
+ * Without a branch per lane (a lane list made with one had cost 5% of
+ * the Cornell box's CPU time in mispredictions). */
+static inline int lr__path16_lanes_of(const double mask[16], int lane[16])
+{
+    int m = 0;
+    for (int i = 0; i < 16; i++) {
+        lane[m] = i;
+        m += mask[i] != 0.0;
+    }
+    return m;
+}
 
 /* The power heuristic's weight of density a against b (Veach 1997,
  * section 9.2.4, beta = 2). */

@@ -1,6 +1,7 @@
 /*
- * test_path16.c: path16.c's sixteen paths as arrays against the code they
- * stand in for, each checked against an independent answer:
+ * test_path16.c: the sixteen paths as arrays (path16.c, path16_rays.c)
+ * against the code they stand in for, each checked against an
+ * independent answer:
  *   - the vector bounce against path.c's lane-by-lane bounce, to the
  *     byte, where test_path.c's Cornell box does not reach: more than two
  *     emitters (the picked emitter copied lane by lane), and every
