@@ -95,6 +95,7 @@ $(BUILD)/obj/%.o: %.c $(DEPS_OK)
 # on the bench scene than 256.)
 $(BUILD)/obj/lib/whitted.o $(BUILD)/obj/lib/trace.o $(BUILD)/obj/lib/camera.o \
 $(BUILD)/obj/lib/sample.o $(BUILD)/obj/lib/rx_trace.o $(BUILD)/obj/lib/path16.o \
+$(BUILD)/obj/lib/path16_rays.o \
 $(BUILD)/obj/lib/rx_trace16f.o $(BUILD)/obj/lib/camera_lens.o $(BUILD)/obj/lib/lens.o \
 $(BUILD)/obj/lib/few_triangles.o $(BUILD)/obj/lib/spheres.o \
 $(BUILD)/obj/lib/wavelength.o: CFLAGS += $(if $(filter -O2,$(OPT)),-O3) \

@@ -173,12 +173,14 @@ int lr__few_triangles_build(lr_scene *s)
 
 __attribute__((target_clones("avx512f", "avx2", "default")))
 void lr__few_triangles_intersect(const lr__few_triangles *T,
-                                 lr__rays_packed *P, double tri[16],
-                                 double u[16], double v[16])
+                                 lr__rays_packed *P, int c0,
+                                 double tri[LR__PACKED],
+                                 double u[LR__PACKED], double v[LR__PACKED])
 {
     /* The best hit so far: t = bn / bd, and (s, t) = (bu, bv) / bd in
      * its shape's edges. */
-    double bn[16], bd[16], bu[16], bv[16], best[16];
+    double bn[LR__PACKED], bd[LR__PACKED], bu[LR__PACKED], bv[LR__PACKED],
+        best[LR__PACKED];
     int n = T->n_shapes;
     for (int c0 = 0; c0 < P->m8; c0 += 8) {
         for (int i = c0; i < c0 + 8; i++) {
@@ -206,7 +208,9 @@ void lr__few_triangles_intersect(const lr__few_triangles *T,
     /* The triangle of the shape, and its barycentrics: in (x, s1, s2)
      * the weights are (1 - s - t, s, t); in (y, s1, s2), since y = s1 +
      * s2 - x, they are (s + t - 1, 1 - t, 1 - s). */
-    for (int c = 0; c < P->m; c++) {
+    for (int c = 0; c < c0; c++)
+        tri[c] = best[c];
+    for (int c = c0; c < P->m; c++) {
         tri[c] = -1.0;
         if (best[c] < 0.0)
             continue;
@@ -228,7 +232,8 @@ void lr__few_triangles_intersect(const lr__few_triangles *T,
 
 __attribute__((target_clones("avx512f", "avx2", "default")))
 void lr__few_triangles_occluded(const lr__few_triangles *T,
-                                const lr__rays_packed *P, double occ[16])
+                                const lr__rays_packed *P,
+                                double occ[LR__PACKED])
 {
     int n = T->n_shapes;
     for (int c0 = 0; c0 < P->m8; c0 += 8) {

@@ -29,9 +29,11 @@
  * sample.
  *
  * Packets: the sixteen samples of a camera packet (one pixel's) go
- * through their bounces together: each bounce's shadow rays are traced
- * as one packet (rtcOccluded16) and the continuation rays as another
- * (rtcIntersect16), the shading stays per lane (trace_paths).
+ * through their bounces together, kept as arrays (path16.c): each
+ * bounce's shadow rays are traced as one packet (rtcOccluded16) and the
+ * continuation rays as another (rtcIntersect16), or in a scene of a few
+ * primitives both in one pass; lanes on Lambertian surfaces are shaded
+ * in path16.c's vector loops, the others here one by one (trace_paths).
  */
 #include "bsdf.h"
 #include "integrator.h"
@@ -44,11 +46,7 @@
 #define DIMS_PER_BOUNCE LR__PATH_DIMS
 #define RR_FROM LR__PATH_RR_FROM
 
-static double mis(double a, double b)
-{
-    a *= a, b *= b;
-    return a + b > 0.0 ? a / (a + b) : 0.0;
-}
+#define mis lr__path_mis
 
 /* A path's random numbers.  The first SOBOL_BOUNCES surfaces draw from
  * the render's sampler (stratified where the sampler is: that is where
@@ -65,11 +63,12 @@ static double mis(double a, double b)
  * once: u[j][i] is dimension DIM_FIRST + DIMS_PER_BOUNCE depth + j of
  * lane i's sample (first + i).  The Sobol pairs are computed for all
  * sixteen lanes in one vectorised loop (lr__pixel_pairs_get16), the
- * hashed ones lane by lane; either way a lane's numbers are those of its
- * sample alone. */
-static void bounce_numbers(const lr__pixel_pairs *pairs, uint64_t key[16],
-                           const int alive[16], int n, uint32_t first,
-                           int depth, double u[DIMS_PER_BOUNCE][16])
+ * hashed ones likewise (lr__path16_hashed); either way a lane's numbers
+ * are those of its sample alone. */
+static void bounce_numbers(const lr__pixel_pairs *pairs,
+                           const uint64_t key[16], const double alive[16],
+                           int n, uint32_t first, int depth,
+                           double u[DIMS_PER_BOUNCE][16])
 {
     uint32_t dim = DIM_FIRST + DIMS_PER_BOUNCE * (uint32_t)depth;
     if (dim < DIM_SOBOL_END) {
@@ -83,15 +82,11 @@ static void bounce_numbers(const lr__pixel_pairs *pairs, uint64_t key[16],
                                   (double (*)[16])u[j]);
         return;
     }
-    for (int i = 0; i < n; i++) {
-        if (!alive[i])
-            continue;
-        for (uint32_t j = 0; j < DIMS_PER_BOUNCE - 1; j++) {
-            uint64_t h = lr__mix64(key[i] ^ ((uint64_t)(dim + j) *
-                                             0x9e3779b97f4a7c15ull));
-            u[j][i] = (double)(h >> 11) * 0x1p-53;
-        }
-    }
+    /* (Again dimension 6 only where roulette is played.) */
+    lr__path16_hashed(key, alive, dim,
+                      depth + 1 >= RR_FROM ? DIMS_PER_BOUNCE - 1
+                                           : DIMS_PER_BOUNCE - 2,
+                      u);
 }
 
 typedef lr__path_lane lane;
@@ -189,13 +184,48 @@ static int bounce(const lr_scene *s, int max_depth, int depth, int hit,
     return v3_finite(p->beta);
 }
 
+/* Lane i of S as a lane struct, and back: for the lanes shaded alone. */
+static void lane_get(const lr__paths16 *S, int i, lane *p)
+{
+    p->L = v3(S->Lr[i], S->Lg[i], S->Lb[i]);
+    p->beta = v3(S->br[i], S->bg[i], S->bb[i]);
+    p->org = v3(S->ox[i], S->oy[i], S->oz[i]);
+    p->dir = v3(S->dx[i], S->dy[i], S->dz[i]);
+    p->prev_p = v3(S->ppx[i], S->ppy[i], S->ppz[i]);
+    p->prev_pdf = S->ppdf[i];
+    p->prev_delta = S->pdelta[i] != 0.0;
+    p->eta_scale = S->eta[i];
+}
+
+static void lane_put(const lane *p, int alive, lr__paths16 *S, int i)
+{
+    S->Lr[i] = p->L.x, S->Lg[i] = p->L.y, S->Lb[i] = p->L.z;
+    S->br[i] = p->beta.x, S->bg[i] = p->beta.y, S->bb[i] = p->beta.z;
+    S->ox[i] = p->org.x, S->oy[i] = p->org.y, S->oz[i] = p->org.z;
+    S->dx[i] = p->dir.x, S->dy[i] = p->dir.y, S->dz[i] = p->dir.z;
+    S->ppx[i] = p->prev_p.x, S->ppy[i] = p->prev_p.y, S->ppz[i] = p->prev_p.z;
+    S->ppdf[i] = p->prev_pdf;
+    S->pdelta[i] = p->prev_delta;
+    S->eta[i] = p->eta_scale;
+    S->alive[i] = alive;
+    S->shadow[i] = p->shadow;
+    if (!p->shadow)
+        return;
+    S->sox[i] = p->s_org.x, S->soy[i] = p->s_org.y, S->soz[i] = p->s_org.z;
+    S->sdx[i] = p->s_dir.x, S->sdy[i] = p->s_dir.y, S->sdz[i] = p->s_dir.z;
+    S->scr[i] = p->s_c.x, S->scg[i] = p->s_c.y, S->scb[i] = p->s_c.z;
+    S->stfar[i] = p->s_tfar;
+}
+
 /* The paths of lanes 0..n-1 (n >= 1) of a packet of camera rays that the
  * camera filled, all samples of one pixel: the camera rays are traced
- * together, then each bounce's shadow rays together (rtcOccluded16) and
- * its continuation rays together (rtcIntersect16).  Bounced rays are
- * incoherent, but in a scene of a few primitives the cost of a ray is
- * mostly Embree's per-call work, which a packet shares; a lane's result
- * is what it would be traced alone. */
+ * together, then each bounce's shadow rays together and its
+ * continuation rays together.  Bounced rays are incoherent, but in a
+ * scene of a few primitives the cost of a ray is mostly the per-call
+ * work, which a packet shares; a lane's result is what it would be
+ * traced alone.  The paths stay as arrays (path16.c's lr__paths16)
+ * throughout; lanes that path16.c's vector bounce does not take are
+ * copied out, shaded alone (bounce) and copied back. */
 static void trace_paths(const lr_scene *s, int max_depth,
                         struct RTCRayHit16 *rh, int n,
                         const lr__sample_id *id, lr__v3 L[16],
@@ -205,153 +235,100 @@ static void trace_paths(const lr_scene *s, int max_depth,
     lr__pixel_pairs pairs;
     lr__pixel_pairs_init(&pairs, id->sampler, id->pixel, DIM_FIRST,
                          n > 1 ? SOBOL_PAIRS : 0);
-    lane P[16];
-    int alive[16];
+    /* One per thread (9 KB: zeroing it per packet had cost 2.5% of the
+     * Cornell box's CPU time). */
+    static _Thread_local lr__path16 w16;
+    lr__path16_begin(s, &w16, rh, n);
+    lr__paths16 *S = &w16.S;
     uint64_t key[16]; /* hash of (seed, pixel, sample), for hashed numbers */
-    lr__v3 raw_org[16], raw_dir[16];
-    for (int i = 0; i < n; i++) {
-        lane *p = &P[i];
-        const struct RTCRay16 *r = &rh->ray;
-        raw_org[i] = v3(r->org_x[i], r->org_y[i], r->org_z[i]);
-        raw_dir[i] = v3(r->dir_x[i], r->dir_y[i], r->dir_z[i]);
-        key[i] = lr__mix64(lr__mix64(id->sampler->seed ^ lr__mix64(id->pixel)) ^
-                           (id->sample + (uint32_t)i));
-        p->L = v3(0, 0, 0);
-        p->beta = v3(1, 1, 1);
-        p->org = p->prev_p = raw_org[i];
-        p->dir = v3_norm(raw_dir[i]);
-        p->prev_pdf = 0.0;
-        p->prev_delta = 1; /* the camera ray: nothing to weigh against */
-        p->eta_scale = 1.0;
-        alive[i] = 1;
-    }
+    uint64_t kp = lr__mix64(id->sampler->seed ^ lr__mix64(id->pixel));
+    for (int i = 0; i < 16; i++)
+        key[i] = lr__mix64(kp ^ (id->sample + (uint32_t)i));
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
-    int vec = lr__path16_scene_ok(s);
     int packed = lr__paths_packed(s);
-    /* One per thread, zero at the start (lr__path16_begin). */
-    static _Thread_local lr__path16 w16;
-    if (vec)
-        lr__path16_begin(s, &w16);
     /* A bounce's numbers; lanes that are done keep their last ones (the
      * vector loops compute on every lane). */
     double U[DIMS_PER_BOUNCE][16] = {{0}};
     for (int depth = 0;; depth++) {
-        /* This bounce's surfaces, light samples and next rays. */
-        struct RTCRay16 sh __attribute__((aligned(64)));
-        int valid[16] __attribute__((aligned(64)));
-        int shadows = 0;
-        /* Shadow rays straight to spheres.c in double, where it meets
-         * every primitive itself (no float packet to fill and unpack). */
-        lr__rays_packed sp;
-        sp.m = 0;
-        for (int i = 0; i < 16; i++)
-            valid[i] = 0;
-        bounce_numbers(&pairs, key, alive, n, id->sample, depth, U);
-        /* Lanes on flat Lambertian triangles bounce together (path16.c),
-         * the others alone; either way with the same result. */
-        int take[16] = {0}, taken = 0;
-        double horg[3][16], hdir[3][16];
-        for (int i = 0; i < n && vec && depth <= max_depth; i++) {
-            unsigned g = rh->hit.geomID[i];
-            if (!alive[i] || g == RTC_INVALID_GEOMETRY_ID ||
-                !lr__path16_geom_ok(s, g))
-                continue;
-            lr__v3 org = depth == 0 ? raw_org[i] : P[i].org;
-            lr__v3 dir = depth == 0 ? raw_dir[i] : P[i].dir;
-            horg[0][i] = org.x, horg[1][i] = org.y, horg[2][i] = org.z;
-            hdir[0][i] = dir.x, hdir[1][i] = dir.y, hdir[2][i] = dir.z;
-            take[i] = 1;
-            taken++;
+        bounce_numbers(&pairs, key, S->alive, n, id->sample, depth, U);
+        /* This bounce's surfaces, light samples and next rays: lanes on
+         * untextured Lambertian surfaces together (path16.c), the
+         * others alone; either way with the same result. */
+        int alone[16];
+        int m = lr__path16_sort(s, &w16, depth, max_depth, n, rh, alone);
+        for (int c = 0; c < m; c++) {
+            int i = alone[c];
+            lane p;
+            lane_get(S, i, &p);
+            /* The camera ray's hit with the ray as the camera made it. */
+            lr__v3 dir = depth == 0 ? v3(w16.cdx[i], w16.cdy[i], w16.cdz[i])
+                                    : p.dir;
+            lr__hit h;
+            int hit = lr__hit_complete(s, p.org, dir, INFINITY,
+                                       rh->hit.geomID[i], rh->hit.primID[i],
+                                       rh->hit.u[i], rh->hit.v[i],
+                                       rh->ray.tfar[i], &h);
+            /* (Dimension 7 of a bounce is not used.) */
+            double v[DIMS_PER_BOUNCE] = {0};
+            for (int j = 0; j < DIMS_PER_BOUNCE - 1; j++)
+                v[j] = U[j][i];
+            int alive = bounce(s, max_depth, depth, hit, &h, v, &p);
+            lane_put(&p, alive, S, i);
         }
-        if (taken)
-            lr__path16_lambert(s, &w16, depth, take,
-                               (const double (*)[16])horg,
-                               (const double (*)[16])hdir, rh,
-                               (const double (*)[16])U, P, alive);
-        for (int i = 0; i < n; i++) {
-            lane *p = &P[i];
-            if (!take[i]) {
-                if (!alive[i])
-                    continue;
-                /* The camera ray's hit with the ray as the camera made
-                 * it. */
-                lr__v3 org = depth == 0 ? raw_org[i] : p->org;
-                lr__v3 dir = depth == 0 ? raw_dir[i] : p->dir;
-                lr__hit h;
-                int hit = lr__hit_complete(s, org, dir, INFINITY,
-                                           rh->hit.geomID[i],
-                                           rh->hit.primID[i], rh->hit.u[i],
-                                           rh->hit.v[i], rh->ray.tfar[i], &h);
-                /* (Dimension 7 of a bounce is not used.) */
-                double v[DIMS_PER_BOUNCE] = {0};
-                for (int j = 0; j < DIMS_PER_BOUNCE - 1; j++)
-                    v[j] = U[j][i];
-                alive[i] = bounce(s, max_depth, depth, hit, &h, v, p);
-            }
-            if (!p->shadow)
-                continue;
-            (*rays)++;
-            if (lr__planes_block(s, p->s_org, p->s_dir, p->s_tfar))
-                continue;
-            if (packed) {
-                lr__rays_packed_add(&sp, i, p->s_org, p->s_dir, p->s_tfar);
-            } else {
-                lr__shadow_ray16(&sh, i, p->s_org, p->s_dir, p->s_tfar);
-                valid[i] = -1;
-            }
-            shadows++;
-        }
-        if (shadows && packed) {
-            double occ[16];
-            lr__paths_occluded_packed(s, &sp, occ);
-            for (int c = 0; c < sp.m; c++)
-                if (occ[c] == 0.0)
-                    P[sp.lane[c]].L = v3_add(P[sp.lane[c]].L,
-                                             P[sp.lane[c]].s_c);
-        } else if (shadows) {
-            /* Embree's code for CPUs without AVX-512 checks every lane's
-             * ray, masked or not, and aborts on garbage. */
-            lr__ray16_quiet_lanes(&sh, valid);
-            lr__paths_occluded16(s, valid, &ctx, &sh);
-            /* Embree marks an occluded ray by setting tfar to -inf. */
-            for (int i = 0; i < n; i++)
-                if (valid[i] && sh.tfar[i] >= 0.0f)
-                    P[i].L = v3_add(P[i].L, P[i].s_c);
-        }
-        int go = 0;
+        if (w16.vec)
+            lr__path16_lambert(s, &w16, depth, (const double (*)[16])U);
+        /* The shadow rays: those an infinite plane blocks are done. */
+        for (int i = 0; i < n; i++)
+            *rays += S->shadow[i] != 0.0;
+        for (int i = 0; i < n && s->n_planes > 0; i++)
+            if (S->shadow[i] != 0.0 &&
+                lr__planes_block(s, v3(S->sox[i], S->soy[i], S->soz[i]),
+                                 v3(S->sdx[i], S->sdy[i], S->sdz[i]),
+                                 S->stfar[i]))
+                S->shadow[i] = 0.0;
         if (packed) {
-            /* The continuation rays too, in double (what reads a hit
-             * reads the ray from P, and t from rh). */
-            lr__rays_packed cp;
-            cp.m = 0;
-            for (int i = 0; i < n; i++)
-                if (alive[i])
-                    lr__rays_packed_add(&cp, i, P[i].org, P[i].dir, INFINITY);
-            go = cp.m;
+            /* The shadow rays and the continuation rays together,
+             * straight to spheres.c and few_triangles.c in double, which
+             * meet every primitive themselves (no float packet to fill
+             * and unpack).  (What reads a hit reads the ray from S, and
+             * t from rh.) */
+            lr__rays_packed P;
+            int ns = lr__path16_pack_shadows(S, &P);
+            int go = lr__path16_pack_rays(S, &P);
+            if (ns + go > 0) {
+                double occ[LR__PACKED];
+                lr__paths_trace_packed(s, &P, ns, rh, occ);
+                lr__path16_unoccluded(S, &P, ns, occ);
+            }
             if (!go)
                 break;
-            lr__paths_intersect_packed(s, &cp, rh);
             *rays += (uint64_t)go;
             continue;
         }
-        for (int i = 0; i < 16; i++) {
-            valid[i] = i < n && alive[i] ? -1 : 0;
-            if (!valid[i])
-                continue;
-            lr__shadow_ray16(&rh->ray, i, P[i].org, P[i].dir, INFINITY);
-            rh->hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
-            rh->hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
-            go++;
+        /* Embree's code for CPUs without AVX-512 checks every lane's
+         * ray, masked or not, and aborts on garbage: the lanes without a
+         * ray are quieted. */
+        struct RTCRay16 sh __attribute__((aligned(64)));
+        int valid[16] __attribute__((aligned(64)));
+        if (lr__path16_shadows16(S, &sh, valid)) {
+            lr__paths_occluded16(s, valid, &ctx, &sh);
+            /* Embree marks an occluded ray by setting tfar to -inf. */
+            for (int i = 0; i < n; i++)
+                if (valid[i] && sh.tfar[i] >= 0.0f) {
+                    S->Lr[i] = S->Lr[i] + S->scr[i];
+                    S->Lg[i] = S->Lg[i] + S->scg[i];
+                    S->Lb[i] = S->Lb[i] + S->scb[i];
+                }
         }
+        int go = lr__path16_rays16(S, rh, valid);
         if (!go)
             break;
-        lr__ray16_quiet_lanes(&rh->ray, valid);
         lr__paths_intersect16(s, valid, &ctx, rh);
         *rays += (uint64_t)go;
     }
     for (int i = 0; i < n; i++)
-        L[i] = P[i].L;
+        L[i] = v3(S->Lr[i], S->Lg[i], S->Lb[i]);
 }
 
 static lr__v3 radiance1(const lr_scene *s, int max_depth, lr__v3 org,

@@ -1,17 +1,20 @@
 /*
- * path16.c: the path integrator's bounce for sixteen lanes at once, on
- * flat Lambertian triangles in a scene lit by a few emitting triangles
- * (path.h): the hit, ambient light, the light sample, the cosine-
- * weighted BSDF sample and roulette, in structure-of-arrays loops over
- * the lanes that GCC vectorises (double, as path.c).
+ * path16.c: the path integrator's sixteen paths of a packet kept as
+ * arrays (path.h: lr__paths16), and the bounce of the lanes that hit an
+ * untextured Lambertian surface (a flat triangle or a sphere) in a
+ * scene lit by a few emitting triangles: the hit, ambient light, the
+ * light sample, the cosine-weighted BSDF sample and roulette, in
+ * structure-of-arrays loops over the lanes that GCC vectorises (double,
+ * as path.c).  (A bounce's rays and hashed numbers: path16_rays.c.)
  *
  * Every operation is the one path.c's scalar code does (trace.c's
- * finish_hit, bsdf.c, light.c, path.c's bounce and next_event), in the
- * same order and without FMA contraction (-ffp-contract=off), so each
- * lane's result is the scalar result to the bit (test_path.c renders
- * both ways and compares bytes).  Where the scalar code returns early,
- * these loops compute on and mask the result.  Lanes not taken compute
- * on whatever they hold; nobody reads those results.
+ * lr__hit_complete and finish_hit, bsdf.c, light.c, path.c's bounce and
+ * next_event), in the same order and without FMA contraction
+ * (-ffp-contract=off), so each lane's result is the scalar result to
+ * the bit (test_path.c renders both ways and compares bytes).  Where the
+ * scalar code returns early, these loops compute on and mask the
+ * result; lanes not taken compute on whatever they hold and keep their
+ * state (each store selects).
  */
 #include "path.h"
 #include "bsdf.h"
@@ -19,6 +22,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <string.h>
 
 int lr__path16_enabled = 1;
 
@@ -49,8 +53,9 @@ static inline double maxc3(double x, double y, double z)
 
 static void emitters_get(const lr_scene *s, emitters16 *E)
 {
+    /* (Past n, at least to 2, the last repeated: lambert16 reads [1].) */
     size_t n = s->n_emitters;
-    for (size_t i = 0; i < MAX_EMITTERS; i++) {
+    for (size_t i = 0; i < n || i < 2; i++) {
         size_t k = i < n ? i : n - 1;
         const lr__emitter *e = &s->emitters[k];
         /* emitter_find's binary search gives the first index whose cdf
@@ -67,19 +72,158 @@ static void emitters_get(const lr_scene *s, emitters16 *E)
         lr__v3 le = s->materials[s->geoms[e->geom].material].emission;
         E->lr[i] = le.x, E->lg[i] = le.y, E->lb[i] = le.z;
     }
+    E->n = (int)n;
 }
 
-__attribute__((target_clones("avx512f", "avx2", "default")))
-static void lambert16(lr__v3 amb, int rr,
-                      const double (*restrict u)[16], lanes16 *restrict l)
+/* The scalar code's material test for a Lambertian surface (scene.c's
+ * lambert_triangles), untextured. */
+static int lambertian(const lr__material *m)
 {
+    return !(v3_maxc(m->specular) > 0.0) && !(v3_maxc(m->reflect) > 0.0) &&
+           !(v3_maxc(m->transmit) > 0.0) && v3_maxc(m->diffuse) > 0.0 &&
+           !(v3_maxc(m->emission) > 0.0) && !lr__material_textured(m);
+}
+
+enum { ALONE = 1, FLAT = 2, SPHERE = 3 };
+
+/* How the vector bounce takes a hit on geometry G: FLAT (an untextured
+ * Lambertian flat triangle), SPHERE (an untextured Lambertian sphere),
+ * or ALONE (path.c's scalar bounce). */
+static int kind_of(const lr_scene *s, const lr__geom *G)
+{
+    const lr__material *m = &s->materials[G->material];
+    if (G->lambert_triangles)
+        return G->corner_normals != NULL || G->albedo_textured ||
+                       lr__material_textured(m)
+                   ? ALONE
+                   : FLAT;
+    return G->kind == LR__GEOM_SPHERE && lambertian(m) ? SPHERE : ALONE;
+}
+
+/* Lane i's hit on a sphere (kind SPHERE) into H: lr__hit_complete's
+ * sphere, t solved again in double near the intersector's, then the
+ * normal from the centre. */
+static void sphere_hit(const lr__geom *G, lr__path16 *w, int depth, int i,
+                       const struct RTCRayHit16 *rh)
+{
+    lr__hits16p *H = &w->H;
+    const lr__paths16 *S = &w->S;
+    lr__v3 org = v3(S->ox[i], S->oy[i], S->oz[i]);
+    lr__v3 dir = depth == 0 ? v3(w->cdx[i], w->cdy[i], w->cdz[i])
+                            : v3(S->dx[i], S->dy[i], S->dz[i]);
+    double t = (double)rh->ray.tfar[i];
+    lr__v3 oc = v3_sub(org, G->center);
+    double a = v3_dot(dir, dir), b = v3_dot(oc, dir);
+    double l = v3_len(oc);
+    double c = (l - G->radius) * (l + G->radius);
+    double disc = b * b - a * c;
+    if (disc >= 0.0 && a > 0.0) {
+        double q = -(b + copysign(sqrt(disc), b));
+        double r1 = q / a, r2 = q != 0.0 ? c / q : r1;
+        double best = fabs(r1 - t) < fabs(r2 - t) ? r1 : r2;
+        if (best > 0.0 && best < INFINITY)
+            t = best;
+    }
+    lr__v3 n = v3_norm(v3_sub(v3_madd(org, dir, t), G->center));
+    H->t[i] = t;
+    H->nx[i] = n.x, H->ny[i] = n.y, H->nz[i] = n.z;
+}
+
+int lr__path16_sort(const lr_scene *s, lr__path16 *w, int depth,
+                    int max_depth, int n, const struct RTCRayHit16 *rh,
+                    int alone[16])
+{
+    lr__paths16 *S = &w->S;
+    lr__hits16p *H = &w->H;
+    int vec = w->vec && depth <= max_depth, m = 0;
+    (void)n; /* (lanes n..15 are never alive) */
+    int live[16];
+    int nl = lr__path16_lanes_of(S->alive, live);
     for (int i = 0; i < 16; i++) {
+        S->shadow[i] = 0.0;
+        H->take[i] = 0.0;
+    }
+    for (int c = 0; c < nl; c++) {
+        int i = live[c];
+        unsigned g = rh->hit.geomID[i];
+        if (w->vec && g == RTC_INVALID_GEOMETRY_ID) {
+            /* path.c's bounce for a path that leaves the scene, at any
+             * depth: in a scene lr__path16_scene_ok accepts the
+             * environment is no light (no map, a black background), so
+             * its radiance is the background and its density 0. */
+            double wt = S->pdelta[i] != 0.0 ? 1.0
+                                            : lr__path_mis(S->ppdf[i], 0.0);
+            lr__v3 L = v3(S->Lr[i], S->Lg[i], S->Lb[i]);
+            lr__v3 beta = v3(S->br[i], S->bg[i], S->bb[i]);
+            L = v3_add(L, v3_scale(v3_mul(beta, s->background), wt));
+            S->Lr[i] = L.x, S->Lg[i] = L.y, S->Lb[i] = L.z;
+            S->alive[i] = 0.0;
+            continue;
+        }
+        int k = ALONE;
+        if (vec) {
+            /* A geometry's kind asked once per packet (the first 64). */
+            const lr__geom *G = &s->geoms[g];
+            if (g < LR__PATH16_KINDS) {
+                k = w->kind[g];
+                if (k == 0)
+                    k = w->kind[g] = (unsigned char)kind_of(s, G);
+            } else {
+                k = kind_of(s, G);
+            }
+            if (k == FLAT) {
+                const double *nn = &G->face_ng[3 * (size_t)rh->hit.primID[i]];
+                H->t[i] = rh->ray.tfar[i];
+                H->nx[i] = nn[0], H->ny[i] = nn[1], H->nz[i] = nn[2];
+                H->ar[i] = G->albedo.x, H->ag[i] = G->albedo.y;
+                H->ab[i] = G->albedo.z;
+            } else if (k == SPHERE) {
+                sphere_hit(G, w, depth, i, rh);
+                lr__v3 a = s->materials[G->material].diffuse;
+                H->ar[i] = a.x, H->ag[i] = a.y, H->ab[i] = a.z;
+            }
+        }
+        H->take[i] = k != ALONE;
+        alone[m] = i;
+        m += k == ALONE;
+    }
+    return m;
+}
+
+/* The emitter each lane's light sample picked: its fields (with more
+ * than two emitters; lambert16). */
+typedef struct picked16 {
+    double ax[16], ay[16], az[16], e1x[16], e1y[16], e1z[16], e2x[16],
+        e2y[16], e2z[16], nx[16], ny[16], nz[16], area[16], prob[16],
+        lr[16], lg[16], lb[16];
+} picked16;
+
+/* lambert16's loop over the lanes; `two` constant in each call, so
+ * that GCC makes one loop for each (a select on it in one loop kept the
+ * loop from vectorising). */
+static inline __attribute__((always_inline)) void
+lanes16(lr__v3 amb, int rr, const double (*restrict u)[16],
+        const emitters16 *restrict E, const lr__hits16p *restrict H,
+        lr__paths16 *restrict S, const double *restrict pick,
+        const picked16 *restrict K, const int two)
+{
+    /* The first two emitters' fields, loaded here: loads under a select
+     * in the loop kept GCC from vectorising it.  (E's entries past n
+     * repeat the last, so [1] is there.) */
+#define LOAD2(f) const double f##_0 = E->f[0], f##_1 = E->f[1]
+    LOAD2(ax); LOAD2(ay); LOAD2(az); LOAD2(e1x); LOAD2(e1y); LOAD2(e1z);
+    LOAD2(e2x); LOAD2(e2y); LOAD2(e2z); LOAD2(nx); LOAD2(ny); LOAD2(nz);
+    LOAD2(area); LOAD2(prob); LOAD2(lr); LOAD2(lg); LOAD2(lb);
+#undef LOAD2
+#define EF(a, f) (two ? (pick[i] != 0.0 ? f##_1 : f##_0) : K->f[i])
+    for (int i = 0; i < 16; i++) {
+        int take = H->take[i] != 0.0;
         /* ---- the hit (trace.c's finish_hit, flat: ns = ng) ---- */
-        double t = l->t[i];
-        double dx = l->dx[i], dy = l->dy[i], dz = l->dz[i];
-        double px = l->ox[i] + dx * t, py = l->oy[i] + dy * t,
-               pz = l->oz[i] + dz * t;
-        double gx = l->nx[i], gy = l->ny[i], gz = l->nz[i];
+        double t = H->t[i];
+        double dx = H->dx[i], dy = H->dy[i], dz = H->dz[i];
+        double px = S->ox[i] + dx * t, py = S->oy[i] + dy * t,
+               pz = S->oz[i] + dz * t;
+        double gx = H->nx[i], gy = H->ny[i], gz = H->nz[i];
         int entering = dx * gx + dy * gy + dz * gz < 0.0;
         gx = entering ? gx : -gx;
         gy = entering ? gy : -gy;
@@ -91,11 +235,11 @@ static void lambert16(lr__v3 amb, int rr,
         double eps = (1.0 + mag) * 0x1p-17;
 
         /* ---- ambient (path.c's bounce) ---- */
-        double ar = l->ar[i], ag = l->ag[i], ab = l->ab[i];
-        double br = l->br[i], bg = l->bg[i], bb = l->bb[i];
-        double Lr = l->Lr[i] + br * (ar * amb.x);
-        double Lg = l->Lg[i] + bg * (ag * amb.y);
-        double Lb = l->Lb[i] + bb * (ab * amb.z);
+        double ar = H->ar[i], ag = H->ag[i], ab = H->ab[i];
+        double br = S->br[i], bg = S->bg[i], bb = S->bb[i];
+        double Lr = S->Lr[i] + br * (ar * amb.x);
+        double Lg = S->Lg[i] + bg * (ag * amb.y);
+        double Lb = S->Lb[i] + bb * (ab * amb.z);
 
         /* ---- the frame and the lobe probability (lr__bsdf_init) ---- */
         double sign = copysign(1.0, gz);
@@ -104,20 +248,20 @@ static void lambert16(lr__v3 amb, int rr,
         double bx = fb, by = sign + gy * gy * fa, bz = -gy;
         double w0 = maxc3(ar, ag, ab);
         double p0 = w0 * (1.0 / w0);
-        double wox = -l->wx[i], woy = -l->wy[i], woz = -l->wz[i];
+        double wox = -S->dx[i], woy = -S->dy[i], woz = -S->dz[i];
         double wol_z = wox * gx + woy * gy + woz * gz;
 
         /* ---- the light sample (light.c, path.c's next_event) ---- */
         double su = sqrt(u[0][i]);
         double b1 = u[1][i] * su, b2 = su - b1;
-        double qx = l->ax[i] + (l->e1x[i] * b1 + l->e2x[i] * b2);
-        double qy = l->ay[i] + (l->e1y[i] * b1 + l->e2y[i] * b2);
-        double qz = l->az[i] + (l->e1z[i] * b1 + l->e2z[i] * b2);
-        double enx = l->enx[i], eny = l->eny[i], enz = l->enz[i];
+        double qx = EF(ax, ax) + (EF(e1x, e1x) * b1 + EF(e2x, e2x) * b2);
+        double qy = EF(ay, ay) + (EF(e1y, e1y) * b1 + EF(e2y, e2y) * b2);
+        double qz = EF(az, az) + (EF(e1z, e1z) * b1 + EF(e2z, e2z) * b2);
+        double enx = EF(enx_, nx), eny = EF(eny_, ny), enz = EF(enz_, nz);
         double tox = qx - px, toy = qy - py, toz = qz - pz;
         double d2 = tox * tox + toy * toy + toz * toz;
         double cl = fabs((enx * tox + eny * toy + enz * toz) / sqrt(d2));
-        double area = l->area[i];
+        double area = EF(area_, area);
         /* (Conditions as 1.0 or 0.0 in doubles, selected rather than
          * combined as ints: GCC vectorises those selects.) */
         double spdf = cl > 0.0 ? (area > 0.0 ? d2 / (area * cl) : 0.0) : 0.0;
@@ -126,7 +270,7 @@ static void lambert16(lr__v3 amb, int rr,
         double inv = 1.0 / d;
         double lx = tox * inv, ly = toy * inv, lz = toz * inv;
         shadow = lx * enx + ly * eny + lz * enz < 0.0 ? shadow : 0.0;
-        double lpdf = 1.0 * l->prob[i] * spdf;
+        double lpdf = 1.0 * EF(prob, prob) * spdf;
         shadow = lpdf > 0.0 ? shadow : 0.0;
         /* lr__bsdf_eval: the diffuse lobe, both sides above. */
         double wil_z = lx * gx + ly * gy + lz * gz;
@@ -137,24 +281,21 @@ static void lambert16(lr__v3 amb, int rr,
         double bpdf = above != 0.0 ? 0.0 + p0 * wil_z / M_PI : 0.0;
         double cos_i = fabs(lx * gx + ly * gy + lz * gz);
         double ci = cos_i / lpdf;
-        double cr = fr * l->ler[i] * ci, cg = fg * l->leg[i] * ci,
-               cb = fbb * l->leb[i] * ci;
+        double cr = fr * EF(ler, lr) * ci, cg = fg * EF(leg, lg) * ci,
+               cb = fbb * EF(leb, lb) * ci;
         shadow = maxc3(cr, cg, cb) > 0.0 ? shadow : 0.0;
         double ma = lpdf * lpdf, mb = bpdf * bpdf;
         double w = ma + mb > 0.0 ? ma / (ma + mb) : 0.0;
         cr = cr * w, cg = cg * w, cb = cb * w;
-        l->scr[i] = br * cr, l->scg[i] = bg * cg, l->scb[i] = bb * cb;
+        double scr = br * cr, scg = bg * cg, scb = bb * cb;
         double side = lx * gx + ly * gy + lz * gz >= 0.0 ? 1.0 : -1.0;
         double sox = px + gx * (side * eps), soy = py + gy * (side * eps),
                soz = pz + gz * (side * eps);
-        l->sox[i] = sox, l->soy[i] = soy, l->soz[i] = soz;
-        l->sdx[i] = lx, l->sdy[i] = ly, l->sdz[i] = lz;
         double ex = (px + lx * d) - sox, ey = (py + ly * d) - soy,
                ez = (pz + lz * d) - soz;
-        l->stfar[i] = isfinite(d) ? sqrt(ex * ex + ey * ey + ez * ez) *
-                                        (1.0 - 1e-4)
-                                  : INFINITY;
-        l->shadow[i] = shadow;
+        double stfar = isfinite(d) ? sqrt(ex * ex + ey * ey + ez * ez) *
+                                         (1.0 - 1e-4)
+                                   : INFINITY;
 
         /* ---- the BSDF sample (lr__bsdf_sample: the diffuse lobe) ---- */
         double alive = wol_z > 0.0 ? (u[5][i] < p0 ? 1.0 : 0.0) : 0.0;
@@ -180,89 +321,137 @@ static void lambert16(lr__v3 amb, int rr,
         double wn = wx * gx + wy * gy + wz * gz;
         br = br * vr, bg = bg * vg, bb = bb * vb;
         double side2 = wn >= 0.0 ? 1.0 : -1.0;
-        l->nox[i] = px + gx * (side2 * eps);
-        l->noy[i] = py + gy * (side2 * eps);
-        l->noz[i] = pz + gz * (side2 * eps);
-        l->ndx[i] = wx, l->ndy[i] = wy, l->ndz[i] = wz;
-        if (rr) {
-            double q = maxc3(br, bg, bb) * l->eta_scale[i];
-            q = q < 0.95 ? q : 0.95;
-            alive = u[6][i] < q ? alive : 0.0;
-            double iq = 1.0 / q;
-            br = br * iq, bg = bg * iq, bb = bb * iq;
-        }
+        double nox = px + gx * (side2 * eps);
+        double noy = py + gy * (side2 * eps);
+        double noz = pz + gz * (side2 * eps);
+        /* Roulette (if rr), selected: a branch here kept GCC from
+         * vectorising the loop. */
+        double q = maxc3(br, bg, bb) * S->eta[i];
+        q = q < 0.95 ? q : 0.95;
+        alive = rr && !(u[6][i] < q) ? 0.0 : alive;
+        double iq = 1.0 / q;
+        br = rr ? br * iq : br, bg = rr ? bg * iq : bg, bb = rr ? bb * iq : bb;
         /* v3_finite */
         alive = fabs(br) <= DBL_MAX ? alive : 0.0;
         alive = fabs(bg) <= DBL_MAX ? alive : 0.0;
         alive = fabs(bb) <= DBL_MAX ? alive : 0.0;
-        l->alive[i] = alive;
-        l->br[i] = br, l->bg[i] = bg, l->bb[i] = bb;
-        l->Lr[i] = Lr, l->Lg[i] = Lg, l->Lb[i] = Lb;
-        l->px[i] = px, l->py[i] = py, l->pz[i] = pz;
-        l->pdf[i] = pdf;
+
+        /* ---- the taken lanes' new state ---- */
+#define SET(field, value) S->field[i] = take ? (value) : S->field[i]
+        SET(Lr, Lr), SET(Lg, Lg), SET(Lb, Lb);
+        SET(shadow, shadow);
+        SET(sox, sox), SET(soy, soy), SET(soz, soz);
+        SET(sdx, lx), SET(sdy, ly), SET(sdz, lz);
+        SET(scr, scr), SET(scg, scg), SET(scb, scb);
+        SET(stfar, stfar);
+        SET(br, br), SET(bg, bg), SET(bb, bb);
+        SET(ppdf, pdf), SET(pdelta, 0.0);
+        SET(ppx, px), SET(ppy, py), SET(ppz, pz);
+        SET(ox, nox), SET(oy, noy), SET(oz, noz);
+        SET(dx, wx), SET(dy, wy), SET(dz, wz);
+        SET(alive, alive);
+#undef SET
+#undef EF
     }
 }
 
-void lr__path16_begin(const lr_scene *s, lr__path16 *w)
+
+__attribute__((target_clones("avx512f", "avx2", "default")))
+static void lambert16(lr__v3 amb, int rr, const double (*restrict u)[16],
+                      const emitters16 *restrict E,
+                      const lr__hits16p *restrict H, lr__paths16 *restrict S)
 {
-    emitters_get(s, &w->E);
+    /* light.c's pick: one kind of light (area), so u_pick * 1 - 0 picks
+     * among the emitters: emitter_find's binary search gives the count
+     * of the cdfs before the last that do not exceed u (they never
+     * decrease). */
+    double pick[16];
+    for (int i = 0; i < 16; i++)
+        pick[i] = 0.0;
+    for (int j = 0; j + 1 < E->n; j++)
+        for (int i = 0; i < 16; i++)
+            pick[i] += E->cdf[j] <= u[4][i] * 1 - 0 ? 1.0 : 0.0;
+    /* The picked emitter's fields: with one or two emitters (a
+     * rectangle light) selected in the loop from the two; with more,
+     * copied lane by lane first (a select per emitter in a loop of its
+     * own kept GCC from vectorising, as did gathers in the loop). */
+    picked16 K;
+    if (E->n <= 2) {
+        lanes16(amb, rr, u, E, H, S, pick, &K, 1);
+        return;
+    }
+    for (int i = 0; i < 16; i++) {
+        int k = (int)pick[i];
+        K.ax[i] = E->ax[k], K.ay[i] = E->ay[k], K.az[i] = E->az[k];
+        K.e1x[i] = E->e1x[k], K.e1y[i] = E->e1y[k], K.e1z[i] = E->e1z[k];
+        K.e2x[i] = E->e2x[k], K.e2y[i] = E->e2y[k], K.e2z[i] = E->e2z[k];
+        K.nx[i] = E->nx[k], K.ny[i] = E->ny[k], K.nz[i] = E->nz[k];
+        K.area[i] = E->area[k], K.prob[i] = E->prob[k];
+        K.lr[i] = E->lr[k], K.lg[i] = E->lg[k], K.lb[i] = E->lb[k];
+    }
+    lanes16(amb, rr, u, E, H, S, pick, &K, 0);
+}
+
+/* The paths of lanes 0..n-1 at their camera rays (as float, from r),
+ * the others done; one vectorised loop (the unit directions' square
+ * roots and quotients were 1% of the Cornell box's CPU time lane by
+ * lane). */
+__attribute__((target_clones("avx512f", "avx2", "default")))
+static void paths_start(lr__path16 *restrict w,
+                        const struct RTCRay16 *restrict r, int n)
+{
+    lr__paths16 *S = &w->S;
+    for (int i = 0; i < 16; i++) {
+        int live = i < n;
+        double ox = live ? r->org_x[i] : 0.0, oy = live ? r->org_y[i] : 0.0,
+               oz = live ? r->org_z[i] : 0.0;
+        double dx = live ? r->dir_x[i] : 0.0, dy = live ? r->dir_y[i] : 0.0,
+               dz = live ? r->dir_z[i] : 1.0;
+        w->cdx[i] = dx, w->cdy[i] = dy, w->cdz[i] = dz;
+        /* v3_norm */
+        double l = sqrt(dx * dx + dy * dy + dz * dz), il = 1.0 / l;
+        S->dx[i] = l > 0 ? dx * il : dx;
+        S->dy[i] = l > 0 ? dy * il : dy;
+        S->dz[i] = l > 0 ? dz * il : dz;
+        S->Lr[i] = S->Lg[i] = S->Lb[i] = 0.0;
+        S->br[i] = S->bg[i] = S->bb[i] = 1.0;
+        S->ox[i] = S->ppx[i] = ox;
+        S->oy[i] = S->ppy[i] = oy;
+        S->oz[i] = S->ppz[i] = oz;
+        S->ppdf[i] = 0.0;
+        S->pdelta[i] = 1.0; /* the camera ray: nothing to weigh against */
+        S->eta[i] = 1.0;
+        S->alive[i] = live;
+        S->shadow[i] = 0.0;
+        w->H.take[i] = 0.0;
+    }
+}
+
+void lr__path16_begin(const lr_scene *s, lr__path16 *w,
+                      const struct RTCRayHit16 *rh, int n)
+{
+    w->vec = lr__path16_scene_ok(s);
+    if (w->vec)
+        emitters_get(s, &w->E);
+    memset(w->kind, 0, sizeof w->kind);
+    paths_start(w, &rh->ray, n);
 }
 
 void lr__path16_lambert(const lr_scene *s, lr__path16 *w, int depth,
-                        const int take[16], const double hit_org[3][16],
-                        const double hit_dir[3][16],
-                        const struct RTCRayHit16 *rh,
-                        const double u[LR__PATH_DIMS][16],
-                        lr__path_lane P[16], int alive[16])
+                        const double u[LR__PATH_DIMS][16])
 {
-    const emitters16 *E = &w->E;
-    lanes16 *l = &w->l;
-    for (int i = 0; i < 16; i++) {
-        if (!take[i])
-            continue;
-        const lr__path_lane *p = &P[i];
-        const lr__geom *g = &s->geoms[rh->hit.geomID[i]];
-        const double *n = &g->face_ng[3 * (size_t)rh->hit.primID[i]];
-        l->ox[i] = hit_org[0][i], l->oy[i] = hit_org[1][i], l->oz[i] = hit_org[2][i];
-        l->dx[i] = hit_dir[0][i], l->dy[i] = hit_dir[1][i], l->dz[i] = hit_dir[2][i];
-        l->wx[i] = p->dir.x, l->wy[i] = p->dir.y, l->wz[i] = p->dir.z;
-        l->t[i] = rh->ray.tfar[i];
-        l->nx[i] = n[0], l->ny[i] = n[1], l->nz[i] = n[2];
-        lr__v3 a = s->materials[g->material].diffuse;
-        l->ar[i] = a.x, l->ag[i] = a.y, l->ab[i] = a.z;
-        l->br[i] = p->beta.x, l->bg[i] = p->beta.y, l->bb[i] = p->beta.z;
-        l->Lr[i] = p->L.x, l->Lg[i] = p->L.y, l->Lb[i] = p->L.z;
-        l->eta_scale[i] = p->eta_scale;
-        /* light.c's pick: one kind of light (area), so u_pick * 1 - 0
-         * picks among the emitters. */
-        double upick = u[4][i] * 1 - 0;
-        int k = 0;
-        for (int j = 0; j < MAX_EMITTERS; j++)
-            k += E->cdf[j] <= upick;
-        l->ax[i] = E->ax[k], l->ay[i] = E->ay[k], l->az[i] = E->az[k];
-        l->e1x[i] = E->e1x[k], l->e1y[i] = E->e1y[k], l->e1z[i] = E->e1z[k];
-        l->e2x[i] = E->e2x[k], l->e2y[i] = E->e2y[k], l->e2z[i] = E->e2z[k];
-        l->enx[i] = E->nx[k], l->eny[i] = E->ny[k], l->enz[i] = E->nz[k];
-        l->area[i] = E->area[k], l->prob[i] = E->prob[k];
-        l->ler[i] = E->lr[k], l->leg[i] = E->lg[k], l->leb[i] = E->lb[k];
-    }
-    lambert16(s->ambient, depth + 1 >= LR__PATH_RR_FROM, u, l);
-    for (int i = 0; i < 16; i++) {
-        if (!take[i])
-            continue;
-        lr__path_lane *p = &P[i];
-        p->L = v3(l->Lr[i], l->Lg[i], l->Lb[i]);
-        p->shadow = l->shadow[i] != 0.0;
-        p->s_org = v3(l->sox[i], l->soy[i], l->soz[i]);
-        p->s_dir = v3(l->sdx[i], l->sdy[i], l->sdz[i]);
-        p->s_c = v3(l->scr[i], l->scg[i], l->scb[i]);
-        p->s_tfar = l->stfar[i];
-        p->beta = v3(l->br[i], l->bg[i], l->bb[i]);
-        p->prev_pdf = l->pdf[i];
-        p->prev_delta = 0;
-        p->prev_p = v3(l->px[i], l->py[i], l->pz[i]);
-        p->org = v3(l->nox[i], l->noy[i], l->noz[i]);
-        p->dir = v3(l->ndx[i], l->ndy[i], l->ndz[i]);
-        alive[i] = l->alive[i] != 0.0;
-    }
+    /* Nothing to do where no lane was taken (past max_depth, or only
+     * lanes shaded alone live). */
+    lr__hits16p *H = &w->H;
+    double any = 0.0;
+    for (int i = 0; i < 16; i++)
+        any += H->take[i];
+    if (any == 0.0)
+        return;
+    /* The ray that hit: at depth 0 the camera's, as it made it. */
+    const lr__paths16 *S = &w->S;
+    memcpy(H->dx, depth == 0 ? w->cdx : S->dx, sizeof H->dx);
+    memcpy(H->dy, depth == 0 ? w->cdy : S->dy, sizeof H->dy);
+    memcpy(H->dz, depth == 0 ? w->cdz : S->dz, sizeof H->dz);
+    lambert16(s->ambient, depth + 1 >= LR__PATH_RR_FROM, u, &w->E, H, &w->S);
 }

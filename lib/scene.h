@@ -429,23 +429,22 @@ void lr__paths_camera16(const lr_scene *s, struct RTCRayHit16 *rh, int n,
 int lr__few_triangles_build(lr_scene *s);
 /* 0: scenes loaded from now on leave their triangles to Embree (tests). */
 extern int lr__few_triangles_enabled;
-/* A packet's valid lanes' rays packed to the front, in double
- * (spheres.c fills it): entry c is packet lane lane[c], c < m; entries
- * m .. m8 - 1 (m8: m rounded up to a multiple of 8, the lane loops'
- * step) hold rays that meet nothing (tnear 1, tfar 0).  The lane loops
- * then cost what the live lanes need: on the Cornell box a continuation
- * packet had 10.6 live lanes of 16 on average, a shadow packet 7.4. */
+/* Rays packed to the front, in double (spheres.c and path16.c fill
+ * it): entry c is packet lane lane[c]'s ray, c < m; entries m .. m8 - 1
+ * (m8: m rounded up to a multiple of 8, the lane loops' step) hold rays
+ * that meet nothing (tnear 1, tfar 0).  The lane loops then cost what
+ * the live lanes need: on the Cornell box a continuation packet had 10.6
+ * live lanes of 16 on average, a shadow packet 7.4.  A bounce's shadow
+ * and continuation rays go in one (lr__paths_trace_packed), so up to
+ * 32. */
+#define LR__PACKED 32
 typedef struct lr__rays_packed {
     int m, m8;
-    int lane[16];
-    double ox[16], oy[16], oz[16], dx[16], dy[16], dz[16], tn[16], tf[16];
+    int lane[LR__PACKED];
+    double ox[LR__PACKED], oy[LR__PACKED], oz[LR__PACKED];
+    double dx[LR__PACKED], dy[LR__PACKED], dz[LR__PACKED];
+    double tn[LR__PACKED], tf[LR__PACKED];
 } lr__rays_packed;
-/* Adds packet lane `lane`'s ray (org, dir, up to tfar; tnear 0) to P in
- * double, without a float rounding; a ray Embree could not take
- * (lr__embree_can_trace) meets nothing, as lr__shadow_ray16 makes it.
- * Set P->m = 0 before the first. */
-void lr__rays_packed_add(lr__rays_packed *P, int lane, lr__v3 org,
-                         lr__v3 dir, double tfar);
 /* Whether the scene's path packets skip Embree altogether (few_tris
  * holds its triangles), so that lr__paths_occluded_packed serves it. */
 static inline int lr__paths_packed(const lr_scene *s)
@@ -455,23 +454,28 @@ static inline int lr__paths_packed(const lr_scene *s)
 /* occ[c] = 1 if P's entry c meets a sphere or triangle at t in (tnear,
  * tfar), else 0, in a scene lr__paths_packed accepts. */
 void lr__paths_occluded_packed(const lr_scene *s, lr__rays_packed *P,
-                               double occ[16]);
-/* Each entry's nearest sphere or triangle hit, written into rh's lane
- * as lr__paths_intersect16 writes it (geomID, primID, u, v, tfar;
- * geomID RTC_INVALID_GEOMETRY_ID for a miss), in a scene
- * lr__paths_packed accepts.  rh's rays are neither read nor written. */
-void lr__paths_intersect_packed(const lr_scene *s, lr__rays_packed *P,
-                                struct RTCRayHit16 *rh);
+                               double occ[LR__PACKED]);
+/* A bounce's rays at once, in a scene lr__paths_packed accepts: entries
+ * c < ns are shadow rays (occ[c] as lr__paths_occluded_packed gives
+ * it), the others continuation rays, whose nearest hits are written into
+ * rh's lanes as lr__paths_intersect16 writes them (geomID, primID, u, v,
+ * tfar; geomID RTC_INVALID_GEOMETRY_ID for a miss; rh's rays neither
+ * read nor written). */
+void lr__paths_trace_packed(const lr_scene *s, lr__rays_packed *P, int ns,
+                            struct RTCRayHit16 *rh, double occ[LR__PACKED]);
 /* The nearest triangle of each entry with t in (tn, tf): tf[c] becomes
  * its t, tri[c] its index in T (geom, prim), u[c], v[c] its
  * barycentrics (Embree's convention); entries without a hit keep tf and
- * get tri -1. */
+ * get tri -1.  Entries c < c0 (shadow rays) get only tri >= 0 for a hit
+ * (the shape's index) and no barycentrics. */
 void lr__few_triangles_intersect(const lr__few_triangles *T,
-                                 lr__rays_packed *P, double tri[16],
-                                 double u[16], double v[16]);
+                                 lr__rays_packed *P, int c0,
+                                 double tri[LR__PACKED],
+                                 double u[LR__PACKED], double v[LR__PACKED]);
 /* occ[c] = 1 if entry c meets a triangle at t in (tn, tf), else 0. */
 void lr__few_triangles_occluded(const lr__few_triangles *T,
-                                const lr__rays_packed *P, double occ[16]);
+                                const lr__rays_packed *P,
+                                double occ[LR__PACKED]);
 void lr__paths_intersect16(const lr_scene *s, const int *valid,
                            struct RTCIntersectContext *ctx,
                            struct RTCRayHit16 *rh);

@@ -112,23 +112,6 @@ static void pack(const int *valid, const struct RTCRay16 *r,
     pad(P);
 }
 
-void lr__rays_packed_add(lr__rays_packed *P, int lane, lr__v3 org,
-                         lr__v3 dir, double tfar)
-{
-    int c = P->m++;
-    P->lane[c] = lane;
-    if (!lr__embree_can_trace(org, dir)) {
-        org = v3(0, 0, 0), dir = v3(0, 0, 1);
-        tfar = 0.0;
-        P->tn[c] = 1.0;
-    } else {
-        P->tn[c] = 0.0;
-    }
-    P->ox[c] = org.x, P->oy[c] = org.y, P->oz[c] = org.z;
-    P->dx[c] = dir.x, P->dy[c] = dir.y, P->dz[c] = dir.z;
-    P->tf[c] = tfar;
-}
-
 /* Each entry's nearest sphere hit with t in (tn, tf): tf[c] becomes its
  * t and sph[c] the sphere's index (else tf stays and sph is -1).  The
  * quadratic as trace.c's sphere refinement solves it (q = -(b + sign(b)
@@ -143,7 +126,7 @@ void lr__rays_packed_add(lr__rays_packed *P, int lane, lr__v3 org,
  * roots that the selects refuse. */
 __attribute__((target_clones("avx512f", "avx2", "default")))
 static void spheres_packed(const lr_scene *s, lr__rays_packed *P,
-                           double sph[16])
+                           double sph[LR__PACKED])
 {
     for (int c0 = 0; c0 < P->m8; c0 += 8) {
         for (int i = c0; i < c0 + 8; i++)
@@ -216,10 +199,10 @@ void lr__paths_intersect16(const lr_scene *s, const int *valid,
         rtcIntersect16(valid, s->rtc_few, ctx, rh);
     }
     lr__rays_packed P;
-    double tri[16], u[16], v[16], sph[16];
+    double tri[LR__PACKED], u[LR__PACKED], v[LR__PACKED], sph[LR__PACKED];
     pack(valid, &rh->ray, &P);
     if (T->n > 0)
-        lr__few_triangles_intersect(T, &P, tri, u, v);
+        lr__few_triangles_intersect(T, &P, 0, tri, u, v);
     spheres_packed(s, &P, sph);
     if (T->n == 0)
         for (int c = 0; c < P.m; c++)
@@ -239,7 +222,7 @@ void lr__paths_occluded16(const lr_scene *s, const int *valid,
         return;
     }
     lr__rays_packed P;
-    double sph[16], occ[16];
+    double sph[LR__PACKED], occ[LR__PACKED];
     pack(valid, r, &P);
     if (T->n > 0) {
         lr__paths_occluded_packed(s, &P, occ);
@@ -265,15 +248,22 @@ void lr__paths_occluded16(const lr_scene *s, const int *valid,
         rtcOccluded16(rest, s->rtc_few, ctx, r);
 }
 
-void lr__paths_intersect_packed(const lr_scene *s, lr__rays_packed *P,
-                                struct RTCRayHit16 *rh)
+void lr__paths_trace_packed(const lr_scene *s, lr__rays_packed *P, int ns,
+                            struct RTCRayHit16 *rh, double occ[LR__PACKED])
 {
+    /* A shadow ray is blocked if it has a nearest hit: the triangles'
+     * first test of an entry is N 1 < tf D, the occlusion test's N < tf
+     * D, and without a triangle hit tf stays (tf / 1) for the spheres.
+     * One pass over the shapes for both kinds fills the eight-entry
+     * groups better than one pass each (their padding). */
     const lr__few_triangles *T = &s->few_tris;
-    double tri[16], u[16], v[16], sph[16];
+    double tri[LR__PACKED], u[LR__PACKED], v[LR__PACKED], sph[LR__PACKED];
     pad(P);
-    lr__few_triangles_intersect(T, P, tri, u, v);
+    lr__few_triangles_intersect(T, P, ns, tri, u, v);
     spheres_packed(s, P, sph);
-    for (int c = 0; c < P->m; c++)
+    for (int c = 0; c < ns; c++)
+        occ[c] = sph[c] >= 0.0 || tri[c] >= 0.0 ? 1.0 : 0.0;
+    for (int c = ns; c < P->m; c++)
         if (!write_hit(s, P, c, sph, tri, u, v, rh)) {
             rh->hit.geomID[P->lane[c]] = RTC_INVALID_GEOMETRY_ID;
             rh->hit.instID[0][P->lane[c]] = RTC_INVALID_GEOMETRY_ID;
@@ -281,9 +271,9 @@ void lr__paths_intersect_packed(const lr_scene *s, lr__rays_packed *P,
 }
 
 void lr__paths_occluded_packed(const lr_scene *s, lr__rays_packed *P,
-                               double occ[16])
+                               double occ[LR__PACKED])
 {
-    double sph[16];
+    double sph[LR__PACKED];
     pad(P);
     spheres_packed(s, P, sph);
     lr__few_triangles_occluded(&s->few_tris, P, occ);
