@@ -254,6 +254,8 @@ def main():
             if mv:
                 p('  like for like, %s: lensray (every sample traced) / Mitsuba llvm_ad_rgb: '
                   '%.2fx' % (what, ours / mv))
+                checks.append(('per sample, %s, >= 1.0x Mitsuba llvm_ad_rgb (issue 17)'
+                               % what, ours / mv >= 1.0, '%.3fx' % (ours / mv)))
     if o1 and oN and T > 1:
         r = oN / o1
         checks.append(('%d threads >= %.1fx 1 thread%s' % (T, TARGET_SCALING,
@@ -311,6 +313,15 @@ def main():
             checks.append(('real lens loses under 10% of rays on axis, open',
                            le['lost_axis_open'] < 0.10,
                            '%.1f%%' % (100 * le['lost_axis_open'])))
+    # The path tracer on the Cornell box (issue 13): bench/path/speed.py's
+    # summary line, by the wall clock as the rest.
+    for l in read(d, 'path.log'):
+        if l.startswith('PATHSPEED ') and '"scene": "cornell' in l:
+            ps = json.loads(l[len('PATHSPEED '):])
+            checks.append(('path, Cornell box: samples/s >= 1.0x Mitsuba (issue 13)',
+                           ps['rate_ratio'] >= 1.0, '%.3fx' % ps['rate_ratio']))
+            checks.append(('path, Cornell box: >= 2x sooner to relMSE 1e-4 (issue 13)',
+                           ps['time_ratio'] >= 2.0, '%.2fx' % ps['time_ratio']))
     p('')
     p('targets (%s):' % how)
     for name, ok, val in checks:
