@@ -111,19 +111,8 @@ static void sphere_hit(const lr__geom *G, lr__path16 *w, int depth, int i,
     lr__v3 org = v3(S->ox[i], S->oy[i], S->oz[i]);
     lr__v3 dir = depth == 0 ? v3(w->cdx[i], w->cdy[i], w->cdz[i])
                             : v3(S->dx[i], S->dy[i], S->dz[i]);
-    double t = (double)rh->ray.tfar[i];
-    lr__v3 oc = v3_sub(org, G->center);
-    double a = v3_dot(dir, dir), b = v3_dot(oc, dir);
-    double l = v3_len(oc);
-    double c = (l - G->radius) * (l + G->radius);
-    double disc = b * b - a * c;
-    if (disc >= 0.0 && a > 0.0) {
-        double q = -(b + copysign(sqrt(disc), b));
-        double r1 = q / a, r2 = q != 0.0 ? c / q : r1;
-        double best = fabs(r1 - t) < fabs(r2 - t) ? r1 : r2;
-        if (best > 0.0 && best < INFINITY)
-            t = best;
-    }
+    double t = lr__sphere_refine_t(G, org, dir, (double)rh->ray.tfar[i],
+                                   INFINITY);
     lr__v3 n = v3_norm(v3_sub(v3_madd(org, dir, t), G->center));
     H->t[i] = t;
     H->nx[i] = n.x, H->ny[i] = n.y, H->nz[i] = n.z;

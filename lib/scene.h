@@ -574,4 +574,29 @@ static inline int lr__embree_can_trace(lr__v3 org, lr__v3 dir)
 }
 unsigned long long lr__scene_skipped_rays(const lr_scene *s);
 
+/* A sphere's t along org + t dir, solved again in double near the
+ * intersector's t: Embree finds spheres in float, so on a big sphere its
+ * t can be far off the surface (0.1 units on a radius of 1e6).  The
+ * quadratic in the cancellation-free form (|oc| - r)(|oc| + r) and
+ * q = -(b + sign(b) sqrt(disc)); the root nearest t, if it lies in
+ * (0, tmax); otherwise t itself.  lr__hit_complete and path16.c's vector
+ * bounce both use it, so that their hits agree to the bit. */
+static inline double lr__sphere_refine_t(const lr__geom *g, lr__v3 org,
+                                         lr__v3 dir, double t, double tmax)
+{
+    lr__v3 oc = v3_sub(org, g->center);
+    double a = v3_dot(dir, dir), b = v3_dot(oc, dir);
+    double l = v3_len(oc);
+    double c = (l - g->radius) * (l + g->radius);
+    double disc = b * b - a * c;
+    if (disc >= 0.0 && a > 0.0) {
+        double q = -(b + copysign(sqrt(disc), b));
+        double r1 = q / a, r2 = q != 0.0 ? c / q : r1;
+        double best = fabs(r1 - t) < fabs(r2 - t) ? r1 : r2;
+        if (best > 0.0 && best < tmax)
+            t = best;
+    }
+    return t;
+}
+
 #endif

@@ -157,24 +157,9 @@ int lr__hit_complete(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
 
     const lr__geom *g = &s->geoms[geom_id];
     if (g->kind == LR__GEOM_SPHERE) {
-        /* Embree found the sphere in float, so on a big sphere its t can
-         * be far off the surface (0.1 units on a radius of 1e6): solve the
-         * quadratic again in double, in the cancellation-free form
-         * (|oc| - r)(|oc| + r) and q = -(b + sign(b) sqrt(disc)), and keep
-         * the root nearest Embree's.  Then the normal from the centre. */
-        double t = t_embree;
-        lr__v3 oc = v3_sub(org, g->center);
-        double a = v3_dot(dir, dir), b = v3_dot(oc, dir);
-        double l = v3_len(oc);
-        double c = (l - g->radius) * (l + g->radius);
-        double disc = b * b - a * c;
-        if (disc >= 0.0 && a > 0.0) {
-            double q = -(b + copysign(sqrt(disc), b));
-            double r1 = q / a, r2 = q != 0.0 ? c / q : r1;
-            double best = fabs(r1 - t) < fabs(r2 - t) ? r1 : r2;
-            if (best > 0.0 && best < tfar)
-                t = best;
-        }
+        /* t in double near Embree's float one, then the normal from the
+         * centre. */
+        double t = lr__sphere_refine_t(g, org, dir, t_embree, tfar);
         lr__v3 p = v3_madd(org, dir, t);
         lr__v3 n = v3_sub(p, g->center);
         finish_hit(hit, org, dir, t, n, n, g->material);
