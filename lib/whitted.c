@@ -359,6 +359,37 @@ static void vector_add16(const int *valid, const struct RTCRay16 *shadow,
     }
 }
 
+/* Lane i's camera ray missed and no infinite plane can meet it: the
+ * sky, as lr__hit_complete's miss gives it. */
+static inline lr__v3 sky16(const lr_scene *s, const struct RTCRay16 *r,
+                           int i)
+{
+    return s->env == NULL
+               ? s->background
+               : lr__env_radiance(s, v3_norm(v3(r->dir_x[i], r->dir_y[i],
+                                                r->dir_z[i])));
+}
+
+/* Vector lane i's hit into sc->h and its albedo into sc->k: a textured
+ * albedo looked up where lr__hit_complete would (the same barycentrics,
+ * the same formula). */
+static inline void vector_gather(const lr_scene *s,
+                                 const struct RTCRayHit16 *rh, int i,
+                                 scratch16 *sc)
+{
+    lr__hits16_gather(s, rh, i, &sc->h);
+    const lr__geom *G = &s->geoms[rh->hit.geomID[i]];
+    lr__v3 kd = G->albedo;
+    if (G->albedo_textured) {
+        double uv[2];
+        lr__material tmp;
+        int has_uv = lr__triangle_uv(G, rh->hit.primID[i], rh->hit.u[i],
+                                     rh->hit.v[i], uv);
+        kd = lr__material_at(s, G->material, has_uv, uv, &tmp)->diffuse;
+    }
+    sc->k[0][i] = kd.x, sc->k[1][i] = kd.y, sc->k[2][i] = kd.z;
+}
+
 /* radiance16 for a packet whose camera rays have been traced. */
 static void shade16(const lr_scene *restrict s, int max_depth,
                     struct RTCRayHit16 *restrict rh, int n,
@@ -389,30 +420,13 @@ static void shade16(const lr_scene *restrict s, int max_depth,
         vec[i] = 0;
         has_hit[i] = 0;
         if (g == RTC_INVALID_GEOMETRY_ID && miss_is_sky) {
-            const struct RTCRay16 *r = &rh->ray;
-            L[i] = s->env == NULL ? s->background
-                                  : lr__env_radiance(s, v3_norm(v3(r->dir_x[i],
-                                                               r->dir_y[i],
-                                                               r->dir_z[i])));
+            L[i] = sky16(s, &rh->ray, i);
             continue;
         }
         if (vector_ok && vector_lane(s, rh, i)) {
             vec[i] = -1;
             n_vec++;
-            lr__hits16_gather(s, rh, i, &sc->h);
-            /* A textured albedo, looked up where lr__hit_complete would
-             * (the same barycentrics, the same formula). */
-            const lr__geom *G = &s->geoms[g];
-            lr__v3 kd = G->albedo;
-            if (G->albedo_textured) {
-                double uv[2];
-                lr__material tmp;
-                int has_uv = lr__triangle_uv(G, rh->hit.primID[i],
-                                             rh->hit.u[i], rh->hit.v[i], uv);
-                kd = lr__material_at(s, G->material, has_uv, uv, &tmp)
-                         ->diffuse;
-            }
-            sc->k[0][i] = kd.x, sc->k[1][i] = kd.y, sc->k[2][i] = kd.z;
+            vector_gather(s, rh, i, sc);
             continue;
         }
         /* The scalar code works in double on the ray as traced. */
@@ -580,29 +594,12 @@ static void radiance16_n(const lr_scene *s, int max_depth,
         for (int i = 0; i < n[p]; i++) {
             unsigned g = r->hit.geomID[i];
             if (g == RTC_INVALID_GEOMETRY_ID) {
-                L[p][i] = s->env == NULL
-                              ? s->background
-                              : lr__env_radiance(s, v3_norm(v3(r->ray.dir_x[i],
-                                                               r->ray.dir_y[i],
-                                                               r->ray.dir_z[i])));
+                L[p][i] = sky16(s, &r->ray, i);
                 continue;
             }
             bt->vec[i] = -1;
             bt->n_vec++;
-            lr__hits16_gather(s, r, i, &bt->sc.h);
-            /* As shade16 looks the albedo up. */
-            const lr__geom *G = &s->geoms[g];
-            lr__v3 kd = G->albedo;
-            if (G->albedo_textured) {
-                double uv[2];
-                lr__material tmp;
-                int has_uv = lr__triangle_uv(G, r->hit.primID[i], r->hit.u[i],
-                                             r->hit.v[i], uv);
-                kd = lr__material_at(s, G->material, has_uv, uv, &tmp)
-                         ->diffuse;
-            }
-            bt->sc.k[0][i] = kd.x, bt->sc.k[1][i] = kd.y,
-            bt->sc.k[2][i] = kd.z;
+            vector_gather(s, r, i, &bt->sc);
         }
         if (bt->n_vec) {
             lr__hits16_complete(r, &bt->sc.h);
