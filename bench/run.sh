@@ -12,6 +12,8 @@
 #   3. Mitsuba 3.9.1 (llvm_ad_rgb, also with robust traversal, and
 #      scalar_rgb), from a virtual
 #      environment under BUILD_DIR/bench/venv, when it can be installed;
+#      then lensray and Mitsuba llvm_ad_rgb per sample in interleaved
+#      rounds, like for like (bench/persample.py, issue 17's target);
 #   4. both renderers at BENCH_REF_SPP spp, and the mean relative difference
 #      between the pictures;
 #   5. peak memory;
@@ -27,7 +29,8 @@
 #
 # Knobs (environment): BENCH_SPP (lensray timing spp, default 256),
 # BENCH_REPEAT (3), BENCH_REF_SPP (1024), BENCH_MI_SPP (llvm timing spp,
-# 64), BENCH_MI_SCALAR_SPP (16), BENCH_SKIP_MITSUBA=1, BENCH_SAME_NORMALS=0
+# 64), BENCH_MI_SCALAR_SPP (16), BENCH_PS_ROUNDS (interleaved rounds, 9),
+# BENCH_SKIP_MITSUBA=1, BENCH_SAME_NORMALS=0
 # (skips the diagnostic render), DRJIT_LIBLLVM_PATH.
 set -u
 
@@ -41,6 +44,7 @@ REPEAT=${BENCH_REPEAT:-3}
 REF_SPP=${BENCH_REF_SPP:-1024}
 MI_SPP=${BENCH_MI_SPP:-64}
 MI_SCALAR_SPP=${BENCH_MI_SCALAR_SPP:-16}
+PS_ROUNDS=${BENCH_PS_ROUNDS:-9}
 VENV=$OUT/venv
 NPROC=$(nproc)
 
@@ -175,6 +179,14 @@ if [ $mitsuba_ok = 1 ]; then
         say "Mitsuba llvm_ad_rgb with robust traversal, as lensray's default traces"
         $MI --variant llvm_ad_rgb --spp "$MI_SPP" --repeat 3 --robust >> "$OUT/mitsuba.log" 2>"$OUT/mitsuba-llvm.err" ||
             echo "MITSUBA_FAILED llvm_ad_rgb robust (exit $?): $(tail -1 "$OUT/mitsuba-llvm.err")" >> "$OUT/mitsuba.log"
+        # Per sample in interleaved rounds: lensray and Mitsuba back to
+        # back, so that the machine's drift falls on both (bench/persample.py).
+        quiet persample
+        say "per sample, interleaved: lensray and Mitsuba llvm_ad_rgb back to back, $PS_ROUNDS rounds"
+        "$VENV/bin/python" bench/persample.py --lensray "$LENSRAY" --scene "$SCENE" \
+            --rounds "$PS_ROUNDS" --tmp "$OUT/persample.exr" > "$OUT/persample.log" 2> "$OUT/persample.err" ||
+            say "the interleaved per-sample run failed (see $OUT/persample.err)"
+        grep '^persample' "$OUT/persample.log"
     else
         echo "MITSUBA_FAILED llvm_ad_rgb: no libLLVM >= 16 (apt-get install libllvm19)" >> "$OUT/mitsuba.log"
     fi

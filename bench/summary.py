@@ -3,8 +3,8 @@
 
 Usage: python3 bench/summary.py BUILD/bench
 
-Reads machine.log, ceiling.log, lensray.log, mitsuba.log, compare.log,
-memory.log, python.log and busy.log in that directory and prints the summary (run.sh also writes it
+Reads machine.log, ceiling.log, lensray.log, mitsuba.log, persample.log,
+compare.log, memory.log, python.log and busy.log in that directory and prints the summary (run.sh also writes it
 to results.txt).  Standard library only.
 
 Which lensray figure is which:
@@ -246,16 +246,33 @@ def main():
                                r >= TARGET_MITSUBA, '%.2fx' % r))
     # Like for like: the same Embree traversal on both sides (issue 17's
     # per-sample target; Mitsuba's default is not robust, lensray's is).
+    # The interleaved rounds of bench/persample.py judge it when they ran:
+    # the sections above are minutes apart, and this VM's drift between
+    # them is as large as the ratio's distance from 1.
+    inter = {}
+    for l in read(d, 'persample.log'):
+        if l.startswith('PERSAMPLE '):
+            ps = json.loads(l[len('PERSAMPLE '):])
+            for what, r in ps['pairings'].items():
+                inter[what] = r
+                p('  like for like, %s, interleaved (%d rounds of %d spp, %d threads): '
+                  'lensray / Mitsuba llvm_ad_rgb median %.2fx (rounds %.2fx to %.2fx)'
+                  % (what, ps['rounds'], ps['spp'], ps['threads'], r['median'],
+                     r['min'], r['max']))
     for mode, v, what in (('full', 'llvm_ad_rgb robust', 'both robust'),
                           ('fast', 'llvm_ad_rgb', 'neither robust')):
         ours = best(mode, T, key_full)
         if v in mits and ours:
             mv = mits[v].get('samples_per_second_cpu') if est else mits[v]['samples_per_second']
             if mv:
-                p('  like for like, %s: lensray (every sample traced) / Mitsuba llvm_ad_rgb: '
-                  '%.2fx' % (what, ours / mv))
-                checks.append(('per sample, %s, >= 1.0x Mitsuba llvm_ad_rgb (issue 17)'
-                               % what, ours / mv >= 1.0, '%.3fx' % (ours / mv)))
+                p('  like for like, %s, best of the sections: lensray (every sample traced) / '
+                  'Mitsuba llvm_ad_rgb: %.2fx' % (what, ours / mv))
+                if what not in inter:
+                    checks.append(('per sample, %s, >= 1.0x Mitsuba llvm_ad_rgb (issue 17)'
+                                   % what, ours / mv >= 1.0, '%.3fx' % (ours / mv)))
+    for what, r in inter.items():
+        checks.append(('per sample, %s, interleaved, >= 1.0x Mitsuba llvm (issue 17)'
+                       % what, r['median'] >= 1.0, '%.3fx' % r['median']))
     if o1 and oN and T > 1:
         r = oN / o1
         checks.append(('%d threads >= %.1fx 1 thread%s' % (T, TARGET_SCALING,
