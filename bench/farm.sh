@@ -20,7 +20,9 @@
 #      waits for the client.
 # Each set-up runs BENCH_FARM_REPEAT times (default 5), in turn with the one it
 # is compared with; the least wall time and the least daemon CPU time are
-# kept (other load only adds to them), and the rays and samples the
+# kept (other load only adds to them), the median over the rounds of the
+# two set-ups' ratio in each round is given too (drift between rounds
+# does not move it), and the rays and samples the
 # daemons counted show the work itself, exactly.  The ratios are
 # reported, never asserted: this machine is shared.  Output: lines on
 # stdout and BUILD_DIR/bench/farm.txt.
@@ -103,7 +105,8 @@ once() {
 # load falls on both; prints for each the least wall and the least CPU
 # (a busy machine only ever adds to either), then its rays, samples and
 # cache misses (of the last run; they do not vary):
-# "wallA cpuA raysA samplesA missesA wallB cpuB raysB samplesB missesB".
+# "wallA cpuA raysA samplesA missesA wallB cpuB raysB samplesB missesB
+# median(wallA / wallB)".
 pair() {
     : >"$OUT/farm-a.txt"
     : >"$OUT/farm-b.txt"
@@ -117,7 +120,10 @@ pair() {
         awk 'NR == 1 || $1 < w {w = $1} NR == 1 || $2 < c {c = $2}
              {r = $3; s = $4; m = $5} END {printf "%.3f %.2f %d %d %d ", w, c, r, s, m}' "$f"
     done
-    echo
+    # The median over the rounds of A's wall over B's in the same round:
+    # a second estimate, which drift between rounds does not move.
+    paste "$OUT/farm-a.txt" "$OUT/farm-b.txt" | awk '{print $1 / $6}' | sort -g |
+        awk '{v[NR] = $1} END {printf "%.4f\n", NR % 2 ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2}'
 }
 
 # A first render sends the bunny's mesh and loads the scene on both
@@ -183,9 +189,9 @@ say "farm: a part's fixed cost $fixed ms"
 load=$(cut -d' ' -f1 /proc/loadavg)
 {
     echo "farm (scenes/bench.json 640 x 480, $(nproc) cores, least of $REPEAT runs taken in turn, load average $load):"
-    awk -v n="$PARTS" '{printf "  %d spp, a batch of %d parts, render.threads=1: 1 daemon %.3f s, 2 daemons %.3f s: %.2fx wall (target >= 1.8x); daemons'"'"' CPU %.2f s and %.2f s (%.1f ms and %.1f ms a part)\n", $1, n, $2, $7, $2 / $7, $3, $8, 1000 * $3 / n, 1000 * $8 / n}' "$OUT/farm-tp.txt"
-    awk -v n="$PARTS" -v f="$FRAMES" '{printf "  %d spp, a batch of %d frames of %d parts, render.threads=1: 1 daemon %.3f s, 2 daemons %.3f s (%.3f s and %.3f s a frame): %.2fx wall (target >= 1.8x); daemons'"'"' CPU %.2f s and %.2f s\n", $1, f, n, $2, $7, $2 / f, $7 / f, $2 / $7, $3, $8}' "$OUT/farm-tpb.txt"
+    awk -v n="$PARTS" '{printf "  %d spp, a batch of %d parts, render.threads=1: 1 daemon %.3f s, 2 daemons %.3f s: %.2fx wall, median of the rounds %.2fx (target >= 1.8x); daemons'"'"' CPU %.2f s and %.2f s (%.1f ms and %.1f ms a part)\n", $1, n, $2, $7, $2 / $7, $12, $3, $8, 1000 * $3 / n, 1000 * $8 / n}' "$OUT/farm-tp.txt"
+    awk -v n="$PARTS" -v f="$FRAMES" '{printf "  %d spp, a batch of %d frames of %d parts, render.threads=1: 1 daemon %.3f s, 2 daemons %.3f s (%.3f s and %.3f s a frame): %.2fx wall, median of the rounds %.2fx (target >= 1.8x); daemons'"'"' CPU %.2f s and %.2f s\n", $1, f, n, $2, $7, $2 / f, $7 / f, $2 / $7, $12, $3, $8}' "$OUT/farm-tpb.txt"
     awk '{printf "  %d spp, the same frame rendered locally (no farm): 1 thread %.3f s, 2 threads %.3f s: %.2fx, what two cores gave here in this run\n", $1, $2, $3, $2 / $3}' "$OUT/farm-local.txt"
-    awk '{printf "  %d spp, one frame whole %.3f s, in 16 parts %.3f s: overhead %+.1f%% wall, %+.1f%% daemon CPU (%.2f s against %.2f s), %+.2f%% rays, %+.2f%% samples, scene loads %d and %d (target < 5%%)\n", $1, $2, $7, 100 * ($7 / $2 - 1), 100 * ($8 / $3 - 1), $8, $3, 100 * ($9 / $4 - 1), 100 * ($10 / $5 - 1), $6, $11}' "$OUT/farm-ov.txt"
+    awk '{printf "  %d spp, one frame whole %.3f s, in 16 parts %.3f s: overhead %+.1f%% wall (median of the rounds %+.1f%%), %+.1f%% daemon CPU (%.2f s against %.2f s), %+.2f%% rays, %+.2f%% samples, scene loads %d and %d (target < 5%%)\n", $1, $2, $7, 100 * ($7 / $2 - 1), 100 * (1 / $12 - 1), 100 * ($8 / $3 - 1), $8, $3, 100 * ($9 / $4 - 1), 100 * ($10 / $5 - 1), $6, $11}' "$OUT/farm-ov.txt"
     head -1 "$OUT/farm-ov.txt" | awk -v f="$fixed" '{printf "  a part'"'"'s fixed cost %.2f ms of daemon CPU (100 one-row parts at 1 spp): 16 parts add %.1f%% to the %d-spp whole frame'"'"'s %.2f s\n", f, 100 * 16 * f / 1000 / $3, $1, $3}'
 } | tee "$OUT/farm.txt"
