@@ -86,3 +86,13 @@ int lr__exr_zip_chunk(lr__exr_zip *z, const unsigned char *in, size_t n,
     }
     return 0;
 }
+
+unsigned char *lr__exr_zip_take(lr__exr_zip *z, const unsigned char *out)
+{
+    if (out == NULL || out != z->out)
+        return NULL;
+    unsigned char *b = z->out;
+    z->out = NULL;
+    z->out_cap = 0;
+    return b;
+}

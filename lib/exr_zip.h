@@ -32,4 +32,10 @@ void lr__exr_zip_free(lr__exr_zip *z);
 int lr__exr_zip_chunk(lr__exr_zip *z, const unsigned char *in, size_t n,
                       const unsigned char **out, size_t *out_len);
 
+/* Hands the caller the buffer that the last lr__exr_zip_chunk returned
+ * in *out, if it is z's own (the caller frees it; z makes a new one for
+ * its next chunk), so that a chunk kept for later is not copied; NULL
+ * when `out` is not z's buffer (the chunk was stored raw). */
+unsigned char *lr__exr_zip_take(lr__exr_zip *z, const unsigned char *out);
+
 #endif

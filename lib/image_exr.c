@@ -248,19 +248,68 @@ static void stage_chunk(const lr_image *img, int want_z, int half, int y0,
     }
 }
 
-/* Points the pipeline's channels at their staging planes.  The pipeline
- * lists channels in the file's order, which OpenEXR sorts by name (B, G,
- * R, Z), not the order they were added in, so they are matched by name. */
+/* Whether rows [y0, y0 + lines) of the image's float samples go into
+ * the file as they are (no half to convert to, nothing non-finite to
+ * replace): then the pipeline reads them from the image itself, without
+ * the staging copy, a chunk's worth of memory and a pass less a thread. */
+static int rows_as_they_are(const lr_image *img, int want_z, int half,
+                            int y0, int lines)
+{
+    if (half)
+        return 0;
+    size_t w = (size_t)img->width, a = (size_t)y0 * w;
+    size_t b = (size_t)(y0 + lines) * w;
+    int ok = 1;
+    for (size_t i = 3 * a; i < 3 * b; i++)
+        ok &= isfinite(img->rgb[i]) != 0;
+    if (want_z)
+        for (size_t i = a; i < b; i++)
+            ok &= isfinite(img->depth[i]) != 0;
+    return ok;
+}
+
+/* CH_R ... CH_Z for a channel's name, -1 for none.  The pipeline lists
+ * channels in the file's order, which OpenEXR sorts by name (B, G, R,
+ * Z), not the order they were added in, so they are matched by name. */
+static int channel_index(const char *name)
+{
+    for (int k = 0; k < CH_COUNT; k++)
+        if (strcmp(name, channel_names[k]) == 0)
+            return k;
+    return -1;
+}
+
+/* Points the pipeline's channels straight at the image's rows from y0
+ * (rows_as_they_are said they need no change). */
+static exr_result_t bind_image(exr_encode_pipeline_t *enc, const lr_image *img,
+                               int y0)
+{
+    size_t row = (size_t)y0 * (size_t)img->width;
+    for (int i = 0; i < enc->channel_count; i++) {
+        exr_coding_channel_info_t *ch = &enc->channels[i];
+        int c = channel_index(ch->channel_name);
+        if (c < 0)
+            return EXR_ERR_INVALID_ARGUMENT;
+        int stride = c == CH_Z ? 4 : 12;
+        ch->user_bytes_per_element = 4;
+        ch->user_data_type = (uint16_t)EXR_PIXEL_FLOAT;
+        ch->user_pixel_stride = stride;
+        ch->user_line_stride = stride * img->width;
+        ch->encode_from_ptr =
+            c == CH_Z ? (const uint8_t *)(img->depth + row)
+                      : (const uint8_t *)(img->rgb + 3 * row + (size_t)c);
+    }
+    return EXR_ERR_SUCCESS;
+}
+
+/* Points the pipeline's channels at their staging planes. */
 static exr_result_t bind_channels(exr_encode_pipeline_t *enc, int half,
                                   size_t plane_bytes, unsigned char *stage,
                                   int width)
 {
     for (int i = 0; i < enc->channel_count; i++) {
         exr_coding_channel_info_t *ch = &enc->channels[i];
-        int c = -1;
-        for (int k = 0; k < CH_COUNT; k++)
-            if (strcmp(ch->channel_name, channel_names[k]) == 0)
-                c = k;
+        int c = channel_index(ch->channel_name);
         if (c < 0)
             return EXR_ERR_INVALID_ARGUMENT;
         int bytes = (c != CH_Z && half) ? 2 : 4;
@@ -330,11 +379,17 @@ static exr_result_t keep_chunk(exr_encode_pipeline_t *enc)
 {
     chunk_job *job = enc->encoding_user_data;
     exr_blob *b = &job->blobs[job->chunk - job->base];
+    b->len = enc->compressed_bytes;
+    /* A deflated chunk is exr_zip's buffer: taken over, not copied (one
+     * chunk's bytes less held per thread). */
+    b->data = job->zip ? lr__exr_zip_take(job->deflate, enc->compressed_buffer)
+                       : NULL;
+    if (b->data != NULL)
+        return EXR_ERR_SUCCESS;
     b->data = malloc(enc->compressed_bytes ? enc->compressed_bytes : 1);
     if (b->data == NULL)
         return EXR_ERR_OUT_OF_MEMORY;
     memcpy(b->data, enc->compressed_buffer, enc->compressed_bytes);
-    b->len = enc->compressed_bytes;
     return EXR_ERR_SUCCESS;
 }
 
@@ -377,8 +432,11 @@ static void *compress_chunks(void *arg)
                                            top + k * job->spc, &cinfo);
         if (rv != EXR_ERR_SUCCESS)
             break;
-        stage_chunk(img, job->want_z, job->half, cinfo.start_y - top,
-                    cinfo.height, job->plane_bytes, stage);
+        int direct = rows_as_they_are(img, job->want_z, job->half,
+                                      cinfo.start_y - top, cinfo.height);
+        if (!direct)
+            stage_chunk(img, job->want_z, job->half, cinfo.start_y - top,
+                        cinfo.height, job->plane_bytes, stage);
         if (!live) {
             rv = exr_encoding_initialize(job->ctxt, job->part, &cinfo, &enc);
             if (rv != EXR_ERR_SUCCESS)
@@ -392,8 +450,9 @@ static void *compress_chunks(void *arg)
             rv = exr_encoding_update(job->ctxt, job->part, &cinfo, &enc);
         }
         if (rv == EXR_ERR_SUCCESS)
-            rv = bind_channels(&enc, job->half, job->plane_bytes, stage,
-                               img->width);
+            rv = direct ? bind_image(&enc, img, cinfo.start_y - top)
+                        : bind_channels(&enc, job->half, job->plane_bytes,
+                                        stage, img->width);
         if (rv != EXR_ERR_SUCCESS)
             break;
         enc.encoding_user_data = job;
@@ -441,9 +500,17 @@ static int encode_threads(int height, int spc)
     return t;
 }
 
+/* What a batch holds at most (its chunks' bytes before compression,
+ * which noisy float pixels hardly shrink): a ZIP chunk of a 4K RGBZ
+ * image is 16 rows of 3840 x 16 bytes, 983 KB, and 16 a thread made a
+ * 3840 x 2160 file cost 15 MiB of peak memory on top of its film
+ * (make bench's memory line); at 2 MiB it is lost in the noise, and a
+ * 640-wide frame still compresses in a batch or two. */
+#define BATCH_BYTES ((size_t)2 << 20)
+
 /* Compresses and writes every chunk: on this thread alone, or in batches
- * of 16 chunks a thread on `threads` threads (fewer if a thread cannot
- * be started). */
+ * of up to 16 chunks a thread and BATCH_BYTES (at least one chunk a
+ * thread) on `threads` threads (fewer if a thread cannot be started). */
 static exr_result_t encode_chunks(exr_context_t ctxt, int part,
                                   const lr_image *img, int want_z, int half,
                                   int spc, size_t plane_bytes, int threads,
@@ -457,7 +524,11 @@ static exr_result_t encode_chunks(exr_context_t ctxt, int part,
         compress_chunks(&one);
         return one.rv;
     }
-    int batch = 16 * threads;
+    size_t chunk_bytes = plane_bytes * (size_t)(want_z ? CH_COUNT : CH_COUNT - 1);
+    size_t fit = BATCH_BYTES / (chunk_bytes ? chunk_bytes : 1);
+    int batch = fit < (size_t)threads        ? threads
+                : fit > (size_t)16 * threads ? 16 * threads
+                                             : (int)fit;
     exr_blob *blobs = calloc((size_t)batch, sizeof *blobs);
     chunk_job *jobs = calloc((size_t)threads, sizeof *jobs);
     pthread_t *tids = calloc((size_t)threads, sizeof *tids);

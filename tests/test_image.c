@@ -926,6 +926,48 @@ static void test_exr_nonfinite(void **state)
     lr_image_free(img);
 }
 
+/* Chunks wide enough that a batch holds one a thread (image_exr.c's
+ * BATCH_BYTES), finite ones read straight from the image and one with a
+ * NaN and an infinite depth staged: the same bytes on 1, 2 and 3
+ * threads, every finite sample exact, the bad ones replaced. */
+static void test_exr_wide_mixed_chunks(void **state)
+{
+    (void)state;
+    const int w = 5000, h = 100; /* 1.28 MB a ZIP chunk before deflate */
+    lr_image *img = make_image(w, h, 1);
+    float *rgb = lr_image_rgb_mut(img);
+    float *z = lr_image_depth_mut(img);
+    const size_t bad = (size_t)(3 * 16 + 5) * w + 17; /* in chunk 3 */
+    rgb[3 * bad + 1] = NAN;
+    z[bad + 1] = INFINITY;
+    lr_output_options opts;
+    lr_output_options_default(&opts);
+    void *one = NULL;
+    size_t one_len = 0;
+    lr__exr_threads = 1;
+    encode_or_fail(img, LR_FORMAT_EXR, &opts, &one, &one_len);
+    for (int t = 2; t <= 3; t++) {
+        lr__exr_threads = t;
+        void *buf = NULL;
+        size_t len = 0;
+        encode_or_fail(img, LR_FORMAT_EXR, &opts, &buf, &len);
+        assert_int_equal(len, one_len);
+        assert_memory_equal(buf, one, len);
+        lr_free(buf);
+    }
+    lr__exr_threads = 0;
+    decoded_exr d;
+    decode_exr(one, one_len, &d);
+    const float *G = exr_plane(&d, "G"), *Z = exr_plane(&d, "Z");
+    assert_true(G[bad] == 0.0f && Z[bad + 1] == LR_DEPTH_NONE);
+    rgb[3 * bad + 1] = 0.0f;
+    z[bad + 1] = LR_DEPTH_NONE;
+    assert_exr_is_image(&d, img);
+    free_exr(&d);
+    lr_free(one);
+    lr_image_free(img);
+}
+
 static void test_encode_bad_arguments(void **state)
 {
     (void)state;
@@ -1100,6 +1142,7 @@ static const struct CMUnitTest image_tests[] = {
     cmocka_unit_test(test_exr_half),
     cmocka_unit_test(test_exr_depth_option),
     cmocka_unit_test(test_exr_nonfinite),
+    cmocka_unit_test(test_exr_wide_mixed_chunks),
     cmocka_unit_test(test_encode_bad_arguments),
     cmocka_unit_test(test_write_files),
     cmocka_unit_test(test_write_failures),
