@@ -484,18 +484,27 @@ static void *compress_chunks(void *arg)
 
 int lr__exr_threads = 0;
 
-/* Threads for an image of `height` rows in chunks of `spc`: the online
- * cores, at most 8, and none beyond the first for fewer than 8 chunks
- * per thread (a farm's part of 30 rows has 2 chunks: starting a thread
- * would cost more than it saves). */
-static int encode_threads(int height, int spc)
+/* Threads for an image of `height` rows in chunks of `spc` rows of
+ * `chunk_bytes` (before compression): the online cores, at most 8, and
+ * none beyond the first for fewer than 8 chunks per thread (a farm's part
+ * of 30 rows has 2 chunks: starting a thread would cost more than it
+ * saves), nor for buffers beyond max(4 MiB, 2% of the pixels).  A thread
+ * holds about four chunks' bytes (the packed chunk, its reordered copy,
+ * the deflated one and the kept one), measured: 2.7 MiB a thread at
+ * 3840 x 2160, which took a 4K render 5% over its film and scene (make
+ * bench's memory target); its file then takes one core's time more to
+ * write, about 0.3 s, a few percent of any 4K render. */
+static int encode_threads(int height, int spc, size_t chunk_bytes,
+                          size_t image_bytes)
 {
     if (lr__exr_threads > 0)
         return lr__exr_threads;
     long cores = sysconf(_SC_NPROCESSORS_ONLN);
     int chunks = (height + spc - 1) / spc;
+    size_t room = image_bytes / 50 > ((size_t)4 << 20) ? image_bytes / 50
+                                                         : (size_t)4 << 20;
     int t = cores < 1 ? 1 : cores > 8 ? 8 : (int)cores;
-    while (t > 1 && chunks < 8 * t)
+    while (t > 1 && (chunks < 8 * t || (size_t)t * 4 * chunk_bytes > room))
         t--;
     return t;
 }
@@ -665,8 +674,11 @@ lr_status lr__encode_exr(const lr_image *img, const lr_output_options *opts,
 
     step = "encode the pixels";
     exr_compression_t comp = exr_compression(opts);
+    size_t channels = want_z ? CH_COUNT : CH_COUNT - 1;
     rv = encode_chunks(ctxt, part, img, want_z, half, spc, plane_bytes,
-                       encode_threads(img->height, spc),
+                       encode_threads(img->height, spc, plane_bytes * channels,
+                                      (size_t)img->width * img->height *
+                                          channels * 4),
                        comp == EXR_COMPRESSION_ZIP ||
                            comp == EXR_COMPRESSION_ZIPS);
     if (rv != EXR_ERR_SUCCESS)
