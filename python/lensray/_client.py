@@ -12,7 +12,7 @@ from typing import Any, Mapping, Optional, Union
 
 import numpy as np
 
-from ._core import Image, _json_default
+from ._core import Image, _overrides_dict, _to_json
 from ._errors import CancelledError, LensrayError, SceneError
 
 SceneRef = Union[str, Mapping[str, Any]]
@@ -107,7 +107,7 @@ class Client:
         data = None
         headers = {"Connection": "close"}
         if body is not None:
-            data = json.dumps(body, default=_json_default).encode()
+            data = _to_json(body)
             headers["Content-Type"] = "application/json"
         if self.token:
             headers["Authorization"] = f"Bearer {self.token}"
@@ -131,10 +131,13 @@ class Client:
     @staticmethod
     def _job(scene: SceneRef, camera: Optional[Mapping[str, Any]],
              render: Optional[Mapping[str, Any]], depth: bool) -> dict[str, Any]:
+        if not isinstance(scene, (str, Mapping)):
+            raise TypeError("scene must be the name of a scene of the daemon "
+                            f"or a scene as a dict, got {type(scene).__name__}")
         job: dict[str, Any] = {"scene": scene if isinstance(scene, str) else dict(scene)}
-        if camera:
+        if camera is not None and _overrides_dict(camera, "camera"):
             job["camera"] = dict(camera)
-        if render:
+        if render is not None and _overrides_dict(render, "render"):
             job["render"] = dict(render)
         job["output"] = {"format": "exr", "depth": bool(depth)}
         return job

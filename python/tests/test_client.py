@@ -47,6 +47,20 @@ def test_errors_name_the_field(daemon):
     assert e.value.path.startswith("scene.objects[0]")
 
 
+def test_non_finite_numbers_name_the_field(daemon):
+    c = lensray.Client(daemon.url)
+    with pytest.raises(lensray.SceneError) as e:
+        c.render("spheres", camera={"fov": float("nan")})
+    assert e.value.path == "camera.fov" and "finite" in e.value.message
+    doc = json.loads((SCENES / "spheres.json").read_text())
+    doc["objects"][0]["radius"] = float("inf")
+    with pytest.raises(lensray.SceneError) as e:
+        c.submit(doc)
+    assert e.value.path == "scene.objects[0].radius"
+    with pytest.raises(TypeError, match="scene must be"):
+        c.render(5)
+
+
 def test_submit_wait_result(daemon, spheres):
     c = lensray.Client(daemon.url)
     job = c.submit("spheres", camera=LENS, render=SMALL)
