@@ -715,6 +715,16 @@ int main(int argc, char **argv)
         printf("lensray %s\n", lr_version());
         return EXIT_OK;
     }
+    /* "lensray render --help" asks for help, not for a scene named
+     * "--help": help wins over whatever else is on the line. */
+    if (strcmp(cmd, "render") == 0 || strcmp(cmd, "lens") == 0) {
+        for (int i = 2; i < argc; i++) {
+            if (strcmp(argv[i], "--help") == 0 || strcmp(argv[i], "-h") == 0) {
+                fputs(usage_text, stdout);
+                return EXIT_OK;
+            }
+        }
+    }
     if (strcmp(cmd, "render") == 0)
         return cmd_render(argc - 2, argv + 2);
     if (strcmp(cmd, "lens") == 0)
