@@ -269,6 +269,16 @@ static void test_json_errors(void **state)
                       "camera.lens.surfaces[0].thickness", "required");
     expect_json_error("{\"surfaces\": []}", "camera.lens.surfaces",
                       "non-empty");
+    /* A range says both of its ends, and a conic has no unit. */
+    expect_json_error("{\"surfaces\": [{\"stop\": true, \"thickness\": -5, "
+                      "\"semi_aperture\": 5}]}",
+                      "camera.lens.surfaces[0].thickness",
+                      "camera.lens.surfaces[0].thickness must be between 0 "
+                      "and 1e+06 mm, got -5");
+    expect_json_error(SINGLET_JSON("\"N-BK7\"", ", \"conic\": -1e7"),
+                      "camera.lens.surfaces[1].conic",
+                      "camera.lens.surfaces[1].conic must be within +-1e+06, "
+                      "got -1e+07");
     expect_json_error("[1]", "camera.lens", "an object");
     /* Geometry (lr__rx_check): a lens too thin for its curves, an
      * aperture wider than the sphere, a lens that diverges. */
@@ -361,11 +371,17 @@ static void test_pbrt_errors(void **state)
     expect_text_error(pbrt, "0 1 0 10\n0 4 0 20\n", "t.dat:2: a second stop");
     expect_text_error(pbrt, "0 1 0 10\n50 4 0.5 20\n", "t.dat:2: index");
     expect_text_error(pbrt, "0 1 0 10\n50 4 1.5 20 300\n", "t.dat:2: an Abbe");
-    expect_text_error(pbrt, "0 1 0 10\n50 4 1.5 20 50 7\n", "t.dat:2:");
+    expect_text_error(pbrt, "0 1 0 10\n50 4 1.5 20 50 7\n",
+                      "t.dat:2: 6 numbers");
+    /* strtod's other forms are not numbers of a lens file. */
+    expect_text_error(pbrt, "0 1 0 10\n0x32 4 1.5 20\n",
+                      "t.dat:2: \"0x32\" is not a number");
+    expect_text_error(pbrt, "0 1 0 10\n50 4 1.5 20 INF\n",
+                      "t.dat:2: \"INF\" is not a number");
     expect_text_error(pbrt, "# nothing\n", "t.dat: no surfaces");
     expect_text_error(pbrt, "50 4 1.5 20\n-50 40 1 20\n", "no aperture stop");
     expect_text_error(pbrt, "0 1 0 10\n50 4 1.5 20\n-50 1e9 1 20\n",
-                      "t.dat:3: \"1e9\"");
+                      "t.dat:3: \"1e9\" is out of range");
 }
 
 static lr_status zmx(const char *text, lr__rx *rx, lr_error *err)
