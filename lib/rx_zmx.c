@@ -90,8 +90,12 @@ static int number(const char *w, double *x)
         *x = INFINITY;
         return 0;
     }
+    /* Decimal only, as Zemax writes numbers: not strtod's hexadecimal,
+     * "inf" or "nan". */
+    if (w[strspn(w, "0123456789+-.eE")] != '\0')
+        return -1;
     *x = strtod(w, &end);
-    return *end == '\0' && !isnan(*x) ? 0 : -1;
+    return end != w && *end == '\0' && !isnan(*x) ? 0 : -1;
 }
 
 /* A word of the file, quoted in a message: at most 40 bytes, escaped

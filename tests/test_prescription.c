@@ -472,6 +472,10 @@ static void test_zmx_errors(void **state)
     expect_text_error(zmx,
                       ZMX_HEAD "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ x\r\n",
                       "t.zmx:13: DISZ");
+    /* Zemax writes decimals; strtod's hexadecimal is not one. */
+    expect_text_error(zmx,
+                      ZMX_HEAD "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ 0x5\r\n",
+                      "t.zmx:13: DISZ");
     expect_text_error(zmx,
                       ZMX_HEAD "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ 1\r\n"
                                "SURF 2\r\n  TYPE EVENASPH\r\n  CURV 0.02\r\n"
