@@ -545,6 +545,14 @@ static int cmd_render(int argc, char **argv)
                          token_file != NULL ? "--token-file" : remote_flag);
         goto done;
     }
+    /* A URL libcurl could not reach is tried --retries more times with
+     * back-off; one that is not even a web address is said at once. */
+    if (r.ro.url != NULL && strncasecmp(r.ro.url, "http://", 7) != 0 &&
+        strncasecmp(r.ro.url, "https://", 8) != 0) {
+        rc = usage_error("--remote '%s' must be an http:// or https:// URL",
+                         r.ro.url);
+        goto done;
+    }
     if (token_file != NULL) {
         if (read_token(token_file, token, sizeof token) != 0) {
             rc = EXIT_IO;
