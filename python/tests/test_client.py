@@ -111,6 +111,15 @@ def test_render_split_stitches_the_full_frame(daemon, spheres):
         assert same_bits(strips, s.render())
     with pytest.raises(ValueError):
         lensray.render_split(c, "spheres", render={"region": [0, 0, 4, 4]})
+    # A size that is not a whole number is the daemon's error, not cut
+    # down to one (64.5 rendered 64 columns; nan raised int()'s error).
+    for bad in (64.5, float("nan"), "64", True):
+        with pytest.raises(lensray.SceneError) as e:
+            lensray.render_split(c, "spheres", render={**SMALL, "width": bad})
+        assert e.value.path == "render.width"
+    for bad in (0, -3):
+        with pytest.raises(ValueError, match="parts"):
+            lensray.render_split(c, "spheres", render=SMALL, parts=bad)
 
 
 def cancelled_jobs(client) -> int:
