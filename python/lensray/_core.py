@@ -183,8 +183,13 @@ def write(path: PathLike, array: Any, depth: Any = None, *,
     Raises:
         SceneError: an extension other than .exr or .png.
         LensrayIOError: the file could not be written.
-        ValueError: an array of the wrong shape.
+        ValueError: an array of the wrong shape, or ``depth`` with a
+            ``.png`` (which has no Z channel to keep it in).
     """
+    if depth is not None and os.fspath(path).lower().endswith(
+            ".png" if isinstance(os.fspath(path), str) else b".png"):
+        raise ValueError("a PNG has no Z channel: write the depth to an "
+                         ".exr, or leave it out")
     img = _lr_image(array, depth)
     try:
         opts = _capi.lr_output_options()
