@@ -49,11 +49,8 @@ static int numbers(const char *p, const char *end, double *v, int max,
             return NOT_A_NUMBER;
         memcpy(word, w, len);
         word[len] = '\0';
-        if (strspn(word, "0123456789+-.eE") < len)
-            return NOT_A_NUMBER;
-        char *stop;
-        double x = strtod(word, &stop);
-        if (stop == word || *stop != '\0')
+        double x;
+        if (lr__rx_decimal(word, &x) != 0)
             return NOT_A_NUMBER;
         if (!isfinite(x) || fabs(x) > MAX_MM)
             return OUT_OF_RANGE;

@@ -8,6 +8,7 @@
 #include "prescription.h"
 #include "json_util.h"
 
+#include <locale.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -494,6 +495,45 @@ static void test_zmx_errors(void **state)
     expect_text_error(zmx, ZMX_HEAD, "1 SURF entries");
 }
 
+/* A host program may set LC_NUMERIC to a locale whose decimal point is
+ * a comma (Python after locale.setlocale, a GUI): the lens files'
+ * "70.97" must still be 70.97.  The locale is made here from Debian's
+ * `locales` sources (a dependency of the tests, Makefile DEPS) into the
+ * test's directory, and set for this thread only. */
+static void test_readers_ignore_the_locale(void **state)
+{
+    (void)state;
+    char dir[512], cmd[1200];
+    snprintf(dir, sizeof dir, "%s/locale", lr_test_tmpdir());
+    snprintf(cmd, sizeof cmd, "mkdir -p '%s' && localedef -i de_DE -f UTF-8 "
+             "'%s/de_DE.UTF-8' >/dev/null 2>&1", dir, dir);
+    int made = system(cmd);
+    (void)made; /* localedef warns with status 1 and still writes it */
+    setenv("LOCPATH", dir, 1);
+    locale_t de = newlocale(LC_NUMERIC_MASK, "de_DE.UTF-8", (locale_t)0);
+    unsetenv("LOCPATH");
+    if (de == (locale_t)0)
+        fail_msg("no de_DE locale from localedef in %s", dir);
+    locale_t was = uselocale(de);
+    assert_int_equal(strtod("1.5", NULL) == 1.5, 0); /* the locale is on */
+    lr__rx rx;
+    lr_error err;
+    lr_status a = pbrt("0 1 0 10\n50.25 4 1.5 20\n-50 40 1 20\n", &rx, &err);
+    double r = rx.s[1].radius;
+    lr_status b = zmx(ZMX_HEAD "SURF 1\r\n  STOP\r\n  DIAM 5\r\n"
+                              "  DISZ 1.5\r\nSURF 2\r\n  CURV 2.0E-2\r\n"
+                              "  DISZ 4\r\n  DIAM 10\r\n  GLAS N-BK7\r\n"
+                              ZMX_TAIL, &rx, &err);
+    double t = rx.s[0].thickness;
+    uselocale(was);
+    freelocale(de);
+    assert_int_equal(a, LR_OK);
+    assert_true(r == 50.25);
+    if (b != LR_OK)
+        fail_msg("%s", err.message);
+    assert_true(t == 1.5);
+}
+
 static void test_find_and_load(void **state)
 {
     (void)state;
@@ -577,6 +617,7 @@ static const struct CMUnitTest prescription_tests[] = {
     cmocka_unit_test(test_pbrt_errors),
     cmocka_unit_test(test_zmx_reader),
     cmocka_unit_test(test_zmx_errors),
+    cmocka_unit_test(test_readers_ignore_the_locale),
     cmocka_unit_test(test_find_and_load),
 };
 
