@@ -13,14 +13,15 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* The k-th number (from 0) of JSON text that cJSON accepted, and its
- * length in *n; NULL if there is none.  Outside strings, a number is a
- * run of [0-9+-.eE] that starts with '-' or a digit. */
-static const char *nth_number(const char *text, size_t len, size_t k,
-                              size_t *n)
+/* The next number at or after offset *at (outside strings) of JSON text
+ * that cJSON accepted: its start, its length in *n, and *at moved past
+ * it; NULL when there is none.  Outside strings, a number is a run of
+ * [0-9+-.eE] that starts with '-' or a digit (cJSON's own scan). */
+static const char *next_number(const char *text, size_t len, size_t *at,
+                               size_t *n)
 {
     int in_str = 0;
-    for (size_t i = 0; i < len; i++) {
+    for (size_t i = *at; i < len; i++) {
         char c = text[i];
         if (in_str) {
             if (c == '\\')
@@ -34,15 +35,27 @@ static const char *nth_number(const char *text, size_t len, size_t k,
             while (j < len && text[j] != '\0' &&
                    strchr("0123456789+-.eE", text[j]) != NULL)
                 j++;
-            if (k == 0) {
-                *n = j - i;
-                return text + i;
-            }
-            k--;
-            i = j - 1;
+            *n = j - i;
+            *at = j;
+            return text + i;
         }
     }
+    *at = len;
     return NULL;
+}
+
+/* The k-th number (from 0) of JSON text that cJSON accepted, and its
+ * length in *n; NULL if there is none. */
+static const char *nth_number(const char *text, size_t len, size_t k,
+                              size_t *n)
+{
+    size_t at = 0;
+    const char *p = next_number(text, len, &at, n);
+    while (p != NULL && k > 0) {
+        p = next_number(text, len, &at, n);
+        k--;
+    }
+    return p;
 }
 
 /* A parsed document, walked by check_values. */
@@ -194,29 +207,14 @@ static int rfc_number(const char *s, size_t n)
  * allow, or len.  cJSON reads a number with strtod, which also takes a
  * leading zero ("016", which other readers take for octal or refuse) and
  * a point without digits after it ("2.", "1.e3").  Called on text cJSON
- * accepted, where a number is a run of [0-9+-.eE] that starts with '-' or
- * a digit (cJSON's own scan). */
+ * accepted. */
 static size_t bad_number_at(const char *s, size_t len)
 {
-    int in_str = 0;
-    for (size_t i = 0; i < len; i++) {
-        char c = s[i];
-        if (in_str) {
-            if (c == '\\')
-                i++;
-            else if (c == '"')
-                in_str = 0;
-        } else if (c == '"') {
-            in_str = 1;
-        } else if (c == '-' || (c >= '0' && c <= '9')) {
-            size_t j = i;
-            while (j < len && strchr("0123456789+-.eE", s[j]) != NULL)
-                j++;
-            if (!rfc_number(s + i, j - i))
-                return i;
-            i = j - 1;
-        }
-    }
+    size_t at = 0, n = 0;
+    for (const char *p = next_number(s, len, &at, &n); p != NULL;
+         p = next_number(s, len, &at, &n))
+        if (!rfc_number(p, n))
+            return (size_t)(p - s);
     return len;
 }
 
