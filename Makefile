@@ -28,7 +28,7 @@ DEPS := /usr/include/embree3/rtcore.h:libembree-dev \
         curl-config:libcurl4-openssl-dev \
         /usr/sbin/nginx:nginx \
         pkg-config:pkg-config bats:bats curl:curl node:nodejs npm:npm \
-        python3:python3
+        python3:python3 /usr/share/i18n/locales/de_DE:locales
 
 # Recursive (=) so that pkg-config runs after the dependency check.
 PKG_CFLAGS = $(shell pkg-config --cflags OpenEXR libcjson libpng assimp 2>/dev/null)

@@ -93,8 +93,8 @@ static lr_status parse_focus_on(const cJSON *fo, lr_camera *cam,
         double v = cJSON_GetArrayItem(fo, i)->valuedouble;
         if (!(v >= 0 && v <= 65535 && v == floor(v)))
             return lr__fail(err, LR_ERR_INVALID, "camera.focus_on",
-                            "camera.focus_on[%d] must be a whole pixel "
-                            "index >= 0, got %g",
+                            "camera.focus_on[%d] must be a pixel index, a "
+                            "whole number from 0 to 65535, got %g",
                             i, v);
         cam->focus_on[i] = (int)v;
     }

@@ -100,6 +100,18 @@ lr_status lr__exr_read(const void *data, size_t n, const char *shown,
                       "%s is not a scanline OpenEXR image", shown);
         goto done;
     }
+    /* OpenEXRCore 3.1 (Debian 12) reads every compression but the DWA
+     * ones, whose decoders exist only in the C++ library; say so rather
+     * than fail on the first chunk. */
+    exr_compression_t comp;
+    if (exr_get_compression(ctxt, 0, &comp) == EXR_ERR_SUCCESS &&
+        (comp == EXR_COMPRESSION_DWAA || comp == EXR_COMPRESSION_DWAB)) {
+        st = lr__fail(err, LR_ERR_INVALID, blame,
+                      "%s is %s-compressed, which OpenEXRCore cannot "
+                      "decode; save it with ZIP, PIZ or no compression",
+                      shown, comp == EXR_COMPRESSION_DWAA ? "DWAA" : "DWAB");
+        goto done;
+    }
     long long w = (long long)dw.max.x - dw.min.x + 1;
     long long h = (long long)dw.max.y - dw.min.y + 1;
     if (w < 1 || h < 1 || w > max_dim || h > max_dim) {

@@ -13,14 +13,15 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* The k-th number (from 0) of JSON text that cJSON accepted, and its
- * length in *n; NULL if there is none.  Outside strings, a number is a
- * run of [0-9+-.eE] that starts with '-' or a digit. */
-static const char *nth_number(const char *text, size_t len, size_t k,
-                              size_t *n)
+/* The next number at or after offset *at (outside strings) of JSON text
+ * that cJSON accepted: its start, its length in *n, and *at moved past
+ * it; NULL when there is none.  Outside strings, a number is a run of
+ * [0-9+-.eE] that starts with '-' or a digit (cJSON's own scan). */
+static const char *next_number(const char *text, size_t len, size_t *at,
+                               size_t *n)
 {
     int in_str = 0;
-    for (size_t i = 0; i < len; i++) {
+    for (size_t i = *at; i < len; i++) {
         char c = text[i];
         if (in_str) {
             if (c == '\\')
@@ -34,15 +35,27 @@ static const char *nth_number(const char *text, size_t len, size_t k,
             while (j < len && text[j] != '\0' &&
                    strchr("0123456789+-.eE", text[j]) != NULL)
                 j++;
-            if (k == 0) {
-                *n = j - i;
-                return text + i;
-            }
-            k--;
-            i = j - 1;
+            *n = j - i;
+            *at = j;
+            return text + i;
         }
     }
+    *at = len;
     return NULL;
+}
+
+/* The k-th number (from 0) of JSON text that cJSON accepted, and its
+ * length in *n; NULL if there is none. */
+static const char *nth_number(const char *text, size_t len, size_t k,
+                              size_t *n)
+{
+    size_t at = 0;
+    const char *p = next_number(text, len, &at, n);
+    while (p != NULL && k > 0) {
+        p = next_number(text, len, &at, n);
+        k--;
+    }
+    return p;
 }
 
 /* A parsed document, walked by check_values. */
@@ -153,6 +166,55 @@ static size_t nul_escape_at(const char *s, size_t len)
             in_str = 1;
         }
     }
+    return len;
+}
+
+/* Whether the n bytes at s are a number as RFC 8259 (section 6) writes
+ * one: -?(0|[1-9][0-9]*)(.[0-9]+)?([eE][+-]?[0-9]+)?. */
+static int rfc_number(const char *s, size_t n)
+{
+    size_t i = 0;
+#define DIGIT(k) ((k) < n && s[k] >= '0' && s[k] <= '9')
+    if (i < n && s[i] == '-')
+        i++;
+    if (i < n && s[i] == '0')
+        i++;
+    else if (DIGIT(i))
+        while (DIGIT(i))
+            i++;
+    else
+        return 0;
+    if (i < n && s[i] == '.') {
+        if (!DIGIT(i + 1))
+            return 0;
+        for (i++; DIGIT(i); i++)
+            ;
+    }
+    if (i < n && (s[i] == 'e' || s[i] == 'E')) {
+        i++;
+        if (i < n && (s[i] == '+' || s[i] == '-'))
+            i++;
+        if (!DIGIT(i))
+            return 0;
+        while (DIGIT(i))
+            i++;
+    }
+#undef DIGIT
+    return i == n;
+}
+
+/* The offset of the first number outside strings that RFC 8259 does not
+ * allow, or len.  cJSON reads a number with strtod, which also takes a
+ * leading zero ("016", which other readers take for octal or refuse) and
+ * a point without digits after it ("2.", "1.e3").  Called on text cJSON
+ * accepted. */
+static size_t bad_number_at(const char *s, size_t len)
+{
+    size_t at = 0, n = 0;
+    for (const char *p = next_number(s, len, &at, &n); p != NULL;
+         p = next_number(s, len, &at, &n))
+        if (!rfc_number(p, n))
+            return (size_t)(p - s);
     return len;
 }
 
@@ -267,6 +329,16 @@ lr_status lr__json_parse(const char *text, size_t len, const char *what,
                         "string, at line %zu, column %zu",
                         what, line, col);
     }
+    off = bad_number_at(text, len);
+    if (off < len) {
+        cJSON_Delete(root);
+        line_col(text, off, &line, &col);
+        return lr__fail(err, LR_ERR_INVALID, "",
+                        "%s: invalid JSON at line %zu, column %zu: not a "
+                        "JSON number (RFC 8259: no leading zeros, digits "
+                        "after a decimal point)",
+                        what, line, col);
+    }
     value_walk w = {text, len, 0};
     lr_status st = check_values(root, path, &w, err);
     if (st != LR_OK) {
@@ -316,6 +388,11 @@ lr_status lr__json_apply_override(cJSON *root, const char *assignment,
     if (nomem)
         return lr__fail(err, LR_ERR_NOMEM, NULL,
                         "override %s: out of memory parsing its value", path);
+    /* "016" is not JSON either (bad_number_at), so it is a string too. */
+    if (value != NULL && bad_number_at(text, strlen(text)) < strlen(text)) {
+        cJSON_Delete(value);
+        value = NULL;
+    }
     if (value != NULL) {
         value_walk w = {text, strlen(text), 0};
         lr_status st = check_values(value, path, &w, err);

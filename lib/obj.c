@@ -154,8 +154,14 @@ static lr_status parse_number(parser *ps, const char *tok, size_t len,
 {
     char *end = NULL;
     errno = 0;
+    /* OBJ numbers are decimal; strtod also reads hexadecimal ("0x1"),
+     * which no exporter writes, so it is as bad as "1z". */
+    int hex = 0;
+    for (size_t i = 0; i + 1 < len; i++)
+        if (tok[i] == '0' && (tok[i + 1] == 'x' || tok[i + 1] == 'X'))
+            hex = 1;
     double x = strtod_l(tok, &end, ps->c_locale);
-    if (end == tok || end != tok + len)
+    if (hex || end == tok || end != tok + len)
         return lr__obj_fail_at(ps, LR_ERR_INVALID, "bad number '%s' in a '%s' line",
                        lr__obj_quote(tok, len).s, what);
     /* ERANGE on underflow gives a tiny but usable value; on overflow the

@@ -112,6 +112,11 @@ lr_status lr__rx_from_pbrt(const char *text, size_t len, const char *shown,
                            lr__rx *rx, lr_error *err);
 lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
                           lr__rx *rx, lr_error *err);
+/* The text readers' numbers: 0 and *x when the whole NUL-terminated
+ * `word` is a decimal number ([0-9+-.eE] only: not strtod's hexadecimal,
+ * "inf" or "nan"), read in the C locale whatever LC_NUMERIC the host
+ * program set; -1 otherwise. */
+int lr__rx_decimal(const char *word, double *x);
 /* Reads a file in whichever form its name says (.json, .dat or .txt for
  * pbrt, .zmx), then checks it with lr__rx_check.  `shown` names the file
  * in messages, `json_path` is the error path (may be NULL). */

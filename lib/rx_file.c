@@ -8,6 +8,7 @@
 #include "scene_file.h"
 
 #include <dirent.h>
+#include <locale.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -22,6 +23,23 @@
 #define MAX_LENS_BYTES (1u << 20)
 
 static const char *const exts[] = {".json", ".zmx", ".dat", ".txt", NULL};
+
+int lr__rx_decimal(const char *word, double *x)
+{
+    if (word == NULL || word[0] == '\0' ||
+        word[strspn(word, "0123456789+-.eE")] != '\0')
+        return -1;
+    /* strtod follows LC_NUMERIC, which a host program (Python after
+     * locale.setlocale) may have set to a locale whose decimal point is a
+     * comma, and then "70.97" would end at the point.  Should the C
+     * locale not be had (out of memory), the process's is the best left. */
+    locale_t c = newlocale(LC_NUMERIC_MASK, "C", (locale_t)0);
+    char *end;
+    *x = c != (locale_t)0 ? strtod_l(word, &end, c) : strtod(word, &end);
+    if (c != (locale_t)0)
+        freelocale(c);
+    return end != word && *end == '\0' ? 0 : -1;
+}
 
 static const char *lens_dir(void)
 {

@@ -117,10 +117,15 @@ static lr_status length(const cJSON *s, const char *key, const char *sp,
     if (!(*out >= lo && fabs(*out) <= MAX_MM)) {
         char p[LR__PATH_MAX];
         lr__path_key(p, sp, key);
+        /* The conic constant is a ratio; the others are lengths. */
+        const char *unit = strcmp(key, "conic") == 0 ? "" : " mm";
+        if (lo > -MAX_MM)
+            return lr__fail(err, LR_ERR_INVALID, p,
+                            "%s must be between %g and %g%s, got %g", p, lo,
+                            MAX_MM, unit, *out);
         return lr__fail(err, LR_ERR_INVALID, p,
-                        "%s must be %s %g mm, got %g", p,
-                        lo > -MAX_MM ? "between" : "within +-",
-                        lo > -MAX_MM ? lo : MAX_MM, *out);
+                        "%s must be within +-%g%s, got %g", p, MAX_MM, unit,
+                        *out);
     }
     return LR_OK;
 }

@@ -22,9 +22,14 @@
 
 #define MAX_MM 1e6
 
-/* Parses up to `max` numbers from the NUL-free line [p, end); returns how
- * many, or -1 (with *bad at the offending word) for a word that is not a
- * finite number within +-MAX_MM. */
+#define NOT_A_NUMBER (-1)
+#define OUT_OF_RANGE (-2)
+
+/* Parses the numbers of the NUL-free line [p, end) into v (room for
+ * `max`); returns how many the line has (more than `max` when it has
+ * too many), or NOT_A_NUMBER or OUT_OF_RANGE with *bad at the offending
+ * word.  A number is decimal, as pbrt writes them: strtod's hexadecimal,
+ * "inf" and "nan" are not. */
 static int numbers(const char *p, const char *end, double *v, int max,
                    const char **bad)
 {
@@ -39,15 +44,19 @@ static int numbers(const char *p, const char *end, double *v, int max,
         while (p < end && !isspace((unsigned char)*p))
             p++;
         *bad = w;
-        if (n == max || (size_t)(p - w) >= sizeof word)
-            return -1;
-        memcpy(word, w, (size_t)(p - w));
-        word[p - w] = '\0';
-        char *stop;
-        double x = strtod(word, &stop);
-        if (*stop != '\0' || !isfinite(x) || fabs(x) > MAX_MM)
-            return -1;
-        v[n++] = x;
+        size_t len = (size_t)(p - w);
+        if (len >= sizeof word)
+            return NOT_A_NUMBER;
+        memcpy(word, w, len);
+        word[len] = '\0';
+        double x;
+        if (lr__rx_decimal(word, &x) != 0)
+            return NOT_A_NUMBER;
+        if (!isfinite(x) || fabs(x) > MAX_MM)
+            return OUT_OF_RANGE;
+        if (n < max)
+            v[n] = x;
+        n++;
     }
     return n;
 }
@@ -114,6 +123,11 @@ lr_status lr__rx_from_pbrt(const char *text, size_t len, const char *shown,
             memcpy(raw, bad, m);
             raw[m] = '\0';
             lr__utf8_escape(raw, esc, sizeof esc);
+            if (k == OUT_OF_RANGE)
+                return lr__fail(err, LR_ERR_INVALID, NULL,
+                                "%s:%d: \"%s\" is out of range (a number of "
+                                "a lens file is within +-%g mm)",
+                                shown, line, esc, MAX_MM);
             return lr__fail(err, LR_ERR_INVALID, NULL,
                             "%s:%d: \"%s\" is not a number (a line is: "
                             "radius thickness index aperture-diameter "
@@ -123,7 +137,7 @@ lr_status lr__rx_from_pbrt(const char *text, size_t len, const char *shown,
         p = eol < end ? eol + 1 : end;
         if (k == 0)
             continue;
-        if (k < 4)
+        if (k < 4 || k > 5)
             return lr__fail(err, LR_ERR_INVALID, NULL,
                             "%s:%d: %d numbers; a line is: radius thickness "
                             "index aperture-diameter [abbe]",

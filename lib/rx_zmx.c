@@ -83,15 +83,14 @@ static int words(char *line, char **w)
 
 static int number(const char *w, double *x)
 {
-    char *end;
     if (w == NULL)
         return -1;
     if (strcasecmp(w, "INFINITY") == 0) {
         *x = INFINITY;
         return 0;
     }
-    *x = strtod(w, &end);
-    return *end == '\0' && !isnan(*x) ? 0 : -1;
+    /* Decimal only, as Zemax writes numbers. */
+    return lr__rx_decimal(w, x);
 }
 
 /* A word of the file, quoted in a message: at most 40 bytes, escaped

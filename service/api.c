@@ -202,8 +202,12 @@ int lrd_api_parse_job(const char *body, size_t len, lrd_job_spec *spec,
     lr_error le;
     lr_status st = lr_job_parse(body, len, (int)lrd_cfg.max_json_depth,
                                 &job, &le);
+    /* Text that is JSON but not data (a number beyond a double, a
+     * string that is not UTF-8) has the field's path: give it. */
     if (st == LR_ERR_SYNTAX)
-        return lrd_fail(e, 400, "malformed_json", NULL, "%s", le.message);
+        return lrd_fail(e, 400, "malformed_json",
+                        le.path[0] != '\0' ? le.path : NULL, "%s",
+                        le.message);
     if (st == LR_ERR_LIMIT)
         return lrd_fail(e, 400, "too_deep", NULL, "%s (--max-json-depth)",
                         le.message);

@@ -91,6 +91,21 @@ has_temp_files() {
     [[ "$output" == *"--set"* ]]
 }
 
+@test "render --help and lens --help exit 0 with the usage, whatever follows" {
+    for cmd in render lens; do
+        for flag in --help -h; do
+            run --separate-stderr -0 "$LENSRAY" "$cmd" "$flag"
+            [[ "$output" == *"usage: lensray render"* ]]
+            [[ "$output" == *"--field-angles"* ]]
+            [ -z "$stderr" ]
+        done
+    done
+    # Help wins over what else is on the line, as with most tools.
+    run -0 "$LENSRAY" render scene.json --help -o x.png
+    [[ "$output" == *"usage"* ]]
+    [ ! -e x.png ]
+}
+
 @test "version prints the version from include/lensray.h" {
     local major minor patch
     major=$(sed -n 's/^#define LR_VERSION_MAJOR \([0-9]*\).*/\1/p' "$REPO/include/lensray.h")

@@ -914,6 +914,12 @@ EOF
     expect_error 400 malformed_json
     req POST "$URL/v1/render" '{"scene": "tiny"} trailing'
     expect_error 400 malformed_json
+    # JSON that no double holds, or a string that is not UTF-8, names
+    # its field as every other bad value does.
+    req POST "$URL/v1/render" '{"scene": "tiny", "camera": {"fov": 1e400}}'
+    expect_error 400 malformed_json camera.fov
+    req POST "$URL/v1/render" "$(printf '{"scene": "tiny", "render": {"sampler": "\xff"}}')"
+    expect_error 400 malformed_json render.sampler
     local deep
     deep="$(printf '%.0s[' $(seq 1 100))$(printf '%.0s]' $(seq 1 100))"
     req POST "$URL/v1/render" "$deep"

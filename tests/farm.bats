@@ -195,6 +195,11 @@ wait_for() {
     run -2 "$LENSRAY" render scenes/spheres.json -o x.png --remote "$URL" \
         --set 'objects[0].radius=2'
     [[ "$output" == *"only camera.* and render.*"* ]]
+    # Not a URL: said at once, not after --retries attempts.
+    for bad in notaurl ftp://127.0.0.1/ 127.0.0.1:8080; do
+        run -2 "$LENSRAY" render scenes/spheres.json -o x.png --remote "$bad"
+        [[ "$output" == *"--remote '$bad' must be an http:// or https:// URL"* ]]
+    done
 }
 
 # ---- assets -----------------------------------------------------------------

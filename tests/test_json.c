@@ -53,6 +53,50 @@ static void test_syntax_errors_stay_invalid(void **state)
 }
 
 
+/* RFC 8259's number grammar: cJSON reads numbers with strtod, which also
+ * takes a leading zero ("016", octal in other readers) and a bare point
+ * ("2.", "1.e3"); those are syntax errors at their line and column, and
+ * the numbers JSON allows still load. */
+static void test_numbers_follow_rfc8259(void **state)
+{
+    (void)state;
+    static const char *const bad[] = {"016", "-016", "00", "2.", "1.e3",
+                                      "-0.e1", "01.5"};
+    static const char *const good[] = {"0", "-0", "0.5", "1e2", "1E+2",
+                                       "-1.5e-3", "30", "0e0"};
+    char text[128];
+    lr_scene *s = NULL;
+    lr_error err;
+    for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
+        snprintf(text, sizeof text, "{\"render\": {\"seed\": 1},\n"
+                 "\"camera\": {\"fov\": %s}}", bad[i]);
+        assert_int_equal(lr_scene_load_json(text, strlen(text), NULL, NULL,
+                                            0, &s, &err),
+                         LR_ERR_INVALID);
+        if (strstr(err.message, "not a JSON number") == NULL ||
+            strstr(err.message, "line 2, column 19") == NULL)
+            fail_msg("%s: %s", bad[i], err.message);
+    }
+    for (size_t i = 0; i < sizeof good / sizeof *good; i++) {
+        snprintf(text, sizeof text, "{\"description\": \"016 in a "
+                 "string\", \"render\": {\"seed\": %s}}", good[i]);
+        lr_status st = lr_scene_load_json(text, strlen(text), NULL, NULL, 0,
+                                          &s, &err);
+        /* -1.5e-3 and 1e2 load or fail on the seed's range, never on
+         * the syntax. */
+        if (st != LR_OK && strstr(err.message, "render.seed") == NULL)
+            fail_msg("%s: %s", good[i], err.message);
+        if (st == LR_OK)
+            lr_scene_free(s);
+    }
+    /* An override's value that is not JSON is a string, as "40deg" is. */
+    const char *sets[] = {"camera.fov=016"};
+    assert_int_equal(lr_scene_load_json(scene_json, strlen(scene_json), NULL,
+                                        sets, 1, &s, &err),
+                     LR_ERR_INVALID);
+    assert_non_null(strstr(err.message, "the string \"016\""));
+}
+
 /* Loads `json` with `set` as its one override (or none) and expects an
  * error at `path` whose message holds each of `want` (NULL-ended). */
 static void expect_error(const char *json, const char *set, const char *path,
@@ -148,5 +192,6 @@ static const struct CMUnitTest json_tests[] = {
     cmocka_unit_test(test_syntax_errors_stay_invalid),
     cmocka_unit_test(test_overflow_quotes_the_number),
     cmocka_unit_test(test_infinity_in_a_tree),
+    cmocka_unit_test(test_numbers_follow_rfc8259),
 };
 LR_TEST_GROUP(json, json_tests)

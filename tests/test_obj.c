@@ -323,6 +323,9 @@ static void test_bad_numbers(void **state)
               "num.obj:3: bad number 'x'");
     load_fail("num2.obj", "v 0 0 0\nv 1 0 0\nv 1 2 3z\nf 1 2 3\n",
               "num2.obj:3: bad number '3z'");
+    /* Decimal only: strtod's hexadecimal is no OBJ number. */
+    load_fail("hex.obj", "v 0 0 0\nv 1 0 0\nv 0x1 1 0\nf 1 2 3\n",
+              "hex.obj:3: bad number '0x1'");
     load_fail("nan.obj", "v 0 0 0\nv 1 0 0\nv nan 0 0\nf 1 2 3\n",
               "nan.obj:3: non-finite");
     load_fail("inf.obj", "v 0 0 0\nv 1 0 0\nv 0 -inf 0\nf 1 2 3\n",

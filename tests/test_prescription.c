@@ -8,6 +8,7 @@
 #include "prescription.h"
 #include "json_util.h"
 
+#include <locale.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -269,6 +270,16 @@ static void test_json_errors(void **state)
                       "camera.lens.surfaces[0].thickness", "required");
     expect_json_error("{\"surfaces\": []}", "camera.lens.surfaces",
                       "non-empty");
+    /* A range says both of its ends, and a conic has no unit. */
+    expect_json_error("{\"surfaces\": [{\"stop\": true, \"thickness\": -5, "
+                      "\"semi_aperture\": 5}]}",
+                      "camera.lens.surfaces[0].thickness",
+                      "camera.lens.surfaces[0].thickness must be between 0 "
+                      "and 1e+06 mm, got -5");
+    expect_json_error(SINGLET_JSON("\"N-BK7\"", ", \"conic\": -1e7"),
+                      "camera.lens.surfaces[1].conic",
+                      "camera.lens.surfaces[1].conic must be within +-1e+06, "
+                      "got -1e+07");
     expect_json_error("[1]", "camera.lens", "an object");
     /* Geometry (lr__rx_check): a lens too thin for its curves, an
      * aperture wider than the sphere, a lens that diverges. */
@@ -361,11 +372,17 @@ static void test_pbrt_errors(void **state)
     expect_text_error(pbrt, "0 1 0 10\n0 4 0 20\n", "t.dat:2: a second stop");
     expect_text_error(pbrt, "0 1 0 10\n50 4 0.5 20\n", "t.dat:2: index");
     expect_text_error(pbrt, "0 1 0 10\n50 4 1.5 20 300\n", "t.dat:2: an Abbe");
-    expect_text_error(pbrt, "0 1 0 10\n50 4 1.5 20 50 7\n", "t.dat:2:");
+    expect_text_error(pbrt, "0 1 0 10\n50 4 1.5 20 50 7\n",
+                      "t.dat:2: 6 numbers");
+    /* strtod's other forms are not numbers of a lens file. */
+    expect_text_error(pbrt, "0 1 0 10\n0x32 4 1.5 20\n",
+                      "t.dat:2: \"0x32\" is not a number");
+    expect_text_error(pbrt, "0 1 0 10\n50 4 1.5 20 INF\n",
+                      "t.dat:2: \"INF\" is not a number");
     expect_text_error(pbrt, "# nothing\n", "t.dat: no surfaces");
     expect_text_error(pbrt, "50 4 1.5 20\n-50 40 1 20\n", "no aperture stop");
     expect_text_error(pbrt, "0 1 0 10\n50 4 1.5 20\n-50 1e9 1 20\n",
-                      "t.dat:3: \"1e9\"");
+                      "t.dat:3: \"1e9\" is out of range");
 }
 
 static lr_status zmx(const char *text, lr__rx *rx, lr_error *err)
@@ -456,6 +473,10 @@ static void test_zmx_errors(void **state)
     expect_text_error(zmx,
                       ZMX_HEAD "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ x\r\n",
                       "t.zmx:13: DISZ");
+    /* Zemax writes decimals; strtod's hexadecimal is not one. */
+    expect_text_error(zmx,
+                      ZMX_HEAD "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ 0x5\r\n",
+                      "t.zmx:13: DISZ");
     expect_text_error(zmx,
                       ZMX_HEAD "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ 1\r\n"
                                "SURF 2\r\n  TYPE EVENASPH\r\n  CURV 0.02\r\n"
@@ -472,6 +493,46 @@ static void test_zmx_errors(void **state)
                                "  DIAM 10\r\n  GLAS N-BK7\r\n" ZMX_TAIL,
                       "t.zmx:10: SURF 1 has no semi-diameter");
     expect_text_error(zmx, ZMX_HEAD, "1 SURF entries");
+}
+
+/* A host program may set LC_NUMERIC to a locale whose decimal point is
+ * a comma (Python after locale.setlocale, a GUI): the lens files'
+ * "70.97" must still be 70.97.  The locale is made here from Debian's
+ * `locales` sources (a dependency of the tests, Makefile DEPS) into the
+ * test's directory.  setlocale rather than newlocale: glibc's newlocale
+ * leaks its copy of LOCPATH, which LeakSanitizer reports. */
+static void test_readers_ignore_the_locale(void **state)
+{
+    (void)state;
+    char dir[512], cmd[1200], was[64];
+    snprintf(dir, sizeof dir, "%s/locale", lr_test_tmpdir());
+    snprintf(cmd, sizeof cmd, "mkdir -p '%s' && localedef -i de_DE -f UTF-8 "
+             "'%s/de_DE.UTF-8' >/dev/null 2>&1", dir, dir);
+    int made = system(cmd);
+    (void)made; /* localedef warns with status 1 and still writes it */
+    snprintf(was, sizeof was, "%s", setlocale(LC_NUMERIC, NULL));
+    setenv("LOCPATH", dir, 1);
+    const char *de = setlocale(LC_NUMERIC, "de_DE.UTF-8");
+    unsetenv("LOCPATH");
+    if (de == NULL)
+        fail_msg("no de_DE locale from localedef in %s", dir);
+    int comma = strtod("1.5", NULL) != 1.5; /* the locale is on */
+    lr__rx rx;
+    lr_error err;
+    lr_status a = pbrt("0 1 0 10\n50.25 4 1.5 20\n-50 40 1 20\n", &rx, &err);
+    double r = rx.s[1].radius;
+    lr_status b = zmx(ZMX_HEAD "SURF 1\r\n  STOP\r\n  DIAM 5\r\n"
+                              "  DISZ 1.5\r\nSURF 2\r\n  CURV 2.0E-2\r\n"
+                              "  DISZ 4\r\n  DIAM 10\r\n  GLAS N-BK7\r\n"
+                              ZMX_TAIL, &rx, &err);
+    double t = rx.s[0].thickness;
+    setlocale(LC_NUMERIC, was);
+    assert_true(comma);
+    assert_int_equal(a, LR_OK);
+    assert_true(r == 50.25);
+    if (b != LR_OK)
+        fail_msg("%s", err.message);
+    assert_true(t == 1.5);
 }
 
 static void test_find_and_load(void **state)
@@ -557,6 +618,7 @@ static const struct CMUnitTest prescription_tests[] = {
     cmocka_unit_test(test_pbrt_errors),
     cmocka_unit_test(test_zmx_reader),
     cmocka_unit_test(test_zmx_errors),
+    cmocka_unit_test(test_readers_ignore_the_locale),
     cmocka_unit_test(test_find_and_load),
 };
 

@@ -194,6 +194,22 @@ static void test_missing_and_out_of_range(void **state)
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++)
         lr_test_expect_invalid(cases[i].json, strlen(cases[i].json),
                                cases[i].path, cases[i].json);
+    /* The message gives the range, at either end of it. */
+    static const char *const focus_on[][2] = {
+        {"{\"camera\": {\"focus_on\": [65536, 0]}}", "got 65536"},
+        {"{\"camera\": {\"focus_on\": [0, -1]}}", "got -1"},
+        {"{\"camera\": {\"focus_on\": [0, 2.5]}}", "got 2.5"}};
+    for (size_t i = 0; i < 3; i++) {
+        lr_scene *sc = NULL;
+        lr_error err;
+        assert_int_equal(lr_scene_load_json(focus_on[i][0],
+                                            strlen(focus_on[i][0]), NULL,
+                                            NULL, 0, &sc, &err),
+                         LR_ERR_INVALID);
+        if (strstr(err.message, "a whole number from 0 to 65535") == NULL ||
+            strstr(err.message, focus_on[i][1]) == NULL)
+            fail_msg("%s: %s", focus_on[i][0], err.message);
+    }
 }
 
 static const struct CMUnitTest scene_validation_tests[] = {

@@ -545,6 +545,14 @@ static int cmd_render(int argc, char **argv)
                          token_file != NULL ? "--token-file" : remote_flag);
         goto done;
     }
+    /* A URL libcurl could not reach is tried --retries more times with
+     * back-off; one that is not even a web address is said at once. */
+    if (r.ro.url != NULL && strncasecmp(r.ro.url, "http://", 7) != 0 &&
+        strncasecmp(r.ro.url, "https://", 8) != 0) {
+        rc = usage_error("--remote '%s' must be an http:// or https:// URL",
+                         r.ro.url);
+        goto done;
+    }
     if (token_file != NULL) {
         if (read_token(token_file, token, sizeof token) != 0) {
             rc = EXIT_IO;
@@ -714,6 +722,16 @@ int main(int argc, char **argv)
     if (strcmp(cmd, "version") == 0 || strcmp(cmd, "--version") == 0) {
         printf("lensray %s\n", lr_version());
         return EXIT_OK;
+    }
+    /* "lensray render --help" asks for help, not for a scene named
+     * "--help": help wins over whatever else is on the line. */
+    if (strcmp(cmd, "render") == 0 || strcmp(cmd, "lens") == 0) {
+        for (int i = 2; i < argc; i++) {
+            if (strcmp(argv[i], "--help") == 0 || strcmp(argv[i], "-h") == 0) {
+                fputs(usage_text, stdout);
+                return EXIT_OK;
+            }
+        }
     }
     if (strcmp(cmd, "render") == 0)
         return cmd_render(argc - 2, argv + 2);

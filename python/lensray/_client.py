@@ -12,7 +12,7 @@ from typing import Any, Mapping, Optional, Union
 
 import numpy as np
 
-from ._core import Image, _json_default
+from ._core import Image, _overrides_dict, _to_json
 from ._errors import CancelledError, LensrayError, SceneError
 
 SceneRef = Union[str, Mapping[str, Any]]
@@ -107,7 +107,7 @@ class Client:
         data = None
         headers = {"Connection": "close"}
         if body is not None:
-            data = json.dumps(body, default=_json_default).encode()
+            data = _to_json(body)
             headers["Content-Type"] = "application/json"
         if self.token:
             headers["Authorization"] = f"Bearer {self.token}"
@@ -131,10 +131,13 @@ class Client:
     @staticmethod
     def _job(scene: SceneRef, camera: Optional[Mapping[str, Any]],
              render: Optional[Mapping[str, Any]], depth: bool) -> dict[str, Any]:
+        if not isinstance(scene, (str, Mapping)):
+            raise TypeError("scene must be the name of a scene of the daemon "
+                            f"or a scene as a dict, got {type(scene).__name__}")
         job: dict[str, Any] = {"scene": scene if isinstance(scene, str) else dict(scene)}
-        if camera:
+        if camera is not None and _overrides_dict(camera, "camera"):
             job["camera"] = dict(camera)
-        if render:
+        if render is not None and _overrides_dict(render, "render"):
             job["render"] = dict(render)
         job["output"] = {"format": "exr", "depth": bool(depth)}
         return job
@@ -298,10 +301,16 @@ def render_split(clients: "Union[Client, list[Client]]", scene: SceneRef,
             appear more than once).
         scene, camera, render: as for :meth:`Client.render`; ``render``
             may not have a ``region`` of its own.
-        parts: the number of strips; by default one per client.
+        parts: the number of strips (a whole number >= 1, at most the
+            height); by default one per client.
 
     Returns:
         an :class:`Image` (H, W, 3) float32.
+
+    Raises:
+        SceneError: a width or height that is not a whole number from 1
+            to 65536 (``.path`` ``render.width``), and the daemons' errors.
+        ValueError: ``parts`` below 1, or a ``render.region`` given.
     """
     if isinstance(clients, Client):
         clients = [clients]
@@ -319,8 +328,22 @@ def render_split(clients: "Union[Client, list[Client]]", scene: SceneRef,
                              "scene", "scene_not_found")
     else:
         own = dict(scene).get("render", {})
-    width = int(render.get("width", own.get("width", 640)))
-    height = int(render.get("height", own.get("height", 480)))
+    if parts is not None and not (isinstance(parts, int) and parts >= 1):
+        raise ValueError(f"parts must be a whole number >= 1, got {parts!r}")
+    # The frame's size, checked here since the strips' rows come from it:
+    # 64.5 or NaN must fail as the daemon would fail them, not be cut to
+    # a whole number.
+    size = {}
+    for key, default in (("width", 640), ("height", 480)):
+        v = render.get(key, own.get(key, default))
+        if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+            raise SceneError(f"render.{key} must be a number, got {v!r}",
+                             f"render.{key}", "invalid_value")
+        if not (np.isfinite(v) and float(v) == int(v) and 1 <= v <= 65536):
+            raise SceneError(f"render.{key} must be a whole number from 1 to "
+                             f"65536, got {v!r}", f"render.{key}", "invalid_value")
+        size[key] = int(v)
+    width, height = size["width"], size["height"]
     n = max(1, min(parts or len(clients), height))
     rows = [height * i // n for i in range(n + 1)]
     jobs = []

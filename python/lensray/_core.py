@@ -48,8 +48,37 @@ def _json_default(value: Any) -> Any:
     raise TypeError(f"{type(value).__name__} is not JSON serialisable")
 
 
-def _to_json(value: Any) -> bytes:
-    return json.dumps(value, default=_json_default).encode()
+def _check_finite(value: Any, path: str) -> None:
+    """Raises SceneError naming the field of a NaN or infinite number.
+
+    JSON has neither (RFC 8259, section 6), so Python's json module would
+    write the non-standard ``NaN`` and the library would refuse the whole
+    text as invalid JSON, naming no field."""
+    if isinstance(value, (float, np.floating)):
+        if not np.isfinite(value):
+            raise SceneError(f"{path} must be a finite number, got {float(value)!r}",
+                             path, "invalid")
+    elif isinstance(value, np.ndarray):
+        _check_finite(value.tolist(), path)
+    elif isinstance(value, Mapping):
+        for k, v in value.items():
+            _check_finite(v, f"{path}.{k}" if path else str(k))
+    elif isinstance(value, (list, tuple)):
+        for i, v in enumerate(value):
+            _check_finite(v, f"{path}[{i}]")
+
+
+def _to_json(value: Any, path: str = "") -> bytes:
+    """JSON text of `value`, whose fields' paths start with `path`."""
+    _check_finite(value, path)
+    return json.dumps(value, default=_json_default, allow_nan=False).encode()
+
+
+def _overrides_dict(value: Any, name: str) -> dict[str, Any]:
+    if not isinstance(value, Mapping):
+        raise TypeError(f"{name} must be a dict of the scene format's "
+                        f"{name} keys, got {type(value).__name__}")
+    return dict(value)
 
 
 class Image(np.ndarray):
@@ -154,8 +183,13 @@ def write(path: PathLike, array: Any, depth: Any = None, *,
     Raises:
         SceneError: an extension other than .exr or .png.
         LensrayIOError: the file could not be written.
-        ValueError: an array of the wrong shape.
+        ValueError: an array of the wrong shape, or ``depth`` with a
+            ``.png`` (which has no Z channel to keep it in).
     """
+    if depth is not None and os.fspath(path).lower().endswith(
+            ".png" if isinstance(os.fspath(path), str) else b".png"):
+        raise ValueError("a PNG has no Z channel: write the depth to an "
+                         ".exr, or leave it out")
     img = _lr_image(array, depth)
     try:
         opts = _capi.lr_output_options()
@@ -260,13 +294,17 @@ class Scene:
         lib().lr_scene_camera(self._handle(), byref(cam))
         lib().lr_scene_settings(self._handle(), byref(rs))
         err = _capi.lr_error()
+        if camera is not None:
+            camera = _overrides_dict(camera, "camera")
+        if render is not None:
+            render = _overrides_dict(render, "render")
         if camera:
-            text = _to_json(dict(camera))
+            text = _to_json(camera, "camera")
             st = lib().lr_camera_apply_json(byref(cam), text, len(text), byref(err))
             if st != _capi.LR_OK:
                 _raise(st, err)
         if render:
-            text = _to_json(dict(render))
+            text = _to_json(render, "render")
             st = lib().lr_render_settings_apply_json(byref(rs), text, len(text),
                                                      byref(err))
             if st != _capi.LR_OK:
@@ -470,7 +508,7 @@ def _override_strings(overrides: Overrides) -> list[bytes]:
     if overrides is None:
         return []
     if isinstance(overrides, Mapping):
-        return [f"{k}={json.dumps(v, default=_json_default)}".encode()
+        return [f"{k}={_to_json(v, str(k)).decode()}".encode()
                 for k, v in overrides.items()]
     if isinstance(overrides, (str, bytes)):
         raise TypeError("overrides must be a dict or a list of 'path=value' strings")

@@ -47,6 +47,20 @@ def test_errors_name_the_field(daemon):
     assert e.value.path.startswith("scene.objects[0]")
 
 
+def test_non_finite_numbers_name_the_field(daemon):
+    c = lensray.Client(daemon.url)
+    with pytest.raises(lensray.SceneError) as e:
+        c.render("spheres", camera={"fov": float("nan")})
+    assert e.value.path == "camera.fov" and "finite" in e.value.message
+    doc = json.loads((SCENES / "spheres.json").read_text())
+    doc["objects"][0]["radius"] = float("inf")
+    with pytest.raises(lensray.SceneError) as e:
+        c.submit(doc)
+    assert e.value.path == "scene.objects[0].radius"
+    with pytest.raises(TypeError, match="scene must be"):
+        c.render(5)
+
+
 def test_submit_wait_result(daemon, spheres):
     c = lensray.Client(daemon.url)
     job = c.submit("spheres", camera=LENS, render=SMALL)
@@ -97,6 +111,15 @@ def test_render_split_stitches_the_full_frame(daemon, spheres):
         assert same_bits(strips, s.render())
     with pytest.raises(ValueError):
         lensray.render_split(c, "spheres", render={"region": [0, 0, 4, 4]})
+    # A size that is not a whole number is the daemon's error, not cut
+    # down to one (64.5 rendered 64 columns; nan raised int()'s error).
+    for bad in (64.5, float("nan"), "64", True):
+        with pytest.raises(lensray.SceneError) as e:
+            lensray.render_split(c, "spheres", render={**SMALL, "width": bad})
+        assert e.value.path == "render.width"
+    for bad in (0, -3):
+        with pytest.raises(ValueError, match="parts"):
+            lensray.render_split(c, "spheres", render=SMALL, parts=bad)
 
 
 def cancelled_jobs(client) -> int:

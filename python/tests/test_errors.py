@@ -68,6 +68,35 @@ def test_bad_render_overrides_name_the_field(spheres):
     assert e.value.path.startswith("render")
 
 
+def test_non_finite_numbers_name_the_field(spheres):
+    # JSON has no NaN or infinity: a Python float that is one is refused
+    # before it becomes JSON, with the field's path, wherever it is given.
+    import numpy as np
+    cases = [(lambda: spheres.render(camera={"fov": float("nan")}), "camera.fov"),
+             (lambda: spheres.render(camera={"position": [0, np.inf, 1]}),
+              "camera.position[1]"),
+             (lambda: spheres.render(render={"adaptive": {"threshold": -np.inf}}),
+              "render.adaptive.threshold"),
+             (lambda: lensray.load({"objects": [{"type": "sphere", "center": [0, 0, -3],
+                                                 "radius": float("inf")}]}),
+              "objects[0].radius"),
+             (lambda: lensray.load(SCENES / "spheres.json", {"camera.fov": np.float32("nan")}),
+              "camera.fov")]
+    for call, path in cases:
+        with pytest.raises(lensray.SceneError) as e:
+            call()
+        assert e.value.path == path
+        assert e.value.message.startswith(path + " must be a finite number, got ")
+
+
+def test_overrides_that_are_not_dicts_are_type_errors(spheres):
+    for bad in ([1, 2], "thinlens", 5):
+        with pytest.raises(TypeError, match="camera must be a dict"):
+            spheres.render(camera=bad)
+        with pytest.raises(TypeError, match="render must be a dict"):
+            spheres.render(render=bad)
+
+
 def test_missing_file_is_an_io_error(tmp_path):
     with pytest.raises(lensray.LensrayIOError) as e:
         lensray.load(tmp_path / "none.json")

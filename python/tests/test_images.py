@@ -65,3 +65,8 @@ def test_write_refuses_bad_input(tmp_path):
     with pytest.raises(lensray.LensrayIOError):
         lensray.write(tmp_path / "no" / "dir" / "a.png", np.zeros((4, 4, 3)))
     assert not (tmp_path / "a.exr").exists()
+    # A Z channel a PNG cannot hold is refused, not dropped (the CLI's
+    # --depth and the daemon's output.depth refuse PNG too).
+    with pytest.raises(ValueError, match="Z channel"):
+        lensray.write(tmp_path / "a.PNG", np.zeros((4, 4, 3)), np.zeros((4, 4)))
+    assert not (tmp_path / "a.PNG").exists()
