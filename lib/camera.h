@@ -113,6 +113,14 @@ typedef struct lr__camera_model {
     void (*rays16)(const lr__cam *c, int use_lens, int n, const float *fx,
                    const float *fy, const float *lu, const float *lv,
                    struct RTCRayHit16 *rh, float *wt);
+    /* rays16 for np packets at once (np <= 4), packet p's lanes
+     * 0..ns[p]-1 from row p of each array; the same rays as np calls of
+     * rays16.  NULL for models whose packets gain nothing from company
+     * (a real lens's glass is a long chain a packet: camera_lens.c). */
+    void (*rays16_n)(const lr__cam *c, int use_lens, int np, const int *ns,
+                     const float (*fx)[16], const float (*fy)[16],
+                     const float (*lu)[16], const float (*lv)[16],
+                     struct RTCRayHit16 *rh, float (*wt)[16]);
     /* Spectral mode: rays16 through the lens with a focus power of each
      * lane's own, w[i] (lanes at different wavelengths); NULL when the
      * model has none, and its spectral samples take `ray` one by one. */

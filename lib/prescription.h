@@ -204,10 +204,15 @@ void lr__rx_trace16(const lr__rx *rx, const double *z, const double *n_after,
                     double stop_scale, double (*o)[16], double (*d)[16],
                     int *alive);
 
-/* The same in float, for the packet camera: close to lr__rx_trace16's
- * rays (float rounding), not equal to them. */
+/* The same in float, for the packet camera, on `lanes` rays (a multiple
+ * of 16, at most LR__RX_LANES: up to four packets at once); o and d have
+ * rows of LR__RX_LANES.  Close to lr__rx_trace16's rays (float
+ * rounding), not equal to them; each lane's result is the same whatever
+ * `lanes` and its place among them. */
+#define LR__RX_LANES 64
 void lr__rx_trace16f(const lr__rx *rx, const double *z,
-                     const double *n_after, double stop_scale,
-                     float (*o)[16], float (*d)[16], int *alive);
+                     const double *n_after, double stop_scale, int lanes,
+                     float (*o)[LR__RX_LANES], float (*d)[LR__RX_LANES],
+                     int *alive);
 
 #endif

@@ -1,16 +1,20 @@
 /*
- * rx_trace16f.c: sixteen rays through a prescription in float, for the
- * packet camera (prescription.h, lr__rx_trace16f).  (GCC's approximate
- * reciprocal square roots, under -ffast-math's options, were measured no
- * faster here: 66 against 67 ns a ray through the double Gauss.)
+ * rx_trace16f.c: packets of rays through a prescription in float, for
+ * the packet camera (prescription.h, lr__rx_trace16f).  (GCC's
+ * approximate reciprocal square roots, under -ffast-math's options, were
+ * measured no faster here: 66 against 67 ns a ray through the double
+ * Gauss.)  Each surface's step is a chain of two square roots and a
+ * division a lane, and each surface waits for the one before: a single
+ * packet left the processor waiting on that chain, so the camera hands
+ * over up to four packets, whose vectors are independent and overlap.
  */
 #include "prescription.h"
 
 #include <math.h>
 
 /* The packet camera's version: lr__rx_trace16's loop in float, one
- * AVX-512 vector for the sixteen lanes (Embree traces floats anyway; a
- * lens's millimetres keep 1e-6 mm in float).  Two square roots and a
+ * AVX-512 vector for each packet's sixteen lanes (Embree traces floats
+ * anyway; a lens's millimetres keep 1e-6 mm in float).  Two square roots and a
  * division per surface are saved by identities, not approximations: on a
  * sphere (k = 0) the quadric's half-gradient (-cx, -cy, 1 - cz) has
  * length^2 = c (c (x^2 + y^2 + z^2) - 2z) + 1 = 1, so it is the unit
@@ -20,8 +24,9 @@
  * lane through the scalar code in double. */
 __attribute__((target_clones("avx512f", "avx2", "default")))
 void lr__rx_trace16f(const lr__rx *rx, const double *z,
-                     const double *n_after, double stop_scale,
-                     float (*o)[16], float (*d)[16], int *alive)
+                     const double *n_after, double stop_scale, int lanes,
+                     float (*o)[LR__RX_LANES], float (*d)[LR__RX_LANES],
+                     int *alive)
 {
     int n = rx->n;
     for (int step = 0; step < n; step++) {
@@ -30,7 +35,7 @@ void lr__rx_trace16f(const lr__rx *rx, const double *z,
         if (lr__rx_aspheric(s)) {
             /* Newton's method, in double, lane by lane: the scalar code
              * through this one surface. */
-            for (int l = 0; l < 16; l++) {
+            for (int l = 0; l < lanes; l++) {
                 if (!alive[l])
                     continue;
                 double ol[3] = {o[0][l], o[1][l], o[2][l]},
@@ -59,61 +64,70 @@ void lr__rx_trace16f(const lr__rx *rx, const double *z,
         if (c == 0.0f && !bend) {
             /* A flat surface between equal media (the stop): only where
              * the ray crosses its plane matters. */
-            for (int l = 0; l < 16; l++) {
-                float t = (zi - o[2][l]) / d[2][l];
-                float px = o[0][l] + t * d[0][l], py = o[1][l] + t * d[1][l];
-                int live = alive[l] & isfinite(t) &
-                           !(px * px + py * py > lim2);
-                alive[l] = live;
-                o[0][l] = live ? px : o[0][l];
-                o[1][l] = live ? py : o[1][l];
-                o[2][l] = live ? zi : o[2][l];
+            for (int b = 0; b < lanes; b += 16) {
+                for (int l = b; l < b + 16; l++) {
+                    float t = (zi - o[2][l]) / d[2][l];
+                    float px = o[0][l] + t * d[0][l],
+                          py = o[1][l] + t * d[1][l];
+                    int live = alive[l] & isfinite(t) &
+                               !(px * px + py * py > lim2);
+                    alive[l] = live;
+                    o[0][l] = live ? px : o[0][l];
+                    o[1][l] = live ? py : o[1][l];
+                    o[2][l] = live ? zi : o[2][l];
+                }
             }
             continue;
         }
-        for (int l = 0; l < 16; l++) {
-            float ox = o[0][l], oy = o[1][l], oz = o[2][l] - zi;
-            float dx = d[0][l], dy = d[1][l], dz = d[2][l];
-            /* On a sphere k1 = 1 and |d| = 1 (top of file): A = c. */
-            float A = sphere ? c : c * (dx * dx + dy * dy + k1 * dz * dz);
-            float B = sphere ? c * (ox * dx + oy * dy + oz * dz) - dz
-                             : c * (ox * dx + oy * dy + k1 * oz * dz) - dz;
-            float C = sphere ? c * (ox * ox + oy * oy + oz * oz) - 2.0f * oz
-                             : c * (ox * ox + oy * oy + k1 * oz * oz) -
-                                   2.0f * oz;
-            float disc = B * B - A * C;
-            int ok = disc >= 0.0f;
-            float den = B + copysignf(sqrtf(ok ? disc : 0.0f), B);
-            ok &= den != 0.0f;
-            float t = -C / (den != 0.0f ? den : 1.0f);
-            /* A start beyond the centre of curvature: the other root (as
-             * in rx_trace.c's intersect). */
-            float t2 = -den / (A != 0.0f ? A : 1.0f);
-            t = A != 0.0f && !(1.0f - c * k1 * (oz + t * dz) > 0.0f) ? t2 : t;
-            ok &= isfinite(t);
-            float px = ox + t * dx, py = oy + t * dy, pz = oz + t * dz;
-            float gx = -c * px, gy = -c * py, gz = 1.0f - c * k1 * pz;
-            ok &= gz > 0.0f;
-            float inv = sphere ? 1.0f : 1.0f / sqrtf(gx * gx + gy * gy +
-                                                     gz * gz);
-            float mx = gx * inv, my = gy * inv, mz = gz * inv;
-            ok &= !(px * px + py * py > lim2);
-            float cosi = -(mx * dx + my * dy + mz * dz);
-            float sg = cosi < 0.0f ? -1.0f : 1.0f;
-            mx *= sg, my *= sg, mz *= sg, cosi *= sg;
-            float k = 1.0f - eta * eta * (1.0f - cosi * cosi);
-            ok &= !bend || k >= 0.0f;
-            float f = eta * cosi - sqrtf(k >= 0.0f ? k : 0.0f);
-            float ex = eta * dx + f * mx, ey = eta * dy + f * my,
-                  ez = eta * dz + f * mz;
-            int live = alive[l] & ok;
-            alive[l] = live;
-            o[0][l] = live ? px : o[0][l];
-            o[1][l] = live ? py : o[1][l];
-            o[2][l] = live ? pz + zi : o[2][l];
-            d[0][l] = live && bend ? ex : dx;
-            d[1][l] = live && bend ? ey : dy;
-            d[2][l] = live && bend ? ez : dz;
+        /* A packet at a time (a vector of 16 known lanes), the packets
+         * one after another: their chains are independent and overlap. */
+        for (int b = 0; b < lanes; b += 16) {
+            for (int l = b; l < b + 16; l++) {
+                float ox = o[0][l], oy = o[1][l], oz = o[2][l] - zi;
+                float dx = d[0][l], dy = d[1][l], dz = d[2][l];
+                /* On a sphere k1 = 1 and |d| = 1 (top of file): A = c. */
+                float A = sphere ? c : c * (dx * dx + dy * dy + k1 * dz * dz);
+                float B = sphere ? c * (ox * dx + oy * dy + oz * dz) - dz
+                                 : c * (ox * dx + oy * dy + k1 * oz * dz) - dz;
+                float C = sphere ? c * (ox * ox + oy * oy + oz * oz) -
+                                       2.0f * oz
+                                 : c * (ox * ox + oy * oy + k1 * oz * oz) -
+                                       2.0f * oz;
+                float disc = B * B - A * C;
+                int ok = disc >= 0.0f;
+                float den = B + copysignf(sqrtf(ok ? disc : 0.0f), B);
+                ok &= den != 0.0f;
+                float t = -C / (den != 0.0f ? den : 1.0f);
+                /* A start beyond the centre of curvature: the other root (as
+                 * in rx_trace.c's intersect). */
+                float t2 = -den / (A != 0.0f ? A : 1.0f);
+                t = A != 0.0f && !(1.0f - c * k1 * (oz + t * dz) > 0.0f) ? t2
+                                                                         : t;
+                ok &= isfinite(t);
+                float px = ox + t * dx, py = oy + t * dy, pz = oz + t * dz;
+                float gx = -c * px, gy = -c * py, gz = 1.0f - c * k1 * pz;
+                ok &= gz > 0.0f;
+                float inv = sphere ? 1.0f : 1.0f / sqrtf(gx * gx + gy * gy +
+                                                         gz * gz);
+                float mx = gx * inv, my = gy * inv, mz = gz * inv;
+                ok &= !(px * px + py * py > lim2);
+                float cosi = -(mx * dx + my * dy + mz * dz);
+                float sg = cosi < 0.0f ? -1.0f : 1.0f;
+                mx *= sg, my *= sg, mz *= sg, cosi *= sg;
+                float k = 1.0f - eta * eta * (1.0f - cosi * cosi);
+                ok &= !bend || k >= 0.0f;
+                float f = eta * cosi - sqrtf(k >= 0.0f ? k : 0.0f);
+                float ex = eta * dx + f * mx, ey = eta * dy + f * my,
+                      ez = eta * dz + f * mz;
+                int live = alive[l] & ok;
+                alive[l] = live;
+                o[0][l] = live ? px : o[0][l];
+                o[1][l] = live ? py : o[1][l];
+                o[2][l] = live ? pz + zi : o[2][l];
+                d[0][l] = live && bend ? ex : dx;
+                d[1][l] = live && bend ? ey : dy;
+                d[2][l] = live && bend ? ez : dz;
+            }
         }
     }
 }

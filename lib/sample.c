@@ -87,12 +87,19 @@ static void packet_samples(const lr__shot *sh, int use_lens, int x, int y,
                               fy[n_packets], lu[n_packets], lv[n_packets]);
             n_packets++;
         }
-        for (int p = 0; p < n_packets; p++) {
-            int s0 = b0 + 16 * p;
-            int n = last - s0 < 16 ? last - s0 : 16;
-            sh->cam->model->rays16(sh->cam, use_lens, n, fx[p], fy[p], lu[p],
-                                   lv[p], &rh[p], wt[p]);
-        }
+        int nr[PACKETS_AHEAD];
+        for (int p = 0; p < n_packets; p++)
+            nr[p] = last - (b0 + 16 * p) < 16 ? last - (b0 + 16 * p) : 16;
+        if (sh->cam->model->rays16_n != NULL)
+            sh->cam->model->rays16_n(sh->cam, use_lens, n_packets, nr,
+                                     (const float(*)[16])fx,
+                                     (const float(*)[16])fy,
+                                     (const float(*)[16])lu,
+                                     (const float(*)[16])lv, rh, wt);
+        else
+            for (int p = 0; p < n_packets; p++)
+                sh->cam->model->rays16(sh->cam, use_lens, nr[p], fx[p], fy[p],
+                                       lu[p], lv[p], &rh[p], wt[p]);
         int ns[PACKETS_AHEAD];
         lr__sample_id id[PACKETS_AHEAD];
         lr__v3 L[PACKETS_AHEAD][16];

@@ -366,6 +366,63 @@ static void check_irradiance(const char *lens, double f_number, int points)
     lr_scene_free(s);
 }
 
+/* The packet camera's rays for several packets at once (rays16_n: the
+ * packets go through the glass together) are, bit for bit, the rays of
+ * each packet alone (rays16), short packets and stopped lanes included;
+ * the double Gauss wide open, sample points across the frame and the
+ * lens, some outside the pupil. */
+static void test_packets_together_as_alone(void **state)
+{
+    (void)state;
+    lr_camera cam;
+    lr__cam c;
+    lr_scene *s = lens_cam("\"double-gauss-50\"", ", \"f_number\": 0",
+                           "[]", 300, 200, &cam, &c);
+    assert_non_null(c.model->rays16_n);
+    enum { NP = 6 }; /* more than rays16_n takes at once */
+    float fx[NP][16], fy[NP][16], lu[NP][16], lv[NP][16];
+    float wt[NP][16], wt1[16];
+    int ns[NP] = {16, 16, 7, 16, 1, 16};
+    uint64_t rng = 12345;
+    for (int p = 0; p < NP; p++)
+        for (int l = 0; l < 16; l++) {
+            float r[4];
+            for (int k = 0; k < 4; k++) {
+                rng = rng * 6364136223846793005ull + 1442695040888963407ull;
+                r[k] = (float)((rng >> 40) * 0x1p-24);
+            }
+            fx[p][l] = 300 * r[0], fy[p][l] = 200 * r[1];
+            lu[p][l] = r[2], lv[p][l] = r[3];
+        }
+    struct RTCRayHit16 rh[NP], rh1;
+    memset(rh, 0, sizeof rh);
+    c.model->rays16_n(&c, 1, NP, ns, (const float(*)[16])fx,
+                      (const float(*)[16])fy, (const float(*)[16])lu,
+                      (const float(*)[16])lv, rh, wt);
+    int stopped = 0;
+    for (int p = 0; p < NP; p++) {
+        memset(&rh1, 0, sizeof rh1);
+        c.model->rays16(&c, 1, ns[p], fx[p], fy[p], lu[p], lv[p], &rh1,
+                        wt1);
+        for (int l = 0; l < ns[p]; l++) {
+            assert_memory_equal(&wt[p][l], &wt1[l], sizeof(float));
+            stopped += wt1[l] == 0.0f;
+            const float *a[] = {rh[p].ray.org_x, rh[p].ray.org_y,
+                                rh[p].ray.org_z, rh[p].ray.dir_x,
+                                rh[p].ray.dir_y, rh[p].ray.dir_z,
+                                rh[p].ray.tfar};
+            const float *b[] = {rh1.ray.org_x, rh1.ray.org_y, rh1.ray.org_z,
+                                rh1.ray.dir_x, rh1.ray.dir_y, rh1.ray.dir_z,
+                                rh1.ray.tfar};
+            for (int k = 0; k < 7; k++)
+                assert_memory_equal(&a[k][l], &b[k][l], sizeof(float));
+        }
+    }
+    /* Both kinds of lane were checked: wide open, the corners vignette. */
+    assert_true(stopped > 0 && stopped < 60);
+    lr_scene_free(s);
+}
+
 static void test_pupil_bounds_lose_no_light(void **state)
 {
     (void)state;
@@ -518,6 +575,7 @@ static const struct CMUnitTest lens_camera_tests[] = {
     cmocka_unit_test(test_errors_name_the_field),
     cmocka_unit_test(test_lens_written_back),
     cmocka_unit_test(test_pupil_bounds_lose_no_light),
+    cmocka_unit_test(test_packets_together_as_alone),
     cmocka_unit_test(test_point_image_where_the_lens_puts_it),
 };
 
