@@ -25,6 +25,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <string.h>
 
 #define LR__MIN_THROUGHPUT 1e-4
 
@@ -541,10 +542,35 @@ static int all_vector(const lr_scene *s, const struct RTCRayHit16 *rh, int n)
     return 1;
 }
 
+/* A batch packet's result: L[c][i] = v[c][i] in its vector lanes
+ * (vec[i] != 0), sky[c][i] in the others (lanes past the packet's n
+ * included: the film ignores them).  In whole vectors, as the film reads
+ * them: written lane by lane, the film's vector loads would wait for the
+ * stores to retire, and as plain C with a condition per lane GCC made a
+ * branch of each. */
+__attribute__((target_clones("avx512f", "avx2", "default")))
+static void lanes_out16(const int *restrict vec,
+                        const double v[restrict 3][16],
+                        const double sky[restrict 3][16],
+                        double L[restrict 3][16])
+{
+    /* As bits with a mask: GCC branches on `vec[i] ? a : b` even with
+     * both loads made beforehand. */
+    for (int c = 0; c < 3; c++)
+        for (int i = 0; i < 16; i++) {
+            uint64_t a, b, m = (uint64_t)0 - (uint64_t)(vec[i] != 0);
+            memcpy(&a, &v[c][i], sizeof a);
+            memcpy(&b, &sky[c][i], sizeof b);
+            a = (a & m) | (b & ~m);
+            memcpy(&L[c][i], &a, sizeof a);
+        }
+}
+
 /* What such a packet keeps between the steps of radiance16_n. */
 typedef struct batch16 {
     scratch16 sc; /* its lanes' hits and albedos, as shade16's */
     double v[3][16];
+    double sky[3][16]; /* the misses' sky, with an environment map */
     double fr[16], fg[16], fb[16], ro[3][16], rd[3][16], rt[16];
     int vec[16], valid[16];
     int n_vec, any;
@@ -570,7 +596,7 @@ __attribute__((noinline)) static batch16 *thread_batch(void)
  * Embree calls and arithmetic are the ones shade16 gives it alone. */
 static void radiance16_n(const lr_scene *s, int max_depth,
                          struct RTCRayHit16 *rh, const int *n, int count,
-                         const lr__sample_id *id, lr__v3 (*L)[16],
+                         const lr__sample_id *id, double (*L)[3][16],
                          uint64_t *rays)
 {
     (void)id;
@@ -579,10 +605,18 @@ static void radiance16_n(const lr_scene *s, int max_depth,
     batch16 *B = thread_batch();
     int of[LR__BATCH_MAX], nb = 0;
     for (int p = 0; p < count; p++) {
-        if (nb < LR__BATCH_MAX && all_vector(s, &rh[p], n[p]))
+        if (nb < LR__BATCH_MAX && all_vector(s, &rh[p], n[p])) {
             of[nb++] = p;
-        else
-            shade16(s, max_depth, &rh[p], n[p], L[p], rays);
+            continue;
+        }
+        lr__v3 Lp[16];
+        shade16(s, max_depth, &rh[p], n[p], Lp, rays);
+        /* Lanes past n[p] hold 0: the film's test reads all sixteen. */
+        for (int i = 0; i < 16; i++) {
+            L[p][0][i] = i < n[p] ? Lp[i].x : 0.0;
+            L[p][1][i] = i < n[p] ? Lp[i].y : 0.0;
+            L[p][2][i] = i < n[p] ? Lp[i].z : 0.0;
+        }
     }
     for (int b = 0; b < nb; b++) {
         int p = of[b];
@@ -594,7 +628,11 @@ static void radiance16_n(const lr_scene *s, int max_depth,
         for (int i = 0; i < n[p]; i++) {
             unsigned g = r->hit.geomID[i];
             if (g == RTC_INVALID_GEOMETRY_ID) {
-                L[p][i] = sky16(s, &r->ray, i);
+                if (s->env != NULL) {
+                    lr__v3 sky = sky16(s, &r->ray, i);
+                    bt->sky[0][i] = sky.x, bt->sky[1][i] = sky.y,
+                    bt->sky[2][i] = sky.z;
+                }
                 continue;
             }
             bt->vec[i] = -1;
@@ -638,12 +676,18 @@ static void radiance16_n(const lr_scene *s, int max_depth,
                              bt->v);
         }
     }
+    /* The misses' value without an environment map. */
+    double bg[3][16] __attribute__((aligned(64)));
+    for (int i = 0; i < 16; i++)
+        bg[0][i] = s->background.x, bg[1][i] = s->background.y,
+        bg[2][i] = s->background.z;
     for (int b = 0; b < nb; b++) {
         int p = of[b];
         batch16 *bt = &B[b];
-        for (int i = 0; i < n[p]; i++)
-            if (bt->vec[i])
-                L[p][i] = v3(bt->v[0][i], bt->v[1][i], bt->v[2][i]);
+        lanes_out16(bt->vec, (const double(*)[16])bt->v,
+                    s->env != NULL ? (const double(*)[16])bt->sky
+                                   : (const double(*)[16])bg,
+                    L[p]);
     }
 }
 
