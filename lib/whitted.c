@@ -24,6 +24,7 @@
 #include "light.h"
 
 #include <float.h>
+#include <emmintrin.h>
 #include <math.h>
 #include <string.h>
 
@@ -539,15 +540,36 @@ static void radiance16(const lr_scene *s, int max_depth,
     shade16(s, max_depth, rh, n, L, rays);
 }
 
+/* Which of a packet's n lanes hit something: bit i for lane i.  The
+ * loops over a packet's lanes below visit its hits by these bits: a test
+ * per lane was a branch the processor mispredicted wherever hits and
+ * misses mix (a silhouette, the horizon). */
+static inline unsigned hit_mask(const struct RTCRayHit16 *rh, int n)
+{
+    /* Four lanes at a time in SSE2 (every x86-64 has it): as plain C,
+     * sixteen compares and shifts. */
+    const __m128i none = _mm_set1_epi32((int)RTC_INVALID_GEOMETRY_ID);
+    unsigned miss = 0;
+    for (int k = 0; k < 4; k++) {
+        __m128i g = _mm_load_si128((const __m128i *)&rh->hit.geomID[4 * k]);
+        miss |= (unsigned)_mm_movemask_ps(
+                    _mm_castsi128_ps(_mm_cmpeq_epi32(g, none)))
+                << (4 * k);
+    }
+    return ~miss & ((1u << n) - 1u);
+}
+
 /* A packet whose every lane is a miss (no infinite planes) or a vector
- * lane: shade16 would use none of its scalar code. */
-static int all_vector(const lr_scene *s, const struct RTCRayHit16 *rh, int n)
+ * lane (`hits`: its hit_mask): shade16 would use none of its scalar
+ * code. */
+static int all_vector(const lr_scene *s, const struct RTCRayHit16 *rh,
+                      unsigned hits)
 {
     if (lr__whitted_scalar_only || s->n_planes != 0)
         return 0;
-    for (int i = 0; i < n; i++) {
-        unsigned g = rh->hit.geomID[i];
-        if (g != RTC_INVALID_GEOMETRY_ID && !s->geoms[g].lambert_triangles)
+    for (; hits; hits &= hits - 1) {
+        unsigned g = rh->hit.geomID[__builtin_ctz(hits)];
+        if (!s->geoms[g].lambert_triangles)
             return 0;
     }
     return 1;
@@ -575,6 +597,30 @@ static void lanes_out16(const int *restrict vec,
             a = (a & m) | (b & ~m);
             memcpy(&L[c][i], &a, sizeof a);
         }
+}
+
+/* Asks for the triangle data vector_gather will read for a packet's
+ * hits (its unit normal, its corner normals): a pixel's first packets
+ * meet triangles whose data is not in the cache yet, and the load then
+ * waited in vector_gather.  Called a packet late, while Embree traces
+ * the next one. */
+static inline void prefetch_lanes(const lr_scene *s,
+                                  const struct RTCRayHit16 *rh,
+                                  unsigned hits)
+{
+    for (; hits; hits &= hits - 1) {
+        int i = __builtin_ctz(hits);
+        const lr__geom *G = &s->geoms[rh->hit.geomID[i]];
+        if (!G->lambert_triangles)
+            continue;
+        size_t prim = rh->hit.primID[i];
+        __builtin_prefetch(&G->face_ng[3 * prim]);
+        if (G->corner_normals != NULL) {
+            /* 36 bytes: they may straddle two cache lines. */
+            __builtin_prefetch(&G->corner_normals[9 * prim]);
+            __builtin_prefetch(&G->corner_normals[9 * prim + 8]);
+        }
+    }
 }
 
 /* What such a packet keeps between the steps of radiance16_n. */
@@ -611,12 +657,29 @@ static void radiance16_n(const lr_scene *s, int max_depth,
                          uint64_t *rays)
 {
     (void)id;
-    for (int p = 0; p < count; p++)
+    if (count > LR__BATCH_MAX) {
+        /* In batches of at most LR__BATCH_MAX: each packet's result is
+         * its own whatever the batch. */
+        radiance16_n(s, max_depth, rh, n, LR__BATCH_MAX, id, L, rays);
+        radiance16_n(s, max_depth, rh + LR__BATCH_MAX, n + LR__BATCH_MAX,
+                     count - LR__BATCH_MAX, id + LR__BATCH_MAX,
+                     L + LR__BATCH_MAX, rays);
+        return;
+    }
+    unsigned hits[LR__BATCH_MAX];
+    for (int p = 0; p < count; p++) {
         lr__intersect16(s, &rh[p], n[p], rays);
+        if (p > 0) {
+            hits[p - 1] = hit_mask(&rh[p - 1], n[p - 1]);
+            prefetch_lanes(s, &rh[p - 1], hits[p - 1]);
+        }
+    }
+    hits[count - 1] = hit_mask(&rh[count - 1], n[count - 1]);
+    prefetch_lanes(s, &rh[count - 1], hits[count - 1]);
     batch16 *B = thread_batch();
     int of[LR__BATCH_MAX], nb = 0;
     for (int p = 0; p < count; p++) {
-        if (nb < LR__BATCH_MAX && all_vector(s, &rh[p], n[p])) {
+        if (all_vector(s, &rh[p], hits[p])) {
             of[nb++] = p;
             continue;
         }
@@ -633,23 +696,19 @@ static void radiance16_n(const lr_scene *s, int max_depth,
         int p = of[b];
         batch16 *bt = &B[b];
         const struct RTCRayHit16 *r = &rh[p];
-        bt->n_vec = 0;
+        unsigned h = hits[p];
+        bt->n_vec = __builtin_popcount(h);
         for (int i = 0; i < 16; i++)
-            bt->vec[i] = 0;
-        for (int i = 0; i < n[p]; i++) {
-            unsigned g = r->hit.geomID[i];
-            if (g == RTC_INVALID_GEOMETRY_ID) {
-                if (s->env != NULL) {
-                    lr__v3 sky = sky16(s, &r->ray, i);
-                    bt->sky[0][i] = sky.x, bt->sky[1][i] = sky.y,
-                    bt->sky[2][i] = sky.z;
-                }
-                continue;
+            bt->vec[i] = -(int)((h >> i) & 1u);
+        for (unsigned m = h; m; m &= m - 1)
+            vector_gather(s, r, __builtin_ctz(m), &bt->sc);
+        if (s->env != NULL)
+            for (unsigned m = ~h & ((1u << n[p]) - 1u); m; m &= m - 1) {
+                int i = __builtin_ctz(m);
+                lr__v3 sky = sky16(s, &r->ray, i);
+                bt->sky[0][i] = sky.x, bt->sky[1][i] = sky.y,
+                bt->sky[2][i] = sky.z;
             }
-            bt->vec[i] = -1;
-            bt->n_vec++;
-            vector_gather(s, r, i, &bt->sc);
-        }
         if (bt->n_vec) {
             lr__hits16_complete(r, &bt->sc.h);
             vector_start16(s, (const double(*)[16])bt->sc.k, bt->v);
