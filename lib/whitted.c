@@ -567,6 +567,8 @@ static int all_vector(const lr_scene *s, const struct RTCRayHit16 *rh,
 {
     if (lr__whitted_scalar_only || s->n_planes != 0)
         return 0;
+    if (s->all_lambert)
+        return 1;
     for (; hits; hits &= hits - 1) {
         unsigned g = rh->hit.geomID[__builtin_ctz(hits)];
         if (!s->geoms[g].lambert_triangles)
