@@ -121,14 +121,13 @@ static int light_ray_setup(const lr_scene *s, const lr__material *m,
  * light_ray_setup gives them, for the infinite planes.  Returns the
  * number of lanes that need a shadow ray (counted here, from registers:
  * read back from ok[], it waited for the stores). */
-__attribute__((target_clones("avx512f", "avx2", "default")))
-static int light_rays16(const lr__light *restrict lt,
-                         const lr__hits16 *restrict h,
-                         const double k[restrict 3][16], int *restrict ok,
-                         struct RTCRay16 *restrict r, double fr[restrict 16],
-                         double fg[restrict 16], double fb[restrict 16],
-                         double ro[restrict 3][16], double rd[restrict 3][16],
-                         double rt[restrict 16])
+static inline __attribute__((always_inline)) int
+light_rays16_body(const lr__light *restrict lt, const lr__hits16 *restrict h,
+                  const double k[restrict 3][16], int *restrict ok,
+                  struct RTCRay16 *restrict r, double fr[restrict 16],
+                  double fg[restrict 16], double fb[restrict 16],
+                  double ro[restrict 3][16], double rd[restrict 3][16],
+                  double rt[restrict 16], const int keep)
 {
     const int point = lt->kind == LR__LIGHT_POINT;
     const double lpx = lt->position.x, lpy = lt->position.y,
@@ -144,6 +143,12 @@ static int light_rays16(const lr__light *restrict lt,
                  sdz = lt->direction.z;
     const double cs = lt->cone_scale, co = lt->cone_offset;
     int lit_[16];
+    /* The shadow rays in double: into the caller's arrays when it keeps
+     * them (keep: the infinite planes test them), else into locals the
+     * compiler keeps in registers or drops. */
+    struct {
+        double o[3][16], d[3][16], t[16];
+    } S;
     for (int i = 0; i < 16; i++) {
         double tox = lpx - h->px[i], toy = lpy - h->py[i],
                toz = lpz - h->pz[i];
@@ -176,9 +181,9 @@ static int light_rays16(const lr__light *restrict lt,
         fg[i] = ((k[1][i] * inv_pi) * Eg) * cos_t;
         fb[i] = ((k[2][i] * inv_pi) * Eb) * cos_t;
         lit_[i] = lit;
-        ro[0][i] = orx, ro[1][i] = ory, ro[2][i] = orz;
-        rd[0][i] = lx, rd[1][i] = ly, rd[2][i] = lz;
-        rt[i] = tfar;
+        S.o[0][i] = orx, S.o[1][i] = ory, S.o[2][i] = orz;
+        S.d[0][i] = lx, S.d[1][i] = ly, S.d[2][i] = lz;
+        S.t[i] = tfar;
     }
     /* (Apart: the vectoriser takes loops of one element width more
      * readily.) */
@@ -187,20 +192,50 @@ static int light_rays16(const lr__light *restrict lt,
         int need = (ok[i] != 0) & lit_[i];
         count += need;
         ok[i] = -need;
-        r->org_x[i] = (float)ro[0][i];
-        r->org_y[i] = (float)ro[1][i];
-        r->org_z[i] = (float)ro[2][i];
+        r->org_x[i] = (float)S.o[0][i];
+        r->org_y[i] = (float)S.o[1][i];
+        r->org_z[i] = (float)S.o[2][i];
         r->tnear[i] = 0.0f;
-        r->dir_x[i] = (float)rd[0][i];
-        r->dir_y[i] = (float)rd[1][i];
-        r->dir_z[i] = (float)rd[2][i];
+        r->dir_x[i] = (float)S.d[0][i];
+        r->dir_y[i] = (float)S.d[1][i];
+        r->dir_z[i] = (float)S.d[2][i];
         r->time[i] = 0.0f;
-        r->tfar[i] = rt[i] < FLT_MAX ? (float)rt[i] : FLT_MAX;
+        r->tfar[i] = S.t[i] < FLT_MAX ? (float)S.t[i] : FLT_MAX;
+        if (keep) {
+            ro[0][i] = S.o[0][i], ro[1][i] = S.o[1][i], ro[2][i] = S.o[2][i];
+            rd[0][i] = S.d[0][i], rd[1][i] = S.d[1][i], rd[2][i] = S.d[2][i];
+            rt[i] = S.t[i];
+        }
         r->mask[i] = 0xFFFFFFFFu;
         r->id[i] = 0;
         r->flags[i] = 0;
     }
     return count;
+}
+
+/* light_rays16_body with the rays in double kept (for the infinite
+ * planes), and without: radiance16_n's batches never have planes. */
+__attribute__((target_clones("avx512f", "avx2", "default")))
+static int light_rays16(const lr__light *restrict lt,
+                        const lr__hits16 *restrict h,
+                        const double k[restrict 3][16], int *restrict ok,
+                        struct RTCRay16 *restrict r, double fr[restrict 16],
+                        double fg[restrict 16], double fb[restrict 16],
+                        double ro[restrict 3][16], double rd[restrict 3][16],
+                        double rt[restrict 16])
+{
+    return light_rays16_body(lt, h, k, ok, r, fr, fg, fb, ro, rd, rt, 1);
+}
+
+__attribute__((target_clones("avx512f", "avx2", "default")))
+static int light_rays16_f(const lr__light *restrict lt,
+                          const lr__hits16 *restrict h,
+                          const double k[restrict 3][16], int *restrict ok,
+                          struct RTCRay16 *restrict r, double fr[restrict 16],
+                          double fg[restrict 16], double fb[restrict 16])
+{
+    return light_rays16_body(lt, h, k, ok, r, fr, fg, fb, NULL, NULL, NULL,
+                             0);
 }
 
 static lr__v3 direct(const lr_scene *s, const lr__material *m,
@@ -630,7 +665,7 @@ typedef struct batch16 {
     scratch16 sc; /* its lanes' hits and albedos, as shade16's */
     double v[3][16];
     double sky[3][16]; /* the misses' sky, with an environment map */
-    double fr[16], fg[16], fb[16], ro[3][16], rd[3][16], rt[16];
+    double fr[16], fg[16], fb[16];
     int vec[16], valid[16];
     int n_vec, any;
     struct RTCRay16 shadow __attribute__((aligned(64)));
@@ -727,10 +762,10 @@ static void radiance16_n(const lr_scene *s, int max_depth,
                 continue;
             for (int i = 0; i < 16; i++)
                 bt->valid[i] = bt->vec[i];
-            bt->any = light_rays16(&s->lights[k], &bt->sc.h,
-                                   (const double(*)[16])bt->sc.k, bt->valid,
-                                   &bt->shadow, bt->fr, bt->fg, bt->fb,
-                                   bt->ro, bt->rd, bt->rt);
+            bt->any = light_rays16_f(&s->lights[k], &bt->sc.h,
+                                     (const double(*)[16])bt->sc.k,
+                                     bt->valid, &bt->shadow, bt->fr, bt->fg,
+                                     bt->fb);
             if (bt->any)
                 lr__ray16_quiet_lanes(&bt->shadow, bt->valid);
         }
