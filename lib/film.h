@@ -29,6 +29,13 @@ static inline void lr__pixel_reset(lr__pixel *p)
 void lr__pixel_add(lr__pixel *p, lr__v3 L);
 /* lr__pixel_add of L[0], ..., L[n-1], in that order. */
 void lr__pixel_add_n(lr__pixel *p, const lr__v3 *L, int n);
+/* The same for a packet's samples kept per channel: sample i is
+ * (L[0][i], L[1][i], L[2][i]), samples 0 .. n-1 (n <= 16) added in that
+ * order, to the same bits as lr__pixel_add_n.  With squares 0 the sums of
+ * squares are left as they are: for a caller whose pixels nobody judges
+ * by their spread (adaptive sampling off). */
+void lr__pixel_add16(lr__pixel *p, const double L[3][16], int n,
+                     int squares);
 
 /* Rec. 709 luminance of a linear RGB value. */
 static inline double lr__luminance(double r, double g, double b)

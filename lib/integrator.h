@@ -42,13 +42,14 @@ typedef struct lr__integrator {
                        uint64_t *rays);
     /* Optional (NULL: radiance16 for each packet): radiance16 for
      * `count` packets at once, packet p with n[p] lanes, identity id[p]
-     * and results L[p], each exactly what radiance16 gives it alone.
+     * and results L[p] per channel (L[p][c][i]: channel c of lane i),
+     * each exactly what radiance16 gives it alone.
      * It lets an integrator trace every packet's camera rays before it
      * reads any of their hits: Embree writes a packet's hits with masked
      * stores, which a load right after must wait for. */
     void (*radiance16_n)(const lr_scene *s, int max_depth,
                          struct RTCRayHit16 *rh, const int *n, int count,
-                         const lr__sample_id *id, lr__v3 (*L)[16],
+                         const lr__sample_id *id, double (*L)[3][16],
                          uint64_t *rays);
 } lr__integrator;
 

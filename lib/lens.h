@@ -39,11 +39,14 @@ static inline void lr__aperture_sample16(lr_aperture_shape shape,
         const float fr = (float)ratio;
         for (int i = 0; i < 16; i++) {
             float a = 2.0f * lu[i] - 1.0f, b = 2.0f * lv[i] - 1.0f;
-            /* Blends instead of branches, so the loop vectorises:
-             * m = 1 when |a| > |b|. */
-            float m = (float)(fabsf(a) > fabsf(b));
-            float rr = m * a + (1.0f - m) * b;
-            float num = m * b + (1.0f - m) * a;
+            /* Selects instead of branches, so the loop vectorises.
+             * They give the bits of the blends m x + (1 - m) y (m = 1
+             * when |a| > |b|) this loop had: a and b are never -0 (x - x
+             * is +0), and the one that is picked is nonzero unless both
+             * are +0, so adding the other times 0 changes nothing. */
+            int m = fabsf(a) > fabsf(b);
+            float rr = m ? a : b;
+            float num = m ? b : a;
             /* rr = 0 only when a = b = 0, and then num = 0 too. */
             float den = rr + (float)(rr == 0.0f);
             float t = 0.78539816f * num / den;
@@ -53,8 +56,10 @@ static inline void lr__aperture_sample16(lr_aperture_shape shape,
             float cs = 1.0f + t2 * (-0.5f + t2 * (1.0f / 24 + t2 *
                        (-1.0f / 720 + t2 * (1.0f / 40320 -
                         t2 * (1.0f / 3628800)))));
-            lx[i] = rr * (m * cs + (1.0f - m) * sn) * fr;
-            ly[i] = rr * (m * sn + (1.0f - m) * cs);
+            /* cs > 0; sn is -0 when num is +0 and den < 0, and the
+             * blend's (+0) + sn made that +0: so does sn + 0. */
+            lx[i] = rr * (m ? cs : sn + 0.0f) * fr;
+            ly[i] = rr * (m ? sn + 0.0f : cs);
         }
         return;
     }

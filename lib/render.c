@@ -218,7 +218,8 @@ lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
                         .sampler = &j.sampler,
                         .integrator = lr__integrator_for(set->integrator),
                         .width = set->width,
-                        .max_depth = set->max_depth};
+                        .max_depth = set->max_depth,
+                        .no_squares = !set->adaptive};
     lr__shot_init(&j.shot);
     j.tiles_x = (j.x1 - j.x0 + set->tile_size - 1) / set->tile_size;
     j.tiles_y = (j.y1 - j.y0 + set->tile_size - 1) / set->tile_size;

@@ -102,20 +102,36 @@ static void packet_samples(const lr__shot *sh, int use_lens, int x, int y,
                                        lu[p], lv[p], &rh[p], wt[p]);
         int ns[PACKETS_AHEAD];
         lr__sample_id id[PACKETS_AHEAD];
-        lr__v3 L[PACKETS_AHEAD][16];
         for (int p = 0; p < n_packets; p++) {
             int s0 = b0 + 16 * p;
             ns[p] = last - s0 < 16 ? last - s0 : 16;
             id[p] = (lr__sample_id){sh->sampler, pixel, (uint32_t)s0};
             cnt->camera_rays += (uint64_t)ns[p];
         }
-        if (sh->integrator->radiance16_n != NULL)
+        if (sh->integrator->radiance16_n != NULL) {
+            /* Per channel, as the integrator's vector lanes keep it and
+             * lr__pixel_add16 reads it: no sample is gathered into a
+             * struct only to be taken apart again. */
+            double L[PACKETS_AHEAD][3][16] __attribute__((aligned(64)));
             sh->integrator->radiance16_n(sh->scene, sh->max_depth, rh, ns,
                                          n_packets, id, L, &cnt->rays);
-        else
-            for (int p = 0; p < n_packets; p++)
-                sh->integrator->radiance16(sh->scene, sh->max_depth, &rh[p],
-                                           ns[p], &id[p], L[p], &cnt->rays);
+            for (int p = 0; p < n_packets; p++) {
+                int n = ns[p];
+                if (sh->cam->weighted)
+                    for (int i = 0; i < n; i++) {
+                        for (int c = 0; c < 3; c++)
+                            L[p][c][i] = L[p][c][i] * (double)wt[p][i];
+                        cnt->lens_blocked += wt[p][i] == 0.0f;
+                    }
+                lr__pixel_add16(acc, (const double(*)[16])L[p], n,
+                                !sh->no_squares);
+            }
+            continue;
+        }
+        lr__v3 L[PACKETS_AHEAD][16];
+        for (int p = 0; p < n_packets; p++)
+            sh->integrator->radiance16(sh->scene, sh->max_depth, &rh[p],
+                                       ns[p], &id[p], L[p], &cnt->rays);
         for (int p = 0; p < n_packets; p++) {
             int n = ns[p];
             if (sh->cam->weighted)

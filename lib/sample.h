@@ -24,6 +24,10 @@ typedef struct lr__shot {
     const lr__integrator *integrator;
     int width;        /* of the full frame, for pixel indices */
     int max_depth;
+    /* 1: nobody reads the film's sums of squares (adaptive sampling is
+     * off), so the packet path does not keep them.  0, the default,
+     * keeps them. */
+    int no_squares;
     /* Spectral mode: where wavelengths are drawn, their weights and the
      * camera's focus power (lr__cam_power_at) at each (wavelength.h). */
     lr__wl_table wl;

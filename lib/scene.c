@@ -198,6 +198,7 @@ static double *face_normals(const lr__geom *g)
 
 lr_status lr__scene_commit(lr_scene *s, lr_error *err)
 {
+    s->all_lambert = 1;
     for (size_t i = 0; i < s->n_geoms; i++) {
         lr__geom *g = &s->geoms[i];
         const lr__material *m = &s->materials[g->material];
@@ -208,6 +209,7 @@ lr_status lr__scene_commit(lr_scene *s, lr_error *err)
                                v3_maxc(m->diffuse) > 0.0 &&
                                !(v3_maxc(m->emission) > 0.0) &&
                                m->normal_tex == NULL;
+        s->all_lambert &= g->lambert_triangles;
         lr_status st = lr__plan_chunk_bounds(g, err);
         if (st != LR_OK)
             return st;

@@ -227,6 +227,9 @@ struct lr_scene {
     size_t n_lights;
     lr__geom *geoms;       /* Embree geometries, by geometry ID */
     size_t n_geoms;
+    /* Set by lr__scene_commit: every one of geoms has lambert_triangles
+     * (then a hit's geometry needs no look-up to know it). */
+    int all_lambert;
     lr__geom *planes;      /* infinite planes */
     size_t n_planes;
     lr__v3 ambient;        /* sum of ambient lights' radiance */

@@ -206,26 +206,35 @@ __attribute__((target_clones("avx512f", "avx2", "default")))
 void lr__hits16_complete(const struct RTCRayHit16 *rh, lr__hits16 *h)
 {
     const struct RTCRay16 *r = &rh->ray;
+    /* ns: the corner normals interpolated and normalised (v3_norm), or
+     * in flat meshes ng (the scalar code normalises the same cross
+     * product for both).  The square root and division queue for the
+     * divider with the others of the packet path; a packet with no
+     * smooth lane (the ground, a flat mesh) skips them. */
+    double Nx[16], Ny[16], Nz[16];
+    int any_smooth = 0;
+    for (int i = 0; i < 16; i++)
+        any_smooth |= h->smooth[i] != 0.0f;
+    if (any_smooth)
+        for (int i = 0; i < 16; i++) {
+            double u = rh->hit.u[i], v = rh->hit.v[i], w = 1.0 - u - v;
+            double nsx = w * h->n[0][i] + u * h->n[3][i] + v * h->n[6][i];
+            double nsy = w * h->n[1][i] + u * h->n[4][i] + v * h->n[7][i];
+            double nsz = w * h->n[2][i] + u * h->n[5][i] + v * h->n[8][i];
+            double ls = sqrt(nsx * nsx + nsy * nsy + nsz * nsz);
+            double is = 1.0 / ls;
+            int oks = ls > 0;
+            Nx[i] = oks ? nsx * is : nsx;
+            Ny[i] = oks ? nsy * is : nsy;
+            Nz[i] = oks ? nsz * is : nsz;
+        }
     for (int i = 0; i < 16; i++) {
         /* ng: unit already (scene.c's face_normals). */
         double ngx = h->ng[0][i], ngy = h->ng[1][i], ngz = h->ng[2][i];
-        /* ns: the corner normals interpolated and normalised (v3_norm),
-         * or in flat meshes ng (the scalar code normalises the same
-         * cross product for both). */
-        double u = rh->hit.u[i], v = rh->hit.v[i], w = 1.0 - u - v;
-        double nsx = w * h->n[0][i] + u * h->n[3][i] + v * h->n[6][i];
-        double nsy = w * h->n[1][i] + u * h->n[4][i] + v * h->n[7][i];
-        double nsz = w * h->n[2][i] + u * h->n[5][i] + v * h->n[8][i];
-        double ls = sqrt(nsx * nsx + nsy * nsy + nsz * nsz);
-        double is = 1.0 / ls;
-        int oks = ls > 0;
-        nsx = oks ? nsx * is : nsx;
-        nsy = oks ? nsy * is : nsy;
-        nsz = oks ? nsz * is : nsz;
         int smooth = h->smooth[i] != 0.0f;
-        nsx = smooth ? nsx : ngx;
-        nsy = smooth ? nsy : ngy;
-        nsz = smooth ? nsz : ngz;
+        double nsx = smooth ? Nx[i] : ngx;
+        double nsy = smooth ? Ny[i] : ngy;
+        double nsz = smooth ? Nz[i] : ngz;
         double t = r->tfar[i];
         double dx = r->dir_x[i], dy = r->dir_y[i], dz = r->dir_z[i];
         h->px[i] = (double)r->org_x[i] + dx * t;

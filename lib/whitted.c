@@ -24,7 +24,9 @@
 #include "light.h"
 
 #include <float.h>
+#include <emmintrin.h>
 #include <math.h>
+#include <string.h>
 
 #define LR__MIN_THROUGHPUT 1e-4
 
@@ -119,14 +121,13 @@ static int light_ray_setup(const lr_scene *s, const lr__material *m,
  * light_ray_setup gives them, for the infinite planes.  Returns the
  * number of lanes that need a shadow ray (counted here, from registers:
  * read back from ok[], it waited for the stores). */
-__attribute__((target_clones("avx512f", "avx2", "default")))
-static int light_rays16(const lr__light *restrict lt,
-                         const lr__hits16 *restrict h,
-                         const double k[restrict 3][16], int *restrict ok,
-                         struct RTCRay16 *restrict r, double fr[restrict 16],
-                         double fg[restrict 16], double fb[restrict 16],
-                         double ro[restrict 3][16], double rd[restrict 3][16],
-                         double rt[restrict 16])
+static inline __attribute__((always_inline)) int
+light_rays16_body(const lr__light *restrict lt, const lr__hits16 *restrict h,
+                  const double k[restrict 3][16], int *restrict ok,
+                  struct RTCRay16 *restrict r, double fr[restrict 16],
+                  double fg[restrict 16], double fb[restrict 16],
+                  double ro[restrict 3][16], double rd[restrict 3][16],
+                  double rt[restrict 16], const int keep)
 {
     const int point = lt->kind == LR__LIGHT_POINT;
     const double lpx = lt->position.x, lpy = lt->position.y,
@@ -142,6 +143,12 @@ static int light_rays16(const lr__light *restrict lt,
                  sdz = lt->direction.z;
     const double cs = lt->cone_scale, co = lt->cone_offset;
     int lit_[16];
+    /* The shadow rays in double: into the caller's arrays when it keeps
+     * them (keep: the infinite planes test them), else into locals the
+     * compiler keeps in registers or drops. */
+    struct {
+        double o[3][16], d[3][16], t[16];
+    } S;
     for (int i = 0; i < 16; i++) {
         double tox = lpx - h->px[i], toy = lpy - h->py[i],
                toz = lpz - h->pz[i];
@@ -174,9 +181,9 @@ static int light_rays16(const lr__light *restrict lt,
         fg[i] = ((k[1][i] * inv_pi) * Eg) * cos_t;
         fb[i] = ((k[2][i] * inv_pi) * Eb) * cos_t;
         lit_[i] = lit;
-        ro[0][i] = orx, ro[1][i] = ory, ro[2][i] = orz;
-        rd[0][i] = lx, rd[1][i] = ly, rd[2][i] = lz;
-        rt[i] = tfar;
+        S.o[0][i] = orx, S.o[1][i] = ory, S.o[2][i] = orz;
+        S.d[0][i] = lx, S.d[1][i] = ly, S.d[2][i] = lz;
+        S.t[i] = tfar;
     }
     /* (Apart: the vectoriser takes loops of one element width more
      * readily.) */
@@ -185,20 +192,50 @@ static int light_rays16(const lr__light *restrict lt,
         int need = (ok[i] != 0) & lit_[i];
         count += need;
         ok[i] = -need;
-        r->org_x[i] = (float)ro[0][i];
-        r->org_y[i] = (float)ro[1][i];
-        r->org_z[i] = (float)ro[2][i];
+        r->org_x[i] = (float)S.o[0][i];
+        r->org_y[i] = (float)S.o[1][i];
+        r->org_z[i] = (float)S.o[2][i];
         r->tnear[i] = 0.0f;
-        r->dir_x[i] = (float)rd[0][i];
-        r->dir_y[i] = (float)rd[1][i];
-        r->dir_z[i] = (float)rd[2][i];
+        r->dir_x[i] = (float)S.d[0][i];
+        r->dir_y[i] = (float)S.d[1][i];
+        r->dir_z[i] = (float)S.d[2][i];
         r->time[i] = 0.0f;
-        r->tfar[i] = rt[i] < FLT_MAX ? (float)rt[i] : FLT_MAX;
+        r->tfar[i] = S.t[i] < FLT_MAX ? (float)S.t[i] : FLT_MAX;
+        if (keep) {
+            ro[0][i] = S.o[0][i], ro[1][i] = S.o[1][i], ro[2][i] = S.o[2][i];
+            rd[0][i] = S.d[0][i], rd[1][i] = S.d[1][i], rd[2][i] = S.d[2][i];
+            rt[i] = S.t[i];
+        }
         r->mask[i] = 0xFFFFFFFFu;
         r->id[i] = 0;
         r->flags[i] = 0;
     }
     return count;
+}
+
+/* light_rays16_body with the rays in double kept (for the infinite
+ * planes), and without: radiance16_n's batches never have planes. */
+__attribute__((target_clones("avx512f", "avx2", "default")))
+static int light_rays16(const lr__light *restrict lt,
+                        const lr__hits16 *restrict h,
+                        const double k[restrict 3][16], int *restrict ok,
+                        struct RTCRay16 *restrict r, double fr[restrict 16],
+                        double fg[restrict 16], double fb[restrict 16],
+                        double ro[restrict 3][16], double rd[restrict 3][16],
+                        double rt[restrict 16])
+{
+    return light_rays16_body(lt, h, k, ok, r, fr, fg, fb, ro, rd, rt, 1);
+}
+
+__attribute__((target_clones("avx512f", "avx2", "default")))
+static int light_rays16_f(const lr__light *restrict lt,
+                          const lr__hits16 *restrict h,
+                          const double k[restrict 3][16], int *restrict ok,
+                          struct RTCRay16 *restrict r, double fr[restrict 16],
+                          double fg[restrict 16], double fb[restrict 16])
+{
+    return light_rays16_body(lt, h, k, ok, r, fr, fg, fb, NULL, NULL, NULL,
+                             0);
 }
 
 static lr__v3 direct(const lr_scene *s, const lr__material *m,
@@ -346,17 +383,28 @@ static void vector_start16(const lr_scene *s, const double k[3][16],
     }
 }
 
-static void vector_add16(const int *valid, const struct RTCRay16 *shadow,
-                         const double fr[16], const double fg[16],
-                         const double fb[16], double v[restrict 3][16])
+/* The sum made in every lane and kept by a mask where lit: GCC made a
+ * branch of each lane's condition (mispredicted along shadow edges). */
+__attribute__((target_clones("avx512f", "avx2", "default")))
+static void vector_add16(const int *restrict valid,
+                         const struct RTCRay16 *restrict shadow,
+                         const double fr[restrict 16],
+                         const double fg[restrict 16],
+                         const double fb[restrict 16],
+                         double v[restrict 3][16])
 {
-    /* Embree marks an occluded ray by setting tfar to -inf. */
-    for (int i = 0; i < 16; i++) {
-        int lit = (valid[i] != 0) & (shadow->tfar[i] >= 0.0f);
-        v[0][i] = lit ? v[0][i] + fr[i] : v[0][i];
-        v[1][i] = lit ? v[1][i] + fg[i] : v[1][i];
-        v[2][i] = lit ? v[2][i] + fb[i] : v[2][i];
-    }
+    const double *f[3] = {fr, fg, fb};
+    for (int c = 0; c < 3; c++)
+        for (int i = 0; i < 16; i++) {
+            /* Embree marks an occluded ray by setting tfar to -inf. */
+            int lit = (valid[i] != 0) & (shadow->tfar[i] >= 0.0f);
+            uint64_t m = (uint64_t)0 - (uint64_t)lit, a, b;
+            double sum = v[c][i] + f[c][i];
+            memcpy(&a, &sum, sizeof a);
+            memcpy(&b, &v[c][i], sizeof b);
+            a = (a & m) | (b & ~m);
+            memcpy(&v[c][i], &a, sizeof a);
+        }
 }
 
 /* Lane i's camera ray missed and no infinite plane can meet it: the
@@ -527,25 +575,97 @@ static void radiance16(const lr_scene *s, int max_depth,
     shade16(s, max_depth, rh, n, L, rays);
 }
 
+/* Which of a packet's n lanes hit something: bit i for lane i.  The
+ * loops over a packet's lanes below visit its hits by these bits: a test
+ * per lane was a branch the processor mispredicted wherever hits and
+ * misses mix (a silhouette, the horizon). */
+static inline unsigned hit_mask(const struct RTCRayHit16 *rh, int n)
+{
+    /* Four lanes at a time in SSE2 (every x86-64 has it): as plain C,
+     * sixteen compares and shifts. */
+    const __m128i none = _mm_set1_epi32((int)RTC_INVALID_GEOMETRY_ID);
+    unsigned miss = 0;
+    for (int k = 0; k < 4; k++) {
+        __m128i g = _mm_load_si128((const __m128i *)&rh->hit.geomID[4 * k]);
+        miss |= (unsigned)_mm_movemask_ps(
+                    _mm_castsi128_ps(_mm_cmpeq_epi32(g, none)))
+                << (4 * k);
+    }
+    return ~miss & ((1u << n) - 1u);
+}
+
 /* A packet whose every lane is a miss (no infinite planes) or a vector
- * lane: shade16 would use none of its scalar code. */
-static int all_vector(const lr_scene *s, const struct RTCRayHit16 *rh, int n)
+ * lane (`hits`: its hit_mask): shade16 would use none of its scalar
+ * code. */
+static int all_vector(const lr_scene *s, const struct RTCRayHit16 *rh,
+                      unsigned hits)
 {
     if (lr__whitted_scalar_only || s->n_planes != 0)
         return 0;
-    for (int i = 0; i < n; i++) {
-        unsigned g = rh->hit.geomID[i];
-        if (g != RTC_INVALID_GEOMETRY_ID && !s->geoms[g].lambert_triangles)
+    if (s->all_lambert)
+        return 1;
+    for (; hits; hits &= hits - 1) {
+        unsigned g = rh->hit.geomID[__builtin_ctz(hits)];
+        if (!s->geoms[g].lambert_triangles)
             return 0;
     }
     return 1;
+}
+
+/* A batch packet's result: L[c][i] = v[c][i] in its vector lanes
+ * (vec[i] != 0), sky[c][i] in the others (lanes past the packet's n
+ * included: the film ignores them).  In whole vectors, as the film reads
+ * them: written lane by lane, the film's vector loads would wait for the
+ * stores to retire, and as plain C with a condition per lane GCC made a
+ * branch of each. */
+__attribute__((target_clones("avx512f", "avx2", "default")))
+static void lanes_out16(const int *restrict vec,
+                        const double v[restrict 3][16],
+                        const double sky[restrict 3][16],
+                        double L[restrict 3][16])
+{
+    /* As bits with a mask: GCC branches on `vec[i] ? a : b` even with
+     * both loads made beforehand. */
+    for (int c = 0; c < 3; c++)
+        for (int i = 0; i < 16; i++) {
+            uint64_t a, b, m = (uint64_t)0 - (uint64_t)(vec[i] != 0);
+            memcpy(&a, &v[c][i], sizeof a);
+            memcpy(&b, &sky[c][i], sizeof b);
+            a = (a & m) | (b & ~m);
+            memcpy(&L[c][i], &a, sizeof a);
+        }
+}
+
+/* Asks for the triangle data vector_gather will read for a packet's
+ * hits (its unit normal, its corner normals): a pixel's first packets
+ * meet triangles whose data is not in the cache yet, and the load then
+ * waited in vector_gather.  Called a packet late, while Embree traces
+ * the next one. */
+static inline void prefetch_lanes(const lr_scene *s,
+                                  const struct RTCRayHit16 *rh,
+                                  unsigned hits)
+{
+    for (; hits; hits &= hits - 1) {
+        int i = __builtin_ctz(hits);
+        const lr__geom *G = &s->geoms[rh->hit.geomID[i]];
+        if (!G->lambert_triangles)
+            continue;
+        size_t prim = rh->hit.primID[i];
+        __builtin_prefetch(&G->face_ng[3 * prim]);
+        if (G->corner_normals != NULL) {
+            /* 36 bytes: they may straddle two cache lines. */
+            __builtin_prefetch(&G->corner_normals[9 * prim]);
+            __builtin_prefetch(&G->corner_normals[9 * prim + 8]);
+        }
+    }
 }
 
 /* What such a packet keeps between the steps of radiance16_n. */
 typedef struct batch16 {
     scratch16 sc; /* its lanes' hits and albedos, as shade16's */
     double v[3][16];
-    double fr[16], fg[16], fb[16], ro[3][16], rd[3][16], rt[16];
+    double sky[3][16]; /* the misses' sky, with an environment map */
+    double fr[16], fg[16], fb[16];
     int vec[16], valid[16];
     int n_vec, any;
     struct RTCRay16 shadow __attribute__((aligned(64)));
@@ -570,37 +690,62 @@ __attribute__((noinline)) static batch16 *thread_batch(void)
  * Embree calls and arithmetic are the ones shade16 gives it alone. */
 static void radiance16_n(const lr_scene *s, int max_depth,
                          struct RTCRayHit16 *rh, const int *n, int count,
-                         const lr__sample_id *id, lr__v3 (*L)[16],
+                         const lr__sample_id *id, double (*L)[3][16],
                          uint64_t *rays)
 {
     (void)id;
-    for (int p = 0; p < count; p++)
+    if (count > LR__BATCH_MAX) {
+        /* In batches of at most LR__BATCH_MAX: each packet's result is
+         * its own whatever the batch. */
+        radiance16_n(s, max_depth, rh, n, LR__BATCH_MAX, id, L, rays);
+        radiance16_n(s, max_depth, rh + LR__BATCH_MAX, n + LR__BATCH_MAX,
+                     count - LR__BATCH_MAX, id + LR__BATCH_MAX,
+                     L + LR__BATCH_MAX, rays);
+        return;
+    }
+    unsigned hits[LR__BATCH_MAX];
+    for (int p = 0; p < count; p++) {
         lr__intersect16(s, &rh[p], n[p], rays);
+        if (p > 0) {
+            hits[p - 1] = hit_mask(&rh[p - 1], n[p - 1]);
+            prefetch_lanes(s, &rh[p - 1], hits[p - 1]);
+        }
+    }
+    hits[count - 1] = hit_mask(&rh[count - 1], n[count - 1]);
+    prefetch_lanes(s, &rh[count - 1], hits[count - 1]);
     batch16 *B = thread_batch();
     int of[LR__BATCH_MAX], nb = 0;
     for (int p = 0; p < count; p++) {
-        if (nb < LR__BATCH_MAX && all_vector(s, &rh[p], n[p]))
+        if (all_vector(s, &rh[p], hits[p])) {
             of[nb++] = p;
-        else
-            shade16(s, max_depth, &rh[p], n[p], L[p], rays);
+            continue;
+        }
+        lr__v3 Lp[16];
+        shade16(s, max_depth, &rh[p], n[p], Lp, rays);
+        /* Lanes past n[p] hold 0: the film's test reads all sixteen. */
+        for (int i = 0; i < 16; i++) {
+            L[p][0][i] = i < n[p] ? Lp[i].x : 0.0;
+            L[p][1][i] = i < n[p] ? Lp[i].y : 0.0;
+            L[p][2][i] = i < n[p] ? Lp[i].z : 0.0;
+        }
     }
     for (int b = 0; b < nb; b++) {
         int p = of[b];
         batch16 *bt = &B[b];
         const struct RTCRayHit16 *r = &rh[p];
-        bt->n_vec = 0;
+        unsigned h = hits[p];
+        bt->n_vec = __builtin_popcount(h);
         for (int i = 0; i < 16; i++)
-            bt->vec[i] = 0;
-        for (int i = 0; i < n[p]; i++) {
-            unsigned g = r->hit.geomID[i];
-            if (g == RTC_INVALID_GEOMETRY_ID) {
-                L[p][i] = sky16(s, &r->ray, i);
-                continue;
+            bt->vec[i] = -(int)((h >> i) & 1u);
+        for (unsigned m = h; m; m &= m - 1)
+            vector_gather(s, r, __builtin_ctz(m), &bt->sc);
+        if (s->env != NULL)
+            for (unsigned m = ~h & ((1u << n[p]) - 1u); m; m &= m - 1) {
+                int i = __builtin_ctz(m);
+                lr__v3 sky = sky16(s, &r->ray, i);
+                bt->sky[0][i] = sky.x, bt->sky[1][i] = sky.y,
+                bt->sky[2][i] = sky.z;
             }
-            bt->vec[i] = -1;
-            bt->n_vec++;
-            vector_gather(s, r, i, &bt->sc);
-        }
         if (bt->n_vec) {
             lr__hits16_complete(r, &bt->sc.h);
             vector_start16(s, (const double(*)[16])bt->sc.k, bt->v);
@@ -617,10 +762,10 @@ static void radiance16_n(const lr_scene *s, int max_depth,
                 continue;
             for (int i = 0; i < 16; i++)
                 bt->valid[i] = bt->vec[i];
-            bt->any = light_rays16(&s->lights[k], &bt->sc.h,
-                                   (const double(*)[16])bt->sc.k, bt->valid,
-                                   &bt->shadow, bt->fr, bt->fg, bt->fb,
-                                   bt->ro, bt->rd, bt->rt);
+            bt->any = light_rays16_f(&s->lights[k], &bt->sc.h,
+                                     (const double(*)[16])bt->sc.k,
+                                     bt->valid, &bt->shadow, bt->fr, bt->fg,
+                                     bt->fb);
             if (bt->any)
                 lr__ray16_quiet_lanes(&bt->shadow, bt->valid);
         }
@@ -638,12 +783,18 @@ static void radiance16_n(const lr_scene *s, int max_depth,
                              bt->v);
         }
     }
+    /* The misses' value without an environment map. */
+    double bg[3][16] __attribute__((aligned(64)));
+    for (int i = 0; i < 16; i++)
+        bg[0][i] = s->background.x, bg[1][i] = s->background.y,
+        bg[2][i] = s->background.z;
     for (int b = 0; b < nb; b++) {
         int p = of[b];
         batch16 *bt = &B[b];
-        for (int i = 0; i < n[p]; i++)
-            if (bt->vec[i])
-                L[p][i] = v3(bt->v[0][i], bt->v[1][i], bt->v[2][i]);
+        lanes_out16(bt->vec, (const double(*)[16])bt->v,
+                    s->env != NULL ? (const double(*)[16])bt->sky
+                                   : (const double(*)[16])bg,
+                    L[p]);
     }
 }
 

@@ -178,6 +178,49 @@ static void test_film_drops_nan(void **state)
     assert_true(isfinite(out[0]) && isfinite(out[1]));
 }
 
+/* lr__pixel_add16 (a packet's samples per channel) gives the bits of
+ * lr__pixel_add_n (one struct per sample), for every n, with non-finite
+ * samples among them or not; without squares it leaves sum2 alone. */
+static void test_film_add16_matches_add_n(void **state)
+{
+    (void)state;
+    uint64_t z = 12345;
+    for (int round = 0; round < 400; round++) {
+        int n = 1 + round % 16;
+        double L[3][16];
+        lr__v3 A[16];
+        for (int i = 0; i < 16; i++)
+            for (int c = 0; c < 3; c++) {
+                z = lr__mix64(z + 1);
+                /* Values over many scales, so that the sums round. */
+                double v = (double)(z >> 11) * 0x1p-53 *
+                           ldexp(1.0, (int)(z % 40) - 20);
+                if (round % 5 == 0 && (z >> 7) % 23 == 0)
+                    v = (z >> 3) % 3 == 0   ? NAN
+                        : (z >> 3) % 3 == 1 ? INFINITY
+                                            : -INFINITY;
+                L[c][i] = v;
+            }
+        for (int i = 0; i < 16; i++)
+            A[i] = v3(L[0][i], L[1][i], L[2][i]);
+        lr__pixel a, b, c;
+        lr__pixel_reset(&a);
+        a.sum[0] = 0.1, a.sum[1] = 1e-3, a.sum[2] = 7.0;
+        a.sum2[0] = 0.3, a.sum2[1] = 2.0, a.sum2[2] = 1e-5;
+        a.n = 3;
+        b = a, c = a;
+        lr__pixel_add_n(&a, A, n);
+        lr__pixel_add16(&b, (const double(*)[16])L, n, 1);
+        lr__pixel_add16(&c, (const double(*)[16])L, n, 0);
+        if (memcmp(&a, &b, sizeof a) != 0)
+            fail_msg("round %d (n %d): add16 differs from add_n", round, n);
+        assert_memory_equal(a.sum, c.sum, sizeof a.sum);
+        assert_true(c.sum2[0] == 0.3 && c.sum2[1] == 2.0 &&
+                    c.sum2[2] == 1e-5);
+        assert_true(c.n == a.n && c.dropped == a.dropped);
+    }
+}
+
 static lr_image *render(const char *json, int threads, int tile,
                         lr_render_stats *stats)
 {
@@ -549,6 +592,7 @@ static void test_packets_on_every_embree_isa(void **state)
 
 static const struct CMUnitTest shade_tests[] = {
     cmocka_unit_test(test_packets_on_every_embree_isa),
+    cmocka_unit_test(test_film_add16_matches_add_n),
     cmocka_unit_test(test_vector_shading_matches_scalar),
     cmocka_unit_test(test_vector_shading_with_infinite_planes),
     cmocka_unit_test(test_lambert_point_light),
