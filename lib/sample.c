@@ -100,11 +100,10 @@ static void packet_samples(const lr__shot *sh, int use_lens, int x, int y,
             for (int p = 0; p < n_packets; p++)
                 sh->cam->model->rays16(sh->cam, use_lens, nr[p], fx[p], fy[p],
                                        lu[p], lv[p], &rh[p], wt[p]);
-        int ns[PACKETS_AHEAD];
+        const int *ns = nr;
         lr__sample_id id[PACKETS_AHEAD];
         for (int p = 0; p < n_packets; p++) {
             int s0 = b0 + 16 * p;
-            ns[p] = last - s0 < 16 ? last - s0 : 16;
             id[p] = (lr__sample_id){sh->sampler, pixel, (uint32_t)s0};
             cnt->camera_rays += (uint64_t)ns[p];
         }
