@@ -94,6 +94,11 @@ J
 @test "usage errors exit 2" {
     run -2 "$LENSRAY" lens
     run -2 "$LENSRAY" lens petzval --field-angles 1,x
+    [[ "$output" == *"--field-angles '1,x'"* ]]
+    run -2 "$LENSRAY" lens petzval --field-angles 1,
+    [[ "$output" == *"--field-angles '1,'"* ]]
+    run -2 "$LENSRAY" lens petzval --field-angles ""
+    run -2 "$LENSRAY" lens petzval --field-angles ,1
     run -2 "$LENSRAY" lens petzval --wavelength
     run -2 "$LENSRAY" lens petzval --bogus
     run -3 "$LENSRAY" lens petzval --field-angles 95

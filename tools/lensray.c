@@ -677,15 +677,17 @@ static int cmd_lens(int argc, char **argv)
                 continue;
             }
             n = 0;
-            while (*v) {
+            do {
                 if (n == 64)
                     return usage_error("%s", "at most 64 field angles");
                 angles[n++] = strtod(v, &end);
+                /* Every comma is followed by a number: "1," and "" are
+                 * refused, not read as "1" and as no angles. */
                 if (end == v || (*end != ',' && *end != '\0'))
                     return usage_error("--field-angles '%s': want numbers "
                                        "separated by commas", argv[i]);
                 v = *end == ',' ? end + 1 : end;
-            }
+            } while (*end != '\0');
         } else if (a[0] == '-' && a[1] != '\0')
             return usage_error("unknown option '%s'", a);
         else if (lens != NULL)

@@ -399,6 +399,11 @@ class Scene:
                 rendered before it stopped.
             KeyboardInterrupt: Ctrl-C, after the render has stopped.
         """
+        # Checked before the render starts: the loop below first asks it
+        # after 0.1 s, so a wrong value would fail only in longer renders.
+        if cancel is not None and not callable(getattr(cancel, "is_set", None)):
+            raise TypeError("cancel must be a threading.Event, got "
+                            f"{type(cancel).__name__}")
         cam, rs = self._setup(camera, render)
         if depth:
             rs.want_depth = 1

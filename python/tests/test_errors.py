@@ -97,6 +97,14 @@ def test_overrides_that_are_not_dicts_are_type_errors(spheres):
             spheres.render(render=bad)
 
 
+def test_cancel_that_is_not_an_event_is_a_type_error(spheres):
+    # Refused before rendering, whatever the render's length (the render
+    # first looks at cancel after 0.1 s).
+    for bad in (5, "stop", True):
+        with pytest.raises(TypeError, match="cancel must be a threading.Event"):
+            spheres.render(render={"width": 8, "height": 8, "spp": 1}, cancel=bad)
+
+
 def test_missing_file_is_an_io_error(tmp_path):
     with pytest.raises(lensray.LensrayIOError) as e:
         lensray.load(tmp_path / "none.json")
