@@ -370,8 +370,37 @@ typedef struct chunk_job {
     int chunk;             /* the chunk being compressed */
     exr_result_t rv;
     int zip;               /* ZIP or ZIPS: compress with exr_zip.c */
-    lr__exr_zip *deflate;  /* this job's, while it runs */
+    /* The worker's own, kept from batch to batch (job_open, job_close):
+     * the staging planes, the deflate state and the pipeline with its
+     * buffers. */
+    unsigned char *stage;
+    lr__exr_zip *deflate;
+    exr_encode_pipeline_t enc;
+    int live;              /* enc initialised */
 } chunk_job;
+
+/* The job's worker state; its rv says whether there was memory. */
+static void job_open(chunk_job *job)
+{
+    job->stage = malloc(job->plane_bytes * CH_COUNT);
+    job->deflate = job->zip ? lr__exr_zip_new() : NULL;
+    job->enc = (exr_encode_pipeline_t)EXR_ENCODE_PIPELINE_INITIALIZER;
+    job->live = 0;
+    job->rv = job->stage == NULL || (job->zip && job->deflate == NULL)
+                  ? EXR_ERR_OUT_OF_MEMORY
+                  : EXR_ERR_SUCCESS;
+}
+
+static void job_close(chunk_job *job)
+{
+    if (job->live)
+        exr_encoding_destroy(job->ctxt, &job->enc);
+    job->live = 0;
+    lr__exr_zip_free(job->deflate);
+    job->deflate = NULL;
+    free(job->stage);
+    job->stage = NULL;
+}
 
 /* The pipeline's last step in a batch: keeps the compressed chunk for
  * writing in order later (the bytes the default step would write now). */
@@ -410,19 +439,15 @@ static exr_result_t zip_chunk(exr_encode_pipeline_t *enc)
     return EXR_ERR_SUCCESS;
 }
 
-/* Compresses (and, without blobs, writes) the job's chunks. */
+/* Compresses (and, without blobs, writes) the job's chunks, with the
+ * worker state job_open made. */
 static void *compress_chunks(void *arg)
 {
     chunk_job *job = arg;
     const lr_image *img = job->img;
     int top = img->frame_w > 0 ? img->y0 : 0;
-    exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
-    int live = 0;
-    exr_result_t rv = EXR_ERR_SUCCESS;
-    unsigned char *stage = malloc(job->plane_bytes * CH_COUNT);
-    job->deflate = job->zip ? lr__exr_zip_new() : NULL;
-    if (stage == NULL || (job->zip && job->deflate == NULL))
-        rv = EXR_ERR_OUT_OF_MEMORY;
+    exr_encode_pipeline_t *enc = &job->enc;
+    exr_result_t rv = job->rv;
     for (int k = job->first; k < job->end && rv == EXR_ERR_SUCCESS;
          k += job->step) {
         /* Chunks are named by their first line in the data window's
@@ -436,48 +461,43 @@ static void *compress_chunks(void *arg)
                                       cinfo.start_y - top, cinfo.height);
         if (!direct)
             stage_chunk(img, job->want_z, job->half, cinfo.start_y - top,
-                        cinfo.height, job->plane_bytes, stage);
-        if (!live) {
-            rv = exr_encoding_initialize(job->ctxt, job->part, &cinfo, &enc);
+                        cinfo.height, job->plane_bytes, job->stage);
+        if (!job->live) {
+            rv = exr_encoding_initialize(job->ctxt, job->part, &cinfo, enc);
             if (rv != EXR_ERR_SUCCESS)
                 break;
-            live = 1;
+            job->live = 1;
             rv = exr_encoding_choose_default_routines(job->ctxt, job->part,
-                                                      &enc);
+                                                      enc);
         } else {
             /* Reusing the pipeline keeps its buffers; the update resets
              * the per-chunk channel heights, so bind again. */
-            rv = exr_encoding_update(job->ctxt, job->part, &cinfo, &enc);
+            rv = exr_encoding_update(job->ctxt, job->part, &cinfo, enc);
         }
         if (rv == EXR_ERR_SUCCESS)
-            rv = direct ? bind_image(&enc, img, cinfo.start_y - top)
-                        : bind_channels(&enc, job->half, job->plane_bytes,
-                                        stage, img->width);
+            rv = direct ? bind_image(enc, img, cinfo.start_y - top)
+                        : bind_channels(enc, job->half, job->plane_bytes,
+                                        job->stage, img->width);
         if (rv != EXR_ERR_SUCCESS)
             break;
-        enc.encoding_user_data = job;
+        enc->encoding_user_data = job;
         if (job->zip)
-            enc.compress_fn = zip_chunk;
+            enc->compress_fn = zip_chunk;
         if (job->blobs != NULL) {
             /* Not the default order check: encode_chunks writes the
              * batch in order once every worker is done. */
-            enc.yield_until_ready_fn = NULL;
-            enc.write_fn = keep_chunk;
+            enc->yield_until_ready_fn = NULL;
+            enc->write_fn = keep_chunk;
         }
         job->chunk = k;
-        rv = exr_encoding_run(job->ctxt, job->part, &enc);
+        rv = exr_encoding_run(job->ctxt, job->part, enc);
         /* zip_chunk's buffer is the job's (or the packed one): the
          * pipeline must not free or reuse it as its own. */
         if (job->zip) {
-            enc.compressed_buffer = NULL;
-            enc.compressed_alloc_size = 0;
+            enc->compressed_buffer = NULL;
+            enc->compressed_alloc_size = 0;
         }
     }
-    if (live)
-        exr_encoding_destroy(job->ctxt, &enc);
-    lr__exr_zip_free(job->deflate);
-    job->deflate = NULL;
-    free(stage);
     job->rv = rv;
     return NULL;
 }
@@ -517,23 +537,31 @@ static int encode_threads(int height, int spc, size_t chunk_bytes,
  * 640-wide frame still compresses in a batch or two. */
 #define BATCH_BYTES ((size_t)2 << 20)
 
-/* Compresses and writes every chunk: on this thread alone, or in batches
- * of up to 16 chunks a thread and BATCH_BYTES (at least one chunk a
- * thread) on `threads` threads (fewer if a thread cannot be started). */
+/* Compresses and writes every chunk (of `plane_bytes` a channel before
+ * compression): on this thread alone, or in batches of up to 16 chunks a
+ * thread and BATCH_BYTES (at least one chunk a thread) on
+ * encode_threads' threads (fewer if a thread cannot be started). */
 static exr_result_t encode_chunks(exr_context_t ctxt, int part,
                                   const lr_image *img, int want_z, int half,
-                                  int spc, size_t plane_bytes, int threads,
-                                  int zip)
+                                  int spc, size_t plane_bytes, int zip)
 {
     int n = (img->height + spc - 1) / spc;
     int top = img->frame_w > 0 ? img->y0 : 0;
-    chunk_job one = {ctxt, part, img, want_z, half, spc, 0, n, 1,
-                     plane_bytes, NULL, 0, 0, EXR_ERR_SUCCESS, zip, NULL};
+    size_t channels = want_z ? CH_COUNT : CH_COUNT - 1;
+    size_t chunk_bytes = plane_bytes * channels;
+    int threads = encode_threads(img->height, spc, chunk_bytes,
+                                 (size_t)img->width * (size_t)img->height *
+                                     channels * 4);
+    chunk_job one = {.ctxt = ctxt, .part = part, .img = img,
+                     .want_z = want_z, .half = half, .spc = spc, .first = 0,
+                     .end = n, .step = 1, .plane_bytes = plane_bytes,
+                     .rv = EXR_ERR_SUCCESS, .zip = zip};
     if (threads <= 1) {
+        job_open(&one);
         compress_chunks(&one);
+        job_close(&one);
         return one.rv;
     }
-    size_t chunk_bytes = plane_bytes * (size_t)(want_z ? CH_COUNT : CH_COUNT - 1);
     size_t fit = BATCH_BYTES / (chunk_bytes ? chunk_bytes : 1);
     int batch = fit < (size_t)threads        ? threads
                 : fit > (size_t)16 * threads ? 16 * threads
@@ -544,14 +572,18 @@ static exr_result_t encode_chunks(exr_context_t ctxt, int part,
     exr_result_t rv = EXR_ERR_SUCCESS;
     if (blobs == NULL || jobs == NULL || tids == NULL)
         rv = EXR_ERR_OUT_OF_MEMORY;
+    for (int t = 0; t < threads && rv == EXR_ERR_SUCCESS; t++) {
+        jobs[t] = one;
+        jobs[t].step = threads;
+        jobs[t].blobs = blobs;
+        job_open(&jobs[t]);
+        rv = jobs[t].rv;
+    }
     for (int b0 = 0; b0 < n && rv == EXR_ERR_SUCCESS; b0 += batch) {
         int end = b0 + batch < n ? b0 + batch : n;
         for (int t = 0; t < threads; t++) {
-            jobs[t] = one;
             jobs[t].first = b0 + t;
             jobs[t].end = end;
-            jobs[t].step = threads;
-            jobs[t].blobs = blobs;
             jobs[t].base = b0;
         }
         /* Worker 0 is this thread; a thread that cannot start leaves its
@@ -578,6 +610,8 @@ static exr_result_t encode_chunks(exr_context_t ctxt, int part,
             bl->data = NULL;
         }
     }
+    for (int t = 0; jobs != NULL && t < threads; t++)
+        job_close(&jobs[t]);
     free(blobs);
     free(jobs);
     free(tids);
@@ -674,11 +708,7 @@ lr_status lr__encode_exr(const lr_image *img, const lr_output_options *opts,
 
     step = "encode the pixels";
     exr_compression_t comp = exr_compression(opts);
-    size_t channels = want_z ? CH_COUNT : CH_COUNT - 1;
     rv = encode_chunks(ctxt, part, img, want_z, half, spc, plane_bytes,
-                       encode_threads(img->height, spc, plane_bytes * channels,
-                                      (size_t)img->width * img->height *
-                                          channels * 4),
                        comp == EXR_COMPRESSION_ZIP ||
                            comp == EXR_COMPRESSION_ZIPS);
     if (rv != EXR_ERR_SUCCESS)
