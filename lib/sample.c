@@ -80,27 +80,23 @@ static void packet_samples(const lr__shot *sh, int use_lens, int x, int y,
     for (int b0 = first; b0 < last; b0 += 16 * PACKETS_AHEAD) {
         /* All the packets' sample values first, then all their rays:
          * each step's chains then overlap across the packets. */
-        int n_packets = 0;
+        int n_packets = 0, ns[PACKETS_AHEAD];
         for (int s0 = b0; s0 < last && n_packets < PACKETS_AHEAD; s0 += 16) {
             int n = last - s0 < 16 ? last - s0 : 16;
             lr__packet_coords(&ps, x, y, (uint32_t)s0, n, fx[n_packets],
                               fy[n_packets], lu[n_packets], lv[n_packets]);
-            n_packets++;
+            ns[n_packets++] = n;
         }
-        int nr[PACKETS_AHEAD];
-        for (int p = 0; p < n_packets; p++)
-            nr[p] = last - (b0 + 16 * p) < 16 ? last - (b0 + 16 * p) : 16;
         if (sh->cam->model->rays16_n != NULL)
-            sh->cam->model->rays16_n(sh->cam, use_lens, n_packets, nr,
+            sh->cam->model->rays16_n(sh->cam, use_lens, n_packets, ns,
                                      (const float(*)[16])fx,
                                      (const float(*)[16])fy,
                                      (const float(*)[16])lu,
                                      (const float(*)[16])lv, rh, wt);
         else
             for (int p = 0; p < n_packets; p++)
-                sh->cam->model->rays16(sh->cam, use_lens, nr[p], fx[p], fy[p],
+                sh->cam->model->rays16(sh->cam, use_lens, ns[p], fx[p], fy[p],
                                        lu[p], lv[p], &rh[p], wt[p]);
-        const int *ns = nr;
         lr__sample_id id[PACKETS_AHEAD];
         for (int p = 0; p < n_packets; p++) {
             int s0 = b0 + 16 * p;
