@@ -383,8 +383,20 @@ static void vector_start16(const lr_scene *s, const double k[3][16],
     }
 }
 
-/* The sum made in every lane and kept by a mask where lit: GCC made a
- * branch of each lane's condition (mispredicted along shadow edges). */
+/* take ? a : b, as bits under a mask: for that written as a condition
+ * GCC makes a branch in each lane of the loops below (mispredicted along
+ * shadow edges and silhouettes), even with both loads made beforehand. */
+static inline double blend(int take, double a, double b)
+{
+    uint64_t m = (uint64_t)0 - (uint64_t)(take != 0), x, y;
+    memcpy(&x, &a, sizeof x);
+    memcpy(&y, &b, sizeof y);
+    x = (x & m) | (y & ~m);
+    memcpy(&a, &x, sizeof a);
+    return a;
+}
+
+/* The sum made in every lane and kept where lit (blend). */
 __attribute__((target_clones("avx512f", "avx2", "default")))
 static void vector_add16(const int *restrict valid,
                          const struct RTCRay16 *restrict shadow,
@@ -398,12 +410,7 @@ static void vector_add16(const int *restrict valid,
         for (int i = 0; i < 16; i++) {
             /* Embree marks an occluded ray by setting tfar to -inf. */
             int lit = (valid[i] != 0) & (shadow->tfar[i] >= 0.0f);
-            uint64_t m = (uint64_t)0 - (uint64_t)lit, a, b;
-            double sum = v[c][i] + f[c][i];
-            memcpy(&a, &sum, sizeof a);
-            memcpy(&b, &v[c][i], sizeof b);
-            a = (a & m) | (b & ~m);
-            memcpy(&v[c][i], &a, sizeof a);
+            v[c][i] = blend(lit, v[c][i] + f[c][i], v[c][i]);
         }
 }
 
@@ -624,16 +631,9 @@ static void lanes_out16(const int *restrict vec,
                         const double sky[restrict 3][16],
                         double L[restrict 3][16])
 {
-    /* As bits with a mask: GCC branches on `vec[i] ? a : b` even with
-     * both loads made beforehand. */
     for (int c = 0; c < 3; c++)
-        for (int i = 0; i < 16; i++) {
-            uint64_t a, b, m = (uint64_t)0 - (uint64_t)(vec[i] != 0);
-            memcpy(&a, &v[c][i], sizeof a);
-            memcpy(&b, &sky[c][i], sizeof b);
-            a = (a & m) | (b & ~m);
-            memcpy(&L[c][i], &a, sizeof a);
-        }
+        for (int i = 0; i < 16; i++)
+            L[c][i] = blend(vec[i], v[c][i], sky[c][i]);
 }
 
 /* Asks for the triangle data vector_gather will read for a packet's
