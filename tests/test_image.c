@@ -633,6 +633,28 @@ static void test_exr_zip_incompressible(void **state)
     lr_image_free(img);
 }
 
+/* The image encoded as EXR on one thread, after checking that each of
+ * the n thread counts gives the same bytes; the caller frees it. */
+static void *exr_same_on_threads(const lr_image *img,
+                                 const lr_output_options *opts,
+                                 const int *counts, size_t n, size_t *len)
+{
+    void *one = NULL;
+    lr__exr_threads = 1;
+    encode_or_fail(img, LR_FORMAT_EXR, opts, &one, len);
+    for (size_t k = 0; k < n; k++) {
+        lr__exr_threads = counts[k];
+        void *buf = NULL;
+        size_t blen = 0;
+        encode_or_fail(img, LR_FORMAT_EXR, opts, &buf, &blen);
+        assert_int_equal(blen, *len);
+        assert_memory_equal(buf, one, blen);
+        lr_free(buf);
+    }
+    lr__exr_threads = 0;
+    return one;
+}
+
 /* The chunks are compressed on several threads and written in order
  * (image_exr.c): every thread count writes the same bytes, and they
  * decode to the image.  A crop placed at row 7 of its frame (chunks named
@@ -654,21 +676,11 @@ static void test_exr_threads_same_bytes(void **state)
         lr_output_options opts;
         lr_output_options_default(&opts);
         opts.exr_half = half;
-        void *one = NULL;
-        size_t one_len = 0;
-        lr__exr_threads = 1;
-        encode_or_fail(img, LR_FORMAT_EXR, &opts, &one, &one_len);
         static const int counts[] = {2, 3, 8, 40};
-        for (size_t k = 0; k < sizeof counts / sizeof counts[0]; k++) {
-            lr__exr_threads = counts[k];
-            void *buf = NULL;
-            size_t len = 0;
-            encode_or_fail(img, LR_FORMAT_EXR, &opts, &buf, &len);
-            assert_int_equal(len, one_len);
-            assert_memory_equal(buf, one, len);
-            lr_free(buf);
-        }
-        lr__exr_threads = 0;
+        size_t one_len = 0;
+        void *one = exr_same_on_threads(img, &opts, counts,
+                                        sizeof counts / sizeof counts[0],
+                                        &one_len);
         decoded_exr d;
         decode_exr(one, one_len, &d);
         assert_int_equal(d.data_window.min.y, 7);
@@ -942,20 +954,9 @@ static void test_exr_wide_mixed_chunks(void **state)
     z[bad + 1] = INFINITY;
     lr_output_options opts;
     lr_output_options_default(&opts);
-    void *one = NULL;
+    static const int counts[] = {2, 3};
     size_t one_len = 0;
-    lr__exr_threads = 1;
-    encode_or_fail(img, LR_FORMAT_EXR, &opts, &one, &one_len);
-    for (int t = 2; t <= 3; t++) {
-        lr__exr_threads = t;
-        void *buf = NULL;
-        size_t len = 0;
-        encode_or_fail(img, LR_FORMAT_EXR, &opts, &buf, &len);
-        assert_int_equal(len, one_len);
-        assert_memory_equal(buf, one, len);
-        lr_free(buf);
-    }
-    lr__exr_threads = 0;
+    void *one = exr_same_on_threads(img, &opts, counts, 2, &one_len);
     decoded_exr d;
     decode_exr(one, one_len, &d);
     const float *G = exr_plane(&d, "G"), *Z = exr_plane(&d, "Z");
