@@ -12,7 +12,9 @@
 #      on 2 (one worker each: on 2 cores, one core per daemon); once for
 #      one frame, and once for a batch of BENCH_FARM_FRAMES frames
 #      (default 4), where the client's start and each frame's writing
-#      overlap other frames' parts, as in an animation;
+#      overlap other frames' parts, as in an animation; the frames are
+#      written without compression, and the client's CPU is given with
+#      and without ZIP (it shares the daemons' two cores here);
 #   2. the overhead of splitting: the frame whole (one part) against 16
 #      parts, both on one daemon at all threads, with two workers (the
 #      farm's default, farm/farm.sh) and the parts three in flight, so
@@ -90,10 +92,15 @@ once() {
     s0=$(metric lensrayd_samples_total) m0=$(metric lensrayd_scene_cache_misses_total)
     scenes=$(for f in $(seq "${5:-1}"); do echo scenes/bench.json; done)
     t0=$(date +%s.%N)
-    # shellcheck disable=SC2086
-    "$LENSRAY" render $scenes -o "$OUT/farm-out%d.exr" -q \
-        --set render.spp="$SPP" --set render.threads="$4" \
-        --remote "$1" --parts "$2" --parallel "$3" || exit 1
+    # The client's CPU seconds, from the cutime and cstime (fields 16 and
+    # 17 of /proc/PID/stat) of the shell that waited for it, into
+    # $OUT/farm-client.last.
+    # shellcheck disable=SC2016,SC2086
+    sh -c '"$@" || exit 1
+           awk -v t="$(getconf CLK_TCK)" "{printf \"%.3f\\n\", (\$16 + \$17) / t}" /proc/$$/stat' \
+        sh "$LENSRAY" render $scenes -o "$OUT/farm-out%d.exr" -q \
+        --set render.spp="$SPP" --set render.threads="$4" --compression "$COMP" \
+        --remote "$1" --parts "$2" --parallel "$3" >"$OUT/farm-client.last" || exit 1
     t1=$(date +%s.%N)
     echo "$t0 $t1 $c0 $(daemon_cpu) $r0 $(metric lensrayd_rays_traced_total)" \
          "$s0 $(metric lensrayd_samples_total) $m0 $(metric lensrayd_scene_cache_misses_total)" |
@@ -110,11 +117,15 @@ once() {
 pair() {
     : >"$OUT/farm-a.txt"
     : >"$OUT/farm-b.txt"
+    : >"$OUT/farm-ca.txt"
+    : >"$OUT/farm-cb.txt"
     for r in $(seq "$REPEAT"); do
         # shellcheck disable=SC2086
         once $1 >>"$OUT/farm-a.txt"
+        cat "$OUT/farm-client.last" >>"$OUT/farm-ca.txt"
         # shellcheck disable=SC2086
         once $2 >>"$OUT/farm-b.txt"
+        cat "$OUT/farm-client.last" >>"$OUT/farm-cb.txt"
     done
     for f in "$OUT/farm-a.txt" "$OUT/farm-b.txt"; do
         awk 'NR == 1 || $1 < w {w = $1} NR == 1 || $2 < c {c = $2}
@@ -128,7 +139,7 @@ pair() {
 
 # A first render sends the bunny's mesh and loads the scene on both
 # daemons (each caches it), so that no timed run pays for that.
-SPP=16
+SPP=16 COMP=zip
 once "$nginx_url" 4 4 1 >/dev/null
 once "$nginx_url" 4 4 1 >/dev/null
 once "$ov_url" 2 2 0 >/dev/null
@@ -138,11 +149,25 @@ once "$ov_url" 2 2 0 >/dev/null
 pair_at() {
     SPP=$1
     say "farm: $PARTS parts of scenes/bench.json at $SPP spp, render.threads=1, best of $REPEAT"
+    # The frames are written without compression: the daemons' throughput
+    # is what is measured, and the client's ZIP encoding of the stitched
+    # frame (about 30 ms of CPU a 640 x 480 frame) would run here on the
+    # daemons' two cores, where a farm's client has a machine of its own.
+    # Its cost is measured apart below.
+    COMP=none
     tp=$(pair "$one_url $PARTS 2 1" "$nginx_url $PARTS 4 1")
     say "farm: 1 daemon, 2 daemons behind nginx: $tp"
     say "farm: the same for a batch of $FRAMES frames"
     tpb=$(pair "$one_url $PARTS 2 1 $FRAMES" "$nginx_url $PARTS 4 1 $FRAMES")
     say "farm: $FRAMES frames, 1 daemon, 2 daemons behind nginx: $tpb"
+    # The client's least CPU over the 2-daemon batch runs, and that of one
+    # more such batch written with ZIP (the default).
+    cnone=$(sort -g "$OUT/farm-cb.txt" | head -1)
+    COMP=zip
+    once "$nginx_url" "$PARTS" 4 1 "$FRAMES" >/dev/null
+    czip=$(cat "$OUT/farm-client.last")
+    say "farm: the client's CPU for $FRAMES frames, written without compression and with ZIP: $cnone $czip"
+    echo "$SPP $cnone $czip" >>"$OUT/farm-client.txt"
     # What two cores give the same frame here and now, without the farm:
     # a local render on 1 thread against 2 (this VM's own 2-core scaling
     # drifts between runs), least wall of REPEAT each, taken in turn.
@@ -161,6 +186,7 @@ pair_at() {
     # next part waits in its queue while the client takes the last one
     # in: the daemon never idles for a round trip (as --parallel is meant
     # to be used).
+    COMP=zip
     say "farm: whole frame against 16 parts, one daemon of 2 workers, all threads, 3 parts in flight"
     ov=$(pair "$ov_url 1 1 0" "$ov_url 16 3 0")
     say "farm: whole, 16 parts: $ov"
@@ -172,6 +198,7 @@ pair_at() {
 : >"$OUT/farm-tpb.txt"
 : >"$OUT/farm-ov.txt"
 : >"$OUT/farm-local.txt"
+: >"$OUT/farm-client.txt"
 for spp in $SPPS; do
     pair_at "$spp"
 done
@@ -191,6 +218,7 @@ load=$(cut -d' ' -f1 /proc/loadavg)
     echo "farm (scenes/bench.json 640 x 480, $(nproc) cores, least of $REPEAT runs taken in turn, load average $load):"
     awk -v n="$PARTS" '{printf "  %d spp, a batch of %d parts, render.threads=1: 1 daemon %.3f s, 2 daemons %.3f s: %.2fx wall, median of the rounds %.2fx (target >= 1.8x); daemons'"'"' CPU %.2f s and %.2f s (%.1f ms and %.1f ms a part)\n", $1, n, $2, $7, $2 / $7, $12, $3, $8, 1000 * $3 / n, 1000 * $8 / n}' "$OUT/farm-tp.txt"
     awk -v n="$PARTS" -v f="$FRAMES" '{printf "  %d spp, a batch of %d frames of %d parts, render.threads=1: 1 daemon %.3f s, 2 daemons %.3f s (%.3f s and %.3f s a frame): %.2fx wall, median of the rounds %.2fx (target >= 1.8x); daemons'"'"' CPU %.2f s and %.2f s\n", $1, f, n, $2, $7, $2 / f, $7 / f, $2 / $7, $12, $3, $8}' "$OUT/farm-tpb.txt"
+    awk -v f="$FRAMES" '{printf "  %d spp, the client'"'"'s CPU (stitching, writing) on the same two cores: %.1f ms a frame written without compression (as above), %.1f ms with ZIP, the default\n", $1, 1000 * $2 / f, 1000 * $3 / f}' "$OUT/farm-client.txt"
     awk '{printf "  %d spp, the same frame rendered locally (no farm): 1 thread %.3f s, 2 threads %.3f s: %.2fx, what two cores gave here in this run\n", $1, $2, $3, $2 / $3}' "$OUT/farm-local.txt"
     awk '{printf "  %d spp, one frame whole %.3f s, in 16 parts %.3f s: overhead %+.1f%% wall (median of the rounds %+.1f%%), %+.1f%% daemon CPU (%.2f s against %.2f s), %+.2f%% rays, %+.2f%% samples, scene loads %d and %d (target < 5%%)\n", $1, $2, $7, 100 * ($7 / $2 - 1), 100 * (1 / $12 - 1), 100 * ($8 / $3 - 1), $8, $3, 100 * ($9 / $4 - 1), 100 * ($10 / $5 - 1), $6, $11}' "$OUT/farm-ov.txt"
     head -1 "$OUT/farm-ov.txt" | awk -v f="$fixed" '{printf "  a part'"'"'s fixed cost %.2f ms of daemon CPU (100 one-row parts at 1 spp): 16 parts add %.1f%% to the %d-spp whole frame'"'"'s %.2f s\n", f, 100 * 16 * f / 1000 / $3, $1, $3}'
