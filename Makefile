@@ -93,7 +93,8 @@ $(BUILD)/obj/%.o: %.c $(DEPS_OK)
 # -fno-trapping-math lets it if-convert the lane loops' selects; neither
 # changes a result.  The AVX-512 clones use 512-bit vectors: 4% faster
 # on the bench scene than 256.)
-$(BUILD)/obj/lib/whitted.o $(BUILD)/obj/lib/trace.o $(BUILD)/obj/lib/camera.o \
+$(BUILD)/obj/lib/whitted.o $(BUILD)/obj/lib/whitted16.o $(BUILD)/obj/lib/trace.o \
+$(BUILD)/obj/lib/camera.o \
 $(BUILD)/obj/lib/sample.o $(BUILD)/obj/lib/rx_trace.o $(BUILD)/obj/lib/path16.o \
 $(BUILD)/obj/lib/path16_rays.o \
 $(BUILD)/obj/lib/rx_trace16f.o $(BUILD)/obj/lib/camera_lens.o $(BUILD)/obj/lib/lens.o \

@@ -5,9 +5,10 @@
  * take and which go one by one.  The render loop (sample.c) knows only
  * this table.
  *
- * Implementations: whitted.c (direct light with hard shadows, mirrors and
- * glass: the classic ray tracer) and path.c (path tracing), chosen by
- * render.integrator through lr__integrator_for.
+ * Implementations: whitted.c and whitted16.c (direct light with hard
+ * shadows, mirrors and glass: the classic ray tracer) and path.c and
+ * path16.c (path tracing), chosen by render.integrator through
+ * lr__integrator_for.
  */
 #ifndef LR_INTEGRATOR_H
 #define LR_INTEGRATOR_H
@@ -59,7 +60,7 @@ extern const lr__integrator lr__path_tracer;
 /* The integrator for render.integrator's value. */
 const lr__integrator *lr__integrator_for(lr_integrator_kind kind);
 
-/* ---- whitted.c's parts, for tests ------------------------------------ */
+/* ---- the Whitted integrator's parts, for tests ----------------------- */
 
 /* Radiance arriving at `org` from direction -dir (dir unit length) after
  * `depth` bounces; mirror and refraction rays are traced while depth <

@@ -436,8 +436,9 @@ static void test_render_rejects_bad_arguments(void **state)
 }
 
 /* The packet tracer shades plain lanes (diffuse triangles) with vector
- * code and every other lane with the scalar code of whitted.c; the two
- * must agree to the bit.  A scene with both kinds in the same packets:
+ * code (whitted16.c) and every other lane with the scalar code of
+ * whitted.c; the two must agree to the bit.  A scene with both kinds in
+ * the same packets:
  * a smooth-shaded and a flat-shaded sphere mesh (plain), a glossy mesh, a
  * mirror sphere and a black mesh (scalar), a point and a directional
  * light and ambient light, through a thin lens; rendered both ways. */
