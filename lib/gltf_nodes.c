@@ -284,7 +284,15 @@ lr_status lr__gltf_camera(lr_scene *s, const lr__gltf_doc *d,
     lr_camera c = s->camera;
     if (node < 0) {
         LR_TRY(auto_frame(s, d, lo, hi, err));
-        return lr_camera_validate(&s->camera, err);
+        if (lr_camera_validate(&s->camera, err) == LR_OK)
+            return LR_OK;
+        /* A box of denormal size (a fuzzer's) frames at a focus distance
+         * no camera takes: the error names the file. */
+        char why[sizeof err->message];
+        snprintf(why, sizeof why, "%s", err->message);
+        return lr__gltf_fail(d, err, "it has no camera, and the camera "
+                             "framing its meshes (%g across) is refused: %s",
+                             v3_len(v3_sub(hi, lo)), why);
     }
     int nn, nc;
     const cJSON *nd = cJSON_GetArrayItem(lr__gltf_array(d->root, "nodes",
