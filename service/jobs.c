@@ -412,42 +412,23 @@ int lrd_jobs_start(void)
 
 /* ---- the API ------------------------------------------------------------- */
 
+/* Called with jobs.mu held: the job in the table made with `key`, or
+ * NULL. */
+static lrd_job *keyed_locked(const char *key)
+{
+    for (lrd_job *j = jobs.head; j != NULL; j = j->next)
+        if (strcmp(j->key, key) == 0)
+            return j;
+    return NULL;
+}
+
 int lrd_jobs_submit(lrd_job_spec *spec, int sync, const char *key,
                     const unsigned char body_hash[32], lrd_job **out,
                     int *existing, lrd_err *e)
 {
     *out = NULL;
     *existing = 0;
-    if (key != NULL && key[0] != '\0') {
-        /* A request seen before: its job, whatever its state. */
-        lrd_job *chain = NULL, *found = NULL;
-        int clash = 0;
-        pthread_mutex_lock(&jobs.mu);
-        prune_locked(&chain);
-        for (lrd_job *j = jobs.head; j != NULL; j = j->next)
-            if (strcmp(j->key, key) == 0) {
-                clash = memcmp(j->body_hash, body_hash, 32) != 0;
-                if (!clash) {
-                    j->refs++;
-                    found = j;
-                }
-                break;
-            }
-        pthread_mutex_unlock(&jobs.mu);
-        free_chain(chain);
-        if (clash) {
-            lrd_job_spec_clear(spec);
-            return lrd_fail(e, 422, "idempotency_key_reused", NULL,
-                            "the Idempotency-Key \"%s\" was used for another "
-                            "request; a key names one request", key);
-        }
-        if (found != NULL) {
-            lrd_job_spec_clear(spec);
-            *out = found;
-            *existing = 1;
-            return 0;
-        }
-    }
+    int keyed = key != NULL && key[0] != '\0';
     lrd_job *j = calloc(1, sizeof *j);
     if (j == NULL) {
         lrd_job_spec_clear(spec);
@@ -461,7 +442,7 @@ int lrd_jobs_submit(lrd_job_spec *spec, int sync, const char *key,
     }
     /* The daemon's prefix names it in the id (--id-prefix). */
     memcpy(j->id, lrd_cfg.id_prefix, strlen(lrd_cfg.id_prefix));
-    if (key != NULL) {
+    if (keyed) {
         snprintf(j->key, sizeof j->key, "%s", key);
         memcpy(j->body_hash, body_hash, 32);
     }
@@ -474,8 +455,21 @@ int lrd_jobs_submit(lrd_job_spec *spec, int sync, const char *key,
 
     lrd_job *chain = NULL;
     pthread_mutex_lock(&jobs.mu);
+    prune_locked(&chain);
+    /* A request seen before gets its job, whatever its state.  The look-up
+     * and the queueing below hold the lock together, so that two requests
+     * with one key arriving at the same moment make one job, not two. */
+    lrd_job *seen = keyed ? keyed_locked(key) : NULL;
     int rc = 0;
-    if (jobs.shutting_down) {
+    if (seen != NULL && memcmp(seen->body_hash, body_hash, 32) != 0) {
+        rc = lrd_fail(e, 422, "idempotency_key_reused", NULL,
+                      "the Idempotency-Key \"%s\" was used for another "
+                      "request; a key names one request", key);
+    } else if (seen != NULL) {
+        seen->refs++;
+        *out = seen;
+        *existing = 1;
+    } else if (jobs.shutting_down) {
         rc = lrd_fail(e, 503, "shutting_down", NULL,
                       "the server is shutting down");
         e->retry_after = 1;
@@ -515,7 +509,9 @@ int lrd_jobs_submit(lrd_job_spec *spec, int sync, const char *key,
     }
     pthread_mutex_unlock(&jobs.mu);
     free_chain(chain);
-    if (rc != 0)
+    /* Not queued (an error, or the earlier job returned): the new job and
+     * its scene reference go, outside the lock. */
+    if (*out != j)
         job_free(j);
     return rc;
 }

@@ -874,6 +874,17 @@ EOF
     [ "$(sort -u "$T/ids" | wc -l)" = 8 ]
 }
 
+@test "one Idempotency-Key sent by 12 clients at the same moment makes one job" {
+    # The key's look-up and the queueing were two critical sections: two
+    # requests could both find no job, and both queue one (4 to 6 keys in
+    # 100 did, on two cores).  No per-address limit, so that the closing
+    # connections of one key never refuse those of the next.
+    start_daemon race --workers 2 --queue 64 --max-connections-per-ip 0
+    run -0 python3 "$BATS_TEST_DIRNAME/http_race.py" idempotency "$DURL" - \
+        '{"scene": "tiny", "render": {"width": 8, "height": 8, "spp": 1}}' 100 12
+    [ "$output" = 0 ]
+}
+
 @test "render time limit: an overlong render fails with timeout" {
     start_daemon timeout --workers 1 --max-render-seconds 0.3
     req POST "$DURL/v1/jobs" "$(slow_job)"
