@@ -260,6 +260,23 @@ put_asset() {
     [[ "$output" != *"$FARM"* ]]
 }
 
+@test "assets: 12 PUTs of one asset at once through nginx all store it (201 or 200), whole" {
+    # Uploads of one asset on one daemon shared a temporary file name: one
+    # truncated it while another wrote, and renamed it away from under the
+    # others, which answered 507 (11 of 12 did).
+    local f="$BATS_TEST_TMPDIR/big.bin" hash i urls=()
+    head -c 3000000 /dev/urandom >"$f"
+    hash=$(sha256sum "$f" | cut -c1-64)
+    for i in $(seq 1 12); do
+        urls+=("$URL/v1/assets/$hash")
+    done
+    run -0 curl -s -Z --parallel-immediate --parallel-max 12 -X PUT \
+        --data-binary "@$f" -o /dev/null -w '%{http_code}\n' "${urls[@]}"
+    [ "$(printf '%s\n' "$output" | grep -c '^20[01]$')" = 12 ]
+    cmp "$f" "$FARM/assets/$hash"
+    [ -z "$(ls -A "$FARM/assets" | grep '^\.tmp-' || true)" ]
+}
+
 @test "assets: one over --max-asset-bytes is refused with 413 naming the limit" {
     local log="$BATS_TEST_TMPDIR/solo.log" port f="$BATS_TEST_TMPDIR/big"
     mkdir -p "$BATS_TEST_TMPDIR/assets"
@@ -274,7 +291,19 @@ put_asset() {
     run curl -s -w ' %{http_code}' -X PUT --data-binary "@$f" \
         "http://127.0.0.1:$port/v1/assets/$(sha256sum "$f" | cut -c1-64)"
     [[ "$output" == *"more than the limit of 4096 (--max-asset-bytes)"*" 413" ]]
+    # Without a Content-Length (chunked), found as the body streams.
+    run curl -s -w ' %{http_code}' -X PUT -H 'Transfer-Encoding: chunked' \
+        --data-binary "@$f" \
+        "http://127.0.0.1:$port/v1/assets/$(sha256sum "$f" | cut -c1-64)"
+    [[ "$output" == *"more than the limit of 4096 bytes (--max-asset-bytes)"*" 413" ]]
     [ -z "$(ls "$BATS_TEST_TMPDIR/assets")" ]
+    # Exactly the limit is stored, either way.
+    head -c 4096 /dev/urandom >"$f"
+    run curl -s -w ' %{http_code}' -X PUT -H 'Transfer-Encoding: chunked' \
+        --data-binary "@$f" \
+        "http://127.0.0.1:$port/v1/assets/$(sha256sum "$f" | cut -c1-64)"
+    [[ "$output" == *'"bytes":4096,"created":true}'*" 201" ]]
+    cmp "$f" "$BATS_TEST_TMPDIR/assets/$(sha256sum "$f" | cut -c1-64)"
 }
 
 @test "assets: the client sends a mesh once, all three daemons render with it, equal to the local render" {
