@@ -47,6 +47,9 @@ teardown_file() {
 
 teardown() {
     local pid
+    if [ -n "${FARM2:-}" ]; then
+        sh "$REPO/farm/farm.sh" stop "$BUILD" "$FARM2" >/dev/null 2>&1 || true
+    fi
     for pid in ${CLIENT_PID:-} ${SOLO_PID:-}; do
         kill -KILL "$pid" 2>/dev/null || true
         wait "$pid" 2>/dev/null || true
@@ -86,6 +89,48 @@ wait_for() {
     run curl -sf "$URL/healthz"
     [ "$status" -eq 0 ]
     [[ "$output" == *'"status":"ok"'* ]]
+}
+
+@test "farm: a second farm runs beside the first; started twice it is refused; once dead, farm-stop signals no other program and frees the port" {
+    local dir="$BATS_TEST_TMPDIR/farm2" port pid name
+    FARM2="$dir"
+    port=$((20000 + $(od -An -N2 -tu2 /dev/urandom) % 40000))
+    run -0 sh "$REPO/farm/farm.sh" start "$BUILD" 1 "$port" "$dir" 3>&-
+    run -0 curl -sf "http://127.0.0.1:$port/healthz"
+    run -0 curl -sf "$URL/healthz"
+    # Started twice: refused, naming a process that runs.
+    run -1 sh "$REPO/farm/farm.sh" start "$BUILD" 1 "$port" "$dir" 3>&-
+    [[ "$output" == *"already running"* ]]
+    # The farm dies without farm-stop (a SIGKILL, a reboot): its pids file
+    # stays, and a number in it comes to name another program (here
+    # written in by hand: a reused pid).
+    while read -r name pid; do
+        kill -KILL "$pid"
+    done <"$dir/pids"
+    while read -r name pid; do
+        while alive "$pid"; do sleep 0.05; done
+    done <"$dir/pids"
+    sleep 300 3>&- &
+    SOLO_PID=$!
+    sed -i "s/^daemon-1 .*/daemon-1 $SOLO_PID/" "$dir/pids"
+    run -0 sh "$REPO/farm/farm.sh" stop "$BUILD" "$dir"
+    alive "$SOLO_PID"
+    [ ! -e "$dir/pids" ]
+    # nginx's worker, orphaned by its SIGKILLed master, served the port on
+    # until it was stopped too.
+    run -7 curl -s "http://127.0.0.1:$port/healthz"
+    # And a start over a stale file starts.
+    printf 'daemon-1 %s\nnginx %s\n' "$SOLO_PID" "$SOLO_PID" >"$dir/pids"
+    run -0 sh "$REPO/farm/farm.sh" start "$BUILD" 1 "$port" "$dir" 3>&-
+    [[ "$output" == *"starting anew"* ]]
+    run -0 curl -sf "http://127.0.0.1:$port/healthz"
+    cp "$dir/pids" "$BATS_TEST_TMPDIR/pids"
+    run -0 sh "$REPO/farm/farm.sh" stop "$BUILD" "$dir"
+    while read -r name pid; do
+        ! alive "$pid"
+    done <"$BATS_TEST_TMPDIR/pids"
+    alive "$SOLO_PID"
+    run -7 curl -s "http://127.0.0.1:$port/healthz"
 }
 
 @test "12 parts through nginx equal the local render byte for byte (EXR with Z, PNG)" {
