@@ -320,8 +320,58 @@ def check_lens(driver, daemon, ctx):
     return "%s through %s" % (st["camera"]["model"], st["camera"]["lens"])
 
 
+def uncaught(driver):
+    """The console's uncaught exceptions since the last look (a failed
+    request's own network line is the browser's, not the page's)."""
+    return [e["message"] for e in driver.get_log("browser") if "Uncaught" in e["message"]]
+
+
+def check_lost_image(driver, daemon, ctx):
+    """A picture that cannot be fetched after its job is done (the daemon
+    gone in between: the page's fetch made to fail for /image) is an error
+    on the page, and the page renders again after the next change."""
+    uncaught(driver)
+    driver.execute_script("""
+        window.realFetch = window.fetch;
+        window.fetch = (path, init) => /[/]image$/.test(path)
+            ? Promise.reject(new TypeError("Failed to fetch"))
+            : window.realFetch(path, init);""")
+    before = series(driver)
+    Select(driver.find_element(By.ID, "spp")).select_by_value("1")
+    until(driver, "a new series", lambda: series(driver) > before)
+    until(driver, "the page to show the error", lambda: body_data(driver, "state") == "error")
+    status = driver.find_element(By.ID, "status").text
+    assert "does not answer" in status and "/image" in status, "the status says %r" % status
+    bad = uncaught(driver)
+    assert not bad, "uncaught in the console: %s" % bad
+    driver.execute_script("window.fetch = window.realFetch;")
+    act(driver, lambda: Select(driver.find_element(By.ID, "spp")).select_by_value("4"))
+    return "said: " + status
+
+
+def check_daemon_gone(driver, daemon, ctx):
+    """The daemon killed while the page renders: the page says the server
+    does not answer, with no uncaught exception.  Last: it ends the daemon."""
+    uncaught(driver)
+    before = series(driver)
+    Select(driver.find_element(By.ID, "spp")).select_by_value("65536")
+    until(driver, "a new series", lambda: series(driver) > before)
+    until(driver, "a job of the series to run",
+          lambda: body_data(driver, "job") and
+          daemon.json("GET", "/v1/jobs/" + body_data(driver, "job"))["status"] == "running")
+    daemon.proc.kill()
+    daemon.proc.wait()
+    until(driver, "the page to show the error", lambda: body_data(driver, "state") == "error")
+    status = driver.find_element(By.ID, "status").text
+    assert "does not answer" in status, "the status says %r" % status
+    bad = uncaught(driver)
+    assert not bad, "uncaught in the console: %s" % bad
+    return "said: " + status
+
+
 CHECKS = [("load", check_load), ("cancel", check_cancel), ("focus", check_focus),
-          ("overlay", check_overlay), ("download", check_download), ("lens", check_lens)]
+          ("overlay", check_overlay), ("download", check_download), ("lens", check_lens),
+          ("lost-image", check_lost_image), ("daemon-gone", check_daemon_gone)]
 
 
 def run_checks(build, out):
