@@ -128,10 +128,14 @@ k=1
 while [ $k -le "$n" ]; do
     log="$dir/daemon-$k.log"
     : >"$log"
+    # Every request comes from nginx, one address: the per-address limit
+    # (16) would reset nginx's 17th connection, a 502 (and the daemon
+    # marked failed) where the queue had room or a 429 was due.
     # shellcheck disable=SC2086  # FARM_FLAGS is a list of flags
     "$build/lensrayd" --port 0 --bind 127.0.0.1 --scenes "$scenes" \
         --assets "$dir/assets" --id-prefix "$(printf %02x "$k")" \
-        --workers "${FARM_WORKERS:-2}" ${FARM_FLAGS:-} >"$log" 2>&1 3>&- &
+        --workers "${FARM_WORKERS:-2}" --max-connections-per-ip 0 \
+        ${FARM_FLAGS:-} >"$log" 2>&1 3>&- &
     echo "daemon-$k $!" >>"$dir/pids"
     p=""
     i=0
