@@ -667,7 +667,16 @@ static enum MHD_Result do_jobs_list(struct MHD_Connection *c, req *r)
                  "characters without spaces", LRD_KEY_MAX);
         return send_error(c, r, &e, NULL);
     }
-    char *json = lrd_jobs_list_json(status, key, after, limit);
+    int unknown_after = 0;
+    char *json = lrd_jobs_list_json(status, key, after, limit, &unknown_after);
+    if (json == NULL && unknown_after) {
+        /* Not an empty page: that would tell a client paging through
+         * that it has seen every job. */
+        lrd_fail(&e, 404, "job_not_found", "after",
+                 "after names no job this daemon has had lately (\"%s\"); "
+                 "list from the start, without after", after);
+        return send_error(c, r, &e, NULL);
+    }
     if (json == NULL) {
         lrd_fail(&e, 503, "out_of_memory", NULL, "out of memory");
         return send_error(c, r, &e, NULL);

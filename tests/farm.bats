@@ -743,4 +743,43 @@ json_field() {
     [[ "$output" == *'unknown query parameter \"stauts\"'*" 422" ]]
     run curl -s -w ' %{http_code}' "$u/v1/jobs?after=nope"
     [[ "$output" == *'"path":"after"'*" 422" ]]
+    # An id this daemon never had is an error, not an empty last page.
+    run curl -s -w ' %{http_code}' "$u/v1/jobs?after=0123456789abcdef0123456789abcdef"
+    [[ "$output" == *'"code":"job_not_found"'*'"path":"after"'*" 404" ]]
+}
+
+@test "GET /v1/jobs: paging goes on when the job of the cursor expires between two pages" {
+    # A page's last job dropped before the next page was asked for (here by
+    # --max-finished-jobs, as by --job-ttl or a DELETE) gave an empty page
+    # with next null: the client stopped, short of the jobs after it.
+    local log="$BATS_TEST_TMPDIR/solo.log" port u i id next seen=""
+    "$BUILD/lensrayd" --port 0 --bind 127.0.0.1 --scenes "$REPO/scenes" \
+        --max-finished-jobs 3 >"$log" 2>&1 3>&- &
+    SOLO_PID=$!
+    until port=$(sed -n 's|^lensrayd: listening on http://127\.0\.0\.1:\([0-9]*\) .*|\1|p' "$log") && [ -n "$port" ]; do
+        kill -0 "$SOLO_PID"
+        sleep 0.05
+    done
+    u="http://127.0.0.1:$port"
+    submit_done() {
+        id=$(curl -sf "$u/v1/jobs" -H 'Content-Type: application/json' -d "$JOB" | json_field id)
+        until curl -sf "$u/v1/jobs/$id?wait=60" | grep -q '"status":"done"'; do :; done
+    }
+    for i in 1 2 3; do submit_done; done
+    run -0 curl -sf "$u/v1/jobs?limit=1"
+    next=$(echo "$output" | json_field next)
+    seen=$(echo "$output" | grep -o '"id":"[0-9a-f]*"' | cut -d'"' -f4)
+    [ "$seen" = "$next" ]
+    # One more finished job pushes the cursor's job out of the table.
+    submit_done
+    run -0 curl -s -o /dev/null -w '%{http_code}' "$u/v1/jobs/$next"
+    [ "$output" = 404 ]
+    while [ "$next" != null ] && [ -n "$next" ]; do
+        run -0 curl -sf "$u/v1/jobs?limit=1&after=$next"
+        seen="$seen $(echo "$output" | grep -o '"id":"[0-9a-f]*"' | cut -d'"' -f4)"
+        next=$(echo "$output" | json_field next)
+    done
+    # The first page's job, then the three the table holds now, in order.
+    [ "$(echo $seen | wc -w)" -eq 4 ]
+    [ "$(echo $seen | cut -d' ' -f2-)" = "$(curl -sf "$u/v1/jobs" | grep -o '"id":"[0-9a-f]*"' | cut -d'"' -f4 | tr '\n' ' ' | sed 's/ $//')" ]
 }
