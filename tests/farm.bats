@@ -58,6 +58,22 @@ teardown() {
 
 SIZE="--set render.width=160 --set render.height=120 --set render.spp=8"
 
+# solo_daemon [FLAGS...]: one lensrayd of a test's own, on a free port with
+# the shipped scenes; sets SOLO_PID (teardown kills it), SOLO_LOG and
+# SOLO_URL.
+solo_daemon() {
+    local port=""
+    SOLO_LOG="$BATS_TEST_TMPDIR/solo.log"
+    "$BUILD/lensrayd" --port 0 --bind 127.0.0.1 --scenes "$REPO/scenes" "$@" \
+        >"$SOLO_LOG" 2>&1 3>&- &
+    SOLO_PID=$!
+    until port=$(sed -n 's|^lensrayd: listening on http://127\.0\.0\.1:\([0-9]*\) .*|\1|p' "$SOLO_LOG") && [ -n "$port" ]; do
+        kill -0 "$SOLO_PID" || { cat "$SOLO_LOG"; return 1; }
+        sleep 0.05
+    done
+    SOLO_URL="http://127.0.0.1:$port"
+}
+
 # pid_of NAME: the pid farm.sh recorded for daemon NAME.
 pid_of() {
     sed -n "s/^$1 //p" "$FARM/pids"
@@ -222,16 +238,11 @@ wait_for() {
 @test "a part whose daemon disappears is sent again by the client" {
     cd "$REPO"
     "$LENSRAY" render scenes/cornell.json -o "$BATS_TEST_TMPDIR/local.exr" $SIZE -q
-    local log="$BATS_TEST_TMPDIR/solo.log" port
-    "$BUILD/lensrayd" --port 0 --bind 127.0.0.1 --scenes scenes >"$log" 2>&1 3>&- &
-    SOLO_PID=$!
-    until port=$(sed -n 's|^lensrayd: listening on http://127\.0\.0\.1:\([0-9]*\) .*|\1|p' "$log") && [ -n "$port" ]; do
-        kill -0 "$SOLO_PID"
-        sleep 0.05
-    done
+    solo_daemon
+    local log="$SOLO_LOG" port=${SOLO_URL##*:}
     kill -STOP "$SOLO_PID"
     "$LENSRAY" render scenes/cornell.json -o "$BATS_TEST_TMPDIR/farm.exr" $SIZE \
-        --remote "http://127.0.0.1:$port" --parts 4 --parallel 2 --retries 12 --stats \
+        --remote "$SOLO_URL" --parts 4 --parallel 2 --retries 12 --stats \
         >"$BATS_TEST_TMPDIR/out" 2>"$BATS_TEST_TMPDIR/err" 3>&- &
     CLIENT_PID=$!
     kill -KILL "$SOLO_PID"
@@ -353,16 +364,11 @@ put_asset() {
 }
 
 @test "assets: one over --max-asset-bytes is refused with 413 naming the limit" {
-    local log="$BATS_TEST_TMPDIR/solo.log" port f="$BATS_TEST_TMPDIR/big"
+    local f="$BATS_TEST_TMPDIR/big" port
     mkdir -p "$BATS_TEST_TMPDIR/assets"
     head -c 5000 /dev/zero >"$f"
-    "$BUILD/lensrayd" --port 0 --bind 127.0.0.1 --scenes "$REPO/scenes" \
-        --assets "$BATS_TEST_TMPDIR/assets" --max-asset-bytes 4k >"$log" 2>&1 3>&- &
-    SOLO_PID=$!
-    until port=$(sed -n 's|^lensrayd: listening on http://127\.0\.0\.1:\([0-9]*\) .*|\1|p' "$log") && [ -n "$port" ]; do
-        kill -0 "$SOLO_PID" || { cat "$log"; false; }
-        sleep 0.05
-    done
+    solo_daemon --assets "$BATS_TEST_TMPDIR/assets" --max-asset-bytes 4k
+    port=${SOLO_URL##*:}
     run curl -s -w ' %{http_code}' -X PUT --data-binary "@$f" \
         "http://127.0.0.1:$port/v1/assets/$(sha256sum "$f" | cut -c1-64)"
     [[ "$output" == *"more than the limit of 4096 (--max-asset-bytes)"*" 413" ]]
@@ -712,14 +718,9 @@ json_field() {
 }
 
 @test "GET /v1/jobs: filtered by status, paged with limit and after" {
-    local log="$BATS_TEST_TMPDIR/solo.log" port u i first next
-    "$BUILD/lensrayd" --port 0 --bind 127.0.0.1 --scenes "$REPO/scenes" >"$log" 2>&1 3>&- &
-    SOLO_PID=$!
-    until port=$(sed -n 's|^lensrayd: listening on http://127\.0\.0\.1:\([0-9]*\) .*|\1|p' "$log") && [ -n "$port" ]; do
-        kill -0 "$SOLO_PID"
-        sleep 0.05
-    done
-    u="http://127.0.0.1:$port"
+    local u i first next
+    solo_daemon
+    u=$SOLO_URL
     for i in 1 2 3; do
         curl -sf "$u/v1/jobs" -H 'Content-Type: application/json' -d "$JOB" >/dev/null
     done
@@ -752,15 +753,9 @@ json_field() {
     # A page's last job dropped before the next page was asked for (here by
     # --max-finished-jobs, as by --job-ttl or a DELETE) gave an empty page
     # with next null: the client stopped, short of the jobs after it.
-    local log="$BATS_TEST_TMPDIR/solo.log" port u i id next seen=""
-    "$BUILD/lensrayd" --port 0 --bind 127.0.0.1 --scenes "$REPO/scenes" \
-        --max-finished-jobs 3 >"$log" 2>&1 3>&- &
-    SOLO_PID=$!
-    until port=$(sed -n 's|^lensrayd: listening on http://127\.0\.0\.1:\([0-9]*\) .*|\1|p' "$log") && [ -n "$port" ]; do
-        kill -0 "$SOLO_PID"
-        sleep 0.05
-    done
-    u="http://127.0.0.1:$port"
+    local u i id next seen=""
+    solo_daemon --max-finished-jobs 3
+    u=$SOLO_URL
     submit_done() {
         id=$(curl -sf "$u/v1/jobs" -H 'Content-Type: application/json' -d "$JOB" | json_field id)
         until curl -sf "$u/v1/jobs/$id?wait=60" | grep -q '"status":"done"'; do :; done
