@@ -47,6 +47,7 @@ const state = {
   active: null,     // the job being rendered: {id, generation, deleted}
   shown: null,      // the job whose picture is shown: {id, body, status, blob, plan}
   changedAt: 0,     // when the newest change was made (performance.now)
+  wired: false,     // the controls' handlers are attached
 };
 
 // ---- the API -------------------------------------------------------------
@@ -516,6 +517,9 @@ async function start() {
   }
   $("token-form").hidden = true;
   $("app").hidden = false;
+  // start() runs again after a token is asked for mid-session (the
+  // daemon restarted with another): the lists are made anew, not added to.
+  for (const id of ["scene", "model", "sampler", "chroma-mode", "spp"]) $(id).replaceChildren();
   for (const s of state.scenes) option($("scene"), s.name);
   for (const m of state.options.camera_models) option($("model"), m.name);
   for (const s of state.options.samplers) option($("sampler"), s);
@@ -524,7 +528,14 @@ async function start() {
   const first = state.scenes.find((s) => s.name === "spheres") || state.scenes[0];
   if (!first) { setStatus("the server has no scenes", true); return; }
   chooseScene(first.name);
+  if (!state.wired) wire();
+  changed();
+}
 
+// The controls' handlers, attached once whatever the number of starts: a
+// second set made every change start two series.
+function wire() {
+  state.wired = true;
   $("scene").addEventListener("change", () => { chooseScene($("scene").value); changed(); });
   $("model").addEventListener("change", () => { chooseModel($("model").value); changed(); });
   for (const id of ["sampler", "spp", "size", "chroma-mode"])
@@ -549,7 +560,6 @@ async function start() {
     changed();
   });
   $("dl-exr").addEventListener("click", () => downloadExr().catch((e) => setStatus(e.message, true)));
-  changed();
 }
 
 $("token-form").addEventListener("submit", (e) => {

@@ -326,6 +326,29 @@ def uncaught(driver):
     return [e["message"] for e in driver.get_log("browser") if "Uncaught" in e["message"]]
 
 
+def check_token_again(driver, daemon, ctx):
+    """A token refused mid-session (the daemon restarted with another) is
+    asked for again; with it the page starts over with its lists made
+    anew, and a change starts one series, not one per start."""
+    def count(sel):
+        return len(Select(driver.find_element(By.ID, sel)).options)
+    scenes, spps = count("scene"), count("spp")
+    driver.execute_script("state.token = 'stale'; sessionStorage.setItem('lensray-token', 'stale');")
+    Select(driver.find_element(By.ID, "spp")).select_by_value("1")
+    until(driver, "the token form", lambda: driver.find_element(By.ID, "token").is_displayed())
+    field = driver.find_element(By.ID, "token")
+    field.clear()
+    field.send_keys(daemon.token + Keys.ENTER)
+    wait_done(driver)
+    assert (count("scene"), count("spp")) == (scenes, spps), \
+        "after the token the lists have %d scenes and %d spp choices, not %d and %d" % (
+            count("scene"), count("spp"), scenes, spps)
+    before = series(driver)
+    act(driver, lambda: Select(driver.find_element(By.ID, "spp")).select_by_value("4"))
+    assert series(driver) == before + 1, "one change started %d series" % (series(driver) - before)
+    return "%d scenes, one series a change" % scenes
+
+
 def check_lost_image(driver, daemon, ctx):
     """A picture that cannot be fetched after its job is done (the daemon
     gone in between: the page's fetch made to fail for /image) is an error
@@ -371,7 +394,7 @@ def check_daemon_gone(driver, daemon, ctx):
 
 CHECKS = [("load", check_load), ("cancel", check_cancel), ("focus", check_focus),
           ("overlay", check_overlay), ("download", check_download), ("lens", check_lens),
-          ("lost-image", check_lost_image), ("daemon-gone", check_daemon_gone)]
+          ("token-again", check_token_again), ("lost-image", check_lost_image), ("daemon-gone", check_daemon_gone)]
 
 
 def run_checks(build, out):
