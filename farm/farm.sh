@@ -46,7 +46,9 @@ orphan_workers() {
 stop_farm() {
     dir=$1
     [ -f "$dir/pids" ] || return 0
-    dir=$(cd "$dir" && pwd)
+    # The physical path, as start wrote it: a farm reached through a
+    # symbolic link is still known by its processes.
+    dir=$(cd "$dir" && pwd -P)
     # Only the processes still ours: the others have ended.
     live=""
     while read -r name pid; do
@@ -105,7 +107,7 @@ case $n in '' | *[!0-9]* | 0)
     exit 2 ;;
 esac
 mkdir -p "$dir/tmp" "$dir/assets"
-dir=$(cd "$dir" && pwd)
+dir=$(cd "$dir" && pwd -P)
 if [ -f "$dir/pids" ]; then
     while read -r name pid; do
         if ours "$pid" "$dir"; then
