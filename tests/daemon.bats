@@ -885,6 +885,24 @@ EOF
     [ "$output" = 0 ]
 }
 
+@test "a body that trickles in is cut off after --connection-timeout, and other clients are served meanwhile" {
+    # A byte every 0.2 s is never a second of silence, so the idle timeout
+    # alone kept the connection (and its thread) for the whole 100000
+    # bytes: hours.  Past --connection-timeout a body must average 1 KiB/s.
+    start_daemon trickle --connection-timeout 1
+    python3 "$BATS_TEST_DIRNAME/http_race.py" trickle "$DURL" 60 >"$T/trickle" &
+    local pid=$! i
+    # Served while the trickle goes on.
+    run -0 curl -sf --max-time 30 "$DURL/healthz"
+    wait "$pid"
+    [[ "$(cat "$T/trickle")" == "closed after "* ]]
+    for i in $(seq 1 100); do
+        grep -q '^lensrayd: POST /v1/jobs 408 ' "$DLOG" && break
+        sleep 0.05
+    done
+    grep '^lensrayd: POST /v1/jobs 408 ' "$DLOG"
+}
+
 @test "render time limit: an overlong render fails with timeout" {
     start_daemon timeout --workers 1 --max-render-seconds 0.3
     req POST "$DURL/v1/jobs" "$(slow_job)"

@@ -1,7 +1,9 @@
 #!/usr/bin/env python3
-"""http_race.py: requests that must reach lensrayd at the same moment.
+"""http_race.py: requests that must reach lensrayd at the same moment, or
+slowly.
 
     http_race.py idempotency URL TOKEN BODY KEYS N
+    http_race.py trickle URL SECONDS
 
 For each of KEYS Idempotency-Keys, N connections send POST /v1/jobs with
 that key and BODY, all but the last byte first; the last bytes go together
@@ -11,11 +13,16 @@ makes one job, as docs/api.md promises), or an answer that is not 202.
 
 curl's --parallel opens its connections one after another, and did not
 once give two jobs for a key where this gave one in twenty.
+
+`trickle` declares a 100000-byte body for POST /v1/jobs and sends it a byte
+every 0.2 s, for SECONDS at most.  Prints "closed after N bytes" when the
+daemon closes the connection first, "still open after N bytes" otherwise.
 """
 import json
 import socket
 import sys
 import threading
+import time
 from urllib.parse import urlsplit
 
 
@@ -86,9 +93,39 @@ def idempotency(url, token, body, keys, n):
     print(bad)
 
 
+def trickle(url, seconds):
+    u = urlsplit(url)
+    s = socket.create_connection((u.hostname, u.port), timeout=60)
+    s.sendall(("POST /v1/jobs HTTP/1.1\r\nHost: %s\r\n"
+               "Content-Type: application/json\r\nContent-Length: 100000\r\n"
+               "\r\n" % u.netloc).encode())
+    s.settimeout(0.2)
+    sent = 0
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        try:
+            if s.recv(1) == b"":
+                print("closed after %d bytes" % sent)
+                return
+        except socket.timeout:
+            pass
+        except OSError:
+            print("closed after %d bytes" % sent)
+            return
+        try:
+            s.sendall(b" ")
+            sent += 1
+        except OSError:
+            print("closed after %d bytes" % sent)
+            return
+    print("still open after %d bytes" % sent)
+
+
 if __name__ == "__main__":
     if len(sys.argv) == 7 and sys.argv[1] == "idempotency":
         idempotency(sys.argv[2], sys.argv[3], sys.argv[4], int(sys.argv[5]),
                     int(sys.argv[6]))
+    elif len(sys.argv) == 4 and sys.argv[1] == "trickle":
+        trickle(sys.argv[2], float(sys.argv[3]))
     else:
         sys.exit(__doc__)
