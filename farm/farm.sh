@@ -21,9 +21,43 @@ here=$(cd "$(dirname "$0")" && pwd)
 cmd=${1:?usage: farm.sh start|stop BUILD ...}
 build=${2:?usage: farm.sh start|stop BUILD ...}
 
+# ours PID DIR: PID is a process this farm started: its command line names
+# DIR (the daemons' --assets DIR/assets, nginx's -p DIR).  A pids file
+# outlives its processes (a reboot, a SIGKILL), and their numbers go to
+# other programs, which must never be signalled.
+ours() {
+    [ -r "/proc/$1/cmdline" ] &&
+        tr '\0' ' ' <"/proc/$1/cmdline" 2>/dev/null | grep -qF " $2/"
+}
+
+# orphan_workers DIR: the pids of nginx processes holding DIR's error log.
+orphan_workers() {
+    for p in /proc/[0-9]*; do
+        [ "$(cat "$p/comm" 2>/dev/null)" = nginx ] || continue
+        for f in "$p"/fd/*; do
+            if [ "$(readlink "$f" 2>/dev/null)" = "$1/nginx-error.log" ]; then
+                echo "${p#/proc/}"
+                break
+            fi
+        done
+    done
+}
+
 stop_farm() {
     dir=$1
     [ -f "$dir/pids" ] || return 0
+    # The physical path, as start wrote it: a farm reached through a
+    # symbolic link is still known by its processes.
+    dir=$(cd "$dir" && pwd -P)
+    # Only the processes still ours: the others have ended.
+    live=""
+    while read -r name pid; do
+        if ours "$pid" "$dir"; then
+            live="$live$name $pid
+"
+        fi
+    done <"$dir/pids"
+    printf '%s' "$live" >"$dir/pids"
     while read -r name pid; do
         if [ "$name" = nginx ]; then
             # nginx's master writes its own pid file; QUIT lets it finish
@@ -42,6 +76,11 @@ stop_farm() {
         done
         kill -KILL "$pid" 2>/dev/null || true
     done <"$dir/pids"
+    # nginx workers outlive a master that was SIGKILLed, still serving the
+    # port; they are known by the error log they hold open.
+    for pid in $(orphan_workers "$dir"); do
+        kill -KILL "$pid" 2>/dev/null || true
+    done
     rm -f "$dir/pids"
     echo "farm: stopped ($dir)"
 }
@@ -67,12 +106,18 @@ case $n in '' | *[!0-9]* | 0)
     echo "farm.sh: FARM_N must be a positive number, got '$n'" >&2
     exit 2 ;;
 esac
-if [ -f "$dir/pids" ]; then
-    echo "farm.sh: a farm is already running from $dir (make farm-stop)" >&2
-    exit 1
-fi
 mkdir -p "$dir/tmp" "$dir/assets"
-dir=$(cd "$dir" && pwd)
+dir=$(cd "$dir" && pwd -P)
+if [ -f "$dir/pids" ]; then
+    while read -r name pid; do
+        if ours "$pid" "$dir"; then
+            echo "farm.sh: a farm is already running from $dir ($name is pid $pid; make farm-stop)" >&2
+            exit 1
+        fi
+    done <"$dir/pids"
+    echo "farm.sh: none of the processes in $dir/pids runs any more; starting anew" >&2
+    rm -f "$dir/pids"
+fi
 # A smaller farm than the last one leaves no stale logs or ports behind.
 rm -f "$dir"/daemon-*.log "$dir"/daemon-*.port
 : >"$dir/pids"
@@ -85,10 +130,14 @@ k=1
 while [ $k -le "$n" ]; do
     log="$dir/daemon-$k.log"
     : >"$log"
+    # Every request comes from nginx, one address: the per-address limit
+    # (16) would reset nginx's 17th connection, a 502 (and the daemon
+    # marked failed) where the queue had room or a 429 was due.
     # shellcheck disable=SC2086  # FARM_FLAGS is a list of flags
     "$build/lensrayd" --port 0 --bind 127.0.0.1 --scenes "$scenes" \
         --assets "$dir/assets" --id-prefix "$(printf %02x "$k")" \
-        --workers "${FARM_WORKERS:-2}" ${FARM_FLAGS:-} >"$log" 2>&1 3>&- &
+        --workers "${FARM_WORKERS:-2}" --max-connections-per-ip 0 \
+        ${FARM_FLAGS:-} >"$log" 2>&1 3>&- &
     echo "daemon-$k $!" >>"$dir/pids"
     p=""
     i=0

@@ -104,9 +104,18 @@ int lrd_asset_put(const char *hex, const void *data, size_t len,
     uint64_t size;
     if (asset_exists(hex, &size))
         return 0; /* the same name is the same bytes: nothing to do */
-    snprintf(tmp, sizeof tmp, "%s/.tmp-%s-%ld", lrd_cfg.assets_dir, hex,
-             (long)getpid());
-    int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    /* A temporary name of this upload's own: two uploads of one asset at
+     * once (on this daemon or on another sharing DIR) each write their
+     * whole file, and the second rename replaces the first's identical
+     * bytes.  A name shared by them was truncated by one while the other
+     * wrote, and renamed away from under the second (507 ENOENT). */
+    snprintf(tmp, sizeof tmp, "%s/.tmp-%s-XXXXXX", lrd_cfg.assets_dir, hex);
+    int fd = mkostemp(tmp, O_CLOEXEC);
+    if (fd >= 0 && fchmod(fd, 0644) != 0) {
+        close(fd);
+        unlink(tmp);
+        fd = -1;
+    }
     if (fd < 0)
         return lrd_fail(e, 507, "asset_store_failed", NULL,
                         "the asset sha256:%s could not be stored: %s", hex,

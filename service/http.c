@@ -667,7 +667,16 @@ static enum MHD_Result do_jobs_list(struct MHD_Connection *c, req *r)
                  "characters without spaces", LRD_KEY_MAX);
         return send_error(c, r, &e, NULL);
     }
-    char *json = lrd_jobs_list_json(status, key, after, limit);
+    int unknown_after = 0;
+    char *json = lrd_jobs_list_json(status, key, after, limit, &unknown_after);
+    if (json == NULL && unknown_after) {
+        /* Not an empty page: that would tell a client paging through
+         * that it has seen every job. */
+        lrd_fail(&e, 404, "job_not_found", "after",
+                 "after names no job this daemon has had lately (\"%s\"); "
+                 "list from the start, without after", after);
+        return send_error(c, r, &e, NULL);
+    }
     if (json == NULL) {
         lrd_fail(&e, 503, "out_of_memory", NULL, "out of memory");
         return send_error(c, r, &e, NULL);
@@ -884,6 +893,22 @@ static enum MHD_Result dispatch(struct MHD_Connection *c, req *r)
     return r->route->handler(c, r);
 }
 
+/* The slowest body kept, in bytes a second, averaged from
+ * --connection-timeout seconds after the headers.  The idle timeout alone
+ * let a client that sends a byte every few seconds hold its connection,
+ * and its thread, for as long as its declared body lasts: hours, and 64
+ * such clients from a few addresses leave no connection for anyone. */
+#define MIN_BODY_RATE 1024.0
+
+static int body_too_slow(const req *r, size_t more)
+{
+    if (lrd_cfg.conn_timeout <= 0)
+        return 0;
+    double late = lrd_monotonic() - r->t0 - (double)lrd_cfg.conn_timeout;
+    return late > 0 &&
+           (double)(r->len + r->dropped + more) < late * MIN_BODY_RATE;
+}
+
 /* Copies a URL for the log with spaces, quotes and control characters
  * escaped, so that one request is always one parseable line. */
 static void log_path(char *out, size_t n, const char *url)
@@ -933,6 +958,13 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c,
     if (*upload_data_size > 0) {
         size_t n = *upload_data_size;
         *upload_data_size = 0;
+        if (body_too_slow(r, n)) {
+            /* Closed without an answer (the client is still sending);
+             * the log says 408, as the status it earned. */
+            r->status = 408;
+            closing_on_purpose = 1;
+            return MHD_NO;
+        }
         if (r->too_large || !r->route->body) {
             /* Dropped, but not forever: a client that keeps streaming
              * long after the limit loses its connection. */

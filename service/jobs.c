@@ -30,6 +30,10 @@
 #include <string.h>
 #include <time.h>
 
+/* The departed jobs remembered for GET /v1/jobs?after= (49 bytes each):
+ * ten times --max-finished-jobs' default leave. */
+#define LRD_GONE_KEPT 1024
+
 struct lrd_blob {
     atomic_int refs;
     void *data; /* from lr_image_encode: released with lr_free */
@@ -55,6 +59,7 @@ struct lrd_job {
     lrd_blob *image;
     lr_render_stats stats;
     lrd_err err;
+    uint64_t seq;                /* 1, 2, ... in the order of the table */
     struct lrd_job *prev, *next; /* the table, oldest first */
     struct lrd_job *qnext;       /* the queue, or the free chain */
 };
@@ -74,6 +79,15 @@ static struct {
     pthread_t *threads;
     long n_threads;
     int stop, shutting_down;
+    uint64_t last_seq;
+    /* The ids and places of the jobs that left the table last, so that a
+     * listing paged `after` a job that expired meanwhile goes on from its
+     * place rather than ending (GET /v1/jobs). */
+    struct {
+        char id[33];
+        uint64_t seq;
+    } gone[LRD_GONE_KEPT];
+    uint64_t n_gone;
 } jobs = {.mu = PTHREAD_MUTEX_INITIALIZER};
 
 const char *lrd_state_name(lrd_state s)
@@ -138,6 +152,9 @@ static void unlink_locked(lrd_job *j, lrd_job **chain)
     j->prev = j->next = NULL;
     j->in_table = 0;
     jobs.in_state[j->state]--;
+    size_t g = (size_t)(jobs.n_gone++ % LRD_GONE_KEPT);
+    memcpy(jobs.gone[g].id, j->id, sizeof j->id);
+    jobs.gone[g].seq = j->seq;
     if (--j->refs == 0) {
         j->qnext = *chain;
         *chain = j;
@@ -412,42 +429,23 @@ int lrd_jobs_start(void)
 
 /* ---- the API ------------------------------------------------------------- */
 
+/* Called with jobs.mu held: the job in the table made with `key`, or
+ * NULL. */
+static lrd_job *keyed_locked(const char *key)
+{
+    for (lrd_job *j = jobs.head; j != NULL; j = j->next)
+        if (strcmp(j->key, key) == 0)
+            return j;
+    return NULL;
+}
+
 int lrd_jobs_submit(lrd_job_spec *spec, int sync, const char *key,
                     const unsigned char body_hash[32], lrd_job **out,
                     int *existing, lrd_err *e)
 {
     *out = NULL;
     *existing = 0;
-    if (key != NULL && key[0] != '\0') {
-        /* A request seen before: its job, whatever its state. */
-        lrd_job *chain = NULL, *found = NULL;
-        int clash = 0;
-        pthread_mutex_lock(&jobs.mu);
-        prune_locked(&chain);
-        for (lrd_job *j = jobs.head; j != NULL; j = j->next)
-            if (strcmp(j->key, key) == 0) {
-                clash = memcmp(j->body_hash, body_hash, 32) != 0;
-                if (!clash) {
-                    j->refs++;
-                    found = j;
-                }
-                break;
-            }
-        pthread_mutex_unlock(&jobs.mu);
-        free_chain(chain);
-        if (clash) {
-            lrd_job_spec_clear(spec);
-            return lrd_fail(e, 422, "idempotency_key_reused", NULL,
-                            "the Idempotency-Key \"%s\" was used for another "
-                            "request; a key names one request", key);
-        }
-        if (found != NULL) {
-            lrd_job_spec_clear(spec);
-            *out = found;
-            *existing = 1;
-            return 0;
-        }
-    }
+    int keyed = key != NULL && key[0] != '\0';
     lrd_job *j = calloc(1, sizeof *j);
     if (j == NULL) {
         lrd_job_spec_clear(spec);
@@ -461,7 +459,7 @@ int lrd_jobs_submit(lrd_job_spec *spec, int sync, const char *key,
     }
     /* The daemon's prefix names it in the id (--id-prefix). */
     memcpy(j->id, lrd_cfg.id_prefix, strlen(lrd_cfg.id_prefix));
-    if (key != NULL) {
+    if (keyed) {
         snprintf(j->key, sizeof j->key, "%s", key);
         memcpy(j->body_hash, body_hash, 32);
     }
@@ -474,8 +472,21 @@ int lrd_jobs_submit(lrd_job_spec *spec, int sync, const char *key,
 
     lrd_job *chain = NULL;
     pthread_mutex_lock(&jobs.mu);
+    prune_locked(&chain);
+    /* A request seen before gets its job, whatever its state.  The look-up
+     * and the queueing below hold the lock together, so that two requests
+     * with one key arriving at the same moment make one job, not two. */
+    lrd_job *seen = keyed ? keyed_locked(key) : NULL;
     int rc = 0;
-    if (jobs.shutting_down) {
+    if (seen != NULL && memcmp(seen->body_hash, body_hash, 32) != 0) {
+        rc = lrd_fail(e, 422, "idempotency_key_reused", NULL,
+                      "the Idempotency-Key \"%s\" was used for another "
+                      "request; a key names one request", key);
+    } else if (seen != NULL) {
+        seen->refs++;
+        *out = seen;
+        *existing = 1;
+    } else if (jobs.shutting_down) {
         rc = lrd_fail(e, 503, "shutting_down", NULL,
                       "the server is shutting down");
         e->retry_after = 1;
@@ -495,6 +506,7 @@ int lrd_jobs_submit(lrd_job_spec *spec, int sync, const char *key,
     } else {
         j->refs = 2; /* the table's and the caller's */
         j->in_table = 1;
+        j->seq = ++jobs.last_seq;
         j->state = LRD_QUEUED;
         jobs.in_state[LRD_QUEUED]++;
         j->prev = jobs.tail;
@@ -515,7 +527,9 @@ int lrd_jobs_submit(lrd_job_spec *spec, int sync, const char *key,
     }
     pthread_mutex_unlock(&jobs.mu);
     free_chain(chain);
-    if (rc != 0)
+    /* Not queued (an error, or the earlier job returned): the new job and
+     * its scene reference go, outside the lock. */
+    if (*out != j)
         job_free(j);
     return rc;
 }
@@ -596,24 +610,44 @@ int lrd_job_keyed(const lrd_job *j)
     return j->key[0] != '\0';
 }
 
+/* Called with jobs.mu held: the place in the table of job `id`, listed
+ * or departed lately; 0 when it is neither. */
+static uint64_t seq_of_locked(const char *id)
+{
+    for (lrd_job *j = jobs.head; j != NULL; j = j->next)
+        if (strcmp(j->id, id) == 0)
+            return j->seq;
+    uint64_t n = jobs.n_gone < LRD_GONE_KEPT ? jobs.n_gone : LRD_GONE_KEPT;
+    for (uint64_t i = 0; i < n; i++)
+        if (strcmp(jobs.gone[i].id, id) == 0)
+            return jobs.gone[i].seq;
+    return 0;
+}
+
 char *lrd_jobs_list_json(int status, const char *key, const char *after,
-                         long limit)
+                         long limit, int *unknown_after)
 {
     /* The ids of the page first, under the lock; then each status
      * document, as GET /v1/jobs/{id} builds it. */
+    *unknown_after = 0;
     char (*ids)[33] = calloc((size_t)limit + 1, sizeof *ids);
     if (ids == NULL)
         return NULL;
     long n = 0;
-    int more = 0, started = after == NULL || after[0] == '\0';
+    int more = 0;
     lrd_job *chain = NULL;
     pthread_mutex_lock(&jobs.mu);
     prune_locked(&chain);
-    for (lrd_job *j = jobs.head; j != NULL; j = j->next) {
-        if (!started) {
-            started = strcmp(j->id, after) == 0;
+    /* The page starts after the cursor's place, which the job keeps when
+     * it leaves the table between two pages (expired, deleted). */
+    uint64_t from = 0;
+    if (after != NULL && after[0] != '\0') {
+        from = seq_of_locked(after);
+        *unknown_after = from == 0;
+    }
+    for (lrd_job *j = jobs.head; j != NULL && !*unknown_after; j = j->next) {
+        if (j->seq <= from)
             continue;
-        }
         if ((status >= 0 && (int)j->state != status) ||
             (key != NULL && key[0] != '\0' && strcmp(j->key, key) != 0))
             continue;
@@ -625,6 +659,10 @@ char *lrd_jobs_list_json(int status, const char *key, const char *after,
     }
     pthread_mutex_unlock(&jobs.mu);
     free_chain(chain);
+    if (*unknown_after) {
+        free(ids);
+        return NULL;
+    }
     cJSON *o = cJSON_CreateObject();
     cJSON *arr = o ? cJSON_AddArrayToObject(o, "jobs") : NULL;
     for (long i = 0; arr != NULL && i < n; i++) {

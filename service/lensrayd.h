@@ -293,11 +293,13 @@ lrd_state lrd_job_wait_change(lrd_job *j, lrd_state from, double seconds);
 
 /* GET /v1/jobs: the status documents of the table's jobs, oldest first,
  * in state `status` (-1: any) and with Idempotency-Key `key` (NULL: any),
- * after the job `after` (NULL: from the first), at most `limit`, as
- * {"jobs": [...], "next": ID or null}.  malloc'ed; NULL when out of
- * memory. */
+ * after the job `after` (NULL: from the first; a job that left the table
+ * since is still placed, among the last 1024 that left), at most
+ * `limit`, as {"jobs": [...], "next": ID or null}.  malloc'ed; NULL when
+ * out of memory, or with *unknown_after set when `after` is no job this
+ * daemon can place. */
 char *lrd_jobs_list_json(int status, const char *key, const char *after,
-                         long limit);
+                         long limit, int *unknown_after);
 
 /* A new reference to the job with this id, or NULL. */
 lrd_job *lrd_jobs_find(const char *id);

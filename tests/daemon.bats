@@ -874,6 +874,35 @@ EOF
     [ "$(sort -u "$T/ids" | wc -l)" = 8 ]
 }
 
+@test "one Idempotency-Key sent by 12 clients at the same moment makes one job" {
+    # The key's look-up and the queueing were two critical sections: two
+    # requests could both find no job, and both queue one (4 to 6 keys in
+    # 100 did, on two cores).  No per-address limit, so that the closing
+    # connections of one key never refuse those of the next.
+    start_daemon race --workers 2 --queue 64 --max-connections-per-ip 0
+    run -0 python3 "$BATS_TEST_DIRNAME/http_race.py" idempotency "$DURL" - \
+        '{"scene": "tiny", "render": {"width": 8, "height": 8, "spp": 1}}' 100 12
+    [ "$output" = 0 ]
+}
+
+@test "a body that trickles in is cut off after --connection-timeout, and other clients are served meanwhile" {
+    # A byte every 0.2 s is never a second of silence, so the idle timeout
+    # alone kept the connection (and its thread) for the whole 100000
+    # bytes: hours.  Past --connection-timeout a body must average 1 KiB/s.
+    start_daemon trickle --connection-timeout 1
+    python3 "$BATS_TEST_DIRNAME/http_race.py" trickle "$DURL" 60 >"$T/trickle" &
+    local pid=$! i
+    # Served while the trickle goes on.
+    run -0 curl -sf --max-time 30 "$DURL/healthz"
+    wait "$pid"
+    [[ "$(cat "$T/trickle")" == "closed after "* ]]
+    for i in $(seq 1 100); do
+        grep -q '^lensrayd: POST /v1/jobs 408 ' "$DLOG" && break
+        sleep 0.05
+    done
+    grep '^lensrayd: POST /v1/jobs 408 ' "$DLOG"
+}
+
 @test "render time limit: an overlong render fails with timeout" {
     start_daemon timeout --workers 1 --max-render-seconds 0.3
     req POST "$DURL/v1/jobs" "$(slow_job)"

@@ -47,6 +47,9 @@ teardown_file() {
 
 teardown() {
     local pid
+    if [ -n "${FARM2:-}" ]; then
+        sh "$REPO/farm/farm.sh" stop "$BUILD" "$FARM2" >/dev/null 2>&1 || true
+    fi
     for pid in ${CLIENT_PID:-} ${SOLO_PID:-}; do
         kill -KILL "$pid" 2>/dev/null || true
         wait "$pid" 2>/dev/null || true
@@ -54,6 +57,22 @@ teardown() {
 }
 
 SIZE="--set render.width=160 --set render.height=120 --set render.spp=8"
+
+# solo_daemon [FLAGS...]: one lensrayd of a test's own, on a free port with
+# the shipped scenes; sets SOLO_PID (teardown kills it), SOLO_LOG and
+# SOLO_URL.
+solo_daemon() {
+    local port=""
+    SOLO_LOG="$BATS_TEST_TMPDIR/solo.log"
+    "$BUILD/lensrayd" --port 0 --bind 127.0.0.1 --scenes "$REPO/scenes" "$@" \
+        >"$SOLO_LOG" 2>&1 3>&- &
+    SOLO_PID=$!
+    until port=$(sed -n 's|^lensrayd: listening on http://127\.0\.0\.1:\([0-9]*\) .*|\1|p' "$SOLO_LOG") && [ -n "$port" ]; do
+        kill -0 "$SOLO_PID" || { cat "$SOLO_LOG"; return 1; }
+        sleep 0.05
+    done
+    SOLO_URL="http://127.0.0.1:$port"
+}
 
 # pid_of NAME: the pid farm.sh recorded for daemon NAME.
 pid_of() {
@@ -86,6 +105,78 @@ wait_for() {
     run curl -sf "$URL/healthz"
     [ "$status" -eq 0 ]
     [[ "$output" == *'"status":"ok"'* ]]
+}
+
+@test "farm: a second farm runs beside the first; started twice it is refused; once dead, farm-stop signals no other program and frees the port" {
+    local dir="$BATS_TEST_TMPDIR/farm2" port pid name
+    FARM2="$dir"
+    port=$((20000 + $(od -An -N2 -tu2 /dev/urandom) % 40000))
+    run -0 sh "$REPO/farm/farm.sh" start "$BUILD" 1 "$port" "$dir" 3>&-
+    run -0 curl -sf "http://127.0.0.1:$port/healthz"
+    run -0 curl -sf "$URL/healthz"
+    # Started twice: refused, naming a process that runs.
+    run -1 sh "$REPO/farm/farm.sh" start "$BUILD" 1 "$port" "$dir" 3>&-
+    [[ "$output" == *"already running"* ]]
+    # The farm dies without farm-stop (a SIGKILL, a reboot): its pids file
+    # stays, and a number in it comes to name another program (here
+    # written in by hand: a reused pid).
+    while read -r name pid; do
+        kill -KILL "$pid"
+    done <"$dir/pids"
+    while read -r name pid; do
+        while alive "$pid"; do sleep 0.05; done
+    done <"$dir/pids"
+    sleep 300 3>&- &
+    SOLO_PID=$!
+    sed -i "s/^daemon-1 .*/daemon-1 $SOLO_PID/" "$dir/pids"
+    run -0 sh "$REPO/farm/farm.sh" stop "$BUILD" "$dir"
+    alive "$SOLO_PID"
+    [ ! -e "$dir/pids" ]
+    # nginx's worker, orphaned by its SIGKILLed master, served the port on
+    # until it was stopped too.
+    run -7 curl -s "http://127.0.0.1:$port/healthz"
+    # And a start over a stale file starts.
+    printf 'daemon-1 %s\nnginx %s\n' "$SOLO_PID" "$SOLO_PID" >"$dir/pids"
+    run -0 sh "$REPO/farm/farm.sh" start "$BUILD" 1 "$port" "$dir" 3>&-
+    [[ "$output" == *"starting anew"* ]]
+    run -0 curl -sf "http://127.0.0.1:$port/healthz"
+    cp "$dir/pids" "$BATS_TEST_TMPDIR/pids"
+    run -0 sh "$REPO/farm/farm.sh" stop "$BUILD" "$dir"
+    while read -r name pid; do
+        ! alive "$pid"
+    done <"$BATS_TEST_TMPDIR/pids"
+    alive "$SOLO_PID"
+    run -7 curl -s "http://127.0.0.1:$port/healthz"
+}
+
+@test "farm: 24 requests held open at once through nginx reach one daemon, none reset (no per-address limit behind the balancer)" {
+    # Every request reaches a daemon from nginx's one address: with the
+    # daemon's default --max-connections-per-ip 16, the 17th connection was
+    # reset and nginx answered 502.  Long polls on a job that waits hold
+    # their connections without work, until a DELETE ends them all.
+    local dir="$BATS_TEST_TMPDIR/farm3" port id i n dport
+    FARM2="$dir"
+    port=$((20000 + $(od -An -N2 -tu2 /dev/urandom) % 40000))
+    run -0 env FARM_WORKERS=1 sh "$REPO/farm/farm.sh" start "$BUILD" 1 "$port" "$dir" 3>&-
+    dport=$(cat "$dir/daemon-1.port")
+    run -0 curl -sf -H 'Content-Type: application/json' "http://127.0.0.1:$port/v1/jobs" \
+        -d '{"scene": "cornell", "render": {"width": 32, "height": 24, "spp": 200000, "threads": 1, "tile_size": 2, "adaptive": false}}'
+    id=$(printf '%s' "$output" | sed -n 's/.*"id":"\([0-9a-f]*\)".*/\1/p')
+    [ -n "$id" ]
+    for i in $(seq 1 24); do
+        curl -s -o /dev/null -w '%{http_code}\n' --max-time 120 \
+            "http://127.0.0.1:$port/v1/jobs/$id?wait=60" >"$BATS_TEST_TMPDIR/code$i" 3>&- &
+    done
+    # Until every poll is either held by the daemon or answered (two
+    # minutes at most: the polls' own --max-time).
+    for i in $(seq 1 2400); do
+        n=$(curl -s "http://127.0.0.1:$dport/metrics" | sed -n 's/^lensrayd_in_flight_requests //p')
+        [ $((n - 1 + $(cat "$BATS_TEST_TMPDIR"/code* | wc -l))) -ge 24 ] && break
+        sleep 0.05
+    done
+    run -0 curl -s -X DELETE "http://127.0.0.1:$port/v1/jobs/$id"
+    wait
+    [ "$(cat "$BATS_TEST_TMPDIR"/code* | sort | uniq -c | sed 's/^ *//')" = "24 200" ]
 }
 
 @test "12 parts through nginx equal the local render byte for byte (EXR with Z, PNG)" {
@@ -147,16 +238,11 @@ wait_for() {
 @test "a part whose daemon disappears is sent again by the client" {
     cd "$REPO"
     "$LENSRAY" render scenes/cornell.json -o "$BATS_TEST_TMPDIR/local.exr" $SIZE -q
-    local log="$BATS_TEST_TMPDIR/solo.log" port
-    "$BUILD/lensrayd" --port 0 --bind 127.0.0.1 --scenes scenes >"$log" 2>&1 3>&- &
-    SOLO_PID=$!
-    until port=$(sed -n 's|^lensrayd: listening on http://127\.0\.0\.1:\([0-9]*\) .*|\1|p' "$log") && [ -n "$port" ]; do
-        kill -0 "$SOLO_PID"
-        sleep 0.05
-    done
+    solo_daemon
+    local log="$SOLO_LOG" port=${SOLO_URL##*:}
     kill -STOP "$SOLO_PID"
     "$LENSRAY" render scenes/cornell.json -o "$BATS_TEST_TMPDIR/farm.exr" $SIZE \
-        --remote "http://127.0.0.1:$port" --parts 4 --parallel 2 --retries 12 --stats \
+        --remote "$SOLO_URL" --parts 4 --parallel 2 --retries 12 --stats \
         >"$BATS_TEST_TMPDIR/out" 2>"$BATS_TEST_TMPDIR/err" 3>&- &
     CLIENT_PID=$!
     kill -KILL "$SOLO_PID"
@@ -260,21 +346,47 @@ put_asset() {
     [[ "$output" != *"$FARM"* ]]
 }
 
+@test "assets: 12 PUTs of one asset at once through nginx all store it (201 or 200), whole" {
+    # Uploads of one asset on one daemon shared a temporary file name: one
+    # truncated it while another wrote, and renamed it away from under the
+    # others, which answered 507 (11 of 12 did).
+    local f="$BATS_TEST_TMPDIR/big.bin" hash i urls=()
+    head -c 3000000 /dev/urandom >"$f"
+    hash=$(sha256sum "$f" | cut -c1-64)
+    # An -o for each URL: the answers' bodies must not reach the codes.
+    for i in $(seq 1 12); do
+        urls+=(-o /dev/null "$URL/v1/assets/$hash")
+    done
+    run -0 curl -s -Z --parallel-immediate --parallel-max 12 -X PUT \
+        --data-binary "@$f" -w '%{http_code}\n' "${urls[@]}"
+    echo "$output" >&2
+    [ "$(printf '%s\n' "$output" | grep -c '^20[01]$')" = 12 ]
+    cmp "$f" "$FARM/assets/$hash"
+    [ -z "$(ls -A "$FARM/assets" | grep '^\.tmp-' || true)" ]
+}
+
 @test "assets: one over --max-asset-bytes is refused with 413 naming the limit" {
-    local log="$BATS_TEST_TMPDIR/solo.log" port f="$BATS_TEST_TMPDIR/big"
+    local f="$BATS_TEST_TMPDIR/big" port
     mkdir -p "$BATS_TEST_TMPDIR/assets"
     head -c 5000 /dev/zero >"$f"
-    "$BUILD/lensrayd" --port 0 --bind 127.0.0.1 --scenes "$REPO/scenes" \
-        --assets "$BATS_TEST_TMPDIR/assets" --max-asset-bytes 4k >"$log" 2>&1 3>&- &
-    SOLO_PID=$!
-    until port=$(sed -n 's|^lensrayd: listening on http://127\.0\.0\.1:\([0-9]*\) .*|\1|p' "$log") && [ -n "$port" ]; do
-        kill -0 "$SOLO_PID" || { cat "$log"; false; }
-        sleep 0.05
-    done
+    solo_daemon --assets "$BATS_TEST_TMPDIR/assets" --max-asset-bytes 4k
+    port=${SOLO_URL##*:}
     run curl -s -w ' %{http_code}' -X PUT --data-binary "@$f" \
         "http://127.0.0.1:$port/v1/assets/$(sha256sum "$f" | cut -c1-64)"
     [[ "$output" == *"more than the limit of 4096 (--max-asset-bytes)"*" 413" ]]
+    # Without a Content-Length (chunked), found as the body streams.
+    run curl -s -w ' %{http_code}' -X PUT -H 'Transfer-Encoding: chunked' \
+        --data-binary "@$f" \
+        "http://127.0.0.1:$port/v1/assets/$(sha256sum "$f" | cut -c1-64)"
+    [[ "$output" == *"more than the limit of 4096 bytes (--max-asset-bytes)"*" 413" ]]
     [ -z "$(ls "$BATS_TEST_TMPDIR/assets")" ]
+    # Exactly the limit is stored, either way.
+    head -c 4096 /dev/urandom >"$f"
+    run curl -s -w ' %{http_code}' -X PUT -H 'Transfer-Encoding: chunked' \
+        --data-binary "@$f" \
+        "http://127.0.0.1:$port/v1/assets/$(sha256sum "$f" | cut -c1-64)"
+    [[ "$output" == *'"bytes":4096,"created":true}'*" 201" ]]
+    cmp "$f" "$BATS_TEST_TMPDIR/assets/$(sha256sum "$f" | cut -c1-64)"
 }
 
 @test "assets: the client sends a mesh once, all three daemons render with it, equal to the local render" {
@@ -608,14 +720,9 @@ json_field() {
 }
 
 @test "GET /v1/jobs: filtered by status, paged with limit and after" {
-    local log="$BATS_TEST_TMPDIR/solo.log" port u i first next
-    "$BUILD/lensrayd" --port 0 --bind 127.0.0.1 --scenes "$REPO/scenes" >"$log" 2>&1 3>&- &
-    SOLO_PID=$!
-    until port=$(sed -n 's|^lensrayd: listening on http://127\.0\.0\.1:\([0-9]*\) .*|\1|p' "$log") && [ -n "$port" ]; do
-        kill -0 "$SOLO_PID"
-        sleep 0.05
-    done
-    u="http://127.0.0.1:$port"
+    local u i first next
+    solo_daemon
+    u=$SOLO_URL
     for i in 1 2 3; do
         curl -sf "$u/v1/jobs" -H 'Content-Type: application/json' -d "$JOB" >/dev/null
     done
@@ -639,4 +746,37 @@ json_field() {
     [[ "$output" == *'unknown query parameter \"stauts\"'*" 422" ]]
     run curl -s -w ' %{http_code}' "$u/v1/jobs?after=nope"
     [[ "$output" == *'"path":"after"'*" 422" ]]
+    # An id this daemon never had is an error, not an empty last page.
+    run curl -s -w ' %{http_code}' "$u/v1/jobs?after=0123456789abcdef0123456789abcdef"
+    [[ "$output" == *'"code":"job_not_found"'*'"path":"after"'*" 404" ]]
+}
+
+@test "GET /v1/jobs: paging goes on when the job of the cursor expires between two pages" {
+    # A page's last job dropped before the next page was asked for (here by
+    # --max-finished-jobs, as by --job-ttl or a DELETE) gave an empty page
+    # with next null: the client stopped, short of the jobs after it.
+    local u i id next seen=""
+    solo_daemon --max-finished-jobs 3
+    u=$SOLO_URL
+    submit_done() {
+        id=$(curl -sf "$u/v1/jobs" -H 'Content-Type: application/json' -d "$JOB" | json_field id)
+        until curl -sf "$u/v1/jobs/$id?wait=60" | grep -q '"status":"done"'; do :; done
+    }
+    for i in 1 2 3; do submit_done; done
+    run -0 curl -sf "$u/v1/jobs?limit=1"
+    next=$(echo "$output" | json_field next)
+    seen=$(echo "$output" | grep -o '"id":"[0-9a-f]*"' | cut -d'"' -f4)
+    [ "$seen" = "$next" ]
+    # One more finished job pushes the cursor's job out of the table.
+    submit_done
+    run -0 curl -s -o /dev/null -w '%{http_code}' "$u/v1/jobs/$next"
+    [ "$output" = 404 ]
+    while [ "$next" != null ] && [ -n "$next" ]; do
+        run -0 curl -sf "$u/v1/jobs?limit=1&after=$next"
+        seen="$seen $(echo "$output" | grep -o '"id":"[0-9a-f]*"' | cut -d'"' -f4)"
+        next=$(echo "$output" | json_field next)
+    done
+    # The first page's job, then the three the table holds now, in order.
+    [ "$(echo $seen | wc -w)" -eq 4 ]
+    [ "$(echo $seen | cut -d' ' -f2-)" = "$(curl -sf "$u/v1/jobs" | grep -o '"id":"[0-9a-f]*"' | cut -d'"' -f4 | tr '\n' ' ' | sed 's/ $//')" ]
 }

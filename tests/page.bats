@@ -203,3 +203,15 @@ t=-e[1]/d[1]; print(t*sum(d[i]*f[i] for i in range(3)))')
 @test "browser: the lens model and the shipped lenses come from the daemon, and the page renders through one" {
     browser_check lens
 }
+
+@test "browser: a token refused mid-session is asked for again, and the page starts over without doubled lists or handlers" {
+    browser_check token-again
+}
+
+@test "browser: a picture that cannot be fetched is an error on the page, not an uncaught exception" {
+    browser_check lost-image
+}
+
+@test "browser: the daemon killed mid-render: the page says the server does not answer" {
+    browser_check daemon-gone
+}

@@ -285,6 +285,29 @@ class Job:
         return self.client._json("DELETE", f"/v1/jobs/{self.id}")
 
 
+def _submit_when_room(client: Client, scene: SceneRef,
+                      camera: Optional[Mapping[str, Any]],
+                      render: Mapping[str, Any], unfinished: list[Job]) -> Job:
+    """Client.submit, sent again while the daemon's queue is full (429).
+
+    A strip more than the daemon's workers and queue hold is not an error
+    of the frame: it waits until one of ours on that daemon has finished
+    (or a second, when none is: the queue is someone else's), as the
+    answer's Retry-After asks."""
+    while True:
+        try:
+            return client.submit(scene, camera, render)
+        except LensrayError as e:
+            if e.http_status != 429:
+                raise
+        mine = [j for j in unfinished if j.client is client]
+        if mine:
+            mine[0].wait()
+            unfinished.remove(mine[0])
+        else:
+            time.sleep(1.0)
+
+
 def render_split(clients: "Union[Client, list[Client]]", scene: SceneRef,
                  camera: Optional[Mapping[str, Any]] = None,
                  render: Optional[Mapping[str, Any]] = None,
@@ -346,12 +369,16 @@ def render_split(clients: "Union[Client, list[Client]]", scene: SceneRef,
     width, height = size["width"], size["height"]
     n = max(1, min(parts or len(clients), height))
     rows = [height * i // n for i in range(n + 1)]
-    jobs = []
+    jobs: list[Job] = []
+    unfinished: list[Job] = []  # of jobs, those not yet seen finished
     try:
         for i in range(n):
             crop = dict(render, width=width, height=height,
                         region=[0, rows[i], width, rows[i + 1]])
-            jobs.append(clients[i % len(clients)].submit(scene, camera, crop))
+            client = clients[i % len(clients)]
+            job = _submit_when_room(client, scene, camera, crop, unfinished)
+            jobs.append(job)
+            unfinished.append(job)
         strips = [job.result() for job in jobs]
     except BaseException:
         for job in jobs:

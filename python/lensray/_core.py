@@ -111,15 +111,17 @@ class Image(np.ndarray):
 
 def _as_image(array: Any) -> "np.ndarray":
     """(H, W, 3) float32, C-contiguous, from anything array-like."""
-    a = np.ascontiguousarray(np.asarray(array, dtype=np.float32))
+    if array is None:
+        raise TypeError("an image must be an (H, W, 3) or (H, W) array, got None")
+    # The shape is checked before np.ascontiguousarray, which makes a
+    # scalar one-dimensional and would report a shape never given.
+    a = np.asarray(array, dtype=np.float32)
     if a.ndim == 2:
         a = np.repeat(a[:, :, None], 3, axis=2)
     if a.ndim != 3 or a.shape[2] not in (3, 4) or a.shape[0] < 1 or a.shape[1] < 1:
         raise ValueError(
             f"an image must be (H, W, 3) or (H, W); got shape {a.shape}")
-    if a.shape[2] == 4:
-        a = np.ascontiguousarray(a[:, :, :3])
-    return a
+    return np.ascontiguousarray(a[:, :, :3])
 
 
 def _lr_image(array: Any, depth: Any = None) -> c_void_p:

@@ -9,7 +9,7 @@ import pytest
 
 import lensray
 
-from conftest import LENS, SCENES, SMALL, same_bits
+from conftest import LENS, SCENES, SMALL, Daemon, same_bits
 
 
 def test_render_by_name_equals_in_process(daemon, spheres):
@@ -120,6 +120,21 @@ def test_render_split_stitches_the_full_frame(daemon, spheres):
     for bad in (0, -3):
         with pytest.raises(ValueError, match="parts"):
             lensray.render_split(c, "spheres", render=SMALL, parts=bad)
+
+
+def test_render_split_waits_for_a_full_queue(spheres):
+    """More strips than the daemon takes at once (one worker, no queue):
+    each one the daemon refuses with 429 is sent again once one of ours
+    there has finished.  Every strip was queued at once, and the second
+    failed the whole frame with 'the queue is full'."""
+    d = Daemon("--queue", "0")
+    try:
+        c = lensray.Client(d.url)
+        rgb = lensray.render_split(c, "spheres", camera=LENS, render=SMALL, parts=5)
+        assert same_bits(rgb, spheres.render(camera=LENS, render=SMALL))
+        assert any(" 429 " in line for line in d.log), "no strip was ever refused"
+    finally:
+        d.stop()
 
 
 def cancelled_jobs(client) -> int:

@@ -70,3 +70,12 @@ def test_write_refuses_bad_input(tmp_path):
     with pytest.raises(ValueError, match="Z channel"):
         lensray.write(tmp_path / "a.PNG", np.zeros((4, 4, 3)), np.zeros((4, 4)))
     assert not (tmp_path / "a.PNG").exists()
+    # No array, or a scalar, is named as such: None became a NaN scalar and
+    # then "got shape (1,)", a shape the caller never passed.
+    with pytest.raises(TypeError, match="None"):
+        lensray.write(tmp_path / "a.exr", None)
+    with pytest.raises(ValueError, match=r"got shape \(\)"):
+        lensray.encode_png(0.5)
+    with pytest.raises(ValueError, match=r"got shape \(3,\)"):
+        lensray.encode_png([0.5, 0.5, 0.5])
+    assert not (tmp_path / "a.exr").exists()

@@ -47,17 +47,25 @@ const state = {
   active: null,     // the job being rendered: {id, generation, deleted}
   shown: null,      // the job whose picture is shown: {id, body, status, blob, plan}
   changedAt: 0,     // when the newest change was made (performance.now)
+  wired: false,     // the controls' handlers are attached
 };
 
 // ---- the API -------------------------------------------------------------
 
+// The daemon gone (or a proxy in front of it failing) is an error the user
+// reads, not the browser's bare "Failed to fetch".
 async function api(method, path, body) {
   const headers = {};
   if (state.token) headers["Authorization"] = "Bearer " + state.token;
   if (body !== undefined) headers["Content-Type"] = "application/json";
-  const res = await fetch(path, {
-    method, headers, body: body === undefined ? undefined : JSON.stringify(body),
-  });
+  let res;
+  try {
+    res = await fetch(path, {
+      method, headers, body: body === undefined ? undefined : JSON.stringify(body),
+    });
+  } catch (e) {
+    throw new Error("the server does not answer (" + method + " " + path + ": " + e.message + ")");
+  }
   if (res.status === 401) {
     askToken("the server refused the token");
     throw new Error("unauthorized");
@@ -65,11 +73,29 @@ async function api(method, path, body) {
   return res;
 }
 
+// An answer that is not the daemon's JSON (a proxy's HTML error page, a
+// connection cut mid-body) is named by its status.
 async function apiJSON(method, path, body) {
   const res = await api(method, path, body);
-  const doc = await res.json();
-  if (!res.ok) throw new Error(doc.error ? doc.error.message : res.statusText);
+  let doc;
+  try {
+    doc = await res.json();
+  } catch (e) {
+    throw new Error(method + " " + path + ": HTTP " + res.status + " " + res.statusText +
+                    ", and no JSON answer (" + e.message + ")");
+  }
+  if (!res.ok) throw new Error(doc.error ? doc.error.message : "HTTP " + res.status + " " + res.statusText);
   return doc;
+}
+
+// A finished job's image, or an error naming why there is none.
+async function apiImage(id) {
+  const res = await api("GET", "/v1/jobs/" + id + "/image");
+  if (!res.ok) {
+    const doc = await res.json().catch(() => ({}));
+    throw new Error(doc.error ? doc.error.message : "the image of job " + id + ": HTTP " + res.status);
+  }
+  return res.blob();
 }
 
 function askToken(why) {
@@ -301,7 +327,14 @@ async function run() {
       document.body.dataset.state = "error";
       return;
     }
-    await show(st, body, generation, i === 0);
+    // Fetching the picture fails too when the daemon goes away after the
+    // job: said on the page, as above, never an uncaught rejection.
+    try {
+      await show(st, body, generation, i === 0);
+    } catch (e) {
+      if (generation === state.generation) { setStatus(e.message, true); document.body.dataset.state = "error"; }
+      return;
+    }
     if (generation !== state.generation) return;
   }
   document.body.dataset.state = "done";
@@ -310,8 +343,7 @@ async function run() {
 
 // Shows a finished job's picture, plan and statistics.
 async function show(st, body, generation, first) {
-  const res = await api("GET", "/v1/jobs/" + st.id + "/image");
-  const blob = await res.blob();
+  const blob = await apiImage(st.id);
   const plan = await apiJSON("GET", "/v1/jobs/" + st.id + "/plan");
   if (generation !== state.generation) return;
   const img = $("picture");
@@ -444,7 +476,7 @@ async function downloadExr() {
     if (st.status !== "queued" && st.status !== "running") { setStatus(st.error.message, true); return; }
     await sleep(100);
   }
-  const blob = await (await api("GET", "/v1/jobs/" + job.id + "/image")).blob();
+  const blob = await apiImage(job.id);
   const a = document.createElement("a");
   a.href = URL.createObjectURL(blob);
   a.download = body.scene + "-" + job.id + ".exr";
@@ -456,9 +488,23 @@ async function downloadExr() {
 
 // ---- start ----------------------------------------------------------------
 
+// The status line is on the page's main part, hidden until the start
+// succeeds: shown for the error, or the user would see a blank page.
+function startFailed(e) {
+  $("token-form").hidden = true;
+  $("app").hidden = false;
+  setStatus(e.message, true);
+  document.body.dataset.state = "error";
+}
+
 async function start() {
-  const health = await (await fetch("/healthz")).json();
-  if (health.token_required && !state.token) { askToken(""); return; }
+  try {
+    const health = await apiJSON("GET", "/healthz");
+    if (health.token_required && !state.token) { askToken(""); return; }
+  } catch (e) {
+    startFailed(e);
+    return;
+  }
   try {
     state.options = await apiJSON("GET", "/v1/options");
     state.scenes = (await apiJSON("GET", "/v1/scenes")).scenes;
@@ -466,11 +512,14 @@ async function start() {
     const lenses = await api("GET", "/v1/lenses");
     if (lenses.ok) state.lenses = (await lenses.json()).lenses.map((l) => l.id);
   } catch (e) {
-    if (e.message !== "unauthorized") setStatus(e.message, true);
+    if (e.message !== "unauthorized") startFailed(e);
     return;
   }
   $("token-form").hidden = true;
   $("app").hidden = false;
+  // start() runs again after a token is asked for mid-session (the
+  // daemon restarted with another): the lists are made anew, not added to.
+  for (const id of ["scene", "model", "sampler", "chroma-mode", "spp"]) $(id).replaceChildren();
   for (const s of state.scenes) option($("scene"), s.name);
   for (const m of state.options.camera_models) option($("model"), m.name);
   for (const s of state.options.samplers) option($("sampler"), s);
@@ -479,7 +528,14 @@ async function start() {
   const first = state.scenes.find((s) => s.name === "spheres") || state.scenes[0];
   if (!first) { setStatus("the server has no scenes", true); return; }
   chooseScene(first.name);
+  if (!state.wired) wire();
+  changed();
+}
 
+// The controls' handlers, attached once whatever the number of starts: a
+// second set made every change start two series.
+function wire() {
+  state.wired = true;
   $("scene").addEventListener("change", () => { chooseScene($("scene").value); changed(); });
   $("model").addEventListener("change", () => { chooseModel($("model").value); changed(); });
   for (const id of ["sampler", "spp", "size", "chroma-mode"])
@@ -504,7 +560,6 @@ async function start() {
     changed();
   });
   $("dl-exr").addEventListener("click", () => downloadExr().catch((e) => setStatus(e.message, true)));
-  changed();
 }
 
 $("token-form").addEventListener("submit", (e) => {

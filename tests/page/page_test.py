@@ -320,8 +320,81 @@ def check_lens(driver, daemon, ctx):
     return "%s through %s" % (st["camera"]["model"], st["camera"]["lens"])
 
 
+def uncaught(driver):
+    """The console's uncaught exceptions since the last look (a failed
+    request's own network line is the browser's, not the page's)."""
+    return [e["message"] for e in driver.get_log("browser") if "Uncaught" in e["message"]]
+
+
+def check_token_again(driver, daemon, ctx):
+    """A token refused mid-session (the daemon restarted with another) is
+    asked for again; with it the page starts over with its lists made
+    anew, and a change starts one series, not one per start."""
+    def count(sel):
+        return len(Select(driver.find_element(By.ID, sel)).options)
+    scenes, spps = count("scene"), count("spp")
+    driver.execute_script("state.token = 'stale'; sessionStorage.setItem('lensray-token', 'stale');")
+    Select(driver.find_element(By.ID, "spp")).select_by_value("1")
+    until(driver, "the token form", lambda: driver.find_element(By.ID, "token").is_displayed())
+    field = driver.find_element(By.ID, "token")
+    field.clear()
+    field.send_keys(daemon.token + Keys.ENTER)
+    wait_done(driver)
+    assert (count("scene"), count("spp")) == (scenes, spps), \
+        "after the token the lists have %d scenes and %d spp choices, not %d and %d" % (
+            count("scene"), count("spp"), scenes, spps)
+    before = series(driver)
+    act(driver, lambda: Select(driver.find_element(By.ID, "spp")).select_by_value("4"))
+    assert series(driver) == before + 1, "one change started %d series" % (series(driver) - before)
+    return "%d scenes, one series a change" % scenes
+
+
+def check_lost_image(driver, daemon, ctx):
+    """A picture that cannot be fetched after its job is done (the daemon
+    gone in between: the page's fetch made to fail for /image) is an error
+    on the page, and the page renders again after the next change."""
+    uncaught(driver)
+    driver.execute_script("""
+        window.realFetch = window.fetch;
+        window.fetch = (path, init) => /[/]image$/.test(path)
+            ? Promise.reject(new TypeError("Failed to fetch"))
+            : window.realFetch(path, init);""")
+    before = series(driver)
+    Select(driver.find_element(By.ID, "spp")).select_by_value("1")
+    until(driver, "a new series", lambda: series(driver) > before)
+    until(driver, "the page to show the error", lambda: body_data(driver, "state") == "error")
+    status = driver.find_element(By.ID, "status").text
+    assert "does not answer" in status and "/image" in status, "the status says %r" % status
+    bad = uncaught(driver)
+    assert not bad, "uncaught in the console: %s" % bad
+    driver.execute_script("window.fetch = window.realFetch;")
+    act(driver, lambda: Select(driver.find_element(By.ID, "spp")).select_by_value("4"))
+    return "said: " + status
+
+
+def check_daemon_gone(driver, daemon, ctx):
+    """The daemon killed while the page renders: the page says the server
+    does not answer, with no uncaught exception.  Last: it ends the daemon."""
+    uncaught(driver)
+    before = series(driver)
+    Select(driver.find_element(By.ID, "spp")).select_by_value("65536")
+    until(driver, "a new series", lambda: series(driver) > before)
+    until(driver, "a job of the series to run",
+          lambda: body_data(driver, "job") and
+          daemon.json("GET", "/v1/jobs/" + body_data(driver, "job"))["status"] == "running")
+    daemon.proc.kill()
+    daemon.proc.wait()
+    until(driver, "the page to show the error", lambda: body_data(driver, "state") == "error")
+    status = driver.find_element(By.ID, "status").text
+    assert "does not answer" in status, "the status says %r" % status
+    bad = uncaught(driver)
+    assert not bad, "uncaught in the console: %s" % bad
+    return "said: " + status
+
+
 CHECKS = [("load", check_load), ("cancel", check_cancel), ("focus", check_focus),
-          ("overlay", check_overlay), ("download", check_download), ("lens", check_lens)]
+          ("overlay", check_overlay), ("download", check_download), ("lens", check_lens),
+          ("token-again", check_token_again), ("lost-image", check_lost_image), ("daemon-gone", check_daemon_gone)]
 
 
 def run_checks(build, out):
