@@ -26,7 +26,11 @@
 static const char *const cosmetic[] = {
     "COMM", "HIDE", "SLAB", "MEMA", "POPS", "COAT", "FLAP", "VPAR", "VCON",
     "VDSZ", "VCRV", "PPAR", "PZUP", "MAZH", "XDAT", "CMMP", "OEMA", "ISNH",
-    "TCE", "BLNK", "FIMP", NULL};
+    "TCE", "BLNK", "FIMP",
+    /* The mirror substrate's drawing (MIRR type thickness): written on
+     * every surface by every OpticStudio since the 1990s; a mirror
+     * itself is GLAS MIRROR. */
+    "MIRR", NULL};
 
 static int in(const char *w, const char *const *list)
 {
