@@ -41,28 +41,55 @@ static int in(const char *w, const char *const *list)
 }
 
 /* The text as 8-bit characters: UTF-16LE (with its byte order mark)
- * narrowed, anything else copied.  NULL when out of memory; *bad is set
- * for a character beyond ASCII in a UTF-16 file (names are ASCII). */
-static char *narrow(const char *text, size_t len, size_t *out_len, int *bad)
+ * as UTF-8, anything else copied.  Names and notes may hold characters
+ * beyond ASCII (Thorlabs' files: "NAME \u00d8=2.65mm ..."); keywords and
+ * numbers are ASCII either way.  A lone surrogate becomes U+FFFD.  NULL
+ * when out of memory. */
+static char *narrow(const char *text, size_t len, size_t *out_len)
 {
     const unsigned char *u = (const unsigned char *)text;
     int utf16 = len >= 2 && u[0] == 0xFF && u[1] == 0xFE;
     size_t n = utf16 ? (len - 2) / 2 : len;
-    char *s = malloc(n + 1);
+    /* At most 3 bytes of UTF-8 per UTF-16 unit (a pair: 4 for 2). */
+    char *s = malloc(utf16 ? 3 * n + 1 : n + 1);
     if (s == NULL)
         return NULL;
-    *bad = 0;
-    for (size_t i = 0; i < n; i++) {
-        if (utf16) {
-            unsigned c = u[2 + 2 * i] | (unsigned)u[3 + 2 * i] << 8;
-            if (c > 0x7F && !*bad)
-                *bad = 1;
-            s[i] = c > 0x7F ? '?' : (char)c;
-        } else
-            s[i] = text[i];
+    if (!utf16) {
+        memcpy(s, text, n);
+        s[n] = '\0';
+        *out_len = n;
+        return s;
     }
-    s[n] = '\0';
-    *out_len = n;
+    size_t o = 0;
+    for (size_t i = 0; i < n; i++) {
+        unsigned long c = u[2 + 2 * i] | (unsigned)u[3 + 2 * i] << 8;
+        if (c >= 0xD800 && c <= 0xDBFF && i + 1 < n) {
+            unsigned long lo = u[4 + 2 * i] | (unsigned)u[5 + 2 * i] << 8;
+            if (lo >= 0xDC00 && lo <= 0xDFFF) {
+                c = 0x10000 + ((c - 0xD800) << 10) + (lo - 0xDC00);
+                i++;
+            }
+        }
+        if (c >= 0xD800 && c <= 0xDFFF)
+            c = 0xFFFD;
+        if (c < 0x80)
+            s[o++] = (char)c;
+        else if (c < 0x800) {
+            s[o++] = (char)(0xC0 | c >> 6);
+            s[o++] = (char)(0x80 | (c & 0x3F));
+        } else if (c < 0x10000) {
+            s[o++] = (char)(0xE0 | c >> 12);
+            s[o++] = (char)(0x80 | (c >> 6 & 0x3F));
+            s[o++] = (char)(0x80 | (c & 0x3F));
+        } else {
+            s[o++] = (char)(0xF0 | c >> 18);
+            s[o++] = (char)(0x80 | (c >> 12 & 0x3F));
+            s[o++] = (char)(0x80 | (c >> 6 & 0x3F));
+            s[o++] = (char)(0x80 | (c & 0x3F));
+        }
+    }
+    s[o] = '\0';
+    *out_len = o;
     return s;
 }
 
@@ -122,8 +149,7 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
     memset(rx, 0, sizeof *rx);
     rx->stop = -1;
     size_t n8;
-    int bad;
-    char *s = narrow(text, len, &n8, &bad);
+    char *s = narrow(text, len, &n8);
     if (s == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL, "%s: out of memory",
                         shown);
@@ -137,8 +163,6 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
     double unit = 1.0;
     int nz = 0, cur = -1, line = 0;
     char *p = s, *end = s + n8;
-    if (bad)
-        FAIL("%s: a character beyond ASCII in a UTF-16 file", shown);
     while (st == LR_OK && p < end) {
         char *eol = memchr(p, '\n', (size_t)(end - p));
         if (eol == NULL)

@@ -438,6 +438,26 @@ static void test_zmx_reader(void **state)
                      LR_OK);
     free(u16);
     assert_int_equal(memcmp(&rx, &r16, sizeof rx), 0);
+    /* UTF-16 beyond ASCII in a name (Thorlabs' "NAME \u00d8=2.65mm ..."),
+     * and a lone surrogate: the name as UTF-8, the file read. */
+    const char *latin1 = "NAME \xD8=2.65mm \x01\r\n";
+    size_t nl = strlen(latin1), n2 = nl + n;
+    u16 = malloc(2 * n2 + 2);
+    assert_non_null(u16);
+    u16[0] = (char)0xFF;
+    u16[1] = (char)0xFE;
+    for (size_t i = 0; i < n2; i++) {
+        unsigned c = (unsigned char)(i < nl ? latin1[i] : ok[i - nl]);
+        if (c == 1)
+            c = 0xD800; /* a high surrogate without its pair */
+        u16[2 + 2 * i] = (char)(c & 0xFF);
+        u16[3 + 2 * i] = (char)(c >> 8);
+    }
+    assert_int_equal(lr__rx_from_zmx(u16, 2 * n2 + 2, "t.zmx", &r16, &err),
+                     LR_OK);
+    free(u16);
+    assert_string_equal(r16.name, "\xC3\x98=2.65mm \xEF\xBF\xBD");
+    assert_true(r16.n == rx.n && r16.s[1].radius == rx.s[1].radius);
     /* A model glass (nd, vd) and centimetres. */
     assert_int_equal(
         zmx("UNIT CM X W X CM MR CPMM\r\nSURF 0\r\n  DISZ INFINITY\r\n"
