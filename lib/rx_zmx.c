@@ -287,15 +287,28 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
                      line, quote(k > 1 ? w[1] : "", q, sizeof q));
             } else if (lr__glass_named(w[1], &z->glass, near,
                                        sizeof near) != 0) {
-                /* A model glass: GLAS name 1 0 nd vd ... */
+                /* A model glass: GLAS ___BLANK 1 0 nd vd ... (solve
+                 * type 1; a pickup of one, type 2, keeps the name).  A
+                 * vd of 0 is Zemax's constant index, as in ray-optics'
+                 * reader (zemax/zmxread.py). */
                 double flag, nd, vd;
-                if (k >= 6 && number(w[2], &flag) == 0 && flag == 1 &&
-                    number(w[4], &nd) == 0 && number(w[5], &vd) == 0 &&
-                    nd >= 1 && nd <= 5 && vd >= 5 && vd <= 200) {
+                int model = k >= 6 && number(w[2], &flag) == 0 &&
+                            (flag == 1 || strcmp(w[1], "___BLANK") == 0);
+                if (model && number(w[4], &nd) == 0 &&
+                    number(w[5], &vd) == 0 && nd >= 1 && nd <= 5 &&
+                    (vd == 0 || (vd >= 5 && vd <= 200))) {
                     memset(&z->glass, 0, sizeof z->glass);
-                    z->glass.kind = LR__GLASS_ABBE;
+                    z->glass.kind = vd == 0 ? LR__GLASS_CONSTANT
+                                            : LR__GLASS_ABBE;
                     z->glass.nd = nd;
                     z->glass.vd = vd;
+                } else if (model) {
+                    char q2[200];
+                    FAIL("%s:%d: a model glass needs nd in [1, 5] and vd "
+                         "0 (no dispersion) or in [5, 200], got \"%s\" "
+                         "\"%s\"",
+                         shown, line, quote(w[4], q, sizeof q),
+                         quote(w[5], q2, sizeof q2));
                 } else
                     FAIL("%s:%d: unknown glass \"%s\"; nearest: %s",
                          shown, line, quote(w[1], q, sizeof q), near);

@@ -470,6 +470,25 @@ static void test_zmx_reader(void **state)
     assert_int_equal(rx.s[1].after.kind, LR__GLASS_ABBE);
     assert_true(fabs(rx.s[1].radius - 50) < 1e-12 &&
                 fabs(rx.s[1].thickness - 4) < 1e-12);
+    /* vd 0: Zemax's model glass of constant index (as ray-optics reads
+     * it); a pickup of a model glass (solve type 2) keeps its name. */
+    assert_int_equal(
+        zmx("SURF 0\r\n  DISZ INFINITY\r\n"
+            "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ 1\r\n"
+            "SURF 2\r\n  CURV 0.02\r\n  DISZ 4\r\n"
+            "  GLAS ___BLANK 1 0 1.5 0 0 0 0 0 0 0\r\n  DIAM 10\r\n"
+            "SURF 3\r\n  CURV -0.02\r\n  DISZ 1\r\n  DIAM 10\r\n"
+            "SURF 4\r\n  CURV 0.02\r\n  DISZ 4\r\n"
+            "  GLAS ___BLANK 2 2 1.6 40 0 0 0 0 0 0\r\n  DIAM 10\r\n"
+            "SURF 5\r\n  CURV -0.02\r\n  DISZ 40\r\n  DIAM 10\r\n"
+            "SURF 6\r\n",
+            &rx, &err),
+        LR_OK);
+    assert_int_equal(rx.s[1].after.kind, LR__GLASS_CONSTANT);
+    assert_true(lr__glass_n(&rx.s[1].after, 450) == 1.5 &&
+                lr__glass_n(&rx.s[1].after, 650) == 1.5);
+    assert_int_equal(rx.s[3].after.kind, LR__GLASS_ABBE);
+    assert_true(rx.s[3].after.nd == 1.6 && rx.s[3].after.vd == 40);
 }
 
 static void test_zmx_errors(void **state)
@@ -484,6 +503,12 @@ static void test_zmx_errors(void **state)
                                "SURF 2\r\n  CURV 0.02\r\n  GLAS N-BK8 0 0 "
                                "1.5 60\r\n",
                       "t.zmx:16: unknown glass \"N-BK8\"; nearest: N-BK7");
+    expect_text_error(zmx,
+                      ZMX_HEAD "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ 1\r\n"
+                               "SURF 2\r\n  CURV 0.02\r\n  GLAS ___BLANK 1 "
+                               "0 1.5 2 0 0\r\n",
+                      "t.zmx:16: a model glass needs nd in [1, 5] and vd 0 "
+                      "(no dispersion) or in [5, 200], got \"1.5\" \"2\"");
     expect_text_error(zmx,
                       ZMX_HEAD "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ 1\r\n"
                                "  GLAS MIRROR 0 0\r\n",
