@@ -224,6 +224,29 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
                     FAIL("%s:%d: UNIT %s: lens units must be MM, CM, IN "
                          "or METER",
                          shown, line, quote(w[1], q, sizeof q));
+            } else if (strcmp(w[0], "NOTE") == 0 && k >= 3) {
+                /* "NOTE n text": the notes, joined, are the source.  The
+                 * text is the rest of the line, beyond words()'s 16. */
+                size_t o = strlen(rx->source);
+                char raw[sizeof rx->source], esc[sizeof rx->source];
+                for (char *c = w[2]; c < eol; c++)
+                    if (*c == '\0')
+                        *c = ' ';
+                size_t r = (size_t)(eol - w[2]);
+                while (r > 0 && isspace((unsigned char)w[2][r - 1]))
+                    r--;
+                if (r >= sizeof raw)
+                    r = sizeof raw - 1;
+                memcpy(raw, w[2], r);
+                raw[r] = '\0';
+                lr__trim_partial_utf8(raw, sizeof raw, (int)r + 1);
+                lr__utf8_escape(raw, esc, sizeof esc);
+                if (o + 2 < sizeof rx->source) {
+                    snprintf(rx->source + o, sizeof rx->source - o, "%s%s",
+                             o ? " " : "", esc);
+                    lr__trim_partial_utf8(rx->source, sizeof rx->source,
+                                          (int)strlen(rx->source) + 1);
+                }
             } else if (strcmp(w[0], "NAME") == 0 && k >= 2 && !rx->name[0]) {
                 char raw[128];
                 size_t o = 0;

@@ -473,7 +473,10 @@ static void test_zmx_reader(void **state)
     /* vd 0: Zemax's model glass of constant index (as ray-optics reads
      * it); a pickup of a model glass (solve type 2) keeps its name. */
     assert_int_equal(
-        zmx("SURF 0\r\n  DISZ INFINITY\r\n"
+        zmx("NOTE 0 From US patent\r\nNOTE 0  583,336, example 2, a note of more "
+            "than sixteen words: three four five six seven eight nine "
+            "ten.\r\n"
+            "SURF 0\r\n  DISZ INFINITY\r\n"
             "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ 1\r\n"
             "SURF 2\r\n  CURV 0.02\r\n  DISZ 4\r\n"
             "  GLAS ___BLANK 1 0 1.5 0 0 0 0 0 0 0\r\n  DIAM 10\r\n"
@@ -484,6 +487,10 @@ static void test_zmx_reader(void **state)
             "SURF 6\r\n",
             &rx, &err),
         LR_OK);
+    /* The notes are the lens's source. */
+    assert_string_equal(rx.source, "From US patent 583,336, example 2, a "
+                                   "note of more than sixteen words: three "
+                                   "four five six seven eight nine ten.");
     assert_int_equal(rx.s[1].after.kind, LR__GLASS_CONSTANT);
     assert_true(lr__glass_n(&rx.s[1].after, 450) == 1.5 &&
                 lr__glass_n(&rx.s[1].after, 650) == 1.5);
