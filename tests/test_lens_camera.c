@@ -196,6 +196,36 @@ static void test_white_surround(void **state)
     lr_scene_free(s);
 }
 
+/* The same through a lens whose stop is its rear surface and ten times
+ * larger than its glass, closed to f/128 (0.19 mm): the exit-pupil
+ * search looked for it over the unscaled stop, missed it, and the picture
+ * was black. */
+static void test_white_surround_big_rear_stop(void **state)
+{
+    (void)state;
+    lr_scene *s = lens_scene(
+        "{\"surfaces\": ["
+        " {\"radius\": 50, \"thickness\": 4, \"material\": \"N-BK7\","
+        "  \"semi_aperture\": 10},"
+        " {\"radius\": -50, \"thickness\": 1, \"material\": \"air\","
+        "  \"semi_aperture\": 10},"
+        " {\"stop\": true, \"thickness\": 45, \"semi_aperture\": 100}]}",
+        ", \"focus_distance\": 5, \"f_number\": 128",
+        "[{\"type\": \"sphere\", \"center\": [0, 0, 0],"
+        "  \"radius\": 100, \"material\": \"w\"}]",
+        9, 9, 64);
+    lr_camera cam;
+    lr_scene_camera(s, &cam);
+    lr_render_settings rs;
+    lr_scene_settings(s, &rs);
+    lr_image *img = lr_test_render_with(s, &cam, &rs, "big rear stop");
+    double centre = lr_image_rgb(img)[3 * (4 * 9 + 4)];
+    print_message("big rear stop at f/128: centre %.4f\n", centre);
+    assert_true(fabs(centre - 1.0) < 0.02);
+    lr_image_free(img);
+    lr_scene_free(s);
+}
+
 static void expect_error(const char *camera_extra, const char *path,
                          const char *words)
 {
@@ -572,6 +602,7 @@ static const struct CMUnitTest lens_camera_tests[] = {
     cmocka_unit_test(test_few_rays_lost_on_axis),
     cmocka_unit_test(test_autofocus_on_a_pixel),
     cmocka_unit_test(test_white_surround),
+    cmocka_unit_test(test_white_surround_big_rear_stop),
     cmocka_unit_test(test_errors_name_the_field),
     cmocka_unit_test(test_lens_written_back),
     cmocka_unit_test(test_pupil_bounds_lose_no_light),
