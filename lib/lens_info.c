@@ -112,28 +112,49 @@ static int aim(const lr__rx *front, double z0, double deg, double nm,
     return fabs(fa) < 1e-7;
 }
 
+/* The aim at field angle dk from the answer *y0 at dp: first from *y0
+ * moved along the paraxial entrance pupil's line, then from *y0 itself,
+ * then (the guess lost: near 90 degrees tan grows faster than the real
+ * pupil moves) through the middle angle, halving down to 1/1000 degree.
+ * 1 and *y0 updated, or 0. */
+static int advance(const lr__rx *front, double z0, double dp, double dk,
+                   double nm, double enp, double step, double *y0)
+{
+    double guess = *y0 - (tan(dk * M_PI / 180) - tan(dp * M_PI / 180)) *
+                             (isfinite(enp) ? enp : 0);
+    double y;
+    if (aim(front, z0, dk, nm, guess, step, &y) ||
+        aim(front, z0, dk, nm, *y0, step, &y)) {
+        *y0 = y;
+        return 1;
+    }
+    if (!(fabs(dk - dp) > 1e-3))
+        return 0;
+    double mid = 0.5 * (dp + dk), ym = *y0;
+    if (!advance(front, z0, dp, mid, nm, enp, step, &ym) ||
+        !advance(front, z0, mid, dk, nm, enp, step, &ym))
+        return 0;
+    *y0 = ym;
+    return 1;
+}
+
 /* The chief ray's height on the plane z_img, aimed at the stop's centre
  * at wavelength nm.  The aim is continued from the axis in steps of at
- * most 2 degrees, each from the last one's answer moved along the
- * paraxial entrance pupil's line, because at wide angles (a fisheye's)
- * the real pupil moves far from the paraxial one and a guess from the
+ * most 2 degrees (advance), because at wide angles (a fisheye's) the
+ * real pupil moves far from the paraxial one and a guess from the
  * paraxial pupil alone misses the lens.  0: no such ray. */
 static int chief(const lr__rx *rx, const lr__rx *open, const lr__rx *front,
                  double deg, double nm, double enp, double z_img, double *h)
 {
     int steps = (int)ceil(fabs(deg) / 2.0);
     double z0 = start_z(rx);
-    double y0 = 0, prev = 0, step = 1e-3 * (1.0 + rx->s[0].semi_aperture);
+    double y0 = 0, step = 1e-3 * (1.0 + rx->s[0].semi_aperture);
     if (steps < 1)
         steps = 1;
-    for (int k = 1; k <= steps; k++) {
-        double dk = deg * k / steps, dp = deg * (k - 1) / steps;
-        double guess = prev - (tan(dk * M_PI / 180) - tan(dp * M_PI / 180)) *
-                                  (isfinite(enp) ? enp : 0);
-        if (!aim(front, z0, dk, nm, guess, step, &y0))
+    for (int k = 1; k <= steps; k++)
+        if (!advance(front, z0, deg * (k - 1) / steps, deg * k / steps, nm,
+                     enp, step, &y0))
             return 0;
-        prev = y0;
-    }
     double o[3], d[3], z[LR__RX_MAX_SURFACES + 1];
     start(z0, deg, y0, o, d);
     lr__rx_layout(open, z);

@@ -50,7 +50,7 @@ def open_model(path):
 ND, NF, NC = 587.5618, 486.1327, 656.2725
 WVLS = (NF, ND, NC)
 ANGLES = {"double-gauss-50": [0, 5, 10, 15, 20], "wide-22": [0, 10, 20, 30],
-          "telephoto-250": [0, 2, 4], "fisheye-10": [0, 20, 40, 60, 75],
+          "telephoto-250": [0, 2, 4], "fisheye-10": [0, 20, 40, 60, 75, 85, 89],
           "petzval": [0, 5, 10], "nikkor-z14": [0, 10, 20, 30, 40, 50, 55],
           "landscape-front-stop": [0, 5, 10, 20],
           "aspheric-doublet-f1.4": [0, 2, 4]}
