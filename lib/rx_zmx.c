@@ -3,7 +3,8 @@
  * MODE, NAME and NOTE at the top; per surface (the indented lines after
  * "SURF k") TYPE STANDARD or EVENASPH, CURV, CONI, PARM (the even
  * asphere's r^2 ... r^16 terms), DISZ, GLAS, DIAM (a semi-diameter),
- * STOP.  SURF 0 is the object (at infinity here) and the last SURF the
+ * CLAP (a circular aperture: the smaller of it and DIAM), STOP.  SURF 0
+ * is the object (at infinity here) and the last SURF the
  * image.  Per-surface lines that only draw or annotate (COMM, HIDE, SLAB,
  * MEMA, POPS, COAT, FLAP, ...) are ignored; any other per-surface line
  * changes the optics in a way lensray does not model, and is an error
@@ -136,8 +137,8 @@ static const char *quote(const char *w, char *buf, size_t cap)
 }
 
 typedef struct zsurf {
-    double curv, disz, diam, coni, parm[9];
-    int stop, has_diam, line;
+    double curv, disz, diam, coni, parm[9], clap;
+    int stop, has_diam, has_clap, line;
     lr__glass glass;
 } zsurf;
 
@@ -292,6 +293,28 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
                 FAIL("%s:%d: DIAM needs a semi-diameter >= 0", shown, line);
             z->diam = x;
             z->has_diam = 1;
+        } else if (strcmp(w[0], "CLAP") == 0) {
+            /* A circular aperture, "CLAP r_min r_max ...": rays beyond
+             * r_max are blocked, as by the semi-diameter; an annulus
+             * (r_min > 0) is not modelled. */
+            double rmax = 0;
+            if (!num_ok || k < 3 || number(w[2], &rmax) != 0 ||
+                !isfinite(rmax) || rmax <= 0 || rmax * unit > MAX_MM)
+                FAIL("%s:%d: CLAP needs a minimum and a maximum radius > 0",
+                     shown, line);
+            else if (x != 0)
+                FAIL("%s:%d: CLAP with a minimum radius (an annular "
+                     "aperture) is not supported",
+                     shown, line);
+            z->clap = rmax;
+            z->has_clap = 1;
+        } else if (strcmp(w[0], "OBDC") == 0) {
+            /* The aperture's decentre: only none, "OBDC 0 0", is read. */
+            double dy = 0;
+            if (!num_ok || x != 0 ||
+                (k >= 3 && (number(w[2], &dy) != 0 || dy != 0)))
+                FAIL("%s:%d: OBDC: a decentred aperture is not supported",
+                     shown, line);
         } else if (strcmp(w[0], "STOP") == 0) {
             z->stop = 1;
         } else if (strcmp(w[0], "PARM") == 0) {
@@ -350,6 +373,10 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
     for (int i = 1; st == LR_OK && i < nz - 1; i++) {
         zsurf *z = &zs[i];
         lr__surface *o = &rx->s[i - 1];
+        if (z->has_clap && (!z->has_diam || z->clap < z->diam)) {
+            z->diam = z->clap;
+            z->has_diam = 1;
+        }
         if (!z->has_diam || z->diam <= 0) {
             FAIL("%s:%d: SURF %d has no semi-diameter (DIAM)", shown,
                  z->line, i);

@@ -487,6 +487,19 @@ static void test_zmx_reader(void **state)
             "SURF 6\r\n",
             &rx, &err),
         LR_OK);
+    /* A circular aperture (CLAP r_min r_max) narrower than DIAM limits
+     * the surface; an undecentred aperture (OBDC 0 0) is read. */
+    assert_int_equal(
+        zmx("SURF 0\r\n  DISZ INFINITY\r\n"
+            "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ 1\r\n"
+            "SURF 2\r\n  CURV 0.02\r\n  DISZ 4\r\n  GLAS N-BK7\r\n"
+            "  DIAM 10\r\n  CLAP 0 7.5 0\r\n  OBDC 0 0\r\n"
+            "SURF 3\r\n  CURV -0.02\r\n  DISZ 40\r\n  CLAP 0 12 0\r\n"
+            "  DIAM 10\r\nSURF 4\r\n",
+            &r16, &err),
+        LR_OK);
+    assert_true(r16.s[1].semi_aperture == 7.5 &&
+                r16.s[2].semi_aperture == 10);
     /* The notes are the lens's source. */
     assert_string_equal(rx.source, "From US patent 583,336, example 2, a "
                                    "note of more than sixteen words: three "
@@ -537,6 +550,14 @@ static void test_zmx_errors(void **state)
                                "  PARM 1 0.1\r\n  DISZ 4\r\n  DIAM 10\r\n"
                                "  GLAS N-BK7\r\n" ZMX_TAIL,
                       "r^2 aspheric term");
+    expect_text_error(zmx,
+                      ZMX_HEAD "SURF 1\r\n  STOP\r\n  DIAM 5\r\n"
+                               "  CLAP 1 4 0\r\n",
+                      "t.zmx:13: CLAP with a minimum radius");
+    expect_text_error(zmx,
+                      ZMX_HEAD "SURF 1\r\n  STOP\r\n  DIAM 5\r\n"
+                               "  OBDC 0 1.5\r\n",
+                      "t.zmx:13: OBDC: a decentred aperture");
     expect_text_error(zmx, "MODE NSC\r\n", "t.zmx:1: MODE NSC");
     expect_text_error(zmx, "UNIT FT\r\n", "t.zmx:1: UNIT FT");
     expect_text_error(zmx, ZMX_HEAD "SURF 2\r\n", "t.zmx:10: SURF 2 out of "
