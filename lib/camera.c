@@ -232,7 +232,10 @@ void lr__cam_init(lr__cam *c, const lr_camera *cam, int width, int height)
     }
     c->f16.rad = (float)c->radius;
     c->f16.w = (float)c->w;
-    c->f16.di = (float)c->base_di;
+    /* Without an aperture the bracket's rays start at the eye, as the
+     * pinhole's and the scalar ray's do (lr__offset_lens_ray), not on
+     * its image plane, which would hide what lies nearer. */
+    c->f16.di = c->has_lens ? (float)c->base_di : 0.0f;
 
     /* Chromatic focus: the model has set the focus line w(n) = w_base +
      * w_slope scale(n); with the reference index the power is c->w. */

@@ -215,7 +215,13 @@ static void pupil_point(const pupil_job *j, double r, lr__pupil *P,
 {
     const lr__lens_cam *lc = &j->c->lens;
     const lr_lens *L = lc->L;
-    double S = 1.5 * L->rx.s[L->rx.n - 1].semi_aperture;
+    /* The rays cross the rear plane within the rear surface's aperture,
+     * the stop's as scaled when the rear surface is the stop (a stop
+     * larger than the glass, closed to f/128, was 1/500 of the grid's
+     * box: every ray missed, a black picture). */
+    int rear = L->rx.n - 1;
+    double S = 1.5 * L->rx.s[rear].semi_aperture *
+               (rear == L->rx.stop ? lc->stop_scale : 1.0);
     /* A stopped-down lens's pupil can fall between the coarse grid's
      * points (at f/22 the double Gauss's is 1.6 mm across, the cells
      * 1.25 mm): then finer grids, four and sixteen times. */

@@ -29,17 +29,24 @@ static void unvignetted(const lr__rx *rx, lr__rx *out)
     }
 }
 
-/* Starts a ray at field angle `deg` that crosses the first vertex's plane
- * at height y0, from far enough in front of the lens. */
-static void start(const lr__rx *rx, double deg, double y0, double o[3],
-                  double d[3])
+/* Where the chief rays start: in front of the first surface by more than
+ * its size, judged on the lens as given (`rx`), not on the opened copy
+ * (a flat front surface opens to 1e6 mm, and its rays would start 1 km
+ * away and aim in metre steps). */
+static double start_z(const lr__rx *rx)
 {
-    double t = deg * M_PI / 180.0;
     double z0 = -(2.0 * fmax(fabs(rx->s[0].radius),
                              rx->s[0].semi_aperture) +
                   10.0);
-    if (z0 < -1e6)
-        z0 = -1e6;
+    return z0 < -1e6 ? -1e6 : z0;
+}
+
+/* Starts a ray at field angle `deg` that crosses the first vertex's plane
+ * at height y0, from z0 (start_z). */
+static void start(double z0, double deg, double y0, double o[3],
+                  double d[3])
+{
+    double t = deg * M_PI / 180.0;
     o[0] = 0;
     o[1] = y0 + tan(t) * z0;
     o[2] = z0;
@@ -50,11 +57,11 @@ static void start(const lr__rx *rx, double deg, double y0, double o[3],
 
 /* The height at which the ray of (deg, y0) crosses the stop's plane, at
  * wavelength nm; `front` is the lens cut before its stop.  0: lost. */
-static int at_stop(const lr__rx *front, double deg, double y0, double nm,
-                   double *y)
+static int at_stop(const lr__rx *front, double z0, double deg, double y0,
+                   double nm, double *y)
 {
     double o[3], d[3], z[LR__RX_MAX_SURFACES + 1];
-    start(front, deg, y0, o, d);
+    start(z0, deg, y0, o, d);
     if (front->n == 0) {
         *y = y0;
         return 1;
@@ -68,11 +75,12 @@ static int at_stop(const lr__rx *front, double deg, double y0, double nm,
 
 /* The y0 at which the ray of field angle `deg` crosses the stop's centre
  * at wavelength nm, by the secant method from `guess`.  0: not found. */
-static int aim(const lr__rx *front, double deg, double nm, double guess,
-               double step, double *y0)
+static int aim(const lr__rx *front, double z0, double deg, double nm,
+               double guess, double step, double *y0)
 {
     double a = guess, fa, b = guess + step, fb;
-    if (!at_stop(front, deg, a, nm, &fa) || !at_stop(front, deg, b, nm, &fb))
+    if (!at_stop(front, z0, deg, a, nm, &fa) ||
+        !at_stop(front, z0, deg, b, nm, &fb))
         return 0;
     for (int it = 0; it < 60 && fabs(fa) > 1e-14; it++) {
         if (fb == fa)
@@ -80,7 +88,7 @@ static int aim(const lr__rx *front, double deg, double nm, double guess,
         double c = b - fb * (b - a) / (fb - fa), fc;
         /* A step that loses the ray is halved back toward b. */
         int tries = 0;
-        while (!(isfinite(c) && at_stop(front, deg, c, nm, &fc)) &&
+        while (!(isfinite(c) && at_stop(front, z0, deg, c, nm, &fc)) &&
                tries++ < 40)
             c = isfinite(c) ? 0.5 * (b + c) : b + step;
         if (tries > 40)
@@ -104,29 +112,51 @@ static int aim(const lr__rx *front, double deg, double nm, double guess,
     return fabs(fa) < 1e-7;
 }
 
+/* The aim at field angle dk from the answer *y0 at dp: first from *y0
+ * moved along the paraxial entrance pupil's line, then from *y0 itself,
+ * then (the guess lost: near 90 degrees tan grows faster than the real
+ * pupil moves) through the middle angle, halving down to 1/1000 degree.
+ * 1 and *y0 updated, or 0. */
+static int advance(const lr__rx *front, double z0, double dp, double dk,
+                   double nm, double enp, double step, double *y0)
+{
+    double guess = *y0 - (tan(dk * M_PI / 180) - tan(dp * M_PI / 180)) *
+                             (isfinite(enp) ? enp : 0);
+    double y;
+    if (aim(front, z0, dk, nm, guess, step, &y) ||
+        aim(front, z0, dk, nm, *y0, step, &y)) {
+        *y0 = y;
+        return 1;
+    }
+    if (!(fabs(dk - dp) > 1e-3))
+        return 0;
+    double mid = 0.5 * (dp + dk), ym = *y0;
+    if (!advance(front, z0, dp, mid, nm, enp, step, &ym) ||
+        !advance(front, z0, mid, dk, nm, enp, step, &ym))
+        return 0;
+    *y0 = ym;
+    return 1;
+}
+
 /* The chief ray's height on the plane z_img, aimed at the stop's centre
  * at wavelength nm.  The aim is continued from the axis in steps of at
- * most 2 degrees, each from the last one's answer moved along the
- * paraxial entrance pupil's line, because at wide angles (a fisheye's)
- * the real pupil moves far from the paraxial one and a guess from the
+ * most 2 degrees (advance), because at wide angles (a fisheye's) the
+ * real pupil moves far from the paraxial one and a guess from the
  * paraxial pupil alone misses the lens.  0: no such ray. */
-static int chief(const lr__rx *open, const lr__rx *front, double deg,
-                 double nm, double enp, double z_img, double *h)
+static int chief(const lr__rx *rx, const lr__rx *open, const lr__rx *front,
+                 double deg, double nm, double enp, double z_img, double *h)
 {
     int steps = (int)ceil(fabs(deg) / 2.0);
-    double y0 = 0, prev = 0, step = 1e-3 * (1.0 + open->s[0].semi_aperture);
+    double z0 = start_z(rx);
+    double y0 = 0, step = 1e-3 * (1.0 + rx->s[0].semi_aperture);
     if (steps < 1)
         steps = 1;
-    for (int k = 1; k <= steps; k++) {
-        double dk = deg * k / steps, dp = deg * (k - 1) / steps;
-        double guess = prev - (tan(dk * M_PI / 180) - tan(dp * M_PI / 180)) *
-                                  (isfinite(enp) ? enp : 0);
-        if (!aim(front, dk, nm, guess, step, &y0))
+    for (int k = 1; k <= steps; k++)
+        if (!advance(front, z0, deg * (k - 1) / steps, deg * k / steps, nm,
+                     enp, step, &y0))
             return 0;
-        prev = y0;
-    }
     double o[3], d[3], z[LR__RX_MAX_SURFACES + 1];
-    start(open, deg, y0, o, d);
+    start(z0, deg, y0, o, d);
     lr__rx_layout(open, z);
     if (!lr__rx_trace(open, z, nm, 1.0, 1, o, d) || !(d[2] > 0))
         return 0;
@@ -200,7 +230,7 @@ static lr_status describe_rx(const lr__rx *rx, const double *angles,
         double deg = angles[i], h, hF, hC;
         cJSON_AddNumberToObject(f, "angle_deg", deg);
         double ideal = p.efl * tan(deg * M_PI / 180.0);
-        if (chief(open, front, deg, nm, p.enp_pos, z_img, &h)) {
+        if (chief(rx, open, front, deg, nm, p.enp_pos, z_img, &h)) {
             cJSON_AddNumberToObject(f, "image_height_mm", h);
             /* Distortion against the paraxial height f tan(theta). */
             if (fabs(ideal) > 0)
@@ -214,8 +244,8 @@ static lr_status describe_rx(const lr__rx *rx, const double *angles,
         }
         /* Lateral colour: each colour's own chief ray (through the stop's
          * centre at its wavelength), F minus C, on the same plane. */
-        if (chief(open, front, deg, LR__NM_F, p.enp_pos, z_img, &hF) &&
-            chief(open, front, deg, LR__NM_C, p.enp_pos, z_img, &hC))
+        if (chief(rx, open, front, deg, LR__NM_F, p.enp_pos, z_img, &hF) &&
+            chief(rx, open, front, deg, LR__NM_C, p.enp_pos, z_img, &hC))
             cJSON_AddNumberToObject(f, "lateral_color_um",
                                     1000.0 * (hF - hC));
         else

@@ -3,7 +3,8 @@
  * MODE, NAME and NOTE at the top; per surface (the indented lines after
  * "SURF k") TYPE STANDARD or EVENASPH, CURV, CONI, PARM (the even
  * asphere's r^2 ... r^16 terms), DISZ, GLAS, DIAM (a semi-diameter),
- * STOP.  SURF 0 is the object (at infinity here) and the last SURF the
+ * CLAP (a circular aperture: the smaller of it and DIAM), STOP.  SURF 0
+ * is the object (at infinity here) and the last SURF the
  * image.  Per-surface lines that only draw or annotate (COMM, HIDE, SLAB,
  * MEMA, POPS, COAT, FLAP, ...) are ignored; any other per-surface line
  * changes the optics in a way lensray does not model, and is an error
@@ -26,7 +27,11 @@
 static const char *const cosmetic[] = {
     "COMM", "HIDE", "SLAB", "MEMA", "POPS", "COAT", "FLAP", "VPAR", "VCON",
     "VDSZ", "VCRV", "PPAR", "PZUP", "MAZH", "XDAT", "CMMP", "OEMA", "ISNH",
-    "TCE", "BLNK", "FIMP", NULL};
+    "TCE", "BLNK", "FIMP",
+    /* The mirror substrate's drawing (MIRR type thickness): written on
+     * every surface by every OpticStudio since the 1990s; a mirror
+     * itself is GLAS MIRROR. */
+    "MIRR", NULL};
 
 static int in(const char *w, const char *const *list)
 {
@@ -37,28 +42,55 @@ static int in(const char *w, const char *const *list)
 }
 
 /* The text as 8-bit characters: UTF-16LE (with its byte order mark)
- * narrowed, anything else copied.  NULL when out of memory; *bad is set
- * for a character beyond ASCII in a UTF-16 file (names are ASCII). */
-static char *narrow(const char *text, size_t len, size_t *out_len, int *bad)
+ * as UTF-8, anything else copied.  Names and notes may hold characters
+ * beyond ASCII (Thorlabs' files: "NAME \u00d8=2.65mm ..."); keywords and
+ * numbers are ASCII either way.  A lone surrogate becomes U+FFFD.  NULL
+ * when out of memory. */
+static char *narrow(const char *text, size_t len, size_t *out_len)
 {
     const unsigned char *u = (const unsigned char *)text;
     int utf16 = len >= 2 && u[0] == 0xFF && u[1] == 0xFE;
     size_t n = utf16 ? (len - 2) / 2 : len;
-    char *s = malloc(n + 1);
+    /* At most 3 bytes of UTF-8 per UTF-16 unit (a pair: 4 for 2). */
+    char *s = malloc(utf16 ? 3 * n + 1 : n + 1);
     if (s == NULL)
         return NULL;
-    *bad = 0;
-    for (size_t i = 0; i < n; i++) {
-        if (utf16) {
-            unsigned c = u[2 + 2 * i] | (unsigned)u[3 + 2 * i] << 8;
-            if (c > 0x7F && !*bad)
-                *bad = 1;
-            s[i] = c > 0x7F ? '?' : (char)c;
-        } else
-            s[i] = text[i];
+    if (!utf16) {
+        memcpy(s, text, n);
+        s[n] = '\0';
+        *out_len = n;
+        return s;
     }
-    s[n] = '\0';
-    *out_len = n;
+    size_t o = 0;
+    for (size_t i = 0; i < n; i++) {
+        unsigned long c = u[2 + 2 * i] | (unsigned)u[3 + 2 * i] << 8;
+        if (c >= 0xD800 && c <= 0xDBFF && i + 1 < n) {
+            unsigned long lo = u[4 + 2 * i] | (unsigned)u[5 + 2 * i] << 8;
+            if (lo >= 0xDC00 && lo <= 0xDFFF) {
+                c = 0x10000 + ((c - 0xD800) << 10) + (lo - 0xDC00);
+                i++;
+            }
+        }
+        if (c >= 0xD800 && c <= 0xDFFF)
+            c = 0xFFFD;
+        if (c < 0x80)
+            s[o++] = (char)c;
+        else if (c < 0x800) {
+            s[o++] = (char)(0xC0 | c >> 6);
+            s[o++] = (char)(0x80 | (c & 0x3F));
+        } else if (c < 0x10000) {
+            s[o++] = (char)(0xE0 | c >> 12);
+            s[o++] = (char)(0x80 | (c >> 6 & 0x3F));
+            s[o++] = (char)(0x80 | (c & 0x3F));
+        } else {
+            s[o++] = (char)(0xF0 | c >> 18);
+            s[o++] = (char)(0x80 | (c >> 12 & 0x3F));
+            s[o++] = (char)(0x80 | (c >> 6 & 0x3F));
+            s[o++] = (char)(0x80 | (c & 0x3F));
+        }
+    }
+    s[o] = '\0';
+    *out_len = o;
     return s;
 }
 
@@ -105,8 +137,8 @@ static const char *quote(const char *w, char *buf, size_t cap)
 }
 
 typedef struct zsurf {
-    double curv, disz, diam, coni, parm[9];
-    int stop, has_diam, line;
+    double curv, disz, diam, coni, parm[9], clap;
+    int stop, has_diam, has_clap, line;
     lr__glass glass;
 } zsurf;
 
@@ -118,8 +150,7 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
     memset(rx, 0, sizeof *rx);
     rx->stop = -1;
     size_t n8;
-    int bad;
-    char *s = narrow(text, len, &n8, &bad);
+    char *s = narrow(text, len, &n8);
     if (s == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL, "%s: out of memory",
                         shown);
@@ -133,8 +164,6 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
     double unit = 1.0;
     int nz = 0, cur = -1, line = 0;
     char *p = s, *end = s + n8;
-    if (bad)
-        FAIL("%s: a character beyond ASCII in a UTF-16 file", shown);
     while (st == LR_OK && p < end) {
         char *eol = memchr(p, '\n', (size_t)(end - p));
         if (eol == NULL)
@@ -196,6 +225,29 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
                     FAIL("%s:%d: UNIT %s: lens units must be MM, CM, IN "
                          "or METER",
                          shown, line, quote(w[1], q, sizeof q));
+            } else if (strcmp(w[0], "NOTE") == 0 && k >= 3) {
+                /* "NOTE n text": the notes, joined, are the source.  The
+                 * text is the rest of the line, beyond words()'s 16. */
+                size_t o = strlen(rx->source);
+                char raw[sizeof rx->source], esc[sizeof rx->source];
+                for (char *c = w[2]; c < eol; c++)
+                    if (*c == '\0')
+                        *c = ' ';
+                size_t r = (size_t)(eol - w[2]);
+                while (r > 0 && isspace((unsigned char)w[2][r - 1]))
+                    r--;
+                if (r >= sizeof raw)
+                    r = sizeof raw - 1;
+                memcpy(raw, w[2], r);
+                raw[r] = '\0';
+                lr__trim_partial_utf8(raw, sizeof raw, (int)r + 1);
+                lr__utf8_escape(raw, esc, sizeof esc);
+                if (o + 2 < sizeof rx->source) {
+                    snprintf(rx->source + o, sizeof rx->source - o, "%s%s",
+                             o ? " " : "", esc);
+                    lr__trim_partial_utf8(rx->source, sizeof rx->source,
+                                          (int)strlen(rx->source) + 1);
+                }
             } else if (strcmp(w[0], "NAME") == 0 && k >= 2 && !rx->name[0]) {
                 char raw[128];
                 size_t o = 0;
@@ -241,6 +293,28 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
                 FAIL("%s:%d: DIAM needs a semi-diameter >= 0", shown, line);
             z->diam = x;
             z->has_diam = 1;
+        } else if (strcmp(w[0], "CLAP") == 0) {
+            /* A circular aperture, "CLAP r_min r_max ...": rays beyond
+             * r_max are blocked, as by the semi-diameter; an annulus
+             * (r_min > 0) is not modelled. */
+            double rmax = 0;
+            if (!num_ok || k < 3 || number(w[2], &rmax) != 0 ||
+                !isfinite(rmax) || rmax <= 0 || rmax * unit > MAX_MM)
+                FAIL("%s:%d: CLAP needs a minimum and a maximum radius > 0",
+                     shown, line);
+            else if (x != 0)
+                FAIL("%s:%d: CLAP with a minimum radius (an annular "
+                     "aperture) is not supported",
+                     shown, line);
+            z->clap = rmax;
+            z->has_clap = 1;
+        } else if (strcmp(w[0], "OBDC") == 0) {
+            /* The aperture's decentre: only none, "OBDC 0 0", is read. */
+            double dy = 0;
+            if (!num_ok || x != 0 ||
+                (k >= 3 && (number(w[2], &dy) != 0 || dy != 0)))
+                FAIL("%s:%d: OBDC: a decentred aperture is not supported",
+                     shown, line);
         } else if (strcmp(w[0], "STOP") == 0) {
             z->stop = 1;
         } else if (strcmp(w[0], "PARM") == 0) {
@@ -259,15 +333,28 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
                      line, quote(k > 1 ? w[1] : "", q, sizeof q));
             } else if (lr__glass_named(w[1], &z->glass, near,
                                        sizeof near) != 0) {
-                /* A model glass: GLAS name 1 0 nd vd ... */
+                /* A model glass: GLAS ___BLANK 1 0 nd vd ... (solve
+                 * type 1; a pickup of one, type 2, keeps the name).  A
+                 * vd of 0 is Zemax's constant index, as in ray-optics'
+                 * reader (zemax/zmxread.py). */
                 double flag, nd, vd;
-                if (k >= 6 && number(w[2], &flag) == 0 && flag == 1 &&
-                    number(w[4], &nd) == 0 && number(w[5], &vd) == 0 &&
-                    nd >= 1 && nd <= 5 && vd >= 5 && vd <= 200) {
+                int model = k >= 6 && number(w[2], &flag) == 0 &&
+                            (flag == 1 || strcmp(w[1], "___BLANK") == 0);
+                if (model && number(w[4], &nd) == 0 &&
+                    number(w[5], &vd) == 0 && nd >= 1 && nd <= 5 &&
+                    (vd == 0 || (vd >= 5 && vd <= 200))) {
                     memset(&z->glass, 0, sizeof z->glass);
-                    z->glass.kind = LR__GLASS_ABBE;
+                    z->glass.kind = vd == 0 ? LR__GLASS_CONSTANT
+                                            : LR__GLASS_ABBE;
                     z->glass.nd = nd;
                     z->glass.vd = vd;
+                } else if (model) {
+                    char q2[200];
+                    FAIL("%s:%d: a model glass needs nd in [1, 5] and vd "
+                         "0 (no dispersion) or in [5, 200], got \"%s\" "
+                         "\"%s\"",
+                         shown, line, quote(w[4], q, sizeof q),
+                         quote(w[5], q2, sizeof q2));
                 } else
                     FAIL("%s:%d: unknown glass \"%s\"; nearest: %s",
                          shown, line, quote(w[1], q, sizeof q), near);
@@ -286,6 +373,10 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
     for (int i = 1; st == LR_OK && i < nz - 1; i++) {
         zsurf *z = &zs[i];
         lr__surface *o = &rx->s[i - 1];
+        if (z->has_clap && (!z->has_diam || z->clap < z->diam)) {
+            z->diam = z->clap;
+            z->has_diam = 1;
+        }
         if (!z->has_diam || z->diam <= 0) {
             FAIL("%s:%d: SURF %d has no semi-diameter (DIAM)", shown,
                  z->line, i);

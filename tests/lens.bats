@@ -57,6 +57,25 @@ j() {
     [ "$(echo "$output" | j 'round(d["efl_mm"], 2)')" = 50.02 ]
 }
 
+@test "a flat front surface: the chief rays are found (Clark's double Gauss)" {
+    # A flat first surface opens to 1e6 mm in the chief-ray search, which
+    # started its rays 1 km away and aimed them in metre steps: every
+    # field was null.  Heights from ray-optics 0.9.8 on the same .zmx (d
+    # line, the paraxial focal plane), within 1e-4 of f.
+    run -0 "$LENSRAY" lens tests/data/lenses/clark-double-gauss.zmx --field-angles 10,20
+    [ "$(echo "$output" | j 'abs(d["fields"][0]["image_height_mm"] - 8.721093) < 5e-3')" = True ]
+    [ "$(echo "$output" | j 'abs(d["fields"][1]["image_height_mm"] - 18.094739) < 5e-3')" = True ]
+}
+
+@test "a fisheye's chief rays up to 89 degrees" {
+    # Near 90 degrees the aim's guess along the paraxial pupil (tan grows
+    # without bound) left the lens: 85 and 89 degrees were null.  Heights
+    # from ray-optics 0.9.8 (wide-angle field), within 1e-4 of f.
+    run -0 "$LENSRAY" lens fisheye-10 --field-angles 85,89
+    [ "$(echo "$output" | j 'abs(d["fields"][0]["image_height_mm"] - 14.766645) < 1e-3')" = True ]
+    [ "$(echo "$output" | j 'abs(d["fields"][1]["image_height_mm"] - 15.380104) < 1e-3')" = True ]
+}
+
 @test "a thin singlet: the lensmaker's focal length" {
     # 1/f = (n - 1)(1/R1 - 1/R2) for a thin lens; n = 1.5, R = +-100: f = 100
     # (0.3 mm high, so that its 1 um thickness holds at the rim).

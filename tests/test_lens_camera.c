@@ -171,29 +171,59 @@ static void test_autofocus_on_a_pixel(void **state)
     lr_scene_free(s);
 }
 
-/* A uniform white surround renders 1 at the centre of the film (the
- * normalisation), and darker, never brighter, at the corners. */
-static void test_white_surround(void **state)
+/* A white sphere around a lens camera, rendered n x n (n odd) at spp:
+ * the centre pixel's value and the corner's. */
+static void white_surround(const char *lens, const char *camera_extra, int n,
+                           int spp, double *centre, double *corner)
 {
-    (void)state;
-    lr_scene *s = lens_scene(singlet, ", \"focus_distance\": 5",
+    lr_scene *s = lens_scene(lens, camera_extra,
                              "[{\"type\": \"sphere\", \"center\": [0, 0, 0],"
                              "  \"radius\": 100, \"material\": \"w\"}]",
-                             33, 33, 256);
+                             n, n, spp);
     lr_camera cam;
     lr_scene_camera(s, &cam);
     lr_render_settings rs;
     lr_scene_settings(s, &rs);
     lr_image *img = lr_test_render_with(s, &cam, &rs, "white surround");
     const float *p = lr_image_rgb(img);
-    double centre = p[3 * (16 * 33 + 16)];
-    double corner = p[0];
-    print_message("white surround: centre %.4f, corner %.4f\n", centre,
-                  corner);
-    assert_true(fabs(centre - 1.0) < 0.02);
-    assert_true(corner < centre);
+    *centre = p[3 * (n / 2 * n + n / 2)];
+    *corner = p[0];
+    print_message("white surround: centre %.4f, corner %.4f\n", *centre,
+                  *corner);
     lr_image_free(img);
     lr_scene_free(s);
+}
+
+/* A uniform white surround renders 1 at the centre of the film (the
+ * normalisation), and darker, never brighter, at the corners. */
+static void test_white_surround(void **state)
+{
+    (void)state;
+    double centre, corner;
+    white_surround(singlet, ", \"focus_distance\": 5", 33, 256, &centre,
+                   &corner);
+    assert_true(fabs(centre - 1.0) < 0.02);
+    assert_true(corner < centre);
+}
+
+/* The same through a lens whose stop is its rear surface and ten times
+ * larger than its glass, closed to f/128 (0.19 mm): the exit-pupil
+ * search looked for it over the unscaled stop, missed it, and the picture
+ * was black. */
+static void test_white_surround_big_rear_stop(void **state)
+{
+    (void)state;
+    double centre, corner;
+    white_surround("{\"surfaces\": ["
+                   " {\"radius\": 50, \"thickness\": 4, \"material\": "
+                   "\"N-BK7\", \"semi_aperture\": 10},"
+                   " {\"radius\": -50, \"thickness\": 1, \"material\": "
+                   "\"air\", \"semi_aperture\": 10},"
+                   " {\"stop\": true, \"thickness\": 45, "
+                   "\"semi_aperture\": 100}]}",
+                   ", \"focus_distance\": 5, \"f_number\": 128", 9, 64,
+                   &centre, &corner);
+    assert_true(fabs(centre - 1.0) < 0.02);
 }
 
 static void expect_error(const char *camera_extra, const char *path,
@@ -572,6 +602,7 @@ static const struct CMUnitTest lens_camera_tests[] = {
     cmocka_unit_test(test_few_rays_lost_on_axis),
     cmocka_unit_test(test_autofocus_on_a_pixel),
     cmocka_unit_test(test_white_surround),
+    cmocka_unit_test(test_white_surround_big_rear_stop),
     cmocka_unit_test(test_errors_name_the_field),
     cmocka_unit_test(test_lens_written_back),
     cmocka_unit_test(test_pupil_bounds_lose_no_light),

@@ -116,17 +116,26 @@ static void test_zero_aperture_is_pinhole(void **state)
                                  "camera.focal_length=3",
                                  "camera.chromatic={\"mode\": \"rgb\", "
                                  "\"amplify\": 10}"};
+        /* The image plane beyond the sphere: without an aperture the
+         * rays start at the eye and the sphere is seen (the packet rays
+         * started on the image plane and missed it). */
+        const char *far_plane[] = {"camera.model=bracket", "camera.aperture=0",
+                                   "camera.image_plane_distance=6",
+                                   "camera.focal_length=3"};
         lr_image *a = lr_test_render(json, thin, 5, NULL);
         lr_image *b = lr_test_render(json, bracket, 4, NULL);
         lr_image *c = lr_test_render(json, thin, 4, NULL);
+        lr_image *d = lr_test_render(json, far_plane, 4, NULL);
         size_t bytes = (size_t)W * W * 3 * sizeof(float);
         assert_memory_equal(lr_image_rgb(pin), lr_image_rgb(a), bytes);
         assert_memory_equal(lr_image_rgb(pin), lr_image_rgb(b), bytes);
         assert_memory_equal(lr_image_rgb(pin), lr_image_rgb(c), bytes);
+        assert_memory_equal(lr_image_rgb(pin), lr_image_rgb(d), bytes);
         lr_image_free(pin);
         lr_image_free(a);
         lr_image_free(b);
         lr_image_free(c);
+        lr_image_free(d);
     }
 }
 

@@ -408,6 +408,8 @@ static void test_zmx_reader(void **state)
     const char *ok = ZMX_HEAD
         "SURF 1\r\n  STOP\r\n  TYPE STANDARD\r\n  CURV 0\r\n  DISZ 1\r\n"
         "  DIAM 5\r\n  COMM front stop\r\n"
+        /* OpticStudio writes each surface's mirror-substrate drawing. */
+        "  MIRR 2 0\r\n"
         "SURF 2\r\n  TYPE EVENASPH\r\n  CURV 2.0E-2 0 0 0 0 \"\"\r\n"
         "  CONI -0.5\r\n  PARM 1 0\r\n  PARM 2 1.0E-6\r\n  PARM 3 -2E-9\r\n"
         "  DISZ 4\r\n  GLAS N-BK7 0 0 1.5168 64.17 0 0 0 0 0 0\r\n"
@@ -436,6 +438,26 @@ static void test_zmx_reader(void **state)
                      LR_OK);
     free(u16);
     assert_int_equal(memcmp(&rx, &r16, sizeof rx), 0);
+    /* UTF-16 beyond ASCII in a name (Thorlabs' "NAME \u00d8=2.65mm ..."),
+     * and a lone surrogate: the name as UTF-8, the file read. */
+    const char *latin1 = "NAME \xD8=2.65mm \x01\r\n";
+    size_t nl = strlen(latin1), n2 = nl + n;
+    u16 = malloc(2 * n2 + 2);
+    assert_non_null(u16);
+    u16[0] = (char)0xFF;
+    u16[1] = (char)0xFE;
+    for (size_t i = 0; i < n2; i++) {
+        unsigned c = (unsigned char)(i < nl ? latin1[i] : ok[i - nl]);
+        if (c == 1)
+            c = 0xD800; /* a high surrogate without its pair */
+        u16[2 + 2 * i] = (char)(c & 0xFF);
+        u16[3 + 2 * i] = (char)(c >> 8);
+    }
+    assert_int_equal(lr__rx_from_zmx(u16, 2 * n2 + 2, "t.zmx", &r16, &err),
+                     LR_OK);
+    free(u16);
+    assert_string_equal(r16.name, "\xC3\x98=2.65mm \xEF\xBF\xBD");
+    assert_true(r16.n == rx.n && r16.s[1].radius == rx.s[1].radius);
     /* A model glass (nd, vd) and centimetres. */
     assert_int_equal(
         zmx("UNIT CM X W X CM MR CPMM\r\nSURF 0\r\n  DISZ INFINITY\r\n"
@@ -448,6 +470,45 @@ static void test_zmx_reader(void **state)
     assert_int_equal(rx.s[1].after.kind, LR__GLASS_ABBE);
     assert_true(fabs(rx.s[1].radius - 50) < 1e-12 &&
                 fabs(rx.s[1].thickness - 4) < 1e-12);
+    /* vd 0: Zemax's model glass of constant index (as ray-optics reads
+     * it); a pickup of a model glass (solve type 2) keeps its name. */
+    assert_int_equal(
+        zmx("NOTE 0 From US patent\r\nNOTE 0  583,336, example 2, a note of more "
+            "than sixteen words: three four five six seven eight nine "
+            "ten.\r\n"
+            "SURF 0\r\n  DISZ INFINITY\r\n"
+            "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ 1\r\n"
+            "SURF 2\r\n  CURV 0.02\r\n  DISZ 4\r\n"
+            "  GLAS ___BLANK 1 0 1.5 0 0 0 0 0 0 0\r\n  DIAM 10\r\n"
+            "SURF 3\r\n  CURV -0.02\r\n  DISZ 1\r\n  DIAM 10\r\n"
+            "SURF 4\r\n  CURV 0.02\r\n  DISZ 4\r\n"
+            "  GLAS ___BLANK 2 2 1.6 40 0 0 0 0 0 0\r\n  DIAM 10\r\n"
+            "SURF 5\r\n  CURV -0.02\r\n  DISZ 40\r\n  DIAM 10\r\n"
+            "SURF 6\r\n",
+            &rx, &err),
+        LR_OK);
+    /* A circular aperture (CLAP r_min r_max) narrower than DIAM limits
+     * the surface; an undecentred aperture (OBDC 0 0) is read. */
+    assert_int_equal(
+        zmx("SURF 0\r\n  DISZ INFINITY\r\n"
+            "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ 1\r\n"
+            "SURF 2\r\n  CURV 0.02\r\n  DISZ 4\r\n  GLAS N-BK7\r\n"
+            "  DIAM 10\r\n  CLAP 0 7.5 0\r\n  OBDC 0 0\r\n"
+            "SURF 3\r\n  CURV -0.02\r\n  DISZ 40\r\n  CLAP 0 12 0\r\n"
+            "  DIAM 10\r\nSURF 4\r\n",
+            &r16, &err),
+        LR_OK);
+    assert_true(r16.s[1].semi_aperture == 7.5 &&
+                r16.s[2].semi_aperture == 10);
+    /* The notes are the lens's source. */
+    assert_string_equal(rx.source, "From US patent 583,336, example 2, a "
+                                   "note of more than sixteen words: three "
+                                   "four five six seven eight nine ten.");
+    assert_int_equal(rx.s[1].after.kind, LR__GLASS_CONSTANT);
+    assert_true(lr__glass_n(&rx.s[1].after, 450) == 1.5 &&
+                lr__glass_n(&rx.s[1].after, 650) == 1.5);
+    assert_int_equal(rx.s[3].after.kind, LR__GLASS_ABBE);
+    assert_true(rx.s[3].after.nd == 1.6 && rx.s[3].after.vd == 40);
 }
 
 static void test_zmx_errors(void **state)
@@ -462,6 +523,12 @@ static void test_zmx_errors(void **state)
                                "SURF 2\r\n  CURV 0.02\r\n  GLAS N-BK8 0 0 "
                                "1.5 60\r\n",
                       "t.zmx:16: unknown glass \"N-BK8\"; nearest: N-BK7");
+    expect_text_error(zmx,
+                      ZMX_HEAD "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ 1\r\n"
+                               "SURF 2\r\n  CURV 0.02\r\n  GLAS ___BLANK 1 "
+                               "0 1.5 2 0 0\r\n",
+                      "t.zmx:16: a model glass needs nd in [1, 5] and vd 0 "
+                      "(no dispersion) or in [5, 200], got \"1.5\" \"2\"");
     expect_text_error(zmx,
                       ZMX_HEAD "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ 1\r\n"
                                "  GLAS MIRROR 0 0\r\n",
@@ -483,6 +550,14 @@ static void test_zmx_errors(void **state)
                                "  PARM 1 0.1\r\n  DISZ 4\r\n  DIAM 10\r\n"
                                "  GLAS N-BK7\r\n" ZMX_TAIL,
                       "r^2 aspheric term");
+    expect_text_error(zmx,
+                      ZMX_HEAD "SURF 1\r\n  STOP\r\n  DIAM 5\r\n"
+                               "  CLAP 1 4 0\r\n",
+                      "t.zmx:13: CLAP with a minimum radius");
+    expect_text_error(zmx,
+                      ZMX_HEAD "SURF 1\r\n  STOP\r\n  DIAM 5\r\n"
+                               "  OBDC 0 1.5\r\n",
+                      "t.zmx:13: OBDC: a decentred aperture");
     expect_text_error(zmx, "MODE NSC\r\n", "t.zmx:1: MODE NSC");
     expect_text_error(zmx, "UNIT FT\r\n", "t.zmx:1: UNIT FT");
     expect_text_error(zmx, ZMX_HEAD "SURF 2\r\n", "t.zmx:10: SURF 2 out of "

@@ -38,6 +38,7 @@ from rayoptics.raytr.opticalspec import PupilSpec, FieldSpec, WvlSpec
 from rayoptics.zemax import zmxread
 from rayoptics.raytr import trace
 from opticalglass.opticalmedium import InterpolatedMedium
+from rayoptics.elem.profiles import EvenPolynomial
 
 
 def open_model(path):
@@ -49,8 +50,10 @@ def open_model(path):
 ND, NF, NC = 587.5618, 486.1327, 656.2725
 WVLS = (NF, ND, NC)
 ANGLES = {"double-gauss-50": [0, 5, 10, 15, 20], "wide-22": [0, 10, 20, 30],
-          "telephoto-250": [0, 2, 4], "fisheye-10": [0, 20, 40, 60, 75],
-          "petzval": [0, 5, 10]}
+          "telephoto-250": [0, 2, 4], "fisheye-10": [0, 20, 40, 60, 75, 85, 89],
+          "petzval": [0, 5, 10], "nikkor-z14": [0, 10, 20, 30, 40, 50, 55],
+          "landscape-front-stop": [0, 5, 10, 20],
+          "aspheric-doublet-f1.4": [0, 2, 4]}
 DEFAULT_ANGLES = [0, 5, 10]
 
 
@@ -83,7 +86,8 @@ def surfaces_json(path):
         if isinstance(m, dict):
             m = (m["nd"], m.get("vd"))
         out.append((s.get("radius", 0.0), s["thickness"], m,
-                    s["semi_aperture"], bool(s.get("stop"))))
+                    s["semi_aperture"], bool(s.get("stop")),
+                    s.get("conic", 0.0), s.get("aspheric", [])))
     return out
 
 
@@ -96,7 +100,7 @@ def surfaces_pbrt(path):
         r, t, n, ap = (float(x) for x in line[:4])
         vd = float(line[4]) if len(line) > 4 and float(line[4]) else None
         m = "air" if n <= 1 else (n, vd)
-        out.append((r, t, m, ap / 2, r == 0))
+        out.append((r, t, m, ap / 2, r == 0, 0.0, []))
     return out
 
 
@@ -106,11 +110,16 @@ def build(surfs):
     opm.radius_mode = True
     sm.gaps[0].thi = 1e10
     stop = None
-    for k, (r, t, m, sa, is_stop) in enumerate(surfs):
+    for k, (r, t, m, sa, is_stop, conic, asph) in enumerate(surfs):
         med = medium(m, k)
         args = [r, t] if med is None else (
             [r, t, med[0], med[1]] if isinstance(med, tuple) else [r, t, med])
         sm.add_surface(args, sd=sa)
+        if conic or asph:
+            # ray-optics' even polynomial: coefs from r^2; lensray's
+            # "aspheric" from r^4.
+            sm.ifcs[sm.cur_surface].profile = EvenPolynomial(
+                r=r, cc=conic, coefs=[0.0] + [float(a) for a in asph])
         if is_stop:
             sm.set_stop()
             stop = sa
@@ -177,8 +186,7 @@ def main():
             surfs = (surfaces_pbrt(lens) if lens.endswith(".dat")
                      else surfaces_json(lens))
             if surfs[-1][1] == 0:
-                r, t, m, sa, st = surfs[-1]
-                surfs[-1] = (r, 50.0, m, sa, st)
+                surfs[-1] = (surfs[-1][0], 50.0) + surfs[-1][2:]
             opm, _ = build(surfs)
         fod = finish(opm, angles)
         d = ours(lensray, lens, angles, ND)
