@@ -104,3 +104,14 @@ lr_status lr__rx_paraxial(const lr__rx *rx, double nm, lr__paraxial *p,
                         "the lens's focal length is not finite");
     return LR_OK;
 }
+
+void lr__rx_zero_back_focus(lr__rx *rx)
+{
+    if (rx->n < 1 || rx->s[rx->n - 1].thickness != 0 || rx->stop < 0)
+        return;
+    lr__paraxial px;
+    lr_error e2;
+    if (lr__rx_paraxial(rx, LR__NM_d, &px, &e2) == LR_OK &&
+        isfinite(px.bfl) && px.bfl > 0 && px.bfl < 1e6)
+        rx->s[rx->n - 1].thickness = px.bfl;
+}

@@ -162,6 +162,12 @@ typedef struct lr__paraxial {
 lr_status lr__rx_paraxial(const lr__rx *rx, double nm, lr__paraxial *p,
                           lr_error *err);
 
+/* A last thickness of 0 (the image plane on the rear vertex, which no
+ * lens is built for) becomes the paraxial back focal length at the d
+ * line, as pbrt's lens files mean it; left 0 when there is no real image
+ * within 1e6 mm (or no stop).  The JSON and pbrt readers call it. */
+void lr__rx_zero_back_focus(lr__rx *rx);
+
 /* ---- real rays (rx_trace.c) -------------------------------------------------- */
 
 /* The vertices' z, and the image plane's (after the last thickness),

@@ -236,5 +236,6 @@ lr_status lr__rx_from_json(const cJSON *o, const char *path, lr__rx *rx,
         }
     }
     rx->n = n;
+    lr__rx_zero_back_focus(rx);
     return LR_OK;
 }

@@ -190,12 +190,6 @@ lr_status lr__rx_from_pbrt(const char *text, size_t len, const char *shown,
         return lr__fail(err, LR_ERR_INVALID, NULL, "%s: no surfaces",
                         shown);
     rx->n = n;
-    if (rx->s[n - 1].thickness == 0 && rx->stop >= 0) {
-        lr__paraxial px;
-        lr_error e2;
-        if (lr__rx_paraxial(rx, LR__NM_d, &px, &e2) == LR_OK &&
-            isfinite(px.bfl) && px.bfl > 0 && px.bfl < MAX_MM)
-            rx->s[n - 1].thickness = px.bfl;
-    }
+    lr__rx_zero_back_focus(rx);
     return LR_OK;
 }

@@ -349,6 +349,39 @@ static void test_pbrt_reader(void **state)
     assert_true(rx.s[1].after.vd == 64.17);
 }
 
+/* A JSON lens whose last thickness is 0 (the sensor on the rear vertex:
+ * black at far focus, without a word) gets the back focus, as a pbrt
+ * file does.  Independent check: a thick singlet's back focal length,
+ * BFL = f (1 - (n - 1) t / (n R1)), 1/f = (n - 1)(1/R1 - 1/R2 +
+ * (n - 1) t / (n R1 R2)) (Hecht, Optics, 5th ed., eq. 6.2 and 6.3). */
+static void test_json_zero_back_focus(void **state)
+{
+    (void)state;
+    lr__rx rx;
+    lr_error err;
+    const char *text =
+        "{\"surfaces\": [{\"stop\": true, \"thickness\": 1, "
+        "\"semi_aperture\": 5}, {\"radius\": 50, \"thickness\": 5, "
+        "\"material\": {\"nd\": 1.5}, \"semi_aperture\": 10}, "
+        "{\"radius\": -50, \"thickness\": 0, \"material\": \"air\", "
+        "\"semi_aperture\": 10}]}";
+    if (from_json(text, &rx, &err) != LR_OK)
+        fail_msg("%s", err.message);
+    double n = 1.5, R1 = 50, R2 = -50, t = 5;
+    double f = 1 / ((n - 1) * (1 / R1 - 1 / R2 + (n - 1) * t / (n * R1 * R2)));
+    double bfl = f * (1 - (n - 1) * t / (n * R1));
+    assert_true(fabs(rx.s[2].thickness - bfl) < 1e-9);
+    /* Without a real image (a negative lens) it stays 0. */
+    const char *neg =
+        "{\"surfaces\": [{\"stop\": true, \"thickness\": 1, "
+        "\"semi_aperture\": 5}, {\"radius\": -50, \"thickness\": 5, "
+        "\"material\": {\"nd\": 1.5}, \"semi_aperture\": 10}, "
+        "{\"radius\": 50, \"thickness\": 0, \"material\": \"air\", "
+        "\"semi_aperture\": 10}]}";
+    if (from_json(neg, &rx, &err) == LR_OK)
+        assert_true(rx.s[2].thickness == 0);
+}
+
 static void expect_text_error(lr_status (*read)(const char *, lr__rx *,
                                                 lr_error *),
                               const char *text, const char *words)
@@ -691,6 +724,7 @@ static const struct CMUnitTest prescription_tests[] = {
     cmocka_unit_test(test_json_errors),
     cmocka_unit_test(test_pbrt_reader),
     cmocka_unit_test(test_pbrt_errors),
+    cmocka_unit_test(test_json_zero_back_focus),
     cmocka_unit_test(test_zmx_reader),
     cmocka_unit_test(test_zmx_errors),
     cmocka_unit_test(test_readers_ignore_the_locale),
