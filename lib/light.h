@@ -24,6 +24,7 @@ typedef struct lr__light_sample {
     double pdf;   /* solid-angle density with the pick's probability; for
                    * a delta light the pick's probability alone */
     int delta;    /* point or directional: no MIS, no BSDF counterpart */
+    int geom;     /* the emitting geometry (area lights), else -1 */
 } lr__light_sample;
 
 /* Samples a light seen from point p, with u_pick and u[2] in [0, 1).
@@ -31,6 +32,12 @@ typedef struct lr__light_sample {
  * nothing (then *out is unspecified). */
 int lr__light_sample_from(const lr_scene *s, lr__v3 p, double u_pick,
                           const double u[2], lr__light_sample *out);
+
+/* How far the shadow ray of sample ls, taken from point p, may go from
+ * org (p moved off its surface) along ls->dir: short of the light's own
+ * surface; INFINITY for the environment and directional lights. */
+double lr__light_shadow_tfar(const lr_scene *s, const lr__light_sample *ls,
+                             lr__v3 p, lr__v3 org);
 
 /* The density lr__light_sample_from would have for reaching point q of
  * emitting geometry g (triangle prim) from p, along unit dir (p -> q),

@@ -113,13 +113,7 @@ static int next_event(const lr_scene *s, const lr__hit *h, const lr__bsdf *f,
     p->s_c = v3_mul(p->beta, c);
     p->s_org = lr__offset_origin(h, ls.dir);
     p->s_dir = ls.dir;
-    p->s_tfar = INFINITY;
-    if (isfinite(ls.dist)) {
-        /* Stop short of the light's own surface (relative, as Mitsuba's
-         * shadow epsilon). */
-        lr__v3 q = v3_madd(h->p, ls.dir, ls.dist);
-        p->s_tfar = v3_len(v3_sub(q, p->s_org)) * (1.0 - 1e-4);
-    }
+    p->s_tfar = lr__light_shadow_tfar(s, &ls, h->p, p->s_org);
     return 1;
 }
 

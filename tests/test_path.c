@@ -10,6 +10,7 @@
  *     cosine-weighted integral over the upper hemisphere, by quadrature
  *     of the map as documented (exercises the map's mapping, lookup,
  *     sampling density and MIS);
+ *   - a floor under a sphere lamp far from the origin: pi Le (r/d)^2 cos;
  *   - a small emitter through the thin lens: its blur is the circle of
  *     confusion, C = 2 r |1/Z - 1/s| f_px;
  *   - GGX: the visible-normal density integrates to 1 (Heitz 2014's weak
@@ -323,6 +324,65 @@ static void test_emitter_bokeh(void **state)
         lr_image_free(pin);
         lr_image_free(blur);
     }
+}
+
+/* ---- a sphere lamp over a floor --------------------------------------- */
+
+/* A diffuse floor lit by an emitting sphere wholly above its horizon:
+ * irradiance E = pi Le (r / d)^2 cos(theta), d the distance to the
+ * centre, theta its angle from the normal (the sphere's projected solid
+ * angle, Nusselt's analogue).  Far from the origin, where a shadow ray's
+ * origin moves off the floor by more than the relative shadow epsilon,
+ * the lamp once shadowed itself near its silhouette and lit the floor at
+ * 56% of E; the emitter is out of the frame, so the pixels are albedo /
+ * pi x E averaged over each pixel's footprint. */
+static void test_sphere_lamp_irradiance(void **state)
+{
+    (void)state;
+    const double o = 200.0, Le = 2.0, r = 0.5, fov = 20.0;
+    const double c[3] = {o + 1.2, 1.2, o};
+    enum { N = 8, SUB = 8 };
+    char json[2048];
+    snprintf(json, sizeof json,
+             "{\"render\": {\"width\": %d, \"height\": %d, \"spp\": 512,"
+             "  \"integrator\": \"path\", \"adaptive\": false, \"max_depth\": 0},"
+             " \"camera\": {\"position\": [%g, 1, %g], \"look_at\": [%g, 0, %g],"
+             "  \"up\": [0, 0, -1], \"fov\": %g},"
+             " \"materials\": {\"g\": {\"diffuse\": 0.5}, \"l\": {\"emission\": %g}},"
+             " \"objects\": [{\"type\": \"plane\", \"point\": [%g, 0, %g],"
+             "  \"normal\": [0, 1, 0], \"material\": \"g\"},"
+             "  {\"type\": \"sphere\", \"center\": [%g, %g, %g], \"radius\": %g,"
+             "   \"material\": \"l\"}]}",
+             N, N, o, o, o, o, fov, Le, o, o, c[0], c[1], c[2], r);
+    lr_image *img = lr_test_render_json(json, "sphere lamp");
+    const float *px = lr_image_rgb(img);
+    /* Looking down from height 1 with up -z: image right is +x, image
+     * up is -z (scene-format.md, 6). */
+    double t = tan(fov * M_PI / 360.0), mean_rel = 0.0, worst = 0.0;
+    for (int y = 0; y < N; y++)
+        for (int x = 0; x < N; x++) {
+            double want = 0.0;
+            for (int j = 0; j < SUB; j++)
+                for (int i = 0; i < SUB; i++) {
+                    double X = (2.0 * (x + (i + 0.5) / SUB) / N - 1.0) * t;
+                    double Y = (1.0 - 2.0 * (y + (j + 0.5) / SUB) / N) * t;
+                    double dx = c[0] - (o + X), dy = c[1], dz = c[2] - (o - Y);
+                    double d2 = dx * dx + dy * dy + dz * dz;
+                    double E = M_PI * Le * r * r / d2 * dy / sqrt(d2);
+                    want += 0.5 / M_PI * E / (SUB * SUB);
+                }
+            for (int k = 0; k < 3; k++) {
+                double rel = (px[3 * (y * N + x) + k] - want) / want;
+                mean_rel += rel / (3 * N * N);
+                worst = fmax(worst, fabs(rel));
+            }
+        }
+    print_message("  floor under a sphere lamp 200 units out: mean %+.4f%%, "
+                  "worst pixel %.3f%%\n", 100 * mean_rel, 100 * worst);
+    if (!(fabs(mean_rel) <= 3e-3) || !(worst <= 1.5e-2))
+        fail_msg("floor under a sphere lamp: mean off by %.3f%%, worst pixel "
+                 "%.3f%% (allowed 0.3%%, 1.5%%)", 100 * mean_rel, 100 * worst);
+    lr_image_free(img);
 }
 
 /* ---- determinism ------------------------------------------------------ */
@@ -776,6 +836,7 @@ static const struct CMUnitTest tests[] = {
     cmocka_unit_test(test_plane_under_envmap),
     cmocka_unit_test(test_envmap_seen_by_both),
     cmocka_unit_test(test_emitter_bokeh),
+    cmocka_unit_test(test_sphere_lamp_irradiance),
     cmocka_unit_test(test_path_is_deterministic),
     cmocka_unit_test(test_path_on_every_embree_isa),
     cmocka_unit_test(test_path16_matches_scalar),
