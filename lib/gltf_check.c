@@ -743,7 +743,11 @@ static lr_status check_images(lr__gltf_doc *d, const char *dir, lr_error *err)
                                  ? lr__gltf_member(m, slots[k][0], slots[k][1])
                                  : cJSON_GetObjectItemCaseSensitive(
                                        m, slots[k][1]);
-            snprintf(p, sizeof p, "materials[%d].%s", i, slots[k][1]);
+            /* The slot's whole path: two of them sit inside
+             * pbrMetallicRoughness. */
+            snprintf(p, sizeof p, "materials[%d].%s%s%s", i,
+                     slots[k][0] ? slots[k][0] : "", slots[k][0] ? "." : "",
+                     slots[k][1]);
             if (o != NULL)
                 LR_TRY(get_index(d, o, p, "index", nt, &x, err));
             if (o != NULL && x < 0)

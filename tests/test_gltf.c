@@ -696,6 +696,11 @@ static void test_hostile(void **state)
                "beyond the 2 vertices");
     expect_bad("matrix.gltf", "nodes.1.matrix", "[1, 2]", LR_ERR_INVALID,
                "nodes[1].matrix");
+    /* The texture slots inside pbrMetallicRoughness are named by their
+     * whole path. */
+    expect_bad("slot.gltf", "materials.0.pbrMetallicRoughness",
+               "{\"baseColorTexture\": {\"index\": 9}}", LR_ERR_INVALID,
+               "materials[0].pbrMetallicRoughness.baseColorTexture.index");
     expect_bad("light.gltf", "nodes.1.extensions",
                "{\"KHR_lights_punctual\": {\"light\": 0}}", LR_ERR_INVALID,
                "nodes[1].light");
