@@ -186,15 +186,16 @@ static void test_plane_under_envmap(void **state)
     snprintf(path, sizeof path, "%s/env.exr", lr_test_tmpdir());
     assert_int_equal(lr_image_write(map, path, NULL, NULL), LR_OK);
     lr_image_free(map);
-    /* Irradiance on a plane facing +y: the map as documented (texel
-     * centres at ((x + 0.5) / W, (y + 0.5) / H), bilinear between them,
-     * wrapping in u, clamped in v; v = theta / pi from +y) integrated
-     * with cos(theta) over the upper hemisphere by the midpoint rule. */
+    /* Irradiance on a plane facing +y: the map as documented (texels
+     * at u = (x + 0.5) / W and v = y / (H - 1), as Mitsuba 3 places
+     * them, bilinear between them, wrapping in u; v = theta / pi from
+     * +y) integrated with cos(theta) over the upper hemisphere by the
+     * midpoint rule. */
     double E = 0.0;
     const int NT = 1024, NP = 2048;
     for (int i = 0; i < NT; i++) {
         double th = (M_PI / 2) * (i + 0.5) / NT;
-        double y = th / M_PI * ENV_H - 0.5;
+        double y = th / M_PI * (ENV_H - 1);
         int y0 = (int)floor(y);
         double ty = y - y0;
         int ya = y0 < 0 ? 0 : y0, yb = y0 + 1 >= ENV_H ? ENV_H - 1 : y0 + 1;
@@ -230,6 +231,71 @@ static void test_plane_under_envmap(void **state)
     img = lr_test_render_sets(json, sets, 2, "rotated envmap");
     expect(img, 0, 0, 8, 8, 2 * want, 3e-3, 3e-2,
            "the same map turned 90 degrees, x 2");
+    lr_image_free(img);
+}
+
+/* Where the map's texels lie, seen directly: a map whose red is its row
+ * index and whose green is its column index renders, through each
+ * pixel's centre, red v (H - 1) and green u W - 1/2 (linear ramps, so
+ * bilinear lookup is exact), v = acos(d.y) / pi and u = atan2(d.x, -d.z)
+ * / (2 pi) of the pixel's direction d: texels where Mitsuba 3's envmap
+ * puts them (its eval_spectrum), the first row at the +y pole.  Looking
+ * up and towards +x (u about 1/4, away from the seam). */
+static void test_envmap_texel_places(void **state)
+{
+    (void)state;
+    enum { MW = 16, MH = 8, N = 24 };
+    lr_image *map = NULL;
+    assert_int_equal(lr_image_create(MW, MH, 0, &map, NULL), LR_OK);
+    float *px = lr_image_rgb_mut(map);
+    for (int y = 0; y < MH; y++)
+        for (int x = 0; x < MW; x++) {
+            px[3 * (y * MW + x)] = (float)y;
+            px[3 * (y * MW + x) + 1] = (float)x;
+            px[3 * (y * MW + x) + 2] = 0.0f;
+        }
+    char path[1024];
+    snprintf(path, sizeof path, "%s/ramp.exr", lr_test_tmpdir());
+    assert_int_equal(lr_image_write(map, path, NULL, NULL), LR_OK);
+    lr_image_free(map);
+    char json[512];
+    snprintf(json, sizeof json,
+             "{\"render\": {\"width\": %d, \"height\": %d, \"spp\": 1,"
+             "  \"sampler\": \"grid\"},"
+             " \"camera\": {\"position\": [0, 0, 0], \"look_at\": [1, 1, 0],"
+             "  \"fov\": 90},"
+             " \"environment\": {\"file\": \"ramp.exr\"}}", N, N);
+    lr_image *img = lr_test_render_json(json, "ramp map");
+    const float *rgb = lr_image_rgb(img);
+    /* The pinhole's frame (scene-format.md, 6): right = f x up, its up
+     * = right x f; fov 90, so tan(fov / 2) = 1. */
+    const double f[3] = {M_SQRT1_2, M_SQRT1_2, 0};
+    const double r[3] = {0, 0, 1};
+    const double up[3] = {-M_SQRT1_2, M_SQRT1_2, 0};
+    double worst_r = 0.0, worst_g = 0.0;
+    int n_g = 0;
+    for (int y = 0; y < N; y++)
+        for (int x = 0; x < N; x++) {
+            double X = 2.0 * (x + 0.5) / N - 1.0, Y = 1.0 - 2.0 * (y + 0.5) / N;
+            double d[3];
+            for (int k = 0; k < 3; k++)
+                d[k] = f[k] + X * r[k] + Y * up[k];
+            double len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+            double v = acos(d[1] / len) / M_PI;
+            double u = atan2(d[0], -d[2]) / (2 * M_PI);
+            u -= floor(u);
+            double want_r = v * (MH - 1), want_g = u * MW - 0.5;
+            worst_r = fmax(worst_r, fabs(rgb[3 * (y * N + x)] - want_r));
+            if (want_g > 0.0 && want_g < MW - 1) {
+                worst_g = fmax(worst_g, fabs(rgb[3 * (y * N + x) + 1] - want_g));
+                n_g++;
+            }
+        }
+    print_message("  ramp map: row off by at most %.2g, column by %.2g "
+                  "(%d pixels)\n", worst_r, worst_g, n_g);
+    if (!(worst_r < 2e-3) || !(worst_g < 2e-3) || n_g < N * N / 2)
+        fail_msg("the map's texels are not where Mitsuba puts them: row off "
+                 "by %.3g, column by %.3g", worst_r, worst_g);
     lr_image_free(img);
 }
 
@@ -835,6 +901,7 @@ static const struct CMUnitTest tests[] = {
     cmocka_unit_test(test_plane_under_sky),
     cmocka_unit_test(test_plane_under_envmap),
     cmocka_unit_test(test_envmap_seen_by_both),
+    cmocka_unit_test(test_envmap_texel_places),
     cmocka_unit_test(test_emitter_bokeh),
     cmocka_unit_test(test_sphere_lamp_irradiance),
     cmocka_unit_test(test_path_is_deterministic),
