@@ -2,8 +2,8 @@
  * envmap.c: the environment light (envmap.h).  Sampling is the
  * piecewise-constant 2-D distribution of pbrt-v3 (section 13.6.7, and
  * 14.2.4 for the map): a row by its marginal weight, then a column
- * within it, each texel's cell weighted by its luminance x the solid
- * angle of its latitudes, so that the density over the sphere is
+ * within it, each texel's cell weighted by the mean luminance the lookup
+ * gives over it x the solid angle of its latitudes, so that the density over the sphere is
  * p(u, v) / (2 pi^2 sin(theta)).  A texel's cell is centred where the
  * lookup puts the texel (envmap.h): columns [x, x + 1] / w, rows
  * [y - 1/2, y + 1/2] / (h - 1), the first and last rows half as tall.
@@ -103,6 +103,37 @@ static int row_of(const lr__envmap *e, double v)
     return y < 0 ? 0 : y >= e->h ? e->h - 1 : y;
 }
 
+static double texel_lum(const lr__envmap *e, int x, int y)
+{
+    x = (x % e->w + e->w) % e->w;
+    y = y < 0 ? 0 : y >= e->h ? e->h - 1 : y;
+    const float *p = &e->rgb[3 * ((size_t)y * (size_t)e->w + (size_t)x)];
+    return lr__luminance(v3(p[0], p[1], p[2]));
+}
+
+/* The mean luminance the bilinear lookup gives over the sampling cell of
+ * texel (x, y): the tent of each neighbour integrated over the cell,
+ * 1/8, 3/4, 1/8 across a whole cell (half a texel each side), 3/4 and
+ * 1/4 down a polar row's half cell.  Weighting a cell by its own texel
+ * alone left the light that lookup spreads into the neighbours' cells
+ * to BSDF samples: under a one-texel sun a floor's pixels were 7.7% rms
+ * off at 512 spp, 1.6% so (test_envmap_one_texel_sun); a diffuse ball
+ * on a floor under it, 44% rms from seed to seed at 64 spp, 5.7% so. */
+static double cell_lum(const lr__envmap *e, int x, int y)
+{
+    double wy[3] = {0.125, 0.75, 0.125};
+    if (e->h > 1 && y == 0)
+        wy[0] = 0.0, wy[2] = 0.25;
+    if (e->h > 1 && y == e->h - 1)
+        wy[0] = 0.25, wy[2] = 0.0;
+    static const double wx[3] = {0.125, 0.75, 0.125};
+    double sum = 0.0;
+    for (int j = -1; j <= 1; j++)
+        for (int i = -1; i <= 1; i++)
+            sum += wx[i + 1] * wy[j + 1] * texel_lum(e, x + i, y + j);
+    return sum;
+}
+
 /* The sampling tables: rows by marginal weight, columns within rows. */
 static lr_status build_cdf(lr__envmap *e, lr_error *err)
 {
@@ -122,8 +153,7 @@ static lr_status build_cdf(lr__envmap *e, lr_error *err)
         double *cdf = &e->col_cdf[(size_t)y * (size_t)w];
         double row = 0.0;
         for (int x = 0; x < w; x++) {
-            const float *p = &e->rgb[3 * ((size_t)y * (size_t)w + (size_t)x)];
-            row += lr__luminance(v3(p[0], p[1], p[2])) * sin_t;
+            row += cell_lum(e, x, y) * sin_t;
             cdf[x] = row;
         }
         for (int x = 0; x < w; x++)
