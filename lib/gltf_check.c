@@ -501,10 +501,16 @@ static lr_status check_attribute(const lr__gltf_doc *d, const char *p,
                    ? NULL
                    : "VEC3 of floats (5126)";
     else if (strncmp(attr, "TEXCOORD_", 9) == 0)
-        want = (ct == 5126 || ct == 5121 || ct == 5123) &&
+        /* Spec 3.7.2.1: floats, or unsigned bytes or shorts normalized
+         * (gltf_assimp.c decodes those itself). */
+        want = (ct == 5126 ||
+                ((ct == 5121 || ct == 5123) &&
+                 cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(
+                     a, "normalized")))) &&
                        strcmp(t->valuestring, "VEC2") == 0
                    ? NULL
-                   : "VEC2 of floats or unsigned bytes or shorts";
+                   : "VEC2 of floats, or of unsigned bytes or shorts with "
+                     "\"normalized\": true";
     else if (strcmp(attr, "indices") == 0)
         want = (ct == 5121 || ct == 5123 || ct == 5125) &&
                        strcmp(t->valuestring, "SCALAR") == 0

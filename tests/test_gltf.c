@@ -408,10 +408,10 @@ static void test_material_mapping(void **state)
     lr_scene_free(s);
 }
 
-static void test_textures(void **state)
+/* The quads of scene "textured" (gltf_writer.py) in FILE: each texel
+ * where its UVs put it. */
+static void check_textured(const char *file)
 {
-    (void)state;
-    make("textured", "textured.glb");
     /* 81 x 41 pixels, 10 to a unit at the quads (10 units away): pixel
      * (i, j) looks at x = (i - 40) / 10, y = (20 - j) / 10, so that pixel
      * centres fall on the texel centres, half a unit in from each corner:
@@ -423,8 +423,8 @@ static void test_textures(void **state)
              " \"spp\": 1, \"sampler\": \"grid\"},"
              " \"lights\": [{\"type\": \"directional\", \"direction\": [0, 0,"
              " -1], \"irradiance\": %.17g}],"
-             " \"objects\": [{\"type\": \"gltf\", \"file\": \"textured.glb\"}]}",
-             2 * atan(0.205) * 180 / PI, PI);
+             " \"objects\": [{\"type\": \"gltf\", \"file\": \"%s\"}]}",
+             2 * atan(0.205) * 180 / PI, PI, file);
     lr_scene *s = lr_test_load_json(json);
     lr_image *img = render(s);
     const float *rgb = lr_image_rgb(img);
@@ -441,13 +441,41 @@ static void test_textures(void **state)
             /* Base colour: albedo / pi x pi; emission: the texel. */
             for (int c = 0; c < 3; c++)
                 if (!(fabs(px[c] - want[k][c]) < 1e-3))
-                    fail_msg("%s quad, pixel (%d, %d): (%g, %g, %g), want "
-                             "texel %d", quad ? "emissive" : "base", x, y,
-                             (double)px[0], (double)px[1], (double)px[2],
-                             k);
+                    fail_msg("%s: %s quad, pixel (%d, %d): (%g, %g, %g), "
+                             "want texel %d", file,
+                             quad ? "emissive" : "base", x, y, (double)px[0],
+                             (double)px[1], (double)px[2], k);
         }
     lr_image_free(img);
     lr_scene_free(s);
+}
+
+/* Texture coordinates as floats, or as normalized unsigned bytes or
+ * shorts (glTF 2.0, 3.7.2.1), which assimp 5.2 read as raw bytes; ones
+ * not normalized are not glTF, and an error names them. */
+static void test_textures(void **state)
+{
+    (void)state;
+    make("textured", "textured.glb");
+    check_textured("textured.glb");
+    make("textured-u8", "textured-u8.glb");
+    check_textured("textured-u8.glb");
+    make("textured-u16", "textured-u16.gltf");
+    check_textured("textured-u16.gltf");
+    make("textured-u8-raw", "textured-raw.glb");
+    const char *json =
+        "{\"objects\": [{\"type\": \"gltf\", \"file\": \"textured-raw.glb\"}]}";
+    lr_scene *s = NULL;
+    lr_error err;
+    assert_int_equal(lr_scene_load_json(json, strlen(json), lr_test_tmpdir(),
+                                        NULL, 0, &s, &err),
+                     LR_ERR_INVALID);
+    assert_null(s);
+    if (!strstr(err.message, "textured-raw.glb: meshes[0].primitives[0]."
+                             "attributes.TEXCOORD_0: accessors[2] must be a "
+                             "VEC2 of floats, or of unsigned bytes or shorts "
+                             "with \"normalized\": true"))
+        fail_msg("integer UVs not normalized: \"%s\"", err.message);
 }
 
 /* The metallic texture's B scales metallicFactor and splits the textured
