@@ -522,10 +522,12 @@ static lr_status check_attribute(const lr__gltf_doc *d, const char *p,
     return LR_OK;
 }
 
-/* The index accessor's values must name vertices that exist. */
-static lr_status check_index_values(const lr__gltf_doc *d, const char *p,
-                                    long long acc, long long n_vertices,
-                                    lr_error *err)
+/* Where accessor acc's elements lie (check_accessors has put them
+ * within their buffer): the first one, the stride between them, their
+ * count and their component size. */
+static const unsigned char *accessor_at(const lr__gltf_doc *d, long long acc,
+                                        size_t *stride, long long *count,
+                                        size_t *cs)
 {
     int n;
     const cJSON *root = d->root;
@@ -540,15 +542,26 @@ static lr_status check_index_values(const lr__gltf_doc *d, const char *p,
     const cJSON *vo = cJSON_GetObjectItemCaseSensitive(v, "byteOffset");
     const cJSON *ao = cJSON_GetObjectItemCaseSensitive(a, "byteOffset");
     const cJSON *vs = cJSON_GetObjectItemCaseSensitive(v, "byteStride");
+    const cJSON *t = cJSON_GetObjectItemCaseSensitive(a, "type");
     size_t off = (size_t)(vo ? vo->valuedouble : 0) +
                  (size_t)(ao ? ao->valuedouble : 0);
-    int ct = (int)cJSON_GetNumberValue(
-        cJSON_GetObjectItemCaseSensitive(a, "componentType"));
-    size_t cs = (size_t)component_size(ct);
-    size_t stride = vs ? (size_t)vs->valuedouble : cs;
-    long long count = (long long)cJSON_GetNumberValue(
+    *cs = (size_t)component_size((long long)cJSON_GetNumberValue(
+        cJSON_GetObjectItemCaseSensitive(a, "componentType")));
+    *stride = vs ? (size_t)vs->valuedouble
+                 : *cs * (size_t)type_count(t->valuestring);
+    *count = (long long)cJSON_GetNumberValue(
         cJSON_GetObjectItemCaseSensitive(a, "count"));
-    const unsigned char *base = d->buffers[b].data + off;
+    return d->buffers[b].data + off;
+}
+
+/* The index accessor's values must name vertices that exist. */
+static lr_status check_index_values(const lr__gltf_doc *d, const char *p,
+                                    long long acc, long long n_vertices,
+                                    lr_error *err)
+{
+    size_t stride, cs;
+    long long count;
+    const unsigned char *base = accessor_at(d, acc, &stride, &count, &cs);
     for (long long i = 0; i < count; i++) {
         const unsigned char *q = base + (size_t)i * stride;
         unsigned long x = cs == 1 ? q[0]
@@ -559,6 +572,29 @@ static lr_status check_index_values(const lr__gltf_doc *d, const char *p,
                                  "beyond the %lld vertices", p, i, x,
                                  n_vertices);
     }
+    return LR_OK;
+}
+
+/* Every coordinate of a POSITION accessor (VEC3 of floats) must be a
+ * finite number, so that the error names the accessor and the vertex
+ * rather than the placed mesh. */
+static lr_status check_positions(const lr__gltf_doc *d, const char *p,
+                                 long long acc, lr_error *err)
+{
+    size_t stride, cs;
+    long long count;
+    static const char *const axis[3] = {"x", "y", "z"};
+    const unsigned char *base = accessor_at(d, acc, &stride, &count, &cs);
+    for (long long i = 0; i < count; i++)
+        for (int k = 0; k < 3; k++) {
+            uint32_t bits = le32(base + (size_t)i * stride + 4 * (size_t)k);
+            float f;
+            memcpy(&f, &bits, sizeof f);
+            if (!isfinite(f))
+                return lr__gltf_fail(d, err, "%s.POSITION: accessors[%lld] "
+                                     "element %lld: %s is %g", p, acc, i,
+                                     axis[k], (double)f);
+        }
     return LR_OK;
 }
 
@@ -590,6 +626,7 @@ static lr_status check_meshes(lr__gltf_doc *d, lr_error *err)
             snprintf(q, sizeof q, "%s.attributes", p);
             LR_TRY(get_index(d, at, q, "POSITION", nacc, &x, err));
             LR_TRY(check_attribute(d, q, "POSITION", x, &nvert, err));
+            LR_TRY(check_positions(d, q, x, err));
             for (const cJSON *c = at->child; c; c = c->next) {
                 LR_TRY(get_index(d, at, q, c->string, nacc, &x, err));
                 LR_TRY(check_attribute(d, q, c->string, x, &cnt, err));

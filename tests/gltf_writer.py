@@ -242,6 +242,14 @@ def scene_tri():
     return g
 
 
+def scene_tri_nan():
+    """scene_tri with its second vertex's y a NaN (bytes 16 to 20 of the
+    buffer: the POSITION accessor comes first)."""
+    g = scene_tri()
+    g.bin[16:20] = struct.pack("<f", float("nan"))
+    return g
+
+
 def scene_camera_light(light=True):
     """A floor (y = 0, 8 x 8) of base colour 0.5 under a point light of
     20 cd at (0, 2, 0) (none with light=False), seen by a glTF camera
@@ -476,7 +484,7 @@ def scene_normals():
     return g
 
 
-SCENES = {"tri": scene_tri, "normals": scene_normals,
+SCENES = {"tri": scene_tri, "tri-nan": scene_tri_nan, "normals": scene_normals,
           "mapping": scene_mapping, "textured": scene_textured,
           "textured-u8": lambda: scene_textured(UBYTE),
           "textured-u16": lambda: scene_textured(USHORT),

@@ -733,6 +733,24 @@ static void test_hostile(void **state)
                "{\"KHR_lights_punctual\": {\"light\": 0}}", LR_ERR_INVALID,
                "nodes[1].light");
 
+    /* A vertex that is not a number: the accessor and the element. */
+    make("tri-nan", "nan.glb");
+    {
+        const char *json = "{\"objects\": [{\"type\": \"gltf\", "
+                           "\"file\": \"nan.glb\"}]}";
+        lr_scene *s = NULL;
+        lr_error err;
+        assert_int_equal(lr_scene_load_json(json, strlen(json),
+                                            lr_test_tmpdir(), NULL, 0, &s,
+                                            &err),
+                         LR_ERR_INVALID);
+        assert_null(s);
+        if (!strstr(err.message, "objects[0].file: nan.glb: meshes[0]."
+                                 "primitives[0].attributes.POSITION: "
+                                 "accessors[0] element 1: y is nan"))
+            fail_msg("NaN vertex: \"%s\"", err.message);
+    }
+
     /* An image that is no image: the error names the file, the image
      * and the material slot that uses it. */
     make("textured", "textured.gltf");
