@@ -462,6 +462,35 @@ static void test_textures(void **state)
     check_textured("textured-u8.glb");
     make("textured-u16", "textured-u16.gltf");
     check_textured("textured-u16.gltf");
+    /* What the sampler asks for and lensray does not do is a warning:
+     * clamping, mirroring, a nearest-texel magnification. */
+    make("textured", "sampled.gltf");
+    char path[512];
+    snprintf(path, sizeof path, "%s/sampled.gltf", lr_test_tmpdir());
+    FILE *f = fopen(path, "rb");
+    assert_non_null(f);
+    static char text[1 << 16];
+    size_t n = fread(text, 1, sizeof text - 1, f);
+    fclose(f);
+    text[n] = '\0';
+    cJSON *root = cJSON_Parse(text);
+    assert_non_null(root);
+    cJSON_ReplaceItemInObject(root, "samplers",
+                              cJSON_Parse("[{\"wrapS\": 33071, \"wrapT\": "
+                                          "33648, \"magFilter\": 9728}]"));
+    char *out = cJSON_Print(root);
+    lr_test_write_text("sampled.gltf", out, path, sizeof path);
+    free(out);
+    cJSON_Delete(root);
+    lr_scene *sc = lr_test_load_json(
+        "{\"objects\": [{\"type\": \"gltf\", \"file\": \"sampled.gltf\"}]}");
+    const char *w = lr_scene_warnings(sc);
+    if (!strstr(w, "baseColorTexture: the sampler's wrapS is ignored") ||
+        !strstr(w, "baseColorTexture: the sampler's wrapT is ignored") ||
+        !strstr(w, "baseColorTexture: the sampler's magFilter NEAREST is "
+                   "ignored"))
+        fail_msg("sampler warnings: \"%s\"", w);
+    lr_scene_free(sc);
     make("textured-u8-raw", "textured-raw.glb");
     const char *json =
         "{\"objects\": [{\"type\": \"gltf\", \"file\": \"textured-raw.glb\"}]}";
