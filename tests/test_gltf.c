@@ -44,6 +44,32 @@ static lr_image *render(lr_scene *s)
     return lr_test_render_with(s, &cam, &rs, "glTF scene");
 }
 
+/* The JSON of glTF file FILE in the test directory, parsed. */
+static cJSON *read_json(const char *file)
+{
+    char path[512];
+    snprintf(path, sizeof path, "%s/%s", lr_test_tmpdir(), file);
+    FILE *f = fopen(path, "rb");
+    assert_non_null(f);
+    static char text[1 << 16];
+    size_t n = fread(text, 1, sizeof text - 1, f);
+    fclose(f);
+    text[n] = '\0';
+    cJSON *root = cJSON_Parse(text);
+    assert_non_null(root);
+    return root;
+}
+
+/* Writes root as FILE in the test directory and frees it. */
+static void write_json(const char *file, cJSON *root)
+{
+    char path[512];
+    char *out = cJSON_Print(root);
+    lr_test_write_text(file, out, path, sizeof path);
+    free(out);
+    cJSON_Delete(root);
+}
+
 /* ---- transforms ----------------------------------------------------------- */
 
 /* tri: the triangle (0,0,0), (1,0,0), (0,1,0) in a child node (T, R =
@@ -465,23 +491,11 @@ static void test_textures(void **state)
     /* What the sampler asks for and lensray does not do is a warning:
      * clamping, mirroring, a nearest-texel magnification. */
     make("textured", "sampled.gltf");
-    char path[512];
-    snprintf(path, sizeof path, "%s/sampled.gltf", lr_test_tmpdir());
-    FILE *f = fopen(path, "rb");
-    assert_non_null(f);
-    static char text[1 << 16];
-    size_t n = fread(text, 1, sizeof text - 1, f);
-    fclose(f);
-    text[n] = '\0';
-    cJSON *root = cJSON_Parse(text);
-    assert_non_null(root);
+    cJSON *root = read_json("sampled.gltf");
     cJSON_ReplaceItemInObject(root, "samplers",
                               cJSON_Parse("[{\"wrapS\": 33071, \"wrapT\": "
                                           "33648, \"magFilter\": 9728}]"));
-    char *out = cJSON_Print(root);
-    lr_test_write_text("sampled.gltf", out, path, sizeof path);
-    free(out);
-    cJSON_Delete(root);
+    write_json("sampled.gltf", root);
     lr_scene *sc = lr_test_load_json(
         "{\"objects\": [{\"type\": \"gltf\", \"file\": \"sampled.gltf\"}]}");
     const char *w = lr_scene_warnings(sc);
@@ -675,16 +689,7 @@ static void test_normal_map(void **state)
 static void expect_bad(const char *name, const char *key, const char *value,
                        lr_status status, const char *what)
 {
-    char path[512];
-    snprintf(path, sizeof path, "%s/tri.gltf", lr_test_tmpdir());
-    FILE *f = fopen(path, "rb");
-    assert_non_null(f);
-    static char text[1 << 16];
-    size_t n = fread(text, 1, sizeof text - 1, f);
-    fclose(f);
-    text[n] = '\0';
-    cJSON *root = cJSON_Parse(text);
-    assert_non_null(root);
+    cJSON *root = read_json("tri.gltf");
     /* key: "top.index.member" addresses one member. */
     char k[128];
     snprintf(k, sizeof k, "%s", key);
@@ -696,10 +701,7 @@ static void expect_bad(const char *name, const char *key, const char *value,
     assert_non_null(o);
     cJSON_DeleteItemFromObject(o, dot2 + 1);
     cJSON_AddItemToObject(o, dot2 + 1, cJSON_Parse(value));
-    char *out = cJSON_Print(root);
-    lr_test_write_text(name, out, path, sizeof path);
-    free(out);
-    cJSON_Delete(root);
+    write_json(name, root);
     char json[256];
     snprintf(json, sizeof json,
              "{\"objects\": [{\"type\": \"gltf\", \"file\": \"%s\"}]}", name);
@@ -783,23 +785,12 @@ static void test_hostile(void **state)
     /* An image that is no image: the error names the file, the image
      * and the material slot that uses it. */
     make("textured", "textured.gltf");
-    char tpath[512];
-    snprintf(tpath, sizeof tpath, "%s/textured.gltf", lr_test_tmpdir());
-    FILE *tf = fopen(tpath, "rb");
-    assert_non_null(tf);
-    static char ttext[1 << 16];
-    size_t tn = fread(ttext, 1, sizeof ttext - 1, tf);
-    fclose(tf);
-    ttext[tn] = '\0';
-    cJSON *troot = cJSON_Parse(ttext);
+    cJSON *troot = read_json("textured.gltf");
     cJSON *im = cJSON_GetArrayItem(cJSON_GetObjectItem(troot, "images"), 0);
     cJSON_DeleteItemFromObject(im, "bufferView");
     cJSON_DeleteItemFromObject(im, "mimeType");
     cJSON_AddStringToObject(im, "uri", "data:image/png;base64,bm90IGFuIGltYWdl");
-    char *tout = cJSON_Print(troot);
-    lr_test_write_text("badimage.gltf", tout, tpath, sizeof tpath);
-    free(tout);
-    cJSON_Delete(troot);
+    write_json("badimage.gltf", troot);
     {
         const char *json = "{\"objects\": [{\"type\": \"gltf\", "
                            "\"file\": \"badimage.gltf\"}]}";
