@@ -127,9 +127,45 @@ static lr_status check_numbers(const lr__gltf_doc *d, const cJSON *o,
 
 /* ---- external files ----------------------------------------------------- */
 
-/* A relative path below the glTF's directory: no scheme, no absolute
- * path, no ".." segment, no percent escapes or backslashes (which could
- * spell either), no control characters. */
+static int hex_value(int c)
+{
+    return c >= '0' && c <= '9'   ? c - '0'
+           : c >= 'a' && c <= 'f' ? c - 'a' + 10
+           : c >= 'A' && c <= 'F' ? c - 'A' + 10
+                                  : -1;
+}
+
+/* A URI reference spells a byte that may not stand in it as %XX (RFC
+ * 3986, 2.1): exporters write a file "My Wood.png" as "My%20Wood.png".
+ * Decoded into out (at least strlen(u) + 1 bytes); escapes of "/", "\"
+ * and NUL are refused rather than decoded, since they would spell a
+ * path other than the one the checks below read.  Returns what is
+ * wrong, or NULL. */
+static const char *unescape_uri(const char *u, char *out)
+{
+    size_t k = 0;
+    for (const char *p = u; *p; p++) {
+        if (*p != '%') {
+            out[k++] = *p;
+            continue;
+        }
+        int hi = hex_value((unsigned char)p[1]);
+        int lo = hi < 0 ? -1 : hex_value((unsigned char)p[2]);
+        if (lo < 0)
+            return "has a \"%\" that is not an escape %XX";
+        int c = 16 * hi + lo;
+        if (c == '/' || c == '\\' || c == 0)
+            return "escapes a slash, a backslash or a NUL byte";
+        out[k++] = (char)c;
+        p += 2;
+    }
+    out[k] = '\0';
+    return NULL;
+}
+
+/* A relative path below the glTF's directory, percent escapes decoded:
+ * no scheme, no absolute path, no ".." segment, no backslash (which
+ * could spell either), no control characters. */
 static const char *bad_uri(const char *u)
 {
     if (u[0] == '\0')
@@ -139,8 +175,8 @@ static const char *bad_uri(const char *u)
     if (strchr(u, ':') != NULL)
         return "names a URI scheme (only data: URIs and relative paths "
                "are read)";
-    if (strchr(u, '%') != NULL || strchr(u, '\\') != NULL)
-        return "has a percent escape or a backslash";
+    if (strchr(u, '\\') != NULL)
+        return "has a backslash";
     for (const char *p = u; *p; p++)
         if ((unsigned char)*p < 0x20)
             return "has a control character";
@@ -212,23 +248,35 @@ static lr_status read_blob(lr__gltf_doc *d, const char *dir, const char *path,
         *out = (lr__gltf_blob *)seen;
         return LR_OK;
     }
-    const char *why = strncmp(uri, "data:", 5) == 0 ? NULL : bad_uri(uri);
-    if (why != NULL)
-        return lr__gltf_fail(d, err, "%s.uri \"%.80s\" %s", path, uri, why);
-    lr__gltf_blob *b = realloc(d->blobs, (d->n_blobs + 1) * sizeof *b);
-    if (b == NULL)
+    int is_data = strncmp(uri, "data:", 5) == 0;
+    char *file = is_data ? NULL : malloc(strlen(uri) + 1);
+    if (!is_data && file == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    const char *why = is_data ? NULL : unescape_uri(uri, file);
+    if (!is_data && why == NULL)
+        why = bad_uri(file);
+    if (why != NULL) {
+        free(file);
+        return lr__gltf_fail(d, err, "%s.uri \"%.80s\" %s", path, uri, why);
+    }
+    lr__gltf_blob *b = realloc(d->blobs, (d->n_blobs + 1) * sizeof *b);
+    if (b == NULL) {
+        free(file);
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    }
     d->blobs = b;
     b = &d->blobs[d->n_blobs];
     memset(b, 0, sizeof *b);
-    if (strncmp(uri, "data:", 5) == 0) {
+    if (is_data) {
         LR_TRY(decode_data_uri(d, path, uri, &b->data, &b->n, err));
     } else {
-        size_t plen = strlen(dir) + strlen(uri) + 2;
+        size_t plen = strlen(dir) + strlen(file) + 2;
         char *full = malloc(plen);
-        if (full == NULL)
+        if (full == NULL) {
+            free(file);
             return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
-        snprintf(full, plen, "%s/%s", dir, uri);
+        }
+        snprintf(full, plen, "%s/%s", dir, file);
         /* A symbolic link must not lead out of the directory either. */
         char *rdir = realpath(dir, NULL), *rfile = realpath(full, NULL);
         int out = rdir != NULL && rfile != NULL &&
@@ -238,6 +286,7 @@ static lr_status read_blob(lr__gltf_doc *d, const char *dir, const char *path,
         free(rfile);
         if (out) {
             free(full);
+            free(file);
             return lr__gltf_fail(d, err, "%s.uri \"%.80s\" leads out of the "
                                  "glTF's directory (a symbolic link)", path,
                                  uri);
@@ -245,10 +294,11 @@ static lr_status read_blob(lr__gltf_doc *d, const char *dir, const char *path,
         char *data = NULL;
         size_t n = 0;
         lr_error e2;
-        lr_status st = lr__read_file(full, uri, NULL, MAX_GLTF_BYTES,
+        lr_status st = lr__read_file(full, file, NULL, MAX_GLTF_BYTES,
                                      "files a glTF names", NULL, &data, &n,
                                      &e2);
         free(full);
+        free(file);
         if (st != LR_OK) {
             if (st == LR_ERR_NOMEM)
                 return lr__fail(err, st, NULL, "out of memory");

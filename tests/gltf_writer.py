@@ -140,12 +140,23 @@ class Gltf:
                 struct.pack("<I4s", len(bn), b"BIN\0") + bn)
 
     def write(self, path):
+        """A .glb, or a .gltf: its buffer as a data: URI, or when
+        self.bin_file names one, that file beside it (the URI percent-
+        escaped, RFC 3986, as exporters write names with spaces)."""
         if path.endswith(".glb"):
             with open(path, "wb") as f:
                 f.write(self.glb_bytes())
-        else:
-            with open(path, "w") as f:
-                f.write(self.gltf_text())
+            return
+        uri = None
+        name = getattr(self, "bin_file", None)
+        if name:
+            import os.path
+            import urllib.parse
+            with open(os.path.join(os.path.dirname(path), name), "wb") as f:
+                f.write(bytes(self.bin))
+            uri = urllib.parse.quote(name)
+        with open(path, "w") as f:
+            f.write(self.gltf_text(uri))
 
 
 def png_rgb(w, h, pixel):
@@ -239,6 +250,14 @@ def scene_tri():
                    scale=[1.5, 0.75, 1.0])
     g.node(children=[child],
            matrix=[0.8, 0, 0.6, 0, 0, 1, 0, 0, -0.6, 0, 0.8, 0, 0.5, 0.25, -1, 1])
+    return g
+
+
+def scene_tri_spaced():
+    """scene_tri with its buffer in the file "tri data.bin" beside it,
+    named "tri%20data.bin"."""
+    g = scene_tri()
+    g.bin_file = "tri data.bin"
     return g
 
 
@@ -484,7 +503,8 @@ def scene_normals():
     return g
 
 
-SCENES = {"tri": scene_tri, "tri-nan": scene_tri_nan, "normals": scene_normals,
+SCENES = {"tri": scene_tri, "tri-nan": scene_tri_nan,
+          "tri-spaced": scene_tri_spaced, "normals": scene_normals,
           "mapping": scene_mapping, "textured": scene_textured,
           "textured-u8": lambda: scene_textured(UBYTE),
           "textured-u16": lambda: scene_textured(USHORT),

@@ -734,6 +734,21 @@ static void test_hostile(void **state)
                LR_ERR_INVALID, "\"..\"");
     expect_bad("scheme.gltf", "buffers.0.uri", "\"file:///etc/passwd\"",
                LR_ERR_INVALID, "scheme");
+    /* Percent escapes are decoded (RFC 3986), then checked like the
+     * rest; an escaped slash, backslash or NUL is refused. */
+    expect_bad("dots.gltf", "buffers.0.uri", "\"%2e%2E/x.bin\"",
+               LR_ERR_INVALID, "\"..\" segment");
+    expect_bad("slash.gltf", "buffers.0.uri", "\"a%2Fb.bin\"",
+               LR_ERR_INVALID, "escapes a slash");
+    expect_bad("pct.gltf", "buffers.0.uri", "\"a%zz.bin\"", LR_ERR_INVALID,
+               "not an escape");
+    expect_bad("space.gltf", "buffers.0.uri", "\"no%20such.bin\"",
+               LR_ERR_IO, "no such.bin: cannot open");
+    make("tri-spaced", "spaced.gltf");
+    lr_scene *sp = lr_test_load_json(
+        "{\"objects\": [{\"type\": \"gltf\", \"file\": \"spaced.gltf\"}]}");
+    assert_int_equal(lr_scene_primitive_count(sp), 1);
+    lr_scene_free(sp);
     /* A symbolic link beside the glTF that leads out of its directory. */
     char dir[512], link[600];
     snprintf(dir, sizeof dir, "%s/sub", lr_test_tmpdir());
