@@ -270,36 +270,29 @@ int lr__light_sample_from(const lr_scene *s, lr__v3 p, double u_pick,
     return 1;
 }
 
-double lr__light_shadow_tfar(const lr_scene *s, const lr__light_sample *ls,
-                             lr__v3 p, lr__v3 org)
+int lr__light_is_sphere(const lr_scene *s, const lr__light_sample *ls)
 {
-    if (!isfinite(ls->dist))
-        return INFINITY;
-    lr__v3 q = v3_madd(p, ls->dir, ls->dist);
-    double t = v3_len(v3_sub(q, org));
-    const lr__geom *G = ls->geom >= 0 ? &s->geoms[ls->geom] : NULL;
-    if (G != NULL && G->kind == LR__GEOM_SPHERE) {
-        /* The ray leaves from org, off the surface, but keeps the
-         * direction sampled from p: near the sphere's silhouette that
-         * parallel ray can enter the sphere well before q, and a cone
-         * sample carries full weight there (unlike a triangle's, which
-         * its cosine scales down).  Stopping at q made the lamp shadow
-         * itself: a floor lit by a sphere at 200 units from the origin
-         * got 56% of its light (tests/test_path.c,
-         * test_sphere_lamp_irradiance).  So stop short of where this ray
-         * itself enters the sphere. */
-        lr__v3 oc = v3_sub(org, G->center);
-        double b = v3_dot(oc, ls->dir);
-        double c = v3_dot(oc, oc) - G->radius * G->radius;
-        double disc = b * b - c;
-        if (c > 0.0 && disc >= 0.0) {
-            double enter = -b - sqrt(disc);
-            if (enter > 0.0)
-                t = fmin(t, enter);
-        }
+    return ls->geom >= 0 && s->geoms[ls->geom].kind == LR__GEOM_SPHERE;
+}
+
+double lr__light_reach(const lr_scene *s, const lr__light_sample *ls,
+                       lr__v3 org, lr__v3 dir, double t)
+{
+    if (!lr__light_is_sphere(s, ls))
+        return t;
+    const lr__geom *G = &s->geoms[ls->geom];
+    /* The nearer root of |org + x dir - centre| = r, when org is
+     * outside. */
+    lr__v3 oc = v3_sub(org, G->center);
+    double b = v3_dot(oc, dir);
+    double c = v3_dot(oc, oc) - G->radius * G->radius;
+    double disc = b * b - c;
+    if (c > 0.0 && disc >= 0.0) {
+        double enter = -b - sqrt(disc);
+        if (enter > 0.0 && enter < t)
+            return enter;
     }
-    /* Relative, as Mitsuba's shadow epsilon. */
-    return t * (1.0 - 1e-4);
+    return t;
 }
 
 double lr__light_pdf_area(const lr_scene *s, lr__v3 p, lr__v3 q,

@@ -33,11 +33,15 @@ typedef struct lr__light_sample {
 int lr__light_sample_from(const lr_scene *s, lr__v3 p, double u_pick,
                           const double u[2], lr__light_sample *out);
 
-/* How far the shadow ray of sample ls, taken from point p, may go from
- * org (p moved off its surface) along ls->dir: short of the light's own
- * surface; INFINITY for the environment and directional lights. */
-double lr__light_shadow_tfar(const lr_scene *s, const lr__light_sample *ls,
-                             lr__v3 p, lr__v3 org);
+/* How far a shadow ray from org along unit dir towards sample ls, whose
+ * point is t away, may go before it meets the light itself: t, or less
+ * where the ray enters a sphere lamp before the sampled point (near its
+ * silhouette, seen from org rather than from where it was sampled). */
+double lr__light_reach(const lr_scene *s, const lr__light_sample *ls,
+                       lr__v3 org, lr__v3 dir, double t);
+
+/* Whether sample ls is of a sphere lamp. */
+int lr__light_is_sphere(const lr_scene *s, const lr__light_sample *ls);
 
 /* The density lr__light_sample_from would have for reaching point q of
  * emitting geometry g (triangle prim) from p, along unit dir (p -> q),
