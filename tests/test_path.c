@@ -10,8 +10,8 @@
  *     cosine-weighted integral over the upper hemisphere, by quadrature
  *     of the map as documented (exercises the map's mapping, lookup,
  *     sampling density and MIS);
- *   - a floor under a sphere lamp far from the origin: pi Le (r/d)^2 cos;
- *     and under a tessellated one: Lambert's formula per triangle;
+ *   - a floor under a lamp far from the origin: a sphere, pi Le (r/d)^2
+ *     cos; the same tessellated, Lambert's formula per triangle;
  *   - a small emitter through the thin lens: its blur is the circle of
  *     confusion, C = 2 r |1/Z - 1/s| f_px;
  *   - GGX: the visible-normal density integrates to 1 (Heitz 2014's weak
@@ -449,23 +449,28 @@ static void test_emitter_bokeh(void **state)
     }
 }
 
-/* ---- a sphere lamp over a floor --------------------------------------- */
+/* ---- a lamp over a floor ---------------------------------------------- */
 
-/* A diffuse floor lit by an emitting sphere wholly above its horizon:
- * irradiance E = pi Le (r / d)^2 cos(theta), d the distance to the
- * centre, theta its angle from the normal (the sphere's projected solid
- * angle, Nusselt's analogue).  Far from the origin, where a shadow ray's
- * origin moves off the floor by more than the relative shadow epsilon,
- * the lamp once shadowed itself near its silhouette and lit the floor at
- * 56% of E; the emitter is out of the frame, so the pixels are albedo /
- * pi x E averaged over each pixel's footprint. */
-static void test_sphere_lamp_irradiance(void **state)
+/* Far from the origin, where a shadow ray's origin moves off the floor by
+ * more than the relative shadow epsilon: the floor there once got 56%
+ * (a sphere lamp) or 58% (a tessellated one) of its light, the lamp
+ * meeting its own shadow rays. */
+#define LAMP_AT 200.0
+#define LAMP_LE 2.0
+#define LAMP_R 0.5
+static const double lamp_c[3] = {LAMP_AT + 1.2, 1.2, LAMP_AT};
+
+/* Renders 8 x 8 pixels of a diffuse floor (albedo 0.5) at LAMP_AT, seen
+ * from straight above, lit only by `lamp` (a JSON object of material
+ * "l", emission LAMP_LE) out of the frame, and compares each pixel with
+ * albedo / pi x LAMP_LE x irr(point) averaged over 8 x 8 points of it. */
+static void floor_under_lamp(const char *lamp,
+                             double (*irr)(const double p[3]),
+                             const char *what, double tol_pixel)
 {
-    (void)state;
-    const double o = 200.0, Le = 2.0, r = 0.5, fov = 20.0;
-    const double c[3] = {o + 1.2, 1.2, o};
     enum { N = 8, SUB = 8 };
-    char json[2048];
+    const double o = LAMP_AT, fov = 20.0;
+    char json[1024];
     snprintf(json, sizeof json,
              "{\"render\": {\"width\": %d, \"height\": %d, \"spp\": 512,"
              "  \"integrator\": \"path\", \"adaptive\": false, \"max_depth\": 0},"
@@ -473,11 +478,9 @@ static void test_sphere_lamp_irradiance(void **state)
              "  \"up\": [0, 0, -1], \"fov\": %g},"
              " \"materials\": {\"g\": {\"diffuse\": 0.5}, \"l\": {\"emission\": %g}},"
              " \"objects\": [{\"type\": \"plane\", \"point\": [%g, 0, %g],"
-             "  \"normal\": [0, 1, 0], \"material\": \"g\"},"
-             "  {\"type\": \"sphere\", \"center\": [%g, %g, %g], \"radius\": %g,"
-             "   \"material\": \"l\"}]}",
-             N, N, o, o, o, o, fov, Le, o, o, c[0], c[1], c[2], r);
-    lr_image *img = lr_test_render_json(json, "sphere lamp");
+             "  \"normal\": [0, 1, 0], \"material\": \"g\"}, %s]}",
+             N, N, o, o, o, o, fov, LAMP_LE, o, o, lamp);
+    lr_image *img = lr_test_render_json(json, what);
     const float *px = lr_image_rgb(img);
     /* Looking down from height 1 with up -z: image right is +x, image
      * up is -z (scene-format.md, 6). */
@@ -489,23 +492,45 @@ static void test_sphere_lamp_irradiance(void **state)
                 for (int i = 0; i < SUB; i++) {
                     double X = (2.0 * (x + (i + 0.5) / SUB) / N - 1.0) * t;
                     double Y = (1.0 - 2.0 * (y + (j + 0.5) / SUB) / N) * t;
-                    double dx = c[0] - (o + X), dy = c[1], dz = c[2] - (o - Y);
-                    double d2 = dx * dx + dy * dy + dz * dz;
-                    double E = M_PI * Le * r * r / d2 * dy / sqrt(d2);
-                    want += 0.5 / M_PI * E / (SUB * SUB);
+                    double p[3] = {o + X, 0.0, o - Y};
+                    want += 0.5 / M_PI * LAMP_LE * irr(p) / (SUB * SUB);
                 }
-            for (int k = 0; k < 3; k++) {
-                double rel = (px[3 * (y * N + x) + k] - want) / want;
+            for (int m = 0; m < 3; m++) {
+                double rel = (px[3 * (y * N + x) + m] - want) / want;
                 mean_rel += rel / (3 * N * N);
                 worst = fmax(worst, fabs(rel));
             }
         }
-    print_message("  floor under a sphere lamp 200 units out: mean %+.4f%%, "
-                  "worst pixel %.3f%%\n", 100 * mean_rel, 100 * worst);
-    if (!(fabs(mean_rel) <= 3e-3) || !(worst <= 1.5e-2))
-        fail_msg("floor under a sphere lamp: mean off by %.3f%%, worst pixel "
-                 "%.3f%% (allowed 0.3%%, 1.5%%)", 100 * mean_rel, 100 * worst);
+    print_message("  floor under a %s %g units out: mean %+.4f%%, worst pixel "
+                  "%.3f%%\n", what, o, 100 * mean_rel, 100 * worst);
+    if (!(fabs(mean_rel) <= 3e-3) || !(worst <= tol_pixel))
+        fail_msg("floor under a %s: mean off by %.3f%%, worst pixel %.3f%% "
+                 "(allowed 0.3%%, %.1f%%)", what, 100 * mean_rel,
+                 100 * worst, 100 * tol_pixel);
     lr_image_free(img);
+}
+
+/* An emitting sphere wholly above the point's horizon, of unit radiance:
+ * E = pi (r / d)^2 cos(theta), d the distance to the centre, theta its
+ * angle from the normal (the sphere's projected solid angle, Nusselt's
+ * analogue). */
+static double sphere_irradiance(const double p[3])
+{
+    double dx = lamp_c[0] - p[0], dy = lamp_c[1] - p[1],
+           dz = lamp_c[2] - p[2];
+    double d2 = dx * dx + dy * dy + dz * dz;
+    return M_PI * LAMP_R * LAMP_R / d2 * dy / sqrt(d2);
+}
+
+static void test_sphere_lamp_irradiance(void **state)
+{
+    (void)state;
+    char lamp[256];
+    snprintf(lamp, sizeof lamp,
+             "{\"type\": \"sphere\", \"center\": [%.17g, %.17g, %.17g],"
+             " \"radius\": %g, \"material\": \"l\"}",
+             lamp_c[0], lamp_c[1], lamp_c[2], LAMP_R);
+    floor_under_lamp(lamp, sphere_irradiance, "sphere lamp", 1.5e-2);
 }
 
 /* Irradiance at p (normal +y) from a triangle of radiance 1 facing p:
@@ -533,100 +558,76 @@ static double triangle_irradiance(const double p[3], const double v[3][3])
     return 0.5 * fabs(E);
 }
 
-/* The sphere lamp again, tessellated (a 48 x 24 latitude-longitude mesh,
- * counter-clockwise outwards) and 200 units out: a shadow ray that kept
- * the sampled direction from a moved origin met the lamp's next triangle
- * and the floor got 58% of its light.  Expected: the irradiance of the
- * triangles that face each point (a convex lamp: they tile its outline),
- * by Lambert's formula, over 8 x 8 points of each pixel. */
+/* The sphere lamp tessellated: a 48 x 24 latitude-longitude mesh,
+ * counter-clockwise outwards (the poles' slivers, which have no area,
+ * left out). */
+enum { LAMP_NU = 48, LAMP_NV = 24 };
+static double lamp_vert[(LAMP_NV + 1) * LAMP_NU][3];
+static int lamp_tri[2 * LAMP_NU * LAMP_NV][3], lamp_nt;
+
+/* The triangles that face p, each by Lambert's formula: for a convex
+ * lamp they tile its outline. */
+static double mesh_irradiance(const double p[3])
+{
+    double E = 0.0;
+    for (int q = 0; q < lamp_nt; q++) {
+        double v[3][3], e1[3], e2[3];
+        for (int c = 0; c < 3; c++)
+            for (int m = 0; m < 3; m++)
+                v[c][m] = lamp_vert[lamp_tri[q][c]][m];
+        for (int m = 0; m < 3; m++)
+            e1[m] = v[1][m] - v[0][m], e2[m] = v[2][m] - v[0][m];
+        double n[3] = {e1[1] * e2[2] - e1[2] * e2[1],
+                       e1[2] * e2[0] - e1[0] * e2[2],
+                       e1[0] * e2[1] - e1[1] * e2[0]};
+        if ((p[0] - v[0][0]) * n[0] + (p[1] - v[0][1]) * n[1] +
+                (p[2] - v[0][2]) * n[2] > 0.0)
+            E += triangle_irradiance(p, v);
+    }
+    return E;
+}
+
 static void test_mesh_lamp_irradiance(void **state)
 {
     (void)state;
-    enum { NU = 48, NV = 24, N = 8, SUB = 8 };
-    const double o = 200.0, Le = 2.0, r = 0.5, fov = 20.0;
-    const double c[3] = {o + 1.2, 1.2, o};
-    static double vert[(NV + 1) * NU][3];
-    for (int j = 0; j <= NV; j++)
-        for (int i = 0; i < NU; i++) {
-            double th = M_PI * j / NV, ph = 2 * M_PI * i / NU;
-            vert[j * NU + i][0] = c[0] + r * sin(th) * cos(ph);
-            vert[j * NU + i][1] = c[1] + r * cos(th);
-            vert[j * NU + i][2] = c[2] + r * sin(th) * sin(ph);
+    for (int j = 0; j <= LAMP_NV; j++)
+        for (int i = 0; i < LAMP_NU; i++) {
+            double th = M_PI * j / LAMP_NV, ph = 2 * M_PI * i / LAMP_NU;
+            double *v = lamp_vert[j * LAMP_NU + i];
+            v[0] = lamp_c[0] + LAMP_R * sin(th) * cos(ph);
+            v[1] = lamp_c[1] + LAMP_R * cos(th);
+            v[2] = lamp_c[2] + LAMP_R * sin(th) * sin(ph);
+        }
+    lamp_nt = 0;
+    for (int j = 0; j < LAMP_NV; j++)
+        for (int i = 0; i < LAMP_NU; i++) {
+            int a = j * LAMP_NU + i, b = j * LAMP_NU + (i + 1) % LAMP_NU;
+            int d = b + LAMP_NU, e = a + LAMP_NU;
+            if (j > 0) {
+                int *t = lamp_tri[lamp_nt++];
+                t[0] = a, t[1] = b, t[2] = d;
+            }
+            if (j < LAMP_NV - 1) {
+                int *t = lamp_tri[lamp_nt++];
+                t[0] = a, t[1] = d, t[2] = e;
+            }
         }
     static char obj[1 << 18];
     size_t k = 0;
-    for (int i = 0; i < (NV + 1) * NU; i++)
+    for (int i = 0; i < (LAMP_NV + 1) * LAMP_NU; i++)
         k += (size_t)snprintf(obj + k, sizeof obj - k, "v %.17g %.17g %.17g\n",
-                              vert[i][0], vert[i][1], vert[i][2]);
-    static int tri[2 * NU * NV][3];
-    int nt = 0;
-    for (int j = 0; j < NV; j++)
-        for (int i = 0; i < NU; i++) {
-            int a = j * NU + i, b = j * NU + (i + 1) % NU;
-            int d = (j + 1) * NU + (i + 1) % NU, e = (j + 1) * NU + i;
-            /* Counter-clockwise seen from outside; the poles' slivers
-             * have no area and are left out. */
-            if (j > 0)
-                tri[nt][0] = a, tri[nt][1] = b, tri[nt][2] = d, nt++;
-            if (j < NV - 1)
-                tri[nt][0] = a, tri[nt][1] = d, tri[nt][2] = e, nt++;
-        }
-    for (int t = 0; t < nt; t++)
+                              lamp_vert[i][0], lamp_vert[i][1],
+                              lamp_vert[i][2]);
+    for (int q = 0; q < lamp_nt; q++)
         k += (size_t)snprintf(obj + k, sizeof obj - k, "f %d %d %d\n",
-                              tri[t][0] + 1, tri[t][1] + 1, tri[t][2] + 1);
+                              lamp_tri[q][0] + 1, lamp_tri[q][1] + 1,
+                              lamp_tri[q][2] + 1);
     char path[512];
     lr_test_write_text("lamp.obj", obj, path, sizeof path);
-    char json[1024];
-    snprintf(json, sizeof json,
-             "{\"render\": {\"width\": %d, \"height\": %d, \"spp\": 512,"
-             "  \"integrator\": \"path\", \"adaptive\": false, \"max_depth\": 0},"
-             " \"camera\": {\"position\": [%g, 1, %g], \"look_at\": [%g, 0, %g],"
-             "  \"up\": [0, 0, -1], \"fov\": %g},"
-             " \"materials\": {\"g\": {\"diffuse\": 0.5}, \"l\": {\"emission\": %g}},"
-             " \"objects\": [{\"type\": \"plane\", \"point\": [%g, 0, %g],"
-             "  \"normal\": [0, 1, 0], \"material\": \"g\"},"
-             "  {\"type\": \"mesh\", \"file\": \"lamp.obj\", \"material\": \"l\"}]}",
-             N, N, o, o, o, o, fov, Le, o, o);
-    lr_image *img = lr_test_render_json(json, "mesh lamp");
-    const float *px = lr_image_rgb(img);
-    double t = tan(fov * M_PI / 360.0), mean_rel = 0.0, worst = 0.0;
-    for (int y = 0; y < N; y++)
-        for (int x = 0; x < N; x++) {
-            double want = 0.0;
-            for (int j = 0; j < SUB; j++)
-                for (int i = 0; i < SUB; i++) {
-                    double X = (2.0 * (x + (i + 0.5) / SUB) / N - 1.0) * t;
-                    double Y = (1.0 - 2.0 * (y + (j + 0.5) / SUB) / N) * t;
-                    double p[3] = {o + X, 0.0, o - Y}, E = 0.0;
-                    for (int q = 0; q < nt; q++) {
-                        const double *a = vert[tri[q][0]], *b = vert[tri[q][1]],
-                                     *d = vert[tri[q][2]];
-                        double e1[3], e2[3], nrm[3], v[3][3];
-                        for (int m = 0; m < 3; m++)
-                            e1[m] = b[m] - a[m], e2[m] = d[m] - a[m],
-                            v[0][m] = a[m], v[1][m] = b[m], v[2][m] = d[m];
-                        nrm[0] = e1[1] * e2[2] - e1[2] * e2[1];
-                        nrm[1] = e1[2] * e2[0] - e1[0] * e2[2];
-                        nrm[2] = e1[0] * e2[1] - e1[1] * e2[0];
-                        if ((p[0] - a[0]) * nrm[0] + (p[1] - a[1]) * nrm[1] +
-                                (p[2] - a[2]) * nrm[2] > 0.0)
-                            E += triangle_irradiance(p, v);
-                    }
-                    want += 0.5 / M_PI * Le * E / (SUB * SUB);
-                }
-            for (int m = 0; m < 3; m++) {
-                double rel = (px[3 * (y * N + x) + m] - want) / want;
-                mean_rel += rel / (3 * N * N);
-                worst = fmax(worst, fabs(rel));
-            }
-        }
-    print_message("  floor under a mesh lamp 200 units out: mean %+.4f%%, "
-                  "worst pixel %.3f%%\n", 100 * mean_rel, 100 * worst);
     /* Triangles are sampled by area, noisier than the sphere's cone. */
-    if (!(fabs(mean_rel) <= 3e-3) || !(worst <= 4e-2))
-        fail_msg("floor under a mesh lamp: mean off by %.3f%%, worst pixel "
-                 "%.3f%% (allowed 0.3%%, 4%%)", 100 * mean_rel, 100 * worst);
-    lr_image_free(img);
+    floor_under_lamp("{\"type\": \"mesh\", \"file\": \"lamp.obj\","
+                     " \"material\": \"l\"}",
+                     mesh_irradiance, "mesh lamp", 4e-2);
 }
 
 /* ---- determinism ------------------------------------------------------ */
