@@ -6,8 +6,10 @@
  *
  * Directions map to the image as in Mitsuba 3's `envmap` emitter, so that
  * one file lights both renderers the same way: u = atan2(x, -z) / (2 pi)
- * (wrapped to [0, 1)), v = acos(y) / pi, +y up, row 0 at the top, looked
- * up bilinearly between texel centres.
+ * (wrapped to [0, 1)), v = acos(y) / pi, +y up, looked up bilinearly
+ * between texels placed as Mitsuba places them: column x at
+ * u = (x + 1/2) / w, row y at v = y / (h - 1) (row 0 the +y pole, the
+ * last row the -y pole).
  */
 #ifndef LR_ENVMAP_H
 #define LR_ENVMAP_H

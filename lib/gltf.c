@@ -224,6 +224,12 @@ static lr_status slot_texture(lr_scene *s, lr__gltf_doc *d, const cJSON *info,
             lr__gltf_warn(s, d, "%s: the sampler's %s is ignored (textures "
                           "repeat)", p, wraps[k]);
     }
+    /* Lookup is always bilinear: texels meant to stay sharp (pixel art)
+     * come out blended. */
+    const cJSON *mag = cJSON_GetObjectItemCaseSensitive(smp, "magFilter");
+    if (mag != NULL && cJSON_GetNumberValue(mag) == 9728)
+        lr__gltf_warn(s, d, "%s: the sampler's magFilter NEAREST is ignored "
+                      "(textures are filtered bilinearly)", p);
     int image = (int)src->valuedouble;
     for (size_t i = 0; i < d->n_tex; i++)
         if (d->tex[i].image == image && d->tex[i].srgb == srgb) {

@@ -9,6 +9,12 @@
  * serves that text and the checked buffers from memory and nothing else:
  * assimp never opens a file of its own, never sees a GLB container,
  * base64, an image, a camera, a light, an animation or a skin.
+ *
+ * Texture coordinates stored as normalized unsigned bytes or shorts
+ * (glTF 2.0, 3.7.2.1) are decoded here into floats, c / 255 or
+ * c / 65535, and given to assimp as float accessors in one more buffer:
+ * assimp 5.2 copies such an accessor's raw bytes into its floats, which
+ * textured a quad with a few texels of garbage.
  */
 #include "gltf_doc.h"
 #include "json_util.h"
@@ -72,7 +78,111 @@ static int copy_array(cJSON *dst, const cJSON *root, const char *key,
     return 1;
 }
 
-static char *assimp_text(const lr__gltf_doc *d)
+/* The floats assimp gets for integer texture coordinates: buffer
+ * `index` (one past the document's), `n` floats. */
+typedef struct uv_buffer {
+    float *data;
+    size_t n, cap;
+    size_t index;
+} uv_buffer;
+
+static const cJSON *item(const cJSON *o, const char *k)
+{
+    return cJSON_GetObjectItemCaseSensitive(o, k);
+}
+
+/* Appends the floats of integer TEXCOORD accessor a of the document
+ * (componentType 5121 or 5123, VEC2, bounds checked by gltf_check.c) to
+ * u; its first float's index in *at.  0 on no memory. */
+static int decode_uv(const lr__gltf_doc *d, const cJSON *a, uv_buffer *u,
+                     size_t *at)
+{
+    int n;
+    const cJSON *v = cJSON_GetArrayItem(lr__gltf_array(d->root,
+                                                       "bufferViews", &n),
+                                        (int)cJSON_GetNumberValue(
+                                            item(a, "bufferView")));
+    const struct lr__gltf_buffer *b =
+        &d->buffers[(size_t)cJSON_GetNumberValue(item(v, "buffer"))];
+    int ct = (int)cJSON_GetNumberValue(item(a, "componentType"));
+    size_t cs = ct == 5121 ? 1 : 2;
+    const cJSON *vs = item(v, "byteStride");
+    size_t stride = vs ? (size_t)vs->valuedouble : 2 * cs;
+    const cJSON *vo = item(v, "byteOffset"), *ao = item(a, "byteOffset");
+    size_t off = (size_t)(vo ? vo->valuedouble : 0) +
+                 (size_t)(ao ? ao->valuedouble : 0);
+    size_t count = (size_t)cJSON_GetNumberValue(item(a, "count"));
+    if (u->n + 2 * count > u->cap) {
+        size_t cap = 2 * (u->n + 2 * count);
+        float *p = realloc(u->data, cap * sizeof *p);
+        if (p == NULL)
+            return 0;
+        u->data = p, u->cap = cap;
+    }
+    *at = u->n;
+    for (size_t i = 0; i < count; i++)
+        for (size_t c = 0; c < 2; c++) {
+            const unsigned char *q = b->data + off + i * stride + c * cs;
+            u->data[u->n++] = cs == 1 ? q[0] / 255.0f
+                                      : (float)(q[0] | q[1] << 8) / 65535.0f;
+        }
+    return 1;
+}
+
+/* Every integer TEXCOORD accessor of the reduced copy r made a float one
+ * over a new bufferView of buffer u->index (its floats decoded into u). */
+static int float_uvs(const lr__gltf_doc *d, cJSON *r, uv_buffer *u)
+{
+    int n;
+    const cJSON *orig = lr__gltf_array(d->root, "accessors", &n);
+    cJSON *accs = cJSON_GetObjectItemCaseSensitive(r, "accessors");
+    cJSON *views = cJSON_GetObjectItemCaseSensitive(r, "bufferViews");
+    const cJSON *meshes = item(r, "meshes");
+    for (const cJSON *m = meshes ? meshes->child : NULL; m; m = m->next)
+        for (const cJSON *p = item(m, "primitives")->child; p; p = p->next)
+            for (const cJSON *at = item(p, "attributes")->child; at;
+                 at = at->next) {
+                if (strncmp(at->string, "TEXCOORD_", 9) != 0)
+                    continue;
+                int k = (int)at->valuedouble;
+                cJSON *a = cJSON_GetArrayItem(accs, k);
+                double ct = cJSON_GetNumberValue(item(a, "componentType"));
+                if (ct != 5121 && ct != 5123)
+                    continue; /* floats, or made floats already */
+                size_t first;
+                if (!decode_uv(d, cJSON_GetArrayItem(orig, k), u, &first))
+                    return 0;
+                double count = cJSON_GetNumberValue(item(a, "count"));
+                cJSON *view = cJSON_CreateObject();
+                if (view == NULL || !cJSON_AddItemToArray(views, view) ||
+                    !cJSON_AddNumberToObject(view, "buffer", (double)u->index) ||
+                    !cJSON_AddNumberToObject(view, "byteOffset", 4.0 * first) ||
+                    !cJSON_AddNumberToObject(view, "byteLength", 8.0 * count))
+                    return 0;
+                cJSON *fa = cJSON_CreateObject();
+                if (fa == NULL ||
+                    !cJSON_AddNumberToObject(fa, "bufferView",
+                                             cJSON_GetArraySize(views) - 1) ||
+                    !cJSON_AddNumberToObject(fa, "componentType", 5126) ||
+                    !cJSON_AddNumberToObject(fa, "count", count) ||
+                    !cJSON_AddStringToObject(fa, "type", "VEC2") ||
+                    !cJSON_ReplaceItemInArray(accs, k, fa)) {
+                    cJSON_Delete(fa);
+                    return 0;
+                }
+            }
+    if (u->n == 0)
+        return 1;
+    char name[40];
+    snprintf(name, sizeof name, "lr-buffer-%zu.bin", u->index);
+    cJSON *bufs = cJSON_GetObjectItemCaseSensitive(r, "buffers");
+    cJSON *buf = cJSON_CreateObject();
+    return buf != NULL && cJSON_AddItemToArray(bufs, buf) &&
+           cJSON_AddNumberToObject(buf, "byteLength", 4.0 * u->n) &&
+           cJSON_AddStringToObject(buf, "uri", name);
+}
+
+static char *assimp_text(const lr__gltf_doc *d, uv_buffer *u)
 {
     static const char *const k_scene[] = {"nodes", NULL};
     static const char *const k_node[] = {"children", "mesh", "matrix",
@@ -118,6 +228,7 @@ static char *assimp_text(const lr__gltf_doc *d)
         cJSON *name = cJSON_DetachItemFromObject(b, "name");
         ok = name && cJSON_AddItemToObject(b, "uri", name);
     }
+    ok = ok && float_uvs(d, r, u);
     char *text = ok ? cJSON_PrintUnformatted(r) : NULL;
     cJSON_Delete(r);
     return text;
@@ -134,6 +245,7 @@ typedef struct mem_file {
 typedef struct mem_fs {
     const lr__gltf_doc *d;
     const char *text;
+    const uv_buffer *uv;
 } mem_fs;
 
 static size_t mf_read(struct aiFile *f, char *buf, size_t size, size_t count)
@@ -192,6 +304,10 @@ static struct aiFile *fs_open(struct aiFileIO *io, const char *name,
                b < fs->d->n_buffers) {
         data = fs->d->buffers[b].data;
         n = fs->d->buffers[b].n;
+    } else if (end != NULL && end > base + 10 && strcmp(end, ".bin") == 0 &&
+               b == fs->uv->index && fs->uv->n > 0) {
+        data = (const unsigned char *)fs->uv->data;
+        n = fs->uv->n * sizeof(float);
     } else {
         return NULL;
     }
@@ -222,10 +338,13 @@ lr_status lr__gltf_import(const lr__gltf_doc *d, const struct aiScene **out,
                           lr_error *err)
 {
     *out = NULL;
-    char *text = assimp_text(d);
-    if (text == NULL)
+    uv_buffer uv = {NULL, 0, 0, d->n_buffers};
+    char *text = assimp_text(d, &uv);
+    if (text == NULL) {
+        free(uv.data);
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
-    mem_fs fs = {d, text};
+    }
+    mem_fs fs = {d, text, &uv};
     struct aiFileIO io = {fs_open, fs_close, (aiUserData)&fs};
     pthread_mutex_lock(&import_lock);
     /* Triangulate: polygons' fans; SortByPType: points and lines apart
@@ -238,6 +357,7 @@ lr_status lr__gltf_import(const lr__gltf_doc *d, const struct aiScene **out,
         snprintf(why, sizeof why, "%s", aiGetErrorString());
     pthread_mutex_unlock(&import_lock);
     free(text);
+    free(uv.data);
     if (sc == NULL)
         return lr__gltf_fail(d, err, "libassimp could not read it: %s", why);
     *out = sc;

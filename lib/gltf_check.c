@@ -127,9 +127,45 @@ static lr_status check_numbers(const lr__gltf_doc *d, const cJSON *o,
 
 /* ---- external files ----------------------------------------------------- */
 
-/* A relative path below the glTF's directory: no scheme, no absolute
- * path, no ".." segment, no percent escapes or backslashes (which could
- * spell either), no control characters. */
+static int hex_value(int c)
+{
+    return c >= '0' && c <= '9'   ? c - '0'
+           : c >= 'a' && c <= 'f' ? c - 'a' + 10
+           : c >= 'A' && c <= 'F' ? c - 'A' + 10
+                                  : -1;
+}
+
+/* A URI reference spells a byte that may not stand in it as %XX (RFC
+ * 3986, 2.1): exporters write a file "My Wood.png" as "My%20Wood.png".
+ * Decoded into out (at least strlen(u) + 1 bytes); escapes of "/", "\"
+ * and NUL are refused rather than decoded, since they would spell a
+ * path other than the one the checks below read.  Returns what is
+ * wrong, or NULL. */
+static const char *unescape_uri(const char *u, char *out)
+{
+    size_t k = 0;
+    for (const char *p = u; *p; p++) {
+        if (*p != '%') {
+            out[k++] = *p;
+            continue;
+        }
+        int hi = hex_value((unsigned char)p[1]);
+        int lo = hi < 0 ? -1 : hex_value((unsigned char)p[2]);
+        if (lo < 0)
+            return "has a \"%\" that is not an escape %XX";
+        int c = 16 * hi + lo;
+        if (c == '/' || c == '\\' || c == 0)
+            return "escapes a slash, a backslash or a NUL byte";
+        out[k++] = (char)c;
+        p += 2;
+    }
+    out[k] = '\0';
+    return NULL;
+}
+
+/* A relative path below the glTF's directory, percent escapes decoded:
+ * no scheme, no absolute path, no ".." segment, no backslash (which
+ * could spell either), no control characters. */
 static const char *bad_uri(const char *u)
 {
     if (u[0] == '\0')
@@ -139,8 +175,8 @@ static const char *bad_uri(const char *u)
     if (strchr(u, ':') != NULL)
         return "names a URI scheme (only data: URIs and relative paths "
                "are read)";
-    if (strchr(u, '%') != NULL || strchr(u, '\\') != NULL)
-        return "has a percent escape or a backslash";
+    if (strchr(u, '\\') != NULL)
+        return "has a backslash";
     for (const char *p = u; *p; p++)
         if ((unsigned char)*p < 0x20)
             return "has a control character";
@@ -212,23 +248,35 @@ static lr_status read_blob(lr__gltf_doc *d, const char *dir, const char *path,
         *out = (lr__gltf_blob *)seen;
         return LR_OK;
     }
-    const char *why = strncmp(uri, "data:", 5) == 0 ? NULL : bad_uri(uri);
-    if (why != NULL)
-        return lr__gltf_fail(d, err, "%s.uri \"%.80s\" %s", path, uri, why);
-    lr__gltf_blob *b = realloc(d->blobs, (d->n_blobs + 1) * sizeof *b);
-    if (b == NULL)
+    int is_data = strncmp(uri, "data:", 5) == 0;
+    char *file = is_data ? NULL : malloc(strlen(uri) + 1);
+    if (!is_data && file == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    const char *why = is_data ? NULL : unescape_uri(uri, file);
+    if (!is_data && why == NULL)
+        why = bad_uri(file);
+    if (why != NULL) {
+        free(file);
+        return lr__gltf_fail(d, err, "%s.uri \"%.80s\" %s", path, uri, why);
+    }
+    lr__gltf_blob *b = realloc(d->blobs, (d->n_blobs + 1) * sizeof *b);
+    if (b == NULL) {
+        free(file);
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    }
     d->blobs = b;
     b = &d->blobs[d->n_blobs];
     memset(b, 0, sizeof *b);
-    if (strncmp(uri, "data:", 5) == 0) {
+    if (is_data) {
         LR_TRY(decode_data_uri(d, path, uri, &b->data, &b->n, err));
     } else {
-        size_t plen = strlen(dir) + strlen(uri) + 2;
+        size_t plen = strlen(dir) + strlen(file) + 2;
         char *full = malloc(plen);
-        if (full == NULL)
+        if (full == NULL) {
+            free(file);
             return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
-        snprintf(full, plen, "%s/%s", dir, uri);
+        }
+        snprintf(full, plen, "%s/%s", dir, file);
         /* A symbolic link must not lead out of the directory either. */
         char *rdir = realpath(dir, NULL), *rfile = realpath(full, NULL);
         int out = rdir != NULL && rfile != NULL &&
@@ -238,6 +286,7 @@ static lr_status read_blob(lr__gltf_doc *d, const char *dir, const char *path,
         free(rfile);
         if (out) {
             free(full);
+            free(file);
             return lr__gltf_fail(d, err, "%s.uri \"%.80s\" leads out of the "
                                  "glTF's directory (a symbolic link)", path,
                                  uri);
@@ -245,10 +294,11 @@ static lr_status read_blob(lr__gltf_doc *d, const char *dir, const char *path,
         char *data = NULL;
         size_t n = 0;
         lr_error e2;
-        lr_status st = lr__read_file(full, uri, NULL, MAX_GLTF_BYTES,
+        lr_status st = lr__read_file(full, file, NULL, MAX_GLTF_BYTES,
                                      "files a glTF names", NULL, &data, &n,
                                      &e2);
         free(full);
+        free(file);
         if (st != LR_OK) {
             if (st == LR_ERR_NOMEM)
                 return lr__fail(err, st, NULL, "out of memory");
@@ -501,10 +551,16 @@ static lr_status check_attribute(const lr__gltf_doc *d, const char *p,
                    ? NULL
                    : "VEC3 of floats (5126)";
     else if (strncmp(attr, "TEXCOORD_", 9) == 0)
-        want = (ct == 5126 || ct == 5121 || ct == 5123) &&
+        /* Spec 3.7.2.1: floats, or unsigned bytes or shorts normalized
+         * (gltf_assimp.c decodes those itself). */
+        want = (ct == 5126 ||
+                ((ct == 5121 || ct == 5123) &&
+                 cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(
+                     a, "normalized")))) &&
                        strcmp(t->valuestring, "VEC2") == 0
                    ? NULL
-                   : "VEC2 of floats or unsigned bytes or shorts";
+                   : "VEC2 of floats, or of unsigned bytes or shorts with "
+                     "\"normalized\": true";
     else if (strcmp(attr, "indices") == 0)
         want = (ct == 5121 || ct == 5123 || ct == 5125) &&
                        strcmp(t->valuestring, "SCALAR") == 0
@@ -516,10 +572,12 @@ static lr_status check_attribute(const lr__gltf_doc *d, const char *p,
     return LR_OK;
 }
 
-/* The index accessor's values must name vertices that exist. */
-static lr_status check_index_values(const lr__gltf_doc *d, const char *p,
-                                    long long acc, long long n_vertices,
-                                    lr_error *err)
+/* Where accessor acc's elements lie (check_accessors has put them
+ * within their buffer): the first one, the stride between them, their
+ * count and their component size. */
+static const unsigned char *accessor_at(const lr__gltf_doc *d, long long acc,
+                                        size_t *stride, long long *count,
+                                        size_t *cs)
 {
     int n;
     const cJSON *root = d->root;
@@ -534,15 +592,26 @@ static lr_status check_index_values(const lr__gltf_doc *d, const char *p,
     const cJSON *vo = cJSON_GetObjectItemCaseSensitive(v, "byteOffset");
     const cJSON *ao = cJSON_GetObjectItemCaseSensitive(a, "byteOffset");
     const cJSON *vs = cJSON_GetObjectItemCaseSensitive(v, "byteStride");
+    const cJSON *t = cJSON_GetObjectItemCaseSensitive(a, "type");
     size_t off = (size_t)(vo ? vo->valuedouble : 0) +
                  (size_t)(ao ? ao->valuedouble : 0);
-    int ct = (int)cJSON_GetNumberValue(
-        cJSON_GetObjectItemCaseSensitive(a, "componentType"));
-    size_t cs = (size_t)component_size(ct);
-    size_t stride = vs ? (size_t)vs->valuedouble : cs;
-    long long count = (long long)cJSON_GetNumberValue(
+    *cs = (size_t)component_size((long long)cJSON_GetNumberValue(
+        cJSON_GetObjectItemCaseSensitive(a, "componentType")));
+    *stride = vs ? (size_t)vs->valuedouble
+                 : *cs * (size_t)type_count(t->valuestring);
+    *count = (long long)cJSON_GetNumberValue(
         cJSON_GetObjectItemCaseSensitive(a, "count"));
-    const unsigned char *base = d->buffers[b].data + off;
+    return d->buffers[b].data + off;
+}
+
+/* The index accessor's values must name vertices that exist. */
+static lr_status check_index_values(const lr__gltf_doc *d, const char *p,
+                                    long long acc, long long n_vertices,
+                                    lr_error *err)
+{
+    size_t stride, cs;
+    long long count;
+    const unsigned char *base = accessor_at(d, acc, &stride, &count, &cs);
     for (long long i = 0; i < count; i++) {
         const unsigned char *q = base + (size_t)i * stride;
         unsigned long x = cs == 1 ? q[0]
@@ -553,6 +622,29 @@ static lr_status check_index_values(const lr__gltf_doc *d, const char *p,
                                  "beyond the %lld vertices", p, i, x,
                                  n_vertices);
     }
+    return LR_OK;
+}
+
+/* Every coordinate of a POSITION accessor (VEC3 of floats) must be a
+ * finite number, so that the error names the accessor and the vertex
+ * rather than the placed mesh. */
+static lr_status check_positions(const lr__gltf_doc *d, const char *p,
+                                 long long acc, lr_error *err)
+{
+    size_t stride, cs;
+    long long count;
+    static const char *const axis[3] = {"x", "y", "z"};
+    const unsigned char *base = accessor_at(d, acc, &stride, &count, &cs);
+    for (long long i = 0; i < count; i++)
+        for (int k = 0; k < 3; k++) {
+            uint32_t bits = le32(base + (size_t)i * stride + 4 * (size_t)k);
+            float f;
+            memcpy(&f, &bits, sizeof f);
+            if (!isfinite(f))
+                return lr__gltf_fail(d, err, "%s.POSITION: accessors[%lld] "
+                                     "element %lld: %s is %g", p, acc, i,
+                                     axis[k], (double)f);
+        }
     return LR_OK;
 }
 
@@ -584,6 +676,7 @@ static lr_status check_meshes(lr__gltf_doc *d, lr_error *err)
             snprintf(q, sizeof q, "%s.attributes", p);
             LR_TRY(get_index(d, at, q, "POSITION", nacc, &x, err));
             LR_TRY(check_attribute(d, q, "POSITION", x, &nvert, err));
+            LR_TRY(check_positions(d, q, x, err));
             for (const cJSON *c = at->child; c; c = c->next) {
                 LR_TRY(get_index(d, at, q, c->string, nacc, &x, err));
                 LR_TRY(check_attribute(d, q, c->string, x, &cnt, err));
@@ -743,7 +836,11 @@ static lr_status check_images(lr__gltf_doc *d, const char *dir, lr_error *err)
                                  ? lr__gltf_member(m, slots[k][0], slots[k][1])
                                  : cJSON_GetObjectItemCaseSensitive(
                                        m, slots[k][1]);
-            snprintf(p, sizeof p, "materials[%d].%s", i, slots[k][1]);
+            /* The slot's whole path: two of them sit inside
+             * pbrMetallicRoughness. */
+            snprintf(p, sizeof p, "materials[%d].%s%s%s", i,
+                     slots[k][0] ? slots[k][0] : "", slots[k][0] ? "." : "",
+                     slots[k][1]);
             if (o != NULL)
                 LR_TRY(get_index(d, o, p, "index", nt, &x, err));
             if (o != NULL && x < 0)

@@ -203,6 +203,7 @@ int lr__light_sample_from(const lr_scene *s, lr__v3 p, double u_pick,
     int nk = kinds(s, &ka, &ke, &kd);
     if (nk == 0)
         return 0;
+    out->geom = -1;
     int k = (int)(u_pick * nk);
     if (k >= nk)
         k = nk - 1;
@@ -235,6 +236,7 @@ int lr__light_sample_from(const lr_scene *s, lr__v3 p, double u_pick,
         out->L = lr__material_at(s, G->material, has_uv, uv, &mt)->emission;
         out->pdf = pk * emitter_prob(s, i) * pdf;
         out->delta = 0;
+        out->geom = (int)e->geom;
         return out->pdf > 0.0;
     }
     k -= ka;
@@ -266,6 +268,31 @@ int lr__light_sample_from(const lr_scene *s, lr__v3 p, double u_pick,
         out->L = lt->power;
     }
     return 1;
+}
+
+int lr__light_is_sphere(const lr_scene *s, const lr__light_sample *ls)
+{
+    return ls->geom >= 0 && s->geoms[ls->geom].kind == LR__GEOM_SPHERE;
+}
+
+double lr__light_reach(const lr_scene *s, const lr__light_sample *ls,
+                       lr__v3 org, lr__v3 dir, double t)
+{
+    if (!lr__light_is_sphere(s, ls))
+        return t;
+    const lr__geom *G = &s->geoms[ls->geom];
+    /* The nearer root of |org + x dir - centre| = r, when org is
+     * outside. */
+    lr__v3 oc = v3_sub(org, G->center);
+    double b = v3_dot(oc, dir);
+    double c = v3_dot(oc, oc) - G->radius * G->radius;
+    double disc = b * b - c;
+    if (c > 0.0 && disc >= 0.0) {
+        double enter = -b - sqrt(disc);
+        if (enter > 0.0 && enter < t)
+            return enter;
+    }
+    return t;
 }
 
 double lr__light_pdf_area(const lr_scene *s, lr__v3 p, lr__v3 q,

@@ -24,6 +24,7 @@ typedef struct lr__light_sample {
     double pdf;   /* solid-angle density with the pick's probability; for
                    * a delta light the pick's probability alone */
     int delta;    /* point or directional: no MIS, no BSDF counterpart */
+    int geom;     /* the emitting geometry (area lights), else -1 */
 } lr__light_sample;
 
 /* Samples a light seen from point p, with u_pick and u[2] in [0, 1).
@@ -31,6 +32,16 @@ typedef struct lr__light_sample {
  * nothing (then *out is unspecified). */
 int lr__light_sample_from(const lr_scene *s, lr__v3 p, double u_pick,
                           const double u[2], lr__light_sample *out);
+
+/* How far a shadow ray from org along unit dir towards sample ls, whose
+ * point is t away, may go before it meets the light itself: t, or less
+ * where the ray enters a sphere lamp before the sampled point (near its
+ * silhouette, seen from org rather than from where it was sampled). */
+double lr__light_reach(const lr_scene *s, const lr__light_sample *ls,
+                       lr__v3 org, lr__v3 dir, double t);
+
+/* Whether sample ls is of a sphere lamp. */
+int lr__light_is_sphere(const lr_scene *s, const lr__light_sample *ls);
 
 /* The density lr__light_sample_from would have for reaching point q of
  * emitting geometry g (triangle prim) from p, along unit dir (p -> q),

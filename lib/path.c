@@ -116,9 +116,27 @@ static int next_event(const lr_scene *s, const lr__hit *h, const lr__bsdf *f,
     p->s_tfar = INFINITY;
     if (isfinite(ls.dist)) {
         /* Stop short of the light's own surface (relative, as Mitsuba's
-         * shadow epsilon). */
+         * shadow epsilon).  The origin is moved off the surface by an
+         * offset that grows with the coordinates, and a ray that keeps
+         * the direction sampled from h->p runs parallel to the sampled
+         * one: it met a lamp before the sampled point (a sphere near its
+         * silhouette, a tessellated lamp's next triangle), and a floor
+         * lit by a lamp 200 units from the origin got 56% (sphere) or
+         * 58% (48 x 24 mesh) of its light.  So the ray is aimed from the
+         * moved origin at the sampled point, as Mitsuba's spawn_ray_to
+         * does, and stops where it enters a sphere lamp if that comes
+         * first.  Sphere lamps keep the parallel ray: stopped at its own
+         * entry, it measured closer to the closed form (1.0000 and
+         * 0.9957 of it 200 and 2000 units out, against 0.9996 and 0.979
+         * aimed; test_path.c, test_sphere_lamp_irradiance and
+         * test_mesh_lamp_irradiance). */
         lr__v3 q = v3_madd(h->p, ls.dir, ls.dist);
-        p->s_tfar = v3_len(v3_sub(q, p->s_org)) * (1.0 - 1e-4);
+        lr__v3 e = v3_sub(q, p->s_org);
+        double len = sqrt(e.x * e.x + e.y * e.y + e.z * e.z);
+        if (!lr__light_is_sphere(s, &ls))
+            p->s_dir = v3(e.x / len, e.y / len, e.z / len);
+        p->s_tfar = lr__light_reach(s, &ls, p->s_org, p->s_dir, len) *
+                    (1.0 - 1e-4);
     }
     return 1;
 }

@@ -282,9 +282,11 @@ lanes16(lr__v3 amb, int rr, const double (*restrict u)[16],
                soz = pz + gz * (side * eps);
         double ex = (px + lx * d) - sox, ey = (py + ly * d) - soy,
                ez = (pz + lz * d) - soz;
-        double stfar = isfinite(d) ? sqrt(ex * ex + ey * ey + ez * ez) *
-                                         (1.0 - 1e-4)
-                                   : INFINITY;
+        /* Aimed from the moved origin at the sampled point, as path.c's
+         * next_event aims at a triangle's. */
+        double elen = sqrt(ex * ex + ey * ey + ez * ez);
+        double stfar = isfinite(d) ? elen * (1.0 - 1e-4) : INFINITY;
+        double sdx = ex / elen, sdy = ey / elen, sdz = ez / elen;
 
         /* ---- the BSDF sample (lr__bsdf_sample: the diffuse lobe) ---- */
         double alive = wol_z > 0.0 ? (u[5][i] < p0 ? 1.0 : 0.0) : 0.0;
@@ -330,7 +332,7 @@ lanes16(lr__v3 amb, int rr, const double (*restrict u)[16],
         SET(Lr, Lr), SET(Lg, Lg), SET(Lb, Lb);
         SET(shadow, shadow);
         SET(sox, sox), SET(soy, soy), SET(soz, soz);
-        SET(sdx, lx), SET(sdy, ly), SET(sdz, lz);
+        SET(sdx, sdx), SET(sdy, sdy), SET(sdz, sdz);
         SET(scr, scr), SET(scg, scg), SET(scb, scb);
         SET(stfar, stfar);
         SET(br, br), SET(bg, bg), SET(bb, bb);

@@ -36,9 +36,13 @@ lr__v3 lr__xform_point(const lr__xform *x, lr__v3 p)
               x->m[2][0] * p.x + x->m[2][1] * p.y + x->m[2][2] * p.z + x->m[2][3]);
 }
 
-/* Normals transform by the inverse transpose; the cofactor matrix is the
- * inverse transpose times the determinant, which is fine for a direction
- * that is normalised afterwards (and flips correctly for mirroring). */
+/* Normals transform by the inverse transpose.  The cofactor matrix is
+ * the inverse transpose times the determinant: normalised, the same
+ * direction where the determinant is positive, the opposite one where x
+ * mirrors.  So its sign is taken off: with it, a mirrored infinite
+ * plane's front turned to the other side and a mirrored mesh's file
+ * normals pointed behind their faces, which dropped them (flat shading;
+ * tests/test_trace.c, test_mirror_keeps_normals). */
 lr__v3 lr__xform_normal(const lr__xform *x, lr__v3 n)
 {
     const double(*m)[4] = x->m;
@@ -52,9 +56,11 @@ lr__v3 lr__xform_normal(const lr__xform *x, lr__v3 n)
         {m[0][1] * m[1][2] - m[0][2] * m[1][1],
          m[0][2] * m[1][0] - m[0][0] * m[1][2],
          m[0][0] * m[1][1] - m[0][1] * m[1][0]}};
-    return v3_norm(v3(c[0][0] * n.x + c[0][1] * n.y + c[0][2] * n.z,
-                      c[1][0] * n.x + c[1][1] * n.y + c[1][2] * n.z,
-                      c[2][0] * n.x + c[2][1] * n.y + c[2][2] * n.z));
+    double sign = lr__xform_det(x) < 0.0 ? -1.0 : 1.0;
+    return v3_scale(v3_norm(v3(c[0][0] * n.x + c[0][1] * n.y + c[0][2] * n.z,
+                               c[1][0] * n.x + c[1][1] * n.y + c[1][2] * n.z,
+                               c[2][0] * n.x + c[2][1] * n.y + c[2][2] * n.z)),
+                    sign);
 }
 
 double lr__xform_det(const lr__xform *x)

@@ -20,7 +20,8 @@ lr__xform lr__xform_identity(void);
 /* a * b: apply b first, then a. */
 lr__xform lr__xform_mul(const lr__xform *a, const lr__xform *b);
 lr__v3 lr__xform_point(const lr__xform *x, lr__v3 p);
-/* A unit normal moved by x (the inverse transpose, up to scale). */
+/* A unit normal moved by x: the inverse transpose, normalised (for a
+ * mirroring x too, so it stays on the image of its side). */
 lr__v3 lr__xform_normal(const lr__xform *x, lr__v3 n);
 /* The determinant of the linear part: negative for a mirroring x. */
 double lr__xform_det(const lr__xform *x);

@@ -16,7 +16,7 @@ import struct
 import sys
 import zlib
 
-FLOAT, USHORT, UINT = 5126, 5123, 5125
+FLOAT, UBYTE, USHORT, UINT = 5126, 5121, 5123, 5125
 
 
 class Gltf:
@@ -51,11 +51,28 @@ class Gltf:
         self.doc["accessors"].append(a)
         return len(self.doc["accessors"]) - 1
 
-    def mesh(self, positions, indices, normals=None, uvs=None, material=None):
+    def uv_accessor(self, uvs, comp, normalized=True):
+        """Texture coordinates as unsigned bytes or shorts, c = round(uv x
+        255 or 65535), normalized (spec 3.7.2.1) unless told not."""
+        top = 255 if comp == UBYTE else 65535
+        raw = struct.pack("<%d%s" % (len(uvs), "B" if comp == UBYTE else "H"),
+                          *[round(c * top) for c in uvs])
+        view = self._view(raw + b"\0" * (-len(raw) % 4), 34962)
+        a = {"bufferView": view, "componentType": comp,
+             "count": len(uvs) // 2, "type": "VEC2"}
+        if normalized:
+            a["normalized"] = True
+        self.doc["accessors"].append(a)
+        return len(self.doc["accessors"]) - 1
+
+    def mesh(self, positions, indices, normals=None, uvs=None, material=None,
+             uv_comp=FLOAT, uv_normalized=True):
         attrs = {"POSITION": self.accessor(positions, "VEC3", target=34962)}
         if normals is not None:
             attrs["NORMAL"] = self.accessor(normals, "VEC3", target=34962)
-        if uvs is not None:
+        if uvs is not None and uv_comp != FLOAT:
+            attrs["TEXCOORD_0"] = self.uv_accessor(uvs, uv_comp, uv_normalized)
+        elif uvs is not None:
             attrs["TEXCOORD_0"] = self.accessor(uvs, "VEC2", target=34962)
         prim = {"attributes": attrs,
                 "indices": self.accessor(indices, "SCALAR", UINT, 34963)}
@@ -123,12 +140,23 @@ class Gltf:
                 struct.pack("<I4s", len(bn), b"BIN\0") + bn)
 
     def write(self, path):
+        """A .glb, or a .gltf: its buffer as a data: URI, or when
+        self.bin_file names one, that file beside it (the URI percent-
+        escaped, RFC 3986, as exporters write names with spaces)."""
         if path.endswith(".glb"):
             with open(path, "wb") as f:
                 f.write(self.glb_bytes())
-        else:
-            with open(path, "w") as f:
-                f.write(self.gltf_text())
+            return
+        uri = None
+        name = getattr(self, "bin_file", None)
+        if name:
+            import os.path
+            import urllib.parse
+            with open(os.path.join(os.path.dirname(path), name), "wb") as f:
+                f.write(bytes(self.bin))
+            uri = urllib.parse.quote(name)
+        with open(path, "w") as f:
+            f.write(self.gltf_text(uri))
 
 
 def png_rgb(w, h, pixel):
@@ -222,6 +250,22 @@ def scene_tri():
                    scale=[1.5, 0.75, 1.0])
     g.node(children=[child],
            matrix=[0.8, 0, 0.6, 0, 0, 1, 0, 0, -0.6, 0, 0.8, 0, 0.5, 0.25, -1, 1])
+    return g
+
+
+def scene_tri_spaced():
+    """scene_tri with its buffer in the file "tri data.bin" beside it,
+    named "tri%20data.bin"."""
+    g = scene_tri()
+    g.bin_file = "tri data.bin"
+    return g
+
+
+def scene_tri_nan():
+    """scene_tri with its second vertex's y a NaN (bytes 16 to 20 of the
+    buffer: the POSITION accessor comes first)."""
+    g = scene_tri()
+    g.bin[16:20] = struct.pack("<f", float("nan"))
     return g
 
 
@@ -345,18 +389,21 @@ def scene_mapping():
     return g
 
 
-def scene_textured():
+def scene_textured(uv_comp=FLOAT, uv_normalized=True):
     """Two 2 x 2 quads facing +z: at x = -1.5 a base-colour texture, at
     x = 1.5 an emissive one, each a 2 x 2 PNG with red top left, green
     top right, blue bottom left, white bottom right.  glTF's UV (0, 0) is
-    the image's top left; the quad's UVs put it at the top-left corner."""
+    the image's top left; the quad's UVs put it at the top-left corner.
+    uv_comp: the UVs' component type (floats, or normalized unsigned
+    bytes or shorts)."""
     g = Gltf()
     tex = g.image_png(corners_png())
     pos, idx, nrm, uv = quad(2)
-    base = g.mesh(pos, idx, nrm, uv, g.material({
+    kw = {"uv_comp": uv_comp, "uv_normalized": uv_normalized}
+    base = g.mesh(pos, idx, nrm, uv, **kw, material=g.material({
         "name": "base", "pbrMetallicRoughness": {
             "baseColorTexture": {"index": tex}, "metallicFactor": 0}}))
-    glow = g.mesh(pos, idx, nrm, uv, g.material({
+    glow = g.mesh(pos, idx, nrm, uv, **kw, material=g.material({
         "name": "glow", "emissiveFactor": [1, 1, 1],
         "emissiveTexture": {"index": tex},
         "pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1]}}))
@@ -456,8 +503,12 @@ def scene_normals():
     return g
 
 
-SCENES = {"tri": scene_tri, "normals": scene_normals,
+SCENES = {"tri": scene_tri, "tri-nan": scene_tri_nan,
+          "tri-spaced": scene_tri_spaced, "normals": scene_normals,
           "mapping": scene_mapping, "textured": scene_textured,
+          "textured-u8": lambda: scene_textured(UBYTE),
+          "textured-u16": lambda: scene_textured(USHORT),
+          "textured-u8-raw": lambda: scene_textured(UBYTE, False),
           "metal-texture": scene_metal_texture,
           "metal-base-texture": lambda: scene_metal_texture(mr=False),
           "spot-light": scene_spot_light,

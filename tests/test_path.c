@@ -10,6 +10,8 @@
  *     cosine-weighted integral over the upper hemisphere, by quadrature
  *     of the map as documented (exercises the map's mapping, lookup,
  *     sampling density and MIS);
+ *   - a floor under a lamp far from the origin: a sphere, pi Le (r/d)^2
+ *     cos; the same tessellated, Lambert's formula per triangle;
  *   - a small emitter through the thin lens: its blur is the circle of
  *     confusion, C = 2 r |1/Z - 1/s| f_px;
  *   - GGX: the visible-normal density integrates to 1 (Heitz 2014's weak
@@ -171,43 +173,57 @@ static double env_value(int x, int y)
     return (x >= 5 && x < 9 && y >= 3 && y < 6) ? 40.0 : 1.0;
 }
 
-static void test_plane_under_envmap(void **state)
+/* The irradiance on a plane facing +y under a W x H map of values
+ * value(x, y) (grey), as documented (texels at u = (x + 0.5) / W and
+ * v = y / (H - 1), as Mitsuba 3 places them, bilinear between them,
+ * wrapping in u; v = theta / pi from +y): the lookup integrated with
+ * cos(theta) over the upper hemisphere by the midpoint rule. */
+static double irradiance_up(double (*value)(int x, int y), int W, int H)
 {
-    (void)state;
-    lr_image *map = NULL;
-    assert_int_equal(lr_image_create(ENV_W, ENV_H, 0, &map, NULL), LR_OK);
-    float *px = lr_image_rgb_mut(map);
-    for (int y = 0; y < ENV_H; y++)
-        for (int x = 0; x < ENV_W; x++)
-            for (int c = 0; c < 3; c++)
-                px[3 * (y * ENV_W + x) + c] = (float)env_value(x, y);
-    char path[1024];
-    snprintf(path, sizeof path, "%s/env.exr", lr_test_tmpdir());
-    assert_int_equal(lr_image_write(map, path, NULL, NULL), LR_OK);
-    lr_image_free(map);
-    /* Irradiance on a plane facing +y: the map as documented (texel
-     * centres at ((x + 0.5) / W, (y + 0.5) / H), bilinear between them,
-     * wrapping in u, clamped in v; v = theta / pi from +y) integrated
-     * with cos(theta) over the upper hemisphere by the midpoint rule. */
     double E = 0.0;
     const int NT = 1024, NP = 2048;
     for (int i = 0; i < NT; i++) {
         double th = (M_PI / 2) * (i + 0.5) / NT;
-        double y = th / M_PI * ENV_H - 0.5;
+        double y = th / M_PI * (H - 1);
         int y0 = (int)floor(y);
         double ty = y - y0;
-        int ya = y0 < 0 ? 0 : y0, yb = y0 + 1 >= ENV_H ? ENV_H - 1 : y0 + 1;
+        int ya = y0 < 0 ? 0 : y0, yb = y0 + 1 >= H ? H - 1 : y0 + 1;
         double row = 0.0;
         for (int j = 0; j < NP; j++) {
-            double x = (j + 0.5) / NP * ENV_W - 0.5;
+            double x = (j + 0.5) / NP * W - 0.5;
             int x0 = (int)floor(x);
             double tx = x - x0;
-            int xa = (x0 + ENV_W) % ENV_W, xb = (x0 + 1) % ENV_W;
-            row += (1 - ty) * ((1 - tx) * env_value(xa, ya) + tx * env_value(xb, ya)) +
-                   ty * ((1 - tx) * env_value(xa, yb) + tx * env_value(xb, yb));
+            int xa = (x0 + W) % W, xb = (x0 + 1) % W;
+            row += (1 - ty) * ((1 - tx) * value(xa, ya) + tx * value(xb, ya)) +
+                   ty * ((1 - tx) * value(xa, yb) + tx * value(xb, yb));
         }
         E += row / NP * 2 * M_PI * cos(th) * sin(th) * (M_PI / 2) / NT;
     }
+    return E;
+}
+
+/* Writes a W x H grey map of value(x, y) as NAME in the test directory. */
+static void write_map(const char *name, double (*value)(int x, int y), int W,
+                      int H)
+{
+    lr_image *map = NULL;
+    assert_int_equal(lr_image_create(W, H, 0, &map, NULL), LR_OK);
+    float *px = lr_image_rgb_mut(map);
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++)
+            for (int c = 0; c < 3; c++)
+                px[3 * (y * W + x) + c] = (float)value(x, y);
+    char path[1024];
+    snprintf(path, sizeof path, "%s/%s", lr_test_tmpdir(), name);
+    assert_int_equal(lr_image_write(map, path, NULL, NULL), LR_OK);
+    lr_image_free(map);
+}
+
+static void test_plane_under_envmap(void **state)
+{
+    (void)state;
+    write_map("env.exr", env_value, ENV_W, ENV_H);
+    double E = irradiance_up(env_value, ENV_W, ENV_H);
     double want = 0.5 / M_PI * E;
     const char *json =
         "{\"render\": {\"width\": 8, \"height\": 8, \"spp\": 2048,"
@@ -229,6 +245,114 @@ static void test_plane_under_envmap(void **state)
     img = lr_test_render_sets(json, sets, 2, "rotated envmap");
     expect(img, 0, 0, 8, 8, 2 * want, 3e-3, 3e-2,
            "the same map turned 90 degrees, x 2");
+    lr_image_free(img);
+}
+
+/* A sun of one texel, 40000 times its sky, over a plane: the light
+ * that lookup spreads from the sun texel into its neighbours' cells must
+ * be sampled too, or BSDF samples find it with little density and the
+ * pixels settle slowly (at 512 spp the pixels' rms error was 7.7% and
+ * the mean 0.6% low when cells were weighted by their own texel; 1.6%
+ * and 0.03% now). */
+static double sun_value(int x, int y)
+{
+    return x == 20 && y == 3 ? 2000.0 : 0.05;
+}
+
+static void test_envmap_one_texel_sun(void **state)
+{
+    (void)state;
+    write_map("sun.exr", sun_value, ENV_W, ENV_H);
+    double want = 0.5 / M_PI * irradiance_up(sun_value, ENV_W, ENV_H);
+    const char *json =
+        "{\"render\": {\"width\": 8, \"height\": 8, \"spp\": 512,"
+        "  \"integrator\": \"path\", \"adaptive\": false, \"max_depth\": 0},"
+        " \"camera\": {\"position\": [0, 1, 0], \"look_at\": [0, 0, 0.01],"
+        "  \"fov\": 20},"
+        " \"environment\": {\"file\": \"sun.exr\"},"
+        " \"materials\": {\"g\": {\"diffuse\": 0.5}},"
+        " \"objects\": [{\"type\": \"plane\", \"point\": [0, 0, 0],"
+        "  \"normal\": [0, 1, 0], \"material\": \"g\"}]}";
+    lr_image *img = lr_test_render_json(json, "one-texel sun");
+    /* The root mean square of the pixels' relative errors: noise, which
+     * the sampling is about, more steadily than the worst pixel. */
+    const float *p = lr_image_rgb(img);
+    double sum = 0.0, sq = 0.0;
+    for (int i = 0; i < 8 * 8 * 3; i++) {
+        sum += p[i] / want - 1.0;
+        sq += (p[i] / want - 1.0) * (p[i] / want - 1.0);
+    }
+    double mean = sum / (8 * 8 * 3), rms = sqrt(sq / (8 * 8 * 3));
+    print_message("  plane under a one-texel sun: want %.6g, mean %+.3f%%, "
+                  "rms %.3f%%\n", want, 100 * mean, 100 * rms);
+    if (!(fabs(mean) <= 3e-3) || !(rms <= 3.5e-2))
+        fail_msg("plane under a one-texel sun: mean %+.3f%%, rms %.3f%% "
+                 "(allowed 0.3%%, 3.5%%)", 100 * mean, 100 * rms);
+    lr_image_free(img);
+}
+
+/* Where the map's texels lie, seen directly: a map whose red is its row
+ * index and whose green is its column index renders, through each
+ * pixel's centre, red v (H - 1) and green u W - 1/2 (linear ramps, so
+ * bilinear lookup is exact), v = acos(d.y) / pi and u = atan2(d.x, -d.z)
+ * / (2 pi) of the pixel's direction d: texels where Mitsuba 3's envmap
+ * puts them (its eval_spectrum), the first row at the +y pole.  Looking
+ * up and towards +x (u about 1/4, away from the seam). */
+static void test_envmap_texel_places(void **state)
+{
+    (void)state;
+    enum { MW = 16, MH = 8, N = 24 };
+    lr_image *map = NULL;
+    assert_int_equal(lr_image_create(MW, MH, 0, &map, NULL), LR_OK);
+    float *px = lr_image_rgb_mut(map);
+    for (int y = 0; y < MH; y++)
+        for (int x = 0; x < MW; x++) {
+            px[3 * (y * MW + x)] = (float)y;
+            px[3 * (y * MW + x) + 1] = (float)x;
+            px[3 * (y * MW + x) + 2] = 0.0f;
+        }
+    char path[1024];
+    snprintf(path, sizeof path, "%s/ramp.exr", lr_test_tmpdir());
+    assert_int_equal(lr_image_write(map, path, NULL, NULL), LR_OK);
+    lr_image_free(map);
+    char json[512];
+    snprintf(json, sizeof json,
+             "{\"render\": {\"width\": %d, \"height\": %d, \"spp\": 1,"
+             "  \"sampler\": \"grid\"},"
+             " \"camera\": {\"position\": [0, 0, 0], \"look_at\": [1, 1, 0],"
+             "  \"fov\": 90},"
+             " \"environment\": {\"file\": \"ramp.exr\"}}", N, N);
+    lr_image *img = lr_test_render_json(json, "ramp map");
+    const float *rgb = lr_image_rgb(img);
+    /* The pinhole's frame (scene-format.md, 6): right = f x up, its up
+     * = right x f; fov 90, so tan(fov / 2) = 1. */
+    const double f[3] = {M_SQRT1_2, M_SQRT1_2, 0};
+    const double r[3] = {0, 0, 1};
+    const double up[3] = {-M_SQRT1_2, M_SQRT1_2, 0};
+    double worst_r = 0.0, worst_g = 0.0;
+    int n_g = 0;
+    for (int y = 0; y < N; y++)
+        for (int x = 0; x < N; x++) {
+            double X = 2.0 * (x + 0.5) / N - 1.0, Y = 1.0 - 2.0 * (y + 0.5) / N;
+            double d[3];
+            for (int k = 0; k < 3; k++)
+                d[k] = f[k] + X * r[k] + Y * up[k];
+            double len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+            double v = acos(d[1] / len) / M_PI;
+            double u = atan2(d[0], -d[2]) / (2 * M_PI);
+            u -= floor(u);
+            double want_r = v * (MH - 1), want_g = u * MW - 0.5;
+            worst_r = fmax(worst_r, fabs(rgb[3 * (y * N + x)] - want_r));
+            if (want_g > 0.0 && want_g < MW - 1) {
+                worst_g = fmax(worst_g, fabs(rgb[3 * (y * N + x) + 1] - want_g));
+                n_g++;
+            }
+        }
+    print_message("  ramp map: row off by at most %.2g, column by %.2g "
+                  "(%d pixels)\n", worst_r, worst_g, n_g);
+    if (!(worst_r < 2e-3) || !(worst_g < 2e-3) || n_g < N * N / 2)
+        fail_msg("the map's texels are not where Mitsuba puts them: row off "
+                 "by %.3g, column by %.3g", worst_r, worst_g);
     lr_image_free(img);
 }
 
@@ -323,6 +447,187 @@ static void test_emitter_bokeh(void **state)
         lr_image_free(pin);
         lr_image_free(blur);
     }
+}
+
+/* ---- a lamp over a floor ---------------------------------------------- */
+
+/* Far from the origin, where a shadow ray's origin moves off the floor by
+ * more than the relative shadow epsilon: the floor there once got 56%
+ * (a sphere lamp) or 58% (a tessellated one) of its light, the lamp
+ * meeting its own shadow rays. */
+#define LAMP_AT 200.0
+#define LAMP_LE 2.0
+#define LAMP_R 0.5
+static const double lamp_c[3] = {LAMP_AT + 1.2, 1.2, LAMP_AT};
+
+/* Renders 8 x 8 pixels of a diffuse floor (albedo 0.5) at LAMP_AT, seen
+ * from straight above, lit only by `lamp` (a JSON object of material
+ * "l", emission LAMP_LE) out of the frame, and compares each pixel with
+ * albedo / pi x LAMP_LE x irr(point) averaged over 8 x 8 points of it. */
+static void floor_under_lamp(const char *lamp,
+                             double (*irr)(const double p[3]),
+                             const char *what, double tol_pixel)
+{
+    enum { N = 8, SUB = 8 };
+    const double o = LAMP_AT, fov = 20.0;
+    char json[1024];
+    snprintf(json, sizeof json,
+             "{\"render\": {\"width\": %d, \"height\": %d, \"spp\": 512,"
+             "  \"integrator\": \"path\", \"adaptive\": false, \"max_depth\": 0},"
+             " \"camera\": {\"position\": [%g, 1, %g], \"look_at\": [%g, 0, %g],"
+             "  \"up\": [0, 0, -1], \"fov\": %g},"
+             " \"materials\": {\"g\": {\"diffuse\": 0.5}, \"l\": {\"emission\": %g}},"
+             " \"objects\": [{\"type\": \"plane\", \"point\": [%g, 0, %g],"
+             "  \"normal\": [0, 1, 0], \"material\": \"g\"}, %s]}",
+             N, N, o, o, o, o, fov, LAMP_LE, o, o, lamp);
+    lr_image *img = lr_test_render_json(json, what);
+    const float *px = lr_image_rgb(img);
+    /* Looking down from height 1 with up -z: image right is +x, image
+     * up is -z (scene-format.md, 6). */
+    double t = tan(fov * M_PI / 360.0), mean_rel = 0.0, worst = 0.0;
+    for (int y = 0; y < N; y++)
+        for (int x = 0; x < N; x++) {
+            double want = 0.0;
+            for (int j = 0; j < SUB; j++)
+                for (int i = 0; i < SUB; i++) {
+                    double X = (2.0 * (x + (i + 0.5) / SUB) / N - 1.0) * t;
+                    double Y = (1.0 - 2.0 * (y + (j + 0.5) / SUB) / N) * t;
+                    double p[3] = {o + X, 0.0, o - Y};
+                    want += 0.5 / M_PI * LAMP_LE * irr(p) / (SUB * SUB);
+                }
+            for (int m = 0; m < 3; m++) {
+                double rel = (px[3 * (y * N + x) + m] - want) / want;
+                mean_rel += rel / (3 * N * N);
+                worst = fmax(worst, fabs(rel));
+            }
+        }
+    print_message("  floor under a %s %g units out: mean %+.4f%%, worst pixel "
+                  "%.3f%%\n", what, o, 100 * mean_rel, 100 * worst);
+    if (!(fabs(mean_rel) <= 3e-3) || !(worst <= tol_pixel))
+        fail_msg("floor under a %s: mean off by %.3f%%, worst pixel %.3f%% "
+                 "(allowed 0.3%%, %.1f%%)", what, 100 * mean_rel,
+                 100 * worst, 100 * tol_pixel);
+    lr_image_free(img);
+}
+
+/* An emitting sphere wholly above the point's horizon, of unit radiance:
+ * E = pi (r / d)^2 cos(theta), d the distance to the centre, theta its
+ * angle from the normal (the sphere's projected solid angle, Nusselt's
+ * analogue). */
+static double sphere_irradiance(const double p[3])
+{
+    double dx = lamp_c[0] - p[0], dy = lamp_c[1] - p[1],
+           dz = lamp_c[2] - p[2];
+    double d2 = dx * dx + dy * dy + dz * dz;
+    return M_PI * LAMP_R * LAMP_R / d2 * dy / sqrt(d2);
+}
+
+static void test_sphere_lamp_irradiance(void **state)
+{
+    (void)state;
+    char lamp[256];
+    snprintf(lamp, sizeof lamp,
+             "{\"type\": \"sphere\", \"center\": [%.17g, %.17g, %.17g],"
+             " \"radius\": %g, \"material\": \"l\"}",
+             lamp_c[0], lamp_c[1], lamp_c[2], LAMP_R);
+    floor_under_lamp(lamp, sphere_irradiance, "sphere lamp", 1.5e-2);
+}
+
+/* Irradiance at p (normal +y) from a triangle of radiance 1 facing p:
+ * Lambert's polygon formula, E = 1/2 sum_i theta_i (n . g_i), theta_i the
+ * angle its corners i and i + 1 subtend at p and g_i the unit normal of
+ * their plane (Arvo 1994, "The irradiance Jacobian", eq. 1). */
+static double triangle_irradiance(const double p[3], const double v[3][3])
+{
+    double u[3][3], E = 0.0;
+    for (int i = 0; i < 3; i++) {
+        double l = 0.0;
+        for (int k = 0; k < 3; k++)
+            u[i][k] = v[i][k] - p[k], l += u[i][k] * u[i][k];
+        for (int k = 0; k < 3; k++)
+            u[i][k] /= sqrt(l);
+    }
+    for (int i = 0; i < 3; i++) {
+        const double *a = u[i], *b = u[(i + 1) % 3];
+        double g[3] = {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                       a[0] * b[1] - a[1] * b[0]};
+        double gl = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+        double c = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        E += acos(fmax(-1.0, fmin(1.0, c))) * g[1] / gl;
+    }
+    return 0.5 * fabs(E);
+}
+
+/* The sphere lamp tessellated: a 48 x 24 latitude-longitude mesh,
+ * counter-clockwise outwards (the poles' slivers, which have no area,
+ * left out). */
+enum { LAMP_NU = 48, LAMP_NV = 24 };
+static double lamp_vert[(LAMP_NV + 1) * LAMP_NU][3];
+static int lamp_tri[2 * LAMP_NU * LAMP_NV][3], lamp_nt;
+
+/* The triangles that face p, each by Lambert's formula: for a convex
+ * lamp they tile its outline. */
+static double mesh_irradiance(const double p[3])
+{
+    double E = 0.0;
+    for (int q = 0; q < lamp_nt; q++) {
+        double v[3][3], e1[3], e2[3];
+        for (int c = 0; c < 3; c++)
+            for (int m = 0; m < 3; m++)
+                v[c][m] = lamp_vert[lamp_tri[q][c]][m];
+        for (int m = 0; m < 3; m++)
+            e1[m] = v[1][m] - v[0][m], e2[m] = v[2][m] - v[0][m];
+        double n[3] = {e1[1] * e2[2] - e1[2] * e2[1],
+                       e1[2] * e2[0] - e1[0] * e2[2],
+                       e1[0] * e2[1] - e1[1] * e2[0]};
+        if ((p[0] - v[0][0]) * n[0] + (p[1] - v[0][1]) * n[1] +
+                (p[2] - v[0][2]) * n[2] > 0.0)
+            E += triangle_irradiance(p, v);
+    }
+    return E;
+}
+
+static void test_mesh_lamp_irradiance(void **state)
+{
+    (void)state;
+    for (int j = 0; j <= LAMP_NV; j++)
+        for (int i = 0; i < LAMP_NU; i++) {
+            double th = M_PI * j / LAMP_NV, ph = 2 * M_PI * i / LAMP_NU;
+            double *v = lamp_vert[j * LAMP_NU + i];
+            v[0] = lamp_c[0] + LAMP_R * sin(th) * cos(ph);
+            v[1] = lamp_c[1] + LAMP_R * cos(th);
+            v[2] = lamp_c[2] + LAMP_R * sin(th) * sin(ph);
+        }
+    lamp_nt = 0;
+    for (int j = 0; j < LAMP_NV; j++)
+        for (int i = 0; i < LAMP_NU; i++) {
+            int a = j * LAMP_NU + i, b = j * LAMP_NU + (i + 1) % LAMP_NU;
+            int d = b + LAMP_NU, e = a + LAMP_NU;
+            if (j > 0) {
+                int *t = lamp_tri[lamp_nt++];
+                t[0] = a, t[1] = b, t[2] = d;
+            }
+            if (j < LAMP_NV - 1) {
+                int *t = lamp_tri[lamp_nt++];
+                t[0] = a, t[1] = d, t[2] = e;
+            }
+        }
+    static char obj[1 << 18];
+    size_t k = 0;
+    for (int i = 0; i < (LAMP_NV + 1) * LAMP_NU; i++)
+        k += (size_t)snprintf(obj + k, sizeof obj - k, "v %.17g %.17g %.17g\n",
+                              lamp_vert[i][0], lamp_vert[i][1],
+                              lamp_vert[i][2]);
+    for (int q = 0; q < lamp_nt; q++)
+        k += (size_t)snprintf(obj + k, sizeof obj - k, "f %d %d %d\n",
+                              lamp_tri[q][0] + 1, lamp_tri[q][1] + 1,
+                              lamp_tri[q][2] + 1);
+    char path[512];
+    lr_test_write_text("lamp.obj", obj, path, sizeof path);
+    /* Triangles are sampled by area, noisier than the sphere's cone. */
+    floor_under_lamp("{\"type\": \"mesh\", \"file\": \"lamp.obj\","
+                     " \"material\": \"l\"}",
+                     mesh_irradiance, "mesh lamp", 4e-2);
 }
 
 /* ---- determinism ------------------------------------------------------ */
@@ -775,7 +1080,11 @@ static const struct CMUnitTest tests[] = {
     cmocka_unit_test(test_plane_under_sky),
     cmocka_unit_test(test_plane_under_envmap),
     cmocka_unit_test(test_envmap_seen_by_both),
+    cmocka_unit_test(test_envmap_texel_places),
+    cmocka_unit_test(test_envmap_one_texel_sun),
     cmocka_unit_test(test_emitter_bokeh),
+    cmocka_unit_test(test_sphere_lamp_irradiance),
+    cmocka_unit_test(test_mesh_lamp_irradiance),
     cmocka_unit_test(test_path_is_deterministic),
     cmocka_unit_test(test_path_on_every_embree_isa),
     cmocka_unit_test(test_path16_matches_scalar),

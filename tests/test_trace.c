@@ -149,6 +149,51 @@ static void test_triangle_and_transforms(void **state)
     lr_scene_free(s);
 }
 
+/* A mirroring transform keeps normals on the image of their side (the
+ * inverse transpose, whose sign the cofactor matrix flips): an infinite
+ * plane's front is the mirror image of its front, and a mesh's file
+ * normals stay in front of their faces, so that they are kept (smooth
+ * shading) and come out as the mirror images of the unmirrored mesh's
+ * at mirrored points. */
+static void test_mirror_keeps_normals(void **state)
+{
+    (void)state;
+    lr_scene *s = scene_of("[{\"type\": \"plane\", \"point\": [0, -1, 0],"
+                           " \"normal\": [0, 1, 0], \"transform\":"
+                           " [{\"scale\": [-1, 1, 1]}]}]");
+    lr__hit h;
+    assert_true(lr__trace(s, v3(0, 0, 0), v3(0, -1, 0), INFINITY, &h));
+    assert_true(h.entering);
+    assert_near(h.ng.y, 1.0, 1e-12);
+    lr_scene_free(s);
+
+    char path[512];
+    lr_test_write_text("tilted.obj",
+                       "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\n"
+                       "vn 0.3 0 1\nvn -0.3 0 1\nvn 0 0.3 1\nvn 0 -0.3 1\n"
+                       "f 1//1 2//2 3//3\nf 1//1 3//3 4//4\n",
+                       path, sizeof path);
+    lr_scene *a = scene_of("[{\"type\": \"mesh\", \"file\": \"tilted.obj\"}]");
+    lr_scene *b = scene_of("[{\"type\": \"mesh\", \"file\": \"tilted.obj\","
+                           " \"transform\": [{\"scale\": [-1, 1, 1]}]}]");
+    static const double at[3][2] = {{0.5, -0.2}, {-0.6, 0.3}, {0.1, 0.7}};
+    for (int i = 0; i < 3; i++) {
+        lr__hit ha, hb;
+        double x = at[i][0], y = at[i][1];
+        assert_true(lr__trace(a, v3(x, y, 3), v3(0, 0, -1), INFINITY, &ha));
+        assert_true(lr__trace(b, v3(-x, y, 3), v3(0, 0, -1), INFINITY, &hb));
+        assert_true(ha.entering && hb.entering);
+        /* Smooth, not the flat normal the mirrored mesh had fallen to. */
+        if (!(fabs(ha.ns.x) + fabs(ha.ns.y) > 0.01))
+            fail_msg("(%g, %g): the unmirrored normal is flat", x, y);
+        assert_near(hb.ns.x, -ha.ns.x, 1e-6);
+        assert_near(hb.ns.y, ha.ns.y, 1e-6);
+        assert_near(hb.ns.z, ha.ns.z, 1e-6);
+    }
+    lr_scene_free(a);
+    lr_scene_free(b);
+}
+
 static void test_closest_of_many(void **state)
 {
     (void)state;
@@ -263,6 +308,7 @@ static const struct CMUnitTest trace_tests[] = {
     cmocka_unit_test(test_infinite_plane),
     cmocka_unit_test(test_finite_plane),
     cmocka_unit_test(test_triangle_and_transforms),
+    cmocka_unit_test(test_mirror_keeps_normals),
     cmocka_unit_test(test_closest_of_many),
     cmocka_unit_test(test_offset_escapes_surface),
 };
