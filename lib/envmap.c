@@ -17,8 +17,13 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* Larger maps are refused: 16k x 8k RGB float is 1.5 GB already. */
+/* Larger maps are refused: 16k x 8k RGB float is 1.5 GB already, and
+ * its sampling tables and the decoded file as much again.  A lat-long map
+ * is twice as wide as high, so the texel cap keeps 16k x 8k and refuses
+ * a square 16k map (6 GB at its peak: a small ZIP file could ask a
+ * daemon for that). */
 #define LR__ENV_MAX_DIM 16384
+#define LR__ENV_MAX_TEXELS ((size_t)16384 * 8192)
 /* The file is read whole first: 16k x 8k RGB half-float is 768 MB. */
 #define LR__ENV_MAX_BYTES ((size_t)1 << 30)
 
@@ -48,7 +53,7 @@ static lr_status read_exr(lr__envmap *e, const char *path, const char *file,
         return st;
     lr__exr_planes px;
     st = lr__exr_read(buf, len, shown, blame, "an environment map",
-                      LR__ENV_MAX_DIM, &px, err);
+                      LR__ENV_MAX_DIM, LR__ENV_MAX_TEXELS, &px, err);
     free(buf);
     if (st != LR_OK)
         return st;

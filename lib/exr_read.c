@@ -69,7 +69,8 @@ static int channel_index(const char *name)
 
 lr_status lr__exr_read(const void *data, size_t n, const char *shown,
                        const char *blame, const char *what, int max_dim,
-                       lr__exr_planes *out, lr_error *err)
+                       size_t max_texels, lr__exr_planes *out,
+                       lr_error *err)
 {
     memset(out, 0, sizeof *out);
     mem_stream m = {data, n};
@@ -119,6 +120,14 @@ lr_status lr__exr_read(const void *data, size_t n, const char *shown,
                       "%s is %lld x %lld pixels; %s must be 1 to %d on "
                       "each side",
                       shown, w, h, what, max_dim);
+        goto done;
+    }
+    if ((unsigned long long)(w * h) > (unsigned long long)max_texels) {
+        st = lr__fail(err, LR_ERR_LIMIT, blame,
+                      "%s is %lld x %lld pixels; %s may have at most %zu "
+                      "pixels in all (decoded, it would take %lld MB)",
+                      shown, w, h, what, max_texels,
+                      w * h * 12 / 1000000);
         goto done;
     }
     out->w = (int)w, out->h = (int)h;

@@ -22,11 +22,14 @@ typedef struct lr__exr_planes {
 /* Decodes the n bytes at data.  Messages begin with `shown` (e.g.
  * "environment.file: sky.exr") and say what is wrong: not OpenEXR, not
  * scanline, larger than max_dim on a side ("`what` must be 1 to max_dim
- * on each side"), a bad or undecodable chunk; err->path is `blame` (may
- * be NULL).  Other channels are ignored.  On error *out holds nothing. */
+ * on each side") or than max_texels in all (both checked from the header,
+ * before anything is decoded), a bad or undecodable chunk; err->path is
+ * `blame` (may be NULL).  Other channels are ignored.  On error *out
+ * holds nothing. */
 lr_status lr__exr_read(const void *data, size_t n, const char *shown,
                        const char *blame, const char *what, int max_dim,
-                       lr__exr_planes *out, lr_error *err);
+                       size_t max_texels, lr__exr_planes *out,
+                       lr_error *err);
 void lr__exr_planes_free(lr__exr_planes *p);
 
 /* The first four bytes of every OpenEXR file (its magic number). */

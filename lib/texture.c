@@ -49,7 +49,8 @@ static lr_status texture_exr(const void *data, size_t n, const char *name,
 {
     lr__exr_planes px;
     lr_status st = lr__exr_read(data, n, name, NULL, "a texture",
-                                LR__TEX_MAX_DIM, &px, err);
+                                LR__TEX_MAX_DIM, LR__TEX_MAX_TEXELS, &px,
+                                err);
     if (st != LR_OK)
         return st;
     st = lr__texture_check_size(px.w, px.h, name, err);

@@ -248,6 +248,68 @@ static void test_plane_under_envmap(void **state)
     lr_image_free(img);
 }
 
+/* Sets both windows of the EXR file `path` to [0, w-1] x [0, h-1] (its
+ * pixel data stays a 2 x 1 image's: the header alone claims the size). */
+static void claim_size(const char *path, int w, int h)
+{
+    FILE *f = fopen(path, "r+b");
+    assert_non_null(f);
+    unsigned char buf[4096];
+    size_t n = fread(buf, 1, sizeof buf, f);
+    const char *names[2] = {"dataWindow", "displayWindow"};
+    for (int k = 0; k < 2; k++) {
+        size_t len = strlen(names[k]) + 1;
+        size_t at = 0;
+        while (at + len + 6 + 4 + 16 <= n &&
+               (memcmp(buf + at, names[k], len) != 0 ||
+                memcmp(buf + at + len, "box2i", 6) != 0))
+            at++;
+        assert_true(at + len + 6 + 4 + 16 <= n);
+        int32_t box[4] = {0, 0, w - 1, h - 1}; /* little-endian host */
+        memcpy(buf + at + len + 6 + 4, box, sizeof box);
+    }
+    rewind(f);
+    assert_int_equal(fwrite(buf, 1, n, f), n);
+    fclose(f);
+}
+
+static double one_value(int x, int y)
+{
+    (void)x, (void)y;
+    return 1.0;
+}
+
+/* An environment map whose header claims 16384 x 16384 is refused from
+ * the header, naming the file: decoded, with its sampling tables, it
+ * would take 6 GB (a small file could ask a daemon for that); a lat-long
+ * map 16384 x 8192 is within the cap (its error, here, is the data's). */
+static void test_envmap_too_many_texels(void **state)
+{
+    (void)state;
+    char path[1024];
+    snprintf(path, sizeof path, "%s/huge.exr", lr_test_tmpdir());
+    const char *json = "{\"environment\": {\"file\": \"huge.exr\"}, "
+                       "\"objects\": []}";
+    for (int k = 0; k < 2; k++) {
+        write_map("huge.exr", one_value, 2, 1);
+        claim_size(path, 16384, k == 0 ? 16384 : 8192);
+        lr_scene *sc = NULL;
+        lr_error err;
+        memset(&err, 0, sizeof err);
+        assert_int_not_equal(lr_scene_load_json(json, strlen(json),
+                                                lr_test_tmpdir(), NULL, 0,
+                                                &sc, &err),
+                             LR_OK);
+        assert_non_null(strstr(err.message, "huge.exr"));
+        if (k == 0)
+            assert_non_null(strstr(err.message, "16384 x 16384 pixels; an "
+                                                "environment map may have "
+                                                "at most 134217728"));
+        else
+            assert_null(strstr(err.message, "at most"));
+    }
+}
+
 /* A sun of one texel, 40000 times its sky, over a plane: the light
  * that lookup spreads from the sun texel into its neighbours' cells must
  * be sampled too, or BSDF samples find it with little density and the
@@ -1082,6 +1144,7 @@ static const struct CMUnitTest tests[] = {
     cmocka_unit_test(test_envmap_seen_by_both),
     cmocka_unit_test(test_envmap_texel_places),
     cmocka_unit_test(test_envmap_one_texel_sun),
+    cmocka_unit_test(test_envmap_too_many_texels),
     cmocka_unit_test(test_emitter_bokeh),
     cmocka_unit_test(test_sphere_lamp_irradiance),
     cmocka_unit_test(test_mesh_lamp_irradiance),
