@@ -113,6 +113,26 @@ static int words(char *line, char **w)
     return n;
 }
 
+/* The text of a NAME or NOTE line from `from` (a word of words()) to the
+ * line's end `eol`, whole: words() splits at most 16 words and writes NULs
+ * between them, which become spaces again.  Trailing blanks dropped, cut
+ * to `size` bytes on a character's boundary. */
+static void rest_of_line(char *from, const char *eol, char *raw,
+                         size_t size)
+{
+    for (char *c = from; c < eol; c++)
+        if (*c == '\0')
+            *c = ' ';
+    size_t r = (size_t)(eol - from);
+    while (r > 0 && isspace((unsigned char)from[r - 1]))
+        r--;
+    if (r >= size)
+        r = size - 1;
+    memcpy(raw, from, r);
+    raw[r] = '\0';
+    lr__trim_partial_utf8(raw, size, (int)r + 1);
+}
+
 static int number(const char *w, double *x)
 {
     if (w == NULL)
@@ -226,21 +246,10 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
                          "or METER",
                          shown, line, quote(w[1], q, sizeof q));
             } else if (strcmp(w[0], "NOTE") == 0 && k >= 3) {
-                /* "NOTE n text": the notes, joined, are the source.  The
-                 * text is the rest of the line, beyond words()'s 16. */
+                /* "NOTE n text": the notes, joined, are the source. */
                 size_t o = strlen(rx->source);
                 char raw[sizeof rx->source], esc[sizeof rx->source];
-                for (char *c = w[2]; c < eol; c++)
-                    if (*c == '\0')
-                        *c = ' ';
-                size_t r = (size_t)(eol - w[2]);
-                while (r > 0 && isspace((unsigned char)w[2][r - 1]))
-                    r--;
-                if (r >= sizeof raw)
-                    r = sizeof raw - 1;
-                memcpy(raw, w[2], r);
-                raw[r] = '\0';
-                lr__trim_partial_utf8(raw, sizeof raw, (int)r + 1);
+                rest_of_line(w[2], eol, raw, sizeof raw);
                 lr__utf8_escape(raw, esc, sizeof esc);
                 if (o + 2 < sizeof rx->source) {
                     snprintf(rx->source + o, sizeof rx->source - o, "%s%s",
@@ -249,15 +258,8 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
                                           (int)strlen(rx->source) + 1);
                 }
             } else if (strcmp(w[0], "NAME") == 0 && k >= 2 && !rx->name[0]) {
-                char raw[128];
-                size_t o = 0;
-                raw[0] = '\0';
-                for (int i = 1; i < k && o + 1 < sizeof raw; i++) {
-                    int m = snprintf(raw + o, sizeof raw - o, "%s%s",
-                                     i > 1 ? " " : "", w[i]);
-                    o = m < 0 ? o : o + (size_t)m;
-                }
-                lr__trim_partial_utf8(raw, sizeof raw, (int)o + 1);
+                char raw[sizeof rx->name];
+                rest_of_line(w[1], eol, raw, sizeof raw);
                 lr__utf8_escape(raw, rx->name, sizeof rx->name);
                 lr__trim_partial_utf8(rx->name, sizeof rx->name,
                                       (int)strlen(rx->name) + 1);

@@ -491,6 +491,19 @@ static void test_zmx_reader(void **state)
     free(u16);
     assert_string_equal(r16.name, "\xC3\x98=2.65mm \xEF\xBF\xBD");
     assert_true(r16.n == rx.n && r16.s[1].radius == rx.s[1].radius);
+    /* A name of more than the 16 words words() splits: whole. */
+    assert_int_equal(
+        zmx("NAME 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18 19 20\r\n"
+            "SURF 0\r\n  DISZ INFINITY\r\n"
+            "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ 1\r\n"
+            "SURF 2\r\n  CURV 0.02\r\n  DISZ 4\r\n"
+            "  GLAS N-BK7 0 0 1.5168 64.17 0 0 0 0 0 0\r\n  DIAM 10\r\n"
+            "SURF 3\r\n  CURV -0.02\r\n  DISZ 48\r\n  DIAM 10\r\n"
+            "SURF 4\r\n",
+            &r16, &err),
+        LR_OK);
+    assert_string_equal(r16.name, "1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 "
+                                  "17 18 19 20");
     /* A model glass (nd, vd) and centimetres. */
     assert_int_equal(
         zmx("UNIT CM X W X CM MR CPMM\r\nSURF 0\r\n  DISZ INFINITY\r\n"
