@@ -111,18 +111,17 @@ once() {
 # PARALLEL THREADS"), taken in turn so that a change in the machine's
 # load falls on both; prints for each the least wall and the least CPU
 # (a busy machine only ever adds to either), then its rays, samples and
-# cache misses (of the last run; they do not vary):
+# cache misses (of the last run; they do not vary), with B's client CPU
+# of each round in $OUT/farm-cb.txt:
 # "wallA cpuA raysA samplesA missesA wallB cpuB raysB samplesB missesB
 # median(wallA / wallB)".
 pair() {
     : >"$OUT/farm-a.txt"
     : >"$OUT/farm-b.txt"
-    : >"$OUT/farm-ca.txt"
     : >"$OUT/farm-cb.txt"
     for r in $(seq "$REPEAT"); do
         # shellcheck disable=SC2086
         once $1 >>"$OUT/farm-a.txt"
-        cat "$OUT/farm-client.last" >>"$OUT/farm-ca.txt"
         # shellcheck disable=SC2086
         once $2 >>"$OUT/farm-b.txt"
         cat "$OUT/farm-client.last" >>"$OUT/farm-cb.txt"

@@ -53,10 +53,10 @@ static lr_status texture_exr(const void *data, size_t n, const char *name,
                                 err);
     if (st != LR_OK)
         return st;
-    st = lr__texture_check_size(px.w, px.h, name, err);
+    /* (lr__exr_read has refused sizes beyond lr__texture_check_size's.) */
     int rgb = px.plane[LR__EXR_R] && px.plane[LR__EXR_G] &&
               px.plane[LR__EXR_B];
-    if (st == LR_OK && !rgb && px.plane[LR__EXR_Y] == NULL)
+    if (!rgb && px.plane[LR__EXR_Y] == NULL)
         st = lr__fail(err, LR_ERR_INVALID, NULL,
                       "%s needs channels R, G and B, or Y", name);
     size_t count = (size_t)px.w * (size_t)px.h;
