@@ -242,15 +242,21 @@ $(API_VENV)/.ok: tests/api/requirements.txt $(DEPS_OK)
 # requirements.txt, in a virtualenv under build/ made like test-api's):
 # EFL, BFL, pupils, real chief-ray heights, distortion and lateral colour;
 # then a defocused point's rendered blur against ray-optics' spot diagram
-# (tests/lenses/spot.py).  Ends "N passed, N failed", one per lens and one
-# per spot case.  About 30 s once the virtualenv exists.
+# (tests/lenses/spot.py), and the glass catalogue against opticalglass
+# (tests/lenses/glass.py).  Ends "N passed, N failed", one per lens, spot
+# case and glass maker.  About 30 s once the virtualenv exists.
 LENS_VENV := $(BUILD)/lens-venv
 
 .PHONY: test-lenses
 LENS_CHECKED := $(wildcard lenses/*.json) $(wildcard tests/data/lenses/*)
-test-lenses: $(BUILD)/lensray $(LENS_VENV)/.ok
+test-lenses: $(BUILD)/lensray $(BUILD)/tests/glass-dump $(LENS_VENV)/.ok
 	@$(LENS_VENV)/bin/python tests/lenses/compare.py $(BUILD)/lensray \
 	  $(LENS_CHECKED)
+
+# Every catalogue glass's index at seven wavelengths, for tests/lenses/glass.py.
+$(BUILD)/tests/glass-dump: $(BUILD)/obj/tests/lenses/glass_dump.o $(BUILD)/liblensray.a
+	@mkdir -p $(dir $@)
+	$(CC) $(LDFLAGS) -o $@ $^ $(LIB_LIBS)
 
 $(LENS_VENV)/.ok: tests/lenses/requirements.txt $(DEPS_OK)
 	$(call make_venv,$(LENS_VENV),tests/lenses/requirements.txt,--no-deps)
@@ -575,4 +581,4 @@ clean:
 
 -include $(LIB_OBJ:.o=.d) $(TEST_OBJ:.o=.d) $(SVC_OBJ:.o=.d) $(CLI_OBJ:.o=.d) \
          $(REPLAY_OBJ:.o=.d) $(wildcard $(BUILD)/obj/fuzz/lf_*.d) \
-         $(BUILD)/obj/tests/oom/oom.d
+         $(BUILD)/obj/tests/oom/oom.d $(BUILD)/obj/tests/lenses/glass_dump.d

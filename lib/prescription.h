@@ -44,25 +44,38 @@ typedef enum lr__glass_kind {
     LR__GLASS_SELLMEIER, /* n^2 - 1 = sum B_i l^2 / (l^2 - C_i), l in um */
     LR__GLASS_ABBE,      /* from nd and vd alone (see glass.c) */
     LR__GLASS_CONSTANT,  /* nd at every wavelength (pbrt-v4's files) */
-    LR__GLASS_LAURENT    /* HOYA's power series: n^2 = A0 + A1 l^2 +
+    LR__GLASS_LAURENT,   /* HOYA's power series: n^2 = A0 + A1 l^2 +
                           * A2 l^-2 + A3 l^-4 + A4 l^-6 + A5 l^-8, l in um */
+    LR__GLASS_POWER      /* HIKARI's: n^2 = A0 + A1 l^2 + A2 l^4 + A3 l^-2
+                          * + A4 l^-4 + ... + A8 l^-12, l in um */
 } lr__glass_kind;
 
 typedef struct lr__glass {
     lr__glass_kind kind;
     char name[32];     /* the catalogue name, or "" when given by numbers */
+    const char *maker; /* the catalogue's maker ("SCHOTT"), or NULL */
     double B[3], C[3]; /* SELLMEIER; C in um^2 */
-    double A[6];       /* LAURENT: A0..A5 */
+    double A[9];       /* LAURENT: A0..A5; POWER: A0..A8 */
     double nd, vd;     /* ABBE and CONSTANT (vd unused there) */
 } lr__glass;
 
 /* The refractive index of `g` at wavelength `nm`, in nanometres. */
 double lr__glass_n(const lr__glass *g, double nm);
 
-/* The catalogue glass called `name` (case-insensitive; "air" is air).
- * Returns 0 and fills *g, or -1 when there is none; then `near` (if not
- * NULL) gets up to three nearest catalogue names, comma-separated, for
- * the error message. */
+/* The catalogue glass called `name` (case-insensitive; "air" is air),
+ * or "MAKER NAME" for that maker's ("CDGM F2").  Where makers share a
+ * name, the first maker named in `prefer` wins (a space-separated list,
+ * as a Zemax file's GCAT line gives its catalogues; words that name no
+ * maker are passed over; NULL: none), else the first in catalogue order
+ * (SCHOTT, OHARA, HOYA, SUMITA, CDGM, HIKARI).  Zemax's names for fused
+ * silica and calcium fluoride (F_SILICA, SILICA, CAF2) are SCHOTT's
+ * LITHOSIL-Q and LITHOTEC-CAF2.  Returns 0 and fills *g, or -1 when
+ * there is none; then `near` (if not NULL) gets up to three nearest
+ * catalogue names, comma-separated, for the error message. */
+int lr__glass_find(const char *name, const char *prefer, lr__glass *g,
+                   char *near, size_t near_cap);
+
+/* lr__glass_find without a preference. */
 int lr__glass_named(const char *name, lr__glass *g, char *near,
                     size_t near_cap);
 

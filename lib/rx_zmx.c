@@ -1,14 +1,14 @@
 /*
  * rx_zmx.c: Zemax (OpticStudio) sequential .zmx files.  Read: UNIT,
- * MODE, NAME and NOTE at the top; per surface (the indented lines after
- * "SURF k") TYPE STANDARD or EVENASPH, CURV, CONI, PARM (the even
- * asphere's r^2 ... r^16 terms), DISZ, GLAS, DIAM (a semi-diameter),
- * CLAP (a circular aperture: the smaller of it and DIAM), STOP.  SURF 0
- * is the object (at infinity here) and the last SURF the
- * image.  Per-surface lines that only draw or annotate (COMM, HIDE, SLAB,
- * MEMA, POPS, COAT, FLAP, ...) are ignored; any other per-surface line
- * changes the optics in a way lensray does not model, and is an error
- * that names its line.  Zemax writes UTF-16 files as often as ASCII ones;
+ * MODE, NAME, NOTE and GCAT (which maker's glass a shared name is) at
+ * the top; per surface (the indented lines after "SURF k") TYPE STANDARD
+ * or EVENASPH, CURV, CONI, PARM (the even asphere's r^2 ... r^16 terms),
+ * DISZ, GLAS, DIAM (a semi-diameter), CLAP (a circular aperture: the
+ * smaller of it and DIAM), STOP.  SURF 0 is the object (at infinity
+ * here) and the last SURF the image.  Per-surface lines that only draw
+ * or annotate (COMM, HIDE, SLAB, MEMA, POPS, COAT, FLAP, ...) are
+ * ignored; any other per-surface line changes the optics in a way
+ * lensray does not model, and is an error that names its line.  Zemax writes UTF-16 files as often as ASCII ones;
  * both are read.
  */
 #include "prescription.h"
@@ -182,6 +182,7 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
     }
     lr_status st = LR_OK;
     double unit = 1.0;
+    char gcat[256] = "";
     int nz = 0, cur = -1, line = 0;
     char *p = s, *end = s + n8;
     while (st == LR_OK && p < end) {
@@ -257,6 +258,11 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
                     lr__trim_partial_utf8(rx->source, sizeof rx->source,
                                           (int)strlen(rx->source) + 1);
                 }
+            } else if (strcmp(w[0], "GCAT") == 0 && k >= 2) {
+                /* "GCAT SCHOTT OHARA ...": the catalogues whose glasses
+                 * the GLAS lines name, in the order Zemax searches them;
+                 * it settles a name two makers use (F2). */
+                rest_of_line(w[1], eol, gcat, sizeof gcat);
             } else if (strcmp(w[0], "NAME") == 0 && k >= 2 && !rx->name[0]) {
                 char raw[sizeof rx->name];
                 rest_of_line(w[1], eol, raw, sizeof raw);
@@ -333,8 +339,8 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
             if (k < 2 || strcasecmp(w[1], "MIRROR") == 0) {
                 FAIL("%s:%d: GLAS %s: mirrors are not supported", shown,
                      line, quote(k > 1 ? w[1] : "", q, sizeof q));
-            } else if (lr__glass_named(w[1], &z->glass, near,
-                                       sizeof near) != 0) {
+            } else if (lr__glass_find(w[1], gcat, &z->glass, near,
+                                      sizeof near) != 0) {
                 /* A model glass: GLAS ___BLANK 1 0 nd vd ... (solve
                  * type 1; a pickup of one, type 2, keeps the name).  A
                  * vd of 0 is Zemax's constant index, as in ray-optics'

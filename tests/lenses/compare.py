@@ -14,9 +14,10 @@ data as opticalglass ships it); {nd, vd} glasses are given to ray-optics
 as their index at each traced wavelength by lensray's stated model,
 n = nd + B (1/l^2 - 1/ld^2), B = (nd - 1) / (vd (1/lF^2 - 1/lC^2)), since
 ray-optics' model glass is another model.  Then spot.py's cases: a
-defocused point's rendered blur against ray-optics' spot diagram.  Ends
-"N passed, N failed" (one per lens and one per spot case) and exits
-non-zero on any failure.
+defocused point's rendered blur against ray-optics' spot diagram; then
+glass.py's: the whole glass catalogue against opticalglass, one case a
+maker.  Ends "N passed, N failed" (one per lens, spot case and maker) and
+exits non-zero on any failure.
 """
 import json
 import math
@@ -264,6 +265,10 @@ def main():
           (worst["efl"], worst["bfl"], worst["height"], worst["dist"]))
     import spot  # it builds its lenses with this file's functions
     p, f = spot.run(lensray)
+    passed, failed = passed + p, failed + f
+    import glass
+    p, f = glass.run(os.path.join(os.path.dirname(lensray), "tests",
+                                  "glass-dump"))
     passed, failed = passed + p, failed + f
     print("%d passed, %d failed" % (passed, failed))
     return 1 if failed else 0
