@@ -515,14 +515,22 @@ static void test_emitter_bokeh(void **state)
 
 /* Far from the origin, where a shadow ray's origin moves off the floor by
  * more than the relative shadow epsilon: the floor there once got 56%
- * (a sphere lamp) or 58% (a tessellated one) of its light, the lamp
- * meeting its own shadow rays. */
-#define LAMP_AT 200.0
+ * (a sphere lamp) or 58% (a tessellated one) of its light 200 units out,
+ * the lamp meeting its own shadow rays; and a sphere lamp 10^4 units out
+ * 90%, its shadow rays' origins rounded to float past the margin. */
 #define LAMP_LE 2.0
 #define LAMP_R 0.5
-static const double lamp_c[3] = {LAMP_AT + 1.2, 1.2, LAMP_AT};
+static double lamp_at, lamp_c[3];
 
-/* Renders 8 x 8 pixels of a diffuse floor (albedo 0.5) at LAMP_AT, seen
+/* The floor's point under the camera, `at` units out along x and z, and
+ * the lamp beside it. */
+static void place_lamp(double at)
+{
+    lamp_at = at;
+    lamp_c[0] = at + 1.2, lamp_c[1] = 1.2, lamp_c[2] = at;
+}
+
+/* Renders 8 x 8 pixels of a diffuse floor (albedo 0.5) at lamp_at, seen
  * from straight above, lit only by `lamp` (a JSON object of material
  * "l", emission LAMP_LE) out of the frame, and compares each pixel with
  * albedo / pi x LAMP_LE x irr(point) averaged over 8 x 8 points of it. */
@@ -531,7 +539,7 @@ static void floor_under_lamp(const char *lamp,
                              const char *what, double tol_pixel)
 {
     enum { N = 8, SUB = 8 };
-    const double o = LAMP_AT, fov = 20.0;
+    const double o = lamp_at, fov = 20.0;
     char json[1024];
     snprintf(json, sizeof json,
              "{\"render\": {\"width\": %d, \"height\": %d, \"spp\": 512,"
@@ -587,12 +595,16 @@ static double sphere_irradiance(const double p[3])
 static void test_sphere_lamp_irradiance(void **state)
 {
     (void)state;
-    char lamp[256];
-    snprintf(lamp, sizeof lamp,
-             "{\"type\": \"sphere\", \"center\": [%.17g, %.17g, %.17g],"
-             " \"radius\": %g, \"material\": \"l\"}",
-             lamp_c[0], lamp_c[1], lamp_c[2], LAMP_R);
-    floor_under_lamp(lamp, sphere_irradiance, "sphere lamp", 1.5e-2);
+    static const double at[] = {200.0, 1e4};
+    for (int k = 0; k < 2; k++) {
+        char lamp[256];
+        place_lamp(at[k]);
+        snprintf(lamp, sizeof lamp,
+                 "{\"type\": \"sphere\", \"center\": [%.17g, %.17g, %.17g],"
+                 " \"radius\": %g, \"material\": \"l\"}",
+                 lamp_c[0], lamp_c[1], lamp_c[2], LAMP_R);
+        floor_under_lamp(lamp, sphere_irradiance, "sphere lamp", 1.5e-2);
+    }
 }
 
 /* Irradiance at p (normal +y) from a triangle of radiance 1 facing p:
@@ -652,6 +664,7 @@ static double mesh_irradiance(const double p[3])
 static void test_mesh_lamp_irradiance(void **state)
 {
     (void)state;
+    place_lamp(200.0);
     for (int j = 0; j <= LAMP_NV; j++)
         for (int i = 0; i < LAMP_NU; i++) {
             double th = M_PI * j / LAMP_NV, ph = 2 * M_PI * i / LAMP_NU;
