@@ -256,6 +256,32 @@ wait_for() {
     ! grep -q '"retries": 0' "$BATS_TEST_TMPDIR/out"
 }
 
+@test "--remote: a full queue's 429 is retried after its Retry-After, and the frame completes" {
+    cd "$REPO"
+    "$LENSRAY" render scenes/spheres.json -o "$BATS_TEST_TMPDIR/local.exr" $SIZE -q
+    # One worker, no queue: a long job holds the worker, so the part gets
+    # 429 queue_full with Retry-After (1 s: no job has finished yet).
+    solo_daemon --workers 1 --queue 0
+    local id
+    id=$(curl -sf -H 'Content-Type: application/json' \
+        -d '{"scene": "bench", "render": {"spp": 20000}}' "$SOLO_URL/v1/jobs" |
+        sed -n 's/.*"id":"\([0-9a-f]*\)".*/\1/p')
+    [ -n "$id" ]
+    until curl -sf "$SOLO_URL/v1/jobs/$id" | grep -q '"status":"running"'; do
+        sleep 0.05
+    done
+    "$LENSRAY" render scenes/spheres.json -o "$BATS_TEST_TMPDIR/farm.exr" $SIZE \
+        --remote "$SOLO_URL" --parts 1 --retries 8 \
+        >"$BATS_TEST_TMPDIR/out" 2>"$BATS_TEST_TMPDIR/err" 3>&- &
+    CLIENT_PID=$!
+    wait_for "$BATS_TEST_TMPDIR/err" \
+        "HTTP 429: the queue is full.*sending it again in 1 s, as the daemon's Retry-After asks"
+    curl -sf -X DELETE "$SOLO_URL/v1/jobs/$id" >/dev/null
+    wait "$CLIENT_PID"
+    CLIENT_PID=
+    cmp "$BATS_TEST_TMPDIR/local.exr" "$BATS_TEST_TMPDIR/farm.exr"
+}
+
 @test "--remote: a part the daemon refuses stops the render with its message (exit 3)" {
     cd "$REPO"
     run -3 "$LENSRAY" render scenes/spheres.json -o "$BATS_TEST_TMPDIR/x.png" \

@@ -30,6 +30,10 @@
 
 enum { EXIT_OK = 0, EXIT_SCENE = 3, EXIT_IO = 4, EXIT_INTERRUPTED = 130 };
 
+/* The longest wait for a part that a daemon's Retry-After can ask, in
+ * seconds (the daemon's own bound is an hour). */
+#define REMOTE_MAX_WAIT 300.0
+
 enum part_state { PART_WAITING, PART_RUNNING, PART_DONE };
 
 typedef struct part {
@@ -323,6 +327,12 @@ static void finish_part(batch *b, part *p, CURLcode res, remote_done done,
     frame *f = &b->frames[p->frame];
     long status = 0;
     curl_easy_getinfo(p->easy, CURLINFO_RESPONSE_CODE, &status);
+    /* A daemon whose queue is full (429) or that is going down (503)
+     * says in Retry-After when to come back (docs/api.md): its estimate
+     * from its recent job times.  -1 when it says nothing. */
+    curl_off_t asked = -1;
+    if (res == CURLE_OK && (status == 429 || status == 503))
+        curl_easy_getinfo(p->easy, CURLINFO_RETRY_AFTER, &asked);
     char why[512], name[64];
     label(b, p, name, sizeof name);
     int retry = 0;
@@ -395,15 +405,24 @@ static void finish_part(batch *b, part *p, CURLcode res, remote_done done,
     }
     stats->retries++;
     /* Wait a little longer each time (0.25 s, 0.5 s, ... up to 4 s), so
-     * that a daemon that is restarting is not hammered. */
+     * that a daemon that is restarting is not hammered; or as long as the
+     * daemon asked, up to REMOTE_MAX_WAIT: retrying a full queue sooner
+     * only spent the attempts (4 s in all by default) while a farm
+     * busy with long jobs said to come back in a minute. */
     double wait = 0.25 * (double)(1 << (p->attempts < 5 ? p->attempts - 1 : 4));
+    int as_asked = asked > 0 && (double)asked > wait;
+    if (as_asked)
+        wait = (double)asked < REMOTE_MAX_WAIT ? (double)asked
+                                               : REMOTE_MAX_WAIT;
     p->not_before = now() + wait;
     p->state = PART_WAITING;
     b->waiting++;
     if (!o->quiet)
         fprintf(stderr, "lensray: %s failed (%s); sending it again "
-                        "(attempt %d of %d)\n",
-                name, why, p->attempts + 1, o->retries + 1);
+                        "in %.3g s%s (attempt %d of %d)\n",
+                name, why, wait,
+                as_asked ? ", as the daemon's Retry-After asks" : "",
+                p->attempts + 1, o->retries + 1);
 }
 
 /* Reads the next frame: the caller's load, then its text and camera as
