@@ -79,7 +79,7 @@ static lr_status no_uvs(const lr_scene *s, int material, const char *p,
 {
     const lr__material *mt = &s->materials[material];
     return lr__fail(err, LR_ERR_INVALID, p,
-                    "%s: material \"%s\" has a %s, but %s has no texture "
+                    "%s: material \"%s\" sets %s, but %s has no texture "
                     "coordinates%s",
                     p, mt->name, lr__material_texture_key(mt), p, why);
 }

@@ -125,7 +125,7 @@ static void material_errors(void **state)
         {"{\"materials\": {\"t\": {\"diffuse_texture\": \"const.exr\"}},"
          " \"objects\": [{\"type\": \"triangle\", \"material\": \"t\","
          " \"vertices\": [[0,0,0],[1,0,0],[0,1,0]]}]}",
-         "objects[0]", "objects[0]: material \"t\" has a diffuse_texture, "
+         "objects[0]", "objects[0]: material \"t\" sets diffuse_texture, "
                        "but objects[0] has no texture coordinates"},
         {"{\"materials\": {\"t\": {\"emission_texture\": \"const.exr\"}},"
          " \"objects\": [{\"type\": \"plane\", \"material\": \"t\","
@@ -135,7 +135,7 @@ static void material_errors(void **state)
          " \"objects\": [{\"type\": \"sphere\", \"radius\": 1,"
          " \"center\": [0,0,-3]}, {\"type\": \"mesh\", \"file\":"
          " \"novt.obj\", \"material\": \"t\"}]}",
-         "objects[1]", "objects[1]: material \"t\" has a roughness_texture"},
+         "objects[1]", "objects[1]: material \"t\" sets roughness_texture"},
         {"{\"materials\": {\"t\": {\"diffuse_texture\": \"missing.png\"}}}",
          "materials.t.diffuse_texture",
          "materials.t.diffuse_texture: missing.png: cannot open"},
