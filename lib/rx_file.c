@@ -53,6 +53,12 @@ static int is_file(const char *p)
     return stat(p, &sb) == 0 && S_ISREG(sb.st_mode);
 }
 
+static int is_dir(const char *p)
+{
+    struct stat sb;
+    return stat(p, &sb) == 0 && S_ISDIR(sb.st_mode);
+}
+
 static int cmp(const void *a, const void *b)
 {
     return strcmp((const char *)a, (const char *)b);
@@ -121,6 +127,8 @@ lr_status lr__rx_find(const char *name, const char *base_dir, char *out,
                         shown);
     if (is_file(out))
         return LR_OK;
+    /* Told apart from a missing file, which "no such file" would claim. */
+    int dir = is_dir(out);
     /* A shipped lens: a plain name, with or without its extension. */
     if (strchr(name, '/') == NULL) {
         w = snprintf(out, cap, "%s/%s", lens_dir(), name);
@@ -132,9 +140,13 @@ lr_status lr__rx_find(const char *name, const char *base_dir, char *out,
                 return LR_OK;
         }
     }
+    out[0] = '\0';
+    if (dir)
+        return lr__fail(err, LR_ERR_INVALID, NULL,
+                        "lens \"%s\": is a directory, not a lens file",
+                        shown);
     char list[512];
     shipped(list, sizeof list);
-    out[0] = '\0';
     /* The directory is not named: a daemon's error must not show where
      * its scenes live. */
     return lr__fail(err, LR_ERR_INVALID, NULL,
