@@ -578,6 +578,25 @@ fails_naming() {
     ! has_temp_files "$T"
 }
 
+@test "a scene's render.depth with a .png output warns, skips the Z rays and writes the PNG" {
+    # scene-format.md had said the Z channel was rendered and dropped
+    # without a warning.
+    run -0 --separate-stderr "$LENSRAY" render "$T/scene.json" -o "$T/z.png" \
+        --set render.depth=true --stats -q
+    [[ "$stderr" == *"warning: render.depth is set but"*"z.png has no Z channel"* ]]
+    local with="$output"
+    png_size "$T/z.png"
+    run -0 --separate-stderr "$LENSRAY" render "$T/scene.json" -o "$T/noz.png" --stats -q
+    # The same rays as without render.depth: no ray through pixel centres
+    # for Z (an EXR with --depth traces one more per pixel).
+    [ "$(echo "$with" | sed 's/.*"rays": \([0-9]*\).*/\1/')" = \
+      "$(echo "$output" | sed 's/.*"rays": \([0-9]*\).*/\1/')" ]
+    run -0 --separate-stderr "$LENSRAY" render "$T/scene.json" -o "$T/z.exr" --depth --stats -q
+    [ "$(echo "$output" | sed 's/.*"rays": \([0-9]*\).*/\1/')" -gt \
+      "$(echo "$with" | sed 's/.*"rays": \([0-9]*\).*/\1/')" ]
+    cmp "$T/z.png" "$T/noz.png"
+}
+
 # ---- --stats ---------------------------------------------------------------------
 
 @test "--stats prints one JSON line with seconds, rays and samples_per_second" {
