@@ -477,6 +477,21 @@ EOF
     [[ "$output" == *"LENSRAYD_MAX_BODY must be"* ]]
     run -2 "$LENSRAYD" --port 0 --scenes "$WORK/nowhere"
     [[ "$output" == *"is not a directory"* ]]
+    # So does an address that is none (it was exit 1, after loading the
+    # scenes), and the checks made after parsing name the variable when
+    # the value came from one (they said --scenes, --id-prefix, --bind).
+    # (.invalid is reserved, RFC 6761: no resolver finds it, and without a
+    # network the lookup fails at once.)
+    run -2 "$LENSRAYD" --port 0 --scenes "$WORK/scenes" --bind no.such.host.invalid
+    [[ "$output" == *"--bind 'no.such.host.invalid' is not an address"* ]]
+    run -2 env LENSRAYD_BIND=::g "$LENSRAYD" --port 0 --scenes "$WORK/scenes"
+    [[ "$output" == *"LENSRAYD_BIND '::g' is not an address"* ]]
+    run -2 env LENSRAYD_SCENES="$WORK/nowhere" "$LENSRAYD" --port 0
+    [[ "$output" == *"LENSRAYD_SCENES $WORK/nowhere is not a directory"* ]]
+    run -2 env LENSRAYD_ID_PREFIX=XY "$LENSRAYD" --port 0 --scenes "$WORK/scenes"
+    [[ "$output" == *"LENSRAYD_ID_PREFIX must be"* ]]
+    run -2 env LENSRAYD_ID_PREFIX=XY "$LENSRAYD" --port 0 --scenes "$WORK/scenes" --id-prefix Z
+    [[ "$output" == *"--id-prefix must be"*"'Z'"* ]]
     run -0 "$LENSRAYD" --help
     [[ "$output" == *"--token-file"* ]]
     [[ "$output" == *"LENSRAYD_TOKEN_FILE"* ]]
