@@ -389,6 +389,27 @@ while True:
     [ "$(png_size "$T/out.png")" = "9 3" ]
 }
 
+@test "every option's value may follow it after '=', as --set= always could" {
+    # --output=out.png was "unknown option", though --help shows --output
+    # and --set=PATH=VALUE worked.
+    run -0 "$LENSRAY" render "$T/scene.json" --output="$T/eq.exr" \
+        --compression=none --set render.width=9 -q
+    [ "$(hex_bytes "$T/eq.exr" 0 4)" = 762f3101 ]
+    grep -aq 'compression' "$T/eq.exr"
+    run -0 "$LENSRAY" render "$T/scene.json" --output "$T/two.exr" \
+        --compression none --set render.width=9 -q
+    cmp "$T/eq.exr" "$T/two.exr"
+    run -0 "$LENSRAY" lens petzval --field-angles=0,5 --wavelength=550
+    local eq="$output"
+    run -0 "$LENSRAY" lens petzval --field-angles 0,5 --wavelength 550
+    [ "$eq" = "$output" ]
+    # Flags take no value, and '=' does not make a new option.
+    run -2 "$LENSRAY" render "$T/scene.json" -o "$T/x.png" --stats=1
+    [[ "$output" == *"unknown option '--stats=1'"* ]]
+    run -2 "$LENSRAY" render "$T/scene.json" -o "$T/x.png" --outputs=y.png
+    [[ "$output" == *"unknown option '--outputs=y.png'"* ]]
+}
+
 @test "--set adds keys, and whole objects, the file does not have" {
     scene bare '{ "objects": [ { "type": "sphere", "center": [0, 0, -5], "radius": 1 } ] }'
     run -0 "$LENSRAY" render "$T/bare.json" -o "$T/out.png" \
