@@ -149,6 +149,14 @@ has_temp_files() {
     [ ! -e "$T/out.png" ]
 }
 
+@test "-o given twice is a usage error (2) that names both, and writes neither" {
+    # The last one won, and the first file the user asked for never came.
+    run -2 "$LENSRAY" render "$T/scene.json" -o "$T/a.png" --output="$T/b.png"
+    [[ "$output" == *"-o given twice ('$T/a.png', then '$T/b.png')"* ]]
+    [ ! -e "$T/a.png" ]
+    [ ! -e "$T/b.png" ]
+}
+
 @test "--set without PATH=VALUE is a usage error (2)" {
     run -2 "$LENSRAY" render "$T/scene.json" -o "$T/out.png" --set camera.fov
     [[ "$output" == *"camera.fov"* ]]

@@ -453,6 +453,15 @@ static int cmd_render(int argc, char **argv)
                 rc = usage_error("%s needs a file name", a);
                 goto done;
             }
+            /* The first would be dropped unwritten. */
+            if (r.out != NULL) {
+                char both[8192];
+                snprintf(both, sizeof both, "('%s', then '%s')", r.out,
+                         argv[i + 1]);
+                rc = usage_error("-o given twice %s; a render writes one "
+                                 "file, or one a frame with %%d", both);
+                goto done;
+            }
             r.out = argv[++i];
         } else if (strcmp(a, "--set") == 0) {
             if (i + 1 >= argc) {
