@@ -292,6 +292,16 @@ lr_status lr__json_parse(const char *text, size_t len, const char *what,
     if (memchr(text, '\0', len) != NULL)
         return lr__fail(err, LR_ERR_INVALID, "",
                         "%s: JSON text contains a NUL byte", what);
+    /* "invalid JSON at line 1, column 1" would send the reader looking
+     * for a bad character in a file that has none. */
+    size_t first = 0;
+    while (first < len && (text[first] == ' ' || text[first] == '\t' ||
+                           text[first] == '\n' || text[first] == '\r'))
+        first++;
+    if (first == len)
+        return lr__fail(err, LR_ERR_INVALID, "",
+                        "%s: empty (%s), not a JSON value", what,
+                        len ? "only white space" : "0 bytes");
     const char *end = NULL;
     int nomem;
     cJSON *root = parse(text, len, &end, 0, &nomem);

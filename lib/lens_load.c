@@ -158,7 +158,9 @@ static lr_status load_named(const char *name, const char *base_dir,
                             lr_error *err)
 {
     char file[4096];
-    lr_status st = lr__rx_find(name, base_dir, file, sizeof file, err);
+    lr_status st = base_dir != NULL
+                       ? lr__rx_find(name, base_dir, file, sizeof file, err)
+                       : lr__rx_find_shipped(name, file, sizeof file, err);
     if (st != LR_OK) {
         if (err != NULL && err->path[0] == '\0') {
             /* Name the field: "camera.lens: lens \"x\": no such file...". */

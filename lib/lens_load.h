@@ -55,6 +55,12 @@ lr_status lr__lens_from_json(const struct cJSON *v, const char *path,
                              const char *base_dir, const lr_lens **out,
                              lr_error *err);
 
+/* lr__rx_find (prescription.h) for such an override: a shipped lens or
+ * an asset only, never a file of the working directory, which is the
+ * server's.  Defined in rx_file.c. */
+lr_status lr__rx_find_shipped(const char *name, char *out, size_t cap,
+                              lr_error *err);
+
 /* The value to write back for camera.lens: a string or an object;
  * NULL when out of memory. */
 struct cJSON *lr__lens_to_json(const lr_lens *lens);

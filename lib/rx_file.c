@@ -4,6 +4,7 @@
  * name says.
  */
 #include "prescription.h"
+#include "lens_load.h"
 #include "json_util.h"
 #include "scene_file.h"
 
@@ -53,6 +54,12 @@ static int is_file(const char *p)
     return stat(p, &sb) == 0 && S_ISREG(sb.st_mode);
 }
 
+static int is_dir(const char *p)
+{
+    struct stat sb;
+    return stat(p, &sb) == 0 && S_ISDIR(sb.st_mode);
+}
+
 static int cmp(const void *a, const void *b)
 {
     return strcmp((const char *)a, (const char *)b);
@@ -100,7 +107,42 @@ static void shipped(char *out, size_t cap)
         snprintf(out, cap, "none (in %s)", lens_dir());
 }
 
-lr_status lr__rx_find(const char *name, const char *base_dir, char *out,
+/* `name` as a file beside `base_dir` ("": the working directory) into
+ * `out`: 1 if it is a file, 0 if not, -1 if the path does not fit.
+ * *dir says whether it is a directory, which is told apart from a missing
+ * file in the error. */
+static int beside(const char *name, const char *base_dir, char *out,
+                  size_t cap, int *dir)
+{
+    int w;
+    if (name[0] == '/' || base_dir[0] == '\0')
+        w = snprintf(out, cap, "%s", name);
+    else
+        w = snprintf(out, cap, "%s/%s", base_dir, name);
+    if (w < 0 || (size_t)w >= cap)
+        return -1;
+    *dir = is_dir(out);
+    return is_file(out);
+}
+
+/* A shipped lens: a plain name, with or without its extension. */
+static int shipped_file(const char *name, char *out, size_t cap)
+{
+    if (strchr(name, '/') != NULL)
+        return 0;
+    int w = snprintf(out, cap, "%s/%s", lens_dir(), name);
+    if (w > 0 && (size_t)w < cap && is_file(out))
+        return 1;
+    for (int k = 0; exts[k]; k++) {
+        w = snprintf(out, cap, "%s/%s%s", lens_dir(), name, exts[k]);
+        if (w > 0 && (size_t)w < cap && is_file(out))
+            return 1;
+    }
+    return 0;
+}
+
+/* lr__rx_find, and lr__rx_find_shipped when `base_dir` is NULL. */
+static lr_status find(const char *name, const char *base_dir, char *out,
                       size_t cap, lr_error *err)
 {
     char shown[96];
@@ -111,37 +153,43 @@ lr_status lr__rx_find(const char *name, const char *base_dir, char *out,
     /* An asset is found where every scene file is, or not at all. */
     if (strncmp(name, "sha256:", 7) == 0)
         return lr__scene_file(name, base_dir, NULL, out, cap, err);
-    int w;
-    if (name[0] == '/' || base_dir == NULL || base_dir[0] == '\0')
-        w = snprintf(out, cap, "%s", name);
-    else
-        w = snprintf(out, cap, "%s/%s", base_dir, name);
-    if (w < 0 || (size_t)w >= cap)
+    int dir = 0, found = 0;
+    if (base_dir != NULL)
+        found = beside(name, base_dir, out, cap, &dir);
+    if (found < 0)
         return lr__fail(err, LR_ERR_LIMIT, NULL, "lens \"%s\": path too long",
                         shown);
-    if (is_file(out))
+    if (found || shipped_file(name, out, cap))
         return LR_OK;
-    /* A shipped lens: a plain name, with or without its extension. */
-    if (strchr(name, '/') == NULL) {
-        w = snprintf(out, cap, "%s/%s", lens_dir(), name);
-        if (w > 0 && (size_t)w < cap && is_file(out))
-            return LR_OK;
-        for (int k = 0; exts[k]; k++) {
-            w = snprintf(out, cap, "%s/%s%s", lens_dir(), name, exts[k]);
-            if (w > 0 && (size_t)w < cap && is_file(out))
-                return LR_OK;
-        }
-    }
+    out[0] = '\0';
+    if (dir)
+        return lr__fail(err, LR_ERR_INVALID, NULL,
+                        "lens \"%s\": is a directory, not a lens file",
+                        shown);
     char list[512];
     shipped(list, sizeof list);
-    out[0] = '\0';
     /* The directory is not named: a daemon's error must not show where
      * its scenes live. */
     return lr__fail(err, LR_ERR_INVALID, NULL,
-                    "lens \"%s\": no such file%s, and no shipped lens of "
-                    "that name; shipped lenses: %s",
-                    shown, base_dir && base_dir[0] ? " beside the scene" : "",
+                    "lens \"%s\": %sno shipped lens of that name; shipped "
+                    "lenses: %s",
+                    shown,
+                    base_dir == NULL    ? ""
+                    : base_dir[0] != 0 ? "no such file beside the scene, and "
+                                       : "no such file, and ",
                     list);
+}
+
+lr_status lr__rx_find(const char *name, const char *base_dir, char *out,
+                      size_t cap, lr_error *err)
+{
+    return find(name, base_dir ? base_dir : "", out, cap, err);
+}
+
+lr_status lr__rx_find_shipped(const char *name, char *out, size_t cap,
+                              lr_error *err)
+{
+    return find(name, NULL, out, cap, err);
 }
 
 /* Puts "shown: " before a reader's message (JSON lens files name fields,

@@ -1035,24 +1035,36 @@ static void on_completed(void *cls, struct MHD_Connection *c, void **con_cls,
 
 /* ---- lifecycle ----------------------------------------------------------- */
 
-int lrd_http_start(void)
+const char *lrd_http_resolve(const char *bind, struct sockaddr_storage *sa,
+                             int *v6)
 {
     struct addrinfo hints, *ai = NULL;
     memset(&hints, 0, sizeof hints);
     hints.ai_family = AF_UNSPEC;
     hints.ai_socktype = SOCK_STREAM;
     hints.ai_flags = AI_PASSIVE;
-    int gai = getaddrinfo(lrd_cfg.bind, NULL, &hints, &ai);
-    if (gai != 0 || ai == NULL) {
+    int gai = getaddrinfo(bind, NULL, &hints, &ai);
+    if (gai != 0 || ai == NULL)
+        return gai != 0 ? gai_strerror(gai) : "no address";
+    memset(sa, 0, sizeof *sa);
+    memcpy(sa, ai->ai_addr, ai->ai_addrlen);
+    *v6 = ai->ai_family == AF_INET6;
+    freeaddrinfo(ai);
+    return NULL;
+}
+
+int lrd_http_start(void)
+{
+    struct sockaddr_storage sa;
+    int v6 = 0;
+    /* main.c resolved it already, so this fails only if the name's
+     * address went away in between. */
+    const char *why = lrd_http_resolve(lrd_cfg.bind, &sa, &v6);
+    if (why != NULL) {
         fprintf(stderr, "lensrayd: cannot use --bind %s: %s\n", lrd_cfg.bind,
-                gai_strerror(gai));
+                why);
         return -1;
     }
-    struct sockaddr_storage sa;
-    memset(&sa, 0, sizeof sa);
-    memcpy(&sa, ai->ai_addr, ai->ai_addrlen);
-    int v6 = ai->ai_family == AF_INET6;
-    freeaddrinfo(ai);
     if (v6)
         ((struct sockaddr_in6 *)&sa)->sin6_port = htons((uint16_t)lrd_cfg.port);
     else

@@ -360,6 +360,11 @@ void lrd_jobs_free_all(void);
  * HTTP (http.c)
  * ---------------------------------------------------------------------- */
 
+struct sockaddr_storage;
+/* The address --bind names (IPv4, IPv6 or a host name), into *sa and
+ * *v6 (1 for IPv6).  NULL, or why it names none. */
+const char *lrd_http_resolve(const char *bind, struct sockaddr_storage *sa,
+                             int *v6);
 /* Starts libmicrohttpd; prints the startup line.  0 or -1. */
 int lrd_http_start(void);
 /* Stops accepting connections; requests on open connections get 503. */

@@ -19,6 +19,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/socket.h>
 #include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
@@ -118,9 +119,25 @@ static void env_name(const char *name, char *out, size_t n)
     out[o] = '\0';
 }
 
+/* Where each option's value came from ("--scenes" or "LENSRAYD_SCENES"),
+ * so that the checks after parsing name what the user wrote. */
+static char given[N_OPTS][64];
+
+static const char *given_as(const char *name)
+{
+    for (size_t i = 0; i < N_OPTS; i++)
+        if (strcmp(opts[i].name, name) == 0) {
+            if (given[i][0] == '\0')
+                snprintf(given[i], sizeof given[i], "--%s", name);
+            return given[i];
+        }
+    return name;
+}
+
 /* Sets one option from text; `from` names the source in messages. */
 static int set_opt(const opt *o, const char *value, const char *from)
 {
+    snprintf(given[o - opts], sizeof given[0], "%s", from);
     switch (o->type) {
     case T_STR:
         if (strlen(value) >= o->cap) {
@@ -253,25 +270,35 @@ static int configure(int argc, char **argv)
             return -1;
     }
 
+    /* A name that is no address is a bad value (exit 2), found before
+     * the scenes are loaded rather than when the socket opens. */
+    struct sockaddr_storage sa;
+    int v6;
+    const char *why = lrd_http_resolve(lrd_cfg.bind, &sa, &v6);
+    if (why != NULL) {
+        fprintf(stderr, "lensrayd: %s '%s' is not an address to listen on: "
+                        "%s\n", given_as("bind"), lrd_cfg.bind, why);
+        return -1;
+    }
     struct stat st;
     if (realpath(scenes_arg, lrd_cfg.scenes_dir) == NULL ||
         stat(lrd_cfg.scenes_dir, &st) != 0 || !S_ISDIR(st.st_mode)) {
-        fprintf(stderr, "lensrayd: --scenes %s is not a directory\n",
-                scenes_arg);
+        fprintf(stderr, "lensrayd: %s %s is not a directory\n",
+                given_as("scenes"), scenes_arg);
         return -1;
     }
     if (strspn(lrd_cfg.id_prefix, "0123456789abcdef") !=
         strlen(lrd_cfg.id_prefix)) {
-        fprintf(stderr, "lensrayd: --id-prefix must be 1 to 8 lowercase hex "
-                        "digits, got '%s'\n", lrd_cfg.id_prefix);
+        fprintf(stderr, "lensrayd: %s must be 1 to 8 lowercase hex digits, "
+                        "got '%s'\n", given_as("id-prefix"), lrd_cfg.id_prefix);
         return -1;
     }
     if (assets_arg[0] != '\0' &&
         (realpath(assets_arg, lrd_cfg.assets_dir) == NULL ||
          stat(lrd_cfg.assets_dir, &st) != 0 || !S_ISDIR(st.st_mode) ||
          access(lrd_cfg.assets_dir, W_OK) != 0)) {
-        fprintf(stderr, "lensrayd: --assets %s is not a directory this "
-                        "process can write to\n", assets_arg);
+        fprintf(stderr, "lensrayd: %s %s is not a directory this "
+                        "process can write to\n", given_as("assets"), assets_arg);
         return -1;
     }
     /* The library finds "sha256:HEX" files of every kind there (and,
@@ -284,8 +311,8 @@ static int configure(int argc, char **argv)
         size_t len = 0;
         char *t = lrd_read_file(token_file, 4096, &len);
         if (t == NULL) {
-            fprintf(stderr, "lensrayd: cannot read --token-file %s: %s\n",
-                    token_file, strerror(errno));
+            fprintf(stderr, "lensrayd: cannot read %s %s: %s\n",
+                    given_as("token-file"), token_file, strerror(errno));
             return -1;
         }
         /* Editors and `echo` add a final newline; it is not the token's. */
@@ -293,8 +320,8 @@ static int configure(int argc, char **argv)
                            t[len - 1] == ' ' || t[len - 1] == '\t'))
             t[--len] = '\0';
         if (len == 0 || strlen(t) != len) {
-            fprintf(stderr, "lensrayd: --token-file %s holds no token (or a "
-                            "NUL byte)\n", token_file);
+            fprintf(stderr, "lensrayd: %s %s holds no token (or a NUL "
+                            "byte)\n", given_as("token-file"), token_file);
             free(t);
             return -1;
         }

@@ -149,6 +149,14 @@ has_temp_files() {
     [ ! -e "$T/out.png" ]
 }
 
+@test "-o given twice is a usage error (2) that names both, and writes neither" {
+    # The last one won, and the first file the user asked for never came.
+    run -2 "$LENSRAY" render "$T/scene.json" -o "$T/a.png" --output="$T/b.png"
+    [[ "$output" == *"-o given twice ('$T/a.png', then '$T/b.png')"* ]]
+    [ ! -e "$T/a.png" ]
+    [ ! -e "$T/b.png" ]
+}
+
 @test "--set without PATH=VALUE is a usage error (2)" {
     run -2 "$LENSRAY" render "$T/scene.json" -o "$T/out.png" --set camera.fov
     [[ "$output" == *"camera.fov"* ]]
@@ -389,6 +397,27 @@ while True:
     [ "$(png_size "$T/out.png")" = "9 3" ]
 }
 
+@test "every option's value may follow it after '=', as --set= always could" {
+    # --output=out.png was "unknown option", though --help shows --output
+    # and --set=PATH=VALUE worked.
+    run -0 "$LENSRAY" render "$T/scene.json" --output="$T/eq.exr" \
+        --compression=none --set render.width=9 -q
+    [ "$(hex_bytes "$T/eq.exr" 0 4)" = 762f3101 ]
+    grep -aq 'compression' "$T/eq.exr"
+    run -0 "$LENSRAY" render "$T/scene.json" --output "$T/two.exr" \
+        --compression none --set render.width=9 -q
+    cmp "$T/eq.exr" "$T/two.exr"
+    run -0 "$LENSRAY" lens petzval --field-angles=0,5 --wavelength=550
+    local eq="$output"
+    run -0 "$LENSRAY" lens petzval --field-angles 0,5 --wavelength 550
+    [ "$eq" = "$output" ]
+    # Flags take no value, and '=' does not make a new option.
+    run -2 "$LENSRAY" render "$T/scene.json" -o "$T/x.png" --stats=1
+    [[ "$output" == *"unknown option '--stats=1'"* ]]
+    run -2 "$LENSRAY" render "$T/scene.json" -o "$T/x.png" --outputs=y.png
+    [[ "$output" == *"unknown option '--outputs=y.png'"* ]]
+}
+
 @test "--set adds keys, and whole objects, the file does not have" {
     scene bare '{ "objects": [ { "type": "sphere", "center": [0, 0, -5], "radius": 1 } ] }'
     run -0 "$LENSRAY" render "$T/bare.json" -o "$T/out.png" \
@@ -499,6 +528,27 @@ fails_naming() {
     cmp "$T/pin.png" "$T/bracket0.png"
 }
 
+@test "lens-models.md: the bracket equals a square thin lens, PNG byte for byte, small and full frame" {
+    # The commands of lens-models.md section 3 on the shipped spheres scene
+    # (the doc had one pixel of the 640 x 360 frame differ).
+    local size
+    for size in "160 90" "640 360"; do
+        set -- $size
+        "$LENSRAY" render "$REPO/scenes/spheres.json" -o "$T/bracket.png" -q \
+            --set camera.model=bracket --set camera.aperture=0.2 \
+            --set camera.focal_length=9 --set render.width=$1 --set render.height=$2
+        "$LENSRAY" render "$REPO/scenes/spheres.json" -o "$T/thin.png" -q \
+            --set camera.model=thinlens --set camera.aperture_shape=square \
+            --set camera.aperture_radius=0.11111111111111112 \
+            --set camera.focus_distance=10 --set render.width=$1 --set render.height=$2
+        cmp "$T/bracket.png" "$T/thin.png"
+        # Not trivially equal: the lens blurs what the pinhole keeps sharp.
+        "$LENSRAY" render "$REPO/scenes/spheres.json" -o "$T/pin.png" -q \
+            --set render.width=$1 --set render.height=$2
+        ! cmp -s "$T/pin.png" "$T/thin.png"
+    done
+}
+
 @test "every sampler name renders" {
     local s
     for s in grid jittered random sobol; do
@@ -576,6 +626,25 @@ fails_naming() {
     [[ "$output" == *".exr"* ]]
     [ ! -e "$T/depth.png" ]
     ! has_temp_files "$T"
+}
+
+@test "a scene's render.depth with a .png output warns, skips the Z rays and writes the PNG" {
+    # scene-format.md had said the Z channel was rendered and dropped
+    # without a warning.
+    run -0 --separate-stderr "$LENSRAY" render "$T/scene.json" -o "$T/z.png" \
+        --set render.depth=true --stats -q
+    [[ "$stderr" == *"warning: render.depth is set but"*"z.png has no Z channel"* ]]
+    local with="$output"
+    png_size "$T/z.png"
+    run -0 --separate-stderr "$LENSRAY" render "$T/scene.json" -o "$T/noz.png" --stats -q
+    # The same rays as without render.depth: no ray through pixel centres
+    # for Z (an EXR with --depth traces one more per pixel).
+    [ "$(echo "$with" | sed 's/.*"rays": \([0-9]*\).*/\1/')" = \
+      "$(echo "$output" | sed 's/.*"rays": \([0-9]*\).*/\1/')" ]
+    run -0 --separate-stderr "$LENSRAY" render "$T/scene.json" -o "$T/z.exr" --depth --stats -q
+    [ "$(echo "$output" | sed 's/.*"rays": \([0-9]*\).*/\1/')" -gt \
+      "$(echo "$with" | sed 's/.*"rays": \([0-9]*\).*/\1/')" ]
+    cmp "$T/z.png" "$T/noz.png"
 }
 
 # ---- --stats ---------------------------------------------------------------------

@@ -142,6 +142,31 @@ header() {
         sed 's/^ *//'
 }
 
+# keys [FILE]: the key paths of a JSON document, one per line and sorted
+# (arrays of objects as "[]"; "..." marks what an example leaves out).
+keys() {
+    node -e '
+        const walk = (v, pre, out) => {
+            if (Array.isArray(v)) { if (v.length && typeof v[0] === "object") v.forEach(e => walk(e, pre + "[].", out)); }
+            else if (v && typeof v === "object")
+                for (const k in v) if (k !== "...") { out.add(pre + k); walk(v[k], pre + k + ".", out); }
+            return out;
+        };
+        const o = JSON.parse(require("fs").readFileSync(process.argv[1], "utf8"));
+        console.log([...walk(o, "", new Set())].sort().join("\n"));
+    ' "${1:-$T/body}"
+}
+
+# doc_example TEXT: the first JSON example of docs/api.md after a line
+# starting with TEXT, written to $T/doc.json.
+doc_example() {
+    awk -v start="$1" 'index($0, start) == 1 { on = 1 }
+        on && /^```json$/ { json = 1; next }
+        json && /^```$/ { exit }
+        json { print }' "$BATS_TEST_DIRNAME/../docs/api.md" >"$T/doc.json"
+    [ -s "$T/doc.json" ]
+}
+
 # expect_error STATUS CODE [PATH]: an error response in the documented shape.
 expect_error() {
     expect "$1"
@@ -452,6 +477,21 @@ EOF
     [[ "$output" == *"LENSRAYD_MAX_BODY must be"* ]]
     run -2 "$LENSRAYD" --port 0 --scenes "$WORK/nowhere"
     [[ "$output" == *"is not a directory"* ]]
+    # So does an address that is none (it was exit 1, after loading the
+    # scenes), and the checks made after parsing name the variable when
+    # the value came from one (they said --scenes, --id-prefix, --bind).
+    # (.invalid is reserved, RFC 6761: no resolver finds it, and without a
+    # network the lookup fails at once.)
+    run -2 "$LENSRAYD" --port 0 --scenes "$WORK/scenes" --bind no.such.host.invalid
+    [[ "$output" == *"--bind 'no.such.host.invalid' is not an address"* ]]
+    run -2 env LENSRAYD_BIND=::g "$LENSRAYD" --port 0 --scenes "$WORK/scenes"
+    [[ "$output" == *"LENSRAYD_BIND '::g' is not an address"* ]]
+    run -2 env LENSRAYD_SCENES="$WORK/nowhere" "$LENSRAYD" --port 0
+    [[ "$output" == *"LENSRAYD_SCENES $WORK/nowhere is not a directory"* ]]
+    run -2 env LENSRAYD_ID_PREFIX=XY "$LENSRAYD" --port 0 --scenes "$WORK/scenes"
+    [[ "$output" == *"LENSRAYD_ID_PREFIX must be"* ]]
+    run -2 env LENSRAYD_ID_PREFIX=XY "$LENSRAYD" --port 0 --scenes "$WORK/scenes" --id-prefix Z
+    [[ "$output" == *"--id-prefix must be"*"'Z'"* ]]
     run -0 "$LENSRAYD" --help
     [[ "$output" == *"--token-file"* ]]
     [[ "$output" == *"LENSRAYD_TOKEN_FILE"* ]]
@@ -772,6 +812,39 @@ EOF
     expect 200
     req GET "$URL/v1/jobs/$id"
     expect_error 404 job_not_found
+}
+
+@test "api.md's examples of a scene listing, a finished job and a cancelled one have the daemon's keys" {
+    # The examples are what a client writer copies; a key the daemon sends
+    # and they lack (or the reverse) is drift.  The examples elide with
+    # "...", which keys() skips.
+    req GET "$URL/v1/scenes"
+    expect 200
+    json 'o.scenes[0]' >"$T/real.json"
+    doc_example '### `GET /v1/scenes`'
+    json 'o.scenes[0]' "$T/doc.json" >"$T/doc0.json"
+    diff <(keys "$T/doc0.json") <(keys "$T/real.json")
+    # The job of the POST /v1/jobs example, done.
+    req POST "$URL/v1/jobs" '{"scene": "spheres",
+        "camera": {"model": "thinlens", "aperture_radius": 0.15, "focus_distance": 16},
+        "render": {"width": 32, "height": 18, "spp": 2},
+        "output": {"format": "exr", "half": true}}'
+    expect 202
+    local id
+    id=$(json o.id)
+    poll 20 job_is "$URL" "$id" done
+    req GET "$URL/v1/jobs/$id"
+    doc_example 'When done:'
+    diff <(keys "$T/doc.json") <(keys)
+    # A cancelled job, as DELETE answers.
+    start_daemon doc-cancel --workers 1
+    req POST "$DURL/v1/jobs" "$(slow_job)"
+    id=$(json o.id)
+    poll 20 job_progressing "$DURL" "$id"
+    req DELETE "$DURL/v1/jobs/$id"
+    expect 200
+    doc_example '### `DELETE /v1/jobs/{id}`'
+    diff <(keys "$T/doc.json") <(keys)
 }
 
 @test "GET image before the job is done is 409; a failed job reports its error" {

@@ -52,6 +52,24 @@ static void test_syntax_errors_stay_invalid(void **state)
     lr_scene_free(s);
 }
 
+/* An empty scene file, or one of white space only, says so: it was
+ * "invalid JSON at line 1, column 1", which points at a character that
+ * is not there.  (The daemon's empty job has its own message, job.c.) */
+static void test_empty_text_says_empty(void **state)
+{
+    (void)state;
+    char path[512];
+    lr_test_write_file("blank.json", " \n\t\n", 4, path, sizeof path);
+    lr_scene *s = NULL;
+    lr_error err;
+    assert_int_equal(lr_scene_load_file(path, NULL, 0, &s, &err),
+                     LR_ERR_INVALID);
+    assert_non_null(strstr(err.message, "blank.json: empty (only white "
+                                        "space), not a JSON value"));
+    assert_int_equal(lr_scene_load_json("", 0, NULL, NULL, 0, &s, &err),
+                     LR_ERR_INVALID);
+    assert_non_null(strstr(err.message, "empty (0 bytes)"));
+}
 
 /* RFC 8259's number grammar: cJSON reads numbers with strtod, which also
  * takes a leading zero ("016", octal in other readers) and a bare point
@@ -190,6 +208,7 @@ static void test_infinity_in_a_tree(void **state)
 
 static const struct CMUnitTest json_tests[] = {
     cmocka_unit_test(test_syntax_errors_stay_invalid),
+    cmocka_unit_test(test_empty_text_says_empty),
     cmocka_unit_test(test_overflow_quotes_the_number),
     cmocka_unit_test(test_infinity_in_a_tree),
     cmocka_unit_test(test_numbers_follow_rfc8259),

@@ -15,6 +15,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 /* A biconvex singlet of index 1.5, radii +-R and 0.01 mm thick (its edge
  * at the 0.7 mm semi-aperture is 0.005 mm thick): f = R by the
@@ -281,6 +282,38 @@ static void test_lens_written_back(void **state)
     assert_ptr_equal(again.lens, cam.lens);
     lr_free(json);
     lr_scene_free(s);
+}
+
+/* An override (a daemon job's camera, lr_camera_apply_json) has no scene
+ * directory, so a plain name is a shipped lens only: a lens file in the
+ * working directory, the server's, is neither opened nor told apart from
+ * a missing one.  It was loaded (docs/scene-format.md: "in a daemon job or
+ * an API override only shipped names, assets and inline objects"). */
+static void test_override_opens_no_working_directory_file(void **state)
+{
+    (void)state;
+    char old[4096];
+    assert_non_null(getcwd(old, sizeof old));
+    assert_int_equal(chdir(lr_test_tmpdir()), 0);
+    FILE *f = fopen("cwd-lens.dat", "w");
+    assert_non_null(f);
+    fputs("0 1 0 10\n50 4 1.5168 20\n-50 47 1 20\n", f);
+    fclose(f);
+    lr_camera cam;
+    lr_camera_default(&cam);
+    lr_error err;
+    const char *json = "{\"model\": \"lens\", \"lens\": \"cwd-lens.dat\"}";
+    lr_status st = lr_camera_apply_json(&cam, json, strlen(json), &err);
+    /* The file itself loads by its path (as lensray lens FILE does). */
+    const lr_lens *L = NULL;
+    lr_status by_path = lr_lens_load("cwd-lens.dat", NULL, &L, NULL);
+    remove("cwd-lens.dat");
+    assert_int_equal(chdir(old), 0);
+    assert_int_equal(by_path, LR_OK);
+    assert_int_equal(st, LR_ERR_INVALID);
+    assert_string_equal(err.path, "camera.lens");
+    assert_non_null(strstr(err.message, "no shipped lens of that name"));
+    assert_null(strstr(err.message, "no such file"));
 }
 
 /* The exit-pupil bounds lose no light: at film points from the centre
@@ -605,6 +638,7 @@ static const struct CMUnitTest lens_camera_tests[] = {
     cmocka_unit_test(test_white_surround_big_rear_stop),
     cmocka_unit_test(test_errors_name_the_field),
     cmocka_unit_test(test_lens_written_back),
+    cmocka_unit_test(test_override_opens_no_working_directory_file),
     cmocka_unit_test(test_pupil_bounds_lose_no_light),
     cmocka_unit_test(test_packets_together_as_alone),
     cmocka_unit_test(test_point_image_where_the_lens_puts_it),

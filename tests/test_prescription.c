@@ -795,6 +795,13 @@ static void test_find_and_load(void **state)
                                  &err),
                      LR_ERR_INVALID);
     assert_non_null(strstr(err.message, "double-gauss-50, fisheye-10"));
+    /* A directory is named as one: it was "no such file", though it is
+     * there. */
+    assert_int_equal(lr__rx_find(".", lr_test_tmpdir(), path, sizeof path,
+                                 &err),
+                     LR_ERR_INVALID);
+    assert_string_equal(err.message,
+                        "lens \".\": is a directory, not a lens file");
     /* A file next to the scene wins; LENSRAY_LENS_DIR moves the shipped
      * ones. */
     char file[512];

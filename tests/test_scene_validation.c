@@ -212,11 +212,39 @@ static void test_missing_and_out_of_range(void **state)
     }
 }
 
+/* Every error's path is the field its sentence starts with, cross-field
+ * rules included: scene-format.md once listed three of these as naming
+ * another field (camera.chromatic.abbe, camera.chromatic.ior, and an
+ * f_number sentence); the path is exact here, not a prefix. */
+static void test_cross_field_errors_start_with_their_path(void **state)
+{
+    (void)state;
+    static const char *const cases[][2] = {
+        {"{\"camera\": {\"model\": \"thinlens\", \"f_number\": 2}}",
+         "camera.focal_length_mm"},
+        {"{\"camera\": {\"chromatic\": {\"glass\": \"F2\", "
+         "\"abbe\": {\"n_d\": 1.5, \"V_d\": 40}}}}",
+         "camera.chromatic"},
+        {"{\"camera\": {\"chromatic\": {\"ior\": [1.5, 1, 1.5]}}}",
+         "camera.chromatic.ior[1]"}};
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        lr_scene *sc = NULL;
+        lr_error err;
+        assert_int_equal(lr_scene_load_json(cases[i][0], strlen(cases[i][0]),
+                                            NULL, NULL, 0, &sc, &err),
+                         LR_ERR_INVALID);
+        assert_string_equal(err.path, cases[i][1]);
+        lr_test_expect_invalid(cases[i][0], strlen(cases[i][0]), cases[i][1],
+                               cases[i][0]);
+    }
+}
+
 static const struct CMUnitTest scene_validation_tests[] = {
     cmocka_unit_test(test_every_type_error),
     cmocka_unit_test(test_nan_inf_spellings),
     cmocka_unit_test(test_duplicate_keys),
     cmocka_unit_test(test_missing_and_out_of_range),
+    cmocka_unit_test(test_cross_field_errors_start_with_their_path),
 };
 
 LR_TEST_GROUP(scene_validation, scene_validation_tests)

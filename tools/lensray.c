@@ -71,6 +71,8 @@ static const char usage_text[] =
     "  --field-angles A,B  field angles in degrees, object at infinity\n"
     "  --wavelength NM     primary wavelength (default 587.5618, the d line)\n"
     "\n"
+    "an option's value may also follow it after '=': --output=out.png\n"
+    "\n"
     "exit status: 0 ok, 2 usage, 3 bad scene or lens, 4 I/O error,\n"
     "130 interrupted\n";
 
@@ -451,6 +453,15 @@ static int cmd_render(int argc, char **argv)
                 rc = usage_error("%s needs a file name", a);
                 goto done;
             }
+            /* The first would be dropped unwritten. */
+            if (r.out != NULL) {
+                char both[8192];
+                snprintf(both, sizeof both, "('%s', then '%s')", r.out,
+                         argv[i + 1]);
+                rc = usage_error("-o given twice %s; a render writes one "
+                                 "file, or one a frame with %%d", both);
+                goto done;
+            }
             r.out = argv[++i];
         } else if (strcmp(a, "--set") == 0) {
             if (i + 1 >= argc) {
@@ -458,8 +469,6 @@ static int cmd_render(int argc, char **argv)
                 goto done;
             }
             r.sets[r.n_sets++] = argv[++i];
-        } else if (strncmp(a, "--set=", 6) == 0) {
-            r.sets[r.n_sets++] = a + 6;
         } else if (strcmp(a, "--stats") == 0) {
             r.stats = 1;
         } else if (strcmp(a, "--half") == 0) {
@@ -709,6 +718,54 @@ static int cmd_lens(int argc, char **argv)
     return EXIT_OK;
 }
 
+/* The long options that take a value: "--name=VALUE" is read as
+ * "--name VALUE", as getopt_long does and as --set= always was. */
+static const char *const value_options[] = {
+    "--output", "--set",      "--compression", "--remote",       "--token-file",
+    "--parts",  "--parallel", "--retries",     "--field-angles", "--wavelength",
+    NULL};
+
+/* argv with every "--name=VALUE" of value_options split in two; NULL when
+ * out of memory.  The strings stay argv's (names: the table's). */
+static char **split_long_options(int argc, char **argv, int *out_argc)
+{
+    char **out = calloc((size_t)argc * 2 + 1, sizeof *out);
+    if (out == NULL)
+        return NULL;
+    int n = 0;
+    for (int i = 0; i < argc; i++) {
+        const char *eq = strncmp(argv[i], "--", 2) == 0 ? strchr(argv[i], '=')
+                                                        : NULL;
+        int k = 0;
+        while (eq != NULL && value_options[k] != NULL &&
+               (strlen(value_options[k]) != (size_t)(eq - argv[i]) ||
+                strncmp(value_options[k], argv[i], (size_t)(eq - argv[i]))))
+            k++;
+        if (eq != NULL && value_options[k] != NULL) {
+            out[n++] = (char *)value_options[k];
+            out[n++] = (char *)eq + 1;
+        } else {
+            out[n++] = argv[i];
+        }
+    }
+    *out_argc = n;
+    return out;
+}
+
+static int run_command(const char *cmd, int argc, char **argv)
+{
+    int n;
+    char **args = split_long_options(argc, argv, &n);
+    if (args == NULL) {
+        fprintf(stderr, "lensray: out of memory\n");
+        return EXIT_IO;
+    }
+    int rc = strcmp(cmd, "render") == 0 ? cmd_render(n, args)
+                                        : cmd_lens(n, args);
+    free(args);
+    return rc;
+}
+
 int main(int argc, char **argv)
 {
     if (argc < 2) {
@@ -735,9 +792,7 @@ int main(int argc, char **argv)
             }
         }
     }
-    if (strcmp(cmd, "render") == 0)
-        return cmd_render(argc - 2, argv + 2);
-    if (strcmp(cmd, "lens") == 0)
-        return cmd_lens(argc - 2, argv + 2);
+    if (strcmp(cmd, "render") == 0 || strcmp(cmd, "lens") == 0)
+        return run_command(cmd, argc - 2, argv + 2);
     return usage_error("unknown command '%s'", cmd);
 }

@@ -170,6 +170,22 @@ def encode_png(array: Any, bits: int = 8) -> bytes:
         lib().lr_image_free(img)
 
 
+def _check_write_options(path: PathLike, depth: Any, half: bool,
+                         png16: bool) -> None:
+    """Refuses options the file's format cannot honour, as the CLI's
+    --depth, --half and --png16 and the daemon's output object do, rather
+    than writing a file other than the one asked for."""
+    name = os.fsdecode(path).lower()
+    if name.endswith(".png"):
+        if depth is not None:
+            raise ValueError("a PNG has no Z channel: write the depth to an "
+                             ".exr, or leave it out")
+        if half:
+            raise ValueError("half=True applies to .exr only, not .png")
+    elif name.endswith(".exr") and png16:
+        raise ValueError("png16=True applies to .png only, not .exr")
+
+
 def write(path: PathLike, array: Any, depth: Any = None, *,
           half: bool = False, png16: bool = False) -> None:
     """Writes an image with liblensray's own encoders.
@@ -185,13 +201,11 @@ def write(path: PathLike, array: Any, depth: Any = None, *,
     Raises:
         SceneError: an extension other than .exr or .png.
         LensrayIOError: the file could not be written.
-        ValueError: an array of the wrong shape, or ``depth`` with a
-            ``.png`` (which has no Z channel to keep it in).
+        ValueError: an array of the wrong shape, ``depth`` with a ``.png``
+            (which has no Z channel to keep it in), ``half`` with a ``.png``
+            or ``png16`` with an ``.exr``.
     """
-    if depth is not None and os.fspath(path).lower().endswith(
-            ".png" if isinstance(os.fspath(path), str) else b".png"):
-        raise ValueError("a PNG has no Z channel: write the depth to an "
-                         ".exr, or leave it out")
+    _check_write_options(path, depth, half, png16)
     img = _lr_image(array, depth)
     try:
         opts = _capi.lr_output_options()

@@ -70,6 +70,14 @@ def test_write_refuses_bad_input(tmp_path):
     with pytest.raises(ValueError, match="Z channel"):
         lensray.write(tmp_path / "a.PNG", np.zeros((4, 4, 3)), np.zeros((4, 4)))
     assert not (tmp_path / "a.PNG").exists()
+    # So are options for the other format: half=True made an 8-bit PNG and
+    # png16=True a float EXR, silently (the CLI refuses --half with .png).
+    with pytest.raises(ValueError, match="half"):
+        lensray.write(tmp_path / "a.png", np.zeros((4, 4, 3)), half=True)
+    with pytest.raises(ValueError, match="png16"):
+        lensray.write(tmp_path / "a.EXR", np.zeros((4, 4, 3)), png16=True)
+    assert not (tmp_path / "a.png").exists()
+    assert not (tmp_path / "a.EXR").exists()
     # No array, or a scalar, is named as such: None became a NaN scalar and
     # then "got shape (1,)", a shape the caller never passed.
     with pytest.raises(TypeError, match="None"):
