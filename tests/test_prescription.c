@@ -13,6 +13,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 /* The catalogue as generated, with the makers' stated nd and vd: the
  * truth that the dispersion formulas must reproduce. */
@@ -816,13 +817,23 @@ static void test_find_and_load(void **state)
     assert_string_equal(path, file);
     assert_int_equal(lr__rx_load_file(path, "my.dat", NULL, &rx, &err),
                      LR_OK);
-    setenv("LENSRAY_LENS_DIR", lr_test_tmpdir(), 1);
-    assert_int_equal(lr__rx_find("my", NULL, path, sizeof path, &err),
-                     LR_OK);
-    assert_int_equal(lr__rx_find("petzval", NULL, path, sizeof path, &err),
-                     LR_ERR_INVALID);
-    assert_non_null(strstr(err.message, "shipped lenses: my"));
+    /* A directory of its own: other tests leave files in the shared
+     * temporary one, which would be listed as lenses too. */
+    char dir[512];
+    snprintf(dir, sizeof dir, "%s/lens-dir", lr_test_tmpdir());
+    mkdir(dir, 0700);
+    snprintf(file, sizeof file, "%s/my.dat", dir);
+    f = fopen(file, "w");
+    assert_non_null(f);
+    fputs("0 1 0 10\n50 4 1.5168 20\n-50 47 1 20\n", f);
+    fclose(f);
+    setenv("LENSRAY_LENS_DIR", dir, 1);
+    lr_status found = lr__rx_find("my", NULL, path, sizeof path, &err);
+    lr_status refused = lr__rx_find("petzval", NULL, path, sizeof path, &err);
     unsetenv("LENSRAY_LENS_DIR");
+    assert_int_equal(found, LR_OK);
+    assert_int_equal(refused, LR_ERR_INVALID);
+    assert_non_null(strstr(err.message, "shipped lenses: my"));
     /* A lens file's errors name the file. */
     snprintf(file, sizeof file, "%s/bad.json", lr_test_tmpdir());
     f = fopen(file, "w");
