@@ -147,11 +147,28 @@ static int maker_of(const char *word, size_t len)
     return -1;
 }
 
+/* Whether two glass names are the same, without regard to case or
+ * spaces: OHARA's own data sheets write "S-BSL 7" for its Zemax
+ * catalogue's S-BSL7. */
+static int same_name(const char *a, const char *b)
+{
+    for (;; a++, b++) {
+        while (*a == ' ')
+            a++;
+        while (*b == ' ')
+            b++;
+        if (tolower((unsigned char)*a) != tolower((unsigned char)*b))
+            return 0;
+        if (*a == '\0')
+            return 1;
+    }
+}
+
 /* The entry called `name` of maker m (-1: of any maker, the first). */
 static const catalogue_glass *lookup(const char *name, int m)
 {
     for (size_t i = 0; i < N_CATALOGUE; i++)
-        if (strcasecmp(name, catalogue[i].name) == 0 &&
+        if (same_name(name, catalogue[i].name) &&
             (m < 0 || strcmp(catalogue[i].maker, makers[m]) == 0))
             return &catalogue[i];
     return NULL;
@@ -196,7 +213,7 @@ int lr__glass_find(const char *name, const char *prefer, lr__glass *g,
         c = preferred(name, prefer);
         for (size_t i = 0; c == NULL && i < sizeof aliases / sizeof *aliases;
              i++)
-            if (strcasecmp(name, aliases[i][0]) == 0)
+            if (same_name(name, aliases[i][0]))
                 c = lookup(aliases[i][1], 0);
     }
     if (c != NULL) {

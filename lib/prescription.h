@@ -62,8 +62,9 @@ typedef struct lr__glass {
 /* The refractive index of `g` at wavelength `nm`, in nanometres. */
 double lr__glass_n(const lr__glass *g, double nm);
 
-/* The catalogue glass called `name` (case-insensitive; "air" is air),
- * or "MAKER NAME" for that maker's ("CDGM F2").  Where makers share a
+/* The catalogue glass called `name` (without regard to case or spaces:
+ * "s-bsl 7" is S-BSL7; "air" is air), or "MAKER NAME" for that maker's
+ * ("CDGM F2").  Where makers share a
  * name, the first maker named in `prefer` wins (a space-separated list,
  * as a Zemax file's GCAT line gives its catalogues; words that name no
  * maker are passed over; NULL: none), else the first in catalogue order

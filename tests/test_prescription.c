@@ -213,6 +213,9 @@ static void test_glass_makers(void **state)
         {"F_SILICA", NULL, "SCHOTT", 1.45844, 67.83},
         {"silica", NULL, "SCHOTT", 1.45844, 67.83},
         {"CAF2", NULL, "SCHOTT", 1.43385, 95.23},
+        /* OHARA's data sheets write its names with a space. */
+        {"S-BSL 7", NULL, "OHARA", 1.516330, 64.142022},
+        {"ohara s-bsl 7", NULL, "OHARA", 1.516330, 64.142022},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         lr__glass g;
