@@ -24,10 +24,12 @@
 # is compared with; the least wall time and the least daemon CPU time are
 # kept (other load only adds to them), the median over the rounds of the
 # two set-ups' ratio in each round is given too (drift between rounds
-# does not move it), and the rays and samples the
-# daemons counted show the work itself, exactly.  The ratios are
-# reported, never asserted: this machine is shared.  Output: lines on
-# stdout and BUILD_DIR/bench/farm.txt.
+# does not move it), and the rays and samples the daemons counted show
+# the work itself, exactly.  bench/farm_schedule.py then gives what the
+# dispatch alone allows for this frame's unequal bands (each band's CPU
+# time measured, the farm's dispatch replayed).  The ratios are reported,
+# never asserted: this machine is shared.  Output: lines on stdout and
+# BUILD_DIR/bench/farm.txt.
 set -u
 BUILD=${1:-build}
 OUT=$BUILD/bench
@@ -211,12 +213,21 @@ for i in $(seq 100); do
 done
 fixed=$(echo "$c0 $(daemon_cpu)" | awk '{printf "%.2f", 10 * ($2 - $1)}')
 say "farm: a part's fixed cost $fixed ms"
+# What the schedule alone allows for this frame: each band's CPU time
+# measured here, the dispatch replayed (bench/farm_schedule.py).
+: >"$OUT/farm-sched.txt"
+for spp in $SPPS; do
+    echo "$spp $(python3 bench/farm_schedule.py "$LENSRAY" scenes/bench.json \
+        "$spp" "$PARTS" "$FRAMES" "$fixed")" >>"$OUT/farm-sched.txt"
+done
 # The machine is shared: how busy it was, from /proc/loadavg.
 load=$(cut -d' ' -f1 /proc/loadavg)
 {
     echo "farm (scenes/bench.json 640 x 480, $(nproc) cores, least of $REPEAT runs taken in turn, load average $load):"
     awk -v n="$PARTS" '{printf "  %d spp, a batch of %d parts, render.threads=1: 1 daemon %.3f s, 2 daemons %.3f s: %.2fx wall, median of the rounds %.2fx (target >= 1.8x); daemons'"'"' CPU %.2f s and %.2f s (%.1f ms and %.1f ms a part)\n", $1, n, $2, $7, $2 / $7, $12, $3, $8, 1000 * $3 / n, 1000 * $8 / n}' "$OUT/farm-tp.txt"
     awk -v n="$PARTS" -v f="$FRAMES" '{printf "  %d spp, a batch of %d frames of %d parts, render.threads=1: 1 daemon %.3f s, 2 daemons %.3f s (%.3f s and %.3f s a frame): %.2fx wall, median of the rounds %.2fx (target >= 1.8x); daemons'"'"' CPU %.2f s and %.2f s\n", $1, f, n, $2, $7, $2 / f, $7 / f, $2 / $7, $12, $3, $8}' "$OUT/farm-tpb.txt"
+    awk -v n="$PARTS" -v f="$FRAMES" '{split($4, c, ","); lo = hi = c[1]; for (i in c) {if (c[i] + 0 < lo + 0) lo = c[i]; if (c[i] + 0 > hi + 0) hi = c[i]}
+        printf "  %d spp, the schedule alone (bench/farm_schedule.py: this frame'"'"'s %d bands, %s to %s ms of CPU each, dispatched as above, no other effect): 2 daemons against 1 at most %.2fx for one frame, %.2fx for %d frames\n", $1, n, lo, hi, $2, $3, f}' "$OUT/farm-sched.txt"
     awk -v f="$FRAMES" '{printf "  %d spp, the client'"'"'s CPU (stitching, writing) on the same two cores: %.1f ms a frame written without compression (as above), %.1f ms with ZIP, the default\n", $1, 1000 * $2 / f, 1000 * $3 / f}' "$OUT/farm-client.txt"
     awk '{printf "  %d spp, the same frame rendered locally (no farm): 1 thread %.3f s, 2 threads %.3f s: %.2fx, what two cores gave here in this run\n", $1, $2, $3, $2 / $3}' "$OUT/farm-local.txt"
     awk '{printf "  %d spp, one frame whole %.3f s, in 16 parts %.3f s: overhead %+.1f%% wall (median of the rounds %+.1f%%), %+.1f%% daemon CPU (%.2f s against %.2f s), %+.2f%% rays, %+.2f%% samples, scene loads %d and %d (target < 5%%)\n", $1, $2, $7, 100 * ($7 / $2 - 1), 100 * (1 / $12 - 1), 100 * ($8 / $3 - 1), $8, $3, 100 * ($9 / $4 - 1), 100 * ($10 / $5 - 1), $6, $11}' "$OUT/farm-ov.txt"
