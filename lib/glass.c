@@ -190,11 +190,42 @@ static const catalogue_glass *preferred(const char *name, const char *prefer)
     return c != NULL ? c : lookup(name, -1);
 }
 
+/* A glass code, "517642" or "517.642": nd 1.517 and vd 64.2, the first
+ * three digits nd's decimals, the last three vd times 10 (as ray-optics'
+ * Zemax reader takes a GLAS of six digits).  0, or -1 when `name` is no
+ * code (vd under 5, as for the {nd, vd} form). */
+static int glass_code(const char *name, lr__glass *g)
+{
+    char d[6];
+    int n = 0;
+    for (const char *c = name; *c; c++) {
+        if (*c == '.' && c - name == 3)
+            continue;
+        if (!isdigit((unsigned char)*c) || n == 6)
+            return -1;
+        d[n++] = *c;
+    }
+    if (n != 6)
+        return -1;
+    int a = (d[0] - '0') * 100 + (d[1] - '0') * 10 + (d[2] - '0');
+    int b = (d[3] - '0') * 100 + (d[4] - '0') * 10 + (d[5] - '0');
+    if (b < 50)
+        return -1;
+    memset(g, 0, sizeof *g);
+    g->kind = LR__GLASS_ABBE;
+    snprintf(g->name, sizeof g->name, "%.7s", name);
+    g->nd = 1.0 + a / 1000.0;
+    g->vd = b / 10.0;
+    return 0;
+}
+
 int lr__glass_find(const char *name, const char *prefer, lr__glass *g,
                    char *near, size_t near_cap)
 {
     if (near != NULL && near_cap > 0)
         near[0] = '\0';
+    if (glass_code(name, g) == 0)
+        return 0;
     if (strcasecmp(name, "air") == 0) {
         memset(g, 0, sizeof *g);
         g->kind = LR__GLASS_AIR;

@@ -70,7 +70,9 @@ double lr__glass_n(const lr__glass *g, double nm);
  * maker are passed over; NULL: none), else the first in catalogue order
  * (SCHOTT, OHARA, HOYA, SUMITA, CDGM, HIKARI).  Zemax's names for fused
  * silica and calcium fluoride (F_SILICA, SILICA, CAF2) are SCHOTT's
- * LITHOSIL-Q and LITHOTEC-CAF2.  Returns 0 and fills *g, or -1 when
+ * LITHOSIL-Q and LITHOTEC-CAF2.  A six-digit glass code, "517642" or
+ * "517.642", is a model glass (LR__GLASS_ABBE) of nd 1.517 and vd 64.2.
+ * Returns 0 and fills *g, or -1 when
  * there is none; then `near` (if not NULL) gets up to three nearest
  * catalogue names, comma-separated, for the error message. */
 int lr__glass_find(const char *name, const char *prefer, lr__glass *g,

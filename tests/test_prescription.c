@@ -232,6 +232,18 @@ static void test_glass_makers(void **state)
                      nd, vd, cases[i].nd, cases[i].vd);
     }
     lr__glass g;
+    /* Glass codes: nd's decimals, then vd times 10. */
+    assert_int_equal(lr__glass_find("517642", NULL, &g, NULL, 0), 0);
+    assert_int_equal(g.kind, LR__GLASS_ABBE);
+    assert_true(g.nd == 1.517 && g.vd == 64.2);
+    assert_int_equal(lr__glass_find("620.363", NULL, &g, NULL, 0), 0);
+    assert_true(g.nd == 1.62 && g.vd == 36.3);
+    assert_true(fabs(lr__glass_n(&g, LR__NM_d) - 1.62) < 1e-15);
+    static const char *not_codes[] = {"51764", "5176420", "51.7642",
+                                      "517040", "517x42", "517642."};
+    for (size_t i = 0; i < sizeof not_codes / sizeof *not_codes; i++)
+        assert_int_equal(lr__glass_find(not_codes[i], NULL, &g, NULL, 0),
+                         -1);
     /* A maker's name narrows the search to it; a word that is no maker
      * is part of the name. */
     assert_int_equal(lr__glass_find("HOYA N-BK7", NULL, &g, NULL, 0), -1);
