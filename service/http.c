@@ -401,6 +401,55 @@ static lrd_job *find_or_404(struct MHD_Connection *c, req *r,
     return j;
 }
 
+/* The query parameters an endpoint takes, and what query_args found. */
+typedef struct args_seen {
+    const char *const *known; /* NULL-terminated */
+    int count[8];             /* of each known name */
+    char unknown[64];         /* the first unknown name, or "" */
+    char twice[64];           /* the first known name given twice, or "" */
+} args_seen;
+
+static enum MHD_Result note_arg(void *cls, enum MHD_ValueKind kind,
+                                const char *key, const char *value)
+{
+    (void)kind;
+    (void)value;
+    args_seen *a = cls;
+    for (int i = 0; a->known[i] != NULL; i++)
+        if (key != NULL && strcmp(key, a->known[i]) == 0) {
+            if (++a->count[i] == 2 && a->twice[0] == '\0')
+                snprintf(a->twice, sizeof a->twice, "%s", key);
+            return MHD_YES;
+        }
+    if (a->unknown[0] == '\0')
+        snprintf(a->unknown, sizeof a->unknown, "%s",
+                 key != NULL && key[0] ? key : "(empty)");
+    return MHD_YES;
+}
+
+/* An unknown query parameter is refused, as an unknown key of a job is,
+ * rather than ignored (a misspelt filter would list everything, a
+ * misspelt ?wait= answer at once); so is one given twice, which would
+ * otherwise mean its first value.  0, or -1 with *e (422) naming it.
+ * `known` is NULL-terminated, at most 8 names; `list` says them. */
+static int query_args(struct MHD_Connection *c, const char *const *known,
+                      const char *list, lrd_err *e)
+{
+    args_seen a;
+    memset(&a, 0, sizeof a);
+    a.known = known;
+    MHD_get_connection_values(c, MHD_GET_ARGUMENT_KIND, note_arg, &a);
+    if (a.unknown[0] != '\0')
+        return lrd_fail(e, 422, "invalid_value", NULL,
+                        "unknown query parameter \"%s\" (expected %s)",
+                        a.unknown, list);
+    if (a.twice[0] != '\0')
+        return lrd_fail(e, 422, "invalid_value", a.twice,
+                        "query parameter \"%s\" given more than once",
+                        a.twice);
+    return 0;
+}
+
 /* A whole number in [lo, hi] from query argument `name`; *out keeps its
  * value when the argument is absent.  0, or -1 with *e (422). */
 static int query_long(struct MHD_Connection *c, const char *name, long lo,
@@ -426,7 +475,9 @@ static enum MHD_Result do_job(struct MHD_Connection *c, req *r)
     long wait = -1;
     /* ?wait=SECONDS: answer when the status changes (or after that long),
      * so that a client follows a job without polling. */
-    if (query_long(c, "wait", 0, 60, &wait, &e) != 0) {
+    static const char *const known[] = {"wait", NULL};
+    if (query_args(c, known, "wait", &e) != 0 ||
+        query_long(c, "wait", 0, 60, &wait, &e) != 0) {
         r->job_id[0] = '\0';
         return send_error(c, r, &e, NULL);
     }
@@ -600,38 +651,16 @@ static enum MHD_Result do_ui(struct MHD_Connection *c, req *r)
     return queue(c, r, 200, resp, f->len, f->content_type, hdrs);
 }
 
-/* Remembers the first query parameter that GET /v1/jobs does not know. */
-static enum MHD_Result unknown_arg(void *cls, enum MHD_ValueKind kind,
-                                   const char *key, const char *value)
-{
-    (void)kind;
-    (void)value;
-    static const char *const known[] = {"status", "key", "after", "limit"};
-    char *first = cls;
-    for (size_t i = 0; i < sizeof known / sizeof known[0]; i++)
-        if (key != NULL && strcmp(key, known[i]) == 0)
-            return MHD_YES;
-    if (first[0] == '\0')
-        snprintf(first, 64, "%s", key != NULL && key[0] ? key : "(empty)");
-    return MHD_YES;
-}
-
 /* GET /v1/jobs?status=S&key=K&after=ID&limit=N: this daemon's jobs. */
 static enum MHD_Result do_jobs_list(struct MHD_Connection *c, req *r)
 {
     lrd_err e;
     long limit = 100;
     int status = -1;
-    /* An unknown parameter is refused, as an unknown key of a job is,
-     * rather than ignored (a misspelt filter would list everything). */
-    char unknown[64] = "";
-    MHD_get_connection_values(c, MHD_GET_ARGUMENT_KIND, unknown_arg, unknown);
-    if (unknown[0] != '\0') {
-        lrd_fail(&e, 422, "invalid_value", NULL,
-                 "unknown query parameter \"%s\" (expected status, key, "
-                 "after, limit)", unknown);
+    static const char *const known[] = {"status", "key", "after", "limit",
+                                        NULL};
+    if (query_args(c, known, "status, key, after, limit", &e) != 0)
         return send_error(c, r, &e, NULL);
-    }
     const char *s = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND,
                                                 "status");
     if (s != NULL) {
