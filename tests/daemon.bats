@@ -836,6 +836,19 @@ EOF
     req GET "$URL/v1/jobs/$id"
     doc_example 'When done:'
     diff <(keys "$T/doc.json") <(keys)
+    # Every field of a status document, a keyed job's too, has its row in
+    # the field table (id, spp, format and idempotency_key had none).
+    req POST "$URL/v1/jobs" '{"scene": "tiny", "render": {"spp": 1}}' \
+        -H 'Idempotency-Key: doc-table'
+    expect 202
+    req GET "$URL/v1/jobs/$(json o.id)"
+    local fields
+    fields=$(awk -F'|' 'index($0, "### `GET /v1/jobs/{id}`") == 1 { on = 1; next }
+        on && /^### / { exit }
+        on && /^\| `/ { print $2 }' "$BATS_TEST_DIRNAME/../docs/api.md" |
+        grep -o '`[a-z_]*`' | tr -d '`' | sort -u)
+    [ -n "$fields" ]
+    diff <(json 'Object.keys(o).join("\n")' | sort -u | comm -23 - <(echo "$fields")) /dev/null
     # A cancelled job, as DELETE answers.
     start_daemon doc-cancel --workers 1
     req POST "$DURL/v1/jobs" "$(slow_job)"
