@@ -600,19 +600,33 @@ static enum MHD_Result do_ui(struct MHD_Connection *c, req *r)
     return queue(c, r, 200, resp, f->len, f->content_type, hdrs);
 }
 
-/* Remembers the first query parameter that GET /v1/jobs does not know. */
-static enum MHD_Result unknown_arg(void *cls, enum MHD_ValueKind kind,
-                                   const char *key, const char *value)
+/* The first query parameter of GET /v1/jobs that it does not know, or
+ * that came twice (?status=done&status=failed would list done jobs
+ * only, as if the second were not there). */
+typedef struct query_check {
+    unsigned seen;  /* a bit per known parameter */
+    int twice;      /* the bad one came twice, rather than being unknown */
+    char bad[64];
+} query_check;
+
+static enum MHD_Result check_arg(void *cls, enum MHD_ValueKind kind,
+                                 const char *key, const char *value)
 {
     (void)kind;
     (void)value;
     static const char *const known[] = {"status", "key", "after", "limit"};
-    char *first = cls;
+    query_check *q = cls;
+    if (q->bad[0] != '\0')
+        return MHD_YES;
     for (size_t i = 0; i < sizeof known / sizeof known[0]; i++)
-        if (key != NULL && strcmp(key, known[i]) == 0)
+        if (key != NULL && strcmp(key, known[i]) == 0) {
+            q->twice = (q->seen >> i) & 1u;
+            q->seen |= 1u << i;
+            if (q->twice)
+                snprintf(q->bad, sizeof q->bad, "%s", key);
             return MHD_YES;
-    if (first[0] == '\0')
-        snprintf(first, 64, "%s", key != NULL && key[0] ? key : "(empty)");
+        }
+    snprintf(q->bad, sizeof q->bad, "%s", key != NULL && key[0] ? key : "(empty)");
     return MHD_YES;
 }
 
@@ -624,12 +638,18 @@ static enum MHD_Result do_jobs_list(struct MHD_Connection *c, req *r)
     int status = -1;
     /* An unknown parameter is refused, as an unknown key of a job is,
      * rather than ignored (a misspelt filter would list everything). */
-    char unknown[64] = "";
-    MHD_get_connection_values(c, MHD_GET_ARGUMENT_KIND, unknown_arg, unknown);
-    if (unknown[0] != '\0') {
+    query_check q = {0, 0, ""};
+    MHD_get_connection_values(c, MHD_GET_ARGUMENT_KIND, check_arg, &q);
+    if (q.twice) {
+        lrd_fail(&e, 422, "invalid_value", q.bad,
+                 "the query parameter \"%s\" is given twice; give it once",
+                 q.bad);
+        return send_error(c, r, &e, NULL);
+    }
+    if (q.bad[0] != '\0') {
         lrd_fail(&e, 422, "invalid_value", NULL,
                  "unknown query parameter \"%s\" (expected status, key, "
-                 "after, limit)", unknown);
+                 "after, limit)", q.bad);
         return send_error(c, r, &e, NULL);
     }
     const char *s = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND,

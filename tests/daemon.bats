@@ -1103,6 +1103,16 @@ EOF
 @test "422 for valid JSON with an invalid value, naming its path" {
     req POST "$URL/v1/render" '[1, 2]'
     expect_error 422 invalid_value
+    # A query parameter given twice is refused, as a JSON key given twice
+    # is: the second one was ignored (?status=done&status=failed listed
+    # the done jobs alone).
+    req GET "$URL/v1/jobs?status=done&status=failed"
+    expect_error 422 invalid_value status
+    [[ "$(json o.error.message)" == *'"status" is given twice'* ]]
+    req GET "$URL/v1/jobs?limit=2&status=done&limit=3"
+    expect_error 422 invalid_value limit
+    req GET "$URL/v1/jobs?limit=2&status=done"
+    expect 200
     req POST "$URL/v1/render" '{"camera": {"fov": 30}}'
     expect_error 422 invalid_value scene
     req POST "$URL/v1/render" '{"scene": "tiny", "camera": {"fov": 500}}'
