@@ -419,14 +419,67 @@ static int query_long(struct MHD_Connection *c, const char *name, long lo,
     return 0;
 }
 
+/* The first query parameter a route does not know, or one that came
+ * twice (?status=done&status=failed would list done jobs only, as if the
+ * second were not there). */
+typedef struct query_check {
+    const char *const *known;
+    size_t n_known;
+    unsigned seen;  /* a bit per known parameter */
+    int twice;      /* the bad one came twice, rather than being unknown */
+    char bad[64];
+} query_check;
+
+static enum MHD_Result check_arg(void *cls, enum MHD_ValueKind kind,
+                                 const char *key, const char *value)
+{
+    (void)kind;
+    (void)value;
+    query_check *q = cls;
+    if (q->bad[0] != '\0')
+        return MHD_YES;
+    for (size_t i = 0; i < q->n_known; i++)
+        if (key != NULL && strcmp(key, q->known[i]) == 0) {
+            q->twice = (q->seen >> i) & 1u;
+            q->seen |= 1u << i;
+            if (q->twice)
+                snprintf(q->bad, sizeof q->bad, "%s", key);
+            return MHD_YES;
+        }
+    snprintf(q->bad, sizeof q->bad, "%s", key != NULL && key[0] ? key : "(empty)");
+    return MHD_YES;
+}
+
+/* Refuses (422) a query parameter that is not one of `known` (`list`
+ * names them for the message), or one given twice, rather than ignoring
+ * it: a misspelt filter would list everything, a misspelt ?wait would
+ * answer at once.  0, or -1 with *e filled. */
+static int check_query(struct MHD_Connection *c, const char *const *known,
+                       size_t n_known, const char *list, lrd_err *e)
+{
+    query_check q = {known, n_known, 0, 0, ""};
+    MHD_get_connection_values(c, MHD_GET_ARGUMENT_KIND, check_arg, &q);
+    if (q.twice)
+        return lrd_fail(e, 422, "invalid_value", q.bad,
+                        "the query parameter \"%s\" is given twice; give it "
+                        "once", q.bad);
+    if (q.bad[0] != '\0')
+        return lrd_fail(e, 422, "invalid_value", NULL,
+                        "unknown query parameter \"%s\" (expected %s)", q.bad,
+                        list);
+    return 0;
+}
+
 static enum MHD_Result do_job(struct MHD_Connection *c, req *r)
 {
     enum MHD_Result result = MHD_NO;
     lrd_err e;
     long wait = -1;
+    static const char *const known[] = {"wait"};
     /* ?wait=SECONDS: answer when the status changes (or after that long),
      * so that a client follows a job without polling. */
-    if (query_long(c, "wait", 0, 60, &wait, &e) != 0) {
+    if (check_query(c, known, 1, "wait", &e) != 0 ||
+        query_long(c, "wait", 0, 60, &wait, &e) != 0) {
         r->job_id[0] = '\0';
         return send_error(c, r, &e, NULL);
     }
@@ -600,36 +653,6 @@ static enum MHD_Result do_ui(struct MHD_Connection *c, req *r)
     return queue(c, r, 200, resp, f->len, f->content_type, hdrs);
 }
 
-/* The first query parameter of GET /v1/jobs that it does not know, or
- * that came twice (?status=done&status=failed would list done jobs
- * only, as if the second were not there). */
-typedef struct query_check {
-    unsigned seen;  /* a bit per known parameter */
-    int twice;      /* the bad one came twice, rather than being unknown */
-    char bad[64];
-} query_check;
-
-static enum MHD_Result check_arg(void *cls, enum MHD_ValueKind kind,
-                                 const char *key, const char *value)
-{
-    (void)kind;
-    (void)value;
-    static const char *const known[] = {"status", "key", "after", "limit"};
-    query_check *q = cls;
-    if (q->bad[0] != '\0')
-        return MHD_YES;
-    for (size_t i = 0; i < sizeof known / sizeof known[0]; i++)
-        if (key != NULL && strcmp(key, known[i]) == 0) {
-            q->twice = (q->seen >> i) & 1u;
-            q->seen |= 1u << i;
-            if (q->twice)
-                snprintf(q->bad, sizeof q->bad, "%s", key);
-            return MHD_YES;
-        }
-    snprintf(q->bad, sizeof q->bad, "%s", key != NULL && key[0] ? key : "(empty)");
-    return MHD_YES;
-}
-
 /* GET /v1/jobs?status=S&key=K&after=ID&limit=N: this daemon's jobs. */
 static enum MHD_Result do_jobs_list(struct MHD_Connection *c, req *r)
 {
@@ -638,20 +661,9 @@ static enum MHD_Result do_jobs_list(struct MHD_Connection *c, req *r)
     int status = -1;
     /* An unknown parameter is refused, as an unknown key of a job is,
      * rather than ignored (a misspelt filter would list everything). */
-    query_check q = {0, 0, ""};
-    MHD_get_connection_values(c, MHD_GET_ARGUMENT_KIND, check_arg, &q);
-    if (q.twice) {
-        lrd_fail(&e, 422, "invalid_value", q.bad,
-                 "the query parameter \"%s\" is given twice; give it once",
-                 q.bad);
+    static const char *const known[] = {"status", "key", "after", "limit"};
+    if (check_query(c, known, 4, "status, key, after, limit", &e) != 0)
         return send_error(c, r, &e, NULL);
-    }
-    if (q.bad[0] != '\0') {
-        lrd_fail(&e, 422, "invalid_value", NULL,
-                 "unknown query parameter \"%s\" (expected status, key, "
-                 "after, limit)", q.bad);
-        return send_error(c, r, &e, NULL);
-    }
     const char *s = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND,
                                                 "status");
     if (s != NULL) {

@@ -1113,6 +1113,17 @@ EOF
     expect_error 422 invalid_value limit
     req GET "$URL/v1/jobs?limit=2&status=done"
     expect 200
+    # A job's status takes ?wait alone: a misspelt one answered at once.
+    req POST "$URL/v1/jobs" '{"scene": "tiny", "render": {"spp": 1}}'
+    local id
+    id=$(json o.id)
+    req GET "$URL/v1/jobs/$id?waitt=5"
+    expect_error 422 invalid_value
+    [[ "$(json o.error.message)" == *'unknown query parameter "waitt" (expected wait)'* ]]
+    req GET "$URL/v1/jobs/$id?wait=1&wait=2"
+    expect_error 422 invalid_value wait
+    req GET "$URL/v1/jobs/$id?wait=0"
+    expect 200
     req POST "$URL/v1/render" '{"camera": {"fov": 30}}'
     expect_error 422 invalid_value scene
     req POST "$URL/v1/render" '{"scene": "tiny", "camera": {"fov": 500}}'
