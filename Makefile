@@ -573,7 +573,8 @@ install: all
 	ln -sf liblensray.so.$(VERSION) $(DESTDIR)$(PREFIX)/lib/liblensray.so
 	install -m 755 $(BUILD)/lensray $(DESTDIR)$(PREFIX)/bin/
 	if [ -x $(BUILD)/lensrayd ]; then install -m 755 $(BUILD)/lensrayd $(DESTDIR)$(PREFIX)/bin/; fi
-	sed -e 's|@PREFIX@|$(PREFIX)|' -e 's|@VERSION@|$(VERSION)|' lensray.pc.in \
+	sed -e 's|@PREFIX@|$(PREFIX)|' -e 's|@VERSION@|$(VERSION)|' \
+	  -e 's|@LIBS_PRIVATE@|$(strip $(LIB_LIBS))|' lensray.pc.in \
 	  > $(DESTDIR)$(PREFIX)/lib/pkgconfig/lensray.pc
 
 clean:

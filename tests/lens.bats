@@ -123,20 +123,3 @@ J
     run -3 "$LENSRAY" lens petzval --field-angles 95
     [[ "$output" == *"field angle 95"* ]]
 }
-
-@test "make install puts the shipped lenses where an installed lensray finds them" {
-    # Only the header, libraries and programs were installed, so on a
-    # machine without the source tree (docs/deploy.md's systemd unit)
-    # "lens": "double-gauss-50" and GET /v1/lenses found nothing.
-    local build="${LENSRAY_BUILD:-build}" root="$T/root"
-    run -0 make --no-print-directory -C "$REPO" install BUILD="$build" \
-        DESTDIR="$root" PREFIX=/usr/local
-    local dir="$root/usr/local/share/lensray/lenses" f
-    for f in "$REPO"/lenses/*.json; do
-        cmp "$f" "$dir/$(basename "$f")"
-    done
-    # The installed program reads them from there, by name.
-    LENSRAY_LENS_DIR="$dir" LD_LIBRARY_PATH="$root/usr/local/lib" \
-        run -0 "$root/usr/local/bin/lensray" lens double-gauss-50
-    [ "$(echo "$output" | j 'round(d["efl_mm"])')" = 50 ]
-}
