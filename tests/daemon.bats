@@ -496,6 +496,22 @@ EOF
     [[ "$output" == *"--token-file"* ]]
     [[ "$output" == *"LENSRAYD_TOKEN_FILE"* ]]
     [[ "$output" == *"LENSRAYD_SHUTDOWN_GRACE"* ]]
+    # --help gives each flag's default (it gave none), the one api.md's
+    # table states, whatever the environment says.
+    LENSRAYD_PORT=9 LENSRAYD_MAX_BODY=1k run -0 "$LENSRAYD" --help
+    local help="$output" flag default n=0
+    while IFS='|' read -r _ flag _ default _; do
+        flag=$(echo "$flag" | tr -d '` ')
+        default=$(echo "$default" | tr -d '` ')
+        [[ "$help" == *"--$flag "*"[LENSRAYD_"*"; default $default]"* ]] ||
+            { echo "--help lacks 'default $default' for --$flag" >&2; return 1; }
+        # (and it is that flag's line: the next flag comes after it)
+        [ "$(echo "$help" | grep -A1 -- "^  --$flag " | tail -1 |
+            sed 's/.*; default \(.*\)\]$/\1/')" = "$default" ]
+        n=$((n + 1))
+    done < <(grep '^| `--[a-z-]*` | `LENSRAYD_' "$BATS_TEST_DIRNAME/../docs/api.md" |
+             sed 's/^| `--\([a-z-]*\)`/|\1/')
+    [ "$n" -ge 20 ]
 }
 
 # ---- the token ----------------------------------------------------------------
