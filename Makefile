@@ -107,8 +107,11 @@ $(BUILD)/obj/lib/sampler.o: CFLAGS += $(if $(filter -O2,$(OPT)),-O3)
 $(BUILD)/obj/lib/exr_zip.o: CFLAGS += $(if $(filter -O2,$(OPT)),-O3)
 
 # The shipped lenses' directory, compiled in (LENSRAY_LENS_DIR overrides
-# it at run time): lib/rx_file.c.
-$(BUILD)/obj/lib/rx_file.o: CPPFLAGS += -DLR_LENS_DIR='"$(abspath lenses)"'
+# it at run time): lib/rx_file.c.  Where `make install` puts them is the
+# fallback for when the source tree is gone.
+LENS_INSTALL_DIR := $(PREFIX)/share/lensray/lenses
+$(BUILD)/obj/lib/rx_file.o: CPPFLAGS += -DLR_LENS_DIR='"$(abspath lenses)"' \
+                                        -DLR_LENS_INSTALL_DIR='"$(LENS_INSTALL_DIR)"'
 
 $(BUILD)/liblensray.a: $(LIB_OBJ)
 	@echo "  AR      $@"
@@ -565,7 +568,10 @@ $(BUILD)/accuracy/.deps-ok: Makefile
 
 install: all
 	install -d $(DESTDIR)$(PREFIX)/include $(DESTDIR)$(PREFIX)/lib \
-	  $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/lib/pkgconfig
+	  $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/lib/pkgconfig \
+	  $(DESTDIR)$(LENS_INSTALL_DIR)
+	install -m 644 $(wildcard $(addprefix lenses/*,.json .zmx .dat .txt)) \
+	  $(DESTDIR)$(LENS_INSTALL_DIR)/
 	install -m 644 include/lensray.h $(DESTDIR)$(PREFIX)/include/
 	install -m 644 $(BUILD)/liblensray.a $(DESTDIR)$(PREFIX)/lib/
 	install -m 755 $(BUILD)/liblensray.so.$(VERSION) $(DESTDIR)$(PREFIX)/lib/
@@ -573,7 +579,8 @@ install: all
 	ln -sf liblensray.so.$(VERSION) $(DESTDIR)$(PREFIX)/lib/liblensray.so
 	install -m 755 $(BUILD)/lensray $(DESTDIR)$(PREFIX)/bin/
 	if [ -x $(BUILD)/lensrayd ]; then install -m 755 $(BUILD)/lensrayd $(DESTDIR)$(PREFIX)/bin/; fi
-	sed -e 's|@PREFIX@|$(PREFIX)|' -e 's|@VERSION@|$(VERSION)|' lensray.pc.in \
+	sed -e 's|@PREFIX@|$(PREFIX)|' -e 's|@VERSION@|$(VERSION)|' \
+	  -e 's|@LIBS_PRIVATE@|$(strip $(LIB_LIBS))|' lensray.pc.in \
 	  > $(DESTDIR)$(PREFIX)/lib/pkgconfig/lensray.pc
 
 clean:

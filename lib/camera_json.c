@@ -25,9 +25,7 @@ static lr_status parse_chromatic(const cJSON *c, lr_camera *cam,
     static const char *const abbe_keys[] = {"n_d", "V_d", NULL};
     const char *path = "camera.chromatic";
     lr_chromatic *ch = &cam->chromatic;
-    if (!cJSON_IsObject(c))
-        return lr__fail(err, LR_ERR_INVALID, path,
-                        "%s must be an object", path);
+    LR_TRY(lr__json_object(c, path, "", err));
     LR_TRY(lr__json_check_keys(c, path, keys, err));
     int mode = (int)ch->mode, model = (int)ch->focal_model;
     LR_TRY(lr__json_enum(c, "mode", path, lr__chroma_mode_names, &mode,
@@ -57,11 +55,8 @@ static lr_status parse_chromatic(const cJSON *c, lr_camera *cam,
     }
     if (abbe != NULL) {
         const char *ap = "camera.chromatic.abbe";
-        if (!cJSON_IsObject(abbe))
-            return lr__fail(err, LR_ERR_INVALID, ap,
-                            "%s must be an object {\"n_d\": 1.5168, "
-                            "\"V_d\": 64.17}",
-                            ap);
+        LR_TRY(lr__json_object(abbe, ap,
+                               " {\"n_d\": 1.5168, \"V_d\": 64.17}", err));
         LR_TRY(lr__json_check_keys(abbe, ap, abbe_keys, err));
         LR_TRY(lr__json_number(abbe, "n_d", ap, 1, &ch->abbe_nd, err));
         LR_TRY(lr__json_number(abbe, "V_d", ap, 1, &ch->abbe_vd, err));
@@ -215,9 +210,7 @@ lr_status lr__camera_from_json(const cJSON *c, lr_camera *cam,
     const char *names[MAX_KEYS + 1];
     if (c == NULL)
         return LR_OK;
-    if (!cJSON_IsObject(c))
-        return lr__fail(err, LR_ERR_INVALID, "camera",
-                        "camera must be an object");
+    LR_TRY(lr__json_object(c, "camera", "", err));
     size_t n = all_keys(keys);
     for (size_t i = 0; i < n; i++)
         names[i] = keys[i]->name;

@@ -110,9 +110,8 @@ static lr_status check_shape(lr_job *job, lr_error *err)
     LR_TRY(lr__json_check_keys(root, "", keys, err));
     for (size_t i = 0; objects[i] != NULL; i++) {
         const cJSON *v = cJSON_GetObjectItemCaseSensitive(root, objects[i]);
-        if (v != NULL && !cJSON_IsObject(v))
-            return lr__fail(err, LR_ERR_INVALID, objects[i],
-                            "%s must be an object", objects[i]);
+        if (v != NULL)
+            LR_TRY(lr__json_object(v, objects[i], "", err));
     }
     const cJSON *scene = cJSON_GetObjectItemCaseSensitive(root, "scene");
     if (cJSON_IsString(scene)) {

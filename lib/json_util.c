@@ -158,6 +158,16 @@ static lr_status type_error(const char *path, const char *want,
                     want, desc);
 }
 
+lr_status lr__json_object(const cJSON *v, const char *path, const char *hint,
+                          lr_error *err)
+{
+    if (cJSON_IsObject(v))
+        return LR_OK;
+    char want[256];
+    snprintf(want, sizeof want, "an object%s", hint);
+    return type_error(path, want, v, err);
+}
+
 lr_status lr__json_check_keys(const cJSON *obj, const char *path,
                               const char *const *allowed, lr_error *err)
 {

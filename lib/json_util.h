@@ -57,6 +57,12 @@ size_t lr__json_depth_at(const char *s, size_t len, int max);
 /* "a string", "an array", "the number 3.5", ... for error messages. */
 void lr__json_describe(const cJSON *v, char *out, size_t n);
 
+/* LR_OK when `v` is an object; else "PATH must be an object[HINT], got
+ * the string \"...\"" (HINT, e.g. " like {\"format\": \"png\"}", may be
+ * ""), so that a shell that ate the quotes of --set 'x={"a": 1}' shows. */
+lr_status lr__json_object(const cJSON *v, const char *path, const char *hint,
+                          lr_error *err);
+
 /* Fails with an error naming the first key of `obj` that is not in the
  * NULL-terminated `allowed` list, or that appears twice. */
 lr_status lr__json_check_keys(const cJSON *obj, const char *path,

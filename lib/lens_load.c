@@ -153,6 +153,24 @@ done:
 
 /* ---- loading --------------------------------------------------------------- */
 
+/* Starts the message with the field, as every scene error does and as a
+ * mesh file's errors do ("camera.lens: my.json: surfaces[1]...", like
+ * "objects[0].file: x.obj:12: ..."), and makes it the error's path. */
+static lr_status name_field(lr_status st, const char *path, lr_error *err)
+{
+    if (err == NULL)
+        return st;
+    size_t n = strlen(path);
+    if (strncmp(err->message, path, n) != 0 ||
+        (err->message[n] != ':' && err->message[n] != ' ')) {
+        char msg[sizeof err->message];
+        snprintf(msg, sizeof msg, "%s: %s", path, err->message);
+        lr__fail(err, st, path, "%s", msg);
+    }
+    snprintf(err->path, sizeof err->path, "%s", path);
+    return st;
+}
+
 static lr_status load_named(const char *name, const char *base_dir,
                             const char *path, const lr_lens **out,
                             lr_error *err)
@@ -161,18 +179,13 @@ static lr_status load_named(const char *name, const char *base_dir,
     lr_status st = base_dir != NULL
                        ? lr__rx_find(name, base_dir, file, sizeof file, err)
                        : lr__rx_find_shipped(name, file, sizeof file, err);
-    if (st != LR_OK) {
-        if (err != NULL && err->path[0] == '\0') {
-            /* Name the field: "camera.lens: lens \"x\": no such file...". */
-            char msg[sizeof err->message];
-            snprintf(msg, sizeof msg, "%s: %s", path, err->message);
-            lr__fail(err, st, path, "%s", msg);
-        }
-        return st;
-    }
+    if (st != LR_OK)
+        return name_field(st, path, err);
     lr__rx rx;
     memset(&rx, 0, sizeof rx);
-    LR_TRY(lr__rx_load_file(file, name, path, &rx, err));
+    st = lr__rx_load_file(file, name, path, &rx, err);
+    if (st != LR_OK)
+        return name_field(st, path, err);
     char *ref = strdup(name);
     if (ref == NULL)
         return lr__fail(err, LR_ERR_NOMEM, path, "out of memory");

@@ -29,10 +29,7 @@ lr_status lr__output_apply_cjson(lr_output *o, const cJSON *obj,
     const char *path = "output";
     if (obj == NULL)
         return LR_OK;
-    if (!cJSON_IsObject(obj))
-        return lr__fail(err, LR_ERR_INVALID, path,
-                        "output must be an object like {\"format\": "
-                        "\"png\"}");
+    LR_TRY(lr__json_object(obj, path, " like {\"format\": \"png\"}", err));
     LR_TRY(lr__json_check_keys(obj, path, keys, err));
     lr_output t = *o;
     const cJSON *fmt = cJSON_GetObjectItemCaseSensitive(obj, "format");

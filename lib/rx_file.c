@@ -19,6 +19,9 @@
 #ifndef LR_LENS_DIR
 #define LR_LENS_DIR "lenses"
 #endif
+#ifndef LR_LENS_INSTALL_DIR
+#define LR_LENS_INSTALL_DIR "/usr/local/share/lensray/lenses"
+#endif
 
 /* A lens file is small; 1 MiB leaves a hundredfold margin. */
 #define MAX_LENS_BYTES (1u << 20)
@@ -42,12 +45,6 @@ int lr__rx_decimal(const char *word, double *x)
     return end != word && *end == '\0' ? 0 : -1;
 }
 
-static const char *lens_dir(void)
-{
-    const char *d = getenv("LENSRAY_LENS_DIR");
-    return d != NULL && d[0] ? d : LR_LENS_DIR;
-}
-
 static int is_file(const char *p)
 {
     struct stat sb;
@@ -58,6 +55,19 @@ static int is_dir(const char *p)
 {
     struct stat sb;
     return stat(p, &sb) == 0 && S_ISDIR(sb.st_mode);
+}
+
+/* $LENSRAY_LENS_DIR, else the source tree's lenses/, else where `make
+ * install` put them: an installed lensrayd whose build tree is gone still
+ * has the shipped lenses. */
+static const char *lens_dir(void)
+{
+    const char *d = getenv("LENSRAY_LENS_DIR");
+    if (d != NULL && d[0])
+        return d;
+    return is_dir(LR_LENS_DIR) || !is_dir(LR_LENS_INSTALL_DIR)
+               ? LR_LENS_DIR
+               : LR_LENS_INSTALL_DIR;
 }
 
 static int cmp(const void *a, const void *b)

@@ -39,9 +39,9 @@ static lr_status parse_materials(lr_scene *s, const cJSON *mats,
     char p[LR__PATH_MAX];
     lr_status st;
     size_t n = 1; /* slot 0 is the default material */
-    if (mats != NULL && !cJSON_IsObject(mats))
-        return lr__fail(err, LR_ERR_INVALID, "materials",
-                        "materials must be an object of named materials");
+    if (mats != NULL)
+        LR_TRY(lr__json_object(mats, "materials", " of named materials",
+                               err));
     if (mats != NULL)
         n += (size_t)cJSON_GetArraySize(mats);
     s->materials = calloc(n, sizeof *s->materials);
@@ -66,9 +66,7 @@ static lr_status parse_materials(lr_scene *s, const cJSON *mats,
             if (strcmp(d->string, m->string) == 0)
                 return lr__fail(err, LR_ERR_INVALID, p,
                                 "%s: duplicate material name", p);
-        if (!cJSON_IsObject(m))
-            return lr__fail(err, LR_ERR_INVALID, p,
-                            "%s must be an object", p);
+        LR_TRY(lr__json_object(m, p, "", err));
         st = lr__json_check_keys(m, p, keys, err);
         if (st != LR_OK)
             return st;
@@ -161,9 +159,7 @@ static lr_status parse_lights(lr_scene *s, const cJSON *lights,
     size_t i = 0;
     for (const cJSON *l = lights->child; l; l = l->next, i++) {
         lr__path_index(p, "lights", i);
-        if (!cJSON_IsObject(l))
-            return lr__fail(err, LR_ERR_INVALID, p, "%s must be an object",
-                            p);
+        LR_TRY(lr__json_object(l, p, "", err));
         const char *type = NULL;
         LR_TRY(lr__json_string(l, "type", p, 1, &type, err));
         if (strcmp(type, "point") == 0) {
@@ -301,8 +297,7 @@ static lr_status parse_object(lr_scene *s, const cJSON *o, const char *p,
                                             "camera", NULL};
     char q[LR__PATH_MAX];
     const char *type = NULL;
-    if (!cJSON_IsObject(o))
-        return lr__fail(err, LR_ERR_INVALID, p, "%s must be an object", p);
+    LR_TRY(lr__json_object(o, p, "", err));
     LR_TRY(lr__json_string(o, "type", p, 1, &type, err));
     const char *const *keys = strcmp(type, "sphere") == 0     ? keys_sphere
                               : strcmp(type, "plane") == 0    ? keys_plane
@@ -467,9 +462,7 @@ static lr_status parse_accel(lr_scene *s, const cJSON *a, lr_error *err)
     static const char *const keys[] = {"robust", NULL};
     if (a == NULL)
         return LR_OK;
-    if (!cJSON_IsObject(a))
-        return lr__fail(err, LR_ERR_INVALID, "accel",
-                        "accel must be an object {\"robust\": true|false}");
+    LR_TRY(lr__json_object(a, "accel", " {\"robust\": true|false}", err));
     LR_TRY(lr__json_check_keys(a, "accel", keys, err));
     int robust = 1;
     LR_TRY(lr__json_bool(a, "robust", "accel", 0, &robust, err));
@@ -487,10 +480,8 @@ static lr_status parse_environment(lr_scene *s, const cJSON *e,
     const char *p = "environment";
     if (e == NULL)
         return LR_OK;
-    if (!cJSON_IsObject(e))
-        return lr__fail(err, LR_ERR_INVALID, p,
-                        "environment must be an object {\"file\", "
-                        "\"intensity\", \"rotation_deg\"}");
+    LR_TRY(lr__json_object(e, p, " {\"file\", \"intensity\", \"rotation_deg\"}",
+                           err));
     LR_TRY(lr__json_check_keys(e, p, keys, err));
     const char *file = NULL;
     double intensity = 1.0, rot = 0.0;

@@ -20,9 +20,7 @@ lr_status lr__settings_from_json(const cJSON *r, lr_render_settings *rs,
                                        "integrator", NULL};
     if (r == NULL)
         return LR_OK;
-    if (!cJSON_IsObject(r))
-        return lr__fail(err, LR_ERR_INVALID, "render",
-                        "render must be an object");
+    LR_TRY(lr__json_object(r, "render", "", err));
     LR_TRY(lr__json_check_keys(r, "render", keys, err));
     long long w = rs->width, h = rs->height, spp = rs->spp,
               depth = rs->max_depth, th = rs->threads, tile = rs->tile_size;

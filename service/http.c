@@ -401,55 +401,6 @@ static lrd_job *find_or_404(struct MHD_Connection *c, req *r,
     return j;
 }
 
-/* The query parameters an endpoint takes, and what query_args found. */
-typedef struct args_seen {
-    const char *const *known; /* NULL-terminated */
-    int count[8];             /* of each known name */
-    char unknown[64];         /* the first unknown name, or "" */
-    char twice[64];           /* the first known name given twice, or "" */
-} args_seen;
-
-static enum MHD_Result note_arg(void *cls, enum MHD_ValueKind kind,
-                                const char *key, const char *value)
-{
-    (void)kind;
-    (void)value;
-    args_seen *a = cls;
-    for (int i = 0; a->known[i] != NULL; i++)
-        if (key != NULL && strcmp(key, a->known[i]) == 0) {
-            if (++a->count[i] == 2 && a->twice[0] == '\0')
-                snprintf(a->twice, sizeof a->twice, "%s", key);
-            return MHD_YES;
-        }
-    if (a->unknown[0] == '\0')
-        snprintf(a->unknown, sizeof a->unknown, "%s",
-                 key != NULL && key[0] ? key : "(empty)");
-    return MHD_YES;
-}
-
-/* An unknown query parameter is refused, as an unknown key of a job is,
- * rather than ignored (a misspelt filter would list everything, a
- * misspelt ?wait= answer at once); so is one given twice, which would
- * otherwise mean its first value.  0, or -1 with *e (422) naming it.
- * `known` is NULL-terminated, at most 8 names; `list` says them. */
-static int query_args(struct MHD_Connection *c, const char *const *known,
-                      const char *list, lrd_err *e)
-{
-    args_seen a;
-    memset(&a, 0, sizeof a);
-    a.known = known;
-    MHD_get_connection_values(c, MHD_GET_ARGUMENT_KIND, note_arg, &a);
-    if (a.unknown[0] != '\0')
-        return lrd_fail(e, 422, "invalid_value", NULL,
-                        "unknown query parameter \"%s\" (expected %s)",
-                        a.unknown, list);
-    if (a.twice[0] != '\0')
-        return lrd_fail(e, 422, "invalid_value", a.twice,
-                        "query parameter \"%s\" given more than once",
-                        a.twice);
-    return 0;
-}
-
 /* A whole number in [lo, hi] from query argument `name`; *out keeps its
  * value when the argument is absent.  0, or -1 with *e (422). */
 static int query_long(struct MHD_Connection *c, const char *name, long lo,
@@ -468,15 +419,66 @@ static int query_long(struct MHD_Connection *c, const char *name, long lo,
     return 0;
 }
 
+/* The first query parameter a route does not know, or one that came
+ * twice (?status=done&status=failed would list done jobs only, as if the
+ * second were not there). */
+typedef struct query_check {
+    const char *const *known;
+    size_t n_known;
+    unsigned seen;  /* a bit per known parameter */
+    int twice;      /* the bad one came twice, rather than being unknown */
+    char bad[64];
+} query_check;
+
+static enum MHD_Result check_arg(void *cls, enum MHD_ValueKind kind,
+                                 const char *key, const char *value)
+{
+    (void)kind;
+    (void)value;
+    query_check *q = cls;
+    if (q->bad[0] != '\0')
+        return MHD_YES;
+    for (size_t i = 0; i < q->n_known; i++)
+        if (key != NULL && strcmp(key, q->known[i]) == 0) {
+            q->twice = (q->seen >> i) & 1u;
+            q->seen |= 1u << i;
+            if (q->twice)
+                snprintf(q->bad, sizeof q->bad, "%s", key);
+            return MHD_YES;
+        }
+    snprintf(q->bad, sizeof q->bad, "%s", key != NULL && key[0] ? key : "(empty)");
+    return MHD_YES;
+}
+
+/* Refuses (422) a query parameter that is not one of `known` (`list`
+ * names them for the message), or one given twice, rather than ignoring
+ * it: a misspelt filter would list everything, a misspelt ?wait would
+ * answer at once.  0, or -1 with *e filled. */
+static int check_query(struct MHD_Connection *c, const char *const *known,
+                       size_t n_known, const char *list, lrd_err *e)
+{
+    query_check q = {known, n_known, 0, 0, ""};
+    MHD_get_connection_values(c, MHD_GET_ARGUMENT_KIND, check_arg, &q);
+    if (q.twice)
+        return lrd_fail(e, 422, "invalid_value", q.bad,
+                        "the query parameter \"%s\" is given twice; give it "
+                        "once", q.bad);
+    if (q.bad[0] != '\0')
+        return lrd_fail(e, 422, "invalid_value", NULL,
+                        "unknown query parameter \"%s\" (expected %s)", q.bad,
+                        list);
+    return 0;
+}
+
 static enum MHD_Result do_job(struct MHD_Connection *c, req *r)
 {
     enum MHD_Result result = MHD_NO;
     lrd_err e;
     long wait = -1;
+    static const char *const known[] = {"wait"};
     /* ?wait=SECONDS: answer when the status changes (or after that long),
      * so that a client follows a job without polling. */
-    static const char *const known[] = {"wait", NULL};
-    if (query_args(c, known, "wait", &e) != 0 ||
+    if (check_query(c, known, 1, "wait", &e) != 0 ||
         query_long(c, "wait", 0, 60, &wait, &e) != 0) {
         r->job_id[0] = '\0';
         return send_error(c, r, &e, NULL);
@@ -657,9 +659,10 @@ static enum MHD_Result do_jobs_list(struct MHD_Connection *c, req *r)
     lrd_err e;
     long limit = 100;
     int status = -1;
-    static const char *const known[] = {"status", "key", "after", "limit",
-                                        NULL};
-    if (query_args(c, known, "status, key, after, limit", &e) != 0)
+    /* An unknown parameter is refused, as an unknown key of a job is,
+     * rather than ignored (a misspelt filter would list everything). */
+    static const char *const known[] = {"status", "key", "after", "limit"};
+    if (check_query(c, known, 4, "status, key, after, limit", &e) != 0)
         return send_error(c, r, &e, NULL);
     const char *s = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND,
                                                 "status");

@@ -190,6 +190,40 @@ static int set_opt(const opt *o, const char *value, const char *from)
     return -1;
 }
 
+/* Each option's default as its flag would spell it ("8080", "64M",
+ * "none"), taken before the environment and the command line apply. */
+static char defaults[N_OPTS][32];
+
+static void opt_text(const opt *o, char *out, size_t n)
+{
+    uint64_t v;
+    switch (o->type) {
+    case T_STR:
+        snprintf(out, n, "%s", ((char *)o->ptr)[0] ? (char *)o->ptr : "none");
+        return;
+    case T_LONG:
+        snprintf(out, n, "%ld", *(long *)o->ptr);
+        return;
+    case T_FLAG:
+        snprintf(out, n, "%s", *(long *)o->ptr ? "on" : "off");
+        return;
+    case T_SECS:
+        snprintf(out, n, "%g", *(double *)o->ptr);
+        return;
+    case T_U64:
+        v = *(uint64_t *)o->ptr;
+        if (o->size && v > 0 && v % (1u << 30) == 0)
+            snprintf(out, n, "%lluG", (unsigned long long)(v >> 30));
+        else if (o->size && v > 0 && v % (1u << 20) == 0)
+            snprintf(out, n, "%lluM", (unsigned long long)(v >> 20));
+        else if (o->size && v > 0 && v % (1u << 10) == 0)
+            snprintf(out, n, "%lluk", (unsigned long long)(v >> 10));
+        else
+            snprintf(out, n, "%llu", (unsigned long long)v);
+        return;
+    }
+}
+
 static void usage(FILE *f)
 {
     fprintf(f, "usage: lensrayd [options]\n\n"
@@ -199,8 +233,8 @@ static void usage(FILE *f)
     for (size_t i = 0; i < N_OPTS; i++) {
         char env[64];
         env_name(opts[i].name, env, sizeof env);
-        fprintf(f, "  --%-24s %s\n  %-26s [%s]\n", opts[i].name,
-                opts[i].help, "", env);
+        fprintf(f, "  --%-24s %s\n  %-26s [%s; default %s]\n", opts[i].name,
+                opts[i].help, "", env, defaults[i]);
     }
     fprintf(f, "  --help                     this text\n"
                "  --version                  print the version\n\n"
@@ -221,6 +255,8 @@ static const opt *find_opt(const char *name, size_t len)
 static int configure(int argc, char **argv)
 {
     lrd_config_defaults();
+    for (size_t i = 0; i < N_OPTS; i++)
+        opt_text(&opts[i], defaults[i], sizeof defaults[i]);
     for (size_t i = 0; i < N_OPTS; i++) {
         char env[64], from[96];
         env_name(opts[i].name, env, sizeof env);

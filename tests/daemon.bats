@@ -496,6 +496,22 @@ EOF
     [[ "$output" == *"--token-file"* ]]
     [[ "$output" == *"LENSRAYD_TOKEN_FILE"* ]]
     [[ "$output" == *"LENSRAYD_SHUTDOWN_GRACE"* ]]
+    # --help gives each flag's default (it gave none), the one api.md's
+    # table states, whatever the environment says.
+    LENSRAYD_PORT=9 LENSRAYD_MAX_BODY=1k run -0 "$LENSRAYD" --help
+    local help="$output" flag default n=0
+    while IFS='|' read -r _ flag _ default _; do
+        flag=$(echo "$flag" | tr -d '` ')
+        default=$(echo "$default" | tr -d '` ')
+        [[ "$help" == *"--$flag "*"[LENSRAYD_"*"; default $default]"* ]] ||
+            { echo "--help lacks 'default $default' for --$flag" >&2; return 1; }
+        # (and it is that flag's line: the next flag comes after it)
+        [ "$(echo "$help" | grep -A1 -- "^  --$flag " | tail -1 |
+            sed 's/.*; default \(.*\)\]$/\1/')" = "$default" ]
+        n=$((n + 1))
+    done < <(grep '^| `--[a-z-]*` | `LENSRAYD_' "$BATS_TEST_DIRNAME/../docs/api.md" |
+             sed 's/^| `--\([a-z-]*\)`/|\1/')
+    [ "$n" -ge 20 ]
 }
 
 # ---- the token ----------------------------------------------------------------
@@ -836,6 +852,19 @@ EOF
     req GET "$URL/v1/jobs/$id"
     doc_example 'When done:'
     diff <(keys "$T/doc.json") <(keys)
+    # Every field of a status document, a keyed job's too, has its row in
+    # the field table (id, spp, format and idempotency_key had none).
+    req POST "$URL/v1/jobs" '{"scene": "tiny", "render": {"spp": 1}}' \
+        -H 'Idempotency-Key: doc-table'
+    expect 202
+    req GET "$URL/v1/jobs/$(json o.id)"
+    local fields
+    fields=$(awk -F'|' 'index($0, "### `GET /v1/jobs/{id}`") == 1 { on = 1; next }
+        on && /^### / { exit }
+        on && /^\| `/ { print $2 }' "$BATS_TEST_DIRNAME/../docs/api.md" |
+        grep -o '`[a-z_]*`' | tr -d '`' | sort -u)
+    [ -n "$fields" ]
+    diff <(json 'Object.keys(o).join("\n")' | sort -u | comm -23 - <(echo "$fields")) /dev/null
     # A cancelled job, as DELETE answers.
     start_daemon doc-cancel --workers 1
     req POST "$DURL/v1/jobs" "$(slow_job)"
@@ -1090,6 +1119,27 @@ EOF
 @test "422 for valid JSON with an invalid value, naming its path" {
     req POST "$URL/v1/render" '[1, 2]'
     expect_error 422 invalid_value
+    # A query parameter given twice is refused, as a JSON key given twice
+    # is: the second one was ignored (?status=done&status=failed listed
+    # the done jobs alone).
+    req GET "$URL/v1/jobs?status=done&status=failed"
+    expect_error 422 invalid_value status
+    [[ "$(json o.error.message)" == *'"status" is given twice'* ]]
+    req GET "$URL/v1/jobs?limit=2&status=done&limit=3"
+    expect_error 422 invalid_value limit
+    req GET "$URL/v1/jobs?limit=2&status=done"
+    expect 200
+    # A job's status takes ?wait alone: a misspelt one answered at once.
+    req POST "$URL/v1/jobs" '{"scene": "tiny", "render": {"spp": 1}}'
+    local id
+    id=$(json o.id)
+    req GET "$URL/v1/jobs/$id?waitt=5"
+    expect_error 422 invalid_value
+    [[ "$(json o.error.message)" == *'unknown query parameter "waitt" (expected wait)'* ]]
+    req GET "$URL/v1/jobs/$id?wait=1&wait=2"
+    expect_error 422 invalid_value wait
+    req GET "$URL/v1/jobs/$id?wait=0"
+    expect 200
     req POST "$URL/v1/render" '{"camera": {"fov": 30}}'
     expect_error 422 invalid_value scene
     req POST "$URL/v1/render" '{"scene": "tiny", "camera": {"fov": 500}}'

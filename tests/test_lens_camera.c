@@ -284,6 +284,31 @@ static void test_lens_written_back(void **state)
     lr_scene_free(s);
 }
 
+/* A lens file's own errors start with the field that named it, as a mesh
+ * file's do: they began with the file ("bad-lens.json: surfaces must
+ * be..."), so the daemon's inline scenes showed "scene: bad-lens.json". */
+static void test_lens_file_errors_start_with_the_field(void **state)
+{
+    (void)state;
+    char path[512];
+    static const char bad[] = "{\"name\": \"x\", \"surfaces\": []}";
+    lr_test_write_file("bad-lens.json", bad, strlen(bad), path, sizeof path);
+    static const char *const scenes[] = {
+        "{\"camera\": {\"model\": \"lens\", \"lens\": \"bad-lens.json\"}}",
+        "{\"camera\": {\"model\": \"lens\", \"lens\": \"no-lens.json\"}}"};
+    for (int i = 0; i < 2; i++)
+        lr_test_expect_invalid(scenes[i], strlen(scenes[i]), "camera.lens",
+                               scenes[i]);
+    lr_scene *sc = NULL;
+    lr_error err;
+    assert_int_equal(lr_scene_load_json(scenes[0], strlen(scenes[0]),
+                                        lr_test_tmpdir(), NULL, 0, &sc, &err),
+                     LR_ERR_INVALID);
+    remove(path);
+    assert_string_equal(err.message, "camera.lens: bad-lens.json: surfaces "
+                                     "must be a non-empty array of surfaces");
+}
+
 /* An override (a daemon job's camera, lr_camera_apply_json) has no scene
  * directory, so a plain name is a shipped lens only: a lens file in the
  * working directory, the server's, is neither opened nor told apart from
@@ -639,6 +664,7 @@ static const struct CMUnitTest lens_camera_tests[] = {
     cmocka_unit_test(test_errors_name_the_field),
     cmocka_unit_test(test_lens_written_back),
     cmocka_unit_test(test_override_opens_no_working_directory_file),
+    cmocka_unit_test(test_lens_file_errors_start_with_the_field),
     cmocka_unit_test(test_pupil_bounds_lose_no_light),
     cmocka_unit_test(test_packets_together_as_alone),
     cmocka_unit_test(test_point_image_where_the_lens_puts_it),

@@ -338,6 +338,12 @@ static void test_job_parse_errors(void **state)
     /* Brackets inside strings are not nesting; a lower limit holds. */
     lr_job *job = NULL;
     lr_error err;
+    /* A job's object that is not one says what it is. */
+    assert_int_equal(parse("{\"scene\": \"a\", \"output\": \"png\"}", &job,
+                           &err),
+                     LR_ERR_INVALID);
+    assert_string_equal(err.message,
+                        "output must be an object, got the string \"png\"");
     assert_int_equal(parse("{\"scene\": \"[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[["
                            "[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[\"}",
                            &job, &err),
