@@ -71,6 +71,15 @@ void lr__gltf_doc_free(lr__gltf_doc *d)
 
 /* ---- small readers ------------------------------------------------------ */
 
+/* "path.key", or "key" alone for a member of the document's root (path
+ * ""), so that no message starts with a lone dot. */
+static const char *dotted(const char *path, const char *key, char *buf,
+                          size_t n)
+{
+    snprintf(buf, n, "%s%s%s", path, *path ? "." : "", key);
+    return buf;
+}
+
 /* An optional non-negative integer member below `lim` (lim 0: no limit);
  * *out = dflt when absent. */
 static lr_status get_uint(const lr__gltf_doc *d, const cJSON *o,
@@ -82,12 +91,13 @@ static lr_status get_uint(const lr__gltf_doc *d, const cJSON *o,
     if (v == NULL)
         return LR_OK;
     double x = cJSON_IsNumber(v) ? v->valuedouble : -1;
+    char f[200];
     if (!(x >= 0 && x == floor(x) && x <= 4e9 && (lim == 0 || x < lim))) {
         if (lim > 0)
-            return lr__gltf_fail(d, err, "%s.%s must be an index below %.0f",
-                                 path, key, lim);
-        return lr__gltf_fail(d, err, "%s.%s must be a whole number >= 0",
-                             path, key);
+            return lr__gltf_fail(d, err, "%s must be an index below %.0f",
+                                 dotted(path, key, f, sizeof f), lim);
+        return lr__gltf_fail(d, err, "%s must be a whole number >= 0",
+                             dotted(path, key, f, sizeof f));
     }
     *out = (long long)x;
     return LR_OK;
@@ -102,9 +112,11 @@ static lr_status get_index(const lr__gltf_doc *d, const cJSON *o,
     *out = -1;
     if (v == NULL)
         return LR_OK;
+    char f[200];
     if (n == 0)
-        return lr__gltf_fail(d, err, "%s.%s refers to an element of an "
-                             "empty or missing array", path, key);
+        return lr__gltf_fail(d, err, "%s refers to an element of an "
+                             "empty or missing array",
+                             dotted(path, key, f, sizeof f));
     return get_uint(d, o, path, key, n, -1, out, err);
 }
 

@@ -716,6 +716,22 @@ static void expect_bad(const char *name, const char *key, const char *value,
     expect_file_error(name, status, what);
 }
 
+/* A member of the document's root is named alone ("scene", not
+ * ".scene"): scene 5 of a file without scenes. */
+static void test_root_member_error(void **state)
+{
+    (void)state;
+    make("tri", "tri.gltf");
+    cJSON *root = read_json("tri.gltf");
+    cJSON_DeleteItemFromObject(root, "scenes");
+    cJSON_DeleteItemFromObject(root, "scene");
+    cJSON_AddNumberToObject(root, "scene", 5);
+    write_json("noscenes.gltf", root);
+    expect_file_error("noscenes.gltf", LR_ERR_INVALID,
+                      "noscenes.gltf: scene refers to an element of an "
+                      "empty or missing array");
+}
+
 static void test_hostile(void **state)
 {
     (void)state;
@@ -853,5 +869,6 @@ static const struct CMUnitTest tests[] = {
     cmocka_unit_test(test_texture_transform),
     cmocka_unit_test(test_normal_map),
     cmocka_unit_test(test_hostile),
+    cmocka_unit_test(test_root_member_error),
 };
 LR_TEST_GROUP(gltf, tests)
