@@ -14,7 +14,9 @@
  * (glTF 2.0, 3.7.2.1) are decoded here into floats, c / 255 or
  * c / 65535, and given to assimp as float accessors in one more buffer:
  * assimp 5.2 copies such an accessor's raw bytes into its floats, which
- * textured a quad with a few texels of garbage.
+ * textured a quad with a few texels of garbage.  Sparse and zero-filled
+ * accessors (3.6.2.3) reach assimp the same way, as plain accessors over
+ * the copies gltf_check.c made of them.
  */
 #include "gltf_doc.h"
 #include "json_util.h"
@@ -78,65 +80,104 @@ static int copy_array(cJSON *dst, const cJSON *root, const char *key,
     return 1;
 }
 
-/* The floats assimp gets for integer texture coordinates: buffer
- * `index` (one past the document's), `n` floats. */
-typedef struct uv_buffer {
-    float *data;
+/* The bytes assimp gets beyond the document's buffers, in one more
+ * buffer (`index`, one past the document's): floats for integer texture
+ * coordinates and the dense copies of accessors (gltf_check.c). */
+typedef struct extra_buffer {
+    unsigned char *data;
     size_t n, cap;
     size_t index;
-} uv_buffer;
+} extra_buffer;
 
 static const cJSON *item(const cJSON *o, const char *k)
 {
     return cJSON_GetObjectItemCaseSensitive(o, k);
 }
 
-/* Appends the floats of integer TEXCOORD accessor a of the document
- * (componentType 5121 or 5123, VEC2, bounds checked by gltf_check.c) to
- * u; its first float's index in *at.  0 on no memory. */
-static int decode_uv(const lr__gltf_doc *d, const cJSON *a, uv_buffer *u,
-                     size_t *at)
+/* Room for `n` more bytes after padding to 4 (a float's alignment, which
+ * glTF asks of every accessor); the offset where they go in *at, or 0 on
+ * no memory. */
+static int extra_grow(extra_buffer *u, size_t n, size_t *at)
 {
-    int n;
-    const cJSON *v = cJSON_GetArrayItem(lr__gltf_array(d->root,
-                                                       "bufferViews", &n),
-                                        (int)cJSON_GetNumberValue(
-                                            item(a, "bufferView")));
-    const struct lr__gltf_buffer *b =
-        &d->buffers[(size_t)cJSON_GetNumberValue(item(v, "buffer"))];
-    int ct = (int)cJSON_GetNumberValue(item(a, "componentType"));
-    size_t cs = ct == 5121 ? 1 : 2;
-    const cJSON *vs = item(v, "byteStride");
-    size_t stride = vs ? (size_t)vs->valuedouble : 2 * cs;
-    const cJSON *vo = item(v, "byteOffset"), *ao = item(a, "byteOffset");
-    size_t off = (size_t)(vo ? vo->valuedouble : 0) +
-                 (size_t)(ao ? ao->valuedouble : 0);
-    size_t count = (size_t)cJSON_GetNumberValue(item(a, "count"));
-    if (u->n + 2 * count > u->cap) {
-        size_t cap = 2 * (u->n + 2 * count);
-        float *p = realloc(u->data, cap * sizeof *p);
+    size_t start = (u->n + 3) & ~(size_t)3;
+    if (start + n > u->cap) {
+        size_t cap = 2 * (start + n);
+        unsigned char *p = realloc(u->data, cap);
         if (p == NULL)
             return 0;
         u->data = p, u->cap = cap;
     }
-    *at = u->n;
-    for (size_t i = 0; i < count; i++)
+    memset(u->data + u->n, 0, start - u->n);
+    *at = start;
+    u->n = start + n;
+    return 1;
+}
+
+/* A new bufferView of the extra buffer over bytes [at, at + n) in the
+ * reduced copy r, and an accessor of it replacing accessors[k]; `like` is
+ * the accessor whose type, count and normalized flag it keeps (NULL:
+ * VEC2 floats of `count`). */
+static int extra_accessor(cJSON *r, const extra_buffer *u, int k,
+                          size_t at, size_t n, double ct, double count,
+                          const cJSON *like)
+{
+    cJSON *views = cJSON_GetObjectItemCaseSensitive(r, "bufferViews");
+    if (views == NULL)
+        views = cJSON_AddArrayToObject(r, "bufferViews");
+    cJSON *view = cJSON_CreateObject();
+    if (views == NULL || view == NULL || !cJSON_AddItemToArray(views, view)) {
+        cJSON_Delete(view);
+        return 0;
+    }
+    cJSON *fa = cJSON_CreateObject();
+    const cJSON *norm = item(like, "normalized");
+    int ok = fa != NULL &&
+             cJSON_AddNumberToObject(view, "buffer", (double)u->index) &&
+             cJSON_AddNumberToObject(view, "byteOffset", (double)at) &&
+             cJSON_AddNumberToObject(view, "byteLength", (double)n) &&
+             cJSON_AddNumberToObject(fa, "bufferView",
+                                     cJSON_GetArraySize(views) - 1) &&
+             cJSON_AddNumberToObject(fa, "componentType", ct) &&
+             cJSON_AddNumberToObject(fa, "count", count) &&
+             cJSON_AddStringToObject(fa, "type",
+                                     like ? item(like, "type")->valuestring
+                                          : "VEC2") &&
+             (!cJSON_IsTrue(norm) || cJSON_AddTrueToObject(fa, "normalized"));
+    if (ok)
+        ok = cJSON_ReplaceItemInArray(
+            cJSON_GetObjectItemCaseSensitive(r, "accessors"), k, fa);
+    else
+        cJSON_Delete(fa);
+    return ok;
+}
+
+/* The floats of integer TEXCOORD accessor k of the document
+ * (componentType 5121 or 5123, VEC2, checked by gltf_check.c) appended
+ * to u; where they start in *at.  0 on no memory. */
+static int decode_uv(const lr__gltf_doc *d, int k, extra_buffer *u,
+                     size_t *at)
+{
+    size_t stride, cs;
+    long long count;
+    const unsigned char *base = lr__gltf_accessor_at(d, k, &stride, &count,
+                                                     &cs);
+    if (!extra_grow(u, (size_t)count * 2 * sizeof(float), at))
+        return 0;
+    float *f = (float *)(u->data + *at);
+    for (size_t i = 0; i < (size_t)count; i++)
         for (size_t c = 0; c < 2; c++) {
-            const unsigned char *q = b->data + off + i * stride + c * cs;
-            u->data[u->n++] = cs == 1 ? q[0] / 255.0f
-                                      : (float)(q[0] | q[1] << 8) / 65535.0f;
+            const unsigned char *q = base + i * stride + c * cs;
+            f[2 * i + c] = cs == 1 ? q[0] / 255.0f
+                                   : (float)(q[0] | q[1] << 8) / 65535.0f;
         }
     return 1;
 }
 
 /* Every integer TEXCOORD accessor of the reduced copy r made a float one
- * over a new bufferView of buffer u->index (its floats decoded into u). */
-static int float_uvs(const lr__gltf_doc *d, cJSON *r, uv_buffer *u)
+ * over the extra buffer (its floats decoded into u). */
+static int float_uvs(const lr__gltf_doc *d, cJSON *r, extra_buffer *u)
 {
-    int n;
-    const cJSON *orig = lr__gltf_array(d->root, "accessors", &n);
     cJSON *accs = cJSON_GetObjectItemCaseSensitive(r, "accessors");
-    cJSON *views = cJSON_GetObjectItemCaseSensitive(r, "bufferViews");
     const cJSON *meshes = item(r, "meshes");
     for (const cJSON *m = meshes ? meshes->child : NULL; m; m = m->next)
         for (const cJSON *p = item(m, "primitives")->child; p; p = p->next)
@@ -150,39 +191,66 @@ static int float_uvs(const lr__gltf_doc *d, cJSON *r, uv_buffer *u)
                 if (ct != 5121 && ct != 5123)
                     continue; /* floats, or made floats already */
                 size_t first;
-                if (!decode_uv(d, cJSON_GetArrayItem(orig, k), u, &first))
-                    return 0;
                 double count = cJSON_GetNumberValue(item(a, "count"));
-                cJSON *view = cJSON_CreateObject();
-                if (view == NULL || !cJSON_AddItemToArray(views, view) ||
-                    !cJSON_AddNumberToObject(view, "buffer", (double)u->index) ||
-                    !cJSON_AddNumberToObject(view, "byteOffset", 4.0 * first) ||
-                    !cJSON_AddNumberToObject(view, "byteLength", 8.0 * count))
+                if (!decode_uv(d, k, u, &first) ||
+                    !extra_accessor(r, u, k, first, 8 * (size_t)count, 5126,
+                                    count, NULL))
                     return 0;
-                cJSON *fa = cJSON_CreateObject();
-                if (fa == NULL ||
-                    !cJSON_AddNumberToObject(fa, "bufferView",
-                                             cJSON_GetArraySize(views) - 1) ||
-                    !cJSON_AddNumberToObject(fa, "componentType", 5126) ||
-                    !cJSON_AddNumberToObject(fa, "count", count) ||
-                    !cJSON_AddStringToObject(fa, "type", "VEC2") ||
-                    !cJSON_ReplaceItemInArray(accs, k, fa)) {
-                    cJSON_Delete(fa);
-                    return 0;
-                }
             }
+    return 1;
+}
+
+/* Every accessor that gltf_check.c copied out (zero-filled or sparse)
+ * given to assimp as a plain accessor over its copy in the extra buffer:
+ * assimp 5.2 reads neither kind correctly, and the copy is the checked
+ * one. */
+static int dense_accessors(const lr__gltf_doc *d, cJSON *r, extra_buffer *u)
+{
+    const cJSON *accs = item(r, "accessors");
+    for (size_t k = 0; k < d->n_accessors; k++) {
+        if (d->dense[k] == NULL)
+            continue;
+        size_t stride, cs, at;
+        long long count;
+        const unsigned char *src = lr__gltf_accessor_at(d, (long long)k,
+                                                        &stride, &count, &cs);
+        size_t n = stride * (size_t)count;
+        if (!extra_grow(u, n, &at))
+            return 0;
+        memcpy(u->data + at, src, n);
+        const cJSON *a = cJSON_GetArrayItem(accs, (int)k);
+        cJSON *like = cJSON_Duplicate(a, 1);
+        int ok = like != NULL &&
+                 extra_accessor(r, u, (int)k, at, n,
+                                cJSON_GetNumberValue(item(a, "componentType")),
+                                (double)count, like);
+        cJSON_Delete(like);
+        if (!ok)
+            return 0;
+    }
+    return 1;
+}
+
+/* The extra buffer in r's buffers, when anything went into it. */
+static int extra_declare(cJSON *r, const extra_buffer *u)
+{
     if (u->n == 0)
         return 1;
     char name[40];
     snprintf(name, sizeof name, "lr-buffer-%zu.bin", u->index);
     cJSON *bufs = cJSON_GetObjectItemCaseSensitive(r, "buffers");
+    if (bufs == NULL)
+        bufs = cJSON_AddArrayToObject(r, "buffers");
     cJSON *buf = cJSON_CreateObject();
-    return buf != NULL && cJSON_AddItemToArray(bufs, buf) &&
-           cJSON_AddNumberToObject(buf, "byteLength", 4.0 * u->n) &&
+    if (bufs == NULL || buf == NULL || !cJSON_AddItemToArray(bufs, buf)) {
+        cJSON_Delete(buf);
+        return 0;
+    }
+    return cJSON_AddNumberToObject(buf, "byteLength", (double)u->n) &&
            cJSON_AddStringToObject(buf, "uri", name);
 }
 
-static char *assimp_text(const lr__gltf_doc *d, uv_buffer *u)
+static char *assimp_text(const lr__gltf_doc *d, extra_buffer *u)
 {
     static const char *const k_scene[] = {"nodes", NULL};
     static const char *const k_node[] = {"children", "mesh", "matrix",
@@ -228,7 +296,8 @@ static char *assimp_text(const lr__gltf_doc *d, uv_buffer *u)
         cJSON *name = cJSON_DetachItemFromObject(b, "name");
         ok = name && cJSON_AddItemToObject(b, "uri", name);
     }
-    ok = ok && float_uvs(d, r, u);
+    ok = ok && dense_accessors(d, r, u) && float_uvs(d, r, u) &&
+         extra_declare(r, u);
     char *text = ok ? cJSON_PrintUnformatted(r) : NULL;
     cJSON_Delete(r);
     return text;
@@ -245,7 +314,7 @@ typedef struct mem_file {
 typedef struct mem_fs {
     const lr__gltf_doc *d;
     const char *text;
-    const uv_buffer *uv;
+    const extra_buffer *uv;
 } mem_fs;
 
 static size_t mf_read(struct aiFile *f, char *buf, size_t size, size_t count)
@@ -306,8 +375,8 @@ static struct aiFile *fs_open(struct aiFileIO *io, const char *name,
         n = fs->d->buffers[b].n;
     } else if (end != NULL && end > base + 10 && strcmp(end, ".bin") == 0 &&
                b == fs->uv->index && fs->uv->n > 0) {
-        data = (const unsigned char *)fs->uv->data;
-        n = fs->uv->n * sizeof(float);
+        data = fs->uv->data;
+        n = fs->uv->n;
     } else {
         return NULL;
     }
@@ -338,7 +407,7 @@ lr_status lr__gltf_import(const lr__gltf_doc *d, const struct aiScene **out,
                           lr_error *err)
 {
     *out = NULL;
-    uv_buffer uv = {NULL, 0, 0, d->n_buffers};
+    extra_buffer uv = {NULL, 0, 0, d->n_buffers};
     char *text = assimp_text(d, &uv);
     if (text == NULL) {
         free(uv.data);

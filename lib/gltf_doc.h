@@ -37,6 +37,12 @@ typedef struct lr__gltf_doc {
         size_t n;
     } *buffers;           /* owned */
     size_t n_buffers;
+    /* Accessors copied out, tightly packed: those without a bufferView
+     * (zeros) or with sparse values written over their view's (spec
+     * 3.6.2.3); NULL for the rest, read in place.  Read them all
+     * through lr__gltf_accessor_at. */
+    unsigned char **dense; /* n_accessors pointers, each owned */
+    size_t n_accessors;
     int n_nodes;
     /* Textures decoded so far, one per (image, srgb); the scene owns
      * the textures, this only finds them again. */
@@ -59,6 +65,13 @@ void lr__gltf_doc_free(lr__gltf_doc *d);
 /* An input error about the file: "FP: SHOWN: what". */
 __attribute__((format(printf, 3, 4))) lr_status
 lr__gltf_fail(const lr__gltf_doc *d, lr_error *err, const char *fmt, ...);
+
+/* Where accessor acc's elements lie (checked by lr__gltf_doc_load): the
+ * first one, the stride between them, their count and their component
+ * size; a dense copy (see lr__gltf_doc.dense) or in its bufferView. */
+const unsigned char *lr__gltf_accessor_at(const lr__gltf_doc *d,
+                                          long long acc, size_t *stride,
+                                          long long *count, size_t *cs);
 
 /* The bytes of external file `uri` (read by lr__gltf_doc_load), or NULL. */
 const lr__gltf_blob *lr__gltf_blob_find(const lr__gltf_doc *d,

@@ -503,7 +503,45 @@ def scene_normals():
     return g
 
 
-SCENES = {"tri": scene_tri, "tri-nan": scene_tri_nan,
+def scene_sparse():
+    """Two quads (x from -1.5 to -0.5 and from 0.5 to 1.5, y from -0.5 to
+    0.5) whose positions come from sparse accessors (spec 3.6.2.3): the
+    first over a bufferView in the plane z = 0, its two corners at
+    x = -0.5 moved to z = 1 (unsigned byte indices), so that it lies in
+    z = x + 1.5; the second without a bufferView (zeros), all four
+    corners given at z = 0.25 (unsigned short indices)."""
+    g = Gltf()
+
+    def sparse(count, indices, comp, values):
+        fmt = {UBYTE: "B", USHORT: "H"}[comp]
+        raw = struct.pack("<%d%s" % (len(indices), fmt), *indices)
+        iv = g._view(raw + b"\0" * (-len(raw) % 4))
+        vv = g._view(struct.pack("<%df" % len(values), *values))
+        return {"count": len(indices),
+                "indices": {"bufferView": iv, "componentType": comp},
+                "values": {"bufferView": vv}}
+
+    idx = g.accessor([0, 1, 2, 0, 2, 3], "SCALAR", UINT, 34963)
+    base = g.accessor([-1.5, -0.5, 0, -0.5, -0.5, 0, -0.5, 0.5, 0,
+                       -1.5, 0.5, 0], "VEC3", target=34962)
+    a = g.doc["accessors"][base]
+    a["sparse"] = sparse(4, [1, 2], UBYTE, [-0.5, -0.5, 1, -0.5, 0.5, 1])
+    a["min"], a["max"] = [-1.5, -0.5, 0], [-0.5, 0.5, 1]
+    zeros = {"componentType": FLOAT, "count": 4, "type": "VEC3",
+             "min": [0.5, -0.5, 0.25], "max": [1.5, 0.5, 0.25],
+             "sparse": sparse(4, [0, 1, 2, 3], USHORT,
+                              [0.5, -0.5, 0.25, 1.5, -0.5, 0.25,
+                               1.5, 0.5, 0.25, 0.5, 0.5, 0.25])}
+    g.doc["accessors"].append(zeros)
+    g.doc["meshes"].append({"primitives": [
+        {"attributes": {"POSITION": base}, "indices": idx},
+        {"attributes": {"POSITION": len(g.doc["accessors"]) - 1},
+         "indices": idx}]})
+    g.node(mesh=len(g.doc["meshes"]) - 1)
+    return g
+
+
+SCENES = {"tri": scene_tri, "sparse": scene_sparse, "tri-nan": scene_tri_nan,
           "tri-spaced": scene_tri_spaced, "normals": scene_normals,
           "mapping": scene_mapping, "textured": scene_textured,
           "textured-u8": lambda: scene_textured(UBYTE),

@@ -694,26 +694,124 @@ static void test_normal_map(void **state)
 
 /* ---- hostile files ---------------------------------------------------------- */
 
-/* Writes tri.gltf with member `key` ("array.index.member") set to the
- * JSON `value` as NAME and expects loading it to fail with
- * `status`, naming `what`. */
-static void expect_bad(const char *name, const char *key, const char *value,
-                       lr_status status, const char *what)
+/* The member "array.index.member" `key` of root, split into its object
+ * and its member's name (in k). */
+static cJSON *member_of(cJSON *root, const char *key, char k[128],
+                        const char **name)
 {
-    cJSON *root = read_json("tri.gltf");
-    /* key: "top.index.member" addresses one member. */
-    char k[128];
-    snprintf(k, sizeof k, "%s", key);
+    snprintf(k, 128, "%s", key);
     char *dot1 = strchr(k, '.'), *dot2 = dot1 ? strchr(dot1 + 1, '.') : NULL;
     assert_non_null(dot2);
     *dot1 = *dot2 = '\0';
     cJSON *o = cJSON_GetArrayItem(cJSON_GetObjectItem(root, k),
                                   atoi(dot1 + 1));
     assert_non_null(o);
-    cJSON_DeleteItemFromObject(o, dot2 + 1);
-    cJSON_AddItemToObject(o, dot2 + 1, cJSON_Parse(value));
+    *name = dot2 + 1;
+    return o;
+}
+
+/* Writes tri.gltf as NAME with member `drop` removed (unless NULL) and
+ * member `key` set to the JSON `value` (both "array.index.member"), and
+ * expects loading it to fail with `status`, naming `what`. */
+static void expect_bad_edit(const char *name, const char *drop,
+                            const char *key, const char *value,
+                            lr_status status, const char *what)
+{
+    cJSON *root = read_json("tri.gltf");
+    char k[128];
+    const char *m;
+    if (drop != NULL) {
+        cJSON *o = member_of(root, drop, k, &m);
+        cJSON_DeleteItemFromObject(o, m);
+    }
+    cJSON *o = member_of(root, key, k, &m);
+    cJSON_DeleteItemFromObject(o, m);
+    cJSON_AddItemToObject(o, m, cJSON_Parse(value));
     write_json(name, root);
     expect_file_error(name, status, what);
+}
+
+/* Writes tri.gltf with member `key` ("array.index.member") set to the
+ * JSON `value` as NAME and expects loading it to fail with
+ * `status`, naming `what`. */
+static void expect_bad(const char *name, const char *key, const char *value,
+                       lr_status status, const char *what)
+{
+    expect_bad_edit(name, NULL, key, value, status, what);
+}
+
+/* Sparse accessors (spec 3.6.2.3), over a bufferView and over zeros:
+ * scene "sparse" of gltf_writer.py seen from (0, 0, 5) down -z, where a
+ * pixel's ray (sx, sy, -1) meets the first quad's plane z = x + 1.5 at
+ * depth 3.5 / (1 + sx) and the second's z = 0.25 at 4.75.  Without the
+ * sparse values they would be z = 0 and a heap of zeros. */
+static void test_sparse_accessors(void **state)
+{
+    (void)state;
+    make("sparse", "sparse.gltf");
+    lr_scene *s = lr_test_load_json(
+        "{\"render\": {\"width\": 64, \"height\": 32, \"spp\": 1, "
+        "\"depth\": true}, \"camera\": {\"position\": [0, 0, 5], "
+        "\"look_at\": [0, 0, 0], \"fov\": 40}, \"objects\": [{\"type\": "
+        "\"gltf\", \"file\": \"sparse.gltf\"}]}");
+    lr_image *img = render(s);
+    const float *z = lr_image_depth(img);
+    double t = tan(20 * PI / 180);
+    static const int px[][2] = {{20, 16}, {22, 13}, {43, 16}, {40, 18}};
+    for (int i = 0; i < 4; i++) {
+        double sx = (2 * (px[i][0] + 0.5) / 64 - 1) * t * 2;
+        double want = px[i][0] < 32 ? 3.5 / (1 + sx) : 4.75;
+        double got = z[px[i][1] * 64 + px[i][0]];
+        if (!(fabs(got - want) < 1e-5 * want))
+            fail_msg("pixel (%d, %d): depth %.7g, the sparse geometry "
+                     "says %.7g", px[i][0], px[i][1], got, want);
+    }
+    lr_image_free(img);
+    lr_scene_free(s);
+}
+
+/* Sparse accessors that break the spec's rules (3.6.2.3), an accessor
+ * without a bufferView too big to fill with zeros, and one that Draco
+ * would fill (the error names the extension, not a missing view).
+ * tri.gltf's accessors[0] is 3 VEC3 floats in bufferViews[0] (36 bytes),
+ * its bufferViews[1] the 3 unsigned ints 0, 1, 2. */
+static void test_sparse_hostile(void **state)
+{
+    (void)state;
+    make("tri", "tri.gltf");
+    static const char *const cases[][3] = {
+        {"sp-count.gltf", "{\"count\": 4, \"indices\": {\"bufferView\": 1, "
+         "\"componentType\": 5125}, \"values\": {\"bufferView\": 0}}",
+         "accessors[0].sparse.count must be from 1 to the accessor's count"},
+        {"sp-type.gltf", "{\"count\": 3, \"indices\": {\"bufferView\": 1, "
+         "\"componentType\": 5126}, \"values\": {\"bufferView\": 0}}",
+         "accessors[0].sparse.indices.componentType must be 5121"},
+        {"sp-order.gltf", "{\"count\": 3, \"indices\": {\"bufferView\": 0, "
+         "\"componentType\": 5125}, \"values\": {\"bufferView\": 0}}",
+         "accessors[0].sparse.indices: element 1 is 0; they must increase"},
+        {"sp-past.gltf", "{\"count\": 3, \"indices\": {\"bufferView\": 1, "
+         "\"componentType\": 5125}, \"values\": {\"bufferView\": 0, "
+         "\"byteOffset\": 24}}",
+         "accessors[0].sparse.values: 3 elements of 12 bytes from byte 24 "
+         "run past bufferViews[0]'s 36"},
+        {"sp-none.gltf", "{\"count\": 3}",
+         "accessors[0].sparse.indices must be an object"}};
+    for (int i = 0; i < 5; i++)
+        expect_bad(cases[i][0], "accessors.0.sparse", cases[i][1],
+                   LR_ERR_INVALID, cases[i][2]);
+    expect_bad_edit("zeros.gltf", "accessors.0.bufferView", "accessors.0.count",
+                    "1000000000", LR_ERR_INVALID,
+                    "accessors[0]: 1000000000 elements of 12 bytes to fill "
+                    "in (zeros or sparse) are more than lensray allows");
+    expect_bad_edit("draco.gltf", "accessors.0.bufferView",
+                    "meshes.0.primitives",
+                    "[{\"attributes\": {\"POSITION\": 0}, \"indices\": 1, "
+                    "\"extensions\": {\"KHR_draco_mesh_compression\": "
+                    "{\"bufferView\": 0, \"attributes\": {\"POSITION\": 0}}}}]",
+                    LR_ERR_INVALID,
+                    "accessors[0] has no bufferView: meshes[0].primitives[0] "
+                    "is compressed with KHR_draco_mesh_compression, which "
+                    "lensray does not decode");
 }
 
 /* A member of the document's root is named alone ("scene", not
@@ -870,5 +968,7 @@ static const struct CMUnitTest tests[] = {
     cmocka_unit_test(test_normal_map),
     cmocka_unit_test(test_hostile),
     cmocka_unit_test(test_root_member_error),
+    cmocka_unit_test(test_sparse_accessors),
+    cmocka_unit_test(test_sparse_hostile),
 };
 LR_TEST_GROUP(gltf, tests)
