@@ -536,24 +536,15 @@ static lr_status place_node(placer *pl, const struct aiNode *n, lr_error *err)
     return LR_OK;
 }
 
-/* Warnings for the parts of the file nothing reads. */
+/* Warnings for the parts of the file nothing reads.  Morph targets are
+ * read (drawn at their default weights, gltf_assimp.c); their animation
+ * is one of the animations. */
 static void warn_unread(lr_scene *s, const lr__gltf_doc *d)
 {
     static const char *const top[] = {"animations", "skins", NULL};
     for (int k = 0; top[k]; k++)
         if (cJSON_GetObjectItemCaseSensitive(d->root, top[k]))
             lr__gltf_warn(s, d, "%s are ignored", top[k]);
-    int nm;
-    const cJSON *meshes = lr__gltf_array(d->root, "meshes", &nm);
-    int i = 0;
-    for (const cJSON *m = meshes ? meshes->child : NULL; m; m = m->next, i++)
-        for (const cJSON *p = cJSON_GetObjectItemCaseSensitive(m,
-                                                               "primitives")
-                                  ->child;
-             p; p = p->next)
-            if (cJSON_GetObjectItemCaseSensitive(p, "targets"))
-                lr__gltf_warn(s, d, "meshes[%d]: morph targets are ignored",
-                              i);
 }
 
 lr_status lr__scene_add_gltf(lr_scene *s, const char *file, const char *shown,

@@ -24,6 +24,7 @@
 #include <assimp/cfileio.h>
 #include <assimp/cimport.h>
 #include <assimp/postprocess.h>
+#include <math.h>
 #include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -114,23 +115,24 @@ static int extra_grow(extra_buffer *u, size_t n, size_t *at)
 }
 
 /* A new bufferView of the extra buffer over bytes [at, at + n) in the
- * reduced copy r, and an accessor of it replacing accessors[k]; `like` is
- * the accessor whose type, count and normalized flag it keeps (NULL:
- * VEC2 floats of `count`). */
+ * reduced copy r, and an accessor of it (`count` elements of `type`, of
+ * componentType ct, normalized or not) replacing accessors[k], or
+ * appended when k < 0.  Its index, or -1 on no memory. */
 static int extra_accessor(cJSON *r, const extra_buffer *u, int k,
                           size_t at, size_t n, double ct, double count,
-                          const cJSON *like)
+                          const char *type, int normalized)
 {
     cJSON *views = cJSON_GetObjectItemCaseSensitive(r, "bufferViews");
     if (views == NULL)
         views = cJSON_AddArrayToObject(r, "bufferViews");
+    cJSON *accs = cJSON_GetObjectItemCaseSensitive(r, "accessors");
     cJSON *view = cJSON_CreateObject();
-    if (views == NULL || view == NULL || !cJSON_AddItemToArray(views, view)) {
+    if (views == NULL || accs == NULL || view == NULL ||
+        !cJSON_AddItemToArray(views, view)) {
         cJSON_Delete(view);
-        return 0;
+        return -1;
     }
     cJSON *fa = cJSON_CreateObject();
-    const cJSON *norm = item(like, "normalized");
     int ok = fa != NULL &&
              cJSON_AddNumberToObject(view, "buffer", (double)u->index) &&
              cJSON_AddNumberToObject(view, "byteOffset", (double)at) &&
@@ -139,16 +141,17 @@ static int extra_accessor(cJSON *r, const extra_buffer *u, int k,
                                      cJSON_GetArraySize(views) - 1) &&
              cJSON_AddNumberToObject(fa, "componentType", ct) &&
              cJSON_AddNumberToObject(fa, "count", count) &&
-             cJSON_AddStringToObject(fa, "type",
-                                     like ? item(like, "type")->valuestring
-                                          : "VEC2") &&
-             (!cJSON_IsTrue(norm) || cJSON_AddTrueToObject(fa, "normalized"));
-    if (ok)
-        ok = cJSON_ReplaceItemInArray(
-            cJSON_GetObjectItemCaseSensitive(r, "accessors"), k, fa);
-    else
+             cJSON_AddStringToObject(fa, "type", type) &&
+             (!normalized || cJSON_AddTrueToObject(fa, "normalized"));
+    if (ok && k < 0) {
+        ok = cJSON_AddItemToArray(accs, fa);
+        k = cJSON_GetArraySize(accs) - 1;
+    } else if (ok) {
+        ok = cJSON_ReplaceItemInArray(accs, k, fa);
+    }
+    if (!ok)
         cJSON_Delete(fa);
-    return ok;
+    return ok ? k : -1;
 }
 
 /* The floats of integer TEXCOORD accessor k of the document
@@ -193,8 +196,8 @@ static int float_uvs(const lr__gltf_doc *d, cJSON *r, extra_buffer *u)
                 size_t first;
                 double count = cJSON_GetNumberValue(item(a, "count"));
                 if (!decode_uv(d, k, u, &first) ||
-                    !extra_accessor(r, u, k, first, 8 * (size_t)count, 5126,
-                                    count, NULL))
+                    extra_accessor(r, u, k, first, 8 * (size_t)count, 5126,
+                                   count, "VEC2", 0) < 0)
                     return 0;
             }
     return 1;
@@ -219,13 +222,125 @@ static int dense_accessors(const lr__gltf_doc *d, cJSON *r, extra_buffer *u)
             return 0;
         memcpy(u->data + at, src, n);
         const cJSON *a = cJSON_GetArrayItem(accs, (int)k);
-        cJSON *like = cJSON_Duplicate(a, 1);
-        int ok = like != NULL &&
-                 extra_accessor(r, u, (int)k, at, n,
-                                cJSON_GetNumberValue(item(a, "componentType")),
-                                (double)count, like);
-        cJSON_Delete(like);
-        if (!ok)
+        char type[8];
+        snprintf(type, sizeof type, "%s", item(a, "type")->valuestring);
+        if (extra_accessor(r, u, (int)k, at, n,
+                           cJSON_GetNumberValue(item(a, "componentType")),
+                           (double)count, type,
+                           cJSON_IsTrue(item(a, "normalized"))) < 0)
+            return 0;
+    }
+    return 1;
+}
+
+/* Attribute `attr` (POSITION or NORMAL, VEC3 floats: gltf_check.c) of
+ * the document's primitive `pr` moved by its morph targets at weights w
+ * (spec 3.7.2.2: the base plus the weighted sum of the targets'
+ * displacements; a normal is then made unit length again), as floats in
+ * the extra buffer; the new accessor's index in r, -2 when the targets do
+ * not move it, -1 on no memory. */
+static int morphed(const lr__gltf_doc *d, const cJSON *pr, const char *attr,
+                   const cJSON *w, cJSON *r, extra_buffer *u)
+{
+    const cJSON *base = item(item(pr, "attributes"), attr);
+    int nt, moved = 0;
+    const cJSON *ts = lr__gltf_array(pr, "targets", &nt);
+    for (const cJSON *t = ts ? ts->child : NULL; t; t = t->next)
+        moved |= item(t, attr) != NULL;
+    if (base == NULL || !moved)
+        return -2;
+    size_t stride, cs, at;
+    long long count;
+    const unsigned char *src = lr__gltf_accessor_at(
+        d, (long long)base->valuedouble, &stride, &count, &cs);
+    if (!extra_grow(u, (size_t)count * 3 * sizeof(float), &at))
+        return -1;
+    float *f = (float *)(u->data + at);
+    for (size_t i = 0; i < (size_t)count; i++)
+        memcpy(f + 3 * i, src + i * stride, 3 * sizeof(float));
+    const cJSON *wk = w->child;
+    for (const cJSON *t = ts->child; t && wk; t = t->next, wk = wk->next) {
+        const cJSON *ta = item(t, attr);
+        if (ta == NULL || wk->valuedouble == 0)
+            continue;
+        const unsigned char *q = lr__gltf_accessor_at(
+            d, (long long)ta->valuedouble, &stride, &count, &cs);
+        for (size_t i = 0; i < 3 * (size_t)count; i++) {
+            float dv;
+            memcpy(&dv, q + i / 3 * stride + i % 3 * sizeof(float), sizeof dv);
+            f[i] = (float)(f[i] + wk->valuedouble * dv);
+        }
+    }
+    for (size_t i = 0; attr[0] == 'N' && i < (size_t)count; i++) {
+        double len = sqrt((double)f[3 * i] * f[3 * i] +
+                          (double)f[3 * i + 1] * f[3 * i + 1] +
+                          (double)f[3 * i + 2] * f[3 * i + 2]);
+        for (int c = 0; c < 3 && len > 0; c++)
+            f[3 * i + c] = (float)(f[3 * i + c] / len);
+    }
+    return extra_accessor(r, u, -1, at, (size_t)count * 3 * sizeof(float),
+                          5126, (double)count, "VEC3", 0);
+}
+
+/* The weights a node draws its mesh's morph targets at: its own, else
+ * its mesh's (spec 3.7.2.2), or NULL when they are all zero. */
+static const cJSON *node_weights(const cJSON *node, const cJSON *mesh)
+{
+    const cJSON *w = item(node, "weights");
+    if (w == NULL)
+        w = item(mesh, "weights");
+    for (const cJSON *c = w ? w->child : NULL; c; c = c->next)
+        if (c->valuedouble != 0)
+            return w;
+    return NULL;
+}
+
+/* Each node whose mesh has morph targets at non-zero default weights
+ * gets, in the reduced copy r, a mesh of its own whose POSITION and
+ * NORMAL are the morphed ones (assimp is never given the targets): a
+ * still image shows what glTF viewers show before any animation, the
+ * targets at the file's weights (spec 3.7.2.2). */
+static int morph_meshes(const lr__gltf_doc *d, cJSON *r, extra_buffer *u)
+{
+    int nn, nm;
+    const cJSON *nodes = lr__gltf_array(d->root, "nodes", &nn);
+    const cJSON *meshes = lr__gltf_array(d->root, "meshes", &nm);
+    cJSON *rmeshes = cJSON_GetObjectItemCaseSensitive(r, "meshes");
+    cJSON *rnodes = cJSON_GetObjectItemCaseSensitive(r, "nodes");
+    int i = 0;
+    for (const cJSON *n = nodes ? nodes->child : NULL; n; n = n->next, i++) {
+        const cJSON *mi = item(n, "mesh");
+        if (mi == NULL)
+            continue;
+        int m = (int)mi->valuedouble;
+        const cJSON *mesh = cJSON_GetArrayItem(meshes, m);
+        const cJSON *w = node_weights(n, mesh);
+        if (w == NULL)
+            continue;
+        cJSON *copy = cJSON_Duplicate(cJSON_GetArrayItem(rmeshes, m), 1);
+        if (copy == NULL || !cJSON_AddItemToArray(rmeshes, copy)) {
+            cJSON_Delete(copy);
+            return 0;
+        }
+        cJSON *cp = item(copy, "primitives")->child;
+        for (const cJSON *pr = item(mesh, "primitives")->child; pr && cp;
+             pr = pr->next, cp = cp->next) {
+            static const char *const attrs[] = {"POSITION", "NORMAL"};
+            for (int k = 0; k < 2; k++) {
+                int a = morphed(d, pr, attrs[k], w, r, u);
+                if (a == -1)
+                    return 0;
+                cJSON *at = cJSON_GetObjectItemCaseSensitive(cp, "attributes");
+                if (a >= 0 &&
+                    !cJSON_ReplaceItemInObjectCaseSensitive(
+                        at, attrs[k], cJSON_CreateNumber(a)))
+                    return 0;
+            }
+        }
+        cJSON *rn = cJSON_GetArrayItem(rnodes, i);
+        if (!cJSON_ReplaceItemInObjectCaseSensitive(
+                rn, "mesh",
+                cJSON_CreateNumber(cJSON_GetArraySize(rmeshes) - 1)))
             return 0;
     }
     return 1;
@@ -297,7 +412,7 @@ static char *assimp_text(const lr__gltf_doc *d, extra_buffer *u)
         ok = name && cJSON_AddItemToObject(b, "uri", name);
     }
     ok = ok && dense_accessors(d, r, u) && float_uvs(d, r, u) &&
-         extra_declare(r, u);
+         morph_meshes(d, r, u) && extra_declare(r, u);
     char *text = ok ? cJSON_PrintUnformatted(r) : NULL;
     cJSON_Delete(r);
     return text;

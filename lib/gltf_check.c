@@ -863,6 +863,69 @@ static lr_status check_positions(const lr__gltf_doc *d, const char *p,
     return LR_OK;
 }
 
+/* A primitive's morph targets (spec 3.7.2.2): objects whose POSITION
+ * and NORMAL are VEC3 floats (displacements, finite) of the primitive's
+ * `nvert` vertices; their number in *n. */
+static lr_status check_targets(const lr__gltf_doc *d, const cJSON *pr,
+                               const char *p, long long nvert, int *n,
+                               lr_error *err)
+{
+    int nacc;
+    lr__gltf_array(d->root, "accessors", &nacc);
+    const cJSON *ts = lr__gltf_array(pr, "targets", n);
+    if (ts == NULL && cJSON_GetObjectItemCaseSensitive(pr, "targets"))
+        return lr__gltf_fail(d, err, "%s.targets must be an array", p);
+    int k = 0;
+    char q[160];
+    for (const cJSON *t = ts ? ts->child : NULL; t; t = t->next, k++) {
+        snprintf(q, sizeof q, "%s.targets[%d]", p, k);
+        if (!cJSON_IsObject(t))
+            return lr__gltf_fail(d, err, "%s must be an object", q);
+        for (const cJSON *c = t->child; c; c = c->next) {
+            long long x, cnt;
+            LR_TRY(get_index(d, t, q, c->string, nacc, &x, err));
+            LR_TRY(check_attribute(d, q, c->string, x, &cnt, err));
+            if (cnt != nvert)
+                return lr__gltf_fail(d, err, "%s.%s has %lld elements, "
+                                     "POSITION %lld", q, c->string, cnt,
+                                     nvert);
+            if (strcmp(c->string, "POSITION") == 0)
+                LR_TRY(check_positions(d, q, x, err));
+        }
+    }
+    return LR_OK;
+}
+
+/* The number of morph targets of meshes[m] (check_meshes made it the
+ * same for every primitive). */
+static int mesh_targets(const lr__gltf_doc *d, long long m)
+{
+    int n, np, nt;
+    const cJSON *mesh = cJSON_GetArrayItem(lr__gltf_array(d->root, "meshes",
+                                                          &n), (int)m);
+    const cJSON *prims = lr__gltf_array(mesh, "primitives", &np);
+    lr__gltf_array(prims ? prims->child : NULL, "targets", &nt);
+    return nt;
+}
+
+/* Default morph weights, o.weights (a mesh's or a node's): one finite
+ * number per morph target when present (spec 3.7.2.2). */
+static lr_status check_weights(const lr__gltf_doc *d, const cJSON *o,
+                               const char *p, int targets, lr_error *err)
+{
+    const cJSON *w = cJSON_GetObjectItemCaseSensitive(o, "weights");
+    if (w == NULL)
+        return LR_OK;
+    int ok = cJSON_IsArray(w) && cJSON_GetArraySize(w) == targets;
+    for (const cJSON *c = ok ? w->child : NULL; c; c = c->next)
+        ok = ok && cJSON_IsNumber(c) && fabs(c->valuedouble) <= 1e6;
+    if (!ok)
+        return lr__gltf_fail(d, err, "%s.weights must be %d numbers from "
+                             "-1e6 to 1e6, one per morph target", p,
+                             targets);
+    return LR_OK;
+}
+
 static lr_status check_meshes(lr__gltf_doc *d, lr_error *err)
 {
     int n, nacc, nmat;
@@ -877,7 +940,7 @@ static lr_status check_meshes(lr__gltf_doc *d, lr_error *err)
         if (np == 0)
             return lr__gltf_fail(d, err, "meshes[%d].primitives must be a "
                                  "non-empty array", i);
-        int j = 0;
+        int j = 0, targets = 0;
         for (const cJSON *pr = prims->child; pr; pr = pr->next, j++) {
             snprintf(p, sizeof p, "meshes[%d].primitives[%d]", i, j);
             const cJSON *at = cJSON_GetObjectItemCaseSensitive(pr,
@@ -907,7 +970,17 @@ static lr_status check_meshes(lr__gltf_doc *d, lr_error *err)
             }
             LR_TRY(get_index(d, pr, p, "material", nmat, &x, err));
             LR_TRY(get_uint(d, pr, p, "mode", 7, 4, &mode, err));
+            int nt;
+            LR_TRY(check_targets(d, pr, p, nvert, &nt, err));
+            if (j == 0)
+                targets = nt;
+            else if (nt != targets)
+                return lr__gltf_fail(d, err, "%s has %d morph targets, "
+                                     "primitives[0] %d (the spec asks for "
+                                     "the same number)", p, nt, targets);
         }
+        snprintf(p, sizeof p, "meshes[%d]", i);
+        LR_TRY(check_weights(d, m, p, targets, err));
     }
     return LR_OK;
 }
@@ -940,12 +1013,19 @@ static lr_status check_nodes(lr__gltf_doc *d, lr_error *err)
             st = lr__gltf_fail(d, err, "%s must be an object", p);
             break;
         }
-        if ((st = get_index(d, o, p, "mesh", nmesh, &x, err)) ||
+        long long mesh;
+        if ((st = get_index(d, o, p, "mesh", nmesh, &mesh, err)) ||
             (st = get_index(d, o, p, "camera", ncam, &x, err)) ||
             (st = check_numbers(d, o, p, "matrix", 16, err)) ||
             (st = check_numbers(d, o, p, "translation", 3, err)) ||
             (st = check_numbers(d, o, p, "rotation", 4, err)) ||
             (st = check_numbers(d, o, p, "scale", 3, err)))
+            break;
+        /* A node's weights override its mesh's (spec 3.7.2.2). */
+        if (cJSON_GetObjectItemCaseSensitive(o, "weights") != NULL &&
+            (st = check_weights(d, o, p,
+                                mesh < 0 ? 0 : mesh_targets(d, mesh),
+                                err)) != LR_OK)
             break;
         const cJSON *l = lr__gltf_member(o, "extensions",
                                          "KHR_lights_punctual");

@@ -541,7 +541,38 @@ def scene_sparse():
     return g
 
 
-SCENES = {"tri": scene_tri, "sparse": scene_sparse, "tri-nan": scene_tri_nan,
+def scene_morph():
+    """A unit quad in z = 0 (corners 0 to 3 counter-clockwise from
+    (-0.5, -0.5)) with two morph targets (spec 3.7.2.2): the first moves
+    every corner by (0, 0, 1), the second (sparse over zeros) corners 1
+    and 2, those at x = 0.5, by (0, 0, 1).  Drawn twice: at x = -1 with
+    the mesh's weights (0.5, 0.4), in the plane z = 0.7 + 0.4 x (local
+    x), and at x = +1 with the node's own weights (0.25, 0), in
+    z = 0.25."""
+    g = Gltf()
+    idx = g.accessor([0, 1, 2, 0, 2, 3], "SCALAR", UINT, 34963)
+    pos = g.accessor([-0.5, -0.5, 0, 0.5, -0.5, 0, 0.5, 0.5, 0,
+                      -0.5, 0.5, 0], "VEC3", target=34962)
+    up = g.accessor([0, 0, 1] * 4, "VEC3", target=34962)
+    raw = struct.pack("<2H", 1, 2)
+    iv = g._view(raw)
+    vv = g._view(struct.pack("<6f", 0, 0, 1, 0, 0, 1))
+    g.doc["accessors"].append({
+        "componentType": FLOAT, "count": 4, "type": "VEC3",
+        "min": [0, 0, 0], "max": [0, 0, 1],
+        "sparse": {"count": 2,
+                   "indices": {"bufferView": iv, "componentType": USHORT},
+                   "values": {"bufferView": vv}}})
+    tilt = len(g.doc["accessors"]) - 1
+    g.doc["meshes"].append({"weights": [0.5, 0.4], "primitives": [
+        {"attributes": {"POSITION": pos}, "indices": idx,
+         "targets": [{"POSITION": up}, {"POSITION": tilt}]}]})
+    g.node(mesh=0, translation=[-1, 0, 0])
+    g.node(mesh=0, translation=[1, 0, 0], weights=[0.25, 0])
+    return g
+
+
+SCENES = {"tri": scene_tri, "sparse": scene_sparse, "morph": scene_morph, "tri-nan": scene_tri_nan,
           "tri-spaced": scene_tri_spaced, "normals": scene_normals,
           "mapping": scene_mapping, "textured": scene_textured,
           "textured-u8": lambda: scene_textured(UBYTE),

@@ -710,14 +710,16 @@ static cJSON *member_of(cJSON *root, const char *key, char k[128],
     return o;
 }
 
-/* Writes tri.gltf as NAME with member `drop` removed (unless NULL) and
- * member `key` set to the JSON `value` (both "array.index.member"), and
- * expects loading it to fail with `status`, naming `what`. */
-static void expect_bad_edit(const char *name, const char *drop,
-                            const char *key, const char *value,
-                            lr_status status, const char *what)
+/* Writes glTF file SRC of the test directory as NAME with member `drop`
+ * removed (unless NULL) and member `key` set to the JSON `value` (both
+ * "array.index.member"), and expects loading it to fail with `status`,
+ * naming `what`. */
+static void expect_bad_edit(const char *src, const char *name,
+                            const char *drop, const char *key,
+                            const char *value, lr_status status,
+                            const char *what)
 {
-    cJSON *root = read_json("tri.gltf");
+    cJSON *root = read_json(src);
     char k[128];
     const char *m;
     if (drop != NULL) {
@@ -737,37 +739,54 @@ static void expect_bad_edit(const char *name, const char *drop,
 static void expect_bad(const char *name, const char *key, const char *value,
                        lr_status status, const char *what)
 {
-    expect_bad_edit(name, NULL, key, value, status, what);
+    expect_bad_edit("tri.gltf", name, NULL, key, value, status, what);
 }
 
-/* Sparse accessors (spec 3.6.2.3), over a bufferView and over zeros:
- * scene "sparse" of gltf_writer.py seen from (0, 0, 5) down -z, where a
- * pixel's ray (sx, sy, -1) meets the first quad's plane z = x + 1.5 at
- * depth 3.5 / (1 + sx) and the second's z = 0.25 at 4.75.  Without the
- * sparse values they would be z = 0 and a heap of zeros. */
-static void test_sparse_accessors(void **state)
+/* Renders glTF FILE of the test directory 64 x 32 from (0, 0, 5) down
+ * -z (fov 40) and checks the depth at four pixels, two on a quad left of
+ * x = 0 and two right of it, against want(sx): sx is the pixel's ray
+ * (sx, sy, -1) across, `left` says which quad. */
+static void expect_depths(const char *file, double (*want)(double sx,
+                                                           int left))
 {
-    (void)state;
-    make("sparse", "sparse.gltf");
-    lr_scene *s = lr_test_load_json(
-        "{\"render\": {\"width\": 64, \"height\": 32, \"spp\": 1, "
-        "\"depth\": true}, \"camera\": {\"position\": [0, 0, 5], "
-        "\"look_at\": [0, 0, 0], \"fov\": 40}, \"objects\": [{\"type\": "
-        "\"gltf\", \"file\": \"sparse.gltf\"}]}");
+    char json[400];
+    snprintf(json, sizeof json,
+             "{\"render\": {\"width\": 64, \"height\": 32, \"spp\": 1, "
+             "\"depth\": true}, \"camera\": {\"position\": [0, 0, 5], "
+             "\"look_at\": [0, 0, 0], \"fov\": 40}, \"objects\": "
+             "[{\"type\": \"gltf\", \"file\": \"%s\"}]}", file);
+    lr_scene *s = lr_test_load_json(json);
     lr_image *img = render(s);
     const float *z = lr_image_depth(img);
     double t = tan(20 * PI / 180);
     static const int px[][2] = {{20, 16}, {22, 13}, {43, 16}, {40, 18}};
     for (int i = 0; i < 4; i++) {
         double sx = (2 * (px[i][0] + 0.5) / 64 - 1) * t * 2;
-        double want = px[i][0] < 32 ? 3.5 / (1 + sx) : 4.75;
+        double w = want(sx, px[i][0] < 32);
         double got = z[px[i][1] * 64 + px[i][0]];
-        if (!(fabs(got - want) < 1e-5 * want))
-            fail_msg("pixel (%d, %d): depth %.7g, the sparse geometry "
-                     "says %.7g", px[i][0], px[i][1], got, want);
+        if (!(fabs(got - w) < 1e-5 * w))
+            fail_msg("%s: pixel (%d, %d): depth %.7g, the geometry says "
+                     "%.7g", file, px[i][0], px[i][1], got, w);
     }
     lr_image_free(img);
     lr_scene_free(s);
+}
+
+/* Scene "sparse": the first quad in z = x + 1.5, the second in
+ * z = 0.25. */
+static double sparse_depth(double sx, int left)
+{
+    return left ? 3.5 / (1 + sx) : 4.75;
+}
+
+/* Sparse accessors (spec 3.6.2.3), over a bufferView and over zeros:
+ * scene "sparse" of gltf_writer.py, whose quads would be at z = 0 and a
+ * heap of zeros without the sparse values. */
+static void test_sparse_accessors(void **state)
+{
+    (void)state;
+    make("sparse", "sparse.gltf");
+    expect_depths("sparse.gltf", sparse_depth);
 }
 
 /* Sparse accessors that break the spec's rules (3.6.2.3), an accessor
@@ -799,11 +818,11 @@ static void test_sparse_hostile(void **state)
     for (int i = 0; i < 5; i++)
         expect_bad(cases[i][0], "accessors.0.sparse", cases[i][1],
                    LR_ERR_INVALID, cases[i][2]);
-    expect_bad_edit("zeros.gltf", "accessors.0.bufferView", "accessors.0.count",
+    expect_bad_edit("tri.gltf", "zeros.gltf", "accessors.0.bufferView", "accessors.0.count",
                     "1000000000", LR_ERR_INVALID,
                     "accessors[0]: 1000000000 elements of 12 bytes to fill "
                     "in (zeros or sparse) are more than lensray allows");
-    expect_bad_edit("draco.gltf", "accessors.0.bufferView",
+    expect_bad_edit("tri.gltf", "draco.gltf", "accessors.0.bufferView",
                     "meshes.0.primitives",
                     "[{\"attributes\": {\"POSITION\": 0}, \"indices\": 1, "
                     "\"extensions\": {\"KHR_draco_mesh_compression\": "
@@ -812,6 +831,36 @@ static void test_sparse_hostile(void **state)
                     "accessors[0] has no bufferView: meshes[0].primitives[0] "
                     "is compressed with KHR_draco_mesh_compression, which "
                     "lensray does not decode");
+}
+
+/* Scene "morph": the quad at x = -1 in z = 1.1 + 0.4 x, the one at
+ * x = +1 in z = 0.25. */
+static double morph_depth(double sx, int left)
+{
+    return left ? 3.9 / (1 + 0.4 * sx) : 4.75;
+}
+
+/* Morph targets at their default weights (spec 3.7.2.2): scene "morph"
+ * of gltf_writer.py, the mesh's weights (0.5, 0.4) on the left, the
+ * node's own (0.25, 0) on the right.  Without the targets both quads
+ * would be at z = 0. */
+static void test_morph_weights(void **state)
+{
+    (void)state;
+    make("morph", "morph.gltf");
+    expect_depths("morph.gltf", morph_depth);
+    /* Weights and targets that break the spec's rules name the field. */
+    expect_bad_edit("morph.gltf", "morph-w.gltf", NULL, "meshes.0.weights", "[1]",
+                    LR_ERR_INVALID,
+                    "meshes[0].weights must be 2 numbers from -1e6 to 1e6, "
+                    "one per morph target");
+    expect_bad_edit("morph.gltf", "morph-nw.gltf", NULL, "nodes.1.weights", "[1, 2, 3]",
+                    LR_ERR_INVALID, "nodes[1].weights must be 2 numbers");
+    expect_bad_edit("morph.gltf", "morph-t.gltf", NULL, "meshes.0.primitives",
+                    "[{\"attributes\": {\"POSITION\": 1}, \"indices\": 0, "
+                    "\"targets\": [{\"POSITION\": 0}]}]", LR_ERR_INVALID,
+                    "meshes[0].primitives[0].targets[0].POSITION: "
+                    "accessors[0] must be a VEC3 of floats");
 }
 
 /* A member of the document's root is named alone ("scene", not
@@ -970,5 +1019,6 @@ static const struct CMUnitTest tests[] = {
     cmocka_unit_test(test_root_member_error),
     cmocka_unit_test(test_sparse_accessors),
     cmocka_unit_test(test_sparse_hostile),
+    cmocka_unit_test(test_morph_weights),
 };
 LR_TEST_GROUP(gltf, tests)
