@@ -254,8 +254,8 @@ static lr_status auto_frame(lr_scene *s, const lr__gltf_doc *d, lr__v3 lo,
                             lr__v3 hi, lr_error *err)
 {
     if (!(lo.x <= hi.x))
-        return lr__gltf_fail(d, err, "it has no camera and no meshes to "
-                             "frame");
+        return lr__gltf_fail(d, err, "it has no camera and no triangles "
+                             "to frame (points and lines are not drawn)");
     lr_camera *c = &s->camera;
     lr__v3 mid = v3_scale(v3_add(lo, hi), 0.5);
     double r = 0.5 * v3_len(v3_sub(hi, lo));

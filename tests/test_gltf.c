@@ -863,6 +863,32 @@ static void test_morph_weights(void **state)
                     "accessors[0] must be a VEC3 of floats");
 }
 
+/* A file of points alone has nothing to frame, and the error says why
+ * rather than that it has no meshes (the glTF Asset Generator's
+ * Mesh_PrimitiveMode_00, mode 0). */
+static void test_points_only(void **state)
+{
+    (void)state;
+    make("tri", "tri.gltf");
+    cJSON *root = read_json("tri.gltf");
+    cJSON *prim = cJSON_GetArrayItem(cJSON_GetObjectItem(
+        cJSON_GetArrayItem(cJSON_GetObjectItem(root, "meshes"), 0),
+        "primitives"), 0);
+    cJSON_AddNumberToObject(prim, "mode", 0);
+    write_json("points.gltf", root);
+    const char *json = "{\"objects\": [{\"type\": \"gltf\", \"file\": "
+                       "\"points.gltf\", \"camera\": true}]}";
+    lr_scene *s = NULL;
+    lr_error err;
+    assert_int_equal(lr_scene_load_json(json, strlen(json), lr_test_tmpdir(),
+                                        NULL, 0, &s, &err),
+                     LR_ERR_INVALID);
+    if (strstr(err.message, "points.gltf: it has no camera and no "
+                            "triangles to frame (points and lines are not "
+                            "drawn)") == NULL)
+        fail_msg("points alone: \"%s\"", err.message);
+}
+
 /* A member of the document's root is named alone ("scene", not
  * ".scene"): scene 5 of a file without scenes. */
 static void test_root_member_error(void **state)
@@ -1020,5 +1046,6 @@ static const struct CMUnitTest tests[] = {
     cmocka_unit_test(test_sparse_accessors),
     cmocka_unit_test(test_sparse_hostile),
     cmocka_unit_test(test_morph_weights),
+    cmocka_unit_test(test_points_only),
 };
 LR_TEST_GROUP(gltf, tests)
