@@ -781,6 +781,21 @@ static lr_status check_attribute(const lr__gltf_doc *d, const char *p,
                    ? NULL
                    : "VEC2 of floats, or of unsigned bytes or shorts with "
                      "\"normalized\": true";
+    else if (strncmp(attr, "JOINTS_", 7) == 0)
+        /* Spec 3.7.3.3: joint indices as unsigned bytes or shorts. */
+        want = (ct == 5121 || ct == 5123) &&
+                       strcmp(t->valuestring, "VEC4") == 0
+                   ? NULL
+                   : "VEC4 of unsigned bytes or shorts";
+    else if (strncmp(attr, "WEIGHTS_", 8) == 0)
+        want = (ct == 5126 ||
+                ((ct == 5121 || ct == 5123) &&
+                 cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(
+                     a, "normalized")))) &&
+                       strcmp(t->valuestring, "VEC4") == 0
+                   ? NULL
+                   : "VEC4 of floats, or of unsigned bytes or shorts with "
+                     "\"normalized\": true";
     else if (strcmp(attr, "indices") == 0)
         want = (ct == 5121 || ct == 5123 || ct == 5125) &&
                        strcmp(t->valuestring, "SCALAR") == 0
@@ -985,13 +1000,114 @@ static lr_status check_meshes(lr__gltf_doc *d, lr_error *err)
     return LR_OK;
 }
 
+/* Skins (spec 3.7.3): joints, a non-empty array of node indices, and
+ * inverseBindMatrices, MAT4 floats (finite numbers), at least one per
+ * joint. */
+static lr_status check_skins(const lr__gltf_doc *d, lr_error *err)
+{
+    int ns, nacc, nn;
+    const cJSON *skins = lr__gltf_array(d->root, "skins", &ns);
+    lr__gltf_array(d->root, "accessors", &nacc);
+    lr__gltf_array(d->root, "nodes", &nn);
+    int i = 0;
+    char p[64];
+    for (const cJSON *sk = skins ? skins->child : NULL; sk;
+         sk = sk->next, i++) {
+        snprintf(p, sizeof p, "skins[%d]", i);
+        int nj;
+        const cJSON *joints = lr__gltf_array(sk, "joints", &nj);
+        int ok = nj > 0;
+        for (const cJSON *j = ok ? joints->child : NULL; j; j = j->next)
+            ok = ok && cJSON_IsNumber(j) && j->valuedouble >= 0 &&
+                 j->valuedouble < nn && j->valuedouble == floor(j->valuedouble);
+        if (!ok)
+            return lr__gltf_fail(d, err, "%s.joints must be a non-empty "
+                                 "array of indices below %d", p, nn);
+        long long x, sk_node;
+        LR_TRY(get_index(d, sk, p, "skeleton", nn, &sk_node, err));
+        LR_TRY(get_index(d, sk, p, "inverseBindMatrices", nacc, &x, err));
+        if (x < 0)
+            continue;
+        const cJSON *a = cJSON_GetArrayItem(
+            lr__gltf_array(d->root, "accessors", &nacc), (int)x);
+        const cJSON *t = cJSON_GetObjectItemCaseSensitive(a, "type");
+        size_t stride, cs;
+        long long count;
+        const unsigned char *m = lr__gltf_accessor_at(d, x, &stride, &count,
+                                                      &cs);
+        if (cJSON_GetNumberValue(cJSON_GetObjectItemCaseSensitive(
+                a, "componentType")) != 5126 ||
+            strcmp(t->valuestring, "MAT4") != 0 || count < nj)
+            return lr__gltf_fail(d, err, "%s.inverseBindMatrices: "
+                                 "accessors[%lld] must be %d or more MAT4 "
+                                 "of floats", p, x, nj);
+        for (long long e = 0; e < count * 16; e++) {
+            float f;
+            memcpy(&f, m + (size_t)(e / 16) * stride + (size_t)(e % 16) * 4,
+                   sizeof f);
+            /* Only finite: a joint no vertex weighs may hold anything
+             * (tinygltf's unassigned-skeleton.gltf has 1.2e18); a used
+             * one that throws a vertex too far is refused when placed. */
+            if (!isfinite(f))
+                return lr__gltf_fail(d, err, "%s.inverseBindMatrices: "
+                                     "accessors[%lld] holds %g", p, x,
+                                     (double)f);
+        }
+    }
+    return LR_OK;
+}
+
+/* A skinned node's mesh (spec 3.7.3.3): every primitive has JOINTS_0 and
+ * WEIGHTS_0, and every joint index names one of the skin's joints. */
+static lr_status check_skinned(const lr__gltf_doc *d, const char *p,
+                               long long mesh, long long skin, lr_error *err)
+{
+    int n, nj, np;
+    const cJSON *sk = cJSON_GetArrayItem(lr__gltf_array(d->root, "skins",
+                                                        &n), (int)skin);
+    lr__gltf_array(sk, "joints", &nj);
+    const cJSON *m = cJSON_GetArrayItem(lr__gltf_array(d->root, "meshes",
+                                                       &n), (int)mesh);
+    const cJSON *prims = lr__gltf_array(m, "primitives", &np);
+    int k = 0;
+    for (const cJSON *pr = prims->child; pr; pr = pr->next, k++) {
+        const cJSON *at = cJSON_GetObjectItemCaseSensitive(pr, "attributes");
+        if (!cJSON_GetObjectItemCaseSensitive(at, "JOINTS_0") ||
+            !cJSON_GetObjectItemCaseSensitive(at, "WEIGHTS_0"))
+            return lr__gltf_fail(d, err, "%s: meshes[%lld].primitives[%d] "
+                                 "of a skinned node needs JOINTS_0 and "
+                                 "WEIGHTS_0", p, mesh, k);
+        for (const cJSON *c = at->child; c; c = c->next) {
+            if (strncmp(c->string, "JOINTS_", 7) != 0)
+                continue;
+            size_t stride, cs;
+            long long count;
+            const unsigned char *q = lr__gltf_accessor_at(
+                d, (long long)c->valuedouble, &stride, &count, &cs);
+            for (long long e = 0; e < 4 * count; e++) {
+                unsigned long j = read_uint(q + (size_t)(e / 4) * stride +
+                                                (size_t)(e % 4) * cs,
+                                            cs);
+                if ((long long)j >= nj)
+                    return lr__gltf_fail(d, err, "%s: meshes[%lld]."
+                                         "primitives[%d].attributes.%s: "
+                                         "joint %lu of a skin of %d joints",
+                                         p, mesh, k, c->string, j, nj);
+            }
+        }
+    }
+    return LR_OK;
+}
+
 /* The node graph must be a forest (spec 3.5.3): every node the child of
  * at most one parent, no cycle, scene roots without parents. */
 static lr_status check_nodes(lr__gltf_doc *d, lr_error *err)
 {
-    int n, nmesh, ncam, nlight, nsc;
+    int n, nmesh, ncam, nlight, nsc, nskin;
     const cJSON *a = lr__gltf_array(d->root, "nodes", &n);
     lr__gltf_array(d->root, "meshes", &nmesh);
+    lr__gltf_array(d->root, "skins", &nskin);
+    LR_TRY(check_skins(d, err));
     lr__gltf_array(d->root, "cameras", &ncam);
     lr__gltf_array(lr__gltf_member(d->root, "extensions",
                                    "KHR_lights_punctual"),
@@ -1020,6 +1136,11 @@ static lr_status check_nodes(lr__gltf_doc *d, lr_error *err)
             (st = check_numbers(d, o, p, "translation", 3, err)) ||
             (st = check_numbers(d, o, p, "rotation", 4, err)) ||
             (st = check_numbers(d, o, p, "scale", 3, err)))
+            break;
+        long long skin;
+        if ((st = get_index(d, o, p, "skin", nskin, &skin, err)) != LR_OK ||
+            (skin >= 0 && mesh >= 0 &&
+             (st = check_skinned(d, p, mesh, skin, err)) != LR_OK))
             break;
         /* A node's weights override its mesh's (spec 3.7.2.2). */
         if (cJSON_GetObjectItemCaseSensitive(o, "weights") != NULL &&
@@ -1167,7 +1288,8 @@ static lr_status check_top(lr__gltf_doc *d, lr_error *err)
     /* Arrays the checks index must be arrays of objects when present. */
     static const char *const arrays[] = {
         "buffers", "bufferViews", "accessors", "meshes", "nodes", "scenes",
-        "materials", "textures", "images", "samplers", "cameras", NULL};
+        "materials", "textures", "images", "samplers", "cameras", "skins",
+        NULL};
     for (int k = 0; arrays[k]; k++) {
         const cJSON *a = cJSON_GetObjectItemCaseSensitive(d->root, arrays[k]);
         if (a == NULL)

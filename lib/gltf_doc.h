@@ -87,11 +87,19 @@ const cJSON *lr__gltf_array(const cJSON *o, const char *key, int *n);
 
 struct aiScene;
 /* The document's meshes decoded by libassimp (gltf_assimp.c says what it
- * is given); its aiNodes are named "n<node index>", its materials
- * "m<material index>" (a primitive without one gets assimp's default,
- * which has no such name).  Release with lr__gltf_release. */
-lr_status lr__gltf_import(const lr__gltf_doc *d, const struct aiScene **out,
-                          lr_error *err);
+ * is given; `world`: the nodes' transforms, lr__gltf_world); its aiNodes
+ * are named "n<node index>", its materials "m<material index>" (a
+ * primitive without one gets assimp's default, which has no such name).
+ * Release with lr__gltf_release. */
+lr_status lr__gltf_import(const lr__gltf_doc *d, const lr__xform *world,
+                          const struct aiScene **out, lr_error *err);
+
+/* 1 when nodes[i] has a mesh and a skin: gltf_assimp.c then hands assimp
+ * its mesh already skinned into the glTF's world (the joints' world
+ * transforms times their inverse bind matrices, spec 3.7.3.3), and it is
+ * placed without the node's own transform, which a skinned mesh
+ * ignores. */
+int lr__gltf_skinned(const lr__gltf_doc *d, int i);
 void lr__gltf_release(const struct aiScene *sc);
 
 /* ---- gltf_nodes.c ---- */
@@ -99,7 +107,8 @@ void lr__gltf_release(const struct aiScene *sc);
 /* Every node's world transform (node to the glTF's world, before the
  * object's placement), from its matrix or its translation, rotation and
  * scale (spec 3.5.2: M = T R S; a matrix is column-major), and which
- * nodes the displayed scene ("scene", else scenes[0], else none) holds.
+ * nodes the displayed scene ("scene", else scenes[0], else none) holds
+ * (nodes outside it get their transforms as well, for skins' joints).
  * Both arrays have d->n_nodes elements; the caller frees them. */
 lr_status lr__gltf_world(const lr__gltf_doc *d, lr__xform **world,
                          unsigned char **active, lr_error *err);

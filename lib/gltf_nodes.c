@@ -59,17 +59,19 @@ static lr__xform local(const cJSON *node)
     return x;
 }
 
+/* World transforms of node i's tree under `parent`; `mark` into active
+ * (1: in the displayed scene). */
 static void walk(const cJSON *nodes, int i, const lr__xform *parent,
-                 lr__xform *world, unsigned char *active)
+                 lr__xform *world, unsigned char *active, int mark)
 {
     const cJSON *node = cJSON_GetArrayItem(nodes, i);
     lr__xform l = local(node);
     world[i] = lr__xform_mul(parent, &l);
-    active[i] = 1;
+    active[i] = (unsigned char)mark;
     int n;
     const cJSON *ch = lr__gltf_array(node, "children", &n);
     for (const cJSON *c = ch ? ch->child : NULL; c; c = c->next)
-        walk(nodes, (int)c->valuedouble, &world[i], world, active);
+        walk(nodes, (int)c->valuedouble, &world[i], world, active, mark);
 }
 
 lr_status lr__gltf_world(const lr__gltf_doc *d, lr__xform **world,
@@ -78,9 +80,11 @@ lr_status lr__gltf_world(const lr__gltf_doc *d, lr__xform **world,
     size_t n = d->n_nodes > 0 ? (size_t)d->n_nodes : 1;
     *world = malloc(n * sizeof **world);
     *active = calloc(n, 1);
-    if (*world == NULL || *active == NULL) {
+    unsigned char *child = calloc(n, 1);
+    if (*world == NULL || *active == NULL || child == NULL) {
         free(*world);
         free(*active);
+        free(child);
         *world = NULL;
         *active = NULL;
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
@@ -98,7 +102,19 @@ lr_status lr__gltf_world(const lr__gltf_doc *d, lr__xform **world,
     lr__xform id = lr__xform_identity();
     /* check_nodes made the graph a forest, so the walk ends. */
     for (const cJSON *r = roots ? roots->child : NULL; r; r = r->next)
-        walk(nodes, (int)r->valuedouble, &id, *world, *active);
+        walk(nodes, (int)r->valuedouble, &id, *world, *active, 1);
+    /* The trees outside the displayed scene get their transforms too: a
+     * skin's joints need not be in it (spec 3.7.3). */
+    for (const cJSON *o = nodes ? nodes->child : NULL; o; o = o->next) {
+        int k;
+        const cJSON *ch = lr__gltf_array(o, "children", &k);
+        for (const cJSON *c = ch ? ch->child : NULL; c; c = c->next)
+            child[(int)c->valuedouble] = 1;
+    }
+    for (int i = 0; i < nn; i++)
+        if (!child[i] && !(*active)[i])
+            walk(nodes, i, &id, *world, *active, 0);
+    free(child);
     return LR_OK;
 }
 

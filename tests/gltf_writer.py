@@ -572,7 +572,48 @@ def scene_morph():
     return g
 
 
-SCENES = {"tri": scene_tri, "sparse": scene_sparse, "morph": scene_morph, "tri-nan": scene_tri_nan,
+def scene_skin():
+    """A unit quad in z = 0 (corners 0 to 3 counter-clockwise from
+    (-0.5, -0.5)) skinned (spec 3.7.3) to two joints: corners 0 and 3 to
+    joint 0, a node at (-1, 0, 0); corners 1 and 2 to joint 1, a node at
+    (-1, 0, 2) whose inverse bind matrix translates by (0, 0, -1).  The
+    skinned quad lies in z = x + 1.5 for x from -1.5 to -0.5, whatever
+    the transform of its own node (translated by (5, 5, 5) and scaled by
+    3: the spec says a skinned mesh ignores it).  A plain quad at x = +1,
+    z = 0.25, beside it."""
+    g = Gltf()
+    idx = g.accessor([0, 1, 2, 0, 2, 3], "SCALAR", UINT, 34963)
+    pos = g.accessor([-0.5, -0.5, 0, 0.5, -0.5, 0, 0.5, 0.5, 0,
+                      -0.5, 0.5, 0], "VEC3", target=34962)
+    joints = g._view(bytes([0, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0,
+                            0, 0, 0, 0]), 34962)
+    g.doc["accessors"].append({"bufferView": joints, "componentType": UBYTE,
+                               "count": 4, "type": "VEC4"})
+    jacc = len(g.doc["accessors"]) - 1
+    wacc = g.accessor([1, 0, 0, 0] * 4, "VEC4", target=34962)
+    mats = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1,
+            1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, -1, 1]
+    ibm = g._view(struct.pack("<32f", *mats))
+    g.doc["accessors"].append({"bufferView": ibm, "componentType": FLOAT,
+                               "count": 2, "type": "MAT4"})
+    g.doc["meshes"].append({"primitives": [
+        {"attributes": {"POSITION": pos, "JOINTS_0": jacc,
+                        "WEIGHTS_0": wacc}, "indices": idx}]})
+    j0 = g.node(translation=[-1, 0, 0])
+    j1 = g.node(translation=[-1, 0, 2])
+    g.doc["skins"] = [{"joints": [j0, j1],
+                       "inverseBindMatrices": len(g.doc["accessors"]) - 1}]
+    g.node(mesh=0, skin=0, translation=[5, 5, 5], scale=[3, 3, 3])
+    flat = g.accessor([-0.5, -0.5, 0.25, 0.5, -0.5, 0.25, 0.5, 0.5, 0.25,
+                       -0.5, 0.5, 0.25], "VEC3", target=34962)
+    g.doc["meshes"].append({"primitives": [
+        {"attributes": {"POSITION": flat}, "indices": idx}]})
+    g.node(mesh=1, translation=[1, 0, 0])
+    return g
+
+
+SCENES = {"tri": scene_tri, "sparse": scene_sparse, "morph": scene_morph,
+          "skin": scene_skin, "tri-nan": scene_tri_nan,
           "tri-spaced": scene_tri_spaced, "normals": scene_normals,
           "mapping": scene_mapping, "textured": scene_textured,
           "textured-u8": lambda: scene_textured(UBYTE),

@@ -889,6 +889,27 @@ static void test_points_only(void **state)
         fail_msg("points alone: \"%s\"", err.message);
 }
 
+/* Skins at their joints' own transforms (spec 3.7.3.3): scene "skin"
+ * of gltf_writer.py, whose skinned quad lies where sparse.gltf's first
+ * does, z = x + 1.5 (joint 1's world transform times its inverse bind
+ * matrix lifts two corners by 1), and whose plain quad lies in z = 0.25:
+ * the depths of test_sparse_accessors.  Unskinned, the quad would be
+ * drawn under its node's transform, 15 units away.  A joint index beyond
+ * the skin's joints and a skin without joints name the field. */
+static void test_skin(void **state)
+{
+    (void)state;
+    make("skin", "skin.gltf");
+    expect_depths("skin.gltf", sparse_depth);
+    expect_bad_edit("skin.gltf", "skin-j.gltf", NULL, "skins.0.joints",
+                    "[0]", LR_ERR_INVALID,
+                    "nodes[2]: meshes[0].primitives[0].attributes.JOINTS_0: "
+                    "joint 1 of a skin of 1 joints");
+    expect_bad_edit("skin.gltf", "skin-e.gltf", NULL, "skins.0.joints",
+                    "[]", LR_ERR_INVALID,
+                    "skins[0].joints must be a non-empty array");
+}
+
 /* A member of the document's root is named alone ("scene", not
  * ".scene"): scene 5 of a file without scenes. */
 static void test_root_member_error(void **state)
@@ -1047,5 +1068,6 @@ static const struct CMUnitTest tests[] = {
     cmocka_unit_test(test_sparse_hostile),
     cmocka_unit_test(test_morph_weights),
     cmocka_unit_test(test_points_only),
+    cmocka_unit_test(test_skin),
 };
 LR_TEST_GROUP(gltf, tests)
