@@ -339,6 +339,13 @@ lr_status lr__gltf_camera(lr_scene *s, const lr__gltf_doc *d,
     if (!(v3_len(fwd) > 0) || !(v3_len(v3_cross(fwd, up)) > 0))
         return lr__gltf_fail(d, err, "nodes[%d]'s transform squashes the "
                              "camera's view", node);
+    /* A mirroring transform (a negative scale) mirrors the spec's view
+     * (its view matrix is the node's inverse), which a camera of
+     * position, look_at and up cannot: say so rather than draw the
+     * mirror image of it silently. */
+    if (lr__xform_det(&m) < 0)
+        lr__gltf_warn(s, d, "nodes[%d] mirrors the camera (a negative "
+                      "scale): the image is drawn unmirrored", node);
     lr__v3 at = v3_add(eye, v3_norm(fwd));
     c.position[0] = eye.x, c.position[1] = eye.y, c.position[2] = eye.z;
     c.look_at[0] = at.x, c.look_at[1] = at.y, c.look_at[2] = at.z;

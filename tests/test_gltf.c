@@ -910,6 +910,32 @@ static void test_skin(void **state)
                     "skins[0].joints must be a non-empty array");
 }
 
+/* A camera node that mirrors (scale -1 in x) is warned about: lensray's
+ * camera cannot show the mirror image the spec's view matrix makes; an
+ * unmirrored one is not. */
+static void test_mirrored_camera(void **state)
+{
+    (void)state;
+    make("camera-floor", "camfloor.gltf");
+    cJSON *root = read_json("camfloor.gltf");
+    cJSON *nodes = cJSON_GetObjectItem(root, "nodes");
+    for (cJSON *n = nodes->child; n; n = n->next)
+        if (cJSON_GetObjectItem(n, "camera") != NULL)
+            cJSON_AddItemToObject(n, "scale", cJSON_Parse("[-1, 1, 1]"));
+    write_json("mirrorcam.gltf", root);
+    static const char *const files[] = {"camfloor.gltf", "mirrorcam.gltf"};
+    for (int k = 0; k < 2; k++) {
+        char json[200];
+        snprintf(json, sizeof json, "{\"objects\": [{\"type\": \"gltf\", "
+                 "\"file\": \"%s\", \"camera\": true}]}", files[k]);
+        lr_scene *s = lr_test_load_json(json);
+        const char *w = strstr(lr_scene_warnings(s), "mirrors the camera");
+        if ((w != NULL) != (k == 1))
+            fail_msg("%s: warnings \"%s\"", files[k], lr_scene_warnings(s));
+        lr_scene_free(s);
+    }
+}
+
 /* A member of the document's root is named alone ("scene", not
  * ".scene"): scene 5 of a file without scenes. */
 static void test_root_member_error(void **state)
@@ -1069,5 +1095,6 @@ static const struct CMUnitTest tests[] = {
     cmocka_unit_test(test_morph_weights),
     cmocka_unit_test(test_points_only),
     cmocka_unit_test(test_skin),
+    cmocka_unit_test(test_mirrored_camera),
 };
 LR_TEST_GROUP(gltf, tests)
