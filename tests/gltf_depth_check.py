@@ -379,7 +379,8 @@ def render(lensray, path, w, h, cam):
     args += ["-o", exr, "--depth", "--set", "render.spp=1", "-q"]
     p = subprocess.run(args, capture_output=True, text=True)
     if p.returncode != 0:
-        sys.exit("lensray failed (%d): %s" % (p.returncode, p.stderr))
+        raise RuntimeError("lensray failed (%d): %s" % (p.returncode,
+                                                        p.stderr.strip()))
     return read_z(exr)
 
 
@@ -398,6 +399,69 @@ def compare(mine, theirs, edge, tol):
     return res
 
 
+def auto_camera(tris):
+    """A camera string viewing the triangles' box from the front, up and
+    to the right, the box's sphere filling a 40 degree field."""
+    lo = tris.reshape(-1, 3).min(axis=0)
+    hi = tris.reshape(-1, 3).max(axis=0)
+    mid, r = (lo + hi) / 2, np.linalg.norm(hi - lo) / 2 or 1
+    eye = mid + np.array([0.3, 0.4, 1]) / np.linalg.norm([0.3, 0.4, 1]) * (
+        r / math.sin(math.radians(20)))
+    return ",".join("%.17g" % v for v in list(eye) + list(mid) + [40])
+
+
+def silhouettes(z):
+    """Pixels whose rays 0.02 pixels off hit something else (z from
+    depths())."""
+    mine = z[0]
+    edge = np.zeros(mine.shape, dtype=bool)
+    for o in z[1:]:
+        same = (np.isinf(o) & np.isinf(mine)) | (
+            np.abs(o - mine) <= 1e-3 * np.minimum(o, mine))
+        edge |= ~same
+    return edge
+
+
+def check(lensray, path, size=(64, 48), camera=None, tol=1e-4):
+    """The comparison of one file as a dict ("ok" says the verdict);
+    camera None: the file's own, "auto": auto_camera, else a string
+    "eye,at,fov" of 7 numbers."""
+    doc, bufs = load(path)
+    world = world_matrices(doc)
+    tris = world_triangles(doc, bufs, world)
+    w, h = size
+    if camera == "auto":
+        camera = auto_camera(tris)
+    height_given = True
+    if camera:
+        c = [float(v) for v in camera.split(",")]
+        eye, at = np.array(c[:3]), np.array(c[3:6])
+        fwd, up, yfov = at - eye, np.array([0, 1.0, 0]), math.radians(c[6])
+        cam = c
+    else:
+        g = gltf_camera(doc, world, w)
+        if g is None:
+            return {"file": path, "ok": False, "why": "no camera"}
+        eye, fwd, up, yfov, gh = g
+        height_given = gh is None
+        h = gh if gh is not None else h
+        cam = None
+    np.seterr(invalid="ignore")
+    z = depths(Camera(eye, fwd, up, yfov, w, h), tris)
+    try:
+        theirs = render(lensray, path, w, h if height_given else None, cam)
+    except RuntimeError as e:
+        return {"file": path, "ok": False, "why": str(e)}
+    if theirs.size != w * h:
+        return {"file": path, "ok": False,
+                "why": "lensray's image has %d pixels, the checker's %d x %d"
+                % (theirs.size, w, h)}
+    res = compare(z[0], theirs.reshape(h, w), silhouettes(z), tol)
+    res["file"] = os.path.basename(path)
+    res["size"] = [w, h]
+    return res
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("lensray")
@@ -406,51 +470,7 @@ def main():
     ap.add_argument("--camera")
     ap.add_argument("--tol", type=float, default=1e-4)
     a = ap.parse_args()
-    doc, bufs = load(a.file)
-    world = world_matrices(doc)
-    tris = world_triangles(doc, bufs, world)
-    w, h = a.size
-    if a.camera == "auto":
-        # The box of the triangles from the front, up and to the right.
-        lo = tris.reshape(-1, 3).min(axis=0)
-        hi = tris.reshape(-1, 3).max(axis=0)
-        mid, r = (lo + hi) / 2, np.linalg.norm(hi - lo) / 2 or 1
-        eye = mid + np.array([0.3, 0.4, 1]) / np.linalg.norm([0.3, 0.4, 1]) * (
-            r / math.sin(math.radians(20)))
-        a.camera = ",".join("%.17g" % v for v in list(eye) + list(mid) + [40])
-    if a.camera:
-        c = [float(v) for v in a.camera.split(",")]
-        eye, at = np.array(c[:3]), np.array(c[3:6])
-        fwd, up, yfov = at - eye, np.array([0, 1.0, 0]), math.radians(c[6])
-        cam = c
-    else:
-        g = gltf_camera(doc, world, w)
-        if g is None:
-            sys.exit("%s has no camera: give --camera" % a.file)
-        eye, fwd, up, yfov, gh = g
-        h = gh if gh is not None else h
-        cam = None
-    np.seterr(invalid="ignore")
-    z = depths(Camera(eye, fwd, up, yfov, w, h), tris)
-    mine = z[0]
-    edge = np.zeros(mine.shape, dtype=bool)
-    for o in z[1:]:
-        same = (np.isinf(o) & np.isinf(mine)) | (
-            np.abs(o - mine) <= 1e-3 * np.minimum(o, mine))
-        edge |= ~same
-    theirs = render(a.lensray, a.file, w, None if cam is None and
-                    gltf_camera(doc, world, w)[4] is not None else h, cam)
-    if theirs.shape != mine.shape:
-        theirs = theirs.reshape(-1)
-        if theirs.size != mine.size:
-            print(json.dumps({"file": a.file, "ok": False,
-                              "why": "lensray's image is %d pixels, the "
-                              "checker's %d x %d" % (theirs.size, w, h)}))
-            return 1
-    theirs = theirs.reshape(h, w)
-    res = compare(mine, theirs, edge, a.tol)
-    res["file"] = os.path.basename(a.file)
-    res["size"] = [w, h]
+    res = check(a.lensray, a.file, a.size, a.camera, a.tol)
     print(json.dumps(res))
     return 0 if res["ok"] else 1
 

@@ -612,8 +612,104 @@ def scene_skin():
     return g
 
 
+def scene_two_scenes():
+    """Layout checks for tests/gltf_depth_check.py: scene 1 of two is the
+    displayed one (a box stretched by a non-uniform scale); scene 0's box
+    and a node in no scene must not be drawn."""
+    g = Gltf()
+    bp, bi, bn, _ = box(1, 1, 1)
+    m = g.mesh(bp, bi, bn)
+    g.node(mesh=m, translation=[-2, 0, 0])
+    n1 = g.node(root=False, mesh=m, translation=[2, 0.5, 0], scale=[1, 2, 1])
+    g.doc["scenes"].append({"nodes": [n1]})
+    g.doc["scene"] = 1
+    g.node(root=False, mesh=m, translation=[0, 3, 0])
+    return g
+
+
+def scene_scaled(s):
+    """A box under a parent scaled by s (1e6, 1e-5: huge and tiny scenes),
+    and a mirrored one (scale (s, -s, s))."""
+    g = Gltf()
+    bp, bi, bn, _ = box(1, 1, 1)
+    m = g.mesh(bp, bi, bn)
+    p = g.node(scale=[s, s, s])
+    c = g.node(root=False, mesh=m, translation=[0.5, 0.25, 0],
+               rotation=[0, math.sin(0.3), 0, math.cos(0.3)])
+    g.doc["nodes"][p]["children"] = [c]
+    g.node(mesh=m, translation=[2 * s, 0, -s], scale=[s, -s, s])
+    return g
+
+
+def scene_orient():
+    """Six boxes placed by column-major matrices (a rotation about z and a
+    translation along each axis), seen by a camera (yfov 1.2, aspect 2)
+    under a rotated, translated and scaled parent."""
+    g = Gltf()
+    bp, bi, bn, _ = box(2, 1.5, 1)
+    m = g.mesh(bp, bi, bn)
+    for k, t in enumerate([(3, 0, 0), (-3, 0, 0), (0, 3, 0), (0, -3, 0),
+                           (0, 0, 3), (0, 0, -3)]):
+        c, s = math.cos(0.4 * k), math.sin(0.4 * k)
+        g.node(mesh=m, matrix=[c, s, 0, 0, -s, c, 0, 0, 0, 0, 1, 0,
+                               t[0], t[1], t[2], 1])
+    cam = g.camera({"type": "perspective", "perspective": {
+        "yfov": 1.2, "aspectRatio": 2.0, "znear": 0.01}})
+    par = g.node(rotation=[0.2, 0.3, 0.1, 0.927], translation=[0.2, -0.1, 0.3],
+                 scale=[2, 2, 2])
+    cn = g.node(root=False, camera=cam, translation=[0, 0, 3],
+                rotation=[0, math.sin(0.05), 0, math.cos(0.05)])
+    g.doc["nodes"][par]["children"] = [cn]
+    return g
+
+
+def scene_layouts():
+    """Accessor layouts: a box with POSITION and NORMAL interleaved
+    (byteStride 24, accessor byteOffsets 0 and 12) and unsigned byte
+    indices; a triangle strip without indices; an indexed fan (unsigned
+    short indices) (spec 3.6.2, 3.7.2.1)."""
+    g = Gltf()
+    bp, bi, bn, _ = box(1, 1, 1)
+    nv = len(bp) // 3
+    inter = b"".join(struct.pack("<6f", *bp[3 * i:3 * i + 3],
+                                 *bn[3 * i:3 * i + 3]) for i in range(nv))
+    view = g._view(inter, 34962)
+    g.doc["bufferViews"][view]["byteStride"] = 24
+    acc = g.doc["accessors"]
+    acc.append({"bufferView": view, "componentType": FLOAT, "count": nv,
+                "type": "VEC3", "min": [-0.5] * 3, "max": [0.5] * 3})
+    acc.append({"bufferView": view, "byteOffset": 12, "componentType": FLOAT,
+                "count": nv, "type": "VEC3"})
+    iv = g._view(bytes(bi) + b"\0" * (-len(bi) % 4), 34963)
+    acc.append({"bufferView": iv, "componentType": UBYTE, "count": len(bi),
+                "type": "SCALAR"})
+    g.doc["meshes"].append({"primitives": [{
+        "attributes": {"POSITION": 0, "NORMAL": 1}, "indices": 2}]})
+    g.node(mesh=0)
+    pts = []
+    for k in range(8):
+        pts += [k * 0.4 - 1.6, 1.0 + (k % 2) * 0.6, -0.8 + 0.05 * k]
+    a = g.accessor(pts, "VEC3", target=34962)
+    g.doc["meshes"].append({"primitives": [{"attributes": {"POSITION": a},
+                                            "mode": 5}]})
+    g.node(mesh=1)
+    fp = [0, -1.5, 0]
+    for k in range(7):
+        t = k * 0.7
+        fp += [math.cos(t), -1.5 + 0.3 * math.sin(t), math.sin(t) * 0.5]
+    fa = g.accessor(fp, "VEC3", target=34962)
+    fi = g.accessor(list(range(8)), "SCALAR", USHORT, 34963)
+    g.doc["meshes"].append({"primitives": [{"attributes": {"POSITION": fa},
+                                            "indices": fi, "mode": 6}]})
+    g.node(mesh=2, translation=[0.3, 0, 0.2])
+    return g
+
+
 SCENES = {"tri": scene_tri, "sparse": scene_sparse, "morph": scene_morph,
-          "skin": scene_skin, "tri-nan": scene_tri_nan,
+          "skin": scene_skin, "two-scenes": scene_two_scenes,
+          "huge": lambda: scene_scaled(1e6),
+          "tiny": lambda: scene_scaled(1e-5), "orient": scene_orient,
+          "layouts": scene_layouts, "tri-nan": scene_tri_nan,
           "tri-spaced": scene_tri_spaced, "normals": scene_normals,
           "mapping": scene_mapping, "textured": scene_textured,
           "textured-u8": lambda: scene_textured(UBYTE),
