@@ -1203,7 +1203,12 @@ static lr_status check_nodes(lr__gltf_doc *d, lr_error *err)
     if (st != LR_OK)
         return st;
     long long sc;
-    return get_index(d, d->root, "", "scene", nsc, &sc, err);
+    LR_TRY(get_index(d, d->root, "", "scene", nsc, &sc, err));
+    /* Without scenes a glTF is a library of parts that nothing places
+     * (spec 3.5.1); assimp would say only "GLTF: No scene". */
+    if (nsc == 0)
+        return lr__gltf_fail(d, err, "it has no scenes: nothing to draw");
+    return LR_OK;
 }
 
 /* Images (a file, a data: URI or a bufferView), textures and the texture

@@ -952,6 +952,21 @@ static void test_root_member_error(void **state)
                       "empty or missing array");
 }
 
+/* A file without scenes (valid glTF: a library of parts) has nothing to
+ * draw, and says so itself rather than through assimp's "GLTF: No
+ * scene" (the glTF Validator's EXT_texture_webp samples). */
+static void test_no_scenes(void **state)
+{
+    (void)state;
+    make("tri", "tri.gltf");
+    cJSON *root = read_json("tri.gltf");
+    cJSON_DeleteItemFromObject(root, "scenes");
+    cJSON_DeleteItemFromObject(root, "scene");
+    write_json("sceneless.gltf", root);
+    expect_file_error("sceneless.gltf", LR_ERR_INVALID,
+                      "sceneless.gltf: it has no scenes: nothing to draw");
+}
+
 static void test_hostile(void **state)
 {
     (void)state;
@@ -1096,5 +1111,6 @@ static const struct CMUnitTest tests[] = {
     cmocka_unit_test(test_points_only),
     cmocka_unit_test(test_skin),
     cmocka_unit_test(test_mirrored_camera),
+    cmocka_unit_test(test_no_scenes),
 };
 LR_TEST_GROUP(gltf, tests)
