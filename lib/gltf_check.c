@@ -801,9 +801,20 @@ static lr_status check_attribute(const lr__gltf_doc *d, const char *p,
                        strcmp(t->valuestring, "SCALAR") == 0
                    ? NULL
                    : "SCALAR of unsigned bytes, shorts or ints";
+    /* A file that quantizes without requiring the extension (which the
+     * extension forbids, yet exporters do) hears why its integers are
+     * refused. */
+    int quantized = 0, nu;
+    const cJSON *used = lr__gltf_array(d->root, "extensionsUsed", &nu);
+    for (const cJSON *e = used ? used->child : NULL; e; e = e->next)
+        quantized |= cJSON_IsString(e) &&
+                     strcmp(e->valuestring, "KHR_mesh_quantization") == 0;
     if (want != NULL)
-        return lr__gltf_fail(d, err, "%s.%s: accessors[%lld] must be a %s",
-                             p, attr, acc, want);
+        return lr__gltf_fail(d, err, "%s.%s: accessors[%lld] must be a %s%s",
+                             p, attr, acc, want,
+                             quantized ? " (KHR_mesh_quantization is not "
+                                         "read by lensray)"
+                                       : "");
     return LR_OK;
 }
 

@@ -936,6 +936,26 @@ static void test_mirrored_camera(void **state)
     }
 }
 
+/* A file that uses KHR_mesh_quantization without requiring it (the
+ * glTF Validator's non_required.gltf): the refused integer positions'
+ * error names the extension. */
+static void test_quantized_unrequired(void **state)
+{
+    (void)state;
+    make("tri", "tri.gltf");
+    cJSON *root = read_json("tri.gltf");
+    cJSON_AddItemToObject(root, "extensionsUsed",
+                          cJSON_Parse("[\"KHR_mesh_quantization\"]"));
+    cJSON *a = cJSON_GetArrayItem(cJSON_GetObjectItem(root, "accessors"), 0);
+    cJSON_ReplaceItemInObject(a, "componentType", cJSON_CreateNumber(5123));
+    write_json("quant.gltf", root);
+    expect_file_error("quant.gltf", LR_ERR_INVALID,
+                      "quant.gltf: meshes[0].primitives[0].attributes."
+                      "POSITION: accessors[0] must be a VEC3 of floats "
+                      "(5126) (KHR_mesh_quantization is not read by "
+                      "lensray)");
+}
+
 /* A member of the document's root is named alone ("scene", not
  * ".scene"): scene 5 of a file without scenes. */
 static void test_root_member_error(void **state)
@@ -1112,5 +1132,6 @@ static const struct CMUnitTest tests[] = {
     cmocka_unit_test(test_skin),
     cmocka_unit_test(test_mirrored_camera),
     cmocka_unit_test(test_no_scenes),
+    cmocka_unit_test(test_quantized_unrequired),
 };
 LR_TEST_GROUP(gltf, tests)
