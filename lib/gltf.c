@@ -194,8 +194,14 @@ static lr_status slot_texture(lr_scene *s, lr__gltf_doc *d, const cJSON *info,
             cJSON_GetObjectItemCaseSensitive(info, "index")));
     const cJSON *src = cJSON_GetObjectItemCaseSensitive(tex, "source");
     if (src == NULL) {
-        lr__gltf_warn(s, d, "%s: its texture has no source image (a "
-                      "texture extension?): ignored", p);
+        /* KTX2 (KHR_texture_basisu), WebP or DDS without a fallback: the
+         * image is only in an extension, which the warning names. */
+        const cJSON *ext = cJSON_GetObjectItemCaseSensitive(tex, "extensions");
+        const cJSON *e = cJSON_IsObject(ext) ? ext->child : NULL;
+        lr__gltf_warn(s, d, "%s: its texture has no source image%s%.60s%s: "
+                      "ignored", p, e ? ", only one in " : "",
+                      e ? e->string : "", e ? ", which lensray does not read"
+                                        : "");
         return LR_OK;
     }
     const cJSON *tc = cJSON_GetObjectItemCaseSensitive(info, "texCoord");

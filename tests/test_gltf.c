@@ -956,6 +956,29 @@ static void test_quantized_unrequired(void **state)
                       "lensray)");
 }
 
+/* A texture whose image is only in an extension (KTX2 through
+ * KHR_texture_basisu, without a PNG fallback) is ignored with a warning
+ * that names the extension. */
+static void test_texture_extension_only(void **state)
+{
+    (void)state;
+    make("textured", "textured.gltf");
+    cJSON *root = read_json("textured.gltf");
+    cJSON *t = cJSON_GetArrayItem(cJSON_GetObjectItem(root, "textures"), 0);
+    cJSON_DeleteItemFromObject(t, "source");
+    cJSON_AddItemToObject(t, "extensions", cJSON_Parse(
+        "{\"KHR_texture_basisu\": {\"source\": 0}}"));
+    write_json("basisu.gltf", root);
+    lr_scene *s = lr_test_load_json(
+        "{\"objects\": [{\"type\": \"gltf\", \"file\": \"basisu.gltf\"}]}");
+    if (strstr(lr_scene_warnings(s), "its texture has no source image, "
+                                     "only one in KHR_texture_basisu, which "
+                                     "lensray does not read: ignored") ==
+        NULL)
+        fail_msg("warnings: \"%s\"", lr_scene_warnings(s));
+    lr_scene_free(s);
+}
+
 /* A member of the document's root is named alone ("scene", not
  * ".scene"): scene 5 of a file without scenes. */
 static void test_root_member_error(void **state)
@@ -1133,5 +1156,6 @@ static const struct CMUnitTest tests[] = {
     cmocka_unit_test(test_mirrored_camera),
     cmocka_unit_test(test_no_scenes),
     cmocka_unit_test(test_quantized_unrequired),
+    cmocka_unit_test(test_texture_extension_only),
 };
 LR_TEST_GROUP(gltf, tests)
