@@ -205,8 +205,8 @@ static int float_uvs(const lr__gltf_doc *d, cJSON *r, extra_buffer *u)
 
 /* Every accessor that gltf_check.c copied out (zero-filled or sparse)
  * given to assimp as a plain accessor over its copy in the extra buffer:
- * assimp 5.2 reads neither kind correctly, and the copy is the checked
- * one. */
+ * assimp then reads neither kind itself, and what it reads is the
+ * checked copy. */
 static int dense_accessors(const lr__gltf_doc *d, cJSON *r, extra_buffer *u)
 {
     const cJSON *accs = item(r, "accessors");
