@@ -194,8 +194,14 @@ static lr_status slot_texture(lr_scene *s, lr__gltf_doc *d, const cJSON *info,
             cJSON_GetObjectItemCaseSensitive(info, "index")));
     const cJSON *src = cJSON_GetObjectItemCaseSensitive(tex, "source");
     if (src == NULL) {
-        lr__gltf_warn(s, d, "%s: its texture has no source image (a "
-                      "texture extension?): ignored", p);
+        /* KTX2 (KHR_texture_basisu), WebP or DDS without a fallback: the
+         * image is only in an extension, which the warning names. */
+        const cJSON *ext = cJSON_GetObjectItemCaseSensitive(tex, "extensions");
+        const cJSON *e = cJSON_IsObject(ext) ? ext->child : NULL;
+        lr__gltf_warn(s, d, "%s: its texture has no source image%s%.60s%s: "
+                      "ignored", p, e ? ", only one in " : "",
+                      e ? e->string : "", e ? ", which lensray does not read"
+                                        : "");
         return LR_OK;
     }
     const cJSON *tc = cJSON_GetObjectItemCaseSensitive(info, "texCoord");
@@ -525,7 +531,13 @@ static lr_status place_node(placer *pl, const struct aiNode *n, lr_error *err)
             return lr__gltf_fail(pl->d, err, "libassimp returned a node "
                                  "\"%.40s\" the file does not have",
                                  n->mName.data);
-        lr__xform x = lr__xform_mul(&pl->o->place, &pl->world[i]);
+        /* A skinned mesh comes already in the glTF's world
+         * (lr__gltf_skinned). */
+        lr__xform id = lr__xform_identity();
+        lr__xform x = lr__xform_mul(&pl->o->place,
+                                    lr__gltf_skinned(pl->d, (int)i)
+                                        ? &id
+                                        : &pl->world[i]);
         for (unsigned k = 0; k < n->mNumMeshes; k++)
             if (n->mMeshes[k] < pl->sc->mNumMeshes)
                 LR_TRY(add_mesh(pl, pl->sc->mMeshes[n->mMeshes[k]], &x,
@@ -536,24 +548,16 @@ static lr_status place_node(placer *pl, const struct aiNode *n, lr_error *err)
     return LR_OK;
 }
 
-/* Warnings for the parts of the file nothing reads. */
+/* Warnings for the parts of the file nothing reads.  Morph targets and
+ * skins are read (drawn at the default weights and at the joints' own
+ * transforms, gltf_assimp.c); their animation is one of the
+ * animations. */
 static void warn_unread(lr_scene *s, const lr__gltf_doc *d)
 {
-    static const char *const top[] = {"animations", "skins", NULL};
+    static const char *const top[] = {"animations", NULL};
     for (int k = 0; top[k]; k++)
         if (cJSON_GetObjectItemCaseSensitive(d->root, top[k]))
             lr__gltf_warn(s, d, "%s are ignored", top[k]);
-    int nm;
-    const cJSON *meshes = lr__gltf_array(d->root, "meshes", &nm);
-    int i = 0;
-    for (const cJSON *m = meshes ? meshes->child : NULL; m; m = m->next, i++)
-        for (const cJSON *p = cJSON_GetObjectItemCaseSensitive(m,
-                                                               "primitives")
-                                  ->child;
-             p; p = p->next)
-            if (cJSON_GetObjectItemCaseSensitive(p, "targets"))
-                lr__gltf_warn(s, d, "meshes[%d]: morph targets are ignored",
-                              i);
 }
 
 lr_status lr__scene_add_gltf(lr_scene *s, const char *file, const char *shown,
@@ -576,7 +580,7 @@ lr_status lr__scene_add_gltf(lr_scene *s, const char *file, const char *shown,
          m = m->next, i++)
         st = add_material(s, &d, m, i, err);
     if (st == LR_OK)
-        st = lr__gltf_import(&d, &sc, err);
+        st = lr__gltf_import(&d, world, &sc, err);
     pl.sc = sc;
     if (st == LR_OK && sc->mRootNode != NULL)
         st = place_node(&pl, sc->mRootNode, err);

@@ -14,7 +14,9 @@
  * (glTF 2.0, 3.7.2.1) are decoded here into floats, c / 255 or
  * c / 65535, and given to assimp as float accessors in one more buffer:
  * assimp 5.2 copies such an accessor's raw bytes into its floats, which
- * textured a quad with a few texels of garbage.
+ * textured a quad with a few texels of garbage.  Sparse and zero-filled
+ * accessors (3.6.2.3) reach assimp the same way, as plain accessors over
+ * the copies gltf_check.c made of them.
  */
 #include "gltf_doc.h"
 #include "json_util.h"
@@ -22,6 +24,7 @@
 #include <assimp/cfileio.h>
 #include <assimp/cimport.h>
 #include <assimp/postprocess.h>
+#include <math.h>
 #include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -78,65 +81,106 @@ static int copy_array(cJSON *dst, const cJSON *root, const char *key,
     return 1;
 }
 
-/* The floats assimp gets for integer texture coordinates: buffer
- * `index` (one past the document's), `n` floats. */
-typedef struct uv_buffer {
-    float *data;
+/* The bytes assimp gets beyond the document's buffers, in one more
+ * buffer (`index`, one past the document's): floats for integer texture
+ * coordinates and the dense copies of accessors (gltf_check.c). */
+typedef struct extra_buffer {
+    unsigned char *data;
     size_t n, cap;
     size_t index;
-} uv_buffer;
+} extra_buffer;
 
 static const cJSON *item(const cJSON *o, const char *k)
 {
     return cJSON_GetObjectItemCaseSensitive(o, k);
 }
 
-/* Appends the floats of integer TEXCOORD accessor a of the document
- * (componentType 5121 or 5123, VEC2, bounds checked by gltf_check.c) to
- * u; its first float's index in *at.  0 on no memory. */
-static int decode_uv(const lr__gltf_doc *d, const cJSON *a, uv_buffer *u,
-                     size_t *at)
+/* Room for `n` more bytes after padding to 4 (a float's alignment, which
+ * glTF asks of every accessor); the offset where they go in *at, or 0 on
+ * no memory. */
+static int extra_grow(extra_buffer *u, size_t n, size_t *at)
 {
-    int n;
-    const cJSON *v = cJSON_GetArrayItem(lr__gltf_array(d->root,
-                                                       "bufferViews", &n),
-                                        (int)cJSON_GetNumberValue(
-                                            item(a, "bufferView")));
-    const struct lr__gltf_buffer *b =
-        &d->buffers[(size_t)cJSON_GetNumberValue(item(v, "buffer"))];
-    int ct = (int)cJSON_GetNumberValue(item(a, "componentType"));
-    size_t cs = ct == 5121 ? 1 : 2;
-    const cJSON *vs = item(v, "byteStride");
-    size_t stride = vs ? (size_t)vs->valuedouble : 2 * cs;
-    const cJSON *vo = item(v, "byteOffset"), *ao = item(a, "byteOffset");
-    size_t off = (size_t)(vo ? vo->valuedouble : 0) +
-                 (size_t)(ao ? ao->valuedouble : 0);
-    size_t count = (size_t)cJSON_GetNumberValue(item(a, "count"));
-    if (u->n + 2 * count > u->cap) {
-        size_t cap = 2 * (u->n + 2 * count);
-        float *p = realloc(u->data, cap * sizeof *p);
+    size_t start = (u->n + 3) & ~(size_t)3;
+    if (start + n > u->cap) {
+        size_t cap = 2 * (start + n);
+        unsigned char *p = realloc(u->data, cap);
         if (p == NULL)
             return 0;
         u->data = p, u->cap = cap;
     }
-    *at = u->n;
-    for (size_t i = 0; i < count; i++)
+    memset(u->data + u->n, 0, start - u->n);
+    *at = start;
+    u->n = start + n;
+    return 1;
+}
+
+/* A new bufferView of the extra buffer over bytes [at, at + n) in the
+ * reduced copy r, and an accessor of it (`count` elements of `type`, of
+ * componentType ct, normalized or not) replacing accessors[k], or
+ * appended when k < 0.  Its index, or -1 on no memory. */
+static int extra_accessor(cJSON *r, const extra_buffer *u, int k,
+                          size_t at, size_t n, double ct, double count,
+                          const char *type, int normalized)
+{
+    cJSON *views = cJSON_GetObjectItemCaseSensitive(r, "bufferViews");
+    if (views == NULL)
+        views = cJSON_AddArrayToObject(r, "bufferViews");
+    cJSON *accs = cJSON_GetObjectItemCaseSensitive(r, "accessors");
+    cJSON *view = cJSON_CreateObject();
+    if (views == NULL || accs == NULL || view == NULL ||
+        !cJSON_AddItemToArray(views, view)) {
+        cJSON_Delete(view);
+        return -1;
+    }
+    cJSON *fa = cJSON_CreateObject();
+    int ok = fa != NULL &&
+             cJSON_AddNumberToObject(view, "buffer", (double)u->index) &&
+             cJSON_AddNumberToObject(view, "byteOffset", (double)at) &&
+             cJSON_AddNumberToObject(view, "byteLength", (double)n) &&
+             cJSON_AddNumberToObject(fa, "bufferView",
+                                     cJSON_GetArraySize(views) - 1) &&
+             cJSON_AddNumberToObject(fa, "componentType", ct) &&
+             cJSON_AddNumberToObject(fa, "count", count) &&
+             cJSON_AddStringToObject(fa, "type", type) &&
+             (!normalized || cJSON_AddTrueToObject(fa, "normalized"));
+    if (ok && k < 0) {
+        ok = cJSON_AddItemToArray(accs, fa);
+        k = cJSON_GetArraySize(accs) - 1;
+    } else if (ok) {
+        ok = cJSON_ReplaceItemInArray(accs, k, fa);
+    }
+    if (!ok)
+        cJSON_Delete(fa);
+    return ok ? k : -1;
+}
+
+/* The floats of integer TEXCOORD accessor k of the document
+ * (componentType 5121 or 5123, VEC2, checked by gltf_check.c) appended
+ * to u; where they start in *at.  0 on no memory. */
+static int decode_uv(const lr__gltf_doc *d, int k, extra_buffer *u,
+                     size_t *at)
+{
+    size_t stride, cs;
+    long long count;
+    const unsigned char *base = lr__gltf_accessor_at(d, k, &stride, &count,
+                                                     &cs);
+    if (!extra_grow(u, (size_t)count * 2 * sizeof(float), at))
+        return 0;
+    float *f = (float *)(u->data + *at);
+    for (size_t i = 0; i < (size_t)count; i++)
         for (size_t c = 0; c < 2; c++) {
-            const unsigned char *q = b->data + off + i * stride + c * cs;
-            u->data[u->n++] = cs == 1 ? q[0] / 255.0f
-                                      : (float)(q[0] | q[1] << 8) / 65535.0f;
+            const unsigned char *q = base + i * stride + c * cs;
+            f[2 * i + c] = cs == 1 ? q[0] / 255.0f
+                                   : (float)(q[0] | q[1] << 8) / 65535.0f;
         }
     return 1;
 }
 
 /* Every integer TEXCOORD accessor of the reduced copy r made a float one
- * over a new bufferView of buffer u->index (its floats decoded into u). */
-static int float_uvs(const lr__gltf_doc *d, cJSON *r, uv_buffer *u)
+ * over the extra buffer (its floats decoded into u). */
+static int float_uvs(const lr__gltf_doc *d, cJSON *r, extra_buffer *u)
 {
-    int n;
-    const cJSON *orig = lr__gltf_array(d->root, "accessors", &n);
     cJSON *accs = cJSON_GetObjectItemCaseSensitive(r, "accessors");
-    cJSON *views = cJSON_GetObjectItemCaseSensitive(r, "bufferViews");
     const cJSON *meshes = item(r, "meshes");
     for (const cJSON *m = meshes ? meshes->child : NULL; m; m = m->next)
         for (const cJSON *p = item(m, "primitives")->child; p; p = p->next)
@@ -150,39 +194,333 @@ static int float_uvs(const lr__gltf_doc *d, cJSON *r, uv_buffer *u)
                 if (ct != 5121 && ct != 5123)
                     continue; /* floats, or made floats already */
                 size_t first;
-                if (!decode_uv(d, cJSON_GetArrayItem(orig, k), u, &first))
-                    return 0;
                 double count = cJSON_GetNumberValue(item(a, "count"));
-                cJSON *view = cJSON_CreateObject();
-                if (view == NULL || !cJSON_AddItemToArray(views, view) ||
-                    !cJSON_AddNumberToObject(view, "buffer", (double)u->index) ||
-                    !cJSON_AddNumberToObject(view, "byteOffset", 4.0 * first) ||
-                    !cJSON_AddNumberToObject(view, "byteLength", 8.0 * count))
+                if (!decode_uv(d, k, u, &first) ||
+                    extra_accessor(r, u, k, first, 8 * (size_t)count, 5126,
+                                   count, "VEC2", 0) < 0)
                     return 0;
-                cJSON *fa = cJSON_CreateObject();
-                if (fa == NULL ||
-                    !cJSON_AddNumberToObject(fa, "bufferView",
-                                             cJSON_GetArraySize(views) - 1) ||
-                    !cJSON_AddNumberToObject(fa, "componentType", 5126) ||
-                    !cJSON_AddNumberToObject(fa, "count", count) ||
-                    !cJSON_AddStringToObject(fa, "type", "VEC2") ||
-                    !cJSON_ReplaceItemInArray(accs, k, fa)) {
-                    cJSON_Delete(fa);
-                    return 0;
-                }
             }
+    return 1;
+}
+
+/* Every accessor that gltf_check.c copied out (zero-filled or sparse)
+ * given to assimp as a plain accessor over its copy in the extra buffer:
+ * assimp then reads neither kind itself, and what it reads is the
+ * checked copy. */
+static int dense_accessors(const lr__gltf_doc *d, cJSON *r, extra_buffer *u)
+{
+    const cJSON *accs = item(r, "accessors");
+    for (size_t k = 0; k < d->n_accessors; k++) {
+        if (d->dense[k] == NULL)
+            continue;
+        size_t stride, cs, at;
+        long long count;
+        const unsigned char *src = lr__gltf_accessor_at(d, (long long)k,
+                                                        &stride, &count, &cs);
+        size_t n = stride * (size_t)count;
+        if (!extra_grow(u, n, &at))
+            return 0;
+        memcpy(u->data + at, src, n);
+        const cJSON *a = cJSON_GetArrayItem(accs, (int)k);
+        char type[8];
+        snprintf(type, sizeof type, "%s", item(a, "type")->valuestring);
+        if (extra_accessor(r, u, (int)k, at, n,
+                           cJSON_GetNumberValue(item(a, "componentType")),
+                           (double)count, type,
+                           cJSON_IsTrue(item(a, "normalized"))) < 0)
+            return 0;
+    }
+    return 1;
+}
+
+int lr__gltf_skinned(const lr__gltf_doc *d, int i)
+{
+    int n;
+    const cJSON *node = cJSON_GetArrayItem(lr__gltf_array(d->root, "nodes",
+                                                          &n), i);
+    return item(node, "mesh") != NULL && item(node, "skin") != NULL;
+}
+
+/* A node's pose for posed(): its mesh's morph weights, and its skin's
+ * joint matrices (each joint node's world transform times its inverse
+ * bind matrix, spec 3.7.3.3). */
+typedef struct pose {
+    const cJSON *weights; /* non-zero morph weights, or NULL */
+    lr__xform *joint;     /* one per joint, or NULL without a skin */
+} pose;
+
+/* Adds morph target displacements at weights w to the floats f of
+ * attribute attr of primitive pr (spec 3.7.2.2: the base plus the
+ * weighted sum of the targets'). */
+static void morph(const lr__gltf_doc *d, const cJSON *pr, const char *attr,
+                  const cJSON *w, float *f)
+{
+    int nt;
+    const cJSON *ts = lr__gltf_array(pr, "targets", &nt);
+    const cJSON *wk = w->child;
+    for (const cJSON *t = ts ? ts->child : NULL; t && wk;
+         t = t->next, wk = wk->next) {
+        const cJSON *ta = item(t, attr);
+        if (ta == NULL || wk->valuedouble == 0)
+            continue;
+        size_t stride, cs;
+        long long count;
+        const unsigned char *q = lr__gltf_accessor_at(
+            d, (long long)ta->valuedouble, &stride, &count, &cs);
+        for (size_t i = 0; i < 3 * (size_t)count; i++) {
+            float dv;
+            memcpy(&dv, q + i / 3 * stride + i % 3 * sizeof(float), sizeof dv);
+            f[i] = (float)(f[i] + wk->valuedouble * dv);
+        }
+    }
+}
+
+/* An accessor of joint indices or weights, found once. */
+typedef struct vec4_at {
+    const unsigned char *p;
+    size_t stride, cs;
+    int is_float, normalized;
+} vec4_at;
+
+static vec4_at vec4_of(const lr__gltf_doc *d, const cJSON *acc)
+{
+    vec4_at v;
+    long long count, k = (long long)acc->valuedouble;
+    v.p = lr__gltf_accessor_at(d, k, &v.stride, &count, &v.cs);
+    int n;
+    const cJSON *a = cJSON_GetArrayItem(lr__gltf_array(d->root, "accessors",
+                                                       &n), (int)k);
+    v.is_float = cJSON_GetNumberValue(item(a, "componentType")) == 5126;
+    v.normalized = cJSON_IsTrue(item(a, "normalized"));
+    return v;
+}
+
+/* Component c of element e: joint indices as they are, normalized
+ * weights scaled to [0, 1] (spec 3.11). */
+static double vec4_get(const vec4_at *v, size_t e, int c)
+{
+    const unsigned char *q = v->p + e * v->stride + (size_t)c * v->cs;
+    if (v->is_float) {
+        float f;
+        memcpy(&f, q, sizeof f);
+        return f;
+    }
+    double x = v->cs == 1 ? q[0] : (double)(q[0] | q[1] << 8);
+    return v->normalized ? x / (v->cs == 1 ? 255 : 65535) : x;
+}
+
+/* The skinning matrix of vertex v (spec 3.7.3.3): the sum over its
+ * JOINTS_n / WEIGHTS_n (n sets in j, w) of weight x joint matrix. */
+static lr__xform skin_matrix(const vec4_at *j, const vec4_at *w, int n,
+                             const lr__xform *joint, size_t v)
+{
+    lr__xform sum;
+    memset(&sum, 0, sizeof sum);
+    for (int set = 0; set < n; set++)
+        for (int c = 0; c < 4; c++) {
+            double wt = vec4_get(&w[set], v, c);
+            const lr__xform *m = &joint[(int)vec4_get(&j[set], v, c)];
+            for (int r = 0; wt != 0 && r < 3; r++)
+                for (int k = 0; k < 4; k++)
+                    sum.m[r][k] += wt * m->m[r][k];
+        }
+    return sum;
+}
+
+/* The joint matrices of skin sk under the nodes' transforms `world`
+ * (a new array, or NULL on no memory). */
+static lr__xform *joint_matrices(const lr__gltf_doc *d, const cJSON *sk,
+                                 const lr__xform *world)
+{
+    int nj;
+    const cJSON *joints = lr__gltf_array(sk, "joints", &nj);
+    const cJSON *ibm = item(sk, "inverseBindMatrices");
+    lr__xform *out = malloc((size_t)nj * sizeof *out);
+    size_t stride = 0, cs;
+    long long count;
+    const unsigned char *m =
+        ibm ? lr__gltf_accessor_at(d, (long long)ibm->valuedouble, &stride,
+                                   &count, &cs)
+            : NULL;
+    int i = 0;
+    for (const cJSON *j = joints->child; out && j; j = j->next, i++) {
+        lr__xform b = lr__xform_identity();
+        /* A column-major MAT4: row r, column k is element 4 k + r. */
+        for (int r = 0; m && r < 3; r++)
+            for (int k = 0; k < 4; k++) {
+                float f;
+                memcpy(&f, m + (size_t)i * stride + (size_t)(4 * k + r) * 4,
+                       sizeof f);
+                b.m[r][k] = f;
+            }
+        out[i] = lr__xform_mul(&world[(int)j->valuedouble], &b);
+    }
+    return out;
+}
+
+/* Attribute `attr` (POSITION or NORMAL, VEC3 floats: gltf_check.c) of
+ * the document's primitive `pr` in the node's pose: morphed, then skinned
+ * into the glTF's world (a normal by the inverse transpose, unit length
+ * again), as floats in the extra buffer; the new accessor's index in r,
+ * -2 when the pose does not move it, -1 on no memory. */
+static int posed(const lr__gltf_doc *d, const cJSON *pr, const char *attr,
+                 const pose *ps, cJSON *r, extra_buffer *u)
+{
+    const cJSON *base = item(item(pr, "attributes"), attr);
+    int nt, moved = ps->joint != NULL;
+    const cJSON *ts = lr__gltf_array(pr, "targets", &nt);
+    for (const cJSON *t = ts ? ts->child : NULL; t; t = t->next)
+        moved |= ps->weights != NULL && item(t, attr) != NULL;
+    if (base == NULL || !moved)
+        return -2;
+    size_t stride, cs, at;
+    long long count;
+    const unsigned char *src = lr__gltf_accessor_at(
+        d, (long long)base->valuedouble, &stride, &count, &cs);
+    if (!extra_grow(u, (size_t)count * 3 * sizeof(float), &at))
+        return -1;
+    float *f = (float *)(u->data + at);
+    for (size_t i = 0; i < (size_t)count; i++)
+        memcpy(f + 3 * i, src + i * stride, 3 * sizeof(float));
+    if (ps->weights != NULL)
+        morph(d, pr, attr, ps->weights, f);
+    /* At most 8 sets of 4 joints each (gltf_check.c keeps them below
+     * the skin's count). */
+    vec4_at js[8], ws[8];
+    int sets = 0;
+    const cJSON *ats = item(pr, "attributes");
+    for (; ps->joint != NULL && sets < 8; sets++) {
+        char jn[24], wn[24];
+        snprintf(jn, sizeof jn, "JOINTS_%d", sets);
+        snprintf(wn, sizeof wn, "WEIGHTS_%d", sets);
+        if (item(ats, jn) == NULL || item(ats, wn) == NULL)
+            break;
+        js[sets] = vec4_of(d, item(ats, jn));
+        ws[sets] = vec4_of(d, item(ats, wn));
+    }
+    int normal = attr[0] == 'N';
+    for (size_t i = 0; i < (size_t)count; i++) {
+        lr__v3 p = v3(f[3 * i], f[3 * i + 1], f[3 * i + 2]);
+        if (ps->joint != NULL) {
+            lr__xform m = skin_matrix(js, ws, sets, ps->joint, i);
+            p = normal ? lr__xform_normal(&m, p) : lr__xform_point(&m, p);
+        } else if (normal && v3_len(p) > 0) {
+            p = v3_norm(p);
+        }
+        /* Kept within a float's range: a vertex thrown beyond 1e15 is
+         * refused when placed (gltf.c), naming the limit. */
+        f[3 * i] = (float)fmax(-1e30, fmin(1e30, p.x));
+        f[3 * i + 1] = (float)fmax(-1e30, fmin(1e30, p.y));
+        f[3 * i + 2] = (float)fmax(-1e30, fmin(1e30, p.z));
+    }
+    return extra_accessor(r, u, -1, at, (size_t)count * 3 * sizeof(float),
+                          5126, (double)count, "VEC3", 0);
+}
+
+/* The weights a node draws its mesh's morph targets at: its own, else
+ * its mesh's (spec 3.7.2.2), or NULL when they are all zero. */
+static const cJSON *node_weights(const cJSON *node, const cJSON *mesh)
+{
+    const cJSON *w = item(node, "weights");
+    if (w == NULL)
+        w = item(mesh, "weights");
+    for (const cJSON *c = w ? w->child : NULL; c; c = c->next)
+        if (c->valuedouble != 0)
+            return w;
+    return NULL;
+}
+
+/* Appends to r's meshes a copy of its meshes[m] (the document's `mesh`)
+ * whose POSITION and NORMAL are posed by ps.  0 on no memory. */
+static int pose_mesh(const lr__gltf_doc *d, const pose *ps,
+                     const cJSON *mesh, int m, cJSON *r, extra_buffer *u)
+{
+    cJSON *rmeshes = cJSON_GetObjectItemCaseSensitive(r, "meshes");
+    cJSON *copy = cJSON_Duplicate(cJSON_GetArrayItem(rmeshes, m), 1);
+    if (copy == NULL || !cJSON_AddItemToArray(rmeshes, copy)) {
+        cJSON_Delete(copy);
+        return 0;
+    }
+    cJSON *cp = item(copy, "primitives")->child;
+    for (const cJSON *pr = item(mesh, "primitives")->child; pr && cp;
+         pr = pr->next, cp = cp->next) {
+        static const char *const attrs[] = {"POSITION", "NORMAL"};
+        for (int k = 0; k < 2; k++) {
+            int a = posed(d, pr, attrs[k], ps, r, u);
+            cJSON *at = cJSON_GetObjectItemCaseSensitive(cp, "attributes");
+            if (a == -1 ||
+                (a >= 0 && !cJSON_ReplaceItemInObjectCaseSensitive(
+                               at, attrs[k], cJSON_CreateNumber(a))))
+                return 0;
+        }
+    }
+    return 1;
+}
+
+/* Each node whose mesh is morphed (targets at non-zero default weights)
+ * or skinned gets, in the reduced copy r, a mesh of its own whose
+ * POSITION and NORMAL are posed (posed()); assimp is never given the
+ * targets nor the skins.  A still image then shows what glTF viewers show
+ * before any animation: the targets at the file's weights (spec 3.7.2.2)
+ * and the skin at its joints' own transforms (3.7.3.3). */
+static int pose_meshes(const lr__gltf_doc *d, const lr__xform *world,
+                       cJSON *r, extra_buffer *u)
+{
+    int nn, nm, ns;
+    const cJSON *nodes = lr__gltf_array(d->root, "nodes", &nn);
+    const cJSON *meshes = lr__gltf_array(d->root, "meshes", &nm);
+    const cJSON *skins = lr__gltf_array(d->root, "skins", &ns);
+    cJSON *rmeshes = cJSON_GetObjectItemCaseSensitive(r, "meshes");
+    cJSON *rnodes = cJSON_GetObjectItemCaseSensitive(r, "nodes");
+    int i = 0;
+    for (const cJSON *n = nodes ? nodes->child : NULL; n; n = n->next, i++) {
+        const cJSON *mi = item(n, "mesh");
+        if (mi == NULL)
+            continue;
+        int m = (int)mi->valuedouble;
+        const cJSON *mesh = cJSON_GetArrayItem(meshes, m);
+        const cJSON *sk = item(n, "skin");
+        pose ps = {node_weights(n, mesh), NULL};
+        if (ps.weights == NULL && sk == NULL)
+            continue;
+        if (sk != NULL) {
+            ps.joint = joint_matrices(
+                d, cJSON_GetArrayItem(skins, (int)sk->valuedouble), world);
+            if (ps.joint == NULL)
+                return 0;
+        }
+        int ok = pose_mesh(d, &ps, mesh, m, r, u) &&
+                 cJSON_ReplaceItemInObjectCaseSensitive(
+                     cJSON_GetArrayItem(rnodes, i), "mesh",
+                     cJSON_CreateNumber(cJSON_GetArraySize(rmeshes) - 1));
+        free(ps.joint);
+        if (!ok)
+            return 0;
+    }
+    return 1;
+}
+
+/* The extra buffer in r's buffers, when anything went into it. */
+static int extra_declare(cJSON *r, const extra_buffer *u)
+{
     if (u->n == 0)
         return 1;
     char name[40];
     snprintf(name, sizeof name, "lr-buffer-%zu.bin", u->index);
     cJSON *bufs = cJSON_GetObjectItemCaseSensitive(r, "buffers");
+    if (bufs == NULL)
+        bufs = cJSON_AddArrayToObject(r, "buffers");
     cJSON *buf = cJSON_CreateObject();
-    return buf != NULL && cJSON_AddItemToArray(bufs, buf) &&
-           cJSON_AddNumberToObject(buf, "byteLength", 4.0 * u->n) &&
+    if (bufs == NULL || buf == NULL || !cJSON_AddItemToArray(bufs, buf)) {
+        cJSON_Delete(buf);
+        return 0;
+    }
+    return cJSON_AddNumberToObject(buf, "byteLength", (double)u->n) &&
            cJSON_AddStringToObject(buf, "uri", name);
 }
 
-static char *assimp_text(const lr__gltf_doc *d, uv_buffer *u)
+static char *assimp_text(const lr__gltf_doc *d, const lr__xform *world,
+                         extra_buffer *u)
 {
     static const char *const k_scene[] = {"nodes", NULL};
     static const char *const k_node[] = {"children", "mesh", "matrix",
@@ -228,7 +566,8 @@ static char *assimp_text(const lr__gltf_doc *d, uv_buffer *u)
         cJSON *name = cJSON_DetachItemFromObject(b, "name");
         ok = name && cJSON_AddItemToObject(b, "uri", name);
     }
-    ok = ok && float_uvs(d, r, u);
+    ok = ok && dense_accessors(d, r, u) && float_uvs(d, r, u) &&
+         pose_meshes(d, world, r, u) && extra_declare(r, u);
     char *text = ok ? cJSON_PrintUnformatted(r) : NULL;
     cJSON_Delete(r);
     return text;
@@ -245,7 +584,7 @@ typedef struct mem_file {
 typedef struct mem_fs {
     const lr__gltf_doc *d;
     const char *text;
-    const uv_buffer *uv;
+    const extra_buffer *uv;
 } mem_fs;
 
 static size_t mf_read(struct aiFile *f, char *buf, size_t size, size_t count)
@@ -306,8 +645,8 @@ static struct aiFile *fs_open(struct aiFileIO *io, const char *name,
         n = fs->d->buffers[b].n;
     } else if (end != NULL && end > base + 10 && strcmp(end, ".bin") == 0 &&
                b == fs->uv->index && fs->uv->n > 0) {
-        data = (const unsigned char *)fs->uv->data;
-        n = fs->uv->n * sizeof(float);
+        data = fs->uv->data;
+        n = fs->uv->n;
     } else {
         return NULL;
     }
@@ -334,12 +673,12 @@ static void fs_close(struct aiFileIO *io, struct aiFile *f)
 /* assimp keeps its last error in one global string. */
 static pthread_mutex_t import_lock = PTHREAD_MUTEX_INITIALIZER;
 
-lr_status lr__gltf_import(const lr__gltf_doc *d, const struct aiScene **out,
-                          lr_error *err)
+lr_status lr__gltf_import(const lr__gltf_doc *d, const lr__xform *world,
+                          const struct aiScene **out, lr_error *err)
 {
     *out = NULL;
-    uv_buffer uv = {NULL, 0, 0, d->n_buffers};
-    char *text = assimp_text(d, &uv);
+    extra_buffer uv = {NULL, 0, 0, d->n_buffers};
+    char *text = assimp_text(d, world, &uv);
     if (text == NULL) {
         free(uv.data);
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");

@@ -63,6 +63,9 @@ void lr__gltf_doc_free(lr__gltf_doc *d)
     }
     free(d->blobs);
     free(d->buffers);
+    for (size_t i = 0; i < d->n_accessors; i++)
+        free(d->dense[i]);
+    free(d->dense);
     free(d->tex);
     cJSON_Delete(d->root);
     free(d->bytes);
@@ -70,6 +73,15 @@ void lr__gltf_doc_free(lr__gltf_doc *d)
 }
 
 /* ---- small readers ------------------------------------------------------ */
+
+/* "path.key", or "key" alone for a member of the document's root (path
+ * ""), so that no message starts with a lone dot. */
+static const char *dotted(const char *path, const char *key, char *buf,
+                          size_t n)
+{
+    snprintf(buf, n, "%s%s%s", path, *path ? "." : "", key);
+    return buf;
+}
 
 /* An optional non-negative integer member below `lim` (lim 0: no limit);
  * *out = dflt when absent. */
@@ -82,12 +94,13 @@ static lr_status get_uint(const lr__gltf_doc *d, const cJSON *o,
     if (v == NULL)
         return LR_OK;
     double x = cJSON_IsNumber(v) ? v->valuedouble : -1;
+    char f[200];
     if (!(x >= 0 && x == floor(x) && x <= 4e9 && (lim == 0 || x < lim))) {
         if (lim > 0)
-            return lr__gltf_fail(d, err, "%s.%s must be an index below %.0f",
-                                 path, key, lim);
-        return lr__gltf_fail(d, err, "%s.%s must be a whole number >= 0",
-                             path, key);
+            return lr__gltf_fail(d, err, "%s must be an index below %.0f",
+                                 dotted(path, key, f, sizeof f), lim);
+        return lr__gltf_fail(d, err, "%s must be a whole number >= 0",
+                             dotted(path, key, f, sizeof f));
     }
     *out = (long long)x;
     return LR_OK;
@@ -102,9 +115,11 @@ static lr_status get_index(const lr__gltf_doc *d, const cJSON *o,
     *out = -1;
     if (v == NULL)
         return LR_OK;
+    char f[200];
     if (n == 0)
-        return lr__gltf_fail(d, err, "%s.%s refers to an element of an "
-                             "empty or missing array", path, key);
+        return lr__gltf_fail(d, err, "%s refers to an element of an "
+                             "empty or missing array",
+                             dotted(path, key, f, sizeof f));
     return get_uint(d, o, path, key, n, -1, out, err);
 }
 
@@ -470,25 +485,225 @@ static int type_count(const char *t)
     return 0;
 }
 
+/* Where view v's bytes start in its buffer (check_views has put them
+ * there) and how many it has. */
+static const unsigned char *view_bytes(const lr__gltf_doc *d, long long v,
+                                       long long *len)
+{
+    int n;
+    const cJSON *view = cJSON_GetArrayItem(
+        lr__gltf_array(d->root, "bufferViews", &n), (int)v);
+    const cJSON *off = cJSON_GetObjectItemCaseSensitive(view, "byteOffset");
+    long long b = (long long)cJSON_GetNumberValue(
+        cJSON_GetObjectItemCaseSensitive(view, "buffer"));
+    *len = (long long)cJSON_GetNumberValue(
+        cJSON_GetObjectItemCaseSensitive(view, "byteLength"));
+    return d->buffers[b].data + (size_t)(off ? off->valuedouble : 0);
+}
+
+/* The bytes of accessor copies (zero-filled or sparse) allowed in all: a
+ * tiny file must not make lensray allocate gigabytes, yet a mesh's
+ * sparse morph targets stay within the budget of the buffers' size. */
+static size_t dense_budget(const lr__gltf_doc *d)
+{
+    size_t n = 16u << 20;
+    for (size_t i = 0; i < d->n_buffers; i++)
+        n += 4 * d->buffers[i].n;
+    return n;
+}
+
+/* A sparse accessor's indices or values (spec 3.6.2.3, "accessor.sparse"):
+ * `n` elements of `size` bytes at the bufferView and byteOffset of
+ * sparse.KEY, which must lie within that view; the view must not be
+ * strided. */
+static lr_status sparse_part(const lr__gltf_doc *d, const cJSON *sp,
+                             const char *p, const char *key, long long n,
+                             long long size, const unsigned char **out,
+                             lr_error *err)
+{
+    char q[96];
+    snprintf(q, sizeof q, "%s.sparse.%s", p, key);
+    const cJSON *o = cJSON_GetObjectItemCaseSensitive(sp, key);
+    int nv;
+    lr__gltf_array(d->root, "bufferViews", &nv);
+    long long v, off, len;
+    if (!cJSON_IsObject(o))
+        return lr__gltf_fail(d, err, "%s must be an object", q);
+    LR_TRY(get_index(d, o, q, "bufferView", nv, &v, err));
+    LR_TRY(get_uint(d, o, q, "byteOffset", 0, 0, &off, err));
+    if (v < 0)
+        return lr__gltf_fail(d, err, "%s.bufferView is required", q);
+    int nn;
+    const cJSON *view = cJSON_GetArrayItem(
+        lr__gltf_array(d->root, "bufferViews", &nn), (int)v);
+    if (cJSON_GetObjectItemCaseSensitive(view, "byteStride") != NULL)
+        return lr__gltf_fail(d, err, "%s: bufferViews[%lld] has a "
+                             "byteStride, which sparse data must not have",
+                             q, v);
+    const unsigned char *base = view_bytes(d, v, &len);
+    if ((unsigned long long)off + (unsigned long long)n *
+                                      (unsigned long long)size >
+        (unsigned long long)len)
+        return lr__gltf_fail(d, err, "%s: %lld elements of %lld bytes from "
+                             "byte %lld run past bufferViews[%lld]'s %lld",
+                             q, n, size, off, v, len);
+    *out = base + off;
+    return LR_OK;
+}
+
+static unsigned long read_uint(const unsigned char *q, size_t cs)
+{
+    return cs == 1   ? q[0]
+           : cs == 2 ? (unsigned long)(q[0] | q[1] << 8)
+                     : (unsigned long)le32(q);
+}
+
+/* Writes accessor x's sparse values over its `count` elements of `elem`
+ * bytes in `dense` (spec 3.6.2.3): indices strictly increasing and below
+ * count. */
+static lr_status apply_sparse(const lr__gltf_doc *d, const cJSON *x,
+                              const char *p, long long count, long long elem,
+                              unsigned char *dense, lr_error *err)
+{
+    const cJSON *sp = cJSON_GetObjectItemCaseSensitive(x, "sparse");
+    long long n, ict;
+    if (!cJSON_IsObject(sp))
+        return lr__gltf_fail(d, err, "%s.sparse must be an object", p);
+    char q[96];
+    snprintf(q, sizeof q, "%s.sparse", p);
+    LR_TRY(get_uint(d, sp, q, "count", 0, -1, &n, err));
+    if (n < 1 || n > count)
+        return lr__gltf_fail(d, err, "%s.count must be from 1 to the "
+                             "accessor's count, %lld", q, count);
+    char qi[112];
+    snprintf(qi, sizeof qi, "%s.indices", q);
+    const cJSON *ind = cJSON_GetObjectItemCaseSensitive(sp, "indices");
+    if (!cJSON_IsObject(ind))
+        return lr__gltf_fail(d, err, "%s must be an object", qi);
+    LR_TRY(get_uint(d, ind, qi, "componentType", 0, 0, &ict, err));
+    if (ict != 5121 && ict != 5123 && ict != 5125)
+        return lr__gltf_fail(d, err, "%s.componentType must be 5121, 5123 "
+                             "or 5125", qi);
+    size_t isz = (size_t)component_size(ict);
+    const unsigned char *idx, *val;
+    LR_TRY(sparse_part(d, sp, p, "indices", n, (long long)isz, &idx, err));
+    LR_TRY(sparse_part(d, sp, p, "values", n, elem, &val, err));
+    long long last = -1;
+    for (long long i = 0; i < n; i++) {
+        unsigned long at = read_uint(idx + (size_t)i * isz, isz);
+        if ((long long)at <= last || (long long)at >= count)
+            return lr__gltf_fail(d, err, "%s.indices: element %lld is %lu; "
+                                 "they must increase and stay below %lld",
+                                 q, i, at, count);
+        last = (long long)at;
+        memcpy(dense + (size_t)at * (size_t)elem, val + (size_t)i * (size_t)elem,
+               (size_t)elem);
+    }
+    return LR_OK;
+}
+
+/* The primitive compressed with KHR_draco_mesh_compression that names
+ * accessor i, as "meshes[m].primitives[p]" in out; 0 if there is none. */
+static int draco_user(const lr__gltf_doc *d, int i, char *out, size_t n)
+{
+    int nm, np;
+    const cJSON *meshes = lr__gltf_array(d->root, "meshes", &nm);
+    int m = 0;
+    for (const cJSON *me = meshes ? meshes->child : NULL; me;
+         me = me->next, m++) {
+        const cJSON *prims = lr__gltf_array(me, "primitives", &np);
+        int k = 0;
+        for (const cJSON *pr = prims ? prims->child : NULL; pr;
+             pr = pr->next, k++) {
+            if (!lr__gltf_member(pr, "extensions",
+                                 "KHR_draco_mesh_compression"))
+                continue;
+            const cJSON *at = cJSON_GetObjectItemCaseSensitive(pr,
+                                                               "attributes");
+            const cJSON *ix = cJSON_GetObjectItemCaseSensitive(pr, "indices");
+            int uses = cJSON_IsNumber(ix) && ix->valuedouble == i;
+            for (const cJSON *c = cJSON_IsObject(at) ? at->child : NULL; c;
+                 c = c->next)
+                uses |= cJSON_IsNumber(c) && c->valuedouble == i;
+            if (uses) {
+                snprintf(out, n, "meshes[%d].primitives[%d]", m, k);
+                return 1;
+            }
+        }
+    }
+    return 0;
+}
+
+/* An accessor without a bufferView is zeros (spec 3.6.2.1), unless an
+ * extension that lensray does not read fills it: Draco's decoded
+ * vertices would otherwise be drawn as a heap of zeros. */
+static lr_status check_viewless(const lr__gltf_doc *d, const cJSON *x, int i,
+                                const char *p, lr_error *err)
+{
+    char who[64];
+    if (draco_user(d, i, who, sizeof who))
+        return lr__gltf_fail(d, err, "%s has no bufferView: %s is "
+                             "compressed with KHR_draco_mesh_compression, "
+                             "which lensray does not decode", p, who);
+    if (cJSON_GetObjectItemCaseSensitive(x, "byteOffset") != NULL)
+        return lr__gltf_fail(d, err, "%s has a byteOffset but no "
+                             "bufferView", p);
+    return LR_OK;
+}
+
+/* Accessor x's elements copied out tightly packed into a new block
+ * (*dense): its bufferView's, or zeros without one, with the sparse
+ * values written over them.  The copies of a file share dense_budget. */
+static lr_status make_dense(lr__gltf_doc *d, const cJSON *x, const char *p,
+                            long long v, long long off, long long stride,
+                            long long count, long long elem, size_t *used,
+                            unsigned char **dense, lr_error *err)
+{
+    unsigned long long bytes = (unsigned long long)count *
+                               (unsigned long long)elem;
+    if (bytes > dense_budget(d) - *used)
+        return lr__gltf_fail(d, err, "%s: %lld elements of %lld bytes to "
+                             "fill in (zeros or sparse) are more than "
+                             "lensray allows for this file (%zu bytes)", p,
+                             count, elem, dense_budget(d));
+    *dense = calloc((size_t)bytes, 1);
+    if (*dense == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    *used += (size_t)bytes;
+    if (v >= 0) {
+        long long len;
+        const unsigned char *base = view_bytes(d, v, &len) + off;
+        for (long long i = 0; i < count; i++)
+            memcpy(*dense + (size_t)(i * elem), base + (size_t)(i * stride),
+                   (size_t)elem);
+    }
+    if (cJSON_GetObjectItemCaseSensitive(x, "sparse") != NULL)
+        return apply_sparse(d, x, p, count, elem, *dense, err);
+    return LR_OK;
+}
+
 /* Every accessor must lie within its bufferView (spec 3.6.2.4): the last
- * element ends at byteOffset + stride (count - 1) + element size. */
+ * element ends at byteOffset + stride (count - 1) + element size.  One
+ * without a bufferView, or with sparse values, is copied out (make_dense)
+ * and read from the copy from then on. */
 static lr_status check_accessors(lr__gltf_doc *d, lr_error *err)
 {
     int n, nv;
     const cJSON *a = lr__gltf_array(d->root, "accessors", &n);
     const cJSON *views = lr__gltf_array(d->root, "bufferViews", &nv);
+    d->dense = calloc(n ? (size_t)n : 1, sizeof *d->dense);
+    if (d->dense == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    d->n_accessors = (size_t)n;
+    size_t used = 0;
     int i = 0;
     char p[64];
     for (const cJSON *x = a ? a->child : NULL; x; x = x->next, i++) {
         snprintf(p, sizeof p, "accessors[%d]", i);
-        long long v, off, ct, count, stride, vlen;
+        long long v, off, ct, count, stride = 0, vlen = 0;
         LR_TRY(get_index(d, x, p, "bufferView", nv, &v, err));
         if (v < 0)
-            return lr__gltf_fail(d, err, "%s has no bufferView (lensray "
-                                 "does not read zero-filled accessors)", p);
-        if (cJSON_GetObjectItemCaseSensitive(x, "sparse") != NULL)
-            return lr__gltf_fail(d, err, "%s.sparse: sparse accessors are "
-                                 "not read", p);
+            LR_TRY(check_viewless(d, x, i, p, err));
         LR_TRY(get_uint(d, x, p, "byteOffset", 0, 0, &off, err));
         LR_TRY(get_uint(d, x, p, "componentType", 0, 0, &ct, err));
         LR_TRY(get_uint(d, x, p, "count", 0, 0, &count, err));
@@ -508,26 +723,31 @@ static lr_status check_accessors(lr__gltf_doc *d, lr_error *err)
             return lr__gltf_fail(d, err, "%s.byteOffset %lld is not a "
                                  "multiple of its component size %d", p,
                                  off, csize);
-        const cJSON *view = cJSON_GetArrayItem(views, (int)v);
-        LR_TRY(get_uint(d, view, "bufferView", "byteStride", 0, 0, &stride,
-                        err));
-        LR_TRY(get_uint(d, view, "bufferView", "byteLength", 0, 0, &vlen,
-                        err));
         long long elem = (long long)k * csize;
-        if (stride == 0)
-            stride = elem;
-        if (stride < elem)
-            return lr__gltf_fail(d, err, "%s: elements of %lld bytes do not "
-                                 "fit bufferViews[%lld].byteStride %lld", p,
-                                 elem, v, stride);
-        unsigned long long end = (unsigned long long)off +
-                                 (unsigned long long)stride *
-                                     (unsigned long long)(count - 1) +
-                                 (unsigned long long)elem;
-        if (end > (unsigned long long)vlen)
-            return lr__gltf_fail(d, err, "%s: %lld elements reach byte %llu "
-                                 "of bufferViews[%lld], which has %lld", p,
-                                 count, end, v, vlen);
+        if (v >= 0) {
+            const cJSON *view = cJSON_GetArrayItem(views, (int)v);
+            LR_TRY(get_uint(d, view, "bufferView", "byteStride", 0, 0,
+                            &stride, err));
+            LR_TRY(get_uint(d, view, "bufferView", "byteLength", 0, 0, &vlen,
+                            err));
+            if (stride == 0)
+                stride = elem;
+            if (stride < elem)
+                return lr__gltf_fail(d, err, "%s: elements of %lld bytes do "
+                                     "not fit bufferViews[%lld].byteStride "
+                                     "%lld", p, elem, v, stride);
+            unsigned long long end = (unsigned long long)off +
+                                     (unsigned long long)stride *
+                                         (unsigned long long)(count - 1) +
+                                     (unsigned long long)elem;
+            if (end > (unsigned long long)vlen)
+                return lr__gltf_fail(d, err, "%s: %lld elements reach byte "
+                                     "%llu of bufferViews[%lld], which has "
+                                     "%lld", p, count, end, v, vlen);
+        }
+        if (v < 0 || cJSON_GetObjectItemCaseSensitive(x, "sparse") != NULL)
+            LR_TRY(make_dense(d, x, p, v, off, stride, count, elem, &used,
+                              &d->dense[i], err));
     }
     return LR_OK;
 }
@@ -561,47 +781,70 @@ static lr_status check_attribute(const lr__gltf_doc *d, const char *p,
                    ? NULL
                    : "VEC2 of floats, or of unsigned bytes or shorts with "
                      "\"normalized\": true";
+    else if (strncmp(attr, "JOINTS_", 7) == 0)
+        /* Spec 3.7.3.3: joint indices as unsigned bytes or shorts. */
+        want = (ct == 5121 || ct == 5123) &&
+                       strcmp(t->valuestring, "VEC4") == 0
+                   ? NULL
+                   : "VEC4 of unsigned bytes or shorts";
+    else if (strncmp(attr, "WEIGHTS_", 8) == 0)
+        want = (ct == 5126 ||
+                ((ct == 5121 || ct == 5123) &&
+                 cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(
+                     a, "normalized")))) &&
+                       strcmp(t->valuestring, "VEC4") == 0
+                   ? NULL
+                   : "VEC4 of floats, or of unsigned bytes or shorts with "
+                     "\"normalized\": true";
     else if (strcmp(attr, "indices") == 0)
         want = (ct == 5121 || ct == 5123 || ct == 5125) &&
                        strcmp(t->valuestring, "SCALAR") == 0
                    ? NULL
                    : "SCALAR of unsigned bytes, shorts or ints";
+    /* A file that quantizes without requiring the extension (which the
+     * extension forbids, yet exporters do) hears why its integers are
+     * refused. */
+    int quantized = 0, nu;
+    const cJSON *used = lr__gltf_array(d->root, "extensionsUsed", &nu);
+    for (const cJSON *e = used ? used->child : NULL; e; e = e->next)
+        quantized |= cJSON_IsString(e) &&
+                     strcmp(e->valuestring, "KHR_mesh_quantization") == 0;
     if (want != NULL)
-        return lr__gltf_fail(d, err, "%s.%s: accessors[%lld] must be a %s",
-                             p, attr, acc, want);
+        return lr__gltf_fail(d, err, "%s.%s: accessors[%lld] must be a %s%s",
+                             p, attr, acc, want,
+                             quantized ? " (KHR_mesh_quantization is not "
+                                         "read by lensray)"
+                                       : "");
     return LR_OK;
 }
 
-/* Where accessor acc's elements lie (check_accessors has put them
- * within their buffer): the first one, the stride between them, their
- * count and their component size. */
-static const unsigned char *accessor_at(const lr__gltf_doc *d, long long acc,
-                                        size_t *stride, long long *count,
-                                        size_t *cs)
+const unsigned char *lr__gltf_accessor_at(const lr__gltf_doc *d,
+                                          long long acc, size_t *stride,
+                                          long long *count, size_t *cs)
 {
     int n;
     const cJSON *root = d->root;
     const cJSON *a = cJSON_GetArrayItem(lr__gltf_array(root, "accessors", &n),
                                         (int)acc);
+    const cJSON *t = cJSON_GetObjectItemCaseSensitive(a, "type");
+    *cs = (size_t)component_size((long long)cJSON_GetNumberValue(
+        cJSON_GetObjectItemCaseSensitive(a, "componentType")));
+    *count = (long long)cJSON_GetNumberValue(
+        cJSON_GetObjectItemCaseSensitive(a, "count"));
+    size_t elem = *cs * (size_t)type_count(t->valuestring);
+    if (d->dense[acc] != NULL) {
+        *stride = elem;
+        return d->dense[acc];
+    }
     long long vi = (long long)cJSON_GetNumberValue(
         cJSON_GetObjectItemCaseSensitive(a, "bufferView"));
     const cJSON *v = cJSON_GetArrayItem(lr__gltf_array(root, "bufferViews",
                                                        &n), (int)vi);
-    long long b = (long long)cJSON_GetNumberValue(
-        cJSON_GetObjectItemCaseSensitive(v, "buffer"));
-    const cJSON *vo = cJSON_GetObjectItemCaseSensitive(v, "byteOffset");
     const cJSON *ao = cJSON_GetObjectItemCaseSensitive(a, "byteOffset");
     const cJSON *vs = cJSON_GetObjectItemCaseSensitive(v, "byteStride");
-    const cJSON *t = cJSON_GetObjectItemCaseSensitive(a, "type");
-    size_t off = (size_t)(vo ? vo->valuedouble : 0) +
-                 (size_t)(ao ? ao->valuedouble : 0);
-    *cs = (size_t)component_size((long long)cJSON_GetNumberValue(
-        cJSON_GetObjectItemCaseSensitive(a, "componentType")));
-    *stride = vs ? (size_t)vs->valuedouble
-                 : *cs * (size_t)type_count(t->valuestring);
-    *count = (long long)cJSON_GetNumberValue(
-        cJSON_GetObjectItemCaseSensitive(a, "count"));
-    return d->buffers[b].data + off;
+    long long len;
+    *stride = vs ? (size_t)vs->valuedouble : elem;
+    return view_bytes(d, vi, &len) + (size_t)(ao ? ao->valuedouble : 0);
 }
 
 /* The index accessor's values must name vertices that exist. */
@@ -611,12 +854,10 @@ static lr_status check_index_values(const lr__gltf_doc *d, const char *p,
 {
     size_t stride, cs;
     long long count;
-    const unsigned char *base = accessor_at(d, acc, &stride, &count, &cs);
+    const unsigned char *base = lr__gltf_accessor_at(d, acc, &stride, &count, &cs);
     for (long long i = 0; i < count; i++) {
         const unsigned char *q = base + (size_t)i * stride;
-        unsigned long x = cs == 1 ? q[0]
-                          : cs == 2 ? (unsigned long)(q[0] | q[1] << 8)
-                                    : (unsigned long)le32(q);
+        unsigned long x = read_uint(q, cs);
         if ((long long)x >= n_vertices)
             return lr__gltf_fail(d, err, "%s.indices: index %lld is %lu, "
                                  "beyond the %lld vertices", p, i, x,
@@ -634,7 +875,7 @@ static lr_status check_positions(const lr__gltf_doc *d, const char *p,
     size_t stride, cs;
     long long count;
     static const char *const axis[3] = {"x", "y", "z"};
-    const unsigned char *base = accessor_at(d, acc, &stride, &count, &cs);
+    const unsigned char *base = lr__gltf_accessor_at(d, acc, &stride, &count, &cs);
     for (long long i = 0; i < count; i++)
         for (int k = 0; k < 3; k++) {
             uint32_t bits = le32(base + (size_t)i * stride + 4 * (size_t)k);
@@ -645,6 +886,69 @@ static lr_status check_positions(const lr__gltf_doc *d, const char *p,
                                      "element %lld: %s is %g", p, acc, i,
                                      axis[k], (double)f);
         }
+    return LR_OK;
+}
+
+/* A primitive's morph targets (spec 3.7.2.2): objects whose POSITION
+ * and NORMAL are VEC3 floats (displacements, finite) of the primitive's
+ * `nvert` vertices; their number in *n. */
+static lr_status check_targets(const lr__gltf_doc *d, const cJSON *pr,
+                               const char *p, long long nvert, int *n,
+                               lr_error *err)
+{
+    int nacc;
+    lr__gltf_array(d->root, "accessors", &nacc);
+    const cJSON *ts = lr__gltf_array(pr, "targets", n);
+    if (ts == NULL && cJSON_GetObjectItemCaseSensitive(pr, "targets"))
+        return lr__gltf_fail(d, err, "%s.targets must be an array", p);
+    int k = 0;
+    char q[160];
+    for (const cJSON *t = ts ? ts->child : NULL; t; t = t->next, k++) {
+        snprintf(q, sizeof q, "%s.targets[%d]", p, k);
+        if (!cJSON_IsObject(t))
+            return lr__gltf_fail(d, err, "%s must be an object", q);
+        for (const cJSON *c = t->child; c; c = c->next) {
+            long long x, cnt;
+            LR_TRY(get_index(d, t, q, c->string, nacc, &x, err));
+            LR_TRY(check_attribute(d, q, c->string, x, &cnt, err));
+            if (cnt != nvert)
+                return lr__gltf_fail(d, err, "%s.%s has %lld elements, "
+                                     "POSITION %lld", q, c->string, cnt,
+                                     nvert);
+            if (strcmp(c->string, "POSITION") == 0)
+                LR_TRY(check_positions(d, q, x, err));
+        }
+    }
+    return LR_OK;
+}
+
+/* The number of morph targets of meshes[m] (check_meshes made it the
+ * same for every primitive). */
+static int mesh_targets(const lr__gltf_doc *d, long long m)
+{
+    int n, np, nt;
+    const cJSON *mesh = cJSON_GetArrayItem(lr__gltf_array(d->root, "meshes",
+                                                          &n), (int)m);
+    const cJSON *prims = lr__gltf_array(mesh, "primitives", &np);
+    lr__gltf_array(prims ? prims->child : NULL, "targets", &nt);
+    return nt;
+}
+
+/* Default morph weights, o.weights (a mesh's or a node's): one finite
+ * number per morph target when present (spec 3.7.2.2). */
+static lr_status check_weights(const lr__gltf_doc *d, const cJSON *o,
+                               const char *p, int targets, lr_error *err)
+{
+    const cJSON *w = cJSON_GetObjectItemCaseSensitive(o, "weights");
+    if (w == NULL)
+        return LR_OK;
+    int ok = cJSON_IsArray(w) && cJSON_GetArraySize(w) == targets;
+    for (const cJSON *c = ok ? w->child : NULL; c; c = c->next)
+        ok = ok && cJSON_IsNumber(c) && fabs(c->valuedouble) <= 1e6;
+    if (!ok)
+        return lr__gltf_fail(d, err, "%s.weights must be %d numbers from "
+                             "-1e6 to 1e6, one per morph target", p,
+                             targets);
     return LR_OK;
 }
 
@@ -662,7 +966,7 @@ static lr_status check_meshes(lr__gltf_doc *d, lr_error *err)
         if (np == 0)
             return lr__gltf_fail(d, err, "meshes[%d].primitives must be a "
                                  "non-empty array", i);
-        int j = 0;
+        int j = 0, targets = 0;
         for (const cJSON *pr = prims->child; pr; pr = pr->next, j++) {
             snprintf(p, sizeof p, "meshes[%d].primitives[%d]", i, j);
             const cJSON *at = cJSON_GetObjectItemCaseSensitive(pr,
@@ -692,6 +996,115 @@ static lr_status check_meshes(lr__gltf_doc *d, lr_error *err)
             }
             LR_TRY(get_index(d, pr, p, "material", nmat, &x, err));
             LR_TRY(get_uint(d, pr, p, "mode", 7, 4, &mode, err));
+            int nt;
+            LR_TRY(check_targets(d, pr, p, nvert, &nt, err));
+            if (j == 0)
+                targets = nt;
+            else if (nt != targets)
+                return lr__gltf_fail(d, err, "%s has %d morph targets, "
+                                     "primitives[0] %d (the spec asks for "
+                                     "the same number)", p, nt, targets);
+        }
+        snprintf(p, sizeof p, "meshes[%d]", i);
+        LR_TRY(check_weights(d, m, p, targets, err));
+    }
+    return LR_OK;
+}
+
+/* Skins (spec 3.7.3): joints, a non-empty array of node indices, and
+ * inverseBindMatrices, MAT4 floats (finite numbers), at least one per
+ * joint. */
+static lr_status check_skins(const lr__gltf_doc *d, lr_error *err)
+{
+    int ns, nacc, nn;
+    const cJSON *skins = lr__gltf_array(d->root, "skins", &ns);
+    lr__gltf_array(d->root, "accessors", &nacc);
+    lr__gltf_array(d->root, "nodes", &nn);
+    int i = 0;
+    char p[64];
+    for (const cJSON *sk = skins ? skins->child : NULL; sk;
+         sk = sk->next, i++) {
+        snprintf(p, sizeof p, "skins[%d]", i);
+        int nj;
+        const cJSON *joints = lr__gltf_array(sk, "joints", &nj);
+        int ok = nj > 0;
+        for (const cJSON *j = ok ? joints->child : NULL; j; j = j->next)
+            ok = ok && cJSON_IsNumber(j) && j->valuedouble >= 0 &&
+                 j->valuedouble < nn && j->valuedouble == floor(j->valuedouble);
+        if (!ok)
+            return lr__gltf_fail(d, err, "%s.joints must be a non-empty "
+                                 "array of indices below %d", p, nn);
+        long long x, sk_node;
+        LR_TRY(get_index(d, sk, p, "skeleton", nn, &sk_node, err));
+        LR_TRY(get_index(d, sk, p, "inverseBindMatrices", nacc, &x, err));
+        if (x < 0)
+            continue;
+        const cJSON *a = cJSON_GetArrayItem(
+            lr__gltf_array(d->root, "accessors", &nacc), (int)x);
+        const cJSON *t = cJSON_GetObjectItemCaseSensitive(a, "type");
+        size_t stride, cs;
+        long long count;
+        const unsigned char *m = lr__gltf_accessor_at(d, x, &stride, &count,
+                                                      &cs);
+        if (cJSON_GetNumberValue(cJSON_GetObjectItemCaseSensitive(
+                a, "componentType")) != 5126 ||
+            strcmp(t->valuestring, "MAT4") != 0 || count < nj)
+            return lr__gltf_fail(d, err, "%s.inverseBindMatrices: "
+                                 "accessors[%lld] must be %d or more MAT4 "
+                                 "of floats", p, x, nj);
+        for (long long e = 0; e < count * 16; e++) {
+            float f;
+            memcpy(&f, m + (size_t)(e / 16) * stride + (size_t)(e % 16) * 4,
+                   sizeof f);
+            /* Only finite: a joint no vertex weighs may hold anything
+             * (tinygltf's unassigned-skeleton.gltf has 1.2e18); a used
+             * one that throws a vertex too far is refused when placed. */
+            if (!isfinite(f))
+                return lr__gltf_fail(d, err, "%s.inverseBindMatrices: "
+                                     "accessors[%lld] holds %g", p, x,
+                                     (double)f);
+        }
+    }
+    return LR_OK;
+}
+
+/* A skinned node's mesh (spec 3.7.3.3): every primitive has JOINTS_0 and
+ * WEIGHTS_0, and every joint index names one of the skin's joints. */
+static lr_status check_skinned(const lr__gltf_doc *d, const char *p,
+                               long long mesh, long long skin, lr_error *err)
+{
+    int n, nj, np;
+    const cJSON *sk = cJSON_GetArrayItem(lr__gltf_array(d->root, "skins",
+                                                        &n), (int)skin);
+    lr__gltf_array(sk, "joints", &nj);
+    const cJSON *m = cJSON_GetArrayItem(lr__gltf_array(d->root, "meshes",
+                                                       &n), (int)mesh);
+    const cJSON *prims = lr__gltf_array(m, "primitives", &np);
+    int k = 0;
+    for (const cJSON *pr = prims->child; pr; pr = pr->next, k++) {
+        const cJSON *at = cJSON_GetObjectItemCaseSensitive(pr, "attributes");
+        if (!cJSON_GetObjectItemCaseSensitive(at, "JOINTS_0") ||
+            !cJSON_GetObjectItemCaseSensitive(at, "WEIGHTS_0"))
+            return lr__gltf_fail(d, err, "%s: meshes[%lld].primitives[%d] "
+                                 "of a skinned node needs JOINTS_0 and "
+                                 "WEIGHTS_0", p, mesh, k);
+        for (const cJSON *c = at->child; c; c = c->next) {
+            if (strncmp(c->string, "JOINTS_", 7) != 0)
+                continue;
+            size_t stride, cs;
+            long long count;
+            const unsigned char *q = lr__gltf_accessor_at(
+                d, (long long)c->valuedouble, &stride, &count, &cs);
+            for (long long e = 0; e < 4 * count; e++) {
+                unsigned long j = read_uint(q + (size_t)(e / 4) * stride +
+                                                (size_t)(e % 4) * cs,
+                                            cs);
+                if ((long long)j >= nj)
+                    return lr__gltf_fail(d, err, "%s: meshes[%lld]."
+                                         "primitives[%d].attributes.%s: "
+                                         "joint %lu of a skin of %d joints",
+                                         p, mesh, k, c->string, j, nj);
+            }
         }
     }
     return LR_OK;
@@ -701,9 +1114,11 @@ static lr_status check_meshes(lr__gltf_doc *d, lr_error *err)
  * at most one parent, no cycle, scene roots without parents. */
 static lr_status check_nodes(lr__gltf_doc *d, lr_error *err)
 {
-    int n, nmesh, ncam, nlight, nsc;
+    int n, nmesh, ncam, nlight, nsc, nskin;
     const cJSON *a = lr__gltf_array(d->root, "nodes", &n);
     lr__gltf_array(d->root, "meshes", &nmesh);
+    lr__gltf_array(d->root, "skins", &nskin);
+    LR_TRY(check_skins(d, err));
     lr__gltf_array(d->root, "cameras", &ncam);
     lr__gltf_array(lr__gltf_member(d->root, "extensions",
                                    "KHR_lights_punctual"),
@@ -725,12 +1140,24 @@ static lr_status check_nodes(lr__gltf_doc *d, lr_error *err)
             st = lr__gltf_fail(d, err, "%s must be an object", p);
             break;
         }
-        if ((st = get_index(d, o, p, "mesh", nmesh, &x, err)) ||
+        long long mesh;
+        if ((st = get_index(d, o, p, "mesh", nmesh, &mesh, err)) ||
             (st = get_index(d, o, p, "camera", ncam, &x, err)) ||
             (st = check_numbers(d, o, p, "matrix", 16, err)) ||
             (st = check_numbers(d, o, p, "translation", 3, err)) ||
             (st = check_numbers(d, o, p, "rotation", 4, err)) ||
             (st = check_numbers(d, o, p, "scale", 3, err)))
+            break;
+        long long skin;
+        if ((st = get_index(d, o, p, "skin", nskin, &skin, err)) != LR_OK ||
+            (skin >= 0 && mesh >= 0 &&
+             (st = check_skinned(d, p, mesh, skin, err)) != LR_OK))
+            break;
+        /* A node's weights override its mesh's (spec 3.7.2.2). */
+        if (cJSON_GetObjectItemCaseSensitive(o, "weights") != NULL &&
+            (st = check_weights(d, o, p,
+                                mesh < 0 ? 0 : mesh_targets(d, mesh),
+                                err)) != LR_OK)
             break;
         const cJSON *l = lr__gltf_member(o, "extensions",
                                          "KHR_lights_punctual");
@@ -787,7 +1214,12 @@ static lr_status check_nodes(lr__gltf_doc *d, lr_error *err)
     if (st != LR_OK)
         return st;
     long long sc;
-    return get_index(d, d->root, "", "scene", nsc, &sc, err);
+    LR_TRY(get_index(d, d->root, "", "scene", nsc, &sc, err));
+    /* Without scenes a glTF is a library of parts that nothing places
+     * (spec 3.5.1); assimp would say only "GLTF: No scene". */
+    if (nsc == 0)
+        return lr__gltf_fail(d, err, "it has no scenes: nothing to draw");
+    return LR_OK;
 }
 
 /* Images (a file, a data: URI or a bufferView), textures and the texture
@@ -872,7 +1304,8 @@ static lr_status check_top(lr__gltf_doc *d, lr_error *err)
     /* Arrays the checks index must be arrays of objects when present. */
     static const char *const arrays[] = {
         "buffers", "bufferViews", "accessors", "meshes", "nodes", "scenes",
-        "materials", "textures", "images", "samplers", "cameras", NULL};
+        "materials", "textures", "images", "samplers", "cameras", "skins",
+        NULL};
     for (int k = 0; arrays[k]; k++) {
         const cJSON *a = cJSON_GetObjectItemCaseSensitive(d->root, arrays[k]);
         if (a == NULL)

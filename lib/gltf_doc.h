@@ -37,6 +37,12 @@ typedef struct lr__gltf_doc {
         size_t n;
     } *buffers;           /* owned */
     size_t n_buffers;
+    /* Accessors copied out, tightly packed: those without a bufferView
+     * (zeros) or with sparse values written over their view's (spec
+     * 3.6.2.3); NULL for the rest, read in place.  Read them all
+     * through lr__gltf_accessor_at. */
+    unsigned char **dense; /* n_accessors pointers, each owned */
+    size_t n_accessors;
     int n_nodes;
     /* Textures decoded so far, one per (image, srgb); the scene owns
      * the textures, this only finds them again. */
@@ -60,6 +66,13 @@ void lr__gltf_doc_free(lr__gltf_doc *d);
 __attribute__((format(printf, 3, 4))) lr_status
 lr__gltf_fail(const lr__gltf_doc *d, lr_error *err, const char *fmt, ...);
 
+/* Where accessor acc's elements lie (checked by lr__gltf_doc_load): the
+ * first one, the stride between them, their count and their component
+ * size; a dense copy (see lr__gltf_doc.dense) or in its bufferView. */
+const unsigned char *lr__gltf_accessor_at(const lr__gltf_doc *d,
+                                          long long acc, size_t *stride,
+                                          long long *count, size_t *cs);
+
 /* The bytes of external file `uri` (read by lr__gltf_doc_load), or NULL. */
 const lr__gltf_blob *lr__gltf_blob_find(const lr__gltf_doc *d,
                                         const char *uri);
@@ -74,11 +87,19 @@ const cJSON *lr__gltf_array(const cJSON *o, const char *key, int *n);
 
 struct aiScene;
 /* The document's meshes decoded by libassimp (gltf_assimp.c says what it
- * is given); its aiNodes are named "n<node index>", its materials
- * "m<material index>" (a primitive without one gets assimp's default,
- * which has no such name).  Release with lr__gltf_release. */
-lr_status lr__gltf_import(const lr__gltf_doc *d, const struct aiScene **out,
-                          lr_error *err);
+ * is given; `world`: the nodes' transforms, lr__gltf_world); its aiNodes
+ * are named "n<node index>", its materials "m<material index>" (a
+ * primitive without one gets assimp's default, which has no such name).
+ * Release with lr__gltf_release. */
+lr_status lr__gltf_import(const lr__gltf_doc *d, const lr__xform *world,
+                          const struct aiScene **out, lr_error *err);
+
+/* 1 when nodes[i] has a mesh and a skin: gltf_assimp.c then hands assimp
+ * its mesh already skinned into the glTF's world (the joints' world
+ * transforms times their inverse bind matrices, spec 3.7.3.3), and it is
+ * placed without the node's own transform, which a skinned mesh
+ * ignores. */
+int lr__gltf_skinned(const lr__gltf_doc *d, int i);
 void lr__gltf_release(const struct aiScene *sc);
 
 /* ---- gltf_nodes.c ---- */
@@ -86,7 +107,8 @@ void lr__gltf_release(const struct aiScene *sc);
 /* Every node's world transform (node to the glTF's world, before the
  * object's placement), from its matrix or its translation, rotation and
  * scale (spec 3.5.2: M = T R S; a matrix is column-major), and which
- * nodes the displayed scene ("scene", else scenes[0], else none) holds.
+ * nodes the displayed scene ("scene", else scenes[0], else none) holds
+ * (nodes outside it get their transforms as well, for skins' joints).
  * Both arrays have d->n_nodes elements; the caller frees them. */
 lr_status lr__gltf_world(const lr__gltf_doc *d, lr__xform **world,
                          unsigned char **active, lr_error *err);

@@ -59,17 +59,19 @@ static lr__xform local(const cJSON *node)
     return x;
 }
 
+/* World transforms of node i's tree under `parent`; `mark` into active
+ * (1: in the displayed scene). */
 static void walk(const cJSON *nodes, int i, const lr__xform *parent,
-                 lr__xform *world, unsigned char *active)
+                 lr__xform *world, unsigned char *active, int mark)
 {
     const cJSON *node = cJSON_GetArrayItem(nodes, i);
     lr__xform l = local(node);
     world[i] = lr__xform_mul(parent, &l);
-    active[i] = 1;
+    active[i] = (unsigned char)mark;
     int n;
     const cJSON *ch = lr__gltf_array(node, "children", &n);
     for (const cJSON *c = ch ? ch->child : NULL; c; c = c->next)
-        walk(nodes, (int)c->valuedouble, &world[i], world, active);
+        walk(nodes, (int)c->valuedouble, &world[i], world, active, mark);
 }
 
 lr_status lr__gltf_world(const lr__gltf_doc *d, lr__xform **world,
@@ -78,9 +80,11 @@ lr_status lr__gltf_world(const lr__gltf_doc *d, lr__xform **world,
     size_t n = d->n_nodes > 0 ? (size_t)d->n_nodes : 1;
     *world = malloc(n * sizeof **world);
     *active = calloc(n, 1);
-    if (*world == NULL || *active == NULL) {
+    unsigned char *child = calloc(n, 1);
+    if (*world == NULL || *active == NULL || child == NULL) {
         free(*world);
         free(*active);
+        free(child);
         *world = NULL;
         *active = NULL;
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
@@ -98,7 +102,19 @@ lr_status lr__gltf_world(const lr__gltf_doc *d, lr__xform **world,
     lr__xform id = lr__xform_identity();
     /* check_nodes made the graph a forest, so the walk ends. */
     for (const cJSON *r = roots ? roots->child : NULL; r; r = r->next)
-        walk(nodes, (int)r->valuedouble, &id, *world, *active);
+        walk(nodes, (int)r->valuedouble, &id, *world, *active, 1);
+    /* The trees outside the displayed scene get their transforms too: a
+     * skin's joints need not be in it (spec 3.7.3). */
+    for (const cJSON *o = nodes ? nodes->child : NULL; o; o = o->next) {
+        int k;
+        const cJSON *ch = lr__gltf_array(o, "children", &k);
+        for (const cJSON *c = ch ? ch->child : NULL; c; c = c->next)
+            child[(int)c->valuedouble] = 1;
+    }
+    for (int i = 0; i < nn; i++)
+        if (!child[i] && !(*active)[i])
+            walk(nodes, i, &id, *world, *active, 0);
+    free(child);
     return LR_OK;
 }
 
@@ -254,8 +270,8 @@ static lr_status auto_frame(lr_scene *s, const lr__gltf_doc *d, lr__v3 lo,
                             lr__v3 hi, lr_error *err)
 {
     if (!(lo.x <= hi.x))
-        return lr__gltf_fail(d, err, "it has no camera and no meshes to "
-                             "frame");
+        return lr__gltf_fail(d, err, "it has no camera and no triangles "
+                             "to frame (points and lines are not drawn)");
     lr_camera *c = &s->camera;
     lr__v3 mid = v3_scale(v3_add(lo, hi), 0.5);
     double r = 0.5 * v3_len(v3_sub(hi, lo));
@@ -323,6 +339,13 @@ lr_status lr__gltf_camera(lr_scene *s, const lr__gltf_doc *d,
     if (!(v3_len(fwd) > 0) || !(v3_len(v3_cross(fwd, up)) > 0))
         return lr__gltf_fail(d, err, "nodes[%d]'s transform squashes the "
                              "camera's view", node);
+    /* A mirroring transform (a negative scale) mirrors the spec's view
+     * (its view matrix is the node's inverse), which a camera of
+     * position, look_at and up cannot: say so rather than draw the
+     * mirror image of it silently. */
+    if (lr__xform_det(&m) < 0)
+        lr__gltf_warn(s, d, "nodes[%d] mirrors the camera (a negative "
+                      "scale): the image is drawn unmirrored", node);
     lr__v3 at = v3_add(eye, v3_norm(fwd));
     c.position[0] = eye.x, c.position[1] = eye.y, c.position[2] = eye.z;
     c.look_at[0] = at.x, c.look_at[1] = at.y, c.look_at[2] = at.z;

@@ -4,7 +4,8 @@
 # one test per target), then the HTTP API against docs/openapi.yaml (make
 # test-api: the spec validator and schemathesis on a live daemon), then the
 # Python package's pytest suite (make test-python), then the lenses against
-# ray-optics (make test-lenses), then one line "N
+# ray-optics (make test-lenses), then glTF geometry against an independent
+# ray caster (make test-gltf-depth), then one line "N
 # passed, N failed, N skipped" adding them all up (tests/run.sh says which
 # skips are allowed; the other steps have none).  Exit status 0 only when
 # every run exited 0, which tests/run.sh does not do for a failure or a
@@ -26,7 +27,8 @@ status=0
 $make --no-print-directory deps
 { $make --no-print-directory venvs >"$build/venvs.log" 2>&1; echo $? >"$build/venvs.rc"; } &
 venvs=$!
-for run in test-suite test-sanitize fuzz-ci test-api test-python test-lenses; do
+for run in test-suite test-sanitize fuzz-ci test-api test-python test-lenses \
+    test-gltf-depth; do
     if [ "$run" = test-api ] && [ -n "$venvs" ]; then
         wait "$venvs"
         venvs=

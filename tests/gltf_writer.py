@@ -503,7 +503,213 @@ def scene_normals():
     return g
 
 
-SCENES = {"tri": scene_tri, "tri-nan": scene_tri_nan,
+def scene_sparse():
+    """Two quads (x from -1.5 to -0.5 and from 0.5 to 1.5, y from -0.5 to
+    0.5) whose positions come from sparse accessors (spec 3.6.2.3): the
+    first over a bufferView in the plane z = 0, its two corners at
+    x = -0.5 moved to z = 1 (unsigned byte indices), so that it lies in
+    z = x + 1.5; the second without a bufferView (zeros), all four
+    corners given at z = 0.25 (unsigned short indices)."""
+    g = Gltf()
+
+    def sparse(count, indices, comp, values):
+        fmt = {UBYTE: "B", USHORT: "H"}[comp]
+        raw = struct.pack("<%d%s" % (len(indices), fmt), *indices)
+        iv = g._view(raw + b"\0" * (-len(raw) % 4))
+        vv = g._view(struct.pack("<%df" % len(values), *values))
+        return {"count": len(indices),
+                "indices": {"bufferView": iv, "componentType": comp},
+                "values": {"bufferView": vv}}
+
+    idx = g.accessor([0, 1, 2, 0, 2, 3], "SCALAR", UINT, 34963)
+    base = g.accessor([-1.5, -0.5, 0, -0.5, -0.5, 0, -0.5, 0.5, 0,
+                       -1.5, 0.5, 0], "VEC3", target=34962)
+    a = g.doc["accessors"][base]
+    a["sparse"] = sparse(4, [1, 2], UBYTE, [-0.5, -0.5, 1, -0.5, 0.5, 1])
+    a["min"], a["max"] = [-1.5, -0.5, 0], [-0.5, 0.5, 1]
+    zeros = {"componentType": FLOAT, "count": 4, "type": "VEC3",
+             "min": [0.5, -0.5, 0.25], "max": [1.5, 0.5, 0.25],
+             "sparse": sparse(4, [0, 1, 2, 3], USHORT,
+                              [0.5, -0.5, 0.25, 1.5, -0.5, 0.25,
+                               1.5, 0.5, 0.25, 0.5, 0.5, 0.25])}
+    g.doc["accessors"].append(zeros)
+    g.doc["meshes"].append({"primitives": [
+        {"attributes": {"POSITION": base}, "indices": idx},
+        {"attributes": {"POSITION": len(g.doc["accessors"]) - 1},
+         "indices": idx}]})
+    g.node(mesh=len(g.doc["meshes"]) - 1)
+    return g
+
+
+def scene_morph():
+    """A unit quad in z = 0 (corners 0 to 3 counter-clockwise from
+    (-0.5, -0.5)) with two morph targets (spec 3.7.2.2): the first moves
+    every corner by (0, 0, 1), the second (sparse over zeros) corners 1
+    and 2, those at x = 0.5, by (0, 0, 1).  Drawn twice: at x = -1 with
+    the mesh's weights (0.5, 0.4), in the plane z = 0.7 + 0.4 x (local
+    x), and at x = +1 with the node's own weights (0.25, 0), in
+    z = 0.25."""
+    g = Gltf()
+    idx = g.accessor([0, 1, 2, 0, 2, 3], "SCALAR", UINT, 34963)
+    pos = g.accessor([-0.5, -0.5, 0, 0.5, -0.5, 0, 0.5, 0.5, 0,
+                      -0.5, 0.5, 0], "VEC3", target=34962)
+    up = g.accessor([0, 0, 1] * 4, "VEC3", target=34962)
+    raw = struct.pack("<2H", 1, 2)
+    iv = g._view(raw)
+    vv = g._view(struct.pack("<6f", 0, 0, 1, 0, 0, 1))
+    g.doc["accessors"].append({
+        "componentType": FLOAT, "count": 4, "type": "VEC3",
+        "min": [0, 0, 0], "max": [0, 0, 1],
+        "sparse": {"count": 2,
+                   "indices": {"bufferView": iv, "componentType": USHORT},
+                   "values": {"bufferView": vv}}})
+    tilt = len(g.doc["accessors"]) - 1
+    g.doc["meshes"].append({"weights": [0.5, 0.4], "primitives": [
+        {"attributes": {"POSITION": pos}, "indices": idx,
+         "targets": [{"POSITION": up}, {"POSITION": tilt}]}]})
+    g.node(mesh=0, translation=[-1, 0, 0])
+    g.node(mesh=0, translation=[1, 0, 0], weights=[0.25, 0])
+    return g
+
+
+def scene_skin():
+    """A unit quad in z = 0 (corners 0 to 3 counter-clockwise from
+    (-0.5, -0.5)) skinned (spec 3.7.3) to two joints: corners 0 and 3 to
+    joint 0, a node at (-1, 0, 0); corners 1 and 2 to joint 1, a node at
+    (-1, 0, 2) whose inverse bind matrix translates by (0, 0, -1).  The
+    skinned quad lies in z = x + 1.5 for x from -1.5 to -0.5, whatever
+    the transform of its own node (translated by (5, 5, 5) and scaled by
+    3: the spec says a skinned mesh ignores it).  A plain quad at x = +1,
+    z = 0.25, beside it."""
+    g = Gltf()
+    idx = g.accessor([0, 1, 2, 0, 2, 3], "SCALAR", UINT, 34963)
+    pos = g.accessor([-0.5, -0.5, 0, 0.5, -0.5, 0, 0.5, 0.5, 0,
+                      -0.5, 0.5, 0], "VEC3", target=34962)
+    joints = g._view(bytes([0, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0,
+                            0, 0, 0, 0]), 34962)
+    g.doc["accessors"].append({"bufferView": joints, "componentType": UBYTE,
+                               "count": 4, "type": "VEC4"})
+    jacc = len(g.doc["accessors"]) - 1
+    wacc = g.accessor([1, 0, 0, 0] * 4, "VEC4", target=34962)
+    mats = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1,
+            1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, -1, 1]
+    ibm = g._view(struct.pack("<32f", *mats))
+    g.doc["accessors"].append({"bufferView": ibm, "componentType": FLOAT,
+                               "count": 2, "type": "MAT4"})
+    g.doc["meshes"].append({"primitives": [
+        {"attributes": {"POSITION": pos, "JOINTS_0": jacc,
+                        "WEIGHTS_0": wacc}, "indices": idx}]})
+    j0 = g.node(translation=[-1, 0, 0])
+    j1 = g.node(translation=[-1, 0, 2])
+    g.doc["skins"] = [{"joints": [j0, j1],
+                       "inverseBindMatrices": len(g.doc["accessors"]) - 1}]
+    g.node(mesh=0, skin=0, translation=[5, 5, 5], scale=[3, 3, 3])
+    flat = g.accessor([-0.5, -0.5, 0.25, 0.5, -0.5, 0.25, 0.5, 0.5, 0.25,
+                       -0.5, 0.5, 0.25], "VEC3", target=34962)
+    g.doc["meshes"].append({"primitives": [
+        {"attributes": {"POSITION": flat}, "indices": idx}]})
+    g.node(mesh=1, translation=[1, 0, 0])
+    return g
+
+
+def scene_two_scenes():
+    """Layout checks for tests/gltf_depth_check.py: scene 1 of two is the
+    displayed one (a box stretched by a non-uniform scale); scene 0's box
+    and a node in no scene must not be drawn."""
+    g = Gltf()
+    bp, bi, bn, _ = box(1, 1, 1)
+    m = g.mesh(bp, bi, bn)
+    g.node(mesh=m, translation=[-2, 0, 0])
+    n1 = g.node(root=False, mesh=m, translation=[2, 0.5, 0], scale=[1, 2, 1])
+    g.doc["scenes"].append({"nodes": [n1]})
+    g.doc["scene"] = 1
+    g.node(root=False, mesh=m, translation=[0, 3, 0])
+    return g
+
+
+def scene_scaled(s):
+    """A box under a parent scaled by s (1e6, 1e-5: huge and tiny scenes),
+    and a mirrored one (scale (s, -s, s))."""
+    g = Gltf()
+    bp, bi, bn, _ = box(1, 1, 1)
+    m = g.mesh(bp, bi, bn)
+    p = g.node(scale=[s, s, s])
+    c = g.node(root=False, mesh=m, translation=[0.5, 0.25, 0],
+               rotation=[0, math.sin(0.3), 0, math.cos(0.3)])
+    g.doc["nodes"][p]["children"] = [c]
+    g.node(mesh=m, translation=[2 * s, 0, -s], scale=[s, -s, s])
+    return g
+
+
+def scene_orient():
+    """Six boxes placed by column-major matrices (a rotation about z and a
+    translation along each axis), seen by a camera (yfov 1.2, aspect 2)
+    under a rotated, translated and scaled parent."""
+    g = Gltf()
+    bp, bi, bn, _ = box(2, 1.5, 1)
+    m = g.mesh(bp, bi, bn)
+    for k, t in enumerate([(3, 0, 0), (-3, 0, 0), (0, 3, 0), (0, -3, 0),
+                           (0, 0, 3), (0, 0, -3)]):
+        c, s = math.cos(0.4 * k), math.sin(0.4 * k)
+        g.node(mesh=m, matrix=[c, s, 0, 0, -s, c, 0, 0, 0, 0, 1, 0,
+                               t[0], t[1], t[2], 1])
+    cam = g.camera({"type": "perspective", "perspective": {
+        "yfov": 1.2, "aspectRatio": 2.0, "znear": 0.01}})
+    par = g.node(rotation=[0.2, 0.3, 0.1, 0.927], translation=[0.2, -0.1, 0.3],
+                 scale=[2, 2, 2])
+    cn = g.node(root=False, camera=cam, translation=[0, 0, 3],
+                rotation=[0, math.sin(0.05), 0, math.cos(0.05)])
+    g.doc["nodes"][par]["children"] = [cn]
+    return g
+
+
+def scene_layouts():
+    """Accessor layouts: a box with POSITION and NORMAL interleaved
+    (byteStride 24, accessor byteOffsets 0 and 12) and unsigned byte
+    indices; a triangle strip without indices; an indexed fan (unsigned
+    short indices) (spec 3.6.2, 3.7.2.1)."""
+    g = Gltf()
+    bp, bi, bn, _ = box(1, 1, 1)
+    nv = len(bp) // 3
+    inter = b"".join(struct.pack("<6f", *bp[3 * i:3 * i + 3],
+                                 *bn[3 * i:3 * i + 3]) for i in range(nv))
+    view = g._view(inter, 34962)
+    g.doc["bufferViews"][view]["byteStride"] = 24
+    acc = g.doc["accessors"]
+    acc.append({"bufferView": view, "componentType": FLOAT, "count": nv,
+                "type": "VEC3", "min": [-0.5] * 3, "max": [0.5] * 3})
+    acc.append({"bufferView": view, "byteOffset": 12, "componentType": FLOAT,
+                "count": nv, "type": "VEC3"})
+    iv = g._view(bytes(bi) + b"\0" * (-len(bi) % 4), 34963)
+    acc.append({"bufferView": iv, "componentType": UBYTE, "count": len(bi),
+                "type": "SCALAR"})
+    g.doc["meshes"].append({"primitives": [{
+        "attributes": {"POSITION": 0, "NORMAL": 1}, "indices": 2}]})
+    g.node(mesh=0)
+    pts = []
+    for k in range(8):
+        pts += [k * 0.4 - 1.6, 1.0 + (k % 2) * 0.6, -0.8 + 0.05 * k]
+    a = g.accessor(pts, "VEC3", target=34962)
+    g.doc["meshes"].append({"primitives": [{"attributes": {"POSITION": a},
+                                            "mode": 5}]})
+    g.node(mesh=1)
+    fp = [0, -1.5, 0]
+    for k in range(7):
+        t = k * 0.7
+        fp += [math.cos(t), -1.5 + 0.3 * math.sin(t), math.sin(t) * 0.5]
+    fa = g.accessor(fp, "VEC3", target=34962)
+    fi = g.accessor(list(range(8)), "SCALAR", USHORT, 34963)
+    g.doc["meshes"].append({"primitives": [{"attributes": {"POSITION": fa},
+                                            "indices": fi, "mode": 6}]})
+    g.node(mesh=2, translation=[0.3, 0, 0.2])
+    return g
+
+
+SCENES = {"tri": scene_tri, "sparse": scene_sparse, "morph": scene_morph,
+          "skin": scene_skin, "two-scenes": scene_two_scenes,
+          "huge": lambda: scene_scaled(1e6),
+          "tiny": lambda: scene_scaled(1e-5), "orient": scene_orient,
+          "layouts": scene_layouts, "tri-nan": scene_tri_nan,
           "tri-spaced": scene_tri_spaced, "normals": scene_normals,
           "mapping": scene_mapping, "textured": scene_textured,
           "textured-u8": lambda: scene_textured(UBYTE),

@@ -694,26 +694,320 @@ static void test_normal_map(void **state)
 
 /* ---- hostile files ---------------------------------------------------------- */
 
-/* Writes tri.gltf with member `key` ("array.index.member") set to the
- * JSON `value` as NAME and expects loading it to fail with
- * `status`, naming `what`. */
-static void expect_bad(const char *name, const char *key, const char *value,
-                       lr_status status, const char *what)
+/* The member "array.index.member" `key` of root, split into its object
+ * and its member's name (in k). */
+static cJSON *member_of(cJSON *root, const char *key, char k[128],
+                        const char **name)
 {
-    cJSON *root = read_json("tri.gltf");
-    /* key: "top.index.member" addresses one member. */
-    char k[128];
-    snprintf(k, sizeof k, "%s", key);
+    snprintf(k, 128, "%s", key);
     char *dot1 = strchr(k, '.'), *dot2 = dot1 ? strchr(dot1 + 1, '.') : NULL;
     assert_non_null(dot2);
     *dot1 = *dot2 = '\0';
     cJSON *o = cJSON_GetArrayItem(cJSON_GetObjectItem(root, k),
                                   atoi(dot1 + 1));
     assert_non_null(o);
-    cJSON_DeleteItemFromObject(o, dot2 + 1);
-    cJSON_AddItemToObject(o, dot2 + 1, cJSON_Parse(value));
+    *name = dot2 + 1;
+    return o;
+}
+
+/* Writes glTF file SRC of the test directory as NAME with member `drop`
+ * removed (unless NULL) and member `key` set to the JSON `value` (both
+ * "array.index.member"), and expects loading it to fail with `status`,
+ * naming `what`. */
+static void expect_bad_edit(const char *src, const char *name,
+                            const char *drop, const char *key,
+                            const char *value, lr_status status,
+                            const char *what)
+{
+    cJSON *root = read_json(src);
+    char k[128];
+    const char *m;
+    if (drop != NULL) {
+        cJSON *o = member_of(root, drop, k, &m);
+        cJSON_DeleteItemFromObject(o, m);
+    }
+    cJSON *o = member_of(root, key, k, &m);
+    cJSON_DeleteItemFromObject(o, m);
+    cJSON_AddItemToObject(o, m, cJSON_Parse(value));
     write_json(name, root);
     expect_file_error(name, status, what);
+}
+
+/* Writes tri.gltf with member `key` ("array.index.member") set to the
+ * JSON `value` as NAME and expects loading it to fail with
+ * `status`, naming `what`. */
+static void expect_bad(const char *name, const char *key, const char *value,
+                       lr_status status, const char *what)
+{
+    expect_bad_edit("tri.gltf", name, NULL, key, value, status, what);
+}
+
+/* Renders glTF FILE of the test directory 64 x 32 from (0, 0, 5) down
+ * -z (fov 40) and checks the depth at four pixels, two on a quad left of
+ * x = 0 and two right of it, against want(sx): sx is the pixel's ray
+ * (sx, sy, -1) across, `left` says which quad. */
+static void expect_depths(const char *file, double (*want)(double sx,
+                                                           int left))
+{
+    char json[400];
+    snprintf(json, sizeof json,
+             "{\"render\": {\"width\": 64, \"height\": 32, \"spp\": 1, "
+             "\"depth\": true}, \"camera\": {\"position\": [0, 0, 5], "
+             "\"look_at\": [0, 0, 0], \"fov\": 40}, \"objects\": "
+             "[{\"type\": \"gltf\", \"file\": \"%s\"}]}", file);
+    lr_scene *s = lr_test_load_json(json);
+    lr_image *img = render(s);
+    const float *z = lr_image_depth(img);
+    double t = tan(20 * PI / 180);
+    static const int px[][2] = {{20, 16}, {22, 13}, {43, 16}, {40, 18}};
+    for (int i = 0; i < 4; i++) {
+        double sx = (2 * (px[i][0] + 0.5) / 64 - 1) * t * 2;
+        double w = want(sx, px[i][0] < 32);
+        double got = z[px[i][1] * 64 + px[i][0]];
+        if (!(fabs(got - w) < 1e-5 * w))
+            fail_msg("%s: pixel (%d, %d): depth %.7g, the geometry says "
+                     "%.7g", file, px[i][0], px[i][1], got, w);
+    }
+    lr_image_free(img);
+    lr_scene_free(s);
+}
+
+/* Scene "sparse": the first quad in z = x + 1.5, the second in
+ * z = 0.25. */
+static double sparse_depth(double sx, int left)
+{
+    return left ? 3.5 / (1 + sx) : 4.75;
+}
+
+/* Sparse accessors (spec 3.6.2.3), over a bufferView and over zeros:
+ * scene "sparse" of gltf_writer.py, whose quads would be at z = 0 and a
+ * heap of zeros without the sparse values. */
+static void test_sparse_accessors(void **state)
+{
+    (void)state;
+    make("sparse", "sparse.gltf");
+    expect_depths("sparse.gltf", sparse_depth);
+}
+
+/* Sparse accessors that break the spec's rules (3.6.2.3), an accessor
+ * without a bufferView too big to fill with zeros, and one that Draco
+ * would fill (the error names the extension, not a missing view).
+ * tri.gltf's accessors[0] is 3 VEC3 floats in bufferViews[0] (36 bytes),
+ * its bufferViews[1] the 3 unsigned ints 0, 1, 2. */
+static void test_sparse_hostile(void **state)
+{
+    (void)state;
+    make("tri", "tri.gltf");
+    static const char *const cases[][3] = {
+        {"sp-count.gltf", "{\"count\": 4, \"indices\": {\"bufferView\": 1, "
+         "\"componentType\": 5125}, \"values\": {\"bufferView\": 0}}",
+         "accessors[0].sparse.count must be from 1 to the accessor's count"},
+        {"sp-type.gltf", "{\"count\": 3, \"indices\": {\"bufferView\": 1, "
+         "\"componentType\": 5126}, \"values\": {\"bufferView\": 0}}",
+         "accessors[0].sparse.indices.componentType must be 5121"},
+        {"sp-order.gltf", "{\"count\": 3, \"indices\": {\"bufferView\": 0, "
+         "\"componentType\": 5125}, \"values\": {\"bufferView\": 0}}",
+         "accessors[0].sparse.indices: element 1 is 0; they must increase"},
+        {"sp-past.gltf", "{\"count\": 3, \"indices\": {\"bufferView\": 1, "
+         "\"componentType\": 5125}, \"values\": {\"bufferView\": 0, "
+         "\"byteOffset\": 24}}",
+         "accessors[0].sparse.values: 3 elements of 12 bytes from byte 24 "
+         "run past bufferViews[0]'s 36"},
+        {"sp-none.gltf", "{\"count\": 3}",
+         "accessors[0].sparse.indices must be an object"}};
+    for (int i = 0; i < 5; i++)
+        expect_bad(cases[i][0], "accessors.0.sparse", cases[i][1],
+                   LR_ERR_INVALID, cases[i][2]);
+    expect_bad_edit("tri.gltf", "zeros.gltf", "accessors.0.bufferView", "accessors.0.count",
+                    "1000000000", LR_ERR_INVALID,
+                    "accessors[0]: 1000000000 elements of 12 bytes to fill "
+                    "in (zeros or sparse) are more than lensray allows");
+    expect_bad_edit("tri.gltf", "draco.gltf", "accessors.0.bufferView",
+                    "meshes.0.primitives",
+                    "[{\"attributes\": {\"POSITION\": 0}, \"indices\": 1, "
+                    "\"extensions\": {\"KHR_draco_mesh_compression\": "
+                    "{\"bufferView\": 0, \"attributes\": {\"POSITION\": 0}}}}]",
+                    LR_ERR_INVALID,
+                    "accessors[0] has no bufferView: meshes[0].primitives[0] "
+                    "is compressed with KHR_draco_mesh_compression, which "
+                    "lensray does not decode");
+}
+
+/* Scene "morph": the quad at x = -1 in z = 1.1 + 0.4 x, the one at
+ * x = +1 in z = 0.25. */
+static double morph_depth(double sx, int left)
+{
+    return left ? 3.9 / (1 + 0.4 * sx) : 4.75;
+}
+
+/* Morph targets at their default weights (spec 3.7.2.2): scene "morph"
+ * of gltf_writer.py, the mesh's weights (0.5, 0.4) on the left, the
+ * node's own (0.25, 0) on the right.  Without the targets both quads
+ * would be at z = 0. */
+static void test_morph_weights(void **state)
+{
+    (void)state;
+    make("morph", "morph.gltf");
+    expect_depths("morph.gltf", morph_depth);
+    /* Weights and targets that break the spec's rules name the field. */
+    expect_bad_edit("morph.gltf", "morph-w.gltf", NULL, "meshes.0.weights", "[1]",
+                    LR_ERR_INVALID,
+                    "meshes[0].weights must be 2 numbers from -1e6 to 1e6, "
+                    "one per morph target");
+    expect_bad_edit("morph.gltf", "morph-nw.gltf", NULL, "nodes.1.weights", "[1, 2, 3]",
+                    LR_ERR_INVALID, "nodes[1].weights must be 2 numbers");
+    expect_bad_edit("morph.gltf", "morph-t.gltf", NULL, "meshes.0.primitives",
+                    "[{\"attributes\": {\"POSITION\": 1}, \"indices\": 0, "
+                    "\"targets\": [{\"POSITION\": 0}]}]", LR_ERR_INVALID,
+                    "meshes[0].primitives[0].targets[0].POSITION: "
+                    "accessors[0] must be a VEC3 of floats");
+}
+
+/* A file of points alone has nothing to frame, and the error says why
+ * rather than that it has no meshes (the glTF Asset Generator's
+ * Mesh_PrimitiveMode_00, mode 0). */
+static void test_points_only(void **state)
+{
+    (void)state;
+    make("tri", "tri.gltf");
+    cJSON *root = read_json("tri.gltf");
+    cJSON *prim = cJSON_GetArrayItem(cJSON_GetObjectItem(
+        cJSON_GetArrayItem(cJSON_GetObjectItem(root, "meshes"), 0),
+        "primitives"), 0);
+    cJSON_AddNumberToObject(prim, "mode", 0);
+    write_json("points.gltf", root);
+    const char *json = "{\"objects\": [{\"type\": \"gltf\", \"file\": "
+                       "\"points.gltf\", \"camera\": true}]}";
+    lr_scene *s = NULL;
+    lr_error err;
+    assert_int_equal(lr_scene_load_json(json, strlen(json), lr_test_tmpdir(),
+                                        NULL, 0, &s, &err),
+                     LR_ERR_INVALID);
+    if (strstr(err.message, "points.gltf: it has no camera and no "
+                            "triangles to frame (points and lines are not "
+                            "drawn)") == NULL)
+        fail_msg("points alone: \"%s\"", err.message);
+}
+
+/* Skins at their joints' own transforms (spec 3.7.3.3): scene "skin"
+ * of gltf_writer.py, whose skinned quad lies where sparse.gltf's first
+ * does, z = x + 1.5 (joint 1's world transform times its inverse bind
+ * matrix lifts two corners by 1), and whose plain quad lies in z = 0.25:
+ * the depths of test_sparse_accessors.  Unskinned, the quad would be
+ * drawn under its node's transform, 15 units away.  A joint index beyond
+ * the skin's joints and a skin without joints name the field. */
+static void test_skin(void **state)
+{
+    (void)state;
+    make("skin", "skin.gltf");
+    expect_depths("skin.gltf", sparse_depth);
+    expect_bad_edit("skin.gltf", "skin-j.gltf", NULL, "skins.0.joints",
+                    "[0]", LR_ERR_INVALID,
+                    "nodes[2]: meshes[0].primitives[0].attributes.JOINTS_0: "
+                    "joint 1 of a skin of 1 joints");
+    expect_bad_edit("skin.gltf", "skin-e.gltf", NULL, "skins.0.joints",
+                    "[]", LR_ERR_INVALID,
+                    "skins[0].joints must be a non-empty array");
+}
+
+/* A camera node that mirrors (scale -1 in x) is warned about: lensray's
+ * camera cannot show the mirror image the spec's view matrix makes; an
+ * unmirrored one is not. */
+static void test_mirrored_camera(void **state)
+{
+    (void)state;
+    make("camera-floor", "camfloor.gltf");
+    cJSON *root = read_json("camfloor.gltf");
+    cJSON *nodes = cJSON_GetObjectItem(root, "nodes");
+    for (cJSON *n = nodes->child; n; n = n->next)
+        if (cJSON_GetObjectItem(n, "camera") != NULL)
+            cJSON_AddItemToObject(n, "scale", cJSON_Parse("[-1, 1, 1]"));
+    write_json("mirrorcam.gltf", root);
+    static const char *const files[] = {"camfloor.gltf", "mirrorcam.gltf"};
+    for (int k = 0; k < 2; k++) {
+        char json[200];
+        snprintf(json, sizeof json, "{\"objects\": [{\"type\": \"gltf\", "
+                 "\"file\": \"%s\", \"camera\": true}]}", files[k]);
+        lr_scene *s = lr_test_load_json(json);
+        const char *w = strstr(lr_scene_warnings(s), "mirrors the camera");
+        if ((w != NULL) != (k == 1))
+            fail_msg("%s: warnings \"%s\"", files[k], lr_scene_warnings(s));
+        lr_scene_free(s);
+    }
+}
+
+/* A file that uses KHR_mesh_quantization without requiring it (the
+ * glTF Validator's non_required.gltf): the refused integer positions'
+ * error names the extension. */
+static void test_quantized_unrequired(void **state)
+{
+    (void)state;
+    make("tri", "tri.gltf");
+    cJSON *root = read_json("tri.gltf");
+    cJSON_AddItemToObject(root, "extensionsUsed",
+                          cJSON_Parse("[\"KHR_mesh_quantization\"]"));
+    cJSON *a = cJSON_GetArrayItem(cJSON_GetObjectItem(root, "accessors"), 0);
+    cJSON_ReplaceItemInObject(a, "componentType", cJSON_CreateNumber(5123));
+    write_json("quant.gltf", root);
+    expect_file_error("quant.gltf", LR_ERR_INVALID,
+                      "quant.gltf: meshes[0].primitives[0].attributes."
+                      "POSITION: accessors[0] must be a VEC3 of floats "
+                      "(5126) (KHR_mesh_quantization is not read by "
+                      "lensray)");
+}
+
+/* A texture whose image is only in an extension (KTX2 through
+ * KHR_texture_basisu, without a PNG fallback) is ignored with a warning
+ * that names the extension. */
+static void test_texture_extension_only(void **state)
+{
+    (void)state;
+    make("textured", "textured.gltf");
+    cJSON *root = read_json("textured.gltf");
+    cJSON *t = cJSON_GetArrayItem(cJSON_GetObjectItem(root, "textures"), 0);
+    cJSON_DeleteItemFromObject(t, "source");
+    cJSON_AddItemToObject(t, "extensions", cJSON_Parse(
+        "{\"KHR_texture_basisu\": {\"source\": 0}}"));
+    write_json("basisu.gltf", root);
+    lr_scene *s = lr_test_load_json(
+        "{\"objects\": [{\"type\": \"gltf\", \"file\": \"basisu.gltf\"}]}");
+    if (strstr(lr_scene_warnings(s), "its texture has no source image, "
+                                     "only one in KHR_texture_basisu, which "
+                                     "lensray does not read: ignored") ==
+        NULL)
+        fail_msg("warnings: \"%s\"", lr_scene_warnings(s));
+    lr_scene_free(s);
+}
+
+/* A member of the document's root is named alone ("scene", not
+ * ".scene"): scene 5 of a file without scenes. */
+static void test_root_member_error(void **state)
+{
+    (void)state;
+    make("tri", "tri.gltf");
+    cJSON *root = read_json("tri.gltf");
+    cJSON_DeleteItemFromObject(root, "scenes");
+    cJSON_DeleteItemFromObject(root, "scene");
+    cJSON_AddNumberToObject(root, "scene", 5);
+    write_json("noscenes.gltf", root);
+    expect_file_error("noscenes.gltf", LR_ERR_INVALID,
+                      "noscenes.gltf: scene refers to an element of an "
+                      "empty or missing array");
+}
+
+/* A file without scenes (valid glTF: a library of parts) has nothing to
+ * draw, and says so itself rather than through assimp's "GLTF: No
+ * scene" (the glTF Validator's EXT_texture_webp samples). */
+static void test_no_scenes(void **state)
+{
+    (void)state;
+    make("tri", "tri.gltf");
+    cJSON *root = read_json("tri.gltf");
+    cJSON_DeleteItemFromObject(root, "scenes");
+    cJSON_DeleteItemFromObject(root, "scene");
+    write_json("sceneless.gltf", root);
+    expect_file_error("sceneless.gltf", LR_ERR_INVALID,
+                      "sceneless.gltf: it has no scenes: nothing to draw");
 }
 
 static void test_hostile(void **state)
@@ -853,5 +1147,15 @@ static const struct CMUnitTest tests[] = {
     cmocka_unit_test(test_texture_transform),
     cmocka_unit_test(test_normal_map),
     cmocka_unit_test(test_hostile),
+    cmocka_unit_test(test_root_member_error),
+    cmocka_unit_test(test_sparse_accessors),
+    cmocka_unit_test(test_sparse_hostile),
+    cmocka_unit_test(test_morph_weights),
+    cmocka_unit_test(test_points_only),
+    cmocka_unit_test(test_skin),
+    cmocka_unit_test(test_mirrored_camera),
+    cmocka_unit_test(test_no_scenes),
+    cmocka_unit_test(test_quantized_unrequired),
+    cmocka_unit_test(test_texture_extension_only),
 };
 LR_TEST_GROUP(gltf, tests)
