@@ -28,6 +28,9 @@ static const char *const cosmetic[] = {
     "COMM", "HIDE", "SLAB", "MEMA", "POPS", "COAT", "FLAP", "VPAR", "VCON",
     "VDSZ", "VCRV", "PPAR", "PZUP", "MAZH", "XDAT", "CMMP", "OEMA", "ISNH",
     "TCE", "BLNK", "FIMP",
+    /* The surface's unique ID, "SSID n": bookkeeping that OpticStudio
+     * 2023 and later writes on every surface (VERS 231205 files). */
+    "SSID",
     /* The mirror substrate's drawing (MIRR type thickness): written on
      * every surface by every OpticStudio since the 1990s; a mirror
      * itself is GLAS MIRROR. */

@@ -537,8 +537,9 @@ static void test_zmx_reader(void **state)
     const char *ok = ZMX_HEAD
         "SURF 1\r\n  STOP\r\n  TYPE STANDARD\r\n  CURV 0\r\n  DISZ 1\r\n"
         "  DIAM 5\r\n  COMM front stop\r\n"
-        /* OpticStudio writes each surface's mirror-substrate drawing. */
-        "  MIRR 2 0\r\n"
+        /* OpticStudio writes each surface's mirror-substrate drawing,
+         * and since 2023 its unique ID. */
+        "  MIRR 2 0\r\n  SSID 1\r\n"
         "SURF 2\r\n  TYPE EVENASPH\r\n  CURV 2.0E-2 0 0 0 0 \"\"\r\n"
         "  CONI -0.5\r\n  PARM 1 0\r\n  PARM 2 1.0E-6\r\n  PARM 3 -2E-9\r\n"
         "  DISZ 4\r\n  GLAS N-BK7 0 0 1.5168 64.17 0 0 0 0 0 0\r\n"
