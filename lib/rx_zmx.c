@@ -136,6 +136,26 @@ static void rest_of_line(char *from, const char *eol, char *raw,
     lr__trim_partial_utf8(raw, size, (int)r + 1);
 }
 
+/* OpticStudio cuts a long note into NOTE lines of this many characters,
+ * mid-word if need be: Thorlabs' AC254-100-A (VERS 120928) ends a line
+ * with "TECHSUPPORT@THORL" and the next is "ABS.COM", and Zemax's sample
+ * "Double Gauss Experimental Arrangement" (VERS 190513) splits "usi" /
+ * "ng" likewise; both lines hold 200 characters after "NOTE 0 ". */
+#define NOTE_LINE_CHARS 200
+
+/* The characters (UTF-8 sequences) of a line's text [text, eol); `cr`:
+ * the line ended in a carriage return (which words() has since made a
+ * NUL), not counted. */
+static size_t note_chars(const char *text, const char *eol, int cr)
+{
+    size_t n = 0;
+    if (cr && eol > text)
+        eol--;
+    for (const char *c = text; c < eol; c++)
+        n += ((unsigned char)*c & 0xC0) != 0x80;
+    return n;
+}
+
 static int number(const char *w, double *x)
 {
     if (w == NULL)
@@ -186,7 +206,7 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
     lr_status st = LR_OK;
     double unit = 1.0;
     char gcat[256] = "";
-    int nz = 0, cur = -1, line = 0;
+    int nz = 0, cur = -1, line = 0, note_full = 0;
     char *p = s, *end = s + n8;
     while (st == LR_OK && p < end) {
         char *eol = memchr(p, '\n', (size_t)(end - p));
@@ -199,6 +219,7 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
             break;
         }
         int indented = *p == ' ' || *p == '\t';
+        int cr = eol > p && eol[-1] == '\r';
         char *w[16], q[200];
         int k = words(p, w);
         p = eol < end ? eol + 1 : end;
@@ -230,6 +251,8 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
         if (cur < 0) {
             /* The system's lines: only the units and the mode change what
              * the surfaces mean. */
+            int was_full = note_full;
+            note_full = 0;
             if (strcmp(w[0], "MODE") == 0 &&
                 (k < 2 || strcasecmp(w[1], "SEQ") != 0))
                 FAIL("%s:%d: MODE %s: only sequential files (MODE SEQ) "
@@ -251,13 +274,17 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
                          shown, line, quote(w[1], q, sizeof q));
             } else if (strcmp(w[0], "NOTE") == 0 && k >= 3) {
                 /* "NOTE n text": the notes, joined, are the source. */
+                int cont = was_full;
                 size_t o = strlen(rx->source);
                 char raw[sizeof rx->source], esc[sizeof rx->source];
-                rest_of_line(w[2], eol, raw, sizeof raw);
+                /* The text after "NOTE n ", its blanks included. */
+                char *text = w[1] + strlen(w[1]) + 1;
+                note_full = note_chars(text, eol, cr) == NOTE_LINE_CHARS;
+                rest_of_line(cont ? text : w[2], eol, raw, sizeof raw);
                 lr__utf8_escape(raw, esc, sizeof esc);
                 if (o + 2 < sizeof rx->source) {
                     snprintf(rx->source + o, sizeof rx->source - o, "%s%s",
-                             o ? " " : "", esc);
+                             o && !cont ? " " : "", esc);
                     lr__trim_partial_utf8(rx->source, sizeof rx->source,
                                           (int)strlen(rx->source) + 1);
                 }

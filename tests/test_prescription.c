@@ -643,6 +643,30 @@ static void test_zmx_reader(void **state)
         LR_OK);
     assert_true(r16.s[1].semi_aperture == 7.5 &&
                 r16.s[2].semi_aperture == 10);
+    /* OpticStudio cuts a note into lines of 200 characters, mid-word:
+     * after a full line the next continues it without a space (Thorlabs'
+     * "...TECHSUPPORT@THORL" / "ABS.COM"); after a shorter one, or a
+     * full one that ends at a word, a space as before.  The lens:
+     * test_zmx_reader's first. */
+    {
+        char text[4096], full[201];
+        memset(full, 'x', 200);
+        full[200] = '\0';
+        memcpy(full + 200 - 11, " TECH@THORL", 11);
+        snprintf(text, sizeof text,
+                 "NOTE 0 %s\r\nNOTE 0 ABS.COM (\xC3\x98 3)\r\n"
+                 "NOTE 0 %.199s\xC3\x98\r\nNOTE 0  and so on\r\n"
+                 "NOTE 4\r\nNOTE 0 Next.\r\n%s",
+                 full, full, ok);
+        lr__rx rn;
+        assert_int_equal(zmx(text, &rn, &err), LR_OK);
+        char want[1024];
+        snprintf(want, sizeof want,
+                 "%.189s TECH@THORLABS.COM (\xC3\x98 3) %.199s\xC3\x98 and so "
+                 "on Next.",
+                 full, full);
+        assert_string_equal(rn.source, want);
+    }
     /* The notes are the lens's source. */
     assert_string_equal(rx.source, "From US patent 583,336, example 2, a "
                                    "note of more than sixteen words: three "
