@@ -181,6 +181,18 @@ static void test_nearest_names(void **state)
     assert_string_equal(near, "TAFD55, TAFD5F, TAFD5G");
     assert_int_equal(lr__glass_named("N-BK8", &g, near, sizeof near), -1);
     assert_string_equal(near, "N-BK7, N-BK10, N-BAK1");
+    /* An old name whose lead-free successor took a maker's prefix:
+     * the successor first (Zemax files still say BK7, SF5, SK16; by
+     * distance alone BK7 offered K7, BAL7, BSL7). */
+    assert_int_equal(lr__glass_named("BK7", &g, near, sizeof near), -1);
+    assert_int_equal(strncmp(near, "N-BK7, ", 7), 0);
+    assert_int_equal(lr__glass_named("fk51", &g, near, sizeof near), -1);
+    assert_int_equal(strncmp(near, "N-FK51, ", 8), 0);
+    assert_int_equal(lr__glass_named("ZK9B", &g, near, sizeof near), -1);
+    assert_int_equal(strncmp(near, "H-ZK9B, ", 8), 0);
+    /* Three makers' successors, in catalogue order. */
+    assert_int_equal(lr__glass_named("BAK1", &g, near, sizeof near), -1);
+    assert_string_equal(near, "N-BAK1, H-BAK1, E-BAK1");
     /* Three makers sell an F2: the name is offered once. */
     assert_int_equal(lr__glass_named("F2Q", &g, near, sizeof near), -1);
     assert_int_equal(strncmp(near, "F2, ", 4), 0);
