@@ -148,6 +148,7 @@ lr_status lr__rx_from_pbrt(const char *text, size_t len, const char *shown,
                             LR__RX_MAX_SURFACES);
         lr__surface *s = &rx->s[n];
         memset(s, 0, sizeof *s);
+        rx->line[n] = line;
         s->radius = v[0];
         s->thickness = v[1];
         s->semi_aperture = v[3] / 2;

@@ -441,6 +441,7 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
             o->asph[j - 2] = z->parm[j] * pow(unit, 1 - 2 * j);
         o->after = z->glass;
         o->stop = z->stop;
+        rx->line[i - 1] = z->line;
         if (z->stop) {
             if (rx->stop >= 0) {
                 FAIL("%s:%d: a second STOP", shown, z->line);
@@ -454,8 +455,10 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
     if (st == LR_OK && nz >= 2 && zs[nz - 1].stop)
         FAIL("%s:%d: the stop is on the image surface", shown,
              zs[nz - 1].line);
-    if (st == LR_OK)
+    if (st == LR_OK) {
         rx->n = nz - 2;
+        rx->zmx = 1;
+    }
     free(zs);
     free(s);
     return st;

@@ -397,7 +397,8 @@ static void test_json_errors(void **state)
                       "\"semi_aperture\": 10}, {\"radius\": -20, "
                       "\"thickness\": 20, \"material\": \"air\", "
                       "\"semi_aperture\": 10}]}",
-                      "camera.lens.surfaces[2]", "cuts through surfaces[1]");
+                      "camera.lens.surfaces[2]",
+                      "cuts through camera.lens.surfaces[1]");
     expect_json_error("{\"surfaces\": [{\"stop\": true, \"thickness\": 1, "
                       "\"semi_aperture\": 5}, {\"radius\": 8, "
                       "\"thickness\": 9, \"material\": \"N-BK7\", "
@@ -506,6 +507,12 @@ static void expect_text_error(lr_status (*read)(const char *, lr__rx *,
 static void test_pbrt_errors(void **state)
 {
     (void)state;
+    /* The geometry's errors name a surface by its line, as the reader's
+     * do: a pbrt file has no "surfaces[2]". */
+    expect_text_error(pbrt,
+                      "# crossing\n0 1 0 10\n20 0.5 1.5 20\n-20 20 0 20\n",
+                      "the surface on line 4 cuts through the surface on "
+                      "line 3 at ");
     expect_text_error(pbrt, "0 1 0 10\n50 4 1.5x 20\n", "t.dat:2: \"1.5x\"");
     expect_text_error(pbrt, "# c\n0 1 0 10\n50 4 1.5\n", "t.dat:3: 3 numbers");
     expect_text_error(pbrt, "0 1 0 10\n50 -4 1.5 20\n", "t.dat:2: thickness");
@@ -768,6 +775,19 @@ static void test_zmx_errors(void **state)
                       ZMX_HEAD "SURF 1\r\n  STOP\r\n  DIAM 5\r\n"
                                "  OBDC 0 1.5\r\n",
                       "t.zmx:13: OBDC: a decentred aperture");
+    /* The geometry's errors name a surface as the file does: SURF 3
+     * (s[1], SURF 0 being the object) and its line. */
+    expect_text_error(zmx,
+                      ZMX_HEAD "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ 1\r\n"
+                               "SURF 2\r\n  CURV 0.1\r\n  DISZ 0.5\r\n"
+                               "  GLAS N-BK7\r\n  DIAM 8\r\n" ZMX_TAIL,
+                      "SURF 3 (line 19) cuts through SURF 2 (line 14) at ");
+    expect_text_error(zmx,
+                      ZMX_HEAD "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ 1\r\n"
+                               "SURF 2\r\n  CURV 0.2\r\n  DISZ 4\r\n"
+                               "  GLAS N-BK7\r\n  DIAM 10\r\n" ZMX_TAIL,
+                      "SURF 2 (line 14): semi_aperture: 10 mm is beyond the "
+                      "surface's edge (radius 5");
     expect_text_error(zmx, "MODE NSC\r\n", "t.zmx:1: MODE NSC");
     expect_text_error(zmx, "UNIT FT\r\n", "t.zmx:1: UNIT FT");
     expect_text_error(zmx, ZMX_HEAD "SURF 2\r\n", "t.zmx:10: SURF 2 out of "
