@@ -281,6 +281,15 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
                 char *text = w[1] + strlen(w[1]) + 1;
                 note_full = note_chars(text, eol, cr) == NOTE_LINE_CHARS;
                 rest_of_line(cont ? text : w[2], eol, raw, sizeof raw);
+                /* A full line's trailing blank is the space between its
+                 * last word and the next line's first. */
+                size_t r = strlen(raw);
+                if (note_full && eol - cr > text &&
+                    (eol[-1 - cr] == ' ' || eol[-1 - cr] == '\0') &&
+                    r + 2 < sizeof raw) {
+                    raw[r] = ' ';
+                    raw[r + 1] = '\0';
+                }
                 lr__utf8_escape(raw, esc, sizeof esc);
                 if (o + 2 < sizeof rx->source) {
                     snprintf(rx->source + o, sizeof rx->source - o, "%s%s",

@@ -664,9 +664,9 @@ static void test_zmx_reader(void **state)
                 r16.s[2].semi_aperture == 10);
     /* OpticStudio cuts a note into lines of 200 characters, mid-word:
      * after a full line the next continues it without a space (Thorlabs'
-     * "...TECHSUPPORT@THORL" / "ABS.COM"); after a shorter one, or a
-     * full one that ends at a word, a space as before.  The lens:
-     * test_zmx_reader's first. */
+     * "...TECHSUPPORT@THORL" / "ABS.COM"), and a full line's trailing
+     * space is kept; after a shorter line, a space as before.  The
+     * lens: test_zmx_reader's first. */
     {
         char text[4096], full[201];
         memset(full, 'x', 200);
@@ -684,6 +684,11 @@ static void test_zmx_reader(void **state)
                  "%.189s TECH@THORLABS.COM (\xC3\x98 3) %.199s\xC3\x98 and so "
                  "on Next.",
                  full, full);
+        assert_string_equal(rn.source, want);
+        snprintf(text, sizeof text, "NOTE 0 %.199s \r\nNOTE 0 end\r\n%s",
+                 full, ok);
+        assert_int_equal(zmx(text, &rn, &err), LR_OK);
+        snprintf(want, sizeof want, "%.199s end", full);
         assert_string_equal(rn.source, want);
     }
     /* The notes are the lens's source. */
