@@ -513,6 +513,29 @@ static void test_pbrt_errors(void **state)
                       "# crossing\n0 1 0 10\n20 0.5 1.5 20\n-20 20 0 20\n",
                       "the surface on line 4 cuts through the surface on "
                       "line 3 at ");
+    /* pbrt-v4-scenes' unscaled dgauss.dat: the second column is the
+     * distance from the surface before (0 first), not the thickness. */
+    expect_text_error(pbrt,
+                      "# D-GAUSS F/2 22deg HFOV\n# radius\taxpos\tN\taperture\n"
+                      "  58.950\t0.000\t1.670\t50.4\n"
+                      "  169.660\t7.520\t1.0\t\t50.4\n"
+                      "  38.550\t0.240\t1.670\t46.0\n"
+                      "  81.540\t8.050\t1.699\t46.0\n"
+                      "  25.500\t6.550\t1.0\t\t36.0\n"
+                      "  0\t\t\t11.410\t0\t\t34.2\n"
+                      " -28.990\t9.000\t1.603\t34.0\n"
+                      "  81.540\t2.360\t1.658\t40.0\n"
+                      " -40.770\t12.130\t1.0\t\t40.0\n"
+                      "  874.130\t0.380\t1.717\t40.0\n"
+                      " -79.460\t6.440\t1.0\t\t40.0\n",
+                      "t.dat:3: the first surface is 0 mm before the next: "
+                      "the second column is the thickness to the next "
+                      "surface");
+    /* A stop on the first lens's vertex is not such a table. */
+    lr__rx rs;
+    lr_error es;
+    assert_int_equal(pbrt("0 0 0 10\n50 4 1.5 20\n-50 45 0 20\n", &rs, &es),
+                     LR_OK);
     expect_text_error(pbrt, "0 1 0 10\n50 4 1.5x 20\n", "t.dat:2: \"1.5x\"");
     expect_text_error(pbrt, "# c\n0 1 0 10\n50 4 1.5\n", "t.dat:3: 3 numbers");
     expect_text_error(pbrt, "0 1 0 10\n50 -4 1.5 20\n", "t.dat:2: thickness");
