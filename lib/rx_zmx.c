@@ -181,7 +181,7 @@ static const char *quote(const char *w, char *buf, size_t cap)
 
 typedef struct zsurf {
     double curv, disz, diam, coni, parm[9], clap;
-    int stop, has_diam, has_clap, line;
+    int stop, has_diam, has_clap, line, glas_line;
     lr__glass glass;
 } zsurf;
 
@@ -375,6 +375,7 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
                 z->parm[(int)x] = v;
         } else if (strcmp(w[0], "GLAS") == 0) {
             char near[128];
+            z->glas_line = line;
             if (k < 2 || strcasecmp(w[1], "MIRROR") == 0) {
                 FAIL("%s:%d: GLAS %s: mirrors are not supported", shown,
                      line, quote(k > 1 ? w[1] : "", q, sizeof q));
@@ -461,6 +462,17 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
     }
     if (st == LR_OK && zs[0].stop)
         FAIL("%s:%d: the stop is on the object surface", shown, zs[0].line);
+    /* SURF 0's GLAS is the object space's medium: Zemax and ray-optics
+     * refract the light from it into the first surface (ray-optics'
+     * EFL for tests/data/lenses/cooke-triplet.zmx with SURF 0 in a model
+     * glass of index 1.333 is 56% off the lens's in air).  lensray's
+     * lenses look out of air. */
+    if (st == LR_OK && zs[0].glas_line > 0 &&
+        fabs(lr__glass_n(&zs[0].glass, LR__NM_d) - 1.0) > 1e-9)
+        FAIL("%s:%d: a GLAS on SURF 0 puts the object in a medium of index "
+             "%g; lensray traces from air (a lens in front of water or "
+             "glass is not supported)",
+             shown, zs[0].glas_line, lr__glass_n(&zs[0].glass, LR__NM_d));
     if (st == LR_OK && nz >= 2 && zs[nz - 1].stop)
         FAIL("%s:%d: the stop is on the image surface", shown,
              zs[nz - 1].line);

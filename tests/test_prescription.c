@@ -816,6 +816,31 @@ static void test_zmx_errors(void **state)
                                "  GLAS N-BK7\r\n  DIAM 10\r\n" ZMX_TAIL,
                       "SURF 2 (line 14): semi_aperture: 10 mm is beyond the "
                       "surface's edge (radius 5");
+    /* The object in water: Zemax refracts from it, lensray cannot. */
+    expect_text_error(zmx,
+                      "SURF 0\r\n  DISZ INFINITY\r\n"
+                      "  GLAS ___BLANK 1 0 1.333 55.8 0 0 0 0 0 0\r\n"
+                      "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ 1\r\n"
+                      "SURF 2\r\n  CURV 0.02\r\n  DISZ 4\r\n  GLAS N-BK7\r\n"
+                      "  DIAM 10\r\n" ZMX_TAIL,
+                      "t.zmx:3: a GLAS on SURF 0 puts the object in a medium "
+                      "of index 1.333; lensray traces from air");
+    /* Air by name, or a model glass of index 1, is air. */
+    lr__rx ra;
+    lr_error ea;
+    assert_int_equal(zmx("SURF 0\r\n  DISZ INFINITY\r\n  GLAS AIR\r\n"
+                         "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ 1\r\n"
+                         "SURF 2\r\n  CURV 0.02\r\n  DISZ 4\r\n"
+                         "  GLAS N-BK7\r\n  DIAM 10\r\n" ZMX_TAIL,
+                         &ra, &ea),
+                     LR_OK);
+    assert_int_equal(zmx("SURF 0\r\n  DISZ INFINITY\r\n"
+                         "  GLAS ___BLANK 1 0 1 0 0 0 0 0 0 0\r\n"
+                         "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ 1\r\n"
+                         "SURF 2\r\n  CURV 0.02\r\n  DISZ 4\r\n"
+                         "  GLAS N-BK7\r\n  DIAM 10\r\n" ZMX_TAIL,
+                         &ra, &ea),
+                     LR_OK);
     expect_text_error(zmx, "MODE NSC\r\n", "t.zmx:1: MODE NSC");
     expect_text_error(zmx, "UNIT FT\r\n", "t.zmx:1: UNIT FT");
     expect_text_error(zmx, ZMX_HEAD "SURF 2\r\n", "t.zmx:10: SURF 2 out of "
