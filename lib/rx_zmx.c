@@ -181,7 +181,7 @@ static const char *quote(const char *w, char *buf, size_t cap)
 
 typedef struct zsurf {
     double curv, disz, diam, coni, parm[9], clap;
-    int stop, has_diam, has_clap, line, glas_line;
+    int stop, has_diam, has_clap, line, glas_line, evenasph;
     lr__glass glass;
 } zsurf;
 
@@ -320,6 +320,7 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
                 FAIL("%s:%d: surface type %s is not supported (STANDARD "
                      "and EVENASPH are)",
                      shown, line, quote(k > 1 ? w[1] : "(none)", q, sizeof q));
+            z->evenasph = k >= 2 && strcmp(w[1], "EVENASPH") == 0;
         } else if (strcmp(w[0], "CURV") == 0) {
             if (!num_ok || !isfinite(x) || fabs(x) > 1e6)
                 FAIL("%s:%d: CURV needs a finite curvature", shown, line);
@@ -430,6 +431,11 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
                  z->line, i);
             break;
         }
+        /* PARM are the surface type's parameters: a STANDARD surface
+         * has none, and Zemax and ray-optics pass over its PARM lines
+         * (one left from an EVENASPH made STANDARD again). */
+        if (!z->evenasph)
+            memset(z->parm, 0, sizeof z->parm);
         if (z->parm[1] != 0) {
             FAIL("%s:%d: SURF %d has an r^2 aspheric term (PARM 1), which "
                  "lensray does not model",

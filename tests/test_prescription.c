@@ -714,6 +714,18 @@ static void test_zmx_reader(void **state)
         snprintf(want, sizeof want, "%.199s end", full);
         assert_string_equal(rn.source, want);
     }
+    /* PARM lines on a STANDARD surface (it has no parameters) are
+     * passed over, as Zemax and ray-optics do: no r^2 error, no asphere. */
+    assert_int_equal(
+        zmx("SURF 0\r\n  DISZ INFINITY\r\n"
+            "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ 1\r\n"
+            "SURF 2\r\n  TYPE STANDARD\r\n  CURV 0.02\r\n  PARM 1 0.5\r\n"
+            "  PARM 2 1.0E-4\r\n  DISZ 4\r\n  GLAS N-BK7\r\n  DIAM 10\r\n"
+            "SURF 3\r\n  CURV -0.02\r\n  PARM 3 1.0E-6\r\n  DISZ 40\r\n"
+            "  DIAM 10\r\nSURF 4\r\n",
+            &r16, &err),
+        LR_OK);
+    assert_false(lr__rx_aspheric(&r16.s[1]) || lr__rx_aspheric(&r16.s[2]));
     /* The notes are the lens's source. */
     assert_string_equal(rx.source, "From US patent 583,336, example 2, a "
                                    "note of more than sixteen words: three "
