@@ -63,7 +63,8 @@ ANGLES = {"double-gauss-50": [0, 5, 10, 15, 20], "wide-22": [0, 10, 20, 30],
           "objective-us8879901": [0, 7.574, 10.82],
           "nikon-zoom-80-200-short": [0, 7.5, 15],
           "flektagon-de953471": [0, 10, 20, 30],
-          "us8427765-evenasph": [0, 8, 16]}
+          "us8427765-evenasph": [0, 8, 16],
+          "minolta-fisheye-us4256373": [0, 30, 60, 80, 89]}
 DEFAULT_ANGLES = [0, 5, 10]
 
 
