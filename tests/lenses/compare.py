@@ -45,10 +45,23 @@ from opticalglass.opticalmedium import InterpolatedMedium
 from rayoptics.elem.profiles import EvenPolynomial
 
 
+# ray-optics keeps a .zmx file's lens units (zmxread's spelling of
+# Zemax's UNIT); lensray and these checks are in millimetres.
+UNIT_MM = {"mm": 1.0, "CM": 10.0, "inches": 25.4, "METER": 1000.0}
+
+
 def open_model(path):
     """A .zmx file as an optical model (what rayoptics' open_model does
-    for one: its reader updates the model)."""
+    for one: its reader updates the model), scaled to millimetres."""
     opm, _info = zmxread.read_lens_file(pathlib.Path(path))
+    dim = opm["system_spec"].dimensions
+    if dim not in UNIT_MM:
+        raise RuntimeError("%s: ray-optics' lens units %r are not known "
+                           "here" % (path, dim))
+    scale = UNIT_MM[dim]
+    if scale != 1.0:
+        opm.apply_scale_factor(scale)
+        opm["system_spec"].dimensions = "mm"
     return opm
 
 ND, NF, NC = 587.5618, 486.1327, 656.2725
@@ -64,7 +77,8 @@ ANGLES = {"double-gauss-50": [0, 5, 10, 15, 20], "wide-22": [0, 10, 20, 30],
           "nikon-zoom-80-200-short": [0, 7.5, 15],
           "flektagon-de953471": [0, 10, 20, 30],
           "us8427765-evenasph": [0, 8, 16],
-          "minolta-fisheye-us4256373": [0, 30, 60, 80, 89]}
+          "minolta-fisheye-us4256373": [0, 30, 60, 80, 89],
+          "us8427765-evenasph-inches": [0, 8, 16]}
 DEFAULT_ANGLES = [0, 5, 10]
 
 
@@ -228,7 +242,12 @@ def main():
         name = lens.rsplit("/", 1)[-1].rsplit(".", 1)[0]
         angles = ANGLES.get(name, DEFAULT_ANGLES)
         if lens.lower().endswith(".zmx"):
-            opm = open_model(lens)
+            try:
+                opm = open_model(lens)
+            except RuntimeError as e:
+                print("%-22s FAIL  %s" % (name, e))
+                failed += 1
+                continue
             osp = opm["optical_spec"]
             osp["pupil"] = PupilSpec(osp, key=["image", "f/#"], value=4)
             osp["wvls"] = WvlSpec([(w, 1.0) for w in WVLS], ref_wl=1)
