@@ -71,6 +71,11 @@ lr_status lr__rx_from_pbrt(const char *text, size_t len, const char *shown,
     int line = 0, n = 0, named = 0;
     size_t src = 0;
     const char *p = text, *end = text + len;
+    /* A UTF-8 byte order mark, as Windows editors write one, is not text
+     * (the first line would be no comment and no number); obj.c skips
+     * it likewise. */
+    if (len >= 3 && memcmp(p, "\xEF\xBB\xBF", 3) == 0)
+        p += 3;
     while (p < end) {
         const char *eol = memchr(p, '\n', (size_t)(end - p));
         if (eol == NULL)

@@ -59,6 +59,11 @@ static char *narrow(const char *text, size_t len, size_t *out_len)
     if (s == NULL)
         return NULL;
     if (!utf16) {
+        /* UTF-8's byte order mark is no part of the first keyword. */
+        if (n >= 3 && memcmp(text, "\xEF\xBB\xBF", 3) == 0) {
+            text += 3;
+            n -= 3;
+        }
         memcpy(s, text, n);
         s[n] = '\0';
         *out_len = n;

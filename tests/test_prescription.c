@@ -531,6 +531,14 @@ static void test_pbrt_errors(void **state)
                       "t.dat:3: the first surface is 0 mm before the next: "
                       "the second column is the thickness to the next "
                       "surface");
+    /* A UTF-8 byte order mark (Notepad's) before the first comment. */
+    lr__rx rb;
+    lr_error eb;
+    assert_int_equal(pbrt("\xEF\xBB\xBF# a singlet\n0 1 0 10\n50 4 1.5 20\n"
+                          "-50 45 0 20\n",
+                          &rb, &eb),
+                     LR_OK);
+    assert_string_equal(rb.name, "a singlet");
     /* A stop on the first lens's vertex is not such a table. */
     lr__rx rs;
     lr_error es;
@@ -714,6 +722,14 @@ static void test_zmx_reader(void **state)
         snprintf(want, sizeof want, "%.199s end", full);
         assert_string_equal(rn.source, want);
     }
+    /* UTF-8 with a byte order mark: the first line's keyword read. */
+    assert_int_equal(zmx("\xEF\xBB\xBFNAME bom\r\nSURF 0\r\n  DISZ INFINITY\r\n"
+                         "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ 1\r\n"
+                         "SURF 2\r\n  CURV 0.02\r\n  DISZ 4\r\n"
+                         "  GLAS N-BK7\r\n  DIAM 10\r\n" ZMX_TAIL,
+                         &r16, &err),
+                     LR_OK);
+    assert_string_equal(r16.name, "bom");
     /* PARM lines on a STANDARD surface (it has no parameters) are
      * passed over, as Zemax and ray-optics do: no r^2 error, no asphere. */
     assert_int_equal(
