@@ -1002,6 +1002,24 @@ static void test_find_and_load(void **state)
     assert_string_equal(err.path, "camera.lens");
     assert_non_null(strstr(err.message, "bad.json: surfaces[1].material: "
                                         "unknown glass \"N-BK8\""));
+    /* An asset (named by its hash) is read in the form its bytes show:
+     * JSON after a UTF-8 byte order mark too. */
+    snprintf(file, sizeof file, "%s/asset-bom", lr_test_tmpdir());
+    f = fopen(file, "w");
+    assert_non_null(f);
+    fputs("\xEF\xBB\xBF{\"surfaces\": [{\"stop\": true, \"thickness\": 1, "
+          "\"semi_aperture\": 5}, {\"radius\": 50, \"thickness\": 4, "
+          "\"material\": \"N-BK7\", \"semi_aperture\": 10}, {\"radius\": "
+          "-50, \"thickness\": 45, \"material\": \"air\", "
+          "\"semi_aperture\": 10}]}",
+          f);
+    fclose(f);
+    assert_int_equal(lr__rx_load_file(file,
+                                      "sha256:0123456789abcdef0123456789abcdef"
+                                      "0123456789abcdef0123456789abcdef",
+                                      NULL, &rx, &err),
+                     LR_OK);
+    assert_int_equal(rx.n, 3);
     assert_int_equal(lr__rx_load_file("x.lens", "x.lens", NULL, &rx, &err),
                      LR_ERR_INVALID);
     assert_int_equal(lr__rx_load_file("/nonexistent/x.zmx", "x.zmx", NULL,
