@@ -266,6 +266,13 @@ int lr__glass_find(const char *name, const char *prefer, lr__glass *g,
                    tolower((unsigned char)c[pre]))
             pre++;
         int d = 64 * distance(name, c) - pre, seen = 0;
+        /* A maker's prefix before an old name ("BK7" is N-BK7 now):
+         * the lead- and arsenic-free successors keep the name behind
+         * SCHOTT's N-, OHARA's S-, CDGM's H-, HIKARI's J-, and they
+         * come first, though two or more edits away. */
+        const char *dash = strchr(c, '-');
+        if (dash != NULL && dash - c <= 2 && same_name(dash + 1, name))
+            d = -64;
         for (int k = 0; k < 3; k++)
             seen |= bd[k] < (1 << 30) &&
                     strcasecmp(catalogue[best[k]].name, c) == 0;

@@ -102,6 +102,11 @@ typedef struct lr__rx {
     int n;                /* surfaces used in s[] */
     int stop;             /* index of the stop surface */
     lr__surface s[LR__RX_MAX_SURFACES];
+    /* Where each surface came from, for lr__rx_check's messages: its
+     * line in a pbrt or Zemax file (0: a JSON lens, named by its path
+     * "surfaces[i]"); zmx: 1 for a Zemax file, whose SURF i + 1 s[i] is. */
+    int line[LR__RX_MAX_SURFACES];
+    int zmx;
 } lr__rx;
 
 /* 1 when the surface has even aspheric terms (traced by Newton's method,

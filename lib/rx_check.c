@@ -8,6 +8,7 @@
 
 #include <math.h>
 #include <stdio.h>
+#include <string.h>
 
 /* The surface's sag at height h (Zemax's even asphere: the conic term
  * c h^2 / (1 + sqrt(1 - (1 + k) c^2 h^2)) plus A4 h^4 + A6 h^6 + ...);
@@ -24,9 +25,26 @@ static double sag(const lr__surface *s, double h)
     return z;
 }
 
+/* How a message names surface i: by its JSON path `p` ("surfaces[3]")
+ * for a JSON lens, by what its file calls it elsewhere: "SURF 4 (line
+ * 120)" in a Zemax file (SURF 0 is the object: surfaces[3] is SURF 4),
+ * "the surface on line 7" in a pbrt file. */
+static const char *surface_name(const lr__rx *rx, int i, const char *p,
+                                char *out, size_t cap)
+{
+    if (rx->line[i] <= 0)
+        snprintf(out, cap, "%s", p);
+    else if (rx->zmx)
+        snprintf(out, cap, "SURF %d (line %d)", i + 1, rx->line[i]);
+    else
+        snprintf(out, cap, "the surface on line %d", rx->line[i]);
+    return out;
+}
+
 lr_status lr__rx_check(const lr__rx *rx, const char *path, lr_error *err)
 {
-    char sp[LR__PATH_MAX], p[LR__PATH_MAX];
+    char sp[LR__PATH_MAX], p[LR__PATH_MAX], nm[LR__PATH_MAX + 32],
+        nm2[LR__PATH_MAX + 32];
     lr__path_key(sp, path, "surfaces");
     if (rx->n < 1 || rx->n > LR__RX_MAX_SURFACES)
         return lr__fail(err, LR_ERR_INVALID, sp,
@@ -47,28 +65,31 @@ lr_status lr__rx_check(const lr__rx *rx, const char *path, lr_error *err)
     for (int i = 0; i < rx->n; i++) {
         const lr__surface *s = &rx->s[i];
         lr__path_index(p, sp, (size_t)i);
+        surface_name(rx, i, p, nm, sizeof nm);
+        /* "surfaces[3].semi_aperture", "SURF 4 (line 120): semi_aperture" */
+        const char *dot = rx->line[i] > 0 ? ": " : ".";
         if (!(s->semi_aperture > 0) || !isfinite(s->semi_aperture))
             return lr__fail(err, LR_ERR_INVALID, p,
-                            "%s.semi_aperture must be > 0, got %g", p,
+                            "%s%ssemi_aperture must be > 0, got %g", nm, dot,
                             s->semi_aperture);
         if (!(s->thickness >= 0) || !isfinite(s->thickness) ||
             !isfinite(s->radius) || !isfinite(s->conic))
             return lr__fail(err, LR_ERR_INVALID, p,
                             "%s: radius, thickness and conic must be "
                             "finite, thickness >= 0",
-                            p);
+                            nm);
         if (isnan(sag(s, s->semi_aperture)))
             return lr__fail(err, LR_ERR_INVALID, p,
-                            "%s.semi_aperture: %g mm is beyond the "
+                            "%s%ssemi_aperture: %g mm is beyond the "
                             "surface's edge (radius %g, conic %g)",
-                            p, s->semi_aperture, s->radius, s->conic);
-        for (double nm = 380; nm <= 780; nm += 50) {
-            double n = lr__glass_n(&s->after, nm);
+                            nm, dot, s->semi_aperture, s->radius, s->conic);
+        for (double wl = 380; wl <= 780; wl += 50) {
+            double n = lr__glass_n(&s->after, wl);
             if (!(n >= 1.0 && n < 5.0))
                 return lr__fail(err, LR_ERR_INVALID, p,
-                                "%s.material: index %g at %g nm is not a "
+                                "%s%smaterial: index %g at %g nm is not a "
                                 "refractive index",
-                                p, n, nm);
+                                nm, dot, n, wl);
         }
     }
     /* Neighbours must not cut through each other within their common
@@ -82,10 +103,16 @@ lr_status lr__rx_check(const lr__rx *rx, const char *path, lr_error *err)
             double g = a->thickness + sag(b, h) - sag(a, h);
             if (g < -1e-9 * (1.0 + a->thickness)) {
                 lr__path_index(p, sp, (size_t)(i + 1));
+                surface_name(rx, i + 1, p, nm, sizeof nm);
+                char q[LR__PATH_MAX];
+                lr__path_index(q, sp, (size_t)i);
+                surface_name(rx, i, q, nm2, sizeof nm2);
                 return lr__fail(err, LR_ERR_INVALID, p,
-                                "%s cuts through surfaces[%d] at %.4g mm "
-                                "from the axis (they cross by %.4g mm)",
-                                p, i, h, -g);
+                                "%s cuts through %s at %.4g mm from the "
+                                "axis (they cross by %.4g mm; their "
+                                "semi-apertures are %g and %g mm)",
+                                nm, nm2, h, -g, a->semi_aperture,
+                                b->semi_aperture);
             }
         }
     }

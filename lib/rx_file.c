@@ -220,7 +220,8 @@ static void prefix(lr_error *err, const char *shown)
  * index into exts. */
 static int sniff(const char *text, size_t len)
 {
-    size_t i = 0;
+    /* A UTF-8 byte order mark before the '{' (the readers skip it). */
+    size_t i = len >= 3 && memcmp(text, "\xEF\xBB\xBF", 3) == 0 ? 3 : 0;
     while (i < len && (text[i] == ' ' || text[i] == '\t' || text[i] == '\r' ||
                        text[i] == '\n'))
         i++;

@@ -9,7 +9,9 @@
  * its centre of curvature toward the image.  pbrt has no dispersion; a
  * fifth column, lensray's addition, gives the Abbe number vd.  The last
  * thickness, 0 in pbrt's files (pbrt places the film by focusing), is
- * then taken as the paraxial back focal length at the d line.
+ * then taken as the paraxial back focal length at the d line.  Older
+ * tables whose second column is the distance from the surface before
+ * (0 on the first row) are refused with a message that says so.
  */
 #include "prescription.h"
 #include "json_util.h"
@@ -69,6 +71,11 @@ lr_status lr__rx_from_pbrt(const char *text, size_t len, const char *shown,
     int line = 0, n = 0, named = 0;
     size_t src = 0;
     const char *p = text, *end = text + len;
+    /* A UTF-8 byte order mark, as Windows editors write one, is not text
+     * (the first line would be no comment and no number); obj.c skips
+     * it likewise. */
+    if (len >= 3 && memcmp(p, "\xEF\xBB\xBF", 3) == 0)
+        p += 3;
     while (p < end) {
         const char *eol = memchr(p, '\n', (size_t)(end - p));
         if (eol == NULL)
@@ -148,6 +155,7 @@ lr_status lr__rx_from_pbrt(const char *text, size_t len, const char *shown,
                             LR__RX_MAX_SURFACES);
         lr__surface *s = &rx->s[n];
         memset(s, 0, sizeof *s);
+        rx->line[n] = line;
         s->radius = v[0];
         s->thickness = v[1];
         s->semi_aperture = v[3] / 2;
@@ -189,6 +197,20 @@ lr_status lr__rx_from_pbrt(const char *text, size_t len, const char *shown,
     if (n == 0)
         return lr__fail(err, LR_ERR_INVALID, NULL, "%s: no surfaces",
                         shown);
+    /* A glass surface 0 mm before the next: the older tables whose second
+     * column is each surface's distance from the one before ("axpos", 0
+     * on the first row, and no distance to the film), as pbrt-v4-scenes'
+     * unscaled dgauss.dat, wide.dat, fisheye.dat and telephoto.dat still
+     * are.  Read as thicknesses they make a lens whose surfaces cross
+     * somewhere further on, a message that does not name the cause. */
+    if (n > 1 && !rx->s[0].stop && rx->s[0].thickness == 0)
+        return lr__fail(err, LR_ERR_INVALID, NULL,
+                        "%s:%d: the first surface is 0 mm before the next: "
+                        "the second column is the thickness to the next "
+                        "surface (pbrt-v4's convention), not the distance "
+                        "from the one before (an older table's \"axpos\", "
+                        "0 on the first row): move that column up a row",
+                        shown, rx->line[0]);
     rx->n = n;
     lr__rx_zero_back_focus(rx);
     return LR_OK;

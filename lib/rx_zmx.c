@@ -28,6 +28,9 @@ static const char *const cosmetic[] = {
     "COMM", "HIDE", "SLAB", "MEMA", "POPS", "COAT", "FLAP", "VPAR", "VCON",
     "VDSZ", "VCRV", "PPAR", "PZUP", "MAZH", "XDAT", "CMMP", "OEMA", "ISNH",
     "TCE", "BLNK", "FIMP",
+    /* The surface's unique ID, "SSID n": bookkeeping that OpticStudio
+     * 2023 and later writes on every surface (VERS 231205 files). */
+    "SSID",
     /* The mirror substrate's drawing (MIRR type thickness): written on
      * every surface by every OpticStudio since the 1990s; a mirror
      * itself is GLAS MIRROR. */
@@ -56,6 +59,11 @@ static char *narrow(const char *text, size_t len, size_t *out_len)
     if (s == NULL)
         return NULL;
     if (!utf16) {
+        /* UTF-8's byte order mark is no part of the first keyword. */
+        if (n >= 3 && memcmp(text, "\xEF\xBB\xBF", 3) == 0) {
+            text += 3;
+            n -= 3;
+        }
         memcpy(s, text, n);
         s[n] = '\0';
         *out_len = n;
@@ -133,6 +141,26 @@ static void rest_of_line(char *from, const char *eol, char *raw,
     lr__trim_partial_utf8(raw, size, (int)r + 1);
 }
 
+/* OpticStudio cuts a long note into NOTE lines of this many characters,
+ * mid-word if need be: Thorlabs' AC254-100-A (VERS 120928) ends a line
+ * with "TECHSUPPORT@THORL" and the next is "ABS.COM", and Zemax's sample
+ * "Double Gauss Experimental Arrangement" (VERS 190513) splits "usi" /
+ * "ng" likewise; both lines hold 200 characters after "NOTE 0 ". */
+#define NOTE_LINE_CHARS 200
+
+/* The characters (UTF-8 sequences) of a line's text [text, eol); `cr`:
+ * the line ended in a carriage return (which words() has since made a
+ * NUL), not counted. */
+static size_t note_chars(const char *text, const char *eol, int cr)
+{
+    size_t n = 0;
+    if (cr && eol > text)
+        eol--;
+    for (const char *c = text; c < eol; c++)
+        n += ((unsigned char)*c & 0xC0) != 0x80;
+    return n;
+}
+
 static int number(const char *w, double *x)
 {
     if (w == NULL)
@@ -158,7 +186,7 @@ static const char *quote(const char *w, char *buf, size_t cap)
 
 typedef struct zsurf {
     double curv, disz, diam, coni, parm[9], clap;
-    int stop, has_diam, has_clap, line;
+    int stop, has_diam, has_clap, line, glas_line, evenasph;
     lr__glass glass;
 } zsurf;
 
@@ -183,7 +211,7 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
     lr_status st = LR_OK;
     double unit = 1.0;
     char gcat[256] = "";
-    int nz = 0, cur = -1, line = 0;
+    int nz = 0, cur = -1, line = 0, note_full = 0;
     char *p = s, *end = s + n8;
     while (st == LR_OK && p < end) {
         char *eol = memchr(p, '\n', (size_t)(end - p));
@@ -196,6 +224,7 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
             break;
         }
         int indented = *p == ' ' || *p == '\t';
+        int cr = eol > p && eol[-1] == '\r';
         char *w[16], q[200];
         int k = words(p, w);
         p = eol < end ? eol + 1 : end;
@@ -227,6 +256,8 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
         if (cur < 0) {
             /* The system's lines: only the units and the mode change what
              * the surfaces mean. */
+            int was_full = note_full;
+            note_full = 0;
             if (strcmp(w[0], "MODE") == 0 &&
                 (k < 2 || strcasecmp(w[1], "SEQ") != 0))
                 FAIL("%s:%d: MODE %s: only sequential files (MODE SEQ) "
@@ -248,13 +279,26 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
                          shown, line, quote(w[1], q, sizeof q));
             } else if (strcmp(w[0], "NOTE") == 0 && k >= 3) {
                 /* "NOTE n text": the notes, joined, are the source. */
+                int cont = was_full;
                 size_t o = strlen(rx->source);
                 char raw[sizeof rx->source], esc[sizeof rx->source];
-                rest_of_line(w[2], eol, raw, sizeof raw);
+                /* The text after "NOTE n ", its blanks included. */
+                char *text = w[1] + strlen(w[1]) + 1;
+                note_full = note_chars(text, eol, cr) == NOTE_LINE_CHARS;
+                rest_of_line(cont ? text : w[2], eol, raw, sizeof raw);
+                /* A full line's trailing blank is the space between its
+                 * last word and the next line's first. */
+                size_t r = strlen(raw);
+                if (note_full && eol - cr > text &&
+                    (eol[-1 - cr] == ' ' || eol[-1 - cr] == '\0') &&
+                    r + 2 < sizeof raw) {
+                    raw[r] = ' ';
+                    raw[r + 1] = '\0';
+                }
                 lr__utf8_escape(raw, esc, sizeof esc);
                 if (o + 2 < sizeof rx->source) {
                     snprintf(rx->source + o, sizeof rx->source - o, "%s%s",
-                             o ? " " : "", esc);
+                             o && !cont ? " " : "", esc);
                     lr__trim_partial_utf8(rx->source, sizeof rx->source,
                                           (int)strlen(rx->source) + 1);
                 }
@@ -281,6 +325,7 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
                 FAIL("%s:%d: surface type %s is not supported (STANDARD "
                      "and EVENASPH are)",
                      shown, line, quote(k > 1 ? w[1] : "(none)", q, sizeof q));
+            z->evenasph = k >= 2 && strcmp(w[1], "EVENASPH") == 0;
         } else if (strcmp(w[0], "CURV") == 0) {
             if (!num_ok || !isfinite(x) || fabs(x) > 1e6)
                 FAIL("%s:%d: CURV needs a finite curvature", shown, line);
@@ -336,6 +381,7 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
                 z->parm[(int)x] = v;
         } else if (strcmp(w[0], "GLAS") == 0) {
             char near[128];
+            z->glas_line = line;
             if (k < 2 || strcasecmp(w[1], "MIRROR") == 0) {
                 FAIL("%s:%d: GLAS %s: mirrors are not supported", shown,
                      line, quote(k > 1 ? w[1] : "", q, sizeof q));
@@ -390,6 +436,11 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
                  z->line, i);
             break;
         }
+        /* PARM are the surface type's parameters: a STANDARD surface
+         * has none, and Zemax and ray-optics pass over its PARM lines
+         * (one left from an EVENASPH made STANDARD again). */
+        if (!z->evenasph)
+            memset(z->parm, 0, sizeof z->parm);
         if (z->parm[1] != 0) {
             FAIL("%s:%d: SURF %d has an r^2 aspheric term (PARM 1), which "
                  "lensray does not model",
@@ -411,6 +462,7 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
             o->asph[j - 2] = z->parm[j] * pow(unit, 1 - 2 * j);
         o->after = z->glass;
         o->stop = z->stop;
+        rx->line[i - 1] = z->line;
         if (z->stop) {
             if (rx->stop >= 0) {
                 FAIL("%s:%d: a second STOP", shown, z->line);
@@ -421,11 +473,24 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
     }
     if (st == LR_OK && zs[0].stop)
         FAIL("%s:%d: the stop is on the object surface", shown, zs[0].line);
+    /* SURF 0's GLAS is the object space's medium: Zemax and ray-optics
+     * refract the light from it into the first surface (ray-optics'
+     * EFL for tests/data/lenses/cooke-triplet.zmx with SURF 0 in a model
+     * glass of index 1.333 is 56% off the lens's in air).  lensray's
+     * lenses look out of air. */
+    if (st == LR_OK && zs[0].glas_line > 0 &&
+        fabs(lr__glass_n(&zs[0].glass, LR__NM_d) - 1.0) > 1e-9)
+        FAIL("%s:%d: a GLAS on SURF 0 puts the object in a medium of index "
+             "%g; lensray traces from air (a lens in front of water or "
+             "glass is not supported)",
+             shown, zs[0].glas_line, lr__glass_n(&zs[0].glass, LR__NM_d));
     if (st == LR_OK && nz >= 2 && zs[nz - 1].stop)
         FAIL("%s:%d: the stop is on the image surface", shown,
              zs[nz - 1].line);
-    if (st == LR_OK)
+    if (st == LR_OK) {
         rx->n = nz - 2;
+        rx->zmx = 1;
+    }
     free(zs);
     free(s);
     return st;

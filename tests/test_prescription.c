@@ -182,6 +182,18 @@ static void test_nearest_names(void **state)
     assert_string_equal(near, "TAFD55, TAFD5F, TAFD5G");
     assert_int_equal(lr__glass_named("N-BK8", &g, near, sizeof near), -1);
     assert_string_equal(near, "N-BK7, N-BK10, N-BAK1");
+    /* An old name whose lead-free successor took a maker's prefix:
+     * the successor first (Zemax files still say BK7, SF5, SK16; by
+     * distance alone BK7 offered K7, BAL7, BSL7). */
+    assert_int_equal(lr__glass_named("BK7", &g, near, sizeof near), -1);
+    assert_int_equal(strncmp(near, "N-BK7, ", 7), 0);
+    assert_int_equal(lr__glass_named("fk51", &g, near, sizeof near), -1);
+    assert_int_equal(strncmp(near, "N-FK51, ", 8), 0);
+    assert_int_equal(lr__glass_named("ZK9B", &g, near, sizeof near), -1);
+    assert_int_equal(strncmp(near, "H-ZK9B, ", 8), 0);
+    /* Three makers' successors, in catalogue order. */
+    assert_int_equal(lr__glass_named("BAK1", &g, near, sizeof near), -1);
+    assert_string_equal(near, "N-BAK1, H-BAK1, E-BAK1");
     /* Three makers sell an F2: the name is offered once. */
     assert_int_equal(lr__glass_named("F2Q", &g, near, sizeof near), -1);
     assert_int_equal(strncmp(near, "F2, ", 4), 0);
@@ -386,7 +398,8 @@ static void test_json_errors(void **state)
                       "\"semi_aperture\": 10}, {\"radius\": -20, "
                       "\"thickness\": 20, \"material\": \"air\", "
                       "\"semi_aperture\": 10}]}",
-                      "camera.lens.surfaces[2]", "cuts through surfaces[1]");
+                      "camera.lens.surfaces[2]",
+                      "cuts through camera.lens.surfaces[1]");
     expect_json_error("{\"surfaces\": [{\"stop\": true, \"thickness\": 1, "
                       "\"semi_aperture\": 5}, {\"radius\": 8, "
                       "\"thickness\": 9, \"material\": \"N-BK7\", "
@@ -495,6 +508,43 @@ static void expect_text_error(lr_status (*read)(const char *, lr__rx *,
 static void test_pbrt_errors(void **state)
 {
     (void)state;
+    /* The geometry's errors name a surface by its line, as the reader's
+     * do: a pbrt file has no "surfaces[2]". */
+    expect_text_error(pbrt,
+                      "# crossing\n0 1 0 10\n20 0.5 1.5 20\n-20 20 0 20\n",
+                      "the surface on line 4 cuts through the surface on "
+                      "line 3 at ");
+    /* pbrt-v4-scenes' unscaled dgauss.dat: the second column is the
+     * distance from the surface before (0 first), not the thickness. */
+    expect_text_error(pbrt,
+                      "# D-GAUSS F/2 22deg HFOV\n# radius\taxpos\tN\taperture\n"
+                      "  58.950\t0.000\t1.670\t50.4\n"
+                      "  169.660\t7.520\t1.0\t\t50.4\n"
+                      "  38.550\t0.240\t1.670\t46.0\n"
+                      "  81.540\t8.050\t1.699\t46.0\n"
+                      "  25.500\t6.550\t1.0\t\t36.0\n"
+                      "  0\t\t\t11.410\t0\t\t34.2\n"
+                      " -28.990\t9.000\t1.603\t34.0\n"
+                      "  81.540\t2.360\t1.658\t40.0\n"
+                      " -40.770\t12.130\t1.0\t\t40.0\n"
+                      "  874.130\t0.380\t1.717\t40.0\n"
+                      " -79.460\t6.440\t1.0\t\t40.0\n",
+                      "t.dat:3: the first surface is 0 mm before the next: "
+                      "the second column is the thickness to the next "
+                      "surface");
+    /* A UTF-8 byte order mark (Notepad's) before the first comment. */
+    lr__rx rb;
+    lr_error eb;
+    assert_int_equal(pbrt("\xEF\xBB\xBF# a singlet\n0 1 0 10\n50 4 1.5 20\n"
+                          "-50 45 0 20\n",
+                          &rb, &eb),
+                     LR_OK);
+    assert_string_equal(rb.name, "a singlet");
+    /* A stop on the first lens's vertex is not such a table. */
+    lr__rx rs;
+    lr_error es;
+    assert_int_equal(pbrt("0 0 0 10\n50 4 1.5 20\n-50 45 0 20\n", &rs, &es),
+                     LR_OK);
     expect_text_error(pbrt, "0 1 0 10\n50 4 1.5x 20\n", "t.dat:2: \"1.5x\"");
     expect_text_error(pbrt, "# c\n0 1 0 10\n50 4 1.5\n", "t.dat:3: 3 numbers");
     expect_text_error(pbrt, "0 1 0 10\n50 -4 1.5 20\n", "t.dat:2: thickness");
@@ -538,8 +588,9 @@ static void test_zmx_reader(void **state)
     const char *ok = ZMX_HEAD
         "SURF 1\r\n  STOP\r\n  TYPE STANDARD\r\n  CURV 0\r\n  DISZ 1\r\n"
         "  DIAM 5\r\n  COMM front stop\r\n"
-        /* OpticStudio writes each surface's mirror-substrate drawing. */
-        "  MIRR 2 0\r\n"
+        /* OpticStudio writes each surface's mirror-substrate drawing,
+         * and since 2023 its unique ID. */
+        "  MIRR 2 0\r\n  SSID 1\r\n"
         "SURF 2\r\n  TYPE EVENASPH\r\n  CURV 2.0E-2 0 0 0 0 \"\"\r\n"
         "  CONI -0.5\r\n  PARM 1 0\r\n  PARM 2 1.0E-6\r\n  PARM 3 -2E-9\r\n"
         "  DISZ 4\r\n  GLAS N-BK7 0 0 1.5168 64.17 0 0 0 0 0 0\r\n"
@@ -643,6 +694,55 @@ static void test_zmx_reader(void **state)
         LR_OK);
     assert_true(r16.s[1].semi_aperture == 7.5 &&
                 r16.s[2].semi_aperture == 10);
+    /* OpticStudio cuts a note into lines of 200 characters, mid-word:
+     * after a full line the next continues it without a space (Thorlabs'
+     * "...TECHSUPPORT@THORL" / "ABS.COM"), and a full line's trailing
+     * space is kept; after a shorter line, a space as before.  The
+     * lens: test_zmx_reader's first. */
+    {
+        char text[4096], full[201];
+        memset(full, 'x', 200);
+        full[200] = '\0';
+        memcpy(full + 200 - 11, " TECH@THORL", 11);
+        snprintf(text, sizeof text,
+                 "NOTE 0 %s\r\nNOTE 0 ABS.COM (\xC3\x98 3)\r\n"
+                 "NOTE 0 %.199s\xC3\x98\r\nNOTE 0  and so on\r\n"
+                 "NOTE 4\r\nNOTE 0 Next.\r\n%s",
+                 full, full, ok);
+        lr__rx rn;
+        assert_int_equal(zmx(text, &rn, &err), LR_OK);
+        char want[1024];
+        snprintf(want, sizeof want,
+                 "%.189s TECH@THORLABS.COM (\xC3\x98 3) %.199s\xC3\x98 and so "
+                 "on Next.",
+                 full, full);
+        assert_string_equal(rn.source, want);
+        snprintf(text, sizeof text, "NOTE 0 %.199s \r\nNOTE 0 end\r\n%s",
+                 full, ok);
+        assert_int_equal(zmx(text, &rn, &err), LR_OK);
+        snprintf(want, sizeof want, "%.199s end", full);
+        assert_string_equal(rn.source, want);
+    }
+    /* UTF-8 with a byte order mark: the first line's keyword read. */
+    assert_int_equal(zmx("\xEF\xBB\xBFNAME bom\r\nSURF 0\r\n  DISZ INFINITY\r\n"
+                         "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ 1\r\n"
+                         "SURF 2\r\n  CURV 0.02\r\n  DISZ 4\r\n"
+                         "  GLAS N-BK7\r\n  DIAM 10\r\n" ZMX_TAIL,
+                         &r16, &err),
+                     LR_OK);
+    assert_string_equal(r16.name, "bom");
+    /* PARM lines on a STANDARD surface (it has no parameters) are
+     * passed over, as Zemax and ray-optics do: no r^2 error, no asphere. */
+    assert_int_equal(
+        zmx("SURF 0\r\n  DISZ INFINITY\r\n"
+            "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ 1\r\n"
+            "SURF 2\r\n  TYPE STANDARD\r\n  CURV 0.02\r\n  PARM 1 0.5\r\n"
+            "  PARM 2 1.0E-4\r\n  DISZ 4\r\n  GLAS N-BK7\r\n  DIAM 10\r\n"
+            "SURF 3\r\n  CURV -0.02\r\n  PARM 3 1.0E-6\r\n  DISZ 40\r\n"
+            "  DIAM 10\r\nSURF 4\r\n",
+            &r16, &err),
+        LR_OK);
+    assert_false(lr__rx_aspheric(&r16.s[1]) || lr__rx_aspheric(&r16.s[2]));
     /* The notes are the lens's source. */
     assert_string_equal(rx.source, "From US patent 583,336, example 2, a "
                                    "note of more than sixteen words: three "
@@ -732,6 +832,44 @@ static void test_zmx_errors(void **state)
                       ZMX_HEAD "SURF 1\r\n  STOP\r\n  DIAM 5\r\n"
                                "  OBDC 0 1.5\r\n",
                       "t.zmx:13: OBDC: a decentred aperture");
+    /* The geometry's errors name a surface as the file does: SURF 3
+     * (s[1], SURF 0 being the object) and its line. */
+    expect_text_error(zmx,
+                      ZMX_HEAD "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ 1\r\n"
+                               "SURF 2\r\n  CURV 0.1\r\n  DISZ 0.5\r\n"
+                               "  GLAS N-BK7\r\n  DIAM 8\r\n" ZMX_TAIL,
+                      "SURF 3 (line 19) cuts through SURF 2 (line 14) at ");
+    expect_text_error(zmx,
+                      ZMX_HEAD "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ 1\r\n"
+                               "SURF 2\r\n  CURV 0.2\r\n  DISZ 4\r\n"
+                               "  GLAS N-BK7\r\n  DIAM 10\r\n" ZMX_TAIL,
+                      "SURF 2 (line 14): semi_aperture: 10 mm is beyond the "
+                      "surface's edge (radius 5");
+    /* The object in water: Zemax refracts from it, lensray cannot. */
+    expect_text_error(zmx,
+                      "SURF 0\r\n  DISZ INFINITY\r\n"
+                      "  GLAS ___BLANK 1 0 1.333 55.8 0 0 0 0 0 0\r\n"
+                      "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ 1\r\n"
+                      "SURF 2\r\n  CURV 0.02\r\n  DISZ 4\r\n  GLAS N-BK7\r\n"
+                      "  DIAM 10\r\n" ZMX_TAIL,
+                      "t.zmx:3: a GLAS on SURF 0 puts the object in a medium "
+                      "of index 1.333; lensray traces from air");
+    /* Air by name, or a model glass of index 1, is air. */
+    lr__rx ra;
+    lr_error ea;
+    assert_int_equal(zmx("SURF 0\r\n  DISZ INFINITY\r\n  GLAS AIR\r\n"
+                         "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ 1\r\n"
+                         "SURF 2\r\n  CURV 0.02\r\n  DISZ 4\r\n"
+                         "  GLAS N-BK7\r\n  DIAM 10\r\n" ZMX_TAIL,
+                         &ra, &ea),
+                     LR_OK);
+    assert_int_equal(zmx("SURF 0\r\n  DISZ INFINITY\r\n"
+                         "  GLAS ___BLANK 1 0 1 0 0 0 0 0 0 0\r\n"
+                         "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ 1\r\n"
+                         "SURF 2\r\n  CURV 0.02\r\n  DISZ 4\r\n"
+                         "  GLAS N-BK7\r\n  DIAM 10\r\n" ZMX_TAIL,
+                         &ra, &ea),
+                     LR_OK);
     expect_text_error(zmx, "MODE NSC\r\n", "t.zmx:1: MODE NSC");
     expect_text_error(zmx, "UNIT FT\r\n", "t.zmx:1: UNIT FT");
     expect_text_error(zmx, ZMX_HEAD "SURF 2\r\n", "t.zmx:10: SURF 2 out of "
@@ -858,6 +996,24 @@ static void test_find_and_load(void **state)
     assert_string_equal(err.path, "camera.lens");
     assert_non_null(strstr(err.message, "bad.json: surfaces[1].material: "
                                         "unknown glass \"N-BK8\""));
+    /* An asset (named by its hash) is read in the form its bytes show:
+     * JSON after a UTF-8 byte order mark too. */
+    snprintf(file, sizeof file, "%s/asset-bom", lr_test_tmpdir());
+    f = fopen(file, "w");
+    assert_non_null(f);
+    fputs("\xEF\xBB\xBF{\"surfaces\": [{\"stop\": true, \"thickness\": 1, "
+          "\"semi_aperture\": 5}, {\"radius\": 50, \"thickness\": 4, "
+          "\"material\": \"N-BK7\", \"semi_aperture\": 10}, {\"radius\": "
+          "-50, \"thickness\": 45, \"material\": \"air\", "
+          "\"semi_aperture\": 10}]}",
+          f);
+    fclose(f);
+    assert_int_equal(lr__rx_load_file(file,
+                                      "sha256:0123456789abcdef0123456789abcdef"
+                                      "0123456789abcdef0123456789abcdef",
+                                      NULL, &rx, &err),
+                     LR_OK);
+    assert_int_equal(rx.n, 3);
     assert_int_equal(lr__rx_load_file("x.lens", "x.lens", NULL, &rx, &err),
                      LR_ERR_INVALID);
     assert_int_equal(lr__rx_load_file("/nonexistent/x.zmx", "x.zmx", NULL,

@@ -10,7 +10,10 @@ and checks: EFL and BFL within 0.01%; the real chief ray's image height at
 several field angles and at the F, d and C lines within 1e-4 of the focal
 length, on the paraxial focal plane of the d line; distortion likewise.
 Glasses: catalogue names go to ray-optics' own catalogue (the makers'
-data as opticalglass ships it); {nd, vd} glasses are given to ray-optics
+data as opticalglass ships it), the maker's lensray takes the name from
+(its catalogue order, as build/tests/glass-dump lists it, or the one the
+material names: "CDGM F2"); a name opticalglass lacks fails the lens
+(ray-optics would trace it as air); {nd, vd} glasses are given to ray-optics
 as their index at each traced wavelength by lensray's stated model,
 n = nd + B (1/l^2 - 1/ld^2), B = (nd - 1) / (vd (1/lF^2 - 1/lC^2)), since
 ray-optics' model glass is another model.  Then spot.py's cases: a
@@ -42,10 +45,23 @@ from opticalglass.opticalmedium import InterpolatedMedium
 from rayoptics.elem.profiles import EvenPolynomial
 
 
+# ray-optics keeps a .zmx file's lens units (zmxread's spelling of
+# Zemax's UNIT); lensray and these checks are in millimetres.
+UNIT_MM = {"mm": 1.0, "CM": 10.0, "inches": 25.4, "METER": 1000.0}
+
+
 def open_model(path):
     """A .zmx file as an optical model (what rayoptics' open_model does
-    for one: its reader updates the model)."""
+    for one: its reader updates the model), scaled to millimetres."""
     opm, _info = zmxread.read_lens_file(pathlib.Path(path))
+    dim = opm["system_spec"].dimensions
+    if dim not in UNIT_MM:
+        raise RuntimeError("%s: ray-optics' lens units %r are not known "
+                           "here" % (path, dim))
+    scale = UNIT_MM[dim]
+    if scale != 1.0:
+        opm.apply_scale_factor(scale)
+        opm["system_spec"].dimensions = "mm"
     return opm
 
 ND, NF, NC = 587.5618, 486.1327, 656.2725
@@ -54,7 +70,15 @@ ANGLES = {"double-gauss-50": [0, 5, 10, 15, 20], "wide-22": [0, 10, 20, 30],
           "telephoto-250": [0, 2, 4], "fisheye-10": [0, 20, 40, 60, 75, 85, 89],
           "petzval": [0, 5, 10], "nikkor-z14": [0, 10, 20, 30, 40, 50, 55],
           "landscape-front-stop": [0, 5, 10, 20],
-          "aspheric-doublet-f1.4": [0, 2, 4]}
+          "aspheric-doublet-f1.4": [0, 2, 4],
+          "tessar-laikin": [0, 10, 20.5], "telephoto-laikin": [0, 5, 10],
+          "wide-170-laikin": [0, 30, 60, 75, 85],
+          "objective-us8879901": [0, 7.574, 10.82],
+          "nikon-zoom-80-200-short": [0, 7.5, 15],
+          "flektagon-de953471": [0, 10, 20, 30],
+          "us8427765-evenasph": [0, 8, 16],
+          "minolta-fisheye-us4256373": [0, 30, 60, 80, 89],
+          "us8427765-evenasph-inches": [0, 8, 16]}
 DEFAULT_ANGLES = [0, 5, 10]
 
 
@@ -63,13 +87,49 @@ def abbe_index(nd, vd, nm):
     return nd + b * (1 / nm ** 2 - 1 / ND ** 2)
 
 
+# lensray's glass-dump (build/tests/glass-dump), set by main().
+GLASS_DUMP = None
+_makers = {}
+
+
+def lensray_makers():
+    """Each catalogue name (upper case, no spaces) -> its makers in
+    lensray's order (SCHOTT, OHARA, HOYA, SUMITA, CDGM, HIKARI: the
+    dump's), and the name as the catalogue spells it."""
+    if not _makers:
+        out = subprocess.run([GLASS_DUMP], check=True, capture_output=True,
+                             text=True).stdout.splitlines()[1:]
+        for line in out:
+            maker, name = line.split("\t")[:2]
+            key = name.upper().replace(" ", "")
+            _makers.setdefault(key, (name, []))[1].append(maker)
+    return _makers
+
+
 def medium(spec, k):
-    """A ray-optics medium for one surface's material."""
+    """A ray-optics medium for one surface's material.  A catalogue name
+    goes to opticalglass's catalogue of the maker lensray takes it from
+    (the first in lensray's order, or the one named: "CDGM F2"); a glass
+    opticalglass lacks is an error, since ray-optics would trace it as
+    air."""
     if spec is None or spec == "air" or spec == 1:
         return None
     if isinstance(spec, str):
-        maker = "Ohara" if spec.upper().startswith("S-") else "Schott"
-        return (spec, maker)
+        import opticalglass.glassfactory as gf
+        from glass import CATALOGUES
+        words = spec.split(None, 1)
+        if len(words) == 2 and words[0].upper() in CATALOGUES:
+            maker, name = words[0].upper(), words[1]
+        else:
+            name, makers = lensray_makers().get(
+                spec.upper().replace(" ", ""), (spec, ["SCHOTT"]))
+            maker = makers[0]
+        try:
+            gf.create_glass(name, CATALOGUES[maker])
+        except Exception:
+            raise RuntimeError("opticalglass has no %s glass %s: give it "
+                               "as {nd, vd}" % (maker, name))
+        return (name, CATALOGUES[maker])
     nd, vd = spec
     if vd is None:
         pairs = [(w, nd) for w in (400.0, 500.0, 600.0, 700.0)]
@@ -168,7 +228,10 @@ def ours(lensray, lens, angles, nm):
 
 
 def main():
+    global GLASS_DUMP
     lensray = os.path.abspath(sys.argv[1])
+    GLASS_DUMP = os.path.join(os.path.dirname(lensray), "tests",
+                              "glass-dump")
     lenses = [os.path.abspath(p) for p in sys.argv[2:]]
     # ray-optics' .zmx reader writes zmx_read_lens.log where it runs:
     # somewhere that is not the source tree.
@@ -179,7 +242,12 @@ def main():
         name = lens.rsplit("/", 1)[-1].rsplit(".", 1)[0]
         angles = ANGLES.get(name, DEFAULT_ANGLES)
         if lens.lower().endswith(".zmx"):
-            opm = open_model(lens)
+            try:
+                opm = open_model(lens)
+            except RuntimeError as e:
+                print("%-22s FAIL  %s" % (name, e))
+                failed += 1
+                continue
             osp = opm["optical_spec"]
             osp["pupil"] = PupilSpec(osp, key=["image", "f/#"], value=4)
             osp["wvls"] = WvlSpec([(w, 1.0) for w in WVLS], ref_wl=1)
@@ -188,7 +256,12 @@ def main():
                      else surfaces_json(lens))
             if surfs[-1][1] == 0:
                 surfs[-1] = (surfs[-1][0], 50.0) + surfs[-1][2:]
-            opm, _ = build(surfs)
+            try:
+                opm, _ = build(surfs)
+            except RuntimeError as e:
+                print("%-22s FAIL  %s" % (name, e))
+                failed += 1
+                continue
         fod = finish(opm, angles)
         d = ours(lensray, lens, angles, ND)
         ro = chief_heights(opm, angles)
