@@ -10,6 +10,7 @@
 #include "gltf_doc.h"
 #include "json_util.h"
 
+#include <limits.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdint.h>
@@ -292,13 +293,15 @@ static lr_status read_blob(lr__gltf_doc *d, const char *dir, const char *path,
             return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
         }
         snprintf(full, plen, "%s/%s", dir, file);
-        /* A symbolic link must not lead out of the directory either. */
-        char *rdir = realpath(dir, NULL), *rfile = realpath(full, NULL);
-        int out = rdir != NULL && rfile != NULL &&
+        /* A symbolic link must not lead out of the directory either.
+         * Into buffers of our own: realpath's own allocation, when it
+         * failed, skipped the check (a file it cannot resolve is not
+         * there, and lr__read_file says so below). */
+        char rdir[PATH_MAX], rfile[PATH_MAX];
+        int out = realpath(dir, rdir) != NULL &&
+                  realpath(full, rfile) != NULL &&
                   (strncmp(rfile, rdir, strlen(rdir)) != 0 ||
                    (rfile[strlen(rdir)] != '/' && strcmp(rdir, "/") != 0));
-        free(rdir);
-        free(rfile);
         if (out) {
             free(full);
             free(file);
