@@ -558,6 +558,19 @@ static void warn_unread(lr_scene *s, const lr__gltf_doc *d)
     for (int k = 0; top[k]; k++)
         if (cJSON_GetObjectItemCaseSensitive(d->root, top[k]))
             lr__gltf_warn(s, d, "%s are ignored", top[k]);
+    int nm, np;
+    const cJSON *meshes = lr__gltf_array(d->root, "meshes", &nm);
+    int i = 0;
+    for (const cJSON *m = meshes ? meshes->child : NULL; m; m = m->next, i++) {
+        const cJSON *prims = lr__gltf_array(m, "primitives", &np);
+        int j = 0;
+        for (const cJSON *p = prims ? prims->child : NULL; p; p = p->next, j++)
+            if (!cJSON_GetObjectItemCaseSensitive(
+                    cJSON_GetObjectItemCaseSensitive(p, "attributes"),
+                    "POSITION"))
+                lr__gltf_warn(s, d, "meshes[%d].primitives[%d] has no "
+                              "POSITION: not drawn (spec 3.7.2.1)", i, j);
+    }
 }
 
 lr_status lr__scene_add_gltf(lr_scene *s, const char *file, const char *shown,

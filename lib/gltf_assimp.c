@@ -95,6 +95,12 @@ static const cJSON *item(const cJSON *o, const char *k)
     return cJSON_GetObjectItemCaseSensitive(o, k);
 }
 
+/* A primitive is drawn when it has POSITION (spec 3.7.2.1). */
+static int drawn(const cJSON *prim)
+{
+    return item(item(prim, "attributes"), "POSITION") != NULL;
+}
+
 /* Room for `n` more bytes after padding to 4 (a float's alignment, which
  * glTF asks of every accessor); the offset where they go in *at, or 0 on
  * no memory. */
@@ -441,9 +447,12 @@ static int pose_mesh(const lr__gltf_doc *d, const pose *ps,
         cJSON_Delete(copy);
         return 0;
     }
+    /* The copy lacks the primitives that are not drawn. */
     cJSON *cp = item(copy, "primitives")->child;
     for (const cJSON *pr = item(mesh, "primitives")->child; pr && cp;
-         pr = pr->next, cp = cp->next) {
+         pr = pr->next) {
+        if (!drawn(pr))
+            continue;
         static const char *const attrs[] = {"POSITION", "NORMAL"};
         for (int k = 0; k < 2; k++) {
             int a = posed(d, pr, attrs[k], ps, r, u);
@@ -453,6 +462,7 @@ static int pose_mesh(const lr__gltf_doc *d, const pose *ps,
                                at, attrs[k], cJSON_CreateNumber(a))))
                 return 0;
         }
+        cp = cp->next;
     }
     return 1;
 }
@@ -550,15 +560,20 @@ static char *assimp_text(const lr__gltf_doc *d, const lr__xform *world,
          copy_array(r, d->root, "bufferViews", k_view, NULL) &&
          copy_array(r, d->root, "buffers", k_buf, "lr-buffer-%d.bin") &&
          copy_array(r, d->root, "materials", k_none, "m%d");
-    /* Primitives keep only their geometry; buffers are named by uri. */
+    /* Primitives keep only their geometry, and those without POSITION
+     * are left out (spec 3.7.2.1: not drawn); buffers are named by uri. */
     const cJSON *meshes = cJSON_GetObjectItemCaseSensitive(r, "meshes");
     for (cJSON *m = ok && meshes ? meshes->child : NULL; m && ok;
          m = m->next) {
         cJSON *prims = cJSON_GetObjectItemCaseSensitive(m, "primitives");
-        for (cJSON *p = prims->child; p && ok; p = p->next) {
+        for (cJSON *p = prims->child, *next; p && ok; p = next) {
+            next = p->next;
+            if (!drawn(p)) {
+                cJSON_Delete(cJSON_DetachItemViaPointer(prims, p));
+                continue;
+            }
             cJSON *c = pick(p, k_prim);
             ok = c != NULL && cJSON_ReplaceItemViaPointer(prims, p, c);
-            p = c;
         }
     }
     const cJSON *bufs = cJSON_GetObjectItemCaseSensitive(r, "buffers");
@@ -568,6 +583,17 @@ static char *assimp_text(const lr__gltf_doc *d, const lr__xform *world,
     }
     ok = ok && dense_accessors(d, r, u) && float_uvs(d, r, u) &&
          pose_meshes(d, world, r, u) && extra_declare(r, u);
+    /* A node whose mesh has nothing left to draw places none. */
+    const cJSON *rnodes = cJSON_GetObjectItemCaseSensitive(r, "nodes");
+    for (cJSON *n = ok && rnodes ? rnodes->child : NULL; n; n = n->next) {
+        const cJSON *mi = cJSON_GetObjectItemCaseSensitive(n, "mesh");
+        const cJSON *m = mi ? cJSON_GetArrayItem(meshes,
+                                                 (int)mi->valuedouble)
+                            : NULL;
+        int np;
+        if (mi != NULL && (lr__gltf_array(m, "primitives", &np), np == 0))
+            cJSON_DeleteItemFromObjectCaseSensitive(n, "mesh");
+    }
     char *text = ok ? cJSON_PrintUnformatted(r) : NULL;
     cJSON_Delete(r);
     return text;

@@ -974,22 +974,30 @@ static lr_status check_meshes(lr__gltf_doc *d, lr_error *err)
             snprintf(p, sizeof p, "meshes[%d].primitives[%d]", i, j);
             const cJSON *at = cJSON_GetObjectItemCaseSensitive(pr,
                                                                "attributes");
-            if (!cJSON_IsObject(at) ||
-                !cJSON_GetObjectItemCaseSensitive(at, "POSITION"))
-                return lr__gltf_fail(d, err, "%s.attributes must be an "
-                                     "object with POSITION", p);
-            long long nvert = 0, cnt, x, mode;
+            if (!cJSON_IsObject(at) || at->child == NULL)
+                return lr__gltf_fail(d, err, "%s.attributes must be a "
+                                     "non-empty object", p);
+            /* POSITION may be missing (spec 3.7.2.1: such a primitive is
+             * not drawn; gltf_assimp.c leaves it out). */
+            const cJSON *pos = cJSON_GetObjectItemCaseSensitive(at,
+                                                                "POSITION");
+            const char *first = pos ? "POSITION" : at->child->string;
+            long long nvert = -1, cnt, x, mode;
             char q[128];
             snprintf(q, sizeof q, "%s.attributes", p);
-            LR_TRY(get_index(d, at, q, "POSITION", nacc, &x, err));
-            LR_TRY(check_attribute(d, q, "POSITION", x, &nvert, err));
-            LR_TRY(check_positions(d, q, x, err));
+            if (pos != NULL) {
+                LR_TRY(get_index(d, at, q, "POSITION", nacc, &x, err));
+                LR_TRY(check_attribute(d, q, "POSITION", x, &nvert, err));
+                LR_TRY(check_positions(d, q, x, err));
+            }
             for (const cJSON *c = at->child; c; c = c->next) {
                 LR_TRY(get_index(d, at, q, c->string, nacc, &x, err));
                 LR_TRY(check_attribute(d, q, c->string, x, &cnt, err));
+                if (nvert < 0)
+                    nvert = cnt;
                 if (cnt != nvert)
                     return lr__gltf_fail(d, err, "%s.%s has %lld elements, "
-                                         "POSITION %lld", q, c->string, cnt,
+                                         "%s %lld", q, c->string, cnt, first,
                                          nvert);
             }
             LR_TRY(get_index(d, pr, p, "indices", nacc, &x, err));

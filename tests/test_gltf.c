@@ -979,6 +979,33 @@ static void test_texture_extension_only(void **state)
     lr_scene_free(s);
 }
 
+/* A primitive without POSITION is not drawn (spec 3.7.2.1), with a
+ * warning, and the file's others are (the glTF Validator's
+ * primitive_no_position.gltf was refused whole); a mesh left with nothing
+ * to draw places nothing. */
+static void test_no_position(void **state)
+{
+    (void)state;
+    make("tri", "tri.gltf");
+    static const char *const prims[] = {
+        "[{\"attributes\": {\"NORMAL\": 0}}, {\"attributes\": "
+        "{\"POSITION\": 0}, \"indices\": 1}]",
+        "[{\"attributes\": {\"NORMAL\": 0}, \"indices\": 1}]"};
+    for (int k = 0; k < 2; k++) {
+        cJSON *root = read_json("tri.gltf");
+        cJSON *m = cJSON_GetArrayItem(cJSON_GetObjectItem(root, "meshes"), 0);
+        cJSON_ReplaceItemInObject(m, "primitives", cJSON_Parse(prims[k]));
+        write_json("nopos.gltf", root);
+        lr_scene *s = lr_test_load_json(
+            "{\"objects\": [{\"type\": \"gltf\", \"file\": \"nopos.gltf\"}]}");
+        assert_int_equal(lr_scene_primitive_count(s), 1 - k);
+        if (strstr(lr_scene_warnings(s), "meshes[0].primitives[0] has no "
+                                         "POSITION: not drawn") == NULL)
+            fail_msg("warnings: \"%s\"", lr_scene_warnings(s));
+        lr_scene_free(s);
+    }
+}
+
 /* A member of the document's root is named alone ("scene", not
  * ".scene"): scene 5 of a file without scenes. */
 static void test_root_member_error(void **state)
@@ -1157,5 +1184,6 @@ static const struct CMUnitTest tests[] = {
     cmocka_unit_test(test_no_scenes),
     cmocka_unit_test(test_quantized_unrequired),
     cmocka_unit_test(test_texture_extension_only),
+    cmocka_unit_test(test_no_position),
 };
 LR_TEST_GROUP(gltf, tests)
