@@ -725,6 +725,35 @@ assert s["rays"] >= s["samples"], s
     [ "$(ls -A "$T/outdir")" = "out.png" ]
 }
 
+@test "Ctrl-C in a batch says which frames were written, and calls no frame failed" {
+    # It said "frame 2/3 (...) failed" and nothing of frame 1.  Frame 1 is
+    # quick; frame 2 takes minutes on one thread, in small tiles, so the
+    # signal, sent once frame 1 is on disk, lands in its render.
+    local slow=(--set render.threads=1 --set render.tile_size=2
+                --set render.adaptive=false --set render.plan=false)
+    scene quick '{"render": {"width": 4, "height": 4, "spp": 1}}'
+    scene slow '{"render": {"width": 32, "height": 24, "spp": 1000000},
+                 "objects": [{"type": "sphere", "center": [0, 0, -5], "radius": 1}],
+                 "lights": [{"type": "ambient", "radiance": 1}]}'
+    "$LENSRAY" render "$T/quick.json" "$T/slow.json" "$T/quick.json" \
+        -o "$T/f-%d.png" "${slow[@]}" 2>"$T/err" &
+    local pid=$! i
+    for i in $(seq 1 600); do
+        [ -e "$T/f-1.png" ] && break
+        sleep 0.1
+    done
+    [ -e "$T/f-1.png" ]
+    sleep 0.5
+    kill -INT "$pid"
+    local st=0
+    wait "$pid" || st=$?
+    [ "$st" -eq 130 ]
+    grep -q 'interrupted: 1 of 3 frames written' "$T/err"
+    ! grep -q 'failed' "$T/err"
+    [ ! -e "$T/f-2.png" ] && [ ! -e "$T/f-3.png" ]
+    ! has_temp_files "$T"
+}
+
 @test "a failed render leaves an existing output file untouched" {
     printf 'previous image\n' >"$T/keep.png"
     run -3 "$LENSRAY" render "$T/scene.json" -o "$T/keep.png" --set camera.fov=0

@@ -651,13 +651,17 @@ static int cmd_render(int argc, char **argv)
         written += frc == EXIT_OK;
         if (frc != EXIT_OK && rc == EXIT_OK)
             rc = frc;
-        if (frc != EXIT_OK && r.n_scenes > 1)
+        if (frc != EXIT_OK && r.n_scenes > 1 && !cancel_flag)
             fprintf(stderr, "lensray: frame %d/%d (%s) failed\n", i + 1,
                     r.n_scenes, r.scenes[i]);
     }
-    if (cancel_flag)
+    /* Ctrl-C is no frame's failure; say which frames are there. */
+    if (cancel_flag) {
         rc = EXIT_INTERRUPTED;
-    else if (r.n_scenes > 1 && rc != EXIT_OK)
+        if (r.n_scenes > 1)
+            fprintf(stderr, "lensray: interrupted: %d of %d frames written\n",
+                    written, r.n_scenes);
+    } else if (r.n_scenes > 1 && rc != EXIT_OK)
         fprintf(stderr, "lensray: %d of %d frames written, %d failed\n",
                 written, r.n_scenes, r.n_scenes - written);
 done:
