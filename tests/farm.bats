@@ -510,6 +510,31 @@ frame() {
     ! cmp -s "$BATS_TEST_TMPDIR/farm-01.exr" "$BATS_TEST_TMPDIR/farm-02.exr"
 }
 
+@test "--remote: Ctrl-C in a batch says how many frames were written (exit 130), and calls no frame failed" {
+    local t="$BATS_TEST_TMPDIR"
+    printf '%s' '{"render": {"width": 32, "height": 24, "spp": 4},
+      "objects": [{"type": "sphere", "center": [0, 0, -5], "radius": 1}],
+      "lights": [{"type": "ambient", "radiance": 1}]}' >"$t/quick.json"
+    printf '%s' '{"render": {"width": 32, "height": 24, "spp": 1000000},
+      "objects": [{"type": "sphere", "center": [0, 0, -5], "radius": 1}],
+      "lights": [{"type": "ambient", "radiance": 1}]}' >"$t/slow.json"
+    # One part in flight: frame 3 waits for frame 2, which takes minutes.
+    "$LENSRAY" render "$t/quick.json" "$t/slow.json" "$t/quick.json" \
+        -o "$t/f-%d.png" --remote "$URL" --parts 1 --parallel 1 \
+        2>"$t/err" 3>&- &
+    CLIENT_PID=$!
+    wait_for "$t/err" 'frame 1/3 part 1/1 done'
+    until [ -e "$t/f-1.png" ]; do sleep 0.05; done
+    kill -INT "$CLIENT_PID"
+    local st=0
+    wait "$CLIENT_PID" || st=$?
+    CLIENT_PID=
+    [ "$st" -eq 130 ]
+    grep -q 'interrupted: 1 of 3 frames written' "$t/err"
+    ! grep -q 'failed' "$t/err"
+    [ ! -e "$t/f-2.png" ] && [ ! -e "$t/f-3.png" ]
+}
+
 @test "a batch reads each frame when its parts are needed: with one part in flight, frame 2's unreadable scene is reported after frame 1's third part, and frames 1 and 3 are written" {
     local f1 f3
     f1=$(frame 1 -1) f3=$(frame 3 1)

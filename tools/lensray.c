@@ -416,7 +416,12 @@ static int render_remote(const render_job *r)
     memset(&st, 0, sizeof st);
     int rc = remote_render(&r->ro, r->n_scenes, load_frame, write_frame, &io,
                            &st);
-    if (r->n_scenes > 1 && rc != EXIT_OK && rc != EXIT_INTERRUPTED)
+    /* Ctrl-C is no frame's failure; say which frames are there, as a
+     * local batch does. */
+    if (r->n_scenes > 1 && rc == EXIT_INTERRUPTED)
+        fprintf(stderr, "lensray: interrupted: %d of %d frames written\n",
+                st.frames, r->n_scenes);
+    else if (r->n_scenes > 1 && rc != EXIT_OK)
         fprintf(stderr, "lensray: %d of %d frames written, %d failed\n",
                 st.frames, r->n_scenes, r->n_scenes - st.frames);
     if (r->stats && rc != EXIT_INTERRUPTED)
