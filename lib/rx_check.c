@@ -66,27 +66,31 @@ lr_status lr__rx_check(const lr__rx *rx, const char *path, lr_error *err)
         const lr__surface *s = &rx->s[i];
         lr__path_index(p, sp, (size_t)i);
         surface_name(rx, i, p, nm, sizeof nm);
-        /* "surfaces[3].semi_aperture", "SURF 4 (line 120): semi_aperture" */
+        /* "surfaces[3].semi_aperture", "SURF 4 (line 120): semi_aperture".
+         * A file's surface has no JSON path: its error's path is the
+         * caller's (the field that named the file), which the message
+         * then need not repeat (lr__rx_load_file prefixes the file). */
         const char *dot = rx->line[i] > 0 ? ": " : ".";
+        const char *ep = rx->line[i] > 0 ? path : p;
         if (!(s->semi_aperture > 0) || !isfinite(s->semi_aperture))
-            return lr__fail(err, LR_ERR_INVALID, p,
+            return lr__fail(err, LR_ERR_INVALID, ep,
                             "%s%ssemi_aperture must be > 0, got %g", nm, dot,
                             s->semi_aperture);
         if (!(s->thickness >= 0) || !isfinite(s->thickness) ||
             !isfinite(s->radius) || !isfinite(s->conic))
-            return lr__fail(err, LR_ERR_INVALID, p,
+            return lr__fail(err, LR_ERR_INVALID, ep,
                             "%s: radius, thickness and conic must be "
                             "finite, thickness >= 0",
                             nm);
         if (isnan(sag(s, s->semi_aperture)))
-            return lr__fail(err, LR_ERR_INVALID, p,
+            return lr__fail(err, LR_ERR_INVALID, ep,
                             "%s%ssemi_aperture: %g mm is beyond the "
                             "surface's edge (radius %g, conic %g)",
                             nm, dot, s->semi_aperture, s->radius, s->conic);
         for (double wl = 380; wl <= 780; wl += 50) {
             double n = lr__glass_n(&s->after, wl);
             if (!(n >= 1.0 && n < 5.0))
-                return lr__fail(err, LR_ERR_INVALID, p,
+                return lr__fail(err, LR_ERR_INVALID, ep,
                                 "%s%smaterial: index %g at %g nm is not a "
                                 "refractive index",
                                 nm, dot, n, wl);
@@ -107,7 +111,8 @@ lr_status lr__rx_check(const lr__rx *rx, const char *path, lr_error *err)
                 char q[LR__PATH_MAX];
                 lr__path_index(q, sp, (size_t)i);
                 surface_name(rx, i, q, nm2, sizeof nm2);
-                return lr__fail(err, LR_ERR_INVALID, p,
+                return lr__fail(err, LR_ERR_INVALID,
+                                rx->line[i + 1] > 0 ? path : p,
                                 "%s cuts through %s at %.4g mm from the "
                                 "axis (they cross by %.4g mm; their "
                                 "semi-apertures are %g and %g mm)",
