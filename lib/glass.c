@@ -12,17 +12,11 @@
 #include <stdio.h>
 #include <string.h>
 
-typedef struct catalogue_glass {
-    const char *name, *maker;
-    lr__glass_kind kind; /* SELLMEIER, LAURENT or POWER */
-    double c[9];   /* as the kind reads them (generator's docstring) */
-    double nd, vd; /* as the maker states them (the unit tests' truth) */
-} catalogue_glass;
-
-static const catalogue_glass catalogue[] = {
+const lr__glass_row lr__glass_catalogue[] = {
 #include "glass_table.h"
 };
-#define N_CATALOGUE (sizeof catalogue / sizeof catalogue[0])
+const size_t lr__glass_rows =
+    sizeof lr__glass_catalogue / sizeof lr__glass_catalogue[0];
 
 /* The makers, in catalogue order: the order that settles a shared name. */
 static const char *const makers[] = {"SCHOTT", "OHARA", "HOYA",
@@ -119,7 +113,7 @@ static int distance(const char *a, const char *b)
 }
 
 /* *g as catalogue entry c. */
-static void fill(lr__glass *g, const catalogue_glass *c)
+static void fill(lr__glass *g, const lr__glass_row *c)
 {
     memset(g, 0, sizeof *g);
     g->kind = c->kind;
@@ -165,19 +159,21 @@ static int same_name(const char *a, const char *b)
 }
 
 /* The entry called `name` of maker m (-1: of any maker, the first). */
-static const catalogue_glass *lookup(const char *name, int m)
+static const lr__glass_row *lookup(const char *name, int m)
 {
-    for (size_t i = 0; i < N_CATALOGUE; i++)
-        if (same_name(name, catalogue[i].name) &&
-            (m < 0 || strcmp(catalogue[i].maker, makers[m]) == 0))
-            return &catalogue[i];
+    for (size_t i = 0; i < lr__glass_rows; i++) {
+        const lr__glass_row *r = &lr__glass_catalogue[i];
+        if (same_name(name, r->name) &&
+            (m < 0 || strcmp(r->maker, makers[m]) == 0))
+            return r;
+    }
     return NULL;
 }
 
 /* The entry called `name`, by `prefer`'s makers first. */
-static const catalogue_glass *preferred(const char *name, const char *prefer)
+static const lr__glass_row *preferred(const char *name, const char *prefer)
 {
-    const catalogue_glass *c = NULL;
+    const lr__glass_row *c = NULL;
     for (const char *w = prefer; c == NULL && w != NULL && *w;) {
         while (*w == ' ' || *w == '\t')
             w++;
@@ -233,7 +229,7 @@ int lr__glass_find(const char *name, const char *prefer, lr__glass *g,
         g->nd = 1.0;
         return 0;
     }
-    const catalogue_glass *c = NULL;
+    const lr__glass_row *c = NULL;
     /* "MAKER NAME": that maker's only. */
     const char *sp = strchr(name, ' ');
     int mk = sp != NULL ? maker_of(name, (size_t)(sp - name)) : -1;
@@ -258,8 +254,8 @@ int lr__glass_find(const char *name, const char *prefer, lr__glass *g,
      * N-BAK1), then to catalogue order.  The score: distance first. */
     size_t best[3] = {0, 0, 0};
     int bd[3] = {1 << 30, 1 << 30, 1 << 30};
-    for (size_t i = 0; i < N_CATALOGUE; i++) {
-        const char *c = catalogue[i].name;
+    for (size_t i = 0; i < lr__glass_rows; i++) {
+        const char *c = lr__glass_catalogue[i].name;
         int pre = 0;
         while (pre < 63 && name[pre] != '\0' &&
                tolower((unsigned char)name[pre]) ==
@@ -275,7 +271,7 @@ int lr__glass_find(const char *name, const char *prefer, lr__glass *g,
             d = -64;
         for (int k = 0; k < 3; k++)
             seen |= bd[k] < (1 << 30) &&
-                    strcasecmp(catalogue[best[k]].name, c) == 0;
+                    strcasecmp(lr__glass_catalogue[best[k]].name, c) == 0;
         for (int k = 0; k < 3 && !seen; k++)
             if (d < bd[k]) {
                 for (int m = 2; m > k; m--) {
@@ -287,8 +283,9 @@ int lr__glass_find(const char *name, const char *prefer, lr__glass *g,
                 break;
             }
     }
-    snprintf(near, near_cap, "%s, %s, %s", catalogue[best[0]].name,
-             catalogue[best[1]].name, catalogue[best[2]].name);
+    snprintf(near, near_cap, "%s, %s, %s", lr__glass_catalogue[best[0]].name,
+             lr__glass_catalogue[best[1]].name,
+             lr__glass_catalogue[best[2]].name);
     return -1;
 }
 

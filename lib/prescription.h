@@ -59,6 +59,18 @@ typedef struct lr__glass {
     double nd, vd;     /* ABBE and CONSTANT (vd unused there) */
 } lr__glass;
 
+/* One row of the catalogue (lib/glass_table.h), as its maker gives it. */
+typedef struct lr__glass_row {
+    const char *name, *maker;
+    lr__glass_kind kind; /* SELLMEIER, LAURENT or POWER */
+    double c[9];   /* as the kind reads them (tools/glass-catalogue.py) */
+    double nd, vd; /* as the maker states them (the unit tests' truth) */
+} lr__glass_row;
+
+/* The catalogue, lr__glass_rows rows in the makers' order (glass.c). */
+extern const lr__glass_row lr__glass_catalogue[];
+extern const size_t lr__glass_rows;
+
 /* The refractive index of `g` at wavelength `nm`, in nanometres. */
 double lr__glass_n(const lr__glass *g, double nm);
 

@@ -16,21 +16,11 @@
 #include <string.h>
 #include <sys/stat.h>
 
-/* The catalogue as generated, with the makers' stated nd and vd: the
- * truth that the dispersion formulas must reproduce. */
-static const struct {
-    const char *name, *maker;
-    lr__glass_kind kind;
-    double c[9], nd, vd;
-} table[] = {
-#include "glass_table.h"
-};
-#define N_TABLE (sizeof table / sizeof table[0])
 
 static void test_catalogue_matches_makers_data(void **state)
 {
     (void)state;
-    assert_true(N_TABLE >= 1500);
+    assert_true(lr__glass_rows >= 1500);
     /* How closely each maker's formula must give its own stated nd and
      * vd, from how it states them.  OHARA, CDGM and HIKARI print both to
      * 6 decimals, computed from their formulas: half a unit of the 6th
@@ -49,17 +39,20 @@ static void test_catalogue_matches_makers_data(void **state)
     for (size_t m = 0; m < 6; m++) {
         double worst_n = 0, worst_v = 0;
         size_t count = 0;
-        for (size_t i = 0; i < N_TABLE; i++) {
-            if (strcmp(table[i].maker, makers[m].maker) != 0)
+        for (size_t i = 0; i < lr__glass_rows; i++) {
+            /* The maker's stated nd and vd: the truth that the
+             * dispersion formulas must reproduce. */
+            const lr__glass_row *row = &lr__glass_catalogue[i];
+            if (strcmp(row->maker, makers[m].maker) != 0)
                 continue;
             lr__glass g;
             char near[128], name[96];
             /* "MAKER NAME": this maker's, where makers share a name. */
             snprintf(name, sizeof name, "%s %s", makers[m].maker,
-                     table[i].name);
+                     row->name);
             assert_int_equal(lr__glass_find(name, NULL, &g, near,
                                             sizeof near), 0);
-            assert_int_equal(g.kind, table[i].kind);
+            assert_int_equal(g.kind, row->kind);
             assert_string_equal(g.maker, makers[m].maker);
             double nd = lr__glass_n(&g, LR__NM_d);
             double nF = lr__glass_n(&g, LR__NM_F);
@@ -72,17 +65,17 @@ static void test_catalogue_matches_makers_data(void **state)
             for (double nm = 380; nm < 780; nm += 5)
                 if (!(lr__glass_n(&g, nm + 5) < lr__glass_n(&g, nm)))
                     fail_msg("%s %s: n(%g nm) %.6f not below n(%g nm)",
-                             makers[m].maker, table[i].name, nm + 5,
+                             makers[m].maker, row->name, nm + 5,
                              lr__glass_n(&g, nm + 5), nm);
-            worst_n = fmax(worst_n, fabs(nd - table[i].nd));
-            worst_v = fmax(worst_v, fabs(vd - table[i].vd));
+            worst_n = fmax(worst_n, fabs(nd - row->nd));
+            worst_v = fmax(worst_v, fabs(vd - row->vd));
             count++;
-            if (fabs(nd - table[i].nd) > makers[m].tol_n ||
-                fabs(vd - table[i].vd) > makers[m].tol_v)
+            if (fabs(nd - row->nd) > makers[m].tol_n ||
+                fabs(vd - row->vd) > makers[m].tol_v)
                 fail_msg("%s %s: nd %.6f (stated %.6f), vd %.3f (stated "
                          "%.3f)",
-                         table[i].maker, table[i].name, nd, table[i].nd, vd,
-                         table[i].vd);
+                         row->maker, row->name, nd, row->nd, vd,
+                         row->vd);
         }
         assert_true(count >= 150);
         print_message("glass: %s %zu glasses; worst |nd - stated| %.2g, "

@@ -9,14 +9,6 @@
 
 #include <stdio.h>
 
-static const struct {
-    const char *name, *maker;
-    lr__glass_kind kind;
-    double c[9], nd, vd;
-} table[] = {
-#include "glass_table.h"
-};
-
 int main(void)
 {
     /* 400 nm, the g, F, e, d and C lines, 700 nm. */
@@ -27,15 +19,16 @@ int main(void)
     for (size_t k = 0; k < n_nm; k++)
         printf("\t%.4f", nm[k]);
     printf("\n");
-    for (size_t i = 0; i < sizeof table / sizeof table[0]; i++) {
+    for (size_t i = 0; i < lr__glass_rows; i++) {
+        const lr__glass_row *row = &lr__glass_catalogue[i];
         char name[96];
         lr__glass g;
-        snprintf(name, sizeof name, "%s %s", table[i].maker, table[i].name);
+        snprintf(name, sizeof name, "%s %s", row->maker, row->name);
         if (lr__glass_find(name, NULL, &g, NULL, 0) != 0) {
             fprintf(stderr, "glass_dump: %s not found\n", name);
             return 1;
         }
-        printf("%s\t%s", table[i].maker, table[i].name);
+        printf("%s\t%s", row->maker, row->name);
         for (size_t k = 0; k < n_nm; k++)
             printf("\t%.9f", lr__glass_n(&g, nm[k]));
         printf("\n");
