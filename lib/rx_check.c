@@ -25,6 +25,16 @@ static double sag(const lr__surface *s, double h)
     return z;
 }
 
+/* The path of an error about surface i: its JSON path `p` in a JSON
+ * lens; a file's surface has none, so the caller's `path` (the field
+ * that named the file, which lr__rx_load_file sets), and its message
+ * names the surface as surface_name says. */
+static const char *error_path(const lr__rx *rx, int i, const char *path,
+                              const char *p)
+{
+    return rx->line[i] > 0 ? path : p;
+}
+
 /* How a message names surface i: by its JSON path `p` ("surfaces[3]")
  * for a JSON lens, by what its file calls it elsewhere: "SURF 4 (line
  * 120)" in a Zemax file (SURF 0 is the object: surfaces[3] is SURF 4),
@@ -66,12 +76,9 @@ lr_status lr__rx_check(const lr__rx *rx, const char *path, lr_error *err)
         const lr__surface *s = &rx->s[i];
         lr__path_index(p, sp, (size_t)i);
         surface_name(rx, i, p, nm, sizeof nm);
-        /* "surfaces[3].semi_aperture", "SURF 4 (line 120): semi_aperture".
-         * A file's surface has no JSON path: its error's path is the
-         * caller's (the field that named the file), which the message
-         * then need not repeat (lr__rx_load_file prefixes the file). */
+        /* "surfaces[3].semi_aperture", "SURF 4 (line 120): semi_aperture" */
         const char *dot = rx->line[i] > 0 ? ": " : ".";
-        const char *ep = rx->line[i] > 0 ? path : p;
+        const char *ep = error_path(rx, i, path, p);
         if (!(s->semi_aperture > 0) || !isfinite(s->semi_aperture))
             return lr__fail(err, LR_ERR_INVALID, ep,
                             "%s%ssemi_aperture must be > 0, got %g", nm, dot,
@@ -112,7 +119,7 @@ lr_status lr__rx_check(const lr__rx *rx, const char *path, lr_error *err)
                 lr__path_index(q, sp, (size_t)i);
                 surface_name(rx, i, q, nm2, sizeof nm2);
                 return lr__fail(err, LR_ERR_INVALID,
-                                rx->line[i + 1] > 0 ? path : p,
+                                error_path(rx, i + 1, path, p),
                                 "%s cuts through %s at %.4g mm from the "
                                 "axis (they cross by %.4g mm; their "
                                 "semi-apertures are %g and %g mm)",
