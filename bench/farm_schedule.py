@@ -20,19 +20,21 @@ unequal costs alone: the last parts leave one daemon idle.
 """
 import heapq
 import json
+import os
 import subprocess
 import sys
+import tempfile
 
 
 def stats(lensray, scene, spp, region):
     """`lensray render --stats` of `region` on one thread, as a dict."""
-    out = subprocess.run(
-        [lensray, "render", scene, "-o", "/tmp/farm-band.exr", "-q",
-         "--stats", "--set", "render.spp=%d" % spp,
-         "--set", "render.threads=1",
-         "--set", "render.region=[%d,%d,%d,%d]" % tuple(region)],
-        check=True, capture_output=True, text=True).stdout
-    return json.loads(out)
+    with tempfile.TemporaryDirectory() as tmp:
+        return json.loads(subprocess.run(
+            [lensray, "render", scene, "-o", os.path.join(tmp, "band.exr"),
+             "-q", "--stats", "--set", "render.spp=%d" % spp,
+             "--set", "render.threads=1",
+             "--set", "render.region=[%d,%d,%d,%d]" % tuple(region)],
+            check=True, capture_output=True, text=True).stdout)
 
 
 def band_costs(lensray, scene, spp, parts):
@@ -54,7 +56,7 @@ def makespan(costs, daemons, in_flight, fixed):
     free = [0.0] * daemons       # when each daemon's worker is next free
     open_ = [[] for _ in range(daemons)]  # finish times of its requests
     answers = []                 # heap of answer times of parts in flight
-    t = end = 0.0
+    end = 0.0
     pending = list(costs)
 
     def send(now, cost):
@@ -67,11 +69,10 @@ def makespan(costs, daemons, in_flight, fixed):
 
     for _ in range(min(in_flight, len(pending))):
         send(0.0, pending.pop(0))
-    while answers:
-        t = heapq.heappop(answers)
-        end = max(end, t)
+    while answers:  # answers come in time order: the last is the end
+        end = heapq.heappop(answers)
         if pending:
-            send(t, pending.pop(0))
+            send(end, pending.pop(0))
     return end
 
 

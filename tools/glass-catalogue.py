@@ -79,9 +79,10 @@ def read(path):
         return "LR__GLASS_LAURENT", [coef[0]] + coef[1::2] + pad, nd, vd
     a = [coef[0]] + [0.0] * len(POWER_EXPONENTS)
     for c, e in zip(coef[1::2], coef[2::2]):
-        if e not in POWER_EXPONENTS or a[1 + POWER_EXPONENTS.index(e)]:
+        k = 1 + POWER_EXPONENTS.index(e) if e in POWER_EXPONENTS else None
+        if k is None or a[k]:
             return None
-        a[1 + POWER_EXPONENTS.index(e)] = c
+        a[k] = c
     return "LR__GLASS_POWER", a, nd, vd
 
 
