@@ -104,6 +104,46 @@ int lr__pixel_samples_needed(const lr__pixel *p, double threshold, int lo,
     return k < lo ? lo : k;
 }
 
+/* Rare light.  A pilot that saw nothing of a light tells nothing of a
+ * light that only a small part of the pixel's domain (lens, pixel area,
+ * lobe) reaches: a sphere light far out of focus is seen through about
+ * 0.1% of the lens in each pixel of its disc, so most pixels' pilots
+ * miss it, judge themselves converged at black, and the disc keeps a
+ * fraction of its light (issue 27 measured 40% to 62%).  What the samples
+ * do bound is how likely an unseen event is: after n samples without it,
+ * an event of probability p went unseen with probability (1 - p)^n <=
+ * e^-pn, under 5% once p >= 3 / n: the "rule of three" (Hanley & Lippman-
+ * Hand 1983, JAMA 249:1743).  Such an event carries at most `unseen` (the
+ * plan's bound on the radiance the pixel's rays can reach) where the
+ * pixel's mean m is, so it moves the mean by at most 3 (unseen - m) / n.
+ * Requiring that within the threshold, relative to the scale the noise
+ * is judged against, gives n >= 3 (unseen - m) / (threshold sqrt(m^2 +
+ * 0.01)) per channel.  With the automatic threshold 3 / spp this is spp
+ * wherever a light much brighter than the pixel may be rare: such pixels
+ * take the full simulation, as they must until the light side carries
+ * these lights (issue 27); pixels whose rays cannot reach an emitter, and
+ * every pixel of a scene without one, are judged as before. */
+int lr__rare_samples_needed(const lr__pixel *p, double unseen,
+                            double threshold, int lo, int hi)
+{
+    if (!(unseen > 0.0))
+        return 0;
+    double n = p->n > 0 ? (double)p->n : 1.0, need = 0.0;
+    for (int c = 0; c < 3; c++) {
+        double mean = p->sum[c] / n;
+        double k = 3.0 * (unseen - mean) /
+                   (threshold * sqrt(scale2(mean)));
+        if (k > need)
+            need = k;
+    }
+    if (!(need > 0.0))
+        return lo;
+    if (!(need < (double)hi))
+        return hi;
+    int k = (int)ceil(need);
+    return k < lo ? lo : k;
+}
+
 /* fmax as glibc has it (the non-NaN one), inline: a call per channel
  * and neighbour was a measurable share of the rule's cost. */
 static inline double max_number(double a, double b)
@@ -232,6 +272,10 @@ void lr__adaptive_block(const lr_render_settings *set, const lr__plan *plan,
             lr__pixel_reset(&acc[i]);
             io->sample(io->ctx, x, y, 0, p, &acc[i]);
             need[i] = lr__pixel_samples_needed(&acc[i], thr, p, spp);
+            int r = lr__rare_samples_needed(&acc[i], lr__plan_unseen(plan, x, y),
+                                            thr, p, spp);
+            if (r > need[i])
+                need[i] = r;
             lr__pilot_view_make(&acc[i], &view[i]);
         }
     for (int y = y0; y < y1; y++)
@@ -289,13 +333,19 @@ void lr__adaptive_block(const lr_render_settings *set, const lr__plan *plan,
              * neighbour's later rounds made a crop's edge differ from
              * the full render.) */
             lr__pixel px = *a;
+            double unseen = lr__plan_unseen(plan, x, y);
             while (want > have) {
                 int next = lr__adaptive_next(have, want, spp);
                 io->sample(io->ctx, x, y, have, next, &px);
                 have = next;
                 /* With all spp there is nothing left to judge. */
-                if (have < spp)
+                if (have < spp) {
                     want = lr__pixel_samples_needed(&px, thr, have, spp);
+                    int r = lr__rare_samples_needed(&px, unseen, thr, have,
+                                                    spp);
+                    if (r > want)
+                        want = r;
+                }
             }
             io->store(io->ctx, x, y, &px);
         }

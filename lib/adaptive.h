@@ -36,6 +36,14 @@ int lr__adaptive_pilot(const lr_render_settings *set, int lens);
 int lr__pixel_samples_needed(const lr__pixel *p, double threshold, int lo,
                              int hi);
 
+/* How many samples in all the pixel needs, at least `lo` and at most
+ * `hi`, so that light of radiance up to `unseen` (lr__plan_unseen) that
+ * its samples may have missed errs by at most `threshold`, relative to
+ * its scale: 0 when unseen is 0 (adaptive.c gives the rule of three this
+ * rests on). */
+int lr__rare_samples_needed(const lr__pixel *p, double unseen,
+                            double threshold, int lo, int hi);
+
 /* How many samples in all a pixel needs, at most `hi`, so that a sliver
  * of its area that all its samples missed, next to an edge of relative
  * contrast `contrast`, errs by at most `threshold`: contrast / threshold

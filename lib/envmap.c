@@ -35,8 +35,32 @@ void lr__envmap_free(lr__envmap *e)
     free(e->row_cdf);
     free(e->col_cdf);
     free(e->row_weight);
+    free(e->run_max);
     free(e->file);
     free(e);
+}
+
+/* e->run_max and e->max (envmap.h). */
+static lr_status build_run_max(lr__envmap *e, lr_error *err)
+{
+    int runs = (e->w + LR__ENV_RUN - 1) / LR__ENV_RUN;
+    e->run_max = malloc((size_t)e->h * (size_t)runs * sizeof *e->run_max);
+    if (e->run_max == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    e->max = 0.0;
+    for (int y = 0; y < e->h; y++)
+        for (int k = 0; k < runs; k++) {
+            float m = 0.0f;
+            for (int x = k * LR__ENV_RUN - 1; x <= (k + 1) * LR__ENV_RUN; x++) {
+                int xi = ((x % e->w) + e->w) % e->w;
+                const float *p =
+                    &e->rgb[3 * ((size_t)y * (size_t)e->w + (size_t)xi)];
+                m = fmaxf(m, fmaxf(p[0], fmaxf(p[1], p[2])));
+            }
+            e->run_max[(size_t)y * runs + k] = (float)(m * e->intensity);
+            e->max = fmax(e->max, m * e->intensity);
+        }
+    return LR_OK;
 }
 
 /* Reads R, G, B of a single-part scanline EXR into e->rgb. */
@@ -201,6 +225,8 @@ lr_status lr__envmap_load(const char *path, const char *file,
     lr_status st = read_exr(e, path, file, blame, err);
     if (st == LR_OK)
         st = build_cdf(e, err);
+    if (st == LR_OK)
+        st = build_run_max(e, err);
     if (st != LR_OK) {
         lr__envmap_free(e);
         return st;
@@ -231,6 +257,50 @@ static void to_uv(const lr__envmap *e, lr__v3 d, double *u, double *v)
     double uu = atan2(x, -z) / (2.0 * M_PI);
     *u = uu - floor(uu);
     *v = acos(fmax(-1.0, fmin(1.0, d.y))) / M_PI;
+}
+
+/* The cone's latitudes are v in [v0, v1] (v = polar angle / pi); away
+ * from the poles its longitudes are within asin(sin alpha / sin theta)
+ * of the axis's (the widest a cone of half-angle alpha reaches from an
+ * axis at polar angle theta).  A lookup at (u, v) reads rows floor and
+ * ceil of v (h - 1) and the columns around u w - 1/2, which the runs'
+ * maxima hold. */
+double lr__envmap_max_in_cone(const lr__envmap *e, lr__v3 axis, double alpha)
+{
+    if (!(alpha < 0.5 * M_PI))
+        return e->max;
+    double u, v;
+    to_uv(e, axis, &u, &v);
+    double theta = v * M_PI;
+    double t0 = theta - alpha, t1 = theta + alpha;
+    int runs = (e->w + LR__ENV_RUN - 1) / LR__ENV_RUN;
+    int k0 = 0, k1 = runs - 1;
+    if (t0 > 0.0 && t1 < M_PI) {
+        double dphi = asin(fmin(1.0, sin(alpha) / sin(theta)));
+        /* Columns of u +- dphi / 2 pi, one more each side for rounding. */
+        double c0 = (u - dphi / (2.0 * M_PI)) * e->w - 0.5;
+        double c1 = (u + dphi / (2.0 * M_PI)) * e->w - 0.5;
+        if (c1 - c0 < e->w - 2 * LR__ENV_RUN) {
+            k0 = (int)floor((floor(c0) - 1.0) / LR__ENV_RUN);
+            k1 = (int)floor((ceil(c1) + 1.0) / LR__ENV_RUN);
+        }
+    }
+    int y0 = (int)floor(fmax(t0, 0.0) / M_PI * (e->h - 1)) - 1;
+    int y1 = (int)ceil(fmin(t1, M_PI) / M_PI * (e->h - 1)) + 1;
+    y0 = y0 < 0 ? 0 : y0;
+    y1 = y1 >= e->h ? e->h - 1 : y1;
+    double m = 0.0;
+    for (int y = y0; y <= y1; y++)
+        for (int k = k0; k <= k1; k++) {
+            int ki = ((k % runs) + runs) % runs;
+            m = fmax(m, e->run_max[(size_t)y * runs + ki]);
+        }
+    return m;
+}
+
+double lr__envmap_max(const lr__envmap *e)
+{
+    return e->max;
 }
 
 /* The sampling cell that holds (u, v). */

@@ -26,7 +26,15 @@ struct lr__envmap {
     double rotation_deg;
     double cos_r, sin_r;
     char *file;          /* as given in the scene; owned */
+    /* Per row y and run of LR__ENV_RUN columns k, the largest channel of
+     * the texels that a bilinear lookup inside the run's columns reads
+     * (the run and one column each side), times intensity; and the map's
+     * largest overall.  For lr__envmap_max_in_cone. */
+    float *run_max;      /* h * ceil(w / LR__ENV_RUN); owned */
+    double max;
 };
+
+#define LR__ENV_RUN 8
 
 /* Reads `path` (the file named `file` in the scene, at JSON path
  * `blame`); LR_ERR_INVALID or LR_ERR_IO names the file and what is wrong
@@ -38,6 +46,9 @@ lr_status lr__envmap_load(const char *path, const char *file,
                           double rotation_deg, lr__envmap **out,
                           lr_error *err);
 void lr__envmap_free(lr__envmap *e);
+
+/* lr__envmap_max_in_cone and lr__envmap_max are declared in scene.h, for
+ * the planner, which cannot include this file's light.h beside film.h. */
 
 /* A direction towards the environment, sampled by luminance x the
  * latitude's solid angle (uniformly without a map), its radiance *L and

@@ -23,6 +23,7 @@
 #include "adaptive.h"
 #include "sampler.h"
 #include "splat.h"
+#include "texture.h"
 
 #include <float.h>
 #include <math.h>
@@ -278,6 +279,8 @@ static void finish(lr__plan *p, const lr__cam *c,
 static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
                            int dither, int x0, int y0, int x1, int y1,
                            lr_error *err);
+static lr_status rare_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
+                            int x0, int y0, int x1, int y1, lr_error *err);
 
 lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
                          const lr_render_settings *set, int x0, int y0,
@@ -290,6 +293,7 @@ lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     for (int i = 0; i < p->bw * p->bh; i++)
         p->blocks[i] = (lr__block_plan){1, 1, 0, 0};
+    p->rare = NULL;
     /* Splatting traces one ray a pixel and sample for the whole
      * spectrum, where spectral.c's packets trace one a wavelength
      * (docs/spectral.md measures both). */
@@ -322,6 +326,14 @@ lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
         }
     }
     finish(p, c, set);
+    /* Rare light matters only to a pixel that may stop early. */
+    if (set->adaptive && !p->splat && lr__adaptive_min(set) < set->spp) {
+        lr_status st = rare_build(p, s, c, x0, y0, x1, y1, err);
+        if (st != LR_OK) {
+            lr__plan_free(p);
+            return st;
+        }
+    }
     return LR_OK;
 }
 
@@ -434,6 +446,26 @@ static void put_boxes(const lr_scene *s, boxset *b)
         pthread_mutex_unlock(&c->lock);
 }
 
+/* The planner's lens for camera c: its model's bound (lr__cam_bound), or
+ * none (R = 0) for a camera without a lens.  The model must have a bound
+ * when the camera has a lens. */
+static void make_lens(const lr__cam *c, lens *L)
+{
+    lr__lens_bound lb = {0.0, 1, {0.0, 0.0, 0.0}};
+    if (c->has_lens)
+        lr__cam_bound(c, &lb);
+    L->R = lb.R;
+    L->w = lb.ws[0];
+    L->fpx = c->height / (2.0 * c->half_h);
+    L->e = c->origin;
+    L->fwd = c->forward;
+    L->right = c->right;
+    L->up = c->up;
+    L->n_w = lb.n_w;
+    for (int k = 0; k < lb.n_w; k++)
+        L->ws[k] = lb.ws[k];
+}
+
 /* Where no colour's blur can reach a quarter pixel, the block needs no
  * lens (unless `dither`: wherever it reaches anything); where the
  * colours' blurs differ by less, one ray for all. */
@@ -442,18 +474,7 @@ static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
                            lr_error *err)
 {
     lens L;
-    lr__lens_bound lb;
-    lr__cam_bound(c, &lb);
-    L.R = lb.R;
-    L.w = lb.ws[0];
-    L.fpx = c->height / (2.0 * c->half_h);
-    L.e = c->origin;
-    L.fwd = c->forward;
-    L.right = c->right;
-    L.up = c->up;
-    L.n_w = lb.n_w;
-    for (int k = 0; k < lb.n_w; k++)
-        L.ws[k] = lb.ws[k];
+    make_lens(c, &L);
 
     boxset *set = get_boxes(s, &L);
     if (set == NULL)
@@ -509,6 +530,14 @@ static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
                     zmax = z1;
             }
             lr__block_plan *bp = &p->blocks[by * p->bw + bx];
+            /* An environment map is light at infinite depth that any
+             * ray may escape to, and the lens blurs it like anything
+             * else (a uniform background it cannot change). */
+            if (s->env != NULL) {
+                if (!(zmin <= zmax))
+                    zmin = INFINITY;
+                zmax = INFINITY;
+            }
             if (!(zmin <= zmax)) {
                 /* Nothing reachable: only the background, which no blur
                  * changes. */
@@ -532,10 +561,14 @@ static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
     return LR_OK;
 }
 
+static void rare_free(struct lr__rare *r);
+
 void lr__plan_free(lr__plan *p)
 {
     free(p->blocks);
     p->blocks = NULL;
+    rare_free(p->rare);
+    p->rare = NULL;
 }
 
 /* Bounding boxes of the geometry in camera space, for camera L: 1, or 0
@@ -596,4 +629,299 @@ static int make_boxes(const lr_scene *s, const lens *L, box **out,
     *out = boxes;
     *out_n = n_boxes;
     return 1;
+}
+
+/* ---- rare light (lr__plan_unseen) --------------------------------------- */
+
+/* A source of rare light: the camera-space bounds of emissive or
+ * non-Lambertian geometry, or an infinite plane, and the largest channel
+ * of the radiance it can show. */
+typedef struct rare_src {
+    box b;
+    const lr__geom *plane; /* an infinite plane, else NULL */
+    double L;
+} rare_src;
+
+struct lr__rare {
+    lens L;
+    int everywhere; /* no bound: every pixel may reach every source */
+    double L_all;   /* the largest L of any source */
+    double su, sv, half_w, half_h;
+    int bw;
+    /* Per block: a bound on the environment map's radiance along its
+     * pixels' rays (0 without a map). */
+    double *env;
+    int *first; /* per block b, its sources are idx[first[b] .. first[b+1]) */
+    int *idx;
+    rare_src *src;
+    size_t n;
+};
+
+static void rare_free(struct lr__rare *r)
+{
+    if (r == NULL)
+        return;
+    free(r->first);
+    free(r->env);
+    free(r->idx);
+    free(r->src);
+    free(r);
+}
+
+/* The largest channel of the radiance material m emits (its texture's
+ * largest texel included): 0 for a material that does not emit. */
+static double emission_max(const lr__material *m)
+{
+    double e = fmax(m->emission.x, fmax(m->emission.y, m->emission.z));
+    if (e > 0.0 && m->emission_tex != NULL) {
+        const double *t = m->emission_tex->max;
+        e = fmax(m->emission.x * t[0],
+                 fmax(m->emission.y * t[1], m->emission.z * t[2]));
+    }
+    return e > 0.0 ? e : 0.0;
+}
+
+/* Whether m has a lobe other than a Lambertian one (Phong, mirror,
+ * glass, or a glTF metal split), which can show an emitter at up to its
+ * radiance where a pilot's few directions miss it. */
+static int shows_emitters(const lr__material *m)
+{
+    lr__v3 a = m->specular, b = m->reflect, c = m->transmit;
+    return m->pbr_split || fmax(a.x, fmax(a.y, a.z)) > 0.0 ||
+           fmax(b.x, fmax(b.y, b.z)) > 0.0 || fmax(c.x, fmax(c.y, c.z)) > 0.0;
+}
+
+/* Does the infinite plane pl meet the lens rays of [u0, u1] x [v0, v1]?
+ * As plan_blur grows a block for a plane: the rectangle widened by the
+ * spread at the depths the plane has there, twice. */
+static int plane_reached(const lens *L, const lr__geom *pl, double u0,
+                         double u1, double v0, double v1)
+{
+    double z0, z1;
+    if (!plane_range(L, pl, u0, u1, v0, v1, &z0, &z1)) {
+        /* Not seen by the pinhole rays: the lens's spread at the plane's
+         * far end still may reach it (a plane seen edge-on). */
+        z0 = NEAR, z1 = INFINITY;
+    }
+    for (int it = 0; it < 2; it++) {
+        double g = spread(L, z0, z1) * 1.01 + 1e-9;
+        if (!isfinite(g))
+            return 1;
+        if (!plane_range(L, pl, u0 - g, u1 + g, v0 - g, v1 + g, &z0, &z1))
+            return 0;
+    }
+    return 1;
+}
+
+static int src_reached(const lens *L, const rare_src *r, double u0,
+                       double u1, double v0, double v1)
+{
+    if (r->plane != NULL)
+        return plane_reached(L, r->plane, u0, u1, v0, v1);
+    return box_reached(L, &r->b, u0, u1, v0, v1);
+}
+
+/* Appends a source; 0 when out of memory. */
+static int src_add(struct lr__rare *r, size_t *cap, const rare_src *x)
+{
+    if (r->n == *cap) {
+        size_t nc = *cap ? 2 * *cap : 64;
+        rare_src *g = realloc(r->src, nc * sizeof *g);
+        if (g == NULL)
+            return 0;
+        r->src = g;
+        *cap = nc;
+    }
+    r->src[r->n++] = *x;
+    return 1;
+}
+
+/* The sources of geometry g that shows radiance up to Lg. */
+static int geom_sources(struct lr__rare *r, size_t *cap, const lr__geom *g,
+                        double Lg)
+{
+    rare_src x = {.plane = NULL, .L = Lg};
+    if (g->kind == LR__GEOM_SPHERE) {
+        double lo[3] = {g->center.x - g->radius, g->center.y - g->radius,
+                        g->center.z - g->radius};
+        double hi[3] = {g->center.x + g->radius, g->center.y + g->radius,
+                        g->center.z + g->radius};
+        box_from_bounds(&r->L, lo, hi, &x.b);
+        return src_add(r, cap, &x);
+    }
+    if (g->chunk_bounds != NULL) {
+        for (size_t t0 = 0; t0 < g->n_triangles; t0 += CHUNK) {
+            const double *wb = &g->chunk_bounds[6 * (t0 / CHUNK)];
+            box_from_bounds(&r->L, wb, wb + 3, &x.b);
+            if (!src_add(r, cap, &x))
+                return 0;
+        }
+        return 1;
+    }
+    for (size_t t = 0; t < g->n_triangles; t++) {
+        lr__v3 q[3];
+        for (int k = 0; k < 3; k++) {
+            const float *v = &g->vertices[3 * g->indices[3 * t + k]];
+            q[k] = v3(v[0], v[1], v[2]);
+        }
+        box_from_points(&r->L, q, 3, &x.b);
+        if (!src_add(r, cap, &x))
+            return 0;
+    }
+    return 1;
+}
+
+/* The rectangle of pixels [px0, px1) x [py0, py1) on the image plane. */
+static void pixel_rect(const struct lr__rare *r, double px0, double py0,
+                       double px1, double py1, double *u0, double *u1,
+                       double *v0, double *v1)
+{
+    *u0 = px0 * r->su - r->half_w;
+    *u1 = px1 * r->su - r->half_w;
+    *v0 = r->half_h - py1 * r->sv;
+    *v1 = r->half_h - py0 * r->sv;
+}
+
+/* The environment map's bound over the directions of the lens rays of
+ * pixels [u0, u1] x [v0, v1]: an offset-lens ray has direction D - off w
+ * (camera.h), so its point on the image plane lies within the rectangle
+ * grown by R |w| for every colour's w; the cone about the rectangle's
+ * centre through its farthest corner holds them all. */
+static double env_bound(const struct lr__rare *r, const lr__envmap *e,
+                        double u0, double u1, double v0, double v1)
+{
+    const lens *L = &r->L;
+    double g = 0.0;
+    for (int k = 0; k < L->n_w; k++)
+        g = fmax(g, L->R * fabs(L->ws[k]));
+    g = g * (1.0 + 1e-9) + 1e-12;
+    u0 -= g, u1 += g, v0 -= g, v1 += g;
+    lr__v3 axis = v3_norm(v3(0.5 * (u0 + u1), 0.5 * (v0 + v1), 1.0));
+    double cmin = 1.0;
+    for (int k = 0; k < 4; k++) {
+        lr__v3 q = v3_norm(v3(k & 1 ? u1 : u0, k & 2 ? v1 : v0, 1.0));
+        cmin = fmin(cmin, v3_dot(q, axis));
+    }
+    double alpha = acos(fmax(-1.0, fmin(1.0, cmin))) * (1.0 + 1e-9) + 1e-9;
+    lr__v3 world = v3_add(v3_add(v3_scale(L->fwd, axis.z),
+                                 v3_scale(L->right, axis.x)),
+                          v3_scale(L->up, axis.y));
+    return lr__envmap_max_in_cone(e, v3_norm(world), alpha);
+}
+
+static lr_status rare_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
+                            int x0, int y0, int x1, int y1, lr_error *err)
+{
+    /* The scene's largest emission: what a non-Lambertian lobe may show. */
+    double L_emit = 0.0;
+    for (size_t g = 0; g < s->n_geoms; g++)
+        L_emit = fmax(L_emit, emission_max(&s->materials[s->geoms[g].material]));
+    for (size_t g = 0; g < s->n_planes; g++)
+        L_emit = fmax(L_emit,
+                      emission_max(&s->materials[s->planes[g].material]));
+    /* A map's sun is a light as small and as bright as any.  (A uniform
+     * background is the same in every direction: nothing to miss.) */
+    if (s->env != NULL)
+        L_emit = fmax(L_emit, lr__envmap_max(s->env));
+    if (!(L_emit > 0.0))
+        return LR_OK;
+    struct lr__rare *r = calloc(1, sizeof *r);
+    if (r == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    r->L_all = L_emit;
+    if (c->has_lens && c->model->bound == NULL) {
+        /* No bound on where the lens's rays go: anywhere. */
+        r->everywhere = 1;
+        p->rare = r;
+        return LR_OK;
+    }
+    make_lens(c, &r->L);
+    r->su = 2.0 * c->half_w / c->width;
+    r->sv = 2.0 * c->half_h / c->height;
+    r->half_w = c->half_w;
+    r->half_h = c->half_h;
+    r->bw = p->bw;
+    size_t cap = 0;
+    int ok = 1;
+    for (size_t g = 0; g < s->n_geoms + s->n_planes && ok; g++) {
+        int is_plane = g >= s->n_geoms;
+        const lr__geom *geo =
+            is_plane ? &s->planes[g - s->n_geoms] : &s->geoms[g];
+        const lr__material *m = &s->materials[geo->material];
+        double Lg = fmax(emission_max(m), shows_emitters(m) ? L_emit : 0.0);
+        if (!(Lg > 0.0))
+            continue;
+        if (is_plane) {
+            rare_src x = {.plane = geo, .L = Lg};
+            ok = src_add(r, &cap, &x);
+        } else {
+            ok = geom_sources(r, &cap, geo, Lg);
+        }
+    }
+    /* Per block of the region and its apron (adaptive.c reads the
+     * apron's pixels too), the sources its pixels may reach. */
+    int gx0 = x0 > 0 ? x0 - 1 : 0, gy0 = y0 > 0 ? y0 - 1 : 0;
+    int gx1 = x1 < (int)c->width ? x1 + 1 : x1;
+    int gy1 = y1 < (int)c->height ? y1 + 1 : y1;
+    int bx0 = gx0 / LR__PLAN_BLOCK, by0 = gy0 / LR__PLAN_BLOCK;
+    int bx1 = (gx1 - 1) / LR__PLAN_BLOCK, by1 = (gy1 - 1) / LR__PLAN_BLOCK;
+    size_t nb = (size_t)p->bw * (size_t)p->bh, n_idx = 0, idx_cap = 0;
+    r->first = ok ? calloc(nb + 1, sizeof *r->first) : NULL;
+    ok = r->first != NULL;
+    if (ok && s->env != NULL) {
+        r->env = calloc(nb, sizeof *r->env);
+        ok = r->env != NULL;
+    }
+    for (size_t b = 0; b < nb && ok; b++) {
+        r->first[b] = (int)n_idx;
+        int bx = (int)(b % (size_t)p->bw), by = (int)(b / (size_t)p->bw);
+        if (bx < bx0 || bx > bx1 || by < by0 || by > by1)
+            continue;
+        double u0, u1, v0, v1;
+        pixel_rect(r, bx * LR__PLAN_BLOCK, by * LR__PLAN_BLOCK,
+                   (bx + 1) * LR__PLAN_BLOCK, (by + 1) * LR__PLAN_BLOCK, &u0,
+                   &u1, &v0, &v1);
+        if (r->env != NULL)
+            r->env[b] = env_bound(r, s->env, u0, u1, v0, v1);
+        for (size_t i = 0; i < r->n && ok; i++) {
+            if (!src_reached(&r->L, &r->src[i], u0, u1, v0, v1))
+                continue;
+            if (n_idx == idx_cap) {
+                size_t nc = idx_cap ? 2 * idx_cap : 256;
+                int *gi = realloc(r->idx, nc * sizeof *gi);
+                if (gi == NULL) {
+                    ok = 0;
+                    break;
+                }
+                r->idx = gi;
+                idx_cap = nc;
+            }
+            r->idx[n_idx++] = (int)i;
+        }
+    }
+    if (!ok) {
+        rare_free(r);
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    }
+    r->first[nb] = (int)n_idx;
+    p->rare = r;
+    return LR_OK;
+}
+
+double lr__plan_unseen(const lr__plan *p, int x, int y)
+{
+    const struct lr__rare *r = p->rare;
+    if (r == NULL)
+        return 0.0;
+    if (r->everywhere)
+        return r->L_all;
+    int b = (y / LR__PLAN_BLOCK) * r->bw + x / LR__PLAN_BLOCK;
+    double u0, u1, v0, v1, best = r->env != NULL ? r->env[b] : 0.0;
+    pixel_rect(r, x, y, x + 1, y + 1, &u0, &u1, &v0, &v1);
+    for (int k = r->first[b]; k < r->first[b + 1]; k++) {
+        const rare_src *src = &r->src[r->idx[k]];
+        if (src->L > best && src_reached(&r->L, src, u0, u1, v0, v1))
+            best = src->L;
+    }
+    return best;
 }

@@ -42,6 +42,10 @@ typedef struct lr__plan {
     int splat;
     int bw, bh;             /* blocks across and down the frame */
     lr__block_plan *blocks; /* bw * bh, owned */
+    /* Where a camera sample may carry rare light (lr__plan_unseen); NULL
+     * when no sample can (no emitter in the scene, or adaptive sampling
+     * off).  Owned. */
+    struct lr__rare *rare;
 } lr__plan;
 
 /* Plans the blocks covering [x0, x1) x [y0, y1) of the frame and the
@@ -54,6 +58,23 @@ lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
                          const lr_render_settings *set, int x0, int y0,
                          int x1, int y1, lr_error *err);
 void lr__plan_free(lr__plan *p);
+
+/* Rare light, for adaptive sampling (adaptive.c): the largest radiance
+ * (per channel, the largest channel) that one camera sample of pixel
+ * (x, y) could carry from an emitter that its lens and pixel rays may
+ * reach through only a small part of their domain, so that a pilot can
+ * miss it entirely (a small light far out of focus covers a disc tens of
+ * pixels wide, yet each of its pixels sees it through 0.1% of the lens).
+ * Sources: emissive geometry whose bounds the pixel's rays (pixel area
+ * times aperture, every colour) can reach, and, since a mirror, glass or
+ * glossy lobe can show any emitter at full radiance (reflected radiance
+ * is at most the largest emitted: energy conservation), surfaces other
+ * than Lambertian that they can reach, at the scene's largest emission.
+ * An environment map is a source too, bounded over the directions of
+ * the pixel's block's rays (a sun in the map is as small and bright as
+ * any light).  A model without a planner's bound (the real lens) reaches
+ * everything.  0: no emitter can be seen by rare samples here. */
+double lr__plan_unseen(const lr__plan *p, int x, int y);
 
 /* Meshes of at most this many triangles are planned triangle by triangle
  * (a ground quad); larger ones by the bounds of chunks of triangles. */

@@ -80,6 +80,15 @@ typedef struct lr__emitter {
 
 typedef struct lr__envmap lr__envmap; /* envmap.c */
 
+/* envmap.c, for the planner's rare-light bound: a bound on the largest
+ * channel of the radiance the map shows in any direction within angle
+ * `alpha` (radians) of unit direction `axis`, never below a lookup there
+ * (conservative: whole runs of texels, and whole rows near a pole); and
+ * the map's largest value anywhere. */
+double lr__envmap_max_in_cone(const lr__envmap *e, lr__v3 axis,
+                              double alpha);
+double lr__envmap_max(const lr__envmap *e);
+
 typedef enum lr__light_kind {
     LR__LIGHT_POINT,
     LR__LIGHT_DIRECTIONAL

@@ -120,10 +120,14 @@ lr__texture *lr__texture_load_memory(const void *data, size_t n,
     }
     size_t count = (size_t)t->w * (size_t)t->h;
     for (int c = 0; c < 4; c++) {
-        double sum = 0.0;
-        for (size_t i = 0; i < count; i++)
-            sum += t->rgba[4 * i + (size_t)c];
+        double sum = 0.0, hi = 0.0;
+        for (size_t i = 0; i < count; i++) {
+            double v = t->rgba[4 * i + (size_t)c];
+            sum += v;
+            hi = v > hi ? v : hi;
+        }
         t->mean[c] = sum / (double)count;
+        t->max[c] = hi;
     }
     return t;
 }

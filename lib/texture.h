@@ -22,6 +22,7 @@ struct lr__texture {
     int w, h;
     float *rgba;     /* 4 * w * h, row 0 the image's top row; owned */
     double mean[4];  /* the texels' mean, per channel */
+    double max[4];   /* and their largest value (no lookup exceeds it) */
 };
 
 /* Loads PNG, JPEG or EXR, chosen by the file's magic bytes (not its name).
