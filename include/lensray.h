@@ -301,6 +301,11 @@ typedef struct lr_render_settings {
      * (__atomic_store_n), or from a signal handler. */
     const volatile int *cancel;
     lr_integrator_kind integrator; /* default LR_INTEGRATOR_WHITTED */
+    /* Light tracing through the lens: 1 (the default), the plan sends
+     * small lights far out of focus (or smaller than a pixel) to the
+     * light side, where every sample lands in their disc (docs/bokeh.md);
+     * 0, every light is found by camera rays alone. */
+    int light;
 } lr_render_settings;
 
 /* Fills `s` with the defaults documented above. */
@@ -448,6 +453,12 @@ typedef struct lr_render_stats {
     uint64_t full_camera_rays; /* what plan = 0, adaptive = 0 would trace */
     uint64_t full_samples;   /* pixels x spp */
     uint64_t lens_blocked;   /* camera rays a real lens stopped */
+    /* Light tracing through the lens (render.light): the lights the plan
+     * sent to the light side, the light paths traced for them and those
+     * that reached the film (inside the frame; a region keeps its own). */
+    uint64_t light_lights;
+    uint64_t light_paths;
+    uint64_t light_landed;
 } lr_render_stats;
 
 /* Renders `scene` through `cam` with `settings`.  On success *out owns a
@@ -466,7 +477,9 @@ LR_API lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
  *      "primitives": ...,
  *      "plan": {"enabled": true, "adaptive": true, "lens_pixels": 0.31,
  *               "chroma_pixels": 0, "samples": ..., "full_samples": ...,
- *               "camera_rays": ..., "full_camera_rays": ...}}
+ *               "camera_rays": ..., "full_camera_rays": ...,
+ *               "lens_blocked": ..., "light_lights": ..., "light_paths": ...,
+ *               "light_landed": ...}}
  * lens_pixels and chroma_pixels are shares of the pixels (0 to 1); "plan"
  * is the last member.  `settings` (what the render ran with) gives width,
  * height, spp and plan.enabled/adaptive, and `scene` gives primitives;

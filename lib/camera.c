@@ -478,6 +478,47 @@ void lr__offset_lens_shift16(const lr__cam *c, int n, const float *lu,
     }
 }
 
+lr__v3 lr__offset_lens_point(const lr__cam *c, const double u[2], double *ox,
+                             double *oy)
+{
+    *ox = *oy = 0.0;
+    if (!c->has_lens)
+        return c->origin;
+    double lx, ly;
+    lr__aperture_sample(c->shape, c->blades, c->rotation, c->ratio, u, &lx,
+                        &ly);
+    *ox = lx * c->radius;
+    *oy = ly * c->radius;
+    return v3_madd(v3_madd(c->origin, c->right, *ox), c->up, *oy);
+}
+
+/* The camera ray from lens offset off runs along D - off w, D = (sx, sy,
+ * 1) in the camera's frame (lr__offset_lens_ray), so a direction d with
+ * components (dx, dy, dz) there comes from the film point whose chief
+ * ray has sx = dx / dz + ox w, sy = dy / dz + oy w.  For a fixed lens
+ * point the film, in image-plane units at distance 1, maps to directions
+ * as a pinhole does, shifted: its area element is cos^3 theta per unit
+ * solid angle (theta between d and the axis), and a pixel is 1 / fpx^2 of
+ * image-plane area (fpx = width / (2 half_w)).  A pixel's value is the
+ * mean over its area and the lens of the radiance its rays see, so
+ * radiance L along d adds L fpx^2 / cos^3 theta per unit solid angle and
+ * unit lens measure (Veach 1997, section 10.2, the importance of a
+ * camera; pbrt-v4's PerspectiveCamera::We without its cos^4, since
+ * lensray's thin lens weighs every ray alike). */
+double lr__offset_lens_film(const lr__cam *c, double ox, double oy, lr__v3 d,
+                            double *fx, double *fy)
+{
+    double dz = v3_dot(d, c->forward);
+    if (!(dz > 0.0))
+        return 0.0;
+    double sx = v3_dot(d, c->right) / dz + ox * c->w;
+    double sy = v3_dot(d, c->up) / dz + oy * c->w;
+    *fx = (sx / c->half_w + 1.0) * 0.5 * c->width;
+    *fy = (1.0 - sy / c->half_h) * 0.5 * c->height;
+    double fpx = 0.5 * c->height / c->half_h;
+    return fpx * fpx / (dz * dz * dz);
+}
+
 void lr__offset_lens_bound(const lr__cam *c, lr__lens_bound *b)
 {
     /* The aperture's farthest point from its centre. */

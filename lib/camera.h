@@ -149,6 +149,24 @@ typedef struct lr__camera_model {
      * NULL when the model has no safe bound: the lens is then sampled
      * everywhere. */
     void (*bound)(const lr__cam *c, lr__lens_bound *b);
+    /* The light side (light_trace.c): the camera seen from the scene.
+     * `lens_point` is the point of the aperture that lens sample u gives
+     * the camera's own rays (uniform by area over the aperture: so the
+     * light side's density of it is the camera's), with its lens-plane
+     * offset (ox, oy) (scene units along right and up).  `film` is where
+     * on the film (fx, fy, in pixels) the camera ray leaving lens offset
+     * (ox, oy) along unit direction d starts, and returns the ray's
+     * importance per unit solid angle at the lens: the pixel value that
+     * radiance L along d adds is L x that / (the area of a pixel) per unit
+     * of lens area sampled and solid angle (fpx^2 / cos^3 for the offset
+     * lens: see camera.c); 0 when no camera ray goes along d.  NULL: the
+     * model has no light side yet (the bracket, whose ray origin moves
+     * with the film point, and the real lens), and its lights are all
+     * traced from the camera. */
+    lr__v3 (*lens_point)(const lr__cam *c, const double u[2], double *ox,
+                         double *oy);
+    double (*film)(const lr__cam *c, double ox, double oy, lr__v3 d,
+                   double *fx, double *fy);
 } lr__camera_model;
 
 /* The registry (camera.c): the model called `name`, or the one whose id
@@ -290,6 +308,12 @@ void lr__offset_lens_rays16_w(const lr__cam *c, int n, const float *fx,
 /* shift16 of the offset-lens form with base_di = 0 (the thin lens). */
 void lr__offset_lens_shift16(const lr__cam *c, int n, const float *lu,
                              const float *lv, float *sx, float *sy);
+/* lens_point and film of the offset-lens form with base_di = 0 (the
+ * thin lens and the pinhole, whose lens point is the eye). */
+lr__v3 lr__offset_lens_point(const lr__cam *c, const double u[2], double *ox,
+                             double *oy);
+double lr__offset_lens_film(const lr__cam *c, double ox, double oy, lr__v3 d,
+                            double *fx, double *fy);
 /* The bound of an offset lens at the eye: R = the aperture's reach. */
 void lr__offset_lens_bound(const lr__cam *c, lr__lens_bound *b);
 

@@ -39,4 +39,6 @@ const lr__camera_model lr__camera_pinhole = {
     .rays16 = lr__offset_lens_rays16,
     .focus_at = NULL,
     .bound = bound,
+    .lens_point = lr__offset_lens_point,
+    .film = lr__offset_lens_film,
 };

@@ -132,4 +132,6 @@ const lr__camera_model lr__camera_thinlens = {
     .shift16 = lr__offset_lens_shift16,
     .focus_at = focus_at,
     .bound = lr__offset_lens_bound,
+    .lens_point = lr__offset_lens_point,
+    .film = lr__offset_lens_film,
 };

@@ -26,7 +26,19 @@ typedef struct lr__sample_id {
     const lr__sampler *sampler;
     uint64_t pixel;
     uint32_t sample;
+    /* Per scene geometry, 1 where the light side estimates the emission
+     * that camera rays see first (light_trace.h): a camera ray whose
+     * first hit is such a geometry adds none of its emission (its other
+     * light, and every later hit's, as ever).  NULL: none. */
+    const unsigned char *lt;
 } lr__sample_id;
+
+/* Whether the emission of the camera ray's first hit on geometry `geom`
+ * is the light side's. */
+static inline int lr__lt_direct(const unsigned char *lt, long geom)
+{
+    return lt != NULL && geom >= 0 && lt[geom];
+}
 
 typedef struct lr__integrator {
     const char *name;

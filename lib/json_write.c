@@ -188,6 +188,10 @@ char *lr_render_settings_json(const lr_render_settings *s)
         vec(&b, "region", r, 4);
     }
     boolean(&b, "plan", s->plan);
+    /* On, the default, is written as the key's absence (so that every
+     * file written before the key existed reads back the same). */
+    if (!s->light)
+        boolean(&b, "light", s->light);
     if (s->adaptive &&
         (s->adaptive_threshold > 0.0 || s->adaptive_min_spp > 0)) {
         jb a;

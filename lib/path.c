@@ -152,8 +152,11 @@ static int next_event(const lr_scene *s, const lr__hit *h, const lr__bsdf *f,
 /* The lane's surface (or escape, hit == 0) at bounce `depth`: light
  * found there, its light sample (p->shadow) and the next ray.  Returns 1
  * if the path goes on. */
+/* lt: the camera ray's light-side geometry (lr__sample_id) at depth 0,
+ * else NULL. */
 static int bounce(const lr_scene *s, int max_depth, int depth, int hit,
-                  const lr__hit *h, const double v[DIMS_PER_BOUNCE], lane *p)
+                  const lr__hit *h, const double v[DIMS_PER_BOUNCE],
+                  const unsigned char *lt, lane *p)
 {
     p->shadow = 0;
     if (!hit) {
@@ -166,7 +169,8 @@ static int bounce(const lr_scene *s, int max_depth, int depth, int hit,
     }
     lr__material mt;
     const lr__material *m = lr__hit_material(s, h, &mt);
-    if (h->entering && v3_maxc(m->emission) > 0.0) {
+    if (h->entering && v3_maxc(m->emission) > 0.0 &&
+        !lr__lt_direct(lt, h->geom)) {
         double w = 1.0;
         if (!p->prev_delta && h->geom >= 0)
             w = mis(p->prev_pdf, lr__light_pdf_area(s, p->prev_p, h->p, h->ng,
@@ -299,7 +303,8 @@ static void trace_paths(const lr_scene *s, int max_depth,
             double v[DIMS_PER_BOUNCE] = {0};
             for (int j = 0; j < DIMS_PER_BOUNCE - 1; j++)
                 v[j] = U[j][i];
-            int alive = bounce(s, max_depth, depth, hit, &h, v, &p);
+            int alive = bounce(s, max_depth, depth, hit, &h, v,
+                               depth == 0 ? id->lt : NULL, &p);
             lane_put(&p, alive, S, i);
         }
         if (w16.vec)

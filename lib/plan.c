@@ -294,6 +294,7 @@ lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
     for (int i = 0; i < p->bw * p->bh; i++)
         p->blocks[i] = (lr__block_plan){1, 1, 0, 0};
     p->rare = NULL;
+    p->lt = NULL;
     /* Splatting traces one ray a pixel and sample for the whole
      * spectrum, where spectral.c's packets trace one a wavelength
      * (docs/spectral.md measures both). */
@@ -326,6 +327,15 @@ lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
         }
     }
     finish(p, c, set);
+    /* Spectral splatting traces every wavelength from the camera; the
+     * light side needs the colours to focus alike (lr__lt_plan). */
+    if (!p->splat) {
+        lr_status st = lr__lt_plan(s, c, set, &p->lt, err);
+        if (st != LR_OK) {
+            lr__plan_free(p);
+            return st;
+        }
+    }
     /* Rare light matters only to a pixel that may stop early. */
     if (set->adaptive && !p->splat && lr__adaptive_min(set) < set->spp) {
         lr_status st = rare_build(p, s, c, x0, y0, x1, y1, err);
@@ -569,6 +579,8 @@ void lr__plan_free(lr__plan *p)
     p->blocks = NULL;
     rare_free(p->rare);
     p->rare = NULL;
+    lr__lt_free(p->lt);
+    p->lt = NULL;
 }
 
 /* Bounding boxes of the geometry in camera space, for camera L: 1, or 0
@@ -848,7 +860,12 @@ static lr_status rare_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
         const lr__geom *geo =
             is_plane ? &s->planes[g - s->n_geoms] : &s->geoms[g];
         const lr__material *m = &s->materials[geo->material];
-        double Lg = fmax(emission_max(m), shows_emitters(m) ? L_emit : 0.0);
+        /* A light of the light side: camera rays no longer see its
+         * emission first (light_trace.h), only through other surfaces. */
+        double Le = !is_plane && p->lt != NULL && p->lt->direct[g]
+                        ? 0.0
+                        : emission_max(m);
+        double Lg = fmax(Le, shows_emitters(m) ? L_emit : 0.0);
         if (!(Lg > 0.0))
             continue;
         if (is_plane) {

@@ -14,6 +14,7 @@
 #define LR_PLAN_H
 
 #include "camera.h"
+#include "light_trace.h"
 #include "scene.h"
 
 #define LR__PLAN_BLOCK 16     /* pixels per block side */
@@ -46,6 +47,9 @@ typedef struct lr__plan {
      * when no sample can (no emitter in the scene, or adaptive sampling
      * off).  Owned. */
     struct lr__rare *rare;
+    /* The lights traced from the light side (light_trace.h); NULL: none.
+     * Owned. */
+    lr__lt *lt;
 } lr__plan;
 
 /* Plans the blocks covering [x0, x1) x [y0, y1) of the frame and the

@@ -33,6 +33,8 @@ typedef struct render {
     lr__shot shot;
     lr__plan plan;
     lr__splat *splat; /* the plan's splat mode: its units replace tiles */
+    lr__lt_film light; /* the light side's splats (plan.lt), if any */
+    atomic_ullong next_light;
     lr_image *img;
     int x0, y0, x1, y1; /* the region rendered, in frame pixels */
     int tiles_x, tiles_y;
@@ -48,6 +50,7 @@ typedef struct worker {
     double cpu; /* CPU seconds of this thread in worker_main */
     lr__sample_counts counts;
     uint64_t samples, dropped, lens_pixels, chroma_pixels;
+    uint64_t light_landed;
     lr__block_scratch scratch;
 } worker;
 
@@ -143,6 +146,24 @@ static void *worker_main(void *arg)
                               (uint64_t)(j->y1 - j->y0));
         pthread_mutex_unlock(&j->progress_lock);
     }
+    /* The light side, once every camera tile is taken: units of light
+     * paths, in any order (their splats add as integers). */
+    const lr__lt *lt = j->plan.lt;
+    uint64_t n_light = lt != NULL ? lr__lt_units(lt) : 0;
+    for (;;) {
+        if (set->cancel != NULL &&
+            __atomic_load_n(set->cancel, __ATOMIC_RELAXED)) {
+            atomic_store(&j->cancelled, 1);
+            break;
+        }
+        if (atomic_load(&j->cancelled))
+            break;
+        uint64_t u = atomic_fetch_add(&j->next_light, 1);
+        if (u >= n_light)
+            break;
+        lr__lt_unit(lt, j->shot.scene, &j->cam, u, &j->light,
+                    &w->counts.rays, &w->light_landed);
+    }
     _mm_setcsr(csr);
     w->cpu = thread_cpu_seconds() - cpu0;
     return NULL;
@@ -212,6 +233,16 @@ lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
         lr_image_free(img);
         return st;
     }
+    if (j.plan.lt != NULL) {
+        st = lr__lt_film_init(&j.light, j.plan.lt, j.x0, j.y0, j.x1, j.y1,
+                              err);
+        if (st != LR_OK) {
+            lr__plan_free(&j.plan);
+            lr_image_free(img);
+            return st;
+        }
+    }
+    atomic_init(&j.next_light, 0);
     lr__sampler_init(&j.sampler, set->sampler, set->seed, set->spp);
     j.shot = (lr__shot){.scene = scene,
                         .cam = &j.cam,
@@ -219,7 +250,8 @@ lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
                         .integrator = lr__integrator_for(set->integrator),
                         .width = set->width,
                         .max_depth = set->max_depth,
-                        .no_squares = !set->adaptive};
+                        .no_squares = !set->adaptive,
+                        .lt = j.plan.lt != NULL ? j.plan.lt->direct : NULL};
     lr__shot_init(&j.shot);
     j.tiles_x = (j.x1 - j.x0 + set->tile_size - 1) / set->tile_size;
     j.tiles_y = (j.y1 - j.y0 + set->tile_size - 1) / set->tile_size;
@@ -251,6 +283,7 @@ lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
         free(tids);
         lr__splat_free(j.splat);
         lr_image_free(img);
+        lr__lt_film_free(&j.light);
         lr__plan_free(&j.plan);
         pthread_mutex_destroy(&j.progress_lock);
         return st != LR_OK ? st
@@ -288,6 +321,7 @@ lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
         sum.samples += ws[i].samples;
         sum.cpu_seconds += ws[i].cpu;
         sum.nan_samples += ws[i].dropped;
+        sum.light_landed += ws[i].light_landed;
     }
     free(ws);
     free(tids);
@@ -303,6 +337,13 @@ lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
     }
     sum.full_samples = sum.pixels * (uint64_t)set->spp;
     sum.full_camera_rays = sum.full_samples * lr__colour_rays(&j.cam);
+    if (j.plan.lt != NULL) {
+        sum.light_lights = (uint64_t)j.plan.lt->n;
+        sum.light_paths = j.plan.lt->paths;
+        if (!atomic_load(&j.cancelled))
+            lr__lt_film_resolve(&j.light, img->rgb);
+        lr__lt_film_free(&j.light);
+    }
     lr__plan_free(&j.plan);
     sum.seconds = now_seconds() - t0;
     /* The statistics say what was done even when the render was

@@ -26,7 +26,7 @@ static void colour_sample(const lr__shot *sh, const lr__pixel_sampler *ps,
     const lr__cam *c = sh->cam;
     const lr__integrator *in = sh->integrator;
     if (c->chroma.mode == LR_CHROMATIC_RGB) {
-        const lr__sample_id id = {sh->sampler, pixel, s};
+        const lr__sample_id id = {sh->sampler, pixel, s, sh->lt};
         lr__v3 org, dir;
         cnt->camera_rays += 3;
         /* The paper: each channel traced with its own focus, through the
@@ -100,7 +100,7 @@ static void packet_samples(const lr__shot *sh, int use_lens, int x, int y,
         lr__sample_id id[PACKETS_AHEAD];
         for (int p = 0; p < n_packets; p++) {
             int s0 = b0 + 16 * p;
-            id[p] = (lr__sample_id){sh->sampler, pixel, (uint32_t)s0};
+            id[p] = (lr__sample_id){sh->sampler, pixel, (uint32_t)s0, sh->lt};
             cnt->camera_rays += (uint64_t)ns[p];
         }
         if (sh->integrator->radiance16_n != NULL) {

@@ -31,6 +31,8 @@ typedef struct lr__shot {
     /* Spectral mode: where wavelengths are drawn, their weights and the
      * camera's focus power (lr__cam_power_at) at each (wavelength.h). */
     lr__wl_table wl;
+    /* The light side's geometry (lr__sample_id.lt); NULL: none. */
+    const unsigned char *lt;
 } lr__shot;
 
 /* Prepares `sh` (wl) for the other fields the caller has set. */

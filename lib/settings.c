@@ -23,6 +23,7 @@ void lr_render_settings_default(lr_render_settings *s)
     /* 0: derived from spp (adaptive.c). */
     s->adaptive_threshold = 0.0;
     s->adaptive_min_spp = 0;
+    s->light = 1;
 }
 
 lr_status lr_render_settings_validate(const lr_render_settings *s,

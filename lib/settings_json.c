@@ -17,7 +17,7 @@ lr_status lr__settings_from_json(const cJSON *r, lr_render_settings *rs,
                                        "sampler",   "seed",    "max_depth",
                                        "threads",   "tile_size", "depth",
                                        "region",    "plan",    "adaptive",
-                                       "integrator", NULL};
+                                       "integrator", "light", NULL};
     if (r == NULL)
         return LR_OK;
     LR_TRY(lr__json_object(r, "render", "", err));
@@ -37,6 +37,7 @@ lr_status lr__settings_from_json(const cJSON *r, lr_render_settings *rs,
     LR_TRY(lr__json_int(r, "seed", "render", 0, 0, (1LL << 53), &seed, err));
     LR_TRY(lr__json_bool(r, "depth", "render", 0, &rs->want_depth, err));
     LR_TRY(lr__json_bool(r, "plan", "render", 0, &rs->plan, err));
+    LR_TRY(lr__json_bool(r, "light", "render", 0, &rs->light, err));
     const cJSON *ad = cJSON_GetObjectItemCaseSensitive(r, "adaptive");
     if (ad != NULL && cJSON_IsBool(ad)) {
         rs->adaptive = cJSON_IsTrue(ad);

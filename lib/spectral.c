@@ -90,7 +90,7 @@ void lr__spectral_sample(const lr__shot *sh, const lr__pixel_sampler *ps,
     /* Steps 1 and 2 (a real lens's rays are not traced in packets). */
     const lr__cam *c = sh->cam;
     const lr__integrator *in = sh->integrator;
-    const lr__sample_id id = {sh->sampler, ps->pixel, s};
+    const lr__sample_id id = {sh->sampler, ps->pixel, s, sh->lt};
     lr__v3 org, dir;
     int m = c->chroma.wavelengths;
     cnt->camera_rays += (uint64_t)m + 1;
@@ -143,7 +143,7 @@ void lr__spectral_packets(const lr__shot *sh, int x, int y, int first,
         lr__packet_coords(&ps, x, y, (uint32_t)s0, n, fx, fy, lu, lv);
         for (int i = 0; i < n; i++)
             u4[i] = lr__pixel_sampler_dim4(&ps, (uint32_t)(s0 + i));
-        const lr__sample_id id = {sh->sampler, pixel, (uint32_t)s0};
+        const lr__sample_id id = {sh->sampler, pixel, (uint32_t)s0, sh->lt};
         lr__v3 sum[16], L[16];
         if (s0 == first) {
             c->model->rays16(c, 1, n, fx, fy, lu, lv, &rh, lw);

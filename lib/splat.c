@@ -417,7 +417,7 @@ static void phase_a(lr__splat *sp, int g, int r0, int r1,
             c->model->rays16(c, 1, n, fx, fy, lu, lv, &rh, wt);
             lr__v3 L[16];
             uint64_t id = origin_id(sp, x, y);
-            const lr__sample_id sid = {sh->sampler, id, (uint32_t)s0};
+            const lr__sample_id sid = {sh->sampler, id, (uint32_t)s0, sh->lt};
             sh->integrator->radiance16(sh->scene, sh->max_depth, &rh, n, &sid,
                                        L, &cnt->rays);
             cnt->camera_rays += (uint64_t)n;

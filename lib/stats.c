@@ -66,12 +66,17 @@ char *lr_render_stats_json(const lr_render_stats *st,
     put(&b,
         "\"lens_pixels\": %.4f, \"chroma_pixels\": %.4f, \"samples\": %llu, "
         "\"full_samples\": %llu, \"camera_rays\": %llu, "
-        "\"full_camera_rays\": %llu, \"lens_blocked\": %llu}}",
+        "\"full_camera_rays\": %llu, \"lens_blocked\": %llu, "
+        "\"light_lights\": %llu, \"light_paths\": %llu, "
+        "\"light_landed\": %llu}}",
         (double)st->lens_pixels / px, (double)st->chroma_pixels / px,
         (unsigned long long)st->samples,
         (unsigned long long)st->full_samples,
         (unsigned long long)st->camera_rays,
         (unsigned long long)st->full_camera_rays,
-        (unsigned long long)st->lens_blocked);
+        (unsigned long long)st->lens_blocked,
+        (unsigned long long)st->light_lights,
+        (unsigned long long)st->light_paths,
+        (unsigned long long)st->light_landed);
     return b.used < sizeof b.buf ? strdup(b.buf) : NULL;
 }

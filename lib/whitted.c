@@ -54,7 +54,8 @@ static lr__v3 direct(const lr_scene *s, const lr__material *m,
 }
 
 static lr__v3 radiance(const lr_scene *s, lr__v3 org, lr__v3 dir, int depth,
-                       int max_depth, double throughput, uint64_t *rays);
+                       int max_depth, double throughput,
+                       const unsigned char *lt, uint64_t *rays);
 
 lr__v3 lr__whitted_secondary(const lr_scene *s, const lr__material *m,
                              const lr__hit *h, lr__v3 dir, int depth,
@@ -91,20 +92,23 @@ lr__v3 lr__whitted_secondary(const lr_scene *s, const lr__material *m,
         if (v3_dot(r, h->ng) <= 0.0)
             r = lr__whitted_mirror(dir, h->ng);
         lr__v3 Li = radiance(s, lr__offset_origin(h, r), r, depth + 1,
-                             max_depth, t_refl, rays);
+                             max_depth, t_refl, NULL, rays);
         L = v3_add(L, v3_mul(w_refl, Li));
     }
     double t_refr = throughput * v3_maxc(w_refr);
     if (t_refr >= LR__MIN_THROUGHPUT) {
         lr__v3 Li = radiance(s, lr__offset_origin(h, t_dir), t_dir,
-                             depth + 1, max_depth, t_refr, rays);
+                             depth + 1, max_depth, t_refr, NULL, rays);
         L = v3_add(L, v3_mul(w_refr, Li));
     }
     return L;
 }
 
+/* lt: the camera ray's light-side geometry (lr__sample_id), NULL past
+ * the first hit. */
 static lr__v3 radiance(const lr_scene *s, lr__v3 org, lr__v3 dir, int depth,
-                       int max_depth, double throughput, uint64_t *rays)
+                       int max_depth, double throughput,
+                       const unsigned char *lt, uint64_t *rays)
 {
     lr__hit h;
     (*rays)++;
@@ -112,8 +116,9 @@ static lr__v3 radiance(const lr_scene *s, lr__v3 org, lr__v3 dir, int depth,
         return lr__env_radiance(s, dir);
     lr__material mt;
     const lr__material *m = lr__hit_material(s, &h, &mt);
-    lr__v3 L = v3_add(lr__whitted_emitted(m, &h),
-                      direct(s, m, &h, v3_neg(dir), rays));
+    lr__v3 Le = lr__lt_direct(lt, h.geom) ? v3(0, 0, 0)
+                                           : lr__whitted_emitted(m, &h);
+    lr__v3 L = v3_add(Le, direct(s, m, &h, v3_neg(dir), rays));
     return v3_add(L, lr__whitted_secondary(s, m, &h, dir, depth, max_depth,
                                            throughput, rays));
 }
@@ -121,14 +126,13 @@ static lr__v3 radiance(const lr_scene *s, lr__v3 org, lr__v3 dir, int depth,
 lr__v3 lr__radiance(const lr_scene *s, lr__v3 org, lr__v3 dir, int depth,
                     int max_depth, uint64_t *rays)
 {
-    return radiance(s, org, dir, depth, max_depth, 1.0, rays);
+    return radiance(s, org, dir, depth, max_depth, 1.0, NULL, rays);
 }
 
 static lr__v3 radiance1(const lr_scene *s, int max_depth, lr__v3 org,
                         lr__v3 dir, const lr__sample_id *id, uint64_t *rays)
 {
-    (void)id;
-    return lr__radiance(s, org, dir, 0, max_depth, rays);
+    return radiance(s, org, dir, 0, max_depth, 1.0, id->lt, rays);
 }
 
 const lr__integrator lr__whitted = {

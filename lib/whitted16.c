@@ -264,7 +264,8 @@ static inline void vector_gather(const lr_scene *s,
 /* radiance16 for a packet whose camera rays have been traced. */
 static void shade16(const lr_scene *restrict s, int max_depth,
                     struct RTCRayHit16 *restrict rh, int n,
-                    lr__v3 L[restrict 16], uint64_t *restrict rays)
+                    const unsigned char *lt, lr__v3 L[restrict 16],
+                    uint64_t *restrict rays)
 {
     scratch16 *sc = thread_scratch();
     struct RTCRay16 shadow __attribute__((aligned(64)));
@@ -310,7 +311,9 @@ static void shade16(const lr_scene *restrict s, int max_depth,
                                       rh->hit.v[i], rh->ray.tfar[i], &hit[i]);
         if (has_hit[i])
             m[i] = lr__hit_material(s, &hit[i], &mt[i]);
-        L[i] = has_hit[i] ? v3_add(lr__whitted_emitted(m[i], &hit[i]),
+        L[i] = has_hit[i] ? v3_add(lr__lt_direct(lt, hit[i].geom)
+                                       ? v3(0, 0, 0)
+                                       : lr__whitted_emitted(m[i], &hit[i]),
                                    lr__whitted_ambient(s, m[i]))
                           : lr__env_radiance(s, v3_norm(dir[i]));
     }
@@ -396,9 +399,9 @@ void lr__whitted_radiance16(const lr_scene *s, int max_depth,
                             const lr__sample_id *id, lr__v3 L[16],
                             uint64_t *rays)
 {
-    (void)id; /* Whitted's rays make no random decisions. */
+    /* Whitted's rays make no random decisions: of id it reads lt. */
     lr__intersect16(s, rh, n, rays);
-    shade16(s, max_depth, rh, n, L, rays);
+    shade16(s, max_depth, rh, n, id->lt, L, rays);
 }
 
 /* Which of a packet's n lanes hit something: bit i for lane i.  The
@@ -541,7 +544,7 @@ void lr__whitted_radiance16_n(const lr_scene *s, int max_depth,
             continue;
         }
         lr__v3 Lp[16];
-        shade16(s, max_depth, &rh[p], n[p], Lp, rays);
+        shade16(s, max_depth, &rh[p], n[p], id[p].lt, Lp, rays);
         /* Lanes past n[p] hold 0: the film's test reads all sixteen. */
         for (int i = 0; i < 16; i++) {
             L[p][0][i] = i < n[p] ? Lp[i].x : 0.0;

@@ -92,20 +92,26 @@ static double image_mean(const lr_image *img)
     return sum / (double)n;
 }
 
-/* The defaults' mean against the full simulation's at `spp`. */
-static double default_over_full(const char *scene, int spp, const char *what)
+/* The defaults' mean against the full simulation's at `spp`, both with
+ * render.light = `light` (off: the adaptive rule alone must keep the
+ * light the camera finds; on: lights the plan traces from the light
+ * side leave the camera). */
+static double default_over_full(const char *scene, int spp, int light,
+                                const char *what)
 {
     char s[64];
     snprintf(s, sizeof s, "render.spp=%d", spp);
-    const char *def_sets[] = {s};
-    const char *full_sets[] = {s, "render.plan=false", "render.adaptive=false"};
+    const char *l = light ? "render.light=true" : "render.light=false";
+    const char *def_sets[] = {s, l};
+    const char *full_sets[] = {s, l, "render.plan=false",
+                               "render.adaptive=false"};
     lr_render_stats sd;
-    lr_image *def = lr_test_render(scene, def_sets, 1, &sd);
-    lr_image *full = lr_test_render(scene, full_sets, 3, NULL);
+    lr_image *def = lr_test_render(scene, def_sets, 2, &sd);
+    lr_image *full = lr_test_render(scene, full_sets, 4, NULL);
     double md = image_mean(def), mf = image_mean(full);
-    print_message("%s at %d spp: mean %.6g, full simulation %.6g (%.4f); "
-                  "%.1f%% of the full samples\n",
-                  what, spp, md, mf, md / mf,
+    print_message("%s, light side %s, at %d spp: mean %.6g, full "
+                  "simulation %.6g (%.4f); %.1f%% of the full samples\n",
+                  what, light ? "on" : "off", spp, md, mf, md / mf,
                   100.0 * (double)sd.samples / (double)sd.full_samples);
     lr_image_free(def);
     lr_image_free(full);
@@ -116,13 +122,14 @@ static double default_over_full(const char *scene, int spp, const char *what)
 static void keeps_light(const char *scene, const char *what)
 {
     static const int spps[] = {64, 256, 1024};
-    for (size_t k = 0; k < sizeof spps / sizeof *spps; k++) {
-        double r = default_over_full(scene, spps[k], what);
-        if (!(fabs(r - 1.0) <= 0.01))
-            fail_msg("%s at %d spp: the defaults' mean is %.4f of the full "
-                     "simulation's (rare light lost or added)",
-                     what, spps[k], r);
-    }
+    for (int light = 0; light < 2; light++)
+        for (size_t k = 0; k < sizeof spps / sizeof *spps; k++) {
+            double r = default_over_full(scene, spps[k], light, what);
+            if (!(fabs(r - 1.0) <= 0.01))
+                fail_msg("%s at %d spp: the defaults' mean is %.4f of the "
+                         "full simulation's (rare light lost or added)",
+                         what, spps[k], r);
+        }
 }
 
 static void test_night_lights_keep_their_light(void **state)
@@ -198,6 +205,9 @@ static void check_cover(const char *scene, double floor, double most,
     rs.spp = 4096;
     rs.plan = 0;
     rs.adaptive = 0;
+    /* Every light the camera's (a light of the light side is no source
+     * of rare light: test_light_side_lights_are_not_rare). */
+    rs.light = 0;
     lr_image *full = lr_test_render_with(s, &cam, &rs, what);
     rs.adaptive = 1; /* the rare-light bound is made for adaptive sampling */
     lr__cam c;
@@ -245,6 +255,44 @@ static void test_unseen_covers_the_light(void **state)
     char scene[8192];
     sun_scene(scene, sizeof scene);
     check_cover(scene, 0.01 + 1e-6, 0.7, "environment sun");
+}
+
+/* A light traced from the light side sends nothing straight into the
+ * camera's rays, so it is no source of rare light for them: the night
+ * lights' pixels are left to the rule that reads the pilot. */
+static void test_light_side_lights_are_not_rare(void **state)
+{
+    (void)state;
+    lr_scene *s = lr_test_load(night_scene, NULL, 0);
+    lr_camera cam;
+    lr_render_settings rs;
+    lr_scene_camera(s, &cam);
+    lr_scene_settings(s, &rs);
+    rs.spp = 256;
+    lr__cam c;
+    lr__cam_init(&c, &cam, rs.width, rs.height);
+    lr_error err;
+    for (int light = 0; light < 2; light++) {
+        rs.light = light;
+        lr__plan p;
+        assert_int_equal(lr__plan_build(&p, s, &c, &rs, 0, 0, rs.width,
+                                        rs.height, &err),
+                         LR_OK);
+        int bounded = 0;
+        for (int y = 0; y < rs.height; y++)
+            for (int x = 0; x < rs.width; x++)
+                bounded += lr__plan_unseen(&p, x, y) > 0.0;
+        if (light) {
+            assert_non_null(p.lt);
+            assert_int_equal(p.lt->n, 7);
+            assert_int_equal(bounded, 0);
+        } else {
+            assert_null(p.lt);
+            assert_true(bounded > 300);
+        }
+        lr__plan_free(&p);
+    }
+    lr_scene_free(s);
 }
 
 /* No emitter, no bound: such scenes are judged exactly as before. */
@@ -309,6 +357,7 @@ static const struct CMUnitTest rare_tests[] = {
     cmocka_unit_test(test_sparkles_keep_their_light),
     cmocka_unit_test(test_env_sun_keeps_its_light),
     cmocka_unit_test(test_unseen_covers_the_light),
+    cmocka_unit_test(test_light_side_lights_are_not_rare),
     cmocka_unit_test(test_no_emitter_no_bound),
     cmocka_unit_test(test_rare_samples_needed),
 };

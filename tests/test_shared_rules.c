@@ -155,7 +155,8 @@ static void test_stats_json(void **state)
         "\"nan_samples\": 0", ", \"plan\": {\"enabled\": true",
         "\"lens_pixels\": 0.2500", "\"full_samples\": 1600",
         "\"camera_rays\": 450", "\"full_camera_rays\": 1600",
-        "\"lens_blocked\": 0}}"};
+        "\"lens_blocked\": 0", "\"light_paths\": 0",
+        "\"light_landed\": 0}}"};
     for (size_t i = 0; i < sizeof want / sizeof want[0]; i++)
         if (strstr(j, want[i]) == NULL)
             fail_msg("%s lacks %s", j, want[i]);

@@ -116,6 +116,7 @@ class lr_render_settings(Structure):
         ("progress_user", c_void_p),
         ("cancel", POINTER(c_int)),
         ("integrator", c_int),
+        ("light", c_int),
     ]
 
 
@@ -134,6 +135,9 @@ class lr_render_stats(Structure):
         ("full_camera_rays", c_uint64),
         ("full_samples", c_uint64),
         ("lens_blocked", c_uint64),
+        ("light_lights", c_uint64),
+        ("light_paths", c_uint64),
+        ("light_landed", c_uint64),
     ]
 
 

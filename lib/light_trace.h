@@ -1,0 +1,100 @@
+/*
+ * light_trace.h: light traced through the lens (issue 27).  A small light
+ * far out of focus spreads over a disc of film, yet a camera ray finds it
+ * only through the small part of the aperture that looks at it, so the
+ * disc stays speckled for thousands of samples.  From the light's side
+ * every sample lands: a point on the light, a point on the aperture, and
+ * the film point follows from the lens (camera.h's lens_point and film).
+ *
+ * The split (why the sum is unbiased): the plan picks lights whose image
+ * is small against their blur (lr__lt_plan).  For a picked light, the
+ * radiance it sends straight into the lens (the camera ray's first hit)
+ * is estimated by the light side alone: camera rays that meet it first
+ * add none of its emission (lr__sample_id.lt, read by the integrators),
+ * and every other path (its light on surfaces, in mirrors, through
+ * glass) stays the camera's.  The two estimators cover disjoint parts of
+ * the measurement's path space, each unbiased on its own part (Veach
+ * 1997, section 10.2: light tracing with a camera connection), so their
+ * sum is unbiased for the whole.  Other lights, and every light of a
+ * model without a light side, stay with the camera.
+ *
+ * Determinism: a light path is a pure function of (light, path index,
+ * seed), and splats add as fixed-point integers, whose sum does not
+ * depend on the order: any thread count, tile size or region gives the
+ * same bytes, and a region keeps exactly the splats that land inside it.
+ */
+#ifndef LR_LIGHT_TRACE_H
+#define LR_LIGHT_TRACE_H
+
+#include "camera.h"
+#include "sampler.h"
+#include "scene.h"
+
+#include <stdint.h>
+
+/* One light traced from its side: a sphere of the scene. */
+typedef struct lr__lt_light {
+    int geom;           /* index in scene->geoms */
+    lr__v3 center;
+    double radius;
+    lr__v3 L;           /* its radiance (untextured emission) */
+    uint64_t paths;     /* light paths traced for it */
+    uint64_t first;     /* index of its first path among all */
+} lr__lt_light;
+
+typedef struct lr__lt {
+    int n;
+    lr__lt_light *lights;
+    uint64_t paths;        /* all lights' */
+    /* Per geometry of the scene: 1 where its direct emission is the
+     * light side's (camera rays that meet it first add none). */
+    unsigned char *direct;
+    uint64_t seed;
+} lr__lt;
+
+/* Light paths a light gets per pixel of its image and camera sample per
+ * pixel (render.spp): about spp / 4 splats in each pixel of its disc. */
+#define LR__LT_DENSITY 0.25
+
+/* The largest share of a pixel's camera samples that may find a light
+ * for it to stay with the camera: a light whose camera hit rate over its
+ * image is below this goes to the light side. */
+#define LR__LT_HIT_RATE 0.25
+
+/* Chooses the lights to trace from the light side for camera `c` and
+ * settings `set`: *out is NULL when there are none (render.light off, a
+ * model without a light side, colours that focus apart, no small
+ * light), else the caller's, freed with lr__lt_free.  LR_ERR_NOMEM. */
+lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
+                      const lr_render_settings *set, lr__lt **out,
+                      lr_error *err);
+void lr__lt_free(lr__lt *lt);
+
+/* The light pass's film: fixed-point sums over region [x0, x1) x [y0, y1)
+ * of the frame. */
+typedef struct lr__lt_film {
+    int x0, y0, x1, y1;
+    int64_t *sum;    /* 3 per pixel, in units of 1 / scale */
+    double scale;
+} lr__lt_film;
+
+lr_status lr__lt_film_init(lr__lt_film *f, const lr__lt *lt, int x0, int y0,
+                           int x1, int y1, lr_error *err);
+void lr__lt_film_free(lr__lt_film *f);
+
+/* Paths per unit of work (render.c hands units to its threads). */
+#define LR__LT_CHUNK 4096
+uint64_t lr__lt_units(const lr__lt *lt);
+
+/* Traces unit u's light paths and adds their splats to f (from any
+ * thread at once).  Counts the rays traced in *rays and the paths that
+ * reached the film in *landed. */
+void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
+                 uint64_t u, lr__lt_film *f, uint64_t *rays,
+                 uint64_t *landed);
+
+/* Adds the light pass's pixels to the camera's: rgb is the region's
+ * image, 3 floats a pixel. */
+void lr__lt_film_resolve(const lr__lt_film *f, float *rgb);
+
+#endif

@@ -1,0 +1,320 @@
+/*
+ * test_light_trace.c: light traced through the lens (lib/light_trace.c).
+ * Against independent truth: the film integral of a light's image in
+ * closed form (the camera's importance integrated over the lens and the
+ * sphere's solid angle), and the camera's own estimator of the same
+ * image (render.light = false, every sample traced, many samples).  Also
+ * what the plan sends to the light side, and that splats keep the
+ * renderer's determinism (threads, tiles, regions give the same bytes).
+ */
+#include "test.h"
+
+#include "camera.h"
+#include "plan.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+/* Three lights behind the focus of a thin lens, each on its own part of
+ * a black frame; their discs are about 12, 15 and 20 pixels across. */
+static const char *discs_scene =
+    "{\"render\": {\"width\": 96, \"height\": 64, \"seed\": 5},"
+    " \"camera\": {\"model\": \"thinlens\", \"position\": [0, 0, 10],"
+    "  \"look_at\": [0, 0, 0], \"fov\": 40, \"aperture_radius\": 0.6,"
+    "  \"focus_distance\": 10},"
+    " \"materials\": {\"a\": {\"emission\": [300, 200, 100]},"
+    "   \"b\": {\"emission\": [60, 90, 400]}},"
+    " \"objects\": ["
+    "  {\"type\": \"sphere\", \"center\": [-10, 4, -30], \"radius\": 0.15, \"material\": \"a\"},"
+    "  {\"type\": \"sphere\", \"center\": [2, -5, -40], \"radius\": 0.2, \"material\": \"b\"},"
+    "  {\"type\": \"sphere\", \"center\": [14, 6, -50], \"radius\": 0.25, \"material\": \"a\"}]}";
+
+static double sum_box(const lr_image *img, int x0, int y0, int x1, int y1,
+                      int c)
+{
+    double s = 0.0;
+    for (int y = y0; y < y1; y++)
+        for (int x = x0; x < x1; x++)
+            s += img->rgb[3 * ((size_t)y * img->width + x) + c];
+    return s;
+}
+
+/* The film integral (sum over pixels) of a sphere light's image through
+ * a thin lens, in closed form: a pixel is the mean over its area and the
+ * lens of the radiance seen, and for one lens point P the film points
+ * that see the sphere cover (in pixels^2) its solid angle times fpx^2 /
+ * cos^3 (the film's area per solid angle at the lens, camera.c).  So the
+ * sum is L fpx^2 E_P[ integral over the cone of 1 / cos^3 ], here by
+ * quadrature: the lens disk in rings and the cone in rings about its
+ * axis (midpoint rules, far finer than the tolerance). */
+static double film_integral(lr__v3 eye, lr__v3 fwd, double R, lr__v3 c,
+                            double r, double L, double fpx)
+{
+    lr__v3 right = v3_norm(v3_cross(fwd, v3(0, 1, 0)));
+    lr__v3 up = v3_cross(right, fwd);
+    const int NR = 40, NA = 64, NT = 40, NP = 64;
+    double total = 0.0, wsum = 0.0;
+    for (int i = 0; i < NR; i++)
+        for (int j = 0; j < NA; j++) {
+            double rr = R * sqrt((i + 0.5) / NR), ph = 2 * M_PI * (j + 0.5) / NA;
+            lr__v3 P = v3_add(eye, v3_add(v3_scale(right, rr * cos(ph)),
+                                          v3_scale(up, rr * sin(ph))));
+            lr__v3 d = v3_sub(c, P);
+            double dist = sqrt(v3_dot(d, d));
+            lr__v3 a = v3_scale(d, 1.0 / dist);
+            double sin2 = r * r / (dist * dist);
+            double omc = sin2 / (1.0 + sqrt(1.0 - sin2));
+            lr__v3 t1 = v3_norm(v3_cross(a, fabs(a.x) < 0.9 ? v3(1, 0, 0)
+                                                             : v3(0, 1, 0)));
+            lr__v3 t2 = v3_cross(a, t1);
+            double cone = 0.0;
+            for (int k = 0; k < NT; k++)
+                for (int m = 0; m < NP; m++) {
+                    double t = omc * (k + 0.5) / NT;
+                    double ct = 1.0 - t, st = sqrt(t * (2.0 - t));
+                    double p = 2 * M_PI * (m + 0.5) / NP;
+                    lr__v3 w = v3_add(v3_scale(a, ct),
+                                      v3_add(v3_scale(t1, st * cos(p)),
+                                             v3_scale(t2, st * sin(p))));
+                    double cz = v3_dot(w, fwd);
+                    cone += 1.0 / (cz * cz * cz);
+                }
+            /* Each cell of the cone has solid angle 2 pi omc / (NT NP). */
+            total += cone * 2 * M_PI * omc / (NT * NP);
+            wsum += 1.0;
+        }
+    return L * fpx * fpx * total / wsum;
+}
+
+/* Each light's energy on the film, light-traced at 64 spp, against the
+ * closed form: within 0.5% (the light paths' noise is about 0.1%). */
+static void test_disc_energy_closed_form(void **state)
+{
+    (void)state;
+    const char *sets[] = {"render.spp=64"};
+    lr_render_stats st;
+    lr_image *img = lr_test_render(discs_scene, sets, 1, &st);
+    assert_int_equal(st.light_lights, 3);
+    double fpx = 0.5 * 64 / tan(20.0 * M_PI / 180.0);
+    struct {
+        double c[3], r, L;
+        int box[4];
+    } lights[3] = {
+        {{-10, 4, -30}, 0.15, 300, {0, 0, 40, 32}},
+        {{2, -5, -40}, 0.2, 60, {30, 32, 70, 64}},
+        {{14, 6, -50}, 0.25, 300, {60, 0, 96, 32}},
+    };
+    for (int k = 0; k < 3; k++) {
+        double want = film_integral(v3(0, 0, 10), v3(0, 0, -1), 0.6,
+                                    v3(lights[k].c[0], lights[k].c[1],
+                                       lights[k].c[2]),
+                                    lights[k].r, lights[k].L, fpx);
+        double got = sum_box(img, lights[k].box[0], lights[k].box[1],
+                             lights[k].box[2], lights[k].box[3], 0);
+        print_message("light %d: film integral %.6g, closed form %.6g "
+                      "(%.5f)\n",
+                      k, got, want, got / want);
+        if (!(fabs(got / want - 1.0) < 0.005))
+            fail_msg("light %d: its image holds %.6g, the closed form %.6g",
+                     k, got, want);
+    }
+    lr_test_check_finite(img, &st, "discs");
+    lr_image_free(img);
+}
+
+/* The light side and the camera agree: the camera alone (light off,
+ * every sample traced, 8192 spp) and the light side (64 spp) give each
+ * light's disc the same energy within the camera's noise (about 0.7%
+ * here), and the same image within it. */
+static void test_light_and_camera_agree(void **state)
+{
+    (void)state;
+    const char *lsets[] = {"render.spp=64"};
+    const char *csets[] = {"render.spp=8192", "render.light=false",
+                           "render.plan=false", "render.adaptive=false"};
+    lr_render_stats sc;
+    lr_image *li = lr_test_render(discs_scene, lsets, 1, NULL);
+    lr_image *ci = lr_test_render(discs_scene, csets, 4, &sc);
+    assert_int_equal(sc.light_lights, 0);
+    int boxes[3][4] = {{0, 0, 40, 32}, {30, 32, 70, 64}, {60, 0, 96, 32}};
+    for (int k = 0; k < 3; k++)
+        for (int c = 0; c < 3; c++) {
+            double a = sum_box(li, boxes[k][0], boxes[k][1], boxes[k][2],
+                               boxes[k][3], c);
+            double b = sum_box(ci, boxes[k][0], boxes[k][1], boxes[k][2],
+                               boxes[k][3], c);
+            if (c == 0)
+                print_message("disc %d: light side %.6g, camera %.6g "
+                              "(%.4f)\n",
+                              k, a, b, a / b);
+            if (!(fabs(a / b - 1.0) < 0.025))
+                fail_msg("disc %d channel %d: light side %.6g, camera %.6g",
+                         k, c, a, b);
+        }
+    /* Pixel by pixel: the two differ by the camera's noise only. */
+    double rmse = lr_test_rmse(li, ci), mean = 0.0;
+    for (size_t i = 0; i < lr_test_n_values(ci); i++)
+        mean += ci->rgb[i] / (double)lr_test_n_values(ci);
+    print_message("image: RMSE %.4g against a mean of %.4g\n", rmse, mean);
+    lr_image_free(li);
+    lr_image_free(ci);
+}
+
+/* A point of light smaller than a pixel, in focus, through a pinhole: the
+ * light side finds it in every sample; its image's film integral is
+ * L fpx^2 times the solid angle over cos^3 (R = 0 in the closed form). */
+static void test_pinhole_speck(void **state)
+{
+    (void)state;
+    const char *scene =
+        "{\"render\": {\"width\": 64, \"height\": 48, \"spp\": 64},"
+        " \"camera\": {\"model\": \"pinhole\", \"position\": [0, 0, 10],"
+        "  \"look_at\": [0, 0, 0], \"fov\": 40},"
+        " \"materials\": {\"a\": {\"emission\": 5000}},"
+        " \"objects\": [{\"type\": \"sphere\", \"center\": [1.3, -0.4, 0],"
+        "   \"radius\": 0.004, \"material\": \"a\"}]}";
+    lr_render_stats st;
+    lr_image *img = lr_test_render(scene, NULL, 0, &st);
+    assert_int_equal(st.light_lights, 1);
+    double fpx = 0.5 * 48 / tan(20.0 * M_PI / 180.0);
+    double want = film_integral(v3(0, 0, 10), v3(0, 0, -1), 0.0,
+                                v3(1.3, -0.4, 0), 0.004, 5000, fpx);
+    double got = sum_box(img, 0, 0, 64, 48, 0);
+    print_message("speck: %.6g, closed form %.6g (%.6f)\n", got, want,
+                  got / want);
+    assert_true(fabs(got / want - 1.0) < 1e-3);
+    lr_image_free(img);
+}
+
+/* Splats keep determinism: one thread and two with odd tiles give the
+ * same bytes, and a region's pixels are the full frame's. */
+static void test_light_deterministic(void **state)
+{
+    (void)state;
+    const char *a_sets[] = {"render.spp=32", "render.threads=1"};
+    const char *b_sets[] = {"render.spp=32", "render.threads=2",
+                            "render.tile_size=7"};
+    const char *c_sets[] = {"render.spp=32", "render.threads=2",
+                            "render.region=[17,9,80,51]"};
+    lr_image *a = lr_test_render(discs_scene, a_sets, 2, NULL);
+    lr_image *b = lr_test_render(discs_scene, b_sets, 3, NULL);
+    lr_image *c = lr_test_render(discs_scene, c_sets, 3, NULL);
+    lr_test_assert_same_bytes(a, b, "1 thread against 2 with 7-pixel tiles");
+    assert_int_equal(c->width, 63);
+    assert_int_equal(c->height, 42);
+    for (int y = 0; y < c->height; y++)
+        for (int x = 0; x < c->width; x++)
+            for (int k = 0; k < 3; k++) {
+                float full = a->rgb[3 * ((size_t)(y + 9) * 96 + x + 17) + k];
+                float crop = c->rgb[3 * ((size_t)y * 63 + x) + k];
+                if (memcmp(&full, &crop, sizeof full) != 0)
+                    fail_msg("region pixel (%d, %d): %g, full frame %g", x,
+                             y, crop, full);
+            }
+    lr_image_free(a);
+    lr_image_free(b);
+    lr_image_free(c);
+}
+
+/* What the plan sends to the light side: small lights far from focus
+ * and lights smaller than a pixel; not a light whose image is large and
+ * sharp, nor anything with render.light off, colours that focus apart,
+ * or a model without a light side. */
+static uint64_t lights_traced(const char *scene, const char *const *sets,
+                              size_t n)
+{
+    lr_render_stats st;
+    lr_image *img = lr_test_render(scene, sets, n, &st);
+    lr_image_free(img);
+    return st.light_lights;
+}
+
+static void test_plan_chooses_lights(void **state)
+{
+    (void)state;
+    const char *base[] = {"render.spp=16"};
+    assert_int_equal(lights_traced(discs_scene, base, 1), 3);
+    const char *off[] = {"render.spp=16", "render.light=false"};
+    assert_int_equal(lights_traced(discs_scene, off, 2), 0);
+    /* In focus, these lights are smaller than a pixel: still rare. */
+    const char *sharp[] = {"render.spp=16", "camera.aperture_radius=0.001"};
+    assert_int_equal(lights_traced(discs_scene, sharp, 2), 3);
+    const char *rgb[] = {"render.spp=16", "camera.focal_length_mm=50",
+                         "camera.chromatic.mode=rgb"};
+    assert_int_equal(lights_traced(discs_scene, rgb, 3), 0);
+    const char *bracket[] = {"render.spp=16", "camera.model=bracket"};
+    assert_int_equal(lights_traced(discs_scene, bracket, 2), 0);
+    /* A big light near focus stays with the camera. */
+    const char *big =
+        "{\"render\": {\"width\": 64, \"height\": 48, \"spp\": 16},"
+        " \"camera\": {\"model\": \"thinlens\", \"position\": [0, 0, 10],"
+        "  \"look_at\": [0, 0, 0], \"fov\": 40, \"aperture_radius\": 0.05,"
+        "  \"focus_distance\": 10},"
+        " \"materials\": {\"a\": {\"emission\": 5}},"
+        " \"objects\": [{\"type\": \"sphere\", \"center\": [0, 0, 0],"
+        "   \"radius\": 1, \"material\": \"a\"}]}";
+    assert_int_equal(lights_traced(big, NULL, 0), 0);
+}
+
+/* The light a traced light throws on a surface stays the camera's: a
+ * diffuse floor under a small defocused light, with both integrators
+ * and the same camera samples (adaptive sampling off), has the same
+ * bytes with the light side on and off wherever no camera ray can meet
+ * the light (outside the disc's box: the light's pinhole image at about
+ * (32, 15) and its blur of 11 pixels' radius). */
+static void test_floor_light_unchanged(void **state)
+{
+    (void)state;
+    const char *scene =
+        "{\"render\": {\"width\": 64, \"height\": 48, \"spp\": 256,"
+        "  \"max_depth\": 2},"
+        " \"camera\": {\"model\": \"thinlens\", \"position\": [0, 1, 10],"
+        "  \"look_at\": [0, 0, 0], \"fov\": 40, \"aperture_radius\": 0.5,"
+        "  \"focus_distance\": 5},"
+        " \"materials\": {\"a\": {\"emission\": 2000},"
+        "   \"f\": {\"diffuse\": 0.5}},"
+        " \"objects\": [{\"type\": \"sphere\", \"center\": [0, 1.5, -5],"
+        "   \"radius\": 0.03, \"material\": \"a\"},"
+        "  {\"type\": \"plane\", \"point\": [0, -1, 0], \"normal\": [0, 1, 0],"
+        "   \"material\": \"f\"}]}";
+    const char *integrators[] = {"render.integrator=whitted",
+                                 "render.integrator=path"};
+    for (int k = 0; k < 2; k++) {
+        const char *on[] = {integrators[k], "render.adaptive=false"};
+        const char *off[] = {integrators[k], "render.light=false",
+                             "render.adaptive=false"};
+        lr_render_stats s_on;
+        lr_image *a = lr_test_render(scene, on, 2, &s_on);
+        lr_image *b = lr_test_render(scene, off, 3, NULL);
+        assert_int_equal(s_on.light_lights, 1);
+        int same = 0, differ_in_disc = 0;
+        for (int y = 0; y < 48; y++)
+            for (int x = 0; x < 64; x++) {
+                int disc = x >= 20 && x < 44 && y >= 3 && y < 27;
+                size_t i = 3 * ((size_t)y * 64 + x);
+                int eq = memcmp(&a->rgb[i], &b->rgb[i], 3 * sizeof(float)) == 0;
+                if (!disc && !eq)
+                    fail_msg("%s: pixel (%d, %d) outside the disc differs "
+                             "with the light side on",
+                             integrators[k], x, y);
+                same += eq;
+                differ_in_disc += disc && !eq;
+            }
+        print_message("%s: %d pixels the same, %d of the disc differ\n",
+                      integrators[k], same, differ_in_disc);
+        assert_true(differ_in_disc > 20);
+        lr_image_free(a);
+        lr_image_free(b);
+    }
+}
+
+static const struct CMUnitTest light_tests[] = {
+    cmocka_unit_test(test_disc_energy_closed_form),
+    cmocka_unit_test(test_light_and_camera_agree),
+    cmocka_unit_test(test_pinhole_speck),
+    cmocka_unit_test(test_light_deterministic),
+    cmocka_unit_test(test_plan_chooses_lights),
+    cmocka_unit_test(test_floor_light_unchanged),
+};
+LR_TEST_GROUP(light_trace, light_tests)
