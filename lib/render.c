@@ -99,6 +99,18 @@ static double thread_cpu_seconds(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
+/* Whether the render is cancelled, by the caller's flag (read
+ * atomically, so that a flag set by another thread with
+ * __atomic_store_n, or a plain store from a signal handler, is a
+ * race-free handshake) or already by another worker. */
+static int stopped(render *j)
+{
+    const volatile int *flag = j->set->cancel;
+    if (flag != NULL && __atomic_load_n(flag, __ATOMIC_RELAXED))
+        atomic_store(&j->cancelled, 1);
+    return atomic_load(&j->cancelled);
+}
+
 static void *worker_main(void *arg)
 {
     worker *w = arg;
@@ -112,15 +124,7 @@ static void *worker_main(void *arg)
     int n_tiles = j->splat != NULL ? lr__splat_units(j->splat)
                                    : j->tiles_x * j->tiles_y;
     for (;;) {
-        /* An atomic read, so that a flag set by another thread (with
-         * __atomic_store_n, or a plain store from a signal handler) is
-         * a race-free handshake. */
-        if (set->cancel != NULL &&
-            __atomic_load_n(set->cancel, __ATOMIC_RELAXED)) {
-            atomic_store(&j->cancelled, 1);
-            break;
-        }
-        if (atomic_load(&j->cancelled))
+        if (stopped(j))
             break;
         int t = atomic_fetch_add(&j->next_tile, 1);
         if (t >= n_tiles)
@@ -151,12 +155,7 @@ static void *worker_main(void *arg)
     const lr__lt *lt = j->plan.lt;
     uint64_t n_light = lt != NULL ? lr__lt_units(lt) : 0;
     for (;;) {
-        if (set->cancel != NULL &&
-            __atomic_load_n(set->cancel, __ATOMIC_RELAXED)) {
-            atomic_store(&j->cancelled, 1);
-            break;
-        }
-        if (atomic_load(&j->cancelled))
+        if (stopped(j))
             break;
         uint64_t u = atomic_fetch_add(&j->next_light, 1);
         if (u >= n_light)
