@@ -564,8 +564,8 @@ compare-path: $(BUILD)/lensray
 # defaults, lensray with planning and adaptive sampling off, and Mitsuba 3's
 # `path` and `ptracer`, timed to relMSE 1e-3 against the exact reference
 # that bench/bokeh/reference.py computes (cached in $(BUILD)/bench/bokeh/).
-# Mitsuba goes into $(BUILD)/bench/venv as for `make bench`.  Under 10
-# minutes on 2 cores (the reference once more, the first time), so not
+# Mitsuba goes into $(BUILD)/bench/venv as for `make bench`.  About 5
+# minutes on 2 cores, half of it the reference the first time, so not
 # part of `make bench`.  BOKEH_ARGS go to bench/bokeh/run.py.
 BOKEH_ARGS ?=
 .PHONY: bench-bokeh

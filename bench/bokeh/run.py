@@ -3,8 +3,8 @@
 against the exact reference of bench/bokeh/reference.py.
 
 For each renderer, renders scenes/night.json at spp 16, 64, 256, ... up to
---max-spp (a renderer stops one step after it reaches relMSE --target / 4)
-and measures each image against the reference:
+--max-spp (a renderer stops after its first step at or below relMSE
+--target / 4) and measures each image against the reference:
 
   relMSE     mean over pixels and channels of (x - r)^2 / (r^2 + 0.01), as
              bench/accuracy/imgdiff.c and docs/accuracy.md
@@ -16,9 +16,9 @@ and measures each image against the reference:
 Time to the target relMSE: interpolated log-log between the steps that
 bracket it, or extrapolated from the last step as 1/spp (relMSE x spp
 constant) when no step reached it ("~" in the table); flagged "stalls"
-when the last step bought less than a third of the error the 4x more
-samples should have (a biased estimate: the extrapolation is then
-meaningless).
+when the last step's relMSE fell by less than half the ratio of its
+samples (an unbiased estimate's falls by the whole ratio: this one is
+converging to something else, and the extrapolation means nothing).
 
 Renderers:
   lensray-default   the scene as it is (plan and adaptive on)
@@ -180,7 +180,9 @@ def time_to(rows, target, key):
     if len(rows) >= 2:
         gain = rows[-2]["relmse"] / last["relmse"]
         ratio = last["spp"] / rows[-2]["spp"]
-        if gain < ratio ** (1 / 3):  # bought under a third of the decades
+        # Unbiased, relMSE falls as 1/spp; a step that bought less than
+        # half of that is converging to something else.
+        if gain < ratio / 2:
             how = "stalls ~"
     return last[key] * last["relmse"] / target, how
 
