@@ -560,6 +560,18 @@ $(BUILD)/bench/spectral-base/lensray: $(DEPS_OK)
 compare-path: $(BUILD)/lensray
 	sh bench/path/run.sh $(BUILD) compare
 
+# Night lights through the thin lens (issue 27; bench/bokeh/): lensray's
+# defaults, lensray with planning and adaptive sampling off, and Mitsuba 3's
+# `path` and `ptracer`, timed to relMSE 1e-3 against the exact reference
+# that bench/bokeh/reference.py computes (cached in $(BUILD)/bench/bokeh/).
+# Mitsuba goes into $(BUILD)/bench/venv as for `make bench`.  About 5
+# minutes on 2 cores, half of it the reference the first time, so not
+# part of `make bench`.  BOKEH_ARGS go to bench/bokeh/run.py.
+BOKEH_ARGS ?=
+.PHONY: bench-bokeh
+bench-bokeh: $(BUILD)/lensray
+	sh bench/bokeh/run.sh $(BUILD) $(BOKEH_ARGS)
+
 # Accuracy against time (docs/accuracy.md): scenes/accuracy-*.json rendered
 # at increasing spp with every sampler, with and without planning and
 # adaptive sampling, measured against references cached in
