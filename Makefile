@@ -251,7 +251,8 @@ $(API_VENV)/.ok: tests/api/requirements.txt $(DEPS_OK)
 LENS_VENV := $(BUILD)/lens-venv
 
 .PHONY: test-lenses
-LENS_CHECKED := $(wildcard lenses/*.json) $(wildcard tests/data/lenses/*)
+LENS_CHECKED := $(wildcard $(addprefix lenses/*,.json .zmx .dat .txt)) \
+                $(wildcard tests/data/lenses/*)
 test-lenses: $(BUILD)/lensray $(BUILD)/tests/glass-dump $(LENS_VENV)/.ok
 	@$(LENS_VENV)/bin/python tests/lenses/compare.py $(BUILD)/lensray \
 	  $(LENS_CHECKED)
