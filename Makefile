@@ -251,7 +251,8 @@ $(API_VENV)/.ok: tests/api/requirements.txt $(DEPS_OK)
 LENS_VENV := $(BUILD)/lens-venv
 
 .PHONY: test-lenses
-LENS_CHECKED := $(wildcard lenses/*.json) $(wildcard tests/data/lenses/*)
+LENS_CHECKED := $(wildcard $(addprefix lenses/*,.json .zmx .dat .txt)) \
+                $(wildcard tests/data/lenses/*)
 test-lenses: $(BUILD)/lensray $(BUILD)/tests/glass-dump $(LENS_VENV)/.ok
 	@$(LENS_VENV)/bin/python tests/lenses/compare.py $(BUILD)/lensray \
 	  $(LENS_CHECKED)
@@ -508,9 +509,18 @@ render: all
 
 # The gallery's pictures (docs/gallery.md), rendered with the CLI, and the
 # Python guide's sweeps (docs/python.md), plotted with matplotlib.
-figures: all python $(BUILD)/python/.figures-ok
+figures: all python $(BUILD)/python/.figures-ok lens-sheet
 	sh docs/figures.sh $(BUILD)/lensray docs/figures
 	SWEEPS_PNG=docs/figures/python-sweeps.png $(PY_VENV)/bin/python docs/python-sweeps.py
+
+# The shipped lenses' contact sheet and table (docs/lenses.md): one scene
+# through every lens in lenses/ at 300 x 200, 256 samples a pixel (about
+# 2 minutes of CPU), laid out with matplotlib from the ray-optics
+# virtualenv, whose compare.py gives each lens's field.
+.PHONY: lens-sheet
+lens-sheet: $(BUILD)/lensray $(LENS_VENV)/.ok
+	$(LENS_VENV)/bin/python docs/lens-sheet.py $(BUILD)/lensray \
+	  docs/figures/lens-sheet.png docs/lenses.md
 
 $(BUILD)/python/.figures-ok: $(PY_VENV)/.ok python/figures-requirements.txt
 	@$(PY_VENV)/bin/pip install -q --disable-pip-version-check -r python/figures-requirements.txt

@@ -100,19 +100,28 @@ int lr__rx_shipped(char (*names)[64], int max)
     return n;
 }
 
-/* "a, b, c": the shipped lenses' names, for an error message. */
+/* "a, b, c": the shipped lenses' names, for an error message.  Those that
+ * do not fit are counted ("a, b and 7 more"), not cut off mid-name: two
+ * dozen names of source, focal length and f-number are longer than an
+ * lr_error's message. */
 static void shipped(char *out, size_t cap)
 {
     char names[64][64];
     int n = lr__rx_shipped(names, 64);
+    /* Room kept for " and 64 more". */
+    const size_t tail = 16;
     size_t o = 0;
+    int i = 0;
     out[0] = '\0';
-    for (int i = 0; i < n && o < cap; i++) {
-        int w = snprintf(out + o, cap - o, "%s%s", i ? ", " : "", names[i]);
-        if (w < 0)
+    for (; i < n; i++) {
+        size_t w = strlen(names[i]) + (i ? 2 : 0);
+        if (o + w + (i + 1 < n ? tail : 0) >= cap)
             break;
-        o += (size_t)w;
+        o += (size_t)snprintf(out + o, cap - o, "%s%s", i ? ", " : "",
+                              names[i]);
     }
+    if (i < n)
+        snprintf(out + o, cap - o, " and %d more", n - i);
     if (n == 0)
         snprintf(out, cap, "none (in %s)", lens_dir());
 }

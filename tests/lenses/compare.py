@@ -78,7 +78,27 @@ ANGLES = {"double-gauss-50": [0, 5, 10, 15, 20], "wide-22": [0, 10, 20, 30],
           "flektagon-de953471": [0, 10, 20, 30],
           "us8427765-evenasph": [0, 8, 16],
           "minolta-fisheye-us4256373": [0, 30, 60, 80, 89],
-          "us8427765-evenasph-inches": [0, 8, 16]}
+          "us8427765-evenasph-inches": [0, 8, 16],
+          # lenses/: each shipped lens to its design's half field (the
+          # 135 format's half diagonal for the camera lenses that name none)
+          "tessar-laikin-102mm-f4.5": [0, 10, 20.5],
+          "telephoto-laikin-127mm-f5.6": [0, 5, 10],
+          "wide-170deg-laikin-5mm-f1.8": [0, 30, 60, 75, 85],
+          "fisheye-minolta-us4256373-16mm-f2.8": [0, 30, 60, 80, 89],
+          "zoom-nikkor-z-14-30mm-f4-at-14mm": [0, 10, 20, 30, 40, 50, 55],
+          "retrofocus-flektagon-de953471-35mm-f2.8": [0, 10, 20, 30],
+          "objective-us8879901-36mm-f2": [0, 7.574, 10.82],
+          "zoom-nikon-jp53131852-80mm-f2.8": [0, 7.5, 15],
+          "zoom-nikon-jp53131852-200mm-f2.8": [0, 3, 6],
+          "zoom-nikkor-us4189212-25mm-f4": [0, 20, 40.5],
+          "zoom-nikkor-us4189212-35mm-f4": [0, 15, 31.6],
+          "zoom-nikkor-us4189212-49mm-f4.4": [0, 10, 23.9],
+          "planar-rudolph-us583336-49mm-f4.5": [0, 10, 20],
+          "sonnar-us1975678-50mm-f1.5": [0, 10, 20, 23.4],
+          "biotar-de485798-100mm-f1.4": [0, 10, 20],
+          "retrofocus-nikon-us3583791-100mm-f2.8": [0, 10, 20, 30, 37.5],
+          "double-gauss-angenieux-us2701982-100mm-f1.1": [0, 5, 10, 15],
+          "petzval-kodak-us2500046-100mm-f2.2": [0, 5, 10]}
 DEFAULT_ANGLES = [0, 5, 10]
 
 
