@@ -413,6 +413,9 @@ static inline const lr__material *lr__hit_material(const lr_scene *s,
  * length but t is in its units.  Returns 1 on a hit. */
 int lr__trace(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
               lr__hit *hit);
+/* Which geometry lr__trace's hit would be on, without completing the
+ * hit: its index, -1 for an infinite plane, -2 for none. */
+long lr__trace_geom(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar);
 /* 1 if anything blocks org + t dir for t in (0, tfar). */
 int lr__occluded(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar);
 /* The closest hits of lanes 0..n-1 of a packet of camera rays (Embree's

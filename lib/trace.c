@@ -118,6 +118,31 @@ int lr__trace(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
                             rh.hit.u, rh.hit.v, rh.ray.tfar, hit);
 }
 
+long lr__trace_geom(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar)
+{
+    unsigned geom = RTC_INVALID_GEOMETRY_ID;
+    float t_hit = 0.0f;
+    if (lr__embree_can_trace(org, dir)) {
+        struct RTCIntersectContext ctx;
+        rtcInitIntersectContext(&ctx);
+        struct RTCRayHit rh;
+        embree_ray(&rh.ray, org, dir, tfar);
+        rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+        rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+        rtcIntersect1(s->rtc, &ctx, &rh);
+        geom = rh.hit.geomID;
+        t_hit = rh.ray.tfar;
+    } else {
+        count_skipped(s);
+    }
+    /* As lr__hit_complete decides between Embree's hit and a plane. */
+    double t_embree = geom != RTC_INVALID_GEOMETRY_ID ? (double)t_hit : tfar;
+    double t_plane;
+    if (plane_hit(s, org, dir, t_embree, &t_plane) >= 0)
+        return -1;
+    return geom != RTC_INVALID_GEOMETRY_ID ? (long)geom : -2;
+}
+
 /* A packet lane whose ray Embree would abort on gets a harmless ray
  * that cannot hit anything instead (tnear 1 > tfar 0; Embree skips such
  * lanes): to the caller, a miss of Embree's geometry, as in lr__trace.

@@ -21,8 +21,13 @@ samples (an unbiased estimate's falls by the whole ratio: this one is
 converging to something else, and the extrapolation means nothing).
 
 Renderers:
-  lensray-default   the scene as it is (plan and adaptive on)
-  lensray-full      --set render.plan=false --set render.adaptive=false
+  lensray-default   the scene as it is (plan, adaptive sampling and the
+                    light side on: what a user gets)
+  lensray-camera    the defaults with --set render.light=false: camera
+                    paths only, plan and adaptive sampling on
+  lensray-full      camera paths only, every sample traced: --set
+                    render.plan=false --set render.adaptive=false --set
+                    render.light=false
   mitsuba-path      Mitsuba 3 `path` (max_depth 2) with the `thinlens` sensor
   mitsuba-ptracer   Mitsuba 3 `ptracer` (light paths to the camera)
 
@@ -213,12 +218,15 @@ def main():
     os.makedirs(args.work, exist_ok=True)
     extra = sum((["--set", s] for s in args.lensray_set), [])
 
-    full = ["--set", "render.plan=false", "--set", "render.adaptive=false"]
+    camera = ["--set", "render.light=false"]
+    full = camera + ["--set", "render.plan=false", "--set", "render.adaptive=false"]
     # name -> a function that sets the renderer up and returns
     # render(spp, exr_path) -> (image, seconds).
     renderers = [
         ("lensray-default",
          lambda: lambda spp, out: lensray_render(args, extra, spp, out)),
+        ("lensray-camera",
+         lambda: lambda spp, out: lensray_render(args, extra + camera, spp, out)),
         ("lensray-full",
          lambda: lambda spp, out: lensray_render(args, extra + full, spp, out)),
     ]
