@@ -156,17 +156,22 @@ typedef struct lr__camera_model {
      * offset (ox, oy) (scene units along right and up).  `film` is where
      * on the film (fx, fy, in pixels) the camera ray leaving lens offset
      * (ox, oy) along unit direction d starts, and returns the ray's
-     * importance per unit solid angle at the lens: the pixel value that
-     * radiance L along d adds is L x that / (the area of a pixel) per unit
-     * of lens area sampled and solid angle (fpx^2 / cos^3 for the offset
-     * lens: see camera.c); 0 when no camera ray goes along d.  NULL: the
-     * model has no light side yet (the bracket, whose ray origin moves
-     * with the film point, and the real lens), and its lights are all
-     * traced from the camera. */
+     * importance per unit solid angle, over lens_point's density relative
+     * to the camera's own lens measure: radiance L along d adds L x that
+     * per unit solid angle to the pixel (fpx^2 / cos^3 for the offset
+     * lens, camera.c; for the real lens, camera_lens.c); 0 when no camera
+     * ray goes along d.  NULL: the model has no light side yet (the
+     * bracket, whose ray origin moves with the film point), and its
+     * lights are all traced from the camera.  (For the real lens the
+     * offset is in the lens's own frame, mm.) */
     lr__v3 (*lens_point)(const lr__cam *c, const double u[2], double *ox,
                          double *oy);
     double (*film)(const lr__cam *c, double ox, double oy, lr__v3 d,
                    double *fx, double *fy);
+    /* For a model with a light side but no planner's bound (the real
+     * lens): a thin lens at the eye that estimates the size of a light's
+     * disc (light_trace.c's choice of lights, not a bound). */
+    void (*thin_equiv)(const lr__cam *c, lr__lens_bound *b);
 } lr__camera_model;
 
 /* The registry (camera.c): the model called `name`, or the one whose id

@@ -339,6 +339,9 @@ static void setup(lr__cam *c, const lr_camera *cam)
     double disc = (D - Ld) * (D - Ld) - 4.0 * f * f;
     double y = 0.5 * ((D - Ld) - sqrt(disc > 0.0 ? disc : 0.0));
     lc->z_sensor = L->z[L->rx.n] + y;
+    /* The focus power for the light side's estimate (lens_thin_equiv);
+     * the lens model's own rays do not read it. */
+    c->w = 1.0 / cam->focus_distance;
     lc->z_rear = L->z[L->rx.n - 1];
 
     /* The frame's field of view, for whoever reads it: the sensor seen
@@ -687,6 +690,100 @@ static lr_status focus_at(lr_camera *cam, double z, lr_error *err)
     return LR_OK;
 }
 
+/* ---- the light side (camera.h: lens_point, film) --------------------------
+ *
+ * The camera's measurement: a pixel's value is inv_E0 / A_pix times the
+ * integral over its sensor area and the rear plane of L cos^4 / Z^2, that
+ * is of L cos(theta) dA dw at the sensor (cos^4 / Z^2 dA_q = cos dw from
+ * the sensor point): the ray bundle's etendue.  A lens conserves etendue
+ * (n^2 cos dA dw, air on both sides), so the same integral over the rays
+ * entering the front of the lens, in cos(theta_o) dA_o dw_o on a plane
+ * across the axis, gives the pixel (Kolb et al. 1995, section 4; Veach
+ * 1997, section 5.7 on the invariance of etendue).  The light side draws
+ * the plane's point uniformly over a disk in front of the first element
+ * (density 1 / A) and a direction, traces the ray toward the image, and
+ * the sensor point it reaches is the film point; its weight is inv_E0
+ * cos(theta_o) A / A_pix per unit solid angle.  A ray the camera could
+ * not have drawn (outside the pupil bounds its film point samples) counts
+ * for nothing, as for the camera. */
+
+/* The disk the light side draws on: on the first vertex's plane, as wide
+ * as the first element's semi-aperture plus four times its sag there (a
+ * concave front's rays cross the vertex plane beyond the semi-aperture,
+ * by the sag times the ray's slope: slopes up to 4, 76 degrees). */
+static double front_disk(const lr__lens_cam *lc)
+{
+    const lr__surface *s0 = &lc->L->rx.s[0];
+    double a = s0->semi_aperture, sag = 0.0;
+    if (s0->radius != 0.0 && fabs(s0->radius) > a)
+        sag = fabs(s0->radius) - sqrt(s0->radius * s0->radius - a * a);
+    else if (s0->radius != 0.0)
+        sag = a;
+    return a + 4.0 * sag;
+}
+
+static lr__v3 lens_point(const lr__cam *c, const double u[2], double *ox,
+                         double *oy)
+{
+    const lr__lens_cam *lc = &c->lens;
+    double a, b, rho = front_disk(lc);
+    lr__aperture_sample(LR_APERTURE_DISK, 0, 0.0, 1.0, u, &a, &b);
+    *ox = a * rho, *oy = b * rho;
+    double o[3] = {*ox, *oy, lc->L->z[0]}, d[3] = {0, 0, 1};
+    lr__v3 org, dir;
+    to_world(c, o, d, &org, &dir);
+    return org;
+}
+
+static double lens_film(const lr__cam *c, double ox, double oy, lr__v3 w,
+                        double *fx, double *fy)
+{
+    const lr__lens_cam *lc = &c->lens;
+    const lr_lens *L = lc->L;
+    /* The light comes in along -w; in the lens's frame (x right, y up,
+     * z = -forward) it travels toward +z, the image. */
+    double d[3] = {-v3_dot(w, c->right), -v3_dot(w, c->up),
+                   v3_dot(w, c->forward)};
+    if (!(d[2] > 0.0))
+        return 0.0;
+    double cos_o = d[2];
+    /* Back along the line to before the first surface. */
+    double back = (L->rx.s[0].semi_aperture + 1.0) / d[2];
+    double o[3] = {ox - back * d[0], oy - back * d[1], L->z[0] - back * d[2]};
+    if (!lr__rx_trace_n(&L->rx, L->z, lc->n_ref, lc->stop_scale, 1, o, d) ||
+        !(d[2] > 0.0))
+        return 0.0;
+    double t = (lc->z_sensor - o[2]) / d[2];
+    double xs = o[0] + t * d[0], ys = o[1] + t * d[1];
+    *fx = (0.5 - xs / lc->sensor_w) * c->width;
+    *fy = (ys / lc->sensor_h + 0.5) * c->height;
+    /* Where the camera aims from this sensor point: the line's point on
+     * the rear plane, inside the bounds it samples (lens_start). */
+    sensor_pt sp = sensor_at(c, *fx, *fy);
+    lr__pupil P = pupil_at(lc, sp.r);
+    double tq = (lc->z_rear - lc->z_sensor) / d[2];
+    double qx = xs + tq * d[0], qy = ys + tq * d[1];
+    double a = sp.ex * qx + sp.ey * qy - P.cx, b = -sp.ey * qx + sp.ex * qy;
+    double disk = M_PI * P.rad * P.rad, rect = 4.0 * P.hx * P.hy;
+    if (disk <= rect ? a * a + b * b > P.rad * P.rad
+                     : fabs(a) > P.hx || fabs(b) > P.hy)
+        return 0.0;
+    double rho = front_disk(lc);
+    double A_pix = lc->sensor_w * lc->sensor_h / (c->width * c->height);
+    return lc->inv_E0 * cos_o * M_PI * rho * rho / A_pix;
+}
+
+/* The light side's plan (light_trace.c) sees the lens as a thin lens of
+ * the entrance pupil's radius at the eye focused at the focus distance:
+ * an estimate of how large a light's disc is, not a bound. */
+static void lens_thin_equiv(const lr__cam *c, lr__lens_bound *b)
+{
+    const lr__lens_cam *lc = &c->lens;
+    b->R = lc->L->first.enp_radius * lc->stop_scale * lc->mm;
+    b->n_w = 1;
+    b->ws[0] = c->w;
+}
+
 const lr__camera_model lr__camera_lens = {
     .name = "lens",
     .id = LR_CAMERA_LENS,
@@ -700,4 +797,7 @@ const lr__camera_model lr__camera_lens = {
     .chief = lens_chief,
     .focus_at = focus_at,
     .bound = NULL,
+    .lens_point = lens_point,
+    .film = lens_film,
+    .thin_equiv = lens_thin_equiv,
 };

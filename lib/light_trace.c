@@ -82,10 +82,12 @@ lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
     *out = NULL;
     const lr__camera_model *m = c->model;
     if (!set->light || m->lens_point == NULL || m->film == NULL ||
-        c->chroma_active || m->bound == NULL)
+        c->chroma_active || (m->bound == NULL && m->thin_equiv == NULL))
         return LR_OK;
     lr__lens_bound lb = {0.0, 1, {0.0, 0.0, 0.0}};
-    if (c->has_lens)
+    if (m->bound == NULL)
+        m->thin_equiv(c, &lb);
+    else if (c->has_lens)
         lr__cam_bound(c, &lb);
     lr__lt *lt = NULL;
     for (size_t g = 0; g < s->n_geoms; g++) {

@@ -840,7 +840,20 @@ static lr_status rare_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
     struct lr__rare *r = calloc(1, sizeof *r);
     if (r == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
-    r->L_all = L_emit;
+    /* What the camera's rays may find: every source's, less the direct
+     * emission of lights the light side carries (light_trace.h). */
+    double L_cam = s->env != NULL ? lr__envmap_max(s->env) : 0.0;
+    for (size_t g = 0; g < s->n_geoms + s->n_planes; g++) {
+        int is_plane = g >= s->n_geoms;
+        const lr__geom *geo =
+            is_plane ? &s->planes[g - s->n_geoms] : &s->geoms[g];
+        const lr__material *m = &s->materials[geo->material];
+        if (is_plane || p->lt == NULL || !p->lt->direct[g])
+            L_cam = fmax(L_cam, emission_max(m));
+        if (shows_emitters(m))
+            L_cam = fmax(L_cam, L_emit);
+    }
+    r->L_all = L_cam;
     if (c->has_lens && c->model->bound == NULL) {
         /* No bound on where the lens's rays go: anywhere. */
         r->everywhere = 1;
