@@ -96,7 +96,7 @@ def main():
                      for i, n in enumerate(names))
     script = ("set terminal pngcairo size 640,400 font ',10'\n"
               "set output '%s'\n"
-              "set logscale xy\nset grid\n"
+              "set logscale xy\nset grid\nset format y '%%.0e'\n"
               "set xlabel 'CPU seconds (both threads)'\nset ylabel 'relMSE'\n"
               "set key bottom left\n"
               "set arrow from graph 0, first 1e-3 to graph 1, first 1e-3 nohead dt 2\n"
