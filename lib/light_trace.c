@@ -28,6 +28,21 @@
 /* Sampler "pixels" of the light paths: past any frame's pixel index. */
 #define LT_PIXEL_BASE ((uint64_t)1 << 48)
 
+void lr__lt_keep(lr__lt *lt, const unsigned char *keep)
+{
+    int n = 0;
+    lt->paths = 0;
+    for (int k = 0; k < lt->n; k++) {
+        if (!keep[k])
+            continue;
+        lr__lt_light l = lt->lights[k];
+        l.first = lt->paths;
+        lt->paths += l.paths;
+        lt->lights[n++] = l;
+    }
+    lt->n = n;
+}
+
 void lr__lt_free(lr__lt *lt)
 {
     if (lt == NULL)
@@ -139,7 +154,7 @@ lr_status lr__lt_film_init(lr__lt_film *f, const lr__lt *lt, int x0, int y0,
     double Lmax = 0.0;
     for (int k = 0; k < lt->n; k++)
         Lmax = fmax(Lmax, v3_maxc(lt->lights[k].L));
-    f->scale = ldexp(1.0, 40) / Lmax;
+    f->scale = ldexp(1.0, 40) / (Lmax > 0.0 ? Lmax : 1.0);
     return LR_OK;
 }
 
@@ -206,16 +221,21 @@ void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
     if (i1 > lt->paths)
         i1 = lt->paths;
     int k = light_of(lt, i0);
-    /* A light's paths are the samples of a "pixel" of its own: the
-     * pixel dimensions give the direction, the lens dimensions (the
-     * sequence's best pair, as for camera rays) the lens point. */
+    /* A light's paths are the samples of a "pixel" of its own (by its
+     * geometry's index, so that a region that leaves some lights out
+     * draws the same numbers for the others): the pixel dimensions give
+     * the direction, the lens dimensions (the sequence's best pair, as
+     * for camera rays) the lens point. */
     lr__pixel_sampler ps;
-    lr__pixel_sampler_init(&ps, &smp, LT_PIXEL_BASE + (uint64_t)k);
+    lr__pixel_sampler_init(&ps, &smp,
+                           LT_PIXEL_BASE + (uint64_t)lt->lights[k].geom);
     for (uint64_t i = i0; i < i1; i++) {
         if (i >= lt->lights[k].first + lt->lights[k].paths) {
             while (i >= lt->lights[k].first + lt->lights[k].paths)
                 k++;
-            lr__pixel_sampler_init(&ps, &smp, LT_PIXEL_BASE + (uint64_t)k);
+            lr__pixel_sampler_init(&ps, &smp,
+                                   LT_PIXEL_BASE +
+                                       (uint64_t)lt->lights[k].geom);
         }
         const lr__lt_light *l = &lt->lights[k];
         uint32_t idx = (uint32_t)(i - l->first);

@@ -70,6 +70,12 @@ lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
                       lr_error *err);
 void lr__lt_free(lr__lt *lt);
 
+/* Keeps the lights k with keep[k] (the plan's: those whose paths can
+ * land in the region rendered); the others' direct emission stays the
+ * light side's (the region's camera rays cannot meet them anyway).  A
+ * light's paths do not depend on which others are kept. */
+void lr__lt_keep(lr__lt *lt, const unsigned char *keep);
+
 /* The light pass's film: fixed-point sums over region [x0, x1) x [y0, y1)
  * of the frame. */
 typedef struct lr__lt_film {

@@ -279,6 +279,8 @@ static void finish(lr__plan *p, const lr__cam *c,
 static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
                            int dither, int x0, int y0, int x1, int y1,
                            lr_error *err);
+static lr_status lt_region(lr__lt *lt, const lr__cam *c, int x0, int y0,
+                           int x1, int y1, lr_error *err);
 static lr_status rare_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
                             int x0, int y0, int x1, int y1, lr_error *err);
 
@@ -331,6 +333,8 @@ lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
      * light side needs the colours to focus alike (lr__lt_plan). */
     if (!p->splat) {
         lr_status st = lr__lt_plan(s, c, set, &p->lt, err);
+        if (st == LR_OK && p->lt != NULL)
+            st = lt_region(p->lt, c, x0, y0, x1, y1, err);
         if (st != LR_OK) {
             lr__plan_free(p);
             return st;
@@ -954,4 +958,39 @@ double lr__plan_unseen(const lr__plan *p, int x, int y)
             best = src->L;
     }
     return best;
+}
+
+/* ---- the light side's lights, per region --------------------------------- */
+
+/* A light path lands where a camera ray of that pixel meets the light,
+ * so a light that no lens ray of the region [x0, x1) x [y0, y1) can
+ * reach (box_reached, the planner's bound) lands nothing there: a farm
+ * part traces only the lights whose discs it holds.  A model without a
+ * planner's bound keeps them all. */
+static lr_status lt_region(lr__lt *lt, const lr__cam *c, int x0, int y0,
+                           int x1, int y1, lr_error *err)
+{
+    if (c->model->bound == NULL ||
+        (x0 == 0 && y0 == 0 && x1 == (int)c->width && y1 == (int)c->height))
+        return LR_OK;
+    lens L;
+    make_lens(c, &L);
+    double su = 2.0 * c->half_w / c->width, sv = 2.0 * c->half_h / c->height;
+    double u0 = x0 * su - c->half_w, u1 = x1 * su - c->half_w;
+    double v0 = c->half_h - y1 * sv, v1 = c->half_h - y0 * sv;
+    unsigned char *keep = malloc((size_t)lt->n + 1);
+    if (keep == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    for (int k = 0; k < lt->n; k++) {
+        const lr__lt_light *l = &lt->lights[k];
+        double r = l->radius;
+        double lo[3] = {l->center.x - r, l->center.y - r, l->center.z - r};
+        double hi[3] = {l->center.x + r, l->center.y + r, l->center.z + r};
+        box b;
+        box_from_bounds(&L, lo, hi, &b);
+        keep[k] = (unsigned char)box_reached(&L, &b, u0, u1, v0, v1);
+    }
+    lr__lt_keep(lt, keep);
+    free(keep);
+    return LR_OK;
 }

@@ -212,9 +212,32 @@ static void test_light_deterministic(void **state)
                     fail_msg("region pixel (%d, %d): %g, full frame %g", x,
                              y, crop, full);
             }
+    /* A corner holds one light's disc: a farm part there traces that
+     * light alone, and its pixels are still the full frame's. */
+    const char *d_sets[] = {"render.spp=32", "render.region=[0,0,30,30]"};
+    lr_render_stats sd, sa;
+    lr_image *d = lr_test_render(discs_scene, d_sets, 2, &sd);
+    lr_image_free(lr_test_render(discs_scene, a_sets, 2, &sa));
+    print_message("corner region: %llu of %llu lights, %llu of %llu paths\n",
+                  (unsigned long long)sd.light_lights,
+                  (unsigned long long)sa.light_lights,
+                  (unsigned long long)sd.light_paths,
+                  (unsigned long long)sa.light_paths);
+    assert_int_equal(sd.light_lights, 1);
+    assert_true(sd.light_landed > 0);
+    for (int y = 0; y < 30; y++)
+        for (int x = 0; x < 30; x++)
+            for (int k = 0; k < 3; k++) {
+                float full = a->rgb[3 * ((size_t)y * 96 + x) + k];
+                float crop = d->rgb[3 * ((size_t)y * 30 + x) + k];
+                if (memcmp(&full, &crop, sizeof full) != 0)
+                    fail_msg("corner pixel (%d, %d): %g, full frame %g", x,
+                             y, crop, full);
+            }
     lr_image_free(a);
     lr_image_free(b);
     lr_image_free(c);
+    lr_image_free(d);
 }
 
 /* What the plan sends to the light side: small lights far from focus
