@@ -202,3 +202,19 @@ def test_lr_progress_store_stores_both_numbers():
     box = (ctypes.c_uint64 * 2)()
     _capi.lib().lr_progress_store(ctypes.addressof(box), 2**40 + 3, 2**41 + 5)
     assert list(box) == [2**40 + 3, 2**41 + 5]
+
+
+def test_light_side_through_python():
+    """render.light reaches the library from Python: the night lights go
+    to the light side by default (all 24 of scenes/night.json) and stay
+    with the camera when it is off; the light side's disc energy is the
+    camera's within the camera's noise at this budget."""
+    night = lensray.load(SCENES / "night.json")
+    small = {"width": 160, "height": 100, "spp": 64}
+    lit, s_on = night.render(render=small, stats=True)
+    cam, s_off = night.render(render={**small, "light": False, "spp": 1024,
+                                      "plan": False, "adaptive": False},
+                              stats=True)
+    assert s_on["light_lights"] == 24 and s_on["light_landed"] > 0
+    assert s_off["light_lights"] == 0 and s_off["light_paths"] == 0
+    assert abs(lit.mean() / cam.mean() - 1.0) < 0.05
