@@ -33,8 +33,10 @@ void lr__lt_keep(lr__lt *lt, const unsigned char *keep)
     int n = 0;
     lt->paths = 0;
     for (int k = 0; k < lt->n; k++) {
-        if (!keep[k])
+        if (!keep[k]) {
+            free(lt->lights[k].cdf);
             continue;
+        }
         lr__lt_light l = lt->lights[k];
         l.first = lt->paths;
         lt->paths += l.paths;
@@ -47,6 +49,8 @@ void lr__lt_free(lr__lt *lt)
 {
     if (lt == NULL)
         return;
+    for (int k = 0; k < lt->n; k++)
+        free(lt->lights[k].cdf);
     free(lt->lights);
     free(lt->direct);
     free(lt);
@@ -60,10 +64,10 @@ void lr__lt_free(lr__lt *lt)
  * about (2 rho / D)^2.  Returns the paths it gets (0: the camera keeps
  * it). */
 static uint64_t paths_for(const lr__cam *c, const lr__lens_bound *lb,
-                          const lr__geom *g, int spp)
+                          lr__v3 center, double r, int spp)
 {
-    lr__v3 d = v3_sub(g->center, c->origin);
-    double z = v3_dot(d, c->forward), r = g->radius;
+    lr__v3 d = v3_sub(center, c->origin);
+    double z = v3_dot(d, c->forward);
     /* Near or behind the eye, the projection below means nothing. */
     if (!(z > 2.0 * r) || !(r > 0.0))
         return 0;
@@ -90,6 +94,48 @@ static uint64_t paths_for(const lr__cam *c, const lr__lens_bound *lb,
     return n < 4294967295.0 ? (uint64_t)n : 4294967295u;
 }
 
+/* A sphere around an emitting mesh (its triangles' corners' box). */
+static int mesh_sphere(const lr_scene *s, const lr__geom *g, lr__v3 *center,
+                       double *radius)
+{
+    if (g->n_triangles == 0)
+        return 0;
+    lr__v3 lo = v3(INFINITY, INFINITY, INFINITY), hi = v3(-INFINITY, -INFINITY,
+                                                         -INFINITY);
+    for (size_t t = 0; t < g->n_triangles; t++) {
+        const lr__emitter *e = &s->emitters[g->emitter + (long)t];
+        lr__v3 p[3] = {e->a, v3_add(e->a, e->e1), v3_add(e->a, e->e2)};
+        for (int k = 0; k < 3; k++) {
+            lo = v3(fmin(lo.x, p[k].x), fmin(lo.y, p[k].y), fmin(lo.z, p[k].z));
+            hi = v3(fmax(hi.x, p[k].x), fmax(hi.y, p[k].y), fmax(hi.z, p[k].z));
+        }
+    }
+    *center = v3_scale(v3_add(lo, hi), 0.5);
+    *radius = 0.5 * sqrt(v3_dot(v3_sub(hi, lo), v3_sub(hi, lo)));
+    return *radius > 0.0;
+}
+
+/* The mesh light's triangles and their cumulative areas; 0 when out of
+ * memory. */
+static int mesh_cdf(const lr_scene *s, const lr__geom *g, lr__lt_light *l)
+{
+    l->first_tri = g->emitter;
+    l->n_tri = g->n_triangles;
+    l->cdf = malloc(l->n_tri * sizeof *l->cdf);
+    if (l->cdf == NULL)
+        return 0;
+    double sum = 0.0;
+    for (size_t t = 0; t < l->n_tri; t++) {
+        sum += s->emitters[l->first_tri + (long)t].area;
+        l->cdf[t] = sum;
+    }
+    for (size_t t = 0; t < l->n_tri; t++)
+        l->cdf[t] /= sum;
+    l->cdf[l->n_tri - 1] = 1.0;
+    l->area = sum;
+    return 1;
+}
+
 lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
                       const lr_render_settings *set, lr__lt **out,
                       lr_error *err)
@@ -108,10 +154,15 @@ lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
     for (size_t g = 0; g < s->n_geoms; g++) {
         const lr__geom *geo = &s->geoms[g];
         const lr__material *mt = &s->materials[geo->material];
-        if (geo->kind != LR__GEOM_SPHERE || mt->emission_tex != NULL ||
-            !(v3_maxc(mt->emission) > 0.0))
+        if (mt->emission_tex != NULL || !(v3_maxc(mt->emission) > 0.0))
             continue;
-        uint64_t n = paths_for(c, &lb, geo, set->spp);
+        lr__v3 center = geo->center;
+        double radius = geo->radius;
+        if (geo->kind != LR__GEOM_SPHERE &&
+            (geo->kind != LR__GEOM_TRIANGLES || geo->emitter < 0 ||
+             !mesh_sphere(s, geo, &center, &radius)))
+            continue;
+        uint64_t n = paths_for(c, &lb, center, radius, set->spp);
         if (n == 0)
             continue;
         if (lt == NULL) {
@@ -124,10 +175,17 @@ lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
                 return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
             }
         }
-        lr__lt_light *l = &lt->lights[lt->n++];
+        lr__lt_light *l = &lt->lights[lt->n];
+        memset(l, 0, sizeof *l);
         l->geom = (int)g;
-        l->center = geo->center;
-        l->radius = geo->radius;
+        l->center = center;
+        l->radius = radius;
+        if (geo->kind == LR__GEOM_TRIANGLES &&
+            !mesh_cdf(s, geo, l)) {
+            lr__lt_free(lt);
+            return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+        }
+        lt->n++;
         l->L = mt->emission;
         l->paths = n;
         l->first = lt->paths;
@@ -211,6 +269,65 @@ static void splat(lr__lt_film *f, int ix, int iy, lr__v3 v)
     }
 }
 
+/* A mesh light's path from lens point P: a triangle by area and a point
+ * y on it, uniform by area over the mesh (pdf 1 / A), from (u0, u1) (u0
+ * picks the triangle and, rescaled, is reused: the usual trick for one
+ * more dimension); the direction w from P to y has solid-angle density
+ * dist^2 / (A cos) (cos at y).  The emission is one-sided (the
+ * triangle's front, counter-clockwise): seen from behind, nothing.  The
+ * camera ray along w must meet this very triangle first, from the front
+ * (a mesh can hide its own triangles). */
+static void mesh_path(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
+                      const lr__lt_light *l, lr__v3 P, double ox, double oy,
+                      const double *u, lr__lt_film *f, uint64_t *rays,
+                      uint64_t *landed)
+{
+    (void)lt;
+    size_t lo = 0, hi = l->n_tri - 1;
+    while (lo < hi) {
+        size_t mid = (lo + hi) / 2;
+        if (u[0] < l->cdf[mid])
+            hi = mid;
+        else
+            lo = mid + 1;
+    }
+    double c0 = lo > 0 ? l->cdf[lo - 1] : 0.0, c1 = l->cdf[lo];
+    double v0 = c1 > c0 ? (u[0] - c0) / (c1 - c0) : 0.5;
+    v0 = fmin(fmax(v0, 0.0), 1.0);
+    const lr__emitter *e = &s->emitters[l->first_tri + (long)lo];
+    /* Uniform on the triangle: b0 = 1 - sqrt(v0), b1 = u1 sqrt(v0)
+     * (pbrt-v4's SampleUniformTriangle, the square-root form). */
+    double sq = sqrt(v0);
+    lr__v3 y = v3_add(e->a, v3_add(v3_scale(e->e1, sq * (1.0 - u[1])),
+                                   v3_scale(e->e2, sq * u[1])));
+    lr__v3 dv = v3_sub(y, P);
+    double dist2 = v3_dot(dv, dv);
+    if (!(dist2 > 0.0))
+        return;
+    double dist = sqrt(dist2);
+    lr__v3 w = v3_scale(dv, 1.0 / dist);
+    double cos_y = -v3_dot(w, e->n);
+    if (!(cos_y > 0.0))
+        return;
+    double fx, fy;
+    double W = c->model->film(c, ox, oy, w, &fx, &fy);
+    if (!(W > 0.0) || !(fx >= 0.0 && fx < c->width && fy >= 0.0 &&
+                        fy < c->height))
+        return;
+    lr__hit h;
+    (*rays)++;
+    if (!lr__trace(s, P, w, INFINITY, &h) || h.geom != l->geom ||
+        h.prim != (unsigned)(e - &s->emitters[l->first_tri]) ||
+        !h.entering)
+        return;
+    double pdf = dist2 / (l->area * cos_y);
+    lr__v3 v = v3_scale(l->L, W / (pdf * (double)l->paths));
+    if (!(isfinite(v.x) && isfinite(v.y) && isfinite(v.z)))
+        return;
+    (*landed)++;
+    splat(f, (int)fx, (int)fy, v);
+}
+
 void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
                  uint64_t u, lr__lt_film *f, uint64_t *rays,
                  uint64_t *landed)
@@ -243,6 +360,10 @@ void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
         lr__pixel_sampler_get(&ps, idx, q);
         const double *ud = q, *ul = q + 2;
         lr__v3 P = c->model->lens_point(c, ul, &ox, &oy);
+        if (l->n_tri > 0) {
+            mesh_path(lt, s, c, l, P, ox, oy, ud, f, rays, landed);
+            continue;
+        }
         lr__v3 dv = v3_sub(l->center, P);
         double dist2 = v3_dot(dv, dv), r2 = l->radius * l->radius;
         if (!(dist2 > r2))

@@ -6,6 +6,9 @@
  * every sample lands: a point on the light, a point on the aperture, and
  * the film point follows from the lens (camera.h's lens_point and film).
  *
+ * Lights: spheres and meshes of emitting triangles, with untextured
+ * emission.
+ *
  * The split (why the sum is unbiased): the plan picks lights whose image
  * is small against their blur (lr__lt_plan).  For a picked light, the
  * radiance it sends straight into the lens (the camera ray's first hit)
@@ -32,11 +35,19 @@
 
 #include <stdint.h>
 
-/* One light traced from its side: a sphere of the scene. */
+/* One light traced from its side: a sphere of the scene, or a mesh of
+ * emitting triangles. */
 typedef struct lr__lt_light {
     int geom;           /* index in scene->geoms */
-    lr__v3 center;
+    lr__v3 center;      /* the sphere, or a sphere around the mesh */
     double radius;
+    /* A mesh: its triangles are scene->emitters[first_tri ..
+     * first_tri + n_tri), drawn by area through cdf (n_tri, owned, the
+     * last 1) from a total of `area`; n_tri = 0 for a sphere. */
+    long first_tri;
+    size_t n_tri;
+    double *cdf;
+    double area;
     lr__v3 L;           /* its radiance (untextured emission) */
     uint64_t paths;     /* light paths traced for it */
     uint64_t first;     /* index of its first path among all */
