@@ -64,7 +64,7 @@ void lr__lt_free(lr__lt *lt)
  * about (2 rho / D)^2.  Returns the paths it gets (0: the camera keeps
  * it). */
 static uint64_t paths_for(const lr__cam *c, const lr__lens_bound *lb,
-                          lr__v3 center, double r, int spp)
+                          int estimate, lr__v3 center, double r, int spp)
 {
     lr__v3 d = v3_sub(center, c->origin);
     double z = v3_dot(d, c->forward);
@@ -81,13 +81,18 @@ static uint64_t paths_for(const lr__cam *c, const lr__lens_bound *lb,
     double D = C + 2.0 * rho + 1.0;
     if (!((2.0 * rho / D) * (2.0 * rho / D) < LR__LT_HIT_RATE))
         return 0;
-    /* Wholly outside the frame: nothing of it lands. */
+    /* Wholly outside the frame: nothing of it lands.  Where the lens is
+     * only estimated (a real lens: distortion, no bound), a light that
+     * seems outside still goes to the light side, with few paths: left
+     * to the camera, it would be a source of rare light everywhere
+     * (plan.c's rare-light bound has no bound to confine it) and every
+     * pixel would take every sample. */
     double sx = v3_dot(d, c->right) / z, sy = v3_dot(d, c->up) / z;
     double fx = (sx / c->half_w + 1.0) * 0.5 * c->width;
     double fy = (1.0 - sy / c->half_h) * 0.5 * c->height;
     if (fx + D < 0.0 || fx - D > c->width || fy + D < 0.0 ||
         fy - D > c->height)
-        return 0;
+        return estimate ? 256 : 0;
     double n = ceil((double)spp * 0.25 * M_PI * D * D * LR__LT_DENSITY);
     if (n < 16.0)
         n = 16.0;
@@ -162,7 +167,8 @@ lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
             (geo->kind != LR__GEOM_TRIANGLES || geo->emitter < 0 ||
              !mesh_sphere(s, geo, &center, &radius)))
             continue;
-        uint64_t n = paths_for(c, &lb, center, radius, set->spp);
+        uint64_t n = paths_for(c, &lb, m->bound == NULL, center, radius,
+                               set->spp);
         if (n == 0)
             continue;
         if (lt == NULL) {
