@@ -78,6 +78,17 @@ static double scale2(double mean)
     return mean * mean + 0.01;
 }
 
+/* A need in samples as a count in [lo, hi] (lo where it is 0 or NaN). */
+static int need_in(double need, int lo, int hi)
+{
+    if (!(need > 0.0))
+        return lo;
+    if (!(need < (double)hi))
+        return hi;
+    int k = (int)ceil(need);
+    return k < lo ? lo : k;
+}
+
 int lr__pixel_samples_needed(const lr__pixel *p, double threshold, int lo,
                              int hi)
 {
@@ -96,12 +107,7 @@ int lr__pixel_samples_needed(const lr__pixel *p, double threshold, int lo,
         if (k > need)
             need = k;
     }
-    if (!(need > 0.0))
-        return lo;
-    if (!(need < (double)hi))
-        return hi;
-    int k = (int)ceil(need);
-    return k < lo ? lo : k;
+    return need_in(need, lo, hi);
 }
 
 /* Rare light.  A pilot that saw nothing of a light tells nothing of a
@@ -136,12 +142,7 @@ int lr__rare_samples_needed(const lr__pixel *p, double unseen,
         if (k > need)
             need = k;
     }
-    if (!(need > 0.0))
-        return lo;
-    if (!(need < (double)hi))
-        return hi;
-    int k = (int)ceil(need);
-    return k < lo ? lo : k;
+    return need_in(need, lo, hi);
 }
 
 /* fmax as glibc has it (the non-NaN one), inline: a call per channel

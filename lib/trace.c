@@ -99,42 +99,41 @@ unsigned long long lr__scene_skipped_rays(const lr_scene *s)
                                 memory_order_relaxed);
 }
 
-int lr__trace(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
-              lr__hit *hit)
+/* Embree's closest hit along org + t dir, t < tfar, in rh (geomID
+ * RTC_INVALID_GEOMETRY_ID: none, or a ray Embree cannot take, counted). */
+static void closest(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
+                    struct RTCRayHit *rh)
 {
+    rh->hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh->hit.primID = 0;
+    rh->hit.u = rh->hit.v = 0.0f;
+    rh->ray.tfar = 0.0f;
     if (!lr__embree_can_trace(org, dir)) {
         count_skipped(s);
-        return lr__hit_complete(s, org, dir, tfar, RTC_INVALID_GEOMETRY_ID,
-                                0, 0.0f, 0.0f, 0.0f, hit);
+        return;
     }
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
+    embree_ray(&rh->ray, org, dir, tfar);
+    rh->hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(s->rtc, &ctx, rh);
+}
+
+int lr__trace(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
+              lr__hit *hit)
+{
     struct RTCRayHit rh;
-    embree_ray(&rh.ray, org, dir, tfar);
-    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-    rtcIntersect1(s->rtc, &ctx, &rh);
+    closest(s, org, dir, tfar, &rh);
     return lr__hit_complete(s, org, dir, tfar, rh.hit.geomID, rh.hit.primID,
                             rh.hit.u, rh.hit.v, rh.ray.tfar, hit);
 }
 
 long lr__trace_geom(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar)
 {
-    unsigned geom = RTC_INVALID_GEOMETRY_ID;
-    float t_hit = 0.0f;
-    if (lr__embree_can_trace(org, dir)) {
-        struct RTCIntersectContext ctx;
-        rtcInitIntersectContext(&ctx);
-        struct RTCRayHit rh;
-        embree_ray(&rh.ray, org, dir, tfar);
-        rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-        rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-        rtcIntersect1(s->rtc, &ctx, &rh);
-        geom = rh.hit.geomID;
-        t_hit = rh.ray.tfar;
-    } else {
-        count_skipped(s);
-    }
+    struct RTCRayHit rh;
+    closest(s, org, dir, tfar, &rh);
+    unsigned geom = rh.hit.geomID;
+    float t_hit = rh.ray.tfar;
     /* As lr__hit_complete decides between Embree's hit and a plane. */
     double t_embree = geom != RTC_INVALID_GEOMETRY_ID ? (double)t_hit : tfar;
     double t_plane;
