@@ -1151,29 +1151,34 @@ static lr_status check_nodes(lr__gltf_doc *d, lr_error *err)
             st = lr__gltf_fail(d, err, "%s must be an object", p);
             break;
         }
-        long long mesh;
-        if ((st = get_index(d, o, p, "mesh", nmesh, &mesh, err)) ||
-            (st = get_index(d, o, p, "camera", ncam, &x, err)) ||
-            (st = check_numbers(d, o, p, "matrix", 16, err)) ||
-            (st = check_numbers(d, o, p, "translation", 3, err)) ||
-            (st = check_numbers(d, o, p, "rotation", 4, err)) ||
-            (st = check_numbers(d, o, p, "scale", 3, err)))
-            break;
-        long long skin;
-        if ((st = get_index(d, o, p, "skin", nskin, &skin, err)) != LR_OK ||
-            (skin >= 0 && mesh >= 0 &&
-             (st = check_skinned(d, p, mesh, skin, err)) != LR_OK))
-            break;
+        long long mesh = -1, skin = -1;
+        st = get_index(d, o, p, "mesh", nmesh, &mesh, err);
+        if (st == LR_OK)
+            st = get_index(d, o, p, "camera", ncam, &x, err);
+        if (st == LR_OK)
+            st = check_numbers(d, o, p, "matrix", 16, err);
+        if (st == LR_OK)
+            st = check_numbers(d, o, p, "translation", 3, err);
+        if (st == LR_OK)
+            st = check_numbers(d, o, p, "rotation", 4, err);
+        if (st == LR_OK)
+            st = check_numbers(d, o, p, "scale", 3, err);
+        if (st == LR_OK)
+            st = get_index(d, o, p, "skin", nskin, &skin, err);
+        if (st == LR_OK && skin >= 0 && mesh >= 0)
+            st = check_skinned(d, p, mesh, skin, err);
         /* A node's weights override its mesh's (spec 3.7.2.2). */
-        if (cJSON_GetObjectItemCaseSensitive(o, "weights") != NULL &&
-            (st = check_weights(d, o, p,
-                                mesh < 0 ? 0 : mesh_targets(d, mesh),
-                                err)) != LR_OK)
+        if (st == LR_OK &&
+            cJSON_GetObjectItemCaseSensitive(o, "weights") != NULL)
+            st = check_weights(d, o, p, mesh < 0 ? 0 : mesh_targets(d, mesh),
+                               err);
+        if (st != LR_OK)
             break;
         const cJSON *l = lr__gltf_member(o, "extensions",
                                          "KHR_lights_punctual");
-        if (l != NULL &&
-            (st = get_index(d, l, p, "light", nlight, &x, err)) != LR_OK)
+        if (l != NULL)
+            st = get_index(d, l, p, "light", nlight, &x, err);
+        if (st != LR_OK)
             break;
         int nc;
         const cJSON *ch = lr__gltf_array(o, "children", &nc);
