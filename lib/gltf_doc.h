@@ -130,4 +130,20 @@ lr_status lr__gltf_camera(lr_scene *s, const lr__gltf_doc *d,
 void lr__gltf_warn(lr_scene *s, const lr__gltf_doc *d, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)));
 
+/* The largest glTF (or GLB) and the largest file it may name. */
+#define LR__GLTF_MAX_BYTES (512u << 20)
+
+/* gltf_file.c: reads the file `uri` (relative to the glTF's directory
+ * `dir`; `path` names the field for errors) into a new blob of d's, or
+ * finds the one read before. */
+lr_status lr__gltf_read_blob(lr__gltf_doc *d, const char *dir,
+                             const char *path, const char *uri,
+                             lr__gltf_blob **out, lr_error *err);
+/* gltf_file.c: the GLB header and chunks (spec 4.4) of d's bytes: the
+ * JSON chunk's text in *json, *n bytes. */
+lr_status lr__gltf_read_glb(lr__gltf_doc *d, const char **json, size_t *n,
+                            lr_error *err);
+/* A little-endian 32-bit number. */
+uint32_t lr__gltf_le32(const unsigned char *p);
+
 #endif
