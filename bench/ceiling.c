@@ -37,6 +37,8 @@
 #define _GNU_SOURCE
 #include <embree3/rtcore.h>
 
+#include <errno.h>
+#include <limits.h>
 #include <math.h>
 #include <pmmintrin.h>
 #include <pthread.h>
@@ -644,6 +646,21 @@ static double run_threads(job *j, size_t items, size_t nrays, double *cpu)
 }
 
 /* ---- main ---------------------------------------------------------------- */
+/* The whole number after option `name`, or exit naming the option: atoi
+ * took "12x" as 12 and "x" as 0. */
+static int int_arg(const char *name, const char *v)
+{
+    char *end = NULL;
+    errno = 0;
+    long n = strtol(v, &end, 10);
+    if (errno != 0 || end == v || *end != '\0' || n < INT_MIN || n > INT_MAX) {
+        fprintf(stderr, "ceiling: %s takes a whole number, got \"%s\"\n",
+                name, v);
+        exit(2);
+    }
+    return (int)n;
+}
+
 int main(int argc, char **argv)
 {
     const char *obj = "scenes/meshes/bunny.obj";
@@ -664,11 +681,11 @@ int main(int argc, char **argv)
                     "[--threads N] [--repeat N] [--api all|16|8|1M|1] "
                     "[--order all|block|pixel] [--robust]");
         if (!strcmp(a, "--obj")) obj = v;
-        else if (!strcmp(a, "--width")) W = atoi(v);
-        else if (!strcmp(a, "--height")) H = atoi(v);
-        else if (!strcmp(a, "--spp")) spp = atoi(v);
-        else if (!strcmp(a, "--threads")) maxthreads = atoi(v);
-        else if (!strcmp(a, "--repeat")) repeat = atoi(v);
+        else if (!strcmp(a, "--width")) W = int_arg(a, v);
+        else if (!strcmp(a, "--height")) H = int_arg(a, v);
+        else if (!strcmp(a, "--spp")) spp = int_arg(a, v);
+        else if (!strcmp(a, "--threads")) maxthreads = int_arg(a, v);
+        else if (!strcmp(a, "--repeat")) repeat = int_arg(a, v);
         else if (!strcmp(a, "--order")) {
             order_only = !strcmp(v, "block") ? 0 : !strcmp(v, "pixel") ? 1 : -1;
             if (order_only < 0 && strcmp(v, "all")) die("--order: all, block or pixel");

@@ -1,7 +1,9 @@
 /*
- * gltf_check.c: a glTF file read and checked before libassimp sees it
- * (gltf_doc.h).  assimp trusts much of what a file says (an accessor's
- * count, a child's index, a GLB chunk's length), so everything it would
+ * gltf_check.c: a glTF document checked before libassimp sees it
+ * (gltf_doc.h); its bytes are read by gltf_file.c, its binary data
+ * checked by gltf_accessor.c.  assimp trusts much
+ * of what a file says (an accessor's count, a child's index, a GLB
+ * chunk's length), so everything it would
  * trust is checked here, against the glTF 2.0 specification (Khronos,
  * sections 3.6 "Binary data", 3.7 "Geometry", 4.4 "GLB file format"), and
  * every error names the field.  gltf.c then hands assimp a copy of the
@@ -18,8 +20,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* The largest glTF (or GLB) and the largest file it may name. */
-#define MAX_GLTF_BYTES (512u << 20)
 
 lr_status lr__gltf_fail(const lr__gltf_doc *d, lr_error *err, const char *fmt,
                         ...)
@@ -86,7 +86,7 @@ static const char *dotted(const char *path, const char *key, char *buf,
 
 /* An optional non-negative integer member below `lim` (lim 0: no limit);
  * *out = dflt when absent. */
-static lr_status get_uint(const lr__gltf_doc *d, const cJSON *o,
+lr_status lr__gltf_get_uint(const lr__gltf_doc *d, const cJSON *o,
                           const char *path, const char *key, double lim,
                           long long dflt, long long *out, lr_error *err)
 {
@@ -108,7 +108,7 @@ static lr_status get_uint(const lr__gltf_doc *d, const cJSON *o,
 }
 
 /* An optional index into an array of n; -1 when absent. */
-static lr_status get_index(const lr__gltf_doc *d, const cJSON *o,
+lr_status lr__gltf_get_index(const lr__gltf_doc *d, const cJSON *o,
                            const char *path, const char *key, int n,
                            long long *out, lr_error *err)
 {
@@ -121,7 +121,7 @@ static lr_status get_index(const lr__gltf_doc *d, const cJSON *o,
         return lr__gltf_fail(d, err, "%s refers to an element of an "
                              "empty or missing array",
                              dotted(path, key, f, sizeof f));
-    return get_uint(d, o, path, key, n, -1, out, err);
+    return lr__gltf_get_uint(d, o, path, key, n, -1, out, err);
 }
 
 /* An optional array of exactly n finite numbers. */
@@ -141,248 +141,6 @@ static lr_status check_numbers(const lr__gltf_doc *d, const cJSON *o,
     return LR_OK;
 }
 
-/* ---- external files ----------------------------------------------------- */
-
-static int hex_value(int c)
-{
-    return c >= '0' && c <= '9'   ? c - '0'
-           : c >= 'a' && c <= 'f' ? c - 'a' + 10
-           : c >= 'A' && c <= 'F' ? c - 'A' + 10
-                                  : -1;
-}
-
-/* A URI reference spells a byte that may not stand in it as %XX (RFC
- * 3986, 2.1): exporters write a file "My Wood.png" as "My%20Wood.png".
- * Decoded into out (at least strlen(u) + 1 bytes); escapes of "/", "\"
- * and NUL are refused rather than decoded, since they would spell a
- * path other than the one the checks below read.  Returns what is
- * wrong, or NULL. */
-static const char *unescape_uri(const char *u, char *out)
-{
-    size_t k = 0;
-    for (const char *p = u; *p; p++) {
-        if (*p != '%') {
-            out[k++] = *p;
-            continue;
-        }
-        int hi = hex_value((unsigned char)p[1]);
-        int lo = hi < 0 ? -1 : hex_value((unsigned char)p[2]);
-        if (lo < 0)
-            return "has a \"%\" that is not an escape %XX";
-        int c = 16 * hi + lo;
-        if (c == '/' || c == '\\' || c == 0)
-            return "escapes a slash, a backslash or a NUL byte";
-        out[k++] = (char)c;
-        p += 2;
-    }
-    out[k] = '\0';
-    return NULL;
-}
-
-/* A relative path below the glTF's directory, percent escapes decoded:
- * no scheme, no absolute path, no ".." segment, no backslash (which
- * could spell either), no control characters. */
-static const char *bad_uri(const char *u)
-{
-    if (u[0] == '\0')
-        return "is empty";
-    if (u[0] == '/')
-        return "is an absolute path";
-    if (strchr(u, ':') != NULL)
-        return "names a URI scheme (only data: URIs and relative paths "
-               "are read)";
-    if (strchr(u, '\\') != NULL)
-        return "has a backslash";
-    for (const char *p = u; *p; p++)
-        if ((unsigned char)*p < 0x20)
-            return "has a control character";
-    for (const char *p = u; p != NULL; p = strchr(p, '/')) {
-        if (*p == '/')
-            p++;
-        if (p[0] == '.' && p[1] == '.' && (p[2] == '/' || p[2] == '\0'))
-            return "has a \"..\" segment";
-    }
-    return NULL;
-}
-
-static int b64_value(int c)
-{
-    if (c >= 'A' && c <= 'Z')
-        return c - 'A';
-    if (c >= 'a' && c <= 'z')
-        return c - 'a' + 26;
-    if (c >= '0' && c <= '9')
-        return c - '0' + 52;
-    return c == '+' ? 62 : c == '/' ? 63 : -1;
-}
-
-/* Decodes the base64 data: URI `u` (RFC 2397, RFC 4648 section 4). */
-static lr_status decode_data_uri(const lr__gltf_doc *d, const char *path,
-                                 const char *u, unsigned char **out,
-                                 size_t *n, lr_error *err)
-{
-    const char *comma = strchr(u, ',');
-    if (comma == NULL || comma - u < 12 ||
-        strncmp(comma - 7, ";base64", 7) != 0)
-        return lr__gltf_fail(d, err, "%s.uri: a data: URI must be base64 "
-                             "(\"data:...;base64,...\")", path);
-    const char *s = comma + 1;
-    size_t len = strlen(s);
-    unsigned char *buf = malloc(len / 4 * 3 + 3);
-    if (buf == NULL)
-        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
-    size_t k = 0, i;
-    unsigned acc = 0;
-    int bits = 0;
-    for (i = 0; i < len && s[i] != '='; i++) {
-        int v = b64_value((unsigned char)s[i]);
-        if (v < 0) {
-            free(buf);
-            return lr__gltf_fail(d, err, "%s.uri: byte %zu of the base64 "
-                                 "data is not base64", path, i);
-        }
-        acc = (acc << 6) | (unsigned)v;
-        bits += 6;
-        if (bits >= 8) {
-            bits -= 8;
-            buf[k++] = (unsigned char)(acc >> bits);
-        }
-    }
-    *out = buf;
-    *n = k;
-    return LR_OK;
-}
-
-/* Reads the file `uri` (relative to the glTF's directory `dir`) into a
- * new blob. */
-static lr_status read_blob(lr__gltf_doc *d, const char *dir, const char *path,
-                           const char *uri, lr__gltf_blob **out,
-                           lr_error *err)
-{
-    const lr__gltf_blob *seen = lr__gltf_blob_find(d, uri);
-    if (seen != NULL) {
-        *out = (lr__gltf_blob *)seen;
-        return LR_OK;
-    }
-    int is_data = strncmp(uri, "data:", 5) == 0;
-    char *file = is_data ? NULL : malloc(strlen(uri) + 1);
-    if (!is_data && file == NULL)
-        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
-    const char *why = is_data ? NULL : unescape_uri(uri, file);
-    if (!is_data && why == NULL)
-        why = bad_uri(file);
-    if (why != NULL) {
-        free(file);
-        return lr__gltf_fail(d, err, "%s.uri \"%.80s\" %s", path, uri, why);
-    }
-    lr__gltf_blob *b = realloc(d->blobs, (d->n_blobs + 1) * sizeof *b);
-    if (b == NULL) {
-        free(file);
-        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
-    }
-    d->blobs = b;
-    b = &d->blobs[d->n_blobs];
-    memset(b, 0, sizeof *b);
-    if (is_data) {
-        LR_TRY(decode_data_uri(d, path, uri, &b->data, &b->n, err));
-    } else {
-        size_t plen = strlen(dir) + strlen(file) + 2;
-        char *full = malloc(plen);
-        if (full == NULL) {
-            free(file);
-            return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
-        }
-        snprintf(full, plen, "%s/%s", dir, file);
-        /* A symbolic link must not lead out of the directory either.
-         * Into buffers of our own: realpath's own allocation, when it
-         * failed, skipped the check (a file it cannot resolve is not
-         * there, and lr__read_file says so below). */
-        char rdir[PATH_MAX], rfile[PATH_MAX];
-        int out = realpath(dir, rdir) != NULL &&
-                  realpath(full, rfile) != NULL &&
-                  (strncmp(rfile, rdir, strlen(rdir)) != 0 ||
-                   (rfile[strlen(rdir)] != '/' && strcmp(rdir, "/") != 0));
-        if (out) {
-            free(full);
-            free(file);
-            return lr__gltf_fail(d, err, "%s.uri \"%.80s\" leads out of the "
-                                 "glTF's directory (a symbolic link)", path,
-                                 uri);
-        }
-        char *data = NULL;
-        size_t n = 0;
-        lr_error e2;
-        lr_status st = lr__read_file(full, file, NULL, MAX_GLTF_BYTES,
-                                     "files a glTF names", NULL, &data, &n,
-                                     &e2);
-        free(full);
-        free(file);
-        if (st != LR_OK) {
-            if (st == LR_ERR_NOMEM)
-                return lr__fail(err, st, NULL, "out of memory");
-            return lr__fail(err, st, d->fp, "%s: %s: %s.uri: %s", d->fp,
-                            d->shown, path, e2.message);
-        }
-        b->data = (unsigned char *)data;
-        b->n = n;
-    }
-    b->uri = strdup(uri);
-    if (b->uri == NULL) {
-        free(b->data);
-        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
-    }
-    d->n_blobs++;
-    *out = b;
-    return LR_OK;
-}
-
-/* ---- the container -------------------------------------------------------- */
-
-static uint32_t le32(const unsigned char *p)
-{
-    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 |
-           (uint32_t)p[3] << 24;
-}
-
-/* The GLB header and chunks (spec 4.4): the JSON chunk's text in *json. */
-static lr_status read_glb(lr__gltf_doc *d, const char **json, size_t *n,
-                          lr_error *err)
-{
-    const unsigned char *b = d->bytes;
-    if (d->n_bytes < 20)
-        return lr__gltf_fail(d, err, "a GLB file needs a 12-byte header "
-                             "and a chunk; this one has %zu bytes",
-                             d->n_bytes);
-    if (le32(b + 4) != 2)
-        return lr__gltf_fail(d, err, "GLB version %u (only 2 is read)",
-                             (unsigned)le32(b + 4));
-    size_t total = le32(b + 8);
-    if (total > d->n_bytes || total < 20)
-        return lr__gltf_fail(d, err, "the GLB header says %zu bytes, the "
-                             "file has %zu (truncated?)", total, d->n_bytes);
-    size_t jlen = le32(b + 12);
-    if (memcmp(b + 16, "JSON", 4) != 0)
-        return lr__gltf_fail(d, err, "the first GLB chunk must be JSON");
-    if (jlen > total - 20)
-        return lr__gltf_fail(d, err, "the GLB JSON chunk of %zu bytes runs "
-                             "past the file's end (truncated?)", jlen);
-    *json = (const char *)b + 20;
-    *n = jlen;
-    size_t at = 20 + jlen;
-    if (at + 8 <= total) {
-        size_t blen = le32(b + at);
-        if (memcmp(b + at + 4, "BIN\0", 4) != 0)
-            return lr__gltf_fail(d, err, "the second GLB chunk must be BIN");
-        if (blen > total - at - 8)
-            return lr__gltf_fail(d, err, "the GLB BIN chunk of %zu bytes "
-                                 "runs past the file's end (truncated?)",
-                                 blen);
-        d->bin = b + at + 8;
-        d->n_bin = blen;
-    }
-    return LR_OK;
-}
-
 /* ---- the document ------------------------------------------------------- */
 
 /* Extensions lensray reads or may ignore without changing the geometry;
@@ -393,464 +151,6 @@ static const char *const known_ext[] = {
     "KHR_materials_specular", "KHR_materials_clearcoat",
     "KHR_materials_sheen", "KHR_materials_volume", "KHR_texture_transform",
     "KHR_materials_unlit", NULL};
-
-static lr_status check_buffers(lr__gltf_doc *d, const char *dir,
-                               lr_error *err)
-{
-    int n;
-    const cJSON *a = lr__gltf_array(d->root, "buffers", &n);
-    d->buffers = calloc(n ? (size_t)n : 1, sizeof *d->buffers);
-    if (d->buffers == NULL)
-        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
-    d->n_buffers = (size_t)n;
-    int i = 0;
-    char p[64];
-    for (const cJSON *b = a ? a->child : NULL; b; b = b->next, i++) {
-        snprintf(p, sizeof p, "buffers[%d]", i);
-        long long len;
-        LR_TRY(get_uint(d, b, p, "byteLength", 0, -1, &len, err));
-        if (len < 1 || len > MAX_GLTF_BYTES)
-            return lr__gltf_fail(d, err, "%s.byteLength must be between 1 "
-                                 "and %u", p, MAX_GLTF_BYTES);
-        const cJSON *uri = cJSON_GetObjectItemCaseSensitive(b, "uri");
-        if (uri != NULL && !cJSON_IsString(uri))
-            return lr__gltf_fail(d, err, "%s.uri must be a string", p);
-        const unsigned char *data;
-        size_t have;
-        if (uri == NULL) {
-            if (i != 0 || d->bin == NULL)
-                return lr__gltf_fail(d, err, "%s has no uri (only a GLB's "
-                                     "first buffer, its BIN chunk, may "
-                                     "have none)", p);
-            data = d->bin;
-            have = d->n_bin;
-        } else {
-            lr__gltf_blob *bl;
-            LR_TRY(read_blob(d, dir, p, uri->valuestring, &bl, err));
-            data = bl->data;
-            have = bl->n;
-        }
-        if ((size_t)len > have)
-            return lr__gltf_fail(d, err, "%s.byteLength is %lld but its data "
-                                 "has %zu bytes", p, len, have);
-        d->buffers[i].data = data;
-        d->buffers[i].n = (size_t)len;
-    }
-    return LR_OK;
-}
-
-static lr_status check_views(lr__gltf_doc *d, lr_error *err)
-{
-    int n;
-    const cJSON *a = lr__gltf_array(d->root, "bufferViews", &n);
-    int i = 0;
-    char p[64];
-    for (const cJSON *v = a ? a->child : NULL; v; v = v->next, i++) {
-        snprintf(p, sizeof p, "bufferViews[%d]", i);
-        long long b, off, len, stride;
-        LR_TRY(get_index(d, v, p, "buffer", (int)d->n_buffers, &b, err));
-        LR_TRY(get_uint(d, v, p, "byteOffset", 0, 0, &off, err));
-        LR_TRY(get_uint(d, v, p, "byteLength", 0, -1, &len, err));
-        LR_TRY(get_uint(d, v, p, "byteStride", 0, 0, &stride, err));
-        if (b < 0 || len < 1)
-            return lr__gltf_fail(d, err, "%s needs a buffer and a "
-                                 "byteLength >= 1", p);
-        if ((unsigned long long)off + (unsigned long long)len >
-            d->buffers[b].n)
-            return lr__gltf_fail(d, err, "%s: bytes %lld to %lld are "
-                                 "beyond buffers[%lld]'s %zu", p, off,
-                                 off + len, b, d->buffers[b].n);
-        if (stride != 0 && (stride < 4 || stride > 252 || stride % 4 != 0))
-            return lr__gltf_fail(d, err, "%s.byteStride must be a multiple "
-                                 "of 4 from 4 to 252, got %lld", p, stride);
-    }
-    return LR_OK;
-}
-
-static int component_size(long long t)
-{
-    switch (t) {
-    case 5120: case 5121: return 1;
-    case 5122: case 5123: return 2;
-    case 5125: case 5126: return 4;
-    default: return 0;
-    }
-}
-
-static int type_count(const char *t)
-{
-    static const char *const names[] = {"SCALAR", "VEC2", "VEC3", "VEC4",
-                                        "MAT2", "MAT3", "MAT4"};
-    static const int counts[] = {1, 2, 3, 4, 4, 9, 16};
-    for (int i = 0; i < 7; i++)
-        if (strcmp(t, names[i]) == 0)
-            return counts[i];
-    return 0;
-}
-
-/* Where view v's bytes start in its buffer (check_views has put them
- * there) and how many it has. */
-static const unsigned char *view_bytes(const lr__gltf_doc *d, long long v,
-                                       long long *len)
-{
-    int n;
-    const cJSON *view = cJSON_GetArrayItem(
-        lr__gltf_array(d->root, "bufferViews", &n), (int)v);
-    const cJSON *off = cJSON_GetObjectItemCaseSensitive(view, "byteOffset");
-    long long b = (long long)cJSON_GetNumberValue(
-        cJSON_GetObjectItemCaseSensitive(view, "buffer"));
-    *len = (long long)cJSON_GetNumberValue(
-        cJSON_GetObjectItemCaseSensitive(view, "byteLength"));
-    return d->buffers[b].data + (size_t)(off ? off->valuedouble : 0);
-}
-
-/* The bytes of accessor copies (zero-filled or sparse) allowed in all: a
- * tiny file must not make lensray allocate gigabytes, yet a mesh's
- * sparse morph targets stay within the budget of the buffers' size. */
-static size_t dense_budget(const lr__gltf_doc *d)
-{
-    size_t n = 16u << 20;
-    for (size_t i = 0; i < d->n_buffers; i++)
-        n += 4 * d->buffers[i].n;
-    return n;
-}
-
-/* A sparse accessor's indices or values (spec 3.6.2.3, "accessor.sparse"):
- * `n` elements of `size` bytes at the bufferView and byteOffset of
- * sparse.KEY, which must lie within that view; the view must not be
- * strided. */
-static lr_status sparse_part(const lr__gltf_doc *d, const cJSON *sp,
-                             const char *p, const char *key, long long n,
-                             long long size, const unsigned char **out,
-                             lr_error *err)
-{
-    char q[96];
-    snprintf(q, sizeof q, "%s.sparse.%s", p, key);
-    const cJSON *o = cJSON_GetObjectItemCaseSensitive(sp, key);
-    int nv;
-    lr__gltf_array(d->root, "bufferViews", &nv);
-    long long v, off, len;
-    if (!cJSON_IsObject(o))
-        return lr__gltf_fail(d, err, "%s must be an object", q);
-    LR_TRY(get_index(d, o, q, "bufferView", nv, &v, err));
-    LR_TRY(get_uint(d, o, q, "byteOffset", 0, 0, &off, err));
-    if (v < 0)
-        return lr__gltf_fail(d, err, "%s.bufferView is required", q);
-    int nn;
-    const cJSON *view = cJSON_GetArrayItem(
-        lr__gltf_array(d->root, "bufferViews", &nn), (int)v);
-    if (cJSON_GetObjectItemCaseSensitive(view, "byteStride") != NULL)
-        return lr__gltf_fail(d, err, "%s: bufferViews[%lld] has a "
-                             "byteStride, which sparse data must not have",
-                             q, v);
-    const unsigned char *base = view_bytes(d, v, &len);
-    if ((unsigned long long)off + (unsigned long long)n *
-                                      (unsigned long long)size >
-        (unsigned long long)len)
-        return lr__gltf_fail(d, err, "%s: %lld elements of %lld bytes from "
-                             "byte %lld run past bufferViews[%lld]'s %lld",
-                             q, n, size, off, v, len);
-    *out = base + off;
-    return LR_OK;
-}
-
-static unsigned long read_uint(const unsigned char *q, size_t cs)
-{
-    return cs == 1   ? q[0]
-           : cs == 2 ? (unsigned long)(q[0] | q[1] << 8)
-                     : (unsigned long)le32(q);
-}
-
-/* Writes accessor x's sparse values over its `count` elements of `elem`
- * bytes in `dense` (spec 3.6.2.3): indices strictly increasing and below
- * count. */
-static lr_status apply_sparse(const lr__gltf_doc *d, const cJSON *x,
-                              const char *p, long long count, long long elem,
-                              unsigned char *dense, lr_error *err)
-{
-    const cJSON *sp = cJSON_GetObjectItemCaseSensitive(x, "sparse");
-    long long n, ict;
-    if (!cJSON_IsObject(sp))
-        return lr__gltf_fail(d, err, "%s.sparse must be an object", p);
-    char q[96];
-    snprintf(q, sizeof q, "%s.sparse", p);
-    LR_TRY(get_uint(d, sp, q, "count", 0, -1, &n, err));
-    if (n < 1 || n > count)
-        return lr__gltf_fail(d, err, "%s.count must be from 1 to the "
-                             "accessor's count, %lld", q, count);
-    char qi[112];
-    snprintf(qi, sizeof qi, "%s.indices", q);
-    const cJSON *ind = cJSON_GetObjectItemCaseSensitive(sp, "indices");
-    if (!cJSON_IsObject(ind))
-        return lr__gltf_fail(d, err, "%s must be an object", qi);
-    LR_TRY(get_uint(d, ind, qi, "componentType", 0, 0, &ict, err));
-    if (ict != 5121 && ict != 5123 && ict != 5125)
-        return lr__gltf_fail(d, err, "%s.componentType must be 5121, 5123 "
-                             "or 5125", qi);
-    size_t isz = (size_t)component_size(ict);
-    const unsigned char *idx, *val;
-    LR_TRY(sparse_part(d, sp, p, "indices", n, (long long)isz, &idx, err));
-    LR_TRY(sparse_part(d, sp, p, "values", n, elem, &val, err));
-    long long last = -1;
-    for (long long i = 0; i < n; i++) {
-        unsigned long at = read_uint(idx + (size_t)i * isz, isz);
-        if ((long long)at <= last || (long long)at >= count)
-            return lr__gltf_fail(d, err, "%s.indices: element %lld is %lu; "
-                                 "they must increase and stay below %lld",
-                                 q, i, at, count);
-        last = (long long)at;
-        memcpy(dense + (size_t)at * (size_t)elem, val + (size_t)i * (size_t)elem,
-               (size_t)elem);
-    }
-    return LR_OK;
-}
-
-/* The primitive compressed with KHR_draco_mesh_compression that names
- * accessor i, as "meshes[m].primitives[p]" in out; 0 if there is none. */
-static int draco_user(const lr__gltf_doc *d, int i, char *out, size_t n)
-{
-    int nm, np;
-    const cJSON *meshes = lr__gltf_array(d->root, "meshes", &nm);
-    int m = 0;
-    for (const cJSON *me = meshes ? meshes->child : NULL; me;
-         me = me->next, m++) {
-        const cJSON *prims = lr__gltf_array(me, "primitives", &np);
-        int k = 0;
-        for (const cJSON *pr = prims ? prims->child : NULL; pr;
-             pr = pr->next, k++) {
-            if (!lr__gltf_member(pr, "extensions",
-                                 "KHR_draco_mesh_compression"))
-                continue;
-            const cJSON *at = cJSON_GetObjectItemCaseSensitive(pr,
-                                                               "attributes");
-            const cJSON *ix = cJSON_GetObjectItemCaseSensitive(pr, "indices");
-            int uses = cJSON_IsNumber(ix) && ix->valuedouble == i;
-            for (const cJSON *c = cJSON_IsObject(at) ? at->child : NULL; c;
-                 c = c->next)
-                uses |= cJSON_IsNumber(c) && c->valuedouble == i;
-            if (uses) {
-                snprintf(out, n, "meshes[%d].primitives[%d]", m, k);
-                return 1;
-            }
-        }
-    }
-    return 0;
-}
-
-/* An accessor without a bufferView is zeros (spec 3.6.2.1), unless an
- * extension that lensray does not read fills it: Draco's decoded
- * vertices would otherwise be drawn as a heap of zeros. */
-static lr_status check_viewless(const lr__gltf_doc *d, const cJSON *x, int i,
-                                const char *p, lr_error *err)
-{
-    char who[64];
-    if (draco_user(d, i, who, sizeof who))
-        return lr__gltf_fail(d, err, "%s has no bufferView: %s is "
-                             "compressed with KHR_draco_mesh_compression, "
-                             "which lensray does not decode", p, who);
-    if (cJSON_GetObjectItemCaseSensitive(x, "byteOffset") != NULL)
-        return lr__gltf_fail(d, err, "%s has a byteOffset but no "
-                             "bufferView", p);
-    return LR_OK;
-}
-
-/* Accessor x's elements copied out tightly packed into a new block
- * (*dense): its bufferView's, or zeros without one, with the sparse
- * values written over them.  The copies of a file share dense_budget. */
-static lr_status make_dense(lr__gltf_doc *d, const cJSON *x, const char *p,
-                            long long v, long long off, long long stride,
-                            long long count, long long elem, size_t *used,
-                            unsigned char **dense, lr_error *err)
-{
-    unsigned long long bytes = (unsigned long long)count *
-                               (unsigned long long)elem;
-    if (bytes > dense_budget(d) - *used)
-        return lr__gltf_fail(d, err, "%s: %lld elements of %lld bytes to "
-                             "fill in (zeros or sparse) are more than "
-                             "lensray allows for this file (%zu bytes)", p,
-                             count, elem, dense_budget(d));
-    *dense = calloc((size_t)bytes, 1);
-    if (*dense == NULL)
-        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
-    *used += (size_t)bytes;
-    if (v >= 0) {
-        long long len;
-        const unsigned char *base = view_bytes(d, v, &len) + off;
-        for (long long i = 0; i < count; i++)
-            memcpy(*dense + (size_t)(i * elem), base + (size_t)(i * stride),
-                   (size_t)elem);
-    }
-    if (cJSON_GetObjectItemCaseSensitive(x, "sparse") != NULL)
-        return apply_sparse(d, x, p, count, elem, *dense, err);
-    return LR_OK;
-}
-
-/* Every accessor must lie within its bufferView (spec 3.6.2.4): the last
- * element ends at byteOffset + stride (count - 1) + element size.  One
- * without a bufferView, or with sparse values, is copied out (make_dense)
- * and read from the copy from then on. */
-static lr_status check_accessors(lr__gltf_doc *d, lr_error *err)
-{
-    int n, nv;
-    const cJSON *a = lr__gltf_array(d->root, "accessors", &n);
-    const cJSON *views = lr__gltf_array(d->root, "bufferViews", &nv);
-    d->dense = calloc(n ? (size_t)n : 1, sizeof *d->dense);
-    if (d->dense == NULL)
-        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
-    d->n_accessors = (size_t)n;
-    size_t used = 0;
-    int i = 0;
-    char p[64];
-    for (const cJSON *x = a ? a->child : NULL; x; x = x->next, i++) {
-        snprintf(p, sizeof p, "accessors[%d]", i);
-        long long v, off, ct, count, stride = 0, vlen = 0;
-        LR_TRY(get_index(d, x, p, "bufferView", nv, &v, err));
-        if (v < 0)
-            LR_TRY(check_viewless(d, x, i, p, err));
-        LR_TRY(get_uint(d, x, p, "byteOffset", 0, 0, &off, err));
-        LR_TRY(get_uint(d, x, p, "componentType", 0, 0, &ct, err));
-        LR_TRY(get_uint(d, x, p, "count", 0, 0, &count, err));
-        const cJSON *t = cJSON_GetObjectItemCaseSensitive(x, "type");
-        int csize = component_size(ct);
-        int k = cJSON_IsString(t) ? type_count(t->valuestring) : 0;
-        if (csize == 0)
-            return lr__gltf_fail(d, err, "%s.componentType %lld is not one "
-                                 "of 5120, 5121, 5122, 5123, 5125, 5126", p,
-                                 ct);
-        if (k == 0)
-            return lr__gltf_fail(d, err, "%s.type must be SCALAR, VEC2, "
-                                 "VEC3, VEC4, MAT2, MAT3 or MAT4", p);
-        if (count < 1)
-            return lr__gltf_fail(d, err, "%s.count must be >= 1", p);
-        if (off % csize != 0)
-            return lr__gltf_fail(d, err, "%s.byteOffset %lld is not a "
-                                 "multiple of its component size %d", p,
-                                 off, csize);
-        long long elem = (long long)k * csize;
-        if (v >= 0) {
-            const cJSON *view = cJSON_GetArrayItem(views, (int)v);
-            LR_TRY(get_uint(d, view, "bufferView", "byteStride", 0, 0,
-                            &stride, err));
-            LR_TRY(get_uint(d, view, "bufferView", "byteLength", 0, 0, &vlen,
-                            err));
-            if (stride == 0)
-                stride = elem;
-            if (stride < elem)
-                return lr__gltf_fail(d, err, "%s: elements of %lld bytes do "
-                                     "not fit bufferViews[%lld].byteStride "
-                                     "%lld", p, elem, v, stride);
-            unsigned long long end = (unsigned long long)off +
-                                     (unsigned long long)stride *
-                                         (unsigned long long)(count - 1) +
-                                     (unsigned long long)elem;
-            if (end > (unsigned long long)vlen)
-                return lr__gltf_fail(d, err, "%s: %lld elements reach byte "
-                                     "%llu of bufferViews[%lld], which has "
-                                     "%lld", p, count, end, v, vlen);
-        }
-        if (v < 0 || cJSON_GetObjectItemCaseSensitive(x, "sparse") != NULL)
-            LR_TRY(make_dense(d, x, p, v, off, stride, count, elem, &used,
-                              &d->dense[i], err));
-    }
-    return LR_OK;
-}
-
-/* The accessor's componentType and type must be what `attr` allows. */
-static lr_status check_attribute(const lr__gltf_doc *d, const char *p,
-                                 const char *attr, long long acc,
-                                 long long *count, lr_error *err)
-{
-    int n;
-    const cJSON *a = cJSON_GetArrayItem(lr__gltf_array(d->root, "accessors",
-                                                       &n), (int)acc);
-    const cJSON *t = cJSON_GetObjectItemCaseSensitive(a, "type");
-    double ct = cJSON_GetNumberValue(cJSON_GetObjectItemCaseSensitive(
-        a, "componentType"));
-    *count = (long long)cJSON_GetNumberValue(
-        cJSON_GetObjectItemCaseSensitive(a, "count"));
-    const char *want = NULL;
-    if (strcmp(attr, "POSITION") == 0 || strcmp(attr, "NORMAL") == 0)
-        want = ct == 5126 && strcmp(t->valuestring, "VEC3") == 0
-                   ? NULL
-                   : "VEC3 of floats (5126)";
-    else if (strncmp(attr, "TEXCOORD_", 9) == 0)
-        /* Spec 3.7.2.1: floats, or unsigned bytes or shorts normalized
-         * (gltf_assimp.c decodes those itself). */
-        want = (ct == 5126 ||
-                ((ct == 5121 || ct == 5123) &&
-                 cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(
-                     a, "normalized")))) &&
-                       strcmp(t->valuestring, "VEC2") == 0
-                   ? NULL
-                   : "VEC2 of floats, or of unsigned bytes or shorts with "
-                     "\"normalized\": true";
-    else if (strncmp(attr, "JOINTS_", 7) == 0)
-        /* Spec 3.7.3.3: joint indices as unsigned bytes or shorts. */
-        want = (ct == 5121 || ct == 5123) &&
-                       strcmp(t->valuestring, "VEC4") == 0
-                   ? NULL
-                   : "VEC4 of unsigned bytes or shorts";
-    else if (strncmp(attr, "WEIGHTS_", 8) == 0)
-        want = (ct == 5126 ||
-                ((ct == 5121 || ct == 5123) &&
-                 cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(
-                     a, "normalized")))) &&
-                       strcmp(t->valuestring, "VEC4") == 0
-                   ? NULL
-                   : "VEC4 of floats, or of unsigned bytes or shorts with "
-                     "\"normalized\": true";
-    else if (strcmp(attr, "indices") == 0)
-        want = (ct == 5121 || ct == 5123 || ct == 5125) &&
-                       strcmp(t->valuestring, "SCALAR") == 0
-                   ? NULL
-                   : "SCALAR of unsigned bytes, shorts or ints";
-    /* A file that quantizes without requiring the extension (which the
-     * extension forbids, yet exporters do) hears why its integers are
-     * refused. */
-    int quantized = 0, nu;
-    const cJSON *used = lr__gltf_array(d->root, "extensionsUsed", &nu);
-    for (const cJSON *e = used ? used->child : NULL; e; e = e->next)
-        quantized |= cJSON_IsString(e) &&
-                     strcmp(e->valuestring, "KHR_mesh_quantization") == 0;
-    if (want != NULL)
-        return lr__gltf_fail(d, err, "%s.%s: accessors[%lld] must be a %s%s",
-                             p, attr, acc, want,
-                             quantized ? " (KHR_mesh_quantization is not "
-                                         "read by lensray)"
-                                       : "");
-    return LR_OK;
-}
-
-const unsigned char *lr__gltf_accessor_at(const lr__gltf_doc *d,
-                                          long long acc, size_t *stride,
-                                          long long *count, size_t *cs)
-{
-    int n;
-    const cJSON *root = d->root;
-    const cJSON *a = cJSON_GetArrayItem(lr__gltf_array(root, "accessors", &n),
-                                        (int)acc);
-    const cJSON *t = cJSON_GetObjectItemCaseSensitive(a, "type");
-    *cs = (size_t)component_size((long long)cJSON_GetNumberValue(
-        cJSON_GetObjectItemCaseSensitive(a, "componentType")));
-    *count = (long long)cJSON_GetNumberValue(
-        cJSON_GetObjectItemCaseSensitive(a, "count"));
-    size_t elem = *cs * (size_t)type_count(t->valuestring);
-    if (d->dense[acc] != NULL) {
-        *stride = elem;
-        return d->dense[acc];
-    }
-    long long vi = (long long)cJSON_GetNumberValue(
-        cJSON_GetObjectItemCaseSensitive(a, "bufferView"));
-    const cJSON *v = cJSON_GetArrayItem(lr__gltf_array(root, "bufferViews",
-                                                       &n), (int)vi);
-    const cJSON *ao = cJSON_GetObjectItemCaseSensitive(a, "byteOffset");
-    const cJSON *vs = cJSON_GetObjectItemCaseSensitive(v, "byteStride");
-    long long len;
-    *stride = vs ? (size_t)vs->valuedouble : elem;
-    return view_bytes(d, vi, &len) + (size_t)(ao ? ao->valuedouble : 0);
-}
-
-/* The index accessor's values must name vertices that exist. */
 static lr_status check_index_values(const lr__gltf_doc *d, const char *p,
                                     long long acc, long long n_vertices,
                                     lr_error *err)
@@ -860,7 +160,7 @@ static lr_status check_index_values(const lr__gltf_doc *d, const char *p,
     const unsigned char *base = lr__gltf_accessor_at(d, acc, &stride, &count, &cs);
     for (long long i = 0; i < count; i++) {
         const unsigned char *q = base + (size_t)i * stride;
-        unsigned long x = read_uint(q, cs);
+        unsigned long x = lr__gltf_read_uint(q, cs);
         if ((long long)x >= n_vertices)
             return lr__gltf_fail(d, err, "%s.indices: index %lld is %lu, "
                                  "beyond the %lld vertices", p, i, x,
@@ -881,7 +181,7 @@ static lr_status check_positions(const lr__gltf_doc *d, const char *p,
     const unsigned char *base = lr__gltf_accessor_at(d, acc, &stride, &count, &cs);
     for (long long i = 0; i < count; i++)
         for (int k = 0; k < 3; k++) {
-            uint32_t bits = le32(base + (size_t)i * stride + 4 * (size_t)k);
+            uint32_t bits = lr__gltf_le32(base + (size_t)i * stride + 4 * (size_t)k);
             float f;
             memcpy(&f, &bits, sizeof f);
             if (!isfinite(f))
@@ -912,8 +212,8 @@ static lr_status check_targets(const lr__gltf_doc *d, const cJSON *pr,
             return lr__gltf_fail(d, err, "%s must be an object", q);
         for (const cJSON *c = t->child; c; c = c->next) {
             long long x, cnt;
-            LR_TRY(get_index(d, t, q, c->string, nacc, &x, err));
-            LR_TRY(check_attribute(d, q, c->string, x, &cnt, err));
+            LR_TRY(lr__gltf_get_index(d, t, q, c->string, nacc, &x, err));
+            LR_TRY(lr__gltf_check_attribute(d, q, c->string, x, &cnt, err));
             if (cnt != nvert)
                 return lr__gltf_fail(d, err, "%s.%s has %lld elements, "
                                      "POSITION %lld", q, c->string, cnt,
@@ -986,13 +286,13 @@ static lr_status check_meshes(lr__gltf_doc *d, lr_error *err)
             char q[128];
             snprintf(q, sizeof q, "%s.attributes", p);
             if (pos != NULL) {
-                LR_TRY(get_index(d, at, q, "POSITION", nacc, &x, err));
-                LR_TRY(check_attribute(d, q, "POSITION", x, &nvert, err));
+                LR_TRY(lr__gltf_get_index(d, at, q, "POSITION", nacc, &x, err));
+                LR_TRY(lr__gltf_check_attribute(d, q, "POSITION", x, &nvert, err));
                 LR_TRY(check_positions(d, q, x, err));
             }
             for (const cJSON *c = at->child; c; c = c->next) {
-                LR_TRY(get_index(d, at, q, c->string, nacc, &x, err));
-                LR_TRY(check_attribute(d, q, c->string, x, &cnt, err));
+                LR_TRY(lr__gltf_get_index(d, at, q, c->string, nacc, &x, err));
+                LR_TRY(lr__gltf_check_attribute(d, q, c->string, x, &cnt, err));
                 if (nvert < 0)
                     nvert = cnt;
                 if (cnt != nvert)
@@ -1000,13 +300,13 @@ static lr_status check_meshes(lr__gltf_doc *d, lr_error *err)
                                          "%s %lld", q, c->string, cnt, first,
                                          nvert);
             }
-            LR_TRY(get_index(d, pr, p, "indices", nacc, &x, err));
+            LR_TRY(lr__gltf_get_index(d, pr, p, "indices", nacc, &x, err));
             if (x >= 0) {
-                LR_TRY(check_attribute(d, p, "indices", x, &cnt, err));
+                LR_TRY(lr__gltf_check_attribute(d, p, "indices", x, &cnt, err));
                 LR_TRY(check_index_values(d, p, x, nvert, err));
             }
-            LR_TRY(get_index(d, pr, p, "material", nmat, &x, err));
-            LR_TRY(get_uint(d, pr, p, "mode", 7, 4, &mode, err));
+            LR_TRY(lr__gltf_get_index(d, pr, p, "material", nmat, &x, err));
+            LR_TRY(lr__gltf_get_uint(d, pr, p, "mode", 7, 4, &mode, err));
             int nt;
             LR_TRY(check_targets(d, pr, p, nvert, &nt, err));
             if (j == 0)
@@ -1046,8 +346,8 @@ static lr_status check_skins(const lr__gltf_doc *d, lr_error *err)
             return lr__gltf_fail(d, err, "%s.joints must be a non-empty "
                                  "array of indices below %d", p, nn);
         long long x, sk_node;
-        LR_TRY(get_index(d, sk, p, "skeleton", nn, &sk_node, err));
-        LR_TRY(get_index(d, sk, p, "inverseBindMatrices", nacc, &x, err));
+        LR_TRY(lr__gltf_get_index(d, sk, p, "skeleton", nn, &sk_node, err));
+        LR_TRY(lr__gltf_get_index(d, sk, p, "inverseBindMatrices", nacc, &x, err));
         if (x < 0)
             continue;
         const cJSON *a = cJSON_GetArrayItem(
@@ -1107,7 +407,7 @@ static lr_status check_skinned(const lr__gltf_doc *d, const char *p,
             const unsigned char *q = lr__gltf_accessor_at(
                 d, (long long)c->valuedouble, &stride, &count, &cs);
             for (long long e = 0; e < 4 * count; e++) {
-                unsigned long j = read_uint(q + (size_t)(e / 4) * stride +
+                unsigned long j = lr__gltf_read_uint(q + (size_t)(e / 4) * stride +
                                                 (size_t)(e % 4) * cs,
                                             cs);
                 if ((long long)j >= nj)
@@ -1151,29 +451,34 @@ static lr_status check_nodes(lr__gltf_doc *d, lr_error *err)
             st = lr__gltf_fail(d, err, "%s must be an object", p);
             break;
         }
-        long long mesh;
-        if ((st = get_index(d, o, p, "mesh", nmesh, &mesh, err)) ||
-            (st = get_index(d, o, p, "camera", ncam, &x, err)) ||
-            (st = check_numbers(d, o, p, "matrix", 16, err)) ||
-            (st = check_numbers(d, o, p, "translation", 3, err)) ||
-            (st = check_numbers(d, o, p, "rotation", 4, err)) ||
-            (st = check_numbers(d, o, p, "scale", 3, err)))
-            break;
-        long long skin;
-        if ((st = get_index(d, o, p, "skin", nskin, &skin, err)) != LR_OK ||
-            (skin >= 0 && mesh >= 0 &&
-             (st = check_skinned(d, p, mesh, skin, err)) != LR_OK))
-            break;
+        long long mesh = -1, skin = -1;
+        st = lr__gltf_get_index(d, o, p, "mesh", nmesh, &mesh, err);
+        if (st == LR_OK)
+            st = lr__gltf_get_index(d, o, p, "camera", ncam, &x, err);
+        if (st == LR_OK)
+            st = check_numbers(d, o, p, "matrix", 16, err);
+        if (st == LR_OK)
+            st = check_numbers(d, o, p, "translation", 3, err);
+        if (st == LR_OK)
+            st = check_numbers(d, o, p, "rotation", 4, err);
+        if (st == LR_OK)
+            st = check_numbers(d, o, p, "scale", 3, err);
+        if (st == LR_OK)
+            st = lr__gltf_get_index(d, o, p, "skin", nskin, &skin, err);
+        if (st == LR_OK && skin >= 0 && mesh >= 0)
+            st = check_skinned(d, p, mesh, skin, err);
         /* A node's weights override its mesh's (spec 3.7.2.2). */
-        if (cJSON_GetObjectItemCaseSensitive(o, "weights") != NULL &&
-            (st = check_weights(d, o, p,
-                                mesh < 0 ? 0 : mesh_targets(d, mesh),
-                                err)) != LR_OK)
+        if (st == LR_OK &&
+            cJSON_GetObjectItemCaseSensitive(o, "weights") != NULL)
+            st = check_weights(d, o, p, mesh < 0 ? 0 : mesh_targets(d, mesh),
+                               err);
+        if (st != LR_OK)
             break;
         const cJSON *l = lr__gltf_member(o, "extensions",
                                          "KHR_lights_punctual");
-        if (l != NULL &&
-            (st = get_index(d, l, p, "light", nlight, &x, err)) != LR_OK)
+        if (l != NULL)
+            st = lr__gltf_get_index(d, l, p, "light", nlight, &x, err);
+        if (st != LR_OK)
             break;
         int nc;
         const cJSON *ch = lr__gltf_array(o, "children", &nc);
@@ -1225,7 +530,7 @@ static lr_status check_nodes(lr__gltf_doc *d, lr_error *err)
     if (st != LR_OK)
         return st;
     long long sc;
-    LR_TRY(get_index(d, d->root, "", "scene", nsc, &sc, err));
+    LR_TRY(lr__gltf_get_index(d, d->root, "", "scene", nsc, &sc, err));
     /* Without scenes a glTF is a library of parts that nothing places
      * (spec 3.5.1); assimp would say only "GLTF: No scene". */
     if (nsc == 0)
@@ -1249,10 +554,10 @@ static lr_status check_images(lr__gltf_doc *d, const char *dir, lr_error *err)
     for (const cJSON *im = imgs ? imgs->child : NULL; im; im = im->next) {
         snprintf(p, sizeof p, "images[%d]", i++);
         const cJSON *uri = cJSON_GetObjectItemCaseSensitive(im, "uri");
-        LR_TRY(get_index(d, im, p, "bufferView", nv, &x, err));
+        LR_TRY(lr__gltf_get_index(d, im, p, "bufferView", nv, &x, err));
         if (cJSON_IsString(uri)) {
             lr__gltf_blob *b;
-            LR_TRY(read_blob(d, dir, p, uri->valuestring, &b, err));
+            LR_TRY(lr__gltf_read_blob(d, dir, p, uri->valuestring, &b, err));
         } else if (x < 0) {
             return lr__gltf_fail(d, err, "%s needs a uri or a bufferView",
                                  p);
@@ -1261,8 +566,8 @@ static lr_status check_images(lr__gltf_doc *d, const char *dir, lr_error *err)
     i = 0;
     for (const cJSON *t = texs ? texs->child : NULL; t; t = t->next) {
         snprintf(p, sizeof p, "textures[%d]", i++);
-        LR_TRY(get_index(d, t, p, "source", ni, &x, err));
-        LR_TRY(get_index(d, t, p, "sampler", nsamp, &x, err));
+        LR_TRY(lr__gltf_get_index(d, t, p, "source", ni, &x, err));
+        LR_TRY(lr__gltf_get_index(d, t, p, "sampler", nsamp, &x, err));
     }
     static const char *const slots[][2] = {
         {"pbrMetallicRoughness", "baseColorTexture"},
@@ -1285,7 +590,7 @@ static lr_status check_images(lr__gltf_doc *d, const char *dir, lr_error *err)
                      slots[k][0] ? slots[k][0] : "", slots[k][0] ? "." : "",
                      slots[k][1]);
             if (o != NULL)
-                LR_TRY(get_index(d, o, p, "index", nt, &x, err));
+                LR_TRY(lr__gltf_get_index(d, o, p, "index", nt, &x, err));
             if (o != NULL && x < 0)
                 return lr__gltf_fail(d, err, "%s.index is required", p);
         }
@@ -1339,7 +644,7 @@ lr_status lr__gltf_doc_load(const char *file, const char *shown,
     d->fp = fp;
     d->shown = shown;
     char *buf = NULL;
-    lr_status st = lr__read_file(file, shown, fp, MAX_GLTF_BYTES,
+    lr_status st = lr__read_file(file, shown, fp, LR__GLTF_MAX_BYTES,
                                  "glTF files", NULL, &buf, &d->n_bytes, err);
     if (st != LR_OK)
         return st;
@@ -1348,7 +653,7 @@ lr_status lr__gltf_doc_load(const char *file, const char *shown,
     size_t n = d->n_bytes;
     d->glb = n >= 4 && memcmp(buf, "glTF", 4) == 0;
     if (d->glb)
-        st = read_glb(d, &json, &n, err);
+        st = lr__gltf_read_glb(d, &json, &n, err);
     if (st == LR_OK) {
         lr_error e2;
         st = lr__json_parse(json ? json : "", n, shown, "", &d->root, &e2);
@@ -1368,11 +673,11 @@ lr_status lr__gltf_doc_load(const char *file, const char *shown,
     if (st == LR_OK)
         st = check_top(d, err);
     if (st == LR_OK)
-        st = check_buffers(d, dir, err);
+        st = lr__gltf_check_buffers(d, dir, err);
     if (st == LR_OK)
-        st = check_views(d, err);
+        st = lr__gltf_check_views(d, err);
     if (st == LR_OK)
-        st = check_accessors(d, err);
+        st = lr__gltf_check_accessors(d, err);
     if (st == LR_OK)
         st = check_meshes(d, err);
     if (st == LR_OK)

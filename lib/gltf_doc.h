@@ -130,4 +130,44 @@ lr_status lr__gltf_camera(lr_scene *s, const lr__gltf_doc *d,
 void lr__gltf_warn(lr_scene *s, const lr__gltf_doc *d, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)));
 
+/* The largest glTF (or GLB) and the largest file it may name. */
+#define LR__GLTF_MAX_BYTES (512u << 20)
+
+/* gltf_file.c: reads the file `uri` (relative to the glTF's directory
+ * `dir`; `path` names the field for errors) into a new blob of d's, or
+ * finds the one read before. */
+lr_status lr__gltf_read_blob(lr__gltf_doc *d, const char *dir,
+                             const char *path, const char *uri,
+                             lr__gltf_blob **out, lr_error *err);
+/* gltf_file.c: the GLB header and chunks (spec 4.4) of d's bytes: the
+ * JSON chunk's text in *json, *n bytes. */
+lr_status lr__gltf_read_glb(lr__gltf_doc *d, const char **json, size_t *n,
+                            lr_error *err);
+/* A little-endian 32-bit number. */
+uint32_t lr__gltf_le32(const unsigned char *p);
+
+/* gltf_check.c: an optional non-negative integer member `key` of o below
+ * `lim` (0: no limit), *out = dflt when absent; an optional index into an
+ * array of n, -1 when absent.  Errors name path.key. */
+lr_status lr__gltf_get_uint(const lr__gltf_doc *d, const cJSON *o,
+                            const char *path, const char *key, double lim,
+                            long long dflt, long long *out, lr_error *err);
+lr_status lr__gltf_get_index(const lr__gltf_doc *d, const cJSON *o,
+                             const char *path, const char *key, int n,
+                             long long *out, lr_error *err);
+
+/* gltf_accessor.c: the buffers (their files read from `dir`), the
+ * bufferViews and the accessors checked, in that order. */
+lr_status lr__gltf_check_buffers(lr__gltf_doc *d, const char *dir,
+                                 lr_error *err);
+lr_status lr__gltf_check_views(lr__gltf_doc *d, lr_error *err);
+lr_status lr__gltf_check_accessors(lr__gltf_doc *d, lr_error *err);
+/* gltf_accessor.c: accessor `acc` of attribute `attr` (at path p) has a
+ * componentType and type that `attr` allows; its count in *count. */
+lr_status lr__gltf_check_attribute(const lr__gltf_doc *d, const char *p,
+                                   const char *attr, long long acc,
+                                   long long *count, lr_error *err);
+/* An unsigned integer of cs bytes (1, 2 or 4), little-endian. */
+unsigned long lr__gltf_read_uint(const unsigned char *q, size_t cs);
+
 #endif

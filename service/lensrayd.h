@@ -5,8 +5,8 @@
  * The daemon is a thin client of the public lensray.h API:
  *
  *   main.c         flags and environment, signals, startup and shutdown
- *   http.c         libmicrohttpd setup, the route table, bodies, errors,
- *                  logging
+ *   http_*.c       the HTTP side on libmicrohttpd (http.h): lifecycle,
+ *                  transport, the route table, responses, handlers
  *   api.c          job body -> validated job spec (through lr_job_*);
  *                  mesh-path confinement; the scene listing
  *   jobs.c         job table, queue, worker pool, retention, cancellation
@@ -357,7 +357,7 @@ void lrd_jobs_stop(void);
 void lrd_jobs_free_all(void);
 
 /* ------------------------------------------------------------------------
- * HTTP (http.c)
+ * HTTP (http_server.c, http_transport.c; the rest in http.h)
  * ---------------------------------------------------------------------- */
 
 struct sockaddr_storage;

@@ -434,6 +434,227 @@ static int render_remote(const render_job *r)
     return rc;
 }
 
+/* render's arguments into *r; the token file and the last remote-only
+ * flag into *token_file and *remote_flag.  EXIT_OK or a usage error. */
+static int render_parse_args(render_job *r, int argc, char **argv,
+                             const char **token_file,
+                             const char **remote_flag)
+{
+    for (int i = 0; i < argc; i++) {
+        const char *a = argv[i];
+        if (strcmp(a, "-o") == 0 || strcmp(a, "--output") == 0) {
+            if (i + 1 >= argc) {
+                return usage_error("%s needs a file name", a);
+            }
+            /* The first would be dropped unwritten. */
+            if (r->out != NULL) {
+                char both[8192];
+                snprintf(both, sizeof both, "('%s', then '%s')", r->out,
+                         argv[i + 1]);
+                return usage_error("-o given twice %s; a render writes one "
+                                 "file, or one a frame with %%d", both);
+            }
+            r->out = argv[++i];
+        } else if (strcmp(a, "--set") == 0) {
+            if (i + 1 >= argc) {
+                return usage_error("%s needs PATH=VALUE", a);
+            }
+            r->sets[r->n_sets++] = argv[++i];
+        } else if (strcmp(a, "--stats") == 0) {
+            r->stats = 1;
+        } else if (strcmp(a, "--half") == 0) {
+            r->oo.exr_half = 1;
+        } else if (strcmp(a, "--compression") == 0) {
+            if (i + 1 >= argc) {
+                return usage_error("%s needs a name", a);
+            }
+            r->compression = argv[++i];
+        } else if (strcmp(a, "--png16") == 0) {
+            r->oo.png_16bit = 1;
+        } else if (strcmp(a, "--depth") == 0) {
+            r->want_depth = 1;
+        } else if (strcmp(a, "-q") == 0 || strcmp(a, "--quiet") == 0) {
+            r->quiet = 1;
+        } else if (strcmp(a, "--remote") == 0 ||
+                   strcmp(a, "--token-file") == 0) {
+            if (i + 1 >= argc) {
+                return usage_error("%s needs a value", a);
+            }
+            if (a[2] == 'r')
+                r->ro.url = argv[++i];
+            else
+                *token_file = argv[++i];
+        } else if (strcmp(a, "--parts") == 0 ||
+                   strcmp(a, "--parallel") == 0 ||
+                   strcmp(a, "--retries") == 0) {
+            int *dst = strcmp(a, "--parts") == 0      ? &r->ro.parts
+                       : strcmp(a, "--parallel") == 0 ? &r->ro.parallel
+                                                      : &r->ro.retries;
+            int lo = dst == &r->ro.retries ? 0 : 1;
+            if (i + 1 >= argc || parse_int(argv[i + 1], lo, 100000, dst) != 0) {
+                char what[64];
+                snprintf(what, sizeof what, "%s needs a whole number from %d "
+                         "to 100000", a, lo);
+                return usage_error("%s", what);
+            }
+            i++;
+            *remote_flag = a;
+        } else if (a[0] == '-' && a[1] != '\0') {
+            return usage_error("unknown option '%s'", a);
+        } else {
+            r->scenes[r->n_scenes++] = a;
+        }
+    }
+    return EXIT_OK;
+}
+
+/* The arguments checked together (a scene, an output, numbered outputs
+ * for several scenes, --set's shape, --remote's URL and flags); the
+ * token read into token[cap].  EXIT_OK, a usage error or EXIT_IO. */
+static int render_check_args(render_job *r, const char *token_file,
+                             const char *remote_flag, char *token,
+                             size_t cap)
+{
+    if (r->n_scenes == 0) {
+        return usage_error("%s", "render needs a scene file");
+    }
+    if (r->out == NULL) {
+        return usage_error("%s", "render needs an output file: -o OUT.exr or "
+                               "-o OUT.png");
+    }
+    r->numbered = outname_check(r->out) == 1;
+    if (r->n_scenes > 1 && !r->numbered) {
+        return usage_error("-o '%s': several scenes need an output name with "
+                         "one frame number, such as -o out-%%04d.exr",
+                         r->out);
+    }
+    for (size_t i = 0; i < r->n_sets; i++) {
+        if (strchr(r->sets[i], '=') == NULL) {
+            return usage_error("--set '%s' must look like PATH=VALUE", r->sets[i]);
+        }
+        /* The daemons get the scene file as it is, with the camera and
+         * settings as this process reads them: other overrides would not
+         * reach them. */
+        if (r->ro.url != NULL && strncmp(r->sets[i], "camera.", 7) != 0 &&
+            strncmp(r->sets[i], "render.", 7) != 0) {
+            return usage_error("--set '%s': with --remote only camera.* and "
+                             "render.* can be overridden", r->sets[i]);
+        }
+    }
+    if (r->ro.url == NULL && (token_file != NULL || remote_flag != NULL)) {
+        return usage_error("%s is for --remote",
+                         token_file != NULL ? "--token-file" : remote_flag);
+    }
+    /* A URL libcurl could not reach is tried --retries more times with
+     * back-off; one that is not even a web address is said at once. */
+    if (r->ro.url != NULL && strncasecmp(r->ro.url, "http://", 7) != 0 &&
+        strncasecmp(r->ro.url, "https://", 8) != 0) {
+        return usage_error("--remote '%s' must be an http:// or https:// URL",
+                         r->ro.url);
+    }
+    if (token_file != NULL) {
+        if (read_token(token_file, token, cap) != 0) {
+            return EXIT_IO;
+        }
+        r->ro.token = token;
+    }
+
+    return EXIT_OK;
+}
+
+/* The output names and options checked before rendering, so that a long
+ * render is never thrown away for want of a valid file name. */
+static int render_check_outputs(render_job *r)
+{
+    lr_error err;
+    if (lr_format_from_path(r->out, &r->fmt, &err) != LR_OK) {
+        return usage_error("%s", err.message);
+    }
+    /* The format's options by the library's rules (lr_output), so that
+     * --half with a .png, say, is refused rather than ignored. */
+    if (r->oo.exr_half || r->oo.png_16bit || r->compression != NULL) {
+        lr_output out;
+        lr_output_default(&out);
+        cJSON *spec = cJSON_CreateObject();
+        char *text = NULL;
+        if (spec != NULL) {
+            cJSON_AddStringToObject(spec, "format", lr_format_name(r->fmt));
+            if (r->oo.exr_half)
+                cJSON_AddTrueToObject(spec, "half");
+            if (r->oo.png_16bit)
+                cJSON_AddNumberToObject(spec, "bit_depth", 16);
+            if (r->compression != NULL)
+                cJSON_AddStringToObject(spec, "compression", r->compression);
+            text = cJSON_PrintUnformatted(spec);
+            cJSON_Delete(spec);
+        }
+        if (text == NULL) {
+            fprintf(stderr, "lensray: out of memory\n");
+            return 1;
+        }
+        lr_status ost = lr_output_apply_json(&out, text, strlen(text), &err);
+        cJSON_free(text);
+        if (ost != LR_OK) {
+            char msg[sizeof err.message + 32];
+            snprintf(msg, sizeof msg, "%s: %s",
+                     strcmp(err.path, "output.half") == 0 ? "--half"
+                     : strcmp(err.path, "output.compression") == 0
+                         ? "--compression"
+                         : "--png16",
+                     err.message);
+            return usage_error("%s", msg);
+        }
+        /* Only the compression is new to r->oo; the flags set the rest. */
+        r->oo.exr_compression = out.options.exr_compression;
+    }
+    if (r->want_depth && !lr_format_has_depth(r->fmt)) {
+        return usage_error("--depth needs an output that can hold a Z "
+                         "channel, such as .exr (%s has none)",
+                         lr_format_name(r->fmt));
+    }
+    for (int i = 0; i < r->n_scenes; i++) {
+        char out_path[4096], dir[4096];
+        frame_out(r, i, out_path, sizeof out_path);
+        dir_of(out_path, dir, sizeof dir);
+        if (access(dir, W_OK) != 0) {
+            fprintf(stderr, "lensray: cannot write to %s: %s\n", dir,
+                    strerror(errno));
+            return EXIT_IO;
+        }
+    }
+
+    return EXIT_OK;
+}
+
+/* Here, one scene after another; one that fails does not stop the
+ * others, and the exit status is the first failure's. */
+static int render_frames_local(const render_job *r)
+{
+    int rc = EXIT_OK;
+    int written = 0;
+    for (int i = 0; i < r->n_scenes && !cancel_flag; i++) {
+        char out_path[4096];
+        frame_out(r, i, out_path, sizeof out_path);
+        int frc = render_local(r, r->scenes[i], out_path);
+        written += frc == EXIT_OK;
+        if (frc != EXIT_OK && rc == EXIT_OK)
+            rc = frc;
+        if (frc != EXIT_OK && r->n_scenes > 1 && !cancel_flag)
+            fprintf(stderr, "lensray: frame %d/%d (%s) failed\n", i + 1,
+                    r->n_scenes, r->scenes[i]);
+    }
+    /* Ctrl-C is no frame's failure; say which frames are there. */
+    if (cancel_flag) {
+        rc = EXIT_INTERRUPTED;
+        if (r->n_scenes > 1)
+            fprintf(stderr, "lensray: interrupted: %d of %d frames written\n",
+                    written, r->n_scenes);
+    } else if (r->n_scenes > 1 && rc != EXIT_OK)
+        fprintf(stderr, "lensray: %d of %d frames written, %d failed\n",
+                written, r->n_scenes, r->n_scenes - written);
+    return rc;
+}
+
 static int cmd_render(int argc, char **argv)
 {
     render_job r;
@@ -450,226 +671,22 @@ static int cmd_render(int argc, char **argv)
         free(r.scenes);
         return EXIT_IO;
     }
-    int rc = EXIT_OK;
-    for (int i = 0; i < argc; i++) {
-        const char *a = argv[i];
-        if (strcmp(a, "-o") == 0 || strcmp(a, "--output") == 0) {
-            if (i + 1 >= argc) {
-                rc = usage_error("%s needs a file name", a);
-                goto done;
-            }
-            /* The first would be dropped unwritten. */
-            if (r.out != NULL) {
-                char both[8192];
-                snprintf(both, sizeof both, "('%s', then '%s')", r.out,
-                         argv[i + 1]);
-                rc = usage_error("-o given twice %s; a render writes one "
-                                 "file, or one a frame with %%d", both);
-                goto done;
-            }
-            r.out = argv[++i];
-        } else if (strcmp(a, "--set") == 0) {
-            if (i + 1 >= argc) {
-                rc = usage_error("%s needs PATH=VALUE", a);
-                goto done;
-            }
-            r.sets[r.n_sets++] = argv[++i];
-        } else if (strcmp(a, "--stats") == 0) {
-            r.stats = 1;
-        } else if (strcmp(a, "--half") == 0) {
-            r.oo.exr_half = 1;
-        } else if (strcmp(a, "--compression") == 0) {
-            if (i + 1 >= argc) {
-                rc = usage_error("%s needs a name", a);
-                goto done;
-            }
-            r.compression = argv[++i];
-        } else if (strcmp(a, "--png16") == 0) {
-            r.oo.png_16bit = 1;
-        } else if (strcmp(a, "--depth") == 0) {
-            r.want_depth = 1;
-        } else if (strcmp(a, "-q") == 0 || strcmp(a, "--quiet") == 0) {
-            r.quiet = 1;
-        } else if (strcmp(a, "--remote") == 0 ||
-                   strcmp(a, "--token-file") == 0) {
-            if (i + 1 >= argc) {
-                rc = usage_error("%s needs a value", a);
-                goto done;
-            }
-            if (a[2] == 'r')
-                r.ro.url = argv[++i];
-            else
-                token_file = argv[++i];
-        } else if (strcmp(a, "--parts") == 0 ||
-                   strcmp(a, "--parallel") == 0 ||
-                   strcmp(a, "--retries") == 0) {
-            int *dst = strcmp(a, "--parts") == 0      ? &r.ro.parts
-                       : strcmp(a, "--parallel") == 0 ? &r.ro.parallel
-                                                      : &r.ro.retries;
-            int lo = dst == &r.ro.retries ? 0 : 1;
-            if (i + 1 >= argc || parse_int(argv[i + 1], lo, 100000, dst) != 0) {
-                char what[64];
-                snprintf(what, sizeof what, "%s needs a whole number from %d "
-                         "to 100000", a, lo);
-                rc = usage_error("%s", what);
-                goto done;
-            }
-            i++;
-            remote_flag = a;
-        } else if (a[0] == '-' && a[1] != '\0') {
-            rc = usage_error("unknown option '%s'", a);
-            goto done;
+    int rc = render_parse_args(&r, argc, argv, &token_file, &remote_flag);
+    if (rc == EXIT_OK)
+        rc = render_check_args(&r, token_file, remote_flag, token,
+                               sizeof token);
+    if (rc == EXIT_OK)
+        rc = render_check_outputs(&r);
+    if (rc == EXIT_OK) {
+        signal(SIGINT, on_signal);
+        signal(SIGTERM, on_signal);
+        if (r.ro.url != NULL) {
+            r.ro.quiet = r.quiet;
+            rc = render_remote(&r);
         } else {
-            r.scenes[r.n_scenes++] = a;
+            rc = render_frames_local(&r);
         }
     }
-    if (r.n_scenes == 0) {
-        rc = usage_error("%s", "render needs a scene file");
-        goto done;
-    }
-    if (r.out == NULL) {
-        rc = usage_error("%s", "render needs an output file: -o OUT.exr or "
-                               "-o OUT.png");
-        goto done;
-    }
-    r.numbered = outname_check(r.out) == 1;
-    if (r.n_scenes > 1 && !r.numbered) {
-        rc = usage_error("-o '%s': several scenes need an output name with "
-                         "one frame number, such as -o out-%%04d.exr",
-                         r.out);
-        goto done;
-    }
-    for (size_t i = 0; i < r.n_sets; i++) {
-        if (strchr(r.sets[i], '=') == NULL) {
-            rc = usage_error("--set '%s' must look like PATH=VALUE", r.sets[i]);
-            goto done;
-        }
-        /* The daemons get the scene file as it is, with the camera and
-         * settings as this process reads them: other overrides would not
-         * reach them. */
-        if (r.ro.url != NULL && strncmp(r.sets[i], "camera.", 7) != 0 &&
-            strncmp(r.sets[i], "render.", 7) != 0) {
-            rc = usage_error("--set '%s': with --remote only camera.* and "
-                             "render.* can be overridden", r.sets[i]);
-            goto done;
-        }
-    }
-    if (r.ro.url == NULL && (token_file != NULL || remote_flag != NULL)) {
-        rc = usage_error("%s is for --remote",
-                         token_file != NULL ? "--token-file" : remote_flag);
-        goto done;
-    }
-    /* A URL libcurl could not reach is tried --retries more times with
-     * back-off; one that is not even a web address is said at once. */
-    if (r.ro.url != NULL && strncasecmp(r.ro.url, "http://", 7) != 0 &&
-        strncasecmp(r.ro.url, "https://", 8) != 0) {
-        rc = usage_error("--remote '%s' must be an http:// or https:// URL",
-                         r.ro.url);
-        goto done;
-    }
-    if (token_file != NULL) {
-        if (read_token(token_file, token, sizeof token) != 0) {
-            rc = EXIT_IO;
-            goto done;
-        }
-        r.ro.token = token;
-    }
-
-    /* Check the output names before rendering, so that a long render is
-     * never thrown away for want of a valid file name. */
-    lr_error err;
-    if (lr_format_from_path(r.out, &r.fmt, &err) != LR_OK) {
-        rc = usage_error("%s", err.message);
-        goto done;
-    }
-    /* The format's options by the library's rules (lr_output), so that
-     * --half with a .png, say, is refused rather than ignored. */
-    if (r.oo.exr_half || r.oo.png_16bit || r.compression != NULL) {
-        lr_output out;
-        lr_output_default(&out);
-        cJSON *spec = cJSON_CreateObject();
-        char *text = NULL;
-        if (spec != NULL) {
-            cJSON_AddStringToObject(spec, "format", lr_format_name(r.fmt));
-            if (r.oo.exr_half)
-                cJSON_AddTrueToObject(spec, "half");
-            if (r.oo.png_16bit)
-                cJSON_AddNumberToObject(spec, "bit_depth", 16);
-            if (r.compression != NULL)
-                cJSON_AddStringToObject(spec, "compression", r.compression);
-            text = cJSON_PrintUnformatted(spec);
-            cJSON_Delete(spec);
-        }
-        if (text == NULL) {
-            fprintf(stderr, "lensray: out of memory\n");
-            rc = 1;
-            goto done;
-        }
-        lr_status ost = lr_output_apply_json(&out, text, strlen(text), &err);
-        cJSON_free(text);
-        if (ost != LR_OK) {
-            char msg[sizeof err.message + 32];
-            snprintf(msg, sizeof msg, "%s: %s",
-                     strcmp(err.path, "output.half") == 0 ? "--half"
-                     : strcmp(err.path, "output.compression") == 0
-                         ? "--compression"
-                         : "--png16",
-                     err.message);
-            rc = usage_error("%s", msg);
-            goto done;
-        }
-        /* Only the compression is new to r.oo; the flags set the rest. */
-        r.oo.exr_compression = out.options.exr_compression;
-    }
-    if (r.want_depth && !lr_format_has_depth(r.fmt)) {
-        rc = usage_error("--depth needs an output that can hold a Z "
-                         "channel, such as .exr (%s has none)",
-                         lr_format_name(r.fmt));
-        goto done;
-    }
-    for (int i = 0; i < r.n_scenes; i++) {
-        char out_path[4096], dir[4096];
-        frame_out(&r, i, out_path, sizeof out_path);
-        dir_of(out_path, dir, sizeof dir);
-        if (access(dir, W_OK) != 0) {
-            fprintf(stderr, "lensray: cannot write to %s: %s\n", dir,
-                    strerror(errno));
-            rc = EXIT_IO;
-            goto done;
-        }
-    }
-
-    signal(SIGINT, on_signal);
-    signal(SIGTERM, on_signal);
-    if (r.ro.url != NULL) {
-        r.ro.quiet = r.quiet;
-        rc = render_remote(&r);
-        goto done;
-    }
-    /* Here, one scene after another; one that fails does not stop the
-     * others, and the exit status is the first failure's. */
-    int written = 0;
-    for (int i = 0; i < r.n_scenes && !cancel_flag; i++) {
-        char out_path[4096];
-        frame_out(&r, i, out_path, sizeof out_path);
-        int frc = render_local(&r, r.scenes[i], out_path);
-        written += frc == EXIT_OK;
-        if (frc != EXIT_OK && rc == EXIT_OK)
-            rc = frc;
-        if (frc != EXIT_OK && r.n_scenes > 1 && !cancel_flag)
-            fprintf(stderr, "lensray: frame %d/%d (%s) failed\n", i + 1,
-                    r.n_scenes, r.scenes[i]);
-    }
-    /* Ctrl-C is no frame's failure; say which frames are there. */
-    if (cancel_flag) {
-        rc = EXIT_INTERRUPTED;
-        if (r.n_scenes > 1)
-            fprintf(stderr, "lensray: interrupted: %d of %d frames written\n",
-                    written, r.n_scenes);
-    } else if (r.n_scenes > 1 && rc != EXIT_OK)
-        fprintf(stderr, "lensray: %d of %d frames written, %d failed\n",
-                written, r.n_scenes, r.n_scenes - written);
-done:
     free(r.sets);
     free(r.scenes);
     return rc;
