@@ -29,6 +29,20 @@ def _lens_items(self, context):
     return items
 
 
+def _lens_update(self, context):
+    """Blender's field of view follows the lens: its focal length becomes
+    the camera's (the sensor width stays)."""
+    scene = context.scene if context is not None else None
+    if not self.lens or scene is None or scene.camera is None:
+        return
+    try:
+        scene.camera.data.lens = export.lens_efl_mm(bpy.path.abspath(self.lens)
+                                                    if os.path.exists(bpy.path.abspath(self.lens))
+                                                    else self.lens)
+    except ValueError as e:
+        print(e)
+
+
 class LensraySettings(bpy.types.PropertyGroup):
     samples: IntProperty(name="Samples", default=64, min=1, max=1048576)
     integrator: EnumProperty(name="Integrator", default="path",
@@ -42,7 +56,8 @@ class LensraySettings(bpy.types.PropertyGroup):
                                    ("spectral", "Spectral", "")])
     lens: StringProperty(name="Lens", default="",
                          description="a shipped lens name or a prescription file; "
-                                     "empty: Blender's camera as a thin lens")
+                                     "empty: Blender's camera as a thin lens",
+                         update=_lens_update)
 
 
 class LensrayRenderEngine(bpy.types.RenderEngine):

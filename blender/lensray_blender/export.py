@@ -284,3 +284,29 @@ def scene_dict(scene, depsgraph, outdir, warn):
         cam["chromatic"] = {"mode": p.chromatic}
     d.update(_world(scene, warn))
     return d
+
+
+def lens_efl_mm(lens, base_dir=None):
+    """The effective focal length (mm) of a shipped lens or prescription
+    file, from liblensray's lr_lens_describe."""
+    import ctypes
+    import json
+    from lensray import _capi
+    lib = _capi.lib()
+    fn = lib.lr_lens_describe
+    fn.argtypes = [ctypes.c_char_p, ctypes.c_char_p, ctypes.POINTER(ctypes.c_double),
+                   ctypes.c_int, ctypes.c_double, ctypes.POINTER(ctypes.c_void_p),
+                   ctypes.POINTER(_capi.lr_error)]
+    fn.restype = ctypes.c_int
+    out = ctypes.c_void_p()
+    err = _capi.lr_error()
+    st = fn(lens.encode(), base_dir.encode() if base_dir else None, None, 0,
+            587.5618, ctypes.byref(out), ctypes.byref(err))
+    if st != 0:
+        raise ValueError("lensray lens: " + bytes(err.message).split(b"\0")[0].decode(errors="replace"))
+    try:
+        text = ctypes.string_at(out.value).decode()
+    finally:
+        lib.lr_free.argtypes = [ctypes.c_void_p]
+        lib.lr_free(out)
+    return float(json.loads(text)["efl_mm"])

@@ -96,3 +96,12 @@ def test_shipped_lens_renders(tmp_path):
     sc.lensray.samples = 16
     a = common.render_exr(sc, "LENSRAY", str(tmp_path / "lens.exr"))
     assert np.isfinite(a).all() and a.mean() > 0.05
+
+
+@pytest.mark.parametrize("name, mm", [("double-gauss-50", 50), ("telephoto-250", 250),
+                                      ("sonnar-us1975678-50mm-f1.5", 50)])
+def test_field_of_view_follows_the_lens(name, mm):
+    # the focal length in the lens's name (its published value)
+    sc = common.issue_scene("POINT")
+    sc.lensray.lens = name
+    assert sc.camera.data.lens == pytest.approx(mm, rel=0.02)
