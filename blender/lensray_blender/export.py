@@ -11,11 +11,14 @@ import os
 import bpy
 from mathutils import Vector
 
+ENV_ROTATION_DEG = 90.0
 LENS_DIR = os.path.normpath(os.path.join(os.path.dirname(__file__), "..", "..", "lenses"))
 
 
 def _vec(v):
-    return [float(v[0]), float(v[1]), float(v[2])]
+    # Blender is Z-up, lensray's environment maps Y-up: every position and
+    # direction is turned (x, y, z) -> (x, z, -y), a rotation.
+    return [float(v[0]), float(v[2]), -float(v[1])]
 
 
 def _col(c, scale=1.0):
@@ -214,7 +217,8 @@ def _world(scene, warn):
         if src.type == "TEX_ENVIRONMENT" and src.image is not None:
             path = bpy.path.abspath(src.image.filepath)
             if path.lower().endswith(".exr"):
-                return {"environment": {"file": path, "intensity": float(strength)}}
+                return {"environment": {"file": path, "intensity": float(strength),
+                                        "rotation_deg": ENV_ROTATION_DEG}}
         warn.add(f"world {w.name!r}: linked Color not mapped (only an EXR environment texture is)")
         return {"background": _col(w.color, strength)}
     return {"background": _col(ci.default_value, strength)}

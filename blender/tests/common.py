@@ -125,3 +125,26 @@ def compare(a, b):
     bb = lb[:h8, :w8].reshape(h8 // 8, 8, w8 // 8, 8).mean(axis=(1, 3))
     rel = np.abs(ba - bb) / np.maximum(bb, 1e-3 * lb.mean())
     return float(mean), float(np.percentile(rel, 90))
+
+
+def hdri_world(sc, path, w=64, h=32):
+    """An equirectangular EXR with a warm bright patch and a sky gradient,
+    as the world's Environment Texture."""
+    img = bpy.data.images.new("hdri", w, h, float_buffer=True)
+    px = np.zeros((h, w, 4), np.float32)
+    ys = (np.arange(h) + 0.5) / h  # 0 bottom .. 1 top (Blender's rows)
+    xs = (np.arange(w) + 0.5) / w
+    px[:, :, 0] = 0.15 + 0.3 * ys[:, None]
+    px[:, :, 1] = 0.2 + 0.3 * ys[:, None] + 0.2 * xs[None, :]
+    px[:, :, 2] = 0.3 + 0.5 * ys[:, None]
+    px[int(h * 0.7):int(h * 0.85), int(w * 0.1):int(w * 0.2), :3] = (20.0, 15.0, 8.0)
+    px[:, :, 3] = 1
+    img.pixels.foreach_set(px.ravel())
+    img.filepath_raw = path
+    img.file_format = "OPEN_EXR"
+    img.save()
+    nt = sc.world.node_tree
+    env = nt.nodes.new("ShaderNodeTexEnvironment")
+    env.image = bpy.data.images.load(path)
+    env.interpolation = "Linear"
+    nt.links.new(env.outputs["Color"], nt.nodes["Background"].inputs["Color"])
