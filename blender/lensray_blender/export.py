@@ -314,3 +314,17 @@ def lens_efl_mm(lens, base_dir=None):
         lib.lr_free.argtypes = [ctypes.c_void_p]
         lib.lr_free(out)
     return float(json.loads(text)["efl_mm"])
+
+
+def write_scene(scene, depsgraph, outdir):
+    """Writes the scene as lensray would render it: outdir/scene.json and
+    its OBJ files, for `lensray render outdir/scene.json -o out.exr`.
+    Returns (the JSON's path, the set of warnings)."""
+    import json
+    warn = set()
+    os.makedirs(outdir, exist_ok=True)
+    d = scene_dict(scene, depsgraph, outdir, warn)
+    path = os.path.join(outdir, "scene.json")
+    with open(path, "w") as f:
+        json.dump(d, f, indent=1)
+    return path, warn

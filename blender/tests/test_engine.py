@@ -121,3 +121,24 @@ def test_hdri_world_agrees_with_cycles(tmp_path):
     mean, p90 = common.compare(a, b)
     print(f"HDRI: mean {mean:.4%} p90 of 8x8 blocks {p90:.4%}")
     assert mean < 0.03 and p90 < 0.08, (mean, p90)
+
+
+def test_real_lens_matches_the_cli_bit_for_bit(tmp_path):
+    # The double Gauss picked in the lens panel: F12's pixels against
+    # `lensray render` of the scene the add-on exports.
+    import subprocess
+    sc = common.issue_scene("POINT", width=96, height=64)
+    sc.lensray.lens = "double-gauss-50"
+    sc.lensray.samples = 16
+    a = common.render_exr(sc, "LENSRAY", str(tmp_path / "engine.exr"))
+    path, _ = export.write_scene(sc, bpy.context.evaluated_depsgraph_get(),
+                                 str(tmp_path / "export"))
+    cli = os.path.join(common.ROOT, "build", "lensray")
+    subprocess.run([cli, "render", path, "-o", str(tmp_path / "cli.exr"), "-q"],
+                   check=True)
+    img = bpy.data.images.load(str(tmp_path / "cli.exr"))
+    px = np.empty(96 * 64 * 4, np.float32)
+    img.pixels.foreach_get(px)
+    b = px.reshape(64, 96, 4)[::-1, :, :3]
+    assert a.mean() > 0.01
+    assert np.array_equal(a, b)
