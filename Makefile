@@ -336,6 +336,24 @@ test-python: python
 	  LENSRAY_BUILD_DIR=$(abspath $(BUILD)) venv/bin/python -m pytest \
 	  -p no:cacheprovider -q $(abspath python/tests)
 
+# ---- Blender --------------------------------------------------------------
+# The LENSRAY render engine (blender/lensray_blender, docs/blender.md) under
+# bpy from the Python registry (pinned in blender/requirements.txt, a
+# ~370 MB wheel built for Python 3.11), in a virtualenv under build/ made
+# like test-api's.  The tests render the issue's scene with Cycles and with
+# lensray and compare them.  About 20 s once the virtualenv exists; not
+# part of `make test`.
+BLENDER_VENV := $(BUILD)/blender-venv
+
+.PHONY: test-blender
+test-blender: all $(BLENDER_VENV)/.ok
+	@cd $(BUILD) && PYTHONDONTWRITEBYTECODE=1 LENSRAY_LIB=$(abspath $(BUILD))/liblensray.so \
+	  $(abspath $(BLENDER_VENV))/bin/python -m pytest -p no:cacheprovider -q \
+	  $(abspath blender/tests)
+
+$(BLENDER_VENV)/.ok: blender/requirements.txt $(DEPS_OK)
+	$(call make_venv,$(BLENDER_VENV),blender/requirements.txt)
+
 # $(call install_missing,WHAT:PACKAGE ...): a recipe line that finds each
 # WHAT (an absolute path, or a command) and installs the Debian PACKAGE of
 # those missing when run as root, with an apt-get update first only when

@@ -368,7 +368,7 @@ class Scene:
     def render(self, camera: Optional[Mapping[str, Any]] = None,
                render: Optional[Mapping[str, Any]] = None,
                depth: bool = False, stats: bool = False, *,
-               progress: Optional[bool] = None,
+               progress: Any = None,
                cancel: Optional[threading.Event] = None) -> Any:
         """Renders the scene and returns its pixels as numpy arrays.
 
@@ -388,7 +388,9 @@ class Scene:
                 ``full_camera_rays``, ``full_samples``).
             progress: ``None`` (the default) shows a tqdm bar, once the
                 render has taken a second, when tqdm is installed;
-                ``False`` never does; ``True`` requires tqdm.
+                ``False`` never does; ``True`` requires tqdm.  A callable
+                ``progress(done, total)`` (pixels) is called instead, from
+                the calling thread, about every 0.1 s and once at the end.
             cancel: a ``threading.Event``; setting it from another thread
                 stops the render within a tile and raises CancelledError.
 
@@ -426,14 +428,17 @@ class Scene:
         flag = c_int(0)
         rs.cancel = ctypes.pointer(flag)
 
-        bar_cls = _progress_bar(progress)
+        # A callable progress(done, total) is called from this thread (the
+        # caller's) about every 0.1 s with pixels done and in all.
+        progress_fn = progress if callable(progress) else None
+        bar_cls = None if progress_fn is not None else _progress_bar(progress)
         bar = None
         # Pixels done and in all, read by the loop below that draws the bar.
         # The library's lr_progress_store writes them from the render
         # threads without entering Python; with an older library a Python
         # callback does, taking the GIL for a moment after each tile.
         done: Any = (ctypes.c_uint64 * 2)()
-        if bar_cls is not None:
+        if bar_cls is not None or progress_fn is not None:
             store = _capi.progress_store()
             if store is not None:
                 rs.progress = store
@@ -472,6 +477,8 @@ class Scene:
                 while not finished.wait(0.1):
                     if cancel is not None and cancel.is_set():
                         flag.value = 1
+                    if progress_fn is not None and done[1]:
+                        progress_fn(int(done[0]), int(done[1]))
                     if bar_cls is not None and done[1]:
                         if bar is None:
                             # delay: no bar for renders under a second.
@@ -481,6 +488,8 @@ class Scene:
                         bar.update(done[0] - bar.n)
                 if bar is not None:
                     bar.update(done[0] - bar.n)
+                if progress_fn is not None and done[1]:
+                    progress_fn(int(done[0]), int(done[1]))
                 worker.join()
             except BaseException:
                 # Ctrl-C (or any exception in this thread): stop the render

@@ -218,3 +218,22 @@ def test_light_side_through_python():
     assert s_on["light_lights"] == 24 and s_on["light_landed"] > 0
     assert s_off["light_lights"] == 0 and s_off["light_paths"] == 0
     assert abs(lit.mean() / cam.mean() - 1.0) < 0.05
+
+
+def test_progress_callable_counts_pixels(spheres):
+    # A callable progress(done, total) (what the Blender add-on passes)
+    # instead of a bar: called from this thread, rising to the total.
+    import threading
+    seen = []
+    me = threading.get_ident()
+
+    def progress(done, total):
+        assert threading.get_ident() == me
+        seen.append((done, total))
+
+    render = {"width": 160, "height": 90, "spp": 512, "adaptive": False,
+              "tile_size": 8, "threads": 1}
+    spheres.render(camera=LENS, render=render, progress=progress)
+    assert seen and all(t == 160 * 90 for _, t in seen)
+    dones = [d for d, _ in seen]
+    assert dones == sorted(dones) and dones[-1] == 160 * 90

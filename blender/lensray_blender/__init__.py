@@ -1,0 +1,178 @@
+"""lensray as a Blender render engine (LENSRAY): real lenses and thin-lens
+depth of field, rendered in process through the lensray Python package.
+
+Install: put the ``lensray`` package (python/, with liblensray) and this
+folder where Blender's Python finds them (docs/blender.md).
+"""
+import os
+import tempfile
+
+import bpy
+from bpy.props import BoolProperty, EnumProperty, IntProperty, StringProperty
+
+from . import export
+
+bl_info = {
+    "name": "lensray",
+    "blender": (4, 2, 0),
+    "category": "Render",
+    "description": "Physically based camera-lens rendering (lensray on Embree)",
+}
+
+
+def _lens_items(self, context):
+    items = [("", "Camera (thin lens)", "Blender's camera as lensray's thin lens")]
+    if os.path.isdir(export.LENS_DIR):
+        for f in sorted(os.listdir(export.LENS_DIR)):
+            if f.endswith(".json"):
+                items.append((f[:-5], f[:-5], "shipped lens " + f))
+    return items
+
+
+def _lens_update(self, context):
+    """Blender's field of view follows the lens: its focal length becomes
+    the camera's (the sensor width stays)."""
+    scene = context.scene if context is not None else None
+    if not self.lens or scene is None or scene.camera is None:
+        return
+    try:
+        scene.camera.data.lens = export.lens_efl_mm(bpy.path.abspath(self.lens)
+                                                    if os.path.exists(bpy.path.abspath(self.lens))
+                                                    else self.lens)
+    except ValueError as e:
+        print(e)
+
+
+class LensraySettings(bpy.types.PropertyGroup):
+    samples: IntProperty(name="Samples", default=64, min=1, max=1048576)
+    integrator: EnumProperty(name="Integrator", default="path",
+                             items=[("path", "Path", "path tracer"),
+                                    ("whitted", "Whitted", "direct light")])
+    plan: BoolProperty(name="Effect plan", default=True)
+    max_depth: IntProperty(name="Max bounces", default=8, min=0, max=64)
+    seed: IntProperty(name="Seed", default=0, min=0)
+    chromatic: EnumProperty(name="Chromatic", default="off",
+                            items=[("off", "Off", ""), ("rgb", "RGB", ""),
+                                   ("spectral", "Spectral", "")])
+    lens: StringProperty(name="Lens", default="",
+                         description="a shipped lens name or a prescription file; "
+                                     "empty: Blender's camera as a thin lens",
+                         update=_lens_update)
+
+
+class LensrayRenderEngine(bpy.types.RenderEngine):
+    bl_idname = "LENSRAY"
+    bl_label = "lensray"
+    bl_use_preview = False
+
+    def render(self, depsgraph):
+        import lensray
+        scene = depsgraph.scene
+        warn = set()
+        with tempfile.TemporaryDirectory(prefix="lensray-blender-") as tmp:
+            try:
+                d = export.scene_dict(scene, depsgraph, tmp, warn)
+                sc = lensray.load(d, base_dir=tmp)
+            except (lensray.LensrayError, ValueError) as e:
+                self.report({"ERROR"}, f"lensray: {e}")
+                return
+            if warn:
+                self.report({"WARNING"}, "lensray: not drawn as in Cycles: "
+                            + "; ".join(sorted(warn)))
+            W, H = d["render"]["width"], d["render"]["height"]
+            engine = self
+
+            class _Break:
+                def is_set(self):
+                    return engine.test_break()
+
+            def progress(done, total):
+                engine.update_progress(done / total)
+
+            try:
+                rgb, z = sc.render(depth=True, progress=progress, cancel=_Break())
+            except lensray.CancelledError:
+                return
+            except lensray.LensrayError as e:
+                self.report({"ERROR"}, f"lensray: {e}")
+                return
+            finally:
+                sc.close()
+        import numpy as np
+        rgba = np.ones((H, W, 4), dtype=np.float32)
+        rgba[:, :, :3] = rgb[::-1]  # lensray's rows from the top, Blender's from the bottom
+        result = self.begin_result(0, 0, W, H)
+        layer = result.layers[0]
+        layer.passes["Combined"].rect.foreach_set(rgba.ravel())
+        zp = layer.passes.get("Depth")
+        if zp is not None:
+            zz = np.where(z >= 1e10, np.float32(1e10), z)[::-1]
+            zp.rect.foreach_set(np.ascontiguousarray(zz, dtype=np.float32).ravel())
+        self.end_result(result)
+
+    def update_render_passes(self, scene=None, renderlayer=None):
+        self.register_pass(scene, renderlayer, "Combined", 4, "RGBA", "COLOR")
+        if renderlayer is not None and renderlayer.use_pass_z:
+            self.register_pass(scene, renderlayer, "Depth", 1, "Z", "VALUE")
+
+
+class LENSRAY_PT_render(bpy.types.Panel):
+    bl_label = "lensray"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "render"
+    COMPAT_ENGINES = {"LENSRAY"}
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine == "LENSRAY"
+
+    def draw(self, context):
+        p = context.scene.lensray
+        for k in ("samples", "integrator", "plan", "max_depth", "seed", "chromatic"):
+            self.layout.prop(p, k)
+
+
+class LENSRAY_PT_lens(bpy.types.Panel):
+    bl_label = "lensray lens"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "data"
+    COMPAT_ENGINES = {"LENSRAY"}
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine == "LENSRAY" and context.camera is not None
+
+    def draw(self, context):
+        self.layout.prop(context.scene.lensray, "lens")
+
+
+def _compatible_panels():
+    # Blender's own panels (camera, light, material, world) for LENSRAY too.
+    for name in ("DATA_PT_lens", "DATA_PT_camera", "DATA_PT_camera_dof",
+                 "DATA_PT_camera_dof_aperture", "DATA_PT_light", "DATA_PT_EEVEE_light",
+                 "RENDER_PT_format", "RENDER_PT_color_management", "EEVEE_MATERIAL_PT_surface",
+                 "CYCLES_LIGHT_PT_light", "WORLD_PT_context_world"):
+        p = getattr(bpy.types, name, None)
+        if p is not None and hasattr(p, "COMPAT_ENGINES"):
+            yield p
+
+
+_classes = (LensraySettings, LensrayRenderEngine, LENSRAY_PT_render, LENSRAY_PT_lens)
+
+
+def register():
+    for c in _classes:
+        bpy.utils.register_class(c)
+    bpy.types.Scene.lensray = bpy.props.PointerProperty(type=LensraySettings)
+    for p in _compatible_panels():
+        p.COMPAT_ENGINES.add("LENSRAY")
+
+
+def unregister():
+    for p in _compatible_panels():
+        p.COMPAT_ENGINES.discard("LENSRAY")
+    del bpy.types.Scene.lensray
+    for c in reversed(_classes):
+        bpy.utils.unregister_class(c)
