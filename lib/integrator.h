@@ -33,11 +33,40 @@ typedef struct lr__sample_id {
     const unsigned char *lt;
 } lr__sample_id;
 
-/* Whether the emission of the camera ray's first hit on geometry `geom`
- * is the light side's. */
+/* lr__sample_id.lt's flags (light_trace.h's lr__lt.direct). */
+#define LR__LT_DIRECT 1
+#define LR__LT_GLINT_SURF 2
+#define LR__LT_GLINT_LIGHT 4
+
+/* Whether geometry `geom` has flag `flag` in lt: LR__LT_DIRECT, whether
+ * the emission of the camera ray's first hit on it is the light side's;
+ * LR__LT_GLINT_SURF and LR__LT_GLINT_LIGHT, whether light from the
+ * second straight off the first (the camera ray's first hit) is. */
+static inline int lr__lt_flag(const unsigned char *lt, long geom, int flag)
+{
+    return lt != NULL && geom >= 0 && (lt[geom] & flag);
+}
+
 static inline int lr__lt_direct(const unsigned char *lt, long geom)
 {
-    return lt != NULL && geom >= 0 && lt[geom];
+    return lr__lt_flag(lt, geom, LR__LT_DIRECT);
+}
+
+/* A glint's core: light from a glint light reflected at a glint surface
+ * is the light side's only where the half vector of wo and wi (unit,
+ * away from the surface) leans from the surface's normal n (on wo's
+ * side) by a slope under LR__LT_GLINT_CORE alpha, which holds 90% of
+ * GGX's normals (P(|slope| < k alpha) = k^2 / (1 + k^2)).  The wide
+ * tails, a dim haze over the whole surface that the camera's light
+ * samples find in every pixel, stay the camera's.  Both sides ask this
+ * one function of the same path, so the split is exact. */
+#define LR__LT_GLINT_CORE 2.0
+static inline int lr__lt_glint_core(lr__v3 wo, lr__v3 wi, lr__v3 n,
+                                    double alpha)
+{
+    lr__v3 h = v3_add(wo, wi);
+    double hn = v3_dot(h, n), k = LR__LT_GLINT_CORE * alpha;
+    return hn > 0.0 && v3_dot(h, h) - hn * hn < k * k * hn * hn;
 }
 
 typedef struct lr__integrator {

@@ -18,8 +18,38 @@
  * paths: the pixel's value is the lens average of the radiance over the
  * pixel, an integral over lens points and directions of L x W, and the
  * aperture's density cancels the lens average's.
+ *
+ * A glint path (light k seen in flat rough metal G, light_trace.h): a
+ * point y on the sphere, uniform by area; a lens point P as above; then
+ * the point x of G where the half vector h = a + b of the unit vectors
+ * a (x to P) and b (x to y) has a drawn tangential part g.  That g is
+ * minus the gradient of phi(x) = |x - P| + |x - y| over the plane,
+ * which is strictly convex, so each g names one x: the minimiser of
+ * phi(x) + g . x (glint_solve, Newton's method), and x has the area
+ * density q(g) det(Hessian of phi) there (a change of variables).  g
+ * is drawn as h0 s, s from GGX's own slope density
+ *
+ *     P22(s) = 1 / (pi alpha^2 (1 + |s|^2 / alpha^2)^2)
+ *
+ * (Walter et al. 2007's D in slope space; radius alpha sqrt(u / (1 - u))
+ * inverts its radial CDF u = r^2 / (alpha^2 + r^2)), h0 = 2 cos theta*
+ * the half vector's normal part at the mirror point x*, so that near x*
+ * the density follows the lobe.  The estimator is unbiased whatever the
+ * guess's error, which only costs variance; paths outside the glint's
+ * core are the camera's (lr__lt_glint_core).  The pixel under the
+ * camera ray from P to x gets
+ *
+ *     L f(x) (cos_x' cos_y / |x - y|^2) W / (pdf_w pdf_y N_k)
+ *
+ * with f the BSDF at x (cos_x' at its shading normal), cos_y at y,
+ * pdf_y = 1 / (4 pi r^2), and pdf_w = p_A(x) |x - P|^2 / cos_x the
+ * solid-angle density at P of the direction to x (Veach 1997, 8.2.2: a
+ * path's area and solid-angle measures).
  */
 #include "light_trace.h"
+
+#include "bsdf.h"
+#include "integrator.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -64,7 +94,8 @@ void lr__lt_free(lr__lt *lt)
  * about (2 rho / D)^2.  Returns the paths it gets (0: the camera keeps
  * it). */
 static uint64_t paths_for(const lr__cam *c, const lr__lens_bound *lb,
-                          int estimate, lr__v3 center, double r, int spp)
+                          int estimate, lr__v3 center, double r, int spp,
+                          int force)
 {
     lr__v3 d = v3_sub(center, c->origin);
     double z = v3_dot(d, c->forward);
@@ -79,7 +110,7 @@ static uint64_t paths_for(const lr__cam *c, const lr__lens_bound *lb,
                                fabs(1.0 / (z + r) - lb->ws[k])));
     double C = 2.0 * lb->R * fpx * blur;
     double D = C + 2.0 * rho + 1.0;
-    if (!((2.0 * rho / D) * (2.0 * rho / D) < LR__LT_HIT_RATE))
+    if (!force && !((2.0 * rho / D) * (2.0 * rho / D) < LR__LT_HIT_RATE))
         return 0;
     /* Wholly outside the frame: nothing of it lands.  Where the lens is
      * only estimated (a real lens: distortion, no bound), a light that
@@ -92,7 +123,7 @@ static uint64_t paths_for(const lr__cam *c, const lr__lens_bound *lb,
     double fy = (1.0 - sy / c->half_h) * 0.5 * c->height;
     if (fx + D < 0.0 || fx - D > c->width || fy + D < 0.0 ||
         fy - D > c->height)
-        return estimate ? 256 : 0;
+        return estimate || force ? 256 : 0;
     double n = ceil((double)spp * 0.25 * M_PI * D * D * LR__LT_DENSITY);
     if (n < 16.0)
         n = 16.0;
@@ -141,6 +172,195 @@ static int mesh_cdf(const lr_scene *s, const lr__geom *g, lr__lt_light *l)
     return 1;
 }
 
+/* An empty light side for scene s (room for a direct entry a geometry);
+ * NULL when out of memory. */
+static lr__lt *lt_new(const lr_scene *s)
+{
+    lr__lt *lt = calloc(1, sizeof *lt);
+    if (lt == NULL || (lt->direct = calloc(s->n_geoms, 1)) == NULL ||
+        (lt->lights = malloc(s->n_geoms * sizeof *lt->lights)) == NULL) {
+        lr__lt_free(lt);
+        return NULL;
+    }
+    return lt;
+}
+
+/* The roughest GGX alpha whose glints go to the light side: past it a
+ * glint is a broad highlight, which camera rays find well. */
+#define GLINT_ALPHA_MAX 0.3
+
+/* Whether geometry g is a glint surface: a flat, flat-shaded triangle
+ * mesh whose material's one lobe is an untextured rough conductor.  Its
+ * plane (a point, the unit normal) and bounds go to *pp, *pn, *lo, *hi. */
+static int glint_surface(const lr_scene *s, const lr__geom *g, lr__v3 *pp,
+                         lr__v3 *pn, lr__v3 *lo, lr__v3 *hi)
+{
+    const lr__material *m = &s->materials[g->material];
+    if (g->kind != LR__GEOM_TRIANGLES || g->n_triangles == 0 ||
+        g->corner_normals != NULL || v3_maxc(m->diffuse) > 0.0 ||
+        v3_maxc(m->specular) > 0.0 || v3_maxc(m->transmit) > 0.0 ||
+        v3_maxc(m->emission) > 0.0 || !(v3_maxc(m->reflect) > 0.0) ||
+        !(m->roughness >= 1e-3 && m->roughness <= GLINT_ALPHA_MAX) ||
+        m->diffuse_tex != NULL || m->emission_tex != NULL ||
+        m->roughness_tex != NULL || m->normal_tex != NULL || m->pbr_split)
+        return 0;
+    const float *V = g->vertices;
+    const unsigned *I = g->indices;
+    lr__v3 n = v3(0, 0, 0), p0 = v3(V[3 * I[0]], V[3 * I[0] + 1],
+                                    V[3 * I[0] + 2]);
+    *lo = *hi = p0;
+    /* The normal: the largest triangle's (its rounding the least). */
+    double best = 0.0;
+    for (size_t t = 0; t < g->n_triangles; t++) {
+        lr__v3 q[3];
+        for (int k = 0; k < 3; k++) {
+            const float *f = &V[3 * (size_t)I[3 * t + (size_t)k]];
+            q[k] = v3(f[0], f[1], f[2]);
+            *lo = v3(fmin(lo->x, q[k].x), fmin(lo->y, q[k].y),
+                     fmin(lo->z, q[k].z));
+            *hi = v3(fmax(hi->x, q[k].x), fmax(hi->y, q[k].y),
+                     fmax(hi->z, q[k].z));
+        }
+        lr__v3 c = v3_cross(v3_sub(q[1], q[0]), v3_sub(q[2], q[0]));
+        double l = sqrt(v3_dot(c, c));
+        if (l > best)
+            best = l, n = v3_scale(c, 1.0 / l);
+    }
+    if (!(best > 0.0))
+        return 0;
+    /* Every corner on the plane, to the floats' rounding. */
+    lr__v3 ext = v3_sub(*hi, *lo);
+    double tol = 1e-6 * (sqrt(v3_dot(ext, ext)) + fabs(p0.x) + fabs(p0.y) +
+                         fabs(p0.z));
+    for (size_t i = 0; i < 3 * g->n_triangles; i++) {
+        const float *f = &V[3 * (size_t)I[i]];
+        if (fabs(v3_dot(v3_sub(v3(f[0], f[1], f[2]), p0), n)) > tol)
+            return 0;
+    }
+    *pp = p0;
+    *pn = n;
+    return 1;
+}
+
+/* Paths for light geometry `light` (a sphere) seen in glint surface g
+ * (plane pp, pn, bounds lo..hi, alpha): its glint as a light of the
+ * direct kind, the sphere's mirror image widened by the roughness
+ * (slopes of alpha turn the reflected ray by 2 alpha: from the camera,
+ * an image widened by 2 alpha times the light's distance to the mirror
+ * point).  0: the camera keeps it (unless force). */
+static uint64_t glint_paths(const lr__cam *c, const lr__lens_bound *lb,
+                            int estimate, const lr__geom *light, lr__v3 pp,
+                            lr__v3 pn, lr__v3 lo, lr__v3 hi, double alpha,
+                            int spp, int force)
+{
+    double dc = v3_dot(v3_sub(light->center, pp), pn);
+    double dcam = v3_dot(v3_sub(c->origin, pp), pn);
+    if (!(fabs(dc) > light->radius) || !(dc * dcam > 0.0))
+        return 0;
+    lr__v3 image = v3_madd(light->center, pn, -2.0 * dc);
+    lr__v3 x0 = v3_add(c->origin,
+                       v3_scale(v3_sub(image, c->origin),
+                                dcam / (dcam + dc)));
+    lr__v3 b = v3_sub(light->center, x0);
+    double lb_ = sqrt(v3_dot(b, b));
+    /* The mirror point seen from the eye, on the surface or near it. */
+    double margin = 8.0 * alpha * lb_ + light->radius;
+    if (x0.x < lo.x - margin || x0.x > hi.x + margin ||
+        x0.y < lo.y - margin || x0.y > hi.y + margin ||
+        x0.z < lo.z - margin || x0.z > hi.z + margin)
+        return force ? 16 : 0;
+    /* Half the sphere's points face away from the mirror: twice the
+     * paths. */
+    uint64_t n = paths_for(c, lb, estimate, image,
+                           light->radius + 2.0 * alpha * lb_, spp, force);
+    if (force && n < 16)
+        n = 16;
+    return n < 536870911u ? 8 * n : 4294967295u;
+}
+
+/* Adds the glint pairs (glint surface, sphere light) to *ltp: every pair
+ * of a surface and a light that some picked pair holds (the camera's
+ * flags are per geometry, light_trace.h).  0 when out of memory. */
+static int plan_glints(const lr_scene *s, const lr__cam *c,
+                       const lr__lens_bound *lb, int estimate, int spp,
+                       lr__lt **ltp)
+{
+    size_t ng = s->n_geoms;
+    unsigned char *ok = calloc(ng ? ng : 1, 1);
+    lr__v3 *plane = malloc(4 * (ng ? ng : 1) * sizeof *plane);
+    if (ok == NULL || plane == NULL) {
+        free(ok);
+        free(plane);
+        return 0;
+    }
+    size_t n_surf = 0, n_light = 0;
+    for (size_t g = 0; g < ng; g++)
+        if (glint_surface(s, &s->geoms[g], &plane[4 * g], &plane[4 * g + 1],
+                          &plane[4 * g + 2], &plane[4 * g + 3]))
+            ok[g] = LR__LT_GLINT_SURF;
+    for (size_t l = 0; l < ng; l++) {
+        const lr__geom *L = &s->geoms[l];
+        const lr__material *m = &s->materials[L->material];
+        if (L->kind != LR__GEOM_SPHERE || m->emission_tex != NULL ||
+            !(v3_maxc(m->emission) > 0.0))
+            continue;
+        for (size_t g = 0; g < ng; g++) {
+            if (!(ok[g] & LR__LT_GLINT_SURF))
+                continue;
+            const lr__v3 *P = &plane[4 * g];
+            double a = s->materials[s->geoms[g].material].roughness;
+            if (glint_paths(c, lb, estimate, L, P[0], P[1], P[2], P[3], a,
+                            spp, 0) > 0)
+                ok[g] |= LR__LT_GLINT_SURF << 4, ok[l] |= LR__LT_GLINT_LIGHT;
+        }
+    }
+    for (size_t g = 0; g < ng; g++) {
+        n_surf += (ok[g] & (LR__LT_GLINT_SURF << 4)) != 0;
+        n_light += (ok[g] & LR__LT_GLINT_LIGHT) != 0;
+    }
+    int good = 1;
+    lr__lt *lt = *ltp;
+    if (n_surf > 0 && lt == NULL && (*ltp = lt = lt_new(s)) == NULL)
+        good = 0;
+    if (n_surf > 0 && good) {
+        lr__lt_light *grown = realloc(lt->lights, (ng + n_surf * n_light) *
+                                                      sizeof *grown);
+        good = grown != NULL;
+        if (good)
+            lt->lights = grown;
+    }
+    for (size_t g = 0; g < ng && good && n_surf > 0; g++) {
+        if (!(ok[g] & (LR__LT_GLINT_SURF << 4)))
+            continue;
+        lt->direct[g] |= LR__LT_GLINT_SURF;
+        const lr__v3 *P = &plane[4 * g];
+        double a = s->materials[s->geoms[g].material].roughness;
+        for (size_t k = 0; k < ng; k++) {
+            if (!(ok[k] & LR__LT_GLINT_LIGHT))
+                continue;
+            const lr__geom *L = &s->geoms[k];
+            lt->direct[k] |= LR__LT_GLINT_LIGHT;
+            lr__lt_light *l = &lt->lights[lt->n++];
+            memset(l, 0, sizeof *l);
+            l->geom = (int)k;
+            l->surf = (int)g;
+            l->plane_p = P[0];
+            l->plane_n = P[1];
+            l->alpha = a;
+            l->center = L->center;
+            l->radius = L->radius;
+            l->L = s->materials[L->material].emission;
+            l->paths = glint_paths(c, lb, estimate, L, P[0], P[1], P[2], P[3],
+                                   a, spp, 1);
+            l->first = lt->paths;
+            lt->paths += l->paths;
+        }
+    }
+    free(ok);
+    free(plane);
+    return good;
+}
+
 lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
                       const lr_render_settings *set, lr__lt **out,
                       lr_error *err)
@@ -168,22 +388,15 @@ lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
              !mesh_sphere(s, geo, &center, &radius)))
             continue;
         uint64_t n = paths_for(c, &lb, m->bound == NULL, center, radius,
-                               set->spp);
+                               set->spp, 0);
         if (n == 0)
             continue;
-        if (lt == NULL) {
-            lt = calloc(1, sizeof *lt);
-            if (lt == NULL ||
-                (lt->direct = calloc(s->n_geoms, 1)) == NULL ||
-                (lt->lights = malloc(s->n_geoms * sizeof *lt->lights)) ==
-                    NULL) {
-                lr__lt_free(lt);
-                return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
-            }
-        }
+        if (lt == NULL && (lt = lt_new(s)) == NULL)
+            return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
         lr__lt_light *l = &lt->lights[lt->n];
         memset(l, 0, sizeof *l);
         l->geom = (int)g;
+        l->surf = -1;
         l->center = center;
         l->radius = radius;
         if (geo->kind == LR__GEOM_TRIANGLES &&
@@ -196,7 +409,12 @@ lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
         l->paths = n;
         l->first = lt->paths;
         lt->paths += n;
-        lt->direct[g] = 1;
+        lt->direct[g] |= LR__LT_DIRECT;
+    }
+    if (set->integrator == LR_INTEGRATOR_PATH &&
+        !plan_glints(s, c, &lb, m->bound == NULL, set->spp, &lt)) {
+        lr__lt_free(lt);
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     }
     if (lt != NULL)
         lt->seed = set->seed;
@@ -334,6 +552,168 @@ static void mesh_path(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
     splat(f, (int)fx, (int)fy, v);
 }
 
+/* The point X of the plane (2-D coordinates) where the half vector's
+ * tangential part a_t + b_t is (gx, gy), for P and Y at heights hp, hy
+ * over the plane at 2-D points P2, Y2.  a_t + b_t is minus the gradient
+ * of phi(X) = |X - P| + |X - Y|, which is strictly convex (hp, hy > 0),
+ * so X is the one minimiser of phi(X) + g . X, found by Newton's method
+ * with backtracking; H gets phi's Hessian there (xx, xy, yy), whose
+ * determinant is the map's Jacobian g -> X.  0 if it did not converge. */
+static int glint_solve(const double P2[2], double hp, const double Y2[2],
+                       double hy, double gx, double gy, double X[2],
+                       double H[3])
+{
+    X[0] = X[1] = 0.0;
+    for (int it = 0; it < 60; it++) {
+        double ax = P2[0] - X[0], ay = P2[1] - X[1];
+        double bx = Y2[0] - X[0], by = Y2[1] - X[1];
+        double la = sqrt(ax * ax + ay * ay + hp * hp);
+        double lb = sqrt(bx * bx + by * by + hy * hy);
+        double cur = la + lb + gx * X[0] + gy * X[1];
+        ax /= la, ay /= la, bx /= lb, by /= lb;
+        H[0] = (1.0 - ax * ax) / la + (1.0 - bx * bx) / lb;
+        H[1] = -ax * ay / la - bx * by / lb;
+        H[2] = (1.0 - ay * ay) / la + (1.0 - by * by) / lb;
+        double rx = gx - ax - bx, ry = gy - ay - by; /* the gradient */
+        double scale = la + lb;
+        if (rx * rx + ry * ry < 1e-20)
+            return 1;
+        double det = H[0] * H[2] - H[1] * H[1];
+        if (!(det > 0.0))
+            return 0;
+        double sx = -(H[2] * rx - H[1] * ry) / det;
+        double sy = -(H[0] * ry - H[1] * rx) / det;
+        /* Backtracking: halve the step until phi + g . X decreases. */
+        double t = 1.0;
+        for (int k = 0; k < 60; k++, t *= 0.5) {
+            double nx = X[0] + t * sx, ny = X[1] + t * sy;
+            double pa = sqrt((P2[0] - nx) * (P2[0] - nx) +
+                             (P2[1] - ny) * (P2[1] - ny) + hp * hp);
+            double pb = sqrt((Y2[0] - nx) * (Y2[0] - nx) +
+                             (Y2[1] - ny) * (Y2[1] - ny) + hy * hy);
+            if (pa + pb + gx * nx + gy * ny <= cur + 1e-15 * scale)
+                break;
+        }
+        X[0] += t * sx, X[1] += t * sy;
+    }
+    return 0;
+}
+
+/* A glint path of l (light_trace.c's header) from lens point P: y on the
+ * sphere from uy, the slope from us. */
+static void glint_path(const lr_scene *s, const lr__cam *c,
+                       const lr__lt_light *l, lr__v3 P, double ox, double oy,
+                       const double uy[2], const double us[2],
+                       lr__lt_film *f, uint64_t *rays, uint64_t *landed)
+{
+    /* y uniform on the sphere by area (pbrt-v4's SampleUniformSphere). */
+    double zy = 1.0 - 2.0 * uy[0], ry = sqrt(fmax(0.0, 1.0 - zy * zy));
+    double phi = 2.0 * M_PI * uy[1];
+    lr__v3 ny = v3(ry * cos(phi), ry * sin(phi), zy);
+    lr__v3 y = v3_madd(l->center, ny, l->radius);
+    /* P and y in front of the same side of the plane. */
+    lr__v3 n = l->plane_n;
+    double dP = v3_dot(v3_sub(P, l->plane_p), n);
+    double dy = v3_dot(v3_sub(y, l->plane_p), n);
+    if (dP < 0.0)
+        n = v3_neg(n), dP = -dP, dy = -dy;
+    if (!(dP > 0.0) || !(dy > 0.0))
+        return;
+    /* Plane coordinates around the mirror point x*, where the line from
+     * P to y's mirror image meets the plane. */
+    lr__v3 Pp = v3_madd(P, n, -dP), yp = v3_madd(y, n, -dy);
+    lr__v3 xs = v3_add(Pp, v3_scale(v3_sub(yp, Pp), dP / (dP + dy)));
+    lr__v3 t1, t2;
+    frame_of(n, &t1, &t2);
+    lr__v3 pr = v3_sub(Pp, xs), yr = v3_sub(yp, xs);
+    double P2[2] = {v3_dot(pr, t1), v3_dot(pr, t2)};
+    double Y2[2] = {v3_dot(yr, t1), v3_dot(yr, t2)};
+    /* The target g of the half vector's tangential part (unnormalised,
+     * a_t + b_t): a slope from GGX's density times the half vector's
+     * normal part at x*, h0 = 2 cos(theta*).  Where the normal part at
+     * x is larger than h0 the true slope is smaller than drawn and the
+     * lobe wider than this density: the wide tails are the camera's
+     * (lr__lt_glint_core), and within the core the two differ little. */
+    double al = l->alpha, h0 = 2.0 * (dP + dy) /
+                                 sqrt((dP + dy) * (dP + dy) +
+                                      (P2[0] - Y2[0]) * (P2[0] - Y2[0]) +
+                                      (P2[1] - Y2[1]) * (P2[1] - Y2[1]));
+    double sn, cs;
+    lr__sincos_2pi(us[1], &sn, &cs);
+    /* Truncated where no core path can be: there the normal part is at
+     * most 2, so |g| < 2 LR__LT_GLINT_CORE alpha (and |g| < 2 always).
+     * In units of h0 alpha the truncated radius R keeps a share R^2 /
+     * (1 + R^2) of the density, drawn from us[0] rescaled to it. */
+    double R = fmin(2.0, 2.0 * LR__LT_GLINT_CORE * al) / (h0 * al);
+    double keep = R * R / (1.0 + R * R), u0 = us[0] * keep;
+    double rn = sqrt(u0 / (1.0 - u0)), rg = h0 * al * rn;
+    double gx = rg * cs, gy = rg * sn;
+    double q1 = 1.0 + rn * rn;
+    double qg = 1.0 / (M_PI * al * al * h0 * h0 * q1 * q1 * keep);
+    double X[2], H[3];
+    if (!glint_solve(P2, dP, Y2, dy, gx, gy, X, H))
+        return;
+    lr__v3 x = v3_add(xs, v3_add(v3_scale(t1, X[0]), v3_scale(t2, X[1])));
+    double pA = qg * (H[0] * H[2] - H[1] * H[1]);
+    /* The camera ray from P to x. */
+    lr__v3 dv = v3_sub(x, P);
+    double dist2 = v3_dot(dv, dv);
+    if (!(dist2 > 0.0))
+        return;
+    lr__v3 w = v3_scale(dv, 1.0 / sqrt(dist2));
+    double cos_x = fabs(v3_dot(w, n));
+    double fx, fy;
+    double W = c->model->film(c, ox, oy, w, &fx, &fy);
+    if (!(W > 0.0) || !(cos_x > 0.0) ||
+        !(fx >= 0.0 && fx < c->width && fy >= 0.0 && fy < c->height))
+        return;
+    /* Light from y to x: from y's front, and in the glint's core (first
+     * at the plane's normal, a hair wider, before a ray is spent; then
+     * exactly as the camera asks it, at the hit's). */
+    lr__v3 e = v3_sub(y, x);
+    double d2 = v3_dot(e, e);
+    lr__v3 wi = v3_scale(e, 1.0 / sqrt(d2));
+    double cos_y = -v3_dot(wi, ny);
+    if (!(cos_y > 0.0) ||
+        !lr__lt_glint_core(v3_neg(w), wi, n, l->alpha * (1.0 + 1e-4)))
+        return;
+    lr__hit hx;
+    (*rays)++;
+    if (!lr__trace(s, P, w, INFINITY, &hx) || hx.geom != l->surf ||
+        !lr__lt_glint_core(v3_neg(w), wi, hx.ng, l->alpha))
+        return;
+    lr__material mt;
+    const lr__material *m = lr__hit_material(s, &hx, &mt);
+    lr__bsdf bs;
+    lr__bsdf_init(&bs, m, &hx);
+    double bpdf;
+    lr__v3 fv = lr__bsdf_eval(&bs, v3_neg(w), wi, &bpdf);
+    if (!(v3_maxc(fv) > 0.0))
+        return;
+    (*rays)++;
+    if (lr__trace_geom(s, lr__offset_origin(&hx, wi), wi, INFINITY) !=
+        l->geom)
+        return;
+    double pdf_w = pA * dist2 / cos_x;
+    double pdf_y = 1.0 / (4.0 * M_PI * l->radius * l->radius);
+    double g = fabs(v3_dot(wi, hx.ns)) * cos_y / d2;
+    lr__v3 v = v3_scale(v3_mul(l->L, fv),
+                        W * g / (pdf_w * pdf_y * (double)l->paths));
+    if (!(isfinite(v.x) && isfinite(v.y) && isfinite(v.z)))
+        return;
+    (*landed)++;
+    splat(f, (int)fx, (int)fy, v);
+}
+
+/* The sampler "pixel" of light l's paths: by its geometry's index (and a
+ * glint's surface's), so that a region that leaves some lights out draws
+ * the same numbers for the others. */
+static uint64_t light_key(const lr__lt_light *l)
+{
+    return LT_PIXEL_BASE + (uint64_t)l->geom +
+           (l->surf < 0 ? 0 : (uint64_t)(l->surf + 1) << 24);
+}
+
 void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
                  uint64_t u, lr__lt_film *f, uint64_t *rays,
                  uint64_t *landed)
@@ -344,21 +724,18 @@ void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
     if (i1 > lt->paths)
         i1 = lt->paths;
     int k = light_of(lt, i0);
-    /* A light's paths are the samples of a "pixel" of its own (by its
-     * geometry's index, so that a region that leaves some lights out
-     * draws the same numbers for the others): the pixel dimensions give
-     * the direction, the lens dimensions (the sequence's best pair, as
-     * for camera rays) the lens point. */
+    /* A light's paths are the samples of a "pixel" of its own
+     * (light_key): the pixel dimensions give the direction (a glint's
+     * point on the light, and dimensions 4 and 5 its slope), the lens
+     * dimensions (the sequence's best pair, as for camera rays) the lens
+     * point. */
     lr__pixel_sampler ps;
-    lr__pixel_sampler_init(&ps, &smp,
-                           LT_PIXEL_BASE + (uint64_t)lt->lights[k].geom);
+    lr__pixel_sampler_init(&ps, &smp, light_key(&lt->lights[k]));
     for (uint64_t i = i0; i < i1; i++) {
         if (i >= lt->lights[k].first + lt->lights[k].paths) {
             while (i >= lt->lights[k].first + lt->lights[k].paths)
                 k++;
-            lr__pixel_sampler_init(&ps, &smp,
-                                   LT_PIXEL_BASE +
-                                       (uint64_t)lt->lights[k].geom);
+            lr__pixel_sampler_init(&ps, &smp, light_key(&lt->lights[k]));
         }
         const lr__lt_light *l = &lt->lights[k];
         uint32_t idx = (uint32_t)(i - l->first);
@@ -366,6 +743,12 @@ void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
         lr__pixel_sampler_get(&ps, idx, q);
         const double *ud = q, *ul = q + 2;
         lr__v3 P = c->model->lens_point(c, ul, &ox, &oy);
+        if (l->surf >= 0) {
+            double us[2];
+            lr__sample_2d(&smp, light_key(l), idx, 4, us);
+            glint_path(s, c, l, P, ox, oy, ud, us, f, rays, landed);
+            continue;
+        }
         if (l->n_tri > 0) {
             mesh_path(lt, s, c, l, P, ox, oy, ud, f, rays, landed);
             continue;

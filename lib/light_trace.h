@@ -21,6 +21,20 @@
  * sum is unbiased for the whole.  Other lights, and every light of a
  * model without a light side, stay with the camera.
  *
+ * Sparkles (glints): a small light k seen in a flat rough metal surface G
+ * (a planar triangle mesh whose one lobe is GGX's conductor) behind the
+ * focus is a defocused disc too, and the camera's light sample at G
+ * finds it only from the few lens points whose mirror direction meets
+ * it.  For a pair (G, k) the plan picks, the paths camera -> G -> k
+ * (the camera ray's first hit on G, then k straight from there) are the
+ * light side's: a point y on k, a lens point P, and a point x of G drawn
+ * around the mirror point of P and y (light_trace.c, glint_path).
+ * Camera paths whose first hit is on G add none of k's light at G,
+ * neither by the light sample nor by the BSDF's ray meeting k (path.c);
+ * every other path stays the camera's.  The same disjoint split, so the
+ * same argument.  The path integrator only (Whitted's rough lobes are
+ * mirrors).
+ *
  * Determinism: a light path is a pure function of (light, path index,
  * seed), and splats add as fixed-point integers, whose sum does not
  * depend on the order: any thread count, tile size or region gives the
@@ -39,6 +53,12 @@
  * emitting triangles. */
 typedef struct lr__lt_light {
     int geom;           /* index in scene->geoms */
+    /* -1: the light seen directly; else a glint: the light seen in the
+     * flat rough metal geometry surf, whose plane holds plane_p with
+     * unit normal plane_n (any side), GGX alpha `alpha`. */
+    int surf;
+    lr__v3 plane_p, plane_n;
+    double alpha;
     lr__v3 center;      /* the sphere, or a sphere around the mesh */
     double radius;
     /* A mesh: its triangles are scene->emitters[first_tri ..
@@ -57,8 +77,11 @@ typedef struct lr__lt {
     int n;
     lr__lt_light *lights;
     uint64_t paths;        /* all lights' */
-    /* Per geometry of the scene: 1 where its direct emission is the
-     * light side's (camera rays that meet it first add none). */
+    /* Per geometry of the scene, flags: LR__LT_DIRECT where its direct
+     * emission is the light side's (camera rays that meet it first add
+     * none); LR__LT_GLINT_SURF on a glint surface, LR__LT_GLINT_LIGHT on
+     * a light whose glints in those surfaces are the light side's (every
+     * such pair is traced). */
     unsigned char *direct;
     uint64_t seed;
 } lr__lt;

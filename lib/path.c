@@ -94,11 +94,16 @@ typedef lr__path_lane lane;
 /* Light sampled from hit h towards a light: the lane's shadow ray and
  * its weighted contribution f cos Le w / pdf, to count if the ray is
  * clear; 0 if there is nothing to trace. */
+/* glints: the lt flags where the hit is a glint surface of the light
+ * side (its lights' light from here is the light side's), else NULL. */
 static int next_event(const lr_scene *s, const lr__hit *h, const lr__bsdf *f,
-                      lr__v3 wo, const double v[DIMS_PER_BOUNCE], lane *p)
+                      lr__v3 wo, const double v[DIMS_PER_BOUNCE],
+                      const unsigned char *glints, lane *p)
 {
     lr__light_sample ls;
-    if (!lr__light_sample_from(s, h->p, v[4], v, &ls))
+    if (!lr__light_sample_from(s, h->p, v[4], v, &ls) ||
+        (lr__lt_flag(glints, ls.geom, LR__LT_GLINT_LIGHT) &&
+         lr__lt_glint_core(wo, ls.dir, h->ng, f->m->roughness)))
         return 0;
     /* Light from behind the geometric surface arrives only through a
      * transmitting lobe, which evaluates it. */
@@ -152,11 +157,14 @@ static int next_event(const lr_scene *s, const lr__hit *h, const lr__bsdf *f,
 /* The lane's surface (or escape, hit == 0) at bounce `depth`: light
  * found there, its light sample (p->shadow) and the next ray.  Returns 1
  * if the path goes on. */
-/* lt: the camera ray's light-side geometry (lr__sample_id) at depth 0,
+/* lt: the camera ray's light-side flags (lr__sample_id) at depth 0, else
+ * NULL; glint: at depth 1, those flags when the first hit was a glint
+ * surface (whose glint lights' emission met now is the light side's),
  * else NULL. */
 static int bounce(const lr_scene *s, int max_depth, int depth, int hit,
                   const lr__hit *h, const double v[DIMS_PER_BOUNCE],
-                  const unsigned char *lt, lane *p)
+                  const unsigned char *lt, const unsigned char *glint,
+                  lane *p)
 {
     p->shadow = 0;
     if (!hit) {
@@ -170,7 +178,8 @@ static int bounce(const lr_scene *s, int max_depth, int depth, int hit,
     lr__material mt;
     const lr__material *m = lr__hit_material(s, h, &mt);
     if (h->entering && v3_maxc(m->emission) > 0.0 &&
-        !lr__lt_direct(lt, h->geom)) {
+        !lr__lt_direct(lt, h->geom) &&
+        !lr__lt_flag(glint, h->geom, LR__LT_GLINT_LIGHT)) {
         double w = 1.0;
         if (!p->prev_delta && h->geom >= 0)
             w = mis(p->prev_pdf, lr__light_pdf_area(s, p->prev_p, h->p, h->ng,
@@ -185,7 +194,9 @@ static int bounce(const lr_scene *s, int max_depth, int depth, int hit,
     lr__bsdf f;
     lr__bsdf_init(&f, m, h);
     if (lr__bsdf_has_smooth_lobes(&f))
-        p->shadow = next_event(s, h, &f, wo, v, p);
+        p->shadow = next_event(
+            s, h, &f, wo, v,
+            lr__lt_flag(lt, h->geom, LR__LT_GLINT_SURF) ? lt : NULL, p);
     lr__v3 wi, weight;
     double pdf;
     int delta;
@@ -280,6 +291,9 @@ static void trace_paths(const lr_scene *s, int max_depth,
     /* A bounce's numbers; lanes that are done keep their last ones (the
      * vector loops compute on every lane). */
     double U[DIMS_PER_BOUNCE][16] = {{0}};
+    /* Lanes whose camera ray met a glint surface of the light side first
+     * (only lanes shaded alone can: such a surface is rough metal). */
+    unsigned char glint[16] = {0};
     for (int depth = 0;; depth++) {
         bounce_numbers(&pairs, key, S->alive, n, id->sample, depth, U);
         /* This bounce's surfaces, light samples and next rays: lanes on
@@ -304,7 +318,15 @@ static void trace_paths(const lr_scene *s, int max_depth,
             for (int j = 0; j < DIMS_PER_BOUNCE - 1; j++)
                 v[j] = U[j][i];
             int alive = bounce(s, max_depth, depth, hit, &h, v,
-                               depth == 0 ? id->lt : NULL, &p);
+                               depth == 0 ? id->lt : NULL,
+                               depth == 1 && glint[i] ? id->lt : NULL, &p);
+            /* The BSDF's ray from a glint surface, if within the glint's
+             * core: should it meet a glint light, the light side has it. */
+            if (depth == 0)
+                glint[i] = (unsigned char)(
+                    alive && lr__lt_flag(id->lt, h.geom, LR__LT_GLINT_SURF) &&
+                    lr__lt_glint_core(v3_neg(dir), p.dir, h.ng,
+                                      s->materials[h.material].roughness));
             lane_put(&p, alive, S, i);
         }
         if (w16.vec)

@@ -21,6 +21,7 @@
  */
 #include "plan.h"
 #include "adaptive.h"
+#include "integrator.h"
 #include "sampler.h"
 #include "splat.h"
 #include "texture.h"
@@ -825,6 +826,15 @@ static double env_bound(const struct lr__rare *r, const lr__envmap *e,
     return lr__envmap_max_in_cone(e, v3_norm(world), alpha);
 }
 
+/* The most a surface that shows emitters (geometry or plane g) shows:
+ * everything, or L_glint on a glint surface of the light side. */
+static double shown(const unsigned char *fl, size_t g, int is_plane,
+                    double L_emit, double L_glint)
+{
+    return !is_plane && lr__lt_flag(fl, (long)g, LR__LT_GLINT_SURF) ? L_glint
+                                                                    : L_emit;
+}
+
 static lr_status rare_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
                             int x0, int y0, int x1, int y1, lr_error *err)
 {
@@ -841,6 +851,26 @@ static lr_status rare_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
         L_emit = fmax(L_emit, lr__envmap_max(s->env));
     if (!(L_emit > 0.0))
         return LR_OK;
+    /* What a glint surface of the light side shows its first hits: its
+     * glint lights' light straight from it is the light side's
+     * (light_trace.h), so every other emitter's, and everything if
+     * another surface may show those lights in turn. */
+    double L_glint = s->env != NULL ? lr__envmap_max(s->env) : 0.0;
+    const unsigned char *fl = p->lt != NULL ? p->lt->direct : NULL;
+    int n_show = 0;
+    for (size_t g = 0; g < s->n_geoms + s->n_planes; g++) {
+        int is_plane = g >= s->n_geoms;
+        const lr__geom *geo =
+            is_plane ? &s->planes[g - s->n_geoms] : &s->geoms[g];
+        const lr__material *m = &s->materials[geo->material];
+        if (is_plane || !lr__lt_flag(fl, (long)g, LR__LT_GLINT_LIGHT))
+            L_glint = fmax(L_glint, emission_max(m));
+        n_show += shows_emitters(m);
+    }
+    /* A second such surface (another glint surface too) may show them
+     * after the first (depth 1 on). */
+    if (n_show > 1)
+        L_glint = L_emit;
     struct lr__rare *r = calloc(1, sizeof *r);
     if (r == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
@@ -852,10 +882,10 @@ static lr_status rare_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
         const lr__geom *geo =
             is_plane ? &s->planes[g - s->n_geoms] : &s->geoms[g];
         const lr__material *m = &s->materials[geo->material];
-        if (is_plane || p->lt == NULL || !p->lt->direct[g])
+        if (is_plane || !lr__lt_direct(fl, (long)g))
             L_cam = fmax(L_cam, emission_max(m));
         if (shows_emitters(m))
-            L_cam = fmax(L_cam, L_emit);
+            L_cam = fmax(L_cam, shown(fl, g, is_plane, L_emit, L_glint));
     }
     r->L_all = L_cam;
     if (c->has_lens && c->model->bound == NULL) {
@@ -879,10 +909,12 @@ static lr_status rare_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
         const lr__material *m = &s->materials[geo->material];
         /* A light of the light side: camera rays no longer see its
          * emission first (light_trace.h), only through other surfaces. */
-        double Le = !is_plane && p->lt != NULL && p->lt->direct[g]
+        double Le = !is_plane && lr__lt_direct(fl, (long)g)
                         ? 0.0
                         : emission_max(m);
-        double Lg = fmax(Le, shows_emitters(m) ? L_emit : 0.0);
+        double Lg = fmax(Le, shows_emitters(m)
+                                 ? shown(fl, g, is_plane, L_emit, L_glint)
+                                 : 0.0);
         if (!(Lg > 0.0))
             continue;
         if (is_plane) {
@@ -988,7 +1020,9 @@ static lr_status lt_region(lr__lt *lt, const lr__cam *c, int x0, int y0,
         double hi[3] = {l->center.x + r, l->center.y + r, l->center.z + r};
         box b;
         box_from_bounds(&L, lo, hi, &b);
-        keep[k] = (unsigned char)box_reached(&L, &b, u0, u1, v0, v1);
+        /* A glint may land wherever its surface is seen: kept. */
+        keep[k] = (unsigned char)(l->surf >= 0 ||
+                                  box_reached(&L, &b, u0, u1, v0, v1));
     }
     lr__lt_keep(lt, keep);
     free(keep);
