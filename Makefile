@@ -596,9 +596,14 @@ compare-path: $(BUILD)/lensray
 # minutes on 2 cores, half of it the reference the first time, so not
 # part of `make bench`.  BOKEH_ARGS go to bench/bokeh/run.py.
 BOKEH_ARGS ?=
-.PHONY: bench-bokeh
+.PHONY: bench-bokeh bench-sparkles
 bench-bokeh: $(BUILD)/lensray
 	sh bench/bokeh/run.sh $(BUILD) $(BOKEH_ARGS)
+
+# Sparkles (docs/bokeh.md): small lights in a rough metal plane, the
+# defaults against camera paths alone, to relMSE 1e-3.
+bench-sparkles: $(BUILD)/lensray
+	sh bench/bokeh/sparkles.sh $(BUILD) $(BOKEH_ARGS)
 
 # Accuracy against time (docs/accuracy.md): scenes/accuracy-*.json rendered
 # at increasing spp with every sampler, with and without planning and

@@ -55,8 +55,9 @@ static inline int lr__lt_direct(const unsigned char *lt, long geom)
 /* A glint's core: light from a glint light reflected at a glint surface
  * is the light side's only where the half vector of wo and wi (unit,
  * away from the surface) leans from the surface's normal n (on wo's
- * side) by a slope under LR__LT_GLINT_CORE alpha, which holds 90% of
- * GGX's normals (P(|slope| < k alpha) = k^2 / (1 + k^2)).  The wide
+ * side) by a slope under LR__LT_GLINT_CORE alpha, which holds 80% of
+ * GGX's normals (P(|slope| < k alpha) = k^2 / (1 + k^2)).  On a test
+ * scene 2 reached a given error sooner than 1.5, 3 or 6.  The wide
  * tails, a dim haze over the whole surface that the camera's light
  * samples find in every pixel, stay the camera's.  Both sides ask this
  * one function of the same path, so the split is exact. */

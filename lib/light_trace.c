@@ -275,7 +275,7 @@ static uint64_t glint_paths(const lr__cam *c, const lr__lens_bound *lb,
                            light->radius + 2.0 * alpha * lb_, spp, force);
     if (force && n < 16)
         n = 16;
-    return n < 536870911u ? 8 * n : 4294967295u;
+    return n < 1073741823u ? 4 * n : 4294967295u;
 }
 
 /* Adds the glint pairs (glint surface, sphere light) to *ltp: every pair
