@@ -30,16 +30,15 @@ static const lr__camera_key keys[] = {
 static lr_status validate(const lr_camera *cam, int active, lr_error *err)
 {
     (void)active;
-    lr_status st;
-    if ((st = lr__cam_check_length("camera.image_plane_distance",
-                                   cam->image_plane_distance, 0, 1, err)) !=
-            LR_OK ||
-        (st = lr__cam_check_length("camera.focal_length", cam->focal_length,
-                                   0, 1, err)) != LR_OK ||
-        (st = lr__cam_check_length("camera.aperture", cam->aperture, 1, 0,
-                                   err)) != LR_OK)
+    lr_status st = lr__cam_check_length("camera.image_plane_distance",
+                                        cam->image_plane_distance, 0, 1, err);
+    if (st != LR_OK)
         return st;
-    return LR_OK;
+    st = lr__cam_check_length("camera.focal_length", cam->focal_length, 0, 1,
+                              err);
+    if (st != LR_OK)
+        return st;
+    return lr__cam_check_length("camera.aperture", cam->aperture, 1, 0, err);
 }
 
 static void setup(lr__cam *c, const lr_camera *cam)

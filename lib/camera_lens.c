@@ -67,11 +67,13 @@ static double nearest_mm(const lr_lens *L)
 
 static lr_status validate(const lr_camera *cam, int active, lr_error *err)
 {
-    lr_status st;
-    if ((st = lr__cam_check_length("camera.sensor_width_mm",
-                                   cam->sensor_width_mm, 0, 0, err)) != LR_OK ||
-        (st = lr__cam_check_length("camera.scene_unit_mm", cam->scene_unit_mm,
-                                   0, 0, err)) != LR_OK)
+    lr_status st = lr__cam_check_length("camera.sensor_width_mm",
+                                        cam->sensor_width_mm, 0, 0, err);
+    if (st != LR_OK)
+        return st;
+    st = lr__cam_check_length("camera.scene_unit_mm", cam->scene_unit_mm, 0,
+                              0, err);
+    if (st != LR_OK)
         return st;
     if (!active)
         return LR_OK;

@@ -40,15 +40,20 @@ _Static_assert(sizeof(lr_aperture_shape) == sizeof(int),
 
 static lr_status validate(const lr_camera *cam, int active, lr_error *err)
 {
-    lr_status st;
-    if ((st = lr__cam_check_length("camera.focus_distance",
-                                   cam->focus_distance, 0, 1, err)) != LR_OK ||
-        (st = lr__cam_check_length("camera.aperture_radius",
-                                   cam->aperture_radius, 1, 0, err)) != LR_OK ||
-        (st = lr__cam_check_length("camera.focal_length_mm",
-                                   cam->focal_length_mm, 1, 0, err)) != LR_OK ||
-        (st = lr__cam_check_length("camera.f_number", cam->f_number, 1, 0,
-                                   err)) != LR_OK)
+    lr_status st = lr__cam_check_length("camera.focus_distance",
+                                        cam->focus_distance, 0, 1, err);
+    if (st != LR_OK)
+        return st;
+    st = lr__cam_check_length("camera.aperture_radius", cam->aperture_radius,
+                              1, 0, err);
+    if (st != LR_OK)
+        return st;
+    st = lr__cam_check_length("camera.focal_length_mm", cam->focal_length_mm,
+                              1, 0, err);
+    if (st != LR_OK)
+        return st;
+    st = lr__cam_check_length("camera.f_number", cam->f_number, 1, 0, err);
+    if (st != LR_OK)
         return st;
     if (cam->f_number > 0.0 && cam->f_number < 1e-3)
         return BAD("camera.f_number",

@@ -7,8 +7,8 @@
  *
  * Implementations: whitted.c and whitted16.c (direct light with hard
  * shadows, mirrors and glass: the classic ray tracer) and path.c and
- * path16.c (path tracing), chosen by render.integrator through
- * lr__integrator_for.
+ * path16.c (path tracing), listed in integrator.c's registry and chosen
+ * by render.integrator through lr__integrator_for.
  */
 #ifndef LR_INTEGRATOR_H
 #define LR_INTEGRATOR_H
@@ -99,8 +99,19 @@ typedef struct lr__integrator {
 extern const lr__integrator lr__whitted;
 extern const lr__integrator lr__path_tracer;
 
-/* The integrator for render.integrator's value. */
+/* ---- the registry (integrator.c) ---------------------------------------- */
+
+/* The integrators, indexed by lr_integrator_kind, ending with NULL.  Each
+ * row's `name` is its value of render.integrator. */
+#define LR__MAX_INTEGRATORS 15
+extern const lr__integrator *const lr__integrators[];
+
+/* The integrator for render.integrator's value; NULL when `kind` is not
+ * one (lr_render_settings_validate rejects it). */
 const lr__integrator *lr__integrator_for(lr_integrator_kind kind);
+
+/* The names in registry order, ending with NULL: for lr__json_enum. */
+void lr__integrator_names(const char *names[LR__MAX_INTEGRATORS + 1]);
 
 /* ---- the Whitted integrator's parts, for tests ----------------------- */
 

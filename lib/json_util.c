@@ -21,7 +21,6 @@ int lr__sampler_count(void)
     return n;
 }
 
-const char *const lr__integrator_names[] = {"whitted", "path", NULL};
 const char *const lr__chroma_mode_names[] = {"off", "rgb", "spectral", NULL};
 const char *const lr__focal_model_names[] = {"paper", "lensmaker", NULL};
 const char *const lr__glass_names[] = {"BK7", "F2", "SF11", "fused_silica",

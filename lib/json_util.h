@@ -41,10 +41,10 @@ void lr__utf8_escape(const char *s, char *out, size_t cap);
 
 /* The JSON names of the public enums, indexed by value and ending with
  * NULL: one table each, for the parsers (camera_json.c, settings_json.c)
- * and the writer (json_write.c) alike (json_util.c). */
+ * and the writer (json_write.c) alike (json_util.c).  The integrators'
+ * names are their registry's (integrator.h). */
 extern const char *const lr__sampler_names[];      /* lr_sampler_kind */
 int lr__sampler_count(void); /* entries in lr__sampler_names */
-extern const char *const lr__integrator_names[];   /* lr_integrator_kind */
 extern const char *const lr__chroma_mode_names[];  /* lr_chromatic_mode */
 extern const char *const lr__focal_model_names[];  /* lr_focal_model */
 extern const char *const lr__glass_names[];        /* lr_glass, but ABBE */

@@ -7,6 +7,7 @@
  * here cannot drift from theirs.
  */
 #include "camera.h"
+#include "integrator.h"
 #include "json_util.h"
 #include "lens_load.h"
 
@@ -15,7 +16,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* The enums are named by json_util.c's tables, as the parsers name them. */
+/* The enums are named by json_util.c's tables, as the parsers name them;
+ * the integrator by its registry (integrator.c). */
 
 /* names[i] of a NULL-ended table, or "unknown". */
 static const char *name_of(const char *const *names, int i)
@@ -177,7 +179,8 @@ char *lr_render_settings_json(const lr_render_settings *s)
     num(&b, "spp", s->spp);
     str(&b, "sampler", NAME(lr__sampler_names, s->sampler));
     num(&b, "seed", (double)s->seed);
-    str(&b, "integrator", NAME(lr__integrator_names, s->integrator));
+    const lr__integrator *in = lr__integrator_for(s->integrator);
+    str(&b, "integrator", in != NULL ? in->name : "unknown");
     num(&b, "max_depth", s->max_depth);
     num(&b, "threads", s->threads);
     num(&b, "tile_size", s->tile_size);

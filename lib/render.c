@@ -175,11 +175,6 @@ static double now_seconds(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-const lr__integrator *lr__integrator_for(lr_integrator_kind kind)
-{
-    return kind == LR_INTEGRATOR_PATH ? &lr__path_tracer : &lr__whitted;
-}
-
 lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
                     const lr_render_settings *set, lr_image **out,
                     lr_render_stats *stats, lr_error *err)

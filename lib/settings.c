@@ -2,6 +2,7 @@
  * settings.c: render settings: their defaults and their checks (the
  * public lr_render_settings_default and lr_render_settings_validate).
  */
+#include "integrator.h"
 #include "json_util.h"
 
 #include <string.h>
@@ -53,8 +54,7 @@ lr_status lr_render_settings_validate(const lr_render_settings *s,
         return lr__fail(err, LR_ERR_INVALID, "render.sampler",
                         "render.sampler is not a known sampler (%d)",
                         (int)s->sampler);
-    if (s->integrator != LR_INTEGRATOR_WHITTED &&
-        s->integrator != LR_INTEGRATOR_PATH)
+    if (lr__integrator_for(s->integrator) == NULL)
         return lr__fail(err, LR_ERR_INVALID, "render.integrator",
                         "render.integrator is not a known integrator (%d)",
                         (int)s->integrator);

@@ -6,6 +6,7 @@
  */
 #include "json_util.h"
 #include "apply_json.h"
+#include "integrator.h"
 #include "settings_json.h"
 
 #include <math.h>
@@ -75,9 +76,11 @@ lr_status lr__settings_from_json(const cJSON *r, lr_render_settings *rs,
     LR_TRY(lr__json_enum(r, "sampler", "render", lr__sampler_names, &kind,
                          err));
     rs->sampler = (lr_sampler_kind)kind;
+    const char *integrators[LR__MAX_INTEGRATORS + 1];
+    lr__integrator_names(integrators);
     int integ = (int)rs->integrator;
-    LR_TRY(lr__json_enum(r, "integrator", "render", lr__integrator_names,
-                         &integ, err));
+    LR_TRY(lr__json_enum(r, "integrator", "render", integrators, &integ,
+                         err));
     rs->integrator = (lr_integrator_kind)integ;
     const cJSON *reg = cJSON_GetObjectItemCaseSensitive(r, "region");
     if (reg != NULL) {

@@ -9,7 +9,7 @@
  * of each lr_camera_model value in turn (lr_camera_json names a value it
  * does not know "unknown"), so a model added to the library appears here
  * with its keys and their defaults and nothing in the daemon changes.
- * The samplers and chromatic modes are found the same way.
+ * The samplers, integrators and chromatic modes are found the same way.
  */
 #include "lensrayd.h"
 
@@ -72,29 +72,49 @@ static cJSON *model_item(int id)
     return item;
 }
 
+static void set_sampler(lr_render_settings *rs, int k)
+{
+    rs->sampler = (lr_sampler_kind)k;
+}
+
+static void set_integrator(lr_render_settings *rs, int k)
+{
+    rs->integrator = (lr_integrator_kind)k;
+}
+
+/* Adds to `list` the names the library writes for render.`key` when
+ * `set` gives it each value in turn (NULL list: nothing). */
+static void setting_names(cJSON *list, const char *key,
+                          void (*set)(lr_render_settings *, int))
+{
+    lr_render_settings rs;
+    lr_render_settings_default(&rs);
+    for (int k = 0; k < MAX_ENUM && list != NULL; k++) {
+        set(&rs, k);
+        char *json = lr_render_settings_json(&rs);
+        cJSON *t = NULL;
+        const char *name = known_name(json, key, &t);
+        if (name != NULL)
+            cJSON_AddItemToArray(list, cJSON_CreateString(name));
+        cJSON_Delete(t);
+        lr_free(json);
+    }
+}
+
 char *lrd_options_json(lrd_err *e)
 {
     cJSON *root = cJSON_CreateObject();
     cJSON *models = cJSON_AddArrayToObject(root, "camera_models");
     cJSON *samplers = cJSON_AddArrayToObject(root, "samplers");
+    cJSON *integrators = cJSON_AddArrayToObject(root, "integrators");
     cJSON *modes = cJSON_AddArrayToObject(root, "chromatic_modes");
     for (int id = 0; id < MAX_ENUM && models != NULL; id++) {
         cJSON *m = model_item(id);
         if (m != NULL)
             cJSON_AddItemToArray(models, m);
     }
-    lr_render_settings rs;
-    lr_render_settings_default(&rs);
-    for (int k = 0; k < MAX_ENUM && samplers != NULL; k++) {
-        rs.sampler = (lr_sampler_kind)k;
-        char *json = lr_render_settings_json(&rs);
-        cJSON *t = NULL;
-        const char *name = known_name(json, "sampler", &t);
-        if (name != NULL)
-            cJSON_AddItemToArray(samplers, cJSON_CreateString(name));
-        cJSON_Delete(t);
-        lr_free(json);
-    }
+    setting_names(samplers, "sampler", set_sampler);
+    setting_names(integrators, "integrator", set_integrator);
     /* Chromatic modes through a thin lens, which writes them; "off" is
      * not written at all, so it is the first name by definition. */
     if (modes != NULL)

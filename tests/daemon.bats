@@ -562,6 +562,33 @@ EOF
     [ "$(json 'o.scenes.every(s => s.primitives > 0)')" = true ]
 }
 
+@test "openapi.yaml's enums of camera.model, render.sampler and render.integrator are the library's (GET /v1/options)" {
+    # The spec lists the names by hand; the library's registries are the
+    # truth, and the daemon lists them.  Compared as sets (the spec's
+    # order is its own).
+    python3 -c 'import yaml' 2>/dev/null ||
+        skip "environment: python3 has no yaml module (Debian: python3-yaml)"
+    req GET "$URL/v1/options"
+    expect 200
+    cp "$T/body" "$T/options"
+    local spec="$BATS_TEST_DIRNAME/../docs/openapi.yaml" row schema key list
+    for row in CameraOverrides:model:camera_models \
+        RenderOverrides:sampler:samplers RenderOverrides:integrator:integrators; do
+        IFS=: read -r schema key list <<<"$row"
+        diff <(python3 -c 'import sys, yaml
+s = yaml.safe_load(open(sys.argv[1]))["components"]["schemas"][sys.argv[2]]
+print("\n".join(sorted(s["properties"][sys.argv[3]]["enum"])))' "$spec" "$schema" "$key") \
+            <(json "o.$list.map(x => x.name ?? x).sort().join('\n')" "$T/options")
+    done
+    [ "$(json "o.integrators.join(' ')" "$T/options")" = "whitted path" ]
+    # Each integrator the library lists is one a job may name.
+    local name
+    for name in $(json "o.integrators.join(' ')" "$T/options"); do
+        req POST "$URL/v1/render" "{\"scene\": \"tiny\", \"render\": {\"width\": 4, \"height\": 3, \"spp\": 1, \"integrator\": \"$name\"}}"
+        expect 200
+    done
+}
+
 # ---- synchronous renders --------------------------------------------------------
 
 @test "POST /v1/render answers with a PNG and the job's headers" {

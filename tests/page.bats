@@ -103,13 +103,14 @@ json() {
     kill -TERM "$DPID"
 }
 
-@test "GET /v1/options lists the library's camera models with their keys, samplers and chromatic modes" {
+@test "GET /v1/options lists the library's camera models with their keys, samplers, integrators and chromatic modes" {
     start_daemon
     curl -s -o "$WORK/options" "$DURL/v1/options"
     [ "$(json "$WORK/options" '" ".join(m["name"] for m in d["camera_models"])')" = "pinhole thinlens bracket lens" ]
     [ "$(json "$WORK/options" '[m for m in d["camera_models"] if m["name"] == "thinlens"][0]["defaults"]["focus_distance"]')" = 10 ]
     [ "$(json "$WORK/options" '[m["autofocus"] for m in d["camera_models"]]')" = "[False, True, True, True]" ]
     [ "$(json "$WORK/options" '" ".join(d["samplers"])')" = "random grid jittered sobol" ]
+    [ "$(json "$WORK/options" '" ".join(d["integrators"])')" = "whitted path" ]
     [ "$(json "$WORK/options" '" ".join(d["chromatic_modes"])')" = "off rgb spectral" ]
     # Every model's defaults are a camera the daemon accepts (the lens
     # model's with a lens named, as it has no default lens).

@@ -2,10 +2,12 @@
  * test_shared_rules.c: the rules the CLI and the daemon take from the
  * library rather than keep themselves: the format table (format.c), the
  * output object (output.c), stats as JSON (stats.c), the camera and
- * settings written back as JSON (settings_json.c), the scene's
+ * settings written back as JSON (settings_json.c), the integrators'
+ * registry (integrator.c), the scene's
  * description, and a job parsed once (job.c).
  */
 #include "test.h"
+#include "integrator.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -272,6 +274,56 @@ static void test_render_settings_json(void **state)
         assert_memory_equal(&back, &s, sizeof s);
         lr_free(a);
     }
+}
+
+/* The integrator registry (integrator.c) is the one list: each row's
+ * name parses to its kind, is written back as that name, renders with
+ * that row, and the first kind past the table is refused by the parser's
+ * list and by the check alike. */
+static void test_integrator_registry(void **state)
+{
+    (void)state;
+    int n = 0;
+    char list[256] = "";
+    for (; lr__integrators[n] != NULL; n++) {
+        const char *name = lr__integrators[n]->name;
+        assert_ptr_equal(lr__integrator_for((lr_integrator_kind)n),
+                         lr__integrators[n]);
+        snprintf(list + strlen(list), sizeof list - strlen(list), "%s\"%s\"",
+                 n ? ", " : "", name);
+        char json[128];
+        snprintf(json, sizeof json, "{\"integrator\": \"%s\"}", name);
+        lr_render_settings s;
+        lr_render_settings_default(&s);
+        lr_error err;
+        assert_int_equal(lr_render_settings_apply_json(&s, json, strlen(json),
+                                                       &err),
+                         LR_OK);
+        assert_int_equal((int)s.integrator, n);
+        char *back = lr_render_settings_json(&s);
+        snprintf(json, sizeof json, "\"integrator\":\"%s\"", name);
+        assert_non_null(strstr(back, json));
+        lr_free(back);
+    }
+    assert_true(n >= 2 && n <= LR__MAX_INTEGRATORS);
+    assert_null(lr__integrator_for((lr_integrator_kind)n));
+    lr_render_settings s;
+    lr_render_settings_default(&s);
+    s.integrator = (lr_integrator_kind)n;
+    lr_error err;
+    assert_int_equal(lr_render_settings_validate(&s, &err), LR_ERR_INVALID);
+    assert_string_equal(err.path, "render.integrator");
+    char *w = lr_render_settings_json(&s);
+    assert_non_null(strstr(w, "\"integrator\":\"unknown\""));
+    lr_free(w);
+    const char *bad = "{\"integrator\": \"bidir\"}";
+    lr_render_settings_default(&s);
+    assert_int_equal(lr_render_settings_apply_json(&s, bad, strlen(bad), &err),
+                     LR_ERR_INVALID);
+    char want[300];
+    snprintf(want, sizeof want,
+             "render.integrator must be one of %s, got \"bidir\"", list);
+    assert_string_equal(err.message, want);
 }
 
 static void test_scene_description(void **state)
@@ -595,6 +647,7 @@ static const struct CMUnitTest tests[] = {
     cmocka_unit_test(test_stats_json),
     cmocka_unit_test(test_camera_json),
     cmocka_unit_test(test_render_settings_json),
+    cmocka_unit_test(test_integrator_registry),
     cmocka_unit_test(test_scene_description),
     cmocka_unit_test(test_job_parse_errors),
     cmocka_unit_test(test_job_scene_and_meshes),
