@@ -89,8 +89,10 @@ class LensrayRenderEngine(bpy.types.RenderEngine):
             def progress(done, total):
                 engine.update_progress(done / total)
 
+            want_plan = depsgraph.view_layer.lensray_pass_plan
             try:
                 rgb, z = sc.render(depth=True, progress=progress, cancel=_Break())
+                cells = sc.plan() if want_plan else None
             except lensray.CancelledError:
                 return
             except lensray.LensrayError as e:
@@ -98,9 +100,15 @@ class LensrayRenderEngine(bpy.types.RenderEngine):
                 return
             finally:
                 sc.close()
+        if want_plan:
+            self.add_pass("Plan", 3, "RGB", layer=depsgraph.view_layer.name)
+        self._write_result(W, H, rgb, z, cells)
+
+    def _write_result(self, W, H, rgb, z, cells):
+        """Blender's passes from lensray's pixels: rows from the bottom."""
         import numpy as np
         rgba = np.ones((H, W, 4), dtype=np.float32)
-        rgba[:, :, :3] = rgb[::-1]  # lensray's rows from the top, Blender's from the bottom
+        rgba[:, :, :3] = rgb[::-1]
         result = self.begin_result(0, 0, W, H)
         layer = result.layers[0]
         layer.passes["Combined"].rect.foreach_set(rgba.ravel())
@@ -108,24 +116,47 @@ class LensrayRenderEngine(bpy.types.RenderEngine):
         if zp is not None:
             zz = np.where(z >= 1e10, np.float32(1e10), z)[::-1]
             zp.rect.foreach_set(np.ascontiguousarray(zz, dtype=np.float32).ravel())
+        pp = layer.passes.get("Plan")
+        if pp is not None and cells is not None:
+            pp.rect.foreach_set(plan_pixels(cells, W, H)[::-1].ravel())
         self.end_result(result)
 
     def update_render_passes(self, scene=None, renderlayer=None):
         self.register_pass(scene, renderlayer, "Combined", 4, "RGBA", "COLOR")
         if renderlayer is not None and renderlayer.use_pass_z:
             self.register_pass(scene, renderlayer, "Depth", 1, "Z", "VALUE")
+        if renderlayer is not None and renderlayer.lensray_pass_plan:
+            self.register_pass(scene, renderlayer, "Plan", 3, "RGB", "COLOR")
 
 
-class LENSRAY_PT_render(bpy.types.Panel):
-    bl_label = "lensray"
+def plan_pixels(cells, W, H):
+    """The effect plan as an (H, W, 3) float32 image, rows from the top:
+    red 1 where the block sampled the lens, green 1 where it traced the
+    colours apart (lensray.Scene.plan's bits)."""
+    import numpy as np
+    import lensray
+    b = lensray.PLAN_BLOCK
+    full = np.repeat(np.repeat(cells, b, axis=0), b, axis=1)[:H, :W]
+    out = np.zeros((H, W, 3), np.float32)
+    out[:, :, 0] = (full & lensray.PLAN_LENS) != 0
+    out[:, :, 1] = (full & lensray.PLAN_CHROMA) != 0
+    return out
+
+
+class _Panel:
+    # A properties-editor panel shown when LENSRAY is the render engine.
     bl_space_type = "PROPERTIES"
     bl_region_type = "WINDOW"
-    bl_context = "render"
     COMPAT_ENGINES = {"LENSRAY"}
 
     @classmethod
     def poll(cls, context):
         return context.engine == "LENSRAY"
+
+
+class LENSRAY_PT_render(_Panel, bpy.types.Panel):
+    bl_label = "lensray"
+    bl_context = "render"
 
     def draw(self, context):
         p = context.scene.lensray
@@ -133,12 +164,9 @@ class LENSRAY_PT_render(bpy.types.Panel):
             self.layout.prop(p, k)
 
 
-class LENSRAY_PT_lens(bpy.types.Panel):
+class LENSRAY_PT_lens(_Panel, bpy.types.Panel):
     bl_label = "lensray lens"
-    bl_space_type = "PROPERTIES"
-    bl_region_type = "WINDOW"
     bl_context = "data"
-    COMPAT_ENGINES = {"LENSRAY"}
 
     @classmethod
     def poll(cls, context):
@@ -146,6 +174,15 @@ class LENSRAY_PT_lens(bpy.types.Panel):
 
     def draw(self, context):
         self.layout.prop(context.scene.lensray, "lens")
+
+
+class LENSRAY_PT_passes(_Panel, bpy.types.Panel):
+    bl_label = "lensray passes"
+    bl_context = "view_layer"
+
+    def draw(self, context):
+        self.layout.prop(context.view_layer, "use_pass_z")
+        self.layout.prop(context.view_layer, "lensray_pass_plan")
 
 
 def _compatible_panels():
@@ -159,13 +196,19 @@ def _compatible_panels():
             yield p
 
 
-_classes = (LensraySettings, LensrayRenderEngine, LENSRAY_PT_render, LENSRAY_PT_lens)
+_classes = (LensraySettings, LensrayRenderEngine, LENSRAY_PT_render, LENSRAY_PT_lens,
+            LENSRAY_PT_passes)
 
 
 def register():
     for c in _classes:
         bpy.utils.register_class(c)
     bpy.types.Scene.lensray = bpy.props.PointerProperty(type=LensraySettings)
+    bpy.types.ViewLayer.lensray_pass_plan = BoolProperty(
+        name="Plan", default=False,
+        update=lambda layer, context: layer.update_render_passes(),
+        description="the effect plan as a pass: red where the lens was sampled, "
+                    "green where the colours were traced apart (per 16 x 16 block)")
     for p in _compatible_panels():
         p.COMPAT_ENGINES.add("LENSRAY")
 
@@ -173,6 +216,7 @@ def register():
 def unregister():
     for p in _compatible_panels():
         p.COMPAT_ENGINES.discard("LENSRAY")
+    del bpy.types.ViewLayer.lensray_pass_plan
     del bpy.types.Scene.lensray
     for c in reversed(_classes):
         bpy.utils.unregister_class(c)

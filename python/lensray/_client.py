@@ -215,6 +215,14 @@ class Job:
         """The job's status document (``GET /v1/jobs/{id}``)."""
         return self.client._json("GET", f"/v1/jobs/{self.id}")
 
+    def plan(self) -> np.ndarray:
+        """The job's effect plan (``GET /v1/jobs/{id}/plan``), as
+        :meth:`Scene.plan` gives it: uint8 (rows, columns), one cell per
+        16 x 16 block, bits ``PLAN_LENS`` and ``PLAN_CHROMA``."""
+        doc = self.client._json("GET", f"/v1/jobs/{self.id}/plan")
+        cells = [[int(c) for c in row] for row in doc["cells"]]
+        return np.array(cells, dtype=np.uint8).reshape(doc["rows"], doc["columns"])
+
     @property
     def status(self) -> str:
         """``"queued"``, ``"running"``, ``"done"``, ``"failed"`` or

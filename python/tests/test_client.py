@@ -164,3 +164,12 @@ def test_ctrl_c_during_a_synchronous_render_cancels_it_on_the_daemon(daemon):
         time.sleep(0.1)
     assert cancelled_jobs(c) == before + 1
     assert c.health()["running"] == 0
+
+
+def test_job_plan_equals_scene_plan(daemon, spheres):
+    job = lensray.Client(daemon.url).submit("spheres", camera=LENS, render=SMALL)
+    job.wait(timeout=60)
+    plan = job.plan()
+    assert plan.dtype == np.uint8 and plan.shape == (4, 6)
+    assert np.array_equal(plan, spheres.plan(camera=LENS, render=SMALL))
+    assert plan.any() and not plan.all()
