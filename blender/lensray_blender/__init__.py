@@ -54,6 +54,9 @@ class LensraySettings(bpy.types.PropertyGroup):
     chromatic: EnumProperty(name="Chromatic", default="off",
                             items=[("off", "Off", ""), ("rgb", "RGB", ""),
                                    ("spectral", "Spectral", "")])
+    daemon_url: StringProperty(name="Daemon URL", default="",
+                               description="render on lensrayd at this URL (run with --assets, "
+                                           "which receives the scene's files); empty: in process")
     lens: StringProperty(name="Lens", default="",
                          description="a shipped lens name or a prescription file; "
                                      "empty: Blender's camera as a thin lens",
@@ -68,41 +71,68 @@ class LensrayRenderEngine(bpy.types.RenderEngine):
     def render(self, depsgraph):
         import lensray
         scene = depsgraph.scene
+        url = scene.lensray.daemon_url.strip()
+        want_plan = depsgraph.view_layer.lensray_pass_plan
         warn = set()
         with tempfile.TemporaryDirectory(prefix="lensray-blender-") as tmp:
             try:
                 d = export.scene_dict(scene, depsgraph, tmp, warn)
-                sc = lensray.load(d, base_dir=tmp)
+                if warn:
+                    self.report({"WARNING"}, "lensray: not drawn as in Cycles: "
+                                + "; ".join(sorted(warn)))
+                if url:
+                    out = self._render_daemon(url, d, want_plan)
+                else:
+                    out = self._render_here(d, tmp, want_plan)
+            except lensray.CancelledError:
+                return
             except (lensray.LensrayError, ValueError) as e:
                 self.report({"ERROR"}, f"lensray: {e}")
                 return
-            if warn:
-                self.report({"WARNING"}, "lensray: not drawn as in Cycles: "
-                            + "; ".join(sorted(warn)))
-            W, H = d["render"]["width"], d["render"]["height"]
-            engine = self
-
-            class _Break:
-                def is_set(self):
-                    return engine.test_break()
-
-            def progress(done, total):
-                engine.update_progress(done / total)
-
-            want_plan = depsgraph.view_layer.lensray_pass_plan
-            try:
-                rgb, z = sc.render(depth=True, progress=progress, cancel=_Break())
-                cells = sc.plan() if want_plan else None
-            except lensray.CancelledError:
+            except OSError as e:
+                self.report({"ERROR"}, f"lensray: Daemon URL {url}: {e}")
                 return
-            except lensray.LensrayError as e:
-                self.report({"ERROR"}, f"lensray: {e}")
-                return
-            finally:
-                sc.close()
+        if out is None:
+            return
         if want_plan:
             self.add_pass("Plan", 3, "RGB", layer=depsgraph.view_layer.name)
-        self._write_result(W, H, rgb, z, cells)
+        self._write_result(d["render"]["width"], d["render"]["height"], *out)
+
+    def _render_here(self, d, tmp, want_plan):
+        """In process: (rgb, z, plan cells or None)."""
+        import lensray
+        engine = self
+
+        class _Break:
+            def is_set(self):
+                return engine.test_break()
+
+        def progress(done, total):
+            engine.update_progress(done / total)
+
+        with lensray.load(d, base_dir=tmp) as sc:
+            rgb, z = sc.render(depth=True, progress=progress, cancel=_Break())
+            return rgb, z, sc.plan() if want_plan else None
+
+    def _render_daemon(self, url, d, want_plan):
+        """On lensrayd at url: the scene's files are sent as assets, the
+        job is queued and watched (Esc cancels it on the daemon).  (rgb, z,
+        plan cells or None), or None when cancelled."""
+        import time
+        import lensray
+        client = lensray.Client(url)
+        job = client.submit(export.with_assets(d, client.upload), depth=True)
+        while True:
+            info = job.info()
+            self.update_progress(float(info.get("progress", 0)))
+            if info["status"] in ("done", "failed", "cancelled"):
+                break
+            if self.test_break():
+                job.cancel()
+                return None
+            time.sleep(0.1)
+        rgb, z = job.result()
+        return rgb, z, job.plan() if want_plan else None
 
     def _write_result(self, W, H, rgb, z, cells):
         """Blender's passes from lensray's pixels: rows from the bottom."""
@@ -160,7 +190,8 @@ class LENSRAY_PT_render(_Panel, bpy.types.Panel):
 
     def draw(self, context):
         p = context.scene.lensray
-        for k in ("samples", "integrator", "plan", "max_depth", "seed", "chromatic"):
+        for k in ("samples", "integrator", "plan", "max_depth", "seed", "chromatic",
+                  "daemon_url"):
             self.layout.prop(p, k)
 
 

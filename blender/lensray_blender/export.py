@@ -407,6 +407,26 @@ def scene_dict(scene, depsgraph, outdir, warn):
     return d
 
 
+def with_assets(d, upload):
+    """A copy of the scene dict d whose files (the keys scene_dict writes:
+    meshes, textures, the environment map, a lens file) are named by
+    upload(path), e.g. lensray.Client.upload's "sha256:HEX"."""
+    import copy
+    d = copy.deepcopy(d)
+    for ob in d["objects"]:
+        ob["file"] = upload(ob["file"])
+    for m in d["materials"].values():
+        for k in TEXTURE_KEYS:
+            if k in m:
+                m[k] = upload(m[k])
+    if "environment" in d:
+        d["environment"]["file"] = upload(d["environment"]["file"])
+    lens = d["camera"].get("lens")
+    if lens is not None and os.path.isfile(lens):
+        d["camera"]["lens"] = upload(lens)
+    return d
+
+
 def lens_efl_mm(lens, base_dir=None):
     """The effective focal length (mm) of a shipped lens or prescription
     file, from liblensray's lr_lens_describe."""

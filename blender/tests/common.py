@@ -192,3 +192,31 @@ def link_image(mat_name, socket, img):
                   and n.type in ("BSDF_PRINCIPLED", "EMISSION", "BSDF_DIFFUSE"))
     nt.links.new(node.outputs["Color"], shader.inputs[socket])
     return node
+
+
+class Daemon:
+    """build/lensrayd on a free port with an asset store in `assets`."""
+
+    def __init__(self, assets):
+        import re
+        import subprocess
+        import threading
+        self.proc = subprocess.Popen(
+            [os.path.join(ROOT, "build", "lensrayd"), "--port", "0", "--workers", "1",
+             "--scenes", os.path.join(ROOT, "scenes"), "--assets", str(assets)],
+            stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True)
+        log = []
+        for line in self.proc.stderr:
+            log.append(line)
+            m = re.search(r"listening on (http://\S+)", line)
+            if m:
+                self.url = m.group(1)
+                break
+        else:
+            raise RuntimeError("lensrayd did not start:\n" + "".join(log))
+        # Its request log is read, or it would block on a full pipe.
+        threading.Thread(target=self.proc.stderr.read, daemon=True).start()
+
+    def stop(self):
+        self.proc.kill()
+        self.proc.wait(timeout=10)
