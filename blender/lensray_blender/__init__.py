@@ -96,7 +96,10 @@ class LensrayRenderEngine(bpy.types.RenderEngine):
             return
         if want_plan:
             self.add_pass("Plan", 3, "RGB", layer=depsgraph.view_layer.name)
-        self._write_result(d["render"]["width"], d["render"]["height"], *out)
+        rgb, z, cells = out
+        if cells is not None:
+            cells = plan_pixels(cells, d["render"])
+        self._write_result(rgb, z, cells)
 
     def _render_here(self, d, tmp, want_plan):
         """In process: (rgb, z, plan cells or None)."""
@@ -134,9 +137,10 @@ class LensrayRenderEngine(bpy.types.RenderEngine):
         rgb, z = job.result()
         return rgb, z, job.plan() if want_plan else None
 
-    def _write_result(self, W, H, rgb, z, cells):
+    def _write_result(self, rgb, z, plan):
         """Blender's passes from lensray's pixels: rows from the bottom."""
         import numpy as np
+        H, W = rgb.shape[:2]
         rgba = np.ones((H, W, 4), dtype=np.float32)
         rgba[:, :, :3] = rgb[::-1]
         result = self.begin_result(0, 0, W, H)
@@ -147,8 +151,8 @@ class LensrayRenderEngine(bpy.types.RenderEngine):
             zz = np.where(z >= 1e10, np.float32(1e10), z)[::-1]
             zp.rect.foreach_set(np.ascontiguousarray(zz, dtype=np.float32).ravel())
         pp = layer.passes.get("Plan")
-        if pp is not None and cells is not None:
-            pp.rect.foreach_set(plan_pixels(cells, W, H)[::-1].ravel())
+        if pp is not None and plan is not None:
+            pp.rect.foreach_set(np.ascontiguousarray(plan[::-1]).ravel())
         self.end_result(result)
 
     def update_render_passes(self, scene=None, renderlayer=None):
@@ -159,14 +163,17 @@ class LensrayRenderEngine(bpy.types.RenderEngine):
             self.register_pass(scene, renderlayer, "Plan", 3, "RGB", "COLOR")
 
 
-def plan_pixels(cells, W, H):
-    """The effect plan as an (H, W, 3) float32 image, rows from the top:
-    red 1 where the block sampled the lens, green 1 where it traced the
-    colours apart (lensray.Scene.plan's bits)."""
+def plan_pixels(cells, render):
+    """The effect plan as a float32 image of the render's pixels (its
+    region, if any), rows from the top: red 1 where the block sampled the
+    lens, green 1 where it traced the colours apart (lensray.Scene.plan's
+    bits, for the whole frame)."""
     import numpy as np
     import lensray
     b = lensray.PLAN_BLOCK
-    full = np.repeat(np.repeat(cells, b, axis=0), b, axis=1)[:H, :W]
+    x0, y0, x1, y1 = render.get("region", [0, 0, render["width"], render["height"]])
+    full = np.repeat(np.repeat(cells, b, axis=0), b, axis=1)[y0:y1, x0:x1]
+    H, W = full.shape
     out = np.zeros((H, W, 3), np.float32)
     out[:, :, 0] = (full & lensray.PLAN_LENS) != 0
     out[:, :, 1] = (full & lensray.PLAN_CHROMA) != 0

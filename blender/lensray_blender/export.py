@@ -362,9 +362,22 @@ def camera_dict(scene, depsgraph, warn):
     sensor = cam.sensor_height if cam.sensor_fit == "VERTICAL" else cam.sensor_width
     half = sensor / (2 * cam.lens)
     tan_v = half / aspect if fit == "HORIZONTAL" else half
-    fov = math.degrees(2 * math.atan(tan_v))
-    if cam.shift_x or cam.shift_y:
-        warn.add(f"camera {cam.name!r}: lens shift not drawn")
+    # Lens shift moves the film by shift x the fitted side's pixels
+    # (Blender's viewplane).  lensray has no shift: the frame is widened
+    # by twice the shift about the axis and the shifted frame is its crop,
+    # render.region (whole pixels: a shift between them is rounded).
+    side = W if fit == "HORIZONTAL" else H
+    dx, dy = cam.shift_x * side, cam.shift_y * side
+    sx, sy = round(dx), round(dy)
+    if abs(dx - sx) > 0.01 or abs(dy - sy) > 0.01:
+        warn.add(f"camera {cam.name!r}: lens shift rounded to whole pixels "
+                 f"({dx:.2f}, {dy:.2f} -> {sx}, {sy})")
+    FW, FH = W + 2 * abs(sx), H + 2 * abs(sy)
+    region = None
+    if (FW, FH) != (W, H):
+        x0, y0 = abs(sx) + sx, abs(sy) - sy  # lensray's rows run down
+        region = [x0, y0, x0 + W, y0 + H]
+    fov = math.degrees(2 * math.atan(tan_v * FH / H))
     d = {"position": _vec(pos), "look_at": _vec(pos + fwd), "up": _vec(up), "fov": fov}
     dof = cam.dof
     focus = dof.focus_distance
@@ -374,7 +387,7 @@ def camera_dict(scene, depsgraph, warn):
     if props.lens:
         lens = props.lens
         d.update({"model": "lens", "lens": lens if os.path.exists(lens) else lens,
-                  "sensor_width_mm": cam.sensor_width,
+                  "sensor_width_mm": cam.sensor_width * FW / W,
                   "focus_distance": float(focus if dof.use_dof else 1e6),
                   "f_number": float(dof.aperture_fstop) if dof.use_dof else 0.0})
         del d["fov"]
@@ -387,20 +400,22 @@ def camera_dict(scene, depsgraph, warn):
                       "aperture_rotation": math.degrees(dof.aperture_rotation)})
         if dof.aperture_ratio != 1:
             d["aperture_ratio"] = float(dof.aperture_ratio)
-    return d, W, H
+    return d, FW, FH, region
 
 
 def scene_dict(scene, depsgraph, outdir, warn):
     materials, objects = {}, []
     _mesh_objects(depsgraph, outdir, materials, objects, warn)
     lights = _lights(depsgraph, outdir, materials, objects, warn)
-    cam, W, H = camera_dict(scene, depsgraph, warn)
+    cam, W, H, region = camera_dict(scene, depsgraph, warn)
     p = scene.lensray
     d = {"camera": cam,
          "render": {"width": W, "height": H, "spp": int(p.samples),
                     "integrator": p.integrator, "plan": bool(p.plan),
                     "max_depth": int(p.max_depth), "seed": int(p.seed)},
          "materials": materials, "lights": lights, "objects": objects}
+    if region is not None:
+        d["render"]["region"] = region
     if p.chromatic != "off" and cam.get("model") == "thinlens":
         cam["chromatic"] = {"mode": p.chromatic}
     d.update(_world(scene, warn))

@@ -39,7 +39,7 @@ def test_plan_pass_is_the_plan(tmp_path):
     got, s = _pass_and_scene(sc, "Plan", tmp_path)
     with s:
         cells = s.plan()
-    want = lensray_blender.plan_pixels(cells, 200, 120)
+    want = lensray_blender.plan_pixels(cells, {"width": 200, "height": 120})
     assert np.array_equal(got, want)
     kinds = set(np.unique(cells))
     print("plan cells:", sorted(kinds), "lens share", (cells & 1).mean())
