@@ -113,7 +113,7 @@ def setup_cycles(sc, samples):
     c.seed = 1
 
 
-def against_cycles(sc, tmp_path, label, lensray_spp=256, cycles_spp=128):
+def against_cycles(sc, tmp_path, label, lensray_spp=256, cycles_spp=64):
     """Renders sc with LENSRAY and with Cycles (CPU), prints and returns
     (lensray's pixels, Cycles', mean difference, p90 of 8x8 blocks)."""
     sc.lensray.samples = lensray_spp
