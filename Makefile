@@ -326,10 +326,12 @@ python-wheel: all $(PY_VENV)/.ok
 	@$(PY_PIP) wheel --no-build-isolation --no-deps -w $(BUILD)/python/dist $(BUILD)/python/src
 	@ls $(BUILD)/python/dist/*.whl
 
-# The Python virtualenvs of test-api, test-python and test-lenses
-# (tests/all.sh makes them while the C suites run).
+# The Python virtualenvs of test-api, test-python, test-lenses,
+# test-gltf-depth and test-blender (tests/all.sh makes them while the C
+# suites run).
 .PHONY: venvs
-venvs: $(API_VENV)/.ok $(PY_VENV)/.ok $(LENS_VENV)/.ok $(GLTF_VENV)/.ok
+venvs: $(API_VENV)/.ok $(PY_VENV)/.ok $(LENS_VENV)/.ok $(GLTF_VENV)/.ok \
+       $(BLENDER_VENV)/.ok
 
 test-python: python
 	@cd $(BUILD)/python && PYTHONDONTWRITEBYTECODE=1 \
@@ -340,9 +342,11 @@ test-python: python
 # The LENSRAY render engine (blender/lensray_blender, docs/blender.md) under
 # bpy from the Python registry (pinned in blender/requirements.txt, a
 # ~370 MB wheel built for Python 3.11), in a virtualenv under build/ made
-# like test-api's.  The tests render the issue's scene with Cycles and with
-# lensray and compare them.  About 20 s once the virtualenv exists; not
-# part of `make test`.
+# like test-api's (tests/all.sh makes it with the others while the C
+# suites run).  The tests render the issue's scene with Cycles and with
+# lensray and compare them; they end "N passed, N failed".  About 50 s
+# once the virtualenv exists (which takes about 30 s from a warm pip
+# cache); part of `make test`.
 BLENDER_VENV := $(BUILD)/blender-venv
 
 .PHONY: test-blender

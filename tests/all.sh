@@ -5,7 +5,8 @@
 # test-api: the spec validator and schemathesis on a live daemon), then the
 # Python package's pytest suite (make test-python), then the lenses against
 # ray-optics (make test-lenses), then glTF geometry against an independent
-# ray caster (make test-gltf-depth), then one line "N
+# ray caster (make test-gltf-depth), then the Blender add-on under bpy
+# against Cycles (make test-blender), then one line "N
 # passed, N failed, N skipped" adding them all up (tests/run.sh says which
 # skips are allowed; the other steps have none).  Exit status 0 only when
 # every run exited 0, which tests/run.sh does not do for a failure or a
@@ -28,7 +29,7 @@ $make --no-print-directory deps
 { $make --no-print-directory venvs >"$build/venvs.log" 2>&1; echo $? >"$build/venvs.rc"; } &
 venvs=$!
 for run in test-suite test-sanitize fuzz-ci test-api test-python test-lenses \
-    test-gltf-depth; do
+    test-gltf-depth test-blender; do
     if [ "$run" = test-api ] && [ -n "$venvs" ]; then
         wait "$venvs"
         venvs=

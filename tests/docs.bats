@@ -25,7 +25,7 @@ setup() {
 @test "every test function the docs cite is defined in tests/" {
     local missing="" t
     for t in $(grep -oh '`test_[a-z0-9_]*`' "${DOCS[@]}" | tr -d '`' | sort -u); do
-        grep -rqw "$t" "$REPO/tests" "$REPO/python/tests" ||
+        grep -rqw "$t" "$REPO/tests" "$REPO/python/tests" "$REPO/blender/tests" ||
             missing="$missing $t"
     done
     [ -z "$missing" ] || { echo "cited but not defined:$missing" >&2; return 1; }

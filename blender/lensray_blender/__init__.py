@@ -54,6 +54,9 @@ class LensraySettings(bpy.types.PropertyGroup):
     chromatic: EnumProperty(name="Chromatic", default="off",
                             items=[("off", "Off", ""), ("rgb", "RGB", ""),
                                    ("spectral", "Spectral", "")])
+    daemon_url: StringProperty(name="Daemon URL", default="",
+                               description="render on lensrayd at this URL (run with --assets, "
+                                           "which receives the scene's files); empty: in process")
     lens: StringProperty(name="Lens", default="",
                          description="a shipped lens name or a prescription file; "
                                      "empty: Blender's camera as a thin lens",
@@ -68,39 +71,78 @@ class LensrayRenderEngine(bpy.types.RenderEngine):
     def render(self, depsgraph):
         import lensray
         scene = depsgraph.scene
+        url = scene.lensray.daemon_url.strip()
+        want_plan = depsgraph.view_layer.lensray_pass_plan
         warn = set()
         with tempfile.TemporaryDirectory(prefix="lensray-blender-") as tmp:
             try:
                 d = export.scene_dict(scene, depsgraph, tmp, warn)
-                sc = lensray.load(d, base_dir=tmp)
+                if warn:
+                    self.report({"WARNING"}, "lensray: not drawn as in Cycles: "
+                                + "; ".join(sorted(warn)))
+                if url:
+                    out = self._render_daemon(url, d, want_plan)
+                else:
+                    out = self._render_here(d, tmp, want_plan)
+            except lensray.CancelledError:
+                return
             except (lensray.LensrayError, ValueError) as e:
                 self.report({"ERROR"}, f"lensray: {e}")
                 return
-            if warn:
-                self.report({"WARNING"}, "lensray: not drawn as in Cycles: "
-                            + "; ".join(sorted(warn)))
-            W, H = d["render"]["width"], d["render"]["height"]
-            engine = self
-
-            class _Break:
-                def is_set(self):
-                    return engine.test_break()
-
-            def progress(done, total):
-                engine.update_progress(done / total)
-
-            try:
-                rgb, z = sc.render(depth=True, progress=progress, cancel=_Break())
-            except lensray.CancelledError:
+            except OSError as e:
+                self.report({"ERROR"}, f"lensray: Daemon URL {url}: {e}")
                 return
-            except lensray.LensrayError as e:
-                self.report({"ERROR"}, f"lensray: {e}")
-                return
-            finally:
-                sc.close()
+        if out is None:
+            return
+        if want_plan:
+            self.add_pass("Plan", 3, "RGB", layer=depsgraph.view_layer.name)
+        rgb, z, cells = out
+        if cells is not None:
+            cells = plan_pixels(cells, d["render"])
+        self._write_result(rgb, z, cells)
+
+    def _render_here(self, d, tmp, want_plan):
+        """In process: (rgb, z, plan cells or None)."""
+        import lensray
+        engine = self
+
+        class _Break:
+            def is_set(self):
+                return engine.test_break()
+
+        def progress(done, total):
+            engine.update_progress(done / total)
+
+        with lensray.load(d, base_dir=tmp) as sc:
+            rgb, z = sc.render(depth=True, progress=progress, cancel=_Break())
+            return rgb, z, sc.plan() if want_plan else None
+
+    def _render_daemon(self, url, d, want_plan):
+        """On lensrayd at url: the scene's files are sent as assets, the
+        job is queued and watched (Esc cancels it on the daemon).  (rgb, z,
+        plan cells or None), or None when cancelled."""
+        import time
+        import lensray
+        client = lensray.Client(url)
+        job = client.submit(export.with_assets(d, client.upload), depth=True)
+        while True:
+            info = job.info()
+            self.update_progress(float(info.get("progress", 0)))
+            if info["status"] in ("done", "failed", "cancelled"):
+                break
+            if self.test_break():
+                job.cancel()
+                return None
+            time.sleep(0.1)
+        rgb, z = job.result()
+        return rgb, z, job.plan() if want_plan else None
+
+    def _write_result(self, rgb, z, plan):
+        """Blender's passes from lensray's pixels: rows from the bottom."""
         import numpy as np
+        H, W = rgb.shape[:2]
         rgba = np.ones((H, W, 4), dtype=np.float32)
-        rgba[:, :, :3] = rgb[::-1]  # lensray's rows from the top, Blender's from the bottom
+        rgba[:, :, :3] = rgb[::-1]
         result = self.begin_result(0, 0, W, H)
         layer = result.layers[0]
         layer.passes["Combined"].rect.foreach_set(rgba.ravel())
@@ -108,37 +150,61 @@ class LensrayRenderEngine(bpy.types.RenderEngine):
         if zp is not None:
             zz = np.where(z >= 1e10, np.float32(1e10), z)[::-1]
             zp.rect.foreach_set(np.ascontiguousarray(zz, dtype=np.float32).ravel())
+        pp = layer.passes.get("Plan")
+        if pp is not None and plan is not None:
+            pp.rect.foreach_set(np.ascontiguousarray(plan[::-1]).ravel())
         self.end_result(result)
 
     def update_render_passes(self, scene=None, renderlayer=None):
         self.register_pass(scene, renderlayer, "Combined", 4, "RGBA", "COLOR")
         if renderlayer is not None and renderlayer.use_pass_z:
             self.register_pass(scene, renderlayer, "Depth", 1, "Z", "VALUE")
+        if renderlayer is not None and renderlayer.lensray_pass_plan:
+            self.register_pass(scene, renderlayer, "Plan", 3, "RGB", "COLOR")
 
 
-class LENSRAY_PT_render(bpy.types.Panel):
-    bl_label = "lensray"
+def plan_pixels(cells, render):
+    """The effect plan as a float32 image of the render's pixels (its
+    region, if any), rows from the top: red 1 where the block sampled the
+    lens, green 1 where it traced the colours apart (lensray.Scene.plan's
+    bits, for the whole frame)."""
+    import numpy as np
+    import lensray
+    b = lensray.PLAN_BLOCK
+    x0, y0, x1, y1 = render.get("region", [0, 0, render["width"], render["height"]])
+    full = np.repeat(np.repeat(cells, b, axis=0), b, axis=1)[y0:y1, x0:x1]
+    H, W = full.shape
+    out = np.zeros((H, W, 3), np.float32)
+    out[:, :, 0] = (full & lensray.PLAN_LENS) != 0
+    out[:, :, 1] = (full & lensray.PLAN_CHROMA) != 0
+    return out
+
+
+class _Panel:
+    # A properties-editor panel shown when LENSRAY is the render engine.
     bl_space_type = "PROPERTIES"
     bl_region_type = "WINDOW"
-    bl_context = "render"
     COMPAT_ENGINES = {"LENSRAY"}
 
     @classmethod
     def poll(cls, context):
         return context.engine == "LENSRAY"
 
+
+class LENSRAY_PT_render(_Panel, bpy.types.Panel):
+    bl_label = "lensray"
+    bl_context = "render"
+
     def draw(self, context):
         p = context.scene.lensray
-        for k in ("samples", "integrator", "plan", "max_depth", "seed", "chromatic"):
+        for k in ("samples", "integrator", "plan", "max_depth", "seed", "chromatic",
+                  "daemon_url"):
             self.layout.prop(p, k)
 
 
-class LENSRAY_PT_lens(bpy.types.Panel):
+class LENSRAY_PT_lens(_Panel, bpy.types.Panel):
     bl_label = "lensray lens"
-    bl_space_type = "PROPERTIES"
-    bl_region_type = "WINDOW"
     bl_context = "data"
-    COMPAT_ENGINES = {"LENSRAY"}
 
     @classmethod
     def poll(cls, context):
@@ -146,6 +212,15 @@ class LENSRAY_PT_lens(bpy.types.Panel):
 
     def draw(self, context):
         self.layout.prop(context.scene.lensray, "lens")
+
+
+class LENSRAY_PT_passes(_Panel, bpy.types.Panel):
+    bl_label = "lensray passes"
+    bl_context = "view_layer"
+
+    def draw(self, context):
+        self.layout.prop(context.view_layer, "use_pass_z")
+        self.layout.prop(context.view_layer, "lensray_pass_plan")
 
 
 def _compatible_panels():
@@ -159,13 +234,19 @@ def _compatible_panels():
             yield p
 
 
-_classes = (LensraySettings, LensrayRenderEngine, LENSRAY_PT_render, LENSRAY_PT_lens)
+_classes = (LensraySettings, LensrayRenderEngine, LENSRAY_PT_render, LENSRAY_PT_lens,
+            LENSRAY_PT_passes)
 
 
 def register():
     for c in _classes:
         bpy.utils.register_class(c)
     bpy.types.Scene.lensray = bpy.props.PointerProperty(type=LensraySettings)
+    bpy.types.ViewLayer.lensray_pass_plan = BoolProperty(
+        name="Plan", default=False,
+        update=lambda layer, context: layer.update_render_passes(),
+        description="the effect plan as a pass: red where the lens was sampled, "
+                    "green where the colours were traced apart (per 16 x 16 block)")
     for p in _compatible_panels():
         p.COMPAT_ENGINES.add("LENSRAY")
 
@@ -173,6 +254,7 @@ def register():
 def unregister():
     for p in _compatible_panels():
         p.COMPAT_ENGINES.discard("LENSRAY")
+    del bpy.types.ViewLayer.lensray_pass_plan
     del bpy.types.Scene.lensray
     for c in reversed(_classes):
         bpy.utils.unregister_class(c)

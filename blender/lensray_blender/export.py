@@ -35,33 +35,119 @@ def _input(node, name, default):
     return sock.default_value
 
 
-def material_dict(mat, warn):
-    """A Principled BSDF -> a lensray material; anything else approximated."""
+def _srgb_decode(c):
+    # IEC 61966-2-1, as lensray's texture loader and Blender's "sRGB" space.
+    import numpy as np
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+def _linear_pixels(img, warn, where):
+    """An image's texels as linear float RGBA, rows from the bottom."""
+    import numpy as np
+    w, h = img.size
+    px = np.empty(w * h * 4, np.float32)
+    img.pixels.foreach_get(px)
+    px = px.reshape(h, w, 4)
+    space = img.colorspace_settings.name
+    # Float buffers are scene linear already; byte ones are in their space.
+    if img.is_float or space in ("Non-Color", "Linear Rec.709", "Linear", "Raw"):
+        return px
+    if space != "sRGB":
+        warn.add(f"{where}: image {img.name!r}: colour space {space!r} read as sRGB")
+    px[:, :, :3] = _srgb_decode(px[:, :, :3])
+    return px
+
+
+def _image_texture(sock, srgb, outdir, warn, where):
+    """The file lensray reads for an input linked to an Image Texture node
+    (its default UV map, repeat), and the channel the link takes (0, or 3
+    for Alpha); None when the input is not such a link (the caller warns).
+
+    The image's own file is used where lensray decodes it as Blender does
+    (an 8-bit PNG or JPEG in "sRGB" for a colour, in "Non-Color" for data;
+    an EXR). Anything else (packed, generated, other colour spaces) is
+    written out as a linear EXR in outdir."""
+    if sock is None or not sock.is_linked:
+        return None
+    link = sock.links[0]
+    node = link.from_node
+    if node.type != "TEX_IMAGE" or node.image is None:
+        return None
+    img = node.image
+    if node.inputs["Vector"].is_linked:
+        warn.add(f"{where}: image {img.name!r}: mapped through nodes, drawn with the default UV map")
+    if node.extension != "REPEAT":
+        warn.add(f"{where}: image {img.name!r}: extension {node.extension} drawn as REPEAT")
+    if node.interpolation not in ("Linear", "Smart"):
+        warn.add(f"{where}: image {img.name!r}: interpolation {node.interpolation} drawn as Linear")
+    if node.projection != "FLAT":
+        warn.add(f"{where}: image {img.name!r}: projection {node.projection} drawn as FLAT")
+    channel = 3 if link.from_socket.name == "Alpha" else 0
+    path = bpy.path.abspath(img.filepath) if img.source == "FILE" and not img.packed_file else ""
+    space = img.colorspace_settings.name
+    kind = img.file_format
+    if path and os.path.isfile(path):
+        if kind == "OPEN_EXR" or (kind in ("PNG", "JPEG")
+                                  and space == ("sRGB" if srgb else "Non-Color")):
+            return path, channel
+    import lensray
+    px = _linear_pixels(img, warn, where)
+    # lensray's EXR writer, not Image.save, which encodes a float image
+    # for display.  Rows from the top; Alpha, when linked, as the grey.
+    rgb = px[::-1, :, 3] if channel == 3 else px[::-1, :, :3]
+    path = os.path.join(outdir, "tex%03d.exr" % len(os.listdir(outdir)))
+    lensray.write(path, rgb)
+    return path, 0
+
+
+def _texture_mean(sock, warn, where):
+    """The mean linear RGB of the image an input is linked to."""
+    px = _linear_pixels(sock.links[0].from_node.image, warn, where)
+    return [float(c) for c in px[:, :, :3].reshape(-1, 3).mean(axis=0)]
+
+
+def material_dict(mat, warn, outdir):
+    """A Principled BSDF -> a lensray material; anything else approximated.
+    Image textures on Base Color, Roughness and Emission Color (and the
+    Color of Diffuse and Emission nodes) are written to or named from
+    outdir."""
     if mat is None:
         return {"diffuse": 0.8}
     if not mat.use_nodes or mat.node_tree is None:
         return {"diffuse": _col(mat.diffuse_color)}
+    where = f"material {mat.name!r}"
     out = next((n for n in mat.node_tree.nodes
                 if n.type == "OUTPUT_MATERIAL" and n.is_active_output), None)
     surf = out.inputs["Surface"].links[0].from_node if out and out.inputs["Surface"].is_linked else None
     if out is not None and out.inputs.get("Volume") is not None and out.inputs["Volume"].is_linked:
-        warn.add(f"material {mat.name!r}: volume not drawn")
+        warn.add(f"{where}: volume not drawn")
     if surf is None:
-        warn.add(f"material {mat.name!r}: no surface shader, drawn black")
+        warn.add(f"{where}: no surface shader, drawn black")
         return {}
-    if surf.type == "EMISSION":
-        c = _input(surf, "Color", (1, 1, 1, 1)) or (1, 1, 1, 1)
-        s = _input(surf, "Strength", 1.0) or 1.0
-        return {"emission": _col(c, s)}
-    if surf.type == "BSDF_DIFFUSE":
+    if surf.type in ("EMISSION", "BSDF_DIFFUSE"):
+        key = "emission" if surf.type == "EMISSION" else "diffuse"
+        tex = _image_texture(surf.inputs["Color"], True, outdir, warn, where)
         c = _input(surf, "Color", (0.8, 0.8, 0.8, 1))
-        if c is None:
-            warn.add(f"material {mat.name!r}: linked Color not mapped")
-            c = (0.8, 0.8, 0.8, 1)
-        return {"diffuse": _col(c)}
+        if c is None and tex is None:
+            warn.add(f"{where}: linked Color not mapped")
+        scale = 1.0
+        if key == "emission":
+            scale = _input(surf, "Strength", 1.0)
+            if scale is None:
+                warn.add(f"{where}: linked Strength not mapped")
+                scale = 1.0
+        if tex is not None:
+            return {key: float(scale), key + "_texture": tex[0]}
+        return {key: _col(c or (0.8, 0.8, 0.8, 1), scale)}
     if surf.type != "BSDF_PRINCIPLED":
-        warn.add(f"material {mat.name!r}: node {surf.bl_idname} approximated as diffuse")
+        warn.add(f"{where}: node {surf.bl_idname} approximated as diffuse")
         return {"diffuse": _col(mat.diffuse_color)}
+    tex = {}
+    for key, name, srgb in (("base", "Base Color", True), ("rough", "Roughness", False),
+                            ("emis", "Emission Color", True)):
+        t = _image_texture(surf.inputs.get(name), srgb, outdir, warn, where)
+        if t is not None:
+            tex[key] = t
     vals = {}
     for key, name, dflt in (("base", "Base Color", (0.8, 0.8, 0.8, 1)),
                             ("rough", "Roughness", 0.5), ("metal", "Metallic", 0.0),
@@ -70,39 +156,60 @@ def material_dict(mat, warn):
                             ("emis_s", "Emission Strength", 0.0)):
         v = _input(surf, name, dflt)
         if v is None:
-            warn.add(f"material {mat.name!r}: linked input {name!r} not mapped (its default used)")
+            if key not in tex:
+                warn.add(f"{where}: linked input {name!r} not mapped (its default used)")
             v = dflt
         vals[key] = v
-    base = _col(vals["base"])
     metal = float(vals["metal"])
     trans = float(vals["trans"]) * (1 - metal)
     diff = (1 - metal) * (1 - trans)
+    base = _col(vals["base"])
     m = {"diffuse": [c * diff for c in base]}
+    if "base" in tex:
+        # lensray textures the diffuse lobe only: the others take the mean.
+        m = {"diffuse": diff, "diffuse_texture": tex["base"][0]}
+        if metal > 0 or trans > 0:
+            warn.add(f"{where}: Base Color texture drawn on the diffuse part only "
+                     "(metallic and transmission take its mean colour)")
+            base = _texture_mean(surf.inputs["Base Color"], warn, where)
     if metal > 0:
         m["reflect"] = [c * metal for c in base]
     if trans > 0:
         m["transmit"] = [c * trans for c in base]
         m["ior"] = min(10.0, max(1.0, float(vals["ior"])))
     if metal > 0 or trans > 0:
-        m["roughness"] = min(1.0, max(0.0, float(vals["rough"]) ** 2))
+        if "rough" in tex:
+            # alpha = roughness * r^2 (docs/scene-format.md), r the texel
+            m.update({"roughness": 1.0, "roughness_texture": tex["rough"][0],
+                      "roughness_channel": tex["rough"][1]})
+        else:
+            m["roughness"] = min(1.0, max(0.0, float(vals["rough"]) ** 2))
     if float(vals["emis_s"]) > 0:
-        m["emission"] = _col(vals["emis"], float(vals["emis_s"]))
+        if "emis" in tex:
+            m.update({"emission": float(vals["emis_s"]), "emission_texture": tex["emis"][0]})
+        else:
+            m["emission"] = _col(vals["emis"], float(vals["emis_s"]))
     return m
 
 
-def _write_obj(path, verts, tris, normals=None):
+def _write_obj(path, verts, tris, normals=None, uvs=None):
+    """An OBJ of triangles; normals and uvs, when given, one per vertex."""
     with open(path, "w") as f:
         for v in verts:
             f.write("v %.9g %.9g %.9g\n" % tuple(v))
-        if normals is not None:
-            for n in normals:
-                f.write("vn %.9g %.9g %.9g\n" % tuple(n))
-            for t in tris:
-                f.write("f %d//%d %d//%d %d//%d\n" % (t[0] + 1, t[0] + 1, t[1] + 1,
-                                                     t[1] + 1, t[2] + 1, t[2] + 1))
-        else:
-            for t in tris:
-                f.write("f %d %d %d\n" % (t[0] + 1, t[1] + 1, t[2] + 1))
+        for n in normals or ():
+            f.write("vn %.9g %.9g %.9g\n" % tuple(n))
+        for t in uvs or ():
+            f.write("vt %.9g %.9g\n" % tuple(t))
+        corner = "%d" + ("/%d" if uvs else "") + ("/" if normals and not uvs else "") \
+            + ("/%d" if normals else "")
+        face = "f " + " ".join([corner] * 3) + "\n"
+        per = 1 + bool(uvs) + bool(normals)
+        for t in tris:
+            f.write(face % tuple(i + 1 for i in t for _ in range(per)))
+
+
+TEXTURE_KEYS = ("diffuse_texture", "emission_texture", "roughness_texture")
 
 
 def _mesh_objects(depsgraph, outdir, materials, objects, warn):
@@ -126,6 +233,8 @@ def _mesh_objects(depsgraph, outdir, materials, objects, warn):
         try:
             mesh.calc_loop_triangles()
             nmw = mw.to_3x3().inverted_safe().transposed()
+            # Cycles' Image Texture without a UV Map node reads the render UV map.
+            uv = next((la for la in mesh.uv_layers if la.active_render), None)
             by_mat = {}
             for lt in mesh.loop_triangles:
                 by_mat.setdefault(lt.material_index, []).append(lt)
@@ -133,8 +242,14 @@ def _mesh_objects(depsgraph, outdir, materials, objects, warn):
                 mat = ob.material_slots[mi].material if mi < len(ob.material_slots) else None
                 mname = mat.name if mat else "__default"
                 if mname not in materials:
-                    materials[mname] = material_dict(mat, warn)
-                verts, norms, faces = [], [], []
+                    materials[mname] = material_dict(mat, warn, outdir)
+                if uv is None and any(k in materials[mname] for k in TEXTURE_KEYS):
+                    warn.add(f"object {ob.name!r}: no UV map, material {mname!r} drawn untextured")
+                    untex = {k: v for k, v in materials[mname].items()
+                             if k not in TEXTURE_KEYS and k != "roughness_channel"}
+                    mname += " (no UV map)"
+                    materials[mname] = untex
+                verts, norms, uvs, faces = [], [], [], []
                 smooth = any(lt.use_smooth for lt in tris)
                 for lt in tris:
                     idx = []
@@ -143,12 +258,14 @@ def _mesh_objects(depsgraph, outdir, materials, objects, warn):
                         verts.append(_vec(mw @ mesh.vertices[lt.vertices[k]].co))
                         nn = Vector(lt.split_normals[k]) if smooth else Vector(lt.normal)
                         norms.append(_vec((nmw @ nn).normalized()))
+                        if uv is not None:
+                            uvs.append(tuple(uv.data[lt.loops[k]].uv))
                     faces.append(idx)
                 if not faces:
                     continue
                 path = os.path.join(outdir, "mesh%03d.obj" % n)
                 n += 1
-                _write_obj(path, verts, faces, norms if smooth else None)
+                _write_obj(path, verts, faces, norms if smooth else None, uvs)
                 objects.append({"type": "mesh", "file": path, "material": mname})
         finally:
             ob.to_mesh_clear()
@@ -245,9 +362,22 @@ def camera_dict(scene, depsgraph, warn):
     sensor = cam.sensor_height if cam.sensor_fit == "VERTICAL" else cam.sensor_width
     half = sensor / (2 * cam.lens)
     tan_v = half / aspect if fit == "HORIZONTAL" else half
-    fov = math.degrees(2 * math.atan(tan_v))
-    if cam.shift_x or cam.shift_y:
-        warn.add(f"camera {cam.name!r}: lens shift not drawn")
+    # Lens shift moves the film by shift x the fitted side's pixels
+    # (Blender's viewplane).  lensray has no shift: the frame is widened
+    # by twice the shift about the axis and the shifted frame is its crop,
+    # render.region (whole pixels: a shift between them is rounded).
+    side = W if fit == "HORIZONTAL" else H
+    dx, dy = cam.shift_x * side, cam.shift_y * side
+    sx, sy = round(dx), round(dy)
+    if abs(dx - sx) > 0.01 or abs(dy - sy) > 0.01:
+        warn.add(f"camera {cam.name!r}: lens shift rounded to whole pixels "
+                 f"({dx:.2f}, {dy:.2f} -> {sx}, {sy})")
+    FW, FH = W + 2 * abs(sx), H + 2 * abs(sy)
+    region = None
+    if (FW, FH) != (W, H):
+        x0, y0 = abs(sx) + sx, abs(sy) - sy  # lensray's rows run down
+        region = [x0, y0, x0 + W, y0 + H]
+    fov = math.degrees(2 * math.atan(tan_v * FH / H))
     d = {"position": _vec(pos), "look_at": _vec(pos + fwd), "up": _vec(up), "fov": fov}
     dof = cam.dof
     focus = dof.focus_distance
@@ -257,7 +387,7 @@ def camera_dict(scene, depsgraph, warn):
     if props.lens:
         lens = props.lens
         d.update({"model": "lens", "lens": lens if os.path.exists(lens) else lens,
-                  "sensor_width_mm": cam.sensor_width,
+                  "sensor_width_mm": cam.sensor_width * FW / W,
                   "focus_distance": float(focus if dof.use_dof else 1e6),
                   "f_number": float(dof.aperture_fstop) if dof.use_dof else 0.0})
         del d["fov"]
@@ -270,23 +400,45 @@ def camera_dict(scene, depsgraph, warn):
                       "aperture_rotation": math.degrees(dof.aperture_rotation)})
         if dof.aperture_ratio != 1:
             d["aperture_ratio"] = float(dof.aperture_ratio)
-    return d, W, H
+    return d, FW, FH, region
 
 
 def scene_dict(scene, depsgraph, outdir, warn):
     materials, objects = {}, []
     _mesh_objects(depsgraph, outdir, materials, objects, warn)
     lights = _lights(depsgraph, outdir, materials, objects, warn)
-    cam, W, H = camera_dict(scene, depsgraph, warn)
+    cam, W, H, region = camera_dict(scene, depsgraph, warn)
     p = scene.lensray
     d = {"camera": cam,
          "render": {"width": W, "height": H, "spp": int(p.samples),
                     "integrator": p.integrator, "plan": bool(p.plan),
                     "max_depth": int(p.max_depth), "seed": int(p.seed)},
          "materials": materials, "lights": lights, "objects": objects}
+    if region is not None:
+        d["render"]["region"] = region
     if p.chromatic != "off" and cam.get("model") == "thinlens":
         cam["chromatic"] = {"mode": p.chromatic}
     d.update(_world(scene, warn))
+    return d
+
+
+def with_assets(d, upload):
+    """A copy of the scene dict d whose files (the keys scene_dict writes:
+    meshes, textures, the environment map, a lens file) are named by
+    upload(path), e.g. lensray.Client.upload's "sha256:HEX"."""
+    import copy
+    d = copy.deepcopy(d)
+    for ob in d["objects"]:
+        ob["file"] = upload(ob["file"])
+    for m in d["materials"].values():
+        for k in TEXTURE_KEYS:
+            if k in m:
+                m[k] = upload(m[k])
+    if "environment" in d:
+        d["environment"]["file"] = upload(d["environment"]["file"])
+    lens = d["camera"].get("lens")
+    if lens is not None and os.path.isfile(lens):
+        d["camera"]["lens"] = upload(lens)
     return d
 
 

@@ -113,6 +113,18 @@ def setup_cycles(sc, samples):
     c.seed = 1
 
 
+def against_cycles(sc, tmp_path, label, lensray_spp=256, cycles_spp=64):
+    """Renders sc with LENSRAY and with Cycles (CPU), prints and returns
+    (lensray's pixels, Cycles', mean difference, p90 of 8x8 blocks)."""
+    sc.lensray.samples = lensray_spp
+    a = render_exr(sc, "LENSRAY", str(tmp_path / "lensray.exr"))
+    setup_cycles(sc, cycles_spp)
+    b = render_exr(sc, "CYCLES", str(tmp_path / "cycles.exr"))
+    mean, p90 = compare(a, b)
+    print(f"{label}: mean {mean:.4%} p90 of 8x8 blocks {p90:.4%}")
+    return a, b, mean, p90
+
+
 def compare(a, b):
     """(relative difference of the means, p90 of the 8x8 blocks' relative
     differences of their means) of luminance."""
@@ -148,3 +160,63 @@ def hdri_world(sc, path, w=64, h=32):
     env.image = bpy.data.images.load(path)
     env.interpolation = "Linear"
     nt.links.new(env.outputs["Color"], nt.nodes["Background"].inputs["Color"])
+
+
+def image(name, w, h, path=None):
+    """A byte (sRGB) image with no symmetry: 4x4 checker cells of warm and
+    cool colours over a left-right ramp and a darker bottom band; saved as
+    an 8-bit PNG at path, or left generated in memory."""
+    y, x = np.mgrid[0:h, 0:w]
+    check = ((x * 4 // w) + (y * 4 // h)) % 2
+    px = np.zeros((h, w, 4), np.float32)
+    px[:, :, 0] = np.where(check, 0.9, 0.2) * (0.4 + 0.6 * x / w)
+    px[:, :, 1] = np.where(check, 0.6, 0.3)
+    px[:, :, 2] = np.where(check, 0.1, 0.8) * (0.4 + 0.6 * x / w)
+    px[: h // 5, :, :3] *= 0.3  # Blender's rows start at the bottom
+    px[:, :, 3] = 1
+    img = bpy.data.images.new(name, w, h, alpha=False, float_buffer=False)
+    img.pixels.foreach_set(px.ravel())
+    if path is not None:
+        img.filepath_raw = path
+        img.file_format = "PNG"
+        img.save()
+    return img
+
+
+def link_image(mat_name, socket, img):
+    """An Image Texture node (default UV map) into a shader input."""
+    nt = bpy.data.materials[mat_name].node_tree
+    node = nt.nodes.new("ShaderNodeTexImage")
+    node.image = img
+    shader = next(n for n in nt.nodes if n.inputs.get(socket) is not None
+                  and n.type in ("BSDF_PRINCIPLED", "EMISSION", "BSDF_DIFFUSE"))
+    nt.links.new(node.outputs["Color"], shader.inputs[socket])
+    return node
+
+
+class Daemon:
+    """build/lensrayd on a free port with an asset store in `assets`."""
+
+    def __init__(self, assets):
+        import re
+        import subprocess
+        import threading
+        self.proc = subprocess.Popen(
+            [os.path.join(ROOT, "build", "lensrayd"), "--port", "0", "--workers", "1",
+             "--scenes", os.path.join(ROOT, "scenes"), "--assets", str(assets)],
+            stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True)
+        log = []
+        for line in self.proc.stderr:
+            log.append(line)
+            m = re.search(r"listening on (http://\S+)", line)
+            if m:
+                self.url = m.group(1)
+                break
+        else:
+            raise RuntimeError("lensrayd did not start:\n" + "".join(log))
+        # Its request log is read, or it would block on a full pipe.
+        threading.Thread(target=self.proc.stderr.read, daemon=True).start()
+
+    def stop(self):
+        self.proc.kill()
+        self.proc.wait(timeout=10)

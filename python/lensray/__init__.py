@@ -22,7 +22,7 @@ lensray checkout above the package; the system's library path (``make
 install``).  ``lensray.library_path()`` says which was loaded.
 """
 
-from ._capi import DEPTH_NONE, library_path
+from ._capi import DEPTH_NONE, PLAN_BLOCK, PLAN_CHROMA, PLAN_LENS, library_path
 from ._client import Client, Job, decode_exr, render_split
 from ._core import Image, Scene, encode_png, load, version, write
 from ._errors import CancelledError, LensrayError, LensrayIOError, SceneError
@@ -37,6 +37,9 @@ __all__ = [
     "Job",
     "LensrayError",
     "LensrayIOError",
+    "PLAN_BLOCK",
+    "PLAN_CHROMA",
+    "PLAN_LENS",
     "Scene",
     "SceneError",
     "decode_exr",

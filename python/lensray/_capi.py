@@ -201,7 +201,16 @@ _SIGNATURES = {
                 _ERR]),
     "lr_image_write": (c_int, [_P, c_char_p, POINTER(lr_output_options), _ERR]),
     "lr_free": (None, [c_void_p]),
+    "lr_render_plan_map": (
+        c_int, [_P, POINTER(lr_camera), POINTER(lr_render_settings), _PP,
+                POINTER(c_int), POINTER(c_int), _ERR]),
 }
+
+# lr_render_plan_map's cells (include/lensray.h): one per block of
+# PLAN_BLOCK x PLAN_BLOCK pixels, bits PLAN_LENS and PLAN_CHROMA.
+PLAN_BLOCK = 16
+PLAN_LENS = 1
+PLAN_CHROMA = 2
 
 # Functions newer than the first release: used when the library has them.
 _OPTIONAL = {

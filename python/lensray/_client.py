@@ -12,6 +12,7 @@ from typing import Any, Mapping, Optional, Union
 
 import numpy as np
 
+from . import _exr
 from ._core import Image, _overrides_dict, _to_json
 from ._errors import CancelledError, LensrayError, SceneError
 
@@ -26,14 +27,16 @@ _CANCEL_CODES = {"cancelled", "job_cancelled"}
 
 def decode_exr(data: bytes) -> tuple[np.ndarray, Optional[np.ndarray]]:
     """(rgb, z) float32 arrays from the bytes of an EXR file; z is None
-    when the file has no Z channel.  Needs the ``OpenEXR`` package
-    (``pip install OpenEXR``)."""
+    when the file has no Z channel.  Read with the ``OpenEXR`` package
+    when it is installed; otherwise with lensray's own reader (_exr.py),
+    which reads what lensrayd writes (scanlines, no, ZIPS or ZIP
+    compression) and raises ValueError for anything else."""
     try:
         import OpenEXR
-    except ImportError as e:
-        raise ImportError(
-            "decoding the daemon's EXR images needs the OpenEXR package: "
-            "pip install OpenEXR") from e
+    except ImportError:
+        ch = _exr.read(data)
+        rgb = np.stack([ch[c] for c in ("R", "G", "B")], axis=2)
+        return np.ascontiguousarray(rgb), ch.get("Z")
     # OpenEXR reads files, not bytes.
     fd, path = tempfile.mkstemp(suffix=".exr")
     try:
@@ -102,10 +105,12 @@ class Client:
     def __repr__(self) -> str:
         return f"<lensray.Client {self.url}>"
 
-    def _request(self, method: str, path: str, body: Any = None
-                 ) -> tuple[bytes, Any]:
-        data = None
+    def _request(self, method: str, path: str, body: Any = None,
+                 raw: Optional[bytes] = None) -> tuple[bytes, Any]:
+        data = raw
         headers = {"Connection": "close"}
+        if raw is not None:
+            headers["Content-Type"] = "application/octet-stream"
         if body is not None:
             data = _to_json(body)
             headers["Content-Type"] = "application/json"
@@ -149,6 +154,29 @@ class Client:
     def scenes(self) -> list[dict[str, Any]]:
         """``GET /v1/scenes``: the daemon's scenes with their cameras."""
         return self._json("GET", "/v1/scenes")["scenes"]
+
+    def upload(self, path: Union[str, os.PathLike]) -> str:
+        """Stores a file (mesh, texture, lens, environment map) on the
+        daemon as an asset (``PUT /v1/assets/{sha256}``), unless it has it
+        already, and returns the name a scene gives it: ``"sha256:HEX"``.
+
+        Raises:
+            LensrayError: the daemon has no asset store (``.status``
+                ``"no_asset_store"``: it runs without --assets) or refused
+                the file.
+            OSError: the file could not be read.
+        """
+        import hashlib
+        with open(path, "rb") as f:
+            data = f.read()
+        digest = hashlib.sha256(data).hexdigest()
+        try:
+            self._request("GET", f"/v1/assets/{digest}")
+        except LensrayError as e:
+            if e.status != "asset_not_found":
+                raise
+            self._request("PUT", f"/v1/assets/{digest}", raw=data)
+        return "sha256:" + digest
 
     def render(self, scene: SceneRef, camera: Optional[Mapping[str, Any]] = None,
                render: Optional[Mapping[str, Any]] = None,
@@ -214,6 +242,14 @@ class Job:
     def info(self) -> dict[str, Any]:
         """The job's status document (``GET /v1/jobs/{id}``)."""
         return self.client._json("GET", f"/v1/jobs/{self.id}")
+
+    def plan(self) -> np.ndarray:
+        """The job's effect plan (``GET /v1/jobs/{id}/plan``), as
+        :meth:`Scene.plan` gives it: uint8 (rows, columns), one cell per
+        16 x 16 block, bits ``PLAN_LENS`` and ``PLAN_CHROMA``."""
+        doc = self.client._json("GET", f"/v1/jobs/{self.id}/plan")
+        cells = [[int(c) for c in row] for row in doc["cells"]]
+        return np.array(cells, dtype=np.uint8).reshape(doc["rows"], doc["columns"])
 
     @property
     def status(self) -> str:

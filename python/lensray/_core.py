@@ -327,6 +327,39 @@ class Scene:
                 _raise(st, err)
         return cam, rs
 
+    def plan(self, camera: Optional[Mapping[str, Any]] = None,
+             render: Optional[Mapping[str, Any]] = None) -> np.ndarray:
+        """The effect plan :meth:`render` works from, for the same
+        overrides (``lr_render_plan_map``: built the same way, autofocus
+        first, without tracing).
+
+        Returns:
+            a uint8 (rows, columns) array, one cell per block of
+            ``PLAN_BLOCK`` x ``PLAN_BLOCK`` pixels, rows from the top (the
+            last row and column may cover fewer pixels): bit ``PLAN_LENS``
+            set where the lens is sampled, ``PLAN_CHROMA`` where the
+            colours are traced apart.  With ``render.plan`` off every block
+            is the full simulation.
+
+        Raises:
+            SceneError: a bad override (``.path`` names the field), or
+                autofocus on nothing.
+        """
+        cam, rs = self._setup(camera, render)
+        cells = c_void_p()
+        cols, rows = c_int(0), c_int(0)
+        err = _capi.lr_error()
+        st = lib().lr_render_plan_map(self._handle(), byref(cam), byref(rs),
+                                      byref(cells), byref(cols), byref(rows),
+                                      byref(err))
+        if st != _capi.LR_OK:
+            _raise(st, err)
+        try:
+            ptr = ctypes.cast(cells, ctypes.POINTER(ctypes.c_uint8))
+            return np.ctypeslib.as_array(ptr, shape=(rows.value, cols.value)).copy()
+        finally:
+            lib().lr_free(cells)
+
     @overload
     def render(self, camera: Optional[Mapping[str, Any]] = ...,
                render: Optional[Mapping[str, Any]] = ...,

@@ -12,6 +12,7 @@ import os
 import re
 import signal
 import subprocess
+import sys
 import threading
 from pathlib import Path
 from typing import Iterator
@@ -117,18 +118,5 @@ def spheres():
 
 
 # `make test` adds up one "N passed, N failed" line per step (tests/all.sh).
-_counts = {"passed": 0, "failed": 0}
-
-
-def pytest_runtest_logreport(report: pytest.TestReport) -> None:
-    if report.when == "call" and report.passed:
-        _counts["passed"] += 1
-    elif report.failed:
-        _counts["failed"] += 1
-    elif report.skipped:
-        # A skip is not a pass: the suite has none on purpose.
-        _counts["failed"] += 1
-
-
-def pytest_terminal_summary(terminalreporter, exitstatus, config) -> None:
-    terminalreporter.write_line(f"{_counts['passed']} passed, {_counts['failed']} failed")
+sys.path.insert(0, str(REPO / "tests"))
+from pytest_counts import pytest_runtest_logreport, pytest_terminal_summary  # noqa: E402,F401

@@ -164,3 +164,41 @@ def test_ctrl_c_during_a_synchronous_render_cancels_it_on_the_daemon(daemon):
         time.sleep(0.1)
     assert cancelled_jobs(c) == before + 1
     assert c.health()["running"] == 0
+
+
+def test_job_plan_equals_scene_plan(daemon, spheres):
+    job = lensray.Client(daemon.url).submit("spheres", camera=LENS, render=SMALL)
+    job.wait(timeout=60)
+    plan = job.plan()
+    assert plan.dtype == np.uint8 and plan.shape == (4, 6)
+    assert np.array_equal(plan, spheres.plan(camera=LENS, render=SMALL))
+    assert plan.any() and not plan.all()
+
+
+def test_upload_assets_and_render_them(tmp_path, daemon):
+    # A scene whose mesh is only on this machine: uploaded as an asset,
+    # named "sha256:...", rendered on the daemon the same as in process.
+    obj = tmp_path / "quad.obj"
+    obj.write_text("v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nf 1 4 3 2\n")
+    scene = {"camera": {"position": [0, 2, 3], "look_at": [0, 0, 0], "fov": 40},
+             "render": {"width": 32, "height": 24, "spp": 2},
+             "lights": [{"type": "point", "position": [0, 3, 1], "intensity": 10}],
+             "objects": [{"type": "mesh", "file": str(obj)}]}
+    store = tmp_path / "assets"
+    store.mkdir()
+    d = Daemon("--assets", str(store))
+    try:
+        c = lensray.Client(d.url)
+        name = c.upload(obj)
+        assert name == "sha256:" + __import__("hashlib").sha256(obj.read_bytes()).hexdigest()
+        assert (store / name[7:]).exists() and c.upload(obj) == name
+        remote = {**scene, "objects": [{"type": "mesh", "file": name}]}
+        with lensray.load(scene) as s:
+            ref = s.render()
+        got = c.render(remote)
+        assert ref.mean() > 0.01 and same_bits(got, ref)
+    finally:
+        d.stop()
+    with pytest.raises(lensray.LensrayError) as e:
+        lensray.Client(daemon.url).upload(obj)
+    assert e.value.status == "no_asset_store"

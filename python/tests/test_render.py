@@ -237,3 +237,27 @@ def test_progress_callable_counts_pixels(spheres):
     assert seen and all(t == 160 * 90 for _, t in seen)
     dones = [d for d, _ in seen]
     assert dones == sorted(dones) and dones[-1] == 160 * 90
+
+
+def plan_pixels(cells: np.ndarray, w: int, h: int, bit: int) -> int:
+    """Pixels of a w x h frame whose block has the bit set."""
+    b = lensray.PLAN_BLOCK
+    full = np.repeat(np.repeat(cells & bit, b, axis=0), b, axis=1)[:h, :w]
+    return int(np.count_nonzero(full))
+
+
+def test_plan_is_the_render_s_own(spheres):
+    # The plan Scene.plan gives is the one the render worked from: its
+    # lens blocks' pixels are the render's lens_pixels, and the thin lens
+    # focused at 16.5 leaves some blocks unsampled.
+    render = {"width": 200, "height": 120, "spp": 4}
+    cells = spheres.plan(camera=LENS, render=render)
+    assert cells.dtype == np.uint8 and cells.shape == (8, 13)
+    _, stats = spheres.render(camera=LENS, render=render, stats=True)
+    lens = plan_pixels(cells, 200, 120, lensray.PLAN_LENS)
+    assert lens == stats["lens_pixels"] and 0 < lens < 200 * 120
+    off = spheres.plan(camera=LENS, render={**render, "plan": False})
+    assert np.all(off & lensray.PLAN_LENS)
+    with pytest.raises(lensray.SceneError) as e:
+        spheres.plan(camera={"fov": -1})
+    assert e.value.path == "camera.fov"

@@ -1,0 +1,36 @@
+"""The render sent to a lensrayd URL (render panel: Daemon URL)."""
+import bpy
+import numpy as np
+import pytest
+
+import common
+
+
+@pytest.fixture
+def daemon(tmp_path):
+    (tmp_path / "assets").mkdir()
+    d = common.Daemon(tmp_path / "assets")
+    yield d
+    d.stop()
+
+
+def test_daemon_render_equals_in_process(tmp_path, daemon):
+    # The issue's scene with a textured ground (meshes and a PNG sent as
+    # assets): the same bits from the daemon as in process.
+    sc = common.issue_scene("POINT", width=96, height=64)
+    common.link_image("m_Plane", "Base Color",
+                      common.image("ground", 64, 64, str(tmp_path / "ground.png")))
+    sc.lensray.samples = 16
+    here = common.render_exr(sc, "LENSRAY", str(tmp_path / "here.exr"))
+    sc.lensray.daemon_url = daemon.url
+    there = common.render_exr(sc, "LENSRAY", str(tmp_path / "there.exr"))
+    assert here.mean() > 0.01 and np.array_equal(here, there)
+    assert len(list((tmp_path / "assets").iterdir())) == 4  # 3 meshes and the PNG
+
+
+def test_unreachable_daemon_is_one_error(tmp_path):
+    sc = common.issue_scene("POINT", width=32, height=24)
+    sc.lensray.daemon_url = "http://127.0.0.1:9"
+    with pytest.raises(RuntimeError) as e:
+        common.render_exr(sc, "LENSRAY", str(tmp_path / "x.exr"))
+    assert "Daemon URL http://127.0.0.1:9" in str(e.value), e.value
