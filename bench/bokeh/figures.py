@@ -7,7 +7,11 @@ bench-bokeh` run's images and results (build/bench/bokeh/):
   docs/figures/bokeh-chart.png  relMSE against CPU seconds for every
                                 renderer of the run (gnuplot)
 
-Usage: python bench/bokeh/figures.py [WORK_DIR] [DOCS_FIGURES_DIR]
+or, from a `make bench-sparkles` run (build/bench/sparkles/, NAME
+sparkles), docs/figures/bokeh-sparkles.png: the glints at about equal CPU
+time, camera paths only, the defaults, the reference.
+
+Usage: python bench/bokeh/figures.py [WORK_DIR] [DOCS_FIGURES_DIR] [NAME]
 (numpy; the PNG writer is below, the chart needs gnuplot).
 """
 import json
@@ -63,14 +67,15 @@ def pick(rows, cpu):
 def main():
     work = sys.argv[1] if len(sys.argv) > 1 else "build/bench/bokeh"
     out = sys.argv[2] if len(sys.argv) > 2 else "docs/figures"
+    name = sys.argv[3] if len(sys.argv) > 3 else "night"
     with open(os.path.join(work, "results.json")) as fh:
         results = json.load(fh)
     refs = sorted((f for f in os.listdir(work) if f.startswith("ref-") and f.endswith(".npy")),
                   key=lambda f: os.path.getmtime(os.path.join(work, f)))
     ref = load(os.path.join(work, refs[-1]))
-    # Equal time: the defaults' step nearest 0.5 CPU s, and the camera's
-    # step nearest the same time.
-    d = pick(results["lensray-default"], 0.5)
+    # Equal time: the defaults' step nearest 0.5 CPU s (sparkles: 1.5),
+    # and the camera's step nearest the same time.
+    d = pick(results["lensray-default"], 0.5 if name == "night" else 1.5)
     c = pick(results["lensray-camera"], d["cpu"])
     panels = [load(os.path.join(work, "lensray-camera-%d.exr" % c["spp"])),
               load(os.path.join(work, "lensray-default-%d.exr" % d["spp"])), ref]
@@ -78,10 +83,12 @@ def main():
     strip = []
     for i, p in enumerate(panels):
         strip += [srgb8(p, 4.0)] + ([gap] if i < 2 else [])
-    write_png(os.path.join(out, "bokeh-night.png"), np.concatenate(strip, 1))
-    print("bokeh-night.png: camera %d spp (%.2f CPU s, relMSE %.2e), defaults %d spp "
+    write_png(os.path.join(out, "bokeh-%s.png" % name), np.concatenate(strip, 1))
+    print("bokeh-%s.png: camera %d spp (%.2f CPU s, relMSE %.2e), defaults %d spp "
           "(%.2f CPU s, relMSE %.2e), reference"
-          % (c["spp"], c["cpu"], c["relmse"], d["spp"], d["cpu"], d["relmse"]))
+          % (name, c["spp"], c["cpu"], c["relmse"], d["spp"], d["cpu"], d["relmse"]))
+    if name != "night":
+        return 0
     # The chart.
     dat = os.path.join(work, "chart.dat")
     names = [n for n in ("lensray-default", "lensray-camera", "lensray-full",

@@ -103,9 +103,13 @@ def mitsuba_scene(mi, sc, integrator, spp, seed):
     cam = sc["camera"]
     rend = sc["render"]
     T = mi.ScalarTransform4f
-    integ = {"type": integrator, "max_depth": 2}
+    # lensray's max_depth counts bounces after the first hit; Mitsuba's
+    # counts path segments (docs/path-tracing.md): this + 2.  Without one
+    # (night.json) light seen directly is all there is: 2.
+    depth = int(rend["max_depth"]) + 2 if "max_depth" in rend else 2
+    integ = {"type": integrator, "max_depth": depth}
     if integrator == "ptracer":
-        integ = {"type": "ptracer", "max_depth": 2, "hide_emitters": False}
+        integ = {"type": "ptracer", "max_depth": depth, "hide_emitters": False}
     scene = {
         "type": "scene",
         "integrator": integ,
@@ -115,7 +119,7 @@ def mitsuba_scene(mi, sc, integrator, spp, seed):
             "focus_distance": float(cam["focus_distance"]),
             "near_clip": 1e-3, "far_clip": 1e4,
             "to_world": T().look_at(origin=cam["position"], target=cam["look_at"],
-                                    up=cam["up"]),
+                                    up=cam.get("up", [0, 1, 0])),
             "sampler": {"type": "independent", "sample_count": spp, "seed": seed},
             "film": {"type": "hdrfilm", "width": rend["width"],
                      "height": rend["height"], "rfilter": {"type": "box"},
@@ -124,6 +128,24 @@ def mitsuba_scene(mi, sc, integrator, spp, seed):
         },
     }
     for i, o in enumerate(sc["objects"]):
+        if o["type"] == "plane":
+            # sparkles.json's floor: a rectangle (Mitsuba's spans [-1, 1]^2
+            # at z = 0 facing +z; turned to face +y, which is the only
+            # normal this handles) of a rough conductor, lensray's
+            # "reflect" x GGX (roughconductor, material "none", which
+            # lib/bsdf.h follows).
+            assert o["normal"] == [0, 1, 0], "planes facing +y only"
+            m = sc["materials"][o["material"]]
+            w, h = o["size"]
+            scene["plane%02d" % i] = {
+                "type": "rectangle",
+                "to_world": T().translate([float(v) for v in o["point"]])
+                @ T().rotate([1, 0, 0], -90) @ T().scale([w / 2, h / 2, 1]),
+                "bsdf": {"type": "roughconductor", "distribution": "ggx",
+                         "alpha": float(m["roughness"]), "material": "none",
+                         "specular_reflectance": {"type": "rgb", "value": [
+                             float(v) for v in m["reflect"]]}}}
+            continue
         em = sc["materials"][o["material"]]["emission"]
         em = [float(em)] * 3 if not isinstance(em, list) else [float(v) for v in em]
         scene["light%02d" % i] = {
