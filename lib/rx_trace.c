@@ -218,6 +218,12 @@ void lr__rx_trace16(const lr__rx *rx, const double *z, const double *n_after,
 {
     int n = rx->n;
     for (int step = 0; step < n; step++) {
+        /* Once every lane is lost, the rest would change nothing. */
+        int any = 0;
+        for (int l = 0; l < 16; l++)
+            any |= alive[l];
+        if (!any)
+            return;
         int i = n - 1 - step;
         const lr__surface *s = &rx->s[i];
         if (lr__rx_aspheric(s)) {
