@@ -865,19 +865,75 @@ static lr_status focus_at(lr_camera *cam, double z, lr_error *err)
  * not have drawn (outside the pupil bounds its film point samples) counts
  * for nothing, as for the camera. */
 
+/* The first surface's semi-aperture a and its sag at a (a when the
+ * surface is a hemisphere or more). */
+static void front_rim(const lr_lens *L, double *a, double *sag)
+{
+    const lr__surface *s0 = &L->rx.s[0];
+    *a = s0->semi_aperture, *sag = 0.0;
+    if (s0->radius != 0.0 && fabs(s0->radius) > *a)
+        *sag = fabs(s0->radius) - sqrt(s0->radius * s0->radius - *a * *a);
+    else if (s0->radius != 0.0)
+        *sag = *a;
+}
+
+/* Whether any point of a 32 x 32 grid over the disk of radius rho on the
+ * first vertex's plane sends a ray of slope s (along +x) through the
+ * lens, toward the image. */
+static int any_through(const lr_lens *L, const double *n, double s,
+                       double rho)
+{
+    double len = sqrt(1.0 + s * s);
+    double d0[3] = {s / len, 0.0, 1.0 / len};
+    double back = (L->rx.s[0].semi_aperture + 1.0) / d0[2];
+    for (int iy = 0; iy < 32; iy++)
+        for (int ix = 0; ix < 32; ix++) {
+            double ox = rho * ((ix + 0.5) / 16.0 - 1.0);
+            double oy = rho * ((iy + 0.5) / 16.0 - 1.0);
+            if (ox * ox + oy * oy > rho * rho)
+                continue;
+            double o[3] = {ox - back * d0[0], oy, L->z[0] - back * d0[2]};
+            double d[3] = {d0[0], d0[1], d0[2]};
+            if (lr__rx_trace_n(&L->rx, L->z, n, 1.0, 1, o, d))
+                return 1;
+        }
+    return 0;
+}
+
+double lr__lens_front_slope(const lr_lens *L)
+{
+    if (__atomic_load_n(&L->front_slope_set, __ATOMIC_ACQUIRE))
+        return L->front_slope;
+    lr_lens *M = (lr_lens *)L; /* the bound is mutable, under L->mu */
+    pthread_mutex_lock(&M->mu);
+    if (!M->front_slope_set) {
+        double n[LR__RX_MAX_SURFACES], a, sag, clear = 4.0;
+        lr__rx_indices(&L->rx, LR__NM_d, n);
+        front_rim(L, &a, &sag);
+        /* A ray of slope s crosses the vertex's plane within sag s of
+         * where it meets the first surface (inside a). */
+        int found = 0;
+        for (double s = 4.0; s > 1e-3 && !found; s *= 0.95) {
+            found = any_through(L, n, s, a + sag * s);
+            clear = found ? clear : s;
+        }
+        M->front_slope = found ? fmin(1.5 * clear + 0.1, 4.0) : 4.0;
+        __atomic_store_n(&M->front_slope_set, 1, __ATOMIC_RELEASE);
+    }
+    pthread_mutex_unlock(&M->mu);
+    return L->front_slope;
+}
+
 /* The disk the light side draws on: on the first vertex's plane, as wide
- * as the first element's semi-aperture plus four times its sag there (a
- * concave front's rays cross the vertex plane beyond the semi-aperture,
- * by the sag times the ray's slope: slopes up to 4, 76 degrees). */
+ * as the first element's semi-aperture plus its sag there times the
+ * steepest slope a ray through the lens can have (a convex or concave
+ * front's rays cross the vertex plane beyond the semi-aperture by the sag
+ * times the ray's slope; lr__lens_front_slope). */
 static double front_disk(const lr__lens_cam *lc)
 {
-    const lr__surface *s0 = &lc->L->rx.s[0];
-    double a = s0->semi_aperture, sag = 0.0;
-    if (s0->radius != 0.0 && fabs(s0->radius) > a)
-        sag = fabs(s0->radius) - sqrt(s0->radius * s0->radius - a * a);
-    else if (s0->radius != 0.0)
-        sag = a;
-    return a + 4.0 * sag;
+    double a, sag;
+    front_rim(lc->L, &a, &sag);
+    return a + lr__lens_front_slope(lc->L) * sag;
 }
 
 static lr__v3 lens_point(const lr__cam *c, const double u[2], double *ox,
