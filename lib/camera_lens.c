@@ -206,6 +206,96 @@ static void grow(void *ctx, double x, double y, double cos4)
     }
 }
 
+/* ---- the fine grid, traced only where its answer needs it ---------------
+ *
+ * The bounds depend on the fine grid's passing points only through their
+ * extremes: the least and greatest x and y, and the greatest distance from
+ * the centre of the x extent.  Each extreme is found by tracing points from
+ * the outside in, in batches of 16, until one passes: every point beyond
+ * it has been traced and failed, so it is the extreme the whole grid
+ * would give, bit for bit (each point's ray is a pure function of the
+ * point; lr__rx_trace16's lanes are independent).  Points inside the
+ * pupil, the bulk of the grid, are never traced.  Only the on-axis entry,
+ * whose E0 sums every passing point, traces them all. */
+
+enum { ST_UNKNOWN = 0, ST_PASS = 1, ST_FAIL = 2, ST_QUEUED = 3 };
+
+typedef struct fine_grid {
+    const pupil_job *j;
+    double r, x0, y0, cw, ch;
+    unsigned char st[G_FINE * G_FINE]; /* row-major: iy * G_FINE + ix */
+    int queue[16], nq;
+} fine_grid;
+
+/* The grid's point coordinates, as grid_pass makes them. */
+static double fine_x(const fine_grid *f, int ix)
+{
+    return f->x0 + (ix + 0.5) * f->cw;
+}
+
+static double fine_y(const fine_grid *f, int iy)
+{
+    return f->y0 + (iy + 0.5) * f->ch;
+}
+
+static void fine_flush(fine_grid *f)
+{
+    if (f->nq == 0)
+        return;
+    double x[16], y[16], c4[16];
+    int ok[16];
+    for (int i = 0; i < f->nq; i++) {
+        x[i] = fine_x(f, f->queue[i] % G_FINE);
+        y[i] = fine_y(f, f->queue[i] / G_FINE);
+    }
+    passes16(f->j, f->r, f->nq, x, y, ok, c4);
+    for (int i = 0; i < f->nq; i++)
+        f->st[f->queue[i]] = ok[i] ? ST_PASS : ST_FAIL;
+    f->nq = 0;
+}
+
+/* Queues point k for tracing if its status is unknown (the queue must
+ * have room). */
+static void fine_push(fine_grid *f, int k)
+{
+    if (f->st[k] != ST_UNKNOWN)
+        return;
+    f->st[k] = ST_QUEUED;
+    f->queue[f->nq++] = k;
+}
+
+/* fine_push, tracing the queue when it is full. */
+static void fine_want(fine_grid *f, int k)
+{
+    fine_push(f, k);
+    if (f->nq == 16)
+        fine_flush(f);
+}
+
+/* Traces line `i` (a column when col, else a row) over [a, b] of the
+ * other index; returns whether any of its points passes. */
+static int fine_line(fine_grid *f, int col, int i, int a, int b)
+{
+    for (int t = a; t <= b; t++)
+        fine_want(f, col ? t * G_FINE + i : i * G_FINE + t);
+    fine_flush(f);
+    for (int t = a; t <= b; t++)
+        if (f->st[col ? t * G_FINE + i : i * G_FINE + t] == ST_PASS)
+            return 1;
+    return 0;
+}
+
+typedef struct fine_cand {
+    double dist;
+    int k;
+} fine_cand;
+
+static int by_dist_desc(const void *pa, const void *pb)
+{
+    const fine_cand *a = pa, *b = pb;
+    return (a->dist < b->dist) - (a->dist > b->dist);
+}
+
 /* The bounds for film radius r (lr__pupil), from a coarse grid over the
  * rear element and a fine one over what passed; for r = 0 also *E0, the
  * on-axis irradiance integral for a white scene.  The bounds reach one
@@ -241,33 +331,101 @@ static void pupil_point(const pupil_job *j, double r, lr__pupil *P,
     double x0 = co.x0 - cell, x1 = co.x1 + cell;
     double y0 = co.y0 - cell, y1 = co.y1 + cell;
     double cxw = (x1 - x0) / G_FINE, cyw = (y1 - y0) / G_FINE;
-    extent fi = {INFINITY, -INFINITY, INFINITY, -INFINITY, NULL, 0,
-                 G_FINE * G_FINE, 0};
-    fi.pts = malloc(sizeof *fi.pts * 2 * (size_t)fi.cap);
-    grid_pass(j, r, x0, y0, cxw, cyw, G_FINE, grow, &fi);
-    double Z = lc->z_sensor - lc->z_rear;
-    if (E0 != NULL)
-        *E0 = fi.e0 * cxw * cyw / (Z * Z);
-    double margin = fmax(cxw, cyw);
-    if (!(fi.x0 <= fi.x1)) { /* too thin for the fine grid: the coarse box */
+    fine_grid *f = malloc(sizeof *f);
+    if (f == NULL) { /* out of memory: the coarse box, as when too thin */
         P->cx = 0.5 * (x0 + x1);
         P->hx = 0.5 * (x1 - x0), P->hy = fmax(y1, -y0);
         P->rad = hypot(P->hx, P->hy);
-        free(fi.pts);
         return;
     }
-    P->cx = 0.5 * (fi.x0 + fi.x1);
-    P->hx = 0.5 * (fi.x1 - fi.x0) + margin;
-    P->hy = fmax(fi.y1, -fi.y0) + margin;
-    double m = hypot(P->hx, P->hy); /* out of memory: the box's corner */
-    if (fi.pts != NULL) {
-        m = 0.0;
-        for (int i = 0; i < fi.np; i++)
-            m = fmax(m, hypot(fi.pts[2 * i] - P->cx, fi.pts[2 * i + 1]));
-        m += margin;
+    f->j = j, f->r = r, f->x0 = x0, f->y0 = y0, f->cw = cxw, f->ch = cyw;
+    memset(f->st, ST_UNKNOWN, sizeof f->st);
+    f->nq = 0;
+    double Z = lc->z_sensor - lc->z_rear;
+    if (E0 != NULL) {
+        /* Every point, and the sum of cos^4 over those that pass in
+         * grid_pass's order (passes16's cos^4, recomputed). */
+        double dz = lc->z_rear - lc->z_sensor, e0 = 0.0;
+        for (int k = 0; k < G_FINE * G_FINE; k++)
+            fine_want(f, k);
+        fine_flush(f);
+        for (int k = 0; k < G_FINE * G_FINE; k++) {
+            if (f->st[k] != ST_PASS)
+                continue;
+            double dx = fine_x(f, k % G_FINE) - r, dy = fine_y(f, k / G_FINE);
+            double len = sqrt(dx * dx + dy * dy + dz * dz);
+            double ct = -dz / len;
+            e0 += ct * ct * ct * ct;
+        }
+        *E0 = e0 * cxw * cyw / (Z * Z);
     }
-    free(fi.pts);
-    P->rad = m;
+    double margin = fmax(cxw, cyw);
+    /* The extremes, from the outside in. */
+    int ix0 = 0, ix1 = G_FINE - 1, iy0 = 0, iy1 = G_FINE - 1;
+    while (ix0 < G_FINE && !fine_line(f, 1, ix0, 0, G_FINE - 1))
+        ix0++;
+    if (ix0 == G_FINE) { /* too thin for the fine grid: the coarse box */
+        P->cx = 0.5 * (x0 + x1);
+        P->hx = 0.5 * (x1 - x0), P->hy = fmax(y1, -y0);
+        P->rad = hypot(P->hx, P->hy);
+        free(f);
+        return;
+    }
+    while (!fine_line(f, 1, ix1, 0, G_FINE - 1))
+        ix1--;
+    while (!fine_line(f, 0, iy0, ix0, ix1))
+        iy0++;
+    while (!fine_line(f, 0, iy1, ix0, ix1))
+        iy1--;
+    double fx0 = fine_x(f, ix0), fx1 = fine_x(f, ix1);
+    double fy0 = fine_y(f, iy0), fy1 = fine_y(f, iy1);
+    P->cx = 0.5 * (fx0 + fx1);
+    P->hx = 0.5 * (fx1 - fx0) + margin;
+    P->hy = fmax(fy1, -fy0) + margin;
+    /* The greatest distance from (cx, 0) of a passing point: the points
+     * not known to fail, farthest first, traced until one passes.  The
+     * passing points found so far bound it from below (mlow), and a point
+     * whose squared distance is under mlow^2 (1 - 1e-9) is nearer than
+     * mlow whatever hypot's rounding (under an ulp): only the ring
+     * outside is sorted. */
+    double mlow = 0.0;
+    for (int iy = iy0; iy <= iy1; iy++)
+        for (int ix = ix0; ix <= ix1; ix++)
+            if (f->st[iy * G_FINE + ix] == ST_PASS)
+                mlow = fmax(mlow, hypot(fine_x(f, ix) - P->cx,
+                                        fine_y(f, iy)));
+    double low2 = mlow * mlow * (1.0 - 1e-9);
+    int nc = 0;
+    fine_cand *cand = malloc(sizeof *cand * (size_t)(ix1 - ix0 + 1) *
+                             (size_t)(iy1 - iy0 + 1));
+    if (cand == NULL) { /* out of memory: the box's corner */
+        P->rad = hypot(P->hx, P->hy);
+        free(f);
+        return;
+    }
+    for (int iy = iy0; iy <= iy1; iy++)
+        for (int ix = ix0; ix <= ix1; ix++) {
+            int k = iy * G_FINE + ix;
+            double dx = fine_x(f, ix) - P->cx, dy = fine_y(f, iy);
+            if (f->st[k] != ST_FAIL && !(dx * dx + dy * dy < low2))
+                cand[nc++] = (fine_cand){hypot(dx, dy), k};
+        }
+    qsort(cand, (size_t)nc, sizeof *cand, by_dist_desc);
+    double m = mlow;
+    for (int i = 0; i < nc; i++) {
+        if (f->st[cand[i].k] == ST_UNKNOWN) {
+            for (int t = i; t < nc && f->nq < 16; t++)
+                fine_push(f, cand[t].k);
+            fine_flush(f);
+        }
+        if (f->st[cand[i].k] == ST_PASS) {
+            m = fmax(m, cand[i].dist);
+            break;
+        }
+    }
+    free(cand);
+    free(f);
+    P->rad = m + margin;
 }
 
 /* Fills c->lens's pupil table, from the lens's cache when it has it. */
@@ -709,19 +867,75 @@ static lr_status focus_at(lr_camera *cam, double z, lr_error *err)
  * not have drawn (outside the pupil bounds its film point samples) counts
  * for nothing, as for the camera. */
 
+/* The first surface's semi-aperture a and its sag at a (a when the
+ * surface is a hemisphere or more). */
+static void front_rim(const lr_lens *L, double *a, double *sag)
+{
+    const lr__surface *s0 = &L->rx.s[0];
+    *a = s0->semi_aperture, *sag = 0.0;
+    if (s0->radius != 0.0 && fabs(s0->radius) > *a)
+        *sag = fabs(s0->radius) - sqrt(s0->radius * s0->radius - *a * *a);
+    else if (s0->radius != 0.0)
+        *sag = *a;
+}
+
+/* Whether any point of a 32 x 32 grid over the disk of radius rho on the
+ * first vertex's plane sends a ray of slope s (along +x) through the
+ * lens, toward the image. */
+static int any_through(const lr_lens *L, const double *n, double s,
+                       double rho)
+{
+    double len = sqrt(1.0 + s * s);
+    double d0[3] = {s / len, 0.0, 1.0 / len};
+    double back = (L->rx.s[0].semi_aperture + 1.0) / d0[2];
+    for (int iy = 0; iy < 32; iy++)
+        for (int ix = 0; ix < 32; ix++) {
+            double ox = rho * ((ix + 0.5) / 16.0 - 1.0);
+            double oy = rho * ((iy + 0.5) / 16.0 - 1.0);
+            if (ox * ox + oy * oy > rho * rho)
+                continue;
+            double o[3] = {ox - back * d0[0], oy, L->z[0] - back * d0[2]};
+            double d[3] = {d0[0], d0[1], d0[2]};
+            if (lr__rx_trace_n(&L->rx, L->z, n, 1.0, 1, o, d))
+                return 1;
+        }
+    return 0;
+}
+
+double lr__lens_front_slope(const lr_lens *L)
+{
+    if (__atomic_load_n(&L->front_slope_set, __ATOMIC_ACQUIRE))
+        return L->front_slope;
+    lr_lens *M = (lr_lens *)L; /* the bound is mutable, under L->mu */
+    pthread_mutex_lock(&M->mu);
+    if (!M->front_slope_set) {
+        double n[LR__RX_MAX_SURFACES], a, sag, clear = 4.0;
+        lr__rx_indices(&L->rx, LR__NM_d, n);
+        front_rim(L, &a, &sag);
+        /* A ray of slope s crosses the vertex's plane within sag s of
+         * where it meets the first surface (inside a). */
+        int found = 0;
+        for (double s = 4.0; s > 1e-3 && !found; s *= 0.95) {
+            found = any_through(L, n, s, a + sag * s);
+            clear = found ? clear : s;
+        }
+        M->front_slope = found ? fmin(1.5 * clear + 0.1, 4.0) : 4.0;
+        __atomic_store_n(&M->front_slope_set, 1, __ATOMIC_RELEASE);
+    }
+    pthread_mutex_unlock(&M->mu);
+    return L->front_slope;
+}
+
 /* The disk the light side draws on: on the first vertex's plane, as wide
- * as the first element's semi-aperture plus four times its sag there (a
- * concave front's rays cross the vertex plane beyond the semi-aperture,
- * by the sag times the ray's slope: slopes up to 4, 76 degrees). */
+ * as the first element's semi-aperture plus its sag there times the
+ * steepest slope a ray through the lens can have (a convex or concave
+ * front's rays cross the vertex plane beyond the semi-aperture by the sag
+ * times the ray's slope; lr__lens_front_slope). */
 static double front_disk(const lr__lens_cam *lc)
 {
-    const lr__surface *s0 = &lc->L->rx.s[0];
-    double a = s0->semi_aperture, sag = 0.0;
-    if (s0->radius != 0.0 && fabs(s0->radius) > a)
-        sag = fabs(s0->radius) - sqrt(s0->radius * s0->radius - a * a);
-    else if (s0->radius != 0.0)
-        sag = a;
-    return a + 4.0 * sag;
+    double a, sag;
+    front_rim(lc->L, &a, &sag);
+    return a + lr__lens_front_slope(lc->L) * sag;
 }
 
 static lr__v3 lens_point(const lr__cam *c, const double u[2], double *ox,

@@ -44,7 +44,27 @@ struct lr_lens {
     pthread_mutex_t mu;
     int n_pupils, next_pupil;
     lr__pupil_entry pupils[LR__PUPIL_CACHE];
+    /* lr__lens_front_slope's bound, made on first use under mu;
+     * front_slope_set is read and written atomically (acquire, release). */
+    double front_slope;
+    int front_slope_set;
 };
+
+/* A bound on the slope (tan of the angle to the axis) of any ray from the
+ * object side that gets through the lens at the d line with the stop
+ * open, at most 4 (76 degrees, the light side's former fixed bound): a
+ * search over slopes from 4 down (a 32 x 32 grid of points a slope over
+ * the disk such rays can cross the first vertex's plane in) until a ray
+ * gets through; then the last slope that let none through, times 1.5,
+ * plus 0.1 (at steep slopes only slivers of the disk get through, and the
+ * grid can miss them: 1.25 times was short on fisheye-10).  4 when the
+ * search finds no ray at all (a small pupil behind a wide front falls
+ * between the grid's points).  Computed once for the process and kept in
+ * the lens; safe from any thread.  The light side draws its lens points
+ * from the disk this bounds (camera_lens.c, front_disk);
+ * test_lens_camera.c checks that random rays outside it never get
+ * through, on every shipped lens whose bound is under 4. */
+double lr__lens_front_slope(const lr_lens *L);
 
 /* camera.lens from the scene format: a string (a file relative to
  * base_dir, or a shipped lens's name) or an inline prescription object.

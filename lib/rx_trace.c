@@ -51,14 +51,13 @@ static int sag_at(const lr__surface *s, double r, double *sag, double *slope)
     return 1;
 }
 
-/* Where the ray o + t d (o relative to the vertex) meets surface s: sets
- * the point p and the unit normal nrm (pointing toward +z).  0 on a
- * miss. */
-static int intersect(const lr__surface *s, const double o[3],
-                     const double d[3], double p[3], double nrm[3])
+/* Where the ray o + t d (o relative to the vertex) meets surface s, of
+ * curvature c = 1 / radius (0 when flat) and k1 = 1 + conic: sets the
+ * point p.  0 on a miss.  The normal is normal_at's, apart so that a
+ * ray outside the aperture costs no normal. */
+static int intersect(const lr__surface *s, double c, double k1,
+                     const double o[3], const double d[3], double p[3])
 {
-    double c = s->radius != 0.0 ? 1.0 / s->radius : 0.0;
-    double k1 = 1.0 + s->conic;
     /* A t^2 + 2 B t + C = 0; the root taken is the one that becomes
      * -C / 2B as the curvature goes to 0, i.e. the sheet through the
      * vertex (not the far side of a sphere). */
@@ -82,8 +81,7 @@ static int intersect(const lr__surface *s, const double o[3],
         return 0;
     for (int a = 0; a < 3; a++)
         p[a] = o[a] + t * d[a];
-    int asph = lr__rx_aspheric(s);
-    if (asph) {
+    if (lr__rx_aspheric(s)) {
         /* Newton on F(t) = z(t) - sag(r(t)). */
         for (int it = 0; it < 30; it++) {
             double r = hypot(p[0], p[1]), sag, slope;
@@ -103,9 +101,19 @@ static int intersect(const lr__surface *s, const double o[3],
                 break;
         }
     }
+    return 1;
+}
+
+/* The unit normal nrm (pointing toward +z) of surface s at its point p.
+ * 0 when there is none: past the conic's equator (the gradient turns
+ * away from +z: the ray met the surface's far side) or beyond an
+ * aspheric's reach. */
+static int normal_at(const lr__surface *s, double c, double k1,
+                     const double p[3], double nrm[3])
+{
     /* The normal: the gradient of z - sag(r), or of the quadric. */
     double g[3];
-    if (asph) {
+    if (lr__rx_aspheric(s)) {
         double r = hypot(p[0], p[1]), sag, slope;
         if (!sag_at(s, r, &sag, &slope))
             return 0;
@@ -164,10 +172,13 @@ int lr__rx_trace_surface(const lr__rx *rx, const double *z,
 {
     const lr__surface *s = &rx->s[i];
     double ol[3] = {o[0], o[1], o[2] - z[i]}, p[3], nrm[3];
-    if (!intersect(s, ol, d, p, nrm))
+    double c = s->radius != 0.0 ? 1.0 / s->radius : 0.0;
+    double k1 = 1.0 + s->conic;
+    if (!intersect(s, c, k1, ol, d, p))
         return 0;
     double lim = s->semi_aperture * (i == rx->stop ? stop_scale : 1.0);
-    if (p[0] * p[0] + p[1] * p[1] > lim * lim)
+    if (p[0] * p[0] + p[1] * p[1] > lim * lim ||
+        !normal_at(s, c, k1, p, nrm))
         return 0;
     o[0] = p[0];
     o[1] = p[1];
@@ -218,6 +229,12 @@ void lr__rx_trace16(const lr__rx *rx, const double *z, const double *n_after,
 {
     int n = rx->n;
     for (int step = 0; step < n; step++) {
+        /* Once every lane is lost, the rest would change nothing. */
+        int any = 0;
+        for (int l = 0; l < 16; l++)
+            any |= alive[l];
+        if (!any)
+            return;
         int i = n - 1 - step;
         const lr__surface *s = &rx->s[i];
         if (lr__rx_aspheric(s)) {

@@ -526,6 +526,264 @@ static void test_pupil_bounds_lose_no_light(void **state)
     check_irradiance("\"wide-22\"", 8, 36);
 }
 
+/* The exit-pupil table equals the exhaustive search's, bit for bit.
+ * camera_lens.c traces the fine grid only from the outside in, until
+ * each extreme is found; here every point of both grids is traced, one
+ * ray at a time through lr__rx_trace_n (whose bits lr__rx_trace16's
+ * lanes repeat), and the bounds are taken over all that pass: the search
+ * as it was first written (issue 12).  Every shipped lens, open and
+ * stopped down, near and far, and the colour sets of both chromatic
+ * modes. */
+typedef struct brute_box {
+    double x0, x1, y0, y1, e0;
+} brute_box;
+
+static int brute_passes(const lr__cam *c, const double *const *ns, int nn,
+                        double r, double x, double y, double *cos4)
+{
+    const lr__lens_cam *lc = &c->lens;
+    const lr_lens *L = lc->L;
+    double dz = lc->z_rear - lc->z_sensor;
+    double dx = x - r, dy = y;
+    double len = sqrt(dx * dx + dy * dy + dz * dz);
+    double ct = -dz / len;
+    *cos4 = ct * ct * ct * ct;
+    for (int k = 0; k < nn; k++) {
+        double o[3] = {r, 0.0, lc->z_sensor};
+        double d[3] = {dx / len, dy / len, dz / len};
+        if (lr__rx_trace_n(&L->rx, L->z, ns[k], lc->stop_scale, 0, o, d))
+            return 1;
+    }
+    return 0;
+}
+
+/* Every point of a g x g grid (cell centres) from (x0, y0): the box of
+ * those that pass and their cos^4 summed in row order; with pts, also
+ * the points (2 g^2 doubles), *np of them. */
+static brute_box brute_grid(const lr__cam *c, const double *const *ns,
+                            int nn, double r, double x0, double y0,
+                            double cw, double ch, int g, double *pts, int *np)
+{
+    brute_box b = {INFINITY, -INFINITY, INFINITY, -INFINITY, 0};
+    for (int iy = 0; iy < g; iy++)
+        for (int ix = 0; ix < g; ix++) {
+            double x = x0 + (ix + 0.5) * cw, y = y0 + (iy + 0.5) * ch, c4;
+            if (!brute_passes(c, ns, nn, r, x, y, &c4))
+                continue;
+            b.x0 = fmin(b.x0, x), b.x1 = fmax(b.x1, x);
+            b.y0 = fmin(b.y0, y), b.y1 = fmax(b.y1, y);
+            b.e0 += c4;
+            if (pts != NULL) {
+                pts[2 * *np] = x, pts[2 * *np + 1] = y;
+                (*np)++;
+            }
+        }
+    return b;
+}
+
+static lr__pupil brute_pupil(const lr__cam *c, const double *const *ns,
+                             int nn, double r, double *E0)
+{
+    const lr__lens_cam *lc = &c->lens;
+    const lr_lens *L = lc->L;
+    int rear = L->rx.n - 1;
+    double S = 1.5 * L->rx.s[rear].semi_aperture *
+               (rear == L->rx.stop ? lc->stop_scale : 1.0);
+    double cell = 0;
+    brute_box co = {INFINITY, -INFINITY, 0, 0, 0};
+    for (int g = 24; g <= 16 * 24 && !(co.x0 <= co.x1); g *= 4) {
+        cell = 2.0 * S / g;
+        co = brute_grid(c, ns, nn, r, -S, -S, cell, cell, g, NULL, NULL);
+    }
+    *E0 = 0.0;
+    if (!(co.x0 <= co.x1))
+        return (lr__pupil){0, 0, 0, 0};
+    double x0 = co.x0 - cell, x1 = co.x1 + cell;
+    double y0 = co.y0 - cell, y1 = co.y1 + cell;
+    double cw = (x1 - x0) / 128, ch = (y1 - y0) / 128;
+    double *pts = malloc(sizeof *pts * 2 * 128 * 128);
+    assert_non_null(pts);
+    int np = 0;
+    brute_box fi = brute_grid(c, ns, nn, r, x0, y0, cw, ch, 128, pts, &np);
+    double Z = lc->z_sensor - lc->z_rear;
+    *E0 = fi.e0 * cw * ch / (Z * Z);
+    double margin = fmax(cw, ch);
+    lr__pupil P;
+    if (!(fi.x0 <= fi.x1)) {
+        P.cx = 0.5 * (x0 + x1);
+        P.hx = 0.5 * (x1 - x0), P.hy = fmax(y1, -y0);
+        P.rad = hypot(P.hx, P.hy);
+    } else {
+        P.cx = 0.5 * (fi.x0 + fi.x1);
+        P.hx = 0.5 * (fi.x1 - fi.x0) + margin;
+        P.hy = fmax(fi.y1, -fi.y0) + margin;
+        double m = 0.0;
+        for (int i = 0; i < np; i++)
+            m = fmax(m, hypot(pts[2 * i] - P.cx, pts[2 * i + 1]));
+        P.rad = m + margin;
+    }
+    free(pts);
+    return P;
+}
+
+/* Radii k = 0, 1, every `step`-th and the last two are compared (every
+ * one when step is 1). */
+static void check_pupil_table(const char *lens, const char *extra, int step)
+{
+    lr_camera cam;
+    lr__cam c;
+    lr_scene *s = lens_cam(lens, extra, "[]", 160, 100, &cam, &c);
+    const lr__lens_cam *lc = &c.lens;
+    double lo[LR__RX_MAX_SURFACES], hi[LR__RX_MAX_SURFACES];
+    const double *ns[4] = {lc->n_ref};
+    int nn = 1;
+    if (c.chroma_active && c.chroma.mode == LR_CHROMATIC_RGB) {
+        for (int k = 0; k < 3; k++)
+            ns[nn++] = lc->n_rgb[k];
+    } else if (c.chroma_active) {
+        assert_true(c.chroma.amplify == 1.0);
+        lr__rx_indices(&lc->L->rx, 380.0, lo);
+        lr__rx_indices(&lc->L->rx, 780.0, hi);
+        ns[nn++] = lo, ns[nn++] = hi;
+    }
+    int empty = 0;
+    for (int k = 0; k <= LR__PUPIL_N; k++) {
+        if (k > 1 && k < LR__PUPIL_N - 1 && k % step != 0)
+            continue;
+        double E0;
+        lr__pupil want = brute_pupil(&c, ns, nn, lc->pupil_rmax * k /
+                                                     LR__PUPIL_N, &E0);
+        if (k == 0)
+            assert_memory_equal(&lc->inv_E0,
+                                &(double){E0 > 0.0 ? 1.0 / E0 : 0.0},
+                                sizeof(double));
+        empty += want.rad == 0.0;
+        if (memcmp(&want, &lc->pupil[k], sizeof want) != 0)
+            fail_msg("%s %s: film radius %d/%d: bounds (%.17g %.17g %.17g "
+                     "%.17g), the exhaustive search's (%.17g %.17g %.17g "
+                     "%.17g)", lens, extra, k, LR__PUPIL_N, lc->pupil[k].cx,
+                     lc->pupil[k].rad, lc->pupil[k].hx, lc->pupil[k].hy,
+                     want.cx, want.rad, want.hx, want.hy);
+    }
+    assert_true(empty < LR__PUPIL_N); /* something was compared */
+    lr_scene_free(s);
+}
+
+/* Every shipped lens (lenses/). */
+static const char *const shipped_lenses[] = {
+    "biotar-de485798-100mm-f1.4", "double-gauss-50",
+    "double-gauss-angenieux-us2701982-100mm-f1.1", "fisheye-10",
+    "fisheye-minolta-us4256373-16mm-f2.8",
+    "objective-us8879901-36mm-f2", "petzval-kodak-us2500046-100mm-f2.2",
+    "petzval", "planar-rudolph-us583336-49mm-f4.5",
+    "retrofocus-flektagon-de953471-35mm-f2.8",
+    "retrofocus-nikon-us3583791-100mm-f2.8", "sonnar-us1975678-50mm-f1.5",
+    "telephoto-250", "telephoto-laikin-127mm-f5.6",
+    "tessar-laikin-102mm-f4.5", "wide-170deg-laikin-5mm-f1.8", "wide-22",
+    "zoom-nikkor-us4189212-25mm-f4", "zoom-nikkor-us4189212-35mm-f4",
+    "zoom-nikkor-us4189212-49mm-f4.4", "zoom-nikkor-z-14-30mm-f4-at-14mm",
+    "zoom-nikon-jp53131852-200mm-f2.8", "zoom-nikon-jp53131852-80mm-f2.8",
+};
+
+static void test_pupil_table_exact(void **state)
+{
+    (void)state;
+    char name[128];
+    for (size_t i = 0; i < sizeof shipped_lenses / sizeof *shipped_lenses; i++) {
+        snprintf(name, sizeof name, "\"%s\"", shipped_lenses[i]);
+        check_pupil_table(name, ", \"focus_distance\": 5", 8);
+    }
+    check_pupil_table("\"double-gauss-50\"",
+                      ", \"focus_distance\": 1, \"f_number\": 2", 1);
+    check_pupil_table("\"double-gauss-50\"",
+                      ", \"focus_distance\": 0.6, \"f_number\": 2.8,"
+                      " \"chromatic\": {\"mode\": \"rgb\"}", 4);
+    check_pupil_table("\"wide-22\"",
+                      ", \"focus_distance\": 10, \"f_number\": 8,"
+                      " \"chromatic\": {\"mode\": \"spectral\"}", 4);
+    /* Stopped down past the coarse grid's cells (its finer grids). */
+    check_pupil_table("\"double-gauss-50\"",
+                      ", \"focus_distance\": 10, \"f_number\": 64", 8);
+    check_pupil_table(singlet, ", \"focus_distance\": 2000", 8);
+}
+
+/* The light side's lens points cover every ray that gets through: random
+ * rays from the object side (any slope to 13, 85 degrees, and as many
+ * within 1.3 times the bound, where a miss would be), on every shipped
+ * lens and the singlet, cross the first vertex's plane inside the disk
+ * camera_lens.c draws from (a + sag lr__lens_front_slope) whenever they
+ * get through, stop open, at the d line and at 400 and 700 nm.  A lens
+ * left at the former fixed bound, 4, is only reported: the fisheyes and
+ * the 170-degree wide angle take steeper rays, which it misses. */
+static void check_front_disk(const char *lens)
+{
+    lr_camera cam;
+    lr__cam c;
+    lr_scene *s = lens_cam(lens, ", \"focus_distance\": 5", "[]", 16, 16,
+                           &cam, &c);
+    const lr_lens *L = c.lens.L;
+    const lr__surface *s0 = &L->rx.s[0];
+    double a = s0->semi_aperture, sag = a;
+    if (s0->radius != 0.0 && fabs(s0->radius) > a)
+        sag = fabs(s0->radius) - sqrt(s0->radius * s0->radius - a * a);
+    else if (s0->radius == 0.0)
+        sag = 0.0;
+    double bound = lr__lens_front_slope(L), rho = a + sag * bound;
+    assert_true(bound > 0.0 && bound < 40.0);
+    uint64_t rng = 0x2545F4914F6CDD1Dull;
+#define RND() (((rng = rng * 6364136223846793005ull + \
+                      1442695040888963407ull) >> 11) * 0x1p-53)
+    int through = 0, missed = 0;
+    const double nms[3] = {LR__NM_d, 400.0, 700.0};
+    for (int w = 0; w < 3; w++) {
+        double n[LR__RX_MAX_SURFACES];
+        lr__rx_indices(&L->rx, nms[w], n);
+        for (int i = 0; i < 100000; i++) {
+            double sl = (i & 1) ? 13.0 * RND() : fmin(1.3 * bound, 13.0) *
+                                                     RND();
+            double phi = 2.0 * M_PI * RND();
+            double R = a + sag * sl, r = R * sqrt(RND()), t = 2 * M_PI * RND();
+            double ox = r * cos(t), oy = r * sin(t);
+            double len = sqrt(1.0 + sl * sl);
+            double d[3] = {sl * cos(phi) / len, sl * sin(phi) / len, 1 / len};
+            double back = (a + 1.0) / d[2];
+            double o[3] = {ox - back * d[0], oy - back * d[1],
+                           L->z[0] - back * d[2]};
+            if (!lr__rx_trace_n(&L->rx, L->z, n, 1.0, 1, o, d))
+                continue;
+            through++;
+            if (hypot(ox, oy) > rho && bound >= 4.0) {
+                /* The former fixed bound, kept: its misses are known. */
+                missed++;
+                continue;
+            }
+            if (hypot(ox, oy) > rho)
+                fail_msg("%s: a ray of slope %g through (%g, %g), %g mm "
+                         "from the axis, gets through; the disk is %g mm "
+                         "(slope bound %g)", lens, sl, ox, oy,
+                         hypot(ox, oy), rho, bound);
+        }
+    }
+#undef RND
+    if (missed > 0)
+        print_message("%s: slope bound 4 (the former one): %d of %d rays "
+                      "through miss the disk\n", lens, missed, through);
+    assert_true(through > 100);
+    lr_scene_free(s);
+}
+
+static void test_front_disk_covers(void **state)
+{
+    (void)state;
+    char name[128];
+    for (size_t i = 0; i < sizeof shipped_lenses / sizeof *shipped_lenses;
+         i++) {
+        snprintf(name, sizeof name, "\"%s\"", shipped_lenses[i]);
+        check_front_disk(name);
+    }
+    check_front_disk(singlet);
+}
+
 /* The real chief ray's image height (mm) of a field angle at `nm`, from
  * lr_lens_describe (the prescription's own analysis, which aims each
  * chief ray at the stop's centre from infinity; tests/lenses/compare.py
@@ -666,6 +924,8 @@ static const struct CMUnitTest lens_camera_tests[] = {
     cmocka_unit_test(test_override_opens_no_working_directory_file),
     cmocka_unit_test(test_lens_file_errors_start_with_the_field),
     cmocka_unit_test(test_pupil_bounds_lose_no_light),
+    cmocka_unit_test(test_pupil_table_exact),
+    cmocka_unit_test(test_front_disk_covers),
     cmocka_unit_test(test_packets_together_as_alone),
     cmocka_unit_test(test_point_image_where_the_lens_puts_it),
 };
