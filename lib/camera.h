@@ -172,6 +172,10 @@ typedef struct lr__camera_model {
      * lens): a thin lens at the eye that estimates the size of a light's
      * disc (light_trace.c's choice of lights, not a bound). */
     void (*thin_equiv)(const lr__cam *c, lr__lens_bound *b);
+    /* Whether the light side may run for this camera (its lens points
+     * cover every ray the camera can take); NULL: whenever lens_point
+     * and film are there. */
+    int (*light_ok)(const lr__cam *c);
 } lr__camera_model;
 
 /* The registry (camera.c): the model called `name`, or the one whose id

@@ -1000,6 +1000,16 @@ static void lens_thin_equiv(const lr__cam *c, lr__lens_bound *b)
     b->ws[0] = c->w;
 }
 
+/* The light side only where its disk holds every ray through the lens:
+ * a front slope bound under the former fixed 4 (a search that found one).
+ * Where it stays at 4 (fisheye-10, the Minolta fisheye, the 170-degree
+ * wide angle: test_front_disk_covers found rays steeper than that get
+ * through), light paths would miss light that camera rays see. */
+static int lens_light_ok(const lr__cam *c)
+{
+    return lr__lens_front_slope(c->lens.L) < 4.0;
+}
+
 const lr__camera_model lr__camera_lens = {
     .name = "lens",
     .id = LR_CAMERA_LENS,
@@ -1016,4 +1026,5 @@ const lr__camera_model lr__camera_lens = {
     .lens_point = lens_point,
     .film = lens_film,
     .thin_equiv = lens_thin_equiv,
+    .light_ok = lens_light_ok,
 };

@@ -368,7 +368,8 @@ lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
     *out = NULL;
     const lr__camera_model *m = c->model;
     if (!set->light || m->lens_point == NULL || m->film == NULL ||
-        c->chroma_active || (m->bound == NULL && m->thin_equiv == NULL))
+        c->chroma_active || (m->bound == NULL && m->thin_equiv == NULL) ||
+        (m->light_ok != NULL && !m->light_ok(c)))
         return LR_OK;
     lr__lens_bound lb = {0.0, 1, {0.0, 0.0, 0.0}};
     if (m->bound == NULL)

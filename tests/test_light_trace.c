@@ -565,7 +565,41 @@ static void test_glints_deterministic_and_planned(void **state)
     lr_image_free(c);
 }
 
+/* A lens whose front disk cannot be bounded below the slope of 4 that
+ * the light side once assumed (test_lens_camera.c's
+ * test_front_disk_covers finds rays through these three lenses steeper
+ * than that) keeps its lights with the camera: light paths drawn from
+ * that disk would miss light the camera sees.  The double Gauss, bounded,
+ * keeps its light side. */
+static void test_unbounded_lenses_keep_lights(void **state)
+{
+    (void)state;
+    const char *lenses[] = {"double-gauss-50", "fisheye-10",
+                            "fisheye-minolta-us4256373-16mm-f2.8",
+                            "wide-170deg-laikin-5mm-f1.8"};
+    for (int i = 0; i < 4; i++) {
+        char scene[1024];
+        snprintf(scene, sizeof scene,
+                 "{\"render\": {\"width\": 32, \"height\": 24, \"spp\": 4},"
+                 " \"camera\": {\"model\": \"lens\", \"lens\": \"%s\","
+                 "  \"position\": [0, 0, 0], \"look_at\": [0, 0, -1],"
+                 "  \"focus_distance\": 0.6},"
+                 " \"materials\": {\"l\": {\"emission\": 500}},"
+                 " \"objects\": [{\"type\": \"sphere\", \"center\": [0.5, 0.3, -40],"
+                 "   \"radius\": 0.05, \"material\": \"l\"}]}",
+                 lenses[i]);
+        uint64_t n = lights_traced(scene, NULL, 0);
+        print_message("%s: %llu lights from the light side\n", lenses[i],
+                      (unsigned long long)n);
+        if (i == 0)
+            assert_int_equal(n, 1);
+        else
+            assert_int_equal(n, 0);
+    }
+}
+
 static const struct CMUnitTest light_tests[] = {
+    cmocka_unit_test(test_unbounded_lenses_keep_lights),
     cmocka_unit_test(test_glints_agree_with_camera),
     cmocka_unit_test(test_glints_deterministic_and_planned),
     cmocka_unit_test(test_mesh_lights_closed_form),
