@@ -82,7 +82,7 @@ def main():
     gap = np.full((ref.shape[0], 4, 3), 255, np.uint8)
     strip = []
     for i, p in enumerate(panels):
-        strip += [srgb8(p, 4.0)] + ([gap] if i < 2 else [])
+        strip += [srgb8(p, 4.0 if name == "night" else 0.7)] + ([gap] if i < 2 else [])
     write_png(os.path.join(out, "bokeh-%s.png" % name), np.concatenate(strip, 1))
     print("bokeh-%s.png: camera %d spp (%.2f CPU s, relMSE %.2e), defaults %d spp "
           "(%.2f CPU s, relMSE %.2e), reference"

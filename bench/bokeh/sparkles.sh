@@ -3,7 +3,8 @@
 # scenes/sparkles.json, six small lights above the frame seen in a rough
 # metal plane (GGX alpha 0.05) far behind the focus, rendered at 160 x 100
 # and timed to relMSE 1e-3 (run.py) with the defaults, camera paths only,
-# and camera paths with every sample traced.
+# and camera paths with every sample traced; Mitsuba 3's `path` and
+# `ptracer` too with `--only mitsuba-path,mitsuba-ptracer` (run.py's).
 #
 # There is no closed form for a glint, so the reference is lensray's
 # defaults with plan and adaptive sampling off at REF_SPP samples (cached
@@ -26,6 +27,7 @@ mkdir -p "$WORK"
 . bench/mitsuba_env.sh
 mitsuba_setup "$OUT/venv" "$OUT/pip.log"
 [ "$mitsuba_ok" = 1 ] || { echo "sparkles: numpy (with Mitsuba) is not available"; exit 1; }
+mitsuba_llvm
 PY=$OUT/venv/bin/python
 key=$(cat "$SCENE" "$BUILD/lensray" | sha256sum | cut -c1-16)
 ref=$WORK/ref-$key-$REF_SPP-7919
@@ -48,7 +50,10 @@ fi
 # The "discs" run.py reports: the frame's quarters.
 printf '%s\n' '[{"box": [0, 80, 0, 50]}, {"box": [80, 160, 0, 50]},' \
     '{"box": [0, 80, 50, 100]}, {"box": [80, 160, 50, 100]}]' > "$WORK/boxes.json"
-exec "$PY" bench/bokeh/run.py --lensray "$BUILD/lensray" --scene "$SCENE" \
+# The scene at the bench's size, for lensray and Mitsuba alike.
+"$PY" -c 'import json, sys
+sc = json.load(open(sys.argv[1])); sc["render"].update(width=160, height=100)
+json.dump(sc, open(sys.argv[2], "w"))' "$SCENE" "$WORK/scene.json" || exit 1
+exec "$PY" bench/bokeh/run.py --lensray "$BUILD/lensray" --scene "$WORK/scene.json" \
     --ref "$ref.npy" --discs "$WORK/boxes.json" --work "$WORK" \
-    --only lensray-default,lensray-camera,lensray-full \
-    --lensray-set render.width=160 --lensray-set render.height=100 "$@"
+    --only lensray-default,lensray-camera,lensray-full "$@"
