@@ -117,23 +117,47 @@ static double rnd(uint64_t *s)
     return (double)(splitmix(s) >> 11) * (1.0 / 9007199254740992.0);
 }
 
-typedef struct { double x, y, z; } v3;
-static v3 V(double x, double y, double z) { return (v3){x, y, z}; }
-static v3 vf(const float *a) { return V(a[0], a[1], a[2]); }
-static v3 add(v3 a, v3 b) { return V(a.x + b.x, a.y + b.y, a.z + b.z); }
-static v3 sub(v3 a, v3 b) { return V(a.x - b.x, a.y - b.y, a.z - b.z); }
-static v3 mul(v3 a, double s) { return V(a.x * s, a.y * s, a.z * s); }
-static double dot(v3 a, v3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+typedef struct {
+    double x, y, z;
+} v3;
+static v3 V(double x, double y, double z)
+{
+    return (v3){x, y, z};
+}
+static v3 vf(const float *a)
+{
+    return V(a[0], a[1], a[2]);
+}
+static v3 add(v3 a, v3 b)
+{
+    return V(a.x + b.x, a.y + b.y, a.z + b.z);
+}
+static v3 sub(v3 a, v3 b)
+{
+    return V(a.x - b.x, a.y - b.y, a.z - b.z);
+}
+static v3 mul(v3 a, double s)
+{
+    return V(a.x * s, a.y * s, a.z * s);
+}
+static double dot(v3 a, v3 b)
+{
+    return a.x * b.x + a.y * b.y + a.z * b.z;
+}
 static v3 cross(v3 a, v3 b)
 {
-    return V(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+    return V(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z,
+             a.x * b.y - a.y * b.x);
 }
-static v3 norm(v3 a) { return mul(a, 1.0 / sqrt(dot(a, a))); }
+static v3 norm(v3 a)
+{
+    return mul(a, 1.0 / sqrt(dot(a, a)));
+}
 
 /* ---- OBJ: v and f lines only -------------------------------------------- */
 typedef struct {
-    float *v;      /* xyz */
-    unsigned *f;   /* triangle corners, 0-based */
+    float *v;    /* xyz */
+    unsigned *f; /* triangle corners, 0-based */
     size_t nv, nf, capv, capf;
 } mesh;
 
@@ -151,7 +175,8 @@ static void load_obj(const char *path, mesh *m)
             if (m->nv == m->capv) {
                 m->capv = m->capv ? 2 * m->capv : 4096;
                 m->v = realloc(m->v, 3 * m->capv * sizeof(float));
-                if (!m->v) die("out of memory");
+                if (!m->v)
+                    die("out of memory");
             }
             float *p = m->v + 3 * m->nv++;
             if (sscanf(line + 2, "%f %f %f", &p[0], &p[1], &p[2]) != 3)
@@ -176,7 +201,8 @@ static void load_obj(const char *path, mesh *m)
                 if (m->nf == m->capf) {
                     m->capf = m->capf ? 2 * m->capf : 8192;
                     m->f = realloc(m->f, 3 * m->capf * sizeof(unsigned));
-                    if (!m->f) die("out of memory");
+                    if (!m->f)
+                        die("out of memory");
                 }
                 unsigned *t = m->f + 3 * m->nf++;
                 t[0] = (unsigned)idx[0];
@@ -196,9 +222,8 @@ static void add_triangles(RTCDevice dev, RTCScene scene, const float *v,
                           const float off[3])
 {
     RTCGeometry g = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
-    float *vb = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0,
-                                        RTC_FORMAT_FLOAT3, 3 * sizeof(float),
-                                        nv);
+    float *vb = rtcSetNewGeometryBuffer(
+        g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), nv);
     unsigned *ib = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0,
                                            RTC_FORMAT_UINT3,
                                            3 * sizeof(unsigned), nf);
@@ -259,7 +284,8 @@ static void gen_camera(raypk *pk, int W, int H, int spp)
                         s = (int)(q % (size_t)spp);
                     }
                     uint64_t st = ((uint64_t)py * (uint64_t)W + (uint64_t)px) *
-                                      (uint64_t)spp + (uint64_t)s;
+                                      (uint64_t)spp +
+                                  (uint64_t)s;
                     st = splitmix(&st);
                     double fx = px + rnd(&st), fy = py + rnd(&st);
                     double sx = (2.0 * fx / W - 1.0) * half_w;
@@ -268,7 +294,8 @@ static void gen_camera(raypk *pk, int W, int H, int spp)
                     /* uniform point on the disk of radius LENS_RADIUS */
                     double r = LENS_RADIUS * sqrt(rnd(&st));
                     double phi = 2.0 * M_PI * rnd(&st);
-                    v3 off = add(mul(right, r * cos(phi)), mul(up, r * sin(phi)));
+                    v3 off = add(mul(right, r * cos(phi)),
+                                 mul(up, r * sin(phi)));
                     double cos_t = dot(d, fwd);
                     /* through the point of the plane in focus on the chief ray */
                     v3 dir = norm(sub(d, mul(off, cos_t / FOCUS_DIST)));
@@ -424,19 +451,21 @@ static void read_hits(const job *j, hitpk *h)
             unsigned g;
             float t, nx, ny, nz;
             if (j->api == API_16) {
-                const struct RTCRayHit16 *r = (const struct RTCRayHit16 *)j->buf + p;
+                const struct RTCRayHit16 *r =
+                    (const struct RTCRayHit16 *)j->buf + p;
                 g = r->hit.geomID[l];
                 t = r->ray.tfar[l];
                 nx = r->hit.Ng_x[l], ny = r->hit.Ng_y[l], nz = r->hit.Ng_z[l];
             } else if (j->api == API_8) {
-                const struct RTCRayHit8 *r =
-                    (const struct RTCRayHit8 *)j->buf + 2 * p + (l >> 3);
+                const struct RTCRayHit8 *r = (const struct RTCRayHit8 *)j->buf +
+                                             2 * p + (l >> 3);
                 int k = l & 7;
                 g = r->hit.geomID[k];
                 t = r->ray.tfar[k];
                 nx = r->hit.Ng_x[k], ny = r->hit.Ng_y[k], nz = r->hit.Ng_z[k];
             } else {
-                const struct RTCRayHit *r = (const struct RTCRayHit *)j->buf + 16 * p + l;
+                const struct RTCRayHit *r = (const struct RTCRayHit *)j->buf +
+                                            16 * p + l;
                 g = r->hit.geomID;
                 t = r->ray.tfar;
                 nx = r->hit.Ng_x, ny = r->hit.Ng_y, nz = r->hit.Ng_z;
@@ -533,7 +562,8 @@ static size_t count_occluded(const job *j, size_t nshadow)
         const struct RTCRay8 *r = j->buf;
         for (size_t p = 0; p < j->np; p++)
             for (int l = 0; l < 16; l++)
-                n += j->sh[p].valid[l] && r[2 * p + (l >> 3)].tfar[l & 7] < 0.0f;
+                n += j->sh[p].valid[l] &&
+                     r[2 * p + (l >> 3)].tfar[l & 7] < 0.0f;
     } else {
         const struct RTCRay *r = j->buf;
         for (size_t i = 0; i < nshadow; i++)
@@ -553,8 +583,8 @@ static size_t job_items(const job *j, size_t nshadow)
 
 typedef struct {
     job *j;
-    size_t items;  /* see job_items */
-    size_t nrays;  /* for the 1M/1 shadow pass: the compacted count */
+    size_t items; /* see job_items */
+    size_t nrays; /* for the 1M/1 shadow pass: the compacted count */
 } worker_arg;
 
 static void *worker(void *arg)
@@ -566,7 +596,7 @@ static void *worker(void *arg)
     rtcInitIntersectContext(&ctx);
     ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
     static _Alignas(64) const int all16[16] = {-1, -1, -1, -1, -1, -1, -1, -1,
-                                  -1, -1, -1, -1, -1, -1, -1, -1};
+                                               -1, -1, -1, -1, -1, -1, -1, -1};
     for (;;) {
         size_t c = __atomic_fetch_add(&j->next, CHUNK, __ATOMIC_RELAXED);
         if (c >= w->items)
@@ -585,12 +615,14 @@ static void *worker(void *arg)
                                   (struct RTCRayHit8 *)j->buf + p);
                 break;
             case API_1M:
-                rtcIntersect1M(j->scene, &ctx, (struct RTCRayHit *)j->buf + 16 * c,
-                               (unsigned)(16 * (e - c)), sizeof(struct RTCRayHit));
+                rtcIntersect1M(
+                    j->scene, &ctx, (struct RTCRayHit *)j->buf + 16 * c,
+                    (unsigned)(16 * (e - c)), sizeof(struct RTCRayHit));
                 break;
             case API_1:
                 for (size_t i = 16 * c; i < 16 * e; i++)
-                    rtcIntersect1(j->scene, &ctx, (struct RTCRayHit *)j->buf + i);
+                    rtcIntersect1(j->scene, &ctx,
+                                  (struct RTCRayHit *)j->buf + i);
                 break;
             default:
                 break;
@@ -604,8 +636,8 @@ static void *worker(void *arg)
                 break;
             case API_8:
                 for (size_t p = 2 * c; p < 2 * e; p++)
-                    rtcOccluded8(j->sh[p / 2].valid + 8 * (p & 1), j->scene, &ctx,
-                                 (struct RTCRay8 *)j->buf + p);
+                    rtcOccluded8(j->sh[p / 2].valid + 8 * (p & 1), j->scene,
+                                 &ctx, (struct RTCRay8 *)j->buf + p);
                 break;
             case API_1M: {
                 size_t b = 16 * c, n = 16 * e < w->nrays ? 16 * e : w->nrays;
@@ -654,8 +686,8 @@ static int int_arg(const char *name, const char *v)
     errno = 0;
     long n = strtol(v, &end, 10);
     if (errno != 0 || end == v || *end != '\0' || n < INT_MIN || n > INT_MAX) {
-        fprintf(stderr, "ceiling: %s takes a whole number, got \"%s\"\n",
-                name, v);
+        fprintf(stderr, "ceiling: %s takes a whole number, got \"%s\"\n", name,
+                v);
         exit(2);
     }
     return (int)n;
@@ -670,51 +702,68 @@ int main(int argc, char **argv)
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         const char *v = i + 1 < argc ? argv[i + 1] : NULL;
-        if (!strcmp(a, "--robust")) { robust = 1; continue; }
+        if (!strcmp(a, "--robust")) {
+            robust = 1;
+            continue;
+        }
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
             puts("usage: ceiling [--obj F] [--width W] [--height H] [--spp N] "
                  "[--threads N] [--repeat N] [--api all|16|8|1M|1] "
                  "[--order all|block|pixel] [--robust]");
             return 0;
         }
-        if (!v) die("usage: ceiling [--obj F] [--width W] [--height H] [--spp N] "
-                    "[--threads N] [--repeat N] [--api all|16|8|1M|1] "
-                    "[--order all|block|pixel] [--robust]");
-        if (!strcmp(a, "--obj")) obj = v;
-        else if (!strcmp(a, "--width")) W = int_arg(a, v);
-        else if (!strcmp(a, "--height")) H = int_arg(a, v);
-        else if (!strcmp(a, "--spp")) spp = int_arg(a, v);
-        else if (!strcmp(a, "--threads")) maxthreads = int_arg(a, v);
-        else if (!strcmp(a, "--repeat")) repeat = int_arg(a, v);
+        if (!v)
+            die("usage: ceiling [--obj F] [--width W] [--height H] [--spp N] "
+                "[--threads N] [--repeat N] [--api all|16|8|1M|1] "
+                "[--order all|block|pixel] [--robust]");
+        if (!strcmp(a, "--obj"))
+            obj = v;
+        else if (!strcmp(a, "--width"))
+            W = int_arg(a, v);
+        else if (!strcmp(a, "--height"))
+            H = int_arg(a, v);
+        else if (!strcmp(a, "--spp"))
+            spp = int_arg(a, v);
+        else if (!strcmp(a, "--threads"))
+            maxthreads = int_arg(a, v);
+        else if (!strcmp(a, "--repeat"))
+            repeat = int_arg(a, v);
         else if (!strcmp(a, "--order")) {
             order_only = !strcmp(v, "block") ? 0 : !strcmp(v, "pixel") ? 1 : -1;
-            if (order_only < 0 && strcmp(v, "all")) die("--order: all, block or pixel");
-        }
-        else if (!strcmp(a, "--api")) {
+            if (order_only < 0 && strcmp(v, "all"))
+                die("--order: all, block or pixel");
+        } else if (!strcmp(a, "--api")) {
             api_only = -1;
             for (int k = 0; k < API_COUNT; k++)
-                if (!strcmp(v, api_short[k])) api_only = k;
-            if (api_only < 0 && strcmp(v, "all")) die("--api: all, 16, 8, 1M or 1");
-        } else die("unknown option");
+                if (!strcmp(v, api_short[k]))
+                    api_only = k;
+            if (api_only < 0 && strcmp(v, "all"))
+                die("--api: all, 16, 8, 1M or 1");
+        } else
+            die("unknown option");
         i++;
     }
     if (W % 4 || H % 4 || W <= 0 || H <= 0 || spp <= 0 || repeat <= 0 ||
         maxthreads <= 0 || maxthreads > 256)
-        die("width and height must be multiples of 4; spp, repeat, threads > 0");
+        die("width and height must be multiples of 4; spp, repeat, threads > "
+            "0");
     set_ftz_daz();
 
     mesh m;
     load_obj(obj, &m);
     RTCDevice dev = rtcNewDevice(NULL);
-    if (!dev) die("rtcNewDevice failed");
+    if (!dev)
+        die("rtcNewDevice failed");
     RTCScene scene = rtcNewScene(dev);
     rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_HIGH);
-    rtcSetSceneFlags(scene, robust ? RTC_SCENE_FLAG_ROBUST : RTC_SCENE_FLAG_NONE);
+    rtcSetSceneFlags(scene,
+                     robust ? RTC_SCENE_FLAG_ROBUST : RTC_SCENE_FLAG_NONE);
     for (int c = 0; c < 3; c++)
         add_triangles(dev, scene, m.v, m.nv, m.f, m.nf, BUNNY_OFFSETS[c]);
     const float G = GROUND_HALF;
     const float ground_v[12] = {-G, 0, -G, -G, 0, G, G, 0, G, G, 0, -G};
-    const unsigned ground_f[6] = {0, 1, 2, 0, 2, 3}; /* counter-clockwise from +y */
+    const unsigned ground_f[6] = {0, 1, 2,
+                                  0, 2, 3}; /* counter-clockwise from +y */
     const float zero[3] = {0, 0, 0};
     add_triangles(dev, scene, ground_v, 4, ground_f, 2, zero);
     double tb = now();
@@ -724,16 +773,24 @@ int main(int argc, char **argv)
         die("Embree scene build failed");
 
     size_t np = (size_t)W * H / 16 * spp, nrays = np * 16;
-    printf("ceiling: Embree %ld.%ld.%ld (native ray16 %s, ray8 %s, streams %s), "
-           "%zu triangles, build %.0f ms (quality high%s)\n",
-           (long)rtcGetDeviceProperty(dev, RTC_DEVICE_PROPERTY_VERSION_MAJOR),
-           (long)rtcGetDeviceProperty(dev, RTC_DEVICE_PROPERTY_VERSION_MINOR),
-           (long)rtcGetDeviceProperty(dev, RTC_DEVICE_PROPERTY_VERSION_PATCH),
-           rtcGetDeviceProperty(dev, RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED) ? "yes" : "no",
-           rtcGetDeviceProperty(dev, RTC_DEVICE_PROPERTY_NATIVE_RAY8_SUPPORTED) ? "yes" : "no",
-           rtcGetDeviceProperty(dev, RTC_DEVICE_PROPERTY_RAY_STREAM_SUPPORTED) ? "yes" : "no",
-           3 * m.nf + 2, tb * 1e3, robust ? ", robust" : "");
-    printf("ceiling: %d x %d x %d spp = %zu camera rays (thin lens r=%.2f, focus %.0f), "
+    printf(
+        "ceiling: Embree %ld.%ld.%ld (native ray16 %s, ray8 %s, streams %s), "
+        "%zu triangles, build %.0f ms (quality high%s)\n",
+        (long)rtcGetDeviceProperty(dev, RTC_DEVICE_PROPERTY_VERSION_MAJOR),
+        (long)rtcGetDeviceProperty(dev, RTC_DEVICE_PROPERTY_VERSION_MINOR),
+        (long)rtcGetDeviceProperty(dev, RTC_DEVICE_PROPERTY_VERSION_PATCH),
+        rtcGetDeviceProperty(dev, RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED)
+            ? "yes"
+            : "no",
+        rtcGetDeviceProperty(dev, RTC_DEVICE_PROPERTY_NATIVE_RAY8_SUPPORTED)
+            ? "yes"
+            : "no",
+        rtcGetDeviceProperty(dev, RTC_DEVICE_PROPERTY_RAY_STREAM_SUPPORTED)
+            ? "yes"
+            : "no",
+        3 * m.nf + 2, tb * 1e3, robust ? ", robust" : "");
+    printf("ceiling: %d x %d x %d spp = %zu camera rays (thin lens r=%.2f, "
+           "focus %.0f), "
            "best of %d, threads 1 and %d\n",
            W, H, spp, nrays, LENS_RADIUS, FOCUS_DIST, repeat, maxthreads);
     fflush(stdout);
@@ -752,7 +809,8 @@ int main(int argc, char **argv)
      * fastest shadow pass over every API and packet order. */
     double best_tc[2] = {1e30, 1e30}, best_ts[2] = {1e30, 1e30};
     double best_cc[2] = {1e30, 1e30}, best_cs[2] = {1e30, 1e30}; /* CPU time */
-    int best_cam[2] = {0, 0}, best_shd[2] = {0, 0}; /* order * API_COUNT + api */
+    int best_cam[2] = {0, 0},
+        best_shd[2] = {0, 0}; /* order * API_COUNT + api */
     size_t ref_occluded = (size_t)-1, ref_shadow = 0;
     printf("%-22s %7s %11s %11s %11s %11s %11s %11s\n", "api, packet order",
            "threads", "cam ns/ray", "cam Mray/s", "shd ns/ray", "shd Mray/s",
@@ -768,8 +826,13 @@ int main(int argc, char **argv)
             if (api_only >= 0 && a != api_only)
                 continue;
             char name[40];
-            snprintf(name, sizeof name, "%s/%s", api_name[a], order_name[order]);
-            job j = {.scene = scene, .api = (enum api)a, .np = np, .buf = buf, .sh = sh};
+            snprintf(name, sizeof name, "%s/%s", api_name[a],
+                     order_name[order]);
+            job j = {.scene = scene,
+                     .api = (enum api)a,
+                     .np = np,
+                     .buf = buf,
+                     .sh = sh};
             for (int ti = 0; ti < ntc; ti++) {
                 j.threads = tcounts[ti];
                 double tc = 1e30, ts = 1e30, cc = 1e30, cs = 1e30, c;
@@ -784,27 +847,35 @@ int main(int argc, char **argv)
                     j.shadow = 0;
                     fill_camera(&j, cam);
                     double t = run_threads(&j, np, nrays, &c);
-                    if (t < tc) tc = t;
-                    if (c < cc) cc = c;
+                    if (t < tc)
+                        tc = t;
+                    if (c < cc)
+                        cc = c;
                     j.shadow = 1;
                     size_t n = fill_shadow(&j, sh);
                     t = run_threads(&j, job_items(&j, n), n, &c);
-                    if (t < ts) ts = t;
-                    if (c < cs) cs = c;
+                    if (t < ts)
+                        ts = t;
+                    if (c < cs)
+                        cs = c;
                     if (r == 0)
                         nocc = count_occluded(&j, n);
                 }
                 if (ref_occluded == (size_t)-1) {
                     ref_occluded = nocc;
                     ref_shadow = nshadow;
-                    printf("ceiling: %zu of %zu camera rays hit (%.1f%%), %zu shadow "
+                    printf("ceiling: %zu of %zu camera rays hit (%.1f%%), %zu "
+                           "shadow "
                            "rays, %zu of them occluded\n",
                            nhit, nrays, 100.0 * nhit / nrays, nshadow, nocc);
-                } else if (labs((long)nocc - (long)ref_occluded) > (long)(ref_occluded / 100 + 10) ||
-                           labs((long)nshadow - (long)ref_shadow) > (long)(ref_shadow / 100 + 10)) {
-                    printf("ceiling: warning: %s finds %zu occluded of %zu shadow rays, "
-                           "the first pass found %zu of %zu\n", name, nocc, nshadow,
-                           ref_occluded, ref_shadow);
+                } else if (labs((long)nocc - (long)ref_occluded) >
+                               (long)(ref_occluded / 100 + 10) ||
+                           labs((long)nshadow - (long)ref_shadow) >
+                               (long)(ref_shadow / 100 + 10)) {
+                    printf("ceiling: warning: %s finds %zu occluded of %zu "
+                           "shadow rays, "
+                           "the first pass found %zu of %zu\n",
+                           name, nocc, nshadow, ref_occluded, ref_shadow);
                 }
                 int T = j.threads;
                 double cam_ns = tc * T / nrays * 1e9;
@@ -814,38 +885,47 @@ int main(int argc, char **argv)
                 printf("%-22s %7d %11.2f %11.1f %11.2f %11.1f %11.2f %11.1f\n",
                        name, T, cam_ns, nrays / tc / 1e6, shd_ns,
                        nshadow / ts / 1e6, smp_ns, msps);
-                printf("RESULT api=%s order=%s threads=%d camera_rays=%zu shadow_rays=%zu "
-                       "camera_s=%.6f shadow_s=%.6f camera_ns_per_ray_core=%.3f "
-                       "camera_mrays_s=%.3f shadow_ns_per_ray_core=%.3f "
-                       "shadow_mrays_s=%.3f sample_ns_core=%.3f msamples_s=%.3f "
-                       "camera_cpu_s=%.6f shadow_cpu_s=%.6f sample_ns_cpu=%.3f "
-                       "msamples_s_cpu=%.3f\n",
-                       api_short[a], order_name[order], T, nrays, nshadow, tc, ts,
-                       cam_ns, nrays / tc / 1e6, shd_ns, nshadow / ts / 1e6, smp_ns, msps,
-                       cc, cs, (cc + cs) / nrays * 1e9, nrays / (cc + cs) * T / 1e6);
+                printf(
+                    "RESULT api=%s order=%s threads=%d camera_rays=%zu "
+                    "shadow_rays=%zu "
+                    "camera_s=%.6f shadow_s=%.6f camera_ns_per_ray_core=%.3f "
+                    "camera_mrays_s=%.3f shadow_ns_per_ray_core=%.3f "
+                    "shadow_mrays_s=%.3f sample_ns_core=%.3f msamples_s=%.3f "
+                    "camera_cpu_s=%.6f shadow_cpu_s=%.6f sample_ns_cpu=%.3f "
+                    "msamples_s_cpu=%.3f\n",
+                    api_short[a], order_name[order], T, nrays, nshadow, tc, ts,
+                    cam_ns, nrays / tc / 1e6, shd_ns, nshadow / ts / 1e6,
+                    smp_ns, msps, cc, cs, (cc + cs) / nrays * 1e9,
+                    nrays / (cc + cs) * T / 1e6);
                 fflush(stdout);
-                if (tc < best_tc[ti]) best_tc[ti] = tc, best_cam[ti] = order * API_COUNT + a;
-                if (ts < best_ts[ti]) best_ts[ti] = ts, best_shd[ti] = order * API_COUNT + a;
-                if (cc < best_cc[ti]) best_cc[ti] = cc;
-                if (cs < best_cs[ti]) best_cs[ti] = cs;
+                if (tc < best_tc[ti])
+                    best_tc[ti] = tc, best_cam[ti] = order * API_COUNT + a;
+                if (ts < best_ts[ti])
+                    best_ts[ti] = ts, best_shd[ti] = order * API_COUNT + a;
+                if (cc < best_cc[ti])
+                    best_cc[ti] = cc;
+                if (cs < best_cs[ti])
+                    best_cs[ti] = cs;
             }
         }
     }
     for (int ti = 0; ti < ntc; ti++) {
         int T = tcounts[ti];
         double tt = best_tc[ti] + best_ts[ti];
-        printf("CEILING threads=%d camera_api=%s/%s shadow_api=%s/%s "
-               "camera_ns_per_ray_core=%.3f camera_mrays_s=%.3f "
-               "shadow_ns_per_ray_core=%.3f sample_ns_core=%.3f msamples_s=%.3f "
-               "sample_ns_cpu=%.3f msamples_s_cpu=%.3f\n",
-               T, api_name[best_cam[ti] % API_COUNT], order_name[best_cam[ti] / API_COUNT],
-               occ_name[best_shd[ti] % API_COUNT], order_name[best_shd[ti] / API_COUNT],
-               best_tc[ti] * T / nrays * 1e9,
-               nrays / best_tc[ti] / 1e6,
-               ref_shadow ? best_ts[ti] * T / ref_shadow * 1e9 : 0.0,
-               tt * T / nrays * 1e9, nrays / tt / 1e6,
-               (best_cc[ti] + best_cs[ti]) / nrays * 1e9,
-               nrays / (best_cc[ti] + best_cs[ti]) * T / 1e6);
+        printf(
+            "CEILING threads=%d camera_api=%s/%s shadow_api=%s/%s "
+            "camera_ns_per_ray_core=%.3f camera_mrays_s=%.3f "
+            "shadow_ns_per_ray_core=%.3f sample_ns_core=%.3f msamples_s=%.3f "
+            "sample_ns_cpu=%.3f msamples_s_cpu=%.3f\n",
+            T, api_name[best_cam[ti] % API_COUNT],
+            order_name[best_cam[ti] / API_COUNT],
+            occ_name[best_shd[ti] % API_COUNT],
+            order_name[best_shd[ti] / API_COUNT], best_tc[ti] * T / nrays * 1e9,
+            nrays / best_tc[ti] / 1e6,
+            ref_shadow ? best_ts[ti] * T / ref_shadow * 1e9 : 0.0,
+            tt * T / nrays * 1e9, nrays / tt / 1e6,
+            (best_cc[ti] + best_cs[ti]) / nrays * 1e9,
+            nrays / (best_cc[ti] + best_cs[ti]) * T / 1e6);
     }
 
     free(buf);

@@ -32,8 +32,7 @@ const char *lr_fuzz_last_failure(void);
 int lr_fuzz_valid_utf8(const char *s);
 
 /* Records a broken promise (printf-style) and returns 1. */
-int lr_fuzz_report(const char *fmt, ...)
-    __attribute__((format(printf, 1, 2)));
+int lr_fuzz_report(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 
 /* Checks an lr_error after a failed call: a known status, a message, and
  * the field's path inside the message when there is one.  Returns 0 or
@@ -45,15 +44,15 @@ int lr_fuzz_check_error(const char *what, int status,
 #ifdef LR_FUZZ_LIBFUZZER
 #include <stdio.h>
 #include <stdlib.h>
-#define LR_FUZZ_MAIN(fn)                                                   \
-    int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);          \
-    int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)           \
-    {                                                                      \
-        if (fn(data, size) != 0) {                                         \
-            fprintf(stderr, "fuzz: %s\n", lr_fuzz_last_failure());         \
-            abort();                                                       \
-        }                                                                  \
-        return 0;                                                          \
+#define LR_FUZZ_MAIN(fn)                                           \
+    int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);  \
+    int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)   \
+    {                                                              \
+        if (fn(data, size) != 0) {                                 \
+            fprintf(stderr, "fuzz: %s\n", lr_fuzz_last_failure()); \
+            abort();                                               \
+        }                                                          \
+        return 0;                                                  \
     }
 #else
 #define LR_FUZZ_MAIN(fn)

@@ -12,7 +12,10 @@
 
 static _Thread_local char last_failure[2048];
 
-const char *lr_fuzz_last_failure(void) { return last_failure; }
+const char *lr_fuzz_last_failure(void)
+{
+    return last_failure;
+}
 
 int lr_fuzz_report(const char *fmt, ...)
 {

@@ -58,12 +58,11 @@ int lr_fuzz_gltf(const uint8_t *data, size_t size)
     lr_error err;
     memset(&err, 0, sizeof err);
     int rc = 0;
-    lr_status st = lr_scene_load_json(json, strlen(json), NULL, NULL, 0,
-                                      &scene, &err);
+    lr_status st = lr_scene_load_json(json, strlen(json), NULL, NULL, 0, &scene,
+                                      &err);
     if (st != LR_OK) {
         rc = lr_fuzz_check_error("gltf", st, &err);
-        if (rc == 0 && st != LR_ERR_NOMEM &&
-            strstr(err.message, path) == NULL)
+        if (rc == 0 && st != LR_ERR_NOMEM && strstr(err.message, path) == NULL)
             rc = lr_fuzz_report("gltf: the error does not name the file: %s",
                                 err.message);
         if (rc == 0 && scene != NULL)

@@ -35,8 +35,7 @@ static pthread_once_t once = PTHREAD_ONCE_INIT;
 
 static int known_http(int s)
 {
-    return s == 400 || s == 404 || s == 413 || s == 422 || s == 500 ||
-           s == 503;
+    return s == 400 || s == 404 || s == 413 || s == 422 || s == 500 || s == 503;
 }
 
 int lr_fuzz_job(const uint8_t *data, size_t size)
@@ -74,15 +73,13 @@ int lr_fuzz_job(const uint8_t *data, size_t size)
     else if (lr_camera_validate(&spec.cam, &le) != LR_OK)
         bad = lr_fuzz_report("job: invalid camera accepted: %s", le.message);
     else if (lr_render_settings_validate(&spec.rs, &le) != LR_OK)
-        bad = lr_fuzz_report("job: invalid settings accepted: %s",
-                             le.message);
+        bad = lr_fuzz_report("job: invalid settings accepted: %s", le.message);
     else if ((uint64_t)spec.width * (uint64_t)spec.height >
                  lrd_cfg.max_pixels ||
              spec.samples > lrd_cfg.max_samples || spec.width < 1 ||
              spec.height < 1)
-        bad = lr_fuzz_report("job: accepted %d x %d, %llu samples",
-                             spec.width, spec.height,
-                             (unsigned long long)spec.samples);
+        bad = lr_fuzz_report("job: accepted %d x %d, %llu samples", spec.width,
+                             spec.height, (unsigned long long)spec.samples);
     lrd_job_spec_clear(&spec);
     return bad;
 }

@@ -26,11 +26,10 @@ static int accepted(const char *what, const lr__rx *rx)
 {
     if (rx->n < 1 || rx->n > LR__RX_MAX_SURFACES || rx->stop < 0 ||
         rx->stop >= rx->n || !rx->s[rx->stop].stop)
-        return lr_fuzz_report("%s: accepted %d surfaces, stop %d", what,
-                              rx->n, rx->stop);
+        return lr_fuzz_report("%s: accepted %d surfaces, stop %d", what, rx->n,
+                              rx->stop);
     for (int i = 0; i < rx->n; i++)
-        if (!(rx->s[i].semi_aperture > 0) ||
-            !isfinite(rx->s[i].thickness))
+        if (!(rx->s[i].semi_aperture > 0) || !isfinite(rx->s[i].thickness))
             return lr_fuzz_report("%s: surface %d accepted with "
                                   "semi-aperture %g",
                                   what, i, rx->s[i].semi_aperture);

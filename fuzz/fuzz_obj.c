@@ -112,8 +112,8 @@ static int render_mesh(const char *path, const lr__mesh *m)
              c[0], c[1], c[2], path);
     lr_scene *scene = NULL;
     lr_error err;
-    lr_status st = lr_scene_load_json(json, strlen(json), NULL, NULL, 0,
-                                      &scene, &err);
+    lr_status st = lr_scene_load_json(json, strlen(json), NULL, NULL, 0, &scene,
+                                      &err);
     if (st != LR_OK) {
         /* The camera itself may be unusable for a mesh at the float
          * limit; anything else must be a clean error. */

@@ -55,7 +55,10 @@ static int names_outside_file(const uint8_t *data, size_t size)
     return bad;
 }
 
-static int min_int(int a, int b) { return a < b ? a : b; }
+static int min_int(int a, int b)
+{
+    return a < b ? a : b;
+}
 
 int lr_fuzz_scene(const uint8_t *data, size_t size)
 {
@@ -72,7 +75,8 @@ int lr_fuzz_scene(const uint8_t *data, size_t size)
                                   (int)st);
         if (st == LR_ERR_NOMEM)
             return lr_fuzz_report("scene: out of memory, though no "
-                                  "allocation failed: %s", err.message);
+                                  "allocation failed: %s",
+                                  err.message);
         return lr_fuzz_check_error("scene", st, &err);
     }
     if (scene == NULL)
@@ -85,10 +89,12 @@ int lr_fuzz_scene(const uint8_t *data, size_t size)
     int rc = 0;
     if (lr_camera_validate(&cam, &err) != LR_OK)
         rc = lr_fuzz_report("scene: accepted a camera that does not "
-                            "validate: %s", err.message);
+                            "validate: %s",
+                            err.message);
     else if (lr_render_settings_validate(&rs, &err) != LR_OK)
         rc = lr_fuzz_report("scene: accepted settings that do not "
-                            "validate: %s", err.message);
+                            "validate: %s",
+                            err.message);
     if (rc != 0) {
         lr_scene_free(scene);
         return rc;
@@ -111,8 +117,7 @@ int lr_fuzz_scene(const uint8_t *data, size_t size)
     st = lr_render(scene, &cam, &rs, &img, &stats, &err);
     if (st != LR_OK) {
         if (img != NULL)
-            rc = lr_fuzz_report("render: failed (%d) with an image",
-                                (int)st);
+            rc = lr_fuzz_report("render: failed (%d) with an image", (int)st);
         else
             rc = lr_fuzz_check_error("render", st, &err);
     } else {
@@ -131,8 +136,7 @@ int lr_fuzz_scene(const uint8_t *data, size_t size)
                                     (double)rgb[i]);
         for (int i = 0; rc == 0 && z != NULL && i < w * h; i++)
             if (!isfinite(z[i]) || z[i] < 0)
-                rc = lr_fuzz_report("render: depth %d is %g", i,
-                                    (double)z[i]);
+                rc = lr_fuzz_report("render: depth %d is %g", i, (double)z[i]);
         if (rc == 0 && (rs.want_depth != 0) != (z != NULL))
             rc = lr_fuzz_report("render: depth channel %s",
                                 z ? "unasked" : "missing");

@@ -29,7 +29,8 @@ int lr_fuzz_texture(const uint8_t *data, size_t size)
             return 1;
         if (strstr(err.message, name) == NULL)
             return lr_fuzz_report("texture: message \"%s\" does not name "
-                                  "the image", err.message);
+                                  "the image",
+                                  err.message);
         return 0;
     }
     int rc = 0;
@@ -42,10 +43,9 @@ int lr_fuzz_texture(const uint8_t *data, size_t size)
     for (size_t i = 0; rc == 0 && i < n; i++) {
         float v = t->rgba[i];
         if (!isfinite(v) || v < 0.0f || (!exr && v > 1.0f))
-            rc = lr_fuzz_report("texture: texel value %zu is %g", i,
-                                (double)v);
+            rc = lr_fuzz_report("texture: texel value %zu is %g", i, (double)v);
     }
-    static const double uv[][2] = {{0, 0},     {0.5, 0.5}, {1, 1},
+    static const double uv[][2] = {{0, 0},      {0.5, 0.5},  {1, 1},
                                    {-3.2, 7.9}, {1e9, -1e9}, {NAN, 0.3}};
     for (size_t k = 0; rc == 0 && k < sizeof uv / sizeof uv[0]; k++) {
         float c[4];

@@ -111,11 +111,11 @@ typedef enum lr_focal_model {
 } lr_focal_model;
 
 typedef enum lr_glass {
-    LR_GLASS_BK7 = 0,      /* Schott N-BK7 (Sellmeier) */
-    LR_GLASS_F2 = 1,       /* Schott F2 */
-    LR_GLASS_SF11 = 2,     /* Schott SF11 */
+    LR_GLASS_BK7 = 0,  /* Schott N-BK7 (Sellmeier) */
+    LR_GLASS_F2 = 1,   /* Schott F2 */
+    LR_GLASS_SF11 = 2, /* Schott SF11 */
     LR_GLASS_FUSED_SILICA = 3,
-    LR_GLASS_ABBE = 4      /* n_d and V_d, the glTF Abbe-number model */
+    LR_GLASS_ABBE = 4 /* n_d and V_d, the glTF Abbe-number model */
 } lr_glass;
 
 /* Axial chromatic aberration.  In rgb mode `ior` gives the red, green and
@@ -125,15 +125,15 @@ typedef enum lr_glass {
  * difference from the reference, to exaggerate the effect as the paper
  * does (1 = true glass, 0 = no aberration). */
 typedef struct lr_chromatic {
-    lr_chromatic_mode mode;  /* default LR_CHROMATIC_OFF */
+    lr_chromatic_mode mode;     /* default LR_CHROMATIC_OFF */
     lr_focal_model focal_model; /* default LR_FOCAL_PAPER */
-    double ior[3];           /* default 1.50917, 1.51534, 1.51690 */
-    lr_glass glass;          /* default LR_GLASS_BK7 */
-    double abbe_nd, abbe_vd; /* for LR_GLASS_ABBE; default 1.5168, 64.17 */
-    double amplify;          /* default 1 */
-    int wavelengths;         /* spectral mode: wavelengths per camera
+    double ior[3];              /* default 1.50917, 1.51534, 1.51690 */
+    lr_glass glass;             /* default LR_GLASS_BK7 */
+    double abbe_nd, abbe_vd;    /* for LR_GLASS_ABBE; default 1.5168, 64.17 */
+    double amplify;             /* default 1 */
+    int wavelengths;            /* spectral mode: wavelengths per camera
                                 sample (besides the reference ray); 8 */
-    int splat;               /* spectral mode through the thin lens: 1
+    int splat;                  /* spectral mode through the thin lens: 1
                                 (default) credits each traced ray to every
                                 pixel its colours' focus shifts it into,
                                 with the samples' film offsets and lens
@@ -156,14 +156,14 @@ typedef struct lr_camera {
      * perpendicular to the view axis at `focus_distance`.  The aperture is
      * `aperture_radius` in scene units, or, when f_number > 0, the radius
      * focal_length_mm / 1000 / (2 f_number): scene units are metres then. */
-    double focus_distance;   /* > 0; default 10 */
-    double aperture_radius;  /* >= 0; default 0 (a pinhole) */
-    double f_number;         /* 0 = use aperture_radius (default) */
-    double focal_length_mm;  /* lens focal length; 0 = unknown (default) */
+    double focus_distance;  /* > 0; default 10 */
+    double aperture_radius; /* >= 0; default 0 (a pinhole) */
+    double f_number;        /* 0 = use aperture_radius (default) */
+    double focal_length_mm; /* lens focal length; 0 = unknown (default) */
     lr_aperture_shape aperture_shape; /* default LR_APERTURE_DISK */
-    int aperture_blades;     /* polygon sides, 3..64; default 6 */
-    double aperture_rotation;/* degrees, counter-clockwise; default 0 */
-    double aperture_ratio;   /* width / height, anamorphic; default 1 */
+    int aperture_blades;              /* polygon sides, 3..64; default 6 */
+    double aperture_rotation; /* degrees, counter-clockwise; default 0 */
+    double aperture_ratio;    /* width / height, anamorphic; default 1 */
     /* Autofocus: when focus_on[0] >= 0, the first hit of the pinhole ray
      * through pixel (focus_on[0], focus_on[1]) sets the focus (the thin
      * lens's focus_distance, the bracket's focal_length).  Default -1. */
@@ -252,9 +252,9 @@ typedef struct lr_render_settings {
     /* Bounces after the first hit: mirror/glass rays (whitted), any
      * scattering (path; Mitsuba's max_depth is this + 2); default 8 */
     int max_depth;
-    int threads;             /* 0 = all cores (default) */
-    int tile_size;           /* pixels per tile side; default 32 */
-    int want_depth;          /* also produce a Z channel; default 0 */
+    int threads;    /* 0 = all cores (default) */
+    int tile_size;  /* pixels per tile side; default 32 */
+    int want_depth; /* also produce a Z channel; default 0 */
     /* Crop [x0, y0, x1, y1): render only these pixels of the full
      * width x height frame; the image is (x1-x0) x (y1-y0) and its pixels
      * are bit-identical to the same pixels of the full render.  All zero
@@ -292,7 +292,7 @@ typedef struct lr_render_settings {
     double adaptive_threshold; /* default 0: 3 / spp */
     int adaptive_min_spp;      /* default 0: max(16, sqrt(spp)) (capped at
                                   spp) */
-    lr_progress_fn progress; /* optional; NULL by default */
+    lr_progress_fn progress;   /* optional; NULL by default */
     void *progress_user;
     /* Optional cancellation flag, polled (with an atomic load) between
      * tiles: when it becomes non-zero the render stops and returns
@@ -313,7 +313,7 @@ LR_API void lr_render_settings_default(lr_render_settings *s);
 
 /* Checks settings; LR_ERR_INVALID names the field ("render.spp"). */
 LR_API lr_status lr_render_settings_validate(const lr_render_settings *s,
-                                      lr_error *err);
+                                             lr_error *err);
 
 /* ------------------------------------------------------------------------
  * Camera and settings from JSON
@@ -347,17 +347,19 @@ typedef struct lr_scene lr_scene;
  * On success *out owns a new scene: free it with lr_scene_free.
  * Errors: LR_ERR_IO (file), LR_ERR_INVALID (JSON, value, OBJ; the path
  * names the field), LR_ERR_NOMEM, LR_ERR_EMBREE. */
-LR_API lr_status lr_scene_load_file(const char *path, const char *const *overrides,
-                             size_t n_overrides, lr_scene **out,
-                             lr_error *err);
+LR_API lr_status lr_scene_load_file(const char *path,
+                                    const char *const *overrides,
+                                    size_t n_overrides, lr_scene **out,
+                                    lr_error *err);
 
 /* The same from JSON text of `len` bytes (need not be NUL-terminated).
  * `base_dir` resolves relative mesh paths; NULL means the current
  * directory.  The text is not referenced after the call. */
 LR_API lr_status lr_scene_load_json(const char *json, size_t len,
-                             const char *base_dir,
-                             const char *const *overrides, size_t n_overrides,
-                             lr_scene **out, lr_error *err);
+                                    const char *base_dir,
+                                    const char *const *overrides,
+                                    size_t n_overrides, lr_scene **out,
+                                    lr_error *err);
 
 /* The camera and render settings of the scene file at `path` with the
  * overrides, as lr_scene_load_file then lr_scene_camera and
@@ -372,8 +374,7 @@ LR_API lr_status lr_scene_load_json(const char *json, size_t len,
 LR_API lr_status lr_scene_read_settings(const char *path,
                                         const char *const *overrides,
                                         size_t n_overrides, lr_camera *cam,
-                                        lr_render_settings *rs,
-                                        lr_error *err);
+                                        lr_render_settings *rs, lr_error *err);
 
 /* For a scene `s` that lr_scene_load_file loaded from the glTF file
  * `path`: the scene JSON that renders the same, for a client that sends
@@ -437,22 +438,22 @@ LR_API char *lr_render_settings_json(const lr_render_settings *s);
 typedef struct lr_image lr_image;
 
 typedef struct lr_render_stats {
-    double seconds;        /* wall time of the render */
-    double cpu_seconds;    /* CPU time of the render's threads, together:
+    double seconds;       /* wall time of the render */
+    double cpu_seconds;   /* CPU time of the render's threads, together:
                               its work however busy the machine is */
-    uint64_t pixels;       /* pixels rendered */
-    uint64_t samples;      /* camera samples taken (pixels x spp without
+    uint64_t pixels;      /* pixels rendered */
+    uint64_t samples;     /* camera samples taken (pixels x spp without
                               adaptive sampling) */
-    uint64_t rays;         /* all rays traced: camera, shadow, secondary */
-    uint64_t nan_samples;  /* samples dropped for being NaN or Inf */
-    int threads;           /* threads used */
+    uint64_t rays;        /* all rays traced: camera, shadow, secondary */
+    uint64_t nan_samples; /* samples dropped for being NaN or Inf */
+    int threads;          /* threads used */
     /* The plan: what was simulated where, against the full simulation. */
-    uint64_t lens_pixels;    /* pixels whose samples sampled the lens */
-    uint64_t chroma_pixels;  /* pixels traced once per colour/wavelength */
-    uint64_t camera_rays;    /* camera rays traced (apron pilots included) */
+    uint64_t lens_pixels;      /* pixels whose samples sampled the lens */
+    uint64_t chroma_pixels;    /* pixels traced once per colour/wavelength */
+    uint64_t camera_rays;      /* camera rays traced (apron pilots included) */
     uint64_t full_camera_rays; /* what plan = 0, adaptive = 0 would trace */
-    uint64_t full_samples;   /* pixels x spp */
-    uint64_t lens_blocked;   /* camera rays a real lens stopped */
+    uint64_t full_samples;     /* pixels x spp */
+    uint64_t lens_blocked;     /* camera rays a real lens stopped */
     /* Light tracing through the lens (render.light): the lights the plan
      * sent to the light side, the light paths traced for them and those
      * that reached the film (inside the frame; a region keeps its own). */
@@ -466,8 +467,8 @@ typedef struct lr_render_stats {
  * filled (also when the render was cancelled).  The scene is only read.  Errors: LR_ERR_INVALID (camera or
  * settings; the path names the field), LR_ERR_NOMEM, LR_ERR_CANCELLED. */
 LR_API lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
-                    const lr_render_settings *settings, lr_image **out,
-                    lr_render_stats *stats, lr_error *err);
+                           const lr_render_settings *settings, lr_image **out,
+                           lr_render_stats *stats, lr_error *err);
 
 /* The statistics of a render as one line of JSON, the same wherever they
  * are shown (the CLI's --stats, the daemon's job status):
@@ -514,8 +515,7 @@ LR_API lr_status lr_camera_autofocus(const lr_scene *scene, lr_camera *cam,
 #define LR_PLAN_BLOCK 16
 #define LR_PLAN_LENS 1
 #define LR_PLAN_CHROMA 2
-LR_API lr_status lr_render_plan_map(const lr_scene *scene,
-                                    const lr_camera *cam,
+LR_API lr_status lr_render_plan_map(const lr_scene *scene, const lr_camera *cam,
                                     const lr_render_settings *settings,
                                     unsigned char **cells, int *columns,
                                     int *rows, lr_error *err);
@@ -539,7 +539,7 @@ LR_API const float *lr_image_depth(const lr_image *img);
 
 /* A new black image, for callers that build images themselves. */
 LR_API lr_status lr_image_create(int width, int height, int with_depth,
-                          lr_image **out, lr_error *err);
+                                 lr_image **out, lr_error *err);
 /* Writable pixel access for images made by lr_image_create. */
 LR_API float *lr_image_rgb_mut(lr_image *img);
 LR_API float *lr_image_depth_mut(lr_image *img);
@@ -559,16 +559,12 @@ LR_API void lr_image_free(lr_image *img);
  * image is unchanged), LR_ERR_NOMEM. */
 LR_API lr_status lr_image_set_frame(lr_image *img, int frame_w, int frame_h,
                                     int x0, int y0, const lr_camera *cam,
-                                    const lr_render_settings *s,
-                                    lr_error *err);
+                                    const lr_render_settings *s, lr_error *err);
 
 /* Image formats.  Their names, MIME types, extensions and what they can
  * hold come from one table in the library (lib/format.c): clients ask it
  * rather than keeping their own lists. */
-typedef enum lr_format {
-    LR_FORMAT_EXR = 0,
-    LR_FORMAT_PNG = 1
-} lr_format;
+typedef enum lr_format { LR_FORMAT_EXR = 0, LR_FORMAT_PNG = 1 } lr_format;
 
 /* The format's short name, as JSON and file names use it ("exr",
  * "png"); NULL for a value that is not a format, so that
@@ -609,9 +605,9 @@ LR_API lr_status lr_exr_compression_from_name(const char *name,
                                               lr_error *err);
 
 typedef struct lr_output_options {
-    int exr_half;      /* EXR: RGB as half instead of float32; default 0 */
-    int exr_depth;     /* EXR: also write Z (if the image has it); default 1 */
-    int png_16bit;     /* PNG: 16 bits per channel; default 0 (8) */
+    int exr_half;  /* EXR: RGB as half instead of float32; default 0 */
+    int exr_depth; /* EXR: also write Z (if the image has it); default 1 */
+    int png_16bit; /* PNG: 16 bits per channel; default 0 (8) */
     lr_exr_compression exr_compression; /* EXR; default LR_EXR_ZIP */
 } lr_output_options;
 
@@ -642,21 +638,21 @@ LR_API lr_status lr_output_apply_json(lr_output *o, const char *json,
 /* The format implied by a file name's extension (.exr, .png, any case);
  * LR_ERR_INVALID for anything else. */
 LR_API lr_status lr_format_from_path(const char *path, lr_format *fmt,
-                              lr_error *err);
+                                     lr_error *err);
 
 /* Encodes to memory.  On success *buf is a malloc'ed block of *len bytes
  * that the caller releases with lr_free.  PNG is sRGB-encoded (IEC
  * 61966-2-1 transfer curve) and clamped to [0, 1]; EXR is linear. */
 LR_API lr_status lr_image_encode(const lr_image *img, lr_format fmt,
-                          const lr_output_options *opts, void **buf,
-                          size_t *len, lr_error *err);
+                                 const lr_output_options *opts, void **buf,
+                                 size_t *len, lr_error *err);
 
 /* Encodes and writes to `path`, the format chosen by its extension.  The
  * file is written to a temporary name beside it and renamed into place,
  * so a failed write never leaves a partial image under `path`.
  * `opts` may be NULL for the defaults. */
 LR_API lr_status lr_image_write(const lr_image *img, const char *path,
-                         const lr_output_options *opts, lr_error *err);
+                                const lr_output_options *opts, lr_error *err);
 
 /* ------------------------------------------------------------------------
  * Jobs: a render request as one JSON document
@@ -749,9 +745,8 @@ LR_API lr_status lr_job_apply(const lr_job *job, lr_camera *cam,
  * names; a bad prescription, naming its file and line or field; a bad
  * argument), LR_ERR_IO, LR_ERR_LIMIT, LR_ERR_NOMEM; then *json is NULL. */
 LR_API lr_status lr_lens_describe(const char *lens, const char *base_dir,
-                                  const double *field_angles_deg,
-                                  int n_angles, double nm, char **json,
-                                  lr_error *err);
+                                  const double *field_angles_deg, int n_angles,
+                                  double nm, char **json, lr_error *err);
 
 /* The same for every shipped lens, as {"lenses": [{"id": NAME, ...},
  * ...]} sorted by name (NAME is the file's name without extension).  A

@@ -129,16 +129,15 @@ int lr__pixel_samples_needed(const lr__pixel *p, double threshold, int lo,
  * take the full simulation, as they must until the light side carries
  * these lights (issue 27); pixels whose rays cannot reach an emitter, and
  * every pixel of a scene without one, are judged as before. */
-int lr__rare_samples_needed(const lr__pixel *p, double unseen,
-                            double threshold, int lo, int hi)
+int lr__rare_samples_needed(const lr__pixel *p, double unseen, double threshold,
+                            int lo, int hi)
 {
     if (!(unseen > 0.0))
         return 0;
     double n = p->n > 0 ? (double)p->n : 1.0, need = 0.0;
     for (int c = 0; c < 3; c++) {
         double mean = p->sum[c] / n;
-        double k = 3.0 * (unseen - mean) /
-                   (threshold * sqrt(scale2(mean)));
+        double k = 3.0 * (unseen - mean) / (threshold * sqrt(scale2(mean)));
         if (k > need)
             need = k;
     }
@@ -171,8 +170,7 @@ void lr__pilot_view_make(const lr__pixel *p, lr__pilot_view *v)
  * square root of the larger scale, the largest of the three.  sqrt is
  * correctly rounded, so monotonic: the root of the larger scale is the
  * larger root, taken from the views without a square root per pair. */
-static inline double contrast(const lr__pilot_view *a,
-                              const lr__pilot_view *b)
+static inline double contrast(const lr__pilot_view *a, const lr__pilot_view *b)
 {
     double c = 0.0;
     for (int i = 0; i < 3; i++) {
@@ -273,8 +271,8 @@ void lr__adaptive_block(const lr_render_settings *set, const lr__plan *plan,
             lr__pixel_reset(&acc[i]);
             io->sample(io->ctx, x, y, 0, p, &acc[i]);
             need[i] = lr__pixel_samples_needed(&acc[i], thr, p, spp);
-            int r = lr__rare_samples_needed(&acc[i], lr__plan_unseen(plan, x, y),
-                                            thr, p, spp);
+            int r = lr__rare_samples_needed(
+                &acc[i], lr__plan_unseen(plan, x, y), thr, p, spp);
             if (r > need[i])
                 need[i] = r;
             lr__pilot_view_make(&acc[i], &view[i]);

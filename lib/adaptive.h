@@ -41,8 +41,8 @@ int lr__pixel_samples_needed(const lr__pixel *p, double threshold, int lo,
  * its samples may have missed errs by at most `threshold`, relative to
  * its scale: 0 when unseen is 0 (adaptive.c gives the rule of three this
  * rests on). */
-int lr__rare_samples_needed(const lr__pixel *p, double unseen,
-                            double threshold, int lo, int hi);
+int lr__rare_samples_needed(const lr__pixel *p, double unseen, double threshold,
+                            int lo, int hi);
 
 /* How many samples in all a pixel needs, at most `hi`, so that a sliver
  * of its area that all its samples missed, next to an edge of relative
@@ -82,8 +82,8 @@ typedef struct lr__pilot_view {
 #define LR__BLOCK_APRON ((LR__BLOCK_MAX + 2) * (LR__BLOCK_MAX + 2))
 
 typedef struct lr__block_scratch {
-    lr__pixel acc[LR__BLOCK_APRON];     /* every pixel's pilot */
-    int need[LR__BLOCK_APRON];          /* its need; 0: not sampled */
+    lr__pixel acc[LR__BLOCK_APRON]; /* every pixel's pilot */
+    int need[LR__BLOCK_APRON];      /* its need; 0: not sampled */
     lr__pilot_view view[LR__BLOCK_APRON];
 } lr__block_scratch;
 

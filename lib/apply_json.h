@@ -20,7 +20,6 @@ lr_status lr__render_apply_cjson(lr_render_settings *s, const cJSON *obj,
                                  lr_error *err);
 
 /* output.c: the "output" object; on error *o is unchanged. */
-lr_status lr__output_apply_cjson(lr_output *o, const cJSON *obj,
-                                 lr_error *err);
+lr_status lr__output_apply_cjson(lr_output *o, const cJSON *obj, lr_error *err);
 
 #endif

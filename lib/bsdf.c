@@ -98,8 +98,8 @@ lr__v3 lr__ggx_sample_vn(lr__v3 v, double alpha, const double u[2])
 static double vn_pdf(lr__v3 wo, lr__v3 m, double alpha)
 {
     double om = v3_dot(wo, m);
-    return lr__ggx_g1(wo.z, om, alpha) * fmax(om, 0.0) *
-           lr__ggx_d(m.z, alpha) / wo.z;
+    return lr__ggx_g1(wo.z, om, alpha) * fmax(om, 0.0) * lr__ggx_d(m.z, alpha) /
+           wo.z;
 }
 
 /* Fresnel of the dielectric for wo . m = c, eta = far / near. */
@@ -199,8 +199,7 @@ static lr__v3 eval_local(const lr__bsdf *f, lr__v3 wo, lr__v3 wi, double *pdf)
     return val;
 }
 
-lr__v3 lr__bsdf_eval(const lr__bsdf *f, lr__v3 wo_w, lr__v3 wi_w,
-                     double *pdf)
+lr__v3 lr__bsdf_eval(const lr__bsdf *f, lr__v3 wo_w, lr__v3 wi_w, double *pdf)
 {
     return eval_local(f, to_local(f, wo_w), to_local(f, wi_w), pdf);
 }
@@ -252,9 +251,9 @@ int lr__bsdf_sample(const lr__bsdf *f, lr__v3 wo_w, double u_lobe,
         double aa = -1.0 / (sign + r.z), bb = r.x * r.y * aa;
         lr__v3 t = v3(1.0 + sign * r.x * r.x * aa, sign * bb, -sign * r.x);
         lr__v3 b = v3(bb, sign + r.y * r.y * aa, -r.y);
-        wi = v3_add(v3_add(v3_scale(t, sa * cos(phi)),
-                           v3_scale(b, sa * sin(phi))),
-                    v3_scale(r, ca));
+        wi = v3_add(
+            v3_add(v3_scale(t, sa * cos(phi)), v3_scale(b, sa * sin(phi))),
+            v3_scale(r, ca));
         break;
     }
     case CONDUCTOR:

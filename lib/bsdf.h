@@ -22,8 +22,8 @@
 
 typedef struct lr__bsdf {
     const lr__material *m;
-    lr__v3 n, t, b;   /* shading frame: n = hit's ns, facing wo */
-    double eta;       /* n on the far side / n on wo's side */
+    lr__v3 n, t, b; /* shading frame: n = hit's ns, facing wo */
+    double eta;     /* n on the far side / n on wo's side */
     /* Lobe-pick probabilities: diffuse, Phong, mirror/conductor,
      * dielectric; summing to 1 (all 0 for a black material). */
     double p[4];
@@ -44,8 +44,8 @@ lr__v3 lr__bsdf_eval(const lr__bsdf *f, lr__v3 wo, lr__v3 wi, double *pdf);
  * was sampled; else *wi, *weight = f cos / pdf (the throughput factor),
  * *pdf (the mixture density; 0 for a delta lobe) and *delta. */
 int lr__bsdf_sample(const lr__bsdf *f, lr__v3 wo, double u_lobe,
-                    const double u[2], lr__v3 *wi, lr__v3 *weight,
-                    double *pdf, int *delta);
+                    const double u[2], lr__v3 *wi, lr__v3 *weight, double *pdf,
+                    int *delta);
 
 /* sin and cos of 2 pi u for u in [0, 1): the angle is brought to
  * [-pi/4, pi/4] around a multiple q of pi/2 and the Taylor series taken
@@ -56,12 +56,22 @@ static inline void lr__sincos_2pi(double u, double *sn, double *cs)
 {
     int k = (int)(4.0 * u + 0.5);
     double x = 2.0 * M_PI * (u - 0.25 * k), x2 = x * x;
-    double s = x * (1.0 + x2 * (-1.0 / 6 + x2 * (1.0 / 120 + x2 * (
-                   -1.0 / 5040 + x2 * (1.0 / 362880 + x2 * (
-                   -1.0 / 39916800 + x2 * (1.0 / 6227020800.0)))))));
-    double c = 1.0 + x2 * (-0.5 + x2 * (1.0 / 24 + x2 * (-1.0 / 720 + x2 * (
-                   1.0 / 40320 + x2 * (-1.0 / 3628800 + x2 * (
-                   1.0 / 479001600.0 - x2 / 87178291200.0))))));
+    double s = x *
+               (1.0 +
+                x2 * (-1.0 / 6 +
+                      x2 * (1.0 / 120 +
+                            x2 * (-1.0 / 5040 +
+                                  x2 * (1.0 / 362880 +
+                                        x2 * (-1.0 / 39916800 +
+                                              x2 * (1.0 / 6227020800.0)))))));
+    double c = 1.0 +
+               x2 * (-0.5 +
+                     x2 * (1.0 / 24 +
+                           x2 * (-1.0 / 720 +
+                                 x2 * (1.0 / 40320 +
+                                       x2 * (-1.0 / 3628800 +
+                                             x2 * (1.0 / 479001600.0 -
+                                                   x2 / 87178291200.0))))));
     /* (sin, cos) of x + q pi / 2, chosen without branches (q is as
      * random as u). */
     *sn = (k & 2 ? -1.0 : 1.0) * (k & 1 ? c : s);

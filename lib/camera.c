@@ -74,7 +74,10 @@ const lr__camera_model *lr__camera_model_of(lr_camera_model id)
 
 /* ---- validation ------------------------------------------------------- */
 
-static int ok1(double x) { return isfinite(x) && fabs(x) <= LR__MAX_COORD; }
+static int ok1(double x)
+{
+    return isfinite(x) && fabs(x) <= LR__MAX_COORD;
+}
 
 static int finite3(const double v[3])
 {
@@ -171,14 +174,14 @@ lr_status lr_camera_validate(const lr_camera *cam, lr_error *err)
     if (!(ulen > 0.0) || !isfinite(ulen))
         return BAD("camera.up", "camera.up must not be the zero vector");
     /* sin of the angle between up and the view direction. */
-    double s = v3_len(v3_cross(v3_scale(fwd, 1.0 / flen),
-                               v3_scale(up, 1.0 / ulen)));
+    double s = v3_len(
+        v3_cross(v3_scale(fwd, 1.0 / flen), v3_scale(up, 1.0 / ulen)));
     if (!(s > 1e-9))
         return BAD("camera.up", "camera.up must not be parallel to the view "
                                 "direction (look_at - position)");
     if (!(cam->fov > 0.0 && cam->fov < 180.0))
-        return BAD("camera.fov", "camera.fov must be in (0, 180) degrees, got %g",
-                   cam->fov);
+        return BAD("camera.fov",
+                   "camera.fov must be in (0, 180) degrees, got %g", cam->fov);
     /* Every model checks its fields, in use or not; the one in use last,
      * with its cross-checks. */
     for (int i = 0; lr__camera_models[i] != NULL; i++) {
@@ -247,8 +250,8 @@ void lr__cam_init(lr__cam *c, const lr_camera *cam, int width, int height)
         for (int i = 0; i < 3; i++) {
             double n = c->n_ref + ch->amplify * (ch->ior[i] - c->n_ref);
             c->w_rgb[i] = c->w_base +
-                          c->w_slope * lr__power_scale(ch->focal_model,
-                                                       c->n_ref, n);
+                          c->w_slope *
+                              lr__power_scale(ch->focal_model, c->n_ref, n);
         }
         /* The green channel is the reference: exactly the camera's focus. */
         c->w_rgb[1] = c->w;
@@ -319,8 +322,8 @@ void lr__cam_bound(const lr__cam *c, lr__lens_bound *b)
     b->n_w = 3;
 }
 
-lr_status lr__cam_autofocus(const lr_scene *scene, lr_camera *cam,
-                            int width, int height, lr_error *err)
+lr_status lr__cam_autofocus(const lr_scene *scene, lr_camera *cam, int width,
+                            int height, lr_error *err)
 {
     const lr__camera_model *model = lr__camera_model_of(cam->model);
     if (cam->focus_on[0] < 0 || model->focus_at == NULL)
@@ -356,8 +359,8 @@ lr_status lr__cam_autofocus(const lr_scene *scene, lr_camera *cam,
 /* ---- the offset-lens form -------------------------------------------- */
 
 double lr__offset_lens_ray(const lr__cam *c, double fx, double fy,
-                           const double u[2], double w, double nm,
-                           lr__v3 *org, lr__v3 *dir)
+                           const double u[2], double w, double nm, lr__v3 *org,
+                           lr__v3 *dir)
 {
     (void)nm;
     /* D has axial component 1, so the point of the chief ray at axial
@@ -412,8 +415,8 @@ offset_lens_rays16(const lr__cam *c, int use_lens, int n, const float *fx,
         for (int i = 0; i < 16; i++)
             lx[i] = ly[i] = 0.0f;
     } else {
-        lr__aperture_sample16(c->shape, c->blades, c->rotation, c->ratio, n,
-                              lu, lv, lx, ly);
+        lr__aperture_sample16(c->shape, c->blades, c->rotation, c->ratio, n, lu,
+                              lv, lx, ly);
     }
     for (int i = 0; i < 16; i++) {
         /* D: the chief ray scaled to axial length 1. */
@@ -438,21 +441,19 @@ offset_lens_rays16(const lr__cam *c, int use_lens, int n, const float *fx,
     }
 }
 
-__attribute__((target_clones("avx512f", "avx2", "default")))
-void lr__offset_lens_rays16(const lr__cam *c, int use_lens, int n,
-                            const float *fx, const float *fy,
-                            const float *lu, const float *lv,
-                            struct RTCRayHit16 *rh, float *wt)
+__attribute__((target_clones("avx512f", "avx2", "default"))) void
+lr__offset_lens_rays16(const lr__cam *c, int use_lens, int n, const float *fx,
+                       const float *fy, const float *lu, const float *lv,
+                       struct RTCRayHit16 *rh, float *wt)
 {
     (void)wt; /* every ray weighs 1 */
     offset_lens_rays16(c, use_lens, n, fx, fy, lu, lv, NULL, rh);
 }
 
-__attribute__((target_clones("avx512f", "avx2", "default")))
-void lr__offset_lens_rays16_w(const lr__cam *c, int n, const float *fx,
-                              const float *fy, const float *lu,
-                              const float *lv, const float *w,
-                              struct RTCRayHit16 *rh, float *wt)
+__attribute__((target_clones("avx512f", "avx2", "default"))) void
+lr__offset_lens_rays16_w(const lr__cam *c, int n, const float *fx,
+                         const float *fy, const float *lu, const float *lv,
+                         const float *w, struct RTCRayHit16 *rh, float *wt)
 {
     (void)wt;
     offset_lens_rays16(c, 1, n, fx, fy, lu, lv, w, rh);
@@ -469,8 +470,8 @@ void lr__offset_lens_shift16(const lr__cam *c, int n, const float *lu,
      * H / (2 half_h) = W / (2 half_w).  The lens point is the one the
      * packet's rays take (lr__aperture_sample16 on the same numbers). */
     float lx[16], ly[16];
-    lr__aperture_sample16(c->shape, c->blades, c->rotation, c->ratio, n, lu,
-                          lv, lx, ly);
+    lr__aperture_sample16(c->shape, c->blades, c->rotation, c->ratio, n, lu, lv,
+                          lx, ly);
     double k = c->radius * c->height / (2.0 * c->half_h);
     for (int i = 0; i < 16; i++) {
         sx[i] = (float)(k * lx[i]);

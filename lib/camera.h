@@ -124,9 +124,9 @@ typedef struct lr__camera_model {
     /* Spectral mode: rays16 through the lens with a focus power of each
      * lane's own, w[i] (lanes at different wavelengths); NULL when the
      * model has none, and its spectral samples take `ray` one by one. */
-    void (*rays16_w)(const lr__cam *c, int n, const float *fx,
-                     const float *fy, const float *lu, const float *lv,
-                     const float *w, struct RTCRayHit16 *rh, float *wt);
+    void (*rays16_w)(const lr__cam *c, int n, const float *fx, const float *fy,
+                     const float *lu, const float *lv, const float *w,
+                     struct RTCRayHit16 *rh, float *wt);
     /* Spectral splatting (splat.c): for lanes 0..n-1's lens samples, the
      * film shift (sx[i], sy[i]) in pixels per unit of focus power such
      * that the ray at power c->w + t through film point (fx + t sx,
@@ -135,8 +135,8 @@ typedef struct lr__camera_model {
      * the model has no such shift (the bracket, whose lens point moves
      * with the power, and the real lens): its spectral samples are traced
      * pixel by pixel. */
-    void (*shift16)(const lr__cam *c, int n, const float *lu,
-                    const float *lv, float *sx, float *sy);
+    void (*shift16)(const lr__cam *c, int n, const float *lu, const float *lv,
+                    float *sx, float *sy);
     /* The chief ray through film point (fx, fy), for depth, autofocus and
      * the planner; NULL: the frame's pinhole ray (lr__cam_ray). */
     void (*chief)(const lr__cam *c, double fx, double fy, lr__v3 *org,
@@ -166,8 +166,8 @@ typedef struct lr__camera_model {
      * offset is in the lens's own frame, mm.) */
     lr__v3 (*lens_point)(const lr__cam *c, const double u[2], double *ox,
                          double *oy);
-    double (*film)(const lr__cam *c, double ox, double oy, lr__v3 d,
-                   double *fx, double *fy);
+    double (*film)(const lr__cam *c, double ox, double oy, lr__v3 d, double *fx,
+                   double *fy);
     /* For a model with a light side but no planner's bound (the real
      * lens): a thin lens at the eye that estimates the size of a light's
      * disc (light_trace.c's choice of lights, not a bound). */
@@ -205,21 +205,21 @@ typedef struct lr__pupil {
 #define LR__PUPIL_N 48
 typedef struct lr__lens_cam {
     const struct lr_lens *L;
-    double mm;                 /* scene units per millimetre */
-    double sensor_w, sensor_h; /* mm */
-    double z_sensor, z_rear;   /* lens coordinates (prescription.h) */
-    double stop_scale;         /* f_number's scale of the stop */
-    double nm_rgb[3];          /* rgb mode: the channels' wavelengths */
-    double n_ref[LR__RX_MAX_SURFACES];    /* indices at c->nm_ref */
+    double mm;                         /* scene units per millimetre */
+    double sensor_w, sensor_h;         /* mm */
+    double z_sensor, z_rear;           /* lens coordinates (prescription.h) */
+    double stop_scale;                 /* f_number's scale of the stop */
+    double nm_rgb[3];                  /* rgb mode: the channels' wavelengths */
+    double n_ref[LR__RX_MAX_SURFACES]; /* indices at c->nm_ref */
     double n_rgb[3][LR__RX_MAX_SURFACES]; /* and at nm_rgb */
-    double pupil_rmax;         /* film radius of the table's last entry */
+    double pupil_rmax; /* film radius of the table's last entry */
     lr__pupil pupil[LR__PUPIL_N + 1];
     /* Per interval k of film radii, the bounds pupil_at gives there
      * (camera_lens.c), in float for the packet path: the centre at the
      * interval's start and its change across it, radius, half sides. */
     float band_cx[LR__PUPIL_N], band_dcx[LR__PUPIL_N];
     float band_rad[LR__PUPIL_N], band_hx[LR__PUPIL_N], band_hy[LR__PUPIL_N];
-    double inv_E0;             /* 1 / the on-axis irradiance integral */
+    double inv_E0; /* 1 / the on-axis irradiance integral */
 } lr__lens_cam;
 
 /* A camera prepared for one film: the frame every model shares, then the
@@ -233,36 +233,36 @@ struct lr__cam {
     double width, height;      /* film size in pixels (the full frame) */
 
     /* The offset-lens form (see above). */
-    int has_lens;              /* 0: pinhole rays, whatever the model */
-    double radius;             /* lens radius; bracket half side */
+    int has_lens;  /* 0: pinhole rays, whatever the model */
+    double radius; /* lens radius; bracket half side */
     lr_aperture_shape shape;
     int blades;
-    double rotation;           /* radians */
+    double rotation; /* radians */
     double ratio;
-    double base_di;            /* rays start at e + D base_di (bracket) */
+    double base_di; /* rays start at e + D base_di (bracket) */
     /* The frame and lens above rounded to float, for the packet rays
      * (lr__offset_lens_rays16): made once by lr__cam_init, not per
      * packet (two divisions and sixteen conversions a call). */
     struct {
-        float sw, sh, hw, hh;  /* 2 / width, 2 / height, half_w, half_h */
+        float sw, sh, hw, hh; /* 2 / width, 2 / height, half_w, half_h */
         float fw[3], rt[3], up[3], e[3];
         float rad, w, di;
     } f16;
 
-    double w;                  /* focus power without aberration */
+    double w; /* focus power without aberration */
     /* Chromatic aberration: power as a function of the index n is
      * w(n) = w_base + w_slope * power_scale(n), see lr__cam_power_at. */
     lr_chromatic chroma;
-    double n_ref;              /* reference index (green, or n_d) */
+    double n_ref; /* reference index (green, or n_d) */
     double w_base, w_slope;
-    double w_rgb[3];           /* rgb mode: per channel */
-    int chroma_active;         /* 0 when every channel focuses alike */
+    double w_rgb[3];   /* rgb mode: per channel */
+    int chroma_active; /* 0 when every channel focuses alike */
 
-    int chroma_fixed;          /* 1: setup has set chroma_active itself
+    int chroma_fixed;  /* 1: setup has set chroma_active itself
                                   (colours from glass, not a focus line) */
-    double nm_ref;             /* the wavelength traced without colours */
-    int weighted;              /* 1: rays carry weights (a real lens) */
-    lr__lens_cam lens;         /* the "lens" model's part */
+    double nm_ref;     /* the wavelength traced without colours */
+    int weighted;      /* 1: rays carry weights (a real lens) */
+    lr__lens_cam lens; /* the "lens" model's part */
 };
 
 /* Prepares `c` for a width x height film; `cam` must have passed
@@ -304,16 +304,15 @@ lr_status lr__cam_autofocus(const struct lr_scene *scene, lr_camera *cam,
 /* Scalar and 16-wide rays of the offset-lens form: origin
  * e + D base_di + off, direction D - off w (see the top of this file). */
 double lr__offset_lens_ray(const lr__cam *c, double fx, double fy,
-                           const double u[2], double w, double nm,
-                           lr__v3 *org, lr__v3 *dir);
+                           const double u[2], double w, double nm, lr__v3 *org,
+                           lr__v3 *dir);
 void lr__offset_lens_rays16(const lr__cam *c, int use_lens, int n,
-                            const float *fx, const float *fy,
-                            const float *lu, const float *lv,
-                            struct RTCRayHit16 *rh, float *wt);
+                            const float *fx, const float *fy, const float *lu,
+                            const float *lv, struct RTCRayHit16 *rh, float *wt);
 void lr__offset_lens_rays16_w(const lr__cam *c, int n, const float *fx,
-                              const float *fy, const float *lu,
-                              const float *lv, const float *w,
-                              struct RTCRayHit16 *rh, float *wt);
+                              const float *fy, const float *lu, const float *lv,
+                              const float *w, struct RTCRayHit16 *rh,
+                              float *wt);
 /* shift16 of the offset-lens form with base_di = 0 (the thin lens). */
 void lr__offset_lens_shift16(const lr__cam *c, int n, const float *lu,
                              const float *lv, float *sx, float *sy);

@@ -18,8 +18,8 @@
 #define AT(field) offsetof(lr_camera, field)
 
 static const lr__camera_key keys[] = {
-    {"image_plane_distance", LR__KEY_NUMBER, AT(image_plane_distance), NULL,
-     0, 0},
+    {"image_plane_distance", LR__KEY_NUMBER, AT(image_plane_distance), NULL, 0,
+     0},
     {"focal_length", LR__KEY_NUMBER, AT(focal_length), NULL, 0, 0},
     {"aperture", LR__KEY_NUMBER, AT(aperture), NULL, 0, 0},
     {NULL, 0, 0, NULL, 0, 0},

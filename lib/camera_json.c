@@ -16,22 +16,20 @@
 
 /* ---- camera.chromatic ------------------------------------------------- */
 
-static lr_status parse_chromatic(const cJSON *c, lr_camera *cam,
-                                 lr_error *err)
+static lr_status parse_chromatic(const cJSON *c, lr_camera *cam, lr_error *err)
 {
-    static const char *const keys[] = {"mode",     "focal_model", "ior",
-                                       "glass",    "abbe",        "amplify",
-                                       "wavelengths", "splat", NULL};
+    static const char *const keys[] = {"mode",        "focal_model", "ior",
+                                       "glass",       "abbe",        "amplify",
+                                       "wavelengths", "splat",       NULL};
     static const char *const abbe_keys[] = {"n_d", "V_d", NULL};
     const char *path = "camera.chromatic";
     lr_chromatic *ch = &cam->chromatic;
     LR_TRY(lr__json_object(c, path, "", err));
     LR_TRY(lr__json_check_keys(c, path, keys, err));
     int mode = (int)ch->mode, model = (int)ch->focal_model;
-    LR_TRY(lr__json_enum(c, "mode", path, lr__chroma_mode_names, &mode,
+    LR_TRY(lr__json_enum(c, "mode", path, lr__chroma_mode_names, &mode, err));
+    LR_TRY(lr__json_enum(c, "focal_model", path, lr__focal_model_names, &model,
                          err));
-    LR_TRY(lr__json_enum(c, "focal_model", path, lr__focal_model_names,
-                         &model, err));
     ch->mode = (lr_chromatic_mode)mode;
     ch->focal_model = (lr_focal_model)model;
     lr__v3 ior = v3a(ch->ior);
@@ -55,8 +53,8 @@ static lr_status parse_chromatic(const cJSON *c, lr_camera *cam,
     }
     if (abbe != NULL) {
         const char *ap = "camera.chromatic.abbe";
-        LR_TRY(lr__json_object(abbe, ap,
-                               " {\"n_d\": 1.5168, \"V_d\": 64.17}", err));
+        LR_TRY(lr__json_object(abbe, ap, " {\"n_d\": 1.5168, \"V_d\": 64.17}",
+                               err));
         LR_TRY(lr__json_check_keys(abbe, ap, abbe_keys, err));
         LR_TRY(lr__json_number(abbe, "n_d", ap, 1, &ch->abbe_nd, err));
         LR_TRY(lr__json_number(abbe, "V_d", ap, 1, &ch->abbe_vd, err));
@@ -73,8 +71,7 @@ static lr_status parse_chromatic(const cJSON *c, lr_camera *cam,
 /* ---- camera.focus_on -------------------------------------------------- */
 
 /* A pixel [x, y] to autofocus on, or null for none. */
-static lr_status parse_focus_on(const cJSON *fo, lr_camera *cam,
-                                lr_error *err)
+static lr_status parse_focus_on(const cJSON *fo, lr_camera *cam, lr_error *err)
 {
     if (cJSON_IsNull(fo)) {
         cam->focus_on[0] = cam->focus_on[1] = -1;
@@ -137,8 +134,7 @@ static const lr__camera_key lens_keys[] = {
 };
 
 static lr_status read_key(const cJSON *c, const lr__camera_key *k,
-                          lr_camera *cam, const char *base_dir,
-                          lr_error *err)
+                          lr_camera *cam, const char *base_dir, lr_error *err)
 {
     void *field = (char *)cam + k->offset;
     switch (k->type) {
@@ -147,8 +143,7 @@ static lr_status read_key(const cJSON *c, const lr__camera_key *k,
     case LR__KEY_INT: {
         int *f = field;
         long long v = *f;
-        LR_TRY(lr__json_int(c, k->name, "camera", 0, k->min, k->max, &v,
-                            err));
+        LR_TRY(lr__json_int(c, k->name, "camera", 0, k->min, k->max, &v, err));
         *f = (int)v;
         return LR_OK;
     }
@@ -228,8 +223,8 @@ lr_status lr_camera_apply_json(lr_camera *cam, const char *json, size_t len,
         return lr__fail(err, LR_ERR_INVALID, NULL,
                         "lr_camera_apply_json: NULL argument");
     cJSON *root = NULL;
-    LR_TRY(lr__json_parse(json ? json : "", len, "camera", "camera",
-                          &root, err));
+    LR_TRY(
+        lr__json_parse(json ? json : "", len, "camera", "camera", &root, err));
     lr_status st = lr__camera_apply_cjson(cam, root, err);
     cJSON_Delete(root);
     return st;

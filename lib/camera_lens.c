@@ -71,8 +71,8 @@ static lr_status validate(const lr_camera *cam, int active, lr_error *err)
                                         cam->sensor_width_mm, 0, 0, err);
     if (st != LR_OK)
         return st;
-    st = lr__cam_check_length("camera.scene_unit_mm", cam->scene_unit_mm, 0,
-                              0, err);
+    st = lr__cam_check_length("camera.scene_unit_mm", cam->scene_unit_mm, 0, 0,
+                              err);
     if (st != LR_OK)
         return st;
     if (!active)
@@ -159,8 +159,7 @@ static void passes16(const pupil_job *j, double r, int m, const double *x,
             d[0][i] = dx / len, d[1][i] = dy / len, d[2][i] = dz / len;
             alive[i] = i < m;
         }
-        lr__rx_trace16(&L->rx, L->z, j->nsets[k], lc->stop_scale, o, d,
-                       alive);
+        lr__rx_trace16(&L->rx, L->z, j->nsets[k], lc->stop_scale, o, d, alive);
         for (int i = 0; i < m; i++)
             ok[i] |= alive[i];
     }
@@ -191,7 +190,7 @@ typedef struct extent {
     double x0, x1, y0, y1; /* of the points that pass */
     double *pts;           /* and the points, when kept */
     int np, cap;
-    double e0;             /* sum of cos^4 (for E0) */
+    double e0; /* sum of cos^4 (for E0) */
 } extent;
 
 static void grow(void *ctx, double x, double y, double cos4)
@@ -302,8 +301,7 @@ static int by_dist_desc(const void *pa, const void *pb)
  * fine cell beyond the outermost grid points that pass (the region's
  * edge lies within a cell of them); test_lens_camera.c checks that no
  * ray outside them gets through. */
-static void pupil_point(const pupil_job *j, double r, lr__pupil *P,
-                        double *E0)
+static void pupil_point(const pupil_job *j, double r, lr__pupil *P, double *E0)
 {
     const lr__lens_cam *lc = &j->c->lens;
     const lr_lens *L = lc->L;
@@ -392,8 +390,7 @@ static void pupil_point(const pupil_job *j, double r, lr__pupil *P,
     for (int iy = iy0; iy <= iy1; iy++)
         for (int ix = ix0; ix <= ix1; ix++)
             if (f->st[iy * G_FINE + ix] == ST_PASS)
-                mlow = fmax(mlow, hypot(fine_x(f, ix) - P->cx,
-                                        fine_y(f, iy)));
+                mlow = fmax(mlow, hypot(fine_x(f, ix) - P->cx, fine_y(f, iy)));
     double low2 = mlow * mlow * (1.0 - 1e-9);
     int nc = 0;
     fine_cand *cand = malloc(sizeof *cand * (size_t)(ix1 - ix0 + 1) *
@@ -595,8 +592,7 @@ static lr__pupil pupil_at(const lr__lens_cam *lc, double r)
     double f = t - k;
     const lr__pupil *a = &lc->pupil[k], *b = &lc->pupil[k + 1];
     double move = 0.5 * fabs(b->cx - a->cx);
-    return (lr__pupil){a->cx + f * (b->cx - a->cx),
-                       fmax(a->rad, b->rad) + move,
+    return (lr__pupil){a->cx + f * (b->cx - a->cx), fmax(a->rad, b->rad) + move,
                        fmax(a->hx, b->hx) + move, fmax(a->hy, b->hy)};
 }
 
@@ -671,8 +667,8 @@ static double lens_ray(const lr__cam *c, double fx, double fy,
  * rows of a larger array it did not: 5% of a run became 18%). */
 static inline __attribute__((always_inline)) void
 lens_start16(const lr__cam *c, int n, const float *fx, const float *fy,
-             const float *lu, const float *lv, float (*o)[16],
-             float (*d)[16], float *w, int *alive)
+             const float *lu, const float *lv, float (*o)[16], float (*d)[16],
+             float *w, int *alive)
 {
     const lr__lens_cam *lc = &c->lens;
     float lx[16], ly[16];
@@ -680,10 +676,11 @@ lens_start16(const lr__cam *c, int n, const float *fx, const float *fy,
     const float iw = (float)(1.0 / c->width), ih = (float)(1.0 / c->height);
     const float sw = (float)lc->sensor_w, sh = (float)lc->sensor_h;
     const float kr = (float)(LR__PUPIL_N / lc->pupil_rmax);
-    const float zs = (float)lc->z_sensor, dz = (float)(lc->z_rear -
-                                                       lc->z_sensor);
-    const float wk = (float)(1.0 / ((lc->z_rear - lc->z_sensor) *
-                                    (lc->z_rear - lc->z_sensor)) *
+    const float zs = (float)lc->z_sensor,
+                dz = (float)(lc->z_rear - lc->z_sensor);
+    const float wk = (float)(1.0 /
+                             ((lc->z_rear - lc->z_sensor) *
+                              (lc->z_rear - lc->z_sensor)) *
                              lc->inv_E0);
     const float pi = (float)M_PI;
     for (int i = 0; i < 16; i++) {
@@ -764,27 +761,26 @@ lens_finish16(const lr__cam *c, const float (*o)[16], const float (*d)[16],
  * distribution as lens_ray's, not the same bits.  Up to four packets go
  * through the glass together (rx_trace16f.c says why); each lane's ray is
  * the one its packet would have alone. */
-__attribute__((target_clones("avx512f", "avx2", "default")))
-static void lens_rays16_n(const lr__cam *c, int use_lens, int np,
-                          const int *ns, const float (*fx)[16],
-                          const float (*fy)[16], const float (*lu)[16],
-                          const float (*lv)[16], struct RTCRayHit16 *rh,
-                          float (*wt)[16])
+__attribute__((target_clones("avx512f", "avx2", "default"))) static void
+lens_rays16_n(const lr__cam *c, int use_lens, int np, const int *ns,
+              const float (*fx)[16], const float (*fy)[16],
+              const float (*lu)[16], const float (*lv)[16],
+              struct RTCRayHit16 *rh, float (*wt)[16])
 {
     (void)use_lens; /* a real lens is always sampled */
     enum { MAXP = LR__RX_LANES / 16 };
     if (np > MAXP) {
         lens_rays16_n(c, use_lens, MAXP, ns, fx, fy, lu, lv, rh, wt);
-        lens_rays16_n(c, use_lens, np - MAXP, ns + MAXP, fx + MAXP,
-                      fy + MAXP, lu + MAXP, lv + MAXP, rh + MAXP, wt + MAXP);
+        lens_rays16_n(c, use_lens, np - MAXP, ns + MAXP, fx + MAXP, fy + MAXP,
+                      lu + MAXP, lv + MAXP, rh + MAXP, wt + MAXP);
         return;
     }
     float o[3][LR__RX_LANES], d[3][LR__RX_LANES], w[LR__RX_LANES];
     int alive[LR__RX_LANES];
     for (int p = 0; p < np; p++) {
         float o16[3][16], d16[3][16];
-        lens_start16(c, ns[p], fx[p], fy[p], lu[p], lv[p], o16, d16,
-                     w + 16 * p, alive + 16 * p);
+        lens_start16(c, ns[p], fx[p], fy[p], lu[p], lv[p], o16, d16, w + 16 * p,
+                     alive + 16 * p);
         for (int a = 0; a < 3; a++) {
             memcpy(&o[a][16 * p], o16[a], sizeof o16[a]);
             memcpy(&d[a][16 * p], d16[a], sizeof d16[a]);
@@ -803,9 +799,9 @@ static void lens_rays16_n(const lr__cam *c, int use_lens, int np,
     }
 }
 
-static void lens_rays16(const lr__cam *c, int use_lens, int n,
-                        const float *fx, const float *fy, const float *lu,
-                        const float *lv, struct RTCRayHit16 *rh, float *wt)
+static void lens_rays16(const lr__cam *c, int use_lens, int n, const float *fx,
+                        const float *fy, const float *lu, const float *lv,
+                        struct RTCRayHit16 *rh, float *wt)
 {
     lens_rays16_n(c, use_lens, 1, &n, (const float(*)[16])fx,
                   (const float(*)[16])fy, (const float(*)[16])lu,
@@ -833,9 +829,9 @@ static void lens_chief(const lr__cam *c, double fx, double fy, lr__v3 *org,
         return;
     }
     *org = c->origin;
-    *dir = v3_norm(v3_madd(v3_madd(c->forward, c->right,
-                                   (2.0 * fx / c->width - 1.0) * c->half_w),
-                           c->up, (1.0 - 2.0 * fy / c->height) * c->half_h));
+    *dir = v3_norm(v3_madd(
+        v3_madd(c->forward, c->right, (2.0 * fx / c->width - 1.0) * c->half_w),
+        c->up, (1.0 - 2.0 * fy / c->height) * c->half_h));
 }
 
 static lr_status focus_at(lr_camera *cam, double z, lr_error *err)
@@ -882,8 +878,7 @@ static void front_rim(const lr_lens *L, double *a, double *sag)
 /* Whether any point of a 32 x 32 grid over the disk of radius rho on the
  * first vertex's plane sends a ray of slope s (along +x) through the
  * lens, toward the image. */
-static int any_through(const lr_lens *L, const double *n, double s,
-                       double rho)
+static int any_through(const lr_lens *L, const double *n, double s, double rho)
 {
     double len = sqrt(1.0 + s * s);
     double d0[3] = {s / len, 0.0, 1.0 / len};

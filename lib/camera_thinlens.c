@@ -44,12 +44,12 @@ static lr_status validate(const lr_camera *cam, int active, lr_error *err)
                                         cam->focus_distance, 0, 1, err);
     if (st != LR_OK)
         return st;
-    st = lr__cam_check_length("camera.aperture_radius", cam->aperture_radius,
-                              1, 0, err);
+    st = lr__cam_check_length("camera.aperture_radius", cam->aperture_radius, 1,
+                              0, err);
     if (st != LR_OK)
         return st;
-    st = lr__cam_check_length("camera.focal_length_mm", cam->focal_length_mm,
-                              1, 0, err);
+    st = lr__cam_check_length("camera.focal_length_mm", cam->focal_length_mm, 1,
+                              0, err);
     if (st != LR_OK)
         return st;
     st = lr__cam_check_length("camera.f_number", cam->f_number, 1, 0, err);

@@ -102,8 +102,8 @@ static lr_status read_exr(lr__envmap *e, const char *path, const char *file,
                 st = lr__fail(err, LR_ERR_INVALID, blame,
                               "%s: %s: pixel (%zu, %zu) channel %s is %g; "
                               "radiance must be finite and >= 0",
-                              blame, file, i % (size_t)px.w,
-                              i / (size_t)px.w, names[c], (double)v);
+                              blame, file, i % (size_t)px.w, i / (size_t)px.w,
+                              names[c], (double)v);
                 goto done;
             }
             e->rgb[3 * i + c] = v;
@@ -198,10 +198,9 @@ static lr_status build_cdf(lr__envmap *e, lr_error *err)
     return LR_OK;
 }
 
-lr_status lr__envmap_load(const char *path, const char *file,
-                          const char *blame, double intensity,
-                          double rotation_deg, lr__envmap **out,
-                          lr_error *err)
+lr_status lr__envmap_load(const char *path, const char *file, const char *blame,
+                          double intensity, double rotation_deg,
+                          lr__envmap **out, lr_error *err)
 {
     *out = NULL;
     lr__envmap *e = calloc(1, sizeof *e);
@@ -336,7 +335,8 @@ static lr__v3 lookup(const lr__envmap *e, double u, double v)
             int xi = ((x0 + i) % e->w + e->w) % e->w;
             int yj = y0 + j < 0 ? 0 : y0 + j >= e->h ? e->h - 1 : y0 + j;
             double wgt = (i ? tx : 1.0 - tx) * (j ? ty : 1.0 - ty);
-            const float *p = &e->rgb[3 * ((size_t)yj * (size_t)e->w + (size_t)xi)];
+            const float *p =
+                &e->rgb[3 * ((size_t)yj * (size_t)e->w + (size_t)xi)];
             acc = v3_madd(acc, v3(p[0], p[1], p[2]), wgt);
         }
     return v3_scale(acc, e->intensity);

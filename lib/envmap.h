@@ -18,19 +18,19 @@
 
 struct lr__envmap {
     int w, h;
-    float *rgb;          /* w * h * 3, linear, finite, >= 0; owned */
-    double *row_cdf;     /* h: rows' cumulative weights, last = 1 */
-    double *col_cdf;     /* w * h: within each row, last = 1 */
-    double *row_weight;  /* h: each row's share of the total */
+    float *rgb;         /* w * h * 3, linear, finite, >= 0; owned */
+    double *row_cdf;    /* h: rows' cumulative weights, last = 1 */
+    double *col_cdf;    /* w * h: within each row, last = 1 */
+    double *row_weight; /* h: each row's share of the total */
     double intensity;
     double rotation_deg;
     double cos_r, sin_r;
-    char *file;          /* as given in the scene; owned */
+    char *file; /* as given in the scene; owned */
     /* Per row y and run of LR__ENV_RUN columns k, the largest channel of
      * the texels that a bilinear lookup inside the run's columns reads
      * (the run and one column each side), times intensity; and the map's
      * largest overall.  For lr__envmap_max_in_cone. */
-    float *run_max;      /* h * ceil(w / LR__ENV_RUN); owned */
+    float *run_max; /* h * ceil(w / LR__ENV_RUN); owned */
     double max;
 };
 
@@ -41,10 +41,9 @@ struct lr__envmap {
  * (not an EXR, no R, G, B channels, a pixel that is NaN, infinite or
  * negative, too large).  *out is the caller's, freed with
  * lr__envmap_free. */
-lr_status lr__envmap_load(const char *path, const char *file,
-                          const char *blame, double intensity,
-                          double rotation_deg, lr__envmap **out,
-                          lr_error *err);
+lr_status lr__envmap_load(const char *path, const char *file, const char *blame,
+                          double intensity, double rotation_deg,
+                          lr__envmap **out, lr_error *err);
 void lr__envmap_free(lr__envmap *e);
 
 /* lr__envmap_max_in_cone and lr__envmap_max are declared in scene.h, for

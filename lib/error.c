@@ -42,14 +42,22 @@ lr_status lr__fail(lr_error *err, lr_status status, const char *path,
 const char *lr_status_name(lr_status status)
 {
     switch (status) {
-    case LR_OK: return "ok";
-    case LR_ERR_INVALID: return "invalid";
-    case LR_ERR_IO: return "io";
-    case LR_ERR_NOMEM: return "nomem";
-    case LR_ERR_EMBREE: return "embree";
-    case LR_ERR_CANCELLED: return "cancelled";
-    case LR_ERR_LIMIT: return "limit";
-    case LR_ERR_SYNTAX: return "syntax";
+    case LR_OK:
+        return "ok";
+    case LR_ERR_INVALID:
+        return "invalid";
+    case LR_ERR_IO:
+        return "io";
+    case LR_ERR_NOMEM:
+        return "nomem";
+    case LR_ERR_EMBREE:
+        return "embree";
+    case LR_ERR_CANCELLED:
+        return "cancelled";
+    case LR_ERR_LIMIT:
+        return "limit";
+    case LR_ERR_SYNTAX:
+        return "syntax";
     }
     return "unknown";
 }

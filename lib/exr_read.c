@@ -36,8 +36,7 @@ static int64_t mem_size(exr_const_context_t ctxt, void *user)
 
 /* OpenEXR prints its errors to stderr unless told otherwise; ours go in
  * the lr_error. */
-static void quiet(exr_const_context_t ctxt, exr_result_t code,
-                  const char *msg)
+static void quiet(exr_const_context_t ctxt, exr_result_t code, const char *msg)
 {
     (void)ctxt, (void)code, (void)msg;
 }
@@ -69,8 +68,7 @@ static int channel_index(const char *name)
 
 lr_status lr__exr_read(const void *data, size_t n, const char *shown,
                        const char *blame, const char *what, int max_dim,
-                       size_t max_texels, lr__exr_planes *out,
-                       lr_error *err)
+                       size_t max_texels, lr__exr_planes *out, lr_error *err)
 {
     memset(out, 0, sizeof *out);
     mem_stream m = {data, n};
@@ -126,8 +124,7 @@ lr_status lr__exr_read(const void *data, size_t n, const char *shown,
         st = lr__fail(err, LR_ERR_LIMIT, blame,
                       "%s is %lld x %lld pixels; %s may have at most %zu "
                       "pixels in all (decoded, it would take %lld MB)",
-                      shown, w, h, what, max_texels,
-                      w * h * 12 / 1000000);
+                      shown, w, h, what, max_texels, w * h * 12 / 1000000);
         goto done;
     }
     out->w = (int)w, out->h = (int)h;

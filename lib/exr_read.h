@@ -28,8 +28,7 @@ typedef struct lr__exr_planes {
  * holds nothing. */
 lr_status lr__exr_read(const void *data, size_t n, const char *shown,
                        const char *blame, const char *what, int max_dim,
-                       size_t max_texels, lr__exr_planes *out,
-                       lr_error *err);
+                       size_t max_texels, lr__exr_planes *out, lr_error *err);
 void lr__exr_planes_free(lr__exr_planes *p);
 
 /* The first four bytes of every OpenEXR file (its magic number). */

@@ -73,8 +73,8 @@ int lr__exr_zip_chunk(lr__exr_zip *z, const unsigned char *in, size_t n,
      * 128 added, as OpenEXR's predictor does; from the end, so that each
      * step reads bytes not yet changed (and vectorises). */
     for (size_t i = n; i-- > 1;)
-        z->scratch[i] =
-            (unsigned char)(z->scratch[i] - z->scratch[i - 1] + 128u);
+        z->scratch[i] = (unsigned char)(z->scratch[i] - z->scratch[i - 1] +
+                                        128u);
     size_t len = libdeflate_zlib_compress(z->deflate, z->scratch, n, z->out,
                                           z->out_cap);
     if (len == 0 || len >= n) {

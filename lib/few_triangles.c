@@ -51,20 +51,19 @@ static void shape_set(lr__few_triangles *T, int j, const float *x,
 /* If triangles ia and ib (index triples) share two corners s1, s2 and
  * their others x, y make a parallelogram (x + y = s1 + s2 in float, to
  * within 1e-6 of the corners' size), sets x, y, s1, s2 and returns 1. */
-static int parallelogram(const float *V, const unsigned *ia,
-                         const unsigned *ib, unsigned q[4])
+static int parallelogram(const float *V, const unsigned *ia, const unsigned *ib,
+                         unsigned q[4])
 {
     for (int k = 0; k < 3; k++) {
         unsigned x = ia[k], s1 = ia[(k + 1) % 3], s2 = ia[(k + 2) % 3];
         for (int j = 0; j < 3; j++) {
             unsigned y = ib[j], b1 = ib[(j + 1) % 3], b2 = ib[(j + 2) % 3];
-            if (!((b1 == s1 && b2 == s2) || (b1 == s2 && b2 == s1)) ||
-                y == x)
+            if (!((b1 == s1 && b2 == s2) || (b1 == s2 && b2 == s1)) || y == x)
                 continue;
             double size = 1.0, err = 0.0;
             for (int c = 0; c < 3; c++) {
-                double d = (double)V[3 * x + c] + V[3 * y + c] -
-                           V[3 * s1 + c] - V[3 * s2 + c];
+                double d = (double)V[3 * x + c] + V[3 * y + c] - V[3 * s1 + c] -
+                           V[3 * s2 + c];
                 err = fmax(err, fabs(d));
                 size = fmax(size, fabs((double)V[3 * s1 + c]) +
                                       fabs((double)V[3 * s2 + c]));
@@ -110,8 +109,7 @@ int lr__few_triangles_build(lr_scene *s)
             T->second[j] = -1;
             T->quad[j] = 0.0;
             unsigned q[4];
-            if (t + 1 < G->n_triangles &&
-                parallelogram(V, ia, ia + 3, q)) {
+            if (t + 1 < G->n_triangles && parallelogram(V, ia, ia + 3, q)) {
                 /* Triangles t and t + 1 as one shape. */
                 const unsigned *ib = ia + 3;
                 shape_set(T, j, &V[3 * (size_t)q[0]], &V[3 * (size_t)q[2]],
@@ -155,27 +153,26 @@ int lr__few_triangles_build(lr_scene *s)
  * passes every test only if N > 0 and N 1 < bn 0, which cannot be.  The
  * tests are combined with & so that GCC vectorises the loop
  * (-fno-trapping-math in the Makefile lets it compute them all). */
-#define MT_TEST(T, k, ox, oy, oz, dx, dy, dz, tn, D, U, V, N, hit_ok)       \
-    do {                                                                    \
-        double tx = ox - T->ax[k], ty = oy - T->ay[k], tz = oz - T->az[k];  \
-        double cx = ty * dz - tz * dy;                                      \
-        double cy = tz * dx - tx * dz;                                      \
-        double cz = tx * dy - ty * dx;                                      \
-        double dn = dx * T->nx[k] + dy * T->ny[k] + dz * T->nz[k];          \
-        double sg = dn > 0.0 ? -1.0 : 1.0; /* the sign of det = -dn */      \
-        D = dn * -sg;                                                       \
-        U = (T->e2x[k] * cx + T->e2y[k] * cy + T->e2z[k] * cz) * sg;        \
-        V = (T->e1x[k] * cx + T->e1y[k] * cy + T->e1z[k] * cz) * -sg;       \
-        N = (tx * T->nx[k] + ty * T->ny[k] + tz * T->nz[k]) * sg;           \
-        hit_ok = (U >= 0.0) & (V >= 0.0) & (N > tn * D) &                   \
-                 ((U + V <= D) | ((T->quad[k] != 0.0) & (U <= D) & (V <= D)));\
+#define MT_TEST(T, k, ox, oy, oz, dx, dy, dz, tn, D, U, V, N, hit_ok)          \
+    do {                                                                       \
+        double tx = ox - T->ax[k], ty = oy - T->ay[k], tz = oz - T->az[k];     \
+        double cx = ty * dz - tz * dy;                                         \
+        double cy = tz * dx - tx * dz;                                         \
+        double cz = tx * dy - ty * dx;                                         \
+        double dn = dx * T->nx[k] + dy * T->ny[k] + dz * T->nz[k];             \
+        double sg = dn > 0.0 ? -1.0 : 1.0; /* the sign of det = -dn */         \
+        D = dn * -sg;                                                          \
+        U = (T->e2x[k] * cx + T->e2y[k] * cy + T->e2z[k] * cz) * sg;           \
+        V = (T->e1x[k] * cx + T->e1y[k] * cy + T->e1z[k] * cz) * -sg;          \
+        N = (tx * T->nx[k] + ty * T->ny[k] + tz * T->nz[k]) * sg;              \
+        hit_ok = (U >= 0.0) & (V >= 0.0) & (N > tn * D) &                      \
+                 ((U + V <= D) | ((T->quad[k] != 0.0) & (U <= D) & (V <= D))); \
     } while (0)
 
-__attribute__((target_clones("avx512f", "avx2", "default")))
-void lr__few_triangles_intersect(const lr__few_triangles *T,
-                                 lr__rays_packed *P, int c0,
-                                 double tri[LR__PACKED],
-                                 double u[LR__PACKED], double v[LR__PACKED])
+__attribute__((target_clones("avx512f", "avx2", "default"))) void
+lr__few_triangles_intersect(const lr__few_triangles *T, lr__rays_packed *P,
+                            int c0, double tri[LR__PACKED],
+                            double u[LR__PACKED], double v[LR__PACKED])
 {
     /* The best hit so far: t = bn / bd, and (s, t) = (bu, bv) / bd in
      * its shape's edges. */
@@ -193,8 +190,8 @@ void lr__few_triangles_intersect(const lr__few_triangles *T,
             for (int i = c0; i < c0 + 8; i++) {
                 double D, U, V, N;
                 int ok;
-                MT_TEST(T, k, P->ox[i], P->oy[i], P->oz[i], P->dx[i],
-                        P->dy[i], P->dz[i], P->tn[i], D, U, V, N, ok);
+                MT_TEST(T, k, P->ox[i], P->oy[i], P->oz[i], P->dx[i], P->dy[i],
+                        P->dz[i], P->tn[i], D, U, V, N, ok);
                 int hit = ok & (N * bd[i] < bn[i] * D);
                 bn[i] = hit ? N : bn[i];
                 bd[i] = hit ? D : bd[i];
@@ -230,10 +227,9 @@ void lr__few_triangles_intersect(const lr__few_triangles *T,
     }
 }
 
-__attribute__((target_clones("avx512f", "avx2", "default")))
-void lr__few_triangles_occluded(const lr__few_triangles *T,
-                                const lr__rays_packed *P,
-                                double occ[LR__PACKED])
+__attribute__((target_clones("avx512f", "avx2", "default"))) void
+lr__few_triangles_occluded(const lr__few_triangles *T, const lr__rays_packed *P,
+                           double occ[LR__PACKED])
 {
     int n = T->n_shapes;
     for (int c0 = 0; c0 < P->m8; c0 += 8) {
@@ -243,8 +239,8 @@ void lr__few_triangles_occluded(const lr__few_triangles *T,
             for (int i = c0; i < c0 + 8; i++) {
                 double D, U, V, N;
                 int ok;
-                MT_TEST(T, k, P->ox[i], P->oy[i], P->oz[i], P->dx[i],
-                        P->dy[i], P->dz[i], P->tn[i], D, U, V, N, ok);
+                MT_TEST(T, k, P->ox[i], P->oy[i], P->oz[i], P->dx[i], P->dy[i],
+                        P->dz[i], P->tn[i], D, U, V, N, ok);
                 int hit = ok & (N < P->tf[i] * D);
                 occ[i] = hit ? 1.0 : occ[i];
             }

@@ -34,17 +34,17 @@ void lr__pixel_add_n(lr__pixel *p, const lr__v3 *L, int n)
     p->sum2[0] = q0, p->sum2[1] = q1, p->sum2[2] = q2;
 }
 
-__attribute__((target_clones("avx512f", "avx2", "default")))
-void lr__pixel_add16(lr__pixel *p, const double L[3][16], int n, int squares)
+__attribute__((target_clones("avx512f", "avx2", "default"))) void
+lr__pixel_add16(lr__pixel *p, const double L[3][16], int n, int squares)
 {
     /* One finiteness test for the packet, over all sixteen lanes at once
      * (isfinite(x) is |x| <= DBL_MAX, NaN failing), instead of a test and
      * a branch per sample. */
     int bad = 0;
     for (int i = 0; i < 16; i++)
-        bad |= (i < n) & !((fabs(L[0][i]) <= DBL_MAX) &
-                           (fabs(L[1][i]) <= DBL_MAX) &
-                           (fabs(L[2][i]) <= DBL_MAX));
+        bad |= (i < n) &
+               !((fabs(L[0][i]) <= DBL_MAX) & (fabs(L[1][i]) <= DBL_MAX) &
+                 (fabs(L[2][i]) <= DBL_MAX));
     if (bad) {
         /* Rare: lr__pixel_add_n's loop, sample by sample. */
         lr__v3 A[16];

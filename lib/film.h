@@ -34,8 +34,7 @@ void lr__pixel_add_n(lr__pixel *p, const lr__v3 *L, int n);
  * order, to the same bits as lr__pixel_add_n.  With squares 0 the sums of
  * squares are left as they are: for a caller whose pixels nobody judges
  * by their spread (adaptive sampling off). */
-void lr__pixel_add16(lr__pixel *p, const double L[3][16], int n,
-                     int squares);
+void lr__pixel_add16(lr__pixel *p, const double L[3][16], int n, int squares);
 
 /* Rec. 709 luminance of a linear RGB value. */
 static inline double lr__luminance(double r, double g, double b)

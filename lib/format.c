@@ -64,22 +64,27 @@ static void join_names(char *out, size_t cap, size_t n,
     out[0] = '\0';
     for (size_t i = 0; i < n && used < cap; i++) {
         const char *sep = i == 0 ? "" : i + 1 == n ? " or " : ", ";
-        int k = snprintf(out + used, cap - used,
-                         quoted ? "%s\"%s\"" : "%s%s", sep, name(i));
+        int k = snprintf(out + used, cap - used, quoted ? "%s\"%s\"" : "%s%s",
+                         sep, name(i));
         if (k < 0)
             break;
         used += (size_t)k;
     }
 }
 
-static const char *format_name(size_t i) { return formats[i].name; }
-static const char *format_ext(size_t i) { return formats[i].extension; }
+static const char *format_name(size_t i)
+{
+    return formats[i].name;
+}
+static const char *format_ext(size_t i)
+{
+    return formats[i].extension;
+}
 
 /* "\"exr\" or \"png\"" (quoted = 1) or ".exr or .png" (quoted = 0). */
 static void list_names(char *out, size_t cap, int quoted)
 {
-    join_names(out, cap, N_FORMATS, quoted ? format_name : format_ext,
-               quoted);
+    join_names(out, cap, N_FORMATS, quoted ? format_name : format_ext, quoted);
 }
 
 lr_status lr_format_from_name(const char *name, const char *field,
@@ -102,7 +107,9 @@ lr_status lr_format_from_name(const char *name, const char *field,
 /* In lr_exr_compression's order. */
 static const char *const exr_compressions[] = {"zip", "none", "zips", "rle",
                                                "piz"};
-enum { N_EXR_COMPRESSIONS = sizeof exr_compressions / sizeof *exr_compressions };
+enum {
+    N_EXR_COMPRESSIONS = sizeof exr_compressions / sizeof *exr_compressions
+};
 
 static const char *compression_name(size_t i)
 {
@@ -131,8 +138,7 @@ lr_status lr_exr_compression_from_name(const char *name, const char *field,
     return lr__fail(err, LR_ERR_INVALID, f, "%s must be %s", f, names);
 }
 
-lr_status lr_format_from_path(const char *path, lr_format *fmt,
-                              lr_error *err)
+lr_status lr_format_from_path(const char *path, lr_format *fmt, lr_error *err)
 {
     if (path == NULL || fmt == NULL)
         return lr__fail(err, LR_ERR_INVALID, NULL,

@@ -15,8 +15,8 @@
 const lr__glass_row lr__glass_catalogue[] = {
 #include "glass_table.h"
 };
-const size_t lr__glass_rows =
-    sizeof lr__glass_catalogue / sizeof lr__glass_catalogue[0];
+const size_t lr__glass_rows = sizeof lr__glass_catalogue /
+                              sizeof lr__glass_catalogue[0];
 
 /* The makers, in catalogue order: the order that settles a shared name. */
 static const char *const makers[] = {"SCHOTT", "OHARA", "HOYA",
@@ -27,9 +27,10 @@ static const char *const makers[] = {"SCHOTT", "OHARA", "HOYA",
  * sells under its own: the same material, SCHOTT's Sellmeier terms.
  * Fused silica: LITHOSIL-Q nd 1.45844 against Malitson's (1965)
  * 1.45846, 2e-5 apart. */
-static const char *const aliases[][2] = {
-    {"F_SILICA", "LITHOSIL-Q"}, {"SILICA", "LITHOSIL-Q"},
-    {"FUSED_SILICA", "LITHOSIL-Q"}, {"CAF2", "LITHOTEC-CAF2"}};
+static const char *const aliases[][2] = {{"F_SILICA", "LITHOSIL-Q"},
+                                         {"SILICA", "LITHOSIL-Q"},
+                                         {"FUSED_SILICA", "LITHOSIL-Q"},
+                                         {"CAF2", "LITHOTEC-CAF2"}};
 
 double lr__glass_n(const lr__glass *g, double nm)
 {
@@ -59,12 +60,13 @@ double lr__glass_n(const lr__glass *g, double nm)
          * nothing. */
         double l2 = (nm * 1e-3) * (nm * 1e-3), inv = 1.0 / l2;
         double n2 = g->A[0] + l2 * (g->A[1] + l2 * g->A[2]) +
-                    inv * (g->A[3] +
-                           inv * (g->A[4] +
-                                  inv * (g->A[5] +
-                                         inv * (g->A[6] +
-                                                inv * (g->A[7] +
-                                                       inv * g->A[8])))));
+                    inv *
+                        (g->A[3] +
+                         inv *
+                             (g->A[4] +
+                              inv * (g->A[5] +
+                                     inv * (g->A[6] +
+                                            inv * (g->A[7] + inv * g->A[8])))));
         return n2 > 0 && isfinite(n2) ? sqrt(n2) : 1.0;
     }
     case LR__GLASS_ABBE: {
@@ -289,8 +291,7 @@ int lr__glass_find(const char *name, const char *prefer, lr__glass *g,
     return -1;
 }
 
-int lr__glass_named(const char *name, lr__glass *g, char *near,
-                    size_t near_cap)
+int lr__glass_named(const char *name, lr__glass *g, char *near, size_t near_cap)
 {
     return lr__glass_find(name, NULL, g, near, near_cap);
 }

@@ -53,8 +53,8 @@ static lr_status factor(const lr__gltf_doc *d, const cJSON *o, const char *p,
     if (v == NULL)
         return LR_OK;
     if (!cJSON_IsNumber(v) || !(v->valuedouble >= 0 && v->valuedouble <= hi))
-        return lr__gltf_fail(d, err, "%s.%s must be a number from 0 to %g",
-                             p, key, hi);
+        return lr__gltf_fail(d, err, "%s.%s must be a number from 0 to %g", p,
+                             key, hi);
     *out = v->valuedouble;
     return LR_OK;
 }
@@ -72,8 +72,8 @@ static lr_status colour(const lr__gltf_doc *d, const cJSON *o, const char *p,
         out[i] = ok ? v->valuedouble : 0;
     }
     if (!ok)
-        return lr__gltf_fail(d, err, "%s.%s must be %d numbers from 0 to 1",
-                             p, key, n);
+        return lr__gltf_fail(d, err, "%s.%s must be %d numbers from 0 to 1", p,
+                             key, n);
     return LR_OK;
 }
 
@@ -142,8 +142,7 @@ static void warn_ignored(lr_scene *s, const lr__gltf_doc *d, const cJSON *m,
         if (strcmp(e->string, "KHR_materials_emissive_strength") != 0 &&
             strcmp(e->string, "KHR_materials_transmission") != 0 &&
             strcmp(e->string, "KHR_materials_ior") != 0)
-            lr__gltf_warn(s, d, "%s.extensions.%.60s is ignored", p,
-                          e->string);
+            lr__gltf_warn(s, d, "%s.extensions.%.60s is ignored", p, e->string);
 }
 
 /* The bytes of images[i]: a file or data: URI (read by gltf_check.c), or
@@ -152,8 +151,8 @@ static int image_bytes(const lr__gltf_doc *d, int i, const unsigned char **b,
                        size_t *n)
 {
     int ni, nv;
-    const cJSON *im = cJSON_GetArrayItem(lr__gltf_array(d->root, "images",
-                                                        &ni), i);
+    const cJSON *im = cJSON_GetArrayItem(lr__gltf_array(d->root, "images", &ni),
+                                         i);
     const cJSON *uri = cJSON_GetObjectItemCaseSensitive(im, "uri");
     if (cJSON_IsString(uri)) {
         const lr__gltf_blob *bl = lr__gltf_blob_find(d, uri->valuestring);
@@ -198,10 +197,11 @@ static lr_status slot_texture(lr_scene *s, lr__gltf_doc *d, const cJSON *info,
          * image is only in an extension, which the warning names. */
         const cJSON *ext = cJSON_GetObjectItemCaseSensitive(tex, "extensions");
         const cJSON *e = cJSON_IsObject(ext) ? ext->child : NULL;
-        lr__gltf_warn(s, d, "%s: its texture has no source image%s%.60s%s: "
-                      "ignored", p, e ? ", only one in " : "",
-                      e ? e->string : "", e ? ", which lensray does not read"
-                                        : "");
+        lr__gltf_warn(s, d,
+                      "%s: its texture has no source image%s%.60s%s: "
+                      "ignored",
+                      p, e ? ", only one in " : "", e ? e->string : "",
+                      e ? ", which lensray does not read" : "");
         return LR_OK;
     }
     const cJSON *tc = cJSON_GetObjectItemCaseSensitive(info, "texCoord");
@@ -213,29 +213,35 @@ static lr_status slot_texture(lr_scene *s, lr__gltf_doc *d, const cJSON *info,
         LR_TRY(uv_transform(d, ext, p, xf, err));
         const cJSON *etc = cJSON_GetObjectItemCaseSensitive(ext, "texCoord");
         if (etc != NULL && cJSON_GetNumberValue(etc) != 0)
-            lr__gltf_warn(s, d, "%s.extensions.KHR_texture_transform."
-                          "texCoord: only TEXCOORD_0 is read", p);
+            lr__gltf_warn(s, d,
+                          "%s.extensions.KHR_texture_transform."
+                          "texCoord: only TEXCOORD_0 is read",
+                          p);
     }
     int ns;
     const cJSON *si = cJSON_GetObjectItemCaseSensitive(tex, "sampler");
-    const cJSON *smp = si == NULL ? NULL
-                                  : cJSON_GetArrayItem(
-                                        lr__gltf_array(d->root, "samplers",
-                                                       &ns),
-                                        (int)si->valuedouble);
+    const cJSON *smp = si == NULL
+                           ? NULL
+                           : cJSON_GetArrayItem(
+                                 lr__gltf_array(d->root, "samplers", &ns),
+                                 (int)si->valuedouble);
     static const char *const wraps[] = {"wrapS", "wrapT"};
     for (int k = 0; smp && k < 2; k++) {
         const cJSON *w = cJSON_GetObjectItemCaseSensitive(smp, wraps[k]);
         if (w != NULL && cJSON_GetNumberValue(w) != 10497)
-            lr__gltf_warn(s, d, "%s: the sampler's %s is ignored (textures "
-                          "repeat)", p, wraps[k]);
+            lr__gltf_warn(s, d,
+                          "%s: the sampler's %s is ignored (textures "
+                          "repeat)",
+                          p, wraps[k]);
     }
     /* Lookup is always bilinear: texels meant to stay sharp (pixel art)
      * come out blended. */
     const cJSON *mag = cJSON_GetObjectItemCaseSensitive(smp, "magFilter");
     if (mag != NULL && cJSON_GetNumberValue(mag) == 9728)
-        lr__gltf_warn(s, d, "%s: the sampler's magFilter NEAREST is ignored "
-                      "(textures are filtered bilinearly)", p);
+        lr__gltf_warn(s, d,
+                      "%s: the sampler's magFilter NEAREST is ignored "
+                      "(textures are filtered bilinearly)",
+                      p);
     int image = (int)src->valuedouble;
     for (size_t i = 0; i < d->n_tex; i++)
         if (d->tex[i].image == image && d->tex[i].srgb == srgb) {
@@ -256,8 +262,8 @@ static lr_status slot_texture(lr_scene *s, lr__gltf_doc *d, const cJSON *info,
         return lr__fail(err, e2.status, d->fp, "%s: %s (for %s)", d->fp,
                         e2.message, p);
     }
-    struct lr__gltf_tex *grown = realloc(d->tex, (d->n_tex + 1) *
-                                                     sizeof *grown);
+    struct lr__gltf_tex *grown = realloc(d->tex,
+                                         (d->n_tex + 1) * sizeof *grown);
     if (grown == NULL) {
         lr__texture_free(t);
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
@@ -273,14 +279,15 @@ static lr_status slot_texture(lr_scene *s, lr__gltf_doc *d, const cJSON *info,
 
 /* The glTF material `m` (NULL: the spec's default material, 3.9.6) as
  * lensray's, appended to s->materials. */
-static lr_status add_material(lr_scene *s, lr__gltf_doc *d,
-                              const cJSON *m, int index, lr_error *err)
+static lr_status add_material(lr_scene *s, lr__gltf_doc *d, const cJSON *m,
+                              int index, lr_error *err)
 {
     char p[48];
     snprintf(p, sizeof p, "materials[%d]", index);
     double base[4] = {1, 1, 1, 1}, emissive[3] = {0, 0, 0};
     double metal = 1, rough = 1, strength = 1, trans = 0, ior = 1.5;
-    const cJSON *pbr = cJSON_GetObjectItemCaseSensitive(m, "pbrMetallicRoughness");
+    const cJSON *pbr = cJSON_GetObjectItemCaseSensitive(m,
+                                                        "pbrMetallicRoughness");
     char q[80];
     snprintf(q, sizeof q, "%s.pbrMetallicRoughness", p);
     LR_TRY(colour(d, pbr, q, "baseColorFactor", 4, base, err));
@@ -288,13 +295,13 @@ static lr_status add_material(lr_scene *s, lr__gltf_doc *d,
     LR_TRY(factor(d, pbr, q, "roughnessFactor", 1, 1, &rough, err));
     LR_TRY(colour(d, m, p, "emissiveFactor", 3, emissive, err));
     snprintf(q, sizeof q, "%s.extensions.KHR_materials_emissive_strength", p);
-    LR_TRY(factor(d, lr__gltf_member(m, "extensions",
-                                     "KHR_materials_emissive_strength"),
-                  q, "emissiveStrength", 1e9, 1, &strength, err));
+    LR_TRY(factor(
+        d, lr__gltf_member(m, "extensions", "KHR_materials_emissive_strength"),
+        q, "emissiveStrength", 1e9, 1, &strength, err));
     snprintf(q, sizeof q, "%s.extensions.KHR_materials_transmission", p);
-    LR_TRY(factor(d, lr__gltf_member(m, "extensions",
-                                     "KHR_materials_transmission"),
-                  q, "transmissionFactor", 1, 0, &trans, err));
+    LR_TRY(factor(
+        d, lr__gltf_member(m, "extensions", "KHR_materials_transmission"), q,
+        "transmissionFactor", 1, 0, &trans, err));
     snprintf(q, sizeof q, "%s.extensions.KHR_materials_ior", p);
     LR_TRY(factor(d, lr__gltf_member(m, "extensions", "KHR_materials_ior"), q,
                   "ior", 10, 1.5, &ior, err));
@@ -335,18 +342,18 @@ static lr_status add_material(lr_scene *s, lr__gltf_doc *d,
     lr__texture *base_tex, *emission_tex, *rough_tex, *normal_tex;
     lr__uv_xf xf_colour, xf_emission, xf_rough, xf_normal;
     snprintf(q, sizeof q, "%s.pbrMetallicRoughness.baseColorTexture", p);
-    LR_TRY(slot_texture(s, d, cJSON_GetObjectItemCaseSensitive(
-                                  pbr, "baseColorTexture"),
-                        q, 1, &base_tex, &xf_colour, err));
+    LR_TRY(slot_texture(
+        s, d, cJSON_GetObjectItemCaseSensitive(pbr, "baseColorTexture"), q, 1,
+        &base_tex, &xf_colour, err));
     snprintf(q, sizeof q, "%s.emissiveTexture", p);
-    LR_TRY(slot_texture(s, d, cJSON_GetObjectItemCaseSensitive(
-                                  m, "emissiveTexture"),
+    LR_TRY(slot_texture(s, d,
+                        cJSON_GetObjectItemCaseSensitive(m, "emissiveTexture"),
                         q, 1, &emission_tex, &xf_emission, err));
     snprintf(q, sizeof q, "%s.pbrMetallicRoughness.metallicRoughnessTexture",
              p);
-    LR_TRY(slot_texture(s, d, cJSON_GetObjectItemCaseSensitive(
-                                  pbr, "metallicRoughnessTexture"),
-                        q, 0, &rough_tex, &xf_rough, err));
+    LR_TRY(slot_texture(
+        s, d, cJSON_GetObjectItemCaseSensitive(pbr, "metallicRoughnessTexture"),
+        q, 0, &rough_tex, &xf_rough, err));
     snprintf(q, sizeof q, "%s.normalTexture", p);
     const cJSON *nt = cJSON_GetObjectItemCaseSensitive(m, "normalTexture");
     LR_TRY(slot_texture(s, d, nt, q, 0, &normal_tex, &xf_normal, err));
@@ -387,10 +394,10 @@ typedef struct placer {
     const struct aiScene *sc;
     const lr__xform *world;
     const lr__gltf_options *o;
-    int first_material;  /* lensray index of materials[0] */
-    int default_material;/* lensray index of the spec's default, or -1 */
-    lr__v3 lo, hi;       /* box of the placed vertices */
-    size_t skipped;      /* points and lines */
+    int first_material;   /* lensray index of materials[0] */
+    int default_material; /* lensray index of the spec's default, or -1 */
+    lr__v3 lo, hi;        /* box of the placed vertices */
+    size_t skipped;       /* points and lines */
 } placer;
 
 static lr_status material_of(placer *pl, unsigned ai, int *out, lr_error *err)
@@ -449,17 +456,21 @@ static lr_status add_mesh(placer *pl, const struct aiMesh *am,
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     }
     if (textured && tc == NULL)
-        lr__gltf_warn(pl->s, pl->d, "material %s is textured but a mesh "
+        lr__gltf_warn(pl->s, pl->d,
+                      "material %s is textured but a mesh "
                       "using it has no TEXCOORD_0: its texels at (0, 0) are "
-                      "used", mt->name);
+                      "used",
+                      mt->name);
     for (size_t i = 0; i < nv; i++) {
         const struct aiVector3D *q = &am->mVertices[i];
         lr__v3 w = lr__xform_point(x, v3(q->x, q->y, q->z));
         if (!(v3_maxabs(w) <= LR__MAX_NUMBER)) {
             free(v), free(idx), free(cn), free(uv);
-            return lr__gltf_fail(pl->d, err, "a vertex reaches %g from the "
+            return lr__gltf_fail(pl->d, err,
+                                 "a vertex reaches %g from the "
                                  "origin after the transforms, beyond the "
-                                 "limit of 1e15", v3_maxabs(w));
+                                 "limit of 1e15",
+                                 v3_maxabs(w));
         }
         v[3 * i] = (float)w.x, v[3 * i + 1] = (float)w.y;
         v[3 * i + 2] = (float)w.z;
@@ -506,8 +517,7 @@ static lr_status add_mesh(placer *pl, const struct aiMesh *am,
         }
     lr_status st = LR_OK;
     if (nt > 0)
-        st = lr__scene_add_triangles(pl->s, v, nv, idx, nt, cn, material,
-                                     err);
+        st = lr__scene_add_triangles(pl->s, v, nv, idx, nt, cn, material, err);
     else
         free(cn);
     /* The scene takes the UVs over once the mesh is in. */
@@ -528,20 +538,19 @@ static lr_status place_node(placer *pl, const struct aiNode *n, lr_error *err)
         long i = n->mName.data[0] == 'n' ? strtol(n->mName.data + 1, &end, 10)
                                          : -1;
         if (end == NULL || *end != '\0' || i < 0 || i >= pl->d->n_nodes)
-            return lr__gltf_fail(pl->d, err, "libassimp returned a node "
+            return lr__gltf_fail(pl->d, err,
+                                 "libassimp returned a node "
                                  "\"%.40s\" the file does not have",
                                  n->mName.data);
         /* A skinned mesh comes already in the glTF's world
          * (lr__gltf_skinned). */
         lr__xform id = lr__xform_identity();
-        lr__xform x = lr__xform_mul(&pl->o->place,
-                                    lr__gltf_skinned(pl->d, (int)i)
-                                        ? &id
-                                        : &pl->world[i]);
+        lr__xform x = lr__xform_mul(
+            &pl->o->place,
+            lr__gltf_skinned(pl->d, (int)i) ? &id : &pl->world[i]);
         for (unsigned k = 0; k < n->mNumMeshes; k++)
             if (n->mMeshes[k] < pl->sc->mNumMeshes)
-                LR_TRY(add_mesh(pl, pl->sc->mMeshes[n->mMeshes[k]], &x,
-                                err));
+                LR_TRY(add_mesh(pl, pl->sc->mMeshes[n->mMeshes[k]], &x, err));
     }
     for (unsigned c = 0; c < n->mNumChildren; c++)
         LR_TRY(place_node(pl, n->mChildren[c], err));
@@ -568,8 +577,10 @@ static void warn_unread(lr_scene *s, const lr__gltf_doc *d)
             if (!cJSON_GetObjectItemCaseSensitive(
                     cJSON_GetObjectItemCaseSensitive(p, "attributes"),
                     "POSITION"))
-                lr__gltf_warn(s, d, "meshes[%d].primitives[%d] has no "
-                              "POSITION: not drawn (spec 3.7.2.1)", i, j);
+                lr__gltf_warn(s, d,
+                              "meshes[%d].primitives[%d] has no "
+                              "POSITION: not drawn (spec 3.7.2.1)",
+                              i, j);
     }
 }
 
@@ -583,9 +594,16 @@ lr_status lr__scene_add_gltf(lr_scene *s, const char *file, const char *shown,
     lr__xform *world = NULL;
     unsigned char *active = NULL;
     lr_status st = lr__gltf_world(&d, &world, &active, err);
-    placer pl = {s, &d, NULL, world, o, (int)s->n_materials, -1,
+    placer pl = {s,
+                 &d,
+                 NULL,
+                 world,
+                 o,
+                 (int)s->n_materials,
+                 -1,
                  v3(INFINITY, INFINITY, INFINITY),
-                 v3(-INFINITY, -INFINITY, -INFINITY), 0};
+                 v3(-INFINITY, -INFINITY, -INFINITY),
+                 0};
     int nm;
     const cJSON *mats = lr__gltf_array(d.root, "materials", &nm);
     int i = 0;

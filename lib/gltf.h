@@ -18,7 +18,7 @@ typedef enum lr__gltf_camera_use {
 } lr__gltf_camera_use;
 
 typedef struct lr__gltf_options {
-    lr__xform place;            /* the object's "transform" */
+    lr__xform place; /* the object's "transform" */
     lr__gltf_camera_use camera;
     const char *camera_name;
     /* 1 when the scene set render.height: the camera's aspectRatio then

@@ -17,7 +17,7 @@
 
 
 lr_status lr__gltf_check_buffers(lr__gltf_doc *d, const char *dir,
-                               lr_error *err)
+                                 lr_error *err)
 {
     int n;
     const cJSON *a = lr__gltf_array(d->root, "buffers", &n);
@@ -32,8 +32,10 @@ lr_status lr__gltf_check_buffers(lr__gltf_doc *d, const char *dir,
         long long len;
         LR_TRY(lr__gltf_get_uint(d, b, p, "byteLength", 0, -1, &len, err));
         if (len < 1 || len > LR__GLTF_MAX_BYTES)
-            return lr__gltf_fail(d, err, "%s.byteLength must be between 1 "
-                                 "and %u", p, LR__GLTF_MAX_BYTES);
+            return lr__gltf_fail(d, err,
+                                 "%s.byteLength must be between 1 "
+                                 "and %u",
+                                 p, LR__GLTF_MAX_BYTES);
         const cJSON *uri = cJSON_GetObjectItemCaseSensitive(b, "uri");
         if (uri != NULL && !cJSON_IsString(uri))
             return lr__gltf_fail(d, err, "%s.uri must be a string", p);
@@ -41,9 +43,11 @@ lr_status lr__gltf_check_buffers(lr__gltf_doc *d, const char *dir,
         size_t have;
         if (uri == NULL) {
             if (i != 0 || d->bin == NULL)
-                return lr__gltf_fail(d, err, "%s has no uri (only a GLB's "
+                return lr__gltf_fail(d, err,
+                                     "%s has no uri (only a GLB's "
                                      "first buffer, its BIN chunk, may "
-                                     "have none)", p);
+                                     "have none)",
+                                     p);
             data = d->bin;
             have = d->n_bin;
         } else {
@@ -53,8 +57,10 @@ lr_status lr__gltf_check_buffers(lr__gltf_doc *d, const char *dir,
             have = bl->n;
         }
         if ((size_t)len > have)
-            return lr__gltf_fail(d, err, "%s.byteLength is %lld but its data "
-                                 "has %zu bytes", p, len, have);
+            return lr__gltf_fail(d, err,
+                                 "%s.byteLength is %lld but its data "
+                                 "has %zu bytes",
+                                 p, len, have);
         d->buffers[i].data = data;
         d->buffers[i].n = (size_t)len;
     }
@@ -70,21 +76,26 @@ lr_status lr__gltf_check_views(lr__gltf_doc *d, lr_error *err)
     for (const cJSON *v = a ? a->child : NULL; v; v = v->next, i++) {
         snprintf(p, sizeof p, "bufferViews[%d]", i);
         long long b, off, len, stride;
-        LR_TRY(lr__gltf_get_index(d, v, p, "buffer", (int)d->n_buffers, &b, err));
+        LR_TRY(
+            lr__gltf_get_index(d, v, p, "buffer", (int)d->n_buffers, &b, err));
         LR_TRY(lr__gltf_get_uint(d, v, p, "byteOffset", 0, 0, &off, err));
         LR_TRY(lr__gltf_get_uint(d, v, p, "byteLength", 0, -1, &len, err));
         LR_TRY(lr__gltf_get_uint(d, v, p, "byteStride", 0, 0, &stride, err));
         if (b < 0 || len < 1)
-            return lr__gltf_fail(d, err, "%s needs a buffer and a "
-                                 "byteLength >= 1", p);
-        if ((unsigned long long)off + (unsigned long long)len >
-            d->buffers[b].n)
-            return lr__gltf_fail(d, err, "%s: bytes %lld to %lld are "
-                                 "beyond buffers[%lld]'s %zu", p, off,
-                                 off + len, b, d->buffers[b].n);
+            return lr__gltf_fail(d, err,
+                                 "%s needs a buffer and a "
+                                 "byteLength >= 1",
+                                 p);
+        if ((unsigned long long)off + (unsigned long long)len > d->buffers[b].n)
+            return lr__gltf_fail(d, err,
+                                 "%s: bytes %lld to %lld are "
+                                 "beyond buffers[%lld]'s %zu",
+                                 p, off, off + len, b, d->buffers[b].n);
         if (stride != 0 && (stride < 4 || stride > 252 || stride % 4 != 0))
-            return lr__gltf_fail(d, err, "%s.byteStride must be a multiple "
-                                 "of 4 from 4 to 252, got %lld", p, stride);
+            return lr__gltf_fail(d, err,
+                                 "%s.byteStride must be a multiple "
+                                 "of 4 from 4 to 252, got %lld",
+                                 p, stride);
     }
     return LR_OK;
 }
@@ -92,17 +103,24 @@ lr_status lr__gltf_check_views(lr__gltf_doc *d, lr_error *err)
 static int component_size(long long t)
 {
     switch (t) {
-    case 5120: case 5121: return 1;
-    case 5122: case 5123: return 2;
-    case 5125: case 5126: return 4;
-    default: return 0;
+    case 5120:
+    case 5121:
+        return 1;
+    case 5122:
+    case 5123:
+        return 2;
+    case 5125:
+    case 5126:
+        return 4;
+    default:
+        return 0;
     }
 }
 
 static int type_count(const char *t)
 {
     static const char *const names[] = {"SCALAR", "VEC2", "VEC3", "VEC4",
-                                        "MAT2", "MAT3", "MAT4"};
+                                        "MAT2",   "MAT3", "MAT4"};
     static const int counts[] = {1, 2, 3, 4, 4, 9, 16};
     for (int i = 0; i < 7; i++)
         if (strcmp(t, names[i]) == 0)
@@ -162,14 +180,16 @@ static lr_status sparse_part(const lr__gltf_doc *d, const cJSON *sp,
     const cJSON *view = cJSON_GetArrayItem(
         lr__gltf_array(d->root, "bufferViews", &nn), (int)v);
     if (cJSON_GetObjectItemCaseSensitive(view, "byteStride") != NULL)
-        return lr__gltf_fail(d, err, "%s: bufferViews[%lld] has a "
+        return lr__gltf_fail(d, err,
+                             "%s: bufferViews[%lld] has a "
                              "byteStride, which sparse data must not have",
                              q, v);
     const unsigned char *base = view_bytes(d, v, &len);
-    if ((unsigned long long)off + (unsigned long long)n *
-                                      (unsigned long long)size >
+    if ((unsigned long long)off +
+            (unsigned long long)n * (unsigned long long)size >
         (unsigned long long)len)
-        return lr__gltf_fail(d, err, "%s: %lld elements of %lld bytes from "
+        return lr__gltf_fail(d, err,
+                             "%s: %lld elements of %lld bytes from "
                              "byte %lld run past bufferViews[%lld]'s %lld",
                              q, n, size, off, v, len);
     *out = base + off;
@@ -198,8 +218,10 @@ static lr_status apply_sparse(const lr__gltf_doc *d, const cJSON *x,
     snprintf(q, sizeof q, "%s.sparse", p);
     LR_TRY(lr__gltf_get_uint(d, sp, q, "count", 0, -1, &n, err));
     if (n < 1 || n > count)
-        return lr__gltf_fail(d, err, "%s.count must be from 1 to the "
-                             "accessor's count, %lld", q, count);
+        return lr__gltf_fail(d, err,
+                             "%s.count must be from 1 to the "
+                             "accessor's count, %lld",
+                             q, count);
     char qi[112];
     snprintf(qi, sizeof qi, "%s.indices", q);
     const cJSON *ind = cJSON_GetObjectItemCaseSensitive(sp, "indices");
@@ -207,8 +229,10 @@ static lr_status apply_sparse(const lr__gltf_doc *d, const cJSON *x,
         return lr__gltf_fail(d, err, "%s must be an object", qi);
     LR_TRY(lr__gltf_get_uint(d, ind, qi, "componentType", 0, 0, &ict, err));
     if (ict != 5121 && ict != 5123 && ict != 5125)
-        return lr__gltf_fail(d, err, "%s.componentType must be 5121, 5123 "
-                             "or 5125", qi);
+        return lr__gltf_fail(d, err,
+                             "%s.componentType must be 5121, 5123 "
+                             "or 5125",
+                             qi);
     size_t isz = (size_t)component_size(ict);
     const unsigned char *idx, *val;
     LR_TRY(sparse_part(d, sp, p, "indices", n, (long long)isz, &idx, err));
@@ -217,12 +241,13 @@ static lr_status apply_sparse(const lr__gltf_doc *d, const cJSON *x,
     for (long long i = 0; i < n; i++) {
         unsigned long at = lr__gltf_read_uint(idx + (size_t)i * isz, isz);
         if ((long long)at <= last || (long long)at >= count)
-            return lr__gltf_fail(d, err, "%s.indices: element %lld is %lu; "
+            return lr__gltf_fail(d, err,
+                                 "%s.indices: element %lld is %lu; "
                                  "they must increase and stay below %lld",
                                  q, i, at, count);
         last = (long long)at;
-        memcpy(dense + (size_t)at * (size_t)elem, val + (size_t)i * (size_t)elem,
-               (size_t)elem);
+        memcpy(dense + (size_t)at * (size_t)elem,
+               val + (size_t)i * (size_t)elem, (size_t)elem);
     }
     return LR_OK;
 }
@@ -267,12 +292,16 @@ static lr_status check_viewless(const lr__gltf_doc *d, const cJSON *x, int i,
 {
     char who[64];
     if (draco_user(d, i, who, sizeof who))
-        return lr__gltf_fail(d, err, "%s has no bufferView: %s is "
+        return lr__gltf_fail(d, err,
+                             "%s has no bufferView: %s is "
                              "compressed with KHR_draco_mesh_compression, "
-                             "which lensray does not decode", p, who);
+                             "which lensray does not decode",
+                             p, who);
     if (cJSON_GetObjectItemCaseSensitive(x, "byteOffset") != NULL)
-        return lr__gltf_fail(d, err, "%s has a byteOffset but no "
-                             "bufferView", p);
+        return lr__gltf_fail(d, err,
+                             "%s has a byteOffset but no "
+                             "bufferView",
+                             p);
     return LR_OK;
 }
 
@@ -287,10 +316,11 @@ static lr_status make_dense(lr__gltf_doc *d, const cJSON *x, const char *p,
     unsigned long long bytes = (unsigned long long)count *
                                (unsigned long long)elem;
     if (bytes > dense_budget(d) - *used)
-        return lr__gltf_fail(d, err, "%s: %lld elements of %lld bytes to "
+        return lr__gltf_fail(d, err,
+                             "%s: %lld elements of %lld bytes to "
                              "fill in (zeros or sparse) are more than "
-                             "lensray allows for this file (%zu bytes)", p,
-                             count, elem, dense_budget(d));
+                             "lensray allows for this file (%zu bytes)",
+                             p, count, elem, dense_budget(d));
     *dense = calloc((size_t)bytes, 1);
     if (*dense == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
@@ -336,39 +366,47 @@ lr_status lr__gltf_check_accessors(lr__gltf_doc *d, lr_error *err)
         int csize = component_size(ct);
         int k = cJSON_IsString(t) ? type_count(t->valuestring) : 0;
         if (csize == 0)
-            return lr__gltf_fail(d, err, "%s.componentType %lld is not one "
-                                 "of 5120, 5121, 5122, 5123, 5125, 5126", p,
-                                 ct);
+            return lr__gltf_fail(d, err,
+                                 "%s.componentType %lld is not one "
+                                 "of 5120, 5121, 5122, 5123, 5125, 5126",
+                                 p, ct);
         if (k == 0)
-            return lr__gltf_fail(d, err, "%s.type must be SCALAR, VEC2, "
-                                 "VEC3, VEC4, MAT2, MAT3 or MAT4", p);
+            return lr__gltf_fail(d, err,
+                                 "%s.type must be SCALAR, VEC2, "
+                                 "VEC3, VEC4, MAT2, MAT3 or MAT4",
+                                 p);
         if (count < 1)
             return lr__gltf_fail(d, err, "%s.count must be >= 1", p);
         if (off % csize != 0)
-            return lr__gltf_fail(d, err, "%s.byteOffset %lld is not a "
-                                 "multiple of its component size %d", p,
-                                 off, csize);
+            return lr__gltf_fail(d, err,
+                                 "%s.byteOffset %lld is not a "
+                                 "multiple of its component size %d",
+                                 p, off, csize);
         long long elem = (long long)k * csize;
         if (v >= 0) {
             const cJSON *view = cJSON_GetArrayItem(views, (int)v);
             LR_TRY(lr__gltf_get_uint(d, view, "bufferView", "byteStride", 0, 0,
-                            &stride, err));
-            LR_TRY(lr__gltf_get_uint(d, view, "bufferView", "byteLength", 0, 0, &vlen,
-                            err));
+                                     &stride, err));
+            LR_TRY(lr__gltf_get_uint(d, view, "bufferView", "byteLength", 0, 0,
+                                     &vlen, err));
             if (stride == 0)
                 stride = elem;
             if (stride < elem)
-                return lr__gltf_fail(d, err, "%s: elements of %lld bytes do "
+                return lr__gltf_fail(d, err,
+                                     "%s: elements of %lld bytes do "
                                      "not fit bufferViews[%lld].byteStride "
-                                     "%lld", p, elem, v, stride);
+                                     "%lld",
+                                     p, elem, v, stride);
             unsigned long long end = (unsigned long long)off +
                                      (unsigned long long)stride *
                                          (unsigned long long)(count - 1) +
                                      (unsigned long long)elem;
             if (end > (unsigned long long)vlen)
-                return lr__gltf_fail(d, err, "%s: %lld elements reach byte "
+                return lr__gltf_fail(d, err,
+                                     "%s: %lld elements reach byte "
                                      "%llu of bufferViews[%lld], which has "
-                                     "%lld", p, count, end, v, vlen);
+                                     "%lld",
+                                     p, count, end, v, vlen);
         }
         if (v < 0 || cJSON_GetObjectItemCaseSensitive(x, "sparse") != NULL)
             LR_TRY(make_dense(d, x, p, v, off, stride, count, elem, &used,
@@ -379,15 +417,15 @@ lr_status lr__gltf_check_accessors(lr__gltf_doc *d, lr_error *err)
 
 /* The accessor's componentType and type must be what `attr` allows. */
 lr_status lr__gltf_check_attribute(const lr__gltf_doc *d, const char *p,
-                                 const char *attr, long long acc,
-                                 long long *count, lr_error *err)
+                                   const char *attr, long long acc,
+                                   long long *count, lr_error *err)
 {
     int n;
-    const cJSON *a = cJSON_GetArrayItem(lr__gltf_array(d->root, "accessors",
-                                                       &n), (int)acc);
+    const cJSON *a = cJSON_GetArrayItem(
+        lr__gltf_array(d->root, "accessors", &n), (int)acc);
     const cJSON *t = cJSON_GetObjectItemCaseSensitive(a, "type");
-    double ct = cJSON_GetNumberValue(cJSON_GetObjectItemCaseSensitive(
-        a, "componentType"));
+    double ct = cJSON_GetNumberValue(
+        cJSON_GetObjectItemCaseSensitive(a, "componentType"));
     *count = (long long)cJSON_GetNumberValue(
         cJSON_GetObjectItemCaseSensitive(a, "count"));
     const char *want = NULL;
@@ -398,25 +436,22 @@ lr_status lr__gltf_check_attribute(const lr__gltf_doc *d, const char *p,
     else if (strncmp(attr, "TEXCOORD_", 9) == 0)
         /* Spec 3.7.2.1: floats, or unsigned bytes or shorts normalized
          * (gltf_assimp.c decodes those itself). */
-        want = (ct == 5126 ||
-                ((ct == 5121 || ct == 5123) &&
-                 cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(
-                     a, "normalized")))) &&
+        want = (ct == 5126 || ((ct == 5121 || ct == 5123) &&
+                               cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(
+                                   a, "normalized")))) &&
                        strcmp(t->valuestring, "VEC2") == 0
                    ? NULL
                    : "VEC2 of floats, or of unsigned bytes or shorts with "
                      "\"normalized\": true";
     else if (strncmp(attr, "JOINTS_", 7) == 0)
         /* Spec 3.7.3.3: joint indices as unsigned bytes or shorts. */
-        want = (ct == 5121 || ct == 5123) &&
-                       strcmp(t->valuestring, "VEC4") == 0
+        want = (ct == 5121 || ct == 5123) && strcmp(t->valuestring, "VEC4") == 0
                    ? NULL
                    : "VEC4 of unsigned bytes or shorts";
     else if (strncmp(attr, "WEIGHTS_", 8) == 0)
-        want = (ct == 5126 ||
-                ((ct == 5121 || ct == 5123) &&
-                 cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(
-                     a, "normalized")))) &&
+        want = (ct == 5126 || ((ct == 5121 || ct == 5123) &&
+                               cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(
+                                   a, "normalized")))) &&
                        strcmp(t->valuestring, "VEC4") == 0
                    ? NULL
                    : "VEC4 of floats, or of unsigned bytes or shorts with "
@@ -435,17 +470,17 @@ lr_status lr__gltf_check_attribute(const lr__gltf_doc *d, const char *p,
         quantized |= cJSON_IsString(e) &&
                      strcmp(e->valuestring, "KHR_mesh_quantization") == 0;
     if (want != NULL)
-        return lr__gltf_fail(d, err, "%s.%s: accessors[%lld] must be a %s%s",
-                             p, attr, acc, want,
+        return lr__gltf_fail(d, err, "%s.%s: accessors[%lld] must be a %s%s", p,
+                             attr, acc, want,
                              quantized ? " (KHR_mesh_quantization is not "
                                          "read by lensray)"
                                        : "");
     return LR_OK;
 }
 
-const unsigned char *lr__gltf_accessor_at(const lr__gltf_doc *d,
-                                          long long acc, size_t *stride,
-                                          long long *count, size_t *cs)
+const unsigned char *lr__gltf_accessor_at(const lr__gltf_doc *d, long long acc,
+                                          size_t *stride, long long *count,
+                                          size_t *cs)
 {
     int n;
     const cJSON *root = d->root;
@@ -463,8 +498,8 @@ const unsigned char *lr__gltf_accessor_at(const lr__gltf_doc *d,
     }
     long long vi = (long long)cJSON_GetNumberValue(
         cJSON_GetObjectItemCaseSensitive(a, "bufferView"));
-    const cJSON *v = cJSON_GetArrayItem(lr__gltf_array(root, "bufferViews",
-                                                       &n), (int)vi);
+    const cJSON *v = cJSON_GetArrayItem(lr__gltf_array(root, "bufferViews", &n),
+                                        (int)vi);
     const cJSON *ao = cJSON_GetObjectItemCaseSensitive(a, "byteOffset");
     const cJSON *vs = cJSON_GetObjectItemCaseSensitive(v, "byteStride");
     long long len;

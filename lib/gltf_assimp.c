@@ -124,9 +124,9 @@ static int extra_grow(extra_buffer *u, size_t n, size_t *at)
  * reduced copy r, and an accessor of it (`count` elements of `type`, of
  * componentType ct, normalized or not) replacing accessors[k], or
  * appended when k < 0.  Its index, or -1 on no memory. */
-static int extra_accessor(cJSON *r, const extra_buffer *u, int k,
-                          size_t at, size_t n, double ct, double count,
-                          const char *type, int normalized)
+static int extra_accessor(cJSON *r, const extra_buffer *u, int k, size_t at,
+                          size_t n, double ct, double count, const char *type,
+                          int normalized)
 {
     cJSON *views = cJSON_GetObjectItemCaseSensitive(r, "bufferViews");
     if (views == NULL)
@@ -163,8 +163,7 @@ static int extra_accessor(cJSON *r, const extra_buffer *u, int k,
 /* The floats of integer TEXCOORD accessor k of the document
  * (componentType 5121 or 5123, VEC2, checked by gltf_check.c) appended
  * to u; where they start in *at.  0 on no memory. */
-static int decode_uv(const lr__gltf_doc *d, int k, extra_buffer *u,
-                     size_t *at)
+static int decode_uv(const lr__gltf_doc *d, int k, extra_buffer *u, size_t *at)
 {
     size_t stride, cs;
     long long count;
@@ -242,8 +241,8 @@ static int dense_accessors(const lr__gltf_doc *d, cJSON *r, extra_buffer *u)
 int lr__gltf_skinned(const lr__gltf_doc *d, int i)
 {
     int n;
-    const cJSON *node = cJSON_GetArrayItem(lr__gltf_array(d->root, "nodes",
-                                                          &n), i);
+    const cJSON *node = cJSON_GetArrayItem(lr__gltf_array(d->root, "nodes", &n),
+                                           i);
     return item(node, "mesh") != NULL && item(node, "skin") != NULL;
 }
 
@@ -294,8 +293,8 @@ static vec4_at vec4_of(const lr__gltf_doc *d, const cJSON *acc)
     long long count, k = (long long)acc->valuedouble;
     v.p = lr__gltf_accessor_at(d, k, &v.stride, &count, &v.cs);
     int n;
-    const cJSON *a = cJSON_GetArrayItem(lr__gltf_array(d->root, "accessors",
-                                                       &n), (int)k);
+    const cJSON *a = cJSON_GetArrayItem(
+        lr__gltf_array(d->root, "accessors", &n), (int)k);
     v.is_float = cJSON_GetNumberValue(item(a, "componentType")) == 5126;
     v.normalized = cJSON_IsTrue(item(a, "normalized"));
     return v;
@@ -344,10 +343,10 @@ static lr__xform *joint_matrices(const lr__gltf_doc *d, const cJSON *sk,
     lr__xform *out = malloc((size_t)nj * sizeof *out);
     size_t stride = 0, cs;
     long long count;
-    const unsigned char *m =
-        ibm ? lr__gltf_accessor_at(d, (long long)ibm->valuedouble, &stride,
-                                   &count, &cs)
-            : NULL;
+    const unsigned char *m = ibm ? lr__gltf_accessor_at(
+                                       d, (long long)ibm->valuedouble, &stride,
+                                       &count, &cs)
+                                 : NULL;
     int i = 0;
     for (const cJSON *j = joints->child; out && j; j = j->next, i++) {
         lr__xform b = lr__xform_identity();
@@ -419,8 +418,8 @@ static int posed(const lr__gltf_doc *d, const cJSON *pr, const char *attr,
         f[3 * i + 1] = (float)fmax(-1e30, fmin(1e30, p.y));
         f[3 * i + 2] = (float)fmax(-1e30, fmin(1e30, p.z));
     }
-    return extra_accessor(r, u, -1, at, (size_t)count * 3 * sizeof(float),
-                          5126, (double)count, "VEC3", 0);
+    return extra_accessor(r, u, -1, at, (size_t)count * 3 * sizeof(float), 5126,
+                          (double)count, "VEC3", 0);
 }
 
 /* The weights a node draws its mesh's morph targets at: its own, else
@@ -438,8 +437,8 @@ static const cJSON *node_weights(const cJSON *node, const cJSON *mesh)
 
 /* Appends to r's meshes a copy of its meshes[m] (the document's `mesh`)
  * whose POSITION and NORMAL are posed by ps.  0 on no memory. */
-static int pose_mesh(const lr__gltf_doc *d, const pose *ps,
-                     const cJSON *mesh, int m, cJSON *r, extra_buffer *u)
+static int pose_mesh(const lr__gltf_doc *d, const pose *ps, const cJSON *mesh,
+                     int m, cJSON *r, extra_buffer *u)
 {
     cJSON *rmeshes = cJSON_GetObjectItemCaseSensitive(r, "meshes");
     cJSON *copy = cJSON_Duplicate(cJSON_GetArrayItem(rmeshes, m), 1);
@@ -457,9 +456,8 @@ static int pose_mesh(const lr__gltf_doc *d, const pose *ps,
         for (int k = 0; k < 2; k++) {
             int a = posed(d, pr, attrs[k], ps, r, u);
             cJSON *at = cJSON_GetObjectItemCaseSensitive(cp, "attributes");
-            if (a == -1 ||
-                (a >= 0 && !cJSON_ReplaceItemInObjectCaseSensitive(
-                               at, attrs[k], cJSON_CreateNumber(a))))
+            if (a == -1 || (a >= 0 && !cJSON_ReplaceItemInObjectCaseSensitive(
+                                          at, attrs[k], cJSON_CreateNumber(a))))
                 return 0;
         }
         cp = cp->next;
@@ -473,8 +471,8 @@ static int pose_mesh(const lr__gltf_doc *d, const pose *ps,
  * targets nor the skins.  A still image then shows what glTF viewers show
  * before any animation: the targets at the file's weights (spec 3.7.2.2)
  * and the skin at its joints' own transforms (3.7.3.3). */
-static int pose_meshes(const lr__gltf_doc *d, const lr__xform *world,
-                       cJSON *r, extra_buffer *u)
+static int pose_meshes(const lr__gltf_doc *d, const lr__xform *world, cJSON *r,
+                       extra_buffer *u)
 {
     int nn, nm, ns;
     const cJSON *nodes = lr__gltf_array(d->root, "nodes", &nn);
@@ -533,15 +531,14 @@ static char *assimp_text(const lr__gltf_doc *d, const lr__xform *world,
                          extra_buffer *u)
 {
     static const char *const k_scene[] = {"nodes", NULL};
-    static const char *const k_node[] = {"children", "mesh", "matrix",
-                                         "translation", "rotation", "scale",
-                                         NULL};
+    static const char *const k_node[] = {
+        "children", "mesh", "matrix", "translation", "rotation", "scale", NULL};
     static const char *const k_mesh[] = {"primitives", NULL};
-    static const char *const k_acc[] = {"bufferView", "byteOffset",
-                                        "componentType", "normalized",
-                                        "count", "type", NULL};
-    static const char *const k_view[] = {"buffer", "byteOffset",
-                                         "byteLength", "byteStride", NULL};
+    static const char *const k_acc[] = {
+        "bufferView", "byteOffset", "componentType", "normalized", "count",
+        "type",       NULL};
+    static const char *const k_view[] = {"buffer", "byteOffset", "byteLength",
+                                         "byteStride", NULL};
     static const char *const k_buf[] = {"byteLength", NULL};
     static const char *const k_none[] = {NULL};
     static const char *const k_prim[] = {"attributes", "indices", "material",
@@ -551,8 +548,8 @@ static char *assimp_text(const lr__gltf_doc *d, const lr__xform *world,
     cJSON *asset = ok ? cJSON_AddObjectToObject(r, "asset") : NULL;
     ok = ok && asset && cJSON_AddStringToObject(asset, "version", "2.0");
     const cJSON *sc = cJSON_GetObjectItemCaseSensitive(d->root, "scene");
-    ok = ok && (sc == NULL ||
-                cJSON_AddNumberToObject(r, "scene", sc->valuedouble));
+    ok = ok &&
+         (sc == NULL || cJSON_AddNumberToObject(r, "scene", sc->valuedouble));
     ok = ok && copy_array(r, d->root, "scenes", k_scene, NULL) &&
          copy_array(r, d->root, "nodes", k_node, "n%d") &&
          copy_array(r, d->root, "meshes", k_mesh, NULL) &&
@@ -563,8 +560,7 @@ static char *assimp_text(const lr__gltf_doc *d, const lr__xform *world,
     /* Primitives keep only their geometry, and those without POSITION
      * are left out (spec 3.7.2.1: not drawn); buffers are named by uri. */
     const cJSON *meshes = cJSON_GetObjectItemCaseSensitive(r, "meshes");
-    for (cJSON *m = ok && meshes ? meshes->child : NULL; m && ok;
-         m = m->next) {
+    for (cJSON *m = ok && meshes ? meshes->child : NULL; m && ok; m = m->next) {
         cJSON *prims = cJSON_GetObjectItemCaseSensitive(m, "primitives");
         for (cJSON *p = prims->child, *next; p && ok; p = next) {
             next = p->next;
@@ -587,8 +583,7 @@ static char *assimp_text(const lr__gltf_doc *d, const lr__xform *world,
     const cJSON *rnodes = cJSON_GetObjectItemCaseSensitive(r, "nodes");
     for (cJSON *n = ok && rnodes ? rnodes->child : NULL; n; n = n->next) {
         const cJSON *mi = cJSON_GetObjectItemCaseSensitive(n, "mesh");
-        const cJSON *m = mi ? cJSON_GetArrayItem(meshes,
-                                                 (int)mi->valuedouble)
+        const cJSON *m = mi ? cJSON_GetArrayItem(meshes, (int)mi->valuedouble)
                             : NULL;
         int np;
         if (mi != NULL && (lr__gltf_array(m, "primitives", &np), np == 0))
@@ -632,9 +627,18 @@ static size_t mf_write(struct aiFile *f, const char *b, size_t s, size_t c)
     return 0;
 }
 
-static size_t mf_tell(struct aiFile *f) { return ((mem_file *)f)->at; }
-static size_t mf_size(struct aiFile *f) { return ((mem_file *)f)->n; }
-static void mf_flush(struct aiFile *f) { (void)f; }
+static size_t mf_tell(struct aiFile *f)
+{
+    return ((mem_file *)f)->at;
+}
+static size_t mf_size(struct aiFile *f)
+{
+    return ((mem_file *)f)->n;
+}
+static void mf_flush(struct aiFile *f)
+{
+    (void)f;
+}
 
 static enum aiReturn mf_seek(struct aiFile *f, size_t off, enum aiOrigin o)
 {

@@ -87,8 +87,8 @@ static const char *dotted(const char *path, const char *key, char *buf,
 /* An optional non-negative integer member below `lim` (lim 0: no limit);
  * *out = dflt when absent. */
 lr_status lr__gltf_get_uint(const lr__gltf_doc *d, const cJSON *o,
-                          const char *path, const char *key, double lim,
-                          long long dflt, long long *out, lr_error *err)
+                            const char *path, const char *key, double lim,
+                            long long dflt, long long *out, lr_error *err)
 {
     const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, key);
     *out = dflt;
@@ -109,8 +109,8 @@ lr_status lr__gltf_get_uint(const lr__gltf_doc *d, const cJSON *o,
 
 /* An optional index into an array of n; -1 when absent. */
 lr_status lr__gltf_get_index(const lr__gltf_doc *d, const cJSON *o,
-                           const char *path, const char *key, int n,
-                           long long *out, lr_error *err)
+                             const char *path, const char *key, int n,
+                             long long *out, lr_error *err)
 {
     const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, key);
     *out = -1;
@@ -118,7 +118,8 @@ lr_status lr__gltf_get_index(const lr__gltf_doc *d, const cJSON *o,
         return LR_OK;
     char f[200];
     if (n == 0)
-        return lr__gltf_fail(d, err, "%s refers to an element of an "
+        return lr__gltf_fail(d, err,
+                             "%s refers to an element of an "
                              "empty or missing array",
                              dotted(path, key, f, sizeof f));
     return lr__gltf_get_uint(d, o, path, key, n, -1, out, err);
@@ -136,8 +137,10 @@ static lr_status check_numbers(const lr__gltf_doc *d, const cJSON *o,
     for (const cJSON *c = ok ? a->child : NULL; c; c = c->next)
         ok = ok && cJSON_IsNumber(c) && fabs(c->valuedouble) <= 1e15;
     if (!ok)
-        return lr__gltf_fail(d, err, "%s.%s must be an array of %d finite "
-                             "numbers", path, key, n);
+        return lr__gltf_fail(d, err,
+                             "%s.%s must be an array of %d finite "
+                             "numbers",
+                             path, key, n);
     return LR_OK;
 }
 
@@ -145,26 +148,33 @@ static lr_status check_numbers(const lr__gltf_doc *d, const cJSON *o,
 
 /* Extensions lensray reads or may ignore without changing the geometry;
  * a file that requires any other is refused. */
-static const char *const known_ext[] = {
-    "KHR_lights_punctual", "KHR_materials_emissive_strength",
-    "KHR_materials_transmission", "KHR_materials_ior",
-    "KHR_materials_specular", "KHR_materials_clearcoat",
-    "KHR_materials_sheen", "KHR_materials_volume", "KHR_texture_transform",
-    "KHR_materials_unlit", NULL};
+static const char *const known_ext[] = {"KHR_lights_punctual",
+                                        "KHR_materials_emissive_strength",
+                                        "KHR_materials_transmission",
+                                        "KHR_materials_ior",
+                                        "KHR_materials_specular",
+                                        "KHR_materials_clearcoat",
+                                        "KHR_materials_sheen",
+                                        "KHR_materials_volume",
+                                        "KHR_texture_transform",
+                                        "KHR_materials_unlit",
+                                        NULL};
 static lr_status check_index_values(const lr__gltf_doc *d, const char *p,
                                     long long acc, long long n_vertices,
                                     lr_error *err)
 {
     size_t stride, cs;
     long long count;
-    const unsigned char *base = lr__gltf_accessor_at(d, acc, &stride, &count, &cs);
+    const unsigned char *base = lr__gltf_accessor_at(d, acc, &stride, &count,
+                                                     &cs);
     for (long long i = 0; i < count; i++) {
         const unsigned char *q = base + (size_t)i * stride;
         unsigned long x = lr__gltf_read_uint(q, cs);
         if ((long long)x >= n_vertices)
-            return lr__gltf_fail(d, err, "%s.indices: index %lld is %lu, "
-                                 "beyond the %lld vertices", p, i, x,
-                                 n_vertices);
+            return lr__gltf_fail(d, err,
+                                 "%s.indices: index %lld is %lu, "
+                                 "beyond the %lld vertices",
+                                 p, i, x, n_vertices);
     }
     return LR_OK;
 }
@@ -178,16 +188,19 @@ static lr_status check_positions(const lr__gltf_doc *d, const char *p,
     size_t stride, cs;
     long long count;
     static const char *const axis[3] = {"x", "y", "z"};
-    const unsigned char *base = lr__gltf_accessor_at(d, acc, &stride, &count, &cs);
+    const unsigned char *base = lr__gltf_accessor_at(d, acc, &stride, &count,
+                                                     &cs);
     for (long long i = 0; i < count; i++)
         for (int k = 0; k < 3; k++) {
-            uint32_t bits = lr__gltf_le32(base + (size_t)i * stride + 4 * (size_t)k);
+            uint32_t bits = lr__gltf_le32(base + (size_t)i * stride +
+                                          4 * (size_t)k);
             float f;
             memcpy(&f, &bits, sizeof f);
             if (!isfinite(f))
-                return lr__gltf_fail(d, err, "%s.POSITION: accessors[%lld] "
-                                     "element %lld: %s is %g", p, acc, i,
-                                     axis[k], (double)f);
+                return lr__gltf_fail(d, err,
+                                     "%s.POSITION: accessors[%lld] "
+                                     "element %lld: %s is %g",
+                                     p, acc, i, axis[k], (double)f);
         }
     return LR_OK;
 }
@@ -215,9 +228,10 @@ static lr_status check_targets(const lr__gltf_doc *d, const cJSON *pr,
             LR_TRY(lr__gltf_get_index(d, t, q, c->string, nacc, &x, err));
             LR_TRY(lr__gltf_check_attribute(d, q, c->string, x, &cnt, err));
             if (cnt != nvert)
-                return lr__gltf_fail(d, err, "%s.%s has %lld elements, "
-                                     "POSITION %lld", q, c->string, cnt,
-                                     nvert);
+                return lr__gltf_fail(d, err,
+                                     "%s.%s has %lld elements, "
+                                     "POSITION %lld",
+                                     q, c->string, cnt, nvert);
             if (strcmp(c->string, "POSITION") == 0)
                 LR_TRY(check_positions(d, q, x, err));
         }
@@ -230,8 +244,8 @@ static lr_status check_targets(const lr__gltf_doc *d, const cJSON *pr,
 static int mesh_targets(const lr__gltf_doc *d, long long m)
 {
     int n, np, nt;
-    const cJSON *mesh = cJSON_GetArrayItem(lr__gltf_array(d->root, "meshes",
-                                                          &n), (int)m);
+    const cJSON *mesh = cJSON_GetArrayItem(
+        lr__gltf_array(d->root, "meshes", &n), (int)m);
     const cJSON *prims = lr__gltf_array(mesh, "primitives", &np);
     lr__gltf_array(prims ? prims->child : NULL, "targets", &nt);
     return nt;
@@ -249,9 +263,10 @@ static lr_status check_weights(const lr__gltf_doc *d, const cJSON *o,
     for (const cJSON *c = ok ? w->child : NULL; c; c = c->next)
         ok = ok && cJSON_IsNumber(c) && fabs(c->valuedouble) <= 1e6;
     if (!ok)
-        return lr__gltf_fail(d, err, "%s.weights must be %d numbers from "
-                             "-1e6 to 1e6, one per morph target", p,
-                             targets);
+        return lr__gltf_fail(d, err,
+                             "%s.weights must be %d numbers from "
+                             "-1e6 to 1e6, one per morph target",
+                             p, targets);
     return LR_OK;
 }
 
@@ -267,27 +282,31 @@ static lr_status check_meshes(lr__gltf_doc *d, lr_error *err)
         int np;
         const cJSON *prims = lr__gltf_array(m, "primitives", &np);
         if (np == 0)
-            return lr__gltf_fail(d, err, "meshes[%d].primitives must be a "
-                                 "non-empty array", i);
+            return lr__gltf_fail(d, err,
+                                 "meshes[%d].primitives must be a "
+                                 "non-empty array",
+                                 i);
         int j = 0, targets = 0;
         for (const cJSON *pr = prims->child; pr; pr = pr->next, j++) {
             snprintf(p, sizeof p, "meshes[%d].primitives[%d]", i, j);
             const cJSON *at = cJSON_GetObjectItemCaseSensitive(pr,
                                                                "attributes");
             if (!cJSON_IsObject(at) || at->child == NULL)
-                return lr__gltf_fail(d, err, "%s.attributes must be a "
-                                     "non-empty object", p);
+                return lr__gltf_fail(d, err,
+                                     "%s.attributes must be a "
+                                     "non-empty object",
+                                     p);
             /* POSITION may be missing (spec 3.7.2.1: such a primitive is
              * not drawn; gltf_assimp.c leaves it out). */
-            const cJSON *pos = cJSON_GetObjectItemCaseSensitive(at,
-                                                                "POSITION");
+            const cJSON *pos = cJSON_GetObjectItemCaseSensitive(at, "POSITION");
             const char *first = pos ? "POSITION" : at->child->string;
             long long nvert = -1, cnt, x, mode;
             char q[128];
             snprintf(q, sizeof q, "%s.attributes", p);
             if (pos != NULL) {
                 LR_TRY(lr__gltf_get_index(d, at, q, "POSITION", nacc, &x, err));
-                LR_TRY(lr__gltf_check_attribute(d, q, "POSITION", x, &nvert, err));
+                LR_TRY(
+                    lr__gltf_check_attribute(d, q, "POSITION", x, &nvert, err));
                 LR_TRY(check_positions(d, q, x, err));
             }
             for (const cJSON *c = at->child; c; c = c->next) {
@@ -296,9 +315,10 @@ static lr_status check_meshes(lr__gltf_doc *d, lr_error *err)
                 if (nvert < 0)
                     nvert = cnt;
                 if (cnt != nvert)
-                    return lr__gltf_fail(d, err, "%s.%s has %lld elements, "
-                                         "%s %lld", q, c->string, cnt, first,
-                                         nvert);
+                    return lr__gltf_fail(d, err,
+                                         "%s.%s has %lld elements, "
+                                         "%s %lld",
+                                         q, c->string, cnt, first, nvert);
             }
             LR_TRY(lr__gltf_get_index(d, pr, p, "indices", nacc, &x, err));
             if (x >= 0) {
@@ -312,9 +332,11 @@ static lr_status check_meshes(lr__gltf_doc *d, lr_error *err)
             if (j == 0)
                 targets = nt;
             else if (nt != targets)
-                return lr__gltf_fail(d, err, "%s has %d morph targets, "
+                return lr__gltf_fail(d, err,
+                                     "%s has %d morph targets, "
                                      "primitives[0] %d (the spec asks for "
-                                     "the same number)", p, nt, targets);
+                                     "the same number)",
+                                     p, nt, targets);
         }
         snprintf(p, sizeof p, "meshes[%d]", i);
         LR_TRY(check_weights(d, m, p, targets, err));
@@ -343,11 +365,14 @@ static lr_status check_skins(const lr__gltf_doc *d, lr_error *err)
             ok = ok && cJSON_IsNumber(j) && j->valuedouble >= 0 &&
                  j->valuedouble < nn && j->valuedouble == floor(j->valuedouble);
         if (!ok)
-            return lr__gltf_fail(d, err, "%s.joints must be a non-empty "
-                                 "array of indices below %d", p, nn);
+            return lr__gltf_fail(d, err,
+                                 "%s.joints must be a non-empty "
+                                 "array of indices below %d",
+                                 p, nn);
         long long x, sk_node;
         LR_TRY(lr__gltf_get_index(d, sk, p, "skeleton", nn, &sk_node, err));
-        LR_TRY(lr__gltf_get_index(d, sk, p, "inverseBindMatrices", nacc, &x, err));
+        LR_TRY(
+            lr__gltf_get_index(d, sk, p, "inverseBindMatrices", nacc, &x, err));
         if (x < 0)
             continue;
         const cJSON *a = cJSON_GetArrayItem(
@@ -357,12 +382,14 @@ static lr_status check_skins(const lr__gltf_doc *d, lr_error *err)
         long long count;
         const unsigned char *m = lr__gltf_accessor_at(d, x, &stride, &count,
                                                       &cs);
-        if (cJSON_GetNumberValue(cJSON_GetObjectItemCaseSensitive(
-                a, "componentType")) != 5126 ||
+        if (cJSON_GetNumberValue(
+                cJSON_GetObjectItemCaseSensitive(a, "componentType")) != 5126 ||
             strcmp(t->valuestring, "MAT4") != 0 || count < nj)
-            return lr__gltf_fail(d, err, "%s.inverseBindMatrices: "
+            return lr__gltf_fail(d, err,
+                                 "%s.inverseBindMatrices: "
                                  "accessors[%lld] must be %d or more MAT4 "
-                                 "of floats", p, x, nj);
+                                 "of floats",
+                                 p, x, nj);
         for (long long e = 0; e < count * 16; e++) {
             float f;
             memcpy(&f, m + (size_t)(e / 16) * stride + (size_t)(e % 16) * 4,
@@ -371,9 +398,10 @@ static lr_status check_skins(const lr__gltf_doc *d, lr_error *err)
              * (tinygltf's unassigned-skeleton.gltf has 1.2e18); a used
              * one that throws a vertex too far is refused when placed. */
             if (!isfinite(f))
-                return lr__gltf_fail(d, err, "%s.inverseBindMatrices: "
-                                     "accessors[%lld] holds %g", p, x,
-                                     (double)f);
+                return lr__gltf_fail(d, err,
+                                     "%s.inverseBindMatrices: "
+                                     "accessors[%lld] holds %g",
+                                     p, x, (double)f);
         }
     }
     return LR_OK;
@@ -385,20 +413,22 @@ static lr_status check_skinned(const lr__gltf_doc *d, const char *p,
                                long long mesh, long long skin, lr_error *err)
 {
     int n, nj, np;
-    const cJSON *sk = cJSON_GetArrayItem(lr__gltf_array(d->root, "skins",
-                                                        &n), (int)skin);
+    const cJSON *sk = cJSON_GetArrayItem(lr__gltf_array(d->root, "skins", &n),
+                                         (int)skin);
     lr__gltf_array(sk, "joints", &nj);
-    const cJSON *m = cJSON_GetArrayItem(lr__gltf_array(d->root, "meshes",
-                                                       &n), (int)mesh);
+    const cJSON *m = cJSON_GetArrayItem(lr__gltf_array(d->root, "meshes", &n),
+                                        (int)mesh);
     const cJSON *prims = lr__gltf_array(m, "primitives", &np);
     int k = 0;
     for (const cJSON *pr = prims->child; pr; pr = pr->next, k++) {
         const cJSON *at = cJSON_GetObjectItemCaseSensitive(pr, "attributes");
         if (!cJSON_GetObjectItemCaseSensitive(at, "JOINTS_0") ||
             !cJSON_GetObjectItemCaseSensitive(at, "WEIGHTS_0"))
-            return lr__gltf_fail(d, err, "%s: meshes[%lld].primitives[%d] "
+            return lr__gltf_fail(d, err,
+                                 "%s: meshes[%lld].primitives[%d] "
                                  "of a skinned node needs JOINTS_0 and "
-                                 "WEIGHTS_0", p, mesh, k);
+                                 "WEIGHTS_0",
+                                 p, mesh, k);
         for (const cJSON *c = at->child; c; c = c->next) {
             if (strncmp(c->string, "JOINTS_", 7) != 0)
                 continue;
@@ -407,11 +437,11 @@ static lr_status check_skinned(const lr__gltf_doc *d, const char *p,
             const unsigned char *q = lr__gltf_accessor_at(
                 d, (long long)c->valuedouble, &stride, &count, &cs);
             for (long long e = 0; e < 4 * count; e++) {
-                unsigned long j = lr__gltf_read_uint(q + (size_t)(e / 4) * stride +
-                                                (size_t)(e % 4) * cs,
-                                            cs);
+                unsigned long j = lr__gltf_read_uint(
+                    q + (size_t)(e / 4) * stride + (size_t)(e % 4) * cs, cs);
                 if ((long long)j >= nj)
-                    return lr__gltf_fail(d, err, "%s: meshes[%lld]."
+                    return lr__gltf_fail(d, err,
+                                         "%s: meshes[%lld]."
                                          "primitives[%d].attributes.%s: "
                                          "joint %lu of a skin of %d joints",
                                          p, mesh, k, c->string, j, nj);
@@ -431,9 +461,9 @@ static lr_status check_nodes(lr__gltf_doc *d, lr_error *err)
     lr__gltf_array(d->root, "skins", &nskin);
     LR_TRY(check_skins(d, err));
     lr__gltf_array(d->root, "cameras", &ncam);
-    lr__gltf_array(lr__gltf_member(d->root, "extensions",
-                                   "KHR_lights_punctual"),
-                   "lights", &nlight);
+    lr__gltf_array(
+        lr__gltf_member(d->root, "extensions", "KHR_lights_punctual"), "lights",
+        &nlight);
     d->n_nodes = n;
     int *parent = malloc((n ? (size_t)n : 1) * sizeof *parent);
     if (parent == NULL)
@@ -489,13 +519,17 @@ static lr_status check_nodes(lr__gltf_doc *d, lr_error *err)
         for (const cJSON *c = ch ? ch->child : NULL; c; c = c->next) {
             double v = cJSON_IsNumber(c) ? c->valuedouble : -1;
             if (!(v >= 0 && v < n && v == floor(v))) {
-                st = lr__gltf_fail(d, err, "%s.children must be indices "
-                                   "below %d", p, n);
+                st = lr__gltf_fail(d, err,
+                                   "%s.children must be indices "
+                                   "below %d",
+                                   p, n);
                 break;
             }
             if (parent[(int)v] >= 0 || (int)v == i) {
-                st = lr__gltf_fail(d, err, "nodes[%d] is the child of more "
-                                   "than one node (or of itself)", (int)v);
+                st = lr__gltf_fail(d, err,
+                                   "nodes[%d] is the child of more "
+                                   "than one node (or of itself)",
+                                   (int)v);
                 break;
             }
             parent[(int)v] = i;
@@ -520,8 +554,10 @@ static lr_status check_nodes(lr__gltf_doc *d, lr_error *err)
         for (const cJSON *c = r ? r->child : NULL; c; c = c->next) {
             double v = cJSON_IsNumber(c) ? c->valuedouble : -1;
             if (!(v >= 0 && v < n && v == floor(v)) || parent[(int)v] >= 0) {
-                st = lr__gltf_fail(d, err, "scenes[%d].nodes must be "
-                                   "indices of root nodes", si);
+                st = lr__gltf_fail(d, err,
+                                   "scenes[%d].nodes must be "
+                                   "indices of root nodes",
+                                   si);
                 break;
             }
         }
@@ -559,8 +595,7 @@ static lr_status check_images(lr__gltf_doc *d, const char *dir, lr_error *err)
             lr__gltf_blob *b;
             LR_TRY(lr__gltf_read_blob(d, dir, p, uri->valuestring, &b, err));
         } else if (x < 0) {
-            return lr__gltf_fail(d, err, "%s needs a uri or a bufferView",
-                                 p);
+            return lr__gltf_fail(d, err, "%s needs a uri or a bufferView", p);
         }
     }
     i = 0;
@@ -572,13 +607,13 @@ static lr_status check_images(lr__gltf_doc *d, const char *dir, lr_error *err)
     static const char *const slots[][2] = {
         {"pbrMetallicRoughness", "baseColorTexture"},
         {"pbrMetallicRoughness", "metallicRoughnessTexture"},
-        {NULL, "emissiveTexture"}, {NULL, "normalTexture"},
+        {NULL, "emissiveTexture"},
+        {NULL, "normalTexture"},
         {NULL, "occlusionTexture"}};
     i = 0;
     for (const cJSON *m = mats ? mats->child : NULL; m; m = m->next, i++) {
         if (!cJSON_IsObject(m))
-            return lr__gltf_fail(d, err, "materials[%d] must be an object",
-                                 i);
+            return lr__gltf_fail(d, err, "materials[%d] must be an object", i);
         for (int k = 0; k < 5; k++) {
             const cJSON *o = slots[k][0]
                                  ? lr__gltf_member(m, slots[k][0], slots[k][1])
@@ -603,7 +638,8 @@ static lr_status check_top(lr__gltf_doc *d, lr_error *err)
     const cJSON *asset = cJSON_GetObjectItemCaseSensitive(d->root, "asset");
     const cJSON *ver = cJSON_GetObjectItemCaseSensitive(asset, "version");
     if (!cJSON_IsString(ver) || strncmp(ver->valuestring, "2.", 2) != 0)
-        return lr__gltf_fail(d, err, "asset.version must be \"2.0\" (glTF 1 "
+        return lr__gltf_fail(d, err,
+                             "asset.version must be \"2.0\" (glTF 1 "
                              "and others are not read)");
     int n;
     const cJSON *req = lr__gltf_array(d->root, "extensionsRequired", &n);
@@ -613,15 +649,16 @@ static lr_status check_top(lr__gltf_doc *d, lr_error *err)
                strcmp(known_ext[k], e->valuestring) != 0)
             k++;
         if (!cJSON_IsString(e) || known_ext[k] == NULL)
-            return lr__gltf_fail(d, err, "extensionsRequired: %.60s is not "
+            return lr__gltf_fail(d, err,
+                                 "extensionsRequired: %.60s is not "
                                  "read by lensray",
                                  cJSON_IsString(e) ? e->valuestring : "?");
     }
     /* Arrays the checks index must be arrays of objects when present. */
     static const char *const arrays[] = {
-        "buffers", "bufferViews", "accessors", "meshes", "nodes", "scenes",
-        "materials", "textures", "images", "samplers", "cameras", "skins",
-        NULL};
+        "buffers", "bufferViews", "accessors", "meshes", "nodes",
+        "scenes",  "materials",   "textures",  "images", "samplers",
+        "cameras", "skins",       NULL};
     for (int k = 0; arrays[k]; k++) {
         const cJSON *a = cJSON_GetObjectItemCaseSensitive(d->root, arrays[k]);
         if (a == NULL)
@@ -637,8 +674,8 @@ static lr_status check_top(lr__gltf_doc *d, lr_error *err)
     return LR_OK;
 }
 
-lr_status lr__gltf_doc_load(const char *file, const char *shown,
-                            const char *fp, lr__gltf_doc *d, lr_error *err)
+lr_status lr__gltf_doc_load(const char *file, const char *shown, const char *fp,
+                            lr__gltf_doc *d, lr_error *err)
 {
     memset(d, 0, sizeof *d);
     d->fp = fp;
@@ -659,7 +696,8 @@ lr_status lr__gltf_doc_load(const char *file, const char *shown,
         st = lr__json_parse(json ? json : "", n, shown, "", &d->root, &e2);
         if (st == LR_ERR_NOMEM)
             lr__fail(err, st, NULL, "out of memory");
-        else if (st != LR_OK && strncmp(e2.message, shown, strlen(shown)) == 0 &&
+        else if (st != LR_OK &&
+                 strncmp(e2.message, shown, strlen(shown)) == 0 &&
                  e2.message[strlen(shown)] == ':')
             lr__fail(err, st, fp, "%s: %s", fp, e2.message);
         else if (st != LR_OK)

@@ -14,8 +14,8 @@
 
 /* One file the glTF names (a buffer or an image), read whole. */
 typedef struct lr__gltf_blob {
-    char *uri;            /* as the glTF wrote it; owned */
-    unsigned char *data;  /* owned */
+    char *uri;           /* as the glTF wrote it; owned */
+    unsigned char *data; /* owned */
     size_t n;
 } lr__gltf_blob;
 
@@ -35,7 +35,7 @@ typedef struct lr__gltf_doc {
     struct lr__gltf_buffer {
         const unsigned char *data;
         size_t n;
-    } *buffers;           /* owned */
+    } * buffers; /* owned */
     size_t n_buffers;
     /* Accessors copied out, tightly packed: those without a bufferView
      * (zeros) or with sparse values written over their view's (spec
@@ -49,7 +49,7 @@ typedef struct lr__gltf_doc {
     struct lr__gltf_tex {
         int image, srgb;
         struct lr__texture *t;
-    } *tex;               /* owned */
+    } * tex; /* owned */
     size_t n_tex;
 } lr__gltf_doc;
 
@@ -58,8 +58,8 @@ typedef struct lr__gltf_doc {
  * between arrays, every accessor within its bufferView within its buffer,
  * the node graph (a tree: no cycles, no node twice), paths of external
  * files.  On error the doc is freed. */
-lr_status lr__gltf_doc_load(const char *file, const char *shown,
-                            const char *fp, lr__gltf_doc *d, lr_error *err);
+lr_status lr__gltf_doc_load(const char *file, const char *shown, const char *fp,
+                            lr__gltf_doc *d, lr_error *err);
 void lr__gltf_doc_free(lr__gltf_doc *d);
 
 /* An input error about the file: "FP: SHOWN: what". */
@@ -69,13 +69,12 @@ lr__gltf_fail(const lr__gltf_doc *d, lr_error *err, const char *fmt, ...);
 /* Where accessor acc's elements lie (checked by lr__gltf_doc_load): the
  * first one, the stride between them, their count and their component
  * size; a dense copy (see lr__gltf_doc.dense) or in its bufferView. */
-const unsigned char *lr__gltf_accessor_at(const lr__gltf_doc *d,
-                                          long long acc, size_t *stride,
-                                          long long *count, size_t *cs);
+const unsigned char *lr__gltf_accessor_at(const lr__gltf_doc *d, long long acc,
+                                          size_t *stride, long long *count,
+                                          size_t *cs);
 
 /* The bytes of external file `uri` (read by lr__gltf_doc_load), or NULL. */
-const lr__gltf_blob *lr__gltf_blob_find(const lr__gltf_doc *d,
-                                        const char *uri);
+const lr__gltf_blob *lr__gltf_blob_find(const lr__gltf_doc *d, const char *uri);
 
 /* o[k1][k2] when both are objects, else NULL. */
 const cJSON *lr__gltf_member(const cJSON *o, const char *k1, const char *k2);
@@ -136,9 +135,9 @@ void lr__gltf_warn(lr_scene *s, const lr__gltf_doc *d, const char *fmt, ...)
 /* gltf_file.c: reads the file `uri` (relative to the glTF's directory
  * `dir`; `path` names the field for errors) into a new blob of d's, or
  * finds the one read before. */
-lr_status lr__gltf_read_blob(lr__gltf_doc *d, const char *dir,
-                             const char *path, const char *uri,
-                             lr__gltf_blob **out, lr_error *err);
+lr_status lr__gltf_read_blob(lr__gltf_doc *d, const char *dir, const char *path,
+                             const char *uri, lr__gltf_blob **out,
+                             lr_error *err);
 /* gltf_file.c: the GLB header and chunks (spec 4.4) of d's bytes: the
  * JSON chunk's text in *json, *n bytes. */
 lr_status lr__gltf_read_glb(lr__gltf_doc *d, const char **json, size_t *n,

@@ -90,14 +90,16 @@ static int b64_value(int c)
 
 /* Decodes the base64 data: URI `u` (RFC 2397, RFC 4648 section 4). */
 static lr_status decode_data_uri(const lr__gltf_doc *d, const char *path,
-                                 const char *u, unsigned char **out,
-                                 size_t *n, lr_error *err)
+                                 const char *u, unsigned char **out, size_t *n,
+                                 lr_error *err)
 {
     const char *comma = strchr(u, ',');
     if (comma == NULL || comma - u < 12 ||
         strncmp(comma - 7, ";base64", 7) != 0)
-        return lr__gltf_fail(d, err, "%s.uri: a data: URI must be base64 "
-                             "(\"data:...;base64,...\")", path);
+        return lr__gltf_fail(d, err,
+                             "%s.uri: a data: URI must be base64 "
+                             "(\"data:...;base64,...\")",
+                             path);
     const char *s = comma + 1;
     size_t len = strlen(s);
     unsigned char *buf = malloc(len / 4 * 3 + 3);
@@ -110,8 +112,10 @@ static lr_status decode_data_uri(const lr__gltf_doc *d, const char *path,
         int v = b64_value((unsigned char)s[i]);
         if (v < 0) {
             free(buf);
-            return lr__gltf_fail(d, err, "%s.uri: byte %zu of the base64 "
-                                 "data is not base64", path, i);
+            return lr__gltf_fail(d, err,
+                                 "%s.uri: byte %zu of the base64 "
+                                 "data is not base64",
+                                 path, i);
         }
         acc = (acc << 6) | (unsigned)v;
         bits += 6;
@@ -128,8 +132,8 @@ static lr_status decode_data_uri(const lr__gltf_doc *d, const char *path,
 /* Reads the file `uri` (relative to the glTF's directory `dir`) into a
  * new blob. */
 lr_status lr__gltf_read_blob(lr__gltf_doc *d, const char *dir, const char *path,
-                           const char *uri, lr__gltf_blob **out,
-                           lr_error *err)
+                             const char *uri, lr__gltf_blob **out,
+                             lr_error *err)
 {
     const lr__gltf_blob *seen = lr__gltf_blob_find(d, uri);
     if (seen != NULL) {
@@ -177,9 +181,10 @@ lr_status lr__gltf_read_blob(lr__gltf_doc *d, const char *dir, const char *path,
         if (out) {
             free(full);
             free(file);
-            return lr__gltf_fail(d, err, "%s.uri \"%.80s\" leads out of the "
-                                 "glTF's directory (a symbolic link)", path,
-                                 uri);
+            return lr__gltf_fail(d, err,
+                                 "%s.uri \"%.80s\" leads out of the "
+                                 "glTF's directory (a symbolic link)",
+                                 path, uri);
         }
         char *data = NULL;
         size_t n = 0;
@@ -218,11 +223,12 @@ uint32_t lr__gltf_le32(const unsigned char *p)
 
 /* The GLB header and chunks (spec 4.4): the JSON chunk's text in *json. */
 lr_status lr__gltf_read_glb(lr__gltf_doc *d, const char **json, size_t *n,
-                          lr_error *err)
+                            lr_error *err)
 {
     const unsigned char *b = d->bytes;
     if (d->n_bytes < 20)
-        return lr__gltf_fail(d, err, "a GLB file needs a 12-byte header "
+        return lr__gltf_fail(d, err,
+                             "a GLB file needs a 12-byte header "
                              "and a chunk; this one has %zu bytes",
                              d->n_bytes);
     if (lr__gltf_le32(b + 4) != 2)
@@ -230,14 +236,18 @@ lr_status lr__gltf_read_glb(lr__gltf_doc *d, const char **json, size_t *n,
                              (unsigned)lr__gltf_le32(b + 4));
     size_t total = lr__gltf_le32(b + 8);
     if (total > d->n_bytes || total < 20)
-        return lr__gltf_fail(d, err, "the GLB header says %zu bytes, the "
-                             "file has %zu (truncated?)", total, d->n_bytes);
+        return lr__gltf_fail(d, err,
+                             "the GLB header says %zu bytes, the "
+                             "file has %zu (truncated?)",
+                             total, d->n_bytes);
     size_t jlen = lr__gltf_le32(b + 12);
     if (memcmp(b + 16, "JSON", 4) != 0)
         return lr__gltf_fail(d, err, "the first GLB chunk must be JSON");
     if (jlen > total - 20)
-        return lr__gltf_fail(d, err, "the GLB JSON chunk of %zu bytes runs "
-                             "past the file's end (truncated?)", jlen);
+        return lr__gltf_fail(d, err,
+                             "the GLB JSON chunk of %zu bytes runs "
+                             "past the file's end (truncated?)",
+                             jlen);
     *json = (const char *)b + 20;
     *n = jlen;
     size_t at = 20 + jlen;
@@ -246,7 +256,8 @@ lr_status lr__gltf_read_glb(lr__gltf_doc *d, const char **json, size_t *n,
         if (memcmp(b + at + 4, "BIN\0", 4) != 0)
             return lr__gltf_fail(d, err, "the second GLB chunk must be BIN");
         if (blen > total - at - 8)
-            return lr__gltf_fail(d, err, "the GLB BIN chunk of %zu bytes "
+            return lr__gltf_fail(d, err,
+                                 "the GLB BIN chunk of %zu bytes "
                                  "runs past the file's end (truncated?)",
                                  blen);
         d->bin = b + at + 8;
@@ -254,4 +265,3 @@ lr_status lr__gltf_read_glb(lr__gltf_doc *d, const char **json, size_t *n,
     }
     return LR_OK;
 }
-

@@ -44,13 +44,12 @@ static lr__xform local(const cJSON *node)
             qw = 1;
     }
     /* The rotation matrix of a unit quaternion (Shoemake 1985). */
-    double R[3][3] = {
-        {1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qz * qw),
-         2 * (qx * qz + qy * qw)},
-        {2 * (qx * qy + qz * qw), 1 - 2 * (qx * qx + qz * qz),
-         2 * (qy * qz - qx * qw)},
-        {2 * (qx * qz - qy * qw), 2 * (qy * qz + qx * qw),
-         1 - 2 * (qx * qx + qy * qy)}};
+    double R[3][3] = {{1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qz * qw),
+                       2 * (qx * qz + qy * qw)},
+                      {2 * (qx * qy + qz * qw), 1 - 2 * (qx * qx + qz * qz),
+                       2 * (qy * qz - qx * qw)},
+                      {2 * (qx * qz - qy * qw), 2 * (qy * qz + qx * qw),
+                       1 - 2 * (qx * qx + qy * qy)}};
     for (int r = 0; r < 3; r++) {
         for (int c = 0; c < 3; c++)
             x.m[r][c] = R[r][c] * (s ? num(s, c) : 1.0);
@@ -95,8 +94,8 @@ lr_status lr__gltf_world(const lr__gltf_doc *d, lr__xform **world,
     const cJSON *nodes = lr__gltf_array(d->root, "nodes", &nn);
     const cJSON *scenes = lr__gltf_array(d->root, "scenes", &ns);
     const cJSON *sc = cJSON_GetObjectItemCaseSensitive(d->root, "scene");
-    const cJSON *scene = cJSON_GetArrayItem(scenes, sc ? (int)sc->valuedouble
-                                                       : 0);
+    const cJSON *scene = cJSON_GetArrayItem(scenes,
+                                            sc ? (int)sc->valuedouble : 0);
     int nr;
     const cJSON *roots = lr__gltf_array(scene, "nodes", &nr);
     lr__xform id = lr__xform_identity();
@@ -121,16 +120,16 @@ lr_status lr__gltf_world(const lr__gltf_doc *d, lr__xform **world,
 /* ---- lights --------------------------------------------------------------- */
 
 /* An optional number member in [lo, hi]. */
-static lr_status get_num(const lr__gltf_doc *d, const cJSON *o,
-                         const char *p, const char *key, double lo,
-                         double hi, double *out, lr_error *err)
+static lr_status get_num(const lr__gltf_doc *d, const cJSON *o, const char *p,
+                         const char *key, double lo, double hi, double *out,
+                         lr_error *err)
 {
     const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, key);
     if (v == NULL)
         return LR_OK;
     if (!cJSON_IsNumber(v) || !(v->valuedouble >= lo && v->valuedouble <= hi))
-        return lr__gltf_fail(d, err, "%s.%s must be a number from %g to %g",
-                             p, key, lo, hi);
+        return lr__gltf_fail(d, err, "%s.%s must be a number from %g to %g", p,
+                             key, lo, hi);
     *out = v->valuedouble;
     return LR_OK;
 }
@@ -141,8 +140,8 @@ lr_status lr__gltf_lights(lr_scene *s, const lr__gltf_doc *d,
 {
     int nl, nn;
     const cJSON *lights = lr__gltf_array(
-        lr__gltf_member(d->root, "extensions", "KHR_lights_punctual"),
-        "lights", &nl);
+        lr__gltf_member(d->root, "extensions", "KHR_lights_punctual"), "lights",
+        &nl);
     const cJSON *nodes = lr__gltf_array(d->root, "nodes", &nn);
     int i = 0;
     for (const cJSON *node = nodes ? nodes->child : NULL; node;
@@ -163,8 +162,10 @@ lr_status lr__gltf_lights(lr_scene *s, const lr__gltf_doc *d,
         const char *t = cJSON_IsString(type) ? type->valuestring : "";
         int dir = strcmp(t, "directional") == 0;
         if (!dir && strcmp(t, "point") != 0 && strcmp(t, "spot") != 0)
-            return lr__gltf_fail(d, err, "%s.type must be \"point\", "
-                                 "\"spot\" or \"directional\"", p);
+            return lr__gltf_fail(d, err,
+                                 "%s.type must be \"point\", "
+                                 "\"spot\" or \"directional\"",
+                                 p);
         double c[3] = {1, 1, 1}, intensity = 1;
         const cJSON *col = cJSON_GetObjectItemCaseSensitive(l, "color");
         if (col != NULL) {
@@ -176,13 +177,17 @@ lr_status lr__gltf_lights(lr_scene *s, const lr__gltf_doc *d,
                 c[j] = ok ? v->valuedouble : 0;
             }
             if (!ok)
-                return lr__gltf_fail(d, err, "%s.color must be 3 numbers "
-                                     "from 0 to 1e6", p);
+                return lr__gltf_fail(d, err,
+                                     "%s.color must be 3 numbers "
+                                     "from 0 to 1e6",
+                                     p);
         }
         LR_TRY(get_num(d, l, p, "intensity", 0, 1e12, &intensity, err));
         if (cJSON_GetObjectItemCaseSensitive(l, "range") != NULL)
-            lr__gltf_warn(s, d, "%s.range is ignored (lights fall off as "
-                          "1/d^2 without a cut-off)", p);
+            lr__gltf_warn(s, d,
+                          "%s.range is ignored (lights fall off as "
+                          "1/d^2 without a cut-off)",
+                          p);
         /* The spec's cone defaults: inner 0, outer pi/4, and 0 <= inner
          * < outer <= pi/2. */
         double inner = 0, outer = M_PI / 4;
@@ -192,15 +197,16 @@ lr_status lr__gltf_lights(lr_scene *s, const lr__gltf_doc *d,
             snprintf(q, sizeof q, "%s.spot", p);
             if (sp != NULL && !cJSON_IsObject(sp))
                 return lr__gltf_fail(d, err, "%s must be an object", q);
-            LR_TRY(get_num(d, sp, q, "innerConeAngle", 0, M_PI / 2, &inner,
-                           err));
-            LR_TRY(get_num(d, sp, q, "outerConeAngle", 0, M_PI / 2, &outer,
-                           err));
+            LR_TRY(
+                get_num(d, sp, q, "innerConeAngle", 0, M_PI / 2, &inner, err));
+            LR_TRY(
+                get_num(d, sp, q, "outerConeAngle", 0, M_PI / 2, &outer, err));
             if (!(outer > 0 && inner < outer))
-                return lr__gltf_fail(d, err, "%s: innerConeAngle (%g) must "
+                return lr__gltf_fail(d, err,
+                                     "%s: innerConeAngle (%g) must "
                                      "be less than outerConeAngle (%g), "
-                                     "which must be more than 0", q, inner,
-                                     outer);
+                                     "which must be more than 0",
+                                     q, inner, outer);
         }
         lr__xform m = lr__xform_mul(place, &world[i]);
         lr__light L;
@@ -213,8 +219,10 @@ lr_status lr__gltf_lights(lr_scene *s, const lr__gltf_doc *d,
         lr__v3 o = lr__xform_point(&m, v3(0, 0, 0));
         lr__v3 f = v3_sub(lr__xform_point(&m, v3(0, 0, -1)), o);
         if (t[0] != 'p' && !(v3_len(f) > 0))
-            return lr__gltf_fail(d, err, "nodes[%d] squashes the "
-                                 "direction of %s to nothing", i, p);
+            return lr__gltf_fail(d, err,
+                                 "nodes[%d] squashes the "
+                                 "direction of %s to nothing",
+                                 i, p);
         if (dir) {
             L.kind = LR__LIGHT_DIRECTIONAL;
             L.direction = v3_norm(f);
@@ -254,8 +262,8 @@ static int find_camera(const lr__gltf_doc *d, const unsigned char *active,
         const cJSON *cn = cJSON_GetObjectItemCaseSensitive(
             cJSON_GetArrayItem(cams, (int)c->valuedouble), "name");
         const cJSON *nn2 = cJSON_GetObjectItemCaseSensitive(n, "name");
-        if ((cJSON_IsString(cn) && strcmp(cn->valuestring, o->camera_name) ==
-                                       0) ||
+        if ((cJSON_IsString(cn) &&
+             strcmp(cn->valuestring, o->camera_name) == 0) ||
             (cJSON_IsString(nn2) &&
              strcmp(nn2->valuestring, o->camera_name) == 0))
             return i;
@@ -270,7 +278,8 @@ static lr_status auto_frame(lr_scene *s, const lr__gltf_doc *d, lr__v3 lo,
                             lr__v3 hi, lr_error *err)
 {
     if (!(lo.x <= hi.x))
-        return lr__gltf_fail(d, err, "it has no camera and no triangles "
+        return lr__gltf_fail(d, err,
+                             "it has no camera and no triangles "
                              "to frame (points and lines are not drawn)");
     lr_camera *c = &s->camera;
     lr__v3 mid = v3_scale(v3_add(lo, hi), 0.5);
@@ -295,8 +304,10 @@ lr_status lr__gltf_camera(lr_scene *s, const lr__gltf_doc *d,
         return LR_OK;
     int node = find_camera(d, active, o);
     if (node < 0 && o->camera == LR__GLTF_CAMERA_NAMED)
-        return lr__gltf_fail(d, err, "no camera (or camera node) is called "
-                             "\"%.80s\"", o->camera_name);
+        return lr__gltf_fail(d, err,
+                             "no camera (or camera node) is called "
+                             "\"%.80s\"",
+                             o->camera_name);
     lr_camera c = s->camera;
     if (node < 0) {
         LR_TRY(auto_frame(s, d, lo, hi, err));
@@ -306,25 +317,28 @@ lr_status lr__gltf_camera(lr_scene *s, const lr__gltf_doc *d,
          * no camera takes: the error names the file. */
         char why[sizeof err->message];
         snprintf(why, sizeof why, "%s", err->message);
-        return lr__gltf_fail(d, err, "it has no camera, and the camera "
+        return lr__gltf_fail(d, err,
+                             "it has no camera, and the camera "
                              "framing its meshes (%g across) is refused: %s",
                              v3_len(v3_sub(hi, lo)), why);
     }
     int nn, nc;
-    const cJSON *nd = cJSON_GetArrayItem(lr__gltf_array(d->root, "nodes",
-                                                        &nn), node);
+    const cJSON *nd = cJSON_GetArrayItem(lr__gltf_array(d->root, "nodes", &nn),
+                                         node);
     int k = (int)cJSON_GetObjectItemCaseSensitive(nd, "camera")->valuedouble;
-    const cJSON *cam = cJSON_GetArrayItem(lr__gltf_array(d->root, "cameras",
-                                                         &nc), k);
+    const cJSON *cam = cJSON_GetArrayItem(
+        lr__gltf_array(d->root, "cameras", &nc), k);
     char p[64];
     snprintf(p, sizeof p, "cameras[%d]", k);
     const cJSON *type = cJSON_GetObjectItemCaseSensitive(cam, "type");
     const cJSON *persp = cJSON_GetObjectItemCaseSensitive(cam, "perspective");
     if (!cJSON_IsString(type) || strcmp(type->valuestring, "perspective") ||
         !cJSON_IsObject(persp))
-        return lr__gltf_fail(d, err, "%s: only perspective cameras are "
+        return lr__gltf_fail(d, err,
+                             "%s: only perspective cameras are "
                              "read (type \"perspective\" with a "
-                             "\"perspective\" object)", p);
+                             "\"perspective\" object)",
+                             p);
     double yfov = -1, aspect = 0;
     snprintf(p, sizeof p, "cameras[%d].perspective", k);
     LR_TRY(get_num(d, persp, p, "yfov", 1e-9, PI - 1e-9, &yfov, err));
@@ -337,15 +351,19 @@ lr_status lr__gltf_camera(lr_scene *s, const lr__gltf_doc *d,
     lr__v3 fwd = v3_sub(lr__xform_point(&m, v3(0, 0, -1)), eye);
     lr__v3 up = v3_sub(lr__xform_point(&m, v3(0, 1, 0)), eye);
     if (!(v3_len(fwd) > 0) || !(v3_len(v3_cross(fwd, up)) > 0))
-        return lr__gltf_fail(d, err, "nodes[%d]'s transform squashes the "
-                             "camera's view", node);
+        return lr__gltf_fail(d, err,
+                             "nodes[%d]'s transform squashes the "
+                             "camera's view",
+                             node);
     /* A mirroring transform (a negative scale) mirrors the spec's view
      * (its view matrix is the node's inverse), which a camera of
      * position, look_at and up cannot: say so rather than draw the
      * mirror image of it silently. */
     if (lr__xform_det(&m) < 0)
-        lr__gltf_warn(s, d, "nodes[%d] mirrors the camera (a negative "
-                      "scale): the image is drawn unmirrored", node);
+        lr__gltf_warn(s, d,
+                      "nodes[%d] mirrors the camera (a negative "
+                      "scale): the image is drawn unmirrored",
+                      node);
     lr__v3 at = v3_add(eye, v3_norm(fwd));
     c.position[0] = eye.x, c.position[1] = eye.y, c.position[2] = eye.z;
     c.look_at[0] = at.x, c.look_at[1] = at.y, c.look_at[2] = at.z;

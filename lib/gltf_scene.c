@@ -30,8 +30,8 @@ int lr__gltf_is_file(const char *path)
     if (n >= 4 && memcmp(b, "glTF", 4) == 0)
         return 1;
     size_t i = n >= 3 && memcmp(b, "\xEF\xBB\xBF", 3) == 0 ? 3 : 0;
-    while (i < n && (b[i] == ' ' || b[i] == '\t' || b[i] == '\r' ||
-                     b[i] == '\n'))
+    while (i < n &&
+           (b[i] == ' ' || b[i] == '\t' || b[i] == '\r' || b[i] == '\n'))
         i++;
     return i < n && b[i] == '{';
 }
@@ -80,8 +80,7 @@ char *lr_gltf_scene_json(const char *path, const lr_scene *s)
 }
 
 lr_status lr__gltf_scene_load(const char *path, const char *const *overrides,
-                              size_t n_overrides, lr_scene **out,
-                              lr_error *err)
+                              size_t n_overrides, lr_scene **out, lr_error *err)
 {
     char dir[4096];
     lr__dir_of(path, dir, sizeof dir);

@@ -20,8 +20,8 @@
 
 /* ---- the image container --------------------------------------------- */
 
-lr_status lr_image_create(int width, int height, int with_depth,
-                          lr_image **out, lr_error *err)
+lr_status lr_image_create(int width, int height, int with_depth, lr_image **out,
+                          lr_error *err)
 {
     if (out == NULL)
         return lr__fail(err, LR_ERR_INVALID, NULL,
@@ -115,8 +115,8 @@ lr_status lr_image_set_frame(lr_image *img, int frame_w, int frame_h, int x0,
         img->width > frame_w - x0 || img->height > frame_h - y0)
         return lr__fail(err, LR_ERR_INVALID, NULL,
                         "a %d x %d image at %d, %d does not fit a %d x %d "
-                        "frame", img->width, img->height, x0, y0, frame_w,
-                        frame_h);
+                        "frame",
+                        img->width, img->height, x0, y0, frame_w, frame_h);
     char *camera = lr_camera_json(cam);
     if (camera == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");

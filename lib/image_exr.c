@@ -38,12 +38,12 @@
 /* The output buffer plus what the error handler learnt; it is the
  * context's user data. */
 typedef struct exr_sink {
-    int fd;             /* >= 0: write to this file instead */
-    int io_errno;       /* the errno of a failed write to fd */
+    int fd;       /* >= 0: write to this file instead */
+    int io_errno; /* the errno of a failed write to fd */
     unsigned char *data;
     size_t len, cap;
-    int out_of_memory;  /* set when the buffer could not grow */
-    char message[256];  /* the library's first detailed error message */
+    int out_of_memory; /* set when the buffer could not grow */
+    char message[256]; /* the library's first detailed error message */
 } exr_sink;
 
 /* OpenEXRCore reports details through this callback, by default on
@@ -60,8 +60,7 @@ static void sink_error_handler(exr_const_context_t ctxt, exr_result_t code,
         return;
     exr_sink *sink = user;
     if (sink->message[0] == '\0')
-        snprintf(sink->message, sizeof sink->message, "%s",
-                 msg ? msg : "");
+        snprintf(sink->message, sizeof sink->message, "%s", msg ? msg : "");
 }
 
 /* The write callback has pwrite semantics: the library writes the header
@@ -252,8 +251,8 @@ static void stage_chunk(const lr_image *img, int want_z, int half, int y0,
  * the file as they are (no half to convert to, nothing non-finite to
  * replace): then the pipeline reads them from the image itself, without
  * the staging copy, a chunk's worth of memory and a pass less a thread. */
-static int rows_as_they_are(const lr_image *img, int want_z, int half,
-                            int y0, int lines)
+static int rows_as_they_are(const lr_image *img, int want_z, int half, int y0,
+                            int lines)
 {
     if (half)
         return 0;
@@ -295,9 +294,9 @@ static exr_result_t bind_image(exr_encode_pipeline_t *enc, const lr_image *img,
         ch->user_data_type = (uint16_t)EXR_PIXEL_FLOAT;
         ch->user_pixel_stride = stride;
         ch->user_line_stride = stride * img->width;
-        ch->encode_from_ptr =
-            c == CH_Z ? (const uint8_t *)(img->depth + row)
-                      : (const uint8_t *)(img->rgb + 3 * row + (size_t)c);
+        ch->encode_from_ptr = c == CH_Z ? (const uint8_t *)(img->depth + row)
+                                        : (const uint8_t *)(img->rgb + 3 * row +
+                                                            (size_t)c);
     }
     return EXR_ERR_SUCCESS;
 }
@@ -328,12 +327,17 @@ static exr_result_t bind_channels(exr_encode_pipeline_t *enc, int half,
 static exr_compression_t exr_compression(const lr_output_options *opts)
 {
     switch (opts->exr_compression) {
-    case LR_EXR_NONE: return EXR_COMPRESSION_NONE;
-    case LR_EXR_ZIPS: return EXR_COMPRESSION_ZIPS;
-    case LR_EXR_RLE: return EXR_COMPRESSION_RLE;
-    case LR_EXR_PIZ: return EXR_COMPRESSION_PIZ;
+    case LR_EXR_NONE:
+        return EXR_COMPRESSION_NONE;
+    case LR_EXR_ZIPS:
+        return EXR_COMPRESSION_ZIPS;
+    case LR_EXR_RLE:
+        return EXR_COMPRESSION_RLE;
+    case LR_EXR_PIZ:
+        return EXR_COMPRESSION_PIZ;
     case LR_EXR_ZIP:
-    default: return EXR_COMPRESSION_ZIP;
+    default:
+        return EXR_COMPRESSION_ZIP;
     }
 }
 
@@ -361,22 +365,22 @@ typedef struct chunk_job {
     int part;
     const lr_image *img;
     int want_z, half, spc;
-    int first, end, step;  /* chunks first, first + step, ... below end */
+    int first, end, step; /* chunks first, first + step, ... below end */
     size_t plane_bytes;
     /* The batch's compressed chunks, chunk k at blobs[k - base]; NULL:
      * each chunk is written as it is made (one thread). */
     exr_blob *blobs;
     int base;
-    int chunk;             /* the chunk being compressed */
+    int chunk; /* the chunk being compressed */
     exr_result_t rv;
-    int zip;               /* ZIP or ZIPS: compress with exr_zip.c */
+    int zip; /* ZIP or ZIPS: compress with exr_zip.c */
     /* The worker's own, kept from batch to batch (job_open, job_close):
      * the staging planes, the deflate state and the pipeline with its
      * buffers. */
     unsigned char *stage;
     lr__exr_zip *deflate;
     exr_encode_pipeline_t enc;
-    int live;              /* enc initialised */
+    int live; /* enc initialised */
 } chunk_job;
 
 /* The job's worker state; its rv says whether there was memory. */
@@ -522,7 +526,7 @@ static int encode_threads(int height, int spc, size_t chunk_bytes,
     long cores = sysconf(_SC_NPROCESSORS_ONLN);
     int chunks = (height + spc - 1) / spc;
     size_t room = image_bytes / 50 > ((size_t)4 << 20) ? image_bytes / 50
-                                                         : (size_t)4 << 20;
+                                                       : (size_t)4 << 20;
     int t = cores < 1 ? 1 : cores > 8 ? 8 : (int)cores;
     while (t > 1 && (chunks < 8 * t || (size_t)t * 4 * chunk_bytes > room))
         t--;
@@ -552,10 +556,18 @@ static exr_result_t encode_chunks(exr_context_t ctxt, int part,
     int threads = encode_threads(img->height, spc, chunk_bytes,
                                  (size_t)img->width * (size_t)img->height *
                                      channels * 4);
-    chunk_job one = {.ctxt = ctxt, .part = part, .img = img,
-                     .want_z = want_z, .half = half, .spc = spc, .first = 0,
-                     .end = n, .step = 1, .plane_bytes = plane_bytes,
-                     .rv = EXR_ERR_SUCCESS, .zip = zip};
+    chunk_job one = {.ctxt = ctxt,
+                     .part = part,
+                     .img = img,
+                     .want_z = want_z,
+                     .half = half,
+                     .spc = spc,
+                     .first = 0,
+                     .end = n,
+                     .step = 1,
+                     .plane_bytes = plane_bytes,
+                     .rv = EXR_ERR_SUCCESS,
+                     .zip = zip};
     if (threads <= 1) {
         job_open(&one);
         compress_chunks(&one);
@@ -655,9 +667,8 @@ lr_status lr__encode_exr(const lr_image *img, const lr_output_options *opts,
     rv = exr_add_part(ctxt, NULL, EXR_STORAGE_SCANLINE, &part);
     if (rv != EXR_ERR_SUCCESS)
         goto fail;
-    rv = exr_initialize_required_attr_simple(ctxt, part, img->width,
-                                             img->height,
-                                             exr_compression(opts));
+    rv = exr_initialize_required_attr_simple(
+        ctxt, part, img->width, img->height, exr_compression(opts));
     if (rv != EXR_ERR_SUCCESS)
         goto fail;
     /* Colour channels are perceptually logarithmic, depth is linear; the
@@ -736,9 +747,8 @@ fail:
                            : LR_ERR_IO;
         if (sink->io_errno != 0)
             lr__fail(err, LR_ERR_IO, NULL,
-                     "cannot write a %d x %d EXR: failed to %s: %s",
-                     img->width, img->height, step,
-                     strerror(sink->io_errno));
+                     "cannot write a %d x %d EXR: failed to %s: %s", img->width,
+                     img->height, step, strerror(sink->io_errno));
         else
             lr__fail(err, st, NULL,
                      "cannot encode a %d x %d EXR: failed to %s: %s%s%s%s",

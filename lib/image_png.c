@@ -16,12 +16,12 @@
 /* The growing output buffer plus what the error callback learnt, passed
  * to the libpng callbacks through their user pointers. */
 typedef struct png_sink {
-    int fd;             /* >= 0: write to this file instead */
-    int io_errno;       /* the errno of a failed write to fd */
+    int fd;       /* >= 0: write to this file instead */
+    int io_errno; /* the errno of a failed write to fd */
     unsigned char *data;
     size_t len, cap;
-    int out_of_memory;  /* set when the buffer could not grow */
-    char message[256];  /* the last libpng error message */
+    int out_of_memory; /* set when the buffer could not grow */
+    char message[256]; /* the last libpng error message */
 } png_sink;
 
 /* libpng calls this instead of printing to stderr.  It must not return,
@@ -129,8 +129,7 @@ lr_status lr__encode_png(const lr_image *img, const lr_output_options *opts,
         free(sink);
         free(row);
         return lr__fail(err, LR_ERR_NOMEM, NULL,
-                        "out of memory encoding a PNG of width %d",
-                        img->width);
+                        "out of memory encoding a PNG of width %d", img->width);
     }
     sink->fd = fd;
 
@@ -150,8 +149,8 @@ lr_status lr__encode_png(const lr_image *img, const lr_output_options *opts,
         free(row);
         lr_status st = sink->out_of_memory ? LR_ERR_NOMEM : LR_ERR_IO;
         lr__fail(err, st, NULL, "cannot %s a %d x %d PNG: %s",
-                 sink->io_errno ? "write" : "encode", img->width,
-                 img->height, sink->message);
+                 sink->io_errno ? "write" : "encode", img->width, img->height,
+                 sink->message);
         free(sink->data);
         free(sink);
         return st;
@@ -162,9 +161,8 @@ lr_status lr__encode_png(const lr_image *img, const lr_output_options *opts,
      * untrusted input; when writing, lr_image_create has already
      * validated the size, so allow anything PNG itself can store. */
     png_set_user_limits(png, PNG_UINT_31_MAX, PNG_UINT_31_MAX);
-    png_set_IHDR(png, info, (png_uint_32)img->width,
-                 (png_uint_32)img->height, sixteen ? 16 : 8,
-                 PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
+    png_set_IHDR(png, info, (png_uint_32)img->width, (png_uint_32)img->height,
+                 sixteen ? 16 : 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
                  PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
     /* The sRGB chunk (with the matching gAMA and cHRM for old readers)
      * tells viewers the samples use the sRGB curve we applied. */
@@ -172,8 +170,8 @@ lr_status lr__encode_png(const lr_image *img, const lr_output_options *opts,
     png_write_info(png, info);
 
     for (int y = 0; y < img->height; y++) {
-        convert_row(img->rgb + (size_t)y * (size_t)img->width * 3,
-                    img->width, sixteen, row);
+        convert_row(img->rgb + (size_t)y * (size_t)img->width * 3, img->width,
+                    sixteen, row);
         png_write_row(png, row);
     }
     png_write_end(png, info);

@@ -15,8 +15,8 @@
 /* The public block size is the planner's. */
 _Static_assert(LR_PLAN_BLOCK == LR__PLAN_BLOCK, "LR_PLAN_BLOCK");
 
-lr_status lr_camera_autofocus(const lr_scene *scene, lr_camera *cam,
-                              int width, int height, lr_error *err)
+lr_status lr_camera_autofocus(const lr_scene *scene, lr_camera *cam, int width,
+                              int height, lr_error *err)
 {
     if (scene == NULL || cam == NULL)
         return lr__fail(err, LR_ERR_INVALID, NULL,

@@ -74,14 +74,13 @@ typedef struct lr__integrator {
     const char *name;
     /* Radiance arriving at `org` from direction -dir (unit length) along
      * a camera ray; rays traced are added to *rays. */
-    lr__v3 (*radiance)(const lr_scene *s, int max_depth, lr__v3 org,
-                       lr__v3 dir, const lr__sample_id *id, uint64_t *rays);
+    lr__v3 (*radiance)(const lr_scene *s, int max_depth, lr__v3 org, lr__v3 dir,
+                       const lr__sample_id *id, uint64_t *rays);
     /* The same for lanes 0..n-1 (n >= 1) of a packet of camera rays that
      * the camera filled (not yet traced): L[i] for lane i, each exactly
      * what `radiance` gives for lane i's ray (as traced, in float). */
-    void (*radiance16)(const lr_scene *s, int max_depth,
-                       struct RTCRayHit16 *rh, int n,
-                       const lr__sample_id *id, lr__v3 L[16],
+    void (*radiance16)(const lr_scene *s, int max_depth, struct RTCRayHit16 *rh,
+                       int n, const lr__sample_id *id, lr__v3 L[16],
                        uint64_t *rays);
     /* Optional (NULL: radiance16 for each packet): radiance16 for
      * `count` packets at once, packet p with n[p] lanes, identity id[p]

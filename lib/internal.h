@@ -16,8 +16,7 @@
  * printf-style message, and returns `status`.  The message is written as
  * given: callers include the path in it where it helps the reader. */
 lr_status lr__fail(lr_error *err, lr_status status, const char *path,
-                   const char *fmt, ...)
-    __attribute__((format(printf, 4, 5)));
+                   const char *fmt, ...) __attribute__((format(printf, 4, 5)));
 
 /* When snprintf, which wanted `wanted` characters, cut `s` (of capacity
  * `cap`) short, the cut may have fallen inside a UTF-8 character
@@ -47,10 +46,10 @@ lr_status lr__read_file(const char *file, const char *shown,
 
 /* ---- limits, shared by the JSON loader and the C API's validation ---- */
 
-#define LR__MAX_DIM 65536          /* pixels per side */
+#define LR__MAX_DIM 65536           /* pixels per side */
 #define LR__MAX_PIXELS (1ull << 28) /* pixels per image */
-#define LR__MAX_SPP (1 << 20)      /* samples per pixel */
-#define LR__MAX_DEPTH 64           /* bounces */
+#define LR__MAX_SPP (1 << 20)       /* samples per pixel */
+#define LR__MAX_DEPTH 64            /* bounces */
 #define LR__MAX_THREADS 1024
 #define LR__MAX_TILE 4096
 
@@ -105,7 +104,7 @@ lr__encoder lr__format_encoder(lr_format fmt);
  * not per vertex, because OBJ indexes them independently. */
 typedef struct lr__mesh {
     size_t n_vertices;
-    float *vertices;   /* 3 * n_vertices, owned */
+    float *vertices; /* 3 * n_vertices, owned */
     size_t n_triangles;
     unsigned *indices; /* 3 * n_triangles vertex indices, owned */
     float *normals;    /* 9 * n_triangles (per corner) or NULL, owned */
@@ -122,8 +121,8 @@ typedef struct lr__mesh {
  * (bad numbers, zero or out-of-range indices, faces with fewer than three
  * corners, no faces at all).  `json_path` (e.g. "objects[2].file") goes
  * into err->path.  On success the caller frees with lr__mesh_free. */
-lr_status lr__obj_load(const char *file, const char *json_path,
-                       lr__mesh *out, lr_error *err);
+lr_status lr__obj_load(const char *file, const char *json_path, lr__mesh *out,
+                       lr_error *err);
 /* The same, with messages naming the file as `shown` (e.g. the path
  * the scene wrote, relative to its directory) rather than `file`, the
  * path opened. */

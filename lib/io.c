@@ -34,8 +34,8 @@ lr_status lr__read_file(const char *file, const char *shown,
     *out_len = 0;
     FILE *f = fopen(file, "rb");
     if (f == NULL)
-        return lr__fail(err, LR_ERR_IO, json_path, "%s: cannot open: %s",
-                        shown, strerror(errno));
+        return lr__fail(err, LR_ERR_IO, json_path, "%s: cannot open: %s", shown,
+                        strerror(errno));
 
     /* Two bytes beyond the size: one for the terminating NUL and one so
      * that the first fread comes up short and shows the end of the file

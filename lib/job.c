@@ -28,8 +28,8 @@ typedef struct mesh_ref {
 
 struct lr_job {
     cJSON *root;
-    const char *scene_name;   /* into the tree, or NULL */
-    char *scene_json;         /* compact text of an inline scene, or NULL */
+    const char *scene_name; /* into the tree, or NULL */
+    char *scene_json;       /* compact text of an inline scene, or NULL */
     size_t scene_len;
     mesh_ref *meshes;
     size_t n_meshes, cap_meshes;
@@ -70,8 +70,8 @@ static lr_status add_file(lr_job *job, const cJSON *f, const char *field,
  * (has a '/') or an asset (a plain name is a file in the scenes directory
  * or a shipped lens: both safe).  Type errors are the scene loader's to
  * report. */
-static lr_status collect_files(lr_job *job, const cJSON *node,
-                               const char *path, int depth, lr_error *err)
+static lr_status collect_files(lr_job *job, const cJSON *node, const char *path,
+                               int depth, lr_error *err)
 {
     size_t i = 0;
     for (const cJSON *c = node->child; c != NULL; c = c->next, i++) {
@@ -97,10 +97,9 @@ static lr_status collect_files(lr_job *job, const cJSON *node,
 /* Checks the top level's shape; fills the scene members of `job`. */
 static lr_status check_shape(lr_job *job, lr_error *err)
 {
-    static const char *const keys[] = {"scene", "camera", "render",
-                                       "output", NULL};
-    static const char *const objects[] = {"camera", "render", "output",
-                                          NULL};
+    static const char *const keys[] = {"scene", "camera", "render", "output",
+                                       NULL};
+    static const char *const objects[] = {"camera", "render", "output", NULL};
     const cJSON *root = job->root;
     if (!cJSON_IsObject(root))
         return lr__fail(err, LR_ERR_INVALID, "",
@@ -193,8 +192,8 @@ int lr_job_mesh_file(const lr_job *job, size_t k, const char **file,
     return 1;
 }
 
-lr_status lr_job_apply(const lr_job *job, lr_camera *cam,
-                       lr_render_settings *s, lr_output *out, lr_error *err)
+lr_status lr_job_apply(const lr_job *job, lr_camera *cam, lr_render_settings *s,
+                       lr_output *out, lr_error *err)
 {
     if (job == NULL || cam == NULL || s == NULL || out == NULL)
         return lr__fail(err, LR_ERR_INVALID, NULL,

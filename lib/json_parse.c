@@ -46,8 +46,7 @@ static const char *next_number(const char *text, size_t len, size_t *at,
 
 /* The k-th number (from 0) of JSON text that cJSON accepted, and its
  * length in *n; NULL if there is none. */
-static const char *nth_number(const char *text, size_t len, size_t k,
-                              size_t *n)
+static const char *nth_number(const char *text, size_t len, size_t k, size_t *n)
 {
     size_t at = 0;
     const char *p = next_number(text, len, &at, n);
@@ -69,8 +68,8 @@ typedef struct value_walk {
  * cJSON passes any bytes through.  Every number must be finite: cJSON
  * reads a number too large for a double (1e400) as infinity, which is
  * refused here, as written, whatever field it is in. */
-static lr_status check_values(const cJSON *v, const char *path,
-                              value_walk *w, lr_error *err)
+static lr_status check_values(const cJSON *v, const char *path, value_walk *w,
+                              lr_error *err)
 {
     char p[LR__PATH_MAX];
     if (cJSON_IsNumber(v)) {
@@ -245,7 +244,10 @@ static void *cjson_malloc(size_t n)
     return p;
 }
 
-static void cjson_free(void *p) { free(p); }
+static void cjson_free(void *p)
+{
+    free(p);
+}
 
 __attribute__((constructor)) static void install_cjson_hooks(void)
 {
@@ -312,11 +314,11 @@ lr_status lr__json_parse(const char *text, size_t len, const char *what,
         /* cJSON reports where it stopped; turn that into line:column. */
         const char *at = end ? end : cJSON_GetErrorPtr();
         size_t off = at && at >= text && at <= text + len ? (size_t)(at - text)
-                                                           : 0;
+                                                          : 0;
         line_col(text, off, &line, &col);
         return lr__fail(err, LR_ERR_INVALID, "",
-                        "%s: invalid JSON at line %zu, column %zu", what,
-                        line, col);
+                        "%s: invalid JSON at line %zu, column %zu", what, line,
+                        col);
     }
     /* cJSON stops after the first value; anything but white space after
      * it means the text is not one JSON document. */
@@ -452,8 +454,7 @@ lr_status lr__json_apply_override(cJSON *root, const char *assignment,
                     cJSON_DeleteItemFromObjectCaseSensitive(node, key);
                 if (!cJSON_AddItemToObject(node, key, value)) {
                     cJSON_Delete(value);
-                    return lr__fail(err, LR_ERR_NOMEM, NULL,
-                                    "out of memory");
+                    return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
                 }
                 return LR_OK;
             }

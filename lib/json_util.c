@@ -11,8 +11,8 @@
 #include <string.h>
 
 
-const char *const lr__sampler_names[] = {"random", "grid", "jittered",
-                                        "sobol", NULL};
+const char *const lr__sampler_names[] = {"random", "grid", "jittered", "sobol",
+                                         NULL};
 int lr__sampler_count(void)
 {
     int n = 0;
@@ -26,8 +26,7 @@ const char *const lr__focal_model_names[] = {"paper", "lensmaker", NULL};
 const char *const lr__glass_names[] = {"BK7", "F2", "SF11", "fused_silica",
                                        NULL};
 
-void lr__path_key(char out[LR__PATH_MAX], const char *parent,
-                  const char *key)
+void lr__path_key(char out[LR__PATH_MAX], const char *parent, const char *key)
 {
     int w;
     if (parent == NULL || parent[0] == '\0')
@@ -41,8 +40,8 @@ void lr__path_key(char out[LR__PATH_MAX], const char *parent,
 
 void lr__path_index(char out[LR__PATH_MAX], const char *parent, size_t i)
 {
-    lr__trim_partial_utf8(
-        out, LR__PATH_MAX, snprintf(out, LR__PATH_MAX, "%s[%zu]", parent, i));
+    lr__trim_partial_utf8(out, LR__PATH_MAX,
+                          snprintf(out, LR__PATH_MAX, "%s[%zu]", parent, i));
 }
 
 /* Length of the valid UTF-8 sequence starting at s (1 to 4), or 0 when
@@ -208,7 +207,8 @@ lr_status lr__json_check_number(double x, const char *p, lr_error *err)
     if (isinf(x))
         return lr__fail(err, LR_ERR_INVALID, p,
                         "%s must be a finite number, got a number too large "
-                        "for a double", p);
+                        "for a double",
+                        p);
     if (!isfinite(x))
         return lr__fail(err, LR_ERR_INVALID, p,
                         "%s must be a finite number, got %g", p, x);
@@ -233,9 +233,8 @@ static lr_status find(const cJSON *obj, const char *key, const char *path,
 
 /* The number at obj.key; `limit` applies LR__MAX_NUMBER (integers have
  * their own ranges instead). */
-static lr_status get_number(const cJSON *obj, const char *key,
-                            const char *path, int required, int limit,
-                            double *out, lr_error *err)
+static lr_status get_number(const cJSON *obj, const char *key, const char *path,
+                            int required, int limit, double *out, lr_error *err)
 {
     char p[LR__PATH_MAX];
     const cJSON *v;
@@ -252,9 +251,8 @@ static lr_status get_number(const cJSON *obj, const char *key,
     return LR_OK;
 }
 
-lr_status lr__json_number(const cJSON *obj, const char *key,
-                          const char *path, int required, double *out,
-                          lr_error *err)
+lr_status lr__json_number(const cJSON *obj, const char *key, const char *path,
+                          int required, double *out, lr_error *err)
 {
     return get_number(obj, key, path, required, 1, out, err);
 }
@@ -277,8 +275,8 @@ lr_status lr__json_int(const cJSON *obj, const char *key, const char *path,
                         "%s must be a whole number, got %.17g", p, d);
     if (d < (double)min || d > (double)max)
         return lr__fail(err, LR_ERR_INVALID, p,
-                        "%s must be between %lld and %lld, got %.17g", p,
-                        min, max, d);
+                        "%s must be between %lld and %lld, got %.17g", p, min,
+                        max, d);
     *out = (long long)d;
     return LR_OK;
 }
@@ -297,9 +295,8 @@ lr_status lr__json_bool(const cJSON *obj, const char *key, const char *path,
     return LR_OK;
 }
 
-lr_status lr__json_string(const cJSON *obj, const char *key,
-                          const char *path, int required, const char **out,
-                          lr_error *err)
+lr_status lr__json_string(const cJSON *obj, const char *key, const char *path,
+                          int required, const char **out, lr_error *err)
 {
     char p[LR__PATH_MAX];
     const cJSON *v;
@@ -332,8 +329,9 @@ lr_status lr__json_enum(const cJSON *obj, const char *key, const char *path,
     }
     char p[LR__PATH_MAX];
     lr__path_key(p, path, key);
-    return lr__fail(err, LR_ERR_INVALID, p, "%s must be one of %s, got \"%.*s\"",
-                    p, list, lr__utf8_prefix(v, 60), v);
+    return lr__fail(err, LR_ERR_INVALID, p,
+                    "%s must be one of %s, got \"%.*s\"", p, list,
+                    lr__utf8_prefix(v, 60), v);
 }
 
 static lr_status numbers(const cJSON *v, const char *p, double *out,
@@ -381,8 +379,8 @@ lr_status lr__json_rgb(const cJSON *obj, const char *key, const char *path,
         LR_TRY(lr__json_check_number(v->valuedouble, p, err));
         a[0] = a[1] = a[2] = v->valuedouble;
     } else {
-        lr_status st =
-            numbers(v, p, a, "a number or an array of 3 numbers", err);
+        lr_status st = numbers(v, p, a, "a number or an array of 3 numbers",
+                               err);
         if (st != LR_OK)
             return st;
     }
@@ -393,4 +391,3 @@ lr_status lr__json_rgb(const cJSON *obj, const char *key, const char *path,
     *out = v3a(a);
     return LR_OK;
 }
-

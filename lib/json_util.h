@@ -14,16 +14,15 @@
 #define LR__PATH_MAX 256
 
 /* Returns from the calling function when `expr` (an lr_status) fails. */
-#define LR_TRY(expr)                                                       \
-    do {                                                                   \
-        lr_status lr_try_st_ = (expr);                                     \
-        if (lr_try_st_ != LR_OK)                                           \
-            return lr_try_st_;                                             \
+#define LR_TRY(expr)                   \
+    do {                               \
+        lr_status lr_try_st_ = (expr); \
+        if (lr_try_st_ != LR_OK)       \
+            return lr_try_st_;         \
     } while (0)
 
 /* out = parent.key (or key when parent is empty). */
-void lr__path_key(char out[LR__PATH_MAX], const char *parent,
-                  const char *key);
+void lr__path_key(char out[LR__PATH_MAX], const char *parent, const char *key);
 /* out = parent[i]. */
 void lr__path_index(char out[LR__PATH_MAX], const char *parent, size_t i);
 
@@ -43,11 +42,11 @@ void lr__utf8_escape(const char *s, char *out, size_t cap);
  * NULL: one table each, for the parsers (camera_json.c, settings_json.c)
  * and the writer (json_write.c) alike (json_util.c).  The integrators'
  * names are their registry's (integrator.h). */
-extern const char *const lr__sampler_names[];      /* lr_sampler_kind */
-int lr__sampler_count(void); /* entries in lr__sampler_names */
-extern const char *const lr__chroma_mode_names[];  /* lr_chromatic_mode */
-extern const char *const lr__focal_model_names[];  /* lr_focal_model */
-extern const char *const lr__glass_names[];        /* lr_glass, but ABBE */
+extern const char *const lr__sampler_names[]; /* lr_sampler_kind */
+int lr__sampler_count(void);                  /* entries in lr__sampler_names */
+extern const char *const lr__chroma_mode_names[]; /* lr_chromatic_mode */
+extern const char *const lr__focal_model_names[]; /* lr_focal_model */
+extern const char *const lr__glass_names[];       /* lr_glass, but ABBE */
 
 /* json_parse.c: the offset where JSON text first nests deeper than `max`
  * brackets (outside strings), or len: a linear scan, so that hostile
@@ -82,18 +81,16 @@ lr_status lr__json_check_number(double x, const char *p, lr_error *err);
  * *out untouched (so callers preload defaults). */
 /* A number: finite and within +-LR__MAX_NUMBER.  Integers (lr__json_int)
  * have only their own range. */
-lr_status lr__json_number(const cJSON *obj, const char *key,
-                          const char *path, int required, double *out,
-                          lr_error *err);
+lr_status lr__json_number(const cJSON *obj, const char *key, const char *path,
+                          int required, double *out, lr_error *err);
 lr_status lr__json_int(const cJSON *obj, const char *key, const char *path,
                        int required, long long min, long long max,
                        long long *out, lr_error *err);
 lr_status lr__json_bool(const cJSON *obj, const char *key, const char *path,
                         int required, int *out, lr_error *err);
 /* *out points into the cJSON tree. */
-lr_status lr__json_string(const cJSON *obj, const char *key,
-                          const char *path, int required, const char **out,
-                          lr_error *err);
+lr_status lr__json_string(const cJSON *obj, const char *key, const char *path,
+                          int required, const char **out, lr_error *err);
 /* A string that must be one of the NULL-terminated `names`; *out is its
  * index.  The error lists the choices. */
 lr_status lr__json_enum(const cJSON *obj, const char *key, const char *path,

@@ -186,8 +186,7 @@ char *lr_render_settings_json(const lr_render_settings *s)
     num(&b, "tile_size", s->tile_size);
     boolean(&b, "depth", s->want_depth);
     if (s->region[0] | s->region[1] | s->region[2] | s->region[3]) {
-        double r[4] = {s->region[0], s->region[1], s->region[2],
-                       s->region[3]};
+        double r[4] = {s->region[0], s->region[1], s->region[2], s->region[3]};
         vec(&b, "region", r, 4);
     }
     boolean(&b, "plan", s->plan);

@@ -11,12 +11,20 @@
 static void sincos_quarter(double t, double *s, double *c)
 {
     double t2 = t * t;
-    *s = t * (1 + t2 * (-1.0 / 6 + t2 * (1.0 / 120 + t2 * (-1.0 / 5040 +
-         t2 * (1.0 / 362880 + t2 * (-1.0 / 39916800 +
-         t2 * (1.0 / 6227020800.0)))))));
-    *c = 1 + t2 * (-0.5 + t2 * (1.0 / 24 + t2 * (-1.0 / 720 +
-         t2 * (1.0 / 40320 + t2 * (-1.0 / 3628800 +
-         t2 * (1.0 / 479001600 + t2 * (-1.0 / 87178291200.0)))))));
+    *s = t * (1 + t2 * (-1.0 / 6 +
+                        t2 * (1.0 / 120 +
+                              t2 * (-1.0 / 5040 +
+                                    t2 * (1.0 / 362880 +
+                                          t2 * (-1.0 / 39916800 +
+                                                t2 * (1.0 / 6227020800.0)))))));
+    *c = 1 +
+         t2 * (-0.5 +
+               t2 * (1.0 / 24 +
+                     t2 * (-1.0 / 720 +
+                           t2 * (1.0 / 40320 +
+                                 t2 * (-1.0 / 3628800 +
+                                       t2 * (1.0 / 479001600 +
+                                             t2 * (-1.0 / 87178291200.0)))))));
 }
 
 static void concentric_disk(const double u[2], double *x, double *y)
@@ -60,9 +68,8 @@ static void polygon(int n, const double u[2], double *x, double *y)
     *y = s * ((1.0 - t) * sin(a0) + t * sin(a1));
 }
 
-void lr__aperture_sample(lr_aperture_shape shape, int blades,
-                         double rotation, double ratio, const double u[2],
-                         double *x, double *y)
+void lr__aperture_sample(lr_aperture_shape shape, int blades, double rotation,
+                         double ratio, const double u[2], double *x, double *y)
 {
     double px, py;
     switch (shape) {
@@ -96,10 +103,8 @@ static const double sellmeier[4][6] = {
      103.560653},
     {1.34533359, 0.209073176, 0.937357162, 0.00997743871, 0.0470450767,
      111.886764},
-    {1.73759695, 0.313747346, 1.89878101, 0.013188707, 0.0623068142,
-     155.23629},
-    {0.6961663, 0.4079426, 0.8974794, 0.00467914826, 0.0135120631,
-     97.9340025},
+    {1.73759695, 0.313747346, 1.89878101, 0.013188707, 0.0623068142, 155.23629},
+    {0.6961663, 0.4079426, 0.8974794, 0.00467914826, 0.0135120631, 97.9340025},
 };
 
 double lr__glass_index(lr_glass glass, double nd, double vd, double nm)

@@ -16,9 +16,8 @@
  * square by scaling, a regular polygon by choosing a triangle fan sector
  * with u[0] and sampling it with a sqrt-warped u[1].  The result is then
  * rotated by `rotation` (radians) and x is scaled by `ratio`. */
-void lr__aperture_sample(lr_aperture_shape shape, int blades,
-                         double rotation, double ratio, const double u[2],
-                         double *x, double *y);
+void lr__aperture_sample(lr_aperture_shape shape, int blades, double rotation,
+                         double ratio, const double u[2], double *x, double *y);
 
 /* lr__aperture_sample for the lanes 0..n-1 of a packet, in float; all
  * 16 lanes of lx, ly are written.  The disk without rotation has a
@@ -27,9 +26,8 @@ void lr__aperture_sample(lr_aperture_shape shape, int blades,
  * the last float bits; the other shapes round lr__aperture_sample's.
  * (Inline, so that it is compiled into each of the packet camera's
  * vector versions.) */
-static inline void lr__aperture_sample16(lr_aperture_shape shape,
-                                         int blades, double rotation,
-                                         double ratio, int n,
+static inline void lr__aperture_sample16(lr_aperture_shape shape, int blades,
+                                         double rotation, double ratio, int n,
                                          const float *lu, const float *lv,
                                          float *lx, float *ly)
 {
@@ -51,11 +49,15 @@ static inline void lr__aperture_sample16(lr_aperture_shape shape,
             float den = rr + (float)(rr == 0.0f);
             float t = 0.78539816f * num / den;
             float t2 = t * t;
-            float sn = t * (1.0f + t2 * (-1.0f / 6 + t2 * (1.0f / 120 +
-                       t2 * (-1.0f / 5040 + t2 * (1.0f / 362880)))));
-            float cs = 1.0f + t2 * (-0.5f + t2 * (1.0f / 24 + t2 *
-                       (-1.0f / 720 + t2 * (1.0f / 40320 -
-                        t2 * (1.0f / 3628800)))));
+            float sn = t * (1.0f + t2 * (-1.0f / 6 +
+                                         t2 * (1.0f / 120 +
+                                               t2 * (-1.0f / 5040 +
+                                                     t2 * (1.0f / 362880)))));
+            float cs = 1.0f + t2 * (-0.5f +
+                                    t2 * (1.0f / 24 +
+                                          t2 * (-1.0f / 720 +
+                                                t2 * (1.0f / 40320 -
+                                                      t2 * (1.0f / 3628800)))));
             /* cs > 0; sn is -0 when num is +0 and den < 0, and the
              * blend's (+0) + sn made that +0: so does sn + 0. */
             lx[i] = rr * (m ? cs : sn + 0.0f) * fr;

@@ -35,16 +35,14 @@ static void unvignetted(const lr__rx *rx, lr__rx *out)
  * away and aim in metre steps). */
 static double start_z(const lr__rx *rx)
 {
-    double z0 = -(2.0 * fmax(fabs(rx->s[0].radius),
-                             rx->s[0].semi_aperture) +
+    double z0 = -(2.0 * fmax(fabs(rx->s[0].radius), rx->s[0].semi_aperture) +
                   10.0);
     return z0 < -1e6 ? -1e6 : z0;
 }
 
 /* Starts a ray at field angle `deg` that crosses the first vertex's plane
  * at height y0, from z0 (start_z). */
-static void start(double z0, double deg, double y0, double o[3],
-                  double d[3])
+static void start(double z0, double deg, double y0, double o[3], double d[3])
 {
     double t = deg * M_PI / 180.0;
     o[0] = 0;
@@ -152,8 +150,8 @@ static int chief(const lr__rx *rx, const lr__rx *open, const lr__rx *front,
     if (steps < 1)
         steps = 1;
     for (int k = 1; k <= steps; k++)
-        if (!advance(front, z0, deg * (k - 1) / steps, deg * k / steps, nm,
-                     enp, step, &y0))
+        if (!advance(front, z0, deg * (k - 1) / steps, deg * k / steps, nm, enp,
+                     step, &y0))
             return 0;
     double o[3], d[3], z[LR__RX_MAX_SURFACES + 1];
     start(z0, deg, y0, o, d);
@@ -185,8 +183,8 @@ static void number(cJSON *o, const char *key, double v)
 }
 
 static lr_status describe_rx(const lr__rx *rx, const double *angles,
-                               int n_angles, double nm, cJSON **out,
-                               lr_error *err)
+                             int n_angles, double nm, cJSON **out,
+                             lr_error *err)
 {
     lr__paraxial p;
     *out = NULL;
@@ -246,8 +244,7 @@ static lr_status describe_rx(const lr__rx *rx, const double *angles,
          * centre at its wavelength), F minus C, on the same plane. */
         if (chief(rx, open, front, deg, LR__NM_F, p.enp_pos, z_img, &hF) &&
             chief(rx, open, front, deg, LR__NM_C, p.enp_pos, z_img, &hC))
-            cJSON_AddNumberToObject(f, "lateral_color_um",
-                                    1000.0 * (hF - hC));
+            cJSON_AddNumberToObject(f, "lateral_color_um", 1000.0 * (hF - hC));
         else
             cJSON_AddNullToObject(f, "lateral_color_um");
     }

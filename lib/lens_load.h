@@ -36,8 +36,8 @@ typedef struct lr__pupil_entry {
 
 struct lr_lens {
     lr__rx rx;
-    char *ref;   /* the name or file as given; NULL for an inline lens */
-    char *json;  /* an inline lens: its object as compact JSON text */
+    char *ref;  /* the name or file as given; NULL for an inline lens */
+    char *json; /* an inline lens: its object as compact JSON text */
     double z[LR__RX_MAX_SURFACES + 1]; /* lr__rx_layout */
     int dispersive;                    /* some glass's index varies */
     lr__lens_first first;

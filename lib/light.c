@@ -141,8 +141,8 @@ static double cone_one_minus_cos(double r, double d)
 /* Samples emitter e from p: point q, its normal, the density, and its
  * texture coordinates (*has_uv 0 when none). */
 static int sample_emitter(const lr_scene *s, const lr__emitter *e, lr__v3 p,
-                          const double u[2], lr__v3 *q, lr__v3 *nq,
-                          double *pdf, int *has_uv, double uv[2])
+                          const double u[2], lr__v3 *q, lr__v3 *nq, double *pdf,
+                          int *has_uv, double uv[2])
 {
     const lr__geom *G = &s->geoms[e->geom];
     if (G->kind == LR__GEOM_TRIANGLES) {
@@ -184,9 +184,9 @@ static int sample_emitter(const lr_scene *s, const lr__emitter *e, lr__v3 p,
     double phi = 2.0 * M_PI * u[1];
     lr__v3 a = fabs(wc.x) > 0.9 ? v3(0, 1, 0) : v3(1, 0, 0);
     lr__v3 t1 = v3_norm(v3_cross(a, wc)), t2 = v3_cross(wc, t1);
-    lr__v3 w = v3_add(v3_scale(wc, cos_t),
-                      v3_add(v3_scale(t1, sin_t * cos(phi)),
-                             v3_scale(t2, sin_t * sin(phi))));
+    lr__v3 w = v3_add(
+        v3_scale(wc, cos_t),
+        v3_add(v3_scale(t1, sin_t * cos(phi)), v3_scale(t2, sin_t * sin(phi))));
     /* Nearest intersection of p + t w with the sphere. */
     double b = dc * cos_t;
     double t = b - sqrt(fmax(0.0, r * r - dc * dc * sin_t * sin_t));
@@ -295,8 +295,8 @@ double lr__light_reach(const lr_scene *s, const lr__light_sample *ls,
     return t;
 }
 
-double lr__light_pdf_area(const lr_scene *s, lr__v3 p, lr__v3 q,
-                          lr__v3 ng_q, unsigned g, unsigned prim)
+double lr__light_pdf_area(const lr_scene *s, lr__v3 p, lr__v3 q, lr__v3 ng_q,
+                          unsigned g, unsigned prim)
 {
     int ka, ke, kd;
     int nk = kinds(s, &ka, &ke, &kd);

@@ -16,15 +16,15 @@
 #include "scene.h"
 
 typedef struct lr__light_sample {
-    lr__v3 dir;   /* unit, from the shading point towards the light */
-    double dist;  /* to the sampled point; INFINITY for the environment
+    lr__v3 dir;  /* unit, from the shading point towards the light */
+    double dist; /* to the sampled point; INFINITY for the environment
                    * and directional lights */
-    lr__v3 L;     /* radiance arriving (area, environment) or, for a delta
+    lr__v3 L;    /* radiance arriving (area, environment) or, for a delta
                    * light, irradiance on a surface facing it */
-    double pdf;   /* solid-angle density with the pick's probability; for
+    double pdf;  /* solid-angle density with the pick's probability; for
                    * a delta light the pick's probability alone */
-    int delta;    /* point or directional: no MIS, no BSDF counterpart */
-    int geom;     /* the emitting geometry (area lights), else -1 */
+    int delta;   /* point or directional: no MIS, no BSDF counterpart */
+    int geom;    /* the emitting geometry (area lights), else -1 */
 } lr__light_sample;
 
 /* Samples a light seen from point p, with u_pick and u[2] in [0, 1).
@@ -46,8 +46,8 @@ int lr__light_is_sphere(const lr_scene *s, const lr__light_sample *ls);
 /* The density lr__light_sample_from would have for reaching point q of
  * emitting geometry g (triangle prim) from p, along unit dir (p -> q),
  * where q's geometric normal is ng_q. */
-double lr__light_pdf_area(const lr_scene *s, lr__v3 p, lr__v3 q,
-                          lr__v3 ng_q, unsigned g, unsigned prim);
+double lr__light_pdf_area(const lr_scene *s, lr__v3 p, lr__v3 q, lr__v3 ng_q,
+                          unsigned g, unsigned prim);
 /* The same for an escaping ray along unit dir (the environment). */
 double lr__light_pdf_env(const lr_scene *s, lr__v3 dir);
 

@@ -121,8 +121,7 @@ static uint64_t paths_for(const lr__cam *c, const lr__lens_bound *lb,
     double sx = v3_dot(d, c->right) / z, sy = v3_dot(d, c->up) / z;
     double fx = (sx / c->half_w + 1.0) * 0.5 * c->width;
     double fy = (1.0 - sy / c->half_h) * 0.5 * c->height;
-    if (fx + D < 0.0 || fx - D > c->width || fy + D < 0.0 ||
-        fy - D > c->height)
+    if (fx + D < 0.0 || fx - D > c->width || fy + D < 0.0 || fy - D > c->height)
         return estimate || force ? 256 : 0;
     double n = ceil((double)spp * 0.25 * M_PI * D * D * LR__LT_DENSITY);
     if (n < 16.0)
@@ -136,8 +135,8 @@ static int mesh_sphere(const lr_scene *s, const lr__geom *g, lr__v3 *center,
 {
     if (g->n_triangles == 0)
         return 0;
-    lr__v3 lo = v3(INFINITY, INFINITY, INFINITY), hi = v3(-INFINITY, -INFINITY,
-                                                         -INFINITY);
+    lr__v3 lo = v3(INFINITY, INFINITY, INFINITY),
+           hi = v3(-INFINITY, -INFINITY, -INFINITY);
     for (size_t t = 0; t < g->n_triangles; t++) {
         const lr__emitter *e = &s->emitters[g->emitter + (long)t];
         lr__v3 p[3] = {e->a, v3_add(e->a, e->e1), v3_add(e->a, e->e2)};
@@ -206,8 +205,8 @@ static int glint_surface(const lr_scene *s, const lr__geom *g, lr__v3 *pp,
         return 0;
     const float *V = g->vertices;
     const unsigned *I = g->indices;
-    lr__v3 n = v3(0, 0, 0), p0 = v3(V[3 * I[0]], V[3 * I[0] + 1],
-                                    V[3 * I[0] + 2]);
+    lr__v3 n = v3(0, 0, 0),
+           p0 = v3(V[3 * I[0]], V[3 * I[0] + 1], V[3 * I[0] + 2]);
     *lo = *hi = p0;
     /* The normal: the largest triangle's (its rounding the least). */
     double best = 0.0;
@@ -259,15 +258,13 @@ static uint64_t glint_paths(const lr__cam *c, const lr__lens_bound *lb,
         return 0;
     lr__v3 image = v3_madd(light->center, pn, -2.0 * dc);
     lr__v3 x0 = v3_add(c->origin,
-                       v3_scale(v3_sub(image, c->origin),
-                                dcam / (dcam + dc)));
+                       v3_scale(v3_sub(image, c->origin), dcam / (dcam + dc)));
     lr__v3 b = v3_sub(light->center, x0);
     double lb_ = sqrt(v3_dot(b, b));
     /* The mirror point seen from the eye, on the surface or near it. */
     double margin = 8.0 * alpha * lb_ + light->radius;
-    if (x0.x < lo.x - margin || x0.x > hi.x + margin ||
-        x0.y < lo.y - margin || x0.y > hi.y + margin ||
-        x0.z < lo.z - margin || x0.z > hi.z + margin)
+    if (x0.x < lo.x - margin || x0.x > hi.x + margin || x0.y < lo.y - margin ||
+        x0.y > hi.y + margin || x0.z < lo.z - margin || x0.z > hi.z + margin)
         return force ? 16 : 0;
     /* Half the sphere's points face away from the mirror: twice the
      * paths. */
@@ -309,8 +306,8 @@ static int plan_glints(const lr_scene *s, const lr__cam *c,
                 continue;
             const lr__v3 *P = &plane[4 * g];
             double a = s->materials[s->geoms[g].material].roughness;
-            if (glint_paths(c, lb, estimate, L, P[0], P[1], P[2], P[3], a,
-                            spp, 0) > 0)
+            if (glint_paths(c, lb, estimate, L, P[0], P[1], P[2], P[3], a, spp,
+                            0) > 0)
                 ok[g] |= LR__LT_GLINT_SURF << 4, ok[l] |= LR__LT_GLINT_LIGHT;
         }
     }
@@ -323,8 +320,8 @@ static int plan_glints(const lr_scene *s, const lr__cam *c,
     if (n_surf > 0 && lt == NULL && (*ltp = lt = lt_new(s)) == NULL)
         good = 0;
     if (n_surf > 0 && good) {
-        lr__lt_light *grown = realloc(lt->lights, (ng + n_surf * n_light) *
-                                                      sizeof *grown);
+        lr__lt_light *grown = realloc(lt->lights,
+                                      (ng + n_surf * n_light) * sizeof *grown);
         good = grown != NULL;
         if (good)
             lt->lights = grown;
@@ -400,8 +397,7 @@ lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
         l->surf = -1;
         l->center = center;
         l->radius = radius;
-        if (geo->kind == LR__GEOM_TRIANGLES &&
-            !mesh_cdf(s, geo, l)) {
+        if (geo->kind == LR__GEOM_TRIANGLES && !mesh_cdf(s, geo, l)) {
             lr__lt_free(lt);
             return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
         }
@@ -536,14 +532,13 @@ static void mesh_path(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
         return;
     double fx, fy;
     double W = c->model->film(c, ox, oy, w, &fx, &fy);
-    if (!(W > 0.0) || !(fx >= 0.0 && fx < c->width && fy >= 0.0 &&
-                        fy < c->height))
+    if (!(W > 0.0) ||
+        !(fx >= 0.0 && fx < c->width && fy >= 0.0 && fy < c->height))
         return;
     lr__hit h;
     (*rays)++;
     if (!lr__trace(s, P, w, INFINITY, &h) || h.geom != l->geom ||
-        h.prim != (unsigned)(e - &s->emitters[l->first_tri]) ||
-        !h.entering)
+        h.prim != (unsigned)(e - &s->emitters[l->first_tri]) || !h.entering)
         return;
     double pdf = dist2 / (l->area * cos_y);
     lr__v3 v = v3_scale(l->L, W / (pdf * (double)l->paths));
@@ -604,8 +599,8 @@ static int glint_solve(const double P2[2], double hp, const double Y2[2],
  * sphere from uy, the slope from us. */
 static void glint_path(const lr_scene *s, const lr__cam *c,
                        const lr__lt_light *l, lr__v3 P, double ox, double oy,
-                       const double uy[2], const double us[2],
-                       lr__lt_film *f, uint64_t *rays, uint64_t *landed)
+                       const double uy[2], const double us[2], lr__lt_film *f,
+                       uint64_t *rays, uint64_t *landed)
 {
     /* y uniform on the sphere by area (pbrt-v4's SampleUniformSphere). */
     double zy = 1.0 - 2.0 * uy[0], ry = sqrt(fmax(0.0, 1.0 - zy * zy));
@@ -635,10 +630,10 @@ static void glint_path(const lr_scene *s, const lr__cam *c,
      * x is larger than h0 the true slope is smaller than drawn and the
      * lobe wider than this density: the wide tails are the camera's
      * (lr__lt_glint_core), and within the core the two differ little. */
-    double al = l->alpha, h0 = 2.0 * (dP + dy) /
-                                 sqrt((dP + dy) * (dP + dy) +
-                                      (P2[0] - Y2[0]) * (P2[0] - Y2[0]) +
-                                      (P2[1] - Y2[1]) * (P2[1] - Y2[1]));
+    double al = l->alpha,
+           h0 = 2.0 * (dP + dy) /
+                sqrt((dP + dy) * (dP + dy) + (P2[0] - Y2[0]) * (P2[0] - Y2[0]) +
+                     (P2[1] - Y2[1]) * (P2[1] - Y2[1]));
     double sn, cs;
     lr__sincos_2pi(us[1], &sn, &cs);
     /* Truncated where no core path can be: there the normal part is at
@@ -692,8 +687,7 @@ static void glint_path(const lr_scene *s, const lr__cam *c,
     if (!(v3_maxc(fv) > 0.0))
         return;
     (*rays)++;
-    if (lr__trace_geom(s, lr__offset_origin(&hx, wi), wi, INFINITY) !=
-        l->geom)
+    if (lr__trace_geom(s, lr__offset_origin(&hx, wi), wi, INFINITY) != l->geom)
         return;
     double pdf_w = pA * dist2 / cos_x;
     double pdf_y = 1.0 / (4.0 * M_PI * l->radius * l->radius);
@@ -716,8 +710,7 @@ static uint64_t light_key(const lr__lt_light *l)
 }
 
 void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
-                 uint64_t u, lr__lt_film *f, uint64_t *rays,
-                 uint64_t *landed)
+                 uint64_t u, lr__lt_film *f, uint64_t *rays, uint64_t *landed)
 {
     lr__sampler smp;
     lr__sampler_init(&smp, LR_SAMPLER_SOBOL, lt->seed, 1);
@@ -775,8 +768,8 @@ void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
         w = v3_norm(w);
         double fx, fy;
         double W = c->model->film(c, ox, oy, w, &fx, &fy);
-        if (!(W > 0.0) || !(fx >= 0.0 && fx < c->width && fy >= 0.0 &&
-                            fy < c->height))
+        if (!(W > 0.0) ||
+            !(fx >= 0.0 && fx < c->width && fy >= 0.0 && fy < c->height))
             continue;
         /* The camera ray along w must meet this light first (from
          * outside a sphere, on its emitting side): exactly the rays whose

@@ -52,14 +52,14 @@
 /* One light traced from its side: a sphere of the scene, or a mesh of
  * emitting triangles. */
 typedef struct lr__lt_light {
-    int geom;           /* index in scene->geoms */
+    int geom; /* index in scene->geoms */
     /* -1: the light seen directly; else a glint: the light seen in the
      * flat rough metal geometry surf, whose plane holds plane_p with
      * unit normal plane_n (any side), GGX alpha `alpha`. */
     int surf;
     lr__v3 plane_p, plane_n;
     double alpha;
-    lr__v3 center;      /* the sphere, or a sphere around the mesh */
+    lr__v3 center; /* the sphere, or a sphere around the mesh */
     double radius;
     /* A mesh: its triangles are scene->emitters[first_tri ..
      * first_tri + n_tri), drawn by area through cdf (n_tri, owned, the
@@ -68,15 +68,15 @@ typedef struct lr__lt_light {
     size_t n_tri;
     double *cdf;
     double area;
-    lr__v3 L;           /* its radiance (untextured emission) */
-    uint64_t paths;     /* light paths traced for it */
-    uint64_t first;     /* index of its first path among all */
+    lr__v3 L;       /* its radiance (untextured emission) */
+    uint64_t paths; /* light paths traced for it */
+    uint64_t first; /* index of its first path among all */
 } lr__lt_light;
 
 typedef struct lr__lt {
     int n;
     lr__lt_light *lights;
-    uint64_t paths;        /* all lights' */
+    uint64_t paths; /* all lights' */
     /* Per geometry of the scene, flags: LR__LT_DIRECT where its direct
      * emission is the light side's (camera rays that meet it first add
      * none); LR__LT_GLINT_SURF on a glint surface, LR__LT_GLINT_LIGHT on
@@ -114,7 +114,7 @@ void lr__lt_keep(lr__lt *lt, const unsigned char *keep);
  * of the frame. */
 typedef struct lr__lt_film {
     int x0, y0, x1, y1;
-    int64_t *sum;    /* 3 per pixel, in units of 1 / scale */
+    int64_t *sum; /* 3 per pixel, in units of 1 / scale */
     double scale;
 } lr__lt_film;
 
@@ -130,8 +130,7 @@ uint64_t lr__lt_units(const lr__lt *lt);
  * thread at once).  Counts the rays traced in *rays and the paths that
  * reached the film in *landed. */
 void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
-                 uint64_t u, lr__lt_film *f, uint64_t *rays,
-                 uint64_t *landed);
+                 uint64_t u, lr__lt_film *f, uint64_t *rays, uint64_t *landed);
 
 /* Adds the light pass's pixels to the camera's: rgb is the region's
  * image, 3 floats a pixel. */

@@ -36,14 +36,13 @@ static lr__v3 times_rgb(lr__v3 k, const lr__texture *t, const lr__uv_xf *xf,
 }
 
 const lr__material *lr__material_textures(const lr__material *m,
-                                          const double uv[2],
-                                          lr__material *tmp)
+                                          const double uv[2], lr__material *tmp)
 {
     *tmp = *m;
     if (m->pbr_split) {
-        lr__v3 b = m->base_tex ? times_rgb(m->base, m->base_tex,
-                                           &m->xf_colour, uv)
-                               : m->base;
+        lr__v3 b = m->base_tex
+                       ? times_rgb(m->base, m->base_tex, &m->xf_colour, uv)
+                       : m->base;
         double metal = m->metal;
         if (m->metal_tex != NULL) {
             float c[4];
@@ -55,11 +54,10 @@ const lr__material *lr__material_textures(const lr__material *m,
         tmp->transmit = v3_scale(b, (1 - metal) * m->trans);
     }
     if (m->diffuse_tex != NULL)
-        tmp->diffuse = times_rgb(m->diffuse, m->diffuse_tex, &m->xf_colour,
-                                 uv);
+        tmp->diffuse = times_rgb(m->diffuse, m->diffuse_tex, &m->xf_colour, uv);
     if (m->emission_tex != NULL)
-        tmp->emission = times_rgb(m->emission, m->emission_tex,
-                                  &m->xf_emission, uv);
+        tmp->emission = times_rgb(m->emission, m->emission_tex, &m->xf_emission,
+                                  uv);
     if (m->roughness_tex != NULL) {
         float c[4];
         lookup(m->roughness_tex, &m->xf_rough, uv, c);
@@ -82,8 +80,7 @@ const lr__material *lr__material_textures(const lr__material *m,
  * A triangle whose uvs are degenerate gets zeros: no bending there. */
 float *lr__triangle_tangents(const lr__geom *g)
 {
-    float *t = calloc(6 * (g->n_triangles ? g->n_triangles : 1),
-                      sizeof *t);
+    float *t = calloc(6 * (g->n_triangles ? g->n_triangles : 1), sizeof *t);
     if (t == NULL)
         return NULL;
     for (size_t k = 0; k < g->n_triangles; k++) {

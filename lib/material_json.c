@@ -26,8 +26,7 @@ static lr_status one(lr_scene *s, const cJSON *m, const char *p,
     lr__path_key(q, p, key);
     if (name[0] == '\0')
         return lr__fail(err, LR_ERR_INVALID, q,
-                        "%s must name an image file (PNG, JPEG or OpenEXR)",
-                        q);
+                        "%s must name an image file (PNG, JPEG or OpenEXR)", q);
     /* Through the one resolver of file keys, so "sha256:" assets work. */
     char full[4096];
     LR_TRY(lr__scene_file(name, base_dir, q, full, sizeof full, err));
@@ -51,8 +50,8 @@ lr_status lr__material_textures_json(lr_scene *s, lr__material *mt,
                &mt->diffuse_file, &has_d, err));
     LR_TRY(one(s, m, p, "emission_texture", 1, base_dir, &mt->emission_tex,
                &mt->emission_file, &has_e, err));
-    LR_TRY(one(s, m, p, "roughness_texture", 0, base_dir,
-               &mt->roughness_tex, &mt->roughness_file, &has_r, err));
+    LR_TRY(one(s, m, p, "roughness_texture", 0, base_dir, &mt->roughness_tex,
+               &mt->roughness_file, &has_r, err));
     long long ch = 0;
     LR_TRY(lr__json_int(m, "roughness_channel", p, 0, 0, 3, &ch, err));
     mt->roughness_channel = (int)ch;
@@ -68,8 +67,8 @@ lr_status lr__material_textures_json(lr_scene *s, lr__material *mt,
 
 const char *lr__material_texture_key(const lr__material *mt)
 {
-    return mt->diffuse_tex    ? "diffuse_texture"
-           : mt->emission_tex ? "emission_texture"
+    return mt->diffuse_tex     ? "diffuse_texture"
+           : mt->emission_tex  ? "emission_texture"
            : mt->roughness_tex ? "roughness_texture"
                                : NULL;
 }

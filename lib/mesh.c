@@ -51,9 +51,9 @@ static float *smooth_normals(const lr__mesh *m)
     return out;
 }
 
-lr_status lr__scene_add_obj(lr_scene *s, const char *file,
-                            const char *shown, const char *fp, int smooth,
-                            const lr__xform *x, int material, lr_error *err)
+lr_status lr__scene_add_obj(lr_scene *s, const char *file, const char *shown,
+                            const char *fp, int smooth, const lr__xform *x,
+                            int material, lr_error *err)
 {
     lr__mesh m;
     memset(&m, 0, sizeof m);
@@ -82,9 +82,9 @@ lr_status lr__scene_add_obj(lr_scene *s, const char *file,
         }
     }
     for (size_t v = 0; v < m.n_vertices; v++) {
-        lr__v3 q = lr__xform_point(x, v3(m.vertices[3 * v],
-                                         m.vertices[3 * v + 1],
-                                         m.vertices[3 * v + 2]));
+        lr__v3 q = lr__xform_point(x,
+                                   v3(m.vertices[3 * v], m.vertices[3 * v + 1],
+                                      m.vertices[3 * v + 2]));
         if (!(v3_maxabs(q) <= LR__MAX_NUMBER)) {
             free(normals);
             lr__mesh_free(&m);
@@ -99,9 +99,8 @@ lr_status lr__scene_add_obj(lr_scene *s, const char *file,
     }
     if (normals != NULL)
         for (size_t c = 0; c < 3 * m.n_triangles; c++) {
-            lr__v3 n = lr__xform_normal(x, v3(normals[3 * c],
-                                              normals[3 * c + 1],
-                                              normals[3 * c + 2]));
+            lr__v3 n = lr__xform_normal(
+                x, v3(normals[3 * c], normals[3 * c + 1], normals[3 * c + 2]));
             normals[3 * c] = (float)n.x;
             normals[3 * c + 1] = (float)n.y;
             normals[3 * c + 2] = (float)n.z;
@@ -143,11 +142,10 @@ lr_status lr__scene_add_rect(lr_scene *s, lr__v3 pt, lr__v3 n, double w,
     lr__v3 ax = fabs(n.x) > 0.9 ? v3(0, 0, 1) : v3(1, 0, 0);
     lr__v3 u = v3_norm(v3_madd(ax, n, -v3_dot(ax, n)));
     lr__v3 v = v3_cross(n, u);
-    lr__v3 corner[4] = {
-        v3_madd(v3_madd(pt, u, -w / 2), v, -h / 2),
-        v3_madd(v3_madd(pt, u, w / 2), v, -h / 2),
-        v3_madd(v3_madd(pt, u, w / 2), v, h / 2),
-        v3_madd(v3_madd(pt, u, -w / 2), v, h / 2)};
+    lr__v3 corner[4] = {v3_madd(v3_madd(pt, u, -w / 2), v, -h / 2),
+                        v3_madd(v3_madd(pt, u, w / 2), v, -h / 2),
+                        v3_madd(v3_madd(pt, u, w / 2), v, h / 2),
+                        v3_madd(v3_madd(pt, u, -w / 2), v, h / 2)};
     float verts[12];
     for (int i = 0; i < 4; i++) {
         lr__v3 c = lr__xform_point(x, corner[i]);
@@ -170,8 +168,8 @@ lr_status lr__scene_add_rect(lr_scene *s, lr__v3 pt, lr__v3 n, double w,
         uv[2 * k] = corner_uv[idx[k]][0];
         uv[2 * k + 1] = corner_uv[idx[k]][1];
     }
-    lr_status st =
-        lr__scene_add_triangles(s, verts, 4, idx, 2, NULL, material, err);
+    lr_status st = lr__scene_add_triangles(s, verts, 4, idx, 2, NULL, material,
+                                           err);
     if (st != LR_OK) {
         free(uv);
         return st;

@@ -17,9 +17,9 @@
  * with it and name it.  Messages name the file as `shown` (as the scene
  * wrote it, relative to its directory: the daemon's scenes directory
  * must not show in its answers). */
-lr_status lr__scene_add_obj(lr_scene *s, const char *file,
-                            const char *shown, const char *fp, int smooth,
-                            const lr__xform *x, int material, lr_error *err);
+lr_status lr__scene_add_obj(lr_scene *s, const char *file, const char *shown,
+                            const char *fp, int smooth, const lr__xform *x,
+                            int material, lr_error *err);
 
 /* Adds a w x h rectangle centred on `pt` in the plane of unit normal `n`,
  * placed by `x`, as two triangles.  Its first side runs along the world

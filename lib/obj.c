@@ -80,7 +80,8 @@ lr_status lr__obj_fail_at(parser *ps, lr_status status, const char *fmt, ...)
 
 lr_status lr__obj_nomem(parser *ps)
 {
-    return lr__obj_fail_at(ps, LR_ERR_NOMEM, "out of memory while reading the mesh");
+    return lr__obj_fail_at(ps, LR_ERR_NOMEM,
+                           "out of memory while reading the mesh");
 }
 
 /* Whitespace between tokens.  A stray '\r' counts too, so CRLF files and
@@ -162,18 +163,20 @@ static lr_status parse_number(parser *ps, const char *tok, size_t len,
             hex = 1;
     double x = strtod_l(tok, &end, ps->c_locale);
     if (hex || end == tok || end != tok + len)
-        return lr__obj_fail_at(ps, LR_ERR_INVALID, "bad number '%s' in a '%s' line",
-                       lr__obj_quote(tok, len).s, what);
+        return lr__obj_fail_at(ps, LR_ERR_INVALID,
+                               "bad number '%s' in a '%s' line",
+                               lr__obj_quote(tok, len).s, what);
     /* ERANGE on underflow gives a tiny but usable value; on overflow the
      * number was written finite and is merely too large. */
     if (!isfinite(x) && errno != ERANGE)
         return lr__obj_fail_at(ps, LR_ERR_INVALID,
-                       "non-finite number '%s' in a '%s' line",
-                       lr__obj_quote(tok, len).s, what);
+                               "non-finite number '%s' in a '%s' line",
+                               lr__obj_quote(tok, len).s, what);
     if (!isfinite(x) || fabs(x) > FLT_MAX)
-        return lr__obj_fail_at(ps, LR_ERR_INVALID,
-                       "number '%s' in a '%s' line is too large for a float",
-                       lr__obj_quote(tok, len).s, what);
+        return lr__obj_fail_at(
+            ps, LR_ERR_INVALID,
+            "number '%s' in a '%s' line is too large for a float",
+            lr__obj_quote(tok, len).s, what);
     *out = x;
     return LR_OK;
 }
@@ -188,9 +191,9 @@ static lr_status parse_numbers(parser *ps, const char *rest, const char *what,
     const char *tok = lr__obj_next_token(&rest, &len);
     while (tok != NULL) {
         if (n == max)
-            return lr__obj_fail_at(ps, LR_ERR_INVALID,
-                           "too many numbers in a '%s' line (at most %zu)",
-                           what, max);
+            return lr__obj_fail_at(
+                ps, LR_ERR_INVALID,
+                "too many numbers in a '%s' line (at most %zu)", what, max);
         lr_status st = parse_number(ps, tok, len, what, &vals[n]);
         if (st != LR_OK)
             return st;
@@ -198,9 +201,9 @@ static lr_status parse_numbers(parser *ps, const char *rest, const char *what,
         tok = lr__obj_next_token(&rest, &len);
     }
     if (n < min)
-        return lr__obj_fail_at(ps, LR_ERR_INVALID,
-                       "a '%s' line needs %zu numbers, this one has %zu", what,
-                       min, n);
+        return lr__obj_fail_at(
+            ps, LR_ERR_INVALID,
+            "a '%s' line needs %zu numbers, this one has %zu", what, min, n);
     *count = n;
     return LR_OK;
 }
@@ -218,7 +221,8 @@ static lr_status parse_vertex(parser *ps, const char *rest)
     /* Faces store vertex indices as unsigned, so more vertices than that
      * could not be referenced. */
     if (ps->n_v >= UINT_MAX)
-        return lr__obj_fail_at(ps, LR_ERR_LIMIT, "more than %u vertices", UINT_MAX);
+        return lr__obj_fail_at(ps, LR_ERR_LIMIT, "more than %u vertices",
+                               UINT_MAX);
     float *v = lr__obj_grow(ps->v, &ps->cap_v, 3 * (ps->n_v + 1), sizeof *v);
     if (v == NULL)
         return lr__obj_nomem(ps);
@@ -242,10 +246,11 @@ static lr_status parse_normal(parser *ps, const char *rest)
                       vals[2] * vals[2]);
     if (!(len > 0.0))
         return lr__obj_fail_at(ps, LR_ERR_INVALID,
-                       "zero-length normal; a 'vn' needs a direction");
+                               "zero-length normal; a 'vn' needs a direction");
     if (ps->n_vn > SIZE_MAX / 3 - 1)
         return lr__obj_fail_at(ps, LR_ERR_LIMIT, "too many normals");
-    float *vn = lr__obj_grow(ps->vn, &ps->cap_vn, 3 * (ps->n_vn + 1), sizeof *vn);
+    float *vn = lr__obj_grow(ps->vn, &ps->cap_vn, 3 * (ps->n_vn + 1),
+                             sizeof *vn);
     if (vn == NULL)
         return lr__obj_nomem(ps);
     ps->vn = vn;
@@ -265,8 +270,10 @@ static lr_status parse_texcoord(parser *ps, const char *rest)
     if (st != LR_OK)
         return st;
     if (ps->n_vt > SIZE_MAX / 2 - 1)
-        return lr__obj_fail_at(ps, LR_ERR_LIMIT, "too many texture coordinates");
-    float *vt = lr__obj_grow(ps->vt, &ps->cap_vt, 2 * (ps->n_vt + 1), sizeof *vt);
+        return lr__obj_fail_at(ps, LR_ERR_LIMIT,
+                               "too many texture coordinates");
+    float *vt = lr__obj_grow(ps->vt, &ps->cap_vt, 2 * (ps->n_vt + 1),
+                             sizeof *vt);
     if (vt == NULL)
         return lr__obj_nomem(ps);
     ps->vt = vt;
@@ -336,7 +343,7 @@ static lr_status parse_buffer(parser *ps, char *buf, size_t len,
                     if (q + 1 == end) {
                         ps->line = line;
                         return lr__obj_fail_at(ps, LR_ERR_INVALID, "%s",
-                                       continuation_at_end);
+                                               continuation_at_end);
                     }
                     for (char *t = b - 1; t <= q; t++)
                         *t = ' ';
@@ -350,10 +357,11 @@ static lr_status parse_buffer(parser *ps, char *buf, size_t len,
                 in_comment = 1;
             } else if (is_binary_byte(c)) {
                 ps->line = line;
-                return lr__obj_fail_at(ps, LR_ERR_INVALID,
-                               "not a text OBJ file (byte 0x%02x at offset "
-                               "%zu)",
-                               c, (size_t)(q - buf));
+                return lr__obj_fail_at(
+                    ps, LR_ERR_INVALID,
+                    "not a text OBJ file (byte 0x%02x at offset "
+                    "%zu)",
+                    c, (size_t)(q - buf));
             }
             q++;
         }
@@ -364,7 +372,7 @@ static lr_status parse_buffer(parser *ps, char *buf, size_t len,
             if (b > s && b[-1] == '\\') {
                 ps->line = line;
                 return lr__obj_fail_at(ps, LR_ERR_INVALID, "%s",
-                               continuation_at_end);
+                                       continuation_at_end);
             }
         }
         char *next = q < end ? q + 1 : end;
@@ -385,8 +393,8 @@ static lr_status parse_buffer(parser *ps, char *buf, size_t len,
     return LR_OK;
 }
 
-lr_status lr__obj_load(const char *file, const char *json_path,
-                       lr__mesh *out, lr_error *err)
+lr_status lr__obj_load(const char *file, const char *json_path, lr__mesh *out,
+                       lr_error *err)
 {
     return lr__obj_load_named(file, file, json_path, out, err);
 }
@@ -406,8 +414,7 @@ lr_status lr__obj_load_named(const char *file, const char *shown,
     char *buf = NULL;
     size_t len = 0;
     lr_status st = lr__read_file(file, shown, json_path, OBJ_MAX_BYTES,
-                                 "OBJ files", stop_at_binary, &buf, &len,
-                                 err);
+                                 "OBJ files", stop_at_binary, &buf, &len, err);
     if (st != LR_OK)
         return st;
 
@@ -435,8 +442,8 @@ lr_status lr__obj_load_named(const char *file, const char *shown,
     if (st == LR_OK && ps.n_tri == 0) {
         ps.line = last_line;
         st = lr__obj_fail_at(&ps, LR_ERR_INVALID,
-                     "the file has no faces ('f' lines), so there is "
-                     "nothing to render");
+                             "the file has no faces ('f' lines), so there is "
+                             "nothing to render");
     }
     if (st != LR_OK) {
         parser_free(&ps);

@@ -48,10 +48,11 @@ static lr_status resolve_index(parser *ps, long i, size_t count,
                                const char *many, size_t *out)
 {
     if (i == 0)
-        return lr__obj_fail_at(ps, LR_ERR_INVALID,
-                       "face %sindex 0 out of range (OBJ indices start at 1; "
-                       "the file has %zu %s so far)",
-                       kind, count, plural(count, one, many));
+        return lr__obj_fail_at(
+            ps, LR_ERR_INVALID,
+            "face %sindex 0 out of range (OBJ indices start at 1; "
+            "the file has %zu %s so far)",
+            kind, count, plural(count, one, many));
     if (i > 0) {
         if ((unsigned long)i <= count) {
             *out = (size_t)i - 1;
@@ -65,9 +66,10 @@ static lr_status resolve_index(parser *ps, long i, size_t count,
             return LR_OK;
         }
     }
-    return lr__obj_fail_at(ps, LR_ERR_INVALID,
-                   "face %sindex %ld out of range (the file has %zu %s so far)",
-                   kind, i, count, plural(count, one, many));
+    return lr__obj_fail_at(
+        ps, LR_ERR_INVALID,
+        "face %sindex %ld out of range (the file has %zu %s so far)", kind, i,
+        count, plural(count, one, many));
 }
 
 /* Parses one corner: v, v/vt, v//vn or v/vt/vn. */
@@ -109,22 +111,22 @@ static lr_status parse_corner(parser *ps, const char *tok, size_t len,
     }
     if (r == -2)
         return lr__obj_fail_at(ps, LR_ERR_INVALID,
-                       "face index in '%s' out of range",
-                       lr__obj_quote(tok, len).s);
+                               "face index in '%s' out of range",
+                               lr__obj_quote(tok, len).s);
     if (r != 0)
-        return lr__obj_fail_at(ps, LR_ERR_INVALID,
-                       "bad face corner '%s' (expected v, v/vt, v//vn or "
-                       "v/vt/vn with integer indices)",
-                       lr__obj_quote(tok, len).s);
+        return lr__obj_fail_at(
+            ps, LR_ERR_INVALID,
+            "bad face corner '%s' (expected v, v/vt, v//vn or "
+            "v/vt/vn with integer indices)",
+            lr__obj_quote(tok, len).s);
 
-    lr_status st =
-        resolve_index(ps, iv, ps->n_v, "", "vertex", "vertices", &c->v);
+    lr_status st = resolve_index(ps, iv, ps->n_v, "", "vertex", "vertices",
+                                 &c->v);
     if (st != LR_OK)
         return st;
     if (have_vt) {
-        st = resolve_index(ps, it, ps->n_vt, "texture ",
-                           "texture coordinate", "texture coordinates",
-                           &c->vt);
+        st = resolve_index(ps, it, ps->n_vt, "texture ", "texture coordinate",
+                           "texture coordinates", &c->vt);
         if (st != LR_OK)
             return st;
         c->has_vt = 1;
@@ -165,8 +167,10 @@ lr_status lr__obj_parse_face(parser *ps, const char *rest)
     const char *tok = lr__obj_next_token(&rest, &len);
     while (tok != NULL) {
         if (n == SIZE_MAX / sizeof(corner))
-            return lr__obj_fail_at(ps, LR_ERR_LIMIT, "too many corners in a face");
-        corner *cs = lr__obj_grow(ps->corners, &ps->cap_corners, n + 1, sizeof *cs);
+            return lr__obj_fail_at(ps, LR_ERR_LIMIT,
+                                   "too many corners in a face");
+        corner *cs = lr__obj_grow(ps->corners, &ps->cap_corners, n + 1,
+                                  sizeof *cs);
         if (cs == NULL)
             return lr__obj_nomem(ps);
         ps->corners = cs;
@@ -181,8 +185,9 @@ lr_status lr__obj_parse_face(parser *ps, const char *rest)
         tok = lr__obj_next_token(&rest, &len);
     }
     if (n < 3)
-        return lr__obj_fail_at(ps, LR_ERR_INVALID,
-                       "a face needs at least 3 corners, this one has %zu", n);
+        return lr__obj_fail_at(
+            ps, LR_ERR_INVALID,
+            "a face needs at least 3 corners, this one has %zu", n);
     if (!face_normals && ps->all_normals)
         drop_normals(ps);
     if (!face_uvs && ps->all_uvs)
@@ -194,7 +199,8 @@ lr_status lr__obj_parse_face(parser *ps, const char *rest)
     if (ps->n_tri > SIZE_MAX / 9 - add)
         return lr__obj_fail_at(ps, LR_ERR_LIMIT, "too many triangles");
     size_t tri_after = ps->n_tri + add;
-    unsigned *idx = lr__obj_grow(ps->idx, &ps->cap_idx, 3 * tri_after, sizeof *idx);
+    unsigned *idx = lr__obj_grow(ps->idx, &ps->cap_idx, 3 * tri_after,
+                                 sizeof *idx);
     if (idx == NULL)
         return lr__obj_nomem(ps);
     ps->idx = idx;

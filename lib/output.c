@@ -21,11 +21,10 @@ void lr_output_default(lr_output *o)
     o->options.exr_depth = 0;
 }
 
-lr_status lr__output_apply_cjson(lr_output *o, const cJSON *obj,
-                                 lr_error *err)
+lr_status lr__output_apply_cjson(lr_output *o, const cJSON *obj, lr_error *err)
 {
-    static const char *const keys[] = {"format", "bit_depth", "half",
-                                       "depth", "compression", NULL};
+    static const char *const keys[] = {"format", "bit_depth",   "half",
+                                       "depth",  "compression", NULL};
     const char *path = "output";
     if (obj == NULL)
         return LR_OK;
@@ -34,9 +33,9 @@ lr_status lr__output_apply_cjson(lr_output *o, const cJSON *obj,
     lr_output t = *o;
     const cJSON *fmt = cJSON_GetObjectItemCaseSensitive(obj, "format");
     if (fmt != NULL)
-        LR_TRY(lr_format_from_name(cJSON_IsString(fmt) ? fmt->valuestring
-                                                       : NULL,
-                                   "output.format", &t.format, err));
+        LR_TRY(
+            lr_format_from_name(cJSON_IsString(fmt) ? fmt->valuestring : NULL,
+                                "output.format", &t.format, err));
     const char *name = lr_format_name(t.format);
     int png = t.format == LR_FORMAT_PNG, exr = t.format == LR_FORMAT_EXR;
     const cJSON *bd = cJSON_GetObjectItemCaseSensitive(obj, "bit_depth");
@@ -55,8 +54,7 @@ lr_status lr__output_apply_cjson(lr_output *o, const cJSON *obj,
         if (!exr)
             return lr__fail(err, LR_ERR_INVALID, "output.half",
                             "output.half applies to exr only, not %s", name);
-        LR_TRY(lr__json_bool(obj, "half", path, 0, &t.options.exr_half,
-                             err));
+        LR_TRY(lr__json_bool(obj, "half", path, 0, &t.options.exr_half, err));
     }
     const cJSON *comp = cJSON_GetObjectItemCaseSensitive(obj, "compression");
     if (comp != NULL) {
@@ -89,8 +87,8 @@ lr_status lr_output_apply_json(lr_output *o, const char *json, size_t len,
         return lr__fail(err, LR_ERR_INVALID, NULL,
                         "lr_output_apply_json: NULL argument");
     cJSON *root = NULL;
-    LR_TRY(lr__json_parse(json ? json : "", len, "output", "output", &root,
-                          err));
+    LR_TRY(
+        lr__json_parse(json ? json : "", len, "output", "output", &root, err));
     lr_status st = lr__output_apply_cjson(o, root, err);
     cJSON_Delete(root);
     return st;

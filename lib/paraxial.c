@@ -18,8 +18,8 @@ typedef struct m2 {
 
 static m2 mul(m2 x, m2 y) /* x after y */
 {
-    m2 r = {x.a * y.a + x.b * y.c, x.a * y.b + x.b * y.d,
-            x.c * y.a + x.d * y.c, x.c * y.b + x.d * y.d};
+    m2 r = {x.a * y.a + x.b * y.c, x.a * y.b + x.b * y.d, x.c * y.a + x.d * y.c,
+            x.c * y.b + x.d * y.d};
     return r;
 }
 
@@ -41,8 +41,7 @@ static m2 refract(const lr__rx *rx, int i, double nm)
 /* The gap after surface i. */
 static m2 gap(const lr__rx *rx, int i, double nm)
 {
-    m2 t = {1, rx->s[i].thickness / lr__glass_n(&rx->s[i].after, nm),
-            0, 1};
+    m2 t = {1, rx->s[i].thickness / lr__glass_n(&rx->s[i].after, nm), 0, 1};
     return t;
 }
 
@@ -111,7 +110,7 @@ void lr__rx_zero_back_focus(lr__rx *rx)
         return;
     lr__paraxial px;
     lr_error e2;
-    if (lr__rx_paraxial(rx, LR__NM_d, &px, &e2) == LR_OK &&
-        isfinite(px.bfl) && px.bfl > 0 && px.bfl < 1e6)
+    if (lr__rx_paraxial(rx, LR__NM_d, &px, &e2) == LR_OK && isfinite(px.bfl) &&
+        px.bfl > 0 && px.bfl < 1e6)
         rx->s[rx->n - 1].thickness = px.bfl;
 }

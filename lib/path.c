@@ -65,10 +65,9 @@
  * sixteen lanes in one vectorised loop (lr__pixel_pairs_get16), the
  * hashed ones likewise (lr__path16_hashed); either way a lane's numbers
  * are those of its sample alone. */
-static void bounce_numbers(const lr__pixel_pairs *pairs,
-                           const uint64_t key[16], const double alive[16],
-                           int n, uint32_t first, int depth,
-                           double u[DIMS_PER_BOUNCE][16])
+static void bounce_numbers(const lr__pixel_pairs *pairs, const uint64_t key[16],
+                           const double alive[16], int n, uint32_t first,
+                           int depth, double u[DIMS_PER_BOUNCE][16])
 {
     uint32_t dim = DIM_FIRST + DIMS_PER_BOUNCE * (uint32_t)depth;
     if (dim < DIM_SOBOL_END) {
@@ -79,14 +78,13 @@ static void bounce_numbers(const lr__pixel_pairs *pairs,
                                             : DIMS_PER_BOUNCE - 2;
         for (uint32_t j = 0; j < end; j += 2)
             lr__pixel_pairs_get16(pairs, first, n, dim + j,
-                                  (double (*)[16])u[j]);
+                                  (double(*)[16])u[j]);
         return;
     }
     /* (Again dimension 6 only where roulette is played.) */
-    lr__path16_hashed(key, alive, dim,
-                      depth + 1 >= RR_FROM ? DIMS_PER_BOUNCE - 1
-                                           : DIMS_PER_BOUNCE - 2,
-                      u);
+    lr__path16_hashed(
+        key, alive, dim,
+        depth + 1 >= RR_FROM ? DIMS_PER_BOUNCE - 1 : DIMS_PER_BOUNCE - 2, u);
 }
 
 typedef lr__path_lane lane;
@@ -163,15 +161,14 @@ static int next_event(const lr_scene *s, const lr__hit *h, const lr__bsdf *f,
  * else NULL. */
 static int bounce(const lr_scene *s, int max_depth, int depth, int hit,
                   const lr__hit *h, const double v[DIMS_PER_BOUNCE],
-                  const unsigned char *lt, const unsigned char *glint,
-                  lane *p)
+                  const unsigned char *lt, const unsigned char *glint, lane *p)
 {
     p->shadow = 0;
     if (!hit) {
         lr__v3 Le = lr__env_radiance(s, p->dir);
-        double w = p->prev_delta ? 1.0
-                                 : mis(p->prev_pdf,
-                                       lr__light_pdf_env(s, p->dir));
+        double w = p->prev_delta
+                       ? 1.0
+                       : mis(p->prev_pdf, lr__light_pdf_env(s, p->dir));
         p->L = v3_add(p->L, v3_scale(v3_mul(p->beta, Le), w));
         return 0;
     }
@@ -182,9 +179,9 @@ static int bounce(const lr_scene *s, int max_depth, int depth, int hit,
         !lr__lt_flag(glint, h->geom, LR__LT_GLINT_LIGHT)) {
         double w = 1.0;
         if (!p->prev_delta && h->geom >= 0)
-            w = mis(p->prev_pdf, lr__light_pdf_area(s, p->prev_p, h->p, h->ng,
-                                                    (unsigned)h->geom,
-                                                    h->prim));
+            w = mis(p->prev_pdf,
+                    lr__light_pdf_area(s, p->prev_p, h->p, h->ng,
+                                       (unsigned)h->geom, h->prim));
         p->L = v3_add(p->L, v3_scale(v3_mul(p->beta, m->emission), w));
     }
     if (depth > max_depth)
@@ -268,9 +265,8 @@ static void lane_put(const lane *p, int alive, lr__paths16 *S, int i)
  * throughout; lanes that path16.c's vector bounce does not take are
  * copied out, shaded alone (bounce) and copied back. */
 static void trace_paths(const lr_scene *s, int max_depth,
-                        struct RTCRayHit16 *rh, int n,
-                        const lr__sample_id *id, lr__v3 L[16],
-                        uint64_t *rays)
+                        struct RTCRayHit16 *rh, int n, const lr__sample_id *id,
+                        lr__v3 L[16], uint64_t *rays)
 {
     lr__paths_camera16(s, rh, n, rays);
     lr__pixel_pairs pairs;
@@ -309,10 +305,9 @@ static void trace_paths(const lr_scene *s, int max_depth,
             lr__v3 dir = depth == 0 ? v3(w16.cdx[i], w16.cdy[i], w16.cdz[i])
                                     : p.dir;
             lr__hit h;
-            int hit = lr__hit_complete(s, p.org, dir, INFINITY,
-                                       rh->hit.geomID[i], rh->hit.primID[i],
-                                       rh->hit.u[i], rh->hit.v[i],
-                                       rh->ray.tfar[i], &h);
+            int hit = lr__hit_complete(
+                s, p.org, dir, INFINITY, rh->hit.geomID[i], rh->hit.primID[i],
+                rh->hit.u[i], rh->hit.v[i], rh->ray.tfar[i], &h);
             /* (Dimension 7 of a bounce is not used.) */
             double v[DIMS_PER_BOUNCE] = {0};
             for (int j = 0; j < DIMS_PER_BOUNCE - 1; j++)
@@ -323,14 +318,17 @@ static void trace_paths(const lr_scene *s, int max_depth,
             /* The BSDF's ray from a glint surface, if within the glint's
              * core: should it meet a glint light, the light side has it. */
             if (depth == 0)
-                glint[i] = (unsigned char)(
-                    alive && lr__lt_flag(id->lt, h.geom, LR__LT_GLINT_SURF) &&
-                    lr__lt_glint_core(v3_neg(dir), p.dir, h.ng,
-                                      s->materials[h.material].roughness));
+                glint[i] =
+                    (unsigned char)(alive &&
+                                    lr__lt_flag(id->lt, h.geom,
+                                                LR__LT_GLINT_SURF) &&
+                                    lr__lt_glint_core(
+                                        v3_neg(dir), p.dir, h.ng,
+                                        s->materials[h.material].roughness));
             lane_put(&p, alive, S, i);
         }
         if (w16.vec)
-            lr__path16_lambert(s, &w16, depth, (const double (*)[16])U);
+            lr__path16_lambert(s, &w16, depth, (const double(*)[16])U);
         /* The shadow rays: those an infinite plane blocks are done. */
         for (int i = 0; i < n; i++)
             *rays += S->shadow[i] != 0.0;

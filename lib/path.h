@@ -16,11 +16,11 @@
 /* One path of a packet, between bounces (path.c's scalar bounce). */
 typedef struct lr__path_lane {
     lr__v3 L, beta;
-    lr__v3 org, dir;    /* the ray traced next (dir unit) */
-    lr__v3 prev_p;      /* where dir was sampled */
-    double prev_pdf;    /* its BSDF density (solid angle) */
-    int prev_delta;     /* 1 if from a delta lobe or the camera */
-    double eta_scale;   /* product of eta^2 crossed, for roulette */
+    lr__v3 org, dir;  /* the ray traced next (dir unit) */
+    lr__v3 prev_p;    /* where dir was sampled */
+    double prev_pdf;  /* its BSDF density (solid angle) */
+    int prev_delta;   /* 1 if from a delta lobe or the camera */
+    double eta_scale; /* product of eta^2 crossed, for roulette */
     /* This bounce's light sample: c is added if the shadow ray from
      * s_org along s_dir is clear up to s_tfar. */
     int shadow;
@@ -62,12 +62,17 @@ int lr__path16_scene_ok(const lr_scene *s);
 typedef struct emitters16 {
     double cdf[LR__PATH16_EMITTERS]; /* +inf past the last but one */
     double prob[LR__PATH16_EMITTERS];
-    double ax[LR__PATH16_EMITTERS], ay[LR__PATH16_EMITTERS], az[LR__PATH16_EMITTERS];
-    double e1x[LR__PATH16_EMITTERS], e1y[LR__PATH16_EMITTERS], e1z[LR__PATH16_EMITTERS];
-    double e2x[LR__PATH16_EMITTERS], e2y[LR__PATH16_EMITTERS], e2z[LR__PATH16_EMITTERS];
-    double nx[LR__PATH16_EMITTERS], ny[LR__PATH16_EMITTERS], nz[LR__PATH16_EMITTERS];
+    double ax[LR__PATH16_EMITTERS], ay[LR__PATH16_EMITTERS],
+        az[LR__PATH16_EMITTERS];
+    double e1x[LR__PATH16_EMITTERS], e1y[LR__PATH16_EMITTERS],
+        e1z[LR__PATH16_EMITTERS];
+    double e2x[LR__PATH16_EMITTERS], e2y[LR__PATH16_EMITTERS],
+        e2z[LR__PATH16_EMITTERS];
+    double nx[LR__PATH16_EMITTERS], ny[LR__PATH16_EMITTERS],
+        nz[LR__PATH16_EMITTERS];
     double area[LR__PATH16_EMITTERS];
-    double lr[LR__PATH16_EMITTERS], lg[LR__PATH16_EMITTERS], lb[LR__PATH16_EMITTERS];
+    double lr[LR__PATH16_EMITTERS], lg[LR__PATH16_EMITTERS],
+        lb[LR__PATH16_EMITTERS];
     int n; /* how many */
 } emitters16;
 
@@ -96,9 +101,9 @@ typedef struct lr__paths16 {
 typedef struct lr__hits16p {
     double take[16];
     double t[16];
-    double nx[16], ny[16], nz[16];    /* unit geometric normal */
-    double ar[16], ag[16], ab[16];    /* albedo */
-    double dx[16], dy[16], dz[16];    /* the ray's direction */
+    double nx[16], ny[16], nz[16]; /* unit geometric normal */
+    double ar[16], ag[16], ab[16]; /* albedo */
+    double dx[16], dy[16], dz[16]; /* the ray's direction */
 } lr__hits16p;
 
 /* path16.c's working space for one packet's paths (one per thread): the
@@ -129,9 +134,8 @@ void lr__path16_begin(const lr_scene *s, lr__path16 *w,
  * left it is done here (its background light added); the others are
  * listed in alone[], in order, their count returned.  Clears every
  * lane's S.shadow. */
-int lr__path16_sort(const lr_scene *s, lr__path16 *w, int depth,
-                    int max_depth, int n, const struct RTCRayHit16 *rh,
-                    int alone[16]);
+int lr__path16_sort(const lr_scene *s, lr__path16 *w, int depth, int max_depth,
+                    int n, const struct RTCRayHit16 *rh, int alone[16]);
 
 /* The bounce of the lanes with w->H.take[i] set, all at once, at a
  * depth <= max_depth: what path.c's bounce does for such a hit,

@@ -118,9 +118,8 @@ static void sphere_hit(const lr__geom *G, lr__path16 *w, int depth, int i,
     H->nx[i] = n.x, H->ny[i] = n.y, H->nz[i] = n.z;
 }
 
-int lr__path16_sort(const lr_scene *s, lr__path16 *w, int depth,
-                    int max_depth, int n, const struct RTCRayHit16 *rh,
-                    int alone[16])
+int lr__path16_sort(const lr_scene *s, lr__path16 *w, int depth, int max_depth,
+                    int n, const struct RTCRayHit16 *rh, int alone[16])
 {
     lr__paths16 *S = &w->S;
     lr__hits16p *H = &w->H;
@@ -182,9 +181,9 @@ int lr__path16_sort(const lr_scene *s, lr__path16 *w, int depth,
 /* The emitter each lane's light sample picked: its fields (with more
  * than two emitters; lambert16). */
 typedef struct picked16 {
-    double ax[16], ay[16], az[16], e1x[16], e1y[16], e1z[16], e2x[16],
-        e2y[16], e2z[16], nx[16], ny[16], nz[16], area[16], prob[16],
-        lr[16], lg[16], lb[16];
+    double ax[16], ay[16], az[16], e1x[16], e1y[16], e1z[16], e2x[16], e2y[16],
+        e2z[16], nx[16], ny[16], nz[16], area[16], prob[16], lr[16], lg[16],
+        lb[16];
 } picked16;
 
 /* lambert16's loop over the lanes; `two` constant in each call, so
@@ -200,9 +199,23 @@ lanes16(lr__v3 amb, int rr, const double (*restrict u)[16],
      * in the loop kept GCC from vectorising it.  (E's entries past n
      * repeat the last, so [1] is there.) */
 #define LOAD2(f) const double f##_0 = E->f[0], f##_1 = E->f[1]
-    LOAD2(ax); LOAD2(ay); LOAD2(az); LOAD2(e1x); LOAD2(e1y); LOAD2(e1z);
-    LOAD2(e2x); LOAD2(e2y); LOAD2(e2z); LOAD2(nx); LOAD2(ny); LOAD2(nz);
-    LOAD2(area); LOAD2(prob); LOAD2(lr); LOAD2(lg); LOAD2(lb);
+    LOAD2(ax);
+    LOAD2(ay);
+    LOAD2(az);
+    LOAD2(e1x);
+    LOAD2(e1y);
+    LOAD2(e1z);
+    LOAD2(e2x);
+    LOAD2(e2y);
+    LOAD2(e2z);
+    LOAD2(nx);
+    LOAD2(ny);
+    LOAD2(nz);
+    LOAD2(area);
+    LOAD2(prob);
+    LOAD2(lr);
+    LOAD2(lg);
+    LOAD2(lb);
 #undef LOAD2
 #define EF(a, f) (two ? (pick[i] != 0.0 ? f##_1 : f##_0) : K->f[i])
     for (int i = 0; i < 16; i++) {
@@ -347,10 +360,10 @@ lanes16(lr__v3 amb, int rr, const double (*restrict u)[16],
 }
 
 
-__attribute__((target_clones("avx512f", "avx2", "default")))
-static void lambert16(lr__v3 amb, int rr, const double (*restrict u)[16],
-                      const emitters16 *restrict E,
-                      const lr__hits16p *restrict H, lr__paths16 *restrict S)
+__attribute__((target_clones("avx512f", "avx2", "default"))) static void
+lambert16(lr__v3 amb, int rr, const double (*restrict u)[16],
+          const emitters16 *restrict E, const lr__hits16p *restrict H,
+          lr__paths16 *restrict S)
 {
     /* light.c's pick: one kind of light (area), so u_pick * 1 - 0 picks
      * among the emitters: emitter_find's binary search gives the count
@@ -387,9 +400,8 @@ static void lambert16(lr__v3 amb, int rr, const double (*restrict u)[16],
  * the others done; one vectorised loop (the unit directions' square
  * roots and quotients were 1% of the Cornell box's CPU time lane by
  * lane). */
-__attribute__((target_clones("avx512f", "avx2", "default")))
-static void paths_start(lr__path16 *restrict w,
-                        const struct RTCRay16 *restrict r, int n)
+__attribute__((target_clones("avx512f", "avx2", "default"))) static void
+paths_start(lr__path16 *restrict w, const struct RTCRay16 *restrict r, int n)
 {
     lr__paths16 *S = &w->S;
     for (int i = 0; i < 16; i++) {

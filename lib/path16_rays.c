@@ -76,15 +76,15 @@ hashed_lanes(const uint64_t *restrict key, int m, uint32_t dim, int dims,
     }
 }
 
-__attribute__((target("avx512f")))
-static void hashed_avx512(const uint64_t *restrict key, int m, uint32_t dim,
-                          int dims, double (*restrict h)[16])
+__attribute__((target("avx512f"))) static void
+hashed_avx512(const uint64_t *restrict key, int m, uint32_t dim, int dims,
+              double (*restrict h)[16])
 {
     hashed_lanes(key, m, dim, dims, h, 1);
 }
 
-static void hashed(const uint64_t *restrict key, int m, uint32_t dim,
-                   int dims, double (*restrict h)[16])
+static void hashed(const uint64_t *restrict key, int m, uint32_t dim, int dims,
+                   double (*restrict h)[16])
 {
     if (__builtin_cpu_supports("avx512f"))
         hashed_avx512(key, m, dim, dims, h);
@@ -110,8 +110,8 @@ void lr__path16_hashed(const uint64_t key[16], const double alive[16],
 /* Entries c0..m-1 of P with tnear 0, but a ray Embree could not take
  * (lr__embree_can_trace) meets nothing, as lr__shadow_ray16 makes it.  In a loop of
  * its own over the packed entries, which GCC vectorises. */
-__attribute__((target_clones("avx512f", "avx2", "default")))
-static void quiet(lr__rays_packed *P, int c0, int m)
+__attribute__((target_clones("avx512f", "avx2", "default"))) static void
+quiet(lr__rays_packed *P, int c0, int m)
 {
     const double lim = LR__EMBREE_MAX_COORD;
     for (int c = c0; c < m; c++) {
@@ -208,17 +208,15 @@ ray16_fill(const double *restrict ox, const double *restrict oy,
     return count;
 }
 
-__attribute__((target_clones("avx512f", "avx2", "default")))
-int lr__path16_shadows16(const lr__paths16 *S, struct RTCRay16 *r,
-                         int valid[16])
+__attribute__((target_clones("avx512f", "avx2", "default"))) int
+lr__path16_shadows16(const lr__paths16 *S, struct RTCRay16 *r, int valid[16])
 {
-    return ray16_fill(S->sox, S->soy, S->soz, S->sdx, S->sdy, S->sdz,
-                      S->stfar, S->shadow, r, valid, 0);
+    return ray16_fill(S->sox, S->soy, S->soz, S->sdx, S->sdy, S->sdz, S->stfar,
+                      S->shadow, r, valid, 0);
 }
 
-__attribute__((target_clones("avx512f", "avx2", "default")))
-int lr__path16_rays16(const lr__paths16 *S, struct RTCRayHit16 *rh,
-                      int valid[16])
+__attribute__((target_clones("avx512f", "avx2", "default"))) int
+lr__path16_rays16(const lr__paths16 *S, struct RTCRayHit16 *rh, int valid[16])
 {
     int go = ray16_fill(S->ox, S->oy, S->oz, S->dx, S->dy, S->dz, NULL,
                         S->alive, &rh->ray, valid, 1);

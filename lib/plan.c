@@ -32,8 +32,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define CHUNK 64       /* triangles per bounding box */
-#define NEAR 1e-6      /* depths below this count as "at the eye" */
+#define CHUNK 64  /* triangles per bounding box */
+#define NEAR 1e-6 /* depths below this count as "at the eye" */
 
 typedef struct box {
     double z0, z1;         /* depth range */
@@ -96,8 +96,7 @@ static void box_from_bounds(const lens *L, const double lo[3],
     }
 }
 
-static void box_from_points(const lens *L, const lr__v3 *pts, size_t n,
-                            box *b)
+static void box_from_points(const lens *L, const lr__v3 *pts, size_t n, box *b)
 {
     double lo[3], hi[3];
     world_bounds(pts, n, lo, hi);
@@ -215,9 +214,8 @@ static double spread(const lens *L, double z0, double z1)
 /* The depth range of an infinite plane over the rectangle
  * [u0, u1] x [v0, v1]: 1/Z is linear there, so its extremes are at the
  * corners.  Returns 0 if the plane is not seen. */
-static int plane_range(const lens *L, const lr__geom *pl, double u0,
-                       double u1, double v0, double v1, double *z0,
-                       double *z1)
+static int plane_range(const lens *L, const lr__geom *pl, double u0, double u1,
+                       double v0, double v1, double *z0, double *z1)
 {
     double k = v3_dot(pl->normal, v3_sub(pl->center, L->e));
     double a = v3_dot(pl->normal, L->fwd), b = v3_dot(pl->normal, L->right),
@@ -265,8 +263,7 @@ static double chroma_spread(const lens *L, double x0, double x1)
 }
 
 /* From what the blur bounds allow to what each block does. */
-static void finish(lr__plan *p, const lr__cam *c,
-                   const lr_render_settings *set)
+static void finish(lr__plan *p, const lr__cam *c, const lr_render_settings *set)
 {
     for (int i = 0; i < p->bw * p->bh; i++) {
         lr__block_plan *bp = &p->blocks[i];
@@ -280,14 +277,14 @@ static void finish(lr__plan *p, const lr__cam *c,
 static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
                            int dither, int x0, int y0, int x1, int y1,
                            lr_error *err);
-static lr_status lt_region(lr__lt *lt, const lr__cam *c, int x0, int y0,
-                           int x1, int y1, lr_error *err);
+static lr_status lt_region(lr__lt *lt, const lr__cam *c, int x0, int y0, int x1,
+                           int y1, lr_error *err);
 static lr_status rare_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
                             int x0, int y0, int x1, int y1, lr_error *err);
 
 lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
-                         const lr_render_settings *set, int x0, int y0,
-                         int x1, int y1, lr_error *err)
+                         const lr_render_settings *set, int x0, int y0, int x1,
+                         int y1, lr_error *err)
 {
     p->bw = ((int)c->width + LR__PLAN_BLOCK - 1) / LR__PLAN_BLOCK;
     p->bh = ((int)c->height + LR__PLAN_BLOCK - 1) / LR__PLAN_BLOCK;
@@ -321,8 +318,7 @@ lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
          * 1.2x, so with adaptive sampling on the grid keeps its lens
          * wherever there is something to blur; planning alone stays as
          * it was, the fastest choice at its own error. */
-        int dither =
-            set->adaptive && lr__sampler_fixed_positions(set->sampler);
+        int dither = set->adaptive && lr__sampler_fixed_positions(set->sampler);
         lr_status st = plan_blur(p, s, c, dither, gx0, gy0, gx1, gy1, err);
         if (st != LR_OK) {
             lr__plan_free(p);
@@ -399,8 +395,7 @@ void lr__plan_cache_free(struct lr__plan_cache *c)
  * box_from_bounds, compared exactly. */
 static int same_lens(const lens *a, const lens *b)
 {
-    if (a->R != b->R || a->w != b->w || a->fpx != b->fpx ||
-        a->n_w != b->n_w)
+    if (a->R != b->R || a->w != b->w || a->fpx != b->fpx || a->n_w != b->n_w)
         return 0;
     const lr__v3 *va[4] = {&a->e, &a->fwd, &a->right, &a->up};
     const lr__v3 *vb[4] = {&b->e, &b->fwd, &b->right, &b->up};
@@ -535,8 +530,8 @@ static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
                  * since the growth can reveal nearer parts). */
                 for (int it = 0; it < 2 && isfinite(z0); it++) {
                     double g = spread(&L, z0, z1) * 1.01 + 1e-9;
-                    if (!plane_range(&L, &s->planes[i], u0 - g, u1 + g,
-                                     v0 - g, v1 + g, &z0, &z1))
+                    if (!plane_range(&L, &s->planes[i], u0 - g, u1 + g, v0 - g,
+                                     v1 + g, &z0, &z1))
                         z0 = INFINITY, z1 = 0.0;
                 }
                 if (z0 < zmin)
@@ -565,9 +560,9 @@ static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
             /* The largest blur of any colour at either end. */
             double blur = 0.0;
             for (int k = 0; k < L.n_w; k++)
-                blur = fmax(blur, 2.0 * L.R * L.fpx *
-                                      fmax(fabs(x_lo - L.ws[k]),
-                                           fabs(x_hi - L.ws[k])));
+                blur = fmax(
+                    blur, 2.0 * L.R * L.fpx *
+                              fmax(fabs(x_lo - L.ws[k]), fabs(x_hi - L.ws[k])));
             bp->lens = dither || blur >= LR__PLAN_BLUR_PX;
             bp->chroma = L.n_w > 1 &&
                          chroma_spread(&L, x_lo, x_hi) >= LR__PLAN_BLUR_PX;
@@ -615,8 +610,7 @@ static int make_boxes(const lr_scene *s, const lens *L, box **out,
                         &geo->vertices[3 * geo->indices[3 * t + k]];
                     q[k] = v3(v[0], v[1], v[2]);
                 }
-                ok = tri_boxes(L, q[0], q[1], q[2], 7, &boxes, &n_boxes,
-                               &cap);
+                ok = tri_boxes(L, q[0], q[1], q[2], 7, &boxes, &n_boxes, &cap);
             }
             continue;
         }
@@ -730,8 +724,8 @@ static int plane_reached(const lens *L, const lr__geom *pl, double u0,
     return 1;
 }
 
-static int src_reached(const lens *L, const rare_src *r, double u0,
-                       double u1, double v0, double v1)
+static int src_reached(const lens *L, const rare_src *r, double u0, double u1,
+                       double v0, double v1)
 {
     if (r->plane != NULL)
         return plane_reached(L, r->plane, u0, u1, v0, v1);
@@ -820,9 +814,9 @@ static double env_bound(const struct lr__rare *r, const lr__envmap *e,
         cmin = fmin(cmin, v3_dot(q, axis));
     }
     double alpha = acos(fmax(-1.0, fmin(1.0, cmin))) * (1.0 + 1e-9) + 1e-9;
-    lr__v3 world = v3_add(v3_add(v3_scale(L->fwd, axis.z),
-                                 v3_scale(L->right, axis.x)),
-                          v3_scale(L->up, axis.y));
+    lr__v3 world = v3_add(
+        v3_add(v3_scale(L->fwd, axis.z), v3_scale(L->right, axis.x)),
+        v3_scale(L->up, axis.y));
     return lr__envmap_max_in_cone(e, v3_norm(world), alpha);
 }
 
@@ -841,7 +835,8 @@ static lr_status rare_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
     /* The scene's largest emission: what a non-Lambertian lobe may show. */
     double L_emit = 0.0;
     for (size_t g = 0; g < s->n_geoms; g++)
-        L_emit = fmax(L_emit, emission_max(&s->materials[s->geoms[g].material]));
+        L_emit = fmax(L_emit,
+                      emission_max(&s->materials[s->geoms[g].material]));
     for (size_t g = 0; g < s->n_planes; g++)
         L_emit = fmax(L_emit,
                       emission_max(&s->materials[s->planes[g].material]));
@@ -860,8 +855,8 @@ static lr_status rare_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
     int n_show = 0;
     for (size_t g = 0; g < s->n_geoms + s->n_planes; g++) {
         int is_plane = g >= s->n_geoms;
-        const lr__geom *geo =
-            is_plane ? &s->planes[g - s->n_geoms] : &s->geoms[g];
+        const lr__geom *geo = is_plane ? &s->planes[g - s->n_geoms]
+                                       : &s->geoms[g];
         const lr__material *m = &s->materials[geo->material];
         if (is_plane || !lr__lt_flag(fl, (long)g, LR__LT_GLINT_LIGHT))
             L_glint = fmax(L_glint, emission_max(m));
@@ -879,8 +874,8 @@ static lr_status rare_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
     double L_cam = s->env != NULL ? lr__envmap_max(s->env) : 0.0;
     for (size_t g = 0; g < s->n_geoms + s->n_planes; g++) {
         int is_plane = g >= s->n_geoms;
-        const lr__geom *geo =
-            is_plane ? &s->planes[g - s->n_geoms] : &s->geoms[g];
+        const lr__geom *geo = is_plane ? &s->planes[g - s->n_geoms]
+                                       : &s->geoms[g];
         const lr__material *m = &s->materials[geo->material];
         if (is_plane || !lr__lt_direct(fl, (long)g))
             L_cam = fmax(L_cam, emission_max(m));
@@ -904,14 +899,13 @@ static lr_status rare_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
     int ok = 1;
     for (size_t g = 0; g < s->n_geoms + s->n_planes && ok; g++) {
         int is_plane = g >= s->n_geoms;
-        const lr__geom *geo =
-            is_plane ? &s->planes[g - s->n_geoms] : &s->geoms[g];
+        const lr__geom *geo = is_plane ? &s->planes[g - s->n_geoms]
+                                       : &s->geoms[g];
         const lr__material *m = &s->materials[geo->material];
         /* A light of the light side: camera rays no longer see its
          * emission first (light_trace.h), only through other surfaces. */
-        double Le = !is_plane && lr__lt_direct(fl, (long)g)
-                        ? 0.0
-                        : emission_max(m);
+        double Le = !is_plane && lr__lt_direct(fl, (long)g) ? 0.0
+                                                            : emission_max(m);
         double Lg = fmax(Le, shows_emitters(m)
                                  ? shown(fl, g, is_plane, L_emit, L_glint)
                                  : 0.0);
@@ -999,8 +993,8 @@ double lr__plan_unseen(const lr__plan *p, int x, int y)
  * reach (box_reached, the planner's bound) lands nothing there: a farm
  * part traces only the lights whose discs it holds.  A model without a
  * planner's bound keeps them all. */
-static lr_status lt_region(lr__lt *lt, const lr__cam *c, int x0, int y0,
-                           int x1, int y1, lr_error *err)
+static lr_status lt_region(lr__lt *lt, const lr__cam *c, int x0, int y0, int x1,
+                           int y1, lr_error *err)
 {
     if (c->model->bound == NULL ||
         (x0 == 0 && y0 == 0 && x1 == (int)c->width && y1 == (int)c->height))

@@ -59,8 +59,8 @@ typedef struct lr__plan {
  * the colours split wherever they focus apart.  Returns LR_ERR_NOMEM on
  * failure. */
 lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
-                         const lr_render_settings *set, int x0, int y0,
-                         int x1, int y1, lr_error *err);
+                         const lr_render_settings *set, int x0, int y0, int x1,
+                         int y1, lr_error *err);
 void lr__plan_free(lr__plan *p);
 
 /* Rare light, for adaptive sampling (adaptive.c): the largest radiance
@@ -97,8 +97,7 @@ lr_status lr__plan_chunk_bounds(lr__geom *g, lr_error *err);
 struct lr__plan_cache *lr__plan_cache_new(void);
 void lr__plan_cache_free(struct lr__plan_cache *c);
 
-static inline const lr__block_plan *lr__plan_at(const lr__plan *p, int x,
-                                                int y)
+static inline const lr__block_plan *lr__plan_at(const lr__plan *p, int x, int y)
 {
     return &p->blocks[(y / LR__PLAN_BLOCK) * p->bw + x / LR__PLAN_BLOCK];
 }

@@ -63,8 +63,8 @@ typedef struct lr__glass {
 typedef struct lr__glass_row {
     const char *name, *maker;
     lr__glass_kind kind; /* SELLMEIER, LAURENT or POWER */
-    double c[9];   /* as the kind reads them (tools/glass-catalogue.py) */
-    double nd, vd; /* as the maker states them (the unit tests' truth) */
+    double c[9];         /* as the kind reads them (tools/glass-catalogue.py) */
+    double nd, vd;       /* as the maker states them (the unit tests' truth) */
 } lr__glass_row;
 
 /* The catalogue, lr__glass_rows rows in the makers' order (glass.c). */
@@ -103,16 +103,16 @@ typedef struct lr__surface {
     double semi_aperture; /* mm: rays farther from the axis are blocked */
     double conic;         /* k: 0 sphere, -1 paraboloid */
     double asph[LR__RX_MAX_ASPH]; /* A4, A6, ...: sag += A_{2j+4} r^(2j+4) */
-    int stop;             /* 1: the aperture stop (f_number scales its
+    int stop;                     /* 1: the aperture stop (f_number scales its
                              semi_aperture; it still refracts if curved) */
-    lr__glass after;      /* the medium from this surface to the next */
+    lr__glass after;              /* the medium from this surface to the next */
 } lr__surface;
 
 typedef struct lr__rx {
     char name[128];
-    char source[512];     /* where the numbers come from */
-    int n;                /* surfaces used in s[] */
-    int stop;             /* index of the stop surface */
+    char source[512]; /* where the numbers come from */
+    int n;            /* surfaces used in s[] */
+    int stop;         /* index of the stop surface */
     lr__surface s[LR__RX_MAX_SURFACES];
     /* Where each surface came from, for lr__rx_check's messages: its
      * line in a pbrt or Zemax file (0: a JSON lens, named by its path
@@ -137,8 +137,8 @@ struct cJSON;
 /* lensray's JSON form, from a parsed object.  Error paths start with
  * `path` ("camera.lens" for an inline lens, "" for a lens file) and name
  * the surface and field: "camera.lens.surfaces[3].material". */
-lr_status lr__rx_from_json(const struct cJSON *o, const char *path,
-                           lr__rx *rx, lr_error *err);
+lr_status lr__rx_from_json(const struct cJSON *o, const char *path, lr__rx *rx,
+                           lr_error *err);
 /* pbrt-v4's lens file text, and a Zemax .zmx file's text.  Messages name
  * the file as `shown` and the line: "double-gauss.dat:7: ...". */
 lr_status lr__rx_from_pbrt(const char *text, size_t len, const char *shown,
@@ -181,13 +181,13 @@ lr_status lr__rx_check(const lr__rx *rx, const char *path, lr_error *err);
 /* ---- first-order data (paraxial.c) --------------------------------------- */
 
 typedef struct lr__paraxial {
-    double efl, bfl, ffl;  /* mm; bfl from the last surface, ffl from the
+    double efl, bfl, ffl;     /* mm; bfl from the last surface, ffl from the
                               first (negative: in front of it) */
-    double f_number;       /* efl / entrance pupil diameter, object at
+    double f_number;          /* efl / entrance pupil diameter, object at
                               infinity, the stop as given */
     double enp_pos, enp_diam; /* entrance pupil, from the first surface */
     double exp_pos, exp_diam; /* exit pupil, from the last surface */
-    double total_track;    /* first vertex to the image plane (the last
+    double total_track;       /* first vertex to the image plane (the last
                               thickness included) */
 } lr__paraxial;
 
@@ -218,8 +218,7 @@ void lr__rx_layout(const lr__rx *rx, double *z);
  * blocked by a semi-aperture or the stop, or is totally internally
  * reflected. */
 int lr__rx_trace(const lr__rx *rx, const double *z, double nm,
-                 double stop_scale, int toward_image, double o[3],
-                 double d[3]);
+                 double stop_scale, int toward_image, double o[3], double d[3]);
 
 /* The same with the indices given: n_after[i] is the index of the medium
  * after surface i at the ray's wavelength (lr__rx_indices fills it), so
@@ -249,9 +248,8 @@ void lr__rx_trace16(const lr__rx *rx, const double *z, const double *n_after,
  * rounding), not equal to them; each lane's result is the same whatever
  * `lanes` and its place among them. */
 #define LR__RX_LANES 64
-void lr__rx_trace16f(const lr__rx *rx, const double *z,
-                     const double *n_after, double stop_scale, int lanes,
-                     float (*o)[LR__RX_LANES], float (*d)[LR__RX_LANES],
-                     int *alive);
+void lr__rx_trace16f(const lr__rx *rx, const double *z, const double *n_after,
+                     double stop_scale, int lanes, float (*o)[LR__RX_LANES],
+                     float (*d)[LR__RX_LANES], int *alive);
 
 #endif

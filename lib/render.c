@@ -32,7 +32,7 @@ typedef struct render {
     lr__sampler sampler;
     lr__shot shot;
     lr__plan plan;
-    lr__splat *splat; /* the plan's splat mode: its units replace tiles */
+    lr__splat *splat;  /* the plan's splat mode: its units replace tiles */
     lr__lt_film light; /* the light side's splats (plan.lt), if any */
     atomic_ullong next_light;
     lr_image *img;
@@ -46,7 +46,7 @@ typedef struct render {
 
 typedef struct worker {
     render *r;
-    int index; /* 0 .. threads - 1 */
+    int index;  /* 0 .. threads - 1 */
     double cpu; /* CPU seconds of this thread in worker_main */
     lr__sample_counts counts;
     uint64_t samples, dropped, lens_pixels, chroma_pixels;
@@ -58,8 +58,8 @@ static void sample_cb(void *ctx, int x, int y, int first, int last,
                       lr__pixel *acc)
 {
     worker *w = ctx;
-    lr__sample_pixel(&w->r->shot, lr__plan_at(&w->r->plan, x, y), x, y,
-                     first, last, acc, &w->counts);
+    lr__sample_pixel(&w->r->shot, lr__plan_at(&w->r->plan, x, y), x, y, first,
+                     last, acc, &w->counts);
 }
 
 /* Writes a finished pixel (and its Z) into the image, and counts it. */
@@ -160,8 +160,8 @@ static void *worker_main(void *arg)
         uint64_t u = atomic_fetch_add(&j->next_light, 1);
         if (u >= n_light)
             break;
-        lr__lt_unit(lt, j->shot.scene, &j->cam, u, &j->light,
-                    &w->counts.rays, &w->light_landed);
+        lr__lt_unit(lt, j->shot.scene, &j->cam, u, &j->light, &w->counts.rays,
+                    &w->light_landed);
     }
     _mm_setcsr(csr);
     w->cpu = thread_cpu_seconds() - cpu0;
@@ -199,13 +199,12 @@ lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
     memset(&j, 0, sizeof j);
     j.x0 = 0, j.y0 = 0, j.x1 = set->width, j.y1 = set->height;
     if ((set->region[0] | set->region[1] | set->region[2] | set->region[3]))
-        j.x0 = set->region[0], j.y0 = set->region[1],
-        j.x1 = set->region[2], j.y1 = set->region[3];
+        j.x0 = set->region[0], j.y0 = set->region[1], j.x1 = set->region[2],
+        j.y1 = set->region[3];
 
     double t0 = now_seconds(), cpu0 = thread_cpu_seconds();
     lr_image *img = NULL;
-    st = lr_image_create(j.x1 - j.x0, j.y1 - j.y0, set->want_depth, &img,
-                         err);
+    st = lr_image_create(j.x1 - j.x0, j.y1 - j.y0, set->want_depth, &img, err);
     if (st != LR_OK)
         return st;
 
@@ -228,8 +227,7 @@ lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
         return st;
     }
     if (j.plan.lt != NULL) {
-        st = lr__lt_film_init(&j.light, j.plan.lt, j.x0, j.y0, j.x1, j.y1,
-                              err);
+        st = lr__lt_film_init(&j.light, j.plan.lt, j.x0, j.y0, j.x1, j.y1, err);
         if (st != LR_OK) {
             lr__plan_free(&j.plan);
             lr_image_free(img);

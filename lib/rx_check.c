@@ -70,8 +70,8 @@ lr_status lr__rx_check(const lr__rx *rx, const char *path, lr_error *err)
                         "\"stop\": true)",
                         sp);
     if (stops > 1)
-        return lr__fail(err, LR_ERR_INVALID, sp,
-                        "%s: %d stops; a lens has one", sp, stops);
+        return lr__fail(err, LR_ERR_INVALID, sp, "%s: %d stops; a lens has one",
+                        sp, stops);
     for (int i = 0; i < rx->n; i++) {
         const lr__surface *s = &rx->s[i];
         lr__path_index(p, sp, (size_t)i);
@@ -118,13 +118,12 @@ lr_status lr__rx_check(const lr__rx *rx, const char *path, lr_error *err)
                 char q[LR__PATH_MAX];
                 lr__path_index(q, sp, (size_t)i);
                 surface_name(rx, i, q, nm2, sizeof nm2);
-                return lr__fail(err, LR_ERR_INVALID,
-                                error_path(rx, i + 1, path, p),
-                                "%s cuts through %s at %.4g mm from the "
-                                "axis (they cross by %.4g mm; their "
-                                "semi-apertures are %g and %g mm)",
-                                nm, nm2, h, -g, a->semi_aperture,
-                                b->semi_aperture);
+                return lr__fail(
+                    err, LR_ERR_INVALID, error_path(rx, i + 1, path, p),
+                    "%s cuts through %s at %.4g mm from the "
+                    "axis (they cross by %.4g mm; their "
+                    "semi-apertures are %g and %g mm)",
+                    nm, nm2, h, -g, a->semi_aperture, b->semi_aperture);
             }
         }
     }

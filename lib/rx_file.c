@@ -130,8 +130,8 @@ static void shipped(char *out, size_t cap)
  * `out`: 1 if it is a file, 0 if not, -1 if the path does not fit.
  * *dir says whether it is a directory, which is told apart from a missing
  * file in the error. */
-static int beside(const char *name, const char *base_dir, char *out,
-                  size_t cap, int *dir)
+static int beside(const char *name, const char *base_dir, char *out, size_t cap,
+                  int *dir)
 {
     int w;
     if (name[0] == '/' || base_dir[0] == '\0')
@@ -183,8 +183,7 @@ static lr_status find(const char *name, const char *base_dir, char *out,
     out[0] = '\0';
     if (dir)
         return lr__fail(err, LR_ERR_INVALID, NULL,
-                        "lens \"%s\": is a directory, not a lens file",
-                        shown);
+                        "lens \"%s\": is a directory, not a lens file", shown);
     char list[512];
     shipped(list, sizeof list);
     /* The directory is not named: a daemon's error must not show where
@@ -193,7 +192,7 @@ static lr_status find(const char *name, const char *base_dir, char *out,
                     "lens \"%s\": %sno shipped lens of that name; shipped "
                     "lenses: %s",
                     shown,
-                    base_dir == NULL    ? ""
+                    base_dir == NULL   ? ""
                     : base_dir[0] != 0 ? "no such file beside the scene, and "
                                        : "no such file, and ",
                     list);
@@ -240,7 +239,8 @@ static int sniff(const char *text, size_t len)
                      (unsigned char)text[0] == 0xfe || memchr(text, 0, len)))
         return 1;
     for (size_t k = 0; k + 5 <= len; k++)
-        if ((k == 0 || text[k - 1] == '\n') && memcmp(text + k, "SURF ", 5) == 0)
+        if ((k == 0 || text[k - 1] == '\n') &&
+            memcmp(text + k, "SURF ", 5) == 0)
             return 1;
     return 2;
 }
@@ -262,8 +262,8 @@ lr_status lr__rx_load_file(const char *file, const char *shown,
                         shown);
     char *text = NULL;
     size_t len = 0;
-    LR_TRY(lr__read_file(file, shown, json_path, MAX_LENS_BYTES,
-                         "lens files", NULL, &text, &len, err));
+    LR_TRY(lr__read_file(file, shown, json_path, MAX_LENS_BYTES, "lens files",
+                         NULL, &text, &len, err));
     if (asset)
         kind = sniff(text, len);
     lr_status st;

@@ -45,8 +45,7 @@ static lr_status material(const cJSON *s, const char *sp, lr__glass *g,
                         "C1, C2, C3]}, got %s",
                         p, what);
     }
-    static const char *const keys[] = {"nd", "vd", "sellmeier", "name",
-                                       NULL};
+    static const char *const keys[] = {"nd", "vd", "sellmeier", "name", NULL};
     LR_TRY(lr__json_check_keys(m, p, keys, err));
     const cJSON *sell = cJSON_GetObjectItemCaseSensitive(m, "sellmeier");
     if (sell != NULL) {
@@ -133,12 +132,11 @@ static lr_status length(const cJSON *s, const char *key, const char *sp,
 static lr_status surface(const cJSON *s, const char *sp, lr__surface *out,
                          lr_error *err)
 {
-    static const char *const keys[] = {"radius", "thickness", "material",
-                                       "semi_aperture", "conic", "aspheric",
-                                       "stop", "comment", NULL};
+    static const char *const keys[] = {"radius",        "thickness", "material",
+                                       "semi_aperture", "conic",     "aspheric",
+                                       "stop",          "comment",   NULL};
     if (!cJSON_IsObject(s))
-        return lr__fail(err, LR_ERR_INVALID, sp, "%s must be an object",
-                        sp);
+        return lr__fail(err, LR_ERR_INVALID, sp, "%s must be an object", sp);
     LR_TRY(lr__json_check_keys(s, sp, keys, err));
     memset(out, 0, sizeof *out);
     LR_TRY(length(s, "radius", sp, -MAX_MM, &out->radius, err));
@@ -190,16 +188,16 @@ static lr_status surface(const cJSON *s, const char *sp, lr__surface *out,
 lr_status lr__rx_from_json(const cJSON *o, const char *path, lr__rx *rx,
                            lr_error *err)
 {
-    static const char *const keys[] = {"name", "source", "notes",
-                                       "surfaces", NULL};
+    static const char *const keys[] = {"name", "source", "notes", "surfaces",
+                                       NULL};
     if (path == NULL)
         path = "";
     memset(rx, 0, sizeof *rx);
     rx->stop = -1;
     if (!cJSON_IsObject(o))
         return lr__fail(err, LR_ERR_INVALID, path,
-                        "%s%sa lens must be an object with \"surfaces\"",
-                        path, path[0] ? ": " : "");
+                        "%s%sa lens must be an object with \"surfaces\"", path,
+                        path[0] ? ": " : "");
     LR_TRY(lr__json_check_keys(o, path, keys, err));
     const char *name = NULL, *source = NULL;
     LR_TRY(lr__json_string(o, "name", path, 0, &name, err));
@@ -209,8 +207,7 @@ lr_status lr__rx_from_json(const cJSON *o, const char *path, lr__rx *rx,
                  lr__utf8_prefix(name, (int)sizeof rx->name - 1), name);
     if (source != NULL)
         snprintf(rx->source, sizeof rx->source, "%.*s",
-                 lr__utf8_prefix(source, (int)sizeof rx->source - 1),
-                 source);
+                 lr__utf8_prefix(source, (int)sizeof rx->source - 1), source);
     char sp[LR__PATH_MAX];
     lr__path_key(sp, path, "surfaces");
     const cJSON *arr = cJSON_GetObjectItemCaseSensitive(o, "surfaces");

@@ -195,8 +195,7 @@ lr_status lr__rx_from_pbrt(const char *text, size_t len, const char *shown,
         n++;
     }
     if (n == 0)
-        return lr__fail(err, LR_ERR_INVALID, NULL, "%s: no surfaces",
-                        shown);
+        return lr__fail(err, LR_ERR_INVALID, NULL, "%s: no surfaces", shown);
     /* A glass surface 0 mm before the next: the older tables whose second
      * column is each surface's distance from the one before ("axpos", 0
      * on the first row, and no distance to the film), as pbrt-v4-scenes'

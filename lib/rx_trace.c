@@ -177,8 +177,7 @@ int lr__rx_trace_surface(const lr__rx *rx, const double *z,
     if (!intersect(s, c, k1, ol, d, p))
         return 0;
     double lim = s->semi_aperture * (i == rx->stop ? stop_scale : 1.0);
-    if (p[0] * p[0] + p[1] * p[1] > lim * lim ||
-        !normal_at(s, c, k1, p, nrm))
+    if (p[0] * p[0] + p[1] * p[1] > lim * lim || !normal_at(s, c, k1, p, nrm))
         return 0;
     o[0] = p[0];
     o[1] = p[1];
@@ -197,16 +196,15 @@ int lr__rx_trace_n(const lr__rx *rx, const double *z, const double *n_after,
     int n = rx->n;
     for (int step = 0; step < n; step++) {
         int i = toward_image ? step : n - 1 - step;
-        if (!lr__rx_trace_surface(rx, z, n_after, stop_scale, i,
-                                  toward_image, o, d))
+        if (!lr__rx_trace_surface(rx, z, n_after, stop_scale, i, toward_image,
+                                  o, d))
             return 0;
     }
     return 1;
 }
 
 int lr__rx_trace(const lr__rx *rx, const double *z, double nm,
-                 double stop_scale, int toward_image, double o[3],
-                 double d[3])
+                 double stop_scale, int toward_image, double o[3], double d[3])
 {
     double n_after[LR__RX_MAX_SURFACES];
     lr__rx_indices(rx, nm, n_after);
@@ -222,10 +220,9 @@ int lr__rx_trace(const lr__rx *rx, const double *z, double nm,
  * lane gets the scalar trace's bits.  Aspheric surfaces (Newton's method,
  * a loop of its own length per ray) go lane by lane through the scalar
  * code. */
-__attribute__((target_clones("avx512f", "avx2", "default")))
-void lr__rx_trace16(const lr__rx *rx, const double *z, const double *n_after,
-                    double stop_scale, double (*o)[16], double (*d)[16],
-                    int *alive)
+__attribute__((target_clones("avx512f", "avx2", "default"))) void
+lr__rx_trace16(const lr__rx *rx, const double *z, const double *n_after,
+               double stop_scale, double (*o)[16], double (*d)[16], int *alive)
 {
     int n = rx->n;
     for (int step = 0; step < n; step++) {
@@ -243,8 +240,8 @@ void lr__rx_trace16(const lr__rx *rx, const double *z, const double *n_after,
                     continue;
                 double ol[3] = {o[0][l], o[1][l], o[2][l]},
                        dl[3] = {d[0][l], d[1][l], d[2][l]};
-                if (!lr__rx_trace_surface(rx, z, n_after, stop_scale, i, 0,
-                                          ol, dl)) {
+                if (!lr__rx_trace_surface(rx, z, n_after, stop_scale, i, 0, ol,
+                                          dl)) {
                     alive[l] = 0;
                     continue;
                 }
@@ -255,8 +252,8 @@ void lr__rx_trace16(const lr__rx *rx, const double *z, const double *n_after,
         }
         const double c = s->radius != 0.0 ? 1.0 / s->radius : 0.0;
         const double k1 = 1.0 + s->conic;
-        const double lim = s->semi_aperture * (i == rx->stop ? stop_scale
-                                                             : 1.0);
+        const double lim = s->semi_aperture *
+                           (i == rx->stop ? stop_scale : 1.0);
         const double lim2 = lim * lim, zi = z[i];
         const double n1 = n_after[i], n2 = i > 0 ? n_after[i - 1] : 1.0;
         const int bend = n1 != n2;

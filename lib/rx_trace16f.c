@@ -22,11 +22,10 @@
  * direction to a unit direction, so the direction is normalised once, by
  * the caller, not after every surface.  Aspheric surfaces go lane by
  * lane through the scalar code in double. */
-__attribute__((target_clones("avx512f", "avx2", "default")))
-void lr__rx_trace16f(const lr__rx *rx, const double *z,
-                     const double *n_after, double stop_scale, int lanes,
-                     float (*o)[LR__RX_LANES], float (*d)[LR__RX_LANES],
-                     int *alive)
+__attribute__((target_clones("avx512f", "avx2", "default"))) void
+lr__rx_trace16f(const lr__rx *rx, const double *z, const double *n_after,
+                double stop_scale, int lanes, float (*o)[LR__RX_LANES],
+                float (*d)[LR__RX_LANES], int *alive)
 {
     int n = rx->n;
     for (int step = 0; step < n; step++) {
@@ -40,8 +39,8 @@ void lr__rx_trace16f(const lr__rx *rx, const double *z,
                     continue;
                 double ol[3] = {o[0][l], o[1][l], o[2][l]},
                        dl[3] = {d[0][l], d[1][l], d[2][l]};
-                if (!lr__rx_trace_surface(rx, z, n_after, stop_scale, i, 0,
-                                          ol, dl)) {
+                if (!lr__rx_trace_surface(rx, z, n_after, stop_scale, i, 0, ol,
+                                          dl)) {
                     alive[l] = 0;
                     continue;
                 }
@@ -54,8 +53,8 @@ void lr__rx_trace16f(const lr__rx *rx, const double *z,
         }
         const float c = (float)(s->radius != 0.0 ? 1.0 / s->radius : 0.0);
         const float k1 = (float)(1.0 + s->conic);
-        const double limd = s->semi_aperture * (i == rx->stop ? stop_scale
-                                                              : 1.0);
+        const double limd = s->semi_aperture *
+                            (i == rx->stop ? stop_scale : 1.0);
         const float lim2 = (float)(limd * limd), zi = (float)z[i];
         const double n1 = n_after[i], n2 = i > 0 ? n_after[i - 1] : 1.0;
         const int bend = n1 != n2;
@@ -89,8 +88,7 @@ void lr__rx_trace16f(const lr__rx *rx, const double *z,
                 float A = sphere ? c : c * (dx * dx + dy * dy + k1 * dz * dz);
                 float B = sphere ? c * (ox * dx + oy * dy + oz * dz) - dz
                                  : c * (ox * dx + oy * dy + k1 * oz * dz) - dz;
-                float C = sphere ? c * (ox * ox + oy * oy + oz * oz) -
-                                       2.0f * oz
+                float C = sphere ? c * (ox * ox + oy * oy + oz * oz) - 2.0f * oz
                                  : c * (ox * ox + oy * oy + k1 * oz * oz) -
                                        2.0f * oz;
                 float disc = B * B - A * C;
@@ -107,8 +105,8 @@ void lr__rx_trace16f(const lr__rx *rx, const double *z,
                 float px = ox + t * dx, py = oy + t * dy, pz = oz + t * dz;
                 float gx = -c * px, gy = -c * py, gz = 1.0f - c * k1 * pz;
                 ok &= gz > 0.0f;
-                float inv = sphere ? 1.0f : 1.0f / sqrtf(gx * gx + gy * gy +
-                                                         gz * gz);
+                float inv = sphere ? 1.0f
+                                   : 1.0f / sqrtf(gx * gx + gy * gy + gz * gz);
                 float mx = gx * inv, my = gy * inv, mz = gz * inv;
                 ok &= !(px * px + py * py > lim2);
                 float cosi = -(mx * dx + my * dy + mz * dz);

@@ -125,8 +125,7 @@ static int words(char *line, char **w)
  * line's end `eol`, whole: words() splits at most 16 words and writes NULs
  * between them, which become spaces again.  Trailing blanks dropped, cut
  * to `size` bytes on a character's boundary. */
-static void rest_of_line(char *from, const char *eol, char *raw,
-                         size_t size)
+static void rest_of_line(char *from, const char *eol, char *raw, size_t size)
 {
     for (char *c = from; c < eol; c++)
         if (*c == '\0')
@@ -197,13 +196,13 @@ typedef struct zread {
     const char *shown; /* the file, as messages name it */
     lr_error *err;
     lr__rx *rx;
-    zsurf *zs;         /* LR__RX_MAX_SURFACES + 2: object, surfaces, image */
-    int nz;            /* SURF entries so far */
-    int cur;           /* the surface the indented lines belong to; -1 */
-    int line;          /* the line being read, from 1 */
-    int note_full;     /* the last system line was a full NOTE line */
-    double unit;       /* millimetres per lens unit */
-    char gcat[256];    /* the GCAT line's catalogues */
+    zsurf *zs;      /* LR__RX_MAX_SURFACES + 2: object, surfaces, image */
+    int nz;         /* SURF entries so far */
+    int cur;        /* the surface the indented lines belong to; -1 */
+    int line;       /* the line being read, from 1 */
+    int note_full;  /* the last system line was a full NOTE line */
+    double unit;    /* millimetres per lens unit */
+    char gcat[256]; /* the GCAT line's catalogues */
 } zread;
 
 /* One line, split: its words, the line's end (a NUL now) and whether it
@@ -221,9 +220,8 @@ static lr_status surf_card(zread *r, const zline *l)
     char q[200];
     double x;
     if (l->k < 2 || number(l->w[1], &x) != 0 || x != r->nz)
-        return BAD("%s:%d: SURF %s out of order (expected SURF %d)",
-                   r->shown, r->line,
-                   quote(l->k > 1 ? l->w[1] : "", q, sizeof q), r->nz);
+        return BAD("%s:%d: SURF %s out of order (expected SURF %d)", r->shown,
+                   r->line, quote(l->k > 1 ? l->w[1] : "", q, sizeof q), r->nz);
     if (r->nz == LR__RX_MAX_SURFACES + 2)
         return lr__fail(r->err, LR_ERR_LIMIT, NULL,
                         "%s:%d: more than %d surfaces", r->shown, r->line,
@@ -360,8 +358,8 @@ static lr_status clap_card(zread *r, zsurf *z, const zline *l, int num_ok,
                            double x)
 {
     double rmax = 0;
-    if (!num_ok || l->k < 3 || number(l->w[2], &rmax) != 0 ||
-        !isfinite(rmax) || rmax <= 0 || rmax * r->unit > MAX_MM)
+    if (!num_ok || l->k < 3 || number(l->w[2], &rmax) != 0 || !isfinite(rmax) ||
+        rmax <= 0 || rmax * r->unit > MAX_MM)
         return BAD("%s:%d: CLAP needs a minimum and a maximum radius > 0",
                    r->shown, r->line);
     if (x != 0)
@@ -502,8 +500,8 @@ static lr_status to_surface(zread *r, int i)
                    "lensray does not model",
                    r->shown, z->line, i);
     if (z->disz < 0)
-        return BAD("%s:%d: SURF %d: a negative thickness (DISZ %g)",
-                   r->shown, z->line, i, z->disz);
+        return BAD("%s:%d: SURF %d: a negative thickness (DISZ %g)", r->shown,
+                   z->line, i, z->disz);
     o->radius = z->curv != 0 ? unit / z->curv : 0;
     o->thickness = z->disz * unit;
     o->semi_aperture = z->diam * unit;
@@ -569,16 +567,14 @@ lr_status lr__rx_from_zmx(const char *text, size_t len, const char *shown,
     size_t n8;
     char *s = narrow(text, len, &n8);
     if (s == NULL)
-        return lr__fail(err, LR_ERR_NOMEM, NULL, "%s: out of memory",
-                        shown);
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "%s: out of memory", shown);
     zsurf *zs = calloc(LR__RX_MAX_SURFACES + 2, sizeof *zs);
     if (zs == NULL) {
         free(s);
-        return lr__fail(err, LR_ERR_NOMEM, NULL, "%s: out of memory",
-                        shown);
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "%s: out of memory", shown);
     }
-    zread r = {.shown = shown, .err = err, .rx = rx, .zs = zs, .cur = -1,
-               .unit = 1.0};
+    zread r = {
+        .shown = shown, .err = err, .rx = rx, .zs = zs, .cur = -1, .unit = 1.0};
     lr_status st = read_lines(&r, s, n8);
     if (st == LR_OK)
         st = to_rx(&r);

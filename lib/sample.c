@@ -38,8 +38,8 @@ static void colour_sample(const lr__shot *sh, const lr__pixel_sampler *ps,
             lr__v3 Li = v3(0, 0, 0);
             cnt->lens_blocked += wt == 0.0;
             if (wt != 0.0)
-                Li = v3_scale(in->radiance(sh->scene, sh->max_depth, org,
-                                           dir, &id, &cnt->rays),
+                Li = v3_scale(in->radiance(sh->scene, sh->max_depth, org, dir,
+                                           &id, &cnt->rays),
                               wt);
             L[ch] = ch == 0 ? Li.x : ch == 1 ? Li.y : Li.z;
         }
@@ -88,11 +88,10 @@ static void packet_samples(const lr__shot *sh, int use_lens, int x, int y,
             ns[n_packets++] = n;
         }
         if (sh->cam->model->rays16_n != NULL)
-            sh->cam->model->rays16_n(sh->cam, use_lens, n_packets, ns,
-                                     (const float(*)[16])fx,
-                                     (const float(*)[16])fy,
-                                     (const float(*)[16])lu,
-                                     (const float(*)[16])lv, rh, wt);
+            sh->cam->model->rays16_n(
+                sh->cam, use_lens, n_packets, ns, (const float(*)[16])fx,
+                (const float(*)[16])fy, (const float(*)[16])lu,
+                (const float(*)[16])lv, rh, wt);
         else
             for (int p = 0; p < n_packets; p++)
                 sh->cam->model->rays16(sh->cam, use_lens, ns[p], fx[p], fy[p],
@@ -125,8 +124,8 @@ static void packet_samples(const lr__shot *sh, int use_lens, int x, int y,
         }
         lr__v3 L[PACKETS_AHEAD][16];
         for (int p = 0; p < n_packets; p++)
-            sh->integrator->radiance16(sh->scene, sh->max_depth, &rh[p],
-                                       ns[p], &id[p], L[p], &cnt->rays);
+            sh->integrator->radiance16(sh->scene, sh->max_depth, &rh[p], ns[p],
+                                       &id[p], L[p], &cnt->rays);
         for (int p = 0; p < n_packets; p++) {
             int n = ns[p];
             if (sh->cam->weighted)
@@ -163,8 +162,7 @@ void lr__sample_pixel(const lr__shot *sh, const lr__block_plan *bp, int x,
     }
 }
 
-float lr__sample_depth(const lr__shot *sh, int x, int y,
-                       lr__sample_counts *cnt)
+float lr__sample_depth(const lr__shot *sh, int x, int y, lr__sample_counts *cnt)
 {
     lr__v3 org, dir;
     lr__hit h;

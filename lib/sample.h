@@ -22,7 +22,7 @@ typedef struct lr__shot {
     const lr__cam *cam;
     const lr__sampler *sampler;
     const lr__integrator *integrator;
-    int width;        /* of the full frame, for pixel indices */
+    int width; /* of the full frame, for pixel indices */
     int max_depth;
     /* 1: nobody reads the film's sums of squares (adaptive sampling is
      * off), so the packet path does not keep them.  0, the default,
@@ -40,8 +40,8 @@ void lr__shot_init(lr__shot *sh);
 
 /* Counts a thread keeps. */
 typedef struct lr__sample_counts {
-    uint64_t rays;        /* every ray traced */
-    uint64_t camera_rays; /* camera rays (one per colour where split) */
+    uint64_t rays;         /* every ray traced */
+    uint64_t camera_rays;  /* camera rays (one per colour where split) */
     uint64_t lens_blocked; /* of those, stopped by a real lens */
 } lr__sample_counts;
 
@@ -53,8 +53,7 @@ void lr__sample_pixel(const lr__shot *sh, const lr__block_plan *bp, int x,
 
 /* Z: the distance along the view axis of the first hit of the pinhole
  * ray through the centre of pixel (x, y), or LR_DEPTH_NONE. */
-float lr__sample_depth(const lr__shot *sh, int x, int y,
-                       lr__sample_counts *n);
+float lr__sample_depth(const lr__shot *sh, int x, int y, lr__sample_counts *n);
 
 /* Camera rays one sample takes where the colours are split (1 when they
  * never are): for the full simulation's count in the statistics. */
@@ -65,8 +64,8 @@ uint64_t lr__colour_rays(const lr__cam *c);
  * double, as the scalar path does, then rounded once.  Lanes n to 15 get
  * the pixel's centre and the lens's.  The packet paths
  * of sample.c and spectral.c both fill their lanes with it. */
-static inline void lr__packet_coords(const lr__pixel_sampler *ps, int x,
-                                     int y, uint32_t s0, int n, float fx[16],
+static inline void lr__packet_coords(const lr__pixel_sampler *ps, int x, int y,
+                                     uint32_t s0, int n, float fx[16],
                                      float fy[16], float lu[16], float lv[16])
 {
     float u[4][16];
@@ -92,8 +91,7 @@ static inline void lr__packet_coords(const lr__pixel_sampler *ps, int x,
     /* The lanes past n: any ray the camera makes of them is masked off,
      * but Embree's AVX2 code checks masked lanes for NaN. */
     for (int i = n; i < 16; i++)
-        fx[i] = (float)x + 0.5f, fy[i] = (float)y + 0.5f,
-        lu[i] = lv[i] = 0.5f;
+        fx[i] = (float)x + 0.5f, fy[i] = (float)y + 0.5f, lu[i] = lv[i] = 0.5f;
 }
 
 #endif

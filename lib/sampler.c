@@ -44,7 +44,10 @@ static uint64_t hash4(uint64_t seed, uint64_t pixel, uint64_t sample,
 }
 
 /* The top 53 bits as a double in [0, 1). */
-static double to_unit(uint64_t h) { return (double)(h >> 11) * 0x1p-53; }
+static double to_unit(uint64_t h)
+{
+    return (double)(h >> 11) * 0x1p-53;
+}
 
 uint32_t lr__permute(uint32_t i, uint32_t l, uint32_t p)
 {
@@ -124,8 +127,8 @@ static void sobol_init(void)
                                                    : 1;
     static const struct {
         unsigned s, a, m[3];
-    } poly[4] = {{1, 0, {1}}, {2, 1, {1, 3}}, {3, 1, {1, 3, 1}},
-                 {3, 2, {1, 1, 1}}};
+    } poly[4] = {
+        {1, 0, {1}}, {2, 1, {1, 3}}, {3, 1, {1, 3, 1}}, {3, 2, {1, 1, 1}}};
     for (int k = 0; k < 32; k++)
         sobol_v[0][k] = 1u << (31 - k);
     for (int d = 1; d < 5; d++) {
@@ -203,7 +206,10 @@ static uint32_t lk_permute(uint32_t x, uint32_t seed)
  * well as double, so the vectorised float path and the scalar double
  * path agree to the bit (24 bits resolve far finer than any pixel or
  * lens feature). */
-static inline double sobol_unit(uint32_t v) { return (v >> 8) * 0x1p-24; }
+static inline double sobol_unit(uint32_t v)
+{
+    return (v >> 8) * 0x1p-24;
+}
 
 static uint32_t owen(uint32_t x, uint32_t seed)
 {
@@ -246,8 +252,8 @@ void lr__pixel_pairs_init(lr__pixel_pairs *pp, const lr__sampler *s,
         /* sobol_1d's seeds for dim and dim + 1. */
         pp->shuffle[k] = (uint32_t)hash4(s->seed, pixel, 0xffffffffu, dim / 2);
         for (uint32_t j = 0; j < 2; j++)
-            pp->scramble[k][j] =
-                (uint32_t)hash4(s->seed, pixel, 0xfffffffdu, dim + j);
+            pp->scramble[k][j] = (uint32_t)hash4(s->seed, pixel, 0xfffffffdu,
+                                                 dim + j);
     }
 }
 
@@ -263,8 +269,8 @@ void lr__pixel_pairs_get(const lr__pixel_pairs *pp, uint32_t sample,
      * index, and each coordinate rev(lk(sobol_rev(r, d))). */
     uint32_t r = lk_permute(reverse_bits(sample), pp->shuffle[k]);
     for (int d = 0; d < 2; d++)
-        out[d] = sobol_unit(reverse_bits(
-            lk_permute(sobol_rev(r, d), pp->scramble[k][d])));
+        out[d] = sobol_unit(
+            reverse_bits(lk_permute(sobol_rev(r, d), pp->scramble[k][d])));
 }
 
 double lr__pixel_pairs_get1(const lr__pixel_pairs *pp, uint32_t sample,
@@ -274,8 +280,8 @@ double lr__pixel_pairs_get1(const lr__pixel_pairs *pp, uint32_t sample,
     if (dim < pp->first || k >= pp->n)
         return lr__sample_1d(pp->s, pp->pixel, sample, dim);
     uint32_t r = lk_permute(reverse_bits(sample), pp->shuffle[k]);
-    return sobol_unit(reverse_bits(
-        lk_permute(sobol_rev(r, (int)d), pp->scramble[k][d])));
+    return sobol_unit(
+        reverse_bits(lk_permute(sobol_rev(r, (int)d), pp->scramble[k][d])));
 }
 
 /* reverse_bits without its table, so that a loop of it vectorises. */
@@ -290,9 +296,9 @@ static inline uint32_t reverse_bits_arith(uint32_t x)
 /* lr__pixel_pairs_get for sixteen consecutive samples, as a loop over
  * the lanes that GCC vectorises (gathers for the Sobol table): the
  * integer steps are the same, so each lane's values are the same bits. */
-__attribute__((target_clones("avx512f", "avx2", "default")))
-static void pairs16_sobol(const lr__pixel_pairs *pp, uint32_t k,
-                          uint32_t first, double out[2][16])
+__attribute__((target_clones("avx512f", "avx2", "default"))) static void
+pairs16_sobol(const lr__pixel_pairs *pp, uint32_t k, uint32_t first,
+              double out[2][16])
 {
     uint32_t shuffle = pp->shuffle[k], s0 = pp->scramble[k][0],
              s1 = pp->scramble[k][1];
@@ -310,8 +316,8 @@ static void pairs16_sobol(const lr__pixel_pairs *pp, uint32_t k,
     }
 }
 
-void lr__pixel_pairs_get16(const lr__pixel_pairs *pp, uint32_t first,
-                           int n, uint32_t dim, double out[2][16])
+void lr__pixel_pairs_get16(const lr__pixel_pairs *pp, uint32_t first, int n,
+                           uint32_t dim, double out[2][16])
 {
     uint32_t k = (dim - pp->first) / 2;
     if (dim < pp->first || k >= pp->n || (dim & 1u)) {
@@ -328,8 +334,8 @@ void lr__pixel_pairs_get16(const lr__pixel_pairs *pp, uint32_t first,
 
 /* Pixel and lens dimensions (0..3) in one go: one index shuffle for the
  * 4-D Sobol point.  The seeds depend on the pixel only. */
-static void sobol_seeds(const lr__sampler *s, uint64_t pixel,
-                        uint32_t *shuffle, uint32_t scramble[4])
+static void sobol_seeds(const lr__sampler *s, uint64_t pixel, uint32_t *shuffle,
+                        uint32_t scramble[4])
 {
     *shuffle = (uint32_t)hash4(s->seed, pixel, 0xffffffffu, 0);
     for (uint32_t dim = 0; dim < 4; dim++)
@@ -369,19 +375,17 @@ int lr__sampler_isa = 0;
 
 /* The Sobol path of lr__pixel_sampler_get16 in AVX2, eight lanes at a
  * time: table lookups as gathers, bit reversal as byte shuffles. */
-__attribute__((target("avx2")))
-static __m256i rev_bits8(__m256i x)
+__attribute__((target("avx2"))) static __m256i rev_bits8(__m256i x)
 {
     /* Reverse the bytes of each lane, then the bits of each byte by a
      * nibble table. */
-    const __m256i bswap = _mm256_setr_epi8(
-        3, 2, 1, 0, 7, 6, 5, 4, 11, 10, 9, 8, 15, 14, 13, 12,
-        3, 2, 1, 0, 7, 6, 5, 4, 11, 10, 9, 8, 15, 14, 13, 12);
+    const __m256i bswap = _mm256_setr_epi8(3, 2, 1, 0, 7, 6, 5, 4, 11, 10, 9, 8,
+                                           15, 14, 13, 12, 3, 2, 1, 0, 7, 6, 5,
+                                           4, 11, 10, 9, 8, 15, 14, 13, 12);
     const __m256i nib = _mm256_setr_epi8(
-        0x0, 0x8, 0x4, 0xc, 0x2, 0xa, 0x6, 0xe,
-        0x1, 0x9, 0x5, 0xd, 0x3, 0xb, 0x7, 0xf,
-        0x0, 0x8, 0x4, 0xc, 0x2, 0xa, 0x6, 0xe,
-        0x1, 0x9, 0x5, 0xd, 0x3, 0xb, 0x7, 0xf);
+        0x0, 0x8, 0x4, 0xc, 0x2, 0xa, 0x6, 0xe, 0x1, 0x9, 0x5, 0xd, 0x3, 0xb,
+        0x7, 0xf, 0x0, 0x8, 0x4, 0xc, 0x2, 0xa, 0x6, 0xe, 0x1, 0x9, 0x5, 0xd,
+        0x3, 0xb, 0x7, 0xf);
     const __m256i lo4 = _mm256_set1_epi8(0x0f);
     x = _mm256_shuffle_epi8(x, bswap);
     __m256i lo = _mm256_shuffle_epi8(nib, _mm256_and_si256(x, lo4));
@@ -390,20 +394,23 @@ static __m256i rev_bits8(__m256i x)
     return _mm256_or_si256(_mm256_slli_epi16(lo, 4), hi);
 }
 
-__attribute__((target("avx2")))
-static __m256i lk_permute8(__m256i x, uint32_t seed)
+__attribute__((target("avx2"))) static __m256i lk_permute8(__m256i x,
+                                                           uint32_t seed)
 {
     x = _mm256_add_epi32(x, _mm256_set1_epi32((int)seed));
-    x = _mm256_xor_si256(x, _mm256_mullo_epi32(x, _mm256_set1_epi32((int)0x6c50b47cu)));
-    x = _mm256_xor_si256(x, _mm256_mullo_epi32(x, _mm256_set1_epi32((int)0xb82f1e52u)));
-    x = _mm256_xor_si256(x, _mm256_mullo_epi32(x, _mm256_set1_epi32((int)0xc7afe638u)));
-    x = _mm256_xor_si256(x, _mm256_mullo_epi32(x, _mm256_set1_epi32((int)0x8d22f6e6u)));
+    x = _mm256_xor_si256(
+        x, _mm256_mullo_epi32(x, _mm256_set1_epi32((int)0x6c50b47cu)));
+    x = _mm256_xor_si256(
+        x, _mm256_mullo_epi32(x, _mm256_set1_epi32((int)0xb82f1e52u)));
+    x = _mm256_xor_si256(
+        x, _mm256_mullo_epi32(x, _mm256_set1_epi32((int)0xc7afe638u)));
+    x = _mm256_xor_si256(
+        x, _mm256_mullo_epi32(x, _mm256_set1_epi32((int)0x8d22f6e6u)));
     return x;
 }
 
-__attribute__((target("avx2")))
-static void sobol16_avx2(const lr__pixel_sampler *ps, uint32_t first,
-                         float out[4][16])
+__attribute__((target("avx2"))) static void
+sobol16_avx2(const lr__pixel_sampler *ps, uint32_t first, float out[4][16])
 {
     const __m256i ff = _mm256_set1_epi32(0xff);
     const __m256 unit = _mm256_set1_ps(0x1p-24f);
@@ -417,7 +424,7 @@ static void sobol16_avx2(const lr__pixel_sampler *ps, uint32_t first,
         __m256i b2 = _mm256_and_si256(_mm256_srli_epi32(r, 16), ff);
         __m256i b3 = _mm256_srli_epi32(r, 24);
         for (int d = 0; d < 4; d++) {
-            const uint32_t (*t)[256] = sobol_rt[sobol_dim[d]];
+            const uint32_t(*t)[256] = sobol_rt[sobol_dim[d]];
             __m256i v = _mm256_xor_si256(
                 _mm256_xor_si256(
                     _mm256_i32gather_epi32((const int *)t[0], b0, 4),
@@ -434,13 +441,12 @@ static void sobol16_avx2(const lr__pixel_sampler *ps, uint32_t first,
 
 /* The same sixteen lanes at once in AVX-512 (AVX512BW for the byte
  * shuffles). */
-__attribute__((target("avx512f,avx512bw")))
-static __m512i rev_bits16(__m512i x)
+__attribute__((target("avx512f,avx512bw"))) static __m512i rev_bits16(__m512i x)
 {
-    const __m512i bswap = _mm512_set4_epi32(0x0c0d0e0f, 0x08090a0b,
-                                            0x04050607, 0x00010203);
-    const __m512i nib = _mm512_set4_epi32(0x0f070b03, 0x0d050901,
-                                          0x0e060a02, 0x0c040800);
+    const __m512i bswap = _mm512_set4_epi32(0x0c0d0e0f, 0x08090a0b, 0x04050607,
+                                            0x00010203);
+    const __m512i nib = _mm512_set4_epi32(0x0f070b03, 0x0d050901, 0x0e060a02,
+                                          0x0c040800);
     const __m512i lo4 = _mm512_set1_epi8(0x0f);
     x = _mm512_shuffle_epi8(x, bswap);
     __m512i lo = _mm512_shuffle_epi8(nib, _mm512_and_si512(x, lo4));
@@ -449,25 +455,29 @@ static __m512i rev_bits16(__m512i x)
     return _mm512_or_si512(_mm512_slli_epi16(lo, 4), hi);
 }
 
-__attribute__((target("avx512f,avx512bw")))
-static __m512i lk_permute16(__m512i x, uint32_t seed)
+__attribute__((target("avx512f,avx512bw"))) static __m512i
+lk_permute16(__m512i x, uint32_t seed)
 {
     x = _mm512_add_epi32(x, _mm512_set1_epi32((int)seed));
-    x = _mm512_xor_si512(x, _mm512_mullo_epi32(x, _mm512_set1_epi32((int)0x6c50b47cu)));
-    x = _mm512_xor_si512(x, _mm512_mullo_epi32(x, _mm512_set1_epi32((int)0xb82f1e52u)));
-    x = _mm512_xor_si512(x, _mm512_mullo_epi32(x, _mm512_set1_epi32((int)0xc7afe638u)));
-    x = _mm512_xor_si512(x, _mm512_mullo_epi32(x, _mm512_set1_epi32((int)0x8d22f6e6u)));
+    x = _mm512_xor_si512(
+        x, _mm512_mullo_epi32(x, _mm512_set1_epi32((int)0x6c50b47cu)));
+    x = _mm512_xor_si512(
+        x, _mm512_mullo_epi32(x, _mm512_set1_epi32((int)0xb82f1e52u)));
+    x = _mm512_xor_si512(
+        x, _mm512_mullo_epi32(x, _mm512_set1_epi32((int)0xc7afe638u)));
+    x = _mm512_xor_si512(
+        x, _mm512_mullo_epi32(x, _mm512_set1_epi32((int)0x8d22f6e6u)));
     return x;
 }
 
-__attribute__((target("avx512f,avx512bw")))
-static void sobol16_avx512(const lr__pixel_sampler *ps, uint32_t first,
-                           int n, float out[4][16])
+__attribute__((target("avx512f,avx512bw"))) static void
+sobol16_avx512(const lr__pixel_sampler *ps, uint32_t first, int n,
+               float out[4][16])
 {
-    __m512i idx = _mm512_add_epi32(
-        _mm512_set1_epi32((int)first),
-        _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14,
-                          15));
+    __m512i idx = _mm512_add_epi32(_mm512_set1_epi32((int)first),
+                                   _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8,
+                                                     9, 10, 11, 12, 13, 14,
+                                                     15));
     __m512i r = lk_permute16(rev_bits16(idx), ps->shuffle);
     const __m512 unit = _mm512_set1_ps(0x1p-24f);
     if ((first & 15u) + (uint32_t)n <= 16) {
@@ -517,17 +527,18 @@ static void sobol16_c(const lr__pixel_sampler *ps, uint32_t first, int n,
                       float out[4][16])
 {
     for (int i = 0; i < n; i++) {
-        uint32_t r = lk_permute(reverse_bits(first + (uint32_t)i),
-                                ps->shuffle);
+        uint32_t r = lk_permute(reverse_bits(first + (uint32_t)i), ps->shuffle);
         for (int d = 0; d < 4; d++)
-            out[d][i] = (float)(reverse_bits(lk_permute(
-                            sobol_rev(r, sobol_dim[d]), ps->scramble[d])) >>
-                        8) * 0x1p-24f;
+            out[d][i] = (float)(reverse_bits(
+                                    lk_permute(sobol_rev(r, sobol_dim[d]),
+                                               ps->scramble[d])) >>
+                                8) *
+                        0x1p-24f;
     }
 }
 
-void lr__pixel_sampler_get16(const lr__pixel_sampler *ps, uint32_t first,
-                             int n, float out[4][16])
+void lr__pixel_sampler_get16(const lr__pixel_sampler *ps, uint32_t first, int n,
+                             float out[4][16])
 {
     if (ps->s->kind != LR_SAMPLER_SOBOL) {
         for (int i = 0; i < n; i++) {

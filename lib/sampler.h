@@ -66,8 +66,8 @@ void lr__pixel_sampler_get(const lr__pixel_sampler *ps, uint32_t sample,
 /* Samples first .. first+n-1 (n <= 16) at once, the same values as n
  * calls of lr__pixel_sampler_get, as floats: out[d][i] is dimension d of
  * sample first + i.  Lanes n..15 are written with unspecified values. */
-void lr__pixel_sampler_get16(const lr__pixel_sampler *ps, uint32_t first,
-                             int n, float out[4][16]);
+void lr__pixel_sampler_get16(const lr__pixel_sampler *ps, uint32_t first, int n,
+                             float out[4][16]);
 
 /* Padding dimensions (4 and up) in pairs for one pixel, with the
  * per-pixel hashing done once: for the sobol sampler, pair (dim, dim + 1),
@@ -97,8 +97,8 @@ void lr__pixel_pairs_get(const lr__pixel_pairs *pp, uint32_t sample,
 /* lr__pixel_pairs_get for samples first .. first + n - 1 (n <= 16) at
  * once (dim even): out[j][i] is dimension dim + j of sample first + i;
  * lanes n..15 get unspecified values. */
-void lr__pixel_pairs_get16(const lr__pixel_pairs *pp, uint32_t first,
-                           int n, uint32_t dim, double out[2][16]);
+void lr__pixel_pairs_get16(const lr__pixel_pairs *pp, uint32_t first, int n,
+                           uint32_t dim, double out[2][16]);
 /* lr__sample_1d(s, pixel, sample, dim) for the prepared pixel (any dim:
  * one coordinate of its pair). */
 double lr__pixel_pairs_get1(const lr__pixel_pairs *pp, uint32_t sample,

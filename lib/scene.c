@@ -126,8 +126,8 @@ lr_status lr__scene_add_triangles(lr_scene *s, const float *vertices,
 lr_status lr__scene_add_sphere(lr_scene *s, lr__v3 center, double radius,
                                int material, lr_error *err)
 {
-    RTCGeometry geom =
-        rtcNewGeometry(s->device, RTC_GEOMETRY_TYPE_SPHERE_POINT);
+    RTCGeometry geom = rtcNewGeometry(s->device,
+                                      RTC_GEOMETRY_TYPE_SPHERE_POINT);
     if (geom == NULL)
         return embree_fail(err, "creating a sphere");
     float *vb = rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0,
@@ -309,14 +309,20 @@ const char *lr_scene_warnings(const lr_scene *s)
     return s != NULL && s->warnings != NULL ? s->warnings : "";
 }
 
-void lr_scene_camera(const lr_scene *s, lr_camera *cam) { *cam = s->camera; }
+void lr_scene_camera(const lr_scene *s, lr_camera *cam)
+{
+    *cam = s->camera;
+}
 
 void lr_scene_settings(const lr_scene *s, lr_render_settings *rs)
 {
     *rs = s->settings;
 }
 
-size_t lr_scene_primitive_count(const lr_scene *s) { return s->n_primitives; }
+size_t lr_scene_primitive_count(const lr_scene *s)
+{
+    return s->n_primitives;
+}
 
 const char *lr_scene_description(const lr_scene *s)
 {

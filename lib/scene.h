@@ -22,14 +22,14 @@ typedef struct lr__uv_xf {
 } lr__uv_xf;
 
 typedef struct lr__material {
-    char *name;        /* owned */
-    lr__v3 diffuse;    /* Lambertian albedo: BRDF = diffuse / pi */
-    lr__v3 specular;   /* normalised Phong weight */
-    double shininess;  /* Phong exponent */
-    lr__v3 reflect;    /* perfect mirror weight */
-    lr__v3 transmit;   /* dielectric weight (refraction + its Fresnel) */
-    double ior;        /* index of refraction inside the object */
-    lr__v3 emission;   /* radiance leaving the front side (area light) */
+    char *name;       /* owned */
+    lr__v3 diffuse;   /* Lambertian albedo: BRDF = diffuse / pi */
+    lr__v3 specular;  /* normalised Phong weight */
+    double shininess; /* Phong exponent */
+    lr__v3 reflect;   /* perfect mirror weight */
+    lr__v3 transmit;  /* dielectric weight (refraction + its Fresnel) */
+    double ior;       /* index of refraction inside the object */
+    lr__v3 emission;  /* radiance leaving the front side (area light) */
     /* GGX alpha of the mirror and glass lobes (0: smooth).  Rough
      * lobes are the path integrator's; Whitted treats them as smooth. */
     double roughness;
@@ -69,8 +69,8 @@ typedef struct lr__material {
 /* One emitting primitive: a triangle of an emissive mesh or an emissive
  * sphere (light.c). */
 typedef struct lr__emitter {
-    unsigned geom;     /* in scene->geoms */
-    unsigned prim;     /* triangle index; 0 for a sphere */
+    unsigned geom; /* in scene->geoms */
+    unsigned prim; /* triangle index; 0 for a sphere */
     double area;
     /* A triangle's corner a, edges b - a and c - a, and unit normal
      * (counter-clockwise front), kept in double so that sampling does
@@ -85,8 +85,7 @@ typedef struct lr__envmap lr__envmap; /* envmap.c */
  * `alpha` (radians) of unit direction `axis`, never below a lookup there
  * (conservative: whole runs of texels, and whole rows near a pole); and
  * the map's largest value anywhere. */
-double lr__envmap_max_in_cone(const lr__envmap *e, lr__v3 axis,
-                              double alpha);
+double lr__envmap_max_in_cone(const lr__envmap *e, lr__v3 axis, double alpha);
 double lr__envmap_max(const lr__envmap *e);
 
 typedef enum lr__light_kind {
@@ -138,7 +137,7 @@ typedef enum lr__geom_kind {
  * scene->geoms is the Embree geometry ID. */
 typedef struct lr__geom {
     lr__geom_kind kind;
-    int material;          /* index into scene->materials */
+    int material; /* index into scene->materials */
     /* Triangles: per-corner unit shading normals (9 per triangle), or
      * NULL for flat shading.  Owned. */
     float *corner_normals;
@@ -156,7 +155,7 @@ typedef struct lr__geom {
     /* Spheres (also mirrored in Embree) and infinite planes. */
     lr__v3 center;
     double radius;
-    lr__v3 normal;         /* plane */
+    lr__v3 normal; /* plane */
     /* Set by lr__scene_commit: a triangle mesh whose material is a
      * Lambertian lobe with some albedo and nothing else (no Phong lobe,
      * mirror or glass): a fact the integrator's vector path asks per
@@ -191,7 +190,7 @@ typedef struct lr__geom {
 #define LR__FEW_SPHERES 8
 typedef struct lr__few_sphere {
     double cx, cy, cz, r;
-    unsigned id;           /* its Embree geometry ID */
+    unsigned id; /* its Embree geometry ID */
 } lr__few_sphere;
 
 /* A path-traced scene's triangles when it has no more than
@@ -204,15 +203,17 @@ typedef struct lr__few_sphere {
  * its own corners b and c are among (x or y, s1, s2). */
 #define LR__FEW_TRIANGLES 32
 typedef struct lr__few_triangles {
-    size_t n;              /* triangles; 0: Embree meets them */
+    size_t n; /* triangles; 0: Embree meets them */
     int n_shapes;
     double ax[LR__FEW_TRIANGLES], ay[LR__FEW_TRIANGLES], az[LR__FEW_TRIANGLES];
-    double e1x[LR__FEW_TRIANGLES], e1y[LR__FEW_TRIANGLES], e1z[LR__FEW_TRIANGLES];
-    double e2x[LR__FEW_TRIANGLES], e2y[LR__FEW_TRIANGLES], e2z[LR__FEW_TRIANGLES];
+    double e1x[LR__FEW_TRIANGLES], e1y[LR__FEW_TRIANGLES],
+        e1z[LR__FEW_TRIANGLES];
+    double e2x[LR__FEW_TRIANGLES], e2y[LR__FEW_TRIANGLES],
+        e2z[LR__FEW_TRIANGLES];
     double nx[LR__FEW_TRIANGLES], ny[LR__FEW_TRIANGLES], nz[LR__FEW_TRIANGLES];
-    double quad[LR__FEW_TRIANGLES];      /* 1: a parallelogram */
-    int first[LR__FEW_TRIANGLES];        /* its triangle (x, s1, s2) */
-    int second[LR__FEW_TRIANGLES];       /* (y, s1, s2), or -1 */
+    double quad[LR__FEW_TRIANGLES]; /* 1: a parallelogram */
+    int first[LR__FEW_TRIANGLES];   /* its triangle (x, s1, s2) */
+    int second[LR__FEW_TRIANGLES];  /* (y, s1, s2), or -1 */
     unsigned geom[LR__FEW_TRIANGLES], prim[LR__FEW_TRIANGLES];
     unsigned char corner_b[LR__FEW_TRIANGLES], corner_c[LR__FEW_TRIANGLES];
 } lr__few_triangles;
@@ -234,15 +235,15 @@ struct lr_scene {
     size_t n_materials;
     lr__light *lights;
     size_t n_lights;
-    lr__geom *geoms;       /* Embree geometries, by geometry ID */
+    lr__geom *geoms; /* Embree geometries, by geometry ID */
     size_t n_geoms;
     /* Set by lr__scene_commit: every one of geoms has lambert_triangles
      * (then a hit's geometry needs no look-up to know it). */
     int all_lambert;
-    lr__geom *planes;      /* infinite planes */
+    lr__geom *planes; /* infinite planes */
     size_t n_planes;
-    lr__v3 ambient;        /* sum of ambient lights' radiance */
-    lr__v3 background;     /* radiance of escaping rays */
+    lr__v3 ambient;    /* sum of ambient lights' radiance */
+    lr__v3 background; /* radiance of escaping rays */
     /* The "environment" map (NULL: the uniform background), and where it
      * came from, for the JSON writer. */
     lr__envmap *env;
@@ -252,10 +253,10 @@ struct lr_scene {
     double *emitter_cdf;
     size_t n_emitters;
     size_t n_primitives;
-    double extent;         /* largest coordinate magnitude in the scene */
+    double extent; /* largest coordinate magnitude in the scene */
     lr_camera camera;
     lr_render_settings settings;
-    char *description;     /* the scene's "description", "" if none */
+    char *description; /* the scene's "description", "" if none */
     /* Every texture the materials use, each loaded once; owned. */
     lr__texture **textures;
     size_t n_textures;
@@ -323,14 +324,14 @@ extern const char *lr__embree_config;
 
 typedef struct lr__hit {
     double t;
-    lr__v3 p;         /* hit position */
-    lr__v3 ng;        /* unit geometric normal, facing the ray's origin */
-    lr__v3 ns;        /* unit shading normal, same side as ng */
-    int entering;     /* 1 if the ray hit the outside (front) surface */
+    lr__v3 p;     /* hit position */
+    lr__v3 ng;    /* unit geometric normal, facing the ray's origin */
+    lr__v3 ns;    /* unit shading normal, same side as ng */
+    int entering; /* 1 if the ray hit the outside (front) surface */
     int material;
-    double eps;       /* how far to push a new ray's origin off p */
-    long geom;        /* Embree geometry ID; -1 for an infinite plane */
-    unsigned prim;    /* triangle index in it */
+    double eps;    /* how far to push a new ray's origin off p */
+    long geom;     /* Embree geometry ID; -1 for an infinite plane */
+    unsigned prim; /* triangle index in it */
     /* Texture coordinates (lr__triangle_uv, lr__sphere_uv), computed
      * only where the material has a texture; has_uv 0 otherwise, on an
      * infinite plane and on a mesh without them. */
@@ -343,8 +344,8 @@ typedef struct lr__hit {
  * corners' uv interpolated alike.  Returns 0 when g has none.  The one
  * formula for the scalar hit, the packet lanes and sampled light points,
  * so that all three see the same texel. */
-static inline int lr__triangle_uv(const lr__geom *g, unsigned prim,
-                                  double bu, double bv, double uv[2])
+static inline int lr__triangle_uv(const lr__geom *g, unsigned prim, double bu,
+                                  double bv, double uv[2])
 {
     if (g->corner_uv == NULL)
         return 0;
@@ -402,9 +403,8 @@ static inline const lr__material *lr__material_at(const lr_scene *s,
         return m;
     return lr__material_textures(m, uv, tmp);
 }
-static inline const lr__material *lr__hit_material(const lr_scene *s,
-                                                   const lr__hit *h,
-                                                   lr__material *tmp)
+static inline const lr__material *
+lr__hit_material(const lr_scene *s, const lr__hit *h, lr__material *tmp)
 {
     return lr__material_at(s, h->material, h->has_uv, h->uv, tmp);
 }
@@ -483,9 +483,8 @@ void lr__paths_trace_packed(const lr_scene *s, lr__rays_packed *P, int ns,
  * barycentrics (Embree's convention); entries without a hit keep tf and
  * get tri -1.  Entries c < c0 (shadow rays) get only tri >= 0 for a hit
  * (the shape's index) and no barycentrics. */
-void lr__few_triangles_intersect(const lr__few_triangles *T,
-                                 lr__rays_packed *P, int c0,
-                                 double tri[LR__PACKED],
+void lr__few_triangles_intersect(const lr__few_triangles *T, lr__rays_packed *P,
+                                 int c0, double tri[LR__PACKED],
                                  double u[LR__PACKED], double v[LR__PACKED]);
 /* occ[c] = 1 if entry c meets a triangle at t in (tn, tf), else 0. */
 void lr__few_triangles_occluded(const lr__few_triangles *T,
@@ -495,8 +494,7 @@ void lr__paths_intersect16(const lr_scene *s, const int *valid,
                            struct RTCIntersectContext *ctx,
                            struct RTCRayHit16 *rh);
 void lr__paths_occluded16(const lr_scene *s, const int *valid,
-                          struct RTCIntersectContext *ctx,
-                          struct RTCRay16 *r);
+                          struct RTCIntersectContext *ctx, struct RTCRay16 *r);
 
 /* Packets.  lr__shadow_ray16 fills one lane of a 16-wide packet exactly
  * as lr__occluded fills a single ray;
@@ -528,13 +526,13 @@ int lr__planes_block(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar);
  * vector loops compute on them too, and nobody reads those results, so a
  * caller zeroes the struct once and then reuses it. */
 typedef struct lr__hits16 {
-    double ng[3][16];   /* the triangle's unit normal (lr__geom.face_ng) */
-    float n[9][16];     /* corner normals (flat meshes: not written) */
-    float smooth[16];   /* 1 with corner normals */
+    double ng[3][16]; /* the triangle's unit normal (lr__geom.face_ng) */
+    float n[9][16];   /* corner normals (flat meshes: not written) */
+    float smooth[16]; /* 1 with corner normals */
     /* Results. */
-    double px[16], py[16], pz[16];    /* hit position */
-    double gx[16], gy[16], gz[16];    /* ng, facing the ray */
-    double sx[16], sy[16], sz[16];    /* ns */
+    double px[16], py[16], pz[16]; /* hit position */
+    double gx[16], gy[16], gz[16]; /* ng, facing the ray */
+    double sx[16], sy[16], sz[16]; /* ns */
     double eps[16];
 } lr__hits16;
 

@@ -14,8 +14,7 @@
  * through lr__scene_file; nothing else needs to know about it.  The
  * texture keys are the materials' (docs/scene-format.md). */
 static const char *const file_keys[] = {
-    "file", "diffuse_texture", "emission_texture", "roughness_texture",
-    NULL};
+    "file", "diffuse_texture", "emission_texture", "roughness_texture", NULL};
 
 int lr_scene_file_key(const char *key)
 {
@@ -51,7 +50,8 @@ lr_status lr_assets_dir_set(const char *dir, lr_error *err)
     if (dir != NULL && strlen(dir) >= sizeof assets_dir)
         return lr__fail(err, LR_ERR_LIMIT, NULL,
                         "the assets directory's path is longer than %zu "
-                        "bytes", sizeof assets_dir - 1);
+                        "bytes",
+                        sizeof assets_dir - 1);
     pthread_mutex_lock(&dir_lock);
     snprintf(assets_dir, sizeof assets_dir, "%s", dir ? dir : "");
     pthread_mutex_unlock(&dir_lock);
@@ -69,7 +69,8 @@ lr_status lr__scene_file(const char *ref, const char *base_dir,
             return lr__fail(err, LR_ERR_INVALID, field,
                             "%s: an asset is named \"sha256:\" and the "
                             "SHA-256 of its bytes as 64 lowercase hex "
-                            "digits, got \"%.80s\"", f, ref);
+                            "digits, got \"%.80s\"",
+                            f, ref);
         char dir[sizeof assets_dir];
         pthread_mutex_lock(&dir_lock);
         snprintf(dir, sizeof dir, "%s", assets_dir);
@@ -82,14 +83,16 @@ lr_status lr__scene_file(const char *ref, const char *base_dir,
             return lr__fail(err, LR_ERR_INVALID, field,
                             "%s names the asset %s, but there is no assets "
                             "directory (LENSRAY_ASSETS_DIR, lensrayd "
-                            "--assets)", f, ref);
+                            "--assets)",
+                            f, ref);
         w = snprintf(out, cap, "%s/%s", dir, ref + 7);
         struct stat st;
         if (w >= 0 && (size_t)w < cap &&
             (stat(out, &st) != 0 || !S_ISREG(st.st_mode)))
             return lr__fail(err, LR_ERR_INVALID, field,
                             "%s: there is no asset %s in the assets "
-                            "directory", f, ref);
+                            "directory",
+                            f, ref);
     } else if (ref[0] == '/' || base_dir == NULL || base_dir[0] == '\0') {
         w = snprintf(out, cap, "%s", ref);
     } else {

@@ -30,18 +30,24 @@
 static lr_status parse_materials(lr_scene *s, const cJSON *mats,
                                  const char *base_dir, lr_error *err)
 {
-    static const char *const keys[] = {
-        "diffuse",          "specular",          "shininess",
-        "reflect",          "transmit",          "ior",
-        "emission",         "roughness",         "diffuse_texture",
-        "emission_texture", "roughness_texture", "roughness_channel",
-        NULL};
+    static const char *const keys[] = {"diffuse",
+                                       "specular",
+                                       "shininess",
+                                       "reflect",
+                                       "transmit",
+                                       "ior",
+                                       "emission",
+                                       "roughness",
+                                       "diffuse_texture",
+                                       "emission_texture",
+                                       "roughness_texture",
+                                       "roughness_channel",
+                                       NULL};
     char p[LR__PATH_MAX];
     lr_status st;
     size_t n = 1; /* slot 0 is the default material */
     if (mats != NULL)
-        LR_TRY(lr__json_object(mats, "materials", " of named materials",
-                               err));
+        LR_TRY(lr__json_object(mats, "materials", " of named materials", err));
     if (mats != NULL)
         n += (size_t)cJSON_GetArraySize(mats);
     s->materials = calloc(n, sizeof *s->materials);
@@ -105,8 +111,7 @@ static lr_status parse_materials(lr_scene *s, const cJSON *mats,
         if (mt->ior < 1.0 || mt->ior > 10.0) {
             lr__path_key(q, p, "ior");
             return lr__fail(err, LR_ERR_INVALID, q,
-                            "%s must be between 1 and 10, got %g", q,
-                            mt->ior);
+                            "%s must be between 1 and 10, got %g", q, mt->ior);
         }
     }
     return LR_OK;
@@ -135,17 +140,16 @@ static lr_status find_material(const lr_scene *s, const cJSON *obj,
 
 /* ---- lights ----------------------------------------------------------- */
 
-static lr_status parse_lights(lr_scene *s, const cJSON *lights,
-                              lr_error *err)
+static lr_status parse_lights(lr_scene *s, const cJSON *lights, lr_error *err)
 {
-    static const char *const keys_point[] = {"type", "position",
-                                             "intensity", NULL};
+    static const char *const keys_point[] = {"type", "position", "intensity",
+                                             NULL};
     static const char *const keys_dir[] = {"type", "direction", "irradiance",
                                            NULL};
     static const char *const keys_amb[] = {"type", "radiance", NULL};
-    static const char *const keys_spot[] = {"type", "position", "direction",
-                                            "intensity", "inner_angle",
-                                            "outer_angle", NULL};
+    static const char *const keys_spot[] = {
+        "type",        "position",    "direction", "intensity",
+        "inner_angle", "outer_angle", NULL};
     char p[LR__PATH_MAX];
     if (lights == NULL)
         return LR_OK;
@@ -205,13 +209,15 @@ static lr_status parse_lights(lr_scene *s, const cJSON *lights,
                 lr__path_key(q, p, "outer_angle");
                 return lr__fail(err, LR_ERR_INVALID, q,
                                 "%s must be more than 0 and at most 90 "
-                                "(degrees off the axis), got %g", q, outer);
+                                "(degrees off the axis), got %g",
+                                q, outer);
             }
             if (!(inner >= 0 && inner < outer)) {
                 lr__path_key(q, p, "inner_angle");
                 return lr__fail(err, LR_ERR_INVALID, q,
                                 "%s must be at least 0 and less than "
-                                "outer_angle (%g), got %g", q, outer, inner);
+                                "outer_angle (%g), got %g",
+                                q, outer, inner);
             }
             lr__spot_set(L, dir, inner * M_PI / 180, outer * M_PI / 180);
             s->n_lights++;
@@ -285,14 +291,14 @@ static lr_status parse_object(lr_scene *s, const cJSON *o, const char *p,
                               const char *base_dir, int height_given,
                               lr_error *err)
 {
-    static const char *const keys_sphere[] = {"type", "material", "transform",
-                                              "center", "radius", NULL};
-    static const char *const keys_plane[] = {"type", "material", "transform",
-                                             "point", "normal", "size", NULL};
+    static const char *const keys_sphere[] = {"type",   "material", "transform",
+                                              "center", "radius",   NULL};
+    static const char *const keys_plane[] = {
+        "type", "material", "transform", "point", "normal", "size", NULL};
     static const char *const keys_tri[] = {"type", "material", "transform",
                                            "vertices", NULL};
     static const char *const keys_mesh[] = {"type", "material", "transform",
-                                            "file", "smooth", NULL};
+                                            "file", "smooth",   NULL};
     static const char *const keys_gltf[] = {"type", "transform", "file",
                                             "camera", NULL};
     char q[LR__PATH_MAX];
@@ -329,8 +335,8 @@ static lr_status parse_object(lr_scene *s, const cJSON *o, const char *p,
         LR_TRY(lr__json_number(o, "radius", p, 1, &r, err));
         if (!(r > 0)) {
             lr__path_key(q, p, "radius");
-            return lr__fail(err, LR_ERR_INVALID, q,
-                            "%s must be > 0, got %g", q, r);
+            return lr__fail(err, LR_ERR_INVALID, q, "%s must be > 0, got %g", q,
+                            r);
         }
         double k = lr__xform_uniform_scale(&x);
         if (k < 0) {
@@ -491,14 +497,16 @@ static lr_status parse_environment(lr_scene *s, const cJSON *e,
     if (!(intensity >= 0.0 && intensity <= 1e12))
         return lr__fail(err, LR_ERR_INVALID, "environment.intensity",
                         "environment.intensity must be between 0 and 1e12, "
-                        "got %g", intensity);
+                        "got %g",
+                        intensity);
     if (!(fabs(rot) <= 1e6))
         return lr__fail(err, LR_ERR_INVALID, "environment.rotation_deg",
                         "environment.rotation_deg must be between -1e6 and "
-                        "1e6, got %g", rot);
+                        "1e6, got %g",
+                        rot);
     char full[4096];
-    LR_TRY(lr__scene_file(file, base_dir, "environment.file", full,
-                          sizeof full, err));
+    LR_TRY(lr__scene_file(file, base_dir, "environment.file", full, sizeof full,
+                          err));
     return lr__envmap_load(full, file, "environment.file", intensity, rot,
                            &s->env, err);
 }
@@ -515,10 +523,9 @@ static lr_status read_head(const cJSON *root, const char *base_dir,
                            lr_render_settings *rs, lr_error *err)
 {
     /* docs/scene-format.md, section 5. */
-    static const char *const keys[] = {"description", "camera",  "render",
-                                       "background",  "materials", "lights",
-                                       "objects",     "environment",
-                                       "accel",       NULL};
+    static const char *const keys[] = {
+        "description", "camera",  "render",      "background", "materials",
+        "lights",      "objects", "environment", "accel",      NULL};
     if (!cJSON_IsObject(root))
         return lr__fail(err, LR_ERR_INVALID, "",
                         "a scene must be a JSON object");
@@ -527,8 +534,11 @@ static lr_status read_head(const cJSON *root, const char *base_dir,
     LR_TRY(lr__json_string(root, "description", "", 0, desc, err));
     lr_camera_default(cam);
     lr_render_settings_default(rs);
-    LR_TRY(lr__camera_from_json(cJSON_GetObjectItemCaseSensitive(root, "camera"), cam, base_dir ? base_dir : ".", err));
-    return lr__settings_from_json(cJSON_GetObjectItemCaseSensitive(root, "render"), rs, err);
+    LR_TRY(
+        lr__camera_from_json(cJSON_GetObjectItemCaseSensitive(root, "camera"),
+                             cam, base_dir ? base_dir : ".", err));
+    return lr__settings_from_json(
+        cJSON_GetObjectItemCaseSensitive(root, "render"), rs, err);
 }
 
 static lr_status build(lr_scene *s, const cJSON *root, const char *base_dir,
@@ -540,16 +550,22 @@ static lr_status build(lr_scene *s, const cJSON *root, const char *base_dir,
     if (s->description == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     LR_TRY(lr__json_rgb(root, "background", "", 0, &s->background, err));
-    LR_TRY(parse_environment(s, cJSON_GetObjectItemCaseSensitive(root, "environment"), base_dir, err));
-    LR_TRY(parse_materials( s, cJSON_GetObjectItemCaseSensitive(root, "materials"), base_dir, err));
-    LR_TRY(parse_lights(s, cJSON_GetObjectItemCaseSensitive(root, "lights"), err));
-    LR_TRY(parse_accel(s, cJSON_GetObjectItemCaseSensitive(root, "accel"), err));
+    LR_TRY(parse_environment(
+        s, cJSON_GetObjectItemCaseSensitive(root, "environment"), base_dir,
+        err));
+    LR_TRY(parse_materials(
+        s, cJSON_GetObjectItemCaseSensitive(root, "materials"), base_dir, err));
+    LR_TRY(
+        parse_lights(s, cJSON_GetObjectItemCaseSensitive(root, "lights"), err));
+    LR_TRY(
+        parse_accel(s, cJSON_GetObjectItemCaseSensitive(root, "accel"), err));
     LR_TRY(lr__scene_begin(s, err));
     /* A glTF camera's aspect ratio sets the height the scene left out. */
     int height_given = cJSON_GetObjectItemCaseSensitive(
                            cJSON_GetObjectItemCaseSensitive(root, "render"),
                            "height") != NULL;
-    LR_TRY(parse_objects(s, cJSON_GetObjectItemCaseSensitive(root, "objects"), base_dir, height_given, err));
+    LR_TRY(parse_objects(s, cJSON_GetObjectItemCaseSensitive(root, "objects"),
+                         base_dir, height_given, err));
     LR_TRY(lr__scene_commit(s, err));
     return LR_OK;
 }
@@ -577,8 +593,7 @@ static lr_status parse_scene(const char *json, size_t len,
     return LR_OK;
 }
 
-lr_status lr_scene_load_json(const char *json, size_t len,
-                             const char *base_dir,
+lr_status lr_scene_load_json(const char *json, size_t len, const char *base_dir,
                              const char *const *overrides, size_t n_overrides,
                              lr_scene **out, lr_error *err)
 {
@@ -644,8 +659,7 @@ static lr_status settings_of_loaded(const char *path,
     return LR_OK;
 }
 
-lr_status lr_scene_read_settings(const char *path,
-                                 const char *const *overrides,
+lr_status lr_scene_read_settings(const char *path, const char *const *overrides,
                                  size_t n_overrides, lr_camera *cam,
                                  lr_render_settings *rs, lr_error *err)
 {
@@ -656,8 +670,8 @@ lr_status lr_scene_read_settings(const char *path,
         return settings_of_loaded(path, overrides, n_overrides, cam, rs, err);
     char *buf = NULL;
     size_t len = 0;
-    LR_TRY(lr__read_file(path, path, NULL, MAX_SCENE_BYTES, "scene files",
-                         NULL, &buf, &len, err));
+    LR_TRY(lr__read_file(path, path, NULL, MAX_SCENE_BYTES, "scene files", NULL,
+                         &buf, &len, err));
     cJSON *root = NULL;
     lr_status st = parse_scene(buf, len, overrides, n_overrides, &root, err);
     free(buf);
@@ -684,8 +698,7 @@ lr_status lr_scene_read_settings(const char *path,
 }
 
 lr_status lr_scene_load_file(const char *path, const char *const *overrides,
-                             size_t n_overrides, lr_scene **out,
-                             lr_error *err)
+                             size_t n_overrides, lr_scene **out, lr_error *err)
 {
     if (path == NULL || out == NULL)
         return lr__fail(err, LR_ERR_INVALID, NULL,

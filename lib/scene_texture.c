@@ -8,8 +8,7 @@
 #include <string.h>
 
 /* Appends t (and where it came from) to the scene's lists. */
-static lr_status keep(lr_scene *s, lr__texture *t, const char *path,
-                      int srgb)
+static lr_status keep(lr_scene *s, lr__texture *t, const char *path, int srgb)
 {
     size_t k = s->n_textures;
     lr__texture **tx = realloc(s->textures, (k + 1) * sizeof *tx);
@@ -35,8 +34,7 @@ static lr_status keep(lr_scene *s, lr__texture *t, const char *path,
 }
 
 lr__texture *lr__scene_texture_named(lr_scene *s, const char *path,
-                                     const char *shown, int srgb,
-                                     lr_error *err)
+                                     const char *shown, int srgb, lr_error *err)
 {
     srgb = srgb != 0;
     for (size_t i = 0; i < s->n_textures; i++)

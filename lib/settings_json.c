@@ -14,11 +14,10 @@
 lr_status lr__settings_from_json(const cJSON *r, lr_render_settings *rs,
                                  lr_error *err)
 {
-    static const char *const keys[] = {"width",     "height",  "spp",
-                                       "sampler",   "seed",    "max_depth",
-                                       "threads",   "tile_size", "depth",
-                                       "region",    "plan",    "adaptive",
-                                       "integrator", "light", NULL};
+    static const char *const keys[] = {
+        "width",     "height",   "spp",        "sampler", "seed",
+        "max_depth", "threads",  "tile_size",  "depth",   "region",
+        "plan",      "adaptive", "integrator", "light",   NULL};
     if (r == NULL)
         return LR_OK;
     LR_TRY(lr__json_object(r, "render", "", err));
@@ -31,10 +30,10 @@ lr_status lr__settings_from_json(const cJSON *r, lr_render_settings *rs,
     LR_TRY(lr__json_int(r, "spp", "render", 0, 1, LR__MAX_SPP, &spp, err));
     LR_TRY(lr__json_int(r, "max_depth", "render", 0, 0, LR__MAX_DEPTH, &depth,
                         err));
-    LR_TRY(lr__json_int(r, "threads", "render", 0, 0, LR__MAX_THREADS, &th,
-                        err));
-    LR_TRY(lr__json_int(r, "tile_size", "render", 0, 1, LR__MAX_TILE, &tile,
-                        err));
+    LR_TRY(
+        lr__json_int(r, "threads", "render", 0, 0, LR__MAX_THREADS, &th, err));
+    LR_TRY(
+        lr__json_int(r, "tile_size", "render", 0, 1, LR__MAX_TILE, &tile, err));
     LR_TRY(lr__json_int(r, "seed", "render", 0, 0, (1LL << 53), &seed, err));
     LR_TRY(lr__json_bool(r, "depth", "render", 0, &rs->want_depth, err));
     LR_TRY(lr__json_bool(r, "plan", "render", 0, &rs->plan, err));
@@ -53,8 +52,8 @@ lr_status lr__settings_from_json(const cJSON *r, lr_render_settings *rs,
                             ap);
         LR_TRY(lr__json_check_keys(ad, ap, akeys, err));
         long long lo = rs->adaptive_min_spp, hi = -1;
-        LR_TRY(lr__json_number(ad, "threshold", ap, 0,
-                               &rs->adaptive_threshold, err));
+        LR_TRY(lr__json_number(ad, "threshold", ap, 0, &rs->adaptive_threshold,
+                               err));
         LR_TRY(lr__json_int(ad, "min_spp", ap, 0, 0, LR__MAX_SPP, &lo, err));
         LR_TRY(lr__json_int(ad, "max_spp", ap, 0, 1, LR__MAX_SPP, &hi, err));
         rs->adaptive = 1;
@@ -62,10 +61,8 @@ lr_status lr__settings_from_json(const cJSON *r, lr_render_settings *rs,
         /* The maximum is render.spp itself; max_spp is its other name
          * here, and the two must agree when both are given. */
         if (hi > 0) {
-            if (cJSON_GetObjectItemCaseSensitive(r, "spp") != NULL &&
-                hi != spp)
-                return lr__fail(err, LR_ERR_INVALID,
-                                "render.adaptive.max_spp",
+            if (cJSON_GetObjectItemCaseSensitive(r, "spp") != NULL && hi != spp)
+                return lr__fail(err, LR_ERR_INVALID, "render.adaptive.max_spp",
                                 "render.adaptive.max_spp (%lld) and render.spp "
                                 "(%lld) disagree; give one of them",
                                 hi, spp);
@@ -73,14 +70,13 @@ lr_status lr__settings_from_json(const cJSON *r, lr_render_settings *rs,
         }
     }
     int kind = (int)rs->sampler;
-    LR_TRY(lr__json_enum(r, "sampler", "render", lr__sampler_names, &kind,
-                         err));
+    LR_TRY(
+        lr__json_enum(r, "sampler", "render", lr__sampler_names, &kind, err));
     rs->sampler = (lr_sampler_kind)kind;
     const char *integrators[LR__MAX_INTEGRATORS + 1];
     lr__integrator_names(integrators);
     int integ = (int)rs->integrator;
-    LR_TRY(lr__json_enum(r, "integrator", "render", integrators, &integ,
-                         err));
+    LR_TRY(lr__json_enum(r, "integrator", "render", integrators, &integ, err));
     rs->integrator = (lr_integrator_kind)integ;
     const cJSON *reg = cJSON_GetObjectItemCaseSensitive(r, "region");
     if (reg != NULL) {
@@ -108,16 +104,15 @@ lr_status lr__settings_from_json(const cJSON *r, lr_render_settings *rs,
     return lr_render_settings_validate(rs, err);
 }
 
-lr_status lr_render_settings_apply_json(lr_render_settings *s,
-                                        const char *json, size_t len,
-                                        lr_error *err)
+lr_status lr_render_settings_apply_json(lr_render_settings *s, const char *json,
+                                        size_t len, lr_error *err)
 {
     if (s == NULL || (json == NULL && len > 0))
         return lr__fail(err, LR_ERR_INVALID, NULL,
                         "lr_render_settings_apply_json: NULL argument");
     cJSON *root = NULL;
-    LR_TRY(lr__json_parse(json ? json : "", len, "render", "render",
-                          &root, err));
+    LR_TRY(
+        lr__json_parse(json ? json : "", len, "render", "render", &root, err));
     lr_status st = lr__render_apply_cjson(s, root, err);
     cJSON_Delete(root);
     return st;

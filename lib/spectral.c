@@ -98,9 +98,9 @@ void lr__spectral_sample(const lr__shot *sh, const lr__pixel_sampler *ps,
     double wr = lr__cam_lens_ray(c, fx, fy, u, c->w, c->nm_ref, &org, &dir);
     cnt->lens_blocked += wr == 0.0;
     if (wr != 0.0)
-        Lr = v3_scale(in->radiance(sh->scene, sh->max_depth, org, dir, &id,
-                                   &cnt->rays),
-                      wr);
+        Lr = v3_scale(
+            in->radiance(sh->scene, sh->max_depth, org, dir, &id, &cnt->rays),
+            wr);
     double u4 = lr__pixel_sampler_dim4(ps, s);
     lr__v3 sum = v3(0, 0, 0);
     for (int k = 0; k < m; k++) {
@@ -111,16 +111,16 @@ void lr__spectral_sample(const lr__shot *sh, const lr__pixel_sampler *ps,
         lr__v3 Li = v3(0, 0, 0);
         cnt->lens_blocked += wt == 0.0;
         if (wt != 0.0)
-            Li = v3_scale(in->radiance(sh->scene, sh->max_depth, org, dir,
-                                       &id, &cnt->rays),
+            Li = v3_scale(in->radiance(sh->scene, sh->max_depth, org, dir, &id,
+                                       &cnt->rays),
                           wt);
         sum = v3_add(sum, weighted_diff(W, Li, Lr));
     }
     lr__pixel_add(acc, v3_add(Lr, v3_scale(sum, 1.0 / m)));
 }
 
-void lr__spectral_packets(const lr__shot *sh, int x, int y, int first,
-                          int last, lr__pixel *acc, lr__sample_counts *cnt)
+void lr__spectral_packets(const lr__shot *sh, int x, int y, int first, int last,
+                          lr__pixel *acc, lr__sample_counts *cnt)
 {
     const lr__cam *c = sh->cam;
     struct RTCRayHit16 rh __attribute__((aligned(64)));
@@ -160,8 +160,8 @@ void lr__spectral_packets(const lr__shot *sh, int x, int y, int first,
                 uk[i] = (float)stratum(i < n ? u4[i] : 0.0, k, m);
             lr__wl_sample16(&sh->wl, uk, W, pw);
             c->model->rays16_w(c, n, fx, fy, lu, lv, pw, &rh, lw);
-            sh->integrator->radiance16(sh->scene, sh->max_depth, &rh, n, &id,
-                                       L, &cnt->rays);
+            sh->integrator->radiance16(sh->scene, sh->max_depth, &rh, n, &id, L,
+                                       &cnt->rays);
             for (int i = 0; i < n; i++) {
                 double Wi[3] = {W[0][i], W[1][i], W[2][i]};
                 sum[i] = v3_add(sum[i], weighted_diff(Wi, L[i], Lr[i]));

@@ -12,8 +12,8 @@
 
 /* Adds samples first .. last-1 of pixel (x, y) to *acc, sixteen at a time
  * (camera models with rays16_w). */
-void lr__spectral_packets(const lr__shot *sh, int x, int y, int first,
-                          int last, lr__pixel *acc, lr__sample_counts *cnt);
+void lr__spectral_packets(const lr__shot *sh, int x, int y, int first, int last,
+                          lr__pixel *acc, lr__sample_counts *cnt);
 
 /* Adds sample s of the pixel `ps` serves, through film point (fx, fy) and
  * lens sample u, a ray at a time (models without rays16_w: the real

@@ -93,8 +93,7 @@ static void pad(lr__rays_packed *P)
 /* Packs the lanes with valid[i] set (lr__rays_packed).  The lane list
  * is made without a branch per lane (which mispredicted often enough to
  * cost 5% of the Cornell box's CPU time), then the rays gathered. */
-static void pack(const int *valid, const struct RTCRay16 *r,
-                 lr__rays_packed *P)
+static void pack(const int *valid, const struct RTCRay16 *r, lr__rays_packed *P)
 {
     int m = 0;
     for (int i = 0; i < 16; i++) {
@@ -124,9 +123,8 @@ static void pack(const int *valid, const struct RTCRay16 *r,
  * turn had cost 11% of the Cornell box's CPU time.  An entry with a
  * negative discriminant or a zero direction computes NaN or infinite
  * roots that the selects refuse. */
-__attribute__((target_clones("avx512f", "avx2", "default")))
-static void spheres_packed(const lr_scene *s, lr__rays_packed *P,
-                           double sph[LR__PACKED])
+__attribute__((target_clones("avx512f", "avx2", "default"))) static void
+spheres_packed(const lr_scene *s, lr__rays_packed *P, double sph[LR__PACKED])
 {
     for (int c0 = 0; c0 < P->m8; c0 += 8) {
         for (int i = c0; i < c0 + 8; i++)
@@ -213,8 +211,7 @@ void lr__paths_intersect16(const lr_scene *s, const int *valid,
 }
 
 void lr__paths_occluded16(const lr_scene *s, const int *valid,
-                          struct RTCIntersectContext *ctx,
-                          struct RTCRay16 *r)
+                          struct RTCIntersectContext *ctx, struct RTCRay16 *r)
 {
     const lr__few_triangles *T = &s->few_tris;
     if (s->rtc_few == NULL && T->n == 0) {

@@ -33,8 +33,7 @@ static void put(text *t, const char *fmt, ...)
 }
 
 char *lr_render_stats_json(const lr_render_stats *st,
-                           const lr_render_settings *rs,
-                           const lr_scene *scene)
+                           const lr_render_settings *rs, const lr_scene *scene)
 {
     if (st == NULL)
         return NULL;
@@ -70,8 +69,7 @@ char *lr_render_stats_json(const lr_render_stats *st,
         "\"light_lights\": %llu, \"light_paths\": %llu, "
         "\"light_landed\": %llu}}",
         (double)st->lens_pixels / px, (double)st->chroma_pixels / px,
-        (unsigned long long)st->samples,
-        (unsigned long long)st->full_samples,
+        (unsigned long long)st->samples, (unsigned long long)st->full_samples,
         (unsigned long long)st->camera_rays,
         (unsigned long long)st->full_camera_rays,
         (unsigned long long)st->lens_blocked,

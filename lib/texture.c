@@ -49,13 +49,11 @@ static lr_status texture_exr(const void *data, size_t n, const char *name,
 {
     lr__exr_planes px;
     lr_status st = lr__exr_read(data, n, name, NULL, "a texture",
-                                LR__TEX_MAX_DIM, LR__TEX_MAX_TEXELS, &px,
-                                err);
+                                LR__TEX_MAX_DIM, LR__TEX_MAX_TEXELS, &px, err);
     if (st != LR_OK)
         return st;
     /* (lr__exr_read has refused sizes beyond lr__texture_check_size's.) */
-    int rgb = px.plane[LR__EXR_R] && px.plane[LR__EXR_G] &&
-              px.plane[LR__EXR_B];
+    int rgb = px.plane[LR__EXR_R] && px.plane[LR__EXR_G] && px.plane[LR__EXR_B];
     if (!rgb && px.plane[LR__EXR_Y] == NULL)
         st = lr__fail(err, LR_ERR_INVALID, NULL,
                       "%s needs channels R, G and B, or Y", name);
@@ -87,8 +85,7 @@ static lr_status texture_exr(const void *data, size_t n, const char *name,
 }
 
 lr__texture *lr__texture_load_memory(const void *data, size_t n,
-                                     const char *name, int srgb,
-                                     lr_error *err)
+                                     const char *name, int srgb, lr_error *err)
 {
     if (name == NULL)
         name = "(texture)";

@@ -16,13 +16,14 @@
 #define LR__TEX_MAX_TEXELS ((size_t)1 << 26) /* 1 GiB of float RGBA */
 #define LR__TEX_MAX_BYTES ((size_t)512 << 20)
 
-typedef struct lr__texture lr__texture;   /* width, height, linear float RGBA texels */
+typedef struct lr__texture
+    lr__texture; /* width, height, linear float RGBA texels */
 
 struct lr__texture {
     int w, h;
-    float *rgba;     /* 4 * w * h, row 0 the image's top row; owned */
-    double mean[4];  /* the texels' mean, per channel */
-    double max[4];   /* and their largest value (no lookup exceeds it) */
+    float *rgba;    /* 4 * w * h, row 0 the image's top row; owned */
+    double mean[4]; /* the texels' mean, per channel */
+    double max[4];  /* and their largest value (no lookup exceeds it) */
 };
 
 /* Loads PNG, JPEG or EXR, chosen by the file's magic bytes (not its name).
@@ -33,13 +34,13 @@ lr__texture *lr__texture_load(const char *path, int srgb, lr_error *err);
 /* The same from bytes in memory (glTF .glb embedded images); `name` is
  * what errors call it. */
 lr__texture *lr__texture_load_memory(const void *data, size_t n,
-                                     const char *name, int srgb,
-                                     lr_error *err);
+                                     const char *name, int srgb, lr_error *err);
 void lr__texture_free(lr__texture *t);
 /* Bilinear lookup with repeat wrapping.  (u, v) in OBJ/OpenGL convention:
  * v = 0 is the BOTTOM row of the image.  (glTF's v runs down: its loader
  * passes 1 - v.)  Returns RGBA (alpha 1 where the image has none). */
-void lr__texture_lookup(const lr__texture *t, double u, double v, float rgba[4]);
+void lr__texture_lookup(const lr__texture *t, double u, double v,
+                        float rgba[4]);
 
 /* ---- beyond the agreed interface -------------------------------------- */
 

@@ -65,11 +65,13 @@ lr_status lr__texture_jpeg(const void *data, size_t n, const char *name,
         cinfo.jpeg_color_space == JCS_YCCK) {
         st = lr__fail(err, LR_ERR_INVALID, NULL,
                       "%s: CMYK JPEG images are not supported; save it as "
-                      "RGB", name);
+                      "RGB",
+                      name);
         goto done;
     }
-    cinfo.out_color_space =
-        cinfo.jpeg_color_space == JCS_GRAYSCALE ? JCS_GRAYSCALE : JCS_RGB;
+    cinfo.out_color_space = cinfo.jpeg_color_space == JCS_GRAYSCALE
+                                ? JCS_GRAYSCALE
+                                : JCS_RGB;
     jpeg_start_decompress(&cinfo);
     size_t w = cinfo.output_width, h = cinfo.output_height;
     int ch = cinfo.output_components;

@@ -60,8 +60,7 @@ lr_status lr__texture_png(const void *data, size_t n, const char *name,
     if (setjmp(png_jmpbuf(png))) {
         if (st == LR_OK)
             st = lr__fail(err, LR_ERR_INVALID, NULL,
-                          "%s: not a valid PNG image: %s", name,
-                          src.message);
+                          "%s: not a valid PNG image: %s", name, src.message);
         goto done;
     }
     png_set_read_fn(png, &src, src_read);

@@ -146,8 +146,7 @@ long lr__trace_geom(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar)
  * that cannot hit anything instead (tnear 1 > tfar 0; Embree skips such
  * lanes): to the caller, a miss of Embree's geometry, as in lr__trace.
  * (The lane fillers do not see the scene, so these are not counted.) */
-static int lane_disabled(lr__v3 *org, lr__v3 *dir, double *tfar,
-                         float *tnear)
+static int lane_disabled(lr__v3 *org, lr__v3 *dir, double *tfar, float *tnear)
 {
     *tnear = 0.0f;
     if (lr__embree_can_trace(*org, *dir))
@@ -163,8 +162,7 @@ int lr__hit_complete(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
                      unsigned geom_id, unsigned prim_id, float bu, float bv,
                      float t_hit, lr__hit *hit)
 {
-    double t_embree = geom_id != RTC_INVALID_GEOMETRY_ID ? (double)t_hit
-                                                         : tfar;
+    double t_embree = geom_id != RTC_INVALID_GEOMETRY_ID ? (double)t_hit : tfar;
     double t_plane;
     long pl = plane_hit(s, org, dir, t_embree, &t_plane);
     if (pl >= 0) {
@@ -226,8 +224,8 @@ int lr__hit_complete(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
 }
 
 /* finish_hit, for all sixteen lanes. */
-__attribute__((target_clones("avx512f", "avx2", "default")))
-void lr__hits16_complete(const struct RTCRayHit16 *rh, lr__hits16 *h)
+__attribute__((target_clones("avx512f", "avx2", "default"))) void
+lr__hits16_complete(const struct RTCRayHit16 *rh, lr__hits16 *h)
 {
     const struct RTCRay16 *r = &rh->ray;
     /* ns: the corner normals interpolated and normalised (v3_norm), or
@@ -307,8 +305,8 @@ void lr__shadow_ray16(struct RTCRay16 *r, int lane, lr__v3 org, lr__v3 dir,
     r->flags[lane] = 0;
 }
 
-__attribute__((target_clones("avx512f", "avx2", "default")))
-void lr__ray16_quiet_lanes(struct RTCRay16 *r, const int *valid)
+__attribute__((target_clones("avx512f", "avx2", "default"))) void
+lr__ray16_quiet_lanes(struct RTCRay16 *r, const int *valid)
 {
     for (int i = 0; i < 16; i++) {
         int off = valid[i] == 0;

@@ -31,9 +31,10 @@ lr__xform lr__xform_mul(const lr__xform *a, const lr__xform *b)
 
 lr__v3 lr__xform_point(const lr__xform *x, lr__v3 p)
 {
-    return v3(x->m[0][0] * p.x + x->m[0][1] * p.y + x->m[0][2] * p.z + x->m[0][3],
-              x->m[1][0] * p.x + x->m[1][1] * p.y + x->m[1][2] * p.z + x->m[1][3],
-              x->m[2][0] * p.x + x->m[2][1] * p.y + x->m[2][2] * p.z + x->m[2][3]);
+    return v3(
+        x->m[0][0] * p.x + x->m[0][1] * p.y + x->m[0][2] * p.z + x->m[0][3],
+        x->m[1][0] * p.x + x->m[1][1] * p.y + x->m[1][2] * p.z + x->m[1][3],
+        x->m[2][0] * p.x + x->m[2][1] * p.y + x->m[2][2] * p.z + x->m[2][3]);
 }
 
 /* Normals transform by the inverse transpose.  The cofactor matrix is
@@ -46,16 +47,15 @@ lr__v3 lr__xform_point(const lr__xform *x, lr__v3 p)
 lr__v3 lr__xform_normal(const lr__xform *x, lr__v3 n)
 {
     const double(*m)[4] = x->m;
-    double c[3][3] = {
-        {m[1][1] * m[2][2] - m[1][2] * m[2][1],
-         m[1][2] * m[2][0] - m[1][0] * m[2][2],
-         m[1][0] * m[2][1] - m[1][1] * m[2][0]},
-        {m[0][2] * m[2][1] - m[0][1] * m[2][2],
-         m[0][0] * m[2][2] - m[0][2] * m[2][0],
-         m[0][1] * m[2][0] - m[0][0] * m[2][1]},
-        {m[0][1] * m[1][2] - m[0][2] * m[1][1],
-         m[0][2] * m[1][0] - m[0][0] * m[1][2],
-         m[0][0] * m[1][1] - m[0][1] * m[1][0]}};
+    double c[3][3] = {{m[1][1] * m[2][2] - m[1][2] * m[2][1],
+                       m[1][2] * m[2][0] - m[1][0] * m[2][2],
+                       m[1][0] * m[2][1] - m[1][1] * m[2][0]},
+                      {m[0][2] * m[2][1] - m[0][1] * m[2][2],
+                       m[0][0] * m[2][2] - m[0][2] * m[2][0],
+                       m[0][1] * m[2][0] - m[0][0] * m[2][1]},
+                      {m[0][1] * m[1][2] - m[0][2] * m[1][1],
+                       m[0][2] * m[1][0] - m[0][0] * m[1][2],
+                       m[0][0] * m[1][1] - m[0][1] * m[1][0]}};
     double sign = lr__xform_det(x) < 0.0 ? -1.0 : 1.0;
     return v3_scale(v3_norm(v3(c[0][0] * n.x + c[0][1] * n.y + c[0][2] * n.z,
                                c[1][0] * n.x + c[1][1] * n.y + c[1][2] * n.z,
@@ -92,8 +92,8 @@ double lr__xform_uniform_scale(const lr__xform *x)
     return len[0];
 }
 
-lr_status lr__xform_parse(const cJSON *list, const char *path,
-                          lr__xform *out, lr_error *err)
+lr_status lr__xform_parse(const cJSON *list, const char *path, lr__xform *out,
+                          lr_error *err)
 {
     static const char *const keys_rot[] = {"axis", "degrees", NULL};
     char p[LR__PATH_MAX], q[LR__PATH_MAX];
@@ -167,15 +167,13 @@ lr_status lr__xform_parse(const cJSON *list, const char *path,
             }
             /* Rodrigues' rotation formula, right-handed about the axis. */
             lr__v3 a = v3_norm(axis);
-            double th = deg * M_PI / 180.0, c = cos(th), s = sin(th),
-                   t = 1 - c;
-            double m[3][3] = {
-                {t * a.x * a.x + c, t * a.x * a.y - s * a.z,
-                 t * a.x * a.z + s * a.y},
-                {t * a.x * a.y + s * a.z, t * a.y * a.y + c,
-                 t * a.y * a.z - s * a.x},
-                {t * a.x * a.z - s * a.y, t * a.y * a.z + s * a.x,
-                 t * a.z * a.z + c}};
+            double th = deg * M_PI / 180.0, c = cos(th), s = sin(th), t = 1 - c;
+            double m[3][3] = {{t * a.x * a.x + c, t * a.x * a.y - s * a.z,
+                               t * a.x * a.z + s * a.y},
+                              {t * a.x * a.y + s * a.z, t * a.y * a.y + c,
+                               t * a.y * a.z - s * a.x},
+                              {t * a.x * a.z - s * a.y, t * a.y * a.z + s * a.x,
+                               t * a.z * a.z + c}};
             for (int u = 0; u < 3; u++)
                 for (int w = 0; w < 3; w++)
                     x.m[u][w] = m[u][w];

@@ -16,7 +16,10 @@ static inline lr__v3 v3(double x, double y, double z)
     lr__v3 r = {x, y, z};
     return r;
 }
-static inline lr__v3 v3a(const double a[3]) { return v3(a[0], a[1], a[2]); }
+static inline lr__v3 v3a(const double a[3])
+{
+    return v3(a[0], a[1], a[2]);
+}
 static inline lr__v3 v3_add(lr__v3 a, lr__v3 b)
 {
     return v3(a.x + b.x, a.y + b.y, a.z + b.z);
@@ -46,13 +49,19 @@ static inline lr__v3 v3_cross(lr__v3 a, lr__v3 b)
     return v3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z,
               a.x * b.y - a.y * b.x);
 }
-static inline double v3_len(lr__v3 a) { return sqrt(v3_dot(a, a)); }
+static inline double v3_len(lr__v3 a)
+{
+    return sqrt(v3_dot(a, a));
+}
 static inline lr__v3 v3_norm(lr__v3 a)
 {
     double l = v3_len(a);
     return l > 0 ? v3_scale(a, 1.0 / l) : a;
 }
-static inline lr__v3 v3_neg(lr__v3 a) { return v3(-a.x, -a.y, -a.z); }
+static inline lr__v3 v3_neg(lr__v3 a)
+{
+    return v3(-a.x, -a.y, -a.z);
+}
 static inline double v3_maxabs(lr__v3 a)
 {
     double m = fabs(a.x);

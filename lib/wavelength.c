@@ -7,7 +7,7 @@
 #include <math.h>
 #include <pthread.h>
 
-#define BINS 400     /* 1 nm each, 380 to 780 nm: p is constant in each */
+#define BINS 400      /* 1 nm each, 380 to 780 nm: p is constant in each */
 #define DEFENSIVE 0.1 /* the share of p ~ |w| in the mixture */
 
 static float cmf[3][LR__WL_NODES]; /* W_c / int W_c at whole nm */
@@ -76,9 +76,9 @@ void lr__wl_table_init(lr__wl_table *t, const float *power, double p_ref)
     t->lam[LR__WL_CELLS] = LR__LAMBDA_MAX;
 }
 
-__attribute__((target_clones("avx512f", "avx2", "default")))
-void lr__wl_sample16(const lr__wl_table *restrict t, const float u[restrict 16],
-                     float w[restrict 3][16], float power[restrict 16])
+__attribute__((target_clones("avx512f", "avx2", "default"))) void
+lr__wl_sample16(const lr__wl_table *restrict t, const float u[restrict 16],
+                float w[restrict 3][16], float power[restrict 16])
 {
     const float *lam = t->lam, *node = &t->node[0][0];
     for (int i = 0; i < 16; i++) {

@@ -64,8 +64,8 @@ void lr__wl_table_init(lr__wl_table *t, const float *power, double p_ref);
 
 /* The wavelength (nm) for a number u in [0, 1), its weights w[3] (see
  * above) and the focus power there (*power, if not NULL). */
-static inline double lr__wl_sample(const lr__wl_table *t, double u,
-                                   double w[3], float *power)
+static inline double lr__wl_sample(const lr__wl_table *t, double u, double w[3],
+                                   float *power)
 {
     double x = u * LR__WL_CELLS;
     int i = (int)x;
@@ -93,9 +93,8 @@ static inline double lr__wl_sample(const lr__wl_table *t, double u,
  * were drawn with (the cell's width is the same float difference in
  * both); the wavelength itself is not returned, as the packets trace
  * with the power alone. */
-void lr__wl_sample16(const lr__wl_table *restrict t,
-                     const float u[restrict 16], float w[restrict 3][16],
-                     float power[restrict 16]);
+void lr__wl_sample16(const lr__wl_table *restrict t, const float u[restrict 16],
+                     float w[restrict 3][16], float power[restrict 16]);
 
 /* The density (per nm) with which lr__wl_sample draws `nm`: 0 outside
  * 380 to 780 nm. */

@@ -38,8 +38,8 @@ double lr__fresnel_dielectric(double cos_i, double eta)
     return 0.5 * (rs * rs + rp * rp);
 }
 
-static lr__v3 direct(const lr_scene *s, const lr__material *m,
-                     const lr__hit *h, lr__v3 wo, uint64_t *rays)
+static lr__v3 direct(const lr_scene *s, const lr__material *m, const lr__hit *h,
+                     lr__v3 wo, uint64_t *rays)
 {
     lr__v3 L = lr__whitted_ambient(s, m);
     for (size_t i = 0; i < s->n_lights; i++) {
@@ -59,8 +59,7 @@ static lr__v3 radiance(const lr_scene *s, lr__v3 org, lr__v3 dir, int depth,
 
 lr__v3 lr__whitted_secondary(const lr_scene *s, const lr__material *m,
                              const lr__hit *h, lr__v3 dir, int depth,
-                             int max_depth, double throughput,
-                             uint64_t *rays)
+                             int max_depth, double throughput, uint64_t *rays)
 {
     lr__v3 L = v3(0, 0, 0);
     if (depth >= max_depth)
@@ -97,8 +96,8 @@ lr__v3 lr__whitted_secondary(const lr_scene *s, const lr__material *m,
     }
     double t_refr = throughput * v3_maxc(w_refr);
     if (t_refr >= LR__MIN_THROUGHPUT) {
-        lr__v3 Li = radiance(s, lr__offset_origin(h, t_dir), t_dir,
-                             depth + 1, max_depth, t_refr, NULL, rays);
+        lr__v3 Li = radiance(s, lr__offset_origin(h, t_dir), t_dir, depth + 1,
+                             max_depth, t_refr, NULL, rays);
         L = v3_add(L, v3_mul(w_refr, Li));
     }
     return L;
@@ -117,7 +116,7 @@ static lr__v3 radiance(const lr_scene *s, lr__v3 org, lr__v3 dir, int depth,
     lr__material mt;
     const lr__material *m = lr__hit_material(s, &h, &mt);
     lr__v3 Le = lr__lt_direct(lt, h.geom) ? v3(0, 0, 0)
-                                           : lr__whitted_emitted(m, &h);
+                                          : lr__whitted_emitted(m, &h);
     lr__v3 L = v3_add(Le, direct(s, m, &h, v3_neg(dir), rays));
     return v3_add(L, lr__whitted_secondary(s, m, &h, dir, depth, max_depth,
                                            throughput, rays));

@@ -49,8 +49,7 @@ static inline lr__v3 lr__whitted_mirror(lr__v3 d, lr__v3 n)
  * (Inline: both files call it for every light at every hit,
  * and whitted16.c's vector loops must match it operation for
  * operation.) */
-static inline int lr__light_ray_setup(const lr_scene *s,
-                                      const lr__material *m,
+static inline int lr__light_ray_setup(const lr_scene *s, const lr__material *m,
                                       const lr__hit *h, lr__v3 wo, size_t i,
                                       lr__light_ray *out)
 {
@@ -82,8 +81,9 @@ static inline int lr__light_ray_setup(const lr_scene *s,
     if (has_spec) {
         double ca = v3_dot(lr__whitted_mirror(v3_neg(l), h->ns), wo);
         if (ca > 0.0)
-            f = v3_madd(f, m->specular, (m->shininess + 2.0) / (2.0 * M_PI) *
-                                            pow(ca, m->shininess));
+            f = v3_madd(f, m->specular,
+                        (m->shininess + 2.0) / (2.0 * M_PI) *
+                            pow(ca, m->shininess));
     }
     out->org = lr__offset_origin(h, l);
     out->dir = l;
@@ -98,8 +98,7 @@ static inline int lr__light_ray_setup(const lr_scene *s,
  * (whitted.c) */
 lr__v3 lr__whitted_secondary(const lr_scene *s, const lr__material *m,
                              const lr__hit *h, lr__v3 dir, int depth,
-                             int max_depth, double throughput,
-                             uint64_t *rays);
+                             int max_depth, double throughput, uint64_t *rays);
 
 /* The integrator's radiance16 and radiance16_n (integrator.h).
  * (whitted16.c) */
@@ -108,8 +107,8 @@ void lr__whitted_radiance16(const lr_scene *s, int max_depth,
                             const lr__sample_id *id, lr__v3 L[16],
                             uint64_t *rays);
 void lr__whitted_radiance16_n(const lr_scene *s, int max_depth,
-                              struct RTCRayHit16 *rh, const int *n,
-                              int count, const lr__sample_id *id,
-                              double (*L)[3][16], uint64_t *rays);
+                              struct RTCRayHit16 *rh, const int *n, int count,
+                              const lr__sample_id *id, double (*L)[3][16],
+                              uint64_t *rays);
 
 #endif

@@ -51,8 +51,7 @@ light_rays16_body(const lr__light *restrict lt, const lr__hits16 *restrict h,
         double o[3][16], d[3][16], t[16];
     } S;
     for (int i = 0; i < 16; i++) {
-        double tox = lpx - h->px[i], toy = lpy - h->py[i],
-               toz = lpz - h->pz[i];
+        double tox = lpx - h->px[i], toy = lpy - h->py[i], toz = lpz - h->pz[i];
         double d2 = tox * tox + toy * toy + toz * toz;
         double dist = sqrt(d2);
         double id = 1.0 / dist;
@@ -116,27 +115,24 @@ light_rays16_body(const lr__light *restrict lt, const lr__hits16 *restrict h,
 
 /* light_rays16_body with the rays in double kept (for the infinite
  * planes), and without: radiance16_n's batches never have planes. */
-__attribute__((target_clones("avx512f", "avx2", "default")))
-static int light_rays16(const lr__light *restrict lt,
-                        const lr__hits16 *restrict h,
-                        const double k[restrict 3][16], int *restrict ok,
-                        struct RTCRay16 *restrict r, double fr[restrict 16],
-                        double fg[restrict 16], double fb[restrict 16],
-                        double ro[restrict 3][16], double rd[restrict 3][16],
-                        double rt[restrict 16])
+__attribute__((target_clones("avx512f", "avx2", "default"))) static int
+light_rays16(const lr__light *restrict lt, const lr__hits16 *restrict h,
+             const double k[restrict 3][16], int *restrict ok,
+             struct RTCRay16 *restrict r, double fr[restrict 16],
+             double fg[restrict 16], double fb[restrict 16],
+             double ro[restrict 3][16], double rd[restrict 3][16],
+             double rt[restrict 16])
 {
     return light_rays16_body(lt, h, k, ok, r, fr, fg, fb, ro, rd, rt, 1);
 }
 
-__attribute__((target_clones("avx512f", "avx2", "default")))
-static int light_rays16_f(const lr__light *restrict lt,
-                          const lr__hits16 *restrict h,
-                          const double k[restrict 3][16], int *restrict ok,
-                          struct RTCRay16 *restrict r, double fr[restrict 16],
-                          double fg[restrict 16], double fb[restrict 16])
+__attribute__((target_clones("avx512f", "avx2", "default"))) static int
+light_rays16_f(const lr__light *restrict lt, const lr__hits16 *restrict h,
+               const double k[restrict 3][16], int *restrict ok,
+               struct RTCRay16 *restrict r, double fr[restrict 16],
+               double fg[restrict 16], double fb[restrict 16])
 {
-    return light_rays16_body(lt, h, k, ok, r, fr, fg, fb, NULL, NULL, NULL,
-                             0);
+    return light_rays16_body(lt, h, k, ok, r, fr, fg, fb, NULL, NULL, NULL, 0);
 }
 
 
@@ -149,8 +145,7 @@ int lr__whitted_scalar_only = 0;
  * shadow rays set up (light_rays16) and its light added in vector loops;
  * the planes are tested for its shadow rays as lr__occluded tests them.
  * Other lanes go through lr__hit_complete and whitted.c's shading. */
-static int vector_lane(const lr_scene *s, const struct RTCRayHit16 *rh,
-                       int i)
+static int vector_lane(const lr_scene *s, const struct RTCRayHit16 *rh, int i)
 {
     unsigned g = rh->hit.geomID[i];
     if (g == RTC_INVALID_GEOMETRY_ID || !s->geoms[g].lambert_triangles)
@@ -192,8 +187,7 @@ static void vector_start16(const lr_scene *s, const double k[3][16],
                            double v[restrict 3][16])
 {
     for (int c = 0; c < 3; c++) {
-        double a = c == 0 ? s->ambient.x : c == 1 ? s->ambient.y
-                                                  : s->ambient.z;
+        double a = c == 0 ? s->ambient.x : c == 1 ? s->ambient.y : s->ambient.z;
         for (int i = 0; i < 16; i++)
             v[c][i] = a * k[c][i];
     }
@@ -213,13 +207,10 @@ static inline double blend(int take, double a, double b)
 }
 
 /* The sum made in every lane and kept where lit (blend). */
-__attribute__((target_clones("avx512f", "avx2", "default")))
-static void vector_add16(const int *restrict valid,
-                         const struct RTCRay16 *restrict shadow,
-                         const double fr[restrict 16],
-                         const double fg[restrict 16],
-                         const double fb[restrict 16],
-                         double v[restrict 3][16])
+__attribute__((target_clones("avx512f", "avx2", "default"))) static void
+vector_add16(const int *restrict valid, const struct RTCRay16 *restrict shadow,
+             const double fr[restrict 16], const double fg[restrict 16],
+             const double fb[restrict 16], double v[restrict 3][16])
 {
     const double *f[3] = {fr, fg, fb};
     for (int c = 0; c < 3; c++)
@@ -232,13 +223,12 @@ static void vector_add16(const int *restrict valid,
 
 /* Lane i's camera ray missed and no infinite plane can meet it: the
  * sky, as lr__hit_complete's miss gives it. */
-static inline lr__v3 sky16(const lr_scene *s, const struct RTCRay16 *r,
-                           int i)
+static inline lr__v3 sky16(const lr_scene *s, const struct RTCRay16 *r, int i)
 {
     return s->env == NULL
                ? s->background
-               : lr__env_radiance(s, v3_norm(v3(r->dir_x[i], r->dir_y[i],
-                                                r->dir_z[i])));
+               : lr__env_radiance(
+                     s, v3_norm(v3(r->dir_x[i], r->dir_y[i], r->dir_z[i])));
 }
 
 /* Vector lane i's hit into sc->h and its albedo into sc->k: a textured
@@ -338,17 +328,16 @@ static void shade16(const lr_scene *restrict s, int max_depth,
             valid[i] = vec[i];
         if (n_vec) {
             any = light_rays16(&s->lights[k], &sc->h,
-                               (const double(*)[16])sc->k, valid, &shadow,
-                               fr, fg, fb, ro, rd, rt);
+                               (const double(*)[16])sc->k, valid, &shadow, fr,
+                               fg, fb, ro, rd, rt);
         }
         for (int i = 0; i < n && n_scalar; i++) {
             if (vec[i] || !has_hit[i])
                 continue;
             if (lr__light_ray_setup(s, m[i], &hit[i], v3_neg(dir[i]), k,
-                                &lr[i])) {
+                                    &lr[i])) {
                 valid[i] = -1;
-                lr__shadow_ray16(&shadow, i, lr[i].org, lr[i].dir,
-                                 lr[i].tfar);
+                lr__shadow_ray16(&shadow, i, lr[i].org, lr[i].dir, lr[i].tfar);
                 any++;
             }
         }
@@ -375,8 +364,7 @@ static void shade16(const lr_scene *restrict s, int max_depth,
                 v[1][i] = v[1][i] + fg[i];
                 v[2][i] = v[2][i] + fb[i];
             } else if (!vec[i] &&
-                       !lr__planes_block(s, lr[i].org, lr[i].dir,
-                                         lr[i].tfar)) {
+                       !lr__planes_block(s, lr[i].org, lr[i].dir, lr[i].tfar)) {
                 L[i] = v3_add(L[i], lr[i].f_E_cos);
             }
         }
@@ -390,8 +378,8 @@ static void shade16(const lr_scene *restrict s, int max_depth,
         for (int i = 0; i < n; i++)
             if (!vec[i] && has_hit[i])
                 L[i] = v3_add(L[i],
-                              lr__whitted_secondary(s, m[i], &hit[i], dir[i],
-                                                    0, max_depth, 1.0, rays));
+                              lr__whitted_secondary(s, m[i], &hit[i], dir[i], 0,
+                                                    max_depth, 1.0, rays));
 }
 
 void lr__whitted_radiance16(const lr_scene *s, int max_depth,
@@ -447,11 +435,9 @@ static int all_vector(const lr_scene *s, const struct RTCRayHit16 *rh,
  * them: written lane by lane, the film's vector loads would wait for the
  * stores to retire, and as plain C with a condition per lane GCC made a
  * branch of each. */
-__attribute__((target_clones("avx512f", "avx2", "default")))
-static void lanes_out16(const int *restrict vec,
-                        const double v[restrict 3][16],
-                        const double sky[restrict 3][16],
-                        double L[restrict 3][16])
+__attribute__((target_clones("avx512f", "avx2", "default"))) static void
+lanes_out16(const int *restrict vec, const double v[restrict 3][16],
+            const double sky[restrict 3][16], double L[restrict 3][16])
 {
     for (int c = 0; c < 3; c++)
         for (int i = 0; i < 16; i++)
@@ -464,8 +450,7 @@ static void lanes_out16(const int *restrict vec,
  * waited in vector_gather.  Called a packet late, while Embree traces
  * the next one. */
 static inline void prefetch_lanes(const lr_scene *s,
-                                  const struct RTCRayHit16 *rh,
-                                  unsigned hits)
+                                  const struct RTCRayHit16 *rh, unsigned hits)
 {
     for (; hits; hits &= hits - 1) {
         int i = __builtin_ctz(hits);
@@ -511,9 +496,9 @@ __attribute__((noinline)) static batch16 *thread_batch(void)
  * right after waits for, are read a packet later.  Each packet's rays,
  * Embree calls and arithmetic are the ones shade16 gives it alone. */
 void lr__whitted_radiance16_n(const lr_scene *s, int max_depth,
-                              struct RTCRayHit16 *rh, const int *n,
-                              int count, const lr__sample_id *id,
-                              double (*L)[3][16], uint64_t *rays)
+                              struct RTCRayHit16 *rh, const int *n, int count,
+                              const lr__sample_id *id, double (*L)[3][16],
+                              uint64_t *rays)
 {
     (void)id;
     if (count > LR__BATCH_MAX) {
@@ -586,9 +571,8 @@ void lr__whitted_radiance16_n(const lr_scene *s, int max_depth,
             for (int i = 0; i < 16; i++)
                 bt->valid[i] = bt->vec[i];
             bt->any = light_rays16_f(&s->lights[k], &bt->sc.h,
-                                     (const double(*)[16])bt->sc.k,
-                                     bt->valid, &bt->shadow, bt->fr, bt->fg,
-                                     bt->fb);
+                                     (const double(*)[16])bt->sc.k, bt->valid,
+                                     &bt->shadow, bt->fr, bt->fg, bt->fb);
             if (bt->any)
                 lr__ray16_quiet_lanes(&bt->shadow, bt->valid);
         }
@@ -620,4 +604,3 @@ void lr__whitted_radiance16_n(const lr_scene *s, int max_depth,
                     L[p]);
     }
 }
-

@@ -76,8 +76,7 @@ static int check_mesh_path(const char *file, const char *field, lrd_err *e)
      * directories inside (or at) the scenes directory, not outside it. */
     if (!S_ISREG(st.st_mode))
         return lrd_fail(e, 422, "invalid_value", field,
-                        "%s: \"%s\" is a directory, not a file", field,
-                        file);
+                        "%s: \"%s\" is a directory, not a file", field, file);
     if (!inside_scenes_dir(resolved))
         return lrd_fail(e, 422, "forbidden_path", field,
                         "%s must stay inside the scenes directory (it "
@@ -166,13 +165,16 @@ static lrd_scene *asset_scene(const char *ref, lrd_err *e)
     if (st == LR_OK && lr_job_scene_name(job) != NULL) {
         /* A JSON string: a name, not a scene; never followed further. */
         st = LR_ERR_INVALID;
-        snprintf(le.message, sizeof le.message, "it is a JSON string, not "
+        snprintf(le.message, sizeof le.message,
+                 "it is a JSON string, not "
                  "a scene object");
     }
     if (st != LR_OK) {
         lr_job_free(job);
-        lrd_fail(e, 422, "invalid_value", "scene", "scene: the asset %s is "
-                 "not a scene: %s", ref, le.message);
+        lrd_fail(e, 422, "invalid_value", "scene",
+                 "scene: the asset %s is "
+                 "not a scene: %s",
+                 ref, le.message);
         return NULL;
     }
     lrd_scene *s = inline_scene(job, e);
@@ -182,8 +184,7 @@ static lrd_scene *asset_scene(const char *ref, lrd_err *e)
 
 /* The job's scene: a named one from the cache, a scene asset, or an
  * inline one.  NULL with *e filled on error. */
-static lrd_scene *job_scene(const lr_job *job, lrd_job_spec *spec,
-                            lrd_err *e)
+static lrd_scene *job_scene(const lr_job *job, lrd_job_spec *spec, lrd_err *e)
 {
     const char *name = lr_job_scene_name(job);
     if (name == NULL)
@@ -200,14 +201,13 @@ int lrd_api_parse_job(const char *body, size_t len, lrd_job_spec *spec,
     memset(spec, 0, sizeof *spec);
     lr_job *job = NULL;
     lr_error le;
-    lr_status st = lr_job_parse(body, len, (int)lrd_cfg.max_json_depth,
-                                &job, &le);
+    lr_status st = lr_job_parse(body, len, (int)lrd_cfg.max_json_depth, &job,
+                                &le);
     /* Text that is JSON but not data (a number beyond a double, a
      * string that is not UTF-8) has the field's path: give it. */
     if (st == LR_ERR_SYNTAX)
         return lrd_fail(e, 400, "malformed_json",
-                        le.path[0] != '\0' ? le.path : NULL, "%s",
-                        le.message);
+                        le.path[0] != '\0' ? le.path : NULL, "%s", le.message);
     if (st == LR_ERR_LIMIT)
         return lrd_fail(e, 400, "too_deep", NULL, "%s (--max-json-depth)",
                         le.message);
@@ -303,8 +303,8 @@ char *lrd_api_scenes_json(lrd_err *e)
         if (s == NULL) {
             /* A broken file is the operator's problem: it is logged and
              * left out rather than failing the whole listing. */
-            fprintf(stderr, "lensrayd: scene %s is unavailable: %s\n",
-                    names[i], se.message);
+            fprintf(stderr, "lensrayd: scene %s is unavailable: %s\n", names[i],
+                    se.message);
             free(names[i]);
             continue;
         }
@@ -328,16 +328,14 @@ char *lrd_api_scenes_json(lrd_err *e)
             return NULL;
         }
         cJSON_AddStringToObject(item, "name", names[i]);
-        cJSON_AddStringToObject(item, "description",
-                                lr_scene_description(sc));
+        cJSON_AddStringToObject(item, "description", lr_scene_description(sc));
         /* The library's own JSON of what it loaded, embedded as it is. */
         cJSON_AddRawToObject(item, "camera", cam_json);
         cJSON_AddRawToObject(item, "render", rs_json);
         lr_free(cam_json);
         lr_free(rs_json);
-        cJSON_AddNumberToObject(
-            item, "primitives",
-            (double)lr_scene_primitive_count(sc));
+        cJSON_AddNumberToObject(item, "primitives",
+                                (double)lr_scene_primitive_count(sc));
         cJSON_AddItemToArray(arr, item);
         lrd_scene_release(s);
         free(names[i]);

@@ -76,12 +76,13 @@ int lrd_asset_stat(const char *hex, uint64_t *size, lrd_err *e)
     if (!asset_exists(hex, size))
         return lrd_fail(e, 404, "asset_not_found", NULL,
                         "there is no asset sha256:%s here (send it with "
-                        "PUT /v1/assets/%s)", hex, hex);
+                        "PUT /v1/assets/%s)",
+                        hex, hex);
     return 0;
 }
 
-int lrd_asset_put(const char *hex, const void *data, size_t len,
-                  int *created, lrd_err *e)
+int lrd_asset_put(const char *hex, const void *data, size_t len, int *created,
+                  lrd_err *e)
 {
     *created = 0;
     if (store_ready(e) != 0 || name_ok(hex, NULL, e) != 0)
@@ -131,8 +132,8 @@ int lrd_asset_put(const char *hex, const void *data, size_t len,
             close(fd);
             unlink(tmp);
             return lrd_fail(e, 507, "asset_store_failed", NULL,
-                            "the asset sha256:%s could not be stored: %s",
-                            hex, strerror(err));
+                            "the asset sha256:%s could not be stored: %s", hex,
+                            strerror(err));
         }
         p += w;
         left -= (size_t)w;
@@ -156,13 +157,15 @@ int lrd_asset_check_ref(const char *file, const char *field, lrd_err *e)
     if (store_ready(e) != 0)
         return lrd_fail(e, 422, "asset_not_found", field,
                         "%s names the asset %s, but this server keeps no "
-                        "assets (--assets DIR)", field, file);
+                        "assets (--assets DIR)",
+                        field, file);
     if (name_ok(hex, field, e) != 0)
         return -1;
     uint64_t size;
     if (!asset_exists(hex, &size))
         return lrd_fail(e, 422, "asset_not_found", field,
                         "%s: this server has no asset %s (send it first with "
-                        "PUT /v1/assets/%s)", field, file, hex);
+                        "PUT /v1/assets/%s)",
+                        field, file, hex);
     return 0;
 }

@@ -48,16 +48,16 @@ typedef struct route route;
 struct req {
     double t0;
     char method[16];
-    char path[200];   /* for the log, escaped */
+    char path[200];     /* for the log, escaped */
     const route *route; /* NULL until the early checks found one */
-    char job_id[33];  /* from the URL or of the job created, for the log */
-    char *body;       /* malloc'ed; NUL-terminated */
+    char job_id[33];    /* from the URL or of the job created, for the log */
+    char *body;         /* malloc'ed; NUL-terminated */
     size_t len, cap;
-    int too_large;    /* the body outgrew --max-body; the rest is dropped */
+    int too_large; /* the body outgrew --max-body; the rest is dropped */
     uint64_t dropped;
-    int answered;     /* a response was queued on the first call */
-    int status;       /* of the response queued, for the log */
-    uint64_t bytes;   /* body bytes of that response */
+    int answered;   /* a response was queued on the first call */
+    int status;     /* of the response queued, for the log */
+    uint64_t bytes; /* body bytes of that response */
 };
 
 /* A handler answers a request whose route, token, content type and body
@@ -95,8 +95,7 @@ enum MHD_Result lrd_http_on_request(void *cls, struct MHD_Connection *c,
                                     const char *version,
                                     const char *upload_data,
                                     size_t *upload_data_size, void **con_cls);
-void lrd_http_on_completed(void *cls, struct MHD_Connection *c,
-                           void **con_cls,
+void lrd_http_on_completed(void *cls, struct MHD_Connection *c, void **con_cls,
                            enum MHD_RequestTerminationCode toe);
 
 /* ---- routes (http_routes.c) ---------------------------------------------- */
@@ -119,10 +118,9 @@ uint64_t lrd_body_limit(const req *r);
  * `hdrs` are extra headers as name/value pairs, ended by NULL. */
 
 /* Queues `resp` (taken over, NULL gives MHD_NO) with `ctype`. */
-enum MHD_Result lrd_send_response(struct MHD_Connection *c, req *r,
-                                  int status, struct MHD_Response *resp,
-                                  size_t body_len, const char *ctype,
-                                  const char *const *hdrs);
+enum MHD_Result lrd_send_response(struct MHD_Connection *c, req *r, int status,
+                                  struct MHD_Response *resp, size_t body_len,
+                                  const char *ctype, const char *const *hdrs);
 /* Sends `body` (malloc'ed, taken over; NULL gives MHD_NO). */
 enum MHD_Result lrd_send_text(struct MHD_Connection *c, req *r, int status,
                               const char *ctype, char *body, size_t len,
@@ -138,16 +136,15 @@ enum MHD_Result lrd_send_error(struct MHD_Connection *c, req *r,
                                const lrd_err *e, const char *allow);
 /* Sends an encoded image with the render's statistics as headers; takes
  * over the blob reference. */
-enum MHD_Result lrd_send_image(struct MHD_Connection *c, req *r,
-                               lrd_blob *img, lr_format fmt,
-                               const lr_render_stats *st);
+enum MHD_Result lrd_send_image(struct MHD_Connection *c, req *r, lrd_blob *img,
+                               lr_format fmt, const lr_render_stats *st);
 
 /* ---- query parameters (http_query.c) ------------------------------------- */
 
 /* A whole number in [lo, hi] from query argument `name`; *out keeps its
  * value when the argument is absent.  0, or -1 with *e (422). */
-int lrd_query_long(struct MHD_Connection *c, const char *name, long lo,
-                   long hi, long *out, lrd_err *e);
+int lrd_query_long(struct MHD_Connection *c, const char *name, long lo, long hi,
+                   long *out, lrd_err *e);
 /* Refuses (422) a query parameter that is not one of `known` (`list`
  * names them for the message), or one given twice.  0, or -1 with *e. */
 int lrd_check_query(struct MHD_Connection *c, const char *const *known,

@@ -31,7 +31,7 @@ enum MHD_Result lrd_do_metrics(struct MHD_Connection *c, req *r)
     size_t len = 0;
     char *text = lrd_metrics_text(&len);
     return lrd_send_text(c, r, 200, "text/plain; version=0.0.4; charset=utf-8",
-                     text, len, NULL);
+                         text, len, NULL);
 }
 
 enum MHD_Result lrd_do_scenes(struct MHD_Connection *c, req *r)

@@ -87,8 +87,8 @@ enum MHD_Result lrd_do_render(struct MHD_Connection *c, req *r)
         return result;
     snprintf(r->job_id, sizeof r->job_id, "%s", lrd_job_id(job));
 
-    const union MHD_ConnectionInfo *ci =
-        MHD_get_connection_info(c, MHD_CONNECTION_INFO_CONNECTION_FD);
+    const union MHD_ConnectionInfo *ci = MHD_get_connection_info(
+        c, MHD_CONNECTION_INFO_CONNECTION_FD);
     int fd = ci != NULL ? ci->connect_fd : -1;
     /* No idle timeout while the render runs: the client is waiting, not
      * idle.  Setting the timeout again afterwards restarts its clock (MHD
@@ -236,8 +236,8 @@ enum MHD_Result lrd_do_job_image(struct MHD_Connection *c, req *r)
         lrd_fail(&e, 409, "job_cancelled", NULL,
                  "the job was cancelled, so it has no image");
     else {
-        lrd_fail(&e, 409, "not_ready",
-                 NULL, "the job is %s; its image is not ready yet",
+        lrd_fail(&e, 409, "not_ready", NULL,
+                 "the job is %s; its image is not ready yet",
                  lrd_state_name(res.state));
         e.retry_after = 1;
     }
@@ -278,7 +278,8 @@ enum MHD_Result lrd_do_jobs_list(struct MHD_Connection *c, req *r)
         if (status < 0) {
             lrd_fail(&e, 422, "invalid_value", "status",
                      "status must be one of queued, running, done, failed, "
-                     "cancelled, got \"%.40s\"", s);
+                     "cancelled, got \"%.40s\"",
+                     s);
             return lrd_send_error(c, r, &e, NULL);
         }
     }
@@ -291,7 +292,8 @@ enum MHD_Result lrd_do_jobs_list(struct MHD_Connection *c, req *r)
     if (after != NULL && !lrd_is_job_id(after)) {
         lrd_fail(&e, 422, "invalid_value", "after",
                  "after must be a job id (32 lowercase hex digits), got "
-                 "\"%.40s\"", after);
+                 "\"%.40s\"",
+                 after);
         return lrd_send_error(c, r, &e, NULL);
     }
     size_t kn = key != NULL ? strlen(key) : 1;
@@ -301,7 +303,8 @@ enum MHD_Result lrd_do_jobs_list(struct MHD_Connection *c, req *r)
     if (!key_ok) {
         lrd_fail(&e, 422, "invalid_value", "key",
                  "key must be an Idempotency-Key: 1 to %d printable ASCII "
-                 "characters without spaces", LRD_KEY_MAX);
+                 "characters without spaces",
+                 LRD_KEY_MAX);
         return lrd_send_error(c, r, &e, NULL);
     }
     int unknown_after = 0;
@@ -311,7 +314,8 @@ enum MHD_Result lrd_do_jobs_list(struct MHD_Connection *c, req *r)
          * that it has seen every job. */
         lrd_fail(&e, 404, "job_not_found", "after",
                  "after names no job this daemon has had lately (\"%s\"); "
-                 "list from the start, without after", after);
+                 "list from the start, without after",
+                 after);
         return lrd_send_error(c, r, &e, NULL);
     }
     if (json == NULL) {

@@ -9,18 +9,18 @@
 
 /* A whole number in [lo, hi] from query argument `name`; *out keeps its
  * value when the argument is absent.  0, or -1 with *e (422). */
-int lrd_query_long(struct MHD_Connection *c, const char *name, long lo,
-                      long hi, long *out, lrd_err *e)
+int lrd_query_long(struct MHD_Connection *c, const char *name, long lo, long hi,
+                   long *out, lrd_err *e)
 {
-    const char *v = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND,
-                                                name);
+    const char *v = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, name);
     uint64_t n = 0;
     if (v == NULL)
         return 0;
     if (lrd_parse_u64(v, 0, &n) != 0 || n < (uint64_t)lo || n > (uint64_t)hi)
         return lrd_fail(e, 422, "invalid_value", name,
                         "%s must be a whole number from %ld to %ld, got "
-                        "\"%.40s\"", name, lo, hi, v);
+                        "\"%.40s\"",
+                        name, lo, hi, v);
     *out = (long)n;
     return 0;
 }
@@ -31,8 +31,8 @@ int lrd_query_long(struct MHD_Connection *c, const char *name, long lo,
 typedef struct query_check {
     const char *const *known;
     size_t n_known;
-    unsigned seen;  /* a bit per known parameter */
-    int twice;      /* the bad one came twice, rather than being unknown */
+    unsigned seen; /* a bit per known parameter */
+    int twice;     /* the bad one came twice, rather than being unknown */
     char bad[64];
 } query_check;
 
@@ -52,7 +52,8 @@ static enum MHD_Result check_arg(void *cls, enum MHD_ValueKind kind,
                 snprintf(q->bad, sizeof q->bad, "%s", key);
             return MHD_YES;
         }
-    snprintf(q->bad, sizeof q->bad, "%s", key != NULL && key[0] ? key : "(empty)");
+    snprintf(q->bad, sizeof q->bad, "%s",
+             key != NULL && key[0] ? key : "(empty)");
     return MHD_YES;
 }
 
@@ -61,14 +62,15 @@ static enum MHD_Result check_arg(void *cls, enum MHD_ValueKind kind,
  * it: a misspelt filter would list everything, a misspelt ?wait would
  * answer at once.  0, or -1 with *e filled. */
 int lrd_check_query(struct MHD_Connection *c, const char *const *known,
-                       size_t n_known, const char *list, lrd_err *e)
+                    size_t n_known, const char *list, lrd_err *e)
 {
     query_check q = {known, n_known, 0, 0, ""};
     MHD_get_connection_values(c, MHD_GET_ARGUMENT_KIND, check_arg, &q);
     if (q.twice)
         return lrd_fail(e, 422, "invalid_value", q.bad,
                         "the query parameter \"%s\" is given twice; give it "
-                        "once", q.bad);
+                        "once",
+                        q.bad);
     if (q.bad[0] != '\0')
         return lrd_fail(e, 422, "invalid_value", NULL,
                         "unknown query parameter \"%s\" (expected %s)", q.bad,

@@ -11,8 +11,8 @@
 
 /* Extra headers as name/value pairs, ended by NULL. */
 enum MHD_Result lrd_send_response(struct MHD_Connection *c, req *r, int status,
-                             struct MHD_Response *resp, size_t body_len,
-                             const char *ctype, const char *const *hdrs)
+                                  struct MHD_Response *resp, size_t body_len,
+                                  const char *ctype, const char *const *hdrs)
 {
     if (resp == NULL)
         return MHD_NO;
@@ -33,14 +33,14 @@ enum MHD_Result lrd_send_response(struct MHD_Connection *c, req *r, int status,
 }
 
 /* Sends `body` (malloc'ed, taken over). */
-enum MHD_Result lrd_send_text(struct MHD_Connection *c, req *r,
-                                 int status, const char *ctype, char *body,
-                                 size_t len, const char *const *hdrs)
+enum MHD_Result lrd_send_text(struct MHD_Connection *c, req *r, int status,
+                              const char *ctype, char *body, size_t len,
+                              const char *const *hdrs)
 {
     if (body == NULL)
         return MHD_NO;
-    struct MHD_Response *resp =
-        MHD_create_response_from_buffer(len, body, MHD_RESPMEM_MUST_FREE);
+    struct MHD_Response *resp = MHD_create_response_from_buffer(
+        len, body, MHD_RESPMEM_MUST_FREE);
     if (resp == NULL) {
         free(body);
         return MHD_NO;
@@ -48,9 +48,8 @@ enum MHD_Result lrd_send_text(struct MHD_Connection *c, req *r,
     return lrd_send_response(c, r, status, resp, len, ctype, hdrs);
 }
 
-enum MHD_Result lrd_send_json(struct MHD_Connection *c, req *r,
-                                 int status, char *json,
-                                 const char *const *hdrs)
+enum MHD_Result lrd_send_json(struct MHD_Connection *c, req *r, int status,
+                              char *json, const char *const *hdrs)
 {
     if (json == NULL)
         return MHD_NO;
@@ -67,7 +66,7 @@ enum MHD_Result lrd_send_json(struct MHD_Connection *c, req *r,
 }
 
 enum MHD_Result lrd_send_error(struct MHD_Connection *c, req *r,
-                                  const lrd_err *e, const char *allow)
+                               const lrd_err *e, const char *allow)
 {
     const char *hdrs[8];
     size_t n = 0;
@@ -97,14 +96,12 @@ static void release_blob(void *cls)
 }
 
 /* Sends an encoded image; takes over the blob reference. */
-enum MHD_Result lrd_send_image(struct MHD_Connection *c, req *r,
-                                  lrd_blob *img, lr_format fmt,
-                                  const lr_render_stats *st)
+enum MHD_Result lrd_send_image(struct MHD_Connection *c, req *r, lrd_blob *img,
+                               lr_format fmt, const lr_render_stats *st)
 {
     struct MHD_Response *resp =
         MHD_create_response_from_buffer_with_free_callback_cls(
-            lrd_blob_len(img), (void *)lrd_blob_data(img), release_blob,
-            img);
+            lrd_blob_len(img), (void *)lrd_blob_data(img), release_blob, img);
     if (resp == NULL) {
         lrd_blob_release(img);
         return MHD_NO;
@@ -112,8 +109,7 @@ enum MHD_Result lrd_send_image(struct MHD_Connection *c, req *r,
     char secs[32], rays[24], samples[24], disp[96], plan[160];
     snprintf(secs, sizeof secs, "%.6f", st->seconds);
     snprintf(rays, sizeof rays, "%llu", (unsigned long long)st->rays);
-    snprintf(samples, sizeof samples, "%llu",
-             (unsigned long long)st->samples);
+    snprintf(samples, sizeof samples, "%llu", (unsigned long long)st->samples);
     double px = st->pixels ? (double)st->pixels : 1.0;
     snprintf(plan, sizeof plan,
              "lens_pixels=%.4f; chroma_pixels=%.4f; camera_rays=%llu; "
@@ -124,12 +120,17 @@ enum MHD_Result lrd_send_image(struct MHD_Connection *c, req *r,
              (unsigned long long)st->full_samples);
     snprintf(disp, sizeof disp, "inline; filename=\"%s%s\"", r->job_id,
              lr_format_extension(fmt));
-    const char *hdrs[] = {"X-Lensray-Render-Seconds", secs,
-                          "X-Lensray-Rays",           rays,
-                          "X-Lensray-Samples",        samples,
-                          "X-Lensray-Plan",           plan,
-                          "Content-Disposition",      disp,
+    const char *hdrs[] = {"X-Lensray-Render-Seconds",
+                          secs,
+                          "X-Lensray-Rays",
+                          rays,
+                          "X-Lensray-Samples",
+                          samples,
+                          "X-Lensray-Plan",
+                          plan,
+                          "Content-Disposition",
+                          disp,
                           NULL};
-    return lrd_send_response(c, r, 200, resp, lrd_blob_len(img), lr_format_mime(fmt),
-                 hdrs);
+    return lrd_send_response(c, r, 200, resp, lrd_blob_len(img),
+                             lr_format_mime(fmt), hdrs);
 }

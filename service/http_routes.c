@@ -110,9 +110,8 @@ static int method_is(const route *rt, const char *method)
 /* Finds the route of `method` and `url`.  Returns it, or NULL with *known
  * set when the path exists with other methods (listed in allow[], the
  * Allow header) and *open when that path needs no token. */
-static const route *find_route(const char *method, const char *url,
-                               char id[33], int *known, int *open,
-                               char *allow, size_t cap)
+static const route *find_route(const char *method, const char *url, char id[33],
+                               int *known, int *open, char *allow, size_t cap)
 {
     const route *found = NULL;
     size_t used = 0;
@@ -123,10 +122,9 @@ static const route *find_route(const char *method, const char *url,
             continue;
         *known = 1;
         *open |= routes[i].open;
-        int n = snprintf(allow + used, cap - used, "%s%s%s",
-                         used ? ", " : "", routes[i].method,
-                         strcmp(routes[i].method, "GET") == 0 ? ", HEAD"
-                                                              : "");
+        int n = snprintf(allow + used, cap - used, "%s%s%s", used ? ", " : "",
+                         routes[i].method,
+                         strcmp(routes[i].method, "GET") == 0 ? ", HEAD" : "");
         if (n > 0 && (size_t)n < cap - used)
             used += (size_t)n;
         if (found == NULL && method_is(&routes[i], method))
@@ -138,7 +136,7 @@ static const route *find_route(const char *method, const char *url,
 /* The checks that need only the headers.  Returns 1 when a response has
  * been queued (or the connection must close), 0 to go on. */
 int lrd_route_early(struct MHD_Connection *c, req *r, const char *url,
-                 enum MHD_Result *result)
+                    enum MHD_Result *result)
 {
     lrd_err e;
     char allow[64], id[33] = "";
@@ -149,8 +147,7 @@ int lrd_route_early(struct MHD_Connection *c, req *r, const char *url,
         snprintf(r->job_id, sizeof r->job_id, "%s", id);
 
     if (lrd_shutting_down()) {
-        lrd_fail(&e, 503, "shutting_down", NULL,
-                 "the server is shutting down");
+        lrd_fail(&e, 503, "shutting_down", NULL, "the server is shutting down");
         e.retry_after = 1;
     } else if (!open && !token_ok(c)) {
         lrd_fail(&e, 401, "unauthorized", NULL,
@@ -176,9 +173,9 @@ int lrd_route_early(struct MHD_Connection *c, req *r, const char *url,
             lrd_fail(&e, 413, "body_too_large", NULL,
                      "the body is %llu bytes, more than the limit of %llu "
                      "(%s)",
-                     (unsigned long long)n, (unsigned long long)lrd_body_limit(r),
-                     r->route->body == 2 ? "--max-asset-bytes"
-                                         : "--max-body");
+                     (unsigned long long)n,
+                     (unsigned long long)lrd_body_limit(r),
+                     r->route->body == 2 ? "--max-asset-bytes" : "--max-body");
         } else {
             return 0;
         }

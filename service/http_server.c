@@ -37,7 +37,10 @@ static void mhd_log(void *cls, const char *fmt, va_list ap)
     fprintf(stderr, "lensrayd: libmicrohttpd: %s\n", msg);
 }
 
-int lrd_shutting_down(void) { return atomic_load(&http.shutting_down); }
+int lrd_shutting_down(void)
+{
+    return atomic_load(&http.shutting_down);
+}
 
 
 const char *lrd_http_resolve(const char *bind, struct sockaddr_storage *sa,
@@ -80,22 +83,23 @@ int lrd_http_start(void)
                      MHD_USE_ERROR_LOG | (v6 ? MHD_USE_IPv6 : 0);
     http.d = MHD_start_daemon(
         flags, (uint16_t)lrd_cfg.port, NULL, NULL, lrd_http_on_request, NULL,
-        MHD_OPTION_EXTERNAL_LOGGER, mhd_log, NULL,
-        MHD_OPTION_SOCK_ADDR, (struct sockaddr *)&sa,
-        MHD_OPTION_CONNECTION_LIMIT, (unsigned)lrd_cfg.max_connections,
-        MHD_OPTION_PER_IP_CONNECTION_LIMIT, (unsigned)lrd_cfg.max_per_ip,
-        MHD_OPTION_CONNECTION_MEMORY_LIMIT, (size_t)lrd_cfg.conn_memory,
-        MHD_OPTION_CONNECTION_TIMEOUT, (unsigned)lrd_cfg.conn_timeout,
-        MHD_OPTION_NOTIFY_COMPLETED, lrd_http_on_completed, NULL,
-        MHD_OPTION_LISTENING_ADDRESS_REUSE, 1u, MHD_OPTION_END);
+        MHD_OPTION_EXTERNAL_LOGGER, mhd_log, NULL, MHD_OPTION_SOCK_ADDR,
+        (struct sockaddr *)&sa, MHD_OPTION_CONNECTION_LIMIT,
+        (unsigned)lrd_cfg.max_connections, MHD_OPTION_PER_IP_CONNECTION_LIMIT,
+        (unsigned)lrd_cfg.max_per_ip, MHD_OPTION_CONNECTION_MEMORY_LIMIT,
+        (size_t)lrd_cfg.conn_memory, MHD_OPTION_CONNECTION_TIMEOUT,
+        (unsigned)lrd_cfg.conn_timeout, MHD_OPTION_NOTIFY_COMPLETED,
+        lrd_http_on_completed, NULL, MHD_OPTION_LISTENING_ADDRESS_REUSE, 1u,
+        MHD_OPTION_END);
     if (http.d == NULL) {
-        fprintf(stderr, "lensrayd: cannot listen on %s port %ld (in use, or "
-                        "not an address of this host?)\n",
+        fprintf(stderr,
+                "lensrayd: cannot listen on %s port %ld (in use, or "
+                "not an address of this host?)\n",
                 lrd_cfg.bind, lrd_cfg.port);
         return -1;
     }
-    const union MHD_DaemonInfo *di =
-        MHD_get_daemon_info(http.d, MHD_DAEMON_INFO_BIND_PORT);
+    const union MHD_DaemonInfo *di = MHD_get_daemon_info(
+        http.d, MHD_DAEMON_INFO_BIND_PORT);
     unsigned port = di != NULL ? di->port : (unsigned)lrd_cfg.port;
     char host[INET6_ADDRSTRLEN] = "";
     if (v6)

@@ -17,7 +17,10 @@ _Thread_local int lrd_http_closing_on_purpose;
 
 static atomic_long in_flight;
 
-long lrd_http_in_flight(void) { return atomic_load(&in_flight); }
+long lrd_http_in_flight(void)
+{
+    return atomic_load(&in_flight);
+}
 
 /* The slowest body kept, in bytes a second, averaged from
  * --connection-timeout seconds after the headers.  The idle timeout alone
@@ -55,10 +58,10 @@ static void log_path(char *out, size_t n, const char *url)
 }
 
 enum MHD_Result lrd_http_on_request(void *cls, struct MHD_Connection *c,
-                                  const char *url, const char *method,
-                                  const char *version,
-                                  const char *upload_data,
-                                  size_t *upload_data_size, void **con_cls)
+                                    const char *url, const char *method,
+                                    const char *version,
+                                    const char *upload_data,
+                                    size_t *upload_data_size, void **con_cls)
 {
     (void)cls;
     (void)version;
@@ -96,7 +99,7 @@ enum MHD_Result lrd_http_on_request(void *cls, struct MHD_Connection *c,
              * long after the limit loses its connection. */
             r->dropped += n;
             return r->dropped > 4 * lrd_body_limit(r) + (1u << 20) ? MHD_NO
-                                                               : MHD_YES;
+                                                                   : MHD_YES;
         }
         if (r->len + n > lrd_body_limit(r)) {
             r->too_large = 1;
@@ -127,7 +130,7 @@ enum MHD_Result lrd_http_on_request(void *cls, struct MHD_Connection *c,
 }
 
 void lrd_http_on_completed(void *cls, struct MHD_Connection *c, void **con_cls,
-                         enum MHD_RequestTerminationCode toe)
+                           enum MHD_RequestTerminationCode toe)
 {
     (void)cls;
     (void)c;
@@ -140,10 +143,9 @@ void lrd_http_on_completed(void *cls, struct MHD_Connection *c, void **con_cls,
     int status = r->status != 0 ? r->status : 499;
     double ms = (lrd_monotonic() - r->t0) * 1000.0;
     char line[512];
-    int n = snprintf(line, sizeof line,
-                     "lensrayd: %s %s %d %llu %.1fms %s%s\n", r->method,
-                     r->path, status, (unsigned long long)r->bytes, ms,
-                     r->job_id[0] ? r->job_id : "-",
+    int n = snprintf(line, sizeof line, "lensrayd: %s %s %d %llu %.1fms %s%s\n",
+                     r->method, r->path, status, (unsigned long long)r->bytes,
+                     ms, r->job_id[0] ? r->job_id : "-",
                      toe == MHD_REQUEST_TERMINATED_COMPLETED_OK
                          ? ""
                          : " (connection closed early)");

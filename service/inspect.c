@@ -23,8 +23,7 @@
 /* The "model" (or another string member) of a JSON text written by the
  * library; NULL when it is "unknown" or absent.  Returns the parsed tree
  * in *tree (free it with cJSON_Delete). */
-static const char *known_name(const char *json, const char *key,
-                              cJSON **tree)
+static const char *known_name(const char *json, const char *key, cJSON **tree)
 {
     *tree = json != NULL ? cJSON_Parse(json) : NULL;
     const cJSON *v = cJSON_GetObjectItemCaseSensitive(*tree, key);
@@ -61,12 +60,12 @@ static cJSON *model_item(int id)
         return NULL;
     }
     cJSON_AddStringToObject(item, "name", name);
-    cJSON_AddBoolToObject(
-        item, "autofocus",
-        cJSON_GetObjectItemCaseSensitive(lt, "focus_on") != NULL);
-    cJSON_AddBoolToObject(
-        item, "chromatic",
-        cJSON_GetObjectItemCaseSensitive(lt, "chromatic") != NULL);
+    cJSON_AddBoolToObject(item, "autofocus",
+                          cJSON_GetObjectItemCaseSensitive(lt, "focus_on") !=
+                              NULL);
+    cJSON_AddBoolToObject(item, "chromatic",
+                          cJSON_GetObjectItemCaseSensitive(lt, "chromatic") !=
+                              NULL);
     cJSON_Delete(lt);
     cJSON_AddItemToObject(item, "defaults", defaults);
     return item;
@@ -130,8 +129,7 @@ char *lrd_options_json(lrd_err *e)
         const cJSON *mode = cJSON_GetObjectItemCaseSensitive(
             cJSON_GetObjectItemCaseSensitive(t, "chromatic"), "mode");
         if (cJSON_IsString(mode) && strcmp(mode->valuestring, "unknown") != 0)
-            cJSON_AddItemToArray(modes,
-                                 cJSON_CreateString(mode->valuestring));
+            cJSON_AddItemToArray(modes, cJSON_CreateString(mode->valuestring));
         cJSON_Delete(t);
     }
     char *out = lrd_json_print(root);
@@ -147,8 +145,8 @@ char *lrd_spec_camera_json(const lrd_job_spec *spec)
     lr_error le;
     /* A focus_on that hits nothing stays as it was: the render itself
      * fails with that error, and the status says so. */
-    (void)lr_camera_autofocus(lrd_scene_get(spec->scene), &cam,
-                              spec->rs.width, spec->rs.height, &le);
+    (void)lr_camera_autofocus(lrd_scene_get(spec->scene), &cam, spec->rs.width,
+                              spec->rs.height, &le);
     return lr_camera_json(&cam);
 }
 
@@ -178,7 +176,8 @@ char *lrd_job_plan_json(lrd_job *j, lrd_err *e)
     char *line = malloc((size_t)cols + 1);
     for (int y = 0; y < rows && arr != NULL && line != NULL; y++) {
         for (int x = 0; x < cols; x++)
-            line[x] = (char)('0' + (cells[(size_t)y * (size_t)cols + (size_t)x] & 3));
+            line[x] = (char)('0' +
+                             (cells[(size_t)y * (size_t)cols + (size_t)x] & 3));
         line[cols] = '\0';
         cJSON_AddItemToArray(arr, cJSON_CreateString(line));
     }

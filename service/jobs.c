@@ -42,7 +42,7 @@ struct lrd_blob {
 
 struct lrd_job {
     char id[33];
-    char key[LRD_KEY_MAX + 1];  /* Idempotency-Key, or "" */
+    char key[LRD_KEY_MAX + 1];   /* Idempotency-Key, or "" */
     unsigned char body_hash[32]; /* SHA-256 of the request, with a key */
     int refs;
     int in_table;
@@ -92,15 +92,21 @@ static struct {
 
 const char *lrd_state_name(lrd_state s)
 {
-    static const char *const names[] = {"queued", "running", "done",
-                                        "failed", "cancelled"};
+    static const char *const names[] = {"queued", "running", "done", "failed",
+                                        "cancelled"};
     return (unsigned)s < LRD_N_STATES ? names[s] : "unknown";
 }
 
 /* ---- blobs --------------------------------------------------------------- */
 
-const void *lrd_blob_data(const lrd_blob *b) { return b->data; }
-size_t lrd_blob_len(const lrd_blob *b) { return b->len; }
+const void *lrd_blob_data(const lrd_blob *b)
+{
+    return b->data;
+}
+size_t lrd_blob_len(const lrd_blob *b)
+{
+    return b->len;
+}
 
 lrd_blob *lrd_blob_ref(lrd_blob *b)
 {
@@ -481,7 +487,8 @@ int lrd_jobs_submit(lrd_job_spec *spec, int sync, const char *key,
     if (seen != NULL && memcmp(seen->body_hash, body_hash, 32) != 0) {
         rc = lrd_fail(e, 422, "idempotency_key_reused", NULL,
                       "the Idempotency-Key \"%s\" was used for another "
-                      "request; a key names one request", key);
+                      "request; a key names one request",
+                      key);
     } else if (seen != NULL) {
         seen->refs++;
         *out = seen;
@@ -490,8 +497,7 @@ int lrd_jobs_submit(lrd_job_spec *spec, int sync, const char *key,
         rc = lrd_fail(e, 503, "shutting_down", NULL,
                       "the server is shutting down");
         e->retry_after = 1;
-    } else if (jobs.queued + jobs.running >=
-               lrd_cfg.workers + lrd_cfg.queue) {
+    } else if (jobs.queued + jobs.running >= lrd_cfg.workers + lrd_cfg.queue) {
         jobs.rejected_full++;
         double wait = jobs.avg_job_seconds * (double)(jobs.queued + 1) /
                       (double)lrd_cfg.workers;
@@ -561,8 +567,14 @@ void lrd_job_release(lrd_job *j)
         job_free(j);
 }
 
-const char *lrd_job_id(const lrd_job *j) { return j->id; }
-const lrd_job_spec *lrd_job_spec_of(const lrd_job *j) { return &j->spec; }
+const char *lrd_job_id(const lrd_job *j)
+{
+    return j->id;
+}
+const lrd_job_spec *lrd_job_spec_of(const lrd_job *j)
+{
+    return &j->spec;
+}
 
 /* The monotonic time `seconds` from now, for pthread_cond_timedwait. */
 static struct timespec deadline(double seconds)
@@ -630,7 +642,7 @@ char *lrd_jobs_list_json(int status, const char *key, const char *after,
     /* The ids of the page first, under the lock; then each status
      * document, as GET /v1/jobs/{id} builds it. */
     *unknown_after = 0;
-    char (*ids)[33] = calloc((size_t)limit + 1, sizeof *ids);
+    char(*ids)[33] = calloc((size_t)limit + 1, sizeof *ids);
     if (ids == NULL)
         return NULL;
     long n = 0;
@@ -783,8 +795,8 @@ char *lrd_job_status_json(lrd_job *j)
     if (c.key[0] != '\0')
         cJSON_AddStringToObject(o, "idempotency_key", c.key);
     double progress = c.state == LRD_DONE ? 1.0
-                      : c.total_px > 0    ? (double)c.done_px / (double)c.total_px
-                                          : 0.0;
+                      : c.total_px > 0 ? (double)c.done_px / (double)c.total_px
+                                       : 0.0;
     cJSON_AddNumberToObject(o, "progress", round(progress * 1e4) / 1e4);
     if (c.spec.scene_name[0] != '\0')
         cJSON_AddStringToObject(o, "scene", c.spec.scene_name);
@@ -820,8 +832,7 @@ char *lrd_job_status_json(lrd_job *j)
                                 !ran ? 0.0
                                 : c.state == LRD_DONE
                                     ? us(c.stats.seconds)
-                                    : us(ended - c.started -
-                                         c.encode_seconds));
+                                    : us(ended - c.started - c.encode_seconds));
         cJSON_AddNumberToObject(t, "encode_seconds", us(c.encode_seconds));
         cJSON_AddNumberToObject(t, "total_seconds", us(ended - c.created));
     }

@@ -45,32 +45,32 @@
  * ---------------------------------------------------------------------- */
 
 typedef struct lrd_config {
-    char bind[64];            /* address to listen on */
-    long port;                /* 0 = an ephemeral port, printed at startup */
-    char scenes_dir[4096];    /* absolute, symlinks resolved */
-    char assets_dir[4096];    /* absolute, or "" for no asset store */
-    uint64_t max_asset;       /* bytes of one asset (PUT /v1/assets) */
-    char id_prefix[9];        /* the start of every job id: a balancer
+    char bind[64];             /* address to listen on */
+    long port;                 /* 0 = an ephemeral port, printed at startup */
+    char scenes_dir[4096];     /* absolute, symlinks resolved */
+    char assets_dir[4096];     /* absolute, or "" for no asset store */
+    uint64_t max_asset;        /* bytes of one asset (PUT /v1/assets) */
+    char id_prefix[9];         /* the start of every job id: a balancer
                                  routes a job's requests on it */
-    long workers;             /* render worker threads */
-    long queue;               /* jobs that may wait beyond the workers */
-    char *token;              /* NULL = no authentication; owned */
-    uint64_t max_body;        /* request body bytes */
-    uint64_t max_pixels;      /* pixels per output image */
-    uint64_t max_samples;     /* pixels x spp per job */
-    double max_render_seconds;/* wall time per render, then "timeout" */
-    uint64_t max_output;      /* encoded image bytes */
-    long max_json_depth;      /* nesting of a request body */
-    long max_connections;     /* open connections, all clients */
-    long max_per_ip;          /* open connections from one address */
-    uint64_t conn_memory;     /* libmicrohttpd memory per connection */
-    long conn_timeout;        /* seconds of silence before a close */
-    double job_ttl;           /* seconds a finished job is kept */
-    long max_finished;        /* finished jobs kept */
-    uint64_t max_retained;    /* image bytes kept by finished jobs */
-    long scene_cache;         /* loaded scenes kept */
-    double shutdown_grace;    /* seconds running jobs get at shutdown */
-    long no_ui;               /* 1: GET / and the page's files are 404 */
+    long workers;              /* render worker threads */
+    long queue;                /* jobs that may wait beyond the workers */
+    char *token;               /* NULL = no authentication; owned */
+    uint64_t max_body;         /* request body bytes */
+    uint64_t max_pixels;       /* pixels per output image */
+    uint64_t max_samples;      /* pixels x spp per job */
+    double max_render_seconds; /* wall time per render, then "timeout" */
+    uint64_t max_output;       /* encoded image bytes */
+    long max_json_depth;       /* nesting of a request body */
+    long max_connections;      /* open connections, all clients */
+    long max_per_ip;           /* open connections from one address */
+    uint64_t conn_memory;      /* libmicrohttpd memory per connection */
+    long conn_timeout;         /* seconds of silence before a close */
+    double job_ttl;            /* seconds a finished job is kept */
+    long max_finished;         /* finished jobs kept */
+    uint64_t max_retained;     /* image bytes kept by finished jobs */
+    long scene_cache;          /* loaded scenes kept */
+    double shutdown_grace;     /* seconds running jobs get at shutdown */
+    long no_ui;                /* 1: GET / and the page's files are 404 */
 } lrd_config;
 
 /* The one configuration; defined in main.c. */
@@ -81,18 +81,17 @@ extern lrd_config lrd_cfg;
  * ---------------------------------------------------------------------- */
 
 typedef struct lrd_err {
-    int http;          /* HTTP status, e.g. 422 */
-    char code[48];     /* machine-readable, e.g. "invalid_value" */
-    char path[300];    /* JSON path of the field, or "" */
-    char message[1024];/* a whole sentence */
-    int retry_after;   /* seconds for Retry-After, 0 for none */
+    int http;           /* HTTP status, e.g. 422 */
+    char code[48];      /* machine-readable, e.g. "invalid_value" */
+    char path[300];     /* JSON path of the field, or "" */
+    char message[1024]; /* a whole sentence */
+    int retry_after;    /* seconds for Retry-After, 0 for none */
 } lrd_err;
 
 /* Fills *e.  `path` may be NULL.  Returns -1 so that callers can write
  * `return lrd_fail(...)`. */
 int lrd_fail(lrd_err *e, int http, const char *code, const char *path,
-             const char *fmt, ...)
-    __attribute__((format(printf, 5, 6)));
+             const char *fmt, ...) __attribute__((format(printf, 5, 6)));
 
 /* Maps a library error to an HTTP error.  `prefix` ("scene" or NULL) is
  * put in front of the library's path, so that "objects[2].radius" of an
@@ -185,13 +184,13 @@ void lrd_scenes_stats(lrd_scene_stats *out);
  * ---------------------------------------------------------------------- */
 
 typedef struct lrd_job_spec {
-    lrd_scene *scene;       /* a reference owned by the spec */
-    char scene_name[72];    /* "" for an inline scene */
+    lrd_scene *scene;    /* a reference owned by the spec */
+    char scene_name[72]; /* "" for an inline scene */
     lr_camera cam;
-    lr_render_settings rs;  /* progress/cancel are set by the worker */
-    lr_output out;          /* format and encoder options */
-    int width, height;      /* of the output image (the region's size) */
-    uint64_t samples;       /* width x height x spp */
+    lr_render_settings rs; /* progress/cancel are set by the worker */
+    lr_output out;         /* format and encoder options */
+    int width, height;     /* of the output image (the region's size) */
+    uint64_t samples;      /* width x height x spp */
 } lrd_job_spec;
 
 /* Parses and validates a job body.  On success *spec owns a scene
@@ -212,8 +211,8 @@ int lrd_asset_name_ok(const char *hex);
 /* Stores len bytes as asset `hex` unless it is there already (*created
  * says which).  0, or -1 with *e: 404 no store, 422 a bad name or bytes
  * whose SHA-256 is not `hex` (nothing stored), 507 the disk failed. */
-int lrd_asset_put(const char *hex, const void *data, size_t len,
-                  int *created, lrd_err *e);
+int lrd_asset_put(const char *hex, const void *data, size_t len, int *created,
+                  lrd_err *e);
 
 /* Whether asset `hex` is there, and its size.  0, or -1 with *e (404). */
 int lrd_asset_stat(const char *hex, uint64_t *size, lrd_err *e);
@@ -266,7 +265,7 @@ void lrd_blob_release(lrd_blob *b); /* NULL is a no-op */
 
 typedef struct lrd_job lrd_job;
 
-int lrd_jobs_start(void);   /* starts the workers; 0 or -1 */
+int lrd_jobs_start(void); /* starts the workers; 0 or -1 */
 
 /* The longest Idempotency-Key: printable ASCII without spaces. */
 #define LRD_KEY_MAX 64
@@ -323,7 +322,7 @@ typedef struct lrd_job_result {
     lrd_blob *image;
     lr_format format;
     lr_render_stats stats;
-    lrd_err err;           /* for FAILED and CANCELLED */
+    lrd_err err; /* for FAILED and CANCELLED */
     lrd_cancel_reason cancel_reason;
 } lrd_job_result;
 void lrd_job_result_get(lrd_job *j, lrd_job_result *out);
@@ -337,10 +336,10 @@ char *lrd_job_status_json(lrd_job *j);
 
 /* Counts for /metrics and the shutdown. */
 typedef struct lrd_jobs_stats {
-    long in_state[LRD_N_STATES];  /* jobs in the table now */
+    long in_state[LRD_N_STATES];     /* jobs in the table now */
     uint64_t finished[LRD_N_STATES]; /* ever finished, by final state */
-    long queue_depth;             /* jobs waiting for a worker */
-    long running;                 /* jobs on a worker now */
+    long queue_depth;                /* jobs waiting for a worker */
+    long running;                    /* jobs on a worker now */
     uint64_t rays, samples, pixels, rejected_full;
     double render_seconds;
     uint64_t retained_bytes;
@@ -396,7 +395,7 @@ char *lrd_job_plan_json(lrd_job *j, lrd_err *e);
 
 /* A file of the page, generated from service/ui/ into ui_files.c. */
 typedef struct lrd_ui_file {
-    const char *path;          /* the URL path: "/", "/ui/page.js" */
+    const char *path; /* the URL path: "/", "/ui/page.js" */
     const char *content_type;
     const unsigned char *data;
     size_t len;
@@ -410,8 +409,8 @@ const lrd_ui_file *lrd_ui_find(const char *path);
  * Metrics (metrics.c)
  * ---------------------------------------------------------------------- */
 
-void lrd_metrics_start(void);          /* at startup, before threads */
-void lrd_metrics_request(int status);  /* one answered request */
+void lrd_metrics_start(void);         /* at startup, before threads */
+void lrd_metrics_request(int status); /* one answered request */
 /* The /metrics document; malloc'ed or NULL. */
 char *lrd_metrics_text(size_t *len);
 

@@ -27,19 +27,19 @@
 lrd_config lrd_cfg;
 
 typedef enum opt_type {
-    T_STR,   /* a string into a char array */
-    T_LONG,  /* a whole number */
-    T_U64,   /* a whole number, or a byte size with k/M/G when `size` */
-    T_SECS,  /* seconds, fractions allowed */
-    T_FLAG   /* on when given without a value; 0 or 1 with one */
+    T_STR,  /* a string into a char array */
+    T_LONG, /* a whole number */
+    T_U64,  /* a whole number, or a byte size with k/M/G when `size` */
+    T_SECS, /* seconds, fractions allowed */
+    T_FLAG  /* on when given without a value; 0 or 1 with one */
 } opt_type;
 
 typedef struct opt {
     const char *name; /* without the leading "--" */
     opt_type type;
     void *ptr;
-    size_t cap;       /* T_STR: size of the array */
-    int size;         /* T_U64: accept k/M/G suffixes */
+    size_t cap; /* T_STR: size of the array */
+    int size;   /* T_U64: accept k/M/G suffixes */
     double min, max;
     const char *help;
 } opt;
@@ -63,10 +63,10 @@ static const opt opts[] = {
     {"assets", T_STR, assets_arg, sizeof assets_arg, 0, 0, 0,
      "directory of content-addressed assets (PUT /v1/assets/{sha256}); "
      "shared by the daemons behind one balancer; none by default"},
-    {"max-asset-bytes", T_U64, &lrd_cfg.max_asset, 0, 1, 1,
-     U64(1ull << 40), "largest asset in bytes (k/M/G suffixes)"},
-    {"id-prefix", T_STR, lrd_cfg.id_prefix, sizeof lrd_cfg.id_prefix, 0, 0,
-     0, "1 to 8 lowercase hex digits that start every job id, so that a "
+    {"max-asset-bytes", T_U64, &lrd_cfg.max_asset, 0, 1, 1, U64(1ull << 40),
+     "largest asset in bytes (k/M/G suffixes)"},
+    {"id-prefix", T_STR, lrd_cfg.id_prefix, sizeof lrd_cfg.id_prefix, 0, 0, 0,
+     "1 to 8 lowercase hex digits that start every job id, so that a "
      "balancer sends a job's requests to this daemon"},
     {"token-file", T_STR, token_file, sizeof token_file, 0, 0, 0,
      "file holding a bearer token that every request but /healthz must "
@@ -79,8 +79,8 @@ static const opt opts[] = {
      "most samples (pixels x spp) in one job"},
     {"max-render-seconds", T_SECS, &lrd_cfg.max_render_seconds, 0, 0, 0, 1e7,
      "longest render; then it fails with \"timeout\" (0: no limit)"},
-    {"max-output-bytes", T_U64, &lrd_cfg.max_output, 0, 1, 1,
-     U64(1ull << 40), "largest encoded image in bytes"},
+    {"max-output-bytes", T_U64, &lrd_cfg.max_output, 0, 1, 1, U64(1ull << 40),
+     "largest encoded image in bytes"},
     {"max-json-depth", T_LONG, &lrd_cfg.max_json_depth, 0, 0, 1,
      LR_MAX_JSON_DEPTH, "deepest nesting of a request body"},
     {"max-connections", T_LONG, &lrd_cfg.max_connections, 0, 0, 1, 10000,
@@ -113,9 +113,9 @@ static void env_name(const char *name, char *out, size_t n)
 {
     size_t o = (size_t)snprintf(out, n, "LENSRAYD_");
     for (const char *p = name; *p != '\0' && o + 1 < n; p++)
-        out[o++] = *p == '-' ? '_' : (char)(*p >= 'a' && *p <= 'z'
-                                                ? *p - 'a' + 'A'
-                                                : *p);
+        out[o++] = *p == '-'
+                       ? '_'
+                       : (char)(*p >= 'a' && *p <= 'z' ? *p - 'a' + 'A' : *p);
     out[o] = '\0';
 }
 
@@ -272,13 +272,14 @@ static int configure(int argc, char **argv)
             return 1;
         }
         if (strcmp(a, "--version") == 0) {
-            printf("lensrayd %s (liblensray %s)\n", LRD_VERSION,
-                   lr_version());
+            printf("lensrayd %s (liblensray %s)\n", LRD_VERSION, lr_version());
             return 1;
         }
         if (strncmp(a, "--", 2) != 0) {
-            fprintf(stderr, "lensrayd: unexpected argument '%s'\nTry "
-                            "'lensrayd --help'.\n", a);
+            fprintf(stderr,
+                    "lensrayd: unexpected argument '%s'\nTry "
+                    "'lensrayd --help'.\n",
+                    a);
             return -1;
         }
         const char *name = a + 2;
@@ -286,8 +287,10 @@ static int configure(int argc, char **argv)
         size_t len = eq ? (size_t)(eq - name) : strlen(name);
         const opt *o = find_opt(name, len);
         if (o == NULL) {
-            fprintf(stderr, "lensrayd: unknown option '%s'\nTry 'lensrayd "
-                            "--help'.\n", a);
+            fprintf(stderr,
+                    "lensrayd: unknown option '%s'\nTry 'lensrayd "
+                    "--help'.\n",
+                    a);
             return -1;
         }
         const char *value = eq ? eq + 1 : NULL;
@@ -312,8 +315,10 @@ static int configure(int argc, char **argv)
     int v6;
     const char *why = lrd_http_resolve(lrd_cfg.bind, &sa, &v6);
     if (why != NULL) {
-        fprintf(stderr, "lensrayd: %s '%s' is not an address to listen on: "
-                        "%s\n", given_as("bind"), lrd_cfg.bind, why);
+        fprintf(stderr,
+                "lensrayd: %s '%s' is not an address to listen on: "
+                "%s\n",
+                given_as("bind"), lrd_cfg.bind, why);
         return -1;
     }
     struct stat st;
@@ -325,16 +330,20 @@ static int configure(int argc, char **argv)
     }
     if (strspn(lrd_cfg.id_prefix, "0123456789abcdef") !=
         strlen(lrd_cfg.id_prefix)) {
-        fprintf(stderr, "lensrayd: %s must be 1 to 8 lowercase hex digits, "
-                        "got '%s'\n", given_as("id-prefix"), lrd_cfg.id_prefix);
+        fprintf(stderr,
+                "lensrayd: %s must be 1 to 8 lowercase hex digits, "
+                "got '%s'\n",
+                given_as("id-prefix"), lrd_cfg.id_prefix);
         return -1;
     }
     if (assets_arg[0] != '\0' &&
         (realpath(assets_arg, lrd_cfg.assets_dir) == NULL ||
          stat(lrd_cfg.assets_dir, &st) != 0 || !S_ISDIR(st.st_mode) ||
          access(lrd_cfg.assets_dir, W_OK) != 0)) {
-        fprintf(stderr, "lensrayd: %s %s is not a directory this "
-                        "process can write to\n", given_as("assets"), assets_arg);
+        fprintf(stderr,
+                "lensrayd: %s %s is not a directory this "
+                "process can write to\n",
+                given_as("assets"), assets_arg);
         return -1;
     }
     /* The library finds "sha256:HEX" files of every kind there (and,
@@ -356,8 +365,10 @@ static int configure(int argc, char **argv)
                            t[len - 1] == ' ' || t[len - 1] == '\t'))
             t[--len] = '\0';
         if (len == 0 || strlen(t) != len) {
-            fprintf(stderr, "lensrayd: %s %s holds no token (or a NUL "
-                            "byte)\n", given_as("token-file"), token_file);
+            fprintf(stderr,
+                    "lensrayd: %s %s holds no token (or a NUL "
+                    "byte)\n",
+                    given_as("token-file"), token_file);
             free(t);
             return -1;
         }
@@ -433,8 +444,9 @@ int main(int argc, char **argv)
      * queued, give running renders the grace period, then cancel them; a
      * cancelled render ends at its next tile and produces no image, so
      * nothing partial is ever sent as if it were whole. */
-    fprintf(stderr, "lensrayd: %s: shutting down (up to %gs for running "
-                    "jobs)\n",
+    fprintf(stderr,
+            "lensrayd: %s: shutting down (up to %gs for running "
+            "jobs)\n",
             sig == SIGINT ? "SIGINT" : "SIGTERM", lrd_cfg.shutdown_grace);
     lrd_http_quiesce();
     lrd_jobs_begin_shutdown();

@@ -61,8 +61,7 @@ static void put(sbuf *b, const char *fmt, ...)
     }
 }
 
-static void head(sbuf *b, const char *name, const char *type,
-                 const char *help)
+static void head(sbuf *b, const char *name, const char *type, const char *help)
 {
     put(b, "# HELP %s %s\n# TYPE %s %s\n", name, help, name, type);
 }
@@ -94,8 +93,7 @@ char *lrd_metrics_text(size_t *len)
          "Jobs that reached a final state, by that state.");
     for (int s = LRD_DONE; s < LRD_N_STATES; s++)
         put(&b, "lensrayd_jobs_finished_total{state=\"%s\"} %llu\n",
-            lrd_state_name((lrd_state)s),
-            (unsigned long long)js.finished[s]);
+            lrd_state_name((lrd_state)s), (unsigned long long)js.finished[s]);
     head(&b, "lensrayd_jobs_rejected_total", "counter",
          "Jobs refused with 429 because the queue was full.");
     put(&b, "lensrayd_jobs_rejected_total %llu\n",
@@ -115,8 +113,7 @@ char *lrd_metrics_text(size_t *len)
     head(&b, "lensrayd_samples_total", "counter",
          "Camera samples of finished renders.");
     put(&b, "lensrayd_samples_total %llu\n", (unsigned long long)js.samples);
-    head(&b, "lensrayd_pixels_total", "counter",
-         "Pixels of finished renders.");
+    head(&b, "lensrayd_pixels_total", "counter", "Pixels of finished renders.");
     put(&b, "lensrayd_pixels_total %llu\n", (unsigned long long)js.pixels);
     head(&b, "lensrayd_render_seconds_total", "counter",
          "Seconds workers spent on jobs (rendering and encoding, including "

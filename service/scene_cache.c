@@ -48,7 +48,7 @@ typedef struct name_entry {
 
 static struct {
     pthread_mutex_t mu;
-    lrd_scene *list;  /* cached entries */
+    lrd_scene *list; /* cached entries */
     long n;
     name_entry *names;
     long n_names;
@@ -240,8 +240,7 @@ static int valid_name(const char *name)
 static int same_file(const name_entry *ne, const struct stat *st)
 {
     return ne->dev == st->st_dev && ne->ino == st->st_ino &&
-           ne->size == st->st_size &&
-           ne->mtime.tv_sec == st->st_mtim.tv_sec &&
+           ne->size == st->st_size && ne->mtime.tv_sec == st->st_mtim.tv_sec &&
            ne->mtime.tv_nsec == st->st_mtim.tv_nsec;
 }
 

@@ -179,10 +179,20 @@ int lrd_parse_u64(const char *s, int sizes, uint64_t *out)
     unsigned shift = 0;
     if (sizes && *end != '\0') {
         switch (*end) {
-        case 'k': case 'K': shift = 10; break;
-        case 'm': case 'M': shift = 20; break;
-        case 'g': case 'G': shift = 30; break;
-        default: return -1;
+        case 'k':
+        case 'K':
+            shift = 10;
+            break;
+        case 'm':
+        case 'M':
+            shift = 20;
+            break;
+        case 'g':
+        case 'G':
+            shift = 30;
+            break;
+        default:
+            return -1;
         }
         end++;
         /* Allow "8M", "8MiB" and "8MB" alike: all binary. */

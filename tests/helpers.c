@@ -266,8 +266,8 @@ void lr_test_write_exr(const char *name, int w, int h,
 
 /* One line per field of the format: a JSON template with %s where the
  * value goes, the path of that value, and the JSON types it accepts. */
-#define OBJ_S                                                              \
-    "{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,-5], "          \
+#define OBJ_S                                                      \
+    "{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,-5], " \
     "\"radius\": 1, %s}]}"
 const lr_test_field lr_test_fields[] = {
     {"{\"description\": %s}", "description", LR_TEST_STR},
@@ -324,8 +324,8 @@ const lr_test_field lr_test_fields[] = {
      "camera.chromatic.amplify", LR_TEST_NUM},
     {"{\"camera\": {\"chromatic\": {\"wavelengths\": %s}}}",
      "camera.chromatic.wavelengths", LR_TEST_NUM},
-    {"{\"camera\": {\"chromatic\": {\"splat\": %s}}}",
-     "camera.chromatic.splat", LR_TEST_BOOL},
+    {"{\"camera\": {\"chromatic\": {\"splat\": %s}}}", "camera.chromatic.splat",
+     LR_TEST_BOOL},
     {"{\"render\": {\"width\": %s}}", "render.width", LR_TEST_NUM},
     {"{\"render\": {\"height\": %s}}", "render.height", LR_TEST_NUM},
     {"{\"render\": {\"spp\": %s}}", "render.spp", LR_TEST_NUM},
@@ -352,8 +352,8 @@ const lr_test_field lr_test_fields[] = {
     {"{\"materials\": {\"m\": {\"ior\": %s}}}", "materials.m.ior", LR_TEST_NUM},
     {"{\"materials\": {\"m\": {\"emission\": %s}}}", "materials.m.emission",
      LR_TEST_NUM | LR_TEST_ARR},
-    {"{\"materials\": {\"m\": {\"roughness\": %s}}}",
-     "materials.m.roughness", LR_TEST_NUM},
+    {"{\"materials\": {\"m\": {\"roughness\": %s}}}", "materials.m.roughness",
+     LR_TEST_NUM},
     {"{\"materials\": {\"m\": {\"diffuse_texture\": %s}}}",
      "materials.m.diffuse_texture", LR_TEST_STR},
     {"{\"materials\": {\"m\": {\"emission_texture\": %s}}}",
@@ -432,8 +432,8 @@ const lr_test_field lr_test_fields[] = {
      "%s}]}",
      "objects[0].smooth", LR_TEST_BOOL},
 };
-const size_t lr_test_n_fields =
-    sizeof lr_test_fields / sizeof lr_test_fields[0];
+const size_t lr_test_n_fields = sizeof lr_test_fields /
+                                sizeof lr_test_fields[0];
 
 /* Fills `out` with the template of field i and `value` in place. */
 void lr_test_field_json(size_t i, const char *value, char *out, size_t cap)
@@ -467,12 +467,10 @@ double lr_test_finite_mean(const lr_image *img, const char *what)
     return sum / (double)n;
 }
 
-void lr_test_isa_means_agree(const double *mean, const char *const *isa,
-                             int n)
+void lr_test_isa_means_agree(const double *mean, const char *const *isa, int n)
 {
     assert_true(mean[0] > 0.01);
     for (int k = 1; k < n; k++)
         if (!(fabs(mean[k] - mean[0]) <= 0.01 * mean[0]))
-            fail_msg("%s: mean %.9g, default %.9g", isa[k], mean[k],
-                     mean[0]);
+            fail_msg("%s: mean %.9g, default %.9g", isa[k], mean[k], mean[0]);
 }

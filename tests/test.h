@@ -26,10 +26,10 @@
 void lr_test_register(const char *name, const struct CMUnitTest *tests,
                       size_t n);
 
-#define LR_TEST_GROUP(name, array)                                         \
-    __attribute__((constructor)) static void lr_test_reg_##name(void)      \
-    {                                                                      \
-        lr_test_register(#name, array, sizeof(array) / sizeof(array[0]));  \
+#define LR_TEST_GROUP(name, array)                                        \
+    __attribute__((constructor)) static void lr_test_reg_##name(void)     \
+    {                                                                     \
+        lr_test_register(#name, array, sizeof(array) / sizeof(array[0])); \
     }
 
 /* Loads a scene from JSON text with `sets` overrides, renders it with its
@@ -79,8 +79,7 @@ const char *const *lr_test_embree_isas(int *n);
 double lr_test_finite_mean(const lr_image *img, const char *what);
 /* Fails unless mean[0] > 0.01 (lit) and each other mean[k] is within
  * 1% of it (Embree's code for each ISA may round differently). */
-void lr_test_isa_means_agree(const double *mean,
-                             const char *const *isa, int n);
+void lr_test_isa_means_agree(const double *mean, const char *const *isa, int n);
 
 /* Fails unless a and b have the same size and the same bytes. */
 void lr_test_assert_same_bytes(const lr_image *a, const lr_image *b,
@@ -144,12 +143,12 @@ void lr_test_field_json(size_t i, const char *value, char *out, size_t cap);
  * summary line, where a skip is never counted as a pass.  Does not
  * return. */
 void lr_test_skip_env_at(const char *reason, const char *file, int line);
-#define lr_test_skip_env(reason)                                           \
+#define lr_test_skip_env(reason) \
     lr_test_skip_env_at((reason), __FILE__, __LINE__)
 
 #undef skip
-#define skip()                                                             \
-    _Static_assert(0, "use lr_test_skip_env(\"reason\") for a skip that "   \
+#define skip()                                                            \
+    _Static_assert(0, "use lr_test_skip_env(\"reason\") for a skip that " \
                       "the environment forces; a bug's test fails instead")
 
 #endif

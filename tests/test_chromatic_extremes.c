@@ -84,10 +84,10 @@ static void test_chroma_near_and_extreme(void **state)
     const char *models[] = {"thinlens", "bracket"};
     for (size_t m = 0; m < 2; m++) {
         lr_image *mono = chroma_render(models[m], "\"mode\": \"off\"", "mono");
-        lr_image *near = chroma_render(
-            models[m],
-            "\"mode\": \"rgb\", \"ior\": [1.5, 1.5000000000001, 1.5000000000002]",
-            "nearly equal");
+        lr_image *near = chroma_render(models[m],
+                                       "\"mode\": \"rgb\", \"ior\": [1.5, "
+                                       "1.5000000000001, 1.5000000000002]",
+                                       "nearly equal");
         lr_test_diff d = lr_test_compare(mono, near);
         if (d.max_abs > 1e-4)
             fail_msg("%s: nearly equal indices differ from mono by %g",
@@ -96,19 +96,24 @@ static void test_chroma_near_and_extreme(void **state)
         lr_image_free(mono);
         const char *extreme[] = {
             "\"mode\": \"rgb\", \"amplify\": 1000000",
-            "\"mode\": \"rgb\", \"amplify\": 1000000, \"focal_model\": \"lensmaker\"",
+            "\"mode\": \"rgb\", \"amplify\": 1000000, \"focal_model\": "
+            "\"lensmaker\"",
             "\"mode\": \"spectral\", \"amplify\": 1000000, \"wavelengths\": 64",
             "\"mode\": \"spectral\", \"amplify\": 1000000, \"focal_model\":"
             " \"lensmaker\", \"glass\": \"SF11\"",
             "\"mode\": \"rgb\", \"focal_model\": \"lensmaker\","
-            " \"ior\": [1.0000000000000004, 1.0000000000000002, 1.000000000000001]",
-            "\"mode\": \"rgb\", \"focal_model\": \"lensmaker\", \"amplify\": 1000000,"
+            " \"ior\": [1.0000000000000004, 1.0000000000000002, "
+            "1.000000000000001]",
+            "\"mode\": \"rgb\", \"focal_model\": \"lensmaker\", \"amplify\": "
+            "1000000,"
             " \"ior\": [3.999999, 1.0000000000000002, 1.0000001]",
             "\"mode\": \"spectral\", \"focal_model\": \"lensmaker\","
-            " \"abbe\": {\"n_d\": 1.0000000000000002, \"V_d\": 1}, \"amplify\": 1000000",
+            " \"abbe\": {\"n_d\": 1.0000000000000002, \"V_d\": 1}, "
+            "\"amplify\": 1000000",
             "\"mode\": \"spectral\", \"abbe\": {\"n_d\": 3.999, \"V_d\": 1000},"
             " \"wavelengths\": 1",
-            "\"mode\": \"spectral\", \"wavelengths\": 2, \"glass\": \"fused_silica\""};
+            "\"mode\": \"spectral\", \"wavelengths\": 2, \"glass\": "
+            "\"fused_silica\""};
         for (size_t i = 0; i < 9; i++) {
             char what[256];
             snprintf(what, sizeof what, "%s: %s", models[m], extreme[i]);
@@ -123,8 +128,9 @@ static void test_chroma_near_and_extreme(void **state)
 static void test_wavelength_ends(void **state)
 {
     (void)state;
-    const double nms[] = {LR__LAMBDA_MIN, LR__LAMBDA_MIN + 1e-9, 400, 700,
-                          LR__LAMBDA_MAX - 1e-9, LR__LAMBDA_MAX, 360, 830};
+    const double nms[] = {
+        LR__LAMBDA_MIN,        LR__LAMBDA_MIN + 1e-9, 400, 700,
+        LR__LAMBDA_MAX - 1e-9, LR__LAMBDA_MAX,        360, 830};
     for (size_t i = 0; i < 8; i++) {
         for (int g = LR_GLASS_BK7; g <= LR_GLASS_ABBE; g++) {
             double n = lr__glass_index((lr_glass)g, 1.5168, 64.17, nms[i]);
@@ -137,10 +143,9 @@ static void test_wavelength_ends(void **state)
         lr__srgb_cmf(nms[i], rgb);
         assert_true(isfinite(rgb[0]) && isfinite(rgb[1]) && isfinite(rgb[2]));
         for (int fmod = 0; fmod < 2; fmod++) {
-            double sc = lr__power_scale((lr_focal_model)fmod,
-                                        1.0000000000000002,
-                                        lr__glass_index(LR_GLASS_SF11, 0, 0,
-                                                        nms[i]));
+            double sc = lr__power_scale(
+                (lr_focal_model)fmod, 1.0000000000000002,
+                lr__glass_index(LR_GLASS_SF11, 0, 0, nms[i]));
             assert_true(isfinite(sc));
         }
     }

@@ -70,12 +70,12 @@ static void test_error_falls_faster_when_stratified(void **state)
             err[i] = sqrt(e2);
             if (i > 0 && !(err[i] < err[i - 1]))
                 fail_msg("%s: error %g at %g spp is not below %g at %g spp",
-                         samplers[k], err[i], spps[i], err[i - 1],
-                         spps[i - 1]);
+                         samplers[k], err[i], spps[i], err[i - 1], spps[i - 1]);
         }
         slopes[k] = slope(spps, err, 4);
-        print_message("%s: RMSE %.4g %.4g %.4g %.4g at 4..256 spp, slope %.3f\n",
-                      samplers[k], err[0], err[1], err[2], err[3], slopes[k]);
+        print_message(
+            "%s: RMSE %.4g %.4g %.4g %.4g at 4..256 spp, slope %.3f\n",
+            samplers[k], err[0], err[1], err[2], err[3], slopes[k]);
     }
     /* Random converges as N^-0.5; stratification and Owen-scrambled Sobol
      * do better on a scene with edges (about N^-0.75, Mitchell 1996). */
@@ -101,8 +101,7 @@ static const char *point_scene =
 
 /* Power of the row-summed error profile at `freq` cycles per pixel,
  * relative to the mean power over all frequencies. */
-static double peak_ratio(const lr_image *img, const lr_image *ref,
-                         double freq)
+static double peak_ratio(const lr_image *img, const lr_image *ref, double freq)
 {
     int w = lr_image_width(img), h = lr_image_height(img);
     double prof[96];

@@ -74,8 +74,8 @@ static void test_bands_plan_adaptive(void **state)
                           "render.spp=8"};
     lr_scene *s = NULL;
     lr_error err;
-    assert_int_equal(lr_scene_load_file("scenes/spheres.json", sets, 3, &s,
-                                        &err), LR_OK);
+    assert_int_equal(
+        lr_scene_load_file("scenes/spheres.json", sets, 3, &s, &err), LR_OK);
     lr_camera c;
     lr_render_settings rs;
     lr_scene_camera(s, &c);

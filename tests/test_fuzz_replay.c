@@ -61,8 +61,7 @@ static unsigned char *read_all(const char *path, size_t *len)
 }
 
 /* Feeds every regular file of DIR to fn; returns how many. */
-static size_t replay_dir(const char *dir,
-                         int (*fn)(const uint8_t *, size_t))
+static size_t replay_dir(const char *dir, int (*fn)(const uint8_t *, size_t))
 {
     DIR *d = opendir(dir);
     if (d == NULL)
@@ -168,12 +167,9 @@ static void test_job_corpus(void **state)
 }
 
 static const struct CMUnitTest fuzz_replay_tests[] = {
-    cmocka_unit_test(test_scene_corpus),
-    cmocka_unit_test(test_obj_corpus),
-    cmocka_unit_test(test_lens_corpus),
-    cmocka_unit_test(test_gltf_corpus),
-    cmocka_unit_test(test_texture_corpus),
-    cmocka_unit_test(test_job_corpus),
+    cmocka_unit_test(test_scene_corpus),   cmocka_unit_test(test_obj_corpus),
+    cmocka_unit_test(test_lens_corpus),    cmocka_unit_test(test_gltf_corpus),
+    cmocka_unit_test(test_texture_corpus), cmocka_unit_test(test_job_corpus),
 };
 
 LR_TEST_GROUP(fuzz_replay, fuzz_replay_tests)

@@ -229,20 +229,22 @@ static void test_read_settings_gltf_camera(void **state)
     FILE *f = fopen(json, "w");
     assert_non_null(f);
     fputs("{\"render\": {\"width\": 60}, \"objects\": [{\"type\": "
-          "\"gltf\", \"file\": \"../camera-light.glb\", \"camera\": true}]}", f);
+          "\"gltf\", \"file\": \"../camera-light.glb\", \"camera\": true}]}",
+          f);
     fclose(f);
     const char *paths[] = {json, glb};
     for (int k = 0; k < 2; k++) {
         lr_scene *s = NULL;
         lr_error err;
-        assert_int_equal(lr_scene_load_file(paths[k], NULL, 0, &s, &err), LR_OK);
+        assert_int_equal(lr_scene_load_file(paths[k], NULL, 0, &s, &err),
+                         LR_OK);
         lr_camera cam_full, cam;
         lr_render_settings rs_full, rs;
         lr_scene_camera(s, &cam_full);
         lr_scene_settings(s, &rs_full);
         lr_scene_free(s);
-        assert_int_equal(lr_scene_read_settings(paths[k], NULL, 0, &cam, &rs,
-                                                &err), LR_OK);
+        assert_int_equal(
+            lr_scene_read_settings(paths[k], NULL, 0, &cam, &rs, &err), LR_OK);
         assert_memory_equal(&cam, &cam_full, sizeof cam);
         assert_memory_equal(&rs, &rs_full, sizeof rs);
         if (k == 0)
@@ -260,8 +262,7 @@ static void test_camera_projection(void **state)
     assert_int_equal(rs.height, 40); /* 60 / aspectRatio 1.5 */
     lr_image *img = render(s);
     const float *z = lr_image_depth(img);
-    static const int px[][2] = {{0, 39}, {59, 39}, {30, 20}, {5, 12},
-                                {44, 30}};
+    static const int px[][2] = {{0, 39}, {59, 39}, {30, 20}, {5, 12}, {44, 30}};
     for (int i = 0; i < 5; i++) {
         double d[3], f[3];
         pixel_dir(px[i][0], px[i][1], 60, 40, d, f);
@@ -339,7 +340,8 @@ static void check_spot(lr_scene *s, double inner, double outer,
                 double got = rgb[3 * (y * 60 + x) + 1];
                 if (!(fabs(got - want) <= 1e-4 * want + 1e-7))
                     fail_msg("%s, pass %d, pixel (%d, %d): %.7g, the cone "
-                             "says %.7g", what, pass, x, y, got, want);
+                             "says %.7g",
+                             what, pass, x, y, got, want);
             }
         lr_image_free(img);
     }
@@ -384,9 +386,11 @@ static void test_spot_light(void **state)
         char json[512];
         snprintf(json, sizeof json,
                  "{\"lights\": [{\"type\": \"spot\", \"position\": [0, 2, 0],"
-                 " \"intensity\": 1, %s%s}]}", bad[i].light,
-                 strstr(bad[i].light, "direction") ? ""
-                                                   : ", \"direction\": [0, -1, 0]");
+                 " \"intensity\": 1, %s%s}]}",
+                 bad[i].light,
+                 strstr(bad[i].light, "direction")
+                     ? ""
+                     : ", \"direction\": [0, -1, 0]");
         lr_test_expect_invalid(json, strlen(json), bad[i].path, NULL);
     }
 }
@@ -440,12 +444,12 @@ static void test_material_mapping(void **state)
     double tc[3] = {m->transmit.x, m->transmit.y, m->transmit.z};
     double ec[3] = {m->emission.x, m->emission.y, m->emission.z};
     for (int k = 0; k < 3; k++) {
-        assert_true(fabs(mc[k] - 0.25 * b[k]) < 1e-12);        /* m b */
-        assert_true(fabs(dc[k] - 0.75 * 0.5 * b[k]) < 1e-12);  /* (1-m)(1-t) b */
-        assert_true(fabs(tc[k] - 0.75 * 0.5 * b[k]) < 1e-12);  /* (1-m) t b */
-        assert_true(fabs(ec[k] - 4 * e[k]) < 1e-12);           /* x strength */
+        assert_true(fabs(mc[k] - 0.25 * b[k]) < 1e-12);       /* m b */
+        assert_true(fabs(dc[k] - 0.75 * 0.5 * b[k]) < 1e-12); /* (1-m)(1-t) b */
+        assert_true(fabs(tc[k] - 0.75 * 0.5 * b[k]) < 1e-12); /* (1-m) t b */
+        assert_true(fabs(ec[k] - 4 * e[k]) < 1e-12);          /* x strength */
     }
-    assert_true(fabs(m->roughness - 0.36) < 1e-12);            /* r^2 */
+    assert_true(fabs(m->roughness - 0.36) < 1e-12); /* r^2 */
     assert_true(fabs(m->ior - 1.33) < 1e-12);
     assert_true(m->specular.x == 0 && m->shininess == 0);
     /* The spec's default material: base 1, metallic 1, roughness 1. */
@@ -476,8 +480,8 @@ static void check_textured(const char *file)
     const float *rgb = lr_image_rgb(img);
     /* Red top left, green top right, blue bottom left, white bottom
      * right: glTF's UV (0, 0) is the image's top left. */
-    static const double want[4][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1},
-                                      {1, 1, 1}};
+    static const double want[4][3] = {
+        {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {1, 1, 1}};
     static const int at[2][4][2] = {{{20, 15}, {30, 15}, {20, 25}, {30, 25}},
                                     {{50, 15}, {60, 15}, {50, 25}, {60, 25}}};
     for (int quad = 0; quad < 2; quad++)
@@ -488,9 +492,9 @@ static void check_textured(const char *file)
             for (int c = 0; c < 3; c++)
                 if (!(fabs(px[c] - want[k][c]) < 1e-3))
                     fail_msg("%s: %s quad, pixel (%d, %d): (%g, %g, %g), "
-                             "want texel %d", file,
-                             quad ? "emissive" : "base", x, y, (double)px[0],
-                             (double)px[1], (double)px[2], k);
+                             "want texel %d",
+                             file, quad ? "emissive" : "base", x, y,
+                             (double)px[0], (double)px[1], (double)px[2], k);
         }
     lr_image_free(img);
     lr_scene_free(s);
@@ -562,8 +566,9 @@ static void test_metal_texture(void **state)
                 if (!(fabs(got[0][c] - mm * b[c]) < 1e-6 &&
                       fabs(got[1][c] - (1 - mm) * b[c]) < 1e-6))
                     fail_msg("texel (%d, %d) channel %d: reflect %g diffuse "
-                             "%g, want %g and %g", x, y, c, got[0][c],
-                             got[1][c], mm * b[c], (1 - mm) * b[c]);
+                             "%g, want %g and %g",
+                             x, y, c, got[0][c], got[1][c], mm * b[c],
+                             (1 - mm) * b[c]);
             }
             assert_true(at->transmit.x == 0 && at->transmit.y == 0);
             assert_true(fabs(at->roughness - 1) < 1e-6);
@@ -578,12 +583,13 @@ static void test_metal_texture(void **state)
     make("metal-base-texture", "metal-base.glb");
     for (int k = 0; k < 2; k++) {
         char json[512];
-        snprintf(json, sizeof json,
-                 "{\"camera\": {\"position\": [0, 0, 10], \"look_at\": [0, 0, 0],"
-                 " \"fov\": %.17g}, \"render\": {\"width\": 41, \"height\": 41,"
-                 " \"spp\": 1, \"sampler\": \"grid\"}, \"background\": 1,"
-                 " \"objects\": [{\"type\": \"gltf\", \"file\": \"%s\"}]}",
-                 2 * atan(0.205) * 180 / PI, k ? "metal-base.glb" : "metal.glb");
+        snprintf(
+            json, sizeof json,
+            "{\"camera\": {\"position\": [0, 0, 10], \"look_at\": [0, 0, 0],"
+            " \"fov\": %.17g}, \"render\": {\"width\": 41, \"height\": 41,"
+            " \"spp\": 1, \"sampler\": \"grid\"}, \"background\": 1,"
+            " \"objects\": [{\"type\": \"gltf\", \"file\": \"%s\"}]}",
+            2 * atan(0.205) * 180 / PI, k ? "metal-base.glb" : "metal.glb");
         s = lr_test_load_json(json);
         lr_image *img = render(s);
         const float *rgb = lr_image_rgb(img);
@@ -592,11 +598,12 @@ static void test_metal_texture(void **state)
                 for (int c = 0; c < 3; c++) {
                     double mm = 0.5 * (k ? 1 : metal[y][x]);
                     double want = mm * base[y][x][c];
-                    double got = rgb[3 * ((15 + 10 * y) * 41 + 15 + 10 * x) + c];
+                    double got =
+                        rgb[3 * ((15 + 10 * y) * 41 + 15 + 10 * x) + c];
                     if (!(fabs(got - want) < 1e-4))
                         fail_msg("%s: rendered texel (%d, %d) channel %d: %g, "
-                                 "want m b = %g", k ? "base only" : "metal",
-                                 x, y, c, got, want);
+                                 "want m b = %g",
+                                 k ? "base only" : "metal", x, y, c, got, want);
                 }
         lr_image_free(img);
         lr_scene_free(s);
@@ -679,13 +686,15 @@ static void test_normal_map(void **state)
                                (2 * b[1] / 255.0 - 1) * 0.8,
                                2 * b[2] / 255.0 - 1};
                 double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-                double cosl = (n[0] * lt[0] + n[1] * lt[1] + n[2] * lt[2]) / len;
+                double cosl = (n[0] * lt[0] + n[1] * lt[1] + n[2] * lt[2]) /
+                              len;
                 double want = 0.5 / PI * 2 * cosl;
                 double got = rgb[3 * ((15 + 10 * y) * 41 + 15 + 10 * x)];
                 if (!(fabs(got - want) < 1e-4 * want))
                     fail_msg("%s, texel (%d, %d): %.7g, the bent normal says "
-                             "%.7g (unbent %.7g)", pass ? "path" : "whitted",
-                             x, y, got, want, 0.5 / PI * 2 * lt[2]);
+                             "%.7g (unbent %.7g)",
+                             pass ? "path" : "whitted", x, y, got, want,
+                             0.5 / PI * 2 * lt[2]);
             }
         lr_image_free(img);
     }
@@ -703,8 +712,7 @@ static cJSON *member_of(cJSON *root, const char *key, char k[128],
     char *dot1 = strchr(k, '.'), *dot2 = dot1 ? strchr(dot1 + 1, '.') : NULL;
     assert_non_null(dot2);
     *dot1 = *dot2 = '\0';
-    cJSON *o = cJSON_GetArrayItem(cJSON_GetObjectItem(root, k),
-                                  atoi(dot1 + 1));
+    cJSON *o = cJSON_GetArrayItem(cJSON_GetObjectItem(root, k), atoi(dot1 + 1));
     assert_non_null(o);
     *name = dot2 + 1;
     return o;
@@ -714,10 +722,9 @@ static cJSON *member_of(cJSON *root, const char *key, char k[128],
  * removed (unless NULL) and member `key` set to the JSON `value` (both
  * "array.index.member"), and expects loading it to fail with `status`,
  * naming `what`. */
-static void expect_bad_edit(const char *src, const char *name,
-                            const char *drop, const char *key,
-                            const char *value, lr_status status,
-                            const char *what)
+static void expect_bad_edit(const char *src, const char *name, const char *drop,
+                            const char *key, const char *value,
+                            lr_status status, const char *what)
 {
     cJSON *root = read_json(src);
     char k[128];
@@ -746,15 +753,15 @@ static void expect_bad(const char *name, const char *key, const char *value,
  * -z (fov 40) and checks the depth at four pixels, two on a quad left of
  * x = 0 and two right of it, against want(sx): sx is the pixel's ray
  * (sx, sy, -1) across, `left` says which quad. */
-static void expect_depths(const char *file, double (*want)(double sx,
-                                                           int left))
+static void expect_depths(const char *file, double (*want)(double sx, int left))
 {
     char json[400];
     snprintf(json, sizeof json,
              "{\"render\": {\"width\": 64, \"height\": 32, \"spp\": 1, "
              "\"depth\": true}, \"camera\": {\"position\": [0, 0, 5], "
              "\"look_at\": [0, 0, 0], \"fov\": 40}, \"objects\": "
-             "[{\"type\": \"gltf\", \"file\": \"%s\"}]}", file);
+             "[{\"type\": \"gltf\", \"file\": \"%s\"}]}",
+             file);
     lr_scene *s = lr_test_load_json(json);
     lr_image *img = render(s);
     const float *z = lr_image_depth(img);
@@ -766,7 +773,8 @@ static void expect_depths(const char *file, double (*want)(double sx,
         double got = z[px[i][1] * 64 + px[i][0]];
         if (!(fabs(got - w) < 1e-5 * w))
             fail_msg("%s: pixel (%d, %d): depth %.7g, the geometry says "
-                     "%.7g", file, px[i][0], px[i][1], got, w);
+                     "%.7g",
+                     file, px[i][0], px[i][1], got, w);
     }
     lr_image_free(img);
     lr_scene_free(s);
@@ -799,16 +807,20 @@ static void test_sparse_hostile(void **state)
     (void)state;
     make("tri", "tri.gltf");
     static const char *const cases[][3] = {
-        {"sp-count.gltf", "{\"count\": 4, \"indices\": {\"bufferView\": 1, "
+        {"sp-count.gltf",
+         "{\"count\": 4, \"indices\": {\"bufferView\": 1, "
          "\"componentType\": 5125}, \"values\": {\"bufferView\": 0}}",
          "accessors[0].sparse.count must be from 1 to the accessor's count"},
-        {"sp-type.gltf", "{\"count\": 3, \"indices\": {\"bufferView\": 1, "
+        {"sp-type.gltf",
+         "{\"count\": 3, \"indices\": {\"bufferView\": 1, "
          "\"componentType\": 5126}, \"values\": {\"bufferView\": 0}}",
          "accessors[0].sparse.indices.componentType must be 5121"},
-        {"sp-order.gltf", "{\"count\": 3, \"indices\": {\"bufferView\": 0, "
+        {"sp-order.gltf",
+         "{\"count\": 3, \"indices\": {\"bufferView\": 0, "
          "\"componentType\": 5125}, \"values\": {\"bufferView\": 0}}",
          "accessors[0].sparse.indices: element 1 is 0; they must increase"},
-        {"sp-past.gltf", "{\"count\": 3, \"indices\": {\"bufferView\": 1, "
+        {"sp-past.gltf",
+         "{\"count\": 3, \"indices\": {\"bufferView\": 1, "
          "\"componentType\": 5125}, \"values\": {\"bufferView\": 0, "
          "\"byteOffset\": 24}}",
          "accessors[0].sparse.values: 3 elements of 12 bytes from byte 24 "
@@ -818,8 +830,8 @@ static void test_sparse_hostile(void **state)
     for (int i = 0; i < 5; i++)
         expect_bad(cases[i][0], "accessors.0.sparse", cases[i][1],
                    LR_ERR_INVALID, cases[i][2]);
-    expect_bad_edit("tri.gltf", "zeros.gltf", "accessors.0.bufferView", "accessors.0.count",
-                    "1000000000", LR_ERR_INVALID,
+    expect_bad_edit("tri.gltf", "zeros.gltf", "accessors.0.bufferView",
+                    "accessors.0.count", "1000000000", LR_ERR_INVALID,
                     "accessors[0]: 1000000000 elements of 12 bytes to fill "
                     "in (zeros or sparse) are more than lensray allows");
     expect_bad_edit("tri.gltf", "draco.gltf", "accessors.0.bufferView",
@@ -850,15 +862,17 @@ static void test_morph_weights(void **state)
     make("morph", "morph.gltf");
     expect_depths("morph.gltf", morph_depth);
     /* Weights and targets that break the spec's rules name the field. */
-    expect_bad_edit("morph.gltf", "morph-w.gltf", NULL, "meshes.0.weights", "[1]",
-                    LR_ERR_INVALID,
+    expect_bad_edit("morph.gltf", "morph-w.gltf", NULL, "meshes.0.weights",
+                    "[1]", LR_ERR_INVALID,
                     "meshes[0].weights must be 2 numbers from -1e6 to 1e6, "
                     "one per morph target");
-    expect_bad_edit("morph.gltf", "morph-nw.gltf", NULL, "nodes.1.weights", "[1, 2, 3]",
-                    LR_ERR_INVALID, "nodes[1].weights must be 2 numbers");
+    expect_bad_edit("morph.gltf", "morph-nw.gltf", NULL, "nodes.1.weights",
+                    "[1, 2, 3]", LR_ERR_INVALID,
+                    "nodes[1].weights must be 2 numbers");
     expect_bad_edit("morph.gltf", "morph-t.gltf", NULL, "meshes.0.primitives",
                     "[{\"attributes\": {\"POSITION\": 1}, \"indices\": 0, "
-                    "\"targets\": [{\"POSITION\": 0}]}]", LR_ERR_INVALID,
+                    "\"targets\": [{\"POSITION\": 0}]}]",
+                    LR_ERR_INVALID,
                     "meshes[0].primitives[0].targets[0].POSITION: "
                     "accessors[0] must be a VEC3 of floats");
 }
@@ -871,9 +885,11 @@ static void test_points_only(void **state)
     (void)state;
     make("tri", "tri.gltf");
     cJSON *root = read_json("tri.gltf");
-    cJSON *prim = cJSON_GetArrayItem(cJSON_GetObjectItem(
-        cJSON_GetArrayItem(cJSON_GetObjectItem(root, "meshes"), 0),
-        "primitives"), 0);
+    cJSON *prim = cJSON_GetArrayItem(
+        cJSON_GetObjectItem(
+            cJSON_GetArrayItem(cJSON_GetObjectItem(root, "meshes"), 0),
+            "primitives"),
+        0);
     cJSON_AddNumberToObject(prim, "mode", 0);
     write_json("points.gltf", root);
     const char *json = "{\"objects\": [{\"type\": \"gltf\", \"file\": "
@@ -901,12 +917,12 @@ static void test_skin(void **state)
     (void)state;
     make("skin", "skin.gltf");
     expect_depths("skin.gltf", sparse_depth);
-    expect_bad_edit("skin.gltf", "skin-j.gltf", NULL, "skins.0.joints",
-                    "[0]", LR_ERR_INVALID,
+    expect_bad_edit("skin.gltf", "skin-j.gltf", NULL, "skins.0.joints", "[0]",
+                    LR_ERR_INVALID,
                     "nodes[2]: meshes[0].primitives[0].attributes.JOINTS_0: "
                     "joint 1 of a skin of 1 joints");
-    expect_bad_edit("skin.gltf", "skin-e.gltf", NULL, "skins.0.joints",
-                    "[]", LR_ERR_INVALID,
+    expect_bad_edit("skin.gltf", "skin-e.gltf", NULL, "skins.0.joints", "[]",
+                    LR_ERR_INVALID,
                     "skins[0].joints must be a non-empty array");
 }
 
@@ -926,8 +942,10 @@ static void test_mirrored_camera(void **state)
     static const char *const files[] = {"camfloor.gltf", "mirrorcam.gltf"};
     for (int k = 0; k < 2; k++) {
         char json[200];
-        snprintf(json, sizeof json, "{\"objects\": [{\"type\": \"gltf\", "
-                 "\"file\": \"%s\", \"camera\": true}]}", files[k]);
+        snprintf(json, sizeof json,
+                 "{\"objects\": [{\"type\": \"gltf\", "
+                 "\"file\": \"%s\", \"camera\": true}]}",
+                 files[k]);
         lr_scene *s = lr_test_load_json(json);
         const char *w = strstr(lr_scene_warnings(s), "mirrors the camera");
         if ((w != NULL) != (k == 1))
@@ -966,15 +984,15 @@ static void test_texture_extension_only(void **state)
     cJSON *root = read_json("textured.gltf");
     cJSON *t = cJSON_GetArrayItem(cJSON_GetObjectItem(root, "textures"), 0);
     cJSON_DeleteItemFromObject(t, "source");
-    cJSON_AddItemToObject(t, "extensions", cJSON_Parse(
-        "{\"KHR_texture_basisu\": {\"source\": 0}}"));
+    cJSON_AddItemToObject(
+        t, "extensions",
+        cJSON_Parse("{\"KHR_texture_basisu\": {\"source\": 0}}"));
     write_json("basisu.gltf", root);
     lr_scene *s = lr_test_load_json(
         "{\"objects\": [{\"type\": \"gltf\", \"file\": \"basisu.gltf\"}]}");
     if (strstr(lr_scene_warnings(s), "its texture has no source image, "
                                      "only one in KHR_texture_basisu, which "
-                                     "lensray does not read: ignored") ==
-        NULL)
+                                     "lensray does not read: ignored") == NULL)
         fail_msg("warnings: \"%s\"", lr_scene_warnings(s));
     lr_scene_free(s);
 }
@@ -1041,30 +1059,30 @@ static void test_hostile(void **state)
 {
     (void)state;
     make("tri", "tri.gltf");
-    expect_bad("count.gltf", "accessors.0.count", "1000000000",
-               LR_ERR_INVALID, "accessors[0]");
+    expect_bad("count.gltf", "accessors.0.count", "1000000000", LR_ERR_INVALID,
+               "accessors[0]");
     expect_bad("view.gltf", "accessors.1.bufferView", "99", LR_ERR_INVALID,
                "accessors[1].bufferView");
     expect_bad("offset.gltf", "bufferViews.0.byteOffset", "4000000000",
                LR_ERR_INVALID, "bufferViews[0]");
     expect_bad("missing.gltf", "buffers.0.uri", "\"missing.bin\"", LR_ERR_IO,
                "missing.bin");
-    expect_bad("abs.gltf", "buffers.0.uri", "\"/etc/passwd\"",
-               LR_ERR_INVALID, "absolute");
+    expect_bad("abs.gltf", "buffers.0.uri", "\"/etc/passwd\"", LR_ERR_INVALID,
+               "absolute");
     expect_bad("dotdot.gltf", "buffers.0.uri", "\"a/../../x.bin\"",
                LR_ERR_INVALID, "\"..\"");
     expect_bad("scheme.gltf", "buffers.0.uri", "\"file:///etc/passwd\"",
                LR_ERR_INVALID, "scheme");
     /* Percent escapes are decoded (RFC 3986), then checked like the
      * rest; an escaped slash, backslash or NUL is refused. */
-    expect_bad("dots.gltf", "buffers.0.uri", "\"%2e%2E/x.bin\"",
-               LR_ERR_INVALID, "\"..\" segment");
-    expect_bad("slash.gltf", "buffers.0.uri", "\"a%2Fb.bin\"",
-               LR_ERR_INVALID, "escapes a slash");
+    expect_bad("dots.gltf", "buffers.0.uri", "\"%2e%2E/x.bin\"", LR_ERR_INVALID,
+               "\"..\" segment");
+    expect_bad("slash.gltf", "buffers.0.uri", "\"a%2Fb.bin\"", LR_ERR_INVALID,
+               "escapes a slash");
     expect_bad("pct.gltf", "buffers.0.uri", "\"a%zz.bin\"", LR_ERR_INVALID,
                "not an escape");
-    expect_bad("space.gltf", "buffers.0.uri", "\"no%20such.bin\"",
-               LR_ERR_IO, "no such.bin: cannot open");
+    expect_bad("space.gltf", "buffers.0.uri", "\"no%20such.bin\"", LR_ERR_IO,
+               "no such.bin: cannot open");
     make("tri-spaced", "spaced.gltf");
     lr_scene *sp = lr_test_load_json(
         "{\"objects\": [{\"type\": \"gltf\", \"file\": \"spaced.gltf\"}]}");
@@ -1074,14 +1092,15 @@ static void test_hostile(void **state)
     char dir[512], link[600];
     snprintf(dir, sizeof dir, "%s/sub", lr_test_tmpdir());
     mkdir(dir, 0755);
-    lr_test_write_text("outside.bin", "0123456789012345678901234567890123"
-                                      "456789012345678",
+    lr_test_write_text("outside.bin",
+                       "0123456789012345678901234567890123"
+                       "456789012345678",
                        link, sizeof link);
     snprintf(link, sizeof link, "%s/link.bin", dir);
     unlink(link);
     assert_int_equal(symlink("../outside.bin", link), 0);
-    expect_bad("sub/link.gltf", "buffers.0.uri", "\"link.bin\"",
-               LR_ERR_INVALID, "symbolic link");
+    expect_bad("sub/link.gltf", "buffers.0.uri", "\"link.bin\"", LR_ERR_INVALID,
+               "symbolic link");
     expect_bad("cycle.gltf", "nodes.0.children", "[1]", LR_ERR_INVALID,
                "nodes[");
     expect_bad("index.gltf", "meshes.0.primitives",
@@ -1102,9 +1121,10 @@ static void test_hostile(void **state)
 
     /* A vertex that is not a number: the accessor and the element. */
     make("tri-nan", "nan.glb");
-    expect_file_error("nan.glb", LR_ERR_INVALID, "objects[0].file: nan.glb: meshes[0]."
-                                 "primitives[0].attributes.POSITION: "
-                                 "accessors[0] element 1: y is nan");
+    expect_file_error("nan.glb", LR_ERR_INVALID,
+                      "objects[0].file: nan.glb: meshes[0]."
+                      "primitives[0].attributes.POSITION: "
+                      "accessors[0] element 1: y is nan");
 
     /* An image that is no image: the error names the file, the image
      * and the material slot that uses it. */
@@ -1113,7 +1133,8 @@ static void test_hostile(void **state)
     cJSON *im = cJSON_GetArrayItem(cJSON_GetObjectItem(troot, "images"), 0);
     cJSON_DeleteItemFromObject(im, "bufferView");
     cJSON_DeleteItemFromObject(im, "mimeType");
-    cJSON_AddStringToObject(im, "uri", "data:image/png;base64,bm90IGFuIGltYWdl");
+    cJSON_AddStringToObject(im, "uri",
+                            "data:image/png;base64,bm90IGFuIGltYWdl");
     write_json("badimage.gltf", troot);
     {
         const char *json = "{\"objects\": [{\"type\": \"gltf\", "
@@ -1145,9 +1166,8 @@ static void test_hostile(void **state)
             "{\"objects\": [{\"type\": \"gltf\", \"file\": \"cut.glb\"}]}";
         lr_scene *s = NULL;
         lr_error err;
-        lr_status st = lr_scene_load_json(json, strlen(json),
-                                          lr_test_tmpdir(), NULL, 0, &s,
-                                          &err);
+        lr_status st = lr_scene_load_json(json, strlen(json), lr_test_tmpdir(),
+                                          NULL, 0, &s, &err);
         assert_null(s);
         assert_int_equal(st, LR_ERR_INVALID);
         assert_non_null(strstr(err.message, "cut.glb"));

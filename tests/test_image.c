@@ -43,9 +43,9 @@ static unsigned ref_code(double linear, unsigned max)
  * ramp, all different per channel. */
 static lr_image *make_image(int w, int h, int with_depth)
 {
-    static const float specials[] = {0.0f,  1.0f,   0.5f,  0.18f,
-                                     2.0f,  -0.5f,  0.001f, 0.0031308f,
-                                     0.01f, 0.75f,  100.0f, 1e-6f};
+    static const float specials[] = {0.0f,  1.0f,  0.5f,   0.18f,
+                                     2.0f,  -0.5f, 0.001f, 0.0031308f,
+                                     0.01f, 0.75f, 100.0f, 1e-6f};
     const size_t n_specials = sizeof specials / sizeof specials[0];
     lr_image *img = NULL;
     lr_error err;
@@ -56,8 +56,7 @@ static lr_image *make_image(int w, int h, int with_depth)
         if (i < n_specials)
             rgb[i] = specials[i];
         else
-            rgb[i] = (float)((double)(i * 7919 % 1000) / 997.0 * 1.3 -
-                             0.05);
+            rgb[i] = (float)((double)(i * 7919 % 1000) / 997.0 * 1.3 - 0.05);
     }
     if (with_depth) {
         float *z = lr_image_depth_mut(img);
@@ -99,8 +98,8 @@ static int decode_png(const void *buf, size_t len, decoded_png *out)
     assert_non_null(rd);
     rd->data = buf;
     rd->len = len;
-    png_structp png =
-        png_create_read_struct(PNG_LIBPNG_VER_STRING, NULL, NULL, NULL);
+    png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, NULL, NULL,
+                                             NULL);
     assert_non_null(png);
     png_infop info = png_create_info_struct(png);
     assert_non_null(info);
@@ -151,19 +150,19 @@ static int decode_png(const void *buf, size_t len, decoded_png *out)
 typedef struct decoded_exr {
     int width, height;
     int n_channels;
-    char names[MAX_CH][16];          /* in the file's order */
-    exr_pixel_type_t types[MAX_CH];  /* as stored in the file */
-    float *planes[MAX_CH];           /* width * height floats each */
+    char names[MAX_CH][16];         /* in the file's order */
+    exr_pixel_type_t types[MAX_CH]; /* as stored in the file */
+    float *planes[MAX_CH];          /* width * height floats each */
     exr_compression_t compression;
     int has_chroma;
     exr_attr_chromaticities_t chroma;
     exr_attr_box2i_t data_window, display_window;
-    int spp;                         /* samplesPerPixel, -1 if absent */
-    char seed[32], camera[512];      /* lensraySeed, lensrayCamera or "" */
+    int spp;                    /* samplesPerPixel, -1 if absent */
+    char seed[32], camera[512]; /* lensraySeed, lensrayCamera or "" */
 } decoded_exr;
 
-static int64_t exr_mem_read(exr_const_context_t ctxt, void *user,
-                            void *buffer, uint64_t sz, uint64_t offset,
+static int64_t exr_mem_read(exr_const_context_t ctxt, void *user, void *buffer,
+                            uint64_t sz, uint64_t offset,
                             exr_stream_error_func_ptr_t error_cb)
 {
     mem_reader *r = user;
@@ -199,8 +198,7 @@ static void decode_exr(const void *buf, size_t len, decoded_exr *out)
     init.read_fn = exr_mem_read;
     init.size_fn = exr_mem_size;
     exr_context_t ctxt = NULL;
-    assert_int_equal(exr_start_read(&ctxt, "<memory>", &init),
-                     EXR_ERR_SUCCESS);
+    assert_int_equal(exr_start_read(&ctxt, "<memory>", &init), EXR_ERR_SUCCESS);
 
     int parts = 0;
     assert_int_equal(exr_get_count(ctxt, &parts), EXR_ERR_SUCCESS);
@@ -265,8 +263,7 @@ static void decode_exr(const void *buf, size_t len, decoded_exr *out)
                    strcmp(out->names[c], ch->channel_name) != 0)
                 c++;
             assert_true(c < out->n_channels);
-            size_t first = (size_t)(ci.start_y - dw.min.y) *
-                           (size_t)out->width;
+            size_t first = (size_t)(ci.start_y - dw.min.y) * (size_t)out->width;
             ch->decode_to_ptr = (uint8_t *)(out->planes[c] + first);
             ch->user_bytes_per_element = 4;
             ch->user_data_type = EXR_PIXEL_FLOAT;
@@ -307,8 +304,8 @@ static void encode_or_fail(const lr_image *img, lr_format fmt,
 static void test_create_rejects_bad_sizes(void **state)
 {
     (void)state;
-    static const int sizes[][2] = {{0, 5}, {5, 0}, {0, 0}, {-1, 5},
-                                   {5, -3}, {INT_MIN, 1}};
+    static const int sizes[][2] = {{0, 5},  {5, 0},  {0, 0},
+                                   {-1, 5}, {5, -3}, {INT_MIN, 1}};
     for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++) {
         lr_image *img = (lr_image *)&img; /* must be reset to NULL */
         lr_error err;
@@ -378,15 +375,13 @@ static void test_format_from_path(void **state)
         assert_int_equal(f, good[i].fmt);
     }
 
-    static const char *const bad[] = {"x.jpg", "x",         "exr",
-                                      "x.exr.bak", "dir.png/x", "x.pn",
-                                      ""};
+    static const char *const bad[] = {"x.jpg",     "x",    "exr", "x.exr.bak",
+                                      "dir.png/x", "x.pn", ""};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         lr_format f;
         lr_error err;
         memset(&err, 0, sizeof err);
-        assert_int_equal(lr_format_from_path(bad[i], &f, &err),
-                         LR_ERR_INVALID);
+        assert_int_equal(lr_format_from_path(bad[i], &f, &err), LR_ERR_INVALID);
         assert_int_equal(err.status, LR_ERR_INVALID);
         char quoted[64];
         snprintf(quoted, sizeof quoted, "'%s'", bad[i]);
@@ -678,9 +673,8 @@ static void test_exr_threads_same_bytes(void **state)
         opts.exr_half = half;
         static const int counts[] = {2, 3, 8, 40};
         size_t one_len = 0;
-        void *one = exr_same_on_threads(img, &opts, counts,
-                                        sizeof counts / sizeof counts[0],
-                                        &one_len);
+        void *one = exr_same_on_threads(
+            img, &opts, counts, sizeof counts / sizeof counts[0], &one_len);
         decoded_exr d;
         decode_exr(one, one_len, &d);
         assert_int_equal(d.data_window.min.y, 7);
@@ -719,8 +713,8 @@ static void test_exr_crop_window(void **state)
     rs.spp = 37;
     rs.seed = 18446744073709551615ull;
     lr_error err;
-    assert_int_equal(lr_image_set_frame(img, 100, 50, 91, 31, &cam, &rs,
-                                        &err), LR_ERR_INVALID);
+    assert_int_equal(lr_image_set_frame(img, 100, 50, 91, 31, &cam, &rs, &err),
+                     LR_ERR_INVALID);
     assert_non_null(strstr(err.message, "does not fit"));
     lr_output_options opts;
     lr_output_options_default(&opts);
@@ -737,8 +731,8 @@ static void test_exr_crop_window(void **state)
     free_exr(&d);
     lr_free(buf);
 
-    assert_int_equal(lr_image_set_frame(img, 100, 50, 91, 30, &cam, &rs,
-                                        &err), LR_OK);
+    assert_int_equal(lr_image_set_frame(img, 100, 50, 91, 30, &cam, &rs, &err),
+                     LR_OK);
     encode_or_fail(img, LR_FORMAT_EXR, &opts, &buf, &len);
     decode_exr(buf, len, &d);
     assert_int_equal(d.width, w);
@@ -782,20 +776,20 @@ static void test_exr_half(void **state)
     /* Exact cases, in the first pixels: ties to even, clamping instead of
      * infinity, and the subnormal range. */
     static const float in[][2] = {
-        {1.0f + 0x1p-11f, 1.0f},                     /* tie, to even */
-        {1.0f + 3 * 0x1p-11f, 1.0f + 0x1p-9f},       /* tie, up to even */
+        {1.0f + 0x1p-11f, 1.0f},                       /* tie, to even */
+        {1.0f + 3 * 0x1p-11f, 1.0f + 0x1p-9f},         /* tie, up to even */
         {1.0f + 0x1p-11f + 0x1p-20f, 1.0f + 0x1p-10f}, /* above tie */
         {65504.0f, 65504.0f},
-        {65519.0f, 65504.0f},                        /* rounds down */
-        {65520.0f, 65504.0f},                        /* would be Inf */
+        {65519.0f, 65504.0f}, /* rounds down */
+        {65520.0f, 65504.0f}, /* would be Inf */
         {1e6f, 65504.0f},
         {-1e30f, -65504.0f},
-        {0x1p-14f, 0x1p-14f},                        /* smallest normal */
-        {0x1p-24f, 0x1p-24f},                        /* smallest subnormal */
-        {3 * 0x1p-25f, 0x1p-23f},                    /* tie, to even */
-        {5 * 0x1p-25f, 0x1p-23f},                    /* tie, to even */
-        {0x1p-25f, 0.0f},                            /* tie, to zero */
-        {0x1p-25f + 0x1p-35f, 0x1p-24f},             /* above tie */
+        {0x1p-14f, 0x1p-14f},            /* smallest normal */
+        {0x1p-24f, 0x1p-24f},            /* smallest subnormal */
+        {3 * 0x1p-25f, 0x1p-23f},        /* tie, to even */
+        {5 * 0x1p-25f, 0x1p-23f},        /* tie, to even */
+        {0x1p-25f, 0.0f},                /* tie, to zero */
+        {0x1p-25f + 0x1p-35f, 0x1p-24f}, /* above tie */
         {1e-10f, 0.0f},
         {-0x1p-24f, -0x1p-24f},
         {0x1.ffcp-15f, 0x1p-14f}, /* rounds up into the normals */
@@ -865,9 +859,8 @@ static void expect_exr_channels(const lr_image *img,
     else
         assert_null(exr_plane(&d, "Z"));
     for (int c = 0; c < 3; c++)
-        assert_int_equal(d.types[c], opts && opts->exr_half
-                                         ? EXR_PIXEL_HALF
-                                         : EXR_PIXEL_FLOAT);
+        assert_int_equal(d.types[c], opts && opts->exr_half ? EXR_PIXEL_HALF
+                                                            : EXR_PIXEL_FLOAT);
     free_exr(&d);
     lr_free(buf);
 }
@@ -976,18 +969,18 @@ static void test_encode_bad_arguments(void **state)
     void *buf = (void *)&buf;
     size_t len = 99;
     lr_error err;
-    assert_int_equal(lr_image_encode(NULL, LR_FORMAT_PNG, NULL, &buf, &len,
-                                     &err),
-                     LR_ERR_INVALID);
+    assert_int_equal(
+        lr_image_encode(NULL, LR_FORMAT_PNG, NULL, &buf, &len, &err),
+        LR_ERR_INVALID);
     assert_null(buf);
     assert_int_equal(len, 0);
-    assert_int_equal(lr_image_encode(img, (lr_format)42, NULL, &buf, &len,
-                                     &err),
-                     LR_ERR_INVALID);
+    assert_int_equal(
+        lr_image_encode(img, (lr_format)42, NULL, &buf, &len, &err),
+        LR_ERR_INVALID);
     assert_null(buf);
-    assert_int_equal(lr_image_encode(img, LR_FORMAT_PNG, NULL, NULL, &len,
-                                     &err),
-                     LR_ERR_INVALID);
+    assert_int_equal(
+        lr_image_encode(img, LR_FORMAT_PNG, NULL, NULL, &len, &err),
+        LR_ERR_INVALID);
     lr_image_free(img);
 }
 

@@ -13,7 +13,8 @@
 /* A wall facing the camera at z = -8, in focus, with a blurred sphere in
  * front of its left half; 64 x 48, 30 degrees. */
 static const char *wall_scene =
-    "{\"render\": {\"width\": 64, \"height\": 48, \"spp\": 4, \"max_depth\": 0},"
+    "{\"render\": {\"width\": 64, \"height\": 48, \"spp\": 4, \"max_depth\": "
+    "0},"
     " \"camera\": {\"model\": \"thinlens\", \"position\": [0, 0, 0],"
     "  \"look_at\": [0, 0, -1], \"fov\": 30, \"aperture_radius\": 0.2,"
     "  \"focus_distance\": 8},"
@@ -71,8 +72,8 @@ static void test_plan_map_is_the_render_plan(void **state)
     unsigned char *cells = NULL;
     int cols = 0, rows = 0;
     lr_error err;
-    assert_int_equal(lr_render_plan_map(s, &cam, &rs, &cells, &cols, &rows,
-                                        &err), LR_OK);
+    assert_int_equal(
+        lr_render_plan_map(s, &cam, &rs, &cells, &cols, &rows, &err), LR_OK);
     assert_int_equal(cols, 4);
     assert_int_equal(rows, 3);
     /* Its lens blocks hold exactly the pixels the render counts as
@@ -86,30 +87,30 @@ static void test_plan_map_is_the_render_plan(void **state)
     assert_int_equal(lr_render(s, &cam, &rs, &img, &st, &err), LR_OK);
     lr_image_free(img);
     print_message("plan map: %llu lens pixels; the render: %llu\n",
-                  (unsigned long long)lens,
-                  (unsigned long long)st.lens_pixels);
+                  (unsigned long long)lens, (unsigned long long)st.lens_pixels);
     assert_true(lens == st.lens_pixels);
     assert_true(lens > 0 && lens < 64 * 48);
 
     /* Without planning every block is the full simulation; a pinhole has
      * no lens anywhere. */
     rs.plan = 0;
-    assert_int_equal(lr_render_plan_map(s, &cam, &rs, &cells, &cols, &rows,
-                                        &err), LR_OK);
+    assert_int_equal(
+        lr_render_plan_map(s, &cam, &rs, &cells, &cols, &rows, &err), LR_OK);
     for (int i = 0; i < cols * rows; i++)
         assert_true(cells[i] & LR_PLAN_LENS);
     lr_free(cells);
     cam.model = LR_CAMERA_PINHOLE;
     rs.plan = 1;
-    assert_int_equal(lr_render_plan_map(s, &cam, &rs, &cells, &cols, &rows,
-                                        &err), LR_OK);
+    assert_int_equal(
+        lr_render_plan_map(s, &cam, &rs, &cells, &cols, &rows, &err), LR_OK);
     for (int i = 0; i < cols * rows; i++)
         assert_int_equal(cells[i], 0);
     lr_free(cells);
     /* Bad settings are refused, naming the field. */
     rs.spp = 0;
-    assert_int_equal(lr_render_plan_map(s, &cam, &rs, &cells, &cols, &rows,
-                                        &err), LR_ERR_INVALID);
+    assert_int_equal(
+        lr_render_plan_map(s, &cam, &rs, &cells, &cols, &rows, &err),
+        LR_ERR_INVALID);
     assert_string_equal(err.path, "render.spp");
     lr_scene_free(s);
 }

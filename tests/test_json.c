@@ -35,9 +35,9 @@ static void test_syntax_errors_stay_invalid(void **state)
     lr_scene *s = NULL;
     lr_error err;
     const char bad[] = "{\"camera\": {\"fov\": 40,}}";
-    assert_int_equal(lr_scene_load_json(bad, strlen(bad), NULL, NULL, 0, &s,
-                                        &err),
-                     LR_ERR_INVALID);
+    assert_int_equal(
+        lr_scene_load_json(bad, strlen(bad), NULL, NULL, 0, &s, &err),
+        LR_ERR_INVALID);
     assert_non_null(strstr(err.message, "invalid JSON at line 1"));
     /* A value that is not JSON is a string, so a bad number names it. */
     const char *sets[] = {"camera.fov=40deg"};
@@ -81,28 +81,32 @@ static void test_empty_text_says_empty(void **state)
 static void test_numbers_follow_rfc8259(void **state)
 {
     (void)state;
-    static const char *const bad[] = {"016", "-016", "00", "2.", "1.e3",
-                                      "-0.e1", "01.5"};
-    static const char *const good[] = {"0", "-0", "0.5", "1e2", "1E+2",
-                                       "-1.5e-3", "30", "0e0"};
+    static const char *const bad[] = {"016",  "-016",  "00",  "2.",
+                                      "1.e3", "-0.e1", "01.5"};
+    static const char *const good[] = {"0",    "-0",      "0.5", "1e2",
+                                       "1E+2", "-1.5e-3", "30",  "0e0"};
     char text[128];
     lr_scene *s = NULL;
     lr_error err;
     for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
-        snprintf(text, sizeof text, "{\"render\": {\"seed\": 1},\n"
-                 "\"camera\": {\"fov\": %s}}", bad[i]);
-        assert_int_equal(lr_scene_load_json(text, strlen(text), NULL, NULL,
-                                            0, &s, &err),
-                         LR_ERR_INVALID);
+        snprintf(text, sizeof text,
+                 "{\"render\": {\"seed\": 1},\n"
+                 "\"camera\": {\"fov\": %s}}",
+                 bad[i]);
+        assert_int_equal(
+            lr_scene_load_json(text, strlen(text), NULL, NULL, 0, &s, &err),
+            LR_ERR_INVALID);
         if (strstr(err.message, "not a JSON number") == NULL ||
             strstr(err.message, "line 2, column 19") == NULL)
             fail_msg("%s: %s", bad[i], err.message);
     }
     for (size_t i = 0; i < sizeof good / sizeof *good; i++) {
-        snprintf(text, sizeof text, "{\"description\": \"016 in a "
-                 "string\", \"render\": {\"seed\": %s}}", good[i]);
-        lr_status st = lr_scene_load_json(text, strlen(text), NULL, NULL, 0,
-                                          &s, &err);
+        snprintf(text, sizeof text,
+                 "{\"description\": \"016 in a "
+                 "string\", \"render\": {\"seed\": %s}}",
+                 good[i]);
+        lr_status st = lr_scene_load_json(text, strlen(text), NULL, NULL, 0, &s,
+                                          &err);
         /* -1.5e-3 and 1e2 load or fail on the seed's range, never on
          * the syntax. */
         if (st != LR_OK && strstr(err.message, "render.seed") == NULL)
@@ -129,8 +133,8 @@ static void expect_error(const char *json, const char *set, const char *path,
     lr_status st = lr_scene_load_json(json, strlen(json), NULL, sets,
                                       set ? 1 : 0, &s, &err);
     if (st != LR_ERR_INVALID)
-        fail_msg("%s (%s): status %d, \"%s\"", json, set ? set : "",
-                 (int)st, st == LR_OK ? "" : err.message);
+        fail_msg("%s (%s): status %d, \"%s\"", json, set ? set : "", (int)st,
+                 st == LR_OK ? "" : err.message);
     assert_null(s);
     assert_string_equal(err.path, path);
     for (size_t i = 0; want[i] != NULL; i++)
@@ -145,13 +149,15 @@ static void test_overflow_quotes_the_number(void **state)
 {
     (void)state;
     static const char *const fov[] = {"camera.fov: the number 1e400 is out "
-                                      "of range", "finite", NULL};
+                                      "of range",
+                                      "finite", NULL};
     expect_error("{\"camera\": {\"fov\": 1e400}}", NULL, "camera.fov", fov);
     expect_error(scene_json, "camera.fov=1e400", "camera.fov", fov);
     /* In an array, negative, after strings that hold digits, quotes and
      * escapes, which are not numbers. */
     static const char *const pos[] = {"camera.position[1]: the number "
-                                      "-1E+309 is out of range", NULL};
+                                      "-1E+309 is out of range",
+                                      NULL};
     expect_error("{\"description\": \"1e5 \\\"2\\\" -3\", \"camera\": "
                  "{\"fov\": 30, \"position\": [7, -1E+309, 0]}}",
                  NULL, "camera.position[1]", pos);
@@ -159,14 +165,17 @@ static void test_overflow_quotes_the_number(void **state)
                  "camera.position[1]", pos);
     /* In a field that wants no number, the range is still the problem. */
     static const char *const desc[] = {"description: the number 1e999 is "
-                                       "out of range", NULL};
+                                       "out of range",
+                                       NULL};
     expect_error("{\"description\": 1e999}", NULL, "description", desc);
     /* A long literal is cut, with "...". */
     char big[400];
     snprintf(big, sizeof big, "{\"render\": {\"width\": 1%0330d}}", 0);
-    static const char *const width[] = {"render.width: the number "
-                                        "1000000000000000000000000000000000000000"
-                                        "... is out of range", NULL};
+    static const char *const width[] = {
+        "render.width: the number "
+        "1000000000000000000000000000000000000000"
+        "... is out of range",
+        NULL};
     expect_error(big, NULL, "render.width", width);
 
     /* lr_camera_apply_json names the field under "camera" too. */

@@ -43,9 +43,9 @@ static void test_deep_nesting(void **state)
                 n += (size_t)snprintf(buf + n, cap - n, "%s", wraps[w][1]);
                 lr_scene *s = NULL;
                 lr_error err;
-                assert_int_equal(lr_scene_load_json(buf, n, NULL, NULL, 0, &s,
-                                                    &err),
-                                 LR_ERR_INVALID);
+                assert_int_equal(
+                    lr_scene_load_json(buf, n, NULL, NULL, 0, &s, &err),
+                    LR_ERR_INVALID);
                 assert_non_null(strstr(err.message, "nested deeper"));
                 /* The camera and render appliers share the parser. */
                 lr_camera cam;
@@ -136,28 +136,46 @@ static void test_huge_string(void **state)
 static void test_invalid_utf8(void **state)
 {
     (void)state;
-    static const char *const bad[] = {
-        "\xff",         "\xfe\xff",        "\xc0\x80",     "\xc1\xbf",
-        "\xe0\x80\x80", "\xed\xa0\x80",    "\xed\xbf\xbf", "\xf4\x90\x80\x80",
-        "\xf5\x80\x80\x80", "\xf8\x88\x80\x80\x80", "\x80", "\xbf",
-        "\xe2\x82",     "\xf0\x9f\x98",    "a\xc3",        "\xc3\x28"};
+    static const char *const bad[] = {"\xff",
+                                      "\xfe\xff",
+                                      "\xc0\x80",
+                                      "\xc1\xbf",
+                                      "\xe0\x80\x80",
+                                      "\xed\xa0\x80",
+                                      "\xed\xbf\xbf",
+                                      "\xf4\x90\x80\x80",
+                                      "\xf5\x80\x80\x80",
+                                      "\xf8\x88\x80\x80\x80",
+                                      "\x80",
+                                      "\xbf",
+                                      "\xe2\x82",
+                                      "\xf0\x9f\x98",
+                                      "a\xc3",
+                                      "\xc3\x28"};
     static const struct {
         const char *tmpl, *path;
     } where[] = {
         {"{\"description\": \"%s\"}", "description"},
         {"{\"camera\": {\"model\": \"%s\"}}", "camera.model"},
-        {"{\"camera\": {\"chromatic\": {\"glass\": \"x%s\"}}}", "camera.chromatic.glass"},
+        {"{\"camera\": {\"chromatic\": {\"glass\": \"x%s\"}}}",
+         "camera.chromatic.glass"},
         {"{\"render\": {\"sampler\": \"%s\"}}", "render.sampler"},
         {"{\"materials\": {\"%s\": {}}}", "materials."},
         {"{\"materials\": {\"m\": {\"%s\": 1}}}", "materials.m."},
         {"{\"lights\": [{\"type\": \"%s\"}]}", "lights[0].type"},
-        {"{\"objects\": [{\"type\": \"mesh\", \"file\": \"%s.obj\"}]}", "objects[0].file"},
-        {"{\"objects\": [{\"type\": \"sphere\", \"material\": \"%s\"}]}", "objects[0].material"},
+        {"{\"objects\": [{\"type\": \"mesh\", \"file\": \"%s.obj\"}]}",
+         "objects[0].file"},
+        {"{\"objects\": [{\"type\": \"sphere\", \"material\": \"%s\"}]}",
+         "objects[0].material"},
         {"{\"%s\": 1}", ""},
         {"{\"camera\": {\"%s\": 1}}", "camera."},
-        {"{\"camera\": {\"chromatic\": {\"abbe\": {\"%s\": 1}}}}", "camera.chromatic.abbe."},
-        {"{\"objects\": [{\"type\": \"sphere\", \"transform\": [{\"%s\": 1}]}]}", "objects[0].transform[0]."},
-        {"{\"description\": [\"ok\", {\"deep\": [\"%s\"]}]}", "description[1].deep[0]"},
+        {"{\"camera\": {\"chromatic\": {\"abbe\": {\"%s\": 1}}}}",
+         "camera.chromatic.abbe."},
+        {"{\"objects\": [{\"type\": \"sphere\", \"transform\": [{\"%s\": "
+         "1}]}]}",
+         "objects[0].transform[0]."},
+        {"{\"description\": [\"ok\", {\"deep\": [\"%s\"]}]}",
+         "description[1].deep[0]"},
     };
     size_t tried = 0;
     for (size_t w = 0; w < sizeof where / sizeof where[0]; w++)
@@ -175,9 +193,10 @@ static void test_invalid_utf8(void **state)
         }
     /* Valid UTF-8 of every length passes: 2, 3 and 4 bytes, escaped
      * surrogate pairs, U+FFFF and U+10FFFF. */
-    const char *good = "{\"description\": \"\xc3\xa9\xe2\x82\xac\xf0\x9f\x98\x80"
-                       "\\ud83d\\ude00\xef\xbf\xbf\xf4\x8f\xbf\xbf\","
-                       " \"materials\": {\"\xc3\xa9t\xc3\xa9\": {}}}";
+    const char *good =
+        "{\"description\": \"\xc3\xa9\xe2\x82\xac\xf0\x9f\x98\x80"
+        "\\ud83d\\ude00\xef\xbf\xbf\xf4\x8f\xbf\xbf\","
+        " \"materials\": {\"\xc3\xa9t\xc3\xa9\": {}}}";
     lr_scene_free(lr_test_load_json(good));
     /* Overrides are checked the same way. */
     const char *sets[] = {"description=\xff"};

@@ -79,8 +79,10 @@ static lr_scene *lens_cam(const char *lens, const char *camera_extra,
 
 /* The singlet focused 2 m away with a sphere far behind: the set-up of
  * the footprint and lost-ray tests. */
-#define SINGLET_AT_2M singlet, ", \"focus_distance\": 2", \
-    "[{\"type\": \"sphere\", \"center\": [0, 0, -50], \"radius\": 1}]", 64, 64
+#define SINGLET_AT_2M                                                       \
+    singlet, ", \"focus_distance\": 2",                                     \
+        "[{\"type\": \"sphere\", \"center\": [0, 0, -50], \"radius\": 1}]", \
+        64, 64
 
 /* Thin singlet: the footprint of the rays from the centre of the film on
  * a plane at distance Z from the sensor is a disk of radius
@@ -110,8 +112,8 @@ static void test_thin_singlet_matches_thin_lens(void **state)
             for (int j = 0; j < 200; j++) {
                 double u[2] = {(i + 0.5) / 200, (j + 0.5) / 200};
                 lr__v3 o, d;
-                double wt = lr__cam_lens_ray(&c, 32.0, 32.0, u, c.w,
-                                             c.nm_ref, &o, &d);
+                double wt = lr__cam_lens_ray(&c, 32.0, 32.0, u, c.w, c.nm_ref,
+                                             &o, &d);
                 if (wt == 0.0)
                     continue;
                 double t = (-Zm / 1000.0 - o.z) / d.z;
@@ -222,8 +224,8 @@ static void test_white_surround_big_rear_stop(void **state)
                    "\"air\", \"semi_aperture\": 10},"
                    " {\"stop\": true, \"thickness\": 45, "
                    "\"semi_aperture\": 100}]}",
-                   ", \"focus_distance\": 5, \"f_number\": 128", 9, 64,
-                   &centre, &corner);
+                   ", \"focus_distance\": 5, \"f_number\": 128", 9, 64, &centre,
+                   &corner);
     assert_true(fabs(centre - 1.0) < 0.02);
 }
 
@@ -369,8 +371,8 @@ static double brute_irradiance(const lr__cam *c, double xs, double ys)
                 for (int a = 0; a < 3; a++)
                     d[a] /= len;
                 double o[3] = {xs, ys, lc->z_sensor}, ct = -d[2];
-                if (!lr__rx_trace_n(&L->rx, L->z, lc->n_ref, lc->stop_scale,
-                                    0, o, d))
+                if (!lr__rx_trace_n(&L->rx, L->z, lc->n_ref, lc->stop_scale, 0,
+                                    o, d))
                     continue;
                 E += ct * ct * ct * ct / (Z * Z) * cw * ch;
                 bx0 = fmin(bx0, qx), bx1 = fmax(bx1, qx);
@@ -414,8 +416,14 @@ static void check_irradiance(const char *lens, double f_number, int points)
         uint64_t rng = 0x9E3779B97F4A7C15ull + (uint64_t)k;
         for (int i = 0; i < M; i++)
             for (int j = 0; j < M; j++) {
-                double r1 = ((rng = rng * 6364136223846793005ull + 1442695040888963407ull) >> 11) * 0x1p-53;
-                double r2 = ((rng = rng * 6364136223846793005ull + 1442695040888963407ull) >> 11) * 0x1p-53;
+                double r1 = ((rng = rng * 6364136223846793005ull +
+                                    1442695040888963407ull) >>
+                             11) *
+                            0x1p-53;
+                double r2 = ((rng = rng * 6364136223846793005ull +
+                                    1442695040888963407ull) >>
+                             11) *
+                            0x1p-53;
                 double u[2] = {(i + r1) / M, (j + r2) / M};
                 lr__v3 org, dir;
                 sum += lr__cam_lens_ray(&c, fx, fy, u, c.w, c.nm_ref, &org,
@@ -429,8 +437,14 @@ static void check_irradiance(const char *lens, double f_number, int points)
             float fx16[16], fy16[16], lu[16], lv[16], wt[16];
             for (int l = 0; l < 16; l++) {
                 int q = i + l;
-                double r1 = ((rng = rng * 6364136223846793005ull + 1442695040888963407ull) >> 11) * 0x1p-53;
-                double r2 = ((rng = rng * 6364136223846793005ull + 1442695040888963407ull) >> 11) * 0x1p-53;
+                double r1 = ((rng = rng * 6364136223846793005ull +
+                                    1442695040888963407ull) >>
+                             11) *
+                            0x1p-53;
+                double r2 = ((rng = rng * 6364136223846793005ull +
+                                    1442695040888963407ull) >>
+                             11) *
+                            0x1p-53;
                 fx16[l] = (float)fx, fy16[l] = (float)fy;
                 lu[l] = (float)((q % M + r1) / M);
                 lv[l] = (float)((q / M + r2) / M);
@@ -447,8 +461,8 @@ static void check_irradiance(const char *lens, double f_number, int points)
                           "camera %.5f (packets %.5f), integral %.5f\n",
                           lr_lens_name(lc->L), f_number, t, got, got16, want);
         if (want > 0.01)
-            worst = fmax(worst, fmax(fabs(got / want - 1),
-                                     fabs(got16 / want - 1)));
+            worst = fmax(worst,
+                         fmax(fabs(got / want - 1), fabs(got16 / want - 1)));
     }
     assert_true(worst < 0.01);
     lr_scene_free(s);
@@ -464,8 +478,8 @@ static void test_packets_together_as_alone(void **state)
     (void)state;
     lr_camera cam;
     lr__cam c;
-    lr_scene *s = lens_cam("\"double-gauss-50\"", ", \"f_number\": 0",
-                           "[]", 300, 200, &cam, &c);
+    lr_scene *s = lens_cam("\"double-gauss-50\"", ", \"f_number\": 0", "[]",
+                           300, 200, &cam, &c);
     assert_non_null(c.model->rays16_n);
     enum { NP = 6 }; /* more than rays16_n takes at once */
     float fx[NP][16], fy[NP][16], lu[NP][16], lv[NP][16];
@@ -490,8 +504,7 @@ static void test_packets_together_as_alone(void **state)
     int stopped = 0;
     for (int p = 0; p < NP; p++) {
         memset(&rh1, 0, sizeof rh1);
-        c.model->rays16(&c, 1, ns[p], fx[p], fy[p], lu[p], lv[p], &rh1,
-                        wt1);
+        c.model->rays16(&c, 1, ns[p], fx[p], fy[p], lu[p], lv[p], &rh1, wt1);
         for (int l = 0; l < ns[p]; l++) {
             assert_memory_equal(&wt[p][l], &wt1[l], sizeof(float));
             stopped += wt1[l] == 0.0f;
@@ -560,9 +573,9 @@ static int brute_passes(const lr__cam *c, const double *const *ns, int nn,
 /* Every point of a g x g grid (cell centres) from (x0, y0): the box of
  * those that pass and their cos^4 summed in row order; with pts, also
  * the points (2 g^2 doubles), *np of them. */
-static brute_box brute_grid(const lr__cam *c, const double *const *ns,
-                            int nn, double r, double x0, double y0,
-                            double cw, double ch, int g, double *pts, int *np)
+static brute_box brute_grid(const lr__cam *c, const double *const *ns, int nn,
+                            double r, double x0, double y0, double cw,
+                            double ch, int g, double *pts, int *np)
 {
     brute_box b = {INFINITY, -INFINITY, INFINITY, -INFINITY, 0};
     for (int iy = 0; iy < g; iy++)
@@ -581,8 +594,8 @@ static brute_box brute_grid(const lr__cam *c, const double *const *ns,
     return b;
 }
 
-static lr__pupil brute_pupil(const lr__cam *c, const double *const *ns,
-                             int nn, double r, double *E0)
+static lr__pupil brute_pupil(const lr__cam *c, const double *const *ns, int nn,
+                             double r, double *E0)
 {
     const lr__lens_cam *lc = &c->lens;
     const lr_lens *L = lc->L;
@@ -651,8 +664,8 @@ static void check_pupil_table(const char *lens, const char *extra, int step)
         if (k > 1 && k < LR__PUPIL_N - 1 && k % step != 0)
             continue;
         double E0;
-        lr__pupil want = brute_pupil(&c, ns, nn, lc->pupil_rmax * k /
-                                                     LR__PUPIL_N, &E0);
+        lr__pupil want = brute_pupil(&c, ns, nn,
+                                     lc->pupil_rmax * k / LR__PUPIL_N, &E0);
         if (k == 0)
             assert_memory_equal(&lc->inv_E0,
                                 &(double){E0 > 0.0 ? 1.0 / E0 : 0.0},
@@ -661,7 +674,8 @@ static void check_pupil_table(const char *lens, const char *extra, int step)
         if (memcmp(&want, &lc->pupil[k], sizeof want) != 0)
             fail_msg("%s %s: film radius %d/%d: bounds (%.17g %.17g %.17g "
                      "%.17g), the exhaustive search's (%.17g %.17g %.17g "
-                     "%.17g)", lens, extra, k, LR__PUPIL_N, lc->pupil[k].cx,
+                     "%.17g)",
+                     lens, extra, k, LR__PUPIL_N, lc->pupil[k].cx,
                      lc->pupil[k].rad, lc->pupil[k].hx, lc->pupil[k].hy,
                      want.cx, want.rad, want.hx, want.hy);
     }
@@ -671,25 +685,37 @@ static void check_pupil_table(const char *lens, const char *extra, int step)
 
 /* Every shipped lens (lenses/). */
 static const char *const shipped_lenses[] = {
-    "biotar-de485798-100mm-f1.4", "double-gauss-50",
-    "double-gauss-angenieux-us2701982-100mm-f1.1", "fisheye-10",
+    "biotar-de485798-100mm-f1.4",
+    "double-gauss-50",
+    "double-gauss-angenieux-us2701982-100mm-f1.1",
+    "fisheye-10",
     "fisheye-minolta-us4256373-16mm-f2.8",
-    "objective-us8879901-36mm-f2", "petzval-kodak-us2500046-100mm-f2.2",
-    "petzval", "planar-rudolph-us583336-49mm-f4.5",
+    "objective-us8879901-36mm-f2",
+    "petzval-kodak-us2500046-100mm-f2.2",
+    "petzval",
+    "planar-rudolph-us583336-49mm-f4.5",
     "retrofocus-flektagon-de953471-35mm-f2.8",
-    "retrofocus-nikon-us3583791-100mm-f2.8", "sonnar-us1975678-50mm-f1.5",
-    "telephoto-250", "telephoto-laikin-127mm-f5.6",
-    "tessar-laikin-102mm-f4.5", "wide-170deg-laikin-5mm-f1.8", "wide-22",
-    "zoom-nikkor-us4189212-25mm-f4", "zoom-nikkor-us4189212-35mm-f4",
-    "zoom-nikkor-us4189212-49mm-f4.4", "zoom-nikkor-z-14-30mm-f4-at-14mm",
-    "zoom-nikon-jp53131852-200mm-f2.8", "zoom-nikon-jp53131852-80mm-f2.8",
+    "retrofocus-nikon-us3583791-100mm-f2.8",
+    "sonnar-us1975678-50mm-f1.5",
+    "telephoto-250",
+    "telephoto-laikin-127mm-f5.6",
+    "tessar-laikin-102mm-f4.5",
+    "wide-170deg-laikin-5mm-f1.8",
+    "wide-22",
+    "zoom-nikkor-us4189212-25mm-f4",
+    "zoom-nikkor-us4189212-35mm-f4",
+    "zoom-nikkor-us4189212-49mm-f4.4",
+    "zoom-nikkor-z-14-30mm-f4-at-14mm",
+    "zoom-nikon-jp53131852-200mm-f2.8",
+    "zoom-nikon-jp53131852-80mm-f2.8",
 };
 
 static void test_pupil_table_exact(void **state)
 {
     (void)state;
     char name[128];
-    for (size_t i = 0; i < sizeof shipped_lenses / sizeof *shipped_lenses; i++) {
+    for (size_t i = 0; i < sizeof shipped_lenses / sizeof *shipped_lenses;
+         i++) {
         snprintf(name, sizeof name, "\"%s\"", shipped_lenses[i]);
         check_pupil_table(name, ", \"focus_distance\": 5", 8);
     }
@@ -697,10 +723,12 @@ static void test_pupil_table_exact(void **state)
                       ", \"focus_distance\": 1, \"f_number\": 2", 1);
     check_pupil_table("\"double-gauss-50\"",
                       ", \"focus_distance\": 0.6, \"f_number\": 2.8,"
-                      " \"chromatic\": {\"mode\": \"rgb\"}", 4);
+                      " \"chromatic\": {\"mode\": \"rgb\"}",
+                      4);
     check_pupil_table("\"wide-22\"",
                       ", \"focus_distance\": 10, \"f_number\": 8,"
-                      " \"chromatic\": {\"mode\": \"spectral\"}", 4);
+                      " \"chromatic\": {\"mode\": \"spectral\"}",
+                      4);
     /* Stopped down past the coarse grid's cells (its finer grids). */
     check_pupil_table("\"double-gauss-50\"",
                       ", \"focus_distance\": 10, \"f_number\": 64", 8);
@@ -719,8 +747,8 @@ static void check_front_disk(const char *lens)
 {
     lr_camera cam;
     lr__cam c;
-    lr_scene *s = lens_cam(lens, ", \"focus_distance\": 5", "[]", 16, 16,
-                           &cam, &c);
+    lr_scene *s = lens_cam(lens, ", \"focus_distance\": 5", "[]", 16, 16, &cam,
+                           &c);
     const lr_lens *L = c.lens.L;
     const lr__surface *s0 = &L->rx.s[0];
     double a = s0->semi_aperture, sag = a;
@@ -731,16 +759,17 @@ static void check_front_disk(const char *lens)
     double bound = lr__lens_front_slope(L), rho = a + sag * bound;
     assert_true(bound > 0.0 && bound < 40.0);
     uint64_t rng = 0x2545F4914F6CDD1Dull;
-#define RND() (((rng = rng * 6364136223846793005ull + \
-                      1442695040888963407ull) >> 11) * 0x1p-53)
+#define RND()                                                                \
+    (((rng = rng * 6364136223846793005ull + 1442695040888963407ull) >> 11) * \
+     0x1p-53)
     int through = 0, missed = 0;
     const double nms[3] = {LR__NM_d, 400.0, 700.0};
     for (int w = 0; w < 3; w++) {
         double n[LR__RX_MAX_SURFACES];
         lr__rx_indices(&L->rx, nms[w], n);
         for (int i = 0; i < 100000; i++) {
-            double sl = (i & 1) ? 13.0 * RND() : fmin(1.3 * bound, 13.0) *
-                                                     RND();
+            double sl = (i & 1) ? 13.0 * RND()
+                                : fmin(1.3 * bound, 13.0) * RND();
             double phi = 2.0 * M_PI * RND();
             double R = a + sag * sl, r = R * sqrt(RND()), t = 2 * M_PI * RND();
             double ox = r * cos(t), oy = r * sin(t);
@@ -760,14 +789,15 @@ static void check_front_disk(const char *lens)
             if (hypot(ox, oy) > rho)
                 fail_msg("%s: a ray of slope %g through (%g, %g), %g mm "
                          "from the axis, gets through; the disk is %g mm "
-                         "(slope bound %g)", lens, sl, ox, oy,
-                         hypot(ox, oy), rho, bound);
+                         "(slope bound %g)",
+                         lens, sl, ox, oy, hypot(ox, oy), rho, bound);
         }
     }
 #undef RND
     if (missed > 0)
         print_message("%s: slope bound 4 (the former one): %d of %d rays "
-                      "through miss the disk\n", lens, missed, through);
+                      "through miss the disk\n",
+                      lens, missed, through);
     assert_true(through > 100);
     lr_scene_free(s);
 }
@@ -843,8 +873,8 @@ static double beam_centroid(const lr__cam *c, double deg, double nm)
             double d[3] = {-sin(th), 0, cos(th)};
             /* Back along the ray to just before the first vertex. */
             o[0] -= d[0] * 100, o[2] -= d[2] * 100;
-            if (!lr__rx_trace_n(&L->rx, L->z, n_after, c->lens.stop_scale, 1,
-                                o, d))
+            if (!lr__rx_trace_n(&L->rx, L->z, n_after, c->lens.stop_scale, 1, o,
+                                d))
                 continue;
             double t = (c->lens.z_sensor - o[2]) / d[2];
             sx += o[0] + t * d[0];

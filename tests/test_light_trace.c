@@ -26,9 +26,12 @@ static const char *discs_scene =
     " \"materials\": {\"a\": {\"emission\": [300, 200, 100]},"
     "   \"b\": {\"emission\": [60, 90, 400]}},"
     " \"objects\": ["
-    "  {\"type\": \"sphere\", \"center\": [-10, 4, -30], \"radius\": 0.15, \"material\": \"a\"},"
-    "  {\"type\": \"sphere\", \"center\": [2, -5, -40], \"radius\": 0.2, \"material\": \"b\"},"
-    "  {\"type\": \"sphere\", \"center\": [14, 6, -50], \"radius\": 0.25, \"material\": \"a\"}]}";
+    "  {\"type\": \"sphere\", \"center\": [-10, 4, -30], \"radius\": 0.15, "
+    "\"material\": \"a\"},"
+    "  {\"type\": \"sphere\", \"center\": [2, -5, -40], \"radius\": 0.2, "
+    "\"material\": \"b\"},"
+    "  {\"type\": \"sphere\", \"center\": [14, 6, -50], \"radius\": 0.25, "
+    "\"material\": \"a\"}]}";
 
 static double sum_box(const lr_image *img, int x0, int y0, int x1, int y1,
                       int c)
@@ -55,8 +58,8 @@ static void boxes_agree(const lr_image *li, const lr_image *ci,
                 print_message("%s %d: light side %.6g, camera %.6g (%.4f)\n",
                               what, k, x, y, x / y);
             if (!(fabs(x / y - 1.0) < tol[k]))
-                fail_msg("%s %d channel %d: light side %.6g, camera %.6g",
-                         what, k, c, x, y);
+                fail_msg("%s %d channel %d: light side %.6g, camera %.6g", what,
+                         k, c, x, y);
         }
 }
 
@@ -77,7 +80,8 @@ static double film_integral(lr__v3 eye, lr__v3 fwd, double R, lr__v3 c,
     double total = 0.0, wsum = 0.0;
     for (int i = 0; i < NR; i++)
         for (int j = 0; j < NA; j++) {
-            double rr = R * sqrt((i + 0.5) / NR), ph = 2 * M_PI * (j + 0.5) / NA;
+            double rr = R * sqrt((i + 0.5) / NR),
+                   ph = 2 * M_PI * (j + 0.5) / NA;
             lr__v3 P = v3_add(eye, v3_add(v3_scale(right, rr * cos(ph)),
                                           v3_scale(up, rr * sin(ph))));
             lr__v3 d = v3_sub(c, P);
@@ -85,8 +89,8 @@ static double film_integral(lr__v3 eye, lr__v3 fwd, double R, lr__v3 c,
             lr__v3 a = v3_scale(d, 1.0 / dist);
             double sin2 = r * r / (dist * dist);
             double omc = sin2 / (1.0 + sqrt(1.0 - sin2));
-            lr__v3 t1 = v3_norm(v3_cross(a, fabs(a.x) < 0.9 ? v3(1, 0, 0)
-                                                             : v3(0, 1, 0)));
+            lr__v3 t1 = v3_norm(
+                v3_cross(a, fabs(a.x) < 0.9 ? v3(1, 0, 0) : v3(0, 1, 0)));
             lr__v3 t2 = v3_cross(a, t1);
             double cone = 0.0;
             for (int k = 0; k < NT; k++)
@@ -126,18 +130,18 @@ static void test_disc_energy_closed_form(void **state)
         {{14, 6, -50}, 0.25, 300, {60, 0, 96, 32}},
     };
     for (int k = 0; k < 3; k++) {
-        double want = film_integral(v3(0, 0, 10), v3(0, 0, -1), 0.6,
-                                    v3(lights[k].c[0], lights[k].c[1],
-                                       lights[k].c[2]),
-                                    lights[k].r, lights[k].L, fpx);
+        double want = film_integral(
+            v3(0, 0, 10), v3(0, 0, -1), 0.6,
+            v3(lights[k].c[0], lights[k].c[1], lights[k].c[2]), lights[k].r,
+            lights[k].L, fpx);
         double got = sum_box(img, lights[k].box[0], lights[k].box[1],
                              lights[k].box[2], lights[k].box[3], 0);
         print_message("light %d: film integral %.6g, closed form %.6g "
                       "(%.5f)\n",
                       k, got, want, got / want);
         if (!(fabs(got / want - 1.0) < 0.005))
-            fail_msg("light %d: its image holds %.6g, the closed form %.6g",
-                     k, got, want);
+            fail_msg("light %d: its image holds %.6g, the closed form %.6g", k,
+                     got, want);
     }
     lr_test_check_finite(img, &st, "discs");
     lr_image_free(img);
@@ -157,8 +161,7 @@ static void test_light_and_camera_agree(void **state)
     lr_image *li = lr_test_render(discs_scene, lsets, 1, NULL);
     lr_image *ci = lr_test_render(discs_scene, csets, 4, &sc);
     assert_int_equal(sc.light_lights, 0);
-    const int boxes[3][4] = {{0, 0, 40, 32}, {30, 32, 70, 64},
-                             {60, 0, 96, 32}};
+    const int boxes[3][4] = {{0, 0, 40, 32}, {30, 32, 70, 64}, {60, 0, 96, 32}};
     const double tol[3] = {0.025, 0.025, 0.025};
     boxes_agree(li, ci, boxes, tol, 3, "disc");
     /* Pixel by pixel: the two differ by the camera's noise only. */
@@ -205,11 +208,12 @@ static void assert_region_is_frame(const lr_image *full, const lr_image *crop,
         for (int x = 0; x < crop->width; x++)
             for (int k = 0; k < 3; k++) {
                 float f = full->rgb[3 * ((size_t)(y + y0) * full->width +
-                                         (size_t)(x + x0)) + k];
+                                         (size_t)(x + x0)) +
+                                    k];
                 float c = crop->rgb[3 * ((size_t)y * crop->width + x) + k];
                 if (memcmp(&f, &c, sizeof f) != 0)
-                    fail_msg("%s pixel (%d, %d): %g, full frame %g", what, x,
-                             y, c, f);
+                    fail_msg("%s pixel (%d, %d): %g, full frame %g", what, x, y,
+                             c, f);
             }
 }
 
@@ -360,9 +364,12 @@ static void test_real_lens_agrees_with_camera(void **state)
         "  \"sensor_width_mm\": 36, \"focus_distance\": 0.6},"
         " \"materials\": {\"l\": {\"emission\": [200, 150, 100]}},"
         " \"objects\": ["
-        "  {\"type\": \"sphere\", \"center\": [0, 0, -40], \"radius\": 0.8, \"material\": \"l\"},"
-        "  {\"type\": \"sphere\", \"center\": [-11, 6, -40], \"radius\": 0.8, \"material\": \"l\"},"
-        "  {\"type\": \"sphere\", \"center\": [11, -6, -40], \"radius\": 0.8, \"material\": \"l\"}]}";
+        "  {\"type\": \"sphere\", \"center\": [0, 0, -40], \"radius\": 0.8, "
+        "\"material\": \"l\"},"
+        "  {\"type\": \"sphere\", \"center\": [-11, 6, -40], \"radius\": 0.8, "
+        "\"material\": \"l\"},"
+        "  {\"type\": \"sphere\", \"center\": [11, -6, -40], \"radius\": 0.8, "
+        "\"material\": \"l\"}]}";
     const char *lsets[] = {"render.spp=1024"};
     const char *csets[] = {"render.spp=2048", "render.light=false",
                            "render.plan=false", "render.adaptive=false"};
@@ -377,14 +384,14 @@ static void test_real_lens_agrees_with_camera(void **state)
                            boxes[k][3], 0);
         double b = sum_box(ci, boxes[k][0], boxes[k][1], boxes[k][2],
                            boxes[k][3], 0);
-        print_message("lens disc %d: light side %.6g, camera %.6g (%.4f)\n",
-                      k, a, b, a / b);
+        print_message("lens disc %d: light side %.6g, camera %.6g (%.4f)\n", k,
+                      a, b, a / b);
         if (!(b > 0.0 && fabs(a / b - 1.0) < 0.04))
             fail_msg("lens disc %d: light side %.6g, camera %.6g", k, a, b);
     }
     double ma = sum_box(li, 0, 0, 64, 48, 0), mb = sum_box(ci, 0, 0, 64, 48, 0);
-    print_message("lens frame: light side %.6g, camera %.6g (%.4f)\n", ma,
-                  mb, ma / mb);
+    print_message("lens frame: light side %.6g, camera %.6g (%.4f)\n", ma, mb,
+                  ma / mb);
     assert_true(fabs(ma / mb - 1.0) < 0.02);
     lr_test_check_finite(li, &sl, "lens light side");
     lr_image_free(li);
@@ -410,7 +417,8 @@ static double tri_film_integral(double R, lr__v3 a, lr__v3 b, lr__v3 c,
     double total = 0.0;
     for (int i = 0; i < NR; i++)
         for (int j = 0; j < NA; j++) {
-            double rr = R * sqrt((i + 0.5) / NR), ph = 2 * M_PI * (j + 0.5) / NA;
+            double rr = R * sqrt((i + 0.5) / NR),
+                   ph = 2 * M_PI * (j + 0.5) / NA;
             lr__v3 P = v3_add(eye, v3(rr * cos(ph), rr * sin(ph), 0));
             double sum = 0.0;
             for (int k = 0; k < NT; k++)
@@ -453,7 +461,8 @@ static void test_mesh_lights_closed_form(void **state)
              " \"materials\": {\"a\": {\"emission\": [300, 200, 100]}},"
              " \"objects\": ["
              "  {\"type\": \"mesh\", \"file\": \"%s\", \"material\": \"a\"},"
-             "  {\"type\": \"triangle\", \"vertices\": [[2, -5, -40], [2.4, -5, -40],"
+             "  {\"type\": \"triangle\", \"vertices\": [[2, -5, -40], [2.4, "
+             "-5, -40],"
              "   [2.2, -4.6, -40]], \"material\": \"a\"}]}",
              obj);
     const char *lsets[] = {"render.spp=256"};
@@ -463,11 +472,10 @@ static void test_mesh_lights_closed_form(void **state)
     double fpx = 0.5 * 64 / tan(20.0 * M_PI / 180.0);
     lr__v3 q[4] = {v3(-10.15, 3.9, -30.03), v3(-9.85, 3.9, -30.03),
                    v3(-9.85, 4.1, -29.97), v3(-10.15, 4.1, -29.97)};
-    double want[2] = {
-        tri_film_integral(0.6, q[0], q[1], q[2], 300, fpx) +
-            tri_film_integral(0.6, q[0], q[2], q[3], 300, fpx),
-        tri_film_integral(0.6, v3(2, -5, -40), v3(2.4, -5, -40),
-                          v3(2.2, -4.6, -40), 300, fpx)};
+    double want[2] = {tri_film_integral(0.6, q[0], q[1], q[2], 300, fpx) +
+                          tri_film_integral(0.6, q[0], q[2], q[3], 300, fpx),
+                      tri_film_integral(0.6, v3(2, -5, -40), v3(2.4, -5, -40),
+                                        v3(2.2, -4.6, -40), 300, fpx)};
     int boxes[2][4] = {{0, 0, 40, 32}, {30, 32, 70, 64}};
     const char *names[] = {"quad mesh", "triangle"};
     for (int k = 0; k < 2; k++) {
@@ -491,13 +499,16 @@ static const char *glint_scene =
     " \"camera\": {\"model\": \"thinlens\", \"position\": [0, 2, 2],"
     "  \"look_at\": [0, 0, -1], \"fov\": 30, \"aperture_radius\": 0.1,"
     "  \"focus_distance\": 0.6},"
-    " \"materials\": {\"g\": {\"reflect\": [0.9, 0.8, 0.6], \"roughness\": 0.05},"
+    " \"materials\": {\"g\": {\"reflect\": [0.9, 0.8, 0.6], \"roughness\": "
+    "0.05},"
     "   \"l\": {\"emission\": 3000}},"
     " \"objects\": ["
     "  {\"type\": \"plane\", \"point\": [0, 0, -2], \"normal\": [0, 1, 0],"
     "   \"size\": [8, 8], \"material\": \"g\"},"
-    "  {\"type\": \"sphere\", \"center\": [-0.6, 1.2, -3.5], \"radius\": 0.02, \"material\": \"l\"},"
-    "  {\"type\": \"sphere\", \"center\": [0.7, 0.9, -4], \"radius\": 0.02, \"material\": \"l\"}]}";
+    "  {\"type\": \"sphere\", \"center\": [-0.6, 1.2, -3.5], \"radius\": 0.02, "
+    "\"material\": \"l\"},"
+    "  {\"type\": \"sphere\", \"center\": [0.7, 0.9, -4], \"radius\": 0.02, "
+    "\"material\": \"l\"}]}";
 
 /* The glints from the light side (their cores; the camera keeps the
  * tails and everything else) against the camera alone, every sample
@@ -521,8 +532,10 @@ static void test_glints_agree_with_camera(void **state)
                   (unsigned long long)sl.light_paths,
                   (unsigned long long)sl.light_landed);
     assert_true(sl.light_lights >= 2);
-    const int boxes[5][4] = {{0, 0, 24, 18}, {24, 0, 48, 18},
-                             {0, 18, 24, 36}, {24, 18, 48, 36},
+    const int boxes[5][4] = {{0, 0, 24, 18},
+                             {24, 0, 48, 18},
+                             {0, 18, 24, 36},
+                             {24, 18, 48, 36},
                              {0, 0, 48, 36}};
     const double tol[5] = {0.03, 0.03, 0.03, 0.03, 0.015};
     boxes_agree(li, ci, boxes, tol, 5, "box");
@@ -544,7 +557,8 @@ static void test_glints_deterministic_and_planned(void **state)
     lr_image *a = lr_test_render(glint_scene, a_sets, 2, &st);
     lr_image *b = lr_test_render(glint_scene, b_sets, 3, NULL);
     lr_image *c = lr_test_render(glint_scene, c_sets, 2, NULL);
-    lr_test_assert_same_bytes(a, b, "glints: 1 thread against 2, 7-pixel tiles");
+    lr_test_assert_same_bytes(a, b,
+                              "glints: 1 thread against 2, 7-pixel tiles");
     assert_region_is_frame(a, c, 5, 7, "glint region");
     uint64_t with = st.light_lights;
     const char *whitted[] = {"render.spp=16", "render.integrator=whitted"};
@@ -579,15 +593,16 @@ static void test_unbounded_lenses_keep_lights(void **state)
                             "wide-170deg-laikin-5mm-f1.8"};
     for (int i = 0; i < 4; i++) {
         char scene[1024];
-        snprintf(scene, sizeof scene,
-                 "{\"render\": {\"width\": 32, \"height\": 24, \"spp\": 4},"
-                 " \"camera\": {\"model\": \"lens\", \"lens\": \"%s\","
-                 "  \"position\": [0, 0, 0], \"look_at\": [0, 0, -1],"
-                 "  \"focus_distance\": 0.6},"
-                 " \"materials\": {\"l\": {\"emission\": 500}},"
-                 " \"objects\": [{\"type\": \"sphere\", \"center\": [0.5, 0.3, -40],"
-                 "   \"radius\": 0.05, \"material\": \"l\"}]}",
-                 lenses[i]);
+        snprintf(
+            scene, sizeof scene,
+            "{\"render\": {\"width\": 32, \"height\": 24, \"spp\": 4},"
+            " \"camera\": {\"model\": \"lens\", \"lens\": \"%s\","
+            "  \"position\": [0, 0, 0], \"look_at\": [0, 0, -1],"
+            "  \"focus_distance\": 0.6},"
+            " \"materials\": {\"l\": {\"emission\": 500}},"
+            " \"objects\": [{\"type\": \"sphere\", \"center\": [0.5, 0.3, -40],"
+            "   \"radius\": 0.05, \"material\": \"l\"}]}",
+            lenses[i]);
         uint64_t n = lights_traced(scene, NULL, 0);
         print_message("%s: %llu lights from the light side\n", lenses[i],
                       (unsigned long long)n);

@@ -22,34 +22,36 @@
  * picture is the same at every scale and offset up to rounding. */
 static void offset_scene(char *out, size_t cap, double D, double s)
 {
-#define P3(x, y, z) D + (x) * s, D + (y) * s, D + (z) * s
-    snprintf(out, cap,
-             "{\"camera\": {\"position\": [%.17g, %.17g, %.17g],"
-             "  \"look_at\": [%.17g, %.17g, %.17g]},"
-             " \"render\": {\"width\": 64, \"height\": 40, \"spp\": 4,"
-             "  \"max_depth\": 3},"
-             " \"background\": 0.2,"
-             " \"materials\": {\"red\": {\"diffuse\": [0.7, 0.1, 0.1],"
-             "   \"specular\": 0.3, \"shininess\": 30},"
-             "  \"mirror\": {\"reflect\": 0.8, \"diffuse\": 0.1},"
-             "  \"floor\": {\"diffuse\": 0.6}},"
-             " \"lights\": [{\"type\": \"point\", \"position\": [%.17g, %.17g, %.17g],"
-             "   \"intensity\": %.17g},"
-             "  {\"type\": \"directional\", \"direction\": [-1, -2, -1],"
-             "   \"irradiance\": 0.5},"
-             "  {\"type\": \"ambient\", \"radiance\": 0.05}],"
-             " \"objects\": ["
-             "  {\"type\": \"plane\", \"point\": [%.17g, %.17g, %.17g],"
-             "   \"normal\": [0, 1, 0], \"size\": %.17g, \"material\": \"floor\"},"
-             "  {\"type\": \"sphere\", \"center\": [%.17g, %.17g, %.17g],"
-             "   \"radius\": %.17g, \"material\": \"red\"},"
-             "  {\"type\": \"sphere\", \"center\": [%.17g, %.17g, %.17g],"
-             "   \"radius\": %.17g, \"material\": \"mirror\"},"
-             "  {\"type\": \"triangle\", \"vertices\": [[%.17g, %.17g, %.17g],"
-             "   [%.17g, %.17g, %.17g], [%.17g, %.17g, %.17g]]}]}",
-             P3(0, 2, 8), P3(0, 0.8, 0), P3(3, 6, 4), 60 * s * s, P3(0, 0, 0),
-             20 * s, P3(-1.2, 1, 0), s, P3(1.3, 0.7, 0.5), 0.7 * s,
-             P3(0.2, 0, -2), P3(2, 0, -2), P3(1, 2, -2.5));
+#define P3(x, y, z) D + (x)*s, D + (y)*s, D + (z)*s
+    snprintf(
+        out, cap,
+        "{\"camera\": {\"position\": [%.17g, %.17g, %.17g],"
+        "  \"look_at\": [%.17g, %.17g, %.17g]},"
+        " \"render\": {\"width\": 64, \"height\": 40, \"spp\": 4,"
+        "  \"max_depth\": 3},"
+        " \"background\": 0.2,"
+        " \"materials\": {\"red\": {\"diffuse\": [0.7, 0.1, 0.1],"
+        "   \"specular\": 0.3, \"shininess\": 30},"
+        "  \"mirror\": {\"reflect\": 0.8, \"diffuse\": 0.1},"
+        "  \"floor\": {\"diffuse\": 0.6}},"
+        " \"lights\": [{\"type\": \"point\", \"position\": [%.17g, %.17g, "
+        "%.17g],"
+        "   \"intensity\": %.17g},"
+        "  {\"type\": \"directional\", \"direction\": [-1, -2, -1],"
+        "   \"irradiance\": 0.5},"
+        "  {\"type\": \"ambient\", \"radiance\": 0.05}],"
+        " \"objects\": ["
+        "  {\"type\": \"plane\", \"point\": [%.17g, %.17g, %.17g],"
+        "   \"normal\": [0, 1, 0], \"size\": %.17g, \"material\": \"floor\"},"
+        "  {\"type\": \"sphere\", \"center\": [%.17g, %.17g, %.17g],"
+        "   \"radius\": %.17g, \"material\": \"red\"},"
+        "  {\"type\": \"sphere\", \"center\": [%.17g, %.17g, %.17g],"
+        "   \"radius\": %.17g, \"material\": \"mirror\"},"
+        "  {\"type\": \"triangle\", \"vertices\": [[%.17g, %.17g, %.17g],"
+        "   [%.17g, %.17g, %.17g], [%.17g, %.17g, %.17g]]}]}",
+        P3(0, 2, 8), P3(0, 0.8, 0), P3(3, 6, 4), 60 * s * s, P3(0, 0, 0),
+        20 * s, P3(-1.2, 1, 0), s, P3(1.3, 0.7, 0.5), 0.7 * s, P3(0.2, 0, -2),
+        P3(2, 0, -2), P3(1, 2, -2.5));
 #undef P3
 }
 
@@ -108,18 +110,19 @@ static void test_grazing_rays(void **state)
     const double heights[] = {1e-6, 0.0};
     for (size_t i = 0; i < 2; i++) {
         char json[1024];
-        snprintf(json, sizeof json,
-                 "{\"camera\": {\"position\": [0, %g, 0],"
-                 "  \"look_at\": [0, %g, -1]},"
-                 " \"render\": {\"width\": 9, \"height\": 9, \"spp\": 2,"
-                 "  \"depth\": true, \"sampler\": \"grid\"},"
-                 " \"background\": 0.5,"
-                 " \"materials\": {\"m\": {\"diffuse\": 0.5, \"reflect\": 0.3}},"
-                 " \"lights\": [{\"type\": \"point\", \"position\": [0, 3, -4],"
-                 "   \"intensity\": 20}],"
-                 " \"objects\": [{\"type\": \"plane\", \"normal\": [0, 1, 0],"
-                 "   \"material\": \"m\"}]}",
-                 heights[i], heights[i]);
+        snprintf(
+            json, sizeof json,
+            "{\"camera\": {\"position\": [0, %g, 0],"
+            "  \"look_at\": [0, %g, -1]},"
+            " \"render\": {\"width\": 9, \"height\": 9, \"spp\": 2,"
+            "  \"depth\": true, \"sampler\": \"grid\"},"
+            " \"background\": 0.5,"
+            " \"materials\": {\"m\": {\"diffuse\": 0.5, \"reflect\": 0.3}},"
+            " \"lights\": [{\"type\": \"point\", \"position\": [0, 3, -4],"
+            "   \"intensity\": 20}],"
+            " \"objects\": [{\"type\": \"plane\", \"normal\": [0, 1, 0],"
+            "   \"material\": \"m\"}]}",
+            heights[i], heights[i]);
         lr_image_free(lr_test_render_json(json, "grazing plane"));
     }
     /* Tangent rays of a sphere, through the tracer directly: hits just
@@ -132,8 +135,7 @@ static void test_grazing_rays(void **state)
     const double offs[] = {-1e-3, -1e-5, -1e-7, 0, 1e-7, 1e-5, 1e-3};
     for (size_t i = 0; i < 7; i++) {
         lr__hit h;
-        int hit = lr__trace(s, v3(offs[i], 0, 0), v3(0, 0, -1), INFINITY,
-                            &h);
+        int hit = lr__trace(s, v3(offs[i], 0, 0), v3(0, 0, -1), INFINITY, &h);
         if (offs[i] < -1e-4)
             assert_false(hit);
         if (offs[i] > 1e-4)
@@ -170,23 +172,25 @@ static void test_rays_starting_on_surfaces(void **state)
         "\"position\": [0.25, 0.25, -1], \"look_at\": [0, 0, -2]"};
     for (size_t i = 0; i < 3; i++) {
         char json[2048];
-        snprintf(json, sizeof json,
-                 "{\"camera\": {%s, \"model\": \"thinlens\","
-                 "  \"aperture_radius\": 0.01, \"focus_distance\": 2},"
-                 " \"render\": {\"width\": 8, \"height\": 6, \"spp\": 4,"
-                 "  \"depth\": true},"
-                 " \"background\": 0.5,"
-                 " \"materials\": {\"g\": {\"transmit\": 0.7, \"reflect\": 0.2,"
-                 "   \"diffuse\": 0.1}},"
-                 " \"lights\": [{\"type\": \"point\", \"position\": [0, 3, 0],"
-                 "   \"intensity\": 20}, {\"type\": \"ambient\", \"radiance\": 0.1}],"
-                 " \"objects\": [{\"type\": \"plane\", \"normal\": [0, 1, 0],"
-                 "   \"material\": \"g\"},"
-                 "  {\"type\": \"sphere\", \"center\": [0, 0, -5], \"radius\": 1,"
-                 "   \"material\": \"g\"},"
-                 "  {\"type\": \"triangle\", \"vertices\": [[0, 0, -1], [1, 0, -1],"
-                 "   [0, 1, -1]], \"material\": \"g\"}]}",
-                 cams[i]);
+        snprintf(
+            json, sizeof json,
+            "{\"camera\": {%s, \"model\": \"thinlens\","
+            "  \"aperture_radius\": 0.01, \"focus_distance\": 2},"
+            " \"render\": {\"width\": 8, \"height\": 6, \"spp\": 4,"
+            "  \"depth\": true},"
+            " \"background\": 0.5,"
+            " \"materials\": {\"g\": {\"transmit\": 0.7, \"reflect\": 0.2,"
+            "   \"diffuse\": 0.1}},"
+            " \"lights\": [{\"type\": \"point\", \"position\": [0, 3, 0],"
+            "   \"intensity\": 20}, {\"type\": \"ambient\", \"radiance\": "
+            "0.1}],"
+            " \"objects\": [{\"type\": \"plane\", \"normal\": [0, 1, 0],"
+            "   \"material\": \"g\"},"
+            "  {\"type\": \"sphere\", \"center\": [0, 0, -5], \"radius\": 1,"
+            "   \"material\": \"g\"},"
+            "  {\"type\": \"triangle\", \"vertices\": [[0, 0, -1], [1, 0, -1],"
+            "   [0, 1, -1]], \"material\": \"g\"}]}",
+            cams[i]);
         lr_image_free(lr_test_render_json(json, cams[i]));
     }
 }
@@ -254,10 +258,14 @@ static void test_branching_bounded(void **state)
         " \"materials\": {\"g\": {\"transmit\": 0.9, \"reflect\": 0.1,"
         "  \"ior\": 1.5}},"
         " \"objects\": ["
-        "  {\"type\": \"plane\", \"point\": [0, 0, -1], \"normal\": [0, 0, 1], \"material\": \"g\"},"
-        "  {\"type\": \"plane\", \"point\": [0, 0, -2], \"normal\": [0, 0, 1], \"material\": \"g\"},"
-        "  {\"type\": \"plane\", \"point\": [0, 0, -3], \"normal\": [0, 0, 1], \"material\": \"g\"},"
-        "  {\"type\": \"plane\", \"point\": [0, 0, 1], \"normal\": [0, 0, 1], \"material\": \"g\"}]}";
+        "  {\"type\": \"plane\", \"point\": [0, 0, -1], \"normal\": [0, 0, 1], "
+        "\"material\": \"g\"},"
+        "  {\"type\": \"plane\", \"point\": [0, 0, -2], \"normal\": [0, 0, 1], "
+        "\"material\": \"g\"},"
+        "  {\"type\": \"plane\", \"point\": [0, 0, -3], \"normal\": [0, 0, 1], "
+        "\"material\": \"g\"},"
+        "  {\"type\": \"plane\", \"point\": [0, 0, 1], \"normal\": [0, 0, 1], "
+        "\"material\": \"g\"}]}";
     lr_scene *s = lr_test_load_json(json);
     lr_camera cam;
     lr_render_settings rs;
@@ -333,13 +341,15 @@ static void test_huge_and_tiny_spheres(void **state)
         "   \"intensity\": 30}],"
         " \"objects\": [%s,"
         "  {\"type\": \"sphere\", \"center\": [0, 0.5, 0], \"radius\": 0.5},"
-        "  {\"type\": \"sphere\", \"center\": [0.3, 1.5, 0], \"radius\": 1e-7}]}";
+        "  {\"type\": \"sphere\", \"center\": [0.3, 1.5, 0], \"radius\": "
+        "1e-7}]}";
     char json[2048];
     snprintf(json, sizeof json, fmt,
              "{\"type\": \"plane\", \"normal\": [0, 1, 0]}");
     lr_image *plane = lr_test_render_json(json, "plane floor");
-    snprintf(json, sizeof json, fmt,
-             "{\"type\": \"sphere\", \"center\": [0, -1e6, 0], \"radius\": 1e6}");
+    snprintf(
+        json, sizeof json, fmt,
+        "{\"type\": \"sphere\", \"center\": [0, -1e6, 0], \"radius\": 1e6}");
     lr_image *sphere = lr_test_render_json(json, "sphere floor");
     lr_test_diff d = lr_test_compare(plane, sphere);
     lr_image_free(plane);

@@ -277,8 +277,7 @@ static void test_missing_file(void **state)
     assert_null(m.vertices);
 
     /* A directory cannot be read as a file either. */
-    assert_int_equal(lr__obj_load(lr_test_tmpdir(), NULL, &m, &err),
-                     LR_ERR_IO);
+    assert_int_equal(lr__obj_load(lr_test_tmpdir(), NULL, &m, &err), LR_ERR_IO);
     /* Without an lr_error the status alone comes back. */
     assert_int_equal(lr__obj_load(path, NULL, &m, NULL), LR_ERR_IO);
 }
@@ -300,8 +299,9 @@ static void test_bad_indices(void **state)
     load_fail("huge.obj",
               "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99999999999999999999999\n",
               "huge.obj:4: face index");
-    load_fail("nrange.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\n"
-                            "f 1//1 2//1 3//2\n",
+    load_fail("nrange.obj",
+              "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\n"
+              "f 1//1 2//1 3//2\n",
               "nrange.obj:5: face normal index 2 out of range (the file has "
               "1 normal so far)");
     load_fail("trange.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1 2/1 3/1\n",
@@ -384,8 +384,7 @@ static void test_bad_structure(void **state)
     }
     /* ... but in a comment a backslash is only text. */
     lr__mesh m;
-    load_ok("contcomment.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3 # \\",
-            &m);
+    load_ok("contcomment.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3 # \\", &m);
     assert_int_equal(m.n_triangles, 1);
     lr__mesh_free(&m);
     /* CRLF keeps line numbers right. */

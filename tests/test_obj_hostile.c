@@ -27,8 +27,8 @@ static void obj_fails_at(const char *name, const void *data, size_t len,
     snprintf(want, sizeof want, "%s:%d: ", path, line);
     if (st == LR_OK || strncmp(err.message, want, strlen(want)) != 0 ||
         (needle && strstr(err.message, needle) == NULL))
-        fail_msg("%s: status %d, message \"%s\", want \"%s%s\"", name,
-                 (int)st, err.message, want, needle ? needle : "");
+        fail_msg("%s: status %d, message \"%s\", want \"%s%s\"", name, (int)st,
+                 err.message, want, needle ? needle : "");
     assert_null(m.vertices);
 }
 
@@ -37,14 +37,15 @@ static void test_obj_hostile(void **state)
     (void)state;
     const char *tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
     char buf[4096];
-#define OBJ(name, body, line, needle)                                       \
-    do {                                                                    \
-        snprintf(buf, sizeof buf, "%s%s", tri, body);                       \
-        obj_fails_at(name, buf, strlen(buf), line, needle);                 \
+#define OBJ(name, body, line, needle)                       \
+    do {                                                    \
+        snprintf(buf, sizeof buf, "%s%s", tri, body);       \
+        obj_fails_at(name, buf, strlen(buf), line, needle); \
     } while (0)
     OBJ("idx-uint.obj", "f 1 2 4294967297\n", 4, "out of range");
     OBJ("idx-long-min.obj", "f 1 2 -9223372036854775808\n", 4, "out of range");
-    OBJ("idx-long-under.obj", "f 1 2 -9223372036854775809\n", 4, "out of range");
+    OBJ("idx-long-under.obj", "f 1 2 -9223372036854775809\n", 4,
+        "out of range");
     OBJ("idx-zero-vn.obj", "vn 0 0 1\nf 1//0 2//1 3//1\n", 5, "index 0");
     OBJ("idx-plus.obj", "f +1 2 0\n", 4, "index 0");
     OBJ("idx-space.obj", "f 1 2 3/ 1\n", 4, "bad face corner");
@@ -65,10 +66,12 @@ static void test_obj_hostile(void **state)
     /* Bytes beyond ASCII in a quoted token are shown as \xNN, so the
      * message stays valid UTF-8 (found by fuzz_obj). */
     OBJ("non-ascii.obj", "v 1e\xff\xc3 0 0\n", 4, "bad number '1e\\xff\\xc3'");
-    OBJ("non-ascii-corner.obj", "f 1 2 \xe2\x82\n", 4, "bad face corner '\\xe2\\x82'");
+    OBJ("non-ascii-corner.obj", "f 1 2 \xe2\x82\n", 4,
+        "bad face corner '\\xe2\\x82'");
 #undef OBJ
     /* Binary garbage: bytes of an ELF header, a PNG signature. */
-    static const char elf[] = "\x7f" "ELF\x02\x01\x01\0\0\0\0\0\0\0\0\0";
+    static const char elf[] = "\x7f"
+                              "ELF\x02\x01\x01\0\0\0\0\0\0\0\0\0";
     obj_fails_at("elf.obj", elf, sizeof elf - 1, 1, "not a text OBJ file");
     static const char png[] = "\x89PNG\r\n\x1a\n\0\0\0\rIHDR";
     obj_fails_at("png.obj", png, sizeof png - 1, 2, "not a text OBJ file");
@@ -133,9 +136,10 @@ static void test_obj_errors_through_scene(void **state)
     char path[512];
     const char *body = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 0\n";
     lr_test_write_file("scene-bad.obj", body, strlen(body), path, sizeof path);
-    const char *json = "{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,0],"
-                       " \"radius\": 1}, {\"type\": \"mesh\","
-                       " \"file\": \"scene-bad.obj\"}]}";
+    const char *json =
+        "{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,0],"
+        " \"radius\": 1}, {\"type\": \"mesh\","
+        " \"file\": \"scene-bad.obj\"}]}";
     lr_scene *s = NULL;
     lr_error err;
     assert_int_equal(lr_scene_load_json(json, strlen(json), lr_test_tmpdir(),

@@ -20,7 +20,10 @@
 #define FOV 20.0
 
 /* Focal length in pixels: H / (2 tan(fov / 2)). */
-static double f_px(void) { return W / (2.0 * tan(FOV * M_PI / 360.0)); }
+static double f_px(void)
+{
+    return W / (2.0 * tan(FOV * M_PI / 360.0));
+}
 
 /* A small white sphere (angular radius 0.004 rad, ~1.8 px) at depth z on
  * black, lit by a uniform ambient light so it renders as a flat disk. */
@@ -82,8 +85,8 @@ static double diameter(double m2_blur, double k)
     return m2_blur > 0 ? sqrt(m2_blur / k) : 0.0;
 }
 
-static void check_close(double got, double want, double rel,
-                        const char *what, double z)
+static void check_close(double got, double want, double rel, const char *what,
+                        double z)
 {
     print_message("  %-28s depth %6.3f: measured %7.3f px, expected %7.3f px "
                   "(%+.2f%%)\n",
@@ -107,11 +110,10 @@ static void test_zero_aperture_is_pinhole(void **state)
         point_scene(json, sizeof json, 4.0, 4, samplers[k]);
         /* Make it less trivial: a lit plane behind the sphere. */
         lr_image *pin = lr_test_render(json, NULL, 0, NULL);
-        const char *thin[] = {"camera.model=thinlens",
-                              "camera.aperture_radius=0",
-                              "camera.focus_distance=2",
-                              "camera.focal_length_mm=50",
-                              "camera.chromatic={\"mode\": \"spectral\"}"};
+        const char *thin[] = {
+            "camera.model=thinlens", "camera.aperture_radius=0",
+            "camera.focus_distance=2", "camera.focal_length_mm=50",
+            "camera.chromatic={\"mode\": \"spectral\"}"};
         const char *bracket[] = {"camera.model=bracket", "camera.aperture=0",
                                  "camera.focal_length=3",
                                  "camera.chromatic={\"mode\": \"rgb\", "
@@ -181,8 +183,8 @@ static void test_f_number(void **state)
     lr_image *blur = lr_test_render(json, sets, 4, NULL);
     double r = 0.1 / (2 * 0.25);
     double want = 2.0 * r * fabs(1.0 / z - 1.0 / s) * f_px();
-    check_close(diameter(measure(blur, 1).m2 - measure(pin, 1).m2, 0.125),
-                want, 0.05, "f-number blur diameter", z);
+    check_close(diameter(measure(blur, 1).m2 - measure(pin, 1).m2, 0.125), want,
+                0.05, "f-number blur diameter", z);
     lr_image_free(pin);
     lr_image_free(blur);
 }
@@ -203,9 +205,9 @@ static void test_bracket_blur(void **state)
                               "camera.focal_length=5"};
         lr_image *blur = lr_test_render(json, sets, 4, NULL);
         double want = a * fabs(1.0 - (z - di) / f) * f_px() / z;
-        check_close(diameter(measure(blur, 1).m2 - measure(pin, 1).m2,
-                             1.0 / 6.0),
-                    want, 0.05, "bracket blur side", z);
+        check_close(
+            diameter(measure(blur, 1).m2 - measure(pin, 1).m2, 1.0 / 6.0), want,
+            0.05, "bracket blur side", z);
         lr_image_free(pin);
         lr_image_free(blur);
     }
@@ -248,8 +250,8 @@ static double coverage(int shape, double R, int x, int y)
 
 #define CROP 81 /* the region rendered around the centre */
 
-static double shape_error(const lr_image *img, const lr_image *pin,
-                          int shape, double R)
+static double shape_error(const lr_image *img, const lr_image *pin, int shape,
+                          double R)
 {
     /* Kernel, normalised to unit sum. */
     int K = (int)ceil(R) + 2;
@@ -302,11 +304,13 @@ static void test_aperture_shapes(void **state)
         const char *sets[] = {"camera.model=thinlens",
                               "camera.aperture_radius=0.2",
                               "camera.focus_distance=6",
-                              "camera.aperture_blades=6", shape, crop};
+                              "camera.aperture_blades=6",
+                              shape,
+                              crop};
         lr_image *img = lr_test_render(json, sets, 6, NULL);
         /* Size: the second moment of the kernel. */
-        check_close(sqrt(measure(img, 1).m2 - m0), sqrt(m2[k]), 0.05,
-                    shapes[k], z);
+        check_close(sqrt(measure(img, 1).m2 - m0), sqrt(m2[k]), 0.05, shapes[k],
+                    z);
         /* Shape: compare with all three predictions at one common size
          * (that of this render's own second moment). */
         double target = measure(img, 1).m2 - m0, e[3];
@@ -361,7 +365,8 @@ static void test_focal_plane_sharp(void **state)
              " \"objects\": [{\"type\": \"plane\", \"point\": [5, 0, -6],"
              "  \"normal\": [0, 0, 1], \"size\": 10, \"material\": \"w\"}]}",
              W, W, FOV);
-    const char *sharp[] = {"camera.model=thinlens", "camera.aperture_radius=0.2",
+    const char *sharp[] = {"camera.model=thinlens",
+                           "camera.aperture_radius=0.2",
                            "camera.focus_distance=6"};
     const char *soft[] = {"camera.model=thinlens", "camera.aperture_radius=0.2",
                           "camera.focus_distance=4"};
@@ -394,8 +399,7 @@ static double channel_focus(int model, double n_c, double F, double s)
 {
     const double n_g = 1.51534;
     double v = 1.0 / (1.0 / F - 1.0 / s); /* the sensor, fixed by green */
-    double Fc = model == 0 ? F * n_g / n_c
-                           : F * (n_g - 1.0) / (n_c - 1.0);
+    double Fc = model == 0 ? F * n_g / n_c : F * (n_g - 1.0) / (n_c - 1.0);
     return 1.0 / (1.0 / Fc - 1.0 / v);
 }
 
@@ -407,8 +411,8 @@ static void test_chromatic_focus_rgb(void **state)
     for (int model = 0; model < 2; model++) {
         double sc[3];
         for (int c = 0; c < 3; c++)
-            sc[c] = channel_focus(model, 1.51534 + amp * (ior[c] - 1.51534),
-                                  F, s);
+            sc[c] = channel_focus(model, 1.51534 + amp * (ior[c] - 1.51534), F,
+                                  s);
         /* Blue focuses nearest, red farthest. */
         assert_true(sc[2] < sc[1] && sc[1] < sc[0]);
         assert_true(fabs(sc[1] - s) < 1e-9);
@@ -417,10 +421,9 @@ static void test_chromatic_focus_rgb(void **state)
                  "camera.chromatic={\"mode\": \"rgb\", \"amplify\": 2, "
                  "\"focal_model\": \"%s\"}",
                  model == 0 ? "paper" : "lensmaker");
-        const char *sets[] = {"camera.model=thinlens",
-                              "camera.aperture_radius=0.05",
-                              "camera.focus_distance=2",
-                              "camera.focal_length_mm=50", chroma};
+        const char *sets[] = {
+            "camera.model=thinlens", "camera.aperture_radius=0.05",
+            "camera.focus_distance=2", "camera.focal_length_mm=50", chroma};
         /* Put the point where red, then where blue is in focus. */
         for (int at = 0; at < 3; at += 2) {
             double z = sc[at];
@@ -463,18 +466,18 @@ static void test_chromatic_bracket_paper(void **state)
     double z = di + fr;            /* red in focus here */
     char json[2048];
     point_scene(json, sizeof json, z, 128, "sobol");
-    const char *sets[] = {"camera.model=bracket", "camera.aperture=0.4",
-                          "camera.focal_length=5",
-                          "camera.chromatic={\"mode\": \"rgb\", \"amplify\": 50}"};
+    const char *sets[] = {
+        "camera.model=bracket", "camera.aperture=0.4", "camera.focal_length=5",
+        "camera.chromatic={\"mode\": \"rgb\", \"amplify\": 50}"};
     lr_image *pin = lr_test_render(json, NULL, 0, NULL);
     lr_image *img = lr_test_render(json, sets, 4, NULL);
     assert_true(measure(img, 0).m2 - measure(pin, 0).m2 < 0.3);
     const double fc[3] = {fr, f, fb};
     for (int c = 1; c < 3; c++) {
         double want = a * fabs(1.0 - (z - di) / fc[c]) * f_px() / z;
-        check_close(diameter(measure(img, c).m2 - measure(pin, c).m2,
-                             1.0 / 6.0),
-                    want, 0.05, c == 1 ? "bracket green" : "bracket blue", z);
+        check_close(
+            diameter(measure(img, c).m2 - measure(pin, c).m2, 1.0 / 6.0), want,
+            0.05, c == 1 ? "bracket green" : "bracket blue", z);
     }
     lr_image_free(pin);
     lr_image_free(img);
@@ -504,11 +507,12 @@ static void test_chromatic_spectral_order(void **state)
         z[k - 1] = 1 / (1 / Fc - 1 / v);
     }
     assert_true(z[0] < s && s < z[1]);
-    const char *sets[] = {"camera.model=thinlens", "camera.aperture_radius=0.05",
-                          "camera.focus_distance=2", "camera.focal_length_mm=50",
-                          "camera.chromatic={\"mode\": \"spectral\", \"amplify\": 3,"
-                          " \"focal_model\": \"lensmaker\", \"glass\": \"N-BK7\","
-                          " \"wavelengths\": 8}"};
+    const char *sets[] = {
+        "camera.model=thinlens", "camera.aperture_radius=0.05",
+        "camera.focus_distance=2", "camera.focal_length_mm=50",
+        "camera.chromatic={\"mode\": \"spectral\", \"amplify\": 3,"
+        " \"focal_model\": \"lensmaker\", \"glass\": \"N-BK7\","
+        " \"wavelengths\": 8}"};
     for (int k = 0; k < 2; k++) {
         char json[2048];
         point_scene(json, sizeof json, z[k], 64, "sobol");
@@ -531,17 +535,17 @@ static void test_chromatic_spectral_order(void **state)
 static void test_spectral_white_is_white(void **state)
 {
     (void)state;
-    const char *json = "{\"render\": {\"width\": 16, \"height\": 12, \"spp\": 16},"
-                       " \"background\": 1}";
+    const char *json =
+        "{\"render\": {\"width\": 16, \"height\": 12, \"spp\": 16},"
+        " \"background\": 1}";
     const char *modes[] = {"camera.chromatic={\"mode\": \"spectral\", "
                            "\"amplify\": 20, \"wavelengths\": 5}",
                            "camera.chromatic={\"mode\": \"spectral\", "
                            "\"amplify\": 20, \"wavelengths\": 2}"};
     for (int k = 0; k < 2; k++) {
-        const char *sets[] = {"camera.model=thinlens",
-                              "camera.aperture_radius=0.5",
-                              "camera.focus_distance=2",
-                              "camera.focal_length_mm=50", modes[k]};
+        const char *sets[] = {
+            "camera.model=thinlens", "camera.aperture_radius=0.5",
+            "camera.focus_distance=2", "camera.focal_length_mm=50", modes[k]};
         lr_image *img = lr_test_render(json, sets, 5, NULL);
         for (int i = 0; i < 16 * 12 * 3; i++)
             if (lr_image_rgb(img)[i] != 1.0f)
@@ -560,20 +564,21 @@ static void test_energy_conserved(void **state)
 {
     (void)state;
     char json[2048];
-    snprintf(json, sizeof json,
-             "{\"render\": {\"width\": %d, \"height\": %d, \"spp\": 256,"
-             "  \"adaptive\": false},"
-             " \"camera\": {\"fov\": %g},"
-             " \"materials\": {\"w\": {\"diffuse\": 1}},"
-             " \"lights\": [{\"type\": \"ambient\", \"radiance\": 1}],"
-             " \"objects\": ["
-             "  {\"type\": \"sphere\", \"center\": [0, 0, -1.9], \"radius\": 0.04,"
-             "   \"material\": \"w\"},"
-             "  {\"type\": \"sphere\", \"center\": [0.25, 0.15, -3],"
-             "   \"radius\": 0.05, \"material\": \"w\"},"
-             "  {\"type\": \"sphere\", \"center\": [0.4, -0.3, -6],"
-             "   \"radius\": 0.15, \"material\": \"w\"}]}",
-             W, W, FOV);
+    snprintf(
+        json, sizeof json,
+        "{\"render\": {\"width\": %d, \"height\": %d, \"spp\": 256,"
+        "  \"adaptive\": false},"
+        " \"camera\": {\"fov\": %g},"
+        " \"materials\": {\"w\": {\"diffuse\": 1}},"
+        " \"lights\": [{\"type\": \"ambient\", \"radiance\": 1}],"
+        " \"objects\": ["
+        "  {\"type\": \"sphere\", \"center\": [0, 0, -1.9], \"radius\": 0.04,"
+        "   \"material\": \"w\"},"
+        "  {\"type\": \"sphere\", \"center\": [0.25, 0.15, -3],"
+        "   \"radius\": 0.05, \"material\": \"w\"},"
+        "  {\"type\": \"sphere\", \"center\": [0.4, -0.3, -6],"
+        "   \"radius\": 0.15, \"material\": \"w\"}]}",
+        W, W, FOV);
     lr_image *pin = lr_test_render(json, NULL, 0, NULL);
     double ref = measure(pin, 1).sum;
     const char *thin = "camera.model=thinlens";
@@ -581,7 +586,8 @@ static void test_energy_conserved(void **state)
         {thin, "camera.aperture_radius=0.08", "camera.focus_distance=3"},
         {thin, "camera.aperture_radius=0.08", "camera.focus_distance=3",
          "camera.aperture_shape=polygon", "camera.aperture_blades=5"},
-        {"camera.model=bracket", "camera.aperture=0.1", "camera.focal_length=2"},
+        {"camera.model=bracket", "camera.aperture=0.1",
+         "camera.focal_length=2"},
         {thin, "camera.aperture_radius=0.05", "camera.focus_distance=2",
          "camera.focal_length_mm=50",
          "camera.chromatic={\"mode\": \"rgb\", \"amplify\": 3}"},
@@ -595,8 +601,8 @@ static void test_energy_conserved(void **state)
         for (int c = 0; c < 3; c++) {
             double got = measure(img, c).sum;
             if (fabs(got - ref) > 0.005 * ref)
-                fail_msg("case %zu channel %d: total %g, pinhole %g", k, c,
-                         got, ref);
+                fail_msg("case %zu channel %d: total %g, pinhole %g", k, c, got,
+                         ref);
         }
         lr_image_free(img);
     }

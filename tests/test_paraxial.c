@@ -27,8 +27,7 @@ static void refract(const lr__rx *rx, int i, double nm, double *y, double *u)
 }
 
 /* The same surface crossed backwards (toward -z): the inverse step. */
-static void unrefract(const lr__rx *rx, int i, double nm, double *y,
-                      double *u)
+static void unrefract(const lr__rx *rx, int i, double nm, double *y, double *u)
 {
     double n = index_after(rx, i - 1, nm), n2 = index_after(rx, i, nm);
     double c = rx->s[i].radius != 0 ? 1.0 / rx->s[i].radius : 0;
@@ -100,8 +99,7 @@ static void close_to(double got, double want, double scale, const char *what,
                      const char *lens)
 {
     if (!(fabs(got - want) <= 1e-9 * scale))
-        fail_msg("%s %s: %.12g, the matrices say %.12g", lens, what, got,
-                 want);
+        fail_msg("%s %s: %.12g, the matrices say %.12g", lens, what, got, want);
 }
 
 static void check(const char *name)
@@ -136,8 +134,11 @@ static void check(const char *name)
 static void test_against_matrices(void **state)
 {
     (void)state;
-    const char *lenses[] = {"double-gauss-50", "wide-22", "telephoto-250",
-                            "fisheye-10", "petzval",
+    const char *lenses[] = {"double-gauss-50",
+                            "wide-22",
+                            "telephoto-250",
+                            "fisheye-10",
+                            "petzval",
                             "tests/data/lenses/cooke-triplet.zmx",
                             "tests/data/lenses/asphere-singlet.zmx",
                             "tests/data/lenses/dgauss.50mm.dat"};
@@ -156,10 +157,13 @@ static void test_thick_lens(void **state)
     rx.n = 2;
     rx.stop = 0;
     double R1 = 40, R2 = -60, d = 5, n = 1.6;
-    rx.s[0] = (lr__surface){.radius = R1, .thickness = d,
-                            .semi_aperture = 8, .stop = 1,
+    rx.s[0] = (lr__surface){.radius = R1,
+                            .thickness = d,
+                            .semi_aperture = 8,
+                            .stop = 1,
                             .after = {.kind = LR__GLASS_CONSTANT, .nd = n}};
-    rx.s[1] = (lr__surface){.radius = R2, .thickness = 30,
+    rx.s[1] = (lr__surface){.radius = R2,
+                            .thickness = 30,
                             .semi_aperture = 8,
                             .after = {.kind = LR__GLASS_AIR, .nd = 1}};
     lr__paraxial p;
@@ -187,9 +191,8 @@ static void test_patent_back_focus(void **state)
     lr_error err;
     lr__rx rx;
     lr__paraxial p;
-    assert_int_equal(lr__rx_find("double-gauss-50", NULL, path, sizeof path,
-                                 &err),
-                     LR_OK);
+    assert_int_equal(
+        lr__rx_find("double-gauss-50", NULL, path, sizeof path, &err), LR_OK);
     assert_int_equal(lr__rx_load_file(path, "dg", NULL, &rx, &err), LR_OK);
     assert_int_equal(lr__rx_paraxial(&rx, LR__NM_d, &p, &err), LR_OK);
     print_message("double Gauss: f %.4f mm, back focus %.5f f (patent "

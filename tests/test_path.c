@@ -58,8 +58,8 @@ static void expect(const lr_image *img, int x0, int y0, int x1, int y1,
 {
     double mean_rel, max_rel;
     deviation(img, x0, y0, x1, y1, want, &mean_rel, &max_rel);
-    print_message("  %-40s want %.6g: mean %+.4f%%, worst pixel %.3f%%\n",
-                  what, want, 100 * mean_rel, 100 * max_rel);
+    print_message("  %-40s want %.6g: mean %+.4f%%, worst pixel %.3f%%\n", what,
+                  want, 100 * mean_rel, 100 * max_rel);
     if (!(fabs(mean_rel) <= tol_mean) || !(max_rel <= tol_pixel))
         fail_msg("%s: mean off by %.4f%% (allowed %.3f%%), worst pixel "
                  "%.3f%% (allowed %.2f%%)",
@@ -93,10 +93,12 @@ static void test_white_furnace(void **state)
  * albedo a and emission Le. */
 static void box_scene(char *buf, size_t n, double a, int depth, int spp)
 {
-    static const char *const walls[6] = {
-        "[0, -1, 0], \"normal\": [0, 1, 0]", "[0, 1, 0], \"normal\": [0, -1, 0]",
-        "[-1, 0, 0], \"normal\": [1, 0, 0]", "[1, 0, 0], \"normal\": [-1, 0, 0]",
-        "[0, 0, -1], \"normal\": [0, 0, 1]", "[0, 0, 1], \"normal\": [0, 0, -1]"};
+    static const char *const walls[6] = {"[0, -1, 0], \"normal\": [0, 1, 0]",
+                                         "[0, 1, 0], \"normal\": [0, -1, 0]",
+                                         "[-1, 0, 0], \"normal\": [1, 0, 0]",
+                                         "[1, 0, 0], \"normal\": [-1, 0, 0]",
+                                         "[0, 0, -1], \"normal\": [0, 0, 1]",
+                                         "[0, 0, 1], \"normal\": [0, 0, -1]"};
     int k = snprintf(buf, n,
                      "{\"render\": {\"width\": 8, \"height\": 8, \"spp\": %d,"
                      "  \"integrator\": \"path\", \"adaptive\": false,"
@@ -125,8 +127,7 @@ static void test_emitting_box(void **state)
         lr_image *img = lr_test_render_json(json, "emitting box");
         /* Le (1 - a^(n+2)) / (1 - a): the geometric sum. */
         double want = (1.0 - pow(0.5, depths[i] + 2)) / 0.5;
-        snprintf(what, sizeof what, "box, albedo 0.5, max_depth %d",
-                 depths[i]);
+        snprintf(what, sizeof what, "box, albedo 0.5, max_depth %d", depths[i]);
         expect(img, 0, 0, 8, 8, want, 2e-3, 3e-2, what);
         lr_image_free(img);
     }
@@ -155,7 +156,8 @@ static void test_plane_under_sky(void **state)
         for (int c = 0; c < 3; c++)
             worst = fmax(worst, fabs(p[3 * i + c] - 0.3 * L[c]) / (0.3 * L[c]));
     print_message("  plane under a uniform sky: worst pixel %.4f%% off "
-                  "albedo x L\n", 100 * worst);
+                  "albedo x L\n",
+                  100 * worst);
     if (!(worst <= 1e-2))
         fail_msg("plane under a uniform sky: a pixel is %.3f%% off albedo x L",
                  100 * worst);
@@ -297,8 +299,8 @@ static void test_envmap_too_many_texels(void **state)
         lr_error err;
         memset(&err, 0, sizeof err);
         assert_int_not_equal(lr_scene_load_json(json, strlen(json),
-                                                lr_test_tmpdir(), NULL, 0,
-                                                &sc, &err),
+                                                lr_test_tmpdir(), NULL, 0, &sc,
+                                                &err),
                              LR_OK);
         assert_non_null(strstr(err.message, "huge.exr"));
         if (k == 0)
@@ -346,10 +348,12 @@ static void test_envmap_one_texel_sun(void **state)
     }
     double mean = sum / (8 * 8 * 3), rms = sqrt(sq / (8 * 8 * 3));
     print_message("  plane under a one-texel sun: want %.6g, mean %+.3f%%, "
-                  "rms %.3f%%\n", want, 100 * mean, 100 * rms);
+                  "rms %.3f%%\n",
+                  want, 100 * mean, 100 * rms);
     if (!(fabs(mean) <= 3e-3) || !(rms <= 3.5e-2))
         fail_msg("plane under a one-texel sun: mean %+.3f%%, rms %.3f%% "
-                 "(allowed 0.3%%, 3.5%%)", 100 * mean, 100 * rms);
+                 "(allowed 0.3%%, 3.5%%)",
+                 100 * mean, 100 * rms);
     lr_image_free(img);
 }
 
@@ -383,7 +387,8 @@ static void test_envmap_texel_places(void **state)
              "  \"sampler\": \"grid\"},"
              " \"camera\": {\"position\": [0, 0, 0], \"look_at\": [1, 1, 0],"
              "  \"fov\": 90},"
-             " \"environment\": {\"file\": \"ramp.exr\"}}", N, N);
+             " \"environment\": {\"file\": \"ramp.exr\"}}",
+             N, N);
     lr_image *img = lr_test_render_json(json, "ramp map");
     const float *rgb = lr_image_rgb(img);
     /* The pinhole's frame (scene-format.md, 6): right = f x up, its up
@@ -406,15 +411,18 @@ static void test_envmap_texel_places(void **state)
             double want_r = v * (MH - 1), want_g = u * MW - 0.5;
             worst_r = fmax(worst_r, fabs(rgb[3 * (y * N + x)] - want_r));
             if (want_g > 0.0 && want_g < MW - 1) {
-                worst_g = fmax(worst_g, fabs(rgb[3 * (y * N + x) + 1] - want_g));
+                worst_g = fmax(worst_g,
+                               fabs(rgb[3 * (y * N + x) + 1] - want_g));
                 n_g++;
             }
         }
     print_message("  ramp map: row off by at most %.2g, column by %.2g "
-                  "(%d pixels)\n", worst_r, worst_g, n_g);
+                  "(%d pixels)\n",
+                  worst_r, worst_g, n_g);
     if (!(worst_r < 2e-3) || !(worst_g < 2e-3) || n_g < N * N / 2)
         fail_msg("the map's texels are not where Mitsuba puts them: row off "
-                 "by %.3g, column by %.3g", worst_r, worst_g);
+                 "by %.3g, column by %.3g",
+                 worst_r, worst_g);
     lr_image_free(img);
 }
 
@@ -439,8 +447,10 @@ static void test_envmap_seen_by_both(void **state)
     const char *path_set[] = {"render.integrator=path"};
     lr_image *w = lr_test_render_json(json, "envmap, whitted");
     lr_image *p = lr_test_render_sets(json, path_set, 1, "envmap, path");
-    expect(w, 0, 0, 8, 8, 1.4, 1e-6, 1e-6, "whitted sees the map (not background)");
-    expect(p, 0, 0, 8, 8, 1.4, 1e-6, 1e-6, "path sees the map (not background)");
+    expect(w, 0, 0, 8, 8, 1.4, 1e-6, 1e-6,
+           "whitted sees the map (not background)");
+    expect(p, 0, 0, 8, 8, 1.4, 1e-6, 1e-6,
+           "path sees the map (not background)");
     lr_image_free(w);
     lr_image_free(p);
 }
@@ -481,15 +491,16 @@ static void test_emitter_bokeh(void **state)
     for (int i = 0; i < 2; i++) {
         double z = depths[i];
         char json[2048];
-        snprintf(json, sizeof json,
-                 "{\"render\": {\"width\": %d, \"height\": %d, \"spp\": 128,"
-                 "  \"integrator\": \"path\", \"adaptive\": false},"
-                 " \"camera\": {\"position\": [0, 0, 0],"
-                 "  \"look_at\": [0, 0, -1], \"fov\": %g},"
-                 " \"materials\": {\"e\": {\"diffuse\": 0, \"emission\": 5}},"
-                 " \"objects\": [{\"type\": \"sphere\", \"center\": [0, 0, %.17g],"
-                 "  \"radius\": %.17g, \"material\": \"e\"}]}",
-                 BW, BW, BFOV, -z, 0.004 * z);
+        snprintf(
+            json, sizeof json,
+            "{\"render\": {\"width\": %d, \"height\": %d, \"spp\": 128,"
+            "  \"integrator\": \"path\", \"adaptive\": false},"
+            " \"camera\": {\"position\": [0, 0, 0],"
+            "  \"look_at\": [0, 0, -1], \"fov\": %g},"
+            " \"materials\": {\"e\": {\"diffuse\": 0, \"emission\": 5}},"
+            " \"objects\": [{\"type\": \"sphere\", \"center\": [0, 0, %.17g],"
+            "  \"radius\": %.17g, \"material\": \"e\"}]}",
+            BW, BW, BFOV, -z, 0.004 * z);
         lr_image *pin = lr_test_render_json(json, "emitter, pinhole");
         const char *sets[] = {"camera.model=thinlens",
                               "camera.aperture_radius=0.2",
@@ -504,8 +515,8 @@ static void test_emitter_bokeh(void **state)
                       "confusion %.3f px (%+.2f%%)\n",
                       z, got, want, 100 * (got - want) / want);
         if (!(fabs(got - want) <= 0.05 * want))
-            fail_msg("emitter bokeh at depth %g: %.4g px, want %.4g px", z,
-                     got, want);
+            fail_msg("emitter bokeh at depth %g: %.4g px, want %.4g px", z, got,
+                     want);
         lr_image_free(pin);
         lr_image_free(blur);
     }
@@ -534,22 +545,23 @@ static void place_lamp(double at)
  * from straight above, lit only by `lamp` (a JSON object of material
  * "l", emission LAMP_LE) out of the frame, and compares each pixel with
  * albedo / pi x LAMP_LE x irr(point) averaged over 8 x 8 points of it. */
-static void floor_under_lamp(const char *lamp,
-                             double (*irr)(const double p[3]),
+static void floor_under_lamp(const char *lamp, double (*irr)(const double p[3]),
                              const char *what, double tol_pixel)
 {
     enum { N = 8, SUB = 8 };
     const double o = lamp_at, fov = 20.0;
     char json[1024];
-    snprintf(json, sizeof json,
-             "{\"render\": {\"width\": %d, \"height\": %d, \"spp\": 512,"
-             "  \"integrator\": \"path\", \"adaptive\": false, \"max_depth\": 0},"
-             " \"camera\": {\"position\": [%g, 1, %g], \"look_at\": [%g, 0, %g],"
-             "  \"up\": [0, 0, -1], \"fov\": %g},"
-             " \"materials\": {\"g\": {\"diffuse\": 0.5}, \"l\": {\"emission\": %g}},"
-             " \"objects\": [{\"type\": \"plane\", \"point\": [%g, 0, %g],"
-             "  \"normal\": [0, 1, 0], \"material\": \"g\"}, %s]}",
-             N, N, o, o, o, o, fov, LAMP_LE, o, o, lamp);
+    snprintf(
+        json, sizeof json,
+        "{\"render\": {\"width\": %d, \"height\": %d, \"spp\": 512,"
+        "  \"integrator\": \"path\", \"adaptive\": false, \"max_depth\": 0},"
+        " \"camera\": {\"position\": [%g, 1, %g], \"look_at\": [%g, 0, %g],"
+        "  \"up\": [0, 0, -1], \"fov\": %g},"
+        " \"materials\": {\"g\": {\"diffuse\": 0.5}, \"l\": {\"emission\": "
+        "%g}},"
+        " \"objects\": [{\"type\": \"plane\", \"point\": [%g, 0, %g],"
+        "  \"normal\": [0, 1, 0], \"material\": \"g\"}, %s]}",
+        N, N, o, o, o, o, fov, LAMP_LE, o, o, lamp);
     lr_image *img = lr_test_render_json(json, what);
     const float *px = lr_image_rgb(img);
     /* Looking down from height 1 with up -z: image right is +x, image
@@ -572,11 +584,12 @@ static void floor_under_lamp(const char *lamp,
             }
         }
     print_message("  floor under a %s %g units out: mean %+.4f%%, worst pixel "
-                  "%.3f%%\n", what, o, 100 * mean_rel, 100 * worst);
+                  "%.3f%%\n",
+                  what, o, 100 * mean_rel, 100 * worst);
     if (!(fabs(mean_rel) <= 3e-3) || !(worst <= tol_pixel))
         fail_msg("floor under a %s: mean off by %.3f%%, worst pixel %.3f%% "
-                 "(allowed 0.3%%, %.1f%%)", what, 100 * mean_rel,
-                 100 * worst, 100 * tol_pixel);
+                 "(allowed 0.3%%, %.1f%%)",
+                 what, 100 * mean_rel, 100 * worst, 100 * tol_pixel);
     lr_image_free(img);
 }
 
@@ -586,8 +599,7 @@ static void floor_under_lamp(const char *lamp,
  * analogue). */
 static double sphere_irradiance(const double p[3])
 {
-    double dx = lamp_c[0] - p[0], dy = lamp_c[1] - p[1],
-           dz = lamp_c[2] - p[2];
+    double dx = lamp_c[0] - p[0], dy = lamp_c[1] - p[1], dz = lamp_c[2] - p[2];
     double d2 = dx * dx + dy * dy + dz * dz;
     return M_PI * LAMP_R * LAMP_R / d2 * dy / sqrt(d2);
 }
@@ -655,7 +667,8 @@ static double mesh_irradiance(const double p[3])
                        e1[2] * e2[0] - e1[0] * e2[2],
                        e1[0] * e2[1] - e1[1] * e2[0]};
         if ((p[0] - v[0][0]) * n[0] + (p[1] - v[0][1]) * n[1] +
-                (p[2] - v[0][2]) * n[2] > 0.0)
+                (p[2] - v[0][2]) * n[2] >
+            0.0)
             E += triangle_irradiance(p, v);
     }
     return E;
@@ -855,7 +868,8 @@ static void test_few_spheres_match_embree(void **state)
     s = lr_test_load_json(cornell_json);
     assert_null(s->rtc_few);
     lr_scene_free(s);
-    lr_image *b = lr_test_render_sets(cornell_json, sets, 2, "Embree's spheres");
+    lr_image *b = lr_test_render_sets(cornell_json, sets, 2,
+                                      "Embree's spheres");
     lr__few_spheres_enabled = 1;
     lr__few_triangles_enabled = 1;
     const float *pa = lr_image_rgb(a), *pb = lr_image_rgb(b);
@@ -963,21 +977,22 @@ static void test_few_triangles_match_embree(void **state)
             double t = a.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID
                            ? a.ray.tfar[i] * (p % 2 ? 0.99 : 1.01)
                            : 100.0;
-            lr__shadow_ray16(&sa, i, v3(b.ray.org_x[i], b.ray.org_y[i],
-                                        b.ray.org_z[i]),
-                             v3(b.ray.dir_x[i], b.ray.dir_y[i],
-                                b.ray.dir_z[i]), t);
+            lr__shadow_ray16(
+                &sa, i, v3(b.ray.org_x[i], b.ray.org_y[i], b.ray.org_z[i]),
+                v3(b.ray.dir_x[i], b.ray.dir_y[i], b.ray.dir_z[i]), t);
         }
         lr__ray16_quiet_lanes(&sa, valid);
         struct RTCRay16 sb = sa;
         rtcOccluded16(valid, s->rtc, &ctx, &sa);
         lr__paths_occluded16(s, valid, &ctx, &sb);
         for (int i = 0; i < 16; i++)
-            occ_differ += valid[i] && (sa.tfar[i] < 0.0f) != (sb.tfar[i] < 0.0f);
+            occ_differ += valid[i] &&
+                          (sa.tfar[i] < 0.0f) != (sb.tfar[i] < 0.0f);
     }
     lr_scene_free(s);
     print_message("  %zu rays, %zu hits; %zu hit another triangle, %zu "
-                  "occlusions differ\n", rays, hits, differ, occ_differ);
+                  "occlusions differ\n",
+                  rays, hits, differ, occ_differ);
     assert_true(hits > rays / 2); /* (the box is open on the camera side) */
     assert_true(differ <= rays / 1000);
     assert_true(occ_differ <= rays / 1000);
@@ -1086,9 +1101,9 @@ static void test_ggx_sampling_matches_evaluation(void **state)
                 for (int j = 0; j < NP; j++) {
                     double ph = 2 * M_PI * (j + 0.5) / NP;
                     lr__v3 loc = v3(sn * cos(ph), sn * sin(ph), c);
-                    lr__v3 wi = v3_add(v3_add(v3_scale(f.t, loc.x),
-                                              v3_scale(f.b, loc.y)),
-                                       v3_scale(f.n, loc.z));
+                    lr__v3 wi = v3_add(
+                        v3_add(v3_scale(f.t, loc.x), v3_scale(f.b, loc.y)),
+                        v3_scale(f.n, loc.z));
                     double pdf;
                     lr__v3 val = lr__bsdf_eval(&f, wo, wi, &pdf);
                     q += val.x * fabs(c) * (2.0 / NT) * (2 * M_PI / NP);
@@ -1128,9 +1143,9 @@ static void test_bad_input(void **state)
     lr_scene *s = NULL;
     lr_error err;
     const char *f = "{\"environment\": {\"file\": \"missing.exr\"}}";
-    assert_int_equal(lr_scene_load_json(f, strlen(f), lr_test_tmpdir(), NULL,
-                                        0, &s, &err),
-                     LR_ERR_IO);
+    assert_int_equal(
+        lr_scene_load_json(f, strlen(f), lr_test_tmpdir(), NULL, 0, &s, &err),
+        LR_ERR_IO);
     assert_null(s);
     assert_non_null(strstr(err.message, "missing.exr"));
     /* A map with a negative pixel is refused, naming the pixel.  (NaN
@@ -1142,9 +1157,9 @@ static void test_bad_input(void **state)
     assert_int_equal(lr_image_write(map, path, NULL, NULL), LR_OK);
     lr_image_free(map);
     const char *g = "{\"environment\": {\"file\": \"nan.exr\"}}";
-    assert_int_equal(lr_scene_load_json(g, strlen(g), lr_test_tmpdir(), NULL,
-                                        0, &s, &err),
-                     LR_ERR_INVALID);
+    assert_int_equal(
+        lr_scene_load_json(g, strlen(g), lr_test_tmpdir(), NULL, 0, &s, &err),
+        LR_ERR_INVALID);
     assert_non_null(strstr(err.message, "nan.exr"));
     assert_non_null(strstr(err.message, "(1, 1)"));
 }

@@ -114,8 +114,7 @@ static void random_paths(lr__paths16 *S, uint64_t *k)
 }
 
 /* Lane i of a and b: the fields Embree reads of a ray, the same bytes. */
-static void same_lane(const struct RTCRay16 *a, const struct RTCRay16 *b,
-                      int i)
+static void same_lane(const struct RTCRay16 *a, const struct RTCRay16 *b, int i)
 {
     const float *fa[8] = {a->org_x, a->org_y, a->org_z, a->dir_x,
                           a->dir_y, a->dir_z, a->tnear, a->tfar};
@@ -240,8 +239,8 @@ static void test_path16_hashed_numbers(void **state)
             for (int j = 0; j < LR__PATH_DIMS; j++) {
                 double want = -1.0;
                 if (alive[i] != 0.0 && j < dims) {
-                    uint64_t h = lr__mix64(key[i] ^ ((uint64_t)(dim + j) *
-                                                     0x9e3779b97f4a7c15ull));
+                    uint64_t h = lr__mix64(
+                        key[i] ^ ((uint64_t)(dim + j) * 0x9e3779b97f4a7c15ull));
                     want = (double)(h >> 11) * 0x1p-53;
                 }
                 assert_memory_equal(&u[j][i], &want, sizeof want);

@@ -27,11 +27,13 @@ static const char *foreground_scene =
     "   \"r\": {\"diffuse\": [0.9, 0.2, 0.1]}},"
     " \"lights\": [{\"type\": \"ambient\", \"radiance\": 1}],"
     " \"objects\": ["
-    "  {\"type\": \"plane\", \"point\": [-1.5, -0.6, -10], \"normal\": [0, 0, 1],"
+    "  {\"type\": \"plane\", \"point\": [-1.5, -0.6, -10], \"normal\": [0, 0, "
+    "1],"
     "   \"size\": [1, 1.6], \"material\": \"w\"},"
     "  {\"type\": \"plane\", \"point\": [0, -0.6, -10], \"normal\": [0, 0, 1],"
     "   \"size\": [1, 1.6], \"material\": \"k\"},"
-    "  {\"type\": \"plane\", \"point\": [1.5, -0.6, -10], \"normal\": [0, 0, 1],"
+    "  {\"type\": \"plane\", \"point\": [1.5, -0.6, -10], \"normal\": [0, 0, "
+    "1],"
     "   \"size\": [1, 1.6], \"material\": \"w\"},"
     "  {\"type\": \"sphere\", \"center\": [0.3, 0.25, -2.5], \"radius\": 0.25,"
     "   \"material\": \"r\"}]}";
@@ -112,7 +114,8 @@ static void test_spectral_halos(void **state)
         " \"materials\": {\"w\": {\"diffuse\": 0.9}},"
         " \"lights\": [{\"type\": \"ambient\", \"radiance\": 1.5}],"
         " \"objects\": ["
-        "  {\"type\": \"plane\", \"point\": [0, 2.0, -14], \"normal\": [0, 0, 1],"
+        "  {\"type\": \"plane\", \"point\": [0, 2.0, -14], \"normal\": [0, 0, "
+        "1],"
         "   \"size\": [3, 0.05], \"material\": \"w\"},"
         "  {\"type\": \"sphere\", \"center\": [0.6, 1, -12], \"radius\": 0.3,"
         "   \"material\": \"w\"}]}";
@@ -235,20 +238,21 @@ static void test_adaptive_schedule(void **state)
      * is 5 half_w / 24 to the right of the axis at depth 5. */
     double xe = 5.0 * 4.0 * tan(10.0 * M_PI / 180.0) / 24.0;
     char json[1024];
-    snprintf(json, sizeof json,
-             "{\"render\": {\"width\": 24, \"height\": 6, \"spp\": 64,"
-             "  \"max_depth\": 0, \"threads\": 1},"
-             " \"camera\": {\"model\": \"pinhole\", \"position\": [0, 0, 0],"
-             "  \"look_at\": [0, 0, -1], \"fov\": 20},"
-             " \"materials\": {\"w\": {\"diffuse\": 0.9},"
-             "   \"k\": {\"diffuse\": 0.1}},"
-             " \"lights\": [{\"type\": \"ambient\", \"radiance\": 1}],"
-             " \"objects\": ["
-             "  {\"type\": \"plane\", \"point\": [%.9f, 0, -5],"
-             "   \"normal\": [0, 0, 1], \"size\": [8, 4], \"material\": \"w\"},"
-             "  {\"type\": \"plane\", \"point\": [%.9f, 0, -5],"
-             "   \"normal\": [0, 0, 1], \"size\": [8, 4], \"material\": \"k\"}]}",
-             xe - 4.0, xe + 4.0);
+    snprintf(
+        json, sizeof json,
+        "{\"render\": {\"width\": 24, \"height\": 6, \"spp\": 64,"
+        "  \"max_depth\": 0, \"threads\": 1},"
+        " \"camera\": {\"model\": \"pinhole\", \"position\": [0, 0, 0],"
+        "  \"look_at\": [0, 0, -1], \"fov\": 20},"
+        " \"materials\": {\"w\": {\"diffuse\": 0.9},"
+        "   \"k\": {\"diffuse\": 0.1}},"
+        " \"lights\": [{\"type\": \"ambient\", \"radiance\": 1}],"
+        " \"objects\": ["
+        "  {\"type\": \"plane\", \"point\": [%.9f, 0, -5],"
+        "   \"normal\": [0, 0, 1], \"size\": [8, 4], \"material\": \"w\"},"
+        "  {\"type\": \"plane\", \"point\": [%.9f, 0, -5],"
+        "   \"normal\": [0, 0, 1], \"size\": [8, 4], \"material\": \"k\"}]}",
+        xe - 4.0, xe + 4.0);
     schedule(json, "render.adaptive=true", 16);
     schedule(json, "render.adaptive={\"threshold\": 0.01, \"min_spp\": 4}", 4);
     /* min_spp = spp: nothing to decide. */
@@ -359,10 +363,12 @@ static void test_grid_default_in_focus(void **state)
     lr_image *def = render_focus(def_sets, 2);
     double ef = relmse(full, ref), ed = relmse(def, ref);
     print_message("grid in focus, 64 spp: relMSE default %.3g, full %.3g "
-                  "(%.2fx)\n", ed, ef, ed / ef);
+                  "(%.2fx)\n",
+                  ed, ef, ed / ef);
     if (!(ed <= 1.2 * ef))
         fail_msg("grid default relMSE %g is more than 1.2x the full "
-                 "simulation's %g", ed, ef);
+                 "simulation's %g",
+                 ed, ef);
     lr_image_free(ref);
     lr_image_free(full);
     lr_image_free(def);
@@ -379,8 +385,7 @@ static double reference_contrast(const lr__pixel *a, const lr__pixel *b)
     double c = 0.0;
     for (int i = 0; i < 3; i++) {
         double ma = a->sum[i] / (double)a->n, mb = b->sum[i] / (double)b->n;
-        double d = fabs(ma - mb) /
-                   sqrt(fmax(ma * ma + 0.01, mb * mb + 0.01));
+        double d = fabs(ma - mb) / sqrt(fmax(ma * ma + 0.01, mb * mb + 0.01));
         if (d > c)
             c = d;
     }

@@ -48,10 +48,9 @@ static void test_catalogue_matches_makers_data(void **state)
             lr__glass g;
             char near[128], name[96];
             /* "MAKER NAME": this maker's, where makers share a name. */
-            snprintf(name, sizeof name, "%s %s", makers[m].maker,
-                     row->name);
-            assert_int_equal(lr__glass_find(name, NULL, &g, near,
-                                            sizeof near), 0);
+            snprintf(name, sizeof name, "%s %s", makers[m].maker, row->name);
+            assert_int_equal(lr__glass_find(name, NULL, &g, near, sizeof near),
+                             0);
             assert_int_equal(g.kind, row->kind);
             assert_string_equal(g.maker, makers[m].maker);
             double nd = lr__glass_n(&g, LR__NM_d);
@@ -74,8 +73,7 @@ static void test_catalogue_matches_makers_data(void **state)
                 fabs(vd - row->vd) > makers[m].tol_v)
                 fail_msg("%s %s: nd %.6f (stated %.6f), vd %.3f (stated "
                          "%.3f)",
-                         row->maker, row->name, nd, row->nd, vd,
-                         row->vd);
+                         row->maker, row->name, nd, row->nd, vd, row->vd);
         }
         assert_true(count >= 150);
         print_message("glass: %s %zu glasses; worst |nd - stated| %.2g, "
@@ -131,12 +129,9 @@ static void test_classic_glasses_by_hand(void **state)
     for (size_t i = 0; i < sizeof sheet / sizeof sheet[0]; i++) {
         lr__glass g;
         assert_int_equal(lr__glass_named(sheet[i].name, &g, NULL, 0), 0);
-        assert_true(fabs(lr__glass_n(&g, LR__NM_d) - sheet[i].nd) <
-                    6e-6);
-        assert_true(fabs(lr__glass_n(&g, LR__NM_F) - sheet[i].nF) <
-                    6e-6);
-        assert_true(fabs(lr__glass_n(&g, LR__NM_C) - sheet[i].nC) <
-                    6e-6);
+        assert_true(fabs(lr__glass_n(&g, LR__NM_d) - sheet[i].nd) < 6e-6);
+        assert_true(fabs(lr__glass_n(&g, LR__NM_F) - sheet[i].nF) < 6e-6);
+        assert_true(fabs(lr__glass_n(&g, LR__NM_C) - sheet[i].nC) < 6e-6);
     }
     lr__glass air;
     assert_int_equal(lr__glass_named("AIR", &air, NULL, 0), 0);
@@ -229,13 +224,13 @@ static void test_glass_makers(void **state)
             lr__glass_find(cases[i].name, cases[i].prefer, &g, NULL, 0), 0);
         assert_string_equal(g.maker, cases[i].maker);
         double nd = lr__glass_n(&g, LR__NM_d);
-        double vd = (nd - 1) / (lr__glass_n(&g, LR__NM_F) -
-                                lr__glass_n(&g, LR__NM_C));
+        double vd = (nd - 1) /
+                    (lr__glass_n(&g, LR__NM_F) - lr__glass_n(&g, LR__NM_C));
         if (fabs(nd - cases[i].nd) > 6e-6 || fabs(vd - cases[i].vd) > 0.01)
             fail_msg("%s (prefer %s): nd %.6f vd %.3f, the maker's %.6f "
                      "%.3f",
-                     cases[i].name, cases[i].prefer ? cases[i].prefer : "-",
-                     nd, vd, cases[i].nd, cases[i].vd);
+                     cases[i].name, cases[i].prefer ? cases[i].prefer : "-", nd,
+                     vd, cases[i].nd, cases[i].vd);
     }
     lr__glass g;
     /* Glass codes: nd's decimals, then vd times 10. */
@@ -245,11 +240,10 @@ static void test_glass_makers(void **state)
     assert_int_equal(lr__glass_find("620.363", NULL, &g, NULL, 0), 0);
     assert_true(g.nd == 1.62 && g.vd == 36.3);
     assert_true(fabs(lr__glass_n(&g, LR__NM_d) - 1.62) < 1e-15);
-    static const char *not_codes[] = {"51764", "5176420", "51.7642",
-                                      "517040", "517x42", "517642."};
+    static const char *not_codes[] = {"51764",  "5176420", "51.7642",
+                                      "517040", "517x42",  "517642."};
     for (size_t i = 0; i < sizeof not_codes / sizeof *not_codes; i++)
-        assert_int_equal(lr__glass_find(not_codes[i], NULL, &g, NULL, 0),
-                         -1);
+        assert_int_equal(lr__glass_find(not_codes[i], NULL, &g, NULL, 0), -1);
     /* A maker's name narrows the search to it; a word that is no maker
      * is part of the name. */
     assert_int_equal(lr__glass_find("HOYA N-BK7", NULL, &g, NULL, 0), -1);
@@ -271,12 +265,12 @@ static lr_status from_json(const char *text, lr__rx *rx, lr_error *err)
     return st;
 }
 
-#define SINGLET_JSON(glass, extra)                                          \
-    "{\"name\": \"t\", \"surfaces\": ["                                      \
-    "{\"stop\": true, \"thickness\": 1, \"semi_aperture\": 5},"              \
-    "{\"radius\": 50, \"thickness\": 4, \"material\": " glass                \
-    ", \"semi_aperture\": 10" extra "},"                                     \
-    "{\"radius\": -50, \"thickness\": 48, \"material\": \"air\","            \
+#define SINGLET_JSON(glass, extra)                                \
+    "{\"name\": \"t\", \"surfaces\": ["                           \
+    "{\"stop\": true, \"thickness\": 1, \"semi_aperture\": 5},"   \
+    "{\"radius\": 50, \"thickness\": 4, \"material\": " glass     \
+    ", \"semi_aperture\": 10" extra "},"                          \
+    "{\"radius\": -50, \"thickness\": 48, \"material\": \"air\"," \
     " \"semi_aperture\": 10}]}"
 
 static void test_json_reader(void **state)
@@ -305,15 +299,12 @@ static void test_json_reader(void **state)
                                ""),
                   &rx, &err),
         LR_OK);
-    assert_true(fabs(lr__glass_n(&rx.s[1].after, LR__NM_d) - 1.5168) <
-                1e-5);
+    assert_true(fabs(lr__glass_n(&rx.s[1].after, LR__NM_d) - 1.5168) < 1e-5);
     /* A HOYA glass by name, in any case: HOYA states FCD1 nd 1.49700. */
-    assert_int_equal(from_json(SINGLET_JSON("\"fcd1\"", ""), &rx, &err),
-                     LR_OK);
+    assert_int_equal(from_json(SINGLET_JSON("\"fcd1\"", ""), &rx, &err), LR_OK);
     assert_int_equal(rx.s[1].after.kind, LR__GLASS_LAURENT);
     assert_string_equal(rx.s[1].after.name, "FCD1");
-    assert_true(fabs(lr__glass_n(&rx.s[1].after, LR__NM_d) - 1.497) <
-                6e-6);
+    assert_true(fabs(lr__glass_n(&rx.s[1].after, LR__NM_d) - 1.497) < 6e-6);
 }
 
 static void expect_json_error(const char *text, const char *path,
@@ -344,12 +335,11 @@ static void test_json_errors(void **state)
     expect_json_error(SINGLET_JSON("{\"sellmeier\": [1, 2]}", ""),
                       "camera.lens.surfaces[1].material.sellmeier",
                       "6 numbers");
-    expect_json_error(SINGLET_JSON("{\"sellmeier\": [1, 0, 0, 0.35, 0, 0]}",
-                                   ""),
-                      "camera.lens.surfaces[1].material.sellmeier",
-                      "no refractive index");
-    expect_json_error(SINGLET_JSON("7", ""),
-                      "camera.lens.surfaces[1].material", "catalogue glass");
+    expect_json_error(
+        SINGLET_JSON("{\"sellmeier\": [1, 0, 0, 0.35, 0, 0]}", ""),
+        "camera.lens.surfaces[1].material.sellmeier", "no refractive index");
+    expect_json_error(SINGLET_JSON("7", ""), "camera.lens.surfaces[1].material",
+                      "catalogue glass");
     expect_json_error(SINGLET_JSON("\"N-BK7\"", ", \"thickness\": 2"),
                       "camera.lens.surfaces[1].thickness", "duplicate key");
     expect_json_error(SINGLET_JSON("\"N-BK7\"", ", \"radius_mm\": 2"),
@@ -421,16 +411,15 @@ static void test_pbrt_reader(void **state)
     lr__rx rx;
     lr_error err;
     /* pbrt-v4-scenes lenses/dgauss.50mm.dat, as distributed. */
-    const char *dgauss =
-        "# D-GAUSS F/2 22deg HFOV\t\t\t\n"
-        "# US patent 2,673,491 Tronnier\"\t\t\t\n"
-        "#    radius\t axpos\tN\taperture\n"
-        "29.475\t3.76\t1.67\t25.2\n84.83\t0.12\t1\t25.2\n"
-        "19.275\t4.025\t1.67\t23\n40.77\t3.275\t1.699\t23\n"
-        "12.75\t5.705\t1\t18\n0\t4.5\t0\t17.1\n"
-        "-14.495\t1.18\t1.603\t17\n40.77\t6.065\t1.658\t20\n"
-        "-20.385\t0.19\t1\t20\n437.065\t3.22\t1.717\t20\n"
-        "-39.73\t0\t1\t20\n";
+    const char *dgauss = "# D-GAUSS F/2 22deg HFOV\t\t\t\n"
+                         "# US patent 2,673,491 Tronnier\"\t\t\t\n"
+                         "#    radius\t axpos\tN\taperture\n"
+                         "29.475\t3.76\t1.67\t25.2\n84.83\t0.12\t1\t25.2\n"
+                         "19.275\t4.025\t1.67\t23\n40.77\t3.275\t1.699\t23\n"
+                         "12.75\t5.705\t1\t18\n0\t4.5\t0\t17.1\n"
+                         "-14.495\t1.18\t1.603\t17\n40.77\t6.065\t1.658\t20\n"
+                         "-20.385\t0.19\t1\t20\n437.065\t3.22\t1.717\t20\n"
+                         "-39.73\t0\t1\t20\n";
     assert_int_equal(pbrt(dgauss, &rx, &err), LR_OK);
     assert_int_equal(rx.n, 11);
     assert_int_equal(rx.stop, 5);
@@ -445,9 +434,9 @@ static void test_pbrt_reader(void **state)
     assert_true(fabs(rx.s[10].thickness - p.bfl) < 1e-12);
     assert_true(fabs(p.efl - 50) < 1.0);
     /* A fifth column gives dispersion. */
-    assert_int_equal(pbrt("0 1 0 10\n50 4 1.5168 20 64.17\n-50 40 1 20\n",
-                          &rx, &err),
-                     LR_OK);
+    assert_int_equal(
+        pbrt("0 1 0 10\n50 4 1.5168 20 64.17\n-50 40 1 20\n", &rx, &err),
+        LR_OK);
     assert_int_equal(rx.s[1].after.kind, LR__GLASS_ABBE);
     assert_true(rx.s[1].after.vd == 64.17);
 }
@@ -564,13 +553,13 @@ static lr_status zmx(const char *text, lr__rx *rx, lr_error *err)
     return st == LR_OK ? lr__rx_check(rx, "", err) : st;
 }
 
-#define ZMX_HEAD                                                           \
-    "VERS 140124 255 123457\r\nMODE SEQ\r\nNAME a test singlet\r\n"         \
-    "UNIT MM X W X CM MR CPMM\r\nENPD 10\r\n"                               \
+#define ZMX_HEAD                                                    \
+    "VERS 140124 255 123457\r\nMODE SEQ\r\nNAME a test singlet\r\n" \
+    "UNIT MM X W X CM MR CPMM\r\nENPD 10\r\n"                       \
     "SURF 0\r\n  TYPE STANDARD\r\n  CURV 0.0\r\n  DISZ INFINITY\r\n"
-#define ZMX_TAIL                                                           \
-    "SURF 3\r\n  TYPE STANDARD\r\n  CURV -2.0E-2\r\n  DISZ 48\r\n"           \
-    "  DIAM 10 0 0 0 1 \"\"\r\nSURF 4\r\n  TYPE STANDARD\r\n  CURV 0\r\n"    \
+#define ZMX_TAIL                                                          \
+    "SURF 3\r\n  TYPE STANDARD\r\n  CURV -2.0E-2\r\n  DISZ 48\r\n"        \
+    "  DIAM 10 0 0 0 1 \"\"\r\nSURF 4\r\n  TYPE STANDARD\r\n  CURV 0\r\n" \
     "  DIAM 5\r\nTOL TOFF 0 0 0 0 0 0 0\r\n"
 
 static void test_zmx_reader(void **state)
@@ -660,7 +649,8 @@ static void test_zmx_reader(void **state)
     /* vd 0: Zemax's model glass of constant index (as ray-optics reads
      * it); a pickup of a model glass (solve type 2) keeps its name. */
     assert_int_equal(
-        zmx("NOTE 0 From US patent\r\nNOTE 0  583,336, example 2, a note of more "
+        zmx("NOTE 0 From US patent\r\nNOTE 0  583,336, example 2, a note of "
+            "more "
             "than sixteen words: three four five six seven eight nine "
             "ten.\r\n"
             "SURF 0\r\n  DISZ INFINITY\r\n"
@@ -685,8 +675,7 @@ static void test_zmx_reader(void **state)
             "  DIAM 10\r\nSURF 4\r\n",
             &r16, &err),
         LR_OK);
-    assert_true(r16.s[1].semi_aperture == 7.5 &&
-                r16.s[2].semi_aperture == 10);
+    assert_true(r16.s[1].semi_aperture == 7.5 && r16.s[2].semi_aperture == 10);
     /* OpticStudio cuts a note into lines of 200 characters, mid-word:
      * after a full line the next continues it without a space (Thorlabs'
      * "...TECHSUPPORT@THORL" / "ABS.COM"), and a full line's trailing
@@ -710,8 +699,8 @@ static void test_zmx_reader(void **state)
                  "on Next.",
                  full, full);
         assert_string_equal(rn.source, want);
-        snprintf(text, sizeof text, "NOTE 0 %.199s \r\nNOTE 0 end\r\n%s",
-                 full, ok);
+        snprintf(text, sizeof text, "NOTE 0 %.199s \r\nNOTE 0 end\r\n%s", full,
+                 ok);
         assert_int_equal(zmx(text, &rn, &err), LR_OK);
         snprintf(want, sizeof want, "%.199s end", full);
         assert_string_equal(rn.source, want);
@@ -865,8 +854,9 @@ static void test_zmx_errors(void **state)
                      LR_OK);
     expect_text_error(zmx, "MODE NSC\r\n", "t.zmx:1: MODE NSC");
     expect_text_error(zmx, "UNIT FT\r\n", "t.zmx:1: UNIT FT");
-    expect_text_error(zmx, ZMX_HEAD "SURF 2\r\n", "t.zmx:10: SURF 2 out of "
-                                                  "order");
+    expect_text_error(zmx, ZMX_HEAD "SURF 2\r\n",
+                      "t.zmx:10: SURF 2 out of "
+                      "order");
     expect_text_error(zmx,
                       ZMX_HEAD "SURF 1\r\n  STOP\r\n  DISZ 1\r\n"
                                "SURF 2\r\n  CURV 0.02\r\n  DISZ 4\r\n"
@@ -886,8 +876,10 @@ static void test_readers_ignore_the_locale(void **state)
     (void)state;
     char dir[512], cmd[1200], was[64];
     snprintf(dir, sizeof dir, "%s/locale", lr_test_tmpdir());
-    snprintf(cmd, sizeof cmd, "mkdir -p '%s' && localedef -i de_DE -f UTF-8 "
-             "'%s/de_DE.UTF-8' >/dev/null 2>&1", dir, dir);
+    snprintf(cmd, sizeof cmd,
+             "mkdir -p '%s' && localedef -i de_DE -f UTF-8 "
+             "'%s/de_DE.UTF-8' >/dev/null 2>&1",
+             dir, dir);
     int made = system(cmd);
     (void)made; /* localedef warns with status 1 and still writes it */
     snprintf(was, sizeof was, "%s", setlocale(LC_NUMERIC, NULL));
@@ -901,10 +893,11 @@ static void test_readers_ignore_the_locale(void **state)
     lr_error err;
     lr_status a = pbrt("0 1 0 10\n50.25 4 1.5 20\n-50 40 1 20\n", &rx, &err);
     double r = rx.s[1].radius;
-    lr_status b = zmx(ZMX_HEAD "SURF 1\r\n  STOP\r\n  DIAM 5\r\n"
-                              "  DISZ 1.5\r\nSURF 2\r\n  CURV 2.0E-2\r\n"
-                              "  DISZ 4\r\n  DIAM 10\r\n  GLAS N-BK7\r\n"
-                              ZMX_TAIL, &rx, &err);
+    lr_status b = zmx(ZMX_HEAD
+                      "SURF 1\r\n  STOP\r\n  DIAM 5\r\n"
+                      "  DISZ 1.5\r\nSURF 2\r\n  CURV 2.0E-2\r\n"
+                      "  DISZ 4\r\n  DIAM 10\r\n  GLAS N-BK7\r\n" ZMX_TAIL,
+                      &rx, &err);
     double t = rx.s[0].thickness;
     setlocale(LC_NUMERIC, was);
     assert_true(comma);
@@ -927,9 +920,8 @@ static void test_find_and_load(void **state)
     char names[64][64];
     int n = lr__rx_shipped(names, 64);
     assert_true(n >= 20);
-    static const char *const named[] = {"double-gauss-50", "wide-22",
-                                        "telephoto-250", "fisheye-10",
-                                        "petzval"};
+    static const char *const named[] = {
+        "double-gauss-50", "wide-22", "telephoto-250", "fisheye-10", "petzval"};
     for (size_t k = 0; k < sizeof named / sizeof named[0]; k++) {
         int found = 0;
         for (int i = 0; i < n; i++)
@@ -937,15 +929,14 @@ static void test_find_and_load(void **state)
         if (!found)
             fail_msg("%s is not shipped", named[k]);
     }
-    assert_int_equal(lr__rx_find("wide-22.json", "/nonexistent", path,
-                                 sizeof path, &err),
-                     LR_OK);
+    assert_int_equal(
+        lr__rx_find("wide-22.json", "/nonexistent", path, sizeof path, &err),
+        LR_OK);
     for (int i = 0; i < n; i++) {
-        assert_int_equal(lr__rx_find(names[i], "/nonexistent", path,
-                                     sizeof path, &err),
-                         LR_OK);
-        if (lr__rx_load_file(path, names[i], "camera.lens", &rx, &err) !=
-            LR_OK)
+        assert_int_equal(
+            lr__rx_find(names[i], "/nonexistent", path, sizeof path, &err),
+            LR_OK);
+        if (lr__rx_load_file(path, names[i], "camera.lens", &rx, &err) != LR_OK)
             fail_msg("%s: %s", names[i], err.message);
         assert_true(rx.source[0] != '\0');
         int glass = 0;
@@ -955,15 +946,15 @@ static void test_find_and_load(void **state)
         if (glass < 2) /* they disperse */
             fail_msg("%s: %d dispersing glasses", names[i], glass);
     }
-    assert_int_equal(lr__rx_find("double-gauss-51", NULL, path, sizeof path,
-                                 &err),
-                     LR_ERR_INVALID);
+    assert_int_equal(
+        lr__rx_find("double-gauss-51", NULL, path, sizeof path, &err),
+        LR_ERR_INVALID);
     assert_non_null(strstr(err.message, "double-gauss-50, "));
     /* A directory is named as one: it was "no such file", though it is
      * there. */
-    assert_int_equal(lr__rx_find(".", lr_test_tmpdir(), path, sizeof path,
-                                 &err),
-                     LR_ERR_INVALID);
+    assert_int_equal(
+        lr__rx_find(".", lr_test_tmpdir(), path, sizeof path, &err),
+        LR_ERR_INVALID);
     assert_string_equal(err.message,
                         "lens \".\": is a directory, not a lens file");
     /* A file next to the scene wins; LENSRAY_LENS_DIR moves the shipped
@@ -981,11 +972,9 @@ static void test_find_and_load(void **state)
     assert_int_equal(lr__rx_find("my.dat", dir, path, sizeof path, &err),
                      LR_OK);
     assert_string_equal(path, file);
-    assert_int_equal(lr__rx_load_file(path, "my.dat", NULL, &rx, &err),
-                     LR_OK);
+    assert_int_equal(lr__rx_load_file(path, "my.dat", NULL, &rx, &err), LR_OK);
     setenv("LENSRAY_LENS_DIR", dir, 1);
-    assert_int_equal(lr__rx_find("my", NULL, path, sizeof path, &err),
-                     LR_OK);
+    assert_int_equal(lr__rx_find("my", NULL, path, sizeof path, &err), LR_OK);
     assert_int_equal(lr__rx_find("petzval", NULL, path, sizeof path, &err),
                      LR_ERR_INVALID);
     assert_non_null(strstr(err.message, "shipped lenses: my"));
@@ -999,9 +988,9 @@ static void test_find_and_load(void **state)
           "\"material\": \"N-BK8\", \"semi_aperture\": 10}]}",
           f);
     fclose(f);
-    assert_int_equal(lr__rx_load_file(file, "bad.json", "camera.lens", &rx,
-                                      &err),
-                     LR_ERR_INVALID);
+    assert_int_equal(
+        lr__rx_load_file(file, "bad.json", "camera.lens", &rx, &err),
+        LR_ERR_INVALID);
     assert_string_equal(err.path, "camera.lens");
     assert_non_null(strstr(err.message, "bad.json: surfaces[1].material: "
                                         "unknown glass \"N-BK8\""));
@@ -1025,9 +1014,9 @@ static void test_find_and_load(void **state)
     assert_int_equal(rx.n, 3);
     assert_int_equal(lr__rx_load_file("x.lens", "x.lens", NULL, &rx, &err),
                      LR_ERR_INVALID);
-    assert_int_equal(lr__rx_load_file("/nonexistent/x.zmx", "x.zmx", NULL,
-                                      &rx, &err),
-                     LR_ERR_IO);
+    assert_int_equal(
+        lr__rx_load_file("/nonexistent/x.zmx", "x.zmx", NULL, &rx, &err),
+        LR_ERR_IO);
 }
 
 static const struct CMUnitTest prescription_tests[] = {

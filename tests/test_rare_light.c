@@ -30,13 +30,20 @@ static const char *night_scene =
     " \"materials\": {\"a\": {\"emission\": [300, 200, 100]},"
     "   \"b\": {\"emission\": [60, 90, 400]}},"
     " \"objects\": ["
-    "  {\"type\": \"sphere\", \"center\": [-14, 6, -40], \"radius\": 0.04, \"material\": \"a\"},"
-    "  {\"type\": \"sphere\", \"center\": [-5, -7, -50], \"radius\": 0.05, \"material\": \"b\"},"
-    "  {\"type\": \"sphere\", \"center\": [3, 5, -35], \"radius\": 0.03, \"material\": \"a\"},"
-    "  {\"type\": \"sphere\", \"center\": [12, -3, -45], \"radius\": 0.05, \"material\": \"b\"},"
-    "  {\"type\": \"sphere\", \"center\": [20, 9, -60], \"radius\": 0.06, \"material\": \"a\"},"
-    "  {\"type\": \"sphere\", \"center\": [-22, -9, -55], \"radius\": 0.05, \"material\": \"b\"},"
-    "  {\"type\": \"sphere\", \"center\": [0, 0, -30], \"radius\": 0.02, \"material\": \"a\"}]}";
+    "  {\"type\": \"sphere\", \"center\": [-14, 6, -40], \"radius\": 0.04, "
+    "\"material\": \"a\"},"
+    "  {\"type\": \"sphere\", \"center\": [-5, -7, -50], \"radius\": 0.05, "
+    "\"material\": \"b\"},"
+    "  {\"type\": \"sphere\", \"center\": [3, 5, -35], \"radius\": 0.03, "
+    "\"material\": \"a\"},"
+    "  {\"type\": \"sphere\", \"center\": [12, -3, -45], \"radius\": 0.05, "
+    "\"material\": \"b\"},"
+    "  {\"type\": \"sphere\", \"center\": [20, 9, -60], \"radius\": 0.06, "
+    "\"material\": \"a\"},"
+    "  {\"type\": \"sphere\", \"center\": [-22, -9, -55], \"radius\": 0.05, "
+    "\"material\": \"b\"},"
+    "  {\"type\": \"sphere\", \"center\": [0, 0, -30], \"radius\": 0.02, "
+    "\"material\": \"a\"}]}";
 
 /* Lights smaller than a pixel, in focus, seen by a pinhole: each pixel
  * sample finds one with a probability of about 1%. */
@@ -47,10 +54,14 @@ static const char *speck_scene =
     " \"background\": 0.02,"
     " \"materials\": {\"a\": {\"emission\": 5000}},"
     " \"objects\": ["
-    "  {\"type\": \"sphere\", \"center\": [-1, 1, 0], \"radius\": 0.004, \"material\": \"a\"},"
-    "  {\"type\": \"sphere\", \"center\": [1.3, -0.4, 0], \"radius\": 0.004, \"material\": \"a\"},"
-    "  {\"type\": \"sphere\", \"center\": [0.2, 0.7, 0], \"radius\": 0.004, \"material\": \"a\"},"
-    "  {\"type\": \"sphere\", \"center\": [-2, -1.2, 0], \"radius\": 0.004, \"material\": \"a\"}]}";
+    "  {\"type\": \"sphere\", \"center\": [-1, 1, 0], \"radius\": 0.004, "
+    "\"material\": \"a\"},"
+    "  {\"type\": \"sphere\", \"center\": [1.3, -0.4, 0], \"radius\": 0.004, "
+    "\"material\": \"a\"},"
+    "  {\"type\": \"sphere\", \"center\": [0.2, 0.7, 0], \"radius\": 0.004, "
+    "\"material\": \"a\"},"
+    "  {\"type\": \"sphere\", \"center\": [-2, -1.2, 0], \"radius\": 0.004, "
+    "\"material\": \"a\"}]}";
 
 /* A small light seen only in a mirror ball, the ball far out of focus:
  * the light's reflection is a glint that each pixel's lens samples
@@ -64,9 +75,12 @@ static const char *glint_scene =
     " \"materials\": {\"m\": {\"reflect\": 0.9},"
     "   \"l\": {\"emission\": 2000}},"
     " \"objects\": ["
-    "  {\"type\": \"sphere\", \"center\": [0, 0, 0], \"radius\": 1.5, \"material\": \"m\"},"
-    "  {\"type\": \"sphere\", \"center\": [4, 3, 8], \"radius\": 0.03, \"material\": \"l\"},"
-    "  {\"type\": \"sphere\", \"center\": [-3, 4, 6], \"radius\": 0.03, \"material\": \"l\"}]}";
+    "  {\"type\": \"sphere\", \"center\": [0, 0, 0], \"radius\": 1.5, "
+    "\"material\": \"m\"},"
+    "  {\"type\": \"sphere\", \"center\": [4, 3, 8], \"radius\": 0.03, "
+    "\"material\": \"l\"},"
+    "  {\"type\": \"sphere\", \"center\": [-3, 4, 6], \"radius\": 0.03, "
+    "\"material\": \"l\"}]}";
 
 static const char *sparkle_scene =
     "{\"render\": {\"width\": 80, \"height\": 60, \"integrator\": \"path\","
@@ -79,9 +93,12 @@ static const char *sparkle_scene =
     " \"objects\": ["
     "  {\"type\": \"plane\", \"point\": [0, -1, 0], \"normal\": [0, 1, 0],"
     "   \"size\": [20, 20], \"material\": \"g\"},"
-    "  {\"type\": \"sphere\", \"center\": [-1, 1.5, -8], \"radius\": 0.03, \"material\": \"l\"},"
-    "  {\"type\": \"sphere\", \"center\": [1.5, 0.8, -6], \"radius\": 0.03, \"material\": \"l\"},"
-    "  {\"type\": \"sphere\", \"center\": [0.3, 2.5, -12], \"radius\": 0.03, \"material\": \"l\"}]}";
+    "  {\"type\": \"sphere\", \"center\": [-1, 1.5, -8], \"radius\": 0.03, "
+    "\"material\": \"l\"},"
+    "  {\"type\": \"sphere\", \"center\": [1.5, 0.8, -6], \"radius\": 0.03, "
+    "\"material\": \"l\"},"
+    "  {\"type\": \"sphere\", \"center\": [0.3, 2.5, -12], \"radius\": 0.03, "
+    "\"material\": \"l\"}]}";
 
 static double image_mean(const lr_image *img)
 {
@@ -214,9 +231,8 @@ static void check_cover(const char *scene, double floor, double most,
     lr__cam_init(&c, &cam, rs.width, rs.height);
     lr__plan p;
     lr_error err;
-    assert_int_equal(lr__plan_build(&p, s, &c, &rs, 0, 0, rs.width,
-                                    rs.height, &err),
-                     LR_OK);
+    assert_int_equal(
+        lr__plan_build(&p, s, &c, &rs, 0, 0, rs.width, rs.height, &err), LR_OK);
     assert_non_null(p.rare);
     int lit = 0, bounded = 0;
     for (int y = 0; y < rs.height; y++)
@@ -275,9 +291,9 @@ static void test_light_side_lights_are_not_rare(void **state)
     for (int light = 0; light < 2; light++) {
         rs.light = light;
         lr__plan p;
-        assert_int_equal(lr__plan_build(&p, s, &c, &rs, 0, 0, rs.width,
-                                        rs.height, &err),
-                         LR_OK);
+        assert_int_equal(
+            lr__plan_build(&p, s, &c, &rs, 0, 0, rs.width, rs.height, &err),
+            LR_OK);
         int bounded = 0;
         for (int y = 0; y < rs.height; y++)
             for (int x = 0; x < rs.width; x++)
@@ -316,9 +332,8 @@ static void test_no_emitter_no_bound(void **state)
     lr__cam_init(&c, &cam, rs.width, rs.height);
     lr__plan p;
     lr_error err;
-    assert_int_equal(lr__plan_build(&p, s, &c, &rs, 0, 0, rs.width,
-                                    rs.height, &err),
-                     LR_OK);
+    assert_int_equal(
+        lr__plan_build(&p, s, &c, &rs, 0, 0, rs.width, rs.height, &err), LR_OK);
     assert_null(p.rare);
     assert_true(lr__plan_unseen(&p, 3, 3) == 0.0);
     lr__plan_free(&p);
@@ -337,8 +352,7 @@ static void test_rare_samples_needed(void **state)
         lr__pixel_add(&p, v3(0.0, 0.0, 0.0));
     assert_int_equal(lr__rare_samples_needed(&p, 0.0, 0.01, 64, 4096), 0);
     /* 3 x 100 / (0.01 x 0.1) = 300000 > hi. */
-    assert_int_equal(lr__rare_samples_needed(&p, 100.0, 0.01, 64, 4096),
-                     4096);
+    assert_int_equal(lr__rare_samples_needed(&p, 100.0, 0.01, 64, 4096), 4096);
     /* 3 x 0.001 / (0.5 x 0.1) = 0.06: the pilot is enough. */
     assert_int_equal(lr__rare_samples_needed(&p, 0.001, 0.5, 64, 4096), 64);
     /* 3 x 0.05 / (0.01 x 0.1) = 150 (151 as the roundings fall). */

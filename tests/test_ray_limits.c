@@ -23,7 +23,10 @@
 
 /* Camera edits a child can apply (JSON cannot express these values
  * since numbers are limited to 1e15). */
-static void cam_far(lr_camera *c) { c->position[0] = 1e19; }
+static void cam_far(lr_camera *c)
+{
+    c->position[0] = 1e19;
+}
 
 static void cam_far_lens(lr_camera *c)
 {
@@ -173,15 +176,17 @@ static int render_in_child(const char *json, const char *const *sets,
 static void test_huge_numbers_everywhere(void **state)
 {
     (void)state;
-    static const char *const huge[] = {"1e308", "-1e308",
-                                       "1.7976931348623157e308", "4e-324",
-                                       "-4e-324", "1e-308", "1e15", "-1e15",
-                                       "1e16"};
+    static const char *const huge[] = {
+        "1e308",  "-1e308",  "1.7976931348623157e308",
+        "4e-324", "-4e-324", "1e-308",
+        "1e15",   "-1e15",   "1e16"};
     static const char *const scene_objs =
-        "objects=[{\"type\": \"sphere\", \"center\": [0, 0, -5], \"radius\": 1},"
+        "objects=[{\"type\": \"sphere\", \"center\": [0, 0, -5], \"radius\": "
+        "1},"
         " {\"type\": \"plane\", \"point\": [0, -1, 0], \"normal\": [0, 1, 0]}]";
     static const char *const scene_lights =
-        "lights=[{\"type\": \"point\", \"position\": [1, 3, 0], \"intensity\": 5}]";
+        "lights=[{\"type\": \"point\", \"position\": [1, 3, 0], \"intensity\": "
+        "5}]";
     size_t tried = 0, accepted = 0, crashed = 0;
     for (size_t i = 0; i < lr_test_n_fields; i++) {
         if (!(lr_test_fields[i].accepts & LR_TEST_NUM))
@@ -216,9 +221,8 @@ static void test_huge_numbers_everywhere(void **state)
                 lr_scene *s = NULL;
                 lr_error err;
                 memset(&err, 0, sizeof err);
-                lr_status st = lr_scene_load_json(json, strlen(json),
-                                                  lr_test_tmpdir(), sets, n,
-                                                  &s, &err);
+                lr_status st = lr_scene_load_json(
+                    json, strlen(json), lr_test_tmpdir(), sets, n, &s, &err);
                 if (st != LR_OK) {
                     /* Values above 1e15 must be refused, naming the field
                      * (or, for f_number, the focal length it needs). */
@@ -247,8 +251,8 @@ static void test_huge_numbers_everywhere(void **state)
                 }
             }
     }
-    print_message("huge numbers: %zu cases, %zu accepted, %zu crashed\n",
-                  tried, accepted, crashed);
+    print_message("huge numbers: %zu cases, %zu accepted, %zu crashed\n", tried,
+                  accepted, crashed);
     if (crashed)
         fail_msg("huge numbers: %zu of %zu accepted cases crashed the "
                  "renderer (listed above)",
@@ -313,8 +317,7 @@ static void test_grazing_plane_far_away(void **state)
             n++;
         int rc = render_in_child(json, variants[v], n, 0);
         if (rc != 0)
-            fail_msg("variant %zu (%s): %s %d", v,
-                     n ? variants[v][0] : "as is",
+            fail_msg("variant %zu (%s): %s %d", v, n ? variants[v][0] : "as is",
                      rc >= 100 ? "died on signal" : "render verdict",
                      rc >= 100 ? rc - 100 : rc);
     }
@@ -334,14 +337,30 @@ static void test_geometry_beyond_limit(void **state)
     static const struct {
         const char *json, *path;
     } cases[] = {
-        {"{\"objects\": [{\"type\": \"sphere\", \"center\": [1e15, 0, 0], \"radius\": 1}]}", "objects[0].radius"},
-        {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0, 0, 0], \"radius\": 1e10, \"transform\": [{\"scale\": 1e10}]}]}", "objects[0].transform"},
-        {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0, 0, 0], \"radius\": 1, \"transform\": [{\"translate\": [1e15, 0, 0]}, {\"translate\": [1e15, 0, 0]}]}]}", "objects[0].transform"},
-        {"{\"objects\": [{\"type\": \"plane\", \"normal\": [0, 1, 0], \"point\": [0, 1e8, 0], \"transform\": [{\"scale\": 1e8}]}]}", "objects[0].transform"},
-        {"{\"objects\": [{\"type\": \"plane\", \"normal\": [0, 1, 0], \"size\": 1e15, \"point\": [1e15, 0, 0]}]}", "objects[0].size"},
-        {"{\"objects\": [{\"type\": \"triangle\", \"vertices\": [[0,0,0], [1e9,0,0], [0,1,0]], \"transform\": [{\"scale\": [1e9, 1, 1]}]}]}", "objects[0].transform"},
-        {"{\"objects\": [{\"type\": \"mesh\", \"file\": \"far.obj\"}]}", "objects[0].file"},
-        {"{\"objects\": [{\"type\": \"mesh\", \"file\": \"near.obj\", \"transform\": [{\"scale\": 1e15}, {\"scale\": 10}]}]}", "objects[0].file"},
+        {"{\"objects\": [{\"type\": \"sphere\", \"center\": [1e15, 0, 0], "
+         "\"radius\": 1}]}",
+         "objects[0].radius"},
+        {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0, 0, 0], "
+         "\"radius\": 1e10, \"transform\": [{\"scale\": 1e10}]}]}",
+         "objects[0].transform"},
+        {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0, 0, 0], "
+         "\"radius\": 1, \"transform\": [{\"translate\": [1e15, 0, 0]}, "
+         "{\"translate\": [1e15, 0, 0]}]}]}",
+         "objects[0].transform"},
+        {"{\"objects\": [{\"type\": \"plane\", \"normal\": [0, 1, 0], "
+         "\"point\": [0, 1e8, 0], \"transform\": [{\"scale\": 1e8}]}]}",
+         "objects[0].transform"},
+        {"{\"objects\": [{\"type\": \"plane\", \"normal\": [0, 1, 0], "
+         "\"size\": 1e15, \"point\": [1e15, 0, 0]}]}",
+         "objects[0].size"},
+        {"{\"objects\": [{\"type\": \"triangle\", \"vertices\": [[0,0,0], "
+         "[1e9,0,0], [0,1,0]], \"transform\": [{\"scale\": [1e9, 1, 1]}]}]}",
+         "objects[0].transform"},
+        {"{\"objects\": [{\"type\": \"mesh\", \"file\": \"far.obj\"}]}",
+         "objects[0].file"},
+        {"{\"objects\": [{\"type\": \"mesh\", \"file\": \"near.obj\", "
+         "\"transform\": [{\"scale\": 1e15}, {\"scale\": 10}]}]}",
+         "objects[0].file"},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++)
         lr_test_expect_invalid(cases[i].json, strlen(cases[i].json),

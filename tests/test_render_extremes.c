@@ -39,8 +39,7 @@ static void test_focus_distance_extremes(void **state)
             lr_test_busy_scene(json, sizeof json, cam,
                                "\"width\": 12, \"height\": 8, \"spp\": 4, "
                                "\"depth\": true");
-            snprintf(what, sizeof what, "thin lens %zu, focus %g", m,
-                     focus[i]);
+            snprintf(what, sizeof what, "thin lens %zu, focus %g", m, focus[i]);
             lr_image_free(lr_test_render_json(json, what));
         }
     /* The bracket: image plane from 1e-4 to 1e3, focal length beyond it
@@ -56,8 +55,7 @@ static void test_focus_distance_extremes(void **state)
                      LR_TEST_CAM_BASE, di[a], focus[i]);
             lr_test_busy_scene(json, sizeof json, cam,
                                "\"width\": 12, \"height\": 8, \"spp\": 4");
-            snprintf(what, sizeof what, "bracket di %g, f %g", di[a],
-                     focus[i]);
+            snprintf(what, sizeof what, "bracket di %g, f %g", di[a], focus[i]);
             lr_image_free(lr_test_render_json(json, what));
         }
 }
@@ -105,17 +103,18 @@ static void test_fov_extremes(void **state)
     const double fovs[] = {0.01, 0.1, 1, 90, 170, 179, 179.999};
     for (size_t i = 0; i < 7; i++) {
         char json[1024], what[64];
-        snprintf(json, sizeof json,
-                 "{\"camera\": {\"position\": [0, 0, 5], \"look_at\": [0, 0, 0],"
-                 "  \"fov\": %.17g},"
-                 " \"render\": {\"width\": 5, \"height\": 5, \"spp\": 2,"
-                 "  \"depth\": true},"
-                 " \"background\": 0.3,"
-                 " \"lights\": [{\"type\": \"point\", \"position\": [2, 3, 6],"
-                 "   \"intensity\": 40}],"
-                 " \"objects\": [{\"type\": \"sphere\", \"center\": [0, 0, 0],"
-                 "   \"radius\": 1}]}",
-                 fovs[i]);
+        snprintf(
+            json, sizeof json,
+            "{\"camera\": {\"position\": [0, 0, 5], \"look_at\": [0, 0, 0],"
+            "  \"fov\": %.17g},"
+            " \"render\": {\"width\": 5, \"height\": 5, \"spp\": 2,"
+            "  \"depth\": true},"
+            " \"background\": 0.3,"
+            " \"lights\": [{\"type\": \"point\", \"position\": [2, 3, 6],"
+            "   \"intensity\": 40}],"
+            " \"objects\": [{\"type\": \"sphere\", \"center\": [0, 0, 0],"
+            "   \"radius\": 1}]}",
+            fovs[i]);
         snprintf(what, sizeof what, "fov %g", fovs[i]);
         lr_image *img = lr_test_render_json(json, what);
         const float *p = lr_image_rgb(img);
@@ -156,8 +155,8 @@ static void test_image_shapes(void **state)
         "{\"render\": {\"width\": 1, \"height\": 1, \"spp\": 1},"
         " \"background\": [0.25, 0.5, 0.75]}",
         "1x1");
-    assert_true(lr_image_rgb(one)[0] == 0.25f &&
-                lr_image_rgb(one)[1] == 0.5f && lr_image_rgb(one)[2] == 0.75f);
+    assert_true(lr_image_rgb(one)[0] == 0.25f && lr_image_rgb(one)[1] == 0.5f &&
+                lr_image_rgb(one)[2] == 0.75f);
     lr_image_free(one);
 
     const char *scene =

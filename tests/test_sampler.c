@@ -155,8 +155,8 @@ static void test_sobol_prefixes_are_nets(void **state)
                 if (!is_net(pts, m, m >= 5 && tval[k] ? 1 : tval[k]))
                     fail_msg("pixel %llu dims %u: first %d points are not a "
                              "(%d,%d,2)-net",
-                             (unsigned long long)px, dims[k], 1 << m,
-                             tval[k], m);
+                             (unsigned long long)px, dims[k], 1 << m, tval[k],
+                             m);
             /* Each coordinate alone is stratified: a (0,1)-sequence. */
             for (int m = 0; m <= 8; m++)
                 for (int c = 0; c < 2; c++) {
@@ -186,7 +186,8 @@ static void test_sobol_1d_stratified(void **state)
             int n = 1 << m, seen[64] = {0};
             for (int i = 0; i < n; i++)
                 seen[(int)(lr__sample_1d(&s, px, (uint32_t)i,
-                                         LR__DIM_WAVELENGTH) * n)]++;
+                                         LR__DIM_WAVELENGTH) *
+                           n)]++;
             for (int c = 0; c < n; c++)
                 assert_int_equal(seen[c], 1);
         }
@@ -285,9 +286,9 @@ static void test_get16_matches_get(void **state)
     lr__sampler s;
     lr__sampler_init(&s, LR_SAMPLER_SOBOL, 11, 64);
     /* Aligned starts (multiples of 16, the fast path) and others. */
-    static const uint32_t firsts[] = {0, 16, 4096, 0x00fffff0u, 0x7ffffff0u,
-                                      0xfffffff0u, 4, 9, 0x12345677u, 8, 12,
-                                      5, 0xfffffffcu};
+    static const uint32_t firsts[] = {
+        0, 16,          4096, 0x00fffff0u, 0x7ffffff0u, 0xfffffff0u, 4,
+        9, 0x12345677u, 8,    12,          5,           0xfffffffcu};
     int versions = 0;
     for (int isa = 1; isa <= 3; isa++) {
         if (!has[isa])
@@ -310,8 +311,8 @@ static void test_get16_matches_get(void **state)
                         if ((float)u[d] != out[d][i]) {
                             lr__sampler_isa = 0;
                             fail_msg("isa %d pixel %llu sample %u dim %d: "
-                                     "%.9g against %.9g", isa,
-                                     (unsigned long long)px,
+                                     "%.9g against %.9g",
+                                     isa, (unsigned long long)px,
                                      firsts[k] + (uint32_t)i, d,
                                      (double)out[d][i], u[d]);
                         }

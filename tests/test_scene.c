@@ -18,7 +18,9 @@ static lr_status load(const char *json, lr_scene **out, lr_error *err)
 }
 
 /* A scene with one JSON fragment spliced in at top level. */
-#define BASE_OBJS "\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,-5], \"radius\": 1}]"
+#define BASE_OBJS                                                             \
+    "\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,-5], \"radius\": " \
+    "1}]"
 
 typedef struct bad_case {
     const char *json;
@@ -50,68 +52,133 @@ static const bad_case bad_cases[] = {
      "got the string \"sphere\""},
     {"{\"environment\": \"sky.exr\"}", LR_ERR_INVALID, "environment",
      "got the string \"sky.exr\""},
-    {"{\"accel\": {\"robust\": 1}}", LR_ERR_INVALID, "accel.robust", "true or false"},
-    {"{\"accel\": {\"fast\": true}}", LR_ERR_INVALID, "accel.fast", "unknown key"},
+    {"{\"accel\": {\"robust\": 1}}", LR_ERR_INVALID, "accel.robust",
+     "true or false"},
+    {"{\"accel\": {\"fast\": true}}", LR_ERR_INVALID, "accel.fast",
+     "unknown key"},
     {"{\"camra\": {}}", LR_ERR_INVALID, "camra", "unknown key"},
-    {"{\"camera\": {\"fvo\": 30}}", LR_ERR_INVALID, "camera.fvo", "unknown key \"fvo\""},
-    {"{\"camera\": {\"fov\": 30, \"fov\": 40}}", LR_ERR_INVALID, "camera.fov", "duplicate"},
+    {"{\"camera\": {\"fvo\": 30}}", LR_ERR_INVALID, "camera.fvo",
+     "unknown key \"fvo\""},
+    {"{\"camera\": {\"fov\": 30, \"fov\": 40}}", LR_ERR_INVALID, "camera.fov",
+     "duplicate"},
     {"{\"camera\": {\"fov\": 0}}", LR_ERR_INVALID, "camera.fov", "got 0"},
     {"{\"camera\": {\"fov\": 180}}", LR_ERR_INVALID, "camera.fov", NULL},
-    {"{\"camera\": {\"fov\": \"wide\"}}", LR_ERR_INVALID, "camera.fov", "must be a number"},
+    {"{\"camera\": {\"fov\": \"wide\"}}", LR_ERR_INVALID, "camera.fov",
+     "must be a number"},
     {"{\"camera\": {\"fov\": 1e999}}", LR_ERR_INVALID, "camera.fov", "finite"},
-    {"{\"camera\": {\"position\": [1, 2]}}", LR_ERR_INVALID, "camera.position", "3 numbers"},
-    {"{\"camera\": {\"position\": [1, \"a\", 2]}}", LR_ERR_INVALID, "camera.position[1]", NULL},
-    {"{\"camera\": {\"model\": \"fisheye\"}}", LR_ERR_INVALID, "camera.model", "fisheye"},
-    {"{\"camera\": {\"position\": [0,0,-1]}}", LR_ERR_INVALID, "camera.look_at", NULL},
-    {"{\"camera\": {\"up\": [0,0,2]}}", LR_ERR_INVALID, "camera.up", "parallel"},
+    {"{\"camera\": {\"position\": [1, 2]}}", LR_ERR_INVALID, "camera.position",
+     "3 numbers"},
+    {"{\"camera\": {\"position\": [1, \"a\", 2]}}", LR_ERR_INVALID,
+     "camera.position[1]", NULL},
+    {"{\"camera\": {\"model\": \"fisheye\"}}", LR_ERR_INVALID, "camera.model",
+     "fisheye"},
+    {"{\"camera\": {\"position\": [0,0,-1]}}", LR_ERR_INVALID, "camera.look_at",
+     NULL},
+    {"{\"camera\": {\"up\": [0,0,2]}}", LR_ERR_INVALID, "camera.up",
+     "parallel"},
     {"{\"camera\": {\"up\": [0,0,0]}}", LR_ERR_INVALID, "camera.up", NULL},
     {"{\"render\": {\"width\": 0}}", LR_ERR_INVALID, "render.width", "got 0"},
-    {"{\"render\": {\"width\": 1.5}}", LR_ERR_INVALID, "render.width", "whole number"},
-    {"{\"render\": {\"height\": 70000}}", LR_ERR_INVALID, "render.height", NULL},
-    {"{\"render\": {\"width\": 65536, \"height\": 65536}}", LR_ERR_INVALID, "render.width", "pixels"},
+    {"{\"render\": {\"width\": 1.5}}", LR_ERR_INVALID, "render.width",
+     "whole number"},
+    {"{\"render\": {\"height\": 70000}}", LR_ERR_INVALID, "render.height",
+     NULL},
+    {"{\"render\": {\"width\": 65536, \"height\": 65536}}", LR_ERR_INVALID,
+     "render.width", "pixels"},
     {"{\"render\": {\"spp\": 0}}", LR_ERR_INVALID, "render.spp", NULL},
-    {"{\"render\": {\"sampler\": \"magic\"}}", LR_ERR_INVALID, "render.sampler", "magic"},
-    {"{\"render\": {\"max_depth\": 100}}", LR_ERR_INVALID, "render.max_depth", NULL},
+    {"{\"render\": {\"sampler\": \"magic\"}}", LR_ERR_INVALID, "render.sampler",
+     "magic"},
+    {"{\"render\": {\"max_depth\": 100}}", LR_ERR_INVALID, "render.max_depth",
+     NULL},
     {"{\"render\": {\"seed\": -1}}", LR_ERR_INVALID, "render.seed", NULL},
     {"{\"render\": {\"threads\": -1}}", LR_ERR_INVALID, "render.threads", NULL},
-    {"{\"render\": {\"tile_size\": 0}}", LR_ERR_INVALID, "render.tile_size", NULL},
-    {"{\"render\": {\"depth\": 1}}", LR_ERR_INVALID, "render.depth", "true or false"},
-    {"{\"render\": {\"spp\": 4, \"sp\": 4}}", LR_ERR_INVALID, "render.sp", "unknown key"},
+    {"{\"render\": {\"tile_size\": 0}}", LR_ERR_INVALID, "render.tile_size",
+     NULL},
+    {"{\"render\": {\"depth\": 1}}", LR_ERR_INVALID, "render.depth",
+     "true or false"},
+    {"{\"render\": {\"spp\": 4, \"sp\": 4}}", LR_ERR_INVALID, "render.sp",
+     "unknown key"},
     {"{\"background\": -1}", LR_ERR_INVALID, "background", "negative"},
     {"{\"background\": [1, 1]}", LR_ERR_INVALID, "background", NULL},
     {"{\"materials\": []}", LR_ERR_INVALID, "materials", NULL},
-    {"{\"materials\": {\"m\": {\"difuse\": 1}}}", LR_ERR_INVALID, "materials.m.difuse", "unknown key"},
-    {"{\"materials\": {\"m\": {\"diffuse\": [1, -1, 0]}}}", LR_ERR_INVALID, "materials.m.diffuse", "negative"},
-    {"{\"materials\": {\"m\": {\"ior\": 0.5}}}", LR_ERR_INVALID, "materials.m.ior", NULL},
-    {"{\"materials\": {\"m\": {\"shininess\": -1}}}", LR_ERR_INVALID, "materials.m.shininess", NULL},
-    {"{\"materials\": {\"m\": {}, \"m\": {}}}", LR_ERR_INVALID, "materials.m", "duplicate"},
+    {"{\"materials\": {\"m\": {\"difuse\": 1}}}", LR_ERR_INVALID,
+     "materials.m.difuse", "unknown key"},
+    {"{\"materials\": {\"m\": {\"diffuse\": [1, -1, 0]}}}", LR_ERR_INVALID,
+     "materials.m.diffuse", "negative"},
+    {"{\"materials\": {\"m\": {\"ior\": 0.5}}}", LR_ERR_INVALID,
+     "materials.m.ior", NULL},
+    {"{\"materials\": {\"m\": {\"shininess\": -1}}}", LR_ERR_INVALID,
+     "materials.m.shininess", NULL},
+    {"{\"materials\": {\"m\": {}, \"m\": {}}}", LR_ERR_INVALID, "materials.m",
+     "duplicate"},
     {"{\"materials\": {\"m\": 3}}", LR_ERR_INVALID, "materials.m", "object"},
     {"{\"lights\": {}}", LR_ERR_INVALID, "lights", "array"},
-    {"{\"lights\": [{\"type\": \"area\"}]}", LR_ERR_INVALID, "lights[0].type", "area"},
-    {"{\"lights\": [{\"position\": [0,0,0]}]}", LR_ERR_INVALID, "lights[0].type", "required"},
-    {"{\"lights\": [{\"type\": \"point\", \"position\": [0,0,0]}]}", LR_ERR_INVALID, "lights[0].intensity", "required"},
-    {"{\"lights\": [{\"type\": \"point\", \"position\": [0,0,0], \"intensity\": 1, \"radius\": 2}]}", LR_ERR_INVALID, "lights[0].radius", "unknown key"},
-    {"{\"lights\": [{\"type\": \"directional\", \"direction\": [0,0,0], \"irradiance\": 1}]}", LR_ERR_INVALID, "lights[0].direction", "zero"},
-    {"{\"lights\": [{\"type\": \"ambient\", \"radiance\": -0.5}]}", LR_ERR_INVALID, "lights[0].radiance", NULL},
-    {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": -2}]}", LR_ERR_INVALID, "objects[0].radius", "objects[0].radius must be > 0, got -2"},
-    {"{\"objects\": [{\"center\": [0,0,0], \"radius\": 1}]}", LR_ERR_INVALID, "objects[0].type", "required"},
-    {"{\"objects\": [{\"type\": \"cube\"}]}", LR_ERR_INVALID, "objects[0].type", "cube"},
-    {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": 1, \"normal\": [0,1,0]}]}", LR_ERR_INVALID, "objects[0].normal", "unknown key"},
-    {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,0]}]}", LR_ERR_INVALID, "objects[0].radius", "required"},
-    {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": 1}, {\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": 1, \"material\": \"nope\"}]}", LR_ERR_INVALID, "objects[1].material", "nope"},
-    {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": 1, \"transform\": [{\"shear\": 1}]}]}", LR_ERR_INVALID, "objects[0].transform[0].shear", "unknown transform"},
-    {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": 1, \"transform\": [{\"scale\": [1, 2, 1]}]}]}", LR_ERR_INVALID, "objects[0].transform", "uniformly"},
-    {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": 1, \"transform\": [{\"scale\": 0}]}]}", LR_ERR_INVALID, "objects[0].transform[0].scale", NULL},
-    {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": 1, \"transform\": [{\"rotate\": {\"axis\": [0,0,0], \"degrees\": 3}}]}]}", LR_ERR_INVALID, "objects[0].transform[0].rotate.axis", NULL},
-    {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": 1, \"transform\": [{\"rotate\": {\"axis\": [0,1,0]}}]}]}", LR_ERR_INVALID, "objects[0].transform[0].rotate.degrees", "required"},
-    {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": 1, \"transform\": {\"scale\": 2}}]}", LR_ERR_INVALID, "objects[0].transform", "array"},
-    {"{\"objects\": [{\"type\": \"plane\", \"normal\": [0,0,0]}]}", LR_ERR_INVALID, "objects[0].normal", "zero"},
-    {"{\"objects\": [{\"type\": \"plane\", \"normal\": [0,1,0], \"size\": -1}]}", LR_ERR_INVALID, "objects[0].size", NULL},
-    {"{\"objects\": [{\"type\": \"triangle\", \"vertices\": [[0,0,0],[1,0,0]]}]}", LR_ERR_INVALID, "objects[0].vertices", NULL},
-    {"{\"objects\": [{\"type\": \"triangle\", \"vertices\": [[0,0,0],[1,0,0],[0,1]]}]}", LR_ERR_INVALID, "objects[0].vertices[2]", NULL},
-    {"{\"objects\": [{\"type\": \"mesh\"}]}", LR_ERR_INVALID, "objects[0].file", "required"},
-    {"{\"objects\": [{\"type\": \"mesh\", \"file\": \"no-such-file.obj\"}]}", LR_ERR_IO, "objects[0].file", "no-such-file.obj"},
-    {"{\"objects\": [{\"type\": \"mesh\", \"file\": \"x.obj\", \"smooth\": \"yes\"}]}", LR_ERR_INVALID, "objects[0].smooth", NULL},
+    {"{\"lights\": [{\"type\": \"area\"}]}", LR_ERR_INVALID, "lights[0].type",
+     "area"},
+    {"{\"lights\": [{\"position\": [0,0,0]}]}", LR_ERR_INVALID,
+     "lights[0].type", "required"},
+    {"{\"lights\": [{\"type\": \"point\", \"position\": [0,0,0]}]}",
+     LR_ERR_INVALID, "lights[0].intensity", "required"},
+    {"{\"lights\": [{\"type\": \"point\", \"position\": [0,0,0], "
+     "\"intensity\": 1, \"radius\": 2}]}",
+     LR_ERR_INVALID, "lights[0].radius", "unknown key"},
+    {"{\"lights\": [{\"type\": \"directional\", \"direction\": [0,0,0], "
+     "\"irradiance\": 1}]}",
+     LR_ERR_INVALID, "lights[0].direction", "zero"},
+    {"{\"lights\": [{\"type\": \"ambient\", \"radiance\": -0.5}]}",
+     LR_ERR_INVALID, "lights[0].radiance", NULL},
+    {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": "
+     "-2}]}",
+     LR_ERR_INVALID, "objects[0].radius",
+     "objects[0].radius must be > 0, got -2"},
+    {"{\"objects\": [{\"center\": [0,0,0], \"radius\": 1}]}", LR_ERR_INVALID,
+     "objects[0].type", "required"},
+    {"{\"objects\": [{\"type\": \"cube\"}]}", LR_ERR_INVALID, "objects[0].type",
+     "cube"},
+    {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": "
+     "1, \"normal\": [0,1,0]}]}",
+     LR_ERR_INVALID, "objects[0].normal", "unknown key"},
+    {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,0]}]}",
+     LR_ERR_INVALID, "objects[0].radius", "required"},
+    {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": "
+     "1}, {\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": 1, "
+     "\"material\": \"nope\"}]}",
+     LR_ERR_INVALID, "objects[1].material", "nope"},
+    {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": "
+     "1, \"transform\": [{\"shear\": 1}]}]}",
+     LR_ERR_INVALID, "objects[0].transform[0].shear", "unknown transform"},
+    {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": "
+     "1, \"transform\": [{\"scale\": [1, 2, 1]}]}]}",
+     LR_ERR_INVALID, "objects[0].transform", "uniformly"},
+    {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": "
+     "1, \"transform\": [{\"scale\": 0}]}]}",
+     LR_ERR_INVALID, "objects[0].transform[0].scale", NULL},
+    {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": "
+     "1, \"transform\": [{\"rotate\": {\"axis\": [0,0,0], \"degrees\": 3}}]}]}",
+     LR_ERR_INVALID, "objects[0].transform[0].rotate.axis", NULL},
+    {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": "
+     "1, \"transform\": [{\"rotate\": {\"axis\": [0,1,0]}}]}]}",
+     LR_ERR_INVALID, "objects[0].transform[0].rotate.degrees", "required"},
+    {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": "
+     "1, \"transform\": {\"scale\": 2}}]}",
+     LR_ERR_INVALID, "objects[0].transform", "array"},
+    {"{\"objects\": [{\"type\": \"plane\", \"normal\": [0,0,0]}]}",
+     LR_ERR_INVALID, "objects[0].normal", "zero"},
+    {"{\"objects\": [{\"type\": \"plane\", \"normal\": [0,1,0], \"size\": "
+     "-1}]}",
+     LR_ERR_INVALID, "objects[0].size", NULL},
+    {"{\"objects\": [{\"type\": \"triangle\", \"vertices\": "
+     "[[0,0,0],[1,0,0]]}]}",
+     LR_ERR_INVALID, "objects[0].vertices", NULL},
+    {"{\"objects\": [{\"type\": \"triangle\", \"vertices\": "
+     "[[0,0,0],[1,0,0],[0,1]]}]}",
+     LR_ERR_INVALID, "objects[0].vertices[2]", NULL},
+    {"{\"objects\": [{\"type\": \"mesh\"}]}", LR_ERR_INVALID, "objects[0].file",
+     "required"},
+    {"{\"objects\": [{\"type\": \"mesh\", \"file\": \"no-such-file.obj\"}]}",
+     LR_ERR_IO, "objects[0].file", "no-such-file.obj"},
+    {"{\"objects\": [{\"type\": \"mesh\", \"file\": \"x.obj\", \"smooth\": "
+     "\"yes\"}]}",
+     LR_ERR_INVALID, "objects[0].smooth", NULL},
     {"{\"objects\": 5}", LR_ERR_INVALID, "objects", "array"},
 };
 
@@ -128,8 +195,8 @@ static void test_every_error_names_its_field(void **state)
             s != NULL)
             fail_msg("case %zu: %s\n  got status %d path \"%s\" message "
                      "\"%s\"\n  want status %d path \"%s\" message ~ \"%s\"",
-                     i, c->json, (int)st, err.path, err.message,
-                     (int)c->status, c->path, c->message ? c->message : "");
+                     i, c->json, (int)st, err.path, err.message, (int)c->status,
+                     c->path, c->message ? c->message : "");
         /* The message is a sentence that names the field itself. */
         if (c->path[0] != '\0' && c->status == LR_ERR_INVALID &&
             strstr(err.message, c->path) == NULL)
@@ -209,8 +276,10 @@ static void test_accel_robust(void **state)
 {
     (void)state;
     static const char *const json[] = {
-        "{\"accel\": {\"robust\": false}, \"render\": {\"integrator\": \"path\"}, " BASE_OBJS "}",
-        "{\"accel\": {\"robust\": true}, \"render\": {\"integrator\": \"path\"}, " BASE_OBJS "}",
+        "{\"accel\": {\"robust\": false}, \"render\": {\"integrator\": "
+        "\"path\"}, " BASE_OBJS "}",
+        "{\"accel\": {\"robust\": true}, \"render\": {\"integrator\": "
+        "\"path\"}, " BASE_OBJS "}",
     };
     for (int k = 0; k < 2; k++) {
         lr_scene *s = NULL;
@@ -234,9 +303,8 @@ static void test_overrides(void **state)
                           "background=[0.5,0.5,0.5]"};
     lr_scene *s = NULL;
     lr_error err;
-    assert_int_equal(lr_scene_load_json(json, strlen(json), NULL, sets, 5, &s,
-                                        &err),
-                     LR_OK);
+    assert_int_equal(
+        lr_scene_load_json(json, strlen(json), NULL, sets, 5, &s, &err), LR_OK);
     lr_camera cam;
     lr_render_settings rs;
     lr_scene_camera(s, &cam);
@@ -277,9 +345,9 @@ static void test_read_settings(void **state)
 {
     (void)state;
     static const char *const scenes[] = {
-        "spheres", "cornell", "bunny", "bokeh", "chromatic", "bench",
-        "accuracy-focus", "accuracy-defocus", "accuracy-chroma", "textured",
-        "lens-bokeh", "lens-chart"};
+        "spheres",         "cornell",  "bunny",          "bokeh",
+        "chromatic",       "bench",    "accuracy-focus", "accuracy-defocus",
+        "accuracy-chroma", "textured", "lens-bokeh",     "lens-chart"};
     static const char *const sets[] = {"camera.fov=33", "render.spp=7",
                                        "render.region=[1,2,30,40]"};
     for (size_t i = 0; i < sizeof scenes / sizeof *scenes; i++) {
@@ -315,7 +383,8 @@ static void test_read_settings(void **state)
     FILE *f = fopen(path, "w");
     assert_non_null(f);
     fputs("{\"render\": {\"width\": 33}, \"objects\": [{\"type\": \"mesh\", "
-          "\"file\": \"absent.obj\"}]}", f);
+          "\"file\": \"absent.obj\"}]}",
+          f);
     fclose(f);
     lr_camera cam;
     lr_render_settings rs;
@@ -341,8 +410,8 @@ static void test_read_settings(void **state)
         assert_int_not_equal(want, LR_OK);
         if (strcmp(bad[i][1], "accel") == 0) {
             /* accel is the objects' side: not read here. */
-            assert_int_equal(lr_scene_read_settings(path, NULL, 0, &cam, &rs,
-                                                    &err), LR_OK);
+            assert_int_equal(
+                lr_scene_read_settings(path, NULL, 0, &cam, &rs, &err), LR_OK);
             continue;
         }
         assert_int_equal(lr_scene_read_settings(path, NULL, 0, &cam, &rs, &err),
@@ -357,8 +426,9 @@ static void test_read_settings(void **state)
     assert_int_equal(lr_scene_read_settings(path, NULL, 0, &cam, &rs, &err),
                      LR_ERR_INVALID);
     assert_non_null(strstr(err.message, "no-mesh.json"));
-    assert_int_equal(lr_scene_read_settings("/nonexistent/x.json", NULL, 0,
-                                            &cam, &rs, &err), LR_ERR_IO);
+    assert_int_equal(
+        lr_scene_read_settings("/nonexistent/x.json", NULL, 0, &cam, &rs, &err),
+        LR_ERR_IO);
 }
 
 static void test_load_file_errors(void **state)
@@ -367,9 +437,9 @@ static void test_load_file_errors(void **state)
     lr_scene *s = NULL;
     lr_error err;
     char path[512];
-    assert_int_equal(lr_scene_load_file("/nonexistent/scene.json", NULL, 0, &s,
-                                        &err),
-                     LR_ERR_IO);
+    assert_int_equal(
+        lr_scene_load_file("/nonexistent/scene.json", NULL, 0, &s, &err),
+        LR_ERR_IO);
     assert_non_null(strstr(err.message, "/nonexistent/scene.json"));
     /* Syntax errors name the file and the line. */
     snprintf(path, sizeof path, "%s/broken.json", lr_test_tmpdir());

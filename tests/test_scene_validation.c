@@ -47,14 +47,39 @@ static void test_every_type_error(void **state)
 static void test_nan_inf_spellings(void **state)
 {
     (void)state;
-    static const char *const syntax[] = {
-        "NaN",  "nan",       "-nan",      "+nan",     "NAN",       "Infinity",
-        "-Infinity", "+Infinity", "infinity", "inf",   "-inf",      "+inf",
-        "INF",  "Inf",       "1.#INF",    "1.#QNAN",  "0x7ff0000000000000",
-        "1e",   "--1",       "nan(0x1)",  "\"\\u0000\"", "0/0"};
-    static const char *const overflow[] = {"1e999", "-1e999", "1e400",
-                                           "-1E+309", "1e308000",
-                                           "179769313486231580793728971405303415079934132710037826936173778980444968292764750946649017977587207096330286416692887910946555547851940402630657488671505820681908902000708383676273854845817711531764475730270069855571366959622842914819860834936475292719074168444365510704342711559699508093042880177904174497792"};
+    static const char *const syntax[] = {"NaN",
+                                         "nan",
+                                         "-nan",
+                                         "+nan",
+                                         "NAN",
+                                         "Infinity",
+                                         "-Infinity",
+                                         "+Infinity",
+                                         "infinity",
+                                         "inf",
+                                         "-inf",
+                                         "+inf",
+                                         "INF",
+                                         "Inf",
+                                         "1.#INF",
+                                         "1.#QNAN",
+                                         "0x7ff0000000000000",
+                                         "1e",
+                                         "--1",
+                                         "nan(0x1)",
+                                         "\"\\u0000\"",
+                                         "0/0"};
+    static const char *const overflow[] = {
+        "1e999",
+        "-1e999",
+        "1e400",
+        "-1E+309",
+        "1e308000",
+        "1797693134862315807937289714053034150799341327100378269361737789804449"
+        "6829276475094664901797758720709633028641669288791094655554785194040263"
+        "0657488671505820681908902000708383676273854845817711531764475730270069"
+        "8555713669596228429148198608349364752927190741684443655107043427115596"
+        "99508093042880177904174497792"};
     size_t tried = 0;
     for (size_t i = 0; i < lr_test_n_fields; i++) {
         if (!(lr_test_fields[i].accepts & LR_TEST_NUM))
@@ -96,20 +121,42 @@ static void test_duplicate_keys(void **state)
         {"{\"description\": \"a\", \"description\": \"b\"}", "description"},
         {"{\"objects\": [], \"objects\": []}", "objects"},
         {"{\"camera\": {\"fov\": 30, \"fov\": 30}}", "camera.fov"},
-        {"{\"camera\": {\"focus_on\": null, \"focus_on\": [1, 1]}}", "camera.focus_on"},
-        {"{\"camera\": {\"chromatic\": {\"mode\": \"rgb\", \"mode\": \"off\"}}}", "camera.chromatic.mode"},
-        {"{\"camera\": {\"chromatic\": {\"abbe\": {\"n_d\": 1.5, \"V_d\": 50, \"V_d\": 40}}}}", "camera.chromatic.abbe.V_d"},
+        {"{\"camera\": {\"focus_on\": null, \"focus_on\": [1, 1]}}",
+         "camera.focus_on"},
+        {"{\"camera\": {\"chromatic\": {\"mode\": \"rgb\", \"mode\": "
+         "\"off\"}}}",
+         "camera.chromatic.mode"},
+        {"{\"camera\": {\"chromatic\": {\"abbe\": {\"n_d\": 1.5, \"V_d\": 50, "
+         "\"V_d\": 40}}}}",
+         "camera.chromatic.abbe.V_d"},
         {"{\"render\": {\"spp\": 1, \"spp\": 2}}", "render.spp"},
-        {"{\"render\": {\"region\": [0,0,1,1], \"region\": [0,0,2,2]}}", "render.region"},
+        {"{\"render\": {\"region\": [0,0,1,1], \"region\": [0,0,2,2]}}",
+         "render.region"},
         {"{\"materials\": {\"m\": {}, \"m\": {}}}", "materials.m"},
-        {"{\"materials\": {\"m\": {\"ior\": 1.5, \"ior\": 1.6}}}", "materials.m.ior"},
-        {"{\"lights\": [{\"type\": \"ambient\", \"radiance\": 1, \"radiance\": 2}]}", "lights[0].radiance"},
-        {"{\"lights\": [{\"type\": \"ambient\", \"type\": \"point\", \"radiance\": 1}]}", "lights[0].type"},
-        {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": 1, \"radius\": 2}]}", "objects[0].radius"},
-        {"{\"objects\": [{\"type\": \"sphere\", \"type\": \"plane\", \"center\": [0,0,0], \"radius\": 1}]}", "objects[0].type"},
-        {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": 1, \"transform\": [{\"scale\": 1, \"scale\": 2}]}]}", "objects[0].transform[0]"},
-        {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": 1, \"transform\": [{\"rotate\": {\"axis\": [0,1,0], \"degrees\": 1, \"degrees\": 2}}]}]}", "objects[0].transform[0].rotate.degrees"},
-        {"{\"objects\": [{\"type\": \"mesh\", \"file\": \"a.obj\", \"file\": \"b.obj\"}]}", "objects[0].file"},
+        {"{\"materials\": {\"m\": {\"ior\": 1.5, \"ior\": 1.6}}}",
+         "materials.m.ior"},
+        {"{\"lights\": [{\"type\": \"ambient\", \"radiance\": 1, \"radiance\": "
+         "2}]}",
+         "lights[0].radiance"},
+        {"{\"lights\": [{\"type\": \"ambient\", \"type\": \"point\", "
+         "\"radiance\": 1}]}",
+         "lights[0].type"},
+        {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,0], "
+         "\"radius\": 1, \"radius\": 2}]}",
+         "objects[0].radius"},
+        {"{\"objects\": [{\"type\": \"sphere\", \"type\": \"plane\", "
+         "\"center\": [0,0,0], \"radius\": 1}]}",
+         "objects[0].type"},
+        {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,0], "
+         "\"radius\": 1, \"transform\": [{\"scale\": 1, \"scale\": 2}]}]}",
+         "objects[0].transform[0]"},
+        {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,0], "
+         "\"radius\": 1, \"transform\": [{\"rotate\": {\"axis\": [0,1,0], "
+         "\"degrees\": 1, \"degrees\": 2}}]}]}",
+         "objects[0].transform[0].rotate.degrees"},
+        {"{\"objects\": [{\"type\": \"mesh\", \"file\": \"a.obj\", \"file\": "
+         "\"b.obj\"}]}",
+         "objects[0].file"},
     };
     for (size_t i = 0; i < sizeof dups / sizeof dups[0]; i++)
         lr_test_expect_invalid(dups[i].json, strlen(dups[i].json), dups[i].path,
@@ -138,33 +185,53 @@ static void test_missing_and_out_of_range(void **state)
     static const struct {
         const char *json, *path;
     } cases[] = {
-        {"{\"lights\": [{\"type\": \"directional\", \"direction\": [0,-1,0]}]}", "lights[0].irradiance"},
-        {"{\"lights\": [{\"type\": \"directional\", \"irradiance\": 1}]}", "lights[0].direction"},
+        {"{\"lights\": [{\"type\": \"directional\", \"direction\": [0,-1,0]}]}",
+         "lights[0].irradiance"},
+        {"{\"lights\": [{\"type\": \"directional\", \"irradiance\": 1}]}",
+         "lights[0].direction"},
         {"{\"lights\": [{\"type\": \"ambient\"}]}", "lights[0].radiance"},
         {"{\"objects\": [{\"type\": \"plane\"}]}", "objects[0].normal"},
         {"{\"objects\": [{\"type\": \"triangle\"}]}", "objects[0].vertices"},
-        {"{\"objects\": [{\"type\": \"sphere\", \"radius\": 1}]}", "objects[0].center"},
-        {"{\"camera\": {\"chromatic\": {\"abbe\": {\"n_d\": 1.5}}}}", "camera.chromatic.abbe.V_d"},
-        {"{\"camera\": {\"chromatic\": {\"abbe\": {\"V_d\": 50}}}}", "camera.chromatic.abbe.n_d"},
+        {"{\"objects\": [{\"type\": \"sphere\", \"radius\": 1}]}",
+         "objects[0].center"},
+        {"{\"camera\": {\"chromatic\": {\"abbe\": {\"n_d\": 1.5}}}}",
+         "camera.chromatic.abbe.V_d"},
+        {"{\"camera\": {\"chromatic\": {\"abbe\": {\"V_d\": 50}}}}",
+         "camera.chromatic.abbe.n_d"},
         {"{\"camera\": {\"fov\": -1e-300}}", "camera.fov"},
         {"{\"camera\": {\"focus_distance\": 0}}", "camera.focus_distance"},
-        {"{\"camera\": {\"focus_distance\": -4e-324}}", "camera.focus_distance"},
+        {"{\"camera\": {\"focus_distance\": -4e-324}}",
+         "camera.focus_distance"},
         {"{\"camera\": {\"aperture_blades\": 65}}", "camera.aperture_blades"},
         {"{\"camera\": {\"aperture_blades\": 2.5}}", "camera.aperture_blades"},
-        {"{\"camera\": {\"aperture_ratio\": 100.00001}}", "camera.aperture_ratio"},
+        {"{\"camera\": {\"aperture_ratio\": 100.00001}}",
+         "camera.aperture_ratio"},
         {"{\"camera\": {\"focus_on\": [-1, 0]}}", "camera.focus_on"},
         {"{\"camera\": {\"focus_on\": [65536, 0]}}", "camera.focus_on"},
         {"{\"camera\": {\"focus_on\": [1, 2, 3]}}", "camera.focus_on"},
-        {"{\"camera\": {\"chromatic\": {\"ior\": [1, 1.5, 1.5]}}}", "camera.chromatic.ior"},
-        {"{\"camera\": {\"chromatic\": {\"ior\": [1.5, 1.5, 4]}}}", "camera.chromatic.ior"},
-        {"{\"camera\": {\"chromatic\": {\"amplify\": -1e-300}}}", "camera.chromatic.amplify"},
-        {"{\"camera\": {\"chromatic\": {\"amplify\": 1000000.0001}}}", "camera.chromatic.amplify"},
-        {"{\"camera\": {\"chromatic\": {\"wavelengths\": 0}}}", "camera.chromatic.wavelengths"},
-        {"{\"camera\": {\"chromatic\": {\"wavelengths\": 65}}}", "camera.chromatic.wavelengths"},
-        {"{\"camera\": {\"chromatic\": {\"abbe\": {\"n_d\": 4, \"V_d\": 50}}}}", "camera.chromatic.abbe.n_d"},
-        {"{\"camera\": {\"chromatic\": {\"abbe\": {\"n_d\": 1.5, \"V_d\": 0.5}}}}", "camera.chromatic.abbe.V_d"},
-        {"{\"camera\": {\"model\": \"thinlens\", \"chromatic\": {\"mode\": \"rgb\"}}}", "camera.focal_length_mm"},
-        {"{\"camera\": {\"model\": \"thinlens\", \"focal_length_mm\": 50, \"focus_distance\": 0.05, \"chromatic\": {\"mode\": \"rgb\"}}}", "camera.focus_distance"},
+        {"{\"camera\": {\"chromatic\": {\"ior\": [1, 1.5, 1.5]}}}",
+         "camera.chromatic.ior"},
+        {"{\"camera\": {\"chromatic\": {\"ior\": [1.5, 1.5, 4]}}}",
+         "camera.chromatic.ior"},
+        {"{\"camera\": {\"chromatic\": {\"amplify\": -1e-300}}}",
+         "camera.chromatic.amplify"},
+        {"{\"camera\": {\"chromatic\": {\"amplify\": 1000000.0001}}}",
+         "camera.chromatic.amplify"},
+        {"{\"camera\": {\"chromatic\": {\"wavelengths\": 0}}}",
+         "camera.chromatic.wavelengths"},
+        {"{\"camera\": {\"chromatic\": {\"wavelengths\": 65}}}",
+         "camera.chromatic.wavelengths"},
+        {"{\"camera\": {\"chromatic\": {\"abbe\": {\"n_d\": 4, \"V_d\": 50}}}}",
+         "camera.chromatic.abbe.n_d"},
+        {"{\"camera\": {\"chromatic\": {\"abbe\": {\"n_d\": 1.5, \"V_d\": "
+         "0.5}}}}",
+         "camera.chromatic.abbe.V_d"},
+        {"{\"camera\": {\"model\": \"thinlens\", \"chromatic\": {\"mode\": "
+         "\"rgb\"}}}",
+         "camera.focal_length_mm"},
+        {"{\"camera\": {\"model\": \"thinlens\", \"focal_length_mm\": 50, "
+         "\"focus_distance\": 0.05, \"chromatic\": {\"mode\": \"rgb\"}}}",
+         "camera.focus_distance"},
         {"{\"render\": {\"width\": 65537}}", "render.width"},
         {"{\"render\": {\"width\": 4294967297}}", "render.width"},
         {"{\"render\": {\"width\": -1}}", "render.width"},
@@ -178,18 +245,34 @@ static void test_missing_and_out_of_range(void **state)
         {"{\"render\": {\"region\": [0, 0, 1e300, 1]}}", "render.region"},
         {"{\"render\": {\"region\": [0, 0, -1, 1]}}", "render.region"},
         {"{\"render\": {\"region\": [0, 0, 1.5, 1]}}", "render.region"},
-        {"{\"render\": {\"width\": 10, \"region\": [5, 0, 5, 1]}}", "render.region"},
-        {"{\"render\": {\"width\": 10, \"region\": [0, 0, 11, 1]}}", "render.region"},
-        {"{\"materials\": {\"m\": {\"shininess\": 1000001}}}", "materials.m.shininess"},
+        {"{\"render\": {\"width\": 10, \"region\": [5, 0, 5, 1]}}",
+         "render.region"},
+        {"{\"render\": {\"width\": 10, \"region\": [0, 0, 11, 1]}}",
+         "render.region"},
+        {"{\"materials\": {\"m\": {\"shininess\": 1000001}}}",
+         "materials.m.shininess"},
         {"{\"materials\": {\"m\": {\"ior\": 10.000001}}}", "materials.m.ior"},
         {"{\"materials\": {\"m\": {\"ior\": 0.999999}}}", "materials.m.ior"},
-        {"{\"materials\": {\"m\": {\"reflect\": [0, -4e-324, 0]}}}", "materials.m.reflect"},
-        {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": 0}]}", "objects[0].radius"},
-        {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": 1, \"transform\": [{\"scale\": [1, 1, 0]}]}]}", "objects[0].transform[0].scale"},
-        {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": 1, \"transform\": [{\"scale\": [1, 1, -1]}, {\"scale\": [2, 1, 1]}]}]}", "objects[0].transform"},
-        {"{\"objects\": [{\"type\": \"plane\", \"normal\": [0,1,0], \"size\": [1, 0]}]}", "objects[0].size"},
-        {"{\"objects\": [{\"type\": \"plane\", \"normal\": [0,1,0], \"size\": [1, 2, 3]}]}", "objects[0].size"},
-        {"{\"objects\": [{\"type\": \"plane\", \"normal\": [4e-324, 0, 0]}]}", "objects[0].normal"},
+        {"{\"materials\": {\"m\": {\"reflect\": [0, -4e-324, 0]}}}",
+         "materials.m.reflect"},
+        {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,0], "
+         "\"radius\": 0}]}",
+         "objects[0].radius"},
+        {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,0], "
+         "\"radius\": 1, \"transform\": [{\"scale\": [1, 1, 0]}]}]}",
+         "objects[0].transform[0].scale"},
+        {"{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,0], "
+         "\"radius\": 1, \"transform\": [{\"scale\": [1, 1, -1]}, {\"scale\": "
+         "[2, 1, 1]}]}]}",
+         "objects[0].transform"},
+        {"{\"objects\": [{\"type\": \"plane\", \"normal\": [0,1,0], \"size\": "
+         "[1, 0]}]}",
+         "objects[0].size"},
+        {"{\"objects\": [{\"type\": \"plane\", \"normal\": [0,1,0], \"size\": "
+         "[1, 2, 3]}]}",
+         "objects[0].size"},
+        {"{\"objects\": [{\"type\": \"plane\", \"normal\": [4e-324, 0, 0]}]}",
+         "objects[0].normal"},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++)
         lr_test_expect_invalid(cases[i].json, strlen(cases[i].json),
@@ -203,8 +286,8 @@ static void test_missing_and_out_of_range(void **state)
         lr_scene *sc = NULL;
         lr_error err;
         assert_int_equal(lr_scene_load_json(focus_on[i][0],
-                                            strlen(focus_on[i][0]), NULL,
-                                            NULL, 0, &sc, &err),
+                                            strlen(focus_on[i][0]), NULL, NULL,
+                                            0, &sc, &err),
                          LR_ERR_INVALID);
         if (strstr(err.message, "a whole number from 0 to 65535") == NULL ||
             strstr(err.message, focus_on[i][1]) == NULL)

@@ -15,8 +15,8 @@
 static void assert_rel(double got, double want, double tol, const char *what)
 {
     if (!(fabs(got - want) <= tol * fabs(want)))
-        fail_msg("%s: got %.12g, expected %.12g (relative tolerance %g)",
-                 what, got, want, tol);
+        fail_msg("%s: got %.12g, expected %.12g (relative tolerance %g)", what,
+                 got, want, tol);
 }
 
 /* A lit Lambertian plane: L = albedo / pi * I cos(theta) / r^2. */
@@ -58,8 +58,8 @@ static void test_shadow_and_ambient(void **state)
         "   \"radius\": 0.5}]}");
     uint64_t rays = 0;
     /* Right under the sphere: only the ambient term, albedo * La. */
-    lr__v3 L = lr__radiance(s, v3(0.05, 1, 3), v3_norm(v3(-0.05, -1, -3)), 0,
-                            4, &rays);
+    lr__v3 L = lr__radiance(s, v3(0.05, 1, 3), v3_norm(v3(-0.05, -1, -3)), 0, 4,
+                            &rays);
     assert_rel(L.y, 0.5 * 0.2, 1e-12, "shadowed radiance");
     lr_scene_free(s);
 }
@@ -103,8 +103,8 @@ static void test_normalised_phong(void **state)
     double th = (45.0 + 10.0) * M_PI / 180.0;
     lr__v3 eye = v3(5 * sin(th), 5 * cos(th), 0);
     L = lr__radiance(s, eye, v3_norm(v3_neg(eye)), 0, 4, &rays);
-    double want = ks * (n + 2) / (2 * M_PI) * pow(cos(10 * M_PI / 180), n) *
-                  E * cos_t;
+    double want = ks * (n + 2) / (2 * M_PI) * pow(cos(10 * M_PI / 180), n) * E *
+                  cos_t;
     assert_rel(L.x, want, 1e-9, "Phong 10 degrees off");
     lr_scene_free(s);
 }
@@ -120,13 +120,12 @@ static void test_fresnel(void **state)
     /* Beyond the critical angle asin(1/1.5) = 41.8 degrees: total. */
     assert_true(lr__fresnel_dielectric(cos(45 * M_PI / 180), 1.5) == 1.0);
     /* Grazing incidence reflects everything. */
-    assert_rel(lr__fresnel_dielectric(0.0, 1.0 / 1.5), 1.0, 1e-12,
-               "grazing");
+    assert_rel(lr__fresnel_dielectric(0.0, 1.0 / 1.5), 1.0, 1e-12, "grazing");
     /* Brewster's angle atan(1.5): rp = 0, so F = rs^2 / 2. */
     double tb = atan(1.5), ct = cos(M_PI / 2 - tb);
     double rs = (cos(tb) - 1.5 * ct) / (cos(tb) + 1.5 * ct);
-    assert_rel(lr__fresnel_dielectric(cos(tb), 1.0 / 1.5), 0.5 * rs * rs,
-               1e-9, "Brewster");
+    assert_rel(lr__fresnel_dielectric(cos(tb), 1.0 / 1.5), 0.5 * rs * rs, 1e-9,
+               "Brewster");
 }
 
 /* A lossless mirror or glass ball in a uniform environment must look
@@ -134,8 +133,7 @@ static void test_fresnel(void **state)
 static void test_energy_mirror_and_glass(void **state)
 {
     (void)state;
-    const char *mats[] = {"{\"reflect\": 1}",
-                          "{\"transmit\": 1, \"ior\": 1.5}",
+    const char *mats[] = {"{\"reflect\": 1}", "{\"transmit\": 1, \"ior\": 1.5}",
                           "{\"transmit\": 1, \"ior\": 2.4}"};
     for (size_t k = 0; k < 3; k++) {
         char json[1024];
@@ -215,8 +213,7 @@ static void test_film_add16_matches_add_n(void **state)
         if (memcmp(&a, &b, sizeof a) != 0)
             fail_msg("round %d (n %d): add16 differs from add_n", round, n);
         assert_memory_equal(a.sum, c.sum, sizeof a.sum);
-        assert_true(c.sum2[0] == 0.3 && c.sum2[1] == 2.0 &&
-                    c.sum2[2] == 1e-5);
+        assert_true(c.sum2[0] == 0.3 && c.sum2[1] == 2.0 && c.sum2[2] == 1e-5);
         assert_true(c.n == a.n && c.dropped == a.dropped);
     }
 }
@@ -345,7 +342,8 @@ static void test_region_matches_full_frame(void **state)
         rs.tile_size = 4;
         lr_render_stats st;
         assert_int_equal(lr_render(s, &cam, &rs, &crop, &st, NULL), LR_OK);
-        int w = regions[k][2] - regions[k][0], h = regions[k][3] - regions[k][1];
+        int w = regions[k][2] - regions[k][0],
+            h = regions[k][3] - regions[k][1];
         assert_int_equal(lr_image_width(crop), w);
         assert_int_equal(lr_image_height(crop), h);
         assert_int_equal(st.pixels, (uint64_t)(w * h));
@@ -354,8 +352,8 @@ static void test_region_matches_full_frame(void **state)
                              3 * ((y + regions[k][1]) * 37 + regions[k][0]);
             const float *b = lr_image_rgb(crop) + 3 * y * w;
             assert_memory_equal(a, b, 3 * (size_t)w * sizeof(float));
-            const float *za = lr_image_depth(full) +
-                              (y + regions[k][1]) * 37 + regions[k][0];
+            const float *za = lr_image_depth(full) + (y + regions[k][1]) * 37 +
+                              regions[k][0];
             assert_memory_equal(za, lr_image_depth(crop) + y * w,
                                 (size_t)w * sizeof(float));
         }
@@ -423,13 +421,11 @@ static void test_render_rejects_bad_arguments(void **state)
     lr_image *img = NULL;
     lr_error err;
     rs.spp = 0;
-    assert_int_equal(lr_render(s, &cam, &rs, &img, NULL, &err),
-                     LR_ERR_INVALID);
+    assert_int_equal(lr_render(s, &cam, &rs, &img, NULL, &err), LR_ERR_INVALID);
     assert_string_equal(err.path, "render.spp");
     lr_scene_settings(s, &rs);
     cam.fov = NAN;
-    assert_int_equal(lr_render(s, &cam, &rs, &img, NULL, &err),
-                     LR_ERR_INVALID);
+    assert_int_equal(lr_render(s, &cam, &rs, &img, NULL, &err), LR_ERR_INVALID);
     assert_string_equal(err.path, "camera.fov");
     assert_null(img);
     lr_scene_free(s);
@@ -466,7 +462,8 @@ static void vector_matches_scalar(const char *ground, double min_mean)
         }
     assert_int_equal(fclose(f), 0);
     char json[8192];
-    int len = snprintf(json, sizeof json,
+    int len = snprintf(
+        json, sizeof json,
         "{\"camera\": {\"model\": \"thinlens\", \"position\": [0, 1.5, 6],"
         "  \"look_at\": [0, 0.5, 0], \"fov\": 50, \"aperture_radius\": 0.15,"
         "  \"focus_distance\": 6},"
@@ -475,7 +472,8 @@ static void vector_matches_scalar(const char *ground, double min_mean)
         " \"background\": [0.1, 0.2, 0.3],"
         " \"materials\": {\"clay\": {\"diffuse\": [0.7, 0.5, 0.3]},"
         "   \"grey\": {\"diffuse\": 0.5},"
-        "   \"gloss\": {\"diffuse\": 0.3, \"specular\": 0.4, \"shininess\": 20},"
+        "   \"gloss\": {\"diffuse\": 0.3, \"specular\": 0.4, \"shininess\": "
+        "20},"
         "   \"mirror\": {\"diffuse\": 0, \"reflect\": 0.8},"
         "   \"black\": {\"diffuse\": 0}},"
         " \"lights\": [{\"type\": \"point\", \"position\": [3, 5, 4],"
@@ -485,13 +483,16 @@ static void vector_matches_scalar(const char *ground, double min_mean)
         "  {\"type\": \"ambient\", \"radiance\": 0.05}],"
         " \"objects\": ["
         "  {\"type\": \"mesh\", \"file\": \"%s\", \"smooth\": true,"
-        "   \"material\": \"clay\", \"transform\": [{\"translate\": [-1.2, 1, 0]}]},"
+        "   \"material\": \"clay\", \"transform\": [{\"translate\": [-1.2, 1, "
+        "0]}]},"
         "  {\"type\": \"mesh\", \"file\": \"%s\", \"smooth\": true,"
-        "   \"material\": \"gloss\", \"transform\": [{\"translate\": [1.2, 1, -1]}]},"
+        "   \"material\": \"gloss\", \"transform\": [{\"translate\": [1.2, 1, "
+        "-1]}]},"
         "  {\"type\": \"mesh\", \"file\": \"%s\", \"material\": \"black\","
         "   \"transform\": [{\"scale\": 0.4}, {\"translate\": [0, 0.4, 2]}]},"
         "  {\"type\": \"mesh\", \"file\": \"%s\", \"material\": \"clay\","
-        "   \"transform\": [{\"scale\": 0.5}, {\"translate\": [0, 0.5, -1.5]}]},"
+        "   \"transform\": [{\"scale\": 0.5}, {\"translate\": [0, 0.5, "
+        "-1.5]}]},"
         "  {\"type\": \"sphere\", \"center\": [0, 0.6, 0.5], \"radius\": 0.6,"
         "   \"material\": \"mirror\"},"
         "  %s]}",
@@ -562,7 +563,8 @@ static void test_packets_on_every_embree_isa(void **state)
                        "f 1 3 2\nf 1 2 4\nf 2 3 4\nf 3 1 4\n",
                        path, sizeof path);
     char json[2048];
-    int len = snprintf(json, sizeof json,
+    int len = snprintf(
+        json, sizeof json,
         "{\"camera\": {\"model\": \"thinlens\", \"position\": [0, 0.8, 4],"
         "  \"look_at\": [0, 0.6, 0], \"fov\": 40, \"aperture_radius\": 0.1,"
         "  \"focus_distance\": 4},"

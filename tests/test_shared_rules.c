@@ -22,9 +22,8 @@ static void test_format_table(void **state)
     int n = 0;
     for (lr_format f = 0; lr_format_name(f) != NULL; f++, n++) {
         lr_format back = (lr_format)-1;
-        assert_int_equal(lr_format_from_name(lr_format_name(f), NULL, &back,
-                                             NULL),
-                         LR_OK);
+        assert_int_equal(
+            lr_format_from_name(lr_format_name(f), NULL, &back, NULL), LR_OK);
         assert_int_equal(back, f);
         /* The extension is the name with a dot, and names a file. */
         char file[32];
@@ -49,8 +48,7 @@ static void test_format_table(void **state)
     assert_string_equal(err.path, "output.format");
     assert_non_null(strstr(err.message, "\"png\""));
     assert_non_null(strstr(err.message, "\"exr\""));
-    assert_int_equal(lr_format_from_name(NULL, NULL, &f, &err),
-                     LR_ERR_INVALID);
+    assert_int_equal(lr_format_from_name(NULL, NULL, &f, &err), LR_ERR_INVALID);
     assert_string_equal(err.path, "format");
 }
 
@@ -87,8 +85,7 @@ static void test_output_json(void **state)
     for (int c = 0; c < 5; c++) {
         char json[96];
         snprintf(json, sizeof json,
-                 "{\"format\": \"exr\", \"compression\": \"%s\"}",
-                 comps[c]);
+                 "{\"format\": \"exr\", \"compression\": \"%s\"}", comps[c]);
         assert_int_equal(output(json, &o, &err), LR_OK);
         assert_int_equal(o.options.exr_compression, c);
         assert_string_equal(lr_exr_compression_name(o.options.exr_compression),
@@ -119,8 +116,8 @@ static void test_output_json(void **state)
         lr_output_default(&before);
         o = before;
         memset(&err, 0, sizeof err);
-        if (lr_output_apply_json(&o, bad[i].json, strlen(bad[i].json),
-                                 &err) != LR_ERR_INVALID)
+        if (lr_output_apply_json(&o, bad[i].json, strlen(bad[i].json), &err) !=
+            LR_ERR_INVALID)
             fail_msg("%s was accepted", bad[i].json);
         assert_string_equal(err.path, bad[i].path);
         assert_memory_equal(&o, &before, sizeof o);
@@ -152,12 +149,19 @@ static void test_stats_json(void **state)
     static const char *const want[] = {
         "{\"seconds\": 0.500000, \"cpu_seconds\": 0.750000",
         "\"width\": 640, \"height\": 480, \"spp\": 16",
-        "\"threads\": 2", "\"samples\": 400", "\"rays\": 1000",
-        "\"samples_per_second\": 800", "\"rays_per_second\": 2000",
-        "\"nan_samples\": 0", ", \"plan\": {\"enabled\": true",
-        "\"lens_pixels\": 0.2500", "\"full_samples\": 1600",
-        "\"camera_rays\": 450", "\"full_camera_rays\": 1600",
-        "\"lens_blocked\": 0", "\"light_paths\": 0",
+        "\"threads\": 2",
+        "\"samples\": 400",
+        "\"rays\": 1000",
+        "\"samples_per_second\": 800",
+        "\"rays_per_second\": 2000",
+        "\"nan_samples\": 0",
+        ", \"plan\": {\"enabled\": true",
+        "\"lens_pixels\": 0.2500",
+        "\"full_samples\": 1600",
+        "\"camera_rays\": 450",
+        "\"full_camera_rays\": 1600",
+        "\"lens_blocked\": 0",
+        "\"light_paths\": 0",
         "\"light_landed\": 0}}"};
     for (size_t i = 0; i < sizeof want / sizeof want[0]; i++)
         if (strstr(j, want[i]) == NULL)
@@ -296,9 +300,8 @@ static void test_integrator_registry(void **state)
         lr_render_settings s;
         lr_render_settings_default(&s);
         lr_error err;
-        assert_int_equal(lr_render_settings_apply_json(&s, json, strlen(json),
-                                                       &err),
-                         LR_OK);
+        assert_int_equal(
+            lr_render_settings_apply_json(&s, json, strlen(json), &err), LR_OK);
         assert_int_equal((int)s.integrator, n);
         char *back = lr_render_settings_json(&s);
         snprintf(json, sizeof json, "\"integrator\":\"%s\"", name);
@@ -332,9 +335,8 @@ static void test_scene_description(void **state)
     static const char with[] =
         "{\"description\": \"a \\u00e9 scene\", \"objects\": []}";
     lr_scene *s = NULL;
-    assert_int_equal(lr_scene_load_json(with, strlen(with), NULL, NULL, 0,
-                                        &s, NULL),
-                     LR_OK);
+    assert_int_equal(
+        lr_scene_load_json(with, strlen(with), NULL, NULL, 0, &s, NULL), LR_OK);
     assert_string_equal(lr_scene_description(s), "a \xc3\xa9 scene");
     lr_scene_free(s);
     assert_int_equal(lr_scene_load_json("{}", 2, NULL, NULL, 0, &s, NULL),
@@ -392,9 +394,9 @@ static void test_job_parse_errors(void **state)
     lr_job *job = NULL;
     lr_error err;
     /* A job's object that is not one says what it is. */
-    assert_int_equal(parse("{\"scene\": \"a\", \"output\": \"png\"}", &job,
-                           &err),
-                     LR_ERR_INVALID);
+    assert_int_equal(
+        parse("{\"scene\": \"a\", \"output\": \"png\"}", &job, &err),
+        LR_ERR_INVALID);
     assert_string_equal(err.message,
                         "output must be an object, got the string \"png\"");
     assert_int_equal(parse("{\"scene\": \"[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[["
@@ -405,9 +407,9 @@ static void test_job_parse_errors(void **state)
                                                 "[[[[[[[[[[[[[[[[[[[[[[[[[["
                                                 "[[[[[[[[[[[[[[[[[[[");
     lr_job_free(job);
-    assert_int_equal(lr_job_parse("{\"scene\": {\"a\": [[1]]}}", 22, 2, &job,
-                                  &err),
-                     LR_ERR_LIMIT);
+    assert_int_equal(
+        lr_job_parse("{\"scene\": {\"a\": [[1]]}}", 22, 2, &job, &err),
+        LR_ERR_LIMIT);
     lr_job_free(NULL);
 }
 
@@ -462,7 +464,8 @@ static void test_job_files_every_key(void **state)
     snprintf(json, sizeof json,
              "{\"scene\": {\"camera\": {\"model\": \"lens\", \"lens\": \"%s\"},"
              " \"materials\": {\"m\": {\"diffuse_texture\": \"t.png\"}},"
-             " \"environment\": {\"file\": \"%s\"}}}", hex, hex);
+             " \"environment\": {\"file\": \"%s\"}}}",
+             hex, hex);
     assert_int_equal(parse(json, &job, &err), LR_OK);
     const char *file, *field;
     assert_int_equal(lr_job_mesh_file(job, 0, &file, &field), 1);
@@ -476,7 +479,9 @@ static void test_job_files_every_key(void **state)
     assert_int_equal(lr_job_mesh_file(job, 3, &file, &field), 0);
     lr_job_free(job);
     assert_int_equal(parse("{\"scene\": {\"camera\": {\"lens\": "
-                           "\"double-gauss-50\"}}}", &job, &err), LR_OK);
+                           "\"double-gauss-50\"}}}",
+                           &job, &err),
+                     LR_OK);
     assert_int_equal(lr_job_mesh_file(job, 0, &file, &field), 0);
     lr_job_free(job);
     assert_true(lr_scene_file_key("file"));
@@ -513,35 +518,35 @@ static void test_asset_references(void **state)
     lr_error err;
     unsetenv("LENSRAY_ASSETS_DIR");
     assert_int_equal(lr_assets_dir_set(NULL, &err), LR_OK);
-    assert_int_equal(lr_scene_load_json(scene, strlen(scene), ".", NULL, 0,
-                                        &sc, &err),
-                     LR_ERR_INVALID);
+    assert_int_equal(
+        lr_scene_load_json(scene, strlen(scene), ".", NULL, 0, &sc, &err),
+        LR_ERR_INVALID);
     assert_string_equal(err.path, "objects[0].file");
     assert_non_null(strstr(err.message, "no assets directory"));
     assert_int_equal(lr_assets_dir_set(dir, &err), LR_OK);
-    assert_int_equal(lr_scene_load_json(scene, strlen(scene), ".", NULL, 0,
-                                        &sc, &err),
-                     LR_OK);
+    assert_int_equal(
+        lr_scene_load_json(scene, strlen(scene), ".", NULL, 0, &sc, &err),
+        LR_OK);
     lr_scene_free(sc);
     /* The asset's own messages name it by its reference, not the path. */
     scene[strlen(scene) - 5] = '2';
-    assert_int_equal(lr_scene_load_json(scene, strlen(scene), ".", NULL, 0,
-                                        &sc, &err),
-                     LR_ERR_INVALID);
+    assert_int_equal(
+        lr_scene_load_json(scene, strlen(scene), ".", NULL, 0, &sc, &err),
+        LR_ERR_INVALID);
     assert_string_equal(err.path, "objects[0].file");
     assert_non_null(strstr(err.message, "there is no asset sha256:"));
     assert_null(strstr(err.message, dir));
     const char *bad = "{\"objects\": [{\"type\": \"mesh\", \"file\": "
                       "\"sha256:ABC\"}]}";
-    assert_int_equal(lr_scene_load_json(bad, strlen(bad), ".", NULL, 0, &sc,
-                                        &err),
-                     LR_ERR_INVALID);
+    assert_int_equal(
+        lr_scene_load_json(bad, strlen(bad), ".", NULL, 0, &sc, &err),
+        LR_ERR_INVALID);
     assert_non_null(strstr(err.message, "64 lowercase hex digits"));
     /* Lens assets: each form (lensray JSON, Zemax, pbrt) is read from
      * the bytes, since the name says nothing. */
-    static const char *const lenses[] = {
-        "lenses/double-gauss-50.json", "tests/data/lenses/cooke-triplet.zmx",
-        "tests/data/lenses/dgauss.50mm.dat"};
+    static const char *const lenses[] = {"lenses/double-gauss-50.json",
+                                         "tests/data/lenses/cooke-triplet.zmx",
+                                         "tests/data/lenses/dgauss.50mm.dat"};
     for (size_t k = 0; k < 3; k++) {
         char hex[65];
         snprintf(hex, sizeof hex, "%064zu", k + 7);
@@ -558,8 +563,8 @@ static void test_asset_references(void **state)
         snprintf(scene, sizeof scene,
                  "{\"camera\": {\"model\": \"lens\", \"lens\": \"sha256:%s\"}}",
                  hex);
-        if (lr_scene_load_json(scene, strlen(scene), ".", NULL, 0, &sc,
-                               &err) != LR_OK)
+        if (lr_scene_load_json(scene, strlen(scene), ".", NULL, 0, &sc, &err) !=
+            LR_OK)
             fail_msg("%s as an asset: %s", lenses[k], err.message);
         lr_camera cam;
         lr_scene_camera(sc, &cam);

@@ -54,9 +54,9 @@ static double bk7(double nm)
 #define IW 48
 #define IH 16
 #define FOV 10.0
-#define R 0.05   /* aperture radius, m */
-#define F 0.05   /* focal length, m */
-#define S 2.0    /* focus and bar depth, m */
+#define R 0.05 /* aperture radius, m */
+#define F 0.05 /* focal length, m */
+#define S 2.0  /* focus and bar depth, m */
 #define AMP 3.0
 #define BAR 0.02 /* bar half width, m */
 
@@ -116,25 +116,25 @@ static void expected_column(int i, double out[3])
 
 static void bar_scene(char *buf, size_t n, int spp, const char *extra)
 {
-    snprintf(buf, n,
-             "{\"render\": {\"width\": %d, \"height\": %d, \"spp\": %d,"
-             "  \"max_depth\": 0, \"adaptive\": false%s},"
-             " \"camera\": {\"model\": \"thinlens\", \"position\": [0, 0, 0],"
-             "  \"look_at\": [0, 0, -1], \"fov\": %g, \"focus_distance\": %g,"
-             "  \"focal_length_mm\": %g, \"aperture_radius\": %g,"
-             "  \"chromatic\": {\"mode\": \"spectral\", \"glass\": \"N-BK7\","
-             "   \"focal_model\": \"lensmaker\", \"amplify\": %g}},"
-             " \"materials\": {\"w\": {\"diffuse\": 1}},"
-             " \"lights\": [{\"type\": \"ambient\", \"radiance\": 1}],"
-             " \"objects\": [{\"type\": \"plane\", \"point\": [0, 0, %g],"
-             "  \"normal\": [0, 0, 1], \"size\": [%g, 10], \"material\": \"w\"}]}",
-             IW, IH, spp, extra, FOV, S, F * 1000, R, AMP, -S, 2 * BAR);
+    snprintf(
+        buf, n,
+        "{\"render\": {\"width\": %d, \"height\": %d, \"spp\": %d,"
+        "  \"max_depth\": 0, \"adaptive\": false%s},"
+        " \"camera\": {\"model\": \"thinlens\", \"position\": [0, 0, 0],"
+        "  \"look_at\": [0, 0, -1], \"fov\": %g, \"focus_distance\": %g,"
+        "  \"focal_length_mm\": %g, \"aperture_radius\": %g,"
+        "  \"chromatic\": {\"mode\": \"spectral\", \"glass\": \"N-BK7\","
+        "   \"focal_model\": \"lensmaker\", \"amplify\": %g}},"
+        " \"materials\": {\"w\": {\"diffuse\": 1}},"
+        " \"lights\": [{\"type\": \"ambient\", \"radiance\": 1}],"
+        " \"objects\": [{\"type\": \"plane\", \"point\": [0, 0, %g],"
+        "  \"normal\": [0, 0, 1], \"size\": [%g, 10], \"material\": \"w\"}]}",
+        IW, IH, spp, extra, FOV, S, F * 1000, R, AMP, -S, 2 * BAR);
 }
 
 /* Whether the plan of the scene `json` (with `sets`) traces it by
  * spectral splatting (splat.c). */
-static int plan_splats(const char *json, const char *const *sets,
-                       size_t n_sets)
+static int plan_splats(const char *json, const char *const *sets, size_t n_sets)
 {
     lr_scene *s = lr_test_load(json, sets, n_sets);
     lr_camera cam;
@@ -145,9 +145,8 @@ static int plan_splats(const char *json, const char *const *sets,
     lr__cam_init(&c, &cam, rs.width, rs.height);
     lr__plan p;
     lr_error err;
-    assert_int_equal(lr__plan_build(&p, s, &c, &rs, 0, 0, rs.width,
-                                    rs.height, &err),
-                     LR_OK);
+    assert_int_equal(
+        lr__plan_build(&p, s, &c, &rs, 0, 0, rs.width, rs.height, &err), LR_OK);
     int splat = p.splat;
     lr__plan_free(&p);
     lr_scene_free(s);
@@ -177,9 +176,8 @@ static void test_white_bar_matches_cie_integral(void **state)
         static double col[SEEDS][IW][3];
         for (int k = 0; k < SEEDS; k++) {
             char extra[96];
-            snprintf(extra, sizeof extra,
-                     ", \"sampler\": \"%s\", \"seed\": %d", samplers[sm],
-                     k + 1);
+            snprintf(extra, sizeof extra, ", \"sampler\": \"%s\", \"seed\": %d",
+                     samplers[sm], k + 1);
             bar_scene(json, sizeof json, 64, extra);
             assert_true(plan_splats(json, NULL, 0));
             lr_image *img = lr_test_render(json, NULL, 0, NULL);
@@ -205,8 +203,8 @@ static void test_white_bar_matches_cie_integral(void **state)
                     s2 += col[k][i][c] * col[k][i][c];
                 }
                 double mean = s / SEEDS;
-                double se =
-                    sqrt(fmax(s2 / SEEDS - mean * mean, 0) / (SEEDS - 1));
+                double se = sqrt(fmax(s2 / SEEDS - mean * mean, 0) /
+                                 (SEEDS - 1));
                 if (fabs(mean - e[c]) > 4 * se + 2e-3)
                     fail_msg("%s: column %d channel %d: %g, the CIE integral "
                              "%g (standard error %g)",
@@ -227,7 +225,7 @@ static void test_thin_lens_shift_is_a_focus_change(void **state)
 {
     (void)state;
     const char *shapes[] = {"\"disk\"", "\"polygon\", \"aperture_blades\": 5,"
-                                         " \"aperture_ratio\": 1.7"};
+                                        " \"aperture_ratio\": 1.7"};
     for (int k = 0; k < 2; k++) {
         char json[1024];
         snprintf(json, sizeof json,
@@ -305,8 +303,7 @@ static void test_splat_crop_and_threads_exact(void **state)
     lr_image *b = lr_test_render(json, two, 1, NULL);
     lr_test_assert_same_bytes(full, b, "splatting, 1 thread against 2");
     lr_image_free(b);
-    const char *crop[] = {"render.region=[19, 3, 31, 12]",
-                          "render.threads=2"};
+    const char *crop[] = {"render.region=[19, 3, 31, 12]", "render.threads=2"};
     lr_image *c = lr_test_render(json, crop, 2, NULL);
     const float *f = lr_image_rgb(full), *p = lr_image_rgb(c);
     for (int y = 3; y < 12; y++)
@@ -377,7 +374,8 @@ static void test_wavelength_weights_integrate_to_one(void **state)
      * reference (1) at the d line. */
     for (int j = 0; j < LR__WL_NODES; j++) {
         double l = (380.0 + j) / 1000.0;
-        power[j] = (float)(1 + 0.01 * (1 / (l * l) - 1 / (0.5875618 * 0.5875618)));
+        power[j] = (float)(1 +
+                           0.01 * (1 / (l * l) - 1 / (0.5875618 * 0.5875618)));
     }
     lr__wl_table_init(&flat, NULL, 1.0);
     lr__wl_table_init(&disp, power, 1.0);

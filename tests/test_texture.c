@@ -77,8 +77,7 @@ static bytes png_file(uint32_t w, uint32_t h, int depth, int type,
     unsigned char *filt = malloc(n);
     for (uint32_t y = 0; y < h; y++) {
         filt[y * (row_bytes + 1)] = 0;
-        memcpy(filt + y * (row_bytes + 1) + 1, raw + y * row_bytes,
-               row_bytes);
+        memcpy(filt + y * (row_bytes + 1) + 1, raw + y * row_bytes, row_bytes);
     }
     uLongf zn = compressBound(n);
     unsigned char *z = malloc(zn);
@@ -137,8 +136,8 @@ static void png_8bit_layouts(void **state)
 {
     (void)state;
     /* 3 x 2 RGB, 8-bit. */
-    const unsigned char rgb[18] = {0,   10,  20,  30,  40,  50,  60,  70, 80,
-                                   255, 128, 1,   2,   3,   4,   200, 100, 0};
+    const unsigned char rgb[18] = {0,   10,  20, 30, 40, 50, 60,  70,  80,
+                                   255, 128, 1,  2,  3,  4,  200, 100, 0};
     bytes b = png_file(3, 2, 8, 2, rgb, 9, NULL, 0, NULL, 0);
     for (int srgb = 0; srgb < 2; srgb++) {
         lr__texture *t = load_mem(&b, srgb);
@@ -196,8 +195,7 @@ static void png_8bit_layouts(void **state)
     const unsigned char bits[1] = {0xa0};
     b = png_file(3, 1, 1, 0, bits, 1, NULL, 0, NULL, 0);
     t = load_mem(&b, 1);
-    assert_true(t->rgba[0] == 1.0f && t->rgba[4] == 0.0f &&
-                t->rgba[8] == 1.0f);
+    assert_true(t->rgba[0] == 1.0f && t->rgba[4] == 0.0f && t->rgba[8] == 1.0f);
     lr__texture_free(t);
     free(b.p);
 }
@@ -268,8 +266,8 @@ static void jpeg_levels(void **state)
     assert_int_equal(t->w, 16);
     for (int i = 0; i < 256; i++)
         for (int c = 0; c < 3; c++)
-            assert_true(fabs(t->rgba[4 * i + c] - 200 / 255.0) <= 1.0 / 255 +
-                                                                     1e-7);
+            assert_true(fabs(t->rgba[4 * i + c] - 200 / 255.0) <=
+                        1.0 / 255 + 1e-7);
     lr__texture_free(t);
     free(b.p);
     b = jpeg_file(16, 16, 3, col);
@@ -282,7 +280,8 @@ static void jpeg_levels(void **state)
                    hi = (float)srgb_ref((want[c] + 1) / 255.0);
             if (!(t->rgba[4 * i + c] >= lo && t->rgba[4 * i + c] <= hi))
                 fail_msg("texel %d channel %d: %.6f, level %d decodes to "
-                         "%.6f", i, c, (double)t->rgba[4 * i + c], want[c],
+                         "%.6f",
+                         i, c, (double)t->rgba[4 * i + c], want[c],
                          srgb_ref(want[c] / 255.0));
         }
     assert_true(t->rgba[3] == 1.0f);
@@ -428,16 +427,17 @@ static void garbage_and_huge(void **state)
     unsigned char junk[256];
     uint32_t r = 12345;
     for (int trial = 0; trial < 200; trial++) {
-        memcpy(junk, trial % 3 == 0   ? "\x89PNG\r\n\x1a\n"
-                     : trial % 3 == 1 ? "\xff\xd8\xff\xe0\0\0\0\0"
-                                      : "\x76\x2f\x31\x01\2\0\0\0",
+        memcpy(junk,
+               trial % 3 == 0   ? "\x89PNG\r\n\x1a\n"
+               : trial % 3 == 1 ? "\xff\xd8\xff\xe0\0\0\0\0"
+                                : "\x76\x2f\x31\x01\2\0\0\0",
                8);
         for (int i = 8; i < 256; i++) {
             r = r * 1103515245u + 12345u;
             junk[i] = (unsigned char)(r >> 16);
         }
-        lr__texture *t =
-            lr__texture_load_memory(junk, sizeof junk, "junk", 1, &err);
+        lr__texture *t = lr__texture_load_memory(junk, sizeof junk, "junk", 1,
+                                                 &err);
         lr__texture_free(t);
     }
     unsigned char raw[48] = {0};
@@ -445,8 +445,8 @@ static void garbage_and_huge(void **state)
     for (size_t i = 8; i < b.n; i++) {
         unsigned char keep = b.p[i];
         b.p[i] ^= 0x5a;
-        lr__texture_free(lr__texture_load_memory(b.p, b.n, "flip.png", 1,
-                                                 &err));
+        lr__texture_free(
+            lr__texture_load_memory(b.p, b.n, "flip.png", 1, &err));
         b.p[i] = keep;
     }
     free(b.p);

@@ -116,8 +116,8 @@ static void material_errors(void **state)
     (void)state;
     write_exr("const.exr", 2, 2, constant);
     char path[512];
-    lr_test_write_text("novt.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3\n",
-                       path, sizeof path);
+    lr_test_write_text("novt.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3\n", path,
+                       sizeof path);
     lr_test_write_text("notimage.png", "just text", path, sizeof path);
     static const struct {
         const char *json, *path, *needle;
@@ -125,8 +125,9 @@ static void material_errors(void **state)
         {"{\"materials\": {\"t\": {\"diffuse_texture\": \"const.exr\"}},"
          " \"objects\": [{\"type\": \"triangle\", \"material\": \"t\","
          " \"vertices\": [[0,0,0],[1,0,0],[0,1,0]]}]}",
-         "objects[0]", "objects[0]: material \"t\" sets diffuse_texture, "
-                       "but objects[0] has no texture coordinates"},
+         "objects[0]",
+         "objects[0]: material \"t\" sets diffuse_texture, "
+         "but objects[0] has no texture coordinates"},
         {"{\"materials\": {\"t\": {\"emission_texture\": \"const.exr\"}},"
          " \"objects\": [{\"type\": \"plane\", \"material\": \"t\","
          " \"normal\": [0,1,0]}]}",
@@ -181,21 +182,22 @@ static lr_image *render_mat(const char *mat, const char *emit,
                             const char *integrator)
 {
     char json[2048];
-    snprintf(json, sizeof json,
-             "{\"camera\": {\"position\": [0, 1.5, 4], \"look_at\": [0, 0.5, 0]},"
-             " \"render\": {\"width\": 48, \"height\": 36, \"spp\": 4,"
-             "  \"integrator\": \"%s\", \"max_depth\": 3},"
-             " \"materials\": {\"m\": {%s}, \"e\": {%s}},"
-             " \"lights\": [{\"type\": \"point\", \"position\": [2, 4, 3],"
-             "  \"intensity\": 20}, {\"type\": \"ambient\", \"radiance\": 0.1}],"
-             " \"objects\": ["
-             "  {\"type\": \"plane\", \"normal\": [0, 1, 0], \"size\": 6,"
-             "   \"material\": \"m\"},"
-             "  {\"type\": \"sphere\", \"center\": [0.5, 0.6, 0], \"radius\": 0.6,"
-             "   \"material\": \"m\"},"
-             "  {\"type\": \"plane\", \"point\": [-1, 1, -1], \"normal\":"
-             "   [0.5, -0.3, 1], \"size\": 1, \"material\": \"e\"}]}",
-             integrator, mat, emit);
+    snprintf(
+        json, sizeof json,
+        "{\"camera\": {\"position\": [0, 1.5, 4], \"look_at\": [0, 0.5, 0]},"
+        " \"render\": {\"width\": 48, \"height\": 36, \"spp\": 4,"
+        "  \"integrator\": \"%s\", \"max_depth\": 3},"
+        " \"materials\": {\"m\": {%s}, \"e\": {%s}},"
+        " \"lights\": [{\"type\": \"point\", \"position\": [2, 4, 3],"
+        "  \"intensity\": 20}, {\"type\": \"ambient\", \"radiance\": 0.1}],"
+        " \"objects\": ["
+        "  {\"type\": \"plane\", \"normal\": [0, 1, 0], \"size\": 6,"
+        "   \"material\": \"m\"},"
+        "  {\"type\": \"sphere\", \"center\": [0.5, 0.6, 0], \"radius\": 0.6,"
+        "   \"material\": \"m\"},"
+        "  {\"type\": \"plane\", \"point\": [-1, 1, -1], \"normal\":"
+        "   [0.5, -0.3, 1], \"size\": 1, \"material\": \"e\"}]}",
+        integrator, mat, emit);
     return lr_test_render_json(json, mat);
 }
 
@@ -344,8 +346,7 @@ static void checker_projection(void **state)
             if (e > 1e-4)
                 fail_msg("pixel (%d, %d): (%g, %g, %g), predicted (%g, %g, "
                          "%g) at texel (%.3f, %.3f)",
-                         qx, py, p[0], p[1], p[2], red, tx / 8, ty / 8, tx,
-                         ty);
+                         qx, py, p[0], p[1], p[2], red, tx / 8, ty / 8, tx, ty);
             checked++;
         }
     assert_true(checked > 1000);
@@ -392,8 +393,8 @@ static void sampled_emission_matches_hit(void **state)
                     fabs(e.z - ls.L.z) > 1e-4)
                     fail_msg("%s: sample (%g, %g): light sample %g %g %g, "
                              "hit %g %g %g",
-                             k ? "sphere" : "quad", u[0], u[1], ls.L.x,
-                             ls.L.y, ls.L.z, e.x, e.y, e.z);
+                             k ? "sphere" : "quad", u[0], u[1], ls.L.x, ls.L.y,
+                             ls.L.z, e.x, e.y, e.z);
                 if (first < 0)
                     first = e.x;
                 varied |= fabs(e.x - first) > 0.1;

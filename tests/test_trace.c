@@ -22,12 +22,12 @@ static lr_scene *scene_of(const char *objects)
     return s;
 }
 
-#define assert_near(a, b, tol)                                             \
-    do {                                                                   \
-        double a_ = (a), b_ = (b);                                         \
-        if (!(fabs(a_ - b_) <= (tol)))                                     \
-            fail_msg("%s = %.12g, expected %.12g (tol %g)", #a, a_, b_,    \
-                     (double)(tol));                                       \
+#define assert_near(a, b, tol)                                          \
+    do {                                                                \
+        double a_ = (a), b_ = (b);                                      \
+        if (!(fabs(a_ - b_) <= (tol)))                                  \
+            fail_msg("%s = %.12g, expected %.12g (tol %g)", #a, a_, b_, \
+                     (double)(tol));                                    \
     } while (0)
 
 static void test_sphere(void **state)
@@ -142,8 +142,9 @@ static void test_triangle_and_transforms(void **state)
     lr_scene_free(s);
 
     /* Sphere under uniform scale and translation. */
-    s = scene_of("[{\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": 1,"
-                 " \"transform\": [{\"scale\": 2}, {\"translate\": [0,0,-10]}]}]");
+    s = scene_of(
+        "[{\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": 1,"
+        " \"transform\": [{\"scale\": 2}, {\"translate\": [0,0,-10]}]}]");
     assert_true(lr__trace(s, v3(0, 0, 0), v3(0, 0, -1), INFINITY, &h));
     assert_near(h.t, 8.0, 1e-5);
     lr_scene_free(s);
@@ -202,7 +203,8 @@ static void test_closest_of_many(void **state)
     lr_scene *s = scene_of(
         "[{\"type\": \"plane\", \"point\": [0,0,-20], \"normal\": [0,0,1]},"
         " {\"type\": \"sphere\", \"center\": [0,0,-10], \"radius\": 1},"
-        " {\"type\": \"triangle\", \"vertices\": [[-1,-1,-5],[1,-1,-5],[0,1,-5]]}]");
+        " {\"type\": \"triangle\", \"vertices\": "
+        "[[-1,-1,-5],[1,-1,-5],[0,1,-5]]}]");
     lr__hit h;
     assert_true(lr__trace(s, v3(0, 0, 0), v3(0, 0, -1), INFINITY, &h));
     assert_near(h.t, 5.0, 1e-6);

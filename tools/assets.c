@@ -139,7 +139,7 @@ typedef struct known {
 
 struct assets_session {
     const char *url, *token;
-    int store;       /* 0 once the daemons said they keep no assets */
+    int store; /* 0 once the daemons said they keep no assets */
     known *files;
     int n, cap, uploaded;
 };
@@ -203,16 +203,21 @@ static int ensure(assets_session *s, const char *path, const char *what,
             goto out;
         }
         if (status != 201 && status != 200) {
-            fprintf(stderr, "lensray: %s: %s: sending %s as asset sha256:%s "
-                            "failed: %s%s\n",
+            fprintf(stderr,
+                    "lensray: %s: %s: sending %s as asset sha256:%s "
+                    "failed: %s%s\n",
                     what, field, path, hex, status < 0 ? "" : "HTTP ",
-                    status < 0 ? a.text : a.text[0] ? a.text : "?");
+                    status < 0  ? a.text
+                    : a.text[0] ? a.text
+                                : "?");
             goto out;
         }
         s->uploaded++;
     } else if (status != 200) {
-        fprintf(stderr, "lensray: asking %s for asset sha256:%s failed: "
-                        "%s (HTTP %ld)\n", s->url, hex, a.text, status);
+        fprintf(stderr,
+                "lensray: asking %s for asset sha256:%s failed: "
+                "%s (HTTP %ld)\n",
+                s->url, hex, a.text, status);
         goto out;
     }
     if (s->n == s->cap) {
@@ -339,8 +344,8 @@ int assets_prepare(assets_session *s, const char *scene, size_t len,
     if (s->store)
         rc = send_files(s, root, "", dir, what);
     if (rc == 0 && s->store)
-        rc = send_lens(s, cJSON_GetObjectItemCaseSensitive(root, "camera"),
-                       dir, what, "camera.lens");
+        rc = send_lens(s, cJSON_GetObjectItemCaseSensitive(root, "camera"), dir,
+                       what, "camera.lens");
     if (rc == 0 && s->store)
         rc = send_lens(s, cam, dir, what, "camera.lens");
     if (rc > 1)

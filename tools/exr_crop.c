@@ -102,8 +102,10 @@ int exr_crop_place(const void *buf, size_t len, lr_image *dst, int x0, int y0,
         goto done;
     }
     if (dw.min.x != fx || dw.min.y != fy) {
-        snprintf(msg, msg_size, "the image's data window starts at %d, %d, "
-                 "not at the part's %d, %d", dw.min.x, dw.min.y, fx, fy);
+        snprintf(msg, msg_size,
+                 "the image's data window starts at %d, %d, "
+                 "not at the part's %d, %d",
+                 dw.min.x, dw.min.y, fx, fy);
         goto done;
     }
     int found[4] = {0, 0, 0, 0};
@@ -114,7 +116,10 @@ int exr_crop_place(const void *buf, size_t len, lr_image *dst, int x0, int y0,
     }
     if (!found[0] || !found[1] || !found[2] || (want_z && !found[3])) {
         snprintf(msg, msg_size, "the image lacks channel %s",
-                 !found[0] ? "R" : !found[1] ? "G" : !found[2] ? "B" : "Z");
+                 !found[0]   ? "R"
+                 : !found[1] ? "G"
+                 : !found[2] ? "B"
+                             : "Z");
         goto done;
     }
     for (int k = 0; k < 4; k++) {
@@ -162,9 +167,10 @@ int exr_crop_place(const void *buf, size_t len, lr_image *dst, int x0, int y0,
                 size_t d = row * (size_t)dst_w + (size_t)(x0 + x);
                 for (int k = 0; k < (want_z ? 4 : 3); k++)
                     if (!isfinite(plane[k][s])) {
-                        snprintf(msg, msg_size, "the image has a NaN or "
-                                 "infinite value at %d, %d", x,
-                                 ci.start_y - dw.min.y + r);
+                        snprintf(msg, msg_size,
+                                 "the image has a NaN or "
+                                 "infinite value at %d, %d",
+                                 x, ci.start_y - dw.min.y + r);
                         goto done;
                     }
                 for (int k = 0; k < 3; k++)

@@ -28,11 +28,17 @@
 #include <time.h>
 #include <unistd.h>
 
-enum { EXIT_OK = 0, EXIT_USAGE = 2, EXIT_SCENE = 3, EXIT_IO = 4,
-       EXIT_INTERRUPTED = 130 };
+enum {
+    EXIT_OK = 0,
+    EXIT_USAGE = 2,
+    EXIT_SCENE = 3,
+    EXIT_IO = 4,
+    EXIT_INTERRUPTED = 130
+};
 
 static const char usage_text[] =
-    "usage: lensray render SCENE.json|SCENE.glb... -o OUT.exr|OUT.png [options]\n"
+    "usage: lensray render SCENE.json|SCENE.glb... -o OUT.exr|OUT.png "
+    "[options]\n"
     "       lensray lens FILE|NAME [--field-angles A,B,...] [--wavelength NM]\n"
     "       lensray version\n"
     "       lensray --help\n"
@@ -190,10 +196,14 @@ static void dir_of(const char *path, char *dir, size_t size)
 static int exit_for(lr_status st)
 {
     switch (st) {
-    case LR_OK: return EXIT_OK;
-    case LR_ERR_IO: return EXIT_IO;
-    case LR_ERR_CANCELLED: return EXIT_INTERRUPTED;
-    default: return EXIT_SCENE;
+    case LR_OK:
+        return EXIT_OK;
+    case LR_ERR_IO:
+        return EXIT_IO;
+    case LR_ERR_CANCELLED:
+        return EXIT_INTERRUPTED;
+    default:
+        return EXIT_SCENE;
     }
 }
 
@@ -211,10 +221,10 @@ static int write_image(const lr_image *img, const char *path,
 
 /* What `lensray render` was asked, once its arguments are read. */
 typedef struct render_job {
-    const char **scenes;   /* the scene files, in order */
+    const char **scenes; /* the scene files, in order */
     int n_scenes;
-    const char *out;       /* the output, or a pattern with a frame number */
-    int numbered;          /* out holds a frame number (outname.h) */
+    const char *out; /* the output, or a pattern with a frame number */
+    int numbered;    /* out holds a frame number (outname.h) */
     const char **sets;
     size_t n_sets;
     int stats, quiet, want_depth;
@@ -241,8 +251,9 @@ static void fit_output(const render_job *r, lr_render_settings *rs,
     if (rs->want_depth && !lr_format_has_depth(r->fmt)) {
         /* The scene asks for Z but the output cannot hold it: say so
          * rather than drop it silently, and skip the work. */
-        fprintf(stderr, "lensray: warning: render.depth is set but %s has no "
-                        "Z channel; write an .exr to keep it\n",
+        fprintf(stderr,
+                "lensray: warning: render.depth is set but %s has no "
+                "Z channel; write an .exr to keep it\n",
                 out_path);
         rs->want_depth = 0;
     }
@@ -315,8 +326,9 @@ static int render_local(const render_job *r, const char *scene_path,
         lr_free(json);
     }
     if (rst.nan_samples > 0)
-        fprintf(stderr, "lensray: warning: %llu samples were NaN or "
-                        "infinite and were dropped\n",
+        fprintf(stderr,
+                "lensray: warning: %llu samples were NaN or "
+                "infinite and were dropped\n",
                 (unsigned long long)rst.nan_samples);
     lr_image_free(img);
     lr_scene_free(scene);
@@ -368,8 +380,8 @@ static int load_frame(void *user, int k, remote_frame *f)
          * load (reading them here cost each frame their parsing and a BVH
          * built for nothing). */
         lr_error err;
-        lr_status st = lr_scene_read_settings(path, r->sets, r->n_sets,
-                                              &f->cam, &f->rs, &err);
+        lr_status st = lr_scene_read_settings(path, r->sets, r->n_sets, &f->cam,
+                                              &f->rs, &err);
         if (st != LR_OK) {
             fprintf(stderr, "lensray: %s\n", err.message);
             return exit_for(st);
@@ -437,8 +449,7 @@ static int render_remote(const render_job *r)
 /* render's arguments into *r; the token file and the last remote-only
  * flag into *token_file and *remote_flag.  EXIT_OK or a usage error. */
 static int render_parse_args(render_job *r, int argc, char **argv,
-                             const char **token_file,
-                             const char **remote_flag)
+                             const char **token_file, const char **remote_flag)
 {
     for (int i = 0; i < argc; i++) {
         const char *a = argv[i];
@@ -452,7 +463,8 @@ static int render_parse_args(render_job *r, int argc, char **argv,
                 snprintf(both, sizeof both, "('%s', then '%s')", r->out,
                          argv[i + 1]);
                 return usage_error("-o given twice %s; a render writes one "
-                                 "file, or one a frame with %%d", both);
+                                   "file, or one a frame with %%d",
+                                   both);
             }
             r->out = argv[++i];
         } else if (strcmp(a, "--set") == 0) {
@@ -484,8 +496,7 @@ static int render_parse_args(render_job *r, int argc, char **argv,
                 r->ro.url = argv[++i];
             else
                 *token_file = argv[++i];
-        } else if (strcmp(a, "--parts") == 0 ||
-                   strcmp(a, "--parallel") == 0 ||
+        } else if (strcmp(a, "--parts") == 0 || strcmp(a, "--parallel") == 0 ||
                    strcmp(a, "--retries") == 0) {
             int *dst = strcmp(a, "--parts") == 0      ? &r->ro.parts
                        : strcmp(a, "--parallel") == 0 ? &r->ro.parallel
@@ -493,8 +504,10 @@ static int render_parse_args(render_job *r, int argc, char **argv,
             int lo = dst == &r->ro.retries ? 0 : 1;
             if (i + 1 >= argc || parse_int(argv[i + 1], lo, 100000, dst) != 0) {
                 char what[64];
-                snprintf(what, sizeof what, "%s needs a whole number from %d "
-                         "to 100000", a, lo);
+                snprintf(what, sizeof what,
+                         "%s needs a whole number from %d "
+                         "to 100000",
+                         a, lo);
                 return usage_error("%s", what);
             }
             i++;
@@ -512,25 +525,25 @@ static int render_parse_args(render_job *r, int argc, char **argv,
  * for several scenes, --set's shape, --remote's URL and flags); the
  * token read into token[cap].  EXIT_OK, a usage error or EXIT_IO. */
 static int render_check_args(render_job *r, const char *token_file,
-                             const char *remote_flag, char *token,
-                             size_t cap)
+                             const char *remote_flag, char *token, size_t cap)
 {
     if (r->n_scenes == 0) {
         return usage_error("%s", "render needs a scene file");
     }
     if (r->out == NULL) {
         return usage_error("%s", "render needs an output file: -o OUT.exr or "
-                               "-o OUT.png");
+                                 "-o OUT.png");
     }
     r->numbered = outname_check(r->out) == 1;
     if (r->n_scenes > 1 && !r->numbered) {
         return usage_error("-o '%s': several scenes need an output name with "
-                         "one frame number, such as -o out-%%04d.exr",
-                         r->out);
+                           "one frame number, such as -o out-%%04d.exr",
+                           r->out);
     }
     for (size_t i = 0; i < r->n_sets; i++) {
         if (strchr(r->sets[i], '=') == NULL) {
-            return usage_error("--set '%s' must look like PATH=VALUE", r->sets[i]);
+            return usage_error("--set '%s' must look like PATH=VALUE",
+                               r->sets[i]);
         }
         /* The daemons get the scene file as it is, with the camera and
          * settings as this process reads them: other overrides would not
@@ -538,19 +551,20 @@ static int render_check_args(render_job *r, const char *token_file,
         if (r->ro.url != NULL && strncmp(r->sets[i], "camera.", 7) != 0 &&
             strncmp(r->sets[i], "render.", 7) != 0) {
             return usage_error("--set '%s': with --remote only camera.* and "
-                             "render.* can be overridden", r->sets[i]);
+                               "render.* can be overridden",
+                               r->sets[i]);
         }
     }
     if (r->ro.url == NULL && (token_file != NULL || remote_flag != NULL)) {
         return usage_error("%s is for --remote",
-                         token_file != NULL ? "--token-file" : remote_flag);
+                           token_file != NULL ? "--token-file" : remote_flag);
     }
     /* A URL libcurl could not reach is tried --retries more times with
      * back-off; one that is not even a web address is said at once. */
     if (r->ro.url != NULL && strncasecmp(r->ro.url, "http://", 7) != 0 &&
         strncasecmp(r->ro.url, "https://", 8) != 0) {
         return usage_error("--remote '%s' must be an http:// or https:// URL",
-                         r->ro.url);
+                           r->ro.url);
     }
     if (token_file != NULL) {
         if (read_token(token_file, token, cap) != 0) {
@@ -609,8 +623,8 @@ static int render_check_outputs(render_job *r)
     }
     if (r->want_depth && !lr_format_has_depth(r->fmt)) {
         return usage_error("--depth needs an output that can hold a Z "
-                         "channel, such as .exr (%s has none)",
-                         lr_format_name(r->fmt));
+                           "channel, such as .exr (%s has none)",
+                           lr_format_name(r->fmt));
     }
     for (int i = 0; i < r->n_scenes; i++) {
         char out_path[4096], dir[4096];
@@ -700,7 +714,8 @@ static int cmd_lens(int argc, char **argv)
     int n = 0;
     for (int i = 0; i < argc; i++) {
         const char *a = argv[i];
-        if (strcmp(a, "--field-angles") == 0 || strcmp(a, "--wavelength") == 0) {
+        if (strcmp(a, "--field-angles") == 0 ||
+            strcmp(a, "--wavelength") == 0) {
             if (i + 1 >= argc)
                 return usage_error("%s needs a value", a);
             const char *v = argv[++i];
@@ -720,7 +735,8 @@ static int cmd_lens(int argc, char **argv)
                  * refused, not read as "1" and as no angles. */
                 if (end == v || (*end != ',' && *end != '\0'))
                     return usage_error("--field-angles '%s': want numbers "
-                                       "separated by commas", argv[i]);
+                                       "separated by commas",
+                                       argv[i]);
                 v = *end == ',' ? end + 1 : end;
             } while (*end != '\0');
         } else if (a[0] == '-' && a[1] != '\0')
@@ -731,7 +747,8 @@ static int cmd_lens(int argc, char **argv)
             lens = a;
     }
     if (lens == NULL)
-        return usage_error("%s", "lens needs a lens file or a shipped lens's name");
+        return usage_error("%s",
+                           "lens needs a lens file or a shipped lens's name");
     char *json = NULL;
     lr_error err;
     lr_status st = lr_lens_describe(lens, NULL, angles, n, nm, &json, &err);

@@ -37,16 +37,16 @@ enum { EXIT_OK = 0, EXIT_SCENE = 3, EXIT_IO = 4, EXIT_INTERRUPTED = 130 };
 enum part_state { PART_WAITING, PART_RUNNING, PART_DONE };
 
 typedef struct part {
-    int frame;             /* index into the frames */
-    int index;             /* within its frame */
-    int region[4];         /* [x0, y0, x1, y1) in the frame */
+    int frame;     /* index into the frames */
+    int index;     /* within its frame */
+    int region[4]; /* [x0, y0, x1, y1) in the frame */
     enum part_state state;
     int attempts;
     double not_before;     /* a retried part waits until then */
     char *body;            /* the job, JSON, while the part runs */
     unsigned char *answer; /* the answer's body as it arrives */
     size_t len, cap;
-    int too_big;           /* the answer outgrew its buffer's limit */
+    int too_big; /* the answer outgrew its buffer's limit */
     CURL *easy;
     struct curl_slist *headers;
 } part;
@@ -197,31 +197,31 @@ static void answer_text(const part *p, char *out, size_t size)
 
 /* A frame of the batch as it is sent and stitched. */
 typedef struct frame {
-    char *scene;           /* the text sent: files named by their hashes */
+    char *scene; /* the text sent: files named by their hashes */
     size_t len;
-    char *cam_json;        /* the camera sent */
-    int box[4];            /* the frame's region: [x0, y0, x1, y1) */
-    remote_frame in;       /* as the caller's load filled it */
-    part *parts;           /* its n_parts parts, from its reading on */
+    char *cam_json;  /* the camera sent */
+    int box[4];      /* the frame's region: [x0, y0, x1, y1) */
+    remote_frame in; /* as the caller's load filled it */
+    part *parts;     /* its n_parts parts, from its reading on */
     int n_parts;
     int done_parts;
-    int status;            /* nonzero once it failed: its exit status */
-    lr_image *img;         /* from its first part on, until handed over */
+    int status;    /* nonzero once it failed: its exit status */
+    lr_image *img; /* from its first part on, until handed over */
 } frame;
 
 typedef struct batch {
     const remote_options *o;
     int n;
     frame *frames;
-    int read;              /* frames[0 .. read) have been read */
-    int n_parts;           /* parts of the frames read */
+    int read;    /* frames[0 .. read) have been read */
+    int n_parts; /* parts of the frames read */
     remote_load load;
     void *user;
     assets_session *as;
     CURLM *multi;
-    int running, left;     /* parts in flight; parts read, not finished */
-    int waiting;           /* parts read and not yet sent */
-    int status;            /* the first failed frame's exit status */
+    int running, left; /* parts in flight; parts read, not finished */
+    int waiting;       /* parts read and not yet sent */
+    int status;        /* the first failed frame's exit status */
     char endpoint[2048];
 } batch;
 
@@ -262,8 +262,10 @@ static void fail_frame(batch *b, int fi, int status)
     lr_image_free(f->img);
     f->img = NULL;
     if (b->n > 1)
-        fprintf(stderr, "lensray: frame %d/%d (%s) failed; the other frames "
-                        "go on\n", fi + 1, b->n,
+        fprintf(stderr,
+                "lensray: frame %d/%d (%s) failed; the other frames "
+                "go on\n",
+                fi + 1, b->n,
                 f->in.scene_path != NULL ? f->in.scene_path : "?");
 }
 
@@ -281,8 +283,8 @@ static int frame_image(batch *b, int fi)
                         rs->want_depth, &f->img, &err) != LR_OK ||
         ((f->box[0] != 0 || f->box[1] != 0 || f->box[2] != rs->width ||
           f->box[3] != rs->height) &&
-         lr_image_set_frame(f->img, rs->width, rs->height, f->box[0],
-                            f->box[1], &f->in.cam, rs, &err) != LR_OK)) {
+         lr_image_set_frame(f->img, rs->width, rs->height, f->box[0], f->box[1],
+                            &f->in.cam, rs, &err) != LR_OK)) {
         fprintf(stderr, "lensray: %s\n", err.message);
         return -1;
     }
@@ -337,16 +339,15 @@ static void finish_part(batch *b, part *p, CURLcode res, remote_done done,
     label(b, p, name, sizeof name);
     int retry = 0;
     if (res != CURLE_OK) {
-        snprintf(why, sizeof why, "%s", p->too_big
-                     ? "the answer is larger than the part's image"
-                     : curl_easy_strerror(res));
+        snprintf(why, sizeof why, "%s",
+                 p->too_big ? "the answer is larger than the part's image"
+                            : curl_easy_strerror(res));
         retry = 1;
     } else if (status == 200) {
         int x0 = p->region[0] - f->box[0], y0 = p->region[1] - f->box[1];
         if (exr_crop_place(p->answer, p->len, f->img, x0, y0, p->region[0],
                            p->region[1], p->region[2] - p->region[0],
-                           p->region[3] - p->region[1], why,
-                           sizeof why) != 0)
+                           p->region[3] - p->region[1], why, sizeof why) != 0)
             retry = 1;
     } else {
         char text[400];
@@ -356,8 +357,8 @@ static void finish_part(batch *b, part *p, CURLcode res, remote_done done,
          * (queue full) are the daemon's state. */
         retry = status >= 500 || status == 408 || status == 429;
         if (!retry) {
-            fprintf(stderr, "%slensray: %s refused: %s\n",
-                    o->quiet ? "" : "\n", name, why);
+            fprintf(stderr, "%slensray: %s refused: %s\n", o->quiet ? "" : "\n",
+                    name, why);
             fail_frame(b, p->frame,
                        status == 401 || status == 403 ? EXIT_IO : EXIT_SCENE);
             return;
@@ -372,13 +373,16 @@ static void finish_part(batch *b, part *p, CURLcode res, remote_done done,
         f->done_parts++;
         if (!o->quiet) {
             if (b->n == 1)
-                fprintf(stderr, "lensray: %s done (rows %d-%d), %d of %d "
-                                "parts\n", name, p->region[1],
-                        p->region[3] - 1, f->done_parts, f->n_parts);
+                fprintf(stderr,
+                        "lensray: %s done (rows %d-%d), %d of %d "
+                        "parts\n",
+                        name, p->region[1], p->region[3] - 1, f->done_parts,
+                        f->n_parts);
             else
-                fprintf(stderr, "lensray: %s done (rows %d-%d), %d of %d "
-                                "frames\n", name,
-                        p->region[1], p->region[3] - 1,
+                fprintf(stderr,
+                        "lensray: %s done (rows %d-%d), %d of %d "
+                        "frames\n",
+                        name, p->region[1], p->region[3] - 1,
                         stats->frames + (f->done_parts == f->n_parts), b->n);
         }
         if (f->done_parts == f->n_parts) {
@@ -418,8 +422,9 @@ static void finish_part(batch *b, part *p, CURLcode res, remote_done done,
     p->state = PART_WAITING;
     b->waiting++;
     if (!o->quiet)
-        fprintf(stderr, "lensray: %s failed (%s); sending it again "
-                        "in %.3g s%s (attempt %d of %d)\n",
+        fprintf(stderr,
+                "lensray: %s failed (%s); sending it again "
+                "in %.3g s%s (attempt %d of %d)\n",
                 name, why, wait,
                 as_asked ? ", as the daemon's Retry-After asks" : "",
                 p->attempts + 1, o->retries + 1);

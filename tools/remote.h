@@ -14,12 +14,12 @@
 #include <stddef.h>
 
 typedef struct remote_options {
-    const char *url;       /* the daemon or balancer, "http://host:port" */
-    const char *token;     /* bearer token, or NULL */
-    int parts;             /* parts to cut each frame into (bands of rows) */
-    int parallel;          /* parts in flight at once */
-    int retries;           /* further attempts of a failed part */
-    int quiet;             /* no progress lines */
+    const char *url;   /* the daemon or balancer, "http://host:port" */
+    const char *token; /* bearer token, or NULL */
+    int parts;         /* parts to cut each frame into (bands of rows) */
+    int parallel;      /* parts in flight at once */
+    int retries;       /* further attempts of a failed part */
+    int quiet;         /* no progress lines */
     const volatile int *cancel; /* stops the render when non-zero */
 } remote_options;
 
@@ -44,13 +44,13 @@ typedef int (*remote_load)(void *user, int frame, remote_frame *out);
 /* What remote_render did, for --stats. */
 typedef struct remote_stats {
     double seconds;
-    int frames;            /* frames finished and handed to `done` */
-    int failed;            /* frames that failed */
-    int parts;             /* parts of all frames */
-    int attempts;          /* requests sent, retries included */
+    int frames;   /* frames finished and handed to `done` */
+    int failed;   /* frames that failed */
+    int parts;    /* parts of all frames */
+    int attempts; /* requests sent, retries included */
     int retries;
-    int assets;            /* distinct files the scenes name */
-    int uploaded;          /* of them, sent because the daemons lacked them */
+    int assets;   /* distinct files the scenes name */
+    int uploaded; /* of them, sent because the daemons lacked them */
 } remote_stats;
 
 /* Called once per frame that completes, in the order they complete, with

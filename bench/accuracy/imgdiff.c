@@ -182,8 +182,8 @@ static double grad_rel_mse(const image *x, const image *r, double eps)
                     size_t j = dir == 0 ? i + 1 : i + (size_t)w;
                     double gx = (double)xp[j] - (double)xp[i];
                     double gr = (double)rp[j] - (double)rp[i];
-                    double m = 0.5 * ((double)rp[i] * rp[i] +
-                                      (double)rp[j] * rp[j]);
+                    double m = 0.5 *
+                               ((double)rp[i] * rp[i] + (double)rp[j] * rp[j]);
                     sum += (gx - gr) * (gx - gr) / (m + eps);
                     count++;
                 }
@@ -216,8 +216,8 @@ static double *display_luma(const image *im)
 
 /* Separable Gaussian blur of `in` into `out` (both w x h), with the
  * window renormalised at the borders. */
-static void gauss_blur(const double *in, double *out, double *tmp, int w,
-                       int h, const double *k, int rad)
+static void gauss_blur(const double *in, double *out, double *tmp, int w, int h,
+                       const double *k, int rad)
 {
     for (int y = 0; y < h; y++)
         for (int x = 0; x < w; x++) {

@@ -12,7 +12,7 @@
 int main(void)
 {
     /* 400 nm, the g, F, e, d and C lines, 700 nm. */
-    static const double nm[] = {400.0, 435.8343, 486.1327, 546.074,
+    static const double nm[] = {400.0,    435.8343, 486.1327, 546.074,
                                 587.5618, 656.2725, 700.0};
     const size_t n_nm = sizeof nm / sizeof nm[0];
     printf("nm\t");

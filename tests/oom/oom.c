@@ -113,12 +113,12 @@ static struct slot {
 } table[TABLE_SIZE];
 
 static pthread_mutex_t mu = PTHREAD_MUTEX_INITIALIZER;
-static long live_count;      /* blocks in the table */
-static long used_slots;      /* live + tombstones */
-static long alloc_seq;       /* allocations counted since reset_count() */
-static long fail_at;         /* fail allocation number fail_at; 0: never */
-static int fired;            /* the armed failure happened */
-static int fired_in_cjson;   /* ... in an allocation libcjson asked for
+static long live_count;    /* blocks in the table */
+static long used_slots;    /* live + tombstones */
+static long alloc_seq;     /* allocations counted since reset_count() */
+static long fail_at;       /* fail allocation number fail_at; 0: never */
+static int fired;          /* the armed failure happened */
+static int fired_in_cjson; /* ... in an allocation libcjson asked for
                                 (a frame of libcjson on the stack) */
 static void *fired_stack[MAX_FRAMES];
 static int fired_depth;
@@ -348,9 +348,15 @@ enum problem_kind {
     P_HANG              /* the call never returned */
 };
 
-static const char *const kind_name[] = {
-    "", "wrong status", "LR_OK despite the failure", "leak",
-    "output not NULL", "bad lr_error", "file left behind", "crash", "hang"};
+static const char *const kind_name[] = {"",
+                                        "wrong status",
+                                        "LR_OK despite the failure",
+                                        "leak",
+                                        "output not NULL",
+                                        "bad lr_error",
+                                        "file left behind",
+                                        "crash",
+                                        "hang"};
 
 #define MAX_PROBLEMS 64
 #define MAX_SITES 256
@@ -360,11 +366,11 @@ static const char *const kind_name[] = {
  * group keeps its first case and a count. */
 typedef struct problem {
     int kind;
-    long count;     /* cases in this group */
-    void *caller;   /* the first frame in this executable (the library) */
-    long n;         /* the first case's failed allocation number */
-    int status;     /* what the call returned */
-    long leaked;    /* blocks */
+    long count;   /* cases in this group */
+    void *caller; /* the first frame in this executable (the library) */
+    long n;       /* the first case's failed allocation number */
+    int status;   /* what the call returned */
+    long leaked;  /* blocks */
     int in_cjson;
     int depth;
     void *stack[MAX_FRAMES];
@@ -384,13 +390,13 @@ typedef struct result {
     /* The failed allocation of the current run, for crashes and hangs. */
     void *cur_stack[MAX_FRAMES];
     int cur_depth, cur_in_cjson;
-    double clean_seconds;     /* how long a clean run takes */
+    double clean_seconds; /* how long a clean run takes */
     int restarts;
     int finished;
     char setup_error[512];
-    long clean_allocs;        /* allocations of a clean run */
-    long points;              /* allocation points failed */
-    long points_cjson;        /* ... of which inside libcjson */
+    long clean_allocs; /* allocations of a clean run */
+    long points;       /* allocation points failed */
+    long points_cjson; /* ... of which inside libcjson */
     long st_nomem, st_other, st_ok;
     int n_problems;
     long problems_total;
@@ -537,7 +543,8 @@ static const char mesh_first_text[] =
     "{\"camera\": {\"model\": \"thinlens\", \"position\": [0, 2, 6], "
     "\"look_at\": [0, 0, 0],\n"
     "            \"focus_distance\": 6, \"aperture_radius\": 0.3},\n"
-    " \"render\": {\"width\": 16, \"height\": 12, \"spp\": 4, \"threads\": 1},\n"
+    " \"render\": {\"width\": 16, \"height\": 12, \"spp\": 4, \"threads\": "
+    "1},\n"
     " \"lights\": [{\"type\": \"directional\", \"direction\": [0, -1, 0], "
     "\"irradiance\": 1}],\n"
     " \"objects\": [{\"type\": \"mesh\", \"file\": \"meshes/grid.obj\"},\n"
@@ -562,20 +569,21 @@ static const char *const overrides[] = {
 
 /* A quad with per-corner normals and texture coordinates, a tetrahedron
  * without normals (smoothed by the loader) and a grid. */
-static const char quad_obj[] =
-    "# quad\n"
-    "v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\n"
-    "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"
-    "vn 0 1 0\n"
-    "f 1/1/1 2/2/1 3/3/1 4/4/1\n";
+static const char quad_obj[] = "# quad\n"
+                               "v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\n"
+                               "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"
+                               "vn 0 1 0\n"
+                               "f 1/1/1 2/2/1 3/3/1 4/4/1\n";
 /* A 3 x 3 grid of quads: 18 triangles, more than the planner cuts one by
  * one, so it takes its chunked path. */
 static const char grid_obj[] =
-    "v 0 0 0\nv 0.5 0 0\nv 1 0 0\nv 1.5 0 0\nv 0 0 0.5\nv 0.5 0 0.5\nv 1 0 0.5\nv 1.5 0 0.5\nv 0 0 1\nv 0.5 0 1\nv 1 0 1\nv 1.5 0 1\nv 0 0 1.5\nv 0.5 0 1.5\nv 1 0 1.5\nv 1.5 0 1.5\n"
-    "f 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 5 6 10 9\nf 6 7 11 10\nf 7 8 12 11\nf 9 10 14 13\nf 10 11 15 14\nf 11 12 16 15\n";
-static const char tet_obj[] =
-    "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n"
-    "f 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
+    "v 0 0 0\nv 0.5 0 0\nv 1 0 0\nv 1.5 0 0\nv 0 0 0.5\nv 0.5 0 0.5\nv 1 0 "
+    "0.5\nv 1.5 0 0.5\nv 0 0 1\nv 0.5 0 1\nv 1 0 1\nv 1.5 0 1\nv 0 0 1.5\nv "
+    "0.5 0 1.5\nv 1 0 1.5\nv 1.5 0 1.5\n"
+    "f 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 5 6 10 9\nf 6 7 11 10\nf 7 8 12 11\nf "
+    "9 10 14 13\nf 10 11 15 14\nf 11 12 16 15\n";
+static const char tet_obj[] = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n"
+                              "f 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
 
 static const char camera_json[] =
     "{\"model\": \"thinlens\", \"position\": [0, 0.2, 3], \"fov\": 30,\n"
@@ -593,10 +601,10 @@ static const char render_json[] =
     " \"adaptive\": {\"threshold\": 0.05, \"min_spp\": 2}}";
 
 typedef struct fixture {
-    lr_scene *scene;  /* loaded before the loop, for renders */
-    lr_camera cam;    /* the scene's camera, adjusted by the path */
+    lr_scene *scene; /* loaded before the loop, for renders */
+    lr_camera cam;   /* the scene's camera, adjusted by the path */
     lr_render_settings rs;
-    lr_image *image;  /* rendered before the loop, for encoders */
+    lr_image *image; /* rendered before the loop, for encoders */
     lr_output_options oo;
     lr_format fmt;
     char scene_path[512];
@@ -650,13 +658,12 @@ static void remove_tmpdir(void)
 {
     const char *names[] = {"meshes/quad.obj", "meshes/tet.obj",
                            "meshes/grid.obj", "meshes",
-                           "scene.json", ""};
+                           "scene.json",      ""};
     char p[512];
     for (size_t i = 0; i < sizeof names / sizeof names[0]; i++) {
         snprintf(p, sizeof p, "%s/%s", tmpdir, names[i]);
         if (remove(p) != 0 && errno != ENOENT)
-            fprintf(stderr, "oom: cannot remove %s: %s\n", p,
-                    strerror(errno));
+            fprintf(stderr, "oom: cannot remove %s: %s\n", p, strerror(errno));
     }
 }
 
@@ -725,8 +732,8 @@ static int setup_none(fixture *fx, const path *p)
 
 static lr_status call_load_json(fixture *fx, lr_error *err)
 {
-    return lr_scene_load_json(scene_text, strlen(scene_text), tmpdir,
-                              overrides, N_OVERRIDES, &fx->out_scene, err);
+    return lr_scene_load_json(scene_text, strlen(scene_text), tmpdir, overrides,
+                              N_OVERRIDES, &fx->out_scene, err);
 }
 
 static lr_status call_load_file(fixture *fx, lr_error *err)
@@ -736,7 +743,10 @@ static lr_status call_load_file(fixture *fx, lr_error *err)
                               &fx->out_scene, err);
 }
 
-static int scene_clear(const fixture *fx) { return fx->out_scene == NULL; }
+static int scene_clear(const fixture *fx)
+{
+    return fx->out_scene == NULL;
+}
 
 static void scene_release(fixture *fx)
 {
@@ -747,8 +757,16 @@ static void scene_release(fixture *fx)
 /* ---- rendering ---- */
 
 enum {
-    R_PINHOLE, R_THINLENS, R_THINLENS_NOPLAN, R_RGB, R_SPECTRAL, R_BRACKET,
-    R_ADAPTIVE, R_DEPTH_REGION, R_AUTOFOCUS, R_MESH_FIRST
+    R_PINHOLE,
+    R_THINLENS,
+    R_THINLENS_NOPLAN,
+    R_RGB,
+    R_SPECTRAL,
+    R_BRACKET,
+    R_ADAPTIVE,
+    R_DEPTH_REGION,
+    R_AUTOFOCUS,
+    R_MESH_FIRST
 };
 
 static int setup_render(fixture *fx, const path *p)
@@ -812,11 +830,13 @@ static int setup_render(fixture *fx, const path *p)
 
 static lr_status call_render(fixture *fx, lr_error *err)
 {
-    return lr_render(fx->scene, &fx->cam, &fx->rs, &fx->out_image, NULL,
-                     err);
+    return lr_render(fx->scene, &fx->cam, &fx->rs, &fx->out_image, NULL, err);
 }
 
-static int image_clear(const fixture *fx) { return fx->out_image == NULL; }
+static int image_clear(const fixture *fx)
+{
+    return fx->out_image == NULL;
+}
 
 static void image_release(fixture *fx)
 {
@@ -939,17 +959,20 @@ static int render_json_clear(const fixture *fx)
     return memcmp(&fx->rs, &rs_before, sizeof rs_before) == 0;
 }
 
-static void nothing_release(fixture *fx) { (void)fx; }
+static void nothing_release(fixture *fx)
+{
+    (void)fx;
+}
 
 static const path paths[] = {
-    {"scene_load_json", setup_none, call_load_json, scene_clear,
-     scene_release, 0},
-    {"scene_load_file", setup_none, call_load_file, scene_clear,
-     scene_release, 0},
+    {"scene_load_json", setup_none, call_load_json, scene_clear, scene_release,
+     0},
+    {"scene_load_file", setup_none, call_load_file, scene_clear, scene_release,
+     0},
     {"render_pinhole", setup_render, call_render, image_clear, image_release,
      R_PINHOLE},
-    {"render_thinlens", setup_render, call_render, image_clear,
-     image_release, R_THINLENS},
+    {"render_thinlens", setup_render, call_render, image_clear, image_release,
+     R_THINLENS},
     {"render_thinlens_noplan", setup_render, call_render, image_clear,
      image_release, R_THINLENS_NOPLAN},
     {"render_chromatic_rgb", setup_render, call_render, image_clear,
@@ -958,24 +981,22 @@ static const path paths[] = {
      image_release, R_SPECTRAL},
     {"render_bracket", setup_render, call_render, image_clear, image_release,
      R_BRACKET},
-    {"render_adaptive", setup_render, call_render, image_clear,
-     image_release, R_ADAPTIVE},
+    {"render_adaptive", setup_render, call_render, image_clear, image_release,
+     R_ADAPTIVE},
     {"render_depth_region", setup_render, call_render, image_clear,
      image_release, R_DEPTH_REGION},
-    {"render_autofocus", setup_render, call_render, image_clear,
-     image_release, R_AUTOFOCUS},
-    {"render_mesh_first", setup_render, call_render, image_clear,
-     image_release, R_MESH_FIRST},
-    {"encode_png8", setup_encode, call_encode, buf_clear, buf_release,
-     E_PNG8},
+    {"render_autofocus", setup_render, call_render, image_clear, image_release,
+     R_AUTOFOCUS},
+    {"render_mesh_first", setup_render, call_render, image_clear, image_release,
+     R_MESH_FIRST},
+    {"encode_png8", setup_encode, call_encode, buf_clear, buf_release, E_PNG8},
     {"encode_png16", setup_encode, call_encode, buf_clear, buf_release,
      E_PNG16},
     {"encode_exr_float_z", setup_encode, call_encode, buf_clear, buf_release,
      E_EXR_FLOAT_Z},
     {"encode_exr_half", setup_encode, call_encode, buf_clear, buf_release,
      E_EXR_HALF},
-    {"write_png", setup_encode, call_write, write_clear, write_release,
-     E_PNG8},
+    {"write_png", setup_encode, call_write, write_clear, write_release, E_PNG8},
     {"write_exr", setup_encode, call_write, write_clear, write_release,
      E_EXR_FLOAT_Z},
     {"camera_apply_json", setup_apply, call_camera_json, camera_clear,
@@ -1004,8 +1025,8 @@ static void record_site(void)
 {
     for (int i = 0; i < R->n_sites; i++)
         if (same_stack((const void *const *)R->sites[i].stack,
-                       R->sites[i].depth,
-                       (const void *const *)fired_stack, fired_depth))
+                       R->sites[i].depth, (const void *const *)fired_stack,
+                       fired_depth))
             return;
     if (R->n_sites >= MAX_SITES)
         return;
@@ -1069,8 +1090,7 @@ static void run_path(const path *p)
             /* Fewer than n allocations: every point has been failed. */
             if (st != LR_OK)
                 record_problem(P_WRONG_STATUS, n, st, 0,
-                               "fails with nothing injected: %s",
-                               err.message);
+                               "fails with nothing injected: %s", err.message);
             p->release(&fx);
             break;
         }
@@ -1092,8 +1112,8 @@ static void run_path(const path *p)
                 record_problem(P_WRONG_STATUS, n, st, 0, "%s", err.message);
             if (err.status != st || err.message[0] == '\0')
                 record_problem(P_BAD_ERROR, n, st, 0,
-                               "err.status %d, message \"%s\"",
-                               (int)err.status, err.message);
+                               "err.status %d, message \"%s\"", (int)err.status,
+                               err.message);
             if (!p->out_clear(&fx))
                 record_problem(p->release == write_release ? P_FILE_LEFT
                                                            : P_OUT_SET,
@@ -1344,8 +1364,7 @@ static int run_one(const path *p)
             usleep(2000);
         }
         if (R->setup_error[0] != '\0') {
-            print_error("oom: %s [%s]: %s\n", p->name, round,
-                        R->setup_error);
+            print_error("oom: %s [%s]: %s\n", p->name, round, R->setup_error);
             return 1;
         }
         if (R->finished)
@@ -1373,9 +1392,8 @@ static int run_one(const path *p)
     print_message("oom: %-28s [%-9s] %3ld allocations, %3ld points failed "
                   "(%ld in cJSON): %ld nomem, %ld other, %ld ok; %ld "
                   "problems\n",
-                  p->name, round, R->clean_allocs, R->points,
-                  R->points_cjson, R->st_nomem, R->st_other, R->st_ok,
-                  R->problems_total);
+                  p->name, round, R->clean_allocs, R->points, R->points_cjson,
+                  R->st_nomem, R->st_other, R->st_ok, R->problems_total);
     if (verbose)
         for (int i = 0; i < R->n_sites; i++) {
             frame f;
@@ -1399,9 +1417,8 @@ static int run_one(const path *p)
             if (verbose)
                 print_message("      known bug %s: %s, %ld case%s, first at "
                               "allocation %ld (%s)\n",
-                              known_bugs[k].id, kind_name[pb->kind],
-                              pb->count, pb->count == 1 ? "" : "s", pb->n,
-                              f.text);
+                              known_bugs[k].id, kind_name[pb->kind], pb->count,
+                              pb->count == 1 ? "" : "s", pb->n, f.text);
             continue;
         }
         failures++;
@@ -1451,8 +1468,8 @@ static void test_known_bug(void **state)
     }
     /* (The fallback keeps gcc from warning, while the list is empty, of
      * the end marker's NULL.) */
-    print_message("oom: known bug %s (%ld cases): %s\n", b->id,
-                  known_hits[k], b->what ? b->what : "");
+    print_message("oom: known bug %s (%ld cases): %s\n", b->id, known_hits[k],
+                  b->what ? b->what : "");
     fail_msg("known bug %s", b->id);
 }
 
@@ -1485,8 +1502,7 @@ int main(int argc, char **argv)
     }
     make_tmpdir();
 
-    struct CMUnitTest
-        tests[N_PATHS + sizeof known_bugs / sizeof known_bugs[0]];
+    struct CMUnitTest tests[N_PATHS + sizeof known_bugs / sizeof known_bugs[0]];
     char names[N_PATHS][96];
     size_t n = 0;
     for (size_t i = 0; i < N_PATHS; i++) {
@@ -1501,7 +1517,7 @@ int main(int argc, char **argv)
     for (size_t k = 0; known_bugs[k].id != NULL; k++)
         if (wanted(known_bugs[k].id, argc, argv))
             tests[n++] = (struct CMUnitTest){known_bugs[k].id, test_known_bug,
-                                         NULL, NULL, (void *)(k + 1)};
+                                             NULL, NULL, (void *)(k + 1)};
 
     int failed = _cmocka_run_group_tests("oom", tests, n, NULL, NULL);
     print_message("oom: %ld path runs, %ld allocation points failed (%ld of "
