@@ -40,10 +40,13 @@ CFLAGS   ?=
 CFLAGS   += -std=c11 $(OPT) -g -Wall -Wextra -Werror -fPIC -D_GNU_SOURCE \
             -fvisibility=hidden -Wno-format-truncation -ffp-contract=off \
             $(SANITIZE)
-CPPFLAGS += -Iinclude -Ilib
+# lib/ by concept (docs/architecture.md); a file includes another by its
+# name alone, so every folder is on the include path.
+LIB_DIRS := $(sort $(dir $(wildcard lib/*/*.[ch] lib/*/*/*.[ch])))
+CPPFLAGS += -Iinclude $(patsubst %/,-I%,$(LIB_DIRS))
 LDFLAGS  += $(SANITIZE)
 
-LIB_SRC  := $(wildcard lib/*.c)
+LIB_SRC  := $(wildcard lib/*/*.c lib/*/*/*.c)
 SVC_SRC  := $(wildcard service/*.c)
 LIB_OBJ  := $(LIB_SRC:%.c=$(BUILD)/obj/%.o)
 TEST_SRC := $(wildcard tests/*.c)
@@ -94,24 +97,24 @@ $(BUILD)/obj/%.o: %.c $(DEPS_OK)
 # -fno-trapping-math lets it if-convert the lane loops' selects; neither
 # changes a result.  The AVX-512 clones use 512-bit vectors: 4% faster
 # on the bench scene than 256.)
-$(BUILD)/obj/lib/whitted.o $(BUILD)/obj/lib/whitted16.o $(BUILD)/obj/lib/trace.o \
-$(BUILD)/obj/lib/camera.o \
-$(BUILD)/obj/lib/sample.o $(BUILD)/obj/lib/rx_trace.o $(BUILD)/obj/lib/path16.o \
-$(BUILD)/obj/lib/path16_rays.o \
-$(BUILD)/obj/lib/rx_trace16f.o $(BUILD)/obj/lib/camera_lens.o $(BUILD)/obj/lib/lens.o \
-$(BUILD)/obj/lib/few_triangles.o $(BUILD)/obj/lib/spheres.o \
-$(BUILD)/obj/lib/wavelength.o: CFLAGS += $(if $(filter -O2,$(OPT)),-O3) \
+$(BUILD)/obj/lib/integrator/whitted.o $(BUILD)/obj/lib/integrator/whitted16.o $(BUILD)/obj/lib/accel/trace.o \
+$(BUILD)/obj/lib/camera/camera.o \
+$(BUILD)/obj/lib/render/sample.o $(BUILD)/obj/lib/optics/rx_trace.o $(BUILD)/obj/lib/integrator/path16.o \
+$(BUILD)/obj/lib/integrator/path16_rays.o \
+$(BUILD)/obj/lib/optics/rx_trace16f.o $(BUILD)/obj/lib/camera/camera_lens.o $(BUILD)/obj/lib/optics/lens.o \
+$(BUILD)/obj/lib/accel/few_triangles.o $(BUILD)/obj/lib/accel/spheres.o \
+$(BUILD)/obj/lib/sampling/wavelength.o: CFLAGS += $(if $(filter -O2,$(OPT)),-O3) \
                                       -fno-math-errno -fno-trapping-math \
                                       -mprefer-vector-width=512
-$(BUILD)/obj/lib/sampler.o: CFLAGS += $(if $(filter -O2,$(OPT)),-O3)
+$(BUILD)/obj/lib/sampling/sampler.o: CFLAGS += $(if $(filter -O2,$(OPT)),-O3)
 # The EXR ZIP transform's byte loops (exr_zip.c), vectorised.
-$(BUILD)/obj/lib/exr_zip.o: CFLAGS += $(if $(filter -O2,$(OPT)),-O3)
+$(BUILD)/obj/lib/image/exr_zip.o: CFLAGS += $(if $(filter -O2,$(OPT)),-O3)
 
 # The shipped lenses' directory, compiled in (LENSRAY_LENS_DIR overrides
-# it at run time): lib/rx_file.c.  Where `make install` puts them is the
+# it at run time): lib/optics/rx_file.c.  Where `make install` puts them is the
 # fallback for when the source tree is gone.
 LENS_INSTALL_DIR := $(PREFIX)/share/lensray/lenses
-$(BUILD)/obj/lib/rx_file.o: CPPFLAGS += -DLR_LENS_DIR='"$(abspath lenses)"' \
+$(BUILD)/obj/lib/optics/rx_file.o: CPPFLAGS += -DLR_LENS_DIR='"$(abspath lenses)"' \
                                         -DLR_LENS_INSTALL_DIR='"$(LENS_INSTALL_DIR)"'
 
 $(BUILD)/liblensray.a: $(LIB_OBJ)
@@ -401,15 +404,15 @@ test-suite: $(BUILD)/.page-deps-ok
 
 # ---- formatting ---------------------------------------------------------
 # The committed .clang-format (clang-format 14, Debian 12's, installed by
-# install_missing) over every C file but lib/glass_table.h, which
+# install_missing) over every C file but lib/optics/glass_table.h, which
 # tools/glass-catalogue.py writes.  `make format` rewrites them in place;
 # `make format-check` changes nothing, prints each file that differs and
 # fails if one does.  `make test` runs it first (test-format), so a
 # change that is not formatted fails the suite.
 CLANG_FORMAT ?= clang-format
 FORMAT_DEPS  := $(CLANG_FORMAT):clang-format
-FORMAT_FILES := $(filter-out lib/glass_table.h, \
-                  $(wildcard include/*.h lib/*.c lib/*.h service/*.c \
+FORMAT_FILES := $(filter-out lib/optics/glass_table.h, \
+                  $(wildcard include/*.h lib/*/*.[ch] lib/*/*/*.[ch] service/*.c \
                     service/*.h tools/*.c tools/*.h tests/*.c tests/*.h \
                     tests/*/*.c tests/*/*.h fuzz/*.c fuzz/*.h bench/*.c \
                     bench/*/*.c))

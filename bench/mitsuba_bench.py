@@ -52,7 +52,7 @@ def build_scene(mi, obj, width, height, spp, sampler, obj_normals, robust=False)
                                 'reflectance': {'type': 'rgb', 'value': [0.5, 0.5, 0.5]}}}
     scene = {
         'type': 'scene',
-        # Embree's robust traversal, lensray's only mode (lib/scene.c);
+        # Embree's robust traversal, lensray's only mode (lib/scene/scene.c);
         # Mitsuba's default is off.
         'embree_use_robust_intersections': robust,
         'integrator': {'type': 'direct', 'emitter_samples': 1, 'bsdf_samples': 0,

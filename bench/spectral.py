@@ -9,7 +9,7 @@ with two binaries side by side in one run: OLD (a build of `main` before
 issue 17's spectral sampling) in the configurations docs/accuracy.md
 found best (sobol, full simulation and plan+adaptive, 8 and 16
 wavelengths a sample), and NEW full and plan+adaptive at the scene's 8
-(splatting, lib/splat.c, integrates the spectrum whatever the number).  Every image is compared with one reference made by
+(splatting, lib/render/splat.c, integrates the spectrum whatever the number).  Every image is compared with one reference made by
 OLD (sobol, full simulation, 32 wavelengths a sample, --ref-spp samples,
 two seeds: half their relMSE is the reference's own noise), cached in
 WORK/ref.  Time is the render's CPU seconds (`cpu_seconds` of --stats),
@@ -119,7 +119,7 @@ def main():
                 configs.append(("old", o.old, "%s, %d wavelengths" % (mode, wl),
                                 dict(sets, **{"camera.chromatic.wavelengths": wl}),
                                 ladder_old))
-    # Splatting (lib/splat.c) ignores the wavelengths a sample and
+    # Splatting (lib/render/splat.c) ignores the wavelengths a sample and
     # adaptive sampling: full and plan+adaptive at the scene's 8 are the
     # same picture, both measured to show it.
     for wl in (8,):

@@ -562,7 +562,7 @@ LR_API lr_status lr_image_set_frame(lr_image *img, int frame_w, int frame_h,
                                     const lr_render_settings *s, lr_error *err);
 
 /* Image formats.  Their names, MIME types, extensions and what they can
- * hold come from one table in the library (lib/format.c): clients ask it
+ * hold come from one table in the library (lib/image/format.c): clients ask it
  * rather than keeping their own lists. */
 typedef enum lr_format { LR_FORMAT_EXR = 0, LR_FORMAT_PNG = 1 } lr_format;
 

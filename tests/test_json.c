@@ -1,6 +1,6 @@
 /*
  * test_json.c: parsing JSON text (lr__json_parse and overrides, in
- * lib/json_util.c): syntax errors stay syntax errors, a value that is not
+ * lib/json/json_util.c): syntax errors stay syntax errors, a value that is not
  * JSON is a string, and a number too large for a double (1e400) is
  * refused as written, naming its field, in a scene, an override and
  * lr_camera_apply_json alike.

@@ -1,5 +1,5 @@
 /*
- * test_light_trace.c: light traced through the lens (lib/light_trace.c).
+ * test_light_trace.c: light traced through the lens (lib/integrator/light_trace.c).
  * Against independent truth: the film integral of a light's image in
  * closed form (the camera's importance integrated over the lens and the
  * sphere's solid angle), and the camera's own estimator of the same

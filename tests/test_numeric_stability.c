@@ -245,7 +245,7 @@ static void test_total_internal_reflection(void **state)
  * Tracing both branches down to max_depth whatever their weight made the
  * rays of one sample grow as ~1.62^depth here (1217 at depth 12, 392833
  * at depth 24; ~1e13 at the allowed maximum of 64), so one pixel could
- * never finish.  lib/whitted.c now drops branches whose weight from the
+ * never finish.  lib/integrator/whitted.c now drops branches whose weight from the
  * camera falls below 1e-4. */
 static void test_branching_bounded(void **state)
 {
@@ -356,7 +356,7 @@ static void test_huge_and_tiny_spheres(void **state)
     lr_image_free(sphere);
     if (!(d.bad_frac <= 0.03 && d.mean_rel <= 0.02)) {
         /* Fixed bug, guarded here: shadow acne on the huge sphere.  Embree
-         * intersects spheres in float, and lr__trace (lib/scene.c) takes
+         * intersects spheres in float, and lr__trace (lib/scene/scene.c) takes
          * its t as is, so the hit point of a radius-1e6 sphere lies up to
          * ~0.1 units off the surface, while lr__offset_origin pushes
          * shadow rays off by only (1 + |p| + t) 2^-17 ~ 4e-5: about half

@@ -1,5 +1,5 @@
 /*
- * test_obj.c: the OBJ reader (lib/obj.c).  Each test writes a small OBJ
+ * test_obj.c: the OBJ reader (lib/scene/obj.c).  Each test writes a small OBJ
  * file into the run's scratch directory and loads it, so the tests cover
  * the real file path including reading, not just the parser.
  */

@@ -1,5 +1,5 @@
 /*
- * test_obj_hostile.c: the OBJ reader (lib/obj.c) on hostile files: indices
+ * test_obj_hostile.c: the OBJ reader (lib/scene/obj.c) on hostile files: indices
  * that overflow, malformed corners and numbers, non-finite and too large
  * values, binary files, an enormous face, a million-digit index, a device
  * that streams forever, a missing file and a directory.  Each error names

@@ -531,7 +531,7 @@ static void test_chromatic_spectral_order(void **state)
 /* White stays white: a uniform white world through a strongly
  * dispersive spectral lens is exactly white, with any number of
  * wavelengths per sample (every ray sees the reference ray's white, the
- * control variate of lib/spectral.c). */
+ * control variate of lib/render/spectral.c). */
 static void test_spectral_white_is_white(void **state)
 {
     (void)state;

@@ -167,8 +167,8 @@ static int render_in_child(const char *json, const char *const *sets,
  * Fixed bug, guarded here: a ray whose origin or direction Embree finds
  * invalid (a component beyond about 1.8e18, or not finite) makes Embree
  * abort the process in an assertion (bvh_intersector*.cpp: ray.valid()),
- * because lib/trace.c (lr__trace, lr__occluded) and lib/whitted.c hand
- * rays to Embree unchecked and lib/camera.c accepts lenses that produce
+ * because lib/accel/trace.c (lr__trace, lr__occluded) and lib/integrator/whitted.c hand
+ * rays to Embree unchecked and lib/camera/camera.c accepts lenses that produce
  * them: camera.focus_distance 1e-308 (thin lens: the direction
  * d - off cos w overflows), camera.f_number 4e-324 (radius
  * f / (2 N) is infinite), camera.focal_length 1e-308 (bracket).  Each
@@ -264,7 +264,7 @@ static void test_huge_numbers_everywhere(void **state)
  *
  * Fixed bug, guarded here: Embree aborts the process (assertion
  * ray.valid() in bvh_intersector_hybrid.cpp) instead of lr_camera_validate
- * (lib/camera.c) refusing the camera or lr__trace (lib/scene.c) treating
+ * (lib/camera/camera.c) refusing the camera or lr__trace (lib/scene/scene.c) treating
  * the ray as a miss. */
 static void test_embree_invalid_rays(void **state)
 {

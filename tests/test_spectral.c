@@ -1,5 +1,5 @@
 /*
- * test_spectral.c: spectral mode's estimator (lib/spectral.c) against
+ * test_spectral.c: spectral mode's estimator (lib/render/spectral.c) against
  * colour science computed here: the CIE 1931 functions (the Wyman,
  * Sloan & Shirley 2013 fit, typed from the paper), the sRGB matrix
  * (IEC 61966-2-1), N-BK7's Sellmeier coefficients (Schott) and the thin

@@ -1,5 +1,5 @@
 /*
- * test_texture.c: image textures (lib/texture.c, texture_png.c,
+ * test_texture.c: image textures (lib/scene/texture.c, texture_png.c,
  * texture_jpeg.c): decoding against images written here by independent
  * writers (PNG chunks built byte by byte with zlib, JPEG through
  * libjpeg's compressor, EXR through the library's own encoder whose

@@ -1,5 +1,5 @@
 /*
- * test_texture_scene.c: textures in scenes: OBJ `vt` (lib/obj.c,
+ * test_texture_scene.c: textures in scenes: OBJ `vt` (lib/scene/obj.c,
  * obj_face.c), the material keys and their errors (material_json.c),
  * the identity "a constant texture of value c = the colour c" under both
  * integrators, the vector lanes against the scalar code on a textured

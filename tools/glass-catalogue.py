@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
-"""Writes lib/glass_table.h, the glass catalogue that lib/glass.c searches.
+"""Writes lib/optics/glass_table.h, the glass catalogue that lib/optics/glass.c searches.
 
-    python3 tools/glass-catalogue.py SPECS_DIR > lib/glass_table.h
+    python3 tools/glass-catalogue.py SPECS_DIR > lib/optics/glass_table.h
     python3 tools/glass-catalogue.py --markdown SPECS_DIR > docs/glasses.md
 
 SPECS_DIR is database/data/specs in a checkout of the refractiveindex.info
@@ -148,7 +148,7 @@ def main():
            " * %s," % ", ".join(eds[:3]),
            " * %s." % ", ".join(eds[3:]),
            " * Do not edit; run the script.  name, maker, kind, then nine",
-           " * coefficients as the kind reads them (lib/prescription.h), then",
+           " * coefficients as the kind reads them (lib/optics/prescription.h), then",
            " * nd, vd as the maker states them. */"]
     for name, maker, kind, c, nd, vd in rows:
         out.append('{"%s", "%s", %s, {%s}, %r, %r},'

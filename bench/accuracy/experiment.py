@@ -95,7 +95,7 @@ def scene_size(path):
 # ---- rgb mode as three wavelengths of the spectral lens ---------------------
 
 def sellmeier_sf11(nm):
-    """SF11's index (Schott's Sellmeier coefficients, as lib/lens.c)."""
+    """SF11's index (Schott's Sellmeier coefficients, as lib/optics/lens.c)."""
     b = (1.73759695, 0.313747346, 1.89878101)
     c = (0.013188707, 0.0623068142, 155.23629)
     l2 = (nm / 1000.0) ** 2

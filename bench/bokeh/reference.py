@@ -9,7 +9,7 @@ The scene may hold only emitting spheres (no other geometry, no lights, a
 black background) seen by camera.model "thinlens" with a disk aperture;
 anything else is refused, since the reference would not describe it.
 
-The camera (lib/camera.c, lib/camera_thinlens.c; camera.h's "offset
+The camera (lib/camera/camera.c, lib/camera/camera_thinlens.c; camera.h's "offset
 lens").  Eye e, unit forward f, right r = |f x up|, up' = r x f.  Film
 point (fx, fy) in pixels from the top-left corner maps to the point
 

@@ -92,7 +92,7 @@ def lensray_render(args, extra, spp, out):
 
 def mitsuba_scene(mi, sc, integrator, spp, seed):
     """scenes/night.json for Mitsuba.  Its thinlens matches lensray's
-    (lib/camera_thinlens.c): 'fov' with fov_axis 'y' is the vertical field
+    (lib/camera/camera_thinlens.c): 'fov' with fov_axis 'y' is the vertical field
     of view, the plane in focus is perpendicular to the view axis at
     focus_distance, the aperture a disk of aperture_radius sampled
     uniformly by area, every ray of weight 1; the 'box' filter counts a
@@ -133,7 +133,7 @@ def mitsuba_scene(mi, sc, integrator, spp, seed):
             # at z = 0 facing +z; turned to face +y, which is the only
             # normal this handles) of a rough conductor, lensray's
             # "reflect" x GGX (roughconductor, material "none", which
-            # lib/bsdf.h follows).
+            # lib/integrator/bsdf.h follows).
             assert o["normal"] == [0, 1, 0], "planes facing +y only"
             m = sc["materials"][o["material"]]
             w, h = o["size"]

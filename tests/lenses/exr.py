@@ -1,4 +1,4 @@
-"""Reads the EXR files `lensray render` writes (lib/image_exr.c): one part,
+"""Reads the EXR files `lensray render` writes (lib/image/image_exr.c): one part,
 scanlines, float32 channels, ZIP (16 lines a block) or ZIPS (1 line) or no
 compression.  After the OpenEXR file layout ("The OpenEXR File Layout",
 openexr.com/en/latest/OpenEXRFileLayout.html) and its ZIP scheme (zlib

@@ -1,6 +1,6 @@
 """The glass catalogue against opticalglass (tests/lenses/requirements.txt).
 
-lensray's catalogue (lib/glass_table.h) comes from the makers' Zemax
+lensray's catalogue (lib/optics/glass_table.h) comes from the makers' Zemax
 catalogues as the refractiveindex.info database carries them;
 opticalglass reads the makers' own spreadsheets (its data/ directory)
 with its own code.  build/tests/glass-dump prints lensray's index of every

@@ -21,7 +21,7 @@
  *
  * libcjson's allocations are reached too: the library installs cJSON
  * hooks whose allocator is malloc called from the library's own object
- * (lib/json_util.c), so --wrap routes them here as well, and the
+ * (lib/json/json_util.c), so --wrap routes them here as well, and the
  * library's handling of cJSON returning NULL is tested with every
  * allocation cJSON makes for it.  (The test must not install hooks of its
  * own: they would replace the library's.)  Allocations inside Embree,

@@ -3,7 +3,7 @@
  * SCHOTT 2017-01-20b, OHARA 2017-11-30, HOYA 2017-04-01,
  * SUMITA 2017-02-02, CDGM 2022-06, HIKARI NIKON 2017-11.
  * Do not edit; run the script.  name, maker, kind, then nine
- * coefficients as the kind reads them (lib/prescription.h), then
+ * coefficients as the kind reads them (lib/optics/prescription.h), then
  * nd, vd as the maker states them. */
 {"BAFN6", "SCHOTT", LR__GLASS_SELLMEIER, {1.36719201, 0.10907994, 1.02108011, 0.00882820704, 0.0438731646, 113.58602, 0.0, 0.0, 0.0}, 1.589, 48.45},
 {"BK7G18", "SCHOTT", LR__GLASS_SELLMEIER, {1.26538542, 0.0144191073, 1.00323028, 0.00813104078, 0.0543303226, 102.821166, 0.0, 0.0, 0.0}, 1.51975, 63.58},

@@ -59,7 +59,7 @@ typedef struct lr__glass {
     double nd, vd;     /* ABBE and CONSTANT (vd unused there) */
 } lr__glass;
 
-/* One row of the catalogue (lib/glass_table.h), as its maker gives it. */
+/* One row of the catalogue (lib/optics/glass_table.h), as its maker gives it. */
 typedef struct lr__glass_row {
     const char *name, *maker;
     lr__glass_kind kind; /* SELLMEIER, LAURENT or POWER */
