@@ -266,13 +266,15 @@ static uint64_t glint_paths(const lr__cam *c, const lr__lens_bound *lb,
     if (x0.x < lo.x - margin || x0.x > hi.x + margin || x0.y < lo.y - margin ||
         x0.y > hi.y + margin || x0.z < lo.z - margin || x0.z > hi.z + margin)
         return force ? 16 : 0;
-    /* Half the sphere's points face away from the mirror: twice the
-     * paths. */
+    /* Twice the direct rule's paths, 1 a pixel of the glint's image and
+     * sample: on scenes/sparkles.json 0.25, 0.5 and 1 were measured,
+     * and 1 reached a given error soonest (half the sphere's points
+     * face away from the mirror). */
     uint64_t n = paths_for(c, lb, estimate, image,
                            light->radius + 2.0 * alpha * lb_, spp, force);
     if (force && n < 16)
         n = 16;
-    return n < 1073741823u ? 4 * n : 4294967295u;
+    return n < 2147483647u ? 2 * n : 4294967295u;
 }
 
 /* Adds the glint pairs (glint surface, sphere light) to *ltp: every pair
