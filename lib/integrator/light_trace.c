@@ -171,6 +171,13 @@ static int mesh_cdf(const lr_scene *s, const lr__geom *g, lr__lt_light *l)
     return 1;
 }
 
+/* Whether material m emits, untextured: the emission the light side
+ * carries. */
+static int plain_emitter(const lr__material *m)
+{
+    return m->emission_tex == NULL && v3_maxc(m->emission) > 0.0;
+}
+
 /* An empty light side for scene s (room for a direct entry a geometry);
  * NULL when out of memory. */
 static lr__lt *lt_new(const lr_scene *s)
@@ -292,30 +299,32 @@ static int plan_glints(const lr_scene *s, const lr__cam *c,
         free(plane);
         return 0;
     }
+    /* ok[g]: a glint surface; one some pair picked; a light some pair
+     * picked. */
+    enum { SURF = 1, SURF_PICKED = 2, LIGHT_PICKED = 4 };
     size_t n_surf = 0, n_light = 0;
     for (size_t g = 0; g < ng; g++)
         if (glint_surface(s, &s->geoms[g], &plane[4 * g], &plane[4 * g + 1],
                           &plane[4 * g + 2], &plane[4 * g + 3]))
-            ok[g] = LR__LT_GLINT_SURF;
+            ok[g] = SURF;
     for (size_t l = 0; l < ng; l++) {
         const lr__geom *L = &s->geoms[l];
-        const lr__material *m = &s->materials[L->material];
-        if (L->kind != LR__GEOM_SPHERE || m->emission_tex != NULL ||
-            !(v3_maxc(m->emission) > 0.0))
+        if (L->kind != LR__GEOM_SPHERE ||
+            !plain_emitter(&s->materials[L->material]))
             continue;
         for (size_t g = 0; g < ng; g++) {
-            if (!(ok[g] & LR__LT_GLINT_SURF))
+            if (!(ok[g] & SURF))
                 continue;
             const lr__v3 *P = &plane[4 * g];
             double a = s->materials[s->geoms[g].material].roughness;
             if (glint_paths(c, lb, estimate, L, P[0], P[1], P[2], P[3], a, spp,
                             0) > 0)
-                ok[g] |= LR__LT_GLINT_SURF << 4, ok[l] |= LR__LT_GLINT_LIGHT;
+                ok[g] |= SURF_PICKED, ok[l] |= LIGHT_PICKED;
         }
     }
     for (size_t g = 0; g < ng; g++) {
-        n_surf += (ok[g] & (LR__LT_GLINT_SURF << 4)) != 0;
-        n_light += (ok[g] & LR__LT_GLINT_LIGHT) != 0;
+        n_surf += (ok[g] & SURF_PICKED) != 0;
+        n_light += (ok[g] & LIGHT_PICKED) != 0;
     }
     int good = 1;
     lr__lt *lt = *ltp;
@@ -329,13 +338,13 @@ static int plan_glints(const lr_scene *s, const lr__cam *c,
             lt->lights = grown;
     }
     for (size_t g = 0; g < ng && good && n_surf > 0; g++) {
-        if (!(ok[g] & (LR__LT_GLINT_SURF << 4)))
+        if (!(ok[g] & SURF_PICKED))
             continue;
         lt->direct[g] |= LR__LT_GLINT_SURF;
         const lr__v3 *P = &plane[4 * g];
         double a = s->materials[s->geoms[g].material].roughness;
         for (size_t k = 0; k < ng; k++) {
-            if (!(ok[k] & LR__LT_GLINT_LIGHT))
+            if (!(ok[k] & LIGHT_PICKED))
                 continue;
             const lr__geom *L = &s->geoms[k];
             lt->direct[k] |= LR__LT_GLINT_LIGHT;
@@ -379,7 +388,7 @@ lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
     for (size_t g = 0; g < s->n_geoms; g++) {
         const lr__geom *geo = &s->geoms[g];
         const lr__material *mt = &s->materials[geo->material];
-        if (mt->emission_tex != NULL || !(v3_maxc(mt->emission) > 0.0))
+        if (!plain_emitter(mt))
             continue;
         lr__v3 center = geo->center;
         double radius = geo->radius;

@@ -820,6 +820,13 @@ static double env_bound(const struct lr__rare *r, const lr__envmap *e,
     return lr__envmap_max_in_cone(e, v3_norm(world), alpha);
 }
 
+/* Geometry g of the scene, counting its infinite planes after its
+ * geometries (as rare_build walks them). */
+static const lr__geom *geom_or_plane(const lr_scene *s, size_t g)
+{
+    return g < s->n_geoms ? &s->geoms[g] : &s->planes[g - s->n_geoms];
+}
+
 /* The most a surface that shows emitters (geometry or plane g) shows:
  * everything, or L_glint on a glint surface of the light side. */
 static double shown(const unsigned char *fl, size_t g, int is_plane,
@@ -832,36 +839,27 @@ static double shown(const unsigned char *fl, size_t g, int is_plane,
 static lr_status rare_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
                             int x0, int y0, int x1, int y1, lr_error *err)
 {
-    /* The scene's largest emission: what a non-Lambertian lobe may show. */
-    double L_emit = 0.0;
-    for (size_t g = 0; g < s->n_geoms; g++)
-        L_emit = fmax(L_emit,
-                      emission_max(&s->materials[s->geoms[g].material]));
-    for (size_t g = 0; g < s->n_planes; g++)
-        L_emit = fmax(L_emit,
-                      emission_max(&s->materials[s->planes[g].material]));
-    /* A map's sun is a light as small and as bright as any.  (A uniform
-     * background is the same in every direction: nothing to miss.) */
-    if (s->env != NULL)
-        L_emit = fmax(L_emit, lr__envmap_max(s->env));
-    if (!(L_emit > 0.0))
-        return LR_OK;
-    /* What a glint surface of the light side shows its first hits: its
-     * glint lights' light straight from it is the light side's
+    /* The scene's largest emission: what a non-Lambertian lobe may show.
+     * A map's sun is a light as small and as bright as any.  (A uniform
+     * background is the same in every direction: nothing to miss.)
+     * And what a glint surface of the light side shows its first hits:
+     * its glint lights' light straight from it is the light side's
      * (light_trace.h), so every other emitter's, and everything if
      * another surface may show those lights in turn. */
-    double L_glint = s->env != NULL ? lr__envmap_max(s->env) : 0.0;
     const unsigned char *fl = p->lt != NULL ? p->lt->direct : NULL;
+    double L_env = s->env != NULL ? lr__envmap_max(s->env) : 0.0;
+    double L_emit = L_env, L_glint = L_env;
     int n_show = 0;
     for (size_t g = 0; g < s->n_geoms + s->n_planes; g++) {
         int is_plane = g >= s->n_geoms;
-        const lr__geom *geo = is_plane ? &s->planes[g - s->n_geoms]
-                                       : &s->geoms[g];
-        const lr__material *m = &s->materials[geo->material];
+        const lr__material *m = &s->materials[geom_or_plane(s, g)->material];
+        L_emit = fmax(L_emit, emission_max(m));
         if (is_plane || !lr__lt_flag(fl, (long)g, LR__LT_GLINT_LIGHT))
             L_glint = fmax(L_glint, emission_max(m));
         n_show += shows_emitters(m);
     }
+    if (!(L_emit > 0.0))
+        return LR_OK;
     /* A second such surface (another glint surface too) may show them
      * after the first (depth 1 on). */
     if (n_show > 1)
@@ -871,11 +869,10 @@ static lr_status rare_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     /* What the camera's rays may find: every source's, less the direct
      * emission of lights the light side carries (light_trace.h). */
-    double L_cam = s->env != NULL ? lr__envmap_max(s->env) : 0.0;
+    double L_cam = L_env;
     for (size_t g = 0; g < s->n_geoms + s->n_planes; g++) {
         int is_plane = g >= s->n_geoms;
-        const lr__geom *geo = is_plane ? &s->planes[g - s->n_geoms]
-                                       : &s->geoms[g];
+        const lr__geom *geo = geom_or_plane(s, g);
         const lr__material *m = &s->materials[geo->material];
         if (is_plane || !lr__lt_direct(fl, (long)g))
             L_cam = fmax(L_cam, emission_max(m));
@@ -899,8 +896,7 @@ static lr_status rare_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
     int ok = 1;
     for (size_t g = 0; g < s->n_geoms + s->n_planes && ok; g++) {
         int is_plane = g >= s->n_geoms;
-        const lr__geom *geo = is_plane ? &s->planes[g - s->n_geoms]
-                                       : &s->geoms[g];
+        const lr__geom *geo = geom_or_plane(s, g);
         const lr__material *m = &s->materials[geo->material];
         /* A light of the light side: camera rays no longer see its
          * emission first (light_trace.h), only through other surfaces. */
