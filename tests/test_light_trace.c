@@ -613,8 +613,101 @@ static void test_unbounded_lenses_keep_lights(void **state)
     }
 }
 
+/* Dark blocks (plan.h): the blocks of scene (with sets) whose camera
+ * samples the plan knows to be 0; *total gets the blocks of the frame. */
+static int dark_blocks(const char *scene, const char *const *sets, size_t n,
+                       int *total)
+{
+    lr_scene *s = lr_test_load(scene, sets, n);
+    lr_camera cam;
+    lr_render_settings rs;
+    lr_scene_camera(s, &cam);
+    lr_scene_settings(s, &rs);
+    lr__cam c;
+    lr__cam_init(&c, &cam, rs.width, rs.height);
+    lr__plan p;
+    lr_error err;
+    assert_int_equal(
+        lr__plan_build(&p, s, &c, &rs, 0, 0, rs.width, rs.height, &err), LR_OK);
+    int d = 0;
+    for (int i = 0; i < p.bw * p.bh; i++)
+        d += p.blocks[i].dark;
+    *total = p.bw * p.bh;
+    lr__plan_free(&p);
+    lr_scene_free(s);
+    return d;
+}
+
+/* Lights on the light side against a black sky give camera rays nothing:
+ * the plan marks their blocks dark and the camera traces no ray there,
+ * and the image is the same bytes as with every camera sample traced
+ * (render.plan off), through the thin lens and a real lens.  Whatever
+ * gives camera paths light keeps its blocks: a lit background, a light
+ * that also reflects, lights left to the camera (render.light off, or a
+ * lens whose light side is off). */
+static void test_dark_blocks(void **state)
+{
+    (void)state;
+    const char *lens_scene =
+        "{\"render\": {\"width\": 48, \"height\": 32, \"spp\": 16},"
+        " \"camera\": {\"model\": \"lens\", \"lens\": \"double-gauss-50\","
+        "  \"position\": [0, 0, 0], \"look_at\": [0, 0, -1],"
+        "  \"focus_distance\": 0.6},"
+        " \"materials\": {\"l\": {\"emission\": 500}, \"k\": {}},"
+        " \"objects\": [{\"type\": \"sphere\", \"center\": [0.5, 0.3, -40],"
+        "   \"radius\": 0.05, \"material\": \"l\"},"
+        "  {\"type\": \"sphere\", \"center\": [-2, 0, -30],"
+        "   \"radius\": 1, \"material\": \"k\"}]}";
+    const char *scenes[] = {discs_scene, lens_scene};
+    for (int k = 0; k < 2; k++) {
+        int total, d = dark_blocks(scenes[k], NULL, 0, &total);
+        assert_int_equal(d, total);
+        const char *on[] = {"render.spp=32"};
+        const char *off[] = {"render.spp=32", "render.plan=false"};
+        lr_render_stats son, soff;
+        lr_image *a = lr_test_render(scenes[k], on, 1, &son);
+        lr_image *b = lr_test_render(scenes[k], off, 2, &soff);
+        print_message("scene %d: camera rays %llu planned, %llu not\n", k,
+                      (unsigned long long)son.camera_rays,
+                      (unsigned long long)soff.camera_rays);
+        assert_true(son.light_landed > 0);
+        assert_int_equal(son.camera_rays, 0);
+        assert_true(soff.camera_rays > 0);
+        lr_test_assert_same_bytes(a, b, "dark blocks against every sample");
+        lr_image_free(a);
+        lr_image_free(b);
+    }
+    int total, d;
+    const char *grey[] = {"background=0.05"};
+    assert_int_equal(dark_blocks(discs_scene, grey, 1, &total), 0);
+    /* A black ball in front of the lights (no lobe, no emission). */
+    char ball[2048];
+    size_t len = strlen(discs_scene);
+    snprintf(ball, sizeof ball,
+             "%.*s, {\"type\": \"sphere\", \"center\": [0, 0, -20], "
+             "\"radius\": 3, \"material\": \"k\"}]}",
+             (int)len - 2, discs_scene);
+    const char *black[] = {"materials.k={}"};
+    d = dark_blocks(ball, black, 1, &total);
+    assert_int_equal(d, total);
+    const char *reflects[] = {"materials.a.diffuse=0.5"};
+    const char *camera_lights[] = {"render.light=false"};
+    const char *fisheye[] = {"camera.lens=fisheye-10"};
+    int d1 = dark_blocks(discs_scene, reflects, 1, &total);
+    int d2 = dark_blocks(discs_scene, camera_lights, 1, &total);
+    int lens_total, d3 = dark_blocks(lens_scene, fisheye, 1, &lens_total);
+    print_message("dark blocks: %d of %d with reflecting lights, %d with the "
+                  "camera's lights; %d of %d through the fisheye\n",
+                  d1, total, d2, d3, lens_total);
+    /* The blocks that reach no light stay dark (nothing there at all). */
+    assert_true(d1 > 0 && d1 < total);
+    assert_true(d2 > 0 && d2 < d1);
+    assert_int_equal(d3, 0);
+}
+
 static const struct CMUnitTest light_tests[] = {
     cmocka_unit_test(test_unbounded_lenses_keep_lights),
+    cmocka_unit_test(test_dark_blocks),
     cmocka_unit_test(test_glints_agree_with_camera),
     cmocka_unit_test(test_glints_deterministic_and_planned),
     cmocka_unit_test(test_mesh_lights_closed_form),

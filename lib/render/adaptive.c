@@ -237,6 +237,17 @@ static int apron_needed(const lr__plan *plan, int spp, int x, int y, int x0,
     return 0;
 }
 
+/* Resets *a; in a dark block (plan.h), to the one sample of 0 that every
+ * camera sample there would be, traced or not, and returns 1. */
+static int dark_pixel(const lr__plan *plan, int x, int y, lr__pixel *a)
+{
+    lr__pixel_reset(a);
+    if (!lr__plan_at(plan, x, y)->dark)
+        return 0;
+    a->n = 1;
+    return 1;
+}
+
 void lr__adaptive_block(const lr_render_settings *set, const lr__plan *plan,
                         int x0, int y0, int x1, int y1,
                         lr__block_scratch *scratch, const lr__block_io *io)
@@ -250,8 +261,8 @@ void lr__adaptive_block(const lr_render_settings *set, const lr__plan *plan,
         for (int y = y0; y < y1; y++)
             for (int x = x0; x < x1; x++) {
                 lr__pixel *a = &acc[0];
-                lr__pixel_reset(a);
-                io->sample(io->ctx, x, y, 0, spp, a);
+                if (!dark_pixel(plan, x, y, a))
+                    io->sample(io->ctx, x, y, 0, spp, a);
                 io->store(io->ctx, x, y, a);
             }
         return;
@@ -268,8 +279,8 @@ void lr__adaptive_block(const lr_render_settings *set, const lr__plan *plan,
             need[i] = 0;
             if (!inside && !apron_needed(plan, spp, x, y, x0, y0, x1, y1))
                 continue;
-            lr__pixel_reset(&acc[i]);
-            io->sample(io->ctx, x, y, 0, p, &acc[i]);
+            if (!dark_pixel(plan, x, y, &acc[i]))
+                io->sample(io->ctx, x, y, 0, p, &acc[i]);
             need[i] = lr__pixel_samples_needed(&acc[i], thr, p, spp);
             int r = lr__rare_samples_needed(
                 &acc[i], lr__plan_unseen(plan, x, y), thr, p, spp);
@@ -281,9 +292,11 @@ void lr__adaptive_block(const lr_render_settings *set, const lr__plan *plan,
         for (int x = x0; x < x1; x++) {
             int i = (y - ay0) * aw + (x - ax0);
             lr__pixel *a = &acc[i];
-            int have = lr__plan_at(plan, x, y)->pilot;
-            if (have >= spp) {
-                /* The pilot was all of it (a blurred pixel at low spp). */
+            const lr__block_plan *bp = lr__plan_at(plan, x, y);
+            int have = bp->pilot;
+            if (have >= spp || bp->dark) {
+                /* The pilot was all of it (a blurred pixel at low spp, or
+                 * a dark one: its every sample is 0). */
                 io->store(io->ctx, x, y, a);
                 continue;
             }

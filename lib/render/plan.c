@@ -40,6 +40,7 @@ typedef struct box {
     double x0, x1, y0, y1; /* lateral range, camera space */
     size_t skip;           /* > 0: a cut triangle's whole box, followed by
                               the `skip` boxes of its pieces */
+    size_t geom;           /* the geometry it bounds (scene->geoms) */
 } box;
 
 typedef struct lens {
@@ -267,16 +268,20 @@ static void finish(lr__plan *p, const lr__cam *c, const lr_render_settings *set)
 {
     for (int i = 0; i < p->bw * p->bh; i++) {
         lr__block_plan *bp = &p->blocks[i];
-        bp->lens = c->has_lens && bp->lens;
+        bp->lens = c->has_lens && bp->lens && !bp->dark;
         bp->chroma = c->chroma_active && bp->lens && bp->chroma;
         bp->path = bp->chroma ? LR__PATH_COLOURS : LR__PATH_PACKET;
-        bp->pilot = lr__adaptive_pilot(set, bp->lens);
+        bp->pilot = bp->dark ? 1 : lr__adaptive_pilot(set, bp->lens);
     }
 }
 
 static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
-                           int dither, int x0, int y0, int x1, int y1,
-                           lr_error *err);
+                           int dither, const unsigned char *dark, int x0,
+                           int y0, int x1, int y1, lr_error *err);
+static unsigned char *dark_geoms(const lr_scene *s, const lr__lt *lt, int *all);
+static const lr__geom *geom_or_plane(const lr_scene *s, size_t g);
+static int plane_reached(const lens *L, const lr__geom *pl, double u0,
+                         double u1, double v0, double v1);
 static lr_status lt_region(lr__lt *lt, const lr__cam *c, int x0, int y0, int x1,
                            int y1, lr_error *err);
 static lr_status rare_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
@@ -292,13 +297,39 @@ lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
     if (p->blocks == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     for (int i = 0; i < p->bw * p->bh; i++)
-        p->blocks[i] = (lr__block_plan){1, 1, 0, 0};
+        p->blocks[i] = (lr__block_plan){1, 1, 0, 0, 0};
     p->rare = NULL;
     p->lt = NULL;
     /* Splatting traces one ray a pixel and sample for the whole
      * spectrum, where spectral.c's packets trace one a wavelength
      * (docs/spectral.md measures both). */
     p->splat = lr__splat_applies(c);
+    /* Spectral splatting traces every wavelength from the camera; the
+     * light side needs the colours to focus alike (lr__lt_plan).  The
+     * light side comes first: what it carries, the camera does not see
+     * (dark blocks). */
+    if (!p->splat) {
+        lr_status st = lr__lt_plan(s, c, set, &p->lt, err);
+        if (st == LR_OK && p->lt != NULL)
+            st = lt_region(p->lt, c, x0, y0, x1, y1, err);
+        if (st != LR_OK) {
+            lr__plan_free(p);
+            return st;
+        }
+    }
+    /* Per geometry then per plane: 1 where it gives camera paths no
+     * light; NULL when nothing can be dark (a lit background, or no
+     * plan). */
+    unsigned char *dark = NULL;
+    int all_dark = 0;
+    if (set->plan && !p->splat && v3_maxc(s->background) <= 0.0 &&
+        s->env == NULL) {
+        dark = dark_geoms(s, p->lt, &all_dark);
+        if (dark == NULL) {
+            lr__plan_free(p);
+            return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+        }
+    }
     /* A model with no safe bound samples its lens everywhere. */
     if (set->plan && !p->splat && c->has_lens && c->model->bound != NULL) {
         /* Adaptive sampling reads the pilots of a one-pixel apron around
@@ -319,24 +350,20 @@ lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
          * wherever there is something to blur; planning alone stays as
          * it was, the fastest choice at its own error. */
         int dither = set->adaptive && lr__sampler_fixed_positions(set->sampler);
-        lr_status st = plan_blur(p, s, c, dither, gx0, gy0, gx1, gy1, err);
+        lr_status st = plan_blur(p, s, c, dither, dark, gx0, gy0, gx1, gy1,
+                                 err);
         if (st != LR_OK) {
+            free(dark);
             lr__plan_free(p);
             return st;
         }
+    } else if (all_dark) {
+        /* Without a bound every geometry is in reach of every block. */
+        for (int i = 0; i < p->bw * p->bh; i++)
+            p->blocks[i].dark = 1;
     }
+    free(dark);
     finish(p, c, set);
-    /* Spectral splatting traces every wavelength from the camera; the
-     * light side needs the colours to focus alike (lr__lt_plan). */
-    if (!p->splat) {
-        lr_status st = lr__lt_plan(s, c, set, &p->lt, err);
-        if (st == LR_OK && p->lt != NULL)
-            st = lt_region(p->lt, c, x0, y0, x1, y1, err);
-        if (st != LR_OK) {
-            lr__plan_free(p);
-            return st;
-        }
-    }
     /* Rare light matters only to a pixel that may stop early. */
     if (set->adaptive && !p->splat && lr__adaptive_min(set) < set->spp) {
         lr_status st = rare_build(p, s, c, x0, y0, x1, y1, err);
@@ -476,12 +503,47 @@ static void make_lens(const lr__cam *c, lens *L)
         L->ws[k] = lb.ws[k];
 }
 
+/* Whether geometry with material m, whose flags on the light side are
+ * `lt` (light_trace.h), gives camera paths no light: no lobe to scatter
+ * with, and no emission the camera counts (the light side carries what
+ * it emits straight into the lens). */
+static int gives_camera_nothing(const lr__material *m, unsigned char lt)
+{
+    if (m->pbr_split || v3_maxc(m->diffuse) > 0.0 ||
+        v3_maxc(m->specular) > 0.0 || v3_maxc(m->reflect) > 0.0 ||
+        v3_maxc(m->transmit) > 0.0)
+        return 0;
+    return (lt & LR__LT_DIRECT) ||
+           (m->emission_tex == NULL && !(v3_maxc(m->emission) > 0.0));
+}
+
+/* Per geometry, then per infinite plane, of scene s: 1 where it gives
+ * camera paths no light (with light side lt, or NULL); *all = 1 when
+ * every one does.  NULL when out of memory. */
+static unsigned char *dark_geoms(const lr_scene *s, const lr__lt *lt, int *all)
+{
+    size_t n = s->n_geoms + s->n_planes;
+    unsigned char *d = malloc(n + 1);
+    if (d == NULL)
+        return NULL;
+    *all = 1;
+    for (size_t g = 0; g < n; g++) {
+        const lr__geom *geo = geom_or_plane(s, g);
+        unsigned char f = lt != NULL && g < s->n_geoms ? lt->direct[g]
+                                                       : (unsigned char)0;
+        d[g] = (unsigned char)gives_camera_nothing(&s->materials[geo->material],
+                                                   f);
+        *all &= d[g];
+    }
+    return d;
+}
+
 /* Where no colour's blur can reach a quarter pixel, the block needs no
  * lens (unless `dither`: wherever it reaches anything); where the
  * colours' blurs differ by less, one ray for all. */
 static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
-                           int dither, int x0, int y0, int x1, int y1,
-                           lr_error *err)
+                           int dither, const unsigned char *dark, int x0,
+                           int y0, int x1, int y1, lr_error *err)
 {
     lens L;
     make_lens(c, &L);
@@ -502,21 +564,26 @@ static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
             double u0 = px0 * su - c->half_w, u1 = px1 * su - c->half_w;
             double v0 = c->half_h - py1 * sv, v1 = c->half_h - py0 * sv;
             double zmin = INFINITY, zmax = 0.0;
+            /* Whether anything in reach gives camera paths light (with
+             * no `dark`, anything counts). */
+            int lit = dark == NULL;
             for (size_t i = 0; i < n_boxes; i++) {
                 const box *b = &boxes[i];
                 double z0 = b->z0 > NEAR ? b->z0 : NEAR;
+                int b_lit = dark == NULL || !dark[b->geom];
                 /* A box within the depths found so far cannot widen
                  * them, and one out of reach has no piece in reach
                  * (box_reached only grows with the box): skip it, and
-                 * its pieces.  A cut triangle's box in reach only leads
-                 * to its pieces. */
-                if ((z0 >= zmin && b->z1 <= zmax) ||
+                 * its pieces, unless it may be the first lit one.  A cut
+                 * triangle's box in reach only leads to its pieces. */
+                if ((z0 >= zmin && b->z1 <= zmax && (lit || !b_lit)) ||
                     !box_reached(&L, b, u0, u1, v0, v1)) {
                     i += b->skip;
                     continue;
                 }
                 if (b->skip > 0)
                     continue;
+                lit |= b_lit;
                 if (z0 < zmin)
                     zmin = z0;
                 if (b->z1 > zmax)
@@ -534,12 +601,18 @@ static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
                                      v1 + g, &z0, &z1))
                         z0 = INFINITY, z1 = 0.0;
                 }
+                /* plane_reached also finds a plane that only the lens's
+                 * spread reaches (beyond its horizon in the block). */
+                if (!lit && !dark[s->n_geoms + i] &&
+                    plane_reached(&L, &s->planes[i], u0, u1, v0, v1))
+                    lit = 1;
                 if (z0 < zmin)
                     zmin = z0;
                 if (z1 > zmax)
                     zmax = z1;
             }
             lr__block_plan *bp = &p->blocks[by * p->bw + bx];
+            bp->dark = !lit;
             /* An environment map is light at infinite depth that any
              * ray may escape to, and the lens blurs it like anything
              * else (a uniform background it cannot change). */
@@ -583,6 +656,50 @@ void lr__plan_free(lr__plan *p)
     p->lt = NULL;
 }
 
+/* Appends geometry geo's boxes to *boxes (n, cap: its count and room):
+ * 1, or 0 when out of memory. */
+static int make_geom_boxes(const lens *L, const lr__geom *geo, box **boxes,
+                           size_t *n, size_t *cap)
+{
+    if (geo->kind == LR__GEOM_SPHERE) {
+        lr__v3 r = v3(geo->radius, geo->radius, geo->radius);
+        lr__v3 a = v3_sub(geo->center, r), b = v3_add(geo->center, r);
+        /* A degenerate triangle across the box's diagonal has the same
+         * bounding box, so it can go through tri_boxes. */
+        return tri_boxes(L, a, b, b, 0, boxes, n, cap);
+    }
+    if (geo->n_triangles <= LR__PLAN_FEW) {
+        /* Few, probably large triangles (a ground quad): cut them. */
+        for (size_t t = 0; t < geo->n_triangles; t++) {
+            lr__v3 q[3];
+            for (int k = 0; k < 3; k++) {
+                const float *v = &geo->vertices[3 * geo->indices[3 * t + k]];
+                q[k] = v3(v[0], v[1], v[2]);
+            }
+            if (!tri_boxes(L, q[0], q[1], q[2], 7, boxes, n, cap))
+                return 0;
+        }
+        return 1;
+    }
+    /* Many triangles: a box per CHUNK of them, from the world bounds
+     * lr__scene_commit kept (the same for every render, so a frame cut
+     * into parts does not find them again for each part). */
+    for (size_t t0 = 0; t0 < geo->n_triangles; t0 += CHUNK) {
+        if (*n == *cap) {
+            size_t nc = *cap ? 2 * *cap : 256;
+            box *gr = realloc(*boxes, nc * sizeof *gr);
+            if (gr == NULL)
+                return 0;
+            *boxes = gr;
+            *cap = nc;
+        }
+        const double *wb = &geo->chunk_bounds[6 * (t0 / CHUNK)];
+        box_from_bounds(L, wb, wb + 3, &(*boxes)[*n]);
+        (*boxes)[(*n)++].skip = 0;
+    }
+    return 1;
+}
+
 /* Bounding boxes of the geometry in camera space, for camera L: 1, or 0
  * when out of memory. */
 static int make_boxes(const lr_scene *s, const lens *L, box **out,
@@ -590,52 +707,14 @@ static int make_boxes(const lr_scene *s, const lens *L, box **out,
 {
     size_t n_boxes = 0, cap = 0;
     box *boxes = NULL;
-    int ok = 1;
-    for (size_t g = 0; g < s->n_geoms && ok; g++) {
-        const lr__geom *geo = &s->geoms[g];
-        if (geo->kind == LR__GEOM_SPHERE) {
-            lr__v3 r = v3(geo->radius, geo->radius, geo->radius);
-            lr__v3 a = v3_sub(geo->center, r), b = v3_add(geo->center, r);
-            /* A degenerate triangle across the box's diagonal has the
-             * same bounding box, so it can go through tri_boxes. */
-            ok = tri_boxes(L, a, b, b, 0, &boxes, &n_boxes, &cap);
-            continue;
+    for (size_t g = 0; g < s->n_geoms; g++) {
+        size_t first = n_boxes;
+        if (!make_geom_boxes(L, &s->geoms[g], &boxes, &n_boxes, &cap)) {
+            free(boxes);
+            return 0;
         }
-        if (geo->n_triangles <= LR__PLAN_FEW) {
-            /* Few, probably large triangles (a ground quad): cut them. */
-            for (size_t t = 0; t < geo->n_triangles && ok; t++) {
-                lr__v3 q[3];
-                for (int k = 0; k < 3; k++) {
-                    const float *v =
-                        &geo->vertices[3 * geo->indices[3 * t + k]];
-                    q[k] = v3(v[0], v[1], v[2]);
-                }
-                ok = tri_boxes(L, q[0], q[1], q[2], 7, &boxes, &n_boxes, &cap);
-            }
-            continue;
-        }
-        /* Many triangles: a box per CHUNK of them, from the world bounds
-         * lr__scene_commit kept (the same for every render, so a frame
-         * cut into parts does not find them again for each part). */
-        for (size_t t0 = 0; t0 < geo->n_triangles && ok; t0 += CHUNK) {
-            if (n_boxes == cap) {
-                size_t nc = cap ? 2 * cap : 256;
-                box *gr = realloc(boxes, nc * sizeof *gr);
-                if (gr == NULL) {
-                    ok = 0;
-                    break;
-                }
-                boxes = gr;
-                cap = nc;
-            }
-            const double *wb = &geo->chunk_bounds[6 * (t0 / CHUNK)];
-            box_from_bounds(L, wb, wb + 3, &boxes[n_boxes]);
-            boxes[n_boxes++].skip = 0;
-        }
-    }
-    if (!ok) {
-        free(boxes);
-        return 0;
+        for (size_t i = first; i < n_boxes; i++)
+            boxes[i].geom = g;
     }
     *out = boxes;
     *out_n = n_boxes;

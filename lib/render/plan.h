@@ -33,6 +33,10 @@ typedef struct lr__block_plan {
     int pilot;            /* samples every pixel takes before adaptive
                              sampling judges it (adaptive.c); spp when
                              sampling is not adaptive */
+    /* 1: every camera sample of the block is exactly 0 (lr__plan_build
+     * says when), so its pixels are 0 without tracing (adaptive.c
+     * stores one sample of 0 a pixel), adaptive sampling or not. */
+    unsigned char dark;
 } lr__block_plan;
 
 typedef struct lr__plan {
@@ -54,7 +58,13 @@ typedef struct lr__plan {
 
 /* Plans the blocks covering [x0, x1) x [y0, y1) of the frame and the
  * one-pixel apron around it that adaptive sampling reads (the others are
- * planned as the full simulation).  set->plan = 0 plans every block
+ * planned as the full simulation).  A block is dark when nothing its
+ * lens rays can reach gives a camera path any light: the background is
+ * black (no environment), and every geometry in reach has no lobe and
+ * emits nothing the camera counts (none, or only light the light side
+ * carries, lr__sample_id.lt).  A night sky of small lights traced from
+ * their side is dark; so is the whole frame of a model without a
+ * planner's bound (the real lens) when every geometry is.  set->plan = 0 plans every block
  * as the full simulation: the lens sampled wherever the camera has one,
  * the colours split wherever they focus apart.  Returns LR_ERR_NOMEM on
  * failure. */
