@@ -229,7 +229,12 @@ typedef enum lr_integrator_kind {
     /* Unidirectional path tracing with next-event estimation and multiple
      * importance sampling: area lights (emission), environment light,
      * rough metal and glass, indirect light. */
-    LR_INTEGRATOR_PATH = 1
+    LR_INTEGRATOR_PATH = 1,
+    /* Light tracing: every path from the lights, each vertex joined to
+     * the lens (Mitsuba 3's ptracer); camera rays estimate nothing.  The
+     * path tracer's image but for what is seen in smooth mirrors and glass
+     * (docs/bokeh.md). */
+    LR_INTEGRATOR_LIGHT = 2
 } lr_integrator_kind;
 
 /* Called from render threads, serialised by the library, after each tile:

@@ -580,13 +580,18 @@ s = yaml.safe_load(open(sys.argv[1]))["components"]["schemas"][sys.argv[2]]
 print("\n".join(sorted(s["properties"][sys.argv[3]]["enum"])))' "$spec" "$schema" "$key") \
             <(json "o.$list.map(x => x.name ?? x).sort().join('\n')" "$T/options")
     done
-    [ "$(json "o.integrators.join(' ')" "$T/options")" = "whitted path" ]
-    # Each integrator the library lists is one a job may name.
+    [ "$(json "o.integrators.join(' ')" "$T/options")" = "whitted path light" ]
+    # Each integrator the library lists is one a job may name (a scene of
+    # a point light and a sphere: "light" refuses tiny's ambient light).
     local name
     for name in $(json "o.integrators.join(' ')" "$T/options"); do
-        req POST "$URL/v1/render" "{\"scene\": \"tiny\", \"render\": {\"width\": 4, \"height\": 3, \"spp\": 1, \"integrator\": \"$name\"}}"
+        req POST "$URL/v1/render" "{\"scene\": {\"lights\": [{\"type\": \"point\", \"position\": [0, 3, 3], \"intensity\": 5}], \"objects\": [{\"type\": \"sphere\", \"center\": [0, 0, -5], \"radius\": 1}]}, \"render\": {\"width\": 4, \"height\": 3, \"spp\": 1, \"integrator\": \"$name\"}}"
         expect 200
     done
+    # And "light" names what it cannot trace.
+    req POST "$URL/v1/render" '{"scene": "tiny", "render": {"width": 4, "height": 3, "spp": 1, "integrator": "light"}}'
+    expect 422
+    grep -q '"path":"lights"' "$T/body"
 }
 
 # ---- synchronous renders --------------------------------------------------------

@@ -47,7 +47,9 @@ class LensraySettings(bpy.types.PropertyGroup):
     samples: IntProperty(name="Samples", default=64, min=1, max=1048576)
     integrator: EnumProperty(name="Integrator", default="path",
                              items=[("path", "Path", "path tracer"),
-                                    ("whitted", "Whitted", "direct light")])
+                                    ("whitted", "Whitted", "direct light"),
+                                    ("light", "Light",
+                                     "every path from the lights")])
     plan: BoolProperty(name="Effect plan", default=True)
     max_depth: IntProperty(name="Max bounces", default=8, min=0, max=64)
     seed: IntProperty(name="Seed", default=0, min=0)

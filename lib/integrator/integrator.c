@@ -13,6 +13,7 @@
 const lr__integrator *const lr__integrators[] = {
     [LR_INTEGRATOR_WHITTED] = &lr__whitted,
     [LR_INTEGRATOR_PATH] = &lr__path_tracer,
+    [LR_INTEGRATOR_LIGHT] = &lr__light_tracer,
     NULL,
 };
 

@@ -72,6 +72,9 @@ static inline int lr__lt_glint_core(lr__v3 wo, lr__v3 wi, lr__v3 n,
 
 typedef struct lr__integrator {
     const char *name;
+    /* 1: camera rays estimate nothing (the light side traces every path,
+     * light_paths.h), so the plan makes every block dark. */
+    int camera_dark;
     /* Radiance arriving at `org` from direction -dir (unit length) along
      * a camera ray; rays traced are added to *rays. */
     lr__v3 (*radiance)(const lr_scene *s, int max_depth, lr__v3 org, lr__v3 dir,
@@ -97,6 +100,7 @@ typedef struct lr__integrator {
 
 extern const lr__integrator lr__whitted;
 extern const lr__integrator lr__path_tracer;
+extern const lr__integrator lr__light_tracer;
 
 /* ---- the registry (integrator.c) ---------------------------------------- */
 

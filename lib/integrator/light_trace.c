@@ -83,6 +83,7 @@ void lr__lt_free(lr__lt *lt)
         free(lt->lights[k].cdf);
     free(lt->lights);
     free(lt->direct);
+    lr__lp_free(lt->lp);
     free(lt);
 }
 
@@ -176,6 +177,19 @@ static int mesh_cdf(const lr_scene *s, const lr__geom *g, lr__lt_light *l)
 static int plain_emitter(const lr__material *m)
 {
     return m->emission_tex == NULL && v3_maxc(m->emission) > 0.0;
+}
+
+/* An empty light side for scene s with room for n lights; NULL when out
+ * of memory. */
+static lr__lt *lt_new_n(const lr_scene *s, size_t n)
+{
+    lr__lt *lt = calloc(1, sizeof *lt);
+    if (lt == NULL || (lt->direct = calloc(s->n_geoms + 1, 1)) == NULL ||
+        (lt->lights = malloc((n + 1) * sizeof *lt->lights)) == NULL) {
+        lr__lt_free(lt);
+        return NULL;
+    }
+    return lt;
 }
 
 /* An empty light side for scene s (room for a direct entry a geometry);
@@ -369,11 +383,53 @@ static int plan_glints(const lr_scene *s, const lr__cam *c,
     return good;
 }
 
+/* The `light` integrator's light side: every path, in parts of at most
+ * LR__LT_PART, LR__LP_DENSITY a pixel and sample of the frame. */
+static lr_status plan_paths(const lr_scene *s, const lr__cam *c,
+                            const lr_render_settings *set, lr__lt **out,
+                            lr_error *err)
+{
+    lr__lp *lp;
+    double lref;
+    lr_status st = lr__lp_prepare(s, c, set, &lp, &lref, err);
+    if (st != LR_OK)
+        return st;
+    double want = ceil((double)set->spp * c->width * c->height *
+                       LR__LP_DENSITY);
+    uint64_t total = want < 1e18 ? (uint64_t)want : (uint64_t)1e18;
+    size_t parts = (size_t)((total + LR__LT_PART - 1) / LR__LT_PART);
+    lr__lt *lt = lt_new_n(s, parts);
+    if (lt == NULL) {
+        lr__lp_free(lp);
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    }
+    lt->lp = lp;
+    for (size_t j = 0; j < parts; j++) {
+        lr__lt_light *l = &lt->lights[lt->n++];
+        memset(l, 0, sizeof *l);
+        l->geom = (int)j;
+        l->surf = LR__LT_PATHS;
+        /* lr__lt_film_init's scale: 2^40 over this, 2^36 over lref (a
+         * light path's splats are less bounded than a light's radiance:
+         * headroom of 2^27 lref a pixel). */
+        l->L = v3(16.0 * lref, 16.0 * lref, 16.0 * lref);
+        l->paths = j + 1 < parts ? LR__LT_PART : total - j * LR__LT_PART;
+        l->first = lt->paths;
+        lt->paths += l->paths;
+    }
+    lt->lp_paths = lt->paths;
+    lt->seed = set->seed;
+    *out = lt;
+    return LR_OK;
+}
+
 lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
                       const lr_render_settings *set, lr__lt **out,
                       lr_error *err)
 {
     *out = NULL;
+    if (set->integrator == LR_INTEGRATOR_LIGHT)
+        return plan_paths(s, c, set, out, err);
     const lr__camera_model *m = c->model;
     if (!set->light || m->lens_point == NULL || m->film == NULL ||
         c->chroma_active || (m->bound == NULL && m->thin_equiv == NULL) ||
@@ -471,16 +527,6 @@ static int light_of(const lr__lt *lt, uint64_t i)
             hi = mid - 1;
     }
     return lo;
-}
-
-/* Two unit vectors completing unit a to an orthonormal frame (Duff et
- * al. 2017, "Building an orthonormal basis, revisited"). */
-static void frame_of(lr__v3 a, lr__v3 *t1, lr__v3 *t2)
-{
-    double sign = copysign(1.0, a.z);
-    double p = -1.0 / (sign + a.z), q = a.x * a.y * p;
-    *t1 = v3(1.0 + sign * a.x * a.x * p, sign * q, -sign * a.x);
-    *t2 = v3(q, sign + a.y * a.y * p, -a.y);
 }
 
 /* Adds v to pixel (ix, iy) of f, if the region holds it. */
@@ -631,7 +677,7 @@ static void glint_path(const lr_scene *s, const lr__cam *c,
     lr__v3 Pp = v3_madd(P, n, -dP), yp = v3_madd(y, n, -dy);
     lr__v3 xs = v3_add(Pp, v3_scale(v3_sub(yp, Pp), dP / (dP + dy)));
     lr__v3 t1, t2;
-    frame_of(n, &t1, &t2);
+    v3_frame(n, &t1, &t2);
     lr__v3 pr = v3_sub(Pp, xs), yr = v3_sub(yp, xs);
     double P2[2] = {v3_dot(pr, t1), v3_dot(pr, t2)};
     double Y2[2] = {v3_dot(yr, t1), v3_dot(yr, t2)};
@@ -716,8 +762,15 @@ static void glint_path(const lr_scene *s, const lr__cam *c,
  * the same numbers for the others. */
 static uint64_t light_key(const lr__lt_light *l)
 {
+    if (l->surf == LR__LT_PATHS)
+        return LT_PIXEL_BASE + ((uint64_t)1 << 46) + (uint64_t)l->geom;
     return LT_PIXEL_BASE + (uint64_t)l->geom +
            (l->surf < 0 ? 0 : (uint64_t)(l->surf + 1) << 24);
+}
+
+static void splat_cb(void *film, int ix, int iy, lr__v3 v)
+{
+    splat(film, ix, iy, v);
 }
 
 void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
@@ -744,6 +797,11 @@ void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
         }
         const lr__lt_light *l = &lt->lights[k];
         uint32_t idx = (uint32_t)(i - l->first);
+        if (l->surf == LR__LT_PATHS) {
+            lr__lp_path(lt->lp, s, c, &smp, light_key(l), idx,
+                        (double)lt->lp_paths, splat_cb, f, rays, landed);
+            continue;
+        }
         double q[4], ox, oy;
         lr__pixel_sampler_get(&ps, idx, q);
         const double *ud = q, *ul = q + 2;
@@ -772,7 +830,7 @@ void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
         double cos_t = 1.0 - t, sin_t = sqrt(t * (2.0 - t));
         double phi = 2.0 * M_PI * ud[1];
         lr__v3 t1, t2;
-        frame_of(a, &t1, &t2);
+        v3_frame(a, &t1, &t2);
         lr__v3 w = v3_add(v3_scale(a, cos_t),
                           v3_add(v3_scale(t1, sin_t * cos(phi)),
                                  v3_scale(t2, sin_t * sin(phi))));

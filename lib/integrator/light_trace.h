@@ -44,6 +44,7 @@
 #define LR_LIGHT_TRACE_H
 
 #include "camera.h"
+#include "light_paths.h"
 #include "sampler.h"
 #include "scene.h"
 
@@ -52,10 +53,12 @@
 /* One light traced from its side: a sphere of the scene, or a mesh of
  * emitting triangles. */
 typedef struct lr__lt_light {
-    int geom; /* index in scene->geoms */
-    /* -1: the light seen directly; else a glint: the light seen in the
-     * flat rough metal geometry surf, whose plane holds plane_p with
-     * unit normal plane_n (any side), GGX alpha `alpha`. */
+    int geom; /* index in scene->geoms; for LR__LT_PATHS, its part */
+    /* -1: the light seen directly; LR__LT_PATHS: a part of the `light`
+     * integrator's paths (light_paths.h; L is then the film's scale); else
+     * a glint: the light seen in the flat rough metal geometry surf,
+     * whose plane holds plane_p with unit normal plane_n (any side), GGX
+     * alpha `alpha`. */
     int surf;
     lr__v3 plane_p, plane_n;
     double alpha;
@@ -84,7 +87,16 @@ typedef struct lr__lt {
      * such pair is traced). */
     unsigned char *direct;
     uint64_t seed;
+    /* The `light` integrator's paths (their parts are the lights with
+     * surf LR__LT_PATHS), or NULL.  Owned. */
+    lr__lp *lp;
+    uint64_t lp_paths; /* all its parts' */
 } lr__lt;
+
+#define LR__LT_PATHS (-2)
+/* The most paths of one part (a sampler "pixel" counts its samples in 32
+ * bits). */
+#define LR__LT_PART ((uint64_t)1 << 31)
 
 /* Light paths a light gets per pixel of its image and camera sample per
  * pixel (render.spp): about spp / 2 splats in each pixel of its disc.
@@ -102,7 +114,9 @@ typedef struct lr__lt {
 /* Chooses the lights to trace from the light side for camera `c` and
  * settings `set`: *out is NULL when there are none (render.light off, a
  * model without a light side, colours that focus apart, no small
- * light), else the caller's, freed with lr__lt_free.  LR_ERR_NOMEM. */
+ * light), else the caller's, freed with lr__lt_free.  With the `light`
+ * integrator, every path (light_paths.h): LR_ERR_INVALID names what the
+ * scene has that it cannot trace.  LR_ERR_NOMEM. */
 lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
                       const lr_render_settings *set, lr__lt **out,
                       lr_error *err);

@@ -308,7 +308,7 @@ lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
      * light side needs the colours to focus alike (lr__lt_plan).  The
      * light side comes first: what it carries, the camera does not see
      * (dark blocks). */
-    if (!p->splat) {
+    if (!p->splat || set->integrator == LR_INTEGRATOR_LIGHT) {
         lr_status st = lr__lt_plan(s, c, set, &p->lt, err);
         if (st == LR_OK && p->lt != NULL)
             st = lt_region(p->lt, c, x0, y0, x1, y1, err);
@@ -330,8 +330,14 @@ lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
             return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
         }
     }
-    /* A model with no safe bound samples its lens everywhere. */
-    if (set->plan && !p->splat && c->has_lens && c->model->bound != NULL) {
+    /* An integrator whose camera rays estimate nothing: all dark. */
+    const lr__integrator *in = lr__integrator_for(set->integrator);
+    if (in != NULL && in->camera_dark) {
+        for (int i = 0; i < p->bw * p->bh; i++)
+            p->blocks[i].dark = 1;
+    } else if (set->plan && !p->splat && c->has_lens &&
+               c->model->bound != NULL) {
+        /* A model with no safe bound samples its lens everywhere. */
         /* Adaptive sampling reads the pilots of a one-pixel apron around
          * the region (adaptive.c), and a pilot follows its block's plan:
          * the apron's blocks are planned too, or a crop's edge pixels
@@ -358,7 +364,8 @@ lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
             return st;
         }
     } else if (all_dark) {
-        /* Without a bound every geometry is in reach of every block. */
+        /* Without a bound (or a lens) every geometry is in reach of every
+         * block. */
         for (int i = 0; i < p->bw * p->bh; i++)
             p->blocks[i].dark = 1;
     }
@@ -1089,8 +1096,9 @@ static lr_status lt_region(lr__lt *lt, const lr__cam *c, int x0, int y0, int x1,
         double hi[3] = {l->center.x + r, l->center.y + r, l->center.z + r};
         box b;
         box_from_bounds(&L, lo, hi, &b);
-        /* A glint may land wherever its surface is seen: kept. */
-        keep[k] = (unsigned char)(l->surf >= 0 ||
+        /* A glint may land wherever its surface is seen, a light path
+         * anywhere: kept. */
+        keep[k] = (unsigned char)(l->surf != -1 ||
                                   box_reached(&L, &b, u0, u1, v0, v1));
     }
     lr__lt_keep(lt, keep);

@@ -84,5 +84,14 @@ static inline int v3_finite(lr__v3 a)
 {
     return isfinite(a.x) && isfinite(a.y) && isfinite(a.z);
 }
+/* Two unit vectors completing unit a to a right-handed orthonormal frame
+ * (Duff et al. 2017, "Building an orthonormal basis, revisited"). */
+static inline void v3_frame(lr__v3 a, lr__v3 *t1, lr__v3 *t2)
+{
+    double sign = copysign(1.0, a.z);
+    double p = -1.0 / (sign + a.z), q = a.x * a.y * p;
+    *t1 = v3(1.0 + sign * a.x * a.x * p, sign * q, -sign * a.x);
+    *t2 = v3(q, sign + a.y * a.y * p, -a.y);
+}
 
 #endif
