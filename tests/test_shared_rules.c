@@ -633,8 +633,8 @@ static void test_asset_references(void **state)
         assert_non_null(in);
         assert_non_null(out);
         char buf[4096];
-        size_t n;
-        while ((n = fread(buf, 1, sizeof buf, in)) > 0)
+        for (size_t n = fread(buf, 1, sizeof buf, in); n > 0;
+             n = fread(buf, 1, sizeof buf, in))
             assert_int_equal(fwrite(buf, 1, n, out), n);
         fclose(in);
         fclose(out);

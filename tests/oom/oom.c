@@ -675,8 +675,7 @@ static int files_with_prefix(const char *prefix)
     if (d == NULL)
         return -1;
     int n = 0;
-    struct dirent *e;
-    while ((e = readdir(d)) != NULL)
+    for (struct dirent *e = readdir(d); e != NULL; e = readdir(d))
         if (strncmp(e->d_name, prefix, strlen(prefix)) == 0)
             n++;
     closedir(d);
@@ -688,9 +687,8 @@ static void remove_with_prefix(const char *prefix)
     DIR *d = opendir(tmpdir);
     if (d == NULL)
         return;
-    struct dirent *e;
     char p[768];
-    while ((e = readdir(d)) != NULL)
+    for (struct dirent *e = readdir(d); e != NULL; e = readdir(d))
         if (strncmp(e->d_name, prefix, strlen(prefix)) == 0) {
             snprintf(p, sizeof p, "%s/%s", tmpdir, e->d_name);
             remove(p);
