@@ -562,12 +562,9 @@ EOF
     [ "$(json 'o.scenes.every(s => s.primitives > 0)')" = true ]
 }
 
-# library_names FIELD VALUE: the names the library's error sentence lists
-# for a bad camera or render key (a job with FIELD set to VALUE): the
-# registry's camera models ("must be one of "a", "b", got ..."), or the
-# keys an object takes ("unknown key ... (expected one of: a, b)"), one a
-# line, sorted.  The sentence is built from the registries and key tables
-# themselves (test_camera_model_registry, test_integrator_registry).
+# library_names FIELD VALUE: the names the library's error lists for a
+# job with FIELD set to VALUE (tests/error_names.py): the registry's
+# camera models or integrators, or the keys an object takes.
 library_names() {
     local obj=${1%%.*} key=${1#*.}
     case "$key" in
@@ -575,11 +572,7 @@ library_names() {
     *) req POST "$URL/v1/render" "{\"scene\": \"tiny\", \"$obj\": {\"$key\": $2}}" ;;
     esac
     expect 422
-    json 'o.error.message' | python3 -c 'import re, sys
-m = sys.stdin.read()
-names = re.findall(r"\"([^\"]*)\"", m.split(" must be one of ", 1)[1].rsplit(", got", 1)[0]) \
-    if " must be one of " in m else m.rsplit("(expected one of: ", 1)[1].rstrip(")\n").split(", ")
-print("\n".join(sorted(names)))'
+    json 'o.error.message' | python3 "$BATS_TEST_DIRNAME/error_names.py"
 }
 
 @test "openapi.yaml's enums of camera.model, render.sampler and render.integrator are the library's (GET /v1/options)" {

@@ -65,22 +65,13 @@ setup() {
 }
 
 # library_names SET: the names the library's error lists for the
-# override SET: the registry's camera models or integrators ("must be
-# one of "a", "b", got ..."), or the keys an object takes ("unknown key
-# ... (expected one of: a, b)"), one a line, sorted.  The sentences are
-# built from the registries and key tables themselves
-# (test_camera_model_registry, test_integrator_registry).
+# override SET (tests/error_names.py): the registry's camera models or
+# integrators, or the keys an object takes.
 library_names() {
     local out
     out=$("$LENSRAY" render "$REPO/tests/data/tiny.json" --set "$1" \
         -o "$BATS_TEST_TMPDIR/x.png" 2>&1) && return 1
-    python3 -c 'import re, sys
-m = sys.argv[1]
-if " must be one of " in m:
-    names = re.findall(r"\"([^\"]*)\"", m.split(" must be one of ", 1)[1].rsplit(", got", 1)[0])
-else:
-    names = m.rsplit("(expected one of: ", 1)[1].rstrip(")\n").split(", ")
-print("\n".join(sorted(names)))' "$out"
+    python3 "$BATS_TEST_DIRNAME/error_names.py" <<<"$out"
 }
 
 # doc_names DOC SECTION WHAT: names that the section of DOC (a heading
