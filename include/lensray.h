@@ -207,6 +207,16 @@ LR_API void lr_camera_default(lr_camera *cam);
 /* Checks a camera; LR_ERR_INVALID names the bad field ("camera.fov"). */
 LR_API lr_status lr_camera_validate(const lr_camera *cam, lr_error *err);
 
+/* A camera of its own on the heap, with the defaults: for bindings
+ * (Python's ctypes) that pass cameras to the library without knowing the
+ * struct's layout, and set them only through lr_scene_camera,
+ * lr_camera_apply_json and lr_camera_json, so that a field added to
+ * lr_camera changes nothing in them.  Free it with lr_camera_free.  NULL
+ * when out of memory. */
+LR_API lr_camera *lr_camera_new(void);
+/* Frees a camera from lr_camera_new.  NULL is a no-op. */
+LR_API void lr_camera_free(lr_camera *cam);
+
 /* ------------------------------------------------------------------------
  * Render settings
  * ---------------------------------------------------------------------- */

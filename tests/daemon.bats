@@ -562,6 +562,19 @@ EOF
     [ "$(json 'o.scenes.every(s => s.primitives > 0)')" = true ]
 }
 
+# library_names FIELD VALUE: the names the library's error lists for a
+# job with FIELD set to VALUE (tests/error_names.py): the registry's
+# camera models or integrators, or the keys an object takes.
+library_names() {
+    local obj=${1%%.*} key=${1#*.}
+    case "$key" in
+    *.*) req POST "$URL/v1/render" "{\"scene\": \"tiny\", \"$obj\": {\"${key%%.*}\": {\"${key#*.}\": $2}}}" ;;
+    *) req POST "$URL/v1/render" "{\"scene\": \"tiny\", \"$obj\": {\"$key\": $2}}" ;;
+    esac
+    expect 422
+    json 'o.error.message' | python3 "$BATS_TEST_DIRNAME/error_names.py"
+}
+
 @test "openapi.yaml's enums of camera.model, render.sampler and render.integrator are the library's (GET /v1/options)" {
     # The spec lists the names by hand; the library's registries are the
     # truth, and the daemon lists them.  Compared as sets (the spec's
@@ -580,9 +593,16 @@ s = yaml.safe_load(open(sys.argv[1]))["components"]["schemas"][sys.argv[2]]
 print("\n".join(sorted(s["properties"][sys.argv[3]]["enum"])))' "$spec" "$schema" "$key") \
             <(json "o.$list.map(x => x.name ?? x).sort().join('\n')" "$T/options")
     done
-    [ "$(json "o.integrators.join(' ')" "$T/options")" = "whitted path light" ]
-    # Each integrator the library lists is one a job may name (a scene of
-    # a point light and a sphere: "light" refuses tiny's ambient light).
+    # GET /v1/options asks the public API; the registries' own lists, as
+    # the library's errors give them, are the same names.
+    diff <(library_names camera.model '"?"') \
+        <(json "o.camera_models.map(x => x.name).sort().join('\n')" "$T/options")
+    diff <(library_names render.integrator '"?"') \
+        <(json "o.integrators.slice().sort().join('\n')" "$T/options")
+    # Each camera model and integrator the library lists is one a job may
+    # name (the real lens with a shipped lens: it has no default one; a
+    # scene of a point light and a sphere: "light" refuses tiny's ambient
+    # light).
     local name
     for name in $(json "o.integrators.join(' ')" "$T/options"); do
         req POST "$URL/v1/render" "{\"scene\": {\"lights\": [{\"type\": \"point\", \"position\": [0, 3, 3], \"intensity\": 5}], \"objects\": [{\"type\": \"sphere\", \"center\": [0, 0, -5], \"radius\": 1}]}, \"render\": {\"width\": 4, \"height\": 3, \"spp\": 1, \"integrator\": \"$name\"}}"
@@ -592,6 +612,27 @@ print("\n".join(sorted(s["properties"][sys.argv[3]]["enum"])))' "$spec" "$schema
     req POST "$URL/v1/render" '{"scene": "tiny", "render": {"width": 4, "height": 3, "spp": 1, "integrator": "light"}}'
     expect 422
     grep -q '"path":"lights"' "$T/body"
+    for name in $(json "o.camera_models.map(x => x.name).join(' ')" "$T/options"); do
+        req POST "$URL/v1/render" "{\"scene\": \"tiny\", \"camera\": {\"model\": \"$name\"$([ "$name" = lens ] && echo ', "lens": "double-gauss-50"')}, \"render\": {\"width\": 4, \"height\": 3, \"spp\": 1}}"
+        expect 200
+    done
+}
+
+@test "openapi.yaml's camera, chromatic and render keys are the library's" {
+    # Each key a job may give is a property of the spec's schema and the
+    # other way round: the library's key tables (every model's, in
+    # camera.c's registry) are the truth.
+    python3 -c 'import yaml' 2>/dev/null ||
+        skip "environment: python3 has no yaml module (Debian: python3-yaml)"
+    local spec="$BATS_TEST_DIRNAME/../docs/openapi.yaml" row schema field
+    for row in CameraOverrides:camera.no_such_key Chromatic:camera.chromatic.no_such_key \
+        RenderOverrides:render.no_such_key; do
+        IFS=: read -r schema field <<<"$row"
+        diff <(python3 -c 'import sys, yaml
+s = yaml.safe_load(open(sys.argv[1]))["components"]["schemas"][sys.argv[2]]
+print("\n".join(sorted(s["properties"])))' "$spec" "$schema") \
+            <(library_names "$field" 1)
+    done
 }
 
 # ---- synchronous renders --------------------------------------------------------

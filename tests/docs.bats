@@ -19,6 +19,7 @@ setup() {
     *) build="$REPO/$build" ;;
     esac
     UNIT="$build/tests/unit"
+    LENSRAY="$build/lensray"
     DOCS=("$REPO/README.md" "$REPO"/docs/*.md)
 }
 
@@ -61,4 +62,68 @@ setup() {
     for l in "${lines[@]}"; do
         [ "${l%% *}" = "$secs" ] || { echo "docs say '$l', the Makefile $secs s" >&2; return 1; }
     done
+}
+
+# library_names SET: the names the library's error lists for the
+# override SET (tests/error_names.py): the registry's camera models or
+# integrators, or the keys an object takes.
+library_names() {
+    local out
+    out=$("$LENSRAY" render "$REPO/tests/data/tiny.json" --set "$1" \
+        -o "$BATS_TEST_TMPDIR/x.png" 2>&1) && return 1
+    python3 "$BATS_TEST_DIRNAME/error_names.py" <<<"$out"
+}
+
+# doc_names DOC SECTION WHAT: names that the section of DOC (a heading
+# prefix, up to the next heading of its level) lists by hand, one a line,
+# sorted.  WHAT: "row KEY N" the quoted or backquoted names in cell N
+# (from 1) of the table row of `KEY`; "bullets" the `"NAME"` that open its bullets;
+# "columns TITLE" the `"NAME"` column titles of the first table from the
+# text TITLE on; "keys TITLE" the `key`s of that table's first column.
+doc_names() {
+    python3 - "$@" <<'PY'
+import re, sys
+doc, section, what = sys.argv[1], sys.argv[2], sys.argv[3:]
+text = open(doc).read()
+start = text.index("\n" + section) + 1
+level = section.split(" ")[0]
+end = text.find("\n" + level + " ", start + 1)
+sec = text[start:end if end >= 0 else len(text)]
+def table(title):
+    blocks = sec[sec.index(title):].split("\n\n")
+    return [b for b in blocks if b.startswith("|")][0].splitlines()
+if what[0] == "row":
+    row = [l for l in sec.splitlines() if l.startswith("| `%s` |" % what[1])][0]
+    names = re.findall(r'[`"]+([a-z]+)[`"]+', row.split("|")[int(what[2])])
+elif what[0] == "bullets":
+    names = re.findall(r'^\* `"([a-z]+)"`', sec, re.M)
+elif what[0] == "columns":
+    names = re.findall(r'`"([a-z]+)"`', table(what[1])[0])
+else:
+    names = [k for l in table(what[1])[2:] for k in re.findall(r"`([a-z_.]+)`", l.split("|")[1])]
+print("\n".join(sorted(names)))
+PY
+}
+
+@test "scene-format.md and reliability.md list the library's camera models, camera keys and integrators" {
+    [ -x "$LENSRAY" ] || { echo "$LENSRAY not built (make)" >&2; return 1; }
+    local sf="$REPO/docs/scene-format.md" models
+    models=$(library_names camera.model=nope)
+    [ "$(wc -l <<<"$models")" -ge 4 ]
+    # The models: the model key's row, the bullets that open section 6,
+    # and the columns of "Which keys matter for which model".
+    diff <(doc_names "$sf" '## 6.' row model 4) - <<<"$models"
+    diff <(doc_names "$sf" '## 6.' bullets) - <<<"$models"
+    diff <(doc_names "$sf" '## 6.' columns '### Which keys matter') - <<<"$models"
+    # Every key a camera takes has its row in that table (model aside),
+    # and every key of the chromatic table is one chromatic takes.
+    diff <(doc_names "$sf" '## 6.' keys '### Which keys matter') \
+        <(library_names camera.no_such_key=1 | grep -vx model)
+    diff <(doc_names "$sf" '### `chromatic`' keys '') \
+        <(library_names 'camera.chromatic={"no_such_key": 1}')
+    # The render keys, and the integrators in both places that list them.
+    diff <(doc_names "$sf" '## 7.' keys '') <(library_names render.no_such_key=1)
+    diff <(doc_names "$sf" '## 7.' row integrator 4) <(library_names render.integrator=nope)
+    diff <(doc_names "$REPO/docs/reliability.md" '## Limits' row render.integrator 2) \
+        <(library_names render.integrator=nope)
 }

@@ -2,11 +2,13 @@
  * test_shared_rules.c: the rules the CLI and the daemon take from the
  * library rather than keep themselves: the format table (format.c), the
  * output object (output.c), stats as JSON (stats.c), the camera and
- * settings written back as JSON (settings_json.c), the integrators'
- * registry (integrator.c), the scene's
+ * settings written back as JSON (settings_json.c), the cameras from
+ * lr_camera_new, the camera models' and the integrators' registries
+ * (camera.c, integrator.c), the scene's
  * description, and a job parsed once (job.c).
  */
 #include "test.h"
+#include "camera.h"
 #include "integrator.h"
 
 #include <stdio.h>
@@ -278,6 +280,82 @@ static void test_render_settings_json(void **state)
         assert_memory_equal(&back, &s, sizeof s);
         lr_free(a);
     }
+}
+
+/* A camera from lr_camera_new (the bindings' camera, python/) is the
+ * default camera, for every model; lr_camera_free(NULL) does nothing. */
+static void test_camera_new(void **state)
+{
+    (void)state;
+    lr_camera *heap = lr_camera_new();
+    assert_non_null(heap);
+    lr_camera local;
+    lr_camera_default(&local);
+    for (int m = 0; lr__camera_models[m] != NULL; m++) {
+        heap->model = local.model = lr__camera_models[m]->id;
+        char *a = lr_camera_json(heap), *b = lr_camera_json(&local);
+        assert_string_equal(a, b);
+        lr_free(a);
+        lr_free(b);
+    }
+    lr_camera_free(heap);
+    lr_camera_free(NULL);
+}
+
+/* The camera models' registry (camera.c) is the one list, and the public
+ * API shows it whole: the daemon's GET /v1/options asks lr_camera_json to
+ * write each lr_camera_model value in turn (service/inspect.c), and the
+ * tests of the spec and the page compare their names with that list and
+ * with the "must be one of" sentence checked here.  Each row's name
+ * parses to its id and is written back as that name; a value no row has
+ * is written "unknown"; a bad name's error lists the rows in order. */
+static void test_camera_model_registry(void **state)
+{
+    (void)state;
+    int n = 0, seen = 0;
+    char list[256] = "";
+    lr_camera cam;
+    lr_error err;
+    for (; lr__camera_models[n] != NULL; n++) {
+        const lr__camera_model *m = lr__camera_models[n];
+        assert_ptr_equal(lr__camera_model_named(m->name), m);
+        assert_ptr_equal(lr__camera_model_of(m->id), m);
+        snprintf(list + strlen(list), sizeof list - strlen(list), "%s\"%s\"",
+                 n ? ", " : "", m->name);
+        char json[128];
+        snprintf(json, sizeof json, "{\"model\": \"%s\"}", m->name);
+        /* A model may need more keys (the real lens its lens), but its
+         * name is never the one refused. */
+        lr_camera_default(&cam);
+        if (lr_camera_apply_json(&cam, json, strlen(json), &err) == LR_OK)
+            assert_int_equal((int)cam.model, (int)m->id);
+        else
+            assert_string_not_equal(err.path, "camera.model");
+    }
+    assert_true(n >= 4);
+    /* The values inspect.c tries (0..63): each is a row's, or unknown. */
+    for (int id = 0; id < 64; id++) {
+        lr_camera_default(&cam);
+        cam.model = (lr_camera_model)id;
+        char *w = lr_camera_json(&cam);
+        const lr__camera_model *m = lr__camera_model_of(cam.model);
+        char want[64];
+        snprintf(want, sizeof want, "\"model\":\"%s\"",
+                 m != NULL ? m->name : "unknown");
+        assert_non_null(strstr(w, want));
+        lr_free(w);
+        seen += m != NULL;
+    }
+    assert_int_equal(seen, n);
+    const char *bad = "{\"model\": \"fisheye\"}";
+    lr_camera_default(&cam);
+    assert_int_equal(lr_camera_apply_json(&cam, bad, strlen(bad), &err),
+                     LR_ERR_INVALID);
+    assert_string_equal(err.path, "camera.model");
+    char want[300];
+    snprintf(want, sizeof want,
+             "camera.model must be one of %s, got \"fisheye\"", list);
+    assert_string_equal(err.message, want);
 }
 
 /* The integrator registry (integrator.c) is the one list: each row's
@@ -555,8 +633,8 @@ static void test_asset_references(void **state)
         assert_non_null(in);
         assert_non_null(out);
         char buf[4096];
-        size_t n;
-        while ((n = fread(buf, 1, sizeof buf, in)) > 0)
+        for (size_t n = fread(buf, 1, sizeof buf, in); n > 0;
+             n = fread(buf, 1, sizeof buf, in))
             assert_int_equal(fwrite(buf, 1, n, out), n);
         fclose(in);
         fclose(out);
@@ -652,6 +730,8 @@ static const struct CMUnitTest tests[] = {
     cmocka_unit_test(test_stats_json),
     cmocka_unit_test(test_camera_json),
     cmocka_unit_test(test_render_settings_json),
+    cmocka_unit_test(test_camera_new),
+    cmocka_unit_test(test_camera_model_registry),
     cmocka_unit_test(test_integrator_registry),
     cmocka_unit_test(test_scene_description),
     cmocka_unit_test(test_job_parse_errors),

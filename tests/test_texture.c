@@ -406,8 +406,8 @@ static void truncated_files(void **state)
     assert_non_null(f);
     b = (bytes){0};
     unsigned char buf[4096];
-    size_t k;
-    while ((k = fread(buf, 1, sizeof buf, f)) > 0)
+    for (size_t k = fread(buf, 1, sizeof buf, f); k > 0;
+         k = fread(buf, 1, sizeof buf, f))
         put(&b, buf, k);
     fclose(f);
     all_prefixes_fail(&b, "cut.exr");
@@ -503,8 +503,8 @@ static void garbage_and_huge(void **state)
     assert_non_null(f);
     bytes e = {0};
     unsigned char buf[4096];
-    size_t k;
-    while ((k = fread(buf, 1, sizeof buf, f)) > 0)
+    for (size_t k = fread(buf, 1, sizeof buf, f); k > 0;
+         k = fread(buf, 1, sizeof buf, f))
         put(&e, buf, k);
     fclose(f);
     static const char attr[] = "compression\0compression\0\1\0\0\0";

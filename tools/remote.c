@@ -528,9 +528,9 @@ int remote_render(const remote_options *o, int n, remote_load load,
             goto done;
         int still = 0;
         curl_multi_perform(b.multi, &still);
-        CURLMsg *msg;
         int queued, finished = 0;
-        while ((msg = curl_multi_info_read(b.multi, &queued)) != NULL) {
+        for (CURLMsg *msg = curl_multi_info_read(b.multi, &queued); msg != NULL;
+             msg = curl_multi_info_read(b.multi, &queued)) {
             if (msg->msg != CURLMSG_DONE)
                 continue;
             part *p = NULL;

@@ -12,6 +12,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 void lr_camera_default(lr_camera *cam)
@@ -48,6 +49,19 @@ void lr_camera_default(lr_camera *cam)
     cam->lens = NULL;
     cam->sensor_width_mm = 36.0;
     cam->scene_unit_mm = 1000.0;
+}
+
+lr_camera *lr_camera_new(void)
+{
+    lr_camera *cam = malloc(sizeof *cam);
+    if (cam != NULL)
+        lr_camera_default(cam);
+    return cam;
+}
+
+void lr_camera_free(lr_camera *cam)
+{
+    free(cam);
 }
 
 /* ---- the registry ----------------------------------------------------- */

@@ -5,6 +5,11 @@ include/lensray.h field for field; tests/test_capi.py compiles a probe
 against the header and compares every field's offset and the structs'
 sizes, so a change to the header that is not made here too fails the
 tests instead of corrupting memory.
+
+A camera is not mirrored: it is the library's own (lr_camera_new), set
+through lr_scene_camera and lr_camera_apply_json with the scene format's
+keys and read back through lr_camera_json, so a camera model's fields
+are its own business and adding one changes nothing here.
 """
 
 from __future__ import annotations
@@ -49,46 +54,6 @@ class lr_error(Structure):
         ("status", c_int),
         ("path", c_char * 256),
         ("message", c_char * 768),
-    ]
-
-
-class lr_chromatic(Structure):
-    _fields_ = [
-        ("mode", c_int),
-        ("focal_model", c_int),
-        ("ior", c_double * 3),
-        ("glass", c_int),
-        ("abbe_nd", c_double),
-        ("abbe_vd", c_double),
-        ("amplify", c_double),
-        ("wavelengths", c_int),
-        ("splat", c_int),
-    ]
-
-
-class lr_camera(Structure):
-    _fields_ = [
-        ("model", c_int),
-        ("position", c_double * 3),
-        ("look_at", c_double * 3),
-        ("up", c_double * 3),
-        ("fov", c_double),
-        ("focus_distance", c_double),
-        ("aperture_radius", c_double),
-        ("f_number", c_double),
-        ("focal_length_mm", c_double),
-        ("aperture_shape", c_int),
-        ("aperture_blades", c_int),
-        ("aperture_rotation", c_double),
-        ("aperture_ratio", c_double),
-        ("focus_on", c_int * 2),
-        ("image_plane_distance", c_double),
-        ("focal_length", c_double),
-        ("aperture", c_double),
-        ("chromatic", lr_chromatic),
-        ("lens", c_void_p),  # const lr_lens *: shared, never freed
-        ("sensor_width_mm", c_double),
-        ("scene_unit_mm", c_double),
     ]
 
 
@@ -152,8 +117,6 @@ class lr_output_options(Structure):
 
 STRUCTS = {
     "lr_error": lr_error,
-    "lr_chromatic": lr_chromatic,
-    "lr_camera": lr_camera,
     "lr_render_settings": lr_render_settings,
     "lr_render_stats": lr_render_stats,
     "lr_output_options": lr_output_options,
@@ -164,14 +127,17 @@ STRUCTS = {
 _P = c_void_p
 _PP = POINTER(c_void_p)
 _ERR = POINTER(lr_error)
+# lr_camera *: a camera from lr_camera_new, whose layout only C knows.
+_CAM = c_void_p
 _SIGNATURES = {
     "lr_version": (c_char_p, []),
     "lr_status_name": (c_char_p, [c_int]),
-    "lr_camera_default": (None, [POINTER(lr_camera)]),
-    "lr_camera_validate": (c_int, [POINTER(lr_camera), _ERR]),
+    "lr_camera_new": (_CAM, []),
+    "lr_camera_free": (None, [_CAM]),
+    "lr_camera_json": (c_void_p, [_CAM]),
     "lr_render_settings_default": (None, [POINTER(lr_render_settings)]),
     "lr_render_settings_validate": (c_int, [POINTER(lr_render_settings), _ERR]),
-    "lr_camera_apply_json": (c_int, [POINTER(lr_camera), c_char_p, c_size_t, _ERR]),
+    "lr_camera_apply_json": (c_int, [_CAM, c_char_p, c_size_t, _ERR]),
     "lr_render_settings_apply_json": (
         c_int, [POINTER(lr_render_settings), c_char_p, c_size_t, _ERR]),
     "lr_scene_load_file": (
@@ -180,11 +146,11 @@ _SIGNATURES = {
         c_int, [c_char_p, c_size_t, c_char_p, POINTER(c_char_p), c_size_t,
                 _PP, _ERR]),
     "lr_scene_free": (None, [_P]),
-    "lr_scene_camera": (None, [_P, POINTER(lr_camera)]),
+    "lr_scene_camera": (None, [_P, _CAM]),
     "lr_scene_settings": (None, [_P, POINTER(lr_render_settings)]),
     "lr_scene_primitive_count": (c_size_t, [_P]),
     "lr_render": (
-        c_int, [_P, POINTER(lr_camera), POINTER(lr_render_settings), _PP,
+        c_int, [_P, _CAM, POINTER(lr_render_settings), _PP,
                 POINTER(lr_render_stats), _ERR]),
     "lr_image_width": (c_int, [_P]),
     "lr_image_height": (c_int, [_P]),
@@ -202,7 +168,7 @@ _SIGNATURES = {
     "lr_image_write": (c_int, [_P, c_char_p, POINTER(lr_output_options), _ERR]),
     "lr_free": (None, [c_void_p]),
     "lr_render_plan_map": (
-        c_int, [_P, POINTER(lr_camera), POINTER(lr_render_settings), _PP,
+        c_int, [_P, _CAM, POINTER(lr_render_settings), _PP,
                 POINTER(c_int), POINTER(c_int), _ERR]),
 }
 

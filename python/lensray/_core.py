@@ -81,6 +81,23 @@ def _overrides_dict(value: Any, name: str) -> dict[str, Any]:
     return dict(value)
 
 
+class _Camera:
+    """A camera the library allocated (lr_camera_new) and frees when this
+    object goes: Python sets it only by the scene format's keys, so it
+    never needs to know lr_camera's fields.  Whoever passes ``ptr`` to a
+    call keeps the object alive until the call returns."""
+
+    def __init__(self) -> None:
+        self.ptr: Optional[int] = lib().lr_camera_new()
+        if not self.ptr:
+            raise MemoryError("out of memory for a camera")
+
+    def __del__(self) -> None:
+        ptr, self.ptr = getattr(self, "ptr", None), None
+        if ptr:
+            lib().lr_camera_free(ptr)
+
+
 class Image(np.ndarray):
     """A float32 (H, W, 3) array of linear RGB radiance that Jupyter shows.
 
@@ -304,10 +321,10 @@ class Scene:
 
     def _setup(self, camera: Optional[Mapping[str, Any]],
                render: Optional[Mapping[str, Any]]
-               ) -> tuple[_capi.lr_camera, _capi.lr_render_settings]:
-        cam = _capi.lr_camera()
+               ) -> tuple[_Camera, _capi.lr_render_settings]:
+        cam = _Camera()
         rs = _capi.lr_render_settings()
-        lib().lr_scene_camera(self._handle(), byref(cam))
+        lib().lr_scene_camera(self._handle(), cam.ptr)
         lib().lr_scene_settings(self._handle(), byref(rs))
         err = _capi.lr_error()
         if camera is not None:
@@ -316,7 +333,7 @@ class Scene:
             render = _overrides_dict(render, "render")
         if camera:
             text = _to_json(camera, "camera")
-            st = lib().lr_camera_apply_json(byref(cam), text, len(text), byref(err))
+            st = lib().lr_camera_apply_json(cam.ptr, text, len(text), byref(err))
             if st != _capi.LR_OK:
                 _raise(st, err)
         if render:
@@ -349,7 +366,7 @@ class Scene:
         cells = c_void_p()
         cols, rows = c_int(0), c_int(0)
         err = _capi.lr_error()
-        st = lib().lr_render_plan_map(self._handle(), byref(cam), byref(rs),
+        st = lib().lr_render_plan_map(self._handle(), cam.ptr, byref(rs),
                                       byref(cells), byref(cols), byref(rows),
                                       byref(err))
         if st != _capi.LR_OK:
@@ -496,7 +513,7 @@ class Scene:
 
         def work() -> None:
             try:
-                result[0] = lib().lr_render(handle, byref(cam), byref(rs),
+                result[0] = lib().lr_render(handle, cam.ptr, byref(rs),
                                             byref(out), byref(st), byref(err))
             finally:
                 finished.set()

@@ -1,12 +1,15 @@
-"""The ctypes mirror of include/lensray.h against the header itself."""
+"""The ctypes mirror of include/lensray.h against the header itself, and
+the camera the package sets by JSON instead of mirroring it."""
 
 from __future__ import annotations
 
+import json
 import shutil
 import subprocess
+from ctypes import byref
 
 import lensray
-from lensray import _capi
+from lensray import _capi, _core
 
 from conftest import BUILD, REPO
 
@@ -39,16 +42,37 @@ def test_struct_layouts_match_the_header(tmp_path):
     assert py == c
 
 
-def test_defaults_read_through_the_structs():
-    """lr_camera_default and lr_render_settings_default, read through the
-    ctypes structs, give the values the header documents."""
-    cam = _capi.lr_camera()
-    _capi.lib().lr_camera_default(_capi.ctypes.byref(cam))
-    assert (cam.fov, cam.focus_distance, cam.aperture_blades) == (40, 10, 6)
-    assert list(cam.look_at) == [0, 0, -1] and list(cam.focus_on) == [-1, -1]
-    assert (cam.image_plane_distance, cam.focal_length) == (1, 9)
-    assert (cam.chromatic.amplify, cam.chromatic.wavelengths) == (1, 8)
-    assert cam.chromatic.abbe_nd == 1.5168 and cam.chromatic.abbe_vd == 64.17
+def _camera_keys(keys: dict) -> dict:
+    """lr_camera_json of a camera from lr_camera_new with `keys` applied
+    by lr_camera_apply_json: the calls the package sets cameras with."""
+    cam = _core._Camera()
+    text = json.dumps(keys).encode()
+    err = _capi.lr_error()
+    st = _capi.lib().lr_camera_apply_json(cam.ptr, text, len(text), byref(err))
+    assert st == _capi.LR_OK, err.message
+    out = _capi.lib().lr_camera_json(cam.ptr)
+    try:
+        return json.loads(_capi.ctypes.string_at(out))
+    finally:
+        _capi.lib().lr_free(out)
+
+
+def test_defaults_are_the_headers():
+    """A camera from lr_camera_new, read as JSON, and
+    lr_render_settings_default, read through the ctypes struct, give the
+    values the header documents."""
+    assert _camera_keys({}) == {"model": "pinhole", "position": [0, 0, 0],
+                                "look_at": [0, 0, -1], "up": [0, 1, 0], "fov": 40}
+    thin = _camera_keys({"model": "thinlens"})
+    assert (thin["focus_distance"], thin["aperture_blades"]) == (10, 6)
+    bracket = _camera_keys({"model": "bracket", "chromatic": {"mode": "rgb"},
+                            "focus_on": [3, 4]})
+    assert (bracket["image_plane_distance"], bracket["focal_length"]) == (1, 9)
+    assert bracket["focus_on"] == [3, 4]
+    ch = bracket["chromatic"]
+    assert (ch["amplify"], ch["wavelengths"]) == (1, 8)
+    # No autofocus by default (focus_on -1, -1: written as nothing).
+    assert "focus_on" not in _camera_keys({"model": "bracket"})
     rs = _capi.lr_render_settings()
     _capi.lib().lr_render_settings_default(_capi.ctypes.byref(rs))
     assert (rs.width, rs.height, rs.spp, rs.max_depth, rs.tile_size) == (640, 480, 16, 8, 32)
@@ -83,3 +107,11 @@ def test_lensray_lib_chooses_the_library(tmp_path):
                         "import lensray; print(lensray.library_path())"],
                        capture_output=True, text=True, env=env, check=True)
     assert r.stdout.strip() == str(lib)
+
+
+def test_cameras_are_not_mirrored():
+    """The package passes cameras as the library's own (lr_camera_new)
+    and knows no field of lr_camera, so a camera model's fields can change
+    without the package: no ctypes struct of the camera is left."""
+    assert not hasattr(_capi, "lr_camera") and not hasattr(_capi, "lr_chromatic")
+    assert not {"lr_camera", "lr_chromatic"} & set(_capi.STRUCTS)

@@ -63,6 +63,13 @@ def test_bad_render_overrides_name_the_field(spheres):
     with pytest.raises(lensray.SceneError) as e:
         spheres.render(camera={"model": "fisheye"})
     assert e.value.path == "camera.model"
+    # The library's sentence reaches the exception: a misspelt key is
+    # named, with the keys a camera takes.
+    with pytest.raises(lensray.SceneError) as e:
+        spheres.render(camera={"model": "thinlens", "aperture_radiuss": 0.2})
+    assert e.value.path == "camera.aperture_radiuss"
+    assert 'unknown key "aperture_radiuss"' in e.value.message
+    assert "aperture_radius," in e.value.message
     with pytest.raises(lensray.SceneError) as e:
         spheres.render(render={"no_such_key": 1})
     assert e.value.path.startswith("render")

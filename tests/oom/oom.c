@@ -675,8 +675,7 @@ static int files_with_prefix(const char *prefix)
     if (d == NULL)
         return -1;
     int n = 0;
-    struct dirent *e;
-    while ((e = readdir(d)) != NULL)
+    for (struct dirent *e = readdir(d); e != NULL; e = readdir(d))
         if (strncmp(e->d_name, prefix, strlen(prefix)) == 0)
             n++;
     closedir(d);
@@ -688,9 +687,8 @@ static void remove_with_prefix(const char *prefix)
     DIR *d = opendir(tmpdir);
     if (d == NULL)
         return;
-    struct dirent *e;
     char p[768];
-    while ((e = readdir(d)) != NULL)
+    for (struct dirent *e = readdir(d); e != NULL; e = readdir(d))
         if (strncmp(e->d_name, prefix, strlen(prefix)) == 0) {
             snprintf(p, sizeof p, "%s/%s", tmpdir, e->d_name);
             remove(p);
@@ -964,6 +962,30 @@ static void nothing_release(fixture *fx)
     (void)fx;
 }
 
+/* lr_camera_new has no lr_error: it is NULL when out of memory, which
+ * the caller reports (python/lensray/_core.py raises MemoryError), as
+ * here, so that the path is checked like the others. */
+static lr_status call_camera_new(fixture *fx, lr_error *err)
+{
+    fx->out_buf = lr_camera_new();
+    if (fx->out_buf != NULL)
+        return LR_OK;
+    *err = (lr_error){.status = LR_ERR_NOMEM};
+    snprintf(err->message, sizeof err->message, "out of memory for a camera");
+    return LR_ERR_NOMEM;
+}
+
+static int camera_new_clear(const fixture *fx)
+{
+    return fx->out_buf == NULL;
+}
+
+static void camera_new_release(fixture *fx)
+{
+    lr_camera_free(fx->out_buf);
+    fx->out_buf = NULL;
+}
+
 static const path paths[] = {
     {"scene_load_json", setup_none, call_load_json, scene_clear, scene_release,
      0},
@@ -1003,6 +1025,8 @@ static const path paths[] = {
      nothing_release, 0},
     {"render_settings_apply_json", setup_apply, call_render_json,
      render_json_clear, nothing_release, 0},
+    {"camera_new", setup_apply, call_camera_new, camera_new_clear,
+     camera_new_release, 0},
 };
 #define N_PATHS (sizeof paths / sizeof paths[0])
 

@@ -197,6 +197,13 @@ def check_load(driver, daemon, ctx):
     bad = [e for e in driver.get_log("browser") if e["level"] == "SEVERE"]
     assert not bad, "console errors on load: %s" % bad
     assert driver.find_element(By.ID, "picture").get_attribute("data-job"), "no picture shown"
+    # The model menu is GET /v1/options' list (the library's registry,
+    # page.bats checks), in its order: the page names no model itself.
+    shown = [o.get_attribute("value") for o in
+             Select(driver.find_element(By.ID, "model")).options]
+    listed = [m["name"] for m in daemon.json("GET", "/v1/options")["camera_models"]]
+    assert shown == listed, "the model menu shows %s, the daemon lists %s" % (shown, listed)
+    return "models: " + " ".join(shown)
 
 
 def move_focus(driver):
