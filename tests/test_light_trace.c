@@ -71,8 +71,19 @@ static void boxes_agree(const lr_image *li, const lr_image *ci,
  * sum is L fpx^2 E_P[ integral over the cone of 1 / cos^3 ], here by
  * quadrature: the lens disk in rings and the cone in rings about its
  * axis (midpoint rules, far finer than the tolerance). */
+static double film_integral_of(lr__v3 eye, lr__v3 fwd, double R, int square,
+                               lr__v3 c, double r, double L, double fpx);
+
 static double film_integral(lr__v3 eye, lr__v3 fwd, double R, lr__v3 c,
                             double r, double L, double fpx)
+{
+    return film_integral_of(eye, fwd, R, 0, c, r, L, fpx);
+}
+
+/* The same for a square lens of half side R (square = 1): the lens in a
+ * grid of cells rather than rings. */
+static double film_integral_of(lr__v3 eye, lr__v3 fwd, double R, int square,
+                               lr__v3 c, double r, double L, double fpx)
 {
     lr__v3 right = v3_norm(v3_cross(fwd, v3(0, 1, 0)));
     lr__v3 up = v3_cross(right, fwd);
@@ -82,8 +93,12 @@ static double film_integral(lr__v3 eye, lr__v3 fwd, double R, lr__v3 c,
         for (int j = 0; j < NA; j++) {
             double rr = R * sqrt((i + 0.5) / NR),
                    ph = 2 * M_PI * (j + 0.5) / NA;
-            lr__v3 P = v3_add(eye, v3_add(v3_scale(right, rr * cos(ph)),
-                                          v3_scale(up, rr * sin(ph))));
+            double lx = rr * cos(ph), ly = rr * sin(ph);
+            if (square)
+                lx = R * (2.0 * (i + 0.5) / NR - 1.0),
+                ly = R * (2.0 * (j + 0.5) / NA - 1.0);
+            lr__v3 P = v3_add(eye,
+                              v3_add(v3_scale(right, lx), v3_scale(up, ly)));
             lr__v3 d = v3_sub(c, P);
             double dist = sqrt(v3_dot(d, d));
             lr__v3 a = v3_scale(d, 1.0 / dist);
@@ -145,6 +160,64 @@ static void test_disc_energy_closed_form(void **state)
     }
     lr_test_check_finite(img, &st, "discs");
     lr_image_free(img);
+}
+
+/* The bracket (image plane 1 in front of the eye, focal plane 9 beyond,
+ * a square of side 1): its rays from film point D and square offset off
+ * all pass e + (1 + di / f) off, so each light's film integral is the
+ * closed form for a square lens of half side 0.5 (1 + 1/9) at the eye,
+ * within 0.5% from the light side.  A ball nearer than the image plane,
+ * across light 0's rays, is behind every camera ray's start: it must
+ * not shadow the light side either.  The camera alone (every sample
+ * traced) agrees within its noise. */
+static void test_bracket_light_side(void **state)
+{
+    (void)state;
+    char scene[2048];
+    size_t len = strlen(discs_scene);
+    snprintf(scene, sizeof scene,
+             "%.*s, {\"type\": \"sphere\", \"center\": [-0.12, 0.048, "
+             "9.52], \"radius\": 0.1, \"material\": \"k\"}]}",
+             (int)len - 2, discs_scene);
+    const char *cam[] = {
+        "camera.model=bracket",           "camera.aperture=1",
+        "camera.focal_length=9",          "camera.image_plane_distance=1",
+        "materials.k={\"diffuse\": 0.5}", "render.spp=64"};
+    lr_render_stats st;
+    lr_image *img = lr_test_render(scene, cam, 6, &st);
+    assert_int_equal(st.light_lights, 3);
+    double fpx = 0.5 * 64 / tan(20.0 * M_PI / 180.0);
+    const double c[3][3] = {{-10, 4, -30}, {2, -5, -40}, {14, 6, -50}};
+    const double r[3] = {0.15, 0.2, 0.25}, L[3] = {300, 60, 300};
+    const int boxes[3][4] = {{0, 0, 40, 32}, {30, 32, 70, 64}, {60, 0, 96, 32}};
+    for (int k = 0; k < 3; k++) {
+        double want = film_integral_of(
+            v3(0, 0, 10), v3(0, 0, -1), 0.5 * (1.0 + 1.0 / 9.0), 1,
+            v3(c[k][0], c[k][1], c[k][2]), r[k], L[k], fpx);
+        double got = sum_box(img, boxes[k][0], boxes[k][1], boxes[k][2],
+                             boxes[k][3], 0);
+        print_message("bracket light %d: film integral %.6g, closed form "
+                      "%.6g (%.5f)\n",
+                      k, got, want, got / want);
+        if (!(fabs(got / want - 1.0) < 0.005))
+            fail_msg("bracket light %d: its image holds %.6g, the closed "
+                     "form %.6g",
+                     k, got, want);
+    }
+    const char *csets[] = {"camera.model=bracket",
+                           "camera.aperture=1",
+                           "camera.focal_length=9",
+                           "camera.image_plane_distance=1",
+                           "materials.k={\"diffuse\": 0.5}",
+                           "render.spp=4096",
+                           "render.light=false",
+                           "render.plan=false",
+                           "render.adaptive=false"};
+    lr_image *ci = lr_test_render(scene, csets, 9, NULL);
+    const double tol[3] = {0.03, 0.03, 0.03};
+    boxes_agree(img, ci, boxes, tol, 3, "bracket disc");
+    lr_image_free(img);
+    lr_image_free(ci);
 }
 
 /* The light side and the camera agree: the camera alone (light off,
@@ -280,10 +353,10 @@ static void test_plan_chooses_lights(void **state)
     const char *rgb[] = {"render.spp=16", "camera.focal_length_mm=50",
                          "camera.chromatic.mode=rgb"};
     assert_int_equal(lights_traced(discs_scene, rgb, 3), 0);
-    const char *bracket[] = {"render.spp=16", "camera.model=bracket"};
-    /* (The bracket's rays start on the image plane, where the pixel is:
-     * it has no light side yet.) */
-    assert_int_equal(lights_traced(discs_scene, bracket, 2), 0);
+    const char *bracket[] = {"render.spp=16", "camera.model=bracket",
+                             "camera.aperture=1", "camera.focal_length=9",
+                             "camera.image_plane_distance=1"};
+    assert_int_equal(lights_traced(discs_scene, bracket, 5), 3);
     /* A big light near focus stays with the camera. */
     const char *big =
         "{\"render\": {\"width\": 64, \"height\": 48, \"spp\": 16},"
@@ -708,6 +781,7 @@ static void test_dark_blocks(void **state)
 static const struct CMUnitTest light_tests[] = {
     cmocka_unit_test(test_unbounded_lenses_keep_lights),
     cmocka_unit_test(test_dark_blocks),
+    cmocka_unit_test(test_bracket_light_side),
     cmocka_unit_test(test_glints_agree_with_camera),
     cmocka_unit_test(test_glints_deterministic_and_planned),
     cmocka_unit_test(test_mesh_lights_closed_form),

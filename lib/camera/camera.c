@@ -523,11 +523,17 @@ lr__v3 lr__offset_lens_point(const lr__cam *c, const double u[2], double *ox,
 double lr__offset_lens_film(const lr__cam *c, double ox, double oy, lr__v3 d,
                             double *fx, double *fy)
 {
+    return lr__offset_lens_film_w(c, c->w, ox, oy, d, fx, fy);
+}
+
+double lr__offset_lens_film_w(const lr__cam *c, double w, double ox, double oy,
+                              lr__v3 d, double *fx, double *fy)
+{
     double dz = v3_dot(d, c->forward);
     if (!(dz > 0.0))
         return 0.0;
-    double sx = v3_dot(d, c->right) / dz + ox * c->w;
-    double sy = v3_dot(d, c->up) / dz + oy * c->w;
+    double sx = v3_dot(d, c->right) / dz + ox * w;
+    double sy = v3_dot(d, c->up) / dz + oy * w;
     *fx = (sx / c->half_w + 1.0) * 0.5 * c->width;
     *fy = (1.0 - sy / c->half_h) * 0.5 * c->height;
     double fpx = 0.5 * c->height / c->half_h;

@@ -160,14 +160,19 @@ typedef struct lr__camera_model {
      * to the camera's own lens measure: radiance L along d adds L x that
      * per unit solid angle to the pixel (fpx^2 / cos^3 for the offset
      * lens, camera.c; for the real lens, camera_lens.c); 0 when no camera
-     * ray goes along d.  NULL: the model has no light side yet (the
-     * bracket, whose ray origin moves with the film point), and its
+     * ray goes along d.  NULL: the model has no light side, and its
      * lights are all traced from the camera.  (For the real lens the
-     * offset is in the lens's own frame, mm.) */
+     * offset is in the lens's own frame, mm; the bracket's lens point is
+     * where all its rays of one square offset cross, behind their start
+     * on the image plane: film_near.) */
     lr__v3 (*lens_point)(const lr__cam *c, const double u[2], double *ox,
                          double *oy);
     double (*film)(const lr__cam *c, double ox, double oy, lr__v3 d, double *fx,
                    double *fy);
+    /* For a model whose rays start past their lens point (the bracket's
+     * start on its image plane): how far along unit d from the lens
+     * point the camera ray starts.  NULL: at the lens point. */
+    double (*film_near)(const lr__cam *c, lr__v3 d);
     /* For a model with a light side but no planner's bound (the real
      * lens): a thin lens at the eye that estimates the size of a light's
      * disc (light_trace.c's choice of lights, not a bound). */
@@ -322,6 +327,20 @@ lr__v3 lr__offset_lens_point(const lr__cam *c, const double u[2], double *ox,
                              double *oy);
 double lr__offset_lens_film(const lr__cam *c, double ox, double oy, lr__v3 d,
                             double *fx, double *fy);
+/* lr__offset_lens_film for a lens of focus power w (the bracket's, seen
+ * from its lens points, differs from c->w). */
+double lr__offset_lens_film_w(const lr__cam *c, double w, double ox, double oy,
+                              lr__v3 d, double *fx, double *fy);
+
+/* Where the camera ray from lens point P along unit d starts (the light
+ * side traces from there, so that it sees what the camera's ray sees):
+ * P, or past it by the model's film_near. */
+static inline lr__v3 lr__cam_ray_start(const lr__cam *c, lr__v3 P, lr__v3 d)
+{
+    if (c->model->film_near == NULL)
+        return P;
+    return v3_madd(P, d, c->model->film_near(c, d));
+}
 /* The bound of an offset lens at the eye: R = the aperture's reach. */
 void lr__offset_lens_bound(const lr__cam *c, lr__lens_bound *b);
 

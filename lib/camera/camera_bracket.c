@@ -73,6 +73,40 @@ static void bound(const lr__cam *c, lr__lens_bound *b)
     b->ws[0] = 1.0 / (c->base_di + 1.0 / c->w);
 }
 
+/* The light side (camera.h).  A ray from film point D (axial component
+ * 1) and square-lens offset off starts at e + di D + off and runs along
+ * D - w off, so it passes e + s off, s = 1 + di w, whatever D: the lens
+ * point, uniform over the square grown by s as off is over the square.
+ * Seen from there it is an offset lens of power w / s (its focus at
+ * di + f): D = d / d.z + (w / s) (s off), and the same importance per
+ * solid angle as the thin lens's (the film-to-direction map at a fixed
+ * lens point is the same).  The ray itself starts di / d.z along unit d
+ * past the lens point, on the image plane. */
+static double grow(const lr__cam *c)
+{
+    return 1.0 + c->base_di * c->w;
+}
+
+static lr__v3 lens_point(const lr__cam *c, const double u[2], double *ox,
+                         double *oy)
+{
+    lr__offset_lens_point(c, u, ox, oy);
+    *ox *= grow(c);
+    *oy *= grow(c);
+    return v3_madd(v3_madd(c->origin, c->right, *ox), c->up, *oy);
+}
+
+static double film(const lr__cam *c, double ox, double oy, lr__v3 d, double *fx,
+                   double *fy)
+{
+    return lr__offset_lens_film_w(c, c->w / grow(c), ox, oy, d, fx, fy);
+}
+
+static double film_near(const lr__cam *c, lr__v3 d)
+{
+    return c->base_di / v3_dot(d, c->forward);
+}
+
 const lr__camera_model lr__camera_bracket = {
     .name = "bracket",
     .id = LR_CAMERA_BRACKET,
@@ -85,4 +119,7 @@ const lr__camera_model lr__camera_bracket = {
     .rays16_w = lr__offset_lens_rays16_w,
     .focus_at = focus_at,
     .bound = bound,
+    .lens_point = lens_point,
+    .film = film,
+    .film_near = film_near,
 };

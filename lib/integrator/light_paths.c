@@ -264,9 +264,11 @@ static double to_lens(const walk *w, uint32_t dim, lr__v3 x, lr__v3 *P,
 static int camera_meets(const walk *w, lr__v3 P, lr__v3 dir, double dist,
                         long geom, lr__hit *h)
 {
+    lr__v3 o = lr__cam_ray_start(w->c, P, dir);
+    dist -= sqrt(v3_dot(v3_sub(o, P), v3_sub(o, P)));
     (*w->rays)++;
-    return lr__trace(w->s, P, dir, INFINITY, h) && h->geom == geom &&
-           fabs(h->t - dist) <= 1e-4 * dist + 4.0 * h->eps;
+    return dist > 0.0 && lr__trace(w->s, o, dir, INFINITY, h) &&
+           h->geom == geom && fabs(h->t - dist) <= 1e-4 * dist + 4.0 * h->eps;
 }
 
 static void add(const walk *w, int ix, int iy, lr__v3 v)
@@ -348,7 +350,7 @@ static void join_env(const walk *w, lr__v3 d, lr__v3 Le, double pdf_d)
         return;
     lr__hit h;
     (*w->rays)++;
-    if (lr__trace(w->s, P, d, INFINITY, &h))
+    if (lr__trace(w->s, lr__cam_ray_start(w->c, P, d), d, INFINITY, &h))
         return;
     add(w, (int)fx, (int)fy, v3_scale(Le, W / pdf_d * w->inv_n));
 }

@@ -594,7 +594,8 @@ static void mesh_path(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
         return;
     lr__hit h;
     (*rays)++;
-    if (!lr__trace(s, P, w, INFINITY, &h) || h.geom != l->geom ||
+    if (!lr__trace(s, lr__cam_ray_start(c, P, w), w, INFINITY, &h) ||
+        h.geom != l->geom ||
         h.prim != (unsigned)(e - &s->emitters[l->first_tri]) || !h.entering)
         return;
     double pdf = dist2 / (l->area * cos_y);
@@ -732,7 +733,8 @@ static void glint_path(const lr_scene *s, const lr__cam *c,
         return;
     lr__hit hx;
     (*rays)++;
-    if (!lr__trace(s, P, w, INFINITY, &hx) || hx.geom != l->surf ||
+    if (!lr__trace(s, lr__cam_ray_start(c, P, w), w, INFINITY, &hx) ||
+        hx.geom != l->surf ||
         !lr__lt_glint_core(v3_neg(w), wi, hx.ng, l->alpha))
         return;
     lr__material mt;
@@ -848,7 +850,8 @@ void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
          * light (near the cone's rim the traced sphere's own hit came
          * before its margin). */
         (*rays)++;
-        if (lr__trace_geom(s, P, w, INFINITY) != l->geom)
+        if (lr__trace_geom(s, lr__cam_ray_start(c, P, w), w, INFINITY) !=
+            l->geom)
             continue;
         double pdf = 1.0 / (2.0 * M_PI * omc);
         lr__v3 v = v3_scale(l->L, W / (pdf * (double)l->paths));
