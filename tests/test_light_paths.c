@@ -248,7 +248,7 @@ static void test_light_refuses(void **state)
           "camera.focus_distance=4"},
          NULL,
          "camera.lens:"},
-        {{"camera.focal_length_mm=50", "camera.chromatic.mode=rgb"},
+        {{"camera.focal_length_mm=50", "camera.chromatic.mode=spectral"},
          NULL,
          "camera.chromatic:"},
         {{"lights=[{\"type\": \"ambient\", \"radiance\": 0.1}]"},

@@ -526,6 +526,39 @@ double lr__offset_lens_film(const lr__cam *c, double ox, double oy, lr__v3 d,
     return lr__offset_lens_film_w(c, c->w, ox, oy, d, fx, fy);
 }
 
+double lr__offset_lens_film_rgb(const lr__cam *c, int k, double ox, double oy,
+                                lr__v3 d, double *fx, double *fy)
+{
+    return lr__offset_lens_film_w(c, c->w_rgb[k], ox, oy, d, fx, fy);
+}
+
+int lr__cam_lands_colours(const lr__cam *c)
+{
+    return !c->chroma_active ||
+           (c->chroma.mode == LR_CHROMATIC_RGB && c->model->film_rgb != NULL);
+}
+
+int lr__cam_land(const lr__cam *c, double ox, double oy, lr__v3 d,
+                 lr__landing *ld)
+{
+    ld->n = c->chroma_active ? 3 : 1;
+    int any = 0;
+    for (int k = 0; k < ld->n; k++) {
+        double fx, fy;
+        double W = ld->n == 1 ? c->model->film(c, ox, oy, d, &fx, &fy)
+                              : c->model->film_rgb(c, k, ox, oy, d, &fx, &fy);
+        ld->W[k] = 0.0;
+        if (!(W > 0.0) ||
+            !(fx >= 0.0 && fx < c->width && fy >= 0.0 && fy < c->height))
+            continue;
+        ld->W[k] = W;
+        ld->ix[k] = (int)fx;
+        ld->iy[k] = (int)fy;
+        any = 1;
+    }
+    return any;
+}
+
 double lr__offset_lens_film_w(const lr__cam *c, double w, double ox, double oy,
                               lr__v3 d, double *fx, double *fy)
 {

@@ -169,6 +169,12 @@ typedef struct lr__camera_model {
                          double *oy);
     double (*film)(const lr__cam *c, double ox, double oy, lr__v3 d, double *fx,
                    double *fy);
+    /* In rgb mode with colours that focus apart: `film` for channel k
+     * (0 red, 1 green, 2 blue) at its own focus.  NULL: such a camera's
+     * lights stay with the camera (the bracket, whose lens point moves
+     * with the focus). */
+    double (*film_rgb)(const lr__cam *c, int k, double ox, double oy, lr__v3 d,
+                       double *fx, double *fy);
     /* For a model whose rays start past their lens point (the bracket's
      * start on its image plane): how far along unit d from the lens
      * point the camera ray starts.  NULL: at the lens point. */
@@ -327,10 +333,32 @@ lr__v3 lr__offset_lens_point(const lr__cam *c, const double u[2], double *ox,
                              double *oy);
 double lr__offset_lens_film(const lr__cam *c, double ox, double oy, lr__v3 d,
                             double *fx, double *fy);
+/* lr__offset_lens_film for rgb channel k's focus power (w_rgb[k]). */
+double lr__offset_lens_film_rgb(const lr__cam *c, int k, double ox, double oy,
+                                lr__v3 d, double *fx, double *fy);
 /* lr__offset_lens_film for a lens of focus power w (the bracket's, seen
  * from its lens points, differs from c->w). */
 double lr__offset_lens_film_w(const lr__cam *c, double w, double ox, double oy,
                               lr__v3 d, double *fx, double *fy);
+
+/* Where radiance arriving at a lens point along unit d lands on the
+ * film (the light side's splat): n = 1, one pixel (ix[0], iy[0]) with
+ * importance W[0] for every channel; or n = 3 in rgb mode with colours
+ * that focus apart, channel k's own (W[k] = 0: that channel misses). */
+typedef struct lr__landing {
+    int n;
+    double W[3];
+    int ix[3], iy[3];
+} lr__landing;
+
+/* Whether the light side can land camera c's colours: one focus for all,
+ * or rgb mode through a model with film_rgb. */
+int lr__cam_lands_colours(const lr__cam *c);
+
+/* Fills *ld for the camera ray from lens offset (ox, oy) (lens_point's)
+ * along unit d; returns whether any channel lands inside the film. */
+int lr__cam_land(const lr__cam *c, double ox, double oy, lr__v3 d,
+                 lr__landing *ld);
 
 /* Where the camera ray from lens point P along unit d starts (the light
  * side traces from there, so that it sees what the camera's ray sees):

@@ -946,8 +946,26 @@ static lr__v3 lens_point(const lr__cam *c, const double u[2], double *ox,
     return org;
 }
 
+static double lens_film_n(const lr__cam *c, const double *n, double ox,
+                          double oy, lr__v3 w, double *fx, double *fy);
+
 static double lens_film(const lr__cam *c, double ox, double oy, lr__v3 w,
                         double *fx, double *fy)
+{
+    return lens_film_n(c, c->lens.n_ref, ox, oy, w, fx, fy);
+}
+
+/* rgb mode: channel k at its wavelength (nm_rgb), as the camera traces
+ * it; the pupil bounds hold every channel (pupils). */
+static double lens_film_rgb(const lr__cam *c, int k, double ox, double oy,
+                            lr__v3 w, double *fx, double *fy)
+{
+    return lens_film_n(c, c->lens.n_rgb[k], ox, oy, w, fx, fy);
+}
+
+/* lens_film with the surfaces' indices n. */
+static double lens_film_n(const lr__cam *c, const double *n, double ox,
+                          double oy, lr__v3 w, double *fx, double *fy)
 {
     const lr__lens_cam *lc = &c->lens;
     const lr_lens *L = lc->L;
@@ -961,7 +979,7 @@ static double lens_film(const lr__cam *c, double ox, double oy, lr__v3 w,
     /* Back along the line to before the first surface. */
     double back = (L->rx.s[0].semi_aperture + 1.0) / d[2];
     double o[3] = {ox - back * d[0], oy - back * d[1], L->z[0] - back * d[2]};
-    if (!lr__rx_trace_n(&L->rx, L->z, lc->n_ref, lc->stop_scale, 1, o, d) ||
+    if (!lr__rx_trace_n(&L->rx, L->z, n, lc->stop_scale, 1, o, d) ||
         !(d[2] > 0.0))
         return 0.0;
     double t = (lc->z_sensor - o[2]) / d[2];
@@ -1020,6 +1038,7 @@ const lr__camera_model lr__camera_lens = {
     .bound = NULL,
     .lens_point = lens_point,
     .film = lens_film,
+    .film_rgb = lens_film_rgb,
     .thin_equiv = lens_thin_equiv,
     .light_ok = lens_light_ok,
 };

@@ -139,4 +139,5 @@ const lr__camera_model lr__camera_thinlens = {
     .bound = lr__offset_lens_bound,
     .lens_point = lr__offset_lens_point,
     .film = lr__offset_lens_film,
+    .film_rgb = lr__offset_lens_film_rgb,
 };

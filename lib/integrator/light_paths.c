@@ -116,10 +116,11 @@ static lr_status check_scene(const lr_scene *s, const lr__cam *c,
                         "light side holds (a fisheye or extreme wide angle), "
                         "which %s needs",
                         me);
-    if (c->chroma_active)
+    if (!lr__cam_lands_colours(c))
         return lr__fail(err, LR_ERR_INVALID, "camera.chromatic",
-                        "camera.chromatic: colours that focus apart need "
-                        "camera paths; %s traces one focus for all",
+                        "camera.chromatic: %s lands colours that focus "
+                        "apart only in rgb mode, and not through the "
+                        "bracket (whose lens point moves with the focus)",
                         me);
     if (v3_maxc(s->ambient) > 0.0)
         return lr__fail(err, LR_ERR_INVALID, "lights",
@@ -238,25 +239,19 @@ static void dims(const walk *w, uint32_t dim, double u[2])
 }
 
 /* The lens point of dimension `dim` and the camera ray from it towards
- * x: the pixel (*ix, *iy) and W (0: no camera ray goes there).  *dir,
- * *dist: from P to x. */
-static double to_lens(const walk *w, uint32_t dim, lr__v3 x, lr__v3 *P,
-                      lr__v3 *dir, double *dist, int *ix, int *iy)
+ * x: where it lands (0: nowhere).  *dir, *dist: from P to x. */
+static int to_lens(const walk *w, uint32_t dim, lr__v3 x, lr__v3 *P,
+                   lr__v3 *dir, double *dist, lr__landing *ld)
 {
-    double u[2], ox, oy, fx, fy;
+    double u[2], ox, oy;
     dims(w, dim, u);
     *P = w->c->model->lens_point(w->c, u, &ox, &oy);
     lr__v3 d = v3_sub(x, *P);
     *dist = sqrt(v3_dot(d, d));
     if (!(*dist > 0.0))
-        return 0.0;
+        return 0;
     *dir = v3_scale(d, 1.0 / *dist);
-    double W = w->c->model->film(w->c, ox, oy, *dir, &fx, &fy);
-    if (!(W > 0.0) ||
-        !(fx >= 0.0 && fx < w->c->width && fy >= 0.0 && fy < w->c->height))
-        return 0.0;
-    *ix = (int)fx, *iy = (int)fy;
-    return W;
+    return lr__cam_land(w->c, ox, oy, *dir, ld);
 }
 
 /* Whether the camera ray from P along dir meets geometry geom first, at
@@ -271,13 +266,11 @@ static int camera_meets(const walk *w, lr__v3 P, lr__v3 dir, double dist,
            h->geom == geom && fabs(h->t - dist) <= 1e-4 * dist + 4.0 * h->eps;
 }
 
-static void add(const walk *w, int ix, int iy, lr__v3 v)
+static void add(const walk *w, const lr__landing *ld, lr__v3 v)
 {
-    if (!(isfinite(v.x) && isfinite(v.y) && isfinite(v.z)) ||
-        !(v3_maxc(v) > 0.0))
+    if (!(v3_maxc(v) > 0.0))
         return;
-    (*w->landed)++;
-    w->splat(w->film, ix, iy, v);
+    w->splat(w->film, ld, v, w->landed);
 }
 
 /* The light's own point y (normal n, emission Le, area density pdf_A)
@@ -287,14 +280,15 @@ static void join_emitter(const walk *w, lr__v3 y, lr__v3 n, lr__v3 Le,
 {
     lr__v3 P, dir;
     double dist;
-    int ix, iy;
-    double W = to_lens(w, DIM_LENS0, y, &P, &dir, &dist, &ix, &iy);
+    lr__landing ld;
+    if (!to_lens(w, DIM_LENS0, y, &P, &dir, &dist, &ld))
+        return;
     double cos_y = -v3_dot(dir, n);
     lr__hit h;
-    if (!(W > 0.0) || !(cos_y > 0.0) ||
-        !camera_meets(w, P, dir, dist, geom, &h) || !h.entering)
+    if (!(cos_y > 0.0) || !camera_meets(w, P, dir, dist, geom, &h) ||
+        !h.entering)
         return;
-    add(w, ix, iy, v3_scale(Le, W * cos_y / (dist * dist * pdf_A) * w->inv_n));
+    add(w, &ld, v3_scale(Le, cos_y / (dist * dist * pdf_A) * w->inv_n));
 }
 
 /* Vertex h of the path, its light arriving along wp with flux beta,
@@ -304,9 +298,8 @@ static void join_vertex(const walk *w, const lr__hit *h, const lr__bsdf *f,
 {
     lr__v3 P, dir;
     double dist;
-    int ix, iy;
-    double W = to_lens(w, dim, h->p, &P, &dir, &dist, &ix, &iy);
-    if (!(W > 0.0))
+    lr__landing ld;
+    if (!to_lens(w, dim, h->p, &P, &dir, &dist, &ld))
         return;
     lr__v3 wc = v3_neg(dir);
     double pdf;
@@ -333,7 +326,7 @@ static void join_vertex(const walk *w, const lr__hit *h, const lr__bsdf *f,
         return;
     double g = fabs(v3_dot(h->ns, wp)) / ngp * fabs(v3_dot(h->ng, wc)) /
                (dist * dist);
-    add(w, ix, iy, v3_scale(v3_mul(beta, fv), g * W * w->inv_n));
+    add(w, &ld, v3_scale(v3_mul(beta, fv), g * w->inv_n));
 }
 
 /* The environment along unit d (radiance Le, drawn with density pdf_d)
@@ -341,18 +334,17 @@ static void join_vertex(const walk *w, const lr__hit *h, const lr__bsdf *f,
  * direction d, if it escapes. */
 static void join_env(const walk *w, lr__v3 d, lr__v3 Le, double pdf_d)
 {
-    double ul[2], ox, oy, fx, fy;
+    double ul[2], ox, oy;
     dims(w, DIM_LENS0, ul);
     lr__v3 P = w->c->model->lens_point(w->c, ul, &ox, &oy);
-    double W = w->c->model->film(w->c, ox, oy, d, &fx, &fy);
-    if (!(W > 0.0) ||
-        !(fx >= 0.0 && fx < w->c->width && fy >= 0.0 && fy < w->c->height))
+    lr__landing ld;
+    if (!lr__cam_land(w->c, ox, oy, d, &ld))
         return;
     lr__hit h;
     (*w->rays)++;
     if (lr__trace(w->s, lr__cam_ray_start(w->c, P, d), d, INFINITY, &h))
         return;
-    add(w, (int)fx, (int)fy, v3_scale(Le, W / pdf_d * w->inv_n));
+    add(w, &ld, v3_scale(Le, 1.0 / pdf_d * w->inv_n));
 }
 
 /* Light arriving from unit direction d (irradiance E on a surface facing

@@ -45,9 +45,11 @@ lr_status lr__lp_prepare(const lr_scene *s, const lr__cam *c,
                          double *lref, lr_error *err);
 void lr__lp_free(lr__lp *lp);
 
-/* Where a path's vertex lands: adds rgb v to pixel (ix, iy) of the
- * light side's film (light_trace.c). */
-typedef void (*lr__lp_splat_fn)(void *film, int ix, int iy, lr__v3 v);
+/* Where a path's vertex lands: adds rgb v times the importance where ld
+ * lands it on the light side's film (light_trace.c), counting it in
+ * *landed. */
+typedef void (*lr__lp_splat_fn)(void *film, const lr__landing *ld, lr__v3 v,
+                                uint64_t *landed);
 
 /* Traces light path `idx` of the sampler's "pixel" `key`, one of
  * `n_paths` in all, and splats what its vertices send into the lens.

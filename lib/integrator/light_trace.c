@@ -432,7 +432,8 @@ lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
         return plan_paths(s, c, set, out, err);
     const lr__camera_model *m = c->model;
     if (!set->light || m->lens_point == NULL || m->film == NULL ||
-        c->chroma_active || (m->bound == NULL && m->thin_equiv == NULL) ||
+        !lr__cam_lands_colours(c) ||
+        (m->bound == NULL && m->thin_equiv == NULL) ||
         (m->light_ok != NULL && !m->light_ok(c)))
         return LR_OK;
     lr__lens_bound lb = {0.0, 1, {0.0, 0.0, 0.0}};
@@ -547,6 +548,27 @@ static void splat(lr__lt_film *f, int ix, int iy, lr__v3 v)
     }
 }
 
+/* Adds v times each channel's importance where ld lands it: one pixel
+ * for all channels, or each channel its own.  Counts a landing. */
+static void splat_landing(lr__lt_film *f, const lr__landing *ld, lr__v3 v,
+                          uint64_t *landed)
+{
+    if (!(isfinite(v.x) && isfinite(v.y) && isfinite(v.z)))
+        return;
+    (*landed)++;
+    if (ld->n == 1) {
+        splat(f, ld->ix[0], ld->iy[0], v3_scale(v, ld->W[0]));
+        return;
+    }
+    double c[3] = {v.x, v.y, v.z};
+    for (int k = 0; k < 3; k++) {
+        double e[3] = {0.0, 0.0, 0.0};
+        e[k] = c[k] * ld->W[k];
+        if (ld->W[k] > 0.0)
+            splat(f, ld->ix[k], ld->iy[k], v3(e[0], e[1], e[2]));
+    }
+}
+
 /* A mesh light's path from lens point P: a triangle by area and a point
  * y on it, uniform by area over the mesh (pdf 1 / A), from (u0, u1) (u0
  * picks the triangle and, rescaled, is reused: the usual trick for one
@@ -587,10 +609,8 @@ static void mesh_path(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
     double cos_y = -v3_dot(w, e->n);
     if (!(cos_y > 0.0))
         return;
-    double fx, fy;
-    double W = c->model->film(c, ox, oy, w, &fx, &fy);
-    if (!(W > 0.0) ||
-        !(fx >= 0.0 && fx < c->width && fy >= 0.0 && fy < c->height))
+    lr__landing ld;
+    if (!lr__cam_land(c, ox, oy, w, &ld))
         return;
     lr__hit h;
     (*rays)++;
@@ -599,11 +619,8 @@ static void mesh_path(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
         h.prim != (unsigned)(e - &s->emitters[l->first_tri]) || !h.entering)
         return;
     double pdf = dist2 / (l->area * cos_y);
-    lr__v3 v = v3_scale(l->L, W / (pdf * (double)l->paths));
-    if (!(isfinite(v.x) && isfinite(v.y) && isfinite(v.z)))
-        return;
-    (*landed)++;
-    splat(f, (int)fx, (int)fy, v);
+    splat_landing(f, &ld, v3_scale(l->L, 1.0 / (pdf * (double)l->paths)),
+                  landed);
 }
 
 /* The point X of the plane (2-D coordinates) where the half vector's
@@ -716,10 +733,8 @@ static void glint_path(const lr_scene *s, const lr__cam *c,
         return;
     lr__v3 w = v3_scale(dv, 1.0 / sqrt(dist2));
     double cos_x = fabs(v3_dot(w, n));
-    double fx, fy;
-    double W = c->model->film(c, ox, oy, w, &fx, &fy);
-    if (!(W > 0.0) || !(cos_x > 0.0) ||
-        !(fx >= 0.0 && fx < c->width && fy >= 0.0 && fy < c->height))
+    lr__landing ld;
+    if (!(cos_x > 0.0) || !lr__cam_land(c, ox, oy, w, &ld))
         return;
     /* Light from y to x: from y's front, and in the glint's core (first
      * at the plane's normal, a hair wider, before a ray is spent; then
@@ -751,12 +766,10 @@ static void glint_path(const lr_scene *s, const lr__cam *c,
     double pdf_w = pA * dist2 / cos_x;
     double pdf_y = 1.0 / (4.0 * M_PI * l->radius * l->radius);
     double g = fabs(v3_dot(wi, hx.ns)) * cos_y / d2;
-    lr__v3 v = v3_scale(v3_mul(l->L, fv),
-                        W * g / (pdf_w * pdf_y * (double)l->paths));
-    if (!(isfinite(v.x) && isfinite(v.y) && isfinite(v.z)))
-        return;
-    (*landed)++;
-    splat(f, (int)fx, (int)fy, v);
+    splat_landing(
+        f, &ld,
+        v3_scale(v3_mul(l->L, fv), g / (pdf_w * pdf_y * (double)l->paths)),
+        landed);
 }
 
 /* The sampler "pixel" of light l's paths: by its geometry's index (and a
@@ -770,9 +783,10 @@ static uint64_t light_key(const lr__lt_light *l)
            (l->surf < 0 ? 0 : (uint64_t)(l->surf + 1) << 24);
 }
 
-static void splat_cb(void *film, int ix, int iy, lr__v3 v)
+static void splat_cb(void *film, const lr__landing *ld, lr__v3 v,
+                     uint64_t *landed)
 {
-    splat(film, ix, iy, v);
+    splat_landing(film, ld, v, landed);
 }
 
 void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
@@ -837,10 +851,8 @@ void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
                           v3_add(v3_scale(t1, sin_t * cos(phi)),
                                  v3_scale(t2, sin_t * sin(phi))));
         w = v3_norm(w);
-        double fx, fy;
-        double W = c->model->film(c, ox, oy, w, &fx, &fy);
-        if (!(W > 0.0) ||
-            !(fx >= 0.0 && fx < c->width && fy >= 0.0 && fy < c->height))
+        lr__landing ld;
+        if (!lr__cam_land(c, ox, oy, w, &ld))
             continue;
         /* The camera ray along w must meet this light first (from
          * outside a sphere, on its emitting side): exactly the rays whose
@@ -854,11 +866,8 @@ void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
             l->geom)
             continue;
         double pdf = 1.0 / (2.0 * M_PI * omc);
-        lr__v3 v = v3_scale(l->L, W / (pdf * (double)l->paths));
-        if (!(isfinite(v.x) && isfinite(v.y) && isfinite(v.z)))
-            continue;
-        (*landed)++;
-        splat(f, (int)fx, (int)fy, v);
+        splat_landing(f, &ld, v3_scale(l->L, 1.0 / (pdf * (double)l->paths)),
+                      landed);
     }
 }
 
