@@ -214,6 +214,33 @@ static void test_energy(void **state)
     }
 }
 
+static void test_evanescent_layer(void **state)
+{
+    (void)state;
+    /* Light in glass of 1.9 onto glass of 1.8 through a MgF2 layer:
+     * past sin_i = n_MgF2 / 1.9 the wave in the layer is evanescent
+     * (frustrated total reflection), yet the substrate passes it: R + T
+     * = 1 still, R rising toward 1 as the layer thickens, and nothing
+     * breaks at the layer's own critical angle. */
+    double nl = lr__film_n(LR__FILM_MGF2, 550), R, T, last = 0.0;
+    const double crit = asin(nl / 1.9);
+    for (double deg = 0; deg < 71; deg += 2) {
+        double i = deg * M_PI / 180, d = 120.0;
+        lr__stack_rt(1.9, 1.8, &nl, &d, 1, cos(i), 550, &R, &T);
+        assert_true(fabs(R + T - 1.0) < 1e-12);
+    }
+    for (double d = 50; d <= 800; d += 50) {
+        lr__stack_rt(1.9, 1.8, &nl, &d, 1, cos(crit + 0.05), 550, &R, &T);
+        assert_true(R > last && fabs(R + T - 1.0) < 1e-12);
+        last = R;
+    }
+    assert_true(last > 0.99);
+    double d = 100.0;
+    lr__stack_rt(1.9, 1.8, &nl, &d, 1, sqrt(1 - (nl / 1.9) * (nl / 1.9)), 550,
+                 &R, &T);
+    assert_true(isfinite(R) && fabs(R + T - 1.0) < 1e-12);
+}
+
 static void test_layer_order(void **state)
 {
     (void)state;
@@ -369,6 +396,7 @@ static const struct CMUnitTest coating_tests[] = {
     cmocka_unit_test(test_quarter_wave),
     cmocka_unit_test(test_thin_layers),
     cmocka_unit_test(test_energy),
+    cmocka_unit_test(test_evanescent_layer),
     cmocka_unit_test(test_layer_order),
     cmocka_unit_test(test_json_key),
     cmocka_unit_test(test_cemented_surface),

@@ -106,35 +106,41 @@ double lr__fresnel_r(double n1, double n2, double cos_i)
     return 0.5 * (rs * rs + rp * rp);
 }
 
-/* cos(theta) in a medium of index n for the invariant s0 = n0 sin_i:
- * imaginary where the wave is evanescent.  The branch does not matter
- * to the layers' matrices (each entry is even in cos(theta)); in the
- * substrate, TIR is handled before. */
-static double complex cos_in(double n, double s0)
-{
-    return csqrt(1.0 - (s0 / n) * (s0 / n) + 0.0 * I);
-}
-
-/* One polarisation: p = 0 (s) or 1 (p).  Sets *R and *T. */
+/* One polarisation: p = 0 (s) or 1 (p).  Sets *R and *T.
+ *
+ * In a layer, write delta = k c with k = 2 pi n d / lambda and c =
+ * cos(theta_r) (imaginary where the wave is evanescent), and sin(delta)
+ * = delta S with S = sin(delta) / delta.  Then the matrix's entries are
+ *
+ *     s:  sin(delta) / eta = k S / n,      eta sin(delta) = n k c^2 S
+ *     p:  sin(delta) / eta = k c^2 S / n,  eta sin(delta) = n k S
+ *
+ * with c^2 = 1 - (n0 sin_i / n)^2 real, and cos(delta) and S even in
+ * delta: no division by c (which is 0 at the layer's own critical
+ * angle), and the square root's branch does not matter. */
 static void one_pol(int p, double n0, double ns, const double *n,
                     const double *d_nm, int m, double cos_i, double nm,
                     double *R, double *T)
 {
     double s0 = n0 * sqrt(fmax(0.0, 1.0 - cos_i * cos_i));
-    double complex cs = cos_in(ns, s0);
+    /* The substrate passes a wave (lr__stack_rt checked): c_s > 0. */
+    double cs = sqrt(1.0 - (s0 / ns) * (s0 / ns));
     double eta0 = p ? n0 / cos_i : n0 * cos_i;
-    double complex etas = p ? ns / cs : ns * cs;
+    double etas = p ? ns / cs : ns * cs;
     /* [B; C] = M_1 M_2 ... M_m [1; eta_s], built from the substrate out:
      * each layer's matrix applied to the vector so far, last layer
      * first. */
     double complex B = 1.0, C = etas;
     for (int r = m - 1; r >= 0; r--) {
-        double complex cr = cos_in(n[r], s0);
-        double complex eta = p ? n[r] / cr : n[r] * cr;
-        double complex delta = 2.0 * M_PI * n[r] * d_nm[r] * cr / nm;
-        double complex cd = ccos(delta), sd = csin(delta);
-        double complex B2 = cd * B + I * sd / eta * C;
-        double complex C2 = I * eta * sd * B + cd * C;
+        double c2 = 1.0 - (s0 / n[r]) * (s0 / n[r]);
+        double k = 2.0 * M_PI * n[r] * d_nm[r] / nm;
+        double complex delta = k * csqrt(c2 + 0.0 * I);
+        double complex cd = ccos(delta);
+        double complex S = delta == 0.0 ? 1.0 : csin(delta) / delta;
+        double complex m12 = p ? k * c2 * S / n[r] : k * S / n[r];
+        double complex m21 = p ? n[r] * k * S : n[r] * k * c2 * S;
+        double complex B2 = cd * B + I * m12 * C;
+        double complex C2 = I * m21 * B + cd * C;
         B = B2;
         C = C2;
     }
@@ -142,7 +148,7 @@ static void one_pol(int p, double n0, double ns, const double *n,
     double complex r = (eta0 - Y) / (eta0 + Y);
     *R = creal(r * conj(r));
     double complex den = eta0 * B + C;
-    *T = 4.0 * eta0 * creal(etas) / creal(den * conj(den));
+    *T = 4.0 * eta0 * etas / creal(den * conj(den));
 }
 
 void lr__stack_rt(double n0, double ns, const double *n, const double *d_nm,

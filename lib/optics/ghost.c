@@ -55,6 +55,14 @@ static int cross(walk *r, int i, int fwd, int mirror)
     double p[3], nrm[3];
     if (!lr__rx_meet(r->rx, r->z, r->stop_scale, i, r->o, r->d, p, nrm))
         return 0;
+    /* The surface must lie ahead: a ray that a reflection turned the
+     * wrong way would otherwise meet a surface behind it.  (Zero
+     * thicknesses put two surfaces at one vertex: hence the 1e-9 mm.) */
+    double ahead = 0.0;
+    for (int a = 0; a < 3; a++)
+        ahead += (p[a] - r->o[a]) * r->d[a];
+    if (ahead < -1e-9)
+        return 0;
     for (int a = 0; a < 3; a++)
         r->o[a] = p[a];
     double dn = r->d[0] * nrm[0] + r->d[1] * nrm[1] + r->d[2] * nrm[2];
