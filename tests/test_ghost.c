@@ -236,87 +236,83 @@ static void test_tir_lost(void **state)
     assert_true(m.ok && fabs(m.w - (1 - R) * (1 - R)) < 1e-15);
 }
 
-/* What dg_ghosts measures: the brightest ghost's flux over the main
- * image's, which path it is and its rms radius on the sensor (mm); the
- * sum over every ghost; the most concentrated ghost's mean irradiance
- * over a disc of its rms radius per unit of the main image's flux
- * (1/mm^2: times a pixel's area, its brightness against a point
- * source's image held in that pixel), and which it is. */
-typedef struct ghost_stats {
-    double best, rms, total, peak;
-    lr__ghost which, peak_which;
-} ghost_stats;
-
-/* The flux of each ghost of `rx` relative to the main image, for a
- * distant point at `deg` off axis at `nm`, by rays on a grid over the
- * front element (each ray the same area of the beam), counted where
- * they land within a 36 x 24 mm sensor's half diagonal. */
-static ghost_stats dg_ghosts(const lr__rx *rx, const lr__coating *coat,
-                             double deg, double nm)
+/* lr__ghost_fluxes on one flat plate behind a window in air (surface 0,
+ * which bounds the beam and reflects nothing): every ray of the beam
+ * arrives, so the ghost's flux over the main image's is R^2 (its rays
+ * cross the plate's two faces twice more), and the ghost lies
+ * 2 t tan(theta_glass) beyond the main image's centre, which lies at
+ * L tan(theta) - t (tan(theta) - tan(theta_glass)) for an image plane L
+ * behind the window. */
+static void test_fluxes_plate(void **state)
 {
-    static lr__ghost paths[LR__GHOST_MAX];
-    int np = lr__ghost_paths(rx, paths);
-    double z[LR__RX_MAX_SURFACES + 1];
-    lr__rx_layout(rx, z);
-    const int N = 61;
-    const double a = rx->s[0].semi_aperture, half_diag = 21.63;
-    double d[3];
-    direction(deg * M_PI / 180, 0, d);
-    double main = 0.0;
-    ghost_stats st = {0, 0, 0, 0, {0, 0}, {0, 0}};
-    for (int p = -1; p < np; p++) {
-        lr__ghost g = p < 0 ? (lr__ghost){-1, -1} : paths[p];
-        double sum = 0, sx = 0, sy = 0, sxx = 0;
-        for (int u = 0; u < N; u++)
-            for (int v = 0; v < N; v++) {
-                double x = a * (2.0 * (u + 0.5) / N - 1);
-                double y = a * (2.0 * (v + 0.5) / N - 1);
-                if (x * x + y * y > a * a)
-                    continue;
-                double o[3] = {x - d[0] / d[2], y - d[1] / d[2], -1.0};
-                double hit[2], w;
-                if (!lr__ghost_trace(rx, z, nm, 1.0, coat, g, z[rx->n], o, d,
-                                     hit, &w) ||
-                    hypot(hit[0], hit[1]) > half_diag)
-                    continue;
-                sum += w;
-                sx += w * hit[0];
-                sy += w * hit[1];
-                sxx += w * (hit[0] * hit[0] + hit[1] * hit[1]);
-            }
-        if (p < 0) {
-            main = sum;
-            continue;
-        }
-        if (sum == 0.0)
-            continue;
-        double ratio = sum / main, mx = sx / sum, my = sy / sum;
-        double rms = sqrt(fmax(0.0, sxx / sum - mx * mx - my * my));
-        st.total += ratio;
-        if (ratio > st.best) {
-            st.best = ratio;
-            st.which = g;
-            st.rms = rms;
-        }
-        /* A disc no smaller than a 10 um pixel. */
-        double e = ratio / (M_PI * fmax(rms * rms, 1e-4));
-        if (e > st.peak) {
-            st.peak = e;
-            st.peak_which = g;
-        }
+    (void)state;
+    const double t = 4.0, n = 1.6, L = 1.0 + 4.0 + 25.0;
+    lr__rx rx;
+    memset(&rx, 0, sizeof rx);
+    rx.n = 3;
+    rx.stop = 0;
+    rx.s[0] = flat(1, 1.0, 10);
+    rx.s[1] = flat(t, n, 80);
+    rx.s[2] = flat(25, 1.0, 80);
+    static lr__ghost_flux f[LR__GHOST_MAX];
+    double main;
+    const double fields[2] = {0, 20};
+    for (int k = 0; k < 2; k++) {
+        double th = fields[k] * M_PI / 180, tg = asin(sin(th) / n);
+        assert_int_equal(
+            lr__ghost_fluxes(&rx, &bare, fields[k], 550, 41, 0, f, &main), 3);
+        double R = lr__fresnel_r(1.0, n, cos(th));
+        assert_true(fabs(main - (1 - R) * (1 - R)) < 1e-12);
+        assert_true(f[0].path.j == 2 && f[0].path.i == 1);
+        assert_true(fabs(f[0].flux - R * R) < 1e-12);
+        /* The paths reflecting at the window carry nothing. */
+        assert_true(f[1].flux == 0.0 && f[2].flux == 0.0);
+        double cx_main = L * tan(th) - t * (tan(th) - tan(tg));
+        assert_true(fabs(f[0].cx - (cx_main + 2 * t * tan(tg))) < 1e-9);
+        assert_true(fabs(f[0].cy) < 1e-12);
+        /* The beam's footprint: a disc of the window's radius 10
+         * (sampled on a grid), unchanged by flat faces. */
+        assert_true(fabs(f[0].rms - 10 / sqrt(2)) < 0.1);
     }
-    return st;
+    /* A sensor of 0.5 mm radius: on axis the ghost's rays land where the
+     * main image's do, so both are cut alike and the ratio stays R^2.  A
+     * beam at 80 degrees lands some 170 mm off axis: no main image on
+     * the sensor, 0 returned. */
+    assert_int_equal(lr__ghost_fluxes(&rx, &bare, 0, 550, 41, 0.5, f, &main),
+                     3);
+    double R0 = lr__fresnel_r(1.0, n, 1.0);
+    assert_true(main > 0 && main < 0.01);
+    assert_true(fabs(f[0].flux - R0 * R0) < 1e-12);
+    assert_int_equal(lr__ghost_fluxes(&rx, &bare, 80, 550, 41, 0.5, f, &main),
+                     0);
 }
 
-static void show(const char *what, double deg, double nm, ghost_stats s)
+static void show(const char *what, double deg, double nm,
+                 const lr__ghost_flux *f, int n)
 {
+    double all = 0.0, peak = 0.0;
+    int at = 0;
+    for (int k = 0; k < n; k++) {
+        all += f[k].flux;
+        /* Mean irradiance over a disc of its rms radius (no smaller than
+         * a 10 um pixel), per unit of the main image's flux: times a
+         * pixel's area, its brightness against a point source's image
+         * held in that pixel. */
+        double e = f[k].flux / (M_PI * fmax(f[k].rms * f[k].rms, 1e-4));
+        if (e > peak) {
+            peak = e;
+            at = k;
+        }
+    }
     print_message("  %-4s %2.0f deg %3.0f nm: brightest (%d,%d) %.3e of the "
                   "main flux, rms %.2f mm; all %.3e; most concentrated "
                   "(%d,%d) %.2e /mm^2\n",
-                  what, deg, nm, s.which.j, s.which.i, s.best, s.rms, s.total,
-                  s.peak_which.j, s.peak_which.i, s.peak);
+                  what, deg, nm, f[0].path.j, f[0].path.i, f[0].flux, f[0].rms,
+                  all, f[at].path.j, f[at].path.i, peak);
 }
 
+/* The shipped double Gauss's ghosts, for a distant point, counted within
+ * a 36 x 24 mm frame's half diagonal. */
 static void test_double_gauss(void **state)
 {
     (void)state;
@@ -336,33 +332,52 @@ static void test_double_gauss(void **state)
     print_message("double Gauss 50 mm f/2, a distant point, full aperture "
                   "(bare R at most %.4f square on):\n",
                   rmax);
-    const double fields[2] = {0, 10};
+    static lr__ghost_flux b[LR__GHOST_MAX], c[LR__GHOST_MAX];
+    double mb, mc;
+    const int N = 61, paths = rx.n * (rx.n - 1) / 2;
+    const double half_diag = 21.63, fields[2] = {0, 10};
     for (int f = 0; f < 2; f++) {
-        ghost_stats b = dg_ghosts(&rx, &bare, fields[f], 550);
-        ghost_stats c = dg_ghosts(&rx, &mgf2, fields[f], 550);
-        show("bare", fields[f], 550, b);
-        show("MgF2", fields[f], 550, c);
+        assert_int_equal(
+            lr__ghost_fluxes(&rx, &bare, fields[f], 550, N, half_diag, b, &mb),
+            paths);
+        assert_int_equal(
+            lr__ghost_fluxes(&rx, &mgf2, fields[f], 550, N, half_diag, c, &mc),
+            paths);
+        show("bare", fields[f], 550, b, paths);
+        show("MgF2", fields[f], 550, c, paths);
+        /* Brightest first. */
+        for (int k = 1; k < paths; k++)
+            assert_true(b[k].flux <= b[k - 1].flux);
+        /* The coating passes more of the main image. */
+        assert_true(mc > mb);
         /* Two reflections: at most about the largest R squared (the
          * angles inside the lens stay moderate, hence the margin); the
          * coating cuts each R by about 3 or more. */
-        assert_true(b.best > 0 && b.best < 1.5 * rmax * rmax);
-        assert_true(c.best > 0 && c.best < b.best / 4);
-        assert_true(b.total >= b.best && c.total < b.total / 4);
+        assert_true(b[0].flux > 0 && b[0].flux < 1.5 * rmax * rmax);
+        assert_true(c[0].flux > 0 && c[0].flux < b[0].flux / 4);
     }
     /* The coated ghosts' colour: the layer is tuned to 550 nm, so blue
      * and red ghosts are brighter than green. */
-    ghost_stats c450 = dg_ghosts(&rx, &mgf2, 0, 450);
-    ghost_stats c650 = dg_ghosts(&rx, &mgf2, 0, 650);
-    ghost_stats c550 = dg_ghosts(&rx, &mgf2, 0, 550);
-    show("MgF2", 0, 450, c450);
-    show("MgF2", 0, 650, c650);
-    assert_true(c450.total > c550.total && c650.total > c550.total);
+    const double nms[3] = {450, 550, 650};
+    double all[3];
+    for (int k = 0; k < 3; k++) {
+        assert_int_equal(
+            lr__ghost_fluxes(&rx, &mgf2, 0, nms[k], N, half_diag, c, &mc),
+            paths);
+        all[k] = 0;
+        for (int p = 0; p < paths; p++)
+            all[k] += c[p].flux;
+        if (k != 1)
+            show("MgF2", 0, nms[k], c, paths);
+    }
+    assert_true(all[0] > all[1] && all[2] > all[1]);
 }
 
 static const struct CMUnitTest ghost_tests[] = {
-    cmocka_unit_test(test_paths),      cmocka_unit_test(test_plate),
-    cmocka_unit_test(test_two_plates), cmocka_unit_test(test_stop_clips),
-    cmocka_unit_test(test_tir_lost),   cmocka_unit_test(test_double_gauss),
+    cmocka_unit_test(test_paths),        cmocka_unit_test(test_plate),
+    cmocka_unit_test(test_two_plates),   cmocka_unit_test(test_stop_clips),
+    cmocka_unit_test(test_tir_lost),     cmocka_unit_test(test_fluxes_plate),
+    cmocka_unit_test(test_double_gauss),
 };
 
 LR_TEST_GROUP(ghost, ghost_tests)

@@ -64,4 +64,27 @@ int lr__ghost_trace(const lr__rx *rx, const double *z, double nm,
                     double sensor_z, const double o[3], const double d[3],
                     double hit[2], double *weight);
 
+/* ---- a distant point's ghosts (ghost_flux.c) ----------------------------- */
+
+/* One ghost of a distant point: its flux on the sensor over the main
+ * image's, where it falls (the flux-weighted centroid, mm) and how
+ * widely (the rms distance from that centroid, mm). */
+typedef struct lr__ghost_flux {
+    lr__ghost path;
+    double flux, cx, cy, rms;
+} lr__ghost_flux;
+
+/* A distant point at `field_deg` off axis (in the x-z plane) at `nm`,
+ * its beam sampled by grid x grid parallel rays over the first
+ * surface's semi-aperture (each ray the same area of the beam), every
+ * ray traced through the main path and every ghost path to the plane
+ * z[rx->n], counted where it lands within `radius` mm of the axis (<= 0:
+ * anywhere).  Fills out (room for LR__GHOST_MAX) with every ghost path,
+ * brightest first, sets *main to the main image's flux in units of the
+ * beam's (the fraction of the rays' energy reaching the sensor) and
+ * returns how many; 0 when no ray of the main image arrives. */
+int lr__ghost_fluxes(const lr__rx *rx, const lr__coating *override,
+                     double field_deg, double nm, int grid, double radius,
+                     lr__ghost_flux *out, double *main);
+
 #endif

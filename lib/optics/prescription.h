@@ -22,6 +22,7 @@
  *   rx_trace.c          real rays, surface by surface
  *   coating.c           what each surface reflects (coating.h)
  *   ghost.c             rays reflected twice inside the lens (ghost.h)
+ *   ghost_flux.c        a distant point's ghosts against its image
  */
 #ifndef LR_PRESCRIPTION_H
 #define LR_PRESCRIPTION_H
