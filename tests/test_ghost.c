@@ -287,6 +287,108 @@ static void test_fluxes_plate(void **state)
                      0);
 }
 
+/* The height on the plane z = zs of a paraxial ray entering parallel to
+ * the axis at height 1 and following ghost g (j < 0: the main path), by
+ * a y-nu trace written here: at each surface n' u' = n u - y c (n' - n),
+ * between surfaces y += u dz, with u the slope dy/dz.  A reflection is
+ * the same formula with n' = -n (u' = -u - 2 y c), and the ray then
+ * travels toward -z in media of negative index until it reflects again
+ * (the usual convention for mirrors, as Zemax writes them). */
+static double paraxial_ghost(const lr__rx *rx, lr__ghost g, double nm,
+                             double zs)
+{
+    double z[LR__RX_MAX_SURFACES + 1], na[LR__RX_MAX_SURFACES];
+    lr__rx_layout(rx, z);
+    lr__rx_indices(rx, nm, na);
+    /* The sequence of (surface, action): 0 refract, 1 reflect. */
+    int seq[3 * LR__RX_MAX_SURFACES][2], m = 0;
+    int first = g.j >= 0 ? g.j : rx->n;
+    for (int k = 0; k < first; k++)
+        seq[m][0] = k, seq[m++][1] = 0;
+    if (g.j >= 0) {
+        seq[m][0] = g.j, seq[m++][1] = 1;
+        for (int k = g.j - 1; k > g.i; k--)
+            seq[m][0] = k, seq[m++][1] = 0;
+        seq[m][0] = g.i, seq[m++][1] = 1;
+        for (int k = g.i + 1; k < rx->n; k++)
+            seq[m][0] = k, seq[m++][1] = 0;
+    }
+    double y = 1.0, u = 0.0, n = 1.0, at = z[0];
+    int fwd = 1;
+    for (int q = 0; q < m; q++) {
+        int k = seq[q][0];
+        y += u * (z[k] - at);
+        at = z[k];
+        double c = rx->s[k].radius != 0.0 ? 1.0 / rx->s[k].radius : 0.0;
+        double n2;
+        if (seq[q][1]) {
+            n2 = -n;
+            fwd = !fwd;
+        } else {
+            /* The medium beyond surface k, the way the ray goes. */
+            double beyond = fwd ? na[k] : (k > 0 ? na[k - 1] : 1.0);
+            n2 = fwd ? beyond : -beyond;
+        }
+        u = (n * u - y * c * (n2 - n)) / n2;
+        n = n2;
+    }
+    return y + u * (zs - at);
+}
+
+/* Rays close to the axis through curved surfaces against that paraxial
+ * trace: the main path and every ghost of the double Gauss, on two
+ * sensor planes.  At h = 1e-3 mm the aberrations (relative h^2 and up)
+ * are far below the bound. */
+static void test_paraxial_ghosts(void **state)
+{
+    (void)state;
+    char path[4096];
+    lr_error err;
+    lr__rx rx;
+    assert_int_equal(
+        lr__rx_find("double-gauss-50", NULL, path, sizeof path, &err), LR_OK);
+    assert_int_equal(lr__rx_load_file(path, "dg", NULL, &rx, &err), LR_OK);
+    static lr__ghost paths[LR__GHOST_MAX + 1];
+    int np = lr__ghost_paths(&rx, paths + 1);
+    paths[0] = (lr__ghost){-1, -1};
+    double z[LR__RX_MAX_SURFACES + 1], worst = 0.0;
+    lr__rx_layout(&rx, z);
+    const double h = 1e-3;
+    int checked = 0;
+    for (int p = 0; p <= np; p++) {
+        /* Two sensor planes: the designer's and 20 mm beyond. */
+        for (int s = 0; s < 2; s++) {
+            double zs = z[rx.n] + 20.0 * s;
+            double o[3] = {h, 0, -1}, d[3] = {0, 0, 1}, hit[2], w;
+            assert_true(lr__ghost_trace(&rx, z, 550, 1.0, &bare, paths[p], zs,
+                                        o, d, hit, &w) ||
+                        paths[p].j >= 0);
+            double want = paraxial_ghost(&rx, paths[p], 550, zs);
+            if (!lr__ghost_trace(&rx, z, 550, 1.0, &bare, paths[p], zs, o, d,
+                                 hit, &w))
+                continue;
+            /* Relative to the paraxial height (a magnification of the
+             * entering height), with a floor of 1. */
+            double e = fabs(hit[0] / h - want) / fmax(1.0, fabs(want));
+            worst = fmax(worst, e);
+            checked++;
+            assert_true(fabs(hit[1]) < 1e-15);
+            if (e > 1e-6)
+                print_message("  (%d,%d) at z %.1f: real %.6f, paraxial "
+                              "%.6f\n",
+                              paths[p].j, paths[p].i, zs, hit[0] / h, want);
+            assert_true(e < 1e-6);
+        }
+    }
+    print_message("double Gauss: %d landings of rays at 1 um against the "
+                  "paraxial ghost trace, worst %.2e\n",
+                  checked, worst);
+    assert_true(checked >= 2 * np);
+    /* The main path's paraxial height is 0 at the paraxial focus: the
+     * designer's last thickness is the back focus to 0.004 mm. */
+    assert_true(fabs(paraxial_ghost(&rx, paths[0], LR__NM_d, z[rx.n])) < 1e-3);
+}
+
 static void show(const char *what, double deg, double nm,
                  const lr__ghost_flux *f, int n)
 {
@@ -374,10 +476,10 @@ static void test_double_gauss(void **state)
 }
 
 static const struct CMUnitTest ghost_tests[] = {
-    cmocka_unit_test(test_paths),        cmocka_unit_test(test_plate),
-    cmocka_unit_test(test_two_plates),   cmocka_unit_test(test_stop_clips),
-    cmocka_unit_test(test_tir_lost),     cmocka_unit_test(test_fluxes_plate),
-    cmocka_unit_test(test_double_gauss),
+    cmocka_unit_test(test_paths),           cmocka_unit_test(test_plate),
+    cmocka_unit_test(test_two_plates),      cmocka_unit_test(test_stop_clips),
+    cmocka_unit_test(test_tir_lost),        cmocka_unit_test(test_fluxes_plate),
+    cmocka_unit_test(test_paraxial_ghosts), cmocka_unit_test(test_double_gauss),
 };
 
 LR_TEST_GROUP(ghost, ghost_tests)
