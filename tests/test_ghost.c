@@ -287,6 +287,16 @@ static void test_fluxes_plate(void **state)
                      0);
 }
 
+/* The shipped double Gauss (lenses/double-gauss-50.json). */
+static void double_gauss(lr__rx *rx)
+{
+    char path[4096];
+    lr_error err;
+    assert_int_equal(
+        lr__rx_find("double-gauss-50", NULL, path, sizeof path, &err), LR_OK);
+    assert_int_equal(lr__rx_load_file(path, "dg", NULL, rx, &err), LR_OK);
+}
+
 /* The height on the plane z = zs of a paraxial ray entering parallel to
  * the axis at height 1 and following ghost g (j < 0: the main path), by
  * a y-nu trace written here: at each surface n' u' = n u - y c (n' - n),
@@ -342,12 +352,8 @@ static double paraxial_ghost(const lr__rx *rx, lr__ghost g, double nm,
 static void test_paraxial_ghosts(void **state)
 {
     (void)state;
-    char path[4096];
-    lr_error err;
     lr__rx rx;
-    assert_int_equal(
-        lr__rx_find("double-gauss-50", NULL, path, sizeof path, &err), LR_OK);
-    assert_int_equal(lr__rx_load_file(path, "dg", NULL, &rx, &err), LR_OK);
+    double_gauss(&rx);
     static lr__ghost paths[LR__GHOST_MAX + 1];
     int np = lr__ghost_paths(&rx, paths + 1);
     paths[0] = (lr__ghost){-1, -1};
@@ -418,12 +424,8 @@ static void show(const char *what, double deg, double nm,
 static void test_double_gauss(void **state)
 {
     (void)state;
-    char path[4096];
-    lr_error err;
     lr__rx rx;
-    assert_int_equal(
-        lr__rx_find("double-gauss-50", NULL, path, sizeof path, &err), LR_OK);
-    assert_int_equal(lr__rx_load_file(path, "dg", NULL, &rx, &err), LR_OK);
+    double_gauss(&rx);
     /* The largest bare reflectance of any of its surfaces, square on. */
     double n_after[LR__RX_MAX_SURFACES], rmax = 0;
     lr__rx_indices(&rx, 550, n_after);
