@@ -11,6 +11,7 @@
 #include "coating.h"
 #include "ghost.h"
 #include "json_util.h"
+#include "lens_load.h"
 #include "prescription.h"
 
 #include <math.h>
@@ -390,6 +391,36 @@ static void test_cemented_surface(void **state)
     assert_non_null(strstr(err.message, "glass on both sides"));
 }
 
+/* An inline lens (camera.lens as an object) carries its coatings into
+ * the loaded lens, and two that differ only there are two lenses. */
+static void test_inline_lens(void **state)
+{
+    (void)state;
+    const char *text = "{\"surfaces\": ["
+                       "{\"stop\": true, \"thickness\": 1, "
+                       "\"semi_aperture\": 5},"
+                       "{\"radius\": 50, \"thickness\": 4, \"material\": "
+                       "\"N-BK7\", \"semi_aperture\": 10%s},"
+                       "{\"radius\": -50, \"thickness\": 48, "
+                       "\"material\": \"air\", \"semi_aperture\": 10}]}";
+    const char *coats[2] = {"", ", \"coating\": \"none\""};
+    const lr_lens *L[2];
+    for (int k = 0; k < 2; k++) {
+        char buf[1024];
+        cJSON *o = NULL;
+        lr_error err;
+        snprintf(buf, sizeof buf, text, coats[k]);
+        assert_int_equal(lr__json_parse(buf, strlen(buf), "lens", "", &o, &err),
+                         LR_OK);
+        assert_int_equal(
+            lr__lens_from_json(o, "camera.lens", NULL, &L[k], &err), LR_OK);
+        cJSON_Delete(o);
+    }
+    assert_true(L[0] != L[1]);
+    assert_int_equal(L[0]->rx.s[1].coating.kind, LR__COAT_MGF2);
+    assert_int_equal(L[1]->rx.s[1].coating.kind, LR__COAT_NONE);
+}
+
 static const struct CMUnitTest coating_tests[] = {
     cmocka_unit_test(test_bare_fresnel),
     cmocka_unit_test(test_total_internal_reflection),
@@ -400,6 +431,7 @@ static const struct CMUnitTest coating_tests[] = {
     cmocka_unit_test(test_layer_order),
     cmocka_unit_test(test_json_key),
     cmocka_unit_test(test_cemented_surface),
+    cmocka_unit_test(test_inline_lens),
 };
 
 LR_TEST_GROUP(coating, coating_tests)
