@@ -10,17 +10,50 @@
  * field (JSON) or "FILE:LINE" / "FILE:" (pbrt, Zemax); an accepted lens
  * that passes lr__rx_check has 1 to 64 surfaces, one stop, positive
  * semi-apertures and a finite positive focal length at three
- * wavelengths, and every ray that lr__rx_trace lets through leaves with
- * a finite origin and a unit direction.
+ * wavelengths, every ray that lr__rx_trace lets through leaves with
+ * a finite origin and a unit direction, every surface reflects between
+ * 0 and 1, and a ray through a ghost path lands at a finite point with a
+ * weight between 0 and 1.
  */
 #include "fuzz.h"
 
 #include "prescription.h"
+#include "ghost.h"
 #include "json_util.h"
 
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+
+/* Every surface's reflectance (its coating as read) lies in [0, 1], and
+ * a ray through each of the first ghost paths that reaches the sensor
+ * lands at a finite point with a weight in [0, 1]. */
+static int ghosts(const char *what, const lr__rx *rx, const double *z)
+{
+    double n_after[LR__RX_MAX_SURFACES];
+    lr__rx_indices(rx, LR__NM_d, n_after);
+    for (int i = 0; i < rx->n; i++)
+        for (int c = 0; c < 3; c++) {
+            double R = lr__rx_surface_r(rx, n_after, i, c & 1, 1.0 - 0.45 * c,
+                                        LR__NM_d, NULL);
+            if (!(R >= 0.0 && R <= 1.0))
+                return lr_fuzz_report("%s: surface %d reflects %g", what, i, R);
+        }
+    static lr__ghost paths[LR__GHOST_MAX];
+    int np = lr__ghost_paths(rx, paths);
+    for (int p = 0; p < np && p < 24; p++) {
+        double o[3] = {0, 0.3 * rx->s[0].semi_aperture, z[0] - 1.0};
+        double d[3] = {0, 0, 1}, hit[2], w;
+        if (lr__ghost_trace(rx, z, LR__NM_d, 1.0, NULL, paths[p], z[rx->n], o,
+                            d, hit, &w) &&
+            (!isfinite(hit[0] + hit[1]) || !(w >= 0.0 && w <= 1.0)))
+            return lr_fuzz_report("%s: ghost (%d, %d) landed at (%g, %g) "
+                                  "with weight %g",
+                                  what, paths[p].j, paths[p].i, hit[0], hit[1],
+                                  w);
+    }
+    return 0;
+}
 
 static int accepted(const char *what, const lr__rx *rx)
 {
@@ -67,7 +100,7 @@ static int accepted(const char *what, const lr__rx *rx)
                                       what, o[0], o[1], o[2], dl);
         }
     }
-    return 0;
+    return ghosts(what, rx, z);
 }
 
 /* A reader's verdict: an error that is well formed (and, for the text

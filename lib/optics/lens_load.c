@@ -71,6 +71,17 @@ static int glass_equal(const lr__glass *a, const lr__glass *b)
     return a->nd == b->nd && a->vd == b->vd;
 }
 
+static int coating_equal(const lr__coating *a, const lr__coating *b)
+{
+    if (a->kind != b->kind || a->n != b->n)
+        return 0;
+    for (int i = 0; i < a->n; i++)
+        if (a->layer[i].film != b->layer[i].film ||
+            a->layer[i].thickness_nm != b->layer[i].thickness_nm)
+            return 0;
+    return 1;
+}
+
 static int rx_equal(const lr__rx *a, const lr__rx *b)
 {
     if (a->n != b->n || a->stop != b->stop || strcmp(a->name, b->name) != 0)
@@ -84,6 +95,8 @@ static int rx_equal(const lr__rx *a, const lr__rx *b)
         for (int j = 0; j < LR__RX_MAX_ASPH; j++)
             if (p->asph[j] != q->asph[j])
                 return 0;
+        if (!coating_equal(&p->coating, &q->coating))
+            return 0;
     }
     return 1;
 }

@@ -20,11 +20,15 @@
  *   rx_check.c          lr__rx_check (geometry that can be built)
  *   paraxial.c          first-order data by a y-nu trace
  *   rx_trace.c          real rays, surface by surface
+ *   coating.c           what each surface reflects (coating.h)
+ *   ghost.c             rays reflected twice inside the lens (ghost.h)
+ *   ghost_flux.c        a distant point's ghosts against its image
  */
 #ifndef LR_PRESCRIPTION_H
 #define LR_PRESCRIPTION_H
 
 #include "internal.h"
+#include "coating.h"
 
 /* At most this many surfaces in one prescription (the largest published
  * camera lenses have about 40). */
@@ -106,6 +110,8 @@ typedef struct lr__surface {
     int stop;                     /* 1: the aperture stop (f_number scales its
                              semi_aperture; it still refracts if curved) */
     lr__glass after;              /* the medium from this surface to the next */
+    lr__coating coating; /* on a glass-air surface (zero: the default, one
+                            quarter-wave MgF2 layer; see coating.h) */
 } lr__surface;
 
 typedef struct lr__rx {
@@ -232,6 +238,21 @@ int lr__rx_trace_n(const lr__rx *rx, const double *z, const double *n_after,
 int lr__rx_trace_surface(const lr__rx *rx, const double *z,
                          const double *n_after, double stop_scale, int i,
                          int toward_image, double o[3], double d[3]);
+
+/* Where the ray o + t d (lens coordinates, d unit, travelling either
+ * way) meets surface i: returns 1 and sets p (lens coordinates) and the
+ * surface's unit normal nrm there (pointing toward +z) when the point
+ * lies within the semi-aperture (the stop's scaled by stop_scale); 0
+ * when the ray misses or is blocked.  The first half of
+ * lr__rx_trace_surface, for traces that reflect (ghost.c). */
+int lr__rx_meet(const lr__rx *rx, const double *z, double stop_scale, int i,
+                const double o[3], const double d[3], double p[3],
+                double nrm[3]);
+
+/* Snell's law in vector form: refracts unit d at unit normal nrm (either
+ * orientation) from index n1 into n2; 0 on total internal reflection
+ * (d unchanged). */
+int lr__rx_refract(double d[3], const double nrm[3], double n1, double n2);
 
 /* Sixteen rays from the image side (toward_image = 0) at once: o[axis]
  * [lane] and d[axis][lane] as in lr__rx_trace_n, for the lanes whose

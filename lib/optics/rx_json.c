@@ -1,10 +1,11 @@
 /*
  * rx_json.c: lensray's JSON form of a prescription (docs/lenses.md):
  * {"name", "source", "notes", "surfaces": [{radius, thickness, material,
- * semi_aperture, conic, aspheric, stop}, ...]}, surfaces from the object
+ * semi_aperture, conic, aspheric, stop, coating}, ...]}, surfaces from the object
  * side.  Every error names the surface and the field.
  */
 #include "prescription.h"
+#include "ghost.h"
 #include "json_util.h"
 
 #include <math.h>
@@ -129,12 +130,97 @@ static lr_status length(const cJSON *s, const char *key, const char *sp,
     return LR_OK;
 }
 
-static lr_status surface(const cJSON *s, const char *sp, lr__surface *out,
-                         lr_error *err)
+/* A thin film's thickness beyond 10 um is no coating layer (an
+ * anti-reflection layer is about 100 nm). */
+#define MAX_LAYER_NM 1e4
+
+/* One layer of "coating.layers": {"material": NAME, "thickness_nm": d}. */
+static lr_status layer(const cJSON *l, const char *lp, lr__layer *out,
+                       lr_error *err)
 {
-    static const char *const keys[] = {"radius",        "thickness", "material",
-                                       "semi_aperture", "conic",     "aspheric",
-                                       "stop",          "comment",   NULL};
+    static const char *const keys[] = {"material", "thickness_nm", NULL};
+    if (!cJSON_IsObject(l))
+        return lr__fail(err, LR_ERR_INVALID, lp,
+                        "%s must be an object {\"material\", "
+                        "\"thickness_nm\"}",
+                        lp);
+    LR_TRY(lr__json_check_keys(l, lp, keys, err));
+    const char *name = NULL;
+    LR_TRY(lr__json_string(l, "material", lp, 1, &name, err));
+    char p[LR__PATH_MAX];
+    lr__path_key(p, lp, "material");
+    int f = lr__film_find(name);
+    if (f < 0) {
+        char shown[96];
+        lr__utf8_escape(name, shown, sizeof shown);
+        return lr__fail(err, LR_ERR_INVALID, p,
+                        "%s: unknown coating material \"%s\"; one of %s", p,
+                        shown, lr__film_list);
+    }
+    out->film = (lr__film)f;
+    LR_TRY(lr__json_number(l, "thickness_nm", lp, 1, &out->thickness_nm, err));
+    if (!(out->thickness_nm > 0.0 && out->thickness_nm <= MAX_LAYER_NM)) {
+        lr__path_key(p, lp, "thickness_nm");
+        return lr__fail(err, LR_ERR_INVALID, p,
+                        "%s must be > 0 and at most %g nm, got %g", p,
+                        MAX_LAYER_NM, out->thickness_nm);
+    }
+    return LR_OK;
+}
+
+/* "coating": "none", "mgf2" or {"layers": [...]} (coating.h); absent:
+ * the default.  Sets *given when the key is there. */
+static lr_status coating(const cJSON *s, const char *sp, lr__coating *c,
+                         int *given, lr_error *err)
+{
+    char p[LR__PATH_MAX];
+    lr__path_key(p, sp, "coating");
+    const cJSON *v = cJSON_GetObjectItemCaseSensitive(s, "coating");
+    memset(c, 0, sizeof *c);
+    *given = v != NULL;
+    if (v == NULL)
+        return LR_OK;
+    if (cJSON_IsString(v) && strcmp(v->valuestring, "none") == 0) {
+        c->kind = LR__COAT_NONE;
+        return LR_OK;
+    }
+    if (cJSON_IsString(v) && strcmp(v->valuestring, "mgf2") == 0)
+        return LR_OK;
+    if (!cJSON_IsObject(v)) {
+        char what[64];
+        lr__json_describe(v, what, sizeof what);
+        return lr__fail(err, LR_ERR_INVALID, p,
+                        "%s must be \"none\", \"mgf2\" or {\"layers\": "
+                        "[{\"material\", \"thickness_nm\"}, ...]}, got %s",
+                        p, what);
+    }
+    static const char *const keys[] = {"layers", NULL};
+    LR_TRY(lr__json_check_keys(v, p, keys, err));
+    char lp[LR__PATH_MAX];
+    lr__path_key(lp, p, "layers");
+    const cJSON *a = cJSON_GetObjectItemCaseSensitive(v, "layers");
+    if (!cJSON_IsArray(a) || cJSON_GetArraySize(a) < 1 ||
+        cJSON_GetArraySize(a) > LR__COAT_MAX_LAYERS)
+        return lr__fail(err, LR_ERR_INVALID, lp,
+                        "%s must be an array of 1 to %d layers, the first on "
+                        "the glass",
+                        lp, LR__COAT_MAX_LAYERS);
+    c->kind = LR__COAT_LAYERS;
+    c->n = cJSON_GetArraySize(a);
+    for (int i = 0; i < c->n; i++) {
+        char q[LR__PATH_MAX];
+        lr__path_index(q, lp, (size_t)i);
+        LR_TRY(layer(cJSON_GetArrayItem(a, i), q, &c->layer[i], err));
+    }
+    return LR_OK;
+}
+
+static lr_status surface(const cJSON *s, const char *sp, lr__surface *out,
+                         int *coated, lr_error *err)
+{
+    static const char *const keys[] = {
+        "radius",   "thickness", "material", "semi_aperture", "conic",
+        "aspheric", "stop",      "coating",  "comment",       NULL};
     if (!cJSON_IsObject(s))
         return lr__fail(err, LR_ERR_INVALID, sp, "%s must be an object", sp);
     LR_TRY(lr__json_check_keys(s, sp, keys, err));
@@ -182,6 +268,9 @@ static lr_status surface(const cJSON *s, const char *sp, lr__surface *out,
         return lr__fail(err, LR_ERR_INVALID, p,
                         "%s is required (\"air\" or a glass)", p);
     }
+    int given = 0;
+    LR_TRY(coating(s, sp, &out->coating, &given, err));
+    *coated = given && out->coating.kind != LR__COAT_NONE;
     return material(s, sp, &out->after, err);
 }
 
@@ -222,7 +311,20 @@ lr_status lr__rx_from_json(const cJSON *o, const char *path, lr__rx *rx,
     for (int i = 0; i < n; i++) {
         char p[LR__PATH_MAX];
         lr__path_index(p, sp, (size_t)i);
-        LR_TRY(surface(cJSON_GetArrayItem(arr, i), p, &rx->s[i], err));
+        int coated = 0;
+        LR_TRY(surface(cJSON_GetArrayItem(arr, i), p, &rx->s[i], &coated, err));
+        /* A coating goes between glass and air; a cemented surface or
+         * one in air (a stop) has nowhere to put one. */
+        if (coated && !lr__rx_glass_air(rx, i)) {
+            char q[LR__PATH_MAX];
+            lr__path_key(q, p, "coating");
+            return lr__fail(
+                err, LR_ERR_INVALID, q,
+                "%s: only a surface between glass and air takes "
+                "a coating (this one has %s on both sides); use "
+                "\"none\" or leave it out",
+                q, lr__glass_is_air(&rx->s[i].after) ? "air" : "glass");
+        }
         if (rx->s[i].stop) {
             if (rx->stop >= 0)
                 return lr__fail(err, LR_ERR_INVALID, p,

@@ -137,9 +137,7 @@ static int normal_at(const lr__surface *s, double c, double k1,
     return 1;
 }
 
-/* Refracts unit d at unit normal nrm from index n1 into n2; 0 on total
- * internal reflection. */
-static int refract(double d[3], const double nrm[3], double n1, double n2)
+int lr__rx_refract(double d[3], const double nrm[3], double n1, double n2)
 {
     if (n1 == n2)
         return 1;
@@ -166,12 +164,12 @@ static int refract(double d[3], const double nrm[3], double n1, double n2)
     return 1;
 }
 
-int lr__rx_trace_surface(const lr__rx *rx, const double *z,
-                         const double *n_after, double stop_scale, int i,
-                         int toward_image, double o[3], double d[3])
+int lr__rx_meet(const lr__rx *rx, const double *z, double stop_scale, int i,
+                const double o[3], const double d[3], double p[3],
+                double nrm[3])
 {
     const lr__surface *s = &rx->s[i];
-    double ol[3] = {o[0], o[1], o[2] - z[i]}, p[3], nrm[3];
+    double ol[3] = {o[0], o[1], o[2] - z[i]};
     double c = s->radius != 0.0 ? 1.0 / s->radius : 0.0;
     double k1 = 1.0 + s->conic;
     if (!intersect(s, c, k1, ol, d, p))
@@ -179,14 +177,25 @@ int lr__rx_trace_surface(const lr__rx *rx, const double *z,
     double lim = s->semi_aperture * (i == rx->stop ? stop_scale : 1.0);
     if (p[0] * p[0] + p[1] * p[1] > lim * lim || !normal_at(s, c, k1, p, nrm))
         return 0;
+    p[2] += z[i];
+    return 1;
+}
+
+int lr__rx_trace_surface(const lr__rx *rx, const double *z,
+                         const double *n_after, double stop_scale, int i,
+                         int toward_image, double o[3], double d[3])
+{
+    double p[3], nrm[3];
+    if (!lr__rx_meet(rx, z, stop_scale, i, o, d, p, nrm))
+        return 0;
     o[0] = p[0];
     o[1] = p[1];
-    o[2] = p[2] + z[i];
+    o[2] = p[2];
     /* Media on either side of surface i. */
     double before = i > 0 ? n_after[i - 1] : 1.0;
     double after = n_after[i];
-    return toward_image ? refract(d, nrm, before, after)
-                        : refract(d, nrm, after, before);
+    return toward_image ? lr__rx_refract(d, nrm, before, after)
+                        : lr__rx_refract(d, nrm, after, before);
 }
 
 int lr__rx_trace_n(const lr__rx *rx, const double *z, const double *n_after,
@@ -278,7 +287,7 @@ lr__rx_trace16(const lr__rx *rx, const double *z, const double *n_after,
             double len = sqrt(gx * gx + gy * gy + gz * gz);
             double mx = gx / len, my = gy / len, mz = gz / len;
             ok &= !(px * px + py * py > lim2);
-            /* Refraction (refract() above, from n1 into n2). */
+            /* Refraction (lr__rx_refract above, from n1 into n2). */
             double cosi = -(mx * dx + my * dy + mz * dz);
             double sg = cosi < 0.0 ? -1.0 : 1.0;
             mx = cosi < 0.0 ? -mx : mx;

@@ -1,0 +1,126 @@
+/*
+ * ghost.c: ghost paths, and rays traced through them (ghost.h).
+ */
+#include "ghost.h"
+
+#include <math.h>
+
+int lr__ghost_paths(const lr__rx *rx, lr__ghost *out)
+{
+    int k = 0;
+    for (int j = 1; j < rx->n; j++)
+        for (int i = 0; i < j; i++)
+            out[k++] = (lr__ghost){j, i};
+    return k;
+}
+
+int lr__glass_is_air(const lr__glass *g)
+{
+    return g->kind == LR__GLASS_AIR ||
+           (g->kind == LR__GLASS_CONSTANT && g->nd == 1.0);
+}
+
+int lr__rx_glass_air(const lr__rx *rx, int i)
+{
+    static const lr__glass air = {.kind = LR__GLASS_AIR, .nd = 1.0};
+    const lr__glass *before = i > 0 ? &rx->s[i - 1].after : &air;
+    return lr__glass_is_air(before) != lr__glass_is_air(&rx->s[i].after);
+}
+
+double lr__rx_surface_r(const lr__rx *rx, const double *n_after, int i,
+                        int toward_image, double cos_i, double nm,
+                        const lr__coating *override)
+{
+    double before = i > 0 ? n_after[i - 1] : 1.0, after = n_after[i];
+    const lr__coating *c = override != NULL ? override : &rx->s[i].coating;
+    return toward_image ? lr__coated_r(c, lr__rx_glass_air(rx, i), before,
+                                       after, cos_i, nm)
+                        : lr__coated_r(c, lr__rx_glass_air(rx, i), after,
+                                       before, cos_i, nm);
+}
+
+/* A ray on its way through the lens. */
+typedef struct walk {
+    const lr__rx *rx;
+    const double *z, *n_after;
+    double nm, stop_scale;
+    const lr__coating *override;
+    double o[3], d[3], w;
+} walk;
+
+/* Surface i, travelling toward the image (fwd = 1) or back: reflect
+ * (mirror = 1) or refract, the weight times R or 1 - R.  0: lost. */
+static int cross(walk *r, int i, int fwd, int mirror)
+{
+    double p[3], nrm[3];
+    if (!lr__rx_meet(r->rx, r->z, r->stop_scale, i, r->o, r->d, p, nrm))
+        return 0;
+    /* The surface must lie ahead: a ray that a reflection turned the
+     * wrong way would otherwise meet a surface behind it.  (Zero
+     * thicknesses put two surfaces at one vertex: hence the 1e-9 mm.) */
+    double ahead = 0.0;
+    for (int a = 0; a < 3; a++)
+        ahead += (p[a] - r->o[a]) * r->d[a];
+    if (ahead < -1e-9)
+        return 0;
+    for (int a = 0; a < 3; a++)
+        r->o[a] = p[a];
+    double dn = r->d[0] * nrm[0] + r->d[1] * nrm[1] + r->d[2] * nrm[2];
+    double R = lr__rx_surface_r(r->rx, r->n_after, i, fwd, fabs(dn), r->nm,
+                                r->override);
+    if (mirror) {
+        /* d' = d - 2 (d . n) n: the law of reflection. */
+        for (int a = 0; a < 3; a++)
+            r->d[a] -= 2.0 * dn * nrm[a];
+        r->w *= R;
+        return 1;
+    }
+    double before = i > 0 ? r->n_after[i - 1] : 1.0, after = r->n_after[i];
+    if (!(fwd ? lr__rx_refract(r->d, nrm, before, after)
+              : lr__rx_refract(r->d, nrm, after, before)))
+        return 0;
+    r->w *= 1.0 - R;
+    return 1;
+}
+
+int lr__ghost_trace(const lr__rx *rx, const double *z, double nm,
+                    double stop_scale, const lr__coating *override, lr__ghost g,
+                    double sensor_z, const double o[3], const double d[3],
+                    double hit[2], double *weight)
+{
+    double n_after[LR__RX_MAX_SURFACES];
+    lr__rx_indices(rx, nm, n_after);
+    walk r = {rx, z, n_after, nm, stop_scale, override, {0}, {0}, 1.0};
+    for (int a = 0; a < 3; a++) {
+        r.o[a] = o[a];
+        r.d[a] = d[a];
+    }
+    int n = rx->n, ghost = g.j >= 0;
+    if (ghost && !(g.i >= 0 && g.i < g.j && g.j < n))
+        return 0;
+    /* Forward to j (or through everything), back from j - 1 to i, and
+     * forward again from i + 1. */
+    int first = ghost ? g.j : n;
+    for (int k = 0; k < first; k++)
+        if (!cross(&r, k, 1, 0))
+            return 0;
+    if (ghost) {
+        if (!cross(&r, g.j, 1, 1))
+            return 0;
+        for (int k = g.j - 1; k > g.i; k--)
+            if (!cross(&r, k, 0, 0))
+                return 0;
+        if (!cross(&r, g.i, 0, 1))
+            return 0;
+        for (int k = g.i + 1; k < n; k++)
+            if (!cross(&r, k, 1, 0))
+                return 0;
+    }
+    if (!(r.d[2] > 0.0))
+        return 0;
+    double t = (sensor_z - r.o[2]) / r.d[2];
+    hit[0] = r.o[0] + t * r.d[0];
+    hit[1] = r.o[1] + t * r.d[1];
+    *weight = r.w;
+    return 1;
+}

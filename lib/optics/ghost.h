@@ -1,0 +1,90 @@
+/*
+ * ghost.h: light reflected twice inside a lens (issue 29's ghosts),
+ * traced through the real surfaces.  Not used by the renderer yet.
+ *
+ * A ghost path (j, i), i < j: light from the object refracts through
+ * surfaces 0 .. j-1, reflects at surface j back toward the object,
+ * refracts back through j-1 .. i+1, reflects at surface i toward the
+ * image again and refracts through i+1 .. n-1 to the sensor.  N surfaces
+ * give N(N-1)/2 paths (Hullin et al., "Physically-based real-time lens
+ * flare rendering", SIGGRAPH 2011, section 3).  Light reflected four or
+ * more times carries a product of four reflectances, some 1e-5 of it
+ * with coated glass, and is left out here.
+ *
+ * Every crossing is clipped by the surface's semi-aperture (the stop's
+ * scaled by stop_scale), whichever way the ray travels, and a ray that
+ * would be totally internally reflected where it should refract is lost.
+ * Its throughput is the product of the reflectance R at the two
+ * reflections and the transmittance 1 - R at every other crossing, each
+ * at the ray's own angle of incidence and wavelength, under the
+ * surface's coating (coating.h).
+ */
+#ifndef LR_GHOST_H
+#define LR_GHOST_H
+
+#include "prescription.h"
+
+/* A ghost path: reflect at surface j, then at surface i < j.  j < 0: the
+ * main image (no reflection; the same weights: 1 - R at every surface). */
+typedef struct lr__ghost {
+    int j, i;
+} lr__ghost;
+
+#define LR__GHOST_MAX (LR__RX_MAX_SURFACES * (LR__RX_MAX_SURFACES - 1) / 2)
+
+/* Every ghost path of `rx`, N(N-1)/2 of them, ordered by j then i:
+ * fills out (room for LR__GHOST_MAX) and returns how many. */
+int lr__ghost_paths(const lr__rx *rx, lr__ghost *out);
+
+/* 1 when g is air: LR__GLASS_AIR, or a constant index of exactly 1 (a
+ * pbrt file's, or {"nd": 1}). */
+int lr__glass_is_air(const lr__glass *g);
+
+/* 1 when surface i has air on one side and glass on the other (where a
+ * coating goes). */
+int lr__rx_glass_air(const lr__rx *rx, int i);
+
+/* The reflectance of surface i for light crossing it toward the image
+ * (toward_image = 1) or toward the object, at `cos_i` and `nm`;
+ * n_after as lr__rx_indices fills it.  The coating is the surface's own,
+ * or *override for every glass-air surface when override is not NULL
+ * (the camera key issue 29 asks for). */
+double lr__rx_surface_r(const lr__rx *rx, const double *n_after, int i,
+                        int toward_image, double cos_i, double nm,
+                        const lr__coating *override);
+
+/* Traces one ray through ghost path g at wavelength nm: o (before the
+ * first surface) and d (unit, d[2] > 0) in lens coordinates.  Returns 1
+ * when it reaches the plane z = sensor_z (lr__rx_layout's z[rx->n] for
+ * the designer's infinity focus), with hit[0], hit[1] where it lands and
+ * *weight its throughput; 0 when it is lost (missed or blocked surface,
+ * total internal reflection, travelling away from the sensor). */
+int lr__ghost_trace(const lr__rx *rx, const double *z, double nm,
+                    double stop_scale, const lr__coating *override, lr__ghost g,
+                    double sensor_z, const double o[3], const double d[3],
+                    double hit[2], double *weight);
+
+/* ---- a distant point's ghosts (ghost_flux.c) ----------------------------- */
+
+/* One ghost of a distant point: its flux on the sensor over the main
+ * image's, where it falls (the flux-weighted centroid, mm) and how
+ * widely (the rms distance from that centroid, mm). */
+typedef struct lr__ghost_flux {
+    lr__ghost path;
+    double flux, cx, cy, rms;
+} lr__ghost_flux;
+
+/* A distant point at `field_deg` off axis (in the x-z plane) at `nm`,
+ * its beam sampled by grid x grid parallel rays over the first
+ * surface's semi-aperture (each ray the same area of the beam), every
+ * ray traced through the main path and every ghost path to the plane
+ * z[rx->n], counted where it lands within `radius` mm of the axis (<= 0:
+ * anywhere).  Fills out (room for LR__GHOST_MAX) with every ghost path,
+ * brightest first, sets *main to the main image's flux in units of the
+ * beam's (the fraction of the rays' energy reaching the sensor) and
+ * returns how many; 0 when no ray of the main image arrives. */
+int lr__ghost_fluxes(const lr__rx *rx, const lr__coating *override,
+                     double field_deg, double nm, int grid, double radius,
+                     lr__ghost_flux *out, double *main);
+
+#endif
