@@ -51,8 +51,8 @@ static inline double lr__path_mis(double a, double b)
 
 /* Whether path16.c's vector bounce can take this scene's Lambertian
  * hits: no infinite planes, and its only lights are at most 16
- * emitting triangles without textures (no environment, point or
- * directional light).  Cheap: a few fields. */
+ * emitters without textures, all triangles or all spheres (no
+ * environment, point or directional light).  Cheap: a few fields. */
 int lr__path16_scene_ok(const lr_scene *s);
 
 #define LR__PATH16_EMITTERS 16
@@ -73,7 +73,12 @@ typedef struct emitters16 {
     double area[LR__PATH16_EMITTERS];
     double lr[LR__PATH16_EMITTERS], lg[LR__PATH16_EMITTERS],
         lb[LR__PATH16_EMITTERS];
-    int n; /* how many */
+    /* Sphere lamps: centre and radius (the fields above that describe a
+     * triangle are unset). */
+    double cx[LR__PATH16_EMITTERS], cy[LR__PATH16_EMITTERS],
+        cz[LR__PATH16_EMITTERS], rad[LR__PATH16_EMITTERS];
+    int n;      /* how many */
+    int sphere; /* 1: every emitter is a sphere; 0: every one a triangle */
 } emitters16;
 
 /* The sixteen paths of a packet between bounces, as arrays: lane i's
