@@ -872,24 +872,38 @@ static const char *const sphere_lamps_json =
 
 /* path16.c's bounce with sphere lamps (light.c's cone and area samples
  * of a sphere, redone in its loops) gives the lane-by-lane bytes, with a
- * few primitives and with every primitive in Embree. */
+ * few primitives and with every primitive in Embree; and with the
+ * rectangle lamp too (its two triangles and the spheres: each lane's
+ * sample of the kind it picked). */
 static void test_path16_sphere_lamps_match_scalar(void **state)
 {
     (void)state;
-    lr_scene *s = lr_test_load_json(sphere_lamps_json);
-    assert_true(lr__path16_scene_ok(s));
-    assert_int_equal(s->n_emitters, 2);
-    lr_scene_free(s);
-    for (int embree = 0; embree < 2; embree++) {
-        lr__few_triangles_enabled = !embree;
-        lr__few_spheres_enabled = !embree;
-        lr_image *a = lr_test_render_sets(sphere_lamps_json, NULL, 0, "on");
-        lr__path16_enabled = 0;
-        lr_image *b = lr_test_render_sets(sphere_lamps_json, NULL, 0, "off");
-        lr__path16_enabled = 1;
-        lr_test_assert_same_bytes(a, b, "sphere lamps: path16 and lanes");
-        lr_image_free(a);
-        lr_image_free(b);
+    char mixed[4096];
+    const char *rect = "  {\"type\": \"plane\", \"point\": [0, 9.99, -5],"
+                       "   \"normal\": [0, -1, 0], \"size\": 3,"
+                       "   \"material\": \"e\"},";
+    const char *at = strstr(sphere_lamps_json, "\"objects\": [");
+    assert_non_null(at);
+    int k = (int)(at - sphere_lamps_json) + (int)strlen("\"objects\": [");
+    snprintf(mixed, sizeof mixed, "%.*s%s%s", k, sphere_lamps_json, rect,
+             sphere_lamps_json + k);
+    const char *jsons[2] = {sphere_lamps_json, mixed};
+    for (int j = 0; j < 2; j++) {
+        lr_scene *s = lr_test_load_json(jsons[j]);
+        assert_true(lr__path16_scene_ok(s));
+        assert_int_equal(s->n_emitters, j == 0 ? 2 : 4);
+        lr_scene_free(s);
+        for (int embree = 0; embree < 2; embree++) {
+            lr__few_triangles_enabled = !embree;
+            lr__few_spheres_enabled = !embree;
+            lr_image *a = lr_test_render_sets(jsons[j], NULL, 0, "on");
+            lr__path16_enabled = 0;
+            lr_image *b = lr_test_render_sets(jsons[j], NULL, 0, "off");
+            lr__path16_enabled = 1;
+            lr_test_assert_same_bytes(a, b, "sphere lamps: path16 and lanes");
+            lr_image_free(a);
+            lr_image_free(b);
+        }
     }
     lr__few_triangles_enabled = 1;
     lr__few_spheres_enabled = 1;

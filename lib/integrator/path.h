@@ -51,8 +51,8 @@ static inline double lr__path_mis(double a, double b)
 
 /* Whether path16.c's vector bounce can take this scene's Lambertian
  * hits: no infinite planes, and its only lights are at most 16
- * emitters without textures, all triangles or all spheres (no
- * environment, point or directional light).  Cheap: a few fields. */
+ * emitting triangles or spheres without textures (no environment,
+ * point or directional light).  Cheap: a few fields. */
 int lr__path16_scene_ok(const lr_scene *s);
 
 #define LR__PATH16_EMITTERS 16
@@ -77,8 +77,10 @@ typedef struct emitters16 {
      * triangle are unset). */
     double cx[LR__PATH16_EMITTERS], cy[LR__PATH16_EMITTERS],
         cz[LR__PATH16_EMITTERS], rad[LR__PATH16_EMITTERS];
-    int n;      /* how many */
-    int sphere; /* 1: every emitter is a sphere; 0: every one a triangle */
+    double is_sphere[LR__PATH16_EMITTERS]; /* 1.0 or 0.0 (a triangle) */
+    int n;                                 /* how many */
+    int sphere; /* 0: every emitter a triangle; 1: every one a sphere; 2:
+                 * some of each */
 } emitters16;
 
 /* The sixteen paths of a packet between bounces, as arrays: lane i's

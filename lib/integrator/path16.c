@@ -2,7 +2,8 @@
  * path16.c: the path integrator's sixteen paths of a packet kept as
  * arrays (path.h: lr__paths16), and the bounce of the lanes that hit an
  * untextured Lambertian surface (a flat triangle or a sphere) in a
- * scene lit by a few emitting triangles: the hit, ambient light, the
+ * scene lit by a few emitting triangles or spheres: the hit, ambient
+ * light, the
  * light sample, the cosine-weighted BSDF sample and roulette, in
  * structure-of-arrays loops over the lanes that GCC vectorises (double,
  * as path.c).  (A bounce's rays and hashed numbers: path16_rays.c.)
@@ -34,15 +35,9 @@ int lr__path16_scene_ok(const lr_scene *s)
         lr__env_is_light(s) || s->n_emitters == 0 ||
         s->n_emitters > MAX_EMITTERS)
         return 0;
-    /* All triangles or all spheres: the light sample's loop is made for
-     * one kind (a select between both kinds' samples in every lane
-     * would pay for both). */
-    lr__geom_kind kind = s->geoms[s->emitters[0].geom].kind;
-    if (kind != LR__GEOM_TRIANGLES && kind != LR__GEOM_SPHERE)
-        return 0;
     for (size_t i = 0; i < s->n_emitters; i++) {
         const lr__geom *g = &s->geoms[s->emitters[i].geom];
-        if (g->kind != kind ||
+        if ((g->kind != LR__GEOM_TRIANGLES && g->kind != LR__GEOM_SPHERE) ||
             lr__material_textured(&s->materials[g->material]))
             return 0;
     }
@@ -80,9 +75,13 @@ static void emitters_get(const lr_scene *s, emitters16 *E)
         const lr__geom *G = &s->geoms[e->geom];
         E->cx[i] = G->center.x, E->cy[i] = G->center.y;
         E->cz[i] = G->center.z, E->rad[i] = G->radius;
+        E->is_sphere[i] = G->kind == LR__GEOM_SPHERE;
     }
     E->n = (int)n;
-    E->sphere = s->geoms[s->emitters[0].geom].kind == LR__GEOM_SPHERE;
+    int spheres = 0;
+    for (size_t i = 0; i < n; i++)
+        spheres += E->is_sphere[i] != 0.0;
+    E->sphere = spheres == 0 ? 0 : spheres == (int)n ? 1 : 2;
 }
 
 /* The scalar code's material test for a Lambertian surface (scene.c's
@@ -203,6 +202,7 @@ typedef struct sphere16 {
     double d[16];                  /* its distance */
     double lpdf[16];               /* solid-angle density, pick included */
     double ok[16];                 /* 1.0 if a sample was made, else 0.0 */
+    double is[16];                 /* 1.0 if the lamp picked is a sphere */
     double cx[16], cy[16], cz[16], rad[16];
     double lr[16], lg[16], lb[16];
 } sphere16;
@@ -241,6 +241,7 @@ sphere_samples(const double (*restrict u)[16], const emitters16 *restrict E,
         Q->rad[i] = E->rad[k], Q->lpdf[i] = E->prob[k];
         Q->lr[i] = E->lr[k], Q->lg[i] = E->lg[k], Q->lb[i] = E->lb[k];
         Q->d[i] = E->area[k]; /* (the area, until the loop below) */
+        Q->is[i] = E->is_sphere[k];
     }
     double cph[16], sph[16];
     sphere_angles(u, H, cph, sph);
@@ -317,8 +318,9 @@ sphere_samples(const double (*restrict u)[16], const emitters16 *restrict E,
 
 /* lambert16's loop over the lanes; `two` and `sph` constant in each
  * call, so that GCC makes one loop for each (a select on it in one loop
- * kept the loop from vectorising).  sph: the lamps are spheres, their
- * samples in Q (else triangles, from E or K). */
+ * kept the loop from vectorising).  sph: 0 if the lamps are triangles
+ * (from E or K), 1 if spheres (their samples in Q), 2 if some of each
+ * (both computed, and each lane's taken as Q->is says). */
 static inline __attribute__((always_inline)) void
 lanes16(lr__v3 amb, int rr, const double (*restrict u)[16],
         const emitters16 *restrict E, const lr__hits16p *restrict H,
@@ -386,7 +388,8 @@ lanes16(lr__v3 amb, int rr, const double (*restrict u)[16],
 
         /* ---- the light sample (light.c, path.c's next_event) ---- */
         double lx, ly, lz, d, lpdf, shadow, ler, leg, leb;
-        if (sph) {
+        int lamp = sph == 1 || (sph == 2 && Q->is[i] != 0.0);
+        if (sph == 1) {
             lx = Q->lx[i], ly = Q->ly[i], lz = Q->lz[i];
             d = Q->d[i], lpdf = Q->lpdf[i], shadow = Q->ok[i];
             ler = Q->lr[i], leg = Q->lg[i], leb = Q->lb[i];
@@ -414,6 +417,13 @@ lanes16(lr__v3 amb, int rr, const double (*restrict u)[16],
             shadow = lpdf > 0.0 ? shadow : 0.0;
             ler = EF(ler, lr), leg = EF(leg, lg), leb = EF(leb, lb);
         }
+        if (sph == 2) {
+            lx = lamp ? Q->lx[i] : lx, ly = lamp ? Q->ly[i] : ly;
+            lz = lamp ? Q->lz[i] : lz, d = lamp ? Q->d[i] : d;
+            lpdf = lamp ? Q->lpdf[i] : lpdf, shadow = lamp ? Q->ok[i] : shadow;
+            ler = lamp ? Q->lr[i] : ler, leg = lamp ? Q->lg[i] : leg;
+            leb = lamp ? Q->lb[i] : leb;
+        }
         /* lr__bsdf_eval: the diffuse lobe, both sides above. */
         double wil_z = lx * gx + ly * gy + lz * gz;
         double above = wil_z > 0.0 ? (wol_z > 0.0 ? 1.0 : 0.0) : 0.0;
@@ -432,21 +442,30 @@ lanes16(lr__v3 amb, int rr, const double (*restrict u)[16],
         double side = lx * gx + ly * gy + lz * gz >= 0.0 ? 1.0 : -1.0;
         double sox = px + gx * (side * eps), soy = py + gy * (side * eps),
                soz = pz + gz * (side * eps);
-        double stfar, sdx, sdy, sdz;
+        double stfar = 0.0, sdx = 0.0, sdy = 0.0, sdz = 0.0;
+        if (sph != 1) {
+            double ex = (px + lx * d) - sox, ey = (py + ly * d) - soy,
+                   ez = (pz + lz * d) - soz;
+            /* Aimed from the moved origin at the sampled point, as
+             * path.c's next_event aims at a triangle's. */
+            double elen = sqrt(ex * ex + ey * ey + ez * ez);
+            stfar = isfinite(d) ? elen * (1.0 - 1e-4) : INFINITY;
+            sdx = ex / elen, sdy = ey / elen, sdz = ez / elen;
+        }
         if (sph) {
             /* path.c's next_event for a sphere lamp: the origin as
              * Embree's float ray holds it, the sampled direction kept,
              * stopped where the ray enters the lamp if that comes first
              * (lr__light_reach). */
             int fin = isfinite(d);
-            sox = fin ? (double)(float)sox : sox;
-            soy = fin ? (double)(float)soy : soy;
-            soz = fin ? (double)(float)soz : soz;
-            double ex = (px + lx * d) - sox, ey = (py + ly * d) - soy,
-                   ez = (pz + lz * d) - soz;
+            double fx = fin ? (double)(float)sox : sox;
+            double fy = fin ? (double)(float)soy : soy;
+            double fz = fin ? (double)(float)soz : soz;
+            double ex = (px + lx * d) - fx, ey = (py + ly * d) - fy,
+                   ez = (pz + lz * d) - fz;
             double elen = sqrt(ex * ex + ey * ey + ez * ez);
-            double ocx = sox - Q->cx[i], ocy = soy - Q->cy[i],
-                   ocz = soz - Q->cz[i];
+            double ocx = fx - Q->cx[i], ocy = fy - Q->cy[i],
+                   ocz = fz - Q->cz[i];
             double ob = ocx * lx + ocy * ly + ocz * lz;
             double oc = (ocx * ocx + ocy * ocy + ocz * ocz) -
                         Q->rad[i] * Q->rad[i];
@@ -456,16 +475,11 @@ lanes16(lr__v3 amb, int rr, const double (*restrict u)[16],
                                    enter < elen
                                ? enter
                                : elen;
-            stfar = fin ? reach * (1.0 - 1e-4) : INFINITY;
-            sdx = lx, sdy = ly, sdz = lz;
-        } else {
-            double ex = (px + lx * d) - sox, ey = (py + ly * d) - soy,
-                   ez = (pz + lz * d) - soz;
-            /* Aimed from the moved origin at the sampled point, as
-             * path.c's next_event aims at a triangle's. */
-            double elen = sqrt(ex * ex + ey * ey + ez * ez);
-            stfar = isfinite(d) ? elen * (1.0 - 1e-4) : INFINITY;
-            sdx = ex / elen, sdy = ey / elen, sdz = ez / elen;
+            double sf = fin ? reach * (1.0 - 1e-4) : INFINITY;
+            sox = lamp ? fx : sox, soy = lamp ? fy : soy;
+            soz = lamp ? fz : soz, stfar = lamp ? sf : stfar;
+            sdx = lamp ? lx : sdx, sdy = lamp ? ly : sdy;
+            sdz = lamp ? lz : sdz;
         }
 
         /* ---- the BSDF sample (lr__bsdf_sample: the diffuse lobe) ---- */
@@ -547,13 +561,13 @@ lambert16(lr__v3 amb, int rr, const double (*restrict u)[16],
      * copied lane by lane first (a select per emitter in a loop of its
      * own kept GCC from vectorising, as did gathers in the loop). */
     picked16 K;
-    if (E->sphere) {
-        sphere16 Q;
+    sphere16 Q;
+    if (E->sphere == 1) {
         sphere_samples(u, E, H, S, pick, &Q);
         lanes16(amb, rr, u, E, H, S, pick, &K, &Q, 0, 1);
         return;
     }
-    if (E->n <= 2) {
+    if (E->n <= 2 && E->sphere == 0) {
         lanes16(amb, rr, u, E, H, S, pick, &K, NULL, 1, 0);
         return;
     }
@@ -565,6 +579,11 @@ lambert16(lr__v3 amb, int rr, const double (*restrict u)[16],
         K.nx[i] = E->nx[k], K.ny[i] = E->ny[k], K.nz[i] = E->nz[k];
         K.area[i] = E->area[k], K.prob[i] = E->prob[k];
         K.lr[i] = E->lr[k], K.lg[i] = E->lg[k], K.lb[i] = E->lb[k];
+    }
+    if (E->sphere == 2) {
+        sphere_samples(u, E, H, S, pick, &Q);
+        lanes16(amb, rr, u, E, H, S, pick, &K, &Q, 0, 2);
+        return;
     }
     lanes16(amb, rr, u, E, H, S, pick, &K, NULL, 0, 0);
 }
