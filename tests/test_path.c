@@ -821,6 +821,20 @@ static void test_path_on_every_embree_isa(void **state)
     lr_test_isa_means_agree(mean, isa, n_isa);
 }
 
+/* The scene rendered with path16.c's vector bounce and without it (every
+ * lane shaded alone in path.c): the same bytes. */
+static void same_with_path16_off(const char *json, const char *const *sets,
+                                 int n_sets, const char *what)
+{
+    lr_image *a = lr_test_render_sets(json, sets, n_sets, "path16 on");
+    lr__path16_enabled = 0;
+    lr_image *b = lr_test_render_sets(json, sets, n_sets, "path16 off");
+    lr__path16_enabled = 1;
+    lr_test_assert_same_bytes(a, b, what);
+    lr_image_free(a);
+    lr_image_free(b);
+}
+
 /* path16.c's sixteen-lane bounce on Lambertian triangles gives what the
  * lane-by-lane code gives, to the byte: the Cornell box (walls and light
  * triangles, a diffuse and a metal sphere: both routes in one packet),
@@ -842,13 +856,7 @@ static void test_path16_matches_scalar(void **state)
         lr_scene *s = lr_test_load_json(jsons[j]);
         assert_true(lr__path16_scene_ok(s));
         lr_scene_free(s);
-        lr_image *a = lr_test_render_sets(jsons[j], sets, 3, "path16 on");
-        lr__path16_enabled = 0;
-        lr_image *b = lr_test_render_sets(jsons[j], sets, 3, "path16 off");
-        lr__path16_enabled = 1;
-        lr_test_assert_same_bytes(a, b, "path16 against lane by lane");
-        lr_image_free(a);
-        lr_image_free(b);
+        same_with_path16_off(jsons[j], sets, 3, "path16 against lane by lane");
     }
 }
 
@@ -896,13 +904,7 @@ static void test_path16_sphere_lamps_match_scalar(void **state)
         for (int embree = 0; embree < 2; embree++) {
             lr__few_triangles_enabled = !embree;
             lr__few_spheres_enabled = !embree;
-            lr_image *a = lr_test_render_sets(jsons[j], NULL, 0, "on");
-            lr__path16_enabled = 0;
-            lr_image *b = lr_test_render_sets(jsons[j], NULL, 0, "off");
-            lr__path16_enabled = 1;
-            lr_test_assert_same_bytes(a, b, "sphere lamps: path16 and lanes");
-            lr_image_free(a);
-            lr_image_free(b);
+            same_with_path16_off(jsons[j], NULL, 0, "sphere lamps");
         }
     }
     lr__few_triangles_enabled = 1;
