@@ -136,7 +136,8 @@ void lr__path16_begin(const lr_scene *s, lr__path16 *w,
 /* Sorts the live lanes of 0..n-1 at bounce `depth` (rh: the answer for
  * the rays w->S holds, or at depth 0 the camera's): those the vector
  * bounce takes (an untextured Lambertian flat triangle or sphere, at a
- * depth <= max_depth, in a scene lr__path16_scene_ok accepts) get
+ * depth <= max_depth, in a scene lr__path16_scene_ok accepts, when more
+ * than two lanes are live) get
  * w->H.take and their hit in w->H; in such a scene a lane whose ray
  * left it is done here (its background light added); the others are
  * listed in alone[], in order, their count returned.  Clears every
