@@ -748,33 +748,38 @@ static void test_path_is_deterministic(void **state)
     }
 }
 
-/* The Cornell box of bench/path/scenes.py (open to the camera), small. */
+/* The Cornell box of bench/path/scenes.py (open to the camera), small:
+ * its camera, its five walls and its two spheres (diffuse, and rough
+ * metal), lit by an emitting rectangle under the ceiling. */
+#define BOX_CAMERA                                                    \
+    " \"camera\": {\"position\": [0, 5, 16], \"look_at\": [0, 5, 0]," \
+    "  \"fov\": 40},"
+#define BOX_WALLS                                                             \
+    "  {\"type\": \"plane\", \"point\": [0, 0, -5], \"normal\": [0, 1, 0],"   \
+    "   \"size\": 10, \"material\": \"w\"},"                                  \
+    "  {\"type\": \"plane\", \"point\": [0, 10, -5], \"normal\": [0, -1, 0]," \
+    "   \"size\": 10, \"material\": \"w\"},"                                  \
+    "  {\"type\": \"plane\", \"point\": [0, 5, -10], \"normal\": [0, 0, 1],"  \
+    "   \"size\": 10, \"material\": \"w\"},"                                  \
+    "  {\"type\": \"plane\", \"point\": [-5, 5, -5], \"normal\": [1, 0, 0],"  \
+    "   \"size\": 10, \"material\": \"w\"},"                                  \
+    "  {\"type\": \"plane\", \"point\": [5, 5, -5], \"normal\": [-1, 0, 0],"  \
+    "   \"size\": 10, \"material\": \"w\"},"
+#define BOX_SPHERES                                                      \
+    "  {\"type\": \"sphere\", \"center\": [-2, 2, -6.5], \"radius\": 2," \
+    "   \"material\": \"w\"},"                                           \
+    "  {\"type\": \"sphere\", \"center\": [2.2, 1.8, -3],"               \
+    "   \"radius\": 1.8, \"material\": \"m\"}]}"
 static const char *const cornell_json =
     "{\"render\": {\"width\": 24, \"height\": 16, \"spp\": 20,"
     "  \"integrator\": \"path\", \"adaptive\": false, \"max_depth\": 6,"
-    "  \"plan\": false, \"threads\": 1},"
-    " \"camera\": {\"position\": [0, 5, 16], \"look_at\": [0, 5, 0],"
-    "  \"fov\": 40},"
+    "  \"plan\": false, \"threads\": 1}," BOX_CAMERA
     " \"materials\": {\"w\": {\"diffuse\": 0.75},"
     "  \"m\": {\"reflect\": 0.9, \"roughness\": 0.25},"
     "  \"e\": {\"diffuse\": 0, \"emission\": 30}},"
-    " \"objects\": ["
-    "  {\"type\": \"plane\", \"point\": [0, 0, -5], \"normal\": [0, 1, 0],"
-    "   \"size\": 10, \"material\": \"w\"},"
-    "  {\"type\": \"plane\", \"point\": [0, 10, -5], \"normal\": [0, -1, 0],"
-    "   \"size\": 10, \"material\": \"w\"},"
-    "  {\"type\": \"plane\", \"point\": [0, 5, -10], \"normal\": [0, 0, 1],"
-    "   \"size\": 10, \"material\": \"w\"},"
-    "  {\"type\": \"plane\", \"point\": [-5, 5, -5], \"normal\": [1, 0, 0],"
-    "   \"size\": 10, \"material\": \"w\"},"
-    "  {\"type\": \"plane\", \"point\": [5, 5, -5], \"normal\": [-1, 0, 0],"
-    "   \"size\": 10, \"material\": \"w\"},"
+    " \"objects\": [" BOX_WALLS
     "  {\"type\": \"plane\", \"point\": [0, 9.99, -5],"
-    "   \"normal\": [0, -1, 0], \"size\": 3, \"material\": \"e\"},"
-    "  {\"type\": \"sphere\", \"center\": [-2, 2, -6.5], \"radius\": 2,"
-    "   \"material\": \"w\"},"
-    "  {\"type\": \"sphere\", \"center\": [2.2, 1.8, -3],"
-    "   \"radius\": 1.8, \"material\": \"m\"}]}";
+    "   \"normal\": [0, -1, 0], \"size\": 3, \"material\": \"e\"}," BOX_SPHERES;
 
 /* Embree's code for CPUs without AVX-512 checks the rays of masked-off
  * packet lanes and aborts on garbage (an assertion on tnear >= 0): the
@@ -816,6 +821,20 @@ static void test_path_on_every_embree_isa(void **state)
     lr_test_isa_means_agree(mean, isa, n_isa);
 }
 
+/* The scene rendered with path16.c's vector bounce and without it (every
+ * lane shaded alone in path.c): the same bytes. */
+static void same_with_path16_off(const char *json, const char *const *sets,
+                                 int n_sets, const char *what)
+{
+    lr_image *a = lr_test_render_sets(json, sets, n_sets, "path16 on");
+    lr__path16_enabled = 0;
+    lr_image *b = lr_test_render_sets(json, sets, n_sets, "path16 off");
+    lr__path16_enabled = 1;
+    lr_test_assert_same_bytes(a, b, what);
+    lr_image_free(a);
+    lr_image_free(b);
+}
+
 /* path16.c's sixteen-lane bounce on Lambertian triangles gives what the
  * lane-by-lane code gives, to the byte: the Cornell box (walls and light
  * triangles, a diffuse and a metal sphere: both routes in one packet),
@@ -837,14 +856,59 @@ static void test_path16_matches_scalar(void **state)
         lr_scene *s = lr_test_load_json(jsons[j]);
         assert_true(lr__path16_scene_ok(s));
         lr_scene_free(s);
-        lr_image *a = lr_test_render_sets(jsons[j], sets, 3, "path16 on");
-        lr__path16_enabled = 0;
-        lr_image *b = lr_test_render_sets(jsons[j], sets, 3, "path16 off");
-        lr__path16_enabled = 1;
-        lr_test_assert_same_bytes(a, b, "path16 against lane by lane");
-        lr_image_free(a);
-        lr_image_free(b);
+        same_with_path16_off(jsons[j], sets, 3, "path16 against lane by lane");
     }
+}
+
+/* The same box lit by two sphere lamps: a small one under the ceiling,
+ * and a large one sunk into the floor by the back wall, so that floor
+ * points inside it sample it by area (light.c's other branch); max
+ * depth 64, as issue 30's full-length paths. */
+static const char *const sphere_lamps_json =
+    "{\"render\": {\"width\": 24, \"height\": 16, \"spp\": 32,"
+    "  \"integrator\": \"path\", \"adaptive\": false, \"max_depth\": 64,"
+    "  \"plan\": false, \"threads\": 2}," BOX_CAMERA
+    " \"materials\": {\"w\": {\"diffuse\": 0.75},"
+    "  \"m\": {\"reflect\": 0.9, \"roughness\": 0.25},"
+    "  \"e\": {\"diffuse\": 0, \"emission\": 30},"
+    "  \"f\": {\"diffuse\": 0, \"emission\": [2, 1, 0.5]}},"
+    " \"objects\": [" BOX_WALLS
+    "  {\"type\": \"sphere\", \"center\": [0, 8.6, -5], \"radius\": 0.8,"
+    "   \"material\": \"e\"},"
+    "  {\"type\": \"sphere\", \"center\": [3, 0, -8], \"radius\": 1.5,"
+    "   \"material\": \"f\"}," BOX_SPHERES;
+
+/* path16.c's bounce with sphere lamps (light.c's cone and area samples
+ * of a sphere, redone in its loops) gives the lane-by-lane bytes, with a
+ * few primitives and with every primitive in Embree; and with the
+ * rectangle lamp too (its two triangles and the spheres: each lane's
+ * sample of the kind it picked). */
+static void test_path16_sphere_lamps_match_scalar(void **state)
+{
+    (void)state;
+    char mixed[4096];
+    const char *rect = "  {\"type\": \"plane\", \"point\": [0, 9.99, -5],"
+                       "   \"normal\": [0, -1, 0], \"size\": 3,"
+                       "   \"material\": \"e\"},";
+    const char *at = strstr(sphere_lamps_json, "\"objects\": [");
+    assert_non_null(at);
+    int k = (int)(at - sphere_lamps_json) + (int)strlen("\"objects\": [");
+    snprintf(mixed, sizeof mixed, "%.*s%s%s", k, sphere_lamps_json, rect,
+             sphere_lamps_json + k);
+    const char *jsons[2] = {sphere_lamps_json, mixed};
+    for (int j = 0; j < 2; j++) {
+        lr_scene *s = lr_test_load_json(jsons[j]);
+        assert_true(lr__path16_scene_ok(s));
+        assert_int_equal(s->n_emitters, j == 0 ? 2 : 4);
+        lr_scene_free(s);
+        for (int embree = 0; embree < 2; embree++) {
+            lr__few_triangles_enabled = !embree;
+            lr__few_spheres_enabled = !embree;
+            same_with_path16_off(jsons[j], NULL, 0, "sphere lamps");
+        }
+    }
+    lr__few_triangles_enabled = 1;
+    lr__few_spheres_enabled = 1;
 }
 
 /* spheres.c's spheres, met in double beside Embree's scene without
@@ -1179,6 +1243,7 @@ static const struct CMUnitTest tests[] = {
     cmocka_unit_test(test_path_is_deterministic),
     cmocka_unit_test(test_path_on_every_embree_isa),
     cmocka_unit_test(test_path16_matches_scalar),
+    cmocka_unit_test(test_path16_sphere_lamps_match_scalar),
     cmocka_unit_test(test_few_spheres_match_embree),
     cmocka_unit_test(test_few_triangles_match_embree),
     cmocka_unit_test(test_ggx_visible_normals_integrate_to_one),

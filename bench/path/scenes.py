@@ -94,7 +94,20 @@ BUNNY_BOX = dict(CORNELL, name='bunny-box', objects=[
     o for o in CORNELL['objects'] if o.get('radius') != 2] + [
     {'type': 'mesh', 'file': os.path.abspath(BUNNY), 'smooth': False,
      'material': 'white', 'scale': 0.45, 'translate': [-2, 0, -6.5]}])
-SPEED_SCENES = {'cornell': CORNELL, 'bunny-box': BUNNY_BOX}
+# The Cornell box lit by a sphere lamp in place of the ceiling's
+# rectangle (issue 30's full-length paths: max_depth 64, roulette from the
+# fifth surface, as Mitsuba runs by default).  Both renderers sample a
+# sphere seen from outside uniformly in the cone it subtends (lensray's
+# light.c; Mitsuba's sphere.cpp sample_direction).
+CORNELL_SPHERE = dict(CORNELL, name='cornell-sphere', materials=dict(
+    CORNELL['materials'], light={'diffuse': [0, 0, 0],
+                                 'emission': [30, 26, 20]}), objects=[
+    o for o in CORNELL['objects'] if o['material'] != 'light'] + [
+    {'type': 'sphere', 'center': [0, 8.6, -5], 'radius': 0.8,
+     'material': 'light'}])
+SCENES['cornell-sphere'] = CORNELL_SPHERE
+SPEED_SCENES = {'cornell': CORNELL, 'bunny-box': BUNNY_BOX,
+                'cornell-sphere': CORNELL_SPHERE}
 
 
 def sky(w=128, h=64):

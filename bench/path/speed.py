@@ -3,7 +3,10 @@
 Mitsuba 3 `llvm_ad_rgb` with its `path` integrator, side by side in one run.
 
 Both render the same scene description at 128 x 128, max_depth 6 here
-(Mitsuba's 8: the same paths).  Reported, not asserted:
+(Mitsuba's 8: the same paths; --depth 64, Mitsuba's 66, for full-length
+paths, which only Russian roulette ends: both play it from the fifth
+surface on, survival min(0.95, max throughput x eta^2), lensray's path.c
+and Mitsuba's default rr_depth 5).  Reported, not asserted:
   * samples per second: W H spp / t at --spp and 2 --spp, the rate from
     the difference (so start-up, scene build and Mitsuba's kernel
     compilation drop out), best of --repeat;
@@ -78,10 +81,11 @@ def main():
                          'accel.robust=false (Mitsuba traces without '
                          'robust traversal)')
     ap.add_argument('--scene', default='cornell', choices=sorted(scenes.SPEED_SCENES),
-                    help='the Cornell box (the issue\'s scene), or it with the '
-                         'bunny, traced with Embree')
+                    help='the Cornell box (the issue\'s scene), it with the '
+                         'bunny, traced with Embree, or lit by a sphere lamp')
     ap.add_argument('--size', type=int, default=128)
-    ap.add_argument('--depth', type=int, default=6)
+    ap.add_argument('--depth', type=int, default=6,
+                    help="lensray's max_depth (0 to 64); Mitsuba's is this + 2")
     ap.add_argument('--spp', type=int, default=64, help='timing spp')
     ap.add_argument('--repeat', type=int, default=2)
     ap.add_argument('--ref-spp', type=int, default=8192)

@@ -51,8 +51,8 @@ static inline double lr__path_mis(double a, double b)
 
 /* Whether path16.c's vector bounce can take this scene's Lambertian
  * hits: no infinite planes, and its only lights are at most 16
- * emitting triangles without textures (no environment, point or
- * directional light).  Cheap: a few fields. */
+ * emitting triangles or spheres without textures (no environment,
+ * point or directional light).  Cheap: a few fields. */
 int lr__path16_scene_ok(const lr_scene *s);
 
 #define LR__PATH16_EMITTERS 16
@@ -73,7 +73,14 @@ typedef struct emitters16 {
     double area[LR__PATH16_EMITTERS];
     double lr[LR__PATH16_EMITTERS], lg[LR__PATH16_EMITTERS],
         lb[LR__PATH16_EMITTERS];
-    int n; /* how many */
+    /* Sphere lamps: centre and radius (the fields above that describe a
+     * triangle are unset). */
+    double cx[LR__PATH16_EMITTERS], cy[LR__PATH16_EMITTERS],
+        cz[LR__PATH16_EMITTERS], rad[LR__PATH16_EMITTERS];
+    double is_sphere[LR__PATH16_EMITTERS]; /* 1.0 or 0.0 (a triangle) */
+    int n;                                 /* how many */
+    int sphere; /* 0: every emitter a triangle; 1: every one a sphere; 2:
+                 * some of each */
 } emitters16;
 
 /* The sixteen paths of a packet between bounces, as arrays: lane i's
@@ -129,7 +136,8 @@ void lr__path16_begin(const lr_scene *s, lr__path16 *w,
 /* Sorts the live lanes of 0..n-1 at bounce `depth` (rh: the answer for
  * the rays w->S holds, or at depth 0 the camera's): those the vector
  * bounce takes (an untextured Lambertian flat triangle or sphere, at a
- * depth <= max_depth, in a scene lr__path16_scene_ok accepts) get
+ * depth <= max_depth, in a scene lr__path16_scene_ok accepts, when more
+ * than two lanes are live) get
  * w->H.take and their hit in w->H; in such a scene a lane whose ray
  * left it is done here (its background light added); the others are
  * listed in alone[], in order, their count returned.  Clears every

@@ -2,7 +2,8 @@
  * path16.c: the path integrator's sixteen paths of a packet kept as
  * arrays (path.h: lr__paths16), and the bounce of the lanes that hit an
  * untextured Lambertian surface (a flat triangle or a sphere) in a
- * scene lit by a few emitting triangles: the hit, ambient light, the
+ * scene lit by a few emitting triangles or spheres: the hit, ambient
+ * light, the
  * light sample, the cosine-weighted BSDF sample and roulette, in
  * structure-of-arrays loops over the lanes that GCC vectorises (double,
  * as path.c).  (A bounce's rays and hashed numbers: path16_rays.c.)
@@ -27,6 +28,14 @@
 int lr__path16_enabled = 1;
 
 #define MAX_EMITTERS LR__PATH16_EMITTERS
+/* A bounce with this many live lanes or fewer shades them alone
+ * (path.c), the same bytes: past roulette's start (the fifth surface) a
+ * packet of the sphere-lit box of bench/path at max depth 64 has 1.35
+ * live lanes on average, and lambert16 costs about the same for one
+ * lane as for sixteen.  The box: 3.53 -> 3.39 CPU s at 256 spp, its
+ * max-depth-6 twin lit by a rectangle 2.67 -> 2.64 (medians of 7
+ * interleaved runs, one thread; 1 and 3 gave less). */
+#define FEW_LIVE 2
 
 int lr__path16_scene_ok(const lr_scene *s)
 {
@@ -36,7 +45,7 @@ int lr__path16_scene_ok(const lr_scene *s)
         return 0;
     for (size_t i = 0; i < s->n_emitters; i++) {
         const lr__geom *g = &s->geoms[s->emitters[i].geom];
-        if (g->kind != LR__GEOM_TRIANGLES ||
+        if ((g->kind != LR__GEOM_TRIANGLES && g->kind != LR__GEOM_SPHERE) ||
             lr__material_textured(&s->materials[g->material]))
             return 0;
     }
@@ -71,8 +80,16 @@ static void emitters_get(const lr_scene *s, emitters16 *E)
         E->area[i] = e->area;
         lr__v3 le = s->materials[s->geoms[e->geom].material].emission;
         E->lr[i] = le.x, E->lg[i] = le.y, E->lb[i] = le.z;
+        const lr__geom *G = &s->geoms[e->geom];
+        E->cx[i] = G->center.x, E->cy[i] = G->center.y;
+        E->cz[i] = G->center.z, E->rad[i] = G->radius;
+        E->is_sphere[i] = G->kind == LR__GEOM_SPHERE;
     }
     E->n = (int)n;
+    int spheres = 0;
+    for (size_t i = 0; i < n; i++)
+        spheres += E->is_sphere[i] != 0.0;
+    E->sphere = spheres == 0 ? 0 : spheres == (int)n ? 1 : 2;
 }
 
 /* The scalar code's material test for a Lambertian surface (scene.c's
@@ -127,6 +144,7 @@ int lr__path16_sort(const lr_scene *s, lr__path16 *w, int depth, int max_depth,
     (void)n; /* (lanes n..15 are never alive) */
     int live[16];
     int nl = lr__path16_lanes_of(S->alive, live);
+    vec = vec && nl > FEW_LIVE;
     for (int i = 0; i < 16; i++) {
         S->shadow[i] = 0.0;
         H->take[i] = 0.0;
@@ -186,14 +204,138 @@ typedef struct picked16 {
         lb[16];
 } picked16;
 
-/* lambert16's loop over the lanes; `two` constant in each call, so
- * that GCC makes one loop for each (a select on it in one loop kept the
- * loop from vectorising). */
+/* Each lane's sample of a sphere lamp (sphere_samples), for lanes16:
+ * what light.c's lr__light_sample_from returns, and the lamp. */
+typedef struct sphere16 {
+    double lx[16], ly[16], lz[16]; /* unit direction to the point */
+    double d[16];                  /* its distance */
+    double lpdf[16];               /* solid-angle density, pick included */
+    double ok[16];                 /* 1.0 if a sample was made, else 0.0 */
+    double is[16];                 /* 1.0 if the lamp picked is a sphere */
+    double cx[16], cy[16], cz[16], rad[16];
+    double lr[16], lg[16], lb[16];
+} sphere16;
+
+/* cos and sin of 2 pi u[1][i] for the taken lanes, by libm as light.c
+ * takes them (a polynomial of our own would change the samples' bits),
+ * outside the vector loop: GCC calls libm lane by lane anyway. */
+static void sphere_angles(const double (*restrict u)[16],
+                          const lr__hits16p *restrict H, double cph[16],
+                          double sph[16])
+{
+    for (int i = 0; i < 16; i++) {
+        cph[i] = sph[i] = 0.0;
+        if (H->take[i] != 0.0) {
+            double phi = 2.0 * M_PI * u[1][i];
+            cph[i] = cos(phi);
+            sph[i] = sin(phi);
+        }
+    }
+}
+
+/* The light sample of each lane on a sphere lamp: light.c's
+ * sample_emitter for a sphere (uniform in the cone it subtends from
+ * outside, pbrt-v3 section 14.2.2; by area from inside) and the checks
+ * of lr__light_sample_from, operation for operation, both sides
+ * computed and selected. */
+static inline __attribute__((always_inline)) void
+sphere_samples(const double (*restrict u)[16], const emitters16 *restrict E,
+               const lr__hits16p *restrict H, const lr__paths16 *restrict S,
+               const double *restrict pick, sphere16 *restrict Q)
+{
+    /* The picked lamp, lane by lane (as lambert16 copies triangles). */
+    for (int i = 0; i < 16; i++) {
+        int k = (int)pick[i];
+        Q->cx[i] = E->cx[k], Q->cy[i] = E->cy[k], Q->cz[i] = E->cz[k];
+        Q->rad[i] = E->rad[k], Q->lpdf[i] = E->prob[k];
+        Q->lr[i] = E->lr[k], Q->lg[i] = E->lg[k], Q->lb[i] = E->lb[k];
+        Q->d[i] = E->area[k]; /* (the area, until the loop below) */
+        Q->is[i] = E->is_sphere[k];
+    }
+    double cph[16], sph[16];
+    sphere_angles(u, H, cph, sph);
+    for (int i = 0; i < 16; i++) {
+        /* The hit point, as lanes16 computes it. */
+        double t = H->t[i];
+        double px = S->ox[i] + H->dx[i] * t, py = S->oy[i] + H->dy[i] * t,
+               pz = S->oz[i] + H->dz[i] * t;
+        double cx = Q->cx[i], cy = Q->cy[i], cz = Q->cz[i], r = Q->rad[i];
+        double area = Q->d[i];
+        double wcx = cx - px, wcy = cy - py, wcz = cz - pz;
+        double dc = sqrt(wcx * wcx + wcy * wcy + wcz * wcz);
+        int inside = dc <= r * (1.0 + 1e-9);
+        double u0 = u[0][i];
+        /* Inside: z = 1 - 2 u0, the point at the normal. */
+        double z = 1.0 - 2.0 * u0, zz = 1.0 - z * z;
+        double sr = sqrt(zz > 0.0 ? zz : 0.0);
+        double inx = sr * cph[i], iny = sr * sph[i], inz = z;
+        double iqx = cx + inx * r, iqy = cy + iny * r, iqz = cz + inz * r;
+        double itx = iqx - px, ity = iqy - py, itz = iqz - pz;
+        double id2 = itx * itx + ity * ity + itz * itz;
+        double is = 1.0 / sqrt(id2);
+        double icl = fabs(inx * (itx * is) + iny * (ity * is) +
+                          inz * (itz * is));
+        double ipdf = icl > 0.0 ? (area > 0.0 ? id2 / (area * icl) : 0.0) : 0.0;
+        /* Outside: the cone about the direction to the centre. */
+        double iw = 1.0 / dc;
+        double wx = wcx * iw, wy = wcy * iw, wz = wcz * iw;
+        double sin2 = r * r / (dc * dc), cm = 1.0 - sin2;
+        double cos_max = sqrt(cm > 0.0 ? cm : 0.0);
+        double omc = sin2 / (1.0 + cos_max);
+        double cos_t = 1.0 - u0 * omc, st = 1.0 - cos_t * cos_t;
+        double sin_t = sqrt(st > 0.0 ? st : 0.0);
+        double ax = fabs(wx) > 0.9 ? 0.0 : 1.0;
+        double ay = fabs(wx) > 0.9 ? 1.0 : 0.0, az = 0.0;
+        double c1x = ay * wz - az * wy, c1y = az * wx - ax * wz,
+               c1z = ax * wy - ay * wx;
+        double l1 = sqrt(c1x * c1x + c1y * c1y + c1z * c1z), il1 = 1.0 / l1;
+        double t1x = l1 > 0 ? c1x * il1 : c1x, t1y = l1 > 0 ? c1y * il1 : c1y,
+               t1z = l1 > 0 ? c1z * il1 : c1z;
+        double t2x = wy * t1z - wz * t1y, t2y = wz * t1x - wx * t1z,
+               t2z = wx * t1y - wy * t1x;
+        double sc = sin_t * cph[i], ss = sin_t * sph[i];
+        double ux = wx * cos_t + (t1x * sc + t2x * ss);
+        double uy = wy * cos_t + (t1y * sc + t2y * ss);
+        double uz = wz * cos_t + (t1z * sc + t2z * ss);
+        double b = dc * cos_t, h2 = r * r - dc * dc * sin_t * sin_t;
+        double tq = b - sqrt(h2 > 0.0 ? h2 : 0.0);
+        double oqx = px + ux * tq, oqy = py + uy * tq, oqz = pz + uz * tq;
+        double opdf = omc > 0.0 ? 1.0 / (2.0 * M_PI * omc) : 0.0;
+        /* The point, its normal (v3_norm) and density, by the side. */
+        double qx = inside ? iqx : oqx, qy = inside ? iqy : oqy,
+               qz = inside ? iqz : oqz;
+        double mx = qx - cx, my = qy - cy, mz = qz - cz;
+        double ml = sqrt(mx * mx + my * my + mz * mz), iml = 1.0 / ml;
+        double onx = ml > 0 ? mx * iml : mx, ony = ml > 0 ? my * iml : my,
+               onz = ml > 0 ? mz * iml : mz;
+        double nx = inside ? inx : onx, ny = inside ? iny : ony,
+               nz = inside ? inz : onz;
+        double pdf = inside ? ipdf : opdf;
+        /* lr__light_sample_from: the direction, one-sided emission, the
+         * pick's probability (one kind of light: 1 / 1). */
+        double tx = qx - px, ty = qy - py, tz = qz - pz;
+        double d = sqrt(tx * tx + ty * ty + tz * tz), id = 1.0 / d;
+        double lx = tx * id, ly = ty * id, lz = tz * id;
+        double ok = pdf > 0.0 ? 1.0 : 0.0;
+        ok = lx * nx + ly * ny + lz * nz < 0.0 ? ok : 0.0;
+        double lpdf = 1.0 * Q->lpdf[i] * pdf;
+        ok = lpdf > 0.0 ? ok : 0.0;
+        Q->lx[i] = lx, Q->ly[i] = ly, Q->lz[i] = lz;
+        Q->d[i] = d, Q->lpdf[i] = lpdf, Q->ok[i] = ok;
+    }
+}
+
+/* lambert16's loop over the lanes; `two` and `sph` constant in each
+ * call, so that GCC makes one loop for each (a select on it in one loop
+ * kept the loop from vectorising).  sph: 0 if the lamps are triangles
+ * (from E or K), 1 if spheres (their samples in Q), 2 if some of each
+ * (both computed, and each lane's taken as Q->is says). */
 static inline __attribute__((always_inline)) void
 lanes16(lr__v3 amb, int rr, const double (*restrict u)[16],
         const emitters16 *restrict E, const lr__hits16p *restrict H,
         lr__paths16 *restrict S, const double *restrict pick,
-        const picked16 *restrict K, const int two)
+        const picked16 *restrict K, const sphere16 *restrict Q, const int two,
+        const int sph)
 {
     /* The first two emitters' fields, loaded here: loads under a select
      * in the loop kept GCC from vectorising it.  (E's entries past n
@@ -254,26 +396,43 @@ lanes16(lr__v3 amb, int rr, const double (*restrict u)[16],
         double wol_z = wox * gx + woy * gy + woz * gz;
 
         /* ---- the light sample (light.c, path.c's next_event) ---- */
-        double su = sqrt(u[0][i]);
-        double b1 = u[1][i] * su, b2 = su - b1;
-        double qx = EF(ax, ax) + (EF(e1x, e1x) * b1 + EF(e2x, e2x) * b2);
-        double qy = EF(ay, ay) + (EF(e1y, e1y) * b1 + EF(e2y, e2y) * b2);
-        double qz = EF(az, az) + (EF(e1z, e1z) * b1 + EF(e2z, e2z) * b2);
-        double enx = EF(enx_, nx), eny = EF(eny_, ny), enz = EF(enz_, nz);
-        double tox = qx - px, toy = qy - py, toz = qz - pz;
-        double d2 = tox * tox + toy * toy + toz * toz;
-        double cl = fabs((enx * tox + eny * toy + enz * toz) / sqrt(d2));
-        double area = EF(area_, area);
-        /* (Conditions as 1.0 or 0.0 in doubles, selected rather than
+        double lx, ly, lz, d, lpdf, shadow, ler, leg, leb;
+        int lamp = sph == 1 || (sph == 2 && Q->is[i] != 0.0);
+        if (sph == 1) {
+            lx = Q->lx[i], ly = Q->ly[i], lz = Q->lz[i];
+            d = Q->d[i], lpdf = Q->lpdf[i], shadow = Q->ok[i];
+            ler = Q->lr[i], leg = Q->lg[i], leb = Q->lb[i];
+        } else {
+            double su = sqrt(u[0][i]);
+            double b1 = u[1][i] * su, b2 = su - b1;
+            double qx = EF(ax, ax) + (EF(e1x, e1x) * b1 + EF(e2x, e2x) * b2);
+            double qy = EF(ay, ay) + (EF(e1y, e1y) * b1 + EF(e2y, e2y) * b2);
+            double qz = EF(az, az) + (EF(e1z, e1z) * b1 + EF(e2z, e2z) * b2);
+            double enx = EF(enx_, nx), eny = EF(eny_, ny), enz = EF(enz_, nz);
+            double tox = qx - px, toy = qy - py, toz = qz - pz;
+            double d2 = tox * tox + toy * toy + toz * toz;
+            double cl = fabs((enx * tox + eny * toy + enz * toz) / sqrt(d2));
+            double area = EF(area_, area);
+            /* (Conditions as 1.0 or 0.0 in doubles, selected rather than
          * combined as ints: GCC vectorises those selects.) */
-        double spdf = cl > 0.0 ? (area > 0.0 ? d2 / (area * cl) : 0.0) : 0.0;
-        double shadow = spdf > 0.0 ? 1.0 : 0.0;
-        double d = sqrt(tox * tox + toy * toy + toz * toz);
-        double inv = 1.0 / d;
-        double lx = tox * inv, ly = toy * inv, lz = toz * inv;
-        shadow = lx * enx + ly * eny + lz * enz < 0.0 ? shadow : 0.0;
-        double lpdf = 1.0 * EF(prob, prob) * spdf;
-        shadow = lpdf > 0.0 ? shadow : 0.0;
+            double spdf = cl > 0.0 ? (area > 0.0 ? d2 / (area * cl) : 0.0)
+                                   : 0.0;
+            shadow = spdf > 0.0 ? 1.0 : 0.0;
+            d = sqrt(tox * tox + toy * toy + toz * toz);
+            double inv = 1.0 / d;
+            lx = tox * inv, ly = toy * inv, lz = toz * inv;
+            shadow = lx * enx + ly * eny + lz * enz < 0.0 ? shadow : 0.0;
+            lpdf = 1.0 * EF(prob, prob) * spdf;
+            shadow = lpdf > 0.0 ? shadow : 0.0;
+            ler = EF(ler, lr), leg = EF(leg, lg), leb = EF(leb, lb);
+        }
+        if (sph == 2) {
+            lx = lamp ? Q->lx[i] : lx, ly = lamp ? Q->ly[i] : ly;
+            lz = lamp ? Q->lz[i] : lz, d = lamp ? Q->d[i] : d;
+            lpdf = lamp ? Q->lpdf[i] : lpdf, shadow = lamp ? Q->ok[i] : shadow;
+            ler = lamp ? Q->lr[i] : ler, leg = lamp ? Q->lg[i] : leg;
+            leb = lamp ? Q->lb[i] : leb;
+        }
         /* lr__bsdf_eval: the diffuse lobe, both sides above. */
         double wil_z = lx * gx + ly * gy + lz * gz;
         double above = wil_z > 0.0 ? (wol_z > 0.0 ? 1.0 : 0.0) : 0.0;
@@ -283,8 +442,7 @@ lanes16(lr__v3 amb, int rr, const double (*restrict u)[16],
         double bpdf = above != 0.0 ? 0.0 + p0 * wil_z / M_PI : 0.0;
         double cos_i = fabs(lx * gx + ly * gy + lz * gz);
         double ci = cos_i / lpdf;
-        double cr = fr * EF(ler, lr) * ci, cg = fg * EF(leg, lg) * ci,
-               cb = fbb * EF(leb, lb) * ci;
+        double cr = fr * ler * ci, cg = fg * leg * ci, cb = fbb * leb * ci;
         shadow = maxc3(cr, cg, cb) > 0.0 ? shadow : 0.0;
         double ma = lpdf * lpdf, mb = bpdf * bpdf;
         double w = ma + mb > 0.0 ? ma / (ma + mb) : 0.0;
@@ -293,13 +451,45 @@ lanes16(lr__v3 amb, int rr, const double (*restrict u)[16],
         double side = lx * gx + ly * gy + lz * gz >= 0.0 ? 1.0 : -1.0;
         double sox = px + gx * (side * eps), soy = py + gy * (side * eps),
                soz = pz + gz * (side * eps);
-        double ex = (px + lx * d) - sox, ey = (py + ly * d) - soy,
-               ez = (pz + lz * d) - soz;
-        /* Aimed from the moved origin at the sampled point, as path.c's
-         * next_event aims at a triangle's. */
-        double elen = sqrt(ex * ex + ey * ey + ez * ez);
-        double stfar = isfinite(d) ? elen * (1.0 - 1e-4) : INFINITY;
-        double sdx = ex / elen, sdy = ey / elen, sdz = ez / elen;
+        double stfar = 0.0, sdx = 0.0, sdy = 0.0, sdz = 0.0;
+        if (sph != 1) {
+            double ex = (px + lx * d) - sox, ey = (py + ly * d) - soy,
+                   ez = (pz + lz * d) - soz;
+            /* Aimed from the moved origin at the sampled point, as
+             * path.c's next_event aims at a triangle's. */
+            double elen = sqrt(ex * ex + ey * ey + ez * ez);
+            stfar = isfinite(d) ? elen * (1.0 - 1e-4) : INFINITY;
+            sdx = ex / elen, sdy = ey / elen, sdz = ez / elen;
+        }
+        if (sph) {
+            /* path.c's next_event for a sphere lamp: the origin as
+             * Embree's float ray holds it, the sampled direction kept,
+             * stopped where the ray enters the lamp if that comes first
+             * (lr__light_reach). */
+            int fin = isfinite(d);
+            double fx = fin ? (double)(float)sox : sox;
+            double fy = fin ? (double)(float)soy : soy;
+            double fz = fin ? (double)(float)soz : soz;
+            double ex = (px + lx * d) - fx, ey = (py + ly * d) - fy,
+                   ez = (pz + lz * d) - fz;
+            double elen = sqrt(ex * ex + ey * ey + ez * ez);
+            double ocx = fx - Q->cx[i], ocy = fy - Q->cy[i],
+                   ocz = fz - Q->cz[i];
+            double ob = ocx * lx + ocy * ly + ocz * lz;
+            double oc = (ocx * ocx + ocy * ocy + ocz * ocz) -
+                        Q->rad[i] * Q->rad[i];
+            double disc = ob * ob - oc;
+            double enter = -ob - sqrt(disc > 0.0 ? disc : 0.0);
+            double reach = oc > 0.0 && disc >= 0.0 && enter > 0.0 &&
+                                   enter < elen
+                               ? enter
+                               : elen;
+            double sf = fin ? reach * (1.0 - 1e-4) : INFINITY;
+            sox = lamp ? fx : sox, soy = lamp ? fy : soy;
+            soz = lamp ? fz : soz, stfar = lamp ? sf : stfar;
+            sdx = lamp ? lx : sdx, sdy = lamp ? ly : sdy;
+            sdz = lamp ? lz : sdz;
+        }
 
         /* ---- the BSDF sample (lr__bsdf_sample: the diffuse lobe) ---- */
         double alive = wol_z > 0.0 ? (u[5][i] < p0 ? 1.0 : 0.0) : 0.0;
@@ -380,8 +570,14 @@ lambert16(lr__v3 amb, int rr, const double (*restrict u)[16],
      * copied lane by lane first (a select per emitter in a loop of its
      * own kept GCC from vectorising, as did gathers in the loop). */
     picked16 K;
-    if (E->n <= 2) {
-        lanes16(amb, rr, u, E, H, S, pick, &K, 1);
+    sphere16 Q;
+    if (E->sphere == 1) {
+        sphere_samples(u, E, H, S, pick, &Q);
+        lanes16(amb, rr, u, E, H, S, pick, &K, &Q, 0, 1);
+        return;
+    }
+    if (E->n <= 2 && E->sphere == 0) {
+        lanes16(amb, rr, u, E, H, S, pick, &K, NULL, 1, 0);
         return;
     }
     for (int i = 0; i < 16; i++) {
@@ -393,7 +589,12 @@ lambert16(lr__v3 amb, int rr, const double (*restrict u)[16],
         K.area[i] = E->area[k], K.prob[i] = E->prob[k];
         K.lr[i] = E->lr[k], K.lg[i] = E->lg[k], K.lb[i] = E->lb[k];
     }
-    lanes16(amb, rr, u, E, H, S, pick, &K, 0);
+    if (E->sphere == 2) {
+        sphere_samples(u, E, H, S, pick, &Q);
+        lanes16(amb, rr, u, E, H, S, pick, &K, &Q, 0, 2);
+        return;
+    }
+    lanes16(amb, rr, u, E, H, S, pick, &K, NULL, 0, 0);
 }
 
 /* The paths of lanes 0..n-1 at their camera rays (as float, from r),
