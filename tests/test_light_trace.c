@@ -126,6 +126,40 @@ static double film_integral_of(lr__v3 eye, lr__v3 fwd, double R, int square,
     return L * fpx * fpx * total / wsum;
 }
 
+/* discs_scene's lights (their emission per channel) and a box holding
+ * each one's disc. */
+static const double disc_c[3][3] = {{-10, 4, -30}, {2, -5, -40}, {14, 6, -50}};
+static const double disc_r[3] = {0.15, 0.2, 0.25};
+static const double disc_L[3][3] = {
+    {300, 200, 100}, {60, 90, 400}, {300, 200, 100}};
+static const int disc_boxes[3][4] = {
+    {0, 0, 40, 32}, {30, 32, 70, 64}, {60, 0, 96, 32}};
+
+/* Each of discs_scene's lights' energy in img, channels 0 .. n_ch - 1,
+ * within 0.5% of the closed form through a lens at the eye of radius R
+ * (a square of half side R when square). */
+static void discs_match_closed_form(const lr_image *img, double R, int square,
+                                    int n_ch, const char *what)
+{
+    double fpx = 0.5 * 64 / tan(20.0 * M_PI / 180.0);
+    for (int k = 0; k < 3; k++)
+        for (int ch = 0; ch < n_ch; ch++) {
+            double want = film_integral_of(
+                v3(0, 0, 10), v3(0, 0, -1), R, square,
+                v3(disc_c[k][0], disc_c[k][1], disc_c[k][2]), disc_r[k],
+                disc_L[k][ch], fpx);
+            const int *b = disc_boxes[k];
+            double got = sum_box(img, b[0], b[1], b[2], b[3], ch);
+            print_message("%s light %d channel %d: film integral %.6g, "
+                          "closed form %.6g (%.5f)\n",
+                          what, k, ch, got, want, got / want);
+            if (!(fabs(got / want - 1.0) < 0.005))
+                fail_msg("%s light %d channel %d: its image holds %.6g, the "
+                         "closed form %.6g",
+                         what, k, ch, got, want);
+        }
+}
+
 /* Each light's energy on the film, light-traced at 64 spp, against the
  * closed form: within 0.5% (the light paths' noise is about 0.1%). */
 static void test_disc_energy_closed_form(void **state)
@@ -135,29 +169,7 @@ static void test_disc_energy_closed_form(void **state)
     lr_render_stats st;
     lr_image *img = lr_test_render(discs_scene, sets, 1, &st);
     assert_int_equal(st.light_lights, 3);
-    double fpx = 0.5 * 64 / tan(20.0 * M_PI / 180.0);
-    struct {
-        double c[3], r, L;
-        int box[4];
-    } lights[3] = {
-        {{-10, 4, -30}, 0.15, 300, {0, 0, 40, 32}},
-        {{2, -5, -40}, 0.2, 60, {30, 32, 70, 64}},
-        {{14, 6, -50}, 0.25, 300, {60, 0, 96, 32}},
-    };
-    for (int k = 0; k < 3; k++) {
-        double want = film_integral(
-            v3(0, 0, 10), v3(0, 0, -1), 0.6,
-            v3(lights[k].c[0], lights[k].c[1], lights[k].c[2]), lights[k].r,
-            lights[k].L, fpx);
-        double got = sum_box(img, lights[k].box[0], lights[k].box[1],
-                             lights[k].box[2], lights[k].box[3], 0);
-        print_message("light %d: film integral %.6g, closed form %.6g "
-                      "(%.5f)\n",
-                      k, got, want, got / want);
-        if (!(fabs(got / want - 1.0) < 0.005))
-            fail_msg("light %d: its image holds %.6g, the closed form %.6g", k,
-                     got, want);
-    }
+    discs_match_closed_form(img, 0.6, 0, 1, "thin lens");
     lr_test_check_finite(img, &st, "discs");
     lr_image_free(img);
 }
@@ -186,24 +198,7 @@ static void test_bracket_light_side(void **state)
     lr_render_stats st;
     lr_image *img = lr_test_render(scene, cam, 6, &st);
     assert_int_equal(st.light_lights, 3);
-    double fpx = 0.5 * 64 / tan(20.0 * M_PI / 180.0);
-    const double c[3][3] = {{-10, 4, -30}, {2, -5, -40}, {14, 6, -50}};
-    const double r[3] = {0.15, 0.2, 0.25}, L[3] = {300, 60, 300};
-    const int boxes[3][4] = {{0, 0, 40, 32}, {30, 32, 70, 64}, {60, 0, 96, 32}};
-    for (int k = 0; k < 3; k++) {
-        double want = film_integral_of(
-            v3(0, 0, 10), v3(0, 0, -1), 0.5 * (1.0 + 1.0 / 9.0), 1,
-            v3(c[k][0], c[k][1], c[k][2]), r[k], L[k], fpx);
-        double got = sum_box(img, boxes[k][0], boxes[k][1], boxes[k][2],
-                             boxes[k][3], 0);
-        print_message("bracket light %d: film integral %.6g, closed form "
-                      "%.6g (%.5f)\n",
-                      k, got, want, got / want);
-        if (!(fabs(got / want - 1.0) < 0.005))
-            fail_msg("bracket light %d: its image holds %.6g, the closed "
-                     "form %.6g",
-                     k, got, want);
-    }
+    discs_match_closed_form(img, 0.5 * (1.0 + 1.0 / 9.0), 1, 1, "bracket");
     const char *csets[] = {"camera.model=bracket",
                            "camera.aperture=1",
                            "camera.focal_length=9",
@@ -215,7 +210,7 @@ static void test_bracket_light_side(void **state)
                            "render.adaptive=false"};
     lr_image *ci = lr_test_render(scene, csets, 9, NULL);
     const double tol[3] = {0.03, 0.03, 0.03};
-    boxes_agree(img, ci, boxes, tol, 3, "bracket disc");
+    boxes_agree(img, ci, disc_boxes, tol, 3, "bracket disc");
     lr_image_free(img);
     lr_image_free(ci);
 }
@@ -234,25 +229,7 @@ static void test_rgb_light_side(void **state)
     lr_render_stats st;
     lr_image *img = lr_test_render(discs_scene, lsets, 4, &st);
     assert_int_equal(st.light_lights, 3);
-    double fpx = 0.5 * 64 / tan(20.0 * M_PI / 180.0);
-    const double c[3][3] = {{-10, 4, -30}, {2, -5, -40}, {14, 6, -50}};
-    const double r[3] = {0.15, 0.2, 0.25};
-    const double L[3][3] = {{300, 200, 100}, {60, 90, 400}, {300, 200, 100}};
-    const int boxes[3][4] = {{0, 0, 40, 32}, {30, 32, 70, 64}, {60, 0, 96, 32}};
-    for (int k = 0; k < 3; k++)
-        for (int ch = 0; ch < 3; ch++) {
-            double want = film_integral(v3(0, 0, 10), v3(0, 0, -1), 0.6,
-                                        v3(c[k][0], c[k][1], c[k][2]), r[k],
-                                        L[k][ch], fpx);
-            double got = sum_box(img, boxes[k][0], boxes[k][1], boxes[k][2],
-                                 boxes[k][3], ch);
-            print_message("rgb light %d channel %d: %.6g, closed form %.6g "
-                          "(%.5f)\n",
-                          k, ch, got, want, got / want);
-            if (!(fabs(got / want - 1.0) < 0.005))
-                fail_msg("rgb light %d channel %d: %.6g, closed form %.6g", k,
-                         ch, got, want);
-        }
+    discs_match_closed_form(img, 0.6, 0, 3, "rgb");
     const char *csets[] = {
         "camera.focal_length_mm=50",  "camera.chromatic.mode=rgb",
         "camera.chromatic.amplify=2", "render.spp=4096",
@@ -262,7 +239,7 @@ static void test_rgb_light_side(void **state)
     /* The camera's own noise here: seeds 1, 2, 3 and 5 put light 0's blue
      * at 36.7, 36.3, 35.9 and 34.1 (closed form 35.4). */
     const double tol[3] = {0.06, 0.06, 0.06};
-    boxes_agree(img, ci, boxes, tol, 3, "rgb disc");
+    boxes_agree(img, ci, disc_boxes, tol, 3, "rgb disc");
     lr_image_free(img);
     lr_image_free(ci);
 }
