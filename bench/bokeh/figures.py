@@ -9,7 +9,11 @@ bench-bokeh` run's images and results (build/bench/bokeh/):
 
 or, from a `make bench-sparkles` run (build/bench/sparkles/, NAME
 sparkles), docs/figures/bokeh-sparkles.png: the glints at about equal CPU
-time, camera paths only, the defaults, the reference.
+time, camera paths only, the defaults, the reference; or, from a
+bench/bokeh/lens.py run (build/bench/bokeh-lens/, NAME night-lens),
+docs/figures/bokeh-night-lens.png: the lights through the double Gauss
+at about equal CPU time, camera paths only, the defaults, and lens.py's
+reference (the defaults at 16384 spp: a traced lens has no closed form).
 
 Usage: python bench/bokeh/figures.py [WORK_DIR] [DOCS_FIGURES_DIR] [NAME]
 (numpy; the PNG writer is below, the chart needs gnuplot).
@@ -73,16 +77,22 @@ def main():
     refs = sorted((f for f in os.listdir(work) if f.startswith("ref-") and f.endswith(".npy")),
                   key=lambda f: os.path.getmtime(os.path.join(work, f)))
     ref = load(os.path.join(work, refs[-1]))
+    # lens.py names its renderers and images "defaults" and "camera";
+    # run.py and sparkles.sh "lensray-default" and "lensray-camera".
+    if name == "night-lens":
+        results, dname, cname = results["results"], "defaults", "camera"
+    else:
+        dname, cname = "lensray-default", "lensray-camera"
     # Equal time: the defaults' step nearest 0.5 CPU s (sparkles: 1.5),
     # and the camera's step nearest the same time.
-    d = pick(results["lensray-default"], 0.5 if name == "night" else 1.5)
-    c = pick(results["lensray-camera"], d["cpu"])
-    panels = [load(os.path.join(work, "lensray-camera-%d.exr" % c["spp"])),
-              load(os.path.join(work, "lensray-default-%d.exr" % d["spp"])), ref]
+    d = pick(results[dname], 1.5 if name == "sparkles" else 0.5)
+    c = pick(results[cname], d["cpu"])
+    panels = [load(os.path.join(work, "%s-%d.exr" % (cname, c["spp"]))),
+              load(os.path.join(work, "%s-%d.exr" % (dname, d["spp"]))), ref]
     gap = np.full((ref.shape[0], 4, 3), 255, np.uint8)
     strip = []
     for i, p in enumerate(panels):
-        strip += [srgb8(p, 4.0 if name == "night" else 0.7)] + ([gap] if i < 2 else [])
+        strip += [srgb8(p, 0.7 if name == "sparkles" else 4.0)] + ([gap] if i < 2 else [])
     write_png(os.path.join(out, "bokeh-%s.png" % name), np.concatenate(strip, 1))
     print("bokeh-%s.png: camera %d spp (%.2f CPU s, relMSE %.2e), defaults %d spp "
           "(%.2f CPU s, relMSE %.2e), reference"

@@ -8,9 +8,11 @@ No analytic reference exists for a traced lens, so the reference is the
 defaults (light side on) at --ref-spp with another seed (render.seed 7;
 the timed renders use the scene's seed, so their light paths are not a
 prefix of the reference's).  It is checked against camera paths alone at
---check-spp (every sample traced, also seed 7): per disc, the energy
-ratio and the shape (relMSE inside the disc's box, next to the camera's
-own noise there, which is what an unbiased camera image must show).
+--check-spp (every sample traced), rendered with --check-seeds seeds (7,
+8, ...): per disc, the energy ratio of their mean to the reference, its
+standard error from the spread between seeds, and the shape (relMSE
+inside the disc's box, next to the camera's own noise there, which is
+what an unbiased camera image must show).
 
 The discs are the 8-connected sets of the reference's non-zero pixels (the
 background is black), as boxes padded by 2 pixels.
@@ -81,6 +83,8 @@ def main():
     ap.add_argument("--target", type=float, default=1e-3)
     ap.add_argument("--ref-spp", type=int, default=16384)
     ap.add_argument("--check-spp", type=int, default=2048)
+    ap.add_argument("--check-seeds", type=int, default=1,
+                    help="camera-alone check renders, each with its own seed")
     ap.add_argument("--max-spp", type=int, default=4096)
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--set", action="append", default=[],
@@ -102,30 +106,42 @@ def main():
         np.save(ref_npy, ref)
         print("reference: defaults at %d spp, seed 7: %.1f CPU s" % (args.ref_spp, t))
     ref = np.load(ref_npy)
-    if not os.path.exists(cam_npy):
-        full = ["--set", "render.light=false", "--set", "render.plan=false",
-                "--set", "render.adaptive=false"]
-        cam, t = render(args, args.check_spp, os.path.join(args.work, "cam.exr"),
-                        extra + seed + full)
-        np.save(cam_npy, cam)
-        print("check: camera alone, every sample traced, %d spp: %.1f CPU s"
-              % (args.check_spp, t))
-    cam = np.load(cam_npy)
-
     boxes = disc_boxes(ref)
+    # The check: camera paths alone, every sample traced, at --check-spp
+    # with each of --check-seeds seeds (7, 8, ...).  Their mean is the
+    # camera's estimate; the spread between seeds gives each disc's
+    # standard error, so a difference can be read against the camera's
+    # own noise.
+    full = ["--set", "render.light=false", "--set", "render.plan=false",
+            "--set", "render.adaptive=false"]
+    cams = []
+    for k in range(args.check_seeds):
+        npy = cam_npy if k == 0 else cam_npy.replace(".npy", "-s%d.npy" % (7 + k))
+        if not os.path.exists(npy):
+            img, t = render(args, args.check_spp, os.path.join(args.work, "cam.exr"),
+                            extra + full + ["--set", "render.seed=%d" % (7 + k)])
+            np.save(npy, img)
+            print("check: camera alone, every sample traced, %d spp, seed %d: %.1f CPU s"
+                  % (args.check_spp, 7 + k, t), flush=True)
+        cams.append(np.load(npy))
+    cam = sum(cams) / len(cams)
+
     print("%s %s: %d x %d, %d discs, reference mean %.6g, camera/reference mean %+.4f"
           % (args.scene, " ".join(args.set), ref.shape[1], ref.shape[0], len(boxes),
              ref.mean(), cam.mean() / ref.mean() - 1))
-    print("%-4s %-20s %6s %10s %12s" % ("disc", "box x0 x1 y0 y1", "px", "energy",
-                                         "relMSE in box"))
+    print("check: %d x %d spp of camera paths alone" % (len(cams), args.check_spp))
+    print("%-4s %-20s %6s %10s %9s %12s" % ("disc", "box x0 x1 y0 y1", "px", "energy",
+                                             "std err", "relMSE in box"))
     worst = 0.0
     for i, (x0, x1, y0, y1) in enumerate(boxes):
         r, c = ref[y0:y1, x0:x1], cam[y0:y1, x0:x1]
         e = c.sum() / r.sum() - 1
+        per = [k[y0:y1, x0:x1].sum() / r.sum() - 1 for k in cams]
+        se = statistics.stdev(per) / len(per) ** 0.5 if len(per) > 1 else float("nan")
         worst = max(worst, abs(e))
         lit = int((r.sum(axis=-1) > 0).sum())
-        print("%-4d %-20s %6d %+10.4f %12.3e" % (i, "%d %d %d %d" % (x0, x1, y0, y1),
-                                                 lit, e, relmse(c, r)))
+        print("%-4d %-20s %6d %+10.4f %9.4f %12.3e" % (i, "%d %d %d %d" % (x0, x1, y0, y1),
+                                                       lit, e, se, relmse(c, r)))
     print("worst disc energy, camera alone / reference - 1: %.4f" % worst)
 
     results = {}
