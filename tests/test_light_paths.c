@@ -25,19 +25,23 @@ static double box_mean(const lr_image *img, int x0, int y0, int x1, int y1)
     return s / (3.0 * (x1 - x0) * (y1 - y0));
 }
 
-/* The light integrator's image of scene (with sets) against the path
- * tracer's (adaptive sampling off, cspp samples): the whole frame's mean
- * within tol, each quarter's within qtol. */
+/* The light integrator's image of scene (with lspp, and `extra` if not
+ * NULL) against the path tracer's (adaptive sampling off, cspp samples,
+ * `extra`): the whole frame's mean within tol, each quarter's within
+ * qtol. */
 static void agrees_with_path(const char *scene, const char *lspp,
-                             const char *cspp, double tol, double qtol,
-                             const char *what)
+                             const char *cspp, const char *const *extra,
+                             double tol, double qtol, const char *what)
 {
-    const char *lsets[] = {"render.integrator=light", lspp};
-    const char *csets[] = {"render.integrator=path", "render.adaptive=false",
-                           cspp};
+    const char *lsets[8] = {"render.integrator=light", lspp};
+    const char *csets[8] = {"render.integrator=path", "render.adaptive=false",
+                            cspp};
+    size_t nl = 2, nc = 3;
+    for (size_t k = 0; extra != NULL && extra[k] != NULL && nc < 8; k++)
+        lsets[nl++] = csets[nc++] = extra[k];
     lr_render_stats sl;
-    lr_image *li = lr_test_render(scene, lsets, 2, &sl);
-    lr_image *ci = lr_test_render(scene, csets, 3, NULL);
+    lr_image *li = lr_test_render(scene, lsets, nl, &sl);
+    lr_image *ci = lr_test_render(scene, csets, nc, NULL);
     lr_test_check_finite(li, &sl, what);
     /* Every camera block is dark: camera rays estimate nothing. */
     assert_int_equal(sl.camera_rays, 0);
@@ -170,8 +174,8 @@ static void test_light_agrees_in_a_box(void **state)
     /* The glass's quarter is the noisiest: over seeds 1 to 3 its light
      * image varied by 3.5% at 1024 samples (rough glass seen from the
      * light side, where a bug once lost 15%). */
-    agrees_with_path(scene, "render.spp=2048", "render.spp=1024", 0.01, 0.04,
-                     "box of lights, metal, glass and Phong");
+    agrees_with_path(scene, "render.spp=2048", "render.spp=1024", NULL, 0.01,
+                     0.04, "box of lights, metal, glass and Phong");
 }
 
 /* A sky and a sun (directional) over a ground mesh, a red ball and a
@@ -197,8 +201,17 @@ static void test_light_agrees_under_sky(void **state)
         "   \"material\": \"ball\"},"
         "  {\"type\": \"sphere\", \"center\": [1.3, 0.7, 1], \"radius\": 0.7,"
         "   \"material\": \"metal\"}]}";
-    agrees_with_path(scene, "render.spp=4096", "render.spp=1024", 0.01, 0.03,
-                     "sky and sun");
+    agrees_with_path(scene, "render.spp=4096", "render.spp=1024", NULL, 0.01,
+                     0.03, "sky and sun");
+    /* Spectral colours focusing apart (a 50 mm lens's dispersion x4):
+     * each path lands at every wavelength of camera.chromatic.wavelengths
+     * at its own focus with its weights (0.03% and 0.3% seen at 4096 and
+     * 8192 samples). */
+    const char *spectral[] = {"camera.focal_length_mm=50",
+                              "camera.chromatic.mode=spectral",
+                              "camera.chromatic.amplify=4", NULL};
+    agrees_with_path(scene, "render.spp=2048", "render.spp=2048", spectral,
+                     0.01, 0.03, "sky and sun, spectral");
 }
 
 /* Through the double Gauss at f/2.8: a lamp out of focus, a lit floor
@@ -222,8 +235,8 @@ static void test_light_agrees_through_a_lens(void **state)
         "   \"radius\": 0.25, \"material\": \"b\"},"
         "  {\"type\": \"plane\", \"point\": [0, -0.35, -3],"
         "   \"normal\": [0, 1, 0], \"size\": 8, \"material\": \"f\"}]}";
-    agrees_with_path(scene, "render.spp=1024", "render.spp=1024", 0.015, 0.06,
-                     "double Gauss");
+    agrees_with_path(scene, "render.spp=1024", "render.spp=1024", NULL, 0.015,
+                     0.06, "double Gauss");
 }
 
 /* What it cannot trace is an error that names the field; the daemon and
@@ -241,14 +254,15 @@ static void test_light_refuses(void **state)
         " \"objects\": [{\"type\": \"sphere\", \"center\": [0, 0, 0],"
         "  \"radius\": 1, \"material\": \"l\"}]}";
     const struct {
-        const char *sets[3], *extra, *want;
+        const char *sets[4], *extra, *want;
     } cases[] = {
         {{"render.light=false"}, NULL, "render.light:"},
         {{"camera.model=lens", "camera.lens=fisheye-10",
           "camera.focus_distance=4"},
          NULL,
          "camera.lens:"},
-        {{"camera.focal_length_mm=50", "camera.chromatic.mode=spectral"},
+        {{"camera.model=bracket", "camera.aperture=0.2",
+          "camera.chromatic.mode=rgb", "camera.focal_length_mm=50"},
          NULL,
          "camera.chromatic:"},
         {{"lights=[{\"type\": \"ambient\", \"radiance\": 0.1}]"},
@@ -272,7 +286,7 @@ static void test_light_refuses(void **state)
         else
             snprintf(json, sizeof json, "%s", base);
         size_t n = 0;
-        while (n < 3 && cases[i].sets[n] != NULL)
+        while (n < 4 && cases[i].sets[n] != NULL)
             n++;
         lr_scene *s = lr_test_load(json, cases[i].sets, n);
         lr_camera cam;

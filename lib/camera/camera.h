@@ -36,6 +36,7 @@
 #include "internal.h"
 #include "prescription.h"
 #include "vec.h"
+#include "wavelength.h"
 
 #include <embree3/rtcore.h>
 #include <math.h>
@@ -175,6 +176,12 @@ typedef struct lr__camera_model {
      * with the focus). */
     double (*film_rgb)(const lr__cam *c, int k, double ox, double oy, lr__v3 d,
                        double *fx, double *fy);
+    /* In spectral mode with colours that focus apart: `film` for light of
+     * wavelength nm (nm), whose focus power is w (the camera's rays at nm
+     * take both: lr__cam_lens_ray).  NULL: such a camera's lights stay
+     * with the camera. */
+    double (*film_wl)(const lr__cam *c, double w, double nm, double ox,
+                      double oy, lr__v3 d, double *fx, double *fy);
     /* For a model whose rays start past their lens point (the bracket's
      * start on its image plane): how far along unit d from the lens
      * point the camera ray starts.  NULL: at the lens point. */
@@ -340,25 +347,46 @@ double lr__offset_lens_film_rgb(const lr__cam *c, int k, double ox, double oy,
  * from its lens points, differs from c->w). */
 double lr__offset_lens_film_w(const lr__cam *c, double w, double ox, double oy,
                               lr__v3 d, double *fx, double *fy);
+/* film_wl of the offset-lens form: lr__offset_lens_film_w at power w (the
+ * wavelength acts only through it). */
+double lr__offset_lens_film_wl(const lr__cam *c, double w, double nm, double ox,
+                               double oy, lr__v3 d, double *fx, double *fy);
 
 /* Where radiance arriving at a lens point along unit d lands on the
- * film (the light side's splat): n = 1, one pixel (ix[0], iy[0]) with
- * importance W[0] for every channel; or n = 3 in rgb mode with colours
- * that focus apart, channel k's own (W[k] = 0: that channel misses). */
+ * film (the light side's splat): n places, place j pixel (ix, iy), where
+ * radiance L adds L_c W[c] to channel c (times the path's weight).  One
+ * place with W the same in every channel; or, with colours that focus
+ * apart, in rgb mode one place a channel (W zero in the others), and in
+ * spectral mode one place a wavelength (chroma.wavelengths of them) with
+ * W[c] the importance times the wavelength's weight w_c / m (may be
+ * negative: wavelength.h).  Places that miss the film are left out. */
+#define LR__LAND_MAX 64
 typedef struct lr__landing {
     int n;
-    double W[3];
-    int ix[3], iy[3];
+    struct {
+        int ix, iy;
+        double W[3];
+    } at[LR__LAND_MAX];
 } lr__landing;
 
 /* Whether the light side can land camera c's colours: one focus for all,
- * or rgb mode through a model with film_rgb. */
+ * rgb mode through a model with film_rgb, or spectral mode through one
+ * with film_wl. */
 int lr__cam_lands_colours(const lr__cam *c);
 
 /* Fills *ld for the camera ray from lens offset (ox, oy) (lens_point's)
- * along unit d; returns whether any channel lands inside the film. */
-int lr__cam_land(const lr__cam *c, double ox, double oy, lr__v3 d,
-                 lr__landing *ld);
+ * along unit d; returns whether anything lands inside the film.  In
+ * spectral mode with colours that focus apart, wl is the wavelengths'
+ * table (lr__cam_wl_table) and u_wl in [0, 1) places the m wavelengths,
+ * one in each of the strata (u_wl + j) / m of the table's sampling space
+ * (as spectral.c's camera samples); otherwise both are ignored. */
+int lr__cam_land(const lr__cam *c, const lr__wl_table *wl, double u_wl,
+                 double ox, double oy, lr__v3 d, lr__landing *ld);
+
+/* The table of spectral mode's wavelengths for camera c (wavelength.h):
+ * the density and weights its camera samples and light paths draw
+ * wavelengths with. */
+void lr__cam_wl_table(const lr__cam *c, lr__wl_table *t);
 
 /* Where the camera ray from lens point P along unit d starts (the light
  * side traces from there, so that it sees what the camera's ray sees):

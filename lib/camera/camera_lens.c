@@ -963,6 +963,17 @@ static double lens_film_rgb(const lr__cam *c, int k, double ox, double oy,
     return lens_film_n(c, c->lens.n_rgb[k], ox, oy, w, fx, fy);
 }
 
+/* Spectral mode: at wavelength nm, as lens_ray traces it (the focus
+ * power w plays no part in a traced lens). */
+static double lens_film_wl(const lr__cam *c, double w, double nm, double ox,
+                           double oy, lr__v3 d, double *fx, double *fy)
+{
+    (void)w;
+    double n[LR__RX_MAX_SURFACES];
+    indices(c, nm, n);
+    return lens_film_n(c, n, ox, oy, d, fx, fy);
+}
+
 /* lens_film with the surfaces' indices n. */
 static double lens_film_n(const lr__cam *c, const double *n, double ox,
                           double oy, lr__v3 w, double *fx, double *fy)
@@ -1039,6 +1050,7 @@ const lr__camera_model lr__camera_lens = {
     .lens_point = lens_point,
     .film = lens_film,
     .film_rgb = lens_film_rgb,
+    .film_wl = lens_film_wl,
     .thin_equiv = lens_thin_equiv,
     .light_ok = lens_light_ok,
 };

@@ -140,4 +140,5 @@ const lr__camera_model lr__camera_thinlens = {
     .lens_point = lr__offset_lens_point,
     .film = lr__offset_lens_film,
     .film_rgb = lr__offset_lens_film_rgb,
+    .film_wl = lr__offset_lens_film_wl,
 };

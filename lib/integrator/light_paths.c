@@ -65,11 +65,20 @@ enum { KIND_AREA, KIND_ENV, KIND_DELTA, KINDS };
 
 struct lr__lp {
     int max_depth;
+    /* Spectral mode with colours that focus apart: the wavelengths'
+     * table (light_trace.c's, not owned), placed by the path's dimension
+     * after its last surface's; else NULL. */
+    const lr__wl_table *wl;
     double p_kind[KINDS]; /* pick probabilities, summing to 1 */
     double *delta_cdf;    /* over s->lights by power; owned */
     lr__v3 C;             /* the disk's centre and radius (scene bounds) */
     double R;
 };
+
+void lr__lp_set_wl(lr__lp *lp, const lr__wl_table *wl)
+{
+    lp->wl = wl;
+}
 
 void lr__lp_free(lr__lp *lp)
 {
@@ -119,8 +128,9 @@ static lr_status check_scene(const lr_scene *s, const lr__cam *c,
     if (!lr__cam_lands_colours(c))
         return lr__fail(err, LR_ERR_INVALID, "camera.chromatic",
                         "camera.chromatic: %s lands colours that focus "
-                        "apart only in rgb mode, and not through the "
-                        "bracket (whose lens point moves with the focus)",
+                        "apart through the thin lens and real lenses, not "
+                        "through the bracket (whose lens point moves with "
+                        "the focus)",
                         me);
     if (v3_maxc(s->ambient) > 0.0)
         return lr__fail(err, LR_ERR_INVALID, "lights",
@@ -228,6 +238,7 @@ typedef struct walk {
     uint64_t key;
     uint32_t idx;
     double inv_n; /* 1 / the paths */
+    double u_wl;  /* places the wavelengths (lr__cam_land) */
     lr__lp_splat_fn splat;
     void *film;
     uint64_t *rays, *landed;
@@ -251,7 +262,7 @@ static int to_lens(const walk *w, uint32_t dim, lr__v3 x, lr__v3 *P,
     if (!(*dist > 0.0))
         return 0;
     *dir = v3_scale(d, 1.0 / *dist);
-    return lr__cam_land(w->c, ox, oy, *dir, ld);
+    return lr__cam_land(w->c, w->lp->wl, w->u_wl, ox, oy, *dir, ld);
 }
 
 /* Whether the camera ray from P along dir meets geometry geom first, at
@@ -338,7 +349,7 @@ static void join_env(const walk *w, lr__v3 d, lr__v3 Le, double pdf_d)
     dims(w, DIM_LENS0, ul);
     lr__v3 P = w->c->model->lens_point(w->c, ul, &ox, &oy);
     lr__landing ld;
-    if (!lr__cam_land(w->c, ox, oy, d, &ld))
+    if (!lr__cam_land(w->c, w->lp->wl, w->u_wl, ox, oy, d, &ld))
         return;
     lr__hit h;
     (*w->rays)++;
@@ -451,8 +462,13 @@ void lr__lp_path(const lr__lp *lp, const lr_scene *s, const lr__cam *c,
                  double n_paths, lr__lp_splat_fn splat, void *film,
                  uint64_t *rays, uint64_t *landed)
 {
-    walk w = {lp,    s,    c,    smp,   key, idx, 1.0 / n_paths,
-              splat, film, rays, landed};
+    walk w = {lp,  s,     c,    smp,  key,   idx, 1.0 / n_paths,
+              0.0, splat, film, rays, landed};
+    if (lp->wl != NULL) {
+        double u[2];
+        dims(&w, DIM_SURF + DIMS_PER_SURF * (uint32_t)(lp->max_depth + 1), u);
+        w.u_wl = u[0];
+    }
     lr__v3 org, dir, beta;
     if (!start(&w, &org, &dir, &beta))
         return;

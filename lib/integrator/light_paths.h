@@ -44,6 +44,10 @@ lr_status lr__lp_prepare(const lr_scene *s, const lr__cam *c,
                          const lr_render_settings *set, lr__lp **out,
                          double *lref, lr_error *err);
 void lr__lp_free(lr__lp *lp);
+/* Spectral mode with colours that focus apart: the wavelengths' table
+ * its paths land with (lr__cam_land), the caller's, kept while lp is
+ * used; NULL (the default) otherwise. */
+void lr__lp_set_wl(lr__lp *lp, const lr__wl_table *wl);
 
 /* Where a path's vertex lands: adds rgb v times the importance where ld
  * lands it on the light side's film (light_trace.c), counting it in

@@ -84,6 +84,7 @@ void lr__lt_free(lr__lt *lt)
     free(lt->lights);
     free(lt->direct);
     lr__lp_free(lt->lp);
+    free(lt->wl);
     free(lt);
 }
 
@@ -383,6 +384,21 @@ static int plan_glints(const lr_scene *s, const lr__cam *c,
     return good;
 }
 
+/* Spectral mode with colours that focus apart: lt's wavelengths' table
+ * (lr__cam_land), shared with its light integrator's paths.  0: out of
+ * memory. */
+static int wl_table(lr__lt *lt, const lr__cam *c)
+{
+    if (!c->chroma_active || c->chroma.mode != LR_CHROMATIC_SPECTRAL)
+        return 1;
+    if ((lt->wl = malloc(sizeof *lt->wl)) == NULL)
+        return 0;
+    lr__cam_wl_table(c, lt->wl);
+    if (lt->lp != NULL)
+        lr__lp_set_wl(lt->lp, lt->wl);
+    return 1;
+}
+
 /* The `light` integrator's light side: every path, in parts of at most
  * LR__LT_PART, LR__LP_DENSITY a pixel and sample of the frame. */
 static lr_status plan_paths(const lr_scene *s, const lr__cam *c,
@@ -419,6 +435,10 @@ static lr_status plan_paths(const lr_scene *s, const lr__cam *c,
     }
     lt->lp_paths = lt->paths;
     lt->seed = set->seed;
+    if (!wl_table(lt, c)) {
+        lr__lt_free(lt);
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    }
     *out = lt;
     return LR_OK;
 }
@@ -481,6 +501,10 @@ lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
         lr__lt_free(lt);
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     }
+    if (lt != NULL && !wl_table(lt, c)) {
+        lr__lt_free(lt);
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    }
     if (lt != NULL)
         lt->seed = set->seed;
     *out = lt;
@@ -530,7 +554,8 @@ static int light_of(const lr__lt *lt, uint64_t i)
     return lo;
 }
 
-/* Adds v to pixel (ix, iy) of f, if the region holds it. */
+/* Adds v to pixel (ix, iy) of f, if the region holds it (v may be
+ * negative in spectral mode, whose weights are: wavelength.h). */
 static void splat(lr__lt_film *f, int ix, int iy, lr__v3 v)
 {
     if (ix < f->x0 || ix >= f->x1 || iy < f->y0 || iy >= f->y1)
@@ -541,31 +566,25 @@ static void splat(lr__lt_film *f, int ix, int iy, lr__v3 v)
     double c[3] = {v.x, v.y, v.z};
     for (int j = 0; j < 3; j++) {
         double q = c[j] * f->scale;
-        if (!(q > 0.0))
+        if (!(q != 0.0) || isnan(q))
             continue;
-        int64_t qi = (int64_t)llrint(q < cap ? q : cap);
+        int64_t qi = (int64_t)llrint(q < -cap ? -cap : q < cap ? q : cap);
         __atomic_fetch_add(&f->sum[k + (size_t)j], qi, __ATOMIC_RELAXED);
     }
 }
 
-/* Adds v times each channel's importance where ld lands it: one pixel
- * for all channels, or each channel its own.  Counts a landing. */
+/* Adds v times each channel's importance at each place ld lands it.
+ * Counts a landing. */
 static void splat_landing(lr__lt_film *f, const lr__landing *ld, lr__v3 v,
                           uint64_t *landed)
 {
     if (!(isfinite(v.x) && isfinite(v.y) && isfinite(v.z)))
         return;
     (*landed)++;
-    if (ld->n == 1) {
-        splat(f, ld->ix[0], ld->iy[0], v3_scale(v, ld->W[0]));
-        return;
-    }
-    double c[3] = {v.x, v.y, v.z};
-    for (int k = 0; k < 3; k++) {
-        double e[3] = {0.0, 0.0, 0.0};
-        e[k] = c[k] * ld->W[k];
-        if (ld->W[k] > 0.0)
-            splat(f, ld->ix[k], ld->iy[k], v3(e[0], e[1], e[2]));
+    for (int j = 0; j < ld->n; j++) {
+        const double *W = ld->at[j].W;
+        splat(f, ld->at[j].ix, ld->at[j].iy,
+              v3(v.x * W[0], v.y * W[1], v.z * W[2]));
     }
 }
 
@@ -579,10 +598,9 @@ static void splat_landing(lr__lt_film *f, const lr__landing *ld, lr__v3 v,
  * (a mesh can hide its own triangles). */
 static void mesh_path(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
                       const lr__lt_light *l, lr__v3 P, double ox, double oy,
-                      const double *u, lr__lt_film *f, uint64_t *rays,
-                      uint64_t *landed)
+                      const double *u, double uw, lr__lt_film *f,
+                      uint64_t *rays, uint64_t *landed)
 {
-    (void)lt;
     size_t lo = 0, hi = l->n_tri - 1;
     while (lo < hi) {
         size_t mid = (lo + hi) / 2;
@@ -610,7 +628,7 @@ static void mesh_path(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
     if (!(cos_y > 0.0))
         return;
     lr__landing ld;
-    if (!lr__cam_land(c, ox, oy, w, &ld))
+    if (!lr__cam_land(c, lt->wl, uw, ox, oy, w, &ld))
         return;
     lr__hit h;
     (*rays)++;
@@ -672,10 +690,10 @@ static int glint_solve(const double P2[2], double hp, const double Y2[2],
 
 /* A glint path of l (light_trace.c's header) from lens point P: y on the
  * sphere from uy, the slope from us. */
-static void glint_path(const lr_scene *s, const lr__cam *c,
+static void glint_path(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
                        const lr__lt_light *l, lr__v3 P, double ox, double oy,
-                       const double uy[2], const double us[2], lr__lt_film *f,
-                       uint64_t *rays, uint64_t *landed)
+                       const double uy[2], const double us[2], double uw,
+                       lr__lt_film *f, uint64_t *rays, uint64_t *landed)
 {
     /* y uniform on the sphere by area (pbrt-v4's SampleUniformSphere). */
     double zy = 1.0 - 2.0 * uy[0], ry = sqrt(fmax(0.0, 1.0 - zy * zy));
@@ -734,7 +752,7 @@ static void glint_path(const lr_scene *s, const lr__cam *c,
     lr__v3 w = v3_scale(dv, 1.0 / sqrt(dist2));
     double cos_x = fabs(v3_dot(w, n));
     lr__landing ld;
-    if (!(cos_x > 0.0) || !lr__cam_land(c, ox, oy, w, &ld))
+    if (!(cos_x > 0.0) || !lr__cam_land(c, lt->wl, uw, ox, oy, w, &ld))
         return;
     /* Light from y to x: from y's front, and in the glint's core (first
      * at the plane's normal, a hair wider, before a ray is spent; then
@@ -822,14 +840,18 @@ void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
         lr__pixel_sampler_get(&ps, idx, q);
         const double *ud = q, *ul = q + 2;
         lr__v3 P = c->model->lens_point(c, ul, &ox, &oy);
+        /* Spectral mode: dimension 6 places the path's wavelengths. */
+        double uw[2] = {0.0, 0.0};
+        if (lt->wl != NULL)
+            lr__sample_2d(&smp, light_key(l), idx, 6, uw);
         if (l->surf >= 0) {
             double us[2];
             lr__sample_2d(&smp, light_key(l), idx, 4, us);
-            glint_path(s, c, l, P, ox, oy, ud, us, f, rays, landed);
+            glint_path(lt, s, c, l, P, ox, oy, ud, us, uw[0], f, rays, landed);
             continue;
         }
         if (l->n_tri > 0) {
-            mesh_path(lt, s, c, l, P, ox, oy, ud, f, rays, landed);
+            mesh_path(lt, s, c, l, P, ox, oy, ud, uw[0], f, rays, landed);
             continue;
         }
         lr__v3 dv = v3_sub(l->center, P);
@@ -852,7 +874,7 @@ void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
                                  v3_scale(t2, sin_t * sin(phi))));
         w = v3_norm(w);
         lr__landing ld;
-        if (!lr__cam_land(c, ox, oy, w, &ld))
+        if (!lr__cam_land(c, lt->wl, uw[0], ox, oy, w, &ld))
             continue;
         /* The camera ray along w must meet this light first (from
          * outside a sphere, on its emitting side): exactly the rays whose

@@ -91,6 +91,9 @@ typedef struct lr__lt {
      * surf LR__LT_PATHS), or NULL.  Owned. */
     lr__lp *lp;
     uint64_t lp_paths; /* all its parts' */
+    /* Spectral mode with colours that focus apart: the wavelengths'
+     * table (lr__cam_land), owned; else NULL. */
+    lr__wl_table *wl;
 } lr__lt;
 
 #define LR__LT_PATHS (-2)
@@ -113,10 +116,11 @@ typedef struct lr__lt {
 
 /* Chooses the lights to trace from the light side for camera `c` and
  * settings `set`: *out is NULL when there are none (render.light off, a
- * model without a light side, colours that focus apart, no small
- * light), else the caller's, freed with lr__lt_free.  With the `light`
- * integrator, every path (light_paths.h): LR_ERR_INVALID names what the
- * scene has that it cannot trace.  LR_ERR_NOMEM. */
+ * model without a light side, colours that focus apart where the model
+ * cannot land them: lr__cam_lands_colours, no small light), else the
+ * caller's, freed with lr__lt_free.  With the `light` integrator, every
+ * path (light_paths.h): LR_ERR_INVALID names what the scene has that it
+ * cannot trace.  LR_ERR_NOMEM. */
 lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
                       const lr_render_settings *set, lr__lt **out,
                       lr_error *err);

@@ -303,12 +303,15 @@ lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
     /* Splatting traces one ray a pixel and sample for the whole
      * spectrum, where spectral.c's packets trace one a wavelength
      * (docs/spectral.md measures both). */
-    p->splat = lr__splat_applies(c);
-    /* Spectral splatting traces every wavelength from the camera; the
-     * light side needs the colours to focus alike (lr__lt_plan).  The
-     * light side comes first: what it carries, the camera does not see
-     * (dark blocks). */
-    if (!p->splat || set->integrator == LR_INTEGRATOR_LIGHT) {
+    const lr__integrator *in = lr__integrator_for(set->integrator);
+    /* An integrator whose camera rays estimate nothing has every block
+     * dark (below), which the splatting pass would not skip. */
+    p->splat = lr__splat_applies(c) && !(in != NULL && in->camera_dark);
+    /* The light side comes first: what it carries, the camera does not
+     * see (dark blocks).  With spectral splatting too: a splatted camera
+     * ray that meets a light side's light first adds none of its
+     * emission at any wavelength, as every other camera ray. */
+    {
         lr_status st = lr__lt_plan(s, c, set, &p->lt, err);
         if (st == LR_OK && p->lt != NULL)
             st = lt_region(p->lt, c, x0, y0, x1, y1, err);
@@ -331,7 +334,6 @@ lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
         }
     }
     /* An integrator whose camera rays estimate nothing: all dark. */
-    const lr__integrator *in = lr__integrator_for(set->integrator);
     if (in != NULL && in->camera_dark) {
         for (int i = 0; i < p->bw * p->bh; i++)
             p->blocks[i].dark = 1;

@@ -59,17 +59,7 @@
 
 void lr__shot_init(lr__shot *sh)
 {
-    /* Sellmeier's formula for every ray cost as much as choosing its
-     * wavelength.  Linear between whole nanometres, the index of SF11
-     * (the most dispersive glass shipped) is off by at most 1.4e-6, 1.5e-5
-     * of its range over the spectrum (checked against Sellmeier at 0.1
-     * nm); the power is kept in float, as the rays are traced, anyway. */
-    float power[LR__WL_NODES];
-    int spectral = sh->cam->chroma.mode == LR_CHROMATIC_SPECTRAL;
-    for (int j = 0; j < LR__WL_NODES; j++)
-        power[j] = spectral ? (float)lr__cam_power_at(sh->cam, 380.0 + j)
-                            : (float)sh->cam->w;
-    lr__wl_table_init(&sh->wl, power, sh->cam->w);
+    lr__cam_wl_table(sh->cam, &sh->wl);
 }
 
 /* Stratum k of m for a sample whose dimension 4 is v: (v + k) / m. */
