@@ -9,6 +9,7 @@
  * the renderer's determinism.
  */
 #include "test.h"
+#include "box_scene.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -178,6 +179,16 @@ static void test_light_agrees_in_a_box(void **state)
                      0.04, "box of lights, metal, glass and Phong");
 }
 
+/* The path tracer's Cornell box (test_path.c, bench/path/scenes.py): an
+ * emitting rectangle under the ceiling, diffuse walls, a diffuse and a
+ * rough metal ball, six bounces. */
+static void test_light_agrees_in_cornell_box(void **state)
+{
+    (void)state;
+    agrees_with_path(cornell_json, "render.spp=4096", "render.spp=2048", NULL,
+                     0.01, 0.03, "Cornell box");
+}
+
 /* A sky and a sun (directional) over a ground mesh, a red ball and a
  * rough metal ball. */
 static void test_light_agrees_under_sky(void **state)
@@ -343,6 +354,7 @@ static const struct CMUnitTest light_path_tests[] = {
     cmocka_unit_test(test_light_emitting_box),
     cmocka_unit_test(test_light_agrees_in_a_box),
     cmocka_unit_test(test_light_agrees_under_sky),
+    cmocka_unit_test(test_light_agrees_in_cornell_box),
     cmocka_unit_test(test_light_agrees_through_a_lens),
     cmocka_unit_test(test_light_refuses),
     cmocka_unit_test(test_light_deterministic),

@@ -22,6 +22,7 @@
  *   - bad input names its field and file.
  */
 #include "test.h"
+#include "box_scene.h"
 #include "bsdf.h"
 #include "path.h"
 #include "sampler.h"
@@ -747,39 +748,6 @@ static void test_path_is_deterministic(void **state)
         lr_image_free(z);
     }
 }
-
-/* The Cornell box of bench/path/scenes.py (open to the camera), small:
- * its camera, its five walls and its two spheres (diffuse, and rough
- * metal), lit by an emitting rectangle under the ceiling. */
-#define BOX_CAMERA                                                    \
-    " \"camera\": {\"position\": [0, 5, 16], \"look_at\": [0, 5, 0]," \
-    "  \"fov\": 40},"
-#define BOX_WALLS                                                             \
-    "  {\"type\": \"plane\", \"point\": [0, 0, -5], \"normal\": [0, 1, 0],"   \
-    "   \"size\": 10, \"material\": \"w\"},"                                  \
-    "  {\"type\": \"plane\", \"point\": [0, 10, -5], \"normal\": [0, -1, 0]," \
-    "   \"size\": 10, \"material\": \"w\"},"                                  \
-    "  {\"type\": \"plane\", \"point\": [0, 5, -10], \"normal\": [0, 0, 1],"  \
-    "   \"size\": 10, \"material\": \"w\"},"                                  \
-    "  {\"type\": \"plane\", \"point\": [-5, 5, -5], \"normal\": [1, 0, 0],"  \
-    "   \"size\": 10, \"material\": \"w\"},"                                  \
-    "  {\"type\": \"plane\", \"point\": [5, 5, -5], \"normal\": [-1, 0, 0],"  \
-    "   \"size\": 10, \"material\": \"w\"},"
-#define BOX_SPHERES                                                      \
-    "  {\"type\": \"sphere\", \"center\": [-2, 2, -6.5], \"radius\": 2," \
-    "   \"material\": \"w\"},"                                           \
-    "  {\"type\": \"sphere\", \"center\": [2.2, 1.8, -3],"               \
-    "   \"radius\": 1.8, \"material\": \"m\"}]}"
-static const char *const cornell_json =
-    "{\"render\": {\"width\": 24, \"height\": 16, \"spp\": 20,"
-    "  \"integrator\": \"path\", \"adaptive\": false, \"max_depth\": 6,"
-    "  \"plan\": false, \"threads\": 1}," BOX_CAMERA
-    " \"materials\": {\"w\": {\"diffuse\": 0.75},"
-    "  \"m\": {\"reflect\": 0.9, \"roughness\": 0.25},"
-    "  \"e\": {\"diffuse\": 0, \"emission\": 30}},"
-    " \"objects\": [" BOX_WALLS
-    "  {\"type\": \"plane\", \"point\": [0, 9.99, -5],"
-    "   \"normal\": [0, -1, 0], \"size\": 3, \"material\": \"e\"}," BOX_SPHERES;
 
 /* Embree's code for CPUs without AVX-512 checks the rays of masked-off
  * packet lanes and aborts on garbage (an assertion on tnear >= 0): the
