@@ -31,16 +31,13 @@ const char *lr_test_tmpdir(void)
 lr_image *lr_test_render(const char *json, const char *const *sets,
                          size_t n_sets, lr_render_stats *stats)
 {
-    lr_scene *s = NULL;
-    lr_error err;
-    if (lr_scene_load_json(json, strlen(json), NULL, sets, n_sets, &s, &err) !=
-        LR_OK)
-        fail_msg("scene: %s", err.message);
+    lr_scene *s = lr_test_load(json, sets, n_sets);
     lr_camera cam;
     lr_render_settings rs;
     lr_scene_camera(s, &cam);
     lr_scene_settings(s, &rs);
     lr_image *img = NULL;
+    lr_error err;
     if (lr_render(s, &cam, &rs, &img, stats, &err) != LR_OK)
         fail_msg("render: %s", err.message);
     lr_scene_free(s);
@@ -473,4 +470,20 @@ void lr_test_isa_means_agree(const double *mean, const char *const *isa, int n)
     for (int k = 1; k < n; k++)
         if (!(fabs(mean[k] - mean[0]) <= 0.01 * mean[0]))
             fail_msg("%s: mean %.9g, default %.9g", isa[k], mean[k], mean[0]);
+}
+
+void lr_test_write_map(const char *name, double (*value)(int x, int y), int W,
+                       int H)
+{
+    lr_image *map = NULL;
+    assert_int_equal(lr_image_create(W, H, 0, &map, NULL), LR_OK);
+    float *px = lr_image_rgb_mut(map);
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++)
+            for (int c = 0; c < 3; c++)
+                px[3 * (y * W + x) + c] = (float)value(x, y);
+    char path[1024];
+    snprintf(path, sizeof path, "%s/%s", lr_test_tmpdir(), name);
+    assert_int_equal(lr_image_write(map, path, NULL, NULL), LR_OK);
+    lr_image_free(map);
 }

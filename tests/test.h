@@ -32,9 +32,15 @@ void lr_test_register(const char *name, const struct CMUnitTest *tests,
         lr_test_register(#name, array, sizeof(array) / sizeof(array[0])); \
     }
 
-/* Loads a scene from JSON text with `sets` overrides, renders it with its
- * own camera and settings, and returns the image (failing the test on
- * any error); stats may be NULL. */
+/* Writes a W x H grey map of value(x, y) as the EXR file NAME in
+ * lr_test_tmpdir() (environment maps). */
+void lr_test_write_map(const char *name, double (*value)(int x, int y), int W,
+                       int H);
+
+/* Loads a scene from JSON text with `sets` overrides (relative files from
+ * lr_test_tmpdir()), renders it with its own camera and settings, and
+ * returns the image (failing the test on any error); stats may be
+ * NULL. */
 lr_image *lr_test_render(const char *json, const char *const *sets,
                          size_t n_sets, lr_render_stats *stats);
 

@@ -312,6 +312,59 @@ static void test_spectral_light_side(void **state)
     lr_image_free(ci);
 }
 
+/* A sky of 0.05 and a sun of 3 x 3 texels of 2000 at u = 0.03, v = 0.45
+ * (a little above the horizon, towards -z) on a 256 x 128 map. */
+static double sun_sky(int x, int y)
+{
+    return x >= 6 && x <= 8 && y >= 56 && y <= 58 ? 2000.0 : 0.05;
+}
+
+/* The environment's sun seen directly through a thin lens focused at 1,
+ * a disc about 40 pixels across, a ball in front of part of it: with
+ * the defaults the light side traces the sun (and camera rays that
+ * escape within its cone add none of the map), with both integrators;
+ * the sun's box and the frame hold what the camera alone finds (every
+ * sample traced), within its noise. */
+static void test_env_sun_light_side(void **state)
+{
+    (void)state;
+    lr_test_write_map("sun-sky.exr", sun_sky, 256, 128);
+    const char *scene =
+        "{\"render\": {\"width\": 96, \"height\": 64, \"seed\": 2},"
+        " \"camera\": {\"model\": \"thinlens\", \"position\": [0, 0, 0],"
+        "  \"look_at\": [0.185, 0.156, -0.97], \"fov\": 40,"
+        "  \"aperture_radius\": 0.25, \"focus_distance\": 1},"
+        " \"environment\": {\"file\": \"sun-sky.exr\"},"
+        " \"materials\": {\"b\": {\"diffuse\": 0.5}},"
+        " \"objects\": [{\"type\": \"sphere\", \"center\": [0.9, 0.6, -6],"
+        "   \"radius\": 0.5, \"material\": \"b\"}]}";
+    const char *integrators[2] = {"render.integrator=path",
+                                  "render.integrator=whitted"};
+    for (int k = 0; k < 2; k++) {
+        const char *lsets[] = {integrators[k], "render.spp=64"};
+        lr_render_stats st;
+        lr_image *li = lr_test_render(scene, lsets, 2, &st);
+        assert_int_equal(st.light_lights, 1);
+        lr_test_check_finite(li, &st, "sun");
+        const char *csets[] = {integrators[k], "render.spp=4096",
+                               "render.light=false", "render.plan=false",
+                               "render.adaptive=false"};
+        lr_render_stats sc;
+        lr_image *ci = lr_test_render(scene, csets, 5, &sc);
+        assert_int_equal(sc.light_lights, 0);
+        const int boxes[2][4] = {{24, 8, 72, 56}, {0, 0, 96, 64}};
+        const double tol[2] = {0.02, 0.01};
+        boxes_agree(li, ci, boxes, tol, 2, integrators[k]);
+        /* The same disc, bitten by the ball: its size. */
+        double a = rms_radius(li, boxes[0], 0), b = rms_radius(ci, boxes[0], 0);
+        print_message("%s: the sun's rms radius %.4f, camera %.4f\n",
+                      integrators[k], a, b);
+        assert_true(fabs(a / b - 1.0) < 0.01);
+        lr_image_free(li);
+        lr_image_free(ci);
+    }
+}
+
 /* The light side and the camera agree: the camera alone (light off,
  * every sample traced, 8192 spp) and the light side (64 spp) give each
  * light's disc the same energy within the camera's noise (about 0.7%
@@ -879,6 +932,7 @@ static const struct CMUnitTest light_tests[] = {
     cmocka_unit_test(test_bracket_light_side),
     cmocka_unit_test(test_rgb_light_side),
     cmocka_unit_test(test_spectral_light_side),
+    cmocka_unit_test(test_env_sun_light_side),
     cmocka_unit_test(test_glints_agree_with_camera),
     cmocka_unit_test(test_glints_deterministic_and_planned),
     cmocka_unit_test(test_mesh_lights_closed_form),

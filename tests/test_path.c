@@ -205,27 +205,10 @@ static double irradiance_up(double (*value)(int x, int y), int W, int H)
     return E;
 }
 
-/* Writes a W x H grey map of value(x, y) as NAME in the test directory. */
-static void write_map(const char *name, double (*value)(int x, int y), int W,
-                      int H)
-{
-    lr_image *map = NULL;
-    assert_int_equal(lr_image_create(W, H, 0, &map, NULL), LR_OK);
-    float *px = lr_image_rgb_mut(map);
-    for (int y = 0; y < H; y++)
-        for (int x = 0; x < W; x++)
-            for (int c = 0; c < 3; c++)
-                px[3 * (y * W + x) + c] = (float)value(x, y);
-    char path[1024];
-    snprintf(path, sizeof path, "%s/%s", lr_test_tmpdir(), name);
-    assert_int_equal(lr_image_write(map, path, NULL, NULL), LR_OK);
-    lr_image_free(map);
-}
-
 static void test_plane_under_envmap(void **state)
 {
     (void)state;
-    write_map("env.exr", env_value, ENV_W, ENV_H);
+    lr_test_write_map("env.exr", env_value, ENV_W, ENV_H);
     double E = irradiance_up(env_value, ENV_W, ENV_H);
     double want = 0.5 / M_PI * E;
     const char *json =
@@ -294,7 +277,7 @@ static void test_envmap_too_many_texels(void **state)
     const char *json = "{\"environment\": {\"file\": \"huge.exr\"}, "
                        "\"objects\": []}";
     for (int k = 0; k < 2; k++) {
-        write_map("huge.exr", one_value, 2, 1);
+        lr_test_write_map("huge.exr", one_value, 2, 1);
         claim_size(path, 16384, k == 0 ? 16384 : 8192);
         lr_scene *sc = NULL;
         lr_error err;
@@ -327,7 +310,7 @@ static double sun_value(int x, int y)
 static void test_envmap_one_texel_sun(void **state)
 {
     (void)state;
-    write_map("sun.exr", sun_value, ENV_W, ENV_H);
+    lr_test_write_map("sun.exr", sun_value, ENV_W, ENV_H);
     double want = 0.5 / M_PI * irradiance_up(sun_value, ENV_W, ENV_H);
     const char *json =
         "{\"render\": {\"width\": 8, \"height\": 8, \"spp\": 512,"

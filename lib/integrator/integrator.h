@@ -18,6 +18,18 @@
 
 #include <stdint.h>
 
+/* What the light side estimates of what camera rays see first
+ * (light_trace.h), so that camera rays add none of it: per scene geometry
+ * the LR__LT_* flags below, and the environment's sun, a cone of
+ * directions: a camera ray that escapes within it (dot(dir, sun_dir) >=
+ * sun_cos; sun_cos > 1: no sun) adds none of the environment's radiance
+ * (its other light, and every later bounce's, as ever). */
+typedef struct lr__lt_view {
+    const unsigned char *geom;
+    lr__v3 sun_dir;
+    double sun_cos;
+} lr__lt_view;
+
 /* Which camera sample a ray belongs to: an integrator that makes random
  * decisions draws them from `sampler` for (pixel, sample, its own
  * dimensions >= LR__DIM_COUNT), so they stay a pure function of the
@@ -26,14 +38,12 @@ typedef struct lr__sample_id {
     const lr__sampler *sampler;
     uint64_t pixel;
     uint32_t sample;
-    /* Per scene geometry, 1 where the light side estimates the emission
-     * that camera rays see first (light_trace.h): a camera ray whose
-     * first hit is such a geometry adds none of its emission (its other
-     * light, and every later hit's, as ever).  NULL: none. */
-    const unsigned char *lt;
+    /* The light side's part of the camera ray's first hit or escape;
+     * NULL: none. */
+    const lr__lt_view *lt;
 } lr__sample_id;
 
-/* lr__sample_id.lt's flags (light_trace.h's lr__lt.direct). */
+/* lr__lt_view.geom's flags (light_trace.h's lr__lt.direct). */
 #define LR__LT_DIRECT 1
 #define LR__LT_GLINT_SURF 2
 #define LR__LT_GLINT_LIGHT 4
@@ -42,14 +52,21 @@ typedef struct lr__sample_id {
  * the emission of the camera ray's first hit on it is the light side's;
  * LR__LT_GLINT_SURF and LR__LT_GLINT_LIGHT, whether light from the
  * second straight off the first (the camera ray's first hit) is. */
-static inline int lr__lt_flag(const unsigned char *lt, long geom, int flag)
+static inline int lr__lt_flag(const lr__lt_view *lt, long geom, int flag)
 {
-    return lt != NULL && geom >= 0 && (lt[geom] & flag);
+    return lt != NULL && geom >= 0 && (lt->geom[geom] & flag);
 }
 
-static inline int lr__lt_direct(const unsigned char *lt, long geom)
+static inline int lr__lt_direct(const lr__lt_view *lt, long geom)
 {
     return lr__lt_flag(lt, geom, LR__LT_DIRECT);
+}
+
+/* Whether the environment's radiance along unit dir, seen by a camera ray
+ * escaping, is the light side's (its sun). */
+static inline int lr__lt_sun(const lr__lt_view *lt, lr__v3 dir)
+{
+    return lt != NULL && v3_dot(dir, lt->sun_dir) >= lt->sun_cos;
 }
 
 /* A glint's core: light from a glint light reflected at a glint surface

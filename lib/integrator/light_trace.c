@@ -50,6 +50,7 @@
 
 #include "bsdf.h"
 #include "integrator.h"
+#include "light.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -190,19 +191,21 @@ static lr__lt *lt_new_n(const lr_scene *s, size_t n)
         lr__lt_free(lt);
         return NULL;
     }
+    lt->view = (lr__lt_view){lt->direct, v3(0, 0, 0), 2.0};
     return lt;
 }
 
-/* An empty light side for scene s (room for a direct entry a geometry);
+/* An empty light side for scene s (room for a light a geometry and the sun);
  * NULL when out of memory. */
 static lr__lt *lt_new(const lr_scene *s)
 {
     lr__lt *lt = calloc(1, sizeof *lt);
-    if (lt == NULL || (lt->direct = calloc(s->n_geoms, 1)) == NULL ||
-        (lt->lights = malloc(s->n_geoms * sizeof *lt->lights)) == NULL) {
+    if (lt == NULL || (lt->direct = calloc(s->n_geoms + 1, 1)) == NULL ||
+        (lt->lights = malloc((s->n_geoms + 1) * sizeof *lt->lights)) == NULL) {
         lr__lt_free(lt);
         return NULL;
     }
+    lt->view = (lr__lt_view){lt->direct, v3(0, 0, 0), 2.0};
     return lt;
 }
 
@@ -384,6 +387,48 @@ static int plan_glints(const lr_scene *s, const lr__cam *c,
     return good;
 }
 
+/* The environment's sun (lr__envmap_sun) to *ltp, when it is small
+ * against its blur: seen through the camera as a sphere far beyond
+ * everything (its blur is the lens's at infinity).  0 when out of
+ * memory. */
+static int plan_sun(const lr_scene *s, const lr__cam *c,
+                    const lr__lens_bound *lb, int estimate, int spp,
+                    lr__lt **ltp)
+{
+    lr__v3 a;
+    double cos_a;
+    if (s->env == NULL || !lr__envmap_sun(s->env, &a, &cos_a))
+        return 1;
+    double far = 1e9 * (1.0 + s->extent + v3_len(c->origin));
+    double sin_a = sqrt(fmax(0.0, 1.0 - cos_a * cos_a));
+    uint64_t n = paths_for(c, lb, estimate, v3_madd(c->origin, a, far),
+                           far * sin_a, spp, 0);
+    if (n == 0)
+        return 1;
+    lr__lt *lt = *ltp;
+    if (lt == NULL && (*ltp = lt = lt_new(s)) == NULL)
+        return 0;
+    lr__lt_light *grown = realloc(lt->lights, (lt->n + 1) * sizeof *grown);
+    if (grown == NULL)
+        return 0;
+    lt->lights = grown;
+    lr__lt_light *l = &lt->lights[lt->n++];
+    memset(l, 0, sizeof *l);
+    l->geom = (int)s->n_geoms;
+    l->surf = LR__LT_SUN;
+    l->center = a;
+    /* 1 - cos alpha = sin^2 / (1 + cos), as for the spheres. */
+    l->area = sin_a * sin_a / (1.0 + cos_a);
+    double m = lr__envmap_max(s->env);
+    l->L = v3(m, m, m);
+    l->paths = n;
+    l->first = lt->paths;
+    lt->paths += n;
+    lt->view.sun_dir = a;
+    lt->view.sun_cos = cos_a;
+    return 1;
+}
+
 /* Spectral mode with colours that focus apart: lt's wavelengths' table
  * (lr__cam_land), shared with its light integrator's paths.  0: out of
  * memory. */
@@ -496,8 +541,9 @@ lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
         lt->paths += n;
         lt->direct[g] |= LR__LT_DIRECT;
     }
-    if (set->integrator == LR_INTEGRATOR_PATH &&
-        !plan_glints(s, c, &lb, m->bound == NULL, set->spp, &lt)) {
+    if ((set->integrator == LR_INTEGRATOR_PATH &&
+         !plan_glints(s, c, &lb, m->bound == NULL, set->spp, &lt)) ||
+        !plan_sun(s, c, &lb, m->bound == NULL, set->spp, &lt)) {
         lr__lt_free(lt);
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     }
@@ -790,6 +836,47 @@ static void glint_path(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
         landed);
 }
 
+/* A direction uniform in the cone about unit a whose half-angle has 1 -
+ * cos = omc, from u (pbrt-v4's SampleUniformCone, with 1 - cos theta
+ * drawn directly, without cancellation for tiny cones); density 1 /
+ * (2 pi omc). */
+static lr__v3 in_cone(lr__v3 a, double omc, const double u[2])
+{
+    double t = u[0] * omc; /* 1 - cos theta */
+    double cos_t = 1.0 - t, sin_t = sqrt(t * (2.0 - t));
+    double phi = 2.0 * M_PI * u[1];
+    lr__v3 t1, t2;
+    v3_frame(a, &t1, &t2);
+    lr__v3 w = v3_add(
+        v3_scale(a, cos_t),
+        v3_add(v3_scale(t1, sin_t * cos(phi)), v3_scale(t2, sin_t * sin(phi))));
+    return v3_norm(w);
+}
+
+/* The environment's sun seen from lens point P: a direction w uniform in
+ * its cone (the camera's rays that escape within the cone add none of
+ * the environment there: lr__lt_sun), landing where the camera ray from
+ * P along w starts, if that ray escapes: the map's radiance along w over
+ * the cone's density. */
+static void sun_path(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
+                     const lr__lt_light *l, lr__v3 P, double ox, double oy,
+                     const double *ud, double uw, lr__lt_film *f,
+                     uint64_t *rays, uint64_t *landed)
+{
+    lr__v3 w = in_cone(l->center, l->area, ud);
+    lr__landing ld;
+    if (!lr__cam_land(c, lt->wl, uw, ox, oy, w, &ld))
+        return;
+    (*rays)++;
+    if (lr__trace_geom(s, lr__cam_ray_start(c, P, w), w, INFINITY) != -2)
+        return;
+    double pdf = 1.0 / (2.0 * M_PI * l->area);
+    splat_landing(
+        f, &ld,
+        v3_scale(lr__env_radiance(s, w), 1.0 / (pdf * (double)l->paths)),
+        landed);
+}
+
 /* The sampler "pixel" of light l's paths: by its geometry's index (and a
  * glint's surface's), so that a region that leaves some lights out draws
  * the same numbers for the others. */
@@ -854,6 +941,10 @@ void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
             mesh_path(lt, s, c, l, P, ox, oy, ud, uw[0], f, rays, landed);
             continue;
         }
+        if (l->surf == LR__LT_SUN) {
+            sun_path(lt, s, c, l, P, ox, oy, ud, uw[0], f, rays, landed);
+            continue;
+        }
         lr__v3 dv = v3_sub(l->center, P);
         double dist2 = v3_dot(dv, dv), r2 = l->radius * l->radius;
         if (!(dist2 > r2))
@@ -864,15 +955,7 @@ void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
          * the tiny cones of far lights. */
         double sin2 = r2 / dist2, cos_a = sqrt(1.0 - sin2);
         double omc = sin2 / (1.0 + cos_a);
-        double t = ud[0] * omc; /* 1 - cos theta */
-        double cos_t = 1.0 - t, sin_t = sqrt(t * (2.0 - t));
-        double phi = 2.0 * M_PI * ud[1];
-        lr__v3 t1, t2;
-        v3_frame(a, &t1, &t2);
-        lr__v3 w = v3_add(v3_scale(a, cos_t),
-                          v3_add(v3_scale(t1, sin_t * cos(phi)),
-                                 v3_scale(t2, sin_t * sin(phi))));
-        w = v3_norm(w);
+        lr__v3 w = in_cone(a, omc, ud);
         lr__landing ld;
         if (!lr__cam_land(c, lt->wl, uw[0], ox, oy, w, &ld))
             continue;

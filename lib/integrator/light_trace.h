@@ -7,7 +7,12 @@
  * the film point follows from the lens (camera.h's lens_point and film).
  *
  * Lights: spheres and meshes of emitting triangles, with untextured
- * emission.
+ * emission, and the environment map's sun: the cone of directions around
+ * its brightest texel that holds its bright texels (lr__envmap_sun), seen
+ * as a sphere at infinity.  For the sun the split below is by direction:
+ * camera rays that escape within the cone add none of the map's radiance
+ * (lr__lt_sun), and a light path is a direction uniform in the cone from
+ * a lens point, landing if the camera ray along it escapes.
  *
  * The split (why the sum is unbiased): the plan picks lights whose image
  * is small against their blur (lr__lt_plan).  For a picked light, the
@@ -44,6 +49,7 @@
 #define LR_LIGHT_TRACE_H
 
 #include "camera.h"
+#include "integrator.h"
 #include "light_paths.h"
 #include "sampler.h"
 #include "scene.h"
@@ -53,12 +59,16 @@
 /* One light traced from its side: a sphere of the scene, or a mesh of
  * emitting triangles. */
 typedef struct lr__lt_light {
-    int geom; /* index in scene->geoms; for LR__LT_PATHS, its part */
+    /* Index in scene->geoms; for LR__LT_PATHS, its part; for LR__LT_SUN,
+     * the number of geometries (its sampler key). */
+    int geom;
     /* -1: the light seen directly; LR__LT_PATHS: a part of the `light`
-     * integrator's paths (light_paths.h; L is then the film's scale); else
-     * a glint: the light seen in the flat rough metal geometry surf,
-     * whose plane holds plane_p with unit normal plane_n (any side), GGX
-     * alpha `alpha`. */
+     * integrator's paths (light_paths.h; L is then the film's scale);
+     * LR__LT_SUN: the environment's sun seen directly (center its cone's
+     * unit axis, area 1 - cos of its half-angle, L the map's largest
+     * value: the film's scale); else a glint: the light seen in the flat
+     * rough metal geometry surf, whose plane holds plane_p with unit
+     * normal plane_n (any side), GGX alpha `alpha`. */
     int surf;
     lr__v3 plane_p, plane_n;
     double alpha;
@@ -86,6 +96,9 @@ typedef struct lr__lt {
      * a light whose glints in those surfaces are the light side's (every
      * such pair is traced). */
     unsigned char *direct;
+    /* What camera rays leave to this light side (lr__sample_id.lt):
+     * direct, and the sun's cone. */
+    lr__lt_view view;
     uint64_t seed;
     /* The `light` integrator's paths (their parts are the lights with
      * surf LR__LT_PATHS), or NULL.  Owned. */
@@ -97,6 +110,7 @@ typedef struct lr__lt {
 } lr__lt;
 
 #define LR__LT_PATHS (-2)
+#define LR__LT_SUN (-3)
 /* The most paths of one part (a sampler "pixel" counts its samples in 32
  * bits). */
 #define LR__LT_PART ((uint64_t)1 << 31)

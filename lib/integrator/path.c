@@ -96,7 +96,7 @@ typedef lr__path_lane lane;
  * side (its lights' light from here is the light side's), else NULL. */
 static int next_event(const lr_scene *s, const lr__hit *h, const lr__bsdf *f,
                       lr__v3 wo, const double v[DIMS_PER_BOUNCE],
-                      const unsigned char *glints, lane *p)
+                      const lr__lt_view *glints, lane *p)
 {
     lr__light_sample ls;
     if (!lr__light_sample_from(s, h->p, v[4], v, &ls) ||
@@ -161,10 +161,12 @@ static int next_event(const lr_scene *s, const lr__hit *h, const lr__bsdf *f,
  * else NULL. */
 static int bounce(const lr_scene *s, int max_depth, int depth, int hit,
                   const lr__hit *h, const double v[DIMS_PER_BOUNCE],
-                  const unsigned char *lt, const unsigned char *glint, lane *p)
+                  const lr__lt_view *lt, const lr__lt_view *glint, lane *p)
 {
     p->shadow = 0;
     if (!hit) {
+        if (lr__lt_sun(lt, p->dir))
+            return 0;
         lr__v3 Le = lr__env_radiance(s, p->dir);
         double w = p->prev_delta
                        ? 1.0

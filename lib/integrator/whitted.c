@@ -54,8 +54,8 @@ static lr__v3 direct(const lr_scene *s, const lr__material *m, const lr__hit *h,
 }
 
 static lr__v3 radiance(const lr_scene *s, lr__v3 org, lr__v3 dir, int depth,
-                       int max_depth, double throughput,
-                       const unsigned char *lt, uint64_t *rays);
+                       int max_depth, double throughput, const lr__lt_view *lt,
+                       uint64_t *rays);
 
 lr__v3 lr__whitted_secondary(const lr_scene *s, const lr__material *m,
                              const lr__hit *h, lr__v3 dir, int depth,
@@ -106,13 +106,13 @@ lr__v3 lr__whitted_secondary(const lr_scene *s, const lr__material *m,
 /* lt: the camera ray's light-side geometry (lr__sample_id), NULL past
  * the first hit. */
 static lr__v3 radiance(const lr_scene *s, lr__v3 org, lr__v3 dir, int depth,
-                       int max_depth, double throughput,
-                       const unsigned char *lt, uint64_t *rays)
+                       int max_depth, double throughput, const lr__lt_view *lt,
+                       uint64_t *rays)
 {
     lr__hit h;
     (*rays)++;
     if (!lr__trace(s, org, dir, INFINITY, &h))
-        return lr__env_radiance(s, dir);
+        return lr__lt_sun(lt, dir) ? v3(0, 0, 0) : lr__env_radiance(s, dir);
     lr__material mt;
     const lr__material *m = lr__hit_material(s, &h, &mt);
     lr__v3 Le = lr__lt_direct(lt, h.geom) ? v3(0, 0, 0)

@@ -222,13 +222,15 @@ vector_add16(const int *restrict valid, const struct RTCRay16 *restrict shadow,
 }
 
 /* Lane i's camera ray missed and no infinite plane can meet it: the
- * sky, as lr__hit_complete's miss gives it. */
-static inline lr__v3 sky16(const lr_scene *s, const struct RTCRay16 *r, int i)
+ * sky, as lr__hit_complete's miss gives it, less the light side's sun
+ * (lt, the camera's rays'). */
+static inline lr__v3 sky16(const lr_scene *s, const lr__lt_view *lt,
+                           const struct RTCRay16 *r, int i)
 {
-    return s->env == NULL
-               ? s->background
-               : lr__env_radiance(
-                     s, v3_norm(v3(r->dir_x[i], r->dir_y[i], r->dir_z[i])));
+    if (s->env == NULL)
+        return s->background;
+    lr__v3 d = v3_norm(v3(r->dir_x[i], r->dir_y[i], r->dir_z[i]));
+    return lr__lt_sun(lt, d) ? v3(0, 0, 0) : lr__env_radiance(s, d);
 }
 
 /* Vector lane i's hit into sc->h and its albedo into sc->k: a textured
@@ -254,7 +256,7 @@ static inline void vector_gather(const lr_scene *s,
 /* radiance16 for a packet whose camera rays have been traced. */
 static void shade16(const lr_scene *restrict s, int max_depth,
                     struct RTCRayHit16 *restrict rh, int n,
-                    const unsigned char *lt, lr__v3 L[restrict 16],
+                    const lr__lt_view *lt, lr__v3 L[restrict 16],
                     uint64_t *restrict rays)
 {
     scratch16 *sc = thread_scratch();
@@ -282,7 +284,7 @@ static void shade16(const lr_scene *restrict s, int max_depth,
         vec[i] = 0;
         has_hit[i] = 0;
         if (g == RTC_INVALID_GEOMETRY_ID && miss_is_sky) {
-            L[i] = sky16(s, &rh->ray, i);
+            L[i] = sky16(s, lt, &rh->ray, i);
             continue;
         }
         if (vector_ok && vector_lane(s, rh, i)) {
@@ -550,7 +552,7 @@ void lr__whitted_radiance16_n(const lr_scene *s, int max_depth,
         if (s->env != NULL)
             for (unsigned m = ~h & ((1u << n[p]) - 1u); m; m &= m - 1) {
                 int i = __builtin_ctz(m);
-                lr__v3 sky = sky16(s, &r->ray, i);
+                lr__v3 sky = sky16(s, id[p].lt, &r->ray, i);
                 bt->sky[0][i] = sky.x, bt->sky[1][i] = sky.y,
                 bt->sky[2][i] = sky.z;
             }

@@ -917,7 +917,7 @@ static const lr__geom *geom_or_plane(const lr_scene *s, size_t g)
 
 /* The most a surface that shows emitters (geometry or plane g) shows:
  * everything, or L_glint on a glint surface of the light side. */
-static double shown(const unsigned char *fl, size_t g, int is_plane,
+static double shown(const lr__lt_view *fl, size_t g, int is_plane,
                     double L_emit, double L_glint)
 {
     return !is_plane && lr__lt_flag(fl, (long)g, LR__LT_GLINT_SURF) ? L_glint
@@ -934,7 +934,7 @@ static lr_status rare_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
      * its glint lights' light straight from it is the light side's
      * (light_trace.h), so every other emitter's, and everything if
      * another surface may show those lights in turn. */
-    const unsigned char *fl = p->lt != NULL ? p->lt->direct : NULL;
+    const lr__lt_view *fl = p->lt != NULL ? &p->lt->view : NULL;
     double L_env = s->env != NULL ? lr__envmap_max(s->env) : 0.0;
     double L_emit = L_env, L_glint = L_env;
     int n_show = 0;

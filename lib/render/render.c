@@ -243,7 +243,7 @@ lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
                         .width = set->width,
                         .max_depth = set->max_depth,
                         .no_squares = !set->adaptive,
-                        .lt = j.plan.lt != NULL ? j.plan.lt->direct : NULL};
+                        .lt = j.plan.lt != NULL ? &j.plan.lt->view : NULL};
     lr__shot_init(&j.shot);
     j.tiles_x = (j.x1 - j.x0 + set->tile_size - 1) / set->tile_size;
     j.tiles_y = (j.y1 - j.y0 + set->tile_size - 1) / set->tile_size;

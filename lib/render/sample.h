@@ -31,8 +31,9 @@ typedef struct lr__shot {
     /* Spectral mode: where wavelengths are drawn, their weights and the
      * camera's focus power (lr__cam_power_at) at each (wavelength.h). */
     lr__wl_table wl;
-    /* The light side's geometry (lr__sample_id.lt); NULL: none. */
-    const unsigned char *lt;
+    /* The light side's part of camera rays' first hits and escapes
+     * (lr__sample_id.lt); NULL: none. */
+    const lr__lt_view *lt;
 } lr__shot;
 
 /* Prepares `sh` (wl) for the other fields the caller has set. */

@@ -198,6 +198,59 @@ static lr_status build_cdf(lr__envmap *e, lr_error *err)
     return LR_OK;
 }
 
+/* The world direction of map coordinates (u, v): to_uv's inverse (the
+ * map's frame, then the rotation about +y, as lr__envmap_sample). */
+static lr__v3 from_uv(const lr__envmap *e, double u, double v)
+{
+    double theta = v * M_PI, phi = u * 2.0 * M_PI, st = sin(theta);
+    double lx = st * sin(phi), ly = cos(theta), lz = -st * cos(phi);
+    return v3(e->cos_r * lx + e->sin_r * lz, ly,
+              -e->sin_r * lx + e->cos_r * lz);
+}
+
+/* lr__envmap_sun's cone, from the texels' places (column x at u = (x +
+ * 1/2) / w, row y at v = y / (h - 1): lookup).  The lookup spreads a
+ * texel's light over the texels around it, so the cone reaches one and
+ * a half texel spacings (of a row, or of a column at the equator, the
+ * wider) past the bright texels' places. */
+static void find_sun(lr__envmap *e)
+{
+    e->sun_cos = 2.0;
+    double best = 0.0;
+    int bx = 0, by = 0;
+    for (int y = 0; y < e->h; y++)
+        for (int x = 0; x < e->w; x++) {
+            double l = texel_lum(e, x, y);
+            if (l > best)
+                best = l, bx = x, by = y;
+        }
+    if (!(best > 0.0) || e->h < 2)
+        return;
+    lr__v3 a = from_uv(e, (bx + 0.5) / e->w, (double)by / (e->h - 1));
+    double reach = 0.0, cos_max = cos(LR__ENV_SUN_MAX);
+    for (int y = 0; y < e->h; y++)
+        for (int x = 0; x < e->w; x++) {
+            if (!(texel_lum(e, x, y) * LR__ENV_SUN_RATIO >= best))
+                continue;
+            lr__v3 d = from_uv(e, (x + 0.5) / e->w, (double)y / (e->h - 1));
+            double c = v3_dot(a, d);
+            if (c >= cos_max)
+                reach = fmax(reach, acos(fmin(1.0, c)));
+        }
+    reach += 1.5 * fmax(M_PI / (e->h - 1), 2.0 * M_PI / e->w);
+    if (reach < LR__ENV_SUN_MAX) {
+        e->sun_dir = a;
+        e->sun_cos = cos(reach);
+    }
+}
+
+int lr__envmap_sun(const lr__envmap *e, lr__v3 *dir, double *cos_a)
+{
+    *dir = e->sun_dir;
+    *cos_a = e->sun_cos;
+    return e->sun_cos <= 1.0;
+}
+
 lr_status lr__envmap_load(const char *path, const char *file, const char *blame,
                           double intensity, double rotation_deg,
                           lr__envmap **out, lr_error *err)
@@ -226,6 +279,8 @@ lr_status lr__envmap_load(const char *path, const char *file, const char *blame,
         st = build_cdf(e, err);
     if (st == LR_OK)
         st = build_run_max(e, err);
+    if (st == LR_OK)
+        find_sun(e);
     if (st != LR_OK) {
         lr__envmap_free(e);
         return st;

@@ -32,6 +32,9 @@ struct lr__envmap {
      * largest overall.  For lr__envmap_max_in_cone. */
     float *run_max; /* h * ceil(w / LR__ENV_RUN); owned */
     double max;
+    /* lr__envmap_sun's cone (sun_cos > 1: none). */
+    lr__v3 sun_dir;
+    double sun_cos;
 };
 
 #define LR__ENV_RUN 8

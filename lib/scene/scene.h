@@ -87,6 +87,15 @@ typedef struct lr__envmap lr__envmap; /* envmap.c */
  * the map's largest value anywhere. */
 double lr__envmap_max_in_cone(const lr__envmap *e, lr__v3 axis, double alpha);
 double lr__envmap_max(const lr__envmap *e);
+/* envmap.c, for the light side (light_trace.c): the map's sun, a cone
+ * (unit axis *dir, cos of its half-angle *cos_a) holding every texel
+ * within LR__ENV_SUN_MAX of the brightest whose luminance is at least
+ * 1 / LR__ENV_SUN_RATIO of its, with a margin of the bilinear lookup's
+ * spread; 0 when that cone would be wider than LR__ENV_SUN_MAX (no small
+ * bright source to speak of).  Found when the map is loaded. */
+int lr__envmap_sun(const lr__envmap *e, lr__v3 *dir, double *cos_a);
+#define LR__ENV_SUN_MAX 0.25
+#define LR__ENV_SUN_RATIO 64.0
 
 typedef enum lr__light_kind {
     LR__LIGHT_POINT,
