@@ -319,6 +319,18 @@ static double sun_sky(int x, int y)
     return x >= 6 && x <= 8 && y >= 56 && y <= 58 ? 2000.0 : 0.05;
 }
 
+/* sun_sky's map (sun-sky.exr) seen through a thin lens focused at 1 m:
+ * the sun's disc about 40 pixels across, a ball in front of part of it. */
+static const char *sun_scene =
+    "{\"render\": {\"width\": 96, \"height\": 64, \"seed\": 2},"
+    " \"camera\": {\"model\": \"thinlens\", \"position\": [0, 0, 0],"
+    "  \"look_at\": [0.185, 0.156, -0.97], \"fov\": 40,"
+    "  \"aperture_radius\": 0.25, \"focus_distance\": 1},"
+    " \"environment\": {\"file\": \"sun-sky.exr\"},"
+    " \"materials\": {\"b\": {\"diffuse\": 0.5}},"
+    " \"objects\": [{\"type\": \"sphere\", \"center\": [0.9, 0.6, -6],"
+    "   \"radius\": 0.5, \"material\": \"b\"}]}";
+
 /* The environment's sun seen directly through a thin lens focused at 1,
  * a disc about 40 pixels across, a ball in front of part of it: with
  * the defaults the light side traces the sun (and camera rays that
@@ -329,15 +341,7 @@ static void test_env_sun_light_side(void **state)
 {
     (void)state;
     lr_test_write_map("sun-sky.exr", sun_sky, 256, 128);
-    const char *scene =
-        "{\"render\": {\"width\": 96, \"height\": 64, \"seed\": 2},"
-        " \"camera\": {\"model\": \"thinlens\", \"position\": [0, 0, 0],"
-        "  \"look_at\": [0.185, 0.156, -0.97], \"fov\": 40,"
-        "  \"aperture_radius\": 0.25, \"focus_distance\": 1},"
-        " \"environment\": {\"file\": \"sun-sky.exr\"},"
-        " \"materials\": {\"b\": {\"diffuse\": 0.5}},"
-        " \"objects\": [{\"type\": \"sphere\", \"center\": [0.9, 0.6, -6],"
-        "   \"radius\": 0.5, \"material\": \"b\"}]}";
+    const char *scene = sun_scene;
     const char *integrators[2] = {"render.integrator=path",
                                   "render.integrator=whitted"};
     for (int k = 0; k < 2; k++) {
@@ -436,7 +440,8 @@ static void assert_region_is_frame(const lr_image *full, const lr_image *crop,
 }
 
 /* Splats keep determinism: one thread and two with odd tiles give the
- * same bytes, and a region's pixels are the full frame's. */
+ * same bytes, and a region's pixels are the full frame's (spheres and
+ * the environment's sun). */
 static void test_light_deterministic(void **state)
 {
     (void)state;
@@ -470,6 +475,15 @@ static void test_light_deterministic(void **state)
     lr_image_free(b);
     lr_image_free(c);
     lr_image_free(d);
+    /* The environment's sun likewise. */
+    lr_test_write_map("sun-sky.exr", sun_sky, 256, 128);
+    lr_render_stats ss;
+    a = lr_test_render(sun_scene, a_sets, 2, &ss);
+    assert_int_equal(ss.light_lights, 1);
+    c = lr_test_render(sun_scene, c_sets, 3, NULL);
+    assert_region_is_frame(a, c, 17, 9, "the sun's region");
+    lr_image_free(a);
+    lr_image_free(c);
 }
 
 /* What the plan sends to the light side: small lights far from focus

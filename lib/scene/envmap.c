@@ -228,7 +228,11 @@ static void find_sun(lr__envmap *e)
         return;
     lr__v3 a = from_uv(e, (bx + 0.5) / e->w, (double)by / (e->h - 1));
     double reach = 0.0, cos_max = cos(LR__ENV_SUN_MAX);
-    for (int y = 0; y < e->h; y++)
+    /* Only rows within LR__ENV_SUN_MAX of the sun's latitude can count. */
+    int dy = (int)ceil(LR__ENV_SUN_MAX / M_PI * (e->h - 1));
+    int y0 = by - dy < 0 ? 0 : by - dy,
+        y1 = by + dy >= e->h ? e->h - 1 : by + dy;
+    for (int y = y0; y <= y1; y++)
         for (int x = 0; x < e->w; x++) {
             if (!(texel_lum(e, x, y) * LR__ENV_SUN_RATIO >= best))
                 continue;
