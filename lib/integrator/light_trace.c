@@ -510,7 +510,7 @@ lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
     for (size_t g = 0; g < s->n_geoms; g++) {
         const lr__geom *geo = &s->geoms[g];
         const lr__material *mt = &s->materials[geo->material];
-        if (!plain_emitter(mt))
+        if (!(v3_maxc(mt->emission) > 0.0))
             continue;
         lr__v3 center = geo->center;
         double radius = geo->radius;
@@ -536,6 +536,11 @@ lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
         }
         lt->n++;
         l->L = mt->emission;
+        if (mt->emission_tex != NULL) {
+            const double *t = mt->emission_tex->max;
+            l->L = v3(l->L.x * t[0], l->L.y * t[1], l->L.z * t[2]);
+            l->textured = 1;
+        }
         l->paths = n;
         l->first = lt->paths;
         lt->paths += n;
@@ -634,6 +639,17 @@ static void splat_landing(lr__lt_film *f, const lr__landing *ld, lr__v3 v,
     }
 }
 
+/* Light l's emission where a path meets it (h): an emission texture
+ * looked up there, as the camera's hit does (lr__hit_material). */
+static lr__v3 emission_at(const lr_scene *s, const lr__lt_light *l,
+                          const lr__hit *h)
+{
+    if (!l->textured)
+        return l->L;
+    lr__material mt;
+    return lr__hit_material(s, h, &mt)->emission;
+}
+
 /* A mesh light's path from lens point P: a triangle by area and a point
  * y on it, uniform by area over the mesh (pdf 1 / A), from (u0, u1) (u0
  * picks the triangle and, rescaled, is reused: the usual trick for one
@@ -683,8 +699,9 @@ static void mesh_path(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
         h.prim != (unsigned)(e - &s->emitters[l->first_tri]) || !h.entering)
         return;
     double pdf = dist2 / (l->area * cos_y);
-    splat_landing(f, &ld, v3_scale(l->L, 1.0 / (pdf * (double)l->paths)),
-                  landed);
+    splat_landing(
+        f, &ld, v3_scale(emission_at(s, l, &h), 1.0 / (pdf * (double)l->paths)),
+        landed);
 }
 
 /* The point X of the plane (2-D coordinates) where the half vector's
@@ -967,11 +984,20 @@ void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
          * light (near the cone's rim the traced sphere's own hit came
          * before its margin). */
         (*rays)++;
-        if (lr__trace_geom(s, lr__cam_ray_start(c, P, w), w, INFINITY) !=
-            l->geom)
-            continue;
+        lr__v3 Le = l->L;
+        if (!l->textured) {
+            if (lr__trace_geom(s, lr__cam_ray_start(c, P, w), w, INFINITY) !=
+                l->geom)
+                continue;
+        } else {
+            lr__hit h;
+            if (!lr__trace(s, lr__cam_ray_start(c, P, w), w, INFINITY, &h) ||
+                h.geom != l->geom)
+                continue;
+            Le = emission_at(s, l, &h);
+        }
         double pdf = 1.0 / (2.0 * M_PI * omc);
-        splat_landing(f, &ld, v3_scale(l->L, 1.0 / (pdf * (double)l->paths)),
+        splat_landing(f, &ld, v3_scale(Le, 1.0 / (pdf * (double)l->paths)),
                       landed);
     }
 }

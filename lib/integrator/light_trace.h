@@ -6,8 +6,8 @@
  * every sample lands: a point on the light, a point on the aperture, and
  * the film point follows from the lens (camera.h's lens_point and film).
  *
- * Lights: spheres and meshes of emitting triangles, with untextured
- * emission, and the environment map's sun: the cone of directions around
+ * Lights: spheres and meshes of emitting triangles, their emission
+ * textured or not, and the environment map's sun: the cone of directions around
  * its brightest texel that holds its bright texels (lr__envmap_sun), seen
  * as a sphere at infinity.  For the sun the split below is by direction:
  * camera rays that escape within the cone add none of the map's radiance
@@ -81,7 +81,11 @@ typedef struct lr__lt_light {
     size_t n_tri;
     double *cdf;
     double area;
-    lr__v3 L;       /* its radiance (untextured emission) */
+    /* Its radiance; with an emission texture (textured), the largest the
+     * texture gives, and each path looks its emission up where it meets
+     * the light, as the camera does. */
+    lr__v3 L;
+    int textured;
     uint64_t paths; /* light paths traced for it */
     uint64_t first; /* index of its first path among all */
 } lr__lt_light;
