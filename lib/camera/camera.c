@@ -579,38 +579,76 @@ static int land_at(const lr__cam *c, lr__landing *ld, double imp, double fx,
     return 1;
 }
 
+/* Colour j's focus power and weights (rgb: channel j; spectral:
+ * wavelength j of n_wl, from stratum (u_wl + j) / n_wl, spectral.c's
+ * strata, each of probability 1 / n_wl); its wavelength in *nm. */
+static double colour(const lr__cam *c, const lr__wl_table *wl, double u_wl,
+                     int j, double W[3], double *nm)
+{
+    if (c->chroma.mode == LR_CHROMATIC_RGB) {
+        W[0] = W[1] = W[2] = 0.0;
+        W[j] = 1.0;
+        *nm = 0.0;
+        return c->w_rgb[j];
+    }
+    int n_wl = c->chroma.wavelengths;
+    float pw;
+    *nm = lr__wl_sample(wl, (u_wl + j) / n_wl, W, &pw);
+    for (int k = 0; k < 3; k++)
+        W[k] /= n_wl;
+    return pw;
+}
+
+/* Place j of *ld for colour j (lr__cam_colours_apart's modes). */
+static void land_colour(const lr__cam *c, const lr__wl_table *wl, double u_wl,
+                        int j, double ox, double oy, lr__v3 d, lr__landing *ld)
+{
+    double W[3], nm, fx, fy, imp;
+    double w = colour(c, wl, u_wl, j, W, &nm);
+    if (c->chroma.mode == LR_CHROMATIC_RGB)
+        imp = c->model->film_rgb(c, j, ox, oy, d, &fx, &fy);
+    else
+        imp = c->model->film_wl(c, w, nm, ox, oy, d, &fx, &fy);
+    land_at(c, ld, imp, fx, fy, W);
+}
+
 int lr__cam_land(const lr__cam *c, const lr__wl_table *wl, double u_wl,
                  double ox, double oy, lr__v3 d, lr__landing *ld)
 {
-    const lr__camera_model *m = c->model;
-    double fx, fy, imp;
     ld->n = 0;
     if (!c->chroma_active) {
         const double one[3] = {1.0, 1.0, 1.0};
-        imp = m->film(c, ox, oy, d, &fx, &fy);
+        double fx, fy;
+        double imp = c->model->film(c, ox, oy, d, &fx, &fy);
         return land_at(c, ld, imp, fx, fy, one);
     }
-    if (c->chroma.mode == LR_CHROMATIC_RGB) {
-        for (int k = 0; k < 3; k++) {
-            double W[3] = {0.0, 0.0, 0.0};
-            W[k] = 1.0;
-            imp = m->film_rgb(c, k, ox, oy, d, &fx, &fy);
-            land_at(c, ld, imp, fx, fy, W);
-        }
-        return ld->n > 0;
-    }
-    /* Spectral: wavelength j from stratum (u_wl + j) / m, with its weights
-     * w_c over m (spectral.c's strata; each has probability 1 / m). */
-    int n_wl = c->chroma.wavelengths;
-    for (int j = 0; j < n_wl; j++) {
-        double W[3];
-        float pw;
-        double nm = lr__wl_sample(wl, (u_wl + j) / n_wl, W, &pw);
-        for (int k = 0; k < 3; k++)
-            W[k] /= n_wl;
-        imp = m->film_wl(c, pw, nm, ox, oy, d, &fx, &fy);
-        land_at(c, ld, imp, fx, fy, W);
-    }
+    int n = c->chroma.mode == LR_CHROMATIC_RGB ? 3 : c->chroma.wavelengths;
+    for (int j = 0; j < n; j++)
+        land_colour(c, wl, u_wl, j, ox, oy, d, ld);
+    return ld->n > 0;
+}
+
+int lr__cam_colours_apart(const lr__cam *c)
+{
+    if (!c->chroma_active || c->model->lens_point_w == NULL)
+        return 0;
+    return c->chroma.mode == LR_CHROMATIC_RGB ? 3 : c->chroma.wavelengths;
+}
+
+lr__v3 lr__cam_colour_point(const lr__cam *c, const lr__wl_table *wl,
+                            double u_wl, int j, const double u[2], double *ox,
+                            double *oy)
+{
+    double W[3], nm;
+    double w = colour(c, wl, u_wl, j, W, &nm);
+    return c->model->lens_point_w(c, w, u, ox, oy);
+}
+
+int lr__cam_land_colour(const lr__cam *c, const lr__wl_table *wl, double u_wl,
+                        int j, double ox, double oy, lr__v3 d, lr__landing *ld)
+{
+    ld->n = 0;
+    land_colour(c, wl, u_wl, j, ox, oy, d, ld);
     return ld->n > 0;
 }
 

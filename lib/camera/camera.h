@@ -182,6 +182,13 @@ typedef struct lr__camera_model {
      * with the camera. */
     double (*film_wl)(const lr__cam *c, double w, double nm, double ox,
                       double oy, lr__v3 d, double *fx, double *fy);
+    /* For a model whose lens point moves with the focus power (the
+     * bracket's, e + (1 + di w) off): lens_point for light whose focus
+     * power is w.  Its colours are then traced one by one from their own
+     * lens points (lr__cam_colour_point).  NULL: lens_point serves every
+     * colour. */
+    lr__v3 (*lens_point_w)(const lr__cam *c, double w, const double u[2],
+                           double *ox, double *oy);
     /* For a model whose rays start past their lens point (the bracket's
      * start on its image plane): how far along unit d from the lens
      * point the camera ray starts.  NULL: at the lens point. */
@@ -382,6 +389,21 @@ int lr__cam_lands_colours(const lr__cam *c);
  * (as spectral.c's camera samples); otherwise both are ignored. */
 int lr__cam_land(const lr__cam *c, const lr__wl_table *wl, double u_wl,
                  double ox, double oy, lr__v3 d, lr__landing *ld);
+
+/* Colours traced one by one (a model with lens_point_w and colours that
+ * focus apart): how many (3 in rgb mode, chroma.wavelengths in spectral
+ * mode); 0 when one lens point serves them all. */
+int lr__cam_colours_apart(const lr__cam *c);
+
+/* Colour j of lr__cam_colours_apart's: its lens point for lens sample u
+ * (lens_point_w at its power; the wavelength placed as lr__cam_land
+ * places wavelength j), and where radiance along d from it lands, that
+ * colour alone (lr__cam_land's place j). */
+lr__v3 lr__cam_colour_point(const lr__cam *c, const lr__wl_table *wl,
+                            double u_wl, int j, const double u[2], double *ox,
+                            double *oy);
+int lr__cam_land_colour(const lr__cam *c, const lr__wl_table *wl, double u_wl,
+                        int j, double ox, double oy, lr__v3 d, lr__landing *ld);
 
 /* The table of spectral mode's wavelengths for camera c (wavelength.h):
  * the density and weights its camera samples and light paths draw

@@ -82,24 +82,48 @@ static void bound(const lr__cam *c, lr__lens_bound *b)
  * solid angle as the thin lens's (the film-to-direction map at a fixed
  * lens point is the same).  The ray itself starts di / d.z along unit d
  * past the lens point, on the image plane. */
-static double grow(const lr__cam *c)
+static double grow(const lr__cam *c, double w)
 {
-    return 1.0 + c->base_di * c->w;
+    return 1.0 + c->base_di * w;
+}
+
+/* With colours that focus apart, each colour's rays (power w) cross at
+ * their own lens point e + (1 + di w) off: traced one by one
+ * (lr__cam_colour_point). */
+static lr__v3 lens_point_w(const lr__cam *c, double w, const double u[2],
+                           double *ox, double *oy)
+{
+    lr__offset_lens_point(c, u, ox, oy);
+    *ox *= grow(c, w);
+    *oy *= grow(c, w);
+    return v3_madd(v3_madd(c->origin, c->right, *ox), c->up, *oy);
 }
 
 static lr__v3 lens_point(const lr__cam *c, const double u[2], double *ox,
                          double *oy)
 {
-    lr__offset_lens_point(c, u, ox, oy);
-    *ox *= grow(c);
-    *oy *= grow(c);
-    return v3_madd(v3_madd(c->origin, c->right, *ox), c->up, *oy);
+    return lens_point_w(c, c->w, u, ox, oy);
 }
 
 static double film(const lr__cam *c, double ox, double oy, lr__v3 d, double *fx,
                    double *fy)
 {
-    return lr__offset_lens_film_w(c, c->w / grow(c), ox, oy, d, fx, fy);
+    return lr__offset_lens_film_w(c, c->w / grow(c, c->w), ox, oy, d, fx, fy);
+}
+
+/* Colour k (rgb) or of power w (spectral), from its own lens point. */
+static double film_rgb(const lr__cam *c, int k, double ox, double oy, lr__v3 d,
+                       double *fx, double *fy)
+{
+    double w = c->w_rgb[k];
+    return lr__offset_lens_film_w(c, w / grow(c, w), ox, oy, d, fx, fy);
+}
+
+static double film_wl(const lr__cam *c, double w, double nm, double ox,
+                      double oy, lr__v3 d, double *fx, double *fy)
+{
+    (void)nm;
+    return lr__offset_lens_film_w(c, w / grow(c, w), ox, oy, d, fx, fy);
 }
 
 static double film_near(const lr__cam *c, lr__v3 d)
@@ -121,5 +145,8 @@ const lr__camera_model lr__camera_bracket = {
     .bound = bound,
     .lens_point = lens_point,
     .film = film,
+    .film_rgb = film_rgb,
+    .film_wl = film_wl,
+    .lens_point_w = lens_point_w,
     .film_near = film_near,
 };

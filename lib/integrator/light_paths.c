@@ -125,7 +125,9 @@ static lr_status check_scene(const lr_scene *s, const lr__cam *c,
                         "light side holds (a fisheye or extreme wide angle), "
                         "which %s needs",
                         me);
-    if (!lr__cam_lands_colours(c))
+    /* (Colours traced one by one from their own lens points, the
+     * bracket's, would need a walk per colour.) */
+    if (!lr__cam_lands_colours(c) || lr__cam_colours_apart(c) > 0)
         return lr__fail(err, LR_ERR_INVALID, "camera.chromatic",
                         "camera.chromatic: %s lands colours that focus "
                         "apart through the thin lens and real lenses, not "

@@ -639,6 +639,24 @@ static void splat_landing(lr__lt_film *f, const lr__landing *ld, lr__v3 v,
     }
 }
 
+/* A light path's colours: all from one lens point (j = -1), or colour j
+ * alone from its own (lr__cam_colours_apart), with spectral mode's
+ * wavelengths table wl and their placing uw. */
+typedef struct lt_colour {
+    const lr__wl_table *wl;
+    double uw;
+    int j;
+} lt_colour;
+
+/* Where radiance along w from lens offset (ox, oy) lands, for col. */
+static int land(const lr__cam *c, const lt_colour *col, double ox, double oy,
+                lr__v3 w, lr__landing *ld)
+{
+    if (col->j < 0)
+        return lr__cam_land(c, col->wl, col->uw, ox, oy, w, ld);
+    return lr__cam_land_colour(c, col->wl, col->uw, col->j, ox, oy, w, ld);
+}
+
 /* Light l's emission where a path meets it (h): an emission texture
  * looked up there, as the camera's hit does (lr__hit_material). */
 static lr__v3 emission_at(const lr_scene *s, const lr__lt_light *l,
@@ -658,9 +676,9 @@ static lr__v3 emission_at(const lr_scene *s, const lr__lt_light *l,
  * triangle's front, counter-clockwise): seen from behind, nothing.  The
  * camera ray along w must meet this very triangle first, from the front
  * (a mesh can hide its own triangles). */
-static void mesh_path(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
+static void mesh_path(const lr_scene *s, const lr__cam *c,
                       const lr__lt_light *l, lr__v3 P, double ox, double oy,
-                      const double *u, double uw, lr__lt_film *f,
+                      const double *u, const lt_colour *col, lr__lt_film *f,
                       uint64_t *rays, uint64_t *landed)
 {
     size_t lo = 0, hi = l->n_tri - 1;
@@ -690,7 +708,7 @@ static void mesh_path(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
     if (!(cos_y > 0.0))
         return;
     lr__landing ld;
-    if (!lr__cam_land(c, lt->wl, uw, ox, oy, w, &ld))
+    if (!land(c, col, ox, oy, w, &ld))
         return;
     lr__hit h;
     (*rays)++;
@@ -753,10 +771,11 @@ static int glint_solve(const double P2[2], double hp, const double Y2[2],
 
 /* A glint path of l (light_trace.c's header) from lens point P: y on the
  * sphere from uy, the slope from us. */
-static void glint_path(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
+static void glint_path(const lr_scene *s, const lr__cam *c,
                        const lr__lt_light *l, lr__v3 P, double ox, double oy,
-                       const double uy[2], const double us[2], double uw,
-                       lr__lt_film *f, uint64_t *rays, uint64_t *landed)
+                       const double uy[2], const double us[2],
+                       const lt_colour *col, lr__lt_film *f, uint64_t *rays,
+                       uint64_t *landed)
 {
     /* y uniform on the sphere by area (pbrt-v4's SampleUniformSphere). */
     double zy = 1.0 - 2.0 * uy[0], ry = sqrt(fmax(0.0, 1.0 - zy * zy));
@@ -815,7 +834,7 @@ static void glint_path(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
     lr__v3 w = v3_scale(dv, 1.0 / sqrt(dist2));
     double cos_x = fabs(v3_dot(w, n));
     lr__landing ld;
-    if (!(cos_x > 0.0) || !lr__cam_land(c, lt->wl, uw, ox, oy, w, &ld))
+    if (!(cos_x > 0.0) || !land(c, col, ox, oy, w, &ld))
         return;
     /* Light from y to x: from y's front, and in the glint's core (first
      * at the plane's normal, a hair wider, before a ray is spent; then
@@ -875,14 +894,14 @@ static lr__v3 in_cone(lr__v3 a, double omc, const double u[2])
  * the environment there: lr__lt_sun), landing where the camera ray from
  * P along w starts, if that ray escapes: the map's radiance along w over
  * the cone's density. */
-static void sun_path(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
-                     const lr__lt_light *l, lr__v3 P, double ox, double oy,
-                     const double *ud, double uw, lr__lt_film *f,
-                     uint64_t *rays, uint64_t *landed)
+static void sun_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
+                     lr__v3 P, double ox, double oy, const double *ud,
+                     const lt_colour *col, lr__lt_film *f, uint64_t *rays,
+                     uint64_t *landed)
 {
     lr__v3 w = in_cone(l->center, l->area, ud);
     lr__landing ld;
-    if (!lr__cam_land(c, lt->wl, uw, ox, oy, w, &ld))
+    if (!land(c, col, ox, oy, w, &ld))
         return;
     (*rays)++;
     if (lr__trace_geom(s, lr__cam_ray_start(c, P, w), w, INFINITY) != -2)
@@ -892,6 +911,50 @@ static void sun_path(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
         f, &ld,
         v3_scale(lr__env_radiance(s, w), 1.0 / (pdf * (double)l->paths)),
         landed);
+}
+
+/* A sphere light's path from lens point P: a direction uniform in the
+ * cone the sphere fills seen from P. */
+static void sphere_path(const lr_scene *s, const lr__cam *c,
+                        const lr__lt_light *l, lr__v3 P, double ox, double oy,
+                        const double *ud, const lt_colour *col, lr__lt_film *f,
+                        uint64_t *rays, uint64_t *landed)
+{
+    lr__v3 dv = v3_sub(l->center, P);
+    double dist2 = v3_dot(dv, dv), r2 = l->radius * l->radius;
+    if (!(dist2 > r2))
+        return;
+    double dist = sqrt(dist2);
+    lr__v3 a = v3_scale(dv, 1.0 / dist);
+    /* 1 - cos alpha = sin^2 / (1 + cos), without cancellation for the
+     * tiny cones of far lights. */
+    double sin2 = r2 / dist2, cos_a = sqrt(1.0 - sin2);
+    double omc = sin2 / (1.0 + cos_a);
+    lr__v3 w = in_cone(a, omc, ud);
+    lr__landing ld;
+    if (!land(c, col, ox, oy, w, &ld))
+        return;
+    /* The camera ray along w must meet this light first (from outside a
+     * sphere, on its emitting side): exactly the rays whose emission the
+     * camera side leaves out (light_trace.h).  The same trace as the
+     * camera's keeps the two sides a partition: a shadow ray up to the
+     * analytic hit, cheaper still, lost 1e-4 of the light (near the
+     * cone's rim the traced sphere's own hit came before its margin). */
+    (*rays)++;
+    lr__v3 Le = l->L;
+    if (!l->textured) {
+        if (lr__trace_geom(s, lr__cam_ray_start(c, P, w), w, INFINITY) !=
+            l->geom)
+            return;
+    } else {
+        lr__hit h;
+        if (!lr__trace(s, lr__cam_ray_start(c, P, w), w, INFINITY, &h) ||
+            h.geom != l->geom)
+            return;
+        Le = emission_at(s, l, &h);
+    }
+    double pdf = 1.0 / (2.0 * M_PI * omc);
+    splat_landing(f, &ld, v3_scale(Le, 1.0 / (pdf * (double)l->paths)), landed);
 }
 
 /* The sampler "pixel" of light l's paths: by its geometry's index (and a
@@ -927,6 +990,7 @@ void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
      * point. */
     lr__pixel_sampler ps;
     lr__pixel_sampler_init(&ps, &smp, light_key(&lt->lights[k]));
+    int n_col = lr__cam_colours_apart(c);
     for (uint64_t i = i0; i < i1; i++) {
         if (i >= lt->lights[k].first + lt->lights[k].paths) {
             while (i >= lt->lights[k].first + lt->lights[k].paths)
@@ -943,62 +1007,31 @@ void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
         double q[4], ox, oy;
         lr__pixel_sampler_get(&ps, idx, q);
         const double *ud = q, *ul = q + 2;
-        lr__v3 P = c->model->lens_point(c, ul, &ox, &oy);
         /* Spectral mode: dimension 6 places the path's wavelengths. */
         double uw[2] = {0.0, 0.0};
         if (lt->wl != NULL)
             lr__sample_2d(&smp, light_key(l), idx, 6, uw);
-        if (l->surf >= 0) {
-            double us[2];
+        double us[2] = {0.0, 0.0};
+        if (l->surf >= 0)
             lr__sample_2d(&smp, light_key(l), idx, 4, us);
-            glint_path(lt, s, c, l, P, ox, oy, ud, us, uw[0], f, rays, landed);
-            continue;
+        /* Every colour from the lens point, or (a lens point that moves
+         * with the focus: the bracket's) each colour from its own, the
+         * same numbers for each. */
+        lt_colour col = {lt->wl, uw[0], -1};
+        for (int j = n_col > 0 ? 0 : -1; j < n_col; j++) {
+            col.j = j;
+            lr__v3 P = j < 0 ? c->model->lens_point(c, ul, &ox, &oy)
+                             : lr__cam_colour_point(c, lt->wl, uw[0], j, ul,
+                                                    &ox, &oy);
+            if (l->surf >= 0)
+                glint_path(s, c, l, P, ox, oy, ud, us, &col, f, rays, landed);
+            else if (l->n_tri > 0)
+                mesh_path(s, c, l, P, ox, oy, ud, &col, f, rays, landed);
+            else if (l->surf == LR__LT_SUN)
+                sun_path(s, c, l, P, ox, oy, ud, &col, f, rays, landed);
+            else
+                sphere_path(s, c, l, P, ox, oy, ud, &col, f, rays, landed);
         }
-        if (l->n_tri > 0) {
-            mesh_path(lt, s, c, l, P, ox, oy, ud, uw[0], f, rays, landed);
-            continue;
-        }
-        if (l->surf == LR__LT_SUN) {
-            sun_path(lt, s, c, l, P, ox, oy, ud, uw[0], f, rays, landed);
-            continue;
-        }
-        lr__v3 dv = v3_sub(l->center, P);
-        double dist2 = v3_dot(dv, dv), r2 = l->radius * l->radius;
-        if (!(dist2 > r2))
-            continue;
-        double dist = sqrt(dist2);
-        lr__v3 a = v3_scale(dv, 1.0 / dist);
-        /* 1 - cos alpha = sin^2 / (1 + cos), without cancellation for
-         * the tiny cones of far lights. */
-        double sin2 = r2 / dist2, cos_a = sqrt(1.0 - sin2);
-        double omc = sin2 / (1.0 + cos_a);
-        lr__v3 w = in_cone(a, omc, ud);
-        lr__landing ld;
-        if (!lr__cam_land(c, lt->wl, uw[0], ox, oy, w, &ld))
-            continue;
-        /* The camera ray along w must meet this light first (from
-         * outside a sphere, on its emitting side): exactly the rays whose
-         * emission the camera side leaves out (light_trace.h).  The same
-         * trace as the camera's keeps the two sides a partition: a shadow
-         * ray up to the analytic hit, cheaper still, lost 1e-4 of the
-         * light (near the cone's rim the traced sphere's own hit came
-         * before its margin). */
-        (*rays)++;
-        lr__v3 Le = l->L;
-        if (!l->textured) {
-            if (lr__trace_geom(s, lr__cam_ray_start(c, P, w), w, INFINITY) !=
-                l->geom)
-                continue;
-        } else {
-            lr__hit h;
-            if (!lr__trace(s, lr__cam_ray_start(c, P, w), w, INFINITY, &h) ||
-                h.geom != l->geom)
-                continue;
-            Le = emission_at(s, l, &h);
-        }
-        double pdf = 1.0 / (2.0 * M_PI * omc);
-        splat_landing(f, &ld, v3_scale(Le, 1.0 / (pdf * (double)l->paths)),
-                      landed);
     }
 }
 
