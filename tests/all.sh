@@ -1,6 +1,6 @@
 #!/bin/sh
 # `make test`: the C files against .clang-format (make test-format), then
-# lib/'s layers (make test-tree: check-layers), then
+# the tree's shape (make test-tree: check-layers, check-size), then
 # the suite as built, then again under AddressSanitizer and
 # UBSan, then a short libFuzzer session of each fuzz target (make fuzz-ci:
 # one test per target), then the HTTP API against docs/openapi.yaml (make

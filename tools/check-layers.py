@@ -21,6 +21,8 @@ import os
 import re
 import sys
 
+import allow_list
+
 LAYERS = ["util", "json", "sampling", "image", "optics", "camera", "scene",
           "accel", "integrator", "render", "clients"]
 CLIENT_DIRS = ["service", "tools"]
@@ -54,17 +56,7 @@ def main():
         if layer_of(p) not in LAYERS:
             errors.append(f"{p}: folder is not a layer (tools/check-layers.py LAYERS)")
 
-    allowed = {}
-    with open(os.path.join(root, ALLOW)) as f:
-        for n, line in enumerate(f, 1):
-            line = line.strip()
-            if not line or line.startswith("#"):
-                continue
-            parts = line.split(None, 2)
-            if len(parts) < 3:
-                errors.append(f"{ALLOW}:{n}: want 'FILE HEADER reason'")
-                continue
-            allowed[(parts[0], parts[1])] = n
+    allowed = allow_list.read(root, ALLOW, 2, "FILE HEADER", errors)
 
     files = list(sources(root, "lib"))
     for top in CLIENT_DIRS:
@@ -93,10 +85,7 @@ def main():
                 else:
                     errors.append(f"{p}:{n}: {LAYERS[rank]} includes {name}, "
                                   f"of the higher layer {layer_of(target)}")
-    for key, n in sorted(allowed.items(), key=lambda kv: kv[1]):
-        if key not in seen:
-            errors.append(f"{ALLOW}:{n}: {key[0]} no longer includes {key[1]} "
-                          "upward: delete the line")
+    allow_list.stale(allowed, seen, ALLOW, "is no longer an upward include", errors)
 
     for e in errors:
         print(e)
