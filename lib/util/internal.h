@@ -82,7 +82,7 @@ typedef lr_status (*lr__encoder)(const lr_image *img,
 lr_status lr__encode_exr(const lr_image *img, const lr_output_options *opts,
                          int fd, void **buf, size_t *len, lr_error *err);
 /* Threads that compress an EXR's chunks: 0 (the default) chooses by the
- * cores and the image's height (image_exr.c); tests set a count to check
+ * cores and the image's height (exr_chunks.c); tests set a count to check
  * that every count writes the same bytes.  Not for use while encoding. */
 extern int lr__exr_threads;
 lr_status lr__encode_png(const lr_image *img, const lr_output_options *opts,
