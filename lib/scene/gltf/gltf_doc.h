@@ -93,7 +93,7 @@ struct aiScene;
 lr_status lr__gltf_import(const lr__gltf_doc *d, const lr__xform *world,
                           const struct aiScene **out, lr_error *err);
 
-/* 1 when nodes[i] has a mesh and a skin: gltf_assimp.c then hands assimp
+/* gltf_pose.c: 1 when nodes[i] has a mesh and a skin: assimp is then handed
  * its mesh already skinned into the glTF's world (the joints' world
  * transforms times their inverse bind matrices, spec 3.7.3.3), and it is
  * placed without the node's own transform, which a skinned mesh
