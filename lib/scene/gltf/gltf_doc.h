@@ -155,6 +155,13 @@ lr_status lr__gltf_get_index(const lr__gltf_doc *d, const cJSON *o,
                              const char *path, const char *key, int n,
                              long long *out, lr_error *err);
 
+/* gltf_check.c: default morph weights, o.weights (a mesh's or a node's):
+ * one finite number per morph target when present (spec 3.7.2.2). */
+lr_status lr__gltf_check_weights(const lr__gltf_doc *d, const cJSON *o,
+                                 const char *p, int targets, lr_error *err);
+/* gltf_check_nodes.c: the skins, then the nodes (after the meshes). */
+lr_status lr__gltf_check_nodes(lr__gltf_doc *d, lr_error *err);
+
 /* gltf_accessor.c: the buffers (their files read from `dir`), the
  * bufferViews and the accessors checked, in that order. */
 lr_status lr__gltf_check_buffers(lr__gltf_doc *d, const char *dir,
