@@ -53,6 +53,12 @@ lr_status lr__read_file(const char *file, const char *shown,
 #define LR__MAX_THREADS 1024
 #define LR__MAX_TILE 4096
 
+/* The largest magnitude of any number in a scene: far beyond any real
+ * scene, yet small enough that positions, sizes and colours stay well
+ * inside float range (Embree works in float and rejects rays whose
+ * origin lies beyond about 1.8e18) and their products stay finite. */
+#define LR__MAX_NUMBER 1e15
+
 /* ---- images (image.c) ------------------------------------------------- */
 
 struct lr_image {
