@@ -39,7 +39,10 @@ setup() {
     # NAME`) its folder.  A file moved without its docs fails here.
     local missing="" f base
     local names
-    names=$(git -C "$REPO" ls-files | sed 's|.*/||' | sort -u)
+    # The tracked files' names (every file's outside a git checkout).
+    names=$({ git -C "$REPO" ls-files 2>/dev/null ||
+        find "$REPO" -path "$REPO/build" -prune -o -type f -print; } |
+        sed 's|.*/||' | sort -u)
     for f in $(grep -ohE '`[A-Za-z0-9_./<>-]+\.(c|h|py|sh|bats|js|yaml)`|`(lib|tools|service|tests|fuzz|bench|python|blender|farm|include)/[A-Za-z0-9_./<>-]+`' \
                "${DOCS[@]}" | tr -d '`' | sort -u); do
         case "$f" in
