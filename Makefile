@@ -439,6 +439,29 @@ $(BUILD)/.format-deps-ok: Makefile
 	$(call install_missing,$(FORMAT_DEPS))
 	@mkdir -p $(dir $@) && touch $@
 
+# ---- the shape of the tree ------------------------------------------------
+# `make check-layers`: lib/'s folders include downward only (util < json <
+# sampling < image < optics < camera < scene < accel < integrator <
+# render), and service/ and tools/ include no lib/ header
+# (tools/check-layers.py; the upward includes of today are listed, each
+# with its reason, in tools/layers-allow.txt, which can only shrink).
+# `make check-size`: no C file over 700 lines, no function over 150
+# (tools/check-size.py; today's offenders in tools/size-allow.txt, which
+# can only shrink too).  `make test` runs both after test-format
+# (test-tree).  Under a second.
+.PHONY: check-layers check-size test-tree
+check-layers:
+	@python3 tools/check-layers.py
+
+check-size:
+	@python3 tools/check-size.py
+
+test-tree: $(DEPS_OK)
+	@n=0; f=0; for c in check-layers check-size; do \
+	  if $(MAKE) --no-print-directory $$c; then n=$$((n + 1)); \
+	  else f=$$((f + 1)); fi; done; \
+	echo "$$n passed, $$f failed"; [ $$f -eq 0 ]
+
 # ---- out of memory ------------------------------------------------------
 # tests/oom/oom.c fails the library's allocations one by one.  It is linked
 # with --wrap so that every allocation made by liblensray.a's own objects

@@ -1,5 +1,6 @@
 #!/bin/sh
 # `make test`: the C files against .clang-format (make test-format), then
+# the tree's shape (make test-tree: check-layers, check-size), then
 # the suite as built, then again under AddressSanitizer and
 # UBSan, then a short libFuzzer session of each fuzz target (make fuzz-ci:
 # one test per target), then the HTTP API against docs/openapi.yaml (make
@@ -29,7 +30,7 @@ status=0
 $make --no-print-directory deps
 { $make --no-print-directory venvs >"$build/venvs.log" 2>&1; echo $? >"$build/venvs.rc"; } &
 venvs=$!
-for run in test-format test-suite test-sanitize fuzz-ci test-api test-python test-lenses \
+for run in test-format test-tree test-suite test-sanitize fuzz-ci test-api test-python test-lenses \
     test-gltf-depth test-blender; do
     if [ "$run" = test-api ] && [ -n "$venvs" ]; then
         wait "$venvs"

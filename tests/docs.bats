@@ -1,6 +1,7 @@
 #!/usr/bin/env bats
 # docs.bats: what the documentation names exists.  The README and docs/*.md
-# cite cmocka tests by function name, unit groups to run alone, the fuzz
+# cite source files by path or name, cmocka tests by function name, unit
+# groups to run alone, the fuzz
 # targets and the fuzzing time of `make test`; a rename or a new target
 # leaves the prose behind without any other test noticing.  Each check
 # reads the prose and looks the name up in the sources (or asks the unit
@@ -30,6 +31,34 @@ setup() {
             missing="$missing $t"
     done
     [ -z "$missing" ] || { echo "cited but not defined:$missing" >&2; return 1; }
+}
+
+@test "every source file the docs name exists" {
+    # `dir/file.c` must be that file; a bare `file.c` some tracked file of
+    # that name; a pattern (`lib/camera/camera_<name>.c`, `tests/corpus/
+    # NAME`) its folder.  A file moved without its docs fails here.
+    local missing="" f base
+    local names
+    # The tracked files' names (every file's outside a git checkout).
+    names=$({ git -C "$REPO" ls-files 2>/dev/null ||
+        find "$REPO" -path "$REPO/build" -prune -o -type f -print; } |
+        sed 's|.*/||' | sort -u)
+    for f in $(grep -ohE '`[A-Za-z0-9_./<>-]+\.(c|h|py|sh|bats|js|yaml)`|`(lib|tools|service|tests|fuzz|bench|python|blender|farm|include)/[A-Za-z0-9_./<>-]+`' \
+               "${DOCS[@]}" | tr -d '`' | sort -u); do
+        case "$f" in
+        /*) ;; # a URL path (/ui/page.js), not a file
+        *'<'* | *NAME*)
+            base=${f%%[<N]*}
+            [ -d "$REPO/${base%/*}" ] || missing="$missing $f"
+            ;;
+        */*) [ -e "$REPO/$f" ] || missing="$missing $f" ;;
+        *)
+            base=${f##*/}
+            grep -qxF "$base" <<<"$names" || missing="$missing $f"
+            ;;
+        esac
+    done
+    [ -z "$missing" ] || { echo "named but not in the tree:$missing" >&2; return 1; }
 }
 
 @test "every unit group the docs tell you to run exists" {

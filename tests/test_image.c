@@ -651,7 +651,7 @@ static void *exr_same_on_threads(const lr_image *img,
 }
 
 /* The chunks are compressed on several threads and written in order
- * (image_exr.c): every thread count writes the same bytes, and they
+ * (exr_chunks.c): every thread count writes the same bytes, and they
  * decode to the image.  A crop placed at row 7 of its frame (chunks named
  * by their rows in the frame), 533 rows (34 chunks, the last partial),
  * with depth, in float and in half. */
@@ -931,7 +931,7 @@ static void test_exr_nonfinite(void **state)
     lr_image_free(img);
 }
 
-/* Chunks wide enough that a batch holds one a thread (image_exr.c's
+/* Chunks wide enough that a batch holds one a thread (exr_chunks.c's
  * BATCH_BYTES), finite ones read straight from the image and one with a
  * NaN and an infinite depth staged: the same bytes on 1, 2 and 3
  * threads, every finite sample exact, the bad ones replaced. */

@@ -67,12 +67,6 @@ lr_status lr__json_object(const cJSON *v, const char *path, const char *hint,
 lr_status lr__json_check_keys(const cJSON *obj, const char *path,
                               const char *const *allowed, lr_error *err);
 
-/* The largest magnitude of any number in a scene: far beyond any real
- * scene, yet small enough that positions, sizes and colours stay well
- * inside float range (Embree works in float and rejects rays whose
- * origin lies beyond about 1.8e18) and their products stay finite. */
-#define LR__MAX_NUMBER 1e15
-
 /* Fails unless x is finite and |x| <= LR__MAX_NUMBER; `p` names it. */
 lr_status lr__json_check_number(double x, const char *p, lr_error *err);
 

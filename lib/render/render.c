@@ -175,6 +175,48 @@ static double now_seconds(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
+/* The workers' counts added up into *sum (zeroed first). */
+static void sum_workers(const worker *ws, int started, lr_render_stats *sum)
+{
+    memset(sum, 0, sizeof *sum);
+    for (int i = 0; i < started; i++) {
+        sum->rays += ws[i].counts.rays;
+        sum->camera_rays += ws[i].counts.camera_rays;
+        sum->lens_blocked += ws[i].counts.lens_blocked;
+        sum->lens_pixels += ws[i].lens_pixels;
+        sum->chroma_pixels += ws[i].chroma_pixels;
+        sum->samples += ws[i].samples;
+        sum->cpu_seconds += ws[i].cpu;
+        sum->nan_samples += ws[i].dropped;
+        sum->light_landed += ws[i].light_landed;
+    }
+}
+
+/* Once the workers are done: the splat units' pixels and the light
+ * side's splats resolved into the image (unless cancelled) and freed,
+ * and their counts, with what a full render takes, into *sum. */
+static void finish_sides(render *j, lr_image *img, lr_render_stats *sum)
+{
+    const lr_render_settings *set = j->set;
+    if (j->splat != NULL) {
+        /* Every pixel takes spp samples, the lens and the colours. */
+        if (!atomic_load(&j->cancelled))
+            lr__splat_resolve(j->splat);
+        lr__splat_free(j->splat);
+        sum->samples = sum->pixels * (uint64_t)set->spp;
+        sum->lens_pixels = sum->chroma_pixels = sum->pixels;
+    }
+    sum->full_samples = sum->pixels * (uint64_t)set->spp;
+    sum->full_camera_rays = sum->full_samples * lr__colour_rays(&j->cam);
+    if (j->plan.lt != NULL) {
+        sum->light_lights = (uint64_t)j->plan.lt->n;
+        sum->light_paths = j->plan.lt->paths;
+        if (!atomic_load(&j->cancelled))
+            lr__lt_film_resolve(&j->light, img->rgb);
+        lr__lt_film_free(&j->light);
+    }
+}
+
 lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
                     const lr_render_settings *set, lr_image **out,
                     lr_render_stats *stats, lr_error *err)
@@ -303,39 +345,12 @@ lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
     pthread_mutex_destroy(&j.progress_lock);
 
     lr_render_stats sum;
-    memset(&sum, 0, sizeof sum);
-    for (int i = 0; i < started; i++) {
-        sum.rays += ws[i].counts.rays;
-        sum.camera_rays += ws[i].counts.camera_rays;
-        sum.lens_blocked += ws[i].counts.lens_blocked;
-        sum.lens_pixels += ws[i].lens_pixels;
-        sum.chroma_pixels += ws[i].chroma_pixels;
-        sum.samples += ws[i].samples;
-        sum.cpu_seconds += ws[i].cpu;
-        sum.nan_samples += ws[i].dropped;
-        sum.light_landed += ws[i].light_landed;
-    }
+    sum_workers(ws, started, &sum);
     free(ws);
     free(tids);
     sum.threads = started;
     sum.pixels = (uint64_t)(j.x1 - j.x0) * (uint64_t)(j.y1 - j.y0);
-    if (j.splat != NULL) {
-        /* Every pixel takes spp samples, the lens and the colours. */
-        if (!atomic_load(&j.cancelled))
-            lr__splat_resolve(j.splat);
-        lr__splat_free(j.splat);
-        sum.samples = sum.pixels * (uint64_t)set->spp;
-        sum.lens_pixels = sum.chroma_pixels = sum.pixels;
-    }
-    sum.full_samples = sum.pixels * (uint64_t)set->spp;
-    sum.full_camera_rays = sum.full_samples * lr__colour_rays(&j.cam);
-    if (j.plan.lt != NULL) {
-        sum.light_lights = (uint64_t)j.plan.lt->n;
-        sum.light_paths = j.plan.lt->paths;
-        if (!atomic_load(&j.cancelled))
-            lr__lt_film_resolve(&j.light, img->rgb);
-        lr__lt_film_free(&j.light);
-    }
+    finish_sides(&j, img, &sum);
     lr__plan_free(&j.plan);
     sum.seconds = now_seconds() - t0;
     /* The statistics say what was done even when the render was

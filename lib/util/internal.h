@@ -53,6 +53,12 @@ lr_status lr__read_file(const char *file, const char *shown,
 #define LR__MAX_THREADS 1024
 #define LR__MAX_TILE 4096
 
+/* The largest magnitude of any number in a scene: far beyond any real
+ * scene, yet small enough that positions, sizes and colours stay well
+ * inside float range (Embree works in float and rejects rays whose
+ * origin lies beyond about 1.8e18) and their products stay finite. */
+#define LR__MAX_NUMBER 1e15
+
 /* ---- images (image.c) ------------------------------------------------- */
 
 struct lr_image {
@@ -82,7 +88,7 @@ typedef lr_status (*lr__encoder)(const lr_image *img,
 lr_status lr__encode_exr(const lr_image *img, const lr_output_options *opts,
                          int fd, void **buf, size_t *len, lr_error *err);
 /* Threads that compress an EXR's chunks: 0 (the default) chooses by the
- * cores and the image's height (image_exr.c); tests set a count to check
+ * cores and the image's height (exr_chunks.c); tests set a count to check
  * that every count writes the same bytes.  Not for use while encoding. */
 extern int lr__exr_threads;
 lr_status lr__encode_png(const lr_image *img, const lr_output_options *opts,

@@ -9,8 +9,6 @@
 #include "internal.h"
 #include "vec.h"
 
-#include <cjson/cJSON.h>
-
 /* A 3x4 affine transform, row-major: p' = M p + t. */
 typedef struct lr__xform {
     double m[3][4];
@@ -28,12 +26,6 @@ double lr__xform_det(const lr__xform *x);
 /* For spheres: the scale factor when x scales all directions alike,
  * else -1. */
 double lr__xform_uniform_scale(const lr__xform *x);
-
-/* Reads a JSON list of steps ([{"translate": [x, y, z]}, {"rotate":
- * {"axis": [x, y, z], "degrees": d}}, {"scale": s or [x, y, z]}]) at
- * `path`; the first step listed acts first. */
-lr_status lr__xform_parse(const cJSON *list, const char *path, lr__xform *out,
-                          lr_error *err);
 
 /* Fails unless `m`, the largest coordinate magnitude a placed object
  * reaches, is within LR__MAX_NUMBER; `p` is the field to blame. */

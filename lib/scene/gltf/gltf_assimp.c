@@ -16,9 +16,12 @@
  * assimp 5.2 copies such an accessor's raw bytes into its floats, which
  * textured a quad with a few texels of garbage.  Sparse and zero-filled
  * accessors (3.6.2.3) reach assimp the same way, as plain accessors over
- * the copies gltf_check.c made of them.
+ * the copies gltf_check.c made of them.  Meshes that are morphed or
+ * skinned reach it posed (gltf_pose.c), through the same extra buffer
+ * (gltf_extra.h).
  */
 #include "gltf_doc.h"
+#include "gltf_extra.h"
 #include "json_util.h"
 
 #include <assimp/cfileio.h>
@@ -81,30 +84,10 @@ static int copy_array(cJSON *dst, const cJSON *root, const char *key,
     return 1;
 }
 
-/* The bytes assimp gets beyond the document's buffers, in one more
- * buffer (`index`, one past the document's): floats for integer texture
- * coordinates and the dense copies of accessors (gltf_check.c). */
-typedef struct extra_buffer {
-    unsigned char *data;
-    size_t n, cap;
-    size_t index;
-} extra_buffer;
-
-static const cJSON *item(const cJSON *o, const char *k)
-{
-    return cJSON_GetObjectItemCaseSensitive(o, k);
-}
-
-/* A primitive is drawn when it has POSITION (spec 3.7.2.1). */
-static int drawn(const cJSON *prim)
-{
-    return item(item(prim, "attributes"), "POSITION") != NULL;
-}
-
 /* Room for `n` more bytes after padding to 4 (a float's alignment, which
  * glTF asks of every accessor); the offset where they go in *at, or 0 on
  * no memory. */
-static int extra_grow(extra_buffer *u, size_t n, size_t *at)
+int lr__gltf_extra_grow(lr__gltf_extra *u, size_t n, size_t *at)
 {
     size_t start = (u->n + 3) & ~(size_t)3;
     if (start + n > u->cap) {
@@ -124,9 +107,9 @@ static int extra_grow(extra_buffer *u, size_t n, size_t *at)
  * reduced copy r, and an accessor of it (`count` elements of `type`, of
  * componentType ct, normalized or not) replacing accessors[k], or
  * appended when k < 0.  Its index, or -1 on no memory. */
-static int extra_accessor(cJSON *r, const extra_buffer *u, int k, size_t at,
-                          size_t n, double ct, double count, const char *type,
-                          int normalized)
+int lr__gltf_extra_accessor(cJSON *r, const lr__gltf_extra *u, int k, size_t at,
+                            size_t n, double ct, double count, const char *type,
+                            int normalized)
 {
     cJSON *views = cJSON_GetObjectItemCaseSensitive(r, "bufferViews");
     if (views == NULL)
@@ -163,13 +146,14 @@ static int extra_accessor(cJSON *r, const extra_buffer *u, int k, size_t at,
 /* The floats of integer TEXCOORD accessor k of the document
  * (componentType 5121 or 5123, VEC2, checked by gltf_check.c) appended
  * to u; where they start in *at.  0 on no memory. */
-static int decode_uv(const lr__gltf_doc *d, int k, extra_buffer *u, size_t *at)
+static int decode_uv(const lr__gltf_doc *d, int k, lr__gltf_extra *u,
+                     size_t *at)
 {
     size_t stride, cs;
     long long count;
     const unsigned char *base = lr__gltf_accessor_at(d, k, &stride, &count,
                                                      &cs);
-    if (!extra_grow(u, (size_t)count * 2 * sizeof(float), at))
+    if (!lr__gltf_extra_grow(u, (size_t)count * 2 * sizeof(float), at))
         return 0;
     float *f = (float *)(u->data + *at);
     for (size_t i = 0; i < (size_t)count; i++)
@@ -183,7 +167,7 @@ static int decode_uv(const lr__gltf_doc *d, int k, extra_buffer *u, size_t *at)
 
 /* Every integer TEXCOORD accessor of the reduced copy r made a float one
  * over the extra buffer (its floats decoded into u). */
-static int float_uvs(const lr__gltf_doc *d, cJSON *r, extra_buffer *u)
+static int float_uvs(const lr__gltf_doc *d, cJSON *r, lr__gltf_extra *u)
 {
     cJSON *accs = cJSON_GetObjectItemCaseSensitive(r, "accessors");
     const cJSON *meshes = item(r, "meshes");
@@ -201,8 +185,8 @@ static int float_uvs(const lr__gltf_doc *d, cJSON *r, extra_buffer *u)
                 size_t first;
                 double count = cJSON_GetNumberValue(item(a, "count"));
                 if (!decode_uv(d, k, u, &first) ||
-                    extra_accessor(r, u, k, first, 8 * (size_t)count, 5126,
-                                   count, "VEC2", 0) < 0)
+                    lr__gltf_extra_accessor(r, u, k, first, 8 * (size_t)count,
+                                            5126, count, "VEC2", 0) < 0)
                     return 0;
             }
     return 1;
@@ -212,7 +196,7 @@ static int float_uvs(const lr__gltf_doc *d, cJSON *r, extra_buffer *u)
  * given to assimp as a plain accessor over its copy in the extra buffer:
  * assimp then reads neither kind itself, and what it reads is the
  * checked copy. */
-static int dense_accessors(const lr__gltf_doc *d, cJSON *r, extra_buffer *u)
+static int dense_accessors(const lr__gltf_doc *d, cJSON *r, lr__gltf_extra *u)
 {
     const cJSON *accs = item(r, "accessors");
     for (size_t k = 0; k < d->n_accessors; k++) {
@@ -223,293 +207,23 @@ static int dense_accessors(const lr__gltf_doc *d, cJSON *r, extra_buffer *u)
         const unsigned char *src = lr__gltf_accessor_at(d, (long long)k,
                                                         &stride, &count, &cs);
         size_t n = stride * (size_t)count;
-        if (!extra_grow(u, n, &at))
+        if (!lr__gltf_extra_grow(u, n, &at))
             return 0;
         memcpy(u->data + at, src, n);
         const cJSON *a = cJSON_GetArrayItem(accs, (int)k);
         char type[8];
         snprintf(type, sizeof type, "%s", item(a, "type")->valuestring);
-        if (extra_accessor(r, u, (int)k, at, n,
-                           cJSON_GetNumberValue(item(a, "componentType")),
-                           (double)count, type,
-                           cJSON_IsTrue(item(a, "normalized"))) < 0)
-            return 0;
-    }
-    return 1;
-}
-
-int lr__gltf_skinned(const lr__gltf_doc *d, int i)
-{
-    int n;
-    const cJSON *node = cJSON_GetArrayItem(lr__gltf_array(d->root, "nodes", &n),
-                                           i);
-    return item(node, "mesh") != NULL && item(node, "skin") != NULL;
-}
-
-/* A node's pose for posed(): its mesh's morph weights, and its skin's
- * joint matrices (each joint node's world transform times its inverse
- * bind matrix, spec 3.7.3.3). */
-typedef struct pose {
-    const cJSON *weights; /* non-zero morph weights, or NULL */
-    lr__xform *joint;     /* one per joint, or NULL without a skin */
-} pose;
-
-/* Adds morph target displacements at weights w to the floats f of
- * attribute attr of primitive pr (spec 3.7.2.2: the base plus the
- * weighted sum of the targets'). */
-static void morph(const lr__gltf_doc *d, const cJSON *pr, const char *attr,
-                  const cJSON *w, float *f)
-{
-    int nt;
-    const cJSON *ts = lr__gltf_array(pr, "targets", &nt);
-    const cJSON *wk = w->child;
-    for (const cJSON *t = ts ? ts->child : NULL; t && wk;
-         t = t->next, wk = wk->next) {
-        const cJSON *ta = item(t, attr);
-        if (ta == NULL || wk->valuedouble == 0)
-            continue;
-        size_t stride, cs;
-        long long count;
-        const unsigned char *q = lr__gltf_accessor_at(
-            d, (long long)ta->valuedouble, &stride, &count, &cs);
-        for (size_t i = 0; i < 3 * (size_t)count; i++) {
-            float dv;
-            memcpy(&dv, q + i / 3 * stride + i % 3 * sizeof(float), sizeof dv);
-            f[i] = (float)(f[i] + wk->valuedouble * dv);
-        }
-    }
-}
-
-/* An accessor of joint indices or weights, found once. */
-typedef struct vec4_at {
-    const unsigned char *p;
-    size_t stride, cs;
-    int is_float, normalized;
-} vec4_at;
-
-static vec4_at vec4_of(const lr__gltf_doc *d, const cJSON *acc)
-{
-    vec4_at v;
-    long long count, k = (long long)acc->valuedouble;
-    v.p = lr__gltf_accessor_at(d, k, &v.stride, &count, &v.cs);
-    int n;
-    const cJSON *a = cJSON_GetArrayItem(
-        lr__gltf_array(d->root, "accessors", &n), (int)k);
-    v.is_float = cJSON_GetNumberValue(item(a, "componentType")) == 5126;
-    v.normalized = cJSON_IsTrue(item(a, "normalized"));
-    return v;
-}
-
-/* Component c of element e: joint indices as they are, normalized
- * weights scaled to [0, 1] (spec 3.11). */
-static double vec4_get(const vec4_at *v, size_t e, int c)
-{
-    const unsigned char *q = v->p + e * v->stride + (size_t)c * v->cs;
-    if (v->is_float) {
-        float f;
-        memcpy(&f, q, sizeof f);
-        return f;
-    }
-    double x = v->cs == 1 ? q[0] : (double)(q[0] | q[1] << 8);
-    return v->normalized ? x / (v->cs == 1 ? 255 : 65535) : x;
-}
-
-/* The skinning matrix of vertex v (spec 3.7.3.3): the sum over its
- * JOINTS_n / WEIGHTS_n (n sets in j, w) of weight x joint matrix. */
-static lr__xform skin_matrix(const vec4_at *j, const vec4_at *w, int n,
-                             const lr__xform *joint, size_t v)
-{
-    lr__xform sum;
-    memset(&sum, 0, sizeof sum);
-    for (int set = 0; set < n; set++)
-        for (int c = 0; c < 4; c++) {
-            double wt = vec4_get(&w[set], v, c);
-            const lr__xform *m = &joint[(int)vec4_get(&j[set], v, c)];
-            for (int r = 0; wt != 0 && r < 3; r++)
-                for (int k = 0; k < 4; k++)
-                    sum.m[r][k] += wt * m->m[r][k];
-        }
-    return sum;
-}
-
-/* The joint matrices of skin sk under the nodes' transforms `world`
- * (a new array, or NULL on no memory). */
-static lr__xform *joint_matrices(const lr__gltf_doc *d, const cJSON *sk,
-                                 const lr__xform *world)
-{
-    int nj;
-    const cJSON *joints = lr__gltf_array(sk, "joints", &nj);
-    const cJSON *ibm = item(sk, "inverseBindMatrices");
-    lr__xform *out = malloc((size_t)nj * sizeof *out);
-    size_t stride = 0, cs;
-    long long count;
-    const unsigned char *m = ibm ? lr__gltf_accessor_at(
-                                       d, (long long)ibm->valuedouble, &stride,
-                                       &count, &cs)
-                                 : NULL;
-    int i = 0;
-    for (const cJSON *j = joints->child; out && j; j = j->next, i++) {
-        lr__xform b = lr__xform_identity();
-        /* A column-major MAT4: row r, column k is element 4 k + r. */
-        for (int r = 0; m && r < 3; r++)
-            for (int k = 0; k < 4; k++) {
-                float f;
-                memcpy(&f, m + (size_t)i * stride + (size_t)(4 * k + r) * 4,
-                       sizeof f);
-                b.m[r][k] = f;
-            }
-        out[i] = lr__xform_mul(&world[(int)j->valuedouble], &b);
-    }
-    return out;
-}
-
-/* Attribute `attr` (POSITION or NORMAL, VEC3 floats: gltf_check.c) of
- * the document's primitive `pr` in the node's pose: morphed, then skinned
- * into the glTF's world (a normal by the inverse transpose, unit length
- * again), as floats in the extra buffer; the new accessor's index in r,
- * -2 when the pose does not move it, -1 on no memory. */
-static int posed(const lr__gltf_doc *d, const cJSON *pr, const char *attr,
-                 const pose *ps, cJSON *r, extra_buffer *u)
-{
-    const cJSON *base = item(item(pr, "attributes"), attr);
-    int nt, moved = ps->joint != NULL;
-    const cJSON *ts = lr__gltf_array(pr, "targets", &nt);
-    for (const cJSON *t = ts ? ts->child : NULL; t; t = t->next)
-        moved |= ps->weights != NULL && item(t, attr) != NULL;
-    if (base == NULL || !moved)
-        return -2;
-    size_t stride, cs, at;
-    long long count;
-    const unsigned char *src = lr__gltf_accessor_at(
-        d, (long long)base->valuedouble, &stride, &count, &cs);
-    if (!extra_grow(u, (size_t)count * 3 * sizeof(float), &at))
-        return -1;
-    float *f = (float *)(u->data + at);
-    for (size_t i = 0; i < (size_t)count; i++)
-        memcpy(f + 3 * i, src + i * stride, 3 * sizeof(float));
-    if (ps->weights != NULL)
-        morph(d, pr, attr, ps->weights, f);
-    /* At most 8 sets of 4 joints each (gltf_check.c keeps them below
-     * the skin's count). */
-    vec4_at js[8], ws[8];
-    int sets = 0;
-    const cJSON *ats = item(pr, "attributes");
-    for (; ps->joint != NULL && sets < 8; sets++) {
-        char jn[24], wn[24];
-        snprintf(jn, sizeof jn, "JOINTS_%d", sets);
-        snprintf(wn, sizeof wn, "WEIGHTS_%d", sets);
-        if (item(ats, jn) == NULL || item(ats, wn) == NULL)
-            break;
-        js[sets] = vec4_of(d, item(ats, jn));
-        ws[sets] = vec4_of(d, item(ats, wn));
-    }
-    int normal = attr[0] == 'N';
-    for (size_t i = 0; i < (size_t)count; i++) {
-        lr__v3 p = v3(f[3 * i], f[3 * i + 1], f[3 * i + 2]);
-        if (ps->joint != NULL) {
-            lr__xform m = skin_matrix(js, ws, sets, ps->joint, i);
-            p = normal ? lr__xform_normal(&m, p) : lr__xform_point(&m, p);
-        } else if (normal && v3_len(p) > 0) {
-            p = v3_norm(p);
-        }
-        /* Kept within a float's range: a vertex thrown beyond 1e15 is
-         * refused when placed (gltf.c), naming the limit. */
-        f[3 * i] = (float)fmax(-1e30, fmin(1e30, p.x));
-        f[3 * i + 1] = (float)fmax(-1e30, fmin(1e30, p.y));
-        f[3 * i + 2] = (float)fmax(-1e30, fmin(1e30, p.z));
-    }
-    return extra_accessor(r, u, -1, at, (size_t)count * 3 * sizeof(float), 5126,
-                          (double)count, "VEC3", 0);
-}
-
-/* The weights a node draws its mesh's morph targets at: its own, else
- * its mesh's (spec 3.7.2.2), or NULL when they are all zero. */
-static const cJSON *node_weights(const cJSON *node, const cJSON *mesh)
-{
-    const cJSON *w = item(node, "weights");
-    if (w == NULL)
-        w = item(mesh, "weights");
-    for (const cJSON *c = w ? w->child : NULL; c; c = c->next)
-        if (c->valuedouble != 0)
-            return w;
-    return NULL;
-}
-
-/* Appends to r's meshes a copy of its meshes[m] (the document's `mesh`)
- * whose POSITION and NORMAL are posed by ps.  0 on no memory. */
-static int pose_mesh(const lr__gltf_doc *d, const pose *ps, const cJSON *mesh,
-                     int m, cJSON *r, extra_buffer *u)
-{
-    cJSON *rmeshes = cJSON_GetObjectItemCaseSensitive(r, "meshes");
-    cJSON *copy = cJSON_Duplicate(cJSON_GetArrayItem(rmeshes, m), 1);
-    if (copy == NULL || !cJSON_AddItemToArray(rmeshes, copy)) {
-        cJSON_Delete(copy);
-        return 0;
-    }
-    /* The copy lacks the primitives that are not drawn. */
-    cJSON *cp = item(copy, "primitives")->child;
-    for (const cJSON *pr = item(mesh, "primitives")->child; pr && cp;
-         pr = pr->next) {
-        if (!drawn(pr))
-            continue;
-        static const char *const attrs[] = {"POSITION", "NORMAL"};
-        for (int k = 0; k < 2; k++) {
-            int a = posed(d, pr, attrs[k], ps, r, u);
-            cJSON *at = cJSON_GetObjectItemCaseSensitive(cp, "attributes");
-            if (a == -1 || (a >= 0 && !cJSON_ReplaceItemInObjectCaseSensitive(
-                                          at, attrs[k], cJSON_CreateNumber(a))))
-                return 0;
-        }
-        cp = cp->next;
-    }
-    return 1;
-}
-
-/* Each node whose mesh is morphed (targets at non-zero default weights)
- * or skinned gets, in the reduced copy r, a mesh of its own whose
- * POSITION and NORMAL are posed (posed()); assimp is never given the
- * targets nor the skins.  A still image then shows what glTF viewers show
- * before any animation: the targets at the file's weights (spec 3.7.2.2)
- * and the skin at its joints' own transforms (3.7.3.3). */
-static int pose_meshes(const lr__gltf_doc *d, const lr__xform *world, cJSON *r,
-                       extra_buffer *u)
-{
-    int nn, nm, ns;
-    const cJSON *nodes = lr__gltf_array(d->root, "nodes", &nn);
-    const cJSON *meshes = lr__gltf_array(d->root, "meshes", &nm);
-    const cJSON *skins = lr__gltf_array(d->root, "skins", &ns);
-    cJSON *rmeshes = cJSON_GetObjectItemCaseSensitive(r, "meshes");
-    cJSON *rnodes = cJSON_GetObjectItemCaseSensitive(r, "nodes");
-    int i = 0;
-    for (const cJSON *n = nodes ? nodes->child : NULL; n; n = n->next, i++) {
-        const cJSON *mi = item(n, "mesh");
-        if (mi == NULL)
-            continue;
-        int m = (int)mi->valuedouble;
-        const cJSON *mesh = cJSON_GetArrayItem(meshes, m);
-        const cJSON *sk = item(n, "skin");
-        pose ps = {node_weights(n, mesh), NULL};
-        if (ps.weights == NULL && sk == NULL)
-            continue;
-        if (sk != NULL) {
-            ps.joint = joint_matrices(
-                d, cJSON_GetArrayItem(skins, (int)sk->valuedouble), world);
-            if (ps.joint == NULL)
-                return 0;
-        }
-        int ok = pose_mesh(d, &ps, mesh, m, r, u) &&
-                 cJSON_ReplaceItemInObjectCaseSensitive(
-                     cJSON_GetArrayItem(rnodes, i), "mesh",
-                     cJSON_CreateNumber(cJSON_GetArraySize(rmeshes) - 1));
-        free(ps.joint);
-        if (!ok)
+        if (lr__gltf_extra_accessor(
+                r, u, (int)k, at, n,
+                cJSON_GetNumberValue(item(a, "componentType")), (double)count,
+                type, cJSON_IsTrue(item(a, "normalized"))) < 0)
             return 0;
     }
     return 1;
 }
 
 /* The extra buffer in r's buffers, when anything went into it. */
-static int extra_declare(cJSON *r, const extra_buffer *u)
+static int extra_declare(cJSON *r, const lr__gltf_extra *u)
 {
     if (u->n == 0)
         return 1;
@@ -528,7 +242,7 @@ static int extra_declare(cJSON *r, const extra_buffer *u)
 }
 
 static char *assimp_text(const lr__gltf_doc *d, const lr__xform *world,
-                         extra_buffer *u)
+                         lr__gltf_extra *u)
 {
     static const char *const k_scene[] = {"nodes", NULL};
     static const char *const k_node[] = {
@@ -578,7 +292,7 @@ static char *assimp_text(const lr__gltf_doc *d, const lr__xform *world,
         ok = name && cJSON_AddItemToObject(b, "uri", name);
     }
     ok = ok && dense_accessors(d, r, u) && float_uvs(d, r, u) &&
-         pose_meshes(d, world, r, u) && extra_declare(r, u);
+         lr__gltf_pose_meshes(d, world, r, u) && extra_declare(r, u);
     /* A node whose mesh has nothing left to draw places none. */
     const cJSON *rnodes = cJSON_GetObjectItemCaseSensitive(r, "nodes");
     for (cJSON *n = ok && rnodes ? rnodes->child : NULL; n; n = n->next) {
@@ -605,7 +319,7 @@ typedef struct mem_file {
 typedef struct mem_fs {
     const lr__gltf_doc *d;
     const char *text;
-    const extra_buffer *uv;
+    const lr__gltf_extra *uv;
 } mem_fs;
 
 static size_t mf_read(struct aiFile *f, char *buf, size_t size, size_t count)
@@ -707,7 +421,7 @@ lr_status lr__gltf_import(const lr__gltf_doc *d, const lr__xform *world,
                           const struct aiScene **out, lr_error *err)
 {
     *out = NULL;
-    extra_buffer uv = {NULL, 0, 0, d->n_buffers};
+    lr__gltf_extra uv = {NULL, 0, 0, d->n_buffers};
     char *text = assimp_text(d, world, &uv);
     if (text == NULL) {
         free(uv.data);

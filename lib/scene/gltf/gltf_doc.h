@@ -93,7 +93,7 @@ struct aiScene;
 lr_status lr__gltf_import(const lr__gltf_doc *d, const lr__xform *world,
                           const struct aiScene **out, lr_error *err);
 
-/* 1 when nodes[i] has a mesh and a skin: gltf_assimp.c then hands assimp
+/* gltf_pose.c: 1 when nodes[i] has a mesh and a skin: assimp is then handed
  * its mesh already skinned into the glTF's world (the joints' world
  * transforms times their inverse bind matrices, spec 3.7.3.3), and it is
  * placed without the node's own transform, which a skinned mesh
@@ -154,6 +154,13 @@ lr_status lr__gltf_get_uint(const lr__gltf_doc *d, const cJSON *o,
 lr_status lr__gltf_get_index(const lr__gltf_doc *d, const cJSON *o,
                              const char *path, const char *key, int n,
                              long long *out, lr_error *err);
+
+/* gltf_check.c: default morph weights, o.weights (a mesh's or a node's):
+ * one finite number per morph target when present (spec 3.7.2.2). */
+lr_status lr__gltf_check_weights(const lr__gltf_doc *d, const cJSON *o,
+                                 const char *p, int targets, lr_error *err);
+/* gltf_check_nodes.c: the skins, then the nodes (after the meshes). */
+lr_status lr__gltf_check_nodes(lr__gltf_doc *d, lr_error *err);
 
 /* gltf_accessor.c: the buffers (their files read from `dir`), the
  * bufferViews and the accessors checked, in that order. */

@@ -1,0 +1,24 @@
+/*
+ * scene_load.h: the scene format's parts that scene_load.c reads through
+ * files of their own: the objects and their transforms (scene_objects.c).
+ */
+#ifndef LR_SCENE_LOAD_H
+#define LR_SCENE_LOAD_H
+
+#include "scene.h"
+#include "transform.h"
+
+/* scene_objects.c: reads a JSON list of steps ([{"translate": [x, y, z]},
+ * {"rotate": {"axis": [x, y, z], "degrees": d}}, {"scale": s or
+ * [x, y, z]}]) at `path`; the first step listed acts first. */
+lr_status lr__xform_parse(const cJSON *list, const char *path, lr__xform *out,
+                          lr_error *err);
+
+/* The "objects" array (NULL: none) into s, after its materials; files
+ * found from base_dir; height_given: render.height was set (a glTF
+ * camera then keeps it).  Errors name objects[i]. */
+lr_status lr__scene_parse_objects(lr_scene *s, const cJSON *objs,
+                                  const char *base_dir, int height_given,
+                                  lr_error *err);
+
+#endif
