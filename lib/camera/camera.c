@@ -563,8 +563,9 @@ void lr__cam_wl_table(const lr__cam *c, lr__wl_table *t)
     lr__wl_table_init(t, power, c->w);
 }
 
-/* Place j of *ld: pixel of film point (fx, fy) with weights W, if inside
- * the film and W > 0 there. */
+/* The next place of *ld: the pixel of film point (fx, fy), weights imp W
+ * (W may be negative: spectral weights), if the film holds the point and
+ * the camera's importance imp there is positive. */
 static int land_at(const lr__cam *c, lr__landing *ld, double imp, double fx,
                    double fy, const double W[3])
 {
