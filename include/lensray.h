@@ -98,6 +98,25 @@ typedef enum lr_aperture_shape {
     LR_APERTURE_POLYGON = 2 /* regular polygon inscribed in the circle */
 } lr_aperture_shape;
 
+/* A real lens's coatings (camera.coating): each surface's own, as its
+ * prescription gives it (the default: one quarter-wave MgF2 layer on
+ * every glass-air surface unless the prescription says otherwise), or
+ * one kind for every glass-air surface, overriding the prescription. */
+typedef enum lr_lens_coating {
+    LR_COATING_PRESCRIPTION = 0, /* "prescription" (the default) */
+    LR_COATING_NONE = 1,         /* "none": bare glass everywhere */
+    LR_COATING_MGF2 = 2          /* "mgf2": quarter-wave MgF2 everywhere */
+} lr_lens_coating;
+
+/* A real lens's ghosts (camera.ghosts): light reflected twice inside the
+ * lens, traced from bright sources (docs/lenses.md). */
+typedef enum lr_ghosts {
+    LR_GHOSTS_AUTO = 0, /* "auto" (the default): only for sources whose
+                           ghosts would show */
+    LR_GHOSTS_ON = 1,   /* true: every source */
+    LR_GHOSTS_OFF = 2   /* false: none */
+} lr_ghosts;
+
 typedef enum lr_chromatic_mode {
     LR_CHROMATIC_OFF = 0,     /* one focus for all light (costs nothing) */
     LR_CHROMATIC_RGB = 1,     /* the paper: R, G, B each with its focus */
@@ -188,6 +207,11 @@ typedef struct lr_camera {
     const lr_lens *lens;    /* NULL until a lens is given */
     double sensor_width_mm; /* default 36; the height follows the image */
     double scene_unit_mm;   /* millimetres per scene unit; default 1000 */
+    /* Every surface transmits 1 - R of the light (its reflectance R under
+     * its coating), on every path; `coating` overrides the
+     * prescription's coatings.  Default LR_COATING_PRESCRIPTION. */
+    lr_lens_coating coating;
+    lr_ghosts ghosts; /* default LR_GHOSTS_AUTO */
 } lr_camera;
 
 /* Loads the lens `lens`: a prescription file (lensray JSON, pbrt-v4's
