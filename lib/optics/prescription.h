@@ -23,6 +23,7 @@
  *   coating.c           what each surface reflects (coating.h)
  *   ghost.c             rays reflected twice inside the lens (ghost.h)
  *   ghost_flux.c        a distant point's ghosts against its image
+ *   transmit.c          what each surface passes on the main path (1 - R)
  */
 #ifndef LR_PRESCRIPTION_H
 #define LR_PRESCRIPTION_H
@@ -267,10 +268,14 @@ void lr__rx_trace16(const lr__rx *rx, const double *z, const double *n_after,
  * of 16, at most LR__RX_LANES: up to four packets at once); o and d have
  * rows of LR__RX_LANES.  Close to lr__rx_trace16's rays (float
  * rounding), not equal to them; each lane's result is the same whatever
- * `lanes` and its place among them. */
+ * `lanes` and its place among them.  With a transmittance table `tab`
+ * (transmit.h; NULL: none), T[lane] is multiplied by every crossing's
+ * 1 - R. */
 #define LR__RX_LANES 64
+struct lr__ttab;
 void lr__rx_trace16f(const lr__rx *rx, const double *z, const double *n_after,
                      double stop_scale, int lanes, float (*o)[LR__RX_LANES],
-                     float (*d)[LR__RX_LANES], int *alive);
+                     float (*d)[LR__RX_LANES], int *alive,
+                     const struct lr__ttab *tab, float *T);
 
 #endif
