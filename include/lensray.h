@@ -787,6 +787,22 @@ LR_API lr_status lr_lens_describe(const char *lens, const char *base_dir,
                                   const double *field_angles_deg, int n_angles,
                                   double nm, char **json, lr_error *err);
 
+/* The ghosts of a distant point on the axis through lens `lens` (found
+ * as by lr_lens_describe) at `nm`, under each surface's own coating or
+ * `coating` for all (issue 29; docs/lenses.md): a grid of 61 x 61
+ * parallel rays over the front element, each traced through the main
+ * path and every two-reflection path, counted where it lands within a
+ * 36 x 24 mm frame.  JSON: name, wavelength_nm, coating, field_deg,
+ * frame_radius_mm, main_transmission (the share of the beam's energy
+ * the main image receives), ghost_paths, total_flux, and ghosts,
+ * brightest first, each {surfaces: [j, i] (reflected at j, then at i),
+ * flux (over the main image's), centroid_mm, rms_radius_mm}.  *json is
+ * malloc'ed text: release it with lr_free.  Errors as lr_lens_describe,
+ * and LR_ERR_INVALID for a wavelength outside [300, 2000] nm. */
+LR_API lr_status lr_lens_ghosts(const char *lens, const char *base_dir,
+                                double nm, lr_lens_coating coating, char **json,
+                                lr_error *err);
+
 /* The same for every shipped lens, as {"lenses": [{"id": NAME, ...},
  * ...]} sorted by name (NAME is the file's name without extension).  A
  * shipped lens that fails to load is listed with an "error" message
