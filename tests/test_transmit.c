@@ -17,18 +17,6 @@
 #include <stdio.h>
 #include <string.h>
 
-/* A flat surface followed by `t` mm of index n (1: air). */
-static lr__surface flat(double t, double n, double semi)
-{
-    lr__surface s;
-    memset(&s, 0, sizeof s);
-    s.thickness = t;
-    s.semi_aperture = semi;
-    s.after.kind = n == 1.0 ? LR__GLASS_AIR : LR__GLASS_CONSTANT;
-    s.after.nd = n;
-    return s;
-}
-
 /* One plate of index 1.5, 5 mm thick, bare: a ray at angle theta keeps
  * (1 - R(theta))^2 with R by Fresnel's sine and tangent forms (Hecht,
  * Optics, 4.6: r_s = -sin(i - t) / sin(i + t), r_p = tan(i - t) /
@@ -40,8 +28,8 @@ static void test_plate(void **state)
     lr__rx rx;
     memset(&rx, 0, sizeof rx);
     rx.n = 2;
-    rx.s[0] = flat(5.0, 1.5, 1e4);
-    rx.s[1] = flat(10.0, 1.0, 1e4);
+    rx.s[0] = lr_test_flat(5.0, 1.5, 1e4);
+    rx.s[1] = lr_test_flat(10.0, 1.0, 1e4);
     rx.s[0].coating.kind = rx.s[1].coating.kind = LR__COAT_NONE;
     double z[LR__RX_MAX_SURFACES + 1], n[LR__RX_MAX_SURFACES];
     lr__rx_layout(&rx, z);

@@ -72,19 +72,9 @@ lr_status lr_lens_ghosts(const char *lens, const char *base_dir, double nm,
         return lr__fail(err, LR_ERR_INVALID, NULL,
                         "lr_lens_ghosts: coating %d is not an lr_lens_coating",
                         (int)coating);
-    char path[4096];
-    LR_TRY(lr__rx_find(lens, base_dir, path, sizeof path, err));
-    lr__rx *rx = malloc(sizeof *rx);
-    if (rx == NULL)
-        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
-    lr_status st = lr__rx_load_file(path, lens, NULL, rx, err);
-    cJSON *o = st == LR_OK ? ghosts_json(rx, nm, (int)coating) : NULL;
+    lr__rx *rx;
+    LR_TRY(lr__rx_load_named(lens, base_dir, &rx, err));
+    cJSON *o = ghosts_json(rx, nm, (int)coating);
     free(rx);
-    if (st != LR_OK)
-        return st;
-    *json = o != NULL ? cJSON_PrintUnformatted(o) : NULL;
-    cJSON_Delete(o);
-    if (*json == NULL)
-        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
-    return LR_OK;
+    return lr__json_print_owned(o, json, err);
 }

@@ -174,6 +174,16 @@ lr_status lr__rx_load_file(const char *file, const char *shown,
 lr_status lr__rx_find(const char *name, const char *base_dir, char *out,
                       size_t cap, lr_error *err);
 
+/* lr__rx_find and lr__rx_load_file together: *out is a malloc'ed
+ * prescription (free it with free()) on LR_OK, NULL otherwise
+ * (lens_info.c; lr_lens_describe and lr_lens_ghosts). */
+lr_status lr__rx_load_named(const char *lens, const char *base_dir,
+                            lr__rx **out, lr_error *err);
+/* Prints `o` compactly into *json (malloc'ed, for lr_free) and deletes
+ * it; LR_ERR_NOMEM when o is NULL or printing fails (lens_info.c). */
+struct cJSON;
+lr_status lr__json_print_owned(struct cJSON *o, char **json, lr_error *err);
+
 /* The shipped lenses' names: the files in the lens directory (see
  * lr__rx_find) ending in .json, .zmx, .dat or .txt, without the
  * extension, sorted.  Fills at most `max` and returns how many. */
