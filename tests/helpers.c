@@ -29,6 +29,17 @@ const char *lr_test_tmpdir(void)
     return dir;
 }
 
+lr__surface lr_test_flat(double t, double n, double semi)
+{
+    lr__surface s;
+    memset(&s, 0, sizeof s);
+    s.thickness = t;
+    s.semi_aperture = semi;
+    s.after.kind = n == 1.0 ? LR__GLASS_AIR : LR__GLASS_CONSTANT;
+    s.after.nd = n;
+    return s;
+}
+
 lr_image *lr_test_render(const char *json, const char *const *sets,
                          size_t n_sets, lr_render_stats *stats)
 {
@@ -474,15 +485,4 @@ void lr_test_isa_means_agree(const double *mean, const char *const *isa, int n)
     for (int k = 1; k < n; k++)
         if (!(fabs(mean[k] - mean[0]) <= 0.01 * mean[0]))
             fail_msg("%s: mean %.9g, default %.9g", isa[k], mean[k], mean[0]);
-}
-
-lr__surface lr_test_flat(double t, double n, double semi)
-{
-    lr__surface s;
-    memset(&s, 0, sizeof s);
-    s.thickness = t;
-    s.semi_aperture = semi;
-    s.after.kind = n == 1.0 ? LR__GLASS_AIR : LR__GLASS_CONSTANT;
-    s.after.nd = n;
-    return s;
 }
