@@ -98,6 +98,25 @@ typedef enum lr_aperture_shape {
     LR_APERTURE_POLYGON = 2 /* regular polygon inscribed in the circle */
 } lr_aperture_shape;
 
+/* A real lens's coatings (camera.coating): each surface's own, as its
+ * prescription gives it (the default: one quarter-wave MgF2 layer on
+ * every glass-air surface unless the prescription says otherwise), or
+ * one kind for every glass-air surface, overriding the prescription. */
+typedef enum lr_lens_coating {
+    LR_COATING_PRESCRIPTION = 0, /* "prescription" (the default) */
+    LR_COATING_NONE = 1,         /* "none": bare glass everywhere */
+    LR_COATING_MGF2 = 2          /* "mgf2": quarter-wave MgF2 everywhere */
+} lr_lens_coating;
+
+/* A real lens's ghosts (camera.ghosts): light reflected twice inside the
+ * lens, traced from bright sources (docs/lenses.md). */
+typedef enum lr_ghosts {
+    LR_GHOSTS_AUTO = 0, /* "auto" (the default): only for sources whose
+                           ghosts would show */
+    LR_GHOSTS_ON = 1,   /* true: every source */
+    LR_GHOSTS_OFF = 2   /* false: none */
+} lr_ghosts;
+
 typedef enum lr_chromatic_mode {
     LR_CHROMATIC_OFF = 0,     /* one focus for all light (costs nothing) */
     LR_CHROMATIC_RGB = 1,     /* the paper: R, G, B each with its focus */
@@ -188,6 +207,11 @@ typedef struct lr_camera {
     const lr_lens *lens;    /* NULL until a lens is given */
     double sensor_width_mm; /* default 36; the height follows the image */
     double scene_unit_mm;   /* millimetres per scene unit; default 1000 */
+    /* Every surface transmits 1 - R of the light (its reflectance R under
+     * its coating), on every path; `coating` overrides the
+     * prescription's coatings.  Default LR_COATING_PRESCRIPTION. */
+    lr_lens_coating coating;
+    lr_ghosts ghosts; /* default LR_GHOSTS_AUTO */
 } lr_camera;
 
 /* Loads the lens `lens`: a prescription file (lensray JSON, pbrt-v4's
@@ -762,6 +786,22 @@ LR_API lr_status lr_job_apply(const lr_job *job, lr_camera *cam,
 LR_API lr_status lr_lens_describe(const char *lens, const char *base_dir,
                                   const double *field_angles_deg, int n_angles,
                                   double nm, char **json, lr_error *err);
+
+/* The ghosts of a distant point on the axis through lens `lens` (found
+ * as by lr_lens_describe) at `nm`, under each surface's own coating or
+ * `coating` for all (issue 29; docs/lenses.md): a grid of 61 x 61
+ * parallel rays over the front element, each traced through the main
+ * path and every two-reflection path, counted where it lands within a
+ * 36 x 24 mm frame.  JSON: name, wavelength_nm, coating, field_deg,
+ * frame_radius_mm, main_transmission (the share of the beam's energy
+ * the main image receives), ghost_paths, total_flux, and ghosts,
+ * brightest first, each {surfaces: [j, i] (reflected at j, then at i),
+ * flux (over the main image's), centroid_mm, rms_radius_mm}.  *json is
+ * malloc'ed text: release it with lr_free.  Errors as lr_lens_describe,
+ * and LR_ERR_INVALID for a wavelength outside [300, 2000] nm. */
+LR_API lr_status lr_lens_ghosts(const char *lens, const char *base_dir,
+                                double nm, lr_lens_coating coating, char **json,
+                                lr_error *err);
 
 /* The same for every shipped lens, as {"lenses": [{"id": NAME, ...},
  * ...]} sorted by name (NAME is the file's name without extension).  A

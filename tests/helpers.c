@@ -6,6 +6,7 @@
  */
 #include "test.h"
 #include "json_util.h"
+#include "prescription.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -26,6 +27,17 @@ const char *lr_test_tmpdir(void)
         }
     }
     return dir;
+}
+
+lr__surface lr_test_flat(double t, double n, double semi)
+{
+    lr__surface s;
+    memset(&s, 0, sizeof s);
+    s.thickness = t;
+    s.semi_aperture = semi;
+    s.after.kind = n == 1.0 ? LR__GLASS_AIR : LR__GLASS_CONSTANT;
+    s.after.nd = n;
+    return s;
 }
 
 lr_image *lr_test_render(const char *json, const char *const *sets,

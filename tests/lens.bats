@@ -88,6 +88,35 @@ J
     [ "$(echo "$output" | j 'abs(d["efl_mm"] - 100) < 1e-3')" = True ]
 }
 
+@test "--ghosts: a nearly flat bare plate's one ghost carries R^2 of the main image; the double Gauss's 55" {
+    # n = 1.5 on both faces, square on: R = ((n - 1) / (n + 1))^2 = 0.04
+    # (Fresnel), and the ghost reflecting at the back face, then the
+    # front, keeps R^2 = 1.6e-3 of what the main image keeps.  Paths that
+    # reflect at the stop (in air) carry nothing.
+    cat >"$T/plate.json" <<'J'
+{"surfaces": [{"stop": true, "thickness": 1, "semi_aperture": 5},
+ {"radius": 100000, "thickness": 2, "material": {"nd": 1.5}, "semi_aperture": 5},
+ {"radius": -100000, "thickness": 10, "material": "air", "semi_aperture": 5}]}
+J
+    run -0 "$LENSRAY" lens "$T/plate.json" --ghosts --coating none
+    [ "$(echo "$output" | j 'd["ghost_paths"]')" = 3 ]
+    [ "$(echo "$output" | j 'd["ghosts"][0]["surfaces"]')" = "[2, 1]" ]
+    [ "$(echo "$output" | j 'abs(d["ghosts"][0]["flux"] / 0.04 ** 2 - 1) < 0.02')" = True ]
+    [ "$(echo "$output" | j 'd["ghosts"][1]["flux"] + d["ghosts"][2]["flux"] == 0')" = True ]
+    # The main image keeps (1 - R)^2 of the beam.
+    [ "$(echo "$output" | j 'abs(d["main_transmission"] / 0.96 ** 2 - 1) < 0.02')" = True ]
+    # MgF2 on both faces: far less.
+    run -0 "$LENSRAY" lens "$T/plate.json" --ghosts --coating mgf2
+    [ "$(echo "$output" | j 'd["ghosts"][0]["flux"] < 0.04 ** 2 / 4')" = True ]
+    # The double Gauss: N(N-1)/2 = 55 paths, brightest first, summed.
+    run -0 "$LENSRAY" lens double-gauss-50 --ghosts --wavelength 550 --coating none
+    [ "$(echo "$output" | j 'len(d["ghosts"]) == d["ghost_paths"] == 55')" = True ]
+    [ "$(echo "$output" | j 'all(a["flux"] >= b["flux"] for a, b in zip(d["ghosts"], d["ghosts"][1:]))')" = True ]
+    [ "$(echo "$output" | j 'abs(sum(g["flux"] for g in d["ghosts"]) - d["total_flux"]) < 1e-12')" = True ]
+    run -2 "$LENSRAY" lens double-gauss-50 --coating none
+    run -2 "$LENSRAY" lens double-gauss-50 --ghosts --coating ito
+}
+
 @test "an unknown lens lists the shipped ones" {
     run -3 "$LENSRAY" lens double-gauss-55
     [[ "$output" == *'lens "double-gauss-55": no such file'* ]]

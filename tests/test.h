@@ -22,6 +22,7 @@
 
 #include "lensray.h"
 #include "internal.h"
+#include "prescription.h"
 
 void lr_test_register(const char *name, const struct CMUnitTest *tests,
                       size_t n);
@@ -49,6 +50,10 @@ double lr_test_rmse(const lr_image *a, const lr_image *b);
 
 /* Directory for scratch files of this test run (created on first use). */
 const char *lr_test_tmpdir(void);
+
+/* A flat lens surface followed by `t` mm of index n (1: air), with
+ * semi-aperture `semi`: the plates of test_ghost.c and test_transmit.c. */
+lr__surface lr_test_flat(double t, double n, double semi);
 
 /* Loads a scene from JSON text with `sets` overrides, relative files
  * from lr_test_tmpdir(); fails the test if it does not load.  The caller

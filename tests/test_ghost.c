@@ -15,18 +15,6 @@
 #include <stdio.h>
 #include <string.h>
 
-/* A flat surface followed by `t` mm of index n (1: air). */
-static lr__surface flat(double t, double n, double semi)
-{
-    lr__surface s;
-    memset(&s, 0, sizeof s);
-    s.thickness = t;
-    s.semi_aperture = semi;
-    s.after.kind = n == 1.0 ? LR__GLASS_AIR : LR__GLASS_CONSTANT;
-    s.after.nd = n;
-    return s;
-}
-
 static const lr__coating bare = {.kind = LR__COAT_NONE};
 
 typedef struct landing {
@@ -81,8 +69,8 @@ static void test_plate(void **state)
     memset(&rx, 0, sizeof rx);
     rx.n = 2;
     rx.stop = -1;
-    rx.s[0] = flat(t, n, 50);
-    rx.s[1] = flat(20, 1.0, 50);
+    rx.s[0] = lr_test_flat(t, n, 50);
+    rx.s[1] = lr_test_flat(20, 1.0, 50);
     double o[3] = {-3, 0.5, -2}, d[3];
     direction(theta, phi, d);
     lr__coating mgf2 = {0};
@@ -120,10 +108,10 @@ static void test_two_plates(void **state)
     memset(&rx, 0, sizeof rx);
     rx.n = 4;
     rx.stop = -1;
-    rx.s[0] = flat(tA, nA, 50);
-    rx.s[1] = flat(g, 1.0, 50);
-    rx.s[2] = flat(tB, nB, 50);
-    rx.s[3] = flat(30, 1.0, 50);
+    rx.s[0] = lr_test_flat(tA, nA, 50);
+    rx.s[1] = lr_test_flat(g, 1.0, 50);
+    rx.s[2] = lr_test_flat(tB, nB, 50);
+    rx.s[3] = lr_test_flat(30, 1.0, 50);
     double o[3] = {1, 2, -1}, d[3];
     direction(theta, phi, d);
     double thA = asin(sin(theta) / nA), thB = asin(sin(theta) / nB);
@@ -151,7 +139,7 @@ static void test_two_plates(void **state)
                   g21.w, s21, g30.w, s30);
     /* A path that reflects at an air-air surface carries nothing; a
      * path that is not one (i >= j) is refused. */
-    rx.s[1] = flat(g / 2, 1.0, 50);
+    rx.s[1] = lr_test_flat(g / 2, 1.0, 50);
     memmove(&rx.s[2], &rx.s[1], 3 * sizeof rx.s[0]);
     rx.n = 5;
     landing z = trace(&rx, &bare, (lr__ghost){2, 1}, o, d);
@@ -169,11 +157,11 @@ static void test_stop_clips(void **state)
     lr__rx rx;
     memset(&rx, 0, sizeof rx);
     rx.n = 5;
-    rx.s[0] = flat(2, 1.6, 50);
-    rx.s[1] = flat(g1, 1.0, 50);
-    rx.s[2] = flat(g2, 1.0, 1); /* the stop */
-    rx.s[3] = flat(2, 1.7, 50);
-    rx.s[4] = flat(30, 1.0, 50);
+    rx.s[0] = lr_test_flat(2, 1.6, 50);
+    rx.s[1] = lr_test_flat(g1, 1.0, 50);
+    rx.s[2] = lr_test_flat(g2, 1.0, 1); /* the stop */
+    rx.s[3] = lr_test_flat(2, 1.7, 50);
+    rx.s[4] = lr_test_flat(30, 1.0, 50);
     rx.stop = 2;
     double d[3], o[3];
     direction(theta, 0, d);
@@ -221,8 +209,8 @@ static void test_tir_lost(void **state)
     memset(&rx, 0, sizeof rx);
     rx.n = 2;
     rx.stop = -1;
-    rx.s[0] = flat(10, 1.6, 50);
-    rx.s[1] = flat(20, 1.0, 50);
+    rx.s[0] = lr_test_flat(10, 1.6, 50);
+    rx.s[1] = lr_test_flat(20, 1.0, 50);
     rx.s[1].radius = -12;
     double o[3] = {7.0, 0, -1}, d[3] = {0, 0, 1};
     landing m = trace(&rx, &bare, (lr__ghost){-1, -1}, o, d);
@@ -251,9 +239,9 @@ static void test_fluxes_plate(void **state)
     memset(&rx, 0, sizeof rx);
     rx.n = 3;
     rx.stop = 0;
-    rx.s[0] = flat(1, 1.0, 10);
-    rx.s[1] = flat(t, n, 80);
-    rx.s[2] = flat(25, 1.0, 80);
+    rx.s[0] = lr_test_flat(1, 1.0, 10);
+    rx.s[1] = lr_test_flat(t, n, 80);
+    rx.s[2] = lr_test_flat(25, 1.0, 80);
     static lr__ghost_flux f[LR__GHOST_MAX];
     double main;
     const double fields[2] = {0, 20};

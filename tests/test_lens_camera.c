@@ -7,6 +7,7 @@
  */
 #include "test.h"
 #include "camera.h"
+#include "ghost.h"
 #include "lens_load.h"
 #include "scene.h"
 
@@ -346,10 +347,33 @@ static void test_override_opens_no_working_directory_file(void **state)
 /* The exit-pupil bounds lose no light: at film points from the centre
  * to the corner, the mean weight of the camera's samples (its estimate of
  * the irradiance there, relative to the centre's) equals a brute-force
- * integral of cos^4 / Z^2 over every rear-plane point whose ray gets
+ * integral of T cos^4 / Z^2 over every rear-plane point whose ray gets
  * through: on a grid over three times the rear element, then a finer one
  * over where rays passed (plus two coarse cells).  A bound that clipped
- * the pupil would come out low by the share it clipped. */
+ * the pupil would come out low by the share it clipped.  T is the
+ * product of 1 - R over the crossings, R from the surfaces' coatings
+ * computed here ray by ray (exact_t), not from the camera's tables. */
+static int exact_t(const lr__cam *c, double o[3], double d[3], double *T)
+{
+    const lr__lens_cam *lc = &c->lens;
+    const lr__rx *rx = &lc->L->rx;
+    double t = 1.0;
+    for (int i = rx->n - 1; i >= 0; i--) {
+        double p[3], m[3];
+        if (!lr__rx_meet(rx, lc->L->z, lc->stop_scale, i, o, d, p, m))
+            return 0;
+        double n1 = lc->n_ref[i], n2 = i > 0 ? lc->n_ref[i - 1] : 1.0;
+        double ci = fabs(d[0] * m[0] + d[1] * m[1] + d[2] * m[2]);
+        memcpy(o, p, sizeof p);
+        if (!lr__rx_refract(d, m, n1, n2))
+            return 0;
+        t *= 1.0 -
+             lr__rx_surface_r(rx, lc->n_ref, i, 0, ci, c->nm_ref, lc->coat);
+    }
+    *T = t;
+    return 1;
+}
+
 static double brute_irradiance(const lr__cam *c, double xs, double ys)
 {
     const lr__lens_cam *lc = &c->lens;
@@ -370,11 +394,10 @@ static double brute_irradiance(const lr__cam *c, double xs, double ys)
                 double len = sqrt(d[0] * d[0] + d[1] * d[1] + Z * Z);
                 for (int a = 0; a < 3; a++)
                     d[a] /= len;
-                double o[3] = {xs, ys, lc->z_sensor}, ct = -d[2];
-                if (!lr__rx_trace_n(&L->rx, L->z, lc->n_ref, lc->stop_scale, 0,
-                                    o, d))
+                double o[3] = {xs, ys, lc->z_sensor}, ct = -d[2], T;
+                if (!exact_t(c, o, d, &T))
                     continue;
-                E += ct * ct * ct * ct / (Z * Z) * cw * ch;
+                E += T * ct * ct * ct * ct / (Z * Z) * cw * ch;
                 bx0 = fmin(bx0, qx), bx1 = fmax(bx1, qx);
                 by0 = fmin(by0, qy), by1 = fmax(by1, qy);
             }
@@ -560,7 +583,14 @@ static int brute_passes(const lr__cam *c, const double *const *ns, int nn,
     double dx = x - r, dy = y;
     double len = sqrt(dx * dx + dy * dy + dz * dz);
     double ct = -dz / len;
-    *cos4 = ct * ct * ct * ct;
+    /* E0 weighs each ray at the reference wavelength by what the glass
+     * passes (camera_lens.c's pupil_point; its table, transmit.h). */
+    double o0[3] = {r, 0.0, lc->z_sensor}, T = 0.0;
+    double d0[3] = {dx / len, dy / len, dz / len};
+    if (!lr__rx_trace_t(&L->rx, L->z, lc->n_ref, lc->stop_scale, 0, &lc->t_ref,
+                        c->nm_ref, lc->coat, o0, d0, &T))
+        T = 0.0;
+    *cos4 = ct * ct * ct * ct * T;
     for (int k = 0; k < nn; k++) {
         double o[3] = {r, 0.0, lc->z_sensor};
         double d[3] = {dx / len, dy / len, dz / len};

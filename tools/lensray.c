@@ -33,6 +33,7 @@ static const char usage_text[] =
     "usage: lensray render SCENE.json|SCENE.glb... -o OUT.exr|OUT.png "
     "[options]\n"
     "       lensray lens FILE|NAME [--field-angles A,B,...] [--wavelength NM]\n"
+    "                   [--ghosts [--coating prescription|none|mgf2]]\n"
     "       lensray version\n"
     "       lensray --help\n"
     "\n"
@@ -69,6 +70,8 @@ static const char usage_text[] =
     "a shipped lens (lenses/)\n"
     "  --field-angles A,B  field angles in degrees, object at infinity\n"
     "  --wavelength NM     primary wavelength (default 587.5618, the d line)\n"
+    "  --ghosts            each ghost path's flux for a point on the axis\n"
+    "  --coating NAME      with --ghosts: every surface bare (none) or MgF2\n"
     "\n"
     "an option's value may also follow it after '=': --output=out.png\n"
     "\n"
@@ -352,14 +355,33 @@ static int cmd_render(int argc, char **argv)
     return rc;
 }
 
-/* `lensray lens FILE|NAME [--field-angles A,B,...] [--wavelength NM]` */
+/* `lensray lens FILE|NAME [--field-angles A,B,...] [--wavelength NM]
+ * [--ghosts [--coating NAME]]` */
 static int cmd_lens(int argc, char **argv)
 {
     const char *lens = NULL;
     double angles[64], nm = 587.5618;
-    int n = 0;
+    int n = 0, ghosts = 0, coating = -1;
     for (int i = 0; i < argc; i++) {
         const char *a = argv[i];
+        if (strcmp(a, "--ghosts") == 0) {
+            ghosts = 1;
+            continue;
+        }
+        if (strcmp(a, "--coating") == 0) {
+            static const char *const names[] = {"prescription", "none", "mgf2"};
+            if (i + 1 >= argc)
+                return usage_error("%s needs a value", a);
+            const char *v = argv[++i];
+            for (int k = 0; k < 3; k++)
+                if (strcmp(v, names[k]) == 0)
+                    coating = k;
+            if (coating < 0)
+                return usage_error("--coating '%s': one of prescription, "
+                                   "none, mgf2",
+                                   v);
+            continue;
+        }
         if (strcmp(a, "--field-angles") == 0 ||
             strcmp(a, "--wavelength") == 0) {
             if (i + 1 >= argc)
@@ -395,9 +417,16 @@ static int cmd_lens(int argc, char **argv)
     if (lens == NULL)
         return usage_error("%s",
                            "lens needs a lens file or a shipped lens's name");
+    if (coating >= 0 && !ghosts)
+        return usage_error("%s", "--coating goes with --ghosts");
     char *json = NULL;
     lr_error err;
-    lr_status st = lr_lens_describe(lens, NULL, angles, n, nm, &json, &err);
+    lr_status st = ghosts ? lr_lens_ghosts(
+                                lens, NULL, nm,
+                                (lr_lens_coating)(coating < 0 ? 0 : coating),
+                                &json, &err)
+                          : lr_lens_describe(lens, NULL, angles, n, nm, &json,
+                                             &err);
     if (st != LR_OK) {
         fprintf(stderr, "lensray: %s\n", err.message);
         return st == LR_ERR_IO ? EXIT_IO : EXIT_SCENE;
@@ -410,9 +439,9 @@ static int cmd_lens(int argc, char **argv)
 /* The long options that take a value: "--name=VALUE" is read as
  * "--name VALUE", as getopt_long does and as --set= always was. */
 static const char *const value_options[] = {
-    "--output", "--set",      "--compression", "--remote",       "--token-file",
-    "--parts",  "--parallel", "--retries",     "--field-angles", "--wavelength",
-    NULL};
+    "--output",       "--set",        "--compression", "--remote",
+    "--token-file",   "--parts",      "--parallel",    "--retries",
+    "--field-angles", "--wavelength", "--coating",     NULL};
 
 /* argv with every "--name=VALUE" of value_options split in two; NULL when
  * out of memory.  The strings stay argv's (names: the table's). */

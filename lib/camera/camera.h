@@ -35,6 +35,7 @@
 
 #include "internal.h"
 #include "prescription.h"
+#include "transmit.h"
 #include "vec.h"
 #include "wavelength.h"
 
@@ -245,6 +246,12 @@ typedef struct lr__lens_cam {
     float band_cx[LR__PUPIL_N], band_dcx[LR__PUPIL_N];
     float band_rad[LR__PUPIL_N], band_hx[LR__PUPIL_N], band_hy[LR__PUPIL_N];
     double inv_E0; /* 1 / the on-axis irradiance integral */
+    /* Every crossing's 1 - R (transmit.h): the camera key's coating
+     * (NULL: the prescription's), and the tables at nm_ref and, in rgb
+     * mode with colours (t_rgb_ok), at nm_rgb. */
+    const lr__coating *coat;
+    int t_rgb_ok;
+    lr__ttab t_ref, t_rgb[3];
 } lr__lens_cam;
 
 /* A camera prepared for one film: the frame every model shares, then the

@@ -93,6 +93,25 @@ static lr_status parse_focus_on(const cJSON *fo, lr_camera *cam, lr_error *err)
     return LR_OK;
 }
 
+/* ---- camera.ghosts ---------------------------------------------------- */
+
+static lr_status parse_ghosts(const cJSON *v, lr_camera *cam, lr_error *err)
+{
+    if (cJSON_IsBool(v)) {
+        cam->ghosts = cJSON_IsTrue(v) ? LR_GHOSTS_ON : LR_GHOSTS_OFF;
+        return LR_OK;
+    }
+    if (cJSON_IsString(v) && strcmp(v->valuestring, "auto") == 0) {
+        cam->ghosts = LR_GHOSTS_AUTO;
+        return LR_OK;
+    }
+    char desc[96];
+    lr__json_describe(v, desc, sizeof desc);
+    return lr__fail(err, LR_ERR_INVALID, "camera.ghosts",
+                    "camera.ghosts must be \"auto\", true or false, got %s",
+                    desc);
+}
+
 /* ---- the key table ---------------------------------------------------- */
 
 /* camera.model: a name in the registry of camera models (camera.c). */
@@ -164,6 +183,8 @@ static lr_status read_key(const cJSON *c, const lr__camera_key *k,
             return parse_model(c, cam, err);
         if (strcmp(k->name, "focus_on") == 0)
             return parse_focus_on(v, cam, err);
+        if (strcmp(k->name, "ghosts") == 0)
+            return parse_ghosts(v, cam, err);
         if (strcmp(k->name, "lens") == 0)
             return lr__lens_from_json(v, "camera.lens", base_dir, &cam->lens,
                                       err);

@@ -43,12 +43,22 @@
 
 #define AT(field) offsetof(lr_camera, field)
 
+/* Indexed by lr_lens_coating. */
+static const char *const coatings[] = {"prescription", "none", "mgf2", NULL};
+
+_Static_assert(sizeof(lr_lens_coating) == sizeof(int),
+               "LR__KEY_ENUM fields are stored as int");
+
 static const lr__camera_key keys[] = {
     {"lens", LR__KEY_CUSTOM, AT(lens), NULL, 0, 0},
     {"sensor_width_mm", LR__KEY_NUMBER, AT(sensor_width_mm), NULL, 0, 0},
     {"scene_unit_mm", LR__KEY_NUMBER, AT(scene_unit_mm), NULL, 0, 0},
     {"focus_distance", LR__KEY_NUMBER, AT(focus_distance), NULL, 0, 0},
     {"f_number", LR__KEY_NUMBER, AT(f_number), NULL, 0, 0},
+    {"coating", LR__KEY_ENUM, AT(coating), coatings, 0, 0},
+    /* "auto", true or false: camera_json.c reads it, json_write.c writes
+     * it (only when not "auto"). */
+    {"ghosts", LR__KEY_CUSTOM, AT(ghosts), NULL, 0, 0},
     {NULL, 0, 0, NULL, 0, 0},
 };
 
@@ -353,7 +363,15 @@ static void pupil_point(const pupil_job *j, double r, lr__pupil *P, double *E0)
             double dx = fine_x(f, k % G_FINE) - r, dy = fine_y(f, k / G_FINE);
             double len = sqrt(dx * dx + dy * dy + dz * dz);
             double ct = -dz / len;
-            e0 += ct * ct * ct * ct;
+            /* And what the glass passes of it (1 - R at every crossing,
+             * transmit.h), as the camera's rays are weighed: a uniform
+             * scene's centre keeps its radiance, coated or not. */
+            double o[3] = {r, 0.0, lc->z_sensor};
+            double d[3] = {dx / len, dy / len, dz / len}, T = 0.0;
+            if (!lr__rx_trace_t(&L->rx, L->z, lc->n_ref, lc->stop_scale, 0,
+                                &lc->t_ref, j->c->nm_ref, lc->coat, o, d, &T))
+                T = 0.0;
+            e0 += ct * ct * ct * ct * T;
         }
         *E0 = e0 * cxw * cyw / (Z * Z);
     }
@@ -430,8 +448,10 @@ static void pupils(lr__cam *c, int colours)
 {
     lr__lens_cam *lc = &c->lens;
     lr_lens *L = (lr_lens *)lc->L; /* the cache is mutable, under L->mu */
-    double key[5] = {lc->z_sensor, lc->stop_scale, lc->pupil_rmax,
-                     colours + 10.0 * c->chroma.amplify, lc->z_rear};
+    double key[6] = {
+        lc->z_sensor,   lc->stop_scale,
+        lc->pupil_rmax, colours + 10.0 * c->chroma.amplify,
+        lc->z_rear,     lc->coat == NULL ? -1.0 : (double)lc->coat->kind};
     pthread_mutex_lock(&L->mu);
     for (int i = 0; i < L->n_pupils; i++) {
         const lr__pupil_entry *e = &L->pupils[i];
@@ -535,6 +555,13 @@ static void setup(lr__cam *c, const lr_camera *cam)
         c->chroma_active = 1;
         colours = c->chroma.mode == LR_CHROMATIC_RGB ? 1 : 2;
     }
+    /* What each surface passes (transmit.h), at the wavelengths the
+     * camera traces with fixed indices. */
+    lc->coat = lr__coating_override((int)cam->coating);
+    lr__ttab_fill(&lc->t_ref, &L->rx, lc->n_ref, c->nm_ref, lc->coat);
+    lc->t_rgb_ok = colours == 1;
+    for (int k = 0; k < 3 && lc->t_rgb_ok; k++)
+        lr__ttab_fill(&lc->t_rgb[k], &L->rx, lc->n_rgb[k], rgb_nm[k], lc->coat);
     pupils(c, colours);
     for (int k = 0; k < LR__PUPIL_N; k++) {
         lr__pupil a = pupil_at(lc, lc->pupil_rmax * k / LR__PUPIL_N);
@@ -630,6 +657,19 @@ static double lens_start(const lr__cam *c, double fx, double fy,
     return area * ct * ct * ct * ct / (dz * dz) * lc->inv_E0;
 }
 
+/* The transmittance table for the indices n (one of the camera's sets),
+ * or NULL for indices at another wavelength (then R is computed at the
+ * ray's own). */
+static const lr__ttab *ttab_for(const lr__lens_cam *lc, const double *n)
+{
+    if (n == lc->n_ref)
+        return &lc->t_ref;
+    for (int k = 0; k < 3; k++)
+        if (n == lc->n_rgb[k] && lc->t_rgb_ok)
+            return &lc->t_rgb[k];
+    return NULL;
+}
+
 static double lens_ray(const lr__cam *c, double fx, double fy,
                        const double u[2], double w, double nm, lr__v3 *org,
                        lr__v3 *dir)
@@ -649,11 +689,12 @@ static double lens_ray(const lr__cam *c, double fx, double fy,
             n = nbuf;
         }
     }
-    double o[3], d[3];
+    double o[3], d[3], T = 0.0;
     double wt = lens_start(c, fx, fy, u, o, d);
-    if (wt > 0.0 && lr__rx_trace_n(&L->rx, L->z, n, lc->stop_scale, 0, o, d)) {
+    if (wt > 0.0 && lr__rx_trace_t(&L->rx, L->z, n, lc->stop_scale, 0,
+                                   ttab_for(lc, n), nm, lc->coat, o, d, &T)) {
         to_world(c, o, d, org, dir);
-        return wt;
+        return wt * T;
     }
     *org = c->origin;
     *dir = c->forward;
@@ -787,7 +828,8 @@ lens_rays16_n(const lr__cam *c, int use_lens, int np, const int *ns,
         }
     }
     lr__rx_trace16f(&c->lens.L->rx, c->lens.L->z, c->lens.n_ref,
-                    c->lens.stop_scale, 16 * np, o, d, alive);
+                    c->lens.stop_scale, 16 * np, o, d, alive, &c->lens.t_ref,
+                    w);
     for (int p = 0; p < np; p++) {
         float o16[3][16], d16[3][16];
         for (int a = 0; a < 3; a++) {
@@ -990,7 +1032,9 @@ static double lens_film_n(const lr__cam *c, const double *n, double ox,
     /* Back along the line to before the first surface. */
     double back = (L->rx.s[0].semi_aperture + 1.0) / d[2];
     double o[3] = {ox - back * d[0], oy - back * d[1], L->z[0] - back * d[2]};
-    if (!lr__rx_trace_n(&L->rx, L->z, n, lc->stop_scale, 1, o, d) ||
+    double T = 0.0;
+    if (!lr__rx_trace_t(&L->rx, L->z, n, lc->stop_scale, 1, ttab_for(lc, n),
+                        c->nm_ref, lc->coat, o, d, &T) ||
         !(d[2] > 0.0))
         return 0.0;
     double t = (lc->z_sensor - o[2]) / d[2];
@@ -1010,7 +1054,7 @@ static double lens_film_n(const lr__cam *c, const double *n, double ox,
         return 0.0;
     double rho = front_disk(lc);
     double A_pix = lc->sensor_w * lc->sensor_h / (c->width * c->height);
-    return lc->inv_E0 * cos_o * M_PI * rho * rho / A_pix;
+    return lc->inv_E0 * cos_o * M_PI * rho * rho / A_pix * T;
 }
 
 /* The light side's plan (light_trace.c) sees the lens as a thin lens of

@@ -267,19 +267,37 @@ lr_status lr_lens_describe(const char *lens, const char *base_dir,
                         "lr_lens_describe: a lens name and an output "
                         "pointer are required");
     LR_TRY(check_args(field_angles_deg, n_angles, nm, err));
+    lr__rx *rx;
+    LR_TRY(lr__rx_load_named(lens, base_dir, &rx, err));
+    cJSON *o = NULL;
+    lr_status st = describe_rx(rx, field_angles_deg, n_angles, nm, &o, err);
+    free(rx);
+    if (st != LR_OK)
+        return st;
+    return lr__json_print_owned(o, json, err);
+}
+
+lr_status lr__rx_load_named(const char *lens, const char *base_dir,
+                            lr__rx **out, lr_error *err)
+{
     char path[4096];
+    *out = NULL;
     LR_TRY(lr__rx_find(lens, base_dir, path, sizeof path, err));
     lr__rx *rx = malloc(sizeof *rx);
     if (rx == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
-    cJSON *o = NULL;
     lr_status st = lr__rx_load_file(path, lens, NULL, rx, err);
-    if (st == LR_OK)
-        st = describe_rx(rx, field_angles_deg, n_angles, nm, &o, err);
-    free(rx);
-    if (st != LR_OK)
+    if (st != LR_OK) {
+        free(rx);
         return st;
-    *json = cJSON_PrintUnformatted(o);
+    }
+    *out = rx;
+    return LR_OK;
+}
+
+lr_status lr__json_print_owned(cJSON *o, char **json, lr_error *err)
+{
+    *json = o != NULL ? cJSON_PrintUnformatted(o) : NULL;
     cJSON_Delete(o);
     if (*json == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");

@@ -27,7 +27,8 @@ typedef struct lr__lens_first {
 
 /* One cached exit-pupil table (camera_lens.c fills it). */
 typedef struct lr__pupil_entry {
-    double key[5]; /* z_sensor, stop_scale, rmax, colour set, z_rear */
+    double key[6]; /* z_sensor, stop_scale, rmax, colour set, z_rear,
+                      the camera's coating (E0 holds its 1 - R) */
     lr__pupil p[LR__PUPIL_N + 1];
     double inv_E0;
 } lr__pupil_entry;

@@ -23,6 +23,7 @@
  *   coating.c           what each surface reflects (coating.h)
  *   ghost.c             rays reflected twice inside the lens (ghost.h)
  *   ghost_flux.c        a distant point's ghosts against its image
+ *   transmit.c          what each surface passes on the main path (1 - R)
  */
 #ifndef LR_PRESCRIPTION_H
 #define LR_PRESCRIPTION_H
@@ -173,6 +174,16 @@ lr_status lr__rx_load_file(const char *file, const char *shown,
 lr_status lr__rx_find(const char *name, const char *base_dir, char *out,
                       size_t cap, lr_error *err);
 
+/* lr__rx_find and lr__rx_load_file together: *out is a malloc'ed
+ * prescription (free it with free()) on LR_OK, NULL otherwise
+ * (lens_info.c; lr_lens_describe and lr_lens_ghosts). */
+lr_status lr__rx_load_named(const char *lens, const char *base_dir,
+                            lr__rx **out, lr_error *err);
+/* Prints `o` compactly into *json (malloc'ed, for lr_free) and deletes
+ * it; LR_ERR_NOMEM when o is NULL or printing fails (lens_info.c). */
+struct cJSON;
+lr_status lr__json_print_owned(struct cJSON *o, char **json, lr_error *err);
+
 /* The shipped lenses' names: the files in the lens directory (see
  * lr__rx_find) ending in .json, .zmx, .dat or .txt, without the
  * extension, sorted.  Fills at most `max` and returns how many. */
@@ -267,10 +278,14 @@ void lr__rx_trace16(const lr__rx *rx, const double *z, const double *n_after,
  * of 16, at most LR__RX_LANES: up to four packets at once); o and d have
  * rows of LR__RX_LANES.  Close to lr__rx_trace16's rays (float
  * rounding), not equal to them; each lane's result is the same whatever
- * `lanes` and its place among them. */
+ * `lanes` and its place among them.  With a transmittance table `tab`
+ * (transmit.h; NULL: none), T[lane] is multiplied by every crossing's
+ * 1 - R. */
 #define LR__RX_LANES 64
+struct lr__ttab;
 void lr__rx_trace16f(const lr__rx *rx, const double *z, const double *n_after,
                      double stop_scale, int lanes, float (*o)[LR__RX_LANES],
-                     float (*d)[LR__RX_LANES], int *alive);
+                     float (*d)[LR__RX_LANES], int *alive,
+                     const struct lr__ttab *tab, float *T);
 
 #endif

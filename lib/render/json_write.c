@@ -136,6 +136,9 @@ static void camera_key(jb *b, const lr__camera_key *k, const lr_camera *cam)
                 b->failed = 1;
             }
         }
+        /* "auto", the default, is written as the key's absence. */
+        if (strcmp(k->name, "ghosts") == 0 && cam->ghosts != LR_GHOSTS_AUTO)
+            boolean(b, "ghosts", cam->ghosts == LR_GHOSTS_ON);
         break;
     }
 }

@@ -20,6 +20,7 @@ const KEY_HINTS = {
   f_number: {min: 0, max: 32, step: 0.1, label: "f-number (0: the thin lens uses its radius, a real lens its own stop)"},
   focal_length_mm: {min: 0, max: 300, step: 1, label: "focal length (mm)"},
   aperture_shape: {choices: ["disk", "square", "polygon"], label: "aperture shape"},
+  coating: {choices: ["prescription", "none", "mgf2"], label: "coatings (the prescription's, bare glass, or MgF2 on every surface)"},
   aperture_blades: {min: 3, max: 16, step: 1, label: "aperture blades"},
   aperture_rotation: {min: 0, max: 360, step: 1, label: "aperture rotation (degrees)"},
   aperture_ratio: {min: 0.25, max: 4, step: 0.05, label: "anamorphic ratio"},
