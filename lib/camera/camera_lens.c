@@ -988,13 +988,14 @@ static lr__v3 lens_point(const lr__cam *c, const double u[2], double *ox,
     return org;
 }
 
-static double lens_film_n(const lr__cam *c, const double *n, double ox,
-                          double oy, lr__v3 w, double *fx, double *fy);
+static double lens_film_n(const lr__cam *c, const double *n, double nm,
+                          double ox, double oy, lr__v3 w, double *fx,
+                          double *fy);
 
 static double lens_film(const lr__cam *c, double ox, double oy, lr__v3 w,
                         double *fx, double *fy)
 {
-    return lens_film_n(c, c->lens.n_ref, ox, oy, w, fx, fy);
+    return lens_film_n(c, c->lens.n_ref, c->nm_ref, ox, oy, w, fx, fy);
 }
 
 /* rgb mode: channel k at its wavelength (nm_rgb), as the camera traces
@@ -1002,7 +1003,8 @@ static double lens_film(const lr__cam *c, double ox, double oy, lr__v3 w,
 static double lens_film_rgb(const lr__cam *c, int k, double ox, double oy,
                             lr__v3 w, double *fx, double *fy)
 {
-    return lens_film_n(c, c->lens.n_rgb[k], ox, oy, w, fx, fy);
+    return lens_film_n(c, c->lens.n_rgb[k], c->lens.nm_rgb[k], ox, oy, w, fx,
+                       fy);
 }
 
 /* Spectral mode: at wavelength nm, as lens_ray traces it (the focus
@@ -1013,12 +1015,14 @@ static double lens_film_wl(const lr__cam *c, double w, double nm, double ox,
     (void)w;
     double n[LR__RX_MAX_SURFACES];
     indices(c, nm, n);
-    return lens_film_n(c, n, ox, oy, d, fx, fy);
+    return lens_film_n(c, n, nm, ox, oy, d, fx, fy);
 }
 
-/* lens_film with the surfaces' indices n. */
-static double lens_film_n(const lr__cam *c, const double *n, double ox,
-                          double oy, lr__v3 w, double *fx, double *fy)
+/* lens_film with the surfaces' indices n at wavelength nm (the
+ * surfaces' reflectance, where no table holds n: ttab_for). */
+static double lens_film_n(const lr__cam *c, const double *n, double nm,
+                          double ox, double oy, lr__v3 w, double *fx,
+                          double *fy)
 {
     const lr__lens_cam *lc = &c->lens;
     const lr_lens *L = lc->L;
@@ -1033,8 +1037,8 @@ static double lens_film_n(const lr__cam *c, const double *n, double ox,
     double back = (L->rx.s[0].semi_aperture + 1.0) / d[2];
     double o[3] = {ox - back * d[0], oy - back * d[1], L->z[0] - back * d[2]};
     double T = 0.0;
-    if (!lr__rx_trace_t(&L->rx, L->z, n, lc->stop_scale, 1, ttab_for(lc, n),
-                        c->nm_ref, lc->coat, o, d, &T) ||
+    if (!lr__rx_trace_t(&L->rx, L->z, n, lc->stop_scale, 1, ttab_for(lc, n), nm,
+                        lc->coat, o, d, &T) ||
         !(d[2] > 0.0))
         return 0.0;
     double t = (lc->z_sensor - o[2]) / d[2];
