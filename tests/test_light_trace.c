@@ -936,7 +936,7 @@ static void test_glints_deterministic_and_planned(void **state)
 }
 
 /* A lens whose front disk cannot be bounded below the slope of 4 that
- * the light side once assumed (test_lens_camera.c's
+ * the light side once assumed (test_camera_lens.c's
  * test_front_disk_covers finds rays through these three lenses steeper
  * than that) keeps its lights with the camera: light paths drawn from
  * that disk would miss light the camera sees.  The double Gauss, bounded,

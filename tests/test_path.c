@@ -464,8 +464,9 @@ static void centroid_m2(const lr_image *img, double *m2)
     *m2 = m / sum;
 }
 
-/* As test_optics.c's circle of confusion, with the sphere an emitter on
- * black lit by nothing else: what the path integrator sees directly.
+/* As test_camera_thinlens.c's circle of confusion, with the sphere an
+ * emitter on black lit by nothing else: what the path integrator sees
+ * directly.
  * Disk kernel: second moment C^2 / 8. */
 static void test_emitter_bokeh(void **state)
 {

@@ -309,7 +309,7 @@ static int by_dist_desc(const void *pa, const void *pb)
  * rear element and a fine one over what passed; for r = 0 also *E0, the
  * on-axis irradiance integral for a white scene.  The bounds reach one
  * fine cell beyond the outermost grid points that pass (the region's
- * edge lies within a cell of them); test_lens_camera.c checks that no
+ * edge lies within a cell of them); test_camera_lens.c checks that no
  * ray outside them gets through. */
 static void pupil_point(const pupil_job *j, double r, lr__pupil *P, double *E0)
 {

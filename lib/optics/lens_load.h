@@ -63,7 +63,7 @@ struct lr_lens {
  * between the grid's points).  Computed once for the process and kept in
  * the lens; safe from any thread.  The light side draws its lens points
  * from the disk this bounds (camera_lens.c, front_disk);
- * test_lens_camera.c checks that random rays outside it never get
+ * test_camera_lens.c checks that random rays outside it never get
  * through, on every shipped lens whose bound is under 4. */
 double lr__lens_front_slope(const lr_lens *L);
 

@@ -1,5 +1,5 @@
 /*
- * test_lens_camera.c: the "lens" camera model against optics computed
+ * test_camera_lens.c: the "lens" camera model against optics computed
  * here: a thin singlet against the thin lens's circle of confusion, the
  * focus against the lens equation, a point's image against its real
  * chief ray, the red-blue split against the lateral colour, a white
@@ -973,7 +973,7 @@ static void test_point_image_where_the_lens_puts_it(void **state)
     }
 }
 
-static const struct CMUnitTest lens_camera_tests[] = {
+static const struct CMUnitTest camera_lens_tests[] = {
     cmocka_unit_test(test_thin_singlet_matches_thin_lens),
     cmocka_unit_test(test_few_rays_lost_on_axis),
     cmocka_unit_test(test_autofocus_on_a_pixel),
@@ -990,4 +990,4 @@ static const struct CMUnitTest lens_camera_tests[] = {
     cmocka_unit_test(test_point_image_where_the_lens_puts_it),
 };
 
-LR_TEST_GROUP(lens_camera, lens_camera_tests)
+LR_TEST_GROUP(camera_lens, camera_lens_tests)
