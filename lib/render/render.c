@@ -209,7 +209,8 @@ static void finish_sides(render *j, lr_image *img, lr_render_stats *sum)
     sum->full_samples = sum->pixels * (uint64_t)set->spp;
     sum->full_camera_rays = sum->full_samples * lr__colour_rays(&j->cam);
     if (j->plan.lt != NULL) {
-        sum->light_lights = (uint64_t)j->plan.lt->n;
+        sum->light_lights = (uint64_t)(j->plan.lt->n -
+                                       j->plan.lt->ghost_lights);
         sum->light_paths = j->plan.lt->paths;
         if (!atomic_load(&j->cancelled))
             lr__lt_film_resolve(&j->light, img->rgb);
