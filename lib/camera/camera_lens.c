@@ -1118,10 +1118,13 @@ static int lens_ghost_paths(const lr__cam *c, double *peak)
     return lc->n_ghost;
 }
 
-static double lens_ghost_film(const lr__cam *c, int g, double nm, double ox,
+static double lens_ghost_film(const lr__cam *c, int g, int k, double ox,
                               double oy, lr__v3 w, double *fx, double *fy)
 {
     const lr__lens_cam *lc = &c->lens;
+    /* The glass's own dispersion at nm (chromatic.amplify plays no part
+     * in a ghost). */
+    double nm = k >= 0 && k < 3 ? lc->nm_rgb[k] : c->nm_ref;
     const lr_lens *L = lc->L;
     double d[3] = {-v3_dot(w, c->right), -v3_dot(w, c->up),
                    v3_dot(w, c->forward)};

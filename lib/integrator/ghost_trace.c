@@ -93,18 +93,27 @@ void lr__gt_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
     if (lr__trace_geom(s, lr__cam_ray_start(c, P, w), w, INFINITY) != l->geom)
         return;
     lr__v3 v = v3_scale(l->L, 2.0 * M_PI * omc / (double)l->paths);
-    int any = 0;
-    for (int g = 0; g < l->ghosts; g++) {
-        double fx, fy;
-        double W = c->model->ghost_film(c, g, c->nm_ref, ox, oy, w, &fx, &fy);
-        if (!(W > 0.0) ||
-            !(fx >= 0.0 && fx < c->width && fy >= 0.0 && fy < c->height))
-            continue;
-        lr__v3 e = v3_scale(v, W);
-        if (!(isfinite(e.x) && isfinite(e.y) && isfinite(e.z)))
-            continue;
-        lr__lt_splat(f, (int)fx, (int)fy, e);
-        any = 1;
-    }
+    /* chromatic.mode off: every channel at the reference wavelength (a
+     * grey ghost, as the main image is traced); rgb and spectral: each
+     * channel at its own wavelength, so that a coating's colour shows
+     * (spectral mode: the rgb channels' wavelengths, not its spectra). */
+    int k0 = c->chroma.mode == LR_CHROMATIC_OFF ? -1 : 0;
+    int k1 = k0 < 0 ? 0 : 3, any = 0;
+    for (int g = 0; g < l->ghosts; g++)
+        for (int k = k0; k < k1; k++) {
+            double fx, fy;
+            double W = c->model->ghost_film(c, g, k, ox, oy, w, &fx, &fy);
+            if (!(W > 0.0) ||
+                !(fx >= 0.0 && fx < c->width && fy >= 0.0 && fy < c->height))
+                continue;
+            lr__v3 e = v3_scale(v, W);
+            if (k >= 0)
+                e = v3(k == 0 ? e.x : 0.0, k == 1 ? e.y : 0.0,
+                       k == 2 ? e.z : 0.0);
+            if (!(isfinite(e.x) && isfinite(e.y) && isfinite(e.z)))
+                continue;
+            lr__lt_splat(f, (int)fx, (int)fy, e);
+            any = 1;
+        }
     *landed += (uint64_t)any;
 }
