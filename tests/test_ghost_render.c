@@ -233,6 +233,9 @@ static void test_ghost_energy(void **state)
     lr_image *a = lr_test_render(SCENE(""), on, 2, &st);
     lr_image *b = lr_test_render(SCENE(""), off, 2, NULL);
     lr_test_check_finite(a, &st, "ghosts on");
+    /* --stats: the ghost light apart from the light side's own. */
+    assert_int_equal(st.ghost_lights, 1);
+    assert_true(st.ghost_paths >= 1024 && st.ghost_landed > 0);
     double ea = image_sum(a), eb = image_sum(b);
     double got = (ea - eb) / eb;
     print_message("ghost / main: rendered %.6g, trace %.6g (%.4f)\n", got, want,
@@ -290,6 +293,7 @@ static void test_ghost_off_and_auto(void **state)
     lr_image *b = lr_test_render(SCENE(""), dim_off, 2, &s_off);
     lr_test_assert_same_bytes(a, b, "dim sphere: auto against false");
     assert_int_equal(s_auto.light_paths, s_off.light_paths);
+    assert_int_equal(s_auto.ghost_paths, 0);
     lr_image_free(a);
     lr_image_free(b);
     const char *bright[] = {"materials.l.emission=[1e6, 1e6, 1e6]"};
@@ -297,7 +301,8 @@ static void test_ghost_off_and_auto(void **state)
                                 "camera.ghosts=false"};
     lr_image *c = lr_test_render(SCENE(""), bright, 1, &s_bright);
     lr_image *d = lr_test_render(SCENE(""), bright_off, 2, &s_off);
-    assert_true(s_bright.light_paths > s_off.light_paths);
+    assert_int_equal(s_bright.light_paths, s_off.light_paths);
+    assert_int_equal(s_bright.ghost_lights, 1);
     assert_true(image_sum(c) > image_sum(d));
     lr_image_free(c);
     lr_image_free(d);

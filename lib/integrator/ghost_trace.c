@@ -98,7 +98,7 @@ void lr__gt_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
      * channel at its own wavelength, so that a coating's colour shows
      * (spectral mode: the rgb channels' wavelengths, not its spectra). */
     int k0 = c->chroma.mode == LR_CHROMATIC_OFF ? -1 : 0;
-    int k1 = k0 < 0 ? 0 : 3, any = 0;
+    int k1 = k0 < 0 ? 0 : 3;
     for (int g = 0; g < l->ghosts; g++)
         for (int k = k0; k < k1; k++) {
             double fx, fy;
@@ -113,7 +113,6 @@ void lr__gt_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
             if (!(isfinite(e.x) && isfinite(e.y) && isfinite(e.z)))
                 continue;
             lr__lt_splat(f, (int)fx, (int)fy, e);
-            any = 1;
+            (*landed)++;
         }
-    *landed += (uint64_t)any;
 }

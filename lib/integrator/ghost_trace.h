@@ -44,8 +44,8 @@
 int lr__gt_plan(const lr_scene *s, const lr__cam *c, int spp, lr__lt **ltp);
 
 /* One path of ghost light l from lens point P (offset ox, oy), its
- * direction from ud; splats into f, counting rays traced and the paths
- * that landed. */
+ * direction from ud; splats into f, counting rays traced and the ghost
+ * rays that landed (up to the lens's ghost paths, times 3 in colour). */
 void lr__gt_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
                  lr__v3 P, double ox, double oy, const double *ud,
                  lr__lt_film *f, uint64_t *rays, uint64_t *landed);

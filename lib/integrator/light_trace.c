@@ -972,7 +972,8 @@ static void splat_cb(void *film, const lr__landing *ld, lr__v3 v,
 }
 
 void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
-                 uint64_t u, lr__lt_film *f, uint64_t *rays, uint64_t *landed)
+                 uint64_t u, lr__lt_film *f, uint64_t *rays, uint64_t *landed,
+                 uint64_t *ghosts)
 {
     lr__sampler smp;
     lr__sampler_init(&smp, LR_SAMPLER_SOBOL, lt->seed, 1);
@@ -1006,7 +1007,7 @@ void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
         const double *ud = q, *ul = q + 2;
         if (l->surf == LR__LT_GHOST) {
             lr__v3 P = c->model->lens_point(c, ul, &ox, &oy);
-            lr__gt_path(s, c, l, P, ox, oy, ud, f, rays, landed);
+            lr__gt_path(s, c, l, P, ox, oy, ud, f, rays, ghosts);
             continue;
         }
         /* Spectral mode: dimension 6 places the path's wavelengths. */

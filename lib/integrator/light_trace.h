@@ -186,10 +186,11 @@ void lr__lt_splat(lr__lt_film *f, int ix, int iy, lr__v3 v);
 lr__v3 lr__lt_in_cone(lr__v3 a, double omc, const double u[2]);
 
 /* Traces unit u's light paths and adds their splats to f (from any
- * thread at once).  Counts the rays traced in *rays and the paths that
- * reached the film in *landed. */
+ * thread at once).  Counts the rays traced in *rays, the paths that
+ * reached the film in *landed, and ghost rays that did in *ghosts. */
 void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
-                 uint64_t u, lr__lt_film *f, uint64_t *rays, uint64_t *landed);
+                 uint64_t u, lr__lt_film *f, uint64_t *rays, uint64_t *landed,
+                 uint64_t *ghosts);
 
 /* Adds the light pass's pixels to the camera's: rgb is the region's
  * image, 3 floats a pixel. */
