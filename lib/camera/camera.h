@@ -208,12 +208,14 @@ typedef struct lr__camera_model {
      * infinity, every source passes; "auto":) to the largest
      * over them of the ghost's mean film value per unit of the main
      * image's total (lr__ghost_fluxes' flux on axis over its area in
-     * pixels); `ghost_film` is `film` for light that follows path g
+     * pixels), and flux[g] (room for LR__RX_MAX_SURFACES^2 / 2) to
+     * each path's flux over the main image's, on axis (0 when it could
+     * not be estimated); `ghost_film` is `film` for light that follows path g
      * (0 .. ghost_paths - 1) instead of the main path, at the reference
      * wavelength (k = -1) or rgb channel k's (0 red, 1 green, 2 blue):
      * where it lands and its importance, 0 when it is lost.  NULL: the
      * model has no ghosts. */
-    int (*ghost_paths)(const lr__cam *c, double *peak);
+    int (*ghost_paths)(const lr__cam *c, double *peak, double *flux);
     double (*ghost_film)(const lr__cam *c, int g, int k, double ox, double oy,
                          lr__v3 d, double *fx, double *fy);
 } lr__camera_model;

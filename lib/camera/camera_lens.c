@@ -1088,22 +1088,23 @@ static lr__ghost ghost_at(int g)
     return (lr__ghost){j, g - j * (j - 1) / 2};
 }
 
-static int lens_ghost_paths(const lr__cam *c, double *peak)
+static int lens_ghost_paths(const lr__cam *c, double *peak, double *flux)
 {
     const lr__lens_cam *lc = &c->lens;
     *peak = 0.0;
     if (lc->ghosts == LR_GHOSTS_OFF || lc->n_ghost == 0)
         return 0;
-    if (lc->ghosts == LR_GHOSTS_ON) {
-        *peak = INFINITY;
-        return lc->n_ghost;
-    }
+    for (int g = 0; g < lc->n_ghost; g++)
+        flux[g] = 0.0;
     /* On axis at the reference wavelength, a 24 x 24 beam, counted on
      * the frame's circle: an estimate for the plan, not a bound.  Out
-     * of memory: no ghost shows. */
+     * of memory: no ghost shows in "auto", and "true" draws the paths
+     * alike. */
     lr__ghost_flux *gf = malloc(LR__GHOST_MAX * sizeof *gf);
-    if (gf == NULL)
-        return 0;
+    if (gf == NULL) {
+        *peak = lc->ghosts == LR_GHOSTS_ON ? INFINITY : 0.0;
+        return lc->ghosts == LR_GHOSTS_ON ? lc->n_ghost : 0;
+    }
     double main = 0.0;
     int n = lr__ghost_fluxes(&lc->L->rx, lc->coat, 0.0, c->nm_ref, 24,
                              lc->pupil_rmax, gf, &main);
@@ -1113,8 +1114,12 @@ static int lens_ghost_paths(const lr__cam *c, double *peak)
          * 2 pi rms^2. */
         double px = fmax(1.0, 2.0 * M_PI * gf[k].rms * gf[k].rms / A_pix);
         *peak = fmax(*peak, gf[k].flux / px);
+        lr__ghost p = gf[k].path;
+        flux[p.j * (p.j - 1) / 2 + p.i] = gf[k].flux;
     }
     free(gf);
+    if (lc->ghosts == LR_GHOSTS_ON)
+        *peak = INFINITY;
     return lc->n_ghost;
 }
 

@@ -12,9 +12,12 @@
  * seen directly; each of its paths draws a lens point and a direction
  * into the sphere's cone as light_trace.c's sphere paths do, checks that
  * the camera ray along it meets the sphere first (the light must reach
- * the front of the lens), and lands that one ray through every ghost
- * path of the lens (camera.h: ghost_film).  The pixel under each landing
- * gets L x W_g / (pdf_dir x N), W_g the ghost's importance.  Same
+ * the front of the lens), and lands that one ray through one ghost path
+ * g of the lens (camera.h: ghost_film), drawn with probability p_g: half
+ * by the paths' fluxes on axis, half uniform (so that a path the
+ * on-axis estimate misses, bright off axis, still has 1 / (2 n)).  The
+ * pixel under the landing gets L x W_g / (pdf_dir x p_g x N), W_g the
+ * ghost's importance: unbiased for the sum over every path.  Same
  * determinism as every light path: a pure function of (light, path
  * index, seed), fixed-point splats.
  */
@@ -33,12 +36,11 @@
 #define LR__GT_AUTO 0.01
 
 /* Ghost paths per pixel of the frame and camera sample per pixel
- * (render.spp), per ghost light; each path lands through every ghost
- * path of the lens (55 for the double Gauss), so a ghost light lands
- * some spp x 55 / 256 ghost rays a pixel over its ghosts.  At least
- * LR__GT_MIN.  At 1/16, scenes/night-lens.json's 24 lights at 160 x 90
- * took 67.6 s against 0.12 s with ghosts off (2026-12-05, a shared
- * two-core machine): a density, not yet a budget. */
+ * (render.spp), per ghost light, each landing through one ghost path.
+ * At least LR__GT_MIN.  scenes/night-lens.json's 24 lights at 160 x 90,
+ * ghosts true, took 0.28 s against 0.12 s with ghosts off (2026-12-05,
+ * one run each on a shared two-core machine; every ghost path for each
+ * light path at 1/16 took 67.6 s): a density, not yet a budget. */
 #define LR__GT_DENSITY (1.0 / 256.0)
 #define LR__GT_MIN 1024
 
@@ -47,11 +49,13 @@
  * samples a pixel.  Returns 0 when out of memory. */
 int lr__gt_plan(const lr_scene *s, const lr__cam *c, int spp, lr__lt **ltp);
 
-/* One path of ghost light l from lens point P (offset ox, oy), its
- * direction from ud; splats into f, counting rays traced and the ghost
+/* One path of ghost light l of lt from lens point P (offset ox, oy), its
+ * direction from ud, its ghost path from ug (lt->ghost_cdf); splats
+ * into f, counting rays traced and the ghost
  * rays that landed (up to the lens's ghost paths, times 3 in colour). */
-void lr__gt_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
-                 lr__v3 P, double ox, double oy, const double *ud,
-                 lr__lt_film *f, uint64_t *rays, uint64_t *landed);
+void lr__gt_path(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
+                 const lr__lt_light *l, lr__v3 P, double ox, double oy,
+                 const double *ud, double ug, lr__lt_film *f, uint64_t *rays,
+                 uint64_t *landed);
 
 #endif

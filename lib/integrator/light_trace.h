@@ -110,6 +110,9 @@ typedef struct lr__lt {
     lr__lp *lp;
     uint64_t lp_paths; /* all its parts' */
     int ghost_lights;  /* lights with surf LR__LT_GHOST (the last ones) */
+    /* Their ghost paths' choice (ghost_trace.c): cumulative
+     * probabilities, ghost_cdf[g] that of paths 0 .. g, owned. */
+    double *ghost_cdf;
     /* Spectral mode with colours that focus apart: the wavelengths'
      * table (lr__cam_land), owned; else NULL. */
     lr__wl_table *wl;
