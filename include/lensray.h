@@ -499,6 +499,13 @@ typedef struct lr_render_stats {
     uint64_t light_lights;
     uint64_t light_paths;
     uint64_t light_landed;
+    /* A real lens's ghosts (camera.ghosts, issue 29), left out of the
+     * three above: the lights that got them, their light paths, and the
+     * landings of those paths' ghost rays inside the frame (each path
+     * lands through every ghost path of the lens). */
+    uint64_t ghost_lights;
+    uint64_t ghost_paths;
+    uint64_t ghost_landed;
 } lr_render_stats;
 
 /* Renders `scene` through `cam` with `settings`.  On success *out owns a
@@ -519,7 +526,8 @@ LR_API lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
  *               "chroma_pixels": 0, "samples": ..., "full_samples": ...,
  *               "camera_rays": ..., "full_camera_rays": ...,
  *               "lens_blocked": ..., "light_lights": ..., "light_paths": ...,
- *               "light_landed": ...}}
+ *               "light_landed": ..., "ghost_lights": ..., "ghost_paths": ...,
+ *               "ghost_landed": ...}}
  * lens_pixels and chroma_pixels are shares of the pixels (0 to 1); "plan"
  * is the last member.  `settings` (what the render ran with) gives width,
  * height, spp and plan.enabled/adaptive, and `scene` gives primitives;

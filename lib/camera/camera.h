@@ -202,6 +202,22 @@ typedef struct lr__camera_model {
      * cover every ray the camera can take); NULL: whenever lens_point
      * and film are there. */
     int (*light_ok)(const lr__cam *c);
+    /* Ghosts (issue 29, ghost_trace.c): light reflected twice inside the
+     * lens.  `ghost_paths` is how many ghost paths the camera's lens has
+     * (camera.ghosts false or no lens: 0), and sets *peak (true:
+     * infinity, every source passes; "auto":) to the largest
+     * over them of the ghost's mean film value per unit of the main
+     * image's total (lr__ghost_fluxes' flux on axis over its area in
+     * pixels), and flux[g] (room for LR__RX_MAX_SURFACES^2 / 2) to
+     * each path's flux over the main image's, on axis (0 when it could
+     * not be estimated); `ghost_film` is `film` for light that follows path g
+     * (0 .. ghost_paths - 1) instead of the main path, at the reference
+     * wavelength (k = -1) or rgb channel k's (0 red, 1 green, 2 blue):
+     * where it lands and its importance, 0 when it is lost.  NULL: the
+     * model has no ghosts. */
+    int (*ghost_paths)(const lr__cam *c, double *peak, double *flux);
+    double (*ghost_film)(const lr__cam *c, int g, int k, double ox, double oy,
+                         lr__v3 d, double *fx, double *fy);
 } lr__camera_model;
 
 /* The registry (camera.c): the model called `name`, or the one whose id
@@ -250,6 +266,9 @@ typedef struct lr__lens_cam {
      * (NULL: the prescription's), and the tables at nm_ref and, in rgb
      * mode with colours (t_rgb_ok), at nm_rgb. */
     const lr__coating *coat;
+    /* camera.ghosts (lr_ghosts), and the lens's ghost paths (ghost.h:
+     * {j, i} pairs, at most LR__RX_MAX_SURFACES^2 / 2). */
+    int ghosts, n_ghost;
     int t_rgb_ok;
     lr__ttab t_ref, t_rgb[3];
 } lr__lens_cam;

@@ -33,6 +33,7 @@
  * the infinity position (its designer's best focus), y is added to it.
  */
 #include "camera.h"
+#include "ghost.h"
 #include "lens.h"
 #include "lens_load.h"
 
@@ -558,6 +559,8 @@ static void setup(lr__cam *c, const lr_camera *cam)
     /* What each surface passes (transmit.h), at the wavelengths the
      * camera traces with fixed indices. */
     lc->coat = lr__coating_override((int)cam->coating);
+    lc->ghosts = (int)cam->ghosts;
+    lc->n_ghost = L->rx.n * (L->rx.n - 1) / 2;
     lr__ttab_fill(&lc->t_ref, &L->rx, lc->n_ref, c->nm_ref, lc->coat);
     lc->t_rgb_ok = colours == 1;
     for (int k = 0; k < 3 && lc->t_rgb_ok; k++)
@@ -1061,6 +1064,91 @@ static double lens_film_n(const lr__cam *c, const double *n, double nm,
     return lc->inv_E0 * cos_o * M_PI * rho * rho / A_pix * T;
 }
 
+/* ---- ghosts (camera.h: ghost_paths, ghost_film) ----------------------------
+ *
+ * A ghost's light enters the front of the lens as the main image's does,
+ * so the same measurement holds: the pixel's value is inv_E0 / A_pix
+ * times the sensor's irradiance integrated over the pixel, and the
+ * ray's etendue cos(theta_o) dA_o dw_o at the front is what reaches
+ * the sensor (etendue is conserved along a ray through refractions and
+ * reflections alike: Kolb et al. 1995, section 4; Veach 1997, section
+ * 5.7), carrying the ghost path's throughput (two reflectances R and
+ * 1 - R at every other crossing, Hullin et al. 2011, section 3; ghost.h)
+ * in place of the main path's.  So the importance is lens_film_n's
+ * inv_E0 cos(theta_o) A / A_pix, times that throughput.  There is no
+ * pupil-bound check: the camera never traces a ghost path, so no camera
+ * estimator shares this light with the light side. */
+
+/* Ghost g in lr__ghost_paths' order (by j, then i < j). */
+static lr__ghost ghost_at(int g)
+{
+    int j = 1;
+    while ((j + 1) * j / 2 <= g)
+        j++;
+    return (lr__ghost){j, g - j * (j - 1) / 2};
+}
+
+static int lens_ghost_paths(const lr__cam *c, double *peak, double *flux)
+{
+    const lr__lens_cam *lc = &c->lens;
+    *peak = 0.0;
+    if (lc->ghosts == LR_GHOSTS_OFF || lc->n_ghost == 0)
+        return 0;
+    for (int g = 0; g < lc->n_ghost; g++)
+        flux[g] = 0.0;
+    /* On axis at the reference wavelength, a 24 x 24 beam, counted on
+     * the frame's circle: an estimate for the plan, not a bound.  Out
+     * of memory: no ghost shows in "auto", and "true" draws the paths
+     * alike. */
+    lr__ghost_flux *gf = malloc(LR__GHOST_MAX * sizeof *gf);
+    if (gf == NULL) {
+        *peak = lc->ghosts == LR_GHOSTS_ON ? INFINITY : 0.0;
+        return lc->ghosts == LR_GHOSTS_ON ? lc->n_ghost : 0;
+    }
+    double main = 0.0;
+    int n = lr__ghost_fluxes(&lc->L->rx, lc->coat, 0.0, c->nm_ref, 24,
+                             lc->pupil_rmax, gf, &main);
+    double A_pix = lc->sensor_w * lc->sensor_h / (c->width * c->height);
+    for (int k = 0; k < n; k++) {
+        /* A uniform disc of radius a has rms radius a / sqrt 2: area
+         * 2 pi rms^2. */
+        double px = fmax(1.0, 2.0 * M_PI * gf[k].rms * gf[k].rms / A_pix);
+        *peak = fmax(*peak, gf[k].flux / px);
+        lr__ghost p = gf[k].path;
+        flux[p.j * (p.j - 1) / 2 + p.i] = gf[k].flux;
+    }
+    free(gf);
+    if (lc->ghosts == LR_GHOSTS_ON)
+        *peak = INFINITY;
+    return lc->n_ghost;
+}
+
+static double lens_ghost_film(const lr__cam *c, int g, int k, double ox,
+                              double oy, lr__v3 w, double *fx, double *fy)
+{
+    const lr__lens_cam *lc = &c->lens;
+    /* The glass's own dispersion at nm (chromatic.amplify plays no part
+     * in a ghost). */
+    double nm = k >= 0 && k < 3 ? lc->nm_rgb[k] : c->nm_ref;
+    const lr_lens *L = lc->L;
+    double d[3] = {-v3_dot(w, c->right), -v3_dot(w, c->up),
+                   v3_dot(w, c->forward)};
+    if (!(d[2] > 0.0) || g < 0 || g >= lc->n_ghost)
+        return 0.0;
+    double cos_o = d[2];
+    double back = (L->rx.s[0].semi_aperture + 1.0) / d[2];
+    double o[3] = {ox - back * d[0], oy - back * d[1], L->z[0] - back * d[2]};
+    double hit[2], T = 0.0;
+    if (!lr__ghost_trace(&L->rx, L->z, nm, lc->stop_scale, lc->coat,
+                         ghost_at(g), lc->z_sensor, o, d, hit, &T))
+        return 0.0;
+    *fx = (0.5 - hit[0] / lc->sensor_w) * c->width;
+    *fy = (hit[1] / lc->sensor_h + 0.5) * c->height;
+    double rho = front_disk(lc);
+    double A_pix = lc->sensor_w * lc->sensor_h / (c->width * c->height);
+    return lc->inv_E0 * cos_o * M_PI * rho * rho / A_pix * T;
+}
+
 /* The light side's plan (light_trace.c) sees the lens as a thin lens of
  * the entrance pupil's radius at the eye focused at the focus distance:
  * an estimate of how large a light's disc is, not a bound. */
@@ -1101,4 +1189,6 @@ const lr__camera_model lr__camera_lens = {
     .film_wl = lens_film_wl,
     .thin_equiv = lens_thin_equiv,
     .light_ok = lens_light_ok,
+    .ghost_paths = lens_ghost_paths,
+    .ghost_film = lens_ghost_film,
 };

@@ -48,6 +48,8 @@
  */
 #include "light_trace.h"
 
+#include "ghost_trace.h"
+
 #include "bsdf.h"
 #include "integrator.h"
 #include "light.h"
@@ -84,6 +86,7 @@ void lr__lt_free(lr__lt *lt)
         free(lt->lights[k].cdf);
     free(lt->lights);
     free(lt->direct);
+    free(lt->ghost_cdf);
     lr__lp_free(lt->lp);
     free(lt->wl);
     free(lt);
@@ -195,9 +198,7 @@ static lr__lt *lt_new_n(const lr_scene *s, size_t n)
     return lt;
 }
 
-/* An empty light side for scene s (room for a light a geometry and the sun);
- * NULL when out of memory. */
-static lr__lt *lt_new(const lr_scene *s)
+lr__lt *lr__lt_new(const lr_scene *s)
 {
     lr__lt *lt = calloc(1, sizeof *lt);
     if (lt == NULL || (lt->direct = calloc(s->n_geoms + 1, 1)) == NULL ||
@@ -346,7 +347,7 @@ static int plan_glints(const lr_scene *s, const lr__cam *c,
     }
     int good = 1;
     lr__lt *lt = *ltp;
-    if (n_surf > 0 && lt == NULL && (*ltp = lt = lt_new(s)) == NULL)
+    if (n_surf > 0 && lt == NULL && (*ltp = lt = lr__lt_new(s)) == NULL)
         good = 0;
     if (n_surf > 0 && good) {
         lr__lt_light *grown = realloc(lt->lights,
@@ -406,7 +407,7 @@ static int plan_sun(const lr_scene *s, const lr__cam *c,
     if (n == 0)
         return 1;
     lr__lt *lt = *ltp;
-    if (lt == NULL && (*ltp = lt = lt_new(s)) == NULL)
+    if (lt == NULL && (*ltp = lt = lr__lt_new(s)) == NULL)
         return 0;
     lr__lt_light *grown = realloc(lt->lights, (lt->n + 1) * sizeof *grown);
     if (grown == NULL)
@@ -522,7 +523,7 @@ lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
                                set->spp, 0);
         if (n == 0)
             continue;
-        if (lt == NULL && (lt = lt_new(s)) == NULL)
+        if (lt == NULL && (lt = lr__lt_new(s)) == NULL)
             return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
         lr__lt_light *l = &lt->lights[lt->n];
         memset(l, 0, sizeof *l);
@@ -548,7 +549,8 @@ lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
     }
     if ((set->integrator == LR_INTEGRATOR_PATH &&
          !plan_glints(s, c, &lb, m->bound == NULL, set->spp, &lt)) ||
-        !plan_sun(s, c, &lb, m->bound == NULL, set->spp, &lt)) {
+        !plan_sun(s, c, &lb, m->bound == NULL, set->spp, &lt) ||
+        !lr__gt_plan(s, c, set->spp, &lt)) {
         lr__lt_free(lt);
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     }
@@ -605,9 +607,7 @@ static int light_of(const lr__lt *lt, uint64_t i)
     return lo;
 }
 
-/* Adds v to pixel (ix, iy) of f, if the region holds it (v may be
- * negative in spectral mode, whose weights are: wavelength.h). */
-static void splat(lr__lt_film *f, int ix, int iy, lr__v3 v)
+void lr__lt_splat(lr__lt_film *f, int ix, int iy, lr__v3 v)
 {
     if (ix < f->x0 || ix >= f->x1 || iy < f->y0 || iy >= f->y1)
         return;
@@ -634,8 +634,8 @@ static void splat_landing(lr__lt_film *f, const lr__landing *ld, lr__v3 v,
     (*landed)++;
     for (int j = 0; j < ld->n; j++) {
         const double *W = ld->at[j].W;
-        splat(f, ld->at[j].ix, ld->at[j].iy,
-              v3(v.x * W[0], v.y * W[1], v.z * W[2]));
+        lr__lt_splat(f, ld->at[j].ix, ld->at[j].iy,
+                     v3(v.x * W[0], v.y * W[1], v.z * W[2]));
     }
 }
 
@@ -872,11 +872,7 @@ static void glint_path(const lr_scene *s, const lr__cam *c,
         landed);
 }
 
-/* A direction uniform in the cone about unit a whose half-angle has 1 -
- * cos = omc, from u (pbrt-v4's SampleUniformCone, with 1 - cos theta
- * drawn directly, without cancellation for tiny cones); density 1 /
- * (2 pi omc). */
-static lr__v3 in_cone(lr__v3 a, double omc, const double u[2])
+lr__v3 lr__lt_in_cone(lr__v3 a, double omc, const double u[2])
 {
     double t = u[0] * omc; /* 1 - cos theta */
     double cos_t = 1.0 - t, sin_t = sqrt(t * (2.0 - t));
@@ -899,7 +895,7 @@ static void sun_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
                      const lt_colour *col, lr__lt_film *f, uint64_t *rays,
                      uint64_t *landed)
 {
-    lr__v3 w = in_cone(l->center, l->area, ud);
+    lr__v3 w = lr__lt_in_cone(l->center, l->area, ud);
     lr__landing ld;
     if (!land(c, col, ox, oy, w, &ld))
         return;
@@ -930,7 +926,7 @@ static void sphere_path(const lr_scene *s, const lr__cam *c,
      * tiny cones of far lights. */
     double sin2 = r2 / dist2, cos_a = sqrt(1.0 - sin2);
     double omc = sin2 / (1.0 + cos_a);
-    lr__v3 w = in_cone(a, omc, ud);
+    lr__v3 w = lr__lt_in_cone(a, omc, ud);
     lr__landing ld;
     if (!land(c, col, ox, oy, w, &ld))
         return;
@@ -964,6 +960,8 @@ static uint64_t light_key(const lr__lt_light *l)
 {
     if (l->surf == LR__LT_PATHS)
         return LT_PIXEL_BASE + ((uint64_t)1 << 46) + (uint64_t)l->geom;
+    if (l->surf == LR__LT_GHOST)
+        return LT_PIXEL_BASE + ((uint64_t)1 << 45) + (uint64_t)l->geom;
     return LT_PIXEL_BASE + (uint64_t)l->geom +
            (l->surf < 0 ? 0 : (uint64_t)(l->surf + 1) << 24);
 }
@@ -975,7 +973,8 @@ static void splat_cb(void *film, const lr__landing *ld, lr__v3 v,
 }
 
 void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
-                 uint64_t u, lr__lt_film *f, uint64_t *rays, uint64_t *landed)
+                 uint64_t u, lr__lt_film *f, uint64_t *rays, uint64_t *landed,
+                 uint64_t *ghosts)
 {
     lr__sampler smp;
     lr__sampler_init(&smp, LR_SAMPLER_SOBOL, lt->seed, 1);
@@ -1007,6 +1006,13 @@ void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
         double q[4], ox, oy;
         lr__pixel_sampler_get(&ps, idx, q);
         const double *ud = q, *ul = q + 2;
+        if (l->surf == LR__LT_GHOST) {
+            lr__v3 P = c->model->lens_point(c, ul, &ox, &oy);
+            double ug[2];
+            lr__sample_2d(&smp, light_key(l), idx, 4, ug);
+            lr__gt_path(lt, s, c, l, P, ox, oy, ud, ug[0], f, rays, ghosts);
+            continue;
+        }
         /* Spectral mode: dimension 6 places the path's wavelengths. */
         double uw[2] = {0.0, 0.0};
         if (lt->wl != NULL)

@@ -86,6 +86,7 @@ typedef struct lr__lt_light {
      * the light, as the camera does. */
     lr__v3 L;
     int textured;
+    int ghosts;     /* LR__LT_GHOST: the lens's ghost paths */
     uint64_t paths; /* light paths traced for it */
     uint64_t first; /* index of its first path among all */
 } lr__lt_light;
@@ -108,6 +109,10 @@ typedef struct lr__lt {
      * surf LR__LT_PATHS), or NULL.  Owned. */
     lr__lp *lp;
     uint64_t lp_paths; /* all its parts' */
+    int ghost_lights;  /* lights with surf LR__LT_GHOST (the last ones) */
+    /* Their ghost paths' choice (ghost_trace.c): cumulative
+     * probabilities, ghost_cdf[g] that of paths 0 .. g, owned. */
+    double *ghost_cdf;
     /* Spectral mode with colours that focus apart: the wavelengths'
      * table (lr__cam_land), owned; else NULL. */
     lr__wl_table *wl;
@@ -115,6 +120,9 @@ typedef struct lr__lt {
 
 #define LR__LT_PATHS (-2)
 #define LR__LT_SUN (-3)
+/* A sphere light's ghosts (ghost_trace.h): geom, center, radius and L
+ * the sphere's. */
+#define LR__LT_GHOST (-4)
 /* The most paths of one part (a sampler "pixel" counts its samples in 32
  * bits). */
 #define LR__LT_PART ((uint64_t)1 << 31)
@@ -166,11 +174,26 @@ void lr__lt_film_free(lr__lt_film *f);
 #define LR__LT_CHUNK 4096
 uint64_t lr__lt_units(const lr__lt *lt);
 
+/* An empty light side for scene s (room for a light a geometry and the
+ * sun); NULL when out of memory. */
+lr__lt *lr__lt_new(const lr_scene *s);
+
+/* Adds v to pixel (ix, iy) of f, if the region holds it (v may be
+ * negative in spectral mode, whose weights are: wavelength.h). */
+void lr__lt_splat(lr__lt_film *f, int ix, int iy, lr__v3 v);
+
+/* A direction uniform in the cone about unit a whose half-angle has 1 -
+ * cos = omc, from u (pbrt-v4's SampleUniformCone, with 1 - cos theta
+ * drawn directly, without cancellation for tiny cones); density 1 /
+ * (2 pi omc). */
+lr__v3 lr__lt_in_cone(lr__v3 a, double omc, const double u[2]);
+
 /* Traces unit u's light paths and adds their splats to f (from any
- * thread at once).  Counts the rays traced in *rays and the paths that
- * reached the film in *landed. */
+ * thread at once).  Counts the rays traced in *rays, the paths that
+ * reached the film in *landed, and ghost rays that did in *ghosts. */
 void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
-                 uint64_t u, lr__lt_film *f, uint64_t *rays, uint64_t *landed);
+                 uint64_t u, lr__lt_film *f, uint64_t *rays, uint64_t *landed,
+                 uint64_t *ghosts);
 
 /* Adds the light pass's pixels to the camera's: rgb is the region's
  * image, 3 floats a pixel. */

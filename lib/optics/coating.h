@@ -1,7 +1,8 @@
 /*
  * coating.h: how much light a lens surface reflects, per wavelength and
  * angle of incidence: bare (Fresnel) or under a stack of thin films.
- * The first piece of issue 29 (ghosts); nothing renders with it yet.
+ * The first piece of issue 29 (ghosts): the main image's 1 - R
+ * (transmit.h) and the ghosts' R (ghost.h, rendered by ghost_trace.c).
  *
  * Unpolarised light: R = (R_s + R_p) / 2 throughout, since the light
  * reaching a camera lens is, to a first approximation, unpolarised, and

@@ -1,6 +1,7 @@
 /*
  * ghost.h: light reflected twice inside a lens (issue 29's ghosts),
- * traced through the real surfaces.  Not used by the renderer yet.
+ * traced through the real surfaces.  The renderer lands them through
+ * the lens camera's ghost_film (camera_lens.c, ghost_trace.c).
  *
  * A ghost path (j, i), i < j: light from the object refracts through
  * surfaces 0 .. j-1, reflects at surface j back toward the object,

@@ -50,7 +50,7 @@ typedef struct worker {
     double cpu; /* CPU seconds of this thread in worker_main */
     lr__sample_counts counts;
     uint64_t samples, dropped, lens_pixels, chroma_pixels;
-    uint64_t light_landed;
+    uint64_t light_landed, ghost_landed;
     lr__block_scratch scratch;
 } worker;
 
@@ -161,7 +161,7 @@ static void *worker_main(void *arg)
         if (u >= n_light)
             break;
         lr__lt_unit(lt, j->shot.scene, &j->cam, u, &j->light, &w->counts.rays,
-                    &w->light_landed);
+                    &w->light_landed, &w->ghost_landed);
     }
     _mm_setcsr(csr);
     w->cpu = thread_cpu_seconds() - cpu0;
@@ -189,6 +189,7 @@ static void sum_workers(const worker *ws, int started, lr_render_stats *sum)
         sum->cpu_seconds += ws[i].cpu;
         sum->nan_samples += ws[i].dropped;
         sum->light_landed += ws[i].light_landed;
+        sum->ghost_landed += ws[i].ghost_landed;
     }
 }
 
@@ -209,8 +210,13 @@ static void finish_sides(render *j, lr_image *img, lr_render_stats *sum)
     sum->full_samples = sum->pixels * (uint64_t)set->spp;
     sum->full_camera_rays = sum->full_samples * lr__colour_rays(&j->cam);
     if (j->plan.lt != NULL) {
-        sum->light_lights = (uint64_t)j->plan.lt->n;
-        sum->light_paths = j->plan.lt->paths;
+        const lr__lt *lt = j->plan.lt;
+        sum->ghost_lights = (uint64_t)lt->ghost_lights;
+        for (int k = 0; k < lt->n; k++)
+            if (lt->lights[k].surf == LR__LT_GHOST)
+                sum->ghost_paths += lt->lights[k].paths;
+        sum->light_lights = (uint64_t)lt->n - sum->ghost_lights;
+        sum->light_paths = lt->paths - sum->ghost_paths;
         if (!atomic_load(&j->cancelled))
             lr__lt_film_resolve(&j->light, img->rgb);
         lr__lt_film_free(&j->light);

@@ -103,6 +103,9 @@ class lr_render_stats(Structure):
         ("light_lights", c_uint64),
         ("light_paths", c_uint64),
         ("light_landed", c_uint64),
+        ("ghost_lights", c_uint64),
+        ("ghost_paths", c_uint64),
+        ("ghost_landed", c_uint64),
     ]
 
 

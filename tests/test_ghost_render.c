@@ -1,0 +1,382 @@
+/*
+ * test_ghost_render.c: ghosts rendered from the light side
+ * (lib/integrator/ghost_trace.c, camera_lens.c's ghost_film).  A small
+ * bright sphere far out on the axis of an uncoated singlet: the ghosts'
+ * energy on the film over the main image's against a sequential trace
+ * written here (its own sphere intersections, Snell's law and Fresnel's
+ * unpolarised reflectance), issue 29's Energy target; determinism; and
+ * ghosts off or below "auto"'s threshold adding nothing.
+ */
+#include "test.h"
+#include "camera.h"
+#include "lens_load.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+/* The singlet: R = +-100 mm, 5 mm of n = 1.5 (constant), semi-aperture
+ * 10, and a stop of semi-aperture 5 20 mm behind it. */
+#define SCENE(extra)                                                         \
+    "{\"render\": {\"width\": 64, \"height\": 64, \"spp\": 16, \"seed\": 5," \
+    "  \"adaptive\": false},"                                                \
+    " \"camera\": {\"model\": \"lens\", \"position\": [0, 0, 0],"            \
+    "  \"look_at\": [0, 0, -1], \"sensor_width_mm\": 96,"                    \
+    "  \"focus_distance\": 0.5, \"coating\": \"none\"" extra ","             \
+    "  \"lens\": {\"name\": \"singlet\", \"surfaces\": ["                    \
+    "   {\"radius\": 100, \"thickness\": 5, \"material\": {\"nd\": 1.5},"    \
+    "    \"semi_aperture\": 10},"                                            \
+    "   {\"radius\": -100, \"thickness\": 20, \"material\": \"air\","        \
+    "    \"semi_aperture\": 10},"                                            \
+    "   {\"stop\": true, \"thickness\": 75, \"semi_aperture\": 5}]}},"       \
+    " \"materials\": {\"l\": {\"emission\": [1000, 1000, 1000]}},"           \
+    " \"objects\": [{\"type\": \"sphere\", \"center\": [0, 0, -100],"        \
+    "  \"radius\": 0.2, \"material\": \"l\"}]}"
+
+/* ---- the independent trace ------------------------------------------------ */
+
+typedef struct surf {
+    double z, R, n_after, semi;
+} surf;
+
+static double fresnel(double n1, double n2, double ci)
+{
+    double st2 = (n1 / n2) * (n1 / n2) * (1.0 - ci * ci);
+    if (st2 >= 1.0)
+        return 1.0;
+    double ct = sqrt(1.0 - st2);
+    double rs = (n1 * ci - n2 * ct) / (n1 * ci + n2 * ct);
+    double rp = (n1 * ct - n2 * ci) / (n1 * ct + n2 * ci);
+    return 0.5 * (rs * rs + rp * rp);
+}
+
+/* A single quarter-wave MgF2 layer (at 550 nm) between media n1 and n2,
+ * unpolarised, light arriving at cos ci in n1: the characteristic
+ * matrix of one film (Macleod, "Thin-Film Optical Filters", 4th ed.,
+ * section 2.2), eta = n cos for s and n / cos for p, with MgF2's index
+ * from Dodge's Sellmeier formula (1984).  0 between equal media (the
+ * stop). */
+static double mgf2_n(double nm)
+{
+    static const double B[3] = {0.48755108, 0.39875031, 2.3120353};
+    static const double C[3] = {0.04338408, 0.09461442, 23.793604};
+    double l2 = nm * nm * 1e-6, n2 = 1.0;
+    for (int i = 0; i < 3; i++)
+        n2 += B[i] * l2 / (l2 - C[i] * C[i]);
+    return sqrt(n2);
+}
+
+static double coated(double n1, double n2, double ci, double nm)
+{
+    if (n1 == n2)
+        return 0.0;
+    double nf = mgf2_n(nm), d = 550.0 / (4.0 * mgf2_n(550.0));
+    double s2 = n1 * n1 * (1.0 - ci * ci); /* (n sin)^2, Snell's invariant */
+    if (s2 >= n2 * n2)
+        return 1.0;
+    double cf = sqrt(1.0 - s2 / (nf * nf)), c2 = sqrt(1.0 - s2 / (n2 * n2));
+    double delta = 2.0 * M_PI * nf * d * cf / nm, R = 0.0;
+    for (int p = 0; p < 2; p++) {
+        double e0 = p ? n1 / ci : n1 * ci, e1 = p ? nf / cf : nf * cf;
+        double e2 = p ? n2 / c2 : n2 * c2;
+        double cd = cos(delta), sd = sin(delta);
+        /* r = (e0 B - C) / (e0 B + C), B = cos + i e2 sin / e1, C = e2
+         * cos + i e1 sin. */
+        double br = cd, bi = e2 * sd / e1, cr = e2 * cd, ci2 = e1 * sd;
+        double nr = e0 * br - cr, ni = e0 * bi - ci2;
+        double dr = e0 * br + cr, di = e0 * bi + ci2;
+        R += 0.5 * (nr * nr + ni * ni) / (dr * dr + di * di);
+    }
+    return R;
+}
+
+/* The reflectance the trace uses: bare (nm <= 0) or coated at nm. */
+static double reflectance(double n1, double n2, double ci, double nm)
+{
+    return nm > 0.0 ? coated(n1, n2, ci, nm) : fresnel(n1, n2, ci);
+}
+
+/* Moves o to surface s along d; its normal (toward +z) in nrm.  0: a
+ * miss or outside the semi-aperture. */
+static int meet(const surf *s, double o[3], const double d[3], double nrm[3])
+{
+    double t;
+    if (s->R == 0.0) {
+        t = (s->z - o[2]) / d[2];
+        nrm[0] = nrm[1] = 0.0, nrm[2] = 1.0;
+    } else {
+        double c[3] = {0.0, 0.0, s->z + s->R}, oc[3];
+        for (int a = 0; a < 3; a++)
+            oc[a] = o[a] - c[a];
+        double b = oc[0] * d[0] + oc[1] * d[1] + oc[2] * d[2];
+        double cc = oc[0] * oc[0] + oc[1] * oc[1] + oc[2] * oc[2] - s->R * s->R;
+        if (b * b - cc < 0.0)
+            return 0;
+        /* The root on the cap about the vertex: for a ray heading
+         * toward the centre's side, the nearer; else the farther. */
+        double sq = sqrt(b * b - cc), t1 = -b - sq, t2 = -b + sq;
+        double z1 = o[2] + t1 * d[2];
+        t = fabs(z1 - s->z) < fabs(s->R) ? t1 : t2;
+    }
+    for (int a = 0; a < 3; a++)
+        o[a] += t * d[a];
+    if (s->R != 0.0) {
+        for (int a = 0; a < 3; a++)
+            nrm[a] = (o[a] - (a == 2 ? s->z + s->R : 0.0)) / s->R;
+        if (nrm[2] < 0.0)
+            for (int a = 0; a < 3; a++)
+                nrm[a] = -nrm[a];
+    }
+    return o[0] * o[0] + o[1] * o[1] <= s->semi * s->semi;
+}
+
+/* One crossing of surface k of S (fwd: toward +z), mirror or refract,
+ * the weight times R or 1 - R.  0: lost. */
+static int step(const surf *S, int k, int fwd, int mirror, double nm,
+                double o[3], double d[3], double *w)
+{
+    double nrm[3];
+    if (!meet(&S[k], o, d, nrm))
+        return 0;
+    double before = k > 0 ? S[k - 1].n_after : 1.0, after = S[k].n_after;
+    double n1 = fwd ? before : after, n2 = fwd ? after : before;
+    double c = d[0] * nrm[0] + d[1] * nrm[1] + d[2] * nrm[2];
+    double R = reflectance(n1, n2, fabs(c), nm);
+    if (mirror) {
+        for (int a = 0; a < 3; a++)
+            d[a] -= 2.0 * c * nrm[a];
+        *w *= R;
+        return 1;
+    }
+    if (c < 0.0)
+        for (int a = 0; a < 3; a++)
+            nrm[a] = -nrm[a];
+    c = fabs(c);
+    double eta = n1 / n2, k2 = 1.0 - eta * eta * (1.0 - c * c);
+    if (k2 < 0.0)
+        return 0;
+    for (int a = 0; a < 3; a++)
+        d[a] = eta * d[a] + (sqrt(k2) - eta * c) * nrm[a];
+    *w *= 1.0 - R;
+    return 1;
+}
+
+/* The axial beam over the front's semi-aperture, grid x grid rays: the
+ * main path's weight landing inside the sensor rectangle (half sides
+ * hx, hy at zs), and the ghost's (back surface, then front). */
+static void beam(const surf *S, double zs, double hx, double hy, int grid,
+                 const double nm[2], double *main, double *ghost)
+{
+    /* k, direction, mirror: the main path, then the ghost (1, 0). */
+    static const int seq[2][5][3] = {
+        {{0, 1, 0}, {1, 1, 0}, {2, 1, 0}, {-1, 0, 0}, {-1, 0, 0}},
+        {{0, 1, 0}, {1, 1, 1}, {0, 0, 1}, {1, 1, 0}, {2, 1, 0}}};
+    double sum[2] = {0.0, 0.0};
+    for (int iy = 0; iy < grid; iy++)
+        for (int ix = 0; ix < grid; ix++) {
+            double x = S[0].semi * (2.0 * (ix + 0.5) / grid - 1.0);
+            double y = S[0].semi * (2.0 * (iy + 0.5) / grid - 1.0);
+            for (int p = 0; p < 2; p++) {
+                double o[3] = {x, y, S[0].z - 5.0}, d[3] = {0, 0, 1}, w = 1;
+                int ok = 1;
+                for (int q = 0; q < 5 && ok && seq[p][q][0] >= 0; q++)
+                    ok = step(S, seq[p][q][0], seq[p][q][1], seq[p][q][2],
+                              nm[p], o, d, &w);
+                if (!ok || !(d[2] > 0.0))
+                    continue;
+                double t = (zs - o[2]) / d[2];
+                if (fabs(o[0] + t * d[0]) < hx && fabs(o[1] + t * d[1]) < hy)
+                    sum[p] += w;
+            }
+        }
+    *main = sum[0], *ghost = sum[1];
+}
+
+static double channel_sum(const lr_image *img, int ch)
+{
+    double s = 0.0;
+    for (size_t k = 0; k < (size_t)img->width * img->height; k++)
+        s += img->rgb[3 * k + (size_t)ch];
+    return s;
+}
+
+static double image_sum(const lr_image *img)
+{
+    return channel_sum(img, 0);
+}
+
+/* Issue 29's Energy target: the ghosts' energy on the film (ghosts on
+ * minus off) over the main image's (off) equals the trace's ghost over
+ * main, within 2%.  The sphere subtends 2 mrad: its beam is parallel to
+ * the trace's within that. */
+static void test_ghost_energy(void **state)
+{
+    (void)state;
+    lr_scene *s = lr_test_load_json(SCENE(""));
+    lr_camera cam;
+    lr_scene_camera(s, &cam);
+    lr__cam c;
+    lr__cam_init(&c, &cam, 64, 64);
+    double z0 = c.lens.L->z[0];
+    surf S[3] = {{z0, 100.0, 1.5, 10.0},
+                 {z0 + 5.0, -100.0, 1.0, 10.0},
+                 {z0 + 25.0, 0.0, 1.0, 5.0}};
+    double main = 0.0, ghost = 0.0, bare[2] = {0.0, 0.0};
+    beam(S, c.lens.z_sensor, 0.5 * c.lens.sensor_w, 0.5 * c.lens.sensor_h, 400,
+         bare, &main, &ghost);
+    lr_scene_free(s);
+    double want = ghost / main;
+
+    const char *on[] = {"camera.ghosts=true", "render.spp=512"};
+    const char *off[] = {"camera.ghosts=false", "render.spp=512"};
+    lr_render_stats st;
+    lr_image *a = lr_test_render(SCENE(""), on, 2, &st);
+    lr_image *b = lr_test_render(SCENE(""), off, 2, NULL);
+    lr_test_check_finite(a, &st, "ghosts on");
+    /* --stats: the ghost light apart from the light side's own. */
+    assert_int_equal(st.ghost_lights, 1);
+    assert_true(st.ghost_paths >= 1024 && st.ghost_landed > 0);
+    double ea = image_sum(a), eb = image_sum(b);
+    double got = (ea - eb) / eb;
+    print_message("ghost / main: rendered %.6g, trace %.6g (%.4f)\n", got, want,
+                  got / want);
+    assert_true(want > 1e-3 && want < 3e-3);
+    assert_true(fabs(got / want - 1.0) < 0.02);
+    lr_image_free(a);
+    lr_image_free(b);
+}
+
+
+/* The same bytes for one thread and two with 7-pixel tiles, and a
+ * region's pixels are the full frame's, ghosts on. */
+static void test_ghost_deterministic(void **state)
+{
+    (void)state;
+    const char *a_sets[] = {"camera.ghosts=true", "render.threads=1"};
+    const char *b_sets[] = {"camera.ghosts=true", "render.threads=2",
+                            "render.tile_size=7"};
+    const char *c_sets[] = {"camera.ghosts=true", "render.threads=2",
+                            "render.region=[5,9,40,51]"};
+    lr_image *a = lr_test_render(SCENE(""), a_sets, 2, NULL);
+    lr_image *b = lr_test_render(SCENE(""), b_sets, 3, NULL);
+    lr_image *c = lr_test_render(SCENE(""), c_sets, 3, NULL);
+    lr_test_assert_same_bytes(a, b, "1 thread against 2 with 7-pixel tiles");
+    assert_int_equal(c->width, 35);
+    assert_int_equal(c->height, 42);
+    for (int y = 0; y < c->height; y++)
+        for (int x = 0; x < c->width; x++)
+            for (int k = 0; k < 3; k++) {
+                float f = a->rgb[3 * ((size_t)(y + 9) * 64 + (size_t)(x + 5)) +
+                                 (size_t)k];
+                float g = c->rgb[3 * ((size_t)y * 35 + (size_t)x) + (size_t)k];
+                if (memcmp(&f, &g, sizeof f) != 0)
+                    fail_msg("region pixel (%d, %d): %g, full frame %g", x, y,
+                             g, f);
+            }
+    lr_image_free(a);
+    lr_image_free(b);
+    lr_image_free(c);
+}
+
+/* Ghosts false, and "auto" for a sphere whose ghost stays under
+ * LR__GT_AUTO (this one's, at emission 1000, adds some 1e-4 to the
+ * pixels it covers), trace no ghost path: the same bytes.  A sphere a
+ * thousand times brighter passes "auto". */
+static void test_ghost_off_and_auto(void **state)
+{
+    (void)state;
+    const char *dim_auto[] = {"materials.l.emission=[1000, 1000, 1000]"};
+    const char *dim_off[] = {"materials.l.emission=[1000, 1000, 1000]",
+                             "camera.ghosts=false"};
+    lr_render_stats s_off, s_auto, s_bright;
+    lr_image *a = lr_test_render(SCENE(""), dim_auto, 1, &s_auto);
+    lr_image *b = lr_test_render(SCENE(""), dim_off, 2, &s_off);
+    lr_test_assert_same_bytes(a, b, "dim sphere: auto against false");
+    assert_int_equal(s_auto.light_paths, s_off.light_paths);
+    assert_int_equal(s_auto.ghost_paths, 0);
+    lr_image_free(a);
+    lr_image_free(b);
+    const char *bright[] = {"materials.l.emission=[1e6, 1e6, 1e6]"};
+    const char *bright_off[] = {"materials.l.emission=[1e6, 1e6, 1e6]",
+                                "camera.ghosts=false"};
+    lr_image *c = lr_test_render(SCENE(""), bright, 1, &s_bright);
+    lr_image *d = lr_test_render(SCENE(""), bright_off, 2, &s_off);
+    assert_int_equal(s_bright.light_paths, s_off.light_paths);
+    assert_int_equal(s_bright.ghost_lights, 1);
+    assert_true(image_sum(c) > image_sum(d));
+    lr_image_free(c);
+    lr_image_free(d);
+}
+
+/* A sphere outside the frame: no main image, its ghosts in the frame. */
+static void test_ghost_outside_frame(void **state)
+{
+    (void)state;
+    const char *on[] = {"camera.ghosts=true", "objects[0].center=[50, 0, -100]",
+                        "render.spp=256"};
+    const char *off[] = {"camera.ghosts=false",
+                         "objects[0].center=[50, 0, -100]", "render.spp=256"};
+    lr_image *a = lr_test_render(SCENE(""), on, 3, NULL);
+    lr_image *b = lr_test_render(SCENE(""), off, 3, NULL);
+    print_message("outside the frame: ghosts %.6g, main %.6g\n", image_sum(a),
+                  image_sum(b));
+    assert_true(image_sum(b) == 0.0);
+    assert_true(image_sum(a) > 0.0);
+    lr_image_free(a);
+    lr_image_free(b);
+}
+
+/* Colour: chromatic.mode rgb with every surface MgF2-coated.  Each
+ * channel's ghost over main image against the trace with the coated
+ * reflectance at the channel's wavelength (610, 550 and 465 nm,
+ * camera_lens.c's); the glass's index is constant, so the lens is not
+ * dispersive and the main image's 1 - R is the reference wavelength's
+ * (550 nm) in every channel.  Within 2%, and the quarter wave's
+ * minimum at 550 leaves green the faintest. */
+static void test_ghost_colour(void **state)
+{
+    (void)state;
+    lr_scene *s = lr_test_load_json(SCENE(""));
+    lr_camera cam;
+    lr_scene_camera(s, &cam);
+    lr__cam c;
+    lr__cam_init(&c, &cam, 64, 64);
+    double z0 = c.lens.L->z[0], zs = c.lens.z_sensor;
+    double hx = 0.5 * c.lens.sensor_w, hy = 0.5 * c.lens.sensor_h;
+    lr_scene_free(s);
+    surf S[3] = {{z0, 100.0, 1.5, 10.0},
+                 {z0 + 5.0, -100.0, 1.0, 10.0},
+                 {z0 + 25.0, 0.0, 1.0, 5.0}};
+    const char *on[] = {"camera.ghosts=true", "render.spp=512",
+                        "camera.coating=mgf2", "camera.chromatic.mode=rgb"};
+    const char *off[] = {"camera.ghosts=false", "render.spp=512",
+                         "camera.coating=mgf2", "camera.chromatic.mode=rgb"};
+    lr_image *a = lr_test_render(SCENE(""), on, 4, NULL);
+    lr_image *b = lr_test_render(SCENE(""), off, 4, NULL);
+    static const double nms[3] = {610.0, 550.0, 465.0};
+    double want[3], got[3];
+    for (int k = 0; k < 3; k++) {
+        double main = 0.0, ghost = 0.0, nm[2] = {550.0, nms[k]};
+        beam(S, zs, hx, hy, 400, nm, &main, &ghost);
+        want[k] = ghost / main;
+        double ea = channel_sum(a, k), eb = channel_sum(b, k);
+        got[k] = (ea - eb) / eb;
+        print_message("MgF2 %g nm: ghost / main rendered %.6g, trace %.6g "
+                      "(%.4f)\n",
+                      nms[k], got[k], want[k], got[k] / want[k]);
+        assert_true(fabs(got[k] / want[k] - 1.0) < 0.02);
+    }
+    assert_true(want[1] < want[0] && want[1] < want[2]);
+    lr_image_free(a);
+    lr_image_free(b);
+}
+
+static const struct CMUnitTest ghost_render_tests[] = {
+    cmocka_unit_test(test_ghost_colour),
+    cmocka_unit_test(test_ghost_energy),
+    cmocka_unit_test(test_ghost_deterministic),
+    cmocka_unit_test(test_ghost_off_and_auto),
+    cmocka_unit_test(test_ghost_outside_frame),
+};
+
+LR_TEST_GROUP(ghost_render, ghost_render_tests)
