@@ -230,8 +230,8 @@ static double rms_radius(const lr_image *img, const int *b, int ch);
  * w_k) off, so each light path is traced once a channel from its own
  * lens point.  Each light's energy in each channel equals the closed
  * form for a square lens of half side 0.5 (1 + di w_k) within 0.5%; the
- * camera alone agrees within its noise, and the discs' sizes differ by
- * channel as the camera's do. */
+ * camera alone (2048 spp) agrees within its noise, and the discs' sizes
+ * differ by channel as the camera's do. */
 static void test_bracket_rgb_light_side(void **state)
 {
     (void)state;
@@ -265,12 +265,12 @@ static void test_bracket_rgb_light_side(void **state)
         "camera.model=bracket",      "camera.aperture=1",
         "camera.focal_length=9",     "camera.image_plane_distance=1",
         "camera.chromatic.mode=rgb", "camera.chromatic.amplify=20",
-        "render.spp=4096",           "render.light=false",
+        "render.spp=2048",           "render.light=false",
         "render.plan=false",         "render.adaptive=false"};
     lr_image *ci = lr_test_render(discs_scene, csets, 10, NULL);
     /* The camera's noise (seed 5, as test_spectral_light_side's: light
-     * 0's disc 6% low). */
-    const double tol[3] = {0.08, 0.08, 0.08};
+     * 0's disc 6% low at 4096 spp). */
+    const double tol[3] = {0.1, 0.1, 0.1};
     boxes_agree(img, ci, disc_boxes, tol, 3, "bracket rgb disc");
     for (int k = 0; k < 3; k++)
         for (int ch = 0; ch < 3; ch += 2) {
