@@ -30,7 +30,7 @@ setup_file() {
     # program on this machine has the first.
     local i port
     for i in 1 2 3 4 5; do
-        port=$((20000 + $(od -An -N2 -tu2 /dev/urandom) % 40000))
+        port=$((20000 + $(od -An -N2 -tu2 /dev/urandom) % 12000))
         if (cd "$REPO" && sh farm/farm.sh start "$BUILD" 3 "$port" "$FARM") \
             >"$BATS_FILE_TMPDIR/farm-start.log" 2>&1 3>&-; then
             export URL="http://127.0.0.1:$port"
@@ -38,6 +38,23 @@ setup_file() {
         fi
     done
     cat "$BATS_FILE_TMPDIR/farm-start.log" >&2
+    return 1
+}
+
+# Starts a farm of $1 daemons from directory $2 on a random port below
+# Linux's ephemeral range (32768 up, where the daemons' own --port 0 and
+# every client socket land), trying five ports in case another program
+# has one; sets PORT.  FARM_WORKERS passes through.
+start_farm_free_port() {
+    local n=$1 dir=$2 i
+    for i in 1 2 3 4 5; do
+        PORT=$((20000 + $(od -An -N2 -tu2 /dev/urandom) % 12000))
+        if sh "$REPO/farm/farm.sh" start "$BUILD" "$n" "$PORT" "$dir" \
+            >"$BATS_TEST_TMPDIR/start.log" 2>&1 3>&-; then
+            return 0
+        fi
+    done
+    cat "$BATS_TEST_TMPDIR/start.log" >&2
     return 1
 }
 
@@ -110,8 +127,8 @@ wait_for() {
 @test "farm: a second farm runs beside the first; started twice it is refused; once dead, farm-stop signals no other program and frees the port" {
     local dir="$BATS_TEST_TMPDIR/farm2" port pid name
     FARM2="$dir"
-    port=$((20000 + $(od -An -N2 -tu2 /dev/urandom) % 40000))
-    run -0 sh "$REPO/farm/farm.sh" start "$BUILD" 1 "$port" "$dir" 3>&-
+    start_farm_free_port 1 "$dir"
+    port=$PORT
     run -0 curl -sf "http://127.0.0.1:$port/healthz"
     run -0 curl -sf "$URL/healthz"
     # Started twice: refused, naming a process that runs.
@@ -156,8 +173,8 @@ wait_for() {
     # their connections without work, until a DELETE ends them all.
     local dir="$BATS_TEST_TMPDIR/farm3" port id i n dport
     FARM2="$dir"
-    port=$((20000 + $(od -An -N2 -tu2 /dev/urandom) % 40000))
-    run -0 env FARM_WORKERS=1 sh "$REPO/farm/farm.sh" start "$BUILD" 1 "$port" "$dir" 3>&-
+    FARM_WORKERS=1 start_farm_free_port 1 "$dir"
+    port=$PORT
     dport=$(cat "$dir/daemon-1.port")
     run -0 curl -sf -H 'Content-Type: application/json' "http://127.0.0.1:$port/v1/jobs" \
         -d '{"scene": "cornell", "render": {"width": 32, "height": 24, "spp": 200000, "threads": 1, "tile_size": 2, "adaptive": false}}'
