@@ -86,6 +86,8 @@ void lr__lt_free(lr__lt *lt)
         free(lt->lights[k].cdf);
     free(lt->lights);
     free(lt->direct);
+    free(lt->mis);
+    free(lt->dark);
     free(lt->ghost_cdf);
     lr__lp_free(lt->lp);
     free(lt->wl);
@@ -190,24 +192,54 @@ static lr__lt *lt_new_n(const lr_scene *s, size_t n)
 {
     lr__lt *lt = calloc(1, sizeof *lt);
     if (lt == NULL || (lt->direct = calloc(s->n_geoms + 1, 1)) == NULL ||
+        (lt->mis = calloc(s->n_geoms + 1, sizeof *lt->mis)) == NULL ||
         (lt->lights = malloc((n + 1) * sizeof *lt->lights)) == NULL) {
         lr__lt_free(lt);
         return NULL;
     }
-    lt->view = (lr__lt_view){lt->direct, v3(0, 0, 0), 2.0};
+    lt->view = (lr__lt_view){.geom = lt->direct,
+                             .sun_dir = v3(0, 0, 0),
+                             .sun_cos = 2.0,
+                             .mis = lt->mis};
     return lt;
 }
 
 lr__lt *lr__lt_new(const lr_scene *s)
 {
-    lr__lt *lt = calloc(1, sizeof *lt);
-    if (lt == NULL || (lt->direct = calloc(s->n_geoms + 1, 1)) == NULL ||
-        (lt->lights = malloc((s->n_geoms + 1) * sizeof *lt->lights)) == NULL) {
-        lr__lt_free(lt);
-        return NULL;
-    }
-    lt->view = (lr__lt_view){lt->direct, v3(0, 0, 0), 2.0};
-    return lt;
+    return lt_new_n(s, s->n_geoms);
+}
+
+/* The MIS coefficient kappa (integrator.h's lr__lt_rho) of a light with
+ * n paths whose directions' density seen from the eye is q: n q over
+ * spp fpx^2, the camera's density on the axis.  0 (no mix) where rho
+ * passes the cutoff for every camera ray of the frame (its smallest
+ * cos, at a corner, gives the smallest rho), and for a model whose
+ * camera samples carry weights (a real lens: light_trace.h). */
+static double mis_kappa(const lr__cam *c, uint64_t n, double q, int spp)
+{
+    if (c->weighted || !(q > 0.0) || spp <= 0)
+        return 0.0;
+    double fpx = 0.5 * c->height / c->half_h;
+    double kappa = (double)n * q / ((double)spp * fpx * fpx);
+    return lr__lt_cam_share_max(c, kappa) > 0.0 ? kappa : 0.0;
+}
+
+double lr__lt_cam_share_max(const lr__cam *c, double kappa)
+{
+    double cz = 1.0 / sqrt(1.0 + c->half_w * c->half_w + c->half_h * c->half_h);
+    return lr__lt_cam_weight(kappa * cz * cz * cz);
+}
+
+/* The density of a direction uniform in the cone a sphere (center,
+ * radius) fills seen from p: 1 / (2 pi (1 - cos alpha)); 0 from inside. */
+static double cone_density(lr__v3 p, lr__v3 center, double radius)
+{
+    lr__v3 dv = v3_sub(center, p);
+    double dist2 = v3_dot(dv, dv), r2 = radius * radius;
+    if (!(dist2 > r2))
+        return 0.0;
+    double sin2 = r2 / dist2;
+    return 1.0 / (2.0 * M_PI * sin2 / (1.0 + sqrt(1.0 - sin2)));
 }
 
 /* The roughest GGX alpha whose glints go to the light side: past it a
@@ -424,9 +456,11 @@ static int plan_sun(const lr_scene *s, const lr__cam *c,
     l->L = v3(m, m, m);
     l->paths = n;
     l->first = lt->paths;
+    l->mis = mis_kappa(c, n, 1.0 / (2.0 * M_PI * l->area), spp);
     lt->paths += n;
     lt->view.sun_dir = a;
     lt->view.sun_cos = cos_a;
+    lt->view.sun_mis = l->mis;
     return 1;
 }
 
@@ -546,6 +580,9 @@ lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
         l->first = lt->paths;
         lt->paths += n;
         lt->direct[g] |= LR__LT_DIRECT;
+        l->mis = mis_kappa(c, n, cone_density(c->origin, center, radius),
+                           set->spp);
+        lt->mis[g] = l->mis;
     }
     if ((set->integrator == LR_INTEGRATOR_PATH &&
          !plan_glints(s, c, &lb, m->bound == NULL, set->spp, &lt)) ||
@@ -558,8 +595,10 @@ lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
         lr__lt_free(lt);
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     }
-    if (lt != NULL)
+    if (lt != NULL) {
         lt->seed = set->seed;
+        lt->view.forward = c->forward;
+    }
     *out = lt;
     return LR_OK;
 }
@@ -579,6 +618,9 @@ lr_status lr__lt_film_init(lr__lt_film *f, const lr__lt *lt, int x0, int y0,
     for (int k = 0; k < lt->n; k++)
         Lmax = fmax(Lmax, v3_maxc(lt->lights[k].L));
     f->scale = ldexp(1.0, 40) / (Lmax > 0.0 ? Lmax : 1.0);
+    f->dark = lt->dark;
+    f->dark_bw = lt->dark_bw;
+    f->dark_block = lt->dark_block;
     return LR_OK;
 }
 
@@ -624,18 +666,26 @@ void lr__lt_splat(lr__lt_film *f, int ix, int iy, lr__v3 v)
     }
 }
 
-/* Adds v times each channel's importance at each place ld lands it.
- * Counts a landing. */
+/* Adds v times each channel's importance at each place ld lands it,
+ * and times the light side's MIS weight for the strategies' ratio rho
+ * (integrator.h) except in a dark block, where the camera traces
+ * nothing.  Counts a landing. */
 static void splat_landing(lr__lt_film *f, const lr__landing *ld, lr__v3 v,
-                          uint64_t *landed)
+                          double rho, uint64_t *landed)
 {
     if (!(isfinite(v.x) && isfinite(v.y) && isfinite(v.z)))
         return;
     (*landed)++;
+    double w = lr__lt_light_weight(rho);
     for (int j = 0; j < ld->n; j++) {
         const double *W = ld->at[j].W;
-        lr__lt_splat(f, ld->at[j].ix, ld->at[j].iy,
-                     v3(v.x * W[0], v.y * W[1], v.z * W[2]));
+        lr__v3 x = v3(v.x * W[0], v.y * W[1], v.z * W[2]);
+        int ix = ld->at[j].ix, iy = ld->at[j].iy;
+        if (w != 1.0 &&
+            !(f->dark != NULL &&
+              f->dark[(iy / f->dark_block) * f->dark_bw + ix / f->dark_block]))
+            x = v3_scale(x, w);
+        lr__lt_splat(f, ix, iy, x);
     }
 }
 
@@ -719,7 +769,7 @@ static void mesh_path(const lr_scene *s, const lr__cam *c,
     double pdf = dist2 / (l->area * cos_y);
     splat_landing(
         f, &ld, v3_scale(emission_at(s, l, &h), 1.0 / (pdf * (double)l->paths)),
-        landed);
+        lr__lt_rho(l->mis, c->forward, w), landed);
 }
 
 /* The point X of the plane (2-D coordinates) where the half vector's
@@ -868,7 +918,7 @@ static void glint_path(const lr_scene *s, const lr__cam *c,
     double g = fabs(v3_dot(wi, hx.ns)) * cos_y / d2;
     splat_landing(
         f, &ld,
-        v3_scale(v3_mul(l->L, fv), g / (pdf_w * pdf_y * (double)l->paths)),
+        v3_scale(v3_mul(l->L, fv), g / (pdf_w * pdf_y * (double)l->paths)), 0.0,
         landed);
 }
 
@@ -906,7 +956,7 @@ static void sun_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
     splat_landing(
         f, &ld,
         v3_scale(lr__env_radiance(s, w), 1.0 / (pdf * (double)l->paths)),
-        landed);
+        lr__lt_rho(l->mis, c->forward, w), landed);
 }
 
 /* A sphere light's path from lens point P: a direction uniform in the
@@ -950,7 +1000,8 @@ static void sphere_path(const lr_scene *s, const lr__cam *c,
         Le = emission_at(s, l, &h);
     }
     double pdf = 1.0 / (2.0 * M_PI * omc);
-    splat_landing(f, &ld, v3_scale(Le, 1.0 / (pdf * (double)l->paths)), landed);
+    splat_landing(f, &ld, v3_scale(Le, 1.0 / (pdf * (double)l->paths)),
+                  lr__lt_rho(l->mis, c->forward, w), landed);
 }
 
 /* The sampler "pixel" of light l's paths: by its geometry's index (and a
@@ -969,7 +1020,7 @@ static uint64_t light_key(const lr__lt_light *l)
 static void splat_cb(void *film, const lr__landing *ld, lr__v3 v,
                      uint64_t *landed)
 {
-    splat_landing(film, ld, v, landed);
+    splat_landing(film, ld, v, 0.0, landed);
 }
 
 void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
