@@ -26,4 +26,15 @@ double film_integral(lr__v3 eye, lr__v3 fwd, double R, lr__v3 c, double r,
 double film_integral_of(lr__v3 eye, lr__v3 fwd, double R, int square, lr__v3 c,
                         double r, double L, double fpx);
 
+/* The film integral of a triangle light's image, in closed form as for
+ * the sphere (film_integral): for one lens point P the film points that
+ * see a patch dA of the triangle cover fpx^2 / cos^3 (at P) times its
+ * solid angle cos_y dA / r^2, so the sum is L fpx^2 E_P[ integral over
+ * the triangle of cos_y / (r^2 cos^3) dA ], the triangle's front only;
+ * by midpoint rules over the lens's rings and the triangle (uniform by
+ * area through the square-root map).  The lens (radius R) at (0, 0, 10)
+ * looks along -z. */
+double tri_film_integral(double R, lr__v3 a, lr__v3 b, lr__v3 c, double L,
+                         double fpx);
+
 #endif

@@ -244,6 +244,46 @@ static void test_mis_closed_form(void **state)
     }
 }
 
+/* A triangle light two units wide at depth 50, a few pixels across and
+ * about twice that blurred, mixes too (its weights from the sphere
+ * around it): its energy within 1.5% of the closed form with every
+ * block traced by both sides. */
+static void test_mis_mesh_closed_form(void **state)
+{
+    (void)state;
+    const char *json =
+        "{\"render\": {\"width\": 96, \"height\": 64, \"seed\": 9},"
+        " \"camera\": {\"model\": \"thinlens\", \"position\": [0, 0, 10],"
+        "  \"look_at\": [0, 0, 0], \"fov\": 40, \"aperture_radius\": 0.6,"
+        "  \"focus_distance\": 10},"
+        " \"materials\": {\"a\": {\"emission\": [300, 200, 100]}},"
+        " \"objects\": [{\"type\": \"triangle\", \"vertices\": [[2, -5, -40],"
+        "   [4, -5, -40], [3, -3, -40]], \"material\": \"a\"}]}";
+    lr__cam c;
+    lr__plan p;
+    lr_scene *s = lr_test_plan(json, NULL, 0, &c, &p, NULL);
+    assert_non_null(p.lt);
+    assert_int_equal(p.lt->n, 1);
+    double share = lr__lt_cam_share_max(&c, p.lt->lights[0].mis);
+    print_message("triangle: camera's largest weight %.4f\n", share);
+    assert_true(share > 0.05);
+    lr__plan_free(&p);
+    lr_scene_free(s);
+    const char *sets[] = {"render.spp=256", "render.plan=false",
+                          "render.adaptive=false"};
+    lr_image *img = lr_test_render(json, sets, 3, NULL);
+    double fpx = 0.5 * 64 / tan(20.0 * M_PI / 180.0);
+    double want = tri_film_integral(0.6, v3(2, -5, -40), v3(4, -5, -40),
+                                    v3(3, -3, -40), 300, fpx);
+    double got = 0.0;
+    for (size_t i = 0; i < (size_t)img->width * img->height; i++)
+        got += img->rgb[3 * i];
+    print_message("triangle: %.6g, closed form %.6g (%.4f)\n", got, want,
+                  got / want);
+    assert_true(fabs(got / want - 1.0) < 0.015);
+    lr_image_free(img);
+}
+
 /* A green ball beside light 0 (its red channel untouched: no red in its
  * colour, no red ambient off it) makes the blocks its lens rays reach
  * lit, and light 0's disc then straddles dark and lit blocks: in the
@@ -337,6 +377,7 @@ static const struct CMUnitTest light_mis_tests[] = {
     cmocka_unit_test(test_mis_lights_mix),
     cmocka_unit_test(test_mis_importance_is_density),
     cmocka_unit_test(test_mis_closed_form),
+    cmocka_unit_test(test_mis_mesh_closed_form),
     cmocka_unit_test(test_mis_dark_blocks),
     cmocka_unit_test(test_mis_adaptive),
     cmocka_unit_test(test_mis_deterministic),
