@@ -40,7 +40,8 @@
  * side takes them all).  Other lights, and every light of a model
  * without a light side, stay with the camera.
  *
- * Sparkles (glints): a small light k seen in a flat rough metal surface G
+ * Sparkles (glints): a small light k (a sphere or a mesh, its emission
+ * textured or not) seen in a flat rough metal surface G
  * (a planar triangle mesh whose one lobe is GGX's conductor) behind the
  * focus is a defocused disc too, and the camera's light sample at G
  * finds it only from the few lens points whose mirror direction meets
