@@ -8,6 +8,12 @@ BUILD    ?= build
 CC       ?= cc
 OPT      ?= -O2
 SANITIZE ?=
+# Empty: the SIMD functions are compiled for AVX-512, AVX2 and the
+# baseline, and the CPU picks (target_clones, __builtin_cpu_supports).
+# make test-isa's second build sets it to SIMD_BASE: the baseline code
+# alone, as a CPU without AVX2 runs it.
+SIMD     ?=
+SIMD_BASE = -D'target_clones(...)=unused' -D'__builtin_cpu_supports(x)=0'
 
 VERSION  := 0.1.0
 SOMAJOR  := 0
@@ -39,7 +45,7 @@ LIB_LIBS   = -lembree3 -lOpenEXRCore-3_1 -lcjson -lpng16 -ljpeg -ldeflate -lz -l
 CFLAGS   ?=
 CFLAGS   += -std=c11 $(OPT) -g -Wall -Wextra -Werror -fPIC -D_GNU_SOURCE \
             -fvisibility=hidden -Wno-format-truncation -ffp-contract=off \
-            $(SANITIZE)
+            $(SANITIZE) $(SIMD)
 # lib/ by concept (docs/architecture.md); a file includes another by its
 # name alone, so every folder is on the include path.
 LIB_DIRS := $(sort $(dir $(wildcard lib/*/*.[ch] lib/*/*/*.[ch])))
@@ -254,7 +260,7 @@ $(API_VENV)/.ok: tests/api/requirements.txt $(DEPS_OK)
 # case and glass maker.  About 30 s once the virtualenv exists.
 LENS_VENV := $(BUILD)/lens-venv
 
-.PHONY: test-lenses
+.PHONY: test-lenses test-isa
 LENS_CHECKED := $(wildcard $(addprefix lenses/*,.json .zmx .dat .txt)) \
                 $(wildcard tests/data/lenses/*)
 test-lenses: $(BUILD)/lensray $(BUILD)/tests/glass-dump $(LENS_VENV)/.ok
@@ -290,6 +296,17 @@ test-sanitize:
 	$(MAKE) BUILD=build/sanitize OPT=-O1 \
 	  SANITIZE="-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined" \
 	  test-suite
+
+# ---- every code path this CPU runs (issue 28, item 8) -------------------
+# The pixel-hash matrix with Embree forced to each ISA the CPU has, and
+# with lensray's own SIMD forced down to the baseline (a second build,
+# SIMD=$(SIMD_BASE)): tools/isa-matrix.sh, numpy from the lens venv for
+# tools/isa_diff.py.  About a minute and a half.
+test-isa: all $(LENS_VENV)/.ok
+	@$(MAKE) --no-print-directory BUILD=$(BUILD)/simd-base 'SIMD=$$(SIMD_BASE)' \
+	  $(BUILD)/simd-base/lensray
+	@PYTHON=$(LENS_VENV)/bin/python sh tools/isa-matrix.sh $(BUILD) \
+	  $(BUILD)/simd-base
 
 # ---- Python --------------------------------------------------------------
 # The lensray package (python/, docs/python.md) in a virtual environment

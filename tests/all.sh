@@ -6,7 +6,8 @@
 # one test per target), then the HTTP API against docs/openapi.yaml (make
 # test-api: the spec validator and schemathesis on a live daemon), then the
 # Python package's pytest suite (make test-python), then the lenses against
-# ray-optics (make test-lenses), then glTF geometry against an independent
+# ray-optics (make test-lenses), then the pixel-hash matrix on every code
+# path this CPU runs (make test-isa), then glTF geometry against an independent
 # ray caster (make test-gltf-depth), then the Blender add-on under bpy
 # against Cycles (make test-blender), then one line "N
 # passed, N failed, N skipped" adding them all up (tests/run.sh says which
@@ -31,7 +32,7 @@ $make --no-print-directory deps
 { $make --no-print-directory venvs >"$build/venvs.log" 2>&1; echo $? >"$build/venvs.rc"; } &
 venvs=$!
 for run in test-format test-tree test-suite test-sanitize fuzz-ci test-api test-python test-lenses \
-    test-gltf-depth test-blender; do
+    test-isa test-gltf-depth test-blender; do
     if [ "$run" = test-api ] && [ -n "$venvs" ]; then
         wait "$venvs"
         venvs=

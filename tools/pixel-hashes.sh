@@ -6,6 +6,8 @@
 # coder that packed them).  Run it
 # before and after a refactor and diff the outputs: a refactor must keep
 # every line.  Usage: tools/pixel-hashes.sh [BUILD_DIR] > hashes.txt
+# With KEEP=DIR in the environment the images stay there, named by line
+# (tools/isa-matrix.sh compares them).
 build=${1:-build}
 bin="$build/lensray"
 tmp=$(mktemp -d)
@@ -18,6 +20,7 @@ r() {  # r SCENE NAME ARGS...: render small and print "name hash"
     if "$bin" render "scenes/$scene.json" -o "$out" -q --compression none \
         --set render.width=96 --set render.height=64 "$@" 2>"$tmp/err"; then
         echo "$scene $name $(sha256sum < "$out" | cut -c1-16)"
+        [ -z "$KEEP" ] || cp "$out" "$KEEP/$scene-$name.exr"
     else
         echo "$scene $name FAILED: $(head -c 200 "$tmp/err")"
     fi
@@ -54,8 +57,18 @@ for s in spheres accuracy-defocus; do
       done
     done
 done
+# The light side (lights, glints, an emission texture) and real lenses
+# (the traced packets, 1 - R at each surface, the light side through the
+# glass), small.
+r night light-side --set render.spp=8
+r sparkles glints --set render.spp=4 --set render.width=48 --set render.height=32
+r textured textured --set render.spp=4
+r night-lens real-lens-light-side --set render.spp=4
+r lens-chart real-lens --set render.spp=2
+r lens-bokeh real-lens-rgb --set render.spp=2
 # The shipped scenes at their own size and samples, as make render/figures do.
 for s in spheres chromatic bench; do
     n=$((n + 1))
     "$bin" render "scenes/$s.json" -o "$tmp/full$n.exr" -q --compression none && echo "$s as-shipped $(sha256sum < "$tmp/full$n.exr" | cut -c1-16)"
+    [ -z "$KEEP" ] || cp "$tmp/full$n.exr" "$KEEP/$s-as-shipped.exr"
 done

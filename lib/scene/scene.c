@@ -40,7 +40,15 @@ enum RTCSceneFlags lr__scene_flags(const lr_scene *s)
 lr_status lr__scene_begin(lr_scene *s, lr_error *err)
 {
     embree_msg[0] = '\0';
-    s->device = rtcNewDevice(lr__embree_config);
+    const char *env = getenv("LENSRAY_EMBREE_CONFIG");
+    const char *config = lr__embree_config != NULL ? lr__embree_config : env;
+    s->device = rtcNewDevice(config);
+    if (s->device == NULL && config == env)
+        return lr__fail(err, LR_ERR_EMBREE, NULL,
+                        "creating the Embree device with "
+                        "LENSRAY_EMBREE_CONFIG=\"%s\" failed: %s",
+                        env,
+                        embree_msg[0] ? embree_msg : "unknown Embree error");
     if (s->device == NULL)
         return embree_fail(err, "creating the Embree device");
     rtcSetDeviceErrorFunction(s->device, on_embree_error, NULL);

@@ -324,9 +324,11 @@ void lr__scene_warn(lr_scene *s, const char *fmt, ...)
 /* Commits the Embree scene: no more geometry after this.  Builds the
  * emitter list (lr__emitters_build). */
 lr_status lr__scene_commit(lr_scene *s, lr_error *err);
-/* The configuration string scenes give rtcNewDevice (NULL: Embree's
- * defaults, the best code for this CPU).  The tests set it to run
- * Embree's code for other CPUs ("isa=avx2", "isa=sse4.2"). */
+/* The configuration string scenes give rtcNewDevice (NULL: the
+ * environment's LENSRAY_EMBREE_CONFIG, and without it Embree's defaults,
+ * the best code for this CPU).  The tests set it to run Embree's code
+ * for other CPUs ("isa=avx2", "isa=sse4.2"); tools/isa-matrix.sh sets
+ * the variable. */
 extern const char *lr__embree_config;
 
 /* ---- tracing (trace.c) ------------------------------------------------ */
