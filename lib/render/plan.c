@@ -32,8 +32,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define CHUNK 64  /* triangles per bounding box */
-#define NEAR 1e-6 /* depths below this count as "at the eye" */
+#define CHUNK LR__GEOM_CHUNK /* triangles per bounding box */
+#define NEAR 1e-6            /* depths below this count as "at the eye" */
 
 typedef struct box {
     double z0, z1;         /* depth range */
@@ -60,21 +60,6 @@ static void to_cam(const lens *L, lr__v3 p, double *x, double *y, double *z)
 }
 
 /* The world-space bounds of n points: lo[3], hi[3]. */
-static void world_bounds(const lr__v3 *pts, size_t n, double lo[3],
-                         double hi[3])
-{
-    lo[0] = lo[1] = lo[2] = DBL_MAX;
-    hi[0] = hi[1] = hi[2] = -DBL_MAX;
-    for (size_t i = 0; i < n; i++) {
-        double c[3] = {pts[i].x, pts[i].y, pts[i].z};
-        for (int k = 0; k < 3; k++) {
-            if (c[k] < lo[k])
-                lo[k] = c[k];
-            if (c[k] > hi[k])
-                hi[k] = c[k];
-        }
-    }
-}
 
 /* The camera-space box around the world box [lo, hi]. */
 static void box_from_bounds(const lens *L, const double lo[3],
@@ -100,39 +85,10 @@ static void box_from_bounds(const lens *L, const double lo[3],
 static void box_from_points(const lens *L, const lr__v3 *pts, size_t n, box *b)
 {
     double lo[3], hi[3];
-    world_bounds(pts, n, lo, hi);
+    v3_bounds(pts, n, lo, hi);
     box_from_bounds(L, lo, hi, b);
 }
 
-/* The points of triangles [t0, t0 + CHUNK) of g (fewer at the end):
- * their number. */
-static size_t chunk_points(const lr__geom *g, size_t t0, lr__v3 *pts)
-{
-    size_t n = 0;
-    for (size_t t = t0; t < g->n_triangles && t < t0 + CHUNK; t++)
-        for (int k = 0; k < 3; k++) {
-            const float *v = &g->vertices[3 * g->indices[3 * t + k]];
-            pts[n++] = v3(v[0], v[1], v[2]);
-        }
-    return n;
-}
-
-lr_status lr__plan_chunk_bounds(lr__geom *g, lr_error *err)
-{
-    if (g->kind != LR__GEOM_TRIANGLES || g->n_triangles <= LR__PLAN_FEW)
-        return LR_OK;
-    size_t n_chunks = (g->n_triangles + CHUNK - 1) / CHUNK;
-    g->chunk_bounds = malloc(n_chunks * 6 * sizeof *g->chunk_bounds);
-    if (g->chunk_bounds == NULL)
-        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
-    for (size_t c = 0; c < n_chunks; c++) {
-        lr__v3 pts[3 * CHUNK];
-        size_t n = chunk_points(g, c * CHUNK, pts);
-        world_bounds(pts, n, &g->chunk_bounds[6 * c],
-                     &g->chunk_bounds[6 * c + 3]);
-    }
-    return LR_OK;
-}
 
 /* Can a lens ray of the block [u0, u1] x [v0, v1] reach box b?  At depth
  * z the block's lens rays cover the lateral interval
@@ -421,20 +377,13 @@ typedef struct boxset {
     box *boxes;
 } boxset;
 
-struct lr__plan_cache {
+/* The scene's cache (lr_scene.plan_cache), made by the first plan of
+ * the scene and freed with it. */
+typedef struct plan_cache {
+    lr__scene_cache base; /* first: the scene frees it through base.free */
     pthread_mutex_t lock;
     boxset *last;
-};
-
-struct lr__plan_cache *lr__plan_cache_new(void)
-{
-    struct lr__plan_cache *c = calloc(1, sizeof *c);
-    if (c != NULL && pthread_mutex_init(&c->lock, NULL) != 0) {
-        free(c);
-        c = NULL;
-    }
-    return c;
-}
+} plan_cache;
 
 static void boxset_unref(boxset *b)
 {
@@ -444,13 +393,33 @@ static void boxset_unref(boxset *b)
     }
 }
 
-void lr__plan_cache_free(struct lr__plan_cache *c)
+static void cache_free(lr__scene_cache *base)
 {
-    if (c == NULL)
-        return;
+    plan_cache *c = (plan_cache *)base;
     boxset_unref(c->last);
     pthread_mutex_destroy(&c->lock);
     free(c);
+}
+
+/* Scene s's cache, made now if it has none; NULL when out of memory (a
+ * plan then finds its boxes alone). */
+static plan_cache *cache_of(const lr_scene *s)
+{
+    lr__scene_cache *have = __atomic_load_n(&s->plan_cache, __ATOMIC_ACQUIRE);
+    if (have != NULL)
+        return (plan_cache *)have;
+    plan_cache *c = calloc(1, sizeof *c);
+    if (c == NULL)
+        return NULL;
+    if (pthread_mutex_init(&c->lock, NULL) != 0) {
+        free(c);
+        return NULL;
+    }
+    c->base.free = cache_free;
+    have = lr__scene_cache_set(&s->plan_cache, &c->base);
+    if (have != &c->base)
+        cache_free(&c->base);
+    return (plan_cache *)have;
 }
 
 /* Whether two cameras give the same boxes: every input of tri_boxes and
@@ -479,7 +448,7 @@ static int make_boxes(const lr_scene *s, const lens *L, box **out,
  * caller drops with put_boxes; NULL when out of memory. */
 static boxset *get_boxes(const lr_scene *s, const lens *L)
 {
-    struct lr__plan_cache *c = s->plan_cache;
+    plan_cache *c = cache_of(s);
     if (c != NULL) {
         pthread_mutex_lock(&c->lock);
         boxset *hit = c->last;
@@ -510,7 +479,8 @@ static boxset *get_boxes(const lr_scene *s, const lens *L)
 
 static void put_boxes(const lr_scene *s, boxset *b)
 {
-    struct lr__plan_cache *c = s->plan_cache;
+    plan_cache *c = (plan_cache *)__atomic_load_n(&s->plan_cache,
+                                                  __ATOMIC_ACQUIRE);
     if (c != NULL)
         pthread_mutex_lock(&c->lock);
     boxset_unref(b);

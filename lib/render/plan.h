@@ -91,21 +91,9 @@ void lr__plan_free(lr__plan *p);
 double lr__plan_unseen(const lr__plan *p, int x, int y);
 
 /* Meshes of at most this many triangles are planned triangle by triangle
- * (a ground quad); larger ones by the bounds of chunks of triangles. */
-#define LR__PLAN_FEW 8
-
-/* For lr__scene_commit: keeps in g->chunk_bounds the world bounds the
- * planner needs of a triangle mesh of more than LR__PLAN_FEW triangles
- * (they depend only on the scene; computing them once, not per render,
- * spares each part of a split frame).  LR_ERR_NOMEM on failure. */
-lr_status lr__plan_chunk_bounds(lr__geom *g, lr_error *err);
-
-/* The scene's cache of camera-space boxes (lr_scene.plan_cache): made by
- * lr__scene_commit (NULL when out of memory), freed with the scene when
- * no render uses it.  A plan of a scene without one finds its boxes
- * alone. */
-struct lr__plan_cache *lr__plan_cache_new(void);
-void lr__plan_cache_free(struct lr__plan_cache *c);
+ * (a ground quad); larger ones by the bounds of chunks of triangles
+ * (lr__geom.chunk_bounds). */
+#define LR__PLAN_FEW LR__GEOM_FEW
 
 static inline const lr__block_plan *lr__plan_at(const lr__plan *p, int x, int y)
 {

@@ -5,7 +5,6 @@
 #include "scene.h"
 #include "envmap.h"
 #include "light.h"
-#include "plan.h"
 
 #include <float.h>
 #include <stdarg.h>
@@ -204,6 +203,43 @@ static double *face_normals(const lr__geom *g)
     return ng;
 }
 
+/* lr__geom.chunk_bounds of g, if g is a mesh of more than LR__GEOM_FEW
+ * triangles.  0: out of memory. */
+static int chunk_bounds(lr__geom *g)
+{
+    if (g->kind != LR__GEOM_TRIANGLES || g->n_triangles <= LR__GEOM_FEW)
+        return 1;
+    size_t n_chunks = (g->n_triangles + LR__GEOM_CHUNK - 1) / LR__GEOM_CHUNK;
+    g->chunk_bounds = malloc(n_chunks * 6 * sizeof *g->chunk_bounds);
+    if (g->chunk_bounds == NULL)
+        return 0;
+    for (size_t c = 0; c < n_chunks; c++) {
+        lr__v3 pts[3 * LR__GEOM_CHUNK];
+        size_t n = 0;
+        for (size_t t = c * LR__GEOM_CHUNK;
+             t < g->n_triangles && t < (c + 1) * LR__GEOM_CHUNK; t++)
+            for (int k = 0; k < 3; k++) {
+                const float *v = &g->vertices[3 * g->indices[3 * t + k]];
+                pts[n++] = v3(v[0], v[1], v[2]);
+            }
+        v3_bounds(pts, n, &g->chunk_bounds[6 * c], &g->chunk_bounds[6 * c + 3]);
+    }
+    return 1;
+}
+
+lr__scene_cache *lr__scene_cache_set(lr__scene_cache *const *slot,
+                                     lr__scene_cache *c)
+{
+    lr__scene_cache *expected = NULL;
+    /* The slot is the scene's one field that renders sharing it may set
+     * (its owner's docs: scene.h); a const scene is otherwise read only. */
+    lr__scene_cache **s = (lr__scene_cache **)slot;
+    if (__atomic_compare_exchange_n(s, &expected, c, 0, __ATOMIC_ACQ_REL,
+                                    __ATOMIC_ACQUIRE))
+        return c;
+    return expected;
+}
+
 lr_status lr__scene_commit(lr_scene *s, lr_error *err)
 {
     s->all_lambert = 1;
@@ -218,9 +254,8 @@ lr_status lr__scene_commit(lr_scene *s, lr_error *err)
                                !(v3_maxc(m->emission) > 0.0) &&
                                m->normal_tex == NULL;
         s->all_lambert &= g->lambert_triangles;
-        lr_status st = lr__plan_chunk_bounds(g, err);
-        if (st != LR_OK)
-            return st;
+        if (!chunk_bounds(g))
+            return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
         if (g->kind == LR__GEOM_TRIANGLES && m->normal_tex != NULL &&
             g->corner_uv != NULL && g->tangents == NULL) {
             g->tangents = lr__triangle_tangents(g);
@@ -239,9 +274,6 @@ lr_status lr__scene_commit(lr_scene *s, lr_error *err)
     lr_status st = lr__emitters_build(s, err);
     if (st != LR_OK)
         return st;
-    s->plan_cache = lr__plan_cache_new();
-    if (s->plan_cache == NULL)
-        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     embree_msg[0] = '\0';
     rtcCommitScene(s->rtc);
     if (rtcGetDeviceError(s->device) != RTC_ERROR_NONE)
@@ -282,7 +314,8 @@ void lr_scene_free(lr_scene *s)
     free(s->emitters);
     free(s->emitter_cdf);
     lr__envmap_free(s->env);
-    lr__plan_cache_free(s->plan_cache);
+    if (s->plan_cache != NULL)
+        s->plan_cache->free(s->plan_cache);
     free(s->description);
     free(s->warnings);
     if (s->rtc_few != NULL)

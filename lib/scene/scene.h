@@ -189,11 +189,24 @@ typedef struct lr__geom {
      * the scene's lifetime (not owned). */
     const float *vertices;
     const unsigned *indices;
-    /* Triangle meshes the planner cuts into chunks: each chunk's world
-     * bounds, lo x, y, z then hi x, y, z (lr__plan_chunk_bounds, at
-     * commit).  Owned; NULL otherwise. */
+    /* A triangle mesh of more than LR__GEOM_FEW triangles: the world
+     * bounds of each chunk of LR__GEOM_CHUNK of them, lo x, y, z then hi
+     * x, y, z, for the planner (made at commit: they depend only on the
+     * scene, and computing them once, not per render, spares each part
+     * of a split frame).  Owned; NULL otherwise. */
     double *chunk_bounds;
 } lr__geom;
+
+#define LR__GEOM_FEW 8
+#define LR__GEOM_CHUNK 64
+
+/* A cache that a higher layer keeps with a scene (the planner's boxes,
+ * plan.c): made by its first user, which sets it once
+ * (lr__scene_cache_set), and freed with the scene through its own
+ * `free`; the user's struct begins with this one. */
+typedef struct lr__scene_cache {
+    void (*free)(struct lr__scene_cache *c);
+} lr__scene_cache;
 
 /* A sphere spheres.c meets itself (its geometry's center and radius). */
 #define LR__FEW_SPHERES 8
@@ -282,9 +295,16 @@ struct lr_scene {
     atomic_ullong skipped_rays;
     /* The planner's camera-space boxes for the last camera it planned
      * (plan.c), behind their own lock: the parts of a split frame share
-     * one camera, so only the first part finds them.  Made at commit. */
-    struct lr__plan_cache *plan_cache;
+     * one camera, so only the first part finds them.  NULL until the
+     * first plan; set once, atomically (lr__scene_cache_set). */
+    lr__scene_cache *plan_cache;
 };
+
+/* Sets *slot (a cache field of a scene that renders may share) to c if
+ * it is still NULL, atomically, and returns what it holds then: c, or
+ * the cache another render set first (the caller then frees c). */
+lr__scene_cache *lr__scene_cache_set(lr__scene_cache *const *slot,
+                                     lr__scene_cache *c);
 
 /* ---- scene.c: Embree side --------------------------------------------- */
 

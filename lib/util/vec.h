@@ -5,7 +5,9 @@
 #ifndef LR_VEC_H
 #define LR_VEC_H
 
+#include <float.h>
 #include <math.h>
+#include <stddef.h>
 
 typedef struct lr__v3 {
     double x, y, z;
@@ -92,6 +94,24 @@ static inline void v3_frame(lr__v3 a, lr__v3 *t1, lr__v3 *t2)
     double p = -1.0 / (sign + a.z), q = a.x * a.y * p;
     *t1 = v3(1.0 + sign * a.x * a.x * p, sign * q, -sign * a.x);
     *t2 = v3(q, sign + a.y * a.y * p, -a.y);
+}
+
+/* The bounds lo, hi (per axis, x y z) of points pts[0 .. n-1]; for
+ * n = 0, lo above hi. */
+static inline void v3_bounds(const lr__v3 *pts, size_t n, double lo[3],
+                             double hi[3])
+{
+    lo[0] = lo[1] = lo[2] = DBL_MAX;
+    hi[0] = hi[1] = hi[2] = -DBL_MAX;
+    for (size_t i = 0; i < n; i++) {
+        double c[3] = {pts[i].x, pts[i].y, pts[i].z};
+        for (int k = 0; k < 3; k++) {
+            if (c[k] < lo[k])
+                lo[k] = c[k];
+            if (c[k] > hi[k])
+                hi[k] = c[k];
+        }
+    }
 }
 
 #endif
