@@ -6,6 +6,7 @@
  * scene against the radiometric normalisation, and its errors.
  */
 #include "test.h"
+#include "autofocus.h"
 #include "camera.h"
 #include "ghost.h"
 #include "lens_load.h"
@@ -168,7 +169,7 @@ static void test_autofocus_on_a_pixel(void **state)
     lr_camera cam;
     lr_scene_camera(s, &cam);
     lr_error err;
-    assert_int_equal(lr__cam_autofocus(s, &cam, 64, 64, &err), LR_OK);
+    assert_int_equal(lr__autofocus(s, &cam, 64, 64, &err), LR_OK);
     print_message("autofocus: %.6f m (the sphere's front: 3 m)\n",
                   cam.focus_distance);
     assert_true(fabs(cam.focus_distance - 3.0) < 1e-3);

@@ -342,14 +342,6 @@ double lr__cam_power_at(const lr__cam *c, double nm);
  * colours' powers added when chromatic aberration is active. */
 void lr__cam_bound(const lr__cam *c, lr__lens_bound *b);
 
-/* camera.focus_on: focuses *cam on the first hit of the pinhole ray
- * through that pixel of a width x height frame (the model's focus_at), and
- * clears focus_on.  No-op when focus_on is unset or the model has no focus.
- * Errors: LR_ERR_INVALID naming camera.focus_on. */
-struct lr_scene;
-lr_status lr__cam_autofocus(const struct lr_scene *scene, lr_camera *cam,
-                            int width, int height, lr_error *err);
-
 /* ---- the offset-lens form, for the model files ----------------------- */
 
 /* Scalar and 16-wide rays of the offset-lens form: origin

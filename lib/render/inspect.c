@@ -5,6 +5,7 @@
  * they report is what a render of the same camera and settings works
  * from.
  */
+#include "autofocus.h"
 #include "camera.h"
 #include "json_util.h"
 #include "plan.h"
@@ -27,7 +28,7 @@ lr_status lr_camera_autofocus(const lr_scene *scene, lr_camera *cam, int width,
                         height);
     LR_TRY(lr_camera_validate(cam, err));
     lr_camera c = *cam;
-    LR_TRY(lr__cam_autofocus(scene, &c, width, height, err));
+    LR_TRY(lr__autofocus(scene, &c, width, height, err));
     *cam = c;
     return LR_OK;
 }
@@ -45,7 +46,7 @@ lr_status lr_render_plan_map(const lr_scene *scene, const lr_camera *cam,
     LR_TRY(lr_camera_validate(cam, err));
     LR_TRY(lr_render_settings_validate(set, err));
     lr_camera used = *cam;
-    LR_TRY(lr__cam_autofocus(scene, &used, set->width, set->height, err));
+    LR_TRY(lr__autofocus(scene, &used, set->width, set->height, err));
     int x0 = 0, y0 = 0, x1 = set->width, y1 = set->height;
     if ((set->region[0] | set->region[1] | set->region[2] | set->region[3]))
         x0 = set->region[0], y0 = set->region[1], x1 = set->region[2],

@@ -7,6 +7,7 @@
  * sample.c's.
  */
 #include "adaptive.h"
+#include "autofocus.h"
 #include "camera.h"
 #include "film.h"
 #include "integrator.h"
@@ -239,7 +240,7 @@ lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
         return st;
 
     lr_camera cam_used = *cam;
-    st = lr__cam_autofocus(scene, &cam_used, set->width, set->height, err);
+    st = lr__autofocus(scene, &cam_used, set->width, set->height, err);
     if (st != LR_OK)
         return st;
 
