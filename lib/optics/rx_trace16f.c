@@ -12,6 +12,7 @@
 #include "transmit.h"
 
 #include <math.h>
+#include <string.h>
 
 /* The packet camera's version: lr__rx_trace16's loop in float, one
  * AVX-512 vector for each packet's sixteen lanes (Embree traces floats
@@ -42,6 +43,87 @@ static double aspheric_t(const lr__ttab *tab, int i, const double *n_after,
     }
     double c = vv > 0.0 ? fabs(dv) / sqrt(vv) : 1.0;
     return lr__ttab_at(tab, i, n1, c);
+}
+
+/* One surface of the quadric family (not aspheric, not a flat surface
+ * between equal media), on every lane, a packet (a vector of 16 known
+ * lanes) at a time, the packets one after another: their chains are
+ * independent and overlap.  Always inlined, with `sphere` a constant at
+ * each call: a sphere's unit normal needs no square root and division
+ * (top of file), and a loop that selected between both forms computed
+ * both.  The far root's division (a start beyond the centre of
+ * curvature) is taken only in a packet where a lane needs it: the first
+ * pass keeps the near root and marks those lanes, and the values are
+ * the ones the select of both would give, bit for bit. */
+static inline __attribute__((always_inline)) void
+surface16(int lanes, float c, float k1, float lim2, float zi, float eta,
+          int bend, int sphere, float (*o)[LR__RX_LANES],
+          float (*d)[LR__RX_LANES], int *alive, float *cosv)
+{
+    for (int b = 0; b < lanes; b += 16) {
+        float tt[16], dd[16], aa[16];
+        int ok0[16], far[16], any = 0;
+        for (int i = 0; i < 16; i++) {
+            int l = b + i;
+            float ox = o[0][l], oy = o[1][l], oz = o[2][l] - zi;
+            float dx = d[0][l], dy = d[1][l], dz = d[2][l];
+            /* On a sphere k1 = 1 and |d| = 1 (top of file): A = c. */
+            float A = sphere ? c : c * (dx * dx + dy * dy + k1 * dz * dz);
+            float B = sphere ? c * (ox * dx + oy * dy + oz * dz) - dz
+                             : c * (ox * dx + oy * dy + k1 * oz * dz) - dz;
+            float C = sphere
+                          ? c * (ox * ox + oy * oy + oz * oz) - 2.0f * oz
+                          : c * (ox * ox + oy * oy + k1 * oz * oz) - 2.0f * oz;
+            float disc = B * B - A * C;
+            float den = B + copysignf(sqrtf(disc >= 0.0f ? disc : 0.0f), B);
+            float t = -C / (den != 0.0f ? den : 1.0f);
+            /* A start beyond the centre of curvature: the other root (as
+             * in rx_trace.c's intersect), -den / A, below. */
+            int f = A != 0.0f && !(1.0f - c * k1 * (oz + t * dz) > 0.0f);
+            tt[i] = t, dd[i] = den, aa[i] = A, far[i] = f;
+            ok0[i] = (disc >= 0.0f) & (den != 0.0f);
+            any |= f;
+        }
+        if (any)
+            for (int i = 0; i < 16; i++)
+                tt[i] = far[i] ? -dd[i] / (aa[i] != 0.0f ? aa[i] : 1.0f)
+                               : tt[i];
+        for (int i = 0; i < 16; i++) {
+            int l = b + i;
+            float ox = o[0][l], oy = o[1][l], oz0 = o[2][l], oz = oz0 - zi;
+            float dx = d[0][l], dy = d[1][l], dz = d[2][l];
+            float t = tt[i];
+            int ok = ok0[i];
+            ok &= isfinite(t);
+            float px = ox + t * dx, py = oy + t * dy, pz = oz + t * dz;
+            float gx = -c * px, gy = -c * py, gz = 1.0f - c * k1 * pz;
+            ok &= gz > 0.0f;
+            float inv = sphere ? 1.0f
+                               : 1.0f / sqrtf(gx * gx + gy * gy + gz * gz);
+            float mx = gx * inv, my = gy * inv, mz = gz * inv;
+            ok &= !(px * px + py * py > lim2);
+            float cosi = -(mx * dx + my * dy + mz * dz);
+            float sg = cosi < 0.0f ? -1.0f : 1.0f;
+            mx *= sg, my *= sg, mz *= sg, cosi *= sg;
+            float k = 1.0f - eta * eta * (1.0f - cosi * cosi);
+            ok &= !bend || k >= 0.0f;
+            float fq = eta * cosi - sqrtf(k >= 0.0f ? k : 0.0f);
+            float ex = eta * dx + fq * mx, ey = eta * dy + fq * my,
+                  ez = eta * dz + fq * mz;
+            int live = alive[l] & ok;
+            alive[l] = live;
+            cosv[l] = cosi;
+            /* Every lane stored, the old value where it stays: a
+             * conditional store became a masked one (vmaskmovps, slow
+             * on AMD's processors). */
+            o[0][l] = live ? px : ox;
+            o[1][l] = live ? py : oy;
+            o[2][l] = live ? pz + zi : oz0;
+            d[0][l] = live && bend ? ex : dx;
+            d[1][l] = live && bend ? ey : dy;
+            d[2][l] = live && bend ? ez : dz;
+        }
+    }
 }
 
 __attribute__((target_clones("avx512f", "avx2", "default"))) void
@@ -111,62 +193,21 @@ lr__rx_trace16f(const lr__rx *rx, const double *z, const double *n_after,
             }
             continue;
         }
-        /* A packet at a time (a vector of 16 known lanes), the packets
-         * one after another: their chains are independent and overlap. */
-        for (int b = 0; b < lanes; b += 16) {
-            for (int l = b; l < b + 16; l++) {
-                float ox = o[0][l], oy = o[1][l], oz = o[2][l] - zi;
-                float dx = d[0][l], dy = d[1][l], dz = d[2][l];
-                /* On a sphere k1 = 1 and |d| = 1 (top of file): A = c. */
-                float A = sphere ? c : c * (dx * dx + dy * dy + k1 * dz * dz);
-                float B = sphere ? c * (ox * dx + oy * dy + oz * dz) - dz
-                                 : c * (ox * dx + oy * dy + k1 * oz * dz) - dz;
-                float C = sphere ? c * (ox * ox + oy * oy + oz * oz) - 2.0f * oz
-                                 : c * (ox * ox + oy * oy + k1 * oz * oz) -
-                                       2.0f * oz;
-                float disc = B * B - A * C;
-                int ok = disc >= 0.0f;
-                float den = B + copysignf(sqrtf(ok ? disc : 0.0f), B);
-                ok &= den != 0.0f;
-                float t = -C / (den != 0.0f ? den : 1.0f);
-                /* A start beyond the centre of curvature: the other root (as
-                 * in rx_trace.c's intersect). */
-                float t2 = -den / (A != 0.0f ? A : 1.0f);
-                t = A != 0.0f && !(1.0f - c * k1 * (oz + t * dz) > 0.0f) ? t2
-                                                                         : t;
-                ok &= isfinite(t);
-                float px = ox + t * dx, py = oy + t * dy, pz = oz + t * dz;
-                float gx = -c * px, gy = -c * py, gz = 1.0f - c * k1 * pz;
-                ok &= gz > 0.0f;
-                float inv = sphere ? 1.0f
-                                   : 1.0f / sqrtf(gx * gx + gy * gy + gz * gz);
-                float mx = gx * inv, my = gy * inv, mz = gz * inv;
-                ok &= !(px * px + py * py > lim2);
-                float cosi = -(mx * dx + my * dy + mz * dz);
-                float sg = cosi < 0.0f ? -1.0f : 1.0f;
-                mx *= sg, my *= sg, mz *= sg, cosi *= sg;
-                float k = 1.0f - eta * eta * (1.0f - cosi * cosi);
-                ok &= !bend || k >= 0.0f;
-                float f = eta * cosi - sqrtf(k >= 0.0f ? k : 0.0f);
-                float ex = eta * dx + f * mx, ey = eta * dy + f * my,
-                      ez = eta * dz + f * mz;
-                int live = alive[l] & ok;
-                alive[l] = live;
-                cosv[l] = cosi;
-                o[0][l] = live ? px : o[0][l];
-                o[1][l] = live ? py : o[1][l];
-                o[2][l] = live ? pz + zi : o[2][l];
-                d[0][l] = live && bend ? ex : dx;
-                d[1][l] = live && bend ? ey : dy;
-                d[2][l] = live && bend ? ez : dz;
-            }
-        }
+        if (sphere)
+            surface16(lanes, c, k1, lim2, zi, eta, bend, 1, o, d, alive, cosv);
+        else
+            surface16(lanes, c, k1, lim2, zi, eta, bend, 0, o, d, alive, cosv);
         /* The transmittance in a loop of its own: its table lookups
          * (gathers) inside the loop above kept GCC from vectorising it,
-         * and the lens's rays took twice as long.  A lane lost here has
-         * a meaningless cosine (NaN gives c2 = 0 below) and a weight
+         * and the lens's rays took twice as long.  The row is copied
+         * first: read through a pointer that might alias T, the gathers
+         * kept GCC from vectorising this loop too (scalar, it was a
+         * third of the lens's time).  A lane lost here has a
+         * meaningless cosine (NaN gives c2 = 0 below) and a weight
          * nobody reads. */
-        if (lose)
+        if (lose) {
+            float row[LR__T_N + 1];
+            memcpy(row, trow, sizeof row);
             for (int l = 0; l < lanes; l++) {
                 /* T at the sine invariant n1^2 (1 - cos^2). */
                 float ci = cosv[l];
@@ -175,7 +216,8 @@ lr__rx_trace16f(const lr__rx *rx, const double *z, const double *n_after,
                 int j = (int)x;
                 j = j < LR__T_N - 1 ? j : LR__T_N - 1;
                 float fr = x - (float)j;
-                T[l] *= trow[j] + fr * (trow[j + 1] - trow[j]);
+                T[l] *= row[j] + fr * (row[j + 1] - row[j]);
             }
+        }
     }
 }
