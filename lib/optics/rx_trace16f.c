@@ -94,6 +94,8 @@ ttab_apply_avx2(int lanes, const float *cosv, float n1s, float tk,
     const __m256 r7 = _mm256_loadu_ps(row + LR__T_N - 8);
     const __m256 d6 = _mm256_loadu_ps(dt + LR__T_N - 16);
     const __m256 d7 = _mm256_loadu_ps(dt + LR__T_N - 8);
+    /* Two passes, the square roots in the first (as surface16's). */
+    float xs[LR__RX_LANES] __attribute__((aligned(32)));
     for (int l = 0; l < lanes; l += 8) {
         __m256 ci = _mm256_loadu_ps(cosv + l);
         __m256 s = _mm256_mul_ps(vn1s,
@@ -101,7 +103,11 @@ ttab_apply_avx2(int lanes, const float *cosv, float n1s, float tk,
         __m256 c2 = _mm256_sub_ps(one, _mm256_mul_ps(s, vtk));
         /* c2 > 0 ? c2 : 0 (NaN: 0). */
         c2 = _mm256_and_ps(_mm256_cmp_ps(c2, zero, _CMP_GT_OQ), c2);
-        __m256 x = _mm256_mul_ps(_mm256_sqrt_ps(_mm256_sqrt_ps(c2)), vn);
+        _mm256_store_ps(xs + l,
+                        _mm256_mul_ps(_mm256_sqrt_ps(_mm256_sqrt_ps(c2)), vn));
+    }
+    for (int l = 0; l < lanes; l += 8) {
+        __m256 x = _mm256_load_ps(xs + l);
         /* x < N ? (int)x : N - 1, then at most N - 1. */
         __m256i j = _mm256_cvttps_epi32(x);
         j = _mm256_blendv_epi8(
@@ -140,14 +146,15 @@ static void ttab_apply(int lanes, const float *cosv, float n1s, float tk,
 }
 
 /* One surface of the quadric family (not aspheric, not a flat surface
- * between equal media), on every lane, in three passes over all the
- * lanes (16 known lanes, a vector, at a time): the intersection, the
- * normal and the refracted cosine, the refracted direction.  Each pass
- * is a chain of long-latency steps (square roots, a division) a vector;
- * kept short and run over all the packets' vectors one after another,
- * the processor overlaps the vectors' chains (one pass a packet for the
- * whole surface took 57 ns a ray through the double Gauss, three passes
- * over all the lanes 51).  Always inlined, with `sphere` a constant at
+ * between equal media), on every lane, in four passes over all the
+ * lanes (16 known lanes, a vector, at a time): the quadratic, its root,
+ * the normal and refracted cosine, the refracted direction.  Each pass
+ * is a short chain of long-latency steps (square roots, a division);
+ * run over all the packets' vectors one after another, the processor
+ * overlaps their chains (a single pass a packet for the whole surface
+ * took 57 ns a ray through the double Gauss at f/2.8 with the
+ * transmittance, four passes over all the lanes 46, and ttab_apply's
+ * two passes 43).  Always inlined, with `sphere` a constant at
  * each call: a sphere's unit normal needs no square root and division
  * (top of file), and a loop that selected between both forms computed
  * both.  The far root's division (a start beyond the centre of
@@ -160,6 +167,7 @@ surface16(int lanes, float c, float k1, float lim2, float zi, float eta,
           float (*d)[LR__RX_LANES], int *alive, float *cosv)
 {
     float tt[LR__RX_LANES], dd[LR__RX_LANES], aa[LR__RX_LANES];
+    float bb[LR__RX_LANES], cc[LR__RX_LANES], ds[LR__RX_LANES];
     int ok0[LR__RX_LANES], far[LR__RX_LANES], any = 0;
     for (int b = 0; b < lanes; b += 16) {
         for (int i = b; i < b + 16; i++) {
@@ -174,12 +182,19 @@ surface16(int lanes, float c, float k1, float lim2, float zi, float eta,
                           ? c * (ox * ox + oy * oy + oz * oz) - 2.0f * oz
                           : c * (ox * ox + oy * oy + k1 * oz * oz) - 2.0f * oz;
             float disc = B * B - A * C;
+            aa[i] = A, bb[i] = B, cc[i] = C, ds[i] = disc;
+        }
+    }
+    for (int b = 0; b < lanes; b += 16) {
+        for (int i = b; i < b + 16; i++) {
+            float oz = o[2][i] - zi, dz = d[2][i];
+            float A = aa[i], B = bb[i], C = cc[i], disc = ds[i];
             float den = B + copysignf(sqrtf(disc >= 0.0f ? disc : 0.0f), B);
             float t = -C / (den != 0.0f ? den : 1.0f);
             /* A start beyond the centre of curvature: the other root (as
              * in rx_trace.c's intersect), -den / A, below. */
             int f = A != 0.0f && !(1.0f - c * k1 * (oz + t * dz) > 0.0f);
-            tt[i] = t, dd[i] = den, aa[i] = A, far[i] = f;
+            tt[i] = t, dd[i] = den, far[i] = f;
             ok0[i] = (disc >= 0.0f) & (den != 0.0f);
             any |= f;
         }
@@ -189,8 +204,7 @@ surface16(int lanes, float c, float k1, float lim2, float zi, float eta,
             for (int i = b; i < b + 16; i++)
                 tt[i] = far[i] ? -dd[i] / (aa[i] != 0.0f ? aa[i] : 1.0f)
                                : tt[i];
-    /* The refraction in two passes (the square root apart), for the
-     * same reason. */
+    /* The refraction, the square root in a pass of its own. */
     float mxa[LR__RX_LANES], mya[LR__RX_LANES], mza[LR__RX_LANES];
     float ka[LR__RX_LANES];
     for (int b = 0; b < lanes; b += 16) {
