@@ -146,21 +146,22 @@ static void ttab_apply(int lanes, const float *cosv, float n1s, float tk,
 }
 
 /* One surface of the quadric family (not aspheric, not a flat surface
- * between equal media), on every lane, in four passes over all the
- * lanes (16 known lanes, a vector, at a time): the quadratic, its root,
- * the normal and refracted cosine, the refracted direction.  Each pass
- * is a short chain of long-latency steps (square roots, a division);
- * run over all the packets' vectors one after another, the processor
- * overlaps their chains (a single pass a packet for the whole surface
- * took 57 ns a ray through the double Gauss at f/2.8 with the
- * transmittance, four passes over all the lanes 46, and ttab_apply's
- * two passes 43).  Always inlined, with `sphere` a constant at
- * each call: a sphere's unit normal needs no square root and division
- * (top of file), and a loop that selected between both forms computed
- * both.  The far root's division (a start beyond the centre of
- * curvature) is taken only when a lane needs it: the first pass keeps
- * the near root and marks those lanes, and the values are the ones the
- * select of both would give, bit for bit. */
+ * between equal media), on every lane, in five passes over all the
+ * lanes (16 known lanes, a vector, at a time): the quadratic, its
+ * discriminant's square root, the root, the normal and refracted
+ * cosine, the refracted direction.  Each pass is a short chain of
+ * long-latency steps (square roots, a division); run over all the
+ * packets' vectors one after another, the processor overlaps their
+ * chains (a single pass a packet for the whole surface took 57 ns a ray
+ * through the double Gauss at f/2.8 with the transmittance, four passes
+ * over all the lanes 46, ttab_apply's two passes 43, five here 42).
+ * Always inlined, with `sphere` a constant at each call: a sphere's
+ * unit normal needs no square root and division (top of file), and a
+ * loop that selected between both forms computed both.  The far root's
+ * division (a start beyond the centre of curvature) is taken only when
+ * a lane needs it: the root's pass keeps the near root and marks those
+ * lanes, and the values are the ones the select of both would give, bit
+ * for bit. */
 static inline __attribute__((always_inline)) void
 surface16(int lanes, float c, float k1, float lim2, float zi, float eta,
           int bend, int sphere, float (*o)[LR__RX_LANES],
@@ -187,14 +188,19 @@ surface16(int lanes, float c, float k1, float lim2, float zi, float eta,
     }
     for (int b = 0; b < lanes; b += 16) {
         for (int i = b; i < b + 16; i++) {
+            float B = bb[i], disc = ds[i];
+            dd[i] = B + copysignf(sqrtf(disc >= 0.0f ? disc : 0.0f), B);
+        }
+    }
+    for (int b = 0; b < lanes; b += 16) {
+        for (int i = b; i < b + 16; i++) {
             float oz = o[2][i] - zi, dz = d[2][i];
-            float A = aa[i], B = bb[i], C = cc[i], disc = ds[i];
-            float den = B + copysignf(sqrtf(disc >= 0.0f ? disc : 0.0f), B);
+            float A = aa[i], C = cc[i], disc = ds[i], den = dd[i];
             float t = -C / (den != 0.0f ? den : 1.0f);
             /* A start beyond the centre of curvature: the other root (as
              * in rx_trace.c's intersect), -den / A, below. */
             int f = A != 0.0f && !(1.0f - c * k1 * (oz + t * dz) > 0.0f);
-            tt[i] = t, dd[i] = den, far[i] = f;
+            tt[i] = t, far[i] = f;
             ok0[i] = (disc >= 0.0f) & (den != 0.0f);
             any |= f;
         }
