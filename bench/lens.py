@@ -5,16 +5,19 @@ Usage: python3 bench/lens.py LENSRAY SCENE [--spp N] [--turns K]
 
 Every sample traced (render.plan and render.adaptive off), one thread:
 the thin lens of the scene and the shipped double Gauss at f/2.8, run in
-turns (thin, lens, thin, lens, ...) so that both see the same machine;
-each one's render CPU time is taken from --stats, and the minimum of its
-turns gives its samples per second.  Also the share of camera rays the
-lens stops (lens_blocked), on axis (a 16 x 16 crop at the centre) at
-full aperture and at f/2.8, and over the whole frame.
+turns, the two back to back and their order swapped every turn, so that
+both see the same machine; each render's CPU time is taken from --stats.
+The ratio is the median over the turns of each turn's ratio of samples
+per CPU second (issue 30's measure), printed with its range; the rates
+are each side's median.  Also the share of camera rays the lens stops
+(lens_blocked), on axis (a 16 x 16 crop at the centre) at full aperture
+and at f/2.8, and over the whole frame.
 
 Prints "LENS key=value ..." lines for bench/summary.py and a short table.
 """
 import json
 import os
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -46,17 +49,18 @@ def main():
     if '--turns' in args:
         turns = int(args[args.index('--turns') + 1])
     common = ['--set', 'render.spp=%d' % spp]
-    best = {'thin': None, 'lens': None}
-    samples = {}
-    for _ in range(turns):
-        for name, extra in (('thin', []), ('lens', LENS + ['--set', 'camera.f_number=2.8'])):
+    rates = {'thin': [], 'lens': []}
+    ratios = []
+    runs = [('thin', []), ('lens', LENS + ['--set', 'camera.f_number=2.8'])]
+    for turn in range(turns):
+        got = {}
+        for name, extra in (runs if turn % 2 == 0 else runs[::-1]):
             st = stats(lensray, scene, common + extra)
-            cpu = st['cpu_seconds']
-            samples[name] = st['samples']
-            if best[name] is None or cpu < best[name]:
-                best[name] = cpu
-    rate = {k: samples[k] / best[k] for k in best}
-    ratio = rate['lens'] / rate['thin']
+            got[name] = st['samples'] / st['cpu_seconds']
+            rates[name].append(got[name])
+        ratios.append(got['lens'] / got['thin'])
+    rate = {k: statistics.median(v) for k, v in rates.items()}
+    ratio = statistics.median(ratios)
     centre = ['--set', 'render.region=[312,232,328,248]']
     lost = {}
     for label, fn, extra in (('axis_open', 0, centre), ('axis_f2.8', 2.8, centre),
@@ -66,10 +70,14 @@ def main():
         p = st['plan']
         lost[label] = p.get('lens_blocked', 0) / max(p['camera_rays'], 1)
     print('LENS thin_samples_per_second=%.0f lens_samples_per_second=%.0f ratio=%.3f '
-          'turns=%d spp=%d %s' % (rate['thin'], rate['lens'], ratio, turns, spp,
-                                  ' '.join('lost_%s=%.4f' % kv for kv in lost.items())))
-    print('  thin lens          %6.2f M samples/s (min CPU of %d turns)' % (rate['thin'] / 1e6, turns))
-    print('  double Gauss f/2.8 %6.2f M samples/s: %.2f of the thin lens' % (rate['lens'] / 1e6, ratio))
+          'ratio_lo=%.3f ratio_hi=%.3f turns=%d spp=%d %s'
+          % (rate['thin'], rate['lens'], ratio, min(ratios), max(ratios), turns, spp,
+             ' '.join('lost_%s=%.4f' % kv for kv in lost.items())))
+    print('  thin lens          %6.2f M samples/s (median CPU rate of %d turns)'
+          % (rate['thin'] / 1e6, turns))
+    print('  double Gauss f/2.8 %6.2f M samples/s: %.2f of the thin lens '
+          '(median of the turns\' ratios; %.2f to %.2f)'
+          % (rate['lens'] / 1e6, ratio, min(ratios), max(ratios)))
     print('  rays the lens stops: on axis %.1f%% open, %.1f%% at f/2.8; '
           'over the frame %.1f%% open, %.1f%% at f/2.8' %
           (100 * lost['axis_open'], 100 * lost['axis_f2.8'],

@@ -181,10 +181,72 @@ static void test_centre_keeps_radiance(void **state)
                 edge[LR_COATING_MGF2] / centre[LR_COATING_MGF2] * 1.0005);
 }
 
+/* The packet trace's transmittance lookups (rx_trace16f.c) in every
+ * version this CPU runs give the same rays and weights, bit for bit:
+ * through the double Gauss (its crossings near the normal, where the
+ * AVX2 version reads the row's last entries by permutes) and the
+ * fisheye (steep crossings, where it gathers), wide open, over the
+ * whole frame. */
+static void test_packet_lookups_agree(void **state)
+{
+    (void)state;
+    const char *lenses[] = {"double-gauss-50", "fisheye-10"};
+    int versions = __builtin_cpu_supports("avx2") ? 2 : 1;
+    enum { NP = 4, ROUNDS = 64 };
+    for (int li = 0; li < 2; li++) {
+        const lr_lens *L;
+        assert_int_equal(lr_lens_load(lenses[li], NULL, &L, NULL), LR_OK);
+        lr_camera cam;
+        lr_camera_default(&cam);
+        cam.model = LR_CAMERA_LENS;
+        cam.lens = L;
+        lr__cam c;
+        lr__cam_init(&c, &cam, 300, 200);
+        uint64_t rng = 7;
+        int stopped = 0;
+        for (int round = 0; round < ROUNDS; round++) {
+            float fx[NP][16], fy[NP][16], lu[NP][16], lv[NP][16];
+            int ns[NP] = {16, 16, 16, 16};
+            for (int p = 0; p < NP; p++)
+                for (int l = 0; l < 16; l++) {
+                    float r[4];
+                    for (int k = 0; k < 4; k++) {
+                        rng = rng * 6364136223846793005ull +
+                              1442695040888963407ull;
+                        r[k] = (float)((rng >> 40) * 0x1p-24);
+                    }
+                    fx[p][l] = 300 * r[0], fy[p][l] = 200 * r[1];
+                    lu[p][l] = r[2], lv[p][l] = r[3];
+                }
+            struct RTCRayHit16 rh[2][NP];
+            float wt[2][NP][16];
+            memset(rh, 0, sizeof rh);
+            for (int v = 0; v < 2; v++) {
+                lr__rx_trace_isa = v < versions ? v + 1 : 1;
+                c.model->rays16_n(&c, 1, NP, ns, (const float(*)[16])fx,
+                                  (const float(*)[16])fy,
+                                  (const float(*)[16])lu,
+                                  (const float(*)[16])lv, rh[v], wt[v]);
+            }
+            lr__rx_trace_isa = 0;
+            for (int p = 0; p < NP; p++)
+                for (int l = 0; l < 16; l++)
+                    stopped += wt[0][p][l] == 0.0f;
+            assert_memory_equal(wt[0], wt[1], sizeof wt[0]);
+            assert_memory_equal(rh[0], rh[1], sizeof rh[0]);
+        }
+        /* Both kinds of lane were compared. */
+        assert_true(stopped > 0 && stopped < ROUNDS * NP * 16);
+    }
+    if (versions == 1)
+        print_message("AVX2 not on this CPU: the portable lookups only\n");
+}
+
 static const struct CMUnitTest transmit_tests[] = {
     cmocka_unit_test(test_plate),
     cmocka_unit_test(test_table_matches_formula),
     cmocka_unit_test(test_centre_keeps_radiance),
+    cmocka_unit_test(test_packet_lookups_agree),
 };
 
 LR_TEST_GROUP(transmit, transmit_tests)

@@ -11,7 +11,9 @@
 #include "prescription.h"
 #include "transmit.h"
 
+#include <immintrin.h>
 #include <math.h>
+#include <string.h>
 
 /* The packet camera's version: lr__rx_trace16's loop in float, one
  * AVX-512 vector for each packet's sixteen lanes (Embree traces floats
@@ -42,6 +44,224 @@ static double aspheric_t(const lr__ttab *tab, int i, const double *n_after,
     }
     double c = vv > 0.0 ? fabs(dv) / sqrt(vv) : 1.0;
     return lr__ttab_at(tab, i, n1, c);
+}
+
+int lr__rx_trace_isa = 0;
+
+/* T[l] *= the table row's T at the cosine cosv[l] on the ray's side, for
+ * `lanes` lanes (a multiple of 8): the sine invariant's n1^2 (1 - cos^2)
+ * into the cosine on the lower-index side (transmit.h), its fourth root
+ * into the row, linear interpolation (with the row's differences, dt,
+ * computed once in float: the same values).  A lane lost on the way has
+ * a meaningless cosine (NaN or infinite); its index is kept inside the
+ * row and its weight is read by nobody.  Portable C and AVX2: the same
+ * operations in the same order, the same bits. */
+static void ttab_apply_c(int lanes, const float *cosv, float n1s, float tk,
+                         const float *trow, const float *tdt, float *T)
+{
+    /* Copies: read through pointers that might alias T, the lookups kept
+     * GCC from vectorising the loop at all (scalar, it was a third of
+     * the lens's time). */
+    float row[LR__T_N], dt[LR__T_N];
+    memcpy(row, trow, sizeof row);
+    memcpy(dt, tdt, sizeof dt);
+    for (int l = 0; l < lanes; l++) {
+        float ci = cosv[l];
+        float c2 = 1.0f - n1s * (1.0f - ci * ci) * tk;
+        float x = sqrtf(sqrtf(c2 > 0.0f ? c2 : 0.0f)) * (float)LR__T_N;
+        int j = x < (float)LR__T_N ? (int)x : LR__T_N - 1;
+        j = j < LR__T_N - 1 ? j : LR__T_N - 1;
+        float fr = x - (float)j;
+        T[l] *= row[j] + fr * dt[j];
+    }
+}
+
+/* The AVX2 version.  Its gathers (two per eight lanes) bound it on AMD's
+ * Zen 3, and most crossings are within 50 degrees of the normal, where
+ * the index is in the row's last sixteen entries: eight lanes that all
+ * are take them from registers by permutes instead. */
+__attribute__((target("avx2"))) static void
+ttab_apply_avx2(int lanes, const float *cosv, float n1s, float tk,
+                const float *row, const float *dt, float *T)
+{
+    const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps();
+    const __m256 vn1s = _mm256_set1_ps(n1s), vtk = _mm256_set1_ps(tk);
+    const __m256 vn = _mm256_set1_ps((float)LR__T_N);
+    const __m256i last = _mm256_set1_epi32(LR__T_N - 1);
+    const __m256i k48 = _mm256_set1_epi32(LR__T_N - 16);
+    const __m256i k55 = _mm256_set1_epi32(LR__T_N - 9);
+    const __m256 r6 = _mm256_loadu_ps(row + LR__T_N - 16);
+    const __m256 r7 = _mm256_loadu_ps(row + LR__T_N - 8);
+    const __m256 d6 = _mm256_loadu_ps(dt + LR__T_N - 16);
+    const __m256 d7 = _mm256_loadu_ps(dt + LR__T_N - 8);
+    /* Two passes, the square roots in the first (as surface16's). */
+    float xs[LR__RX_LANES] __attribute__((aligned(32)));
+    for (int l = 0; l < lanes; l += 8) {
+        __m256 ci = _mm256_loadu_ps(cosv + l);
+        __m256 s = _mm256_mul_ps(vn1s,
+                                 _mm256_sub_ps(one, _mm256_mul_ps(ci, ci)));
+        __m256 c2 = _mm256_sub_ps(one, _mm256_mul_ps(s, vtk));
+        /* c2 > 0 ? c2 : 0 (NaN: 0). */
+        c2 = _mm256_and_ps(_mm256_cmp_ps(c2, zero, _CMP_GT_OQ), c2);
+        _mm256_store_ps(xs + l,
+                        _mm256_mul_ps(_mm256_sqrt_ps(_mm256_sqrt_ps(c2)), vn));
+    }
+    for (int l = 0; l < lanes; l += 8) {
+        __m256 x = _mm256_load_ps(xs + l);
+        /* x < N ? (int)x : N - 1, then at most N - 1. */
+        __m256i j = _mm256_cvttps_epi32(x);
+        j = _mm256_blendv_epi8(
+            last, j, _mm256_castps_si256(_mm256_cmp_ps(x, vn, _CMP_LT_OQ)));
+        j = _mm256_min_epi32(j, last);
+        __m256 fr = _mm256_sub_ps(x, _mm256_cvtepi32_ps(j));
+        __m256 a, b;
+        if (_mm256_testz_si256(_mm256_cmpgt_epi32(k48, j),
+                               _mm256_cmpgt_epi32(k48, j))) {
+            /* Every index in the last sixteen: the permutes read its
+             * low three bits. */
+            __m256 hi = _mm256_castsi256_ps(_mm256_cmpgt_epi32(j, k55));
+            a = _mm256_blendv_ps(_mm256_permutevar8x32_ps(r6, j),
+                                 _mm256_permutevar8x32_ps(r7, j), hi);
+            b = _mm256_blendv_ps(_mm256_permutevar8x32_ps(d6, j),
+                                 _mm256_permutevar8x32_ps(d7, j), hi);
+        } else {
+            a = _mm256_i32gather_ps(row, j, 4);
+            b = _mm256_i32gather_ps(dt, j, 4);
+        }
+        __m256 t = _mm256_add_ps(a, _mm256_mul_ps(fr, b));
+        _mm256_storeu_ps(T + l, _mm256_mul_ps(_mm256_loadu_ps(T + l), t));
+    }
+}
+
+static void ttab_apply(int lanes, const float *cosv, float n1s, float tk,
+                       const float *row, const float *dt, float *T)
+{
+    int isa = lr__rx_trace_isa                 ? lr__rx_trace_isa
+              : __builtin_cpu_supports("avx2") ? 2
+                                               : 1;
+    if (isa == 2)
+        ttab_apply_avx2(lanes, cosv, n1s, tk, row, dt, T);
+    else
+        ttab_apply_c(lanes, cosv, n1s, tk, row, dt, T);
+}
+
+/* One surface of the quadric family (not aspheric, not a flat surface
+ * between equal media), on every lane, in five passes over all the
+ * lanes (16 known lanes, a vector, at a time): the quadratic, its
+ * discriminant's square root, the root, the normal and refracted
+ * cosine, the refracted direction.  Each pass is a short chain of
+ * long-latency steps (square roots, a division); run over all the
+ * packets' vectors one after another, the processor overlaps their
+ * chains (a single pass a packet for the whole surface took 57 ns a ray
+ * through the double Gauss at f/2.8 with the transmittance, four passes
+ * over all the lanes 46, ttab_apply's two passes 43, five here 42).
+ * Always inlined, with `sphere` a constant at each call: a sphere's
+ * unit normal needs no square root and division (top of file), and a
+ * loop that selected between both forms computed both.  The far root's
+ * division (a start beyond the centre of curvature) is taken only when
+ * a lane needs it: the root's pass keeps the near root and marks those
+ * lanes, and the values are the ones the select of both would give, bit
+ * for bit. */
+static inline __attribute__((always_inline)) void
+surface16(int lanes, float c, float k1, float lim2, float zi, float eta,
+          int bend, int sphere, float (*o)[LR__RX_LANES],
+          float (*d)[LR__RX_LANES], int *alive, float *cosv)
+{
+    float tt[LR__RX_LANES], dd[LR__RX_LANES], aa[LR__RX_LANES];
+    float bb[LR__RX_LANES], cc[LR__RX_LANES], ds[LR__RX_LANES];
+    int ok0[LR__RX_LANES], far[LR__RX_LANES], any = 0;
+    for (int b = 0; b < lanes; b += 16) {
+        for (int i = b; i < b + 16; i++) {
+            int l = i;
+            float ox = o[0][l], oy = o[1][l], oz = o[2][l] - zi;
+            float dx = d[0][l], dy = d[1][l], dz = d[2][l];
+            /* On a sphere k1 = 1 and |d| = 1 (top of file): A = c. */
+            float A = sphere ? c : c * (dx * dx + dy * dy + k1 * dz * dz);
+            float B = sphere ? c * (ox * dx + oy * dy + oz * dz) - dz
+                             : c * (ox * dx + oy * dy + k1 * oz * dz) - dz;
+            float C = sphere
+                          ? c * (ox * ox + oy * oy + oz * oz) - 2.0f * oz
+                          : c * (ox * ox + oy * oy + k1 * oz * oz) - 2.0f * oz;
+            float disc = B * B - A * C;
+            aa[i] = A, bb[i] = B, cc[i] = C, ds[i] = disc;
+        }
+    }
+    for (int b = 0; b < lanes; b += 16) {
+        for (int i = b; i < b + 16; i++) {
+            float B = bb[i], disc = ds[i];
+            dd[i] = B + copysignf(sqrtf(disc >= 0.0f ? disc : 0.0f), B);
+        }
+    }
+    for (int b = 0; b < lanes; b += 16) {
+        for (int i = b; i < b + 16; i++) {
+            float oz = o[2][i] - zi, dz = d[2][i];
+            float A = aa[i], C = cc[i], disc = ds[i], den = dd[i];
+            float t = -C / (den != 0.0f ? den : 1.0f);
+            /* A start beyond the centre of curvature: the other root (as
+             * in rx_trace.c's intersect), -den / A, below. */
+            int f = A != 0.0f && !(1.0f - c * k1 * (oz + t * dz) > 0.0f);
+            tt[i] = t, far[i] = f;
+            ok0[i] = (disc >= 0.0f) & (den != 0.0f);
+            any |= f;
+        }
+    }
+    if (any)
+        for (int b = 0; b < lanes; b += 16)
+            for (int i = b; i < b + 16; i++)
+                tt[i] = far[i] ? -dd[i] / (aa[i] != 0.0f ? aa[i] : 1.0f)
+                               : tt[i];
+    /* The refraction, the square root in a pass of its own. */
+    float mxa[LR__RX_LANES], mya[LR__RX_LANES], mza[LR__RX_LANES];
+    float ka[LR__RX_LANES];
+    for (int b = 0; b < lanes; b += 16) {
+        for (int i = b; i < b + 16; i++) {
+            int l = i;
+            float ox = o[0][l], oy = o[1][l], oz0 = o[2][l], oz = oz0 - zi;
+            float dx = d[0][l], dy = d[1][l], dz = d[2][l];
+            float t = tt[i];
+            int ok = ok0[i];
+            ok &= isfinite(t);
+            float px = ox + t * dx, py = oy + t * dy, pz = oz + t * dz;
+            float gx = -c * px, gy = -c * py, gz = 1.0f - c * k1 * pz;
+            ok &= gz > 0.0f;
+            float inv = sphere ? 1.0f
+                               : 1.0f / sqrtf(gx * gx + gy * gy + gz * gz);
+            float mx = gx * inv, my = gy * inv, mz = gz * inv;
+            ok &= !(px * px + py * py > lim2);
+            float cosi = -(mx * dx + my * dy + mz * dz);
+            float sg = cosi < 0.0f ? -1.0f : 1.0f;
+            mx *= sg, my *= sg, mz *= sg, cosi *= sg;
+            float k = 1.0f - eta * eta * (1.0f - cosi * cosi);
+            ok &= !bend || k >= 0.0f;
+            int live = alive[l] & ok;
+            alive[l] = live;
+            cosv[l] = cosi;
+            mxa[l] = mx, mya[l] = my, mza[l] = mz, ka[l] = k;
+            /* Every lane stored, the old value where it stays: a
+             * conditional store became a masked one (vmaskmovps, slow
+             * on AMD's processors). */
+            o[0][l] = live ? px : ox;
+            o[1][l] = live ? py : oy;
+            o[2][l] = live ? pz + zi : oz0;
+        }
+    }
+    if (!bend)
+        return;
+    for (int b = 0; b < lanes; b += 16) {
+        for (int i = b; i < b + 16; i++) {
+            int l = i;
+            float dx = d[0][l], dy = d[1][l], dz = d[2][l];
+            float cosi = cosv[l], k = ka[l];
+            float mx = mxa[l], my = mya[l], mz = mza[l];
+            float fq = eta * cosi - sqrtf(k >= 0.0f ? k : 0.0f);
+            float ex = eta * dx + fq * mx, ey = eta * dy + fq * my,
+                  ez = eta * dz + fq * mz;
+            int live = alive[l];
+            d[0][l] = live ? ex : dx;
+            d[1][l] = live ? ey : dy;
+            d[2][l] = live ? ez : dz;
+        }
+    }
 }
 
 __attribute__((target_clones("avx512f", "avx2", "default"))) void
@@ -90,7 +310,6 @@ lr__rx_trace16f(const lr__rx *rx, const double *z, const double *n_after,
         /* The transmittance table's row (transmit.h), where there is an
          * interface and a table. */
         const int lose = tab != NULL && bend && tab->inv_nmin2[i] != 0.0f;
-        const float *trow = tab != NULL ? tab->t[i] : NULL;
         const float tk = tab != NULL ? tab->inv_nmin2[i] : 0.0f;
         const float n1s = (float)(n1 * n1);
         if (c == 0.0f && !bend) {
@@ -111,71 +330,14 @@ lr__rx_trace16f(const lr__rx *rx, const double *z, const double *n_after,
             }
             continue;
         }
-        /* A packet at a time (a vector of 16 known lanes), the packets
-         * one after another: their chains are independent and overlap. */
-        for (int b = 0; b < lanes; b += 16) {
-            for (int l = b; l < b + 16; l++) {
-                float ox = o[0][l], oy = o[1][l], oz = o[2][l] - zi;
-                float dx = d[0][l], dy = d[1][l], dz = d[2][l];
-                /* On a sphere k1 = 1 and |d| = 1 (top of file): A = c. */
-                float A = sphere ? c : c * (dx * dx + dy * dy + k1 * dz * dz);
-                float B = sphere ? c * (ox * dx + oy * dy + oz * dz) - dz
-                                 : c * (ox * dx + oy * dy + k1 * oz * dz) - dz;
-                float C = sphere ? c * (ox * ox + oy * oy + oz * oz) - 2.0f * oz
-                                 : c * (ox * ox + oy * oy + k1 * oz * oz) -
-                                       2.0f * oz;
-                float disc = B * B - A * C;
-                int ok = disc >= 0.0f;
-                float den = B + copysignf(sqrtf(ok ? disc : 0.0f), B);
-                ok &= den != 0.0f;
-                float t = -C / (den != 0.0f ? den : 1.0f);
-                /* A start beyond the centre of curvature: the other root (as
-                 * in rx_trace.c's intersect). */
-                float t2 = -den / (A != 0.0f ? A : 1.0f);
-                t = A != 0.0f && !(1.0f - c * k1 * (oz + t * dz) > 0.0f) ? t2
-                                                                         : t;
-                ok &= isfinite(t);
-                float px = ox + t * dx, py = oy + t * dy, pz = oz + t * dz;
-                float gx = -c * px, gy = -c * py, gz = 1.0f - c * k1 * pz;
-                ok &= gz > 0.0f;
-                float inv = sphere ? 1.0f
-                                   : 1.0f / sqrtf(gx * gx + gy * gy + gz * gz);
-                float mx = gx * inv, my = gy * inv, mz = gz * inv;
-                ok &= !(px * px + py * py > lim2);
-                float cosi = -(mx * dx + my * dy + mz * dz);
-                float sg = cosi < 0.0f ? -1.0f : 1.0f;
-                mx *= sg, my *= sg, mz *= sg, cosi *= sg;
-                float k = 1.0f - eta * eta * (1.0f - cosi * cosi);
-                ok &= !bend || k >= 0.0f;
-                float f = eta * cosi - sqrtf(k >= 0.0f ? k : 0.0f);
-                float ex = eta * dx + f * mx, ey = eta * dy + f * my,
-                      ez = eta * dz + f * mz;
-                int live = alive[l] & ok;
-                alive[l] = live;
-                cosv[l] = cosi;
-                o[0][l] = live ? px : o[0][l];
-                o[1][l] = live ? py : o[1][l];
-                o[2][l] = live ? pz + zi : o[2][l];
-                d[0][l] = live && bend ? ex : dx;
-                d[1][l] = live && bend ? ey : dy;
-                d[2][l] = live && bend ? ez : dz;
-            }
-        }
+        if (sphere)
+            surface16(lanes, c, k1, lim2, zi, eta, bend, 1, o, d, alive, cosv);
+        else
+            surface16(lanes, c, k1, lim2, zi, eta, bend, 0, o, d, alive, cosv);
         /* The transmittance in a loop of its own: its table lookups
          * (gathers) inside the loop above kept GCC from vectorising it,
-         * and the lens's rays took twice as long.  A lane lost here has
-         * a meaningless cosine (NaN gives c2 = 0 below) and a weight
-         * nobody reads. */
+         * and the lens's rays took twice as long. */
         if (lose)
-            for (int l = 0; l < lanes; l++) {
-                /* T at the sine invariant n1^2 (1 - cos^2). */
-                float ci = cosv[l];
-                float c2 = 1.0f - n1s * (1.0f - ci * ci) * tk;
-                float x = sqrtf(sqrtf(c2 > 0.0f ? c2 : 0.0f)) * (float)LR__T_N;
-                int j = (int)x;
-                j = j < LR__T_N - 1 ? j : LR__T_N - 1;
-                float fr = x - (float)j;
-                T[l] *= trow[j] + fr * (trow[j + 1] - trow[j]);
-            }
+            ttab_apply(lanes, cosv, n1s, tk, tab->t[i], tab->dt[i], T);
     }
 }

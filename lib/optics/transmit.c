@@ -29,6 +29,8 @@ void lr__ttab_fill(lr__ttab *tab, const lr__rx *rx, const double *n_after,
             double R = lr__rx_surface_r(rx, n_after, i, 1, cb, nm, override);
             tab->t[i][j] = (float)(1.0 - R);
         }
+        for (int j = 0; j < LR__T_N; j++)
+            tab->dt[i][j] = tab->t[i][j + 1] - tab->t[i][j];
     }
 }
 

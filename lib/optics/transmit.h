@@ -36,6 +36,9 @@ typedef struct lr__ttab {
      * interface: T = 1). */
     float inv_nmin2[LR__RX_MAX_SURFACES];
     float t[LR__RX_MAX_SURFACES][LR__T_N + 1];
+    /* t[i][j + 1] - t[i][j] in float, for the packet trace
+     * (rx_trace16f.c): the same value its lookups computed. */
+    float dt[LR__RX_MAX_SURFACES][LR__T_N];
 } lr__ttab;
 
 /* Fills `tab` for `rx` at wavelength nm, n_after as lr__rx_indices
