@@ -33,6 +33,11 @@
     " \"objects\": [{\"type\": \"sphere\", \"center\": [0, 0, -100],"        \
     "  \"radius\": 0.2, \"material\": \"l\"}]}"
 
+/* A sphere bright enough that its ghosts pass "auto" and get their full
+ * budget (ghost_trace.h: LR__GT_AUTO); at the scene's 1000 they would
+ * add some 1e-4 of white and get few paths. */
+#define BRIGHT "materials.l.emission=[1e6, 1e6, 1e6]"
+
 /* ---- the independent trace ------------------------------------------------ */
 
 typedef struct surf {
@@ -227,14 +232,19 @@ static void test_ghost_energy(void **state)
     lr_scene_free(s);
     double want = ghost / main;
 
-    const char *on[] = {"camera.ghosts=true", "render.spp=512"};
-    const char *off[] = {"camera.ghosts=false", "render.spp=512"};
+    /* Bright enough (its ghost some 0.1 of white) for the ghosts' full
+     * budget (ghost_trace.h). */
+    const char *on[] = {"camera.ghosts=true", "render.spp=512", BRIGHT};
+    const char *off[] = {"camera.ghosts=false", "render.spp=512", BRIGHT};
     lr_render_stats st;
-    lr_image *a = lr_test_render(SCENE(""), on, 2, &st);
-    lr_image *b = lr_test_render(SCENE(""), off, 2, NULL);
+    lr_image *a = lr_test_render(SCENE(""), on, 3, &st);
+    lr_image *b = lr_test_render(SCENE(""), off, 3, NULL);
     lr_test_check_finite(a, &st, "ghosts on");
     /* --stats: the ghost light apart from the light side's own. */
     assert_int_equal(st.ghost_lights, 1);
+    print_message("ghost paths %llu, landed %llu\n",
+                  (unsigned long long)st.ghost_paths,
+                  (unsigned long long)st.ghost_landed);
     assert_true(st.ghost_paths >= 1024 && st.ghost_landed > 0);
     double ea = image_sum(a), eb = image_sum(b);
     double got = (ea - eb) / eb;
@@ -348,11 +358,13 @@ static void test_ghost_colour(void **state)
                  {z0 + 5.0, -100.0, 1.0, 10.0},
                  {z0 + 25.0, 0.0, 1.0, 5.0}};
     const char *on[] = {"camera.ghosts=true", "render.spp=512",
-                        "camera.coating=mgf2", "camera.chromatic.mode=rgb"};
+                        "camera.coating=mgf2", "camera.chromatic.mode=rgb",
+                        BRIGHT};
     const char *off[] = {"camera.ghosts=false", "render.spp=512",
-                         "camera.coating=mgf2", "camera.chromatic.mode=rgb"};
-    lr_image *a = lr_test_render(SCENE(""), on, 4, NULL);
-    lr_image *b = lr_test_render(SCENE(""), off, 4, NULL);
+                         "camera.coating=mgf2", "camera.chromatic.mode=rgb",
+                         BRIGHT};
+    lr_image *a = lr_test_render(SCENE(""), on, 5, NULL);
+    lr_image *b = lr_test_render(SCENE(""), off, 5, NULL);
     static const double nms[3] = {610.0, 550.0, 465.0};
     double want[3], got[3];
     for (int k = 0; k < 3; k++) {

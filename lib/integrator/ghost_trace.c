@@ -8,45 +8,64 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* Whether sphere geometry g's ghosts are called for: "true" (peak
- * infinite) every one in front of the lens; "auto" those whose main
- * image's total, L Omega / Omega_pix (Omega the solid angle the sphere
- * fills from the eye, Omega_pix a central pixel's), times the peak
- * reaches LR__GT_AUTO. */
-static int wants_ghosts(const lr__cam *c, const lr__geom *g, lr__v3 L,
-                        double peak)
+/* The main image's total of sphere geometry g seen by camera c, in
+ * pixels of display white: L Omega / Omega_pix (Omega the solid angle
+ * the sphere fills from the eye, Omega_pix a central pixel's, L's
+ * largest channel).  -1 when the camera is inside the sphere or it lies
+ * behind the camera. */
+static double main_total(const lr__cam *c, const lr__geom *g, lr__v3 L)
 {
     lr__v3 d = v3_sub(g->center, c->origin);
     double dist2 = v3_dot(d, d), r2 = g->radius * g->radius;
     if (!(dist2 > r2) || !(v3_dot(d, c->forward) > -g->radius))
-        return 0;
-    if (isinf(peak))
-        return 1;
+        return -1.0;
     double sin2 = r2 / dist2;
     double omega = 2.0 * M_PI * sin2 / (1.0 + sqrt(1.0 - sin2));
     double omega_pix = (2.0 * c->half_w / c->width) *
                        (2.0 * c->half_h / c->height);
-    return peak * v3_maxc(L) * omega / omega_pix >= LR__GT_AUTO;
+    return v3_maxc(L) * omega / omega_pix;
 }
 
-/* lt's ghost_cdf for n paths of fluxes flux: p_g = (flux_g / sum + 1 /
- * n) / 2 (uniform alone when no flux was estimated).  0: out of
- * memory. */
-static int ghost_cdf(lr__lt *lt, const double *flux, int n)
+/* Light l's ghost paths and their choice (l->cdf, cumulative), from the
+ * n paths' estimates est and its main image's total M (main_total).
+ * Ghost g at mean film value v = M flux / px over its px pixels wants
+ * LR__GT_LANDED spp landings a pixel, times (v / LR__GT_AUTO)^2 below
+ * LR__GT_AUTO (its noise then stays at LR__GT_AUTO / sqrt(LR__GT_LANDED
+ * spp) of white, as a visible ghost's relative noise is 1 /
+ * sqrt(LR__GT_LANDED spp)), so those paths over the share of rays that
+ * land through it; the light's paths are their sum, each drawn with
+ * probability (1 - LR__GT_UNIFORM) of its share plus LR__GT_UNIFORM / n.
+ * 0: out of memory. */
+static int ghost_budget(lr__lt_light *l, const lr__cam *c, int spp,
+                        const lr__ghost_est *est, int n, double M)
 {
-    if (lt->ghost_cdf != NULL)
-        return 1;
-    if ((lt->ghost_cdf = malloc((size_t)n * sizeof *lt->ghost_cdf)) == NULL)
+    if ((l->cdf = malloc((size_t)n * sizeof *l->cdf)) == NULL)
         return 0;
-    double sum = 0.0, acc = 0.0;
-    for (int g = 0; g < n; g++)
-        sum += flux[g];
+    double sum = 0.0;
     for (int g = 0; g < n; g++) {
-        double p = sum > 0.0 ? 0.5 * (flux[g] / sum + 1.0 / n) : 1.0 / n;
-        acc += p;
-        lt->ghost_cdf[g] = acc;
+        double v = M * est[g].flux / est[g].px, q = v / LR__GT_AUTO;
+        double w = est[g].land > 0.0 && est[g].flux > 0.0
+                       ? est[g].px * fmin(1.0, q * q) / est[g].land
+                       : 0.0;
+        l->cdf[g] = w;
+        sum += w;
     }
-    lt->ghost_cdf[n - 1] = 1.0;
+    double acc = 0.0;
+    for (int g = 0; g < n; g++) {
+        double p = sum > 0.0 ? (1.0 - LR__GT_UNIFORM) * l->cdf[g] / sum +
+                                   LR__GT_UNIFORM / n
+                             : 1.0 / n;
+        acc += p;
+        l->cdf[g] = acc;
+    }
+    l->cdf[n - 1] = 1.0;
+    double want = ceil(LR__GT_LANDED * spp * sum / (1.0 - LR__GT_UNIFORM));
+    double cap = fmin((double)(LR__LT_PART - 1),
+                      fmax((double)LR__GT_MIN,
+                           ceil(LR__GT_CAP * spp * c->width * c->height)));
+    l->paths = want < (double)LR__GT_MIN ? LR__GT_MIN
+               : want < cap              ? (uint64_t)want
+                                         : (uint64_t)cap;
     return 1;
 }
 
@@ -55,12 +74,9 @@ int lr__gt_plan(const lr_scene *s, const lr__cam *c, int spp, lr__lt **ltp)
     const lr__camera_model *m = c->model;
     if (m->ghost_paths == NULL || m->ghost_film == NULL)
         return 1;
-    double peak = 0.0, flux[LR__RX_MAX_SURFACES * LR__RX_MAX_SURFACES / 2];
+    double peak = 0.0;
+    lr__ghost_est est[LR__RX_MAX_SURFACES * LR__RX_MAX_SURFACES / 2];
     int n_ghost = -1;
-    double want = ceil((double)spp * c->width * c->height * LR__GT_DENSITY);
-    uint64_t n = want < (double)LR__GT_MIN    ? LR__GT_MIN
-                 : want < (double)LR__LT_PART ? (uint64_t)want
-                                              : LR__LT_PART - 1;
     for (size_t g = 0; g < s->n_geoms; g++) {
         const lr__geom *geo = &s->geoms[g];
         const lr__material *mt = &s->materials[geo->material];
@@ -70,12 +86,15 @@ int lr__gt_plan(const lr_scene *s, const lr__cam *c, int spp, lr__lt **ltp)
         /* The lens's ghosts, once, and only for a scene with a sphere
          * light (a scene without one pays nothing). */
         if (n_ghost < 0)
-            n_ghost = m->ghost_paths(c, &peak, flux);
-        if (n_ghost == 0 || !wants_ghosts(c, geo, mt->emission, peak))
+            n_ghost = m->ghost_paths(c, &peak, est);
+        /* "true" (peak infinite): every light in front of the lens;
+         * "auto": those whose brightest ghost reaches LR__GT_AUTO. */
+        double M = main_total(c, geo, mt->emission);
+        if (n_ghost == 0 || !(M >= 0.0) ||
+            !(isinf(peak) || peak * M >= LR__GT_AUTO))
             continue;
         lr__lt *lt = *ltp;
-        if ((lt == NULL && (*ltp = lt = lr__lt_new(s)) == NULL) ||
-            !ghost_cdf(lt, flux, n_ghost))
+        if (lt == NULL && (*ltp = lt = lr__lt_new(s)) == NULL)
             return 0;
         lr__lt_light *grown = realloc(lt->lights, (lt->n + 1) * sizeof *grown);
         if (grown == NULL)
@@ -89,18 +108,18 @@ int lr__gt_plan(const lr_scene *s, const lr__cam *c, int spp, lr__lt **ltp)
         l->radius = geo->radius;
         l->L = mt->emission;
         l->ghosts = n_ghost;
-        l->paths = n;
+        if (!ghost_budget(l, c, spp, est, n_ghost, M))
+            return 0;
         l->first = lt->paths;
-        lt->paths += n;
+        lt->paths += l->paths;
         lt->ghost_lights++;
     }
     return 1;
 }
 
-void lr__gt_path(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
-                 const lr__lt_light *l, lr__v3 P, double ox, double oy,
-                 const double *ud, double ug, lr__lt_film *f, uint64_t *rays,
-                 uint64_t *landed)
+void lr__gt_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
+                 lr__v3 P, double ox, double oy, const double *ud, double ug,
+                 lr__lt_film *f, uint64_t *rays, uint64_t *landed)
 {
     /* The direction as light_trace.c's sphere_path draws it. */
     lr__v3 dv = v3_sub(l->center, P);
@@ -110,44 +129,53 @@ void lr__gt_path(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
     double dist = sqrt(dist2);
     double sin2 = r2 / dist2, omc = sin2 / (1.0 + sqrt(1.0 - sin2));
     lr__v3 w = lr__lt_in_cone(v3_scale(dv, 1.0 / dist), omc, ud);
-    /* The sphere's light must reach the front of the lens: the camera
-     * ray along w (the same trace as the camera's) meets it first. */
-    (*rays)++;
-    if (lr__trace_geom(s, lr__cam_ray_start(c, P, w), w, INFINITY) != l->geom)
-        return;
     /* The ghost path: the first g whose cumulative probability passes
      * ug (binary search). */
     int lo = 0, hi = l->ghosts - 1;
     while (lo < hi) {
         int mid = (lo + hi) / 2;
-        if (lt->ghost_cdf[mid] > ug)
+        if (l->cdf[mid] > ug)
             hi = mid;
         else
             lo = mid + 1;
     }
     int g = lo;
-    double p_g = lt->ghost_cdf[g] - (g > 0 ? lt->ghost_cdf[g - 1] : 0.0);
+    double p_g = l->cdf[g] - (g > 0 ? l->cdf[g - 1] : 0.0);
     if (!(p_g > 0.0))
         return;
     lr__v3 v = v3_scale(l->L, 2.0 * M_PI * omc / ((double)l->paths * p_g));
     /* chromatic.mode off: every channel at the reference wavelength (a
      * grey ghost, as the main image is traced); rgb and spectral: each
      * channel at its own wavelength, so that a coating's colour shows
-     * (spectral mode: the rgb channels' wavelengths, not its spectra). */
+     * (spectral mode: the rgb channels' wavelengths, not its spectra).
+     * The lens first: most ghost rays are stopped in it or land outside
+     * the frame, and those need no trace through the scene. */
     int k0 = c->chroma.mode == LR_CHROMATIC_OFF ? -1 : 0;
-    int k1 = k0 < 0 ? 0 : 3;
+    int k1 = k0 < 0 ? 0 : 3, n = 0, px[3], py[3];
+    lr__v3 e[3];
     for (int k = k0; k < k1; k++) {
         double fx, fy;
         double W = c->model->ghost_film(c, g, k, ox, oy, w, &fx, &fy);
         if (!(W > 0.0) ||
             !(fx >= 0.0 && fx < c->width && fy >= 0.0 && fy < c->height))
             continue;
-        lr__v3 e = v3_scale(v, W);
+        lr__v3 ek = v3_scale(v, W);
         if (k >= 0)
-            e = v3(k == 0 ? e.x : 0.0, k == 1 ? e.y : 0.0, k == 2 ? e.z : 0.0);
-        if (!(isfinite(e.x) && isfinite(e.y) && isfinite(e.z)))
+            ek = v3(k == 0 ? ek.x : 0.0, k == 1 ? ek.y : 0.0,
+                    k == 2 ? ek.z : 0.0);
+        if (!(isfinite(ek.x) && isfinite(ek.y) && isfinite(ek.z)))
             continue;
-        lr__lt_splat(f, (int)fx, (int)fy, e);
+        px[n] = (int)fx, py[n] = (int)fy, e[n++] = ek;
+    }
+    if (n == 0)
+        return;
+    /* The sphere's light must reach the front of the lens: the camera
+     * ray along w (the same trace as the camera's) meets it first. */
+    (*rays)++;
+    if (lr__trace_geom(s, lr__cam_ray_start(c, P, w), w, INFINITY) != l->geom)
+        return;
+    for (int k = 0; k < n; k++) {
+        lr__lt_splat(f, px[k], py[k], e[k]);
         (*landed)++;
     }
 }

@@ -35,27 +35,30 @@
  * total L Omega / Omega_pix) is on axis, at the reference wavelength. */
 #define LR__GT_AUTO 0.01
 
-/* Ghost paths per pixel of the frame and camera sample per pixel
- * (render.spp), per ghost light, each landing through one ghost path.
- * At least LR__GT_MIN.  scenes/night-lens.json's 24 lights at 160 x 90,
- * ghosts true, took 0.28 s against 0.12 s with ghosts off (2026-12-05,
- * one run each on a shared two-core machine; every ghost path for each
- * light path at 1/16 took 67.6 s): a density, not yet a budget. */
-#define LR__GT_DENSITY (1.0 / 256.0)
-#define LR__GT_MIN 1024
+/* A ghost light's paths follow its ghosts' brightness, not the frame's
+ * size (ghost_trace.c, ghost_budget): a ghost at or above LR__GT_AUTO
+ * of white wants LR__GT_LANDED landings a pixel of its area per camera
+ * sample (render.spp), a fainter one fewer by the square of its
+ * brightness over LR__GT_AUTO; LR__GT_UNIFORM of the paths are drawn
+ * uniformly over the ghost paths, so that a ghost the on-axis estimate
+ * misses still gets some.  At least LR__GT_MIN paths a light, at most
+ * LR__GT_CAP of the frame's pixels times render.spp. */
+#define LR__GT_LANDED 0.25
+#define LR__GT_UNIFORM 0.25
+#define LR__GT_MIN 256
+#define LR__GT_CAP (1.0 / 16.0)
 
 /* Adds to *ltp (made when NULL) a ghost light for every untextured
  * sphere light camera c's ghosts call for (camera.ghosts), spp camera
  * samples a pixel.  Returns 0 when out of memory. */
 int lr__gt_plan(const lr_scene *s, const lr__cam *c, int spp, lr__lt **ltp);
 
-/* One path of ghost light l of lt from lens point P (offset ox, oy), its
- * direction from ud, its ghost path from ug (lt->ghost_cdf); splats
+/* One path of ghost light l from lens point P (offset ox, oy), its
+ * direction from ud, its ghost path from ug (l->cdf); splats
  * into f, counting rays traced and the ghost
  * rays that landed (up to the lens's ghost paths, times 3 in colour). */
-void lr__gt_path(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
-                 const lr__lt_light *l, lr__v3 P, double ox, double oy,
-                 const double *ud, double ug, lr__lt_film *f, uint64_t *rays,
-                 uint64_t *landed);
+void lr__gt_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
+                 lr__v3 P, double ox, double oy, const double *ud, double ug,
+                 lr__lt_film *f, uint64_t *rays, uint64_t *landed);
 
 #endif

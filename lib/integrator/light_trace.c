@@ -86,7 +86,6 @@ void lr__lt_free(lr__lt *lt)
         free(lt->lights[k].cdf);
     free(lt->lights);
     free(lt->direct);
-    free(lt->ghost_cdf);
     lr__lp_free(lt->lp);
     free(lt->wl);
     free(lt);
@@ -1010,7 +1009,7 @@ void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
             lr__v3 P = c->model->lens_point(c, ul, &ox, &oy);
             double ug[2];
             lr__sample_2d(&smp, light_key(l), idx, 4, ug);
-            lr__gt_path(lt, s, c, l, P, ox, oy, ud, ug[0], f, rays, ghosts);
+            lr__gt_path(s, c, l, P, ox, oy, ud, ug[0], f, rays, ghosts);
             continue;
         }
         /* Spectral mode: dimension 6 places the path's wavelengths. */

@@ -76,7 +76,9 @@ typedef struct lr__lt_light {
     double radius;
     /* A mesh: its triangles are scene->emitters[first_tri ..
      * first_tri + n_tri), drawn by area through cdf (n_tri, owned, the
-     * last 1) from a total of `area`; n_tri = 0 for a sphere. */
+     * last 1) from a total of `area`; n_tri = 0 for a sphere.  A ghost
+     * light: cdf is its ghost paths' choice (`ghosts` of them, owned;
+     * ghost_trace.c). */
     long first_tri;
     size_t n_tri;
     double *cdf;
@@ -110,9 +112,6 @@ typedef struct lr__lt {
     lr__lp *lp;
     uint64_t lp_paths; /* all its parts' */
     int ghost_lights;  /* lights with surf LR__LT_GHOST (the last ones) */
-    /* Their ghost paths' choice (ghost_trace.c): cumulative
-     * probabilities, ghost_cdf[g] that of paths 0 .. g, owned. */
-    double *ghost_cdf;
     /* Spectral mode with colours that focus apart: the wavelengths'
      * table (lr__cam_land), owned; else NULL. */
     lr__wl_table *wl;
