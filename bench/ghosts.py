@@ -40,16 +40,28 @@ def render(binary, scene, extra, out):
     raise RuntimeError("no --stats line from %s" % " ".join(cmd))
 
 
-def main():
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def parser(doc):
+    """The arguments this script and ghost_noise.py share."""
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
     ap.add_argument("--bin", default="build/lensray")
-    ap.add_argument("--rounds", type=int, default=7)
     ap.add_argument("--set", action="append", default=[])
     ap.add_argument("scene")
-    a = ap.parse_args()
+    return ap
+
+
+def sets(a):
+    """--set PATH=VALUE ... as lensray's arguments."""
     extra = []
     for s in a.set:
         extra += ["--set", s]
+    return extra
+
+
+def main():
+    ap = parser(__doc__)
+    ap.add_argument("--rounds", type=int, default=7)
+    a = ap.parse_args()
+    extra = sets(a)
     times = {"false": [], "true": []}
     last = None
     with tempfile.TemporaryDirectory() as tmp:

@@ -26,26 +26,28 @@ static double main_total(const lr__cam *c, const lr__geom *g, lr__v3 L)
     return v3_maxc(L) * omega / omega_pix;
 }
 
-/* Light l's ghost paths and their choice (l->cdf, cumulative), from the
- * n paths' estimates est and its main image's total M (main_total).
- * Ghost g at mean film value v = M flux / px over its px pixels wants
- * LR__GT_LANDED spp landings a pixel, times (v / LR__GT_AUTO)^2 below
- * LR__GT_AUTO (its noise then stays at LR__GT_AUTO / sqrt(LR__GT_LANDED
- * spp) of white, as a visible ghost's relative noise is 1 /
- * sqrt(LR__GT_LANDED spp)), so those paths over the share of rays that
- * land through it; the light's paths are their sum, each drawn with
- * probability (1 - LR__GT_UNIFORM) of its share plus LR__GT_UNIFORM / n.
- * 0: out of memory. */
-static int ghost_budget(lr__lt_light *l, const lr__cam *c, int spp,
-                        const lr__ghost_est *est, int n, double M)
+/* Light l's choice of ghost paths (l->cdf, cumulative) from the n
+ * paths' estimates est, and its weight in the budget: M times the sum of
+ * flux_g / sqrt(land_g), M its main image's total (main_total).
+ *
+ * Ghost g's light, M flux_g, lands in K_g = N p_g land_g splats of a
+ * light's N paths, each M flux_g / K_g; over its px_g pixels their
+ * counts are Poisson, so the squared error summed over its pixels is
+ * (M flux_g)^2 / (N p_g land_g).  Summed over the ghosts that is least
+ * with p_g proportional to flux_g / sqrt(land_g), and then (M sum_g
+ * flux_g / sqrt(land_g))^2 / N: the weight squared over N.  Each path
+ * is drawn with (1 - LR__GT_UNIFORM) of that share plus LR__GT_UNIFORM
+ * / n, so that a ghost the on-axis estimate misses (off axis other
+ * ghosts lead) still gets some.  -1: out of memory. */
+static double ghost_choice(lr__lt_light *l, const lr__ghost_est *est, int n,
+                           double M)
 {
     if ((l->cdf = malloc((size_t)n * sizeof *l->cdf)) == NULL)
-        return 0;
+        return -1.0;
     double sum = 0.0;
     for (int g = 0; g < n; g++) {
-        double v = M * est[g].flux / est[g].px, q = v / LR__GT_AUTO;
         double w = est[g].land > 0.0 && est[g].flux > 0.0
-                       ? est[g].px * fmin(1.0, q * q) / est[g].land
+                       ? est[g].flux / sqrt(est[g].land)
                        : 0.0;
         l->cdf[g] = w;
         sum += w;
@@ -59,14 +61,36 @@ static int ghost_budget(lr__lt_light *l, const lr__cam *c, int spp,
         l->cdf[g] = acc;
     }
     l->cdf[n - 1] = 1.0;
-    double want = ceil(LR__GT_LANDED * spp * sum / (1.0 - LR__GT_UNIFORM));
-    double cap = fmin((double)(LR__LT_PART - 1),
-                      fmax((double)LR__GT_MIN,
-                           ceil(LR__GT_CAP * spp * c->width * c->height)));
-    l->paths = want < (double)LR__GT_MIN ? LR__GT_MIN
-               : want < cap              ? (uint64_t)want
-                                         : (uint64_t)cap;
-    return 1;
+    return M * sum;
+}
+
+/* The ghost lights' paths, lights first .. lt->n - 1 with budget weights
+ * a[] (ghost_choice): the squared error over the frame's P pixels,
+ * sum_l a_l^2 / ((1 - LR__GT_UNIFORM) N_l), is least for a total of
+ * paths with N_l proportional to a_l, and reaches LR__GT_SIGMA^2 / spp
+ * per pixel with N_l = a_l sum_k a_k / ((1 - LR__GT_UNIFORM) P
+ * LR__GT_SIGMA^2 / spp); all of them at most LR__GT_CAP spp P (scaled
+ * down alike), each at least LR__GT_MIN. */
+static void ghost_paths(lr__lt *lt, int first, const double *a,
+                        const lr__cam *c, int spp)
+{
+    double P = c->width * c->height, sum = 0.0;
+    for (int k = first; k < lt->n; k++)
+        sum += a[k - first];
+    double per = sum * spp /
+                 ((1.0 - LR__GT_UNIFORM) * P * LR__GT_SIGMA * LR__GT_SIGMA);
+    double cap = LR__GT_CAP * spp * P;
+    if (per * sum > cap)
+        per = cap / sum;
+    for (int k = first; k < lt->n; k++) {
+        lr__lt_light *l = &lt->lights[k];
+        double want = ceil(a[k - first] * per);
+        l->paths = !(want > (double)LR__GT_MIN)       ? LR__GT_MIN
+                   : want < (double)(LR__LT_PART - 1) ? (uint64_t)want
+                                                      : LR__LT_PART - 1;
+        l->first = lt->paths;
+        lt->paths += l->paths;
+    }
 }
 
 int lr__gt_plan(const lr_scene *s, const lr__cam *c, int spp, lr__lt **ltp)
@@ -76,7 +100,8 @@ int lr__gt_plan(const lr_scene *s, const lr__cam *c, int spp, lr__lt **ltp)
         return 1;
     double peak = 0.0;
     lr__ghost_est est[LR__RX_MAX_SURFACES * LR__RX_MAX_SURFACES / 2];
-    int n_ghost = -1;
+    int n_ghost = -1, first = -1;
+    double *a = NULL;
     for (size_t g = 0; g < s->n_geoms; g++) {
         const lr__geom *geo = &s->geoms[g];
         const lr__material *mt = &s->materials[geo->material];
@@ -95,10 +120,15 @@ int lr__gt_plan(const lr_scene *s, const lr__cam *c, int spp, lr__lt **ltp)
             continue;
         lr__lt *lt = *ltp;
         if (lt == NULL && (*ltp = lt = lr__lt_new(s)) == NULL)
-            return 0;
+            goto nomem;
+        if (a == NULL) {
+            if ((a = malloc(s->n_geoms * sizeof *a)) == NULL)
+                goto nomem;
+            first = lt->n;
+        }
         lr__lt_light *grown = realloc(lt->lights, (lt->n + 1) * sizeof *grown);
         if (grown == NULL)
-            return 0;
+            goto nomem;
         lt->lights = grown;
         lr__lt_light *l = &lt->lights[lt->n++];
         memset(l, 0, sizeof *l);
@@ -108,13 +138,17 @@ int lr__gt_plan(const lr_scene *s, const lr__cam *c, int spp, lr__lt **ltp)
         l->radius = geo->radius;
         l->L = mt->emission;
         l->ghosts = n_ghost;
-        if (!ghost_budget(l, c, spp, est, n_ghost, M))
-            return 0;
-        l->first = lt->paths;
-        lt->paths += l->paths;
         lt->ghost_lights++;
+        if (!((a[lt->n - 1 - first] = ghost_choice(l, est, n_ghost, M)) >= 0.0))
+            goto nomem;
     }
+    if (a != NULL)
+        ghost_paths(*ltp, first, a, c, spp);
+    free(a);
     return 1;
+nomem:
+    free(a);
+    return 0;
 }
 
 void lr__gt_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,

@@ -35,18 +35,19 @@
  * total L Omega / Omega_pix) is on axis, at the reference wavelength. */
 #define LR__GT_AUTO 0.01
 
-/* A ghost light's paths follow its ghosts' brightness, not the frame's
- * size (ghost_trace.c, ghost_budget): a ghost at or above LR__GT_AUTO
- * of white wants LR__GT_LANDED landings a pixel of its area per camera
- * sample (render.spp), a fainter one fewer by the square of its
- * brightness over LR__GT_AUTO; LR__GT_UNIFORM of the paths are drawn
- * uniformly over the ghost paths, so that a ghost the on-axis estimate
- * misses still gets some.  At least LR__GT_MIN paths a light, at most
- * LR__GT_CAP of the frame's pixels times render.spp. */
-#define LR__GT_LANDED 0.25
-#define LR__GT_UNIFORM 0.25
+/* The ghost lights' paths follow their ghosts' brightness, not the
+ * frame's size (ghost_trace.c: ghost_choice, ghost_paths): enough that
+ * the ghosts' rms error over the frame's pixels, estimated from the
+ * camera's on-axis fluxes, is LR__GT_SIGMA / sqrt(render.spp) of
+ * display white (1/512 at 64 spp), each light's share by its ghosts'
+ * brightness; LR__GT_UNIFORM of a light's paths are drawn uniformly over
+ * the ghost paths.  At least LR__GT_MIN paths a light; all the lights'
+ * together at most LR__GT_CAP of the frame's pixels times render.spp
+ * (then the ghosts are noisier than LR__GT_SIGMA, the price bounded). */
+#define LR__GT_SIGMA (1.0 / 64.0)
+#define LR__GT_UNIFORM 0.5
 #define LR__GT_MIN 256
-#define LR__GT_CAP (1.0 / 16.0)
+#define LR__GT_CAP (1.0 / 8.0)
 
 /* Adds to *ltp (made when NULL) a ghost light for every untextured
  * sphere light camera c's ghosts call for (camera.ghosts), spp camera
