@@ -281,6 +281,11 @@ static void test_ghost_energy(void **state)
                   got / want);
     assert_true(want > 1e-3 && want < 3e-3);
     assert_true(fabs(got / want - 1.0) < 0.02);
+    /* --stats ghost_flux: the same ratio, over the main image the stats
+     * estimate (L Omega / Omega_pix) rather than the one rendered. */
+    print_message("--stats ghost_flux %.6g (%.4f of the rendered ratio)\n",
+                  st.ghost_flux, st.ghost_flux / got);
+    assert_true(fabs(st.ghost_flux / got - 1.0) < 0.02);
     lr_image_free(a);
     lr_image_free(b);
 }

@@ -216,14 +216,18 @@ typedef struct lr__camera_model {
      * infinity, every source passes; "auto":) to the largest
      * over them of the ghost's mean film value per unit of the main
      * image's total (lr__ghost_fluxes' flux on axis over its area in
-     * pixels), and est[g] (room for LR__RX_MAX_SURFACES^2 / 2) to what
-     * it estimates of each path on axis (all 0 when it could not);
+     * pixels), *k to the main image's total on axis per unit of
+     * radiance and of the source's solid angle (in pixels of display
+     * white, 0 when it could not be estimated), and est[g] (room for
+     * LR__RX_MAX_SURFACES^2 / 2) to what it estimates of each path on
+     * axis (all 0 when it could not);
      * `ghost_film` is `film` for light that follows path g
      * (0 .. ghost_paths - 1) instead of the main path, at the reference
      * wavelength (k = -1) or rgb channel k's (0 red, 1 green, 2 blue):
      * where it lands and its importance, 0 when it is lost.  NULL: the
      * model has no ghosts. */
-    int (*ghost_paths)(const lr__cam *c, double *peak, lr__ghost_est *est);
+    int (*ghost_paths)(const lr__cam *c, double *peak, double *k,
+                       lr__ghost_est *est);
     double (*ghost_film)(const lr__cam *c, int g, int k, double ox, double oy,
                          lr__v3 d, double *fx, double *fy);
 } lr__camera_model;

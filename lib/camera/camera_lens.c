@@ -1094,18 +1094,20 @@ static lr__ghost ghost_at(int g)
     return (lr__ghost){j, g - j * (j - 1) / 2};
 }
 
-static int lens_ghost_paths(const lr__cam *c, double *peak, lr__ghost_est *est)
+static int lens_ghost_paths(const lr__cam *c, double *peak, double *k,
+                            lr__ghost_est *est)
 {
     const lr__lens_cam *lc = &c->lens;
-    *peak = 0.0;
+    *peak = 0.0, *k = 0.0;
     if (lc->ghosts == LR_GHOSTS_OFF || lc->n_ghost == 0)
         return 0;
     for (int g = 0; g < lc->n_ghost; g++)
         est[g] = (lr__ghost_est){0.0, 1.0, 0.0};
-    /* On axis at the reference wavelength, a 12 x 12 beam (some 9 ms
-     * for the double Gauss's 55 paths), counted on the frame's circle:
-     * an estimate for the plan, not a bound.  Out of memory: no ghost
-     * shows in "auto", and "true" draws the paths alike. */
+    /* On axis at the reference wavelength and the camera's stop, a 12 x
+     * 12 beam (some 9 ms for the double Gauss's 55 paths), counted on
+     * the frame's circle: an estimate for the plan, not a bound.  Out of
+     * memory: no ghost shows in "auto", and "true" draws the paths
+     * alike. */
     lr__ghost_flux *gf = malloc(LR__GHOST_MAX * sizeof *gf);
     if (gf == NULL) {
         *peak = lc->ghosts == LR_GHOSTS_ON ? INFINITY : 0.0;
@@ -1113,16 +1115,26 @@ static int lens_ghost_paths(const lr__cam *c, double *peak, lr__ghost_est *est)
     }
     double main = 0.0;
     int n = lr__ghost_fluxes_t(&lc->L->rx, lc->n_ref, &lc->t_ref, c->nm_ref,
-                               lc->coat, 0.0, 12, lc->pupil_rmax, gf, &main);
+                               lc->stop_scale, lc->coat, 0.0, 12,
+                               lc->pupil_rmax, gf, &main);
     double A_pix = lc->sensor_w * lc->sensor_h / (c->width * c->height);
-    for (int k = 0; k < n; k++) {
-        /* A uniform disc of radius a has rms radius a / sqrt 2: area
+    /* The main image of a distant source of radiance L filling a small
+     * solid angle Omega on axis: L Omega times the main path's
+     * transmission over the front, each ray worth lens_film_n's inv_E0
+     * cos A / A_pix in pixels (cos = 1).  Its own 64 x 64 beam (some 2
+     * ms): the stop's disc covers a few of the 12 x 12 beam's cells. */
+    *k = lc->inv_E0 *
+         lr__ghost_main_area(&lc->L->rx, lc->n_ref, &lc->t_ref, c->nm_ref,
+                             lc->stop_scale, lc->coat, 64) /
+         A_pix;
+    for (int j = 0; j < n; j++) {
+        /* A uniform disc of radius r has rms radius r / sqrt 2: area
          * 2 pi rms^2. */
-        double px = fmax(1.0, 2.0 * M_PI * gf[k].rms * gf[k].rms / A_pix);
-        *peak = fmax(*peak, gf[k].flux / px);
-        lr__ghost p = gf[k].path;
-        est[p.j * (p.j - 1) / 2 + p.i] = (lr__ghost_est){gf[k].flux, px,
-                                                         gf[k].landed};
+        double px = fmax(1.0, 2.0 * M_PI * gf[j].rms * gf[j].rms / A_pix);
+        *peak = fmax(*peak, gf[j].flux / px);
+        lr__ghost p = gf[j].path;
+        est[p.j * (p.j - 1) / 2 + p.i] = (lr__ghost_est){gf[j].flux, px,
+                                                         gf[j].landed};
     }
     free(gf);
     if (lc->ghosts == LR_GHOSTS_ON)

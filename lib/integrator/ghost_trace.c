@@ -8,27 +8,22 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* The main image's total of sphere geometry g seen by camera c, in
- * pixels of display white: L Omega / Omega_pix (Omega the solid angle
- * the sphere fills from the eye, Omega_pix a central pixel's, L's
- * largest channel).  -1 when the camera is inside the sphere or it lies
- * behind the camera. */
-static double main_total(const lr__cam *c, const lr__geom *g, lr__v3 L)
+/* The solid angle a sphere fills from camera c's eye; -1 when the eye
+ * is inside the sphere or the sphere lies behind it. */
+static double solid_angle(const lr__cam *c, lr__v3 center, double radius)
 {
-    lr__v3 d = v3_sub(g->center, c->origin);
-    double dist2 = v3_dot(d, d), r2 = g->radius * g->radius;
-    if (!(dist2 > r2) || !(v3_dot(d, c->forward) > -g->radius))
+    lr__v3 d = v3_sub(center, c->origin);
+    double dist2 = v3_dot(d, d), r2 = radius * radius;
+    if (!(dist2 > r2) || !(v3_dot(d, c->forward) > -radius))
         return -1.0;
     double sin2 = r2 / dist2;
-    double omega = 2.0 * M_PI * sin2 / (1.0 + sqrt(1.0 - sin2));
-    double omega_pix = (2.0 * c->half_w / c->width) *
-                       (2.0 * c->half_h / c->height);
-    return v3_maxc(L) * omega / omega_pix;
+    return 2.0 * M_PI * sin2 / (1.0 + sqrt(1.0 - sin2));
 }
 
 /* Light l's choice of ghost paths (l->cdf, cumulative) from the n
  * paths' estimates est, and its weight in the budget: M times the sum of
- * flux_g / sqrt(land_g), M its main image's total (main_total).
+ * flux_g / sqrt(land_g), M its main image's total on axis (L's largest
+ * channel L Omega k, camera_model.ghost_paths' k).
  *
  * Ghost g's light, M flux_g, lands in K_g = N p_g land_g splats of a
  * light's N paths, each M flux_g / K_g; over its px_g pixels their
@@ -98,7 +93,7 @@ int lr__gt_plan(const lr_scene *s, const lr__cam *c, int spp, lr__lt **ltp)
     const lr__camera_model *m = c->model;
     if (m->ghost_paths == NULL || m->ghost_film == NULL)
         return 1;
-    double peak = 0.0;
+    double peak = 0.0, k = 0.0;
     lr__ghost_est est[LR__RX_MAX_SURFACES * LR__RX_MAX_SURFACES / 2];
     int n_ghost = -1, first = -1;
     double *a = NULL;
@@ -111,11 +106,12 @@ int lr__gt_plan(const lr_scene *s, const lr__cam *c, int spp, lr__lt **ltp)
         /* The lens's ghosts, once, and only for a scene with a sphere
          * light (a scene without one pays nothing). */
         if (n_ghost < 0)
-            n_ghost = m->ghost_paths(c, &peak, est);
+            n_ghost = m->ghost_paths(c, &peak, &k, est);
         /* "true" (peak infinite): every light in front of the lens;
          * "auto": those whose brightest ghost reaches LR__GT_AUTO. */
-        double M = main_total(c, geo, mt->emission);
-        if (n_ghost == 0 || !(M >= 0.0) ||
+        double omega = solid_angle(c, geo->center, geo->radius);
+        double M = omega * k * v3_maxc(mt->emission);
+        if (n_ghost == 0 || !(omega >= 0.0) ||
             !(isinf(peak) || peak * M >= LR__GT_AUTO))
             continue;
         lr__lt *lt = *ltp;
@@ -139,6 +135,7 @@ int lr__gt_plan(const lr_scene *s, const lr__cam *c, int spp, lr__lt **ltp)
         l->L = mt->emission;
         l->ghosts = n_ghost;
         lt->ghost_lights++;
+        lt->ghost_main += omega * k * (l->L.x + l->L.y + l->L.z);
         if (!((a[lt->n - 1 - first] = ghost_choice(l, est, n_ghost, M)) >= 0.0))
             goto nomem;
     }
@@ -211,5 +208,24 @@ void lr__gt_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
     for (int k = 0; k < n; k++) {
         lr__lt_splat(f, px[k], py[k], e[k]);
         (*landed)++;
+        /* The flux --stats reports, in the film's integer units (the
+         * same for any threads or tiles).  A ghost's pixel stays under
+         * its source's radiance times the two reflectances, so the sum
+         * over a frame stays far inside the 2^23 times the brightest
+         * light that an int64 holds at that scale. */
+        if (px[k] >= f->x0 && px[k] < f->x1 && py[k] >= f->y0 &&
+            py[k] < f->y1) {
+            double q = (e[k].x + e[k].y + e[k].z) * f->scale;
+            __atomic_fetch_add(&f->ghost_sum,
+                               (int64_t)llrint(fmin(q, ldexp(1.0, 52))),
+                               __ATOMIC_RELAXED);
+        }
     }
+}
+
+double lr__gt_flux(const lr__lt *lt, const lr__lt_film *f)
+{
+    return lt->ghost_main > 0.0
+               ? (double)f->ghost_sum / f->scale / lt->ghost_main
+               : 0.0;
 }

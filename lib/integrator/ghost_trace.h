@@ -54,6 +54,12 @@
  * samples a pixel.  Returns 0 when out of memory. */
 int lr__gt_plan(const lr_scene *s, const lr__cam *c, int spp, lr__lt **ltp);
 
+/* What --stats reports as ghost_flux: the ghosts' light splatted into f
+ * (every channel) over their sources' main images on axis
+ * (lt->ghost_main), as `lensray lens --ghosts`'s total_flux is the
+ * ghosts' flux over the main image's.  0 without ghost lights. */
+double lr__gt_flux(const lr__lt *lt, const lr__lt_film *f);
+
 /* One path of ghost light l from lens point P (offset ox, oy), its
  * direction from ud, its ghost path from ug (l->cdf); splats
  * into f, counting rays traced and the ghost

@@ -112,6 +112,7 @@ typedef struct lr__lt {
     lr__lp *lp;
     uint64_t lp_paths; /* all its parts' */
     int ghost_lights;  /* lights with surf LR__LT_GHOST (the last ones) */
+    double ghost_main; /* their main images' totals on axis, every channel */
     /* Spectral mode with colours that focus apart: the wavelengths'
      * table (lr__cam_land), owned; else NULL. */
     lr__wl_table *wl;
@@ -163,6 +164,9 @@ typedef struct lr__lt_film {
     int x0, y0, x1, y1;
     int64_t *sum; /* 3 per pixel, in units of 1 / scale */
     double scale;
+    /* The ghosts' splats inside the region, every channel, in the same
+     * units (ghost_trace.c; --stats ghost_flux). */
+    int64_t ghost_sum;
 } lr__lt_film;
 
 lr_status lr__lt_film_init(lr__lt_film *f, const lr__lt *lt, int x0, int y0,

@@ -102,12 +102,23 @@ int lr__ghost_fluxes(const lr__rx *rx, const lr__coating *override,
                      double field_deg, double nm, int grid, double radius,
                      lr__ghost_flux *out, double *main);
 
-/* The same with the indices at nm given and R from `tab` when not NULL
- * (lr__ghost_trace_t): a camera's estimate, some 3e-4 of each R off the
- * formula where the formula's exact one costs some 0.3 us a crossing. */
+/* The same with the indices at nm given, R from `tab` when not NULL
+ * (lr__ghost_trace_t) and the stop scaled by stop_scale: a camera's
+ * estimate, some 3e-4 of each R off the formula where the formula's
+ * exact one costs some 0.3 us a crossing. */
 int lr__ghost_fluxes_t(const lr__rx *rx, const double *n_after,
-                       const lr__ttab *tab, double nm,
+                       const lr__ttab *tab, double nm, double stop_scale,
                        const lr__coating *override, double field_deg, int grid,
                        double radius, lr__ghost_flux *out, double *main);
+
+/* The main path's transmission integrated over the front of the lens for
+ * a beam along the axis, mm^2 (its rays' 1 - R products times the area
+ * each stands for), grid x grid rays over the first surface's
+ * semi-aperture, at nm with the indices, R's source and the stop as
+ * lr__ghost_fluxes_t takes them: what a distant point on the axis
+ * sends to the sensor per unit of the beam's irradiance. */
+double lr__ghost_main_area(const lr__rx *rx, const double *n_after,
+                           const lr__ttab *tab, double nm, double stop_scale,
+                           const lr__coating *override, int grid);
 
 #endif

@@ -18,7 +18,7 @@ typedef struct sums {
 typedef struct optics {
     const double *n_after;
     const lr__ttab *tab;
-    double nm;
+    double nm, stop_scale;
     const lr__coating *override;
 } optics;
 
@@ -39,9 +39,9 @@ static sums path_sums(const lr__rx *rx, const double *z, const optics *op,
              * front of it. */
             double o[3] = {x - d[0] / d[2], y - d[1] / d[2], -1.0};
             double hit[2], w;
-            if (!lr__ghost_trace_t(rx, z, op->n_after, op->tab, op->nm, 1.0,
-                                   op->override, g, z[rx->n], NULL, o, d, hit,
-                                   &w))
+            if (!lr__ghost_trace_t(rx, z, op->n_after, op->tab, op->nm,
+                                   op->stop_scale, op->override, g, z[rx->n],
+                                   NULL, o, d, hit, &w))
                 continue;
             if (radius > 0.0 && hypot(hit[0], hit[1]) > radius)
                 continue;
@@ -67,11 +67,11 @@ static int brighter_first(const void *a, const void *b)
 }
 
 int lr__ghost_fluxes_t(const lr__rx *rx, const double *n_after,
-                       const lr__ttab *tab, double nm,
+                       const lr__ttab *tab, double nm, double stop_scale,
                        const lr__coating *override, double field_deg, int grid,
                        double radius, lr__ghost_flux *out, double *main)
 {
-    optics op = {n_after, tab, nm, override};
+    optics op = {n_after, tab, nm, stop_scale, override};
     double z[LR__RX_MAX_SURFACES + 1];
     lr__rx_layout(rx, z);
     double t = field_deg * M_PI / 180.0;
@@ -107,12 +107,25 @@ int lr__ghost_fluxes_t(const lr__rx *rx, const double *n_after,
     return n;
 }
 
+double lr__ghost_main_area(const lr__rx *rx, const double *n_after,
+                           const lr__ttab *tab, double nm, double stop_scale,
+                           const lr__coating *override, int grid)
+{
+    double z[LR__RX_MAX_SURFACES + 1];
+    lr__rx_layout(rx, z);
+    optics op = {n_after, tab, nm, stop_scale, override};
+    static const double axis[3] = {0.0, 0.0, 1.0};
+    sums m = path_sums(rx, z, &op, (lr__ghost){-1, -1}, axis, grid, 0.0);
+    double cell = 2.0 * rx->s[0].semi_aperture / grid;
+    return m.w * cell * cell;
+}
+
 int lr__ghost_fluxes(const lr__rx *rx, const lr__coating *override,
                      double field_deg, double nm, int grid, double radius,
                      lr__ghost_flux *out, double *main)
 {
     double n_after[LR__RX_MAX_SURFACES];
     lr__rx_indices(rx, nm, n_after);
-    return lr__ghost_fluxes_t(rx, n_after, NULL, nm, override, field_deg, grid,
-                              radius, out, main);
+    return lr__ghost_fluxes_t(rx, n_after, NULL, nm, 1.0, override, field_deg,
+                              grid, radius, out, main);
 }
