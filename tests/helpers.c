@@ -5,7 +5,9 @@
  * error, and the table of the scene format's fields.
  */
 #include "test.h"
+#include "camera.h"
 #include "json_util.h"
+#include "plan.h"
 #include "prescription.h"
 
 #include <math.h>
@@ -498,4 +500,40 @@ void lr_test_write_map(const char *name, double (*value)(int x, int y), int W,
     snprintf(path, sizeof path, "%s/%s", lr_test_tmpdir(), name);
     assert_int_equal(lr_image_write(map, path, NULL, NULL), LR_OK);
     lr_image_free(map);
+}
+
+/* Every pixel of crop (a render.region from (x0, y0)) has the bytes of
+ * the full frame's pixel there. */
+void lr_test_assert_region_is_frame(const lr_image *full, const lr_image *crop,
+                                    int x0, int y0, const char *what)
+{
+    for (int y = 0; y < crop->height; y++)
+        for (int x = 0; x < crop->width; x++)
+            for (int k = 0; k < 3; k++) {
+                float f = full->rgb[3 * ((size_t)(y + y0) * full->width +
+                                         (size_t)(x + x0)) +
+                                    k];
+                float c = crop->rgb[3 * ((size_t)y * crop->width + x) + k];
+                if (memcmp(&f, &c, sizeof f) != 0)
+                    fail_msg("%s pixel (%d, %d): %g, full frame %g", what, x, y,
+                             c, f);
+            }
+}
+
+lr_scene *lr_test_plan(const char *json, const char *const *sets, size_t n_sets,
+                       lr__cam *c, lr__plan *p, lr_render_settings *rs)
+{
+    lr_scene *s = lr_test_load(json, sets, n_sets);
+    lr_camera cam;
+    lr_render_settings set;
+    lr_scene_camera(s, &cam);
+    lr_scene_settings(s, &set);
+    lr__cam_init(c, &cam, set.width, set.height);
+    lr_error err;
+    assert_int_equal(
+        lr__plan_build(p, s, c, &set, 0, 0, set.width, set.height, &err),
+        LR_OK);
+    if (rs != NULL)
+        *rs = set;
+    return s;
 }

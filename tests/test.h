@@ -55,6 +55,17 @@ const char *lr_test_tmpdir(void);
  * semi-aperture `semi`: the plates of test_ghost.c and test_transmit.c. */
 lr__surface lr_test_flat(double t, double n, double semi);
 
+/* The full frame's plan (plan.h) of a scene loaded as lr_test_load
+ * does, with its own camera and settings: *c gets the prepared camera,
+ * *p the plan (the caller frees it with lr__plan_free, then the scene
+ * returned), *rs the settings if not NULL; fails the test if planning
+ * fails. */
+struct lr__cam;
+struct lr__plan;
+lr_scene *lr_test_plan(const char *json, const char *const *sets, size_t n_sets,
+                       struct lr__cam *c, struct lr__plan *p,
+                       lr_render_settings *rs);
+
 /* Loads a scene from JSON text with `sets` overrides, relative files
  * from lr_test_tmpdir(); fails the test if it does not load.  The caller
  * frees the scene. */
@@ -95,6 +106,11 @@ void lr_test_isa_means_agree(const double *mean, const char *const *isa, int n);
 /* Fails unless a and b have the same size and the same bytes. */
 void lr_test_assert_same_bytes(const lr_image *a, const lr_image *b,
                                const char *what);
+
+/* Fails unless every pixel of crop (a render.region from (x0, y0)) has
+ * the bytes of the full frame's pixel there. */
+void lr_test_assert_region_is_frame(const lr_image *full, const lr_image *crop,
+                                    int x0, int y0, const char *what);
 
 /* How far apart two images of the same size are. */
 typedef struct lr_test_diff {

@@ -136,17 +136,9 @@ static void bar_scene(char *buf, size_t n, int spp, const char *extra)
  * spectral splatting (splat.c). */
 static int plan_splats(const char *json, const char *const *sets, size_t n_sets)
 {
-    lr_scene *s = lr_test_load(json, sets, n_sets);
-    lr_camera cam;
-    lr_render_settings rs;
-    lr_scene_camera(s, &cam);
-    lr_scene_settings(s, &rs);
     lr__cam c;
-    lr__cam_init(&c, &cam, rs.width, rs.height);
     lr__plan p;
-    lr_error err;
-    assert_int_equal(
-        lr__plan_build(&p, s, &c, &rs, 0, 0, rs.width, rs.height, &err), LR_OK);
+    lr_scene *s = lr_test_plan(json, sets, n_sets, &c, &p, NULL);
     int splat = p.splat;
     lr__plan_free(&p);
     lr_scene_free(s);

@@ -28,6 +28,14 @@ typedef struct lr__lt_view {
     const unsigned char *geom;
     lr__v3 sun_dir;
     double sun_cos;
+    /* Multiple importance sampling of what a light of the light side
+     * sends straight into the lens (light_trace.h): per geometry (NULL:
+     * none) and for the sun, kappa >= 0 with the strategies' density
+     * ratio rho = kappa cos^3 of the camera ray's angle to `forward`
+     * (lr__lt_rho); 0: the light side takes it all. */
+    const double *mis;
+    double sun_mis;
+    lr__v3 forward;
 } lr__lt_view;
 
 /* Which camera sample a ray belongs to: an integrator that makes random
@@ -62,11 +70,71 @@ static inline int lr__lt_direct(const lr__lt_view *lt, long geom)
     return lr__lt_flag(lt, geom, LR__LT_DIRECT);
 }
 
+/* Veach's cutoff heuristic (1997, section 9.2.3, alpha = 1 / this): where
+ * the light side's density is this many times the camera's, the camera
+ * takes none of the light, so a light far from the cutoff everywhere
+ * renders exactly as under a plain split. */
+#define LR__LT_MIS_CUT 10.0
+
+/* The two strategies' density ratio for a light of coefficient kappa
+ * met along dir (any length): the light side's paths times their
+ * direction's density over spp times the camera's, fpx^2 / cos^3
+ * (lr__offset_lens_film).  0 where there is no such mix. */
+static inline double lr__lt_rho(double kappa, lr__v3 forward, lr__v3 dir)
+{
+    if (!(kappa > 0.0))
+        return 0.0;
+    double cz = v3_dot(dir, forward) / v3_len(dir);
+    return cz > 0.0 ? kappa * cz * cz * cz : 0.0;
+}
+
+/* The balance heuristic's weights of the two, cut off as above: the
+ * camera's 1 / (1 + rho), the light side's rho / (1 + rho); with rho 0
+ * (no mix) or past the cutoff, all the light side's. */
+static inline double lr__lt_cam_weight(double rho)
+{
+    return rho > 0.0 && rho < LR__LT_MIS_CUT ? 1.0 / (1.0 + rho) : 0.0;
+}
+
+static inline double lr__lt_light_weight(double rho)
+{
+    return rho > 0.0 && rho < LR__LT_MIS_CUT ? rho / (1.0 + rho) : 1.0;
+}
+
+/* How much of the emission of geometry geom, met first by a camera ray
+ * along dir, the camera adds: 1 for a light the light side does not
+ * carry, else its weight. */
+static inline double lr__lt_direct_w(const lr__lt_view *lt, long geom,
+                                     lr__v3 dir)
+{
+    if (!lr__lt_direct(lt, geom))
+        return 1.0;
+    return lt->mis != NULL
+               ? lr__lt_cam_weight(lr__lt_rho(lt->mis[geom], lt->forward, dir))
+               : 0.0;
+}
+
+/* L times a camera weight w: exactly L where w is 1, and 0 where it is
+ * 0 (so that lights without a mix render as they did). */
+static inline lr__v3 lr__lt_weigh(lr__v3 L, double w)
+{
+    return w == 1.0 ? L : w == 0.0 ? v3(0, 0, 0) : v3_scale(L, w);
+}
+
 /* Whether the environment's radiance along unit dir, seen by a camera ray
  * escaping, is the light side's (its sun). */
 static inline int lr__lt_sun(const lr__lt_view *lt, lr__v3 dir)
 {
     return lt != NULL && v3_dot(dir, lt->sun_dir) >= lt->sun_cos;
+}
+
+/* How much of the environment's radiance along unit dir a camera ray
+ * escaping adds: 1 outside the sun's cone, else its weight. */
+static inline double lr__lt_sun_w(const lr__lt_view *lt, lr__v3 dir)
+{
+    if (!lr__lt_sun(lt, dir))
+        return 1.0;
+    return lr__lt_cam_weight(lr__lt_rho(lt->sun_mis, lt->forward, dir));
 }
 
 /* A glint's core: light from a glint light reflected at a glint surface

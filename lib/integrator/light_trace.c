@@ -86,6 +86,8 @@ void lr__lt_free(lr__lt *lt)
         free(lt->lights[k].cdf);
     free(lt->lights);
     free(lt->direct);
+    free(lt->mis);
+    free(lt->dark);
     lr__lp_free(lt->lp);
     free(lt->wl);
     free(lt);
@@ -178,9 +180,32 @@ static int mesh_cdf(const lr_scene *s, const lr__geom *g, lr__lt_light *l)
 
 /* Whether material m emits, untextured: the emission the light side
  * carries. */
-static int plain_emitter(const lr__material *m)
+/* Whether geometry g is a light the light side can trace, a sphere or a
+ * mesh of emitting triangles, and the sphere that bounds it. */
+static int light_sphere(const lr_scene *s, const lr__geom *g, lr__v3 *center,
+                        double *radius)
 {
-    return m->emission_tex == NULL && v3_maxc(m->emission) > 0.0;
+    if (!(v3_maxc(s->materials[g->material].emission) > 0.0))
+        return 0;
+    if (g->kind == LR__GEOM_SPHERE) {
+        *center = g->center;
+        *radius = g->radius;
+        return 1;
+    }
+    return g->kind == LR__GEOM_TRIANGLES && g->emitter >= 0 &&
+           mesh_sphere(s, g, center, radius);
+}
+
+/* Light l's radiance from material m: with an emission texture, the
+ * largest the texture gives (each path then looks its own up). */
+static void light_emission(const lr__material *m, lr__lt_light *l)
+{
+    l->L = m->emission;
+    if (m->emission_tex != NULL) {
+        const double *t = m->emission_tex->max;
+        l->L = v3(l->L.x * t[0], l->L.y * t[1], l->L.z * t[2]);
+        l->textured = 1;
+    }
 }
 
 /* An empty light side for scene s with room for n lights; NULL when out
@@ -189,24 +214,54 @@ static lr__lt *lt_new_n(const lr_scene *s, size_t n)
 {
     lr__lt *lt = calloc(1, sizeof *lt);
     if (lt == NULL || (lt->direct = calloc(s->n_geoms + 1, 1)) == NULL ||
+        (lt->mis = calloc(s->n_geoms + 1, sizeof *lt->mis)) == NULL ||
         (lt->lights = malloc((n + 1) * sizeof *lt->lights)) == NULL) {
         lr__lt_free(lt);
         return NULL;
     }
-    lt->view = (lr__lt_view){lt->direct, v3(0, 0, 0), 2.0};
+    lt->view = (lr__lt_view){.geom = lt->direct,
+                             .sun_dir = v3(0, 0, 0),
+                             .sun_cos = 2.0,
+                             .mis = lt->mis};
     return lt;
 }
 
 lr__lt *lr__lt_new(const lr_scene *s)
 {
-    lr__lt *lt = calloc(1, sizeof *lt);
-    if (lt == NULL || (lt->direct = calloc(s->n_geoms + 1, 1)) == NULL ||
-        (lt->lights = malloc((s->n_geoms + 1) * sizeof *lt->lights)) == NULL) {
-        lr__lt_free(lt);
-        return NULL;
-    }
-    lt->view = (lr__lt_view){lt->direct, v3(0, 0, 0), 2.0};
-    return lt;
+    return lt_new_n(s, s->n_geoms);
+}
+
+/* The MIS coefficient kappa (integrator.h's lr__lt_rho) of a light with
+ * n paths whose directions' density seen from the eye is q: n q over
+ * spp fpx^2, the camera's density on the axis.  0 (no mix) where rho
+ * passes the cutoff for every camera ray of the frame (its smallest
+ * cos, at a corner, gives the smallest rho), and for a model whose
+ * camera samples carry weights (a real lens: light_trace.h). */
+static double mis_kappa(const lr__cam *c, uint64_t n, double q, int spp)
+{
+    if (c->weighted || !(q > 0.0) || spp <= 0)
+        return 0.0;
+    double fpx = 0.5 * c->height / c->half_h;
+    double kappa = (double)n * q / ((double)spp * fpx * fpx);
+    return lr__lt_cam_share_max(c, kappa) > 0.0 ? kappa : 0.0;
+}
+
+double lr__lt_cam_share_max(const lr__cam *c, double kappa)
+{
+    double cz = 1.0 / sqrt(1.0 + c->half_w * c->half_w + c->half_h * c->half_h);
+    return lr__lt_cam_weight(kappa * cz * cz * cz);
+}
+
+/* The density of a direction uniform in the cone a sphere (center,
+ * radius) fills seen from p: 1 / (2 pi (1 - cos alpha)); 0 from inside. */
+static double cone_density(lr__v3 p, lr__v3 center, double radius)
+{
+    lr__v3 dv = v3_sub(center, p);
+    double dist2 = v3_dot(dv, dv), r2 = radius * radius;
+    if (!(dist2 > r2))
+        return 0.0;
+    double sin2 = r2 / dist2;
+    return 1.0 / (2.0 * M_PI * sin2 / (1.0 + sqrt(1.0 - sin2)));
 }
 
 /* The roughest GGX alpha whose glints go to the light side: past it a
@@ -273,21 +328,21 @@ static int glint_surface(const lr_scene *s, const lr__geom *g, lr__v3 *pp,
  * an image widened by 2 alpha times the light's distance to the mirror
  * point).  0: the camera keeps it (unless force). */
 static uint64_t glint_paths(const lr__cam *c, const lr__lens_bound *lb,
-                            int estimate, const lr__geom *light, lr__v3 pp,
-                            lr__v3 pn, lr__v3 lo, lr__v3 hi, double alpha,
-                            int spp, int force)
+                            int estimate, lr__v3 center, double radius,
+                            lr__v3 pp, lr__v3 pn, lr__v3 lo, lr__v3 hi,
+                            double alpha, int spp, int force)
 {
-    double dc = v3_dot(v3_sub(light->center, pp), pn);
+    double dc = v3_dot(v3_sub(center, pp), pn);
     double dcam = v3_dot(v3_sub(c->origin, pp), pn);
-    if (!(fabs(dc) > light->radius) || !(dc * dcam > 0.0))
+    if (!(fabs(dc) > radius) || !(dc * dcam > 0.0))
         return 0;
-    lr__v3 image = v3_madd(light->center, pn, -2.0 * dc);
+    lr__v3 image = v3_madd(center, pn, -2.0 * dc);
     lr__v3 x0 = v3_add(c->origin,
                        v3_scale(v3_sub(image, c->origin), dcam / (dcam + dc)));
-    lr__v3 b = v3_sub(light->center, x0);
+    lr__v3 b = v3_sub(center, x0);
     double lb_ = sqrt(v3_dot(b, b));
     /* The mirror point seen from the eye, on the surface or near it. */
-    double margin = 8.0 * alpha * lb_ + light->radius;
+    double margin = 8.0 * alpha * lb_ + radius;
     if (x0.x < lo.x - margin || x0.x > hi.x + margin || x0.y < lo.y - margin ||
         x0.y > hi.y + margin || x0.z < lo.z - margin || x0.z > hi.z + margin)
         return force ? 16 : 0;
@@ -295,8 +350,8 @@ static uint64_t glint_paths(const lr__cam *c, const lr__lens_bound *lb,
      * sample: on scenes/sparkles.json 0.25, 0.5 and 1 were measured,
      * and 1 reached a given error soonest (half the sphere's points
      * face away from the mirror). */
-    uint64_t n = paths_for(c, lb, estimate, image,
-                           light->radius + 2.0 * alpha * lb_, spp, force);
+    uint64_t n = paths_for(c, lb, estimate, image, radius + 2.0 * alpha * lb_,
+                           spp, force);
     if (force && n < 16)
         n = 16;
     return n < 2147483647u ? 2 * n : 4294967295u;
@@ -326,17 +381,17 @@ static int plan_glints(const lr_scene *s, const lr__cam *c,
                           &plane[4 * g + 2], &plane[4 * g + 3]))
             ok[g] = SURF;
     for (size_t l = 0; l < ng; l++) {
-        const lr__geom *L = &s->geoms[l];
-        if (L->kind != LR__GEOM_SPHERE ||
-            !plain_emitter(&s->materials[L->material]))
+        lr__v3 lc;
+        double lr_;
+        if (!light_sphere(s, &s->geoms[l], &lc, &lr_))
             continue;
         for (size_t g = 0; g < ng; g++) {
             if (!(ok[g] & SURF))
                 continue;
             const lr__v3 *P = &plane[4 * g];
             double a = s->materials[s->geoms[g].material].roughness;
-            if (glint_paths(c, lb, estimate, L, P[0], P[1], P[2], P[3], a, spp,
-                            0) > 0)
+            if (glint_paths(c, lb, estimate, lc, lr_, P[0], P[1], P[2], P[3], a,
+                            spp, 0) > 0)
                 ok[g] |= SURF_PICKED, ok[l] |= LIGHT_PICKED;
         }
     }
@@ -361,7 +416,7 @@ static int plan_glints(const lr_scene *s, const lr__cam *c,
         lt->direct[g] |= LR__LT_GLINT_SURF;
         const lr__v3 *P = &plane[4 * g];
         double a = s->materials[s->geoms[g].material].roughness;
-        for (size_t k = 0; k < ng; k++) {
+        for (size_t k = 0; k < ng && good; k++) {
             if (!(ok[k] & LIGHT_PICKED))
                 continue;
             const lr__geom *L = &s->geoms[k];
@@ -373,11 +428,14 @@ static int plan_glints(const lr_scene *s, const lr__cam *c,
             l->plane_p = P[0];
             l->plane_n = P[1];
             l->alpha = a;
-            l->center = L->center;
-            l->radius = L->radius;
-            l->L = s->materials[L->material].emission;
-            l->paths = glint_paths(c, lb, estimate, L, P[0], P[1], P[2], P[3],
-                                   a, spp, 1);
+            light_sphere(s, L, &l->center, &l->radius);
+            light_emission(&s->materials[L->material], l);
+            if (L->kind == LR__GEOM_TRIANGLES && !mesh_cdf(s, L, l)) {
+                good = 0;
+                break;
+            }
+            l->paths = glint_paths(c, lb, estimate, l->center, l->radius, P[0],
+                                   P[1], P[2], P[3], a, spp, 1);
             l->first = lt->paths;
             lt->paths += l->paths;
         }
@@ -423,9 +481,11 @@ static int plan_sun(const lr_scene *s, const lr__cam *c,
     l->L = v3(m, m, m);
     l->paths = n;
     l->first = lt->paths;
+    l->mis = mis_kappa(c, n, 1.0 / (2.0 * M_PI * l->area), spp);
     lt->paths += n;
     lt->view.sun_dir = a;
     lt->view.sun_cos = cos_a;
+    lt->view.sun_mis = l->mis;
     return 1;
 }
 
@@ -510,14 +570,9 @@ lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
     lr__lt *lt = NULL;
     for (size_t g = 0; g < s->n_geoms; g++) {
         const lr__geom *geo = &s->geoms[g];
-        const lr__material *mt = &s->materials[geo->material];
-        if (!(v3_maxc(mt->emission) > 0.0))
-            continue;
-        lr__v3 center = geo->center;
-        double radius = geo->radius;
-        if (geo->kind != LR__GEOM_SPHERE &&
-            (geo->kind != LR__GEOM_TRIANGLES || geo->emitter < 0 ||
-             !mesh_sphere(s, geo, &center, &radius)))
+        lr__v3 center;
+        double radius;
+        if (!light_sphere(s, geo, &center, &radius))
             continue;
         uint64_t n = paths_for(c, &lb, m->bound == NULL, center, radius,
                                set->spp, 0);
@@ -536,16 +591,14 @@ lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
             return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
         }
         lt->n++;
-        l->L = mt->emission;
-        if (mt->emission_tex != NULL) {
-            const double *t = mt->emission_tex->max;
-            l->L = v3(l->L.x * t[0], l->L.y * t[1], l->L.z * t[2]);
-            l->textured = 1;
-        }
+        light_emission(&s->materials[geo->material], l);
         l->paths = n;
         l->first = lt->paths;
         lt->paths += n;
         lt->direct[g] |= LR__LT_DIRECT;
+        l->mis = mis_kappa(c, n, cone_density(c->origin, center, radius),
+                           set->spp);
+        lt->mis[g] = l->mis;
     }
     if ((set->integrator == LR_INTEGRATOR_PATH &&
          !plan_glints(s, c, &lb, m->bound == NULL, set->spp, &lt)) ||
@@ -558,8 +611,10 @@ lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
         lr__lt_free(lt);
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     }
-    if (lt != NULL)
+    if (lt != NULL) {
         lt->seed = set->seed;
+        lt->view.forward = c->forward;
+    }
     *out = lt;
     return LR_OK;
 }
@@ -580,6 +635,9 @@ lr_status lr__lt_film_init(lr__lt_film *f, const lr__lt *lt, int x0, int y0,
     for (int k = 0; k < lt->n; k++)
         Lmax = fmax(Lmax, v3_maxc(lt->lights[k].L));
     f->scale = ldexp(1.0, 40) / (Lmax > 0.0 ? Lmax : 1.0);
+    f->dark = lt->dark;
+    f->dark_bw = lt->dark_bw;
+    f->dark_block = lt->dark_block;
     return LR_OK;
 }
 
@@ -625,18 +683,26 @@ void lr__lt_splat(lr__lt_film *f, int ix, int iy, lr__v3 v)
     }
 }
 
-/* Adds v times each channel's importance at each place ld lands it.
- * Counts a landing. */
+/* Adds v times each channel's importance at each place ld lands it,
+ * and times the light side's MIS weight for the strategies' ratio rho
+ * (integrator.h) except in a dark block, where the camera traces
+ * nothing.  Counts a landing. */
 static void splat_landing(lr__lt_film *f, const lr__landing *ld, lr__v3 v,
-                          uint64_t *landed)
+                          double rho, uint64_t *landed)
 {
     if (!(isfinite(v.x) && isfinite(v.y) && isfinite(v.z)))
         return;
     (*landed)++;
+    double w = lr__lt_light_weight(rho);
     for (int j = 0; j < ld->n; j++) {
         const double *W = ld->at[j].W;
-        lr__lt_splat(f, ld->at[j].ix, ld->at[j].iy,
-                     v3(v.x * W[0], v.y * W[1], v.z * W[2]));
+        lr__v3 x = v3(v.x * W[0], v.y * W[1], v.z * W[2]);
+        int ix = ld->at[j].ix, iy = ld->at[j].iy;
+        if (w != 1.0 &&
+            !(f->dark != NULL &&
+              f->dark[(iy / f->dark_block) * f->dark_bw + ix / f->dark_block]))
+            x = v3_scale(x, w);
+        lr__lt_splat(f, ix, iy, x);
     }
 }
 
@@ -677,10 +743,12 @@ static lr__v3 emission_at(const lr_scene *s, const lr__lt_light *l,
  * triangle's front, counter-clockwise): seen from behind, nothing.  The
  * camera ray along w must meet this very triangle first, from the front
  * (a mesh can hide its own triangles). */
-static void mesh_path(const lr_scene *s, const lr__cam *c,
-                      const lr__lt_light *l, lr__v3 P, double ox, double oy,
-                      const double *u, const lt_colour *col, lr__lt_film *f,
-                      uint64_t *rays, uint64_t *landed)
+/* A point y uniform by area over mesh light l (density 1 / l->area) from
+ * (u0, u1): its triangle by area through l->cdf, u0 rescaled reused for
+ * the point (the usual trick for one more dimension).  Returns the
+ * triangle. */
+static const lr__emitter *mesh_point(const lr_scene *s, const lr__lt_light *l,
+                                     const double *u, lr__v3 *y)
 {
     size_t lo = 0, hi = l->n_tri - 1;
     while (lo < hi) {
@@ -697,8 +765,18 @@ static void mesh_path(const lr_scene *s, const lr__cam *c,
     /* Uniform on the triangle: b0 = 1 - sqrt(v0), b1 = u1 sqrt(v0)
      * (pbrt-v4's SampleUniformTriangle, the square-root form). */
     double sq = sqrt(v0);
-    lr__v3 y = v3_add(e->a, v3_add(v3_scale(e->e1, sq * (1.0 - u[1])),
-                                   v3_scale(e->e2, sq * u[1])));
+    *y = v3_add(e->a, v3_add(v3_scale(e->e1, sq * (1.0 - u[1])),
+                             v3_scale(e->e2, sq * u[1])));
+    return e;
+}
+
+static void mesh_path(const lr_scene *s, const lr__cam *c,
+                      const lr__lt_light *l, lr__v3 P, double ox, double oy,
+                      const double *u, const lt_colour *col, lr__lt_film *f,
+                      uint64_t *rays, uint64_t *landed)
+{
+    lr__v3 y;
+    const lr__emitter *e = mesh_point(s, l, u, &y);
     lr__v3 dv = v3_sub(y, P);
     double dist2 = v3_dot(dv, dv);
     if (!(dist2 > 0.0))
@@ -720,7 +798,7 @@ static void mesh_path(const lr_scene *s, const lr__cam *c,
     double pdf = dist2 / (l->area * cos_y);
     splat_landing(
         f, &ld, v3_scale(emission_at(s, l, &h), 1.0 / (pdf * (double)l->paths)),
-        landed);
+        lr__lt_rho(l->mis, c->forward, w), landed);
 }
 
 /* The point X of the plane (2-D coordinates) where the half vector's
@@ -778,11 +856,23 @@ static void glint_path(const lr_scene *s, const lr__cam *c,
                        const lt_colour *col, lr__lt_film *f, uint64_t *rays,
                        uint64_t *landed)
 {
-    /* y uniform on the sphere by area (pbrt-v4's SampleUniformSphere). */
-    double zy = 1.0 - 2.0 * uy[0], ry = sqrt(fmax(0.0, 1.0 - zy * zy));
-    double phi = 2.0 * M_PI * uy[1];
-    lr__v3 ny = v3(ry * cos(phi), ry * sin(phi), zy);
-    lr__v3 y = v3_madd(l->center, ny, l->radius);
+    /* y uniform by area on the sphere (pbrt-v4's SampleUniformSphere),
+     * with its outward normal ny, or on the mesh, with its triangle's
+     * front normal (the side that emits). */
+    lr__v3 y, ny;
+    const lr__emitter *e = NULL;
+    double pdf_y;
+    if (l->n_tri > 0) {
+        e = mesh_point(s, l, uy, &y);
+        ny = e->n;
+        pdf_y = 1.0 / l->area;
+    } else {
+        double zy = 1.0 - 2.0 * uy[0], ry = sqrt(fmax(0.0, 1.0 - zy * zy));
+        double phi = 2.0 * M_PI * uy[1];
+        ny = v3(ry * cos(phi), ry * sin(phi), zy);
+        y = v3_madd(l->center, ny, l->radius);
+        pdf_y = 1.0 / (4.0 * M_PI * l->radius * l->radius);
+    }
     /* P and y in front of the same side of the plane. */
     lr__v3 n = l->plane_n;
     double dP = v3_dot(v3_sub(P, l->plane_p), n);
@@ -840,9 +930,9 @@ static void glint_path(const lr_scene *s, const lr__cam *c,
     /* Light from y to x: from y's front, and in the glint's core (first
      * at the plane's normal, a hair wider, before a ray is spent; then
      * exactly as the camera asks it, at the hit's). */
-    lr__v3 e = v3_sub(y, x);
-    double d2 = v3_dot(e, e);
-    lr__v3 wi = v3_scale(e, 1.0 / sqrt(d2));
+    lr__v3 xy = v3_sub(y, x);
+    double d2 = v3_dot(xy, xy);
+    lr__v3 wi = v3_scale(xy, 1.0 / sqrt(d2));
     double cos_y = -v3_dot(wi, ny);
     if (!(cos_y > 0.0) ||
         !lr__lt_glint_core(v3_neg(w), wi, n, l->alpha * (1.0 + 1e-4)))
@@ -861,15 +951,29 @@ static void glint_path(const lr_scene *s, const lr__cam *c,
     lr__v3 fv = lr__bsdf_eval(&bs, v3_neg(w), wi, &bpdf);
     if (!(v3_maxc(fv) > 0.0))
         return;
+    /* x must see y itself: the light first, and for a mesh the very
+     * triangle, from its front (a mesh can hide its own triangles). */
     (*rays)++;
-    if (lr__trace_geom(s, lr__offset_origin(&hx, wi), wi, INFINITY) != l->geom)
-        return;
+    lr__v3 Le = l->L;
+    if (e == NULL && !l->textured) {
+        if (lr__trace_geom(s, lr__offset_origin(&hx, wi), wi, INFINITY) !=
+            l->geom)
+            return;
+    } else {
+        lr__hit hy;
+        if (!lr__trace(s, lr__offset_origin(&hx, wi), wi, INFINITY, &hy) ||
+            hy.geom != l->geom ||
+            (e != NULL &&
+             (hy.prim != (unsigned)(e - &s->emitters[l->first_tri]) ||
+              !hy.entering)))
+            return;
+        Le = emission_at(s, l, &hy);
+    }
     double pdf_w = pA * dist2 / cos_x;
-    double pdf_y = 1.0 / (4.0 * M_PI * l->radius * l->radius);
     double g = fabs(v3_dot(wi, hx.ns)) * cos_y / d2;
     splat_landing(
         f, &ld,
-        v3_scale(v3_mul(l->L, fv), g / (pdf_w * pdf_y * (double)l->paths)),
+        v3_scale(v3_mul(Le, fv), g / (pdf_w * pdf_y * (double)l->paths)), 0.0,
         landed);
 }
 
@@ -907,7 +1011,7 @@ static void sun_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
     splat_landing(
         f, &ld,
         v3_scale(lr__env_radiance(s, w), 1.0 / (pdf * (double)l->paths)),
-        landed);
+        lr__lt_rho(l->mis, c->forward, w), landed);
 }
 
 /* A sphere light's path from lens point P: a direction uniform in the
@@ -951,7 +1055,8 @@ static void sphere_path(const lr_scene *s, const lr__cam *c,
         Le = emission_at(s, l, &h);
     }
     double pdf = 1.0 / (2.0 * M_PI * omc);
-    splat_landing(f, &ld, v3_scale(Le, 1.0 / (pdf * (double)l->paths)), landed);
+    splat_landing(f, &ld, v3_scale(Le, 1.0 / (pdf * (double)l->paths)),
+                  lr__lt_rho(l->mis, c->forward, w), landed);
 }
 
 /* The sampler "pixel" of light l's paths: by its geometry's index (and a
@@ -970,7 +1075,7 @@ static uint64_t light_key(const lr__lt_light *l)
 static void splat_cb(void *film, const lr__landing *ld, lr__v3 v,
                      uint64_t *landed)
 {
-    splat_landing(film, ld, v, landed);
+    splat_landing(film, ld, v, 0.0, landed);
 }
 
 void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,

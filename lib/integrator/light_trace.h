@@ -14,19 +14,34 @@
  * (lr__lt_sun), and a light path is a direction uniform in the cone from
  * a lens point, landing if the camera ray along it escapes.
  *
- * The split (why the sum is unbiased): the plan picks lights whose image
- * is small against their blur (lr__lt_plan).  For a picked light, the
- * radiance it sends straight into the lens (the camera ray's first hit)
- * is estimated by the light side alone: camera rays that meet it first
- * add none of its emission (lr__sample_id.lt, read by the integrators),
- * and every other path (its light on surfaces, in mirrors, through
- * glass) stays the camera's.  The two estimators cover disjoint parts of
- * the measurement's path space, each unbiased on its own part (Veach
- * 1997, section 10.2: light tracing with a camera connection), so their
- * sum is unbiased for the whole.  Other lights, and every light of a
- * model without a light side, stay with the camera.
+ * Why the sum is unbiased: the plan picks lights whose image is small
+ * against their blur (lr__lt_plan).  For a picked light, the radiance it
+ * sends straight into the lens (the camera ray's first hit) is shared
+ * between the two sides by multiple importance sampling (Veach 1997,
+ * section 9.2): a path of lens point P and direction d counts w_cam(d)
+ * of its light where the camera finds it and w_light(d) = 1 - w_cam(d)
+ * where the light side does (lr__lt_direct_w and splat_landing), and
+ * every other path of that light (on surfaces, in mirrors, through
+ * glass) stays the camera's.  Any such pair of weights that sums to 1
+ * path by path gives an unbiased sum of two unbiased estimators (Veach's
+ * theorem 9.1; light tracing is unbiased by his section 10.2).  The
+ * weights are the balance heuristic with his cutoff (integrator.h): the
+ * camera's density of d per pixel sample is its importance fpx^2 /
+ * cos^3 (lr__offset_lens_film) times spp samples, the light side's its
+ * cone's density seen from the eye times the light's paths (from P it
+ * differs by the aperture over the distance, which changes only how
+ * well, never whether, the weights sum to 1).  The ratio rho of the two
+ * is at least about 2 for a picked light and in the hundreds for a far
+ * defocused one, where the cutoff gives the light side every path and
+ * the camera none: exactly a split, and the same bytes.  In a dark
+ * block (plan.h) no camera ray is traced, so the light side's weight is
+ * 1 there.  A real lens's camera samples carry weights whose density
+ * is not known in closed form: its lights keep the split (the light
+ * side takes them all).  Other lights, and every light of a model
+ * without a light side, stay with the camera.
  *
- * Sparkles (glints): a small light k seen in a flat rough metal surface G
+ * Sparkles (glints): a small light k (a sphere or a mesh, its emission
+ * textured or not) seen in a flat rough metal surface G
  * (a planar triangle mesh whose one lobe is GGX's conductor) behind the
  * focus is a defocused disc too, and the camera's light sample at G
  * finds it only from the few lens points whose mirror direction meets
@@ -88,6 +103,10 @@ typedef struct lr__lt_light {
      * the light, as the camera does. */
     lr__v3 L;
     int textured;
+    /* Seen directly (surf -1) or the sun: its MIS coefficient kappa
+     * (integrator.h's lr__lt_rho); 0: no mix, the light side takes every
+     * path. */
+    double mis;
     int ghosts;     /* LR__LT_GHOST: the lens's ghost paths */
     uint64_t paths; /* light paths traced for it */
     uint64_t first; /* index of its first path among all */
@@ -103,9 +122,19 @@ typedef struct lr__lt {
      * a light whose glints in those surfaces are the light side's (every
      * such pair is traced). */
     unsigned char *direct;
+    /* Per geometry, the MIS coefficient of a light seen directly (its
+     * light's mis), 0 elsewhere: owned, the view's. */
+    double *mis;
     /* What camera rays leave to this light side (lr__sample_id.lt):
-     * direct, and the sun's cone. */
+     * direct, mis, and the sun's cone. */
     lr__lt_view view;
+    /* With a mixing light (mis > 0): per block of the frame (dark_block
+     * pixels square, dark_bw across), 1 where the plan made it dark
+     * (plan.h): no camera ray is traced there, so the light side keeps
+     * all of its landings there.  Set by the plan; NULL: no block dark.
+     * Owned. */
+    unsigned char *dark;
+    int dark_bw, dark_block;
     uint64_t seed;
     /* The `light` integrator's paths (their parts are the lights with
      * surf LR__LT_PATHS), or NULL.  Owned. */
@@ -152,6 +181,11 @@ lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
                       lr_error *err);
 void lr__lt_free(lr__lt *lt);
 
+/* The largest camera weight (integrator.h's lr__lt_cam_weight) of a
+ * light of MIS coefficient kappa over camera c's frame (at its corners,
+ * where cos is smallest): 0 for kappa 0. */
+double lr__lt_cam_share_max(const lr__cam *c, double kappa);
+
 /* Keeps the lights k with keep[k] (the plan's: those whose paths can
  * land in the region rendered); the others' direct emission stays the
  * light side's (the region's camera rays cannot meet them anyway).  A
@@ -164,6 +198,8 @@ typedef struct lr__lt_film {
     int x0, y0, x1, y1;
     int64_t *sum; /* 3 per pixel, in units of 1 / scale */
     double scale;
+    const unsigned char *dark; /* the light side's (lr__lt.dark) */
+    int dark_bw, dark_block;
     /* The ghosts' splats inside the region, every channel, in the same
      * units (ghost_trace.c; --stats ghost_flux). */
     int64_t ghost_sum;

@@ -165,9 +165,11 @@ static int bounce(const lr_scene *s, int max_depth, int depth, int hit,
 {
     p->shadow = 0;
     if (!hit) {
-        if (lr__lt_sun(lt, p->dir))
+        /* (Escaping camera rays only: lt is NULL past the first hit.) */
+        double sun_w = lr__lt_sun_w(lt, p->dir);
+        if (sun_w == 0.0)
             return 0;
-        lr__v3 Le = lr__env_radiance(s, p->dir);
+        lr__v3 Le = lr__lt_weigh(lr__env_radiance(s, p->dir), sun_w);
         double w = p->prev_delta
                        ? 1.0
                        : mis(p->prev_pdf, lr__light_pdf_env(s, p->dir));
@@ -176,15 +178,16 @@ static int bounce(const lr_scene *s, int max_depth, int depth, int hit,
     }
     lr__material mt;
     const lr__material *m = lr__hit_material(s, h, &mt);
-    if (h->entering && v3_maxc(m->emission) > 0.0 &&
-        !lr__lt_direct(lt, h->geom) &&
+    double direct_w = lr__lt_direct_w(lt, h->geom, p->dir);
+    if (h->entering && v3_maxc(m->emission) > 0.0 && direct_w > 0.0 &&
         !lr__lt_flag(glint, h->geom, LR__LT_GLINT_LIGHT)) {
         double w = 1.0;
         if (!p->prev_delta && h->geom >= 0)
             w = mis(p->prev_pdf,
                     lr__light_pdf_area(s, p->prev_p, h->p, h->ng,
                                        (unsigned)h->geom, h->prim));
-        p->L = v3_add(p->L, v3_scale(v3_mul(p->beta, m->emission), w));
+        lr__v3 Le = lr__lt_weigh(m->emission, direct_w);
+        p->L = v3_add(p->L, v3_scale(v3_mul(p->beta, Le), w));
     }
     if (depth > max_depth)
         return 0;

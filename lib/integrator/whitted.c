@@ -112,11 +112,11 @@ static lr__v3 radiance(const lr_scene *s, lr__v3 org, lr__v3 dir, int depth,
     lr__hit h;
     (*rays)++;
     if (!lr__trace(s, org, dir, INFINITY, &h))
-        return lr__lt_sun(lt, dir) ? v3(0, 0, 0) : lr__env_radiance(s, dir);
+        return lr__lt_weigh(lr__env_radiance(s, dir), lr__lt_sun_w(lt, dir));
     lr__material mt;
     const lr__material *m = lr__hit_material(s, &h, &mt);
-    lr__v3 Le = lr__lt_direct(lt, h.geom) ? v3(0, 0, 0)
-                                          : lr__whitted_emitted(m, &h);
+    lr__v3 Le = lr__lt_weigh(lr__whitted_emitted(m, &h),
+                             lr__lt_direct_w(lt, h.geom, dir));
     lr__v3 L = v3_add(Le, direct(s, m, &h, v3_neg(dir), rays));
     return v3_add(L, lr__whitted_secondary(s, m, &h, dir, depth, max_depth,
                                            throughput, rays));

@@ -230,7 +230,7 @@ static inline lr__v3 sky16(const lr_scene *s, const lr__lt_view *lt,
     if (s->env == NULL)
         return s->background;
     lr__v3 d = v3_norm(v3(r->dir_x[i], r->dir_y[i], r->dir_z[i]));
-    return lr__lt_sun(lt, d) ? v3(0, 0, 0) : lr__env_radiance(s, d);
+    return lr__lt_weigh(lr__env_radiance(s, d), lr__lt_sun_w(lt, d));
 }
 
 /* Vector lane i's hit into sc->h and its albedo into sc->k: a textured
@@ -303,11 +303,12 @@ static void shade16(const lr_scene *restrict s, int max_depth,
                                       rh->hit.v[i], rh->ray.tfar[i], &hit[i]);
         if (has_hit[i])
             m[i] = lr__hit_material(s, &hit[i], &mt[i]);
-        L[i] = has_hit[i] ? v3_add(lr__lt_direct(lt, hit[i].geom)
-                                       ? v3(0, 0, 0)
-                                       : lr__whitted_emitted(m[i], &hit[i]),
-                                   lr__whitted_ambient(s, m[i]))
-                          : lr__env_radiance(s, v3_norm(dir[i]));
+        L[i] = has_hit[i]
+                   ? v3_add(
+                         lr__lt_weigh(lr__whitted_emitted(m[i], &hit[i]),
+                                      lr__lt_direct_w(lt, hit[i].geom, dir[i])),
+                         lr__whitted_ambient(s, m[i]))
+                   : lr__env_radiance(s, v3_norm(dir[i]));
     }
     if (n_vec == 0 && n_scalar == 0)
         return; /* every lane missed */

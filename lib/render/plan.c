@@ -279,6 +279,28 @@ static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
                            int dither, const unsigned char *dark, int x0,
                            int y0, int x1, int y1, lr_error *err);
 static unsigned char *dark_geoms(const lr_scene *s, const lr__lt *lt, int *all);
+
+/* The light side's copy of the dark blocks, which it needs when one of
+ * its lights mixes with the camera (light_trace.h): in a dark block it
+ * keeps all of that light.  0: out of memory. */
+static int lt_dark(lr__plan *p)
+{
+    lr__lt *lt = p->lt;
+    int mixes = 0, any_dark = 0, n = p->bw * p->bh;
+    for (int k = 0; k < lt->n; k++)
+        mixes |= lt->lights[k].mis > 0.0;
+    for (int i = 0; i < n; i++)
+        any_dark |= p->blocks[i].dark;
+    if (!mixes || !any_dark)
+        return 1;
+    if ((lt->dark = malloc((size_t)n)) == NULL)
+        return 0;
+    for (int i = 0; i < n; i++)
+        lt->dark[i] = p->blocks[i].dark;
+    lt->dark_bw = p->bw;
+    lt->dark_block = LR__PLAN_BLOCK;
+    return 1;
+}
 static const lr__geom *geom_or_plane(const lr_scene *s, size_t g);
 static int plane_reached(const lens *L, const lr__geom *pl, double u0,
                          double u1, double v0, double v1);
@@ -373,6 +395,10 @@ lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
     }
     free(dark);
     finish(p, c, set);
+    if (p->lt != NULL && !lt_dark(p)) {
+        lr__plan_free(p);
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    }
     /* Rare light matters only to a pixel that may stop early. */
     if (set->adaptive && !p->splat && lr__adaptive_min(set) < set->spp) {
         lr_status st = rare_build(p, s, c, x0, y0, x1, y1, err);
@@ -924,6 +950,16 @@ static double shown(const lr__lt_view *fl, size_t g, int is_plane,
                                                                     : L_emit;
 }
 
+/* The most of geometry or plane g's emission that a camera ray meeting
+ * it first adds: all, or a light side's light's largest camera weight. */
+static double cam_share(const lr__lt_view *fl, const lr__cam *c, size_t g,
+                        int is_plane)
+{
+    if (is_plane || !lr__lt_direct(fl, (long)g))
+        return 1.0;
+    return lr__lt_cam_share_max(c, fl->mis[g]);
+}
+
 static lr_status rare_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
                             int x0, int y0, int x1, int y1, lr_error *err)
 {
@@ -962,8 +998,7 @@ static lr_status rare_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
         int is_plane = g >= s->n_geoms;
         const lr__geom *geo = geom_or_plane(s, g);
         const lr__material *m = &s->materials[geo->material];
-        if (is_plane || !lr__lt_direct(fl, (long)g))
-            L_cam = fmax(L_cam, emission_max(m));
+        L_cam = fmax(L_cam, cam_share(fl, c, g, is_plane) * emission_max(m));
         if (shows_emitters(m))
             L_cam = fmax(L_cam, shown(fl, g, is_plane, L_emit, L_glint));
     }
@@ -986,10 +1021,10 @@ static lr_status rare_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
         int is_plane = g >= s->n_geoms;
         const lr__geom *geo = geom_or_plane(s, g);
         const lr__material *m = &s->materials[geo->material];
-        /* A light of the light side: camera rays no longer see its
-         * emission first (light_trace.h), only through other surfaces. */
-        double Le = !is_plane && lr__lt_direct(fl, (long)g) ? 0.0
-                                                            : emission_max(m);
+        /* A light of the light side: camera rays see its emission first
+         * only by their MIS weight, most often 0 (light_trace.h), and
+         * through other surfaces. */
+        double Le = cam_share(fl, c, g, is_plane) * emission_max(m);
         double Lg = fmax(Le, shows_emitters(m)
                                  ? shown(fl, g, is_plane, L_emit, L_glint)
                                  : 0.0);
