@@ -14,7 +14,8 @@
  * the camera ray along it meets the sphere first (the light must reach
  * the front of the lens), and lands that one ray through one ghost path
  * g of the lens (camera.h: ghost_film), drawn with probability p_g: half
- * by the paths' fluxes on axis, half uniform (so that a path the
+ * by the paths' fluxes over the square root of their landing shares on
+ * axis (ghost_trace.c: ghost_choice), half uniform (so that a path the
  * on-axis estimate misses, bright off axis, still has 1 / (2 n)).  The
  * pixel under the landing gets L x W_g / (pdf_dir x p_g x N), W_g the
  * ghost's importance: unbiased for the sum over every path.  Same
