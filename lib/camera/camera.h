@@ -225,7 +225,7 @@ typedef struct lr__camera_model {
      * (0 .. ghost_paths - 1) instead of the main path, at the reference
      * wavelength (k = -1) or rgb channel k's (0 red, 1 green, 2 blue):
      * where it lands and its importance, 0 when it is lost.  NULL: the
-     * model has no ghosts. */
+     * model has no ghosts.  ghost_paths returns -1 when out of memory. */
     int (*ghost_paths)(const lr__cam *c, double *peak, double *k,
                        lr__ghost_est *est);
     double (*ghost_film)(const lr__cam *c, int g, int k, double ox, double oy,

@@ -1105,14 +1105,10 @@ static int lens_ghost_paths(const lr__cam *c, double *peak, double *k,
         est[g] = (lr__ghost_est){0.0, 1.0, 0.0};
     /* On axis at the reference wavelength and the camera's stop, a 12 x
      * 12 beam (some 9 ms for the double Gauss's 55 paths), counted on
-     * the frame's circle: an estimate for the plan, not a bound.  Out of
-     * memory: no ghost shows in "auto", and "true" draws the paths
-     * alike. */
+     * the frame's circle: an estimate for the plan, not a bound. */
     lr__ghost_flux *gf = malloc(LR__GHOST_MAX * sizeof *gf);
-    if (gf == NULL) {
-        *peak = lc->ghosts == LR_GHOSTS_ON ? INFINITY : 0.0;
-        return lc->ghosts == LR_GHOSTS_ON ? lc->n_ghost : 0;
-    }
+    if (gf == NULL)
+        return -1;
     double main = 0.0;
     int n = lr__ghost_fluxes_t(&lc->L->rx, lc->n_ref, &lc->t_ref, c->nm_ref,
                                lc->stop_scale, lc->coat, 0.0, 12,

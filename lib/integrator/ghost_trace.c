@@ -105,8 +105,8 @@ int lr__gt_plan(const lr_scene *s, const lr__cam *c, int spp, lr__lt **ltp)
             continue;
         /* The lens's ghosts, once, and only for a scene with a sphere
          * light (a scene without one pays nothing). */
-        if (n_ghost < 0)
-            n_ghost = m->ghost_paths(c, &peak, &k, est);
+        if (n_ghost < 0 && (n_ghost = m->ghost_paths(c, &peak, &k, est)) < 0)
+            goto nomem;
         /* "true" (peak infinite): every light in front of the lens;
          * "auto": those whose brightest ghost reaches LR__GT_AUTO. */
         double omega = solid_angle(c, geo->center, geo->radius);
