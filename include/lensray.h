@@ -508,9 +508,12 @@ typedef struct lr_render_stats {
     uint64_t ghost_landed;
     /* The light the ghosts carried into the frame (a region: into the
      * region), every channel, over the main images their sources would
-     * make on the axis (L Omega / Omega_pix, every channel, summed over
-     * the ghost lights): for a source on the axis, the figure `lensray
-     * lens --ghosts` gives as total_flux.  0 without ghosts. */
+     * make on the axis (each the source's radiance times its solid
+     * angle times the lens's main-path transmission over its front, in
+     * pixels through the exposure normalisation; every channel, summed
+     * over the ghost lights): for a source on the axis, the figure
+     * `lensray lens --ghosts` gives as total_flux (counted there on the
+     * frame's circumscribed circle).  0 without ghosts. */
     double ghost_flux;
 } lr_render_stats;
 

@@ -33,7 +33,8 @@
  * a linear 8-bit image, visible over a dark ground; fainter ghosts are
  * lost under the main image's noise at usual sample counts.  The
  * estimate (the camera's ghost_paths peak times the sphere's main-image
- * total L Omega / Omega_pix) is on axis, at the reference wavelength. */
+ * total L Omega k, k from ghost_paths) is on axis, at the reference
+ * wavelength and the camera's stop. */
 #define LR__GT_AUTO 0.01
 
 /* The ghost lights' paths follow their ghosts' brightness, not the
