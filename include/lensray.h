@@ -502,10 +502,19 @@ typedef struct lr_render_stats {
     /* A real lens's ghosts (camera.ghosts, issue 29), left out of the
      * three above: the lights that got them, their light paths, and the
      * landings of those paths' ghost rays inside the frame (each path
-     * lands through every ghost path of the lens). */
+     * lands through one ghost path of the lens, in each colour). */
     uint64_t ghost_lights;
     uint64_t ghost_paths;
     uint64_t ghost_landed;
+    /* The light the ghosts carried into the frame (a region: into the
+     * region), every channel, over the main images their sources would
+     * make on the axis (each the source's radiance times its solid
+     * angle times the lens's main-path transmission over its front, in
+     * pixels through the exposure normalisation; every channel, summed
+     * over the ghost lights): for a source on the axis, the figure
+     * `lensray lens --ghosts` gives as total_flux (counted there on the
+     * frame's circumscribed circle).  0 without ghosts. */
+    double ghost_flux;
 } lr_render_stats;
 
 /* Renders `scene` through `cam` with `settings`.  On success *out owns a
@@ -527,7 +536,7 @@ LR_API lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
  *               "camera_rays": ..., "full_camera_rays": ...,
  *               "lens_blocked": ..., "light_lights": ..., "light_paths": ...,
  *               "light_landed": ..., "ghost_lights": ..., "ghost_paths": ...,
- *               "ghost_landed": ...}}
+ *               "ghost_landed": ..., "ghost_flux": ...}}
  * lens_pixels and chroma_pixels are shares of the pixels (0 to 1); "plan"
  * is the last member.  `settings` (what the render ran with) gives width,
  * height, spp and plan.enabled/adaptive, and `scene` gives primitives;

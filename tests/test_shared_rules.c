@@ -165,7 +165,8 @@ static void test_stats_json(void **state)
         "\"lens_blocked\": 0",
         "\"light_paths\": 0",
         "\"light_landed\": 0",
-        "\"ghost_landed\": 0}}"};
+        "\"ghost_landed\": 0",
+        "\"ghost_flux\": 0}}"};
     for (size_t i = 0; i < sizeof want / sizeof want[0]; i++)
         if (strstr(j, want[i]) == NULL)
             fail_msg("%s lacks %s", j, want[i]);

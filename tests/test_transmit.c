@@ -76,7 +76,7 @@ static void test_table_matches_formula(void **state)
     const char *lenses[] = {"double-gauss-50", "tessar-laikin-102mm-f4.5",
                             "wide-22"};
     const double nms[] = {450.0, 550.0, 650.0};
-    double worst = 0.0, worst_78 = 0.0;
+    double worst = 0.0, worst_78 = 0.0, worst_r = 0.0;
     for (size_t li = 0; li < sizeof lenses / sizeof *lenses; li++) {
         const lr_lens *L;
         if (lr_lens_load(lenses[li], NULL, &L, NULL) != LR_OK)
@@ -112,6 +112,18 @@ static void test_table_matches_formula(void **state)
                          * lower-index side (c >= 0.2). */
                         if (s <= nmin * sqrt(1.0 - 0.04))
                             worst_78 = fmax(worst_78, e);
+                        /* A ghost's R (lr__ttab_r), against R itself,
+                         * where there is some (R > 1e-4) and up to 85
+                         * degrees. */
+                        if (1.0 - Tb > 1e-4 &&
+                            s <= nmin * sin(85.0 * M_PI / 180.0))
+                            worst_r = fmax(
+                                worst_r, fmax(fabs(lr__ttab_r(&tab, i, nb, cb) /
+                                                       (1.0 - Tb) -
+                                                   1.0),
+                                              fabs(lr__ttab_r(&tab, i, na, ca) /
+                                                       (1.0 - Ta) -
+                                                   1.0)));
                     }
                 }
             }
@@ -119,8 +131,10 @@ static void test_table_matches_formula(void **state)
     print_message("tables against the formula: worst %.2e, within 78 "
                   "degrees %.2e\n",
                   worst, worst_78);
+    print_message("ghosts' R from the tables: worst %.2e of R\n", worst_r);
     assert_true(worst < 1e-3);
     assert_true(worst_78 < 3e-4);
+    assert_true(worst_r < 1e-3);
 }
 
 /* The mean weight of the camera's samples at film point (fx, fy). */

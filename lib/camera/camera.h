@@ -79,6 +79,14 @@ typedef struct lr__lens_bound {
 
 /* One camera model.  Every function receives a camera that passed
  * lr_camera_validate. */
+/* A ghost path's estimate on axis (camera_model.ghost_paths): its flux
+ * over the main image's, its area on the film in pixels (at least 1),
+ * and the share of the rays entering the front of the lens that land
+ * on the film through it. */
+typedef struct lr__ghost_est {
+    double flux, px, land;
+} lr__ghost_est;
+
 typedef struct lr__camera_model {
     const char *name;   /* in JSON: "camera": {"model": name} */
     lr_camera_model id; /* in lr_camera.model */
@@ -208,14 +216,18 @@ typedef struct lr__camera_model {
      * infinity, every source passes; "auto":) to the largest
      * over them of the ghost's mean film value per unit of the main
      * image's total (lr__ghost_fluxes' flux on axis over its area in
-     * pixels), and flux[g] (room for LR__RX_MAX_SURFACES^2 / 2) to
-     * each path's flux over the main image's, on axis (0 when it could
-     * not be estimated); `ghost_film` is `film` for light that follows path g
+     * pixels), *k to the main image's total on axis per unit of
+     * radiance and of the source's solid angle (in pixels of display
+     * white, 0 when it could not be estimated), and est[g] (room for
+     * LR__RX_MAX_SURFACES^2 / 2) to what it estimates of each path on
+     * axis (all 0 when it could not);
+     * `ghost_film` is `film` for light that follows path g
      * (0 .. ghost_paths - 1) instead of the main path, at the reference
      * wavelength (k = -1) or rgb channel k's (0 red, 1 green, 2 blue):
      * where it lands and its importance, 0 when it is lost.  NULL: the
-     * model has no ghosts. */
-    int (*ghost_paths)(const lr__cam *c, double *peak, double *flux);
+     * model has no ghosts.  ghost_paths returns -1 when out of memory. */
+    int (*ghost_paths)(const lr__cam *c, double *peak, double *k,
+                       lr__ghost_est *est);
     double (*ghost_film)(const lr__cam *c, int g, int k, double ox, double oy,
                          lr__v3 d, double *fx, double *fy);
 } lr__camera_model;
@@ -271,6 +283,11 @@ typedef struct lr__lens_cam {
     int ghosts, n_ghost;
     int t_rgb_ok;
     lr__ttab t_ref, t_rgb[3];
+    /* Ghosts in rgb and spectral mode (ghosts not false): the indices at
+     * nm_rgb without chromatic.amplify (a ghost follows the glass's own
+     * dispersion) and their tables. */
+    double g_n[3][LR__RX_MAX_SURFACES];
+    lr__ttab g_tab[3];
 } lr__lens_cam;
 
 /* A camera prepared for one film: the frame every model shares, then the

@@ -565,6 +565,12 @@ static void setup(lr__cam *c, const lr_camera *cam)
     lc->t_rgb_ok = colours == 1;
     for (int k = 0; k < 3 && lc->t_rgb_ok; k++)
         lr__ttab_fill(&lc->t_rgb[k], &L->rx, lc->n_rgb[k], rgb_nm[k], lc->coat);
+    if (lc->ghosts != LR_GHOSTS_OFF && c->chroma.mode != LR_CHROMATIC_OFF)
+        for (int k = 0; k < 3; k++) {
+            lr__rx_indices(&L->rx, rgb_nm[k], lc->g_n[k]);
+            lr__ttab_fill(&lc->g_tab[k], &L->rx, lc->g_n[k], rgb_nm[k],
+                          lc->coat);
+        }
     pupils(c, colours);
     for (int k = 0; k < LR__PUPIL_N; k++) {
         lr__pupil a = pupil_at(lc, lc->pupil_rmax * k / LR__PUPIL_N);
@@ -1088,34 +1094,43 @@ static lr__ghost ghost_at(int g)
     return (lr__ghost){j, g - j * (j - 1) / 2};
 }
 
-static int lens_ghost_paths(const lr__cam *c, double *peak, double *flux)
+static int lens_ghost_paths(const lr__cam *c, double *peak, double *k,
+                            lr__ghost_est *est)
 {
     const lr__lens_cam *lc = &c->lens;
-    *peak = 0.0;
+    *peak = 0.0, *k = 0.0;
     if (lc->ghosts == LR_GHOSTS_OFF || lc->n_ghost == 0)
         return 0;
     for (int g = 0; g < lc->n_ghost; g++)
-        flux[g] = 0.0;
-    /* On axis at the reference wavelength, a 24 x 24 beam, counted on
-     * the frame's circle: an estimate for the plan, not a bound.  Out
-     * of memory: no ghost shows in "auto", and "true" draws the paths
-     * alike. */
+        est[g] = (lr__ghost_est){0.0, 1.0, 0.0};
+    /* On axis at the reference wavelength and the camera's stop, a 12 x
+     * 12 beam (some 9 ms for the double Gauss's 55 paths), counted on
+     * the frame's circle: an estimate for the plan, not a bound. */
     lr__ghost_flux *gf = malloc(LR__GHOST_MAX * sizeof *gf);
-    if (gf == NULL) {
-        *peak = lc->ghosts == LR_GHOSTS_ON ? INFINITY : 0.0;
-        return lc->ghosts == LR_GHOSTS_ON ? lc->n_ghost : 0;
-    }
+    if (gf == NULL)
+        return -1;
     double main = 0.0;
-    int n = lr__ghost_fluxes(&lc->L->rx, lc->coat, 0.0, c->nm_ref, 24,
-                             lc->pupil_rmax, gf, &main);
+    int n = lr__ghost_fluxes_t(&lc->L->rx, lc->n_ref, &lc->t_ref, c->nm_ref,
+                               lc->stop_scale, lc->coat, 0.0, 12,
+                               lc->pupil_rmax, gf, &main);
     double A_pix = lc->sensor_w * lc->sensor_h / (c->width * c->height);
-    for (int k = 0; k < n; k++) {
-        /* A uniform disc of radius a has rms radius a / sqrt 2: area
+    /* The main image of a distant source of radiance L filling a small
+     * solid angle Omega on axis: L Omega times the main path's
+     * transmission over the front, each ray worth lens_film_n's inv_E0
+     * cos A / A_pix in pixels (cos = 1).  Its own 64 x 64 beam (some 2
+     * ms): the stop's disc covers a few of the 12 x 12 beam's cells. */
+    *k = lc->inv_E0 *
+         lr__ghost_main_area(&lc->L->rx, lc->n_ref, &lc->t_ref, c->nm_ref,
+                             lc->stop_scale, lc->coat, 64) /
+         A_pix;
+    for (int j = 0; j < n; j++) {
+        /* A uniform disc of radius r has rms radius r / sqrt 2: area
          * 2 pi rms^2. */
-        double px = fmax(1.0, 2.0 * M_PI * gf[k].rms * gf[k].rms / A_pix);
-        *peak = fmax(*peak, gf[k].flux / px);
-        lr__ghost p = gf[k].path;
-        flux[p.j * (p.j - 1) / 2 + p.i] = gf[k].flux;
+        double px = fmax(1.0, 2.0 * M_PI * gf[j].rms * gf[j].rms / A_pix);
+        *peak = fmax(*peak, gf[j].flux / px);
+        lr__ghost p = gf[j].path;
+        est[p.j * (p.j - 1) / 2 + p.i] = (lr__ghost_est){gf[j].flux, px,
+                                                         gf[j].landed};
     }
     free(gf);
     if (lc->ghosts == LR_GHOSTS_ON)
@@ -1129,7 +1144,10 @@ static double lens_ghost_film(const lr__cam *c, int g, int k, double ox,
     const lr__lens_cam *lc = &c->lens;
     /* The glass's own dispersion at nm (chromatic.amplify plays no part
      * in a ghost). */
-    double nm = k >= 0 && k < 3 ? lc->nm_rgb[k] : c->nm_ref;
+    int rgb = k >= 0 && k < 3 && c->chroma.mode != LR_CHROMATIC_OFF;
+    double nm = rgb ? lc->nm_rgb[k] : c->nm_ref;
+    const double *n_after = rgb ? lc->g_n[k] : lc->n_ref;
+    const lr__ttab *tab = rgb ? &lc->g_tab[k] : &lc->t_ref;
     const lr_lens *L = lc->L;
     double d[3] = {-v3_dot(w, c->right), -v3_dot(w, c->up),
                    v3_dot(w, c->forward)};
@@ -1139,8 +1157,10 @@ static double lens_ghost_film(const lr__cam *c, int g, int k, double ox,
     double back = (L->rx.s[0].semi_aperture + 1.0) / d[2];
     double o[3] = {ox - back * d[0], oy - back * d[1], L->z[0] - back * d[2]};
     double hit[2], T = 0.0;
-    if (!lr__ghost_trace(&L->rx, L->z, nm, lc->stop_scale, lc->coat,
-                         ghost_at(g), lc->z_sensor, o, d, hit, &T))
+    double clip[2] = {0.5 * lc->sensor_w, 0.5 * lc->sensor_h};
+    if (!lr__ghost_trace_t(&L->rx, L->z, n_after, tab, nm, lc->stop_scale,
+                           lc->coat, ghost_at(g), lc->z_sensor, clip, o, d, hit,
+                           &T))
         return 0.0;
     *fx = (0.5 - hit[0] / lc->sensor_w) * c->width;
     *fy = (hit[1] / lc->sensor_h + 0.5) * c->height;

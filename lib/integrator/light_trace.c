@@ -88,7 +88,6 @@ void lr__lt_free(lr__lt *lt)
     free(lt->direct);
     free(lt->mis);
     free(lt->dark);
-    free(lt->ghost_cdf);
     lr__lp_free(lt->lp);
     free(lt->wl);
     free(lt);
@@ -541,7 +540,8 @@ static lr_status plan_paths(const lr_scene *s, const lr__cam *c,
     }
     lt->lp_paths = lt->paths;
     lt->seed = set->seed;
-    if (!wl_table(lt, c)) {
+    /* The lens's ghosts, as for the other integrators. */
+    if (!lr__gt_plan(s, c, set->spp, &lt) || !wl_table(lt, c)) {
         lr__lt_free(lt);
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     }
@@ -623,6 +623,7 @@ lr_status lr__lt_film_init(lr__lt_film *f, const lr__lt *lt, int x0, int y0,
                            int x1, int y1, lr_error *err)
 {
     f->x0 = x0, f->y0 = y0, f->x1 = x1, f->y1 = y1;
+    f->ghost_sum = 0;
     size_t n = 3 * (size_t)(x1 - x0) * (size_t)(y1 - y0);
     f->sum = calloc(n, sizeof *f->sum);
     if (f->sum == NULL)
@@ -1115,7 +1116,7 @@ void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
             lr__v3 P = c->model->lens_point(c, ul, &ox, &oy);
             double ug[2];
             lr__sample_2d(&smp, light_key(l), idx, 4, ug);
-            lr__gt_path(lt, s, c, l, P, ox, oy, ud, ug[0], f, rays, ghosts);
+            lr__gt_path(s, c, l, P, ox, oy, ud, ug[0], f, rays, ghosts);
             continue;
         }
         /* Spectral mode: dimension 6 places the path's wavelengths. */

@@ -91,7 +91,9 @@ typedef struct lr__lt_light {
     double radius;
     /* A mesh: its triangles are scene->emitters[first_tri ..
      * first_tri + n_tri), drawn by area through cdf (n_tri, owned, the
-     * last 1) from a total of `area`; n_tri = 0 for a sphere. */
+     * last 1) from a total of `area`; n_tri = 0 for a sphere.  A ghost
+     * light: cdf is its ghost paths' choice (`ghosts` of them, owned;
+     * ghost_trace.c). */
     long first_tri;
     size_t n_tri;
     double *cdf;
@@ -139,9 +141,7 @@ typedef struct lr__lt {
     lr__lp *lp;
     uint64_t lp_paths; /* all its parts' */
     int ghost_lights;  /* lights with surf LR__LT_GHOST (the last ones) */
-    /* Their ghost paths' choice (ghost_trace.c): cumulative
-     * probabilities, ghost_cdf[g] that of paths 0 .. g, owned. */
-    double *ghost_cdf;
+    double ghost_main; /* their main images' totals on axis, every channel */
     /* Spectral mode with colours that focus apart: the wavelengths'
      * table (lr__cam_land), owned; else NULL. */
     lr__wl_table *wl;
@@ -200,6 +200,9 @@ typedef struct lr__lt_film {
     double scale;
     const unsigned char *dark; /* the light side's (lr__lt.dark) */
     int dark_bw, dark_block;
+    /* The ghosts' splats inside the region, every channel, in the same
+     * units (ghost_trace.c; --stats ghost_flux). */
+    int64_t ghost_sum;
 } lr__lt_film;
 
 lr_status lr__lt_film_init(lr__lt_film *f, const lr__lt *lt, int x0, int y0,

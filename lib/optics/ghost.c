@@ -39,17 +39,25 @@ double lr__rx_surface_r(const lr__rx *rx, const double *n_after, int i,
                                        before, cos_i, nm);
 }
 
-/* A ray on its way through the lens. */
+/* A ray on its way through the lens, and what it met: per crossing the
+ * surface, the way it went, whether it reflected and its cosine of
+ * incidence, so that the weights come after the geometry (a ray the
+ * lens stops, or that lands outside the frame, never pays for a
+ * reflectance). */
 typedef struct walk {
     const lr__rx *rx;
     const double *z, *n_after;
-    double nm, stop_scale;
-    const lr__coating *override;
-    double o[3], d[3], w;
+    double stop_scale;
+    double o[3], d[3];
+    int n;
+    struct {
+        signed char i, fwd, mirror;
+        double cos_i;
+    } x[3 * LR__RX_MAX_SURFACES];
 } walk;
 
 /* Surface i, travelling toward the image (fwd = 1) or back: reflect
- * (mirror = 1) or refract, the weight times R or 1 - R.  0: lost. */
+ * (mirror = 1) or refract.  0: lost. */
 static int cross(walk *r, int i, int fwd, int mirror)
 {
     double p[3], nrm[3];
@@ -66,21 +74,20 @@ static int cross(walk *r, int i, int fwd, int mirror)
     for (int a = 0; a < 3; a++)
         r->o[a] = p[a];
     double dn = r->d[0] * nrm[0] + r->d[1] * nrm[1] + r->d[2] * nrm[2];
-    double R = lr__rx_surface_r(r->rx, r->n_after, i, fwd, fabs(dn), r->nm,
-                                r->override);
+    r->x[r->n].i = (signed char)i;
+    r->x[r->n].fwd = (signed char)fwd;
+    r->x[r->n].mirror = (signed char)mirror;
+    r->x[r->n].cos_i = fabs(dn);
+    r->n++;
     if (mirror) {
         /* d' = d - 2 (d . n) n: the law of reflection. */
         for (int a = 0; a < 3; a++)
             r->d[a] -= 2.0 * dn * nrm[a];
-        r->w *= R;
         return 1;
     }
     double before = i > 0 ? r->n_after[i - 1] : 1.0, after = r->n_after[i];
-    if (!(fwd ? lr__rx_refract(r->d, nrm, before, after)
-              : lr__rx_refract(r->d, nrm, after, before)))
-        return 0;
-    r->w *= 1.0 - R;
-    return 1;
+    return fwd ? lr__rx_refract(r->d, nrm, before, after)
+               : lr__rx_refract(r->d, nrm, after, before);
 }
 
 int lr__ghost_trace(const lr__rx *rx, const double *z, double nm,
@@ -90,7 +97,19 @@ int lr__ghost_trace(const lr__rx *rx, const double *z, double nm,
 {
     double n_after[LR__RX_MAX_SURFACES];
     lr__rx_indices(rx, nm, n_after);
-    walk r = {rx, z, n_after, nm, stop_scale, override, {0}, {0}, 1.0};
+    return lr__ghost_trace_t(rx, z, n_after, NULL, nm, stop_scale, override, g,
+                             sensor_z, NULL, o, d, hit, weight);
+}
+
+int lr__ghost_trace_t(const lr__rx *rx, const double *z, const double *n_after,
+                      const lr__ttab *tab, double nm, double stop_scale,
+                      const lr__coating *override, lr__ghost g, double sensor_z,
+                      const double *clip, const double o[3], const double d[3],
+                      double hit[2], double *weight)
+{
+    walk r;
+    r.rx = rx, r.z = z, r.n_after = n_after, r.stop_scale = stop_scale;
+    r.n = 0;
     for (int a = 0; a < 3; a++) {
         r.o[a] = o[a];
         r.d[a] = d[a];
@@ -121,6 +140,25 @@ int lr__ghost_trace(const lr__rx *rx, const double *z, double nm,
     double t = (sensor_z - r.o[2]) / r.d[2];
     hit[0] = r.o[0] + t * r.d[0];
     hit[1] = r.o[1] + t * r.d[1];
-    *weight = r.w;
+    if (clip != NULL && !(fabs(hit[0]) < clip[0] && fabs(hit[1]) < clip[1]))
+        return 0;
+    /* The weights: R at the two reflections, 1 - R at every other
+     * crossing, each at its own cosine. */
+    double w = 1.0;
+    for (int k = 0; k < r.n; k++) {
+        int i = r.x[k].i, fwd = r.x[k].fwd;
+        double before = i > 0 ? n_after[i - 1] : 1.0, after = n_after[i];
+        double R;
+        if (before == after)
+            R = 0.0; /* no interface (a stop): nothing reflected */
+        else if (tab != NULL)
+            R = lr__ttab_r(tab, i, fwd ? before : after, r.x[k].cos_i);
+        else {
+            R = lr__rx_surface_r(rx, n_after, i, fwd, r.x[k].cos_i, nm,
+                                 override);
+        }
+        w *= r.x[k].mirror ? R : 1.0 - R;
+    }
+    *weight = w;
     return 1;
 }

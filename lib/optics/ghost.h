@@ -24,6 +24,7 @@
 #define LR_GHOST_H
 
 #include "prescription.h"
+#include "transmit.h"
 
 /* A ghost path: reflect at surface j, then at surface i < j.  j < 0: the
  * main image (no reflection; the same weights: 1 - R at every surface). */
@@ -65,14 +66,27 @@ int lr__ghost_trace(const lr__rx *rx, const double *z, double nm,
                     double sensor_z, const double o[3], const double d[3],
                     double hit[2], double *weight);
 
+/* lr__ghost_trace with the indices at nm given (n_after, as
+ * lr__rx_indices fills it) and R from `tab` (lr__ttab_r, filled at those
+ * indices and nm under *override) when not NULL, else exactly at nm.
+ * `clip` (not NULL): the ray counts only when it lands inside |x| <
+ * clip[0], |y| < clip[1] (the frame, mm), and only such a ray's
+ * reflectances are looked up.  A camera's ghost rays come here. */
+int lr__ghost_trace_t(const lr__rx *rx, const double *z, const double *n_after,
+                      const lr__ttab *tab, double nm, double stop_scale,
+                      const lr__coating *override, lr__ghost g, double sensor_z,
+                      const double *clip, const double o[3], const double d[3],
+                      double hit[2], double *weight);
+
 /* ---- a distant point's ghosts (ghost_flux.c) ----------------------------- */
 
 /* One ghost of a distant point: its flux on the sensor over the main
- * image's, where it falls (the flux-weighted centroid, mm) and how
- * widely (the rms distance from that centroid, mm). */
+ * image's, where it falls (the flux-weighted centroid, mm), how widely
+ * (the rms distance from that centroid, mm), and the share of the
+ * beam's rays that land (whatever their weight). */
 typedef struct lr__ghost_flux {
     lr__ghost path;
-    double flux, cx, cy, rms;
+    double flux, cx, cy, rms, landed;
 } lr__ghost_flux;
 
 /* A distant point at `field_deg` off axis (in the x-z plane) at `nm`,
@@ -87,5 +101,24 @@ typedef struct lr__ghost_flux {
 int lr__ghost_fluxes(const lr__rx *rx, const lr__coating *override,
                      double field_deg, double nm, int grid, double radius,
                      lr__ghost_flux *out, double *main);
+
+/* The same with the indices at nm given, R from `tab` when not NULL
+ * (lr__ghost_trace_t) and the stop scaled by stop_scale: a camera's
+ * estimate, some 3e-4 of each R off the formula where the formula's
+ * exact one costs some 0.3 us a crossing. */
+int lr__ghost_fluxes_t(const lr__rx *rx, const double *n_after,
+                       const lr__ttab *tab, double nm, double stop_scale,
+                       const lr__coating *override, double field_deg, int grid,
+                       double radius, lr__ghost_flux *out, double *main);
+
+/* The main path's transmission integrated over the front of the lens for
+ * a beam along the axis, mm^2 (its rays' 1 - R products times the area
+ * each stands for), grid x grid rays over the first surface's
+ * semi-aperture, at nm with the indices, R's source and the stop as
+ * lr__ghost_fluxes_t takes them: what a distant point on the axis
+ * sends to the sensor per unit of the beam's irradiance. */
+double lr__ghost_main_area(const lr__rx *rx, const double *n_after,
+                           const lr__ttab *tab, double nm, double stop_scale,
+                           const lr__coating *override, int grid);
 
 #endif

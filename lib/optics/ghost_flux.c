@@ -11,13 +11,21 @@
 /* Sums over one path's rays. */
 typedef struct sums {
     double w, wx, wy, wrr;
+    int hits;
 } sums;
 
-static sums path_sums(const lr__rx *rx, const double *z,
-                      const lr__coating *override, lr__ghost g,
-                      const double d[3], double nm, int grid, double radius)
+/* The indices and R's source for one wavelength (lr__ghost_trace_t). */
+typedef struct optics {
+    const double *n_after;
+    const lr__ttab *tab;
+    double nm, stop_scale;
+    const lr__coating *override;
+} optics;
+
+static sums path_sums(const lr__rx *rx, const double *z, const optics *op,
+                      lr__ghost g, const double d[3], int grid, double radius)
 {
-    sums s = {0, 0, 0, 0};
+    sums s = {0, 0, 0, 0, 0};
     const double a = rx->s[0].semi_aperture;
     for (int u = 0; u < grid; u++)
         for (int v = 0; v < grid; v++) {
@@ -31,11 +39,13 @@ static sums path_sums(const lr__rx *rx, const double *z,
              * front of it. */
             double o[3] = {x - d[0] / d[2], y - d[1] / d[2], -1.0};
             double hit[2], w;
-            if (!lr__ghost_trace(rx, z, nm, 1.0, override, g, z[rx->n], o, d,
-                                 hit, &w))
+            if (!lr__ghost_trace_t(rx, z, op->n_after, op->tab, op->nm,
+                                   op->stop_scale, op->override, g, z[rx->n],
+                                   NULL, o, d, hit, &w))
                 continue;
             if (radius > 0.0 && hypot(hit[0], hit[1]) > radius)
                 continue;
+            s.hits++;
             s.w += w;
             s.wx += w * hit[0];
             s.wy += w * hit[1];
@@ -56,18 +66,19 @@ static int brighter_first(const void *a, const void *b)
     return p->path.i - q->path.i;
 }
 
-int lr__ghost_fluxes(const lr__rx *rx, const lr__coating *override,
-                     double field_deg, double nm, int grid, double radius,
-                     lr__ghost_flux *out, double *main)
+int lr__ghost_fluxes_t(const lr__rx *rx, const double *n_after,
+                       const lr__ttab *tab, double nm, double stop_scale,
+                       const lr__coating *override, double field_deg, int grid,
+                       double radius, lr__ghost_flux *out, double *main)
 {
+    optics op = {n_after, tab, nm, stop_scale, override};
     double z[LR__RX_MAX_SURFACES + 1];
     lr__rx_layout(rx, z);
     double t = field_deg * M_PI / 180.0;
     double d[3] = {sin(t), 0.0, cos(t)};
     /* The beam's rays each carry the same energy: the flux of a path is
      * the sum of its rays' weights, in units of one ray's. */
-    sums m = path_sums(rx, z, override, (lr__ghost){-1, -1}, d, nm, grid,
-                       radius);
+    sums m = path_sums(rx, z, &op, (lr__ghost){-1, -1}, d, grid, radius);
     int cells = 0;
     for (int u = 0; u < grid; u++)
         for (int v = 0; v < grid; v++) {
@@ -81,10 +92,11 @@ int lr__ghost_fluxes(const lr__rx *rx, const lr__coating *override,
     lr__ghost paths[LR__GHOST_MAX];
     int n = lr__ghost_paths(rx, paths);
     for (int k = 0; k < n; k++) {
-        sums s = path_sums(rx, z, override, paths[k], d, nm, grid, radius);
+        sums s = path_sums(rx, z, &op, paths[k], d, grid, radius);
         lr__ghost_flux *f = &out[k];
         f->path = paths[k];
         f->flux = s.w / m.w;
+        f->landed = cells > 0 ? (double)s.hits / cells : 0.0;
         f->cx = s.w > 0.0 ? s.wx / s.w : 0.0;
         f->cy = s.w > 0.0 ? s.wy / s.w : 0.0;
         f->rms = s.w > 0.0 ? sqrt(fmax(0.0, s.wrr / s.w - f->cx * f->cx -
@@ -93,4 +105,27 @@ int lr__ghost_fluxes(const lr__rx *rx, const lr__coating *override,
     }
     qsort(out, (size_t)n, sizeof *out, brighter_first);
     return n;
+}
+
+double lr__ghost_main_area(const lr__rx *rx, const double *n_after,
+                           const lr__ttab *tab, double nm, double stop_scale,
+                           const lr__coating *override, int grid)
+{
+    double z[LR__RX_MAX_SURFACES + 1];
+    lr__rx_layout(rx, z);
+    optics op = {n_after, tab, nm, stop_scale, override};
+    static const double axis[3] = {0.0, 0.0, 1.0};
+    sums m = path_sums(rx, z, &op, (lr__ghost){-1, -1}, axis, grid, 0.0);
+    double cell = 2.0 * rx->s[0].semi_aperture / grid;
+    return m.w * cell * cell;
+}
+
+int lr__ghost_fluxes(const lr__rx *rx, const lr__coating *override,
+                     double field_deg, double nm, int grid, double radius,
+                     lr__ghost_flux *out, double *main)
+{
+    double n_after[LR__RX_MAX_SURFACES];
+    lr__rx_indices(rx, nm, n_after);
+    return lr__ghost_fluxes_t(rx, n_after, NULL, nm, 1.0, override, field_deg,
+                              grid, radius, out, main);
 }

@@ -10,6 +10,7 @@
 #include "autofocus.h"
 #include "camera.h"
 #include "film.h"
+#include "ghost_trace.h"
 #include "integrator.h"
 #include "plan.h"
 #include "sample.h"
@@ -218,6 +219,7 @@ static void finish_sides(render *j, lr_image *img, lr_render_stats *sum)
                 sum->ghost_paths += lt->lights[k].paths;
         sum->light_lights = (uint64_t)lt->n - sum->ghost_lights;
         sum->light_paths = lt->paths - sum->ghost_paths;
+        sum->ghost_flux = lr__gt_flux(lt, &j->light);
         if (!atomic_load(&j->cancelled))
             lr__lt_film_resolve(&j->light, img->rgb);
         lr__lt_film_free(&j->light);

@@ -68,7 +68,8 @@ char *lr_render_stats_json(const lr_render_stats *st,
         "\"full_camera_rays\": %llu, \"lens_blocked\": %llu, "
         "\"light_lights\": %llu, \"light_paths\": %llu, "
         "\"light_landed\": %llu, \"ghost_lights\": %llu, "
-        "\"ghost_paths\": %llu, \"ghost_landed\": %llu}}",
+        "\"ghost_paths\": %llu, \"ghost_landed\": %llu, "
+        "\"ghost_flux\": %.6g}}",
         (double)st->lens_pixels / px, (double)st->chroma_pixels / px,
         (unsigned long long)st->samples, (unsigned long long)st->full_samples,
         (unsigned long long)st->camera_rays,
@@ -79,6 +80,6 @@ char *lr_render_stats_json(const lr_render_stats *st,
         (unsigned long long)st->light_landed,
         (unsigned long long)st->ghost_lights,
         (unsigned long long)st->ghost_paths,
-        (unsigned long long)st->ghost_landed);
+        (unsigned long long)st->ghost_landed, st->ghost_flux);
     return b.used < sizeof b.buf ? strdup(b.buf) : NULL;
 }

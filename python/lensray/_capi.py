@@ -106,6 +106,7 @@ class lr_render_stats(Structure):
         ("ghost_lights", c_uint64),
         ("ghost_paths", c_uint64),
         ("ghost_landed", c_uint64),
+        ("ghost_flux", c_double),
     ]
 
 

@@ -537,6 +537,27 @@ static const char scene_text[] =
     "  ]\n"
     "}\n";
 
+/* A real lens with ghosts (issue 29): an uncoated singlet in rgb mode,
+ * a small bright sphere off its axis, camera.ghosts true: the camera's
+ * tables and ghost estimate, the ghost lights' choice of paths and the
+ * light side's film. */
+static const char ghosts_text[] =
+    "{\"camera\": {\"model\": \"lens\", \"position\": [0, 0, 0],"
+    " \"look_at\": [0, 0, -1], \"sensor_width_mm\": 36,"
+    " \"focus_distance\": 0.5, \"ghosts\": true,"
+    " \"chromatic\": {\"mode\": \"rgb\"},"
+    " \"lens\": {\"name\": \"singlet\", \"surfaces\": ["
+    "  {\"radius\": 100, \"thickness\": 5, \"material\": \"N-BK7\","
+    "   \"semi_aperture\": 10},"
+    "  {\"radius\": -100, \"thickness\": 20, \"material\": \"air\","
+    "   \"semi_aperture\": 10},"
+    "  {\"stop\": true, \"thickness\": 75, \"semi_aperture\": 5}]}},"
+    " \"render\": {\"width\": 24, \"height\": 16, \"spp\": 4,"
+    "  \"threads\": 2, \"tile_size\": 8, \"adaptive\": false},"
+    " \"materials\": {\"l\": {\"emission\": [1e6, 1e6, 1e6]}},"
+    " \"objects\": [{\"type\": \"sphere\", \"center\": [5, 2, -100],"
+    "  \"radius\": 0.2, \"material\": \"l\"}]}";
+
 /* A mesh first: the planner then grows its box list on its path for
  * meshes rather than for spheres and small meshes. */
 static const char mesh_first_text[] =
@@ -764,13 +785,15 @@ enum {
     R_ADAPTIVE,
     R_DEPTH_REGION,
     R_AUTOFOCUS,
-    R_MESH_FIRST
+    R_MESH_FIRST,
+    R_GHOSTS
 };
 
 static int setup_render(fixture *fx, const path *p)
 {
     lr_error err;
     const char *text = p->variant == R_MESH_FIRST ? mesh_first_text
+                       : p->variant == R_GHOSTS   ? ghosts_text
                                                   : scene_text;
     if (lr_scene_load_json(text, strlen(text), tmpdir, NULL, 0, &fx->scene,
                            &err) != LR_OK)
@@ -821,6 +844,7 @@ static int setup_render(fixture *fx, const path *p)
         c->focus_on[0] = 8, c->focus_on[1] = 10;
         break;
     case R_MESH_FIRST:
+    case R_GHOSTS:
         break;
     }
     return 0;
@@ -1011,6 +1035,8 @@ static const path paths[] = {
      R_AUTOFOCUS},
     {"render_mesh_first", setup_render, call_render, image_clear, image_release,
      R_MESH_FIRST},
+    {"render_lens_ghosts", setup_render, call_render, image_clear,
+     image_release, R_GHOSTS},
     {"encode_png8", setup_encode, call_encode, buf_clear, buf_release, E_PNG8},
     {"encode_png16", setup_encode, call_encode, buf_clear, buf_release,
      E_PNG16},
