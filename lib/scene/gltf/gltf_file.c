@@ -189,7 +189,11 @@ lr_status lr__gltf_read_blob(lr__gltf_doc *d, const char *dir, const char *path,
         char *data = NULL;
         size_t n = 0;
         lr_error e2;
-        lr_status st = lr__read_file(full, file, NULL, LR__GLTF_MAX_BYTES,
+        /* The name as messages quote it: a uri's bytes need not be UTF-8
+         * (a fuzzed file's were not), and messages must be. */
+        char shown[256];
+        lr__utf8_escape(file, shown, sizeof shown);
+        lr_status st = lr__read_file(full, shown, NULL, LR__GLTF_MAX_BYTES,
                                      "files a glTF names", NULL, &data, &n,
                                      &e2);
         free(full);
