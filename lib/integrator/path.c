@@ -170,9 +170,9 @@ static int bounce(const lr_scene *s, int max_depth, int depth, int hit,
         if (sun_w == 0.0)
             return 0;
         lr__v3 Le = lr__lt_weigh(lr__env_radiance(s, p->dir), sun_w);
-        double w = p->prev_delta
-                       ? 1.0
-                       : mis(p->prev_pdf, lr__light_pdf_env(s, p->dir));
+        double w = p->prev_delta ? 1.0
+                                 : mis(p->prev_pdf,
+                                       lr__light_pdf_env(s, p->prev_p, p->dir));
         p->L = v3_add(p->L, v3_scale(v3_mul(p->beta, Le), w));
         return 0;
     }

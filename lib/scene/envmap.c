@@ -191,6 +191,8 @@ static lr_status build_cdf(lr__envmap *e, lr_error *err)
         total += row;
         e->row_cdf[y] = total;
     }
+    /* The rows' sin_t sum to 2 / pi: total over that and w columns. */
+    e->mean_lum = total * M_PI / (2.0 * w) * e->intensity;
     for (int y = 0; y < h; y++) {
         e->row_cdf[y] = total > 0.0 ? e->row_cdf[y] / total : (y + 1.0) / h;
         e->row_weight[y] = total > 0.0 ? e->row_weight[y] / total : 1.0 / h;

@@ -32,6 +32,9 @@ struct lr__envmap {
      * largest overall.  For lr__envmap_max_in_cone. */
     float *run_max; /* h * ceil(w / LR__ENV_RUN); owned */
     double max;
+    /* The mean luminance over the sphere, intensity included (light.c's
+     * pick among kinds of light). */
+    double mean_lum;
     /* lr__envmap_sun's cone (sun_cos > 1: none). */
     lr__v3 sun_dir;
     double sun_cos;

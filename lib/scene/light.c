@@ -38,6 +38,41 @@ static double emitter_luminance(const lr__material *m)
                             m->emission.z * t->mean[2]));
 }
 
+/* The emitters' power (pi x total: a Lambertian emitter of radiance L
+ * and area A sends pi A L), their power-weighted centroid and a radius
+ * about it holding every emitter (corners, spheres' extents). */
+static void emitters_extent(lr_scene *s, double total)
+{
+    lr__v3 c = v3(0, 0, 0);
+    double wsum = 0.0;
+    for (size_t i = 0; i < s->n_emitters; i++) {
+        const lr__emitter *e = &s->emitters[i];
+        const lr__geom *G = &s->geoms[e->geom];
+        double w = e->area * emitter_luminance(&s->materials[G->material]);
+        lr__v3 x = G->kind == LR__GEOM_TRIANGLES
+                       ? v3_add(e->a, v3_scale(v3_add(e->e1, e->e2), 1.0 / 3))
+                       : G->center;
+        c = v3_madd(c, x, w);
+        wsum += w;
+    }
+    c = wsum > 0.0 ? v3_scale(c, 1.0 / wsum) : c;
+    double r = 0.0;
+    for (size_t i = 0; i < s->n_emitters; i++) {
+        const lr__emitter *e = &s->emitters[i];
+        const lr__geom *G = &s->geoms[e->geom];
+        if (G->kind == LR__GEOM_TRIANGLES) {
+            r = fmax(r, v3_len(v3_sub(e->a, c)));
+            r = fmax(r, v3_len(v3_sub(v3_add(e->a, e->e1), c)));
+            r = fmax(r, v3_len(v3_sub(v3_add(e->a, e->e2), c)));
+        } else {
+            r = fmax(r, v3_len(v3_sub(G->center, c)) + G->radius);
+        }
+    }
+    s->emit_power = M_PI * total;
+    s->emit_centre = c;
+    s->emit_radius = r;
+}
+
 int lr__scene_emits(const lr_scene *s)
 {
     for (size_t g = 0; g < s->n_geoms; g++)
@@ -95,17 +130,106 @@ lr_status lr__emitters_build(lr_scene *s, lr_error *err)
     for (size_t i = 0; i < n; i++)
         s->emitter_cdf[i] = total > 0.0 ? s->emitter_cdf[i] / total
                                         : (double)(i + 1) / (double)n;
+    emitters_extent(s, total);
     return LR_OK;
 }
 
-/* The kinds of light a pick chooses among, each with probability 1 /
- * kinds. */
-static int kinds(const lr_scene *s, int *area, int *env, int *delta)
+/* The share of a pick that goes uniformly to the choices (light.h). */
+#define DEFENSIVE 0.1
+
+/* What point light lt gives p, as an irradiance estimate: its
+ * intensity's luminance (times a spot's falloff) over the squared
+ * distance; a directional light's irradiance. */
+static double delta_weight(const lr__light *lt, lr__v3 p)
 {
-    *area = s->n_emitters > 0;
-    *env = lr__env_is_light(s);
-    *delta = s->n_lights > 0;
-    return *area + *env + *delta;
+    double lum = lr__luminance(lt->power);
+    if (lt->kind != LR__LIGHT_POINT)
+        return lum;
+    lr__v3 to = v3_sub(lt->position, p);
+    double d2 = v3_dot(to, to);
+    if (!(d2 > 0.0))
+        return lum;
+    return lum * lr__spot_falloff(lt, v3_scale(to, 1.0 / sqrt(d2))) / d2;
+}
+
+/* Mixes weights w[0..n) (each >= 0) into probabilities: (1 - DEFENSIVE)
+ * w / sum + DEFENSIVE / n, or 1 / n each when the sum is not a positive
+ * finite number.  Present choices only: n counts them. */
+static void mix(double *w, int n)
+{
+    double sum = 0.0;
+    for (int i = 0; i < n; i++)
+        sum += w[i];
+    int ok = sum > 0.0 && isfinite(sum);
+    for (int i = 0; i < n; i++)
+        w[i] = ok ? (1.0 - DEFENSIVE) * (w[i] / sum) + DEFENSIVE / n : 1.0 / n;
+}
+
+/* The probabilities of picking each kind at p: pk[0] area lights, pk[1]
+ * the environment, pk[2] point and directional lights (0 for a kind the
+ * scene lacks).  Each kind is weighed by the irradiance it could bring
+ * to p, taking surfaces to face it: the area lights' power over pi
+ * (d^2 + r^2) (d from their centroid, r their radius: a point inside
+ * them is not infinitely favoured), pi times the environment's mean
+ * luminance, and the point lights' delta_weight summed.  A scene with a
+ * single kind picks it with probability 1, as it always did.  Returns
+ * the number of kinds. */
+static int kind_probs(const lr_scene *s, lr__v3 p, double pk[3])
+{
+    int has[3] = {s->n_emitters > 0, lr__env_is_light(s), s->n_lights > 0};
+    int nk = has[0] + has[1] + has[2];
+    pk[0] = pk[1] = pk[2] = 0.0;
+    if (nk <= 1) {
+        for (int k = 0; k < 3; k++)
+            pk[k] = has[k];
+        return nk;
+    }
+    double w[3];
+    int n = 0;
+    if (has[0]) {
+        lr__v3 d = v3_sub(s->emit_centre, p);
+        w[n++] = s->emit_power /
+                 (M_PI * (v3_dot(d, d) + s->emit_radius * s->emit_radius));
+    }
+    if (has[1])
+        w[n++] = M_PI * (s->env != NULL ? s->env->mean_lum
+                                        : lr__luminance(s->background));
+    if (has[2]) {
+        double sum = 0.0;
+        for (size_t i = 0; i < s->n_lights; i++)
+            sum += delta_weight(&s->lights[i], p);
+        w[n++] = sum;
+    }
+    mix(w, n);
+    n = 0;
+    for (int k = 0; k < 3; k++)
+        if (has[k])
+            pk[k] = w[n++];
+    return nk;
+}
+
+/* The point or directional light u picks at p (u rescaled into [0, 1)
+ * by the caller), with the pick's probability *q. */
+static size_t delta_pick(const lr_scene *s, lr__v3 p, double u, double *q)
+{
+    size_t n = s->n_lights;
+    *q = 1.0;
+    if (n == 1)
+        return 0;
+    double sum = 0.0;
+    for (size_t i = 0; i < n; i++)
+        sum += delta_weight(&s->lights[i], p);
+    int ok = sum > 0.0 && isfinite(sum);
+    double acc = 0.0;
+    for (size_t i = 0; i < n; i++) {
+        double w = delta_weight(&s->lights[i], p);
+        *q = ok ? (1.0 - DEFENSIVE) * (w / sum) + DEFENSIVE / (double)n
+                : 1.0 / (double)n;
+        acc += *q;
+        if (u < acc)
+            return i;
+    }
+    return n - 1; /* (rounding: *q is the last light's) */
 }
 
 /* Probability that the power pick chooses emitter i. */
@@ -207,18 +331,19 @@ static int sample_emitter(const lr_scene *s, const lr__emitter *e, lr__v3 p,
 int lr__light_sample_from(const lr_scene *s, lr__v3 p, double u_pick,
                           const double u[2], lr__light_sample *out)
 {
-    int ka, ke, kd;
-    int nk = kinds(s, &ka, &ke, &kd);
-    if (nk == 0)
+    double pks[3];
+    if (kind_probs(s, p, pks) == 0)
         return 0;
     out->geom = -1;
-    int k = (int)(u_pick * nk);
-    if (k >= nk)
-        k = nk - 1;
-    /* The rest of u_pick, rescaled, picks within the kind. */
-    double v = u_pick * nk - k;
-    double pk = 1.0 / nk;
-    if (ka && k == 0) {
+    /* The kind whose share of [0, 1) holds u_pick; the rest of u_pick,
+     * rescaled, picks within the kind. */
+    int k = 0, last = pks[2] > 0.0 ? 2 : pks[1] > 0.0 ? 1 : 0;
+    double lo = 0.0;
+    while (k < last && !(u_pick < lo + pks[k] && pks[k] > 0.0))
+        lo += pks[k++];
+    double pk = pks[k];
+    double v = fmin((u_pick - lo) / pk, 0x1.fffffffffffffp-1);
+    if (k == 0) {
         size_t i = emitter_find(s, v);
         const lr__emitter *e = &s->emitters[i];
         lr__v3 q, nq;
@@ -247,8 +372,7 @@ int lr__light_sample_from(const lr_scene *s, lr__v3 p, double u_pick,
         out->geom = (int)e->geom;
         return out->pdf > 0.0;
     }
-    k -= ka;
-    if (ke && k == 0) {
+    if (k == 1) {
         double pdf;
         out->dir = lr__envmap_sample(s, u, &out->L, &pdf);
         out->dist = INFINITY;
@@ -256,12 +380,10 @@ int lr__light_sample_from(const lr_scene *s, lr__v3 p, double u_pick,
         out->delta = 0;
         return out->pdf > 0.0;
     }
-    size_t i = (size_t)(v * (double)s->n_lights);
-    if (i >= s->n_lights)
-        i = s->n_lights - 1;
-    const lr__light *lt = &s->lights[i];
+    double q;
+    const lr__light *lt = &s->lights[delta_pick(s, p, v, &q)];
     out->delta = 1;
-    out->pdf = pk / (double)s->n_lights;
+    out->pdf = pk * q;
     if (lt->kind == LR__LIGHT_POINT) {
         lr__v3 to = v3_sub(lt->position, p);
         double d2 = v3_dot(to, to);
@@ -306,13 +428,13 @@ double lr__light_reach(const lr_scene *s, const lr__light_sample *ls,
 double lr__light_pdf_area(const lr_scene *s, lr__v3 p, lr__v3 q, lr__v3 ng_q,
                           unsigned g, unsigned prim)
 {
-    int ka, ke, kd;
-    int nk = kinds(s, &ka, &ke, &kd);
+    double pks[3];
+    kind_probs(s, p, pks);
     const lr__geom *G = &s->geoms[g];
-    if (!ka || G->emitter < 0)
+    if (!(pks[0] > 0.0) || G->emitter < 0)
         return 0.0;
     size_t i = (size_t)G->emitter + prim;
-    double pe = emitter_prob(s, i) / nk;
+    double pe = emitter_prob(s, i) * pks[0];
     lr__v3 to = v3_sub(q, p);
     double d2 = v3_dot(to, to);
     if (!(d2 > 0.0))
@@ -328,13 +450,13 @@ double lr__light_pdf_area(const lr_scene *s, lr__v3 p, lr__v3 q, lr__v3 ng_q,
     return pe * area_to_solid(s->emitters[i].area, d2, cos_l);
 }
 
-double lr__light_pdf_env(const lr_scene *s, lr__v3 dir)
+double lr__light_pdf_env(const lr_scene *s, lr__v3 p, lr__v3 dir)
 {
-    int ka, ke, kd;
-    int nk = kinds(s, &ka, &ke, &kd);
-    if (!ke)
+    double pks[3];
+    kind_probs(s, p, pks);
+    if (!(pks[1] > 0.0))
         return 0.0;
-    return lr__envmap_pdf(s, dir) / nk;
+    return lr__envmap_pdf(s, dir) * pks[1];
 }
 
 void lr__spot_set(lr__light *lt, lr__v3 dir, double inner, double outer)

@@ -5,10 +5,15 @@
  * (for multiple importance sampling), and the radiance of the
  * environment.
  *
- * One light sample first picks a kind, uniformly among those the scene
- * has (area lights, the environment, point and directional lights), then
- * a light of that kind: an area light in proportion to its power (area x
- * luminance of its emission), a point or directional light uniformly.
+ * One light sample first picks a kind among those the scene has (area
+ * lights, the environment, point and directional lights), then a light
+ * of that kind: an area light in proportion to its power (area x
+ * luminance of its emission), a point or directional light by what it
+ * gives the point.  Both picks weigh each choice by an estimate of the
+ * irradiance it brings to the shading point (light.c's kind_weights),
+ * mixed with the uniform pick (a tenth), so that no light that reaches
+ * the point is ever left out and a poor estimate costs at most a factor
+ * in variance (defensive importance sampling, Hesterberg 1995).
  */
 #ifndef LR_LIGHT_H
 #define LR_LIGHT_H
@@ -48,8 +53,8 @@ int lr__light_is_sphere(const lr_scene *s, const lr__light_sample *ls);
  * where q's geometric normal is ng_q. */
 double lr__light_pdf_area(const lr_scene *s, lr__v3 p, lr__v3 q, lr__v3 ng_q,
                           unsigned g, unsigned prim);
-/* The same for an escaping ray along unit dir (the environment). */
-double lr__light_pdf_env(const lr_scene *s, lr__v3 dir);
+/* The same for a ray from p escaping along unit dir (the environment). */
+double lr__light_pdf_env(const lr_scene *s, lr__v3 p, lr__v3 dir);
 
 /* Whether the environment is a light (a map, or a non-black background). */
 int lr__env_is_light(const lr_scene *s);

@@ -2,7 +2,7 @@
  * scene.h: the loaded scene as the renderer sees it: its materials
  * (material.h), lights, geometry and Embree scene.  Built by
  * scene_load.c (validation) and scene.c (Embree), read-only afterwards;
- * ray queries on it are accel/trace.h's.
+ * ray queries on it are lib/accel/trace.h's.
  */
 #ifndef LR_SCENE_H
 #define LR_SCENE_H
@@ -207,6 +207,12 @@ struct lr_scene {
     lr__emitter *emitters;
     double *emitter_cdf;
     size_t n_emitters;
+    /* The area lights together, for the pick among kinds of light
+     * (light.c): their power pi x sum(area x luminance), its centroid,
+     * and the radius about it that holds every emitter. */
+    double emit_power;
+    lr__v3 emit_centre;
+    double emit_radius;
     size_t n_primitives;
     double extent; /* largest coordinate magnitude in the scene */
     lr_camera camera;
