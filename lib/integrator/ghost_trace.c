@@ -4,6 +4,8 @@
  */
 #include "ghost_trace.h"
 
+#include "light.h"
+
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -37,25 +39,29 @@ static double solid_angle(const lr__cam *c, lr__v3 center, double radius)
 static double ghost_choice(lr__lt_light *l, const lr__ghost_est *est, int n,
                            double M)
 {
-    if ((l->cdf = malloc((size_t)n * sizeof *l->cdf)) == NULL)
+    /* A mesh's triangles' choice first (lr__lt_mesh_cdf), the ghosts'
+     * after it: one array, freed as one. */
+    double *all = realloc(l->cdf, (l->n_tri + (size_t)n) * sizeof *all);
+    if (all == NULL)
         return -1.0;
-    double sum = 0.0;
+    l->cdf = all;
+    double *cdf = all + l->n_tri, sum = 0.0;
     for (int g = 0; g < n; g++) {
         double w = est[g].land > 0.0 && est[g].flux > 0.0
                        ? est[g].flux / sqrt(est[g].land)
                        : 0.0;
-        l->cdf[g] = w;
+        cdf[g] = w;
         sum += w;
     }
     double acc = 0.0;
     for (int g = 0; g < n; g++) {
-        double p = sum > 0.0 ? (1.0 - LR__GT_UNIFORM) * l->cdf[g] / sum +
+        double p = sum > 0.0 ? (1.0 - LR__GT_UNIFORM) * cdf[g] / sum +
                                    LR__GT_UNIFORM / n
                              : 1.0 / n;
         acc += p;
-        l->cdf[g] = acc;
+        cdf[g] = acc;
     }
-    l->cdf[n - 1] = 1.0;
+    cdf[n - 1] = 1.0;
     return M * sum;
 }
 
@@ -88,93 +94,243 @@ static void ghost_paths(lr__lt *lt, int first, const double *a,
     }
 }
 
+/* The plan's ghost sources as it picks them: the lens's ghost paths
+ * (asked once, at the first emitter: a scene without one pays nothing),
+ * and the budget weights of the lights picked so far. */
+typedef struct gt_pick {
+    const lr_scene *s;
+    const lr__cam *c;
+    lr__lt **ltp;
+    int n_ghost; /* -1: not asked yet */
+    double peak, k;
+    lr__ghost_est est[LR__RX_MAX_SURFACES * LR__RX_MAX_SURFACES / 2];
+    double *a; /* room for every geometry and the sun */
+    int first;
+} gt_pick;
+
+/* Adds source *src (geom, center, radius, L and, for a mesh, its
+ * triangles' cdf, which it then owns) as a ghost light if camera.ghosts
+ * asks for it: omega the solid angle it fills from the eye (< 0: behind
+ * the eye, or around it) and Lbar its mean radiance there, so that its
+ * main image's total on axis is omega Lbar k (ghost_paths' k).  "true"
+ * (peak infinite): every source in front of the lens; "auto": those
+ * whose brightest ghost reaches LR__GT_AUTO.  0: out of memory (src's
+ * cdf freed). */
+static int pick(gt_pick *p, lr__lt_light *src, double omega, lr__v3 Lbar)
+{
+    const lr__cam *c = p->c;
+    if (p->n_ghost < 0 &&
+        (p->n_ghost = c->model->ghost_paths(c, &p->peak, &p->k, p->est)) < 0)
+        goto nomem;
+    double M = omega * p->k * v3_maxc(Lbar);
+    if (p->n_ghost == 0 || !(omega >= 0.0) ||
+        !(isinf(p->peak) || p->peak * M >= LR__GT_AUTO)) {
+        free(src->cdf);
+        return 1;
+    }
+    lr__lt *lt = *p->ltp;
+    if (lt == NULL && (*p->ltp = lt = lr__lt_new(p->s)) == NULL)
+        goto nomem;
+    if (p->a == NULL) {
+        if ((p->a = malloc((p->s->n_geoms + 1) * sizeof *p->a)) == NULL)
+            goto nomem;
+        p->first = lt->n;
+    }
+    lr__lt_light *grown = realloc(lt->lights, (lt->n + 1) * sizeof *grown);
+    if (grown == NULL)
+        goto nomem;
+    lt->lights = grown;
+    lr__lt_light *l = &lt->lights[lt->n++];
+    *l = *src;
+    l->surf = LR__LT_GHOST;
+    l->ghosts = p->n_ghost;
+    lt->ghost_lights++;
+    lt->ghost_main += omega * p->k * (Lbar.x + Lbar.y + Lbar.z);
+    return (p->a[lt->n - 1 - p->first] = ghost_choice(l, p->est, p->n_ghost,
+                                                      M)) >= 0.0;
+nomem:
+    free(src->cdf);
+    return 0;
+}
+
+/* The solid angle mesh g's emitting triangles fill from the eye: each
+ * triangle whose front faces the eye and whose centre is ahead of it,
+ * by Van Oosterom and Strackee's formula (IEEE Trans. Biomed. Eng. 30,
+ * 1983): tan(Omega / 2) = |a . (b x c)| / (abc + (a . b) c + (a . c) b
+ * + (b . c) a), a, b, c the corners from the eye, of lengths a, b, c.
+ * Overlapping triangles (a closed mesh's back) are left out by facing,
+ * so a convex mesh counts its silhouette once; -1 when none counts. */
+static double mesh_omega(const lr_scene *s, const lr__cam *c, const lr__geom *g)
+{
+    double sum = -1.0;
+    for (size_t t = 0; t < g->n_triangles; t++) {
+        const lr__emitter *e = &s->emitters[g->emitter + (long)t];
+        lr__v3 a = v3_sub(e->a, c->origin);
+        lr__v3 b = v3_add(a, e->e1), d = v3_add(a, e->e2);
+        lr__v3 mid = v3_add(a, v3_scale(v3_add(e->e1, e->e2), 1.0 / 3.0));
+        if (!(v3_dot(a, e->n) < 0.0) || !(v3_dot(mid, c->forward) > 0.0))
+            continue;
+        double la = v3_len(a), lb = v3_len(b), ld = v3_len(d);
+        double num = fabs(v3_dot(a, v3_cross(b, d)));
+        double den = la * lb * ld + v3_dot(a, b) * ld + v3_dot(a, d) * lb +
+                     v3_dot(b, d) * la;
+        double om = 2.0 * atan2(num, den);
+        if (isfinite(om))
+            sum = fmax(sum, 0.0) + om;
+    }
+    return sum;
+}
+
+/* The environment's sun (lr__envmap_sun's cone, as light_trace.c's
+ * LR__LT_SUN) as a ghost source: its mean radiance over the cone by a
+ * 64 x 64 midpoint rule in the cone's equal-area coordinates
+ * (lr__lt_in_cone), 4096 lookups; behind the eye, omega -1. */
+static int pick_sun(gt_pick *p)
+{
+    const lr_scene *s = p->s;
+    lr__v3 a;
+    double cos_a;
+    if (s->env == NULL || !lr__envmap_sun(s->env, &a, &cos_a))
+        return 1;
+    double sin_a = sqrt(fmax(0.0, 1.0 - cos_a * cos_a));
+    lr__lt_light l;
+    memset(&l, 0, sizeof l);
+    l.geom = (int)s->n_geoms;
+    l.center = a;
+    l.area = sin_a * sin_a / (1.0 + cos_a); /* 1 - cos, as LR__LT_SUN's */
+    double m = lr__envmap_max(s->env);
+    l.L = v3(m, m, m); /* the film's scale, as LR__LT_SUN's */
+    enum { Q = 64 };
+    lr__v3 sum = v3(0, 0, 0);
+    for (int i = 0; i < Q; i++)
+        for (int j = 0; j < Q; j++) {
+            double u[2] = {(i + 0.5) / Q, (j + 0.5) / Q};
+            sum = v3_add(sum,
+                         lr__env_radiance(s, lr__lt_in_cone(a, l.area, u)));
+        }
+    double omega = v3_dot(a, p->c->forward) > -sin_a ? 2.0 * M_PI * l.area
+                                                     : -1.0;
+    return pick(p, &l, omega, v3_scale(sum, 1.0 / (Q * Q)));
+}
+
 int lr__gt_plan(const lr_scene *s, const lr__cam *c, int spp, lr__lt **ltp)
 {
-    const lr__camera_model *m = c->model;
-    if (m->ghost_paths == NULL || m->ghost_film == NULL)
+    if (c->model->ghost_paths == NULL || c->model->ghost_film == NULL)
         return 1;
-    double peak = 0.0, k = 0.0;
-    lr__ghost_est est[LR__RX_MAX_SURFACES * LR__RX_MAX_SURFACES / 2];
-    int n_ghost = -1, first = -1;
-    double *a = NULL;
-    for (size_t g = 0; g < s->n_geoms; g++) {
+    gt_pick *p = calloc(1, sizeof *p);
+    if (p == NULL)
+        return 0;
+    *p = (gt_pick){.s = s, .c = c, .ltp = ltp, .n_ghost = -1, .first = -1};
+    int ok = 1;
+    for (size_t g = 0; g < s->n_geoms && ok; g++) {
         const lr__geom *geo = &s->geoms[g];
         const lr__material *mt = &s->materials[geo->material];
-        if (geo->kind != LR__GEOM_SPHERE || mt->emission_tex != NULL ||
-            !(v3_maxc(mt->emission) > 0.0))
+        lr__lt_light l;
+        memset(&l, 0, sizeof l);
+        l.geom = (int)g;
+        l.L = mt->emission;
+        if (mt->emission_tex != NULL ||
+            !lr__lt_light_sphere(s, geo, &l.center, &l.radius))
             continue;
-        /* The lens's ghosts, once, and only for a scene with a sphere
-         * light (a scene without one pays nothing). */
-        if (n_ghost < 0 && (n_ghost = m->ghost_paths(c, &peak, &k, est)) < 0)
-            goto nomem;
-        /* "true" (peak infinite): every light in front of the lens;
-         * "auto": those whose brightest ghost reaches LR__GT_AUTO. */
-        double omega = solid_angle(c, geo->center, geo->radius);
-        double M = omega * k * v3_maxc(mt->emission);
-        if (n_ghost == 0 || !(omega >= 0.0) ||
-            !(isinf(peak) || peak * M >= LR__GT_AUTO))
-            continue;
-        lr__lt *lt = *ltp;
-        if (lt == NULL && (*ltp = lt = lr__lt_new(s)) == NULL)
-            goto nomem;
-        if (a == NULL) {
-            if ((a = malloc(s->n_geoms * sizeof *a)) == NULL)
-                goto nomem;
-            first = lt->n;
-        }
-        lr__lt_light *grown = realloc(lt->lights, (lt->n + 1) * sizeof *grown);
-        if (grown == NULL)
-            goto nomem;
-        lt->lights = grown;
-        lr__lt_light *l = &lt->lights[lt->n++];
-        memset(l, 0, sizeof *l);
-        l->geom = (int)g;
-        l->surf = LR__LT_GHOST;
-        l->center = geo->center;
-        l->radius = geo->radius;
-        l->L = mt->emission;
-        l->ghosts = n_ghost;
-        lt->ghost_lights++;
-        lt->ghost_main += omega * k * (l->L.x + l->L.y + l->L.z);
-        if (!((a[lt->n - 1 - first] = ghost_choice(l, est, n_ghost, M)) >= 0.0))
-            goto nomem;
+        if (geo->kind == LR__GEOM_SPHERE)
+            ok = pick(p, &l, solid_angle(c, geo->center, geo->radius), l.L);
+        else if (!(ok = lr__lt_mesh_cdf(s, geo, &l)))
+            break;
+        else
+            ok = pick(p, &l, mesh_omega(s, c, geo), l.L);
     }
-    if (a != NULL)
-        ghost_paths(*ltp, first, a, c, spp);
-    free(a);
-    return 1;
-nomem:
-    free(a);
-    return 0;
+    if (ok)
+        ok = pick_sun(p);
+    if (ok && p->a != NULL)
+        ghost_paths(*ltp, p->first, p->a, c, spp);
+    free(p->a);
+    free(p);
+    return ok;
+}
+
+/* Ghost light l's direction from lens point P, drawn from ud (as
+ * light_trace.c's sphere, mesh and sun paths draw theirs), into *w,
+ * with its radiance over its solid-angle density and, for a mesh, the
+ * triangle drawn (*e).  0: no light that way. */
+static double ghost_dir(const lr_scene *s, const lr__lt_light *l, lr__v3 P,
+                        const double *ud, lr__v3 *w, const lr__emitter **e)
+{
+    *e = NULL;
+    if (l->n_tri > 0) {
+        /* A point y uniform by area on the mesh: dist^2 / (A cos_y). */
+        lr__v3 y;
+        *e = lr__lt_mesh_point(s, l, ud, &y);
+        lr__v3 dv = v3_sub(y, P);
+        double dist2 = v3_dot(dv, dv);
+        if (!(dist2 > 0.0))
+            return 0.0;
+        *w = v3_scale(dv, 1.0 / sqrt(dist2));
+        double cos_y = -v3_dot(*w, (*e)->n);
+        return cos_y > 0.0 ? l->area * cos_y / dist2 : 0.0;
+    }
+    if (l->geom == (int)s->n_geoms) {
+        /* The sun: uniform in its cone, the map's radiance along w. */
+        *w = lr__lt_in_cone(l->center, l->area, ud);
+        return 2.0 * M_PI * l->area;
+    }
+    lr__v3 dv = v3_sub(l->center, P);
+    double dist2 = v3_dot(dv, dv), r2 = l->radius * l->radius;
+    if (!(dist2 > r2))
+        return 0.0;
+    double dist = sqrt(dist2);
+    double sin2 = r2 / dist2, omc = sin2 / (1.0 + sqrt(1.0 - sin2));
+    *w = lr__lt_in_cone(v3_scale(dv, 1.0 / dist), omc, ud);
+    return 2.0 * M_PI * omc;
+}
+
+/* Whether the light along w from lens point P reaches the front of the
+ * lens: the camera ray along w (the same trace as the camera's) meets
+ * the sphere first, or the mesh's very triangle e from its front (a
+ * mesh can hide its own triangles), or for the sun escapes. */
+static int ghost_reaches(const lr_scene *s, const lr__cam *c,
+                         const lr__lt_light *l, lr__v3 P, lr__v3 w,
+                         const lr__emitter *e)
+{
+    lr__v3 o = lr__cam_ray_start(c, P, w);
+    if (e == NULL)
+        return lr__trace_geom(s, o, w, INFINITY) ==
+               (l->geom == (int)s->n_geoms ? -2 : l->geom);
+    lr__hit h;
+    return lr__trace(s, o, w, INFINITY, &h) && h.geom == l->geom &&
+           h.prim == (unsigned)(e - &s->emitters[l->first_tri]) && h.entering;
 }
 
 void lr__gt_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
                  lr__v3 P, double ox, double oy, const double *ud, double ug,
                  lr__lt_film *f, uint64_t *rays, uint64_t *landed)
 {
-    /* The direction as light_trace.c's sphere_path draws it. */
-    lr__v3 dv = v3_sub(l->center, P);
-    double dist2 = v3_dot(dv, dv), r2 = l->radius * l->radius;
-    if (!(dist2 > r2))
+    lr__v3 w;
+    const lr__emitter *e;
+    double inv_pdf = ghost_dir(s, l, P, ud, &w, &e);
+    if (!(inv_pdf > 0.0))
         return;
-    double dist = sqrt(dist2);
-    double sin2 = r2 / dist2, omc = sin2 / (1.0 + sqrt(1.0 - sin2));
-    lr__v3 w = lr__lt_in_cone(v3_scale(dv, 1.0 / dist), omc, ud);
+    /* The sun's radiance along w (the map's, looked up before the lens:
+     * a dark part of its cone costs no trace). */
+    lr__v3 L = l->L;
+    if (l->geom == (int)s->n_geoms &&
+        !(v3_maxc(L = lr__env_radiance(s, w)) > 0.0))
+        return;
     /* The ghost path: the first g whose cumulative probability passes
      * ug (binary search). */
+    const double *cdf = l->cdf + l->n_tri;
     int lo = 0, hi = l->ghosts - 1;
     while (lo < hi) {
         int mid = (lo + hi) / 2;
-        if (l->cdf[mid] > ug)
+        if (cdf[mid] > ug)
             hi = mid;
         else
             lo = mid + 1;
     }
     int g = lo;
-    double p_g = l->cdf[g] - (g > 0 ? l->cdf[g - 1] : 0.0);
+    double p_g = cdf[g] - (g > 0 ? cdf[g - 1] : 0.0);
     if (!(p_g > 0.0))
         return;
-    lr__v3 v = v3_scale(l->L, 2.0 * M_PI * omc / ((double)l->paths * p_g));
+    lr__v3 v = v3_scale(L, inv_pdf / ((double)l->paths * p_g));
     /* chromatic.mode off: every channel at the reference wavelength (a
      * grey ghost, as the main image is traced); rgb and spectral: each
      * channel at its own wavelength, so that a coating's colour shows
@@ -183,7 +339,7 @@ void lr__gt_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
      * the frame, and those need no trace through the scene. */
     int k0 = c->chroma.mode == LR_CHROMATIC_OFF ? -1 : 0;
     int k1 = k0 < 0 ? 0 : 3, n = 0, px[3], py[3];
-    lr__v3 e[3];
+    lr__v3 ev[3];
     for (int k = k0; k < k1; k++) {
         double fx, fy;
         double W = c->model->ghost_film(c, g, k, ox, oy, w, &fx, &fy);
@@ -196,17 +352,15 @@ void lr__gt_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
                     k == 2 ? ek.z : 0.0);
         if (!(isfinite(ek.x) && isfinite(ek.y) && isfinite(ek.z)))
             continue;
-        px[n] = (int)fx, py[n] = (int)fy, e[n++] = ek;
+        px[n] = (int)fx, py[n] = (int)fy, ev[n++] = ek;
     }
     if (n == 0)
         return;
-    /* The sphere's light must reach the front of the lens: the camera
-     * ray along w (the same trace as the camera's) meets it first. */
     (*rays)++;
-    if (lr__trace_geom(s, lr__cam_ray_start(c, P, w), w, INFINITY) != l->geom)
+    if (!ghost_reaches(s, c, l, P, w, e))
         return;
     for (int k = 0; k < n; k++) {
-        lr__lt_splat(f, px[k], py[k], e[k]);
+        lr__lt_splat(f, px[k], py[k], ev[k]);
         (*landed)++;
         /* The flux --stats reports, in the film's integer units (the
          * same for any threads or tiles).  A ghost's pixel stays under
@@ -215,7 +369,7 @@ void lr__gt_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
          * light that an int64 holds at that scale. */
         if (px[k] >= f->x0 && px[k] < f->x1 && py[k] >= f->y0 &&
             py[k] < f->y1) {
-            double q = (e[k].x + e[k].y + e[k].z) * f->scale;
+            double q = (ev[k].x + ev[k].y + ev[k].z) * f->scale;
             __atomic_fetch_add(&f->ghost_sum,
                                (int64_t)llrint(fmin(q, ldexp(1.0, 52))),
                                __ATOMIC_RELAXED);
