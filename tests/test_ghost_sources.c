@@ -341,11 +341,37 @@ static void test_ghost_sources_auto(void **state)
     assert_int_equal(st.ghost_lights, 0);
 }
 
+/* Determinism with two ghost sources, a square and the sun: the same
+ * bytes for one thread and two with 7-pixel tiles, and a region's pixels
+ * are the full frame's. */
+static void test_ghost_sources_deterministic(void **state)
+{
+    (void)state;
+    sun_x = 15;
+    lr_test_write_map("ghost-sun.exr", sun_map, MAP_W, MAP_H);
+    const char *env = "environment={\"file\": \"ghost-sun.exr\"}";
+    const char *a_sets[] = {env, "render.threads=1"};
+    const char *b_sets[] = {env, "render.threads=2", "render.tile_size=7"};
+    const char *c_sets[] = {env, "render.threads=2",
+                            "render.region=[5,9,40,51]"};
+    lr_render_stats st;
+    lr_image *a = lr_test_render(SCENE(SQUARE), a_sets, 2, &st);
+    lr_image *b = lr_test_render(SCENE(SQUARE), b_sets, 3, NULL);
+    lr_image *c = lr_test_render(SCENE(SQUARE), c_sets, 3, NULL);
+    assert_int_equal(st.ghost_lights, 2);
+    lr_test_assert_same_bytes(a, b, "1 thread against 2 with 7-pixel tiles");
+    lr_test_assert_region_is_frame(a, c, 5, 9, "the ghosts' region");
+    lr_image_free(a);
+    lr_image_free(b);
+    lr_image_free(c);
+}
+
 static const struct CMUnitTest ghost_sources_tests[] = {
     cmocka_unit_test(test_mesh_ghosts_as_sphere),
     cmocka_unit_test(test_sun_ghosts_as_sphere),
     cmocka_unit_test(test_sun_outside_frame),
     cmocka_unit_test(test_ghost_sources_auto),
+    cmocka_unit_test(test_ghost_sources_deterministic),
 };
 
 LR_TEST_GROUP(ghost_sources, ghost_sources_tests)
