@@ -84,17 +84,18 @@ static void render_ghosts(const char *json, const char **sets, size_t n,
     lr_image_free(b);
 }
 
-/* The squared difference of two ghost images over 8 x 8 blocks (the
- * blocks' sums: a ghost's shape at a coarser scale than its noise). */
-static double block_d2(const ghost_img *a, const ghost_img *b)
+/* The squared difference of two ghost images over blocks of b x b
+ * pixels (the blocks' sums: a ghost's shape at a coarser scale than its
+ * noise). */
+static double block_d2(const ghost_img *a, const ghost_img *b, int bs)
 {
     double d2 = 0.0;
-    for (int by = 0; by < 8; by++)
-        for (int bx = 0; bx < 8; bx++) {
+    for (int by = 0; by < 64 / bs; by++)
+        for (int bx = 0; bx < 64 / bs; bx++) {
             double d = 0.0;
-            for (int y = 0; y < 8; y++)
-                for (int x = 0; x < 8; x++) {
-                    int k = (by * 8 + y) * 64 + bx * 8 + x;
+            for (int y = 0; y < bs; y++)
+                for (int x = 0; x < bs; x++) {
+                    int k = (by * bs + y) * 64 + bx * bs + x;
                     d += a->v[k] - b->v[k];
                 }
             d2 += d * d;
@@ -105,18 +106,20 @@ static double block_d2(const ghost_img *a, const ghost_img *b)
 /* Fails unless ghost image x agrees with s1 as two renders of the same
  * ghosts with different seeds (s1, s2) do: energy within 2% and that
  * seed-to-seed difference, centroids within 0.5 mm, rms radii within
- * 3%, and the blocks' squared difference under twice the seeds'. */
+ * 3%, and the squared difference of bs x bs blocks under twice the
+ * seeds'. */
 static void same_ghosts(const ghost_img *x, const ghost_img *s1,
-                        const ghost_img *s2, const char *what)
+                        const ghost_img *s2, int bs, const char *what)
 {
     double seeds = fabs(s2->sum / s1->sum - 1.0);
-    double d_x = block_d2(x, s1), d_s = block_d2(s2, s1);
+    double d_x = block_d2(x, s1, bs), d_s = block_d2(s2, s1, bs);
     print_message("%s: energy %.6g, sphere %.6g (%.4f; seed to seed %.4f); "
                   "centroid (%.3f, %.3f) mm, sphere (%.3f, %.3f); rms %.3f "
-                  "mm, sphere %.3f (%.4f); blocks' d2 %.4g, seeds' %.4g\n",
+                  "mm, sphere %.3f (%.4f); %d-pixel blocks' d2 %.4g, seeds' "
+                  "%.4g\n",
                   what, x->sum, s1->sum, x->sum / s1->sum, s2->sum / s1->sum,
                   x->cx, x->cy, s1->cx, s1->cy, x->rms, s1->rms,
-                  x->rms / s1->rms, d_x, d_s);
+                  x->rms / s1->rms, bs, d_x, d_s);
     assert_true(s1->sum > 0.0);
     assert_true(fabs(x->sum / s1->sum - 1.0) < 0.02 + seeds);
     assert_true(hypot(x->cx - s1->cx, x->cy - s1->cy) < 0.5);
@@ -129,9 +132,10 @@ static void same_ghosts(const ghost_img *x, const ghost_img *s1,
  * sources' paths draw the same numbers, and agree far better than noise
  * allows): one ghost light, the same budget (the same power: within its
  * rounding), the same ghosts (same_ghosts), and --stats ghost_flux
- * alike, each over its own main image's estimate. */
+ * alike, each over its own main image's estimate; bs: same_ghosts'. */
 static void against_sphere(const char **ssets, size_t ns, const char *json,
-                           const char **xsets, size_t nx, const char *what)
+                           const char **xsets, size_t nx, int bs,
+                           const char *what)
 {
     lr_render_stats st_s, st_s2, st_x;
     static ghost_img s1, s2, x;
@@ -149,7 +153,7 @@ static void against_sphere(const char **ssets, size_t ns, const char *json,
                   st_s.ghost_flux);
     assert_true(
         fabs((double)st_x.ghost_paths / (double)st_s.ghost_paths - 1.0) < 1e-3);
-    same_ghosts(&x, &s1, &s2, what);
+    same_ghosts(&x, &s1, &s2, bs, what);
     assert_true(fabs(st_x.ghost_flux / st_s.ghost_flux - 1.0) <
                 0.02 + fabs(st_s2.ghost_flux / st_s.ghost_flux - 1.0));
 }
@@ -162,7 +166,8 @@ static void test_mesh_ghosts_as_sphere(void **state)
     (void)state;
     const char *ssets[] = {"camera.ghosts=true", NULL};
     const char *xsets[] = {"camera.ghosts=true", NULL};
-    against_sphere(ssets, 2, SCENE(SQUARE), xsets, 2, "square against sphere");
+    against_sphere(ssets, 2, SCENE(SQUARE), xsets, 2, 8,
+                   "square against sphere");
 }
 
 /* The sun: one texel of SUN_V on a black 1024 x 512 map, column sun_x,
@@ -230,7 +235,7 @@ static void test_sun_ghosts_as_sphere(void **state)
     const char *ssets[] = {"camera.ghosts=true", NULL, center, emission,
                            "objects[0].radius=5"};
     const char *sun[] = {"camera.ghosts=true", NULL};
-    against_sphere(ssets, 5, SUN_SCENE, sun, 2, "sun against sphere");
+    against_sphere(ssets, 5, SUN_SCENE, sun, 2, 16, "sun against sphere");
 }
 
 /* A sun 25.1 degrees right of the axis, outside the frame (19.8

@@ -22,37 +22,114 @@ static double solid_angle(const lr__cam *c, lr__v3 center, double radius)
     return 2.0 * M_PI * sin2 / (1.0 + sqrt(1.0 - sin2));
 }
 
-/* Light l's choice of ghost paths (l->cdf, cumulative) from the n
- * paths' estimates est, and its weight in the budget: M times the sum of
- * flux_g / sqrt(land_g), M its main image's total on axis (L's largest
- * channel L Omega k, camera_model.ghost_paths' k).
+/* The sum over n paths' estimates est of flux_g / sqrt(land_g), each
+ * term into w[g]. */
+static double est_weights(const lr__ghost_est *est, int n, double *w)
+{
+    double sum = 0.0;
+    for (int g = 0; g < n; g++) {
+        w[g] = est[g].land > 0.0 && est[g].flux > 0.0
+                   ? est[g].flux / sqrt(est[g].land)
+                   : 0.0;
+        sum += w[g];
+    }
+    return sum;
+}
+
+/* Per ghost path g of a light, after the paths' cdf (GUIDE doubles a
+ * path): the box of lens offsets x0, y0, x1, y1 its paths draw from (x0
+ * >= x1: none, the disk alone), and the weight p_disk / p_mix of a lens
+ * point inside it; after the last path's, the disk's squared radius. */
+#define GUIDE 5
+static double *guides(const lr__lt_light *l)
+{
+    return l->cdf + l->n_tri + l->ghosts;
+}
+
+/* Light l's guides (guides), seen along unit w0 (its centre's direction
+ * from the eye), and its own estimate of each path there (own).  A grid
+ * of GRID x GRID lens offsets over the front disk, each traced through
+ * each ghost path at the reference wavelength (ghost_film): a path's
+ * box holds the offsets that land in the frame, widened by 1.5 cells
+ * (a ghost's footprint on the disk is a pupil's image, a disc or a
+ * lens, which the cells' centres find to within a cell), and its paths
+ * draw LR__GT_DISK of their lens points from the whole disk, the rest
+ * from the box: unbiased whatever the grid misses (the disk's share
+ * covers it), up to 1 / LR__GT_DISK times the landings where it finds
+ * them all.  own[g]: the landings' importance times the cell's area
+ * (the path's flux, up to a factor common to every path), and the share
+ * of the box's lens points that land. */
+#define GRID 16
+static void ghost_guide(const lr__cam *c, lr__lt_light *l, lr__v3 w0,
+                        lr__ghost_est *own)
+{
+    double rho = c->model->ghost_disk(c), h = 2.0 * rho / GRID;
+    double *gd = guides(l);
+    gd[GUIDE * l->ghosts] = rho * rho;
+    for (int g = 0; g < l->ghosts; g++) {
+        double x0 = INFINITY, y0 = INFINITY, x1 = -INFINITY, y1 = -INFINITY;
+        double flux = 0.0;
+        int land = 0;
+        for (int i = 0; i < GRID; i++)
+            for (int j = 0; j < GRID; j++) {
+                double ox = (i + 0.5) * h - rho, oy = (j + 0.5) * h - rho;
+                double fx, fy;
+                if (ox * ox + oy * oy > rho * rho)
+                    continue;
+                double W = c->model->ghost_film(c, g, -1, ox, oy, w0, &fx, &fy);
+                if (!(W > 0.0) || !(fx >= 0.0 && fx < c->width && fy >= 0.0 &&
+                                    fy < c->height))
+                    continue;
+                land++, flux += W;
+                x0 = fmin(x0, ox), x1 = fmax(x1, ox);
+                y0 = fmin(y0, oy), y1 = fmax(y1, oy);
+            }
+        double *b = gd + GUIDE * g;
+        own[g] = (lr__ghost_est){0.0, 1.0, 0.0};
+        b[0] = b[2] = 0.0, b[4] = 1.0;
+        if (land == 0)
+            continue;
+        b[0] = fmax(-rho, x0 - 1.5 * h), b[1] = fmax(-rho, y0 - 1.5 * h);
+        b[2] = fmin(rho, x1 + 1.5 * h), b[3] = fmin(rho, y1 + 1.5 * h);
+        double A = (b[2] - b[0]) * (b[3] - b[1]);
+        b[4] = 1.0 / (LR__GT_DISK + (1.0 - LR__GT_DISK) * M_PI * rho * rho / A);
+        own[g] = (lr__ghost_est){flux * h * h, 1.0,
+                                 fmin(1.0, land * h * h / A)};
+    }
+}
+
+/* Light l's choice of ghost paths (cumulative, after a mesh's triangles'
+ * in l->cdf: one array, freed as one, with its guides after it), and its
+ * weight in the budget: M times the sum of flux_g / sqrt(land_g) on axis
+ * (est), M its main image's total on axis (L's largest channel L Omega
+ * k, camera_model.ghost_paths' k).
  *
  * Ghost g's light, M flux_g, lands in K_g = N p_g land_g splats of a
  * light's N paths, each M flux_g / K_g; over its px_g pixels their
  * counts are Poisson, so the squared error summed over its pixels is
  * (M flux_g)^2 / (N p_g land_g).  Summed over the ghosts that is least
  * with p_g proportional to flux_g / sqrt(land_g), and then (M sum_g
- * flux_g / sqrt(land_g))^2 / N: the weight squared over N.  Each path
- * is drawn with (1 - LR__GT_UNIFORM) of that share plus LR__GT_UNIFORM
- * / n, so that a ghost the on-axis estimate misses (off axis other
- * ghosts lead) still gets some.  -1: out of memory. */
-static double ghost_choice(lr__lt_light *l, const lr__ghost_est *est, int n,
+ * flux_g / sqrt(land_g))^2 / N: the weight squared over N.  The p_g
+ * follow the light's own estimates where it is seen (ghost_guide; the
+ * on-axis ones if none of its paths land there), each drawn with (1 -
+ * LR__GT_UNIFORM) of that share plus LR__GT_UNIFORM / n, so that a ghost
+ * the estimate misses still gets some.  w0: the light's direction from
+ * the eye.  -1: out of memory. */
+static double ghost_choice(const lr__cam *c, lr__lt_light *l, lr__v3 w0,
+                           const lr__ghost_est *est, lr__ghost_est *own, int n,
                            double M)
 {
-    /* A mesh's triangles' choice first (lr__lt_mesh_cdf), the ghosts'
-     * after it: one array, freed as one. */
-    double *all = realloc(l->cdf, (l->n_tri + (size_t)n) * sizeof *all);
+    size_t size = l->n_tri + (size_t)n * (1 + GUIDE) + 1;
+    double *all = realloc(l->cdf, size * sizeof *all);
     if (all == NULL)
         return -1.0;
     l->cdf = all;
-    double *cdf = all + l->n_tri, sum = 0.0;
-    for (int g = 0; g < n; g++) {
-        double w = est[g].land > 0.0 && est[g].flux > 0.0
-                       ? est[g].flux / sqrt(est[g].land)
-                       : 0.0;
-        cdf[g] = w;
-        sum += w;
-    }
+    double *cdf = all + l->n_tri;
+    double axis = est_weights(est, n, cdf);
+    ghost_guide(c, l, w0, own);
+    double sum = est_weights(own, n, cdf);
+    if (!(sum > 0.0))
+        sum = est_weights(est, n, cdf);
     double acc = 0.0;
     for (int g = 0; g < n; g++) {
         double p = sum > 0.0 ? (1.0 - LR__GT_UNIFORM) * cdf[g] / sum +
@@ -62,7 +139,7 @@ static double ghost_choice(lr__lt_light *l, const lr__ghost_est *est, int n,
         cdf[g] = acc;
     }
     cdf[n - 1] = 1.0;
-    return M * sum;
+    return M * axis;
 }
 
 /* The ghost lights' paths, lights first .. lt->n - 1 with budget weights
@@ -104,6 +181,7 @@ typedef struct gt_pick {
     int n_ghost; /* -1: not asked yet */
     double peak, k;
     lr__ghost_est est[LR__RX_MAX_SURFACES * LR__RX_MAX_SURFACES / 2];
+    lr__ghost_est own[LR__RX_MAX_SURFACES * LR__RX_MAX_SURFACES / 2];
     double *a; /* room for every geometry and the sun */
     int first;
 } gt_pick;
@@ -146,8 +224,11 @@ static int pick(gt_pick *p, lr__lt_light *src, double omega, lr__v3 Lbar)
     l->ghosts = p->n_ghost;
     lt->ghost_lights++;
     lt->ghost_main += omega * p->k * (Lbar.x + Lbar.y + Lbar.z);
-    return (p->a[lt->n - 1 - p->first] = ghost_choice(l, p->est, p->n_ghost,
-                                                      M)) >= 0.0;
+    lr__v3 w0 = l->geom == (int)p->s->n_geoms
+                    ? l->center
+                    : v3_norm(v3_sub(l->center, c->origin));
+    return (p->a[lt->n - 1 - p->first] = ghost_choice(c, l, w0, p->est, p->own,
+                                                      p->n_ghost, M)) >= 0.0;
 nomem:
     free(src->cdf);
     return 0;
@@ -300,13 +381,83 @@ static int ghost_reaches(const lr_scene *s, const lr__cam *c,
            h.prim == (unsigned)(e - &s->emitters[l->first_tri]) && h.entering;
 }
 
+/* Adds v (>= 0) to pixel (ix, iy) of f, if the region holds it, as
+ * lr__lt_splat does but rounded at random, down or up by u (uniform in
+ * [0, 1)), which is unbiased: a coated ghost's splats are a few of the
+ * film's units (2^-40 of its brightest light), where rounding to the
+ * nearest unit lost or gained up to 6% of the colour test's ghost
+ * (test_ghost_render.c at 8192 spp, seeds 5, 7 and 9).  Returns the
+ * units added. */
+static int64_t ghost_splat(lr__lt_film *f, int ix, int iy, lr__v3 v, double u)
+{
+    if (ix < f->x0 || ix >= f->x1 || iy < f->y0 || iy >= f->y1)
+        return 0;
+    size_t k = 3 * ((size_t)(iy - f->y0) * (size_t)(f->x1 - f->x0) +
+                    (size_t)(ix - f->x0));
+    double c[3] = {v.x, v.y, v.z};
+    int64_t sum = 0;
+    for (int j = 0; j < 3; j++) {
+        double q = floor(fmin(c[j] * f->scale, ldexp(1.0, 52)) + u);
+        if (!(q > 0.0))
+            continue;
+        __atomic_fetch_add(&f->sum[k + (size_t)j], (int64_t)q,
+                           __ATOMIC_RELAXED);
+        sum += (int64_t)q;
+    }
+    return sum;
+}
+
+/* Ghost path g's lens point for light l from lens sample ul, the
+ * component drawn by uc (ghost_guide's mixture): its offset (ox, oy) and
+ * the weight p_disk / p_mix (0: none, a box point off the disk). */
+static double ghost_lens(const lr__cam *c, const lr__lt_light *l, int g,
+                         const double *ul, double uc, lr__v3 *P, double *ox,
+                         double *oy)
+{
+    const double *b = guides(l) + GUIDE * g;
+    if (!(b[0] < b[2])) {
+        *P = c->model->lens_point(c, ul, ox, oy);
+        return 1.0;
+    }
+    if (!(uc < LR__GT_DISK)) {
+        *ox = b[0] + ul[0] * (b[2] - b[0]), *oy = b[1] + ul[1] * (b[3] - b[1]);
+        if (!(*ox * *ox + *oy * *oy <= guides(l)[GUIDE * l->ghosts]))
+            return 0.0;
+        *P = c->model->lens_at(c, *ox, *oy);
+        return b[4];
+    }
+    *P = c->model->lens_point(c, ul, ox, oy);
+    return *ox >= b[0] && *ox <= b[2] && *oy >= b[1] && *oy <= b[3]
+               ? b[4]
+               : 1.0 / LR__GT_DISK;
+}
+
 void lr__gt_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
-                 lr__v3 P, double ox, double oy, const double *ud, double ug,
+                 const double *ul, const double *ud, const double *ug,
                  lr__lt_film *f, uint64_t *rays, uint64_t *landed)
 {
-    lr__v3 w;
+    /* The ghost path: the first g whose cumulative probability passes
+     * ug (binary search); ug rescaled within it picks the lens point's
+     * component. */
+    const double *cdf = l->cdf + l->n_tri;
+    double ur = ug[1];
+    int lo = 0, hi = l->ghosts - 1;
+    while (lo < hi) {
+        int mid = (lo + hi) / 2;
+        if (cdf[mid] > ug[0])
+            hi = mid;
+        else
+            lo = mid + 1;
+    }
+    int g = lo;
+    double c0 = g > 0 ? cdf[g - 1] : 0.0, p_g = cdf[g] - c0;
+    if (!(p_g > 0.0))
+        return;
+    lr__v3 P, w;
+    double ox, oy;
+    double share = ghost_lens(c, l, g, ul, (ug[0] - c0) / p_g, &P, &ox, &oy);
     const lr__emitter *e;
-    double inv_pdf = ghost_dir(s, l, P, ud, &w, &e);
+    double inv_pdf = share > 0.0 ? ghost_dir(s, l, P, ud, &w, &e) : 0.0;
     if (!(inv_pdf > 0.0))
         return;
     /* The sun's radiance along w (the map's, looked up before the lens:
@@ -315,22 +466,7 @@ void lr__gt_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
     if (l->geom == (int)s->n_geoms &&
         !(v3_maxc(L = lr__env_radiance(s, w)) > 0.0))
         return;
-    /* The ghost path: the first g whose cumulative probability passes
-     * ug (binary search). */
-    const double *cdf = l->cdf + l->n_tri;
-    int lo = 0, hi = l->ghosts - 1;
-    while (lo < hi) {
-        int mid = (lo + hi) / 2;
-        if (cdf[mid] > ug)
-            hi = mid;
-        else
-            lo = mid + 1;
-    }
-    int g = lo;
-    double p_g = cdf[g] - (g > 0 ? cdf[g - 1] : 0.0);
-    if (!(p_g > 0.0))
-        return;
-    lr__v3 v = v3_scale(L, inv_pdf / ((double)l->paths * p_g));
+    lr__v3 v = v3_scale(L, inv_pdf * share / ((double)l->paths * p_g));
     /* chromatic.mode off: every channel at the reference wavelength (a
      * grey ghost, as the main image is traced); rgb and spectral: each
      * channel at its own wavelength, so that a coating's colour shows
@@ -360,20 +496,14 @@ void lr__gt_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
     if (!ghost_reaches(s, c, l, P, w, e))
         return;
     for (int k = 0; k < n; k++) {
-        lr__lt_splat(f, px[k], py[k], ev[k]);
         (*landed)++;
         /* The flux --stats reports, in the film's integer units (the
          * same for any threads or tiles).  A ghost's pixel stays under
          * its source's radiance times the two reflectances, so the sum
          * over a frame stays far inside the 2^23 times the brightest
          * light that an int64 holds at that scale. */
-        if (px[k] >= f->x0 && px[k] < f->x1 && py[k] >= f->y0 &&
-            py[k] < f->y1) {
-            double q = (ev[k].x + ev[k].y + ev[k].z) * f->scale;
-            __atomic_fetch_add(&f->ghost_sum,
-                               (int64_t)llrint(fmin(q, ldexp(1.0, 52))),
-                               __ATOMIC_RELAXED);
-        }
+        int64_t q = ghost_splat(f, px[k], py[k], ev[k], ur);
+        __atomic_fetch_add(&f->ghost_sum, q, __ATOMIC_RELAXED);
     }
 }
 

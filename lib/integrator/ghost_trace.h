@@ -63,6 +63,12 @@
 #define LR__GT_MIN 256
 #define LR__GT_CAP (1.0 / 8.0)
 
+/* The share of a ghost path's lens points drawn from the whole front
+ * disk; the rest from the box where the path lands the light's centre
+ * (ghost_trace.c: ghost_guide), which makes up to 1 / LR__GT_DISK times
+ * the landings. */
+#define LR__GT_DISK 0.1
+
 /* Adds to *ltp (made when NULL) a ghost light for every untextured
  * sphere or mesh light, and the environment's sun, that camera c's
  * ghosts call for (camera.ghosts), spp camera samples a pixel.  Returns 0
@@ -75,12 +81,13 @@ int lr__gt_plan(const lr_scene *s, const lr__cam *c, int spp, lr__lt **ltp);
  * ghosts' flux over the main image's.  0 without ghost lights. */
 double lr__gt_flux(const lr__lt *lt, const lr__lt_film *f);
 
-/* One path of ghost light l from lens point P (offset ox, oy), its
- * direction from ud, its ghost path from ug (l->cdf); splats
- * into f, counting rays traced and the ghost
- * rays that landed (up to the lens's ghost paths, times 3 in colour). */
+/* One path of ghost light l: its lens point from ul (ghost_trace.c:
+ * ghost_guide), its direction from ud, its ghost path from ug[0] and its
+ * splats' rounding from ug[1]; splats into f, counting rays traced and
+ * the ghost rays that landed (up to the lens's ghost paths, times 3 in
+ * colour). */
 void lr__gt_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
-                 lr__v3 P, double ox, double oy, const double *ud, double ug,
+                 const double *ul, const double *ud, const double *ug,
                  lr__lt_film *f, uint64_t *rays, uint64_t *landed);
 
 #endif

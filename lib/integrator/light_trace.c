@@ -1103,10 +1103,9 @@ void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
         lr__pixel_sampler_get(&ps, idx, q);
         const double *ud = q, *ul = q + 2;
         if (l->surf == LR__LT_GHOST) {
-            lr__v3 P = c->model->lens_point(c, ul, &ox, &oy);
             double ug[2];
             lr__sample_2d(&smp, light_key(l), idx, 4, ug);
-            lr__gt_path(s, c, l, P, ox, oy, ud, ug[0], f, rays, ghosts);
+            lr__gt_path(s, c, l, ul, ud, ug, f, rays, ghosts);
             continue;
         }
         /* Spectral mode: dimension 6 places the path's wavelengths. */
