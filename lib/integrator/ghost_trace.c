@@ -99,38 +99,26 @@ static void ghost_guide(const lr__cam *c, lr__lt_light *l, lr__v3 w0,
 }
 
 /* Light l's choice of ghost paths (cumulative, after a mesh's triangles'
- * in l->cdf: one array, freed as one, with its guides after it), and its
- * weight in the budget: M times the sum of flux_g / sqrt(land_g) on axis
- * (est), M its main image's total on axis (L's largest channel L Omega
- * k, camera_model.ghost_paths' k).
+ * in l->cdf: one array, freed as one, with its guides after it) from the
+ * n paths' estimates est (choice_cdf), and its weight in the budget: M
+ * times the sum of flux_g / sqrt(land_g) on axis, M its main image's
+ * total on axis (L's largest channel L Omega k, camera_model.ghost_paths'
+ * k).
  *
  * Ghost g's light, M flux_g, lands in K_g = N p_g land_g splats of a
  * light's N paths, each M flux_g / K_g; over its px_g pixels their
  * counts are Poisson, so the squared error summed over its pixels is
  * (M flux_g)^2 / (N p_g land_g).  Summed over the ghosts that is least
  * with p_g proportional to flux_g / sqrt(land_g), and then (M sum_g
- * flux_g / sqrt(land_g))^2 / N: the weight squared over N.  The p_g
- * follow the light's own estimates where it is seen (ghost_guide; the
- * on-axis ones if none of its paths land there), each drawn with (1 -
- * LR__GT_UNIFORM) of that share plus LR__GT_UNIFORM / n, so that a ghost
- * the estimate misses still gets some.  w0: the light's direction from
- * the eye.  -1: out of memory. */
-static double ghost_choice(const lr__cam *c, lr__lt_light *l, lr__v3 w0,
-                           const lr__ghost_est *est, lr__ghost_est *own, int n,
-                           double M)
+ * flux_g / sqrt(land_g))^2 / N: the weight squared over N.  Each path
+ * is drawn with (1 - LR__GT_UNIFORM) of that share plus LR__GT_UNIFORM
+ * / n, so that a ghost the estimate misses (off axis other ghosts lead)
+ * still gets some.  The camera's estimates are on axis; a guided light
+ * takes its own where it is seen (ghost_guide_lights).  -1: out of
+ * memory. */
+static void choice_cdf(double *cdf, const lr__ghost_est *est, int n)
 {
-    size_t size = l->n_tri + (size_t)n * (1 + GUIDE) + 1;
-    double *all = realloc(l->cdf, size * sizeof *all);
-    if (all == NULL)
-        return -1.0;
-    l->cdf = all;
-    double *cdf = all + l->n_tri;
-    double axis = est_weights(est, n, cdf);
-    ghost_guide(c, l, w0, own);
-    double sum = est_weights(own, n, cdf);
-    if (!(sum > 0.0))
-        sum = est_weights(est, n, cdf);
-    double acc = 0.0;
+    double sum = est_weights(est, n, cdf), acc = 0.0;
     for (int g = 0; g < n; g++) {
         double p = sum > 0.0 ? (1.0 - LR__GT_UNIFORM) * cdf[g] / sum +
                                    LR__GT_UNIFORM / n
@@ -139,7 +127,46 @@ static double ghost_choice(const lr__cam *c, lr__lt_light *l, lr__v3 w0,
         cdf[g] = acc;
     }
     cdf[n - 1] = 1.0;
-    return M * axis;
+}
+
+static double ghost_choice(const lr__cam *c, lr__lt_light *l,
+                           const lr__ghost_est *est, int n, double M)
+{
+    size_t size = l->n_tri + (size_t)n * (1 + GUIDE) + 1;
+    double *all = realloc(l->cdf, size * sizeof *all);
+    if (all == NULL)
+        return -1.0;
+    l->cdf = all;
+    choice_cdf(all + l->n_tri, est, n);
+    /* No guide yet (ghost_guide_lights): the whole disk. */
+    double *gd = guides(l), rho = c->model->ghost_disk(c);
+    for (int g = 0; g < n; g++)
+        gd[GUIDE * g] = gd[GUIDE * g + 2] = 0.0;
+    gd[GUIDE * n] = rho * rho;
+    double w[LR__RX_MAX_SURFACES * LR__RX_MAX_SURFACES / 2];
+    return M * est_weights(est, n, w);
+}
+
+/* Guides the ghost lights first .. lt->n - 1 (ghost_guide) whose paths
+ * are at least LR__GT_GUIDE times the grid's rays, and draws their
+ * paths' choice from their own estimates (where any path lands on the
+ * grid).  own: room for the paths' estimates. */
+static void ghost_guide_lights(lr__lt *lt, int first, const lr_scene *s,
+                               const lr__cam *c, lr__ghost_est *own)
+{
+    for (int k = first; k < lt->n; k++) {
+        lr__lt_light *l = &lt->lights[k];
+        double rays = (double)l->ghosts * GRID * GRID * M_PI / 4.0;
+        if (!((double)l->paths >= LR__GT_GUIDE * rays))
+            continue;
+        lr__v3 w0 = l->geom == (int)s->n_geoms
+                        ? l->center
+                        : v3_norm(v3_sub(l->center, c->origin));
+        ghost_guide(c, l, w0, own);
+        double w[LR__RX_MAX_SURFACES * LR__RX_MAX_SURFACES / 2];
+        if (est_weights(own, l->ghosts, w) > 0.0)
+            choice_cdf(l->cdf + l->n_tri, own, l->ghosts);
+    }
 }
 
 /* The ghost lights' paths, lights first .. lt->n - 1 with budget weights
@@ -224,11 +251,8 @@ static int pick(gt_pick *p, lr__lt_light *src, double omega, lr__v3 Lbar)
     l->ghosts = p->n_ghost;
     lt->ghost_lights++;
     lt->ghost_main += omega * p->k * (Lbar.x + Lbar.y + Lbar.z);
-    lr__v3 w0 = l->geom == (int)p->s->n_geoms
-                    ? l->center
-                    : v3_norm(v3_sub(l->center, c->origin));
-    return (p->a[lt->n - 1 - p->first] = ghost_choice(c, l, w0, p->est, p->own,
-                                                      p->n_ghost, M)) >= 0.0;
+    return (p->a[lt->n - 1 - p->first] = ghost_choice(c, l, p->est, p->n_ghost,
+                                                      M)) >= 0.0;
 nomem:
     free(src->cdf);
     return 0;
@@ -322,8 +346,10 @@ int lr__gt_plan(const lr_scene *s, const lr__cam *c, int spp, lr__lt **ltp)
     }
     if (ok)
         ok = pick_sun(p);
-    if (ok && p->a != NULL)
+    if (ok && p->a != NULL) {
         ghost_paths(*ltp, p->first, p->a, c, spp);
+        ghost_guide_lights(*ltp, p->first, s, c, p->own);
+    }
     free(p->a);
     free(p);
     return ok;

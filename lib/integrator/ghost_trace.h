@@ -68,6 +68,12 @@
  * (ghost_trace.c: ghost_guide), which makes up to 1 / LR__GT_DISK times
  * the landings. */
 #define LR__GT_DISK 0.1
+/* A light's lens points are guided only when its paths are at least this
+ * many times the guide's grid of rays (ghost_trace.c: some 11000 through
+ * the double Gauss's 55 ghost paths), so that the grid costs at most a
+ * fifth of what the paths do (a ray through the lens on the grid costs
+ * about what a path that lands costs). */
+#define LR__GT_GUIDE 4.0
 
 /* Adds to *ltp (made when NULL) a ghost light for every untextured
  * sphere or mesh light, and the environment's sun, that camera c's
