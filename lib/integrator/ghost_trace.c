@@ -23,15 +23,17 @@ static double solid_angle(const lr__cam *c, lr__v3 center, double radius)
 }
 
 /* The sum over n paths' estimates est of flux_g / sqrt(land_g), each
- * term into w[g]. */
+ * term into w[g] (w not NULL). */
 static double est_weights(const lr__ghost_est *est, int n, double *w)
 {
     double sum = 0.0;
     for (int g = 0; g < n; g++) {
-        w[g] = est[g].land > 0.0 && est[g].flux > 0.0
-                   ? est[g].flux / sqrt(est[g].land)
-                   : 0.0;
-        sum += w[g];
+        double x = est[g].land > 0.0 && est[g].flux > 0.0
+                       ? est[g].flux / sqrt(est[g].land)
+                       : 0.0;
+        if (w != NULL)
+            w[g] = x;
+        sum += x;
     }
     return sum;
 }
@@ -98,6 +100,21 @@ static void ghost_guide(const lr__cam *c, lr__lt_light *l, lr__v3 w0,
     }
 }
 
+/* The cumulative choice of n ghost paths from their estimates est
+ * (ghost_choice). */
+static void choice_cdf(double *cdf, const lr__ghost_est *est, int n)
+{
+    double sum = est_weights(est, n, cdf), acc = 0.0;
+    for (int g = 0; g < n; g++) {
+        double p = sum > 0.0 ? (1.0 - LR__GT_UNIFORM) * cdf[g] / sum +
+                                   LR__GT_UNIFORM / n
+                             : 1.0 / n;
+        acc += p;
+        cdf[g] = acc;
+    }
+    cdf[n - 1] = 1.0;
+}
+
 /* Light l's choice of ghost paths (cumulative, after a mesh's triangles'
  * in l->cdf: one array, freed as one, with its guides after it) from the
  * n paths' estimates est (choice_cdf), and its weight in the budget: M
@@ -116,19 +133,6 @@ static void ghost_guide(const lr__cam *c, lr__lt_light *l, lr__v3 w0,
  * still gets some.  The camera's estimates are on axis; a guided light
  * takes its own where it is seen (ghost_guide_lights).  -1: out of
  * memory. */
-static void choice_cdf(double *cdf, const lr__ghost_est *est, int n)
-{
-    double sum = est_weights(est, n, cdf), acc = 0.0;
-    for (int g = 0; g < n; g++) {
-        double p = sum > 0.0 ? (1.0 - LR__GT_UNIFORM) * cdf[g] / sum +
-                                   LR__GT_UNIFORM / n
-                             : 1.0 / n;
-        acc += p;
-        cdf[g] = acc;
-    }
-    cdf[n - 1] = 1.0;
-}
-
 static double ghost_choice(const lr__cam *c, lr__lt_light *l,
                            const lr__ghost_est *est, int n, double M)
 {
@@ -143,8 +147,7 @@ static double ghost_choice(const lr__cam *c, lr__lt_light *l,
     for (int g = 0; g < n; g++)
         gd[GUIDE * g] = gd[GUIDE * g + 2] = 0.0;
     gd[GUIDE * n] = rho * rho;
-    double w[LR__RX_MAX_SURFACES * LR__RX_MAX_SURFACES / 2];
-    return M * est_weights(est, n, w);
+    return M * est_weights(est, n, NULL);
 }
 
 /* Guides the ghost lights first .. lt->n - 1 (ghost_guide) whose paths
@@ -163,8 +166,7 @@ static void ghost_guide_lights(lr__lt *lt, int first, const lr_scene *s,
                         ? l->center
                         : v3_norm(v3_sub(l->center, c->origin));
         ghost_guide(c, l, w0, own);
-        double w[LR__RX_MAX_SURFACES * LR__RX_MAX_SURFACES / 2];
-        if (est_weights(own, l->ghosts, w) > 0.0)
+        if (est_weights(own, l->ghosts, NULL) > 0.0)
             choice_cdf(l->cdf + l->n_tri, own, l->ghosts);
     }
 }
@@ -320,12 +322,16 @@ static int pick_sun(gt_pick *p)
 
 int lr__gt_plan(const lr_scene *s, const lr__cam *c, int spp, lr__lt **ltp)
 {
-    if (c->model->ghost_paths == NULL || c->model->ghost_film == NULL)
+    const lr__camera_model *m = c->model;
+    if (m->ghost_paths == NULL || m->ghost_film == NULL ||
+        m->ghost_disk == NULL || m->lens_at == NULL)
         return 1;
     gt_pick *p = calloc(1, sizeof *p);
     if (p == NULL)
         return 0;
-    *p = (gt_pick){.s = s, .c = c, .ltp = ltp, .n_ghost = -1, .first = -1};
+    /* Its estimates' arrays are large (98 kB): on the heap, filled by
+     * field. */
+    p->s = s, p->c = c, p->ltp = ltp, p->n_ghost = -1, p->first = -1;
     int ok = 1;
     for (size_t g = 0; g < s->n_geoms && ok; g++) {
         const lr__geom *geo = &s->geoms[g];
