@@ -10,7 +10,7 @@
  * ("Fixed bug, guarded here") and fail if it comes back.
  */
 #include "test.h"
-#include "scene.h"
+#include "trace.h"
 #include "integrator.h"
 
 #include <math.h>

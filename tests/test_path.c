@@ -26,7 +26,7 @@
 #include "bsdf.h"
 #include "path.h"
 #include "sampler.h"
-#include "scene.h"
+#include "trace.h"
 
 #include <math.h>
 #include <stdio.h>

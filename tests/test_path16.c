@@ -16,7 +16,7 @@
 #include "test.h"
 #include "path.h"
 #include "sampler.h"
-#include "scene.h"
+#include "trace.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -9,7 +9,7 @@
 #include "test.h"
 #include "integrator.h"
 #include "light.h"
-#include "scene.h"
+#include "trace.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -3,7 +3,7 @@
  * answers, including transforms, rays from inside and grazing misses.
  */
 #include "test.h"
-#include "scene.h"
+#include "trace.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -1,6 +1,6 @@
 /*
  * few_triangles.c: the path integrator's packets against a scene's
- * triangles when it has only a few (scene.h: lr__few_triangles), every
+ * triangles when it has only a few (scene.h: lr__few_triangles; trace.h), every
  * shape tested for eight packed lanes at once in vectorised loops, in
  * double.  A shape is a triangle, or the parallelogram of two triangles
  * of a mesh that make one (a rectangle object's two), tested once.
@@ -20,7 +20,7 @@
  * of an edge may take the other triangle (tests/test_path.c:
  * test_few_triangles_match_embree).
  */
-#include "scene.h"
+#include "trace.h"
 
 #include <math.h>
 

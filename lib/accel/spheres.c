@@ -1,6 +1,6 @@
 /*
  * spheres.c: the path integrator's rays in a scene with a few spheres
- * (scene.h: lr__spheres_build, lr__paths_intersect16,
+ * (trace.h: lr__spheres_build, lr__paths_intersect16,
  * lr__paths_occluded16).  Embree's sphere primitive cost the Cornell box
  * of bench/path 40 to 60 ns a ray, a third of all Embree's time there
  * (a bare Embree program, 12 triangles with and without the two
@@ -19,7 +19,7 @@
  * (trace.c), so a sphere hit found here completes as one from Embree.
  * Rays that quiet lanes disabled (tnear 1 > tfar 0) meet nothing.
  */
-#include "scene.h"
+#include "trace.h"
 
 #include <math.h>
 

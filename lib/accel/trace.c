@@ -5,7 +5,7 @@
  * infinite planes that Embree cannot hold, intersected analytically in
  * double.
  */
-#include "scene.h"
+#include "trace.h"
 
 #include <float.h>
 #include <math.h>
@@ -82,7 +82,7 @@ static void finish_hit(lr__hit *h, lr__v3 org, lr__v3 dir, double t,
  * nothing measurable anyway), still meets the infinite planes, and is
  * counted (lr__scene_skipped_rays).
  * (The bound, LR__EMBREE_MAX_COORD, and the test, lr__embree_can_trace,
- * are in scene.h: inline, as the path integrator asks it per ray.) */
+ * are in trace.h: inline, as the path integrator asks it per ray.) */
 
 static void count_skipped(const lr_scene *s)
 {

@@ -6,6 +6,7 @@
  * GET /v1/options lists them (through lr_render_settings_json).
  */
 #include "integrator.h"
+#include "light.h"
 
 /* Indexed by lr_integrator_kind, whose values run from 0 without gaps:
  * a new integrator is its file, a value in lr_integrator_kind and a row
@@ -35,4 +36,13 @@ void lr__integrator_names(const char *names[LR__MAX_INTEGRATORS + 1])
     for (; lr__integrators[n] != NULL; n++)
         names[n] = lr__integrators[n]->name;
     names[n] = NULL;
+}
+
+lr_status lr__integrators_prepare(lr_scene *s, lr_error *err)
+{
+    LR_TRY(lr__emitters_build(s, err));
+    for (int i = 0; lr__integrators[i] != NULL; i++)
+        if (lr__integrators[i]->prepare != NULL)
+            LR_TRY(lr__integrators[i]->prepare(s, err));
+    return LR_OK;
 }

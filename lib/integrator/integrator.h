@@ -14,7 +14,7 @@
 #define LR_INTEGRATOR_H
 
 #include "sampler.h"
-#include "scene.h"
+#include "trace.h"
 
 #include <stdint.h>
 
@@ -181,6 +181,10 @@ typedef struct lr__integrator {
                          struct RTCRayHit16 *rh, const int *n, int count,
                          const lr__sample_id *id, double (*L)[3][16],
                          uint64_t *rays);
+    /* Optional (NULL: nothing): builds what this integrator needs of a
+     * committed scene beyond the scene's own data, once, when the scene
+     * is loaded; renders share it read-only afterwards. */
+    lr_status (*prepare)(lr_scene *s, lr_error *err);
 } lr__integrator;
 
 extern const lr__integrator lr__whitted;
@@ -194,6 +198,11 @@ extern const lr__integrator lr__light_tracer;
 #define LR__MAX_INTEGRATORS 15
 extern const lr__integrator *const lr__integrators[];
 
+/* Readies a committed scene (lr__scene_commit) for rendering: the
+ * emitters every integrator samples (lr__emitters_build), then each
+ * registered integrator's prepare.  The public loaders (load.c) call it
+ * once, before any render. */
+lr_status lr__integrators_prepare(lr_scene *s, lr_error *err);
 /* The integrator for render.integrator's value; NULL when `kind` is not
  * one (lr_render_settings_validate rejects it). */
 const lr__integrator *lr__integrator_for(lr_integrator_kind kind);

@@ -47,6 +47,7 @@
 
 #include "bsdf.h"
 #include "integrator.h"
+#include "envmap.h"
 #include "light.h"
 #include "path.h"
 

@@ -52,6 +52,7 @@
 
 #include "bsdf.h"
 #include "integrator.h"
+#include "envmap.h"
 #include "light.h"
 
 #include <math.h>

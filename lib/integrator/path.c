@@ -406,4 +406,5 @@ const lr__integrator lr__path_tracer = {
     .name = "path",
     .radiance = radiance1,
     .radiance16 = trace_paths,
+    .prepare = lr__spheres_build,
 };

@@ -13,14 +13,6 @@
 
 #define LR__PATH_MAX 256
 
-/* Returns from the calling function when `expr` (an lr_status) fails. */
-#define LR_TRY(expr)                   \
-    do {                               \
-        lr_status lr_try_st_ = (expr); \
-        if (lr_try_st_ != LR_OK)       \
-            return lr_try_st_;         \
-    } while (0)
-
 /* out = parent.key (or key when parent is empty). */
 void lr__path_key(char out[LR__PATH_MAX], const char *parent, const char *key);
 /* out = parent[i]. */

@@ -36,12 +36,6 @@ void lr__pixel_add_n(lr__pixel *p, const lr__v3 *L, int n);
  * by their spread (adaptive sampling off). */
 void lr__pixel_add16(lr__pixel *p, const double L[3][16], int n, int squares);
 
-/* Rec. 709 luminance of a linear RGB value. */
-static inline double lr__luminance(double r, double g, double b)
-{
-    return 0.2126 * r + 0.7152 * g + 0.0722 * b;
-}
-
 /* The pixel's value: the mean over all samples taken (a dropped sample
  * counts as black, which keeps the estimate unbiased when drops are
  * rare), as three finite floats. */

@@ -21,6 +21,7 @@
  */
 #include "plan.h"
 #include "adaptive.h"
+#include "envmap.h"
 #include "integrator.h"
 #include "sampler.h"
 #include "splat.h"

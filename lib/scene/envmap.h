@@ -49,9 +49,6 @@ lr_status lr__envmap_load(const char *path, const char *file, const char *blame,
                           lr__envmap **out, lr_error *err);
 void lr__envmap_free(lr__envmap *e);
 
-/* lr__envmap_max_in_cone and lr__envmap_max are declared in scene.h, for
- * the planner, which cannot include this file's light.h beside film.h. */
-
 /* A direction towards the environment, sampled by luminance x the
  * latitude's solid angle (uniformly without a map), its radiance *L and
  * solid-angle density *pdf (0 when the sample is unusable). */
@@ -59,5 +56,22 @@ lr__v3 lr__envmap_sample(const lr_scene *s, const double u[2], lr__v3 *L,
                          double *pdf);
 /* The density of lr__envmap_sample for direction dir. */
 double lr__envmap_pdf(const lr_scene *s, lr__v3 dir);
+
+/* envmap.c, for the planner's rare-light bound: a bound on the largest
+ * channel of the radiance the map shows in any direction within angle
+ * `alpha` (radians) of unit direction `axis`, never below a lookup there
+ * (conservative: whole runs of texels, and whole rows near a pole); and
+ * the map's largest value anywhere. */
+double lr__envmap_max_in_cone(const lr__envmap *e, lr__v3 axis, double alpha);
+double lr__envmap_max(const lr__envmap *e);
+/* envmap.c, for the light side (light_trace.c): the map's sun, a cone
+ * (unit axis *dir, cos of its half-angle *cos_a) holding every texel
+ * within LR__ENV_SUN_MAX of the brightest whose luminance is at least
+ * 1 / LR__ENV_SUN_RATIO of its, with a margin of the bilinear lookup's
+ * spread; 0 when that cone would be wider than LR__ENV_SUN_MAX (no small
+ * bright source to speak of).  Found when the map is loaded. */
+int lr__envmap_sun(const lr__envmap *e, lr__v3 *dir, double *cos_a);
+#define LR__ENV_SUN_MAX 0.25
+#define LR__ENV_SUN_RATIO 64.0
 
 #endif

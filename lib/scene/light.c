@@ -38,6 +38,14 @@ static double emitter_luminance(const lr__material *m)
                             m->emission.z * t->mean[2]));
 }
 
+int lr__scene_emits(const lr_scene *s)
+{
+    for (size_t g = 0; g < s->n_geoms; g++)
+        if (emitter_luminance(&s->materials[s->geoms[g].material]) > 0.0)
+            return 1;
+    return 0;
+}
+
 lr_status lr__emitters_build(lr_scene *s, lr_error *err)
 {
     size_t n = 0;

@@ -60,8 +60,11 @@ lr__v3 lr__env_radiance(const lr_scene *s, lr__v3 dir);
 
 /* Fills s->emitters and s->emitter_cdf from the geometry whose material
  * emits, and sets each geometry's `emitter` index; called by
- * lr__scene_commit. */
+ * lr__integrators_prepare (integrator.h). */
 lr_status lr__emitters_build(lr_scene *s, lr_error *err);
+
+/* 1 if some geometry of s emits: what lr__emitters_build would list. */
+int lr__scene_emits(const lr_scene *s);
 
 /* Luminance of linear sRGB (Rec. 709 weights, ITU-R BT.709). */
 static inline double lr__luminance(lr__v3 c)

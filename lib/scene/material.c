@@ -1,6 +1,6 @@
 /*
  * material.c: a material's values at a point: its factors times its
- * textures (scene.h), a glTF material's base colour split by its
+ * textures (material.h), a glTF material's base colour split by its
  * metallic texture, and where a point of a sphere is in a texture.
  */
 #include "scene.h"

@@ -271,14 +271,11 @@ lr_status lr__scene_commit(lr_scene *s, lr_error *err)
         if (g->face_ng == NULL)
             return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     }
-    lr_status st = lr__emitters_build(s, err);
-    if (st != LR_OK)
-        return st;
     embree_msg[0] = '\0';
     rtcCommitScene(s->rtc);
     if (rtcGetDeviceError(s->device) != RTC_ERROR_NONE)
         return embree_fail(err, "building the Embree scene");
-    return lr__spheres_build(s, err);
+    return LR_OK;
 }
 
 /* ---- the scene's life ------------------------------------------------ */

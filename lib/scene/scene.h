@@ -1,6 +1,8 @@
 /*
- * scene.h: the loaded scene as the renderer sees it.  Built by
- * scene_load.c (validation) and scene.c (Embree), read-only afterwards.
+ * scene.h: the loaded scene as the renderer sees it: its materials
+ * (material.h), lights, geometry and Embree scene.  Built by
+ * scene_load.c (validation) and scene.c (Embree), read-only afterwards;
+ * ray queries on it are accel/trace.h's.
  */
 #ifndef LR_SCENE_H
 #define LR_SCENE_H
@@ -8,63 +10,11 @@
 #include "internal.h"
 #include "vec.h"
 
-#include "texture.h"
+#include "material.h"
 
 #include <embree3/rtcore.h>
 #include <stdatomic.h>
 
-/* An affine map of texture coordinates (lensray's: v up), applied before
- * a lookup: u' = m[0] u + m[1] v + m[2], v' = m[3] u + m[4] v + m[5];
- * `on` 0 is the identity.  glTF's KHR_texture_transform (gltf.c). */
-typedef struct lr__uv_xf {
-    int on;
-    double m[6];
-} lr__uv_xf;
-
-typedef struct lr__material {
-    char *name;       /* owned */
-    lr__v3 diffuse;   /* Lambertian albedo: BRDF = diffuse / pi */
-    lr__v3 specular;  /* normalised Phong weight */
-    double shininess; /* Phong exponent */
-    lr__v3 reflect;   /* perfect mirror weight */
-    lr__v3 transmit;  /* dielectric weight (refraction + its Fresnel) */
-    double ior;       /* index of refraction inside the object */
-    lr__v3 emission;  /* radiance leaving the front side (area light) */
-    /* GGX alpha of the mirror and glass lobes (0: smooth).  Rough
-     * lobes are the path integrator's; Whitted treats them as smooth. */
-    double roughness;
-    /* Textures (texture.h) multiply the factors above, as glTF's factors
-     * do: diffuse x the texture's RGB, emission x RGB, roughness (an
-     * alpha) x r^2 where r, the roughness_channel (0 = R; glTF packs
-     * roughness in G = 1), is a perceptual roughness as in glTF.  NULL:
-     * none.  Not owned: the scene owns them (lr_scene.textures). */
-    lr__texture *diffuse_tex, *emission_tex, *roughness_tex;
-    int roughness_channel;
-    /* A glTF metallic-roughness material whose textures vary its metal
-     * (gltf.c): when pbr_split, lr__material_textures splits the base
-     * colour b = base x base_tex's RGB by the metallic m = metal x
-     * metal_tex's B (glTF packs metalness in B) point by point:
-     * reflect = m b, diffuse = (1 - m)(1 - trans) b, transmit =
-     * (1 - m) trans b (the glTF 2.0 specification, appendix B).  The
-     * factors above hold the untextured split.  Textures not owned. */
-    int pbr_split;
-    lr__v3 base;
-    double metal, trans;
-    lr__texture *base_tex, *metal_tex;
-    /* The coordinates of each slot's lookups: the colour (diffuse_tex or
-     * base_tex), the emission, and roughness_tex and metal_tex (glTF
-     * packs both in one texture). */
-    lr__uv_xf xf_colour, xf_emission, xf_rough;
-    /* A tangent-space normal map (glTF's normalTexture, linear RGB:
-     * n = 2 c - 1, x and y times normal_scale), on triangle meshes with
-     * texture coordinates; it bends the shading normal (trace.c). */
-    lr__texture *normal_tex;
-    double normal_scale;
-    lr__uv_xf xf_normal;
-    /* The texture files as the scene JSON wrote them, for the writer
-     * (json_write.c); NULL when none.  Owned. */
-    char *diffuse_file, *emission_file, *roughness_file;
-} lr__material;
 
 /* One emitting primitive: a triangle of an emissive mesh or an emissive
  * sphere (light.c). */
@@ -79,23 +29,6 @@ typedef struct lr__emitter {
 } lr__emitter;
 
 typedef struct lr__envmap lr__envmap; /* envmap.c */
-
-/* envmap.c, for the planner's rare-light bound: a bound on the largest
- * channel of the radiance the map shows in any direction within angle
- * `alpha` (radians) of unit direction `axis`, never below a lookup there
- * (conservative: whole runs of texels, and whole rows near a pole); and
- * the map's largest value anywhere. */
-double lr__envmap_max_in_cone(const lr__envmap *e, lr__v3 axis, double alpha);
-double lr__envmap_max(const lr__envmap *e);
-/* envmap.c, for the light side (light_trace.c): the map's sun, a cone
- * (unit axis *dir, cos of its half-angle *cos_a) holding every texel
- * within LR__ENV_SUN_MAX of the brightest whose luminance is at least
- * 1 / LR__ENV_SUN_RATIO of its, with a margin of the bilinear lookup's
- * spread; 0 when that cone would be wider than LR__ENV_SUN_MAX (no small
- * bright source to speak of).  Found when the map is loaded. */
-int lr__envmap_sun(const lr__envmap *e, lr__v3 *dir, double *cos_a);
-#define LR__ENV_SUN_MAX 0.25
-#define LR__ENV_SUN_RATIO 64.0
 
 typedef enum lr__light_kind {
     LR__LIGHT_POINT,
@@ -341,8 +274,10 @@ lr_status lr__scene_texture_add(lr_scene *s, lr__texture *t);
  * never fails a load). */
 void lr__scene_warn(lr_scene *s, const char *fmt, ...)
     __attribute__((format(printf, 2, 3)));
-/* Commits the Embree scene: no more geometry after this.  Builds the
- * emitter list (lr__emitters_build). */
+/* Commits the Embree scene: no more geometry after this.  What the
+ * integrators sample and trace beyond it (the emitter list, the path
+ * tracer's sphere scene) they build in their own prepare step
+ * (lr__integrators_prepare, integrator.h). */
 lr_status lr__scene_commit(lr_scene *s, lr_error *err);
 /* The configuration string scenes give rtcNewDevice (NULL: the
  * environment's LENSRAY_EMBREE_CONFIG, and without it Embree's defaults,
@@ -350,25 +285,6 @@ lr_status lr__scene_commit(lr_scene *s, lr_error *err);
  * for other CPUs ("isa=avx2", "isa=sse4.2"); tools/isa-matrix.sh sets
  * the variable. */
 extern const char *lr__embree_config;
-
-/* ---- tracing (trace.c) ------------------------------------------------ */
-
-typedef struct lr__hit {
-    double t;
-    lr__v3 p;     /* hit position */
-    lr__v3 ng;    /* unit geometric normal, facing the ray's origin */
-    lr__v3 ns;    /* unit shading normal, same side as ng */
-    int entering; /* 1 if the ray hit the outside (front) surface */
-    int material;
-    double eps;    /* how far to push a new ray's origin off p */
-    long geom;     /* Embree geometry ID; -1 for an infinite plane */
-    unsigned prim; /* triangle index in it */
-    /* Texture coordinates (lr__triangle_uv, lr__sphere_uv), computed
-     * only where the material has a texture; has_uv 0 otherwise, on an
-     * infinite plane and on a mesh without them. */
-    int has_uv;
-    double uv[2];
-} lr__hit;
 
 /* The texture coordinates of triangle `prim` of g at Embree's
  * barycentrics (bu, bv) (the point (1 - bu - bv) a + bu b + bv c): the
@@ -387,11 +303,6 @@ static inline int lr__triangle_uv(const lr__geom *g, unsigned prim, double bu,
     return 1;
 }
 
-/* A sphere's texture coordinates at unit outward normal n, a lat-long
- * map wrapped like a globe: the image's centre column faces +z, u grows
- * towards +x, its top row is the +y pole:
- * u = 1/2 + atan2(n.x, n.z) / (2 pi), v = 1 - acos(n.y) / pi. */
-void lr__sphere_uv(lr__v3 n, double uv[2]);
 
 /* The shading normal of triangle `prim` of g (a mesh with tangents) bent
  * by its material's normal map at uv: ns_front is the unit shading normal
@@ -403,21 +314,6 @@ lr__v3 lr__normal_mapped(const lr__geom *g, const lr__material *m,
 /* The tangents of lr__geom (6 floats per triangle), or NULL when out of
  * memory (material.c). */
 float *lr__triangle_tangents(const lr__geom *g);
-
-/* ---- materials at a hit (material.c) ---------------------------------- */
-
-/* Whether a material has any texture. */
-static inline int lr__material_textured(const lr__material *m)
-{
-    return m->diffuse_tex != NULL || m->emission_tex != NULL ||
-           m->roughness_tex != NULL || m->base_tex != NULL ||
-           m->metal_tex != NULL || m->normal_tex != NULL;
-}
-
-/* *tmp = m with its textures applied at uv; returns tmp (material.c). */
-const lr__material *lr__material_textures(const lr__material *m,
-                                          const double uv[2],
-                                          lr__material *tmp);
 
 /* Material `material` at texture coordinates uv: the scene's own record
  * when it has no texture (or has_uv is 0: the factors alone), else *tmp
@@ -433,214 +329,6 @@ static inline const lr__material *lr__material_at(const lr_scene *s,
     if (!has_uv || !lr__material_textured(m))
         return m;
     return lr__material_textures(m, uv, tmp);
-}
-static inline const lr__material *
-lr__hit_material(const lr_scene *s, const lr__hit *h, lr__material *tmp)
-{
-    return lr__material_at(s, h->material, h->has_uv, h->uv, tmp);
-}
-
-/* Closest hit along org + t dir with t in (0, tfar); dir need not be unit
- * length but t is in its units.  Returns 1 on a hit. */
-int lr__trace(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
-              lr__hit *hit);
-/* Which geometry lr__trace's hit would be on, without completing the
- * hit: its index, -1 for an infinite plane, -2 for none. */
-long lr__trace_geom(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar);
-/* 1 if anything blocks org + t dir for t in (0, tfar). */
-int lr__occluded(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar);
-/* The closest hits of lanes 0..n-1 of a packet of camera rays (Embree's
- * answer in rh, coherent), counted in *rays. */
-void lr__intersect16(const lr_scene *s, struct RTCRayHit16 *rh, int n,
-                     uint64_t *rays);
-
-/* The path integrator's packets (spheres.c): rtcIntersect16 and
- * rtcOccluded16 on the scene, the spheres met in double when it has a
- * few; the same answers (a sphere hit's t is solved again by
- * lr__hit_complete).  lr__spheres_build, at commit, makes the scene
- * without spheres. */
-lr_status lr__spheres_build(lr_scene *s, lr_error *err);
-/* 0: scenes loaded from now on keep Embree's spheres (for tests). */
-extern int lr__few_spheres_enabled;
-/* The camera rays of a packet of n lanes (lr__intersect16, or in a scene
- * of a few primitives lr__paths_intersect16: the same hits as
- * continuation rays find). */
-void lr__paths_camera16(const lr_scene *s, struct RTCRayHit16 *rh, int n,
-                        uint64_t *rays);
-
-/* few_triangles.c.  Fills s->few_tris and returns 1 if the scene's
- * Embree geometries are spheres and 1 to LR__FEW_TRIANGLES triangles
- * (and lr__few_triangles_enabled); else leaves few_tris.n 0 and returns
- * 0.  At commit, by lr__spheres_build. */
-int lr__few_triangles_build(lr_scene *s);
-/* 0: scenes loaded from now on leave their triangles to Embree (tests). */
-extern int lr__few_triangles_enabled;
-/* Rays packed to the front, in double (spheres.c and path16.c fill
- * it): entry c is packet lane lane[c]'s ray, c < m; entries m .. m8 - 1
- * (m8: m rounded up to a multiple of 8, the lane loops' step) hold rays
- * that meet nothing (tnear 1, tfar 0).  The lane loops then cost what
- * the live lanes need: on the Cornell box a continuation packet had 10.6
- * live lanes of 16 on average, a shadow packet 7.4.  A bounce's shadow
- * and continuation rays go in one (lr__paths_trace_packed), so up to
- * 32. */
-#define LR__PACKED 32
-typedef struct lr__rays_packed {
-    int m, m8;
-    int lane[LR__PACKED];
-    double ox[LR__PACKED], oy[LR__PACKED], oz[LR__PACKED];
-    double dx[LR__PACKED], dy[LR__PACKED], dz[LR__PACKED];
-    double tn[LR__PACKED], tf[LR__PACKED];
-} lr__rays_packed;
-/* Whether the scene's path packets skip Embree altogether (few_tris
- * holds its triangles), so that lr__paths_occluded_packed serves it. */
-static inline int lr__paths_packed(const lr_scene *s)
-{
-    return s->few_tris.n > 0;
-}
-/* occ[c] = 1 if P's entry c meets a sphere or triangle at t in (tnear,
- * tfar), else 0, in a scene lr__paths_packed accepts. */
-void lr__paths_occluded_packed(const lr_scene *s, lr__rays_packed *P,
-                               double occ[LR__PACKED]);
-/* A bounce's rays at once, in a scene lr__paths_packed accepts: entries
- * c < ns are shadow rays (occ[c] as lr__paths_occluded_packed gives
- * it), the others continuation rays, whose nearest hits are written into
- * rh's lanes as lr__paths_intersect16 writes them (geomID, primID, u, v,
- * tfar; geomID RTC_INVALID_GEOMETRY_ID for a miss; rh's rays neither
- * read nor written). */
-void lr__paths_trace_packed(const lr_scene *s, lr__rays_packed *P, int ns,
-                            struct RTCRayHit16 *rh, double occ[LR__PACKED]);
-/* The nearest triangle of each entry with t in (tn, tf): tf[c] becomes
- * its t, tri[c] its index in T (geom, prim), u[c], v[c] its
- * barycentrics (Embree's convention); entries without a hit keep tf and
- * get tri -1.  Entries c < c0 (shadow rays) get only tri >= 0 for a hit
- * (the shape's index) and no barycentrics. */
-void lr__few_triangles_intersect(const lr__few_triangles *T, lr__rays_packed *P,
-                                 int c0, double tri[LR__PACKED],
-                                 double u[LR__PACKED], double v[LR__PACKED]);
-/* occ[c] = 1 if entry c meets a triangle at t in (tn, tf), else 0. */
-void lr__few_triangles_occluded(const lr__few_triangles *T,
-                                const lr__rays_packed *P,
-                                double occ[LR__PACKED]);
-void lr__paths_intersect16(const lr_scene *s, const int *valid,
-                           struct RTCIntersectContext *ctx,
-                           struct RTCRayHit16 *rh);
-void lr__paths_occluded16(const lr_scene *s, const int *valid,
-                          struct RTCIntersectContext *ctx, struct RTCRay16 *r);
-
-/* Packets.  lr__shadow_ray16 fills one lane of a 16-wide packet exactly
- * as lr__occluded fills a single ray;
- * lr__hit_complete turns Embree's answer for one ray (geom_id
- * RTC_INVALID_GEOMETRY_ID when it found nothing) into the same hit
- * lr__trace returns, infinite planes included; lr__planes_block is the
- * infinite planes' part of lr__occluded. */
-void lr__shadow_ray16(struct RTCRay16 *r, int lane, lr__v3 org, lr__v3 dir,
-                      double tfar);
-int lr__hit_complete(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
-                     unsigned geom_id, unsigned prim_id, float bu, float bv,
-                     float t_hit, lr__hit *hit);
-/* Gives the lanes of r that valid masks off (valid[i] == 0) the harmless
- * ray lane_disabled gives (origin 0, direction +z, tnear 1 > tfar 0).
- * Call it before rtcOccluded16 on a packet whose masked lanes hold
- * anything: Embree's AVX2 code (on a CPU without AVX-512) checks those
- * lanes too, and a NaN there aborts the process ("Assertion
- * `all(valid, ray.valid())' failed" in occludedCoherent). */
-void lr__ray16_quiet_lanes(struct RTCRay16 *r, const int *valid);
-int lr__planes_block(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar);
-
-/* The triangle hits of a packet in structure-of-arrays form, in double:
- * what lr__hit_complete computes for a triangle, lane by lane in loops the
- * compiler vectorises.  Every operation is the one the scalar code does,
- * in the same order, without FMA contraction (-ffp-contract=off), so each
- * lane's result is the scalar result to the bit (the test suite renders
- * scenes both ways and compares bytes).  Lanes that were not gathered
- * keep what they held (zeros, or an earlier packet's triangle): the
- * vector loops compute on them too, and nobody reads those results, so a
- * caller zeroes the struct once and then reuses it. */
-typedef struct lr__hits16 {
-    double ng[3][16]; /* the triangle's unit normal (lr__geom.face_ng) */
-    float n[9][16];   /* corner normals (flat meshes: not written) */
-    float smooth[16]; /* 1 with corner normals */
-    /* Results. */
-    double px[16], py[16], pz[16]; /* hit position */
-    double gx[16], gy[16], gz[16]; /* ng, facing the ray */
-    double sx[16], sy[16], sz[16]; /* ns */
-    double eps[16];
-} lr__hits16;
-
-/* Copies lane i's triangle (geometry rh->hit.geomID[i], a triangle mesh
- * with lambert_triangles set) into h.  (Inline: it runs for every lane of
- * every packet, and as a call it cost 8% of a render.) */
-static inline void lr__hits16_gather(const lr_scene *s,
-                                     const struct RTCRayHit16 *rh, int i,
-                                     lr__hits16 *h)
-{
-    const lr__geom *g = &s->geoms[rh->hit.geomID[i]];
-    unsigned prim = rh->hit.primID[i];
-    const double *ng = &g->face_ng[3 * (size_t)prim];
-    h->ng[0][i] = ng[0];
-    h->ng[1][i] = ng[1];
-    h->ng[2][i] = ng[2];
-    if (g->corner_normals != NULL) {
-        const float *n = &g->corner_normals[9 * (size_t)prim];
-        for (int k = 0; k < 9; k++)
-            h->n[k][i] = n[k];
-        h->smooth[i] = 1.0f;
-    } else {
-        /* n keeps what it held: lr__hits16_complete takes ng in this
-         * lane whatever it computes from n. */
-        h->smooth[i] = 0.0f;
-    }
-}
-
-/* Completes all sixteen lanes from the rays and hits in rh. */
-void lr__hits16_complete(const struct RTCRayHit16 *rh, lr__hits16 *h);
-
-/* The origin for a ray leaving the hit point towards `dir`: pushed along
- * the geometric normal, on the side dir points to, by hit->eps, which
- * grows with the magnitude of the hit position and the ray's length
- * (float rounding grows with both), so the new ray cannot hit the surface
- * it starts on. */
-lr__v3 lr__offset_origin(const lr__hit *hit, lr__v3 dir);
-
-/* 1 if Embree accepts a ray with this origin and direction: every
- * component finite and within 1.8e18 (Embree aborts the process on
- * others).  lr__trace and lr__occluded check it and treat a ray that
- * fails as missing Embree's geometry (the infinite planes are still
- * tested), counting it in lr__scene_skipped_rays; callers that fill
- * packets (lr__shadow_ray16) must check it themselves. */
-#define LR__EMBREE_MAX_COORD 1.8e18
-static inline int lr__embree_can_trace(lr__v3 org, lr__v3 dir)
-{
-    /* Written so that NaN fails; & rather than && (no branch each). */
-    const double m = LR__EMBREE_MAX_COORD;
-    return (fabs(org.x) <= m) & (fabs(org.y) <= m) & (fabs(org.z) <= m) &
-           (fabs(dir.x) <= m) & (fabs(dir.y) <= m) & (fabs(dir.z) <= m);
-}
-unsigned long long lr__scene_skipped_rays(const lr_scene *s);
-
-/* A sphere's t along org + t dir, solved again in double near the
- * intersector's t: Embree finds spheres in float, so on a big sphere its
- * t can be far off the surface (0.1 units on a radius of 1e6).  The
- * quadratic in the cancellation-free form (|oc| - r)(|oc| + r) and
- * q = -(b + sign(b) sqrt(disc)); the root nearest t, if it lies in
- * (0, tmax); otherwise t itself.  lr__hit_complete and path16.c's vector
- * bounce both use it, so that their hits agree to the bit. */
-static inline double lr__sphere_refine_t(const lr__geom *g, lr__v3 org,
-                                         lr__v3 dir, double t, double tmax)
-{
-    lr__v3 oc = v3_sub(org, g->center);
-    double a = v3_dot(dir, dir), b = v3_dot(oc, dir);
-    double l = v3_len(oc);
-    double c = (l - g->radius) * (l + g->radius);
-    double disc = b * b - a * c;
-    if (disc >= 0.0 && a > 0.0) {
-        double q = -(b + copysign(sqrt(disc), b));
-        double r1 = q / a, r2 = q != 0.0 ? c / q : r1;
-        double best = fabs(r1 - t) < fabs(r2 - t) ? r1 : r2;
-        if (best > 0.0 && best < tmax)
-            t = best;
-    }
-    return t;
 }
 
 #endif

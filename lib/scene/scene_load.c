@@ -353,9 +353,10 @@ static lr_status parse_scene(const char *json, size_t len,
     return LR_OK;
 }
 
-lr_status lr_scene_load_json(const char *json, size_t len, const char *base_dir,
-                             const char *const *overrides, size_t n_overrides,
-                             lr_scene **out, lr_error *err)
+lr_status lr__scene_load_json(const char *json, size_t len,
+                              const char *base_dir,
+                              const char *const *overrides, size_t n_overrides,
+                              lr_scene **out, lr_error *err)
 {
     if (out == NULL || (json == NULL && len > 0))
         return lr__fail(err, LR_ERR_INVALID, NULL,
@@ -412,7 +413,7 @@ static lr_status settings_of_loaded(const char *path,
                                     lr_render_settings *rs, lr_error *err)
 {
     lr_scene *s = NULL;
-    LR_TRY(lr_scene_load_file(path, overrides, n_overrides, &s, err));
+    LR_TRY(lr__scene_load_file(path, overrides, n_overrides, &s, err));
     lr_scene_camera(s, cam);
     lr_scene_settings(s, rs);
     lr_scene_free(s);
@@ -457,8 +458,8 @@ lr_status lr_scene_read_settings(const char *path, const char *const *overrides,
     return LR_OK;
 }
 
-lr_status lr_scene_load_file(const char *path, const char *const *overrides,
-                             size_t n_overrides, lr_scene **out, lr_error *err)
+lr_status lr__scene_load_file(const char *path, const char *const *overrides,
+                              size_t n_overrides, lr_scene **out, lr_error *err)
 {
     if (path == NULL || out == NULL)
         return lr__fail(err, LR_ERR_INVALID, NULL,
@@ -475,8 +476,8 @@ lr_status lr_scene_load_file(const char *path, const char *const *overrides,
     /* Mesh paths are relative to the scene file's directory. */
     char dir[4096];
     lr__dir_of(path, dir, sizeof dir);
-    st = lr_scene_load_json(buf ? buf : "", len, dir, overrides, n_overrides,
-                            out, err);
+    st = lr__scene_load_json(buf ? buf : "", len, dir, overrides, n_overrides,
+                             out, err);
     free(buf);
     name_file(path, st, err);
     return st;

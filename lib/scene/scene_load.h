@@ -1,12 +1,15 @@
 /*
- * scene_load.h: the scene format's parts that scene_load.c reads through
- * files of their own: the objects and their transforms (scene_objects.c).
+ * scene_load.h: the scene loaders of the scene layer (scene_load.c), and
+ * the scene format's parts that scene_load.c reads through files of their
+ * own: the objects and their transforms (scene_objects.c).
  */
 #ifndef LR_SCENE_LOAD_H
 #define LR_SCENE_LOAD_H
 
 #include "scene.h"
 #include "transform.h"
+
+#include <cjson/cJSON.h>
 
 /* scene_objects.c: reads a JSON list of steps ([{"translate": [x, y, z]},
  * {"rotate": {"axis": [x, y, z], "degrees": d}}, {"scale": s or
@@ -20,5 +23,17 @@ lr_status lr__xform_parse(const cJSON *list, const char *path, lr__xform *out,
 lr_status lr__scene_parse_objects(lr_scene *s, const cJSON *objs,
                                   const char *base_dir, int height_given,
                                   lr_error *err);
+
+/* lr_scene_load_json and lr_scene_load_file (lensray.h) up to the
+ * committed scene (lr__scene_commit), not yet prepared for the
+ * integrators: the public ones (load.c) add lr__integrators_prepare.
+ * Enough to read a scene's camera, settings and objects. */
+lr_status lr__scene_load_json(const char *json, size_t len,
+                              const char *base_dir,
+                              const char *const *overrides, size_t n_overrides,
+                              lr_scene **out, lr_error *err);
+lr_status lr__scene_load_file(const char *path, const char *const *overrides,
+                              size_t n_overrides, lr_scene **out,
+                              lr_error *err);
 
 #endif

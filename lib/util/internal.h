@@ -18,6 +18,14 @@
 lr_status lr__fail(lr_error *err, lr_status status, const char *path,
                    const char *fmt, ...) __attribute__((format(printf, 4, 5)));
 
+/* Returns from the calling function when `expr` (an lr_status) fails. */
+#define LR_TRY(expr)                   \
+    do {                               \
+        lr_status lr_try_st_ = (expr); \
+        if (lr_try_st_ != LR_OK)       \
+            return lr_try_st_;         \
+    } while (0)
+
 /* When snprintf, which wanted `wanted` characters, cut `s` (of capacity
  * `cap`) short, the cut may have fallen inside a UTF-8 character
  * (messages and paths quote user text): drops the partial character so

@@ -18,7 +18,7 @@
  * the base colour b (sRGB), emissiveTexture the emission (sRGB), and the
  * metallicRoughnessTexture's G the perceptual roughness and its B the
  * metallic m (linear; lensray squares the roughness).  The split above
- * is then made at each point (scene.h, pbr_split).
+ * is then made at each point (material.h, pbr_split).
  */
 #include "gltf_doc.h"
 #include "json_util.h"

@@ -4,6 +4,8 @@
  * that scene's text for a client that sends it on (lr_gltf_scene_json).
  */
 #include "gltf.h"
+#include "light.h"
+#include "scene_load.h"
 
 #include <cjson/cJSON.h>
 #include <stdio.h>
@@ -87,8 +89,8 @@ lr_status lr__gltf_scene_load(const char *path, const char *const *overrides,
     char *text = scene_text(base_name(path), NULL);
     if (text == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
-    lr_status st = lr_scene_load_json(text, strlen(text), dir, overrides,
-                                      n_overrides, out, err);
+    lr_status st = lr__scene_load_json(text, strlen(text), dir, overrides,
+                                       n_overrides, out, err);
     free(text);
     /* The scene is lensray's, not the user's: its field is no help. */
     static const char field[] = "objects[0].file: ";
@@ -106,7 +108,7 @@ lr_status lr__gltf_scene_load(const char *path, const char *const *overrides,
     for (size_t i = 0; i < n_overrides; i++)
         set |= strncmp(overrides[i], "background", 10) == 0 ||
                strncmp(overrides[i], "environment", 11) == 0;
-    if (!set && (*out)->n_lights == 0 && (*out)->n_emitters == 0)
+    if (!set && (*out)->n_lights == 0 && !lr__scene_emits(*out))
         (*out)->background = v3(1, 1, 1);
     return LR_OK;
 }

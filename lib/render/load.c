@@ -1,0 +1,36 @@
+/*
+ * load.c: the public scene loaders (lensray.h): a scene loaded and
+ * committed by the scene layer (scene_load.c), then readied for the
+ * integrators (lr__integrators_prepare), so that a loaded scene renders
+ * with any of them and renders share it read-only.
+ */
+#include "integrator.h"
+#include "scene_load.h"
+
+static lr_status prepared(lr_status st, lr_scene **out, lr_error *err)
+{
+    if (st != LR_OK)
+        return st;
+    st = lr__integrators_prepare(*out, err);
+    if (st != LR_OK) {
+        lr_scene_free(*out);
+        *out = NULL;
+    }
+    return st;
+}
+
+lr_status lr_scene_load_json(const char *json, size_t len, const char *base_dir,
+                             const char *const *overrides, size_t n_overrides,
+                             lr_scene **out, lr_error *err)
+{
+    return prepared(lr__scene_load_json(json, len, base_dir, overrides,
+                                        n_overrides, out, err),
+                    out, err);
+}
+
+lr_status lr_scene_load_file(const char *path, const char *const *overrides,
+                             size_t n_overrides, lr_scene **out, lr_error *err)
+{
+    return prepared(lr__scene_load_file(path, overrides, n_overrides, out, err),
+                    out, err);
+}
