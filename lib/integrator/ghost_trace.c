@@ -4,6 +4,7 @@
  */
 #include "ghost_trace.h"
 
+#include "envmap.h"
 #include "light.h"
 
 #include <math.h>
