@@ -31,10 +31,12 @@ def attr(name, kind, data):
         struct.pack("<i", len(data)) + data
 
 
-def main(path):
+def write_exr(path, w, h, row):
+    """Writes a w x h image whose row y is row(y): (r, g, b) lists of w
+    floats each."""
     chans = b"".join(c.encode() + b"\0" + struct.pack("<iB3xii", 2, 0, 1, 1)
                      for c in "BGR") + b"\0"
-    box = struct.pack("<iiii", 0, 0, W - 1, H - 1)
+    box = struct.pack("<iiii", 0, 0, w - 1, h - 1)
     header = (struct.pack("<ii", 20000630, 2) +
               attr("channels", "chlist", chans) +
               attr("compression", "compression", b"\0") +
@@ -46,17 +48,23 @@ def main(path):
               attr("screenWindowWidth", "float", struct.pack("<f", 1)) +
               b"\0")
     rows = []
-    for y in range(H):
-        r, g, b = sky(math.pi * (y + 0.5) / H)
-        data = b"".join(struct.pack("<%df" % W, *([c] * W)) for c in (b, g, r))
+    for y in range(h):
+        r, g, b = row(y)
+        data = b"".join(struct.pack("<%df" % w, *c) for c in (b, g, r))
         rows.append(struct.pack("<ii", y, len(data)) + data)
-    at = len(header) + 8 * H
+    at = len(header) + 8 * h
     offsets = b""
-    for row in rows:
+    for row_ in rows:
         offsets += struct.pack("<Q", at)
-        at += len(row)
+        at += len(row_)
     with open(path, "wb") as f:
         f.write(header + offsets + b"".join(rows))
+
+
+def main(path):
+    def row(y):
+        return [[c] * W for c in sky(math.pi * (y + 0.5) / H)]
+    write_exr(path, W, H, row)
 
 
 if __name__ == "__main__":

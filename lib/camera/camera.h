@@ -230,6 +230,12 @@ typedef struct lr__camera_model {
                        lr__ghost_est *est);
     double (*ghost_film)(const lr__cam *c, int g, int k, double ox, double oy,
                          lr__v3 d, double *fx, double *fy);
+    /* The disk lens_point draws on (its radius, in the units of its
+     * offsets), and the point lens_point gives for offset (ox, oy) on
+     * it: for ghost paths that draw their own lens points
+     * (ghost_trace.c).  NULL with ghost_film. */
+    double (*ghost_disk)(const lr__cam *c);
+    lr__v3 (*lens_at)(const lr__cam *c, double ox, double oy);
 } lr__camera_model;
 
 /* The registry (camera.c): the model called `name`, or the one whose id

@@ -984,17 +984,26 @@ static double front_disk(const lr__lens_cam *lc)
     return a + lr__lens_front_slope(lc->L) * sag;
 }
 
-static lr__v3 lens_point(const lr__cam *c, const double u[2], double *ox,
-                         double *oy)
+static lr__v3 lens_at(const lr__cam *c, double ox, double oy)
 {
-    const lr__lens_cam *lc = &c->lens;
-    double a, b, rho = front_disk(lc);
-    lr__aperture_sample(LR_APERTURE_DISK, 0, 0.0, 1.0, u, &a, &b);
-    *ox = a * rho, *oy = b * rho;
-    double o[3] = {*ox, *oy, lc->L->z[0]}, d[3] = {0, 0, 1};
+    double o[3] = {ox, oy, c->lens.L->z[0]}, d[3] = {0, 0, 1};
     lr__v3 org, dir;
     to_world(c, o, d, &org, &dir);
     return org;
+}
+
+static lr__v3 lens_point(const lr__cam *c, const double u[2], double *ox,
+                         double *oy)
+{
+    double a, b, rho = front_disk(&c->lens);
+    lr__aperture_sample(LR_APERTURE_DISK, 0, 0.0, 1.0, u, &a, &b);
+    *ox = a * rho, *oy = b * rho;
+    return lens_at(c, *ox, *oy);
+}
+
+static double lens_ghost_disk(const lr__cam *c)
+{
+    return front_disk(&c->lens);
 }
 
 static double lens_film_n(const lr__cam *c, const double *n, double nm,
@@ -1211,4 +1220,6 @@ const lr__camera_model lr__camera_lens = {
     .light_ok = lens_light_ok,
     .ghost_paths = lens_ghost_paths,
     .ghost_film = lens_ghost_film,
+    .ghost_disk = lens_ghost_disk,
+    .lens_at = lens_at,
 };

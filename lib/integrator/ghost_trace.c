@@ -4,6 +4,9 @@
  */
 #include "ghost_trace.h"
 
+#include "envmap.h"
+#include "light.h"
+
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -20,10 +23,105 @@ static double solid_angle(const lr__cam *c, lr__v3 center, double radius)
     return 2.0 * M_PI * sin2 / (1.0 + sqrt(1.0 - sin2));
 }
 
-/* Light l's choice of ghost paths (l->cdf, cumulative) from the n
- * paths' estimates est, and its weight in the budget: M times the sum of
- * flux_g / sqrt(land_g), M its main image's total on axis (L's largest
- * channel L Omega k, camera_model.ghost_paths' k).
+/* The sum over n paths' estimates est of flux_g / sqrt(land_g), each
+ * term into w[g] (w not NULL). */
+static double est_weights(const lr__ghost_est *est, int n, double *w)
+{
+    double sum = 0.0;
+    for (int g = 0; g < n; g++) {
+        double x = est[g].land > 0.0 && est[g].flux > 0.0
+                       ? est[g].flux / sqrt(est[g].land)
+                       : 0.0;
+        if (w != NULL)
+            w[g] = x;
+        sum += x;
+    }
+    return sum;
+}
+
+/* Per ghost path g of a light, after the paths' cdf (GUIDE doubles a
+ * path): the box of lens offsets x0, y0, x1, y1 its paths draw from (x0
+ * >= x1: none, the disk alone), and the weight p_disk / p_mix of a lens
+ * point inside it; after the last path's, the disk's squared radius. */
+#define GUIDE 5
+static double *guides(const lr__lt_light *l)
+{
+    return l->cdf + l->n_tri + l->ghosts;
+}
+
+/* Light l's guides (guides), seen along unit w0 (its centre's direction
+ * from the eye), and its own estimate of each path there (own).  A grid
+ * of GRID x GRID lens offsets over the front disk, each traced through
+ * each ghost path at the reference wavelength (ghost_film): a path's
+ * box holds the offsets that land in the frame, widened by 1.5 cells
+ * (a ghost's footprint on the disk is a pupil's image, a disc or a
+ * lens, which the cells' centres find to within a cell), and its paths
+ * draw LR__GT_DISK of their lens points from the whole disk, the rest
+ * from the box: unbiased whatever the grid misses (the disk's share
+ * covers it), up to 1 / LR__GT_DISK times the landings where it finds
+ * them all.  own[g]: the landings' importance times the cell's area
+ * (the path's flux, up to a factor common to every path), and the share
+ * of the box's lens points that land. */
+#define GRID 16
+static void ghost_guide(const lr__cam *c, lr__lt_light *l, lr__v3 w0,
+                        lr__ghost_est *own)
+{
+    double rho = c->model->ghost_disk(c), h = 2.0 * rho / GRID;
+    double *gd = guides(l);
+    gd[GUIDE * l->ghosts] = rho * rho;
+    for (int g = 0; g < l->ghosts; g++) {
+        double x0 = INFINITY, y0 = INFINITY, x1 = -INFINITY, y1 = -INFINITY;
+        double flux = 0.0;
+        int land = 0;
+        for (int i = 0; i < GRID; i++)
+            for (int j = 0; j < GRID; j++) {
+                double ox = (i + 0.5) * h - rho, oy = (j + 0.5) * h - rho;
+                double fx, fy;
+                if (ox * ox + oy * oy > rho * rho)
+                    continue;
+                double W = c->model->ghost_film(c, g, -1, ox, oy, w0, &fx, &fy);
+                if (!(W > 0.0) || !(fx >= 0.0 && fx < c->width && fy >= 0.0 &&
+                                    fy < c->height))
+                    continue;
+                land++, flux += W;
+                x0 = fmin(x0, ox), x1 = fmax(x1, ox);
+                y0 = fmin(y0, oy), y1 = fmax(y1, oy);
+            }
+        double *b = gd + GUIDE * g;
+        own[g] = (lr__ghost_est){0.0, 1.0, 0.0};
+        b[0] = b[2] = 0.0, b[4] = 1.0;
+        if (land == 0)
+            continue;
+        b[0] = fmax(-rho, x0 - 1.5 * h), b[1] = fmax(-rho, y0 - 1.5 * h);
+        b[2] = fmin(rho, x1 + 1.5 * h), b[3] = fmin(rho, y1 + 1.5 * h);
+        double A = (b[2] - b[0]) * (b[3] - b[1]);
+        b[4] = 1.0 / (LR__GT_DISK + (1.0 - LR__GT_DISK) * M_PI * rho * rho / A);
+        own[g] = (lr__ghost_est){flux * h * h, 1.0,
+                                 fmin(1.0, land * h * h / A)};
+    }
+}
+
+/* The cumulative choice of n ghost paths from their estimates est
+ * (ghost_choice). */
+static void choice_cdf(double *cdf, const lr__ghost_est *est, int n)
+{
+    double sum = est_weights(est, n, cdf), acc = 0.0;
+    for (int g = 0; g < n; g++) {
+        double p = sum > 0.0 ? (1.0 - LR__GT_UNIFORM) * cdf[g] / sum +
+                                   LR__GT_UNIFORM / n
+                             : 1.0 / n;
+        acc += p;
+        cdf[g] = acc;
+    }
+    cdf[n - 1] = 1.0;
+}
+
+/* Light l's choice of ghost paths (cumulative, after a mesh's triangles'
+ * in l->cdf: one array, freed as one, with its guides after it) from the
+ * n paths' estimates est (choice_cdf), and its weight in the budget: M
+ * times the sum of flux_g / sqrt(land_g) on axis, M its main image's
+ * total on axis (L's largest channel L Omega k, camera_model.ghost_paths'
+ * k).
  *
  * Ghost g's light, M flux_g, lands in K_g = N p_g land_g splats of a
  * light's N paths, each M flux_g / K_g; over its px_g pixels their
@@ -32,31 +130,46 @@ static double solid_angle(const lr__cam *c, lr__v3 center, double radius)
  * with p_g proportional to flux_g / sqrt(land_g), and then (M sum_g
  * flux_g / sqrt(land_g))^2 / N: the weight squared over N.  Each path
  * is drawn with (1 - LR__GT_UNIFORM) of that share plus LR__GT_UNIFORM
- * / n, so that a ghost the on-axis estimate misses (off axis other
- * ghosts lead) still gets some.  -1: out of memory. */
-static double ghost_choice(lr__lt_light *l, const lr__ghost_est *est, int n,
-                           double M)
+ * / n, so that a ghost the estimate misses (off axis other ghosts lead)
+ * still gets some.  The camera's estimates are on axis; a guided light
+ * takes its own where it is seen (ghost_guide_lights).  -1: out of
+ * memory. */
+static double ghost_choice(const lr__cam *c, lr__lt_light *l,
+                           const lr__ghost_est *est, int n, double M)
 {
-    if ((l->cdf = malloc((size_t)n * sizeof *l->cdf)) == NULL)
+    size_t size = l->n_tri + (size_t)n * (1 + GUIDE) + 1;
+    double *all = realloc(l->cdf, size * sizeof *all);
+    if (all == NULL)
         return -1.0;
-    double sum = 0.0;
-    for (int g = 0; g < n; g++) {
-        double w = est[g].land > 0.0 && est[g].flux > 0.0
-                       ? est[g].flux / sqrt(est[g].land)
-                       : 0.0;
-        l->cdf[g] = w;
-        sum += w;
+    l->cdf = all;
+    choice_cdf(all + l->n_tri, est, n);
+    /* No guide yet (ghost_guide_lights): the whole disk. */
+    double *gd = guides(l), rho = c->model->ghost_disk(c);
+    for (int g = 0; g < n; g++)
+        gd[GUIDE * g] = gd[GUIDE * g + 2] = 0.0;
+    gd[GUIDE * n] = rho * rho;
+    return M * est_weights(est, n, NULL);
+}
+
+/* Guides the ghost lights first .. lt->n - 1 (ghost_guide) whose paths
+ * are at least LR__GT_GUIDE times the grid's rays, and draws their
+ * paths' choice from their own estimates (where any path lands on the
+ * grid).  own: room for the paths' estimates. */
+static void ghost_guide_lights(lr__lt *lt, int first, const lr_scene *s,
+                               const lr__cam *c, lr__ghost_est *own)
+{
+    for (int k = first; k < lt->n; k++) {
+        lr__lt_light *l = &lt->lights[k];
+        double rays = (double)l->ghosts * GRID * GRID * M_PI / 4.0;
+        if (!((double)l->paths >= LR__GT_GUIDE * rays))
+            continue;
+        lr__v3 w0 = l->geom == (int)s->n_geoms
+                        ? l->center
+                        : v3_norm(v3_sub(l->center, c->origin));
+        ghost_guide(c, l, w0, own);
+        if (est_weights(own, l->ghosts, NULL) > 0.0)
+            choice_cdf(l->cdf + l->n_tri, own, l->ghosts);
     }
-    double acc = 0.0;
-    for (int g = 0; g < n; g++) {
-        double p = sum > 0.0 ? (1.0 - LR__GT_UNIFORM) * l->cdf[g] / sum +
-                                   LR__GT_UNIFORM / n
-                             : 1.0 / n;
-        acc += p;
-        l->cdf[g] = acc;
-    }
-    l->cdf[n - 1] = 1.0;
-    return M * sum;
 }
 
 /* The ghost lights' paths, lights first .. lt->n - 1 with budget weights
@@ -88,93 +201,305 @@ static void ghost_paths(lr__lt *lt, int first, const double *a,
     }
 }
 
-int lr__gt_plan(const lr_scene *s, const lr__cam *c, int spp, lr__lt **ltp)
-{
-    const lr__camera_model *m = c->model;
-    if (m->ghost_paths == NULL || m->ghost_film == NULL)
-        return 1;
-    double peak = 0.0, k = 0.0;
+/* The plan's ghost sources as it picks them: the lens's ghost paths
+ * (asked once, at the first emitter: a scene without one pays nothing),
+ * and the budget weights of the lights picked so far. */
+typedef struct gt_pick {
+    const lr_scene *s;
+    const lr__cam *c;
+    lr__lt **ltp;
+    int n_ghost; /* -1: not asked yet */
+    double peak, k;
     lr__ghost_est est[LR__RX_MAX_SURFACES * LR__RX_MAX_SURFACES / 2];
-    int n_ghost = -1, first = -1;
-    double *a = NULL;
-    for (size_t g = 0; g < s->n_geoms; g++) {
-        const lr__geom *geo = &s->geoms[g];
-        const lr__material *mt = &s->materials[geo->material];
-        if (geo->kind != LR__GEOM_SPHERE || mt->emission_tex != NULL ||
-            !(v3_maxc(mt->emission) > 0.0))
-            continue;
-        /* The lens's ghosts, once, and only for a scene with a sphere
-         * light (a scene without one pays nothing). */
-        if (n_ghost < 0 && (n_ghost = m->ghost_paths(c, &peak, &k, est)) < 0)
-            goto nomem;
-        /* "true" (peak infinite): every light in front of the lens;
-         * "auto": those whose brightest ghost reaches LR__GT_AUTO. */
-        double omega = solid_angle(c, geo->center, geo->radius);
-        double M = omega * k * v3_maxc(mt->emission);
-        if (n_ghost == 0 || !(omega >= 0.0) ||
-            !(isinf(peak) || peak * M >= LR__GT_AUTO))
-            continue;
-        lr__lt *lt = *ltp;
-        if (lt == NULL && (*ltp = lt = lr__lt_new(s)) == NULL)
-            goto nomem;
-        if (a == NULL) {
-            if ((a = malloc(s->n_geoms * sizeof *a)) == NULL)
-                goto nomem;
-            first = lt->n;
-        }
-        lr__lt_light *grown = realloc(lt->lights, (lt->n + 1) * sizeof *grown);
-        if (grown == NULL)
-            goto nomem;
-        lt->lights = grown;
-        lr__lt_light *l = &lt->lights[lt->n++];
-        memset(l, 0, sizeof *l);
-        l->geom = (int)g;
-        l->surf = LR__LT_GHOST;
-        l->center = geo->center;
-        l->radius = geo->radius;
-        l->L = mt->emission;
-        l->ghosts = n_ghost;
-        lt->ghost_lights++;
-        lt->ghost_main += omega * k * (l->L.x + l->L.y + l->L.z);
-        if (!((a[lt->n - 1 - first] = ghost_choice(l, est, n_ghost, M)) >= 0.0))
-            goto nomem;
+    lr__ghost_est own[LR__RX_MAX_SURFACES * LR__RX_MAX_SURFACES / 2];
+    double *a; /* room for every geometry and the sun */
+    int first;
+} gt_pick;
+
+/* Adds source *src (geom, center, radius, L and, for a mesh, its
+ * triangles' cdf, which it then owns) as a ghost light if camera.ghosts
+ * asks for it: omega the solid angle it fills from the eye (< 0: behind
+ * the eye, or around it) and Lbar its mean radiance there, so that its
+ * main image's total on axis is omega Lbar k (ghost_paths' k).  "true"
+ * (peak infinite): every source in front of the lens; "auto": those
+ * whose brightest ghost reaches LR__GT_AUTO.  0: out of memory (src's
+ * cdf freed). */
+static int pick(gt_pick *p, lr__lt_light *src, double omega, lr__v3 Lbar)
+{
+    const lr__cam *c = p->c;
+    if (p->n_ghost < 0 &&
+        (p->n_ghost = c->model->ghost_paths(c, &p->peak, &p->k, p->est)) < 0)
+        goto nomem;
+    double M = omega * p->k * v3_maxc(Lbar);
+    if (p->n_ghost == 0 || !(omega >= 0.0) ||
+        !(isinf(p->peak) || p->peak * M >= LR__GT_AUTO)) {
+        free(src->cdf);
+        return 1;
     }
-    if (a != NULL)
-        ghost_paths(*ltp, first, a, c, spp);
-    free(a);
-    return 1;
+    lr__lt *lt = *p->ltp;
+    if (lt == NULL && (*p->ltp = lt = lr__lt_new(p->s)) == NULL)
+        goto nomem;
+    if (p->a == NULL) {
+        if ((p->a = malloc((p->s->n_geoms + 1) * sizeof *p->a)) == NULL)
+            goto nomem;
+        p->first = lt->n;
+    }
+    lr__lt_light *grown = realloc(lt->lights, (lt->n + 1) * sizeof *grown);
+    if (grown == NULL)
+        goto nomem;
+    lt->lights = grown;
+    lr__lt_light *l = &lt->lights[lt->n++];
+    *l = *src;
+    l->surf = LR__LT_GHOST;
+    l->ghosts = p->n_ghost;
+    lt->ghost_lights++;
+    lt->ghost_main += omega * p->k * (Lbar.x + Lbar.y + Lbar.z);
+    return (p->a[lt->n - 1 - p->first] = ghost_choice(c, l, p->est, p->n_ghost,
+                                                      M)) >= 0.0;
 nomem:
-    free(a);
+    free(src->cdf);
     return 0;
 }
 
-void lr__gt_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
-                 lr__v3 P, double ox, double oy, const double *ud, double ug,
-                 lr__lt_film *f, uint64_t *rays, uint64_t *landed)
+/* The solid angle mesh g's emitting triangles fill from the eye: each
+ * triangle whose front faces the eye and whose centre is ahead of it,
+ * by Van Oosterom and Strackee's formula (IEEE Trans. Biomed. Eng. 30,
+ * 1983): tan(Omega / 2) = |a . (b x c)| / (abc + (a . b) c + (a . c) b
+ * + (b . c) a), a, b, c the corners from the eye, of lengths a, b, c.
+ * Overlapping triangles (a closed mesh's back) are left out by facing,
+ * so a convex mesh counts its silhouette once; -1 when none counts. */
+static double mesh_omega(const lr_scene *s, const lr__cam *c, const lr__geom *g)
 {
-    /* The direction as light_trace.c's sphere_path draws it. */
+    double sum = -1.0;
+    for (size_t t = 0; t < g->n_triangles; t++) {
+        const lr__emitter *e = &s->emitters[g->emitter + (long)t];
+        lr__v3 a = v3_sub(e->a, c->origin);
+        lr__v3 b = v3_add(a, e->e1), d = v3_add(a, e->e2);
+        lr__v3 mid = v3_add(a, v3_scale(v3_add(e->e1, e->e2), 1.0 / 3.0));
+        if (!(v3_dot(a, e->n) < 0.0) || !(v3_dot(mid, c->forward) > 0.0))
+            continue;
+        double la = v3_len(a), lb = v3_len(b), ld = v3_len(d);
+        double num = fabs(v3_dot(a, v3_cross(b, d)));
+        double den = la * lb * ld + v3_dot(a, b) * ld + v3_dot(a, d) * lb +
+                     v3_dot(b, d) * la;
+        double om = 2.0 * atan2(num, den);
+        if (isfinite(om))
+            sum = fmax(sum, 0.0) + om;
+    }
+    return sum;
+}
+
+/* The environment's sun (lr__envmap_sun's cone, as light_trace.c's
+ * LR__LT_SUN) as a ghost source: its mean radiance over the cone by a
+ * 64 x 64 midpoint rule in the cone's equal-area coordinates
+ * (lr__lt_in_cone), 4096 lookups; behind the eye, omega -1. */
+static int pick_sun(gt_pick *p)
+{
+    const lr_scene *s = p->s;
+    lr__v3 a;
+    double cos_a;
+    if (s->env == NULL || !lr__envmap_sun(s->env, &a, &cos_a))
+        return 1;
+    double sin_a = sqrt(fmax(0.0, 1.0 - cos_a * cos_a));
+    lr__lt_light l;
+    memset(&l, 0, sizeof l);
+    l.geom = (int)s->n_geoms;
+    l.center = a;
+    l.area = sin_a * sin_a / (1.0 + cos_a); /* 1 - cos, as LR__LT_SUN's */
+    double m = lr__envmap_max(s->env);
+    l.L = v3(m, m, m); /* the film's scale, as LR__LT_SUN's */
+    enum { Q = 64 };
+    lr__v3 sum = v3(0, 0, 0);
+    for (int i = 0; i < Q; i++)
+        for (int j = 0; j < Q; j++) {
+            double u[2] = {(i + 0.5) / Q, (j + 0.5) / Q};
+            sum = v3_add(sum,
+                         lr__env_radiance(s, lr__lt_in_cone(a, l.area, u)));
+        }
+    double omega = v3_dot(a, p->c->forward) > -sin_a ? 2.0 * M_PI * l.area
+                                                     : -1.0;
+    return pick(p, &l, omega, v3_scale(sum, 1.0 / (Q * Q)));
+}
+
+int lr__gt_plan(const lr_scene *s, const lr__cam *c, int spp, lr__lt **ltp)
+{
+    const lr__camera_model *m = c->model;
+    if (m->ghost_paths == NULL || m->ghost_film == NULL ||
+        m->ghost_disk == NULL || m->lens_at == NULL)
+        return 1;
+    gt_pick *p = calloc(1, sizeof *p);
+    if (p == NULL)
+        return 0;
+    /* Its estimates' arrays are large (98 kB): on the heap, filled by
+     * field. */
+    p->s = s, p->c = c, p->ltp = ltp, p->n_ghost = -1, p->first = -1;
+    int ok = 1;
+    for (size_t g = 0; g < s->n_geoms && ok; g++) {
+        const lr__geom *geo = &s->geoms[g];
+        const lr__material *mt = &s->materials[geo->material];
+        lr__lt_light l;
+        memset(&l, 0, sizeof l);
+        l.geom = (int)g;
+        l.L = mt->emission;
+        if (mt->emission_tex != NULL ||
+            !lr__lt_light_sphere(s, geo, &l.center, &l.radius))
+            continue;
+        if (geo->kind == LR__GEOM_SPHERE)
+            ok = pick(p, &l, solid_angle(c, geo->center, geo->radius), l.L);
+        else if (!(ok = lr__lt_mesh_cdf(s, geo, &l)))
+            break;
+        else
+            ok = pick(p, &l, mesh_omega(s, c, geo), l.L);
+    }
+    if (ok)
+        ok = pick_sun(p);
+    if (ok && p->a != NULL) {
+        ghost_paths(*ltp, p->first, p->a, c, spp);
+        ghost_guide_lights(*ltp, p->first, s, c, p->own);
+    }
+    free(p->a);
+    free(p);
+    return ok;
+}
+
+/* Ghost light l's direction from lens point P, drawn from ud (as
+ * light_trace.c's sphere, mesh and sun paths draw theirs), into *w,
+ * with its radiance over its solid-angle density and, for a mesh, the
+ * triangle drawn (*e).  0: no light that way. */
+static double ghost_dir(const lr_scene *s, const lr__lt_light *l, lr__v3 P,
+                        const double *ud, lr__v3 *w, const lr__emitter **e)
+{
+    *e = NULL;
+    if (l->n_tri > 0) {
+        /* A point y uniform by area on the mesh: dist^2 / (A cos_y). */
+        lr__v3 y;
+        *e = lr__lt_mesh_point(s, l, ud, &y);
+        lr__v3 dv = v3_sub(y, P);
+        double dist2 = v3_dot(dv, dv);
+        if (!(dist2 > 0.0))
+            return 0.0;
+        *w = v3_scale(dv, 1.0 / sqrt(dist2));
+        double cos_y = -v3_dot(*w, (*e)->n);
+        return cos_y > 0.0 ? l->area * cos_y / dist2 : 0.0;
+    }
+    if (l->geom == (int)s->n_geoms) {
+        /* The sun: uniform in its cone, the map's radiance along w. */
+        *w = lr__lt_in_cone(l->center, l->area, ud);
+        return 2.0 * M_PI * l->area;
+    }
     lr__v3 dv = v3_sub(l->center, P);
     double dist2 = v3_dot(dv, dv), r2 = l->radius * l->radius;
     if (!(dist2 > r2))
-        return;
+        return 0.0;
     double dist = sqrt(dist2);
     double sin2 = r2 / dist2, omc = sin2 / (1.0 + sqrt(1.0 - sin2));
-    lr__v3 w = lr__lt_in_cone(v3_scale(dv, 1.0 / dist), omc, ud);
+    *w = lr__lt_in_cone(v3_scale(dv, 1.0 / dist), omc, ud);
+    return 2.0 * M_PI * omc;
+}
+
+/* Whether the light along w from lens point P reaches the front of the
+ * lens: the camera ray along w (the same trace as the camera's) meets
+ * the sphere first, or the mesh's very triangle e from its front (a
+ * mesh can hide its own triangles), or for the sun escapes. */
+static int ghost_reaches(const lr_scene *s, const lr__cam *c,
+                         const lr__lt_light *l, lr__v3 P, lr__v3 w,
+                         const lr__emitter *e)
+{
+    lr__v3 o = lr__cam_ray_start(c, P, w);
+    if (e == NULL)
+        return lr__trace_geom(s, o, w, INFINITY) ==
+               (l->geom == (int)s->n_geoms ? -2 : l->geom);
+    lr__hit h;
+    return lr__trace(s, o, w, INFINITY, &h) && h.geom == l->geom &&
+           h.prim == (unsigned)(e - &s->emitters[l->first_tri]) && h.entering;
+}
+
+/* Adds v (>= 0) to pixel (ix, iy) of f, if the region holds it, as
+ * lr__lt_splat does but rounded at random, down or up by u (uniform in
+ * [0, 1)), which is unbiased: a coated ghost's splats are a few of the
+ * film's units (2^-40 of its brightest light), where rounding to the
+ * nearest unit lost or gained up to 6% of the colour test's ghost
+ * (test_ghost_render.c at 8192 spp, seeds 5, 7 and 9).  Returns the
+ * units added. */
+static int64_t ghost_splat(lr__lt_film *f, int ix, int iy, lr__v3 v, double u)
+{
+    if (ix < f->x0 || ix >= f->x1 || iy < f->y0 || iy >= f->y1)
+        return 0;
+    size_t k = 3 * ((size_t)(iy - f->y0) * (size_t)(f->x1 - f->x0) +
+                    (size_t)(ix - f->x0));
+    double c[3] = {v.x, v.y, v.z};
+    int64_t sum = 0;
+    for (int j = 0; j < 3; j++) {
+        double q = floor(fmin(c[j] * f->scale, ldexp(1.0, 52)) + u);
+        if (!(q > 0.0))
+            continue;
+        __atomic_fetch_add(&f->sum[k + (size_t)j], (int64_t)q,
+                           __ATOMIC_RELAXED);
+        sum += (int64_t)q;
+    }
+    return sum;
+}
+
+/* Ghost path g's lens point for light l from lens sample ul, the
+ * component drawn by uc (ghost_guide's mixture): its offset (ox, oy) and
+ * the weight p_disk / p_mix (0: none, a box point off the disk). */
+static double ghost_lens(const lr__cam *c, const lr__lt_light *l, int g,
+                         const double *ul, double uc, lr__v3 *P, double *ox,
+                         double *oy)
+{
+    const double *b = guides(l) + GUIDE * g;
+    if (!(b[0] < b[2])) {
+        *P = c->model->lens_point(c, ul, ox, oy);
+        return 1.0;
+    }
+    if (!(uc < LR__GT_DISK)) {
+        *ox = b[0] + ul[0] * (b[2] - b[0]), *oy = b[1] + ul[1] * (b[3] - b[1]);
+        if (!(*ox * *ox + *oy * *oy <= guides(l)[GUIDE * l->ghosts]))
+            return 0.0;
+        *P = c->model->lens_at(c, *ox, *oy);
+        return b[4];
+    }
+    *P = c->model->lens_point(c, ul, ox, oy);
+    return *ox >= b[0] && *ox <= b[2] && *oy >= b[1] && *oy <= b[3]
+               ? b[4]
+               : 1.0 / LR__GT_DISK;
+}
+
+void lr__gt_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
+                 const double *ul, const double *ud, const double *ug,
+                 lr__lt_film *f, uint64_t *rays, uint64_t *landed)
+{
     /* The ghost path: the first g whose cumulative probability passes
-     * ug (binary search). */
+     * ug (binary search); ug rescaled within it picks the lens point's
+     * component. */
+    const double *cdf = l->cdf + l->n_tri;
+    double ur = ug[1];
     int lo = 0, hi = l->ghosts - 1;
     while (lo < hi) {
         int mid = (lo + hi) / 2;
-        if (l->cdf[mid] > ug)
+        if (cdf[mid] > ug[0])
             hi = mid;
         else
             lo = mid + 1;
     }
     int g = lo;
-    double p_g = l->cdf[g] - (g > 0 ? l->cdf[g - 1] : 0.0);
+    double c0 = g > 0 ? cdf[g - 1] : 0.0, p_g = cdf[g] - c0;
     if (!(p_g > 0.0))
         return;
-    lr__v3 v = v3_scale(l->L, 2.0 * M_PI * omc / ((double)l->paths * p_g));
+    lr__v3 P, w;
+    double ox, oy;
+    double share = ghost_lens(c, l, g, ul, (ug[0] - c0) / p_g, &P, &ox, &oy);
+    const lr__emitter *e;
+    double inv_pdf = share > 0.0 ? ghost_dir(s, l, P, ud, &w, &e) : 0.0;
+    if (!(inv_pdf > 0.0))
+        return;
+    /* The sun's radiance along w (the map's, looked up before the lens:
+     * a dark part of its cone costs no trace). */
+    lr__v3 L = l->L;
+    if (l->geom == (int)s->n_geoms &&
+        !(v3_maxc(L = lr__env_radiance(s, w)) > 0.0))
+        return;
+    lr__v3 v = v3_scale(L, inv_pdf * share / ((double)l->paths * p_g));
     /* chromatic.mode off: every channel at the reference wavelength (a
      * grey ghost, as the main image is traced); rgb and spectral: each
      * channel at its own wavelength, so that a coating's colour shows
@@ -183,7 +508,7 @@ void lr__gt_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
      * the frame, and those need no trace through the scene. */
     int k0 = c->chroma.mode == LR_CHROMATIC_OFF ? -1 : 0;
     int k1 = k0 < 0 ? 0 : 3, n = 0, px[3], py[3];
-    lr__v3 e[3];
+    lr__v3 ev[3];
     for (int k = k0; k < k1; k++) {
         double fx, fy;
         double W = c->model->ghost_film(c, g, k, ox, oy, w, &fx, &fy);
@@ -196,30 +521,22 @@ void lr__gt_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
                     k == 2 ? ek.z : 0.0);
         if (!(isfinite(ek.x) && isfinite(ek.y) && isfinite(ek.z)))
             continue;
-        px[n] = (int)fx, py[n] = (int)fy, e[n++] = ek;
+        px[n] = (int)fx, py[n] = (int)fy, ev[n++] = ek;
     }
     if (n == 0)
         return;
-    /* The sphere's light must reach the front of the lens: the camera
-     * ray along w (the same trace as the camera's) meets it first. */
     (*rays)++;
-    if (lr__trace_geom(s, lr__cam_ray_start(c, P, w), w, INFINITY) != l->geom)
+    if (!ghost_reaches(s, c, l, P, w, e))
         return;
     for (int k = 0; k < n; k++) {
-        lr__lt_splat(f, px[k], py[k], e[k]);
         (*landed)++;
         /* The flux --stats reports, in the film's integer units (the
          * same for any threads or tiles).  A ghost's pixel stays under
          * its source's radiance times the two reflectances, so the sum
          * over a frame stays far inside the 2^23 times the brightest
          * light that an int64 holds at that scale. */
-        if (px[k] >= f->x0 && px[k] < f->x1 && py[k] >= f->y0 &&
-            py[k] < f->y1) {
-            double q = (e[k].x + e[k].y + e[k].z) * f->scale;
-            __atomic_fetch_add(&f->ghost_sum,
-                               (int64_t)llrint(fmin(q, ldexp(1.0, 52))),
-                               __ATOMIC_RELAXED);
-        }
+        int64_t q = ghost_splat(f, px[k], py[k], ev[k], ur);
+        __atomic_fetch_add(&f->ghost_sum, q, __ATOMIC_RELAXED);
     }
 }
 

@@ -1,6 +1,6 @@
 /*
  * ghost_trace.h: a real lens's ghosts, traced from the light side (issue
- * 29).  Light that a bright sphere sends into the lens is reflected at
+ * 29).  Light that a bright source sends into the lens is reflected at
  * one glass surface j, back at an earlier surface i and reaches the
  * sensor: a ghost (ghost.h; Hullin et al., "Physically-based real-time
  * lens flare rendering", SIGGRAPH 2011).  The camera never traces these
@@ -8,11 +8,17 @@
  * purely added: no split with the camera to keep consistent, and the
  * main image is the same with ghosts on or off.
  *
- * A ghost light (lr__lt_light with surf LR__LT_GHOST) is a sphere light
- * seen directly; each of its paths draws a lens point and a direction
- * into the sphere's cone as light_trace.c's sphere paths do, checks that
- * the camera ray along it meets the sphere first (the light must reach
- * the front of the lens), and lands that one ray through one ghost path
+ * A ghost light (lr__lt_light with surf LR__LT_GHOST) is an emitter seen
+ * directly: an untextured sphere light, an untextured mesh of emitting
+ * triangles, or the environment map's sun (lr__envmap_sun's cone, as
+ * light_trace.h's LR__LT_SUN).  Each of its paths draws a lens point and
+ * a direction as light_trace.c's paths do (into the sphere's cone; to a
+ * point uniform by area on the mesh, density dist^2 / (A cos) at the
+ * lens point, the emission one-sided; uniform in the sun's cone, the
+ * map's radiance looked up along it), checks that the camera ray along
+ * it meets the sphere first, or the mesh's very triangle from its front,
+ * or for the sun escapes the scene (the light must reach the front of
+ * the lens), and lands that one ray through one ghost path
  * g of the lens (camera.h: ghost_film), drawn with probability p_g: half
  * by the paths' fluxes over the square root of their landing shares on
  * axis (ghost_trace.c: ghost_choice), half uniform (so that a path the
@@ -20,21 +26,27 @@
  * pixel under the landing gets L x W_g / (pdf_dir x p_g x N), W_g the
  * ghost's importance: unbiased for the sum over every path.  Same
  * determinism as every light path: a pure function of (light, path
- * index, seed), fixed-point splats.
+ * index, seed), fixed-point splats.  Emission textures are not yet
+ * sources (a textured emitter makes no ghosts), nor is the environment
+ * outside the sun's cone.
  */
 #ifndef LR_GHOST_TRACE_H
 #define LR_GHOST_TRACE_H
 
 #include "light_trace.h"
 
-/* camera.ghosts "auto": a sphere light gets ghosts when its brightest
- * ghost, spread evenly over its area on the film, would add at least
- * this much to a pixel: 1% of display white (1.0), 2.5 of 256 levels of
- * a linear 8-bit image, visible over a dark ground; fainter ghosts are
- * lost under the main image's noise at usual sample counts.  The
- * estimate (the camera's ghost_paths peak times the sphere's main-image
- * total L Omega k, k from ghost_paths) is on axis, at the reference
- * wavelength and the camera's stop. */
+/* camera.ghosts "auto": a source gets ghosts when its brightest ghost,
+ * spread evenly over its area on the film, would add at least this much
+ * to a pixel: 1% of display white (1.0), 2.5 of 256 levels of a linear
+ * 8-bit image, visible over a dark ground; fainter ghosts are lost under
+ * the main image's noise at usual sample counts.  The estimate (the
+ * camera's ghost_paths peak times the source's main-image total L Omega
+ * k, k from ghost_paths) is on axis, at the reference wavelength and the
+ * camera's stop.  L Omega, the radiance times the solid angle the source
+ * fills from the eye (the largest channel): a sphere's cone; a mesh's
+ * triangles that face the eye and lie ahead of it, each triangle's exact
+ * solid angle (ghost_trace.c: mesh_omega); the sun's cone times the
+ * map's mean over it (a 64 x 64 midpoint rule), i.e. its irradiance. */
 #define LR__GT_AUTO 0.01
 
 /* The ghost lights' paths follow their ghosts' brightness, not the
@@ -51,9 +63,22 @@
 #define LR__GT_MIN 256
 #define LR__GT_CAP (1.0 / 8.0)
 
+/* The share of a ghost path's lens points drawn from the whole front
+ * disk; the rest from the box where the path lands the light's centre
+ * (ghost_trace.c: ghost_guide), which makes up to 1 / LR__GT_DISK times
+ * the landings. */
+#define LR__GT_DISK 0.1
+/* A light's lens points are guided only when its paths are at least this
+ * many times the guide's grid of rays (ghost_trace.c: some 11000 through
+ * the double Gauss's 55 ghost paths), so that the grid costs at most a
+ * fifth of what the paths do (a ray through the lens on the grid costs
+ * about what a path that lands costs). */
+#define LR__GT_GUIDE 4.0
+
 /* Adds to *ltp (made when NULL) a ghost light for every untextured
- * sphere light camera c's ghosts call for (camera.ghosts), spp camera
- * samples a pixel.  Returns 0 when out of memory. */
+ * sphere or mesh light, and the environment's sun, that camera c's
+ * ghosts call for (camera.ghosts), spp camera samples a pixel.  Returns 0
+ * when out of memory. */
 int lr__gt_plan(const lr_scene *s, const lr__cam *c, int spp, lr__lt **ltp);
 
 /* What --stats reports as ghost_flux: the ghosts' light splatted into f
@@ -62,12 +87,13 @@ int lr__gt_plan(const lr_scene *s, const lr__cam *c, int spp, lr__lt **ltp);
  * ghosts' flux over the main image's.  0 without ghost lights. */
 double lr__gt_flux(const lr__lt *lt, const lr__lt_film *f);
 
-/* One path of ghost light l from lens point P (offset ox, oy), its
- * direction from ud, its ghost path from ug (l->cdf); splats
- * into f, counting rays traced and the ghost
- * rays that landed (up to the lens's ghost paths, times 3 in colour). */
+/* One path of ghost light l: its lens point from ul (ghost_trace.c:
+ * ghost_guide), its direction from ud, its ghost path from ug[0] and its
+ * splats' rounding from ug[1]; splats into f, counting rays traced and
+ * the ghost rays that landed (up to the lens's ghost paths, times 3 in
+ * colour). */
 void lr__gt_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
-                 lr__v3 P, double ox, double oy, const double *ud, double ug,
+                 const double *ul, const double *ud, const double *ug,
                  lr__lt_film *f, uint64_t *rays, uint64_t *landed);
 
 #endif

@@ -158,9 +158,7 @@ static int mesh_sphere(const lr_scene *s, const lr__geom *g, lr__v3 *center,
     return *radius > 0.0;
 }
 
-/* The mesh light's triangles and their cumulative areas; 0 when out of
- * memory. */
-static int mesh_cdf(const lr_scene *s, const lr__geom *g, lr__lt_light *l)
+int lr__lt_mesh_cdf(const lr_scene *s, const lr__geom *g, lr__lt_light *l)
 {
     l->first_tri = g->emitter;
     l->n_tri = g->n_triangles;
@@ -179,11 +177,7 @@ static int mesh_cdf(const lr_scene *s, const lr__geom *g, lr__lt_light *l)
     return 1;
 }
 
-/* Whether material m emits, untextured: the emission the light side
- * carries. */
-/* Whether geometry g is a light the light side can trace, a sphere or a
- * mesh of emitting triangles, and the sphere that bounds it. */
-static int light_sphere(const lr_scene *s, const lr__geom *g, lr__v3 *center,
+int lr__lt_light_sphere(const lr_scene *s, const lr__geom *g, lr__v3 *center,
                         double *radius)
 {
     if (!(v3_maxc(s->materials[g->material].emission) > 0.0))
@@ -384,7 +378,7 @@ static int plan_glints(const lr_scene *s, const lr__cam *c,
     for (size_t l = 0; l < ng; l++) {
         lr__v3 lc;
         double lr_;
-        if (!light_sphere(s, &s->geoms[l], &lc, &lr_))
+        if (!lr__lt_light_sphere(s, &s->geoms[l], &lc, &lr_))
             continue;
         for (size_t g = 0; g < ng; g++) {
             if (!(ok[g] & SURF))
@@ -429,9 +423,9 @@ static int plan_glints(const lr_scene *s, const lr__cam *c,
             l->plane_p = P[0];
             l->plane_n = P[1];
             l->alpha = a;
-            light_sphere(s, L, &l->center, &l->radius);
+            lr__lt_light_sphere(s, L, &l->center, &l->radius);
             light_emission(&s->materials[L->material], l);
-            if (L->kind == LR__GEOM_TRIANGLES && !mesh_cdf(s, L, l)) {
+            if (L->kind == LR__GEOM_TRIANGLES && !lr__lt_mesh_cdf(s, L, l)) {
                 good = 0;
                 break;
             }
@@ -573,7 +567,7 @@ lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
         const lr__geom *geo = &s->geoms[g];
         lr__v3 center;
         double radius;
-        if (!light_sphere(s, geo, &center, &radius))
+        if (!lr__lt_light_sphere(s, geo, &center, &radius))
             continue;
         uint64_t n = paths_for(c, &lb, m->bound == NULL, center, radius,
                                set->spp, 0);
@@ -587,7 +581,7 @@ lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
         l->surf = -1;
         l->center = center;
         l->radius = radius;
-        if (geo->kind == LR__GEOM_TRIANGLES && !mesh_cdf(s, geo, l)) {
+        if (geo->kind == LR__GEOM_TRIANGLES && !lr__lt_mesh_cdf(s, geo, l)) {
             lr__lt_free(lt);
             return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
         }
@@ -736,19 +730,7 @@ static lr__v3 emission_at(const lr_scene *s, const lr__lt_light *l,
     return lr__hit_material(s, h, &mt)->emission;
 }
 
-/* A mesh light's path from lens point P: a triangle by area and a point
- * y on it, uniform by area over the mesh (pdf 1 / A), from (u0, u1) (u0
- * picks the triangle and, rescaled, is reused: the usual trick for one
- * more dimension); the direction w from P to y has solid-angle density
- * dist^2 / (A cos) (cos at y).  The emission is one-sided (the
- * triangle's front, counter-clockwise): seen from behind, nothing.  The
- * camera ray along w must meet this very triangle first, from the front
- * (a mesh can hide its own triangles). */
-/* A point y uniform by area over mesh light l (density 1 / l->area) from
- * (u0, u1): its triangle by area through l->cdf, u0 rescaled reused for
- * the point (the usual trick for one more dimension).  Returns the
- * triangle. */
-static const lr__emitter *mesh_point(const lr_scene *s, const lr__lt_light *l,
+const lr__emitter *lr__lt_mesh_point(const lr_scene *s, const lr__lt_light *l,
                                      const double *u, lr__v3 *y)
 {
     size_t lo = 0, hi = l->n_tri - 1;
@@ -771,13 +753,21 @@ static const lr__emitter *mesh_point(const lr_scene *s, const lr__lt_light *l,
     return e;
 }
 
+/* A mesh light's path from lens point P: a triangle by area and a point
+ * y on it, uniform by area over the mesh (pdf 1 / A), from (u0, u1) (u0
+ * picks the triangle and, rescaled, is reused: the usual trick for one
+ * more dimension); the direction w from P to y has solid-angle density
+ * dist^2 / (A cos) (cos at y).  The emission is one-sided (the
+ * triangle's front, counter-clockwise): seen from behind, nothing.  The
+ * camera ray along w must meet this very triangle first, from the front
+ * (a mesh can hide its own triangles). */
 static void mesh_path(const lr_scene *s, const lr__cam *c,
                       const lr__lt_light *l, lr__v3 P, double ox, double oy,
                       const double *u, const lt_colour *col, lr__lt_film *f,
                       uint64_t *rays, uint64_t *landed)
 {
     lr__v3 y;
-    const lr__emitter *e = mesh_point(s, l, u, &y);
+    const lr__emitter *e = lr__lt_mesh_point(s, l, u, &y);
     lr__v3 dv = v3_sub(y, P);
     double dist2 = v3_dot(dv, dv);
     if (!(dist2 > 0.0))
@@ -864,7 +854,7 @@ static void glint_path(const lr_scene *s, const lr__cam *c,
     const lr__emitter *e = NULL;
     double pdf_y;
     if (l->n_tri > 0) {
-        e = mesh_point(s, l, uy, &y);
+        e = lr__lt_mesh_point(s, l, uy, &y);
         ny = e->n;
         pdf_y = 1.0 / l->area;
     } else {
@@ -1114,10 +1104,9 @@ void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
         lr__pixel_sampler_get(&ps, idx, q);
         const double *ud = q, *ul = q + 2;
         if (l->surf == LR__LT_GHOST) {
-            lr__v3 P = c->model->lens_point(c, ul, &ox, &oy);
             double ug[2];
             lr__sample_2d(&smp, light_key(l), idx, 4, ug);
-            lr__gt_path(s, c, l, P, ox, oy, ud, ug[0], f, rays, ghosts);
+            lr__gt_path(s, c, l, ul, ud, ug, f, rays, ghosts);
             continue;
         }
         /* Spectral mode: dimension 6 places the path's wavelengths. */

@@ -92,8 +92,8 @@ typedef struct lr__lt_light {
     /* A mesh: its triangles are scene->emitters[first_tri ..
      * first_tri + n_tri), drawn by area through cdf (n_tri, owned, the
      * last 1) from a total of `area`; n_tri = 0 for a sphere.  A ghost
-     * light: cdf is its ghost paths' choice (`ghosts` of them, owned;
-     * ghost_trace.c). */
+     * light: its ghost paths' choice (`ghosts` of them) follows in cdf,
+     * from cdf + n_tri (ghost_trace.c). */
     long first_tri;
     size_t n_tri;
     double *cdf;
@@ -149,8 +149,10 @@ typedef struct lr__lt {
 
 #define LR__LT_PATHS (-2)
 #define LR__LT_SUN (-3)
-/* A sphere light's ghosts (ghost_trace.h): geom, center, radius and L
- * the sphere's. */
+/* A source's ghosts (ghost_trace.h): geom, center, radius and L the
+ * sphere's or mesh's (a mesh's cdf its triangles' then its ghost paths',
+ * one array), or for the environment's sun geom the number of
+ * geometries, center, area and L as LR__LT_SUN's. */
 #define LR__LT_GHOST (-4)
 /* The most paths of one part (a sampler "pixel" counts its samples in 32
  * bits). */
@@ -216,6 +218,20 @@ uint64_t lr__lt_units(const lr__lt *lt);
 /* An empty light side for scene s (room for a light a geometry and the
  * sun); NULL when out of memory. */
 lr__lt *lr__lt_new(const lr_scene *s);
+
+/* Whether geometry g is a light the light side can trace, a sphere or a
+ * mesh of emitting triangles, and the sphere that bounds it. */
+int lr__lt_light_sphere(const lr_scene *s, const lr__geom *g, lr__v3 *center,
+                        double *radius);
+/* Mesh light l's triangles (those of geometry g) and their cumulative
+ * areas into l (first_tri, n_tri, cdf, area); 0 when out of memory. */
+int lr__lt_mesh_cdf(const lr_scene *s, const lr__geom *g, lr__lt_light *l);
+/* A point y uniform by area over mesh light l (density 1 / l->area) from
+ * (u0, u1): its triangle by area through l->cdf, u0 rescaled reused for
+ * the point (the usual trick for one more dimension).  Returns the
+ * triangle. */
+const lr__emitter *lr__lt_mesh_point(const lr_scene *s, const lr__lt_light *l,
+                                     const double *u, lr__v3 *y);
 
 /* Adds v to pixel (ix, iy) of f, if the region holds it (v may be
  * negative in spectral mode, whose weights are: wavelength.h). */
