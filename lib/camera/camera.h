@@ -204,7 +204,7 @@ typedef struct lr__camera_model {
     double (*film_near)(const lr__cam *c, lr__v3 d);
     /* For a model with a light side but no planner's bound (the real
      * lens): a thin lens at the eye that estimates the size of a light's
-     * disc (light_trace.c's choice of lights, not a bound). */
+     * disc (light_trace_plan.c's choice of lights, not a bound). */
     void (*thin_equiv)(const lr__cam *c, lr__lens_bound *b);
     /* Whether the light side may run for this camera (its lens points
      * cover every ray the camera can take); NULL: whenever lens_point
