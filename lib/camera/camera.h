@@ -34,6 +34,7 @@
 #define LR_CAMERA_H
 
 #include "internal.h"
+#include "lens_load.h"
 #include "prescription.h"
 #include "transmit.h"
 #include "vec.h"
@@ -251,18 +252,9 @@ extern const lr__camera_model lr__camera_thinlens;
 extern const lr__camera_model lr__camera_bracket;
 extern const lr__camera_model lr__camera_lens;
 
-/* Where the rays from a film point at one distance from the axis that
- * get through the lens cross the rear vertex's plane (camera_lens.c): in
- * the frame of the radial direction, inside the disk of radius `rad`
- * about (cx, 0), and inside the rectangle |x - cx| <= hx, |y| <= hy. */
-typedef struct lr__pupil {
-    double cx, rad, hx, hy;
-} lr__pupil;
-
 /* A real lens prepared for one film (camera_lens.c): where the sensor
  * sits, the stop's scale, the indices at the fixed wavelengths, and the
  * exit-pupil bounds at LR__PUPIL_N + 1 film radii from 0 to the corner. */
-#define LR__PUPIL_N 48
 typedef struct lr__lens_cam {
     const struct lr_lens *L;
     double mm;                         /* scene units per millimetre */

@@ -9,7 +9,6 @@
 #ifndef LR_LENS_LOAD_H
 #define LR_LENS_LOAD_H
 
-#include "camera.h"
 #include "prescription.h"
 
 #include <pthread.h>
@@ -24,6 +23,18 @@ typedef struct lr__lens_first {
     double z_F, z_Fp;  /* front and rear focal points, lens coordinates */
     double enp_radius; /* entrance pupil radius with the stop fully open */
 } lr__lens_first;
+
+/* Where the rays from a film point at one distance from the axis that
+ * get through the lens cross the rear vertex's plane (camera_lens.c): in
+ * the frame of the radial direction, inside the disk of radius `rad`
+ * about (cx, 0), and inside the rectangle |x - cx| <= hx, |y| <= hy. */
+typedef struct lr__pupil {
+    double cx, rad, hx, hy;
+} lr__pupil;
+
+/* The exit-pupil bounds are kept at LR__PUPIL_N + 1 film radii from the
+ * axis to the corner. */
+#define LR__PUPIL_N 48
 
 /* One cached exit-pupil table (camera_lens.c fills it). */
 typedef struct lr__pupil_entry {
