@@ -226,7 +226,14 @@ static void test_spot_inside_bound(void **state)
     for (size_t i = 0; i < sizeof lenses / sizeof *lenses; i++)
         for (size_t k = 0; k < sizeof setups / sizeof *setups; k++) {
             tally t = {0, 0, 0.0, 0.0};
-            check_lens(lenses[i], setups[k], &t);
+            /* The test fisheye is scaled to f = 1 mm: a sensor to match
+             * (on a 36 mm one its image is a dot in the middle). */
+            char extra[256];
+            snprintf(extra, sizeof extra, "%s%s", setups[k],
+                     strstr(lenses[i], "us4256373.json") != NULL
+                         ? ", \"sensor_width_mm\": 2.4"
+                         : "");
+            check_lens(lenses[i], extra, &t);
             print_message("%-60.60s %-24.24s %6d samples, %3d ranges: "
                           "spot %.3f, colour %.3f of the bound\n",
                           lenses[i], setups[k] + 2, t.checked, t.bounded,
