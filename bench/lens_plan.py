@@ -13,6 +13,8 @@ Cases (scenes/ with overrides; `fool` is written to a temporary file):
              focused on the wall (8 m), with a small sphere 1.2 m from
              the camera blurred over it: the scene built to fool a
              planner
+  fool-f8    the same at f/8, where the wall's blocks skip the lens and
+             the foreground's blur must keep it where it reaches
 
 Per case: a reference (the full simulation, render.plan and
 render.adaptive off, at --ref-spp); then K interleaved rounds, one
@@ -66,6 +68,7 @@ def cases():
         'focus-320': (sph, focus + ['--set', 'render.width=320',
                                     '--set', 'render.height=180']),
         'fool': (fool_scene(), []),
+        'fool-f8': (fool_scene(), ['--set', 'camera.f_number=8']),
     }
 
 
