@@ -407,16 +407,10 @@ static double red_rmse(const lr_image *a, const lr_image *ref, int *n)
 static void test_fooling_scene_within_guarantee(void **state)
 {
     (void)state;
-    const char *ref_sets[] = {"render.spp=512", "render.plan=false",
-                              "render.adaptive=false", "render.seed=77"};
-    lr_image *ref = lr_test_render(fool_scene, ref_sets, 4, NULL);
-    const char *full_sets[] = {"render.spp=32", "render.plan=false",
-                               "render.adaptive=false"};
-    const char *plan_sets[] = {"render.spp=32", "render.plan=true",
-                               "render.adaptive=false"};
+    lr_image *im[3];
     lr_render_stats sf, sp;
-    lr_image *full = lr_test_render(fool_scene, full_sets, 3, &sf);
-    lr_image *plan = lr_test_render(fool_scene, plan_sets, 3, &sp);
+    lr_test_plan_renders(fool_scene, 512, 32, im, &sf, &sp);
+    lr_image *ref = im[0], *full = im[1], *plan = im[2];
     double ef = lr_test_rmse(full, ref), ep = lr_test_rmse(plan, ref);
     print_message("fooling scene: RMSE full %.5f, planned %.5f (%.3fx); lens "
                   "on %.0f%% of pixels\n",
