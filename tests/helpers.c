@@ -58,6 +58,23 @@ lr_image *lr_test_render(const char *json, const char *const *sets,
     return img;
 }
 
+void lr_test_plan_renders(const char *scene, int ref_spp, int spp,
+                          lr_image **out, lr_render_stats *sf,
+                          lr_render_stats *sp)
+{
+    char rs[32], ss[32];
+    snprintf(rs, sizeof rs, "render.spp=%d", ref_spp);
+    snprintf(ss, sizeof ss, "render.spp=%d", spp);
+    const char *ref_sets[] = {rs, "render.plan=false", "render.adaptive=false",
+                              "render.seed=77"};
+    const char *full_sets[] = {ss, "render.plan=false",
+                               "render.adaptive=false"};
+    const char *plan_sets[] = {ss, "render.plan=true", "render.adaptive=false"};
+    out[0] = lr_test_render(scene, ref_sets, 4, NULL);
+    out[1] = lr_test_render(scene, full_sets, 3, sf);
+    out[2] = lr_test_render(scene, plan_sets, 3, sp);
+}
+
 double lr_test_rmse(const lr_image *a, const lr_image *b)
 {
     int n = lr_image_width(a) * lr_image_height(a) * 3;

@@ -45,6 +45,14 @@ void lr_test_write_map(const char *name, double (*value)(int x, int y), int W,
 lr_image *lr_test_render(const char *json, const char *const *sets,
                          size_t n_sets, lr_render_stats *stats);
 
+/* The planner's guarantee renders of `scene`: out[0] the full
+ * simulation (render.plan and render.adaptive off) at ref_spp with seed
+ * 77, the reference; out[1] the full simulation and out[2] the plan
+ * alone (adaptive off) at spp, with their stats. */
+void lr_test_plan_renders(const char *scene, int ref_spp, int spp,
+                          lr_image **out, lr_render_stats *sf,
+                          lr_render_stats *sp);
+
 /* Root-mean-square difference of two images of the same size. */
 double lr_test_rmse(const lr_image *a, const lr_image *b);
 

@@ -53,16 +53,10 @@ static const char *rim_scene =
 
 static void guarantee(const char *scene, const char *what)
 {
-    const char *ref_sets[] = {"render.spp=2048", "render.plan=false",
-                              "render.adaptive=false", "render.seed=77"};
-    lr_image *ref = lr_test_render(scene, ref_sets, 4, NULL);
-    const char *full_sets[] = {"render.spp=64", "render.plan=false",
-                               "render.adaptive=false"};
-    const char *plan_sets[] = {"render.spp=64", "render.plan=true",
-                               "render.adaptive=false"};
+    lr_image *im[3];
     lr_render_stats sf, sp;
-    lr_image *full = lr_test_render(scene, full_sets, 3, &sf);
-    lr_image *plan = lr_test_render(scene, plan_sets, 3, &sp);
+    lr_test_plan_renders(scene, 2048, 64, im, &sf, &sp);
+    lr_image *ref = im[0], *full = im[1], *plan = im[2];
     double ef = lr_test_rmse(full, ref), ep = lr_test_rmse(plan, ref);
     print_message("%s: RMSE full %.5f, planned %.5f (%.3fx); lens on %.0f%% "
                   "of pixels, colours split on %.0f%%, camera rays %llu of "

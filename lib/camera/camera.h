@@ -227,6 +227,11 @@ typedef struct lr__camera_model {
      * wavelength (k = -1) or rgb channel k's (0 red, 1 green, 2 blue):
      * where it lands and its importance, 0 when it is lost.  NULL: the
      * model has no ghosts.  ghost_paths returns -1 when out of memory. */
+    /* A real lens's planner's bound (lens_blur.c: the spot and the
+     * colours' spread over a film region and a depth range, from traced
+     * bundles), made on first use and shared; NULL when the model has
+     * none (then `bound`, or none at all) or it cannot be made. */
+    const struct lr__lens_blur *(*blur)(const lr__cam *c);
     int (*ghost_paths)(const lr__cam *c, double *peak, double *k,
                        lr__ghost_est *est);
     double (*ghost_film)(const lr__cam *c, int g, int k, double ox, double oy,
@@ -286,6 +291,11 @@ typedef struct lr__lens_cam {
      * dispersion) and their tables. */
     double g_n[3][LR__RX_MAX_SURFACES];
     lr__ttab g_tab[3];
+    /* The planner's blur table once a plan has asked for it
+     * (lr__lens_blur_get; read and written atomically): where the plan
+     * skips the lens, the packet rays are chief rays weighted by its
+     * mean weight of the pupil. */
+    const struct lr__lens_blur *blur;
 } lr__lens_cam;
 
 /* A camera prepared for one film: the frame every model shares, then the
@@ -330,6 +340,48 @@ struct lr__cam {
     int weighted;      /* 1: rays carry weights (a real lens) */
     lr__lens_cam lens; /* the "lens" model's part */
 };
+
+/* ---- the real lens's blur bound (lens_blur.c) ----------------------- */
+
+/* A table per lens, focus, f-number and colour set (docs/plan-lens.md):
+ * over the film radii of the exit-pupil table and a grid of inverse
+ * depths, how far every traced ray of the pupil (every colour the camera
+ * traces) lands from the reference colour's chief ray, and how far each
+ * colour's ray lands from the reference colour's ray through the same
+ * pupil point, both on the film in mm, radial and tangential apart. */
+typedef struct lr__lens_blur lr__lens_blur;
+
+/* The table for real-lens camera c, made now or found in its lens's
+ * cache, and left in c->lens.blur; NULL when out of memory or the cache
+ * is full (the plan then samples the lens everywhere). */
+const lr__lens_blur *lr__lens_blur_get(const lr__cam *c);
+
+/* Over the film rectangle [fx0, fx1] x [fy0, fy1] (pixels) and the depths
+ * [z0, z1] from the sensor along the view axis (z1 may be infinite): a
+ * bound in pixels on the spot (*spot: how far a sample of the lens, of
+ * any colour, lands from the chief ray's point) and on the colours'
+ * spread (*colour: how far apart two colours through the same lens
+ * point land).  Returns 0 (no bound) when the depths come nearer than
+ * the table reaches or a chief ray there is blocked. */
+int lr__lens_blur_bound(const lr__cam *c, const lr__lens_blur *b, double fx0,
+                        double fy0, double fx1, double fy1, double z0,
+                        double z1, double *spot, double *colour);
+
+/* Where the rays of that film rectangle go: at depth Z from the sensor,
+ * within Z [u0, u1] x [v0, v1] grown by *R on every side (camera space,
+ * scene units: u along right, v along up), uv = {u0, u1, v0, v1}. */
+void lr__lens_blur_reach(const lr__cam *c, const lr__lens_blur *b, double fx0,
+                         double fy0, double fx1, double fy1, double uv[4],
+                         double *R);
+
+/* The chief ray's weight at film radius r mm (the pupil's mean sample
+ * weight over the chief ray's transmittance), for the packet rays. */
+float lr__lens_blur_chief_w(const lr__lens_blur *b, int k, float f);
+
+/* camera_lens.c's pupil bounds at film radius r mm and its indices at
+ * wavelength nm (chromatic.amplify applied), for lens_blur.c. */
+lr__pupil lr__lens_pupil_at(const lr__lens_cam *lc, double r);
+void lr__lens_indices(const lr__cam *c, double nm, double *n);
 
 /* Prepares `c` for a width x height film; `cam` must have passed
  * lr_camera_validate and its autofocus must have been resolved. */

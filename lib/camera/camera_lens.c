@@ -110,7 +110,7 @@ static lr_status validate(const lr_camera *cam, int active, lr_error *err)
 
 /* Indices after each surface at `nm`, the dispersion scaled by amplify
  * about the d line's indices. */
-static void indices(const lr__cam *c, double nm, double *n)
+void lr__lens_indices(const lr__cam *c, double nm, double *n)
 {
     const lr__rx *rx = &c->lens.L->rx;
     lr__rx_indices(rx, nm, n);
@@ -472,8 +472,8 @@ static void pupils(lr__cam *c, int colours)
         for (int k = 0; k < 3; k++)
             j.nsets[j.n_sets++] = lc->n_rgb[k];
     } else if (colours == 2) {
-        indices(c, 380.0, n_lo);
-        indices(c, 780.0, n_hi);
+        lr__lens_indices(c, 380.0, n_lo);
+        lr__lens_indices(c, 780.0, n_hi);
         j.nsets[j.n_sets++] = n_lo;
         j.nsets[j.n_sets++] = n_hi;
     }
@@ -496,6 +496,11 @@ static void pupils(lr__cam *c, int colours)
 
 static lr__pupil pupil_at(const lr__lens_cam *lc, double r);
 
+lr__pupil lr__lens_pupil_at(const lr__lens_cam *lc, double r)
+{
+    return pupil_at(lc, r);
+}
+
 /* ---- setup ------------------------------------------------------------------ */
 
 static void setup(lr__cam *c, const lr_camera *cam)
@@ -503,6 +508,7 @@ static void setup(lr__cam *c, const lr_camera *cam)
     lr__lens_cam *lc = &c->lens;
     const lr_lens *L = cam->lens;
     lc->L = L;
+    lc->blur = NULL;
     c->has_lens = 1;
     c->weighted = 1;
     c->chroma_fixed = 1;
@@ -530,7 +536,7 @@ static void setup(lr__cam *c, const lr_camera *cam)
     lr__rx_indices(&L->rx, c->nm_ref, lc->n_ref);
     for (int k = 0; k < 3; k++) {
         lc->nm_rgb[k] = rgb_nm[k];
-        indices(c, rgb_nm[k], lc->n_rgb[k]);
+        lr__lens_indices(c, rgb_nm[k], lc->n_rgb[k]);
     }
 
     /* The stop: closed until the widest axial ray is efl / (2 N) high. */
@@ -694,7 +700,7 @@ static double lens_ray(const lr__cam *c, double fx, double fy,
             if (nm == lc->nm_rgb[k])
                 n = lc->n_rgb[k];
         if (n == NULL) {
-            indices(c, nm, nbuf);
+            lr__lens_indices(c, nm, nbuf);
             n = nbuf;
         }
     }
@@ -708,6 +714,23 @@ static double lens_ray(const lr__cam *c, double fx, double fy,
     *org = c->origin;
     *dir = c->forward;
     return 0.0;
+}
+
+/* Film point (fx, fy) on the sensor (sensor_at's, in float: iw, ih the
+ * frame's inverse size, sw, sh the sensor's) and its interval of the
+ * pupil table (kr: intervals per mm): the interval, with the point's
+ * radius r and its place f in [0, 1) along the interval. */
+static inline __attribute__((always_inline)) int
+film_band(float fx, float fy, float iw, float ih, float sw, float sh, float kr,
+          float *xs, float *ys, float *r, float *f)
+{
+    *xs = (0.5f - fx * iw) * sw, *ys = (fy * ih - 0.5f) * sh;
+    *r = sqrtf(*xs * *xs + *ys * *ys);
+    float t = *r * kr;
+    int k = (int)t;
+    k = k < LR__PUPIL_N - 1 ? k : LR__PUPIL_N - 1;
+    *f = t - (float)k;
+    return k;
 }
 
 /* A packet's rays from the sensor to the rear element, for
@@ -734,12 +757,8 @@ lens_start16(const lr__cam *c, int n, const float *fx, const float *fy,
                              lc->inv_E0);
     const float pi = (float)M_PI;
     for (int i = 0; i < 16; i++) {
-        float xs = (0.5f - fx[i] * iw) * sw, ys = (fy[i] * ih - 0.5f) * sh;
-        float r = sqrtf(xs * xs + ys * ys);
-        float t = r * kr;
-        int k = (int)t;
-        k = k < LR__PUPIL_N - 1 ? k : LR__PUPIL_N - 1;
-        float f = t - (float)k;
+        float xs, ys, r, f;
+        int k = film_band(fx[i], fy[i], iw, ih, sw, sh, kr, &xs, &ys, &r, &f);
         /* pupil_at's bounds, from the interval's table. */
         float cx = lc->band_cx[k] + f * lc->band_dcx[k];
         float rad = lc->band_rad[k], hx = lc->band_hx[k], hy = lc->band_hy[k];
@@ -758,6 +777,38 @@ lens_start16(const lr__cam *c, int n, const float *fx, const float *fy,
         d[0][i] = dx * inv, d[1][i] = dy * inv, d[2][i] = dz * inv;
         w[i] = wk * area * ct * ct * ct * ct;
         alive[i] = (i < n) & (area > 0.0f);
+    }
+}
+
+/* lens_start16 for a block whose plan skips the lens (lens_blur.c's
+ * bound: the spot is under a quarter pixel): each lane's chief ray,
+ * through the centre of its pupil bounds as lens_chief's, weighted by
+ * the pupil's mean sample weight over the chief ray's transmittance,
+ * which the glass multiplies back in (so a uniform scene renders as the
+ * lens's mean: its vignetting, not noise). */
+static inline __attribute__((always_inline)) void
+chief_start16(const lr__cam *c, const lr__lens_blur *bl, int n, const float *fx,
+              const float *fy, float (*o)[16], float (*d)[16], float *w,
+              int *alive)
+{
+    const lr__lens_cam *lc = &c->lens;
+    const float iw = (float)(1.0 / c->width), ih = (float)(1.0 / c->height);
+    const float sw = (float)lc->sensor_w, sh = (float)lc->sensor_h;
+    const float kr = (float)(LR__PUPIL_N / lc->pupil_rmax);
+    const float zs = (float)lc->z_sensor,
+                dz = (float)(lc->z_rear - lc->z_sensor);
+    for (int i = 0; i < 16; i++) {
+        float xs, ys, r, f;
+        int k = film_band(fx[i], fy[i], iw, ih, sw, sh, kr, &xs, &ys, &r, &f);
+        float cx = lc->band_cx[k] + f * lc->band_dcx[k];
+        float ir = r > 0.0f ? 1.0f / r : 0.0f;
+        float ex = r > 0.0f ? xs * ir : 1.0f, ey = ys * ir;
+        float dx = ex * cx - xs, dy = ey * cx - ys;
+        float inv = 1.0f / sqrtf(dx * dx + dy * dy + dz * dz);
+        o[0][i] = xs, o[1][i] = ys, o[2][i] = zs;
+        d[0][i] = dx * inv, d[1][i] = dy * inv, d[2][i] = dz * inv;
+        w[i] = lr__lens_blur_chief_w(bl, k, f);
+        alive[i] = (i < n) & (w[i] > 0.0f);
     }
 }
 
@@ -817,7 +868,10 @@ lens_rays16_n(const lr__cam *c, int use_lens, int np, const int *ns,
               const float (*lu)[16], const float (*lv)[16],
               struct RTCRayHit16 *rh, float (*wt)[16])
 {
-    (void)use_lens; /* a real lens is always sampled */
+    /* Without the lens (the plan's bound allows it), chief rays. */
+    const lr__lens_blur *bl = use_lens ? NULL
+                                       : __atomic_load_n(&c->lens.blur,
+                                                         __ATOMIC_ACQUIRE);
     enum { MAXP = LR__RX_LANES / 16 };
     if (np > MAXP) {
         lens_rays16_n(c, use_lens, MAXP, ns, fx, fy, lu, lv, rh, wt);
@@ -829,8 +883,12 @@ lens_rays16_n(const lr__cam *c, int use_lens, int np, const int *ns,
     int alive[LR__RX_LANES];
     for (int p = 0; p < np; p++) {
         float o16[3][16], d16[3][16];
-        lens_start16(c, ns[p], fx[p], fy[p], lu[p], lv[p], o16, d16, w + 16 * p,
-                     alive + 16 * p);
+        if (bl != NULL)
+            chief_start16(c, bl, ns[p], fx[p], fy[p], o16, d16, w + 16 * p,
+                          alive + 16 * p);
+        else
+            lens_start16(c, ns[p], fx[p], fy[p], lu[p], lv[p], o16, d16,
+                         w + 16 * p, alive + 16 * p);
         for (int a = 0; a < 3; a++) {
             memcpy(&o[a][16 * p], o16[a], sizeof o16[a]);
             memcpy(&d[a][16 * p], d16[a], sizeof d16[a]);
@@ -1032,7 +1090,7 @@ static double lens_film_wl(const lr__cam *c, double w, double nm, double ox,
 {
     (void)w;
     double n[LR__RX_MAX_SURFACES];
-    indices(c, nm, n);
+    lr__lens_indices(c, nm, n);
     return lens_film_n(c, n, nm, ox, oy, d, fx, fy);
 }
 
@@ -1218,6 +1276,7 @@ const lr__camera_model lr__camera_lens = {
     .film_wl = lens_film_wl,
     .thin_equiv = lens_thin_equiv,
     .light_ok = lens_light_ok,
+    .blur = lr__lens_blur_get,
     .ghost_paths = lens_ghost_paths,
     .ghost_film = lens_ghost_film,
     .ghost_disk = lens_ghost_disk,

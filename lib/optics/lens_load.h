@@ -45,6 +45,7 @@ typedef struct lr__pupil_entry {
 } lr__pupil_entry;
 
 #define LR__PUPIL_CACHE 64
+#define LR__BLUR_CACHE 32
 
 struct lr_lens {
     lr__rx rx;
@@ -60,6 +61,12 @@ struct lr_lens {
      * front_slope_set is read and written atomically (acquire, release). */
     double front_slope;
     int front_slope_set;
+    /* The planner's blur tables (camera.h, lr__lens_blur), made by
+     * lens_blur.c on first use under mu and kept for the lens's life
+     * (lenses are never freed: lens_load.c's table), so every job of a
+     * daemon shares them.  Opaque here: the camera layer's type. */
+    int n_blur;
+    void *blur[LR__BLUR_CACHE];
 };
 
 /* A bound on the slope (tan of the angle to the axis) of any ray from the

@@ -233,8 +233,9 @@ static void finish(lr__plan *p, const lr__cam *c, const lr_render_settings *set)
 }
 
 static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
-                           int dither, const unsigned char *dark, int x0,
-                           int y0, int x1, int y1, lr_error *err);
+                           const lr__lens_blur *lb, int dither,
+                           const unsigned char *dark, int x0, int y0, int x1,
+                           int y1, lr_error *err);
 static unsigned char *dark_geoms(const lr_scene *s, const lr__lt *lt, int *all);
 
 /* The light side's copy of the dark blocks, which it needs when one of
@@ -317,8 +318,12 @@ lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
         for (int i = 0; i < p->bw * p->bh; i++)
             p->blocks[i].dark = 1;
     } else if (set->plan && !p->splat && c->has_lens &&
-               c->model->bound != NULL) {
-        /* A model with no safe bound samples its lens everywhere. */
+               (c->model->bound != NULL ||
+                (c->model->blur != NULL && c->model->blur(c) != NULL))) {
+        /* A model with no safe bound samples its lens everywhere; a real
+         * lens's is its blur table (lens_blur.c). */
+        const lr__lens_blur *lb = c->model->bound == NULL ? c->model->blur(c)
+                                                          : NULL;
         /* Adaptive sampling reads the pilots of a one-pixel apron around
          * the region (adaptive.c), and a pilot follows its block's plan:
          * the apron's blocks are planned too, or a crop's edge pixels
@@ -337,7 +342,7 @@ lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
          * wherever there is something to blur; planning alone stays as
          * it was, the fastest choice at its own error. */
         int dither = set->adaptive && lr__sampler_fixed_positions(set->sampler);
-        lr_status st = plan_blur(p, s, c, dither, dark, gx0, gy0, gx1, gy1,
+        lr_status st = plan_blur(p, s, c, lb, dither, dark, gx0, gy0, gx1, gy1,
                                  err);
         if (st != LR_OK) {
             free(dark);
@@ -490,12 +495,12 @@ static void put_boxes(const lr_scene *s, boxset *b)
 }
 
 /* The planner's lens for camera c: its model's bound (lr__cam_bound), or
- * none (R = 0) for a camera without a lens.  The model must have a bound
- * when the camera has a lens. */
+ * none (R = 0) for a camera without a lens or a real lens (plan_blur sets
+ * its own). */
 static void make_lens(const lr__cam *c, lens *L)
 {
     lr__lens_bound lb = {0.0, 1, {0.0, 0.0, 0.0}};
-    if (c->has_lens)
+    if (c->has_lens && c->model->bound != NULL)
         lr__cam_bound(c, &lb);
     L->R = lb.R;
     L->w = lb.ws[0];
@@ -548,11 +553,21 @@ static unsigned char *dark_geoms(const lr_scene *s, const lr__lt *lt, int *all)
  * lens (unless `dither`: wherever it reaches anything); where the
  * colours' blurs differ by less, one ray for all. */
 static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
-                           int dither, const unsigned char *dark, int x0,
-                           int y0, int x1, int y1, lr_error *err)
+                           const lr__lens_blur *lb, int dither,
+                           const unsigned char *dark, int x0, int y0, int x1,
+                           int y1, lr_error *err)
 {
     lens L;
     make_lens(c, &L);
+    if (lb != NULL) {
+        /* A real lens: its rays from a block lie, at depth Z, within Z
+         * times the slopes lr__lens_blur_reach gives, grown by R (the
+         * form of a lens of radius R focused at infinity). */
+        double uv[4];
+        lr__lens_blur_reach(c, lb, 0.0, 0.0, c->width, c->height, uv, &L.R);
+        L.w = L.ws[0] = 0.0;
+        L.n_w = 1;
+    }
 
     boxset *set = get_boxes(s, &L);
     if (set == NULL)
@@ -569,6 +584,19 @@ static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
             int px1 = px0 + LR__PLAN_BLOCK, py1 = py0 + LR__PLAN_BLOCK;
             double u0 = px0 * su - c->half_w, u1 = px1 * su - c->half_w;
             double v0 = c->half_h - py1 * sv, v1 = c->half_h - py0 * sv;
+            lr__block_plan *bp = &p->blocks[by * p->bw + bx];
+            /* The block's film rectangle, in the frame. */
+            double fx1 = fmin(px1, c->width), fy1 = fmin(py1, c->height);
+            if (lb != NULL) {
+                double uv[4], R;
+                lr__lens_blur_reach(c, lb, px0, py0, fx1, fy1, uv, &R);
+                if (!isfinite(uv[0] + uv[1] + uv[2] + uv[3])) {
+                    /* No bound on where its rays go. */
+                    *bp = (lr__block_plan){1, 1, 0, 0, 0};
+                    continue;
+                }
+                u0 = uv[0], u1 = uv[1], v0 = uv[2], v1 = uv[3];
+            }
             double zmin = INFINITY, zmax = 0.0;
             /* Whether anything in reach gives camera paths light (with
              * no `dark`, anything counts). */
@@ -617,7 +645,6 @@ static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
                 if (z1 > zmax)
                     zmax = z1;
             }
-            lr__block_plan *bp = &p->blocks[by * p->bw + bx];
             bp->dark = !lit;
             /* An environment map is light at infinite depth that any
              * ray may escape to, and the lens blurs it like anything
@@ -632,6 +659,15 @@ static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
                  * changes. */
                 bp->lens = 0;
                 bp->chroma = 0;
+                continue;
+            }
+            if (lb != NULL) {
+                /* The real lens's spot and colour spread, from its table. */
+                double spot, col;
+                int ok = lr__lens_blur_bound(c, lb, px0, py0, fx1, fy1, zmin,
+                                             zmax, &spot, &col);
+                bp->lens = dither || !ok || spot >= LR__PLAN_BLUR_PX;
+                bp->chroma = !ok || col >= LR__PLAN_BLUR_PX;
                 continue;
             }
             double x_lo = isfinite(zmax) ? 1.0 / zmax : 0.0;

@@ -5,6 +5,10 @@
  * gives a bound on its circle of confusion: where it is under a quarter
  * pixel the block traces pinhole rays, and where the colours' circles of
  * confusion differ by less than that it traces one ray for all colours.
+ * A real lens's bound is its blur table (lens_blur.c, docs/plan-lens.md):
+ * the spot and the colours' spread over the block's film radii and that
+ * depth range; where the spot is under a quarter pixel the block traces
+ * chief rays.
  *
  * The plan is the one record of what to simulate: the render loop, the
  * sampling code, adaptive sampling and the statistics read it and decide
@@ -64,7 +68,7 @@ typedef struct lr__plan {
  * emits nothing the camera counts (none, or only light the light side
  * carries, lr__sample_id.lt).  A night sky of small lights traced from
  * their side is dark; so is the whole frame of a model without a
- * planner's bound (the real lens) when every geometry is.  set->plan = 0 plans every block
+ * planner's bound when every geometry is.  set->plan = 0 plans every block
  * as the full simulation: the lens sampled wherever the camera has one,
  * the colours split wherever they focus apart.  Returns LR_ERR_NOMEM on
  * failure. */
@@ -86,7 +90,7 @@ void lr__plan_free(lr__plan *p);
  * than Lambertian that they can reach, at the scene's largest emission.
  * An environment map is a source too, bounded over the directions of
  * the pixel's block's rays (a sun in the map is as small and bright as
- * any light).  A model without a planner's bound (the real lens) reaches
+ * any light).  A model without a thin-lens bound (the real lens) reaches
  * everything.  0: no emitter can be seen by rare samples here. */
 double lr__plan_unseen(const lr__plan *p, int x, int y);
 

@@ -1,0 +1,649 @@
+/*
+ * lens_blur.c: the planner's bound for a real lens (camera.h,
+ * lr__lens_blur; the proof and its measurements: docs/plan-lens.md).
+ *
+ * Every ray leaving the front of the lens is a straight line.  In the
+ * lens's frame, with zeta the depth in front of the sensor (mm) and x =
+ * 1 / zeta, a ray's lateral point at depth zeta is p + zeta s (s its
+ * slope, p where it would cross the sensor's plane), so on the "image
+ * plane at distance 1" it is at s + p x: affine in x.  So is the chief
+ * ray's, and so is the chief ray's derivative along the film, J(x) =
+ * J_s + J_p x (radially, from a neighbouring chief ray; tangentially,
+ * the chief ray's point over the film radius, by symmetry).  A sample's
+ * distance from the chief ray's point in film mm is then
+ *
+ *     delta(x) = ((s - s0) + (p - p0) x) / (J_s + J_p x)
+ *
+ * per component: a Moebius function of x, monotone wherever J has no
+ * zero.  So on any interval of x where J keeps its sign, |delta| is
+ * largest at an end; and at an end x_e inside a cell [x_j, x_j+1] of
+ * the table's grid, |delta(x_e)| is at most its larger value at the
+ * cell's ends.  The table stores, at each grid point, the largest
+ * |delta| over the traced rays; the bound over a depth range is the
+ * table's largest at the four grid points around its two ends, with no
+ * assumption on how the spot varies in between (near focus it falls to
+ * a waist and grows again: nonmonotone, which the argument allows).
+ * The grid's x_max is chosen so that J has no zero on [0, x_max].
+ *
+ * What is sampled, and what the margin covers: the pupil (a grid and
+ * its rim), the colours (the camera's), the film radius (the pupil
+ * table's radii; a block takes the largest over the radii around those
+ * it spans) and the linearised film map (J over a fraction
+ * of a pixel).  test_lens_blur.c samples the real spot at random film
+ * points, depths and pupil points on every shipped and test lens and
+ * checks it against the bound.
+ */
+#include "camera.h"
+#include "lens_load.h"
+
+#include <math.h>
+#include <pthread.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define NR LR__PUPIL_N /* film radii: the pupil table's */
+#define NX 256         /* cells of inverse depth */
+#define G 32           /* pupil grid side, for the spot */
+#define GW 96          /* and for the chief ray's weight */
+#define RIM 64         /* points on the pupil bounds' rim */
+#define MAX_COL 6      /* the reference and up to 5 wavelengths */
+/* The bound's margin over the sampled table (docs/plan-lens.md measures
+ * how much of it the real spot uses). */
+#define MARGIN 1.25
+#define MARGIN_MM 2e-4
+/* fmax without its NaN rules (the table's values are finite), which
+ * GCC inlines. */
+#define MAX(a, b) ((a) > (b) ? (a) : (b))
+#define MAX_SLOPE 3.0 /* tan 72 degrees */
+
+struct lr__lens_blur {
+    double key[9];
+    double x_max; /* 1/mm: the grid's inverse depths are [0, x_max] */
+    double reach; /* mm: the largest |p| of any traced ray */
+    int ok[NR + 1];
+    /* Per film radius, the traced rays' slopes: radial in [slo, shi],
+     * tangential within +-sta. */
+    double slo[NR + 1], shi[NR + 1], sta[NR + 1];
+    float chief_w[NR + 1];
+    /* Spot and colour spread, radial and tangential, film mm. */
+    float sr[NR + 1][NX + 1], st[NR + 1][NX + 1];
+    float cr[NR + 1][NX + 1], ct[NR + 1][NX + 1];
+};
+
+/* A ray out of the front: point on the image plane s + p x. */
+typedef struct line {
+    double sx, sy, px, py;
+} line;
+
+/* Traces the ray from sensor point (r, 0) toward rear-plane point (a, b)
+ * with indices n; its line, and its transmittance when tab is given.
+ * 0 when the lens stops it or it does not leave forward. */
+static int trace_line(const lr__cam *c, const double *n, const lr__ttab *tab,
+                      double r, double a, double b, line *l, double *T,
+                      double *cos4)
+{
+    const lr__lens_cam *lc = &c->lens;
+    const lr_lens *L = lc->L;
+    double dz = lc->z_rear - lc->z_sensor;
+    double o[3] = {r, 0.0, lc->z_sensor}, d[3] = {a - r, b, dz};
+    double len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    for (int k = 0; k < 3; k++)
+        d[k] /= len;
+    if (cos4 != NULL) {
+        double ct = -d[2];
+        *cos4 = ct * ct * ct * ct;
+    }
+    int ok = tab != NULL
+                 ? lr__rx_trace_t(&L->rx, L->z, n, lc->stop_scale, 0, tab,
+                                  c->nm_ref, lc->coat, o, d, T)
+                 : lr__rx_trace_n(&L->rx, L->z, n, lc->stop_scale, 0, o, d);
+    if (!ok || !(d[2] < -1e-6))
+        return 0;
+    double zeta0 = lc->z_sensor - o[2];
+    l->sx = d[0] / -d[2];
+    l->sy = d[1] / -d[2];
+    l->px = o[0] - zeta0 * l->sx;
+    l->py = o[1] - zeta0 * l->sy;
+    return 1;
+}
+
+/* trace_line for m rays at once (lr__rx_trace16: the same rays), without
+ * transmittance: lines l[i] and ok[i] for rear-plane points q[2i..]. */
+static void trace_lines16(const lr__cam *c, const double *n, double r,
+                          const double *q, int m, line *l, unsigned char *ok)
+{
+    const lr__lens_cam *lc = &c->lens;
+    const lr_lens *L = lc->L;
+    double dz = lc->z_rear - lc->z_sensor;
+    for (int i0 = 0; i0 < m; i0 += 16) {
+        double o[3][16], d[3][16];
+        int alive[16];
+        for (int i = 0; i < 16; i++) {
+            int at = i0 + i < m ? i0 + i : i0;
+            double dx = q[2 * at] - r, dy = q[2 * at + 1];
+            double len = sqrt(dx * dx + dy * dy + dz * dz);
+            o[0][i] = r, o[1][i] = 0.0, o[2][i] = lc->z_sensor;
+            d[0][i] = dx / len, d[1][i] = dy / len, d[2][i] = dz / len;
+            alive[i] = i0 + i < m;
+        }
+        lr__rx_trace16(&L->rx, L->z, n, lc->stop_scale, o, d, alive);
+        for (int i = 0; i < 16 && i0 + i < m; i++) {
+            line *li = &l[i0 + i];
+            ok[i0 + i] = (unsigned char)(alive[i] && d[2][i] < -1e-6);
+            if (!ok[i0 + i])
+                continue;
+            double zeta0 = lc->z_sensor - o[2][i];
+            li->sx = d[0][i] / -d[2][i];
+            li->sy = d[1][i] / -d[2][i];
+            li->px = o[0][i] - zeta0 * li->sx;
+            li->py = o[1][i] - zeta0 * li->sy;
+        }
+    }
+}
+
+/* The camera's colour set: 0 one wavelength, 1 rgb, 2 spectral. */
+static int colour_set(const lr__cam *c)
+{
+    if (!c->chroma_active)
+        return 0;
+    return c->chroma.mode == LR_CHROMATIC_RGB ? 1 : 2;
+}
+
+/* The index sets traced: the reference first, then every colour the
+ * camera traces (spectral: 380 to 780 nm every 100). */
+static int index_sets(const lr__cam *c, double (*n)[LR__RX_MAX_SURFACES])
+{
+    const lr__lens_cam *lc = &c->lens;
+    int m = 0, rx_n = lc->L->rx.n;
+    memcpy(n[m++], lc->n_ref, sizeof(double) * (size_t)rx_n);
+    if (colour_set(c) == 1)
+        for (int k = 0; k < 3; k++)
+            memcpy(n[m++], lc->n_rgb[k], sizeof(double) * (size_t)rx_n);
+    else if (colour_set(c) == 2)
+        for (double nm = 380.0; nm <= 780.0 + 1e-9; nm += 100.0)
+            lr__lens_indices(c, nm, n[m++]);
+    return m;
+}
+
+typedef struct ray_set {
+    int nq, ncol;
+    line *l;           /* [ncol][nq] */
+    unsigned char *ok; /* [ncol][nq] */
+} ray_set;
+
+/* The sampling domain at film radius r (lens_start's: the disk or the
+ * rectangle): its half sides about (cx, 0) and whether it is the disk. */
+static int domain(const lr__pupil *P, double *hx, double *hy)
+{
+    double disk = M_PI * P->rad * P->rad, rect = 4.0 * P->hx * P->hy;
+    int use_disk = disk <= rect;
+    *hx = use_disk ? P->rad : P->hx, *hy = use_disk ? P->rad : P->hy;
+    return use_disk;
+}
+
+static int in_domain(const lr__pupil *P, int use_disk, double a, double b)
+{
+    return !use_disk || a * a + b * b <= P->rad * P->rad;
+}
+
+/* Pupil points at film radius r: a G x G grid's cell centres over
+ * [a0, a1] x [b0, b1] (offsets from (cx, 0)) inside the sampling domain,
+ * then RIM points on the domain's rim.  Returns the number of grid
+ * points (the rest are rim points); *q gets 2 doubles a point. */
+static int pupil_points(const lr__pupil *P, const double *box, double *q,
+                        int *nq)
+{
+    double hx, hy;
+    int use_disk = domain(P, &hx, &hy);
+    int m = 0;
+    for (int iy = 0; iy < G; iy++)
+        for (int ix = 0; ix < G; ix++) {
+            double a = box[0] + (ix + 0.5) / G * (box[1] - box[0]);
+            double b = box[2] + (iy + 0.5) / G * (box[3] - box[2]);
+            if (!in_domain(P, use_disk, a, b))
+                continue;
+            q[2 * m] = P->cx + a, q[2 * m + 1] = b;
+            m++;
+        }
+    int grid = m;
+    for (int k = 0; k < RIM; k++) {
+        double t = 2.0 * M_PI * k / RIM, a, b;
+        if (use_disk) {
+            a = P->rad * cos(t), b = P->rad * sin(t);
+        } else {
+            double ca = cos(t), sa = sin(t);
+            double sc = fmin(fabs(ca) > 0 ? hx / fabs(ca) : INFINITY,
+                             fabs(sa) > 0 ? hy / fabs(sa) : INFINITY);
+            a = ca * sc, b = sa * sc;
+        }
+        q[2 * m] = P->cx + a, q[2 * m + 1] = b;
+        m++;
+    }
+    *nq = m;
+    return grid;
+}
+
+/* Where in the domain rays get through (at the reference or any colour):
+ * the bounding box of a coarse grid's passing points grown by a coarse
+ * cell, within the domain's; the fine grid is laid over it, so that a
+ * lens stopped down (a pupil far smaller than its bounds) is still
+ * sampled finely.  Offsets from (cx, 0); 0 when nothing passes. */
+static int passing_box(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
+                       int ncol, double r, const lr__pupil *P, double *box)
+{
+    enum { GC = 24 };
+    double hx, hy, q[2 * GC * GC];
+    int use_disk = domain(P, &hx, &hy), any = 0, m = 0;
+    line l[GC * GC];
+    unsigned char ok[GC * GC], pass[GC * GC];
+    for (int iy = 0; iy < GC; iy++)
+        for (int ix = 0; ix < GC; ix++) {
+            double a = (2.0 * (ix + 0.5) / GC - 1.0) * hx;
+            double b = (2.0 * (iy + 0.5) / GC - 1.0) * hy;
+            if (in_domain(P, use_disk, a, b))
+                q[2 * m] = P->cx + a, q[2 * m + 1] = b, m++;
+        }
+    memset(pass, 0, sizeof pass);
+    for (int k = 0; k < ncol; k++) {
+        trace_lines16(c, nsets[k], r, q, m, l, ok);
+        for (int i = 0; i < m; i++)
+            pass[i] |= ok[i];
+    }
+    box[0] = box[2] = INFINITY, box[1] = box[3] = -INFINITY;
+    for (int i = 0; i < m; i++) {
+        if (!pass[i])
+            continue;
+        double a = q[2 * i] - P->cx, b = q[2 * i + 1];
+        any = 1;
+        box[0] = fmin(box[0], a), box[1] = fmax(box[1], a);
+        box[2] = fmin(box[2], b), box[3] = fmax(box[3], b);
+    }
+    double ca = 2.0 * hx / GC, cb = 2.0 * hy / GC;
+    box[0] = fmax(box[0] - ca, -hx), box[1] = fmin(box[1] + ca, hx);
+    box[2] = fmax(box[2] - cb, -hy), box[3] = fmin(box[3] + cb, hy);
+    return any;
+}
+
+/* The integral of cos^4 T over where rays from film radius r pass
+ * (rear-plane mm^2), by the midpoint rule on a GW x GW grid over the
+ * passing box.  Its edge cells carry its error, which falls about as
+ * 1 / GW (for the double Gauss at f/11: 0.66% at 48, 0.17% at 128):
+ * cells of a GW / 4 grid whose neighbours all pass count their centre's
+ * value, the others are cut into 4 x 4. */
+static double weight_sum(const lr__cam *c, const double *n, double r,
+                         const lr__pupil *P, const double *box)
+{
+    enum { GC = GW / 4 };
+    double hx, hy, v[GC + 2][GC + 2];
+    int use_disk = domain(P, &hx, &hy);
+    double cw = (box[1] - box[0]) / GC, chh = (box[3] - box[2]) / GC;
+    /* v: cos^4 T at the coarse centres, -1 where no ray passes (a ring
+     * of -1 around the grid). */
+    for (int iy = 0; iy < GC + 2; iy++)
+        for (int ix = 0; ix < GC + 2; ix++) {
+            double a = box[0] + (ix - 0.5) * cw, b = box[2] + (iy - 0.5) * chh;
+            double T, c4;
+            line l;
+            v[iy][ix] = -1.0;
+            if (ix > 0 && iy > 0 && ix <= GC && iy <= GC &&
+                in_domain(P, use_disk, a, b) &&
+                trace_line(c, n, &c->lens.t_ref, r, P->cx + a, b, &l, &T, &c4))
+                v[iy][ix] = c4 * T;
+        }
+    double sum = 0.0;
+    for (int iy = 1; iy <= GC; iy++)
+        for (int ix = 1; ix <= GC; ix++) {
+            int inner = 1;
+            for (int dy = -1; dy <= 1; dy++)
+                for (int dx = -1; dx <= 1; dx++)
+                    inner &= v[iy + dy][ix + dx] >= 0.0;
+            if (inner) {
+                sum += v[iy][ix] * cw * chh;
+                continue;
+            }
+            for (int sy = 0; sy < 4; sy++)
+                for (int sx = 0; sx < 4; sx++) {
+                    double a = box[0] + (ix - 1 + (sx + 0.5) / 4) * cw;
+                    double b = box[2] + (iy - 1 + (sy + 0.5) / 4) * chh;
+                    double T, c4;
+                    line l;
+                    if (in_domain(P, use_disk, a, b) &&
+                        trace_line(c, n, &c->lens.t_ref, r, P->cx + a, b, &l,
+                                   &T, &c4))
+                        sum += c4 * T * cw * chh / 16.0;
+                }
+        }
+    return sum;
+}
+
+/* One film radius's rays, chief lines and weight.  0: no bound there. */
+static int radius_rays(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
+                       int ncol, double r, double h, ray_set *rs, line *chief,
+                       line *jr, line *jt, float *chief_w)
+{
+    const lr__lens_cam *lc = &c->lens;
+    lr__pupil P = lr__lens_pupil_at(lc, r);
+    double hx, hy, box[4];
+    domain(&P, &hx, &hy);
+    if (!(hx * hy > 0.0) || !passing_box(c, nsets, ncol, r, &P, box))
+        return 0;
+    double q[2 * (G * G + RIM)];
+    int nq, grid = pupil_points(&P, box, q, &nq);
+    rs->nq = nq;
+    rs->ncol = ncol;
+    double T0, wsum;
+    if (!trace_line(c, nsets[0], &lc->t_ref, r, P.cx, 0.0, chief, &T0, NULL) ||
+        !(T0 > 0.0))
+        return 0;
+    /* The film map's derivative: radially from a neighbour's chief ray,
+     * tangentially the chief ray over its radius (rotational symmetry). */
+    line nb;
+    lr__pupil Pn = lr__lens_pupil_at(lc, r + h);
+    if (!trace_line(c, nsets[0], NULL, r + h, Pn.cx, 0.0, &nb, NULL, NULL))
+        return 0;
+    jr->sx = (nb.sx - chief->sx) / h, jr->px = (nb.px - chief->px) / h;
+    if (r > 0.0)
+        jt->sx = chief->sx / r, jt->px = chief->px / r;
+    else
+        *jt = *jr;
+    for (int k = 0; k < ncol; k++)
+        trace_lines16(c, nsets[k], r, q, nq, rs->l + k * nq, rs->ok + k * nq);
+    (void)grid;
+    /* The mean of lens_start's weight (area cos^4 / Z^2 / E0, times T)
+     * over the domain is the integral of cos^4 T / Z^2 / E0 over where
+     * rays pass (the area cancels), per unit of the chief ray's own T
+     * (the packet trace multiplies that in). */
+    wsum = weight_sum(c, nsets[0], r, &P, box);
+    double dz = lc->z_rear - lc->z_sensor;
+    double mean = wsum / (dz * dz) * lc->inv_E0;
+    *chief_w = (float)(mean / T0);
+    return 1;
+}
+
+/* Whether the affine J_s + J_p x keeps its sign on [0, xm]. */
+static int no_pole(const line *j, double xm)
+{
+    double a = j->sx, b = j->sx + j->px * xm;
+    return (a > 0.0 && b > 0.0) || (a < 0.0 && b < 0.0);
+}
+
+/* The table's rows for film radius k from its rays. */
+/* The grid's inverse depths: x_max (j / NX)^2, finest near infinity
+ * (x = 0), where most scenes put their focus (1/16 m is cell 28 of 256
+ * for the double Gauss, cells 4.4e-6 / mm apart there). */
+static double grid_x(const lr__lens_blur *t, int j)
+{
+    double f = (double)j / NX;
+    return t->x_max * f * f;
+}
+
+static void fill_row(lr__lens_blur *t, int k, const ray_set *rs, const line *ch,
+                     const line *jr, const line *jt)
+{
+    for (int j = 0; j <= NX; j++) {
+        double x = grid_x(t, j);
+        double ir = 1.0 / (jr->sx + jr->px * x),
+               it = 1.0 / (jt->sx + jt->px * x);
+        double c0x = ch->sx + ch->px * x, c0y = ch->sy + ch->py * x;
+        double sr = 0.0, st = 0.0, cr = 0.0, ct = 0.0;
+        for (int c = 0; c < rs->ncol; c++)
+            for (int i = 0; i < rs->nq; i++) {
+                int at = c * rs->nq + i;
+                if (!rs->ok[at])
+                    continue;
+                const line *l = &rs->l[at];
+                double X = l->sx + l->px * x, Y = l->sy + l->py * x;
+                sr = MAX(sr, fabs((X - c0x) * ir));
+                st = MAX(st, fabs((Y - c0y) * it));
+                if (c > 0 && rs->ok[i]) {
+                    const line *r0 = &rs->l[i];
+                    double X0 = r0->sx + r0->px * x, Y0 = r0->sy + r0->py * x;
+                    cr = MAX(cr, fabs((X - X0) * ir));
+                    ct = MAX(ct, fabs((Y - Y0) * it));
+                }
+            }
+        t->sr[k][j] = (float)sr, t->st[k][j] = (float)st;
+        t->cr[k][j] = (float)cr, t->ct[k][j] = (float)ct;
+    }
+}
+
+static void slopes(lr__lens_blur *t, int k, const ray_set *rs)
+{
+    t->slo[k] = INFINITY, t->shi[k] = -INFINITY, t->sta[k] = 0.0;
+    for (int i = 0; i < rs->ncol * rs->nq; i++) {
+        if (!rs->ok[i])
+            continue;
+        const line *l = &rs->l[i];
+        t->slo[k] = fmin(t->slo[k], l->sx);
+        t->shi[k] = fmax(t->shi[k], l->sx);
+        t->sta[k] = fmax(t->sta[k], fabs(l->sy));
+        t->reach = fmax(t->reach, hypot(l->px, l->py));
+    }
+}
+
+static lr__lens_blur *build(const lr__cam *c)
+{
+    const lr__lens_cam *lc = &c->lens;
+    lr__lens_blur *t = calloc(1, sizeof *t);
+    double(*nsets)[LR__RX_MAX_SURFACES] = malloc(MAX_COL * sizeof *nsets);
+    int ncol = nsets != NULL ? index_sets(c, nsets) : 0;
+    size_t per = (size_t)(G * G + RIM) * (size_t)ncol;
+    ray_set *rs = malloc((NR + 1) * sizeof *rs);
+    line *lines = malloc((NR + 1) * per * sizeof *lines);
+    unsigned char *oks = malloc((NR + 1) * per);
+    line ch[NR + 1], jr[NR + 1], jt[NR + 1];
+    if (t == NULL || nsets == NULL || rs == NULL || lines == NULL ||
+        oks == NULL) {
+        free(t);
+        t = NULL;
+        goto done;
+    }
+    double h = 1e-3 * lc->pupil_rmax / NR;
+    for (int k = 0; k <= NR; k++) {
+        double r = lc->pupil_rmax * k / NR;
+        rs[k].l = lines + (size_t)k * per;
+        rs[k].ok = oks + (size_t)k * per;
+        t->ok[k] = radius_rays(c, nsets, ncol, r, k < NR ? h : -h, &rs[k],
+                               &ch[k], &jr[k], &jt[k], &t->chief_w[k]);
+        if (t->ok[k])
+            slopes(t, k, &rs[k]);
+    }
+    /* The grid's nearest depth: twice the front vertex's distance from
+     * the sensor, halved until no radius's film map has a zero there. */
+    double zeta_front = lc->z_sensor - lc->L->z[0];
+    t->x_max = 1.0 / (2.0 * fmax(zeta_front, 1.0));
+    for (int it = 0; it < 40; it++) {
+        int good = 1;
+        for (int k = 0; k <= NR; k++)
+            good &= !t->ok[k] ||
+                    (no_pole(&jr[k], t->x_max) && no_pole(&jt[k], t->x_max));
+        if (good)
+            break;
+        t->x_max *= 0.5;
+    }
+    for (int k = 0; k <= NR; k++)
+        if (t->ok[k])
+            fill_row(t, k, &rs[k], &ch[k], &jr[k], &jt[k]);
+done:
+    free(nsets);
+    free(rs);
+    free(lines);
+    free(oks);
+    return t;
+}
+
+static void make_key(const lr__cam *c, double *key)
+{
+    const lr__lens_cam *lc = &c->lens;
+    double k[9] = {
+        lc->z_sensor,   lc->stop_scale,
+        lc->pupil_rmax, colour_set(c) + 10.0 * c->chroma.amplify,
+        lc->z_rear,     lc->coat == NULL ? -1.0 : (double)lc->coat->kind,
+        c->nm_ref,      lc->sensor_w,
+        lc->inv_E0};
+    memcpy(key, k, sizeof k);
+}
+
+const lr__lens_blur *lr__lens_blur_get(const lr__cam *c)
+{
+    lr_lens *L = (lr_lens *)c->lens.L; /* the cache is mutable, under mu */
+    double key[9];
+    make_key(c, key);
+    lr__lens_blur *hit = NULL;
+    pthread_mutex_lock(&L->mu);
+    for (int i = 0; i < L->n_blur && hit == NULL; i++)
+        if (memcmp(((lr__lens_blur *)L->blur[i])->key, key, sizeof key) == 0)
+            hit = L->blur[i];
+    pthread_mutex_unlock(&L->mu);
+    if (hit == NULL) {
+        lr__lens_blur *t = build(c);
+        if (t == NULL)
+            return NULL;
+        memcpy(t->key, key, sizeof key);
+        pthread_mutex_lock(&L->mu);
+        /* Another job may have made it meanwhile: keep the first. */
+        for (int i = 0; i < L->n_blur && hit == NULL; i++)
+            if (memcmp(((lr__lens_blur *)L->blur[i])->key, key, sizeof key) ==
+                0)
+                hit = L->blur[i];
+        if (hit == NULL && L->n_blur < LR__BLUR_CACHE) {
+            L->blur[L->n_blur++] = t;
+            hit = t;
+            t = NULL;
+        }
+        pthread_mutex_unlock(&L->mu);
+        /* The cache is full: no bound (the tables live as long as the
+         * lens, and a camera must not point at one that does not). */
+        free(t);
+        if (hit == NULL)
+            return NULL;
+    }
+    /* The camera is the caller's (render.c's job), prepared before the
+     * plan; its packet rays read this when the plan skips the lens. */
+    __atomic_store_n(&((lr__cam *)c)->lens.blur, hit, __ATOMIC_RELEASE);
+    return hit;
+}
+
+float lr__lens_blur_chief_w(const lr__lens_blur *b, int k, float f)
+{
+    return b->chief_w[k] + f * (b->chief_w[k + 1] - b->chief_w[k]);
+}
+
+/* The film rectangle in sensor mm (lens frame) and its radii's range. */
+static void rect_mm(const lr__cam *c, double fx0, double fy0, double fx1,
+                    double fy1, double *x, double *y, double *rlo, double *rhi)
+{
+    const lr__lens_cam *lc = &c->lens;
+    x[0] = (0.5 - fx1 / c->width) * lc->sensor_w;
+    x[1] = (0.5 - fx0 / c->width) * lc->sensor_w;
+    y[0] = (fy0 / c->height - 0.5) * lc->sensor_h;
+    y[1] = (fy1 / c->height - 0.5) * lc->sensor_h;
+    double nx = fmax(x[0], fmin(0.0, x[1])), ny = fmax(y[0], fmin(0.0, y[1]));
+    *rlo = hypot(nx, ny);
+    *rhi = hypot(fmax(fabs(x[0]), fabs(x[1])), fmax(fabs(y[0]), fabs(y[1])));
+}
+
+/* The table's radii around those a rectangle spans. */
+static void radii(const lr__cam *c, double rlo, double rhi, int *k0, int *k1)
+{
+    double s = NR / c->lens.pupil_rmax;
+    *k0 = (int)floor(rlo * s);
+    *k1 = (int)ceil(rhi * s);
+    *k0 = *k0 < 0 ? 0 : *k0;
+    *k1 = *k1 > NR ? NR : *k1;
+}
+
+int lr__lens_blur_bound(const lr__cam *c, const lr__lens_blur *b, double fx0,
+                        double fy0, double fx1, double fy1, double z0,
+                        double z1, double *spot, double *colour)
+{
+    const lr__lens_cam *lc = &c->lens;
+    double x[2], y[2], rlo, rhi;
+    rect_mm(c, fx0, fy0, fx1, fy1, x, y, &rlo, &rhi);
+    /* Inverse depths in 1/mm (depths are scene units: mm of them). */
+    double xa = isfinite(z1) ? lc->mm / z1 : 0.0, xb = lc->mm / z0;
+    if (!(z0 > 0.0) || !(xb <= b->x_max))
+        return 0;
+    /* The grid points either side of each end (grid_x's inverse). */
+    double ja = NX * sqrt(xa / b->x_max), jb = NX * sqrt(xb / b->x_max);
+    int js[4] = {(int)floor(ja), (int)ceil(ja), (int)floor(jb), (int)ceil(jb)};
+    int k0, k1;
+    radii(c, rlo, rhi, &k0, &k1);
+    double s = 0.0, col = 0.0;
+    for (int k = k0; k <= k1; k++) {
+        if (!b->ok[k])
+            return 0;
+        double sr = 0.0, st = 0.0, cr = 0.0, ct = 0.0;
+        for (int i = 0; i < 4; i++) {
+            int j = js[i] < 0 ? 0 : js[i] > NX ? NX : js[i];
+            sr = fmax(sr, b->sr[k][j]), st = fmax(st, b->st[k][j]);
+            cr = fmax(cr, b->cr[k][j]), ct = fmax(ct, b->ct[k][j]);
+        }
+        s = fmax(s, hypot(sr, st));
+        col = fmax(col, hypot(cr, ct));
+    }
+    double px_mm = c->width / lc->sensor_w;
+    /* A spot is a diameter: twice the farthest point from the chief. */
+    *spot = 2.0 * (s * MARGIN + MARGIN_MM) * px_mm;
+    *colour = 2.0 * (col * MARGIN + MARGIN_MM) * px_mm;
+    return 1;
+}
+
+void lr__lens_blur_reach(const lr__cam *c, const lr__lens_blur *b, double fx0,
+                         double fy0, double fx1, double fy1, double uv[4],
+                         double *R)
+{
+    double x[2], y[2], rlo, rhi;
+    rect_mm(c, fx0, fy0, fx1, fy1, x, y, &rlo, &rhi);
+    int k0, k1;
+    radii(c, rlo, rhi, &k0, &k1);
+    double lo = INFINITY, hi = -INFINITY, ta = 0.0;
+    for (int k = k0; k <= k1; k++) {
+        if (!b->ok[k])
+            continue;
+        lo = fmin(lo, b->slo[k]), hi = fmax(hi, b->shi[k]);
+        ta = fmax(ta, b->sta[k]);
+    }
+    *R = (b->reach * 1.1 + 1.0) * c->lens.mm;
+    if (!(lo <= hi)) {
+        /* No ray traced there passes: rays anywhere (none pass in fact,
+         * but the bound says nothing). */
+        uv[0] = uv[2] = -INFINITY, uv[1] = uv[3] = INFINITY;
+        return;
+    }
+    double rho = hypot(fmax(fabs(lo), fabs(hi)), ta);
+    if (rho > MAX_SLOPE) {
+        /* Past 72 degrees slivers of the pupil pass at slopes the grid
+         * misses (test_lens_blur.c found one at 88 degrees on the
+         * 170-degree lens where the table said 83): no bound. */
+        uv[0] = uv[2] = -INFINITY, uv[1] = uv[3] = INFINITY;
+        return;
+    }
+    double grow = 0.01 * rho + 1e-3;
+    /* The angles the rectangle spans about the axis: at its corners,
+     * unless it holds the axis. */
+    double pm = atan2(0.5 * (y[0] + y[1]), 0.5 * (x[0] + x[1])), dphi = 0.0;
+    for (int i = 0; i < 4; i++) {
+        double d = atan2(y[i >> 1], x[i & 1]) - pm;
+        d = fabs(remainder(d, 2.0 * M_PI));
+        dphi = fmax(dphi, d);
+    }
+    if (rlo <= 0.0 || dphi > 0.5 * M_PI) {
+        uv[0] = uv[2] = -(rho + grow);
+        uv[1] = uv[3] = rho + grow;
+        return;
+    }
+    /* The slopes sr e_r + st e_t for e_r at angle pm: the rectangle of
+     * [lo, hi] x [-ta, ta] turned by pm, grown by how far turning it by
+     * up to dphi moves a point (dphi rho). */
+    double cp = cos(pm), sp = sin(pm);
+    uv[0] = uv[2] = INFINITY, uv[1] = uv[3] = -INFINITY;
+    for (int i = 0; i < 4; i++) {
+        double sr = i & 1 ? hi : lo, st = i & 2 ? ta : -ta;
+        double u = cp * sr - sp * st, v = sp * sr + cp * st;
+        uv[0] = fmin(uv[0], u), uv[1] = fmax(uv[1], u);
+        uv[2] = fmin(uv[2], v), uv[3] = fmax(uv[3], v);
+    }
+    grow += dphi * rho;
+    uv[0] -= grow, uv[2] -= grow, uv[1] += grow, uv[3] += grow;
+}
