@@ -47,9 +47,8 @@ CFLAGS   += -std=c11 $(OPT) -g -Wall -Wextra -Werror -fPIC -D_GNU_SOURCE \
             -fvisibility=hidden -Wno-format-truncation -ffp-contract=off \
             $(SANITIZE) $(SIMD)
 # lib/ by concept (docs/architecture.md); a file includes another by its
-# name alone, so every folder is on the include path.
-LIB_DIRS := $(sort $(dir $(wildcard lib/*/*.[ch] lib/*/*/*.[ch])))
-CPPFLAGS += -Iinclude $(patsubst %/,-I%,$(LIB_DIRS))
+# path under lib/ ("camera/camera.h"), so the layer shows in the include.
+CPPFLAGS += -Iinclude -Ilib
 LDFLAGS  += $(SANITIZE)
 
 LIB_SRC  := $(wildcard lib/*/*.c lib/*/*/*.c)

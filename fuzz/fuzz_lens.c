@@ -17,9 +17,9 @@
  */
 #include "fuzz.h"
 
-#include "prescription.h"
-#include "ghost.h"
-#include "json_util.h"
+#include "optics/prescription.h"
+#include "optics/ghost.h"
+#include "json/json_util.h"
 
 #include <math.h>
 #include <stdlib.h>

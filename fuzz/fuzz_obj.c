@@ -12,7 +12,7 @@
  */
 #include "fuzz.h"
 
-#include "internal.h"
+#include "util/internal.h"
 
 #include <math.h>
 #include <stdio.h>

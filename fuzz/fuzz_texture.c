@@ -12,7 +12,7 @@
  */
 #include "fuzz.h"
 
-#include "texture.h"
+#include "scene/texture.h"
 
 #include <math.h>
 #include <string.h>

@@ -6,7 +6,7 @@
 #ifndef LR_TEST_FILM_INTEGRAL_H
 #define LR_TEST_FILM_INTEGRAL_H
 
-#include "vec.h"
+#include "util/vec.h"
 
 /* The film integral (sum over pixels) of a sphere light's image through
  * a thin lens, in closed form: a pixel is the mean over its area and the

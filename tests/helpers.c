@@ -5,10 +5,10 @@
  * error, and the table of the scene format's fields.
  */
 #include "test.h"
-#include "camera.h"
-#include "json_util.h"
-#include "plan.h"
-#include "prescription.h"
+#include "camera/camera.h"
+#include "json/json_util.h"
+#include "render/plan.h"
+#include "optics/prescription.h"
 
 #include <math.h>
 #include <stdio.h>

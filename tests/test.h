@@ -21,8 +21,8 @@
 #include <cmocka.h>
 
 #include "lensray.h"
-#include "internal.h"
-#include "prescription.h"
+#include "util/internal.h"
+#include "optics/prescription.h"
 
 void lr_test_register(const char *name, const struct CMUnitTest *tests,
                       size_t n);

@@ -6,11 +6,11 @@
  * scene against the radiometric normalisation, and its errors.
  */
 #include "test.h"
-#include "autofocus.h"
-#include "camera.h"
-#include "ghost.h"
-#include "lens_load.h"
-#include "scene.h"
+#include "render/autofocus.h"
+#include "camera/camera.h"
+#include "optics/ghost.h"
+#include "optics/lens_load.h"
+#include "scene/scene.h"
 
 #include <cjson/cJSON.h>
 #include <math.h>

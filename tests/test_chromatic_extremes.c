@@ -6,8 +6,8 @@
  * of the visible range stay finite, for the thin lens and the bracket.
  */
 #include "test.h"
-#include "lens.h"
-#include "spectrum.h"
+#include "optics/lens.h"
+#include "sampling/spectrum.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -8,11 +8,11 @@
  * "coating" and its errors.
  */
 #include "test.h"
-#include "coating.h"
-#include "ghost.h"
-#include "json_util.h"
-#include "lens_load.h"
-#include "prescription.h"
+#include "optics/coating.h"
+#include "optics/ghost.h"
+#include "json/json_util.h"
+#include "optics/lens_load.h"
+#include "optics/prescription.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -7,9 +7,9 @@
  * Gauss's brightest ghosts, a first number for issue 29's "auto".
  */
 #include "test.h"
-#include "coating.h"
-#include "ghost.h"
-#include "prescription.h"
+#include "optics/coating.h"
+#include "optics/ghost.h"
+#include "optics/prescription.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -8,8 +8,8 @@
  * ghosts off or below "auto"'s threshold adding nothing.
  */
 #include "test.h"
-#include "camera.h"
-#include "lens_load.h"
+#include "camera/camera.h"
+#include "optics/lens_load.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -11,8 +11,8 @@
  * "auto" and false decide, and one-sided mesh emission.
  */
 #include "test.h"
-#include "camera.h"
-#include "ghost_trace.h"
+#include "camera/camera.h"
+#include "integrator/ghost_trace.h"
 
 #include <math.h>
 #include <stdio.h>

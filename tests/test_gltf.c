@@ -10,8 +10,8 @@
  * tests/gltf_writer.py (python3, a build dependency).
  */
 #include "test.h"
-#include "integrator.h"
-#include "scene.h"
+#include "integrator/integrator.h"
+#include "scene/scene.h"
 
 #include <cjson/cJSON.h>
 #include <math.h>

@@ -11,8 +11,8 @@
  * hooks of its own would replace them).
  */
 #include "test.h"
-#include "camera_json.h"
-#include "json_util.h"
+#include "camera/camera_json.h"
+#include "json/json_util.h"
 
 #include <cjson/cJSON.h>
 #include <math.h>

@@ -9,9 +9,9 @@
  * lr__lens_blur_reach.
  */
 #include "test.h"
-#include "camera.h"
-#include "lens_load.h"
-#include "scene.h"
+#include "camera/camera.h"
+#include "optics/lens_load.h"
+#include "scene/scene.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -12,9 +12,9 @@
  */
 #include "test.h"
 
-#include "camera.h"
+#include "camera/camera.h"
 #include "film_integral.h"
-#include "plan.h"
+#include "render/plan.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -11,8 +11,8 @@
 
 #include "film_integral.h"
 
-#include "camera.h"
-#include "plan.h"
+#include "camera/camera.h"
+#include "render/plan.h"
 
 #include <math.h>
 #include <stdio.h>

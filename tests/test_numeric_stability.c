@@ -10,8 +10,8 @@
  * ("Fixed bug, guarded here") and fail if it comes back.
  */
 #include "test.h"
-#include "trace.h"
-#include "integrator.h"
+#include "accel/trace.h"
+#include "integrator/integrator.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -7,9 +7,9 @@
  * in test_camera_<name>.c.
  */
 #include "test.h"
-#include "camera.h"
-#include "lens.h"
-#include "spectrum.h"
+#include "camera/camera.h"
+#include "optics/lens.h"
+#include "sampling/spectrum.h"
 
 /* Last: its W and FOV are macros. */
 #include "point_scene.h"

@@ -7,7 +7,7 @@
  * thick-lens formula for a singlet; and a patent's own back focus.
  */
 #include "test.h"
-#include "prescription.h"
+#include "optics/prescription.h"
 
 #include <math.h>
 #include <stdio.h>

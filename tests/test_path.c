@@ -23,10 +23,10 @@
  */
 #include "test.h"
 #include "box_scene.h"
-#include "bsdf.h"
-#include "path.h"
-#include "sampler.h"
-#include "trace.h"
+#include "integrator/bsdf.h"
+#include "integrator/path.h"
+#include "sampling/sampler.h"
+#include "accel/trace.h"
 
 #include <math.h>
 #include <stdio.h>

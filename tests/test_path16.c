@@ -14,9 +14,9 @@
  *   - the hashed numbers against sampler.c's lr__mix64.
  */
 #include "test.h"
-#include "path.h"
-#include "sampler.h"
-#include "trace.h"
+#include "integrator/path.h"
+#include "sampling/sampler.h"
+#include "accel/trace.h"
 
 #include <math.h>
 #include <stdio.h>

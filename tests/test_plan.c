@@ -7,7 +7,7 @@
  */
 #include "test.h"
 
-#include "adaptive.h"
+#include "render/adaptive.h"
 
 #include <math.h>
 #include <stdio.h>

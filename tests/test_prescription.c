@@ -5,8 +5,8 @@
  * finding a lens by name.
  */
 #include "test.h"
-#include "prescription.h"
-#include "json_util.h"
+#include "optics/prescription.h"
+#include "json/json_util.h"
 
 #include <errno.h>
 #include <locale.h>

@@ -12,9 +12,9 @@
  */
 #include "test.h"
 
-#include "adaptive.h"
-#include "camera.h"
-#include "plan.h"
+#include "render/adaptive.h"
+#include "camera/camera.h"
+#include "render/plan.h"
 
 #include <math.h>
 #include <stdio.h>

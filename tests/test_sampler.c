@@ -4,7 +4,7 @@
  * for every power-of-two prefix, all = pure functions in [0, 1).
  */
 #include "test.h"
-#include "sampler.h"
+#include "sampling/sampler.h"
 
 #include <math.h>
 #include <stdlib.h>

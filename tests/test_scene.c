@@ -3,7 +3,7 @@
  * field; valid scenes must load with the values they give.
  */
 #include "test.h"
-#include "scene.h"
+#include "scene/scene.h"
 
 #include <stdio.h>
 #include <math.h>

@@ -4,8 +4,8 @@
  * (determinism, exact accumulation, depth channel, cancellation).
  */
 #include "test.h"
-#include "film.h"
-#include "integrator.h"
+#include "render/film.h"
+#include "integrator/integrator.h"
 
 
 #include <math.h>

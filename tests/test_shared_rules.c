@@ -8,8 +8,8 @@
  * description, and a job parsed once (job.c).
  */
 #include "test.h"
-#include "camera.h"
-#include "integrator.h"
+#include "camera/camera.h"
+#include "integrator/integrator.h"
 
 #include <stdio.h>
 #include <stdlib.h>

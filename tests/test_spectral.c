@@ -6,10 +6,10 @@
  * lens's blur, integrated by quadrature.  Nothing expected here comes
  * from the code under test.
  */
-#include "camera.h"
-#include "plan.h"
+#include "camera/camera.h"
+#include "render/plan.h"
 #include "test.h"
-#include "wavelength.h"
+#include "sampling/wavelength.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -8,7 +8,7 @@
  * of a valid file, garbage, huge dimensions.
  */
 #include "test.h"
-#include "texture.h"
+#include "scene/texture.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -7,9 +7,9 @@
  * projection says, and the daemon's list of files to confine (job.c).
  */
 #include "test.h"
-#include "integrator.h"
-#include "light.h"
-#include "trace.h"
+#include "integrator/integrator.h"
+#include "scene/light.h"
+#include "accel/trace.h"
 
 #include <math.h>
 #include <stdio.h>

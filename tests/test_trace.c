@@ -3,7 +3,7 @@
  * answers, including transforms, rays from inside and grazing misses.
  */
 #include "test.h"
-#include "trace.h"
+#include "accel/trace.h"
 
 #include <math.h>
 #include <stdio.h>

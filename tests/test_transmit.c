@@ -6,11 +6,11 @@
  * radiance whatever the coating.
  */
 #include "test.h"
-#include "camera.h"
-#include "coating.h"
-#include "ghost.h"
-#include "lens_load.h"
-#include "transmit.h"
+#include "camera/camera.h"
+#include "optics/coating.h"
+#include "optics/ghost.h"
+#include "optics/lens_load.h"
+#include "optics/transmit.h"
 
 #include <math.h>
 #include <stdint.h>

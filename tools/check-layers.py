@@ -2,9 +2,10 @@
 """`make check-layers`: lib/'s folders include one way, lower never upper.
 
 Owned by the build (Makefile, tests/all.sh's test-tree step).  Reads every
-`#include "NAME"` in lib/, service/ and tools/; a header is found by its
-name alone (every lib/ folder is on the include path, docs/architecture.md),
-so NAME maps to the folder that holds it.  The layers, lowest first:
+`#include "PATH"` in lib/, service/ and tools/.  lib/ is the include root,
+so a lib/ header is named by its path under lib/ ("camera/camera.h") and
+the first folder of PATH is its layer; a lib/ header named by its bare
+file name fails, so the layer is always visible.  The layers, lowest first:
 
     util < json < sampling < image < optics < camera < scene < accel
          < integrator < render < clients (service/, tools/)
@@ -45,13 +46,12 @@ def layer_of(path):
 def main():
     root = sys.argv[1] if len(sys.argv) > 1 else "."
     errors = []
-    headers = {}
+    headers = {}  # "camera/camera.h" -> "lib/camera/camera.h"
+    bare = {}     # "camera.h" -> "camera/camera.h"
     for p in sources(root, "lib"):
         if p.endswith(".h"):
-            name = os.path.basename(p)
-            if name in headers:
-                errors.append(f"{p}: header name also in {headers[name]}")
-            headers[name] = p
+            headers[p[len("lib/"):]] = p
+            bare.setdefault(os.path.basename(p), p[len("lib/"):])
     for p in headers.values():
         if layer_of(p) not in LAYERS:
             errors.append(f"{p}: folder is not a layer (tools/check-layers.py LAYERS)")
@@ -69,8 +69,15 @@ def main():
                 m = INCLUDE.match(line)
                 if not m:
                     continue
-                name = os.path.basename(m.group(1))
+                name = m.group(1)
                 target = headers.get(name)
+                here = os.path.join(os.path.dirname(p), name)
+                own = not p.startswith("lib/") and os.path.exists(
+                    os.path.join(root, here))  # a client's own header
+                if target is None and name in bare and not own:
+                    errors.append(f"{p}:{n}: include \"{bare[name]}\", "
+                                  f"not \"{name}\": the path shows the layer")
+                    continue
                 if target is None or rank is None:
                     continue  # lensray.h, or a client's own header
                 up = LAYERS.index(layer_of(target))

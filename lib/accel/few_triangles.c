@@ -20,7 +20,7 @@
  * of an edge may take the other triangle (tests/test_path.c:
  * test_few_triangles_match_embree).
  */
-#include "trace.h"
+#include "accel/trace.h"
 
 #include <math.h>
 

@@ -19,7 +19,7 @@
  * (trace.c), so a sphere hit found here completes as one from Embree.
  * Rays that quiet lanes disabled (tnear 1 > tfar 0) meet nothing.
  */
-#include "trace.h"
+#include "accel/trace.h"
 
 #include <math.h>
 

@@ -5,7 +5,7 @@
  * infinite planes that Embree cannot hold, intersected analytically in
  * double.
  */
-#include "trace.h"
+#include "accel/trace.h"
 
 #include <float.h>
 #include <math.h>

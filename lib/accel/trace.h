@@ -7,7 +7,7 @@
 #ifndef LR_TRACE_H
 #define LR_TRACE_H
 
-#include "scene.h"
+#include "scene/scene.h"
 
 typedef struct lr__hit {
     double t;

@@ -5,9 +5,9 @@
  * form that the pinhole, the thin lens and the bracket are drawn with
  * (camera.h), in scalar and 16-wide versions side by side.
  */
-#include "camera.h"
-#include "lens.h"
-#include "wavelength.h"
+#include "camera/camera.h"
+#include "optics/lens.h"
+#include "sampling/wavelength.h"
 
 #include <float.h>
 #include <math.h>

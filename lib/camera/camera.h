@@ -33,12 +33,12 @@
 #ifndef LR_CAMERA_H
 #define LR_CAMERA_H
 
-#include "internal.h"
-#include "lens_load.h"
-#include "prescription.h"
-#include "transmit.h"
-#include "vec.h"
-#include "wavelength.h"
+#include "util/internal.h"
+#include "optics/lens_load.h"
+#include "optics/prescription.h"
+#include "optics/transmit.h"
+#include "util/vec.h"
+#include "sampling/wavelength.h"
 
 #include <embree3/rtcore.h>
 #include <math.h>

@@ -10,7 +10,7 @@
  * Chromatic focus: the paper scales f itself, f_c = f_g n_g / n_c (or
  * the lensmaker's f proportional to 1 / (n - 1)): w(n) = w scale(n).
  */
-#include "camera.h"
+#include "camera/camera.h"
 
 #include <math.h>
 #include <stddef.h>

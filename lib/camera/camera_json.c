@@ -4,11 +4,11 @@
  * the keys every camera takes and the lens keys here, each model's own in
  * that model's file (camera_*.c).
  */
-#include "apply_json.h"
-#include "camera.h"
-#include "camera_json.h"
-#include "lens_load.h"
-#include "json_util.h"
+#include "json/apply_json.h"
+#include "camera/camera.h"
+#include "camera/camera_json.h"
+#include "optics/lens_load.h"
+#include "json/json_util.h"
 
 #include <math.h>
 #include <stddef.h>

@@ -5,7 +5,7 @@
 #ifndef LR_CAMERA_JSON_H
 #define LR_CAMERA_JSON_H
 
-#include "internal.h"
+#include "util/internal.h"
 
 #include <cjson/cJSON.h>
 

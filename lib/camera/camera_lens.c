@@ -32,10 +32,10 @@
  * D >= L + 2f (the nearest focus).  The prescription's last thickness is
  * the infinity position (its designer's best focus), y is added to it.
  */
-#include "camera.h"
-#include "ghost.h"
-#include "lens.h"
-#include "lens_load.h"
+#include "camera/camera.h"
+#include "optics/ghost.h"
+#include "optics/lens.h"
+#include "optics/lens_load.h"
 
 #include <math.h>
 #include <stddef.h>

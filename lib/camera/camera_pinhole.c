@@ -3,7 +3,7 @@
  * its film point, so everything is sharp: no lens, no focus, no
  * chromatic aberration (whatever camera.chromatic says).
  */
-#include "camera.h"
+#include "camera/camera.h"
 
 static lr_status validate(const lr_camera *cam, int active, lr_error *err)
 {

@@ -11,7 +11,7 @@
  * in focus has 1/s(n) = P(n) - 1/v = 1/s + P (scale(n) - 1): the line
  * w(n) = (w - P) + P scale(n).
  */
-#include "camera.h"
+#include "camera/camera.h"
 
 #include <math.h>
 #include <stddef.h>

@@ -33,8 +33,8 @@
  * points, depths and pupil points on every shipped and test lens and
  * checks it against the bound.
  */
-#include "camera.h"
-#include "lens_load.h"
+#include "camera/camera.h"
+#include "optics/lens_load.h"
 
 #include <math.h>
 #include <pthread.h>

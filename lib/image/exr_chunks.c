@@ -5,8 +5,8 @@
  * and the chunks compressed on several threads and written in file
  * order.
  */
-#include "exr_chunks.h"
-#include "exr_zip.h"
+#include "image/exr_chunks.h"
+#include "image/exr_zip.h"
 
 #include <math.h>
 #include <pthread.h>

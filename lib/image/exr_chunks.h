@@ -7,7 +7,7 @@
 #ifndef LR_EXR_CHUNKS_H
 #define LR_EXR_CHUNKS_H
 
-#include "internal.h"
+#include "util/internal.h"
 
 #include <openexr.h>
 

@@ -4,7 +4,7 @@
  * read and size callbacks, so a file and an embedded image take the same
  * path.
  */
-#include "exr_read.h"
+#include "image/exr_read.h"
 
 #include <openexr.h>
 #include <stdlib.h>

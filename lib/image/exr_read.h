@@ -7,7 +7,7 @@
 #ifndef LR_EXR_READ_H
 #define LR_EXR_READ_H
 
-#include "internal.h"
+#include "util/internal.h"
 
 enum { LR__EXR_R, LR__EXR_G, LR__EXR_B, LR__EXR_A, LR__EXR_Y, LR__EXR_NCH };
 

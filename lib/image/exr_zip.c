@@ -1,7 +1,7 @@
 /*
  * exr_zip.c: OpenEXR ZIP/ZIPS chunks with libdeflate (exr_zip.h).
  */
-#include "exr_zip.h"
+#include "image/exr_zip.h"
 
 #include <libdeflate.h>
 #include <stdlib.h>

@@ -4,7 +4,7 @@
  * a job's output.format, the daemon's Content-Type, the encoder to call)
  * asks this table, so a new format is one new row here and one encoder.
  */
-#include "internal.h"
+#include "util/internal.h"
 
 #include <stdio.h>
 #include <string.h>

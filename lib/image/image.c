@@ -4,7 +4,7 @@
  * extensions: format.c).  The encoders themselves live in image_exr.c
  * and image_png.c.
  */
-#include "internal.h"
+#include "util/internal.h"
 
 #include <errno.h>
 #include <fcntl.h>

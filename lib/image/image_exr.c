@@ -21,8 +21,8 @@
  * A crop (lr_image_set_frame) has its data window at its place inside a
  * display window of the whole frame, and says how it was rendered.
  */
-#include "internal.h"
-#include "exr_chunks.h"
+#include "util/internal.h"
+#include "image/exr_chunks.h"
 
 #include <openexr.h>
 

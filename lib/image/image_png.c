@@ -3,7 +3,7 @@
  * or straight into a file.
  * The Z channel, if any, is not stored: PNG has no place for it.
  */
-#include "internal.h"
+#include "util/internal.h"
 
 #include <errno.h>
 #include <png.h>

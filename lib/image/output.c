@@ -6,8 +6,8 @@
  * ignored, so a client never gets an image other than the one it asked
  * for.
  */
-#include "apply_json.h"
-#include "json_util.h"
+#include "json/apply_json.h"
+#include "json/json_util.h"
 
 #include <string.h>
 

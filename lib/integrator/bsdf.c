@@ -1,8 +1,8 @@
 /*
  * bsdf.c: materials for the path integrator (bsdf.h).
  */
-#include "bsdf.h"
-#include "integrator.h"
+#include "integrator/bsdf.h"
+#include "integrator/integrator.h"
 
 #include <math.h>
 

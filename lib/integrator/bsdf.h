@@ -16,7 +16,7 @@
 #ifndef LR_BSDF_H
 #define LR_BSDF_H
 
-#include "trace.h"
+#include "accel/trace.h"
 
 #include <math.h>
 

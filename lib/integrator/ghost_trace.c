@@ -2,10 +2,10 @@
  * ghost_trace.c: a real lens's ghosts from the light side
  * (ghost_trace.h).
  */
-#include "ghost_trace.h"
+#include "integrator/ghost_trace.h"
 
-#include "envmap.h"
-#include "light.h"
+#include "scene/envmap.h"
+#include "scene/light.h"
 
 #include <math.h>
 #include <stdlib.h>

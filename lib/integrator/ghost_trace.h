@@ -33,7 +33,7 @@
 #ifndef LR_GHOST_TRACE_H
 #define LR_GHOST_TRACE_H
 
-#include "light_trace.h"
+#include "integrator/light_trace.h"
 
 /* camera.ghosts "auto": a source gets ghosts when its brightest ghost,
  * spread evenly over its area on the film, would add at least this much

@@ -5,8 +5,8 @@
  * take the names and the valid values from it, and the daemon's
  * GET /v1/options lists them (through lr_render_settings_json).
  */
-#include "integrator.h"
-#include "light.h"
+#include "integrator/integrator.h"
+#include "scene/light.h"
 
 /* Indexed by lr_integrator_kind, whose values run from 0 without gaps:
  * a new integrator is its file, a value in lr_integrator_kind and a row

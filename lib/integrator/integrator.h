@@ -13,8 +13,8 @@
 #ifndef LR_INTEGRATOR_H
 #define LR_INTEGRATOR_H
 
-#include "sampler.h"
-#include "trace.h"
+#include "sampling/sampler.h"
+#include "accel/trace.h"
 
 #include <stdint.h>
 

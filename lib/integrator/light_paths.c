@@ -43,13 +43,13 @@
  * distance (1e-4 of it), the way the light side's direct paths ask for
  * the camera's own trace (light_trace.c).
  */
-#include "light_paths.h"
+#include "integrator/light_paths.h"
 
-#include "bsdf.h"
-#include "integrator.h"
-#include "envmap.h"
-#include "light.h"
-#include "path.h"
+#include "integrator/bsdf.h"
+#include "integrator/integrator.h"
+#include "scene/envmap.h"
+#include "scene/light.h"
+#include "integrator/path.h"
 
 #include <math.h>
 #include <stdlib.h>

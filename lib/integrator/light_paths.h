@@ -27,9 +27,9 @@
 #ifndef LR_LIGHT_PATHS_H
 #define LR_LIGHT_PATHS_H
 
-#include "camera.h"
-#include "sampler.h"
-#include "scene.h"
+#include "camera/camera.h"
+#include "sampling/sampler.h"
+#include "scene/scene.h"
 
 typedef struct lr__lp lr__lp;
 

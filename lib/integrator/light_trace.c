@@ -46,14 +46,14 @@
  * solid-angle density at P of the direction to x (Veach 1997, 8.2.2: a
  * path's area and solid-angle measures).
  */
-#include "light_trace.h"
+#include "integrator/light_trace.h"
 
-#include "ghost_trace.h"
+#include "integrator/ghost_trace.h"
 
-#include "bsdf.h"
-#include "integrator.h"
-#include "envmap.h"
-#include "light.h"
+#include "integrator/bsdf.h"
+#include "integrator/integrator.h"
+#include "scene/envmap.h"
+#include "scene/light.h"
 
 #include <math.h>
 #include <stdlib.h>

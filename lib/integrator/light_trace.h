@@ -63,11 +63,11 @@
 #ifndef LR_LIGHT_TRACE_H
 #define LR_LIGHT_TRACE_H
 
-#include "camera.h"
-#include "integrator.h"
-#include "light_paths.h"
-#include "sampler.h"
-#include "scene.h"
+#include "camera/camera.h"
+#include "integrator/integrator.h"
+#include "integrator/light_paths.h"
+#include "sampling/sampler.h"
+#include "scene/scene.h"
 
 #include <stdint.h>
 

@@ -4,14 +4,14 @@
  * to the camera (MIS), and the glints and the sun it traces.  The paths
  * themselves and their film are light_trace.c's.
  */
-#include "light_trace.h"
+#include "integrator/light_trace.h"
 
-#include "ghost_trace.h"
+#include "integrator/ghost_trace.h"
 
-#include "bsdf.h"
-#include "integrator.h"
-#include "envmap.h"
-#include "light.h"
+#include "integrator/bsdf.h"
+#include "integrator/integrator.h"
+#include "scene/envmap.h"
+#include "scene/light.h"
 
 #include <math.h>
 #include <stdlib.h>

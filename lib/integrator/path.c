@@ -35,10 +35,10 @@
  * primitives both in one pass; lanes on Lambertian surfaces are shaded
  * in path16.c's vector loops, the others here one by one (trace_paths).
  */
-#include "bsdf.h"
-#include "integrator.h"
-#include "light.h"
-#include "path.h"
+#include "integrator/bsdf.h"
+#include "integrator/integrator.h"
+#include "scene/light.h"
+#include "integrator/path.h"
 
 #include <math.h>
 

@@ -8,7 +8,7 @@
 #ifndef LR_PATH_H
 #define LR_PATH_H
 
-#include "trace.h"
+#include "accel/trace.h"
 
 #define LR__PATH_DIMS 8 /* random numbers per bounce (7 used) */
 #define LR__PATH_RR_FROM 5

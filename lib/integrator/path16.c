@@ -17,9 +17,9 @@
  * result; lanes not taken compute on whatever they hold and keep their
  * state (each store selects).
  */
-#include "path.h"
-#include "bsdf.h"
-#include "light.h"
+#include "integrator/path.h"
+#include "integrator/bsdf.h"
+#include "scene/light.h"
 
 #include <float.h>
 #include <math.h>

@@ -7,8 +7,8 @@
  * shadow rays.  Each is what path.c's lane-by-lane code gave, to the bit
  * (tests/test_path16.c checks them against it).
  */
-#include "path.h"
-#include "sampler.h"
+#include "integrator/path.h"
+#include "sampling/sampler.h"
 
 #include <float.h>
 #include <math.h>

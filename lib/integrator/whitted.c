@@ -20,8 +20,8 @@
  * therefore not traced: it could change the sample by less than that
  * fraction of the light it carries.
  */
-#include "light.h"
-#include "whitted.h"
+#include "scene/light.h"
+#include "integrator/whitted.h"
 
 #include <math.h>
 

@@ -8,7 +8,7 @@
 #ifndef LR_WHITTED_H
 #define LR_WHITTED_H
 
-#include "integrator.h"
+#include "integrator/integrator.h"
 
 #include <math.h>
 

@@ -7,8 +7,8 @@
  * lr__whitted_scalar_only); the other lanes are shaded one by one by
  * whitted.c's code.
  */
-#include "light.h"
-#include "whitted.h"
+#include "scene/light.h"
+#include "integrator/whitted.h"
 
 #include <float.h>
 #include <emmintrin.h>

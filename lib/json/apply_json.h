@@ -7,7 +7,7 @@
 #ifndef LR_APPLY_JSON_H
 #define LR_APPLY_JSON_H
 
-#include "internal.h"
+#include "util/internal.h"
 
 #include <cjson/cJSON.h>
 

@@ -5,7 +5,7 @@
  * from a syntax error.  lr__json_parse for documents, and the --set
  * overrides (lr__json_apply_override), whose values parse the same way.
  */
-#include "json_util.h"
+#include "json/json_util.h"
 
 #include <errno.h>
 #include <math.h>

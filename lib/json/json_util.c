@@ -2,7 +2,7 @@
  * json_util.c: typed, path-naming access to cJSON values; JSON paths;
  * UTF-8 checks.  Parsing text into checked trees is json_parse.c.
  */
-#include "json_util.h"
+#include "json/json_util.h"
 
 #include <errno.h>
 #include <math.h>

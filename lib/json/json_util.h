@@ -6,8 +6,8 @@
 #ifndef LR_JSON_UTIL_H
 #define LR_JSON_UTIL_H
 
-#include "internal.h"
-#include "vec.h"
+#include "util/internal.h"
+#include "util/vec.h"
 
 #include <cjson/cJSON.h>
 

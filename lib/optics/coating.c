@@ -2,7 +2,7 @@
  * coating.c: reflectance of bare and coated lens surfaces (coating.h has
  * the formulas and their sources).
  */
-#include "coating.h"
+#include "optics/coating.h"
 
 #include <complex.h>
 #include <math.h>

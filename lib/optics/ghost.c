@@ -1,7 +1,7 @@
 /*
  * ghost.c: ghost paths, and rays traced through them (ghost.h).
  */
-#include "ghost.h"
+#include "optics/ghost.h"
 
 #include <math.h>
 

@@ -23,8 +23,8 @@
 #ifndef LR_GHOST_H
 #define LR_GHOST_H
 
-#include "prescription.h"
-#include "transmit.h"
+#include "optics/prescription.h"
+#include "optics/transmit.h"
 
 /* A ghost path: reflect at surface j, then at surface i < j.  j < 0: the
  * main image (no reflection; the same weights: 1 - R at every surface). */

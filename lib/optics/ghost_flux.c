@@ -3,7 +3,7 @@
  * main image (ghost.h): the figure `lensray lens --ghosts` and issue
  * 29's "auto" threshold start from.
  */
-#include "ghost.h"
+#include "optics/ghost.h"
 
 #include <math.h>
 #include <stdlib.h>

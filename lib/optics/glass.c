@@ -5,7 +5,7 @@
  * series), refractive indices by wavelength, and the nearest names for an
  * unknown glass.
  */
-#include "prescription.h"
+#include "optics/prescription.h"
 
 #include <ctype.h>
 #include <math.h>
@@ -13,7 +13,7 @@
 #include <string.h>
 
 const lr__glass_row lr__glass_catalogue[] = {
-#include "glass_table.h"
+#include "optics/glass_table.h"
 };
 const size_t lr__glass_rows = sizeof lr__glass_catalogue /
                               sizeof lr__glass_catalogue[0];

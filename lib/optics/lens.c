@@ -1,7 +1,7 @@
 /*
  * lens.c: aperture sampling, glass dispersion, focal models.
  */
-#include "lens.h"
+#include "optics/lens.h"
 
 #include <math.h>
 

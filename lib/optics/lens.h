@@ -6,7 +6,7 @@
 #ifndef LR_LENS_H
 #define LR_LENS_H
 
-#include "internal.h"
+#include "util/internal.h"
 
 #include <math.h>
 

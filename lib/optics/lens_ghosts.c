@@ -3,9 +3,9 @@
  * point on the axis (`lensray lens FILE --ghosts`, issue 29), from
  * ghost_flux.c's grid of rays.
  */
-#include "ghost.h"
-#include "json_util.h"
-#include "transmit.h"
+#include "optics/ghost.h"
+#include "json/json_util.h"
+#include "optics/transmit.h"
 
 #include <math.h>
 #include <stdlib.h>

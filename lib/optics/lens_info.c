@@ -3,8 +3,8 @@
  * and its real chief rays (rx_trace.c) as one JSON object, for
  * `lensray lens` and the daemon's GET /v1/lenses.
  */
-#include "prescription.h"
-#include "json_util.h"
+#include "optics/prescription.h"
+#include "json/json_util.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -2,8 +2,8 @@
  * lens_load.c: lr_lens_load and camera.lens, with the process-wide table
  * of interned lenses (lens_load.h).
  */
-#include "lens_load.h"
-#include "json_util.h"
+#include "optics/lens_load.h"
+#include "json/json_util.h"
 
 #include <cjson/cJSON.h>
 #include <math.h>

@@ -9,7 +9,7 @@
 #ifndef LR_LENS_LOAD_H
 #define LR_LENS_LOAD_H
 
-#include "prescription.h"
+#include "optics/prescription.h"
 
 #include <pthread.h>
 

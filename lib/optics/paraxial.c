@@ -7,7 +7,7 @@
  * t in index n is y' = y + (t / n) nu.  Each matrix has determinant 1.
  * Object and image spaces are air.
  */
-#include "prescription.h"
+#include "optics/prescription.h"
 
 #include <math.h>
 #include <string.h>

@@ -28,8 +28,8 @@
 #ifndef LR_PRESCRIPTION_H
 #define LR_PRESCRIPTION_H
 
-#include "internal.h"
-#include "coating.h"
+#include "util/internal.h"
+#include "optics/coating.h"
 
 /* At most this many surfaces in one prescription (the largest published
  * camera lenses have about 40). */

@@ -3,8 +3,8 @@
  * forms an image.  Readers check their own syntax; this checks the
  * geometry, whatever the form the lens came in.
  */
-#include "prescription.h"
-#include "json_util.h"
+#include "optics/prescription.h"
+#include "json/json_util.h"
 
 #include <math.h>
 #include <stdio.h>

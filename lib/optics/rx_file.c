@@ -3,10 +3,10 @@
  * directory, then the shipped lenses) and reading it in the form its
  * name says.
  */
-#include "prescription.h"
-#include "lens_load.h"
-#include "json_util.h"
-#include "scene_file.h"
+#include "optics/prescription.h"
+#include "optics/lens_load.h"
+#include "json/json_util.h"
+#include "util/scene_file.h"
 
 #include <dirent.h>
 #include <locale.h>

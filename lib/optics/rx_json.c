@@ -4,9 +4,9 @@
  * semi_aperture, conic, aspheric, stop, coating}, ...]}, surfaces from the object
  * side.  Every error names the surface and the field.
  */
-#include "prescription.h"
-#include "ghost.h"
-#include "json_util.h"
+#include "optics/prescription.h"
+#include "optics/ghost.h"
+#include "json/json_util.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -13,8 +13,8 @@
  * tables whose second column is the distance from the surface before
  * (0 on the first row) are refused with a message that says so.
  */
-#include "prescription.h"
-#include "json_util.h"
+#include "optics/prescription.h"
+#include "json/json_util.h"
 
 #include <ctype.h>
 #include <math.h>

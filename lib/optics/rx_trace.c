@@ -13,7 +13,7 @@
  * point (Spencer & Murty 1962, "General ray-tracing procedure", JOSA 52).
  * Refraction is the vector form of Snell's law (optics-reference.md).
  */
-#include "prescription.h"
+#include "optics/prescription.h"
 
 #include <math.h>
 

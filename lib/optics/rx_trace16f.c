@@ -8,8 +8,8 @@
  * packet left the processor waiting on that chain, so the camera hands
  * over up to four packets, whose vectors are independent and overlap.
  */
-#include "prescription.h"
-#include "transmit.h"
+#include "optics/prescription.h"
+#include "optics/transmit.h"
 
 #include <immintrin.h>
 #include <math.h>

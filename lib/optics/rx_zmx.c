@@ -11,8 +11,8 @@
  * lensray does not model, and is an error that names its line.  Zemax writes UTF-16 files as often as ASCII ones;
  * both are read.
  */
-#include "prescription.h"
-#include "json_util.h"
+#include "optics/prescription.h"
+#include "json/json_util.h"
 
 #include <ctype.h>
 #include <math.h>

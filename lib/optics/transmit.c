@@ -1,9 +1,9 @@
 /*
  * transmit.c: every surface's 1 - R on a lens's main path (transmit.h).
  */
-#include "transmit.h"
+#include "optics/transmit.h"
 
-#include "ghost.h"
+#include "optics/ghost.h"
 
 #include <math.h>
 #include <string.h>

@@ -25,7 +25,7 @@
 #ifndef LR_TRANSMIT_H
 #define LR_TRANSMIT_H
 
-#include "prescription.h"
+#include "optics/prescription.h"
 
 #include <math.h>
 

@@ -10,8 +10,8 @@
  * first n samples are the full render's first n, so it is the full render
  * stopped at n.
  */
-#include "adaptive.h"
-#include "plan.h"
+#include "render/adaptive.h"
+#include "render/plan.h"
 
 #include <math.h>
 

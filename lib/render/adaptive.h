@@ -8,8 +8,8 @@
 #ifndef LR_ADAPTIVE_H
 #define LR_ADAPTIVE_H
 
-#include "film.h"
-#include "internal.h"
+#include "render/film.h"
+#include "util/internal.h"
 
 struct lr__plan;
 

@@ -3,9 +3,9 @@
  * first hit through a pixel gives the depth, and the model's focus_at
  * (camera.h) sets its focus there.
  */
-#include "autofocus.h"
+#include "render/autofocus.h"
 
-#include "camera.h"
+#include "camera/camera.h"
 
 #include <math.h>
 

@@ -5,7 +5,7 @@
 #ifndef LR_AUTOFOCUS_H
 #define LR_AUTOFOCUS_H
 
-#include "trace.h"
+#include "accel/trace.h"
 
 /* camera.focus_on: focuses *cam on the first hit of the pinhole ray
  * through that pixel of a width x height frame (the model's focus_at), and

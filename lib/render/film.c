@@ -1,7 +1,7 @@
 /*
  * film.c: accumulation of samples into pixels.
  */
-#include "film.h"
+#include "render/film.h"
 
 #include <float.h>
 #include <math.h>

@@ -7,7 +7,7 @@
 #ifndef LR_FILM_H
 #define LR_FILM_H
 
-#include "vec.h"
+#include "util/vec.h"
 
 #include <stdint.h>
 

@@ -5,10 +5,10 @@
  * they report is what a render of the same camera and settings works
  * from.
  */
-#include "autofocus.h"
-#include "camera.h"
-#include "json_util.h"
-#include "plan.h"
+#include "render/autofocus.h"
+#include "camera/camera.h"
+#include "json/json_util.h"
+#include "render/plan.h"
 
 #include <stdlib.h>
 #include <string.h>

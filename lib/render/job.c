@@ -13,9 +13,9 @@
  * here is an inline scene's compact form, which is both what the scene
  * loader reads and the key a cache can hash.
  */
-#include "apply_json.h"
-#include "json_util.h"
-#include "scene_file.h"
+#include "json/apply_json.h"
+#include "json/json_util.h"
+#include "util/scene_file.h"
 
 #include <stdio.h>
 #include <stdlib.h>

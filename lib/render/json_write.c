@@ -6,10 +6,10 @@
  * The unit tests read every value back through the parsers, so the names
  * here cannot drift from theirs.
  */
-#include "camera.h"
-#include "integrator.h"
-#include "json_util.h"
-#include "lens_load.h"
+#include "camera/camera.h"
+#include "integrator/integrator.h"
+#include "json/json_util.h"
+#include "optics/lens_load.h"
 
 #include <cjson/cJSON.h>
 

@@ -4,8 +4,8 @@
  * integrators (lr__integrators_prepare), so that a loaded scene renders
  * with any of them and renders share it read-only.
  */
-#include "integrator.h"
-#include "scene_load.h"
+#include "integrator/integrator.h"
+#include "scene/scene_load.h"
 
 static lr_status prepared(lr_status st, lr_scene **out, lr_error *err)
 {

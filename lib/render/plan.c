@@ -19,13 +19,13 @@
  * exactly, since 1/Z is linear in (u, v) on a plane.
  * The block's blur is then at most C at the ends of its depth range.
  */
-#include "plan.h"
-#include "adaptive.h"
-#include "envmap.h"
-#include "integrator.h"
-#include "sampler.h"
-#include "splat.h"
-#include "texture.h"
+#include "render/plan.h"
+#include "render/adaptive.h"
+#include "scene/envmap.h"
+#include "integrator/integrator.h"
+#include "sampling/sampler.h"
+#include "render/splat.h"
+#include "scene/texture.h"
 
 #include <float.h>
 #include <math.h>

@@ -17,9 +17,9 @@
 #ifndef LR_PLAN_H
 #define LR_PLAN_H
 
-#include "camera.h"
-#include "light_trace.h"
-#include "scene.h"
+#include "camera/camera.h"
+#include "integrator/light_trace.h"
+#include "scene/scene.h"
 
 #define LR__PLAN_BLOCK 16     /* pixels per block side */
 #define LR__PLAN_BLUR_PX 0.25 /* blur below this is not simulated */

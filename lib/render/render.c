@@ -6,16 +6,16 @@
  * is the plan's (plan.c), how many samples adaptive.c's, what a sample is
  * sample.c's.
  */
-#include "adaptive.h"
-#include "autofocus.h"
-#include "camera.h"
-#include "film.h"
-#include "ghost_trace.h"
-#include "integrator.h"
-#include "plan.h"
-#include "sample.h"
-#include "sampler.h"
-#include "splat.h"
+#include "render/adaptive.h"
+#include "render/autofocus.h"
+#include "camera/camera.h"
+#include "render/film.h"
+#include "integrator/ghost_trace.h"
+#include "integrator/integrator.h"
+#include "render/plan.h"
+#include "render/sample.h"
+#include "sampling/sampler.h"
+#include "render/splat.h"
 
 #include <math.h>
 #include <pmmintrin.h>

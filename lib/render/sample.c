@@ -1,8 +1,8 @@
 /*
  * sample.c: the samples of one pixel (sample.h).
  */
-#include "sample.h"
-#include "spectral.h"
+#include "render/sample.h"
+#include "render/spectral.h"
 
 #include <math.h>
 

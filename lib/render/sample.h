@@ -9,12 +9,12 @@
 #ifndef LR_SAMPLE_H
 #define LR_SAMPLE_H
 
-#include "camera.h"
-#include "film.h"
-#include "integrator.h"
-#include "plan.h"
-#include "sampler.h"
-#include "wavelength.h"
+#include "camera/camera.h"
+#include "render/film.h"
+#include "integrator/integrator.h"
+#include "render/plan.h"
+#include "sampling/sampler.h"
+#include "sampling/wavelength.h"
 
 /* What every sample of a render shares; read-only while it runs. */
 typedef struct lr__shot {

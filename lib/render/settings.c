@@ -2,8 +2,8 @@
  * settings.c: render settings: their defaults and their checks (the
  * public lr_render_settings_default and lr_render_settings_validate).
  */
-#include "integrator.h"
-#include "json_util.h"
+#include "integrator/integrator.h"
+#include "json/json_util.h"
 
 #include <string.h>
 

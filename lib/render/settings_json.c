@@ -4,10 +4,10 @@
  * tiles, region, planning, adaptive sampling, integrator), and
  * lr_render_settings_apply_json.
  */
-#include "json_util.h"
-#include "apply_json.h"
-#include "integrator.h"
-#include "settings_json.h"
+#include "json/json_util.h"
+#include "json/apply_json.h"
+#include "integrator/integrator.h"
+#include "render/settings_json.h"
 
 #include <math.h>
 

@@ -5,7 +5,7 @@
 #ifndef LR_SETTINGS_JSON_H
 #define LR_SETTINGS_JSON_H
 
-#include "internal.h"
+#include "util/internal.h"
 
 #include <cjson/cJSON.h>
 

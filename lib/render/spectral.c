@@ -52,8 +52,8 @@
  * alone is traced (sample.c's packet path), which is the same estimate
  * with every wavelength's ray equal to it.
  */
-#include "spectral.h"
-#include "wavelength.h"
+#include "render/spectral.h"
+#include "sampling/wavelength.h"
 
 #include <math.h>
 

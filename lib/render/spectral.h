@@ -8,7 +8,7 @@
 #ifndef LR_SPECTRAL_H
 #define LR_SPECTRAL_H
 
-#include "sample.h"
+#include "render/sample.h"
 
 /* Adds samples first .. last-1 of pixel (x, y) to *acc, sixteen at a time
  * (camera models with rays16_w). */

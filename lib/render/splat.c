@@ -79,7 +79,7 @@
  * Every value is a pure function of the pixel and the sample, so neither
  * the thread count nor the region changes a bit.
  */
-#include "splat.h"
+#include "render/splat.h"
 
 #include <float.h>
 #include <math.h>

@@ -18,7 +18,7 @@
 #ifndef LR_SPLAT_H
 #define LR_SPLAT_H
 
-#include "sample.h"
+#include "render/sample.h"
 
 typedef struct lr__splat lr__splat;
 

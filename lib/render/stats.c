@@ -3,7 +3,7 @@
  * and the daemon's job status show the same fields under the same names
  * (bench/ and the accuracy study read the CLI's).
  */
-#include "internal.h"
+#include "util/internal.h"
 
 #include <stdarg.h>
 #include <stdio.h>

@@ -19,7 +19,7 @@
  *   (0,m,2)-net in the lens dimensions and a (1,m,2)-net in the pixel
  *   dimensions.
  */
-#include "sampler.h"
+#include "sampling/sampler.h"
 
 #include <immintrin.h>
 #include <math.h>

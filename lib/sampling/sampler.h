@@ -8,7 +8,7 @@
 #ifndef LR_SAMPLER_H
 #define LR_SAMPLER_H
 
-#include "internal.h"
+#include "util/internal.h"
 
 #include <stdint.h>
 

@@ -1,7 +1,7 @@
 /*
  * spectrum.c: CIE 1931 colour matching and XYZ -> linear sRGB.
  */
-#include "spectrum.h"
+#include "sampling/spectrum.h"
 
 #include <math.h>
 

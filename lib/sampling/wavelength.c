@@ -1,8 +1,8 @@
 /*
  * wavelength.c: importance sampling of the visible range (wavelength.h).
  */
-#include "wavelength.h"
-#include "spectrum.h"
+#include "sampling/wavelength.h"
+#include "sampling/spectrum.h"
 
 #include <math.h>
 #include <pthread.h>

@@ -8,8 +8,8 @@
  * lookup puts the texel (envmap.h): columns [x, x + 1] / w, rows
  * [y - 1/2, y + 1/2] / (h - 1), the first and last rows half as tall.
  */
-#include "envmap.h"
-#include "exr_read.h"
+#include "scene/envmap.h"
+#include "image/exr_read.h"
 
 #include <errno.h>
 #include <math.h>

@@ -14,7 +14,7 @@
 #ifndef LR_ENVMAP_H
 #define LR_ENVMAP_H
 
-#include "light.h"
+#include "scene/light.h"
 
 struct lr__envmap {
     int w, h;

@@ -5,8 +5,8 @@
  * of those choices for multiple importance sampling.  The environment's
  * own sampling is envmap.c.
  */
-#include "light.h"
-#include "envmap.h"
+#include "scene/light.h"
+#include "scene/envmap.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -18,7 +18,7 @@
 #ifndef LR_LIGHT_H
 #define LR_LIGHT_H
 
-#include "scene.h"
+#include "scene/scene.h"
 
 typedef struct lr__light_sample {
     lr__v3 dir;  /* unit, from the shading point towards the light */

@@ -3,7 +3,7 @@
  * textures (material.h), a glTF material's base colour split by its
  * metallic texture, and where a point of a sphere is in a texture.
  */
-#include "scene.h"
+#include "scene/scene.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -6,10 +6,10 @@
 #ifndef LR_MATERIAL_H
 #define LR_MATERIAL_H
 
-#include "internal.h"
-#include "vec.h"
+#include "util/internal.h"
+#include "util/vec.h"
 
-#include "texture.h"
+#include "scene/texture.h"
 
 /* An affine map of texture coordinates (lensray's: v up), applied before
  * a lookup: u' = m[0] u + m[1] v + m[2], v' = m[3] u + m[4] v + m[5];

@@ -3,8 +3,8 @@
  * (material_json.h).  Colour textures (diffuse, emission) are sRGB-coded
  * where the format is 8- or 16-bit; roughness is data, kept linear.
  */
-#include "material_json.h"
-#include "scene_file.h"
+#include "scene/material_json.h"
+#include "util/scene_file.h"
 
 #include <stdio.h>
 #include <stdlib.h>

@@ -7,8 +7,8 @@
 #ifndef LR_MATERIAL_JSON_H
 #define LR_MATERIAL_JSON_H
 
-#include "json_util.h"
-#include "scene.h"
+#include "json/json_util.h"
+#include "scene/scene.h"
 
 /* The texture keys of material object `m` (JSON path p) into mt, files
  * relative to base_dir (NULL: as written), loaded once each through

@@ -5,8 +5,8 @@
  * mirroring transform), and a finite plane tessellated as a rectangle of
  * two triangles.
  */
-#include "mesh.h"
-#include "json_util.h"
+#include "scene/mesh.h"
+#include "json/json_util.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -6,8 +6,8 @@
 #ifndef LR_MESH_H
 #define LR_MESH_H
 
-#include "scene.h"
-#include "transform.h"
+#include "scene/scene.h"
+#include "util/transform.h"
 
 /* Reads the OBJ file `file` and adds its triangles to `s`, placed by `x`
  * (a mirroring x keeps the front side outside).  Normals: the file's are

@@ -9,7 +9,7 @@
  * points) is skipped, because the renderer has no use for it.  Faces (`f`) are
  * obj_face.c's; the parser's state is in obj.h.
  */
-#include "obj.h"
+#include "scene/obj.h"
 
 #include <errno.h>
 #include <float.h>

@@ -7,7 +7,7 @@
 #ifndef LR_OBJ_H
 #define LR_OBJ_H
 
-#include "internal.h"
+#include "util/internal.h"
 
 #include <locale.h>
 #include <stddef.h>

@@ -4,7 +4,7 @@
  * polygon fan-triangulated, keeping per-corner normals while every corner
  * has one.
  */
-#include "obj.h"
+#include "scene/obj.h"
 
 #include <errno.h>
 #include <limits.h>

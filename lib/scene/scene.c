@@ -2,9 +2,9 @@
  * scene.c: the scene's Embree side: building geometry and committing it;
  * the scene's destructor and accessors.  Tracing is in trace.c.
  */
-#include "scene.h"
-#include "envmap.h"
-#include "light.h"
+#include "scene/scene.h"
+#include "scene/envmap.h"
+#include "scene/light.h"
 
 #include <float.h>
 #include <stdarg.h>

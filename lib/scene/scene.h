@@ -7,10 +7,10 @@
 #ifndef LR_SCENE_H
 #define LR_SCENE_H
 
-#include "internal.h"
-#include "vec.h"
+#include "util/internal.h"
+#include "util/vec.h"
 
-#include "material.h"
+#include "scene/material.h"
 
 #include <embree3/rtcore.h>
 #include <stdatomic.h>

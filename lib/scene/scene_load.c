@@ -7,15 +7,15 @@
  * ("objects[3].radius must be > 0, got -2").  Unknown and duplicate keys
  * are errors, so a typo never goes unnoticed.
  */
-#include "camera_json.h"
-#include "envmap.h"
-#include "gltf.h"
-#include "json_util.h"
-#include "material_json.h"
-#include "scene.h"
-#include "scene_load.h"
-#include "scene_file.h"
-#include "settings_json.h"
+#include "camera/camera_json.h"
+#include "scene/envmap.h"
+#include "scene/gltf/gltf.h"
+#include "json/json_util.h"
+#include "scene/material_json.h"
+#include "scene/scene.h"
+#include "scene/scene_load.h"
+#include "util/scene_file.h"
+#include "render/settings_json.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -6,8 +6,8 @@
 #ifndef LR_SCENE_LOAD_H
 #define LR_SCENE_LOAD_H
 
-#include "scene.h"
-#include "transform.h"
+#include "scene/scene.h"
+#include "util/transform.h"
 
 #include <cjson/cJSON.h>
 

@@ -4,14 +4,14 @@
  * glTF files, each with its material by name and its transform.  Every
  * value is validated and every error names its JSON path.
  */
-#include "gltf.h"
-#include "json_util.h"
-#include "material_json.h"
-#include "mesh.h"
-#include "scene.h"
-#include "scene_file.h"
-#include "scene_load.h"
-#include "transform.h"
+#include "scene/gltf/gltf.h"
+#include "json/json_util.h"
+#include "scene/material_json.h"
+#include "scene/mesh.h"
+#include "scene/scene.h"
+#include "util/scene_file.h"
+#include "scene/scene_load.h"
+#include "util/transform.h"
 
 #include <math.h>
 #include <stdio.h>

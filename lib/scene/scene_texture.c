@@ -2,7 +2,7 @@
  * scene_texture.c: the scene's textures: each file loaded once per
  * (path, srgb) and kept until the scene is freed (scene.h).
  */
-#include "scene.h"
+#include "scene/scene.h"
 
 #include <stdlib.h>
 #include <string.h>

@@ -3,8 +3,8 @@
  * textures (through exr_read.c, the reader the environment map uses),
  * the sRGB decoding and the bilinear lookup.
  */
-#include "texture.h"
-#include "exr_read.h"
+#include "scene/texture.h"
+#include "image/exr_read.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -10,7 +10,7 @@
 #ifndef LR_TEXTURE_H
 #define LR_TEXTURE_H
 
-#include "internal.h"
+#include "util/internal.h"
 
 #define LR__TEX_MAX_DIM 16384
 #define LR__TEX_MAX_TEXELS ((size_t)1 << 26) /* 1 GiB of float RGBA */

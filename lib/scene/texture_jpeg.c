@@ -5,7 +5,7 @@
  * jumps back here instead, and so do its warnings (a truncated or
  * corrupt file, which libjpeg would finish with grey, is an error).
  */
-#include "texture.h"
+#include "scene/texture.h"
 
 /* (jpeglib.h needs stdio.h first.) */
 #include <stdio.h>

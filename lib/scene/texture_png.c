@@ -5,7 +5,7 @@
  * sRGB (glTF 2.0 says so of base colour and emissive images whatever
  * their chunks say; gAMA, cHRM and iCCP are not read).
  */
-#include "texture.h"
+#include "scene/texture.h"
 
 #include <png.h>
 #include <setjmp.h>

@@ -1,7 +1,7 @@
 /*
  * error.c: filling lr_error, status names, the version string.
  */
-#include "internal.h"
+#include "util/internal.h"
 
 #include <stdio.h>
 #include <string.h>

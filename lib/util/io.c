@@ -2,7 +2,7 @@
  * io.c: reading a whole file into memory, with a size limit (scene files,
  * OBJ files).
  */
-#include "internal.h"
+#include "util/internal.h"
 
 #include <errno.h>
 #include <stdint.h>

@@ -2,7 +2,7 @@
  * scene_file.c: a scene's file references made paths (scene_file.h), and
  * the process's assets directory (lr_assets_dir_set in lensray.h).
  */
-#include "scene_file.h"
+#include "util/scene_file.h"
 
 #include <pthread.h>
 #include <stdio.h>

@@ -13,7 +13,7 @@
 #ifndef LR_SCENE_FILE_H
 #define LR_SCENE_FILE_H
 
-#include "internal.h"
+#include "util/internal.h"
 
 /* Whether a member named `key` of a scene object holds a file reference
  * (a string).  camera.lens is the one key that may also hold a name

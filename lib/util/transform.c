@@ -5,7 +5,7 @@
  * JSON list of translate / rotate / scale steps is read by
  * scene_objects.c (lr__xform_parse).
  */
-#include "transform.h"
+#include "util/transform.h"
 
 #include <math.h>
 #include <string.h>

@@ -6,8 +6,8 @@
 #ifndef LR_TRANSFORM_H
 #define LR_TRANSFORM_H
 
-#include "internal.h"
-#include "vec.h"
+#include "util/internal.h"
+#include "util/vec.h"
 
 /* A 3x4 affine transform, row-major: p' = M p + t. */
 typedef struct lr__xform {

@@ -5,7 +5,7 @@
  * program).  One line a glass: "MAKER<TAB>NAME<TAB>n(400) ... n(700)",
  * at the wavelengths of the first line, "nm<TAB><TAB>400 ...".
  */
-#include "prescription.h"
+#include "optics/prescription.h"
 
 #include <stdio.h>
 

@@ -20,9 +20,9 @@
  * metallic m (linear; lensray squares the roughness).  The split above
  * is then made at each point (material.h, pbr_split).
  */
-#include "gltf_doc.h"
-#include "json_util.h"
-#include "texture.h"
+#include "scene/gltf/gltf_doc.h"
+#include "json/json_util.h"
+#include "scene/texture.h"
 
 #include <assimp/scene.h>
 #include <math.h>

@@ -6,8 +6,8 @@
 #ifndef LR_GLTF_H
 #define LR_GLTF_H
 
-#include "scene.h"
-#include "transform.h"
+#include "scene/scene.h"
+#include "util/transform.h"
 
 /* What the scene asks of the file's camera ("camera" in a "gltf" object). */
 typedef enum lr__gltf_camera_use {

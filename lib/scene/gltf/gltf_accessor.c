@@ -5,8 +5,8 @@
  * attribute's component type and type, and where an accessor's elements
  * lie.  gltf_check.c checks the rest of the document.
  */
-#include "gltf_doc.h"
-#include "json_util.h"
+#include "scene/gltf/gltf_doc.h"
+#include "json/json_util.h"
 
 #include <limits.h>
 #include <math.h>

@@ -20,9 +20,9 @@
  * skinned reach it posed (gltf_pose.c), through the same extra buffer
  * (gltf_extra.h).
  */
-#include "gltf_doc.h"
-#include "gltf_extra.h"
-#include "json_util.h"
+#include "scene/gltf/gltf_doc.h"
+#include "scene/gltf/gltf_extra.h"
+#include "json/json_util.h"
 
 #include <assimp/cfileio.h>
 #include <assimp/cimport.h>

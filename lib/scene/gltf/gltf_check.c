@@ -9,8 +9,8 @@
  * every error names the field.  gltf.c then hands assimp a copy of the
  * JSON that this file printed, and files only through its own reader.
  */
-#include "gltf_doc.h"
-#include "json_util.h"
+#include "scene/gltf/gltf_doc.h"
+#include "json/json_util.h"
 
 #include <limits.h>
 #include <math.h>

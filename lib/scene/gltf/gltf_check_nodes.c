@@ -5,8 +5,8 @@
  * matrices agree, skinned meshes' joint attributes, morph weights, the
  * node hierarchy.  Every error names the field.
  */
-#include "gltf_doc.h"
-#include "json_util.h"
+#include "scene/gltf/gltf_doc.h"
+#include "json/json_util.h"
 
 #include <limits.h>
 #include <math.h>

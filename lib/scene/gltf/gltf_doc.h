@@ -7,8 +7,8 @@
 #ifndef LR_GLTF_DOC_H
 #define LR_GLTF_DOC_H
 
-#include "gltf.h"
-#include "internal.h"
+#include "scene/gltf/gltf.h"
+#include "util/internal.h"
 
 #include <cjson/cJSON.h>
 

@@ -7,7 +7,7 @@
 #ifndef LR_GLTF_EXTRA_H
 #define LR_GLTF_EXTRA_H
 
-#include "gltf_doc.h"
+#include "scene/gltf/gltf_doc.h"
 
 /* The bytes assimp gets beyond the document's buffers, in one more
  * buffer (`index`, one past the document's): floats for integer texture

@@ -4,8 +4,8 @@
  * each read once) and the GLB container (spec 4.4); gltf_check.c checks
  * what they hold.
  */
-#include "gltf_doc.h"
-#include "json_util.h"
+#include "scene/gltf/gltf_doc.h"
+#include "json/json_util.h"
 
 #include <limits.h>
 #include <stdint.h>

@@ -4,8 +4,8 @@
  * KHR_lights_punctual's lights (docs/gltf.md has the mapping and the
  * units).
  */
-#include "gltf_doc.h"
-#include "json_util.h"
+#include "scene/gltf/gltf_doc.h"
+#include "json/json_util.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -5,7 +5,7 @@
  * skinned here, into the extra buffer (gltf_extra.h).  assimp never sees
  * the targets nor the skins.
  */
-#include "gltf_extra.h"
+#include "scene/gltf/gltf_extra.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -3,9 +3,9 @@
  * the file placed by a scene that lensray writes for it (gltf.h), and
  * that scene's text for a client that sends it on (lr_gltf_scene_json).
  */
-#include "gltf.h"
-#include "light.h"
-#include "scene_load.h"
+#include "scene/gltf/gltf.h"
+#include "scene/light.h"
+#include "scene/scene_load.h"
 
 #include <cjson/cJSON.h>
 #include <stdio.h>
