@@ -378,9 +378,8 @@ void lr__lens_blur_reach(const lr__cam *c, const lr__lens_blur *b, double fx0,
  * weight over the chief ray's transmittance), for the packet rays. */
 float lr__lens_blur_chief_w(const lr__lens_blur *b, int k, float f);
 
-/* camera_lens.c's pupil bounds at film radius r mm and its indices at
- * wavelength nm (chromatic.amplify applied), for lens_blur.c. */
-lr__pupil lr__lens_pupil_at(const lr__lens_cam *lc, double r);
+/* camera_lens.c's indices at wavelength nm (chromatic.amplify applied),
+ * for lens_blur.c and the lens model's files. */
 void lr__lens_indices(const lr__cam *c, double nm, double *n);
 
 /* Prepares `c` for a width x height film; `cam` must have passed

@@ -33,7 +33,7 @@
  * points, depths and pupil points on every shipped and test lens and
  * checks it against the bound.
  */
-#include "camera/camera.h"
+#include "camera/camera_lens.h"
 #include "optics/lens_load.h"
 
 #include <math.h>

@@ -1,0 +1,114 @@
+/*
+ * camera_lens.h: the real lens model's parts, shared by its three files
+ * and lens_blur.c.  Owned by the lens model; nothing outside lib/camera/
+ * includes it (other layers reach a model through camera.h's table).
+ *
+ *   camera_lens.c   keys, validation, setup, camera rays, the registration
+ *   lens_pupil.c    the exit-pupil bounds (pbrt-v4's RealisticCamera)
+ *   lens_light.c    the light side and the ghosts (camera.h: lens_point,
+ *                   film, ghost_paths, ghost_film)
+ *
+ * Frames and radiometry: the top of camera_lens.c.
+ */
+#ifndef LR_CAMERA_LENS_H
+#define LR_CAMERA_LENS_H
+
+#include "camera/camera.h"
+#include "optics/lens_load.h"
+
+#include <math.h>
+
+/* Fills c->lens's exit-pupil table for the colours the render traces (0
+ * one, 1 rgb, 2 the visible range), from the lens's cache when it has it
+ * (lens_pupil.c). */
+void lr__lens_pupils(lr__cam *c, int colours);
+
+/* The light side (lens_light.c): the model table's lens_point, film,
+ * film_rgb, film_wl, thin_equiv, light_ok and lens_at. */
+lr__v3 lr__lens_at(const lr__cam *c, double ox, double oy);
+lr__v3 lr__lens_point(const lr__cam *c, const double u[2], double *ox,
+                      double *oy);
+double lr__lens_film(const lr__cam *c, double ox, double oy, lr__v3 w,
+                     double *fx, double *fy);
+double lr__lens_film_rgb(const lr__cam *c, int k, double ox, double oy,
+                         lr__v3 w, double *fx, double *fy);
+double lr__lens_film_wl(const lr__cam *c, double w, double nm, double ox,
+                        double oy, lr__v3 d, double *fx, double *fy);
+void lr__lens_thin_equiv(const lr__cam *c, lr__lens_bound *b);
+int lr__lens_light_ok(const lr__cam *c);
+
+/* The ghosts (lens_light.c): the model table's ghost_paths, ghost_film
+ * and ghost_disk. */
+int lr__lens_ghost_paths(const lr__cam *c, double *peak, double *k,
+                         lr__ghost_est *est);
+double lr__lens_ghost_film(const lr__cam *c, int g, int k, double ox, double oy,
+                           lr__v3 w, double *fx, double *fy);
+double lr__lens_ghost_disk(const lr__cam *c);
+
+/* ---- small helpers of the three files, inline ----------------------------- */
+
+/* From lens coordinates (mm, about the sensor's centre) to the scene. */
+static inline void lr__lens_to_world(const lr__cam *c, const double o[3],
+                                     const double d[3], lr__v3 *org,
+                                     lr__v3 *dir)
+{
+    const lr__lens_cam *lc = &c->lens;
+    double zo = o[2] - lc->z_sensor;
+    lr__v3 p = v3_madd(v3_madd(v3_scale(c->right, o[0]), c->up, o[1]),
+                       c->forward, -zo);
+    *org = v3_madd(c->origin, p, lc->mm);
+    *dir = v3_norm(v3_madd(v3_madd(v3_scale(c->right, d[0]), c->up, d[1]),
+                           c->forward, -d[2]));
+}
+
+/* Film point (fx, fy) on the sensor, in mm (top of file), with its
+ * distance from the axis and the unit vector of its radial direction. */
+typedef struct lr__lens_sensor {
+    double x, y, r, ex, ey;
+} lr__lens_sensor;
+
+static inline lr__lens_sensor lr__lens_sensor_at(const lr__cam *c, double fx,
+                                                 double fy)
+{
+    const lr__lens_cam *lc = &c->lens;
+    lr__lens_sensor p;
+    p.x = (0.5 - fx / c->width) * lc->sensor_w;
+    p.y = (fy / c->height - 0.5) * lc->sensor_h;
+    p.r = hypot(p.x, p.y);
+    p.ex = p.r > 0.0 ? p.x / p.r : 1.0;
+    p.ey = p.r > 0.0 ? p.y / p.r : 0.0;
+    return p;
+}
+
+/* The bounds at film radius r, between the table's two neighbouring
+ * entries a and b: centred in proportion, as large as the larger of the
+ * two plus half the distance their centres move.  Sizes interpolated in
+ * proportion fall short where an element starts to cut the pupil (it
+ * shrinks fast there): a white scene came out 3.5% dark in rings. */
+static inline lr__pupil lr__lens_pupil_at(const lr__lens_cam *lc, double r)
+{
+    double t = r / lc->pupil_rmax * LR__PUPIL_N;
+    int k = (int)t;
+    k = k < LR__PUPIL_N - 1 ? k : LR__PUPIL_N - 1;
+    double f = t - k;
+    const lr__pupil *a = &lc->pupil[k], *b = &lc->pupil[k + 1];
+    double move = 0.5 * fabs(b->cx - a->cx);
+    return (lr__pupil){a->cx + f * (b->cx - a->cx), fmax(a->rad, b->rad) + move,
+                       fmax(a->hx, b->hx) + move, fmax(a->hy, b->hy)};
+}
+
+/* The transmittance table for the indices n (one of the camera's sets),
+ * or NULL for indices at another wavelength (then R is computed at the
+ * ray's own). */
+static inline const lr__ttab *lr__lens_ttab_for(const lr__lens_cam *lc,
+                                                const double *n)
+{
+    if (n == lc->n_ref)
+        return &lc->t_ref;
+    for (int k = 0; k < 3; k++)
+        if (n == lc->n_rgb[k] && lc->t_rgb_ok)
+            return &lc->t_rgb[k];
+    return NULL;
+}
+
+#endif
