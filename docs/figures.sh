@@ -130,3 +130,8 @@ fig lens-breathe-near scenes/lens-chart.json --set camera.lens=double-gauss-50 \
 # a tiled floor, a lat-long map on a sphere, roughness in bands on metal,
 # and an emission texture that lights the scene; path traced.
 fig textured scenes/textured.json --set render.spp=256
+# The orthographic camera: the spheres row from above and to the side, a
+# view 9 units tall; every sphere keeps its size at any distance.
+fig spheres-orthographic scenes/spheres.json --set camera.model=orthographic \
+    --set camera.view_height=9 --set 'camera.position=[-12, 9, -4]' \
+    --set 'camera.look_at=[0, 0.5, -20]' --set render.spp=64

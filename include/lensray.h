@@ -82,7 +82,15 @@ typedef enum lr_camera_model {
     LR_CAMERA_THINLENS = 1, /* physical thin lens (pbrt, Mitsuba, Blender) */
     LR_CAMERA_BRACKET = 2,  /* the paper's square "bracket" method */
     LR_CAMERA_LENS = 3      /* a real lens, traced surface by surface */
+    /* Values from 4 on are the models registered after these, in the
+     * registry's order (4: "orthographic"); they have no name here, so
+     * that adding a model changes nothing in this header.  Choose any
+     * model by name: lr_camera_apply_json(cam, "{\"model\": ...}"). */
 } lr_camera_model;
+
+/* Room in lr_camera for the parameters of the models registered after
+ * LR_CAMERA_LENS (lr_camera.model_params). */
+#define LR_CAMERA_MODEL_PARAMS 32
 
 /* A real lens prescription, loaded by lr_lens_load (or by a scene whose
  * camera names one).  Loaded lenses are immutable, shared and never
@@ -212,6 +220,13 @@ typedef struct lr_camera {
      * prescription's coatings.  Default LR_COATING_PRESCRIPTION. */
     lr_lens_coating coating;
     lr_ghosts ghosts; /* default LR_GHOSTS_AUTO */
+
+    /* The parameters of every model registered after LR_CAMERA_LENS,
+     * each model's in a block of its own, laid out by its key table: they
+     * are not API.  Set and read them by key, through
+     * lr_camera_apply_json and lr_camera_json (docs/scene-format.md
+     * section 6 lists each model's keys and defaults). */
+    double model_params[LR_CAMERA_MODEL_PARAMS];
 } lr_camera;
 
 /* Loads the lens `lens`: a prescription file (lensray JSON, pbrt-v4's

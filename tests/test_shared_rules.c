@@ -294,7 +294,7 @@ static void test_camera_new(void **state)
     lr_camera local;
     lr_camera_default(&local);
     for (int m = 0; lr__camera_models[m] != NULL; m++) {
-        heap->model = local.model = lr__camera_models[m]->id;
+        heap->model = local.model = (lr_camera_model)m;
         char *a = lr_camera_json(heap), *b = lr_camera_json(&local);
         assert_string_equal(a, b);
         lr_free(a);
@@ -321,7 +321,8 @@ static void test_camera_model_registry(void **state)
     for (; lr__camera_models[n] != NULL; n++) {
         const lr__camera_model *m = lr__camera_models[n];
         assert_ptr_equal(lr__camera_model_named(m->name), m);
-        assert_ptr_equal(lr__camera_model_of(m->id), m);
+        assert_ptr_equal(lr__camera_model_of((lr_camera_model)n), m);
+        assert_int_equal((int)lr__camera_model_id(m), n);
         snprintf(list + strlen(list), sizeof list - strlen(list), "%s\"%s\"",
                  n ? ", " : "", m->name);
         char json[128];
@@ -330,11 +331,35 @@ static void test_camera_model_registry(void **state)
          * name is never the one refused. */
         lr_camera_default(&cam);
         if (lr_camera_apply_json(&cam, json, strlen(json), &err) == LR_OK)
-            assert_int_equal((int)cam.model, (int)m->id);
+            assert_int_equal((int)cam.model, n);
         else
             assert_string_not_equal(err.path, "camera.model");
     }
     assert_true(n >= 4);
+    /* The models after "lens" keep their parameters in blocks of
+     * lr_camera.model_params: every block fits, one after another, and no
+     * two models' parameters share a key name (each is read once, by its
+     * own model's block). */
+    int end = 0;
+    for (int m = 0; m < n; m++) {
+        assert_int_equal(lr__camera_param_base(lr__camera_models[m]), end);
+        for (const lr__camera_key *k = lr__camera_models[m]->keys;
+             k->name != NULL; k++) {
+            if (k->type != LR__KEY_PARAM)
+                continue;
+            assert_true(m > (int)LR_CAMERA_LENS);
+            end++;
+            for (int o = 0; o < n; o++)
+                for (const lr__camera_key *q = lr__camera_models[o]->keys;
+                     q->name != NULL; q++)
+                    if (q != k && strcmp(q->name, k->name) == 0)
+                        fail_msg("model %s's parameter %s is also model %s's "
+                                 "key",
+                                 lr__camera_models[m]->name, k->name,
+                                 lr__camera_models[o]->name);
+        }
+    }
+    assert_true(end <= LR_CAMERA_MODEL_PARAMS);
     /* The values inspect.c tries (0..63): each is a row's, or unknown. */
     for (int id = 0; id < 64; id++) {
         lr_camera_default(&cam);

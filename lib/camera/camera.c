@@ -48,6 +48,14 @@ void lr_camera_default(lr_camera *cam)
     cam->lens = NULL;
     cam->sensor_width_mm = 36.0;
     cam->scene_unit_mm = 1000.0;
+    for (int m = 0; lr__camera_models[m] != NULL; m++) {
+        int base = lr__camera_param_base(lr__camera_models[m]);
+        for (const lr__camera_key *k = lr__camera_models[m]->keys;
+             k->name != NULL; k++)
+            if (k->type == LR__KEY_PARAM &&
+                base + (int)k->offset < LR_CAMERA_MODEL_PARAMS)
+                cam->model_params[base + k->offset] = k->def;
+    }
 }
 
 lr_camera *lr_camera_new(void)
@@ -65,9 +73,21 @@ void lr_camera_free(lr_camera *cam)
 
 /* ---- the registry ----------------------------------------------------- */
 
-const lr__camera_model *const lr__camera_models[] = {
-    &lr__camera_pinhole, &lr__camera_thinlens, &lr__camera_bracket,
-    &lr__camera_lens, NULL};
+/* The models, one line each, in the order of their ids: the first four
+ * are lr_camera_model's named values.  A model is its file
+ * (camera_<name>.c, defining lr__camera_<name>) and its line here. */
+#define LR__CAMERA_MODELS(X) \
+    X(pinhole)               \
+    X(thinlens)              \
+    X(bracket)               \
+    X(lens)                  \
+    X(orthographic)
+
+#define DECLARE(name) extern const lr__camera_model lr__camera_##name;
+#define ENTRY(name) &lr__camera_##name,
+LR__CAMERA_MODELS(DECLARE)
+const lr__camera_model *const lr__camera_models[] = {LR__CAMERA_MODELS(ENTRY)
+                                                         NULL};
 
 const lr__camera_model *lr__camera_model_named(const char *name)
 {
@@ -80,9 +100,35 @@ const lr__camera_model *lr__camera_model_named(const char *name)
 const lr__camera_model *lr__camera_model_of(lr_camera_model id)
 {
     for (int i = 0; lr__camera_models[i] != NULL; i++)
-        if (lr__camera_models[i]->id == id)
+        if (i == (int)id)
             return lr__camera_models[i];
     return NULL;
+}
+
+lr_camera_model lr__camera_model_id(const lr__camera_model *m)
+{
+    int i = 0;
+    while (lr__camera_models[i] != NULL && lr__camera_models[i] != m)
+        i++;
+    return (lr_camera_model)i;
+}
+
+int lr__camera_param_base(const lr__camera_model *m)
+{
+    int base = 0;
+    for (int i = 0; lr__camera_models[i] != NULL && lr__camera_models[i] != m;
+         i++)
+        for (const lr__camera_key *k = lr__camera_models[i]->keys;
+             k->name != NULL; k++)
+            base += k->type == LR__KEY_PARAM;
+    return base;
+}
+
+double lr__camera_param(const lr_camera *cam, const lr__camera_model *m,
+                        const lr__camera_key *k)
+{
+    int at = lr__camera_param_base(m) + (int)k->offset;
+    return at < LR_CAMERA_MODEL_PARAMS ? cam->model_params[at] : 0.0;
 }
 
 /* ---- validation ------------------------------------------------------- */

@@ -48,13 +48,17 @@ typedef struct lr__cam lr__cam;
 /* One key of the scene format's "camera" object: read by camera_json.c
  * into the lr_camera field at `offset`, and written back by it, by type.
  * The keys every camera takes are camera_json.c's; each model lists its
- * own in its table below. */
+ * own in its table below.  A model registered after "lens" keeps its
+ * parameters out of lr_camera's named fields: its keys are LR__KEY_PARAM,
+ * numbers in its own block of lr_camera.model_params (lr__camera_param). */
 typedef enum lr__key_type {
     LR__KEY_NUMBER, /* double */
     LR__KEY_INT,    /* int: a whole number in [min, max] */
     LR__KEY_VEC3,   /* double[3] */
     LR__KEY_ENUM,   /* an enum (int): one of `names`, stored as its index */
-    LR__KEY_CUSTOM  /* read and written by camera_json.c's own code */
+    LR__KEY_CUSTOM, /* read and written by camera_json.c's own code */
+    LR__KEY_PARAM   /* double: the `offset`-th number of the model's block,
+                       `def` by default, in [min, max] */
 } lr__key_type;
 
 typedef struct lr__camera_key {
@@ -62,7 +66,8 @@ typedef struct lr__camera_key {
     lr__key_type type;
     size_t offset;            /* of the field in lr_camera */
     const char *const *names; /* LR__KEY_ENUM: indexed by value, NULL-ended */
-    long long min, max;       /* LR__KEY_INT */
+    long long min, max;       /* LR__KEY_INT, LR__KEY_PARAM */
+    double def;               /* LR__KEY_PARAM: the default */
 } lr__camera_key;
 
 /* The planner's view of a camera: a thin lens of radius R at the eye
@@ -89,8 +94,7 @@ typedef struct lr__ghost_est {
 } lr__ghost_est;
 
 typedef struct lr__camera_model {
-    const char *name;   /* in JSON: "camera": {"model": name} */
-    lr_camera_model id; /* in lr_camera.model */
+    const char *name; /* in JSON: "camera": {"model": name} */
     /* The model's own keys of the camera object, ending with a NULL name;
      * every model's keys are accepted whatever the model (so that --set
      * camera.model=... works on any scene), and written back only for
@@ -244,18 +248,23 @@ typedef struct lr__camera_model {
     lr__v3 (*lens_at)(const lr__cam *c, double ox, double oy);
 } lr__camera_model;
 
-/* The registry (camera.c): the model called `name`, or the one whose id
- * is `id`; NULL when there is none. */
+/* The registry (camera.c, one line a model): the model called `name`,
+ * or the one whose id (its value of lr_camera.model: its place in the
+ * registry) is `id`; NULL when there is none. */
 const lr__camera_model *lr__camera_model_named(const char *name);
 const lr__camera_model *lr__camera_model_of(lr_camera_model id);
+lr_camera_model lr__camera_model_id(const lr__camera_model *m);
 /* The models, in registry order, ending with NULL: for listing names in
  * error messages and docs. */
 extern const lr__camera_model *const lr__camera_models[];
 
-extern const lr__camera_model lr__camera_pinhole;
-extern const lr__camera_model lr__camera_thinlens;
-extern const lr__camera_model lr__camera_bracket;
-extern const lr__camera_model lr__camera_lens;
+/* Where model m's LR__KEY_PARAM keys live: its block starts at this
+ * index of lr_camera.model_params (the models before it in the registry
+ * hold the ones before; every model's block fits: test_camera_registry),
+ * and key k's value is lr__camera_param(cam, m, k). */
+int lr__camera_param_base(const lr__camera_model *m);
+double lr__camera_param(const lr_camera *cam, const lr__camera_model *m,
+                        const lr__camera_key *k);
 
 /* A real lens prepared for one film (camera_lens.c): where the sensor
  * sits, the stop's scale, the indices at the fixed wavelengths, and the
@@ -300,6 +309,8 @@ typedef struct lr__lens_cam {
 
 /* A camera prepared for one film: the frame every model shares, then the
  * model's own part. */
+#define LR__CAM_OWN 16
+
 struct lr__cam {
     const lr__camera_model *model;
     lr__v3 origin;
@@ -339,6 +350,9 @@ struct lr__cam {
     double nm_ref;     /* the wavelength traced without colours */
     int weighted;      /* 1: rays carry weights (a real lens) */
     lr__lens_cam lens; /* the "lens" model's part */
+    /* The state of a model registered after "lens", laid out by its
+     * setup (its own file), which nothing else reads. */
+    double own[LR__CAM_OWN];
 };
 
 /* ---- the real lens's blur bound (lens_blur.c) ----------------------- */

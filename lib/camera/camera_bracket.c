@@ -19,10 +19,10 @@
 
 static const lr__camera_key keys[] = {
     {"image_plane_distance", LR__KEY_NUMBER, AT(image_plane_distance), NULL, 0,
-     0},
-    {"focal_length", LR__KEY_NUMBER, AT(focal_length), NULL, 0, 0},
-    {"aperture", LR__KEY_NUMBER, AT(aperture), NULL, 0, 0},
-    {NULL, 0, 0, NULL, 0, 0},
+     0, 0.0},
+    {"focal_length", LR__KEY_NUMBER, AT(focal_length), NULL, 0, 0, 0.0},
+    {"aperture", LR__KEY_NUMBER, AT(aperture), NULL, 0, 0, 0.0},
+    {NULL, 0, 0, NULL, 0, 0, 0.0},
 };
 
 #define BAD(path, ...) lr__fail(err, LR_ERR_INVALID, path, __VA_ARGS__)
@@ -133,7 +133,6 @@ static double film_near(const lr__cam *c, lr__v3 d)
 
 const lr__camera_model lr__camera_bracket = {
     .name = "bracket",
-    .id = LR_CAMERA_BRACKET,
     .keys = keys,
     .lens = 1,
     .validate = validate,

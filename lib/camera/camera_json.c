@@ -11,6 +11,7 @@
 #include "json/json_util.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stddef.h>
 #include <string.h>
 
@@ -122,13 +123,10 @@ static lr_status parse_model(const cJSON *c, lr_camera *cam, lr_error *err)
     for (; lr__camera_models[n] != NULL && n < 15; n++)
         names[n] = lr__camera_models[n]->name;
     names[n] = NULL;
-    int i = -1;
-    for (int k = 0; k < n; k++)
-        if (lr__camera_models[k]->id == cam->model)
-            i = k;
+    int i = (int)cam->model < n ? (int)cam->model : -1;
     LR_TRY(lr__json_enum(c, "model", "camera", names, &i, err));
     if (i >= 0)
-        cam->model = lr__camera_models[i]->id;
+        cam->model = (lr_camera_model)i;
     return LR_OK;
 }
 
@@ -136,27 +134,55 @@ static lr_status parse_model(const cJSON *c, lr_camera *cam, lr_error *err)
 
 /* The keys every camera takes, before the models' own. */
 static const lr__camera_key common_keys[] = {
-    {"model", LR__KEY_CUSTOM, AT(model), NULL, 0, 0},
-    {"position", LR__KEY_VEC3, AT(position), NULL, 0, 0},
-    {"look_at", LR__KEY_VEC3, AT(look_at), NULL, 0, 0},
-    {"up", LR__KEY_VEC3, AT(up), NULL, 0, 0},
-    {"fov", LR__KEY_NUMBER, AT(fov), NULL, 0, 0},
-    {NULL, 0, 0, NULL, 0, 0},
+    {"model", LR__KEY_CUSTOM, AT(model), NULL, 0, 0, 0.0},
+    {"position", LR__KEY_VEC3, AT(position), NULL, 0, 0, 0.0},
+    {"look_at", LR__KEY_VEC3, AT(look_at), NULL, 0, 0, 0.0},
+    {"up", LR__KEY_VEC3, AT(up), NULL, 0, 0, 0.0},
+    {"fov", LR__KEY_NUMBER, AT(fov), NULL, 0, 0, 0.0},
+    {NULL, 0, 0, NULL, 0, 0, 0.0},
 };
 
 /* And after them, the keys of models with a lens (lr__camera_model.lens):
  * autofocus and chromatic aberration. */
 static const lr__camera_key lens_keys[] = {
-    {"focus_on", LR__KEY_CUSTOM, AT(focus_on), NULL, 0, 0},
-    {"chromatic", LR__KEY_CUSTOM, AT(chromatic), NULL, 0, 0},
-    {NULL, 0, 0, NULL, 0, 0},
+    {"focus_on", LR__KEY_CUSTOM, AT(focus_on), NULL, 0, 0, 0.0},
+    {"chromatic", LR__KEY_CUSTOM, AT(chromatic), NULL, 0, 0, 0.0},
+    {NULL, 0, 0, NULL, 0, 0, 0.0},
 };
 
+/* A model's LR__KEY_PARAM key: a number in [min, max] (both 0: any
+ * finite number), in the model's block of cam->model_params. */
+static lr_status read_param(const cJSON *c, const lr__camera_key *k,
+                            const lr__camera_model *m, lr_camera *cam,
+                            lr_error *err)
+{
+    int at = lr__camera_param_base(m) + (int)k->offset;
+    if (at >= LR_CAMERA_MODEL_PARAMS)
+        return lr__fail(err, LR_ERR_INVALID, NULL,
+                        "camera.%s: model %s's parameters do not fit in "
+                        "LR_CAMERA_MODEL_PARAMS",
+                        k->name, m->name);
+    double v = cam->model_params[at];
+    LR_TRY(lr__json_number(c, k->name, "camera", 0, &v, err));
+    if ((k->min != 0 || k->max != 0) && !(v >= k->min && v <= k->max)) {
+        char path[80];
+        snprintf(path, sizeof path, "camera.%s", k->name);
+        return lr__fail(err, LR_ERR_INVALID, path,
+                        "camera.%s must be from %lld to %lld, got %g", k->name,
+                        k->min, k->max, v);
+    }
+    cam->model_params[at] = v;
+    return LR_OK;
+}
+
 static lr_status read_key(const cJSON *c, const lr__camera_key *k,
-                          lr_camera *cam, const char *base_dir, lr_error *err)
+                          const lr__camera_model *m, lr_camera *cam,
+                          const char *base_dir, lr_error *err)
 {
     void *field = (char *)cam + k->offset;
     switch (k->type) {
+    case LR__KEY_PARAM:
+        return read_param(c, k, m, cam, err);
     case LR__KEY_NUMBER:
         return lr__json_number(c, k->name, "camera", 0, field, err);
     case LR__KEY_INT: {
@@ -195,15 +221,17 @@ static lr_status read_key(const cJSON *c, const lr__camera_key *k,
                     k->name);
 }
 
-/* Calls fn on every key, in the order they are read (which decides which
- * error comes first) and listed in "unknown key" errors: the common keys,
- * each model's in registry order, the lens keys. */
+/* Every key, in the order they are read (which decides which error comes
+ * first) and listed in "unknown key" errors: the common keys, each
+ * model's in registry order, the lens keys; owner[i]: the model whose
+ * table holds out[i] (NULL for the common and lens keys). */
 #define MAX_KEYS 64
-static size_t all_keys(const lr__camera_key **out)
+static size_t all_keys(const lr__camera_key **out,
+                       const lr__camera_model **owner)
 {
     size_t n = 0;
     for (const lr__camera_key *k = common_keys; k->name != NULL; k++)
-        out[n++] = k;
+        owner[n] = NULL, out[n++] = k;
     for (int m = 0; lr__camera_models[m] != NULL; m++)
         for (const lr__camera_key *k = lr__camera_models[m]->keys;
              k->name != NULL && n < MAX_KEYS - 3; k++) {
@@ -212,10 +240,10 @@ static size_t all_keys(const lr__camera_key **out)
             while (seen < n && strcmp(out[seen]->name, k->name) != 0)
                 seen++;
             if (seen == n)
-                out[n++] = k;
+                owner[n] = lr__camera_models[m], out[n++] = k;
         }
     for (const lr__camera_key *k = lens_keys; k->name != NULL; k++)
-        out[n++] = k;
+        owner[n] = NULL, out[n++] = k;
     return n;
 }
 
@@ -223,17 +251,18 @@ lr_status lr__camera_from_json(const cJSON *c, lr_camera *cam,
                                const char *base_dir, lr_error *err)
 {
     const lr__camera_key *keys[MAX_KEYS];
+    const lr__camera_model *owner[MAX_KEYS];
     const char *names[MAX_KEYS + 1];
     if (c == NULL)
         return LR_OK;
     LR_TRY(lr__json_object(c, "camera", "", err));
-    size_t n = all_keys(keys);
+    size_t n = all_keys(keys, owner);
     for (size_t i = 0; i < n; i++)
         names[i] = keys[i]->name;
     names[n] = NULL;
     LR_TRY(lr__json_check_keys(c, "camera", names, err));
     for (size_t i = 0; i < n; i++)
-        LR_TRY(read_key(c, keys[i], cam, base_dir, err));
+        LR_TRY(read_key(c, keys[i], owner[i], cam, base_dir, err));
     return lr_camera_validate(cam, err);
 }
 

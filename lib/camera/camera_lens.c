@@ -54,16 +54,16 @@ _Static_assert(sizeof(lr_lens_coating) == sizeof(int),
                "LR__KEY_ENUM fields are stored as int");
 
 static const lr__camera_key keys[] = {
-    {"lens", LR__KEY_CUSTOM, AT(lens), NULL, 0, 0},
-    {"sensor_width_mm", LR__KEY_NUMBER, AT(sensor_width_mm), NULL, 0, 0},
-    {"scene_unit_mm", LR__KEY_NUMBER, AT(scene_unit_mm), NULL, 0, 0},
-    {"focus_distance", LR__KEY_NUMBER, AT(focus_distance), NULL, 0, 0},
-    {"f_number", LR__KEY_NUMBER, AT(f_number), NULL, 0, 0},
-    {"coating", LR__KEY_ENUM, AT(coating), coatings, 0, 0},
+    {"lens", LR__KEY_CUSTOM, AT(lens), NULL, 0, 0, 0.0},
+    {"sensor_width_mm", LR__KEY_NUMBER, AT(sensor_width_mm), NULL, 0, 0, 0.0},
+    {"scene_unit_mm", LR__KEY_NUMBER, AT(scene_unit_mm), NULL, 0, 0, 0.0},
+    {"focus_distance", LR__KEY_NUMBER, AT(focus_distance), NULL, 0, 0, 0.0},
+    {"f_number", LR__KEY_NUMBER, AT(f_number), NULL, 0, 0, 0.0},
+    {"coating", LR__KEY_ENUM, AT(coating), coatings, 0, 0, 0.0},
     /* "auto", true or false: camera_json.c reads it, json_write.c writes
      * it (only when not "auto"). */
-    {"ghosts", LR__KEY_CUSTOM, AT(ghosts), NULL, 0, 0},
-    {NULL, 0, 0, NULL, 0, 0},
+    {"ghosts", LR__KEY_CUSTOM, AT(ghosts), NULL, 0, 0, 0.0},
+    {NULL, 0, 0, NULL, 0, 0, 0.0},
 };
 
 #define BAD(path, ...) lr__fail(err, LR_ERR_INVALID, path, __VA_ARGS__)
@@ -535,7 +535,6 @@ static lr_status focus_at(lr_camera *cam, double z, lr_error *err)
 
 const lr__camera_model lr__camera_lens = {
     .name = "lens",
-    .id = LR_CAMERA_LENS,
     .keys = keys,
     .lens = 1,
     .validate = validate,

@@ -26,11 +26,10 @@ static void bound(const lr__cam *c, lr__lens_bound *b)
     b->ws[0] = 0.0;
 }
 
-static const lr__camera_key keys[] = {{NULL, 0, 0, NULL, 0, 0}};
+static const lr__camera_key keys[] = {{NULL, 0, 0, NULL, 0, 0, 0.0}};
 
 const lr__camera_model lr__camera_pinhole = {
     .name = "pinhole",
-    .id = LR_CAMERA_PINHOLE,
     .keys = keys,
     .lens = 0,
     .validate = validate,

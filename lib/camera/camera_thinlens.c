@@ -22,15 +22,16 @@
 static const char *const shapes[] = {"disk", "square", "polygon", NULL};
 
 static const lr__camera_key keys[] = {
-    {"focus_distance", LR__KEY_NUMBER, AT(focus_distance), NULL, 0, 0},
-    {"aperture_radius", LR__KEY_NUMBER, AT(aperture_radius), NULL, 0, 0},
-    {"f_number", LR__KEY_NUMBER, AT(f_number), NULL, 0, 0},
-    {"focal_length_mm", LR__KEY_NUMBER, AT(focal_length_mm), NULL, 0, 0},
-    {"aperture_shape", LR__KEY_ENUM, AT(aperture_shape), shapes, 0, 0},
-    {"aperture_blades", LR__KEY_INT, AT(aperture_blades), NULL, 3, 64},
-    {"aperture_rotation", LR__KEY_NUMBER, AT(aperture_rotation), NULL, 0, 0},
-    {"aperture_ratio", LR__KEY_NUMBER, AT(aperture_ratio), NULL, 0, 0},
-    {NULL, 0, 0, NULL, 0, 0},
+    {"focus_distance", LR__KEY_NUMBER, AT(focus_distance), NULL, 0, 0, 0.0},
+    {"aperture_radius", LR__KEY_NUMBER, AT(aperture_radius), NULL, 0, 0, 0.0},
+    {"f_number", LR__KEY_NUMBER, AT(f_number), NULL, 0, 0, 0.0},
+    {"focal_length_mm", LR__KEY_NUMBER, AT(focal_length_mm), NULL, 0, 0, 0.0},
+    {"aperture_shape", LR__KEY_ENUM, AT(aperture_shape), shapes, 0, 0, 0.0},
+    {"aperture_blades", LR__KEY_INT, AT(aperture_blades), NULL, 3, 64, 0.0},
+    {"aperture_rotation", LR__KEY_NUMBER, AT(aperture_rotation), NULL, 0, 0,
+     0.0},
+    {"aperture_ratio", LR__KEY_NUMBER, AT(aperture_ratio), NULL, 0, 0, 0.0},
+    {NULL, 0, 0, NULL, 0, 0, 0.0},
 };
 
 _Static_assert(sizeof(lr_aperture_shape) == sizeof(int),
@@ -126,7 +127,6 @@ static lr_status focus_at(lr_camera *cam, double z, lr_error *err)
 
 const lr__camera_model lr__camera_thinlens = {
     .name = "thinlens",
-    .id = LR_CAMERA_THINLENS,
     .keys = keys,
     .lens = 1,
     .validate = validate,

@@ -105,11 +105,15 @@ static void chromatic_json(jb *b, const lr_chromatic *ch)
     b->failed |= c.failed;
 }
 
-/* One key of a camera model's table (camera.h), by its type. */
-static void camera_key(jb *b, const lr__camera_key *k, const lr_camera *cam)
+/* One key of camera model m's table (camera.h), by its type. */
+static void camera_key(jb *b, const lr__camera_key *k,
+                       const lr__camera_model *m, const lr_camera *cam)
 {
     const char *field = (const char *)cam + k->offset;
     switch (k->type) {
+    case LR__KEY_PARAM:
+        num(b, k->name, lr__camera_param(cam, m, k));
+        break;
     case LR__KEY_NUMBER:
         num(b, k->name, *(const double *)field);
         break;
@@ -158,7 +162,7 @@ char *lr_camera_json(const lr_camera *cam)
     num(&b, "fov", cam->fov);
     if (model != NULL)
         for (const lr__camera_key *k = model->keys; k->name != NULL; k++)
-            camera_key(&b, k, cam);
+            camera_key(&b, k, model, cam);
     if (model != NULL && model->lens) {
         if (cam->focus_on[0] >= 0) {
             double at[2] = {cam->focus_on[0], cam->focus_on[1]};

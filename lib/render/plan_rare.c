@@ -237,8 +237,10 @@ lr_status lr__plan_rare_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
             L_cam = fmax(L_cam, shown(fl, g, is_plane, L_emit, L_glint));
     }
     r->L_all = L_cam;
-    if (c->has_lens && c->model->bound == NULL) {
-        /* No bound on where the lens's rays go: anywhere. */
+    if (c->model->bound == NULL) {
+        /* No bound on where the camera's rays go (a real lens's, or rays
+         * that do not leave the eye, as an orthographic camera's):
+         * anywhere. */
         r->everywhere = 1;
         p->rare = r;
         return LR_OK;
