@@ -2,9 +2,13 @@
  * load.c: the public scene loaders (lensray.h): a scene loaded and
  * committed by the scene layer (scene_load.c), then readied for the
  * integrators (lr__integrators_prepare), so that a loaded scene renders
- * with any of them and renders share it read-only.
+ * with any of them and renders share it read-only.  The render layer
+ * reads a scene's "render" object for the scene layer
+ * (lr__settings_from_json, passed down as its lr__render_reader): the
+ * settings name integrators, which the scene layer does not know.
  */
 #include "integrator/integrator.h"
+#include "render/settings_json.h"
 #include "scene/scene_load.h"
 
 static lr_status prepared(lr_status st, lr_scene **out, lr_error *err)
@@ -24,13 +28,23 @@ lr_status lr_scene_load_json(const char *json, size_t len, const char *base_dir,
                              lr_scene **out, lr_error *err)
 {
     return prepared(lr__scene_load_json(json, len, base_dir, overrides,
-                                        n_overrides, out, err),
+                                        n_overrides, lr__settings_from_json,
+                                        out, err),
                     out, err);
 }
 
 lr_status lr_scene_load_file(const char *path, const char *const *overrides,
                              size_t n_overrides, lr_scene **out, lr_error *err)
 {
-    return prepared(lr__scene_load_file(path, overrides, n_overrides, out, err),
+    return prepared(lr__scene_load_file(path, overrides, n_overrides,
+                                        lr__settings_from_json, out, err),
                     out, err);
+}
+
+lr_status lr_scene_read_settings(const char *path, const char *const *overrides,
+                                 size_t n_overrides, lr_camera *cam,
+                                 lr_render_settings *rs, lr_error *err)
+{
+    return lr__scene_read_settings(path, overrides, n_overrides,
+                                   lr__settings_from_json, cam, rs, err);
 }

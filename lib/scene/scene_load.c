@@ -15,7 +15,6 @@
 #include "scene/scene.h"
 #include "scene/scene_load.h"
 #include "util/scene_file.h"
-#include "render/settings_json.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -278,8 +277,9 @@ static lr_status parse_environment(lr_scene *s, const cJSON *e,
  * defaults (its files relative to base_dir, NULL: ".") and the render
  * settings over theirs. */
 static lr_status read_head(const cJSON *root, const char *base_dir,
-                           const char **desc, lr_camera *cam,
-                           lr_render_settings *rs, lr_error *err)
+                           lr__render_reader rd, const char **desc,
+                           lr_camera *cam, lr_render_settings *rs,
+                           lr_error *err)
 {
     /* docs/scene-format.md, section 5. */
     static const char *const keys[] = {
@@ -296,15 +296,14 @@ static lr_status read_head(const cJSON *root, const char *base_dir,
     LR_TRY(
         lr__camera_from_json(cJSON_GetObjectItemCaseSensitive(root, "camera"),
                              cam, base_dir ? base_dir : ".", err));
-    return lr__settings_from_json(
-        cJSON_GetObjectItemCaseSensitive(root, "render"), rs, err);
+    return rd(cJSON_GetObjectItemCaseSensitive(root, "render"), rs, err);
 }
 
 static lr_status build(lr_scene *s, const cJSON *root, const char *base_dir,
-                       lr_error *err)
+                       lr__render_reader rd, lr_error *err)
 {
     const char *desc;
-    LR_TRY(read_head(root, base_dir, &desc, &s->camera, &s->settings, err));
+    LR_TRY(read_head(root, base_dir, rd, &desc, &s->camera, &s->settings, err));
     s->description = strdup(desc ? desc : "");
     if (s->description == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
@@ -356,7 +355,8 @@ static lr_status parse_scene(const char *json, size_t len,
 lr_status lr__scene_load_json(const char *json, size_t len,
                               const char *base_dir,
                               const char *const *overrides, size_t n_overrides,
-                              lr_scene **out, lr_error *err)
+                              lr__render_reader rd, lr_scene **out,
+                              lr_error *err)
 {
     if (out == NULL || (json == NULL && len > 0))
         return lr__fail(err, LR_ERR_INVALID, NULL,
@@ -369,7 +369,7 @@ lr_status lr__scene_load_json(const char *json, size_t len,
         cJSON_Delete(root);
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     }
-    lr_status st = build(s, root, base_dir, err);
+    lr_status st = build(s, root, base_dir, rd, err);
     cJSON_Delete(root);
     if (st != LR_OK) {
         lr_scene_free(s);
@@ -409,26 +409,30 @@ static void name_file(const char *path, lr_status st, lr_error *err)
 /* The whole scene loaded, for its camera and settings. */
 static lr_status settings_of_loaded(const char *path,
                                     const char *const *overrides,
-                                    size_t n_overrides, lr_camera *cam,
-                                    lr_render_settings *rs, lr_error *err)
+                                    size_t n_overrides, lr__render_reader rd,
+                                    lr_camera *cam, lr_render_settings *rs,
+                                    lr_error *err)
 {
     lr_scene *s = NULL;
-    LR_TRY(lr__scene_load_file(path, overrides, n_overrides, &s, err));
+    LR_TRY(lr__scene_load_file(path, overrides, n_overrides, rd, &s, err));
     lr_scene_camera(s, cam);
     lr_scene_settings(s, rs);
     lr_scene_free(s);
     return LR_OK;
 }
 
-lr_status lr_scene_read_settings(const char *path, const char *const *overrides,
-                                 size_t n_overrides, lr_camera *cam,
-                                 lr_render_settings *rs, lr_error *err)
+lr_status lr__scene_read_settings(const char *path,
+                                  const char *const *overrides,
+                                  size_t n_overrides, lr__render_reader rd,
+                                  lr_camera *cam, lr_render_settings *rs,
+                                  lr_error *err)
 {
     if (path == NULL || cam == NULL || rs == NULL)
         return lr__fail(err, LR_ERR_INVALID, NULL,
                         "lr_scene_read_settings: NULL argument");
     if (lr__gltf_is_file(path))
-        return settings_of_loaded(path, overrides, n_overrides, cam, rs, err);
+        return settings_of_loaded(path, overrides, n_overrides, rd, cam, rs,
+                                  err);
     char *buf = NULL;
     size_t len = 0;
     LR_TRY(lr__read_file(path, path, NULL, MAX_SCENE_BYTES, "scene files", NULL,
@@ -442,14 +446,15 @@ lr_status lr_scene_read_settings(const char *path, const char *const *overrides,
     }
     if (takes_gltf_camera(root)) {
         cJSON_Delete(root);
-        return settings_of_loaded(path, overrides, n_overrides, cam, rs, err);
+        return settings_of_loaded(path, overrides, n_overrides, rd, cam, rs,
+                                  err);
     }
     char dir[4096];
     lr__dir_of(path, dir, sizeof dir);
     const char *desc;
     lr_camera c;
     lr_render_settings r;
-    st = read_head(root, dir, &desc, &c, &r, err);
+    st = read_head(root, dir, rd, &desc, &c, &r, err);
     cJSON_Delete(root);
     if (st != LR_OK)
         return st;
@@ -459,14 +464,15 @@ lr_status lr_scene_read_settings(const char *path, const char *const *overrides,
 }
 
 lr_status lr__scene_load_file(const char *path, const char *const *overrides,
-                              size_t n_overrides, lr_scene **out, lr_error *err)
+                              size_t n_overrides, lr__render_reader rd,
+                              lr_scene **out, lr_error *err)
 {
     if (path == NULL || out == NULL)
         return lr__fail(err, LR_ERR_INVALID, NULL,
                         "lr_scene_load_file: NULL argument");
     *out = NULL;
     if (lr__gltf_is_file(path))
-        return lr__gltf_scene_load(path, overrides, n_overrides, out, err);
+        return lr__gltf_scene_load(path, overrides, n_overrides, rd, out, err);
     char *buf = NULL;
     size_t len = 0;
     lr_status st = lr__read_file(path, path, NULL, MAX_SCENE_BYTES,
@@ -477,7 +483,7 @@ lr_status lr__scene_load_file(const char *path, const char *const *overrides,
     char dir[4096];
     lr__dir_of(path, dir, sizeof dir);
     st = lr__scene_load_json(buf ? buf : "", len, dir, overrides, n_overrides,
-                             out, err);
+                             rd, out, err);
     free(buf);
     name_file(path, st, err);
     return st;

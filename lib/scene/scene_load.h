@@ -24,16 +24,30 @@ lr_status lr__scene_parse_objects(lr_scene *s, const cJSON *objs,
                                   const char *base_dir, int height_given,
                                   lr_error *err);
 
-/* lr_scene_load_json and lr_scene_load_file (lensray.h) up to the
- * committed scene (lr__scene_commit), not yet prepared for the
- * integrators: the public ones (load.c) add lr__integrators_prepare.
- * Enough to read a scene's camera, settings and objects. */
+/* The reader of a scene's "render" object into *rs (NULL object: *rs
+ * as it is): the render layer's lr__settings_from_json, handed down by
+ * the public loaders (load.c), so that the scene layer reads the settings
+ * without knowing the integrators and samplers they name. */
+typedef lr_status (*lr__render_reader)(const cJSON *r, lr_render_settings *rs,
+                                       lr_error *err);
+
+/* lr_scene_load_json, lr_scene_load_file and lr_scene_read_settings
+ * (lensray.h), the first two up to the committed scene
+ * (lr__scene_commit), not yet prepared for the integrators: the public
+ * ones (load.c) add lr__integrators_prepare.  Enough to read a scene's
+ * camera, settings and objects. */
 lr_status lr__scene_load_json(const char *json, size_t len,
                               const char *base_dir,
                               const char *const *overrides, size_t n_overrides,
-                              lr_scene **out, lr_error *err);
-lr_status lr__scene_load_file(const char *path, const char *const *overrides,
-                              size_t n_overrides, lr_scene **out,
+                              lr__render_reader rd, lr_scene **out,
                               lr_error *err);
+lr_status lr__scene_load_file(const char *path, const char *const *overrides,
+                              size_t n_overrides, lr__render_reader rd,
+                              lr_scene **out, lr_error *err);
+lr_status lr__scene_read_settings(const char *path,
+                                  const char *const *overrides,
+                                  size_t n_overrides, lr__render_reader rd,
+                                  lr_camera *cam, lr_render_settings *rs,
+                                  lr_error *err);
 
 #endif

@@ -7,6 +7,7 @@
 #define LR_GLTF_H
 
 #include "scene/scene.h"
+#include "scene/scene_load.h"
 #include "util/transform.h"
 
 /* What the scene asks of the file's camera ("camera" in a "gltf" object). */
@@ -51,7 +52,7 @@ int lr__gltf_is_file(const char *path);
  * background when the file has no lights of its own (punctual or
  * emissive), then the overrides. */
 lr_status lr__gltf_scene_load(const char *path, const char *const *overrides,
-                              size_t n_overrides, lr_scene **out,
-                              lr_error *err);
+                              size_t n_overrides, lr__render_reader rd,
+                              lr_scene **out, lr_error *err);
 
 #endif

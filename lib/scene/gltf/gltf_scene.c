@@ -82,7 +82,8 @@ char *lr_gltf_scene_json(const char *path, const lr_scene *s)
 }
 
 lr_status lr__gltf_scene_load(const char *path, const char *const *overrides,
-                              size_t n_overrides, lr_scene **out, lr_error *err)
+                              size_t n_overrides, lr__render_reader rd,
+                              lr_scene **out, lr_error *err)
 {
     char dir[4096];
     lr__dir_of(path, dir, sizeof dir);
@@ -90,7 +91,7 @@ lr_status lr__gltf_scene_load(const char *path, const char *const *overrides,
     if (text == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     lr_status st = lr__scene_load_json(text, strlen(text), dir, overrides,
-                                       n_overrides, out, err);
+                                       n_overrides, rd, out, err);
     free(text);
     /* The scene is lensray's, not the user's: its field is no help. */
     static const char field[] = "objects[0].file: ";
