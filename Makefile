@@ -463,17 +463,21 @@ $(BUILD)/.format-deps-ok: Makefile
 # with its reason, in tools/layers-allow.txt, which can only shrink).
 # `make check-size`: no C file over 700 lines, no function over 150
 # (tools/check-size.py; today's offenders in tools/size-allow.txt, which
-# can only shrink too).  `make test` runs both after test-format
-# (test-tree).  Under a second.
-.PHONY: check-layers check-size test-tree
+# can only shrink too).  `make check-style`: no assignment inside an if
+# or while condition, no atoi (tools/check-style.py).  `make test` runs
+# all three after test-format (test-tree).  Under a second.
+.PHONY: check-layers check-size check-style test-tree
 check-layers:
 	@python3 tools/check-layers.py
+
+check-style:
+	@python3 tools/check-style.py
 
 check-size:
 	@python3 tools/check-size.py
 
 test-tree: $(DEPS_OK)
-	@n=0; f=0; for c in check-layers check-size; do \
+	@n=0; f=0; for c in check-layers check-size check-style; do \
 	  if $(MAKE) --no-print-directory $$c; then n=$$((n + 1)); \
 	  else f=$$((f + 1)); fi; done; \
 	echo "$$n passed, $$f failed"; [ $$f -eq 0 ]

@@ -712,7 +712,8 @@ static cJSON *member_of(cJSON *root, const char *key, char k[128],
     char *dot1 = strchr(k, '.'), *dot2 = dot1 ? strchr(dot1 + 1, '.') : NULL;
     assert_non_null(dot2);
     *dot1 = *dot2 = '\0';
-    cJSON *o = cJSON_GetArrayItem(cJSON_GetObjectItem(root, k), atoi(dot1 + 1));
+    cJSON *o = cJSON_GetArrayItem(cJSON_GetObjectItem(root, k),
+                                  (int)strtol(dot1 + 1, NULL, 10));
     assert_non_null(o);
     *name = dot2 + 1;
     return o;

@@ -97,8 +97,8 @@ __attribute__((constructor)) static void ray_limits_child(void)
             _exit(91);
         *p++ = '\0';
     }
-    int cam_fn = atoi(line[0]);
-    size_t n_sets = (size_t)atoi(line[2]);
+    int cam_fn = (int)strtol(line[0], NULL, 10);
+    size_t n_sets = (size_t)strtoul(line[2], NULL, 10);
     const char *sets[8];
     for (size_t k = 0; k < n_sets && k < 8; k++) {
         sets[k] = p;

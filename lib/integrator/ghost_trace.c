@@ -227,9 +227,11 @@ typedef struct gt_pick {
 static int pick(gt_pick *p, lr__lt_light *src, double omega, lr__v3 Lbar)
 {
     const lr__cam *c = p->c;
-    if (p->n_ghost < 0 &&
-        (p->n_ghost = c->model->ghost_paths(c, &p->peak, &p->k, p->est)) < 0)
-        goto nomem;
+    if (p->n_ghost < 0) {
+        p->n_ghost = c->model->ghost_paths(c, &p->peak, &p->k, p->est);
+        if (p->n_ghost < 0)
+            goto nomem;
+    }
     double M = omega * p->k * v3_maxc(Lbar);
     if (p->n_ghost == 0 || !(omega >= 0.0) ||
         !(isinf(p->peak) || p->peak * M >= LR__GT_AUTO)) {
@@ -237,10 +239,15 @@ static int pick(gt_pick *p, lr__lt_light *src, double omega, lr__v3 Lbar)
         return 1;
     }
     lr__lt *lt = *p->ltp;
-    if (lt == NULL && (*p->ltp = lt = lr__lt_new(p->s)) == NULL)
-        goto nomem;
+    if (lt == NULL) {
+        lt = lr__lt_new(p->s);
+        *p->ltp = lt;
+        if (lt == NULL)
+            goto nomem;
+    }
     if (p->a == NULL) {
-        if ((p->a = malloc((p->s->n_geoms + 1) * sizeof *p->a)) == NULL)
+        p->a = malloc((p->s->n_geoms + 1) * sizeof *p->a);
+        if (p->a == NULL)
             goto nomem;
         p->first = lt->n;
     }
@@ -344,12 +351,14 @@ int lr__gt_plan(const lr_scene *s, const lr__cam *c, int spp, lr__lt **ltp)
         if (mt->emission_tex != NULL ||
             !lr__lt_light_sphere(s, geo, &l.center, &l.radius))
             continue;
-        if (geo->kind == LR__GEOM_SPHERE)
+        if (geo->kind == LR__GEOM_SPHERE) {
             ok = pick(p, &l, solid_angle(c, geo->center, geo->radius), l.L);
-        else if (!(ok = lr__lt_mesh_cdf(s, geo, &l)))
-            break;
-        else
+        } else {
+            ok = lr__lt_mesh_cdf(s, geo, &l);
+            if (!ok)
+                break;
             ok = pick(p, &l, mesh_omega(s, c, geo), l.L);
+        }
     }
     if (ok)
         ok = pick_sun(p);
@@ -496,9 +505,11 @@ void lr__gt_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
     /* The sun's radiance along w (the map's, looked up before the lens:
      * a dark part of its cone costs no trace). */
     lr__v3 L = l->L;
-    if (l->geom == (int)s->n_geoms &&
-        !(v3_maxc(L = lr__env_radiance(s, w)) > 0.0))
-        return;
+    if (l->geom == (int)s->n_geoms) {
+        L = lr__env_radiance(s, w);
+        if (!(v3_maxc(L) > 0.0))
+            return;
+    }
     lr__v3 v = v3_scale(L, inv_pdf * share / ((double)l->paths * p_g));
     /* chromatic.mode off: every channel at the reference wavelength (a
      * grey ghost, as the main image is traced); rgb and spectral: each

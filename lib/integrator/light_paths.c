@@ -178,8 +178,9 @@ lr_status lr__lp_prepare(const lr_scene *s, const lr__cam *c,
     if (st != LR_OK)
         return st;
     lr__lp *lp = calloc(1, sizeof *lp);
-    if (lp == NULL ||
-        (lp->delta_cdf = malloc((s->n_lights + 1) * sizeof(double))) == NULL) {
+    if (lp != NULL)
+        lp->delta_cdf = malloc((s->n_lights + 1) * sizeof(double));
+    if (lp == NULL || lp->delta_cdf == NULL) {
         lr__lp_free(lp);
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     }

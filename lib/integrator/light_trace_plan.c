@@ -167,9 +167,14 @@ static void light_emission(const lr__material *m, lr__lt_light *l)
 static lr__lt *lt_new_n(const lr_scene *s, size_t n)
 {
     lr__lt *lt = calloc(1, sizeof *lt);
-    if (lt == NULL || (lt->direct = calloc(s->n_geoms + 1, 1)) == NULL ||
-        (lt->mis = calloc(s->n_geoms + 1, sizeof *lt->mis)) == NULL ||
-        (lt->lights = malloc((n + 1) * sizeof *lt->lights)) == NULL) {
+    /* Each made only when the one before was (lt's fields start NULL). */
+    if (lt != NULL)
+        lt->direct = calloc(s->n_geoms + 1, 1);
+    if (lt != NULL && lt->direct != NULL)
+        lt->mis = calloc(s->n_geoms + 1, sizeof *lt->mis);
+    if (lt != NULL && lt->mis != NULL)
+        lt->lights = malloc((n + 1) * sizeof *lt->lights);
+    if (lt == NULL || lt->lights == NULL) {
         lr__lt_free(lt);
         return NULL;
     }
@@ -355,8 +360,11 @@ static int plan_glints(const lr_scene *s, const lr__cam *c,
     }
     int good = 1;
     lr__lt *lt = *ltp;
-    if (n_surf > 0 && lt == NULL && (*ltp = lt = lr__lt_new(s)) == NULL)
-        good = 0;
+    if (n_surf > 0 && lt == NULL) {
+        lt = lr__lt_new(s);
+        *ltp = lt;
+        good = lt != NULL;
+    }
     if (n_surf > 0 && good) {
         lr__lt_light *grown = realloc(lt->lights,
                                       (ng + n_surf * n_light) * sizeof *grown);
@@ -418,8 +426,12 @@ static int plan_sun(const lr_scene *s, const lr__cam *c,
     if (n == 0)
         return 1;
     lr__lt *lt = *ltp;
-    if (lt == NULL && (*ltp = lt = lr__lt_new(s)) == NULL)
-        return 0;
+    if (lt == NULL) {
+        lt = lr__lt_new(s);
+        *ltp = lt;
+        if (lt == NULL)
+            return 0;
+    }
     lr__lt_light *grown = realloc(lt->lights, (lt->n + 1) * sizeof *grown);
     if (grown == NULL)
         return 0;
@@ -450,7 +462,8 @@ static int wl_table(lr__lt *lt, const lr__cam *c)
 {
     if (!c->chroma_active || c->chroma.mode != LR_CHROMATIC_SPECTRAL)
         return 1;
-    if ((lt->wl = malloc(sizeof *lt->wl)) == NULL)
+    lt->wl = malloc(sizeof *lt->wl);
+    if (lt->wl == NULL)
         return 0;
     lr__cam_wl_table(c, lt->wl);
     if (lt->lp != NULL)
@@ -532,8 +545,11 @@ lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
                                set->spp, 0);
         if (n == 0)
             continue;
-        if (lt == NULL && (lt = lr__lt_new(s)) == NULL)
-            return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+        if (lt == NULL) {
+            lt = lr__lt_new(s);
+            if (lt == NULL)
+                return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+        }
         lr__lt_light *l = &lt->lights[lt->n];
         memset(l, 0, sizeof *l);
         l->geom = (int)g;

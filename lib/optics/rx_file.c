@@ -81,8 +81,10 @@ int lr__rx_shipped(char (*names)[64], int max)
     DIR *d = opendir(lens_dir());
     if (d == NULL)
         return 0;
-    struct dirent *e;
-    while (n < max && (e = readdir(d)) != NULL) {
+    while (n < max) {
+        const struct dirent *e = readdir(d);
+        if (e == NULL)
+            break;
         const char *dot = strrchr(e->d_name, '.');
         if (dot == NULL || e->d_name[0] == '.')
             continue;

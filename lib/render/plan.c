@@ -65,7 +65,8 @@ static int lt_dark(lr__plan *p)
         any_dark |= p->blocks[i].dark;
     if (!mixes || !any_dark)
         return 1;
-    if ((lt->dark = malloc((size_t)n)) == NULL)
+    lt->dark = malloc((size_t)n);
+    if (lt->dark == NULL)
         return 0;
     for (int i = 0; i < n; i++)
         lt->dark[i] = p->blocks[i].dark;

@@ -263,7 +263,9 @@ lr_status lr__envmap_load(const char *path, const char *file, const char *blame,
 {
     *out = NULL;
     lr__envmap *e = calloc(1, sizeof *e);
-    if (e == NULL || (e->file = strdup(file)) == NULL) {
+    if (e != NULL)
+        e->file = strdup(file);
+    if (e == NULL || e->file == NULL) {
         free(e);
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     }

@@ -1232,7 +1232,7 @@ static void symbolise(void *a, frame *f)
     char *colon = strrchr(where, ':');
     if (colon != NULL) {
         *colon = '\0';
-        f->line = atoi(colon + 1);
+        f->line = (int)strtol(colon + 1, NULL, 10);
         snprintf(f->file, sizeof f->file, "%s", where);
     }
     const char *base = strrchr(f->file, '/');
@@ -1536,8 +1536,9 @@ static int wanted(const char *name, int argc, char **argv)
 
 int main(int argc, char **argv)
 {
-    verbose = getenv("OOM_VERBOSE") && atoi(getenv("OOM_VERBOSE")) > 0;
-    strict = getenv("OOM_STRICT") && atoi(getenv("OOM_STRICT")) > 0;
+    verbose = getenv("OOM_VERBOSE") &&
+              strtol(getenv("OOM_VERBOSE"), NULL, 10) > 0;
+    strict = getenv("OOM_STRICT") && strtol(getenv("OOM_STRICT"), NULL, 10) > 0;
 
     /* backtrace() loads libgcc's unwinder on its first call (which
      * allocates): do that now. */
