@@ -170,6 +170,33 @@ static void test_mesh_ghosts_as_sphere(void **state)
                    "square against sphere");
 }
 
+/* An emission texture whose left half is 2 and right half 0 (mean 1,
+ * EXR: linear), on the square of the same emission: the same power as
+ * the plain square, so the same ghosts, each path's radiance looked up
+ * where it meets the square (half of them find none), and the same
+ * budget (the plan estimates from the texels' mean). */
+static double half_map(int x, int y)
+{
+    (void)y;
+    return x < 8 ? 2.0 : 0.0;
+}
+
+#define TEXTURED_SQUARE                                            \
+    HEAD " \"background\": 0,"                                     \
+         " \"materials\": {\"l\": {\"emission\": [4e6, 4e6, 4e6]," \
+         "  \"emission_texture\": \"ghost-half.exr\"}},"           \
+         " \"objects\": [" SQUARE "]}"
+
+static void test_textured_mesh_ghosts_as_sphere(void **state)
+{
+    (void)state;
+    lr_test_write_map("ghost-half.exr", half_map, 16, 16);
+    const char *ssets[] = {"camera.ghosts=true", NULL};
+    const char *xsets[] = {"camera.ghosts=true", NULL};
+    against_sphere(ssets, 2, TEXTURED_SQUARE, xsets, 2, 8,
+                   "textured square against sphere");
+}
+
 /* The sun: one texel of SUN_V on a black 1024 x 512 map, column sun_x,
  * row SUN_Y (0.18 degrees above the horizon): the lookup spreads it
  * over 0.35 degrees each way. */
@@ -373,6 +400,7 @@ static void test_ghost_sources_deterministic(void **state)
 
 static const struct CMUnitTest ghost_sources_tests[] = {
     cmocka_unit_test(test_mesh_ghosts_as_sphere),
+    cmocka_unit_test(test_textured_mesh_ghosts_as_sphere),
     cmocka_unit_test(test_sun_ghosts_as_sphere),
     cmocka_unit_test(test_sun_outside_frame),
     cmocka_unit_test(test_ghost_sources_auto),

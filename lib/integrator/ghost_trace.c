@@ -348,16 +348,27 @@ int lr__gt_plan(const lr_scene *s, const lr__cam *c, int spp, lr__lt **ltp)
         memset(&l, 0, sizeof l);
         l.geom = (int)g;
         l.L = mt->emission;
-        if (mt->emission_tex != NULL ||
-            !lr__lt_light_sphere(s, geo, &l.center, &l.radius))
+        /* With an emission texture: l.L the largest radiance it gives
+         * (each path looks its own up where it meets the light:
+         * ghost_reaches), and the texels' mean for the plan's estimate
+         * of the ghosts and of the main image. */
+        lr__v3 Lbar = l.L;
+        if (mt->emission_tex != NULL) {
+            const double *t = mt->emission_tex->max;
+            const double *a = mt->emission_tex->mean;
+            l.L = v3(l.L.x * t[0], l.L.y * t[1], l.L.z * t[2]);
+            Lbar = v3(Lbar.x * a[0], Lbar.y * a[1], Lbar.z * a[2]);
+            l.textured = 1;
+        }
+        if (!lr__lt_light_sphere(s, geo, &l.center, &l.radius))
             continue;
         if (geo->kind == LR__GEOM_SPHERE) {
-            ok = pick(p, &l, solid_angle(c, geo->center, geo->radius), l.L);
+            ok = pick(p, &l, solid_angle(c, geo->center, geo->radius), Lbar);
         } else {
             ok = lr__lt_mesh_cdf(s, geo, &l);
             if (!ok)
                 break;
-            ok = pick(p, &l, mesh_omega(s, c, geo), l.L);
+            ok = pick(p, &l, mesh_omega(s, c, geo), Lbar);
         }
     }
     if (ok)
@@ -409,18 +420,32 @@ static double ghost_dir(const lr_scene *s, const lr__lt_light *l, lr__v3 P,
 /* Whether the light along w from lens point P reaches the front of the
  * lens: the camera ray along w (the same trace as the camera's) meets
  * the sphere first, or the mesh's very triangle e from its front (a
- * mesh can hide its own triangles), or for the sun escapes. */
+ * mesh can hide its own triangles), or for the sun escapes.  For a
+ * textured light, *k gets its radiance where the ray meets it over l->L
+ * (the largest), per channel, as the camera's hit looks it up
+ * (lr__hit_material); else 1. */
 static int ghost_reaches(const lr_scene *s, const lr__cam *c,
                          const lr__lt_light *l, lr__v3 P, lr__v3 w,
-                         const lr__emitter *e)
+                         const lr__emitter *e, double k[3])
 {
     lr__v3 o = lr__cam_ray_start(c, P, w);
-    if (e == NULL)
+    k[0] = k[1] = k[2] = 1.0;
+    if (e == NULL && !l->textured)
         return lr__trace_geom(s, o, w, INFINITY) ==
                (l->geom == (int)s->n_geoms ? -2 : l->geom);
     lr__hit h;
-    return lr__trace(s, o, w, INFINITY, &h) && h.geom == l->geom &&
-           h.prim == (unsigned)(e - &s->emitters[l->first_tri]) && h.entering;
+    if (!lr__trace(s, o, w, INFINITY, &h) || h.geom != l->geom ||
+        (e != NULL &&
+         (h.prim != (unsigned)(e - &s->emitters[l->first_tri]) || !h.entering)))
+        return 0;
+    if (l->textured) {
+        lr__material mt;
+        lr__v3 Le = lr__hit_material(s, &h, &mt)->emission;
+        double Le3[3] = {Le.x, Le.y, Le.z}, Lm[3] = {l->L.x, l->L.y, l->L.z};
+        for (int j = 0; j < 3; j++)
+            k[j] = Lm[j] > 0.0 ? fmin(Le3[j] / Lm[j], 1.0) : 0.0;
+    }
+    return 1;
 }
 
 /* Adds v (>= 0) to pixel (ix, iy) of f, if the region holds it, as
@@ -537,9 +562,11 @@ void lr__gt_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
     if (n == 0)
         return;
     (*rays)++;
-    if (!ghost_reaches(s, c, l, P, w, e))
+    double tex[3];
+    if (!ghost_reaches(s, c, l, P, w, e, tex))
         return;
     for (int k = 0; k < n; k++) {
+        ev[k] = v3(ev[k].x * tex[0], ev[k].y * tex[1], ev[k].z * tex[2]);
         (*landed)++;
         /* The flux --stats reports, in the film's integer units (the
          * same for any threads or tiles).  A ghost's pixel stays under
