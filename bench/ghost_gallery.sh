@@ -2,7 +2,8 @@
 # Renders docs/lenses.md's ghost pictures: a street light at night, 9.3
 # degrees right of and 5.2 up from the axis (40 m out, 0.25 m across),
 # through the shipped double Gauss at f/2.8 in chromatic rgb mode, ghosts
-# true: with the default MgF2 coating (ghosts-mgf2.png), and bare
+# true: with the default MgF2 coating (ghosts-mgf2.png; through the wide
+# angle wide-22, ghosts-wide.png), and bare
 # (ghosts-bare.png) with the lamp 100 times dimmer, so that its ghosts
 # (some 90 times brighter against the lamp) show at about the coated
 # ones' level instead of saturating.  Then prints `lensray lens
@@ -36,6 +37,9 @@ echo "ghosts-mgf2: $("$LR" render "$tmp/street.json" -o "$OUT/ghosts-mgf2.png" \
 echo "ghosts-bare: $("$LR" render "$tmp/street.json" -o "$OUT/ghosts-bare.png" \
     -q --stats --set camera.coating=none \
     --set 'materials.lamp.emission=[1e3, 8e2, 5e2]')"
+# The same lamp through the shipped wide angle, coated (ghosts-wide.png).
+echo "ghosts-wide: $("$LR" render "$tmp/street.json" -o "$OUT/ghosts-wide.png" \
+    -q --stats --set camera.lens=wide-22)"
 # The landscape: late afternoon, the sun (bench/sun_sky.py's map: a disc
 # 0.53 degrees across, 23 degrees right of -z and 8 up) just outside the
 # frame's right edge (19.8 degrees), the double Gauss at f/8 focused at 60
