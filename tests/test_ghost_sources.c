@@ -170,20 +170,21 @@ static void test_mesh_ghosts_as_sphere(void **state)
                    "square against sphere");
 }
 
-/* An emission texture whose left half is 2 and right half 0 (mean 1,
- * EXR: linear), on the square of the same emission: the same power as
- * the plain square, so the same ghosts, each path's radiance looked up
- * where it meets the square (half of them find none), and the same
- * budget (the plan estimates from the texels' mean). */
+/* An emission texture whose left half is 3 and right half 1 (mean 2,
+ * EXR: linear), on the square at half the plain square's emission: the
+ * same power, so the same ghosts, and the same budget (the plan
+ * estimates from the texels' mean).  Each path must look its radiance up
+ * where it meets the square: the texture ignored gives half the ghosts'
+ * light, its largest value everywhere 1.5 times. */
 static double half_map(int x, int y)
 {
     (void)y;
-    return x < 8 ? 2.0 : 0.0;
+    return x < 8 ? 3.0 : 1.0;
 }
 
 #define TEXTURED_SQUARE                                            \
     HEAD " \"background\": 0,"                                     \
-         " \"materials\": {\"l\": {\"emission\": [4e6, 4e6, 4e6]," \
+         " \"materials\": {\"l\": {\"emission\": [2e6, 2e6, 2e6]," \
          "  \"emission_texture\": \"ghost-half.exr\"}},"           \
          " \"objects\": [" SQUARE "]}"
 

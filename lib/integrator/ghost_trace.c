@@ -499,30 +499,39 @@ static double ghost_lens(const lr__cam *c, const lr__lt_light *l, int g,
                : 1.0 / LR__GT_DISK;
 }
 
-void lr__gt_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
-                 const double *ul, const double *ud, const double *ug,
-                 lr__lt_film *f, uint64_t *rays, uint64_t *landed)
+int lr__gt_which(const lr__lt_light *l, double u, uint64_t i, uint32_t *j)
 {
-    /* The ghost path: the first g whose cumulative probability passes
-     * ug (binary search); ug rescaled within it picks the lens point's
-     * component. */
+    /* The first g whose cumulative probability passes t (binary
+     * search). */
     const double *cdf = l->cdf + l->n_tri;
-    double ur = ug[1];
+    double N = (double)l->paths, t = ((double)i + u) / N;
     int lo = 0, hi = l->ghosts - 1;
     while (lo < hi) {
         int mid = (lo + hi) / 2;
-        if (cdf[mid] > ug[0])
+        if (cdf[mid] > t)
             hi = mid;
         else
             lo = mid + 1;
     }
-    int g = lo;
+    /* g's first index: the least i' with (i' + u) / N >= cdf[g - 1]
+     * (rounding may put it one off: then two of g's paths share a
+     * sample, each still uniform). */
+    double start = lo > 0 ? ceil(cdf[lo - 1] * N - u) : 0.0;
+    *j = (double)i > start ? (uint32_t)((double)i - start) : 0;
+    return lo;
+}
+
+void lr__gt_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
+                 int g, const double *ul, const double *ud, double uc,
+                 double ur, lr__lt_film *f, uint64_t *rays, uint64_t *landed)
+{
+    const double *cdf = l->cdf + l->n_tri;
     double c0 = g > 0 ? cdf[g - 1] : 0.0, p_g = cdf[g] - c0;
     if (!(p_g > 0.0))
         return;
     lr__v3 P, w;
     double ox, oy;
-    double share = ghost_lens(c, l, g, ul, (ug[0] - c0) / p_g, &P, &ox, &oy);
+    double share = ghost_lens(c, l, g, ul, uc, &P, &ox, &oy);
     const lr__emitter *e;
     double inv_pdf = share > 0.0 ? ghost_dir(s, l, P, ud, &w, &e) : 0.0;
     if (!(inv_pdf > 0.0))

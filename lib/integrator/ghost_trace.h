@@ -87,13 +87,25 @@ int lr__gt_plan(const lr_scene *s, const lr__cam *c, int spp, lr__lt **ltp);
  * ghosts' flux over the main image's.  0 without ghost lights. */
 double lr__gt_flux(const lr__lt *lt, const lr__lt_film *f);
 
-/* One path of ghost light l: its lens point from ul (ghost_trace.c:
- * ghost_guide), its direction from ud, its ghost path from ug[0] and its
- * splats' rounding from ug[1]; splats into f, counting rays traced and
- * the ghost rays that landed (up to the lens's ghost paths, times 3 in
- * colour). */
+/* Which ghost path light l's path i (0 .. l->paths - 1) follows, and in
+ * *j its place among that ghost path's paths: systematic sampling of the
+ * choice (l's cdf) at (i + u) / paths, u in [0, 1) the light's own
+ * offset, so that every ghost path takes its share of the paths to
+ * within one, in one run of indices, and each path's choice is still
+ * ghost path g with probability p_g (u uniform: unbiased).  The caller
+ * then draws path i's numbers as sample *j of a sequence of the ghost
+ * path's own (a stratified set over its lens points, where drawing the
+ * choice at random scattered each ghost path's share over the light's
+ * sequence). */
+int lr__gt_which(const lr__lt_light *l, double u, uint64_t i, uint32_t *j);
+
+/* One path of ghost light l along ghost path g (lr__gt_which): its lens
+ * point from ul (ghost_trace.c: ghost_guide), its direction from ud, the
+ * lens point's component (guide box or disk) from uc and its splats'
+ * rounding from ur; splats into f, counting rays traced and the ghost
+ * rays that landed (up to the lens's ghost paths, times 3 in colour). */
 void lr__gt_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
-                 const double *ul, const double *ud, const double *ug,
-                 lr__lt_film *f, uint64_t *rays, uint64_t *landed);
+                 int g, const double *ul, const double *ud, double uc,
+                 double ur, lr__lt_film *f, uint64_t *rays, uint64_t *landed);
 
 #endif

@@ -512,6 +512,23 @@ static uint64_t light_key(const lr__lt_light *l)
            (l->surf < 0 ? 0 : (uint64_t)(l->surf + 1) << 24);
 }
 
+/* Ghost path g's sequence of ghost light l (lr__gt_which): a "pixel" of
+ * its own beside the light's (g < 2^13 < 2^45 / 2^32). */
+static uint64_t ghost_key(const lr__lt_light *l, int g)
+{
+    return light_key(l) + ((uint64_t)(g + 1) << 32);
+}
+
+/* Ghost light l's offset for lr__gt_which, uniform in [0, 1) from the
+ * render's seed and the light (0 for other lights: unused). */
+static double ghost_u(const lr__lt *lt, const lr__lt_light *l)
+{
+    if (l->surf != LR__LT_GHOST)
+        return 0.0;
+    return (double)(lr__mix64(lt->seed ^ lr__mix64(light_key(l))) >> 11) *
+           0x1.0p-53;
+}
+
 static void splat_cb(void *film, const lr__landing *ld, lr__v3 v,
                      uint64_t *landed)
 {
@@ -536,11 +553,18 @@ void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
     lr__pixel_sampler ps;
     lr__pixel_sampler_init(&ps, &smp, light_key(&lt->lights[k]));
     int n_col = lr__cam_colours_apart(c);
+    /* A ghost light's paths: those of each ghost path in one run of
+     * indices (lr__gt_which), each run a sequence of its own (ghost_key),
+     * from an offset u of the light's own. */
+    int cur_g = -1;
+    double gu = ghost_u(lt, &lt->lights[k]);
     for (uint64_t i = i0; i < i1; i++) {
         if (i >= lt->lights[k].first + lt->lights[k].paths) {
             while (i >= lt->lights[k].first + lt->lights[k].paths)
                 k++;
             lr__pixel_sampler_init(&ps, &smp, light_key(&lt->lights[k]));
+            cur_g = -1;
+            gu = ghost_u(lt, &lt->lights[k]);
         }
         const lr__lt_light *l = &lt->lights[k];
         uint32_t idx = (uint32_t)(i - l->first);
@@ -550,14 +574,21 @@ void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
             continue;
         }
         double q[4], ox, oy;
-        lr__pixel_sampler_get(&ps, idx, q);
-        const double *ud = q, *ul = q + 2;
         if (l->surf == LR__LT_GHOST) {
+            uint32_t j;
+            int g = lr__gt_which(l, gu, idx, &j);
+            if (g != cur_g) {
+                lr__pixel_sampler_init(&ps, &smp, ghost_key(l, g));
+                cur_g = g;
+            }
             double ug[2];
-            lr__sample_2d(&smp, light_key(l), idx, 4, ug);
-            lr__gt_path(s, c, l, ul, ud, ug, f, rays, ghosts);
+            lr__pixel_sampler_get(&ps, j, q);
+            lr__sample_2d(&smp, ghost_key(l, g), j, 4, ug);
+            lr__gt_path(s, c, l, g, q + 2, q, ug[0], ug[1], f, rays, ghosts);
             continue;
         }
+        lr__pixel_sampler_get(&ps, idx, q);
+        const double *ud = q, *ul = q + 2;
         /* Spectral mode: dimension 6 places the path's wavelengths. */
         double uw[2] = {0.0, 0.0};
         if (lt->wl != NULL)
