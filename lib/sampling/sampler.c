@@ -413,11 +413,14 @@ __attribute__((target("avx2"))) static __m256i lk_permute8(__m256i x,
 }
 
 __attribute__((target("avx2"))) static void
-sobol16_avx2(const lr__pixel_sampler *ps, uint32_t first, float out[4][16])
+sobol16_avx2(const lr__pixel_sampler *ps, uint32_t first, int n,
+             float out[4][16])
 {
     const __m256i ff = _mm256_set1_epi32(0xff);
     const __m256 unit = _mm256_set1_ps(0x1p-24f);
-    for (int h = 0; h < 16; h += 8) {
+    /* (The second eight lanes only if asked: at 4 spp a packet holds 4
+     * samples.) */
+    for (int h = 0; h < n; h += 8) {
         __m256i idx = _mm256_add_epi32(
             _mm256_set1_epi32((int)(first + (uint32_t)h)),
             _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
@@ -552,14 +555,14 @@ void lr__pixel_sampler_get16(const lr__pixel_sampler *ps, uint32_t first, int n,
         }
         return;
     }
-    /* All sixteen lanes, whatever n: the extra ones are harmless.  The
-     * three versions give the same bits (integer arithmetic, and an
-     * exact conversion to float). */
+    /* At least the n lanes asked (AVX-512 all sixteen, AVX2 eight at a
+     * time): the extra ones are harmless.  The three versions give the
+     * same bits (integer arithmetic, and an exact conversion to float). */
     int isa = lr__sampler_isa ? lr__sampler_isa : sobol_isa;
     if (isa == 3)
         sobol16_avx512(ps, first, n, out);
     else if (isa == 2)
-        sobol16_avx2(ps, first, out);
+        sobol16_avx2(ps, first, n, out);
     else
         sobol16_c(ps, first, n, out);
 }
