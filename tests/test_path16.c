@@ -138,6 +138,18 @@ static void test_path16_many_emitters_and_embree(void **state)
 {
     (void)state;
     same_both_ways("four emitters, a few primitives");
+    /* Under a grey world (not light-sampled beside the emitters). */
+    const char *grey[] = {"background=[0.2,0.25,0.3]"};
+    lr_scene *s = lr_test_load(two_lights_json, grey, 1);
+    assert_true(lr__path16_scene_ok(s));
+    lr_scene_free(s);
+    lr_image *a = lr_test_render_sets(two_lights_json, grey, 1, "on");
+    lr__path16_enabled = 0;
+    lr_image *b = lr_test_render_sets(two_lights_json, grey, 1, "off");
+    lr__path16_enabled = 1;
+    lr_test_assert_same_bytes(a, b, "four emitters under a grey world");
+    lr_image_free(a);
+    lr_image_free(b);
     /* Every primitive in Embree: the packets path16.c fills. */
     lr__few_triangles_enabled = 0;
     lr__few_spheres_enabled = 0;

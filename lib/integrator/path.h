@@ -50,11 +50,11 @@ static inline double lr__path_mis(double a, double b)
 }
 
 /* Whether path16.c's vector bounce can take this scene's Lambertian
- * hits: no infinite planes, and its only lights are either at most 16
- * emitting triangles or spheres without textures (no environment,
- * point or directional light), or one point light (not a spot) under a
- * uniform background or none (no map: light.c leaves it to the BSDF's
- * rays, so a bounce's light sample is the point light's).  Cheap: a few
+ * hits: no infinite planes, no environment map, and its only lights
+ * either at most 16 emitting triangles or spheres without textures (no
+ * point or directional light), or one point light (not a spot).  A
+ * uniform background beside them is fine: light.c leaves it to the
+ * BSDF's rays, so a bounce's light sample is the lamps'.  Cheap: a few
  * fields. */
 int lr__path16_scene_ok(const lr_scene *s);
 

@@ -50,7 +50,7 @@ int lr__path16_scene_ok(const lr_scene *s)
         return 0;
     if (point_lit(s))
         return 1;
-    if (s->n_lights > 0 || lr__env_is_light(s) || s->n_emitters == 0 ||
+    if (s->n_lights > 0 || s->env != NULL || s->n_emitters == 0 ||
         s->n_emitters > MAX_EMITTERS)
         return 0;
     for (size_t i = 0; i < s->n_emitters; i++) {
@@ -177,7 +177,7 @@ int lr__path16_sort(const lr_scene *s, lr__path16 *w, int depth, int max_depth,
              * depth: in a scene lr__path16_scene_ok accepts the
              * environment has no map (so no sun for the light side, whose
              * weight is 1) and no light samples (a black background, or
-             * a uniform one beside a point light), so its radiance is the
+             * a uniform one beside lamps), so its radiance is the
              * background and its density 0. */
             double wt = S->pdelta[i] != 0.0 ? 1.0
                                             : lr__path_mis(S->ppdf[i], 0.0);
