@@ -155,8 +155,9 @@ static void test_every_kind_matches_closed_form(void **state)
 /* The pick's purpose: here the near point light gives most of the light.
  * The pick before this one (each kind with probability 1/3, point lights
  * uniformly) gave an rms relative error of 0.1001 at 16 spp over these 8
- * seeds, the weighed pick 0.0673 (2.2x less variance); it must stay
- * under 0.8 of the old figure. */
+ * seeds, the weighed pick 0.0673 (2.2x less variance), and with the
+ * uniform sky left to the BSDF's rays (light.c's env_sampled) 0.0468;
+ * it must stay under 0.9 of the weighed pick's figure. */
 static void test_weighed_pick_lowers_noise(void **state)
 {
     (void)state;
@@ -174,11 +175,11 @@ static void test_weighed_pick_lowers_noise(void **state)
     }
     double rms = sqrt(se);
     print_message("  rms relative error at 16 spp: %.4f (uniform pick: "
-                  "0.1001)\n",
+                  "0.1001, weighed pick with sky samples: 0.0673)\n",
                   rms);
-    if (!(rms < 0.8 * 0.1001))
+    if (!(rms < 0.9 * 0.0673))
         fail_msg("rms relative error at 16 spp is %.4f, not under %.4f", rms,
-                 0.8 * 0.1001);
+                 0.9 * 0.0673);
 }
 
 static const struct CMUnitTest tests[] = {

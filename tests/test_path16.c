@@ -56,17 +56,43 @@ static const char *const two_lights_json =
     "  {\"type\": \"sphere\", \"center\": [2.2, 1.8, -3],"
     "   \"radius\": 1.8, \"material\": \"m\"}]}";
 
-/* The scene both ways, path16.c on and off, the same bytes. */
-static void same_both_ways(const char *what)
+/* Blender's default scene in small (docs/blender.md): one point light
+ * under a grey world, Lambertian boxes, floor and spheres, a rough metal
+ * sphere (shaded alone), ambient light, at f/2.8 (a thin lens). */
+static const char *const point_sky_json =
+    "{\"render\": {\"width\": 24, \"height\": 16, \"spp\": 16,"
+    "  \"integrator\": \"path\", \"adaptive\": false, \"max_depth\": 8,"
+    "  \"plan\": false, \"threads\": 2},"
+    " \"camera\": {\"model\": \"thinlens\", \"position\": [7, 5, 7],"
+    "  \"look_at\": [0, 0, 0], \"fov\": 30, \"focus_distance\": 10,"
+    "  \"focal_length_mm\": 50, \"f_number\": 2.8},"
+    " \"background\": [0.2, 0.25, 0.3],"
+    " \"materials\": {\"w\": {\"diffuse\": 0.5},"
+    "  \"c\": {\"diffuse\": [0.6, 0.5, 0.4]},"
+    "  \"m\": {\"reflect\": 0.9, \"roughness\": 0.3}},"
+    " \"lights\": [{\"type\": \"point\", \"position\": [4, 6, -1],"
+    "   \"intensity\": [80, 70, 60]},"
+    "  {\"type\": \"ambient\", \"radiance\": 0.01}],"
+    " \"objects\": ["
+    "  {\"type\": \"plane\", \"point\": [0, -1, 0], \"normal\": [0, 1, 0],"
+    "   \"size\": 20, \"material\": \"w\"},"
+    "  {\"type\": \"plane\", \"point\": [0, 1, 0], \"normal\": [0, 1, 0],"
+    "   \"size\": 2, \"material\": \"c\"},"
+    "  {\"type\": \"plane\", \"point\": [1, 0, 0], \"normal\": [1, 0, 0],"
+    "   \"size\": 2, \"material\": \"c\"},"
+    "  {\"type\": \"plane\", \"point\": [0, 0, 1], \"normal\": [0, 0, 1],"
+    "   \"size\": 2, \"material\": \"c\"},"
+    "  {\"type\": \"sphere\", \"center\": [2.2, -0.2, 1], \"radius\": 0.8,"
+    "   \"material\": \"w\"},"
+    "  {\"type\": \"sphere\", \"center\": [-1.5, -0.5, 2], \"radius\": 0.5,"
+    "   \"material\": \"m\"}]}";
+
+/* A scene both ways, path16.c on and off, the same bytes. */
+static void same_both_ways_json(const char *json, const char *what)
 {
-    lr_scene *s = lr_test_load_json(two_lights_json);
-    /* (A scene path16.c takes, with its emitters copied lane by lane.) */
-    assert_true(lr__path16_scene_ok(s));
-    assert_int_equal(s->n_emitters, 4);
-    lr_scene_free(s);
-    lr_image *a = lr_test_render_sets(two_lights_json, NULL, 0, "path16 on");
+    lr_image *a = lr_test_render_sets(json, NULL, 0, "path16 on");
     lr__path16_enabled = 0;
-    lr_image *b = lr_test_render_sets(two_lights_json, NULL, 0, "path16 off");
+    lr_image *b = lr_test_render_sets(json, NULL, 0, "path16 off");
     lr__path16_enabled = 1;
     print_message("  %s\n", what);
     lr_test_assert_same_bytes(a, b, what);
@@ -74,10 +100,56 @@ static void same_both_ways(const char *what)
     lr_image_free(b);
 }
 
+static void same_both_ways(const char *what)
+{
+    lr_scene *s = lr_test_load_json(two_lights_json);
+    /* (A scene path16.c takes, with its emitters copied lane by lane.) */
+    assert_true(lr__path16_scene_ok(s));
+    assert_int_equal(s->n_emitters, 4);
+    lr_scene_free(s);
+    same_both_ways_json(two_lights_json, what);
+}
+
+/* A point light under a grey world: the vector bounce's point-light
+ * sample and its escapes to a lit background, against path.c's; a spot
+ * light or a second light is path.c's alone. */
+static void test_path16_point_light_and_sky(void **state)
+{
+    (void)state;
+    lr_scene *s = lr_test_load_json(point_sky_json);
+    assert_true(lr__path16_scene_ok(s));
+    lr_scene_free(s);
+    same_both_ways_json(point_sky_json, "a point light and a grey world");
+    lr__few_triangles_enabled = 0;
+    lr__few_spheres_enabled = 0;
+    same_both_ways_json(point_sky_json,
+                        "a point light and a grey world, Embree");
+    lr__few_triangles_enabled = 1;
+    lr__few_spheres_enabled = 1;
+    const char *sets[] = {"lights[0].type=\"spot\"",
+                          "lights[0].direction=[-4,-7,1]",
+                          "lights[0].outer_angle=40"};
+    lr_scene *spot = lr_test_load(point_sky_json, sets, 3);
+    assert_false(lr__path16_scene_ok(spot));
+    lr_scene_free(spot);
+}
+
 static void test_path16_many_emitters_and_embree(void **state)
 {
     (void)state;
     same_both_ways("four emitters, a few primitives");
+    /* Under a grey world (not light-sampled beside the emitters). */
+    const char *grey[] = {"background=[0.2,0.25,0.3]"};
+    lr_scene *s = lr_test_load(two_lights_json, grey, 1);
+    assert_true(lr__path16_scene_ok(s));
+    lr_scene_free(s);
+    lr_image *a = lr_test_render_sets(two_lights_json, grey, 1, "on");
+    lr__path16_enabled = 0;
+    lr_image *b = lr_test_render_sets(two_lights_json, grey, 1, "off");
+    lr__path16_enabled = 1;
+    lr_test_assert_same_bytes(a, b, "four emitters under a grey world");
+    lr_image_free(a);
+    lr_image_free(b);
     /* Every primitive in Embree: the packets path16.c fills. */
     lr__few_triangles_enabled = 0;
     lr__few_spheres_enabled = 0;
@@ -249,6 +321,7 @@ static void test_path16_hashed_numbers(void **state)
 }
 
 static const struct CMUnitTest tests[] = {
+    cmocka_unit_test(test_path16_point_light_and_sky),
     cmocka_unit_test(test_path16_many_emitters_and_embree),
     cmocka_unit_test(test_path16_packets_as_trace_fills_them),
     cmocka_unit_test(test_path16_packed_rays),

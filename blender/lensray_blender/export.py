@@ -193,26 +193,70 @@ def material_dict(mat, warn, outdir):
 
 
 def _write_obj(path, verts, tris, normals=None, uvs=None):
-    """An OBJ of triangles; normals and uvs, when given, one per vertex."""
+    """An OBJ of triangles; normals and uvs, when given, one per vertex.
+    verts, normals: (n, 3) arrays or lists; uvs (n, 2); tris (m, 3) of
+    0-based indices.  Written by one %-format per block (a line at a time
+    in Python cost 0.03 s for the issue's 2,200 triangles)."""
+    import numpy as np
     with open(path, "w") as f:
-        for v in verts:
-            f.write("v %.9g %.9g %.9g\n" % tuple(v))
-        for n in normals or ():
-            f.write("vn %.9g %.9g %.9g\n" % tuple(n))
-        for t in uvs or ():
-            f.write("vt %.9g %.9g\n" % tuple(t))
-        corner = "%d" + ("/%d" if uvs else "") + ("/" if normals and not uvs else "") \
-            + ("/%d" if normals else "")
-        face = "f " + " ".join([corner] * 3) + "\n"
-        per = 1 + bool(uvs) + bool(normals)
-        for t in tris:
-            f.write(face % tuple(i + 1 for i in t for _ in range(per)))
+        for tag, a, k in (("v", verts, 3), ("vn", normals, 3), ("vt", uvs, 2)):
+            if a is None or len(a) == 0:
+                continue
+            a = np.asarray(a, dtype=np.float64).reshape(-1, k)
+            f.write(((tag + " %.9g" * k + "\n") * len(a)) % tuple(a.ravel().tolist()))
+        corner = "%d" + ("/%d" if uvs is not None and len(uvs) else "") \
+            + ("/" if normals is not None and len(normals) and not (uvs is not None and len(uvs)) else "") \
+            + ("/%d" if normals is not None and len(normals) else "")
+        per = corner.count("%d")
+        t = np.asarray(tris, dtype=np.int64).reshape(-1, 3) + 1
+        if len(t):
+            face = "f " + " ".join([corner] * 3) + "\n"
+            f.write((face * len(t)) % tuple(np.repeat(t.ravel(), per).tolist()))
 
 
 TEXTURE_KEYS = ("diffuse_texture", "emission_texture", "roughness_texture")
 
 
+def _tri_arrays(mesh, mw):
+    """The mesh's loop triangles as arrays, in lensray's frame (_vec):
+    corner positions (t, 3, 3) through mw, flat and split normals (t, 3)
+    and (t, 3, 3) through mw's normal matrix, material index, smooth flag
+    and loop index per corner.  foreach_get, not a Python loop per
+    triangle (0.06 of the engine's 0.3 s at 4 spp on the issue's scene)."""
+    import numpy as np
+    n_v, n_t = len(mesh.vertices), len(mesh.loop_triangles)
+    co = np.empty(n_v * 3, np.float32)
+    mesh.vertices.foreach_get("co", co)
+    lt = mesh.loop_triangles
+    vi = np.empty(n_t * 3, np.int32)
+    lt.foreach_get("vertices", vi)
+    loops = np.empty(n_t * 3, np.int32)
+    lt.foreach_get("loops", loops)
+    mat = np.empty(n_t, np.int32)
+    lt.foreach_get("material_index", mat)
+    smooth = np.empty(n_t, bool)
+    lt.foreach_get("use_smooth", smooth)
+    fn = np.empty(n_t * 3, np.float32)
+    lt.foreach_get("normal", fn)
+    sn = np.empty(n_t * 9, np.float32)
+    lt.foreach_get("split_normals", sn)
+    M = np.array(mw, dtype=np.float64)
+    N = np.array(mw.to_3x3().inverted_safe().transposed(), dtype=np.float64)
+    # (x, y, z) -> (x, z, -y), as _vec.
+    turn = np.array([[1, 0, 0], [0, 0, 1], [0, -1, 0]], dtype=np.float64)
+    p = co.reshape(-1, 3).astype(np.float64) @ M[:3, :3].T + M[:3, 3]
+    pos = (p @ turn.T)[vi].reshape(n_t, 3, 3)
+
+    def normals(a):
+        a = a.astype(np.float64) @ N.T
+        ln = np.linalg.norm(a, axis=-1, keepdims=True)
+        return np.where(ln > 0, a / np.where(ln > 0, ln, 1), a) @ turn.T
+    return (pos, normals(fn.reshape(n_t, 3)), normals(sn.reshape(n_t, 3, 3)),
+            mat, smooth, loops.reshape(n_t, 3))
+
+
 def _mesh_objects(depsgraph, outdir, materials, objects, warn):
+    import numpy as np
     n = 0
     for inst in depsgraph.object_instances:
         ob = inst.object
@@ -232,13 +276,20 @@ def _mesh_objects(depsgraph, outdir, materials, objects, warn):
             continue
         try:
             mesh.calc_loop_triangles()
-            nmw = mw.to_3x3().inverted_safe().transposed()
+            if len(mesh.loop_triangles) == 0:
+                continue
+            pos, fnorm, snorm, mat_idx, smooth_t, loops = _tri_arrays(mesh, mw)
             # Cycles' Image Texture without a UV Map node reads the render UV map.
             uv = next((la for la in mesh.uv_layers if la.active_render), None)
-            by_mat = {}
-            for lt in mesh.loop_triangles:
-                by_mat.setdefault(lt.material_index, []).append(lt)
-            for mi, tris in by_mat.items():
+            uv_all = None
+            if uv is not None:
+                uv_all = np.empty(len(uv.data) * 2, np.float32)
+                uv.data.foreach_get("uv", uv_all)
+                uv_all = uv_all.reshape(-1, 2)
+            # Materials in the order their first triangle comes.
+            ids, first = np.unique(mat_idx, return_index=True)
+            for mi in ids[np.argsort(first)].tolist():
+                sel = mat_idx == mi
                 mat = ob.material_slots[mi].material if mi < len(ob.material_slots) else None
                 mname = mat.name if mat else "__default"
                 if mname not in materials:
@@ -249,20 +300,12 @@ def _mesh_objects(depsgraph, outdir, materials, objects, warn):
                              if k not in TEXTURE_KEYS and k != "roughness_channel"}
                     mname += " (no UV map)"
                     materials[mname] = untex
-                verts, norms, uvs, faces = [], [], [], []
-                smooth = any(lt.use_smooth for lt in tris)
-                for lt in tris:
-                    idx = []
-                    for k in range(3):
-                        idx.append(len(verts))
-                        verts.append(_vec(mw @ mesh.vertices[lt.vertices[k]].co))
-                        nn = Vector(lt.split_normals[k]) if smooth else Vector(lt.normal)
-                        norms.append(_vec((nmw @ nn).normalized()))
-                        if uv is not None:
-                            uvs.append(tuple(uv.data[lt.loops[k]].uv))
-                    faces.append(idx)
-                if not faces:
-                    continue
+                smooth = bool(smooth_t[sel].any())
+                m = int(sel.sum())
+                verts = pos[sel].reshape(-1, 3)
+                norms = (snorm[sel] if smooth else np.repeat(fnorm[sel], 3, axis=0)).reshape(-1, 3)
+                uvs = uv_all[loops[sel].ravel()] if uv_all is not None else None
+                faces = np.arange(3 * m).reshape(m, 3)
                 path = os.path.join(outdir, "mesh%03d.obj" % n)
                 n += 1
                 _write_obj(path, verts, faces, norms if smooth else None, uvs)

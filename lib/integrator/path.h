@@ -50,9 +50,12 @@ static inline double lr__path_mis(double a, double b)
 }
 
 /* Whether path16.c's vector bounce can take this scene's Lambertian
- * hits: no infinite planes, and its only lights are at most 16
- * emitting triangles or spheres without textures (no environment,
- * point or directional light).  Cheap: a few fields. */
+ * hits: no infinite planes, no environment map, and its only lights
+ * either at most 16 emitting triangles or spheres without textures (no
+ * point or directional light), or one point light (not a spot).  A
+ * uniform background beside them is fine: light.c leaves it to the
+ * BSDF's rays, so a bounce's light sample is the lamps'.  Cheap: a few
+ * fields. */
 int lr__path16_scene_ok(const lr_scene *s);
 
 #define LR__PATH16_EMITTERS 16
@@ -81,6 +84,10 @@ typedef struct emitters16 {
     int n;                                 /* how many */
     int sphere; /* 0: every emitter a triangle; 1: every one a sphere; 2:
                  * some of each */
+    /* 1 if the scene's one light is a point light (n is then 0): its
+     * position and intensity. */
+    int point;
+    double px, py, pz, ir, ig, ib;
 } emitters16;
 
 /* The sixteen paths of a packet between bounces, as arrays: lane i's

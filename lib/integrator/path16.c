@@ -2,8 +2,8 @@
  * path16.c: the path integrator's sixteen paths of a packet kept as
  * arrays (path.h: lr__paths16), and the bounce of the lanes that hit an
  * untextured Lambertian surface (a flat triangle or a sphere) in a
- * scene lit by a few emitting triangles or spheres: the hit, ambient
- * light, the
+ * scene lit by a few emitting triangles or spheres, or by one point
+ * light: the hit, ambient light, the
  * light sample, the cosine-weighted BSDF sample and roulette, in
  * structure-of-arrays loops over the lanes that GCC vectorises (double,
  * as path.c).  (A bounce's rays and hashed numbers: path16_rays.c.)
@@ -37,10 +37,20 @@ int lr__path16_enabled = 1;
  * interleaved runs, one thread; 1 and 3 gave less). */
 #define FEW_LIVE 2
 
+/* One point light (not a spot), no emitters, no map (path.h). */
+static int point_lit(const lr_scene *s)
+{
+    return s->n_lights == 1 && s->n_emitters == 0 && s->env == NULL &&
+           s->lights[0].kind == LR__LIGHT_POINT && !s->lights[0].spot;
+}
+
 int lr__path16_scene_ok(const lr_scene *s)
 {
-    if (!lr__path16_enabled || s->n_planes > 0 || s->n_lights > 0 ||
-        lr__env_is_light(s) || s->n_emitters == 0 ||
+    if (!lr__path16_enabled || s->n_planes > 0)
+        return 0;
+    if (point_lit(s))
+        return 1;
+    if (s->n_lights > 0 || s->env != NULL || s->n_emitters == 0 ||
         s->n_emitters > MAX_EMITTERS)
         return 0;
     for (size_t i = 0; i < s->n_emitters; i++) {
@@ -62,6 +72,16 @@ static inline double maxc3(double x, double y, double z)
 
 static void emitters_get(const lr_scene *s, emitters16 *E)
 {
+    E->point = point_lit(s);
+    if (E->point) {
+        memset(E, 0, sizeof *E); /* (lanes16 loads [0] and [1]) */
+        E->point = 1;
+        const lr__light *lt = &s->lights[0];
+        E->px = lt->position.x, E->py = lt->position.y;
+        E->pz = lt->position.z;
+        E->ir = lt->power.x, E->ig = lt->power.y, E->ib = lt->power.z;
+        return;
+    }
     /* (Past n, at least to 2, the last repeated: lambert16 reads [1].) */
     size_t n = s->n_emitters;
     for (size_t i = 0; i < n || i < 2; i++) {
@@ -155,8 +175,10 @@ int lr__path16_sort(const lr_scene *s, lr__path16 *w, int depth, int max_depth,
         if (w->vec && g == RTC_INVALID_GEOMETRY_ID) {
             /* path.c's bounce for a path that leaves the scene, at any
              * depth: in a scene lr__path16_scene_ok accepts the
-             * environment is no light (no map, a black background), so
-             * its radiance is the background and its density 0. */
+             * environment has no map (so no sun for the light side, whose
+             * weight is 1) and no light samples (a black background, or
+             * a uniform one beside lamps), so its radiance is the
+             * background and its density 0. */
             double wt = S->pdelta[i] != 0.0 ? 1.0
                                             : lr__path_mis(S->ppdf[i], 0.0);
             lr__v3 L = v3(S->Lr[i], S->Lg[i], S->Lb[i]);
@@ -335,7 +357,7 @@ lanes16(lr__v3 amb, int rr, const double (*restrict u)[16],
         const emitters16 *restrict E, const lr__hits16p *restrict H,
         lr__paths16 *restrict S, const double *restrict pick,
         const picked16 *restrict K, const sphere16 *restrict Q, const int two,
-        const int sph)
+        const int sph, const int pt)
 {
     /* The first two emitters' fields, loaded here: loads under a select
      * in the loop kept GCC from vectorising it.  (E's entries past n
@@ -398,7 +420,19 @@ lanes16(lr__v3 amb, int rr, const double (*restrict u)[16],
         /* ---- the light sample (light.c, path.c's next_event) ---- */
         double lx, ly, lz, d, lpdf, shadow, ler, leg, leb;
         int lamp = sph == 1 || (sph == 2 && Q->is[i] != 0.0);
-        if (sph == 1) {
+        if (pt) {
+            /* light.c's point light: the pick's probability 1 x 1, the
+             * intensity over d^2 (no spot: falloff 1). */
+            double tox = E->px - px, toy = E->py - py, toz = E->pz - pz;
+            double d2 = tox * tox + toy * toy + toz * toz;
+            shadow = d2 > 0.0 ? 1.0 : 0.0;
+            d = sqrt(d2);
+            double inv = 1.0 / d;
+            lx = tox * inv, ly = toy * inv, lz = toz * inv;
+            double fall = 1.0 / d2;
+            ler = E->ir * fall, leg = E->ig * fall, leb = E->ib * fall;
+            lpdf = 1.0 * 1.0;
+        } else if (sph == 1) {
             lx = Q->lx[i], ly = Q->ly[i], lz = Q->lz[i];
             d = Q->d[i], lpdf = Q->lpdf[i], shadow = Q->ok[i];
             ler = Q->lr[i], leg = Q->lg[i], leb = Q->lb[i];
@@ -445,7 +479,8 @@ lanes16(lr__v3 amb, int rr, const double (*restrict u)[16],
         double cr = fr * ler * ci, cg = fg * leg * ci, cb = fbb * leb * ci;
         shadow = maxc3(cr, cg, cb) > 0.0 ? shadow : 0.0;
         double ma = lpdf * lpdf, mb = bpdf * bpdf;
-        double w = ma + mb > 0.0 ? ma / (ma + mb) : 0.0;
+        /* (A point light is a delta light: not weighted.) */
+        double w = pt ? 1.0 : ma + mb > 0.0 ? ma / (ma + mb) : 0.0;
         cr = cr * w, cg = cg * w, cb = cb * w;
         double scr = br * cr, scg = bg * cg, scb = bb * cb;
         double side = lx * gx + ly * gy + lz * gz >= 0.0 ? 1.0 : -1.0;
@@ -562,6 +597,10 @@ lambert16(lr__v3 amb, int rr, const double (*restrict u)[16],
     double pick[16];
     for (int i = 0; i < 16; i++)
         pick[i] = 0.0;
+    if (E->point) {
+        lanes16(amb, rr, u, E, H, S, pick, NULL, NULL, 0, 0, 1);
+        return;
+    }
     for (int j = 0; j + 1 < E->n; j++)
         for (int i = 0; i < 16; i++)
             pick[i] += E->cdf[j] <= u[4][i] * 1 - 0 ? 1.0 : 0.0;
@@ -573,11 +612,11 @@ lambert16(lr__v3 amb, int rr, const double (*restrict u)[16],
     sphere16 Q;
     if (E->sphere == 1) {
         sphere_samples(u, E, H, S, pick, &Q);
-        lanes16(amb, rr, u, E, H, S, pick, &K, &Q, 0, 1);
+        lanes16(amb, rr, u, E, H, S, pick, &K, &Q, 0, 1, 0);
         return;
     }
     if (E->n <= 2 && E->sphere == 0) {
-        lanes16(amb, rr, u, E, H, S, pick, &K, NULL, 1, 0);
+        lanes16(amb, rr, u, E, H, S, pick, &K, NULL, 1, 0, 0);
         return;
     }
     for (int i = 0; i < 16; i++) {
@@ -591,10 +630,10 @@ lambert16(lr__v3 amb, int rr, const double (*restrict u)[16],
     }
     if (E->sphere == 2) {
         sphere_samples(u, E, H, S, pick, &Q);
-        lanes16(amb, rr, u, E, H, S, pick, &K, &Q, 0, 2);
+        lanes16(amb, rr, u, E, H, S, pick, &K, &Q, 0, 2, 0);
         return;
     }
-    lanes16(amb, rr, u, E, H, S, pick, &K, NULL, 0, 0);
+    lanes16(amb, rr, u, E, H, S, pick, &K, NULL, 0, 0, 0);
 }
 
 /* The paths of lanes 0..n-1 at their camera rays (as float, from r),

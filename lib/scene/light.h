@@ -10,10 +10,13 @@
  * of that kind: an area light in proportion to its power (area x
  * luminance of its emission), a point or directional light by what it
  * gives the point.  Both picks weigh each choice by an estimate of the
- * irradiance it brings to the shading point (light.c's kind_weights),
+ * irradiance it brings to the shading point (light.c's kind_probs),
  * mixed with the uniform pick (a tenth), so that no light that reaches
  * the point is ever left out and a poor estimate costs at most a factor
- * in variance (defensive importance sampling, Hesterberg 1995).
+ * in variance (defensive importance sampling, Hesterberg 1995).  A
+ * constant-colour environment (no map) is not among the kinds when the
+ * scene has other lights: the BSDF's rays find it (light.c's
+ * env_sampled), and lr__light_pdf_env is 0 for it.
  */
 #ifndef LR_LIGHT_H
 #define LR_LIGHT_H
