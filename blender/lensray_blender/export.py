@@ -397,7 +397,7 @@ def camera_dict(scene, depsgraph, warn):
     W = int(r.resolution_x * r.resolution_percentage / 100)
     H = int(r.resolution_y * r.resolution_percentage / 100)
     aspect = (W * r.pixel_aspect_x) / (H * r.pixel_aspect_y)
-    if cam.type != "PERSP":
+    if cam.type not in ("PERSP", "ORTHO"):
         warn.add(f"camera {cam.name!r}: {cam.type.lower()} projection drawn as perspective")
     fit = cam.sensor_fit
     if fit == "AUTO":
@@ -422,6 +422,16 @@ def camera_dict(scene, depsgraph, warn):
         region = [x0, y0, x0 + W, y0 + H]
     fov = math.degrees(2 * math.atan(tan_v * FH / H))
     d = {"position": _vec(pos), "look_at": _vec(pos + fwd), "up": _vec(up), "fov": fov}
+    if cam.type == "ORTHO":
+        # Orthographic Scale spans the fitted side (Blender's viewplane);
+        # lensray's view_height is the (widened) frame's height.
+        vh = cam.ortho_scale / aspect if fit == "HORIZONTAL" else cam.ortho_scale
+        del d["fov"]
+        d.update({"model": "orthographic", "view_height": vh * FH / H})
+        if cam.dof.use_dof or scene.lensray.lens:
+            warn.add(f"camera {cam.name!r}: an orthographic camera has no lens: "
+                     "depth of field and the lens panel are ignored")
+        return d, FW, FH, region
     dof = cam.dof
     focus = dof.focus_distance
     if dof.focus_object is not None:
