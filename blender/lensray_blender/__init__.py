@@ -193,6 +193,39 @@ class _Panel:
         return context.engine == "LENSRAY"
 
 
+class LENSRAY_OT_export_scene(bpy.types.Operator):
+    """Write the scene as lensray renders it: a folder with scene.json and
+    its OBJ, texture and map files, for `lensray render` or a daemon"""
+    bl_idname = "lensray.export_scene"
+    bl_label = "Export lensray scene"
+    directory: StringProperty(name="Folder", subtype="DIR_PATH")
+
+    def invoke(self, context, event):
+        context.window_manager.fileselect_add(self)
+        return {"RUNNING_MODAL"}
+
+    def execute(self, context):
+        if not self.directory:
+            self.report({"ERROR"}, "lensray: export: no folder given")
+            return {"CANCELLED"}
+        outdir = bpy.path.abspath(self.directory)
+        try:
+            path, warn = export.write_scene(context.scene,
+                                            context.evaluated_depsgraph_get(), outdir)
+        except (OSError, ValueError) as e:
+            self.report({"ERROR"}, f"lensray: export to {outdir}: {e}")
+            return {"CANCELLED"}
+        if warn:
+            self.report({"WARNING"}, "lensray: not drawn as in Cycles: "
+                        + "; ".join(sorted(warn)))
+        self.report({"INFO"}, f"lensray: wrote {path} (lensray render {path} -o out.exr)")
+        return {"FINISHED"}
+
+
+def _export_menu(self, context):
+    self.layout.operator(LENSRAY_OT_export_scene.bl_idname, text="lensray scene")
+
+
 class LENSRAY_PT_render(_Panel, bpy.types.Panel):
     bl_label = "lensray"
     bl_context = "render"
@@ -202,6 +235,7 @@ class LENSRAY_PT_render(_Panel, bpy.types.Panel):
         for k in ("samples", "integrator", "plan", "max_depth", "seed", "chromatic",
                   "daemon_url"):
             self.layout.prop(p, k)
+        self.layout.operator(LENSRAY_OT_export_scene.bl_idname)
 
 
 class LENSRAY_PT_lens(_Panel, bpy.types.Panel):
@@ -236,8 +270,8 @@ def _compatible_panels():
             yield p
 
 
-_classes = (LensraySettings, LensrayRenderEngine, LENSRAY_PT_render, LENSRAY_PT_lens,
-            LENSRAY_PT_passes)
+_classes = (LensraySettings, LensrayRenderEngine, LENSRAY_OT_export_scene,
+            LENSRAY_PT_render, LENSRAY_PT_lens, LENSRAY_PT_passes)
 
 
 def register():
@@ -251,9 +285,11 @@ def register():
                     "green where the colours were traced apart (per 16 x 16 block)")
     for p in _compatible_panels():
         p.COMPAT_ENGINES.add("LENSRAY")
+    bpy.types.TOPBAR_MT_file_export.append(_export_menu)
 
 
 def unregister():
+    bpy.types.TOPBAR_MT_file_export.remove(_export_menu)
     for p in _compatible_panels():
         p.COMPAT_ENGINES.discard("LENSRAY")
     del bpy.types.ViewLayer.lensray_pass_plan

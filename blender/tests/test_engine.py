@@ -150,6 +150,29 @@ def test_hdri_world_agrees_with_cycles(tmp_path):
     assert mean < 0.03 and p90 < 0.08, (mean, p90)
 
 
+def test_export_operator_writes_what_the_engine_renders(tmp_path):
+    # File > Export > lensray scene (the operator, as the render panel's
+    # button calls it): `lensray render` of its folder gives F12's pixels
+    # bit for bit; a folder it cannot make is one error naming it.
+    import subprocess
+    sc = common.issue_scene("POINT", width=96, height=64)
+    sc.lensray.samples = 16
+    a = common.render_exr(sc, "LENSRAY", str(tmp_path / "engine.exr"))
+    out = tmp_path / "exported"
+    assert bpy.ops.lensray.export_scene(directory=str(out)) == {"FINISHED"}
+    cli = os.path.join(common.ROOT, "build", "lensray")
+    subprocess.run([cli, "render", str(out / "scene.json"), "-o",
+                    str(tmp_path / "cli.exr"), "-q"], check=True)
+    img = bpy.data.images.load(str(tmp_path / "cli.exr"))
+    px = np.empty(96 * 64 * 4, np.float32)
+    img.pixels.foreach_get(px)
+    assert a.mean() > 0.01
+    assert np.array_equal(a, px.reshape(64, 96, 4)[::-1, :, :3])
+    (tmp_path / "a_file").write_text("x")
+    with pytest.raises(RuntimeError, match="export to .*a_file"):
+        bpy.ops.lensray.export_scene(directory=str(tmp_path / "a_file" / "sub"))
+
+
 def test_real_lens_matches_the_cli_bit_for_bit(tmp_path):
     # The double Gauss picked in the lens panel: F12's pixels against
     # `lensray render` of the scene the add-on exports.
