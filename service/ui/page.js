@@ -27,6 +27,7 @@ const KEY_HINTS = {
   image_plane_distance: {min: 0.05, max: 20, log: true, label: "image plane distance"},
   focal_length: {min: 0.1, max: 200, log: true, label: "focal length (beyond the image plane)"},
   aperture: {min: 0, max: 2, step: 0.005, label: "aperture (square side)"},
+  view_height: {min: 0.1, max: 200, log: true, label: "view height (orthographic, scene units)"},
 };
 // Set by the scene, never by a slider.
 const FRAME_KEYS = ["model", "position", "look_at", "up", "focus_on", "chromatic"];
