@@ -489,8 +489,8 @@ test-tree: $(DEPS_OK)
 # sites it reports can be symbolised with addr2line.  Allocators the test
 # does not wrap are named here if the library ever starts calling them.
 OOM_WRAP      := malloc calloc realloc reallocarray free strdup strndup \
-                 posix_memalign aligned_alloc
-OOM_UNWRAPPED := asprintf|vasprintf|getline|getdelim|open_memstream|realpath|memalign|valloc|pvalloc|scandir|__strdup|__strndup|wcsdup|tempnam
+                 posix_memalign aligned_alloc realpath
+OOM_UNWRAPPED := asprintf|vasprintf|getline|getdelim|open_memstream|memalign|valloc|pvalloc|scandir|__strdup|__strndup|wcsdup|tempnam
 
 $(BUILD)/tests/oom: $(BUILD)/obj/tests/oom/oom.o $(BUILD)/liblensray.a
 	@mkdir -p $(dir $@)

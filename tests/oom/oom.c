@@ -89,6 +89,7 @@ char *__real_strdup(const char *s);
 char *__real_strndup(const char *s, size_t n);
 int __real_posix_memalign(void **p, size_t align, size_t n);
 void *__real_aligned_alloc(size_t align, size_t n);
+char *__real_realpath(const char *path, char *resolved);
 
 #define MAX_FRAMES 16
 
@@ -273,6 +274,22 @@ ALLOCATOR char *__wrap_strdup(const char *s)
     if (should_fail())
         return NULL;
     char *p = __real_strdup(s);
+    track(p, p ? strlen(p) + 1 : 0);
+    return p;
+}
+
+/* realpath allocates only when it is given no buffer (resolved NULL):
+ * that call is an allocation point, one into the caller's buffer is
+ * not. */
+ALLOCATOR char *__wrap_realpath(const char *path, char *resolved)
+{
+    if (resolved != NULL)
+        return __real_realpath(path, resolved);
+    if (should_fail()) {
+        errno = ENOMEM;
+        return NULL;
+    }
+    char *p = __real_realpath(path, NULL);
     track(p, p ? strlen(p) + 1 : 0);
     return p;
 }
