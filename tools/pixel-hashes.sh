@@ -66,6 +66,10 @@ r textured textured --set render.spp=4
 r night-lens real-lens-light-side --set render.spp=4
 r lens-chart real-lens --set render.spp=2
 r lens-bokeh real-lens-rgb --set render.spp=2
+# The orthographic camera (a model with its parameter in lr_camera's
+# model block), path traced.
+r cornell orthographic --set render.spp=4 --set camera.model=orthographic \
+    --set camera.view_height=6 --set render.integrator=path
 # The shipped scenes at their own size and samples, as make render/figures do.
 for s in spheres chromatic bench; do
     n=$((n + 1))
