@@ -347,18 +347,15 @@ int lr__gt_plan(const lr_scene *s, const lr__cam *c, int spp, lr__lt **ltp)
         lr__lt_light l;
         memset(&l, 0, sizeof l);
         l.geom = (int)g;
-        l.L = mt->emission;
-        /* With an emission texture: l.L the largest radiance it gives
-         * (each path looks its own up where it meets the light:
-         * ghost_reaches), and the texels' mean for the plan's estimate
-         * of the ghosts and of the main image. */
-        lr__v3 Lbar = l.L;
+        /* l.L the largest radiance the light gives (a textured one's
+         * paths look their own up: ghost_reaches), and for the plan's
+         * estimate of the ghosts and of the main image the texels'
+         * mean. */
+        lr__lt_light_emission(mt, &l);
+        lr__v3 Lbar = mt->emission;
         if (mt->emission_tex != NULL) {
-            const double *t = mt->emission_tex->max;
             const double *a = mt->emission_tex->mean;
-            l.L = v3(l.L.x * t[0], l.L.y * t[1], l.L.z * t[2]);
             Lbar = v3(Lbar.x * a[0], Lbar.y * a[1], Lbar.z * a[2]);
-            l.textured = 1;
         }
         if (!lr__lt_light_sphere(s, geo, &l.center, &l.radius))
             continue;
@@ -439,8 +436,7 @@ static int ghost_reaches(const lr_scene *s, const lr__cam *c,
          (h.prim != (unsigned)(e - &s->emitters[l->first_tri]) || !h.entering)))
         return 0;
     if (l->textured) {
-        lr__material mt;
-        lr__v3 Le = lr__hit_material(s, &h, &mt)->emission;
+        lr__v3 Le = lr__lt_emission_at(s, l, &h);
         double Le3[3] = {Le.x, Le.y, Le.z}, Lm[3] = {l->L.x, l->L.y, l->L.z};
         for (int j = 0; j < 3; j++)
             k[j] = Lm[j] > 0.0 ? fmin(Le3[j] / Lm[j], 1.0) : 0.0;

@@ -168,9 +168,7 @@ static int land(const lr__cam *c, const lt_colour *col, double ox, double oy,
     return lr__cam_land_colour(c, col->wl, col->uw, col->j, ox, oy, w, ld);
 }
 
-/* Light l's emission where a path meets it (h): an emission texture
- * looked up there, as the camera's hit does (lr__hit_material). */
-static lr__v3 emission_at(const lr_scene *s, const lr__lt_light *l,
+lr__v3 lr__lt_emission_at(const lr_scene *s, const lr__lt_light *l,
                           const lr__hit *h)
 {
     if (!l->textured)
@@ -237,7 +235,8 @@ static void mesh_path(const lr_scene *s, const lr__cam *c,
         return;
     double pdf = dist2 / (l->area * cos_y);
     splat_landing(
-        f, &ld, v3_scale(emission_at(s, l, &h), 1.0 / (pdf * (double)l->paths)),
+        f, &ld,
+        v3_scale(lr__lt_emission_at(s, l, &h), 1.0 / (pdf * (double)l->paths)),
         lr__lt_rho(l->mis, c->forward, w), landed);
 }
 
@@ -407,7 +406,7 @@ static void glint_path(const lr_scene *s, const lr__cam *c,
              (hy.prim != (unsigned)(e - &s->emitters[l->first_tri]) ||
               !hy.entering)))
             return;
-        Le = emission_at(s, l, &hy);
+        Le = lr__lt_emission_at(s, l, &hy);
     }
     double pdf_w = pA * dist2 / cos_x;
     double g = fabs(v3_dot(wi, hx.ns)) * cos_y / d2;
@@ -492,7 +491,7 @@ static void sphere_path(const lr_scene *s, const lr__cam *c,
         if (!lr__trace(s, lr__cam_ray_start(c, P, w), w, INFINITY, &h) ||
             h.geom != l->geom)
             return;
-        Le = emission_at(s, l, &h);
+        Le = lr__lt_emission_at(s, l, &h);
     }
     double pdf = 1.0 / (2.0 * M_PI * omc);
     splat_landing(f, &ld, v3_scale(Le, 1.0 / (pdf * (double)l->paths)),

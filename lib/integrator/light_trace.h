@@ -226,6 +226,16 @@ int lr__lt_light_sphere(const lr_scene *s, const lr__geom *g, lr__v3 *center,
 /* Mesh light l's triangles (those of geometry g) and their cumulative
  * areas into l (first_tri, n_tri, cdf, area); 0 when out of memory. */
 int lr__lt_mesh_cdf(const lr_scene *s, const lr__geom *g, lr__lt_light *l);
+
+/* Light l's radiance l->L from material m, and l->textured: with an
+ * emission texture, the largest the texture gives (each path then looks
+ * its own up where it meets the light: lr__lt_emission_at). */
+void lr__lt_light_emission(const lr__material *m, lr__lt_light *l);
+/* Light l's emission where a path meets it (h): l->L, or for a textured
+ * light the texture looked up there, as the camera's hit does
+ * (lr__hit_material). */
+lr__v3 lr__lt_emission_at(const lr_scene *s, const lr__lt_light *l,
+                          const lr__hit *h);
 /* A point y uniform by area over mesh light l (density 1 / l->area) from
  * (u0, u1): its triangle by area through l->cdf, u0 rescaled reused for
  * the point (the usual trick for one more dimension).  Returns the

@@ -150,9 +150,7 @@ int lr__lt_light_sphere(const lr_scene *s, const lr__geom *g, lr__v3 *center,
            mesh_sphere(s, g, center, radius);
 }
 
-/* Light l's radiance from material m: with an emission texture, the
- * largest the texture gives (each path then looks its own up). */
-static void light_emission(const lr__material *m, lr__lt_light *l)
+void lr__lt_light_emission(const lr__material *m, lr__lt_light *l)
 {
     l->L = m->emission;
     if (m->emission_tex != NULL) {
@@ -391,7 +389,7 @@ static int plan_glints(const lr_scene *s, const lr__cam *c,
             l->plane_n = P[1];
             l->alpha = a;
             lr__lt_light_sphere(s, L, &l->center, &l->radius);
-            light_emission(&s->materials[L->material], l);
+            lr__lt_light_emission(&s->materials[L->material], l);
             if (L->kind == LR__GEOM_TRIANGLES && !lr__lt_mesh_cdf(s, L, l)) {
                 good = 0;
                 break;
@@ -561,7 +559,7 @@ lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
             return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
         }
         lt->n++;
-        light_emission(&s->materials[geo->material], l);
+        lr__lt_light_emission(&s->materials[geo->material], l);
         l->paths = n;
         l->first = lt->paths;
         lt->paths += n;
