@@ -107,7 +107,8 @@ static double block_d2(const ghost_img *a, const ghost_img *b, int bs)
  * ghosts with different seeds (s1, s2) do: energy within 2% and that
  * seed-to-seed difference, centroids within 0.5 mm, rms radii within
  * 3%, and the squared difference of bs x bs blocks under twice the
- * seeds'. */
+ * seeds', or (the ghosts drawn as meshes, the same for every seed)
+ * under 1e-4 of the energy squared: every block within 1% of it. */
 static void same_ghosts(const ghost_img *x, const ghost_img *s1,
                         const ghost_img *s2, int bs, const char *what)
 {
@@ -124,7 +125,7 @@ static void same_ghosts(const ghost_img *x, const ghost_img *s1,
     assert_true(fabs(x->sum / s1->sum - 1.0) < 0.02 + seeds);
     assert_true(hypot(x->cx - s1->cx, x->cy - s1->cy) < 0.5);
     assert_true(fabs(x->rms / s1->rms - 1.0) < 0.03);
-    assert_true(d_x < 2.0 * d_s);
+    assert_true(d_x < fmax(2.0 * d_s, 1e-4 * s1->sum * s1->sum));
 }
 
 /* The sphere of ssets (ssets[1] its seed) at seeds 1 and 2, and the
@@ -151,8 +152,11 @@ static void against_sphere(const char **ssets, size_t ns, const char *json,
                   what, (unsigned long long)st_x.ghost_paths,
                   (unsigned long long)st_s.ghost_paths, st_x.ghost_flux,
                   st_s.ghost_flux);
-    assert_true(
-        fabs((double)st_x.ghost_paths / (double)st_s.ghost_paths - 1.0) < 1e-3);
+    /* The same budget: as many paths (to their rounding), or as meshes
+     * (the same cells, but as many directions as each is pixels wide)
+     * within 4x. */
+    double ratio = (double)st_x.ghost_paths / (double)st_s.ghost_paths;
+    assert_true(fabs(ratio - 1.0) < 1e-3 || (ratio > 0.25 && ratio < 4.0));
     same_ghosts(&x, &s1, &s2, bs, what);
     assert_true(fabs(st_x.ghost_flux / st_s.ghost_flux - 1.0) <
                 0.02 + fabs(st_s2.ghost_flux / st_s.ghost_flux - 1.0));

@@ -229,8 +229,10 @@ typedef struct lr__camera_model {
      * `ghost_film` is `film` for light that follows path g
      * (0 .. ghost_paths - 1) instead of the main path, at the reference
      * wavelength (k = -1) or rgb channel k's (0 red, 1 green, 2 blue):
-     * where it lands and its importance, 0 when it is lost.  NULL: the
-     * model has no ghosts.  ghost_paths returns -1 when out of memory. */
+     * where it lands and its importance, 0 when it is lost (rel NULL:
+     * also when it lands outside the frame; else past the apertures too,
+     * *rel as lr__ghost_trace_rel sets it, for a mesh's corners,
+     * ghost_grid.c).  NULL: the model has no ghosts.  ghost_paths returns -1 when out of memory. */
     /* A real lens's planner's bound (lens_blur.c: the spot and the
      * colours' spread over a film region and a depth range, from traced
      * bundles), made on first use and shared; NULL when the model has
@@ -239,7 +241,7 @@ typedef struct lr__camera_model {
     int (*ghost_paths)(const lr__cam *c, double *peak, double *k,
                        lr__ghost_est *est);
     double (*ghost_film)(const lr__cam *c, int g, int k, double ox, double oy,
-                         lr__v3 d, double *fx, double *fy);
+                         lr__v3 d, double *rel, double *fx, double *fy);
     /* The disk lens_point draws on (its radius, in the units of its
      * offsets), and the point lens_point gives for offset (ox, oy) on
      * it: for ghost paths that draw their own lens points

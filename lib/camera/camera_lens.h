@@ -42,7 +42,7 @@ int lr__lens_light_ok(const lr__cam *c);
 int lr__lens_ghost_paths(const lr__cam *c, double *peak, double *k,
                          lr__ghost_est *est);
 double lr__lens_ghost_film(const lr__cam *c, int g, int k, double ox, double oy,
-                           lr__v3 w, double *fx, double *fy);
+                           lr__v3 w, double *rel, double *fx, double *fy);
 double lr__lens_ghost_disk(const lr__cam *c);
 
 /* ---- small helpers of the three files, inline ----------------------------- */

@@ -265,7 +265,7 @@ int lr__lens_ghost_paths(const lr__cam *c, double *peak, double *k,
 }
 
 double lr__lens_ghost_film(const lr__cam *c, int g, int k, double ox, double oy,
-                           lr__v3 w, double *fx, double *fy)
+                           lr__v3 w, double *rel, double *fx, double *fy)
 {
     const lr__lens_cam *lc = &c->lens;
     /* The glass's own dispersion at nm (chromatic.amplify plays no part
@@ -283,10 +283,10 @@ double lr__lens_ghost_film(const lr__cam *c, int g, int k, double ox, double oy,
     double back = (L->rx.s[0].semi_aperture + 1.0) / d[2];
     double o[3] = {ox - back * d[0], oy - back * d[1], L->z[0] - back * d[2]};
     double hit[2], T = 0.0;
-    double clip[2] = {0.5 * lc->sensor_w, 0.5 * lc->sensor_h};
-    if (!lr__ghost_trace_t(&L->rx, L->z, n_after, tab, nm, lc->stop_scale,
-                           lc->coat, ghost_at(g), lc->z_sensor, clip, o, d, hit,
-                           &T))
+    double frame[2] = {0.5 * lc->sensor_w, 0.5 * lc->sensor_h};
+    if (!lr__ghost_trace_rel(&L->rx, L->z, n_after, tab, nm, lc->stop_scale,
+                             lc->coat, ghost_at(g), lc->z_sensor,
+                             rel == NULL ? frame : NULL, o, d, hit, &T, rel))
         return 0.0;
     *fx = (0.5 - hit[0] / lc->sensor_w) * c->width;
     *fy = (hit[1] / lc->sensor_h + 0.5) * c->height;

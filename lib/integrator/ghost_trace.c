@@ -41,12 +41,20 @@ static double est_weights(const lr__ghost_est *est, int n, double *w)
 
 /* Per ghost path g of a light, after the paths' cdf (GUIDE doubles a
  * path): the box of lens offsets x0, y0, x1, y1 its paths draw from (x0
- * >= x1: none, the disk alone), and the weight p_disk / p_mix of a lens
- * point inside it; after the last path's, the disk's squared radius. */
-#define GUIDE 5
+ * >= x1: none, the disk alone), the weight p_disk / p_mix of a lens
+ * point inside it, and for a light drawn as meshes the cells across its
+ * mesh and 1 when it takes every direction of the light (0: the centre
+ * alone, lr__gt_mesh); after the last path's, the disk's squared
+ * radius. */
+#define GUIDE 7
 static double *guides(const lr__lt_light *l)
 {
     return l->cdf + l->n_tri + l->ghosts;
+}
+
+const double *lr__gt_box(const lr__lt_light *l, int g)
+{
+    return guides(l) + GUIDE * g;
 }
 
 /* Light l's guides (guides), seen along unit w0 (its centre's direction
@@ -66,20 +74,27 @@ static double *guides(const lr__lt_light *l)
 static void ghost_guide(const lr__cam *c, lr__lt_light *l, lr__v3 w0,
                         lr__ghost_est *own)
 {
-    double rho = c->model->ghost_disk(c), h = 2.0 * rho / GRID;
+    double rho = c->model->ghost_disk(c);
     double *gd = guides(l);
     gd[GUIDE * l->ghosts] = rho * rho;
     for (int g = 0; g < l->ghosts; g++) {
+        /* A light drawn as meshes: LR__GT_GUIDE_MESH, none for a ghost
+         * of no light (mesh_sizes). */
+        int n = l->grid == 0               ? GRID
+                : gd[GUIDE * g + 5] == 0.0 ? 0
+                                           : LR__GT_GUIDE_MESH;
+        double h = n > 0 ? 2.0 * rho / n : 0.0;
         double x0 = INFINITY, y0 = INFINITY, x1 = -INFINITY, y1 = -INFINITY;
         double flux = 0.0;
         int land = 0;
-        for (int i = 0; i < GRID; i++)
-            for (int j = 0; j < GRID; j++) {
+        for (int i = 0; i < n; i++)
+            for (int j = 0; j < n; j++) {
                 double ox = (i + 0.5) * h - rho, oy = (j + 0.5) * h - rho;
                 double fx, fy;
                 if (ox * ox + oy * oy > rho * rho)
                     continue;
-                double W = c->model->ghost_film(c, g, -1, ox, oy, w0, &fx, &fy);
+                double W = c->model->ghost_film(c, g, -1, ox, oy, w0, NULL, &fx,
+                                                &fy);
                 if (!(W > 0.0) || !(fx >= 0.0 && fx < c->width && fy >= 0.0 &&
                                     fy < c->height))
                     continue;
@@ -151,6 +166,36 @@ static double ghost_choice(const lr__cam *c, lr__lt_light *l,
     return M * est_weights(est, n, NULL);
 }
 
+/* A light drawn as meshes: each ghost path's cells and directions
+ * (guides), by its mean on the film m = M flux / px (the camera's
+ * estimate on axis, M the light's main-image total): a mesh's error
+ * falls as its cells squared inside a ghost and as its cells at the
+ * edge, and what matters is that error against the pixels' brightness,
+ * so a ghost from LR__GT_LIT of white on gets lr__gt_cells and a
+ * fainter one lr__gt_cells (m / LR__GT_LIT)^(1/4), at least
+ * LR__GT_CELLS_MIN; the light's every direction only for ghosts from
+ * LR__GT_EVERY LR__GT_LIT on (a faint ghost's softened edge is lost
+ * under the brighter ones).  The exponent and the levels are measured,
+ * not derived (ghost_trace.h).  No estimate (all 0): every ghost at
+ * full size. */
+static void mesh_sizes(lr__lt_light *l, const lr__ghost_est *est, double M)
+{
+    double *gd = guides(l), sum = 0.0;
+    for (int g = 0; g < l->ghosts; g++)
+        sum += est[g].flux;
+    for (int g = 0; g < l->ghosts; g++) {
+        double m = sum > 0.0 ? M * est[g].flux / est[g].px : INFINITY;
+        double n = lr__gt_cells * sqrt(sqrt(fmin(1.0, m / LR__GT_LIT)));
+        gd[GUIDE * g + 5] = fmax(LR__GT_CELLS_MIN, ceil(n));
+        gd[GUIDE * g + 6] = m >= LR__GT_LIT * LR__GT_EVERY;
+        /* Rays that land but carry nothing: a reflection at a surface
+         * with the same index on both sides (the stop), no ghost at any
+         * place or wavelength. */
+        if (est[g].flux == 0.0 && est[g].land > 0.0)
+            gd[GUIDE * g + 5] = 0.0;
+    }
+}
+
 /* Guides the ghost lights first .. lt->n - 1 (ghost_guide) whose paths
  * are at least LR__GT_GUIDE times the grid's rays, and draws their
  * paths' choice from their own estimates (where any path lands on the
@@ -161,7 +206,7 @@ static void ghost_guide_lights(lr__lt *lt, int first, const lr_scene *s,
     for (int k = first; k < lt->n; k++) {
         lr__lt_light *l = &lt->lights[k];
         double rays = (double)l->ghosts * GRID * GRID * M_PI / 4.0;
-        if (!((double)l->paths >= LR__GT_GUIDE * rays))
+        if (l->grid == 0 && !((double)l->paths >= LR__GT_GUIDE * rays))
             continue;
         lr__v3 w0 = l->geom == (int)s->n_geoms
                         ? l->center
@@ -172,13 +217,34 @@ static void ghost_guide_lights(lr__lt *lt, int first, const lr_scene *s,
     }
 }
 
+/* Light l's meshes' cost in rays through the lens, nch colours: the
+ * guide's grid for every ghost path that carries light, and each mesh's
+ * corners over (about) half its box, times its directions. */
+static double mesh_cost(const lr__lt_light *l, int nch)
+{
+    const double *gd = guides(l);
+    double sum = 0.0, K = (double)l->grid * l->grid;
+    for (int g = 0; g < l->ghosts; g++) {
+        double n = gd[GUIDE * g + 5];
+        if (n > 0.0)
+            sum += LR__GT_GUIDE_MESH * LR__GT_GUIDE_MESH * M_PI / 4.0 +
+                   0.5 * (n + 1.0) * (n + 1.0) * nch *
+                       (gd[GUIDE * g + 6] != 0.0 ? K : 1.0);
+    }
+    return sum;
+}
+
 /* The ghost lights' paths, lights first .. lt->n - 1 with budget weights
  * a[] (ghost_choice): the squared error over the frame's P pixels,
  * sum_l a_l^2 / ((1 - LR__GT_UNIFORM) N_l), is least for a total of
  * paths with N_l proportional to a_l, and reaches LR__GT_SIGMA^2 / spp
  * per pixel with N_l = a_l sum_k a_k / ((1 - LR__GT_UNIFORM) P
- * LR__GT_SIGMA^2 / spp); all of them at most LR__GT_CAP spp P (scaled
- * down alike), each at least LR__GT_MIN. */
+ * LR__GT_SIGMA^2 / spp).  A light that can be drawn as meshes is, when
+ * those N_l paths (each traced in every colour) cost more than its
+ * meshes (mesh_cost), whose error is far below the paths' at that cost
+ * (docs/lenses.md); else it keeps N_l paths, all the path lights
+ * together at most LR__GT_CAP spp P (scaled down alike), each at least
+ * LR__GT_MIN. */
 static void ghost_paths(lr__lt *lt, int first, const double *a,
                         const lr__cam *c, int spp)
 {
@@ -187,17 +253,28 @@ static void ghost_paths(lr__lt *lt, int first, const double *a,
         sum += a[k - first];
     double per = sum * spp /
                  ((1.0 - LR__GT_UNIFORM) * P * LR__GT_SIGMA * LR__GT_SIGMA);
+    int nch = c->chroma.mode == LR_CHROMATIC_OFF ? 1 : 3;
+    double rest = 0.0;
+    for (int k = first; k < lt->n; k++) {
+        lr__lt_light *l = &lt->lights[k];
+        if (l->grid > 0 && !(a[k - first] * per * nch > mesh_cost(l, nch)))
+            l->grid = 0;
+        rest += l->grid > 0 ? 0.0 : a[k - first];
+    }
     double cap = LR__GT_CAP * spp * P;
-    if (per * sum > cap)
-        per = cap / sum;
+    if (per * rest > cap)
+        per = cap / rest;
     for (int k = first; k < lt->n; k++) {
         lr__lt_light *l = &lt->lights[k];
         double want = ceil(a[k - first] * per);
-        l->paths = !(want > (double)LR__GT_MIN)       ? LR__GT_MIN
+        l->paths = l->grid > 0                        ? 0
+                   : !(want > (double)LR__GT_MIN)     ? LR__GT_MIN
                    : want < (double)(LR__LT_PART - 1) ? (uint64_t)want
                                                       : LR__LT_PART - 1;
         l->first = lt->paths;
         lt->paths += l->paths;
+        l->grid_first = lt->grid_tasks;
+        lt->grid_tasks += l->grid > 0;
     }
 }
 
@@ -259,10 +336,21 @@ static int pick(gt_pick *p, lr__lt_light *src, double omega, lr__v3 Lbar)
     *l = *src;
     l->surf = LR__LT_GHOST;
     l->ghosts = p->n_ghost;
+    l->omega = omega, l->Lmean = Lbar;
+    /* Its diameter in pixels at the frame's centre, as a disc of solid
+     * angle omega: meshes up to LR__GT_DIRS (ghost_trace.h). */
+    double diam = 2.0 * sqrt(omega / M_PI) / (2.0 * c->half_h / c->height);
+    l->grid = diam <= LR__GT_DIRS * lr__gt_dir_px
+                  ? (int)fmax(1.0, ceil(diam / lr__gt_dir_px))
+                  : 0;
     lt->ghost_lights++;
     lt->ghost_main += omega * p->k * (Lbar.x + Lbar.y + Lbar.z);
-    return (p->a[lt->n - 1 - p->first] = ghost_choice(c, l, p->est, p->n_ghost,
-                                                      M)) >= 0.0;
+    if ((p->a[lt->n - 1 - p->first] = ghost_choice(c, l, p->est, p->n_ghost,
+                                                   M)) < 0.0)
+        return 0;
+    if (l->grid > 0)
+        mesh_sizes(l, p->est, M);
+    return 1;
 nomem:
     free(src->cdf);
     return 0;
@@ -348,7 +436,7 @@ int lr__gt_plan(const lr_scene *s, const lr__cam *c, int spp, lr__lt **ltp)
         memset(&l, 0, sizeof l);
         l.geom = (int)g;
         /* l.L the largest radiance the light gives (a textured one's
-         * paths look their own up: ghost_reaches), and for the plan's
+         * paths look their own up: lr__gt_reaches), and for the plan's
          * estimate of the ghosts and of the main image the texels'
          * mean. */
         lr__lt_light_emission(mt, &l);
@@ -383,8 +471,8 @@ int lr__gt_plan(const lr_scene *s, const lr__cam *c, int spp, lr__lt **ltp)
  * light_trace.c's sphere, mesh and sun paths draw theirs), into *w,
  * with its radiance over its solid-angle density and, for a mesh, the
  * triangle drawn (*e).  0: no light that way. */
-static double ghost_dir(const lr_scene *s, const lr__lt_light *l, lr__v3 P,
-                        const double *ud, lr__v3 *w, const lr__emitter **e)
+double lr__gt_dir(const lr_scene *s, const lr__lt_light *l, lr__v3 P,
+                  const double *ud, lr__v3 *w, const lr__emitter **e)
 {
     *e = NULL;
     if (l->n_tri > 0) {
@@ -421,9 +509,8 @@ static double ghost_dir(const lr_scene *s, const lr__lt_light *l, lr__v3 P,
  * textured light, *k gets its radiance where the ray meets it over l->L
  * (the largest), per channel, as the camera's hit looks it up
  * (lr__hit_material); else 1. */
-static int ghost_reaches(const lr_scene *s, const lr__cam *c,
-                         const lr__lt_light *l, lr__v3 P, lr__v3 w,
-                         const lr__emitter *e, double k[3])
+int lr__gt_reaches(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
+                   lr__v3 P, lr__v3 w, const lr__emitter *e, double k[3])
 {
     lr__v3 o = lr__cam_ray_start(c, P, w);
     k[0] = k[1] = k[2] = 1.0;
@@ -451,7 +538,7 @@ static int ghost_reaches(const lr_scene *s, const lr__cam *c,
  * nearest unit lost or gained up to 6% of the colour test's ghost
  * (test_ghost_render.c at 8192 spp, seeds 5, 7 and 9).  Returns the
  * units added. */
-static int64_t ghost_splat(lr__lt_film *f, int ix, int iy, lr__v3 v, double u)
+int64_t lr__gt_splat(lr__lt_film *f, int ix, int iy, lr__v3 v, double u)
 {
     if (ix < f->x0 || ix >= f->x1 || iy < f->y0 || iy >= f->y1)
         return 0;
@@ -529,7 +616,7 @@ void lr__gt_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
     double ox, oy;
     double share = ghost_lens(c, l, g, ul, uc, &P, &ox, &oy);
     const lr__emitter *e;
-    double inv_pdf = share > 0.0 ? ghost_dir(s, l, P, ud, &w, &e) : 0.0;
+    double inv_pdf = share > 0.0 ? lr__gt_dir(s, l, P, ud, &w, &e) : 0.0;
     if (!(inv_pdf > 0.0))
         return;
     /* The sun's radiance along w (the map's, looked up before the lens:
@@ -552,7 +639,7 @@ void lr__gt_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
     lr__v3 ev[3];
     for (int k = k0; k < k1; k++) {
         double fx, fy;
-        double W = c->model->ghost_film(c, g, k, ox, oy, w, &fx, &fy);
+        double W = c->model->ghost_film(c, g, k, ox, oy, w, NULL, &fx, &fy);
         if (!(W > 0.0) ||
             !(fx >= 0.0 && fx < c->width && fy >= 0.0 && fy < c->height))
             continue;
@@ -568,7 +655,7 @@ void lr__gt_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
         return;
     (*rays)++;
     double tex[3];
-    if (!ghost_reaches(s, c, l, P, w, e, tex))
+    if (!lr__gt_reaches(s, c, l, P, w, e, tex))
         return;
     for (int k = 0; k < n; k++) {
         ev[k] = v3(ev[k].x * tex[0], ev[k].y * tex[1], ev[k].z * tex[2]);
@@ -578,7 +665,7 @@ void lr__gt_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
          * its source's radiance times the two reflectances, so the sum
          * over a frame stays far inside the 2^23 times the brightest
          * light that an int64 holds at that scale. */
-        int64_t q = ghost_splat(f, px[k], py[k], ev[k], ur);
+        int64_t q = lr__gt_splat(f, px[k], py[k], ev[k], ur);
         __atomic_fetch_add(&f->ghost_sum, q, __ATOMIC_RELAXED);
     }
 }

@@ -75,6 +75,41 @@
  * about what a path that lands costs). */
 #define LR__GT_GUIDE 4.0
 
+/* A ghost light is drawn as meshes (ghost_grid.c: a grid of rays over
+ * the lens a ghost path, each cell's light spread over where it lands)
+ * when it is at most LR__GT_DIRS pixels across as the eye sees it: then
+ * n x n directions, n its diameter in pixels rounded up (each direction
+ * a sharp copy of every ghost, a pixel apart where the ghost's scale is
+ * the main image's).  A larger source (a window, a lamp close by) keeps
+ * the paths, whose noise does not grow with its size.  LR__GT_CELLS:
+ * the cells across the box a ghost path lands from (ghost_guide);
+ * LR__GT_DEPTH: how many times a cell on the ghost's edge splits in
+ * four. */
+#define LR__GT_DIRS 8
+#define LR__GT_CELLS 24
+#define LR__GT_DEPTH 1
+/* A ghost's cells shrink with its brightness (ghost_trace.c:
+ * mesh_sizes): full size from LR__GT_LIT of white on (a quarter of one
+ * level of an 8-bit image: a fainter ghost still adds to a brighter
+ * one's pixels), at
+ * least LR__GT_CELLS_MIN; a ghost takes the light's every direction
+ * from LR__GT_EVERY of LR__GT_LIT on.  The guide's grid that finds
+ * where each lands on the lens is LR__GT_GUIDE_MESH across.  Chosen on
+ * the bare double Gauss's night scene against a mesh of 48 cells and 9
+ * directions, for the least error at about the cost of the main image
+ * (docs/lenses.md, "Coatings and ghosts"). */
+#define LR__GT_LIT (1.0 / 1024.0)
+#define LR__GT_CELLS_MIN 8
+#define LR__GT_EVERY 0.1
+#define LR__GT_GUIDE_MESH 12
+/* For tests of the meshes' convergence: the cells (at most
+ * LR__GT_CELLS_MAX), the splits, and the directions' spacing in pixels
+ * that ghost_grid.c and the plan use; LR__GT_CELLS, LR__GT_DEPTH and 1
+ * unless a test sets them. */
+#define LR__GT_CELLS_MAX 256
+extern int lr__gt_cells, lr__gt_depth;
+extern double lr__gt_dir_px;
+
 /* Adds to *ltp (made when NULL) a ghost light for every untextured
  * sphere or mesh light, and the environment's sun, that camera c's
  * ghosts call for (camera.ghosts), spp camera samples a pixel.  Returns 0
@@ -107,5 +142,37 @@ int lr__gt_which(const lr__lt_light *l, double u, uint64_t i, uint32_t *j);
 void lr__gt_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
                  int g, const double *ul, const double *ud, double uc,
                  double ur, lr__lt_film *f, uint64_t *rays, uint64_t *landed);
+
+/* Task `task` (0 .. lt->grid_tasks - 1) of the ghost lights drawn as
+ * meshes: one light's ghosts (ghost_grid.c), their splats into f; counts scene rays in *rays and the
+ * grid's corners that landed in *landed, and its rays through the lens
+ * in f->ghost_traced. */
+void lr__gt_grid(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
+                 uint64_t task, lr__lt_film *f, uint64_t *rays,
+                 uint64_t *landed);
+
+/* ---- shared by ghost_trace.c and ghost_grid.c ---------------------------- */
+
+/* The box of lens offsets {x0, y0, x1, y1} where ghost light l's path g
+ * lands in the frame, found by the guide's grid (x0 >= x1: none, or no
+ * guide); then [5] its mesh's cells across and [6] 1 when the mesh takes
+ * every direction of the light, 0 its centre alone (a light drawn as
+ * meshes). */
+const double *lr__gt_box(const lr__lt_light *l, int g);
+
+/* Ghost light l's direction from lens point P, drawn from ud, into *w,
+ * with its radiance over its solid-angle density and, for a mesh, the
+ * triangle drawn (*e).  0: no light that way. */
+double lr__gt_dir(const lr_scene *s, const lr__lt_light *l, lr__v3 P,
+                  const double *ud, lr__v3 *w, const lr__emitter **e);
+
+/* Whether the light along w from lens point P reaches the front of the
+ * lens, and in k a textured light's radiance there over l->L (else 1). */
+int lr__gt_reaches(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
+                   lr__v3 P, lr__v3 w, const lr__emitter *e, double k[3]);
+
+/* Adds v (>= 0) to pixel (ix, iy) of f if the region holds it, rounded
+ * down or up by u (uniform in [0, 1): unbiased); returns the units. */
+int64_t lr__gt_splat(lr__lt_film *f, int ix, int iy, lr__v3 v, double u);
 
 #endif

@@ -68,6 +68,8 @@ lr_status lr__lt_film_init(lr__lt_film *f, const lr__lt *lt, int x0, int y0,
 {
     f->x0 = x0, f->y0 = y0, f->x1 = x1, f->y1 = y1;
     f->ghost_sum = 0;
+    f->ghost_traced = 0;
+    f->nomem = 0;
     size_t n = 3 * (size_t)(x1 - x0) * (size_t)(y1 - y0);
     f->sum = calloc(n, sizeof *f->sum);
     if (f->sum == NULL)
@@ -93,7 +95,7 @@ void lr__lt_film_free(lr__lt_film *f)
 
 uint64_t lr__lt_units(const lr__lt *lt)
 {
-    return (lt->paths + LR__LT_CHUNK - 1) / LR__LT_CHUNK;
+    return (lt->paths + LR__LT_CHUNK - 1) / LR__LT_CHUNK + lt->grid_tasks;
 }
 
 /* The light whose paths hold global path index i. */
@@ -538,6 +540,11 @@ void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
                  uint64_t u, lr__lt_film *f, uint64_t *rays, uint64_t *landed,
                  uint64_t *ghosts)
 {
+    uint64_t n_path = (lt->paths + LR__LT_CHUNK - 1) / LR__LT_CHUNK;
+    if (u >= n_path) {
+        lr__gt_grid(lt, s, c, u - n_path, f, rays, ghosts);
+        return;
+    }
     lr__sampler smp;
     lr__sampler_init(&smp, LR_SAMPLER_SOBOL, lt->seed, 1);
     uint64_t i0 = u * LR__LT_CHUNK, i1 = i0 + LR__LT_CHUNK;

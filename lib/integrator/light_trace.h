@@ -107,7 +107,16 @@ typedef struct lr__lt_light {
      * (integrator.h's lr__lt_rho); 0: no mix, the light side takes every
      * path. */
     double mis;
-    int ghosts;     /* LR__LT_GHOST: the lens's ghost paths */
+    int ghosts; /* LR__LT_GHOST: the lens's ghost paths */
+    /* LR__LT_GHOST drawn as meshes (ghost_grid.c): grid x grid
+     * directions, all of them task grid_first of the light side's mesh
+     * tasks (after its path units); 0: drawn by paths. */
+    int grid;
+    uint64_t grid_first;
+    /* A ghost light: the solid angle it fills from the eye, and its
+     * mean radiance there (a textured one's texels' mean). */
+    double omega;
+    lr__v3 Lmean;
     uint64_t paths; /* light paths traced for it */
     uint64_t first; /* index of its first path among all */
 } lr__lt_light;
@@ -115,7 +124,8 @@ typedef struct lr__lt_light {
 typedef struct lr__lt {
     int n;
     lr__lt_light *lights;
-    uint64_t paths; /* all lights' */
+    uint64_t paths;      /* all lights' */
+    uint64_t grid_tasks; /* ghost lights drawn as meshes, a task each */
     /* Per geometry of the scene, flags: LR__LT_DIRECT where its direct
      * emission is the light side's (camera rays that meet it first add
      * none); LR__LT_GLINT_SURF on a glint surface, LR__LT_GLINT_LIGHT on
@@ -205,13 +215,20 @@ typedef struct lr__lt_film {
     /* The ghosts' splats inside the region, every channel, in the same
      * units (ghost_trace.c; --stats ghost_flux). */
     int64_t ghost_sum;
+    /* Rays the ghosts' meshes traced through the lens (ghost_grid.c;
+     * --stats ghost_paths). */
+    uint64_t ghost_traced;
+    /* Set when a ghost mesh's scratch could not be had: the render
+     * fails as out of memory rather than lose its light. */
+    int nomem;
 } lr__lt_film;
 
 lr_status lr__lt_film_init(lr__lt_film *f, const lr__lt *lt, int x0, int y0,
                            int x1, int y1, lr_error *err);
 void lr__lt_film_free(lr__lt_film *f);
 
-/* Paths per unit of work (render.c hands units to its threads). */
+/* Paths per unit of work (render.c hands units to its threads): units of
+ * paths, then one a ghost mesh task (lr__gt_grid). */
 #define LR__LT_CHUNK 4096
 uint64_t lr__lt_units(const lr__lt *lt);
 

@@ -24,7 +24,7 @@
 void lr__lt_keep(lr__lt *lt, const unsigned char *keep)
 {
     int n = 0;
-    lt->paths = 0;
+    lt->paths = 0, lt->grid_tasks = 0;
     for (int k = 0; k < lt->n; k++) {
         if (!keep[k]) {
             free(lt->lights[k].cdf);
@@ -33,6 +33,8 @@ void lr__lt_keep(lr__lt *lt, const unsigned char *keep)
         lr__lt_light l = lt->lights[k];
         l.first = lt->paths;
         lt->paths += l.paths;
+        l.grid_first = lt->grid_tasks;
+        lt->grid_tasks += l.grid > 0;
         lt->lights[n++] = l;
     }
     lt->n = n;

@@ -49,6 +49,7 @@ typedef struct walk {
     const double *z, *n_after;
     double stop_scale;
     double o[3], d[3];
+    double *rel; /* not NULL: past the apertures too, the largest ratio */
     int n;
     struct {
         signed char i, fwd, mirror;
@@ -60,9 +61,14 @@ typedef struct walk {
  * (mirror = 1) or refract.  0: lost. */
 static int cross(walk *r, int i, int fwd, int mirror)
 {
-    double p[3], nrm[3];
-    if (!lr__rx_meet(r->rx, r->z, r->stop_scale, i, r->o, r->d, p, nrm))
+    double p[3], nrm[3], rel = 0.0;
+    if (r->rel != NULL
+            ? !lr__rx_meet_rel(r->rx, r->z, r->stop_scale, i, r->o, r->d, p,
+                               nrm, &rel)
+            : !lr__rx_meet(r->rx, r->z, r->stop_scale, i, r->o, r->d, p, nrm))
         return 0;
+    if (r->rel != NULL)
+        *r->rel = fmax(*r->rel, rel);
     /* The surface must lie ahead: a ray that a reflection turned the
      * wrong way would otherwise meet a surface behind it.  (Zero
      * thicknesses put two surfaces at one vertex: hence the 1e-9 mm.) */
@@ -107,9 +113,22 @@ int lr__ghost_trace_t(const lr__rx *rx, const double *z, const double *n_after,
                       const double *clip, const double o[3], const double d[3],
                       double hit[2], double *weight)
 {
+    return lr__ghost_trace_rel(rx, z, n_after, tab, nm, stop_scale, override, g,
+                               sensor_z, clip, o, d, hit, weight, NULL);
+}
+
+int lr__ghost_trace_rel(const lr__rx *rx, const double *z,
+                        const double *n_after, const lr__ttab *tab, double nm,
+                        double stop_scale, const lr__coating *override,
+                        lr__ghost g, double sensor_z, const double *clip,
+                        const double o[3], const double d[3], double hit[2],
+                        double *weight, double *rel)
+{
     walk r;
     r.rx = rx, r.z = z, r.n_after = n_after, r.stop_scale = stop_scale;
-    r.n = 0;
+    r.n = 0, r.rel = rel;
+    if (rel != NULL)
+        *rel = 0.0;
     for (int a = 0; a < 3; a++) {
         r.o[a] = o[a];
         r.d[a] = d[a];

@@ -78,6 +78,19 @@ int lr__ghost_trace_t(const lr__rx *rx, const double *z, const double *n_after,
                       const double *clip, const double o[3], const double d[3],
                       double hit[2], double *weight);
 
+/* lr__ghost_trace_t with rel not NULL: the apertures do not stop the
+ * ray (where the surfaces' formulas still hold), and *rel gets the
+ * largest ratio of its height at a surface to that surface's
+ * semi-aperture (the stop's scaled), <= 1 when it passes all of them: a
+ * mesh of such rays finds a ghost's edge between its corners (Hullin et
+ * al. 2011, section 4.2; ghost_grid.c).  rel NULL: lr__ghost_trace_t. */
+int lr__ghost_trace_rel(const lr__rx *rx, const double *z,
+                        const double *n_after, const lr__ttab *tab, double nm,
+                        double stop_scale, const lr__coating *override,
+                        lr__ghost g, double sensor_z, const double *clip,
+                        const double o[3], const double d[3], double hit[2],
+                        double *weight, double *rel);
+
 /* ---- a distant point's ghosts (ghost_flux.c) ----------------------------- */
 
 /* One ghost of a distant point: its flux on the sensor over the main

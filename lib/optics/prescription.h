@@ -259,6 +259,12 @@ int lr__rx_trace_surface(const lr__rx *rx, const double *z,
 int lr__rx_meet(const lr__rx *rx, const double *z, double stop_scale, int i,
                 const double o[3], const double d[3], double p[3],
                 double nrm[3]);
+/* lr__rx_meet past the semi-aperture too (where the surface's formula
+ * still holds): *rel is the point's height over the semi-aperture (the
+ * stop's scaled), <= 1 within it. */
+int lr__rx_meet_rel(const lr__rx *rx, const double *z, double stop_scale, int i,
+                    const double o[3], const double d[3], double p[3],
+                    double nrm[3], double *rel);
 
 /* Snell's law in vector form: refracts unit d at unit normal nrm (either
  * orientation) from index n1 into n2; 0 on total internal reflection

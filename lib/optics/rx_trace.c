@@ -164,20 +164,41 @@ int lr__rx_refract(double d[3], const double nrm[3], double n1, double n2)
     return 1;
 }
 
-int lr__rx_meet(const lr__rx *rx, const double *z, double stop_scale, int i,
+/* Where the ray meets surface i, its normal there, its height squared
+ * r2 and the surface's semi-aperture lim (the stop's scaled). */
+static int meet(const lr__rx *rx, const double *z, double stop_scale, int i,
                 const double o[3], const double d[3], double p[3],
-                double nrm[3])
+                double nrm[3], double *r2, double *lim)
 {
     const lr__surface *s = &rx->s[i];
     double ol[3] = {o[0], o[1], o[2] - z[i]};
     double c = s->radius != 0.0 ? 1.0 / s->radius : 0.0;
     double k1 = 1.0 + s->conic;
-    if (!intersect(s, c, k1, ol, d, p))
+    if (!intersect(s, c, k1, ol, d, p) || !normal_at(s, c, k1, p, nrm))
         return 0;
-    double lim = s->semi_aperture * (i == rx->stop ? stop_scale : 1.0);
-    if (p[0] * p[0] + p[1] * p[1] > lim * lim || !normal_at(s, c, k1, p, nrm))
-        return 0;
+    *lim = s->semi_aperture * (i == rx->stop ? stop_scale : 1.0);
+    *r2 = p[0] * p[0] + p[1] * p[1];
     p[2] += z[i];
+    return 1;
+}
+
+int lr__rx_meet(const lr__rx *rx, const double *z, double stop_scale, int i,
+                const double o[3], const double d[3], double p[3],
+                double nrm[3])
+{
+    double r2, lim;
+    return meet(rx, z, stop_scale, i, o, d, p, nrm, &r2, &lim) &&
+           !(r2 > lim * lim);
+}
+
+int lr__rx_meet_rel(const lr__rx *rx, const double *z, double stop_scale, int i,
+                    const double o[3], const double d[3], double p[3],
+                    double nrm[3], double *rel)
+{
+    double r2, lim;
+    if (!meet(rx, z, stop_scale, i, o, d, p, nrm, &r2, &lim))
+        return 0;
+    *rel = lim > 0.0 ? sqrt(r2) / lim : INFINITY;
     return 1;
 }
 

@@ -197,9 +197,11 @@ static void sum_workers(const worker *ws, int started, lr_render_stats *sum)
 
 /* Once the workers are done: the splat units' pixels and the light
  * side's splats resolved into the image (unless cancelled) and freed,
- * and their counts, with what a full render takes, into *sum. */
-static void finish_sides(render *j, lr_image *img, lr_render_stats *sum)
+ * and their counts, with what a full render takes, into *sum.  Returns 1
+ * when the light side ran out of memory (its light is then missing). */
+static int finish_sides(render *j, lr_image *img, lr_render_stats *sum)
 {
+    int nomem = 0;
     const lr_render_settings *set = j->set;
     if (j->splat != NULL) {
         /* Every pixel takes spp samples, the lens and the colours. */
@@ -219,11 +221,15 @@ static void finish_sides(render *j, lr_image *img, lr_render_stats *sum)
                 sum->ghost_paths += lt->lights[k].paths;
         sum->light_lights = (uint64_t)lt->n - sum->ghost_lights;
         sum->light_paths = lt->paths - sum->ghost_paths;
+        /* A ghost mesh's rays through the lens count as its paths. */
+        sum->ghost_paths += j->light.ghost_traced;
         sum->ghost_flux = lr__gt_flux(lt, &j->light);
+        nomem = j->light.nomem;
         if (!atomic_load(&j->cancelled))
             lr__lt_film_resolve(&j->light, img->rgb);
         lr__lt_film_free(&j->light);
     }
+    return nomem;
 }
 
 lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
@@ -359,7 +365,7 @@ lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
     free(tids);
     sum.threads = started;
     sum.pixels = (uint64_t)(j.x1 - j.x0) * (uint64_t)(j.y1 - j.y0);
-    finish_sides(&j, img, &sum);
+    int nomem = finish_sides(&j, img, &sum);
     lr__plan_free(&j.plan);
     sum.seconds = now_seconds() - t0;
     /* The statistics say what was done even when the render was
@@ -369,6 +375,10 @@ lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
     if (atomic_load(&j.cancelled)) {
         lr_image_free(img);
         return lr__fail(err, LR_ERR_CANCELLED, NULL, "render cancelled");
+    }
+    if (nomem) {
+        lr_image_free(img);
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     }
     *out = img;
     return LR_OK;

@@ -1,0 +1,551 @@
+/*
+ * ghost_grid.c: a small source's ghosts drawn as meshes (ghost_trace.h:
+ * lr__gt_grid), after Hullin et al., "Physically-based real-time lens
+ * flare rendering" (SIGGRAPH 2011), section 4: a grid of rays over the
+ * front of the lens is traced through one ghost path, each cell of the
+ * grid lands on the sensor as a quadrilateral, and the light the cell
+ * carries is spread evenly over it.
+ *
+ * For a direction d from a lens point, a ghost path g sends the pixel
+ * (x, y) the lens integral
+ *
+ *     I(x, y) = 1 / (pi rho^2) int_disk L W_g(o) [film_g(o) in pixel] do,
+ *
+ * W_g the ghost's importance (camera.h: ghost_film; it holds the disk's
+ * area pi rho^2 as a path's 1 / pdf).  Split the disk into triangles
+ * (two a cell, cells of a grid over the box where the ghost lands,
+ * ghost_guide): a triangle of lens area a whose corners carry L W_g
+ * values v0, v1, v2 sends (v0 + v1 + v2) / 3 x a / (pi rho^2), spread
+ * over the triangle its corners land on by the area each pixel shares
+ * with it (an exact polygon clip).  This is the integral with L W_g
+ * linear over each triangle and the film map affine over it: exact in
+ * the limit of small cells, a few tenths of a percent off at the grid's
+ * size where the ghost's shape is smooth.  Cells whose corners are
+ * neither all landed nor all lost straddle the ghost's edge (the stop's
+ * or an element's rim): they split in four, LR__GT_DEPTH times, and at
+ * the finest level the triangles whose three corners land are drawn,
+ * so the edge is found to 1 / 2^LR__GT_DEPTH of a cell.  A source with
+ * an extent is its grid^2 stratified directions (the midpoints of
+ * grid x grid strata of its direction sample: lr__gt_dir), each drawn
+ * this way at 1 / grid^2 of the light.
+ *
+ * Unlike a path's splats these are not unbiased: the error is the
+ * discretisation's, the same for every seed, and small against the
+ * paths' noise at equal time (docs/lenses.md, "Coatings and ghosts").
+ * Deterministic: a pure function of (light, direction, ghost path), and
+ * the splats are integers whose sum does not depend on the order; each
+ * pixel's rounding is a hash of the triangle and the pixel, so any
+ * region or thread count gives the same bits.
+ */
+#include "integrator/ghost_trace.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+int lr__gt_cells = LR__GT_CELLS, lr__gt_depth = LR__GT_DEPTH;
+double lr__gt_dir_px = 1.0;
+
+/* Channels a corner carries: the reference wavelength (chromatic.mode
+ * off), or red, green and blue. */
+#define NCH 3
+
+/* A corner of the grid: where each channel lands (bit k of ok: it
+ * does) and the value L W_g / pdf_dir it carries there (0 where the
+ * source is hidden from the lens point). */
+typedef struct gg_pt {
+    unsigned ok;
+    double fx[NCH], fy[NCH], rel[NCH];
+    lr__v3 v[NCH];
+} gg_pt;
+
+/* A triangle on the film (pixels of the frame), and the light it
+ * spreads evenly over itself. */
+typedef struct gg_tri_t {
+    double x[3], y[3];
+    lr__v3 v;
+} gg_tri_t;
+
+/* Triangles held before they are drawn, and the pixels (times 3
+ * channels) of a band's buffer: some 4.7 and 6 MB a thread. */
+#define LR__GT_TRIS 65536
+#define LR__GT_BAND (1 << 18)
+
+/* One task: light l's direction ud, along ghost path g at a time. */
+typedef struct gg_task {
+    const lr_scene *s;
+    const lr__cam *c;
+    const lr__lt_light *l;
+    lr__lt_film *f;
+    int g, k0, nch;
+    double ud[2];
+    double norm; /* 1 / (pi rho^2 directions) */
+    uint64_t key, flushes;
+    uint64_t traced, landed, rays;
+    gg_tri_t *tris; /* LR__GT_TRIS, n_tris held (gg_raster) */
+    /* Every corner's light the source's colour times a number (one
+     * wavelength): then gg_flush sums
+     * channel mono_ch alone and paints mono_c (the colour over that
+     * channel) by it. */
+    int mono, mono_ch;
+    lr__v3 mono_c;
+    int n_tris;
+    double *band; /* LR__GT_BAND pixels x 3 channels (gg_flush) */
+} gg_task;
+
+/* Whether a mesh light reaches lens point P along w: the camera ray's
+ * first hit is the light's geometry, from its front. */
+static int mesh_reaches(const gg_task *t, lr__v3 P, lr__v3 w)
+{
+    lr__hit h;
+    return lr__trace(t->s, lr__cam_ray_start(t->c, P, w), w, INFINITY, &h) &&
+           h.geom == t->l->geom && h.entering;
+}
+
+/* Corner (ox, oy) of task t. */
+static void gg_eval(gg_task *t, double ox, double oy, gg_pt *p)
+{
+    p->ok = 0;
+    for (int j = 0; j < NCH; j++)
+        p->v[j] = v3(0, 0, 0), p->rel[j] = INFINITY;
+    const lr__cam *c = t->c;
+    const lr__emitter *e;
+    lr__v3 P = c->model->lens_at(c, ox, oy), w;
+    double inv_pdf;
+    if (t->l->n_tri > 0) {
+        /* A mesh: a disc of its solid angle from the eye around its
+         * centre, the direction ud's point of it (a point drawn on the
+         * mesh by area, as its paths draw one, would put a midpoint of
+         * ud on a triangle's corner). */
+        lr__v3 a = v3_norm(v3_sub(t->l->center, P));
+        w = lr__lt_in_cone(a, t->l->omega / (2.0 * M_PI), t->ud);
+        inv_pdf = t->l->omega, e = NULL;
+    } else {
+        inv_pdf = lr__gt_dir(t->s, t->l, P, t->ud, &w, &e);
+    }
+    if (!(inv_pdf > 0.0))
+        return;
+    /* A textured source, and the sun's cone of the map, at their mean
+     * radiance: a few pixels across, a source's pattern is lost in every
+     * ghost's blur, and a few directions' lookups would stand for the
+     * whole of it (a sun of a few texels between them). */
+    lr__v3 L = t->l->Lmean;
+    if (!(v3_maxc(L) > 0.0))
+        return;
+    for (int j = 0; j < t->nch; j++) {
+        int k = t->k0 + j;
+        double W = c->model->ghost_film(c, t->g, k, ox, oy, w, &p->rel[j],
+                                        &p->fx[j], &p->fy[j]);
+        t->traced++;
+        lr__v3 v = v3_scale(L, W * inv_pdf);
+        if (k >= 0)
+            v = v3(k == 0 ? v.x : 0.0, k == 1 ? v.y : 0.0, k == 2 ? v.z : 0.0);
+        if (!(W > 0.0) || !(isfinite(v.x) && isfinite(v.y) && isfinite(v.z)) ||
+            !(fabs(p->fx[j]) < 1e9 && fabs(p->fy[j]) < 1e9))
+            continue;
+        p->ok |= 1u << j;
+        p->v[j] = v;
+        t->landed++;
+    }
+    if (p->ok == 0)
+        return;
+    t->rays++;
+    double tex[3];
+    int seen = t->l->n_tri > 0 ? mesh_reaches(t, P, w)
+                               : lr__gt_reaches(t->s, c, t->l, P, w, e, tex);
+    if (!seen)
+        for (int j = 0; j < t->nch; j++)
+            p->v[j] = v3(0, 0, 0);
+}
+
+/* Adds the segment (x0, y0)-(x1, y1), 0 <= x <= W, to the rows [0, H)
+ * of the accumulation buffer a (stride S >= W + 2) with weight w: each
+ * pixel of a row gets w times the part of it right of the segment, in
+ * differences along the row (summed by gg_flush).  The signed-area
+ * accumulation of font rasterisers (R. Levien, font-rs, 2016; the same
+ * as libart's): a row's share of the segment, dy, goes to the pixels
+ * it crosses by the area of each pixel's part to its right, and the
+ * pixels past it get all of dy through the running sum, so a closed
+ * polygon's edges leave each pixel the area it covers, in time
+ * proportional to its edges' length, not its area. */
+static void acc_line(double *a, int S, int H, double x0, double y0, double x1,
+                     double y1, double w)
+{
+    double dir = 1.0;
+    if (y0 > y1) {
+        double t = x0;
+        x0 = x1, x1 = t, t = y0, y0 = y1, y1 = t, dir = -1.0;
+    }
+    double ys = fmax(y0, 0.0), ye = fmin(y1, (double)H);
+    if (!(ys < ye))
+        return;
+    double dxdy = (x1 - x0) / (y1 - y0);
+    double x = x0 + (ys - y0) * dxdy;
+    for (int iy = (int)ys; iy < ye; iy++) {
+        double dy = fmin(iy + 1.0, ye) - fmax((double)iy, ys);
+        double xn = x + dxdy * dy, d = dy * dir * w;
+        double *row = a + (size_t)iy * (size_t)S;
+        double xa = fmin(x, xn), xb = fmax(x, xn);
+        int ia = (int)xa, ib = (int)ceil(xb);
+        if (ib <= ia + 1) {
+            /* Within one pixel: its part right of the segment's mean. */
+            double xm = 0.5 * (x + xn) - ia;
+            row[ia] += d * (1.0 - xm);
+            row[ia + 1] += d * xm;
+        } else {
+            /* x uniform over [xa, xb] along the row: the first pixel's
+             * part right of it a0, the last's left of it am, s per
+             * pixel between. */
+            double s = 1.0 / (xb - xa), fa = xa - ia, fb = xb - (ib - 1);
+            double a0 = 0.5 * s * (1.0 - fa) * (1.0 - fa);
+            double am = 0.5 * s * fb * fb;
+            row[ia] += d * a0;
+            if (ib == ia + 2) {
+                row[ia + 1] += d * (1.0 - a0 - am);
+            } else {
+                double a1 = s * (1.5 - fa);
+                row[ia + 1] += d * (a1 - a0);
+                for (int k = ia + 2; k < ib - 1; k++)
+                    row[k] += d * s;
+                row[ib - 1] += d * (1.0 - a1 - (ib - ia - 3) * s - am);
+            }
+            row[ib] += d * am;
+        }
+        x = xn;
+    }
+}
+
+/* acc_line for any segment: its parts left of x = 0 and right of x = W
+ * moved onto those lines (a part left of the buffer covers every pixel
+ * of its rows, one right of it none). */
+static void acc_edge(double *a, int S, int W, int H, double x0, double y0,
+                     double x1, double y1, double w)
+{
+    double t[4] = {0.0, 1.0, 1.0, 1.0};
+    int n = 1;
+    for (int e = 0; e < 2; e++) {
+        double at = e == 0 ? 0.0 : (double)W, u = (at - x0) / (x1 - x0);
+        if (u > 0.0 && u < 1.0)
+            t[n++] = u;
+    }
+    if (n == 3 && t[2] < t[1]) {
+        double s = t[1];
+        t[1] = t[2], t[2] = s;
+    }
+    t[n] = 1.0;
+    for (int k = 0; k < n; k++) {
+        double xa = x0 + t[k] * (x1 - x0), xb = x0 + t[k + 1] * (x1 - x0);
+        double ya = y0 + t[k] * (y1 - y0), yb = y0 + t[k + 1] * (y1 - y0);
+        xa = fmin(fmax(xa, 0.0), (double)W),
+        xb = fmin(fmax(xb, 0.0), (double)W);
+        acc_line(a, S, H, xa, ya, xb, yb, w);
+    }
+}
+
+/* Draws the task's triangles into the film (then none are held): band
+ * by band of the region's rows under them, each row's pixels summed
+ * along it from the left of the triangles' box in the frame (not the
+ * region's: the same sums whatever the region), and the region's added
+ * to f as integers, rounded by a hash of the task and the pixel
+ * (lr__gt_splat: unbiased). */
+static void gg_flush(gg_task *t)
+{
+    lr__lt_film *f = t->f;
+    int n = t->n_tris;
+    t->n_tris = 0;
+    uint64_t key = lr__mix64(t->key + t->flushes++);
+    double bx0 = INFINITY, bx1 = -INFINITY, by0 = INFINITY, by1 = -INFINITY;
+    for (int i = 0; i < n; i++)
+        for (int k = 0; k < 3; k++) {
+            double x = t->tris[i].x[k], y = t->tris[i].y[k];
+            bx0 = x < bx0 ? x : bx0, bx1 = x > bx1 ? x : bx1;
+            by0 = y < by0 ? y : by0, by1 = y > by1 ? y : by1;
+        }
+    /* The columns [x0, x1) of the frame the triangles touch, and the
+     * rows [y0, y1) of the region. */
+    int x0 = (int)fmax(0.0, floor(bx0));
+    int x1 = (int)fmin(t->c->width, floor(bx1) + 1.0);
+    int y0 = (int)fmax(f->y0, floor(by0)),
+        y1 = (int)fmin(f->y1, floor(by1) + 1.0);
+    if (n == 0 || x0 >= x1 || y0 >= y1)
+        return;
+    /* One plane when every triangle's light is the source's colour
+     * times a number (t->mono: its channel m's), else three. */
+    int planes = t->mono ? 1 : 3, m = t->mono_ch;
+    int W = x1 - x0, S = W + 2;
+    int B = (int)fmax(1.0, fmin(y1 - y0, (double)LR__GT_BAND / S));
+    double *a = t->band;
+    for (int b0 = y0; b0 < y1; b0 += B) {
+        int H = b0 + B < y1 ? B : y1 - b0;
+        size_t P = (size_t)S * (size_t)H;
+        memset(a, 0, (size_t)planes * P * sizeof *a);
+        for (int i = 0; i < n; i++) {
+            const gg_tri_t *tr = &t->tris[i];
+            double ylo = tr->y[0], yhi = tr->y[0];
+            for (int k = 1; k < 3; k++) {
+                ylo = tr->y[k] < ylo ? tr->y[k] : ylo;
+                yhi = tr->y[k] > yhi ? tr->y[k] : yhi;
+            }
+            if (yhi <= b0 || ylo >= b0 + H)
+                continue;
+            double ch[3] = {tr->v.x, tr->v.y, tr->v.z};
+            if (t->mono)
+                ch[0] = ch[m];
+            /* Coverage is positive for a triangle whose signed area
+             * (y down) is negative, so w takes that sign.  One of no
+             * area (a fold's edge) is a point at its centroid. */
+            double ar = (tr->x[1] - tr->x[0]) * (tr->y[2] - tr->y[0]) -
+                        (tr->x[2] - tr->x[0]) * (tr->y[1] - tr->y[0]);
+            if (!(fabs(ar) > 1e-12)) {
+                double cx = (tr->x[0] + tr->x[1] + tr->x[2]) / 3.0 - x0;
+                double cy = (tr->y[0] + tr->y[1] + tr->y[2]) / 3.0 - b0;
+                if (!(cx >= 0.0 && cx < W && cy >= 0.0 && cy < H))
+                    continue;
+                size_t o = (size_t)cy * (size_t)S + (size_t)cx;
+                for (int c = 0; c < planes; c++)
+                    a[c * P + o] += ch[c], a[c * P + o + 1] -= ch[c];
+                continue;
+            }
+            double inv = (ar < 0.0 ? 2.0 : -2.0) / fabs(ar);
+            for (int c = 0; c < planes; c++) {
+                if (ch[c] == 0.0)
+                    continue;
+                for (int e = 0; e < 3; e++) {
+                    int e1 = (e + 1) % 3;
+                    acc_edge(a + c * P, S, W, H, tr->x[e] - x0, tr->y[e] - b0,
+                             tr->x[e1] - x0, tr->y[e1] - b0, ch[c] * inv);
+                }
+            }
+        }
+        for (int r = 0; r < H; r++) {
+            double acc[3] = {0.0, 0.0, 0.0};
+            for (int i = 0; i < W; i++) {
+                size_t o = (size_t)r * (size_t)S + (size_t)i;
+                for (int c = 0; c < planes; c++)
+                    acc[c] += a[c * P + o];
+                if (!(acc[0] > 0.0 || acc[1] > 0.0 || acc[2] > 0.0))
+                    continue;
+                lr__v3 v = t->mono ? v3_scale(t->mono_c, acc[0])
+                                   : v3(acc[0] > 0.0 ? acc[0] : 0.0,
+                                        acc[1] > 0.0 ? acc[1] : 0.0,
+                                        acc[2] > 0.0 ? acc[2] : 0.0);
+                int px = x0 + i, py = b0 + r;
+                if (px < f->x0 || px >= f->x1)
+                    continue;
+                uint64_t h = lr__mix64(
+                    key ^ ((uint64_t)(uint32_t)py << 32 | (uint32_t)px));
+                int64_t q = lr__gt_splat(f, px, py, v,
+                                         (double)(h >> 11) * 0x1.0p-53);
+                __atomic_fetch_add(&f->ghost_sum, q, __ATOMIC_RELAXED);
+            }
+        }
+    }
+}
+
+/* Holds a triangle of the film with light v, drawing the held ones
+ * first when there is no room.  Which triangles are held, and so where
+ * a flush falls, depends on the frame alone, never on the region: a
+ * pixel's sum is then the same whatever the region (gg_flush). */
+static void gg_raster(gg_task *t, const double *x, const double *y, lr__v3 v)
+{
+    double FW = t->c->width, FH = t->c->height;
+    /* A triangle wholly beside the frame adds nothing to it. */
+    if ((x[0] < 0.0 && x[1] < 0.0 && x[2] < 0.0) ||
+        (x[0] >= FW && x[1] >= FW && x[2] >= FW) ||
+        (y[0] < 0.0 && y[1] < 0.0 && y[2] < 0.0) ||
+        (y[0] >= FH && y[1] >= FH && y[2] >= FH))
+        return;
+    if (t->n_tris == LR__GT_TRIS)
+        gg_flush(t);
+    gg_tri_t *tr = &t->tris[t->n_tris++];
+    for (int k = 0; k < 3; k++)
+        tr->x[k] = x[k], tr->y[k] = y[k];
+    tr->v = v;
+}
+
+/* Channel j's triangle of corners a, b, c, of lens area `area`: the part
+ * of it inside every aperture, where rel interpolated linearly over it
+ * is at most 1 (Hullin et al. 2011, section 4.2: the corners' rel, not
+ * a finer grid, finds the edge), clipped in its own coordinates (u, v)
+ * so that a triangle folded flat on the film still keeps its share. */
+static void gg_tri(gg_task *t, int j, const gg_pt *a, const gg_pt *b,
+                   const gg_pt *c, double area)
+{
+    lr__v3 v = v3_scale(v3_add(a->v[j], v3_add(b->v[j], c->v[j])),
+                        area * t->norm / 3.0);
+    if (!(v3_maxc(v) > 0.0))
+        return;
+    double x[3] = {a->fx[j], b->fx[j], c->fx[j]};
+    double y[3] = {a->fy[j], b->fy[j], c->fy[j]};
+    double f[3] = {1.0 - a->rel[j], 1.0 - b->rel[j], 1.0 - c->rel[j]};
+    if (f[0] >= 0.0 && f[1] >= 0.0 && f[2] >= 0.0) {
+        gg_raster(t, x, y, v);
+        return;
+    }
+    /* (u, v) of the corners (0, 0), (1, 0), (0, 1), clipped to f >= 0
+     * (at most four corners), then a fan of triangles, each with its
+     * share of the light by its area in (u, v) (twice: the whole's is
+     * 1/2). */
+    static const double U[3] = {0, 1, 0}, V[3] = {0, 0, 1};
+    double pu[4], pv[4];
+    int m = 0;
+    for (int i = 0; i < 3; i++) {
+        int k = (i + 1) % 3;
+        if (f[i] >= 0.0)
+            pu[m] = U[i], pv[m++] = V[i];
+        if ((f[i] >= 0.0) != (f[k] >= 0.0)) {
+            double s = f[i] / (f[i] - f[k]);
+            pu[m] = U[i] + s * (U[k] - U[i]),
+            pv[m++] = V[i] + s * (V[k] - V[i]);
+        }
+    }
+    for (int i = 1; i + 1 < m; i++) {
+        double tu[3] = {pu[0], pu[i], pu[i + 1]},
+               tv[3] = {pv[0], pv[i], pv[i + 1]};
+        double share = fabs((tu[1] - tu[0]) * (tv[2] - tv[0]) -
+                            (tu[2] - tu[0]) * (tv[1] - tv[0]));
+        double sx[3], sy[3];
+        for (int k = 0; k < 3; k++) {
+            sx[k] = x[0] + tu[k] * (x[1] - x[0]) + tv[k] * (x[2] - x[0]);
+            sy[k] = y[0] + tu[k] * (y[1] - y[0]) + tv[k] * (y[2] - y[0]);
+        }
+        if (share > 0.0)
+            gg_raster(t, sx, sy, v3_scale(v, share));
+    }
+}
+
+/* The cell of side h at (x0, y0), corners p (counter-clockwise from
+ * (x0, y0)), for the channels in mask: drawn as two triangles where all
+ * four corners land, split in four where some do (depth more times),
+ * and at the last level its triangles of three landed corners. */
+static void gg_cell(gg_task *t, double x0, double y0, double h, const gg_pt *p,
+                    unsigned mask, int depth)
+{
+    unsigned all = p[0].ok & p[1].ok & p[2].ok & p[3].ok & mask;
+    /* Split only where a corner that lands passes the apertures (the
+     * rays past a rim that the lens's formulas lose, a sphere missed or
+     * a total reflection, lie outside the ghost), and where the ghost's
+     * edge crosses the cell: rel is a largest of ratios, convex, so its
+     * interpolation runs high between corners and would trim the edge
+     * inward by a share of a cell. */
+    unsigned inside = 0, outside = 0;
+    for (int q = 0; q < 4; q++)
+        for (int j = 0; j < t->nch; j++) {
+            if ((p[q].ok >> j & 1) && p[q].rel[j] <= 1.0)
+                inside |= 1u << j;
+            else
+                outside |= 1u << j;
+        }
+    unsigned part = (p[0].ok | p[1].ok | p[2].ok | p[3].ok) & mask & ~all &
+                    inside;
+    unsigned split = depth > 0 ? part | (all & inside & outside) : 0;
+    for (int j = 0; j < t->nch; j++) {
+        if ((all >> j & 1) && !(split >> j & 1)) {
+            gg_tri(t, j, &p[0], &p[1], &p[2], 0.5 * h * h);
+            gg_tri(t, j, &p[0], &p[2], &p[3], 0.5 * h * h);
+        } else if ((part >> j & 1) && depth == 0) {
+            /* Three landed corners make one triangle (the two of the
+             * cell's that hold them). */
+            for (int skip = 0; skip < 4; skip++) {
+                const gg_pt *a = &p[(skip + 1) % 4], *b = &p[(skip + 2) % 4];
+                const gg_pt *d = &p[(skip + 3) % 4];
+                if (!(p[skip].ok >> j & 1) && (a->ok & b->ok & d->ok) >> j & 1)
+                    gg_tri(t, j, a, b, d, 0.5 * h * h);
+            }
+        }
+    }
+    if (split == 0)
+        return;
+    double m = 0.5 * h;
+    gg_pt q[5];
+    gg_eval(t, x0 + m, y0, &q[0]);
+    gg_eval(t, x0 + h, y0 + m, &q[1]);
+    gg_eval(t, x0 + m, y0 + h, &q[2]);
+    gg_eval(t, x0, y0 + m, &q[3]);
+    gg_eval(t, x0 + m, y0 + m, &q[4]);
+    gg_pt c0[4] = {p[0], q[0], q[4], q[3]}, c1[4] = {q[0], p[1], q[1], q[4]};
+    gg_pt c2[4] = {q[4], q[1], p[2], q[2]}, c3[4] = {q[3], q[4], q[2], p[3]};
+    gg_cell(t, x0, y0, m, c0, split, depth - 1);
+    gg_cell(t, x0 + m, y0, m, c1, split, depth - 1);
+    gg_cell(t, x0 + m, y0 + m, m, c2, split, depth - 1);
+    gg_cell(t, x0, y0 + m, m, c3, split, depth - 1);
+}
+
+/* The box's grid, a row of corners at a time. */
+static void gg_grid(gg_task *t, const double *b)
+{
+    int N = (int)b[5];
+    double hx = (b[2] - b[0]) / N, hy = (b[3] - b[1]) / N;
+    /* Square cells (the triangles' lens areas are h^2 / 2): the box's
+     * longer side in N cells, the shorter in as many as fit, centred. */
+    double h = fmax(hx, hy);
+    int nx = (int)ceil((b[2] - b[0]) / h - 1e-9);
+    int ny = (int)ceil((b[3] - b[1]) / h - 1e-9);
+    double bx = 0.5 * (b[0] + b[2]) - 0.5 * nx * h;
+    double by = 0.5 * (b[1] + b[3]) - 0.5 * ny * h;
+    gg_pt row[2][LR__GT_CELLS_MAX + 1];
+    for (int i = 0; i <= nx; i++)
+        gg_eval(t, bx + i * h, by, &row[0][i]);
+    for (int r = 0; r < ny; r++) {
+        gg_pt *lo = row[r & 1], *hi = row[(r + 1) & 1];
+        for (int i = 0; i <= nx; i++)
+            gg_eval(t, bx + i * h, by + (r + 1) * h, &hi[i]);
+        for (int i = 0; i < nx; i++) {
+            gg_pt p[4] = {lo[i], lo[i + 1], hi[i + 1], hi[i]};
+            gg_cell(t, bx + i * h, by + r * h, h, p, (1u << t->nch) - 1,
+                    lr__gt_depth);
+        }
+    }
+}
+
+void lr__gt_grid(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
+                 uint64_t task, lr__lt_film *f, uint64_t *rays,
+                 uint64_t *landed)
+{
+    int k = lt->n - lt->ghost_lights;
+    while (k < lt->n &&
+           !(lt->lights[k].grid > 0 && lt->lights[k].grid_first == task))
+        k++;
+    if (k >= lt->n)
+        return;
+    const lr__lt_light *l = &lt->lights[k];
+    gg_task t;
+    memset(&t, 0, sizeof t);
+    t.s = s, t.c = c, t.l = l, t.f = f;
+    t.k0 = c->chroma.mode == LR_CHROMATIC_OFF ? -1 : 0;
+    t.nch = t.k0 < 0 ? 1 : 3;
+    lr__v3 Lc = l->Lmean;
+    t.mono = t.nch == 1;
+    double Lm = v3_maxc(Lc);
+    t.mono_ch = Lc.x == Lm ? 0 : Lc.y == Lm ? 1 : 2;
+    t.mono_c = Lm > 0.0 ? v3_scale(Lc, 1.0 / Lm) : v3(0, 0, 0);
+    double rho = c->model->ghost_disk(c);
+    t.key = lr__mix64(0x67686f7374ull ^ (uint64_t)l->geom);
+    t.tris = malloc(LR__GT_TRIS * sizeof *t.tris);
+    t.band = malloc(3 * (size_t)LR__GT_BAND * sizeof *t.band);
+    if (t.tris == NULL || t.band == NULL) {
+        __atomic_store_n(&f->nomem, 1, __ATOMIC_RELAXED);
+    } else {
+        /* A ghost that takes the light's every direction draws each
+         * stratum d's midpoint at 1 / grid^2 of the light; one that
+         * takes its centre alone draws that, at all of it. */
+        int K = l->grid * l->grid;
+        for (int d = 0; d < K; d++)
+            for (t.g = 0; t.g < l->ghosts; t.g++) {
+                const double *b = lr__gt_box(l, t.g);
+                int every = b[6] != 0.0;
+                if (!(b[0] < b[2]) || (!every && d != 0))
+                    continue;
+                t.ud[0] = every ? (d % l->grid + 0.5) / l->grid : 0.5;
+                t.ud[1] = every ? (d / l->grid + 0.5) / l->grid : 0.5;
+                t.norm = 1.0 / (M_PI * rho * rho * (every ? K : 1));
+                gg_grid(&t, b);
+            }
+        gg_flush(&t);
+    }
+    free(t.tris);
+    free(t.band);
+    *rays += t.rays;
+    *landed += t.landed;
+    __atomic_fetch_add(&f->ghost_traced, t.traced, __ATOMIC_RELAXED);
+}
