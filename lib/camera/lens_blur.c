@@ -68,6 +68,8 @@ struct lr__lens_blur {
     /* Spot and colour spread, radial and tangential, film mm. */
     float sr[NR + 1][NX + 1], st[NR + 1][NX + 1];
     float cr[NR + 1][NX + 1], ct[NR + 1][NX + 1];
+    /* The skipped blocks' chief rays (lens_chief.c). */
+    lr__lens_chief chief;
 };
 
 /* A ray out of the front: point on the image plane s + p x. */
@@ -464,6 +466,7 @@ static lr__lens_blur *build(const lr__cam *c)
     for (int k = 0; k <= NR; k++)
         if (t->ok[k])
             fill_row(t, k, &rs[k], &ch[k], &jr[k], &jt[k]);
+    lr__lens_chief_fill(c, t->x_max, &t->chief);
 done:
     free(nsets);
     free(rs);
@@ -522,6 +525,11 @@ const lr__lens_blur *lr__lens_blur_get(const lr__cam *c)
      * plan; its packet rays read this when the plan skips the lens. */
     __atomic_store_n(&((lr__cam *)c)->lens.blur, hit, __ATOMIC_RELEASE);
     return hit;
+}
+
+const lr__lens_chief *lr__lens_blur_chief(const lr__lens_blur *b)
+{
+    return &b->chief;
 }
 
 float lr__lens_blur_chief_w(const lr__lens_blur *b, int k, float f)
