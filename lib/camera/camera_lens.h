@@ -83,6 +83,14 @@ int lr__lens_chief_eval(const lr__cam *c, const lr__lens_chief *t, double r,
  * which the table holds at its nodes (for the tests). */
 int lr__lens_chief_traced(const lr__cam *c, double r, double o[3], double d[3],
                           double *T);
+/* The integral of cos^4 T over where rays from film radius r pass, over
+ * the pupil bounds P's sampling domain (the disk when use_disk) within
+ * box (offsets from (cx, 0): a0, a1, b0, b1), on an LR__CHIEF_GW grid
+ * (lens_blur.c's chief weight); -1 when out of memory. */
+#define LR__CHIEF_GW 96
+double lr__lens_chief_weight_sum(const lr__cam *c, const double *n, double r,
+                                 const lr__pupil *P, int use_disk,
+                                 const double *box);
 /* The blur table's chief-ray table (lens_blur.c). */
 const lr__lens_chief *lr__lens_blur_chief(const lr__lens_blur *b);
 

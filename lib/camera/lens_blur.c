@@ -44,9 +44,9 @@
 #define NR LR__PUPIL_N /* film radii: the pupil table's */
 #define NX 256         /* cells of inverse depth */
 #define G 32           /* pupil grid side, for the spot */
-#define GW 96          /* and for the chief ray's weight */
-#define RIM 64         /* points on the pupil bounds' rim */
-#define MAX_COL 6      /* the reference and up to 5 wavelengths */
+/* (the chief ray's weight: LR__CHIEF_GW, lens_chief.c) */
+#define RIM 64    /* points on the pupil bounds' rim */
+#define MAX_COL 6 /* the reference and up to 5 wavelengths */
 /* The bound's margin over the sampled table (docs/plan-lens.md measures
  * how much of it the real spot uses). */
 #define MARGIN 1.25
@@ -266,58 +266,6 @@ static int passing_box(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
     return any;
 }
 
-/* The integral of cos^4 T over where rays from film radius r pass
- * (rear-plane mm^2), by the midpoint rule on a GW x GW grid over the
- * passing box.  Its edge cells carry its error, which falls about as
- * 1 / GW (for the double Gauss at f/11: 0.66% at 48, 0.17% at 128):
- * cells of a GW / 4 grid whose neighbours all pass count their centre's
- * value, the others are cut into 4 x 4. */
-static double weight_sum(const lr__cam *c, const double *n, double r,
-                         const lr__pupil *P, const double *box)
-{
-    enum { GC = GW / 4 };
-    double hx, hy, v[GC + 2][GC + 2];
-    int use_disk = domain(P, &hx, &hy);
-    double cw = (box[1] - box[0]) / GC, chh = (box[3] - box[2]) / GC;
-    /* v: cos^4 T at the coarse centres, -1 where no ray passes (a ring
-     * of -1 around the grid). */
-    for (int iy = 0; iy < GC + 2; iy++)
-        for (int ix = 0; ix < GC + 2; ix++) {
-            double a = box[0] + (ix - 0.5) * cw, b = box[2] + (iy - 0.5) * chh;
-            double T, c4;
-            line l;
-            v[iy][ix] = -1.0;
-            if (ix > 0 && iy > 0 && ix <= GC && iy <= GC &&
-                in_domain(P, use_disk, a, b) &&
-                trace_line(c, n, &c->lens.t_ref, r, P->cx + a, b, &l, &T, &c4))
-                v[iy][ix] = c4 * T;
-        }
-    double sum = 0.0;
-    for (int iy = 1; iy <= GC; iy++)
-        for (int ix = 1; ix <= GC; ix++) {
-            int inner = 1;
-            for (int dy = -1; dy <= 1; dy++)
-                for (int dx = -1; dx <= 1; dx++)
-                    inner &= v[iy + dy][ix + dx] >= 0.0;
-            if (inner) {
-                sum += v[iy][ix] * cw * chh;
-                continue;
-            }
-            for (int sy = 0; sy < 4; sy++)
-                for (int sx = 0; sx < 4; sx++) {
-                    double a = box[0] + (ix - 1 + (sx + 0.5) / 4) * cw;
-                    double b = box[2] + (iy - 1 + (sy + 0.5) / 4) * chh;
-                    double T, c4;
-                    line l;
-                    if (in_domain(P, use_disk, a, b) &&
-                        trace_line(c, n, &c->lens.t_ref, r, P->cx + a, b, &l,
-                                   &T, &c4))
-                        sum += c4 * T * cw * chh / 16.0;
-                }
-        }
-    return sum;
-}
-
 /* One film radius's rays, chief lines and weight.  0: no bound there. */
 static int radius_rays(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
                        int ncol, double r, double h, ray_set *rs, line *chief,
@@ -355,7 +303,11 @@ static int radius_rays(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
      * over the domain is the integral of cos^4 T / Z^2 / E0 over where
      * rays pass (the area cancels), per unit of the chief ray's own T
      * (the packet trace multiplies that in). */
-    wsum = weight_sum(c, nsets[0], r, &P, box);
+    double hxw, hyw;
+    wsum = lr__lens_chief_weight_sum(c, nsets[0], r, &P, domain(&P, &hxw, &hyw),
+                                     box);
+    if (wsum < 0.0)
+        return 0; /* out of memory: no bound here */
     double dz = lc->z_rear - lc->z_sensor;
     double mean = wsum / (dz * dz) * lc->inv_E0;
     *chief_w = (float)(mean / T0);
