@@ -575,11 +575,12 @@ static void test_table_within_1e4_px(void **state)
 }
 
 /* The camera's packet rays where the plan skips the lens (rays16 with
- * use_lens 0: the table, or the glass where a node is stopped) against
- * the model's chief ray traced in double (lens_chief), at random film
+ * use_lens 0: the table, or the glass where an interval is not exact)
+ * against the model's chief ray traced in double (lens_chief), at random film
  * points: the same rays up to float's rounding (what the glass's float
- * trace gave before the table), and weights within 1e-5 of the chief
- * weight times the traced transmittance. */
+ * trace gave before the table), and weights within 1e-6 of the chief
+ * weight times the traced transmittance (absolute: about 1 at the
+ * centre). */
 static void test_packet_rays_are_chief_rays(void **state)
 {
     (void)state;
@@ -642,22 +643,23 @@ static void test_packet_rays_are_chief_rays(void **state)
                 double f = sp.r / c.lens.pupil_rmax * LR__PUPIL_N - k;
                 double want = lr__lens_blur_chief_w(b, k, (float)f) * T1;
                 worst[glass] = fmax(worst[glass], e);
-                worst_w[glass] = fmax(worst_w[glass],
-                                      fabs(wt[l] - want) / want);
+                /* Absolute: the weights are about 1 at the centre (a
+                 * relative error grows where they fall to 0). */
+                worst_w[glass] = fmax(worst_w[glass], fabs(wt[l] - want));
                 lanes[glass]++;
             }
         }
         lr_scene_free(s);
     }
     print_message("packet chief rays, px of a %g-pixel frame: from the "
-                  "table %.2e, weight %.1e relative (%ld lanes); through the "
+                  "table %.2e, weight %.1e (%ld lanes); through the "
                   "glass %.2e, weight %.1e (%ld lanes)\n",
                   PX_WIDE, worst[0], worst_w[0], lanes[0], worst[1], worst_w[1],
                   lanes[1]);
     assert_true(lanes[0] > 5000 && lanes[1] > 1000);
     assert_true(worst[0] <= worst[1] && worst_w[0] <= worst_w[1]);
     assert_true(worst[0] < 2e-3);
-    assert_true(worst_w[0] < 1e-5);
+    assert_true(worst_w[0] < 1e-6);
 }
 
 static const struct CMUnitTest lens_blur_tests[] = {

@@ -52,7 +52,7 @@ double lr__lens_ghost_disk(const lr__cam *c);
  * of an LR__CHIEF_FRAME_PX-pixel-wide frame of the traced ray: its
  * `exact`; test_lens_blur.c measures it).  Kept in the blur table
  * (lens_blur.c), made with it. */
-#define LR__CHIEF_SUB 32
+#define LR__CHIEF_SUB 64
 #define LR__CHIEF_NODES (LR__PUPIL_N * LR__CHIEF_SUB + 1)
 #define LR__CHIEF_TOL_PX 1e-4
 #define LR__CHIEF_FRAME_PX 8192.0
