@@ -395,8 +395,9 @@ chief_start16(const lr__cam *c, const lr__lens_blur *bl, int n, const float *fx,
  * direction e, the point (rho e, z) and direction (u e, w) interpolated
  * between the two nodes around r, the weight the mean sample weight over
  * T times the table's T.  Returns 0, and leaves the packet to the glass,
- * where a lane's chief ray counts (weight above 0) and a node around it
- * is stopped (the table cannot say where in between the lens stops it). */
+ * where a lane's chief ray counts (weight above 0) and its interval is
+ * not exact (a node the lens stops, or the fit outside its tolerance:
+ * lens_chief.c). */
 static inline __attribute__((always_inline)) int
 chief_table16(const lr__cam *c, const lr__lens_blur *bl, int n, const float *fx,
               const float *fy, float (*o)[16], float (*d)[16], float *w,
@@ -416,6 +417,7 @@ chief_table16(const lr__cam *c, const lr__lens_blur *bl, int n, const float *fx,
         j = j < LR__CHIEF_SUB - 1 ? j : LR__CHIEF_SUB - 1;
         float g = s - (float)j;
         int a = k * LR__CHIEF_SUB + j;
+        a = a > 0 ? a : 0; /* a lane past n may hold anything */
         float ir = r > 0.0f ? 1.0f / r : 0.0f;
         float ex = r > 0.0f ? xs * ir : 1.0f, ey = ys * ir;
         float rho = t->rho[a] + g * (t->rho[a + 1] - t->rho[a]);
@@ -490,8 +492,8 @@ lens_rays16_n(const lr__cam *c, int use_lens, int np, const int *ns,
               struct RTCRayHit16 *rh, float (*wt)[16])
 {
     /* Without the lens (the plan's bound allows it), chief rays: from
-     * the blur table's chief-ray table, or through the glass where the
-     * table has a stopped node. */
+     * the blur table's chief-ray table, or through the glass where an
+     * interval of it is not exact. */
     const lr__lens_blur *bl = use_lens ? NULL
                                        : __atomic_load_n(&c->lens.blur,
                                                          __ATOMIC_ACQUIRE);
