@@ -532,7 +532,7 @@ static void test_table_within_1e4_px(void **state)
             assert_non_null(b);
             const lr__lens_chief *t = lr__lens_blur_chief(b);
             double lw = 0.0, lt = 0.0;
-            int n = 0, stopped = 0;
+            int n = 0;
 
             for (int a = 0; a + 1 < LR__CHIEF_NODES; a++)
                 for (int m = 0; m < 16; m++) {
@@ -541,10 +541,8 @@ static void test_table_within_1e4_px(void **state)
                     double o1[3], d1[3], T1, o2[3], d2[3], T2, xm;
                     int traced = lr__lens_chief_traced(&c, r, o1, d1, &T1);
                     int tab = lr__lens_chief_eval(&c, t, r, o2, d2, &T2);
-                    if (!tab) {
-                        stopped++;
-                        continue;
-                    }
+                    if (!tab)
+                        continue; /* the glass traces there */
                     /* Where both nodes pass, so does the ray between. */
                     assert_true(traced);
                     double e = film_px(&c, r, o1, d1, o2, d2, &xm);
@@ -562,7 +560,6 @@ static void test_table_within_1e4_px(void **state)
             if (strstr(lenses[i], "\"double-gauss-50\"") != NULL)
                 assert_true(t->n_exact > 0.9 * (LR__CHIEF_NODES - 1));
             assert_true(n >= 8 * t->n_exact);
-            (void)stopped;
             worst = fmax(worst, lw), worst_t = fmax(worst_t, lt);
             checked += n;
             lr_scene_free(s);

@@ -110,6 +110,16 @@ static inline void lr__lens_to_world(const lr__cam *c, const double o[3],
                            c->forward, -d[2]));
 }
 
+/* Whether the point (a, b), offset from the pupil bounds' centre (cx, 0),
+ * is in the sampling domain: the disk of radius rad when use_disk, else
+ * the bounds' box, which the callers' grids span (lens_blur.c's pupil
+ * points and lens_chief.c's weight grid). */
+static inline int lr__pupil_in_domain(const lr__pupil *P, int use_disk,
+                                      double a, double b)
+{
+    return !use_disk || a * a + b * b <= P->rad * P->rad;
+}
+
 /* Film point (fx, fy) on the sensor, in mm (top of file), with its
  * distance from the axis and the unit vector of its radial direction. */
 typedef struct lr__lens_sensor {

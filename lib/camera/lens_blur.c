@@ -183,11 +183,6 @@ static int domain(const lr__pupil *P, double *hx, double *hy)
     return use_disk;
 }
 
-static int in_domain(const lr__pupil *P, int use_disk, double a, double b)
-{
-    return !use_disk || a * a + b * b <= P->rad * P->rad;
-}
-
 /* Pupil points at film radius r: a G x G grid's cell centres over
  * [a0, a1] x [b0, b1] (offsets from (cx, 0)) inside the sampling domain,
  * then RIM points on the domain's rim.  Returns the number of grid
@@ -202,7 +197,7 @@ static int pupil_points(const lr__pupil *P, const double *box, double *q,
         for (int ix = 0; ix < G; ix++) {
             double a = box[0] + (ix + 0.5) / G * (box[1] - box[0]);
             double b = box[2] + (iy + 0.5) / G * (box[3] - box[2]);
-            if (!in_domain(P, use_disk, a, b))
+            if (!lr__pupil_in_domain(P, use_disk, a, b))
                 continue;
             q[2 * m] = P->cx + a, q[2 * m + 1] = b;
             m++;
@@ -242,7 +237,7 @@ static int passing_box(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
         for (int ix = 0; ix < GC; ix++) {
             double a = (2.0 * (ix + 0.5) / GC - 1.0) * hx;
             double b = (2.0 * (iy + 0.5) / GC - 1.0) * hy;
-            if (in_domain(P, use_disk, a, b))
+            if (lr__pupil_in_domain(P, use_disk, a, b))
                 q[2 * m] = P->cx + a, q[2 * m + 1] = b, m++;
         }
     memset(pass, 0, sizeof pass);

@@ -219,7 +219,7 @@ double lr__lens_chief_weight_sum(const lr__cam *c, const double *n, double r,
             double a = box[0] + (ix - 0.5) * cw, b = box[2] + (iy - 0.5) * chh;
             v[iy][ix] = -1.0;
             if (ix > 0 && iy > 0 && ix <= GC && iy <= GC &&
-                (!use_disk || a * a + b * b <= P->rad * P->rad)) {
+                lr__pupil_in_domain(P, use_disk, a, b)) {
                 q[2 * m] = P->cx + a, q[2 * m + 1] = b;
                 at[m++] = iy * (GC + 2) + ix;
             }
@@ -251,7 +251,7 @@ double lr__lens_chief_weight_sum(const lr__cam *c, const double *n, double r,
                 for (int sx = 0; sx < 4; sx++) {
                     double a = box[0] + (ix - 1 + (sx + 0.5) / 4) * cw;
                     double b = box[2] + (iy - 1 + (sy + 0.5) / 4) * chh;
-                    if ((!use_disk || a * a + b * b <= P->rad * P->rad))
+                    if (lr__pupil_in_domain(P, use_disk, a, b))
                         fq[2 * nf] = P->cx + a, fq[2 * nf + 1] = b, nf++;
                 }
         }
