@@ -6,10 +6,13 @@
  * (fisheye, zoom, retrofocus), on and off axis, at random depth ranges
  * on both sides of the focus and across it.  Also the chief rays' weight
  * against the mean of the sampled lens's, and where the rays go against
- * lr__lens_blur_reach.
+ * lr__lens_blur_reach.  The chief-ray table (lens_chief.c) against the
+ * chief ray traced in double at the film radius itself, and the packet
+ * rays of a skipped block against the model's own chief ray.
  */
 #include "test.h"
 #include "camera/camera.h"
+#include "camera/camera_lens.h"
 #include "optics/lens_load.h"
 #include "scene/scene.h"
 
@@ -432,10 +435,236 @@ static void test_fooling_scene_within_guarantee(void **state)
     lr_image_free(plan);
 }
 
+/* The chief-ray table's errors (lens_chief.c) are in pixels of this
+ * frame's width. */
+#define PX_WIDE LR__CHIEF_FRAME_PX
+
+/* A ray in the lens's radial plane as a line (lens_blur.c's): on the
+ * plane at inverse depth x (1/mm from the sensor) its lateral point is
+ * s + p x. */
+static void line_of(const lr__cam *c, const double *o, const double *d,
+                    double *s, double *p)
+{
+    *s = d[0] / -d[2];
+    *p = o[0] - (c->lens.z_sensor - o[2]) * *s;
+}
+
+/* The inverse depths the plan may use the table at: [0, xm], xm the
+ * blur table's start (twice the front vertex's distance), halved while
+ * the film map's derivative J changes sign (as lens_blur.c's x_max). */
+static double x_near(const lr__cam *c, double js, double jp)
+{
+    double xm = 1.0 / (2.0 * (c->lens.z_sensor - c->lens.L->z[0]));
+    while (!((js > 0.0) == (js + jp * xm > 0.0)))
+        xm *= 0.5;
+    return xm;
+}
+
+/* The largest film distance, in pixels of a PX_WIDE frame, between two
+ * rays from film radius r, over x in [0, xm] (a Moebius function of x:
+ * largest at an end, lens_blur.c), J the traced chief ray's derivative
+ * over r at r. */
+static double film_px(const lr__cam *c, double r, const double *o1,
+                      const double *d1, const double *o2, const double *d2,
+                      double *xm)
+{
+    double s1, p1, s2, p2, sa, pa, sb, pb, oa[3], da[3], ob[3], db[3], T;
+    double h = 1e-4;
+    line_of(c, o1, d1, &s1, &p1);
+    line_of(c, o2, d2, &s2, &p2);
+    /* J by a difference inside r's interval of the pupil table (its
+     * centre is kinked at the table's radii). */
+    double a = r, b = r + h;
+    if (floor(b / c->lens.pupil_rmax * LR__PUPIL_N) !=
+        floor(a / c->lens.pupil_rmax * LR__PUPIL_N))
+        a = r - h, b = r;
+    if (!lr__lens_chief_traced(c, a, oa, da, &T) ||
+        !lr__lens_chief_traced(c, b, ob, db, &T))
+        return -1.0;
+    line_of(c, oa, da, &sa, &pa);
+    line_of(c, ob, db, &sb, &pb);
+    double js = (sb - sa) / h, jp = (pb - pa) / h;
+    *xm = x_near(c, js, jp);
+    double px = PX_WIDE / c->lens.sensor_w, worst = 0.0;
+    for (int e = 0; e < 2; e++) {
+        double x = e ? *xm : 0.0;
+        double dl = fabs((s2 - s1) + (p2 - p1) * x) / fabs(js + jp * x);
+        worst = fmax(worst, dl * px);
+    }
+    return worst;
+}
+
+static const char *const chief_setups[] = {
+    ", \"focus_distance\": 3",
+    ", \"focus_distance\": 10, \"f_number\": 8",
+};
+
+static void extra_for(const char *lens, const char *setup, char *extra,
+                      size_t n)
+{
+    /* The test fisheye is scaled to f = 1 mm: a sensor to match. */
+    snprintf(extra, n, "%s%s", setup,
+             strstr(lens, "us4256373.json") != NULL
+                 ? ", \"sensor_width_mm\": 2.4"
+                 : "");
+}
+
+/* The table's interpolated ray and transmittance against the chief ray
+ * traced at the same radius, 16 radii in each of the table's intervals
+ * at random: within 1e-4 of a pixel at every depth the plan uses it at,
+ * the transmittance within 1e-5; and the table holds a node wherever the
+ * chief ray passes there. */
+static void test_table_within_1e4_px(void **state)
+{
+    (void)state;
+    double worst = 0.0, worst_t = 0.0;
+    long checked = 0;
+    unsigned st = 7;
+    for (size_t i = 0; i < sizeof lenses / sizeof *lenses; i++)
+        for (size_t k = 0; k < sizeof chief_setups / sizeof *chief_setups;
+             k++) {
+            char extra[256];
+            extra_for(lenses[i], chief_setups[k], extra, sizeof extra);
+            lr_camera cam;
+            lr__cam c;
+            lr_scene *s = lens_cam(lenses[i], extra, &cam, &c);
+            const lr__lens_blur *b = lr__lens_blur_get(&c);
+            assert_non_null(b);
+            const lr__lens_chief *t = lr__lens_blur_chief(b);
+            double lw = 0.0, lt = 0.0;
+            int n = 0;
+
+            for (int a = 0; a + 1 < LR__CHIEF_NODES; a++)
+                for (int m = 0; m < 16; m++) {
+                    double r = c.lens.pupil_rmax * (a + rnd(&st)) /
+                               (LR__CHIEF_NODES - 1);
+                    double o1[3], d1[3], T1, o2[3], d2[3], T2, xm;
+                    int traced = lr__lens_chief_traced(&c, r, o1, d1, &T1);
+                    int tab = lr__lens_chief_eval(&c, t, r, o2, d2, &T2);
+                    if (!tab)
+                        continue; /* the glass traces there */
+                    /* Where both nodes pass, so does the ray between. */
+                    assert_true(traced);
+                    double e = film_px(&c, r, o1, d1, o2, d2, &xm);
+                    if (e < 0.0)
+                        continue;
+                    lw = fmax(lw, e);
+                    lt = fmax(lt, fabs(T2 - T1) / T1);
+                    n++;
+                }
+            print_message("%-44.44s %-24.24s %4d of %d intervals exact; %6d "
+                          "radii there: %.2e px, T %.1e\n",
+                          lenses[i], chief_setups[k] + 2, t->n_exact,
+                          LR__CHIEF_NODES - 1, n, lw, lt);
+            /* The double Gauss, the bench's lens: nearly all. */
+            if (strstr(lenses[i], "\"double-gauss-50\"") != NULL)
+                assert_true(t->n_exact > 0.9 * (LR__CHIEF_NODES - 1));
+            assert_true(n >= 8 * t->n_exact);
+            worst = fmax(worst, lw), worst_t = fmax(worst_t, lt);
+            checked += n;
+            lr_scene_free(s);
+        }
+    print_message("worst: %.2e px of a %g-pixel frame, T %.1e relative, %ld "
+                  "radii\n",
+                  worst, PX_WIDE, worst_t, checked);
+    assert_true(worst < 1e-4);
+    assert_true(worst_t < 1e-5);
+}
+
+/* The camera's packet rays where the plan skips the lens (rays16 with
+ * use_lens 0: the table, or the glass where an interval is not exact)
+ * against the model's chief ray traced in double (lens_chief), at random film
+ * points: the same rays up to float's rounding (what the glass's float
+ * trace gave before the table), and weights within 1e-6 of the chief
+ * weight times the traced transmittance (absolute: about 1 at the
+ * centre). */
+static void test_packet_rays_are_chief_rays(void **state)
+{
+    (void)state;
+    double worst[2] = {0.0, 0.0}, worst_w[2] = {0.0, 0.0};
+    long lanes[2] = {0, 0};
+    unsigned st = 11;
+    for (size_t i = 0; i < sizeof lenses / sizeof *lenses; i++) {
+        char extra[256];
+        extra_for(lenses[i], chief_setups[1], extra, sizeof extra);
+        lr_camera cam;
+        lr__cam c;
+        lr_scene *s = lens_cam(lenses[i], extra, &cam, &c);
+        const lr__lens_blur *b = lr__lens_blur_get(&c);
+        assert_non_null(b);
+        for (int p = 0; p < 64; p++) {
+            float fx[16], fy[16], lu[16] = {0}, lv[16] = {0}, wt[16];
+            for (int l = 0; l < 16; l++) {
+                fx[l] = (float)(W * rnd(&st));
+                fy[l] = (float)(H * rnd(&st));
+            }
+            struct RTCRayHit16 rh __attribute__((aligned(64)));
+            c.model->rays16(&c, 0, 16, fx, fy, lu, lv, &rh, wt);
+            /* Which way the packet went: the table unless a lane's
+             * interval is not exact (1: the glass). */
+            const lr__lens_chief *t = lr__lens_blur_chief(b);
+            int glass = 0;
+            for (int l = 0; l < 16; l++) {
+                lr__lens_sensor sp = lr__lens_sensor_at(&c, fx[l], fy[l]);
+                int a = (int)(sp.r / c.lens.pupil_rmax * (LR__CHIEF_NODES - 1));
+                a = a < LR__CHIEF_NODES - 2 ? a : LR__CHIEF_NODES - 2;
+                glass |= !t->exact[a];
+            }
+            for (int l = 0; l < 16; l++) {
+                lr__lens_sensor sp = lr__lens_sensor_at(&c, fx[l], fy[l]);
+                double o1[3], d1[3], T1, xm;
+                /* Where the double trace stops the chief ray the
+                 * table has no exact interval, and the packet went
+                 * through the float glass, as before the table (whose
+                 * rounding can let a grazing ray through). */
+                if (!lr__lens_chief_traced(&c, sp.r, o1, d1, &T1))
+                    continue;
+                /* The packet's ray, back into the radial plane of the
+                 * lens's frame. */
+                lr__v3 org = {rh.ray.org_x[l], rh.ray.org_y[l],
+                              rh.ray.org_z[l]};
+                lr__v3 dir = {rh.ray.dir_x[l], rh.ray.dir_y[l],
+                              rh.ray.dir_z[l]};
+                lr__v3 q = v3_scale(v3_sub(org, c.origin), 1.0 / c.lens.mm);
+                double o2[3] = {v3_dot(q, c.right) * sp.ex +
+                                    v3_dot(q, c.up) * sp.ey,
+                                0.0, c.lens.z_sensor - v3_dot(q, c.forward)};
+                double d2[3] = {v3_dot(dir, c.right) * sp.ex +
+                                    v3_dot(dir, c.up) * sp.ey,
+                                0.0, -v3_dot(dir, c.forward)};
+                double e = film_px(&c, sp.r, o1, d1, o2, d2, &xm);
+                if (e < 0.0)
+                    continue;
+                int k = (int)(sp.r / c.lens.pupil_rmax * LR__PUPIL_N);
+                k = k < LR__PUPIL_N - 1 ? k : LR__PUPIL_N - 1;
+                double f = sp.r / c.lens.pupil_rmax * LR__PUPIL_N - k;
+                double want = lr__lens_blur_chief_w(b, k, (float)f) * T1;
+                worst[glass] = fmax(worst[glass], e);
+                /* Absolute: the weights are about 1 at the centre (a
+                 * relative error grows where they fall to 0). */
+                worst_w[glass] = fmax(worst_w[glass], fabs(wt[l] - want));
+                lanes[glass]++;
+            }
+        }
+        lr_scene_free(s);
+    }
+    print_message("packet chief rays, px of a %g-pixel frame: from the "
+                  "table %.2e, weight %.1e (%ld lanes); through the "
+                  "glass %.2e, weight %.1e (%ld lanes)\n",
+                  PX_WIDE, worst[0], worst_w[0], lanes[0], worst[1], worst_w[1],
+                  lanes[1]);
+    assert_true(lanes[0] > 5000 && lanes[1] > 1000);
+    assert_true(worst[0] <= worst[1] && worst_w[0] <= worst_w[1]);
+    assert_true(worst[0] < 2e-3);
+    assert_true(worst_w[0] < 1e-6);
+}
+
 static const struct CMUnitTest lens_blur_tests[] = {
     cmocka_unit_test(test_fooling_scene_within_guarantee),
     cmocka_unit_test(test_chief_weight_is_mean),
     cmocka_unit_test(test_spot_inside_bound),
     cmocka_unit_test(test_reach_holds_rays),
+    cmocka_unit_test(test_table_within_1e4_px),
+    cmocka_unit_test(test_packet_rays_are_chief_rays),
 };
 LR_TEST_GROUP(lens_blur, lens_blur_tests)

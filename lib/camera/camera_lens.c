@@ -390,6 +390,51 @@ chief_start16(const lr__cam *c, const lr__lens_blur *bl, int n, const float *fx,
     }
 }
 
+/* chief_start16's rays out of the front, from the blur table's chief-ray
+ * table (lens_chief.c) instead of the glass: at film radius r in the
+ * direction e, the point (rho e, z) and direction (u e, w) interpolated
+ * between the two nodes around r, the weight the mean sample weight over
+ * T times the table's T.  Returns 0, and leaves the packet to the glass,
+ * where a lane's chief ray counts (weight above 0) and its interval is
+ * not exact (a node the lens stops, or the fit outside its tolerance:
+ * lens_chief.c). */
+static inline __attribute__((always_inline)) int
+chief_table16(const lr__cam *c, const lr__lens_blur *bl, int n, const float *fx,
+              const float *fy, float (*o)[16], float (*d)[16], float *w,
+              int *alive)
+{
+    const lr__lens_cam *lc = &c->lens;
+    const lr__lens_chief *t = lr__lens_blur_chief(bl);
+    const float iw = (float)(1.0 / c->width), ih = (float)(1.0 / c->height);
+    const float sw = (float)lc->sensor_w, sh = (float)lc->sensor_h;
+    const float kr = (float)(LR__PUPIL_N / lc->pupil_rmax);
+    int bad = 0;
+    for (int i = 0; i < 16; i++) {
+        float xs, ys, r, f;
+        int k = film_band(fx[i], fy[i], iw, ih, sw, sh, kr, &xs, &ys, &r, &f);
+        float s = f * (float)LR__CHIEF_SUB;
+        int j = (int)s;
+        j = j < LR__CHIEF_SUB - 1 ? j : LR__CHIEF_SUB - 1;
+        float g = s - (float)j;
+        int a = k * LR__CHIEF_SUB + j;
+        a = a > 0 ? a : 0; /* a lane past n may hold anything */
+        float ir = r > 0.0f ? 1.0f / r : 0.0f;
+        float ex = r > 0.0f ? xs * ir : 1.0f, ey = ys * ir;
+        float rho = t->rho[a] + g * (t->rho[a + 1] - t->rho[a]);
+        float u = t->u[a] + g * (t->u[a + 1] - t->u[a]);
+        o[0][i] = rho * ex, o[1][i] = rho * ey;
+        o[2][i] = t->z[a] + g * (t->z[a + 1] - t->z[a]);
+        d[0][i] = u * ex, d[1][i] = u * ey;
+        d[2][i] = t->w[a] + g * (t->w[a + 1] - t->w[a]);
+        float cw = lr__lens_blur_chief_w(bl, k, f);
+        w[i] = cw * (t->T[a] + g * (t->T[a + 1] - t->T[a]));
+        int live = (i < n) & (cw > 0.0f);
+        bad |= live & !t->exact[a];
+        alive[i] = live;
+    }
+    return !bad;
+}
+
 /* The packet's rays out of the front element (o, d from the glass) into
  * the scene, for Embree; wt[] their weights. */
 static inline __attribute__((always_inline)) void
@@ -446,7 +491,9 @@ lens_rays16_n(const lr__cam *c, int use_lens, int np, const int *ns,
               const float (*lu)[16], const float (*lv)[16],
               struct RTCRayHit16 *rh, float (*wt)[16])
 {
-    /* Without the lens (the plan's bound allows it), chief rays. */
+    /* Without the lens (the plan's bound allows it), chief rays: from
+     * the blur table's chief-ray table, or through the glass where an
+     * interval of it is not exact. */
     const lr__lens_blur *bl = use_lens ? NULL
                                        : __atomic_load_n(&c->lens.blur,
                                                          __ATOMIC_ACQUIRE);
@@ -458,31 +505,44 @@ lens_rays16_n(const lr__cam *c, int use_lens, int np, const int *ns,
         return;
     }
     float o[3][LR__RX_LANES], d[3][LR__RX_LANES], w[LR__RX_LANES];
-    int alive[LR__RX_LANES];
+    int alive[LR__RX_LANES], at[MAXP], ng = 0;
     for (int p = 0; p < np; p++) {
-        float o16[3][16], d16[3][16];
+        float o16[3][16], d16[3][16], w16[16];
+        int alive16[16];
+        if (bl != NULL &&
+            chief_table16(c, bl, ns[p], fx[p], fy[p], o16, d16, w16, alive16)) {
+            /* Out of the front already: no glass. */
+            lens_finish16(c, (const float(*)[16])o16, (const float(*)[16])d16,
+                          w16, alive16, &rh[p], wt[p]);
+            continue;
+        }
+        /* The packets for the glass, packed in its lanes. */
+        int q = ng++;
+        at[q] = p;
         if (bl != NULL)
-            chief_start16(c, bl, ns[p], fx[p], fy[p], o16, d16, w + 16 * p,
-                          alive + 16 * p);
+            chief_start16(c, bl, ns[p], fx[p], fy[p], o16, d16, w + 16 * q,
+                          alive + 16 * q);
         else
             lens_start16(c, ns[p], fx[p], fy[p], lu[p], lv[p], o16, d16,
-                         w + 16 * p, alive + 16 * p);
+                         w + 16 * q, alive + 16 * q);
         for (int a = 0; a < 3; a++) {
-            memcpy(&o[a][16 * p], o16[a], sizeof o16[a]);
-            memcpy(&d[a][16 * p], d16[a], sizeof d16[a]);
+            memcpy(&o[a][16 * q], o16[a], sizeof o16[a]);
+            memcpy(&d[a][16 * q], d16[a], sizeof d16[a]);
         }
     }
+    if (ng == 0)
+        return;
     lr__rx_trace16f(&c->lens.L->rx, c->lens.L->z, c->lens.n_ref,
-                    c->lens.stop_scale, 16 * np, o, d, alive, &c->lens.t_ref,
+                    c->lens.stop_scale, 16 * ng, o, d, alive, &c->lens.t_ref,
                     w);
-    for (int p = 0; p < np; p++) {
+    for (int q = 0; q < ng; q++) {
         float o16[3][16], d16[3][16];
         for (int a = 0; a < 3; a++) {
-            memcpy(o16[a], &o[a][16 * p], sizeof o16[a]);
-            memcpy(d16[a], &d[a][16 * p], sizeof d16[a]);
+            memcpy(o16[a], &o[a][16 * q], sizeof o16[a]);
+            memcpy(d16[a], &d[a][16 * q], sizeof d16[a]);
         }
         lens_finish16(c, (const float(*)[16])o16, (const float(*)[16])d16,
-                      w + 16 * p, alive + 16 * p, &rh[p], wt[p]);
+                      w + 16 * q, alive + 16 * q, &rh[at[q]], wt[at[q]]);
     }
 }
 

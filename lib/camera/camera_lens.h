@@ -1,7 +1,7 @@
 /*
  * camera_lens.h: the real lens model's parts, shared by its three files
  * and lens_blur.c.  Owned by the lens model; nothing outside lib/camera/
- * includes it (other layers reach a model through camera.h's table).
+ * includes it but its tests (other layers reach a model through camera.h's table).
  *
  *   camera_lens.c   keys, validation, setup, camera rays, the registration
  *   lens_pupil.c    the exit-pupil bounds (pbrt-v4's RealisticCamera)
@@ -45,6 +45,55 @@ double lr__lens_ghost_film(const lr__cam *c, int g, int k, double ox, double oy,
                            lr__v3 w, double *rel, double *fx, double *fy);
 double lr__lens_ghost_disk(const lr__cam *c);
 
+/* The chief ray out of the front by film radius (lens_chief.c), for the
+ * packet rays of the blocks whose plan skips the lens: nodes every
+ * 1/LR__CHIEF_SUB of the pupil table's intervals, interpolated linearly,
+ * each interval checked when made (within LR__CHIEF_TOL_PX of a pixel
+ * of an LR__CHIEF_FRAME_PX-pixel-wide frame of the traced ray: its
+ * `exact`; test_lens_blur.c measures it).  Kept in the blur table
+ * (lens_blur.c), made with it. */
+#define LR__CHIEF_SUB 64
+#define LR__CHIEF_NODES (LR__PUPIL_N * LR__CHIEF_SUB + 1)
+#define LR__CHIEF_TOL_PX 1e-4
+#define LR__CHIEF_FRAME_PX 8192.0
+typedef struct lr__lens_chief {
+    /* At each node, in the radial plane of the lens's frame: the point
+     * (rho, z) and direction (u, w) on leaving the front, and the
+     * transmittance, in double (for the check) and float (the camera's
+     * packets). */
+    double rho_d[LR__CHIEF_NODES], z_d[LR__CHIEF_NODES];
+    double u_d[LR__CHIEF_NODES], w_d[LR__CHIEF_NODES], T_d[LR__CHIEF_NODES];
+    float rho[LR__CHIEF_NODES], z[LR__CHIEF_NODES];
+    float u[LR__CHIEF_NODES], w[LR__CHIEF_NODES], T[LR__CHIEF_NODES];
+    /* Per interval [node i, node i + 1]: 1 when both nodes pass and the
+     * interpolation is within the tolerance inside it; 0 sends the
+     * packet through the glass. */
+    unsigned char exact[LR__CHIEF_NODES];
+    int n_exact; /* intervals exact */
+} lr__lens_chief;
+
+/* Fills the table; x_max (1/mm) the nearest inverse depth the plan uses
+ * it at (the blur table's). */
+void lr__lens_chief_fill(const lr__cam *c, double x_max, lr__lens_chief *t);
+/* The table's ray at film radius r mm, interpolated in double from the
+ * double nodes: 0 where r's interval is not exact. */
+int lr__lens_chief_eval(const lr__cam *c, const lr__lens_chief *t, double r,
+                        double o[3], double d[3], double *T);
+/* The chief ray at film radius r traced through the glass in double,
+ * which the table holds at its nodes (for the tests). */
+int lr__lens_chief_traced(const lr__cam *c, double r, double o[3], double d[3],
+                          double *T);
+/* The integral of cos^4 T over where rays from film radius r pass, over
+ * the pupil bounds P's sampling domain (the disk when use_disk) within
+ * box (offsets from (cx, 0): a0, a1, b0, b1), on an LR__CHIEF_GW grid
+ * (lens_blur.c's chief weight); -1 when out of memory. */
+#define LR__CHIEF_GW 96
+double lr__lens_chief_weight_sum(const lr__cam *c, const double *n, double r,
+                                 const lr__pupil *P, int use_disk,
+                                 const double *box);
+/* The blur table's chief-ray table (lens_blur.c). */
+const lr__lens_chief *lr__lens_blur_chief(const lr__lens_blur *b);
+
 /* ---- small helpers of the three files, inline ----------------------------- */
 
 /* From lens coordinates (mm, about the sensor's centre) to the scene. */
@@ -59,6 +108,16 @@ static inline void lr__lens_to_world(const lr__cam *c, const double o[3],
     *org = v3_madd(c->origin, p, lc->mm);
     *dir = v3_norm(v3_madd(v3_madd(v3_scale(c->right, d[0]), c->up, d[1]),
                            c->forward, -d[2]));
+}
+
+/* Whether the point (a, b), offset from the pupil bounds' centre (cx, 0),
+ * is in the sampling domain: the disk of radius rad when use_disk, else
+ * the bounds' box, which the callers' grids span (lens_blur.c's pupil
+ * points and lens_chief.c's weight grid). */
+static inline int lr__pupil_in_domain(const lr__pupil *P, int use_disk,
+                                      double a, double b)
+{
+    return !use_disk || a * a + b * b <= P->rad * P->rad;
 }
 
 /* Film point (fx, fy) on the sensor, in mm (top of file), with its

@@ -44,9 +44,9 @@
 #define NR LR__PUPIL_N /* film radii: the pupil table's */
 #define NX 256         /* cells of inverse depth */
 #define G 32           /* pupil grid side, for the spot */
-#define GW 96          /* and for the chief ray's weight */
-#define RIM 64         /* points on the pupil bounds' rim */
-#define MAX_COL 6      /* the reference and up to 5 wavelengths */
+/* (the chief ray's weight: LR__CHIEF_GW, lens_chief.c) */
+#define RIM 64    /* points on the pupil bounds' rim */
+#define MAX_COL 6 /* the reference and up to 5 wavelengths */
 /* The bound's margin over the sampled table (docs/plan-lens.md measures
  * how much of it the real spot uses). */
 #define MARGIN 1.25
@@ -68,6 +68,8 @@ struct lr__lens_blur {
     /* Spot and colour spread, radial and tangential, film mm. */
     float sr[NR + 1][NX + 1], st[NR + 1][NX + 1];
     float cr[NR + 1][NX + 1], ct[NR + 1][NX + 1];
+    /* The skipped blocks' chief rays (lens_chief.c). */
+    lr__lens_chief chief;
 };
 
 /* A ray out of the front: point on the image plane s + p x. */
@@ -181,11 +183,6 @@ static int domain(const lr__pupil *P, double *hx, double *hy)
     return use_disk;
 }
 
-static int in_domain(const lr__pupil *P, int use_disk, double a, double b)
-{
-    return !use_disk || a * a + b * b <= P->rad * P->rad;
-}
-
 /* Pupil points at film radius r: a G x G grid's cell centres over
  * [a0, a1] x [b0, b1] (offsets from (cx, 0)) inside the sampling domain,
  * then RIM points on the domain's rim.  Returns the number of grid
@@ -200,7 +197,7 @@ static int pupil_points(const lr__pupil *P, const double *box, double *q,
         for (int ix = 0; ix < G; ix++) {
             double a = box[0] + (ix + 0.5) / G * (box[1] - box[0]);
             double b = box[2] + (iy + 0.5) / G * (box[3] - box[2]);
-            if (!in_domain(P, use_disk, a, b))
+            if (!lr__pupil_in_domain(P, use_disk, a, b))
                 continue;
             q[2 * m] = P->cx + a, q[2 * m + 1] = b;
             m++;
@@ -240,7 +237,7 @@ static int passing_box(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
         for (int ix = 0; ix < GC; ix++) {
             double a = (2.0 * (ix + 0.5) / GC - 1.0) * hx;
             double b = (2.0 * (iy + 0.5) / GC - 1.0) * hy;
-            if (in_domain(P, use_disk, a, b))
+            if (lr__pupil_in_domain(P, use_disk, a, b))
                 q[2 * m] = P->cx + a, q[2 * m + 1] = b, m++;
         }
     memset(pass, 0, sizeof pass);
@@ -262,58 +259,6 @@ static int passing_box(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
     box[0] = fmax(box[0] - ca, -hx), box[1] = fmin(box[1] + ca, hx);
     box[2] = fmax(box[2] - cb, -hy), box[3] = fmin(box[3] + cb, hy);
     return any;
-}
-
-/* The integral of cos^4 T over where rays from film radius r pass
- * (rear-plane mm^2), by the midpoint rule on a GW x GW grid over the
- * passing box.  Its edge cells carry its error, which falls about as
- * 1 / GW (for the double Gauss at f/11: 0.66% at 48, 0.17% at 128):
- * cells of a GW / 4 grid whose neighbours all pass count their centre's
- * value, the others are cut into 4 x 4. */
-static double weight_sum(const lr__cam *c, const double *n, double r,
-                         const lr__pupil *P, const double *box)
-{
-    enum { GC = GW / 4 };
-    double hx, hy, v[GC + 2][GC + 2];
-    int use_disk = domain(P, &hx, &hy);
-    double cw = (box[1] - box[0]) / GC, chh = (box[3] - box[2]) / GC;
-    /* v: cos^4 T at the coarse centres, -1 where no ray passes (a ring
-     * of -1 around the grid). */
-    for (int iy = 0; iy < GC + 2; iy++)
-        for (int ix = 0; ix < GC + 2; ix++) {
-            double a = box[0] + (ix - 0.5) * cw, b = box[2] + (iy - 0.5) * chh;
-            double T, c4;
-            line l;
-            v[iy][ix] = -1.0;
-            if (ix > 0 && iy > 0 && ix <= GC && iy <= GC &&
-                in_domain(P, use_disk, a, b) &&
-                trace_line(c, n, &c->lens.t_ref, r, P->cx + a, b, &l, &T, &c4))
-                v[iy][ix] = c4 * T;
-        }
-    double sum = 0.0;
-    for (int iy = 1; iy <= GC; iy++)
-        for (int ix = 1; ix <= GC; ix++) {
-            int inner = 1;
-            for (int dy = -1; dy <= 1; dy++)
-                for (int dx = -1; dx <= 1; dx++)
-                    inner &= v[iy + dy][ix + dx] >= 0.0;
-            if (inner) {
-                sum += v[iy][ix] * cw * chh;
-                continue;
-            }
-            for (int sy = 0; sy < 4; sy++)
-                for (int sx = 0; sx < 4; sx++) {
-                    double a = box[0] + (ix - 1 + (sx + 0.5) / 4) * cw;
-                    double b = box[2] + (iy - 1 + (sy + 0.5) / 4) * chh;
-                    double T, c4;
-                    line l;
-                    if (in_domain(P, use_disk, a, b) &&
-                        trace_line(c, n, &c->lens.t_ref, r, P->cx + a, b, &l,
-                                   &T, &c4))
-                        sum += c4 * T * cw * chh / 16.0;
-                }
-        }
-    return sum;
 }
 
 /* One film radius's rays, chief lines and weight.  0: no bound there. */
@@ -353,7 +298,11 @@ static int radius_rays(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
      * over the domain is the integral of cos^4 T / Z^2 / E0 over where
      * rays pass (the area cancels), per unit of the chief ray's own T
      * (the packet trace multiplies that in). */
-    wsum = weight_sum(c, nsets[0], r, &P, box);
+    double hxw, hyw;
+    wsum = lr__lens_chief_weight_sum(c, nsets[0], r, &P, domain(&P, &hxw, &hyw),
+                                     box);
+    if (wsum < 0.0)
+        return 0; /* out of memory: no bound here */
     double dz = lc->z_rear - lc->z_sensor;
     double mean = wsum / (dz * dz) * lc->inv_E0;
     *chief_w = (float)(mean / T0);
@@ -464,6 +413,7 @@ static lr__lens_blur *build(const lr__cam *c)
     for (int k = 0; k <= NR; k++)
         if (t->ok[k])
             fill_row(t, k, &rs[k], &ch[k], &jr[k], &jt[k]);
+    lr__lens_chief_fill(c, t->x_max, &t->chief);
 done:
     free(nsets);
     free(rs);
@@ -522,6 +472,11 @@ const lr__lens_blur *lr__lens_blur_get(const lr__cam *c)
      * plan; its packet rays read this when the plan skips the lens. */
     __atomic_store_n(&((lr__cam *)c)->lens.blur, hit, __ATOMIC_RELEASE);
     return hit;
+}
+
+const lr__lens_chief *lr__lens_blur_chief(const lr__lens_blur *b)
+{
+    return &b->chief;
 }
 
 float lr__lens_blur_chief_w(const lr__lens_blur *b, int k, float f)
