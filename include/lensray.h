@@ -515,9 +515,11 @@ typedef struct lr_render_stats {
     uint64_t light_paths;
     uint64_t light_landed;
     /* A real lens's ghosts (camera.ghosts, issue 29), left out of the
-     * three above: the lights that got them, their light paths, and the
-     * landings of those paths' ghost rays inside the frame (each path
-     * lands through one ghost path of the lens, in each colour). */
+     * three above: the lights that got them, their light paths (for a
+     * source drawn as meshes, its meshes' rays through the lens), and
+     * the landings of those paths' ghost rays inside the frame (each
+     * path lands through one ghost path of the lens, in each colour;
+     * a mesh's corners that land). */
     uint64_t ghost_lights;
     uint64_t ghost_paths;
     uint64_t ghost_landed;
