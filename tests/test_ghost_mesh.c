@@ -32,13 +32,16 @@ typedef struct ghosts {
     double sum, cx, cy, rms;
 } ghosts;
 
-static void render_ghosts(const char *seed, ghosts *g, lr_render_stats *st)
+/* The scene's ghosts with the sphere's radius set by `radius` (a --set
+ * line). */
+static void render_ghosts_r(const char *seed, const char *radius, ghosts *g,
+                            lr_render_stats *st)
 {
-    const char *on[] = {"camera.ghosts=true", seed};
-    const char *off[] = {"camera.ghosts=false", seed};
-    lr_image *a = lr_test_render(SCENE, on, 2, st);
+    const char *on[] = {"camera.ghosts=true", seed, radius};
+    const char *off[] = {"camera.ghosts=false", seed, radius};
+    lr_image *a = lr_test_render(SCENE, on, 3, st);
     lr_test_check_finite(a, st, "ghosts on");
-    lr_image *b = lr_test_render(SCENE, off, 2, NULL);
+    lr_image *b = lr_test_render(SCENE, off, 3, NULL);
     double s0 = 0.0, sx = 0.0, sy = 0.0, srr = 0.0;
     for (int k = 0; k < W * W; k++) {
         double v = (double)a->rgb[3 * k] - (double)b->rgb[3 * k];
@@ -50,6 +53,11 @@ static void render_ghosts(const char *seed, ghosts *g, lr_render_stats *st)
     g->rms = sqrt(srr / s0 - g->cx * g->cx - g->cy * g->cy);
     lr_image_free(a);
     lr_image_free(b);
+}
+
+static void render_ghosts(const char *seed, ghosts *g, lr_render_stats *st)
+{
+    render_ghosts_r(seed, "objects[0].radius=0.1", g, st);
 }
 
 /* The squared difference of a and b summed over blocks of bs x bs
@@ -80,29 +88,28 @@ static double rel_err(const ghosts *a, const ghosts *b)
     return e / (W * W) / (peak * peak);
 }
 
-/* Meshes against paths: the mesh render agrees with the paths' at seed
- * 1 as closely as the paths' at seeds 1 and 2 agree with each other (in
+/* The mesh render agrees with the paths' at seed 1 as closely as the paths' at seeds 1 and 2 agree with each other (in
  * 4 x 4 blocks), and in energy, centroid and rms radius.  A mesh that
  * lost its edges, a direction's weight, or the disk's normalisation
  * fails it. */
-static void test_mesh_against_paths(void **state)
+static void against_paths(const char *radius)
 {
-    (void)state;
     static ghosts m, p1, p2;
     lr_render_stats sm, sp;
-    render_ghosts("render.seed=1", &m, &sm);
+    render_ghosts_r("render.seed=1", radius, &m, &sm);
     double keep = lr__gt_dir_px;
     lr__gt_dir_px = 1e-12; /* every source wider than that: paths */
-    render_ghosts("render.seed=1", &p1, &sp);
-    render_ghosts("render.seed=2", &p2, NULL);
+    render_ghosts_r("render.seed=1", radius, &p1, &sp);
+    render_ghosts_r("render.seed=2", radius, &p2, NULL);
     lr__gt_dir_px = keep;
     double seeds = fabs(p2.sum / p1.sum - 1.0);
     double d_m = block_d2(&m, &p1, 4), d_s = block_d2(&p2, &p1, 4);
-    print_message("mesh against paths: %llu rays against %llu paths; energy "
+    print_message("mesh against paths (%s): %llu rays against %llu paths; "
+                  "energy "
                   "%.4f of the paths' (seed to seed %.4f); centroid (%.3f, "
                   "%.3f) px, paths (%.3f, %.3f); rms %.4f of the paths'; "
                   "4-pixel blocks' d2 %.4g, seeds' %.4g\n",
-                  (unsigned long long)sm.ghost_paths,
+                  radius, (unsigned long long)sm.ghost_paths,
                   (unsigned long long)sp.ghost_paths, m.sum / p1.sum, seeds,
                   m.cx, m.cy, p1.cx, p1.cy, m.rms / p1.rms, d_m, d_s);
     assert_true(sm.ghost_lights == 1 && sp.ghost_lights == 1);
@@ -111,6 +118,16 @@ static void test_mesh_against_paths(void **state)
     assert_true(hypot(m.cx - p1.cx, m.cy - p1.cy) < 0.2);
     assert_true(fabs(m.rms / p1.rms - 1.0) < 0.02);
     assert_true(d_m < 2.0 * d_s);
+}
+
+/* Meshes against paths: a source 0.2 px wide (one direction), and one
+ * 3.7 px wide (4 x 4 directions, each a copy of every ghost a pixel
+ * apart: they must cover the source's disc, not a line across it). */
+static void test_mesh_against_paths(void **state)
+{
+    (void)state;
+    against_paths("objects[0].radius=0.1");
+    against_paths("objects[0].radius=2");
 }
 
 /* Convergence: against a mesh of 64 cells, 3 x 3 directions a pixel
@@ -141,7 +158,39 @@ static void test_mesh_converges(void **state)
                 fabs(coarse.sum / fine.sum - 1.0));
 }
 
+/* A round source on the axis makes round ghosts: a source 1.5 px wide
+ * (2 x 2 directions), its ghosts' second moments across and along the
+ * frame within 1e-4 of each other (0 to 5 digits).  Directions on a line
+ * through the source's centre (the cone's own (1 - cos, phi) grid of
+ * midpoints, phi 90 and 270 degrees) stretch every ghost along that
+ * line: 4.6e-4 apart. */
+static void test_round_source_round_ghosts(void **state)
+{
+    (void)state;
+    const char *sets[] = {"camera.ghosts=true", "objects[0].radius=0.8",
+                          "objects[0].center=[0, 0, -100]"};
+    lr_image *a = lr_test_render(SCENE, sets, 3, NULL);
+    sets[0] = "camera.ghosts=false";
+    lr_image *b = lr_test_render(SCENE, sets, 3, NULL);
+    double s0 = 0.0, sx = 0.0, sy = 0.0, sxx = 0.0, syy = 0.0;
+    for (int k = 0; k < W * W; k++) {
+        double v = (double)a->rgb[3 * k] - (double)b->rgb[3 * k];
+        double x = k % W + 0.5 - W / 2, y = k / W + 0.5 - W / 2;
+        s0 += v, sx += v * x, sy += v * y, sxx += v * x * x, syy += v * y * y;
+    }
+    double vx = sxx / s0 - (sx / s0) * (sx / s0);
+    double vy = syy / s0 - (sy / s0) * (sy / s0);
+    print_message("round source on the axis: ghosts' variance across %.4f "
+                  "px^2, along %.4f (%.5f apart)\n",
+                  vx, vy, fabs(vx - vy) / (vx + vy));
+    assert_true(s0 > 0.0);
+    assert_true(fabs(vx - vy) / (vx + vy) < 1e-4);
+    lr_image_free(a);
+    lr_image_free(b);
+}
+
 static const struct CMUnitTest ghost_mesh_tests[] = {
+    cmocka_unit_test(test_round_source_round_ghosts),
     cmocka_unit_test(test_mesh_against_paths),
     cmocka_unit_test(test_mesh_converges),
 };

@@ -39,6 +39,8 @@
  */
 #include "integrator/ghost_trace.h"
 
+#include "optics/lens.h"
+
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -100,6 +102,21 @@ static int mesh_reaches(const gg_task *t, lr__v3 P, lr__v3 w)
     lr__hit h;
     return lr__trace(t->s, lr__cam_ray_start(t->c, P, w), w, INFINITY, &h) &&
            h.geom == t->l->geom && h.entering;
+}
+
+/* The direction sample of a source's stratum midpoint u: the cone's
+ * samples (lr__lt_in_cone) take 1 - cos theta and phi from ud[0] and
+ * ud[1], so a grid of midpoints there would put 2 x 2 directions on one
+ * line through the centre; the midpoint goes to the disc first by
+ * Shirley and Chiu's concentric map (lr__aperture_sample), then to
+ * (r^2, phi / 2 pi): the disc's area is the cone's solid angle. */
+static void gg_direction(const double u[2], double ud[2])
+{
+    double x, y;
+    lr__aperture_sample(LR_APERTURE_DISK, 0, 0.0, 1.0, u, &x, &y);
+    double phi = atan2(y, x) / (2.0 * M_PI);
+    ud[0] = fmin(x * x + y * y, 1.0);
+    ud[1] = phi < 0.0 ? phi + 1.0 : phi;
 }
 
 /* Corner (ox, oy) of task t. */
@@ -536,8 +553,9 @@ void lr__gt_grid(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
                 int every = b[6] != 0.0;
                 if (!(b[0] < b[2]) || (!every && d != 0))
                     continue;
-                t.ud[0] = every ? (d % l->grid + 0.5) / l->grid : 0.5;
-                t.ud[1] = every ? (d / l->grid + 0.5) / l->grid : 0.5;
+                double u[2] = {every ? (d % l->grid + 0.5) / l->grid : 0.5,
+                               every ? (d / l->grid + 0.5) / l->grid : 0.5};
+                gg_direction(u, t.ud);
                 t.norm = 1.0 / (M_PI * rho * rho * (every ? K : 1));
                 gg_grid(&t, b);
             }

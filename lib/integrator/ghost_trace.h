@@ -96,8 +96,8 @@
  * from LR__GT_EVERY of LR__GT_LIT on.  The guide's grid that finds
  * where each lands on the lens is LR__GT_GUIDE_MESH across.  Chosen on
  * the bare double Gauss's night scene against a mesh of 48 cells and 9
- * directions, for the least error at about the cost of the main image
- * (docs/lenses.md, "Coatings and ghosts"). */
+ * directions and against 66 million paths: the least time for a relMSE
+ * under 1e-3 against both (docs/lenses.md, "Ghosts drawn as meshes"). */
 #define LR__GT_LIT (1.0 / 1024.0)
 #define LR__GT_CELLS_MIN 8
 #define LR__GT_EVERY 0.1
