@@ -10,7 +10,7 @@
 # --ghosts`'s three brightest ghost paths for each coating, the numbers
 # the pictures sit next to.  Between them, a landscape with the sun just
 # outside the frame (ghosts-landscape-mgf2.png, ghosts-landscape-bare.png).
-# About 40 s of CPU for the street light and 6 minutes for the landscape
+# About 12 s of CPU for the street light and 35 s for the landscape
 # (the main image, traced through the lens at every pixel in three
 # colours, is most of it).
 # Usage: bench/ghost_gallery.sh [LENSRAY] [OUTDIR]
