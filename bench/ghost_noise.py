@@ -14,6 +14,12 @@ the largest pixel error, the relMSE (mean of err^2 / (ref^2 + 1e-4))
 over the pixels where the reference ghosts reach 1/256 of white, and
 the CPU seconds ghosts on took.  Pure Python: it reads the
 uncompressed float EXR it asks lensray for.
+
+A small source's ghosts drawn as meshes (lib/integrator/ghost_grid.c)
+are the same at every spp and seed: against the same build's reference
+they show no error at all.  Give --ref-bin a build that traces paths
+(one from before the meshes, 4e3a12a's parent), whose reference is
+unbiased, or compare against a finer mesh.
 """
 import json
 import math
