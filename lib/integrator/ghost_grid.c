@@ -75,7 +75,8 @@ typedef struct gg_tri_t {
 #define LR__GT_TRIS 16384
 #define LR__GT_BAND (1 << 16)
 
-/* One task: light l's direction ud, along ghost path g at a time. */
+/* One task: light l's meshes, a direction ud and a ghost path g at a
+ * time. */
 typedef struct gg_task {
     const lr_scene *s;
     const lr__cam *c;
@@ -88,9 +89,8 @@ typedef struct gg_task {
     uint64_t traced, landed, rays;
     gg_tri_t *tris; /* LR__GT_TRIS, n_tris held (gg_raster) */
     /* Every corner's light the source's colour times a number (one
-     * wavelength): then gg_flush sums
-     * channel mono_ch alone and paints mono_c (the colour over that
-     * channel) by it. */
+     * wavelength): then gg_flush sums channel mono_ch alone and paints
+     * mono_c (the colour over that channel) by it. */
     int mono, mono_ch;
     lr__v3 mono_c;
     int n_tris;
@@ -133,9 +133,10 @@ static void gg_eval(gg_task *t, double ox, double oy, gg_pt *p)
     double inv_pdf;
     if (t->l->n_tri > 0) {
         /* A mesh: a disc of its solid angle from the eye around its
-         * centre, the direction ud's point of it (a point drawn on the
-         * mesh by area, as its paths draw one, would put a midpoint of
-         * ud on a triangle's corner). */
+         * bounding sphere's centre, the direction ud's point of it (a
+         * point drawn on the mesh by area, as its paths draw one, would
+         * put a midpoint of ud on a triangle's corner).  A mesh with a
+         * hole there (a ring) loses what the disc's directions miss. */
         lr__v3 a = v3_norm(v3_sub(t->l->center, P));
         w = lr__lt_in_cone(a, t->l->omega / (2.0 * M_PI), t->ud);
         inv_pdf = t->l->omega, e = NULL;
