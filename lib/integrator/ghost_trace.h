@@ -9,26 +9,33 @@
  * main image is the same with ghosts on or off.
  *
  * A ghost light (lr__lt_light with surf LR__LT_GHOST) is an emitter seen
- * directly: an untextured sphere light, an untextured mesh of emitting
- * triangles, or the environment map's sun (lr__envmap_sun's cone, as
- * light_trace.h's LR__LT_SUN).  Each of its paths draws a lens point and
- * a direction as light_trace.c's paths do (into the sphere's cone; to a
- * point uniform by area on the mesh, density dist^2 / (A cos) at the
- * lens point, the emission one-sided; uniform in the sun's cone, the
- * map's radiance looked up along it), checks that the camera ray along
- * it meets the sphere first, or the mesh's very triangle from its front,
- * or for the sun escapes the scene (the light must reach the front of
- * the lens), and lands that one ray through one ghost path
- * g of the lens (camera.h: ghost_film), drawn with probability p_g: half
- * by the paths' fluxes over the square root of their landing shares on
- * axis (ghost_trace.c: ghost_choice), half uniform (so that a path the
- * on-axis estimate misses, bright off axis, still has 1 / (2 n)).  The
- * pixel under the landing gets L x W_g / (pdf_dir x p_g x N), W_g the
- * ghost's importance: unbiased for the sum over every path.  Same
- * determinism as every light path: a pure function of (light, path
- * index, seed), fixed-point splats.  Emission textures are not yet
- * sources (a textured emitter makes no ghosts), nor is the environment
- * outside the sun's cone.
+ * directly: a sphere light, a mesh of emitting triangles (either with an
+ * emission texture or without), or the environment map's sun
+ * (lr__envmap_sun's cone, as light_trace.h's LR__LT_SUN).  It is drawn
+ * one of two ways, chosen by the plan (ghost_trace.c: ghost_paths):
+ *
+ * As meshes (ghost_grid.c, lr__gt_grid), for a source at most
+ * LR__GT_DIRS pixels wide whose paths would cost more rays: per ghost
+ * path a grid of rays over the lens, each cell's light spread over the
+ * pixels it lands on.  Deterministic, converging as the cells shrink.
+ *
+ * As paths: each draws a lens point and a direction as light_trace.c's
+ * paths do (into the sphere's cone; to a point uniform by area on the
+ * mesh, density dist^2 / (A cos) at the lens point, the emission
+ * one-sided; uniform in the sun's cone, the map's radiance looked up
+ * along it), checks that the camera ray along it meets the sphere
+ * first, or the mesh's very triangle from its front, or for the sun
+ * escapes the scene (the light must reach the front of the lens), and
+ * lands that one ray through one ghost path g of the lens (camera.h:
+ * ghost_film), drawn with probability p_g: half by the paths' fluxes
+ * over the square root of their landing shares on axis (ghost_trace.c:
+ * ghost_choice), half uniform (so that a path the on-axis estimate
+ * misses, bright off axis, still has 1 / (2 n)).  The pixel under the
+ * landing gets L x W_g / (pdf_dir x p_g x N), W_g the ghost's
+ * importance: unbiased for the sum over every path.  Same determinism
+ * as every light path: a pure function of (light, path index, seed),
+ * fixed-point splats.  The environment outside the sun's cone is not a
+ * source.
  */
 #ifndef LR_GHOST_TRACE_H
 #define LR_GHOST_TRACE_H
