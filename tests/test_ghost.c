@@ -9,6 +9,7 @@
 #include "test.h"
 #include "optics/coating.h"
 #include "optics/ghost.h"
+#include "optics/lens_load.h"
 #include "optics/prescription.h"
 
 #include <math.h>
@@ -465,11 +466,103 @@ static void test_double_gauss(void **state)
     assert_true(all[0] > all[1] && all[2] > all[1]);
 }
 
+/* lr__ghost_trace8 against lr__ghost_trace_rel lane by lane, bit for
+ * bit: every ghost path (and the main one) of lenses with spherical
+ * surfaces, conics and an asphere (the scalar fallback), rays from a
+ * disc before the front at up to 30 degrees (many lost: the cases where
+ * lanes die at different crossings), some lanes left out, with and
+ * without rel, a stop scaled down and a frame's clip, three batches of
+ * each. */
+static void test_trace8_bits(void **state)
+{
+    (void)state;
+    const char *lenses[] = {"double-gauss-50", "wide-22", "fisheye-10",
+                            "tests/data/lenses/asphere-singlet.zmx"};
+    uint64_t seed = 12345, lanes = 0, landed = 0, relv = 0;
+    for (size_t li = 0; li < sizeof lenses / sizeof *lenses; li++) {
+        const lr_lens *L;
+        if (lr_lens_load(lenses[li], NULL, &L, NULL) != LR_OK)
+            fail_msg("lens %s not found", lenses[li]);
+        const lr__rx *rx = &L->rx;
+        double z[LR__RX_MAX_SURFACES + 1], n[LR__RX_MAX_SURFACES];
+        lr__rx_layout(rx, z);
+        lr__rx_indices(rx, 550.0, n);
+        lr__ttab tab;
+        lr__ttab_fill(&tab, rx, n, 550.0, NULL);
+        static lr__ghost g[LR__GHOST_MAX + 1];
+        int ng = lr__ghost_paths(rx, g);
+        g[ng++] = (lr__ghost){-1, -1};
+        double r0 = rx->s[0].semi_aperture, clip[2] = {12.0, 8.0};
+        for (int k = 0; k < ng; k++)
+            for (int mode = 0; mode < 9; mode++) {
+                double o[3][LR__GHOST_LANES], d[3][LR__GHOST_LANES];
+                double hit[2][LR__GHOST_LANES], w[LR__GHOST_LANES];
+                double rel[LR__GHOST_LANES];
+                int alive[LR__GHOST_LANES];
+                double scale = mode % 3 == 2 ? 0.6 : 1.0;
+                for (int l = 0; l < LR__GHOST_LANES; l++) {
+                    double u[4];
+                    for (int a = 0; a < 4; a++) {
+                        seed = seed * 6364136223846793005ull +
+                               1442695040888963407ull;
+                        u[a] = (double)(seed >> 11) * 0x1.0p-53;
+                    }
+                    double dl[3], rr = 1.1 * r0 * sqrt(u[0]);
+                    direction(u[2] * 30.0 * M_PI / 180.0, 2.0 * M_PI * u[3],
+                              dl);
+                    double back = (r0 + 1.0) / dl[2];
+                    o[0][l] = rr * cos(2.0 * M_PI * u[1]) - back * dl[0];
+                    o[1][l] = rr * sin(2.0 * M_PI * u[1]) - back * dl[1];
+                    o[2][l] = z[0] - back * dl[2];
+                    for (int a = 0; a < 3; a++)
+                        d[a][l] = dl[a];
+                    alive[l] = (l * 7 + k + mode) % 9 != 0;
+                }
+                double *rp = mode % 3 == 1 ? NULL : rel;
+                const double *cp = mode % 3 == 1 ? clip : NULL;
+                int was[LR__GHOST_LANES];
+                memcpy(was, alive, sizeof was);
+                lr__ghost_trace8(rx, z, n, &tab, 550.0, scale, NULL, g[k],
+                                 z[rx->n], cp, (const double(*)[16])o,
+                                 (const double(*)[16])d, hit, w, rp, alive);
+                for (int l = 0; l < LR__GHOST_LANES; l++) {
+                    if (!was[l]) {
+                        assert_int_equal(alive[l], 0);
+                        continue;
+                    }
+                    double ol[3] = {o[0][l], o[1][l], o[2][l]};
+                    double dl[3] = {d[0][l], d[1][l], d[2][l]}, h[2], ws, rs;
+                    int ok = lr__ghost_trace_rel(
+                        rx, z, n, &tab, 550.0, scale, NULL, g[k], z[rx->n], cp,
+                        ol, dl, h, &ws, rp != NULL ? &rs : NULL);
+                    lanes++;
+                    assert_int_equal(alive[l], ok);
+                    if (!ok)
+                        continue;
+                    landed++;
+                    assert_memory_equal(&hit[0][l], &h[0], sizeof h[0]);
+                    assert_memory_equal(&hit[1][l], &h[1], sizeof h[1]);
+                    assert_memory_equal(&w[l], &ws, sizeof ws);
+                    if (rp != NULL) {
+                        assert_memory_equal(&rel[l], &rs, sizeof rs);
+                        relv += rs > 1.0;
+                    }
+                }
+            }
+    }
+    print_message("trace8: %llu lanes, %llu landed, %llu past a rim\n",
+                  (unsigned long long)lanes, (unsigned long long)landed,
+                  (unsigned long long)relv);
+    /* Enough of each kind to mean something. */
+    assert_true(landed > 1000 && lanes - landed > 1000 && relv > 100);
+}
+
 static const struct CMUnitTest ghost_tests[] = {
     cmocka_unit_test(test_paths),           cmocka_unit_test(test_plate),
     cmocka_unit_test(test_two_plates),      cmocka_unit_test(test_stop_clips),
     cmocka_unit_test(test_tir_lost),        cmocka_unit_test(test_fluxes_plate),
     cmocka_unit_test(test_paraxial_ghosts), cmocka_unit_test(test_double_gauss),
+    cmocka_unit_test(test_trace8_bits),
 };
 
 LR_TEST_GROUP(ghost, ghost_tests)

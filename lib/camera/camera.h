@@ -34,6 +34,7 @@
 #define LR_CAMERA_H
 
 #include "util/internal.h"
+#include "optics/ghost.h"
 #include "optics/lens_load.h"
 #include "optics/prescription.h"
 #include "optics/transmit.h"
@@ -242,6 +243,14 @@ typedef struct lr__camera_model {
                        lr__ghost_est *est);
     double (*ghost_film)(const lr__cam *c, int g, int k, double ox, double oy,
                          lr__v3 d, double *rel, double *fx, double *fy);
+    /* ghost_film for n <= LR__GHOST_LANES lens offsets (ox[l], oy[l]) and
+     * directions w[l] at once, through one path g at one wavelength k:
+     * W[l] its value, and fx[l], fy[l], rel[l] as ghost_film sets them,
+     * bit for bit (a mesh's rows of corners, a guide's grid).  NULL:
+     * ghost_film lane by lane. */
+    void (*ghost_film_n)(const lr__cam *c, int g, int k, int n,
+                         const double *ox, const double *oy, const lr__v3 *w,
+                         double *rel, double *fx, double *fy, double *W);
     /* The disk lens_point draws on (its radius, in the units of its
      * offsets), and the point lens_point gives for offset (ox, oy) on
      * it: for ghost paths that draw their own lens points

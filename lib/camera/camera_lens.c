@@ -614,6 +614,7 @@ const lr__camera_model lr__camera_lens = {
     .blur = lr__lens_blur_get,
     .ghost_paths = lr__lens_ghost_paths,
     .ghost_film = lr__lens_ghost_film,
+    .ghost_film_n = lr__lens_ghost_film_n,
     .ghost_disk = lr__lens_ghost_disk,
     .lens_at = lr__lens_at,
 };

@@ -37,12 +37,15 @@ double lr__lens_film_wl(const lr__cam *c, double w, double nm, double ox,
 void lr__lens_thin_equiv(const lr__cam *c, lr__lens_bound *b);
 int lr__lens_light_ok(const lr__cam *c);
 
-/* The ghosts (lens_light.c): the model table's ghost_paths, ghost_film
- * and ghost_disk. */
+/* The ghosts (lens_light.c): the model table's ghost_paths, ghost_film,
+ * ghost_film_n and ghost_disk. */
 int lr__lens_ghost_paths(const lr__cam *c, double *peak, double *k,
                          lr__ghost_est *est);
 double lr__lens_ghost_film(const lr__cam *c, int g, int k, double ox, double oy,
                            lr__v3 w, double *rel, double *fx, double *fy);
+void lr__lens_ghost_film_n(const lr__cam *c, int g, int k, int n,
+                           const double *ox, const double *oy, const lr__v3 *w,
+                           double *rel, double *fx, double *fy, double *W);
 double lr__lens_ghost_disk(const lr__cam *c);
 
 /* The chief ray out of the front by film radius (lens_chief.c), for the

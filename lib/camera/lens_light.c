@@ -264,35 +264,102 @@ int lr__lens_ghost_paths(const lr__cam *c, double *peak, double *k,
     return lc->n_ghost;
 }
 
-double lr__lens_ghost_film(const lr__cam *c, int g, int k, double ox, double oy,
-                           lr__v3 w, double *rel, double *fx, double *fy)
+/* Channel k's wavelength, indices and reflectance table for a ghost:
+ * the glass's own dispersion at nm (chromatic.amplify plays no part in
+ * a ghost). */
+static const lr__ttab *ghost_wl(const lr__cam *c, int k, double *nm,
+                                const double **n_after)
 {
     const lr__lens_cam *lc = &c->lens;
-    /* The glass's own dispersion at nm (chromatic.amplify plays no part
-     * in a ghost). */
     int rgb = k >= 0 && k < 3 && c->chroma.mode != LR_CHROMATIC_OFF;
-    double nm = rgb ? lc->nm_rgb[k] : c->nm_ref;
-    const double *n_after = rgb ? lc->g_n[k] : lc->n_ref;
-    const lr__ttab *tab = rgb ? &lc->g_tab[k] : &lc->t_ref;
-    const lr_lens *L = lc->L;
-    double d[3] = {-v3_dot(w, c->right), -v3_dot(w, c->up),
-                   v3_dot(w, c->forward)};
-    if (!(d[2] > 0.0) || g < 0 || g >= lc->n_ghost)
-        return 0.0;
-    double cos_o = d[2];
+    *nm = rgb ? lc->nm_rgb[k] : c->nm_ref;
+    *n_after = rgb ? lc->g_n[k] : lc->n_ref;
+    return rgb ? &lc->g_tab[k] : &lc->t_ref;
+}
+
+/* The lens-space ray toward the front for offset (ox, oy) and world
+ * direction w: o a millimetre before the first surface's rim, d unit;
+ * returns d[2] (> 0 when it enters the lens). */
+static double ghost_ray(const lr__cam *c, double ox, double oy, lr__v3 w,
+                        double o[3], double d[3])
+{
+    const lr_lens *L = c->lens.L;
+    d[0] = -v3_dot(w, c->right), d[1] = -v3_dot(w, c->up);
+    d[2] = v3_dot(w, c->forward);
     double back = (L->rx.s[0].semi_aperture + 1.0) / d[2];
-    double o[3] = {ox - back * d[0], oy - back * d[1], L->z[0] - back * d[2]};
-    double hit[2], T = 0.0;
-    double frame[2] = {0.5 * lc->sensor_w, 0.5 * lc->sensor_h};
-    if (!lr__ghost_trace_rel(&L->rx, L->z, n_after, tab, nm, lc->stop_scale,
-                             lc->coat, ghost_at(g), lc->z_sensor,
-                             rel == NULL ? frame : NULL, o, d, hit, &T, rel))
-        return 0.0;
+    o[0] = ox - back * d[0], o[1] = oy - back * d[1];
+    o[2] = L->z[0] - back * d[2];
+    return d[2];
+}
+
+/* A landed ghost ray's film point and value: hit on the sensor (mm),
+ * T its throughput, cos_o its d[2] in front. */
+static double ghost_land(const lr__cam *c, const double hit[2], double T,
+                         double cos_o, double *fx, double *fy)
+{
+    const lr__lens_cam *lc = &c->lens;
     *fx = (0.5 - hit[0] / lc->sensor_w) * c->width;
     *fy = (hit[1] / lc->sensor_h + 0.5) * c->height;
     double rho = front_disk(lc);
     double A_pix = lc->sensor_w * lc->sensor_h / (c->width * c->height);
     return lc->inv_E0 * cos_o * M_PI * rho * rho / A_pix * T;
+}
+
+double lr__lens_ghost_film(const lr__cam *c, int g, int k, double ox, double oy,
+                           lr__v3 w, double *rel, double *fx, double *fy)
+{
+    const lr__lens_cam *lc = &c->lens;
+    double nm, o[3], d[3], hit[2], T = 0.0;
+    const double *n_after;
+    const lr__ttab *tab = ghost_wl(c, k, &nm, &n_after);
+    double cos_o = ghost_ray(c, ox, oy, w, o, d);
+    if (!(cos_o > 0.0) || g < 0 || g >= lc->n_ghost)
+        return 0.0;
+    double frame[2] = {0.5 * lc->sensor_w, 0.5 * lc->sensor_h};
+    if (!lr__ghost_trace_rel(&lc->L->rx, lc->L->z, n_after, tab, nm,
+                             lc->stop_scale, lc->coat, ghost_at(g),
+                             lc->z_sensor, rel == NULL ? frame : NULL, o, d,
+                             hit, &T, rel))
+        return 0.0;
+    return ghost_land(c, hit, T, cos_o, fx, fy);
+}
+
+void lr__lens_ghost_film_n(const lr__cam *c, int g, int k, int n,
+                           const double *ox, const double *oy, const lr__v3 *w,
+                           double *rel, double *fx, double *fy, double *W)
+{
+    /* lr__lens_ghost_film's steps, lane by lane around one
+     * lr__ghost_trace8 (the same bits). */
+    const lr__lens_cam *lc = &c->lens;
+    double nm;
+    const double *n_after;
+    const lr__ttab *tab = ghost_wl(c, k, &nm, &n_after);
+    double o[3][LR__GHOST_LANES], d[3][LR__GHOST_LANES];
+    double hit[2][LR__GHOST_LANES], T[LR__GHOST_LANES], cos_o[LR__GHOST_LANES];
+    int alive[LR__GHOST_LANES];
+    for (int l = 0; l < LR__GHOST_LANES; l++) {
+        double ol[3] = {0.0, 0.0, 0.0}, dl[3] = {0.0, 0.0, 1.0};
+        if (l < n)
+            ghost_ray(c, ox[l], oy[l], w[l], ol, dl);
+        alive[l] = l < n && dl[2] > 0.0 && g >= 0 && g < lc->n_ghost;
+        cos_o[l] = dl[2];
+        for (int a = 0; a < 3; a++)
+            o[a][l] = ol[a], d[a][l] = dl[a];
+        if (l < n)
+            W[l] = 0.0;
+    }
+    if (n <= 0 || g < 0 || g >= lc->n_ghost)
+        return;
+    double frame[2] = {0.5 * lc->sensor_w, 0.5 * lc->sensor_h};
+    lr__ghost_trace8(&lc->L->rx, lc->L->z, n_after, tab, nm, lc->stop_scale,
+                     lc->coat, ghost_at(g), lc->z_sensor,
+                     rel == NULL ? frame : NULL, (const double(*)[16])o,
+                     (const double(*)[16])d, hit, T, rel, alive);
+    for (int l = 0; l < n; l++)
+        if (alive[l]) {
+            double h[2] = {hit[0][l], hit[1][l]};
+            W[l] = ghost_land(c, h, T[l], cos_o[l], &fx[l], &fy[l]);
+        }
 }
 
 /* The light side's plan (light_trace.c) sees the lens as a thin lens of

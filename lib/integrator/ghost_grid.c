@@ -74,6 +74,12 @@ typedef struct gg_tri_t {
  * scene). */
 #define LR__GT_TRIS 16384
 #define LR__GT_BAND (1 << 16)
+/* Corners traced together (gg_grid): a grid of 30 x 30 cells whole,
+ * and at least two rows of the largest (the same corners, in more
+ * calls, whatever the number: only the lanes' filling changes). */
+#define LR__GT_PTS 1024
+#define LR__GT_MIDS (5 * LR__GT_CELLS_MAX)
+#define LR__GT_XY (LR__GT_PTS > LR__GT_MIDS ? LR__GT_PTS : LR__GT_MIDS)
 
 /* One task: light l's meshes, a direction ud and a ghost path g at a
  * time. */
@@ -95,6 +101,10 @@ typedef struct gg_task {
     lr__v3 mono_c;
     int n_tris;
     double *band; /* LR__GT_BAND pixels x 3 channels (gg_flush) */
+    /* gg_grid's corners (LR__GT_PTS), a row's splits' points (5
+     * LR__GT_CELLS_MAX), and the coordinates and places of either. */
+    gg_pt *pts, *mid, **pp;
+    double *px, *py;
 } gg_task;
 
 /* Whether a mesh light reaches lens point P along w: the camera ray's
@@ -121,144 +131,95 @@ static void gg_direction(const double u[2], double ud[2])
     ud[1] = phi < 0.0 ? phi + 1.0 : phi;
 }
 
-/* Corner (ox, oy) of task t. */
-static void gg_eval(gg_task *t, double ox, double oy, gg_pt *p)
+/* Corners (ox[q], oy[q]) of task t, q < n, into *p[q]: where each
+ * channel lands through the task's ghost path and what it carries there,
+ * the lens traced LR__GHOST_LANES corners at a time (ghost_film_n). */
+static void gg_eval_n(gg_task *t, int n, const double *ox, const double *oy,
+                      gg_pt **p)
 {
-    p->ok = 0;
-    for (int j = 0; j < NCH; j++)
-        p->v[j] = v3(0, 0, 0), p->rel[j] = INFINITY;
     const lr__cam *c = t->c;
-    const lr__emitter *e;
-    lr__v3 P = c->model->lens_at(c, ox, oy), w;
-    double inv_pdf;
-    if (t->l->n_tri > 0) {
-        /* A mesh: a disc of its solid angle from the eye around its
-         * bounding sphere's centre, the direction ud's point of it (a
-         * point drawn on the mesh by area, as its paths draw one, would
-         * put a midpoint of ud on a triangle's corner).  A mesh with a
-         * hole there (a ring) loses what the disc's directions miss. */
-        lr__v3 a = v3_norm(v3_sub(t->l->center, P));
-        w = lr__lt_in_cone(a, t->l->omega / (2.0 * M_PI), t->ud);
-        inv_pdf = t->l->omega, e = NULL;
-    } else {
-        inv_pdf = lr__gt_dir(t->s, t->l, P, t->ud, &w, &e);
-    }
-    if (!(inv_pdf > 0.0))
-        return;
     /* A textured source, and the sun's cone of the map, at their mean
      * radiance: a few pixels across, a source's pattern is lost in every
      * ghost's blur, and a few directions' lookups would stand for the
      * whole of it (a sun of a few texels between them). */
     lr__v3 L = t->l->Lmean;
-    if (!(v3_maxc(L) > 0.0))
-        return;
-    for (int j = 0; j < t->nch; j++) {
-        int k = t->k0 + j;
-        double W = c->model->ghost_film(c, t->g, k, ox, oy, w, &p->rel[j],
-                                        &p->fx[j], &p->fy[j]);
-        t->traced++;
-        lr__v3 v = v3_scale(L, W * inv_pdf);
-        if (k >= 0)
-            v = v3(k == 0 ? v.x : 0.0, k == 1 ? v.y : 0.0, k == 2 ? v.z : 0.0);
-        if (!(W > 0.0) || !(isfinite(v.x) && isfinite(v.y) && isfinite(v.z)) ||
-            !(fabs(p->fx[j]) < 1e9 && fabs(p->fy[j]) < 1e9))
-            continue;
-        p->ok |= 1u << j;
-        p->v[j] = v;
-        t->landed++;
-    }
-    if (p->ok == 0)
-        return;
-    t->rays++;
-    double tex[3];
-    int seen = t->l->n_tri > 0 ? mesh_reaches(t, P, w)
-                               : lr__gt_reaches(t->s, c, t->l, P, w, e, tex);
-    if (!seen)
-        for (int j = 0; j < t->nch; j++)
-            p->v[j] = v3(0, 0, 0);
-}
-
-/* Adds the segment (x0, y0)-(x1, y1), 0 <= x <= W, to the rows [0, H)
- * of the accumulation buffer a (stride S >= W + 2) with weight w: each
- * pixel of a row gets w times the part of it right of the segment, in
- * differences along the row (summed by gg_flush).  The signed-area
- * accumulation of font rasterisers (R. Levien, font-rs, 2016; the same
- * as libart's): a row's share of the segment, dy, goes to the pixels
- * it crosses by the area of each pixel's part to its right, and the
- * pixels past it get all of dy through the running sum, so a closed
- * polygon's edges leave each pixel the area it covers, in time
- * proportional to its edges' length, not its area. */
-static void acc_line(double *a, int S, int H, double x0, double y0, double x1,
-                     double y1, double w)
-{
-    double dir = 1.0;
-    if (y0 > y1) {
-        double t = x0;
-        x0 = x1, x1 = t, t = y0, y0 = y1, y1 = t, dir = -1.0;
-    }
-    double ys = fmax(y0, 0.0), ye = fmin(y1, (double)H);
-    if (!(ys < ye))
-        return;
-    double dxdy = (x1 - x0) / (y1 - y0);
-    double x = x0 + (ys - y0) * dxdy;
-    for (int iy = (int)ys; iy < ye; iy++) {
-        double dy = fmin(iy + 1.0, ye) - fmax((double)iy, ys);
-        double xn = x + dxdy * dy, d = dy * dir * w;
-        double *row = a + (size_t)iy * (size_t)S;
-        double xa = fmin(x, xn), xb = fmax(x, xn);
-        int ia = (int)xa, ib = (int)ceil(xb);
-        if (ib <= ia + 1) {
-            /* Within one pixel: its part right of the segment's mean. */
-            double xm = 0.5 * (x + xn) - ia;
-            row[ia] += d * (1.0 - xm);
-            row[ia + 1] += d * xm;
-        } else {
-            /* x uniform over [xa, xb] along the row: the first pixel's
-             * part right of it a0, the last's left of it am, s per
-             * pixel between. */
-            double s = 1.0 / (xb - xa), fa = xa - ia, fb = xb - (ib - 1);
-            double a0 = 0.5 * s * (1.0 - fa) * (1.0 - fa);
-            double am = 0.5 * s * fb * fb;
-            row[ia] += d * a0;
-            if (ib == ia + 2) {
-                row[ia + 1] += d * (1.0 - a0 - am);
+    for (int q0 = 0; q0 < n; q0 += LR__GHOST_LANES) {
+        int m = n - q0 < LR__GHOST_LANES ? n - q0 : LR__GHOST_LANES;
+        lr__v3 P[LR__GHOST_LANES], w[LR__GHOST_LANES];
+        const lr__emitter *e[LR__GHOST_LANES];
+        double inv_pdf[LR__GHOST_LANES];
+        /* Lanes: the corners whose source is there, lane[u] the corner. */
+        int lane[LR__GHOST_LANES], u = 0;
+        for (int q = 0; q < m; q++) {
+            gg_pt *pt = p[q0 + q];
+            pt->ok = 0;
+            for (int j = 0; j < NCH; j++)
+                pt->v[j] = v3(0, 0, 0), pt->rel[j] = INFINITY;
+            P[q] = c->model->lens_at(c, ox[q0 + q], oy[q0 + q]);
+            if (t->l->n_tri > 0) {
+                /* A mesh: a disc of its solid angle from the eye around
+                 * its bounding sphere's centre, the direction ud's point
+                 * of it (a point drawn on the mesh by area, as its paths
+                 * draw one, would put a midpoint of ud on a triangle's
+                 * corner).  A mesh with a hole there (a ring) loses what
+                 * the disc's directions miss. */
+                lr__v3 a = v3_norm(v3_sub(t->l->center, P[q]));
+                w[q] = lr__lt_in_cone(a, t->l->omega / (2.0 * M_PI), t->ud);
+                inv_pdf[q] = t->l->omega, e[q] = NULL;
             } else {
-                double a1 = s * (1.5 - fa);
-                row[ia + 1] += d * (a1 - a0);
-                for (int k = ia + 2; k < ib - 1; k++)
-                    row[k] += d * s;
-                row[ib - 1] += d * (1.0 - a1 - (ib - ia - 3) * s - am);
+                inv_pdf[q] = lr__gt_dir(t->s, t->l, P[q], t->ud, &w[q], &e[q]);
             }
-            row[ib] += d * am;
+            if (inv_pdf[q] > 0.0 && v3_maxc(L) > 0.0)
+                lane[u++] = q;
         }
-        x = xn;
-    }
-}
-
-/* acc_line for any segment: its parts left of x = 0 and right of x = W
- * moved onto those lines (a part left of the buffer covers every pixel
- * of its rows, one right of it none). */
-static void acc_edge(double *a, int S, int W, int H, double x0, double y0,
-                     double x1, double y1, double w)
-{
-    double t[4] = {0.0, 1.0, 1.0, 1.0};
-    int n = 1;
-    for (int e = 0; e < 2; e++) {
-        double at = e == 0 ? 0.0 : (double)W, u = (at - x0) / (x1 - x0);
-        if (u > 0.0 && u < 1.0)
-            t[n++] = u;
-    }
-    if (n == 3 && t[2] < t[1]) {
-        double s = t[1];
-        t[1] = t[2], t[2] = s;
-    }
-    t[n] = 1.0;
-    for (int k = 0; k < n; k++) {
-        double xa = x0 + t[k] * (x1 - x0), xb = x0 + t[k + 1] * (x1 - x0);
-        double ya = y0 + t[k] * (y1 - y0), yb = y0 + t[k + 1] * (y1 - y0);
-        xa = fmin(fmax(xa, 0.0), (double)W),
-        xb = fmin(fmax(xb, 0.0), (double)W);
-        acc_line(a, S, H, xa, ya, xb, yb, w);
+        double lx[LR__GHOST_LANES], ly[LR__GHOST_LANES];
+        lr__v3 lw[LR__GHOST_LANES];
+        for (int a = 0; a < u; a++)
+            lx[a] = ox[q0 + lane[a]], ly[a] = oy[q0 + lane[a]],
+            lw[a] = w[lane[a]];
+        for (int j = 0; j < t->nch; j++) {
+            int k = t->k0 + j;
+            double W[LR__GHOST_LANES], fx[LR__GHOST_LANES], fy[LR__GHOST_LANES],
+                rel[LR__GHOST_LANES];
+            if (c->model->ghost_film_n != NULL) {
+                c->model->ghost_film_n(c, t->g, k, u, lx, ly, lw, rel, fx, fy,
+                                       W);
+            } else {
+                for (int a = 0; a < u; a++)
+                    W[a] = c->model->ghost_film(c, t->g, k, lx[a], ly[a], lw[a],
+                                                &rel[a], &fx[a], &fy[a]);
+            }
+            for (int a = 0; a < u; a++) {
+                gg_pt *pt = p[q0 + lane[a]];
+                t->traced++;
+                lr__v3 v = v3_scale(L, W[a] * inv_pdf[lane[a]]);
+                if (k >= 0)
+                    v = v3(k == 0 ? v.x : 0.0, k == 1 ? v.y : 0.0,
+                           k == 2 ? v.z : 0.0);
+                if (!(W[a] > 0.0) ||
+                    !(isfinite(v.x) && isfinite(v.y) && isfinite(v.z)) ||
+                    !(fabs(fx[a]) < 1e9 && fabs(fy[a]) < 1e9))
+                    continue;
+                pt->ok |= 1u << j;
+                pt->v[j] = v;
+                pt->rel[j] = rel[a], pt->fx[j] = fx[a], pt->fy[j] = fy[a];
+                t->landed++;
+            }
+        }
+        for (int a = 0; a < u; a++) {
+            int q = lane[a];
+            gg_pt *pt = p[q0 + q];
+            if (pt->ok == 0)
+                continue;
+            t->rays++;
+            double tex[3];
+            int seen = t->l->n_tri > 0 ? mesh_reaches(t, P[q], w[q])
+                                       : lr__gt_reaches(t->s, c, t->l, P[q],
+                                                        w[q], e[q], tex);
+            if (!seen)
+                for (int j = 0; j < t->nch; j++)
+                    pt->v[j] = v3(0, 0, 0);
+        }
     }
 }
 
@@ -295,6 +256,7 @@ static void gg_flush(gg_task *t)
     int W = x1 - x0, S = W + 2;
     int B = (int)fmax(1.0, fmin(y1 - y0, (double)LR__GT_BAND / S));
     double *a = t->band;
+    int64_t units = 0;
     for (int b0 = y0; b0 < y1; b0 += B) {
         int H = b0 + B < y1 ? B : y1 - b0;
         size_t P = (size_t)S * (size_t)H;
@@ -332,8 +294,9 @@ static void gg_flush(gg_task *t)
                     continue;
                 for (int e = 0; e < 3; e++) {
                     int e1 = (e + 1) % 3;
-                    acc_edge(a + c * P, S, W, H, tr->x[e] - x0, tr->y[e] - b0,
-                             tr->x[e1] - x0, tr->y[e1] - b0, ch[c] * inv);
+                    lr__gt_acc_edge(a + c * P, S, W, H, tr->x[e] - x0,
+                                    tr->y[e] - b0, tr->x[e1] - x0,
+                                    tr->y[e1] - b0, ch[c] * inv);
                 }
             }
         }
@@ -354,12 +317,14 @@ static void gg_flush(gg_task *t)
                     continue;
                 uint64_t h = lr__mix64(
                     key ^ ((uint64_t)(uint32_t)py << 32 | (uint32_t)px));
-                int64_t q = lr__gt_splat(f, px, py, v,
-                                         (double)(h >> 11) * 0x1.0p-53);
-                __atomic_fetch_add(&f->ghost_sum, q, __ATOMIC_RELAXED);
+                units += lr__gt_splat(f, px, py, v,
+                                      (double)(h >> 11) * 0x1.0p-53);
             }
         }
     }
+    /* One atomic add a flush: a pixel's each, on the one counter every
+     * thread adds to, was a quarter of the flush's time. */
+    __atomic_fetch_add(&f->ghost_sum, units, __ATOMIC_RELAXED);
 }
 
 /* Holds a triangle of the film with light v, drawing the held ones
@@ -434,14 +399,12 @@ static void gg_tri(gg_task *t, int j, const gg_pt *a, const gg_pt *b,
     }
 }
 
-/* The cell of side h at (x0, y0), corners p (counter-clockwise from
- * (x0, y0)), for the channels in mask: drawn as two triangles where all
- * four corners land, split in four where some do (depth more times),
- * and at the last level its triangles of three landed corners. */
-static void gg_cell(gg_task *t, double x0, double y0, double h, const gg_pt *p,
-                    unsigned mask, int depth)
+/* The channels for which the cell with corners p splits (gg_cell), and
+ * in *all, *part those whose four corners land, and whose some do. */
+static unsigned gg_split(const gg_task *t, const gg_pt *p, unsigned mask,
+                         int depth, unsigned *all, unsigned *part)
 {
-    unsigned all = p[0].ok & p[1].ok & p[2].ok & p[3].ok & mask;
+    *all = p[0].ok & p[1].ok & p[2].ok & p[3].ok & mask;
     /* Split only where a corner that lands passes the apertures (the
      * rays past a rim that the lens's formulas lose, a sphere missed or
      * a total reflection, lie outside the ghost), and where the ghost's
@@ -456,9 +419,31 @@ static void gg_cell(gg_task *t, double x0, double y0, double h, const gg_pt *p,
             else
                 outside |= 1u << j;
         }
-    unsigned part = (p[0].ok | p[1].ok | p[2].ok | p[3].ok) & mask & ~all &
-                    inside;
-    unsigned split = depth > 0 ? part | (all & inside & outside) : 0;
+    *part = (p[0].ok | p[1].ok | p[2].ok | p[3].ok) & mask & ~*all & inside;
+    return depth > 0 ? *part | (*all & inside & outside) : 0;
+}
+
+/* The five points a split adds to the cell of side h at (x0, y0): the
+ * edges' midpoints counter-clockwise from the bottom's, then the
+ * centre. */
+static void gg_mids(double x0, double y0, double h, double *qx, double *qy)
+{
+    double m = 0.5 * h;
+    const double ux[5] = {1, 2, 1, 0, 1}, uy[5] = {0, 1, 2, 1, 1};
+    for (int k = 0; k < 5; k++)
+        qx[k] = x0 + ux[k] * m, qy[k] = y0 + uy[k] * m;
+}
+
+/* The cell of side h at (x0, y0), corners p (counter-clockwise from
+ * (x0, y0)), for the channels in mask: drawn as two triangles where all
+ * four corners land, split in four where some do (depth more times),
+ * and at the last level its triangles of three landed corners.  q: the
+ * split's five points (gg_mids) when it splits and the caller has them
+ * (gg_grid: a row's splits traced together), else NULL. */
+static void gg_cell(gg_task *t, double x0, double y0, double h, const gg_pt *p,
+                    unsigned mask, int depth, const gg_pt *q)
+{
+    unsigned all, part, split = gg_split(t, p, mask, depth, &all, &part);
     for (int j = 0; j < t->nch; j++) {
         if ((all >> j & 1) && !(split >> j & 1)) {
             gg_tri(t, j, &p[0], &p[1], &p[2], 0.5 * h * h);
@@ -477,21 +462,27 @@ static void gg_cell(gg_task *t, double x0, double y0, double h, const gg_pt *p,
     if (split == 0)
         return;
     double m = 0.5 * h;
-    gg_pt q[5];
-    gg_eval(t, x0 + m, y0, &q[0]);
-    gg_eval(t, x0 + h, y0 + m, &q[1]);
-    gg_eval(t, x0 + m, y0 + h, &q[2]);
-    gg_eval(t, x0, y0 + m, &q[3]);
-    gg_eval(t, x0 + m, y0 + m, &q[4]);
+    gg_pt own[5];
+    if (q == NULL) {
+        double qx[5], qy[5];
+        gg_pt *qp[5] = {&own[0], &own[1], &own[2], &own[3], &own[4]};
+        gg_mids(x0, y0, h, qx, qy);
+        gg_eval_n(t, 5, qx, qy, qp);
+        q = own;
+    }
     gg_pt c0[4] = {p[0], q[0], q[4], q[3]}, c1[4] = {q[0], p[1], q[1], q[4]};
     gg_pt c2[4] = {q[4], q[1], p[2], q[2]}, c3[4] = {q[3], q[4], q[2], p[3]};
-    gg_cell(t, x0, y0, m, c0, split, depth - 1);
-    gg_cell(t, x0 + m, y0, m, c1, split, depth - 1);
-    gg_cell(t, x0 + m, y0 + m, m, c2, split, depth - 1);
-    gg_cell(t, x0, y0 + m, m, c3, split, depth - 1);
+    gg_cell(t, x0, y0, m, c0, split, depth - 1, NULL);
+    gg_cell(t, x0 + m, y0, m, c1, split, depth - 1, NULL);
+    gg_cell(t, x0 + m, y0 + m, m, c2, split, depth - 1, NULL);
+    gg_cell(t, x0, y0 + m, m, c3, split, depth - 1, NULL);
 }
 
-/* The box's grid, a row of corners at a time. */
+/* The box's grid.  Its corners are traced LR__GHOST_LANES at a time
+ * (gg_eval_n), so they go in as many rows as t->pts holds (every row of
+ * a grid up to 30 cells across), and a row of cells' splits in one go:
+ * the same corners and the same triangles in the same order as a corner
+ * at a time, with the lanes full. */
 static void gg_grid(gg_task *t, const double *b)
 {
     int N = (int)b[5];
@@ -503,17 +494,48 @@ static void gg_grid(gg_task *t, const double *b)
     int ny = (int)ceil((b[3] - b[1]) / h - 1e-9);
     double bx = 0.5 * (b[0] + b[2]) - 0.5 * nx * h;
     double by = 0.5 * (b[1] + b[3]) - 0.5 * ny * h;
-    gg_pt row[2][LR__GT_CELLS_MAX + 1];
-    for (int i = 0; i <= nx; i++)
-        gg_eval(t, bx + i * h, by, &row[0][i]);
-    for (int r = 0; r < ny; r++) {
-        gg_pt *lo = row[r & 1], *hi = row[(r + 1) & 1];
-        for (int i = 0; i <= nx; i++)
-            gg_eval(t, bx + i * h, by + (r + 1) * h, &hi[i]);
-        for (int i = 0; i < nx; i++) {
-            gg_pt p[4] = {lo[i], lo[i + 1], hi[i + 1], hi[i]};
-            gg_cell(t, bx + i * h, by + r * h, h, p, (1u << t->nch) - 1,
-                    lr__gt_depth);
+    int cols = nx + 1, rows = LR__GT_PTS / cols; /* >= 2 */
+    unsigned mask = (1u << t->nch) - 1;
+    gg_pt **pp = t->pp;
+    double *px = t->px, *py = t->py;
+    /* Corner rows r0 .. r0 + rows - 1 in t->pts, the first carried over
+     * from the last chunk's last. */
+    for (int r0 = 0; r0 < ny; r0 += rows - 1) {
+        int first = r0 == 0 ? 0 : 1, n = 0;
+        int last = r0 + rows - 1 < ny ? r0 + rows - 1 : ny;
+        if (r0 > 0)
+            memcpy(t->pts, t->pts + (size_t)(rows - 1) * cols,
+                   (size_t)cols * sizeof *t->pts);
+        for (int r = r0 + first; r <= last; r++)
+            for (int i = 0; i < cols; i++, n++) {
+                px[n] = bx + i * h, py[n] = by + r * h;
+                pp[n] = &t->pts[(size_t)(r - r0) * cols + i];
+            }
+        gg_eval_n(t, n, px, py, pp);
+        for (int r = r0; r < last; r++) {
+            gg_pt *lo = t->pts + (size_t)(r - r0) * cols, *hi = lo + cols;
+            /* The row's splits' points, five a splitting cell. */
+            int ns = 0;
+            for (int i = 0; i < nx; i++) {
+                gg_pt p[4] = {lo[i], lo[i + 1], hi[i + 1], hi[i]};
+                unsigned all, part;
+                if (gg_split(t, p, mask, lr__gt_depth, &all, &part) == 0)
+                    continue;
+                gg_mids(bx + i * h, by + r * h, h, px + ns, py + ns);
+                for (int k = 0; k < 5; k++)
+                    pp[ns + k] = &t->mid[ns + k];
+                ns += 5;
+            }
+            gg_eval_n(t, ns, px, py, pp);
+            ns = 0;
+            for (int i = 0; i < nx; i++) {
+                gg_pt p[4] = {lo[i], lo[i + 1], hi[i + 1], hi[i]};
+                unsigned all, part;
+                int sp = gg_split(t, p, mask, lr__gt_depth, &all, &part) != 0;
+                gg_cell(t, bx + i * h, by + r * h, h, p, mask, lr__gt_depth,
+                        sp ? &t->mid[ns] : NULL);
+                ns += sp ? 5 : 0;
+            }
         }
     }
 }
@@ -543,7 +565,13 @@ void lr__gt_grid(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
     t.key = lr__mix64(0x67686f7374ull ^ (uint64_t)l->geom);
     t.tris = malloc(LR__GT_TRIS * sizeof *t.tris);
     t.band = malloc(3 * (size_t)LR__GT_BAND * sizeof *t.band);
-    if (t.tris == NULL || t.band == NULL) {
+    t.pts = malloc(LR__GT_PTS * sizeof *t.pts);
+    t.mid = malloc(LR__GT_MIDS * sizeof *t.mid);
+    t.pp = malloc(LR__GT_XY * sizeof *t.pp);
+    t.px = malloc(LR__GT_XY * sizeof *t.px);
+    t.py = malloc(LR__GT_XY * sizeof *t.py);
+    if (t.tris == NULL || t.band == NULL || t.pts == NULL || t.mid == NULL ||
+        t.pp == NULL || t.px == NULL || t.py == NULL) {
         __atomic_store_n(&f->nomem, 1, __ATOMIC_RELAXED);
     } else {
         /* A ghost that takes the light's every direction draws each
@@ -566,6 +594,11 @@ void lr__gt_grid(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
     }
     free(t.tris);
     free(t.band);
+    free(t.pts);
+    free(t.mid);
+    free(t.pp);
+    free(t.px);
+    free(t.py);
     *rays += t.rays;
     *landed += t.landed;
     __atomic_fetch_add(&f->ghost_traced, t.traced, __ATOMIC_RELAXED);

@@ -87,21 +87,40 @@ static void ghost_guide(const lr__cam *c, lr__lt_light *l, lr__v3 w0,
         double x0 = INFINITY, y0 = INFINITY, x1 = -INFINITY, y1 = -INFINITY;
         double flux = 0.0;
         int land = 0;
-        for (int i = 0; i < n; i++)
-            for (int j = 0; j < n; j++) {
-                double ox = (i + 0.5) * h - rho, oy = (j + 0.5) * h - rho;
-                double fx, fy;
-                if (ox * ox + oy * oy > rho * rho)
+        /* The disk's offsets in order, LR__GHOST_LANES at a time
+         * (ghost_film_n: the same bits as ghost_film's one by one). */
+        double ox[LR__GHOST_LANES], oy[LR__GHOST_LANES];
+        lr__v3 ws[LR__GHOST_LANES];
+        int u = 0;
+        for (int q = 0; q <= n * n; q++) {
+            if (q < n * n) {
+                int i = q / n, j = q % n;
+                double x = (i + 0.5) * h - rho, y = (j + 0.5) * h - rho;
+                if (x * x + y * y > rho * rho)
                     continue;
-                double W = c->model->ghost_film(c, g, -1, ox, oy, w0, NULL, &fx,
-                                                &fy);
-                if (!(W > 0.0) || !(fx >= 0.0 && fx < c->width && fy >= 0.0 &&
-                                    fy < c->height))
+                ox[u] = x, oy[u] = y, ws[u++] = w0;
+                if (u < LR__GHOST_LANES)
                     continue;
-                land++, flux += W;
-                x0 = fmin(x0, ox), x1 = fmax(x1, ox);
-                y0 = fmin(y0, oy), y1 = fmax(y1, oy);
             }
+            double W[LR__GHOST_LANES], fx[LR__GHOST_LANES], fy[LR__GHOST_LANES];
+            if (c->model->ghost_film_n != NULL) {
+                c->model->ghost_film_n(c, g, -1, u, ox, oy, ws, NULL, fx, fy,
+                                       W);
+            } else {
+                for (int a = 0; a < u; a++)
+                    W[a] = c->model->ghost_film(c, g, -1, ox[a], oy[a], w0,
+                                                NULL, &fx[a], &fy[a]);
+            }
+            for (int a = 0; a < u; a++) {
+                if (!(W[a] > 0.0) || !(fx[a] >= 0.0 && fx[a] < c->width &&
+                                       fy[a] >= 0.0 && fy[a] < c->height))
+                    continue;
+                land++, flux += W[a];
+                x0 = fmin(x0, ox[a]), x1 = fmax(x1, ox[a]);
+                y0 = fmin(y0, oy[a]), y1 = fmax(y1, oy[a]);
+            }
+            u = 0;
+        }
         double *b = gd + GUIDE * g;
         own[g] = (lr__ghost_est){0.0, 1.0, 0.0};
         b[0] = b[2] = 0.0, b[4] = 1.0;
@@ -531,31 +550,6 @@ int lr__gt_reaches(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
     return 1;
 }
 
-/* Adds v (>= 0) to pixel (ix, iy) of f, if the region holds it, as
- * lr__lt_splat does but rounded at random, down or up by u (uniform in
- * [0, 1)), which is unbiased: a coated ghost's splats are a few of the
- * film's units (2^-40 of its brightest light), where rounding to the
- * nearest unit lost or gained up to 6% of the colour test's ghost
- * (test_ghost_render.c at 8192 spp, seeds 5, 7 and 9).  Returns the
- * units added. */
-int64_t lr__gt_splat(lr__lt_film *f, int ix, int iy, lr__v3 v, double u)
-{
-    if (ix < f->x0 || ix >= f->x1 || iy < f->y0 || iy >= f->y1)
-        return 0;
-    size_t k = 3 * ((size_t)(iy - f->y0) * (size_t)(f->x1 - f->x0) +
-                    (size_t)(ix - f->x0));
-    double c[3] = {v.x, v.y, v.z};
-    int64_t sum = 0;
-    for (int j = 0; j < 3; j++) {
-        double q = floor(fmin(c[j] * f->scale, ldexp(1.0, 52)) + u);
-        if (!(q > 0.0))
-            continue;
-        __atomic_fetch_add(&f->sum[k + (size_t)j], (int64_t)q,
-                           __ATOMIC_RELAXED);
-        sum += (int64_t)q;
-    }
-    return sum;
-}
 
 /* Ghost path g's lens point for light l from lens sample ul, the
  * component drawn by uc (ghost_guide's mixture): its offset (ox, oy) and

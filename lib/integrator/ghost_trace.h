@@ -182,4 +182,13 @@ int lr__gt_reaches(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
  * down or up by u (uniform in [0, 1): unbiased); returns the units. */
 int64_t lr__gt_splat(lr__lt_film *f, int ix, int iy, lr__v3 v, double u);
 
+/* Adds w times the coverage right of the segment (x0, y0)-(x1, y1) to
+ * the rows [0, H) of the buffer a (stride S >= W + 2, columns [0, W]),
+ * in differences along each row: summed along the rows after a closed
+ * polygon's every edge, each pixel holds w times the area of it the
+ * polygon covers (signed by the polygon's orientation; ghost_film.c,
+ * for gg_flush). */
+void lr__gt_acc_edge(double *a, int S, int W, int H, double x0, double y0,
+                     double x1, double y1, double w);
+
 #endif

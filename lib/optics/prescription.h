@@ -31,6 +31,8 @@
 #include "util/internal.h"
 #include "optics/coating.h"
 
+#include <math.h>
+
 /* At most this many surfaces in one prescription (the largest published
  * camera lenses have about 40). */
 #define LR__RX_MAX_SURFACES 64
@@ -136,6 +138,55 @@ static inline int lr__rx_aspheric(const lr__surface *s)
         if (s->asph[j] != 0.0)
             return 1;
     return 0;
+}
+
+/* One lane of the packet traces (rx_trace.c: lr__rx_trace16; ghost8.c):
+ * where the ray o + t d (o relative to the vertex) meets the quadric of
+ * curvature c and k1 = 1 + conic, p, and the unit normal there, n, by
+ * rx_trace.c's intersect and normal_at in the same operations, with
+ * selects for their early returns so that a loop of lanes vectorises.
+ * 0 where those would fail (then p and n are not meaningful). */
+static inline int lr__rx_lane_meet(double c, double k1, double ox, double oy,
+                                   double oz, double dx, double dy, double dz,
+                                   double p[3], double n[3])
+{
+    double A = c * (dx * dx + dy * dy + k1 * dz * dz);
+    double B = c * (ox * dx + oy * dy + k1 * oz * dz) - dz;
+    double C = c * (ox * ox + oy * oy + k1 * oz * oz) - 2.0 * oz;
+    double disc = B * B - A * C;
+    int ok = disc >= 0.0;
+    double den = B + copysign(sqrt(ok ? disc : 0.0), B);
+    ok &= den != 0.0;
+    double t = -C / (den != 0.0 ? den : 1.0);
+    double t2 = -den / (A != 0.0 ? A : 1.0); /* see intersect() */
+    t = A != 0.0 && !(1.0 - c * k1 * (oz + t * dz) > 0.0) ? t2 : t;
+    ok &= isfinite(t);
+    p[0] = ox + t * dx, p[1] = oy + t * dy, p[2] = oz + t * dz;
+    double gx = -c * p[0], gy = -c * p[1], gz = 1.0 - c * k1 * p[2];
+    ok &= gz > 0.0;
+    double len = sqrt(gx * gx + gy * gy + gz * gz);
+    n[0] = gx / len, n[1] = gy / len, n[2] = gz / len;
+    return ok;
+}
+
+/* lr__rx_refract's operations for one lane (as lr__rx_lane_meet): unit
+ * d through the surface of unit normal n at the index ratio eta = n1 /
+ * n2, into e.  0 on total internal reflection (then e is not
+ * meaningful). */
+static inline int lr__rx_lane_refract(double eta, const double n[3], double dx,
+                                      double dy, double dz, double e[3])
+{
+    double cosi = -(n[0] * dx + n[1] * dy + n[2] * dz);
+    double mx = cosi < 0.0 ? -n[0] : n[0], my = cosi < 0.0 ? -n[1] : n[1];
+    double mz = cosi < 0.0 ? -n[2] : n[2];
+    cosi = cosi < 0.0 ? -cosi : cosi;
+    double k = 1.0 - eta * eta * (1.0 - cosi * cosi);
+    double f = eta * cosi - sqrt(k >= 0.0 ? k : 0.0);
+    double ex = eta * dx + f * mx, ey = eta * dy + f * my,
+           ez = eta * dz + f * mz;
+    double el = sqrt(ex * ex + ey * ey + ez * ez);
+    e[0] = ex / el, e[1] = ey / el, e[2] = ez / el;
+    return k >= 0.0;
 }
 
 /* ---- readers (rx_json.c, rx_pbrt.c, rx_zmx.c) --------------------------- */

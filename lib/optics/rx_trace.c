@@ -291,37 +291,13 @@ lr__rx_trace16(const lr__rx *rx, const double *z, const double *n_after,
         for (int l = 0; l < 16; l++) {
             double ox = o[0][l], oy = o[1][l], oz = o[2][l] - zi;
             double dx = d[0][l], dy = d[1][l], dz = d[2][l];
-            double A = c * (dx * dx + dy * dy + k1 * dz * dz);
-            double B = c * (ox * dx + oy * dy + k1 * oz * dz) - dz;
-            double C = c * (ox * ox + oy * oy + k1 * oz * oz) - 2.0 * oz;
-            double disc = B * B - A * C;
-            int ok = disc >= 0.0;
-            double den = B + copysign(sqrt(ok ? disc : 0.0), B);
-            ok &= den != 0.0;
-            double t = -C / (den != 0.0 ? den : 1.0);
-            double t2 = -den / (A != 0.0 ? A : 1.0); /* see intersect() */
-            t = A != 0.0 && !(1.0 - c * k1 * (oz + t * dz) > 0.0) ? t2 : t;
-            ok &= isfinite(t);
-            double px = ox + t * dx, py = oy + t * dy, pz = oz + t * dz;
-            double gx = -c * px, gy = -c * py, gz = 1.0 - c * k1 * pz;
-            ok &= gz > 0.0;
-            double len = sqrt(gx * gx + gy * gy + gz * gz);
-            double mx = gx / len, my = gy / len, mz = gz / len;
+            double pt[3], m[3], e[3];
+            int ok = lr__rx_lane_meet(c, k1, ox, oy, oz, dx, dy, dz, pt, m);
+            double px = pt[0], py = pt[1], pz = pt[2];
             ok &= !(px * px + py * py > lim2);
             /* Refraction (lr__rx_refract above, from n1 into n2). */
-            double cosi = -(mx * dx + my * dy + mz * dz);
-            double sg = cosi < 0.0 ? -1.0 : 1.0;
-            mx = cosi < 0.0 ? -mx : mx;
-            my = cosi < 0.0 ? -my : my;
-            mz = cosi < 0.0 ? -mz : mz;
-            cosi = cosi * sg;
-            double k = 1.0 - eta * eta * (1.0 - cosi * cosi);
-            ok &= !bend || k >= 0.0;
-            double f = eta * cosi - sqrt(k >= 0.0 ? k : 0.0);
-            double ex = eta * dx + f * mx, ey = eta * dy + f * my,
-                   ez = eta * dz + f * mz;
-            double el = sqrt(ex * ex + ey * ey + ez * ez);
-            ex /= el, ey /= el, ez /= el;
+            ok &= lr__rx_lane_refract(eta, m, dx, dy, dz, e) || !bend;
+            double ex = e[0], ey = e[1], ez = e[2];
             int live = alive[l] & ok;
             alive[l] = live;
             o[0][l] = live ? px : o[0][l];
