@@ -106,6 +106,13 @@ lr__ghost_trace8(const lr__rx *rx, const double *z, const double *n_after,
             O[a][l] = o[a][l], D[a][l] = d[a][l];
     }
     for (int k = 0; k < m; k++) {
+        /* Once every lane is lost (a guide's rays outside a ghost's
+         * footprint), the rest would change nothing. */
+        int any = 0;
+        for (int l = 0; l < L8; l++)
+            any |= al[l];
+        if (!any)
+            break;
         int i = x[k].i, fwd = x[k].fwd, mirror = x[k].mirror;
         const lr__surface *s = &rx->s[i];
         const double c = s->radius != 0.0 ? 1.0 / s->radius : 0.0;
