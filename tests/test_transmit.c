@@ -199,13 +199,15 @@ static void test_centre_keeps_radiance(void **state)
  * version this CPU runs give the same rays and weights, bit for bit:
  * through the double Gauss (its crossings near the normal, where the
  * AVX2 version reads the row's last entries by permutes) and the
- * fisheye (steep crossings, where it gathers), wide open, over the
- * whole frame. */
+ * fisheye (steep crossings, where it gathers; AVX-512 permutes the
+ * whole row), wide open, over the whole frame. */
 static void test_packet_lookups_agree(void **state)
 {
     (void)state;
     const char *lenses[] = {"double-gauss-50", "fisheye-10"};
-    int versions = __builtin_cpu_supports("avx2") ? 2 : 1;
+    int versions = __builtin_cpu_supports("avx512f") ? 3
+                   : __builtin_cpu_supports("avx2")  ? 2
+                                                     : 1;
     enum { NP = 4, ROUNDS = 64 };
     for (int li = 0; li < 2; li++) {
         const lr_lens *L;
@@ -232,10 +234,10 @@ static void test_packet_lookups_agree(void **state)
                     fx[p][l] = 300 * r[0], fy[p][l] = 200 * r[1];
                     lu[p][l] = r[2], lv[p][l] = r[3];
                 }
-            struct RTCRayHit16 rh[2][NP];
-            float wt[2][NP][16];
+            struct RTCRayHit16 rh[3][NP];
+            float wt[3][NP][16];
             memset(rh, 0, sizeof rh);
-            for (int v = 0; v < 2; v++) {
+            for (int v = 0; v < 3; v++) {
                 lr__rx_trace_isa = v < versions ? v + 1 : 1;
                 c.model->rays16_n(&c, 1, NP, ns, (const float(*)[16])fx,
                                   (const float(*)[16])fy,
@@ -246,14 +248,19 @@ static void test_packet_lookups_agree(void **state)
             for (int p = 0; p < NP; p++)
                 for (int l = 0; l < 16; l++)
                     stopped += wt[0][p][l] == 0.0f;
-            assert_memory_equal(wt[0], wt[1], sizeof wt[0]);
-            assert_memory_equal(rh[0], rh[1], sizeof rh[0]);
+            for (int v = 1; v < 3; v++) {
+                assert_memory_equal(wt[0], wt[v], sizeof wt[0]);
+                assert_memory_equal(rh[0], rh[v], sizeof rh[0]);
+            }
         }
         /* Both kinds of lane were compared. */
         assert_true(stopped > 0 && stopped < ROUNDS * NP * 16);
     }
-    if (versions == 1)
-        print_message("AVX2 not on this CPU: the portable lookups only\n");
+    if (versions < 3)
+        print_message("%s not on this CPU: %s\n",
+                      versions == 1 ? "AVX2" : "AVX-512",
+                      versions == 1 ? "the portable lookups only"
+                                    : "C and AVX2 compared");
 }
 
 static const struct CMUnitTest transmit_tests[] = {

@@ -346,9 +346,9 @@ void lr__rx_trace16f(const lr__rx *rx, const double *z, const double *n_after,
                      const struct lr__ttab *tab, float *T);
 
 /* For tests: which version of lr__rx_trace16f's transmittance lookups
- * runs: 0 = the best the CPU has (the default), 1 = portable C, 2 = AVX2
- * (setting one the CPU lacks is the caller's fault).  They give the
- * same bits. */
+ * runs: 0 = the best the CPU has (the default), 1 = portable C, 2 = AVX2,
+ * 3 = AVX-512 (setting one the CPU lacks is the caller's fault).  They
+ * give the same bits. */
 extern int lr__rx_trace_isa;
 
 #endif

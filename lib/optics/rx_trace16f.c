@@ -54,8 +54,8 @@ int lr__rx_trace_isa = 0;
  * into the row, linear interpolation (with the row's differences, dt,
  * computed once in float: the same values).  A lane lost on the way has
  * a meaningless cosine (NaN or infinite); its index is kept inside the
- * row and its weight is read by nobody.  Portable C and AVX2: the same
- * operations in the same order, the same bits. */
+ * row and its weight is read by nobody.  Portable C, AVX2 and AVX-512:
+ * the same operations in the same order, the same bits. */
 static void ttab_apply_c(int lanes, const float *cosv, float n1s, float tk,
                          const float *trow, const float *tdt, float *T)
 {
@@ -133,13 +133,69 @@ ttab_apply_avx2(int lanes, const float *cosv, float n1s, float tk,
     }
 }
 
+/* The AVX-512 version: the whole row (64 entries, four registers) is
+ * read by two two-register permutes and a blend on the index's bit 5,
+ * for every lane, with no gathers (on an Intel Xeon the AVX2 version
+ * was 13% of the lens's time on the bench scene). */
+__attribute__((target("avx512f"))) static void
+ttab_apply_avx512(int lanes, const float *cosv, float n1s, float tk,
+                  const float *row, const float *dt, float *T)
+{
+    const __m512 one = _mm512_set1_ps(1.0f), zero = _mm512_setzero_ps();
+    const __m512 vn1s = _mm512_set1_ps(n1s), vtk = _mm512_set1_ps(tk);
+    const __m512 vn = _mm512_set1_ps((float)LR__T_N);
+    const __m512i last = _mm512_set1_epi32(LR__T_N - 1);
+    const __m512i k32 = _mm512_set1_epi32(32);
+    __m512 r[4], d[4];
+    for (int q = 0; q < 4; q++)
+        r[q] = _mm512_loadu_ps(row + 16 * q),
+        d[q] = _mm512_loadu_ps(dt + 16 * q);
+    /* Two passes, the square roots in the first, so that the lanes'
+     * chains overlap (as the AVX2 version's). */
+    float xs[LR__RX_LANES] __attribute__((aligned(64)));
+    for (int l = 0; l < lanes; l += 16) {
+        __mmask16 m = lanes - l >= 16 ? 0xffff : 0x00ff;
+        __m512 ci = _mm512_maskz_loadu_ps(m, cosv + l);
+        __m512 s = _mm512_mul_ps(vn1s,
+                                 _mm512_sub_ps(one, _mm512_mul_ps(ci, ci)));
+        __m512 c2 = _mm512_sub_ps(one, _mm512_mul_ps(s, vtk));
+        /* c2 > 0 ? c2 : 0 (NaN: 0). */
+        c2 = _mm512_maskz_mov_ps(_mm512_cmp_ps_mask(c2, zero, _CMP_GT_OQ), c2);
+        _mm512_store_ps(xs + l,
+                        _mm512_mul_ps(_mm512_sqrt_ps(_mm512_sqrt_ps(c2)), vn));
+    }
+    for (int l = 0; l < lanes; l += 16) {
+        __mmask16 m = lanes - l >= 16 ? 0xffff : 0x00ff;
+        __m512 x = _mm512_load_ps(xs + l);
+        /* x < N ? (int)x : N - 1, then at most N - 1. */
+        __m512i j = _mm512_mask_mov_epi32(last,
+                                          _mm512_cmp_ps_mask(x, vn, _CMP_LT_OQ),
+                                          _mm512_cvttps_epi32(x));
+        j = _mm512_min_epi32(j, last);
+        __m512 fr = _mm512_sub_ps(x, _mm512_cvtepi32_ps(j));
+        __mmask16 hi = _mm512_cmpge_epi32_mask(j, k32);
+        __m512 a = _mm512_mask_blend_ps(hi,
+                                        _mm512_permutex2var_ps(r[0], j, r[1]),
+                                        _mm512_permutex2var_ps(r[2], j, r[3]));
+        __m512 b = _mm512_mask_blend_ps(hi,
+                                        _mm512_permutex2var_ps(d[0], j, d[1]),
+                                        _mm512_permutex2var_ps(d[2], j, d[3]));
+        __m512 t = _mm512_add_ps(a, _mm512_mul_ps(fr, b));
+        _mm512_mask_storeu_ps(
+            T + l, m, _mm512_mul_ps(_mm512_maskz_loadu_ps(m, T + l), t));
+    }
+}
+
 static void ttab_apply(int lanes, const float *cosv, float n1s, float tk,
                        const float *row, const float *dt, float *T)
 {
-    int isa = lr__rx_trace_isa                 ? lr__rx_trace_isa
-              : __builtin_cpu_supports("avx2") ? 2
-                                               : 1;
-    if (isa == 2)
+    int isa = lr__rx_trace_isa                    ? lr__rx_trace_isa
+              : __builtin_cpu_supports("avx512f") ? 3
+              : __builtin_cpu_supports("avx2")    ? 2
+                                                  : 1;
+    if (isa == 3)
+        ttab_apply_avx512(lanes, cosv, n1s, tk, row, dt, T);
+    else if (isa == 2)
         ttab_apply_avx2(lanes, cosv, n1s, tk, row, dt, T);
     else
         ttab_apply_c(lanes, cosv, n1s, tk, row, dt, T);
