@@ -466,14 +466,14 @@ static void test_double_gauss(void **state)
     assert_true(all[0] > all[1] && all[2] > all[1]);
 }
 
-/* lr__ghost_trace8 against lr__ghost_trace_rel lane by lane, bit for
+/* lr__ghost_trace16 against lr__ghost_trace_rel lane by lane, bit for
  * bit: every ghost path (and the main one) of lenses with spherical
  * surfaces, conics and an asphere (the scalar fallback), rays from a
  * disc before the front at up to 30 degrees (many lost: the cases where
  * lanes die at different crossings), some lanes left out, with and
  * without rel, a stop scaled down and a frame's clip, three batches of
  * each. */
-static void test_trace8_bits(void **state)
+static void test_trace16_bits(void **state)
 {
     (void)state;
     const char *lenses[] = {"double-gauss-50", "wide-22", "fisheye-10",
@@ -522,9 +522,9 @@ static void test_trace8_bits(void **state)
                 const double *cp = mode % 3 == 1 ? clip : NULL;
                 int was[LR__GHOST_LANES];
                 memcpy(was, alive, sizeof was);
-                lr__ghost_trace8(rx, z, n, &tab, 550.0, scale, NULL, g[k],
-                                 z[rx->n], cp, (const double(*)[16])o,
-                                 (const double(*)[16])d, hit, w, rp, alive);
+                lr__ghost_trace16(rx, z, n, &tab, 550.0, scale, NULL, g[k],
+                                  z[rx->n], cp, (const double(*)[16])o,
+                                  (const double(*)[16])d, hit, w, rp, alive);
                 for (int l = 0; l < LR__GHOST_LANES; l++) {
                     if (!was[l]) {
                         assert_int_equal(alive[l], 0);
@@ -550,7 +550,7 @@ static void test_trace8_bits(void **state)
                 }
             }
     }
-    print_message("trace8: %llu lanes, %llu landed, %llu past a rim\n",
+    print_message("trace16: %llu lanes, %llu landed, %llu past a rim\n",
                   (unsigned long long)lanes, (unsigned long long)landed,
                   (unsigned long long)relv);
     /* Enough of each kind to mean something. */
@@ -562,7 +562,7 @@ static const struct CMUnitTest ghost_tests[] = {
     cmocka_unit_test(test_two_plates),      cmocka_unit_test(test_stop_clips),
     cmocka_unit_test(test_tir_lost),        cmocka_unit_test(test_fluxes_plate),
     cmocka_unit_test(test_paraxial_ghosts), cmocka_unit_test(test_double_gauss),
-    cmocka_unit_test(test_trace8_bits),
+    cmocka_unit_test(test_trace16_bits),
 };
 
 LR_TEST_GROUP(ghost, ghost_tests)

@@ -329,7 +329,7 @@ void lr__lens_ghost_film_n(const lr__cam *c, int g, int k, int n,
                            double *rel, double *fx, double *fy, double *W)
 {
     /* lr__lens_ghost_film's steps, lane by lane around one
-     * lr__ghost_trace8 (the same bits). */
+     * lr__ghost_trace16 (the same bits). */
     const lr__lens_cam *lc = &c->lens;
     double nm;
     const double *n_after;
@@ -351,10 +351,10 @@ void lr__lens_ghost_film_n(const lr__cam *c, int g, int k, int n,
     if (n <= 0 || g < 0 || g >= lc->n_ghost)
         return;
     double frame[2] = {0.5 * lc->sensor_w, 0.5 * lc->sensor_h};
-    lr__ghost_trace8(&lc->L->rx, lc->L->z, n_after, tab, nm, lc->stop_scale,
-                     lc->coat, ghost_at(g), lc->z_sensor,
-                     rel == NULL ? frame : NULL, (const double(*)[16])o,
-                     (const double(*)[16])d, hit, T, rel, alive);
+    lr__ghost_trace16(&lc->L->rx, lc->L->z, n_after, tab, nm, lc->stop_scale,
+                      lc->coat, ghost_at(g), lc->z_sensor,
+                      rel == NULL ? frame : NULL, (const double(*)[16])o,
+                      (const double(*)[16])d, hit, T, rel, alive);
     for (int l = 0; l < n; l++)
         if (alive[l]) {
             double h[2] = {hit[0][l], hit[1][l]};

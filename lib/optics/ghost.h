@@ -91,19 +91,20 @@ int lr__ghost_trace_rel(const lr__rx *rx, const double *z,
                         const double o[3], const double d[3], double hit[2],
                         double *weight, double *rel);
 
-/* lr__ghost_trace_rel for LR__GHOST_LANES rays at once (ghost8.c): lane
+/* lr__ghost_trace_rel for LR__GHOST_LANES rays at once (ghost16.c): lane
  * l's ray o[.][l], d[.][l] when alive[l] is 1, which stays 1 when it
  * lands, with hit[.][l], weight[l] and (rel not NULL) rel[l] as the
  * scalar trace sets them, bit for bit.  Lanes with alive[l] 0 are left
  * out.  Sixteen: the compiler's vectors, eight doubles, twice over. */
 #define LR__GHOST_LANES 16
-void lr__ghost_trace8(const lr__rx *rx, const double *z, const double *n_after,
-                      const lr__ttab *tab, double nm, double stop_scale,
-                      const lr__coating *override, lr__ghost g, double sensor_z,
-                      const double *clip, const double (*o)[LR__GHOST_LANES],
-                      const double (*d)[LR__GHOST_LANES],
-                      double (*hit)[LR__GHOST_LANES], double *weight,
-                      double *rel, int *alive);
+void lr__ghost_trace16(const lr__rx *rx, const double *z, const double *n_after,
+                       const lr__ttab *tab, double nm, double stop_scale,
+                       const lr__coating *override, lr__ghost g,
+                       double sensor_z, const double *clip,
+                       const double (*o)[LR__GHOST_LANES],
+                       const double (*d)[LR__GHOST_LANES],
+                       double (*hit)[LR__GHOST_LANES], double *weight,
+                       double *rel, int *alive);
 
 /* ---- a distant point's ghosts (ghost_flux.c) ----------------------------- */
 

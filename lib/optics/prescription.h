@@ -140,7 +140,7 @@ static inline int lr__rx_aspheric(const lr__surface *s)
     return 0;
 }
 
-/* One lane of the packet traces (rx_trace.c: lr__rx_trace16; ghost8.c):
+/* One lane of the packet traces (rx_trace.c: lr__rx_trace16; ghost16.c):
  * where the ray o + t d (o relative to the vertex) meets the quadric of
  * curvature c and k1 = 1 + conic, p, and the unit normal there, n, by
  * rx_trace.c's intersect and normal_at in the same operations, with

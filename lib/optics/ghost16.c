@@ -1,6 +1,6 @@
 /*
- * ghost8.c: eight rays at once through one ghost path (ghost.h:
- * lr__ghost_trace8), for a mesh's corners and a guide's grid, which
+ * ghost16.c: sixteen rays at once through one ghost path (ghost.h:
+ * lr__ghost_trace16), for a mesh's corners and a guide's grid, which
  * trace many rays through the same path (ghost_grid.c).
  *
  * The scalar trace (ghost.c) in loops over the lanes that the compiler
@@ -16,7 +16,7 @@
 
 #include <math.h>
 
-#define L8 LR__GHOST_LANES
+#define LN LR__GHOST_LANES
 
 /* One crossing of a ghost path: surface i, the way the ray goes, and
  * whether it reflects there. */
@@ -51,11 +51,11 @@ static void scalar_lanes(const lr__rx *rx, const double *z,
                          const double *n_after, const lr__ttab *tab, double nm,
                          double stop_scale, const lr__coating *override,
                          lr__ghost g, double sensor_z, const double *clip,
-                         const double (*o)[L8], const double (*d)[L8],
-                         double (*hit)[L8], double *weight, double *rel,
+                         const double (*o)[LN], const double (*d)[LN],
+                         double (*hit)[LN], double *weight, double *rel,
                          int *alive)
 {
-    for (int l = 0; l < L8; l++) {
+    for (int l = 0; l < LN; l++) {
         if (!alive[l])
             continue;
         double ol[3] = {o[0][l], o[1][l], o[2][l]};
@@ -72,19 +72,19 @@ static void scalar_lanes(const lr__rx *rx, const double *z,
 }
 
 __attribute__((target_clones("avx512f", "avx2", "default"))) void
-lr__ghost_trace8(const lr__rx *rx, const double *z, const double *n_after,
-                 const lr__ttab *tab, double nm, double stop_scale,
-                 const lr__coating *override, lr__ghost g, double sensor_z,
-                 const double *clip, const double (*o)[L8],
-                 const double (*d)[L8], double (*hit)[L8], double *weight,
-                 double *rel, int *alive)
+lr__ghost_trace16(const lr__rx *rx, const double *z, const double *n_after,
+                  const lr__ttab *tab, double nm, double stop_scale,
+                  const lr__coating *override, lr__ghost g, double sensor_z,
+                  const double *clip, const double (*o)[LN],
+                  const double (*d)[LN], double (*hit)[LN], double *weight,
+                  double *rel, int *alive)
 {
     xing x[3 * LR__RX_MAX_SURFACES];
     int m = crossings(rx, g, x), asph = 0;
     for (int k = 0; k < m; k++)
         asph |= lr__rx_aspheric(&rx->s[x[k].i]);
     if (m == 0) {
-        for (int l = 0; l < L8; l++)
+        for (int l = 0; l < LN; l++)
             alive[l] = 0;
         return;
     }
@@ -97,10 +97,10 @@ lr__ghost_trace8(const lr__rx *rx, const double *z, const double *n_after,
      * geometry (as ghost.c's walk keeps them), and the rays in arrays of
      * this function's own, which nothing else can alias (else the
      * compiler gives up on the loops' dependences). */
-    double cosi[3 * LR__RX_MAX_SURFACES][L8];
-    double rmax[L8], O[3][L8], D[3][L8];
-    int al[L8];
-    for (int l = 0; l < L8; l++) {
+    double cosi[3 * LR__RX_MAX_SURFACES][LN];
+    double rmax[LN], O[3][LN], D[3][LN];
+    int al[LN];
+    for (int l = 0; l < LN; l++) {
         rmax[l] = 0.0, al[l] = alive[l];
         for (int a = 0; a < 3; a++)
             O[a][l] = o[a][l], D[a][l] = d[a][l];
@@ -109,7 +109,7 @@ lr__ghost_trace8(const lr__rx *rx, const double *z, const double *n_after,
         /* Once every lane is lost (a guide's rays outside a ghost's
          * footprint), the rest would change nothing. */
         int any = 0;
-        for (int l = 0; l < L8; l++)
+        for (int l = 0; l < LN; l++)
             any |= al[l];
         if (!any)
             break;
@@ -125,7 +125,7 @@ lr__ghost_trace8(const lr__rx *rx, const double *z, const double *n_after,
         const int bend = !mirror && n1 != n2;
         const double eta = n1 / n2;
         const int relm = rel != NULL;
-        for (int l = 0; l < L8; l++) {
+        for (int l = 0; l < LN; l++) {
             /* lr__rx_meet (rx_trace.c: intersect, normal_at). */
             double gx0 = O[0][l], gy0 = O[1][l], gz0 = O[2][l];
             double ox = gx0, oy = gy0, oz = gz0 - zi;
@@ -168,7 +168,7 @@ lr__ghost_trace8(const lr__rx *rx, const double *z, const double *n_after,
             D[2][l] = refl ? rz : bent ? ez : dz;
         }
     }
-    for (int l = 0; l < L8; l++) {
+    for (int l = 0; l < LN; l++) {
         double dz = D[2][l];
         int ok = al[l] & (dz > 0.0);
         double t = (sensor_z - O[2][l]) / (ok ? dz : 1.0);
@@ -184,7 +184,7 @@ lr__ghost_trace8(const lr__rx *rx, const double *z, const double *n_after,
      * other crossing, in the scalar trace's order, for the lanes that
      * landed: a lane at a time (the table's lookups would be gathers,
      * which GCC's generic tuning does not emit). */
-    for (int l = 0; l < L8; l++) {
+    for (int l = 0; l < LN; l++) {
         if (!al[l])
             continue;
         double w = 1.0;
