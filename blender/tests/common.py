@@ -68,7 +68,7 @@ def issue_scene(light="POINT", width=160, height=120, world_grey=0.2):
             data.spot_blend = 0.0
             lamp.rotation_euler = (0, 0, 0)
             lamp.location = (0.5, -0.5, 4.5)
-    # Cycles' point/spot lights are spheres (radius 0.1 by default); lensray's are points.
+    # Radius 0: lensray's point and spot (test_point_light_radius_* covers a sphere).
     if light in ("POINT", "SPOT"):
         lamp.data.shadow_soft_size = 0.0
     cam = sc.camera
