@@ -27,8 +27,17 @@ def _col(c, scale=1.0):
             max(0.0, float(c[2]) * scale)]
 
 
-def _input(node, name, default):
+# Principled inputs renamed in Blender 4.0: their 3.x names.
+OLD_NAMES = {"Transmission Weight": "Transmission", "Emission Color": "Emission"}
+
+
+def _socket(node, name):
     sock = node.inputs.get(name)
+    return sock if sock is not None else node.inputs.get(OLD_NAMES.get(name, ""))
+
+
+def _input(node, name, default):
+    sock = _socket(node, name)
     if sock is None:
         return default
     if sock.is_linked:
@@ -146,7 +155,7 @@ def material_dict(mat, warn, outdir):
     tex = {}
     for key, name, srgb in (("base", "Base Color", True), ("rough", "Roughness", False),
                             ("emis", "Emission Color", True)):
-        t = _image_texture(surf.inputs.get(name), srgb, outdir, warn, where)
+        t = _image_texture(_socket(surf, name), srgb, outdir, warn, where)
         if t is not None:
             tex[key] = t
     vals = {}
@@ -277,6 +286,8 @@ def _mesh_objects(depsgraph, outdir, materials, objects, warn):
             continue
         try:
             mesh.calc_loop_triangles()
+            if hasattr(mesh, "calc_normals_split"):
+                mesh.calc_normals_split()  # Blender < 4.1: split_normals need it
             if len(mesh.loop_triangles) == 0:
                 continue
             pos, fnorm, snorm, mat_idx, smooth_t, loops = _tri_arrays(mesh, mw)

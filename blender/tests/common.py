@@ -41,7 +41,8 @@ def issue_scene(light="POINT", width=160, height=120, world_grey=0.2):
             p = mat.node_tree.nodes["Principled BSDF"]
             p.inputs["Base Color"].default_value = (0.6, 0.5, 0.4, 1) if ob.name == "Cube" else (0.5, 0.5, 0.5, 1)
             p.inputs["Roughness"].default_value = 1.0
-            p.inputs["Specular IOR Level"].default_value = 0.0
+            # "Specular" before Blender 4.0 (the binary test builds this in 3.4)
+            (p.inputs.get("Specular IOR Level") or p.inputs["Specular"]).default_value = 0.0
             ob.data.materials.clear()
             ob.data.materials.append(mat)
     w = sc.world
@@ -88,7 +89,12 @@ def render_exr(sc, engine, path):
     sc.render.engine = engine
     sc.render.filepath = path
     bpy.ops.render.render(write_still=True)
-    img = bpy.data.images.load(path)
+    return load_exr(path)
+
+
+def load_exr(path):
+    """An image file's RGB as float32, rows from the top."""
+    img = bpy.data.images.load(str(path))
     w, h = img.size
     px = np.empty(w * h * 4, dtype=np.float32)
     img.pixels.foreach_get(px)
