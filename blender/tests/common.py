@@ -145,6 +145,20 @@ def compare(a, b):
     return float(mean), float(np.percentile(rel, 90))
 
 
+VARIANTS = ("POINT", "SPOT", "SUN", "AREA", "HDRI")
+
+
+def variant_scene(case, width, height, workdir):
+    """The issue's scene with one of VARIANTS: a light of that type, or
+    "HDRI", the world's environment texture (written to workdir) with the
+    light off."""
+    sc = issue_scene("POINT" if case == "HDRI" else case, width, height)
+    if case == "HDRI":
+        bpy.data.objects["Light"].data.energy = 0.0
+        hdri_world(sc, os.path.join(str(workdir), "hdri.exr"))
+    return sc
+
+
 def hdri_world(sc, path, w=64, h=32):
     """An equirectangular EXR with a warm bright patch and a sky gradient,
     as the world's Environment Texture."""
