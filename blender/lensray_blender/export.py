@@ -2,9 +2,10 @@
 
 Units follow Cycles: a point or spot light of power P watts has radiant
 intensity P / (4 pi) W/sr (a point light of radius r > 0 is a sphere of
-radiance P / (4 pi^2 r^2), the same power); a sun of strength S is irradiance S W/m^2; an
-area light of power P and area A is an emitter of radiance P / (pi A);
-the world's Background colour times strength is a uniform environment.
+radiance P / (4 pi^2 r^2), the same power); a sun of strength S is
+irradiance S W/m^2; an area light of power P and area A is an emitter of
+radiance P / (pi A); the world's Background colour times strength is a
+uniform environment.
 """
 import math
 import os
