@@ -370,13 +370,23 @@ test-python: python
 BLENDER_VENV := $(BUILD)/blender-venv
 
 .PHONY: test-blender
-test-blender: all $(BLENDER_VENV)/.ok
+test-blender: all $(BLENDER_VENV)/.ok $(BUILD)/.blender-deps-ok
 	@cd $(BUILD) && PYTHONDONTWRITEBYTECODE=1 LENSRAY_LIB=$(abspath $(BUILD))/liblensray.so \
 	  $(abspath $(BLENDER_VENV))/bin/python -m pytest -p no:cacheprovider -q \
 	  $(abspath blender/tests)
 
 $(BLENDER_VENV)/.ok: blender/requirements.txt $(DEPS_OK)
 	$(call make_venv,$(BLENDER_VENV),blender/requirements.txt)
+
+# blender/tests/test_blender_binary.py runs the add-on in Debian's Blender
+# 3.4 (the `blender` binary; python3-numpy, which the add-on needs and
+# blender does not pull in), installed by install_missing.
+BLENDER_DEPS := blender:blender \
+                /usr/lib/python3/dist-packages/numpy/__init__.py:python3-numpy
+
+$(BUILD)/.blender-deps-ok: Makefile
+	$(call install_missing,$(BLENDER_DEPS))
+	@mkdir -p $(dir $@) && touch $@
 
 # $(call install_missing,WHAT:PACKAGE ...): a recipe line that finds each
 # WHAT (an absolute path, or a command) and installs the Debian PACKAGE of

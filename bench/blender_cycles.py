@@ -3,6 +3,10 @@ same relMSE.  docs/blender.md quotes a run.  With the venv of
 `make test-blender`:
 
     build/blender-venv/bin/python bench/blender_cycles.py [--work DIR] [--quick]
+        [--scene point|spot|sun|area|hdri]
+
+--scene swaps the light as blender/tests do (common.variant_scene; hdri
+is the environment texture with the light off); point by default.
 
 Each renderer is measured against its own reference, so relMSE is its
 noise alone (the two references agree to the table of docs/blender.md):
@@ -61,10 +65,12 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--work", default=os.path.join(os.path.dirname(HERE), "build", "bench", "blender"))
     ap.add_argument("--quick", action="store_true", help="small ladders and references")
+    ap.add_argument("--scene", default="point", choices=[v.lower() for v in common.VARIANTS])
     o = ap.parse_args()
     os.makedirs(o.work, exist_ok=True)
     ref_spp = 128 if o.quick else REF_SPP
-    sc = common.issue_scene("POINT", W, H)
+    sc = common.variant_scene(o.scene.upper(), W, H, o.work)
+    tag = "" if o.scene == "point" else o.scene + "-"  # point: the caches of before
     exr = os.path.join(o.work, "img.exr")
 
     def lensray_ref():
@@ -78,8 +84,8 @@ def main():
         common.setup_cycles(sc, ref_spp)
         return common.render_exr(sc, "CYCLES", exr)
 
-    ref_l = cached(os.path.join(o.work, "ref-lensray-%d" % ref_spp), lensray_ref)
-    ref_c = cached(os.path.join(o.work, "ref-cycles-%d" % ref_spp), cycles_ref)
+    ref_l = cached(os.path.join(o.work, "ref-lensray-%s%d" % (tag, ref_spp)), lensray_ref)
+    ref_c = cached(os.path.join(o.work, "ref-cycles-%s%d" % (tag, ref_spp)), cycles_ref)
     mean, p90 = common.compare(ref_l, ref_c)
     print("references (%d spp) agree: mean %.2f%%, p90 of 8x8 blocks %.2f%%, relMSE %.2e"
           % (ref_spp, 100 * mean, 100 * p90, relmse(ref_l, ref_c)), flush=True)
@@ -114,8 +120,10 @@ def main():
 
     cpu_name = next((ln.split(":", 1)[1].strip() for ln in open("/proc/cpuinfo")
                      if ln.startswith("model name")), "?")
-    print("\n%dx%d, the issue's scene (point light, f/2.8); %s, %d cores (shared); "
-          "load average %.1f" % (W, H, cpu_name, os.cpu_count(), os.getloadavg()[0]))
+    print("\n%dx%d, the issue's scene (%s, f/2.8); %s, %d cores (shared); "
+          "load average %.1f" % (W, H, "HDRI world, light off" if o.scene == "hdri"
+                                 else o.scene + " light", cpu_name, os.cpu_count(),
+                                 os.getloadavg()[0]))
     print("| relMSE | " + " | ".join("%s CPU s" % n for n in series)
           + " | best Cycles / lensray |")
     print("|---" * (len(series) + 2) + "|")

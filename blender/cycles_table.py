@@ -10,16 +10,12 @@ import time
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "tests"))
 import common  # noqa: E402
 
-import bpy  # noqa: E402
 
 W, H, LR_SPP, CY_SPP = 320, 240, 512, 512
 rows = []
 with tempfile.TemporaryDirectory() as tmp:
-    for case in ("POINT", "SPOT", "SUN", "AREA", "HDRI"):
-        sc = common.issue_scene("POINT" if case == "HDRI" else case, W, H)
-        if case == "HDRI":
-            bpy.data.objects["Light"].data.energy = 0.0
-            common.hdri_world(sc, os.path.join(tmp, "hdri.exr"))
+    for case in common.VARIANTS:
+        sc = common.variant_scene(case, W, H, tmp)
         sc.lensray.samples = LR_SPP
         t = time.time()
         a = common.render_exr(sc, "LENSRAY", os.path.join(tmp, "a.exr"))

@@ -14,7 +14,7 @@ from . import export
 
 bl_info = {
     "name": "lensray",
-    "blender": (4, 2, 0),
+    "blender": (3, 4, 0),
     "category": "Render",
     "description": "Physically based camera-lens rendering (lensray on Embree)",
 }
@@ -147,14 +147,13 @@ class LensrayRenderEngine(bpy.types.RenderEngine):
         rgba[:, :, :3] = rgb[::-1]
         result = self.begin_result(0, 0, W, H)
         layer = result.layers[0]
-        layer.passes["Combined"].rect.foreach_set(rgba.ravel())
+        _set_rect(layer.passes["Combined"], rgba)
         zp = layer.passes.get("Depth")
         if zp is not None:
-            zz = np.where(z >= 1e10, np.float32(1e10), z)[::-1]
-            zp.rect.foreach_set(np.ascontiguousarray(zz, dtype=np.float32).ravel())
+            _set_rect(zp, np.where(z >= 1e10, np.float32(1e10), z)[::-1])
         pp = layer.passes.get("Plan")
         if pp is not None and plan is not None:
-            pp.rect.foreach_set(np.ascontiguousarray(plan[::-1]).ravel())
+            _set_rect(pp, plan[::-1])
         self.end_result(result)
 
     def update_render_passes(self, scene=None, renderlayer=None):
@@ -163,6 +162,17 @@ class LensrayRenderEngine(bpy.types.RenderEngine):
             self.register_pass(scene, renderlayer, "Depth", 1, "Z", "VALUE")
         if renderlayer is not None and renderlayer.lensray_pass_plan:
             self.register_pass(scene, renderlayer, "Plan", 3, "RGB", "COLOR")
+
+
+def _set_rect(render_pass, a):
+    """A pass's pixels from an (H, W) or (H, W, channels) array.  Blender
+    4 takes them flat; 3.4 counts pixels, and takes a row per pixel."""
+    import numpy as np
+    a = np.ascontiguousarray(a, dtype=np.float32).reshape(-1, render_pass.channels)
+    try:
+        render_pass.rect.foreach_set(a.ravel())
+    except TypeError:  # "expected sequence size" of Blender 3.4
+        render_pass.rect.foreach_set(a)
 
 
 def plan_pixels(cells, render):

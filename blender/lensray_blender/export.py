@@ -1,9 +1,11 @@
 """Blender scene -> lensray scene dict (docs/scene-format.md).
 
 Units follow Cycles: a point or spot light of power P watts has radiant
-intensity P / (4 pi) W/sr; a sun of strength S is irradiance S W/m^2; an
-area light of power P and area A is an emitter of radiance P / (pi A);
-the world's Background colour times strength is a uniform environment.
+intensity P / (4 pi) W/sr (a point light of radius r > 0 is a sphere of
+radiance P / (4 pi^2 r^2), the same power); a sun of strength S is
+irradiance S W/m^2; an area light of power P and area A is an emitter of
+radiance P / (pi A); the world's Background colour times strength is a
+uniform environment.
 """
 import math
 import os
@@ -26,8 +28,17 @@ def _col(c, scale=1.0):
             max(0.0, float(c[2]) * scale)]
 
 
-def _input(node, name, default):
+# Principled inputs renamed in Blender 4.0: their 3.x names.
+OLD_NAMES = {"Transmission Weight": "Transmission", "Emission Color": "Emission"}
+
+
+def _socket(node, name):
     sock = node.inputs.get(name)
+    return sock if sock is not None else node.inputs.get(OLD_NAMES.get(name, ""))
+
+
+def _input(node, name, default):
+    sock = _socket(node, name)
     if sock is None:
         return default
     if sock.is_linked:
@@ -145,7 +156,7 @@ def material_dict(mat, warn, outdir):
     tex = {}
     for key, name, srgb in (("base", "Base Color", True), ("rough", "Roughness", False),
                             ("emis", "Emission Color", True)):
-        t = _image_texture(surf.inputs.get(name), srgb, outdir, warn, where)
+        t = _image_texture(_socket(surf, name), srgb, outdir, warn, where)
         if t is not None:
             tex[key] = t
     vals = {}
@@ -276,6 +287,8 @@ def _mesh_objects(depsgraph, outdir, materials, objects, warn):
             continue
         try:
             mesh.calc_loop_triangles()
+            if hasattr(mesh, "calc_normals_split"):
+                mesh.calc_normals_split()  # Blender < 4.1: split_normals need it
             if len(mesh.loop_triangles) == 0:
                 continue
             pos, fnorm, snorm, mat_idx, smooth_t, loops = _tri_arrays(mesh, mw)
@@ -314,8 +327,23 @@ def _mesh_objects(depsgraph, outdir, materials, objects, warn):
             ob.to_mesh_clear()
 
 
-def _lights(depsgraph, outdir, materials, objects, warn):
+def _in_view(scene, centre, r):
+    """Whether a sphere at centre (Blender's frame) of radius r is in the
+    camera's frame: its centre or a point r off it along an axis."""
+    from bpy_extras.object_utils import world_to_camera_view
+    cam = scene.camera
+    if cam is None:
+        return False
+    for d in ((0, 0, 0), (r, 0, 0), (-r, 0, 0), (0, r, 0), (0, -r, 0), (0, 0, r), (0, 0, -r)):
+        x, y, z = world_to_camera_view(scene, cam, centre + Vector(d))
+        if z > 0 and 0 <= x <= 1 and 0 <= y <= 1:
+            return True
+    return False
+
+
+def _lights(scene, depsgraph, outdir, materials, objects, warn):
     lights = []
+    whitted = scene.lensray.integrator == "whitted"
     for inst in depsgraph.object_instances:
         ob = inst.object
         if ob.type != "LIGHT":
@@ -325,10 +353,27 @@ def _lights(depsgraph, outdir, materials, objects, warn):
         pos = _vec(mw.translation)
         axis = (mw.to_3x3() @ Vector((0, 0, -1))).normalized()
         col = L.color
-        if L.type == "POINT":
+        r = float(L.shadow_soft_size) if L.type in ("POINT", "SPOT") else 0.0
+        if L.type == "POINT" and r > 0 and whitted:
+            warn.add(f"light {ob.name!r}: radius {r:g} m drawn as a point "
+                     "(the Whitted integrator is not lit by sphere lights)")
+        elif L.type == "POINT" and r > 0:
+            # Cycles' sphere light: the same power P as the point, from a
+            # sphere of radiance P / (4 pi) / (pi r^2) (intensity P / (4 pi)
+            # seen from afar).  lensray's is an emitting sphere, which the
+            # camera sees; Cycles' light only if its camera visibility is on.
+            name = "__light_" + ob.name
+            materials[name] = {"emission": _col(col, L.energy / (4 * math.pi * math.pi * r * r))}
+            objects.append({"type": "sphere", "center": pos, "radius": r, "material": name})
+            if not ob.visible_camera and _in_view(scene, mw.translation, r):
+                warn.add(f"light {ob.name!r}: its sphere (radius {r:g} m) is seen by the camera "
+                         "(Cycles hides it: camera ray visibility is off)")
+        if L.type == "POINT" and (r == 0 or whitted):
             lights.append({"type": "point", "position": pos,
                            "intensity": _col(col, L.energy / (4 * math.pi))})
         elif L.type == "SPOT":
+            if r > 0:
+                warn.add(f"light {ob.name!r}: spot radius {r:g} m drawn as a point (hard shadows)")
             outer = math.degrees(L.spot_size) / 2
             inner = outer * (1 - L.spot_blend)
             lights.append({"type": "spot", "position": pos, "direction": _vec(axis),
@@ -459,7 +504,7 @@ def camera_dict(scene, depsgraph, warn):
 def scene_dict(scene, depsgraph, outdir, warn):
     materials, objects = {}, []
     _mesh_objects(depsgraph, outdir, materials, objects, warn)
-    lights = _lights(depsgraph, outdir, materials, objects, warn)
+    lights = _lights(scene, depsgraph, outdir, materials, objects, warn)
     cam, W, H, region = camera_dict(scene, depsgraph, warn)
     p = scene.lensray
     d = {"camera": cam,

@@ -41,7 +41,8 @@ def issue_scene(light="POINT", width=160, height=120, world_grey=0.2):
             p = mat.node_tree.nodes["Principled BSDF"]
             p.inputs["Base Color"].default_value = (0.6, 0.5, 0.4, 1) if ob.name == "Cube" else (0.5, 0.5, 0.5, 1)
             p.inputs["Roughness"].default_value = 1.0
-            p.inputs["Specular IOR Level"].default_value = 0.0
+            # "Specular" before Blender 4.0 (the binary test builds this in 3.4)
+            (p.inputs.get("Specular IOR Level") or p.inputs["Specular"]).default_value = 0.0
             ob.data.materials.clear()
             ob.data.materials.append(mat)
     w = sc.world
@@ -68,7 +69,7 @@ def issue_scene(light="POINT", width=160, height=120, world_grey=0.2):
             data.spot_blend = 0.0
             lamp.rotation_euler = (0, 0, 0)
             lamp.location = (0.5, -0.5, 4.5)
-    # Cycles' point/spot lights are spheres (radius 0.1 by default); lensray's are points.
+    # Radius 0: lensray's point and spot (test_point_light_radius_* covers a sphere).
     if light in ("POINT", "SPOT"):
         lamp.data.shadow_soft_size = 0.0
     cam = sc.camera
@@ -88,7 +89,12 @@ def render_exr(sc, engine, path):
     sc.render.engine = engine
     sc.render.filepath = path
     bpy.ops.render.render(write_still=True)
-    img = bpy.data.images.load(path)
+    return load_exr(path)
+
+
+def load_exr(path):
+    """An image file's RGB as float32, rows from the top."""
+    img = bpy.data.images.load(str(path))
     w, h = img.size
     px = np.empty(w * h * 4, dtype=np.float32)
     img.pixels.foreach_get(px)
@@ -137,6 +143,20 @@ def compare(a, b):
     bb = lb[:h8, :w8].reshape(h8 // 8, 8, w8 // 8, 8).mean(axis=(1, 3))
     rel = np.abs(ba - bb) / np.maximum(bb, 1e-3 * lb.mean())
     return float(mean), float(np.percentile(rel, 90))
+
+
+VARIANTS = ("POINT", "SPOT", "SUN", "AREA", "HDRI")
+
+
+def variant_scene(case, width, height, workdir):
+    """The issue's scene with one of VARIANTS: a light of that type, or
+    "HDRI", the world's environment texture (written to workdir) with the
+    light off."""
+    sc = issue_scene("POINT" if case == "HDRI" else case, width, height)
+    if case == "HDRI":
+        bpy.data.objects["Light"].data.energy = 0.0
+        hdri_world(sc, os.path.join(str(workdir), "hdri.exr"))
+    return sc
 
 
 def hdri_world(sc, path, w=64, h=32):
