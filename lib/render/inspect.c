@@ -9,6 +9,7 @@
 #include "camera/camera.h"
 #include "json/json_util.h"
 #include "render/plan.h"
+#include "util/fp_mode.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -33,10 +34,27 @@ lr_status lr_camera_autofocus(const lr_scene *scene, lr_camera *cam, int width,
     return LR_OK;
 }
 
+static lr_status plan_map_in_mode(const lr_scene *scene, const lr_camera *cam,
+                                  const lr_render_settings *set,
+                                  unsigned char **cells, int *columns,
+                                  int *rows, lr_error *err);
+
 lr_status lr_render_plan_map(const lr_scene *scene, const lr_camera *cam,
                              const lr_render_settings *set,
                              unsigned char **cells, int *columns, int *rows,
                              lr_error *err)
+{
+    /* lr_render's plan, in its floating-point mode (fp_mode.h). */
+    unsigned fp = lr__fp_enter();
+    lr_status st = plan_map_in_mode(scene, cam, set, cells, columns, rows, err);
+    lr__fp_leave(fp);
+    return st;
+}
+
+static lr_status plan_map_in_mode(const lr_scene *scene, const lr_camera *cam,
+                                  const lr_render_settings *set,
+                                  unsigned char **cells, int *columns,
+                                  int *rows, lr_error *err)
 {
     if (scene == NULL || cam == NULL || set == NULL || cells == NULL ||
         columns == NULL || rows == NULL)

@@ -10,6 +10,7 @@
 #include "integrator/integrator.h"
 #include "render/settings_json.h"
 #include "scene/scene_load.h"
+#include "util/fp_mode.h"
 
 static lr_status prepared(lr_status st, lr_scene **out, lr_error *err)
 {
@@ -27,18 +28,25 @@ lr_status lr_scene_load_json(const char *json, size_t len, const char *base_dir,
                              const char *const *overrides, size_t n_overrides,
                              lr_scene **out, lr_error *err)
 {
-    return prepared(lr__scene_load_json(json, len, base_dir, overrides,
-                                        n_overrides, lr__settings_from_json,
-                                        out, err),
-                    out, err);
+    unsigned fp = lr__fp_enter();
+    lr_status st = prepared(
+        lr__scene_load_json(json, len, base_dir, overrides, n_overrides,
+                            lr__settings_from_json, out, err),
+        out, err);
+    lr__fp_leave(fp);
+    return st;
 }
 
 lr_status lr_scene_load_file(const char *path, const char *const *overrides,
                              size_t n_overrides, lr_scene **out, lr_error *err)
 {
-    return prepared(lr__scene_load_file(path, overrides, n_overrides,
-                                        lr__settings_from_json, out, err),
-                    out, err);
+    unsigned fp = lr__fp_enter();
+    lr_status st = prepared(lr__scene_load_file(path, overrides, n_overrides,
+                                                lr__settings_from_json, out,
+                                                err),
+                            out, err);
+    lr__fp_leave(fp);
+    return st;
 }
 
 lr_status lr_scene_read_settings(const char *path, const char *const *overrides,

@@ -16,6 +16,7 @@
 #include "render/sample.h"
 #include "sampling/sampler.h"
 #include "render/splat.h"
+#include "util/fp_mode.h"
 
 #include <math.h>
 #include <pmmintrin.h>
@@ -232,9 +233,25 @@ static int finish_sides(render *j, lr_image *img, lr_render_stats *sum)
     return nomem;
 }
 
+static lr_status render_in_mode(const lr_scene *scene, const lr_camera *cam,
+                                const lr_render_settings *set, lr_image **out,
+                                lr_render_stats *stats, lr_error *err);
+
 lr_status lr_render(const lr_scene *scene, const lr_camera *cam,
                     const lr_render_settings *set, lr_image **out,
                     lr_render_stats *stats, lr_error *err)
+{
+    /* The same bits whatever the caller's floating-point mode
+     * (fp_mode.h). */
+    unsigned fp = lr__fp_enter();
+    lr_status st = render_in_mode(scene, cam, set, out, stats, err);
+    lr__fp_leave(fp);
+    return st;
+}
+
+static lr_status render_in_mode(const lr_scene *scene, const lr_camera *cam,
+                                const lr_render_settings *set, lr_image **out,
+                                lr_render_stats *stats, lr_error *err)
 {
     if (scene == NULL || out == NULL)
         return lr__fail(err, LR_ERR_INVALID, NULL,
