@@ -246,8 +246,8 @@ typedef struct lr__camera_model {
     /* ghost_film for n <= LR__GHOST_LANES lens offsets (ox[l], oy[l]) and
      * directions w[l] at once, through one path g at one wavelength k:
      * W[l] its value, and fx[l], fy[l], rel[l] as ghost_film sets them,
-     * bit for bit (a mesh's rows of corners, a guide's grid).  NULL:
-     * ghost_film lane by lane. */
+     * bit for bit (a mesh's rows of corners, a guide's grid).  NULL
+     * with ghost_film. */
     void (*ghost_film_n)(const lr__cam *c, int g, int k, int n,
                          const double *ox, const double *oy, const lr__v3 *w,
                          double *rel, double *fx, double *fy, double *W);

@@ -337,19 +337,19 @@ void lr__lens_ghost_film_n(const lr__cam *c, int g, int k, int n,
     double o[3][LR__GHOST_LANES], d[3][LR__GHOST_LANES];
     double hit[2][LR__GHOST_LANES], T[LR__GHOST_LANES], cos_o[LR__GHOST_LANES];
     int alive[LR__GHOST_LANES];
+    for (int l = 0; l < n; l++)
+        W[l] = 0.0;
+    if (n <= 0 || g < 0 || g >= lc->n_ghost)
+        return;
     for (int l = 0; l < LR__GHOST_LANES; l++) {
         double ol[3] = {0.0, 0.0, 0.0}, dl[3] = {0.0, 0.0, 1.0};
         if (l < n)
             ghost_ray(c, ox[l], oy[l], w[l], ol, dl);
-        alive[l] = l < n && dl[2] > 0.0 && g >= 0 && g < lc->n_ghost;
+        alive[l] = l < n && dl[2] > 0.0;
         cos_o[l] = dl[2];
         for (int a = 0; a < 3; a++)
             o[a][l] = ol[a], d[a][l] = dl[a];
-        if (l < n)
-            W[l] = 0.0;
     }
-    if (n <= 0 || g < 0 || g >= lc->n_ghost)
-        return;
     double frame[2] = {0.5 * lc->sensor_w, 0.5 * lc->sensor_h};
     lr__ghost_trace16(&lc->L->rx, lc->L->z, n_after, tab, nm, lc->stop_scale,
                       lc->coat, ghost_at(g), lc->z_sensor,

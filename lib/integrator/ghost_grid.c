@@ -181,14 +181,7 @@ static void gg_eval_n(gg_task *t, int n, const double *ox, const double *oy,
             int k = t->k0 + j;
             double W[LR__GHOST_LANES], fx[LR__GHOST_LANES], fy[LR__GHOST_LANES],
                 rel[LR__GHOST_LANES];
-            if (c->model->ghost_film_n != NULL) {
-                c->model->ghost_film_n(c, t->g, k, u, lx, ly, lw, rel, fx, fy,
-                                       W);
-            } else {
-                for (int a = 0; a < u; a++)
-                    W[a] = c->model->ghost_film(c, t->g, k, lx[a], ly[a], lw[a],
-                                                &rel[a], &fx[a], &fy[a]);
-            }
+            c->model->ghost_film_n(c, t->g, k, u, lx, ly, lw, rel, fx, fy, W);
             for (int a = 0; a < u; a++) {
                 gg_pt *pt = p[q0 + lane[a]];
                 t->traced++;
@@ -514,27 +507,26 @@ static void gg_grid(gg_task *t, const double *b)
         gg_eval_n(t, n, px, py, pp);
         for (int r = r0; r < last; r++) {
             gg_pt *lo = t->pts + (size_t)(r - r0) * cols, *hi = lo + cols;
-            /* The row's splits' points, five a splitting cell. */
-            int ns = 0;
+            /* The row's splits' points, five a splitting cell: cell i's
+             * from t->mid[at[i]] (-1: it does not split). */
+            int ns = 0, at[LR__GT_CELLS_MAX];
             for (int i = 0; i < nx; i++) {
                 gg_pt p[4] = {lo[i], lo[i + 1], hi[i + 1], hi[i]};
                 unsigned all, part;
+                at[i] = -1;
                 if (gg_split(t, p, mask, lr__gt_depth, &all, &part) == 0)
                     continue;
                 gg_mids(bx + i * h, by + r * h, h, px + ns, py + ns);
                 for (int k = 0; k < 5; k++)
                     pp[ns + k] = &t->mid[ns + k];
+                at[i] = ns;
                 ns += 5;
             }
             gg_eval_n(t, ns, px, py, pp);
-            ns = 0;
             for (int i = 0; i < nx; i++) {
                 gg_pt p[4] = {lo[i], lo[i + 1], hi[i + 1], hi[i]};
-                unsigned all, part;
-                int sp = gg_split(t, p, mask, lr__gt_depth, &all, &part) != 0;
                 gg_cell(t, bx + i * h, by + r * h, h, p, mask, lr__gt_depth,
-                        sp ? &t->mid[ns] : NULL);
-                ns += sp ? 5 : 0;
+                        at[i] >= 0 ? &t->mid[at[i]] : NULL);
             }
         }
     }

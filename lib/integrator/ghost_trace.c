@@ -103,14 +103,7 @@ static void ghost_guide(const lr__cam *c, lr__lt_light *l, lr__v3 w0,
                     continue;
             }
             double W[LR__GHOST_LANES], fx[LR__GHOST_LANES], fy[LR__GHOST_LANES];
-            if (c->model->ghost_film_n != NULL) {
-                c->model->ghost_film_n(c, g, -1, u, ox, oy, ws, NULL, fx, fy,
-                                       W);
-            } else {
-                for (int a = 0; a < u; a++)
-                    W[a] = c->model->ghost_film(c, g, -1, ox[a], oy[a], w0,
-                                                NULL, &fx[a], &fy[a]);
-            }
+            c->model->ghost_film_n(c, g, -1, u, ox, oy, ws, NULL, fx, fy, W);
             for (int a = 0; a < u; a++) {
                 if (!(W[a] > 0.0) || !(fx[a] >= 0.0 && fx[a] < c->width &&
                                        fy[a] >= 0.0 && fy[a] < c->height))
@@ -439,7 +432,7 @@ int lr__gt_plan(const lr_scene *s, const lr__cam *c, int spp, lr__lt **ltp)
 {
     const lr__camera_model *m = c->model;
     if (m->ghost_paths == NULL || m->ghost_film == NULL ||
-        m->ghost_disk == NULL || m->lens_at == NULL)
+        m->ghost_film_n == NULL || m->ghost_disk == NULL || m->lens_at == NULL)
         return 1;
     gt_pick *p = calloc(1, sizeof *p);
     if (p == NULL)

@@ -39,11 +39,10 @@ double lr__rx_surface_r(const lr__rx *rx, const double *n_after, int i,
                                        before, cos_i, nm);
 }
 
-/* A ray on its way through the lens, and what it met: per crossing the
- * surface, the way it went, whether it reflected and its cosine of
- * incidence, so that the weights come after the geometry (a ray the
- * lens stops, or that lands outside the frame, never pays for a
- * reflectance). */
+/* A ray on its way through the lens, and its cosine of incidence at
+ * each crossing (lr__ghost_crossings' order), so that the weights come
+ * after the geometry (a ray the lens stops, or that lands outside the
+ * frame, never pays for a reflectance). */
 typedef struct walk {
     const lr__rx *rx;
     const double *z, *n_after;
@@ -51,10 +50,7 @@ typedef struct walk {
     double o[3], d[3];
     double *rel; /* not NULL: past the apertures too, the largest ratio */
     int n;
-    struct {
-        signed char i, fwd, mirror;
-        double cos_i;
-    } x[3 * LR__RX_MAX_SURFACES];
+    double cos_i[3 * LR__RX_MAX_SURFACES];
 } walk;
 
 /* Surface i, travelling toward the image (fwd = 1) or back: reflect
@@ -80,11 +76,7 @@ static int cross(walk *r, int i, int fwd, int mirror)
     for (int a = 0; a < 3; a++)
         r->o[a] = p[a];
     double dn = r->d[0] * nrm[0] + r->d[1] * nrm[1] + r->d[2] * nrm[2];
-    r->x[r->n].i = (signed char)i;
-    r->x[r->n].fwd = (signed char)fwd;
-    r->x[r->n].mirror = (signed char)mirror;
-    r->x[r->n].cos_i = fabs(dn);
-    r->n++;
+    r->cos_i[r->n++] = fabs(dn);
     if (mirror) {
         /* d' = d - 2 (d . n) n: the law of reflection. */
         for (int a = 0; a < 3; a++)
@@ -94,6 +86,27 @@ static int cross(walk *r, int i, int fwd, int mirror)
     double before = i > 0 ? r->n_after[i - 1] : 1.0, after = r->n_after[i];
     return fwd ? lr__rx_refract(r->d, nrm, before, after)
                : lr__rx_refract(r->d, nrm, after, before);
+}
+
+int lr__ghost_crossings(const lr__rx *rx, lr__ghost g, lr__ghost_xing *x)
+{
+    int n = rx->n, m = 0, ghost = g.j >= 0;
+    if (ghost && !(g.i >= 0 && g.i < g.j && g.j < n))
+        return -1;
+    /* Forward to j (or through everything), back from j - 1 to i, and
+     * forward again from i + 1. */
+    int first = ghost ? g.j : n;
+    for (int k = 0; k < first; k++)
+        x[m++] = (lr__ghost_xing){k, 1, 0};
+    if (ghost) {
+        x[m++] = (lr__ghost_xing){g.j, 1, 1};
+        for (int k = g.j - 1; k > g.i; k--)
+            x[m++] = (lr__ghost_xing){k, 0, 0};
+        x[m++] = (lr__ghost_xing){g.i, 0, 1};
+        for (int k = g.i + 1; k < n; k++)
+            x[m++] = (lr__ghost_xing){k, 1, 0};
+    }
+    return m;
 }
 
 int lr__ghost_trace(const lr__rx *rx, const double *z, double nm,
@@ -133,27 +146,13 @@ int lr__ghost_trace_rel(const lr__rx *rx, const double *z,
         r.o[a] = o[a];
         r.d[a] = d[a];
     }
-    int n = rx->n, ghost = g.j >= 0;
-    if (ghost && !(g.i >= 0 && g.i < g.j && g.j < n))
+    lr__ghost_xing x[3 * LR__RX_MAX_SURFACES];
+    int m = lr__ghost_crossings(rx, g, x);
+    if (m < 0)
         return 0;
-    /* Forward to j (or through everything), back from j - 1 to i, and
-     * forward again from i + 1. */
-    int first = ghost ? g.j : n;
-    for (int k = 0; k < first; k++)
-        if (!cross(&r, k, 1, 0))
+    for (int k = 0; k < m; k++)
+        if (!cross(&r, x[k].i, x[k].fwd, x[k].mirror))
             return 0;
-    if (ghost) {
-        if (!cross(&r, g.j, 1, 1))
-            return 0;
-        for (int k = g.j - 1; k > g.i; k--)
-            if (!cross(&r, k, 0, 0))
-                return 0;
-        if (!cross(&r, g.i, 0, 1))
-            return 0;
-        for (int k = g.i + 1; k < n; k++)
-            if (!cross(&r, k, 1, 0))
-                return 0;
-    }
     if (!(r.d[2] > 0.0))
         return 0;
     double t = (sensor_z - r.o[2]) / r.d[2];
@@ -165,18 +164,17 @@ int lr__ghost_trace_rel(const lr__rx *rx, const double *z,
      * crossing, each at its own cosine. */
     double w = 1.0;
     for (int k = 0; k < r.n; k++) {
-        int i = r.x[k].i, fwd = r.x[k].fwd;
+        int i = x[k].i, fwd = x[k].fwd;
         double before = i > 0 ? n_after[i - 1] : 1.0, after = n_after[i];
         double R;
         if (before == after)
             R = 0.0; /* no interface (a stop): nothing reflected */
         else if (tab != NULL)
-            R = lr__ttab_r(tab, i, fwd ? before : after, r.x[k].cos_i);
+            R = lr__ttab_r(tab, i, fwd ? before : after, r.cos_i[k]);
         else {
-            R = lr__rx_surface_r(rx, n_after, i, fwd, r.x[k].cos_i, nm,
-                                 override);
+            R = lr__rx_surface_r(rx, n_after, i, fwd, r.cos_i[k], nm, override);
         }
-        w *= r.x[k].mirror ? R : 1.0 - R;
+        w *= x[k].mirror ? R : 1.0 - R;
     }
     *weight = w;
     return 1;

@@ -55,6 +55,18 @@ double lr__rx_surface_r(const lr__rx *rx, const double *n_after, int i,
                         int toward_image, double cos_i, double nm,
                         const lr__coating *override);
 
+/* One crossing of a ghost path: surface i, the way the ray goes
+ * (toward the image: fwd 1), and whether it reflects there. */
+typedef struct lr__ghost_xing {
+    int i, fwd, mirror;
+} lr__ghost_xing;
+
+/* Path g's crossings in the order a ray makes them (g.j < 0: the main
+ * path) into x (room for 3 LR__RX_MAX_SURFACES); returns how many, or
+ * -1 when g is not a path of rx.  The one order both traces follow
+ * (ghost.c, ghost16.c). */
+int lr__ghost_crossings(const lr__rx *rx, lr__ghost g, lr__ghost_xing *x);
+
 /* Traces one ray through ghost path g at wavelength nm: o (before the
  * first surface) and d (unit, d[2] > 0) in lens coordinates.  Returns 1
  * when it reaches the plane z = sensor_z (lr__rx_layout's z[rx->n] for

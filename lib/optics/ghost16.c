@@ -18,33 +18,6 @@
 
 #define LN LR__GHOST_LANES
 
-/* One crossing of a ghost path: surface i, the way the ray goes, and
- * whether it reflects there. */
-typedef struct xing {
-    int i, fwd, mirror;
-} xing;
-
-/* Path g's crossings in order (ghost.c: lr__ghost_trace_rel); 0 when g
- * is not a path of rx. */
-static int crossings(const lr__rx *rx, lr__ghost g, xing *x)
-{
-    int n = rx->n, m = 0;
-    if (g.j >= 0 && !(g.i >= 0 && g.i < g.j && g.j < n))
-        return 0;
-    int first = g.j >= 0 ? g.j : n;
-    for (int k = 0; k < first; k++)
-        x[m++] = (xing){k, 1, 0};
-    if (g.j >= 0) {
-        x[m++] = (xing){g.j, 1, 1};
-        for (int k = g.j - 1; k > g.i; k--)
-            x[m++] = (xing){k, 0, 0};
-        x[m++] = (xing){g.i, 0, 1};
-        for (int k = g.i + 1; k < n; k++)
-            x[m++] = (xing){k, 1, 0};
-    }
-    return m;
-}
-
 /* Lane by lane through the scalar trace (an aspheric surface on the
  * path). */
 static void scalar_lanes(const lr__rx *rx, const double *z,
@@ -79,11 +52,11 @@ lr__ghost_trace16(const lr__rx *rx, const double *z, const double *n_after,
                   const double (*d)[LN], double (*hit)[LN], double *weight,
                   double *rel, int *alive)
 {
-    xing x[3 * LR__RX_MAX_SURFACES];
-    int m = crossings(rx, g, x), asph = 0;
+    lr__ghost_xing x[3 * LR__RX_MAX_SURFACES];
+    int m = lr__ghost_crossings(rx, g, x), asph = 0;
     for (int k = 0; k < m; k++)
         asph |= lr__rx_aspheric(&rx->s[x[k].i]);
-    if (m == 0) {
+    if (m < 0) {
         for (int l = 0; l < LN; l++)
             alive[l] = 0;
         return;
