@@ -85,8 +85,14 @@ def test_blender_binary_renders_lensray(tmp_path):
     a, b, cli = (common.load_exr(tmp_path / f)
                  for f in ("lensray_1.exr", "cycles_1.exr", "cli.exr"))
     assert a.shape == (120, 160, 3) and a.mean() > 0.01
-    # the frame is the engine's pixels: rows and channels as lensray's own
-    assert np.array_equal(a, cli)
+    # The frame is the engine's pixels, rows and channels as lensray's
+    # own (a flip or a swap moves values by 0.1 and more).  Not asserted
+    # bit for bit: in 3 runs of some 15, up to 14 of the 57600 values
+    # were 1 to 2 ulp off the CLI's (cause not found; the caller's
+    # floating-point mode, lib/util/fp_mode.h, was ruled out).  The bit
+    # for bit check of a real lens is test_engine.py's, in one process.
+    d = np.abs(a - cli)
+    assert d.max() < 1e-6 and np.count_nonzero(d) <= 60, (d.max(), np.count_nonzero(d))
     mean, p90 = common.compare(a, b)
     print(f"blender {version}: LENSRAY against its Cycles: mean {mean:.4%} p90 {p90:.4%}")
     assert mean < 0.03 and p90 < 0.08, (version, mean, p90)
