@@ -291,6 +291,9 @@ typedef struct lr__lens_cam {
     double n_rgb[3][LR__RX_MAX_SURFACES]; /* and at nm_rgb */
     double pupil_rmax; /* film radius of the table's last entry */
     lr__pupil pupil[LR__PUPIL_N + 1];
+    /* Per interval k, what lr__lens_pupil_at adds to the larger of its
+     * two entries' sizes (lens_pupil.c's pupil_growth); cx unused. */
+    lr__pupil pupil_grow[LR__PUPIL_N];
     /* Per interval k of film radii, the bounds pupil_at gives there
      * (camera_lens.c), in float for the packet path: the centre at the
      * interval's start and its change across it, radius, half sides. */

@@ -23,6 +23,14 @@
  * (lens_pupil.c). */
 void lr__lens_pupils(lr__cam *c, int colours);
 
+/* The step after the grid search (lens_pupil.c): bounds *P of film radius
+ * r, found on a grid of cell `cell`, replaced by the pupil's edge traced
+ * by bisection for each of the n_sets (at most 4) index sets, where the
+ * edge's premises hold (lens_pupil.c says which).  The exhaustive search
+ * of tests/test_camera_lens.c ends with it too. */
+void lr__pupil_refine(const lr__cam *c, const double *const *nsets, int n_sets,
+                      double r, double cell, lr__pupil *P);
+
 /* The light side (lens_light.c): the model table's lens_point, film,
  * film_rgb, film_wl, thin_equiv, light_ok and lens_at. */
 lr__v3 lr__lens_at(const lr__cam *c, double ox, double oy);
@@ -144,7 +152,8 @@ static inline lr__lens_sensor lr__lens_sensor_at(const lr__cam *c, double fx,
 
 /* The bounds at film radius r, between the table's two neighbouring
  * entries a and b: centred in proportion, as large as the larger of the
- * two plus half the distance their centres move.  Sizes interpolated in
+ * two plus the interval's growth (lens_pupil.c: what the centre's and the
+ * sizes' curvature can add between the entries).  Sizes interpolated in
  * proportion fall short where an element starts to cut the pupil (it
  * shrinks fast there): a white scene came out 3.5% dark in rings. */
 static inline lr__pupil lr__lens_pupil_at(const lr__lens_cam *lc, double r)
@@ -154,9 +163,10 @@ static inline lr__pupil lr__lens_pupil_at(const lr__lens_cam *lc, double r)
     k = k < LR__PUPIL_N - 1 ? k : LR__PUPIL_N - 1;
     double f = t - k;
     const lr__pupil *a = &lc->pupil[k], *b = &lc->pupil[k + 1];
-    double move = 0.5 * fabs(b->cx - a->cx);
-    return (lr__pupil){a->cx + f * (b->cx - a->cx), fmax(a->rad, b->rad) + move,
-                       fmax(a->hx, b->hx) + move, fmax(a->hy, b->hy)};
+    const lr__pupil *g = &lc->pupil_grow[k];
+    return (lr__pupil){a->cx + f * (b->cx - a->cx),
+                       fmax(a->rad, b->rad) + g->rad,
+                       fmax(a->hx, b->hx) + g->hx, fmax(a->hy, b->hy) + g->hy};
 }
 
 /* The transmittance table for the indices n (one of the camera's sets),
