@@ -698,6 +698,15 @@ BOKEH_ARGS ?=
 bench-bokeh: $(BUILD)/lensray
 	sh bench/bokeh/run.sh $(BUILD) $(BOKEH_ARGS)
 
+# The bench scene's time to relMSE 1e-5 (issue 30; bench/bunny_time.py):
+# lensray's defaults and full simulation against Mitsuba 3's samplers, each
+# against its own 2-half reference (cached in $(BUILD)/bench/bunny-time/).
+# About 4 minutes on 2 cores the first time, 2 with the references cached.
+BUNNY_ARGS ?=
+.PHONY: bench-bunny
+bench-bunny: $(BUILD)/lensray
+	sh bench/bunny_time.sh $(BUILD) $(BUNNY_ARGS)
+
 # Sparkles (docs/bokeh.md): small lights in a rough metal plane, the
 # defaults against camera paths alone, to relMSE 1e-3.
 bench-sparkles: $(BUILD)/lensray
