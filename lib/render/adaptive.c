@@ -11,6 +11,7 @@
  * stopped at n.
  */
 #include "render/adaptive.h"
+#include "render/pilots.h"
 #include "render/plan.h"
 
 #include <math.h>
@@ -250,7 +251,8 @@ static int dark_pixel(const lr__plan *plan, int x, int y, lr__pixel *a)
 
 void lr__adaptive_block(const lr_render_settings *set, const lr__plan *plan,
                         int x0, int y0, int x1, int y1,
-                        lr__block_scratch *scratch, const lr__block_io *io)
+                        lr__block_scratch *scratch, lr__pilots *share,
+                        const lr__block_io *io)
 {
     int spp = set->spp;
     double thr = lr__adaptive_threshold(set);
@@ -279,8 +281,18 @@ void lr__adaptive_block(const lr_render_settings *set, const lr__plan *plan,
             need[i] = 0;
             if (!inside && !apron_needed(plan, spp, x, y, x0, y0, x1, y1))
                 continue;
-            if (!dark_pixel(plan, x, y, &acc[i]))
-                io->sample(io->ctx, x, y, 0, p, &acc[i]);
+            if (!dark_pixel(plan, x, y, &acc[i])) {
+                int slot, role = share != NULL ? lr__pilots_role(share, x, y,
+                                                                 x0, y0, &slot)
+                                               : LR__PILOT_TRACE;
+                if (role == LR__PILOT_TAKE) {
+                    lr__pilots_take(share, slot, &acc[i]);
+                } else {
+                    io->sample(io->ctx, x, y, 0, p, &acc[i]);
+                    if (role == LR__PILOT_GIVE)
+                        lr__pilots_give(share, slot, &acc[i]);
+                }
+            }
             need[i] = lr__pixel_samples_needed(&acc[i], thr, p, spp);
             int r = lr__rare_samples_needed(
                 &acc[i], lr__plan_unseen(plan, x, y), thr, p, spp);

@@ -12,6 +12,7 @@
 #include "util/internal.h"
 
 struct lr__plan;
+struct lr__pilots;
 
 /* The threshold and the minimum that a render uses: the settings' own
  * when given (> 0), otherwise derived from spp so that a larger budget
@@ -88,11 +89,15 @@ typedef struct lr__block_scratch {
 } lr__block_scratch;
 
 /* Renders pixels [x0, x1) x [y0, y1) (at most LR__BLOCK_MAX a side) of a
- * frame planned by `plan`, every pixel stored once, in row order. */
+ * frame planned by `plan`, every pixel stored once, in row order.  The
+ * pilots on the block's borders and in its apron are shared with the
+ * neighbouring blocks through `share` (pilots.h; NULL: each block traces
+ * its own), which must then have been set up with the block grid this
+ * block belongs to. */
 void lr__adaptive_block(const lr_render_settings *set,
                         const struct lr__plan *plan, int x0, int y0, int x1,
                         int y1, lr__block_scratch *scratch,
-                        const lr__block_io *io);
+                        struct lr__pilots *share, const lr__block_io *io);
 
 /* A pixel's view (a mean of NaN per channel when it has no samples). */
 void lr__pilot_view_make(const lr__pixel *p, lr__pilot_view *v);

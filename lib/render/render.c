@@ -12,6 +12,7 @@
 #include "render/film.h"
 #include "integrator/ghost_trace.h"
 #include "integrator/integrator.h"
+#include "render/pilots.h"
 #include "render/plan.h"
 #include "render/sample.h"
 #include "sampling/sampler.h"
@@ -36,6 +37,7 @@ typedef struct render {
     lr__shot shot;
     lr__plan plan;
     lr__splat *splat;  /* the plan's splat mode: its units replace tiles */
+    lr__pilots pilots; /* adaptive sampling's pilots shared between tiles */
     lr__lt_film light; /* the light side's splats (plan.lt), if any */
     atomic_ullong next_light;
     lr_image *img;
@@ -90,7 +92,7 @@ static void render_tile(worker *w, int x0, int y0, int x1, int y1)
             lr__adaptive_block(w->r->set, &w->r->plan, x, y,
                                x + LR__BLOCK_MAX < x1 ? x + LR__BLOCK_MAX : x1,
                                y + LR__BLOCK_MAX < y1 ? y + LR__BLOCK_MAX : y1,
-                               &w->scratch, &io);
+                               &w->scratch, &w->r->pilots, &io);
 }
 
 /* CPU time of the calling thread. */
@@ -169,6 +171,28 @@ static void *worker_main(void *arg)
     _mm_setcsr(csr);
     w->cpu = thread_cpu_seconds() - cpu0;
     return NULL;
+}
+
+/* Runs n workers on j's tiles and light units and returns how many ran:
+ * the calling thread is worker 0, and if a thread cannot be started the
+ * others simply take more tiles. */
+static int run_workers(render *j, worker *ws, pthread_t *tids, int n)
+{
+    int started = 1;
+    for (int i = 0; i < n; i++) {
+        memset(&ws[i], 0, offsetof(worker, scratch));
+        ws[i].r = j;
+        ws[i].index = i;
+    }
+    for (int i = 1; i < n; i++) {
+        if (pthread_create(&tids[i], NULL, worker_main, &ws[i]) != 0)
+            break;
+        started++;
+    }
+    worker_main(&ws[0]);
+    for (int i = 1; i < started; i++)
+        pthread_join(tids[i], NULL);
+    return started;
 }
 
 static double now_seconds(void)
@@ -342,11 +366,16 @@ static lr_status render_in_mode(const lr_scene *scene, const lr_camera *cam,
     /* Each worker's block scratch (half a megabyte) needs no zeroing
      * (lr__adaptive_block sets what it reads): zeroing it was a tenth of
      * a farm part's fixed cost (perf, one-row parts). */
+    if (st == LR_OK && !j.plan.splat &&
+        !lr__pilots_init(&j.pilots, set, &j.plan, j.x0, j.y0, j.x1, j.y1,
+                         set->tile_size))
+        st = lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     worker *ws = st == LR_OK ? malloc((size_t)n * sizeof *ws) : NULL;
     pthread_t *tids = st == LR_OK ? calloc((size_t)n, sizeof *tids) : NULL;
     if (ws == NULL || tids == NULL) {
         free(ws);
         free(tids);
+        lr__pilots_free(&j.pilots);
         lr__splat_free(j.splat);
         lr_image_free(img);
         lr__lt_film_free(&j.light);
@@ -355,26 +384,12 @@ static lr_status render_in_mode(const lr_scene *scene, const lr_camera *cam,
         return st != LR_OK ? st
                            : lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     }
-    /* The calling thread is worker 0; if a thread cannot be started the
-     * others simply take more tiles. */
-    int started = 1;
-    for (int i = 0; i < n; i++) {
-        memset(&ws[i], 0, offsetof(worker, scratch));
-        ws[i].r = &j;
-        ws[i].index = i;
-    }
-    for (int i = 1; i < n; i++) {
-        if (pthread_create(&tids[i], NULL, worker_main, &ws[i]) != 0)
-            break;
-        started++;
-    }
-    worker_main(&ws[0]);
-    for (int i = 1; i < started; i++)
-        pthread_join(tids[i], NULL);
+    int started = run_workers(&j, ws, tids, n);
     /* The calling thread's share: the plan and the set-up as well as its
      * tiles (the other workers' time is all tiles). */
     ws[0].cpu = thread_cpu_seconds() - cpu0;
     pthread_mutex_destroy(&j.progress_lock);
+    lr__pilots_free(&j.pilots);
 
     lr_render_stats sum;
     sum_workers(ws, started, &sum);
