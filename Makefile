@@ -647,7 +647,7 @@ $(BUILD)/python/.figures-ok: $(PY_VENV)/.ok python/figures-requirements.txt
 # The ceiling is plain C on Embree alone, built portably (no -march).
 BENCH_CFLAGS ?= -std=c11 -O2 -g -Wall -Wextra
 .PHONY: bench
-bench: all $(BUILD)/bench/ceiling
+bench: all $(BUILD)/bench/ceiling $(BUILD)/accuracy/imgdiff
 	@$(MAKE) --no-print-directory python || \
 	  echo "bench: the Python package could not be set up; its section will be skipped"
 	sh bench/run.sh $(BUILD)

@@ -19,10 +19,13 @@
 #   5. peak memory;
 #   6. the Python package's scene.render() against the CLI for a one-second
 #      render (bench/python_overhead.py);
-#   7. a real lens: the double Gauss against the thin lens (bench/lens.py);
+#   7. a real lens: the double Gauss against the thin lens (bench/lens.py),
+#      and the planner through it, in focus at f/11 and on the scene built
+#      to fool it (bench/lens_plan.py);
 #   8. the path-traced Cornell box, the box with the bunny, and the box
 #      with a sphere lamp at max depth 64, against Mitsuba llvm_ad_rgb
-#      `path` (bench/path/speed.py);
+#      `path` (bench/path/speed.py); the bench scene's time to relMSE 1e-5
+#      against Mitsuba's samplers (bench/bunny_time.py);
 #   9. the farm: a batch of parts on 1 and 2 daemons behind nginx, and a
 #      frame whole against 16 parts (bench/farm.sh).
 # Raw outputs go to BUILD_DIR/bench/*.log; bench/summary.py prints the table
@@ -32,7 +35,8 @@
 # BENCH_REPEAT (3), BENCH_REF_SPP (1024), BENCH_MI_SPP (llvm timing spp,
 # 64), BENCH_MI_SCALAR_SPP (16), BENCH_PS_ROUNDS (interleaved rounds, 9),
 # BENCH_SKIP_MITSUBA=1, BENCH_SAME_NORMALS=0
-# (skips the diagnostic render), DRJIT_LIBLLVM_PATH.
+# (skips the diagnostic render), BENCH_SKIP_LENS_PLAN=1,
+# BENCH_SKIP_BUNNY_TIME=1, DRJIT_LIBLLVM_PATH.
 set -u
 
 BUILD=${1:-build}
@@ -269,6 +273,21 @@ python3 bench/lens.py "$LENSRAY" "$SCENE" --turns "$((REPEAT + 2))" > "$OUT/lens
     say "the real-lens run failed"
 cat "$OUT/lens.log"
 
+# The planner through the double Gauss (issue 30; bench/lens_plan.py):
+# spheres in focus at f/11 and the scene built to fool the planner, the
+# defaults' error and time to the full simulation's error.
+if [ -x "$BUILD/accuracy/imgdiff" ] && [ "${BENCH_SKIP_LENS_PLAN:-0}" != 1 ]; then
+    quiet lens_plan
+    say "a real lens planned: in focus at f/11 and the fool scene, against the full simulation"
+    rm -f "$OUT/lens_plan.log"
+    for c in focus fool; do
+        python3 bench/lens_plan.py "$LENSRAY" "$BUILD/accuracy/imgdiff" --case $c \
+            --rounds "$((REPEAT + 2))" >> "$OUT/lens_plan.log" ||
+            say "the planned-lens run ($c) failed"
+    done
+    grep '^LENSPLAN' "$OUT/lens_plan.log"
+fi
+
 # ---- 8. path tracing -----------------------------------------------------------
 # The path-traced Cornell box against Mitsuba llvm_ad_rgb `path`: samples per
 # second and time to relative MSE 1e-4 (bench/path/speed.py; reported, not
@@ -299,6 +318,18 @@ else
     echo "PATHSPEED_UNAVAILABLE Mitsuba llvm_ad_rgb is not available" > "$OUT/path.log"
 fi
 cat "$OUT/path.log"
+
+# The bench scene's time to relMSE 1e-5 against Mitsuba's samplers (issue
+# 30; bench/bunny_time.py, references cached in $OUT/bunny-time).
+if [ $mitsuba_ok = 1 ] && [ -n "${DRJIT_LIBLLVM_PATH:-}" ] &&
+   [ "${BENCH_SKIP_BUNNY_TIME:-0}" != 1 ]; then
+    quiet bunny_time
+    say "time to relMSE 1e-5 on the bench scene: lensray against Mitsuba's samplers"
+    "$VENV/bin/python" bench/bunny_time.py --lensray "$LENSRAY" --work "$OUT/bunny-time" \
+        > "$OUT/bunny_time.log" 2> "$OUT/bunny_time.err" ||
+        say "the bunny time-to-error run failed (see $OUT/bunny_time.err)"
+    tail -8 "$OUT/bunny_time.log"
+fi
 
 # ---- 9. the farm ---------------------------------------------------------------
 # A batch of parts on 1 and 2 daemons behind nginx, and a frame whole

@@ -336,6 +336,33 @@ def main():
             checks.append(('real lens loses under 10% of rays on axis, open',
                            le['lost_axis_open'] < 0.10,
                            '%.1f%%' % (100 * le['lost_axis_open'])))
+    # The planner through a real lens (issue 30): bench/lens_plan.py's lines.
+    for l in read(d, 'lens_plan.log'):
+        if l.startswith('LENSPLAN '):
+            f = l.split()
+            case = f[1].split('=')[1]
+            v = {k: float(x) for k, x in (w.split('=') for w in f[2:6])}
+            p('real lens planned, %s: lens sampled on %.0f%% of pixels; planned '
+              'relMSE %.3fx the full simulation\'s, defaults %.3fx; time to the '
+              'full\'s error %.2fx sooner' % (case, 100 * v['lens_pixels'],
+                                               v['plan_err'], v['default_err'],
+                                               v['time_to_error']))
+            if case == 'focus':
+                checks.append(('f/11 in focus: defaults within 1.2x the full '
+                               'simulation\'s relMSE (issue 30)',
+                               v['default_err'] <= 1.2, '%.3f' % v['default_err']))
+                checks.append(('f/11 in focus: the full\'s error 2x sooner (issue 30)',
+                               v['time_to_error'] >= 2.0, '%.2fx' % v['time_to_error']))
+            elif case == 'fool':
+                checks.append(('fool scene: planned within 1.1x the full '
+                               'simulation\'s relMSE (issue 30)',
+                               v['plan_err'] <= 1.1, '%.3f' % v['plan_err']))
+    for l in read(d, 'bunny_time.log'):
+        if l.startswith('lensray defaults against '):
+            r = float(l.split(':')[1].split('x')[0])
+            p('bench scene to relMSE 1e-5: ' + l.strip())
+            checks.append(('bench scene: relMSE 1e-5 8x sooner than Mitsuba\'s best '
+                           'sampler (issue 30)', r >= 8.0, '%.2fx' % r))
     # The path tracer on the Cornell box (issue 13): bench/path/speed.py's
     # summary line, by the wall clock as the rest.
     for l in read(d, 'path.log'):
