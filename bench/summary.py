@@ -366,11 +366,21 @@ def main():
     # The path tracer on the Cornell box (issue 13): bench/path/speed.py's
     # summary line, by the wall clock as the rest.
     for l in read(d, 'path.log'):
-        if l.startswith('PATHSPEED ') and '"scene": "cornell' in l:
+        if l.startswith('PATHSPEED ') and '"scene": "cornell (' in l:
             ps = json.loads(l[len('PATHSPEED '):])
             checks.append(('path, Cornell box: samples/s >= 1.0x Mitsuba (issue 13)',
                            ps['rate_ratio'] >= 1.0, '%.3fx' % ps['rate_ratio']))
             checks.append(('path, Cornell box: >= 2x sooner to relMSE 1e-4 (issue 13)',
+                           ps['time_ratio'] >= 2.0, '%.2fx' % ps['time_ratio']))
+        elif l.startswith('PATHSPEED ') and '"scene": "cornell-sphere' in l:
+            # Full-length paths: max depth 64, roulette from the fifth
+            # bounce (issue 30).
+            ps = json.loads(l[len('PATHSPEED '):])
+            checks.append(('path, sphere-lit box, depth 64: samples/s >= 1.1x '
+                           'Mitsuba (issue 30)',
+                           ps['rate_ratio'] >= 1.1, '%.3fx' % ps['rate_ratio']))
+            checks.append(('path, sphere-lit box, depth 64: >= 2x sooner to relMSE '
+                           '1e-4 (issue 30)',
                            ps['time_ratio'] >= 2.0, '%.2fx' % ps['time_ratio']))
     p('')
     p('targets (%s):' % how)
