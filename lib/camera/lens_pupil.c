@@ -298,25 +298,20 @@ static void pupil_refine(const pupil_job *j, double r, double cell,
     double hi = P->rad + 2.0 * cell;
     double ex[PR_DIRS], ey[PR_DIRS], px[2 * PR_DIRS], py[2 * PR_DIRS];
     double x0 = INFINITY, x1 = -INFINITY, yh = 0.0;
-    double(*pts)[2] = malloc(sizeof *pts * 2 * PR_DIRS * (size_t)j->n_sets);
-    if (pts == NULL)
-        return;
+    /* Every index set's polygon (pupil_job holds at most four sets). */
+    double pts[4 * 2 * PR_DIRS][2];
     int np = 0;
     for (int k = 0; k < j->n_sets; k++) {
         pupil_job j1 = {j->c, {j->nsets[k]}, 1};
-        if (!pupil_edges(&j1, r, P->cx, hi, ex, ey)) {
-            free(pts);
+        if (!pupil_edges(&j1, r, P->cx, hi, ex, ey))
             return;
-        }
         /* The lower half mirrors the upper, in angular order. */
         for (int i = 0; i < PR_HALF; i++) {
             ex[PR_HALF + i] = ex[PR_HALF - 1 - i];
             ey[PR_HALF + i] = -ey[PR_HALF - 1 - i];
         }
-        if (!pupil_polygon(ex, ey, px, py)) {
-            free(pts);
+        if (!pupil_polygon(ex, ey, px, py))
             return;
-        }
         for (int i = 0; i < 2 * PR_DIRS; i++) {
             x0 = fmin(x0, px[i]), x1 = fmax(x1, px[i]);
             yh = fmax(yh, fabs(py[i]));
@@ -334,7 +329,6 @@ static void pupil_refine(const pupil_job *j, double r, double cell,
     for (int i = 0; i < np; i++)
         m = fmax(m, hypot(pts[i][0] - R.cx, pts[i][1]));
     R.rad = m + margin;
-    free(pts);
     /* The grid's outermost passing points (its bounds less their cell)
      * must be inside: a pupil that is not convex can hide its far side
      * from every direction's first crossing and still turn left. */

@@ -2,7 +2,7 @@
  * pilots.h: adaptive sampling's pilots shared between blocks.  A block
  * reads the pilots of a one-pixel apron around it (adaptive.c); inside
  * the region those are pilots of the neighbouring blocks' own pixels, so
- * each was traced twice (at 32-pixel tiles 7.7% of a render's rays
+ * each was traced twice (at 32-pixel tiles 7.4% of a render's rays
  * through a real lens).  Here a pilot on a block's border is traced once,
  * by the first block in the render's order that needs it (its owner, or a
  * neighbour that reads it as apron), and the others wait for it and copy
