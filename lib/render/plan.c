@@ -216,6 +216,57 @@ static unsigned char *dark_geoms(const lr_scene *s, const lr__lt *lt, int *all)
     return d;
 }
 
+/* ---- what mirrors, glass and glossy lobes show ------------------------------
+ *
+ * The bound above is on the depths of what a block's rays meet first.  A
+ * mirror or glass there shows other geometry at other depths: a flat
+ * mirror in focus shows what it faces as far behind the mirror as that
+ * is in front of it, and out of focus (planning it as the mirror's depth
+ * drew those reflections sharp: relMSE 4.1x the full simulation's on
+ * tests/data/scenes/plan-mirror.json, test_plan.c).  So a block that
+ * reaches a mirror or glass is simulated in full.  A glossy lobe of
+ * angular half-width w blurs what it shows over w itself; the lens adds
+ * the angle its aperture subtends at the surface, at most 2 R / Z for
+ * depths Z >= zmin, and where that is under a quarter of w it is hidden
+ * in the lobe's own spread, as a blur under a quarter pixel is in the
+ * pixel (LR__PLAN_BLUR_PX; LOBE_SHARE below). */
+#define LOBE_SHARE 0.25
+
+/* The narrowest angular half-width (radians) of the lobes of m that show
+ * other geometry or lights: 0 for a mirror or glass, rough or not (the
+ * Whitted integrator traces both smooth), a Phong lobe's half maximum
+ * (cos^n theta = 1/2); INFINITY for Lambertian alone. */
+static double lobe_width(const lr__material *m)
+{
+    if (m->pbr_split || v3_maxc(m->reflect) > 0.0 || v3_maxc(m->transmit) > 0.0)
+        return 0.0;
+    if (v3_maxc(m->specular) > 0.0)
+        return m->shininess > 0.0 ? acos(pow(2.0, -1.0 / m->shininess))
+                                  : 0.5 * M_PI;
+    return INFINITY;
+}
+
+/* lobe_width per geometry, then per infinite plane; NULL when out of
+ * memory. */
+static double *lobe_widths(const lr_scene *s)
+{
+    size_t n = s->n_geoms + s->n_planes;
+    double *w = malloc((n + 1) * sizeof *w);
+    for (size_t g = 0; w != NULL && g < n; g++)
+        w[g] = lobe_width(
+            &s->materials[lr__plan_geom_or_plane(s, g)->material]);
+    return w;
+}
+
+/* Whether a block whose rays reach lobes as narrow as `lobe` at depths
+ * from zmin must be simulated in full (above); R is the lens's radius. */
+static int lobe_needs_lens(double lobe, double R, double zmin)
+{
+    if (!(lobe < INFINITY))
+        return 0;
+    return !(lobe > 0.0) || 2.0 * R / fmax(zmin, NEAR) >= LOBE_SHARE * lobe;
+}
+
 /* Where no colour's blur can reach a quarter pixel, the block needs no
  * lens (unless `dither`: wherever it reaches anything); where the
  * colours' blurs differ by less, one ray for all. */
@@ -236,9 +287,12 @@ static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
         L.n_w = 1;
     }
 
-    boxset *set = lr__plan_get_boxes(s, &L);
-    if (set == NULL)
+    double *lobes = lobe_widths(s);
+    boxset *set = lobes != NULL ? lr__plan_get_boxes(s, &L) : NULL;
+    if (set == NULL) {
+        free(lobes);
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    }
     const box *boxes = set->boxes;
     size_t n_boxes = set->n;
 
@@ -264,7 +318,7 @@ static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
                 }
                 u0 = uv[0], u1 = uv[1], v0 = uv[2], v1 = uv[3];
             }
-            double zmin = INFINITY, zmax = 0.0;
+            double zmin = INFINITY, zmax = 0.0, lobe = INFINITY;
             /* Whether anything in reach gives camera paths light (with
              * no `dark`, anything counts). */
             int lit = dark == NULL;
@@ -277,7 +331,8 @@ static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
                  * (box_reached only grows with the box): skip it, and
                  * its pieces, unless it may be the first lit one.  A cut
                  * triangle's box in reach only leads to its pieces. */
-                if ((z0 >= zmin && b->z1 <= zmax && (lit || !b_lit)) ||
+                if ((z0 >= zmin && b->z1 <= zmax && (lit || !b_lit) &&
+                     lobes[b->geom] >= lobe) ||
                     !lr__plan_box_reached(&L, b, u0, u1, v0, v1)) {
                     i += b->skip;
                     continue;
@@ -285,6 +340,7 @@ static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
                 if (b->skip > 0)
                     continue;
                 lit |= b_lit;
+                lobe = fmin(lobe, lobes[b->geom]);
                 if (z0 < zmin)
                     zmin = z0;
                 if (b->z1 > zmax)
@@ -305,9 +361,13 @@ static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
                 }
                 /* plane_reached also finds a plane that only the lens's
                  * spread reaches (beyond its horizon in the block). */
-                if (!lit && !dark[s->n_geoms + i] &&
-                    lr__plan_plane_reached(&L, &s->planes[i], u0, u1, v0, v1))
-                    lit = 1;
+                if ((!lit && !dark[s->n_geoms + i]) ||
+                    lobes[s->n_geoms + i] < lobe)
+                    if (lr__plan_plane_reached(&L, &s->planes[i], u0, u1, v0,
+                                               v1)) {
+                        lit |= dark == NULL || !dark[s->n_geoms + i];
+                        lobe = fmin(lobe, lobes[s->n_geoms + i]);
+                    }
                 if (z0 < zmin)
                     zmin = z0;
                 if (z1 > zmax)
@@ -327,6 +387,19 @@ static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
                  * changes. */
                 bp->lens = 0;
                 bp->chroma = 0;
+                continue;
+            }
+            if (lobe_needs_lens(lobe, L.R, zmin)) {
+                /* A mirror, glass or narrow lobe shows other depths: the
+                 * lens, and the colours wherever they can focus apart at
+                 * some depth (a thin lens's blur diameters differ by at
+                 * most their focus powers' difference at any depth). */
+                bp->lens = 1;
+                bp->chroma = lb != NULL
+                                 ? c->chroma_active
+                                 : L.n_w > 1 && lr__plan_chroma_spread(
+                                                    &L, 0.0, 1.0 / NEAR) >=
+                                                    LR__PLAN_BLUR_PX;
                 continue;
             }
             if (lb != NULL) {
@@ -351,6 +424,7 @@ static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
                                           LR__PLAN_BLUR_PX;
         }
     lr__plan_put_boxes(s, set);
+    free(lobes);
     return LR_OK;
 }
 
