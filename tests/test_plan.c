@@ -117,6 +117,42 @@ static void test_mirror_shows_other_depths(void **state)
     guarantee(mirror_scene, "mirror in focus");
 }
 
+/* But a lobe far wider than the angle the lens subtends hides the lens:
+ * a rough metal card on the focal plane under the path tracer keeps the
+ * plan (no lens sampled), the same card smooth, or under Whitted (which
+ * traces mirrors smooth), samples it everywhere it is seen. */
+static void test_rough_lobes_keep_the_plan(void **state)
+{
+    (void)state;
+    const char *fmt =
+        "{\"render\": {\"width\": 32, \"height\": 24, \"spp\": 4,"
+        "  \"adaptive\": false, \"integrator\": \"%s\"},"
+        " \"camera\": {\"model\": \"thinlens\", \"aperture_radius\": 0.01,"
+        "  \"focus_distance\": 5, \"fov\": 20},"
+        " \"materials\": {\"m\": {\"diffuse\": 0.2, \"reflect\": 0.7,"
+        "  \"roughness\": %g}},"
+        " \"lights\": [{\"type\": \"ambient\", \"radiance\": 1}],"
+        " \"objects\": [{\"type\": \"plane\", \"point\": [0, 0, -5],"
+        "  \"normal\": [0, 0, 1], \"size\": 4, \"material\": \"m\"}]}";
+    struct {
+        const char *integrator;
+        double roughness;
+        int lens_everywhere;
+    } cases[] = {{"path", 0.3, 0}, {"path", 0.0, 1}, {"whitted", 0.3, 1}};
+    for (int i = 0; i < 3; i++) {
+        char json[1024];
+        snprintf(json, sizeof json, fmt, cases[i].integrator,
+                 cases[i].roughness);
+        lr_render_stats st;
+        lr_image *img = lr_test_render(json, NULL, 0, &st);
+        if (cases[i].lens_everywhere)
+            assert_int_equal(st.lens_pixels, st.pixels);
+        else
+            assert_int_equal(st.lens_pixels, 0);
+        lr_image_free(img);
+    }
+}
+
 /* The planner does skip work where nothing is blurred: the sky, and a
  * scene whose only object sits on the focal plane far from the lens. */
 /* Spectral aberration through SF11 glass: the violet halos of bars are
@@ -454,6 +490,7 @@ static const struct CMUnitTest plan_tests[] = {
     cmocka_unit_test(test_chromatic_rim),
     cmocka_unit_test(test_spectral_halos),
     cmocka_unit_test(test_mirror_shows_other_depths),
+    cmocka_unit_test(test_rough_lobes_keep_the_plan),
     cmocka_unit_test(test_plan_skips_what_it_can),
     cmocka_unit_test(test_adaptive_deterministic),
     cmocka_unit_test(test_adaptive_error),

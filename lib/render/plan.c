@@ -47,7 +47,7 @@ static void finish(lr__plan *p, const lr__cam *c, const lr_render_settings *set)
 }
 
 static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
-                           const lr__lens_blur *lb, int dither,
+                           const lr__lens_blur *lb, int dither, int rough,
                            const unsigned char *dark, int x0, int y0, int x1,
                            int y1, lr_error *err);
 static unsigned char *dark_geoms(const lr_scene *s, const lr__lt *lt, int *all);
@@ -150,8 +150,11 @@ lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
          * wherever there is something to blur; planning alone stays as
          * it was, the fastest choice at its own error. */
         int dither = set->adaptive && lr__sampler_fixed_positions(set->sampler);
-        lr_status st = plan_blur(p, s, c, lb, dither, dark, gx0, gy0, gx1, gy1,
-                                 err);
+        /* Whitted's mirrors and glass are smooth; the other
+         * integrators' are GGX lobes of their roughness (bsdf.c). */
+        int rough = set->integrator != LR_INTEGRATOR_WHITTED;
+        lr_status st = plan_blur(p, s, c, lb, dither, rough, dark, gx0, gy0,
+                                 gx1, gy1, err);
         if (st != LR_OK) {
             free(dark);
             lr__plan_free(p);
@@ -233,28 +236,32 @@ static unsigned char *dark_geoms(const lr_scene *s, const lr__lt *lt, int *all)
 #define LOBE_SHARE 0.25
 
 /* The narrowest angular half-width (radians) of the lobes of m that show
- * other geometry or lights: 0 for a mirror or glass, rough or not (the
- * Whitted integrator traces both smooth), a Phong lobe's half maximum
- * (cos^n theta = 1/2); INFINITY for Lambertian alone. */
-static double lobe_width(const lr__material *m)
+ * other geometry or lights; INFINITY for Lambertian alone.  A Phong
+ * lobe's is its half maximum (cos^n theta = 1/2).  A mirror's or glass's
+ * is 0 where the integrator traces them smooth (`rough` 0: Whitted's),
+ * or a texture can bring its roughness to 0; else its GGX alpha (bsdf.c:
+ * the microfacet density falls to half at a half-vector 0.64 alpha from
+ * the normal, which turns the reflected ray twice as far). */
+static double lobe_width(const lr__material *m, int rough)
 {
-    if (m->pbr_split || v3_maxc(m->reflect) > 0.0 || v3_maxc(m->transmit) > 0.0)
-        return 0.0;
+    double w = INFINITY;
     if (v3_maxc(m->specular) > 0.0)
-        return m->shininess > 0.0 ? acos(pow(2.0, -1.0 / m->shininess))
-                                  : 0.5 * M_PI;
-    return INFINITY;
+        w = m->shininess > 0.0 ? acos(pow(2.0, -1.0 / m->shininess))
+                               : 0.5 * M_PI;
+    if (m->pbr_split || v3_maxc(m->reflect) > 0.0 || v3_maxc(m->transmit) > 0.0)
+        w = fmin(w, rough && m->roughness_tex == NULL ? m->roughness : 0.0);
+    return w;
 }
 
 /* lobe_width per geometry, then per infinite plane; NULL when out of
  * memory. */
-static double *lobe_widths(const lr_scene *s)
+static double *lobe_widths(const lr_scene *s, int rough)
 {
     size_t n = s->n_geoms + s->n_planes;
     double *w = malloc((n + 1) * sizeof *w);
     for (size_t g = 0; w != NULL && g < n; g++)
-        w[g] = lobe_width(
-            &s->materials[lr__plan_geom_or_plane(s, g)->material]);
+        w[g] = lobe_width(&s->materials[lr__plan_geom_or_plane(s, g)->material],
+                          rough);
     return w;
 }
 
@@ -267,11 +274,45 @@ static int lobe_needs_lens(double lobe, double R, double zmin)
     return !(lobe > 0.0) || 2.0 * R / fmax(zmin, NEAR) >= LOBE_SHARE * lobe;
 }
 
+/* The infinite planes' part of a block's reach (plan_blur, rectangle
+ * [u0, u1] x [v0, v1]): their depths into [*zmin, *zmax], and whether one
+ * in reach gives light (*lit) and its lobes (*lobe), as the boxes'. */
+static void planes_reach(const lr_scene *s, const lens *L,
+                         const unsigned char *dark, const double *lobes,
+                         double u0, double u1, double v0, double v1,
+                         double *zmin, double *zmax, int *lit, double *lobe)
+{
+    for (size_t i = 0; i < s->n_planes; i++) {
+        double z0, z1;
+        if (!lr__plan_plane_range(L, &s->planes[i], u0, u1, v0, v1, &z0, &z1))
+            z0 = INFINITY, z1 = 0.0;
+        /* Grow the rectangle by the spread at those depths (twice,
+         * since the growth can reveal nearer parts). */
+        for (int it = 0; it < 2 && isfinite(z0); it++) {
+            double g = lr__plan_spread(L, z0, z1) * 1.01 + 1e-9;
+            if (!lr__plan_plane_range(L, &s->planes[i], u0 - g, u1 + g, v0 - g,
+                                      v1 + g, &z0, &z1))
+                z0 = INFINITY, z1 = 0.0;
+        }
+        /* plane_reached also finds a plane that only the lens's
+         * spread reaches (beyond its horizon in the block). */
+        if ((!*lit && !dark[s->n_geoms + i]) || lobes[s->n_geoms + i] < *lobe)
+            if (lr__plan_plane_reached(L, &s->planes[i], u0, u1, v0, v1)) {
+                *lit |= dark == NULL || !dark[s->n_geoms + i];
+                *lobe = fmin(*lobe, lobes[s->n_geoms + i]);
+            }
+        if (z0 < *zmin)
+            *zmin = z0;
+        if (z1 > *zmax)
+            *zmax = z1;
+    }
+}
+
 /* Where no colour's blur can reach a quarter pixel, the block needs no
  * lens (unless `dither`: wherever it reaches anything); where the
  * colours' blurs differ by less, one ray for all. */
 static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
-                           const lr__lens_blur *lb, int dither,
+                           const lr__lens_blur *lb, int dither, int rough,
                            const unsigned char *dark, int x0, int y0, int x1,
                            int y1, lr_error *err)
 {
@@ -287,7 +328,7 @@ static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
         L.n_w = 1;
     }
 
-    double *lobes = lobe_widths(s);
+    double *lobes = lobe_widths(s, rough);
     boxset *set = lobes != NULL ? lr__plan_get_boxes(s, &L) : NULL;
     if (set == NULL) {
         free(lobes);
@@ -346,33 +387,8 @@ static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
                 if (b->z1 > zmax)
                     zmax = b->z1;
             }
-            for (size_t i = 0; i < s->n_planes; i++) {
-                double z0, z1;
-                if (!lr__plan_plane_range(&L, &s->planes[i], u0, u1, v0, v1,
-                                          &z0, &z1))
-                    z0 = INFINITY, z1 = 0.0;
-                /* Grow the rectangle by the spread at those depths (twice,
-                 * since the growth can reveal nearer parts). */
-                for (int it = 0; it < 2 && isfinite(z0); it++) {
-                    double g = lr__plan_spread(&L, z0, z1) * 1.01 + 1e-9;
-                    if (!lr__plan_plane_range(&L, &s->planes[i], u0 - g, u1 + g,
-                                              v0 - g, v1 + g, &z0, &z1))
-                        z0 = INFINITY, z1 = 0.0;
-                }
-                /* plane_reached also finds a plane that only the lens's
-                 * spread reaches (beyond its horizon in the block). */
-                if ((!lit && !dark[s->n_geoms + i]) ||
-                    lobes[s->n_geoms + i] < lobe)
-                    if (lr__plan_plane_reached(&L, &s->planes[i], u0, u1, v0,
-                                               v1)) {
-                        lit |= dark == NULL || !dark[s->n_geoms + i];
-                        lobe = fmin(lobe, lobes[s->n_geoms + i]);
-                    }
-                if (z0 < zmin)
-                    zmin = z0;
-                if (z1 > zmax)
-                    zmax = z1;
-            }
+            planes_reach(s, &L, dark, lobes, u0, u1, v0, v1, &zmin, &zmax, &lit,
+                         &lobe);
             bp->dark = !lit;
             /* An environment map is light at infinite depth that any
              * ray may escape to, and the lens blurs it like anything
