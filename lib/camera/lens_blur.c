@@ -316,7 +316,6 @@ static int no_pole(const line *j, double xm)
     return (a > 0.0 && b > 0.0) || (a < 0.0 && b < 0.0);
 }
 
-/* The table's rows for film radius k from its rays. */
 /* The grid's inverse depths: x_max (j / NX)^2, finest near infinity
  * (x = 0), where most scenes put their focus (1/16 m is cell 28 of 256
  * for the double Gauss, cells 4.4e-6 / mm apart there). */
@@ -326,33 +325,61 @@ static double grid_x(const lr__lens_blur *t, int j)
     return t->x_max * f * f;
 }
 
-static void fill_row(lr__lens_blur *t, int k, const ray_set *rs, const line *ch,
-                     const line *jr, const line *jt)
+/* The table's rows for film radius k from its rays: at every grid
+ * point j the largest distance of a ray from the chief ray's point, and
+ * of a colour from the reference's.  The loop runs over the rays outside
+ * and the grid points inside, which the compiler vectorises (the other
+ * way round, a reduction, it did not: the double Gauss's set-up at f/11,
+ * pupil and blur tables, fell from 98.6 to 88.2 ms); each grid point
+ * still takes its maximum over the rays in the same order, so the table
+ * has the same bits. */
+__attribute__((target_clones("avx512f", "avx2", "default"))) static void
+fill_row(lr__lens_blur *t, int k, const ray_set *rs, const line *ch,
+         const line *jr, const line *jt)
 {
-    for (int j = 0; j <= NX; j++) {
-        double x = grid_x(t, j);
-        double ir = 1.0 / (jr->sx + jr->px * x),
-               it = 1.0 / (jt->sx + jt->px * x);
-        double c0x = ch->sx + ch->px * x, c0y = ch->sy + ch->py * x;
-        double sr = 0.0, st = 0.0, cr = 0.0, ct = 0.0;
-        for (int c = 0; c < rs->ncol; c++)
-            for (int i = 0; i < rs->nq; i++) {
-                int at = c * rs->nq + i;
-                if (!rs->ok[at])
-                    continue;
-                const line *l = &rs->l[at];
-                double X = l->sx + l->px * x, Y = l->sy + l->py * x;
-                sr = MAX(sr, fabs((X - c0x) * ir));
-                st = MAX(st, fabs((Y - c0y) * it));
-                if (c > 0 && rs->ok[i]) {
-                    const line *r0 = &rs->l[i];
-                    double X0 = r0->sx + r0->px * x, Y0 = r0->sy + r0->py * x;
-                    cr = MAX(cr, fabs((X - X0) * ir));
-                    ct = MAX(ct, fabs((Y - Y0) * it));
-                }
+    /* NP: the grid padded to whole vectors (GCC's cost model at -O2
+     * vectorises no loop that needs a remainder); the points past NX
+     * are computed and never read. */
+    enum { NP = (NX + 1 + 7) / 8 * 8 };
+    double x[NP], ir[NP], it[NP], c0x[NP], c0y[NP];
+    double sr[NP], st[NP], cr[NP], ct[NP];
+    for (int j = 0; j < NP; j++) {
+        x[j] = grid_x(t, j);
+        ir[j] = 1.0 / (jr->sx + jr->px * x[j]);
+        it[j] = 1.0 / (jt->sx + jt->px * x[j]);
+        c0x[j] = ch->sx + ch->px * x[j], c0y[j] = ch->sy + ch->py * x[j];
+        sr[j] = st[j] = cr[j] = ct[j] = 0.0;
+    }
+    for (int c = 0; c < rs->ncol; c++)
+        for (int i = 0; i < rs->nq; i++) {
+            int at = c * rs->nq + i;
+            if (!rs->ok[at])
+                continue;
+            const double lsx = rs->l[at].sx, lpx = rs->l[at].px;
+            const double lsy = rs->l[at].sy, lpy = rs->l[at].py;
+            for (int j = 0; j < NP; j++) {
+                double X = lsx + lpx * x[j], Y = lsy + lpy * x[j];
+                double a = fabs((X - c0x[j]) * ir[j]);
+                double b = fabs((Y - c0y[j]) * it[j]);
+                sr[j] = MAX(sr[j], a);
+                st[j] = MAX(st[j], b);
             }
-        t->sr[k][j] = (float)sr, t->st[k][j] = (float)st;
-        t->cr[k][j] = (float)cr, t->ct[k][j] = (float)ct;
+            if (c == 0 || !rs->ok[i])
+                continue;
+            const double rsx = rs->l[i].sx, rpx = rs->l[i].px;
+            const double rsy = rs->l[i].sy, rpy = rs->l[i].py;
+            for (int j = 0; j < NP; j++) {
+                double X = lsx + lpx * x[j], Y = lsy + lpy * x[j];
+                double X0 = rsx + rpx * x[j], Y0 = rsy + rpy * x[j];
+                double a = fabs((X - X0) * ir[j]);
+                double b = fabs((Y - Y0) * it[j]);
+                cr[j] = MAX(cr[j], a);
+                ct[j] = MAX(ct[j], b);
+            }
+        }
+    for (int j = 0; j <= NX; j++) {
+        t->sr[k][j] = (float)sr[j], t->st[k][j] = (float)st[j];
+        t->cr[k][j] = (float)cr[j], t->ct[k][j] = (float)ct[j];
     }
 }
 
