@@ -384,6 +384,15 @@ typedef struct lr__lens_blur lr__lens_blur;
  * is full (the plan then samples the lens everywhere). */
 const lr__lens_blur *lr__lens_blur_get(const lr__cam *c);
 
+/* Whether a block over the film rectangle [fx0, fx1] x [fy0, fy1]
+ * (pixels) may trace chief rays for the lens at all: the table has a
+ * chief ray at every radius it spans and its weight interpolates there
+ * (lens_blur.c, weights_hold).  lr__lens_blur_bound checks it too; a
+ * block that sees only the background, which no blur changes, needs
+ * this alone. */
+int lr__lens_blur_chief_ok(const lr__cam *c, const lr__lens_blur *b, double fx0,
+                           double fy0, double fx1, double fy1);
+
 /* Over the film rectangle [fx0, fx1] x [fy0, fy1] (pixels) and the depths
  * [z0, z1] from the sensor along the view axis (z1 may be infinite): a
  * bound in pixels on the spot (*spot: how far a sample of the lens, of

@@ -406,8 +406,10 @@ static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
             }
             if (!(zmin <= zmax)) {
                 /* Nothing reachable: only the background, which no blur
-                 * changes. */
-                bp->lens = 0;
+                 * changes; but a real lens's chief rays stand for its
+                 * pupil's weight only where its table has them. */
+                bp->lens = lb != NULL &&
+                           !lr__lens_blur_chief_ok(c, lb, px0, py0, fx1, fy1);
                 bp->chroma = 0;
                 continue;
             }
