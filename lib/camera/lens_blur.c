@@ -264,6 +264,22 @@ static int passing_box(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
     return any;
 }
 
+/* The mean of lens_start's weight (area cos^4 / Z^2 / E0, times T) over
+ * the domain at film radius r: the integral of cos^4 T / Z^2 / E0 over
+ * `box`, where rays pass (the area cancels).  -1: out of memory. */
+static double mean_weight(const lr__cam *c, const double *n, double r,
+                          const lr__pupil *P, const double *box)
+{
+    const lr__lens_cam *lc = &c->lens;
+    double hx, hy;
+    double wsum = lr__lens_chief_weight_sum(c, n, r, P, domain(P, &hx, &hy),
+                                            box);
+    if (wsum < 0.0)
+        return -1.0;
+    double dz = lc->z_rear - lc->z_sensor;
+    return wsum / (dz * dz) * lc->inv_E0;
+}
+
 /* One film radius's rays, chief lines and weight.  0: no bound there. */
 static int radius_rays(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
                        int ncol, double r, double h, ray_set *rs, line *chief,
@@ -279,7 +295,7 @@ static int radius_rays(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
     int nq, grid = pupil_points(&P, box, q, &nq);
     rs->nq = nq;
     rs->ncol = ncol;
-    double T0, wsum;
+    double T0;
     if (!trace_line(c, nsets[0], &lc->t_ref, r, P.cx, 0.0, chief, &T0, NULL) ||
         !(T0 > 0.0))
         return 0;
@@ -297,38 +313,27 @@ static int radius_rays(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
     for (int k = 0; k < ncol; k++)
         trace_lines16(c, nsets[k], r, q, nq, rs->l + k * nq, rs->ok + k * nq);
     (void)grid;
-    /* The mean of lens_start's weight (area cos^4 / Z^2 / E0, times T)
-     * over the domain is the integral of cos^4 T / Z^2 / E0 over where
-     * rays pass (the area cancels), per unit of the chief ray's own T
-     * (the packet trace multiplies that in). */
-    double hxw, hyw;
-    wsum = lr__lens_chief_weight_sum(c, nsets[0], r, &P, domain(&P, &hxw, &hyw),
-                                     box);
-    if (wsum < 0.0)
+    double mean = mean_weight(c, nsets[0], r, &P, box);
+    if (mean < 0.0)
         return 0; /* out of memory: no bound here */
-    double dz = lc->z_rear - lc->z_sensor;
-    double mean = wsum / (dz * dz) * lc->inv_E0;
+    /* Per unit of the chief ray's own T, which the trace multiplies in. */
     *chief_w = (float)(mean / T0);
     return 1;
 }
 
-/* Where the lens cuts the pupil down fast (the edge of its image
- * circle, a sensor wider than it) the pupil's mean weight bends between
- * the table's radii, and the chief ray that stands for the pupil in a
- * skipped block can be stopped while a sliver still passes: linear
- * interpolation there darkened a band of pixels to 0 to 0.97 of the full
- * simulation (a 16 mm lens on a 44 mm sensor).  So each interval is
- * checked at its middle: the weight a skipped block gives there (the
- * interpolated chief weight times the chief ray's transmittance) against
- * the pupil's mean weight traced there, within W_TOL of it; where not,
- * the bound has no say over that interval. */
+/* Where the lens cuts the pupil down fast (the edge of its image circle,
+ * on a wider sensor) the mean weight bends between the table's radii and
+ * a sliver may pass where the chief ray is stopped: skipped blocks there
+ * were 0 to 0.97 of the full simulation (a 16 mm lens, 44 mm sensor).  So
+ * each interval is checked at its middle: a skipped block's weight there
+ * (interpolated chief weight times the chief ray's T) against the mean
+ * traced there, within W_TOL; where not, the bound has no say. */
 #define W_TOL 3e-3
 
 static void weights_hold(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
                          int ncol, lr__lens_blur *t)
 {
     const lr__lens_cam *lc = &c->lens;
-    double dz = lc->z_rear - lc->z_sensor;
     for (int k = 0; k < NR; k++) {
         t->w_ok[k] = 0;
         if (!t->ok[k] || !t->ok[k + 1])
@@ -336,16 +341,15 @@ static void weights_hold(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
         double r = lc->pupil_rmax * (k + 0.5) / NR;
         lr__pupil P = lr__lens_pupil_at(lc, r);
         double hx, hy, box[4], T0;
-        int disk = domain(&P, &hx, &hy);
+        domain(&P, &hx, &hy);
         line chief;
         if (!(hx * hy > 0.0) || !passing_box(c, nsets, ncol, r, &P, box) ||
             !trace_line(c, nsets[0], &lc->t_ref, r, P.cx, 0.0, &chief, &T0,
                         NULL))
             continue;
-        double wsum = lr__lens_chief_weight_sum(c, nsets[0], r, &P, disk, box);
-        if (wsum < 0.0)
+        double mean = mean_weight(c, nsets[0], r, &P, box);
+        if (mean < 0.0)
             continue;
-        double mean = wsum / (dz * dz) * lc->inv_E0;
         double planned = lr__lens_blur_chief_w(t, k, 0.5f) * T0;
         t->w_ok[k] = fabs(planned - mean) <= W_TOL * mean;
     }
@@ -578,6 +582,16 @@ static void radii(const lr__cam *c, double rlo, double rhi, int *k0, int *k1)
     *k1 = *k1 > NR ? NR : *k1;
 }
 
+/* Whether the table has a chief ray at radii k0 to k1 and its weight
+ * holds between them (lr__lens_blur_chief_ok). */
+static int radii_hold(const lr__lens_blur *b, int k0, int k1)
+{
+    for (int k = k0; k <= k1; k++)
+        if (!b->ok[k] || (k < k1 && !b->w_ok[k]))
+            return 0;
+    return 1;
+}
+
 int lr__lens_blur_chief_ok(const lr__cam *c, const lr__lens_blur *b, double fx0,
                            double fy0, double fx1, double fy1)
 {
@@ -585,10 +599,7 @@ int lr__lens_blur_chief_ok(const lr__cam *c, const lr__lens_blur *b, double fx0,
     rect_mm(c, fx0, fy0, fx1, fy1, x, y, &rlo, &rhi);
     int k0, k1;
     radii(c, rlo, rhi, &k0, &k1);
-    for (int k = k0; k <= k1; k++)
-        if (!b->ok[k] || (k < k1 && !b->w_ok[k]))
-            return 0;
-    return 1;
+    return radii_hold(b, k0, k1);
 }
 
 int lr__lens_blur_bound(const lr__cam *c, const lr__lens_blur *b, double fx0,
@@ -608,7 +619,7 @@ int lr__lens_blur_bound(const lr__cam *c, const lr__lens_blur *b, double fx0,
     int k0, k1;
     radii(c, rlo, rhi, &k0, &k1);
     double s = 0.0, col = 0.0;
-    if (!lr__lens_blur_chief_ok(c, b, fx0, fy0, fx1, fy1))
+    if (!radii_hold(b, k0, k1))
         return 0;
     for (int k = k0; k <= k1; k++) {
         double sr = 0.0, st = 0.0, cr = 0.0, ct = 0.0;
