@@ -137,6 +137,14 @@ typedef struct lr__camera_model {
                      const float (*fx)[16], const float (*fy)[16],
                      const float (*lu)[16], const float (*lv)[16],
                      struct RTCRayHit16 *rh, float (*wt)[16]);
+    /* rgb mode, where the plan traces one ray at c->nm_ref for every
+     * channel (a packet block of a camera with colours): per channel,
+     * the factor on each of lanes 0..n-1's weights that gives that
+     * channel's share of the light (a real lens's glass and coating
+     * pass each its own: lens_blur.c's shares); NULL for models whose
+     * channels share one weight. */
+    void (*colour_w16)(const lr__cam *c, int n, const float *fx,
+                       const float *fy, float (*k)[16]);
     /* Spectral mode: rays16 through the lens with a focus power of each
      * lane's own, w[i] (lanes at different wavelengths); NULL when the
      * model has none, and its spectral samples take `ray` one by one. */
@@ -414,6 +422,11 @@ void lr__lens_blur_reach(const lr__cam *c, const lr__lens_blur *b, double fx0,
 /* The chief ray's weight at film radius r mm (the pupil's mean sample
  * weight over the chief ray's transmittance), for the packet rays. */
 float lr__lens_blur_chief_w(const lr__lens_blur *b, int k, float f);
+/* Each rgb channel's share over the reference's of the pupil's mean
+ * sample weight (s[3]; 1 without colours), at the same place as
+ * lr__lens_blur_chief_w: interval k of the pupil table's film radii, f
+ * along it. */
+void lr__lens_blur_share(const lr__lens_blur *b, int k, float f, float s[3]);
 
 /* camera_lens.c's indices at wavelength nm (chromatic.amplify applied),
  * for lens_blur.c and the lens model's files. */

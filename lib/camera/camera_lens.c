@@ -555,6 +555,31 @@ static void lens_rays16(const lr__cam *c, int use_lens, int n, const float *fx,
                   (const float(*)[16])lv, rh, (float(*)[16])wt);
 }
 
+/* The model's colour_w16: at each lane's film radius, the blur table's
+ * shares (the channels' pupil mean weights over the reference's, which
+ * the packet's ray carries).  A share is a mean over the pupil, where a
+ * ray of each colour would carry its own transmittance and vignetting:
+ * the expected pixel is right wherever the light reaching the pupil is
+ * uniform (in focus, or background: a chief-ray block's), and where a
+ * lens block's light varies across the pupil the colours' T differ from
+ * their mean by a small fraction of itself (docs/plan-lens.md). */
+static void lens_colour_w16(const lr__cam *c, int n, const float *fx,
+                            const float *fy, float (*k)[16])
+{
+    const lr__lens_cam *lc = &c->lens;
+    const lr__lens_blur *bl = __atomic_load_n(&lc->blur, __ATOMIC_ACQUIRE);
+    const float iw = (float)(1.0 / c->width), ih = (float)(1.0 / c->height);
+    const float sw = (float)lc->sensor_w, sh = (float)lc->sensor_h;
+    const float kr = (float)(LR__PUPIL_N / lc->pupil_rmax);
+    for (int i = 0; i < 16; i++) {
+        float xs, ys, r, f, s[3] = {1.0f, 1.0f, 1.0f};
+        int b = film_band(fx[i], fy[i], iw, ih, sw, sh, kr, &xs, &ys, &r, &f);
+        if (bl != NULL && i < n)
+            lr__lens_blur_share(bl, b, f, s);
+        k[0][i] = s[0], k[1][i] = s[1], k[2][i] = s[2];
+    }
+}
+
 /* The ray from the film point through the middle of its exit-pupil
  * bounds (the stop's centre, near enough, for depth and autofocus); the
  * frame's pinhole ray where that is blocked. */
@@ -602,6 +627,7 @@ const lr__camera_model lr__camera_lens = {
     .ray = lens_ray,
     .rays16 = lens_rays16,
     .rays16_n = lens_rays16_n,
+    .colour_w16 = lens_colour_w16,
     .chief = lens_chief,
     .focus_at = focus_at,
     .bound = NULL,

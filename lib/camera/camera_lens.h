@@ -97,11 +97,23 @@ int lr__lens_chief_traced(const lr__cam *c, double r, double o[3], double d[3],
 /* The integral of cos^4 T over where rays from film radius r pass, over
  * the pupil bounds P's sampling domain (the disk when use_disk) within
  * box (offsets from (cx, 0): a0, a1, b0, b1), on an LR__CHIEF_GW grid
- * (lens_blur.c's chief weight); -1 when out of memory. */
+ * (lens_blur.c's chief weight), traced with indices n and T from `tab`
+ * (the table of those indices); -1 when out of memory. */
 #define LR__CHIEF_GW 96
-double lr__lens_chief_weight_sum(const lr__cam *c, const double *n, double r,
+double lr__lens_chief_weight_sum(const lr__cam *c, const double *n,
+                                 const lr__ttab *tab, double r,
                                  const lr__pupil *P, int use_disk,
                                  const double *box);
+/* The mean of lens_start's weight (area cos^4 / Z^2 / E0, times T) over
+ * that domain and box: the weight sum over Z^2 E0 (the area cancels);
+ * -1 when out of memory. */
+double lr__lens_pupil_mean(const lr__cam *c, const double *n,
+                           const lr__ttab *tab, double r, const lr__pupil *P,
+                           int use_disk, const double *box);
+/* The same mean for each rgb channel, traced at the channel's indices
+ * with its table (rgb mode: t_rgb_ok); 0 when out of memory. */
+int lr__lens_colour_means(const lr__cam *c, double r, const lr__pupil *P,
+                          int use_disk, const double *box, double mean[3]);
 /* The blur table's chief-ray table (lens_blur.c). */
 const lr__lens_chief *lr__lens_blur_chief(const lr__lens_blur *b);
 

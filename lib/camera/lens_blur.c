@@ -33,7 +33,7 @@
  * points, depths and pupil points on every shipped and test lens and
  * checks it against the bound.
  */
-#include "camera/camera_lens.h"
+#include "camera/lens_blur.h"
 #include "optics/lens_load.h"
 
 #include <math.h>
@@ -41,39 +41,13 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define NR LR__PUPIL_N /* film radii: the pupil table's */
-#define NX 256         /* cells of inverse depth */
-#define G 32           /* pupil grid side, for the spot */
+#define G 32 /* pupil grid side, for the spot */
 /* (the chief ray's weight: LR__CHIEF_GW, lens_chief.c) */
 #define RIM 64    /* points on the pupil bounds' rim */
 #define MAX_COL 6 /* the reference and up to 5 wavelengths */
-/* The bound's margin over the sampled table (docs/plan-lens.md measures
- * how much of it the real spot uses). */
-#define MARGIN 1.25
-#define MARGIN_MM 2e-4
 /* fmax without its NaN rules (the table's values are finite), which
  * GCC inlines. */
 #define MAX(a, b) ((a) > (b) ? (a) : (b))
-#define MAX_SLOPE 3.0 /* tan 72 degrees */
-
-struct lr__lens_blur {
-    double key[9];
-    double x_max; /* 1/mm: the grid's inverse depths are [0, x_max] */
-    double reach; /* mm: the largest |p| of any traced ray */
-    int ok[NR + 1];
-    /* Per interval [k, k + 1] of radii: 1 where the chief weight's
-     * interpolation holds at its middle (weights_hold). */
-    unsigned char w_ok[NR];
-    /* Per film radius, the traced rays' slopes: radial in [slo, shi],
-     * tangential within +-sta. */
-    double slo[NR + 1], shi[NR + 1], sta[NR + 1];
-    float chief_w[NR + 1];
-    /* Spot and colour spread, radial and tangential, film mm. */
-    float sr[NR + 1][NX + 1], st[NR + 1][NX + 1];
-    float cr[NR + 1][NX + 1], ct[NR + 1][NX + 1];
-    /* The skipped blocks' chief rays (lens_chief.c). */
-    lr__lens_chief chief;
-};
 
 /* A ray out of the front: point on the image plane s + p x. */
 typedef struct line {
@@ -264,26 +238,31 @@ static int passing_box(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
     return any;
 }
 
-/* The mean of lens_start's weight (area cos^4 / Z^2 / E0, times T) over
- * the domain at film radius r: the integral of cos^4 T / Z^2 / E0 over
- * `box`, where rays pass (the area cancels).  -1: out of memory. */
-static double mean_weight(const lr__cam *c, const double *n, double r,
-                          const lr__pupil *P, const double *box)
+/* The pupil's mean sample weight at film radius r over `box`
+ * (lr__lens_pupil_mean) at the reference wavelength, and in rgb mode
+ * each channel's over it in share[] (else 1).  -1: out of memory. */
+static double mean_weight(const lr__cam *c, double r, const lr__pupil *P,
+                          const double *box, double share[3])
 {
     const lr__lens_cam *lc = &c->lens;
-    double hx, hy;
-    double wsum = lr__lens_chief_weight_sum(c, n, r, P, domain(P, &hx, &hy),
-                                            box);
-    if (wsum < 0.0)
-        return -1.0;
-    double dz = lc->z_rear - lc->z_sensor;
-    return wsum / (dz * dz) * lc->inv_E0;
+    double hx, hy, m[3];
+    int disk = domain(P, &hx, &hy);
+    double mean = lr__lens_pupil_mean(c, lc->n_ref, &lc->t_ref, r, P, disk,
+                                      box);
+    share[0] = share[1] = share[2] = 1.0;
+    if (lc->t_rgb_ok && mean > 0.0) {
+        if (!lr__lens_colour_means(c, r, P, disk, box, m))
+            return -1.0;
+        for (int k = 0; k < 3; k++)
+            share[k] = m[k] / mean;
+    }
+    return mean;
 }
 
 /* One film radius's rays, chief lines and weight.  0: no bound there. */
 static int radius_rays(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
                        int ncol, double r, double h, ray_set *rs, line *chief,
-                       line *jr, line *jt, float *chief_w)
+                       line *jr, line *jt, float *chief_w, float *share)
 {
     const lr__lens_cam *lc = &c->lens;
     lr__pupil P = lr__lens_pupil_at(lc, r);
@@ -313,11 +292,13 @@ static int radius_rays(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
     for (int k = 0; k < ncol; k++)
         trace_lines16(c, nsets[k], r, q, nq, rs->l + k * nq, rs->ok + k * nq);
     (void)grid;
-    double mean = mean_weight(c, nsets[0], r, &P, box);
+    double sh[3], mean = mean_weight(c, r, &P, box, sh);
     if (mean < 0.0)
         return 0; /* out of memory: no bound here */
     /* Per unit of the chief ray's own T, which the trace multiplies in. */
     *chief_w = (float)(mean / T0);
+    for (int k = 0; k < 3; k++)
+        share[k] = (float)sh[k];
     return 1;
 }
 
@@ -347,11 +328,17 @@ static void weights_hold(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
             !trace_line(c, nsets[0], &lc->t_ref, r, P.cx, 0.0, &chief, &T0,
                         NULL))
             continue;
-        double mean = mean_weight(c, nsets[0], r, &P, box);
+        double sh[3], mean = mean_weight(c, r, &P, box, sh);
         if (mean < 0.0)
             continue;
         double planned = lr__lens_blur_chief_w(t, k, 0.5f) * T0;
-        t->w_ok[k] = fabs(planned - mean) <= W_TOL * mean;
+        float ps[3];
+        lr__lens_blur_share(t, k, 0.5f, ps);
+        int ok = fabs(planned - mean) <= W_TOL * mean;
+        for (int ch = 0; ch < 3; ch++) /* every colour's too (rgb mode) */
+            ok &= fabs(planned * ps[ch] - mean * sh[ch]) <=
+                  W_TOL * mean * sh[ch];
+        t->w_ok[k] = ok;
     }
 }
 
@@ -465,8 +452,10 @@ static lr__lens_blur *build(const lr__cam *c)
         double r = lc->pupil_rmax * k / NR;
         rs[k].l = lines + (size_t)k * per;
         rs[k].ok = oks + (size_t)k * per;
+        t->share[k][0] = t->share[k][1] = t->share[k][2] = 1.0f;
         t->ok[k] = radius_rays(c, nsets, ncol, r, k < NR ? h : -h, &rs[k],
-                               &ch[k], &jr[k], &jt[k], &t->chief_w[k]);
+                               &ch[k], &jr[k], &jt[k], &t->chief_w[k],
+                               t->share[k]);
         if (t->ok[k])
             slopes(t, k, &rs[k]);
     }
@@ -546,153 +535,4 @@ const lr__lens_blur *lr__lens_blur_get(const lr__cam *c)
      * plan; its packet rays read this when the plan skips the lens. */
     __atomic_store_n(&((lr__cam *)c)->lens.blur, hit, __ATOMIC_RELEASE);
     return hit;
-}
-
-const lr__lens_chief *lr__lens_blur_chief(const lr__lens_blur *b)
-{
-    return &b->chief;
-}
-
-float lr__lens_blur_chief_w(const lr__lens_blur *b, int k, float f)
-{
-    return b->chief_w[k] + f * (b->chief_w[k + 1] - b->chief_w[k]);
-}
-
-/* The film rectangle in sensor mm (lens frame) and its radii's range. */
-static void rect_mm(const lr__cam *c, double fx0, double fy0, double fx1,
-                    double fy1, double *x, double *y, double *rlo, double *rhi)
-{
-    const lr__lens_cam *lc = &c->lens;
-    x[0] = (0.5 - fx1 / c->width) * lc->sensor_w;
-    x[1] = (0.5 - fx0 / c->width) * lc->sensor_w;
-    y[0] = (fy0 / c->height - 0.5) * lc->sensor_h;
-    y[1] = (fy1 / c->height - 0.5) * lc->sensor_h;
-    double nx = fmax(x[0], fmin(0.0, x[1])), ny = fmax(y[0], fmin(0.0, y[1]));
-    *rlo = hypot(nx, ny);
-    *rhi = hypot(fmax(fabs(x[0]), fabs(x[1])), fmax(fabs(y[0]), fabs(y[1])));
-}
-
-/* The table's radii around those a rectangle spans. */
-static void radii(const lr__cam *c, double rlo, double rhi, int *k0, int *k1)
-{
-    double s = NR / c->lens.pupil_rmax;
-    *k0 = (int)floor(rlo * s);
-    *k1 = (int)ceil(rhi * s);
-    *k0 = *k0 < 0 ? 0 : *k0;
-    *k1 = *k1 > NR ? NR : *k1;
-}
-
-/* Whether the table has a chief ray at radii k0 to k1 and its weight
- * holds between them (lr__lens_blur_chief_ok). */
-static int radii_hold(const lr__lens_blur *b, int k0, int k1)
-{
-    for (int k = k0; k <= k1; k++)
-        if (!b->ok[k] || (k < k1 && !b->w_ok[k]))
-            return 0;
-    return 1;
-}
-
-int lr__lens_blur_chief_ok(const lr__cam *c, const lr__lens_blur *b, double fx0,
-                           double fy0, double fx1, double fy1)
-{
-    double x[2], y[2], rlo, rhi;
-    rect_mm(c, fx0, fy0, fx1, fy1, x, y, &rlo, &rhi);
-    int k0, k1;
-    radii(c, rlo, rhi, &k0, &k1);
-    return radii_hold(b, k0, k1);
-}
-
-int lr__lens_blur_bound(const lr__cam *c, const lr__lens_blur *b, double fx0,
-                        double fy0, double fx1, double fy1, double z0,
-                        double z1, double *spot, double *colour)
-{
-    const lr__lens_cam *lc = &c->lens;
-    double x[2], y[2], rlo, rhi;
-    rect_mm(c, fx0, fy0, fx1, fy1, x, y, &rlo, &rhi);
-    /* Inverse depths in 1/mm (depths are scene units: mm of them). */
-    double xa = isfinite(z1) ? lc->mm / z1 : 0.0, xb = lc->mm / z0;
-    if (!(z0 > 0.0) || !(xb <= b->x_max))
-        return 0;
-    /* The grid points either side of each end (grid_x's inverse). */
-    double ja = NX * sqrt(xa / b->x_max), jb = NX * sqrt(xb / b->x_max);
-    int js[4] = {(int)floor(ja), (int)ceil(ja), (int)floor(jb), (int)ceil(jb)};
-    int k0, k1;
-    radii(c, rlo, rhi, &k0, &k1);
-    double s = 0.0, col = 0.0;
-    if (!radii_hold(b, k0, k1))
-        return 0;
-    for (int k = k0; k <= k1; k++) {
-        double sr = 0.0, st = 0.0, cr = 0.0, ct = 0.0;
-        for (int i = 0; i < 4; i++) {
-            int j = js[i] < 0 ? 0 : js[i] > NX ? NX : js[i];
-            sr = fmax(sr, b->sr[k][j]), st = fmax(st, b->st[k][j]);
-            cr = fmax(cr, b->cr[k][j]), ct = fmax(ct, b->ct[k][j]);
-        }
-        s = fmax(s, hypot(sr, st));
-        col = fmax(col, hypot(cr, ct));
-    }
-    double px_mm = c->width / lc->sensor_w;
-    /* A spot is a diameter: twice the farthest point from the chief. */
-    *spot = 2.0 * (s * MARGIN + MARGIN_MM) * px_mm;
-    *colour = 2.0 * (col * MARGIN + MARGIN_MM) * px_mm;
-    return 1;
-}
-
-void lr__lens_blur_reach(const lr__cam *c, const lr__lens_blur *b, double fx0,
-                         double fy0, double fx1, double fy1, double uv[4],
-                         double *R)
-{
-    double x[2], y[2], rlo, rhi;
-    rect_mm(c, fx0, fy0, fx1, fy1, x, y, &rlo, &rhi);
-    int k0, k1;
-    radii(c, rlo, rhi, &k0, &k1);
-    double lo = INFINITY, hi = -INFINITY, ta = 0.0;
-    for (int k = k0; k <= k1; k++) {
-        if (!b->ok[k])
-            continue;
-        lo = fmin(lo, b->slo[k]), hi = fmax(hi, b->shi[k]);
-        ta = fmax(ta, b->sta[k]);
-    }
-    *R = (b->reach * 1.1 + 1.0) * c->lens.mm;
-    if (!(lo <= hi)) {
-        /* No ray traced there passes: rays anywhere (none pass in fact,
-         * but the bound says nothing). */
-        uv[0] = uv[2] = -INFINITY, uv[1] = uv[3] = INFINITY;
-        return;
-    }
-    double rho = hypot(fmax(fabs(lo), fabs(hi)), ta);
-    if (rho > MAX_SLOPE) {
-        /* Past 72 degrees slivers of the pupil pass at slopes the grid
-         * misses (test_lens_blur.c found one at 88 degrees on the
-         * 170-degree lens where the table said 83): no bound. */
-        uv[0] = uv[2] = -INFINITY, uv[1] = uv[3] = INFINITY;
-        return;
-    }
-    double grow = 0.01 * rho + 1e-3;
-    /* The angles the rectangle spans about the axis: at its corners,
-     * unless it holds the axis. */
-    double pm = atan2(0.5 * (y[0] + y[1]), 0.5 * (x[0] + x[1])), dphi = 0.0;
-    for (int i = 0; i < 4; i++) {
-        double d = atan2(y[i >> 1], x[i & 1]) - pm;
-        d = fabs(remainder(d, 2.0 * M_PI));
-        dphi = fmax(dphi, d);
-    }
-    if (rlo <= 0.0 || dphi > 0.5 * M_PI) {
-        uv[0] = uv[2] = -(rho + grow);
-        uv[1] = uv[3] = rho + grow;
-        return;
-    }
-    /* The slopes sr e_r + st e_t for e_r at angle pm: the rectangle of
-     * [lo, hi] x [-ta, ta] turned by pm, grown by how far turning it by
-     * up to dphi moves a point (dphi rho). */
-    double cp = cos(pm), sp = sin(pm);
-    uv[0] = uv[2] = INFINITY, uv[1] = uv[3] = -INFINITY;
-    for (int i = 0; i < 4; i++) {
-        double sr = i & 1 ? hi : lo, st = i & 2 ? ta : -ta;
-        double u = cp * sr - sp * st, v = sp * sr + cp * st;
-        uv[0] = fmin(uv[0], u), uv[1] = fmax(uv[1], u);
-        uv[2] = fmin(uv[2], v), uv[3] = fmax(uv[3], v);
-    }
-    grow += dphi * rho;
-    uv[0] -= grow, uv[2] -= grow, uv[1] += grow, uv[3] += grow;
 }

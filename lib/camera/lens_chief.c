@@ -163,8 +163,9 @@ int lr__lens_chief_traced(const lr__cam *c, double r, double o[3], double d[3],
  * (lr__rx_trace16f): the sum below was the table's largest cost in
  * trace_line's scalar double trace (0.1 s of 0.13 for the double Gauss),
  * and a float cos^4 T is far inside its 1/GW error. */
-static void c4t_rays(const lr__cam *c, const double *n, double r,
-                     const double *q, int m, double *val, unsigned char *ok)
+static void c4t_rays(const lr__cam *c, const double *n, const lr__ttab *tab,
+                     double r, const double *q, int m, double *val,
+                     unsigned char *ok)
 {
     const lr__lens_cam *lc = &c->lens;
     const lr_lens *L = lc->L;
@@ -188,7 +189,7 @@ static void c4t_rays(const lr__cam *c, const double *n, double r,
         for (int i = 0; i < lanes; i++)
             ct[i] = -d[2][i];
         lr__rx_trace16f(&L->rx, L->z, n, lc->stop_scale, lanes, o, d, alive,
-                        &lc->t_ref, T);
+                        tab, T);
         for (int i = 0; i < lanes && i0 + i < m; i++) {
             double c4 = (double)ct[i] * ct[i] * ct[i] * ct[i];
             ok[i0 + i] = (unsigned char)(alive[i] && d[2][i] < -1e-6f);
@@ -203,7 +204,8 @@ static void c4t_rays(const lr__cam *c, const double *n, double r,
  * 1 / GW, GW = LR__CHIEF_GW (for the double Gauss at f/11: 0.66% at 48, 0.17% at 128):
  * cells of a GW / 4 grid whose neighbours all pass count their centre's
  * value, the others are cut into 4 x 4.  -1 when out of memory. */
-double lr__lens_chief_weight_sum(const lr__cam *c, const double *n, double r,
+double lr__lens_chief_weight_sum(const lr__cam *c, const double *n,
+                                 const lr__ttab *tab, double r,
                                  const lr__pupil *P, int use_disk,
                                  const double *box)
 {
@@ -224,7 +226,7 @@ double lr__lens_chief_weight_sum(const lr__cam *c, const double *n, double r,
                 at[m++] = iy * (GC + 2) + ix;
             }
         }
-    c4t_rays(c, n, r, q, m, val, ok);
+    c4t_rays(c, n, tab, r, q, m, val, ok);
     for (int i = 0; i < m; i++)
         if (ok[i])
             v[at[i] / (GC + 2)][at[i] % (GC + 2)] = val[i];
@@ -255,11 +257,36 @@ double lr__lens_chief_weight_sum(const lr__cam *c, const double *n, double r,
                         fq[2 * nf] = P->cx + a, fq[2 * nf + 1] = b, nf++;
                 }
         }
-    c4t_rays(c, n, r, fq, nf, fval, fok);
+    c4t_rays(c, n, tab, r, fq, nf, fval, fok);
     for (int i = 0; i < nf; i++)
         if (fok[i])
             sum += fval[i] * cw * chh / 16.0;
     free(fq);
     free(fok);
     return sum;
+}
+
+double lr__lens_pupil_mean(const lr__cam *c, const double *n,
+                           const lr__ttab *tab, double r, const lr__pupil *P,
+                           int use_disk, const double *box)
+{
+    const lr__lens_cam *lc = &c->lens;
+    double wsum = lr__lens_chief_weight_sum(c, n, tab, r, P, use_disk, box);
+    if (wsum < 0.0)
+        return -1.0;
+    double dz = lc->z_rear - lc->z_sensor;
+    return wsum / (dz * dz) * lc->inv_E0;
+}
+
+int lr__lens_colour_means(const lr__cam *c, double r, const lr__pupil *P,
+                          int use_disk, const double *box, double mean[3])
+{
+    const lr__lens_cam *lc = &c->lens;
+    for (int k = 0; k < 3; k++) {
+        mean[k] = lr__lens_pupil_mean(c, lc->n_rgb[k], &lc->t_rgb[k], r, P,
+                                      use_disk, box);
+        if (!(mean[k] >= 0.0))
+            return 0;
+    }
+    return 1;
 }

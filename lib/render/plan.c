@@ -127,15 +127,17 @@ lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
             p->blocks[i].dark = 1;
     } else if (set->plan && !p->splat && c->has_lens &&
                (c->model->bound != NULL ||
-                (c->model->blur != NULL && !c->chroma_active &&
+                (c->model->blur != NULL &&
+                 (!c->chroma_active || c->chroma.mode == LR_CHROMATIC_RGB) &&
                  c->model->blur(c) != NULL))) {
         /* A model with no safe bound samples its lens everywhere; a real
-         * lens's is its blur table (lens_blur.c).  Not a real lens that
-         * traces colours: its packet rays, one wavelength for all, carry
-         * the reference's transmittance, and the glass and its coating
-         * pass each channel differently (1 to 3% on the double Gauss at
-         * f/11: a bias test_real_lens_colours_keep_their_transmittance
-         * measures), so that lens is simulated in full everywhere. */
+         * lens's is its blur table (lens_blur.c).  A real lens that
+         * traces colours passes each its own share of the light (1 to 3%
+         * apart on the double Gauss at f/11), which one ray for all
+         * colours carries in rgb mode by the table's shares
+         * (colour_w16; test_real_lens_colours_keep_their_transmittance);
+         * in spectral mode, with no such shares, the lens is simulated
+         * in full everywhere. */
         const lr__lens_blur *lb = c->model->bound == NULL ? c->model->blur(c)
                                                           : NULL;
         /* Adaptive sampling reads the pilots of a one-pixel apron around
@@ -410,7 +412,9 @@ static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
                  * pupil's weight only where its table has them. */
                 bp->lens = lb != NULL &&
                            !lr__lens_blur_chief_ok(c, lb, px0, py0, fx1, fy1);
-                bp->chroma = 0;
+                /* Where the table's weights do not hold, neither do its
+                 * colours' shares: a ray per colour. */
+                bp->chroma = bp->lens;
                 continue;
             }
             if (lobe_needs_lens(lobe, L.R, zmin)) {
@@ -418,12 +422,13 @@ static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
                  * lens, and the colours wherever they can focus apart at
                  * some depth (a thin lens's blur diameters differ by at
                  * most their focus powers' difference at any depth; a
-                 * real lens that traces colours is not planned, and has
-                 * n_w 1 here). */
+                 * real lens's colours, which its table bounds only at
+                 * the depths it sees, always). */
                 bp->lens = 1;
-                bp->chroma = L.n_w > 1 &&
-                             lr__plan_chroma_spread(&L, 0.0, 1.0 / NEAR) >=
-                                 LR__PLAN_BLUR_PX;
+                bp->chroma = lb != NULL ||
+                             (L.n_w > 1 &&
+                              lr__plan_chroma_spread(&L, 0.0, 1.0 / NEAR) >=
+                                  LR__PLAN_BLUR_PX);
                 continue;
             }
             if (lb != NULL) {

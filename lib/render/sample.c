@@ -96,6 +96,13 @@ static void packet_samples(const lr__shot *sh, int use_lens, int x, int y,
             for (int p = 0; p < n_packets; p++)
                 sh->cam->model->rays16(sh->cam, use_lens, ns[p], fx[p], fy[p],
                                        lu[p], lv[p], &rh[p], wt[p]);
+        /* One ray for every colour where the camera has colours: each
+         * channel's share of its weight (a real lens's glass). */
+        float kc[PACKETS_AHEAD][3][16];
+        int shares = sh->cam->chroma_active &&
+                     sh->cam->model->colour_w16 != NULL;
+        for (int p = 0; p < n_packets && shares; p++)
+            sh->cam->model->colour_w16(sh->cam, ns[p], fx[p], fy[p], kc[p]);
         lr__sample_id id[PACKETS_AHEAD];
         for (int p = 0; p < n_packets; p++) {
             int s0 = b0 + 16 * p;
@@ -117,6 +124,9 @@ static void packet_samples(const lr__shot *sh, int use_lens, int x, int y,
                             L[p][c][i] = L[p][c][i] * (double)wt[p][i];
                         cnt->lens_blocked += wt[p][i] == 0.0f;
                     }
+                for (int i = 0; i < n && shares; i++)
+                    for (int c = 0; c < 3; c++)
+                        L[p][c][i] = L[p][c][i] * (double)kc[p][c][i];
                 lr__pixel_add16(acc, (const double(*)[16])L[p], n,
                                 !sh->no_squares);
             }
@@ -133,6 +143,9 @@ static void packet_samples(const lr__shot *sh, int use_lens, int x, int y,
                     L[p][i] = v3_scale(L[p][i], wt[p][i]);
                     cnt->lens_blocked += wt[p][i] == 0.0f;
                 }
+            for (int i = 0; i < n && shares; i++)
+                L[p][i] = v3(L[p][i].x * kc[p][0][i], L[p][i].y * kc[p][1][i],
+                             L[p][i].z * kc[p][2][i]);
             lr__pixel_add_n(acc, L[p], n);
         }
     }
