@@ -9,6 +9,9 @@ Cases (scenes/ with overrides; `fool` is written to a temporary file):
   focus      scenes/spheres.json through the double Gauss at f/11,
              focused at 16 m (the row of spheres 8 to 32 m away)
   focus-320  the same at 320 x 180
+  focus-rgb  focus-320 in rgb mode: the full simulation traces a ray per
+             channel, the plan one for all three where the colours land
+             within a quarter pixel (each channel with its share)
   fool       scenes/accuracy-focus.json through the double Gauss at f/2.8
              focused on the wall (8 m), with a small sphere 1.2 m from
              the camera blurred over it: the scene built to fool a
@@ -69,6 +72,9 @@ def cases():
         'focus': (sph, focus),
         'focus-320': (sph, focus + ['--set', 'render.width=320',
                                     '--set', 'render.height=180']),
+        'focus-rgb': (sph, focus + ['--set', 'render.width=320',
+                                    '--set', 'render.height=180',
+                                    '--set', 'camera.chromatic.mode="rgb"']),
         'fool': (fool_scene(), []),
         'fool-f8': (fool_scene(), ['--set', 'camera.f_number=8']),
     }

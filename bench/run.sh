@@ -275,12 +275,13 @@ cat "$OUT/lens.log"
 
 # The planner through the double Gauss (issue 30; bench/lens_plan.py):
 # spheres in focus at f/11 and the scene built to fool the planner, the
-# defaults' error and time to the full simulation's error.
+# defaults' error and time to the full simulation's error; and the
+# spheres in rgb mode (reported, no target).
 if [ -x "$BUILD/accuracy/imgdiff" ] && [ "${BENCH_SKIP_LENS_PLAN:-0}" != 1 ]; then
     quiet lens_plan
     say "a real lens planned: in focus at f/11 and the fool scene, against the full simulation"
     rm -f "$OUT/lens_plan.log"
-    for c in focus fool; do
+    for c in focus fool focus-rgb; do
         python3 bench/lens_plan.py "$LENSRAY" "$BUILD/accuracy/imgdiff" --case $c \
             --rounds "$((REPEAT + 2))" >> "$OUT/lens_plan.log" ||
             say "the planned-lens run ($c) failed"
