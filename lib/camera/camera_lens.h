@@ -110,10 +110,36 @@ double lr__lens_chief_weight_sum(const lr__cam *c, const double *n,
 double lr__lens_pupil_mean(const lr__cam *c, const double *n,
                            const lr__ttab *tab, double r, const lr__pupil *P,
                            int use_disk, const double *box);
-/* The same mean for each rgb channel, traced at the channel's indices
- * with its table (rgb mode: t_rgb_ok); 0 when out of memory. */
-int lr__lens_colour_means(const lr__cam *c, double r, const lr__pupil *P,
-                          int use_disk, const double *box, double mean[3]);
+
+/* ---- the colours' shares of that mean (lens_shares.c) ---------------- */
+
+/* Where one ray at the reference wavelength stands for every colour
+ * (the plan's packet and chief rays), each output channel takes its
+ * share of the light: its own mean weight over the reference's.  In rgb
+ * mode a channel's mean is traced at its wavelength; in spectral mode
+ * the mean is traced at LR__SHARE_NODES wavelengths 25 nm apart, taken
+ * as linear between them, and integrated against the channel's
+ * normalised matching function (spectral.c's estimate: int w_c(l)
+ * L_c(l) dl, with L_c(l) the reference ray's radiance times the weight
+ * at l). */
+#define LR__SHARE_NODES 17
+typedef struct lr__lens_shares {
+    int n; /* wavelengths traced */
+    double idx[LR__SHARE_NODES][LR__RX_MAX_SURFACES];
+    lr__ttab *tab; /* [n], owned when own_tab */
+    int own_tab;
+    double w[3][LR__SHARE_NODES]; /* channel c's weight of each mean */
+} lr__lens_shares;
+
+/* The shares' wavelengths for camera c: NULL without colours (or out of
+ * memory: then no shares, and the caller's plan samples in full). */
+lr__lens_shares *lr__lens_shares_new(const lr__cam *c);
+void lr__lens_shares_free(lr__lens_shares *s);
+/* Each channel's share at film radius r (share[3]) given the reference's
+ * mean there (lr__lens_pupil_mean's arguments); 0 when out of memory. */
+int lr__lens_shares_at(const lr__cam *c, const lr__lens_shares *s, double r,
+                       const lr__pupil *P, int use_disk, const double *box,
+                       double mean_ref, double share[3]);
 /* The blur table's chief-ray table (lens_blur.c). */
 const lr__lens_chief *lr__lens_blur_chief(const lr__lens_blur *b);
 

@@ -239,30 +239,30 @@ static int passing_box(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
 }
 
 /* The pupil's mean sample weight at film radius r over `box`
- * (lr__lens_pupil_mean) at the reference wavelength, and in rgb mode
- * each channel's over it in share[] (else 1).  -1: out of memory. */
-static double mean_weight(const lr__cam *c, double r, const lr__pupil *P,
-                          const double *box, double share[3])
+ * (lr__lens_pupil_mean) at the reference wavelength, and with colours
+ * (sh) each channel's share of it in share[] (else 1).  -1: out of
+ * memory. */
+static double mean_weight(const lr__cam *c, const lr__lens_shares *sh, double r,
+                          const lr__pupil *P, const double *box,
+                          double share[3])
 {
     const lr__lens_cam *lc = &c->lens;
-    double hx, hy, m[3];
+    double hx, hy;
     int disk = domain(P, &hx, &hy);
     double mean = lr__lens_pupil_mean(c, lc->n_ref, &lc->t_ref, r, P, disk,
                                       box);
     share[0] = share[1] = share[2] = 1.0;
-    if (lc->t_rgb_ok && mean > 0.0) {
-        if (!lr__lens_colour_means(c, r, P, disk, box, m))
-            return -1.0;
-        for (int k = 0; k < 3; k++)
-            share[k] = m[k] / mean;
-    }
+    if (sh != NULL && mean > 0.0 &&
+        !lr__lens_shares_at(c, sh, r, P, disk, box, mean, share))
+        return -1.0;
     return mean;
 }
 
 /* One film radius's rays, chief lines and weight.  0: no bound there. */
 static int radius_rays(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
-                       int ncol, double r, double h, ray_set *rs, line *chief,
-                       line *jr, line *jt, float *chief_w, float *share)
+                       int ncol, const lr__lens_shares *shares, double r,
+                       double h, ray_set *rs, line *chief, line *jr, line *jt,
+                       float *chief_w, float *share)
 {
     const lr__lens_cam *lc = &c->lens;
     lr__pupil P = lr__lens_pupil_at(lc, r);
@@ -292,7 +292,7 @@ static int radius_rays(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
     for (int k = 0; k < ncol; k++)
         trace_lines16(c, nsets[k], r, q, nq, rs->l + k * nq, rs->ok + k * nq);
     (void)grid;
-    double sh[3], mean = mean_weight(c, r, &P, box, sh);
+    double sh[3], mean = mean_weight(c, shares, r, &P, box, sh);
     if (mean < 0.0)
         return 0; /* out of memory: no bound here */
     /* Per unit of the chief ray's own T, which the trace multiplies in. */
@@ -312,7 +312,8 @@ static int radius_rays(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
 #define W_TOL 3e-3
 
 static void weights_hold(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
-                         int ncol, lr__lens_blur *t)
+                         int ncol, const lr__lens_shares *shares,
+                         lr__lens_blur *t)
 {
     const lr__lens_cam *lc = &c->lens;
     for (int k = 0; k < NR; k++) {
@@ -328,7 +329,7 @@ static void weights_hold(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
             !trace_line(c, nsets[0], &lc->t_ref, r, P.cx, 0.0, &chief, &T0,
                         NULL))
             continue;
-        double sh[3], mean = mean_weight(c, r, &P, box, sh);
+        double sh[3], mean = mean_weight(c, shares, r, &P, box, sh);
         if (mean < 0.0)
             continue;
         double planned = lr__lens_blur_chief_w(t, k, 0.5f) * T0;
@@ -441,8 +442,10 @@ static lr__lens_blur *build(const lr__cam *c)
     line *lines = malloc((NR + 1) * per * sizeof *lines);
     unsigned char *oks = malloc((NR + 1) * per);
     line ch[NR + 1], jr[NR + 1], jt[NR + 1];
+    /* Each colour's share, where one ray stands for every colour. */
+    lr__lens_shares *shares = lr__lens_shares_new(c);
     if (t == NULL || nsets == NULL || rs == NULL || lines == NULL ||
-        oks == NULL) {
+        oks == NULL || (c->chroma_active && shares == NULL)) {
         free(t);
         t = NULL;
         goto done;
@@ -453,8 +456,8 @@ static lr__lens_blur *build(const lr__cam *c)
         rs[k].l = lines + (size_t)k * per;
         rs[k].ok = oks + (size_t)k * per;
         t->share[k][0] = t->share[k][1] = t->share[k][2] = 1.0f;
-        t->ok[k] = radius_rays(c, nsets, ncol, r, k < NR ? h : -h, &rs[k],
-                               &ch[k], &jr[k], &jt[k], &t->chief_w[k],
+        t->ok[k] = radius_rays(c, nsets, ncol, shares, r, k < NR ? h : -h,
+                               &rs[k], &ch[k], &jr[k], &jt[k], &t->chief_w[k],
                                t->share[k]);
         if (t->ok[k])
             slopes(t, k, &rs[k]);
@@ -475,9 +478,10 @@ static lr__lens_blur *build(const lr__cam *c)
     for (int k = 0; k <= NR; k++)
         if (t->ok[k])
             fill_row(t, k, &rs[k], &ch[k], &jr[k], &jt[k]);
-    weights_hold(c, nsets, ncol, t);
+    weights_hold(c, nsets, ncol, shares, t);
     lr__lens_chief_fill(c, t->x_max, &t->chief);
 done:
+    lr__lens_shares_free(shares);
     free(nsets);
     free(rs);
     free(lines);

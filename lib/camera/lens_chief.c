@@ -277,16 +277,3 @@ double lr__lens_pupil_mean(const lr__cam *c, const double *n,
     double dz = lc->z_rear - lc->z_sensor;
     return wsum / (dz * dz) * lc->inv_E0;
 }
-
-int lr__lens_colour_means(const lr__cam *c, double r, const lr__pupil *P,
-                          int use_disk, const double *box, double mean[3])
-{
-    const lr__lens_cam *lc = &c->lens;
-    for (int k = 0; k < 3; k++) {
-        mean[k] = lr__lens_pupil_mean(c, lc->n_rgb[k], &lc->t_rgb[k], r, P,
-                                      use_disk, box);
-        if (!(mean[k] >= 0.0))
-            return 0;
-    }
-    return 1;
-}

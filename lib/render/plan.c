@@ -127,17 +127,13 @@ lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
             p->blocks[i].dark = 1;
     } else if (set->plan && !p->splat && c->has_lens &&
                (c->model->bound != NULL ||
-                (c->model->blur != NULL &&
-                 (!c->chroma_active || c->chroma.mode == LR_CHROMATIC_RGB) &&
-                 c->model->blur(c) != NULL))) {
+                (c->model->blur != NULL && c->model->blur(c) != NULL))) {
         /* A model with no safe bound samples its lens everywhere; a real
          * lens's is its blur table (lens_blur.c).  A real lens that
          * traces colours passes each its own share of the light (1 to 3%
          * apart on the double Gauss at f/11), which one ray for all
-         * colours carries in rgb mode by the table's shares
-         * (colour_w16; test_real_lens_colours_keep_their_transmittance);
-         * in spectral mode, with no such shares, the lens is simulated
-         * in full everywhere. */
+         * colours carries by the table's shares (lens_shares.c,
+         * colour_w16; test_real_lens_colours_keep_their_transmittance). */
         const lr__lens_blur *lb = c->model->bound == NULL ? c->model->blur(c)
                                                           : NULL;
         /* Adaptive sampling reads the pilots of a one-pixel apron around
