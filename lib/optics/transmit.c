@@ -18,7 +18,13 @@ void lr__ttab_fill(lr__ttab *tab, const lr__rx *rx, const double *n_after,
             continue;
         double nmin = fmin(before, after);
         tab->inv_nmin2[i] = (float)(1.0 / (nmin * nmin));
-        for (int j = 0; j <= LR__T_N; j++) {
+        /* u = 0: grazing on the lower-index side, the critical angle on
+         * the other, where every stack reflects all (R = 1) but a
+         * coating's formula is 0 / 0 for p light (its admittance n / cos
+         * is infinite): the table held NaN there, and a condenser's
+         * grazing rays weighed NaN (dropped samples). */
+        tab->t[i][0] = 0.0f;
+        for (int j = 1; j <= LR__T_N; j++) {
             /* The cosine c on the lower-index side (u = sqrt(c),
              * transmit.h); the cosine where the light comes from (toward
              * the image: before) by Snell's law. */
@@ -27,12 +33,7 @@ void lr__ttab_fill(lr__ttab *tab, const lr__rx *rx, const double *n_after,
             double cb2 = 1.0 - s2 / (before * before);
             double cb = sqrt(cb2 > 0.0 ? cb2 : 0.0);
             double R = lr__rx_surface_r(rx, n_after, i, 1, cb, nm, override);
-            /* u = 0: grazing on the lower-index side, the critical angle
-             * on the other, where every stack reflects all (R = 1) but a
-             * coating's formula is 0 / 0 for p light (its admittance
-             * n / cos is infinite): the table held NaN there, and a
-             * condenser's grazing rays weighed NaN (dropped samples). */
-            tab->t[i][j] = j == 0 ? 0.0f : (float)(1.0 - R);
+            tab->t[i][j] = (float)(1.0 - R);
         }
         for (int j = 0; j < LR__T_N; j++)
             tab->dt[i][j] = tab->t[i][j + 1] - tab->t[i][j];
