@@ -419,13 +419,13 @@ void lr__lens_blur_reach(const lr__cam *c, const lr__lens_blur *b, double fx0,
                          double fy0, double fx1, double fy1, double uv[4],
                          double *R);
 
-/* The chief ray's weight at film radius r mm (the pupil's mean sample
- * weight over the chief ray's transmittance), for the packet rays. */
+/* The chief ray's weight (the pupil's mean sample weight over the chief
+ * ray's transmittance), for the packet rays, in interval k of the pupil
+ * table's film radii at f in [0, 1] along it. */
 float lr__lens_blur_chief_w(const lr__lens_blur *b, int k, float f);
-/* Each rgb channel's share over the reference's of the pupil's mean
- * sample weight (s[3]; 1 without colours), at the same place as
- * lr__lens_blur_chief_w: interval k of the pupil table's film radii, f
- * along it. */
+/* Each channel's share of the pupil's mean sample weight, over the
+ * reference's (s[3]; 1 without colours: lens_shares.c), at the same
+ * place. */
 void lr__lens_blur_share(const lr__lens_blur *b, int k, float f, float s[3]);
 
 /* camera_lens.c's indices at wavelength nm (chromatic.amplify applied),
