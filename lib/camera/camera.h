@@ -137,8 +137,8 @@ typedef struct lr__camera_model {
                      const float (*fx)[16], const float (*fy)[16],
                      const float (*lu)[16], const float (*lv)[16],
                      struct RTCRayHit16 *rh, float (*wt)[16]);
-    /* rgb mode, where the plan traces one ray at c->nm_ref for every
-     * channel (a packet block of a camera with colours): per channel,
+    /* Where the plan traces one ray at c->nm_ref for every colour (a
+     * packet block of a camera with colours, rgb or spectral): per channel,
      * the factor on each of lanes 0..n-1's weights that gives that
      * channel's share of the light (a real lens's glass and coating
      * pass each its own: lens_blur.c's shares); NULL for models whose

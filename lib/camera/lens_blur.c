@@ -336,7 +336,7 @@ static void weights_hold(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
         float ps[3];
         lr__lens_blur_share(t, k, 0.5f, ps);
         int ok = fabs(planned - mean) <= W_TOL * mean;
-        for (int ch = 0; ch < 3; ch++) /* every colour's too (rgb mode) */
+        for (int ch = 0; ch < 3; ch++) /* every colour's too */
             ok &= fabs(planned * ps[ch] - mean * sh[ch]) <=
                   W_TOL * mean * sh[ch];
         t->w_ok[k] = ok;
@@ -492,19 +492,24 @@ done:
 static void make_key(const lr__cam *c, double *key)
 {
     const lr__lens_cam *lc = &c->lens;
-    double k[9] = {
-        lc->z_sensor,   lc->stop_scale,
-        lc->pupil_rmax, colour_set(c) + 10.0 * c->chroma.amplify,
-        lc->z_rear,     lc->coat == NULL ? -1.0 : (double)lc->coat->kind,
-        c->nm_ref,      lc->sensor_w,
-        lc->inv_E0};
+    /* The colour set and amplify apart (lens_pupil.c's key says why). */
+    double k[10] = {lc->z_sensor,
+                    lc->stop_scale,
+                    lc->pupil_rmax,
+                    colour_set(c),
+                    c->chroma.amplify,
+                    lc->z_rear,
+                    lc->coat == NULL ? -1.0 : (double)lc->coat->kind,
+                    c->nm_ref,
+                    lc->sensor_w,
+                    lc->inv_E0};
     memcpy(key, k, sizeof k);
 }
 
 const lr__lens_blur *lr__lens_blur_get(const lr__cam *c)
 {
     lr_lens *L = (lr_lens *)c->lens.L; /* the cache is mutable, under mu */
-    double key[9];
+    double key[10];
     make_key(c, key);
     lr__lens_blur *hit = NULL;
     pthread_mutex_lock(&L->mu);

@@ -17,7 +17,7 @@
 #define MAX_SLOPE 3.0 /* tan 72 degrees */
 
 struct lr__lens_blur {
-    double key[9];
+    double key[10];
     double x_max; /* 1/mm: the grid's inverse depths are [0, x_max] */
     double reach; /* mm: the largest |p| of any traced ray */
     int ok[NR + 1];
@@ -28,8 +28,9 @@ struct lr__lens_blur {
      * tangential within +-sta. */
     double slo[NR + 1], shi[NR + 1], sta[NR + 1];
     float chief_w[NR + 1];
-    /* Per film radius, each rgb channel's pupil mean weight over the
-     * reference's (rgb mode; 1 otherwise): the packet rays' colours. */
+    /* Per film radius, each channel's share: its pupil mean weight over
+     * the reference's (lens_shares.c; 1 without colours), for the packet
+     * rays that stand for every colour. */
     float share[NR + 1][3];
     /* Spot and colour spread, radial and tangential, film mm. */
     float sr[NR + 1][NX + 1], st[NR + 1][NX + 1];

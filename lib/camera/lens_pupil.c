@@ -567,10 +567,16 @@ void lr__lens_pupils(lr__cam *c, int colours)
 {
     lr__lens_cam *lc = &c->lens;
     lr_lens *L = (lr_lens *)lc->L; /* the cache is mutable, under L->mu */
-    double key[6] = {
-        lc->z_sensor,   lc->stop_scale,
-        lc->pupil_rmax, colours + 10.0 * c->chroma.amplify,
-        lc->z_rear,     lc->coat == NULL ? -1.0 : (double)lc->coat->kind};
+    /* The colour set and amplify apart: as one number (colours + 10
+     * amplify) no colours at 1.0 and rgb at 0.9 were one key, and a
+     * daemon's rgb job could take bounds traced for one colour. */
+    double key[7] = {lc->z_sensor,
+                     lc->stop_scale,
+                     lc->pupil_rmax,
+                     colours,
+                     c->chroma.amplify,
+                     lc->z_rear,
+                     lc->coat == NULL ? -1.0 : (double)lc->coat->kind};
     pthread_mutex_lock(&L->mu);
     for (int i = 0; i < L->n_pupils; i++) {
         const lr__pupil_entry *e = &L->pupils[i];

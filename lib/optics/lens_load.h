@@ -38,8 +38,9 @@ typedef struct lr__pupil {
 
 /* One cached exit-pupil table (camera_lens.c fills it). */
 typedef struct lr__pupil_entry {
-    double key[6]; /* z_sensor, stop_scale, rmax, colour set, z_rear,
-                      the camera's coating (E0 holds its 1 - R) */
+    double key[7]; /* z_sensor, stop_scale, rmax, colour set, the
+                      dispersion's amplification, z_rear, the camera's
+                      coating (E0 holds its 1 - R) */
     lr__pupil p[LR__PUPIL_N + 1];
     double inv_E0;
 } lr__pupil_entry;
