@@ -117,12 +117,12 @@ double lr__lens_pupil_mean(const lr__cam *c, const double *n,
  * (the plan's packet and chief rays), each output channel takes its
  * share of the light: its own mean weight over the reference's.  In rgb
  * mode a channel's mean is traced at its wavelength; in spectral mode
- * the mean is traced at LR__SHARE_NODES wavelengths 25 nm apart, taken
- * as linear between them, and integrated against the channel's
+ * the mean is traced at LR__SHARE_NODES wavelengths 50 nm apart, taken
+ * as cubic between them, and integrated against the channel's
  * normalised matching function (spectral.c's estimate: int w_c(l)
  * L_c(l) dl, with L_c(l) the reference ray's radiance times the weight
  * at l). */
-#define LR__SHARE_NODES 17
+#define LR__SHARE_NODES 9
 typedef struct lr__lens_shares {
     int n; /* wavelengths traced */
     double idx[LR__SHARE_NODES][LR__RX_MAX_SURFACES];

@@ -260,13 +260,12 @@ static double mean_weight(const lr__cam *c, const lr__lens_shares *sh, double r,
 
 /* One film radius's rays, chief lines and weight.  0: no bound there. */
 static int radius_rays(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
-                       int ncol, const lr__lens_shares *shares, double r,
-                       double h, ray_set *rs, line *chief, line *jr, line *jt,
-                       float *chief_w, float *share)
+                       int ncol, double r, double h, ray_set *rs, line *chief,
+                       line *jr, line *jt, float *chief_w, double *box)
 {
     const lr__lens_cam *lc = &c->lens;
     lr__pupil P = lr__lens_pupil_at(lc, r);
-    double hx, hy, box[4];
+    double hx, hy;
     domain(&P, &hx, &hy);
     if (!(hx * hy > 0.0) || !passing_box(c, nsets, ncol, r, &P, box))
         return 0;
@@ -292,13 +291,11 @@ static int radius_rays(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
     for (int k = 0; k < ncol; k++)
         trace_lines16(c, nsets[k], r, q, nq, rs->l + k * nq, rs->ok + k * nq);
     (void)grid;
-    double sh[3], mean = mean_weight(c, shares, r, &P, box, sh);
+    double sh[3], mean = mean_weight(c, NULL, r, &P, box, sh);
     if (mean < 0.0)
         return 0; /* out of memory: no bound here */
     /* Per unit of the chief ray's own T, which the trace multiplies in. */
     *chief_w = (float)(mean / T0);
-    for (int k = 0; k < 3; k++)
-        share[k] = (float)sh[k];
     return 1;
 }
 
@@ -312,8 +309,8 @@ static int radius_rays(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
 #define W_TOL 3e-3
 
 static void weights_hold(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
-                         int ncol, const lr__lens_shares *shares,
-                         lr__lens_blur *t)
+                         int ncol, lr__lens_blur *t, double (*mid_box)[4],
+                         double *mid_T0)
 {
     const lr__lens_cam *lc = &c->lens;
     for (int k = 0; k < NR; k++) {
@@ -322,25 +319,60 @@ static void weights_hold(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
             continue;
         double r = lc->pupil_rmax * (k + 0.5) / NR;
         lr__pupil P = lr__lens_pupil_at(lc, r);
-        double hx, hy, box[4], T0;
+        double hx, hy, *box = mid_box[k];
         domain(&P, &hx, &hy);
         line chief;
         if (!(hx * hy > 0.0) || !passing_box(c, nsets, ncol, r, &P, box) ||
-            !trace_line(c, nsets[0], &lc->t_ref, r, P.cx, 0.0, &chief, &T0,
-                        NULL))
+            !trace_line(c, nsets[0], &lc->t_ref, r, P.cx, 0.0, &chief,
+                        &mid_T0[k], NULL))
             continue;
-        double sh[3], mean = mean_weight(c, shares, r, &P, box, sh);
+        double sh[3], mean = mean_weight(c, NULL, r, &P, box, sh);
         if (mean < 0.0)
             continue;
-        double planned = lr__lens_blur_chief_w(t, k, 0.5f) * T0;
+        double planned = lr__lens_blur_chief_w(t, k, 0.5f) * mid_T0[k];
+        t->w_ok[k] = fabs(planned - mean) <= W_TOL * mean;
+    }
+}
+
+/* Each colour's share (lens_shares.c) at the radii next to an interval
+ * whose weight holds, the only ones a block tracing one ray for every
+ * colour reads; then each such interval's colours checked at its middle
+ * as weights_hold checks the reference (box[k], mid_box[k] and mid_T0[k]
+ * from radius_rays and weights_hold).  A share costs a pupil mean per
+ * colour (on an aspheric lens, whose rays solve for each such surface
+ * lane by lane, some 10 ms a mean), so none is traced where no block
+ * could use it.  0: out of memory. */
+static int colour_shares(const lr__cam *c, const lr__lens_shares *shares,
+                         lr__lens_blur *t, double (*box)[4],
+                         double (*mid_box)[4], const double *mid_T0)
+{
+    const lr__lens_cam *lc = &c->lens;
+    for (int k = 0; k <= NR; k++) {
+        if (!((k < NR && t->w_ok[k]) || (k > 0 && t->w_ok[k - 1])))
+            continue;
+        double r = lc->pupil_rmax * k / NR, sh[3];
+        lr__pupil P = lr__lens_pupil_at(lc, r);
+        if (mean_weight(c, shares, r, &P, box[k], sh) < 0.0)
+            return 0;
+        for (int ch = 0; ch < 3; ch++)
+            t->share[k][ch] = (float)sh[ch];
+    }
+    for (int k = 0; k < NR; k++) {
+        if (!t->w_ok[k])
+            continue;
+        double r = lc->pupil_rmax * (k + 0.5) / NR, sh[3];
+        lr__pupil P = lr__lens_pupil_at(lc, r);
+        double mean = mean_weight(c, shares, r, &P, mid_box[k], sh);
+        if (mean < 0.0)
+            return 0;
+        double planned = lr__lens_blur_chief_w(t, k, 0.5f) * mid_T0[k];
         float ps[3];
         lr__lens_blur_share(t, k, 0.5f, ps);
-        int ok = fabs(planned - mean) <= W_TOL * mean;
-        for (int ch = 0; ch < 3; ch++) /* every colour's too */
-            ok &= fabs(planned * ps[ch] - mean * sh[ch]) <=
-                  W_TOL * mean * sh[ch];
-        t->w_ok[k] = ok;
+        for (int ch = 0; ch < 3; ch++)
+            t->w_ok[k] &= fabs(planned * ps[ch] - mean * sh[ch]) <=
+                          W_TOL * mean * sh[ch];
     }
+    return 1;
 }
 
 /* Whether the affine J_s + J_p x keeps its sign on [0, xm]. */
@@ -442,6 +474,7 @@ static lr__lens_blur *build(const lr__cam *c)
     line *lines = malloc((NR + 1) * per * sizeof *lines);
     unsigned char *oks = malloc((NR + 1) * per);
     line ch[NR + 1], jr[NR + 1], jt[NR + 1];
+    double box[NR + 1][4], mid_box[NR][4], mid_T0[NR];
     /* Each colour's share, where one ray stands for every colour. */
     lr__lens_shares *shares = lr__lens_shares_new(c);
     if (t == NULL || nsets == NULL || rs == NULL || lines == NULL ||
@@ -456,9 +489,8 @@ static lr__lens_blur *build(const lr__cam *c)
         rs[k].l = lines + (size_t)k * per;
         rs[k].ok = oks + (size_t)k * per;
         t->share[k][0] = t->share[k][1] = t->share[k][2] = 1.0f;
-        t->ok[k] = radius_rays(c, nsets, ncol, shares, r, k < NR ? h : -h,
-                               &rs[k], &ch[k], &jr[k], &jt[k], &t->chief_w[k],
-                               t->share[k]);
+        t->ok[k] = radius_rays(c, nsets, ncol, r, k < NR ? h : -h, &rs[k],
+                               &ch[k], &jr[k], &jt[k], &t->chief_w[k], box[k]);
         if (t->ok[k])
             slopes(t, k, &rs[k]);
     }
@@ -478,7 +510,12 @@ static lr__lens_blur *build(const lr__cam *c)
     for (int k = 0; k <= NR; k++)
         if (t->ok[k])
             fill_row(t, k, &rs[k], &ch[k], &jr[k], &jt[k]);
-    weights_hold(c, nsets, ncol, shares, t);
+    weights_hold(c, nsets, ncol, t, mid_box, mid_T0);
+    if (shares != NULL && !colour_shares(c, shares, t, box, mid_box, mid_T0)) {
+        free(t);
+        t = NULL;
+        goto done;
+    }
     lr__lens_chief_fill(c, t->x_max, &t->chief);
 done:
     lr__lens_shares_free(shares);
