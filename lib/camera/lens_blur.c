@@ -238,30 +238,22 @@ static int passing_box(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
     return any;
 }
 
-/* The pupil's mean sample weight at film radius r over `box`
- * (lr__lens_pupil_mean) at the reference wavelength, and with colours
- * (sh) each channel's share of it in share[] (else 1).  -1: out of
- * memory. */
-static double mean_weight(const lr__cam *c, const lr__lens_shares *sh, double r,
-                          const lr__pupil *P, const double *box,
-                          double share[3])
+/* The pupil's mean sample weight at film radius r over `box`, at the
+ * reference wavelength (lr__lens_pupil_mean).  -1: out of memory. */
+static double mean_weight(const lr__cam *c, double r, const lr__pupil *P,
+                          const double *box)
 {
     const lr__lens_cam *lc = &c->lens;
     double hx, hy;
-    int disk = domain(P, &hx, &hy);
-    double mean = lr__lens_pupil_mean(c, lc->n_ref, &lc->t_ref, r, P, disk,
-                                      box);
-    share[0] = share[1] = share[2] = 1.0;
-    if (sh != NULL && mean > 0.0 &&
-        !lr__lens_shares_at(c, sh, r, P, disk, box, mean, share))
-        return -1.0;
-    return mean;
+    return lr__lens_pupil_mean(c, lc->n_ref, &lc->t_ref, r, P,
+                               domain(P, &hx, &hy), box);
 }
 
 /* One film radius's rays, chief lines and weight.  0: no bound there. */
 static int radius_rays(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
                        int ncol, double r, double h, ray_set *rs, line *chief,
-                       line *jr, line *jt, float *chief_w, double *box)
+                       line *jr, line *jt, float *chief_w, double *box,
+                       double *mean)
 {
     const lr__lens_cam *lc = &c->lens;
     lr__pupil P = lr__lens_pupil_at(lc, r);
@@ -291,11 +283,11 @@ static int radius_rays(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
     for (int k = 0; k < ncol; k++)
         trace_lines16(c, nsets[k], r, q, nq, rs->l + k * nq, rs->ok + k * nq);
     (void)grid;
-    double sh[3], mean = mean_weight(c, NULL, r, &P, box, sh);
-    if (mean < 0.0)
+    *mean = mean_weight(c, r, &P, box);
+    if (*mean < 0.0)
         return 0; /* out of memory: no bound here */
     /* Per unit of the chief ray's own T, which the trace multiplies in. */
-    *chief_w = (float)(mean / T0);
+    *chief_w = (float)(*mean / T0);
     return 1;
 }
 
@@ -310,7 +302,7 @@ static int radius_rays(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
 
 static void weights_hold(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
                          int ncol, lr__lens_blur *t, double (*mid_box)[4],
-                         double *mid_T0)
+                         double *mid_T0, double *mid_mean)
 {
     const lr__lens_cam *lc = &c->lens;
     for (int k = 0; k < NR; k++) {
@@ -326,7 +318,7 @@ static void weights_hold(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
             !trace_line(c, nsets[0], &lc->t_ref, r, P.cx, 0.0, &chief,
                         &mid_T0[k], NULL))
             continue;
-        double sh[3], mean = mean_weight(c, NULL, r, &P, box, sh);
+        double mean = mid_mean[k] = mean_weight(c, r, &P, box);
         if (mean < 0.0)
             continue;
         double planned = lr__lens_blur_chief_w(t, k, 0.5f) * mid_T0[k];
@@ -337,22 +329,27 @@ static void weights_hold(const lr__cam *c, double (*nsets)[LR__RX_MAX_SURFACES],
 /* Each colour's share (lens_shares.c) at the radii next to an interval
  * whose weight holds, the only ones a block tracing one ray for every
  * colour reads; then each such interval's colours checked at its middle
- * as weights_hold checks the reference (box[k], mid_box[k] and mid_T0[k]
- * from radius_rays and weights_hold).  A share costs a pupil mean per
- * colour (on an aspheric lens, whose rays solve for each such surface
- * lane by lane, some 10 ms a mean), so none is traced where no block
- * could use it.  0: out of memory. */
+ * as weights_hold checks the reference.  The pupils' boxes and reference
+ * means are radius_rays' and weights_hold's (box, mean; mid_box,
+ * mid_mean, with the chief ray's T mid_T0).  A share costs a pupil mean
+ * per colour (on an aspheric lens, whose rays solve for each such
+ * surface lane by lane, some 10 ms a mean), so none is traced where no
+ * block could use it.  0: out of memory. */
 static int colour_shares(const lr__cam *c, const lr__lens_shares *shares,
-                         lr__lens_blur *t, double (*box)[4],
-                         double (*mid_box)[4], const double *mid_T0)
+                         lr__lens_blur *t, double (*box)[4], const double *mean,
+                         double (*mid_box)[4], const double *mid_T0,
+                         const double *mid_mean)
 {
     const lr__lens_cam *lc = &c->lens;
+    double hx, hy, sh[3];
     for (int k = 0; k <= NR; k++) {
-        if (!((k < NR && t->w_ok[k]) || (k > 0 && t->w_ok[k - 1])))
+        if (!((k < NR && t->w_ok[k]) || (k > 0 && t->w_ok[k - 1])) ||
+            !(mean[k] > 0.0))
             continue;
-        double r = lc->pupil_rmax * k / NR, sh[3];
+        double r = lc->pupil_rmax * k / NR;
         lr__pupil P = lr__lens_pupil_at(lc, r);
-        if (mean_weight(c, shares, r, &P, box[k], sh) < 0.0)
+        if (!lr__lens_shares_at(c, shares, r, &P, domain(&P, &hx, &hy), box[k],
+                                mean[k], sh))
             return 0;
         for (int ch = 0; ch < 3; ch++)
             t->share[k][ch] = (float)sh[ch];
@@ -360,17 +357,19 @@ static int colour_shares(const lr__cam *c, const lr__lens_shares *shares,
     for (int k = 0; k < NR; k++) {
         if (!t->w_ok[k])
             continue;
-        double r = lc->pupil_rmax * (k + 0.5) / NR, sh[3];
+        double r = lc->pupil_rmax * (k + 0.5) / NR, m = mid_mean[k];
         lr__pupil P = lr__lens_pupil_at(lc, r);
-        double mean = mean_weight(c, shares, r, &P, mid_box[k], sh);
-        if (mean < 0.0)
+        sh[0] = sh[1] = sh[2] = 1.0;
+        if (m > 0.0 &&
+            !lr__lens_shares_at(c, shares, r, &P, domain(&P, &hx, &hy),
+                                mid_box[k], m, sh))
             return 0;
         double planned = lr__lens_blur_chief_w(t, k, 0.5f) * mid_T0[k];
         float ps[3];
         lr__lens_blur_share(t, k, 0.5f, ps);
         for (int ch = 0; ch < 3; ch++)
-            t->w_ok[k] &= fabs(planned * ps[ch] - mean * sh[ch]) <=
-                          W_TOL * mean * sh[ch];
+            t->w_ok[k] &= fabs(planned * ps[ch] - m * sh[ch]) <=
+                          W_TOL * m * sh[ch];
     }
     return 1;
 }
@@ -474,7 +473,8 @@ static lr__lens_blur *build(const lr__cam *c)
     line *lines = malloc((NR + 1) * per * sizeof *lines);
     unsigned char *oks = malloc((NR + 1) * per);
     line ch[NR + 1], jr[NR + 1], jt[NR + 1];
-    double box[NR + 1][4], mid_box[NR][4], mid_T0[NR];
+    double box[NR + 1][4], mean[NR + 1], mid_box[NR][4], mid_T0[NR],
+        mid_mean[NR];
     /* Each colour's share, where one ray stands for every colour. */
     lr__lens_shares *shares = lr__lens_shares_new(c);
     if (t == NULL || nsets == NULL || rs == NULL || lines == NULL ||
@@ -490,7 +490,8 @@ static lr__lens_blur *build(const lr__cam *c)
         rs[k].ok = oks + (size_t)k * per;
         t->share[k][0] = t->share[k][1] = t->share[k][2] = 1.0f;
         t->ok[k] = radius_rays(c, nsets, ncol, r, k < NR ? h : -h, &rs[k],
-                               &ch[k], &jr[k], &jt[k], &t->chief_w[k], box[k]);
+                               &ch[k], &jr[k], &jt[k], &t->chief_w[k], box[k],
+                               &mean[k]);
         if (t->ok[k])
             slopes(t, k, &rs[k]);
     }
@@ -510,8 +511,9 @@ static lr__lens_blur *build(const lr__cam *c)
     for (int k = 0; k <= NR; k++)
         if (t->ok[k])
             fill_row(t, k, &rs[k], &ch[k], &jr[k], &jt[k]);
-    weights_hold(c, nsets, ncol, t, mid_box, mid_T0);
-    if (shares != NULL && !colour_shares(c, shares, t, box, mid_box, mid_T0)) {
+    weights_hold(c, nsets, ncol, t, mid_box, mid_T0, mid_mean);
+    if (shares != NULL &&
+        !colour_shares(c, shares, t, box, mean, mid_box, mid_T0, mid_mean)) {
         free(t);
         t = NULL;
         goto done;
