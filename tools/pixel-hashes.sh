@@ -66,6 +66,9 @@ r textured textured --set render.spp=4
 r night-lens real-lens-light-side --set render.spp=4
 r lens-chart real-lens --set render.spp=2
 r lens-bokeh real-lens-rgb --set render.spp=2
+# A lens with aspheres (Newton's method in the packets: rx_asph16.c).
+r lens-chart real-lens-asphere --set render.spp=2 \
+    --set 'camera.lens="zoom-nikkor-z-14-30mm-f4-at-14mm"'
 # The orthographic camera (a model with its parameter in lr_camera's
 # model block), path traced.
 r cornell orthographic --set render.spp=4 --set camera.model=orthographic \

@@ -140,15 +140,15 @@ static inline int lr__rx_aspheric(const lr__surface *s)
     return 0;
 }
 
-/* One lane of the packet traces (rx_trace.c: lr__rx_trace16; ghost16.c):
- * where the ray o + t d (o relative to the vertex) meets the quadric of
- * curvature c and k1 = 1 + conic, p, and the unit normal there, n, by
- * rx_trace.c's intersect and normal_at in the same operations, with
- * selects for their early returns so that a loop of lanes vectorises.
- * 0 where those would fail (then p and n are not meaningful). */
-static inline int lr__rx_lane_meet(double c, double k1, double ox, double oy,
-                                   double oz, double dx, double dy, double dz,
-                                   double p[3], double n[3])
+/* One lane of the packet traces (rx_trace.c: lr__rx_trace16; ghost16.c;
+ * rx_asph16.c): where the ray o + t d (o relative to the vertex) meets
+ * the quadric of curvature c and k1 = 1 + conic, the t of rx_trace.c's
+ * intersect in the same operations, with selects for its early returns
+ * so that a loop of lanes vectorises.  0 where intersect would fail
+ * (then t is not meaningful). */
+static inline int lr__rx_lane_quadric(double c, double k1, double ox, double oy,
+                                      double oz, double dx, double dy,
+                                      double dz, double *t_out)
 {
     double A = c * (dx * dx + dy * dy + k1 * dz * dz);
     double B = c * (ox * dx + oy * dy + k1 * oz * dz) - dz;
@@ -161,6 +161,19 @@ static inline int lr__rx_lane_meet(double c, double k1, double ox, double oy,
     double t2 = -den / (A != 0.0 ? A : 1.0); /* see intersect() */
     t = A != 0.0 && !(1.0 - c * k1 * (oz + t * dz) > 0.0) ? t2 : t;
     ok &= isfinite(t);
+    *t_out = t;
+    return ok;
+}
+
+/* The point p there and the unit normal n, by intersect and normal_at
+ * (as lr__rx_lane_quadric).  0 where those would fail (then p and n are
+ * not meaningful). */
+static inline int lr__rx_lane_meet(double c, double k1, double ox, double oy,
+                                   double oz, double dx, double dy, double dz,
+                                   double p[3], double n[3])
+{
+    double t;
+    int ok = lr__rx_lane_quadric(c, k1, ox, oy, oz, dx, dy, dz, &t);
     p[0] = ox + t * dx, p[1] = oy + t * dy, p[2] = oz + t * dz;
     double gx = -c * p[0], gy = -c * p[1], gz = 1.0 - c * k1 * p[2];
     ok &= gz > 0.0;
@@ -330,6 +343,13 @@ int lr__rx_refract(double d[3], const double nrm[3], double n1, double n2);
 void lr__rx_trace16(const lr__rx *rx, const double *z, const double *n_after,
                     double stop_scale, double (*o)[16], double (*d)[16],
                     int *alive);
+
+/* lr__rx_trace16's step through aspheric surface i (lr__rx_aspheric)
+ * toward the object: the lanes whose alive[] is 1 get lr__rx_trace_surface's
+ * bits, a lane it stops alive[] = 0 (its o and d unchanged); rx_asph16.c. */
+void lr__rx_asph16(const lr__rx *rx, const double *z, const double *n_after,
+                   double stop_scale, int i, double (*o)[16], double (*d)[16],
+                   int *alive);
 
 /* The same in float, for the packet camera, on `lanes` rays (a multiple
  * of 16, at most LR__RX_LANES: up to four packets at once); o and d have

@@ -82,9 +82,12 @@ static int intersect(const lr__surface *s, double c, double k1,
     for (int a = 0; a < 3; a++)
         p[a] = o[a] + t * d[a];
     if (lr__rx_aspheric(s)) {
-        /* Newton on F(t) = z(t) - sag(r(t)). */
+        /* Newton on F(t) = z(t) - sag(r(t)).  The height is sqrt(x^2 +
+         * y^2), not hypot's: lr__rx_asph16 takes it so in vectors and
+         * must give these bits (a millimetre-sized lens neither
+         * overflows nor underflows it). */
         for (int it = 0; it < 30; it++) {
-            double r = hypot(p[0], p[1]), sag, slope;
+            double r = sqrt(p[0] * p[0] + p[1] * p[1]), sag, slope;
             if (!sag_at(s, r, &sag, &slope))
                 return 0;
             double F = p[2] - sag;
@@ -114,7 +117,7 @@ static int normal_at(const lr__surface *s, double c, double k1,
     /* The normal: the gradient of z - sag(r), or of the quadric. */
     double g[3];
     if (lr__rx_aspheric(s)) {
-        double r = hypot(p[0], p[1]), sag, slope;
+        double r = sqrt(p[0] * p[0] + p[1] * p[1]), sag, slope;
         if (!sag_at(s, r, &sag, &slope))
             return 0;
         g[0] = r > 0 ? -slope * p[0] / r : 0.0;
@@ -248,8 +251,8 @@ int lr__rx_trace(const lr__rx *rx, const double *z, double nm,
  * plain x86-64 at load time): the same operations in the same order as
  * the scalar code, in double, with selects for its early returns, so each
  * lane gets the scalar trace's bits.  Aspheric surfaces (Newton's method,
- * a loop of its own length per ray) go lane by lane through the scalar
- * code. */
+ * a loop of its own length per ray) go to lr__rx_asph16, which gives
+ * them too. */
 __attribute__((target_clones("avx512f", "avx2", "default"))) void
 lr__rx_trace16(const lr__rx *rx, const double *z, const double *n_after,
                double stop_scale, double (*o)[16], double (*d)[16], int *alive)
@@ -265,19 +268,7 @@ lr__rx_trace16(const lr__rx *rx, const double *z, const double *n_after,
         int i = n - 1 - step;
         const lr__surface *s = &rx->s[i];
         if (lr__rx_aspheric(s)) {
-            for (int l = 0; l < 16; l++) {
-                if (!alive[l])
-                    continue;
-                double ol[3] = {o[0][l], o[1][l], o[2][l]},
-                       dl[3] = {d[0][l], d[1][l], d[2][l]};
-                if (!lr__rx_trace_surface(rx, z, n_after, stop_scale, i, 0, ol,
-                                          dl)) {
-                    alive[l] = 0;
-                    continue;
-                }
-                for (int a = 0; a < 3; a++)
-                    o[a][l] = ol[a], d[a][l] = dl[a];
-            }
+            lr__rx_asph16(rx, z, n_after, stop_scale, i, o, d, alive);
             continue;
         }
         const double c = s->radius != 0.0 ? 1.0 / s->radius : 0.0;

@@ -23,8 +23,8 @@
  * length^2 = c (c (x^2 + y^2 + z^2) - 2z) + 1 = 1, so it is the unit
  * normal as it stands; and the vector form of Snell's law maps a unit
  * direction to a unit direction, so the direction is normalised once, by
- * the caller, not after every surface.  Aspheric surfaces go lane by
- * lane through the scalar code in double. */
+ * the caller, not after every surface.  Aspheric surfaces go through
+ * lr__rx_asph16, in double. */
 /* A surface's transmittance from the directions before (d0) and after
  * (d1) a refraction toward the object, for the aspheric surfaces traced
  * by the scalar code: the normal is parallel to n1 d0 - n2 d1 (the
@@ -44,6 +44,40 @@ static double aspheric_t(const lr__ttab *tab, int i, const double *n_after,
     }
     double c = vv > 0.0 ? fabs(dv) / sqrt(vv) : 1.0;
     return lr__ttab_at(tab, i, n1, c);
+}
+
+/* An aspheric surface on every lane: in double, sixteen lanes at a time,
+ * by lr__rx_asph16 (Newton's method), each lane's transmittance by
+ * aspheric_t. */
+static void aspheric16(const lr__rx *rx, const double *z, const double *n_after,
+                       double stop_scale, int i, int lanes,
+                       float (*o)[LR__RX_LANES], float (*d)[LR__RX_LANES],
+                       int *alive, const lr__ttab *tab, float *T)
+{
+    for (int b = 0; b < lanes; b += 16) {
+        double od[3][16], dd[3][16], d0[3][16];
+        int live[16];
+        for (int l = 0; l < 16; l++) {
+            for (int a = 0; a < 3; a++)
+                od[a][l] = o[a][b + l], dd[a][l] = d0[a][l] = d[a][b + l];
+            live[l] = alive[b + l];
+        }
+        lr__rx_asph16(rx, z, n_after, stop_scale, i, od, dd, live);
+        for (int l = 0; l < 16; l++) {
+            if (!alive[b + l])
+                continue;
+            alive[b + l] = live[l];
+            if (!live[l])
+                continue;
+            if (tab != NULL) {
+                double a0[3] = {d0[0][l], d0[1][l], d0[2][l]};
+                double a1[3] = {dd[0][l], dd[1][l], dd[2][l]};
+                T[b + l] *= (float)aspheric_t(tab, i, n_after, a0, a1);
+            }
+            for (int a = 0; a < 3; a++)
+                o[a][b + l] = (float)od[a][l], d[a][b + l] = (float)dd[a][l];
+        }
+    }
 }
 
 int lr__rx_trace_isa = 0;
@@ -332,26 +366,8 @@ lr__rx_trace16f(const lr__rx *rx, const double *z, const double *n_after,
         int i = n - 1 - step;
         const lr__surface *s = &rx->s[i];
         if (lr__rx_aspheric(s)) {
-            /* Newton's method, in double, lane by lane: the scalar code
-             * through this one surface. */
-            for (int l = 0; l < lanes; l++) {
-                if (!alive[l])
-                    continue;
-                double ol[3] = {o[0][l], o[1][l], o[2][l]},
-                       dl[3] = {d[0][l], d[1][l], d[2][l]};
-                double d0[3] = {dl[0], dl[1], dl[2]};
-                if (!lr__rx_trace_surface(rx, z, n_after, stop_scale, i, 0, ol,
-                                          dl)) {
-                    alive[l] = 0;
-                    continue;
-                }
-                if (tab != NULL)
-                    T[l] *= (float)aspheric_t(tab, i, n_after, d0, dl);
-                o[0][l] = (float)ol[0], o[1][l] = (float)ol[1];
-                o[2][l] = (float)ol[2];
-                d[0][l] = (float)dl[0], d[1][l] = (float)dl[1];
-                d[2][l] = (float)dl[2];
-            }
+            aspheric16(rx, z, n_after, stop_scale, i, lanes, o, d, alive, tab,
+                       T);
             continue;
         }
         const float c = (float)(s->radius != 0.0 ? 1.0 / s->radius : 0.0);
