@@ -5,13 +5,19 @@
  * tables, the blur table and the chief rays are traced in packets and
  * stand for the scalar code's results.  Rays from the image plane to
  * points scattered over 0.3 or 1.3 times the rear element, so that some pass,
- * some are stopped by an aperture and some miss an asphere's reach.
+ * some are stopped by an aperture and some miss an asphere's reach.  And
+ * the lens camera's rays_n (its glass by lr__rx_trace16_t, the rgb
+ * mode's samples) against its ray one sample at a time.
  */
 #include "test.h"
+#include "camera/camera.h"
+#include "camera/camera_lens.h"
 #include "optics/prescription.h"
+#include "scene/scene.h"
 
 #include <math.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <string.h>
 
 static uint64_t rng = 88172645463325252ull;
@@ -102,7 +108,7 @@ static void steps(const lr__rx *rx, const double *z, const double *n,
         memcpy(before, alive, sizeof alive);
         double o0[3][16], d0[3][16];
         memcpy(o0, o, sizeof o), memcpy(d0, d, sizeof d);
-        lr__rx_asph16(rx, z, n, scale, i, o, d, alive);
+        lr__rx_asph16(rx, z, n, scale, i, o, d, alive, NULL);
         for (int l = 0; l < 16; l++) {
             if (!before[l]) {
                 /* A lane already lost stays lost and untouched. */
@@ -162,8 +168,67 @@ static void test_lanes_equal_scalar(void **state)
     }
 }
 
+/* rays_n's rays and weights against `ray`'s, bit for bit, wide open (so
+ * that the corners vignette) and in rgb mode: at the reference
+ * wavelength and each channel's (the glass in lanes, the transmittance
+ * from their tables) and at one no table holds (ray by ray). */
+static void check_rays_n(const char *lens)
+{
+    char json[1024];
+    snprintf(json, sizeof json,
+             "{\"render\": {\"width\": 300, \"height\": 200},"
+             " \"camera\": {\"model\": \"lens\", \"lens\": \"%s\","
+             "  \"f_number\": 0, \"focus_distance\": 3,"
+             "  \"chromatic\": {\"mode\": \"rgb\"},"
+             "  \"position\": [0, 0, 0], \"look_at\": [0, 0, -1]},"
+             " \"objects\": []}",
+             lens);
+    lr_scene *sc = lr_test_load_json(json);
+    lr_camera cam;
+    lr__cam c;
+    lr_scene_camera(sc, &cam);
+    lr__cam_init(&c, &cam, 300, 200);
+    assert_non_null(c.model->rays_n);
+    const double nms[] = {c.nm_ref, c.lens.nm_rgb[0], c.lens.nm_rgb[1],
+                          c.lens.nm_rgb[2], 500.0};
+    long stopped = 0, passed = 0;
+    for (int k = 0; k < 5; k++)
+        for (int p = 0; p < 40; p++) {
+            int n = p % 3 ? 16 : 7;
+            double fx[16], fy[16], u[16][2], wt[16];
+            lr__v3 org[16], dir[16];
+            for (int i = 0; i < n; i++) {
+                fx[i] = 300 * uniform(), fy[i] = 200 * uniform();
+                u[i][0] = uniform(), u[i][1] = uniform();
+            }
+            c.model->rays_n(&c, n, fx, fy, (const double(*)[2])u, c.w, nms[k],
+                            org, dir, wt);
+            for (int i = 0; i < n; i++) {
+                lr__v3 o1, d1;
+                double w1 = c.model->ray(&c, fx[i], fy[i], u[i], c.w, nms[k],
+                                         &o1, &d1);
+                assert_memory_equal(&wt[i], &w1, sizeof w1);
+                assert_memory_equal(&org[i], &o1, sizeof o1);
+                assert_memory_equal(&dir[i], &d1, sizeof d1);
+                stopped += w1 == 0.0, passed += w1 != 0.0;
+            }
+        }
+    print_message("%s: rays_n as ray: %ld passed, %ld stopped\n", lens, passed,
+                  stopped);
+    assert_true(passed > 1000 && stopped > 100);
+    lr_scene_free(sc);
+}
+
+static void test_camera_rays_n_as_ray(void **state)
+{
+    (void)state;
+    check_rays_n("double-gauss-50");
+    check_rays_n("zoom-nikkor-z-14-30mm-f4-at-14mm");
+}
+
 static const struct CMUnitTest rx_lanes_tests[] = {
     cmocka_unit_test(test_lanes_equal_scalar),
+    cmocka_unit_test(test_camera_rays_n_as_ray),
 };
 
 LR_TEST_GROUP(rx_lanes, rx_lanes_tests)

@@ -262,6 +262,20 @@ static double lens_start(const lr__cam *c, double fx, double fy,
     return area * ct * ct * ct * ct / (dz * dz) * lc->inv_E0;
 }
 
+/* The camera's indices at nm (its reference's or a channel's), or NULL
+ * for another wavelength. */
+static const double *camera_n(const lr__cam *c, double nm)
+{
+    const lr__lens_cam *lc = &c->lens;
+    if (nm == c->nm_ref)
+        return lc->n_ref;
+    const double *n = NULL;
+    for (int k = 0; k < 3; k++)
+        if (nm == lc->nm_rgb[k])
+            n = lc->n_rgb[k];
+    return n;
+}
+
 static double lens_ray(const lr__cam *c, double fx, double fy,
                        const double u[2], double w, double nm, lr__v3 *org,
                        lr__v3 *dir)
@@ -270,16 +284,10 @@ static double lens_ray(const lr__cam *c, double fx, double fy,
     const lr__lens_cam *lc = &c->lens;
     const lr_lens *L = lc->L;
     double nbuf[LR__RX_MAX_SURFACES];
-    const double *n = lc->n_ref;
-    if (nm != c->nm_ref) {
-        n = NULL;
-        for (int k = 0; k < 3; k++)
-            if (nm == lc->nm_rgb[k])
-                n = lc->n_rgb[k];
-        if (n == NULL) {
-            lr__lens_indices(c, nm, nbuf);
-            n = nbuf;
-        }
+    const double *n = camera_n(c, nm);
+    if (n == NULL) {
+        lr__lens_indices(c, nm, nbuf);
+        n = nbuf;
     }
     double o[3], d[3], T = 0.0;
     double wt = lens_start(c, fx, fy, u, o, d);
@@ -292,6 +300,46 @@ static double lens_ray(const lr__cam *c, double fx, double fy,
     *org = c->origin;
     *dir = c->forward;
     return 0.0;
+}
+
+/* The model's rays_n: lens_ray's rays, their glass traced sixteen at a
+ * time in double by lr__rx_trace16_t (each lane lr__rx_trace_t's bits),
+ * at a wavelength whose transmittance table the camera holds; at any
+ * other (spectral mode's), lens_ray one by one. */
+static void lens_rays_n(const lr__cam *c, int n, const double *fx,
+                        const double *fy, const double (*u)[2], double w,
+                        double nm, lr__v3 *org, lr__v3 *dir, double *wt)
+{
+    const lr__lens_cam *lc = &c->lens;
+    const lr_lens *L = lc->L;
+    const double *ns = camera_n(c, nm);
+    const lr__ttab *tab = ns != NULL ? lr__lens_ttab_for(lc, ns) : NULL;
+    if (tab == NULL) {
+        for (int i = 0; i < n; i++)
+            wt[i] = lens_ray(c, fx[i], fy[i], u[i], w, nm, &org[i], &dir[i]);
+        return;
+    }
+    double o[3][16], d[3][16], T[16], w0[16];
+    int alive[16];
+    for (int i = 0; i < 16; i++) {
+        double oi[3] = {0.0, 0.0, 0.0}, di[3] = {0.0, 0.0, -1.0};
+        w0[i] = i < n ? lens_start(c, fx[i], fy[i], u[i], oi, di) : 0.0;
+        alive[i] = w0[i] > 0.0;
+        T[i] = 1.0;
+        for (int a = 0; a < 3; a++)
+            o[a][i] = oi[a], d[a][i] = di[a];
+    }
+    lr__rx_trace16_t(&L->rx, L->z, ns, lc->stop_scale, tab, o, d, alive, T);
+    for (int i = 0; i < n; i++) {
+        if (!alive[i]) {
+            org[i] = c->origin, dir[i] = c->forward, wt[i] = 0.0;
+            continue;
+        }
+        double oi[3] = {o[0][i], o[1][i], o[2][i]};
+        double di[3] = {d[0][i], d[1][i], d[2][i]};
+        lr__lens_to_world(c, oi, di, &org[i], &dir[i]);
+        wt[i] = w0[i] * T[i];
+    }
 }
 
 /* Film point (fx, fy) on the sensor (lr__lens_sensor_at's, in float: iw, ih the
@@ -625,6 +673,7 @@ const lr__camera_model lr__camera_lens = {
     .validate = validate,
     .setup = setup,
     .ray = lens_ray,
+    .rays_n = lens_rays_n,
     .rays16 = lens_rays16,
     .rays16_n = lens_rays16_n,
     .colour_w16 = lens_colour_w16,

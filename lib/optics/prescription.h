@@ -346,10 +346,12 @@ void lr__rx_trace16(const lr__rx *rx, const double *z, const double *n_after,
 
 /* lr__rx_trace16's step through aspheric surface i (lr__rx_aspheric)
  * toward the object: the lanes whose alive[] is 1 get lr__rx_trace_surface's
- * bits, a lane it stops alive[] = 0 (its o and d unchanged); rx_asph16.c. */
+ * bits, a lane it stops alive[] = 0 (its o and d unchanged); rx_asph16.c.
+ * With cosv, also each lane's |cosine| to the normal before refracting
+ * (lr__rx_trace_t's, for the transmittance). */
 void lr__rx_asph16(const lr__rx *rx, const double *z, const double *n_after,
                    double stop_scale, int i, double (*o)[16], double (*d)[16],
-                   int *alive);
+                   int *alive, double *cosv);
 
 /* The same in float, for the packet camera, on `lanes` rays (a multiple
  * of 16, at most LR__RX_LANES: up to four packets at once); o and d have

@@ -51,7 +51,7 @@ grad_lane(double slope, double x, double r)
 __attribute__((target_clones("avx512f", "avx2", "default"))) void
 lr__rx_asph16(const lr__rx *rx, const double *z, const double *n_after,
               double stop_scale, int i, double (*o)[16], double (*d)[16],
-              int *alive)
+              int *alive, double *cosv)
 {
     const lr__surface *s = &rx->s[i];
     const double c = s->radius != 0.0 ? 1.0 / s->radius : 0.0;
@@ -116,6 +116,8 @@ lr__rx_asph16(const lr__rx *rx, const double *z, const double *n_after,
         double m[3] = {gx / len, gy / len, 1.0 / len}, e[3];
         good &= !(x * x + y * y > lim2);
         double dx = d[0][l], dy = d[1][l], dz = d[2][l];
+        if (cosv != NULL)
+            cosv[l] = fabs(dx * m[0] + dy * m[1] + dz * m[2]);
         good &= lr__rx_lane_refract(eta, m, dx, dy, dz, e) || !bend;
         int live = ok[l] & good;
         alive[l] = live;

@@ -14,6 +14,7 @@
  * Refraction is the vector form of Snell's law (optics-reference.md).
  */
 #include "optics/prescription.h"
+#include "optics/transmit.h"
 
 #include <math.h>
 
@@ -252,12 +253,16 @@ int lr__rx_trace(const lr__rx *rx, const double *z, double nm,
  * the scalar code, in double, with selects for its early returns, so each
  * lane gets the scalar trace's bits.  Aspheric surfaces (Newton's method,
  * a loop of its own length per ray) go to lr__rx_asph16, which gives
- * them too. */
-__attribute__((target_clones("avx512f", "avx2", "default"))) void
-lr__rx_trace16(const lr__rx *rx, const double *z, const double *n_after,
-               double stop_scale, double (*o)[16], double (*d)[16], int *alive)
+ * them too.  With a table, each lane's T as lr__rx_trace_t's: the
+ * cosine to the normal before the refraction, looked up where the index
+ * changes. */
+static inline __attribute__((always_inline)) void
+trace16(const lr__rx *rx, const double *z, const double *n_after,
+        double stop_scale, double (*o)[16], double (*d)[16], int *alive,
+        const lr__ttab *tab, double *T)
 {
     int n = rx->n;
+    double cosv[16];
     for (int step = 0; step < n; step++) {
         /* Once every lane is lost, the rest would change nothing. */
         int any = 0;
@@ -267,36 +272,58 @@ lr__rx_trace16(const lr__rx *rx, const double *z, const double *n_after,
             return;
         int i = n - 1 - step;
         const lr__surface *s = &rx->s[i];
-        if (lr__rx_aspheric(s)) {
-            lr__rx_asph16(rx, z, n_after, stop_scale, i, o, d, alive);
-            continue;
-        }
-        const double c = s->radius != 0.0 ? 1.0 / s->radius : 0.0;
-        const double k1 = 1.0 + s->conic;
-        const double lim = s->semi_aperture *
-                           (i == rx->stop ? stop_scale : 1.0);
-        const double lim2 = lim * lim, zi = z[i];
         const double n1 = n_after[i], n2 = i > 0 ? n_after[i - 1] : 1.0;
         const int bend = n1 != n2;
-        const double eta = n1 / n2;
-        for (int l = 0; l < 16; l++) {
-            double ox = o[0][l], oy = o[1][l], oz = o[2][l] - zi;
-            double dx = d[0][l], dy = d[1][l], dz = d[2][l];
-            double pt[3], m[3], e[3];
-            int ok = lr__rx_lane_meet(c, k1, ox, oy, oz, dx, dy, dz, pt, m);
-            double px = pt[0], py = pt[1], pz = pt[2];
-            ok &= !(px * px + py * py > lim2);
-            /* Refraction (lr__rx_refract above, from n1 into n2). */
-            ok &= lr__rx_lane_refract(eta, m, dx, dy, dz, e) || !bend;
-            double ex = e[0], ey = e[1], ez = e[2];
-            int live = alive[l] & ok;
-            alive[l] = live;
-            o[0][l] = live ? px : o[0][l];
-            o[1][l] = live ? py : o[1][l];
-            o[2][l] = live ? pz + zi : o[2][l];
-            d[0][l] = live && bend ? ex : dx;
-            d[1][l] = live && bend ? ey : dy;
-            d[2][l] = live && bend ? ez : dz;
+        if (lr__rx_aspheric(s)) {
+            lr__rx_asph16(rx, z, n_after, stop_scale, i, o, d, alive,
+                          tab != NULL ? cosv : NULL);
+        } else {
+            const double c = s->radius != 0.0 ? 1.0 / s->radius : 0.0;
+            const double k1 = 1.0 + s->conic;
+            const double lim = s->semi_aperture *
+                               (i == rx->stop ? stop_scale : 1.0);
+            const double lim2 = lim * lim, zi = z[i];
+            const double eta = n1 / n2;
+            for (int l = 0; l < 16; l++) {
+                double ox = o[0][l], oy = o[1][l], oz = o[2][l] - zi;
+                double dx = d[0][l], dy = d[1][l], dz = d[2][l];
+                double pt[3], m[3], e[3];
+                int ok = lr__rx_lane_meet(c, k1, ox, oy, oz, dx, dy, dz, pt, m);
+                double px = pt[0], py = pt[1], pz = pt[2];
+                ok &= !(px * px + py * py > lim2);
+                cosv[l] = fabs(dx * m[0] + dy * m[1] + dz * m[2]);
+                /* Refraction (lr__rx_refract above, from n1 into n2). */
+                ok &= lr__rx_lane_refract(eta, m, dx, dy, dz, e) || !bend;
+                double ex = e[0], ey = e[1], ez = e[2];
+                int live = alive[l] & ok;
+                alive[l] = live;
+                o[0][l] = live ? px : o[0][l];
+                o[1][l] = live ? py : o[1][l];
+                o[2][l] = live ? pz + zi : o[2][l];
+                d[0][l] = live && bend ? ex : dx;
+                d[1][l] = live && bend ? ey : dy;
+                d[2][l] = live && bend ? ez : dz;
+            }
         }
+        /* A lost lane's cosine may be anything: no lookup. */
+        if (tab != NULL && bend)
+            for (int l = 0; l < 16; l++)
+                if (alive[l])
+                    T[l] *= lr__ttab_at(tab, i, n1, cosv[l]);
     }
+}
+
+__attribute__((target_clones("avx512f", "avx2", "default"))) void
+lr__rx_trace16(const lr__rx *rx, const double *z, const double *n_after,
+               double stop_scale, double (*o)[16], double (*d)[16], int *alive)
+{
+    trace16(rx, z, n_after, stop_scale, o, d, alive, NULL, NULL);
+}
+
+__attribute__((target_clones("avx512f", "avx2", "default"))) void
+lr__rx_trace16_t(const lr__rx *rx, const double *z, const double *n_after,
+                 double stop_scale, const lr__ttab *tab, double (*o)[16],
+                 double (*d)[16], int *alive, double *T)
+{
+    trace16(rx, z, n_after, stop_scale, o, d, alive, tab, T);
 }

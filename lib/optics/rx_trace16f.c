@@ -62,7 +62,7 @@ static void aspheric16(const lr__rx *rx, const double *z, const double *n_after,
                 od[a][l] = o[a][b + l], dd[a][l] = d0[a][l] = d[a][b + l];
             live[l] = alive[b + l];
         }
-        lr__rx_asph16(rx, z, n_after, stop_scale, i, od, dd, live);
+        lr__rx_asph16(rx, z, n_after, stop_scale, i, od, dd, live, NULL);
         for (int l = 0; l < 16; l++) {
             if (!alive[b + l])
                 continue;

@@ -16,37 +16,48 @@ uint64_t lr__colour_rays(const lr__cam *c)
                : (uint64_t)c->chroma.wavelengths + 1;
 }
 
-/* One camera sample with a ray per colour: radiance through film point
- * (fx, fy) and lens sample u. */
-static void colour_sample(const lr__shot *sh, const lr__pixel_sampler *ps,
-                          uint64_t pixel, uint32_t s, double fx, double fy,
-                          const double u[2], lr__pixel *acc,
-                          lr__sample_counts *cnt)
+/* rgb samples first..last of a pixel: each sample's three channels
+ * traced with its own focus through the same film point and lens point
+ * (the paper).  The camera's rays for up to 16 samples are made at once,
+ * channel by channel (a real lens traces their glass in vectors: the
+ * same rays), then the radiance sample by sample, channel by channel. */
+static void rgb_samples(const lr__shot *sh, const lr__pixel_sampler *ps,
+                        uint64_t pixel, int x, int y, int first, int last,
+                        lr__pixel *acc, lr__sample_counts *cnt)
 {
     const lr__cam *c = sh->cam;
     const lr__integrator *in = sh->integrator;
-    if (c->chroma.mode == LR_CHROMATIC_RGB) {
-        const lr__sample_id id = {sh->sampler, pixel, s, sh->lt};
-        lr__v3 org, dir;
-        cnt->camera_rays += 3;
-        /* The paper: each channel traced with its own focus, through the
-         * same film point and lens point. */
-        double L[3];
-        for (int ch = 0; ch < 3; ch++) {
-            double wt = lr__cam_lens_ray(c, fx, fy, u, c->w_rgb[ch],
-                                         c->lens.nm_rgb[ch], &org, &dir);
-            lr__v3 Li = v3(0, 0, 0);
-            cnt->lens_blocked += wt == 0.0;
-            if (wt != 0.0)
-                Li = v3_scale(in->radiance(sh->scene, sh->max_depth, org, dir,
-                                           &id, &cnt->rays),
-                              wt);
-            L[ch] = ch == 0 ? Li.x : ch == 1 ? Li.y : Li.z;
+    for (int s0 = first; s0 < last; s0 += 16) {
+        int n = last - s0 < 16 ? last - s0 : 16;
+        double fx[16], fy[16], u[16][2], wt[3][16];
+        lr__v3 org[3][16], dir[3][16];
+        for (int i = 0; i < n; i++) {
+            double v[4];
+            lr__pixel_sampler_get(ps, (uint32_t)(s0 + i), v);
+            fx[i] = x + v[0], fy[i] = y + v[1];
+            u[i][0] = v[2], u[i][1] = v[3];
         }
-        lr__pixel_add(acc, v3(L[0], L[1], L[2]));
-        return;
+        for (int ch = 0; ch < 3; ch++)
+            lr__cam_lens_rays(c, n, fx, fy, (const double(*)[2])u, c->w_rgb[ch],
+                              c->lens.nm_rgb[ch], org[ch], dir[ch], wt[ch]);
+        for (int i = 0; i < n; i++) {
+            const lr__sample_id id = {sh->sampler, pixel, (uint32_t)(s0 + i),
+                                      sh->lt};
+            cnt->camera_rays += 3;
+            double L[3];
+            for (int ch = 0; ch < 3; ch++) {
+                lr__v3 Li = v3(0, 0, 0);
+                cnt->lens_blocked += wt[ch][i] == 0.0;
+                if (wt[ch][i] != 0.0)
+                    Li = v3_scale(in->radiance(sh->scene, sh->max_depth,
+                                               org[ch][i], dir[ch][i], &id,
+                                               &cnt->rays),
+                                  wt[ch][i]);
+                L[ch] = ch == 0 ? Li.x : ch == 1 ? Li.y : Li.z;
+            }
+            lr__pixel_add(acc, v3(L[0], L[1], L[2]));
+        }
     }
-    lr__spectral_sample(sh, ps, s, fx, fy, u, acc, cnt);
 }
 
 /* Samples of a pixel sixteen at a time: one packet of camera rays from
@@ -167,11 +178,15 @@ void lr__sample_pixel(const lr__shot *sh, const lr__block_plan *bp, int x,
     uint64_t pixel = (uint64_t)y * (uint64_t)sh->width + (uint64_t)x;
     lr__pixel_sampler ps;
     lr__pixel_sampler_init(&ps, sh->sampler, pixel);
+    if (sh->cam->chroma.mode == LR_CHROMATIC_RGB) {
+        rgb_samples(sh, &ps, pixel, x, y, first, last, acc, cnt);
+        return;
+    }
     for (int s = first; s < last; s++) {
         double u[4];
         lr__pixel_sampler_get(&ps, (uint32_t)s, u);
-        colour_sample(sh, &ps, pixel, (uint32_t)s, x + u[0], y + u[1], u + 2,
-                      acc, cnt);
+        lr__spectral_sample(sh, &ps, (uint32_t)s, x + u[0], y + u[1], u + 2,
+                            acc, cnt);
     }
 }
 
