@@ -106,6 +106,24 @@ double lr__fresnel_r(double n1, double n2, double cos_i)
     return 0.5 * (rs * rs + rp * rp);
 }
 
+/* A layer's terms that both polarisations share: c^2, k, cos(delta) and
+ * S, computed once for the two (the same values either way). */
+typedef struct layer_terms {
+    double c2, k;
+    double complex cd, S;
+} layer_terms;
+
+static void layer_terms_at(double s0, double n, double d_nm, double nm,
+                           layer_terms *t)
+{
+    double c2 = 1.0 - (s0 / n) * (s0 / n);
+    double k = 2.0 * M_PI * n * d_nm / nm;
+    double complex delta = k * csqrt(c2 + 0.0 * I);
+    t->c2 = c2, t->k = k;
+    t->cd = ccos(delta);
+    t->S = delta == 0.0 ? 1.0 : csin(delta) / delta;
+}
+
 /* One polarisation: p = 0 (s) or 1 (p).  Sets *R and *T.
  *
  * In a layer, write delta = k c with k = 2 pi n d / lambda and c =
@@ -119,12 +137,9 @@ double lr__fresnel_r(double n1, double n2, double cos_i)
  * delta: no division by c (which is 0 at the layer's own critical
  * angle), and the square root's branch does not matter. */
 static void one_pol(int p, double n0, double ns, const double *n,
-                    const double *d_nm, int m, double cos_i, double nm,
+                    const layer_terms *lt, int m, double cos_i, double cs,
                     double *R, double *T)
 {
-    double s0 = n0 * sqrt(fmax(0.0, 1.0 - cos_i * cos_i));
-    /* The substrate passes a wave (lr__stack_rt checked): c_s > 0. */
-    double cs = sqrt(1.0 - (s0 / ns) * (s0 / ns));
     double eta0 = p ? n0 / cos_i : n0 * cos_i;
     double etas = p ? ns / cs : ns * cs;
     /* [B; C] = M_1 M_2 ... M_m [1; eta_s], built from the substrate out:
@@ -132,11 +147,8 @@ static void one_pol(int p, double n0, double ns, const double *n,
      * first. */
     double complex B = 1.0, C = etas;
     for (int r = m - 1; r >= 0; r--) {
-        double c2 = 1.0 - (s0 / n[r]) * (s0 / n[r]);
-        double k = 2.0 * M_PI * n[r] * d_nm[r] / nm;
-        double complex delta = k * csqrt(c2 + 0.0 * I);
-        double complex cd = ccos(delta);
-        double complex S = delta == 0.0 ? 1.0 : csin(delta) / delta;
+        double c2 = lt[r].c2, k = lt[r].k;
+        double complex cd = lt[r].cd, S = lt[r].S;
         double complex m12 = p ? k * c2 * S / n[r] : k * S / n[r];
         double complex m21 = p ? n[r] * k * S : n[r] * k * c2 * S;
         double complex B2 = cd * B + I * m12 * C;
@@ -163,9 +175,15 @@ void lr__stack_rt(double n0, double ns, const double *n, const double *d_nm,
             *T = 0.0;
         return;
     }
+    double s0 = n0 * sqrt(fmax(0.0, 1.0 - cos_i * cos_i));
+    /* The substrate passes a wave (checked above): c_s > 0. */
+    double cs = sqrt(1.0 - (s0 / ns) * (s0 / ns));
+    layer_terms lt[LR__COAT_MAX_LAYERS];
+    for (int r = 0; r < m; r++)
+        layer_terms_at(s0, n[r], d_nm[r], nm, &lt[r]);
     double Rs, Ts, Rp, Tp;
-    one_pol(0, n0, ns, n, d_nm, m, cos_i, nm, &Rs, &Ts);
-    one_pol(1, n0, ns, n, d_nm, m, cos_i, nm, &Rp, &Tp);
+    one_pol(0, n0, ns, n, lt, m, cos_i, cs, &Rs, &Ts);
+    one_pol(1, n0, ns, n, lt, m, cos_i, cs, &Rp, &Tp);
     *R = 0.5 * (Rs + Rp);
     if (T != NULL)
         *T = 0.5 * (Ts + Tp);

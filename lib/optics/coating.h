@@ -106,8 +106,8 @@ int lr__coating_layers(const lr__coating *c, lr__layer *out);
 /* ---- reflectance -------------------------------------------------------- */
 
 /* The stack's reflectance and transmittance, unpolarised, for light in
- * medium n0 meeting `m` layers (index n[r], thickness d_nm[r], r = 0
- * first met) on a substrate of index ns, at `cos_i` (in n0, in [0, 1])
+ * medium n0 meeting `m` layers (at most LR__COAT_MAX_LAYERS; index n[r],
+ * thickness d_nm[r], r = 0 first met) on a substrate of index ns, at `cos_i` (in n0, in [0, 1])
  * and wavelength `nm`.  Sets *R and, if T is not NULL, *T.  Total
  * internal reflection in the substrate: R = 1, T = 0. */
 void lr__stack_rt(double n0, double ns, const double *n, const double *d_nm,
