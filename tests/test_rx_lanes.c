@@ -108,7 +108,10 @@ static void steps(const lr__rx *rx, const double *z, const double *n,
         memcpy(before, alive, sizeof alive);
         double o0[3][16], d0[3][16];
         memcpy(o0, o, sizeof o), memcpy(d0, d, sizeof d);
-        lr__rx_asph16(rx, z, n, scale, i, o, d, alive, NULL);
+        double n1[16], n2[16];
+        for (int l = 0; l < 16; l++)
+            n1[l] = n[i], n2[l] = i > 0 ? n[i - 1] : 1.0;
+        lr__rx_asph16(rx, z, n1, n2, scale, i, o, d, alive, NULL);
         for (int l = 0; l < 16; l++) {
             if (!before[l]) {
                 /* A lane already lost stays lost and untouched. */
@@ -192,20 +195,26 @@ static void check_rays_n(const char *lens)
     const double nms[] = {c.nm_ref, c.lens.nm_rgb[0], c.lens.nm_rgb[1],
                           c.lens.nm_rgb[2], 500.0};
     long stopped = 0, passed = 0;
-    for (int k = 0; k < 5; k++)
+    /* k < 5: every lane at nms[k]; k = 5: each lane at its own, mixing
+     * tabled wavelengths and others (spectral mode's). */
+    for (int k = 0; k < 6; k++)
         for (int p = 0; p < 40; p++) {
             int n = p % 3 ? 16 : 7;
-            double fx[16], fy[16], u[16][2], wt[16];
+            double fx[16], fy[16], u[16][2], wt[16], w[16], nm[16];
             lr__v3 org[16], dir[16];
             for (int i = 0; i < n; i++) {
                 fx[i] = 300 * uniform(), fy[i] = 200 * uniform();
                 u[i][0] = uniform(), u[i][1] = uniform();
+                w[i] = c.w;
+                nm[i] = k < 5   ? nms[k]
+                        : i % 4 ? 380.0 + 400.0 * uniform()
+                                : nms[i / 4];
             }
-            c.model->rays_n(&c, n, fx, fy, (const double(*)[2])u, c.w, nms[k],
-                            org, dir, wt);
+            c.model->rays_n(&c, n, fx, fy, (const double(*)[2])u, w, nm, org,
+                            dir, wt);
             for (int i = 0; i < n; i++) {
                 lr__v3 o1, d1;
-                double w1 = c.model->ray(&c, fx[i], fy[i], u[i], c.w, nms[k],
+                double w1 = c.model->ray(&c, fx[i], fy[i], u[i], c.w, nm[i],
                                          &o1, &d1);
                 assert_memory_equal(&wt[i], &w1, sizeof w1);
                 assert_memory_equal(&org[i], &o1, sizeof o1);

@@ -121,13 +121,13 @@ typedef struct lr__camera_model {
      * (0: the lens blocked it; the ray is then harmless but meaningless). */
     double (*ray)(const lr__cam *c, double fx, double fy, const double u[2],
                   double w, double nm, lr__v3 *org, lr__v3 *dir);
-    /* `ray` for n <= 16 samples at one power w and wavelength nm: the
-     * same rays and weights, bit for bit, as n calls of `ray` (a real
-     * lens traces their glass in vectors); NULL: `ray` one by one
+    /* `ray` for n <= 16 samples, sample i at power w[i] and wavelength
+     * nm[i]: the same rays and weights, bit for bit, as n calls of `ray`
+     * (a real lens traces their glass in vectors); NULL: `ray` one by one
      * (lr__cam_lens_rays). */
     void (*rays_n)(const lr__cam *c, int n, const double *fx, const double *fy,
-                   const double (*u)[2], double w, double nm, lr__v3 *org,
-                   lr__v3 *dir, double *wt);
+                   const double (*u)[2], const double *w, const double *nm,
+                   lr__v3 *org, lr__v3 *dir, double *wt);
     /* Camera rays for lanes 0..n-1 of a packet (all 16 lanes are written;
      * those from n on are copies nobody traces), in float, at focus power
      * c->w and wavelength c->nm_ref; through the lens only if use_lens.
@@ -462,15 +462,16 @@ static inline double lr__cam_lens_ray(const lr__cam *c, double fx, double fy,
  * `ray` one by one): the same values. */
 static inline void lr__cam_lens_rays(const lr__cam *c, int n, const double *fx,
                                      const double *fy, const double (*u)[2],
-                                     double w, double nm, lr__v3 *org,
-                                     lr__v3 *dir, double *wt)
+                                     const double *w, const double *nm,
+                                     lr__v3 *org, lr__v3 *dir, double *wt)
 {
     if (c->model->rays_n != NULL) {
         c->model->rays_n(c, n, fx, fy, u, w, nm, org, dir, wt);
         return;
     }
     for (int i = 0; i < n; i++)
-        wt[i] = c->model->ray(c, fx[i], fy[i], u[i], w, nm, &org[i], &dir[i]);
+        wt[i] = c->model->ray(c, fx[i], fy[i], u[i], w[i], nm[i], &org[i],
+                              &dir[i]);
 }
 
 /* Focus power for light of wavelength `nm` (spectral mode). */

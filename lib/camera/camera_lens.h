@@ -221,4 +221,16 @@ static inline const lr__ttab *lr__lens_ttab_for(const lr__lens_cam *lc,
     return NULL;
 }
 
+/* The model's rays in double (lens_rays.c): `ray` (a sample through the
+ * glass at nm, weighted), `rays_n` (up to sixteen samples, each at its
+ * own wavelength, with ray's bits) and `chief` (through the middle of
+ * the exit-pupil bounds, for depth and autofocus). */
+double lr__lens_ray(const lr__cam *c, double fx, double fy, const double u[2],
+                    double w, double nm, lr__v3 *org, lr__v3 *dir);
+void lr__lens_rays_n(const lr__cam *c, int n, const double *fx,
+                     const double *fy, const double (*u)[2], const double *w,
+                     const double *nm, lr__v3 *org, lr__v3 *dir, double *wt);
+void lr__lens_chief_ray(const lr__cam *c, double fx, double fy, lr__v3 *org,
+                        lr__v3 *dir);
+
 #endif

@@ -345,13 +345,25 @@ void lr__rx_trace16(const lr__rx *rx, const double *z, const double *n_after,
                     int *alive);
 
 /* lr__rx_trace16's step through aspheric surface i (lr__rx_aspheric)
- * toward the object: the lanes whose alive[] is 1 get lr__rx_trace_surface's
- * bits, a lane it stops alive[] = 0 (its o and d unchanged); rx_asph16.c.
- * With cosv, also each lane's |cosine| to the normal before refracting
- * (lr__rx_trace_t's, for the transmittance). */
-void lr__rx_asph16(const lr__rx *rx, const double *z, const double *n_after,
-                   double stop_scale, int i, double (*o)[16], double (*d)[16],
-                   int *alive, double *cosv);
+ * toward the object, lane l from index n1[l] (after the surface) into
+ * n2[l] (before it): the lanes whose alive[] is 1 get
+ * lr__rx_trace_surface's bits, a lane it stops alive[] = 0 (its o and d
+ * unchanged); rx_asph16.c.  With cosv, also each lane's |cosine| to the
+ * normal before refracting (lr__rx_trace_t's, for the transmittance). */
+void lr__rx_asph16(const lr__rx *rx, const double *z, const double *n1,
+                   const double *n2, double stop_scale, int i, double (*o)[16],
+                   double (*d)[16], int *alive, double *cosv);
+
+/* lr__rx_trace16 with indices of each lane's own: nl[i][l] is lane l's
+ * index after surface i (lr__rx_indices at its wavelength).  With cosv,
+ * cosv[i][l] gets the |cosine| at which lane l meets surface i, before
+ * refracting, for every surface a lane that stays alive crosses (the
+ * transmittance's: lr__rx_trace_t's).  Each lane's result is
+ * lr__rx_trace_n's with its indices, bit for bit. */
+void lr__rx_trace16_nl(const lr__rx *rx, const double *z,
+                       const double (*nl)[16], double stop_scale,
+                       double (*o)[16], double (*d)[16], int *alive,
+                       double (*cosv)[16]);
 
 /* The same in float, for the packet camera, on `lanes` rays (a multiple
  * of 16, at most LR__RX_LANES: up to four packets at once); o and d have

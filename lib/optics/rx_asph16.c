@@ -49,18 +49,15 @@ grad_lane(double slope, double x, double r)
 }
 
 __attribute__((target_clones("avx512f", "avx2", "default"))) void
-lr__rx_asph16(const lr__rx *rx, const double *z, const double *n_after,
-              double stop_scale, int i, double (*o)[16], double (*d)[16],
-              int *alive, double *cosv)
+lr__rx_asph16(const lr__rx *rx, const double *z, const double *n1,
+              const double *n2, double stop_scale, int i, double (*o)[16],
+              double (*d)[16], int *alive, double *cosv)
 {
     const lr__surface *s = &rx->s[i];
     const double c = s->radius != 0.0 ? 1.0 / s->radius : 0.0;
     const double k1 = 1.0 + s->conic;
     const double lim = s->semi_aperture * (i == rx->stop ? stop_scale : 1.0);
     const double lim2 = lim * lim, zi = z[i];
-    const double n1 = n_after[i], n2 = i > 0 ? n_after[i - 1] : 1.0;
-    const int bend = n1 != n2;
-    const double eta = n1 / n2;
     double asph[LR__RX_MAX_ASPH];
     for (int j = 0; j < LR__RX_MAX_ASPH; j++)
         asph[j] = s->asph[j];
@@ -118,7 +115,8 @@ lr__rx_asph16(const lr__rx *rx, const double *z, const double *n_after,
         double dx = d[0][l], dy = d[1][l], dz = d[2][l];
         if (cosv != NULL)
             cosv[l] = fabs(dx * m[0] + dy * m[1] + dz * m[2]);
-        good &= lr__rx_lane_refract(eta, m, dx, dy, dz, e) || !bend;
+        int bend = n1[l] != n2[l];
+        good &= lr__rx_lane_refract(n1[l] / n2[l], m, dx, dy, dz, e) || !bend;
         int live = ok[l] & good;
         alive[l] = live;
         o[0][l] = live ? x : o[0][l];

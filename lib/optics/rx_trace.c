@@ -253,16 +253,17 @@ int lr__rx_trace(const lr__rx *rx, const double *z, double nm,
  * the scalar code, in double, with selects for its early returns, so each
  * lane gets the scalar trace's bits.  Aspheric surfaces (Newton's method,
  * a loop of its own length per ray) go to lr__rx_asph16, which gives
- * them too.  With a table, each lane's T as lr__rx_trace_t's: the
- * cosine to the normal before the refraction, looked up where the index
- * changes. */
-static inline __attribute__((always_inline)) void
-trace16(const lr__rx *rx, const double *z, const double *n_after,
-        double stop_scale, double (*o)[16], double (*d)[16], int *alive,
-        const lr__ttab *tab, double *T)
+ * them too.  Each lane has its own indices (nl, lr__rx_trace16_nl); with
+ * cosv, the cosine at each surface before the refraction. */
+__attribute__((target_clones("avx512f", "avx2", "default"))) void
+lr__rx_trace16_nl(const lr__rx *rx, const double *z, const double (*nl)[16],
+                  double stop_scale, double (*o)[16], double (*d)[16],
+                  int *alive, double (*cosv)[16])
 {
     int n = rx->n;
-    double cosv[16];
+    double air[16], cl[16];
+    for (int l = 0; l < 16; l++)
+        air[l] = 1.0;
     for (int step = 0; step < n; step++) {
         /* Once every lane is lost, the rest would change nothing. */
         int any = 0;
@@ -272,18 +273,15 @@ trace16(const lr__rx *rx, const double *z, const double *n_after,
             return;
         int i = n - 1 - step;
         const lr__surface *s = &rx->s[i];
-        const double n1 = n_after[i], n2 = i > 0 ? n_after[i - 1] : 1.0;
-        const int bend = n1 != n2;
+        const double *n1 = nl[i], *n2 = i > 0 ? nl[i - 1] : air;
         if (lr__rx_aspheric(s)) {
-            lr__rx_asph16(rx, z, n_after, stop_scale, i, o, d, alive,
-                          tab != NULL ? cosv : NULL);
+            lr__rx_asph16(rx, z, n1, n2, stop_scale, i, o, d, alive, cl);
         } else {
             const double c = s->radius != 0.0 ? 1.0 / s->radius : 0.0;
             const double k1 = 1.0 + s->conic;
             const double lim = s->semi_aperture *
                                (i == rx->stop ? stop_scale : 1.0);
             const double lim2 = lim * lim, zi = z[i];
-            const double eta = n1 / n2;
             for (int l = 0; l < 16; l++) {
                 double ox = o[0][l], oy = o[1][l], oz = o[2][l] - zi;
                 double dx = d[0][l], dy = d[1][l], dz = d[2][l];
@@ -291,9 +289,11 @@ trace16(const lr__rx *rx, const double *z, const double *n_after,
                 int ok = lr__rx_lane_meet(c, k1, ox, oy, oz, dx, dy, dz, pt, m);
                 double px = pt[0], py = pt[1], pz = pt[2];
                 ok &= !(px * px + py * py > lim2);
-                cosv[l] = fabs(dx * m[0] + dy * m[1] + dz * m[2]);
+                cl[l] = fabs(dx * m[0] + dy * m[1] + dz * m[2]);
                 /* Refraction (lr__rx_refract above, from n1 into n2). */
-                ok &= lr__rx_lane_refract(eta, m, dx, dy, dz, e) || !bend;
+                int bend = n1[l] != n2[l];
+                ok &= lr__rx_lane_refract(n1[l] / n2[l], m, dx, dy, dz, e) ||
+                      !bend;
                 double ex = e[0], ey = e[1], ez = e[2];
                 int live = alive[l] & ok;
                 alive[l] = live;
@@ -305,25 +305,45 @@ trace16(const lr__rx *rx, const double *z, const double *n_after,
                 d[2][l] = live && bend ? ez : dz;
             }
         }
-        /* A lost lane's cosine may be anything: no lookup. */
-        if (tab != NULL && bend)
+        if (cosv != NULL)
             for (int l = 0; l < 16; l++)
-                if (alive[l])
-                    T[l] *= lr__ttab_at(tab, i, n1, cosv[l]);
+                cosv[i][l] = cl[l];
     }
 }
 
-__attribute__((target_clones("avx512f", "avx2", "default"))) void
-lr__rx_trace16(const lr__rx *rx, const double *z, const double *n_after,
-               double stop_scale, double (*o)[16], double (*d)[16], int *alive)
+/* Every lane at the indices n_after. */
+static void same_indices(const lr__rx *rx, const double *n_after,
+                         double (*nl)[16])
 {
-    trace16(rx, z, n_after, stop_scale, o, d, alive, NULL, NULL);
+    for (int i = 0; i < rx->n; i++)
+        for (int l = 0; l < 16; l++)
+            nl[i][l] = n_after[i];
 }
 
-__attribute__((target_clones("avx512f", "avx2", "default"))) void
-lr__rx_trace16_t(const lr__rx *rx, const double *z, const double *n_after,
-                 double stop_scale, const lr__ttab *tab, double (*o)[16],
-                 double (*d)[16], int *alive, double *T)
+void lr__rx_trace16(const lr__rx *rx, const double *z, const double *n_after,
+                    double stop_scale, double (*o)[16], double (*d)[16],
+                    int *alive)
 {
-    trace16(rx, z, n_after, stop_scale, o, d, alive, tab, T);
+    double nl[LR__RX_MAX_SURFACES][16];
+    same_indices(rx, n_after, nl);
+    lr__rx_trace16_nl(rx, z, (const double(*)[16])nl, stop_scale, o, d, alive,
+                      NULL);
+}
+
+void lr__rx_trace16_t(const lr__rx *rx, const double *z, const double *n_after,
+                      double stop_scale, const lr__ttab *tab, double (*o)[16],
+                      double (*d)[16], int *alive, double *T)
+{
+    double nl[LR__RX_MAX_SURFACES][16], cosv[LR__RX_MAX_SURFACES][16];
+    same_indices(rx, n_after, nl);
+    lr__rx_trace16_nl(rx, z, (const double(*)[16])nl, stop_scale, o, d, alive,
+                      cosv);
+    /* lr__rx_trace_t's product, in its order, for the lanes that pass. */
+    for (int l = 0; l < 16; l++)
+        for (int step = 0; step < rx->n && alive[l]; step++) {
+            int i = rx->n - 1 - step;
+            double n1 = n_after[i], n2 = i > 0 ? n_after[i - 1] : 1.0;
+            if (n1 != n2)
+                T[l] *= lr__ttab_at(tab, i, n1, cosv[i][l]);
+        }
 }

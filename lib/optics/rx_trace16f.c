@@ -54,6 +54,9 @@ static void aspheric16(const lr__rx *rx, const double *z, const double *n_after,
                        float (*o)[LR__RX_LANES], float (*d)[LR__RX_LANES],
                        int *alive, const lr__ttab *tab, float *T)
 {
+    double n1[16], n2[16];
+    for (int l = 0; l < 16; l++)
+        n1[l] = n_after[i], n2[l] = i > 0 ? n_after[i - 1] : 1.0;
     for (int b = 0; b < lanes; b += 16) {
         double od[3][16], dd[3][16], d0[3][16];
         int live[16];
@@ -62,7 +65,7 @@ static void aspheric16(const lr__rx *rx, const double *z, const double *n_after,
                 od[a][l] = o[a][b + l], dd[a][l] = d0[a][l] = d[a][b + l];
             live[l] = alive[b + l];
         }
-        lr__rx_asph16(rx, z, n_after, stop_scale, i, od, dd, live, NULL);
+        lr__rx_asph16(rx, z, n1, n2, stop_scale, i, od, dd, live, NULL);
         for (int l = 0; l < 16; l++) {
             if (!alive[b + l])
                 continue;

@@ -37,9 +37,13 @@ static void rgb_samples(const lr__shot *sh, const lr__pixel_sampler *ps,
             fx[i] = x + v[0], fy[i] = y + v[1];
             u[i][0] = v[2], u[i][1] = v[3];
         }
-        for (int ch = 0; ch < 3; ch++)
-            lr__cam_lens_rays(c, n, fx, fy, (const double(*)[2])u, c->w_rgb[ch],
-                              c->lens.nm_rgb[ch], org[ch], dir[ch], wt[ch]);
+        for (int ch = 0; ch < 3; ch++) {
+            double w[16], nm[16];
+            for (int i = 0; i < n; i++)
+                w[i] = c->w_rgb[ch], nm[i] = c->lens.nm_rgb[ch];
+            lr__cam_lens_rays(c, n, fx, fy, (const double(*)[2])u, w, nm,
+                              org[ch], dir[ch], wt[ch]);
+        }
         for (int i = 0; i < n; i++) {
             const lr__sample_id id = {sh->sampler, pixel, (uint32_t)(s0 + i),
                                       sh->lt};
@@ -182,12 +186,7 @@ void lr__sample_pixel(const lr__shot *sh, const lr__block_plan *bp, int x,
         rgb_samples(sh, &ps, pixel, x, y, first, last, acc, cnt);
         return;
     }
-    for (int s = first; s < last; s++) {
-        double u[4];
-        lr__pixel_sampler_get(&ps, (uint32_t)s, u);
-        lr__spectral_sample(sh, &ps, (uint32_t)s, x + u[0], y + u[1], u + 2,
-                            acc, cnt);
-    }
+    lr__spectral_samples(sh, &ps, x, y, first, last, acc, cnt);
 }
 
 float lr__sample_depth(const lr__shot *sh, int x, int y, lr__sample_counts *cnt)

@@ -73,40 +73,75 @@ static lr__v3 weighted_diff(const double w[3], lr__v3 L, lr__v3 Lr)
     return v3(w[0] * (L.x - Lr.x), w[1] * (L.y - Lr.y), w[2] * (L.z - Lr.z));
 }
 
-void lr__spectral_sample(const lr__shot *sh, const lr__pixel_sampler *ps,
-                         uint32_t s, double fx, double fy, const double u[2],
-                         lr__pixel *acc, lr__sample_counts *cnt)
+/* The most camera rays lr__spectral_samples makes before tracing any
+ * (each sample's m + 1, m <= 64). */
+#define RAYS_AHEAD 128
+
+void lr__spectral_samples(const lr__shot *sh, const lr__pixel_sampler *ps,
+                          int x, int y, int first, int last, lr__pixel *acc,
+                          lr__sample_counts *cnt)
 {
-    /* Steps 1 and 2 (a real lens's rays are not traced in packets). */
+    /* Steps 1 and 2, each sample's reference ray first, then its m
+     * wavelengths'. */
     const lr__cam *c = sh->cam;
     const lr__integrator *in = sh->integrator;
-    const lr__sample_id id = {sh->sampler, ps->pixel, s, sh->lt};
-    lr__v3 org, dir;
-    int m = c->chroma.wavelengths;
-    cnt->camera_rays += (uint64_t)m + 1;
-    lr__v3 Lr = v3(0, 0, 0);
-    double wr = lr__cam_lens_ray(c, fx, fy, u, c->w, c->nm_ref, &org, &dir);
-    cnt->lens_blocked += wr == 0.0;
-    if (wr != 0.0)
-        Lr = v3_scale(
-            in->radiance(sh->scene, sh->max_depth, org, dir, &id, &cnt->rays),
-            wr);
-    double u4 = lr__pixel_sampler_dim4(ps, s);
-    lr__v3 sum = v3(0, 0, 0);
-    for (int k = 0; k < m; k++) {
-        double W[3];
-        float pw;
-        double nm = lr__wl_sample(&sh->wl, stratum(u4, k, m), W, &pw);
-        double wt = lr__cam_lens_ray(c, fx, fy, u, pw, nm, &org, &dir);
-        lr__v3 Li = v3(0, 0, 0);
-        cnt->lens_blocked += wt == 0.0;
-        if (wt != 0.0)
-            Li = v3_scale(in->radiance(sh->scene, sh->max_depth, org, dir, &id,
-                                       &cnt->rays),
-                          wt);
-        sum = v3_add(sum, weighted_diff(W, Li, Lr));
+    int m = c->chroma.wavelengths, per = m + 1;
+    int batch = RAYS_AHEAD / per > 0 ? RAYS_AHEAD / per : 1;
+    double fx[RAYS_AHEAD], fy[RAYS_AHEAD], u[RAYS_AHEAD][2], w[RAYS_AHEAD];
+    double nm[RAYS_AHEAD], W[RAYS_AHEAD][3], wt[RAYS_AHEAD];
+    lr__v3 org[RAYS_AHEAD], dir[RAYS_AHEAD];
+    for (int s0 = first; s0 < last; s0 += batch) {
+        int ns = last - s0 < batch ? last - s0 : batch, nr = ns * per;
+        for (int j = 0; j < ns; j++) {
+            uint32_t s = (uint32_t)(s0 + j);
+            double v[4];
+            lr__pixel_sampler_get(ps, s, v);
+            double u4 = lr__pixel_sampler_dim4(ps, s);
+            for (int k = 0; k < per; k++) {
+                int r = j * per + k;
+                fx[r] = x + v[0], fy[r] = y + v[1];
+                u[r][0] = v[2], u[r][1] = v[3];
+                w[r] = c->w, nm[r] = c->nm_ref;
+                if (k > 0) {
+                    float pw;
+                    nm[r] = lr__wl_sample(&sh->wl, stratum(u4, k - 1, m), W[r],
+                                          &pw);
+                    w[r] = pw;
+                }
+            }
+        }
+        /* The camera's rays sixteen at a time (a real lens traces their
+         * glass in vectors, lanes at different wavelengths together):
+         * each the ray it is alone. */
+        for (int r = 0; r < nr; r += 16)
+            lr__cam_lens_rays(c, nr - r < 16 ? nr - r : 16, fx + r, fy + r,
+                              (const double(*)[2])(u + r), w + r, nm + r,
+                              org + r, dir + r, wt + r);
+        for (int j = 0; j < ns; j++) {
+            const lr__sample_id id = {sh->sampler, ps->pixel,
+                                      (uint32_t)(s0 + j), sh->lt};
+            const int r0 = j * per;
+            cnt->camera_rays += (uint64_t)m + 1;
+            lr__v3 Lr = v3(0, 0, 0);
+            cnt->lens_blocked += wt[r0] == 0.0;
+            if (wt[r0] != 0.0)
+                Lr = v3_scale(in->radiance(sh->scene, sh->max_depth, org[r0],
+                                           dir[r0], &id, &cnt->rays),
+                              wt[r0]);
+            lr__v3 sum = v3(0, 0, 0);
+            for (int k = 0; k < m; k++) {
+                int r = r0 + 1 + k;
+                lr__v3 Li = v3(0, 0, 0);
+                cnt->lens_blocked += wt[r] == 0.0;
+                if (wt[r] != 0.0)
+                    Li = v3_scale(in->radiance(sh->scene, sh->max_depth, org[r],
+                                               dir[r], &id, &cnt->rays),
+                                  wt[r]);
+                sum = v3_add(sum, weighted_diff(W[r], Li, Lr));
+            }
+            lr__pixel_add(acc, v3_add(Lr, v3_scale(sum, 1.0 / m)));
+        }
     }
-    lr__pixel_add(acc, v3_add(Lr, v3_scale(sum, 1.0 / m)));
 }
 
 void lr__spectral_packets(const lr__shot *sh, int x, int y, int first, int last,

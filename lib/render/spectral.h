@@ -15,11 +15,11 @@
 void lr__spectral_packets(const lr__shot *sh, int x, int y, int first, int last,
                           lr__pixel *acc, lr__sample_counts *cnt);
 
-/* Adds sample s of the pixel `ps` serves, through film point (fx, fy) and
- * lens sample u, a ray at a time (models without rays16_w: the real
- * lens). */
-void lr__spectral_sample(const lr__shot *sh, const lr__pixel_sampler *ps,
-                         uint32_t s, double fx, double fy, const double u[2],
-                         lr__pixel *acc, lr__sample_counts *cnt);
+/* Adds samples first .. last-1 of pixel (x, y), which `ps` serves, a
+ * ray per wavelength each (models without rays16_w: the real lens; its
+ * camera rays made sixteen at a time by lr__cam_lens_rays). */
+void lr__spectral_samples(const lr__shot *sh, const lr__pixel_sampler *ps,
+                          int x, int y, int first, int last, lr__pixel *acc,
+                          lr__sample_counts *cnt);
 
 #endif
