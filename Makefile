@@ -106,7 +106,7 @@ $(BUILD)/obj/lib/integrator/whitted.o $(BUILD)/obj/lib/integrator/whitted16.o $(
 $(BUILD)/obj/lib/camera/camera.o \
 $(BUILD)/obj/lib/render/sample.o $(BUILD)/obj/lib/optics/rx_trace.o $(BUILD)/obj/lib/optics/rx_asph16.o $(BUILD)/obj/lib/integrator/path16.o \
 $(BUILD)/obj/lib/integrator/path16_rays.o \
-$(BUILD)/obj/lib/optics/rx_trace16f.o $(BUILD)/obj/lib/camera/camera_lens.o $(BUILD)/obj/lib/optics/lens.o \
+$(BUILD)/obj/lib/optics/rx_trace16f.o $(BUILD)/obj/lib/camera/camera_lens.o $(BUILD)/obj/lib/camera/lens_rays.o $(BUILD)/obj/lib/optics/lens.o \
 $(BUILD)/obj/lib/accel/few_triangles.o $(BUILD)/obj/lib/accel/spheres.o $(BUILD)/obj/lib/optics/ghost16.o \
 $(BUILD)/obj/lib/sampling/wavelength.o: CFLAGS += $(if $(filter -O2,$(OPT)),-O3) \
                                       -fno-math-errno -fno-trapping-math \

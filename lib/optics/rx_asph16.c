@@ -103,6 +103,12 @@ lr__rx_asph16(const lr__rx *rx, const double *z, const double *n1,
         }
     }
     /* The normal (normal_at), the aperture, the refraction. */
+    double eta[16], cl[16];
+    int bend[16];
+    for (int l = 0; l < 16; l++) {
+        bend[l] = n1[l] != n2[l];
+        eta[l] = n1[l] / n2[l];
+    }
     for (int l = 0; l < 16; l++) {
         double x = px[l], y = py[l];
         double r = sqrt(x * x + y * y), sag, slope;
@@ -113,17 +119,18 @@ lr__rx_asph16(const lr__rx *rx, const double *z, const double *n1,
         double m[3] = {gx / len, gy / len, 1.0 / len}, e[3];
         good &= !(x * x + y * y > lim2);
         double dx = d[0][l], dy = d[1][l], dz = d[2][l];
-        if (cosv != NULL)
-            cosv[l] = fabs(dx * m[0] + dy * m[1] + dz * m[2]);
-        int bend = n1[l] != n2[l];
-        good &= lr__rx_lane_refract(n1[l] / n2[l], m, dx, dy, dz, e) || !bend;
+        cl[l] = fabs(dx * m[0] + dy * m[1] + dz * m[2]);
+        good &= lr__rx_lane_refract(eta[l], m, dx, dy, dz, e) || !bend[l];
         int live = ok[l] & good;
         alive[l] = live;
         o[0][l] = live ? x : o[0][l];
         o[1][l] = live ? y : o[1][l];
         o[2][l] = live ? pz[l] + zi : o[2][l];
-        d[0][l] = live && bend ? e[0] : dx;
-        d[1][l] = live && bend ? e[1] : dy;
-        d[2][l] = live && bend ? e[2] : dz;
+        d[0][l] = live && bend[l] ? e[0] : dx;
+        d[1][l] = live && bend[l] ? e[1] : dy;
+        d[2][l] = live && bend[l] ? e[2] : dz;
     }
+    if (cosv != NULL)
+        for (int l = 0; l < 16; l++)
+            cosv[l] = cl[l];
 }
