@@ -6,7 +6,7 @@
  * stand for the scalar code's results.  Rays from the image plane to
  * points scattered over 0.3 or 1.3 times the rear element, so that some pass,
  * some are stopped by an aperture and some miss an asphere's reach.  And
- * the lens camera's rays_n (its glass by lr__rx_trace16_t, the rgb
+ * the lens camera's rays_n (its glass by lr__rx_trace16_nl, rgb and spectral
  * mode's samples) against its ray one sample at a time.
  */
 #include "test.h"

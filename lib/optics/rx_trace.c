@@ -14,7 +14,6 @@
  * Refraction is the vector form of Snell's law (optics-reference.md).
  */
 #include "optics/prescription.h"
-#include "optics/transmit.h"
 
 #include <math.h>
 
@@ -341,22 +340,4 @@ void lr__rx_trace16(const lr__rx *rx, const double *z, const double *n_after,
     same_indices(rx, n_after, nl);
     lr__rx_trace16_nl(rx, z, (const double(*)[16])nl, stop_scale, o, d, alive,
                       NULL);
-}
-
-void lr__rx_trace16_t(const lr__rx *rx, const double *z, const double *n_after,
-                      double stop_scale, const lr__ttab *tab, double (*o)[16],
-                      double (*d)[16], int *alive, double *T)
-{
-    double nl[LR__RX_MAX_SURFACES][16], cosv[LR__RX_MAX_SURFACES][16];
-    same_indices(rx, n_after, nl);
-    lr__rx_trace16_nl(rx, z, (const double(*)[16])nl, stop_scale, o, d, alive,
-                      cosv);
-    /* lr__rx_trace_t's product, in its order, for the lanes that pass. */
-    for (int l = 0; l < 16; l++)
-        for (int step = 0; step < rx->n && alive[l]; step++) {
-            int i = rx->n - 1 - step;
-            double n1 = n_after[i], n2 = i > 0 ? n_after[i - 1] : 1.0;
-            if (n1 != n2)
-                T[l] *= lr__ttab_at(tab, i, n1, cosv[i][l]);
-        }
 }

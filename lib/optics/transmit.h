@@ -105,13 +105,6 @@ int lr__rx_trace_t(const lr__rx *rx, const double *z, const double *n_after,
                    double nm, const lr__coating *override, double o[3],
                    double d[3], double *T);
 
-/* lr__rx_trace16 (toward the object) that also multiplies each live
- * lane's T[] by its crossings' transmittance from `tab`: lr__rx_trace_t's
- * o, d and T, bit for bit, lane by lane (rx_trace.c). */
-void lr__rx_trace16_t(const lr__rx *rx, const double *z, const double *n_after,
-                      double stop_scale, const lr__ttab *tab, double (*o)[16],
-                      double (*d)[16], int *alive, double *T);
-
 /* The camera key's coatings (lr_lens_coating): NULL for the
  * prescription's own, else a coating for every glass-air surface
  * (static storage). */
