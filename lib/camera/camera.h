@@ -121,7 +121,7 @@ typedef struct lr__camera_model {
      * (0: the lens blocked it; the ray is then harmless but meaningless). */
     double (*ray)(const lr__cam *c, double fx, double fy, const double u[2],
                   double w, double nm, lr__v3 *org, lr__v3 *dir);
-    /* `ray` for n <= 16 samples, sample i at power w[i] and wavelength
+    /* `ray` for 1 <= n <= 16 samples, sample i at power w[i] and wavelength
      * nm[i]: the same rays and weights, bit for bit, as n calls of `ray`
      * (a real lens traces their glass in vectors); NULL: `ray` one by one
      * (lr__cam_lens_rays). */

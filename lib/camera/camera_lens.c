@@ -295,7 +295,7 @@ lens_start16(const lr__cam *c, int n, const float *fx, const float *fy,
 
 /* lens_start16 for a block whose plan skips the lens (lens_blur.c's
  * bound: the spot is under a quarter pixel): each lane's chief ray,
- * through the centre of its pupil bounds as lens_chief's, weighted by
+ * through the centre of its pupil bounds as lr__lens_chief_ray's, weighted by
  * the pupil's mean sample weight over the chief ray's transmittance,
  * which the glass multiplies back in (so a uniform scene renders as the
  * lens's mean: its vignetting, not noise). */
@@ -415,9 +415,10 @@ lens_finish16(const lr__cam *c, const float (*o)[16], const float (*d)[16],
 }
 
 /* Sixteen rays a packet at c->nm_ref, in float from end to end
- * (lens_start and lens_ray's arithmetic lane by lane, the disk from the
- * packet aperture map, the glass from lr__rx_trace16f): the same
- * distribution as lens_ray's, not the same bits.  Up to four packets go
+ * (lens_rays.c's lens_start and lr__lens_ray's arithmetic lane by lane,
+ * the disk from the packet aperture map, the glass from
+ * lr__rx_trace16f): the same distribution as lr__lens_ray's, not the
+ * same bits.  Up to four packets go
  * through the glass together (rx_trace16f.c says why); each lane's ray is
  * the one its packet would have alone. */
 __attribute__((target_clones("avx512f", "avx2", "default"))) static void

@@ -95,6 +95,8 @@ void lr__lens_rays_n(const lr__cam *c, int n, const double *fx,
                      const double *nm, lr__v3 *org, lr__v3 *dir, double *wt)
 {
     (void)w;
+    if (n <= 0)
+        return;
     const lr__lens_cam *lc = &c->lens;
     const lr_lens *L = lc->L;
     const lr__rx *rx = &L->rx;

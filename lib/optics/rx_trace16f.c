@@ -27,7 +27,7 @@
  * lr__rx_asph16, in double. */
 /* A surface's transmittance from the directions before (d0) and after
  * (d1) a refraction toward the object, for the aspheric surfaces traced
- * by the scalar code: the normal is parallel to n1 d0 - n2 d1 (the
+ * in double (lr__rx_asph16): the normal is parallel to n1 d0 - n2 d1 (the
  * vector form of Snell's law), so cos^2 in the incident medium is
  * (d0 . v)^2 / |v|^2. */
 static double aspheric_t(const lr__ttab *tab, int i, const double *n_after,
