@@ -132,12 +132,8 @@ void lr__lens_rays_n(const lr__cam *c, int n, const double *fx,
         double T = 1.0;
         for (int step = 0; step < rx->n; step++) {
             int s = rx->n - 1 - step;
-            double after = ns[i][s], before = s > 0 ? ns[i][s - 1] : 1.0;
-            if (before != after)
-                T *= tab != NULL
-                         ? lr__ttab_at(tab, s, after, cosv[s][i])
-                         : 1.0 - lr__rx_surface_r(rx, ns[i], s, 0, cosv[s][i],
-                                                  nm[i], lc->coat);
+            T *= lr__rx_crossing_t(rx, ns[i], s, 0, tab, nm[i], lc->coat,
+                                   cosv[s][i]);
         }
         double oi[3] = {o[0][i], o[1][i], o[2][i]};
         double di[3] = {d[0][i], d[1][i], d[2][i]};

@@ -40,6 +40,19 @@ void lr__ttab_fill(lr__ttab *tab, const lr__rx *rx, const double *n_after,
     }
 }
 
+double lr__rx_crossing_t(const lr__rx *rx, const double *n_after, int i,
+                         int toward_image, const lr__ttab *tab, double nm,
+                         const lr__coating *override, double cos_in)
+{
+    double before = i > 0 ? n_after[i - 1] : 1.0, after = n_after[i];
+    if (before == after)
+        return 1.0;
+    return tab != NULL
+               ? lr__ttab_at(tab, i, toward_image ? before : after, cos_in)
+               : 1.0 - lr__rx_surface_r(rx, n_after, i, toward_image, cos_in,
+                                        nm, override);
+}
+
 int lr__rx_trace_t(const lr__rx *rx, const double *z, const double *n_after,
                    double stop_scale, int toward_image, const lr__ttab *tab,
                    double nm, const lr__coating *override, double o[3],
@@ -59,11 +72,8 @@ int lr__rx_trace_t(const lr__rx *rx, const double *z, const double *n_after,
         double ci = fabs(d[0] * nrm[0] + d[1] * nrm[1] + d[2] * nrm[2]);
         if (!lr__rx_refract(d, nrm, n_in, n_out))
             return 0;
-        if (before != after)
-            t *= tab != NULL
-                     ? lr__ttab_at(tab, i, n_in, ci)
-                     : 1.0 - lr__rx_surface_r(rx, n_after, i, toward_image, ci,
-                                              nm, override);
+        t *= lr__rx_crossing_t(rx, n_after, i, toward_image, tab, nm, override,
+                               ci);
     }
     *T = t;
     return 1;

@@ -96,6 +96,15 @@ static inline double lr__ttab_r(const lr__ttab *tab, int i, double n_in,
     return fmin(1.0, fmax(0.0, 1.0 - T));
 }
 
+/* The factor a crossing of surface i at |cosine| cos_in (in the medium
+ * the light comes from) puts on a ray's transmittance: 1 where the index
+ * does not change, else 1 - R from `tab` or, without one, from the
+ * formula at nm under *override (lr__rx_trace_t's, and the packet
+ * traces' that take the cosines from lr__rx_trace16_nl). */
+double lr__rx_crossing_t(const lr__rx *rx, const double *n_after, int i,
+                         int toward_image, const lr__ttab *tab, double nm,
+                         const lr__coating *override, double cos_in);
+
 /* lr__rx_trace_n that also returns the product of every crossing's
  * transmittance in *T: from `tab` when not NULL, else exactly at nm
  * under *override (NULL: the prescription's coatings), for
