@@ -182,6 +182,27 @@ static inline int lr__rx_lane_meet(double c, double k1, double ox, double oy,
     return ok;
 }
 
+/* The packet traces' index ratios eta[l] = n1[l] / n2[l] and which lanes
+ * bend (n1 != n2): one division for all sixteen where the lanes share
+ * their indices (the same quotient as each lane's). */
+static inline void lr__rx_lane_ratios(const double *n1, const double *n2,
+                                      double *eta, int *bend)
+{
+    int same = 1;
+    for (int l = 1; l < 16; l++)
+        same &= (n1[l] == n1[0]) & (n2[l] == n2[0]);
+    if (same) {
+        double q = n1[0] / n2[0];
+        for (int l = 0; l < 16; l++)
+            eta[l] = q;
+    } else {
+        for (int l = 0; l < 16; l++)
+            eta[l] = n1[l] / n2[l];
+    }
+    for (int l = 0; l < 16; l++)
+        bend[l] = n1[l] != n2[l];
+}
+
 /* lr__rx_refract's operations for one lane (as lr__rx_lane_meet): unit
  * d through the surface of unit normal n at the index ratio eta = n1 /
  * n2, into e.  0 on total internal reflection (then e is not

@@ -105,10 +105,7 @@ lr__rx_asph16(const lr__rx *rx, const double *z, const double *n1,
     /* The normal (normal_at), the aperture, the refraction. */
     double eta[16], cl[16];
     int bend[16];
-    for (int l = 0; l < 16; l++) {
-        bend[l] = n1[l] != n2[l];
-        eta[l] = n1[l] / n2[l];
-    }
+    lr__rx_lane_ratios(n1, n2, eta, bend);
     for (int l = 0; l < 16; l++) {
         double x = px[l], y = py[l];
         double r = sqrt(x * x + y * y), sag, slope;

@@ -281,20 +281,9 @@ lr__rx_trace16_nl(const lr__rx *rx, const double *z, const double (*nl)[16],
             const double lim = s->semi_aperture *
                                (i == rx->stop ? stop_scale : 1.0);
             const double lim2 = lim * lim, zi = z[i];
-            /* The index ratios, one division for all the lanes where they
-             * share their indices (the same quotient as each lane's). */
             double eta[16];
-            int same = 1;
-            for (int l = 1; l < 16; l++)
-                same &= (n1[l] == n1[0]) & (n2[l] == n2[0]);
-            if (same) {
-                double q = n1[0] / n2[0];
-                for (int l = 0; l < 16; l++)
-                    eta[l] = q;
-            } else {
-                for (int l = 0; l < 16; l++)
-                    eta[l] = n1[l] / n2[l];
-            }
+            int bend[16];
+            lr__rx_lane_ratios(n1, n2, eta, bend);
             for (int l = 0; l < 16; l++) {
                 double ox = o[0][l], oy = o[1][l], oz = o[2][l] - zi;
                 double dx = d[0][l], dy = d[1][l], dz = d[2][l];
@@ -304,17 +293,16 @@ lr__rx_trace16_nl(const lr__rx *rx, const double *z, const double (*nl)[16],
                 ok &= !(px * px + py * py > lim2);
                 cl[l] = fabs(dx * m[0] + dy * m[1] + dz * m[2]);
                 /* Refraction (lr__rx_refract above, from n1 into n2). */
-                int bend = n1[l] != n2[l];
-                ok &= lr__rx_lane_refract(eta[l], m, dx, dy, dz, e) || !bend;
+                ok &= lr__rx_lane_refract(eta[l], m, dx, dy, dz, e) || !bend[l];
                 double ex = e[0], ey = e[1], ez = e[2];
                 int live = alive[l] & ok;
                 alive[l] = live;
                 o[0][l] = live ? px : o[0][l];
                 o[1][l] = live ? py : o[1][l];
                 o[2][l] = live ? pz + zi : o[2][l];
-                d[0][l] = live && bend ? ex : dx;
-                d[1][l] = live && bend ? ey : dy;
-                d[2][l] = live && bend ? ez : dz;
+                d[0][l] = live && bend[l] ? ex : dx;
+                d[1][l] = live && bend[l] ? ey : dy;
+                d[2][l] = live && bend[l] ? ez : dz;
             }
         }
         if (cosv != NULL)
