@@ -26,7 +26,6 @@ static void rgb_samples(const lr__shot *sh, const lr__pixel_sampler *ps,
                         lr__pixel *acc, lr__sample_counts *cnt)
 {
     const lr__cam *c = sh->cam;
-    const lr__integrator *in = sh->integrator;
     for (int s0 = first; s0 < last; s0 += 16) {
         int n = last - s0 < 16 ? last - s0 : 16;
         double fx[16], fy[16], u[16][2], wt[3][16];
@@ -50,13 +49,8 @@ static void rgb_samples(const lr__shot *sh, const lr__pixel_sampler *ps,
             cnt->camera_rays += 3;
             double L[3];
             for (int ch = 0; ch < 3; ch++) {
-                lr__v3 Li = v3(0, 0, 0);
-                cnt->lens_blocked += wt[ch][i] == 0.0;
-                if (wt[ch][i] != 0.0)
-                    Li = v3_scale(in->radiance(sh->scene, sh->max_depth,
-                                               org[ch][i], dir[ch][i], &id,
-                                               &cnt->rays),
-                                  wt[ch][i]);
+                lr__v3 Li = lr__weighted_radiance(sh, org[ch][i], dir[ch][i],
+                                                  wt[ch][i], &id, cnt);
                 L[ch] = ch == 0 ? Li.x : ch == 1 ? Li.y : Li.z;
             }
             lr__pixel_add(acc, v3(L[0], L[1], L[2]));

@@ -46,6 +46,22 @@ typedef struct lr__sample_counts {
     uint64_t lens_blocked; /* of those, stopped by a real lens */
 } lr__sample_counts;
 
+/* A camera ray's radiance times its weight wt, counted; 0 (not traced)
+ * where wt is 0, a ray the lens stopped (the one-ray-a-colour paths:
+ * sample.c's rgb samples, spectral.c's). */
+static inline lr__v3 lr__weighted_radiance(const lr__shot *sh, lr__v3 org,
+                                           lr__v3 dir, double wt,
+                                           const lr__sample_id *id,
+                                           lr__sample_counts *cnt)
+{
+    cnt->lens_blocked += wt == 0.0;
+    if (wt == 0.0)
+        return v3(0, 0, 0);
+    return v3_scale(sh->integrator->radiance(sh->scene, sh->max_depth, org, dir,
+                                             id, &cnt->rays),
+                    wt);
+}
+
 /* Adds samples first .. last-1 of pixel (x, y) to *acc, in order, as the
  * block's plan `bp` says. */
 void lr__sample_pixel(const lr__shot *sh, const lr__block_plan *bp, int x,

@@ -84,7 +84,6 @@ void lr__spectral_samples(const lr__shot *sh, const lr__pixel_sampler *ps,
     /* Steps 1 and 2, each sample's reference ray first, then its m
      * wavelengths'. */
     const lr__cam *c = sh->cam;
-    const lr__integrator *in = sh->integrator;
     int m = c->chroma.wavelengths, per = m + 1;
     int batch = RAYS_AHEAD / per > 0 ? RAYS_AHEAD / per : 1;
     double fx[RAYS_AHEAD], fy[RAYS_AHEAD], u[RAYS_AHEAD][2], w[RAYS_AHEAD];
@@ -122,21 +121,13 @@ void lr__spectral_samples(const lr__shot *sh, const lr__pixel_sampler *ps,
                                       (uint32_t)(s0 + j), sh->lt};
             const int r0 = j * per;
             cnt->camera_rays += (uint64_t)m + 1;
-            lr__v3 Lr = v3(0, 0, 0);
-            cnt->lens_blocked += wt[r0] == 0.0;
-            if (wt[r0] != 0.0)
-                Lr = v3_scale(in->radiance(sh->scene, sh->max_depth, org[r0],
-                                           dir[r0], &id, &cnt->rays),
-                              wt[r0]);
+            lr__v3 Lr = lr__weighted_radiance(sh, org[r0], dir[r0], wt[r0], &id,
+                                              cnt);
             lr__v3 sum = v3(0, 0, 0);
             for (int k = 0; k < m; k++) {
                 int r = r0 + 1 + k;
-                lr__v3 Li = v3(0, 0, 0);
-                cnt->lens_blocked += wt[r] == 0.0;
-                if (wt[r] != 0.0)
-                    Li = v3_scale(in->radiance(sh->scene, sh->max_depth, org[r],
-                                               dir[r], &id, &cnt->rays),
-                                  wt[r]);
+                lr__v3 Li = lr__weighted_radiance(sh, org[r], dir[r], wt[r],
+                                                  &id, cnt);
                 sum = v3_add(sum, weighted_diff(W[r], Li, Lr));
             }
             lr__pixel_add(acc, v3_add(Lr, v3_scale(sum, 1.0 / m)));
