@@ -4,6 +4,7 @@
  * the depth channel; and a crop is the same pixels as the full frame.
  */
 #include "test.h"
+#include "render/adaptive.h"
 
 #include <stdio.h>
 #include <string.h>
@@ -200,7 +201,62 @@ static void test_pilots_traced_once(void **state)
     }
 }
 
+/* adaptive.c hands the sampler up to 16 pixels' spans at once, so that
+ * the camera and the integrator overlap several pixels' packets; each
+ * pixel must keep the bits it has traced alone (lr__adaptive_batch 1,
+ * as before batches).  Through the double Gauss at f/11 the plan mixes
+ * pixels that sample the lens with chief-ray pixels (spans the sampler
+ * must not put in one call); at 16 spp every pixel takes all its samples
+ * at once (adaptive.c's block_whole), at 64 in rounds; rgb mode's
+ * samples take the path one pixel at a time; the pinhole has no rays16_n
+ * hook; the path tracer draws its numbers from each packet's pixel and
+ * sample index (lr__sample_id). */
+static void test_batches_change_no_bit(void **state)
+{
+    (void)state;
+    const char *base[] = {
+        "render.width=96",       "render.height=64",
+        "camera.model=\"lens\"", "camera.lens=\"double-gauss-50\"",
+        "camera.f_number=11",    "camera.focus_distance=16"};
+    const char *extra[][2] = {
+        {"render.spp=16", "render.threads=1"},
+        {"render.spp=64", "render.threads=1"},
+        {"render.spp=64", "camera.chromatic.mode=\"rgb\""},
+        {"render.spp=64", "camera.model=\"pinhole\""},
+        {"render.spp=32", "render.integrator=\"path\""}};
+    for (size_t k = 0; k < 5; k++) {
+        const char *sets[8];
+        memcpy(sets, base, sizeof base);
+        sets[6] = extra[k][0], sets[7] = extra[k][1];
+        lr_scene *s = NULL;
+        lr_error err;
+        assert_int_equal(
+            lr_scene_load_file("scenes/spheres.json", sets, 8, &s, &err),
+            LR_OK);
+        lr_camera c;
+        lr_render_settings rs;
+        lr_scene_camera(s, &c);
+        lr_scene_settings(s, &rs);
+        lr_image *img[2];
+        lr_render_stats st[2];
+        for (int b = 0; b < 2; b++) {
+            lr__adaptive_batch = b ? 1 : 16;
+            img[b] = NULL;
+            assert_int_equal(lr_render(s, &c, &rs, &img[b], &st[b], &err),
+                             LR_OK);
+        }
+        lr__adaptive_batch = 16;
+        lr_test_assert_same_bytes(img[1], img[0], extra[k][0]);
+        assert_int_equal(st[0].rays, st[1].rays);
+        assert_int_equal(st[0].samples, st[1].samples);
+        lr_image_free(img[0]);
+        lr_image_free(img[1]);
+        lr_scene_free(s);
+    }
+}
+
 static const struct CMUnitTest determinism_tests[] = {
+    cmocka_unit_test(test_batches_change_no_bit),
     cmocka_unit_test(test_pilots_traced_once),
     cmocka_unit_test(test_determinism),
     cmocka_unit_test(test_bands_plan_adaptive),

@@ -249,6 +249,112 @@ static int dark_pixel(const lr__plan *plan, int x, int y, lr__pixel *a)
     return 1;
 }
 
+/* Spans gathered for the caller's sample_n (adaptive.h): a pixel of 16
+ * samples is one packet, and the packets of several pixels in one call
+ * overlap each other's long chains.  slot[k] >= 0: a pilot to give
+ * (pilots.h) once it is traced. */
+#define BATCH 16
+int lr__adaptive_batch = BATCH;
+typedef struct batch {
+    const lr__block_io *io;
+    lr__pilots *share;
+    int n;
+    lr__span s[BATCH];
+    int slot[BATCH];
+} batch;
+
+static void batch_flush(batch *b)
+{
+    const lr__block_io *io = b->io;
+    if (b->n == 0)
+        return;
+    if (io->sample_n != NULL)
+        io->sample_n(io->ctx, b->n, b->s);
+    else
+        for (int k = 0; k < b->n; k++)
+            io->sample(io->ctx, b->s[k].x, b->s[k].y, b->s[k].first,
+                       b->s[k].last, b->s[k].acc);
+    for (int k = 0; k < b->n; k++)
+        if (b->slot[k] >= 0)
+            lr__pilots_give(b->share, b->slot[k], b->s[k].acc);
+    b->n = 0;
+}
+
+static void batch_add(batch *b, int x, int y, int first, int last,
+                      lr__pixel *acc, int slot)
+{
+    b->s[b->n] = (lr__span){x, y, first, last, acc};
+    b->slot[b->n++] = slot;
+    if (b->n >= BATCH || b->n >= lr__adaptive_batch)
+        batch_flush(b);
+}
+
+/* Every pixel of the block with all spp samples (sampling not adaptive),
+ * in batches, then stored in row order. */
+static void block_whole(const lr__plan *plan, int spp, int x0, int y0, int x1,
+                        int y1, lr__pixel *acc, const lr__block_io *io)
+{
+    batch b = {.io = io, .share = NULL, .n = 0};
+    int w = x1 - x0;
+    for (int y = y0; y < y1; y++)
+        for (int x = x0; x < x1; x++) {
+            lr__pixel *a = &acc[(y - y0) * w + (x - x0)];
+            if (!dark_pixel(plan, x, y, a))
+                batch_add(&b, x, y, 0, spp, a, -1);
+        }
+    batch_flush(&b);
+    for (int y = y0; y < y1; y++)
+        for (int x = x0; x < x1; x++)
+            io->store(io->ctx, x, y, &acc[(y - y0) * w + (x - x0)]);
+}
+
+/* A pixel's want after its pilot: the largest need in its neighbourhood,
+ * and enough samples to bound an edge that its pilot and a neighbour's
+ * disagree on.  i: its index in the apron's arrays; (ax0, ay0, ax1,
+ * ay1): the apron. */
+static int pilot_want(const int *need, const lr__pilot_view *view, int i, int x,
+                      int y, int ax0, int ay0, int ax1, int ay1, double thr,
+                      int have, int spp)
+{
+    int aw = ax1 - ax0;
+    /* need[i] is the pixel's own need, judged from its pilot;
+     * neighbours of unconverged pixels keep going. */
+    int want = need[i];
+    int nx0 = x > ax0 ? x - 1 : x, nx1 = x + 1 < ax1 ? x + 1 : x;
+    int ny0 = y > ay0 ? y - 1 : y, ny1 = y + 1 < ay1 ? y + 1 : y;
+    for (int ny = ny0; ny <= ny1; ny++)
+        for (int nx = nx0; nx <= nx1; nx++) {
+            int k = (ny - ay0) * aw + (nx - ax0);
+            if (need[k] > want)
+                want = need[k];
+        }
+    /* An edge along the pixel grid can slip between a few samples: a
+     * pixel whose pilot differs from a neighbour's takes the samples
+     * that bound the error of a sliver it missed
+     * (lr__edge_samples_needed, which grows with the contrast, so the
+     * largest decides).  That adds samples only where contrast / thr >
+     * want, so a pair whose contrast is surely below want x thr (with a
+     * margin of 1e-9 that covers the few roundings on either side) needs
+     * no division.  A bound so small that the product could underflow
+     * checks nothing. */
+    double bound = (double)want * thr * (1.0 - 1e-9);
+    if (!(bound > 1e-200))
+        bound = 0.0;
+    double cmax = 0.0;
+    for (int ny = ny0; ny <= ny1; ny++)
+        for (int nx = nx0; nx <= nx1; nx++) {
+            int k = (ny - ay0) * aw + (nx - ax0);
+            if (need[k] > 0 && k != i &&
+                may_exceed(&view[i], &view[k], bound)) {
+                double c = contrast(&view[i], &view[k]);
+                if (c > cmax)
+                    cmax = c;
+            }
+        }
+    int e = lr__edge_samples_needed(cmax, thr, have, spp);
+    return e > want ? e : want;
+}
+
 void lr__adaptive_block(const lr_render_settings *set, const lr__plan *plan,
                         int x0, int y0, int x1, int y1,
                         lr__block_scratch *scratch, lr__pilots *share,
@@ -260,39 +366,48 @@ void lr__adaptive_block(const lr_render_settings *set, const lr__plan *plan,
     int *need = scratch->need;
     lr__pilot_view *view = scratch->view;
     if (!set->adaptive || lr__adaptive_min(set) >= spp) {
-        for (int y = y0; y < y1; y++)
-            for (int x = x0; x < x1; x++) {
-                lr__pixel *a = &acc[0];
-                if (!dark_pixel(plan, x, y, a))
-                    io->sample(io->ctx, x, y, 0, spp, a);
-                io->store(io->ctx, x, y, a);
-            }
+        block_whole(plan, spp, x0, y0, x1, y1, acc, io);
         return;
     }
     int ax0 = x0 > 0 ? x0 - 1 : 0, ay0 = y0 > 0 ? y0 - 1 : 0;
     int ax1 = x1 < set->width ? x1 + 1 : x1;
     int ay1 = y1 < set->height ? y1 + 1 : y1;
     int aw = ax1 - ax0;
+    /* The pilots this block traces, in batches, each given to the
+     * blocks that share it once its batch is done; then the ones it
+     * takes from others (a block waits only for blocks handed out before
+     * it, which trace theirs first in the same way: pilots.h).  need[i]
+     * is -1 for a pixel whose pilot matters here, until it is judged. */
+    batch b = {.io = io, .share = share, .n = 0};
     for (int y = ay0; y < ay1; y++)
         for (int x = ax0; x < ax1; x++) {
             int i = (y - ay0) * aw + (x - ax0);
-            int p = lr__plan_at(plan, x, y)->pilot;
             int inside = x >= x0 && x < x1 && y >= y0 && y < y1;
             need[i] = 0;
             if (!inside && !apron_needed(plan, spp, x, y, x0, y0, x1, y1))
                 continue;
-            if (!dark_pixel(plan, x, y, &acc[i])) {
-                int slot, role = share != NULL ? lr__pilots_role(share, x, y,
-                                                                 x0, y0, &slot)
-                                               : LR__PILOT_TRACE;
-                if (role == LR__PILOT_TAKE) {
-                    lr__pilots_take(share, slot, &acc[i]);
-                } else {
-                    io->sample(io->ctx, x, y, 0, p, &acc[i]);
-                    if (role == LR__PILOT_GIVE)
-                        lr__pilots_give(share, slot, &acc[i]);
-                }
-            }
+            need[i] = -1;
+            if (dark_pixel(plan, x, y, &acc[i]))
+                continue;
+            int slot, role = share != NULL
+                                 ? lr__pilots_role(share, x, y, x0, y0, &slot)
+                                 : LR__PILOT_TRACE;
+            if (role != LR__PILOT_TAKE)
+                batch_add(&b, x, y, 0, lr__plan_at(plan, x, y)->pilot, &acc[i],
+                          role == LR__PILOT_GIVE ? slot : -1);
+        }
+    batch_flush(&b);
+    for (int y = ay0; y < ay1; y++)
+        for (int x = ax0; x < ax1; x++) {
+            int i = (y - ay0) * aw + (x - ax0);
+            if (need[i] == 0)
+                continue;
+            const lr__block_plan *bp = lr__plan_at(plan, x, y);
+            int slot;
+            if (!bp->dark && share != NULL &&
+                lr__pilots_role(share, x, y, x0, y0, &slot) == LR__PILOT_TAKE)
+                lr__pilots_take(share, slot, &acc[i]);
+            int p = bp->pilot;
             need[i] = lr__pixel_samples_needed(&acc[i], thr, p, spp);
             int r = lr__rare_samples_needed(
                 &acc[i], lr__plan_unseen(plan, x, y), thr, p, spp);
@@ -300,77 +415,59 @@ void lr__adaptive_block(const lr_render_settings *set, const lr__plan *plan,
                 need[i] = r;
             lr__pilot_view_make(&acc[i], &view[i]);
         }
+    /* Each pixel's rounds go into a copy, round[j]: acc keeps every
+     * pixel's pilot, so that the contrast test above compares pilots
+     * with pilots, as in a tile or a crop where the neighbour is an apron
+     * pixel that never goes on.  (Comparing with a neighbour's later
+     * rounds made a crop's edge differ from the full render.)  The rounds
+     * go in waves: every pixel that wants more takes its next round, in
+     * batches, and then judges its need again from all its samples; a
+     * pixel's rounds, and so its samples, are the ones it would take
+     * alone. */
+    int w = x1 - x0;
+    lr__pixel *round = scratch->round;
+    int *have = scratch->have, *want = scratch->want, *next = scratch->next;
     for (int y = y0; y < y1; y++)
         for (int x = x0; x < x1; x++) {
-            int i = (y - ay0) * aw + (x - ax0);
-            lr__pixel *a = &acc[i];
+            int i = (y - ay0) * aw + (x - ax0), j = (y - y0) * w + (x - x0);
             const lr__block_plan *bp = lr__plan_at(plan, x, y);
-            int have = bp->pilot;
-            if (have >= spp || bp->dark) {
-                /* The pilot was all of it (a blurred pixel at low spp, or
-                 * a dark one: its every sample is 0). */
-                io->store(io->ctx, x, y, a);
-                continue;
-            }
-            /* need[i] is the pixel's own need, judged from its pilot;
-             * neighbours of unconverged pixels keep going. */
-            int want = need[i];
-            int nx0 = x > ax0 ? x - 1 : x, nx1 = x + 1 < ax1 ? x + 1 : x;
-            int ny0 = y > ay0 ? y - 1 : y, ny1 = y + 1 < ay1 ? y + 1 : y;
-            for (int ny = ny0; ny <= ny1; ny++)
-                for (int nx = nx0; nx <= nx1; nx++) {
-                    int k = (ny - ay0) * aw + (nx - ax0);
-                    if (need[k] > want)
-                        want = need[k];
-                }
-            /* An edge along the pixel grid can slip between a few
-             * samples: a pixel whose pilot differs from a neighbour's
-             * takes the samples that bound the error of a sliver it
-             * missed (lr__edge_samples_needed, which grows with the
-             * contrast, so the largest decides).  That adds samples only
-             * where contrast / thr > want, so a pair whose contrast is
-             * surely below want x thr (with a margin of 1e-9 that covers
-             * the few roundings on either side) needs no division.  A
-             * bound so small that the product could underflow checks
-             * nothing. */
-            double bound = (double)want * thr * (1.0 - 1e-9);
-            if (!(bound > 1e-200))
-                bound = 0.0;
-            double cmax = 0.0;
-            for (int ny = ny0; ny <= ny1; ny++)
-                for (int nx = nx0; nx <= nx1; nx++) {
-                    int k = (ny - ay0) * aw + (nx - ax0);
-                    if (need[k] > 0 && k != i &&
-                        may_exceed(&view[i], &view[k], bound)) {
-                        double c = contrast(&view[i], &view[k]);
-                        if (c > cmax)
-                            cmax = c;
-                    }
-                }
-            int e = lr__edge_samples_needed(cmax, thr, have, spp);
-            if (e > want)
-                want = e;
-            /* The rounds go into a copy: acc keeps every pixel's pilot,
-             * so that the contrast test above compares pilots with
-             * pilots, as in a tile or a crop where the neighbour is an
-             * apron pixel that never goes on.  (Comparing with a
-             * neighbour's later rounds made a crop's edge differ from
-             * the full render.) */
-            lr__pixel px = *a;
-            double unseen = lr__plan_unseen(plan, x, y);
-            while (want > have) {
-                int next = lr__adaptive_next(have, want, spp);
-                io->sample(io->ctx, x, y, have, next, &px);
-                have = next;
-                /* With all spp there is nothing left to judge. */
-                if (have < spp) {
-                    want = lr__pixel_samples_needed(&px, thr, have, spp);
-                    int r = lr__rare_samples_needed(&px, unseen, thr, have,
-                                                    spp);
-                    if (r > want)
-                        want = r;
-                }
-            }
-            io->store(io->ctx, x, y, &px);
+            round[j] = acc[i];
+            have[j] = bp->pilot;
+            want[j] = have[j] >= spp || bp->dark
+                          ? 0 /* the pilot was all of it */
+                          : pilot_want(need, view, i, x, y, ax0, ay0, ax1, ay1,
+                                       thr, have[j], spp);
         }
+    for (int more = 1; more;) {
+        more = 0;
+        for (int y = y0; y < y1; y++)
+            for (int x = x0; x < x1; x++) {
+                int j = (y - y0) * w + (x - x0);
+                if (want[j] <= have[j])
+                    continue;
+                next[j] = lr__adaptive_next(have[j], want[j], spp);
+                batch_add(&b, x, y, have[j], next[j], &round[j], -1);
+                more = 1;
+            }
+        batch_flush(&b);
+        for (int y = y0; y < y1 && more; y++)
+            for (int x = x0; x < x1; x++) {
+                int j = (y - y0) * w + (x - x0);
+                if (want[j] <= have[j])
+                    continue;
+                have[j] = next[j];
+                /* With all spp there is nothing left to judge. */
+                if (have[j] >= spp)
+                    continue;
+                want[j] = lr__pixel_samples_needed(&round[j], thr, have[j],
+                                                   spp);
+                int r = lr__rare_samples_needed(
+                    &round[j], lr__plan_unseen(plan, x, y), thr, have[j], spp);
+                if (r > want[j])
+                    want[j] = r;
+            }
+    }
+    for (int y = y0; y < y1; y++)
+        for (int x = x0; x < x1; x++)
+            io->store(io->ctx, x, y, &round[(y - y0) * w + (x - x0)]);
 }

@@ -60,11 +60,13 @@ int lr__edge_samples_needed(double contrast, double threshold, int have,
 int lr__adaptive_next(int have, int want, int hi);
 
 /* How the block loop reaches the caller: `sample` adds samples first ..
- * last-1 of pixel (x, y) to *acc in order; `store` takes a finished
- * pixel. */
+ * last-1 of pixel (x, y) to *acc in order; `sample_n` (NULL: `sample`
+ * span by span) does that for n spans at once, each as `sample` would
+ * alone; `store` takes a finished pixel. */
 typedef struct lr__block_io {
     void (*sample)(void *ctx, int x, int y, int first, int last,
                    lr__pixel *acc);
+    void (*sample_n)(void *ctx, int n, const lr__span *spans);
     void (*store)(void *ctx, int x, int y, const lr__pixel *acc);
     void *ctx;
 } lr__block_io;
@@ -77,6 +79,10 @@ typedef struct lr__pilot_view {
     double root[3];
 } lr__pilot_view;
 
+/* How many spans lr__adaptive_block hands to sample_n at most (1 to 16,
+ * the default): for tests, which check that a batch changes no bit. */
+extern int lr__adaptive_batch;
+
 /* The largest block lr__adaptive_block takes, and the scratch it needs:
  * (LR__BLOCK_MAX + 2)^2 pixels (a one-pixel apron). */
 #define LR__BLOCK_MAX 64
@@ -86,14 +92,20 @@ typedef struct lr__block_scratch {
     lr__pixel acc[LR__BLOCK_APRON]; /* every pixel's pilot */
     int need[LR__BLOCK_APRON];      /* its need; 0: not sampled */
     lr__pilot_view view[LR__BLOCK_APRON];
+    /* Per pixel of the block: its samples after the pilot's rounds, how
+     * many it has, wants, and will have after the round under way. */
+    lr__pixel round[LR__BLOCK_MAX * LR__BLOCK_MAX];
+    int have[LR__BLOCK_MAX * LR__BLOCK_MAX];
+    int want[LR__BLOCK_MAX * LR__BLOCK_MAX];
+    int next[LR__BLOCK_MAX * LR__BLOCK_MAX];
 } lr__block_scratch;
 
 /* Renders pixels [x0, x1) x [y0, y1) (at most LR__BLOCK_MAX a side) of a
- * frame planned by `plan`, every pixel stored once, in row order.  The
- * pilots on the block's borders and in its apron are shared with the
- * neighbouring blocks through `share` (pilots.h; NULL: each block traces
- * its own), which must then have been set up with the block grid this
- * block belongs to. */
+ * frame planned by `plan`, every pixel stored once, in row order, after
+ * all of the block's samples.  The pilots on the block's borders and in
+ * its apron are shared with the neighbouring blocks through `share`
+ * (pilots.h; NULL: each block traces its own), which must then have been
+ * set up with the block grid this block belongs to. */
 void lr__adaptive_block(const lr_render_settings *set,
                         const struct lr__plan *plan, int x0, int y0, int x1,
                         int y1, lr__block_scratch *scratch,

@@ -18,6 +18,13 @@ typedef struct lr__pixel {
     uint64_t dropped; /* samples rejected as non-finite */
 } lr__pixel;
 
+/* Samples first .. last-1 of pixel (x, y), to be added to *acc: what
+ * adaptive sampling asks of the sampler, one pixel's round at a time. */
+typedef struct lr__span {
+    int x, y, first, last;
+    lr__pixel *acc;
+} lr__span;
+
 static inline void lr__pixel_reset(lr__pixel *p)
 {
     p->sum[0] = p->sum[1] = p->sum[2] = 0.0;

@@ -67,6 +67,12 @@ static void sample_cb(void *ctx, int x, int y, int first, int last,
                      last, acc, &w->counts);
 }
 
+static void sample_n_cb(void *ctx, int n, const lr__span *spans)
+{
+    worker *w = ctx;
+    lr__sample_pixels(&w->r->shot, &w->r->plan, n, spans, &w->counts);
+}
+
 /* Writes a finished pixel (and its Z) into the image, and counts it. */
 static void store_cb(void *ctx, int x, int y, const lr__pixel *acc)
 {
@@ -86,7 +92,7 @@ static void store_cb(void *ctx, int x, int y, const lr__pixel *acc)
 
 static void render_tile(worker *w, int x0, int y0, int x1, int y1)
 {
-    lr__block_io io = {sample_cb, store_cb, w};
+    lr__block_io io = {sample_cb, sample_n_cb, store_cb, w};
     for (int y = y0; y < y1; y += LR__BLOCK_MAX)
         for (int x = x0; x < x1; x += LR__BLOCK_MAX)
             lr__adaptive_block(w->r->set, &w->r->plan, x, y,
@@ -363,7 +369,7 @@ static lr_status render_in_mode(const lr_scene *scene, const lr_camera *cam,
         if (st == LR_OK && n > lr__splat_units(j.splat))
             n = lr__splat_units(j.splat);
     }
-    /* Each worker's block scratch (half a megabyte) needs no zeroing
+    /* Each worker's block scratch (0.8 MB) needs no zeroing
      * (lr__adaptive_block sets what it reads): zeroing it was a tenth of
      * a farm part's fixed cost (perf, one-row parts). */
     if (st == LR_OK && !j.plan.splat &&

@@ -68,6 +68,15 @@ void lr__sample_pixel(const lr__shot *sh, const lr__block_plan *bp, int x,
                       int y, int first, int last, lr__pixel *acc,
                       lr__sample_counts *n);
 
+/* lr__sample_pixel for n spans, each as it would be alone (the same
+ * samples, added in the same order, to the same bits): consecutive spans
+ * on the packet path with the same use of the lens share calls to the
+ * camera and the integrator, so that the glass's and the integrator's
+ * long chains of one pixel's packet overlap another's (a pixel of 16
+ * samples is a single packet).  Packets never mix pixels. */
+void lr__sample_pixels(const lr__shot *sh, const lr__plan *plan, int n,
+                       const lr__span *sp, lr__sample_counts *cnt);
+
 /* Z: the distance along the view axis of the first hit of the pinhole
  * ray through the centre of pixel (x, y), or LR_DEPTH_NONE. */
 float lr__sample_depth(const lr__shot *sh, int x, int y, lr__sample_counts *n);
