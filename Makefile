@@ -14,6 +14,11 @@ SANITIZE ?=
 # alone, as a CPU without AVX2 runs it.
 SIMD     ?=
 SIMD_BASE = -D'target_clones(...)=unused' -D'__builtin_cpu_supports(x)=0'
+# And to SIMD_AVX2: every clone and run-time choice takes its AVX2 code,
+# as a CPU with AVX2 and without AVX-512 runs it (for a CPU that has
+# AVX2, whatever else it has).
+SIMD_AVX2 = -D'target_clones(...)=target("avx2")' \
+            -D'__builtin_cpu_supports(x)=(__builtin_strcmp((x), "avx2") == 0)'
 
 VERSION  := 0.1.0
 SOMAJOR  := 0
@@ -299,13 +304,17 @@ test-sanitize:
 # ---- every code path this CPU runs (issue 28, item 8) -------------------
 # The pixel-hash matrix with Embree forced to each ISA the CPU has, and
 # with lensray's own SIMD forced down to the baseline (a second build,
-# SIMD=$(SIMD_BASE)): tools/isa-matrix.sh, numpy from the lens venv for
-# tools/isa_diff.py.  About a minute and a half.
+# SIMD=$(SIMD_BASE)) and, where the CPU has AVX2, to its AVX2 code (a
+# third, SIMD=$(SIMD_AVX2)): tools/isa-matrix.sh, numpy from the lens
+# venv for tools/isa_diff.py.  About two minutes.
 test-isa: all $(LENS_VENV)/.ok
 	@$(MAKE) --no-print-directory BUILD=$(BUILD)/simd-base 'SIMD=$$(SIMD_BASE)' \
 	  $(BUILD)/simd-base/lensray
+	@if grep -qw avx2 /proc/cpuinfo; then \
+	  $(MAKE) --no-print-directory BUILD=$(BUILD)/simd-avx2 'SIMD=$$(SIMD_AVX2)' \
+	    $(BUILD)/simd-avx2/lensray; fi
 	@PYTHON=$(LENS_VENV)/bin/python sh tools/isa-matrix.sh $(BUILD) \
-	  $(BUILD)/simd-base
+	  $(BUILD)/simd-base $(BUILD)/simd-avx2
 
 # ---- Python --------------------------------------------------------------
 # The lensray package (python/, docs/python.md) in a virtual environment

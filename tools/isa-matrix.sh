@@ -11,13 +11,19 @@
 #     ISA the CPU lacks, and the run says so and is left out);
 #   - lensray's own SIMD forced down to the baseline (the build BASE,
 #     made with SIMD='$(SIMD_BASE)': no AVX2 or AVX-512 clone, no AVX2
-#     Sobol), with Embree's default and its sse2 code: a CPU without AVX.
+#     Sobol), with Embree's default and its sse2 code: a CPU without AVX;
+#   - and to its AVX2 code (the build AVX2, made with SIMD='$(SIMD_AVX2)':
+#     every clone and run-time choice the AVX2 one), with Embree's
+#     default: lensray's part of a CPU with AVX2 and without AVX-512, as
+#     AMD's Zen 3 (Embree's avx2 code is the run embree-avx2).  Left out,
+#     and said so, on a CPU without AVX2 (the build is not made).
 #
 # Ends "N passed, N failed" (one test a run).  PYTHON: a Python with
 # numpy for isa_diff.py.  Usage:
-#   tools/isa-matrix.sh BUILD BASE
+#   tools/isa-matrix.sh BUILD BASE [AVX2]
 build=${1:-build}
 base=${2:-build/simd-base}
+avx2=${3:-}
 python=${PYTHON:-python3}
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
@@ -82,9 +88,17 @@ for isa in sse2 sse4.2 avx avx2 avx512; do
         echo "--   embree-$isa: not on this CPU ($(head -c 120 "$tmp/probe.err"))"
     fi
 done
+# lensray's AVX2 code, where this CPU runs it.
+avx2_runs=
+if [ -n "$avx2" ] && [ -x "$avx2/lensray" ] &&
+    echo " $isas " | grep -q ' avx2 '; then
+    avx2_runs="simd-avx2:$avx2:"
+elif [ -n "$avx2" ]; then
+    echo "--   simd-avx2: not on this CPU (no AVX2)"
+fi
 # Two runs at a time (a small render leaves a core idle).
 set -- $(for isa in $isas; do echo "embree-$isa:$build:isa=$isa"; done) \
-    "simd-base:$base:" "simd-base-sse2:$base:isa=sse2"
+    "simd-base:$base:" "simd-base-sse2:$base:isa=sse2" $avx2_runs
 while [ $# -gt 0 ]; do
     a=$1
     shift
@@ -101,5 +115,6 @@ for isa in $isas; do
 done
 check simd-base 1
 check simd-base-sse2 0
+[ -z "$avx2_runs" ] || check simd-avx2 1
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]
