@@ -769,12 +769,25 @@ static const char *const shipped_lenses[] = {
     "zoom-nikon-jp53131852-80mm-f2.8",
 };
 
+/* The shipped lenses a sweep takes: every one, or under the sanitizers
+ * (LR_TEST_SANITIZED, test.h) one of each kind: the double Gauss, the
+ * fisheyes, a wide angle and the zoom with four aspheres. */
+static int shipped_swept(size_t i)
+{
+    const char *l = shipped_lenses[i];
+    return !LR_TEST_SANITIZED || strcmp(l, "double-gauss-50") == 0 ||
+           strstr(l, "fisheye") != NULL || strcmp(l, "wide-22") == 0 ||
+           strstr(l, "z-14-30") != NULL;
+}
+
 static void test_pupil_table_exact(void **state)
 {
     (void)state;
     char name[128];
     for (size_t i = 0; i < sizeof shipped_lenses / sizeof *shipped_lenses;
          i++) {
+        if (!shipped_swept(i))
+            continue;
         snprintf(name, sizeof name, "\"%s\"", shipped_lenses[i]);
         check_pupil_table(name, ", \"focus_distance\": 5", 8);
     }
