@@ -78,6 +78,11 @@ int lrd_http_start(void)
     else
         ((struct sockaddr_in *)&sa)->sin_port = htons((uint16_t)lrd_cfg.port);
 
+    /* Address reuse as MHD's default has it (SO_REUSEADDR: a restart
+     * binds at once past the old connections' TIME_WAIT), not
+     * MHD_OPTION_LISTENING_ADDRESS_REUSE 1, whose SO_REUSEPORT let a
+     * second daemon listen on a port in use and take half its
+     * connections, the jobs it was sent among them. */
     unsigned flags = MHD_USE_THREAD_PER_CONNECTION |
                      MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_ITC |
                      MHD_USE_ERROR_LOG | (v6 ? MHD_USE_IPv6 : 0);
@@ -89,8 +94,7 @@ int lrd_http_start(void)
         (unsigned)lrd_cfg.max_per_ip, MHD_OPTION_CONNECTION_MEMORY_LIMIT,
         (size_t)lrd_cfg.conn_memory, MHD_OPTION_CONNECTION_TIMEOUT,
         (unsigned)lrd_cfg.conn_timeout, MHD_OPTION_NOTIFY_COMPLETED,
-        lrd_http_on_completed, NULL, MHD_OPTION_LISTENING_ADDRESS_REUSE, 1u,
-        MHD_OPTION_END);
+        lrd_http_on_completed, NULL, MHD_OPTION_END);
     if (http.d == NULL) {
         fprintf(stderr,
                 "lensrayd: cannot listen on %s port %ld (in use, or "
