@@ -164,6 +164,12 @@ J
     run -2 "$LENSRAY" lens petzval --field-angles ,1
     run -2 "$LENSRAY" lens petzval --wavelength
     run -2 "$LENSRAY" lens petzval --bogus
-    run -3 "$LENSRAY" lens petzval --field-angles 95
+    # Numbers out of range are bad arguments too (they exited 3, a bad
+    # lens's status), with --ghosts as without.
+    run -2 "$LENSRAY" lens petzval --field-angles 95
     [[ "$output" == *"field angle 95"* ]]
+    run -2 "$LENSRAY" lens petzval --wavelength 100
+    [[ "$output" == *"between 300 and 2000 nm, got 100"* ]]
+    run -2 "$LENSRAY" lens petzval --ghosts --wavelength 2500
+    [[ "$output" == *"got 2500"* ]]
 }

@@ -429,6 +429,11 @@ static int cmd_lens(int argc, char **argv)
                                              &err);
     if (st != LR_OK) {
         fprintf(stderr, "lensray: %s\n", err.message);
+        /* A value given on the command line is a usage error (the
+         * library names those by path), the lens's own a lens error. */
+        if (strcmp(err.path, "wavelength") == 0 ||
+            strcmp(err.path, "field_angles") == 0)
+            return EXIT_USAGE;
         return st == LR_ERR_IO ? EXIT_IO : EXIT_SCENE;
     }
     puts(json);

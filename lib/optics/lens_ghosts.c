@@ -64,7 +64,7 @@ lr_status lr_lens_ghosts(const char *lens, const char *base_dir, double nm,
                         "lr_lens_ghosts: a lens name and an output pointer "
                         "are required");
     if (!(nm >= 300 && nm <= 2000))
-        return lr__fail(err, LR_ERR_INVALID, NULL,
+        return lr__fail(err, LR_ERR_INVALID, "wavelength",
                         "the wavelength must be between 300 and 2000 nm, "
                         "got %g",
                         nm);

@@ -308,20 +308,20 @@ static lr_status check_args(const double *field_angles_deg, int n_angles,
                             double nm, lr_error *err)
 {
     if (n_angles < 0 || (n_angles > 0 && field_angles_deg == NULL))
-        return lr__fail(err, LR_ERR_INVALID, NULL,
+        return lr__fail(err, LR_ERR_INVALID, "field_angles",
                         "field angles: a count >= 0 and the angles");
     if (n_angles > MAX_ANGLES)
-        return lr__fail(err, LR_ERR_LIMIT, NULL,
+        return lr__fail(err, LR_ERR_LIMIT, "field_angles",
                         "at most %d field angles, got %d", MAX_ANGLES,
                         n_angles);
     if (!(nm >= 300 && nm <= 2000))
-        return lr__fail(err, LR_ERR_INVALID, NULL,
+        return lr__fail(err, LR_ERR_INVALID, "wavelength",
                         "the wavelength must be between 300 and 2000 nm, "
                         "got %g",
                         nm);
     for (int i = 0; i < n_angles; i++)
         if (!(fabs(field_angles_deg[i]) < 90))
-            return lr__fail(err, LR_ERR_INVALID, NULL,
+            return lr__fail(err, LR_ERR_INVALID, "field_angles",
                             "field angle %g: must be within +-90 degrees "
                             "(exclusive)",
                             field_angles_deg[i]);
