@@ -23,6 +23,23 @@
  * (lens_pupil.c). */
 void lr__lens_pupils(lr__cam *c, int colours);
 
+/* Which of m (at most 16) rear-plane points (x[i], y[i]) the rays from
+ * sensor point (r, 0) get through with any of the n_sets (at most 4)
+ * index sets: ok[i]; cos4[i] gets cos^4 of each ray's angle to the axis
+ * (lens_pupil.c). */
+void lr__pupil_passes16(const lr__cam *c, const double *const *nsets,
+                        int n_sets, double r, int m, const double *x,
+                        const double *y, int *ok, double *cos4);
+
+/* Where the exit-pupil search's grids (cells of `step` over [-S, S]^2 on
+ * the rear plane) miss every ray from film radius r: a box about the
+ * pupil, {x0, x1, y0, y1}, and a cell for the fine grid's margin, from the
+ * ray through the stop's centre (lens_pupil_seed.c).  0 when that ray is
+ * stopped too. */
+int lr__pupil_seed(const lr__cam *c, const double *const *nsets, int n_sets,
+                   double r, double S, double step, double box[4],
+                   double *cell);
+
 /* The step after the grid search (lens_pupil.c): bounds *P of film radius
  * r, found on a grid of cell `cell`, replaced by the pupil's edge traced
  * by bisection for each of the n_sets (at most 4) index sets, where the

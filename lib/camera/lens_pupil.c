@@ -27,19 +27,18 @@ typedef struct pupil_job {
     int n_sets;
 } pupil_job;
 
-/* Which of up to 16 rear-plane points (x, y) rays from sensor point
- * (r, 0) get through with any of the index sets: ok[i]; cos4[i] gets
- * cos^4 of each ray's angle to the axis. */
-static void passes16(const pupil_job *j, double r, int m, const double *x,
-                     const double *y, int *ok, double *cos4)
+/* camera_lens.h. */
+void lr__pupil_passes16(const lr__cam *c, const double *const *nsets,
+                        int n_sets, double r, int m, const double *x,
+                        const double *y, int *ok, double *cos4)
 {
-    const lr__lens_cam *lc = &j->c->lens;
+    const lr__lens_cam *lc = &c->lens;
     const lr_lens *L = lc->L;
     double o[3][16], d[3][16], dz = lc->z_rear - lc->z_sensor;
     int alive[16];
     for (int i = 0; i < 16; i++)
         ok[i] = 0;
-    for (int k = 0; k < j->n_sets; k++) {
+    for (int k = 0; k < n_sets; k++) {
         for (int i = 0; i < 16; i++) {
             int l = i < m ? i : 0;
             double dx = x[l] - r, dy = y[l];
@@ -50,10 +49,17 @@ static void passes16(const pupil_job *j, double r, int m, const double *x,
             d[0][i] = dx / len, d[1][i] = dy / len, d[2][i] = dz / len;
             alive[i] = i < m;
         }
-        lr__rx_trace16(&L->rx, L->z, j->nsets[k], lc->stop_scale, o, d, alive);
+        lr__rx_trace16(&L->rx, L->z, nsets[k], lc->stop_scale, o, d, alive);
         for (int i = 0; i < m; i++)
             ok[i] |= alive[i];
     }
+}
+
+/* lr__pupil_passes16 (above) for the job's index sets. */
+static void passes16(const pupil_job *j, double r, int m, const double *x,
+                     const double *y, int *ok, double *cos4)
+{
+    lr__pupil_passes16(j->c, j->nsets, j->n_sets, r, m, x, y, ok, cos4);
 }
 
 /* Calls fn on every point of a g x g grid over [x0, x1] x [y0, y1] (cell
@@ -339,6 +345,16 @@ static void pupil_refine(const pupil_job *j, double r, double cell,
     *P = R;
 }
 
+/* Where every coarse point missed: the box about the pupil the seed
+ * search finds (lens_pupil_seed.c), if any, and its cell. */
+static void seed_box(const pupil_job *j, double r, double S, extent *co,
+                     double *cell)
+{
+    double box[4];
+    if (lr__pupil_seed(j->c, j->nsets, j->n_sets, r, S, *cell, box, cell))
+        co->x0 = box[0], co->x1 = box[1], co->y0 = box[2], co->y1 = box[3];
+}
+
 /* The bounds for film radius r (lr__pupil), from a coarse grid over the
  * rear element and a fine one over what passed; for r = 0 also *E0, the
  * on-axis irradiance integral for a white scene.  The bounds reach one
@@ -365,6 +381,8 @@ static void pupil_point(const pupil_job *j, double r, lr__pupil *P, double *E0)
         cell = 2.0 * S / g;
         grid_pass(j, r, -S, -S, cell, cell, g, grow, &co);
     }
+    if (!(co.x0 <= co.x1))
+        seed_box(j, r, S, &co, &cell);
     *P = (lr__pupil){0, 0, 0, 0};
     if (E0 != NULL)
         *E0 = 0.0;
