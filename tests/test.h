@@ -134,9 +134,15 @@ lr_test_diff lr_test_compare(const lr_image *a, const lr_image *b);
  * every set-up, and the whole in the build as made: the sanitizers
  * watch code paths, which the part covers, and under them those sweeps
  * were 8 of the suite's 13 minutes (the critical path of make test). */
-#ifdef __SANITIZE_ADDRESS__
+/* (GCC defines __SANITIZE_ADDRESS__; clang answers __has_feature.) */
+#if defined(__SANITIZE_ADDRESS__)
 #define LR_TEST_SANITIZED 1
-#else
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define LR_TEST_SANITIZED 1
+#endif
+#endif
+#ifndef LR_TEST_SANITIZED
 #define LR_TEST_SANITIZED 0
 #endif
 

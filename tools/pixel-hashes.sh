@@ -66,6 +66,10 @@ r textured textured --set render.spp=4
 r night-lens real-lens-light-side --set render.spp=4
 r lens-chart real-lens --set render.spp=2
 r lens-bokeh real-lens-rgb --set render.spp=2
+# Adaptive sampling's later rounds through a lens (a pixel's pilot is 16
+# samples there, so the lines above never reach a second round).
+r lens-chart real-lens-rounds --set render.spp=100
+r lens-bokeh real-lens-rgb-rounds --set render.spp=100
 # A lens with aspheres (Newton's method in the packets: rx_asph16.c).
 r lens-chart real-lens-asphere --set render.spp=2 \
     --set 'camera.lens="zoom-nikkor-z-14-30mm-f4-at-14mm"'
