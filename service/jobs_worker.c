@@ -52,6 +52,25 @@ typedef struct run_result {
 /* Renders and encodes one job, outside the lock.  It writes only to *out:
  * readers such as /metrics and the status document look at the job's
  * fields at any time, so the worker copies the result in under the lock. */
+/* "scene" when a render's error names a part of a scene the job sent
+ * (inline or as an asset), which api.md's paths carry under "scene."
+ * (lights[1], materials.glow); else NULL.  (camera and render may come
+ * from the scene or from the job's own fields: left as they are.) */
+static const char *scene_part(const lrd_job_spec *sp, const char *path)
+{
+    static const char *const parts[] = {"lights",      "materials",  "objects",
+                                        "environment", "background", NULL};
+    if (sp->scene_name[0] != '\0' && strncmp(sp->scene_name, "sha256:", 7))
+        return NULL; /* a scene of the server's */
+    for (int k = 0; parts[k] != NULL; k++) {
+        size_t n = strlen(parts[k]);
+        if (strncmp(path, parts[k], n) == 0 &&
+            (path[n] == '\0' || path[n] == '[' || path[n] == '.'))
+            return "scene";
+    }
+    return NULL;
+}
+
 static lrd_state run(lrd_job *j, run_result *out)
 {
     const lrd_job_spec *sp = &j->spec;
@@ -67,7 +86,7 @@ static lrd_state run(lrd_job *j, run_result *out)
     if (st == LR_ERR_CANCELLED)
         return LRD_CANCELLED;
     if (st != LR_OK) {
-        lrd_fail_lr(&out->err, &le, NULL, 0);
+        lrd_fail_lr(&out->err, &le, scene_part(sp, le.path), 0);
         return LRD_FAILED;
     }
     double t0 = lrd_monotonic();

@@ -625,7 +625,12 @@ print("\n".join(sorted(s["properties"][sys.argv[3]]["enum"])))' "$spec" "$schema
     # And "light" names what it cannot trace.
     req POST "$URL/v1/render" '{"scene": "tiny", "render": {"width": 4, "height": 3, "spp": 1, "integrator": "light"}}'
     expect 422
-    grep -q '"path":"lights"' "$T/body"
+    grep -q '"path":"lights\[[0-9]*\]"' "$T/body"
+    # The ambient light by its index, under "scene." in a scene the job
+    # sent (it was "lights", unprefixed).
+    req POST "$URL/v1/render" '{"scene": {"lights": [{"type": "point", "position": [0, 3, 3], "intensity": 5}, {"type": "ambient", "radiance": 0.1}], "objects": [{"type": "sphere", "center": [0, 0, -5], "radius": 1}]}, "render": {"width": 4, "height": 3, "spp": 1, "integrator": "light"}}'
+    expect_error 422 invalid_value scene.lights[1]
+    [[ "$(json o.error.message)" == "scene.lights[1]: an ambient light is emitted by nothing"* ]]
     for name in $(json "o.camera_models.map(x => x.name).join(' ')" "$T/options"); do
         req POST "$URL/v1/render" "{\"scene\": \"tiny\", \"camera\": {\"model\": \"$name\"$([ "$name" = lens ] && echo ', "lens": "double-gauss-50"')}, \"render\": {\"width\": 4, \"height\": 3, \"spp\": 1}}"
         expect 200

@@ -14,6 +14,7 @@
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
+#include <unistd.h>
 
 /* The mean of channel-averaged img over [x0, x1) x [y0, y1). */
 static double box_mean(const lr_image *img, int x0, int y0, int x1, int y1)
@@ -264,6 +265,13 @@ static void test_light_refuses(void **state)
         " \"materials\": {\"l\": {\"emission\": 5}, \"w\": {\"diffuse\": 0.5}},"
         " \"objects\": [{\"type\": \"sphere\", \"center\": [0, 0, 0],"
         "  \"radius\": 1, \"material\": \"l\"}]}";
+    /* (The scene's directory is a temporary one: the texture by its full
+     * path, from the working directory, the repository.) */
+    char cwd[1024], tex[1200];
+    assert_non_null(getcwd(cwd, sizeof cwd));
+    snprintf(tex, sizeof tex,
+             "materials.l.emission_texture=\"%s/scenes/textures/sign.png\"",
+             cwd);
     const struct {
         const char *sets[4], *extra, *want;
     } cases[] = {
@@ -276,9 +284,11 @@ static void test_light_refuses(void **state)
           "camera.chromatic.mode=rgb", "camera.focal_length_mm=50"},
          NULL,
          "camera.chromatic:"},
-        {{"lights=[{\"type\": \"ambient\", \"radiance\": 0.1}]"},
+        {{"lights=[{\"type\": \"point\", \"position\": [0, 3, 3], "
+          "\"intensity\": 1}, {\"type\": \"ambient\", \"radiance\": 0.1}]"},
          NULL,
-         "lights:"},
+         "lights[1]:"},
+        {{tex}, NULL, "materials.l:"},
         {{NULL},
          "{\"type\": \"plane\", \"point\": [0, -1, 0], "
          "\"normal\": [0, 1, 0], \"material\": \"l\"}",
@@ -311,6 +321,11 @@ static void test_light_refuses(void **state)
         assert_int_equal(st, LR_ERR_INVALID);
         assert_null(img);
         assert_non_null(strstr(err.message, cases[i].want));
+        /* The path is the field the message starts with (it was "lights"
+         * for lights[1], "materials" for materials.l). */
+        size_t pl = strlen(err.path);
+        assert_true(pl > 0 && strncmp(err.message, err.path, pl) == 0 &&
+                    err.message[pl] == ':');
         lr_scene_free(s);
     }
 }

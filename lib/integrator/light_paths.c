@@ -50,8 +50,10 @@
 #include "scene/envmap.h"
 #include "scene/light.h"
 #include "integrator/path.h"
+#include "json/json_util.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 
 /* Random dimensions of a path: the light (0 - 7), then each surface. */
@@ -135,20 +137,26 @@ static lr_status check_scene(const lr_scene *s, const lr__cam *c,
                         "through the bracket (whose lens point moves with "
                         "the focus)",
                         me);
-    if (v3_maxc(s->ambient) > 0.0)
-        return lr__fail(err, LR_ERR_INVALID, "lights",
-                        "lights: an ambient light is emitted by nothing, so "
-                        "%s cannot trace it",
-                        me);
+    if (v3_maxc(s->ambient) > 0.0) {
+        char q[32];
+        snprintf(q, sizeof q, "lights[%d]", s->ambient_at);
+        return lr__fail(err, LR_ERR_INVALID, q,
+                        "%s: an ambient light is emitted by nothing, so %s "
+                        "cannot trace it",
+                        q, me);
+    }
     for (size_t g = 0; g < s->n_geoms + s->n_planes; g++) {
         const lr__geom *geo = g < s->n_geoms ? &s->geoms[g]
                                              : &s->planes[g - s->n_geoms];
         const lr__material *mt = &s->materials[geo->material];
-        if (mt->emission_tex != NULL)
-            return lr__fail(err, LR_ERR_INVALID, "materials",
-                            "materials.%s: textured emission is not traced "
-                            "from the lights yet (%s)",
-                            mt->name, me);
+        if (mt->emission_tex != NULL) {
+            char q[LR__PATH_MAX];
+            snprintf(q, sizeof q, "materials.%s", mt->name);
+            return lr__fail(err, LR_ERR_INVALID, q,
+                            "%s: textured emission is not traced from the "
+                            "lights yet (%s)",
+                            q, me);
+        }
         if (g >= s->n_geoms && v3_maxc(mt->emission) > 0.0)
             return lr__fail(err, LR_ERR_INVALID, "objects",
                             "objects: an emitting infinite plane (material "

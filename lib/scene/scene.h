@@ -198,6 +198,7 @@ struct lr_scene {
     lr__geom *planes; /* infinite planes */
     size_t n_planes;
     lr__v3 ambient;    /* sum of ambient lights' radiance */
+    int ambient_at;    /* lights[] index of the first ambient light, or -1 */
     lr__v3 background; /* radiance of escaping rays */
     /* The "environment" map (NULL: the uniform background), and where it
      * came from, for the JSON writer. */

@@ -204,6 +204,8 @@ static lr_status parse_lights(lr_scene *s, const cJSON *lights, lr_error *err)
             LR_TRY(lr__json_check_keys(l, p, keys_amb, err));
             LR_TRY(lr__json_rgb(l, "radiance", p, 1, &r, err));
             s->ambient = v3_add(s->ambient, r);
+            if (s->ambient_at < 0)
+                s->ambient_at = (int)i;
         } else {
             char q[LR__PATH_MAX];
             lr__path_key(q, p, "type");
@@ -369,6 +371,7 @@ lr_status lr__scene_load_json(const char *json, size_t len,
         cJSON_Delete(root);
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     }
+    s->ambient_at = -1;
     lr_status st = build(s, root, base_dir, rd, err);
     cJSON_Delete(root);
     if (st != LR_OK) {
