@@ -767,15 +767,16 @@ LR_API const char *lr_job_scene_name(const lr_job *job);
  * text), or NULL for a named scene.  Valid until lr_job_free. */
 LR_API const char *lr_job_scene_json(const lr_job *job, size_t *len);
 
-/* The files an inline scene names, for a caller that confines them to a
+/* The files a job's inline scene names, for a caller that confines them to a
  * directory: the k-th (from 0) file reference as written, in document
  * order: every string under a key that names a file (objects[i].file,
  * environment.file, a material's textures: all keys that the loader
  * resolves through the same function, so a new file key is listed here
  * too), and camera.lens when it is a path (has a '/') or an asset
  * ("sha256:HEX"); and its path in the job ("scene.objects[3].file",
- * "scene.environment.file", "scene.camera.lens").  Returns 0 past the
- * last one (and for a named scene).  The strings are valid until
+ * "scene.environment.file", "scene.camera.lens"); before them the
+ * job's own camera.lens when it is an asset ("camera.lens"), whatever
+ * the scene.  Returns 0 past the last one.  The strings are valid until
  * lr_job_free. */
 LR_API int lr_job_mesh_file(const lr_job *job, size_t k, const char **file,
                             const char **field);

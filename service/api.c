@@ -215,6 +215,14 @@ int lrd_api_parse_job(const char *body, size_t len, lrd_job_spec *spec,
         return lrd_fail_lr(e, &le, NULL, 0);
 
     int rc = -1;
+    /* The job's own lens asset (lr_job_mesh_file lists it first, as
+     * "camera.lens"): a missing one is asset_not_found, as an inline
+     * scene's is (it was invalid_value, from the lens loader). */
+    const char *file, *field;
+    for (size_t k = 0; lr_job_mesh_file(job, k, &file, &field); k++)
+        if (strncmp(field, "scene", 5) != 0 &&
+            lrd_asset_check_ref(file, field, e) != 0)
+            goto out;
     spec->scene = job_scene(job, spec, e);
     if (spec->scene == NULL)
         goto out;

@@ -667,6 +667,12 @@ render_post() {
     missing=$(printf 'not stored %s' "$BATS_TEST_NAME" | sha256sum | cut -c1-64)
     render_post "{\"scene\": {\"camera\": {\"model\": \"lens\", \"lens\": \"sha256:$missing\"}}}"
     [[ "$output" == *'"code":"asset_not_found"'*"scene.camera.lens: this server has no asset sha256:$missing"*'"path":"scene.camera.lens"'*" 422" ]]
+    # The job's own camera names it too, beside a named or an inline
+    # scene (it was 422 invalid_value, from the lens loader).
+    render_post "{\"scene\": \"spheres\", \"camera\": {\"model\": \"lens\", \"lens\": \"sha256:$missing\"}}"
+    [[ "$output" == *'"code":"asset_not_found"'*"camera.lens: this server has no asset sha256:$missing"*'"path":"camera.lens"'*" 422" ]]
+    render_post "{\"scene\": {}, \"camera\": {\"model\": \"lens\", \"lens\": \"sha256:$missing\"}}"
+    [[ "$output" == *'"code":"asset_not_found"'*'"path":"camera.lens"'*" 422" ]]
     render_post "{\"scene\": {\"environment\": {\"file\": \"sha256:$missing\"}}}"
     [[ "$output" == *'"code":"asset_not_found"'*'"path":"scene.environment.file"'*" 422" ]]
     render_post "{\"scene\": \"sha256:$missing\"}"

@@ -589,6 +589,16 @@ static void test_job_files_every_key(void **state)
                      LR_OK);
     assert_int_equal(lr_job_mesh_file(job, 0, &file, &field), 0);
     lr_job_free(job);
+    /* The job's own camera's lens asset, first, beside a named scene too
+     * (lensrayd checks it as it does the scene's). */
+    snprintf(json, sizeof json,
+             "{\"scene\": \"tiny\", \"camera\": {\"lens\": \"%s\"}}", hex);
+    assert_int_equal(parse(json, &job, &err), LR_OK);
+    assert_int_equal(lr_job_mesh_file(job, 0, &file, &field), 1);
+    assert_string_equal(file, hex);
+    assert_string_equal(field, "camera.lens");
+    assert_int_equal(lr_job_mesh_file(job, 1, &file, &field), 0);
+    lr_job_free(job);
     assert_true(lr_scene_file_key("file"));
     assert_true(lr_scene_file_key("roughness_texture"));
     assert_false(lr_scene_file_key("lens"));

@@ -112,6 +112,12 @@ static lr_status check_shape(lr_job *job, lr_error *err)
         if (v != NULL)
             LR_TRY(lr__json_object(v, objects[i], "", err));
     }
+    /* The job's own camera.lens when it is an asset (a path is refused
+     * there: lr_camera_apply_json), first, whatever the scene. */
+    const cJSON *lens = cJSON_GetObjectItemCaseSensitive(
+        cJSON_GetObjectItemCaseSensitive(root, "camera"), "lens");
+    if (cJSON_IsString(lens) && strncmp(lens->valuestring, "sha256:", 7) == 0)
+        LR_TRY(add_file(job, lens, "camera.lens", err));
     const cJSON *scene = cJSON_GetObjectItemCaseSensitive(root, "scene");
     if (cJSON_IsString(scene)) {
         job->scene_name = scene->valuestring;
