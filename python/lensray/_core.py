@@ -146,6 +146,15 @@ def _lr_image(array: Any, depth: Any = None) -> c_void_p:
     frees it with lr_image_free."""
     rgb = _as_image(array)
     h, w = rgb.shape[:2]
+    # The library's writers keep NaN and infinity out of every file (a
+    # render's, as any image's), so they would be written as 0: refused
+    # here instead, where they are the caller's data.
+    bad = ~np.isfinite(rgb)
+    if bad.any():
+        y, x = (int(v) for v in np.argwhere(bad)[0][:2])
+        raise ValueError(f"array holds {int(bad.sum())} NaN or infinite values "
+                         f"(the first at row {y}, column {x}); lensray's images "
+                         "hold finite values only")
     z = None
     if depth is not None:
         z = np.ascontiguousarray(np.asarray(depth, dtype=np.float32))
@@ -218,7 +227,8 @@ def write(path: PathLike, array: Any, depth: Any = None, *,
     Raises:
         SceneError: an extension other than .exr or .png.
         LensrayIOError: the file could not be written.
-        ValueError: an array of the wrong shape, ``depth`` with a ``.png``
+        ValueError: an array of the wrong shape or with NaN or infinite
+            values (a file would hold them as 0), ``depth`` with a ``.png``
             (which has no Z channel to keep it in), ``half`` with a ``.png``
             or ``png16`` with an ``.exr``.
     """

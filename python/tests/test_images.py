@@ -87,6 +87,15 @@ def test_write_refuses_bad_input(tmp_path):
         lensray.encode_png(0.5)
     with pytest.raises(ValueError, match=r"got shape \(3,\)"):
         lensray.encode_png([0.5, 0.5, 0.5])
+    # NaN and infinity are refused and located: the file held them as 0,
+    # silently (an independent check).
+    bad = np.zeros((4, 4, 3), np.float32)
+    bad[2, 1, 0] = np.inf
+    bad[3, 3, 2] = np.nan
+    with pytest.raises(ValueError, match=r"2 NaN or infinite values \(the first at row 2, column 1\)"):
+        lensray.write(tmp_path / "a.exr", bad)
+    with pytest.raises(ValueError, match="NaN or infinite"):
+        lensray.encode_png(bad)
     assert not (tmp_path / "a.exr").exists()
 
 
