@@ -1120,7 +1120,42 @@ static void test_write_failures(void **state)
     lr_image_free(img);
 }
 
+/* A path that is a symbolic link is written through, as open(2) would:
+ * the link stays and its target gets the file, through a chain of links,
+ * a relative target (from the link's directory) and a target that does
+ * not exist yet.  The rename into place replaced the link with a plain
+ * file (an independent check). */
+static void test_write_through_links(void **state)
+{
+    (void)state;
+    char dir[512], a[600], b[600], c[600], t[600];
+    scratch_dir("write-links", dir, sizeof dir);
+    snprintf(t, sizeof t, "%s/sub", dir);
+    assert_int_equal(mkdir(t, 0777), 0);
+    snprintf(a, sizeof a, "%s/a.png", dir);
+    snprintf(b, sizeof b, "%s/b.png", dir);
+    snprintf(c, sizeof c, "%s/sub/c.png", dir);
+    assert_int_equal(symlink("b.png", a), 0);     /* a -> b (relative) */
+    assert_int_equal(symlink("sub/c.png", b), 0); /* b -> sub/c, absent */
+    lr_image *img = make_image(3, 3, 0);
+    lr_error err;
+    assert_int_equal(lr_image_write(img, a, NULL, &err), LR_OK);
+    struct stat st;
+    assert_int_equal(lstat(a, &st), 0);
+    assert_true(S_ISLNK(st.st_mode));
+    assert_int_equal(lstat(b, &st), 0);
+    assert_true(S_ISLNK(st.st_mode));
+    assert_int_equal(lstat(c, &st), 0);
+    assert_true(S_ISREG(st.st_mode) && st.st_size > 0);
+    /* Written again, the same: the link is not replaced. */
+    assert_int_equal(lr_image_write(img, a, NULL, &err), LR_OK);
+    assert_int_equal(lstat(a, &st), 0);
+    assert_true(S_ISLNK(st.st_mode));
+    lr_image_free(img);
+}
+
 static const struct CMUnitTest image_tests[] = {
+    cmocka_unit_test(test_write_through_links),
     cmocka_unit_test(test_create_rejects_bad_sizes),
     cmocka_unit_test(test_create_and_access),
     cmocka_unit_test(test_format_from_path),

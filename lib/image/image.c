@@ -221,6 +221,42 @@ static int create_temp_beside(const char *path, char **tmp_name)
     return -1;
 }
 
+/* The file a symbolic link `path` leads to, followed link by link (a
+ * relative target from the link's directory) as open(2) would, to at most
+ * 40 links; the file need not exist.  malloc'ed; NULL when out of memory.
+ * The rename below replaces whatever name it is given, so writing to a
+ * link replaced the link with a plain file and left its target as it was. */
+static lr_status write_at(const lr_image *img, lr_format fmt,
+                          const lr_output_options *opts, const char *path,
+                          const char *dest, lr_error *err);
+
+static char *follow_links(const char *path)
+{
+    char *cur = strdup(path);
+    for (int hop = 0; cur != NULL && hop < 40; hop++) {
+        struct stat st;
+        if (lstat(cur, &st) != 0 || !S_ISLNK(st.st_mode))
+            return cur;
+        char target[4096];
+        ssize_t n = readlink(cur, target, sizeof target - 1);
+        if (n <= 0)
+            return cur;
+        target[n] = '\0';
+        const char *slash = strrchr(cur, '/');
+        size_t dir = target[0] == '/' || slash == NULL
+                         ? 0
+                         : (size_t)(slash - cur) + 1;
+        char *next = malloc(dir + (size_t)n + 1);
+        if (next != NULL) {
+            memcpy(next, cur, dir);
+            memcpy(next + dir, target, (size_t)n + 1);
+        }
+        free(cur);
+        cur = next;
+    }
+    return cur;
+}
+
 lr_status lr_image_write(const lr_image *img, const char *path,
                          const lr_output_options *opts, lr_error *err)
 {
@@ -236,10 +272,26 @@ lr_status lr_image_write(const lr_image *img, const char *path,
         return lr__fail(err, LR_ERR_INVALID, NULL,
                         "lr_image_write: there is no image to write");
 
-    /* Encoded straight into a temporary file beside `path`, so the file
-     * never costs its size in memory, then renamed into place. */
+    /* Encoded straight into a temporary file beside `path` (the file its
+     * links lead to), so the file never costs its size in memory, then
+     * renamed into place. */
+    char *dest = follow_links(path);
+    if (dest == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    st = write_at(img, fmt, opts, path, dest, err);
+    free(dest);
+    return st;
+}
+
+/* lr_image_write's file at `dest` (`path` as the caller named it, for
+ * the messages). */
+static lr_status write_at(const lr_image *img, lr_format fmt,
+                          const lr_output_options *opts, const char *path,
+                          const char *dest, lr_error *err)
+{
+    lr_status st;
     char *tmp_name = NULL;
-    int fd = create_temp_beside(path, &tmp_name);
+    int fd = create_temp_beside(dest, &tmp_name);
     if (fd < 0 && errno == ENOMEM && tmp_name == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     if (fd < 0) {
@@ -271,7 +323,7 @@ lr_status lr_image_write(const lr_image *img, const char *path,
             goto io_error;
     }
     what = "rename the finished file to";
-    if (rename(tmp_name, path) != 0)
+    if (rename(tmp_name, dest) != 0)
         goto io_error;
 
     free(tmp_name);
