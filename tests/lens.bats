@@ -154,6 +154,17 @@ J
     [[ "$output" == *'bad.zmx:4: surface type TOROIDAL is not supported'* ]]
 }
 
+@test "lens --list: every shipped lens, its name and title" {
+    run -0 "$LENSRAY" lens --list
+    # One line a file of lenses/, in its order, each "NAME<tab>title".
+    diff <(printf '%s\n' "$output" | cut -f1) \
+        <(ls "$BATS_TEST_DIRNAME/../lenses" | sed -n 's/\.json$//p' | LC_ALL=C sort)
+    [[ "$output" == *$'double-gauss-50\tDouble Gauss 50 mm f/2'* ]]
+    run -2 "$LENSRAY" lens --list double-gauss-50
+    run -2 "$LENSRAY" lens double-gauss-50 --list
+    [[ "$output" == *"--list takes no other arguments"* ]]
+}
+
 @test "usage errors exit 2" {
     run -2 "$LENSRAY" lens
     run -2 "$LENSRAY" lens petzval --field-angles 1,x

@@ -34,6 +34,7 @@ static const char usage_text[] =
     "[options]\n"
     "       lensray lens FILE|NAME [--field-angles A,B,...] [--wavelength NM]\n"
     "                   [--ghosts [--coating prescription|none|mgf2]]\n"
+    "       lensray lens --list\n"
     "       lensray version\n"
     "       lensray --help\n"
     "\n"
@@ -72,6 +73,7 @@ static const char usage_text[] =
     "  --wavelength NM     primary wavelength (default 587.5618, the d line)\n"
     "  --ghosts            each ghost path's flux for a point on the axis\n"
     "  --coating NAME      with --ghosts: every surface bare (none) or MgF2\n"
+    "  --list              every shipped lens: its NAME, a tab, its title\n"
     "\n"
     "an option's value may also follow it after '=': --output=out.png\n"
     "\n"
@@ -355,10 +357,38 @@ static int cmd_render(int argc, char **argv)
     return rc;
 }
 
+/* `lensray lens --list`: each shipped lens's name and title, a line each
+ * (lr_lenses_describe's ids and names; the unknown-lens error lists only
+ * as many names as its message holds). */
+static int list_lenses(void)
+{
+    char *json = NULL;
+    lr_error err;
+    if (lr_lenses_describe(NULL, 0, 587.5618, &json, &err) != LR_OK) {
+        fprintf(stderr, "lensray: %s\n", err.message);
+        return err.status == LR_ERR_IO ? EXIT_IO : EXIT_SCENE;
+    }
+    cJSON *o = cJSON_Parse(json);
+    lr_free(json);
+    const cJSON *l = NULL;
+    cJSON_ArrayForEach(l, cJSON_GetObjectItemCaseSensitive(o, "lenses"))
+    {
+        const cJSON *id = cJSON_GetObjectItemCaseSensitive(l, "id");
+        const cJSON *name = cJSON_GetObjectItemCaseSensitive(l, "name");
+        if (cJSON_IsString(id))
+            printf("%s\t%s\n", id->valuestring,
+                   cJSON_IsString(name) ? name->valuestring : "");
+    }
+    cJSON_Delete(o);
+    return o != NULL ? EXIT_OK : EXIT_SCENE;
+}
+
 /* `lensray lens FILE|NAME [--field-angles A,B,...] [--wavelength NM]
- * [--ghosts [--coating NAME]]` */
+ * [--ghosts [--coating NAME]]` or `lensray lens --list` */
 static int cmd_lens(int argc, char **argv)
 {
+    if (argc == 1 && strcmp(argv[0], "--list") == 0)
+        return list_lenses();
     const char *lens = NULL;
     double angles[64], nm = 587.5618;
     int n = 0, ghosts = 0, coating = -1;
@@ -368,6 +398,8 @@ static int cmd_lens(int argc, char **argv)
             ghosts = 1;
             continue;
         }
+        if (strcmp(a, "--list") == 0)
+            return usage_error("%s", "--list takes no other arguments");
         if (strcmp(a, "--coating") == 0) {
             static const char *const names[] = {"prescription", "none", "mgf2"};
             if (i + 1 >= argc)
