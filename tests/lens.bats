@@ -184,3 +184,17 @@ J
     run -2 "$LENSRAY" lens petzval --ghosts --wavelength 2500
     [[ "$output" == *"got 2500"* ]]
 }
+
+@test "a lens whose image circle misses the film: a black picture with a warning" {
+    # US 8,879,901's objective covers a 14 mm circle; a corner of a 36 mm
+    # film lies outside it: every ray is stopped and the picture is black,
+    # which was written without a word (an independent check).
+    local scene="$BATS_TEST_TMPDIR/white.json"
+    echo '{"camera": {"model": "lens", "lens": "objective-us8879901-36mm-f2", "focus_distance": 10}, "render": {"width": 96, "height": 64, "spp": 4}, "background": 1}' >"$scene"
+    run -0 --separate-stderr "$LENSRAY" render "$scene" -o "$BATS_TEST_TMPDIR/a.exr" -q \
+        --set 'render.region=[0,0,8,8]'
+    [[ "$stderr" == *"the lens stopped every camera ray"* ]]
+    # The whole frame passes light in its centre: no warning.
+    run -0 --separate-stderr "$LENSRAY" render "$scene" -o "$BATS_TEST_TMPDIR/b.exr" -q
+    [ -z "$stderr" ]
+}

@@ -203,6 +203,13 @@ static int render_local(const render_job *r, const char *scene_path,
                 "lensray: warning: %llu samples were NaN or "
                 "infinite and were dropped\n",
                 (unsigned long long)rst.nan_samples);
+    /* A real lens that stops every ray makes a black picture that is
+     * right (its image circle misses the film) but rarely meant. */
+    if (rst.camera_rays > 0 && rst.lens_blocked >= rst.camera_rays)
+        fprintf(stderr,
+                "lensray: warning: the lens stopped every camera ray, so the "
+                "picture is black: its image circle misses the film (see "
+                "camera.sensor_width_mm and render.region)\n");
     lr_image_free(img);
     lr_scene_free(scene);
     return rc;
