@@ -1056,6 +1056,51 @@ static void test_no_scenes(void **state)
                       "sceneless.gltf: it has no scenes: nothing to draw");
 }
 
+/* tri.gltf under a chain of `links` more nodes (its triangle then lies
+ * links + 1 levels below the scene's root), written as FILE. */
+static void write_chain(const char *file, int links)
+{
+    cJSON *root = read_json("tri.gltf");
+    cJSON *nodes = cJSON_GetObjectItemCaseSensitive(root, "nodes");
+    cJSON *scene = cJSON_GetArrayItem(
+        cJSON_GetObjectItemCaseSensitive(root, "scenes"), 0);
+    int n0 = cJSON_GetArraySize(nodes);
+    for (int j = 0; j < links; j++) {
+        cJSON *node = cJSON_CreateObject();
+        cJSON *ch = cJSON_AddArrayToObject(node, "children");
+        /* The last link holds the old root, nodes[1]. */
+        cJSON_AddItemToArray(
+            ch, cJSON_CreateNumber(j + 1 < links ? n0 + j + 1 : 1));
+        cJSON_AddItemToArray(nodes, node);
+    }
+    cJSON *roots = cJSON_CreateArray();
+    cJSON_AddItemToArray(roots, cJSON_CreateNumber(n0));
+    cJSON_ReplaceItemInObjectCaseSensitive(scene, "nodes", roots);
+    write_json(file, root);
+}
+
+/* A node hierarchy is at most LR__GLTF_MAX_DEPTH (1000) deep: the walks
+ * over it recurse once a level, and a chain of 15,000 nodes overflowed
+ * the stack (the CLI's, and a daemon's connection thread: any client
+ * could take the daemon down).  1000 levels load; 1001 are an error
+ * naming the node. */
+static void test_deep_hierarchy(void **state)
+{
+    (void)state;
+    make("tri", "tri.gltf");
+    write_chain("deep1000.gltf", 999);
+    lr_scene *s = lr_test_load_json(
+        "{\"objects\": [{\"type\": \"gltf\", \"file\": \"deep1000.gltf\"}]}");
+    assert_int_equal(lr_scene_primitive_count(s), 1);
+    lr_scene_free(s);
+    write_chain("deep1001.gltf", 1000);
+    expect_file_error("deep1001.gltf", LR_ERR_INVALID,
+                      "nodes[0] lies 1001 levels below its root: at most 1000");
+    /* Far deeper: refused the same way, not a crash. */
+    write_chain("deep20000.gltf", 20000);
+    expect_file_error("deep20000.gltf", LR_ERR_INVALID, "at most 1000");
+}
+
 static void test_hostile(void **state)
 {
     (void)state;
@@ -1195,6 +1240,7 @@ static const struct CMUnitTest tests[] = {
     cmocka_unit_test(test_texture_transform),
     cmocka_unit_test(test_normal_map),
     cmocka_unit_test(test_hostile),
+    cmocka_unit_test(test_deep_hierarchy),
     cmocka_unit_test(test_root_member_error),
     cmocka_unit_test(test_sparse_accessors),
     cmocka_unit_test(test_sparse_hostile),

@@ -68,6 +68,8 @@ void lr__gltf_doc_free(lr__gltf_doc *d)
         free(d->dense[i]);
     free(d->dense);
     free(d->tex);
+    free(d->node_at);
+    free(d->mesh_at);
     cJSON_Delete(d->root);
     free(d->bytes);
     memset(d, 0, sizeof *d);

@@ -38,9 +38,8 @@ static lr_status check_numbers(const lr__gltf_doc *d, const cJSON *o,
  * same for every primitive). */
 static int mesh_targets(const lr__gltf_doc *d, long long m)
 {
-    int n, np, nt;
-    const cJSON *mesh = cJSON_GetArrayItem(
-        lr__gltf_array(d->root, "meshes", &n), (int)m);
+    int np, nt;
+    const cJSON *mesh = d->mesh_at[m];
     const cJSON *prims = lr__gltf_array(mesh, "primitives", &np);
     lr__gltf_array(prims ? prims->child : NULL, "targets", &nt);
     return nt;
@@ -153,6 +152,70 @@ static lr_status check_skinned(const lr__gltf_doc *d, const char *p,
     return LR_OK;
 }
 
+/* d->node_at and d->mesh_at: the n nodes of array `a` and the nmesh
+ * meshes, by index. */
+static lr_status index_tables(lr__gltf_doc *d, const cJSON *a, int n, int nmesh,
+                              lr_error *err)
+{
+    int nm;
+    const cJSON *meshes = lr__gltf_array(d->root, "meshes", &nm);
+    d->node_at = malloc((n ? (size_t)n : 1) * sizeof *d->node_at);
+    d->mesh_at = malloc((nmesh ? (size_t)nmesh : 1) * sizeof *d->mesh_at);
+    if (d->node_at == NULL || d->mesh_at == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    int i = 0;
+    for (const cJSON *o = a ? a->child : NULL; o && i < n; o = o->next)
+        d->node_at[i++] = o;
+    i = 0;
+    for (const cJSON *o = meshes ? meshes->child : NULL; o && i < nmesh;
+         o = o->next)
+        d->mesh_at[i++] = o;
+    d->n_meshes = nmesh;
+    return LR_OK;
+}
+
+/* No node is its own ancestor, and none lies deeper than
+ * LR__GLTF_MAX_DEPTH below its root: the walks over the hierarchy (ours
+ * and libassimp's) recurse once a level, and a chain of 15,000 nodes (600
+ * KB of JSON) overflowed the stack, in the daemon too.  Each node's depth
+ * once (up from it to the first node whose depth is known), so a chain is
+ * linear where walking up from every node was quadratic. */
+static lr_status check_depths(const lr__gltf_doc *d, const int *parent, int n,
+                              lr_error *err)
+{
+    int *depth = malloc((n ? (size_t)n : 1) * sizeof *depth);
+    if (depth == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    for (int k = 0; k < n; k++)
+        depth[k] = -1; /* unknown; -2: on the walk under way */
+    lr_status st = LR_OK;
+    for (int k = 0; k < n && st == LR_OK; k++) {
+        /* Up to the first node known (or a root), marking the way. */
+        int up = k;
+        while (up >= 0 && depth[up] == -1) {
+            depth[up] = -2;
+            up = parent[up];
+        }
+        if (up >= 0 && depth[up] == -2) {
+            st = lr__gltf_fail(d, err, "nodes[%d] is its own ancestor", up);
+            break;
+        }
+        /* Down again: count the way (its length, then each depth). */
+        int base = up >= 0 ? depth[up] : -1, len = 0;
+        for (int v = k; v != up; v = parent[v])
+            len++;
+        for (int v = k, at = base + len; v != up; v = parent[v], at--)
+            depth[v] = at;
+        if (depth[k] > LR__GLTF_MAX_DEPTH)
+            st = lr__gltf_fail(d, err,
+                               "nodes[%d] lies %d levels below its root: at "
+                               "most %d",
+                               k, depth[k], LR__GLTF_MAX_DEPTH);
+    }
+    free(depth);
+    return st;
+}
+
 /* The node graph must be a forest (spec 3.5.3): every node the child of
  * at most one parent, no cycle, scene roots without parents. */
 lr_status lr__gltf_check_nodes(lr__gltf_doc *d, lr_error *err)
@@ -167,6 +230,7 @@ lr_status lr__gltf_check_nodes(lr__gltf_doc *d, lr_error *err)
         lr__gltf_member(d->root, "extensions", "KHR_lights_punctual"), "lights",
         &nlight);
     d->n_nodes = n;
+    LR_TRY(index_tables(d, a, n, nmesh, err));
     int *parent = malloc((n ? (size_t)n : 1) * sizeof *parent);
     if (parent == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
@@ -237,16 +301,8 @@ lr_status lr__gltf_check_nodes(lr__gltf_doc *d, lr_error *err)
             parent[(int)v] = i;
         }
     }
-    /* Without a second parent, a cycle is a walk up that never ends. */
-    for (int k = 0; k < n && st == LR_OK; k++) {
-        int up = k, steps = 0;
-        while (up >= 0 && steps <= n) {
-            up = parent[up];
-            steps++;
-        }
-        if (up >= 0)
-            st = lr__gltf_fail(d, err, "nodes[%d] is its own ancestor", k);
-    }
+    if (st == LR_OK)
+        st = check_depths(d, parent, n, err);
     const cJSON *scenes = lr__gltf_array(d->root, "scenes", &nsc);
     int si = 0;
     for (const cJSON *s = scenes ? scenes->child : NULL; s && st == LR_OK;

@@ -60,17 +60,17 @@ static lr__xform local(const cJSON *node)
 
 /* World transforms of node i's tree under `parent`; `mark` into active
  * (1: in the displayed scene). */
-static void walk(const cJSON *nodes, int i, const lr__xform *parent,
+static void walk(const lr__gltf_doc *d, int i, const lr__xform *parent,
                  lr__xform *world, unsigned char *active, int mark)
 {
-    const cJSON *node = cJSON_GetArrayItem(nodes, i);
+    const cJSON *node = d->node_at[i];
     lr__xform l = local(node);
     world[i] = lr__xform_mul(parent, &l);
     active[i] = (unsigned char)mark;
     int n;
     const cJSON *ch = lr__gltf_array(node, "children", &n);
     for (const cJSON *c = ch ? ch->child : NULL; c; c = c->next)
-        walk(nodes, (int)c->valuedouble, &world[i], world, active, mark);
+        walk(d, (int)c->valuedouble, &world[i], world, active, mark);
 }
 
 lr_status lr__gltf_world(const lr__gltf_doc *d, lr__xform **world,
@@ -99,9 +99,10 @@ lr_status lr__gltf_world(const lr__gltf_doc *d, lr__xform **world,
     int nr;
     const cJSON *roots = lr__gltf_array(scene, "nodes", &nr);
     lr__xform id = lr__xform_identity();
-    /* check_nodes made the graph a forest, so the walk ends. */
+    /* check_nodes made the graph a forest at most LR__GLTF_MAX_DEPTH
+     * deep, so the walk ends, and its recursion with it. */
     for (const cJSON *r = roots ? roots->child : NULL; r; r = r->next)
-        walk(nodes, (int)r->valuedouble, &id, *world, *active, 1);
+        walk(d, (int)r->valuedouble, &id, *world, *active, 1);
     /* The trees outside the displayed scene get their transforms too: a
      * skin's joints need not be in it (spec 3.7.3). */
     for (const cJSON *o = nodes ? nodes->child : NULL; o; o = o->next) {
@@ -112,7 +113,7 @@ lr_status lr__gltf_world(const lr__gltf_doc *d, lr__xform **world,
     }
     for (int i = 0; i < nn; i++)
         if (!child[i] && !(*active)[i])
-            walk(nodes, i, &id, *world, *active, 0);
+            walk(d, i, &id, *world, *active, 0);
     free(child);
     return LR_OK;
 }

@@ -14,9 +14,7 @@
 
 int lr__gltf_skinned(const lr__gltf_doc *d, int i)
 {
-    int n;
-    const cJSON *node = cJSON_GetArrayItem(lr__gltf_array(d->root, "nodes", &n),
-                                           i);
+    const cJSON *node = d->node_at[i];
     return item(node, "mesh") != NULL && item(node, "skin") != NULL;
 }
 
@@ -249,19 +247,20 @@ static int pose_mesh(const lr__gltf_doc *d, const pose *ps, const cJSON *mesh,
 int lr__gltf_pose_meshes(const lr__gltf_doc *d, const lr__xform *world,
                          cJSON *r, lr__gltf_extra *u)
 {
-    int nn, nm, ns;
+    int nn, ns;
     const cJSON *nodes = lr__gltf_array(d->root, "nodes", &nn);
-    const cJSON *meshes = lr__gltf_array(d->root, "meshes", &nm);
     const cJSON *skins = lr__gltf_array(d->root, "skins", &ns);
     cJSON *rmeshes = cJSON_GetObjectItemCaseSensitive(r, "meshes");
     cJSON *rnodes = cJSON_GetObjectItemCaseSensitive(r, "nodes");
-    int i = 0;
-    for (const cJSON *n = nodes ? nodes->child : NULL; n; n = n->next, i++) {
+    /* r's nodes in step with d's (r is a copy: the same order). */
+    cJSON *rn = rnodes ? rnodes->child : NULL;
+    for (const cJSON *n = nodes ? nodes->child : NULL; n;
+         n = n->next, rn = rn ? rn->next : NULL) {
         const cJSON *mi = item(n, "mesh");
         if (mi == NULL)
             continue;
         int m = (int)mi->valuedouble;
-        const cJSON *mesh = cJSON_GetArrayItem(meshes, m);
+        const cJSON *mesh = d->mesh_at[m];
         const cJSON *sk = item(n, "skin");
         pose ps = {node_weights(n, mesh), NULL};
         if (ps.weights == NULL && sk == NULL)
@@ -274,7 +273,7 @@ int lr__gltf_pose_meshes(const lr__gltf_doc *d, const lr__xform *world,
         }
         int ok = pose_mesh(d, &ps, mesh, m, r, u) &&
                  cJSON_ReplaceItemInObjectCaseSensitive(
-                     cJSON_GetArrayItem(rnodes, i), "mesh",
+                     rn, "mesh",
                      cJSON_CreateNumber(cJSON_GetArraySize(rmeshes) - 1));
         free(ps.joint);
         if (!ok)
