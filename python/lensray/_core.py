@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import json
 import os
@@ -312,30 +313,45 @@ class Scene:
         if h is not None:
             lib().lr_scene_free(h)
 
-    def _handle(self) -> c_void_p:
-        if self._h is None:
-            raise ValueError("the scene is closed")
-        return self._h
+    @contextlib.contextmanager
+    def _using(self) -> Any:
+        """The handle, counted as in use until the block ends, so that
+        close() from another thread raises RuntimeError meanwhile instead
+        of freeing it: the count is taken with the handle, under the lock
+        (render() read the handle first and counted it later, and a close()
+        in between freed a scene about to be rendered: a segfault)."""
+        with self._lock:
+            if self._h is None:
+                raise ValueError("the scene is closed")
+            h = self._h
+            self._active += 1
+        try:
+            yield h
+        finally:
+            with self._lock:
+                self._active -= 1
 
     @property
     def primitive_count(self) -> int:
         """Triangles + spheres + planes."""
-        return int(lib().lr_scene_primitive_count(self._handle()))
+        with self._using() as h:
+            return int(lib().lr_scene_primitive_count(h))
 
     @property
     def size(self) -> tuple[int, int]:
         """The scene's own image size (width, height), before overrides."""
         rs = _capi.lr_render_settings()
-        lib().lr_scene_settings(self._handle(), byref(rs))
+        with self._using() as h:
+            lib().lr_scene_settings(h, byref(rs))
         return rs.width, rs.height
 
-    def _setup(self, camera: Optional[Mapping[str, Any]],
+    def _setup(self, h: c_void_p, camera: Optional[Mapping[str, Any]],
                render: Optional[Mapping[str, Any]]
                ) -> tuple[_Camera, _capi.lr_render_settings]:
         cam = _Camera()
         rs = _capi.lr_render_settings()
-        lib().lr_scene_camera(self._handle(), cam.ptr)
-        lib().lr_scene_settings(self._handle(), byref(rs))
+        lib().lr_scene_camera(h, cam.ptr)
+        lib().lr_scene_settings(h, byref(rs))
         err = _capi.lr_error()
         if camera is not None:
             camera = _overrides_dict(camera, "camera")
@@ -372,13 +388,13 @@ class Scene:
             SceneError: a bad override (``.path`` names the field), or
                 autofocus on nothing.
         """
-        cam, rs = self._setup(camera, render)
         cells = c_void_p()
         cols, rows = c_int(0), c_int(0)
         err = _capi.lr_error()
-        st = lib().lr_render_plan_map(self._handle(), cam.ptr, byref(rs),
-                                      byref(cells), byref(cols), byref(rows),
-                                      byref(err))
+        with self._using() as h:
+            cam, rs = self._setup(h, camera, render)
+            st = lib().lr_render_plan_map(h, cam.ptr, byref(rs), byref(cells),
+                                          byref(cols), byref(rows), byref(err))
         if st != _capi.LR_OK:
             _raise(st, err)
         try:
@@ -482,7 +498,16 @@ class Scene:
         if cancel is not None and not callable(getattr(cancel, "is_set", None)):
             raise TypeError("cancel must be a threading.Event, got "
                             f"{type(cancel).__name__}")
-        cam, rs = self._setup(camera, render)
+        with self._using() as h:
+            return self._render(h, camera, render, depth, stats, progress,
+                                cancel)
+
+    def _render(self, h: c_void_p, camera: Optional[Mapping[str, Any]],
+                render: Optional[Mapping[str, Any]], depth: bool,
+                stats: bool, progress: Any,
+                cancel: Optional[threading.Event]) -> Any:
+        """render() with the handle held (_using)."""
+        cam, rs = self._setup(h, camera, render)
         if depth:
             rs.want_depth = 1
         flag = c_int(0)
@@ -514,7 +539,7 @@ class Scene:
         st = _capi.lr_render_stats()
         err = _capi.lr_error()
         result: list[Optional[int]] = [None]
-        handle = self._handle()
+        handle = h
 
         # Completion is signalled with an Event rather than read from the
         # thread: a Thread.join interrupted by Ctrl-C can leave is_alive()
@@ -528,8 +553,6 @@ class Scene:
             finally:
                 finished.set()
 
-        with self._lock:
-            self._active += 1
         worker = threading.Thread(target=work, name="lensray-render", daemon=True)
         try:
             worker.start()
@@ -566,8 +589,6 @@ class Scene:
                     lib().lr_image_free(out)
                 raise
         finally:
-            with self._lock:
-                self._active -= 1
             if bar is not None:
                 bar.close()
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import threading
+from collections.abc import Mapping
 
 import numpy as np
 import pytest
@@ -171,6 +172,42 @@ def test_tqdm_is_used_when_installed():
 def test_a_closed_scene_refuses_to_render():
     s = lensray.load(SCENES / "spheres.json")
     s.close()
+    s.close()
+    with pytest.raises(ValueError):
+        s.render(render=SMALL)
+
+
+def test_close_while_a_render_prepares_is_refused():
+    """close() from anywhere while a render holds the scene raises
+    RuntimeError, even before the library is called: render() read the
+    handle and counted itself as rendering only later, and a close() from
+    another thread in between freed the scene (a segfault in an
+    independent check's loop of 3000).  Here the close comes from inside
+    the render's reading of its overrides, deterministically."""
+    s = lensray.load(SCENES / "spheres.json")
+    seen = []
+
+    class Closing(Mapping):
+        def __init__(self, d):
+            self.d = d
+
+        def __getitem__(self, k):
+            return self.d[k]
+
+        def __len__(self):
+            return len(self.d)
+
+        def __iter__(self):
+            try:
+                s.close()
+                seen.append("closed")
+            except RuntimeError as e:
+                seen.append(str(e))
+            return iter(self.d)
+
+    img = s.render(camera=Closing({"fov": 30}), render=SMALL, progress=False)
+    assert seen == ["the scene is being rendered"]
+    assert img.shape[2] == 3
     s.close()
     with pytest.raises(ValueError):
         s.render(render=SMALL)
