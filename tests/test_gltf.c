@@ -252,6 +252,84 @@ static void test_read_settings_gltf_camera(void **state)
     }
 }
 
+/* Overrides of camera keys win over a glTF camera ("camera": true), as
+ * --set does on any scene: the file's camera replaced them after they
+ * were read, so --set camera.fov=20 and a thin lens set on the command
+ * line were ignored, silently (an independent check).  Keys the
+ * override leaves alone keep the file's values. */
+static void test_overrides_win_over_gltf_camera(void **state)
+{
+    (void)state;
+    make("camera-light", "camera-light.glb");
+    const char *scene = "{\"render\": {\"width\": 60}, \"objects\": "
+                        "[{\"type\": \"gltf\", \"file\": "
+                        "\"camera-light.glb\", \"camera\": true}]}";
+    const char *sets[] = {"camera.fov=20", "camera.model=thinlens",
+                          "camera.aperture_radius=0.2",
+                          "camera.focus_distance=1"};
+    lr_scene *s = lr_test_load(scene, sets, 4);
+    lr_camera cam;
+    lr_scene_camera(s, &cam);
+    assert_true(cam.fov == 20.0);
+    assert_int_equal(cam.model, LR_CAMERA_THINLENS);
+    assert_true(cam.aperture_radius == 0.2 && cam.focus_distance == 1.0);
+    /* The view is still the file's: the camera at (0, 3, 4). */
+    assert_true(fabs(cam.position[1] - 3.0) < 1e-9 &&
+                fabs(cam.position[2] - 4.0) < 1e-9);
+    lr_scene_free(s);
+    /* Without overrides, the file's field of view (yfov 0.7 rad). */
+    s = lr_test_load(scene, NULL, 0);
+    lr_scene_camera(s, &cam);
+    assert_true(fabs(cam.fov - 0.7 * 180 / PI) < 1e-9);
+    lr_scene_free(s);
+}
+
+/* A camera aspect ratio that makes the image taller than 65536 rows is
+ * an error naming the field; it was clamped to 65536 rows silently (an
+ * independent check: aspectRatio 1e-6 made 160 x 65536 pixels).  With
+ * render.height given the ratio is not used. */
+static void test_camera_aspect_too_tall(void **state)
+{
+    (void)state;
+    make("tri", "tri.gltf");
+    cJSON *root = read_json("tri.gltf");
+    cJSON *cams = cJSON_AddArrayToObject(root, "cameras");
+    cJSON *cam = cJSON_CreateObject();
+    cJSON_AddStringToObject(cam, "type", "perspective");
+    cJSON *persp = cJSON_AddObjectToObject(cam, "perspective");
+    cJSON_AddNumberToObject(persp, "yfov", 0.6);
+    cJSON_AddNumberToObject(persp, "aspectRatio", 1e-6);
+    cJSON_AddNumberToObject(persp, "znear", 0.1);
+    cJSON_AddItemToArray(cams, cam);
+    cJSON *node = cJSON_CreateObject();
+    cJSON_AddNumberToObject(node, "camera", 0);
+    cJSON_AddItemToArray(cJSON_GetObjectItemCaseSensitive(root, "nodes"), node);
+    cJSON_AddItemToArray(
+        cJSON_GetObjectItemCaseSensitive(
+            cJSON_GetArrayItem(cJSON_GetObjectItemCaseSensitive(root, "scenes"),
+                               0),
+            "nodes"),
+        cJSON_CreateNumber(2));
+    write_json("tall.gltf", root);
+    const char *json =
+        "{\"render\": {\"width\": 160}, \"objects\": [{\"type\": "
+        "\"gltf\", \"file\": \"tall.gltf\", \"camera\": true}]}";
+    lr_scene *s = NULL;
+    lr_error err;
+    assert_int_equal(lr_scene_load_json(json, strlen(json), lr_test_tmpdir(),
+                                        NULL, 0, &s, &err),
+                     LR_ERR_INVALID);
+    assert_non_null(strstr(err.message, "cameras[0].perspective.aspectRatio "
+                                        "1e-06 makes the image 160 x "
+                                        "160000000 pixels"));
+    const char *h[] = {"render.height=90"};
+    s = lr_test_load(json, h, 1);
+    lr_render_settings rs;
+    lr_scene_settings(s, &rs);
+    assert_int_equal(rs.height, 90);
+    lr_scene_free(s);
+}
+
 static void test_camera_projection(void **state)
 {
     (void)state;
@@ -1241,6 +1319,8 @@ static const struct CMUnitTest tests[] = {
     cmocka_unit_test(test_normal_map),
     cmocka_unit_test(test_hostile),
     cmocka_unit_test(test_deep_hierarchy),
+    cmocka_unit_test(test_overrides_win_over_gltf_camera),
+    cmocka_unit_test(test_camera_aspect_too_tall),
     cmocka_unit_test(test_root_member_error),
     cmocka_unit_test(test_sparse_accessors),
     cmocka_unit_test(test_sparse_hostile),

@@ -199,6 +199,7 @@ struct lr_scene {
     size_t n_planes;
     lr__v3 ambient;    /* sum of ambient lights' radiance */
     int ambient_at;    /* lights[] index of the first ambient light, or -1 */
+    int camera_gltf;   /* the camera came from a glTF ("camera": true) */
     lr__v3 background; /* radiance of escaping rays */
     /* The "environment" map (NULL: the uniform background), and where it
      * came from, for the JSON writer. */

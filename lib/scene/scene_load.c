@@ -354,6 +354,33 @@ static lr_status parse_scene(const char *json, size_t len,
     return LR_OK;
 }
 
+/* A glTF's camera ("camera": true) replaced the scene's view, field and
+ * focus after the overrides had been read into the scene's camera: the
+ * overrides of camera keys go on top again, so that --set camera.fov=20
+ * wins over the file as on any scene (it was ignored, silently). */
+static lr_status camera_overrides_again(lr_scene *s,
+                                        const char *const *overrides, size_t n,
+                                        const char *base_dir, lr_error *err)
+{
+    cJSON *tmp = cJSON_CreateObject();
+    if (tmp == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    lr_status st = LR_OK;
+    for (size_t i = 0; i < n && st == LR_OK; i++)
+        if (strncmp(overrides[i], "camera.", 7) == 0 ||
+            strncmp(overrides[i], "camera=", 7) == 0)
+            st = lr__json_apply_override(tmp, overrides[i], err);
+    const cJSON *c = cJSON_GetObjectItemCaseSensitive(tmp, "camera");
+    if (st == LR_OK && c != NULL) {
+        lr_camera cam = s->camera;
+        st = lr__camera_from_json(c, &cam, base_dir, err);
+        if (st == LR_OK)
+            s->camera = cam;
+    }
+    cJSON_Delete(tmp);
+    return st;
+}
+
 lr_status lr__scene_load_json(const char *json, size_t len,
                               const char *base_dir,
                               const char *const *overrides, size_t n_overrides,
@@ -374,6 +401,8 @@ lr_status lr__scene_load_json(const char *json, size_t len,
     s->ambient_at = -1;
     lr_status st = build(s, root, base_dir, rd, err);
     cJSON_Delete(root);
+    if (st == LR_OK && s->camera_gltf && n_overrides > 0)
+        st = camera_overrides_again(s, overrides, n_overrides, base_dir, err);
     if (st != LR_OK) {
         lr_scene_free(s);
         return st;

@@ -392,9 +392,18 @@ lr_status lr__gltf_camera(lr_scene *s, const lr__gltf_doc *d,
     }
     if (aspect > 0 && !o->height_given) {
         double h = floor(s->settings.width / aspect + 0.5);
-        s->settings.height = h < 1 ? 1 : h > LR__MAX_DIM ? LR__MAX_DIM : (int)h;
+        /* Too tall an image is an error, not a silent 65536 rows (an
+         * aspectRatio of 1e-6 made 160 x 65536 pixels). */
+        if (h > LR__MAX_DIM)
+            return lr__gltf_fail(d, err,
+                                 "cameras[%d].perspective.aspectRatio %g "
+                                 "makes the image %d x %.0f pixels, more "
+                                 "than %d rows (set render.height)",
+                                 k, aspect, s->settings.width, h, LR__MAX_DIM);
+        s->settings.height = h < 1 ? 1 : (int)h;
     }
     LR_TRY(lr_camera_validate(&c, err));
     s->camera = c;
+    s->camera_gltf = 1;
     return LR_OK;
 }
