@@ -1241,7 +1241,15 @@ static void test_hostile(void **state)
                "materials[0].pbrMetallicRoughness.baseColorTexture.index");
     expect_bad("light.gltf", "nodes.1.extensions",
                "{\"KHR_lights_punctual\": {\"light\": 0}}", LR_ERR_INVALID,
-               "nodes[1].light");
+               "nodes[1].extensions.KHR_lights_punctual.light refers to");
+    /* A missing file: its error starts with the field (it started with
+     * the file's name alone). */
+    expect_file_error("nothere.gltf", LR_ERR_IO, "cannot open");
+    /* 1e300 is finite; the bound is on the magnitude (the message said
+     * "finite numbers"). */
+    expect_bad("huge.gltf", "nodes.0.scale", "[1e300, 1, 1]", LR_ERR_INVALID,
+               "nodes[0].scale must be an array of 3 numbers of magnitude "
+               "at most 1e15");
 
     /* A vertex that is not a number: the accessor and the element. */
     make("tri-nan", "nan.glb");

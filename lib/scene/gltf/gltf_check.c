@@ -424,8 +424,16 @@ lr_status lr__gltf_doc_load(const char *file, const char *shown, const char *fp,
     char *buf = NULL;
     lr_status st = lr__read_file(file, shown, fp, LR__GLTF_MAX_BYTES,
                                  "glTF files", NULL, &buf, &d->n_bytes, err);
-    if (st != LR_OK)
+    if (st != LR_OK) {
+        /* Starting with the field, as a mesh file's error does (it began
+         * "nothere.gltf: cannot open"). */
+        if (err != NULL && fp != NULL && fp[0] != '\0') {
+            char m[sizeof err->message];
+            snprintf(m, sizeof m, "%s: %s", fp, err->message);
+            memcpy(err->message, m, sizeof m);
+        }
         return st;
+    }
     d->bytes = (unsigned char *)buf;
     const char *json = buf;
     size_t n = d->n_bytes;

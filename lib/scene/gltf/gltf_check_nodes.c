@@ -15,7 +15,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* An optional array of exactly n finite numbers. */
+/* An optional array of exactly n numbers of magnitude at most 1e15. */
 static lr_status check_numbers(const lr__gltf_doc *d, const cJSON *o,
                                const char *path, const char *key, int n,
                                lr_error *err)
@@ -28,8 +28,8 @@ static lr_status check_numbers(const lr__gltf_doc *d, const cJSON *o,
         ok = ok && cJSON_IsNumber(c) && fabs(c->valuedouble) <= 1e15;
     if (!ok)
         return lr__gltf_fail(d, err,
-                             "%s.%s must be an array of %d finite "
-                             "numbers",
+                             "%s.%s must be an array of %d numbers of "
+                             "magnitude at most 1e15",
                              path, key, n);
     return LR_OK;
 }
@@ -272,8 +272,12 @@ lr_status lr__gltf_check_nodes(lr__gltf_doc *d, lr_error *err)
             break;
         const cJSON *l = lr__gltf_member(o, "extensions",
                                          "KHR_lights_punctual");
-        if (l != NULL)
-            st = lr__gltf_get_index(d, l, p, "light", nlight, &x, err);
+        if (l != NULL) {
+            /* The field by its whole path (it was named nodes[i].light). */
+            char pl[128];
+            snprintf(pl, sizeof pl, "%s.extensions.KHR_lights_punctual", p);
+            st = lr__gltf_get_index(d, l, pl, "light", nlight, &x, err);
+        }
         if (st != LR_OK)
             break;
         int nc;
