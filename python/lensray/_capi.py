@@ -153,6 +153,7 @@ _SIGNATURES = {
     "lr_scene_camera": (None, [_P, _CAM]),
     "lr_scene_settings": (None, [_P, POINTER(lr_render_settings)]),
     "lr_scene_primitive_count": (c_size_t, [_P]),
+    "lr_scene_warnings": (c_char_p, [_P]),
     "lr_render": (
         c_int, [_P, _CAM, POINTER(lr_render_settings), _PP,
                 POINTER(lr_render_stats), _ERR]),

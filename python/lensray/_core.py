@@ -161,6 +161,12 @@ def _lr_image(array: Any, depth: Any = None) -> c_void_p:
         z = np.ascontiguousarray(np.asarray(depth, dtype=np.float32))
         if z.shape != (h, w):
             raise ValueError(f"depth must be ({h}, {w}); got {z.shape}")
+        # (The writers store a non-finite depth as 1e10, the sky's.)
+        if np.isnan(z).any() or np.isneginf(z).any():
+            y, x = (int(v) for v in np.argwhere(np.isnan(z) | np.isneginf(z))[0])
+            raise ValueError(f"depth holds NaN or -inf (the first at row {y}, "
+                             f"column {x}); +inf is written as 1e10, the "
+                             "depth of a ray that hits nothing")
     img = c_void_p()
     err = _capi.lr_error()
     st = lib().lr_image_create(w, h, 1 if z is not None else 0, byref(img), byref(err))
@@ -338,6 +344,15 @@ class Scene:
             return int(lib().lr_scene_primitive_count(h))
 
     @property
+    def warnings(self) -> list[str]:
+        """What loading read but ignored (parts of a glTF file lensray
+        does not render), a line each; the CLI prints them as
+        ``lensray: warning: ...``."""
+        with self._using() as h:
+            text = lib().lr_scene_warnings(h) or b""
+        return [w for w in text.decode("utf-8", "replace").split("\n") if w]
+
+    @property
     def size(self) -> tuple[int, int]:
         """The scene's own image size (width, height), before overrides."""
         rs = _capi.lr_render_settings()
@@ -510,7 +525,10 @@ class Scene:
         cam, rs = self._setup(h, camera, render)
         if depth:
             rs.want_depth = 1
-        flag = c_int(0)
+        # An event set already stops the render before it starts (the
+        # loop below first looks at it after 0.1 s, when a small render is
+        # over).
+        flag = c_int(1 if cancel is not None and cancel.is_set() else 0)
         rs.cancel = ctypes.pointer(flag)
 
         # A callable progress(done, total) is called from this thread (the
@@ -623,7 +641,14 @@ def _override_strings(overrides: Overrides) -> list[bytes]:
                 for k, v in overrides.items()]
     if isinstance(overrides, (str, bytes)):
         raise TypeError("overrides must be a dict or a list of 'path=value' strings")
-    return [s.encode() if isinstance(s, str) else bytes(s) for s in overrides]
+    out = []
+    for s in overrides:
+        # (bytes(5) would be five NUL bytes, reported as an empty override.)
+        if not isinstance(s, (str, bytes)):
+            raise TypeError("each override must be a 'path=value' string, got "
+                            f"{type(s).__name__}")
+        out.append(s.encode() if isinstance(s, str) else s)
+    return out
 
 
 def load(source: Union[PathLike, Mapping[str, Any]],

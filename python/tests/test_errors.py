@@ -112,6 +112,36 @@ def test_cancel_that_is_not_an_event_is_a_type_error(spheres):
             spheres.render(render={"width": 8, "height": 8, "spp": 1}, cancel=bad)
 
 
+def test_cancel_set_before_the_render_stops_it(spheres):
+    # A small render was over before the loop first looked at the event
+    # (0.1 s), and an event set beforehand was ignored.
+    cancel = threading.Event()
+    cancel.set()
+    with pytest.raises(lensray.CancelledError):
+        spheres.render(render={"width": 8, "height": 8, "spp": 1}, cancel=cancel)
+
+
+def test_override_list_items_must_be_strings():
+    # bytes(5) made five NUL bytes: 'override "" must look like path=value'.
+    with pytest.raises(TypeError, match="each override must be a 'path=value' string, got int"):
+        lensray.load(SCENES / "spheres.json", [5])
+
+
+def test_glTF_warnings_reach_python(tmp_path):
+    # The CLI prints them; Python had no way to see them.
+    writer = SCENES.parent / "tests" / "gltf_writer.py"
+    subprocess.run([sys.executable, str(writer), "camera-light",
+                    str(tmp_path / "cl.gltf")], check=True)
+    text = (tmp_path / "cl.gltf").read_text().replace(
+        '"type": "point"', '"type": "point", "range": 5')
+    (tmp_path / "range.gltf").write_text(text)
+    with lensray.load(tmp_path / "range.gltf") as s:
+        assert len(s.warnings) == 1 and s.warnings[0].startswith(
+            "range.gltf: extensions.KHR_lights_punctual.lights[0].range is ignored")
+    with lensray.load(SCENES / "spheres.json") as s:
+        assert s.warnings == []
+
+
 def test_missing_file_is_an_io_error(tmp_path):
     with pytest.raises(lensray.LensrayIOError) as e:
         lensray.load(tmp_path / "none.json")

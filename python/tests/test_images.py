@@ -96,6 +96,11 @@ def test_write_refuses_bad_input(tmp_path):
         lensray.write(tmp_path / "a.exr", bad)
     with pytest.raises(ValueError, match="NaN or infinite"):
         lensray.encode_png(bad)
+    # A depth of NaN was written as 1e10 (+inf is that by the docs).
+    z = np.zeros((4, 4), np.float32)
+    z[1, 3] = np.nan
+    with pytest.raises(ValueError, match=r"depth holds NaN or -inf \(the first at row 1, column 3\)"):
+        lensray.write(tmp_path / "a.exr", np.zeros((4, 4, 3)), z)
     assert not (tmp_path / "a.exr").exists()
 
 
