@@ -128,14 +128,31 @@ static int type_count(const char *t)
     return 0;
 }
 
+/* bufferViews[v] and accessors[i], from the tables once they are made
+ * (a cJSON array is a list: a look-up by index walks it). */
+static const cJSON *view_of(const lr__gltf_doc *d, long long v)
+{
+    int n;
+    if (d->view_at != NULL)
+        return v >= 0 && v < d->n_views ? d->view_at[v] : NULL;
+    return cJSON_GetArrayItem(lr__gltf_array(d->root, "bufferViews", &n),
+                              (int)v);
+}
+
+static const cJSON *accessor_of(const lr__gltf_doc *d, long long i)
+{
+    int n;
+    if (d->acc_at != NULL)
+        return i >= 0 && i < (long long)d->n_accessors ? d->acc_at[i] : NULL;
+    return cJSON_GetArrayItem(lr__gltf_array(d->root, "accessors", &n), (int)i);
+}
+
 /* Where view v's bytes start in its buffer (lr__gltf_check_views has put them
  * there) and how many it has. */
 static const unsigned char *view_bytes(const lr__gltf_doc *d, long long v,
                                        long long *len)
 {
-    int n;
-    const cJSON *view = cJSON_GetArrayItem(
-        lr__gltf_array(d->root, "bufferViews", &n), (int)v);
+    const cJSON *view = view_of(d, v);
     const cJSON *off = cJSON_GetObjectItemCaseSensitive(view, "byteOffset");
     long long b = (long long)cJSON_GetNumberValue(
         cJSON_GetObjectItemCaseSensitive(view, "buffer"));
@@ -176,9 +193,7 @@ static lr_status sparse_part(const lr__gltf_doc *d, const cJSON *sp,
     LR_TRY(lr__gltf_get_uint(d, o, q, "byteOffset", 0, 0, &off, err));
     if (v < 0)
         return lr__gltf_fail(d, err, "%s.bufferView is required", q);
-    int nn;
-    const cJSON *view = cJSON_GetArrayItem(
-        lr__gltf_array(d->root, "bufferViews", &nn), (int)v);
+    const cJSON *view = view_of(d, v);
     if (cJSON_GetObjectItemCaseSensitive(view, "byteStride") != NULL)
         return lr__gltf_fail(d, err,
                              "%s: bufferViews[%lld] has a "
@@ -347,8 +362,17 @@ lr_status lr__gltf_check_accessors(lr__gltf_doc *d, lr_error *err)
     const cJSON *a = lr__gltf_array(d->root, "accessors", &n);
     const cJSON *views = lr__gltf_array(d->root, "bufferViews", &nv);
     d->dense = calloc(n ? (size_t)n : 1, sizeof *d->dense);
-    if (d->dense == NULL)
+    d->acc_at = malloc((n ? (size_t)n : 1) * sizeof *d->acc_at);
+    d->view_at = malloc((nv ? (size_t)nv : 1) * sizeof *d->view_at);
+    if (d->dense == NULL || d->acc_at == NULL || d->view_at == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    int k = 0;
+    for (const cJSON *x = a ? a->child : NULL; x && k < n; x = x->next)
+        d->acc_at[k++] = x;
+    k = 0;
+    for (const cJSON *x = views ? views->child : NULL; x && k < nv; x = x->next)
+        d->view_at[k++] = x;
+    d->n_views = k;
     d->n_accessors = (size_t)n;
     size_t used = 0;
     int i = 0;
@@ -384,7 +408,7 @@ lr_status lr__gltf_check_accessors(lr__gltf_doc *d, lr_error *err)
                                  p, off, csize);
         long long elem = (long long)k * csize;
         if (v >= 0) {
-            const cJSON *view = cJSON_GetArrayItem(views, (int)v);
+            const cJSON *view = view_of(d, v);
             LR_TRY(lr__gltf_get_uint(d, view, "bufferView", "byteStride", 0, 0,
                                      &stride, err));
             LR_TRY(lr__gltf_get_uint(d, view, "bufferView", "byteLength", 0, 0,
@@ -420,9 +444,7 @@ lr_status lr__gltf_check_attribute(const lr__gltf_doc *d, const char *p,
                                    const char *attr, long long acc,
                                    long long *count, lr_error *err)
 {
-    int n;
-    const cJSON *a = cJSON_GetArrayItem(
-        lr__gltf_array(d->root, "accessors", &n), (int)acc);
+    const cJSON *a = accessor_of(d, acc);
     const cJSON *t = cJSON_GetObjectItemCaseSensitive(a, "type");
     double ct = cJSON_GetNumberValue(
         cJSON_GetObjectItemCaseSensitive(a, "componentType"));
@@ -482,10 +504,7 @@ const unsigned char *lr__gltf_accessor_at(const lr__gltf_doc *d, long long acc,
                                           size_t *stride, long long *count,
                                           size_t *cs)
 {
-    int n;
-    const cJSON *root = d->root;
-    const cJSON *a = cJSON_GetArrayItem(lr__gltf_array(root, "accessors", &n),
-                                        (int)acc);
+    const cJSON *a = accessor_of(d, acc);
     const cJSON *t = cJSON_GetObjectItemCaseSensitive(a, "type");
     *cs = (size_t)component_size((long long)cJSON_GetNumberValue(
         cJSON_GetObjectItemCaseSensitive(a, "componentType")));
@@ -498,8 +517,7 @@ const unsigned char *lr__gltf_accessor_at(const lr__gltf_doc *d, long long acc,
     }
     long long vi = (long long)cJSON_GetNumberValue(
         cJSON_GetObjectItemCaseSensitive(a, "bufferView"));
-    const cJSON *v = cJSON_GetArrayItem(lr__gltf_array(root, "bufferViews", &n),
-                                        (int)vi);
+    const cJSON *v = view_of(d, vi);
     const cJSON *ao = cJSON_GetObjectItemCaseSensitive(a, "byteOffset");
     const cJSON *vs = cJSON_GetObjectItemCaseSensitive(v, "byteStride");
     long long len;

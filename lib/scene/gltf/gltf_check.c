@@ -70,6 +70,8 @@ void lr__gltf_doc_free(lr__gltf_doc *d)
     free(d->tex);
     free(d->node_at);
     free(d->mesh_at);
+    free(d->acc_at);
+    free(d->view_at);
     cJSON_Delete(d->root);
     free(d->bytes);
     memset(d, 0, sizeof *d);

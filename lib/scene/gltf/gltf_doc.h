@@ -49,6 +49,10 @@ typedef struct lr__gltf_doc {
      * item up by index walks it: a file of 100,000 nodes took 13 s). */
     const cJSON **node_at, **mesh_at; /* owned */
     int n_meshes;
+    /* accessors[i] and bufferViews[i] likewise (lr__gltf_check_accessors;
+     * NULL before it). */
+    const cJSON **acc_at, **view_at; /* owned */
+    int n_views;
     /* Textures decoded so far, one per (image, srgb); the scene owns
      * the textures, this only finds them again. */
     struct lr__gltf_tex {
