@@ -30,6 +30,38 @@ void lrd_utf8_trim(char *s)
         s[i - 1] = '\0';
 }
 
+/* Every byte of s that does not belong to a well-formed UTF-8 sequence
+ * (RFC 3629: no overlong forms, surrogates or code points past U+10FFFF)
+ * becomes '?': an error that echoed a request's bytes (a query's %ff)
+ * made JSON that no UTF-8 decoder reads. */
+static void utf8_clean(char *str)
+{
+    unsigned char *s = (unsigned char *)str;
+    for (size_t i = 0; s[i] != '\0';) {
+        unsigned c = s[i];
+        size_t n = c < 0x80                 ? 1
+                   : c >= 0xC2 && c <= 0xDF ? 2
+                   : c >= 0xE0 && c <= 0xEF ? 3
+                   : c >= 0xF0 && c <= 0xF4 ? 4
+                                            : 0;
+        int ok = n > 0;
+        for (size_t k = 1; ok && k < n; k++)
+            ok = (s[i + k] & 0xC0) == 0x80;
+        /* The second byte's range where the first allows less (RFC 3629
+         * section 4). */
+        if (ok && n >= 3) {
+            unsigned d = s[i + 1];
+            ok = !(c == 0xE0 && d < 0xA0) && !(c == 0xED && d > 0x9F) &&
+                 !(c == 0xF0 && d < 0x90) && !(c == 0xF4 && d > 0x8F);
+        }
+        if (!ok) {
+            s[i++] = '?';
+            continue;
+        }
+        i += n;
+    }
+}
+
 int lrd_fail(lrd_err *e, int http, const char *code, const char *path,
              const char *fmt, ...)
 {
@@ -45,6 +77,8 @@ int lrd_fail(lrd_err *e, int http, const char *code, const char *path,
     va_end(ap);
     lrd_utf8_trim(e->path);
     lrd_utf8_trim(e->message);
+    utf8_clean(e->path);
+    utf8_clean(e->message);
     return -1;
 }
 

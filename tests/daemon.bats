@@ -1221,6 +1221,13 @@ print("\n".join(sorted(s["properties"])))' "$spec" "$schema") \
     expect_error 422 invalid_value limit
     req GET "$URL/v1/jobs?limit=2&status=done"
     expect 200
+    # Bytes of the request that are not UTF-8 are not echoed into the
+    # JSON (a %ff came back raw, and no UTF-8 decoder read the answer).
+    local q
+    for q in 'v1/jobs?status=%ff' 'v1/jobs?%ff=1' 'v1/jobs/abc%ff'; do
+        req GET "$URL/$q"
+        python3 -c 'import json, sys; json.loads(open(sys.argv[1], "rb").read().decode("utf-8"))' "$T/body"
+    done
     # A job's status takes ?wait alone: a misspelt one answered at once.
     req POST "$URL/v1/jobs" '{"scene": "tiny", "render": {"spp": 1}}'
     local id
