@@ -33,6 +33,12 @@ enum { EXIT_OK = 0, EXIT_SCENE = 3, EXIT_IO = 4, EXIT_INTERRUPTED = 130 };
 /* The longest wait for a part that a daemon's Retry-After can ask, in
  * seconds (the daemon's own bound is an hour). */
 #define REMOTE_MAX_WAIT 300.0
+/* How many times a part is sent again to daemons whose queues are full
+ * (429) before it fails: those answers do not count as --retries'
+ * attempts (a healthy but busy daemon is not a failure), but a farm full
+ * for this long (at least 200 waits of 0.25 to 4 s, more where the
+ * daemons' Retry-After asks) is not coming back. */
+#define REMOTE_MAX_BUSY 200
 
 enum part_state { PART_WAITING, PART_RUNNING, PART_DONE };
 
@@ -42,6 +48,7 @@ typedef struct part {
     int region[4]; /* [x0, y0, x1, y1) in the frame */
     enum part_state state;
     int attempts;
+    int busy;              /* 429 answers so far (REMOTE_MAX_BUSY) */
     double not_before;     /* a retried part waits until then */
     char *body;            /* the job, JSON, while the part runs */
     unsigned char *answer; /* the answer's body as it arrives */
@@ -399,9 +406,18 @@ static void finish_part(batch *b, part *p, CURLcode res, remote_done done,
         }
         return;
     }
-    if (p->attempts > o->retries) {
+    /* A full queue (429) is the daemon's back-pressure, not a failure: it
+     * spends no attempt.  With --queue 2, a part of 48 waiting to retry
+     * lost its turn to the client's own next parts each time and spent
+     * its five attempts in 4 s, and the frame was lost. */
+    int busy = res == CURLE_OK && status == 429;
+    if (busy) {
+        p->attempts--;
+        p->busy++;
+    }
+    if (p->attempts > o->retries || p->busy > REMOTE_MAX_BUSY) {
         fprintf(stderr, "lensray: %s failed %d times, the last: %s\n", name,
-                p->attempts, why);
+                p->attempts + p->busy, why);
         p->state = PART_DONE; /* not running: fail_frame leaves it */
         b->left--;
         fail_frame(b, p->frame, EXIT_IO);
@@ -413,7 +429,8 @@ static void finish_part(batch *b, part *p, CURLcode res, remote_done done,
      * daemon asked, up to REMOTE_MAX_WAIT: retrying a full queue sooner
      * only spent the attempts (4 s in all by default) while a farm
      * busy with long jobs said to come back in a minute. */
-    double wait = 0.25 * (double)(1 << (p->attempts < 5 ? p->attempts - 1 : 4));
+    int nth = busy ? p->busy : p->attempts;
+    double wait = 0.25 * (double)(1 << (nth < 5 ? nth - 1 : 4));
     int as_asked = asked > 0 && (double)asked > wait;
     if (as_asked)
         wait = (double)asked < REMOTE_MAX_WAIT ? (double)asked
@@ -421,7 +438,13 @@ static void finish_part(batch *b, part *p, CURLcode res, remote_done done,
     p->not_before = now() + wait;
     p->state = PART_WAITING;
     b->waiting++;
-    if (!o->quiet)
+    if (!o->quiet && busy)
+        fprintf(stderr,
+                "lensray: %s: the daemon is busy (%s); sending it again in "
+                "%.3g s%s\n",
+                name, why, wait,
+                as_asked ? ", as the daemon's Retry-After asks" : "");
+    else if (!o->quiet)
         fprintf(stderr,
                 "lensray: %s failed (%s); sending it again "
                 "in %.3g s%s (attempt %d of %d)\n",
