@@ -332,6 +332,10 @@ wait_for() {
         run -2 "$LENSRAY" render scenes/spheres.json -o x.png --remote "$bad"
         [[ "$output" == *"--remote '$bad' must be an http:// or https:// URL"* ]]
     done
+    # Nor a comma list of daemons (it was tried as one URL, 68 times).
+    run -2 "$LENSRAY" render scenes/spheres.json -o x.png \
+        --remote "http://127.0.0.1:2000,http://127.0.0.1:3000"
+    [[ "$output" == *"is not a URL"*"several daemons go behind one balancer"* ]]
 }
 
 # ---- assets -----------------------------------------------------------------
