@@ -77,7 +77,7 @@ lr_status lr__lt_film_init(lr__lt_film *f, const lr__lt *lt, int x0, int y0,
     /* A pixel's value is a mean of radiance, at most the brightest
      * light's in expectation; a scale of 2^40 over it leaves 2^23 of
      * headroom in an int64 and resolves 1e-12 of that light. */
-    double Lmax = 0.0;
+    double Lmax = lt->lmax_frame;
     for (int k = 0; k < lt->n; k++)
         Lmax = fmax(Lmax, v3_maxc(lt->lights[k].L));
     f->scale = ldexp(1.0, 40) / (Lmax > 0.0 ? Lmax : 1.0);

@@ -124,6 +124,10 @@ typedef struct lr__lt_light {
 typedef struct lr__lt {
     int n;
     lr__lt_light *lights;
+    /* The brightest radiance of the frame's lights, kept when a region
+     * drops some (lr__lt_keep), so that the film's fixed-point scale is
+     * the whole frame's; 0 until then. */
+    double lmax_frame;
     uint64_t paths;      /* all lights' */
     uint64_t grid_tasks; /* ghost lights drawn as meshes, a task each */
     /* Per geometry of the scene, flags: LR__LT_DIRECT where its direct

@@ -23,6 +23,12 @@
 
 void lr__lt_keep(lr__lt *lt, const unsigned char *keep)
 {
+    /* The scale of the film's fixed-point sums follows the brightest
+     * light (lr__lt_film_init): the frame's, not the region's, or a farm
+     * part's pixels differed from the whole frame's by an ulp. */
+    if (!(lt->lmax_frame > 0.0))
+        for (int k = 0; k < lt->n; k++)
+            lt->lmax_frame = fmax(lt->lmax_frame, v3_maxc(lt->lights[k].L));
     int n = 0;
     lt->paths = 0, lt->grid_tasks = 0;
     for (int k = 0; k < lt->n; k++) {
