@@ -1372,3 +1372,12 @@ read_response() {
     [ "$EXIT_STATUS" -eq 0 ]
     grep -q '^lensrayd: SIGINT: shutting down' "$DLOG"
 }
+
+@test "--remote without the daemon's token: exit 4, and the message names the token" {
+    # The asset's HEAD answer has no text: it read "failed:  (HTTP 401)".
+    run -4 "${LENSRAYD%d}" render "$BATS_TEST_DIRNAME/../scenes/lens-chart.json" \
+        -o "$T/x.png" --remote "$URL" --retries 0 -q \
+        --set render.width=8 --set render.height=8 --set render.spp=1
+    [[ "$output" == *"failed: the daemon wants a valid bearer token (--token-file) (HTTP 401)"* ]]
+    [ ! -e "$T/x.png" ]
+}

@@ -214,10 +214,17 @@ static int ensure(assets_session *s, const char *path, const char *what,
         }
         s->uploaded++;
     } else if (status != 200) {
+        /* A HEAD answer has no text: say what a 401 or 403 means (it
+         * read "failed:  (HTTP 401)"). */
+        const char *why = a.text[0] ? a.text
+                          : status == 401 || status == 403
+                              ? "the daemon wants a valid bearer token "
+                                "(--token-file)"
+                              : "no answer text";
         fprintf(stderr,
                 "lensray: asking %s for asset sha256:%s failed: "
                 "%s (HTTP %ld)\n",
-                s->url, hex, a.text, status);
+                s->url, hex, why, status);
         goto out;
     }
     if (s->n == s->cap) {
