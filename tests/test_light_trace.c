@@ -1004,9 +1004,41 @@ static void test_dark_blocks(void **state)
     assert_int_equal(d3, 0);
 }
 
+/* A light blurred over far more than the frame (a thin lens focused
+ * 1 cm from the eye, the light 8 m away) traces at most 64 frames' area
+ * of paths: the count grew with the disc's area (2.4 million paths here,
+ * and without end nearer: focused at 1e-6 the render ran for minutes),
+ * almost none of them landing.  At 3 cm the disc is under the cap and
+ * its count as before. */
+static void test_huge_disc_paths_bounded(void **state)
+{
+    (void)state;
+    const char *scene =
+        "{\"camera\": {\"model\": \"thinlens\", \"fov\": 40,"
+        "  \"aperture_radius\": 0.1, \"focus_distance\": 0.01},"
+        " \"render\": {\"width\": 48, \"height\": 32, \"spp\": 8},"
+        " \"materials\": {\"e\": {\"emission\": 3}},"
+        " \"objects\": [{\"type\": \"sphere\", \"center\": [0, 0, -8],"
+        "  \"radius\": 0.1, \"material\": \"e\"}]}";
+    lr_render_stats st;
+    lr_image *img = lr_test_render(scene, NULL, 0, &st);
+    print_message("focused at 1 cm: %llu light paths, %llu landed\n",
+                  (unsigned long long)st.light_paths,
+                  (unsigned long long)st.light_landed);
+    assert_int_equal(st.light_lights, 1);
+    /* spp x 64 frames x 0.5 paths a pixel. */
+    assert_true(st.light_paths <= 8ull * 64 * 48 * 32 / 2);
+    lr_image_free(img);
+    const char *nearer[] = {"camera.focus_distance=0.03"};
+    img = lr_test_render(scene, nearer, 1, &st);
+    assert_true(st.light_paths > 200000 && st.light_landed > 1000);
+    lr_image_free(img);
+}
+
 static const struct CMUnitTest light_tests[] = {
     cmocka_unit_test(test_unbounded_lenses_keep_lights),
     cmocka_unit_test(test_dark_blocks),
+    cmocka_unit_test(test_huge_disc_paths_bounded),
     cmocka_unit_test(test_bracket_light_side),
     cmocka_unit_test(test_rgb_light_side),
     cmocka_unit_test(test_bracket_rgb_light_side),

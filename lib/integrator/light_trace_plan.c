@@ -68,6 +68,10 @@ void lr__lt_free(lr__lt *lt)
  * footprint); a camera sample of a pixel there finds it with a chance of
  * about (2 rho / D)^2.  Returns the paths it gets (0: the camera keeps
  * it). */
+/* The largest disc, in frames' areas, whose paths a light's count
+ * follows (paths_for). */
+#define LR__LT_MAX_FRAMES 64.0
+
 static uint64_t paths_for(const lr__cam *c, const lr__lens_bound *lb,
                           int estimate, lr__v3 center, double r, int spp,
                           int force)
@@ -98,7 +102,16 @@ static uint64_t paths_for(const lr__cam *c, const lr__lens_bound *lb,
     double fy = (1.0 - sy / c->half_h) * 0.5 * c->height;
     if (fx + D < 0.0 || fx - D > c->width || fy + D < 0.0 || fy - D > c->height)
         return estimate || force ? 256 : 0;
-    double n = ceil((double)spp * 0.25 * M_PI * D * D * LR__LT_DENSITY);
+    /* The paths spread over the light's disc, D across; where the disc is
+     * far larger than the frame almost all of them land outside it, and
+     * their number grew with the disc's area without bound (a thin lens
+     * focused at 1e-6 traced billions of paths for a 48 x 32 frame, for
+     * minutes).  Past LR__LT_MAX_FRAMES frames' area the count stays
+     * there: each path's weight divides by the count traced, so the
+     * estimate stays unbiased and only its noise grows. */
+    double area = 0.25 * M_PI * D * D;
+    double most = LR__LT_MAX_FRAMES * (double)c->width * (double)c->height;
+    double n = ceil((double)spp * (area < most ? area : most) * LR__LT_DENSITY);
     if (n < 16.0)
         n = 16.0;
     return n < 4294967295.0 ? (uint64_t)n : 4294967295u;
