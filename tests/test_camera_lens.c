@@ -296,6 +296,12 @@ static void test_errors_name_the_field(void **state)
     expect_error(", \"lens\": 7", "camera.lens", "must be a lens");
     snprintf(buf, sizeof buf, ", \"lens\": %s, \"f_number\": 1000", singlet);
     expect_error(buf, "camera.f_number", "at most 128");
+    /* Dispersion amplified until a glass is thinner than air at the edge
+     * of the visible range: a white scene rendered up to 4e13 (an
+     * independent check), now an error with the bound. */
+    expect_error(", \"lens\": \"double-gauss-50\", \"focus_distance\": 5,"
+                 " \"chromatic\": {\"mode\": \"spectral\", \"amplify\": 300}",
+                 "camera.chromatic.amplify", "less dense than air");
 }
 
 /* The camera writes its lens back: an inline prescription as the same

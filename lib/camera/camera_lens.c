@@ -40,6 +40,7 @@
 #include "optics/ghost.h"
 #include "optics/lens.h"
 #include "optics/lens_load.h"
+#include "sampling/spectrum.h"
 
 #include <math.h>
 #include <stddef.h>
@@ -102,6 +103,33 @@ static lr_status validate(const lr_camera *cam, int active, lr_error *err)
                    "camera.f_number must be at most 128 for a real lens, "
                    "got %g",
                    cam->f_number);
+    /* Dispersion amplified about the d line must leave every glass
+     * denser than air at the wavelengths traced (rgb's 465 to 610 nm,
+     * spectral's 380 to 780): past that the "glass" bends light the wrong way, and a white
+     * scene rendered values up to 4e13 (an independent check). */
+    if (cam->chromatic.mode != LR_CHROMATIC_OFF &&
+        cam->chromatic.amplify > 1.0) {
+        const lr__rx *rx = &cam->lens->rx;
+        double nd[LR__RX_MAX_SURFACES], nx[LR__RX_MAX_SURFACES],
+            most = INFINITY;
+        lr__rx_indices(rx, LR__NM_d, nd);
+        int rgb = cam->chromatic.mode == LR_CHROMATIC_RGB;
+        for (int e = 0; e < 2; e++) {
+            double nm = rgb ? rgb_nm[e ? 0 : 2]
+                        : e ? LR__LAMBDA_MAX
+                            : LR__LAMBDA_MIN;
+            lr__rx_indices(rx, nm, nx);
+            for (int i = 0; i < rx->n; i++)
+                if (nx[i] < nd[i] && nd[i] > 1.0)
+                    most = fmin(most, (nd[i] - 1.0) / (nd[i] - nx[i]));
+        }
+        if (cam->chromatic.amplify >= most)
+            return BAD("camera.chromatic.amplify",
+                       "camera.chromatic.amplify %g makes a glass of this "
+                       "lens less dense than air at the edge of the visible "
+                       "range: below %.4g for this lens",
+                       cam->chromatic.amplify, most);
+    }
     double D = cam->focus_distance * cam->scene_unit_mm;
     double near = nearest_mm(cam->lens);
     if (!(D > near * (1.0 + 1e-9)))
