@@ -148,10 +148,13 @@ static lrd_job *find_or_404(struct MHD_Connection *c, req *r,
     lrd_job *j = lrd_is_job_id(r->job_id) ? lrd_jobs_find(r->job_id) : NULL;
     if (j == NULL) {
         lrd_err e;
+        /* (The count and byte limits drop the oldest finished jobs
+         * sooner: the time alone misled.) */
         lrd_fail(&e, 404, "job_not_found", NULL,
-                 "there is no job \"%s\" (finished jobs are kept for %g "
-                 "seconds)",
-                 r->job_id, lrd_cfg.job_ttl);
+                 "there is no job \"%s\" (finished jobs are kept for up to "
+                 "%g seconds, the oldest dropped sooner beyond %ld jobs or "
+                 "--max-retained-bytes)",
+                 r->job_id, lrd_cfg.job_ttl, lrd_cfg.max_finished);
         r->job_id[0] = '\0';
         *result = lrd_send_error(c, r, &e, NULL);
     }
