@@ -396,8 +396,9 @@ static int list_lenses(void)
             printf("%s\t%s\n", id->valuestring,
                    cJSON_IsString(name) ? name->valuestring : "");
     }
+    int rc = o != NULL ? EXIT_OK : EXIT_SCENE;
     cJSON_Delete(o);
-    return o != NULL ? EXIT_OK : EXIT_SCENE;
+    return rc;
 }
 
 /* `lensray lens FILE|NAME [--field-angles A,B,...] [--wavelength NM]

@@ -105,8 +105,9 @@ static lr_status validate(const lr_camera *cam, int active, lr_error *err)
                    cam->f_number);
     /* Dispersion amplified about the d line must leave every glass
      * denser than air at the wavelengths traced (rgb's 465 to 610 nm,
-     * spectral's 380 to 780): past that the "glass" bends light the wrong way, and a white
-     * scene rendered values up to 4e13 (an independent check). */
+     * spectral's 380 to 780): past that the "glass" bends light the
+     * wrong way, and a white scene rendered values up to 4e13 (an
+     * independent check). */
     if (cam->chromatic.mode != LR_CHROMATIC_OFF &&
         cam->chromatic.amplify > 1.0) {
         const lr__rx *rx = &cam->lens->rx;

@@ -221,15 +221,15 @@ static int create_temp_beside(const char *path, char **tmp_name)
     return -1;
 }
 
+static lr_status write_at(const lr_image *img, lr_format fmt,
+                          const lr_output_options *opts, const char *path,
+                          const char *dest, lr_error *err);
+
 /* The file a symbolic link `path` leads to, followed link by link (a
  * relative target from the link's directory) as open(2) would, to at most
  * 40 links; the file need not exist.  malloc'ed; NULL when out of memory.
  * The rename below replaces whatever name it is given, so writing to a
  * link replaced the link with a plain file and left its target as it was. */
-static lr_status write_at(const lr_image *img, lr_format fmt,
-                          const lr_output_options *opts, const char *path,
-                          const char *dest, lr_error *err);
-
 static char *follow_links(const char *path)
 {
     char *cur = strdup(path);

@@ -61,6 +61,10 @@ void lr__lt_free(lr__lt *lt)
     free(lt);
 }
 
+/* The largest disc, in frames' areas, whose paths a light's count
+ * follows (paths_for). */
+#define LR__LT_MAX_FRAMES 64.0
+
 /* The light-side candidate: a sphere emitting untextured radiance that
  * is small against its blur.  Its image on the film: radius rho (pixels)
  * sharp, blurred over a circle of diameter C (plan.c's bound), about
@@ -68,10 +72,6 @@ void lr__lt_free(lr__lt *lt)
  * footprint); a camera sample of a pixel there finds it with a chance of
  * about (2 rho / D)^2.  Returns the paths it gets (0: the camera keeps
  * it). */
-/* The largest disc, in frames' areas, whose paths a light's count
- * follows (paths_for). */
-#define LR__LT_MAX_FRAMES 64.0
-
 static uint64_t paths_for(const lr__cam *c, const lr__lens_bound *lb,
                           int estimate, lr__v3 center, double r, int spp,
                           int force)

@@ -59,13 +59,7 @@ lr_status lr__scene_add_obj(lr_scene *s, const char *file, const char *shown,
     memset(&m, 0, sizeof m);
     lr_status st = lr__obj_load_named(file, shown, fp, &m, err);
     if (st != LR_OK) {
-        /* Prefix the OBJ error with the field that named the file. */
-        if (err != NULL && strncmp(err->message, fp, strlen(fp)) != 0) {
-            char msg[sizeof err->message];
-            snprintf(msg, sizeof msg, "%s: %s", fp, err->message);
-            snprintf(err->message, sizeof err->message, "%s", msg);
-            snprintf(err->path, sizeof err->path, "%s", fp);
-        }
+        lr__fail_under(err, fp);
         return st;
     }
     /* File normals are used unless smooth is false (flat shading); when

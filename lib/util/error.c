@@ -39,6 +39,19 @@ lr_status lr__fail(lr_error *err, lr_status status, const char *path,
     return status;
 }
 
+void lr__fail_under(lr_error *err, const char *field)
+{
+    if (err == NULL || field == NULL || field[0] == '\0')
+        return;
+    if (strncmp(err->message, field, strlen(field)) == 0)
+        return;
+    char msg[sizeof err->message];
+    int w = snprintf(msg, sizeof msg, "%s: %s", field, err->message);
+    lr__trim_partial_utf8(msg, sizeof msg, w);
+    memcpy(err->message, msg, sizeof msg);
+    snprintf(err->path, sizeof err->path, "%s", field);
+}
+
 const char *lr_status_name(lr_status status)
 {
     switch (status) {

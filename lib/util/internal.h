@@ -18,6 +18,12 @@
 lr_status lr__fail(lr_error *err, lr_status status, const char *path,
                    const char *fmt, ...) __attribute__((format(printf, 4, 5)));
 
+/* The error of a file that scene field `field` names, under the field:
+ * unless its message starts with the field already, "field: " goes in
+ * front and its path becomes the field.  NULL err or an empty field:
+ * unchanged. */
+void lr__fail_under(lr_error *err, const char *field);
+
 /* Returns from the calling function when `expr` (an lr_status) fails. */
 #define LR_TRY(expr)                   \
     do {                               \

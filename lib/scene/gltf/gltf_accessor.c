@@ -360,19 +360,13 @@ lr_status lr__gltf_check_accessors(lr__gltf_doc *d, lr_error *err)
 {
     int n, nv;
     const cJSON *a = lr__gltf_array(d->root, "accessors", &n);
-    const cJSON *views = lr__gltf_array(d->root, "bufferViews", &nv);
+    lr__gltf_array(d->root, "bufferViews", &nv);
     d->dense = calloc(n ? (size_t)n : 1, sizeof *d->dense);
-    d->acc_at = malloc((n ? (size_t)n : 1) * sizeof *d->acc_at);
-    d->view_at = malloc((nv ? (size_t)nv : 1) * sizeof *d->view_at);
+    d->acc_at = lr__gltf_table(d->root, "accessors", n);
+    d->view_at = lr__gltf_table(d->root, "bufferViews", nv);
+    d->n_views = nv;
     if (d->dense == NULL || d->acc_at == NULL || d->view_at == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
-    int k = 0;
-    for (const cJSON *x = a ? a->child : NULL; x && k < n; x = x->next)
-        d->acc_at[k++] = x;
-    k = 0;
-    for (const cJSON *x = views ? views->child : NULL; x && k < nv; x = x->next)
-        d->view_at[k++] = x;
-    d->n_views = k;
     d->n_accessors = (size_t)n;
     size_t used = 0;
     int i = 0;

@@ -40,6 +40,18 @@ const cJSON *lr__gltf_array(const cJSON *o, const char *key, int *n)
     return cJSON_IsArray(a) ? a : NULL;
 }
 
+const cJSON **lr__gltf_table(const cJSON *o, const char *key, int n)
+{
+    int na;
+    const cJSON *a = lr__gltf_array(o, key, &na);
+    const cJSON **t = malloc((n > 0 ? (size_t)n : 1) * sizeof *t);
+    int i = 0;
+    for (const cJSON *x = a ? a->child : NULL; t != NULL && x && i < n;
+         x = x->next)
+        t[i++] = x;
+    return t;
+}
+
 const cJSON *lr__gltf_member(const cJSON *o, const char *k1, const char *k2)
 {
     const cJSON *a = cJSON_GetObjectItemCaseSensitive(o, k1);
@@ -429,11 +441,7 @@ lr_status lr__gltf_doc_load(const char *file, const char *shown, const char *fp,
     if (st != LR_OK) {
         /* Starting with the field, as a mesh file's error does (it began
          * "nothere.gltf: cannot open"). */
-        if (err != NULL && fp != NULL && fp[0] != '\0') {
-            char m[sizeof err->message];
-            snprintf(m, sizeof m, "%s: %s", fp, err->message);
-            memcpy(err->message, m, sizeof m);
-        }
+        lr__fail_under(err, fp);
         return st;
     }
     d->bytes = (unsigned char *)buf;

@@ -152,28 +152,6 @@ static lr_status check_skinned(const lr__gltf_doc *d, const char *p,
     return LR_OK;
 }
 
-/* d->node_at and d->mesh_at: the n nodes of array `a` and the nmesh
- * meshes, by index. */
-static lr_status index_tables(lr__gltf_doc *d, const cJSON *a, int n, int nmesh,
-                              lr_error *err)
-{
-    int nm;
-    const cJSON *meshes = lr__gltf_array(d->root, "meshes", &nm);
-    d->node_at = malloc((n ? (size_t)n : 1) * sizeof *d->node_at);
-    d->mesh_at = malloc((nmesh ? (size_t)nmesh : 1) * sizeof *d->mesh_at);
-    if (d->node_at == NULL || d->mesh_at == NULL)
-        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
-    int i = 0;
-    for (const cJSON *o = a ? a->child : NULL; o && i < n; o = o->next)
-        d->node_at[i++] = o;
-    i = 0;
-    for (const cJSON *o = meshes ? meshes->child : NULL; o && i < nmesh;
-         o = o->next)
-        d->mesh_at[i++] = o;
-    d->n_meshes = nmesh;
-    return LR_OK;
-}
-
 /* No node is its own ancestor, and none lies deeper than
  * LR__GLTF_MAX_DEPTH below its root: the walks over the hierarchy (ours
  * and libassimp's) recurse once a level, and a chain of 15,000 nodes (600
@@ -230,7 +208,11 @@ lr_status lr__gltf_check_nodes(lr__gltf_doc *d, lr_error *err)
         lr__gltf_member(d->root, "extensions", "KHR_lights_punctual"), "lights",
         &nlight);
     d->n_nodes = n;
-    LR_TRY(index_tables(d, a, n, nmesh, err));
+    d->node_at = lr__gltf_table(d->root, "nodes", n);
+    d->mesh_at = lr__gltf_table(d->root, "meshes", nmesh);
+    d->n_meshes = nmesh;
+    if (d->node_at == NULL || d->mesh_at == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     int *parent = malloc((n ? (size_t)n : 1) * sizeof *parent);
     if (parent == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");

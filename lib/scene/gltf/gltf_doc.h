@@ -91,6 +91,11 @@ const cJSON *lr__gltf_member(const cJSON *o, const char *k1, const char *k2);
 /* A member that must be an array (or absent: NULL, n = 0). */
 const cJSON *lr__gltf_array(const cJSON *o, const char *key, int *n);
 
+/* The n items of o[key] (lr__gltf_array's, n its count) by index, in a
+ * new array of at least one slot; NULL when out of memory.  A cJSON
+ * array is a list, and a look-up by index walks it. */
+const cJSON **lr__gltf_table(const cJSON *o, const char *key, int n);
+
 /* ---- gltf_assimp.c ---- */
 
 struct aiScene;
