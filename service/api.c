@@ -155,12 +155,29 @@ static lrd_scene *asset_scene(const char *ref, lrd_err *e)
                  "scene: the asset %s cannot be read", ref);
         return NULL;
     }
-    int n = snprintf(wrapped, len + 16, "{\"scene\": %.*s\n}", (int)len, text);
-    free(text);
+    /* The text alone first: a syntax error's line and column (or a
+     * nesting's byte) are then the asset's own, not the wrapper's. */
     lr_job *job = NULL;
     lr_error le;
-    lr_status st = lr_job_parse(wrapped, (size_t)n, (int)lrd_cfg.max_json_depth,
-                                &job, &le);
+    lr_status st = lr_job_parse(text, len, (int)lrd_cfg.max_json_depth, &job,
+                                &le);
+    lr_job_free(job);
+    job = NULL;
+    if (st == LR_ERR_SYNTAX || st == LR_ERR_LIMIT) {
+        free(text);
+        free(wrapped);
+        /* The parser heads its message with "job", which this is not. */
+        const char *m = le.message;
+        if (strncmp(m, "job: ", 5) == 0)
+            m += 5;
+        lrd_fail(e, 422, "invalid_value", "scene",
+                 "scene: the asset %s is not a scene: %s", ref, m);
+        return NULL;
+    }
+    int n = snprintf(wrapped, len + 16, "{\"scene\": %.*s\n}", (int)len, text);
+    free(text);
+    st = lr_job_parse(wrapped, (size_t)n, (int)lrd_cfg.max_json_depth, &job,
+                      &le);
     free(wrapped);
     if (st == LR_OK && lr_job_scene_name(job) != NULL) {
         /* A JSON string: a name, not a scene; never followed further. */
@@ -212,7 +229,7 @@ int lrd_api_parse_job(const char *body, size_t len, lrd_job_spec *spec,
         return lrd_fail(e, 400, "too_deep", NULL, "%s (--max-json-depth)",
                         le.message);
     if (st != LR_OK)
-        return lrd_fail_lr(e, &le, NULL, 0);
+        return lrd_fail_lr(e, &le, NULL, NULL);
 
     int rc = -1;
     /* The job's own lens asset (lr_job_mesh_file lists it first, as
@@ -230,7 +247,7 @@ int lrd_api_parse_job(const char *body, size_t len, lrd_job_spec *spec,
     lr_scene_settings(lrd_scene_get(spec->scene), &spec->rs);
     lr_output_default(&spec->out);
     if (lr_job_apply(job, &spec->cam, &spec->rs, &spec->out, &le) != LR_OK) {
-        lrd_fail_lr(e, &le, NULL, 0);
+        lrd_fail_lr(e, &le, NULL, NULL);
         goto out;
     }
     if (check_limits(spec, e) != 0)

@@ -52,7 +52,7 @@ enum MHD_Result lrd_do_lenses(struct MHD_Connection *c, req *r)
     char *json = NULL;
     if (lr_lenses_describe(angles, 3, 587.5618, &json, &le) != LR_OK) {
         lrd_err e;
-        lrd_fail_lr(&e, &le, NULL, 0);
+        lrd_fail_lr(&e, &le, NULL, NULL);
         return lrd_send_error(c, r, &e, NULL);
     }
     return lrd_send_json(c, r, 200, json, NULL);

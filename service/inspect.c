@@ -158,7 +158,7 @@ char *lrd_job_plan_json(lrd_job *j, lrd_err *e)
     lr_error le;
     if (lr_render_plan_map(lrd_scene_get(spec->scene), &spec->cam, &spec->rs,
                            &cells, &cols, &rows, &le) != LR_OK) {
-        lrd_fail_lr(e, &le, NULL, 0);
+        lrd_fail_lr(e, &le, NULL, NULL);
         return NULL;
     }
     cJSON *o = cJSON_CreateObject();

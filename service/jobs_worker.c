@@ -86,7 +86,7 @@ static lrd_state run(lrd_job *j, run_result *out)
     if (st == LR_ERR_CANCELLED)
         return LRD_CANCELLED;
     if (st != LR_OK) {
-        lrd_fail_lr(&out->err, &le, scene_part(sp, le.path), 0);
+        lrd_fail_lr(&out->err, &le, scene_part(sp, le.path), NULL);
         return LRD_FAILED;
     }
     double t0 = lrd_monotonic();
@@ -97,7 +97,7 @@ static lrd_state run(lrd_job *j, run_result *out)
     lr_image_free(img);
     out->encode_seconds = lrd_monotonic() - t0;
     if (st != LR_OK) {
-        lrd_fail_lr(&out->err, &le, "output", 0);
+        lrd_fail_lr(&out->err, &le, "output", NULL);
         return LRD_FAILED;
     }
     if (len > lrd_cfg.max_output) {

@@ -95,10 +95,12 @@ int lrd_fail(lrd_err *e, int http, const char *code, const char *path,
 
 /* Maps a library error to an HTTP error.  `prefix` ("scene" or NULL) is
  * put in front of the library's path, so that "objects[2].radius" of an
- * inline scene becomes "scene.objects[2].radius".  `named_scene` says the
- * error is in a server-side scene file, which is the server's fault. */
+ * inline scene becomes "scene.objects[2].radius".  `named_scene`, the
+ * file's name in the scenes directory ("night.json"), says the error is
+ * in a server-side scene file, which is the server's fault; NULL
+ * otherwise. */
 int lrd_fail_lr(lrd_err *e, const lr_error *le, const char *prefix,
-                int named_scene);
+                const char *named_scene);
 
 /* The body of an error response, {"error": {...}}; malloc'ed, or NULL
  * when out of memory. */

@@ -180,10 +180,11 @@ static void free_chain(lrd_scene *s)
 }
 
 /* Loads `text` into a new entry, or returns the cached one that another
- * thread loaded meanwhile.  The text stays the caller's. */
+ * thread loaded meanwhile.  The text stays the caller's; `named` is the
+ * scene file's name for a named scene (its errors name it), else NULL. */
 static lrd_scene *load_and_insert(const char *text, size_t len,
-                                  const unsigned char hash[32], int named,
-                                  lrd_err *e)
+                                  const unsigned char hash[32],
+                                  const char *named, lrd_err *e)
 {
     lr_scene *sc = NULL;
     lr_error le;
@@ -329,7 +330,9 @@ lrd_scene *lrd_scene_named(const char *name, lrd_err *e)
     }
     pthread_mutex_unlock(&cache.mu);
 
-    lrd_scene *s = load_and_insert(text, len, hash, 1, e);
+    char file[80];
+    snprintf(file, sizeof file, "%s.json", name);
+    lrd_scene *s = load_and_insert(text, len, hash, file, e);
     free(text);
     if (s != NULL) {
         pthread_mutex_lock(&cache.mu);
@@ -350,5 +353,5 @@ lrd_scene *lrd_scene_inline(const char *text, size_t len, lrd_err *e)
     pthread_mutex_unlock(&cache.mu);
     if (hit != NULL)
         return hit;
-    return load_and_insert(text, len, hash, 0, e);
+    return load_and_insert(text, len, hash, NULL, e);
 }

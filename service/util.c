@@ -83,7 +83,7 @@ int lrd_fail(lrd_err *e, int http, const char *code, const char *path,
 }
 
 int lrd_fail_lr(lrd_err *e, const lr_error *le, const char *prefix,
-                int named_scene)
+                const char *named_scene)
 {
     char path[sizeof e->path];
     char msg[sizeof e->message];
@@ -96,22 +96,30 @@ int lrd_fail_lr(lrd_err *e, const lr_error *le, const char *prefix,
         else
             snprintf(msg, sizeof msg, "%s: %s", prefix, le->message);
     } else if (prefix != NULL) {
+        /* A message the library already heads with the prefix (the
+         * loader's "scene: invalid JSON at ...") is not headed twice. */
+        size_t pl = strlen(prefix);
         snprintf(path, sizeof path, "%s", prefix);
-        snprintf(msg, sizeof msg, "%s: %s", prefix, le->message);
+        if (strncmp(le->message, prefix, pl) == 0 && le->message[pl] == ':')
+            snprintf(msg, sizeof msg, "%s", le->message);
+        else
+            snprintf(msg, sizeof msg, "%s: %s", prefix, le->message);
     } else {
         snprintf(path, sizeof path, "%s", le->path);
         snprintf(msg, sizeof msg, "%s", le->message);
     }
     switch (le->status) {
     case LR_ERR_INVALID:
-        if (named_scene)
+        if (named_scene != NULL)
             return lrd_fail(e, 500, "scene_broken", path,
-                            "the server's scene file is invalid: %s", msg);
+                            "the server's scene file %s is invalid: %s",
+                            named_scene, msg);
         return lrd_fail(e, 422, "invalid_value", path, "%s", msg);
     case LR_ERR_IO:
-        if (named_scene)
+        if (named_scene != NULL)
             return lrd_fail(e, 500, "scene_broken", path,
-                            "the server's scene cannot be read: %s", msg);
+                            "the server's scene file %s cannot be read: %s",
+                            named_scene, msg);
         return lrd_fail(e, 422, "invalid_value", path, "%s", msg);
     case LR_ERR_LIMIT:
         return lrd_fail(e, 413, "too_large", path, "%s", msg);

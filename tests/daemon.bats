@@ -860,6 +860,17 @@ print("\n".join(sorted(s["properties"])))' "$spec" "$schema") \
     done
 }
 
+@test "a broken scene file of the server: 500 scene_broken naming the file, its error headed once" {
+    mkdir -p "$WORK/broken"
+    printf '{\n  "camera": \n' >"$WORK/broken/half.json"
+    start_daemon broken --scenes "$WORK/broken" --token-file "$WORK/token"
+    req POST "$DURL/v1/render" '{"scene": "half"}'
+    expect_error 500 scene_broken scene
+    # (it read "the server's scene file is invalid: scene: scene: invalid
+    # JSON ...", naming no file)
+    [ "$(json o.error.message)" = "the server's scene file half.json is invalid: scene: invalid JSON at line 2, column 13" ]
+}
+
 @test "loaded scenes are cached by name and by content: a focal sweep loads once" {
     local misses hits fov
     local scene='{"description": "sweep", "camera": {"position": [0, 1, 6], "look_at": [0, 1, 0]}, "lights": [{"type": "ambient", "radiance": 1}], "objects": [{"type": "sphere", "center": [0, 1, 0], "radius": 1}]}'

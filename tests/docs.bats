@@ -155,4 +155,9 @@ PY
     diff <(doc_names "$sf" '## 7.' row integrator 4) <(library_names render.integrator=nope)
     diff <(doc_names "$REPO/docs/reliability.md" '## Limits' row render.integrator 2) \
         <(library_names render.integrator=nope)
+    # Section 15's example of an unknown key is the message as printed
+    # (it lacked the keys added since).
+    printf '{"camera": {"fvo": 30}}' >"$BATS_TEST_TMPDIR/fvo.json"
+    run -3 "$LENSRAY" render "$BATS_TEST_TMPDIR/fvo.json" -o "$BATS_TEST_TMPDIR/x.png"
+    grep -qxF "${output#lensray: }" "$sf"
 }

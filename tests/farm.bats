@@ -691,6 +691,13 @@ render_post() {
     put_asset "$f"
     render_post "{\"scene\": \"sha256:$(sha256sum "$f" | cut -c1-64)\"}"
     [[ "$output" == *"is not a scene: it is a JSON string, not a scene object"*" 422" ]]
+    # Text that is not JSON: the line and column are the asset's own (a
+    # wrapper's offset moved them), and nothing calls it a job.
+    printf '{\n  x' >"$f"
+    put_asset "$f"
+    render_post "{\"scene\": \"sha256:$(sha256sum "$f" | cut -c1-64)\"}"
+    [[ "$output" == *"is not a scene: invalid JSON at line 2, column 3"*" 422" ]]
+    [[ "$output" != *job* ]]
     render_post '{"scene": {"environment": {"file": "sha256:12ab"}}}'
     [[ "$output" == *"64 lowercase hex digits"*'"path":"scene.environment.file"'*" 422" ]]
     # A lens file of the scenes directory stays confined to it.
