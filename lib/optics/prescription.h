@@ -158,8 +158,14 @@ static inline int lr__rx_lane_quadric(double c, double k1, double ox, double oy,
     double den = B + copysign(sqrt(ok ? disc : 0.0), B);
     ok &= den != 0.0;
     double t = -C / (den != 0.0 ? den : 1.0);
-    double t2 = -den / (A != 0.0 ? A : 1.0); /* see intersect() */
+    double t1 = t, t2 = -den / (A != 0.0 ? A : 1.0); /* see intersect() */
     t = A != 0.0 && !(1.0 - c * k1 * (oz + t * dz) > 0.0) ? t2 : t;
+    /* The root ahead where the one taken lies behind and both are on the
+     * vertex sheet (intersect() says when). */
+    double u = t == t1 ? t2 : t1;
+    t = A != 0.0 && t < -1e-9 && u > 0.0 && 1.0 - c * k1 * (oz + u * dz) > 0.0
+            ? u
+            : t;
     ok &= isfinite(t);
     *t_out = t;
     return ok;

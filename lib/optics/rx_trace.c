@@ -77,6 +77,17 @@ static int intersect(const lr__surface *s, double c, double k1,
      * quadric's gradient points toward +z, see below). */
     if (A != 0.0 && !(1.0 - c * k1 * (o[2] + t * d[2]) > 0.0))
         t = -den / A;
+    /* A ray inside the sphere whose chord has both ends on the vertex
+     * sheet (a ghost's ray that a reflection turned back, leaving the
+     * sphere steeply): the root taken may lie behind it, and the one
+     * ahead is where it meets the surface (it was lost: ghost.c's
+     * cross). 1e-9 mm: cross()'s tolerance for a start on the surface. */
+    if (A != 0.0 && t < -1e-9) {
+        double t1 = -C / den, t2 = -den / A;
+        double u = t == t1 ? t2 : t1;
+        if (u > 0.0 && 1.0 - c * k1 * (o[2] + u * d[2]) > 0.0)
+            t = u;
+    }
     if (!isfinite(t))
         return 0;
     for (int a = 0; a < 3; a++)
