@@ -483,15 +483,20 @@ static void sphere_path(const lr_scene *s, const lr__cam *c,
      * analytic hit, cheaper still, lost 1e-4 of the light (near the
      * cone's rim the traced sphere's own hit came before its margin). */
     (*rays)++;
+    /* A camera ray that starts inside the sphere (the bracket's start on
+     * its image plane, in a light that reaches across it) meets its
+     * inside, which emits nothing: the same sphere, from inside, was
+     * splatted here, up to 77 times the light the camera sees. */
+    lr__v3 S = lr__cam_ray_start(c, P, w), sc = v3_sub(S, l->center);
+    if (!(v3_dot(sc, sc) > r2))
+        return;
     lr__v3 Le = l->L;
     if (!l->textured) {
-        if (lr__trace_geom(s, lr__cam_ray_start(c, P, w), w, INFINITY) !=
-            l->geom)
+        if (lr__trace_geom(s, S, w, INFINITY) != l->geom)
             return;
     } else {
         lr__hit h;
-        if (!lr__trace(s, lr__cam_ray_start(c, P, w), w, INFINITY, &h) ||
-            h.geom != l->geom)
+        if (!lr__trace(s, S, w, INFINITY, &h) || h.geom != l->geom)
             return;
         Le = lr__lt_emission_at(s, l, &h);
     }
