@@ -838,6 +838,15 @@ LR_API lr_status lr_lens_ghosts(const char *lens, const char *base_dir,
                                 double nm, lr_lens_coating coating, char **json,
                                 lr_error *err);
 
+/* lr_lens_ghosts for a distant point `field_deg` degrees off the axis
+ * (in the x-z plane; its centroids then lie on the x axis): the same
+ * JSON, field_deg as given; LR_ERR_INVALID (path "field_angles") unless
+ * |field_deg| < 90. */
+LR_API lr_status lr_lens_ghosts_at(const char *lens, const char *base_dir,
+                                   double nm, double field_deg,
+                                   lr_lens_coating coating, char **json,
+                                   lr_error *err);
+
 /* The same for every shipped lens, as {"lenses": [{"id": NAME, ...},
  * ...]} sorted by name (NAME is the file's name without extension).  A
  * shipped lens that fails to load is listed with an "error" message

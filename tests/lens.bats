@@ -117,6 +117,32 @@ J
     run -2 "$LENSRAY" lens double-gauss-50 --ghosts --coating ito
 }
 
+@test "--ghosts --field-angles A: the ghosts of a point A degrees off the axis" {
+    # The plate behind a 5 mm stop, its faces wide: a beam at 10 degrees
+    # crosses 1 mm of air, the 2 mm plate at the refracted angle
+    # (sin tg = sin 10 / 1.5) and 10 mm of air; the ghost (2, 1) crosses
+    # the plate twice more: x = 11 tan 10 + 6 tan tg = 2.6389 mm.  (It
+    # printed the on-axis ghosts, field_deg 0, whatever the angle.)
+    cat >"$T/plate50.json" <<'J'
+{"surfaces": [{"stop": true, "thickness": 1, "semi_aperture": 5},
+ {"radius": 100000, "thickness": 2, "material": {"nd": 1.5}, "semi_aperture": 50},
+ {"radius": -100000, "thickness": 10, "material": "air", "semi_aperture": 50}]}
+J
+    run -0 "$LENSRAY" lens "$T/plate50.json" --ghosts --coating none --field-angles 10
+    [ "$(echo "$output" | j 'd["field_deg"]')" = 10 ]
+    [ "$(echo "$output" | j 'd["ghosts"][0]["surfaces"]')" = "[2, 1]" ]
+    [ "$(echo "$output" | j 'abs(abs(d["ghosts"][0]["centroid_mm"][0]) - 2.6389) < 2e-3')" = True ]
+    # lenses.md's 10-degree row of the double Gauss.
+    run -0 "$LENSRAY" lens double-gauss-50 --ghosts --coating none --wavelength 550 --field-angles 10
+    [ "$(echo "$output" | j 'd["ghosts"][0]["surfaces"]')" = "[10, 8]" ]
+    [ "$(echo "$output" | j '"%.1e %.1f %.1e" % (d["ghosts"][0]["flux"], d["ghosts"][0]["rms_radius_mm"], d["total_flux"])')" = "3.8e-03 5.9 4.7e-02" ]
+    grep -qF '| none | 10 deg | 550 nm | (10, 8): 3.8e-3 | 5.9 mm | 4.7e-2 |' "$REPO/docs/lenses.md"
+    # One distant point: one angle; and it is checked as describe's are.
+    run -2 "$LENSRAY" lens double-gauss-50 --ghosts --field-angles 10,20
+    [[ "$output" == *"--ghosts takes one field angle"* ]]
+    run -2 "$LENSRAY" lens double-gauss-50 --ghosts --field-angles 95
+}
+
 @test "an unknown lens lists the shipped ones" {
     run -3 "$LENSRAY" lens double-gauss-55
     [[ "$output" == *'lens "double-gauss-55": no such file'* ]]

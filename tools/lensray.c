@@ -72,7 +72,8 @@ static const char usage_text[] =
     "a shipped lens (lenses/)\n"
     "  --field-angles A,B  field angles in degrees, object at infinity\n"
     "  --wavelength NM     primary wavelength (default 587.5618, the d line)\n"
-    "  --ghosts            each ghost path's flux for a point on the axis\n"
+    "  --ghosts            each ghost path's flux for a distant point on the\n"
+    "                      axis (or at the one field angle given)\n"
     "  --coating NAME      with --ghosts: every surface bare (none) or MgF2\n"
     "  --list              every shipped lens: its NAME, a tab, its title\n"
     "\n"
@@ -469,10 +470,13 @@ static int cmd_lens(int argc, char **argv)
                            "lens needs a lens file or a shipped lens's name");
     if (coating >= 0 && !ghosts)
         return usage_error("%s", "--coating goes with --ghosts");
+    if (ghosts && n > 1)
+        return usage_error("%s", "--ghosts takes one field angle (the "
+                                 "distant point's, in degrees)");
     char *json = NULL;
     lr_error err;
-    lr_status st = ghosts ? lr_lens_ghosts(
-                                lens, NULL, nm,
+    lr_status st = ghosts ? lr_lens_ghosts_at(
+                                lens, NULL, nm, n == 1 ? angles[0] : 0.0,
                                 (lr_lens_coating)(coating < 0 ? 0 : coating),
                                 &json, &err)
                           : lr_lens_describe(lens, NULL, angles, n, nm, &json,

@@ -1,7 +1,8 @@
 /*
- * lens_ghosts.c: lr_lens_ghosts, each ghost path's flux for a distant
- * point on the axis (`lensray lens FILE --ghosts`, issue 29), from
- * ghost_flux.c's grid of rays.
+ * lens_ghosts.c: lr_lens_ghosts and lr_lens_ghosts_at, each ghost
+ * path's flux for a distant point on the axis or off it (`lensray lens
+ * FILE --ghosts [--field-angles A]`, issue 29), from ghost_flux.c's grid
+ * of rays.
  */
 #include "optics/ghost.h"
 #include "json/json_util.h"
@@ -16,7 +17,8 @@
 #define GRID 61
 #define HALF_DIAG 21.633307652783937
 
-static cJSON *ghosts_json(const lr__rx *rx, double nm, int coating)
+static cJSON *ghosts_json(const lr__rx *rx, double nm, double field_deg,
+                          int coating)
 {
     lr__ghost_flux *f = malloc(sizeof *f * LR__GHOST_MAX);
     cJSON *o = cJSON_CreateObject();
@@ -27,12 +29,12 @@ static cJSON *ghosts_json(const lr__rx *rx, double nm, int coating)
     }
     static const char *const names[] = {"prescription", "none", "mgf2"};
     double main = 0.0;
-    int n = lr__ghost_fluxes(rx, lr__coating_override(coating), 0.0, nm, GRID,
-                             HALF_DIAG, f, &main);
+    int n = lr__ghost_fluxes(rx, lr__coating_override(coating), field_deg, nm,
+                             GRID, HALF_DIAG, f, &main);
     cJSON_AddStringToObject(o, "name", rx->name);
     cJSON_AddNumberToObject(o, "wavelength_nm", nm);
     cJSON_AddStringToObject(o, "coating", names[coating]);
-    cJSON_AddNumberToObject(o, "field_deg", 0.0);
+    cJSON_AddNumberToObject(o, "field_deg", field_deg);
     cJSON_AddNumberToObject(o, "frame_radius_mm", HALF_DIAG);
     cJSON_AddNumberToObject(o, "main_transmission", main);
     double total = 0.0;
@@ -57,6 +59,13 @@ static cJSON *ghosts_json(const lr__rx *rx, double nm, int coating)
 lr_status lr_lens_ghosts(const char *lens, const char *base_dir, double nm,
                          lr_lens_coating coating, char **json, lr_error *err)
 {
+    return lr_lens_ghosts_at(lens, base_dir, nm, 0.0, coating, json, err);
+}
+
+lr_status lr_lens_ghosts_at(const char *lens, const char *base_dir, double nm,
+                            double field_deg, lr_lens_coating coating,
+                            char **json, lr_error *err)
+{
     if (json != NULL)
         *json = NULL;
     if (lens == NULL || json == NULL)
@@ -68,13 +77,18 @@ lr_status lr_lens_ghosts(const char *lens, const char *base_dir, double nm,
                         "the wavelength must be between 300 and 2000 nm, "
                         "got %g",
                         nm);
+    if (!(fabs(field_deg) < 90))
+        return lr__fail(err, LR_ERR_INVALID, "field_angles",
+                        "field angle %g: must be within +-90 degrees "
+                        "(exclusive)",
+                        field_deg);
     if ((int)coating < 0 || (int)coating > 2)
         return lr__fail(err, LR_ERR_INVALID, NULL,
                         "lr_lens_ghosts: coating %d is not an lr_lens_coating",
                         (int)coating);
     lr__rx *rx;
     LR_TRY(lr__rx_load_named(lens, base_dir, &rx, err));
-    cJSON *o = ghosts_json(rx, nm, (int)coating);
+    cJSON *o = ghosts_json(rx, nm, field_deg, (int)coating);
     free(rx);
     return lr__json_print_owned(o, json, err);
 }
