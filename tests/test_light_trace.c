@@ -947,6 +947,25 @@ static void test_unbounded_lenses_keep_lights(void **state)
             assert_int_equal(n, 1);
         else
             assert_int_equal(n, 0);
+        /* Ghosts asked for by name through such a lens: an error naming
+         * camera.ghosts (it rendered none without a word). */
+        const char *on[] = {"camera.ghosts=true"};
+        lr_scene *sc = lr_test_load(scene, on, 1);
+        lr_camera cam;
+        lr_render_settings rs;
+        lr_scene_camera(sc, &cam);
+        lr_scene_settings(sc, &rs);
+        lr_image *img = NULL;
+        lr_error err;
+        lr_status st = lr_render(sc, &cam, &rs, &img, NULL, &err);
+        if (i == 0) {
+            assert_int_equal(st, LR_OK);
+        } else {
+            assert_int_equal(st, LR_ERR_INVALID);
+            assert_string_equal(err.path, "camera.ghosts");
+        }
+        lr_image_free(img);
+        lr_scene_free(sc);
     }
 }
 

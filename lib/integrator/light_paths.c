@@ -120,7 +120,7 @@ static lr_status check_scene(const lr_scene *s, const lr__cam *c,
     if (m->lens_point == NULL || m->film == NULL)
         return lr__fail(err, LR_ERR_INVALID, "camera.model",
                         "camera.model: \"%s\" has no light side, which %s "
-                        "needs (use thinlens, pinhole or lens)",
+                        "needs (use thinlens, bracket, pinhole or lens)",
                         m->name, me);
     if (m->light_ok != NULL && !m->light_ok(c))
         return lr__fail(err, LR_ERR_INVALID, "camera.lens",

@@ -543,6 +543,15 @@ lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
     if (set->integrator == LR_INTEGRATOR_LIGHT)
         return plan_paths(s, c, set, out, err);
     const lr__camera_model *m = c->model;
+    /* Ghosts asked for by name where the lens has no light side: none
+     * would be drawn (they come from the light side alone). */
+    if (set->light && m->light_ok != NULL && c->lens.ghosts == LR_GHOSTS_ON &&
+        !m->light_ok(c))
+        return lr__fail(err, LR_ERR_INVALID, "camera.ghosts",
+                        "camera.ghosts: this lens passes rays steeper than "
+                        "its light side holds (a fisheye or extreme wide "
+                        "angle), and ghosts are traced from the light side: "
+                        "it draws none (use \"auto\" or false)");
     if (!set->light || m->lens_point == NULL || m->film == NULL ||
         !lr__cam_lands_colours(c) ||
         (m->bound == NULL && m->thin_equiv == NULL) ||
