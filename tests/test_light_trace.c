@@ -463,6 +463,38 @@ static void test_bracket_light_across_plane(void **state)
     lr_image_free(ci);
 }
 
+/* A dim light's disc beside a light 1e8 times brighter, out of the
+ * region: the film's fixed point is scaled by the brightest light, and
+ * the dim light's splats (some 1e-12 of it) rounded to 0: its disc was
+ * black (at 1e6, black from 16384 spp, 0.4% short at 64).  Its energy
+ * must be what it is beside a light as dim as itself. */
+static void test_dim_light_beside_bright(void **state)
+{
+    (void)state;
+    const char *scene =
+        "{\"camera\": {\"model\": \"thinlens\", \"fov\": 40, "
+        "\"focus_distance\": 4, \"aperture_radius\": 0.25}, \"render\": "
+        "{\"width\": 200, \"height\": 200, \"spp\": 256, \"region\": [70, "
+        "70, 130, 130]}, \"background\": 0, \"materials\": {\"dim\": "
+        "{\"emission\": 1}, \"bright\": {\"emission\": 1e8}}, "
+        "\"objects\": [{\"type\": \"sphere\", \"center\": [0, 0, -10], "
+        "\"radius\": 0.02, \"material\": \"dim\"}, {\"type\": \"sphere\", "
+        "\"center\": [2.5, 2.5, -10], \"radius\": 0.02, \"material\": "
+        "\"bright\"}]}";
+    const char *dim[] = {"materials.bright={\"emission\": 1}"};
+    lr_render_stats st;
+    lr_image *a = lr_test_render(scene, NULL, 0, &st);
+    assert_int_equal(st.light_lights, 1);
+    lr_image *b = lr_test_render(scene, dim, 1, NULL);
+    double sa = 0.0, sb = 0.0;
+    for (size_t i = 0; i < lr_test_n_values(a); i++)
+        sa += a->rgb[i], sb += b->rgb[i];
+    print_message("dim disc: %.6g beside 1e8, %.6g beside 1\n", sa, sb);
+    assert_true(sb > 0.0 && fabs(sa / sb - 1.0) < 1e-4);
+    lr_image_free(a);
+    lr_image_free(b);
+}
+
 static void test_light_and_camera_agree(void **state)
 {
     (void)state;
@@ -1086,6 +1118,7 @@ static void test_huge_disc_paths_bounded(void **state)
 
 static const struct CMUnitTest light_tests[] = {
     cmocka_unit_test(test_bracket_light_across_plane),
+    cmocka_unit_test(test_dim_light_beside_bright),
     cmocka_unit_test(test_unbounded_lenses_keep_lights),
     cmocka_unit_test(test_dark_blocks),
     cmocka_unit_test(test_huge_disc_paths_bounded),

@@ -210,9 +210,16 @@ void lr__lt_keep(lr__lt *lt, const unsigned char *keep);
 
 /* The light pass's film: fixed-point sums over region [x0, x1) x [y0, y1)
  * of the frame. */
+/* Splats under this many of the film's units go to its fine sum. */
+#define LR__LT_FINE 4096.0
+
 typedef struct lr__lt_film {
     int x0, y0, x1, y1;
     int64_t *sum; /* 3 per pixel, in units of 1 / scale */
+    /* The splats under LR__LT_FINE units, 3 per pixel, in units of
+     * 2^-24 / scale: a dim light's splats beside a light 1e8 times
+     * brighter round to 0 in sum's units. */
+    int64_t *fine;
     double scale;
     const unsigned char *dark; /* the light side's (lr__lt.dark) */
     int dark_bw, dark_block;
