@@ -155,8 +155,18 @@ static lrd_scene *asset_scene(const char *ref, lrd_err *e)
                  "scene: the asset %s cannot be read", ref);
         return NULL;
     }
+    if (len == 0) {
+        free(text);
+        free(wrapped);
+        lrd_fail(e, 422, "invalid_value", "scene",
+                 "scene: the asset %s is not a scene: it is empty (0 bytes)",
+                 ref);
+        return NULL;
+    }
     /* The text alone first: a syntax error's line and column (or a
-     * nesting's byte) are then the asset's own, not the wrapper's. */
+     * nesting's byte), or text after the value, are then the asset's
+     * own, not the wrapper's (which took the text after a scene object
+     * for more of the job). */
     lr_job *job = NULL;
     lr_error le;
     lr_status st = lr_job_parse(text, len, (int)lrd_cfg.max_json_depth, &job,

@@ -698,6 +698,16 @@ render_post() {
     render_post "{\"scene\": \"sha256:$(sha256sum "$f" | cut -c1-64)\"}"
     [[ "$output" == *"is not a scene: invalid JSON at line 2, column 3"*" 422" ]]
     [[ "$output" != *job* ]]
+    # Text after the scene object is refused as in a scene file (it was
+    # taken for more of the wrapper's job: 200, the tail ignored).
+    printf '{"render": {"width": 8}}, "render": {"width": 9}' >"$f"
+    put_asset "$f"
+    render_post "{\"scene\": \"sha256:$(sha256sum "$f" | cut -c1-64)\"}"
+    [[ "$output" == *"is not a scene: unexpected text after the JSON value at byte 24"*" 422" ]]
+    : >"$f"
+    put_asset "$f"
+    render_post "{\"scene\": \"sha256:$(sha256sum "$f" | cut -c1-64)\"}"
+    [[ "$output" == *"is not a scene: it is empty (0 bytes)"*" 422" ]]
     render_post '{"scene": {"environment": {"file": "sha256:12ab"}}}'
     [[ "$output" == *"64 lowercase hex digits"*'"path":"scene.environment.file"'*" 422" ]]
     # A lens file of the scenes directory stays confined to it.
