@@ -305,6 +305,10 @@ typedef struct lr__lens_cam {
     double n_ref[LR__RX_MAX_SURFACES]; /* indices at c->nm_ref */
     double n_rgb[3][LR__RX_MAX_SURFACES]; /* and at nm_rgb */
     double pupil_rmax; /* film radius of the table's last entry */
+    /* Film radius past which no ray passes: where the sensor dwarfs the
+     * image circle, the table is drawn over the circle alone (setup in
+     * camera_lens.c) and the film beyond is stopped; INFINITY else. */
+    double r_cut;
     lr__pupil pupil[LR__PUPIL_N + 1];
     /* Per interval k, what lr__lens_pupil_at adds to the larger of its
      * two entries' sizes (lens_pupil.c's pupil_growth); cx unused. */

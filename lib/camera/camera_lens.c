@@ -245,7 +245,29 @@ static void setup(lr__cam *c, const lr_camera *cam)
             lr__ttab_fill(&lc->g_tab[k], &L->rx, lc->g_n[k], rgb_nm[k],
                           lc->coat);
         }
+    lc->r_cut = INFINITY;
     lr__lens_pupils(c, colours);
+    /* A sensor far larger than the lens's image circle: the table's radii,
+     * spread over the sensor's half diagonal, left the circle an interval
+     * or two, and its bounds were too coarse to hold the rays (a 3000 mm
+     * sensor behind the 22 mm wide angle lost all but 1e-3 of its light,
+     * and the CLI warned that the circle missed the film).  While the
+     * light reaches no more than the table's first eighth, the table is
+     * drawn again out to two entries past the last that passes light,
+     * and the film beyond is stopped (the entries past it passed none).
+     * (Not for less: a finer table at the circle's rim, where the pupil
+     * changes fastest, held fewer of the 170-degree lens's rays.) */
+    for (int it = 0; it < 4; it++) {
+        int last = -1;
+        for (int k = 0; k <= LR__PUPIL_N; k++)
+            if (lc->pupil[k].rad > 0.0)
+                last = k;
+        if (last < 0 || last + 2 > LR__PUPIL_N / 8)
+            break;
+        lc->pupil_rmax = lc->pupil_rmax * (last + 2) / LR__PUPIL_N;
+        lc->r_cut = lc->pupil_rmax;
+        lr__lens_pupils(c, colours);
+    }
     for (int k = 0; k < LR__PUPIL_N; k++) {
         lr__pupil a = lr__lens_pupil_at(lc, lc->pupil_rmax * k / LR__PUPIL_N);
         lc->band_cx[k] = (float)a.cx;
@@ -291,6 +313,7 @@ lens_start16(const lr__cam *c, int n, const float *fx, const float *fy,
     const float iw = (float)(1.0 / c->width), ih = (float)(1.0 / c->height);
     const float sw = (float)lc->sensor_w, sh = (float)lc->sensor_h;
     const float kr = (float)(LR__PUPIL_N / lc->pupil_rmax);
+    const float rcut = (float)lc->r_cut;
     const float zs = (float)lc->z_sensor,
                 dz = (float)(lc->z_rear - lc->z_sensor);
     const float wk = (float)(1.0 /
@@ -318,7 +341,7 @@ lens_start16(const lr__cam *c, int n, const float *fx, const float *fy,
         o[0][i] = xs, o[1][i] = ys, o[2][i] = zs;
         d[0][i] = dx * inv, d[1][i] = dy * inv, d[2][i] = dz * inv;
         w[i] = wk * area * ct * ct * ct * ct;
-        alive[i] = (i < n) & (area > 0.0f);
+        alive[i] = (i < n) & (area > 0.0f) & !(r > rcut);
     }
 }
 
@@ -337,6 +360,7 @@ chief_start16(const lr__cam *c, const lr__lens_blur *bl, int n, const float *fx,
     const float iw = (float)(1.0 / c->width), ih = (float)(1.0 / c->height);
     const float sw = (float)lc->sensor_w, sh = (float)lc->sensor_h;
     const float kr = (float)(LR__PUPIL_N / lc->pupil_rmax);
+    const float rcut = (float)lc->r_cut;
     const float zs = (float)lc->z_sensor,
                 dz = (float)(lc->z_rear - lc->z_sensor);
     for (int i = 0; i < 16; i++) {
@@ -350,7 +374,7 @@ chief_start16(const lr__cam *c, const lr__lens_blur *bl, int n, const float *fx,
         o[0][i] = xs, o[1][i] = ys, o[2][i] = zs;
         d[0][i] = dx * inv, d[1][i] = dy * inv, d[2][i] = dz * inv;
         w[i] = lr__lens_blur_chief_w(bl, k, f);
-        alive[i] = (i < n) & (w[i] > 0.0f);
+        alive[i] = (i < n) & (w[i] > 0.0f) & !(r > rcut);
     }
 }
 
@@ -372,6 +396,7 @@ chief_table16(const lr__cam *c, const lr__lens_blur *bl, int n, const float *fx,
     const float iw = (float)(1.0 / c->width), ih = (float)(1.0 / c->height);
     const float sw = (float)lc->sensor_w, sh = (float)lc->sensor_h;
     const float kr = (float)(LR__PUPIL_N / lc->pupil_rmax);
+    const float rcut = (float)lc->r_cut;
     int bad = 0;
     for (int i = 0; i < 16; i++) {
         float xs, ys, r, f;
@@ -392,7 +417,7 @@ chief_table16(const lr__cam *c, const lr__lens_blur *bl, int n, const float *fx,
         d[2][i] = t->w[a] + g * (t->w[a + 1] - t->w[a]);
         float cw = lr__lens_blur_chief_w(bl, k, f);
         w[i] = cw * (t->T[a] + g * (t->T[a + 1] - t->T[a]));
-        int live = (i < n) & (cw > 0.0f);
+        int live = (i < n) & (cw > 0.0f) & !(r > rcut);
         bad |= live & !t->exact[a];
         alive[i] = live;
     }

@@ -213,6 +213,8 @@ static inline lr__lens_sensor lr__lens_sensor_at(const lr__cam *c, double fx,
  * shrinks fast there): a white scene came out 3.5% dark in rings. */
 static inline lr__pupil lr__lens_pupil_at(const lr__lens_cam *lc, double r)
 {
+    if (r > lc->r_cut)
+        return (lr__pupil){0.0, 0.0, 0.0, 0.0};
     double t = r / lc->pupil_rmax * LR__PUPIL_N;
     int k = (int)t;
     k = k < LR__PUPIL_N - 1 ? k : LR__PUPIL_N - 1;
