@@ -87,6 +87,11 @@ class LensrayRenderEngine(bpy.types.RenderEngine):
                 else:
                     out = self._render_here(d, tmp, want_plan)
             except lensray.CancelledError:
+                # Esc (test_break) says nothing; a job cancelled on the
+                # daemon by someone else is an error, not a silent blank.
+                if not self.test_break():
+                    self.report({"ERROR"}, "lensray: the render was cancelled "
+                                "before it finished (on the daemon, by another client)")
                 return
             except (lensray.LensrayError, ValueError) as e:
                 self.report({"ERROR"}, f"lensray: {e}")

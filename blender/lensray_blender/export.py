@@ -171,6 +171,9 @@ def material_dict(mat, warn, outdir):
                 warn.add(f"{where}: linked input {name!r} not mapped (its default used)")
             v = dflt
         vals[key] = v
+    alpha = _socket(surf, "Alpha")
+    if alpha is not None and (alpha.is_linked or alpha.default_value < 1.0):
+        warn.add(f"{where}: Alpha (cut-out transparency) not drawn, opaque")
     metal = float(vals["metal"])
     trans = float(vals["trans"]) * (1 - metal)
     diff = (1 - metal) * (1 - trans)
@@ -281,6 +284,14 @@ def _mesh_objects(depsgraph, outdir, materials, objects, warn):
             continue
         if any(ps for ps in getattr(ob, "particle_systems", [])):
             warn.add(f"object {ob.name!r}: particles/hair are not drawn")
+        # Ray visibility and holdout: lensray draws every object to every ray.
+        for attr, what in (("visible_camera", "camera"), ("visible_shadow", "shadow"),
+                           ("visible_diffuse", "diffuse"), ("visible_glossy", "glossy"),
+                           ("visible_transmission", "transmission")):
+            if not getattr(ob, attr, True):
+                warn.add(f"object {ob.name!r}: hidden from {what} rays, drawn visible")
+        if getattr(ob, "is_holdout", False):
+            warn.add(f"object {ob.name!r}: holdout drawn as the object")
         mw = inst.matrix_world.copy()
         mesh = ob.to_mesh()
         if mesh is None:
@@ -384,6 +395,9 @@ def _lights(scene, depsgraph, outdir, materials, objects, warn):
             lights.append({"type": "directional", "direction": _vec(axis),
                            "irradiance": _col(col, L.energy)})
         elif L.type == "AREA":
+            if getattr(L, "spread", math.pi) < math.pi - 1e-6:
+                warn.add(f"light {ob.name!r}: spread {math.degrees(L.spread):g} degrees "
+                         "drawn as 180 (a Lambertian emitter)")
             sx = L.size
             sy = L.size_y if L.shape in ("RECTANGLE", "ELLIPSE") else L.size
             if L.shape in ("DISK", "ELLIPSE"):
@@ -420,6 +434,9 @@ def _world(scene, warn):
     if ci.is_linked:
         src = ci.links[0].from_node
         if src.type == "TEX_ENVIRONMENT" and src.image is not None:
+            if src.inputs["Vector"].is_linked:
+                warn.add(f"world {w.name!r}: environment texture mapped through nodes "
+                         "(a Mapping node's rotation, say), drawn unmapped")
             path = bpy.path.abspath(src.image.filepath)
             if path.lower().endswith(".exr"):
                 return {"environment": {"file": path, "intensity": float(strength),
@@ -433,6 +450,10 @@ def camera_dict(scene, depsgraph, warn):
     cam_ob = scene.camera
     if cam_ob is None:
         raise ValueError("scene.camera: the scene has no camera")
+    # The camera as evaluated at the frame rendered: the original's
+    # matrix and data are not updated by a render's depsgraph, and every
+    # frame of an animation came out with the first frame's camera.
+    cam_ob = cam_ob.evaluated_get(depsgraph)
     cam = cam_ob.data
     mw = cam_ob.matrix_world
     pos = mw.translation
@@ -442,6 +463,11 @@ def camera_dict(scene, depsgraph, warn):
     W = int(r.resolution_x * r.resolution_percentage / 100)
     H = int(r.resolution_y * r.resolution_percentage / 100)
     aspect = (W * r.pixel_aspect_x) / (H * r.pixel_aspect_y)
+    if r.pixel_aspect_x != r.pixel_aspect_y:
+        warn.add(f"render: pixel aspect {r.pixel_aspect_x:g}:{r.pixel_aspect_y:g} "
+                 "drawn with square pixels (the frame's field of view kept)")
+    if r.film_transparent:
+        warn.add("film: transparent background drawn opaque (alpha 1)")
     if cam.type not in ("PERSP", "ORTHO"):
         warn.add(f"camera {cam.name!r}: {cam.type.lower()} projection drawn as perspective")
     fit = cam.sensor_fit
@@ -461,10 +487,23 @@ def camera_dict(scene, depsgraph, warn):
         warn.add(f"camera {cam.name!r}: lens shift rounded to whole pixels "
                  f"({dx:.2f}, {dy:.2f} -> {sx}, {sy})")
     FW, FH = W + 2 * abs(sx), H + 2 * abs(sy)
+    # Render Region (the border): the pixels Blender's pipeline asks for,
+    # int(border * size) in float32 as it computes them, rows from the
+    # bottom; the engine's result is that rectangle alone, which Blender
+    # crops to or pastes into the frame.
+    bx0, by0, bx1, by1 = 0, 0, W, H
+    if r.use_border:
+        import numpy as np
+        def cut(f, n):
+            return int(np.float32(f) * np.float32(n))
+        bx0, bx1 = cut(r.border_min_x, W), cut(r.border_max_x, W)
+        by0, by1 = cut(r.border_min_y, H), cut(r.border_max_y, H)
+        if bx1 <= bx0 or by1 <= by0:
+            raise ValueError("render.border: the render region holds no pixel")
     region = None
-    if (FW, FH) != (W, H):
+    if (FW, FH) != (W, H) or (bx0, by0, bx1, by1) != (0, 0, W, H):
         x0, y0 = abs(sx) + sx, abs(sy) - sy  # lensray's rows run down
-        region = [x0, y0, x0 + W, y0 + H]
+        region = [x0 + bx0, y0 + H - by1, x0 + bx1, y0 + H - by0]
     fov = math.degrees(2 * math.atan(tan_v * FH / H))
     d = {"position": _vec(pos), "look_at": _vec(pos + fwd), "up": _vec(up), "fov": fov}
     if cam.type == "ORTHO":
@@ -480,12 +519,19 @@ def camera_dict(scene, depsgraph, warn):
     dof = cam.dof
     focus = dof.focus_distance
     if dof.focus_object is not None:
-        focus = max(1e-3, (dof.focus_object.matrix_world.translation - pos).dot(fwd))
+        fo = dof.focus_object.evaluated_get(depsgraph)
+        focus = max(1e-3, (fo.matrix_world.translation - pos).dot(fwd))
     props = scene.lensray
     if props.lens:
-        lens = props.lens
-        d.update({"model": "lens", "lens": lens if os.path.exists(lens) else lens,
-                  "sensor_width_mm": cam.sensor_width * FW / W,
+        # A path relative to the .blend ("//lenses/x.json") as Blender
+        # resolves it; a shipped lens's name as it is.
+        lens = bpy.path.abspath(props.lens) if props.lens.startswith("//") else props.lens
+        # lensray's sensor width is the frame's horizontal extent: the
+        # sensor spans the fitted side (the long one under AUTO, the
+        # height under VERTICAL), as Blender's viewplane takes it.
+        width_mm = sensor if fit == "HORIZONTAL" else sensor * aspect
+        d.update({"model": "lens", "lens": lens,
+                  "sensor_width_mm": width_mm * FW / W,
                   "focus_distance": float(focus if dof.use_dof else 1e6),
                   "f_number": float(dof.aperture_fstop) if dof.use_dof else 0.0})
         del d["fov"]

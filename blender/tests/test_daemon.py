@@ -34,3 +34,26 @@ def test_unreachable_daemon_is_one_error(tmp_path):
     with pytest.raises(RuntimeError) as e:
         common.render_exr(sc, "LENSRAY", str(tmp_path / "x.exr"))
     assert "Daemon URL http://127.0.0.1:9" in str(e.value), e.value
+
+
+def test_job_cancelled_elsewhere_is_an_error(tmp_path, daemon, monkeypatch):
+    # Another client cancels the job (here at once, through the job's own
+    # handle): an error, where the render returned a blank in silence and
+    # Blender, asked to write it (-f, -a, write_still), crashed.
+    import lensray
+    submit = lensray.Client.submit
+
+    def submit_then_cancel(self, *a, **k):
+        job = submit(self, *a, **k)
+        job.cancel()
+        return job
+
+    monkeypatch.setattr(lensray.Client, "submit", submit_then_cancel)
+    sc = common.issue_scene("POINT", width=64, height=48)
+    sc.lensray.samples = 4096
+    sc.lensray.daemon_url = daemon.url
+    sc.render.engine = "LENSRAY"
+    # (Not written: the crash the old code met would end the suite.)
+    with pytest.raises(RuntimeError) as e:
+        bpy.ops.render.render(write_still=False)
+    assert "cancelled before it finished" in str(e.value), e.value

@@ -111,6 +111,120 @@ def test_unsupported_features_are_listed():
     assert "volume" in text and "ShaderNodeBsdfToon" in text, text
 
 
+def test_more_unsupported_features_are_listed():
+    # Each of these rendered differently from Cycles without a word (an
+    # independent check: spread 30 degrees mean 57% off, a Mapping node's
+    # 120-degree turn of the sky p90 10%, Alpha 0 p90 20%).
+    sc = common.issue_scene("AREA")
+    bpy.data.objects["Light"].data.spread = math.radians(30)
+    sc.render.pixel_aspect_x = 2.0
+    sc.render.film_transparent = True
+    p = bpy.data.materials["m_Cube"].node_tree.nodes["Principled BSDF"]
+    p.inputs["Alpha"].default_value = 0.0
+    sphere = bpy.data.objects["Sphere"]
+    sphere.visible_shadow = False
+    bpy.data.objects["Plane"].is_holdout = True
+    with tempfile.TemporaryDirectory() as tmp:
+        exr = os.path.join(tmp, "sky.exr")
+        img = bpy.data.images.new("sky", 8, 4, float_buffer=True)
+        img.filepath_raw = exr
+        img.file_format = "OPEN_EXR"
+        img.save()
+        w = sc.world.node_tree
+        env = w.nodes.new("ShaderNodeTexEnvironment")
+        env.image = bpy.data.images.load(exr)
+        mapping = w.nodes.new("ShaderNodeMapping")
+        w.links.new(mapping.outputs[0], env.inputs["Vector"])
+        w.links.new(env.outputs[0], w.nodes["Background"].inputs["Color"])
+        warn = set()
+        export.scene_dict(sc, bpy.context.evaluated_depsgraph_get(), tmp, warn)
+    text = "; ".join(sorted(warn))
+    for want in ("spread 30 degrees", "pixel aspect 2:1", "transparent background",
+                 "Alpha (cut-out transparency)", "'Sphere': hidden from shadow rays",
+                 "'Plane': holdout", "mapped through nodes"):
+        assert want in text, (want, text)
+
+
+def test_lens_sensor_width_follows_the_fit():
+    # lensray's sensor_width_mm is the frame's horizontal extent.  Blender
+    # applies the sensor width to the fitted side: under auto fit the long
+    # one (in a 120 x 160 portrait the height, so the width is 36 x 120 /
+    # 160 = 27 mm), under vertical fit the sensor height (24 mm over 120
+    # rows of a 160 x 120 frame: 32 mm across).  The width was taken as
+    # 36 mm in both: the lens drew 0.75x and 0.9x the frame Blender shows.
+    sc = common.issue_scene("POINT", width=120, height=160)
+    sc.lensray.lens = "double-gauss-50"
+    dg = bpy.context.evaluated_depsgraph_get()
+    d, _, _, _ = export.camera_dict(sc, dg, set())
+    assert d["model"] == "lens" and d["sensor_width_mm"] == pytest.approx(27.0, rel=1e-9)
+    sc.render.resolution_x, sc.render.resolution_y = 160, 120
+    sc.camera.data.sensor_fit = "VERTICAL"
+    sc.camera.data.sensor_height = 24
+    d, _, _, _ = export.camera_dict(sc, bpy.context.evaluated_depsgraph_get(), set())
+    assert d["sensor_width_mm"] == pytest.approx(32.0, rel=1e-9)
+
+
+def test_lens_path_relative_to_the_blend(tmp_path):
+    # "//mylens.json" is the file beside the saved .blend, as Blender
+    # resolves it (the render failed: no such file beside the scene).
+    import shutil
+    common.issue_scene("POINT", width=48, height=32)
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "rel.blend"))
+    shutil.copy(os.path.join(common.ROOT, "lenses", "double-gauss-50.json"),
+                tmp_path / "mylens.json")
+    sc = bpy.context.scene
+    sc.lensray.lens = "//mylens.json"
+    d, _, _, _ = export.camera_dict(sc, bpy.context.evaluated_depsgraph_get(), set())
+    assert d["lens"] == str(tmp_path / "mylens.json")
+    sc.lensray.samples = 4
+    a = common.render_exr(sc, "LENSRAY", str(tmp_path / "rel.exr"))
+    assert a.shape == (32, 48, 3) and a.mean() > 0.01
+
+
+def test_render_region_is_the_frames_crop(tmp_path):
+    # A Render Region (border) is the full frame's pixels there, bit for
+    # bit (lensray renders a region as a crop), cropped or pasted into the
+    # frame.  The whole frame's pixels were written into the region's
+    # pass: a striped picture.
+    sc = common.issue_scene("POINT", width=80, height=60)
+    sc.lensray.samples = 8
+    full = common.render_exr(sc, "LENSRAY", str(tmp_path / "full.exr"))
+    r = sc.render
+    r.use_border = True
+    r.border_min_x, r.border_max_x, r.border_min_y, r.border_max_y = 0.25, 0.75, 0.1, 0.6
+    r.use_crop_to_border = True
+    crop = common.render_exr(sc, "LENSRAY", str(tmp_path / "crop.exr"))
+    # x 20..60, y from the bottom 6..36: rows from the top 24..54.
+    assert crop.shape == (30, 40, 3)
+    assert np.array_equal(crop, full[24:54, 20:60])
+    r.use_crop_to_border = False
+    pasted = common.render_exr(sc, "LENSRAY", str(tmp_path / "pasted.exr"))
+    assert pasted.shape == (60, 80, 3)
+    assert np.array_equal(pasted[24:54, 20:60], full[24:54, 20:60])
+
+
+def test_animation_renders_each_frames_camera(tmp_path):
+    # The camera moved between frames 1 and 2: frame 2 of an animation is
+    # the still rendered at frame 2 (it was frame 1's camera, every frame).
+    sc = common.issue_scene("POINT", width=48, height=32)
+    cam = sc.camera
+    cam.keyframe_insert("location", frame=1)
+    cam.location.x += 2.0
+    cam.keyframe_insert("location", frame=2)
+    sc.frame_start, sc.frame_end = 1, 2
+    sc.lensray.samples = 4
+    sc.render.engine = "LENSRAY"
+    sc.frame_set(1)
+    sc.render.filepath = str(tmp_path / "anim_####")
+    bpy.ops.render.render(animation=True)
+    sc.frame_set(2)
+    still = common.render_exr(sc, "LENSRAY", str(tmp_path / "still2.exr"))
+    f1 = common.load_exr(tmp_path / "anim_0001.exr")
+    f2 = common.load_exr(tmp_path / "anim_0002.exr")
+    assert np.array_equal(f2, still)
+    assert not np.array_equal(f1, f2)
+
+
 def test_bad_lens_names_the_field():
     sc = common.issue_scene("POINT")
     sc.lensray.lens = "no-such-lens"
