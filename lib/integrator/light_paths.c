@@ -277,16 +277,27 @@ static int to_lens(const walk *w, uint32_t dim, lr__v3 x, lr__v3 *P,
     return lr__cam_land(w->c, w->lp->wl, w->u_wl, ox, oy, *dir, ld);
 }
 
+/* A hit's geometric normal on the surface's outside (its front). */
+static lr__v3 outward(const lr__hit *h)
+{
+    return h->entering ? h->ng : v3_neg(h->ng);
+}
+
 /* Whether the camera ray from P along dir meets geometry geom first, at
- * distance dist (to 1e-4 of it); the hit in *h. */
+ * distance dist (to 1e-4 of it), on the sheet of the vertex whose
+ * outward normal is out; the hit in *h.  (The sheet: near a sphere's
+ * outline its near and far sheets lie within 1e-4 of each other, and a
+ * light shut inside a grey sphere reached the camera through the inside
+ * of its far wall, some 1e-5 of the light.) */
 static int camera_meets(const walk *w, lr__v3 P, lr__v3 dir, double dist,
-                        long geom, lr__hit *h)
+                        long geom, lr__v3 out, lr__hit *h)
 {
     lr__v3 o = lr__cam_ray_start(w->c, P, dir);
     dist -= sqrt(v3_dot(v3_sub(o, P), v3_sub(o, P)));
     (*w->rays)++;
     return dist > 0.0 && lr__trace(w->s, o, dir, INFINITY, h) &&
-           h->geom == geom && fabs(h->t - dist) <= 1e-4 * dist + 4.0 * h->eps;
+           h->geom == geom && fabs(h->t - dist) <= 1e-4 * dist + 4.0 * h->eps &&
+           !(v3_dot(outward(h), dir) * v3_dot(out, dir) < 0.0);
 }
 
 static void add(const walk *w, const lr__landing *ld, lr__v3 v)
@@ -308,7 +319,7 @@ static void join_emitter(const walk *w, lr__v3 y, lr__v3 n, lr__v3 Le,
         return;
     double cos_y = -v3_dot(dir, n);
     lr__hit h;
-    if (!(cos_y > 0.0) || !camera_meets(w, P, dir, dist, geom, &h) ||
+    if (!(cos_y > 0.0) || !camera_meets(w, P, dir, dist, geom, n, &h) ||
         !h.entering)
         return;
     add(w, &ld, v3_scale(Le, cos_y / (dist * dist * pdf_A) * w->inv_n));
@@ -345,7 +356,7 @@ static void join_vertex(const walk *w, const lr__hit *h, const lr__bsdf *f,
     if (!(v3_maxc(fv) > 0.0) || !(ngp > 0.0))
         return;
     lr__hit hc;
-    if (!camera_meets(w, P, dir, dist, h->geom, &hc))
+    if (!camera_meets(w, P, dir, dist, h->geom, outward(h), &hc))
         return;
     double g = fabs(v3_dot(h->ns, wp)) / ngp * fabs(v3_dot(h->ng, wc)) /
                (dist * dist);
