@@ -210,6 +210,63 @@ static void test_plan_skips_what_it_can(void **state)
     lr_image_free(pin);
 }
 
+/* Fine detail blurred just under a quarter pixel: dark stripes 0.6 px
+ * wide every 1.37 px, 0.01 before a white wall, the thin lens focused
+ * in front of them so that they blur 0.23 px.  At 64 spp the plan skips
+ * the lens there (a blur under a quarter pixel); but a skipped blur is
+ * a bias that more samples do not remove, and at 1024 spp the planned
+ * image erred 8x as much as the full simulation.  The bound now
+ * shrinks past 128 spp (plan.h: lr__plan_blur_px): at 1024 spp the
+ * planned error is within 1.2x of the full simulation's. */
+static void test_plan_bias_shrinks_with_spp(void **state)
+{
+    (void)state;
+    /* 48 x 32 at fov 40: fpx = 16 / tan 20 deg; a pixel at 6.15 is
+     * 6.15 / fpx across; blur 2 R fpx |1 / 6.15 - 1 / 6| = 0.228 px. */
+    const double fpx = 16.0 / tan(20.0 * M_PI / 180.0), px = 6.15 / fpx;
+    const double R = 0.228 / (2.0 * fpx * (1.0 / 6.0 - 1.0 / 6.15));
+    char scene[8192];
+    int n = snprintf(
+        scene, sizeof scene,
+        "{\"camera\": {\"model\": \"thinlens\", \"fov\": 40,"
+        " \"focus_distance\": 6, \"aperture_radius\": %.9g},"
+        " \"render\": {\"width\": 48, \"height\": 32},"
+        " \"materials\": {\"w\": {\"diffuse\": 0.8}, \"k\": {\"diffuse\": "
+        "0.05}},"
+        " \"lights\": [{\"type\": \"ambient\", \"radiance\": 1}],"
+        " \"objects\": [{\"type\": \"plane\", \"point\": [0, 0, -6.16],"
+        " \"normal\": [0, 0, 1], \"size\": [20, 20], \"material\": \"w\"}",
+        R);
+    for (double x = -3.4; x < 3.4; x += 1.37 * px)
+        n += snprintf(scene + n, sizeof scene - (size_t)n,
+                      ", {\"type\": \"plane\", \"point\": [%.9g, 0, -6.15],"
+                      " \"normal\": [0, 0, 1], \"size\": [%.9g, 4],"
+                      " \"material\": \"k\"}",
+                      x, 0.6 * px);
+    snprintf(scene + n, sizeof scene - (size_t)n, "]}");
+    const char *ref_sets[] = {"render.spp=8192", "render.plan=false",
+                              "render.adaptive=false", "render.seed=99"};
+    const char *full_sets[] = {"render.spp=1024", "render.plan=false",
+                               "render.adaptive=false"};
+    const char *plan_sets[] = {"render.spp=1024", "render.adaptive=false"};
+    const char *low_sets[] = {"render.spp=64", "render.adaptive=false"};
+    lr_render_stats st;
+    lr_image *low = lr_test_render(scene, low_sets, 2, &st);
+    assert_int_equal(st.lens_pixels, 0); /* the quarter pixel at 64 spp */
+    lr_image *ref = lr_test_render(scene, ref_sets, 4, NULL);
+    lr_image *full = lr_test_render(scene, full_sets, 3, NULL);
+    lr_image *plan = lr_test_render(scene, plan_sets, 2, &st);
+    double ef = lr_test_rmse(full, ref), ep = lr_test_rmse(plan, ref);
+    print_message("stripes at 1024 spp: RMSE full %.3g, planned %.3g "
+                  "(%.2fx), lens on %.0f%% of the pixels\n",
+                  ef, ep, ep / ef, 100.0 * st.lens_pixels / st.pixels);
+    assert_true(ep * ep <= 1.2 * ef * ef);
+    lr_image_free(low);
+    lr_image_free(ref);
+    lr_image_free(full);
+    lr_image_free(plan);
+}
+
 /* Adaptive sampling spends samples where the noise is: a flat region
  * converges at the pilot, the blurred edges get more; and its choices
  * depend only on each pixel's neighbourhood, so crops and thread counts
@@ -492,6 +549,7 @@ static const struct CMUnitTest plan_tests[] = {
     cmocka_unit_test(test_mirror_shows_other_depths),
     cmocka_unit_test(test_rough_lobes_keep_the_plan),
     cmocka_unit_test(test_plan_skips_what_it_can),
+    cmocka_unit_test(test_plan_bias_shrinks_with_spp),
     cmocka_unit_test(test_adaptive_deterministic),
     cmocka_unit_test(test_adaptive_error),
     cmocka_unit_test(test_adaptive_schedule),

@@ -48,8 +48,8 @@ static void finish(lr__plan *p, const lr__cam *c, const lr_render_settings *set)
 
 static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
                            const lr__lens_blur *lb, int dither, int rough,
-                           const unsigned char *dark, int x0, int y0, int x1,
-                           int y1, lr_error *err);
+                           double blur_px, const unsigned char *dark, int x0,
+                           int y0, int x1, int y1, lr_error *err);
 static unsigned char *dark_geoms(const lr_scene *s, const lr__lt *lt, int *all);
 
 /* The light side's copy of the dark blocks, which it needs when one of
@@ -157,7 +157,8 @@ lr_status lr__plan_build(lr__plan *p, const lr_scene *s, const lr__cam *c,
         /* Whitted's mirrors and glass are smooth; the other
          * integrators' are GGX lobes of their roughness (bsdf.c). */
         int rough = set->integrator != LR_INTEGRATOR_WHITTED;
-        lr_status st = plan_blur(p, s, c, lb, dither, rough, dark, gx0, gy0,
+        lr_status st = plan_blur(p, s, c, lb, dither, rough,
+                                 lr__plan_blur_px(set->spp), dark, gx0, gy0,
                                  gx1, gy1, err);
         if (st != LR_OK) {
             free(dark);
@@ -317,8 +318,8 @@ static void planes_reach(const lr_scene *s, const lens *L,
  * colours' blurs differ by less, one ray for all. */
 static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
                            const lr__lens_blur *lb, int dither, int rough,
-                           const unsigned char *dark, int x0, int y0, int x1,
-                           int y1, lr_error *err)
+                           double blur_px, const unsigned char *dark, int x0,
+                           int y0, int x1, int y1, lr_error *err)
 {
     lens L;
     lr__plan_make_lens(c, &L);
@@ -422,9 +423,8 @@ static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
                  * the depths it sees, always). */
                 bp->lens = 1;
                 bp->chroma = lb != NULL ||
-                             (L.n_w > 1 &&
-                              lr__plan_chroma_spread(&L, 0.0, 1.0 / NEAR) >=
-                                  LR__PLAN_BLUR_PX);
+                             (L.n_w > 1 && lr__plan_chroma_spread(
+                                               &L, 0.0, 1.0 / NEAR) >= blur_px);
                 continue;
             }
             if (lb != NULL) {
@@ -432,8 +432,8 @@ static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
                 double spot, col;
                 int ok = lr__lens_blur_bound(c, lb, px0, py0, fx1, fy1, zmin,
                                              zmax, &spot, &col);
-                bp->lens = dither || !ok || spot >= LR__PLAN_BLUR_PX;
-                bp->chroma = !ok || col >= LR__PLAN_BLUR_PX;
+                bp->lens = dither || !ok || spot >= blur_px;
+                bp->chroma = !ok || col >= blur_px;
                 continue;
             }
             double x_lo = isfinite(zmax) ? 1.0 / zmax : 0.0;
@@ -444,9 +444,9 @@ static lr_status plan_blur(lr__plan *p, const lr_scene *s, const lr__cam *c,
                 blur = fmax(
                     blur, 2.0 * L.R * L.fpx *
                               fmax(fabs(x_lo - L.ws[k]), fabs(x_hi - L.ws[k])));
-            bp->lens = dither || blur >= LR__PLAN_BLUR_PX;
-            bp->chroma = L.n_w > 1 && lr__plan_chroma_spread(&L, x_lo, x_hi) >=
-                                          LR__PLAN_BLUR_PX;
+            bp->lens = dither || blur >= blur_px;
+            bp->chroma = L.n_w > 1 &&
+                         lr__plan_chroma_spread(&L, x_lo, x_hi) >= blur_px;
         }
     lr__plan_put_boxes(s, set);
     free(lobes);
