@@ -302,6 +302,44 @@ wait_for() {
     cmp "$BATS_TEST_TMPDIR/local.exr" "$BATS_TEST_TMPDIR/farm.exr"
 }
 
+@test "farm: every daemon's queue full, the parts wait behind nginx and the frame completes" {
+    # nginx counted a 429 (listed in proxy_next_upstream) as a failure:
+    # with max_fails=1 one 429 a daemon took every daemon out for 10 s,
+    # nginx answered 502 "no live upstreams", and the parts spent their
+    # --retries on those and the frame was lost, every daemon healthy.
+    cd "$REPO"
+    "$LENSRAY" render scenes/spheres.json -o "$BATS_TEST_TMPDIR/local.exr" $SIZE -q
+    local dir="$BATS_TEST_TMPDIR/farm-full" k dport id ids=""
+    FARM2="$dir"
+    FARM_WORKERS=1 FARM_FLAGS="--queue 0" start_farm_free_port 2 "$dir"
+    # A long job holds each daemon's one worker.
+    for k in 1 2; do
+        dport=$(cat "$dir/daemon-$k.port")
+        id=$(curl -sf -H 'Content-Type: application/json' \
+            -d '{"scene": "bench", "render": {"spp": 20000}}' \
+            "http://127.0.0.1:$dport/v1/jobs" | sed -n 's/.*"id":"\([0-9a-f]*\)".*/\1/p')
+        [ -n "$id" ]
+        ids="$ids $k:$id"
+        until curl -sf "http://127.0.0.1:$dport/v1/jobs/$id" | grep -q '"status":"running"'; do
+            sleep 0.05
+        done
+    done
+    "$LENSRAY" render scenes/spheres.json -o "$BATS_TEST_TMPDIR/farm.exr" $SIZE \
+        --remote "http://127.0.0.1:$PORT" --parts 2 --retries 0 \
+        >"$BATS_TEST_TMPDIR/out" 2>"$BATS_TEST_TMPDIR/err" 3>&- &
+    CLIENT_PID=$!
+    wait_for "$BATS_TEST_TMPDIR/err" "HTTP 429: the queue is full"
+    sleep 1 # a second round of 429s, which took the daemons out
+    for k in $ids; do
+        dport=$(cat "$dir/daemon-${k%%:*}.port")
+        curl -sf -X DELETE "http://127.0.0.1:$dport/v1/jobs/${k#*:}" >/dev/null
+    done
+    wait "$CLIENT_PID"
+    CLIENT_PID=
+    cmp "$BATS_TEST_TMPDIR/local.exr" "$BATS_TEST_TMPDIR/farm.exr"
+    ! grep -q 'HTTP 502' "$BATS_TEST_TMPDIR/err"
+}
+
 @test "--remote: a part the daemon refuses stops the render with its message (exit 3)" {
     cd "$REPO"
     run -3 "$LENSRAY" render scenes/spheres.json -o "$BATS_TEST_TMPDIR/x.png" \
