@@ -215,12 +215,28 @@ t=-e[1]/d[1]; print(t*sum(d[i]*f[i] for i in range(3)))')
     browser_check download
 }
 
+@test "browser: a change leaves the finished job of the shown picture on the daemon" {
+    browser_check kept
+}
+
+@test "browser: a click on a pixel that sees nothing is said once; the next change renders" {
+    browser_check sky-click
+}
+
+@test "browser: the EXR download is the shown picture's job, whatever the controls say since" {
+    browser_check exr-shown
+}
+
 @test "browser: the lens model and the shipped lenses come from the daemon, and the page renders through one" {
     browser_check lens
 }
 
 @test "browser: a token refused mid-session is asked for again, and the page starts over without doubled lists or handlers" {
     browser_check token-again
+}
+
+@test "browser: a token no header can carry is asked for again, with the reason" {
+    browser_check token-ascii
 }
 
 @test "browser: a picture that cannot be fetched is an error on the page, not an uncaught exception" {

@@ -58,6 +58,15 @@ const state = {
 // reads, not the browser's bare "Failed to fetch".
 async function api(method, path, body) {
   const headers = {};
+  // A header carries printable ASCII only: fetch refused the whole
+  // request for a typographic quote, and the page, with the token kept,
+  // stayed locked even after a reload.
+  if (state.token && !/^[\x21-\x7e]+$/.test(state.token)) {
+    state.token = "";
+    sessionStorage.removeItem("lensray-token");
+    askToken("a token holds printable ASCII characters only (no spaces or typographic quotes)");
+    throw new Error("unauthorized");
+  }
   if (state.token) headers["Authorization"] = "Bearer " + state.token;
   if (body !== undefined) headers["Content-Type"] = "application/json";
   let res;
@@ -188,7 +197,17 @@ function buildCameraKeys() {
       input.type = "number";
       input.step = "any";
       input.value = state.values[key];
-      input.addEventListener("change", () => { state.values[key] = Number(input.value); changed(); });
+      input.addEventListener("change", () => {
+        const v = Number(input.value);
+        // An emptied box is 0 to Number(), letters NaN: said as typed.
+        if (input.value.trim() === "" || !Number.isFinite(v)) {
+          setStatus("camera." + key + ": \"" + input.value + "\" is not a number", true);
+          document.body.dataset.state = "error";
+          return;
+        }
+        state.values[key] = v;
+        changed();
+      });
     } else if (typeof def === "string") {
       // A name the page has no list for (a lens of a model to come, say).
       input = document.createElement("input");
@@ -241,6 +260,17 @@ function chooseScene(name) {
   $("spp").value = String(SPP_CHOICES.find((c) => c >= spp) || SPP_CHOICES[SPP_CHOICES.length - 1]);
   $("sampler").value = state.scene.render.sampler;
   chooseModel(state.scene.camera.model);
+  // A scene that focuses by a pixel (camera.focus_on): the same place of
+  // the page's frame, as if clicked (its pixel is in the scene's frame,
+  // and the page's size is another: 1/4 size missed or left the frame).
+  const fo = state.scene.camera.focus_on;
+  if (state.model.autofocus && Array.isArray(fo)) {
+    const scale = Number($("size").value);
+    const w = Math.max(1, Math.round(state.scene.render.width * scale));
+    const h = Math.max(1, Math.round(state.scene.render.height * scale));
+    state.focusOn = [Math.min(w - 1, Math.floor((fo[0] + 0.5) * scale)),
+                     Math.min(h - 1, Math.floor((fo[1] + 0.5) * scale))];
+  }
 }
 
 // ---- jobs ---------------------------------------------------------------
@@ -251,7 +281,11 @@ function jobBody(spp, format) {
   for (const key of Object.keys(state.model.defaults))
     if (!FRAME_KEYS.includes(key) && key in state.values) camera[key] = state.values[key];
   if ($("key-lens")) camera.lens = state.values.lens;
+  // A click's pixel until the daemon resolves it; else the controls'
+  // focus, which must replace a scene's own focus_on (or the scene's
+  // autofocus wins over every slider move).
   if (state.model.autofocus && state.focusOn) camera.focus_on = state.focusOn;
+  else if (state.model.autofocus && state.scene.camera.focus_on) camera.focus_on = null;
   // "off" is sent too: a job's camera keys only replace the scene's.
   if (state.model.chromatic)
     camera.chromatic = $("chroma-mode").value === "off" ? {mode: "off"} :
@@ -289,10 +323,44 @@ async function cancel(job) {
 
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 
+// POST /v1/jobs; a full queue's 429 is said and sent again after its
+// Retry-After while the change is still the newest.  null: superseded.
+async function postJob(body, generation) {
+  for (;;) {
+    const res = await api("POST", "/v1/jobs", body);
+    let doc;
+    try {
+      doc = await res.json();
+    } catch (e) {
+      throw new Error("POST /v1/jobs: HTTP " + res.status + " " + res.statusText +
+                      ", and no JSON answer (" + e.message + ")");
+    }
+    if (res.ok) return doc;
+    const msg = doc.error ? doc.error.message : "HTTP " + res.status + " " + res.statusText;
+    if (res.status !== 429) throw new Error(msg);
+    const wait = Math.min(60, Math.max(1, Number(res.headers.get("Retry-After")) || 1));
+    setStatus(msg + "; trying again in " + wait + " s");
+    for (let t = 0; t < wait * 10; t++) {
+      if (generation !== state.generation) return null;
+      await sleep(100);
+    }
+  }
+}
+
+// A click's autofocus that failed (the pixel sees nothing): said once,
+// and the next change renders with the focus the controls show.
+function dropFocusClick() {
+  if (!state.focusOn) return;
+  state.focusOn = null;
+  $("focus-pixel").textContent = "";
+  $("focus-pixel").dataset.pixel = "";
+}
+
 // Renders one job to the end, or until a newer change supersedes it.
 // Returns its status document, or null when superseded.
 async function renderJob(body, generation) {
-  const created = await apiJSON("POST", "/v1/jobs", body);
+  const created = await postJob(body, generation);
+  if (created === null) return null;
   const job = {id: created.id, generation, deleted: false};
   if (generation !== state.generation) { await cancel(job); return null; }
   state.active = job;
@@ -301,8 +369,15 @@ async function renderJob(body, generation) {
     if (generation !== state.generation) { await cancel(job); return null; }
     const st = await apiJSON("GET", "/v1/jobs/" + job.id);
     if (st.camera) showFocus(st.camera);
-    if (st.status === "done" || st.status === "failed" || st.status === "cancelled") return st;
-    setStatus("rendering " + body.render.spp + " spp: " + Math.round(st.progress * 100) + "%");
+    if (st.status === "done" || st.status === "failed" || st.status === "cancelled") {
+      // Finished: no longer the page's to cancel.  (A change cancelled
+      // the shown picture's job, and a DELETE of a finished job removes
+      // it: page.md keeps finished jobs for --job-ttl.)
+      if (state.active === job) state.active = null;
+      return st;
+    }
+    setStatus(st.status === "queued" ? "waiting for a worker (" + body.render.spp + " spp)"
+              : "rendering " + body.render.spp + " spp: " + Math.round(st.progress * 100) + "%");
     // Polled often: a 1-spp picture takes tens of milliseconds.
     await sleep(st.status === "queued" ? 50 : 25);
   }
@@ -320,11 +395,16 @@ async function run() {
     try {
       st = await renderJob(body, generation);
     } catch (e) {
-      if (generation === state.generation) { setStatus(e.message, true); document.body.dataset.state = "error"; }
+      if (generation === state.generation) {
+        if (body.camera.focus_on) dropFocusClick();
+        setStatus(e.message, true);
+        document.body.dataset.state = "error";
+      }
       return;
     }
     if (st === null) return;
     if (st.status !== "done") {
+      if (body.camera.focus_on) dropFocusClick();
       setStatus(st.error ? st.error.message : st.status, true);
       document.body.dataset.state = "error";
       return;
@@ -468,8 +548,10 @@ function changed() {
 
 async function downloadExr() {
   if (!state.shown) return;
-  const body = jobBody(state.shown.body.render.spp, "exr");
-  body.camera = state.shown.body.camera;
+  // The shown picture's job itself, as EXR (the controls may have moved
+  // on: a scene or size chosen since is not what the picture shows).
+  const body = JSON.parse(JSON.stringify(state.shown.body));
+  body.output = {format: "exr"};
   setStatus("rendering the EXR ...");
   const job = await apiJSON("POST", "/v1/jobs", body);
   for (;;) {
@@ -504,7 +586,7 @@ async function start() {
     const health = await apiJSON("GET", "/healthz");
     if (health.token_required && !state.token) { askToken(""); return; }
   } catch (e) {
-    startFailed(e);
+    if (e.message !== "unauthorized") startFailed(e);
     return;
   }
   try {

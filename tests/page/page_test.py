@@ -310,6 +310,64 @@ def check_download(driver, daemon, ctx):
     return "%d bytes, equal" % len(got)
 
 
+def check_kept(driver, daemon, ctx):
+    """A change leaves the finished job whose picture is shown on the
+    daemon (page.md: finished jobs stay for --job-ttl); the page's
+    DELETE of its last job, finished, removed it (404)."""
+    shown = body_data(driver, "shown")
+    act(driver, lambda: move_focus(driver))
+    st = daemon.json("GET", "/v1/jobs/" + shown)
+    assert st["status"] == "done", "the shown job is %s" % st["status"]
+    return "job %s still there, done" % shown[:8]
+
+
+def check_sky_click(driver, daemon, ctx):
+    """A click on a pixel that sees nothing: its error once, then the
+    next change renders (the click's pixel was sent with every later
+    job, which all failed the same way)."""
+    img = driver.find_element(By.ID, "picture")
+    cw, ch = img.size["width"], img.size["height"]
+    before = series(driver)
+    ActionChains(driver).move_to_element_with_offset(
+        img, int(2 - cw / 2), int(2 - ch / 2)).click().perform()
+    until(driver, "the click's series", lambda: series(driver) > before)
+    until(driver, "the click's error", lambda: body_data(driver, "state") == "error")
+    said = driver.find_element(By.ID, "status").text
+    assert "focus_on" in said, "the error says %r" % said
+    act(driver, lambda: move_focus(driver))
+    assert body_data(driver, "state") == "done"
+    return "said %r, then rendered" % said[:60]
+
+
+def check_exr_shown(driver, daemon, ctx):
+    """The EXR is the shown picture's job: with the worker busy, the
+    size changed (the picture still the old one), the EXR job has the
+    shown job's scene, camera and size (it took the controls' own)."""
+    shown = daemon.json("GET", "/v1/jobs/" + body_data(driver, "shown"))
+    blocker = daemon.json("POST", "/v1/jobs", {
+        "scene": "tiny", "render": {"width": 32, "height": 24, "spp": 200000, "threads": 1,
+                                    "tile_size": 2, "adaptive": False}})["id"]
+    try:
+        daemon.wait_job(blocker, ["running"])
+        size = Select(driver.find_element(By.ID, "size"))
+        other = [o.get_attribute("value") for o in size.options
+                 if o.get_attribute("value") != size.first_selected_option.get_attribute("value")][0]
+        size.select_by_value(other)
+        before = {j["id"] for j in daemon.json("GET", "/v1/jobs")["jobs"]}
+        driver.find_element(By.ID, "dl-exr").click()
+        until(driver, "the EXR job", lambda: any(
+            j["format"] == "exr" for j in daemon.json("GET", "/v1/jobs")["jobs"] if j["id"] not in before))
+        exr = [j for j in daemon.json("GET", "/v1/jobs")["jobs"]
+               if j["id"] not in before and j["format"] == "exr"][0]
+    finally:
+        daemon.call("DELETE", "/v1/jobs/" + blocker)
+    st = daemon.wait_job(exr["id"], ["done", "failed", "cancelled"])
+    for k in ("scene", "width", "height", "spp", "camera"):
+        assert st[k] == shown[k], "the EXR's %s is %r, the picture's %r" % (k, st[k], shown[k])
+    wait_done(driver)
+    return "EXR job %s as job %s" % (exr["id"][:8], shown["id"][:8])
+
+
 def check_lens(driver, daemon, ctx):
     """The lens model, which GET /v1/options lists from the library, with
     a lens from GET /v1/lenses: the page renders through it."""
@@ -356,6 +414,24 @@ def check_token_again(driver, daemon, ctx):
     return "%d scenes, one series a change" % scenes
 
 
+def check_token_ascii(driver, daemon, ctx):
+    """A token with a character no header can carry (a typographic
+    quote, as a pasted token may have): the token form again, saying so,
+    and the right token then works.  fetch refused every request and the
+    token was kept: the page stayed locked, even after a reload."""
+    driver.execute_script("state.token = '\u201c' + arguments[0] + '\u201d';"
+                          "sessionStorage.setItem('lensray-token', state.token);", daemon.token)
+    driver.refresh()
+    until(driver, "the token form", lambda: driver.find_element(By.ID, "token").is_displayed())
+    said = driver.find_element(By.ID, "token-error").text
+    assert "ASCII" in said, "the token form says %r" % said
+    field = driver.find_element(By.ID, "token")
+    field.clear()
+    field.send_keys(daemon.token + Keys.ENTER)
+    wait_done(driver)
+    return "said %r" % said
+
+
 def check_lost_image(driver, daemon, ctx):
     """A picture that cannot be fetched after its job is done (the daemon
     gone in between: the page's fetch made to fail for /image) is an error
@@ -400,8 +476,9 @@ def check_daemon_gone(driver, daemon, ctx):
 
 
 CHECKS = [("load", check_load), ("cancel", check_cancel), ("focus", check_focus),
-          ("overlay", check_overlay), ("download", check_download), ("lens", check_lens),
-          ("token-again", check_token_again), ("lost-image", check_lost_image), ("daemon-gone", check_daemon_gone)]
+          ("overlay", check_overlay), ("download", check_download), ("kept", check_kept),
+          ("sky-click", check_sky_click), ("exr-shown", check_exr_shown), ("lens", check_lens),
+          ("token-again", check_token_again), ("token-ascii", check_token_ascii), ("lost-image", check_lost_image), ("daemon-gone", check_daemon_gone)]
 
 
 def run_checks(build, out):
