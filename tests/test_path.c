@@ -88,6 +88,28 @@ static void test_white_furnace(void **state)
     lr_image_free(img);
 }
 
+/* Glass of ior 1, rough or smooth, under a white sky: equal indices are
+ * no interface, so the sphere is invisible (1 everywhere).  The rough
+ * lobe's half vector wo + eta wi was zero for every refraction, and the
+ * sphere rendered 0.26 (a glTF ior of 0, read as 1, too). */
+static void test_ior_one_is_invisible(void **state)
+{
+    (void)state;
+    const char *json =
+        "{\"render\": {\"width\": 12, \"height\": 12, \"spp\": 64,"
+        "  \"integrator\": \"path\", \"adaptive\": false, \"max_depth\": 64},"
+        " \"camera\": {\"position\": [0, 0, 4], \"look_at\": [0, 0, 0],"
+        "  \"fov\": 20},"
+        " \"background\": 1,"
+        " \"materials\": {\"g\": {\"transmit\": 1, \"ior\": 1, \"roughness\": "
+        "0.3}},"
+        " \"objects\": [{\"type\": \"sphere\", \"center\": [0, 0, 0],"
+        "  \"radius\": 1, \"material\": \"g\"}]}";
+    lr_image *img = lr_test_render_json(json, "rough glass of ior 1");
+    expect(img, 0, 0, 12, 12, 1.0, 1e-6, 1e-6, "rough glass, ior 1");
+    lr_image_free(img);
+}
+
 /* ---- the emitting box ------------------------------------------------- */
 
 /* Six inward-facing walls of the cube [-1, 1]^3 (the camera inside), of
@@ -1182,6 +1204,7 @@ static void test_bad_input(void **state)
 
 static const struct CMUnitTest tests[] = {
     cmocka_unit_test(test_white_furnace),
+    cmocka_unit_test(test_ior_one_is_invisible),
     cmocka_unit_test(test_emitting_box),
     cmocka_unit_test(test_plane_under_sky),
     cmocka_unit_test(test_plane_under_envmap),

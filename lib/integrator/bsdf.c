@@ -38,10 +38,22 @@ static int rough(const lr__bsdf *f)
     return f->m->roughness >= LR__MIN_ROUGHNESS;
 }
 
+/* The dielectric lobe as GGX: rough, and an interface at all.  With ior
+ * 1 (allowed; a glTF ior of 0 is read as 1) a refraction is -wo, whose
+ * half vector wo + eta wi is zero: the rough lobe lost the transmitted
+ * light (a rough ior-1 sphere under a white sky rendered 0.26 where it
+ * is invisible).  Equal indices are no interface: the smooth lobe, which
+ * passes the ray straight on. */
+static int rough_dielectric(const lr__bsdf *f)
+{
+    return rough(f) && f->eta != 1.0;
+}
+
 int lr__bsdf_has_smooth_lobes(const lr__bsdf *f)
 {
     return f->p[DIFFUSE] > 0.0 || f->p[PHONG] > 0.0 ||
-           ((f->p[CONDUCTOR] > 0.0 || f->p[DIELECTRIC] > 0.0) && rough(f));
+           (f->p[CONDUCTOR] > 0.0 && rough(f)) ||
+           (f->p[DIELECTRIC] > 0.0 && rough_dielectric(f));
 }
 
 static lr__v3 to_local(const lr__bsdf *f, lr__v3 v)
@@ -190,7 +202,7 @@ static lr__v3 eval_local(const lr__bsdf *f, lr__v3 wo, lr__v3 wi, double *pdf)
             val = v3_add(val, conductor_eval(f, wo, wi, &q));
             p += f->p[CONDUCTOR] * q;
         }
-        if (f->p[DIELECTRIC] > 0.0) {
+        if (f->p[DIELECTRIC] > 0.0 && rough_dielectric(f)) {
             val = v3_add(val, dielectric_eval(f, wo, wi, &q));
             p += f->p[DIELECTRIC] * q;
         }
@@ -270,7 +282,8 @@ int lr__bsdf_sample(const lr__bsdf *f, lr__v3 wo_w, double u_lobe,
         }
         break;
     default: { /* DIELECTRIC */
-        lr__v3 m = rough(f) ? lr__ggx_sample_vn(wo, a, u) : v3(0, 0, 1);
+        lr__v3 m = rough_dielectric(f) ? lr__ggx_sample_vn(wo, a, u)
+                                       : v3(0, 0, 1);
         double F = fresnel(v3_dot(wo, m), f->eta);
         /* The Fresnel choice reuses the lobe number's unused part. */
         double lo = acc - f->p[DIELECTRIC];
@@ -281,7 +294,7 @@ int lr__bsdf_sample(const lr__bsdf *f, lr__v3 wo_w, double u_lobe,
             wi = v3_sub(v3_scale(m, 2.0 * v3_dot(wo, m)), wo);
         else if (!refract(wo, m, f->eta, &wi))
             return 0;
-        if (!rough(f)) {
+        if (!rough_dielectric(f)) {
             *wi_w = to_world(f, wi);
             double k = refl ? 1.0 : 1.0 / (f->eta * f->eta);
             *weight = v3_scale(f->m->transmit, k / f->p[DIELECTRIC]);
