@@ -340,6 +340,27 @@ wait_for() {
     ! grep -q 'HTTP 502' "$BATS_TEST_TMPDIR/err"
 }
 
+@test "--remote: the asset checks wait out a daemon that is not up yet, as the parts do (--retries)" {
+    # The parts were retried and the asset checks (HEAD, PUT) were not: a
+    # scene with a mesh failed at once (exit 4, "HTTP -1") where one
+    # without files waited for the daemon.
+    local dir="$BATS_TEST_TMPDIR" port pid
+    printf 'v -1 -1 -3\nv 1 -1 -3\nv 0 1 -3\nf 1 2 3\n' >"$dir/tri.obj"
+    printf '{"render": {"width": 32, "height": 24, "spp": 2}, "lights": [{"type": "ambient", "radiance": 1}], "objects": [{"type": "mesh", "file": "tri.obj"}]}' >"$dir/tri.json"
+    "$LENSRAY" render "$dir/tri.json" -o "$dir/local.exr" -q
+    mkdir -p "$dir/assets"
+    port=$((20000 + $(od -An -N2 -tu2 /dev/urandom) % 12000))
+    (sleep 1.5; exec "$BUILD/lensrayd" --port "$port" --bind 127.0.0.1 \
+        --scenes "$REPO/scenes" --assets "$dir/assets") >"$dir/d.log" 2>&1 3>&- &
+    pid=$!
+    SOLO_PID=$pid
+    run -0 "$LENSRAY" render "$dir/tri.json" -o "$dir/remote.exr" -q \
+        --remote "http://127.0.0.1:$port" --parts 1 --retries 6
+    cmp "$dir/local.exr" "$dir/remote.exr"
+    [[ "$output" == *"asset sha256:"*"trying again in 0.25 s (attempt 2 of 7)"* ]]
+    [[ "$output" != *"HTTP -1"* ]]
+}
+
 @test "--remote: a part the daemon refuses stops the render with its message (exit 3)" {
     cd "$REPO"
     run -3 "$LENSRAY" render scenes/spheres.json -o "$BATS_TEST_TMPDIR/x.png" \

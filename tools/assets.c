@@ -17,6 +17,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <time.h>
 
 enum { EXIT_SCENE = 3, EXIT_IO = 4 };
 
@@ -139,20 +140,54 @@ typedef struct known {
 
 struct assets_session {
     const char *url, *token;
-    int store; /* 0 once the daemons said they keep no assets */
+    int retries; /* further attempts of a request that failed for a
+                    reason that can pass, as --retries gives parts */
+    int store;   /* 0 once the daemons said they keep no assets */
     known *files;
     int n, cap, uploaded;
 };
 
-assets_session *assets_open(const char *url, const char *token)
+assets_session *assets_open(const char *url, const char *token, int retries)
 {
     assets_session *s = calloc(1, sizeof *s);
     if (s != NULL) {
         s->url = url;
         s->token = token;
+        s->retries = retries > 0 ? retries : 0;
         s->store = 1;
     }
     return s;
+}
+
+/* request() again, up to the session's retries, where the failure can
+ * pass (no connection, 5xx, 408, 429: a daemon restarting, a balancer
+ * with no live daemon for a moment), after 0.25 s, 0.5 s, ... 4 s as a
+ * part waits (remote.c).  The parts survived such an outage and the
+ * asset checks, one attempt each, failed the frame at once. */
+static long request_retried(const assets_session *s, const char *hex,
+                            const unsigned char *data, size_t len, answer *a)
+{
+    for (int attempt = 0;; attempt++) {
+        long status = request(s->url, s->token, hex, data, len, a);
+        int passing = status < 0 || status >= 500 || status == 408 ||
+                      status == 429;
+        if (!passing || attempt >= s->retries)
+            return status;
+        double wait = 0.25 * (double)(1 << (attempt < 4 ? attempt : 4));
+        char why[600];
+        if (status < 0)
+            snprintf(why, sizeof why, "%s", a->text);
+        else
+            snprintf(why, sizeof why, "HTTP %ld %s", status,
+                     a->text[0] ? a->text : "(no answer text)");
+        fprintf(stderr,
+                "lensray: asset sha256:%.12s...: %s; trying again in %g s "
+                "(attempt %d of %d)\n",
+                hex, why, wait, attempt + 2, s->retries + 1);
+        struct timespec ts = {(time_t)wait,
+                              (long)((wait - (double)(time_t)wait) * 1e9)};
+        nanosleep(&ts, NULL);
+    }
 }
 
 void assets_close(assets_session *s)
@@ -192,11 +227,11 @@ static int ensure(assets_session *s, const char *path, const char *what,
     sha256_hex(data, flen, hex);
     answer a;
     int rc = EXIT_IO;
-    long status = request(s->url, s->token, hex, NULL, 0, &a);
+    long status = request_retried(s, hex, NULL, 0, &a);
     /* A HEAD answer has no body, so a daemon without an asset store
      * is told apart by the PUT's answer (404 no_asset_store). */
     if (status == 404) {
-        status = request(s->url, s->token, hex, data, flen, &a);
+        status = request_retried(s, hex, data, flen, &a);
         if (status == 404 && strstr(a.text, "no_asset_store") != NULL) {
             s->store = 0;
             rc = 1;
@@ -221,10 +256,16 @@ static int ensure(assets_session *s, const char *path, const char *what,
                               ? "the daemon wants a valid bearer token "
                                 "(--token-file)"
                               : "no answer text";
-        fprintf(stderr,
-                "lensray: asking %s for asset sha256:%s failed: "
-                "%s (HTTP %ld)\n",
-                s->url, hex, why, status);
+        if (status < 0)
+            fprintf(stderr,
+                    "lensray: %s: %s: asking %s for asset sha256:%s (%s) "
+                    "failed: %s\n",
+                    what, field, s->url, hex, path, why);
+        else
+            fprintf(stderr,
+                    "lensray: %s: %s: asking %s for asset sha256:%s (%s) "
+                    "failed: %s (HTTP %ld)\n",
+                    what, field, s->url, hex, path, why, status);
         goto out;
     }
     if (s->n == s->cap) {

@@ -20,9 +20,11 @@ unsigned char *read_whole_file(const char *path, size_t *len);
  * asked about once. */
 typedef struct assets_session assets_session;
 
-/* A session for the daemons at url (bearer token or NULL); NULL when out
- * of memory.  Free with assets_close (NULL is a no-op). */
-assets_session *assets_open(const char *url, const char *token);
+/* A session for the daemons at url (bearer token or NULL), each request
+ * tried again up to `retries` times where its failure can pass (as
+ * --retries does for parts); NULL when out of memory.  Free with
+ * assets_close (NULL is a no-op). */
+assets_session *assets_open(const char *url, const char *token, int retries);
 void assets_close(assets_session *s);
 
 /* Distinct files the session's scenes named, and how many of them were

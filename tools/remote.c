@@ -530,7 +530,7 @@ int remote_render(const remote_options *o, int n, remote_load load,
     snprintf(b.endpoint, sizeof b.endpoint, "%.*s/v1/render",
              (int)(ul > 0 && o->url[ul - 1] == '/' ? ul - 1 : ul), o->url);
     int rc = EXIT_IO;
-    b.as = assets_open(o->url, o->token);
+    b.as = assets_open(o->url, o->token, o->retries);
     b.frames = calloc((size_t)(n > 0 ? n : 1), sizeof *b.frames);
     b.multi = curl_multi_init();
     if (b.as == NULL || b.frames == NULL || b.multi == NULL) {
