@@ -118,6 +118,12 @@ if [ -f "$dir/pids" ]; then
     echo "farm.sh: none of the processes in $dir/pids runs any more; starting anew" >&2
     rm -f "$dir/pids"
 fi
+# nginx workers left by a master that was SIGKILLed still hold the port:
+# the new nginx failed to bind it ("Address already in use") until a
+# second start, whose failed first had cleaned them up.
+for pid in $(orphan_workers "$dir"); do
+    kill -KILL "$pid" 2>/dev/null || true
+done
 # A smaller farm than the last one leaves no stale logs or ports behind.
 rm -f "$dir"/daemon-*.log "$dir"/daemon-*.port
 : >"$dir/pids"

@@ -157,6 +157,18 @@ wait_for() {
     run -0 sh "$REPO/farm/farm.sh" start "$BUILD" 1 "$port" "$dir" 3>&-
     [[ "$output" == *"starting anew"* ]]
     run -0 curl -sf "http://127.0.0.1:$port/healthz"
+    # SIGKILLed again, and started again with no farm-stop between: the
+    # orphaned nginx worker held the port and the start failed
+    # ("Address already in use"), until a second start.
+    while read -r name pid; do
+        kill -KILL "$pid"
+    done <"$dir/pids"
+    while read -r name pid; do
+        while alive "$pid"; do sleep 0.05; done
+    done <"$dir/pids"
+    run -0 sh "$REPO/farm/farm.sh" start "$BUILD" 1 "$port" "$dir" 3>&-
+    [[ "$output" == *"starting anew"* ]]
+    run -0 curl -sf "http://127.0.0.1:$port/healthz"
     cp "$dir/pids" "$BATS_TEST_TMPDIR/pids"
     run -0 sh "$REPO/farm/farm.sh" stop "$BUILD" "$dir"
     while read -r name pid; do
