@@ -174,6 +174,13 @@ def material_dict(mat, warn, outdir):
     alpha = _socket(surf, "Alpha")
     if alpha is not None and (alpha.is_linked or alpha.default_value < 1.0):
         warn.add(f"{where}: Alpha (cut-out transparency) not drawn, opaque")
+    # Principled layers lensray has no lobe for (Blender 4 names; 3.4's
+    # "Subsurface", "Clearcoat", "Sheen" are amounts as well).
+    for name, old in (("Coat Weight", "Clearcoat"), ("Subsurface Weight", "Subsurface"),
+                      ("Sheen Weight", "Sheen")):
+        sock = surf.inputs.get(name) or surf.inputs.get(old)
+        if sock is not None and (sock.is_linked or sock.default_value > 0.0):
+            warn.add(f"{where}: {name.split()[0].lower()} layer not drawn")
     metal = float(vals["metal"])
     trans = float(vals["trans"]) * (1 - metal)
     diff = (1 - metal) * (1 - trans)

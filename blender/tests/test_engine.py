@@ -121,6 +121,7 @@ def test_more_unsupported_features_are_listed():
     sc.render.film_transparent = True
     p = bpy.data.materials["m_Cube"].node_tree.nodes["Principled BSDF"]
     p.inputs["Alpha"].default_value = 0.0
+    p.inputs["Coat Weight"].default_value = 0.5
     sphere = bpy.data.objects["Sphere"]
     sphere.visible_shadow = False
     bpy.data.objects["Plane"].is_holdout = True
@@ -141,7 +142,7 @@ def test_more_unsupported_features_are_listed():
     text = "; ".join(sorted(warn))
     for want in ("spread 30 degrees", "pixel aspect 2:1", "transparent background",
                  "Alpha (cut-out transparency)", "'Sphere': hidden from shadow rays",
-                 "'Plane': holdout", "mapped through nodes"):
+                 "'Plane': holdout", "mapped through nodes", "coat layer not drawn"):
         assert want in text, (want, text)
 
 
