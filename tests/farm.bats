@@ -373,6 +373,23 @@ wait_for() {
     [[ "$output" != *"HTTP -1"* ]]
 }
 
+@test "--remote: a daemon that stops answering fails the part after --timeout, not never" {
+    # A SIGSTOPped daemon takes the connection (the kernel does) and sends
+    # nothing: the part waited for ever (only the connect had a bound).
+    cd "$REPO"
+    solo_daemon
+    kill -STOP "$SOLO_PID"
+    local t0=$SECONDS
+    run -4 timeout 60 "$LENSRAY" render scenes/spheres.json -o "$BATS_TEST_TMPDIR/x.exr" \
+        $SIZE --remote "$SOLO_URL" --parts 1 --retries 0 --timeout 2
+    kill -CONT "$SOLO_PID"
+    [ $((SECONDS - t0)) -lt 30 ]
+    [[ "$output" == *"no answer from the daemon for 2 s (--timeout)"* ]]
+    [ ! -e "$BATS_TEST_TMPDIR/x.exr" ]
+    run -2 "$LENSRAY" render scenes/spheres.json -o "$BATS_TEST_TMPDIR/x.exr" \
+        --remote "$SOLO_URL" --timeout 0
+}
+
 @test "--remote: a part the daemon refuses stops the render with its message (exit 3)" {
     cd "$REPO"
     run -3 "$LENSRAY" render scenes/spheres.json -o "$BATS_TEST_TMPDIR/x.png" \

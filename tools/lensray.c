@@ -6,7 +6,7 @@
  *                  [--stats] [--half] [--compression NAME] [--png16]
  *                  [--depth] [--quiet]
  *                  [--remote URL [--parts N] [--parallel K] [--retries R]
- *                   [--token-file F]]
+ *                   [--timeout S] [--token-file F]]
  *   lensray version
  *   lensray --help
  *
@@ -65,6 +65,8 @@ static const char usage_text[] =
     "  --parts N           parts to cut the frame into (default 16)\n"
     "  --parallel K        parts sent at a time (default 4)\n"
     "  --retries R         further attempts of a failed part (default 4)\n"
+    "  --timeout S         seconds a part may wait without a byte from the\n"
+    "                      daemon before it is sent again (default 660)\n"
     "  --token-file F      the daemons' bearer token, first line of F\n"
     "\n"
     "lens: prints a lens's first-order data and real chief rays as one JSON\n"
@@ -179,9 +181,10 @@ static int render_parse_args(render_job *r, int argc, char **argv,
             else
                 *token_file = argv[++i];
         } else if (strcmp(a, "--parts") == 0 || strcmp(a, "--parallel") == 0 ||
-                   strcmp(a, "--retries") == 0) {
+                   strcmp(a, "--retries") == 0 || strcmp(a, "--timeout") == 0) {
             int *dst = strcmp(a, "--parts") == 0      ? &r->ro.parts
                        : strcmp(a, "--parallel") == 0 ? &r->ro.parallel
+                       : strcmp(a, "--timeout") == 0  ? &r->ro.timeout
                                                       : &r->ro.retries;
             int lo = dst == &r->ro.retries ? 0 : 1;
             if (i + 1 >= argc || parse_int(argv[i + 1], lo, 100000, dst) != 0) {
@@ -343,7 +346,9 @@ static int cmd_render(int argc, char **argv)
     render_job r;
     memset(&r, 0, sizeof r);
     lr_output_options_default(&r.oo);
-    r.ro = (remote_options){NULL, NULL, 16, 4, 4, 0, &cancel_flag};
+    /* --timeout's default: the daemon's --max-render-seconds default
+     * (600) and a minute. */
+    r.ro = (remote_options){NULL, NULL, 16, 4, 4, 0, 660, &cancel_flag};
     const char *token_file = NULL, *remote_flag = NULL;
     char token[512];
     r.sets = calloc((size_t)argc + 1, sizeof *r.sets);
@@ -497,10 +502,19 @@ static int cmd_lens(int argc, char **argv)
 
 /* The long options that take a value: "--name=VALUE" is read as
  * "--name VALUE", as getopt_long does and as --set= always was. */
-static const char *const value_options[] = {
-    "--output",       "--set",        "--compression", "--remote",
-    "--token-file",   "--parts",      "--parallel",    "--retries",
-    "--field-angles", "--wavelength", "--coating",     NULL};
+static const char *const value_options[] = {"--output",
+                                            "--set",
+                                            "--compression",
+                                            "--remote",
+                                            "--token-file",
+                                            "--parts",
+                                            "--parallel",
+                                            "--retries",
+                                            "--timeout",
+                                            "--field-angles",
+                                            "--wavelength",
+                                            "--coating",
+                                            NULL};
 
 /* argv with every "--name=VALUE" of value_options split in two; NULL when
  * out of memory.  The strings stay argv's (names: the table's). */

@@ -150,6 +150,11 @@ static int start_part(CURLM *multi, part *p, const remote_options *o,
     curl_easy_setopt(p->easy, CURLOPT_WRITEDATA, p);
     curl_easy_setopt(p->easy, CURLOPT_PRIVATE, p);
     curl_easy_setopt(p->easy, CURLOPT_CONNECTTIMEOUT, 10L);
+    /* A daemon that stops answering (frozen, its machine gone without a
+     * reset) held the part for ever; a render sends nothing until it is
+     * done, so the bound is a render's longest (--timeout). */
+    curl_easy_setopt(p->easy, CURLOPT_LOW_SPEED_LIMIT, 1L);
+    curl_easy_setopt(p->easy, CURLOPT_LOW_SPEED_TIME, (long)o->timeout);
     curl_easy_setopt(p->easy, CURLOPT_NOSIGNAL, 1L);
     p->state = PART_RUNNING;
     p->attempts++;
@@ -345,7 +350,15 @@ static void finish_part(batch *b, part *p, CURLcode res, remote_done done,
     char why[512], name[64];
     label(b, p, name, sizeof name);
     int retry = 0;
-    if (res != CURLE_OK) {
+    /* Connected, then silent past --timeout (not the connect's 10 s). */
+    curl_off_t connected = 0;
+    curl_easy_getinfo(p->easy, CURLINFO_CONNECT_TIME_T, &connected);
+    if (res == CURLE_OPERATION_TIMEDOUT && !p->too_big && connected > 0) {
+        snprintf(why, sizeof why,
+                 "no answer from the daemon for %d s (--timeout)",
+                 b->o->timeout);
+        retry = 1;
+    } else if (res != CURLE_OK) {
         snprintf(why, sizeof why, "%s",
                  p->too_big ? "the answer is larger than the part's image"
                             : curl_easy_strerror(res));

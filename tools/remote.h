@@ -20,6 +20,8 @@ typedef struct remote_options {
     int parallel;      /* parts in flight at once */
     int retries;       /* further attempts of a failed part */
     int quiet;         /* no progress lines */
+    int timeout;       /* seconds a part may go without a byte from the
+                          daemon before it counts as failed (--timeout) */
     const volatile int *cancel; /* stops the render when non-zero */
 } remote_options;
 
