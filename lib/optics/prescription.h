@@ -140,12 +140,23 @@ static inline int lr__rx_aspheric(const lr__surface *s)
     return 0;
 }
 
-/* One lane of the packet traces (rx_trace.c: lr__rx_trace16; ghost16.c;
- * rx_asph16.c): where the ray o + t d (o relative to the vertex) meets
- * the quadric of curvature c and k1 = 1 + conic, the t of rx_trace.c's
- * intersect in the same operations, with selects for its early returns
- * so that a loop of lanes vectorises.  0 where intersect would fail
- * (then t is not meaningful). */
+/* Where the ray o + t d (o relative to the vertex) meets the quadric of
+ * curvature c and k1 = 1 + conic: rx_trace.c's intersect for one ray,
+ * and one lane of the packet traces (lr__rx_trace16; ghost16.c;
+ * rx_asph16.c), with selects for early returns so that a loop of lanes
+ * vectorises.  0 on a miss (then t is not meaningful).
+ *
+ * A t^2 + 2 B t + C = 0; the root taken is the one that becomes -C / 2B
+ * as the curvature goes to 0, i.e. the sheet through the vertex (not the
+ * far side of a sphere).  A ray that starts beyond the centre of
+ * curvature (a wide gap before a strongly curved surface) meets the far
+ * sheet first: then the other root, -den / A, is the vertex sheet's
+ * (where the quadric's gradient points toward +z).  A ray inside the
+ * sphere whose chord has both ends on the vertex sheet (a ghost's ray
+ * that a reflection turned back, leaving the sphere steeply): the root
+ * taken may lie behind it, and the one ahead is where it meets the
+ * surface (it was lost: ghost.c's cross; 1e-9 mm is cross()'s tolerance
+ * for a start on the surface). */
 static inline int lr__rx_lane_quadric(double c, double k1, double ox, double oy,
                                       double oz, double dx, double dy,
                                       double dz, double *t_out)
@@ -158,10 +169,10 @@ static inline int lr__rx_lane_quadric(double c, double k1, double ox, double oy,
     double den = B + copysign(sqrt(ok ? disc : 0.0), B);
     ok &= den != 0.0;
     double t = -C / (den != 0.0 ? den : 1.0);
-    double t1 = t, t2 = -den / (A != 0.0 ? A : 1.0); /* see intersect() */
+    double t1 = t, t2 = -den / (A != 0.0 ? A : 1.0);
     t = A != 0.0 && !(1.0 - c * k1 * (oz + t * dz) > 0.0) ? t2 : t;
-    /* The root ahead where the one taken lies behind and both are on the
-     * vertex sheet (intersect() says when). */
+    /* The root ahead where the one taken lies behind, both on the vertex
+     * sheet. */
     double u = t == t1 ? t2 : t1;
     t = A != 0.0 && t < -1e-9 && u > 0.0 && 1.0 - c * k1 * (oz + u * dz) > 0.0
             ? u

@@ -58,37 +58,10 @@ static int sag_at(const lr__surface *s, double r, double *sag, double *slope)
 static int intersect(const lr__surface *s, double c, double k1,
                      const double o[3], const double d[3], double p[3])
 {
-    /* A t^2 + 2 B t + C = 0; the root taken is the one that becomes
-     * -C / 2B as the curvature goes to 0, i.e. the sheet through the
-     * vertex (not the far side of a sphere). */
-    double A = c * (d[0] * d[0] + d[1] * d[1] + k1 * d[2] * d[2]);
-    double B = c * (o[0] * d[0] + o[1] * d[1] + k1 * o[2] * d[2]) - d[2];
-    double C = c * (o[0] * o[0] + o[1] * o[1] + k1 * o[2] * o[2]) - 2.0 * o[2];
-    double disc = B * B - A * C;
-    if (disc < 0.0)
-        return 0;
-    double den = B + copysign(sqrt(disc), B);
-    if (den == 0.0)
-        return 0;
-    double t = -C / den;
-    /* A ray that starts beyond the centre of curvature (a wide gap
-     * before a strongly curved surface) meets the far sheet first: then
-     * the other root, -den / A, is the vertex sheet's (where the
-     * quadric's gradient points toward +z, see below). */
-    if (A != 0.0 && !(1.0 - c * k1 * (o[2] + t * d[2]) > 0.0))
-        t = -den / A;
-    /* A ray inside the sphere whose chord has both ends on the vertex
-     * sheet (a ghost's ray that a reflection turned back, leaving the
-     * sphere steeply): the root taken may lie behind it, and the one
-     * ahead is where it meets the surface (it was lost: ghost.c's
-     * cross). 1e-9 mm: cross()'s tolerance for a start on the surface. */
-    if (A != 0.0 && t < -1e-9) {
-        double t1 = -C / den, t2 = -den / A;
-        double u = t == t1 ? t2 : t1;
-        if (u > 0.0 && 1.0 - c * k1 * (o[2] + u * d[2]) > 0.0)
-            t = u;
-    }
-    if (!isfinite(t))
+    /* The root on the vertex sheet, ahead of the ray: the packets'
+     * lr__rx_lane_quadric, which says how, in the same operations. */
+    double t;
+    if (!lr__rx_lane_quadric(c, k1, o[0], o[1], o[2], d[0], d[1], d[2], &t))
         return 0;
     for (int a = 0; a < 3; a++)
         p[a] = o[a] + t * d[a];
