@@ -72,16 +72,7 @@ lr_status lr_lens_ghosts_at(const char *lens, const char *base_dir, double nm,
         return lr__fail(err, LR_ERR_INVALID, NULL,
                         "lr_lens_ghosts: a lens name and an output pointer "
                         "are required");
-    if (!(nm >= 300 && nm <= 2000))
-        return lr__fail(err, LR_ERR_INVALID, "wavelength",
-                        "the wavelength must be between 300 and 2000 nm, "
-                        "got %g",
-                        nm);
-    if (!(fabs(field_deg) < 90))
-        return lr__fail(err, LR_ERR_INVALID, "field_angles",
-                        "field angle %g: must be within +-90 degrees "
-                        "(exclusive)",
-                        field_deg);
+    LR_TRY(lr__lens_check_args(&field_deg, 1, nm, err));
     if ((int)coating < 0 || (int)coating > 2)
         return lr__fail(err, LR_ERR_INVALID, NULL,
                         "lr_lens_ghosts: coating %d is not an lr_lens_coating",

@@ -253,9 +253,6 @@ static lr_status describe_rx(const lr__rx *rx, const double *angles,
     return LR_OK;
 }
 
-static lr_status check_args(const double *field_angles_deg, int n_angles,
-                            double nm, lr_error *err);
-
 lr_status lr_lens_describe(const char *lens, const char *base_dir,
                            const double *field_angles_deg, int n_angles,
                            double nm, char **json, lr_error *err)
@@ -266,7 +263,7 @@ lr_status lr_lens_describe(const char *lens, const char *base_dir,
         return lr__fail(err, LR_ERR_INVALID, NULL,
                         "lr_lens_describe: a lens name and an output "
                         "pointer are required");
-    LR_TRY(check_args(field_angles_deg, n_angles, nm, err));
+    LR_TRY(lr__lens_check_args(field_angles_deg, n_angles, nm, err));
     lr__rx *rx;
     LR_TRY(lr__rx_load_named(lens, base_dir, &rx, err));
     cJSON *o = NULL;
@@ -304,8 +301,8 @@ lr_status lr__json_print_owned(cJSON *o, char **json, lr_error *err)
     return LR_OK;
 }
 
-static lr_status check_args(const double *field_angles_deg, int n_angles,
-                            double nm, lr_error *err)
+lr_status lr__lens_check_args(const double *field_angles_deg, int n_angles,
+                              double nm, lr_error *err)
 {
     if (n_angles < 0 || (n_angles > 0 && field_angles_deg == NULL))
         return lr__fail(err, LR_ERR_INVALID, "field_angles",
@@ -335,7 +332,7 @@ lr_status lr_lenses_describe(const double *field_angles_deg, int n_angles,
         return lr__fail(err, LR_ERR_INVALID, NULL,
                         "lr_lenses_describe: an output pointer is required");
     *json = NULL;
-    LR_TRY(check_args(field_angles_deg, n_angles, nm, err));
+    LR_TRY(lr__lens_check_args(field_angles_deg, n_angles, nm, err));
     char(*names)[64] = malloc(64 * sizeof *names);
     cJSON *o = cJSON_CreateObject();
     cJSON *arr = o != NULL ? cJSON_AddArrayToObject(o, "lenses") : NULL;

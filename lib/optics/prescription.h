@@ -281,6 +281,12 @@ lr_status lr__rx_find(const char *name, const char *base_dir, char *out,
  * (lens_info.c; lr_lens_describe and lr_lens_ghosts). */
 lr_status lr__rx_load_named(const char *lens, const char *base_dir,
                             lr__rx **out, lr_error *err);
+/* The arguments of lr_lens_describe and lr_lens_ghosts_at: n_angles
+ * field angles (each within +-90 degrees, exclusive) and a wavelength in
+ * [300, 2000] nm; errors name "field_angles" or "wavelength"
+ * (lens_info.c). */
+lr_status lr__lens_check_args(const double *field_angles_deg, int n_angles,
+                              double nm, lr_error *err);
 /* Prints `o` compactly into *json (malloc'ed, for lr_free) and deletes
  * it; LR_ERR_NOMEM when o is NULL or printing fails (lens_info.c). */
 struct cJSON;
