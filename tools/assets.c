@@ -5,6 +5,7 @@
  * that does not), so the rewritten scene renders the same pixels.
  */
 #include "assets.h"
+#include "remote.h"
 
 #include "lensray.h"
 
@@ -169,11 +170,10 @@ static long request_retried(const assets_session *s, const char *hex,
 {
     for (int attempt = 0;; attempt++) {
         long status = request(s->url, s->token, hex, data, len, a);
-        int passing = status < 0 || status >= 500 || status == 408 ||
-                      status == 429;
-        if (!passing || attempt >= s->retries)
+        if (!(status < 0 || remote_status_passes(status)) ||
+            attempt >= s->retries)
             return status;
-        double wait = 0.25 * (double)(1 << (attempt < 4 ? attempt : 4));
+        double wait = remote_backoff(attempt + 1);
         char why[600];
         if (status < 0)
             snprintf(why, sizeof why, "%s", a->text);

@@ -375,7 +375,7 @@ static void finish_part(batch *b, part *p, CURLcode res, remote_done done,
         snprintf(why, sizeof why, "HTTP %ld: %s", status, text);
         /* 4xx is the request's fault and would come again; 408 and 429
          * (queue full) are the daemon's state. */
-        retry = status >= 500 || status == 408 || status == 429;
+        retry = remote_status_passes(status);
         if (!retry) {
             fprintf(stderr, "%slensray: %s refused: %s\n", o->quiet ? "" : "\n",
                     name, why);
@@ -443,7 +443,7 @@ static void finish_part(batch *b, part *p, CURLcode res, remote_done done,
      * only spent the attempts (4 s in all by default) while a farm
      * busy with long jobs said to come back in a minute. */
     int nth = busy ? p->busy : p->attempts;
-    double wait = 0.25 * (double)(1 << (nth < 5 ? nth - 1 : 4));
+    double wait = remote_backoff(nth);
     int as_asked = asked > 0 && (double)asked > wait;
     if (as_asked)
         wait = (double)asked < REMOTE_MAX_WAIT ? (double)asked

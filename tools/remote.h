@@ -13,6 +13,20 @@
 
 #include <stddef.h>
 
+/* Whether a daemon's HTTP answer is a failure that can pass (its state,
+ * not the request's fault): 5xx, 408, and a full queue's 429. */
+static inline int remote_status_passes(long status)
+{
+    return status >= 500 || status == 408 || status == 429;
+}
+
+/* The wait before sending again after the nth failure (1, 2, ...):
+ * 0.25 s, 0.5 s, ... up to 4 s. */
+static inline double remote_backoff(int nth)
+{
+    return 0.25 * (double)(1 << (nth < 5 ? nth - 1 : 4));
+}
+
 typedef struct remote_options {
     const char *url;   /* the daemon or balancer, "http://host:port" */
     const char *token; /* bearer token, or NULL */

@@ -208,11 +208,11 @@ double lr__lt_cam_share_max(const lr__cam *c, double kappa);
  * light's paths do not depend on which others are kept. */
 void lr__lt_keep(lr__lt *lt, const unsigned char *keep);
 
-/* The light pass's film: fixed-point sums over region [x0, x1) x [y0, y1)
- * of the frame. */
 /* Splats under this many of the film's units go to its fine sum. */
 #define LR__LT_FINE 4096.0
 
+/* The light pass's film: fixed-point sums over region [x0, x1) x [y0, y1)
+ * of the frame. */
 typedef struct lr__lt_film {
     int x0, y0, x1, y1;
     int64_t *sum; /* 3 per pixel, in units of 1 / scale */
