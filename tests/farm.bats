@@ -104,6 +104,18 @@ alive() {
     [ "$(sed 's/^.*) //' "/proc/$1/stat" 2>/dev/null | cut -c1)" != Z ]
 }
 
+# kill_farm_hard DIR: SIGKILLs every process DIR/pids names (the farm
+# dies without farm-stop) and waits until they are gone.
+kill_farm_hard() {
+    local name pid
+    while read -r name pid; do
+        kill -KILL "$pid"
+    done <"$1/pids"
+    while read -r name pid; do
+        while alive "$pid"; do sleep 0.05; done
+    done <"$1/pids"
+}
+
 # wait_for FILE PATTERN: until FILE has a line matching PATTERN (grep -E),
 # or the process CLIENT_PID has ended.  Fails if the pattern never came.
 wait_for() {
@@ -137,12 +149,7 @@ wait_for() {
     # The farm dies without farm-stop (a SIGKILL, a reboot): its pids file
     # stays, and a number in it comes to name another program (here
     # written in by hand: a reused pid).
-    while read -r name pid; do
-        kill -KILL "$pid"
-    done <"$dir/pids"
-    while read -r name pid; do
-        while alive "$pid"; do sleep 0.05; done
-    done <"$dir/pids"
+    kill_farm_hard "$dir"
     sleep 300 3>&- &
     SOLO_PID=$!
     sed -i "s/^daemon-1 .*/daemon-1 $SOLO_PID/" "$dir/pids"
@@ -160,12 +167,7 @@ wait_for() {
     # SIGKILLed again, and started again with no farm-stop between: the
     # orphaned nginx worker held the port and the start failed
     # ("Address already in use"), until a second start.
-    while read -r name pid; do
-        kill -KILL "$pid"
-    done <"$dir/pids"
-    while read -r name pid; do
-        while alive "$pid"; do sleep 0.05; done
-    done <"$dir/pids"
+    kill_farm_hard "$dir"
     run -0 sh "$REPO/farm/farm.sh" start "$BUILD" 1 "$port" "$dir" 3>&-
     [[ "$output" == *"starting anew"* ]]
     run -0 curl -sf "http://127.0.0.1:$port/healthz"

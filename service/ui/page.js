@@ -84,18 +84,26 @@ async function api(method, path, body) {
   return res;
 }
 
-// An answer that is not the daemon's JSON (a proxy's HTML error page, a
-// connection cut mid-body) is named by its status.
-async function apiJSON(method, path, body) {
-  const res = await api(method, path, body);
-  let doc;
+// An answer's JSON; one that is not the daemon's JSON (a proxy's HTML
+// error page, a connection cut mid-body) is named by its status.
+async function answerJSON(res, method, path) {
   try {
-    doc = await res.json();
+    return await res.json();
   } catch (e) {
     throw new Error(method + " " + path + ": HTTP " + res.status + " " + res.statusText +
                     ", and no JSON answer (" + e.message + ")");
   }
-  if (!res.ok) throw new Error(doc.error ? doc.error.message : "HTTP " + res.status + " " + res.statusText);
+}
+
+// The message of a failed answer's document.
+function answerError(res, doc) {
+  return doc.error ? doc.error.message : "HTTP " + res.status + " " + res.statusText;
+}
+
+async function apiJSON(method, path, body) {
+  const res = await api(method, path, body);
+  const doc = await answerJSON(res, method, path);
+  if (!res.ok) throw new Error(answerError(res, doc));
   return doc;
 }
 
@@ -328,15 +336,9 @@ const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 async function postJob(body, generation) {
   for (;;) {
     const res = await api("POST", "/v1/jobs", body);
-    let doc;
-    try {
-      doc = await res.json();
-    } catch (e) {
-      throw new Error("POST /v1/jobs: HTTP " + res.status + " " + res.statusText +
-                      ", and no JSON answer (" + e.message + ")");
-    }
+    const doc = await answerJSON(res, "POST", "/v1/jobs");
     if (res.ok) return doc;
-    const msg = doc.error ? doc.error.message : "HTTP " + res.status + " " + res.statusText;
+    const msg = answerError(res, doc);
     if (res.status !== 429) throw new Error(msg);
     const wait = Math.min(60, Math.max(1, Number(res.headers.get("Retry-After")) || 1));
     setStatus(msg + "; trying again in " + wait + " s");
