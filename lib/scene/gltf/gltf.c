@@ -567,21 +567,47 @@ static void warn_unread(lr_scene *s, const lr__gltf_doc *d)
     for (int k = 0; top[k]; k++)
         if (cJSON_GetObjectItemCaseSensitive(d->root, top[k]))
             lr__gltf_warn(s, d, "%s are ignored", top[k]);
-    int nm, np;
+    /* Attributes nothing reads, a warning a kind: the first place and
+     * how many primitives have it (a file may have thousands). */
+    static const char *const kinds[] = {"COLOR_", "TANGENT"};
+    static const char *const why[] = {
+        "vertex colours: the material's base colour alone is used",
+        "tangents come from each triangle's UVs"};
+    char first[2][96] = {"", ""};
+    int count[2] = {0, 0}, nm, np;
     const cJSON *meshes = lr__gltf_array(d->root, "meshes", &nm);
     int i = 0;
     for (const cJSON *m = meshes ? meshes->child : NULL; m; m = m->next, i++) {
         const cJSON *prims = lr__gltf_array(m, "primitives", &np);
         int j = 0;
-        for (const cJSON *p = prims ? prims->child : NULL; p; p = p->next, j++)
-            if (!cJSON_GetObjectItemCaseSensitive(
-                    cJSON_GetObjectItemCaseSensitive(p, "attributes"),
-                    "POSITION"))
+        for (const cJSON *p = prims ? prims->child : NULL; p;
+             p = p->next, j++) {
+            const cJSON *at = cJSON_GetObjectItemCaseSensitive(p, "attributes");
+            if (!cJSON_GetObjectItemCaseSensitive(at, "POSITION"))
                 lr__gltf_warn(s, d,
                               "meshes[%d].primitives[%d] has no "
                               "POSITION: not drawn (spec 3.7.2.1)",
                               i, j);
+            for (int k = 0; k < 2; k++)
+                for (const cJSON *a = cJSON_IsObject(at) ? at->child : NULL; a;
+                     a = a->next)
+                    if (a->string != NULL &&
+                        strncmp(a->string, kinds[k], strlen(kinds[k])) == 0) {
+                        if (count[k]++ == 0)
+                            snprintf(first[k], sizeof first[k],
+                                     "meshes[%d].primitives[%d].attributes."
+                                     "%.20s",
+                                     i, j, a->string);
+                        break;
+                    }
+        }
     }
+    for (int k = 0; k < 2; k++)
+        if (count[k] > 0)
+            lr__gltf_warn(s, d, "%s is ignored (%s)%s%.0d%s", first[k], why[k],
+                          count[k] > 1 ? "; so are those of " : "",
+                          count[k] > 1 ? count[k] - 1 : 0,
+                          count[k] > 1 ? " more primitives" : "");
 }
 
 lr_status lr__scene_add_gltf(lr_scene *s, const char *file, const char *shown,

@@ -51,18 +51,26 @@ static const char *unescape_uri(const char *u, char *out)
     return NULL;
 }
 
+/* Whether the URI reference u, as written (escapes not decoded), is an
+ * absolute URI: a colon in its first segment, which a relative path
+ * reference may not have (RFC 3986, 4.2; a colon there is spelled %3A).
+ * A colon after the first "/" is part of a file name ("sub/t:1.bin"). */
+static int names_scheme(const char *u)
+{
+    size_t first = strcspn(u, "/");
+    const char *colon = strchr(u, ':');
+    return colon != NULL && (size_t)(colon - u) < first;
+}
+
 /* A relative path below the glTF's directory, percent escapes decoded:
- * no scheme, no absolute path, no ".." segment, no backslash (which
- * could spell either), no control characters. */
+ * no absolute path, no ".." segment, no backslash (which could spell
+ * either), no control characters. */
 static const char *bad_uri(const char *u)
 {
     if (u[0] == '\0')
         return "is empty";
     if (u[0] == '/')
         return "is an absolute path";
-    if (strchr(u, ':') != NULL)
-        return "names a URI scheme (only data: URIs and relative paths "
-               "are read)";
     if (strchr(u, '\\') != NULL)
         return "has a backslash";
     for (const char *p = u; *p; p++)
@@ -144,7 +152,10 @@ lr_status lr__gltf_read_blob(lr__gltf_doc *d, const char *dir, const char *path,
     char *file = is_data ? NULL : malloc(strlen(uri) + 1);
     if (!is_data && file == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
-    const char *why = is_data ? NULL : unescape_uri(uri, file);
+    const char *why = is_data             ? NULL
+                      : names_scheme(uri) ? "names a URI scheme (only data: "
+                                            "URIs and relative paths are read)"
+                                          : unescape_uri(uri, file);
     if (!is_data && why == NULL)
         why = bad_uri(file);
     if (why != NULL) {
