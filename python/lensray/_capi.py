@@ -213,7 +213,9 @@ def _find() -> str:
         # An explicit choice is never second-guessed: a wrong one fails.
         if not Path(env).exists():
             raise OSError(f"LENSRAY_LIB={env}: no such file")
-        return env
+        # Absolute: dlopen looks a name without a slash up on the
+        # system's library path, not in the current directory.
+        return os.path.abspath(env)
     for p in candidate_paths():
         if p.exists():
             return str(p)
@@ -229,6 +231,7 @@ def _find() -> str:
 
 _lib: Optional[ctypes.CDLL] = None
 _lib_path: Optional[str] = None
+_progress_store: Optional[Any] = None
 
 
 def lib() -> ctypes.CDLL:
@@ -260,7 +263,12 @@ def library_path() -> str:
 def progress_store() -> Optional[Any]:
     """lr_progress_store as an lr_progress_fn for lr_render_settings, or
     None when the library predates it."""
-    fn = getattr(lib(), "lr_progress_store", None)
-    if fn is None:
-        return None
-    return ctypes.cast(ctypes.cast(fn, c_void_p), lr_progress_fn)
+    global _progress_store
+    if _progress_store is None:
+        fn = getattr(lib(), "lr_progress_store", None)
+        if fn is None:
+            return None
+        # Cast once: each ctypes.cast keeps its source alive in the
+        # function pointer's _objects, one entry (some 250 bytes) a render.
+        _progress_store = ctypes.cast(ctypes.cast(fn, c_void_p), lr_progress_fn)
+    return _progress_store

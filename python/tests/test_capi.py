@@ -109,6 +109,27 @@ def test_lensray_lib_chooses_the_library(tmp_path):
     assert r.stdout.strip() == str(lib)
 
 
+def test_lensray_lib_bare_name_is_the_file_here(tmp_path):
+    """A bare file name is the file in the current directory: dlopen took
+    it for a name to look up on the system's library path and failed."""
+    import shutil
+    import sys
+    shutil.copy(BUILD / "liblensray.so.0", tmp_path / "mylensray.so")
+    env = {"LENSRAY_LIB": "mylensray.so", "PATH": "/usr/bin:/bin"}
+    r = subprocess.run([sys.executable, "-c",
+                        "import lensray; print(lensray.library_path())"],
+                       capture_output=True, text=True, env=env, cwd=tmp_path,
+                       check=True)
+    assert r.stdout.strip() == str(tmp_path / "mylensray.so")
+
+
+def test_progress_store_is_cast_once():
+    """Each ctypes.cast kept its source in the function pointer's
+    _objects: one entry, some 250 bytes, leaked a render with progress."""
+    a = _capi.progress_store()
+    assert a is not None and _capi.progress_store() is a
+
+
 def test_cameras_are_not_mirrored():
     """The package passes cameras as the library's own (lr_camera_new)
     and knows no field of lr_camera, so a camera model's fields can change
