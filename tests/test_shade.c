@@ -381,6 +381,14 @@ static void count_progress(void *user, uint64_t done, uint64_t total)
     last[1] = total;
 }
 
+/* Cancels the render (user: the flag) once a quarter of the pixels
+ * are done. */
+static void cancel_at_quarter(void *user, uint64_t done, uint64_t total)
+{
+    if (4 * done >= total)
+        __atomic_store_n((volatile int *)user, 1, __ATOMIC_RELAXED);
+}
+
 static void test_progress_and_cancel(void **state)
 {
     (void)state;
@@ -404,9 +412,22 @@ static void test_progress_and_cancel(void **state)
     rs.cancel = &cancel;
     img = (lr_image *)0x1;
     lr_error err;
-    assert_int_equal(lr_render(s, &cam, &rs, &img, NULL, &err),
+    lr_render_stats st;
+    assert_int_equal(lr_render(s, &cam, &rs, &img, &st, &err),
                      LR_ERR_CANCELLED);
     assert_null(img);
+    /* The stats count the pixels rendered (they said the whole frame),
+     * as their samples do: none here, a quarter or more below. */
+    assert_int_equal(st.pixels, 0);
+    assert_int_equal(st.samples, 0);
+    cancel = 0;
+    rs.progress = cancel_at_quarter;
+    rs.progress_user = (void *)&cancel;
+    rs.adaptive = 0;
+    assert_int_equal(lr_render(s, &cam, &rs, &img, &st, &err),
+                     LR_ERR_CANCELLED);
+    assert_true(4 * st.pixels >= 37 * 23 && st.pixels < 37 * 23);
+    assert_int_equal(st.samples, st.pixels * (uint64_t)rs.spp);
     lr_scene_free(s);
 }
 

@@ -54,7 +54,7 @@ typedef struct worker {
     int index;  /* 0 .. threads - 1 */
     double cpu; /* CPU seconds of this thread in worker_main */
     lr__sample_counts counts;
-    uint64_t samples, dropped, lens_pixels, chroma_pixels;
+    uint64_t pixels, samples, dropped, lens_pixels, chroma_pixels;
     uint64_t light_landed, ghost_landed;
     lr__block_scratch scratch;
 } worker;
@@ -78,6 +78,7 @@ static void store_cb(void *ctx, int x, int y, const lr__pixel *acc)
 {
     worker *w = ctx;
     render *r = w->r;
+    w->pixels++;
     w->samples += acc->n;
     w->dropped += acc->dropped;
     size_t out = (size_t)(y - r->y0) * (size_t)r->img->width +
@@ -216,6 +217,7 @@ static void sum_workers(const worker *ws, int started, lr_render_stats *sum)
         sum->rays += ws[i].counts.rays;
         sum->camera_rays += ws[i].counts.camera_rays;
         sum->lens_blocked += ws[i].counts.lens_blocked;
+        sum->pixels += ws[i].pixels;
         sum->lens_pixels += ws[i].lens_pixels;
         sum->chroma_pixels += ws[i].chroma_pixels;
         sum->samples += ws[i].samples;
@@ -234,6 +236,11 @@ static int finish_sides(render *j, lr_image *img, lr_render_stats *sum)
 {
     int nomem = 0;
     const lr_render_settings *set = j->set;
+    /* The pixels stored, all of the region's unless cancelled (a
+     * cancelled render's stats said the whole region). */
+    uint64_t area = (uint64_t)(j->x1 - j->x0) * (uint64_t)(j->y1 - j->y0);
+    if (!atomic_load(&j->cancelled))
+        sum->pixels = area;
     if (j->splat != NULL) {
         /* Every pixel takes spp samples, the lens and the colours. */
         if (!atomic_load(&j->cancelled))
@@ -242,7 +249,7 @@ static int finish_sides(render *j, lr_image *img, lr_render_stats *sum)
         sum->samples = sum->pixels * (uint64_t)set->spp;
         sum->lens_pixels = sum->chroma_pixels = sum->pixels;
     }
-    sum->full_samples = sum->pixels * (uint64_t)set->spp;
+    sum->full_samples = area * (uint64_t)set->spp;
     sum->full_camera_rays = sum->full_samples * lr__colour_rays(&j->cam);
     if (j->plan.lt != NULL) {
         const lr__lt *lt = j->plan.lt;
@@ -402,7 +409,6 @@ static lr_status render_in_mode(const lr_scene *scene, const lr_camera *cam,
     free(ws);
     free(tids);
     sum.threads = started;
-    sum.pixels = (uint64_t)(j.x1 - j.x0) * (uint64_t)(j.y1 - j.y0);
     int nomem = finish_sides(&j, img, &sum);
     lr__plan_free(&j.plan);
     sum.seconds = now_seconds() - t0;
