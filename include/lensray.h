@@ -727,6 +727,14 @@ LR_API lr_status lr_image_encode(const lr_image *img, lr_format fmt,
 LR_API lr_status lr_image_write(const lr_image *img, const char *path,
                                 const lr_output_options *opts, lr_error *err);
 
+/* Whether lr_image_write could write `path` now, checked the way it
+ * writes: the format by the extension, `path` (the file its symbolic
+ * links lead to) not a directory, and the temporary file beside it
+ * created and removed.  For a caller to refuse a file name before a long
+ * render rather than after it; LR_ERR_IO (or LR_ERR_INVALID for the
+ * extension) with a message naming `path`. */
+LR_API lr_status lr_image_write_check(const char *path, lr_error *err);
+
 /* ------------------------------------------------------------------------
  * Jobs: a render request as one JSON document
  * ---------------------------------------------------------------------- */

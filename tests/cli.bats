@@ -190,6 +190,33 @@ has_temp_files() {
     [ ! -s "$T/plainfile" ]
 }
 
+@test "an output that cannot be written is refused before the scene is read (4)" {
+    # access(2) on its directory passed all three: the render ran and
+    # its picture was lost at the rename (bad.json, unreadable, shows
+    # that the output is checked first).
+    printf '{' >"$T/bad.json"
+    mkdir "$T/d.exr"
+    run -4 "$LENSRAY" render "$T/bad.json" -o "$T/d.exr"
+    [[ "$output" == *"cannot write '$T/d.exr': Is a directory"* ]]
+    ln -s "$T/nowhere/x.exr" "$T/dangling.exr"
+    run -4 "$LENSRAY" render "$T/bad.json" -o "$T/dangling.exr"
+    [[ "$output" == *"'$T/dangling.exr' (a link to '$T/nowhere/x.exr'): No such file"* ]]
+    run -4 "$LENSRAY" render "$T/bad.json" -o /proc/lensray-test.exr
+    [[ "$output" == *"/proc/lensray-test.exr"* ]]
+    ! has_temp_files "$T"
+}
+
+@test "a PNG that cannot be written all says why (4)" {
+    # The reason was lost (an overlapping snprintf): "cannot write a
+    # 400 x 300 PNG: " and nothing after it.
+    run -4 bash -c "trap '' XFSZ; ulimit -f 8; '$LENSRAY' render '$T/scene.json' \
+        -o '$T/big.png' -q --set render.width=400 --set render.height=300 \
+        --set render.spp=1"
+    [[ "$output" == *"PNG: File too large"* ]]
+    [ ! -e "$T/big.png" ]
+    ! has_temp_files "$T"
+}
+
 @test "a read-only output directory is an I/O error (4)" {
     if [ "$(id -u)" = 0 ]; then
         skip "environment: root can write to read-only directories"

@@ -328,12 +328,13 @@ static int render_check_outputs(render_job *r)
                            lr_format_name(r->fmt));
     }
     for (int i = 0; i < r->n_scenes; i++) {
-        char out_path[4096], dir[4096];
+        char out_path[4096];
         frame_out(r, i, out_path, sizeof out_path);
-        dir_of(out_path, dir, sizeof dir);
-        if (access(dir, W_OK) != 0) {
-            fprintf(stderr, "lensray: cannot write to %s: %s\n", dir,
-                    strerror(errno));
+        /* As the file will be written (a directory, where a link leads,
+         * a file system that refuses), not access(2)'s guess, which
+         * passes a directory and anything for root. */
+        if (lr_image_write_check(out_path, &err) != LR_OK) {
+            fprintf(stderr, "lensray: %s\n", err.message);
             return EXIT_IO;
         }
     }

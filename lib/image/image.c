@@ -283,6 +283,41 @@ lr_status lr_image_write(const lr_image *img, const char *path,
     return st;
 }
 
+lr_status lr_image_write_check(const char *path, lr_error *err)
+{
+    if (path == NULL)
+        return lr__fail(err, LR_ERR_INVALID, NULL,
+                        "lr_image_write_check: the path is NULL");
+    lr_format fmt;
+    LR_TRY(lr_format_from_path(path, &fmt, err));
+    char *dest = follow_links(path), *tmp_name = NULL;
+    if (dest == NULL)
+        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+    struct stat sb;
+    int fd = -1;
+    lr_status st = LR_OK;
+    if (stat(dest, &sb) == 0 && S_ISDIR(sb.st_mode)) {
+        st = lr__fail(err, LR_ERR_IO, NULL, "cannot write '%s': %s", path,
+                      strerror(EISDIR));
+    } else {
+        fd = create_temp_beside(dest, &tmp_name);
+        int e = errno, link = strcmp(dest, path) != 0;
+        if (fd < 0)
+            st = lr__fail(err, e == ENOMEM ? LR_ERR_NOMEM : LR_ERR_IO, NULL,
+                          "cannot create a temporary file for '%s'%s%.200s%s: "
+                          "%s",
+                          path, link ? " (a link to '" : "", link ? dest : "",
+                          link ? "')" : "", strerror(e));
+    }
+    if (fd >= 0) {
+        close(fd);
+        unlink(tmp_name);
+    }
+    free(tmp_name);
+    free(dest);
+    return st;
+}
+
 /* lr_image_write's file at `dest` (`path` as the caller named it, for
  * the messages). */
 static lr_status write_at(const lr_image *img, lr_format fmt,

@@ -30,7 +30,9 @@ typedef struct png_sink {
 static void sink_error(png_structp png, png_const_charp msg)
 {
     png_sink *sink = png_get_error_ptr(png);
-    if (sink != NULL)
+    /* sink_write's errors come with the message already in place: a copy
+     * onto itself (snprintf of overlapping buffers) left it empty. */
+    if (sink != NULL && msg != sink->message)
         snprintf(sink->message, sizeof sink->message, "%s",
                  msg ? msg : "unknown error");
     png_longjmp(png, 1);
