@@ -48,8 +48,9 @@ static long plane_hit(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
     return best;
 }
 
-static void finish_hit(lr__hit *h, lr__v3 org, lr__v3 dir, double t,
-                       lr__v3 ng_outward, lr__v3 ns_outward, int material)
+static void finish_hit(lr__hit *h, double floor, lr__v3 org, lr__v3 dir,
+                       double t, lr__v3 ng_outward, lr__v3 ns_outward,
+                       int material)
 {
     h->has_uv = 0;
     h->t = t;
@@ -66,9 +67,10 @@ static void finish_hit(lr__hit *h, lr__v3 org, lr__v3 dir, double t,
     if (v3_dot(h->ns, h->ng) <= 0.0 || !v3_finite(h->ns))
         h->ns = h->ng;
     /* Float rounding in Embree's t and in the hit position scales with
-     * the coordinates involved: 2^-17 of them is ~64 float ulps. */
+     * the coordinates involved: 2^-17 of them is ~64 float ulps; floor,
+     * the scene's eps_floor, for hits at the origin. */
     double mag = v3_maxabs(h->p) + t * v3_len(dir);
-    h->eps = (1.0 + mag) * 0x1p-17;
+    h->eps = (floor + mag) * 0x1p-17;
 }
 
 /* Embree asserts, aborting the process, on a ray with a component of its
@@ -167,7 +169,8 @@ int lr__hit_complete(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
     long pl = plane_hit(s, org, dir, t_embree, &t_plane);
     if (pl >= 0) {
         const lr__geom *g = &s->planes[pl];
-        finish_hit(hit, org, dir, t_plane, g->normal, g->normal, g->material);
+        finish_hit(hit, s->eps_floor, org, dir, t_plane, g->normal, g->normal,
+                   g->material);
         hit->geom = -1;
         hit->prim = 0;
         return 1;
@@ -184,7 +187,7 @@ int lr__hit_complete(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
         double t = lr__sphere_refine_t(g, org, dir, t_embree, tfar);
         lr__v3 p = v3_madd(org, dir, t);
         lr__v3 n = v3_sub(p, g->center);
-        finish_hit(hit, org, dir, t, n, n, g->material);
+        finish_hit(hit, s->eps_floor, org, dir, t, n, n, g->material);
         if (lr__material_textured(&s->materials[g->material])) {
             hit->has_uv = 1;
             lr__sphere_uv(v3_norm(n), hit->uv);
@@ -206,7 +209,7 @@ int lr__hit_complete(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
         ns = v3(w * n[0] + u * n[3] + v * n[6], w * n[1] + u * n[4] + v * n[7],
                 w * n[2] + u * n[5] + v * n[8]);
     }
-    finish_hit(hit, org, dir, t_embree, ng, ns, g->material);
+    finish_hit(hit, s->eps_floor, org, dir, t_embree, ng, ns, g->material);
     const lr__material *m = &s->materials[g->material];
     if (lr__material_textured(m))
         hit->has_uv = lr__triangle_uv(g, prim_id, bu, bv, hit->uv);
@@ -225,7 +228,7 @@ int lr__hit_complete(const lr_scene *s, lr__v3 org, lr__v3 dir, double tfar,
 
 /* finish_hit, for all sixteen lanes. */
 __attribute__((target_clones("avx512f", "avx2", "default"))) void
-lr__hits16_complete(const struct RTCRayHit16 *rh, lr__hits16 *h)
+lr__hits16_complete(const struct RTCRayHit16 *rh, double floor, lr__hits16 *h)
 {
     const struct RTCRay16 *r = &rh->ray;
     /* ns: the corner normals interpolated and normalised (v3_norm), or
@@ -282,7 +285,7 @@ lr__hits16_complete(const struct RTCRayHit16 *rh, lr__hits16 *h)
         m = fabs(h->py[i]) > m ? fabs(h->py[i]) : m;
         m = fabs(h->pz[i]) > m ? fabs(h->pz[i]) : m;
         double dl = sqrt(dx * dx + dy * dy + dz * dz);
-        h->eps[i] = (1.0 + (m + t * dl)) * 0x1p-17;
+        h->eps[i] = (floor + (m + t * dl)) * 0x1p-17;
     }
 }
 

@@ -186,7 +186,8 @@ static inline void lr__hits16_gather(const lr_scene *s,
 }
 
 /* Completes all sixteen lanes from the rays and hits in rh. */
-void lr__hits16_complete(const struct RTCRayHit16 *rh, lr__hits16 *h);
+void lr__hits16_complete(const struct RTCRayHit16 *rh, double floor,
+                         lr__hits16 *h);
 
 /* The origin for a ray leaving the hit point towards `dir`: pushed along
  * the geometric normal, on the side dir points to, by hit->eps, which

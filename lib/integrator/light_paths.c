@@ -447,7 +447,7 @@ static int start(const walk *w, lr__v3 *org, lr__v3 *dir, lr__v3 *beta)
             v3_add(v3_scale(n, sqrt(fmax(0.0, 1.0 - ud[0]))),
                    v3_add(v3_scale(t1, r * cs), v3_scale(t2, r * sn))));
         double mag = fmax(fabs(y.x), fmax(fabs(y.y), fabs(y.z)));
-        *org = v3_madd(y, n, (1.0 + mag) * 0x1p-17);
+        *org = v3_madd(y, n, (s->eps_floor + mag) * 0x1p-17);
         *beta = v3_scale(Le, M_PI / pdf_A);
         return 1;
     }

@@ -353,7 +353,7 @@ sphere_samples(const double (*restrict u)[16], const emitters16 *restrict E,
  * (from E or K), 1 if spheres (their samples in Q), 2 if some of each
  * (both computed, and each lane's taken as Q->is says). */
 static inline __attribute__((always_inline)) void
-lanes16(lr__v3 amb, int rr, const double (*restrict u)[16],
+lanes16(lr__v3 amb, double ef, int rr, const double (*restrict u)[16],
         const emitters16 *restrict E, const lr__hits16p *restrict H,
         lr__paths16 *restrict S, const double *restrict pick,
         const picked16 *restrict K, const sphere16 *restrict Q, const int two,
@@ -398,7 +398,7 @@ lanes16(lr__v3 amb, int rr, const double (*restrict u)[16],
         m = fabs(py) > m ? fabs(py) : m;
         m = fabs(pz) > m ? fabs(pz) : m;
         double mag = m + t * sqrt(dx * dx + dy * dy + dz * dz);
-        double eps = (1.0 + mag) * 0x1p-17;
+        double eps = (ef + mag) * 0x1p-17; /* ef: the scene's eps_floor */
 
         /* ---- ambient (path.c's bounce) ---- */
         double ar = H->ar[i], ag = H->ag[i], ab = H->ab[i];
@@ -584,9 +584,8 @@ lanes16(lr__v3 amb, int rr, const double (*restrict u)[16],
     }
 }
 
-
 __attribute__((target_clones("avx512f", "avx2", "default"))) static void
-lambert16(lr__v3 amb, int rr, const double (*restrict u)[16],
+lambert16(lr__v3 amb, double ef, int rr, const double (*restrict u)[16],
           const emitters16 *restrict E, const lr__hits16p *restrict H,
           lr__paths16 *restrict S)
 {
@@ -598,7 +597,7 @@ lambert16(lr__v3 amb, int rr, const double (*restrict u)[16],
     for (int i = 0; i < 16; i++)
         pick[i] = 0.0;
     if (E->point) {
-        lanes16(amb, rr, u, E, H, S, pick, NULL, NULL, 0, 0, 1);
+        lanes16(amb, ef, rr, u, E, H, S, pick, NULL, NULL, 0, 0, 1);
         return;
     }
     for (int j = 0; j + 1 < E->n; j++)
@@ -612,11 +611,11 @@ lambert16(lr__v3 amb, int rr, const double (*restrict u)[16],
     sphere16 Q;
     if (E->sphere == 1) {
         sphere_samples(u, E, H, S, pick, &Q);
-        lanes16(amb, rr, u, E, H, S, pick, &K, &Q, 0, 1, 0);
+        lanes16(amb, ef, rr, u, E, H, S, pick, &K, &Q, 0, 1, 0);
         return;
     }
     if (E->n <= 2 && E->sphere == 0) {
-        lanes16(amb, rr, u, E, H, S, pick, &K, NULL, 1, 0, 0);
+        lanes16(amb, ef, rr, u, E, H, S, pick, &K, NULL, 1, 0, 0);
         return;
     }
     for (int i = 0; i < 16; i++) {
@@ -630,10 +629,10 @@ lambert16(lr__v3 amb, int rr, const double (*restrict u)[16],
     }
     if (E->sphere == 2) {
         sphere_samples(u, E, H, S, pick, &Q);
-        lanes16(amb, rr, u, E, H, S, pick, &K, &Q, 0, 2, 0);
+        lanes16(amb, ef, rr, u, E, H, S, pick, &K, &Q, 0, 2, 0);
         return;
     }
-    lanes16(amb, rr, u, E, H, S, pick, &K, NULL, 0, 0, 0);
+    lanes16(amb, ef, rr, u, E, H, S, pick, &K, NULL, 0, 0, 0);
 }
 
 /* The paths of lanes 0..n-1 at their camera rays (as float, from r),
@@ -696,5 +695,6 @@ void lr__path16_lambert(const lr_scene *s, lr__path16 *w, int depth,
     memcpy(H->dx, depth == 0 ? w->cdx : S->dx, sizeof H->dx);
     memcpy(H->dy, depth == 0 ? w->cdy : S->dy, sizeof H->dy);
     memcpy(H->dz, depth == 0 ? w->cdz : S->dz, sizeof H->dz);
-    lambert16(s->ambient, depth + 1 >= LR__PATH_RR_FROM, u, &w->E, H, &w->S);
+    int rr = depth + 1 >= LR__PATH_RR_FROM;
+    lambert16(s->ambient, s->eps_floor, rr, u, &w->E, H, &w->S);
 }

@@ -316,7 +316,7 @@ static void shade16(const lr_scene *restrict s, int max_depth,
         vec[i] = 0;
     double v[3][16] __attribute__((aligned(64)));
     if (n_vec) {
-        lr__hits16_complete(rh, &sc->h);
+        lr__hits16_complete(rh, s->eps_floor, &sc->h);
         vector_start16(s, (const double(*)[16])sc->k, v);
     }
 
@@ -558,7 +558,7 @@ void lr__whitted_radiance16_n(const lr_scene *s, int max_depth,
                 bt->sky[2][i] = sky.z;
             }
         if (bt->n_vec) {
-            lr__hits16_complete(r, &bt->sc.h);
+            lr__hits16_complete(r, s->eps_floor, &bt->sc.h);
             vector_start16(s, (const double(*)[16])bt->sc.k, bt->v);
         }
     }

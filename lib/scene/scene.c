@@ -271,6 +271,15 @@ lr_status lr__scene_commit(lr_scene *s, lr_error *err)
         if (g->face_ng == NULL)
             return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     }
+    /* The scene's size: its geometry's (extent), its planes' points and
+     * its lights' positions; 1 for a scene at the origin alone. */
+    double size = s->extent;
+    for (size_t i = 0; i < s->n_planes; i++)
+        size = fmax(size, v3_maxabs(s->planes[i].center));
+    for (size_t i = 0; i < s->n_lights; i++)
+        if (s->lights[i].kind == LR__LIGHT_POINT)
+            size = fmax(size, v3_maxabs(s->lights[i].position));
+    s->eps_floor = size > 0.0 && size < 1.0 ? size : 1.0;
     embree_msg[0] = '\0';
     rtcCommitScene(s->rtc);
     if (rtcGetDeviceError(s->device) != RTC_ERROR_NONE)

@@ -217,6 +217,11 @@ struct lr_scene {
     double emit_radius;
     size_t n_primitives;
     double extent; /* largest coordinate magnitude in the scene */
+    /* The least push of a new ray's origin off a surface, in units of
+     * 2^-17 (lr__hit's eps = (eps_floor + magnitude) 2^-17): 1, or the
+     * scene's size when it is smaller (lr__scene_commit), so that a
+     * scene a millionth of a unit across is not pushed through. */
+    double eps_floor;
     lr_camera camera;
     lr_render_settings settings;
     char *description; /* the scene's "description", "" if none */
