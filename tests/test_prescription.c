@@ -338,6 +338,19 @@ static void test_json_errors(void **state)
     expect_json_error(
         SINGLET_JSON("{\"sellmeier\": [1, 0, 0, 0.35, 0, 0]}", ""),
         "camera.lens.surfaces[1].material.sellmeier", "no refractive index");
+    /* N-BK7's with a third pole at 601 nm, between the 10 nm samples
+     * that were checked (it loaded, the index 1 at 600.9 nm), and one
+     * at 770 nm, past the F and C lines' 100 nm. */
+    expect_json_error(
+        SINGLET_JSON("{\"sellmeier\": [1.03961212, 0.231792344, 0.001, "
+                     "0.00600069867, 0.0200179144, 0.361201]}",
+                     ""),
+        "camera.lens.surfaces[1].material.sellmeier", "a pole at 601.0 nm");
+    expect_json_error(
+        SINGLET_JSON("{\"sellmeier\": [1.03961212, 0.231792344, 0.001, "
+                     "0.00600069867, 0.0200179144, 0.5929]}",
+                     ""),
+        "camera.lens.surfaces[1].material.sellmeier", "a pole at 770.0 nm");
     expect_json_error(SINGLET_JSON("7", ""), "camera.lens.surfaces[1].material",
                       "catalogue glass");
     expect_json_error(SINGLET_JSON("\"N-BK7\"", ", \"thickness\": 2"),

@@ -94,9 +94,13 @@ lr_status lr__rx_check(const lr__rx *rx, const char *path, lr_error *err)
                             "%s%ssemi_aperture: %g mm is beyond the "
                             "surface's edge (radius %g, conic %g)",
                             nm, dot, s->semi_aperture, s->radius, s->conic);
-        for (double wl = 380; wl <= 780; wl += 50) {
+        /* Every nm (50 apart let a pole through); a formula that has no
+         * real index returns 1, so a glass's index is above 1. */
+        int formula = s->after.kind != LR__GLASS_AIR &&
+                      s->after.kind != LR__GLASS_CONSTANT;
+        for (double wl = 380; wl <= 780; wl += 1) {
             double n = lr__glass_n(&s->after, wl);
-            if (!(n >= 1.0 && n < 5.0))
+            if (!(n >= 1.0 && n < 5.0) || (formula && n == 1.0))
                 return lr__fail(err, LR_ERR_INVALID, ep,
                                 "%s%smaterial: index %g at %g nm is not a "
                                 "refractive index",
