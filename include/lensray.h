@@ -140,7 +140,7 @@ typedef enum lr_focal_model {
 typedef enum lr_glass {
     LR_GLASS_BK7 = 0,  /* Schott N-BK7 (Sellmeier) */
     LR_GLASS_F2 = 1,   /* Schott F2 */
-    LR_GLASS_SF11 = 2, /* Schott SF11 */
+    LR_GLASS_SF11 = 2, /* Schott N-SF11 (optics-reference.md's "SF11") */
     LR_GLASS_FUSED_SILICA = 3,
     LR_GLASS_ABBE = 4 /* n_d and V_d, the glTF Abbe-number model */
 } lr_glass;

@@ -211,6 +211,16 @@ J
     [[ "$output" == *"got 2500"* ]]
 }
 
+@test "--wavelength outside 380 to 780 nm warns that glass formulas may be extrapolated" {
+    # The catalogue keeps no fitted range (HIKARI's 400 to 700 nm): at
+    # 1500 nm the answer came without a word.
+    run -0 --separate-stderr "$LENSRAY" lens petzval --wavelength 1500
+    [[ "$stderr" == *"warning: --wavelength 1500: outside 380 to 780 nm"* ]]
+    [[ "$output" == *'"wavelength_nm":1500'* ]]
+    run -0 --separate-stderr "$LENSRAY" lens petzval --wavelength 780
+    [ -z "$stderr" ]
+}
+
 @test "a lens whose image circle misses the film: a black picture with a warning" {
     # US 8,879,901's objective covers a 14 mm circle; a corner of a 36 mm
     # film lies outside it: every ray is stopped and the picture is black,

@@ -9,6 +9,7 @@
 #include "test.h"
 #include "camera/camera.h"
 #include "optics/lens.h"
+#include "optics/prescription.h"
 #include "sampling/spectrum.h"
 
 /* Last: its W and FOV are macros. */
@@ -339,6 +340,27 @@ static void test_glass_catalogue(void **state)
         assert_true(lr__glass_index(cat[i].g, 0, 0, 400) >
                     lr__glass_index(cat[i].g, 0, 0, 700));
     }
+    /* The thin lens's "SF11" is the catalogue's N-SF11 (as the paper's
+     * reference names it), not the catalogue's SF11 (V_d 25.76), and
+     * camera.chromatic.glass takes "N-SF11" for it. */
+    lr__glass nsf11, sf11;
+    assert_int_equal(lr__glass_named("N-SF11", &nsf11, NULL, 0), 0);
+    assert_int_equal(lr__glass_named("SF11", &sf11, NULL, 0), 0);
+    for (double nm = 380; nm <= 780; nm += 100) {
+        double n = lr__glass_index(LR_GLASS_SF11, 0, 0, nm);
+        assert_true(fabs(n - lr__glass_n(&nsf11, nm)) < 1e-12);
+    }
+    /* (the two share n_d; at 380 nm 1.8607 against 1.8603) */
+    assert_true(fabs(lr__glass_index(LR_GLASS_SF11, 0, 0, 380) -
+                     lr__glass_n(&sf11, 380)) > 2e-4);
+    lr_scene *sc = lr_test_load_json(
+        "{\"camera\": {\"model\": \"thinlens\", \"focal_length_mm\": 50, "
+        "\"chromatic\": {\"mode\": "
+        "\"spectral\", \"glass\": \"N-SF11\"}}}");
+    lr_camera cam;
+    lr_scene_camera(sc, &cam);
+    assert_int_equal(cam.chromatic.glass, LR_GLASS_SF11);
+    lr_scene_free(sc);
     /* The Abbe model passes through n_d with Abbe number V_d. */
     double nd = lr__glass_index(LR_GLASS_ABBE, 1.6, 40, LR__LAMBDA_D);
     double nF = lr__glass_index(LR_GLASS_ABBE, 1.6, 40, LR__LAMBDA_F);

@@ -449,6 +449,16 @@ static int cmd_lens(int argc, char **argv)
                 nm = strtod(v, &end);
                 if (end == v || *end != '\0')
                     return usage_error("--wavelength '%s' is not a number", v);
+                /* The catalogue keeps no glass's fitted range: HIKARI's
+                 * are 400 to 700 nm and 546 glasses' narrower than 380 to
+                 * 780, beyond which their formulas are extrapolations
+                 * (HIKARI BAF10 at 1600 nm 0.007 above SCHOTT N-BAF10). */
+                if (!(nm >= 380 && nm <= 780) && nm >= 300 && nm <= 2000)
+                    fprintf(stderr,
+                            "lensray: warning: --wavelength %g: outside "
+                            "380 to 780 nm a glass's formula may be used "
+                            "beyond the range its maker fitted it over\n",
+                            nm);
                 continue;
             }
             n = 0;

@@ -43,9 +43,12 @@ static lr_status parse_chromatic(const cJSON *c, lr_camera *cam, lr_error *err)
                         "camera.chromatic: give either glass or abbe, not "
                         "both");
     if (g != NULL) {
-        /* "N-BK7" is accepted as Schott's full name. */
+        /* "N-BK7" and "N-SF11" are accepted as Schott's full names (the
+         * coefficients of "SF11" are N-SF11's, lens.c). */
         if (cJSON_IsString(g) && strcmp(g->valuestring, "N-BK7") == 0) {
             ch->glass = LR_GLASS_BK7;
+        } else if (cJSON_IsString(g) && strcmp(g->valuestring, "N-SF11") == 0) {
+            ch->glass = LR_GLASS_SF11;
         } else {
             int gi = (int)ch->glass;
             LR_TRY(lr__json_enum(c, "glass", path, lr__glass_names, &gi, err));

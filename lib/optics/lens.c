@@ -96,8 +96,9 @@ void lr__aperture_sample(lr_aperture_shape shape, int blades, double rotation,
 }
 
 /* Sellmeier coefficients B1..B3, C1..C3 (um^2), from the Schott catalogue
- * (N-BK7, F2, SF11) and Malitson 1965 (fused silica); see
- * ../shared/optics-reference.md, where they reproduce n_d and V_d. */
+ * (N-BK7, F2, and N-SF11 under the name SF11 as the reference gives it)
+ * and Malitson 1965 (fused silica); see ../shared/optics-reference.md,
+ * where they reproduce n_d and V_d. */
 static const double sellmeier[4][6] = {
     {1.03961212, 0.231792344, 1.01046945, 0.00600069867, 0.0200179144,
      103.560653},
