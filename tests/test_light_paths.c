@@ -319,10 +319,19 @@ static void test_light_refuses(void **state)
          "{\"type\": \"plane\", \"point\": [0, -1, 0], "
          "\"normal\": [0, 1, 0], \"material\": \"l\"}",
          "objects:"},
+        /* The far light named (both said "objects:"). */
         {{"background=0.2"},
          "{\"type\": \"plane\", \"point\": [0, -1, 0], "
          "\"normal\": [0, 1, 0], \"material\": \"w\"}",
-         "objects:"},
+         "background: with render.integrator \"light\", light from the "
+         "environment or background"},
+        {{"lights=[{\"type\": \"point\", \"position\": [0, 3, 3], "
+          "\"intensity\": 1}, {\"type\": \"directional\", "
+          "\"direction\": [0, -1, 0], \"irradiance\": 1}]"},
+         "{\"type\": \"plane\", \"point\": [0, -1, 0], "
+         "\"normal\": [0, 1, 0], \"material\": \"w\"}",
+         "lights[1]: with render.integrator \"light\", light from a "
+         "directional light"},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         char json[2048];

@@ -164,16 +164,25 @@ static lr_status check_scene(const lr_scene *s, const lr__cam *c,
                             "from (use a mesh)",
                             mt->name, me);
     }
-    int far = lr__env_is_light(s);
-    for (size_t i = 0; i < s->n_lights; i++)
-        far |= s->lights[i].kind == LR__LIGHT_DIRECTIONAL;
-    if (far && s->n_planes > 0)
-        return lr__fail(err, LR_ERR_INVALID, "objects",
-                        "objects: with %s, the environment's and directional "
-                        "lights' paths start on a disk across the scene's "
-                        "bounds, which cannot cover an infinite plane (use a "
-                        "mesh)",
-                        me);
+    /* The field is the far light's (it said "objects", for a background
+     * the user may not know lights the scene). */
+    char far[32] = "";
+    if (lr__env_is_light(s))
+        snprintf(far, sizeof far, "%s",
+                 s->env != NULL ? "environment" : "background");
+    for (size_t i = 0; i < s->n_lights && !far[0]; i++)
+        if (s->lights[i].kind == LR__LIGHT_DIRECTIONAL)
+            snprintf(far, sizeof far, "lights[%zu]", i);
+    if (far[0] && s->n_planes > 0)
+        return lr__fail(err, LR_ERR_INVALID, far,
+                        "%s: with %s, light from %s starts its paths on a "
+                        "disk across the scene's bounds, which cannot cover "
+                        "the scene's infinite plane (use a mesh for the "
+                        "plane%s)",
+                        far, me,
+                        far[0] == 'l' ? "a directional light"
+                                      : "the environment or background",
+                        far[0] == 'b' ? ", or a black background" : "");
     return LR_OK;
 }
 
