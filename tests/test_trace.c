@@ -195,6 +195,41 @@ static void test_mirror_keeps_normals(void **state)
     lr_scene_free(b);
 }
 
+/* A plane scaled by 1e-300 across itself is the same plane: the
+ * cofactors, products of two scales, underflowed to a zero normal (the
+ * floor vanished from the picture).  Mirrored too, and tilted where two
+ * scales are tiny: the normal (1, 1, 1) under scale (1e-300, 1e-300, 1)
+ * is M^-T n, along (1, 1, 1e-300). */
+static void test_tiny_scale_keeps_normals(void **state)
+{
+    (void)state;
+    static const char *const scales[] = {
+        "[1e-300, 1, 1e-300]", "[-1e-300, 1, 1e-300]", "[1e-300, 1, 1]"};
+    for (int k = 0; k < 3; k++) {
+        char objs[256];
+        snprintf(objs, sizeof objs,
+                 "[{\"type\": \"plane\", \"point\": [0, -1, 0], \"normal\": "
+                 "[0, 1, 0], \"transform\": [{\"scale\": %s}]}]",
+                 scales[k]);
+        lr_scene *s = scene_of(objs);
+        lr__hit h;
+        assert_true(lr__trace(s, v3(0, 0, 0), v3(0, -1, 0), INFINITY, &h));
+        assert_true(h.entering);
+        assert_near(h.ng.y, 1.0, 1e-12);
+        assert_near(h.t, 1.0, 1e-12);
+        lr_scene_free(s);
+    }
+    lr_scene *s = scene_of("[{\"type\": \"plane\", \"point\": [0, 0, 0], "
+                           "\"normal\": [1, 1, 1], \"transform\": "
+                           "[{\"scale\": [1e-300, 1e-300, 1]}]}]");
+    lr__hit h;
+    assert_true(lr__trace(s, v3(1, 1, 0), v3(-1, -1, 0), INFINITY, &h));
+    assert_near(h.ng.x, sqrt(0.5), 1e-12);
+    assert_near(h.ng.y, sqrt(0.5), 1e-12);
+    assert_near(h.ng.z, 0.0, 1e-12);
+    lr_scene_free(s);
+}
+
 static void test_closest_of_many(void **state)
 {
     (void)state;
@@ -311,6 +346,7 @@ static const struct CMUnitTest trace_tests[] = {
     cmocka_unit_test(test_finite_plane),
     cmocka_unit_test(test_triangle_and_transforms),
     cmocka_unit_test(test_mirror_keeps_normals),
+    cmocka_unit_test(test_tiny_scale_keeps_normals),
     cmocka_unit_test(test_closest_of_many),
     cmocka_unit_test(test_offset_escapes_surface),
 };

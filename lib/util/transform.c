@@ -44,9 +44,10 @@ lr__v3 lr__xform_point(const lr__xform *x, lr__v3 p)
  * plane's front turned to the other side and a mirrored mesh's file
  * normals pointed behind their faces, which dropped them (flat shading;
  * tests/test_trace.c, test_mirror_keeps_normals). */
-lr__v3 lr__xform_normal(const lr__xform *x, lr__v3 n)
+/* The cofactor matrix of m's 3 x 3 part times n, and the sign of its
+ * determinant. */
+static lr__v3 cofactor_times(const double (*m)[4], lr__v3 n, double *sign)
 {
-    const double(*m)[4] = x->m;
     double c[3][3] = {{m[1][1] * m[2][2] - m[1][2] * m[2][1],
                        m[1][2] * m[2][0] - m[1][0] * m[2][2],
                        m[1][0] * m[2][1] - m[1][1] * m[2][0]},
@@ -56,11 +57,43 @@ lr__v3 lr__xform_normal(const lr__xform *x, lr__v3 n)
                       {m[0][1] * m[1][2] - m[0][2] * m[1][1],
                        m[0][2] * m[1][0] - m[0][0] * m[1][2],
                        m[0][0] * m[1][1] - m[0][1] * m[1][0]}};
-    double sign = lr__xform_det(x) < 0.0 ? -1.0 : 1.0;
-    return v3_scale(v3_norm(v3(c[0][0] * n.x + c[0][1] * n.y + c[0][2] * n.z,
-                               c[1][0] * n.x + c[1][1] * n.y + c[1][2] * n.z,
-                               c[2][0] * n.x + c[2][1] * n.y + c[2][2] * n.z)),
-                    sign);
+    double det = m[0][0] * c[0][0] + m[0][1] * c[0][1] + m[0][2] * c[0][2];
+    *sign = det < 0.0 ? -1.0 : 1.0;
+    return v3(c[0][0] * n.x + c[0][1] * n.y + c[0][2] * n.z,
+              c[1][0] * n.x + c[1][1] * n.y + c[1][2] * n.z,
+              c[2][0] * n.x + c[2][1] * n.y + c[2][2] * n.z);
+}
+
+lr__v3 lr__xform_normal(const lr__xform *x, lr__v3 n)
+{
+    double sign = lr__xform_det(x) < 0.0 ? -1.0 : 1.0, s2;
+    lr__v3 v = cofactor_times(x->m, n, &s2);
+    if (v3_len(v) > 1e-200 && v3_finite(v))
+        return v3_scale(v3_norm(v), sign);
+    /* Products of two tiny scales underflowed (a plane scaled by 1e-300
+     * across itself lost its normal).  M = A D, D the columns' lengths,
+     * A's columns unit: M^-T n = A^-T (D^-1 n), A's cofactors well
+     * scaled, and D^-1 n scaled by D's least length (the direction is
+     * all that counts). */
+    double a[3][4], len[3];
+    for (int j = 0; j < 3; j++) {
+        len[j] = fmax(fabs(x->m[0][j]),
+                      fmax(fabs(x->m[1][j]), fabs(x->m[2][j])));
+        for (int i = 0; i < 3; i++)
+            a[i][j] = len[j] > 0.0 ? x->m[i][j] / len[j] : 0.0;
+    }
+    double lo = INFINITY;
+    for (int j = 0; j < 3; j++)
+        lo = len[j] > 0.0 ? fmin(lo, len[j]) : lo;
+    /* n / D times the least length: ratios at most 1, no overflow. */
+    lr__v3 w = v3(len[0] > 0.0 ? n.x * (lo / len[0]) : 0.0,
+                  len[1] > 0.0 ? n.y * (lo / len[1]) : 0.0,
+                  len[2] > 0.0 ? n.z * (lo / len[2]) : 0.0);
+    double big = v3_maxabs(w);
+    if (big > 0.0)
+        w = v3_scale(w, 1.0 / big); /* largest 1: its length cannot underflow */
+    v = cofactor_times((const double(*)[4])a, w, &sign);
+    return v3_scale(v3_norm(v), sign);
 }
 
 double lr__xform_det(const lr__xform *x)
