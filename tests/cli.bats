@@ -643,6 +643,15 @@ fails_naming() {
         camera.aperture_radius=0.1 'camera.focus_on=[9999,0]'
 }
 
+@test "camera.focus_on on a surface the camera sits on is an error naming camera.focus_on" {
+    # The camera on the sphere's surface: the focus found is 0, and the
+    # message named camera.focus_distance, which nobody set.
+    fails_naming "camera.focus_on [8, 6]: the surface there, 0 from the camera" \
+        camera.model=thinlens camera.aperture_radius=0.1 \
+        'camera.position=[0, 1, 1]' 'camera.look_at=[0, 1, 0]' \
+        'camera.focus_on=[8, 6]'
+}
+
 @test "render.region outside the frame is a scene error (3) naming render.region" {
     fails_naming render.region 'render.region=[0, 0, 17, 12]'
 }

@@ -8,6 +8,7 @@
 #include "camera/camera.h"
 
 #include <math.h>
+#include <stdio.h>
 
 lr_status lr__autofocus(const lr_scene *scene, lr_camera *cam, int width,
                         int height, lr_error *err)
@@ -37,8 +38,18 @@ lr_status lr__autofocus(const lr_scene *scene, lr_camera *cam, int width,
     double z = h.t * v3_dot(dir, c.forward) +
                v3_dot(v3_sub(org, c.origin), c.forward);
     lr_status st = model->focus_at(cam, z, err);
-    if (st != LR_OK)
+    if (st == LR_OK) {
+        cam->focus_on[0] = cam->focus_on[1] = -1;
+        st = lr_camera_validate(cam, err);
+    }
+    if (st == LR_OK || err == NULL)
         return st;
-    cam->focus_on[0] = cam->focus_on[1] = -1;
-    return lr_camera_validate(cam, err);
+    /* The field the user set, not the focus_distance it made (the
+     * message named camera.focus_distance, never given). */
+    char why[sizeof err->message];
+    snprintf(why, sizeof why, "%s", err->message);
+    return lr__fail(err, st, "camera.focus_on",
+                    "camera.focus_on [%d, %d]: the surface there, %g from "
+                    "the camera, cannot be focused on: %s",
+                    x, y, z, why);
 }
