@@ -273,6 +273,10 @@ static void test_missing_and_out_of_range(void **state)
          "objects[0].size"},
         {"{\"objects\": [{\"type\": \"plane\", \"normal\": [4e-324, 0, 0]}]}",
          "objects[0].normal"},
+        /* Its film in floats lost it: a segfault, the daemon's too. */
+        {"{\"camera\": {\"model\": \"lens\", \"lens\": \"petzval\", "
+         "\"sensor_width_mm\": 1e-37}}",
+         "camera.sensor_width_mm"},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++)
         lr_test_expect_invalid(cases[i].json, strlen(cases[i].json),

@@ -87,6 +87,12 @@ static lr_status validate(const lr_camera *cam, int active, lr_error *err)
                                         cam->sensor_width_mm, 0, 0, err);
     if (st != LR_OK)
         return st;
+    /* The film's float arithmetic (film_band) loses a sensor narrower
+     * than this; a nanometre is no camera's. */
+    if (cam->sensor_width_mm < 1e-6)
+        return BAD("camera.sensor_width_mm",
+                   "camera.sensor_width_mm must be at least 1e-6, got %g",
+                   cam->sensor_width_mm);
     st = lr__cam_check_length("camera.scene_unit_mm", cam->scene_unit_mm, 0, 0,
                               err);
     if (st != LR_OK)
@@ -290,9 +296,11 @@ film_band(float fx, float fy, float iw, float ih, float sw, float sh, float kr,
 {
     *xs = (0.5f - fx * iw) * sw, *ys = (fy * ih - 0.5f) * sh;
     *r = sqrtf(*xs * *xs + *ys * *ys);
+    /* Never outside the table, whatever the floats: a sensor of 1e-37
+     * mm made t NaN, (int)t INT_MIN, and the read crashed the daemon. */
     float t = *r * kr;
-    int k = (int)t;
-    k = k < LR__PUPIL_N - 1 ? k : LR__PUPIL_N - 1;
+    t = t >= 0.0f ? t : 0.0f;
+    int k = t < (float)(LR__PUPIL_N - 1) ? (int)t : LR__PUPIL_N - 1;
     *f = t - (float)k;
     return k;
 }
