@@ -182,7 +182,7 @@ wait_for() {
 
 @test "farm: 24 requests held open at once through nginx reach one daemon, none reset (no per-address limit behind the balancer)" {
     # Every request reaches a daemon from nginx's one address: with the
-    # daemon's default --max-connections-per-ip 16, the 17th connection was
+    # daemon's default --max-connections-per-ip then (16), the 17th was
     # reset and nginx answered 502.  Long polls on a job that waits hold
     # their connections without work, until a DELETE ends them all.
     local dir="$BATS_TEST_TMPDIR/farm3" port id i n dport

@@ -4,6 +4,8 @@ slowly.
 
     http_race.py idempotency URL TOKEN BODY KEYS N
     http_race.py trickle URL SECONDS
+    http_race.py reconnect URL THREADS REQUESTS
+    http_race.py hold URL N
 
 For each of KEYS Idempotency-Keys, N connections send POST /v1/jobs with
 that key and BODY, all but the last byte first; the last bytes go together
@@ -17,6 +19,12 @@ once give two jobs for a key where this gave one in twenty.
 `trickle` declares a 100000-byte body for POST /v1/jobs and sends it a byte
 every 0.2 s, for SECONDS at most.  Prints "closed after N bytes" when the
 daemon closes the connection first, "still open after N bytes" otherwise.
+
+`reconnect`: THREADS threads each send REQUESTS GET /healthz, each on a
+new connection closed before the next opens (a script's or a page's
+way); prints how many were not answered 200.  `hold` opens N
+connections, keeps them open and asks GET /healthz on each: prints how
+many were answered.
 """
 import json
 import socket
@@ -121,10 +129,58 @@ def trickle(url, seconds):
     print("still open after %d bytes" % sent)
 
 
+def reconnect(url, threads, requests):
+    u = urlsplit(url)
+    lost = [0]
+    lock = threading.Lock()
+
+    def client():
+        for _ in range(requests):
+            try:
+                with socket.create_connection((u.hostname, u.port),
+                                              timeout=30) as s:
+                    s.sendall(("GET /healthz HTTP/1.1\r\nHost: %s\r\n\r\n"
+                               % u.netloc).encode())
+                    ok = answer(s)[0] == 200
+            except (OSError, ValueError):
+                ok = False
+            if not ok:
+                with lock:
+                    lost[0] += 1
+
+    ts = [threading.Thread(target=client) for _ in range(threads)]
+    for t in ts:
+        t.start()
+    for t in ts:
+        t.join()
+    print(lost[0])
+
+
+def hold(url, n):
+    u = urlsplit(url)
+    socks = [socket.create_connection((u.hostname, u.port), timeout=30)
+             for _ in range(n)]
+    time.sleep(0.5)  # every connection accepted (or closed) by now
+    answered = 0
+    for s in socks:
+        try:
+            s.sendall(("GET /healthz HTTP/1.1\r\nHost: %s\r\n\r\n"
+                       % u.netloc).encode())
+            answered += answer(s)[0] == 200
+        except (OSError, ValueError):
+            pass
+        s.close()
+    print(answered)
+
+
 if __name__ == "__main__":
     if len(sys.argv) == 7 and sys.argv[1] == "idempotency":
         idempotency(sys.argv[2], sys.argv[3], sys.argv[4], int(sys.argv[5]),
                     int(sys.argv[6]))
+    elif len(sys.argv) == 5 and sys.argv[1] == "reconnect":
+        reconnect(sys.argv[2], int(sys.argv[3]), int(sys.argv[4]))
+    elif len(sys.argv) == 4 and sys.argv[1] == "hold":
+        hold(sys.argv[2], int(sys.argv[3]))
     elif len(sys.argv) == 4 and sys.argv[1] == "trickle":
         trickle(sys.argv[2], float(sys.argv[3]))
     else:
