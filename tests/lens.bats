@@ -233,4 +233,11 @@ J
     # The whole frame passes light in its centre: no warning.
     run -0 --separate-stderr "$LENSRAY" render "$scene" -o "$BATS_TEST_TMPDIR/b.exr" -q
     [ -z "$stderr" ]
+    # Night lights through the same lens, planned: the plan traces camera
+    # rays only in blocks beyond the circle's edge (all stopped) while
+    # the light side lights the picture; it warned that it was black.
+    run -0 --separate-stderr "$LENSRAY" render "$BATS_TEST_DIRNAME/../scenes/night-lens.json" \
+        -o "$BATS_TEST_TMPDIR/c.exr" -q --set 'camera.lens="objective-us8879901-36mm-f2"' \
+        --set render.width=96 --set render.height=54 --set render.spp=8
+    [ -z "$stderr" ]
 }

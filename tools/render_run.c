@@ -158,6 +158,17 @@ static int load_scene(const render_job *r, const char *path, lr_scene **scene,
 }
 
 /* One scene rendered here into out_path; the exit status. */
+/* Whether every value of img is 0. */
+static int all_black(const lr_image *img)
+{
+    const float *v = lr_image_rgb(img);
+    size_t n = 3 * (size_t)lr_image_width(img) * (size_t)lr_image_height(img);
+    for (size_t i = 0; i < n; i++)
+        if (v[i] != 0.0f)
+            return 0;
+    return 1;
+}
+
 static int render_local(const render_job *r, const char *scene_path,
                         const char *out_path)
 {
@@ -204,8 +215,12 @@ static int render_local(const render_job *r, const char *scene_path,
                 "infinite and were dropped\n",
                 (unsigned long long)rst.nan_samples);
     /* A real lens that stops every ray makes a black picture that is
-     * right (its image circle misses the film) but rarely meant. */
-    if (rst.camera_rays > 0 && rst.lens_blocked >= rst.camera_rays)
+     * right (its image circle misses the film) but rarely meant.  Only
+     * when it is black: the plan traces rays only where it samples the
+     * lens, which may all lie beyond the circle's edge while the light
+     * side lights the picture (it warned on a lit picture). */
+    if (rst.camera_rays > 0 && rst.lens_blocked >= rst.camera_rays &&
+        all_black(img))
         fprintf(stderr,
                 "lensray: warning: the lens stopped every camera ray, so the "
                 "picture is black: its image circle misses the film (see "
