@@ -555,7 +555,9 @@ static void test_pbrt_errors(void **state)
     expect_text_error(pbrt, "0 1 0 10\n50 4 1.5 20 INF\n",
                       "t.dat:2: \"INF\" is not a number");
     expect_text_error(pbrt, "# nothing\n", "t.dat: no surfaces");
-    expect_text_error(pbrt, "50 4 1.5 20\n-50 40 1 20\n", "no aperture stop");
+    /* In the file's terms (it read "surfaces: ... \"stop\": true"). */
+    expect_text_error(pbrt, "50 4 1.5 20\n-50 40 1 20\n",
+                      "no aperture stop (give it a row of radius 0)");
     expect_text_error(pbrt, "0 1 0 10\n50 4 1.5 20\n-50 1e9 1 20\n",
                       "t.dat:3: \"1e9\" is out of range");
 }
@@ -783,6 +785,10 @@ static void test_zmx_gcat(void **state)
 static void test_zmx_errors(void **state)
 {
     (void)state;
+    expect_text_error(zmx,
+                      ZMX_HEAD "SURF 1\r\n  DIAM 5\r\n  DISZ 1\r\n"
+                               "SURF 2\r\n  CURV 0.02\r\n  DIAM 5\r\n",
+                      "no aperture stop (give one SURF a STOP line)");
     expect_text_error(zmx,
                       ZMX_HEAD "SURF 1\r\n  STOP\r\n  DIAM 5\r\n  DISZ 1\r\n"
                                "SURF 2\r\n  TYPE COORDBRK\r\n",

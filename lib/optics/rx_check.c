@@ -63,12 +63,16 @@ lr_status lr__rx_check(const lr__rx *rx, const char *path, lr_error *err)
     int stops = 0;
     for (int i = 0; i < rx->n; i++)
         stops += rx->s[i].stop != 0;
+    /* In the file's own terms (a Zemax file has no "stop": true). */
+    int file = rx->n >= 1 && rx->line[0] > 0;
     if (stops == 0 || rx->stop < 0 || rx->stop >= rx->n ||
         !rx->s[rx->stop].stop)
-        return lr__fail(err, LR_ERR_INVALID, sp,
-                        "%s: no aperture stop (mark one surface "
-                        "\"stop\": true)",
-                        sp);
+        return lr__fail(err, LR_ERR_INVALID, file ? path : sp,
+                        "%s%sno aperture stop (%s)", file ? path : sp,
+                        (file ? path : sp)[0] ? ": " : "",
+                        !file     ? "mark one surface \"stop\": true"
+                        : rx->zmx ? "give one SURF a STOP line"
+                                  : "give it a row of radius 0");
     if (stops > 1)
         return lr__fail(err, LR_ERR_INVALID, sp, "%s: %d stops; a lens has one",
                         sp, stops);
