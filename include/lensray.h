@@ -475,6 +475,13 @@ LR_API size_t lr_scene_primitive_count(const lr_scene *scene);
  * lr_scene_free. */
 LR_API const char *lr_scene_description(const lr_scene *scene);
 
+/* Whether a file the scene was loaded from (its meshes, textures, glTF
+ * files, environment map, lens file; not the scene's own JSON, which
+ * the caller read) has changed or gone since, by device, inode, size and
+ * modification time: for a caller that keeps loaded scenes, as lensrayd
+ * does, to load it again. */
+LR_API int lr_scene_files_changed(const lr_scene *scene);
+
 /* The camera and render settings as JSON objects in the scene format
  * (docs/scene-format.md sections 6 and 7): every key that applies to the
  * camera's model, so that lr_camera_apply_json of the text on top of

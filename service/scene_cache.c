@@ -7,7 +7,10 @@
  * names a scene of the scenes directory or sends it inline.  Named scenes
  * also have a by-name index keyed on the file's identity (device, inode,
  * size, modification time), so that a hit does not even read the file, and
- * an edited file is noticed and reloaded.
+ * an edited file is noticed and reloaded.  A hit whose scene's own files
+ * (meshes, textures, ...) have changed since it was loaded
+ * (lr_scene_files_changed) is dropped and loaded again: the JSON's hash
+ * alone kept an edited mesh's old geometry until a restart.
  *
  * Ownership: an entry's reference count counts its holders plus one while
  * it is in the cache.  Eviction (least recently used, beyond
@@ -170,6 +173,31 @@ static lrd_scene *insert_locked(lrd_scene *s)
     return to_free;
 }
 
+/* `hit` (found, the caller's reference) when its scene's files are as it
+ * was loaded from; otherwise NULL, `hit` taken out of the cache and the
+ * caller's reference released, for the caller to load the scene again. */
+static lrd_scene *fresh(lrd_scene *hit)
+{
+    if (hit == NULL || !lr_scene_files_changed(hit->scene))
+        return hit;
+    pthread_mutex_lock(&cache.mu);
+    if (hit->cached) {
+        for (lrd_scene **pp = &cache.list; *pp != NULL; pp = &(*pp)->next)
+            if (*pp == hit) {
+                *pp = hit->next;
+                break;
+            }
+        hit->next = NULL;
+        hit->cached = 0;
+        cache.n--;
+        hit->refs--; /* the cache's; the caller's is released below */
+    }
+    cache.stats.hits--;
+    pthread_mutex_unlock(&cache.mu);
+    lrd_scene_release(hit);
+    return NULL;
+}
+
 static void free_chain(lrd_scene *s)
 {
     while (s != NULL) {
@@ -304,7 +332,11 @@ lrd_scene *lrd_scene_named(const char *name, lrd_err *e)
                 ne->last_use = cache.clock;
                 cache.stats.hits++;
                 pthread_mutex_unlock(&cache.mu);
-                return hit;
+                hit = fresh(hit);
+                if (hit != NULL)
+                    return hit;
+                pthread_mutex_lock(&cache.mu);
+                break;
             }
         }
     pthread_mutex_unlock(&cache.mu);
@@ -325,10 +357,14 @@ lrd_scene *lrd_scene_named(const char *name, lrd_err *e)
         cache.stats.hits++;
         remember_name_locked(name, &st, hash);
         pthread_mutex_unlock(&cache.mu);
-        free(text);
-        return hit;
+        hit = fresh(hit);
+        if (hit != NULL) {
+            free(text);
+            return hit;
+        }
+    } else {
+        pthread_mutex_unlock(&cache.mu);
     }
-    pthread_mutex_unlock(&cache.mu);
 
     char file[80];
     snprintf(file, sizeof file, "%s.json", name);
@@ -351,6 +387,7 @@ lrd_scene *lrd_scene_inline(const char *text, size_t len, lrd_err *e)
     if (hit != NULL)
         cache.stats.hits++;
     pthread_mutex_unlock(&cache.mu);
+    hit = fresh(hit);
     if (hit != NULL)
         return hit;
     return load_and_insert(text, len, hash, NULL, e);

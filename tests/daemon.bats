@@ -705,7 +705,7 @@ print("\n".join(sorted(s["properties"])))' "$spec" "$schema") \
     req POST "$URL/v1/render" '{"scene": "tiny", "camera": {"fov": 25}}'
     expect 200
     [ "$(image "$T/body")" = "png 40 30 3" ]
-    ! cmp -s "$T/body" "$T/default.png"
+    run ! cmp -s "$T/body" "$T/default.png"
     # Restating the scene's own values changes nothing.
     req POST "$URL/v1/render" '{"scene": "tiny", "camera": {"fov": 40, "position": [0, 1, 5]}, "render": {"spp": 2}}'
     cmp "$T/body" "$T/default.png"
@@ -798,7 +798,7 @@ print("\n".join(sorted(s["properties"])))' "$spec" "$schema") \
     req POST "$URL/v1/render" '{"scene": "tiny", "camera": {"model": "lens", "lens": "../outside/secret.zmx"}}'
     expect_error 422 invalid_value camera.lens
     # The error never shows where the scenes directory is.
-    ! grep -q "$WORK" "$T/body"
+    run ! grep -q "$WORK" "$T/body"
     # Scene names cannot be paths either.
     req POST "$URL/v1/render" '{"scene": "../tiny"}'
     expect_error 422 invalid_value scene
@@ -821,7 +821,7 @@ print("\n".join(sorted(s["properties"])))' "$spec" "$schema") \
     req POST "$URL/v1/render" '{"scene": {"objects": [{"type": "gltf", "file": "meshes/leak.gltf"}]}}'
     expect_error 422 invalid_value scene.objects[0].file
     [[ "$(json o.error.message)" == *'leak.gltf: buffers[0].uri "../../outside/secret.obj" has a ".." segment'* ]]
-    ! grep -q "$WORK" "$T/body"
+    run ! grep -q "$WORK" "$T/body"
     # The daemon still serves.
     req GET "$URL/healthz"
     expect 200
@@ -834,7 +834,7 @@ print("\n".join(sorted(s["properties"])))' "$spec" "$schema") \
     req POST "$URL/v1/render" "$pre \"tiny.json\"}]}}"
     expect_error 422 invalid_value scene.objects[0].file
     [[ "$(json o.error.message)" == "scene.objects[0].file: tiny.json:"* ]]
-    ! grep -q "$WORK" "$T/body"
+    run ! grep -q "$WORK" "$T/body"
     # The scenes directory itself and its subdirectories are directories,
     # not mesh files, whatever way they are spelled (they once read as "a
     # symbolic link" leading outside).
@@ -843,7 +843,7 @@ print("\n".join(sorted(s["properties"])))' "$spec" "$schema") \
         req POST "$URL/v1/render" "$pre \"$dir\"}]}}"
         expect_error 422 invalid_value scene.objects[0].file
         [[ "$(json o.error.message)" == *"is a directory, not a file"* ]]
-        ! grep -q "$WORK" "$T/body"
+        run ! grep -q "$WORK" "$T/body"
     done
 }
 
@@ -890,6 +890,37 @@ print("\n".join(sorted(s["properties"])))' "$spec" "$schema") \
         expect 200
     done
     [ "$(metric "$URL" lensrayd_scene_cache_misses_total)" = "$misses" ]
+}
+
+@test "a cached scene whose mesh is edited is loaded again, named and inline" {
+    # The cache was keyed by the scene's JSON alone: an edited mesh kept
+    # its old geometry (the image byte for byte the same) until a restart.
+    printf 'v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nv 0 1.5 0\nf 1 2 5\nf 2 3 5\nf 3 4 5\nf 4 1 5\n' \
+        >"$WORK/scenes/meshes/tent.obj"
+    local scene='{"camera": {"position": [0, 1, 5], "look_at": [0, 0.5, 0]}, "lights": [{"type": "ambient", "radiance": 1}], "objects": [{"type": "mesh", "file": "meshes/tent.obj"}], "render": {"width": 24, "height": 16, "spp": 1}}'
+    printf '%s\n' "$scene" >"$WORK/scenes/tent.json"
+    req POST "$URL/v1/render" '{"scene": "tent"}'
+    expect 200
+    cp "$T/body" "$T/named1"
+    req POST "$URL/v1/render" "{\"scene\": $scene}"
+    expect 200
+    cp "$T/body" "$T/inline1"
+    sed -i 's/v 0 1.5 0/v 0 0.5 0/' "$WORK/scenes/meshes/tent.obj"
+    req POST "$URL/v1/render" '{"scene": "tent"}'
+    expect 200
+    run -1 cmp -s "$T/body" "$T/named1"
+    cp "$T/body" "$T/named2"
+    req POST "$URL/v1/render" "{\"scene\": $scene}"
+    expect 200
+    run -1 cmp -s "$T/body" "$T/inline1"
+    cmp "$T/body" "$T/named2"
+    # Unchanged, it is a hit again.
+    local hits
+    hits=$(metric "$URL" lensrayd_scene_cache_hits_total)
+    req POST "$URL/v1/render" '{"scene": "tent"}'
+    expect 200
+    cmp "$T/body" "$T/named2"
+    [ "$(metric "$URL" lensrayd_scene_cache_hits_total)" = $((hits + 1)) ]
 }
 
 # ---- queued jobs --------------------------------------------------------------

@@ -293,6 +293,7 @@ void lr_scene_free(lr_scene *s)
 {
     if (s == NULL)
         return;
+    lr__file_log_free(&s->files);
     for (size_t i = 0; i < s->n_geoms; i++) {
         free(s->geoms[i].corner_normals);
         free(s->geoms[i].corner_uv);
@@ -369,6 +370,11 @@ void lr_scene_settings(const lr_scene *s, lr_render_settings *rs)
 size_t lr_scene_primitive_count(const lr_scene *s)
 {
     return s->n_primitives;
+}
+
+int lr_scene_files_changed(const lr_scene *s)
+{
+    return s != NULL && lr__file_log_changed(&s->files);
 }
 
 const char *lr_scene_description(const lr_scene *s)

@@ -224,7 +224,8 @@ struct lr_scene {
     double eps_floor;
     lr_camera camera;
     lr_render_settings settings;
-    char *description; /* the scene's "description", "" if none */
+    char *description;  /* the scene's "description", "" if none */
+    lr__file_log files; /* what it was loaded from (lr_scene_files_changed) */
     /* Every texture the materials use, each loaded once; owned. */
     lr__texture **textures;
     size_t n_textures;

@@ -399,10 +399,13 @@ lr_status lr__scene_load_json(const char *json, size_t len,
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     }
     s->ambient_at = -1;
+    /* Every file read from here on is one the scene was loaded from. */
+    lr__file_log_begin(&s->files);
     lr_status st = build(s, root, base_dir, rd, err);
     cJSON_Delete(root);
     if (st == LR_OK && s->camera_gltf && n_overrides > 0)
         st = camera_overrides_again(s, overrides, n_overrides, base_dir, err);
+    lr__file_log_end();
     if (st != LR_OK) {
         lr_scene_free(s);
         return st;

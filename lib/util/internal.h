@@ -58,6 +58,27 @@ lr_status lr__read_file(const char *file, const char *shown,
                         int (*stop)(const char *chunk, size_t n), char **out,
                         size_t *out_len, lr_error *err);
 
+/* The files a scene was loaded from (its meshes, textures, glTF files,
+ * environment map, lens file), each as lr__read_file found it: for
+ * lr_scene_files_changed.  Recorded by lr__read_file into the calling
+ * thread's log between lr__file_log_begin and lr__file_log_end. */
+typedef struct lr__file_id {
+    char *path;
+    unsigned long long dev, ino, size;
+    long long mtime_s, mtime_ns;
+} lr__file_id;
+
+typedef struct lr__file_log {
+    lr__file_id *v; /* owned, n of them */
+    size_t n, cap;
+} lr__file_log;
+
+void lr__file_log_begin(lr__file_log *log);
+void lr__file_log_end(void);
+/* Whether a file of the log differs from what was read, or is gone. */
+int lr__file_log_changed(const lr__file_log *log);
+void lr__file_log_free(lr__file_log *log);
+
 /* ---- limits, shared by the JSON loader and the C API's validation ---- */
 
 #define LR__MAX_DIM 65536           /* pixels per side */

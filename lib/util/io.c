@@ -11,6 +11,83 @@
 #include <string.h>
 #include <sys/stat.h>
 
+/* The calling thread's log of files read (lr__file_log_begin), or NULL. */
+static __thread lr__file_log *file_log;
+
+void lr__file_log_begin(lr__file_log *log)
+{
+    memset(log, 0, sizeof *log);
+    file_log = log;
+}
+
+void lr__file_log_end(void)
+{
+    file_log = NULL;
+}
+
+void lr__file_log_free(lr__file_log *log)
+{
+    for (size_t i = 0; i < log->n; i++)
+        free(log->v[i].path);
+    free(log->v);
+    memset(log, 0, sizeof *log);
+}
+
+static lr__file_id id_of(const struct stat *sb)
+{
+    return (lr__file_id){NULL,
+                         (unsigned long long)sb->st_dev,
+                         (unsigned long long)sb->st_ino,
+                         (unsigned long long)sb->st_size,
+                         (long long)sb->st_mtim.tv_sec,
+                         (long long)sb->st_mtim.tv_nsec};
+}
+
+static int same_id(const lr__file_id *a, const lr__file_id *b)
+{
+    return a->dev == b->dev && a->ino == b->ino && a->size == b->size &&
+           a->mtime_s == b->mtime_s && a->mtime_ns == b->mtime_ns;
+}
+
+/* Adds `file` as sb found it to the thread's log, once.  0: out of
+ * memory. */
+static int log_file(const char *file, const struct stat *sb)
+{
+    lr__file_log *log = file_log;
+    if (log == NULL)
+        return 1;
+    for (size_t i = 0; i < log->n; i++)
+        if (strcmp(log->v[i].path, file) == 0)
+            return 1;
+    if (log->n == log->cap) {
+        size_t cap = log->cap ? 2 * log->cap : 8;
+        lr__file_id *v = realloc(log->v, cap * sizeof *v);
+        if (v == NULL)
+            return 0;
+        log->v = v, log->cap = cap;
+    }
+    lr__file_id id = id_of(sb);
+    id.path = strdup(file);
+    if (id.path == NULL)
+        return 0;
+    log->v[log->n++] = id;
+    return 1;
+}
+
+int lr__file_log_changed(const lr__file_log *log)
+{
+    for (size_t i = 0; i < log->n; i++) {
+        struct stat sb;
+        lr__file_id now;
+        if (stat(log->v[i].path, &sb) != 0)
+            return 1;
+        now = id_of(&sb);
+        if (!same_id(&now, &log->v[i]))
+            return 1;
+    }
+    return 0;
+}
+
 /* Reading in a loop rather than trusting the size from fstat also copes
  * with pipes and with files that change while we read them. */
 void lr__dir_of(const char *path, char *dir, size_t cap)
@@ -51,6 +128,11 @@ lr_status lr__read_file(const char *file, const char *shown,
                             shown, max >> 20, what);
         }
         cap = (size_t)sb.st_size + 2;
+        if (!log_file(file, &sb)) {
+            fclose(f);
+            return lr__fail(err, LR_ERR_NOMEM, json_path,
+                            "%s: out of memory reading the file", shown);
+        }
     }
     char *buf = malloc(cap);
     if (buf == NULL) {
