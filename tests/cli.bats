@@ -462,7 +462,7 @@ while True:
 @test "render.integrator=path renders the scene differently; an unknown integrator names the field" {
     run -0 "$LENSRAY" render "$T/scene.json" -o "$T/w.exr" -q
     run -0 "$LENSRAY" render "$T/scene.json" -o "$T/p.exr" -q --set render.integrator=path
-    ! cmp -s "$T/w.exr" "$T/p.exr"
+    run ! cmp -s "$T/w.exr" "$T/p.exr"
     run -3 "$LENSRAY" render "$T/scene.json" -o "$T/out.png" --set render.integrator=bidir
     [[ "$output" == *"render.integrator"* ]]
     [[ "$output" == *"bidir"* ]]
@@ -572,7 +572,7 @@ fails_naming() {
         # Not trivially equal: the lens blurs what the pinhole keeps sharp.
         "$LENSRAY" render "$REPO/scenes/spheres.json" -o "$T/pin.png" -q \
             --set render.width=$1 --set render.height=$2
-        ! cmp -s "$T/pin.png" "$T/thin.png"
+        run ! cmp -s "$T/pin.png" "$T/thin.png"
     done
 }
 
@@ -757,7 +757,7 @@ assert s["rays"] >= s["samples"], s
     after=$(stat -c %i "$T/outdir/out.png")
     [ "$before" != "$after" ]
     # ... and nothing else is left in the directory.
-    ! has_temp_files "$T/outdir"
+    run ! has_temp_files "$T/outdir"
     [ "$(ls -A "$T/outdir")" = "out.png" ]
 }
 
@@ -785,8 +785,9 @@ assert s["rays"] >= s["samples"], s
     wait "$pid" || st=$?
     [ "$st" -eq 130 ]
     grep -q 'interrupted: 1 of 3 frames written' "$T/err"
-    ! grep -q 'failed' "$T/err"
-    [ ! -e "$T/f-2.png" ] && [ ! -e "$T/f-3.png" ]
+    run ! grep -q 'failed' "$T/err"
+    [ ! -e "$T/f-2.png" ]
+    [ ! -e "$T/f-3.png" ]
     ! has_temp_files "$T"
 }
 
@@ -824,7 +825,7 @@ assert s["rays"] >= s["samples"], s
     [[ "$output" == *"cut.glb: the GLB header says"*"truncated"* ]]
     [ ! -e "$T/cut.png" ]
     sed '0,/"count": 4,/s//"count": 3000000,/' "$T/cl.gltf" >"$T/count.gltf"
-    ! cmp -s "$T/cl.gltf" "$T/count.gltf"
+    run ! cmp -s "$T/cl.gltf" "$T/count.gltf"
     run -3 "$LENSRAY" render "$T/count.gltf" -o "$T/count.png"
     [[ "$output" == *"count.gltf: accessors["*"elements reach byte"* ]]
 }

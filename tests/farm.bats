@@ -174,7 +174,7 @@ wait_for() {
     cp "$dir/pids" "$BATS_TEST_TMPDIR/pids"
     run -0 sh "$REPO/farm/farm.sh" stop "$BUILD" "$dir"
     while read -r name pid; do
-        ! alive "$pid"
+        run ! alive "$pid"
     done <"$BATS_TEST_TMPDIR/pids"
     alive "$SOLO_PID"
     run -7 curl -s "http://127.0.0.1:$port/healthz"
@@ -582,7 +582,7 @@ put_asset() {
         cmp "$dir/$f-local.exr" "$dir/$f-farm.exr"
     done
     # The white sky is what lights the first: its render is not black.
-    ! cmp -s "$dir/floor-farm.exr" "$dir/lit-farm.exr"
+    run ! cmp -s "$dir/floor-farm.exr" "$dir/lit-farm.exr"
     # The extension in any case, as the library reads it (the client sent
     # an upper-case .GLB's bytes as scene JSON).
     cp "$dir/lit.glb" "$dir/LIT.GLB"
@@ -645,8 +645,9 @@ frame() {
     CLIENT_PID=
     [ "$st" -eq 130 ]
     grep -q 'interrupted: 1 of 3 frames written' "$t/err"
-    ! grep -q 'failed' "$t/err"
-    [ ! -e "$t/f-2.png" ] && [ ! -e "$t/f-3.png" ]
+    run ! grep -q 'failed' "$t/err"
+    [ ! -e "$t/f-2.png" ]
+    [ ! -e "$t/f-3.png" ]
 }
 
 @test "a batch reads each frame when its parts are needed: with one part in flight, frame 2's unreadable scene is reported after frame 1's third part, and frames 1 and 3 are written" {
