@@ -115,6 +115,68 @@ static void test_quad_and_polygon_fan(void **state)
     lr__mesh_free(&m);
 }
 
+/* The signed area of mesh m's triangle t in the xy plane. */
+static double tri_area(const lr__mesh *m, size_t t)
+{
+    const float *a = &m->vertices[3 * m->indices[3 * t]];
+    const float *b = &m->vertices[3 * m->indices[3 * t + 1]];
+    const float *c = &m->vertices[3 * m->indices[3 * t + 2]];
+    return 0.5 * (((double)b[0] - a[0]) * ((double)c[1] - a[1]) -
+                  ((double)b[1] - a[1]) * ((double)c[0] - a[0]));
+}
+
+/* A concave polygon is cut into triangles inside it: each counter-
+ * clockwise as the face (positive area), together its area.  A fan about
+ * corner 1 of this L (area 3) covered 3.25, its notch filled, whichever
+ * corner came first in the L's other orders; and as the L turned round,
+ * a comb (area 7), each written from every corner. */
+static void test_concave_polygon(void **state)
+{
+    (void)state;
+    static const double L[][2] = {{1, -1}, {1, 0},  {0, 0},
+                                  {0, 1},  {-1, 1}, {-1, -1}};
+    static const double comb[][2] = {{-1.5, -1.5}, {1.5, -1.5}, {1.5, 1.5},
+                                     {1, 1.5},     {1, -0.5},   {0.5, -0.5},
+                                     {0.5, 1.5},   {0, 1.5},    {0, -0.5},
+                                     {-0.5, -0.5}, {-0.5, 1.5}, {-1.5, 1.5}};
+    const struct {
+        const double (*p)[2];
+        size_t n;
+        double area;
+    } polys[] = {{L, 6, 3.0}, {comb, 12, 7.0}};
+    for (size_t k = 0; k < 2; k++)
+        for (size_t r = 0; r < polys[k].n; r++) {
+            char text[1024];
+            size_t len = 0, n = polys[k].n;
+            for (size_t i = 0; i < n; i++)
+                len += (size_t)snprintf(
+                    text + len, sizeof text - len, "v %g %g 0\n",
+                    polys[k].p[(i + r) % n][0], polys[k].p[(i + r) % n][1]);
+            len += (size_t)snprintf(text + len, sizeof text - len, "f");
+            for (size_t i = 0; i < n; i++)
+                len += (size_t)snprintf(text + len, sizeof text - len, " %zu",
+                                        i + 1);
+            snprintf(text + len, sizeof text - len, "\n");
+            lr__mesh m;
+            load_ok("concave.obj", text, &m);
+            assert_int_equal(m.n_triangles, n - 2);
+            double sum = 0.0;
+            for (size_t t = 0; t < m.n_triangles; t++) {
+                double a = tri_area(&m, t);
+                if (!(a >= 0.0))
+                    fail_msg("polygon %zu from corner %zu: triangle %zu is "
+                             "clockwise (%g)",
+                             k, r, t, a);
+                sum += a;
+            }
+            if (fabs(sum - polys[k].area) > 1e-9)
+                fail_msg("polygon %zu from corner %zu: triangles cover %g, "
+                         "the polygon %g",
+                         k, r, sum, polys[k].area);
+            lr__mesh_free(&m);
+        }
+}
+
 static void test_negative_indices(void **state)
 {
     (void)state;
@@ -445,6 +507,7 @@ static void test_larger_mesh(void **state)
 static const struct CMUnitTest obj_tests[] = {
     cmocka_unit_test(test_triangle),
     cmocka_unit_test(test_quad_and_polygon_fan),
+    cmocka_unit_test(test_concave_polygon),
     cmocka_unit_test(test_negative_indices),
     cmocka_unit_test(test_normals),
     cmocka_unit_test(test_quad_normals_follow_fan),

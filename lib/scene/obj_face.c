@@ -1,13 +1,14 @@
 /*
  * obj_face.c: an OBJ file's faces: each corner's v/vt/vn indices read and
  * checked (1-based, or negative from the end of the list so far), and the
- * polygon fan-triangulated, keeping per-corner normals while every corner
- * has one.
+ * polygon triangulated (a fan when convex, else ear clipping), keeping
+ * per-corner normals while every corner has one.
  */
 #include "scene/obj.h"
 
 #include <errno.h>
 #include <limits.h>
+#include <math.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -159,6 +160,105 @@ static void drop_normals(parser *ps)
     ps->cap_cn = 0;
 }
 
+/* The polygon's corners c[0..n-1] in 2D: the plane across its Newell
+ * normal's largest component, turned so that the polygon winds
+ * counter-clockwise (xy: 2n numbers). */
+static void project(const parser *ps, const corner *c, size_t n, double *xy)
+{
+    double N[3] = {0, 0, 0};
+    for (size_t i = 0; i < n; i++) {
+        const float *a = &ps->v[3 * c[i].v], *b = &ps->v[3 * c[(i + 1) % n].v];
+        N[0] += ((double)a[1] - b[1]) * ((double)a[2] + b[2]);
+        N[1] += ((double)a[2] - b[2]) * ((double)a[0] + b[0]);
+        N[2] += ((double)a[0] - b[0]) * ((double)a[1] + b[1]);
+    }
+    int k = fabs(N[0]) > fabs(N[1]) ? (fabs(N[0]) > fabs(N[2]) ? 0 : 2)
+                                    : (fabs(N[1]) > fabs(N[2]) ? 1 : 2);
+    int u = (k + 1) % 3, w = (k + 2) % 3;
+    double flip = N[k] < 0 ? -1.0 : 1.0;
+    for (size_t i = 0; i < n; i++) {
+        xy[2 * i] = ps->v[3 * c[i].v + u];
+        xy[2 * i + 1] = flip * ps->v[3 * c[i].v + w];
+    }
+}
+
+static double turn(const double *a, const double *b, const double *c)
+{
+    return (b[0] - a[0]) * (c[1] - b[1]) - (b[1] - a[1]) * (c[0] - b[0]);
+}
+
+/* Whether p lies inside or on triangle abc (counter-clockwise). */
+static int inside(const double *a, const double *b, const double *c,
+                  const double *p)
+{
+    return turn(a, b, p) >= 0 && turn(b, c, p) >= 0 && turn(c, a, p) >= 0;
+}
+
+/* The polygon's n - 2 triangles as corner numbers, 3 each, into tri: a
+ * fan about corner 0 when the polygon is convex (as it always was:
+ * every convex polygon's triangles unchanged), else by ear clipping
+ * (Eberly, "Triangulation by Ear Clipping", 2002): a fan of a concave
+ * polygon covered area outside it (an L-shaped face filled its notch).
+ * Each triangle keeps the polygon's winding.  0: out of memory. */
+static int triangulate(const parser *ps, const corner *c, size_t n, size_t *tri)
+{
+    /* On the stack for the usual few corners (an allocation a face cost
+     * time in meshes of millions of quads). */
+    double xy_small[2 * 16];
+    size_t live_small[16];
+    int heap = n > 16;
+    double *xy = heap ? malloc(2 * n * sizeof *xy) : xy_small;
+    size_t *live = heap ? malloc(n * sizeof *live) : live_small;
+    int convex = 1;
+    if (xy == NULL || live == NULL) {
+        free(heap ? xy : NULL), free(heap ? live : NULL);
+        return 0;
+    }
+    if (n > 3) {
+        project(ps, c, n, xy);
+        for (size_t i = 0; i < n && convex; i++)
+            convex = turn(&xy[2 * i], &xy[2 * ((i + 1) % n)],
+                          &xy[2 * ((i + 2) % n)]) >= 0;
+    }
+    if (convex) {
+        for (size_t k = 1; k + 1 < n; k++)
+            tri[3 * (k - 1)] = 0, tri[3 * (k - 1) + 1] = k,
+                         tri[3 * (k - 1) + 2] = k + 1;
+        free(heap ? xy : NULL), free(heap ? live : NULL);
+        return 1;
+    }
+    size_t m = n, t = 0, i = 0, misses = 0;
+    for (size_t k = 0; k < n; k++)
+        live[k] = k;
+    while (m > 3) {
+        size_t a = live[(i + m - 1) % m], b = live[i % m],
+               d = live[(i + 1) % m];
+        const double *A = &xy[2 * a], *B = &xy[2 * b], *D = &xy[2 * d];
+        int ear = turn(A, B, D) > 0;
+        for (size_t k = 0; k < m && ear; k++) {
+            size_t q = live[k];
+            if (q != a && q != b && q != d &&
+                turn(&xy[2 * live[(k + m - 1) % m]], &xy[2 * q],
+                     &xy[2 * live[(k + 1) % m]]) <= 0)
+                ear = !inside(A, B, D, &xy[2 * q]);
+        }
+        /* A self-crossing or degenerate rest has no ear: cut anyway. */
+        if (ear || misses > m) {
+            tri[3 * t] = a, tri[3 * t + 1] = b, tri[3 * t + 2] = d, t++;
+            memmove(&live[i % m], &live[i % m + 1],
+                    (m - i % m - 1) * sizeof *live);
+            m--;
+            misses = 0;
+        } else {
+            i++, misses++;
+        }
+        i %= m;
+    }
+    tri[3 * t] = live[0], tri[3 * t + 1] = live[1], tri[3 * t + 2] = live[2];
+    free(heap ? xy : NULL), free(heap ? live : NULL);
+    return 1;
+}
+
 lr_status lr__obj_parse_face(parser *ps, const char *rest)
 {
     size_t n = 0;
@@ -193,8 +293,7 @@ lr_status lr__obj_parse_face(parser *ps, const char *rest)
     if (!face_uvs && ps->all_uvs)
         drop_uvs(ps);
 
-    /* A polygon with n corners becomes a fan of n - 2 triangles around
-     * its first corner; fine for the convex polygons exporters write. */
+    /* A polygon with n corners becomes n - 2 triangles (triangulate). */
     size_t add = n - 2;
     if (ps->n_tri > SIZE_MAX / 9 - add)
         return lr__obj_fail_at(ps, LR_ERR_LIMIT, "too many triangles");
@@ -220,8 +319,16 @@ lr_status lr__obj_parse_face(parser *ps, const char *rest)
     }
 
     const corner *cs = ps->corners;
-    for (size_t k = 1; k + 1 < n; k++) {
-        const corner *tri[3] = {&cs[0], &cs[k], &cs[k + 1]};
+    size_t order_small[3 * 14];
+    size_t *order = add > 14 ? malloc(3 * add * sizeof *order) : order_small;
+    if (order == NULL || !triangulate(ps, cs, n, order)) {
+        if (order != order_small)
+            free(order);
+        return lr__obj_nomem(ps);
+    }
+    for (size_t k = 0; k < add; k++) {
+        const corner *tri[3] = {&cs[order[3 * k]], &cs[order[3 * k + 1]],
+                                &cs[order[3 * k + 2]]};
         for (int j = 0; j < 3; j++) {
             /* parse_vertex keeps the vertex count within unsigned. */
             idx[3 * ps->n_tri + (size_t)j] = (unsigned)tri[j]->v;
@@ -234,5 +341,7 @@ lr_status lr__obj_parse_face(parser *ps, const char *rest)
         }
         ps->n_tri++;
     }
+    if (order != order_small)
+        free(order);
     return LR_OK;
 }
