@@ -177,6 +177,26 @@ static void test_concave_polygon(void **state)
         }
 }
 
+/* A vertex beyond 1e15 after the transform: the message names the file
+ * and which "v" line (it named neither). */
+static void test_vertex_out_of_range_named(void **state)
+{
+    (void)state;
+    char path[512];
+    lr_test_write_text("far.obj", "v 0 0 0\nv 1 0 0\nv 0 1e20 0\nf 1 2 3\n",
+                       path, sizeof path);
+    const char *json =
+        "{\"objects\": [{\"type\": \"mesh\", \"file\": \"far.obj\"}]}";
+    lr_scene *s = NULL;
+    lr_error err;
+    assert_int_equal(lr_scene_load_json(json, strlen(json), lr_test_tmpdir(),
+                                        NULL, 0, &s, &err),
+                     LR_ERR_INVALID);
+    if (strstr(err.message, "objects[0].file: far.obj: vertex 3 (the 3rd "
+                            "\"v\" line) reaches 1e+20") == NULL)
+        fail_msg("%s", err.message);
+}
+
 static void test_negative_indices(void **state)
 {
     (void)state;
@@ -392,6 +412,15 @@ static void test_bad_numbers(void **state)
               "nan.obj:3: non-finite");
     load_fail("inf.obj", "v 0 0 0\nv 1 0 0\nv 0 -inf 0\nf 1 2 3\n",
               "inf.obj:3: non-finite");
+    /* As old MSVC printed NaN and infinity: read as "1." and a comment,
+     * a vertex at 1 and a normal (0, 0, 1). */
+    load_fail("msnan.obj", "v 0 0 0\nv 1 0 0\nv 1 -1 1.#QNAN\nf 1 2 3\n",
+              "msnan.obj:3: non-finite number '1.#QNAN'");
+    load_fail("msind.obj", "v 0 0 0\nv 1 0 0\nv 1 -1 -1.#IND00 # c\nf 1 2 3\n",
+              "msind.obj:3: non-finite number '-1.#IND00'");
+    load_fail("msinf.obj",
+              "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1.#INF\nf 1 2 3\n",
+              "msinf.obj:4: non-finite number '1.#INF'");
     load_fail("over.obj", "v 0 0 0\nv 1 0 0\nv 0 0 1e400\nf 1 2 3\n",
               "over.obj:3: number '1e400' in a 'v' line is too large");
     load_fail("flt.obj", "v 0 0 0\nv 1 0 0\nv 0 0 1e39\nf 1 2 3\n",
@@ -508,6 +537,7 @@ static const struct CMUnitTest obj_tests[] = {
     cmocka_unit_test(test_triangle),
     cmocka_unit_test(test_quad_and_polygon_fan),
     cmocka_unit_test(test_concave_polygon),
+    cmocka_unit_test(test_vertex_out_of_range_named),
     cmocka_unit_test(test_negative_indices),
     cmocka_unit_test(test_normals),
     cmocka_unit_test(test_quad_normals_follow_fan),

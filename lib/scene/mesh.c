@@ -51,6 +51,14 @@ static float *smooth_normals(const lr__mesh *m)
     return out;
 }
 
+/* "st", "nd", "rd" or "th" after n. */
+static const char *ordinal(size_t n)
+{
+    if (n % 100 >= 11 && n % 100 <= 13)
+        return "th";
+    return n % 10 == 1 ? "st" : n % 10 == 2 ? "nd" : n % 10 == 3 ? "rd" : "th";
+}
+
 lr_status lr__scene_add_obj(lr_scene *s, const char *file, const char *shown,
                             const char *fp, int smooth, const lr__xform *x,
                             int material, lr_error *err)
@@ -83,9 +91,11 @@ lr_status lr__scene_add_obj(lr_scene *s, const char *file, const char *shown,
             free(normals);
             lr__mesh_free(&m);
             return lr__fail(err, LR_ERR_INVALID, fp,
-                            "%s: vertex %zu reaches %g from the origin (after "
-                            "the transform), beyond the limit of 1e15",
-                            fp, v + 1, v3_maxabs(q));
+                            "%s: %s: vertex %zu (the %zu%s \"v\" line) "
+                            "reaches %g from the origin (after the "
+                            "transform), beyond the limit of 1e15",
+                            fp, shown, v + 1, v + 1, ordinal(v + 1),
+                            v3_maxabs(q));
         }
         m.vertices[3 * v] = (float)q.x;
         m.vertices[3 * v + 1] = (float)q.y;

@@ -287,6 +287,21 @@ static lr_status parse_texcoord(parser *ps, const char *rest)
 static lr_status parse_line(parser *ps, char *s)
 {
     char *hash = strchr(s, '#');
+    /* "1.#QNAN", "-1.#IND00", "1.#INF": NaN and infinity as old MSVC
+     * printed them, read as "1." and a comment (a vertex at 1). */
+    if (hash != NULL && hash > s &&
+        ((hash[-1] >= '0' && hash[-1] <= '9') || hash[-1] == '.') &&
+        ((hash[1] >= 'A' && hash[1] <= 'Z') ||
+         (hash[1] >= 'a' && hash[1] <= 'z'))) {
+        char *t = hash;
+        while (t > s && t[-1] != ' ' && t[-1] != '\t')
+            t--;
+        size_t n = strcspn(t, " \t");
+        return lr__obj_fail_at(ps, LR_ERR_INVALID,
+                               "non-finite number '%s' (NaN or infinity as "
+                               "old MSVC wrote them)",
+                               lr__obj_quote(t, n).s);
+    }
     if (hash != NULL)
         *hash = '\0';
     const char *rest = s;
