@@ -137,8 +137,8 @@ while [ $k -le "$n" ]; do
     log="$dir/daemon-$k.log"
     : >"$log"
     # Every request comes from nginx, one address: the per-address limit
-    # (16) would reset nginx's 17th connection, a 502 (and the daemon
-    # marked failed) where the queue had room or a 429 was due.
+    # (32 by default) would reset nginx's 33rd connection, a 502 (and the
+    # daemon marked failed) where the queue had room or a 429 was due.
     # shellcheck disable=SC2086  # FARM_FLAGS is a list of flags
     "$build/lensrayd" --port 0 --bind 127.0.0.1 --scenes "$scenes" \
         --assets "$dir/assets" --id-prefix "$(printf %02x "$k")" \

@@ -173,27 +173,42 @@ static lrd_scene *insert_locked(lrd_scene *s)
     return to_free;
 }
 
+/* Called with cache.mu held: takes `s` out of the cache (if still in
+ * it), dropping the cache's reference (never its last: the caller
+ * holds one). */
+static void uncache_locked(lrd_scene *s)
+{
+    if (!s->cached)
+        return;
+    for (lrd_scene **pp = &cache.list; *pp != NULL; pp = &(*pp)->next)
+        if (*pp == s) {
+            *pp = s->next;
+            break;
+        }
+    s->next = NULL;
+    s->cached = 0;
+    cache.n--;
+    s->refs--;
+}
+
 /* `hit` (found, the caller's reference) when its scene's files are as it
- * was loaded from; otherwise NULL, `hit` taken out of the cache and the
- * caller's reference released, for the caller to load the scene again. */
+ * was loaded from, counted a hit; otherwise NULL, `hit` taken out of the
+ * cache and the caller's reference released, for the caller to load the
+ * scene again.  Counted only once checked: a hit taken back made the
+ * hits counter go down between two scrapes of /metrics. */
 static lrd_scene *fresh(lrd_scene *hit)
 {
-    if (hit == NULL || !lr_scene_files_changed(hit->scene))
-        return hit;
+    if (hit == NULL)
+        return NULL;
+    int changed = lr_scene_files_changed(hit->scene);
     pthread_mutex_lock(&cache.mu);
-    if (hit->cached) {
-        for (lrd_scene **pp = &cache.list; *pp != NULL; pp = &(*pp)->next)
-            if (*pp == hit) {
-                *pp = hit->next;
-                break;
-            }
-        hit->next = NULL;
-        hit->cached = 0;
-        cache.n--;
-        hit->refs--; /* the cache's; the caller's is released below */
-    }
-    cache.stats.hits--;
+    if (changed)
+        uncache_locked(hit);
+    else
+        cache.stats.hits++;
     pthread_mutex_unlock(&cache.mu);
+    if (!changed)
+        return hit;
     lrd_scene_release(hit);
     return NULL;
 }
@@ -240,15 +255,27 @@ static lrd_scene *load_and_insert(const char *text, size_t len,
     /* Two requests may have loaded the same scene at once; the first to
      * get here wins and the other copy is dropped. */
     lrd_scene *other = find_locked(hash);
-    lrd_scene *to_free = NULL;
-    if (other == NULL)
-        to_free = insert_locked(s);
     pthread_mutex_unlock(&cache.mu);
-    free_chain(to_free);
+    /* ... unless its files changed after it read them and before this
+     * load did: then this copy, the newer, replaces it (a request sent
+     * after an edit rendered the old file). */
+    if (other != NULL && lr_scene_files_changed(other->scene)) {
+        pthread_mutex_lock(&cache.mu);
+        uncache_locked(other);
+        pthread_mutex_unlock(&cache.mu);
+        lrd_scene_release(other);
+        other = NULL;
+    }
     if (other != NULL) {
         entry_free(s);
         return other;
     }
+    pthread_mutex_lock(&cache.mu);
+    /* (Another copy may have come in meanwhile: this one goes in too and
+     * the older is found less, as both hold the same files.) */
+    lrd_scene *to_free = insert_locked(s);
+    pthread_mutex_unlock(&cache.mu);
+    free_chain(to_free);
     return s;
 }
 
@@ -330,7 +357,6 @@ lrd_scene *lrd_scene_named(const char *name, lrd_err *e)
             lrd_scene *hit = find_locked(ne->hash);
             if (hit != NULL) {
                 ne->last_use = cache.clock;
-                cache.stats.hits++;
                 pthread_mutex_unlock(&cache.mu);
                 hit = fresh(hit);
                 if (hit != NULL)
@@ -354,7 +380,6 @@ lrd_scene *lrd_scene_named(const char *name, lrd_err *e)
     pthread_mutex_lock(&cache.mu);
     lrd_scene *hit = find_locked(hash);
     if (hit != NULL) {
-        cache.stats.hits++;
         remember_name_locked(name, &st, hash);
         pthread_mutex_unlock(&cache.mu);
         hit = fresh(hit);
@@ -384,8 +409,6 @@ lrd_scene *lrd_scene_inline(const char *text, size_t len, lrd_err *e)
     lrd_sha256(text, len, hash);
     pthread_mutex_lock(&cache.mu);
     lrd_scene *hit = find_locked(hash);
-    if (hit != NULL)
-        cache.stats.hits++;
     pthread_mutex_unlock(&cache.mu);
     hit = fresh(hit);
     if (hit != NULL)
