@@ -126,6 +126,14 @@ $(BUILD)/obj/lib/image/exr_zip.o: CFLAGS += $(if $(filter -O2,$(OPT)),-O3)
 LENS_INSTALL_DIR := $(PREFIX)/share/lensray/lenses
 $(BUILD)/obj/lib/optics/rx_file.o: CPPFLAGS += -DLR_LENS_DIR='"$(abspath lenses)"' \
                                         -DLR_LENS_INSTALL_DIR='"$(LENS_INSTALL_DIR)"'
+# Rebuilt when the directories change: `make` then `make install
+# PREFIX=X` kept the first build's /usr/local compiled in, and the
+# installed library could not find the lenses it had installed.
+# The file is written as the Makefile is read, and only when they differ.
+LENS_DIRS := $(abspath lenses) $(LENS_INSTALL_DIR)
+$(shell mkdir -p $(BUILD)/gen && echo '$(LENS_DIRS)' | \
+  cmp -s - $(BUILD)/gen/lens-dirs || echo '$(LENS_DIRS)' >$(BUILD)/gen/lens-dirs)
+$(BUILD)/obj/lib/optics/rx_file.o: $(BUILD)/gen/lens-dirs
 
 $(BUILD)/liblensray.a: $(LIB_OBJ)
 	@echo "  AR      $@"

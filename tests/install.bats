@@ -37,6 +37,26 @@ pc() {
     [[ "$output" == *'"efl_mm":50.00'* ]]
 }
 
+@test "make install with another PREFIX than the build's compiles the lens directory in again" {
+    # rx_file.o kept the first build's /usr/local/share/lensray/lenses, so
+    # `make` then `make install PREFIX=X` installed a library that could
+    # not find the lenses it had installed in X.  (make -n: nothing is
+    # rebuilt; the directories' file is put back as it was.)
+    local b="${LENSRAY_BUILD:-build}" f
+    case "$b" in /*) ;; *) b="$REPO/$b" ;; esac
+    f="$b/gen/lens-dirs"
+    cp -p "$f" "$BATS_TEST_TMPDIR/lens-dirs"
+    run -0 make --no-print-directory -n -C "$REPO" install BUILD="$b" \
+        DESTDIR="$BATS_TEST_TMPDIR/x" PREFIX=/opt/elsewhere
+    cp -p "$BATS_TEST_TMPDIR/lens-dirs" "$f"
+    [[ "$output" == *"rx_file.o"* ]]
+    [[ "$output" == *"/opt/elsewhere/share/lensray/lenses"* ]]
+    run -0 make --no-print-directory -n -C "$REPO" install BUILD="$b" \
+        DESTDIR="$BATS_TEST_TMPDIR/x" PREFIX=/usr/local
+    cp -p "$BATS_TEST_TMPDIR/lens-dirs" "$f"
+    [[ "$output" != *"rx_file.o"* ]]
+}
+
 @test "lensray.pc links a program against the installed library, shared and static" {
     # Its Libs.private was written by hand and lacked -ljpeg and
     # -ldeflate, so the static library did not link with it.
