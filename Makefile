@@ -139,8 +139,9 @@ $(BUILD)/liblensray.a: $(LIB_OBJ)
 	@echo "  AR      $@"
 	@rm -f $@ && ar rcs $@ $^
 
-$(BUILD)/liblensray.so.$(VERSION): $(LIB_OBJ)
-	$(CC) -shared -Wl,-soname,liblensray.so.$(SOMAJOR) $(LDFLAGS) -o $@ $^ $(LIB_LIBS)
+$(BUILD)/liblensray.so.$(VERSION): $(LIB_OBJ) lib/lensray.map
+	$(CC) -shared -Wl,-soname,liblensray.so.$(SOMAJOR) \
+	  -Wl,--version-script=lib/lensray.map $(LDFLAGS) -o $@ $(LIB_OBJ) $(LIB_LIBS)
 
 $(BUILD)/liblensray.so: $(BUILD)/liblensray.so.$(VERSION)
 	ln -sf liblensray.so.$(VERSION) $(BUILD)/liblensray.so.$(SOMAJOR)

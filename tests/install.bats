@@ -57,6 +57,16 @@ pc() {
     [[ "$output" != *"rx_file.o"* ]]
 }
 
+@test "the installed shared library exports the header's functions alone" {
+    # GCC's target_clones functions (lr__rx_trace16f and 13 more, with
+    # their .resolver symbols) were exported despite -fvisibility=hidden.
+    run -0 nm -D --defined-only "$ROOT/usr/local/lib/liblensray.so.0"
+    local extra
+    extra=$(printf '%s\n' "$output" | awk '$3 !~ /^lr_[a-z]/ { print $3 }')
+    [ -z "$extra" ]
+    [ "$(printf '%s\n' "$output" | grep -c ' lr_[a-z]')" -ge 60 ]
+}
+
 @test "lensray.pc links a program against the installed library, shared and static" {
     # Its Libs.private was written by hand and lacked -ljpeg and
     # -ldeflate, so the static library did not link with it.
