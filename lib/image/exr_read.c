@@ -111,6 +111,21 @@ lr_status lr__exr_read(const void *data, size_t n, const char *shown,
                       shown, comp == EXR_COMPRESSION_DWAA ? "DWAA" : "DWAB");
         goto done;
     }
+    /* OpenEXRCore 3.1 reads B44 and B44A files whose channels are not
+     * all half wrong, without an error: rows shifted, channels mixed
+     * (a float ramp read back up to 4.95 off; OpenEXR's C++ library and
+     * Mitsuba read the same files right).  Refused like DWA. */
+    int b44 = comp == EXR_COMPRESSION_B44 || comp == EXR_COMPRESSION_B44A;
+    for (int i = 0; b44 && i < chl->num_channels; i++)
+        if (chl->entries[i].pixel_type != EXR_PIXEL_HALF) {
+            st = lr__fail(err, LR_ERR_INVALID, blame,
+                          "%s is %s-compressed with 32-bit channels (%s), "
+                          "which OpenEXRCore 3.1 decodes wrongly; save it "
+                          "with ZIP, PIZ or no compression, or as half",
+                          shown, comp == EXR_COMPRESSION_B44 ? "B44" : "B44A",
+                          chl->entries[i].name.str);
+            goto done;
+        }
     long long w = (long long)dw.max.x - dw.min.x + 1;
     long long h = (long long)dw.max.y - dw.min.y + 1;
     if (w < 1 || h < 1 || w > max_dim || h > max_dim) {

@@ -24,8 +24,10 @@
  * daemon for that). */
 #define LR__ENV_MAX_DIM 16384
 #define LR__ENV_MAX_TEXELS ((size_t)16384 * 8192)
-/* The file is read whole first: 16k x 8k RGB half-float is 768 MB. */
-#define LR__ENV_MAX_BYTES ((size_t)1 << 30)
+/* The file is read whole first: 16k x 8k RGB half-float is 768 MB, in
+ * float 1.5 GiB and a little (the largest map the texel cap allows,
+ * which 1 GiB refused). */
+#define LR__ENV_MAX_BYTES ((size_t)7 << 28)
 
 void lr__envmap_free(lr__envmap *e)
 {
