@@ -204,6 +204,7 @@ static void camera_round_trip(const lr_camera *cam)
     assert_string_equal(a, b);
     assert_int_equal(back.model, cam->model);
     assert_memory_equal(back.position, cam->position, sizeof cam->position);
+    assert_memory_equal(back.look_at, cam->look_at, sizeof cam->look_at);
     assert_true(back.fov == cam->fov);
     if (cam->model != LR_CAMERA_PINHOLE) {
         assert_int_equal(back.chromatic.mode, cam->chromatic.mode);
@@ -240,6 +241,12 @@ static void test_camera_json(void **state)
     c.chromatic.amplify = 20;
     c.chromatic.wavelengths = 12;
     camera_round_trip(&c);
+    /* The last bit too: cJSON's %.15g wrote 0.30000000000000004 as 0.3
+     * and 1.0000000000000002 as 1. */
+    c.position[0] = 0.30000000000000004;
+    c.position[1] = 1.0000000000000002;
+    c.fov = nextafter(40.0, 41.0);
+    camera_round_trip(&c);
     for (int g = LR_GLASS_BK7; g <= LR_GLASS_FUSED_SILICA; g++) {
         c.chromatic.glass = (lr_glass)g;
         camera_round_trip(&c);
@@ -257,8 +264,14 @@ static void test_render_settings_json(void **state)
     (void)state;
     lr_render_settings s;
     lr_render_settings_default(&s);
-    for (int k = 0; k < 3; k++) {
-        if (k == 1) {
+    for (int k = 0; k < 4; k++) {
+        if (k == 3) {
+            /* 2^53 - 1, the largest seed the JSON takes: it came back
+             * 2^53 - 2 (cJSON's %.15g), and --remote rendered another
+             * picture than the local render. */
+            s.seed = 9007199254740991ull;
+            s.adaptive_threshold = 0.1 + 0.2;
+        } else if (k == 1) {
             s.sampler = LR_SAMPLER_GRID;
             s.seed = 12345678901ull;
             s.region[0] = 1, s.region[1] = 2, s.region[2] = 30,

@@ -13,6 +13,8 @@
 
 #include <cjson/cJSON.h>
 
+#include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -36,10 +38,30 @@ typedef struct jb {
     int failed;
 } jb;
 
+/* v as the shortest of %.15g to %.17g that reads back as v: cJSON
+ * prints %.15g when that reads back within its epsilon, which dropped
+ * the last bits (a seed of 2^53 - 1 came back 2^53 - 2, and --remote's
+ * parts rendered another picture than the local render). */
+static cJSON *exact(double v)
+{
+    if (!isfinite(v))
+        return cJSON_CreateNumber(v);
+    char t[40];
+    for (int p = 15; p <= 17; p++) {
+        snprintf(t, sizeof t, "%.*g", p, v);
+        if (strtod(t, NULL) == v)
+            break;
+    }
+    return cJSON_CreateRaw(t);
+}
+
 static void num(jb *b, const char *k, double v)
 {
-    if (cJSON_AddNumberToObject(b->o, k, v) == NULL)
+    cJSON *n = exact(v);
+    if (n == NULL || !cJSON_AddItemToObject(b->o, k, n)) {
+        cJSON_Delete(n);
         b->failed = 1;
+    }
 }
 
 static void str(jb *b, const char *k, const char *v)
@@ -56,7 +78,15 @@ static void boolean(jb *b, const char *k, int v)
 
 static void vec(jb *b, const char *k, const double *v, int n)
 {
-    cJSON *a = cJSON_CreateDoubleArray(v, n);
+    cJSON *a = cJSON_CreateArray();
+    for (int i = 0; a != NULL && i < n; i++) {
+        cJSON *x = exact(v[i]);
+        if (x == NULL || !cJSON_AddItemToArray(a, x)) {
+            cJSON_Delete(x);
+            cJSON_Delete(a);
+            a = NULL;
+        }
+    }
     if (a == NULL || !cJSON_AddItemToObject(b->o, k, a)) {
         cJSON_Delete(a);
         b->failed = 1;
