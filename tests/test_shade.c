@@ -450,6 +450,19 @@ static void test_render_rejects_bad_arguments(void **state)
     assert_string_equal(err.path, "camera.fov");
     assert_null(img);
     lr_scene_free(s);
+    /* A real lens's coating and ghosts, checked as every other enum (9
+     * rendered, and was written back as "unknown" and false). */
+    s = lr_test_load_json(
+        "{\"camera\": {\"model\": \"lens\", \"lens\": \"petzval\"}}");
+    lr_scene_camera(s, &cam);
+    cam.coating = (lr_lens_coating)9;
+    assert_int_equal(lr_camera_validate(&cam, &err), LR_ERR_INVALID);
+    assert_string_equal(err.path, "camera.coating");
+    lr_scene_camera(s, &cam);
+    cam.ghosts = (lr_ghosts)9;
+    assert_int_equal(lr_render(s, &cam, &rs, &img, NULL, &err), LR_ERR_INVALID);
+    assert_string_equal(err.path, "camera.ghosts");
+    lr_scene_free(s);
 }
 
 /* The packet tracer shades plain lanes (diffuse triangles) with vector

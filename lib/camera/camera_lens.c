@@ -97,6 +97,18 @@ static lr_status validate(const lr_camera *cam, int active, lr_error *err)
                               err);
     if (st != LR_OK)
         return st;
+    /* As every other enum (a coating of 9 rendered, and was written
+     * back "unknown", which the parser refuses). */
+    if (cam->coating != LR_COATING_PRESCRIPTION &&
+        cam->coating != LR_COATING_NONE && cam->coating != LR_COATING_MGF2)
+        return BAD("camera.coating",
+                   "camera.coating is not a known coating "
+                   "(%d)",
+                   (int)cam->coating);
+    if (cam->ghosts != LR_GHOSTS_AUTO && cam->ghosts != LR_GHOSTS_ON &&
+        cam->ghosts != LR_GHOSTS_OFF)
+        return BAD("camera.ghosts", "camera.ghosts is not a known setting (%d)",
+                   (int)cam->ghosts);
     if (!active)
         return LR_OK;
     if (cam->lens == NULL)
