@@ -206,6 +206,14 @@ has_temp_files() {
     ! has_temp_files "$T"
 }
 
+@test "an output name of 250 bytes, legal, is written (its temporary name had no room)" {
+    local n
+    n=$(printf 'a%.0s' $(seq 1 246)).png
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/$n" -q
+    [ -s "$T/$n" ]
+    ! has_temp_files "$T"
+}
+
 @test "a PNG that cannot be written all says why (4)" {
     # The reason was lost (an overlapping snprintf): "cannot write a
     # 400 x 300 PNG: " and nothing after it.

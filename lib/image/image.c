@@ -203,10 +203,20 @@ static int create_temp_beside(const char *path, char **tmp_name)
     }
     struct timespec ts;
     clock_gettime(CLOCK_REALTIME, &ts);
+    /* A file name near NAME_MAX (255) has no room for the suffix (names
+     * of 236 bytes and more were refused, "File name too long"): then a
+     * short hidden name in the same directory. */
+    const char *slash = strrchr(path, '/');
+    size_t base = strlen(slash ? slash + 1 : path);
+    int dir_len = slash ? (int)(slash - path + 1) : 0;
     for (int attempt = 0; attempt < 100; attempt++) {
         unsigned n = atomic_fetch_add(&tmp_counter, 1u);
-        snprintf(name, cap, "%s.tmp.%ld.%lx.%u", path, (long)getpid(),
-                 (unsigned long)ts.tv_nsec, n);
+        if (base + 48 > 255)
+            snprintf(name, cap, "%.*s.lensray.tmp.%ld.%lx.%u", dir_len, path,
+                     (long)getpid(), (unsigned long)ts.tv_nsec, n);
+        else
+            snprintf(name, cap, "%s.tmp.%ld.%lx.%u", path, (long)getpid(),
+                     (unsigned long)ts.tv_nsec, n);
         int fd = open(name, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
         if (fd >= 0) {
             *tmp_name = name;
