@@ -905,7 +905,7 @@ print("\n".join(sorted(s["properties"])))' "$spec" "$schema") \
     req POST "$URL/v1/render" "{\"scene\": $scene}"
     expect 200
     cp "$T/body" "$T/inline1"
-    sed -i 's/v 0 1.5 0/v 0 0.5 0/' "$WORK/scenes/meshes/tent.obj"
+    sed -i 's/v 0 1.5 0/v 0 0.25 0/' "$WORK/scenes/meshes/tent.obj"
     req POST "$URL/v1/render" '{"scene": "tent"}'
     expect 200
     run -1 cmp -s "$T/body" "$T/named1"

@@ -197,6 +197,32 @@ static void test_vertex_out_of_range_named(void **state)
         fail_msg("%s", err.message);
 }
 
+/* lr_scene_files_changed: unchanged after the caller's chdir (the file
+ * was logged by its relative path, "gone" from elsewhere), changed after
+ * an edit. */
+static void test_files_changed(void **state)
+{
+    (void)state;
+    char path[512], cwd[1024];
+    lr_test_write_text("fc.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", path,
+                       sizeof path);
+    assert_non_null(getcwd(cwd, sizeof cwd));
+    assert_int_equal(chdir(lr_test_tmpdir()), 0);
+    const char *json =
+        "{\"objects\": [{\"type\": \"mesh\", \"file\": \"fc.obj\"}]}";
+    lr_scene *s = NULL;
+    lr_error err;
+    lr_status st = lr_scene_load_json(json, strlen(json), NULL, NULL, 0, &s,
+                                      &err);
+    assert_int_equal(chdir(cwd), 0);
+    assert_int_equal(st, LR_OK);
+    assert_int_equal(lr_scene_files_changed(s), 0);
+    lr_test_write_text("fc.obj", "v 0 0 0\nv 20 0 0\nv 0 1 0\nf 1 2 3\n", path,
+                       sizeof path);
+    assert_int_equal(lr_scene_files_changed(s), 1);
+    lr_scene_free(s);
+}
+
 static void test_negative_indices(void **state)
 {
     (void)state;
@@ -538,6 +564,7 @@ static const struct CMUnitTest obj_tests[] = {
     cmocka_unit_test(test_quad_and_polygon_fan),
     cmocka_unit_test(test_concave_polygon),
     cmocka_unit_test(test_vertex_out_of_range_named),
+    cmocka_unit_test(test_files_changed),
     cmocka_unit_test(test_negative_indices),
     cmocka_unit_test(test_normals),
     cmocka_unit_test(test_quad_normals_follow_fan),

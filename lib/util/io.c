@@ -56,18 +56,28 @@ static int log_file(const char *file, const struct stat *sb)
     lr__file_log *log = file_log;
     if (log == NULL)
         return 1;
+    /* Absolute, so that a caller's chdir later does not make every
+     * relative file "gone"; as given if it cannot be resolved. */
+    char *abs = realpath(file, NULL);
+    if (abs == NULL && errno == ENOMEM)
+        return 0;
+    const char *key = abs != NULL ? abs : file;
     for (size_t i = 0; i < log->n; i++)
-        if (strcmp(log->v[i].path, file) == 0)
+        if (strcmp(log->v[i].path, key) == 0) {
+            free(abs);
             return 1;
+        }
     if (log->n == log->cap) {
         size_t cap = log->cap ? 2 * log->cap : 8;
         lr__file_id *v = realloc(log->v, cap * sizeof *v);
-        if (v == NULL)
+        if (v == NULL) {
+            free(abs);
             return 0;
+        }
         log->v = v, log->cap = cap;
     }
     lr__file_id id = id_of(sb);
-    id.path = strdup(file);
+    id.path = abs != NULL ? abs : strdup(file);
     if (id.path == NULL)
         return 0;
     log->v[log->n++] = id;
