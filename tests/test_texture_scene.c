@@ -435,12 +435,61 @@ static void job_lists_textures(void **state)
     lr_job_free(job);
 }
 
+/* A 2 x 2 image: its top row (y 0) red, green; its bottom blue, white. */
+static void corners(int x, int y, float rgb[3])
+{
+    static const float c[2][2][3] = {{{1, 0, 0}, {0, 1, 0}},
+                                     {{0, 0, 1}, {1, 1, 1}}};
+    memcpy(rgb, c[y][x], sizeof c[y][x]);
+}
+
+/* A finite plane's texture stands upright seen from the front, on walls
+ * facing each way (facing +x and -z it stood on its head, turned half
+ * round): a 2 x 2 image on a 2 x 2 wall through a 2 x 2 orthographic
+ * view from in front of it, up +y, each pixel one texel (grid sampler:
+ * pixel centres, texel centres). */
+static void walls_upright(void **state)
+{
+    (void)state;
+    write_exr("corners.exr", 2, 2, corners);
+    static const int n[4][3] = {{0, 0, 1}, {0, 0, -1}, {1, 0, 0}, {-1, 0, 0}};
+    for (int k = 0; k < 4; k++) {
+        char json[1024];
+        snprintf(json, sizeof json,
+                 "{\"camera\": {\"model\": \"orthographic\", \"position\": "
+                 "[%d, %d, %d], \"look_at\": [0, 0, 0], \"view_height\": 2},"
+                 " \"render\": {\"width\": 2, \"height\": 2, \"spp\": 1,"
+                 "  \"sampler\": \"grid\", \"adaptive\": false},"
+                 " \"materials\": {\"t\": {\"diffuse_texture\": "
+                 "\"corners.exr\"}},"
+                 " \"lights\": [{\"type\": \"ambient\", \"radiance\": 1}],"
+                 " \"objects\": [{\"type\": \"plane\", \"normal\": [%d, %d, "
+                 "%d], \"size\": 2, \"material\": \"t\"}]}",
+                 5 * n[k][0], 5 * n[k][1], 5 * n[k][2], n[k][0], n[k][1],
+                 n[k][2]);
+        lr_image *img = lr_test_render_json(json, "wall");
+        const float *p = lr_image_rgb(img);
+        for (int i = 0; i < 4; i++) {
+            float want[3];
+            corners(i % 2, i / 2, want);
+            for (int c = 0; c < 3; c++)
+                if (fabsf(p[3 * i + c] - want[c]) > 1e-5f)
+                    fail_msg("wall facing (%d, %d, %d): pixel %d channel %d "
+                             "is %g, want %g",
+                             n[k][0], n[k][1], n[k][2], i, c, p[3 * i + c],
+                             want[c]);
+        }
+        lr_image_free(img);
+    }
+}
+
 static const struct CMUnitTest tests[] = {
     cmocka_unit_test(obj_vt),
     cmocka_unit_test(material_errors),
     cmocka_unit_test_setup(constant_texture_identity, setup_one),
     cmocka_unit_test(vector_lanes_textured),
     cmocka_unit_test(checker_projection),
+    cmocka_unit_test(walls_upright),
     cmocka_unit_test(sampled_emission_matches_hit),
     cmocka_unit_test(job_lists_textures),
 };

@@ -163,14 +163,20 @@ lr_status lr__scene_add_rect(lr_scene *s, lr__v3 pt, lr__v3 n, double w,
         idx[1] = 2, idx[2] = 1, idx[4] = 3, idx[5] = 2;
     }
     /* Texture coordinates: (0, 0) at the first corner, u along the first
-     * side, v along the second, (1, 1) at the opposite corner. */
+     * side, v along the second, (1, 1) at the opposite corner; turned
+     * half round (u and v both from the far side) where v points down,
+     * so that an image stands upright on a wall seen from the front (on
+     * walls facing +x and -z it stood on its head).  The corners stay
+     * where they were. */
     static const float corner_uv[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+    int turn = v.y < -1e-9;
     float *uv = malloc(12 * sizeof *uv);
     if (uv == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
     for (int k = 0; k < 6; k++) {
-        uv[2 * k] = corner_uv[idx[k]][0];
-        uv[2 * k + 1] = corner_uv[idx[k]][1];
+        uv[2 * k] = turn ? 1.0f - corner_uv[idx[k]][0] : corner_uv[idx[k]][0];
+        uv[2 * k + 1] = turn ? 1.0f - corner_uv[idx[k]][1]
+                             : corner_uv[idx[k]][1];
     }
     lr_status st = lr__scene_add_triangles(s, verts, 4, idx, 2, NULL, material,
                                            err);
