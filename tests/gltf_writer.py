@@ -412,6 +412,19 @@ def scene_textured(uv_comp=FLOAT, uv_normalized=True):
     return g
 
 
+def scene_metal_no_uv():
+    """One 2 x 2 quad without TEXCOORD_0: a solid red base-colour
+    texture, metallicFactor 0.5, no metallic-roughness texture."""
+    g = Gltf()
+    base = g.image_png(png_rgb(2, 2, lambda x, y: (255, 0, 0)))
+    pos, idx, nrm, uv = quad(2)
+    m = g.mesh(pos, idx, nrm, None, g.material({
+        "name": "metal", "pbrMetallicRoughness": {
+            "baseColorTexture": {"index": base}, "metallicFactor": 0.5}}))
+    g.node(mesh=m)
+    return g
+
+
 def scene_metal_texture(mr=True):
     """One 2 x 2 quad, metallicFactor 0.5 and roughnessFactor 1, with a
     2 x 2 base-colour texture (pixel (x, y) from the top left: red,
@@ -717,6 +730,7 @@ SCENES = {"tri": scene_tri, "sparse": scene_sparse, "morph": scene_morph,
           "textured-u8-raw": lambda: scene_textured(UBYTE, False),
           "metal-texture": scene_metal_texture,
           "metal-base-texture": lambda: scene_metal_texture(mr=False),
+          "metal-no-uv": scene_metal_no_uv,
           "spot-light": scene_spot_light,
           "normal-map": scene_normal_map,
           "texture-transform": scene_texture_transform,

@@ -1080,6 +1080,29 @@ static void test_texture_extension_only(void **state)
  * warning, and the file's others are (the glTF Validator's
  * primitive_no_position.gltf was refused whole); a mesh left with nothing
  * to draw places nothing. */
+/* A metallic material's textures on a primitive without TEXCOORD_0:
+ * the texel at (0, 0) (red) with the warning, as for any textured
+ * material; the base texture was dropped without a word (grey). */
+static void test_metal_texture_without_uvs(void **state)
+{
+    (void)state;
+    make("metal-no-uv", "metal-no-uv.gltf");
+    lr_scene *s = lr_test_load_json(
+        "{\"camera\": {\"position\": [0, 0, 3], \"look_at\": [0, 0, 0]},"
+        " \"render\": {\"width\": 8, \"height\": 8, \"spp\": 16,"
+        "  \"integrator\": \"path\"}, \"background\": 1,"
+        " \"objects\": [{\"type\": \"gltf\", \"file\": "
+        "\"metal-no-uv.gltf\"}]}");
+    if (strstr(lr_scene_warnings(s), "has no TEXCOORD_0") == NULL)
+        fail_msg("warnings: \"%s\"", lr_scene_warnings(s));
+    lr_image *img = render(s);
+    const float *p = &lr_image_rgb(img)[3 * (4 * 8 + 4)];
+    if (!(p[0] > 0.3f && p[1] < 0.02f && p[2] < 0.02f))
+        fail_msg("centre (%g, %g, %g), want the red texel", p[0], p[1], p[2]);
+    lr_image_free(img);
+    lr_scene_free(s);
+}
+
 static void test_no_position(void **state)
 {
     (void)state;
@@ -1378,6 +1401,7 @@ static const struct CMUnitTest tests[] = {
     cmocka_unit_test(test_quantized_unrequired),
     cmocka_unit_test(test_texture_extension_only),
     cmocka_unit_test(test_no_position),
+    cmocka_unit_test(test_metal_texture_without_uvs),
     cmocka_unit_test(test_unread_attributes),
 };
 LR_TEST_GROUP(gltf, tests)

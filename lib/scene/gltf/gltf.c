@@ -446,7 +446,7 @@ static lr_status add_mesh(placer *pl, const struct aiMesh *am,
      * image's bottom (texture.h's convention); a textured material on a
      * primitive without them samples the texel at (0, 0). */
     const lr__material *mt = &pl->s->materials[material];
-    int textured = mt->diffuse_tex || mt->emission_tex || mt->roughness_tex;
+    int textured = lr__material_textured(mt);
     const struct aiVector3D *tc = am->mTextureCoords[0];
     float *uv = tc || textured ? calloc((size_t)am->mNumFaces * 6, sizeof *uv)
                                : NULL;
