@@ -461,10 +461,23 @@ static int start(const walk *w, lr__v3 *org, lr__v3 *dir, lr__v3 *beta)
         return 1;
     }
     if (u < pa + pe) {
-        /* The environment: towards direction d (uniform), through a disk
-         * across the bounds; seen directly along an escaping camera ray. */
-        lr__v3 d = uniform_sphere(ux), Le = lr__env_radiance(s, d);
-        double pdf_d = pe / (4.0 * M_PI);
+        /* The environment: towards direction d, through a disk across
+         * the bounds; seen directly along an escaping camera ray.  A map
+         * draws d by its own importance (lr__envmap_sample, as the path
+         * tracer does): drawn uniformly, a one-texel sun was met by 4 to
+         * 7 paths in 262144, and at 256 spp a sphere it lit came out
+         * black or 1.26 times the path tracer's by the seed.  The
+         * uniform background keeps the uniform draw. */
+        double pdf_env = 1.0 / (4.0 * M_PI);
+        lr__v3 d, Le;
+        if (s->env != NULL)
+            d = lr__envmap_sample(s, ux, &Le, &pdf_env);
+        else
+            d = uniform_sphere(ux);
+        if (!(pdf_env > 0.0))
+            return 0;
+        Le = lr__env_radiance(s, d);
+        double pdf_d = pe * pdf_env;
         join_env(w, d, Le, pdf_d);
         return start_disk(w, d, ud, v3_scale(Le, 1.0 / pdf_d), org, dir, beta);
     }
