@@ -403,6 +403,18 @@ wait_for() {
     [ ! -e "$BATS_TEST_TMPDIR/x.png" ]
 }
 
+@test "--remote: a daemon's refusal naming an asset by its hash also names the file" {
+    # A truncated texture is sent (the scene's settings alone are read
+    # here) and refused by the daemon as "sha256:7a66...": which file?
+    local d="$BATS_TEST_TMPDIR/tex"
+    mkdir -p "$d"
+    head -c 100 "$REPO/scenes/textures/sign.png" >"$d/cut.png"
+    printf '%s\n' '{"render": {"width": 8, "height": 8, "spp": 1}, "materials": {"t": {"diffuse_texture": "cut.png"}}, "objects": [{"type": "sphere", "center": [0, 0, -3], "radius": 1, "material": "t"}]}' >"$d/s.json"
+    run -3 "$LENSRAY" render "$d/s.json" -o "$d/x.png" --remote "$URL" --parts 1 -q
+    [[ "$output" == *"diffuse_texture: sha256:$(sha256sum "$d/cut.png" | cut -c1-64) ($d/cut.png): "* ]]
+    [ ! -e "$d/x.png" ]
+}
+
 @test "--remote: no daemon at URL: the parts are tried --retries + 1 times, exit 4" {
     cd "$REPO"
     run -4 "$LENSRAY" render scenes/spheres.json -o "$BATS_TEST_TMPDIR/x.png" \

@@ -209,6 +209,38 @@ void assets_counts(const assets_session *s, int *files, int *uploaded)
 /* Makes sure the daemons have the file at `path` (named at `field` of
  * `what`) and gives its hash in hex[65].  0; 1 when the daemons keep no
  * assets (the session remembers it); or an exit status, printed. */
+const char *assets_file_of(const assets_session *s, const char *hex)
+{
+    for (int i = 0; s != NULL && i < s->n; i++)
+        if (strncmp(s->files[i].hex, hex, 64) == 0)
+            return s->files[i].path;
+    return NULL;
+}
+
+void assets_name_files(const assets_session *s, const char *text, char *out,
+                       size_t cap)
+{
+    size_t k = 0;
+    if (cap == 0)
+        return;
+    for (const char *p = text; *p != '\0' && k + 1 < cap; p++) {
+        out[k++] = *p;
+        const char *file = NULL;
+        if (p[0] == ':' && p - text >= 6 && strncmp(p - 6, "sha256", 6) == 0 &&
+            strspn(p + 1, "0123456789abcdef") >= 64)
+            file = assets_file_of(s, p + 1);
+        if (file == NULL)
+            continue;
+        /* The hash, then the file. */
+        for (int i = 1; i <= 64 && k + 1 < cap; i++)
+            out[k++] = p[i];
+        p += 64;
+        int n = snprintf(out + k, cap - k, " (%s)", file);
+        k = n < 0 ? k : k + (size_t)n < cap ? k + (size_t)n : cap - 1;
+    }
+    out[k] = '\0';
+}
+
 static int ensure(assets_session *s, const char *path, const char *what,
                   const char *field, char hex[65])
 {

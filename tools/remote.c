@@ -377,8 +377,12 @@ static void finish_part(batch *b, part *p, CURLcode res, remote_done done,
          * (queue full) are the daemon's state. */
         retry = remote_status_passes(status);
         if (!retry) {
+            /* The daemon names files by their assets' hashes: the file
+             * after each (a corrupt texture was "sha256:7a66...569e"). */
+            char named[sizeof why + 1024];
+            assets_name_files(b->as, why, named, sizeof named);
             fprintf(stderr, "%slensray: %s refused: %s\n", o->quiet ? "" : "\n",
-                    name, why);
+                    name, named);
             fail_frame(b, p->frame,
                        status == 401 || status == 403 ? EXIT_IO : EXIT_SCENE);
             return;
