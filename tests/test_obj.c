@@ -197,6 +197,37 @@ static void test_vertex_out_of_range_named(void **state)
         fail_msg("%s", err.message);
 }
 
+/* What an OBJ says and the mesh does not use is a warning naming the
+ * file and line: usemtl (the object's one material is used), a face
+ * without normals in a file that has them, or without texture
+ * coordinates (all of the file's are dropped); each went unsaid. */
+static void test_unused_statements_warned(void **state)
+{
+    (void)state;
+    char path[512];
+    lr_test_write_text("mixed.obj",
+                       "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\n"
+                       "vn 0 0 1\nvt 0 0\nusemtl red\nf 1/1/1 2/1/1 3/1/1\n"
+                       "usemtl blue\nf 2 4 3\n",
+                       path, sizeof path);
+    lr_scene *s = lr_test_load_json(
+        "{\"objects\": [{\"type\": \"mesh\", \"file\": \"mixed.obj\"}]}");
+    const char *w = lr_scene_warnings(s);
+    if (strstr(w, "objects[0].file: mixed.obj: its 2 usemtl lines are "
+                  "ignored") == NULL ||
+        strstr(w, "mixed.obj:11: a face without normals") == NULL ||
+        strstr(w, "mixed.obj:11: a face without texture coordinates") == NULL)
+        fail_msg("warnings: \"%s\"", w);
+    lr_scene_free(s);
+    /* A file without normals or texture coordinates at all says nothing. */
+    lr_test_write_text("plain.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+                       path, sizeof path);
+    s = lr_test_load_json(
+        "{\"objects\": [{\"type\": \"mesh\", \"file\": \"plain.obj\"}]}");
+    assert_string_equal(lr_scene_warnings(s), "");
+    lr_scene_free(s);
+}
+
 /* lr_scene_files_changed: unchanged after the caller's chdir (the file
  * was logged by its relative path, "gone" from elsewhere), changed after
  * an edit. */
@@ -565,6 +596,7 @@ static const struct CMUnitTest obj_tests[] = {
     cmocka_unit_test(test_concave_polygon),
     cmocka_unit_test(test_vertex_out_of_range_named),
     cmocka_unit_test(test_files_changed),
+    cmocka_unit_test(test_unused_statements_warned),
     cmocka_unit_test(test_negative_indices),
     cmocka_unit_test(test_normals),
     cmocka_unit_test(test_quad_normals_follow_fan),

@@ -70,6 +70,25 @@ lr_status lr__scene_add_obj(lr_scene *s, const char *file, const char *shown,
         lr__fail_under(err, fp);
         return st;
     }
+    /* What the file says and the mesh does not use, said (silently the
+     * object rendered in one material, or flat). */
+    if (m.usemtl_lines > 0)
+        lr__scene_warn(s,
+                       "%s: %s: its %zu usemtl line%s ignored: the object's "
+                       "material is used for the whole mesh",
+                       fp, shown, m.usemtl_lines,
+                       m.usemtl_lines == 1 ? " is" : "s are");
+    if (m.normals_lost_line > 0)
+        lr__scene_warn(s,
+                       "%s: %s:%zu: a face without normals (v or v/vt "
+                       "corners): the file's normals are not used (smooth: "
+                       "true computes them)",
+                       fp, shown, m.normals_lost_line);
+    if (m.uvs_lost_line > 0)
+        lr__scene_warn(s,
+                       "%s: %s:%zu: a face without texture coordinates: the "
+                       "file's texture coordinates are not used",
+                       fp, shown, m.uvs_lost_line);
     /* File normals are used unless smooth is false (flat shading); when
      * the file has none, smooth: true computes them. */
     float *normals = NULL;

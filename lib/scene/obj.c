@@ -317,6 +317,8 @@ static lr_status parse_line(parser *ps, char *s)
         return lr__obj_parse_face(ps, rest);
     if (len == 2 && kw[0] == 'v' && kw[1] == 't')
         return parse_texcoord(ps, rest);
+    if (len == 6 && memcmp(kw, "usemtl", 6) == 0)
+        ps->usemtl++;
     /* o, g, s, usemtl, mtllib, l, p and anything unknown carry nothing a
      * triangle mesh needs. */
     return LR_OK;
@@ -475,6 +477,9 @@ lr_status lr__obj_load_named(const char *file, const char *shown,
     out->uvs = ps.all_uvs ? ps.cuv : NULL;
     if (!ps.all_uvs)
         free(ps.cuv);
+    out->usemtl_lines = ps.usemtl;
+    out->normals_lost_line = ps.n_vn > 0 ? ps.normals_lost : 0;
+    out->uvs_lost_line = ps.n_vt > 0 ? ps.uvs_lost : 0;
     free(ps.vn);
     free(ps.vt);
     free(ps.corners);

@@ -50,6 +50,10 @@ typedef struct parser {
 
     corner *corners; /* scratch for the face being parsed */
     size_t cap_corners;
+
+    /* For the loader's warnings (lr__mesh): usemtl lines, and the lines
+     * whose corner first lacked a normal, a texture coordinate. */
+    size_t usemtl, normals_lost, uvs_lost;
 } parser;
 
 

@@ -145,6 +145,7 @@ static lr_status parse_corner(parser *ps, const char *tok, size_t len,
 static void drop_uvs(parser *ps)
 {
     ps->all_uvs = 0;
+    ps->uvs_lost = ps->line;
     free(ps->cuv);
     ps->cuv = NULL;
     ps->cap_cuv = 0;
@@ -155,6 +156,7 @@ static void drop_uvs(parser *ps)
 static void drop_normals(parser *ps)
 {
     ps->all_normals = 0;
+    ps->normals_lost = ps->line;
     free(ps->cn);
     ps->cn = NULL;
     ps->cap_cn = 0;

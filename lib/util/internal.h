@@ -152,6 +152,10 @@ typedef struct lr__mesh {
     /* 6 * n_triangles texture coordinates (u, v per corner) or NULL
      * unless every corner of every face named a `vt`; owned. */
     float *uvs;
+    /* What was read and not used, for warnings: the usemtl lines, and
+     * the line whose face first lacked a normal (a texture coordinate)
+     * when the file had some (0: none). */
+    size_t usemtl_lines, normals_lost_line, uvs_lost_line;
 } lr__mesh;
 
 /* Reads an OBJ file.  Understands `v`, `vn`, `vt` (u [v [w]]; v
