@@ -252,6 +252,23 @@ static void test_files_changed(void **state)
                        sizeof path);
     assert_int_equal(lr_scene_files_changed(s), 1);
     lr_scene_free(s);
+    /* A link switched to another file is a change (realpath logged the
+     * link's old target, unchanged). */
+    char a[600], b[600], link[600];
+    lr_test_write_text("fa.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", a,
+                       sizeof a);
+    lr_test_write_text("fb.obj", "v 0 0 0\nv 2 0 0\nv 0 2 0\nf 1 2 3\n", b,
+                       sizeof b);
+    snprintf(link, sizeof link, "%s/fl.obj", lr_test_tmpdir());
+    unlink(link);
+    assert_int_equal(symlink("fa.obj", link), 0);
+    s = lr_test_load_json(
+        "{\"objects\": [{\"type\": \"mesh\", \"file\": \"fl.obj\"}]}");
+    assert_int_equal(lr_scene_files_changed(s), 0);
+    unlink(link);
+    assert_int_equal(symlink("fb.obj", link), 0);
+    assert_int_equal(lr_scene_files_changed(s), 1);
+    lr_scene_free(s);
 }
 
 static void test_negative_indices(void **state)
@@ -478,6 +495,13 @@ static void test_bad_numbers(void **state)
     load_fail("msinf.obj",
               "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1.#INF\nf 1 2 3\n",
               "msinf.obj:4: non-finite number '1.#INF'");
+    /* ... but a name and a comment after a number are what they were. */
+    lr__mesh mm;
+    load_ok("hashname.obj",
+            "o Part2#lid\nv 0 0 0\nv 1 0 0\nv 0 1 0#apex\nf 1 2 3\n", &mm);
+    assert_int_equal(mm.n_triangles, 1);
+    assert_vec3(&mm.vertices[6], 0, 1, 0);
+    lr__mesh_free(&mm);
     load_fail("over.obj", "v 0 0 0\nv 1 0 0\nv 0 0 1e400\nf 1 2 3\n",
               "over.obj:3: number '1e400' in a 'v' line is too large");
     load_fail("flt.obj", "v 0 0 0\nv 1 0 0\nv 0 0 1e39\nf 1 2 3\n",

@@ -206,9 +206,6 @@ void assets_counts(const assets_session *s, int *files, int *uploaded)
     *uploaded = s->uploaded;
 }
 
-/* Makes sure the daemons have the file at `path` (named at `field` of
- * `what`) and gives its hash in hex[65].  0; 1 when the daemons keep no
- * assets (the session remembers it); or an exit status, printed. */
 const char *assets_file_of(const assets_session *s, const char *hex)
 {
     for (int i = 0; s != NULL && i < s->n; i++)
@@ -241,6 +238,9 @@ void assets_name_files(const assets_session *s, const char *text, char *out,
     out[k] = '\0';
 }
 
+/* Makes sure the daemons have the file at `path` (named at `field` of
+ * `what`) and gives its hash in hex[65].  0; 1 when the daemons keep no
+ * assets (the session remembers it); or an exit status, printed. */
 static int ensure(assets_session *s, const char *path, const char *what,
                   const char *field, char hex[65])
 {

@@ -31,6 +31,15 @@ void assets_close(assets_session *s);
  * sent because the daemons lacked them. */
 void assets_counts(const assets_session *s, int *files, int *uploaded);
 
+/* The file of the session's asset "sha256:HEX" (hex: its 64 digits), or
+ * NULL: for a daemon's message, which names assets by their hashes. */
+const char *assets_file_of(const assets_session *s, const char *hex);
+
+/* text with every "sha256:HEX" of the session's assets followed by
+ * " (FILE)", into out (of cap bytes, cut there). */
+void assets_name_files(const assets_session *s, const char *text, char *out,
+                       size_t cap);
+
 /* Reads the scene text scene[0 .. len), whose relative paths are relative
  * to `dir`, and the camera JSON `cam_json` (lr_camera_json), and for each
  * file either names: hashes it, asks the daemons whether they have that
@@ -41,15 +50,6 @@ void assets_counts(const assets_session *s, int *files, int *uploaded);
  * starts each message (the scene's path).  Returns 0, or the CLI's exit
  * status 3 (the scene or a file cannot be read) or 4 (the daemons
  * refused or could not be reached), with the reason printed. */
-/* The file of the session's asset "sha256:HEX" (hex: its 64 digits), or
- * NULL: for a daemon's message, which names assets by their hashes. */
-const char *assets_file_of(const assets_session *s, const char *hex);
-
-/* text with every "sha256:HEX" of the session's assets followed by
- * " (FILE)", into out (of cap bytes, cut there). */
-void assets_name_files(const assets_session *s, const char *text, char *out,
-                       size_t cap);
-
 int assets_prepare(assets_session *s, const char *scene, size_t len,
                    const char *cam_json, const char *dir, const char *what,
                    char **scene_out, size_t *scene_out_len, char **cam_out);

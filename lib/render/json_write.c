@@ -13,7 +13,9 @@
 
 #include <cjson/cJSON.h>
 
+#include <locale.h>
 #include <math.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -42,16 +44,29 @@ typedef struct jb {
  * prints %.15g when that reads back within its epsilon, which dropped
  * the last bits (a seed of 2^53 - 1 came back 2^53 - 2, and --remote's
  * parts rendered another picture than the local render). */
+static pthread_once_t c_once = PTHREAD_ONCE_INIT;
+static locale_t c_numeric;
+
+static void make_c_numeric(void)
+{
+    c_numeric = newlocale(LC_NUMERIC_MASK, "C", (locale_t)0);
+}
+
+/* In the C locale whatever the caller's (a decimal comma wrote
+ * "fov":39,6, which is no JSON; obj.c and rx_file.c read numbers so). */
 static cJSON *exact(double v)
 {
-    if (!isfinite(v))
+    pthread_once(&c_once, make_c_numeric);
+    if (!isfinite(v) || c_numeric == (locale_t)0)
         return cJSON_CreateNumber(v);
+    locale_t was = uselocale(c_numeric);
     char t[40];
     for (int p = 15; p <= 17; p++) {
         snprintf(t, sizeof t, "%.*g", p, v);
         if (strtod(t, NULL) == v)
             break;
     }
+    uselocale(was);
     return cJSON_CreateRaw(t);
 }
 

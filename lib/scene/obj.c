@@ -288,11 +288,19 @@ static lr_status parse_line(parser *ps, char *s)
 {
     char *hash = strchr(s, '#');
     /* "1.#QNAN", "-1.#IND00", "1.#INF": NaN and infinity as old MSVC
-     * printed them, read as "1." and a comment (a vertex at 1). */
-    if (hash != NULL && hash > s &&
+     * printed them, read as "1." and a comment (a vertex at 1).  Only in
+     * the number lines, and only those spellings: "o Part2#lid" and
+     * "v 0 1 0#apex" are a name and a comment. */
+    const char *k = s + strspn(s, " \t");
+    int numbers = k[0] == 'v' && (k[1] == ' ' || k[1] == '\t' ||
+                                  ((k[1] == 'n' || k[1] == 't') &&
+                                   (k[2] == ' ' || k[2] == '\t')));
+    if (numbers && hash != NULL && hash > s &&
         ((hash[-1] >= '0' && hash[-1] <= '9') || hash[-1] == '.') &&
-        ((hash[1] >= 'A' && hash[1] <= 'Z') ||
-         (hash[1] >= 'a' && hash[1] <= 'z'))) {
+        (strncmp(hash + 1, "QNAN", 4) == 0 ||
+         strncmp(hash + 1, "SNAN", 4) == 0 ||
+         strncmp(hash + 1, "IND", 3) == 0 ||
+         strncmp(hash + 1, "INF", 3) == 0)) {
         char *t = hash;
         while (t > s && t[-1] != ' ' && t[-1] != '\t')
             t--;

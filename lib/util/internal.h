@@ -138,8 +138,9 @@ lr__encoder lr__format_encoder(lr_format fmt);
 
 /* ---- OBJ meshes (obj.c) ----------------------------------------------- */
 
-/* A triangle mesh as read from a Wavefront OBJ file.  Polygons are fan
- * triangulated.  `normals` is NULL unless the file gave a `vn` for every
+/* A triangle mesh as read from a Wavefront OBJ file.  Polygons are
+ * triangulated (obj_face.c: a fan when convex, else ear clipping).
+ * `normals` is NULL unless the file gave a `vn` for every
  * corner of every face; then normals[3*k..3*k+2] is the unit normal for
  * corner k (corner order matches `indices`), i.e. normals are per corner,
  * not per vertex, because OBJ indexes them independently. */

@@ -10,6 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 /* The calling thread's log of files read (lr__file_log_begin), or NULL. */
 static __thread lr__file_log *file_log;
@@ -57,10 +58,18 @@ static int log_file(const char *file, const struct stat *sb)
     if (log == NULL)
         return 1;
     /* Absolute, so that a caller's chdir later does not make every
-     * relative file "gone"; as given if it cannot be resolved. */
-    char *abs = realpath(file, NULL);
-    if (abs == NULL && errno == ENOMEM)
-        return 0;
+     * relative file "gone", but with its links kept (not realpath): a
+     * link switched to another file ("ln -sfn v2 current") is a change.
+     * As given if the directory is unknown. */
+    char *abs = NULL;
+    char cwd[4096];
+    if (file[0] != '/' && getcwd(cwd, sizeof cwd) != NULL) {
+        size_t n = strlen(cwd) + strlen(file) + 2;
+        abs = malloc(n);
+        if (abs == NULL)
+            return 0;
+        snprintf(abs, n, "%s/%s", cwd, file);
+    }
     const char *key = abs != NULL ? abs : file;
     for (size_t i = 0; i < log->n; i++)
         if (strcmp(log->v[i].path, key) == 0) {
