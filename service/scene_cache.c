@@ -191,6 +191,17 @@ static void uncache_locked(lrd_scene *s)
     s->refs--;
 }
 
+/* Takes `s` (the caller's reference) out of the cache and releases it:
+ * its files changed since it was loaded.  NULL. */
+static lrd_scene *drop(lrd_scene *s)
+{
+    pthread_mutex_lock(&cache.mu);
+    uncache_locked(s);
+    pthread_mutex_unlock(&cache.mu);
+    lrd_scene_release(s);
+    return NULL;
+}
+
 /* `hit` (found, the caller's reference) when its scene's files are as it
  * was loaded from, counted a hit; otherwise NULL, `hit` taken out of the
  * cache and the caller's reference released, for the caller to load the
@@ -198,19 +209,14 @@ static void uncache_locked(lrd_scene *s)
  * hits counter go down between two scrapes of /metrics. */
 static lrd_scene *fresh(lrd_scene *hit)
 {
-    if (hit == NULL)
-        return NULL;
-    int changed = lr_scene_files_changed(hit->scene);
-    pthread_mutex_lock(&cache.mu);
-    if (changed)
-        uncache_locked(hit);
-    else
+    if (hit != NULL && lr_scene_files_changed(hit->scene))
+        return drop(hit);
+    if (hit != NULL) {
+        pthread_mutex_lock(&cache.mu);
         cache.stats.hits++;
-    pthread_mutex_unlock(&cache.mu);
-    if (!changed)
-        return hit;
-    lrd_scene_release(hit);
-    return NULL;
+        pthread_mutex_unlock(&cache.mu);
+    }
+    return hit;
 }
 
 static void free_chain(lrd_scene *s)
@@ -259,13 +265,8 @@ static lrd_scene *load_and_insert(const char *text, size_t len,
     /* ... unless its files changed after it read them and before this
      * load did: then this copy, the newer, replaces it (a request sent
      * after an edit rendered the old file). */
-    if (other != NULL && lr_scene_files_changed(other->scene)) {
-        pthread_mutex_lock(&cache.mu);
-        uncache_locked(other);
-        pthread_mutex_unlock(&cache.mu);
-        lrd_scene_release(other);
-        other = NULL;
-    }
+    if (other != NULL && lr_scene_files_changed(other->scene))
+        other = drop(other);
     if (other != NULL) {
         entry_free(s);
         return other;

@@ -40,10 +40,6 @@ typedef struct jb {
     int failed;
 } jb;
 
-/* v as the shortest of %.15g to %.17g that reads back as v: cJSON
- * prints %.15g when that reads back within its epsilon, which dropped
- * the last bits (a seed of 2^53 - 1 came back 2^53 - 2, and --remote's
- * parts rendered another picture than the local render). */
 static pthread_once_t c_once = PTHREAD_ONCE_INIT;
 static locale_t c_numeric;
 
@@ -52,8 +48,12 @@ static void make_c_numeric(void)
     c_numeric = newlocale(LC_NUMERIC_MASK, "C", (locale_t)0);
 }
 
-/* In the C locale whatever the caller's (a decimal comma wrote
- * "fov":39,6, which is no JSON; obj.c and rx_file.c read numbers so). */
+/* v as the shortest of %.15g to %.17g that reads back as v: cJSON
+ * prints %.15g when that reads back within its epsilon, which dropped
+ * the last bits (a seed of 2^53 - 1 came back 2^53 - 2, and --remote's
+ * parts rendered another picture than the local render).  In the C
+ * locale whatever the caller's (a decimal comma wrote "fov":39,6, which
+ * is no JSON; obj.c and rx_file.c read numbers so). */
 static cJSON *exact(double v)
 {
     pthread_once(&c_once, make_c_numeric);

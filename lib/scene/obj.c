@@ -287,20 +287,27 @@ static lr_status parse_texcoord(parser *ps, const char *rest)
 static lr_status parse_line(parser *ps, char *s)
 {
     char *hash = strchr(s, '#');
+    if (hash != NULL)
+        *hash = '\0';
+    const char *rest = s;
+    size_t len = 0;
+    const char *kw = lr__obj_next_token(&rest, &len);
+    if (kw == NULL)
+        return LR_OK;
     /* "1.#QNAN", "-1.#IND00", "1.#INF": NaN and infinity as old MSVC
      * printed them, read as "1." and a comment (a vertex at 1).  Only in
      * the number lines, and only those spellings: "o Part2#lid" and
-     * "v 0 1 0#apex" are a name and a comment. */
-    const char *k = s + strspn(s, " \t");
-    int numbers = k[0] == 'v' && (k[1] == ' ' || k[1] == '\t' ||
-                                  ((k[1] == 'n' || k[1] == 't') &&
-                                   (k[2] == ' ' || k[2] == '\t')));
-    if (numbers && hash != NULL && hash > s &&
+     * "v 0 1 0#apex" are a name and a comment.  (hash > kw: the keyword
+     * came before it.) */
+    int numbers = kw[0] == 'v' &&
+                  (len == 1 || (len == 2 && (kw[1] == 'n' || kw[1] == 't')));
+    if (numbers && hash != NULL &&
         ((hash[-1] >= '0' && hash[-1] <= '9') || hash[-1] == '.') &&
         (strncmp(hash + 1, "QNAN", 4) == 0 ||
          strncmp(hash + 1, "SNAN", 4) == 0 ||
          strncmp(hash + 1, "IND", 3) == 0 ||
          strncmp(hash + 1, "INF", 3) == 0)) {
+        *hash = '#'; /* the token whole, for the message */
         char *t = hash;
         while (t > s && t[-1] != ' ' && t[-1] != '\t')
             t--;
@@ -310,13 +317,6 @@ static lr_status parse_line(parser *ps, char *s)
                                "old MSVC wrote them)",
                                lr__obj_quote(t, n).s);
     }
-    if (hash != NULL)
-        *hash = '\0';
-    const char *rest = s;
-    size_t len = 0;
-    const char *kw = lr__obj_next_token(&rest, &len);
-    if (kw == NULL)
-        return LR_OK;
     if (len == 1 && kw[0] == 'v')
         return parse_vertex(ps, rest);
     if (len == 2 && kw[0] == 'v' && kw[1] == 'n')

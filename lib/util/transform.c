@@ -37,13 +37,6 @@ lr__v3 lr__xform_point(const lr__xform *x, lr__v3 p)
         x->m[2][0] * p.x + x->m[2][1] * p.y + x->m[2][2] * p.z + x->m[2][3]);
 }
 
-/* Normals transform by the inverse transpose.  The cofactor matrix is
- * the inverse transpose times the determinant: normalised, the same
- * direction where the determinant is positive, the opposite one where x
- * mirrors.  So its sign is taken off: with it, a mirrored infinite
- * plane's front turned to the other side and a mirrored mesh's file
- * normals pointed behind their faces, which dropped them (flat shading;
- * tests/test_trace.c, test_mirror_keeps_normals). */
 /* The cofactor matrix of m's 3 x 3 part times n, and the sign of its
  * determinant. */
 static lr__v3 cofactor_times(const double (*m)[4], lr__v3 n, double *sign)
@@ -64,10 +57,17 @@ static lr__v3 cofactor_times(const double (*m)[4], lr__v3 n, double *sign)
               c[2][0] * n.x + c[2][1] * n.y + c[2][2] * n.z);
 }
 
+/* Normals transform by the inverse transpose.  The cofactor matrix is
+ * the inverse transpose times the determinant: normalised, the same
+ * direction where the determinant is positive, the opposite one where x
+ * mirrors.  So its sign is taken off: with it, a mirrored infinite
+ * plane's front turned to the other side and a mirrored mesh's file
+ * normals pointed behind their faces, which dropped them (flat shading;
+ * tests/test_trace.c, test_mirror_keeps_normals). */
 lr__v3 lr__xform_normal(const lr__xform *x, lr__v3 n)
 {
-    double sign = lr__xform_det(x) < 0.0 ? -1.0 : 1.0, s2;
-    lr__v3 v = cofactor_times(x->m, n, &s2);
+    double sign;
+    lr__v3 v = cofactor_times(x->m, n, &sign);
     if (v3_len(v) > 1e-200 && v3_finite(v))
         return v3_scale(v3_norm(v), sign);
     /* Products of two tiny scales underflowed (a plane scaled by 1e-300
