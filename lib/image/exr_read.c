@@ -119,11 +119,10 @@ lr_status lr__exr_read(const void *data, size_t n, const char *shown,
     for (int i = 0; b44 && i < chl->num_channels; i++)
         if (chl->entries[i].pixel_type != EXR_PIXEL_HALF) {
             st = lr__fail(err, LR_ERR_INVALID, blame,
-                          "%s is %s-compressed with 32-bit channels (%s), "
+                          "%s is %s-compressed with 32-bit channels, "
                           "which OpenEXRCore 3.1 decodes wrongly; save it "
                           "with ZIP, PIZ or no compression, or as half",
-                          shown, comp == EXR_COMPRESSION_B44 ? "B44" : "B44A",
-                          chl->entries[i].name.str);
+                          shown, comp == EXR_COMPRESSION_B44 ? "B44" : "B44A");
             goto done;
         }
     long long w = (long long)dw.max.x - dw.min.x + 1;
