@@ -734,10 +734,22 @@ LR_API lr_status lr_image_encode(const lr_image *img, lr_format fmt,
 LR_API lr_status lr_image_write(const lr_image *img, const char *path,
                                 const lr_output_options *opts, lr_error *err);
 
+/* lr_image_write that stops when *cancel (may be NULL) becomes non-zero,
+ * as lr_render_settings.cancel stops a render: at the encoder's next
+ * write, or at the latest before the finished file is renamed into
+ * place.  Then LR_ERR_CANCELLED, the temporary file removed and `path`
+ * as it was. */
+LR_API lr_status lr_image_write_cancellable(const lr_image *img,
+                                            const char *path,
+                                            const lr_output_options *opts,
+                                            const volatile int *cancel,
+                                            lr_error *err);
+
 /* Whether lr_image_write could write `path` now, checked the way it
  * writes: the format by the extension, `path` (the file its symbolic
- * links lead to) not a directory, and the temporary file beside it
- * created and removed.  For a caller to refuse a file name before a long
+ * links lead to) not a directory, the temporary file beside it created
+ * and removed, and the rename into place allowed (the name's length,
+ * another user's file in a sticky directory).  For a caller to refuse a file name before a long
  * render rather than after it; LR_ERR_IO (or LR_ERR_INVALID for the
  * extension) with a message naming `path`. */
 LR_API lr_status lr_image_write_check(const char *path, lr_error *err);

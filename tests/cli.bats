@@ -769,6 +769,98 @@ assert s["rays"] >= s["samples"], s
     [ "$(ls -A "$T/outdir")" = "out.png" ]
 }
 
+@test "Ctrl-C while the image is written keeps the file there before; a second Ctrl-C is not ignored" {
+    # The write did not look at the flag: the new file replaced the old
+    # one and the exit status said 130, "no file is written".  The signal
+    # is sent once the temporary file has bytes: the encoder is writing.
+    echo before >"$T/race.exr"
+    "$LENSRAY" render "$T/scene.json" -o "$T/race.exr" -q --depth \
+        --set render.width=2048 --set render.height=2048 --set render.spp=1 \
+        --set render.threads=1 2>"$T/err" &
+    local pid=$! i
+    for i in $(seq 1 1500); do
+        [ -n "$(find "$T" -maxdepth 1 -name 'race.exr.tmp.*' -size +0 2>/dev/null)" ] && break
+        sleep 0.02
+    done
+    kill -INT "$pid"
+    local st=0
+    wait "$pid" || st=$?
+    [ "$st" -eq 130 ]
+    [ "$(cat "$T/race.exr")" = before ]
+    grep -q "writing '$T/race.exr' was cancelled" "$T/err"
+    run ! has_temp_files "$T"
+    # The handler gives way after the first signal: a second one ends the
+    # process at once (it had been ignored).
+    scene slow '{"render": {"width": 32, "height": 24, "spp": 1000000, "adaptive": false, "plan": false, "threads": 1},
+                 "objects": [{"type": "sphere", "center": [0, 0, -5], "radius": 1}],
+                 "lights": [{"type": "ambient", "radiance": 1}]}'
+    "$LENSRAY" render "$T/slow.json" -o "$T/slow.png" -q 2>/dev/null &
+    pid=$!
+    sleep 0.5
+    kill -INT "$pid"
+    sleep 0.02
+    kill -INT "$pid" 2>/dev/null || true
+    st=0
+    wait "$pid" || st=$?
+    [ "$st" -eq 130 ]
+}
+
+@test "an output name the rename would refuse is refused before the scene is read" {
+    # Over 255 bytes: the check's short temporary name had passed, and
+    # the render was lost at the rename ("File name too long").
+    local long
+    long=$(printf 'x%.0s' $(seq 300))
+    run -4 "$LENSRAY" render "$T/no-such-scene.json" -o "$T/$long.png"
+    [[ "$output" == *"File name too long"* ]]
+    [[ "$output" != *"no-such-scene"* ]]
+    # Another user's file in a sticky directory (as /tmp) cannot be
+    # replaced but by its owner: rename(2) says EPERM.
+    if [ "$(id -u)" != 0 ] || ! command -v setpriv >/dev/null; then
+        skip "environment: needs root and setpriv to make another user's file"
+    fi
+    # (Outside bats's private temporary directory, which nobody cannot
+    # enter, with a copy of the program that nobody can run.)
+    local d
+    d=$(mktemp -d /tmp/lensray-sticky.XXXXXX)
+    chmod 755 "$d"
+    cp "$LENSRAY" "$d/lensray"
+    mkdir -m 1777 "$d/sticky"
+    echo root >"$d/sticky/out.png"
+    chmod 666 "$d/sticky/out.png"
+    run -4 setpriv --reuid=65534 --regid=65534 --clear-groups \
+        "$d/lensray" render "$d/no-such-scene.json" -o "$d/sticky/out.png"
+    local out=$output
+    local kept
+    kept=$(cat "$d/sticky/out.png")
+    rm -rf "$d"
+    [[ "$out" == *"Operation not permitted"*"sticky"* ]]
+    [ "$kept" = root ]
+}
+
+@test "a failed write to standard output is exit 4, not 0 with the JSON cut short" {
+    [ -w /dev/full ] || skip "environment: no /dev/full"
+    run -4 bash -c '"$0" lens double-gauss-50 >/dev/full' "$LENSRAY"
+    [[ "$output" == *"cannot write the standard output"* ]]
+    run -4 bash -c '"$0" render "$1" -o "$2" -q --stats >/dev/full' \
+        "$LENSRAY" "$T/scene.json" "$T/s.png"
+    run -4 bash -c '"$0" version >/dev/full' "$LENSRAY"
+}
+
+@test "%% is a % in a one-scene name without a number; a batch's --stats lines name their frames" {
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/p100%%.png" -q
+    [ -e "$T/p100%.png" ]
+    [ ! -e "$T/p100%%.png" ]
+    # A stray % that is no pattern stays as it is.
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/q100%.png" -q
+    [ -e "$T/q100%.png" ]
+    scene bad '{"render": {"spp": -1}}'
+    run -3 --separate-stderr "$LENSRAY" render "$T/scene.json" "$T/bad.json" \
+        "$T/scene.json" -o "$T/f-%d.png" -q --stats
+    [ "${#lines[@]}" -eq 2 ]
+    [[ "${lines[0]}" == '{"frame": 1, "peak_rss_kib": '* ]]
+    [[ "${lines[1]}" == '{"frame": 3, "peak_rss_kib": '* ]]
+}
+
 @test "Ctrl-C in a batch says which frames were written, and calls no frame failed" {
     # It said "frame 2/3 (...) failed" and nothing of frame 1.  Frame 1 is
     # quick; frame 2 takes minutes on one thread, in small tiles, so the

@@ -1120,6 +1120,60 @@ static void test_write_failures(void **state)
     lr_image_free(img);
 }
 
+/* lr_image_write_cancellable: a raised flag stops the write with
+ * LR_ERR_CANCELLED, the file there before untouched and no temporary
+ * file left, for both formats; a flag at 0 writes.  (Ctrl-C while the
+ * CLI wrote had replaced the file and exited 130, "no file is written".)
+ * And lr_image_write_check refuses a name too long for the rename, which
+ * the short temporary name had let through. */
+static void test_write_cancelled(void **state)
+{
+    (void)state;
+    char dir[512], path[600], listing[1024];
+    scratch_dir("write-cancel", dir, sizeof dir);
+    lr_image *img = make_image(40, 30, 0);
+    lr_error err;
+    const char *names[2] = {"a.exr", "a.png"};
+    for (int k = 0; k < 2; k++) {
+        snprintf(path, sizeof path, "%s/%s", dir, names[k]);
+        FILE *f = fopen(path, "w");
+        assert_non_null(f);
+        fputs("before", f);
+        fclose(f);
+        volatile int flag = 1;
+        memset(&err, 0, sizeof err);
+        assert_int_equal(
+            lr_image_write_cancellable(img, path, NULL, &flag, &err),
+            LR_ERR_CANCELLED);
+        assert_non_null(strstr(err.message, path));
+        char buf[16] = {0};
+        f = fopen(path, "r");
+        assert_non_null(f);
+        assert_int_equal(fread(buf, 1, sizeof buf - 1, f), 6);
+        fclose(f);
+        assert_string_equal(buf, "before");
+        flag = 0;
+        assert_int_equal(
+            lr_image_write_cancellable(img, path, NULL, &flag, &err), LR_OK);
+        struct stat sb;
+        assert_int_equal(stat(path, &sb), 0);
+        assert_true(sb.st_size > 6);
+    }
+    list_dir(dir, listing, sizeof listing);
+    assert_string_equal(listing, "a.exr a.png");
+
+    char name[300];
+    memset(name, 'x', 260);
+    memcpy(name + 260, ".png", 5);
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    memset(&err, 0, sizeof err);
+    assert_int_equal(lr_image_write_check(path, &err), LR_ERR_IO);
+    assert_non_null(strstr(err.message, strerror(ENAMETOOLONG)));
+    list_dir(dir, listing, sizeof listing);
+    assert_string_equal(listing, "a.exr a.png");
+    lr_image_free(img);
+}
+
 /* A path that is a symbolic link is written through, as open(2) would:
  * the link stays and its target gets the file, through a chain of links,
  * a relative target (from the link's directory) and a target that does
@@ -1175,6 +1229,7 @@ static const struct CMUnitTest image_tests[] = {
     cmocka_unit_test(test_encode_bad_arguments),
     cmocka_unit_test(test_write_files),
     cmocka_unit_test(test_write_failures),
+    cmocka_unit_test(test_write_cancelled),
 };
 
 LR_TEST_GROUP(image, image_tests)

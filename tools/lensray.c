@@ -49,7 +49,9 @@ static const char usage_text[] =
     "                      --set 'objects[1].radius=0.5' (VALUE is JSON,\n"
     "                      or a plain string); may be repeated\n"
     "  --stats             print a JSON line with time, rays, samples/s,\n"
-    "                      the plan and the peak memory (peak_rss_kib)\n"
+    "                      the plan and the peak memory (peak_rss_kib);\n"
+    "                      with several scenes, a line a frame written,\n"
+    "                      its number first (\"frame\")\n"
     "  --half              EXR: write RGB as half floats\n"
     "  --compression NAME  EXR: zip (default), none, zips, rle or piz\n"
     "  --png16             PNG: 16 bits per channel\n"
@@ -86,8 +88,24 @@ static const char usage_text[] =
 
 static void on_signal(int sig)
 {
-    (void)sig;
     cancel_flag = 1;
+    /* A second Ctrl-C ends the process at once: the first stops the
+     * render and the file's write at their next check, which a slow disk
+     * may make long, and it had been the only way out. */
+    signal(sig, SIG_DFL);
+}
+
+/* rc, or EXIT_IO if standard output could not be written: a full disk
+ * under `lensray lens ... > f.json` or `--stats > f` had exited 0 with
+ * the JSON cut short. */
+static int stdout_checked(int rc)
+{
+    errno = 0;
+    if (fflush(stdout) == 0 && !ferror(stdout))
+        return rc;
+    fprintf(stderr, "lensray: cannot write the standard output%s%s\n",
+            errno ? ": " : "", errno ? strerror(errno) : "");
+    return rc == EXIT_OK ? EXIT_IO : rc;
 }
 
 static int usage_error(const char *fmt, const char *arg)
@@ -568,7 +586,7 @@ static int run_command(const char *cmd, int argc, char **argv)
     return rc;
 }
 
-int main(int argc, char **argv)
+static int run(int argc, char **argv)
 {
     if (argc < 2) {
         fputs(usage_text, stderr);
@@ -597,4 +615,9 @@ int main(int argc, char **argv)
     if (strcmp(cmd, "render") == 0 || strcmp(cmd, "lens") == 0)
         return run_command(cmd, argc - 2, argv + 2);
     return usage_error("unknown command '%s'", cmd);
+}
+
+int main(int argc, char **argv)
+{
+    return stdout_checked(run(argc, argv));
 }

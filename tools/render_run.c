@@ -100,17 +100,23 @@ static int write_image(const lr_image *img, const char *path,
                        const lr_output_options *oo)
 {
     lr_error err;
-    lr_status st = lr_image_write(img, path, oo, &err);
+    /* Ctrl-C while the file is written keeps the file as it was. */
+    lr_status st = lr_image_write_cancellable(img, path, oo, &cancel_flag,
+                                              &err);
     if (st == LR_OK)
         return EXIT_OK;
     fprintf(stderr, "lensray: %s\n", err.message);
     return exit_for(st) == EXIT_SCENE ? EXIT_IO : exit_for(st);
 }
 
-/* The output file of frame i (from 0). */
+/* The output file of frame i (from 0): the pattern with its number and
+ * its "%%" read, also in a name without a number (where "%%" had stayed
+ * two characters); a name with a % that is no pattern (one scene's
+ * "100%.png") as it is. */
 void frame_out(const render_job *r, int i, char *out, size_t size)
 {
-    if (!r->numbered || outname_frame(r->out, i + 1, out, size) != 0)
+    if (outname_check(r->out) < 0 ||
+        outname_frame(r->out, i + 1, out, size) != 0)
         snprintf(out, size, "%s", r->out);
 }
 
@@ -169,9 +175,9 @@ static int all_black(const lr_image *img)
     return 1;
 }
 
-static int render_local(const render_job *r, const char *scene_path,
-                        const char *out_path)
+static int render_local(const render_job *r, int frame, const char *out_path)
 {
+    const char *scene_path = r->scenes[frame];
     lr_scene *scene = NULL;
     lr_camera cam;
     lr_render_settings rs;
@@ -205,7 +211,13 @@ static int render_local(const render_job *r, const char *scene_path,
             fprintf(stderr, "lensray: out of memory\n");
             rc = EXIT_IO;
         } else {
-            printf("{\"peak_rss_kib\": %ld, %s\n", peak_rss_kib(), json + 1);
+            /* A batch's lines name their frames (from 1): a frame that
+             * fails prints none. */
+            if (r->n_scenes > 1)
+                printf("{\"frame\": %d, ", frame + 1);
+            else
+                printf("{");
+            printf("\"peak_rss_kib\": %ld, %s\n", peak_rss_kib(), json + 1);
         }
         lr_free(json);
     }
@@ -350,7 +362,7 @@ int render_frames_local(const render_job *r)
     for (int i = 0; i < r->n_scenes && !cancel_flag; i++) {
         char out_path[4096];
         frame_out(r, i, out_path, sizeof out_path);
-        int frc = render_local(r, r->scenes[i], out_path);
+        int frc = render_local(r, i, out_path);
         written += frc == EXIT_OK;
         if (frc != EXIT_OK && rc == EXIT_OK)
             rc = frc;
@@ -364,6 +376,9 @@ int render_frames_local(const render_job *r)
         if (r->n_scenes > 1)
             fprintf(stderr, "lensray: interrupted: %d of %d frames written\n",
                     written, r->n_scenes);
+        else if (written) /* (Ctrl-C as the file was renamed into place) */
+            fprintf(stderr, "lensray: interrupted, but the frame was "
+                            "written\n");
     } else if (r->n_scenes > 1 && rc != EXIT_OK)
         fprintf(stderr, "lensray: %d of %d frames written, %d failed\n",
                 written, r->n_scenes, r->n_scenes - written);

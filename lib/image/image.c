@@ -151,8 +151,9 @@ void lr_output_options_default(lr_output_options *o)
 /* Encodes `img` as `fmt` with `opts` (NULL: the defaults), into the file
  * `fd` when fd >= 0, else into a malloc'ed buffer (see lr__encode_exr). */
 static lr_status encode(const lr_image *img, lr_format fmt,
-                        const lr_output_options *opts, int fd, void **buf,
-                        size_t *len, lr_error *err)
+                        const lr_output_options *opts, int fd,
+                        const volatile int *cancel, void **buf, size_t *len,
+                        lr_error *err)
 {
     lr_output_options defaults;
     if (opts == NULL) {
@@ -163,7 +164,7 @@ static lr_status encode(const lr_image *img, lr_format fmt,
     if (enc == NULL)
         return lr__fail(err, LR_ERR_INVALID, NULL, "unknown image format %d",
                         (int)fmt);
-    return enc(img, opts, fd, buf, len, err);
+    return enc(img, opts, fd, cancel, buf, len, err);
 }
 
 lr_status lr_image_encode(const lr_image *img, lr_format fmt,
@@ -178,7 +179,7 @@ lr_status lr_image_encode(const lr_image *img, lr_format fmt,
     if (img == NULL || img->rgb == NULL)
         return lr__fail(err, LR_ERR_INVALID, NULL,
                         "lr_image_encode: there is no image to encode");
-    return encode(img, fmt, opts, -1, buf, len, err);
+    return encode(img, fmt, opts, -1, NULL, buf, len, err);
 }
 
 /* ---- writing files ----------------------------------------------------- */
@@ -233,7 +234,8 @@ static int create_temp_beside(const char *path, char **tmp_name)
 
 static lr_status write_at(const lr_image *img, lr_format fmt,
                           const lr_output_options *opts, const char *path,
-                          const char *dest, lr_error *err);
+                          const char *dest, const volatile int *cancel,
+                          lr_error *err);
 
 /* The file a symbolic link `path` leads to, followed link by link (a
  * relative target from the link's directory) as open(2) would, to at most
@@ -267,8 +269,9 @@ static char *follow_links(const char *path)
     return cur;
 }
 
-lr_status lr_image_write(const lr_image *img, const char *path,
-                         const lr_output_options *opts, lr_error *err)
+lr_status lr_image_write_cancellable(const lr_image *img, const char *path,
+                                     const lr_output_options *opts,
+                                     const volatile int *cancel, lr_error *err)
 {
     if (path == NULL)
         return lr__fail(err, LR_ERR_INVALID, NULL,
@@ -288,9 +291,42 @@ lr_status lr_image_write(const lr_image *img, const char *path,
     char *dest = follow_links(path);
     if (dest == NULL)
         return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
-    st = write_at(img, fmt, opts, path, dest, err);
+    st = write_at(img, fmt, opts, path, dest, cancel, err);
     free(dest);
     return st;
+}
+
+lr_status lr_image_write(const lr_image *img, const char *path,
+                         const lr_output_options *opts, lr_error *err)
+{
+    return lr_image_write_cancellable(img, path, opts, NULL, err);
+}
+
+/* Why renaming a finished file onto `dest` would fail where creating the
+ * temporary file beside it did not, or 0: a name longer than its
+ * directory allows (the temporary file takes a short name then), or
+ * another user's file in a sticky directory (as /tmp), which only its
+ * owner, the directory's or root may replace (rename(2), EPERM).  Both
+ * had been found after the render, and the picture lost. */
+static int rename_refused(const char *dest)
+{
+    char dir[4096];
+    const char *slash = strrchr(dest, '/');
+    const char *base = slash ? slash + 1 : dest;
+    if (slash == NULL)
+        snprintf(dir, sizeof dir, ".");
+    else
+        snprintf(dir, sizeof dir, "%.*s",
+                 slash == dest ? 1 : (int)(slash - dest), dest);
+    long max = pathconf(dir, _PC_NAME_MAX);
+    if (max > 0 && strlen(base) > (size_t)max)
+        return ENAMETOOLONG;
+    struct stat ds, fs;
+    uid_t me = geteuid();
+    if (me != 0 && stat(dir, &ds) == 0 && (ds.st_mode & S_ISVTX) &&
+        lstat(dest, &fs) == 0 && fs.st_uid != me && ds.st_uid != me)
+        return EPERM;
+    return 0;
 }
 
 lr_status lr_image_write_check(const char *path, lr_error *err)
@@ -322,6 +358,13 @@ lr_status lr_image_write_check(const char *path, lr_error *err)
     if (fd >= 0) {
         close(fd);
         unlink(tmp_name);
+        int e = rename_refused(dest);
+        if (e != 0)
+            st = lr__fail(err, LR_ERR_IO, NULL, "cannot write '%s': %s%s", path,
+                          strerror(e),
+                          e == EPERM ? " (another user's file in a sticky "
+                                       "directory cannot be replaced)"
+                                     : "");
     }
     free(tmp_name);
     free(dest);
@@ -332,7 +375,8 @@ lr_status lr_image_write_check(const char *path, lr_error *err)
  * the messages). */
 static lr_status write_at(const lr_image *img, lr_format fmt,
                           const lr_output_options *opts, const char *path,
-                          const char *dest, lr_error *err)
+                          const char *dest, const volatile int *cancel,
+                          lr_error *err)
 {
     lr_status st;
     char *tmp_name = NULL;
@@ -348,7 +392,10 @@ static lr_status write_at(const lr_image *img, lr_format fmt,
 
     void *buf = NULL;
     size_t len = 0;
-    st = encode(img, fmt, opts, fd, &buf, &len, err);
+    st = encode(img, fmt, opts, fd, cancel, &buf, &len, err);
+    if (st == LR_ERR_CANCELLED) /* (the encoder's message names no file) */
+        lr__fail(err, st, NULL, "writing '%s' was cancelled; it is as it was",
+                 path);
     if (st != LR_OK) {
         close(fd);
         unlink(tmp_name);
@@ -368,6 +415,13 @@ static lr_status write_at(const lr_image *img, lr_format fmt,
             goto io_error;
     }
     what = "rename the finished file to";
+    /* The last moment a cancellation keeps the file as it was. */
+    if (cancel != NULL && *cancel) {
+        unlink(tmp_name);
+        free(tmp_name);
+        return lr__fail(err, LR_ERR_CANCELLED, NULL,
+                        "writing '%s' was cancelled; it is as it was", path);
+    }
     if (rename(tmp_name, dest) != 0)
         goto io_error;
 

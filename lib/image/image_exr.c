@@ -38,8 +38,9 @@
 /* The output buffer plus what the error handler learnt; it is the
  * context's user data. */
 typedef struct exr_sink {
-    int fd;       /* >= 0: write to this file instead */
-    int io_errno; /* the errno of a failed write to fd */
+    int fd;                     /* >= 0: write to this file instead */
+    int io_errno;               /* the errno of a failed write to fd */
+    const volatile int *cancel; /* non-zero: writes to fd fail */
     unsigned char *data;
     size_t len, cap;
     int out_of_memory; /* set when the buffer could not grow */
@@ -79,6 +80,10 @@ static int64_t sink_write(exr_const_context_t ctxt, void *user,
     (void)ctxt;
     (void)error_cb;
     if (sink->fd >= 0) {
+        if (sink->cancel != NULL && *sink->cancel) {
+            sink->io_errno = ECANCELED;
+            return -1;
+        }
         const unsigned char *p = buffer;
         uint64_t left = sz, at = offset;
         while (left > 0) {
@@ -176,7 +181,8 @@ static exr_compression_t exr_compression(const lr_output_options *opts)
 }
 
 lr_status lr__encode_exr(const lr_image *img, const lr_output_options *opts,
-                         int fd, void **buf, size_t *len, lr_error *err)
+                         int fd, const volatile int *cancel, void **buf,
+                         size_t *len, lr_error *err)
 {
     *buf = NULL;
     *len = 0;
@@ -190,6 +196,7 @@ lr_status lr__encode_exr(const lr_image *img, const lr_output_options *opts,
         return lr__fail(err, LR_ERR_NOMEM, NULL,
                         "out of memory starting the EXR encoder");
     sink->fd = fd;
+    sink->cancel = cancel;
 
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
     init.error_handler_fn = sink_error_handler;
@@ -290,7 +297,11 @@ fail:
         lr_status st = (sink->out_of_memory || rv == EXR_ERR_OUT_OF_MEMORY)
                            ? LR_ERR_NOMEM
                            : LR_ERR_IO;
-        if (sink->io_errno != 0)
+        if (sink->io_errno == ECANCELED)
+            lr__fail(err, LR_ERR_CANCELLED, NULL,
+                     "writing the %d x %d EXR was cancelled", img->width,
+                     img->height);
+        else if (sink->io_errno != 0)
             lr__fail(err, LR_ERR_IO, NULL,
                      "cannot write a %d x %d EXR: failed to %s: %s", img->width,
                      img->height, step, strerror(sink->io_errno));
@@ -301,7 +312,9 @@ fail:
                      exr_get_default_error_message(rv),
                      sink->message[0] ? " (" : "", sink->message,
                      sink->message[0] ? ")" : "");
-        st = sink->io_errno != 0 ? LR_ERR_IO : st;
+        st = sink->io_errno == ECANCELED ? LR_ERR_CANCELLED
+             : sink->io_errno != 0       ? LR_ERR_IO
+                                         : st;
         free(sink->data);
         free(sink);
         return st;

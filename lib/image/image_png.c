@@ -16,8 +16,9 @@
 /* The growing output buffer plus what the error callback learnt, passed
  * to the libpng callbacks through their user pointers. */
 typedef struct png_sink {
-    int fd;       /* >= 0: write to this file instead */
-    int io_errno; /* the errno of a failed write to fd */
+    int fd;                     /* >= 0: write to this file instead */
+    int io_errno;               /* the errno of a failed write to fd */
+    const volatile int *cancel; /* non-zero: writes to fd fail */
     unsigned char *data;
     size_t len, cap;
     int out_of_memory; /* set when the buffer could not grow */
@@ -50,6 +51,11 @@ static void sink_write(png_structp png, png_bytep data, png_size_t n)
 {
     png_sink *sink = png_get_io_ptr(png);
     if (sink->fd >= 0) {
+        if (sink->cancel != NULL && *sink->cancel) {
+            sink->io_errno = ECANCELED;
+            snprintf(sink->message, sizeof sink->message, "cancelled");
+            png_error(png, sink->message);
+        }
         while (n > 0) {
             ssize_t w = write(sink->fd, data, n);
             if (w < 0 && errno == EINTR)
@@ -112,7 +118,8 @@ static void convert_row(const float *src, int width, int sixteen,
 }
 
 lr_status lr__encode_png(const lr_image *img, const lr_output_options *opts,
-                         int fd, void **buf, size_t *len, lr_error *err)
+                         int fd, const volatile int *cancel, void **buf,
+                         size_t *len, lr_error *err)
 {
     *buf = NULL;
     *len = 0;
@@ -134,6 +141,7 @@ lr_status lr__encode_png(const lr_image *img, const lr_output_options *opts,
                         "out of memory encoding a PNG of width %d", img->width);
     }
     sink->fd = fd;
+    sink->cancel = cancel;
 
     png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, sink,
                                               sink_error, sink_warning);
@@ -149,10 +157,16 @@ lr_status lr__encode_png(const lr_image *img, const lr_output_options *opts,
     if (setjmp(png_jmpbuf(png))) {
         png_destroy_write_struct(&png, &info);
         free(row);
-        lr_status st = sink->out_of_memory ? LR_ERR_NOMEM : LR_ERR_IO;
-        lr__fail(err, st, NULL, "cannot %s a %d x %d PNG: %s",
-                 sink->io_errno ? "write" : "encode", img->width, img->height,
-                 sink->message);
+        lr_status st = sink->io_errno == ECANCELED ? LR_ERR_CANCELLED
+                       : sink->out_of_memory       ? LR_ERR_NOMEM
+                                                   : LR_ERR_IO;
+        if (st == LR_ERR_CANCELLED)
+            lr__fail(err, st, NULL, "writing the %d x %d PNG was cancelled",
+                     img->width, img->height);
+        else
+            lr__fail(err, st, NULL, "cannot %s a %d x %d PNG: %s",
+                     sink->io_errno ? "write" : "encode", img->width,
+                     img->height, sink->message);
         free(sink->data);
         free(sink);
         return st;

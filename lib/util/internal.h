@@ -116,18 +116,22 @@ struct lr_image {
  * file (at offset 0 on, opened for writing and empty), so that a file
  * never costs its size in memory, and *buf stays NULL.  `opts` is never
  * NULL here.  On failure *buf is NULL and nothing leaks; a failed write
- * is LR_ERR_IO with the system's reason. */
+ * is LR_ERR_IO with the system's reason.  `cancel` (may be NULL), when
+ * non-zero at a write to fd, stops the encoding: LR_ERR_CANCELLED. */
 typedef lr_status (*lr__encoder)(const lr_image *img,
                                  const lr_output_options *opts, int fd,
-                                 void **buf, size_t *len, lr_error *err);
+                                 const volatile int *cancel, void **buf,
+                                 size_t *len, lr_error *err);
 lr_status lr__encode_exr(const lr_image *img, const lr_output_options *opts,
-                         int fd, void **buf, size_t *len, lr_error *err);
+                         int fd, const volatile int *cancel, void **buf,
+                         size_t *len, lr_error *err);
 /* Threads that compress an EXR's chunks: 0 (the default) chooses by the
  * cores and the image's height (exr_chunks.c); tests set a count to check
  * that every count writes the same bytes.  Not for use while encoding. */
 extern int lr__exr_threads;
 lr_status lr__encode_png(const lr_image *img, const lr_output_options *opts,
-                         int fd, void **buf, size_t *len, lr_error *err);
+                         int fd, const volatile int *cancel, void **buf,
+                         size_t *len, lr_error *err);
 
 /* sRGB transfer function (IEC 61966-2-1) of a linear value clamped to
  * [0, 1]; NaN maps to 0. */
