@@ -94,8 +94,6 @@ EOF2
 fig gltf-lens "$G/lens.json"
 rm -rf "$G"
 
-echo "figures: $n images in $OUT"
-
 # Real lenses (docs/lenses.md): a checkerboard 10 m away (100 m for the
 # telephoto) through the fisheye, the wide angle and the telephoto.
 fig lens-chart-fisheye scenes/lens-chart.json --set camera.lens=fisheye-10 \
@@ -135,3 +133,5 @@ fig textured scenes/textured.json --set render.spp=256
 fig spheres-orthographic scenes/spheres.json --set camera.model=orthographic \
     --set camera.view_height=9 --set 'camera.position=[-12, 9, -4]' \
     --set 'camera.look_at=[0, 0.5, -20]' --set render.spp=64
+
+echo "figures: $n images in $OUT"
