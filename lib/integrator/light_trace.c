@@ -174,15 +174,53 @@ typedef struct lt_colour {
     const lr__wl_table *wl;
     double uw;
     int j;
+    double lw; /* the lens point's density ratio (lens_point_of) */
 } lt_colour;
 
 /* Where radiance along w from lens offset (ox, oy) lands, for col. */
 static int land(const lr__cam *c, const lt_colour *col, double ox, double oy,
                 lr__v3 w, lr__landing *ld)
 {
-    if (col->j < 0)
-        return lr__cam_land(c, col->wl, col->uw, ox, oy, w, ld);
-    return lr__cam_land_colour(c, col->wl, col->uw, col->j, ox, oy, w, ld);
+    int hit = col->j < 0 ? lr__cam_land(c, col->wl, col->uw, ox, oy, w, ld)
+                         : lr__cam_land_colour(c, col->wl, col->uw, col->j, ox,
+                                               oy, w, ld);
+    if (hit && col->lw != 1.0)
+        for (int k = 0; k < ld->n; k++)
+            for (int ch = 0; ch < 3; ch++)
+                ld->at[k].W[ch] *= col->lw;
+    return hit;
+}
+
+/* Light l's lens point from lens sample u: lens_point's, or for a light
+ * with a footprint on a real lens's front (light_trace.h) half the time
+ * (u[0] < 1/2) lens_point's over the whole front disk of radius rho and
+ * half uniform in the footprint's disk, *lw then lens_point's density
+ * over the mixture's there (0 off the front), which the landing's
+ * importance (lens_point's) is multiplied by. */
+static lr__v3 lens_point_of(const lr__cam *c, const lr__lt_light *l,
+                            const double u[2], double *ox, double *oy,
+                            double *lw)
+{
+    *lw = 1.0;
+    if (!(l->fp_r > 0.0))
+        return c->model->lens_point(c, u, ox, oy);
+    double rho = c->model->ghost_disk(c), v[2] = {2.0 * u[0], u[1]};
+    if (v[0] < 1.0) {
+        lr__v3 P = c->model->lens_point(c, v, ox, oy);
+        double dx = *ox - l->fp_x, dy = *oy - l->fp_y;
+        int in = dx * dx + dy * dy <= l->fp_r * l->fp_r;
+        *lw = 1.0 / (0.5 + 0.5 * (in ? rho * rho / (l->fp_r * l->fp_r) : 0.0));
+        return P;
+    }
+    /* Uniform in the footprint's disk: radius sqrt(v0), angle 2 pi v1. */
+    double r = l->fp_r * sqrt(v[0] - 1.0), sn, cs;
+    lr__sincos_2pi(v[1], &sn, &cs);
+    *ox = l->fp_x + r * cs, *oy = l->fp_y + r * sn;
+    if (*ox * *ox + *oy * *oy > rho * rho)
+        *lw = 0.0;
+    else
+        *lw = 1.0 / (0.5 + 0.5 * rho * rho / (l->fp_r * l->fp_r));
+    return c->model->lens_at(c, *ox, *oy);
 }
 
 lr__v3 lr__lt_emission_at(const lr_scene *s, const lr__lt_light *l,
@@ -625,12 +663,14 @@ void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
         /* Every colour from the lens point, or (a lens point that moves
          * with the focus: the bracket's) each colour from its own, the
          * same numbers for each. */
-        lt_colour col = {lt->wl, uw[0], -1};
+        lt_colour col = {lt->wl, uw[0], -1, 1.0};
         for (int j = n_col > 0 ? 0 : -1; j < n_col; j++) {
             col.j = j;
-            lr__v3 P = j < 0 ? c->model->lens_point(c, ul, &ox, &oy)
+            lr__v3 P = j < 0 ? lens_point_of(c, l, ul, &ox, &oy, &col.lw)
                              : lr__cam_colour_point(c, lt->wl, uw[0], j, ul,
                                                     &ox, &oy);
+            if (col.lw == 0.0)
+                continue;
             if (l->surf >= 0)
                 glint_path(s, c, l, P, ox, oy, ud, us, &col, f, rays, landed);
             else if (l->n_tri > 0)

@@ -117,6 +117,12 @@ typedef struct lr__lt_light {
      * mean radiance there (a textured one's texels' mean). */
     double omega;
     lr__v3 Lmean;
+    /* Seen directly through a real lens: the disk of front offsets
+     * (centre fp_x, fp_y, radius fp_r, in lens_point's units) whose rays
+     * from the light's centre land on the film (light_trace_plan.c), half
+     * its lens points drawn there and half over the whole front
+     * (light_trace.c); fp_r 0: all over the front. */
+    double fp_x, fp_y, fp_r;
     uint64_t paths; /* light paths traced for it */
     uint64_t first; /* index of its first path among all */
 } lr__lt_light;
