@@ -799,8 +799,9 @@ LR_API const char *lr_job_scene_json(const lr_job *job, size_t *len);
  * order: every string under a key that names a file (objects[i].file,
  * environment.file, a material's textures: all keys that the loader
  * resolves through the same function, so a new file key is listed here
- * too), and camera.lens when it is a path (has a '/') or an asset
- * ("sha256:HEX"); and its path in the job ("scene.objects[3].file",
+ * too), and camera.lens (a path, an asset "sha256:HEX", or a plain
+ * name: the file of that name in the scene's directory when there is
+ * one, else a shipped lens, which the caller tells apart); and its path in the job ("scene.objects[3].file",
  * "scene.environment.file", "scene.camera.lens"); before them the
  * job's own camera.lens when it is an asset ("camera.lens"), whatever
  * the scene.  Returns 0 past the last one.  The strings are valid until

@@ -39,6 +39,26 @@ static int inside_scenes_dir(const char *resolved)
            resolved[dl + 1] != '\0';
 }
 
+/* Whether the deepest directory of `joined` (the scenes directory, '/', a
+ * relative path) that exists resolves outside the scenes directory: a
+ * file that is not there through a link out ("etc/nope" with etc -> /etc)
+ * is as forbidden as one that is, so that the answer tells nothing of
+ * what exists outside. */
+static int parent_outside(const char *joined)
+{
+    char buf[PATH_MAX + 64], res[PATH_MAX];
+    snprintf(buf, sizeof buf, "%s", joined);
+    size_t base = strlen(lrd_cfg.scenes_dir);
+    for (char *slash;
+         (slash = strrchr(buf, '/')) != NULL && (size_t)(slash - buf) > base;) {
+        *slash = '\0';
+        if (realpath(buf, res) != NULL)
+            return strcmp(res, lrd_cfg.scenes_dir) != 0 &&
+                   !inside_scenes_dir(res);
+    }
+    return 0;
+}
+
 /* Inline scenes may only use mesh files inside the scenes directory: no
  * absolute paths, no ".." components, and no symbolic link that resolves
  * outside it.  A missing file, or one that is not a regular file (a
@@ -67,22 +87,42 @@ static int check_mesh_path(const char *file, const char *field, lrd_err *e)
     snprintf(joined, sizeof joined, "%s/%s", lrd_cfg.scenes_dir, file);
     char resolved[PATH_MAX];
     struct stat st;
-    if (realpath(joined, resolved) == NULL || stat(resolved, &st) != 0)
-        return lrd_fail(e, 422, "invalid_value", field,
-                        "%s: there is no file \"%s\" in the scenes "
-                        "directory",
-                        field, file);
-    /* Checked before the symbolic links: "." and "meshes/" resolve to
-     * directories inside (or at) the scenes directory, not outside it. */
-    if (!S_ISREG(st.st_mode))
-        return lrd_fail(e, 422, "invalid_value", field,
-                        "%s: \"%s\" is a directory, not a file", field, file);
-    if (!inside_scenes_dir(resolved))
+    int there = realpath(joined, resolved) != NULL && stat(resolved, &st) == 0;
+    /* Whether a path through a link out exists, and what it is, was told
+     * by the message ("no file", "a directory", forbidden): anything that
+     * leads outside is forbidden, there or not.  The scenes directory
+     * itself ("." ) is inside for this, and a directory below. */
+    if (there ? strcmp(resolved, lrd_cfg.scenes_dir) != 0 &&
+                    !inside_scenes_dir(resolved)
+              : parent_outside(joined))
         return lrd_fail(e, 422, "forbidden_path", field,
                         "%s must stay inside the scenes directory (it "
                         "leads outside through a symbolic link)",
                         field);
+    if (!there)
+        return lrd_fail(e, 422, "invalid_value", field,
+                        "%s: there is no file \"%s\" in the scenes "
+                        "directory",
+                        field, file);
+    if (!S_ISREG(st.st_mode))
+        return lrd_fail(e, 422, "invalid_value", field,
+                        "%s: \"%s\" is a directory, not a file", field, file);
     return 0;
+}
+
+/* A lens named plainly in an inline scene is the file of that name in
+ * the scenes directory when there is one (the library looks there
+ * first), else a shipped lens: only the first is checked. */
+static int shipped_lens_name(const char *file, const char *field)
+{
+    size_t n = strlen(field);
+    if (n < 5 || strcmp(field + n - 5, ".lens") != 0 ||
+        strchr(file, '/') != NULL || strncmp(file, "sha256:", 7) == 0)
+        return 0;
+    char joined[PATH_MAX + 64];
+    struct stat st;
+    snprintf(joined, sizeof joined, "%s/%s", lrd_cfg.scenes_dir, file);
+    return lstat(joined, &st) != 0;
 }
 
 static int check_limits(lrd_job_spec *spec, lrd_err *e)
@@ -126,7 +166,8 @@ static lrd_scene *inline_scene(const lr_job *job, lrd_err *e)
 {
     const char *file, *field;
     for (size_t k = 0; lr_job_mesh_file(job, k, &file, &field); k++)
-        if ((strncmp(file, "sha256:", 7) == 0
+        if (!shipped_lens_name(file, field) &&
+            (strncmp(file, "sha256:", 7) == 0
                  ? lrd_asset_check_ref(file, field, e)
                  : check_mesh_path(file, field, e)) != 0)
             return NULL;

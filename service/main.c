@@ -360,7 +360,12 @@ static int configure(int argc, char **argv)
                     given_as("token-file"), token_file, strerror(errno));
             return -1;
         }
-        /* Editors and `echo` add a final newline; it is not the token's. */
+        /* The first line is the token, as the docs and the CLI's
+         * --token-file say (a second line, a note, had made every
+         * request 401), without the whitespace editors add. */
+        const char *nl = memchr(t, '\n', len);
+        if (nl != NULL)
+            len = (size_t)(nl - t), t[len] = '\0';
         while (len > 0 && (t[len - 1] == '\n' || t[len - 1] == '\r' ||
                            t[len - 1] == ' ' || t[len - 1] == '\t'))
             t[--len] = '\0';

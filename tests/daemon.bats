@@ -265,7 +265,9 @@ setup_file() {
     ln -s "$WORK/outside/secret.obj" "$WORK/scenes/meshes/escape.obj"
 
     export TOKEN="token-$RANDOM-$RANDOM"
-    printf '%s\n' "$TOKEN" >"$WORK/token"
+    # The first line is the token: a note below it had made the token
+    # file's whole text the token, and every request 401.
+    printf '%s\n# a note, not the token\n' "$TOKEN" >"$WORK/token"
 
     write_img_js
 
@@ -797,6 +799,27 @@ print("\n".join(sorted(s["properties"])))' "$spec" "$schema") \
     expect_error 422 forbidden_path scene.camera.lens
     req POST "$URL/v1/render" '{"scene": "tiny", "camera": {"model": "lens", "lens": "../outside/secret.zmx"}}'
     expect_error 422 invalid_value camera.lens
+    # A lens by a plain name is the scenes directory's file of that name
+    # when there is one, through a link out too: it was read, and its keys
+    # came back in the error.  A shipped lens's name still renders.
+    echo '{"hunter2-secret": 1}' >"$WORK/outside/creds.json"
+    ln -s "$WORK/outside/creds.json" "$WORK/scenes/creds-lens"
+    req POST "$URL/v1/render" '{"scene": {"camera": {"model": "lens", "lens": "creds-lens"}}}'
+    expect_error 422 forbidden_path scene.camera.lens
+    run ! grep -q hunter2 "$T/body"
+    rm "$WORK/scenes/creds-lens"
+    req POST "$URL/v1/render" '{"scene": {"camera": {"model": "lens", "lens": "double-gauss-50"}, "lights": [{"type": "ambient", "radiance": 1}]}, "render": {"width": 8, "height": 6, "spp": 1}}'
+    expect 200
+    # Through a link to a directory outside, a path is forbidden whether
+    # it is there or not, and whatever it is (the three answers told what
+    # exists outside).
+    ln -s "$WORK/outside" "$WORK/scenes/meshes/out"
+    local f
+    for f in meshes/out/secret.obj meshes/out/nope.obj meshes/out meshes/out/; do
+        req POST "$URL/v1/render" "$pre \"$f\"}]}}"
+        expect_error 422 forbidden_path scene.objects[1].file
+    done
+    rm "$WORK/scenes/meshes/out"
     # The error never shows where the scenes directory is.
     run ! grep -q "$WORK" "$T/body"
     # Scene names cannot be paths either.

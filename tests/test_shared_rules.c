@@ -569,8 +569,9 @@ static void test_job_scene_and_meshes(void **state)
 }
 
 /* Every key that names a file is listed, wherever it stands (a
- * material's texture too), and camera.lens when it is a path or an
- * asset; a shipped lens's name is not a file. */
+ * material's texture too), and camera.lens, a plain name too (it is the
+ * file of that name beside the scene when there is one: lensrayd read a
+ * link out of its scenes directory that way). */
 static void test_job_files_every_key(void **state)
 {
     (void)state;
@@ -600,7 +601,10 @@ static void test_job_files_every_key(void **state)
                            "\"double-gauss-50\"}}}",
                            &job, &err),
                      LR_OK);
-    assert_int_equal(lr_job_mesh_file(job, 0, &file, &field), 0);
+    assert_int_equal(lr_job_mesh_file(job, 0, &file, &field), 1);
+    assert_string_equal(file, "double-gauss-50");
+    assert_string_equal(field, "scene.camera.lens");
+    assert_int_equal(lr_job_mesh_file(job, 1, &file, &field), 0);
     lr_job_free(job);
     /* The job's own camera's lens asset, first, beside a named scene too
      * (lensrayd checks it as it does the scene's). */

@@ -66,10 +66,11 @@ static lr_status add_file(lr_job *job, const cJSON *f, const char *field,
 
 /* Records every file an inline scene reads: each string under a key that
  * names a file (lr__scene_file_key: objects[i].file, environment.file,
- * textures, ...), wherever it stands, and camera.lens when it is a path
- * (has a '/') or an asset (a plain name is a file in the scenes directory
- * or a shipped lens: both safe).  Type errors are the scene loader's to
- * report. */
+ * textures, ...), wherever it stands, and camera.lens, whatever it is: a
+ * path, an asset, or a plain name, which is the file of that name beside
+ * the scene when there is one (through whatever link: lensrayd read a
+ * link out of its scenes directory that way) and else a shipped lens.
+ * Type errors are the scene loader's to report. */
 static lr_status collect_files(lr_job *job, const cJSON *node, const char *path,
                                int depth, lr_error *err)
 {
@@ -82,9 +83,7 @@ static lr_status collect_files(lr_job *job, const cJSON *node, const char *path,
             lr__path_key(p, path, c->string);
         if (cJSON_IsString(c) && c->string != NULL) {
             int lens = depth == 1 && strcmp(c->string, "lens") == 0 &&
-                       strcmp(path, "scene.camera") == 0 &&
-                       (strchr(c->valuestring, '/') != NULL ||
-                        strncmp(c->valuestring, "sha256:", 7) == 0);
+                       strcmp(path, "scene.camera") == 0;
             if (lens || lr__scene_file_key(c->string))
                 LR_TRY(add_file(job, c, p, err));
         } else if (cJSON_IsObject(c) || cJSON_IsArray(c)) {
