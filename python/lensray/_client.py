@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import errno
 import json
 import os
+import select
 import tempfile
 import time
 import http.client
@@ -18,10 +20,15 @@ from ._errors import CancelledError, LensrayError, SceneError
 
 SceneRef = Union[str, Mapping[str, Any]]
 
-# Error codes of the daemon that are about the job's input.
+# Error codes of the daemon that are about the job's input (docs/api.md,
+# section 5): besides these, every 413 (a limit) and 422 (a value) answer
+# is one, so a code the daemon adds later is still a SceneError.
 _INPUT_CODES = {"invalid_value", "forbidden_path", "scene_not_found",
                 "malformed_json", "too_deep", "image_too_large",
-                "too_many_samples", "too_large"}
+                "too_many_samples", "too_large", "body_too_large",
+                "asset_not_found", "asset_hash_mismatch",
+                "idempotency_key_reused"}
+_INPUT_HTTP = {413, 422}
 _CANCEL_CODES = {"cancelled", "job_cancelled"}
 
 
@@ -71,9 +78,60 @@ def _error(code: str, message: str, path: str,
            http_status: Optional[int] = None) -> LensrayError:
     if code in _CANCEL_CODES:
         return CancelledError(message, path, code, http_status)
-    if code in _INPUT_CODES:
+    # asset_not_found is also GET /v1/assets/{sha256}'s 404 for an asset
+    # the daemon does not have, which is no one's input error.
+    if http_status in _INPUT_HTTP or (
+            code in _INPUT_CODES
+            and not (code == "asset_not_found" and http_status == 404)):
         return SceneError(message, path, code, http_status)
     return LensrayError(message, path, code, http_status)
+
+
+def _send(conn: http.client.HTTPConnection, method: str, url: str,
+          data: Optional[bytes], headers: dict[str, str]) -> Optional[OSError]:
+    """Sends the request; returns the error that stopped the body, if any.
+
+    The daemon refuses a body over --max-body (or an asset over
+    --max-asset-bytes) from its Content-Length, answers 413 at once and
+    closes the connection: a client still sending gets EPIPE or ECONNRESET
+    rather than the answer.  So the body goes in pieces, stopping as soon
+    as the daemon has answered (the socket is readable) or the send fails;
+    the caller then reads the answer, which is usually there."""
+    conn.putrequest(method, url)
+    for k, v in headers.items():
+        conn.putheader(k, v)
+    if data is not None or method in ("POST", "PUT"):
+        conn.putheader("Content-Length", str(len(data or b"")))
+    try:
+        conn.endheaders()
+    except (BrokenPipeError, ConnectionResetError) as e:
+        return e
+    if not data:
+        return None
+    view = memoryview(data)
+    sock = conn.sock
+    step = 1 << 16
+    for at in range(0, len(view), step):
+        try:
+            # An answer before the whole body is sent is a refusal.
+            if select.select([sock], [], [], 0)[0]:
+                return ConnectionAbortedError(
+                    errno.ECONNABORTED,
+                    "it answered or closed before the whole body was sent")
+            sock.sendall(view[at:at + step])
+        except (BrokenPipeError, ConnectionResetError) as e:
+            return e
+    return None
+
+
+def _send_failure(e: OSError, size: int) -> OSError:
+    """The send error, explained: the daemon closed the connection during
+    the upload without an answer that could be read."""
+    msg = (f"lensrayd closed the connection while the {size}-byte body was "
+           f"being sent, with no answer ({e.strerror or e}); the body may be "
+           "over the daemon's --max-body (or, for an asset, "
+           "--max-asset-bytes) limit")
+    return type(e)(e.errno or 0, msg)
 
 
 class Client:
@@ -106,7 +164,10 @@ class Client:
         return f"<lensray.Client {self.url}>"
 
     def _request(self, method: str, path: str, body: Any = None,
-                 raw: Optional[bytes] = None) -> tuple[bytes, Any]:
+                 raw: Optional[bytes] = None,
+                 timeout: Any = ...) -> tuple[bytes, Any]:
+        """(body, headers) of the answer; raises the error of an error
+        answer.  ``timeout`` overrides the client's for this request."""
         data = raw
         headers = {"Connection": "close"}
         if raw is not None:
@@ -119,19 +180,30 @@ class Client:
         # http.client rather than urllib, to close the connection the moment
         # the call is interrupted (Ctrl-C): the daemon cancels a synchronous
         # render whose client has gone.
-        conn = self._conn_cls(self._netloc, timeout=self.timeout)
+        conn = self._conn_cls(self._netloc,
+                              timeout=self.timeout if timeout is ... else timeout)
         try:
-            conn.request(method, self._base + path, body=data, headers=headers)
-            resp = conn.getresponse()
-            payload = resp.read()
+            send_error = _send(conn, method, self._base + path, data, headers)
+            try:
+                resp = conn.getresponse()
+                payload = resp.read()
+            except (OSError, http.client.HTTPException) as e:
+                if send_error is None:
+                    raise
+                # The daemon closed the connection during the upload and
+                # its answer was lost (or it never gave one).
+                raise _send_failure(send_error, len(data or b"")) from e
             if resp.status >= 400:
                 raise _error_from(resp.status, resp.reason, payload)
+            if send_error is not None:
+                raise send_error
             return payload, resp.headers
         finally:
             conn.close()
 
-    def _json(self, method: str, path: str, body: Any = None) -> Any:
-        return json.loads(self._request(method, path, body)[0])
+    def _json(self, method: str, path: str, body: Any = None,
+              timeout: Any = ...) -> Any:
+        return json.loads(self._request(method, path, body, timeout=timeout)[0])
 
     @staticmethod
     def _job(scene: SceneRef, camera: Optional[Mapping[str, Any]],
@@ -197,9 +269,9 @@ class Client:
 
         Raises:
             SceneError: the daemon refused the job's input (422, 404 for an
-                unknown scene, 413 for a limit); ``.path`` names the field
-                in the job, e.g. ``"camera.fov"`` or
-                ``"scene.objects[0].radius"``.
+                unknown scene, 413 for a limit, e.g. ``body_too_large``
+                over --max-body); ``.path`` names the field in the job,
+                e.g. ``"camera.fov"`` or ``"scene.objects[0].radius"``.
             CancelledError: another client cancelled the render.
             LensrayError: any other error answer; ``.status`` is its code.
 
@@ -243,6 +315,18 @@ class Job:
         """The job's status document (``GET /v1/jobs/{id}``)."""
         return self.client._json("GET", f"/v1/jobs/{self.id}")
 
+    def _socket_timeout(self, deadline: Optional[float],
+                        at_least: float = 0.1) -> Any:
+        """The socket timeout of a request made before ``deadline``: the
+        time left (``at_least`` when less, so that a wait with no time
+        left still asks once), or the client's when shorter; ``...`` (the
+        client's) without a deadline."""
+        if deadline is None:
+            return ...
+        left = max(deadline - time.monotonic(), at_least)
+        own = self.client.timeout
+        return left if own is None else min(own, left)
+
     def plan(self) -> np.ndarray:
         """The job's effect plan (``GET /v1/jobs/{id}/plan``), as
         :meth:`Scene.plan` gives it: uint8 (rows, columns), one cell per
@@ -267,29 +351,52 @@ class Job:
         """Waits for the job to finish and returns its status document.
 
         Args:
-            timeout: seconds to wait at most; None waits for ever.
+            timeout: seconds to wait at most, the daemon's answers
+                included (each status request may take only the time
+                left); None waits for ever.
             poll: seconds between status requests.
             progress: show a tqdm bar (None: when tqdm is installed).
 
         Raises:
             TimeoutError: the job had not finished after ``timeout``.
         """
+        doc, _ = self._wait(timeout, poll, progress)
+        return doc
+
+    def _wait(self, timeout: Optional[float], poll: float = 0.1,
+              progress: Optional[bool] = False) -> tuple[dict[str, Any], Optional[float]]:
+        """wait(), and its deadline (time.monotonic()) or None."""
         from ._core import _progress_bar
         bar_cls = _progress_bar(progress)
         bar = bar_cls(total=1.0, leave=False, desc=f"job {self.id[:8]}") if bar_cls else None
-        start = time.monotonic()
+        deadline = None if timeout is None else time.monotonic() + timeout
+        doc: dict[str, Any] = {"status": "unknown"}
         try:
             while True:
-                doc = self.info()
+                # Each status request may take only the time left: a daemon
+                # that accepts connections but does not answer (stopped,
+                # hung host) must not hold the wait past its timeout.
+                try:
+                    doc = self.client._json("GET", f"/v1/jobs/{self.id}",
+                                            timeout=self._socket_timeout(deadline))
+                except TimeoutError as e:
+                    if deadline is None or time.monotonic() < deadline:
+                        raise  # the client's own timeout
+                    raise TimeoutError(
+                        f"job {self.id} still {doc['status']} after {timeout} s "
+                        f"({self.client.url} did not answer in time)") from e
                 if bar is not None:
                     bar.n = float(doc.get("progress", 0))
                     bar.refresh()
                 if doc["status"] in ("done", "failed", "cancelled"):
-                    return doc
-                if timeout is not None and time.monotonic() - start > timeout:
+                    return doc, deadline
+                if deadline is not None and time.monotonic() >= deadline:
                     raise TimeoutError(f"job {self.id} still {doc['status']} "
                                        f"after {timeout} s")
-                time.sleep(poll)
+                pause = poll
+                if deadline is not None:
+                    pause = min(poll, max(0.0, deadline - time.monotonic()))
+                time.sleep(pause)
         finally:
             if bar is not None:
                 bar.close()
@@ -304,16 +411,30 @@ class Job:
                 message and path are in the exception.
             TimeoutError: the job had not finished after ``timeout``.
         """
-        doc = self.wait(timeout)
+        doc, deadline = self._wait(timeout)
+        self._raise_unless_done(doc)
+        # The image, in the time left (at least a second, as the job has
+        # finished in time): each read waits that long at most.
+        try:
+            data, _ = self.client._request(
+                "GET", f"/v1/jobs/{self.id}/image",
+                timeout=self._socket_timeout(deadline, at_least=1.0))
+        except TimeoutError as e:
+            if deadline is None:
+                raise
+            raise TimeoutError(f"job {self.id}'s image did not come from "
+                               f"{self.client.url} within {timeout} s") from e
+        rgb, z = decode_exr(data)
+        rgb = rgb.view(Image)
+        return (rgb, z) if self._depth else rgb
+
+    def _raise_unless_done(self, doc: Mapping[str, Any]) -> None:
+        """The error of a failed or cancelled job's status document."""
         if doc["status"] != "done":
             e = doc.get("error") or {}
             raise _error(e.get("code", doc["status"]),
                          e.get("message", f"job {self.id} {doc['status']}"),
                          e.get("path", "") or "")
-        data, _ = self.client._request("GET", f"/v1/jobs/{self.id}/image")
-        rgb, z = decode_exr(data)
-        rgb = rgb.view(Image)
-        return (rgb, z) if self._depth else rgb
 
     def cancel(self) -> dict[str, Any]:
         """Cancels the job (``DELETE /v1/jobs/{id}``), or drops it when it
@@ -321,27 +442,38 @@ class Job:
         return self.client._json("DELETE", f"/v1/jobs/{self.id}")
 
 
-def _submit_when_room(client: Client, scene: SceneRef,
-                      camera: Optional[Mapping[str, Any]],
-                      render: Mapping[str, Any], unfinished: list[Job]) -> Job:
-    """Client.submit, sent again while the daemon's queue is full (429).
+def _window(client: Client) -> int:
+    """How many of a frame's strips may be on ``client``'s daemon at once:
+    twice its workers, so that a worker finds the next strip queued."""
+    try:
+        workers = int(client.health().get("workers", 1))
+    except (LensrayError, OSError, ValueError, TypeError,
+            http.client.HTTPException):
+        workers = 1
+    return max(2, min(2 * workers, 64))
 
-    A strip more than the daemon's workers and queue hold is not an error
-    of the frame: it waits until one of ours on that daemon has finished
-    (or a second, when none is: the queue is someone else's), as the
-    answer's Retry-After asks."""
-    while True:
-        try:
-            return client.submit(scene, camera, render)
-        except LensrayError as e:
-            if e.http_status != 429:
-                raise
-        mine = [j for j in unfinished if j.client is client]
-        if mine:
-            mine[0].wait()
-            unfinished.remove(mine[0])
-        else:
-            time.sleep(1.0)
+
+def _strip(job: Job) -> tuple[str, Optional[np.ndarray]]:
+    """("done", pixels) of a finished strip, ("running", None) while it is
+    queued or running, ("gone", None) when the daemon no longer has it
+    (the oldest finished jobs go first, --max-finished-jobs); raises a
+    failed or cancelled strip's error."""
+    try:
+        data, _ = job.client._request("GET", f"/v1/jobs/{job.id}/image")
+    except LensrayError as e:
+        if e.status == "not_ready":
+            return "running", None
+        if e.status == "job_not_found":
+            return "gone", None
+        if e.status in ("job_failed", "job_cancelled"):
+            # The job's own error (its code and class), not the image's 409.
+            try:
+                doc = job.info()
+            except LensrayError:
+                raise e from None
+            job._raise_unless_done(doc)
+        raise
+    return "done", decode_exr(data)[0]
 
 
 def render_split(clients: "Union[Client, list[Client]]", scene: SceneRef,
@@ -353,7 +485,10 @@ def render_split(clients: "Union[Client, list[Client]]", scene: SceneRef,
     Each strip is a ``render.region`` crop queued as a job, the strips
     dealt round-robin to ``clients``; since crops are bit-identical to the
     same pixels of the full frame (docs/api.md, section 8), the stitched
-    result equals :meth:`Client.render` of the whole frame.
+    result equals :meth:`Client.render` of the whole frame.  A daemon has
+    at most twice its workers of the strips at once; each image is
+    fetched as soon as its strip is done, and a strip the daemon dropped
+    before that (``job_not_found``) is queued again.
 
     Args:
         clients: one :class:`Client` or a list of them (the same daemon may
@@ -405,19 +540,83 @@ def render_split(clients: "Union[Client, list[Client]]", scene: SceneRef,
     width, height = size["width"], size["height"]
     n = max(1, min(parts or len(clients), height))
     rows = [height * i // n for i in range(n + 1)]
-    jobs: list[Job] = []
-    unfinished: list[Job] = []  # of jobs, those not yet seen finished
+    # Strips are queued a few at a time per daemon (_window) and each image
+    # is fetched, and the job dropped, as soon as it is done: a daemon
+    # keeps only its newest --max-finished-jobs finished jobs, all clients'
+    # together, so images left there until the last strip was queued were
+    # lost (job_not_found) once the frame had more parts than that.  A
+    # strip lost all the same (other clients' jobs pushed it out between
+    # two polls) is queued again.
+    strips: list[Optional[np.ndarray]] = [None] * n
+    todo = list(range(n))               # strips to queue, in order
+    pending: dict[int, Job] = {}        # queued strips not yet fetched
+    lost = [0] * n                      # times each strip was lost
+    window: dict[int, int] = {}         # per client (by id)
+    fetched: dict[int, int] = {}        # strips fetched per client
+    full: dict[int, tuple[int, float]] = {}  # 429: (fetched then, retry at)
+    pause = 0.01
     try:
-        for i in range(n):
-            crop = dict(render, width=width, height=height,
-                        region=[0, rows[i], width, rows[i + 1]])
-            client = clients[i % len(clients)]
-            job = _submit_when_room(client, scene, camera, crop, unfinished)
-            jobs.append(job)
-            unfinished.append(job)
-        strips = [job.result() for job in jobs]
+        while todo or pending:
+            moved = False
+            for i in list(todo):
+                client = clients[i % len(clients)]
+                key = id(client)
+                if key not in window:
+                    window[key] = _window(client)
+                    fetched[key] = 0
+                mine = sum(1 for j in pending.values() if j.client is client)
+                if mine >= window[key]:
+                    continue
+                if key in full:
+                    # The daemon's queue was full: try again once one of
+                    # ours there has finished, or after a second when none
+                    # is there (the queue is someone else's), as the
+                    # answer's Retry-After asks.
+                    then, at = full[key]
+                    if fetched[key] == then and (mine or time.monotonic() < at):
+                        continue
+                    del full[key]
+                crop = dict(render, width=width, height=height,
+                            region=[0, rows[i], width, rows[i + 1]])
+                try:
+                    pending[i] = client.submit(scene, camera, crop)
+                except LensrayError as e:
+                    if e.http_status != 429:
+                        raise
+                    full[key] = (fetched[key], time.monotonic() + 1.0)
+                    continue
+                todo.remove(i)
+                moved = True
+            for i, job in sorted(pending.items()):
+                state, rgb = _strip(job)
+                if state == "running":
+                    continue
+                del pending[i]
+                moved = True
+                key = id(job.client)
+                if state == "gone":
+                    lost[i] += 1
+                    if lost[i] > 3:
+                        raise LensrayError(
+                            f"strip {i} (rows {rows[i]} to {rows[i + 1]}) was "
+                            f"dropped by {job.client.url} before its image "
+                            f"could be fetched, {lost[i]} times",
+                            "", "job_not_found", 404)
+                    todo.insert(0, i)
+                    continue
+                strips[i] = rgb
+                fetched[key] += 1
+                try:
+                    job.cancel()  # drops the finished job, freeing its room
+                except (LensrayError, OSError, http.client.HTTPException):
+                    pass
+            if moved:
+                pause = 0.01
+            else:
+                time.sleep(pause)
+                pause = min(pause * 1.5, 0.2)
     except BaseException:
-        for job in jobs:
+        for job in pending.values():
             try:
                 job.cancel()
             except Exception:

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import os
+import re
 
 import numpy as np
 import pytest
@@ -202,3 +204,172 @@ def test_upload_assets_and_render_them(tmp_path, daemon):
     with pytest.raises(lensray.LensrayError) as e:
         lensray.Client(daemon.url).upload(obj)
     assert e.value.status == "no_asset_store"
+
+
+def test_render_split_fetches_strips_before_the_daemon_drops_them(spheres):
+    """A daemon that keeps only 4 finished jobs and a frame of 12 strips:
+    every strip was queued before any image was fetched, so the first
+    ones were dropped (job_not_found) and the frame failed."""
+    d = Daemon("--max-finished-jobs", "4")
+    try:
+        c = lensray.Client(d.url)
+        ref = spheres.render(camera=LENS, render=SMALL)
+        rgb = lensray.render_split(c, "spheres", camera=LENS, render=SMALL, parts=12)
+        assert same_bits(rgb, ref)
+        # Three frames at once, sharing the daemon's 4 finished jobs.
+        import threading
+        out: list = []
+
+        def frame() -> None:
+            try:
+                out.append(lensray.render_split(lensray.Client(d.url), "spheres",
+                                                camera=LENS, render=SMALL, parts=9))
+            except Exception as e:  # noqa: BLE001 - reported below
+                out.append(e)
+        threads = [threading.Thread(target=frame) for _ in range(3)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join(120)
+        assert len(out) == 3 and all(same_bits(x, ref) for x in out), out
+    finally:
+        d.stop()
+
+
+def test_render_split_queues_a_dropped_strip_again(daemon, spheres):
+    """A strip whose job is gone before its image was fetched (dropped by
+    the daemon) is queued again rather than failing the frame."""
+    class Dropping(lensray.Client):
+        dropped: list = []
+
+        def _request(self, method, path, body=None, raw=None, **kw):
+            if method == "GET" and path.endswith("/image") and len(self.dropped) < 2:
+                job = path.split("/")[3]
+                lensray.Job(self, job).wait(timeout=60)
+                super()._request("DELETE", f"/v1/jobs/{job}")
+                self.dropped.append(job)
+            return super()._request(method, path, body, raw, **kw)
+    c = Dropping(daemon.url)
+    rgb = lensray.render_split(c, "spheres", camera=LENS, render=SMALL, parts=3)
+    assert len(c.dropped) == 2
+    assert same_bits(rgb, spheres.render(camera=LENS, render=SMALL))
+
+
+def test_wait_times_out_when_the_daemon_does_not_answer():
+    """A daemon that accepts connections but never answers (stopped,
+    hung host): wait(timeout=) and result(timeout=) raise TimeoutError at
+    the deadline.  Each status request used the client's socket timeout
+    (None), so they waited for ever."""
+    import socket
+    import threading
+    import time
+    srv = socket.socket()
+    srv.bind(("127.0.0.1", 0))
+    srv.listen(16)
+    try:
+        job = lensray.Client("http://127.0.0.1:%d" % srv.getsockname()[1]).job("0" * 32)
+        for call in (job.wait, job.result):
+            got: dict = {}
+
+            def run() -> None:
+                t0 = time.monotonic()
+                try:
+                    call(timeout=0.5)
+                except BaseException as e:  # noqa: BLE001 - checked below
+                    got["e"] = e
+                got["s"] = time.monotonic() - t0
+            t = threading.Thread(target=run, daemon=True)
+            t.start()
+            t.join(10)
+            assert not t.is_alive(), f"{call.__name__}(timeout=0.5) still waiting after 10 s"
+            assert isinstance(got["e"], TimeoutError) and got["s"] < 3, got
+            assert job.id in str(got["e"])
+    finally:
+        srv.close()
+
+
+def test_a_body_over_the_limit_is_the_daemons_413(tmp_path):
+    """The daemon refuses a body over --max-body (and an asset over
+    --max-asset-bytes) from its Content-Length and closes the connection:
+    the client, still sending, raised BrokenPipeError or
+    ConnectionResetError rather than the daemon's answer."""
+    store = tmp_path / "assets"
+    store.mkdir()
+    d = Daemon("--max-body", "64k", "--assets", str(store), "--max-asset-bytes", "64k")
+    try:
+        c = lensray.Client(d.url)
+        scene = {"objects": [{"type": "sphere", "center": [0, 0, -3], "radius": 1}],
+                 "description": "x" * 16_000_000}
+        for _ in range(5):
+            with pytest.raises(lensray.SceneError) as e:
+                c.render(scene)
+            assert e.value.http_status == 413 and e.value.status == "body_too_large"
+            assert "--max-body" in e.value.message
+        big = tmp_path / "big.bin"
+        big.write_bytes(os.urandom(16_000_000))
+        for _ in range(3):
+            with pytest.raises(lensray.LensrayError) as e:
+                c.upload(big)
+            assert e.value.http_status == 413 and e.value.status == "body_too_large"
+            assert "--max-asset-bytes" in e.value.message
+        # Under the limits all is as before.
+        small = tmp_path / "small.bin"
+        small.write_bytes(b"v 0 0 0\n")
+        assert c.upload(small).startswith("sha256:")
+        assert c.render({**scene, "description": "x" * 1000},
+                        render={"width": 8, "height": 8, "spp": 1}).shape == (8, 8, 3)
+        assert c.health()["status"] == "ok"
+    finally:
+        d.stop()
+    # A server that closes during the upload without answering: the
+    # connection error says the body may be over the limit.
+    import socket
+    import threading
+    srv = socket.socket()
+    srv.bind(("127.0.0.1", 0))
+    srv.listen(1)
+
+    def close_early() -> None:
+        conn, _ = srv.accept()
+        conn.recv(1000)
+        conn.close()
+    t = threading.Thread(target=close_early, daemon=True)
+    t.start()
+    try:
+        with pytest.raises(ConnectionError, match="--max-body"):
+            lensray.Client("http://127.0.0.1:%d" % srv.getsockname()[1]).render(scene)
+    finally:
+        t.join(10)
+        srv.close()
+
+
+def test_every_input_refusal_is_a_scene_error(tmp_path):
+    """Each 413 (a limit) and 422 (a value) of docs/api.md's error table is
+    a SceneError, as Client.render's docstring says: asset_not_found (422)
+    and body_too_large (413) were plain LensrayErrors."""
+    from lensray._client import _error_from
+    from conftest import REPO
+    table = (REPO / "docs" / "api.md").read_text()
+    rows = re.findall(r"^\| (413|422) \| `(\w+)`", table, re.M)
+    assert {c for _, c in rows} >= {"body_too_large", "asset_not_found",
+                                    "invalid_value", "too_many_samples"}
+    for status, code in rows:
+        body = json.dumps({"error": {"code": code, "message": "m", "path": "p"}})
+        e = _error_from(int(status), "", body.encode())
+        assert isinstance(e, lensray.SceneError), code
+        assert e.status == code and e.http_status == int(status) and e.path == "p"
+    # The 404 of GET /v1/assets/{sha256} is no input error.
+    e = _error_from(404, "", b'{"error": {"code": "asset_not_found", "message": "m"}}')
+    assert not isinstance(e, lensray.SceneError)
+    # The daemon's own answer for a scene naming an asset it does not have.
+    store = tmp_path / "assets"
+    store.mkdir()
+    d = Daemon("--assets", str(store))
+    try:
+        c = lensray.Client(d.url)
+        with pytest.raises(lensray.SceneError) as e:
+            c.render({"objects": [{"type": "mesh", "file": "sha256:" + "1" * 64}]})
+        assert e.value.http_status == 422 and e.value.status == "asset_not_found"
+        assert e.value.path == "scene.objects[0].file"
+    finally:
+        d.stop()
