@@ -219,6 +219,22 @@ t=-e[1]/d[1]; print(t*sum(d[i]*f[i] for i in range(3)))')
     browser_check kept
 }
 
+@test "browser: a log-scale slider gives a screen reader the value shown (aria-valuetext)" {
+    browser_check valuetext
+}
+
+@test "browser: two clicks in quick succession: the first click's late answer changes nothing, the picture focuses on the second" {
+    browser_check stale-answer
+}
+
+@test "browser: a change while the job's done answer is on its way deletes no finished job and fetches no image" {
+    browser_check done-in-flight
+}
+
+@test "browser: the picture focuses from the keyboard (Tab, arrows move a marker, Enter)" {
+    browser_check keyboard-focus
+}
+
 @test "browser: a click on a pixel that sees nothing is said once; the next change renders" {
     browser_check sky-click
 }

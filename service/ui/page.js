@@ -46,9 +46,10 @@ const state = {
   focusOn: null,    // [x, y] until the daemon has resolved it
   chromatic: {},    // the scene's camera.chromatic
   generation: 0,    // bumped by every change
-  active: null,     // the job being rendered: {id, generation, deleted}
+  active: null,     // the job being rendered: {id, generation, deleted, polling}
   shown: null,      // the job whose picture is shown: {id, body, status, blob, plan}
   changedAt: 0,     // when the newest change was made (performance.now)
+  keyPoint: [0.5, 0.5],  // the keyboard's point on the picture (fractions of its size)
   wired: false,     // the controls' handlers are attached
 };
 
@@ -193,9 +194,13 @@ function buildCameraKeys() {
       const out = document.createElement("output");
       out.id = "value-" + key;
       out.textContent = shortNumber(state.values[key]);
+      // A screen reader says the value shown, not the slider's position
+      // (0 to 1000 on a log scale).
+      input.setAttribute("aria-valuetext", out.textContent);
       input.addEventListener("input", () => {
         state.values[key] = fromSlider(hint, input.value);
         out.textContent = shortNumber(state.values[key]);
+        input.setAttribute("aria-valuetext", out.textContent);
         if (key === "focus_distance") state.focusOn = null;
         changed();
       });
@@ -237,7 +242,10 @@ function buildCameraKeys() {
 function setControl(key, v) {
   state.values[key] = v;
   const input = $("key-" + key);
-  if (input && input.type === "range") input.value = toSlider(KEY_HINTS[key] || {}, v);
+  if (input && input.type === "range") {
+    input.value = toSlider(KEY_HINTS[key] || {}, v);
+    input.setAttribute("aria-valuetext", shortNumber(v));
+  }
   const out = $("value-" + key);
   if (out) out.textContent = shortNumber(v);
 }
@@ -340,6 +348,7 @@ async function postJob(body, generation) {
     if (res.ok) return doc;
     const msg = answerError(res, doc);
     if (res.status !== 429) throw new Error(msg);
+    if (generation !== state.generation) return null;
     const wait = Math.min(60, Math.max(1, Number(res.headers.get("Retry-After")) || 1));
     setStatus(msg + "; trying again in " + wait + " s");
     for (let t = 0; t < wait * 10; t++) {
@@ -359,25 +368,36 @@ function dropFocusClick() {
 }
 
 // Renders one job to the end, or until a newer change supersedes it.
-// Returns its status document, or null when superseded.
+// Returns its status document, or null when superseded: nothing a
+// superseded job answers reaches the controls, the status line or the
+// focus (a stale answer set the focus of an older click).
 async function renderJob(body, generation) {
   const created = await postJob(body, generation);
   if (created === null) return null;
-  const job = {id: created.id, generation, deleted: false};
+  const job = {id: created.id, generation, deleted: false, polling: false};
   if (generation !== state.generation) { await cancel(job); return null; }
   state.active = job;
   document.body.dataset.job = job.id;
   for (;;) {
     if (generation !== state.generation) { await cancel(job); return null; }
-    const st = await apiJSON("GET", "/v1/jobs/" + job.id);
-    if (st.camera) showFocus(st.camera);
-    if (st.status === "done" || st.status === "failed" || st.status === "cancelled") {
-      // Finished: no longer the page's to cancel.  (A change cancelled
-      // the shown picture's job, and a DELETE of a finished job removes
-      // it: page.md keeps finished jobs for --job-ttl.)
-      if (state.active === job) state.active = null;
-      return st;
+    // While a poll is out, a change leaves the DELETE to this loop: the
+    // answer may say the job is finished, and a DELETE of a finished job
+    // removes it (page.md keeps finished jobs for --job-ttl).
+    job.polling = true;
+    let st;
+    try {
+      st = await apiJSON("GET", "/v1/jobs/" + job.id);
+    } finally {
+      job.polling = false;
     }
+    const finished = st.status === "done" || st.status === "failed" || st.status === "cancelled";
+    if (finished) {
+      job.deleted = true;  // no longer the page's to cancel
+      if (state.active === job) state.active = null;
+    }
+    if (generation !== state.generation) { await cancel(job); return null; }
+    if (st.camera) showFocus(st.camera);
+    if (finished) return st;
     setStatus(st.status === "queued" ? "waiting for a worker (" + body.render.spp + " spp)"
               : "rendering " + body.render.spp + " spp: " + Math.round(st.progress * 100) + "%");
     // Polled often: a 1-spp picture takes tens of milliseconds.
@@ -387,7 +407,9 @@ async function renderJob(body, generation) {
 
 async function run() {
   const generation = ++state.generation;
-  await cancel(state.active);
+  // A job whose poll is out is cancelled by its own series once the
+  // answer says it is not finished (renderJob).
+  if (state.active && !state.active.polling) await cancel(state.active);
   const target = Number($("spp").value);
   const list = stages(target);
   for (let i = 0; i < list.length; i++) {
@@ -404,7 +426,7 @@ async function run() {
       }
       return;
     }
-    if (st === null) return;
+    if (st === null || generation !== state.generation) return;
     if (st.status !== "done") {
       if (body.camera.focus_on) dropFocusClick();
       setStatus(st.error ? st.error.message : st.status, true);
@@ -635,17 +657,47 @@ function wire() {
     $("legend").hidden = !$("show-plan").checked;
   });
   $("picture").addEventListener("click", (e) => {
-    if (!state.shown || !state.model.autofocus) return;
     const img = $("picture");
-    const w = state.shown.body.render.width, h = state.shown.body.render.height;
-    const x = Math.min(w - 1, Math.floor(e.offsetX / img.clientWidth * w));
-    const y = Math.min(h - 1, Math.floor(e.offsetY / img.clientHeight * h));
-    state.focusOn = [x, y];
-    $("focus-pixel").textContent = "(focused on pixel " + x + ", " + y + ")";
-    $("focus-pixel").dataset.pixel = x + "," + y;
-    changed();
+    focusAt(e.offsetX / img.clientWidth, e.offsetY / img.clientHeight);
   });
+  // The keyboard's click: the arrow keys move a marker (a twentieth of
+  // the picture a press), Enter or Space focuses there.
+  $("picture").addEventListener("keydown", (e) => {
+    const step = {ArrowLeft: [-1, 0], ArrowRight: [1, 0], ArrowUp: [0, -1], ArrowDown: [0, 1]}[e.key];
+    if (step) {
+      const p = state.keyPoint;
+      for (const i of [0, 1]) p[i] = Math.min(0.975, Math.max(0.025, Math.round((p[i] + step[i] / 20) * 40) / 40));
+      showKeyPoint();
+    } else if (e.key === "Enter" || e.key === " ") {
+      focusAt(state.keyPoint[0], state.keyPoint[1]);
+    } else {
+      return;
+    }
+    e.preventDefault();
+  });
+  $("picture").addEventListener("focus", showKeyPoint);
+  $("picture").addEventListener("blur", () => { $("key-point").hidden = true; });
   $("dl-exr").addEventListener("click", () => downloadExr().catch((e) => setStatus(e.message, true)));
+}
+
+// A click (or Enter) on the picture at (fx, fy), fractions of its size:
+// the next series focuses on that pixel.
+function focusAt(fx, fy) {
+  if (!state.shown || !state.model.autofocus) return;
+  const w = state.shown.body.render.width, h = state.shown.body.render.height;
+  const x = Math.min(w - 1, Math.max(0, Math.floor(fx * w)));
+  const y = Math.min(h - 1, Math.max(0, Math.floor(fy * h)));
+  state.focusOn = [x, y];
+  $("focus-pixel").textContent = "(focused on pixel " + x + ", " + y + ")";
+  $("focus-pixel").dataset.pixel = x + "," + y;
+  changed();
+}
+
+function showKeyPoint() {
+  const m = $("key-point");
+  m.style.left = (100 * state.keyPoint[0]) + "%";
+  m.style.top = (100 * state.keyPoint[1]) + "%";
+  m.hidden = false;
 }
 
 $("token-form").addEventListener("submit", (e) => {

@@ -321,6 +321,166 @@ def check_kept(driver, daemon, ctx):
     return "job %s still there, done" % shown[:8]
 
 
+def check_valuetext(driver, daemon, ctx):
+    """A log-scale slider's position (0 to 1000) is not its value: a
+    screen reader gets the value shown (aria-valuetext), after a move and
+    after a click's focus set the slider."""
+    said = []
+    for key in ("focus_distance", "focal_length", "image_plane_distance", "view_height"):
+        for slider in driver.find_elements(By.ID, "key-" + key):
+            text = driver.find_element(By.ID, "value-" + key).text
+            got = slider.get_attribute("aria-valuetext")
+            assert got == text, "%s: aria-valuetext %r, the page shows %r" % (key, got, text)
+            said.append("%s %s" % (key, text))
+    assert said, "no log-scale slider on the page"
+    act(driver, lambda: move_focus(driver))
+    slider = driver.find_element(By.ID, "key-focus_distance")
+    text = driver.find_element(By.ID, "value-focus_distance").text
+    assert slider.get_attribute("aria-valuetext") == text, \
+        "after a move: aria-valuetext %r, the page shows %r" % (slider.get_attribute("aria-valuetext"), text)
+    return ", ".join(said) + "; then " + text
+
+
+# The page's fetch wrapped to hold job-status answers (GET /v1/jobs/ID),
+# so that a test decides in which order the page reads them: with
+# holdRequests > 0 the request waits until released (its answer is then
+# the daemon's state at the release), with holdDone > 0 an answer that
+# says "done" is kept from the page until released.  reqs: every request.
+WRAP_FETCH = """
+    if (!window.unwrappedFetch) window.unwrappedFetch = window.fetch;
+    const real = window.unwrappedFetch;
+    Object.assign(window, {reqs: [], held: [], holdRequests: 0, holdDone: 0, states: []});
+    const hold = (path) => new Promise((go) => window.held.push({path, go}));
+    window.fetch = async (path, init) => {
+      const method = (init && init.method) || "GET";
+      window.reqs.push(method + " " + path);
+      const status = method === "GET" && /^[/]v1[/]jobs[/][0-9a-f]+$/.test(path);
+      if (status && window.holdRequests > 0) { window.holdRequests--; await hold(path); }
+      const res = await real(path, init);
+      if (status && window.holdDone > 0 && (await res.clone().json()).status === "done") {
+        window.holdDone--;
+        await hold(path);
+      }
+      return res;
+    };
+    window.releaseFirst = () => window.held.shift().go();
+    new MutationObserver(() => window.states.push(document.body.dataset.state))
+      .observe(document.body, {attributes: true, attributeFilter: ["data-state"]});
+"""
+
+
+def unwrap_fetch(driver):
+    driver.execute_script("window.fetch = window.unwrappedFetch; window.unwrappedFetch = null;"
+                          "window.held.forEach((h) => h.go()); window.held = [];")
+
+
+def click_pixel(driver, w, h, x, y):
+    img = driver.find_element(By.ID, "picture")
+    cw, ch = img.size["width"], img.size["height"]
+    ActionChains(driver).move_to_element_with_offset(
+        img, int((x + 0.5) / w * cw - cw / 2), int((y + 0.5) / h * ch - ch / 2)).click().perform()
+
+
+def check_stale_answer(driver, daemon, ctx):
+    """Two clicks in quick succession: the first click's job answers
+    after the second click (its status request held), and its answer
+    ("cancelled" when the change had cancelled it) must not touch the
+    page.  It set the focus slider to the first click's depth and, as a
+    "cancelled" error, dropped the second click: the picture focused on
+    the first click while the label named the second."""
+    scene = ctx["scene"]
+    st = daemon.json("GET", "/v1/jobs/" + body_data(driver, "shown"))
+    w, h, cam = st["width"], st["height"], scene["camera"]
+    spheres = sorted((o for o in scene["objects"] if o["type"] == "sphere"),
+                     key=lambda s: dot(sub(s["center"], cam["position"]), sub(cam["look_at"], cam["position"])))
+    a = [int(v) for v in pixel_of(cam, w, h, spheres[0]["center"])]
+    b = [int(v) for v in pixel_of(cam, w, h, spheres[-1]["center"])]
+    driver.execute_script(WRAP_FETCH)
+    blocker = daemon.json("POST", "/v1/jobs", {
+        "scene": "tiny", "render": {"width": 32, "height": 24, "spp": 200000, "threads": 1,
+                                    "tile_size": 2, "adaptive": False}})["id"]
+    try:
+        daemon.wait_job(blocker, ["running"])
+        driver.execute_script("window.holdRequests = 2;")
+        click_pixel(driver, w, h, *a)
+        until(driver, "the first click's status request", lambda: driver.execute_script("return window.held.length") == 1)
+        ja = body_data(driver, "job")
+        click_pixel(driver, w, h, *b)
+        until(driver, "the second click's status request", lambda: driver.execute_script("return window.held.length") == 2)
+        jb = body_data(driver, "job")
+        assert ja != jb, "the second click started no job"
+        n = driver.execute_script("return window.reqs.length")
+        driver.execute_script("window.releaseFirst();")
+        # The page has read the first job's answer: it cancels the job
+        # now (it was queued), or (before the fix) says it was cancelled.
+        until(driver, "the page to read the first job's answer", lambda: driver.execute_script(
+            "return window.reqs.slice(arguments[0]).includes('DELETE /v1/jobs/' + arguments[1]) ||"
+            " window.states.includes('error')", n, ja))
+        assert daemon.wait_job(ja, ["cancelled", "done", "failed"])["status"] == "cancelled"
+        driver.execute_script("window.releaseFirst();")
+    finally:
+        daemon.call("DELETE", "/v1/jobs/" + blocker)
+    wait_done(driver)
+    states = driver.execute_script("return window.states")
+    label = driver.find_element(By.ID, "focus-pixel").get_attribute("data-pixel")
+    unwrap_fetch(driver)
+    assert "error" not in states, "the superseded job's answer put the page in error (states %s)" % states
+    assert label == "%d,%d" % tuple(b), "the label names pixel %r, the second click was %s" % (label, b)
+    want = daemon.json("GET", "/v1/jobs/" + jb)["camera"]["focus_distance"]
+    shown = daemon.json("GET", "/v1/jobs/" + body_data(driver, "shown"))["camera"]["focus_distance"]
+    slider = driver.execute_script("return state.values.focus_distance")
+    assert shown == want == slider, \
+        "the picture is focused at %r, the slider at %r, the second click at %r" % (shown, slider, want)
+    return "clicks at %s then %s: focused at %.4f, as the second" % (a, b, want)
+
+
+def check_done_in_flight(driver, daemon, ctx):
+    """A change while the answer that the job is done is on its way: the
+    page deletes no finished job (page.md), and the superseded series
+    fetches no image (it got 404 for the job its own DELETE removed)."""
+    driver.get_log("browser")
+    driver.execute_script(WRAP_FETCH)
+    driver.execute_script("window.holdDone = 1;")
+    move_focus(driver)
+    until(driver, "a done answer held", lambda: driver.execute_script("return window.held.length") == 1)
+    j1 = driver.execute_script("return window.held[0].path").rsplit("/", 1)[1]
+    act(driver, lambda: (move_focus(driver),
+                         until(driver, "the next change's job", lambda: body_data(driver, "job") != j1),
+                         driver.execute_script("window.releaseFirst();")))
+    reqs = driver.execute_script("return window.reqs")
+    unwrap_fetch(driver)
+    assert "DELETE /v1/jobs/" + j1 not in reqs, "the page deleted job %s, done" % j1
+    assert "GET /v1/jobs/%s/image" % j1 not in reqs, "the superseded series fetched its image"
+    st = daemon.json("GET", "/v1/jobs/" + j1)
+    assert st["status"] == "done", "job %s is %s" % (j1, st["status"])
+    bad = [e["message"] for e in driver.get_log("browser") if e["level"] == "SEVERE"]
+    assert not bad, "console errors: %s" % bad
+    return "job %s done and kept, %d requests, none for it after the change" % (j1[:8], len(reqs))
+
+
+def check_keyboard_focus(driver, daemon, ctx):
+    """The picture takes the keyboard focus (Tab); the arrow keys move its
+    marker a twentieth of the picture, and Enter focuses there, as a click."""
+    img = driver.find_element(By.ID, "picture")
+    assert img.get_attribute("tabindex") == "0", "the picture is not in the tab order"
+    st = daemon.json("GET", "/v1/jobs/" + body_data(driver, "shown"))
+    w, h = st["width"], st["height"]
+    driver.execute_script("arguments[0].focus();", img)
+    assert driver.find_element(By.ID, "key-point").is_displayed(), "no marker with the focus on the picture"
+    img.send_keys(Keys.ARROW_DOWN, Keys.ARROW_DOWN, Keys.ARROW_LEFT)
+    act(driver, lambda: img.send_keys(Keys.ENTER))
+    want = "%d,%d" % (int(0.45 * w), int(0.6 * h))
+    got = driver.find_element(By.ID, "focus-pixel").get_attribute("data-pixel")
+    assert got == want, "Enter focused on pixel %r, the marker is at %s" % (got, want)
+    shown = daemon.json("GET", "/v1/jobs/" + body_data(driver, "shown"))["camera"]["focus_distance"]
+    first = daemon.json("POST", "/v1/jobs", {
+        "scene": "spheres", "camera": dict(st["camera"], focus_on=[int(v) for v in want.split(",")]),
+        "render": {"width": w, "height": h, "spp": 1}})
+    resolved = daemon.wait_job(first["id"], ["done", "failed"])["camera"]["focus_distance"]
+    assert shown == resolved, "the picture is focused at %r, pixel %s at %r" % (shown, want, resolved)
+    return "pixel %s, focus %.4f" % (want, shown)
+
+
 def check_sky_click(driver, daemon, ctx):
     """A click on a pixel that sees nothing: its error once, then the
     next change renders (the click's pixel was sent with every later
@@ -477,6 +637,8 @@ def check_daemon_gone(driver, daemon, ctx):
 
 CHECKS = [("load", check_load), ("cancel", check_cancel), ("focus", check_focus),
           ("overlay", check_overlay), ("download", check_download), ("kept", check_kept),
+          ("valuetext", check_valuetext), ("stale-answer", check_stale_answer),
+          ("done-in-flight", check_done_in_flight), ("keyboard-focus", check_keyboard_focus),
           ("sky-click", check_sky_click), ("exr-shown", check_exr_shown), ("lens", check_lens),
           ("token-again", check_token_again), ("token-ascii", check_token_ascii), ("lost-image", check_lost_image), ("daemon-gone", check_daemon_gone)]
 
