@@ -454,14 +454,15 @@ static moments all_ghosts(const surf *S, int n, double zs, double hx, double hy,
  * apertures and indices at the reference wavelength from the library):
  * the centroid within 0.5 mm, the rms radius within 3%, and the ghosts'
  * energy over the main image's within 2% of the trace's. */
-static void test_ghost_double_gauss(void **state)
+static void dg_ghosts(double f_number, double deg, double tol_e, double tol_rms,
+                      double tol_c)
 {
-    (void)state;
     const int W = 128;
-    const double deg = 5.0, t = deg * M_PI / 180.0;
-    char at[96];
+    const double t = deg * M_PI / 180.0;
+    char at[96], fn[64];
     snprintf(at, sizeof at, "objects[0].center=[%.12g, 0, -1000]",
              1000.0 * tan(t));
+    snprintf(fn, sizeof fn, "camera.f_number=%g", f_number);
     const char *sets[] = {"camera.ghosts=true",
                           "render.spp=256",
                           at,
@@ -471,17 +472,18 @@ static void test_ghost_double_gauss(void **state)
                           "camera.focus_distance=1000",
                           "camera.lens=\"double-gauss-50\"",
                           "objects[0].radius=0.2",
-                          "materials.l.emission=[1e8, 1e8, 1e8]"};
+                          "materials.l.emission=[1e8, 1e8, 1e8]",
+                          fn};
     lr_render_stats st;
     lr_image *a, *b;
-    render_on_off(sets, 10, &st, &a, &b);
+    render_on_off(sets, 11, &st, &a, &b);
 
     /* The camera the renders used, for the lens and the sensor plane. */
     const char *text = SCENE("");
     lr_scene *s;
     lr_error err;
     assert_int_equal(
-        lr_scene_load_json(text, strlen(text), NULL, sets, 10, &s, &err),
+        lr_scene_load_json(text, strlen(text), NULL, sets, 11, &s, &err),
         LR_OK);
     lr_camera cam;
     lr_scene_camera(s, &cam);
@@ -493,7 +495,8 @@ static void test_ghost_double_gauss(void **state)
     surf S[LR__RX_MAX_SURFACES];
     for (int k = 0; k < rx->n; k++)
         S[k] = (surf){c.lens.L->z[k], rx->s[k].radius, n_after[k],
-                      rx->s[k].semi_aperture};
+                      rx->s[k].semi_aperture *
+                          (k == rx->stop ? c.lens.stop_scale : 1.0)};
     double zs = c.lens.z_sensor, sw = c.lens.sensor_w, sh = c.lens.sensor_h;
     lr_scene_free(s);
     double d[3] = {-sin(t), 0.0, cos(t)};
@@ -508,18 +511,39 @@ static void test_ghost_double_gauss(void **state)
     double sum, cx, cy, rms, main;
     film_ghosts(a, b, sw, sh, &sum, &cx, &cy, &rms, &main);
     double got = sum / main, want = m.w / mm.w;
-    print_message("double Gauss at %g deg, all ghosts: centroid (%.4f, %.4f) "
-                  "mm, trace (%.4f, %.4f): %.4f mm apart; rms radius %.4f "
-                  "mm, trace %.4f (%.4f); ghosts / main %.5g, trace %.5g "
-                  "(%.4f); %llu ghost paths\n",
-                  deg, cx, cy, tx, ty, hypot(cx - tx, cy - ty), rms, trms,
-                  rms / trms, got, want, got / want,
+    print_message("double Gauss f/%g at %g deg, all ghosts: centroid (%.4f, "
+                  "%.4f) mm, trace (%.4f, %.4f): %.4f mm apart; rms radius "
+                  "%.4f mm, trace %.4f (%.4f); ghosts / main %.5g, trace "
+                  "%.5g (%.4f); %llu ghost paths\n",
+                  f_number, deg, cx, cy, tx, ty, hypot(cx - tx, cy - ty), rms,
+                  trms, rms / trms, got, want, got / want,
                   (unsigned long long)st.ghost_paths);
-    assert_true(hypot(cx - tx, cy - ty) < 0.5);
-    assert_true(fabs(rms / trms - 1.0) < 0.03);
-    assert_true(fabs(got / want - 1.0) < 0.02);
+    assert_true(hypot(cx - tx, cy - ty) < tol_c);
+    assert_true(fabs(rms / trms - 1.0) < tol_rms);
+    assert_true(fabs(got / want - 1.0) < tol_e);
     lr_image_free(a);
     lr_image_free(b);
+}
+
+static void test_ghost_double_gauss(void **state)
+{
+    (void)state;
+    dg_ghosts(0.0, 5.0, 0.02, 0.03, 0.5);
+}
+
+/* Stopped down to f/22, where the beam is a sliver of the front, the
+ * ghosts vanished: their estimate's 12 x 12 beam and the guides' 16 x 16
+ * grid stepped over it, no path had an estimate and none of 256 landed
+ * (an independent check).  Finer grids where the beam is small bring them
+ * back, but short of the trace here: 0.31 of its energy (0.93 for a
+ * light at 3 and 1 degrees on a 36 x 24 mm film, 0.42 there at f/32),
+ * for reasons not found yet (docs/lenses.md).  So this asserts only that
+ * they are there, a quarter of the trace at least, with their centroid
+ * and size loosely (1.5 mm, 40%). */
+static void test_ghost_double_gauss_f22(void **state)
+{
+    (void)state;
+    dg_ghosts(22.0, 3.0, 0.75, 0.40, 1.5);
 }
 
 /* The same bytes for one thread and two with 7-pixel tiles, and a
@@ -653,6 +677,7 @@ static const struct CMUnitTest ghost_render_tests[] = {
     cmocka_unit_test(test_ghost_energy),
     cmocka_unit_test(test_ghost_place_and_size),
     cmocka_unit_test(test_ghost_double_gauss),
+    cmocka_unit_test(test_ghost_double_gauss_f22),
     cmocka_unit_test(test_ghost_deterministic),
     cmocka_unit_test(test_ghost_off_and_auto),
     cmocka_unit_test(test_ghost_outside_frame),

@@ -235,20 +235,28 @@ int lr__lens_ghost_paths(const lr__cam *c, double *peak, double *k,
     lr__ghost_flux *gf = malloc(LR__GHOST_MAX * sizeof *gf);
     if (gf == NULL)
         return -1;
-    double main = 0.0;
-    int n = lr__ghost_fluxes_t(&lc->L->rx, lc->n_ref, &lc->t_ref, c->nm_ref,
-                               lc->stop_scale, lc->coat, 0.0, 12,
-                               lc->pupil_rmax, gf, &main);
     double A_pix = lc->sensor_w * lc->sensor_h / (c->width * c->height);
     /* The main image of a distant source of radiance L filling a small
      * solid angle Omega on axis: L Omega times the main path's
      * transmission over the front, each ray worth lens_film_n's inv_E0
      * cos A / A_pix in pixels (cos = 1).  Its own 64 x 64 beam (some 2
      * ms): the stop's disc covers a few of the 12 x 12 beam's cells. */
-    *k = lc->inv_E0 *
-         lr__ghost_main_area(&lc->L->rx, lc->n_ref, &lc->t_ref, c->nm_ref,
-                             lc->stop_scale, lc->coat, 64) /
-         A_pix;
+    double area = lr__ghost_main_area(&lc->L->rx, lc->n_ref, &lc->t_ref,
+                                      c->nm_ref, lc->stop_scale, lc->coat, 64);
+    *k = lc->inv_E0 * area / A_pix;
+    /* Where that beam is under six of the 12 x 12 beam's cells (stopped
+     * down: at f/17 the double Gauss's missed every cell centre, no path
+     * had an estimate, "auto" drew no ghost and true drew them from the
+     * whole front, where none of 256 landed), a beam whose cells it
+     * covers some 24 of, at most 128 a side. */
+    double front = 2.0 * lc->L->rx.s[0].semi_aperture, cell = front / 12.0;
+    int grid = 12;
+    if (area < 6.0 * cell * cell)
+        grid = (int)fmin(128.0, ceil(front * sqrt(24.0 / fmax(area, 1e-9))));
+    double main = 0.0;
+    int n = lr__ghost_fluxes_t(&lc->L->rx, lc->n_ref, &lc->t_ref, c->nm_ref,
+                               lc->stop_scale, lc->coat, 0.0, grid,
+                               lc->pupil_rmax, gf, &main);
     for (int j = 0; j < n; j++) {
         /* A uniform disc of radius r has rms radius r / sqrt 2: area
          * 2 pi rms^2. */

@@ -71,60 +71,104 @@ const double *lr__gt_box(const lr__lt_light *l, int g)
  * (the path's flux, up to a factor common to every path), and the share
  * of the box's lens points that land. */
 #define GRID 16
+/* Where the main image's beam lands through fewer than MAIN_FEW of
+ * GRID's offsets, a path of a light drawn by paths that lands through
+ * fewer than FEW is looked for again on a finer grid, doubled until the
+ * main beam covers MAIN_FEW of its offsets (at most FINE a side): a
+ * stopped-down lens's beam is a sliver of the disk (2 mm across the
+ * double Gauss's front disk at f/22), which GRID's cells stepped over,
+ * and its ghosts were drawn from the whole disk, where none of 256 paths
+ * landed (an independent check).  (Wide open the main beam fills the
+ * grid, and nothing changes.) */
+#define MAIN_FEW 16
+#define FEW 4
+#define FINE 128
+
+/* How many of an n x n grid's offsets over the disk of radius rho send
+ * light from w0 into the frame along the main path. */
+static int main_cells(const lr__cam *c, lr__v3 w0, int n, double rho)
+{
+    int main = 0;
+    double h = 2.0 * rho / n;
+    for (int q = 0; q < n * n; q++) {
+        double x = (q / n + 0.5) * h - rho, y = (q % n + 0.5) * h - rho;
+        double fx, fy;
+        main += x * x + y * y <= rho * rho &&
+                c->model->film(c, x, y, w0, &fx, &fy) > 0.0 && fx >= 0.0 &&
+                fx < c->width && fy >= 0.0 && fy < c->height;
+    }
+    return main;
+}
+
+/* Path g's box and estimate from an n x n grid over the disk of radius
+ * rho (ghost_guide); the number of offsets that land. */
+static int guide_path(const lr__cam *c, lr__lt_light *l, lr__v3 w0, int g,
+                      int n, double rho, lr__ghost_est *own)
+{
+    double *gd = guides(l);
+    double h = n > 0 ? 2.0 * rho / n : 0.0;
+    double x0 = INFINITY, y0 = INFINITY, x1 = -INFINITY, y1 = -INFINITY;
+    double flux = 0.0;
+    int land = 0;
+    /* The disk's offsets in order, LR__GHOST_LANES at a time
+     * (ghost_film_n: the same bits as ghost_film's one by one). */
+    double ox[LR__GHOST_LANES], oy[LR__GHOST_LANES];
+    lr__v3 ws[LR__GHOST_LANES];
+    int u = 0;
+    for (int q = 0; q <= n * n; q++) {
+        if (q < n * n) {
+            int i = q / n, j = q % n;
+            double x = (i + 0.5) * h - rho, y = (j + 0.5) * h - rho;
+            if (x * x + y * y > rho * rho)
+                continue;
+            ox[u] = x, oy[u] = y, ws[u++] = w0;
+            if (u < LR__GHOST_LANES)
+                continue;
+        }
+        double W[LR__GHOST_LANES], fx[LR__GHOST_LANES], fy[LR__GHOST_LANES];
+        c->model->ghost_film_n(c, g, -1, u, ox, oy, ws, NULL, fx, fy, W);
+        for (int a = 0; a < u; a++) {
+            if (!(W[a] > 0.0) || !(fx[a] >= 0.0 && fx[a] < c->width &&
+                                   fy[a] >= 0.0 && fy[a] < c->height))
+                continue;
+            land++, flux += W[a];
+            x0 = fmin(x0, ox[a]), x1 = fmax(x1, ox[a]);
+            y0 = fmin(y0, oy[a]), y1 = fmax(y1, oy[a]);
+        }
+        u = 0;
+    }
+    double *b = gd + GUIDE * g;
+    own[g] = (lr__ghost_est){0.0, 1.0, 0.0};
+    b[0] = b[2] = 0.0, b[4] = 1.0;
+    if (land == 0)
+        return 0;
+    b[0] = fmax(-rho, x0 - 1.5 * h), b[1] = fmax(-rho, y0 - 1.5 * h);
+    b[2] = fmin(rho, x1 + 1.5 * h), b[3] = fmin(rho, y1 + 1.5 * h);
+    double A = (b[2] - b[0]) * (b[3] - b[1]);
+    b[4] = 1.0 / (LR__GT_DISK + (1.0 - LR__GT_DISK) * M_PI * rho * rho / A);
+    own[g] = (lr__ghost_est){flux * h * h, 1.0, fmin(1.0, land * h * h / A)};
+    return land;
+}
+
 static void ghost_guide(const lr__cam *c, lr__lt_light *l, lr__v3 w0,
                         lr__ghost_est *own)
 {
     double rho = c->model->ghost_disk(c);
     double *gd = guides(l);
     gd[GUIDE * l->ghosts] = rho * rho;
+    int fine = 0;
+    if (l->grid == 0 && main_cells(c, w0, GRID, rho) < MAIN_FEW)
+        for (fine = 2 * GRID;
+             fine < FINE && main_cells(c, w0, fine, rho) < MAIN_FEW;)
+            fine *= 2;
     for (int g = 0; g < l->ghosts; g++) {
         /* A light drawn as meshes: LR__GT_GUIDE_MESH, none for a ghost
          * of no light (mesh_sizes). */
         int n = l->grid == 0               ? GRID
                 : gd[GUIDE * g + 5] == 0.0 ? 0
                                            : LR__GT_GUIDE_MESH;
-        double h = n > 0 ? 2.0 * rho / n : 0.0;
-        double x0 = INFINITY, y0 = INFINITY, x1 = -INFINITY, y1 = -INFINITY;
-        double flux = 0.0;
-        int land = 0;
-        /* The disk's offsets in order, LR__GHOST_LANES at a time
-         * (ghost_film_n: the same bits as ghost_film's one by one). */
-        double ox[LR__GHOST_LANES], oy[LR__GHOST_LANES];
-        lr__v3 ws[LR__GHOST_LANES];
-        int u = 0;
-        for (int q = 0; q <= n * n; q++) {
-            if (q < n * n) {
-                int i = q / n, j = q % n;
-                double x = (i + 0.5) * h - rho, y = (j + 0.5) * h - rho;
-                if (x * x + y * y > rho * rho)
-                    continue;
-                ox[u] = x, oy[u] = y, ws[u++] = w0;
-                if (u < LR__GHOST_LANES)
-                    continue;
-            }
-            double W[LR__GHOST_LANES], fx[LR__GHOST_LANES], fy[LR__GHOST_LANES];
-            c->model->ghost_film_n(c, g, -1, u, ox, oy, ws, NULL, fx, fy, W);
-            for (int a = 0; a < u; a++) {
-                if (!(W[a] > 0.0) || !(fx[a] >= 0.0 && fx[a] < c->width &&
-                                       fy[a] >= 0.0 && fy[a] < c->height))
-                    continue;
-                land++, flux += W[a];
-                x0 = fmin(x0, ox[a]), x1 = fmax(x1, ox[a]);
-                y0 = fmin(y0, oy[a]), y1 = fmax(y1, oy[a]);
-            }
-            u = 0;
-        }
-        double *b = gd + GUIDE * g;
-        own[g] = (lr__ghost_est){0.0, 1.0, 0.0};
-        b[0] = b[2] = 0.0, b[4] = 1.0;
-        if (land == 0)
-            continue;
-        b[0] = fmax(-rho, x0 - 1.5 * h), b[1] = fmax(-rho, y0 - 1.5 * h);
-        b[2] = fmin(rho, x1 + 1.5 * h), b[3] = fmin(rho, y1 + 1.5 * h);
-        double A = (b[2] - b[0]) * (b[3] - b[1]);
-        b[4] = 1.0 / (LR__GT_DISK + (1.0 - LR__GT_DISK) * M_PI * rho * rho / A);
-        own[g] = (lr__ghost_est){flux * h * h, 1.0,
-                                 fmin(1.0, land * h * h / A)};
+        if (guide_path(c, l, w0, g, n, rho, own) < FEW && fine > 0)
+            guide_path(c, l, w0, g, fine, rho, own);
     }
 }
 
