@@ -8,7 +8,7 @@
  *   http_transport.c  one request from its first call to its log line:
  *                     the body collected up to its limit, slow bodies cut
  *   http_routes.c     the route table; the checks that need only the
- *                     headers (shutdown, token, route, method, content
+ *                     headers (shutdown, Host, token, route, method, content
  *                     type, declared length); dispatch to a handler
  *   http_respond.c    responses: JSON, text, errors, images
  *   http_query.c      query parameters: whole numbers, unknown or repeated
@@ -28,11 +28,12 @@
  * NOTIFY_COMPLETED callback, which logs the request and frees it.
  *
  * Checks happen as early as they can: on the first call, with only the
- * headers, come shutdown (503), the token (401), the route (404), the
- * method (405), the content type (415) and a declared Content-Length over
- * the limit (413), so a refused request never uploads its body.  Bodies
- * are collected up to --max-body; the JSON is only looked at when it is
- * complete.
+ * headers, come shutdown (503), without a token a Host that is no IP
+ * address, localhost or --allow-host name (403), the token (401), the
+ * route (404), the method (405), the content type (415) and a declared
+ * Content-Length over the limit (413), so a refused request never uploads
+ * its body.  Bodies are collected up to --max-body; the JSON is only
+ * looked at when it is complete.
  */
 #ifndef LENSRAYD_HTTP_H
 #define LENSRAYD_HTTP_H

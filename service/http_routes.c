@@ -1,11 +1,12 @@
 /*
  * http_routes.c: the route table (http.h) and the checks that need only
- * a request's headers: shutdown, the token, the route, the method, the
- * content type and a declared length over the route's limit; then the
- * route's handler, once the body is complete.
+ * a request's headers: shutdown, the Host (without a token), the token,
+ * the route, the method, the content type and a declared length over the
+ * route's limit; then the route's handler, once the body is complete.
  */
 #include "http.h"
 
+#include <arpa/inet.h>
 #include <stdio.h>
 #include <string.h>
 #include <strings.h>
@@ -31,6 +32,74 @@ static int token_ok(struct MHD_Connection *c)
     while (n > 0 && (h[n - 1] == ' ' || h[n - 1] == '\t'))
         n--;
     return lrd_secret_equal(h, n, lrd_cfg.token, strlen(lrd_cfg.token));
+}
+
+/* Whether `name` (n bytes) is one of --allow-host's names (lowercase,
+ * comma-separated), case aside. */
+static int allowed_name(const char *name, size_t n)
+{
+    const char *p = lrd_cfg.allow_host;
+    while (*p != '\0') {
+        size_t len = strcspn(p, ",");
+        if (len == n && strncasecmp(p, name, n) == 0)
+            return 1;
+        p += len;
+        if (*p == ',')
+            p++;
+    }
+    return 0;
+}
+
+/* Without a token, whether the request's Host header names this server
+ * in a way a web page cannot choose: an IP address literal (IPv4, or IPv6
+ * in brackets), localhost, or a name of --allow-host, with any port.  A
+ * page that rebinds its own name to 127.0.0.1 (DNS rebinding) is
+ * same-origin with the daemon, but its requests still say its name.  No
+ * Host at all (HTTP/1.0; MHD refuses HTTP/1.1 without one) is no
+ * browser's.  With a token, the token guards and any Host goes. */
+static int host_ok(struct MHD_Connection *c, const char **host)
+{
+    *host = MHD_lookup_connection_value(c, MHD_HEADER_KIND,
+                                        MHD_HTTP_HEADER_HOST);
+    if (lrd_cfg.token != NULL || *host == NULL || (*host)[0] == '\0')
+        return 1;
+    const char *h = *host, *end;
+    char addr[64];
+    size_t n;
+    if (h[0] == '[') {
+        end = strchr(h, ']');
+        if (end == NULL)
+            return 0;
+        n = (size_t)(end - h - 1);
+        if (n == 0 || n >= sizeof addr)
+            return 0;
+        memcpy(addr, h + 1, n);
+        addr[n] = '\0';
+        struct in6_addr a6;
+        if (inet_pton(AF_INET6, addr, &a6) != 1)
+            return 0;
+        end++;
+    } else {
+        n = strcspn(h, ":");
+        end = h + n;
+        struct in_addr a4;
+        int ip = 0;
+        if (n > 0 && n < sizeof addr) {
+            memcpy(addr, h, n);
+            addr[n] = '\0';
+            ip = inet_pton(AF_INET, addr, &a4) == 1;
+        }
+        /* A name may end in the root's dot ("localhost."): the same name. */
+        size_t m = n > 0 && h[n - 1] == '.' ? n - 1 : n;
+        if (!ip && !(m == 9 && strncasecmp(h, "localhost", 9) == 0) &&
+            !(m > 0 && allowed_name(h, m)))
+            return 0;
+    }
+    /* Then nothing, or a port. */
+    if (*end == '\0')
+        return 1;
+    return *end == ':' && end[1] != '\0' &&
+           strspn(end + 1, "0123456789") == strlen(end + 1);
 }
 
 static int json_content_type(struct MHD_Connection *c)
@@ -139,8 +208,9 @@ int lrd_route_early(struct MHD_Connection *c, req *r, const char *url,
                     enum MHD_Result *result)
 {
     lrd_err e;
-    char allow[64], id[33] = "";
+    char allow[64], id[33] = "", shown[201];
     int known = 0, open = 0;
+    const char *host = NULL;
     r->route = find_route(r->method, url, id, &known, &open, allow,
                           sizeof allow);
     if (known)
@@ -149,6 +219,20 @@ int lrd_route_early(struct MHD_Connection *c, req *r, const char *url,
     if (lrd_shutting_down()) {
         lrd_fail(&e, 503, "shutting_down", NULL, "the server is shutting down");
         e.retry_after = 1;
+    } else if (strcmp(url, "/healthz") != 0 && !host_ok(c, &host)) {
+        /* The Host as sent, up to 200 bytes, printable ASCII (a name is
+         * punycode; a byte cut from UTF-8 would break the JSON). */
+        size_t k = 0;
+        for (; host[k] != '\0' && k + 1 < sizeof shown; k++)
+            shown[k] = host[k] >= 0x20 && host[k] < 0x7f ? host[k] : '?';
+        shown[k] = '\0';
+        lrd_fail(&e, 403, "host_not_allowed", NULL,
+                 "the Host '%s' is not allowed: without --token-file "
+                 "this server answers only to requests for an IP address "
+                 "or localhost (against DNS rebinding); start it with "
+                 "--allow-host NAME for a name it is reached by, or with "
+                 "--token-file",
+                 shown);
     } else if (!open && !token_ok(c)) {
         lrd_fail(&e, 401, "unauthorized", NULL,
                  "this server needs the header 'Authorization: Bearer "

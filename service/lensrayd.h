@@ -55,6 +55,10 @@ typedef struct lrd_config {
     long workers;              /* render worker threads */
     long queue;                /* jobs that may wait beyond the workers */
     char *token;               /* NULL = no authentication; owned */
+    char allow_host[1024];     /* without a token, the names besides IP
+                                 literals and localhost that a request's
+                                 Host may give: "a,b", lowercase, "" for
+                                 none (against DNS rebinding) */
     uint64_t max_body;         /* request body bytes */
     uint64_t max_pixels;       /* pixels per output image */
     uint64_t max_samples;      /* pixels x spp per job */

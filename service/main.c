@@ -3,7 +3,8 @@
  * graceful shutdown on SIGTERM or SIGINT.
  *
  *   lensrayd [--port 8080] [--bind 127.0.0.1] [--scenes DIR] [--workers N]
- *            [--queue N] [--token-file F] [limits...]
+ *            [--queue N] [--token-file F] [--allow-host NAME,...]
+ *            [limits...]
  *
  * Every flag --some-name also reads the environment variable
  * LENSRAYD_SOME_NAME; a flag on the command line wins over the variable.
@@ -71,6 +72,11 @@ static const opt opts[] = {
     {"token-file", T_STR, token_file, sizeof token_file, 0, 0, 0,
      "file holding a bearer token that every request but /healthz must "
      "send"},
+    {"allow-host", T_STR, lrd_cfg.allow_host, sizeof lrd_cfg.allow_host, 0, 0,
+     0,
+     "without --token-file, host names (comma-separated, any port) that a "
+     "request's Host header may give besides IP addresses and localhost; "
+     "others get 403, against DNS rebinding"},
     {"max-body", T_U64, &lrd_cfg.max_body, 0, 1, 1, U64(1) * (1 << 30),
      "largest request body in bytes (k/M/G suffixes)"},
     {"max-pixels", T_U64, &lrd_cfg.max_pixels, 0, 0, 1, U64(1ull << 28),
@@ -251,6 +257,47 @@ static const opt *find_opt(const char *name, size_t len)
     return NULL;
 }
 
+/* --allow-host's list in place: names without spaces, a trailing dot or
+ * capitals, joined by commas.  Returns 0, or -1 (said on stderr) for an
+ * empty name or one with other characters than a host name has. */
+static int normalize_hosts(char *list, const char *from)
+{
+    char out[sizeof lrd_cfg.allow_host];
+    size_t o = 0;
+    const char *p = list;
+    if (list[0] == '\0')
+        return 0;
+    for (;;) {
+        size_t n = strcspn(p, ",");
+        const char *s = p, *e = p + n;
+        while (s < e && (*s == ' ' || *s == '\t'))
+            s++;
+        while (e > s && (e[-1] == ' ' || e[-1] == '\t'))
+            e--;
+        if (e > s && e[-1] == '.')
+            e--;
+        if (e == s || (size_t)(e - s) > 253 ||
+            strspn(s, "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                      "0123456789.-_") < (size_t)(e - s)) {
+            fprintf(stderr,
+                    "lensrayd: %s must be host names separated by commas "
+                    "(letters, digits, '.', '-', '_'; no port), got '%s'\n",
+                    from, list);
+            return -1;
+        }
+        if (o > 0)
+            out[o++] = ',';
+        for (; s < e; s++)
+            out[o++] = (char)(*s >= 'A' && *s <= 'Z' ? *s - 'A' + 'a' : *s);
+        if (p[n] == '\0')
+            break;
+        p += n + 1;
+    }
+    out[o] = '\0';
+    memcpy(list, out, o + 1);
+    return 0;
+}
+
 /* Returns 0 to go on, 1 to exit 0 (help, version), -1 to exit 2. */
 static int configure(int argc, char **argv)
 {
@@ -352,6 +399,8 @@ static int configure(int argc, char **argv)
     if (lrd_cfg.assets_dir[0] == '\0')
         unsetenv("LENSRAY_ASSETS_DIR");
     lr_assets_dir_set(lrd_cfg.assets_dir, NULL);
+    if (normalize_hosts(lrd_cfg.allow_host, given_as("allow-host")) != 0)
+        return -1;
     if (token_file[0] != '\0') {
         size_t len = 0;
         char *t = lrd_read_file(token_file, 4096, &len);

@@ -552,6 +552,75 @@ EOF
     expect 200
 }
 
+# ---- the Host, without a token (DNS rebinding) --------------------------------
+
+# host_req URL HOST [CURL ARGS...]: a request without the token, with the
+# header Host: HOST.  Sets CODE; the body is in $T/body.
+host_req() {
+    local url=$1 host=$2
+    shift 2
+    CODE=$(curl -sS --max-time 60 -o "$T/body" -D "$T/headers" \
+        -w '%{http_code}' -H "Host: $host" "$@" "$url")
+}
+
+@test "without a token, a Host that is no IP address, localhost or --allow-host name gets 403 naming it" {
+    # A page whose name was rebound to 127.0.0.1 sends its own name as
+    # the Host; it was served (scenes, jobs, images, assets).
+    start_daemon nohost
+    local port=${DURL##*:} h
+    host_req "$DURL/v1/scenes" attacker.example
+    expect_error 403 host_not_allowed
+    [[ "$(json o.error.message)" == *"'attacker.example'"*"IP address or localhost"*"DNS rebinding"*"--allow-host"*"--token-file"* ]]
+    for h in "attacker.example:$port" 127.0.0.1.attacker.example localhost.attacker.example \
+        "localhost:x" "[::1" "[attacker.example]:$port"; do
+        host_req "$DURL/v1/scenes" "$h"
+        expect_error 403 host_not_allowed
+    done
+    host_req "$DURL/v1/jobs" "attacker.example:$port" \
+        -H 'Content-Type: application/json' -d '{"scene": "tiny"}'
+    expect_error 403 host_not_allowed
+    host_req "$DURL/" attacker.example
+    expect_error 403 host_not_allowed
+    # /healthz stays open, as with a token.
+    host_req "$DURL/healthz" attacker.example
+    expect 200
+    # IP addresses and localhost, with and without a port, any case.
+    for h in "127.0.0.1:$port" 127.0.0.1 "localhost:$port" LocalHost "[::1]:$port" "[::1]"; do
+        host_req "$DURL/v1/scenes" "$h"
+        expect 200
+    done
+    host_req "$DURL/v1/jobs" "localhost:$port" \
+        -H 'Content-Type: application/json' -d '{"scene": "tiny"}'
+    expect 202
+}
+
+@test "--allow-host names are served, any case and port; a bad one stops the daemon" {
+    start_daemon allowhost --allow-host "render.example, Farm.Example."
+    local port=${DURL##*:} h
+    for h in "render.example:$port" RENDER.EXAMPLE farm.example "farm.example.:80" "127.0.0.1:$port"; do
+        host_req "$DURL/v1/scenes" "$h"
+        expect 200
+    done
+    host_req "$DURL/v1/scenes" "attacker.example:$port"
+    expect_error 403 host_not_allowed
+    host_req "$DURL/v1/scenes" "render.example.attacker.example"
+    expect_error 403 host_not_allowed
+    LENSRAYD_ALLOW_HOST=env.example start_daemon allowhost-env
+    host_req "$DURL/v1/scenes" env.example
+    expect 200
+    run -2 "$LENSRAYD" --port 0 --scenes "$WORK/scenes" --allow-host "a,,b"
+    [[ "$output" == *"--allow-host must be host names"* ]]
+    run -2 "$LENSRAYD" --port 0 --scenes "$WORK/scenes" --allow-host "render.example:8080"
+    [[ "$output" == *"--allow-host must be host names"* ]]
+}
+
+@test "with a token, any Host is served with the token, and none without it" {
+    host_req "$URL/v1/scenes" attacker.example -H "Authorization: Bearer $TOKEN"
+    expect 200
+    host_req "$URL/v1/scenes" "attacker.example:${URL##*:}"
+    expect_error 401 unauthorized
+}
+
 # ---- scenes -------------------------------------------------------------------
 
 @test "GET /v1/scenes lists the scenes with their default cameras" {

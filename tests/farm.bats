@@ -136,6 +136,28 @@ wait_for() {
     [[ "$output" == *'"status":"ok"'* ]]
 }
 
+@test "farm: nginx passes the client's Host: a rebound name gets the daemons' 403, the farm's address and localhost are served, FARM_FLAGS --allow-host serves a name" {
+    # Without a token a daemon answers only an IP address, localhost or an
+    # --allow-host name (DNS rebinding); nginx must neither launder a
+    # page's name into the daemon's address nor break the farm reached
+    # by an address.
+    local port=${URL##*:} dir="$BATS_TEST_TMPDIR/farm-host"
+    run -0 curl -s -w ' %{http_code}' -H "Host: attacker.example:$port" "$URL/v1/scenes"
+    [[ "$output" == *'"code":"host_not_allowed"'*"'attacker.example'"*" 403" ]]
+    run -0 curl -s -o /dev/null -w '%{http_code}' -H "Host: localhost:$port" "$URL/v1/scenes"
+    [ "$output" = 200 ]
+    run -0 curl -s -o /dev/null -w '%{http_code}' "$URL/v1/scenes"
+    [ "$output" = 200 ]
+    FARM2="$dir"
+    FARM_FLAGS="--allow-host render.example" start_farm_free_port 1 "$dir"
+    run -0 curl -s -o /dev/null -w '%{http_code}' -H "Host: render.example:$PORT" \
+        "http://127.0.0.1:$PORT/v1/scenes"
+    [ "$output" = 200 ]
+    run -0 curl -s -o /dev/null -w '%{http_code}' -H "Host: attacker.example:$PORT" \
+        "http://127.0.0.1:$PORT/v1/scenes"
+    [ "$output" = 403 ]
+}
+
 @test "farm: a second farm runs beside the first; started twice it is refused; once dead, farm-stop signals no other program and frees the port" {
     local dir="$BATS_TEST_TMPDIR/farm2" port pid name
     FARM2="$dir"

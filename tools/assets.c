@@ -282,11 +282,16 @@ static int ensure(assets_session *s, const char *path, const char *what,
         s->uploaded++;
     } else if (status != 200) {
         /* A HEAD answer has no text: say what a 401 or 403 means (it
-         * read "failed:  (HTTP 401)"). */
-        const char *why = a.text[0] ? a.text
-                          : status == 401 || status == 403
-                              ? "the daemon wants a valid bearer token "
-                                "(--token-file)"
+         * read "failed:  (HTTP 401)").  A daemon without a token answers
+         * 403 to a Host it does not know (lensrayd --allow-host). */
+        const char *why = a.text[0]       ? a.text
+                          : status == 401 ? "the daemon wants a valid bearer "
+                                            "token (--token-file)"
+                          : status == 403
+                              ? "the daemon refuses it (a token it wants, "
+                                "--token-file, or, without one, a host name "
+                                "it does not answer to: lensrayd "
+                                "--allow-host)"
                               : "no answer text";
         if (status < 0)
             fprintf(stderr,
