@@ -400,7 +400,9 @@ typedef struct lr_scene lr_scene;
  * "camera.fov=30" or "objects[2].radius=0.5"; pass NULL, 0 for none.
  * On success *out owns a new scene: free it with lr_scene_free.
  * Errors: LR_ERR_IO (file), LR_ERR_INVALID (JSON, value, OBJ; the path
- * names the field), LR_ERR_NOMEM, LR_ERR_EMBREE. */
+ * names the field), LR_ERR_LIMIT (a size limit: a file or image too large,
+ * or more than lr_scene_limits_set allows), LR_ERR_NOMEM (also Embree
+ * out of memory), LR_ERR_EMBREE. */
 LR_API lr_status lr_scene_load_file(const char *path,
                                     const char *const *overrides,
                                     size_t n_overrides, lr_scene **out,
@@ -447,6 +449,21 @@ LR_API char *lr_gltf_scene_json(const char *path, const lr_scene *s);
  * are refused (LR_ERR_INVALID naming the field).  Call it before loading
  * scenes; the path is copied.  Errors: LR_ERR_LIMIT (path too long). */
 LR_API lr_status lr_assets_dir_set(const char *dir, lr_error *err);
+
+/* Sets, for the process, the most one scene may hold: `max_triangles`
+ * triangles (every placed copy counts: an OBJ file named by 1000 objects
+ * is 1000 times its triangles, a glTF mesh drawn by many nodes as often
+ * as it is drawn) and `max_texels` texels of its textures and
+ * environment map together (each image as declared, checked before it
+ * is decoded; a file used twice with the same colour space is loaded,
+ * and counted, once).  0 means no limit, the default.  A scene loaded
+ * later that would hold more fails with LR_ERR_LIMIT; the path names the
+ * field that added the excess (objects[412].file,
+ * materials.wood.diffuse_texture, environment.file) and the message
+ * says "the limit set by lr_scene_limits_set".  Scenes already loaded
+ * are not affected.  For a server that loads scenes from clients
+ * (lensrayd's --max-scene-triangles, --max-scene-texels). */
+LR_API void lr_scene_limits_set(uint64_t max_triangles, uint64_t max_texels);
 
 /* Whether a member named `key` of a scene object holds a file reference
  * (a string: a path relative to the scene's directory, an absolute path

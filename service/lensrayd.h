@@ -73,8 +73,10 @@ typedef struct lrd_config {
     long max_finished;         /* finished jobs kept */
     uint64_t max_retained;     /* image bytes kept by finished jobs */
     long scene_cache;          /* loaded scenes kept */
-    double shutdown_grace;     /* seconds running jobs get at shutdown */
-    long no_ui;                /* 1: GET / and the page's files are 404 */
+    uint64_t max_scene_triangles; /* triangles one scene may hold (0: any) */
+    uint64_t max_scene_texels;    /* texels of one scene's images (0: any) */
+    double shutdown_grace;        /* seconds running jobs get at shutdown */
+    long no_ui;                   /* 1: GET / and the page's files are 404 */
 } lrd_config;
 
 /* The one configuration; defined in main.c. */

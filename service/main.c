@@ -105,6 +105,14 @@ static const opt opts[] = {
      U64(1ull << 40), "image bytes kept by finished jobs"},
     {"scene-cache", T_LONG, &lrd_cfg.scene_cache, 0, 0, 1, 10000,
      "loaded scenes kept in memory"},
+    {"max-scene-triangles", T_U64, &lrd_cfg.max_scene_triangles, 0, 0, 0,
+     U64(1ull << 40),
+     "most triangles one scene may hold, every placed copy of a mesh "
+     "counted (0: no limit)"},
+    {"max-scene-texels", T_U64, &lrd_cfg.max_scene_texels, 0, 0, 0,
+     U64(1ull << 40),
+     "most texels of one scene's textures and environment map (0: no "
+     "limit)"},
     {"shutdown-grace", T_SECS, &lrd_cfg.shutdown_grace, 0, 0, 0, 86400,
      "seconds running jobs get to finish on SIGTERM before they are "
      "cancelled"},
@@ -401,6 +409,7 @@ static int configure(int argc, char **argv)
     lr_assets_dir_set(lrd_cfg.assets_dir, NULL);
     if (normalize_hosts(lrd_cfg.allow_host, given_as("allow-host")) != 0)
         return -1;
+    lr_scene_limits_set(lrd_cfg.max_scene_triangles, lrd_cfg.max_scene_texels);
     if (token_file[0] != '\0') {
         size_t len = 0;
         char *t = lrd_read_file(token_file, 4096, &len);

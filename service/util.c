@@ -121,8 +121,19 @@ int lrd_fail_lr(lrd_err *e, const lr_error *le, const char *prefix,
                             "the server's scene file %s cannot be read: %s",
                             named_scene, msg);
         return lrd_fail(e, 422, "invalid_value", path, "%s", msg);
-    case LR_ERR_LIMIT:
-        return lrd_fail(e, 413, "too_large", path, "%s", msg);
+    case LR_ERR_LIMIT: {
+        /* The scene limits are the daemon's flags (lr_scene_limits_set in
+         * main.c): the message names the flag rather than the call. */
+        static const char lib[] = "the limit set by lr_scene_limits_set";
+        char *at = strstr(msg, lib);
+        if (at == NULL)
+            return lrd_fail(e, 413, "too_large", path, "%s", msg);
+        int texels = strstr(msg, " texels, the limit set by") != NULL;
+        *at = '\0';
+        return lrd_fail(e, 413, "scene_too_large", path,
+                        "%sthe daemon's limit (--max-scene-%s)%s", msg,
+                        texels ? "texels" : "triangles", at + sizeof lib - 1);
+    }
     case LR_ERR_NOMEM:
         return lrd_fail(e, 503, "out_of_memory", path, "%s", msg);
     case LR_ERR_CANCELLED:
@@ -333,6 +344,11 @@ void lrd_config_defaults(void)
     lrd_cfg.conn_memory = 64u << 10;
     lrd_cfg.conn_timeout = 30;
     lrd_cfg.job_ttl = 600;
+    /* About 100 bytes a triangle once built (Embree's copies and BVH,
+     * normals, uvs): 16M is about 1.6 GB; 2^27 texels of float RGBA are
+     * 2 GiB. */
+    lrd_cfg.max_scene_triangles = 16000000;
+    lrd_cfg.max_scene_texels = 1ull << 27;
     lrd_cfg.max_finished = 100;
     lrd_cfg.max_retained = 1ull << 30;
     lrd_cfg.scene_cache = 16;

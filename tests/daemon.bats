@@ -1343,6 +1343,44 @@ print("\n".join(sorted(s["properties"])))' "$spec" "$schema") \
     expect_error 413 too_many_samples render.spp
 }
 
+# A small mesh named many times, or a small PNG that declares many pixels,
+# made a scene of gigabytes with no limit (a 475 KB OBJ named 1000 times:
+# 20 M triangles, 2.6 GB, from an independent security check).
+@test "413 scene_too_large for a scene over --max-scene-triangles or --max-scene-texels; the daemon keeps serving" {
+    start_daemon limits --token-file "$WORK/token" --max-scene-triangles 20 --max-scene-texels 1000
+    # meshes/quad.obj is 2 triangles: objects[0..9] hold 20, objects[10] is over.
+    quads() { # N objects naming the mesh
+        local i objs=""
+        for i in $(seq 1 "$1"); do
+            objs="$objs${objs:+, }{\"type\": \"mesh\", \"file\": \"meshes/quad.obj\"}"
+        done
+        echo "$objs"
+    }
+    local pre='{"scene": {"camera": {"position": [0, 3, 3], "look_at": [0, 0, 0]}, "lights": [{"type": "ambient", "radiance": 1}]'
+    req POST "$DURL/v1/render" "$pre, \"objects\": [$(quads 12)]}, \"render\": {\"width\": 8, \"height\": 6, \"spp\": 1}}"
+    expect_error 413 scene_too_large scene.objects[10].file
+    [ "$(json o.error.message)" = "scene.objects[10].file: the scene would hold more than 20 triangles, the daemon's limit (--max-scene-triangles)" ]
+    # Ten references fit, and the daemon still renders.
+    req POST "$DURL/v1/render" "$pre, \"objects\": [$(quads 10)]}, \"render\": {\"width\": 8, \"height\": 6, \"spp\": 1}}"
+    expect 200
+    # A 64 x 64 PNG of a few hundred bytes is 4096 texels, over 1000:
+    # refused from its header.
+    python3 -c '
+import struct, sys, zlib
+def chunk(t, d): return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d))
+raw = zlib.compress(b"\0" * (65 * 64), 9)
+sys.stdout.buffer.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", 64, 64, 8, 0, 0, 0, 0)) + chunk(b"IDAT", raw) + chunk(b"IEND", b""))
+' >"$WORK/scenes/meshes/big.png"
+    req POST "$DURL/v1/render" "$pre, \"materials\": {\"m\": {\"diffuse_texture\": \"meshes/big.png\"}}, \"objects\": [{\"type\": \"sphere\", \"center\": [0, 0, 0], \"radius\": 1, \"material\": \"m\"}]}, \"render\": {\"width\": 8, \"height\": 6, \"spp\": 1}}"
+    expect_error 413 scene_too_large scene.materials.m.diffuse_texture
+    [[ "$(json o.error.message)" == *"is 64 x 64 pixels: the scene would hold more than 1000 texels, the daemon's limit (--max-scene-texels)"* ]]
+    req GET "$DURL/healthz"
+    expect 200
+    req POST "$DURL/v1/render" '{"scene": "tiny", "render": {"width": 8, "height": 6, "spp": 1}}'
+    expect 200
+    kill -0 "$DPID"
+}
+
 @test "415 for a missing or wrong content type" {
     CODE=$(curl -s -o "$T/body" -D "$T/headers" -w '%{http_code}' -H "Authorization: Bearer $TOKEN" \
         -H 'Content-Type: text/plain' -d '{"scene": "tiny"}' "$URL/v1/render")

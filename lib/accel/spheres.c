@@ -71,7 +71,12 @@ lr_status lr__spheres_build(lr_scene *s, lr_error *err)
                               (unsigned)g);
     }
     rtcCommitScene(s->rtc_few);
-    if (rtcGetDeviceError(s->device) != RTC_ERROR_NONE)
+    enum RTCError code = rtcGetDeviceError(s->device);
+    if (code == RTC_ERROR_OUT_OF_MEMORY)
+        return lr__fail(err, LR_ERR_NOMEM, NULL,
+                        "out of memory building the Embree scene without "
+                        "spheres");
+    if (code != RTC_ERROR_NONE)
         return lr__fail(err, LR_ERR_EMBREE, NULL,
                         "building the Embree scene without spheres");
     return LR_OK;

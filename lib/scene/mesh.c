@@ -70,6 +70,14 @@ lr_status lr__scene_add_obj(lr_scene *s, const char *file, const char *shown,
         lr__fail_under(err, fp);
         return st;
     }
+    /* Each reference of the file places its triangles again: over the
+     * scene's limit, stop before the copies (lr__scene_add_triangles
+     * checks as well). */
+    st = lr__scene_limit_triangles(s, m.n_triangles, fp, err);
+    if (st != LR_OK) {
+        lr__mesh_free(&m);
+        return st;
+    }
     /* What the file says and the mesh does not use, said (silently the
      * object rendered in one material, or flat). */
     if (m.usemtl_lines > 0)
@@ -149,7 +157,7 @@ lr_status lr__scene_add_obj(lr_scene *s, const char *file, const char *shown,
                 }
         }
     st = lr__scene_add_triangles(s, m.vertices, m.n_vertices, m.indices,
-                                 m.n_triangles, normals, material, err);
+                                 m.n_triangles, normals, material, fp, err);
     if (st == LR_OK) {
         s->geoms[s->n_geoms - 1].corner_uv = m.uvs;
         m.uvs = NULL;
@@ -198,7 +206,7 @@ lr_status lr__scene_add_rect(lr_scene *s, lr__v3 pt, lr__v3 n, double w,
                              : corner_uv[idx[k]][1];
     }
     lr_status st = lr__scene_add_triangles(s, verts, 4, idx, 2, NULL, material,
-                                           err);
+                                           blame, err);
     if (st != LR_OK) {
         free(uv);
         return st;

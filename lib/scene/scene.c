@@ -15,18 +15,33 @@
 /* Embree reports errors through a callback; keep the last message per
  * device so that the failing call can put it in the lr_error. */
 static _Thread_local char embree_msg[256];
+static _Thread_local enum RTCError embree_code;
 
 static void on_embree_error(void *user, enum RTCError code, const char *str)
 {
     (void)user;
+    embree_code = code;
     snprintf(embree_msg, sizeof embree_msg, "Embree error %d: %s", (int)code,
              str ? str : "(no message)");
 }
 
+/* Embree's failure; out of memory is LR_ERR_NOMEM like any allocation
+ * that fails (code: rtcGetDeviceError's, or RTC_ERROR_NONE for the one
+ * the callback saw on this thread). */
+static lr_status embree_fail_code(lr_error *err, const char *what,
+                                  enum RTCError code)
+{
+    if (code == RTC_ERROR_NONE)
+        code = embree_code;
+    return lr__fail(
+        err, code == RTC_ERROR_OUT_OF_MEMORY ? LR_ERR_NOMEM : LR_ERR_EMBREE,
+        NULL, "%s failed: %s", what,
+        embree_msg[0] ? embree_msg : "unknown Embree error");
+}
+
 static lr_status embree_fail(lr_error *err, const char *what)
 {
-    return lr__fail(err, LR_ERR_EMBREE, NULL, "%s failed: %s", what,
-                    embree_msg[0] ? embree_msg : "unknown Embree error");
+    return embree_fail_code(err, what, RTC_ERROR_NONE);
 }
 
 const char *lr__embree_config = NULL;
@@ -39,6 +54,7 @@ enum RTCSceneFlags lr__scene_flags(const lr_scene *s)
 lr_status lr__scene_begin(lr_scene *s, lr_error *err)
 {
     embree_msg[0] = '\0';
+    embree_code = RTC_ERROR_NONE;
     const char *env = getenv("LENSRAY_EMBREE_CONFIG");
     const char *config = lr__embree_config != NULL ? lr__embree_config : env;
     s->device = rtcNewDevice(config);
@@ -88,8 +104,14 @@ static void extend(lr_scene *s, double m)
 lr_status lr__scene_add_triangles(lr_scene *s, const float *vertices,
                                   size_t n_vertices, const unsigned *indices,
                                   size_t n_triangles, float *corner_normals,
-                                  int material, lr_error *err)
+                                  int material, const char *field,
+                                  lr_error *err)
 {
+    lr_status lim = lr__scene_limit_triangles(s, n_triangles, field, err);
+    if (lim != LR_OK) {
+        free(corner_normals);
+        return lim;
+    }
     RTCGeometry geom = rtcNewGeometry(s->device, RTC_GEOMETRY_TYPE_TRIANGLE);
     if (geom == NULL) {
         free(corner_normals);
@@ -127,6 +149,7 @@ lr_status lr__scene_add_triangles(lr_scene *s, const float *vertices,
         return st;
     }
     s->n_primitives += n_triangles;
+    s->limit_triangles += n_triangles;
     return LR_OK;
 }
 
@@ -281,9 +304,11 @@ lr_status lr__scene_commit(lr_scene *s, lr_error *err)
             size = fmax(size, v3_maxabs(s->lights[i].position));
     s->eps_floor = size > 0.0 && size < 1.0 ? size : 1.0;
     embree_msg[0] = '\0';
+    embree_code = RTC_ERROR_NONE;
     rtcCommitScene(s->rtc);
-    if (rtcGetDeviceError(s->device) != RTC_ERROR_NONE)
-        return embree_fail(err, "building the Embree scene");
+    enum RTCError code = rtcGetDeviceError(s->device);
+    if (code != RTC_ERROR_NONE)
+        return embree_fail_code(err, "building the Embree scene", code);
     return LR_OK;
 }
 

@@ -245,6 +245,9 @@ struct lr_scene {
      * one camera, so only the first part finds them.  NULL until the
      * first plan; set once, atomically (lr__scene_cache_set). */
     lr__scene_cache *plan_cache;
+    /* What the scene holds against lr_scene_limits_set (scene_limits.c):
+     * triangles placed, and texels of its textures and environment map. */
+    uint64_t limit_triangles, limit_texels;
 };
 
 /* Sets *slot (a cache field of a scene that renders may share) to c if
@@ -252,6 +255,22 @@ struct lr_scene {
  * the cache another render set first (the caller then frees c). */
 lr__scene_cache *lr__scene_cache_set(lr__scene_cache *const *slot,
                                      lr__scene_cache *c);
+
+/* ---- scene_limits.c: what one scene may hold ------------------------- */
+
+/* LR_OK when n more triangles fit in s under lr_scene_limits_set, else
+ * LR_ERR_LIMIT naming `field` (for a loader to ask before it builds the
+ * arrays; lr__scene_add_triangles asks again and counts them). */
+lr_status lr__scene_limit_triangles(const lr_scene *s, uint64_t n,
+                                    const char *field, lr_error *err);
+/* Between begin and end, on this thread, the texels a texture or
+ * environment map being loaded for s may have (lr__texel_room:
+ * UINT64_MAX when there is no limit): the decoders check an image's
+ * declared size with lr__texel_room_check before they allocate
+ * (LR_ERR_LIMIT, the message headed by `name`; both in texture.h).
+ * s->limit_texels counts what was kept (scene_texture.c, scene_load.c). */
+void lr__texel_room_begin(const lr_scene *s);
+void lr__texel_room_end(void);
 
 /* ---- scene.c: Embree side --------------------------------------------- */
 
@@ -261,11 +280,15 @@ lr_status lr__scene_begin(lr_scene *s, lr_error *err);
 /* The flags both of s's Embree scenes are built with. */
 enum RTCSceneFlags lr__scene_flags(const lr_scene *s);
 /* Adds a triangle mesh; copies the arrays.  `corner_normals` (9 per
- * triangle) is taken over by the scene (freed with it) and may be NULL. */
+ * triangle) is taken over by the scene (freed with it) and may be NULL.
+ * The triangles count against lr_scene_limits_set: beyond it,
+ * LR_ERR_LIMIT naming `field` (the JSON path that placed the mesh; NULL
+ * or "" for none) and nothing added. */
 lr_status lr__scene_add_triangles(lr_scene *s, const float *vertices,
                                   size_t n_vertices, const unsigned *indices,
                                   size_t n_triangles, float *corner_normals,
-                                  int material, lr_error *err);
+                                  int material, const char *field,
+                                  lr_error *err);
 lr_status lr__scene_add_sphere(lr_scene *s, lr__v3 center, double radius,
                                int material, lr_error *err);
 lr_status lr__scene_add_plane(lr_scene *s, lr__v3 point, lr__v3 normal,

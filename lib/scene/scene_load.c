@@ -267,8 +267,13 @@ static lr_status parse_environment(lr_scene *s, const cJSON *e,
     char full[4096];
     LR_TRY(lr__scene_file(file, base_dir, "environment.file", full, sizeof full,
                           err));
-    return lr__envmap_load(full, file, "environment.file", intensity, rot,
-                           &s->env, err);
+    lr__texel_room_begin(s);
+    lr_status st = lr__envmap_load(full, file, "environment.file", intensity,
+                                   rot, &s->env, err);
+    lr__texel_room_end();
+    if (st == LR_OK)
+        s->limit_texels += (uint64_t)s->env->w * (uint64_t)s->env->h;
+    return st;
 }
 
 /* ---- the scene -------------------------------------------------------- */

@@ -328,7 +328,7 @@ static lr_status parse_object(lr_scene *s, const cJSON *o, const char *p,
         }
         if (lr__xform_det(&x) < 0)
             idx[1] = 2, idx[2] = 1;
-        return lr__scene_add_triangles(s, verts, 3, idx, 1, NULL, material,
+        return lr__scene_add_triangles(s, verts, 3, idx, 1, NULL, material, p,
                                        err);
     }
     if (keys == keys_gltf)

@@ -30,6 +30,7 @@ static lr_status keep(lr_scene *s, lr__texture *t, const char *path, int srgb)
     s->texture_paths[k] = copy;
     s->texture_srgb[k] = srgb;
     s->n_textures = k + 1;
+    s->limit_texels += (uint64_t)t->w * (uint64_t)t->h;
     return LR_OK;
 }
 
@@ -41,7 +42,9 @@ lr__texture *lr__scene_texture_named(lr_scene *s, const char *path,
         if (s->texture_paths[i] != NULL && s->texture_srgb[i] == srgb &&
             strcmp(s->texture_paths[i], path) == 0)
             return s->textures[i];
+    lr__texel_room_begin(s);
     lr__texture *t = lr__texture_load_named(path, shown, srgb, err);
+    lr__texel_room_end();
     if (t == NULL)
         return NULL;
     if (keep(s, t, path, srgb) != LR_OK) {

@@ -7,6 +7,7 @@
 #include "image/exr_read.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -31,6 +32,12 @@ lr_status lr__texture_check_size(long long w, long long h, const char *name,
                         "%s is %lld x %lld pixels; a texture must be 1 to %d "
                         "on each side and at most %zu pixels",
                         name, w, h, LR__TEX_MAX_DIM, LR__TEX_MAX_TEXELS);
+    /* And within what the scene loading it may still hold. */
+    if ((uint64_t)w * (uint64_t)h > lr__texel_room()) {
+        char what[400];
+        snprintf(what, sizeof what, "%s is %lld x %lld pixels", name, w, h);
+        return lr__texel_room_check((uint64_t)w * (uint64_t)h, what, err);
+    }
     return LR_OK;
 }
 
@@ -48,10 +55,22 @@ static lr_status texture_exr(const void *data, size_t n, const char *name,
                              lr__texture *t, lr_error *err)
 {
     lr__exr_planes px;
+    /* At most what the scene loading it may still hold (no more is
+     * allocated). */
+    uint64_t room = lr__texel_room();
+    size_t most = room < LR__TEX_MAX_TEXELS ? (size_t)room : LR__TEX_MAX_TEXELS;
     lr_status st = lr__exr_read(data, n, name, NULL, "a texture",
-                                LR__TEX_MAX_DIM, LR__TEX_MAX_TEXELS, &px, err);
+                                LR__TEX_MAX_DIM, most ? most : 1, &px, err);
+    if (st == LR_ERR_LIMIT && most < LR__TEX_MAX_TEXELS)
+        return lr__texel_room_check(UINT64_MAX, name, err);
     if (st != LR_OK)
         return st;
+    /* (most is at least 1: room 0 refuses even one texel here.) */
+    st = lr__texel_room_check((uint64_t)px.w * (uint64_t)px.h, name, err);
+    if (st != LR_OK) {
+        lr__exr_planes_free(&px);
+        return st;
+    }
     /* (lr__exr_read has refused sizes beyond lr__texture_check_size's.) */
     int rgb = px.plane[LR__EXR_R] && px.plane[LR__EXR_G] && px.plane[LR__EXR_B];
     if (!rgb && px.plane[LR__EXR_Y] == NULL)

@@ -12,6 +12,8 @@
 
 #include "util/internal.h"
 
+#include <stdint.h>
+
 #define LR__TEX_MAX_DIM 16384
 #define LR__TEX_MAX_TEXELS ((size_t)1 << 26) /* 1 GiB of float RGBA */
 #define LR__TEX_MAX_BYTES ((size_t)512 << 20)
@@ -64,7 +66,15 @@ lr_status lr__texture_jpeg(const void *data, size_t n, const char *name,
                            int srgb, lr__texture *t, lr_error *err);
 /* table[k] = k / 255, through lr__srgb_decode when srgb: 8-bit codes. */
 void lr__texture_table8(float table[256], int srgb);
-/* Checks a decoder's w x h against the limits before it allocates. */
+/* The texels the image being loaded on this thread may have: what its
+ * scene may still hold under lr_scene_limits_set (lr__texel_room_begin,
+ * scene.h), UINT64_MAX when none (scene_limits.c).  lr__texel_room_check
+ * fails with LR_ERR_LIMIT, headed by `name`, when n is more. */
+uint64_t lr__texel_room(void);
+lr_status lr__texel_room_check(uint64_t n, const char *name, lr_error *err);
+
+/* Checks a decoder's w x h against the limits (and lr__texel_room)
+ * before it allocates. */
 lr_status lr__texture_check_size(long long w, long long h, const char *name,
                                  lr_error *err);
 

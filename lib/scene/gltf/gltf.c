@@ -255,7 +255,9 @@ static lr_status slot_texture(lr_scene *s, lr__gltf_doc *d, const cJSON *info,
     if (!image_bytes(d, image, &bytes, &n))
         return lr__gltf_fail(d, err, "images[%d] has no data", image);
     lr_error e2;
+    lr__texel_room_begin(s);
     lr__texture *t = lr__texture_load_memory(bytes, n, name, srgb, &e2);
+    lr__texel_room_end();
     if (t == NULL) {
         if (e2.status == LR_ERR_NOMEM)
             return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
@@ -435,6 +437,9 @@ static lr_status add_mesh(placer *pl, const struct aiMesh *am,
         pl->skipped++;
         return LR_OK;
     }
+    /* Every node that draws the mesh places its triangles again: over
+     * the scene's limit, stop before the copies (at most mNumFaces). */
+    LR_TRY(lr__scene_limit_triangles(pl->s, am->mNumFaces, pl->d->fp, err));
     int material;
     LR_TRY(material_of(pl, am->mMaterialIndex, &material, err));
     size_t nv = am->mNumVertices, nt = 0;
@@ -517,7 +522,8 @@ static lr_status add_mesh(placer *pl, const struct aiMesh *am,
         }
     lr_status st = LR_OK;
     if (nt > 0)
-        st = lr__scene_add_triangles(pl->s, v, nv, idx, nt, cn, material, err);
+        st = lr__scene_add_triangles(pl->s, v, nv, idx, nt, cn, material,
+                                     pl->d->fp, err);
     else
         free(cn);
     /* The scene takes the UVs over once the mesh is in. */
