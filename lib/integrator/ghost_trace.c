@@ -71,28 +71,21 @@ const double *lr__gt_box(const lr__lt_light *l, int g)
  * (the path's flux, up to a factor common to every path), and the share
  * of the box's lens points that land. */
 #define GRID 16
-/* Where the main image's beam lands through fewer than MAIN_FEW of
- * GRID's offsets, a path of a light drawn by paths that lands through
- * fewer than FEW is looked for again on a finer grid, doubled until the
- * main beam covers MAIN_FEW of its offsets (at most FINE a side): a
- * stopped-down lens's beam is a sliver of the disk (2 mm across the
- * double Gauss's front disk at f/22), which GRID's cells stepped over,
- * and its ghosts were drawn from the whole disk, where none of 256 paths
- * landed (an independent check).  (Wide open the main beam fills the
- * grid, and nothing changes.) */
+/* Where the main beam reaches fewer than MAIN_FEW of GRID's offsets (a
+ * stopped-down lens's sliver, which GRID stepped over: docs/lenses.md),
+ * a path of a light drawn by paths landing on fewer than FEW is looked
+ * for on a grid doubled until the main beam reaches MAIN_FEW (<= FINE). */
 #define MAIN_FEW 16
 #define FEW 4
 #define FINE 128
 
-/* How many of an n x n grid's offsets over the disk of radius rho send
- * light from w0 into the frame along the main path. */
+/* Offsets of an n x n grid over the disk whose main path lands. */
 static int main_cells(const lr__cam *c, lr__v3 w0, int n, double rho)
 {
     int main = 0;
     double h = 2.0 * rho / n;
     for (int q = 0; q < n * n; q++) {
-        double x = (q / n + 0.5) * h - rho, y = (q % n + 0.5) * h - rho;
-        double fx, fy;
+        double x = (q / n + 0.5) * h - rho, y = (q % n + 0.5) * h - rho, fx, fy;
         main += x * x + y * y <= rho * rho &&
                 c->model->film(c, x, y, w0, &fx, &fy) > 0.0 && fx >= 0.0 &&
                 fx < c->width && fy >= 0.0 && fy < c->height;
@@ -100,8 +93,7 @@ static int main_cells(const lr__cam *c, lr__v3 w0, int n, double rho)
     return main;
 }
 
-/* Path g's box and estimate from an n x n grid over the disk of radius
- * rho (ghost_guide); the number of offsets that land. */
+/* Path g's box and estimate from an n x n grid: how many offsets land. */
 static int guide_path(const lr__cam *c, lr__lt_light *l, lr__v3 w0, int g,
                       int n, double rho, lr__ghost_est *own)
 {
@@ -110,8 +102,7 @@ static int guide_path(const lr__cam *c, lr__lt_light *l, lr__v3 w0, int g,
     double x0 = INFINITY, y0 = INFINITY, x1 = -INFINITY, y1 = -INFINITY;
     double flux = 0.0;
     int land = 0;
-    /* The disk's offsets in order, LR__GHOST_LANES at a time
-     * (ghost_film_n: the same bits as ghost_film's one by one). */
+    /* LR__GHOST_LANES offsets at a time (ghost_film_n: ghost_film's bits). */
     double ox[LR__GHOST_LANES], oy[LR__GHOST_LANES];
     lr__v3 ws[LR__GHOST_LANES];
     int u = 0;
