@@ -227,20 +227,20 @@ lr__lt *lr__lt_new(const lr_scene *s)
  * than 4 offsets land (the whole front then, as before) or the disk
  * would cover half the front anyway.  A proposal only: the whole front's
  * half keeps every lens point drawable, so a footprint that misses rays
- * costs noise, never light. */
-static void footprint(const lr__cam *c, lr__lt_light *l)
+ * costs noise, never light.  0 when out of memory. */
+static int footprint(const lr__cam *c, lr__lt_light *l)
 {
     const lr__camera_model *m = c->model;
     enum { N = 64 };
     l->fp_r = 0.0;
     if (m->ghost_disk == NULL || m->lens_at == NULL || m->film == NULL)
-        return;
+        return 1;
     double rho = m->ghost_disk(c), cell = 2.0 * rho / N;
+    if (!(rho > 0.0))
+        return 1;
     double(*at)[2] = malloc((size_t)N * N * sizeof *at);
-    if (at == NULL || !(rho > 0.0)) {
-        free(at);
-        return;
-    }
+    if (at == NULL)
+        return 0;
     int n = 0;
     double mx = 0.0, my = 0.0;
     for (int iy = 0; iy < N; iy++)
@@ -273,6 +273,7 @@ static void footprint(const lr__cam *c, lr__lt_light *l)
             l->fp_x = mx, l->fp_y = my, l->fp_r = r;
     }
     free(at);
+    return 1;
 }
 
 static double mis_kappa(const lr__cam *c, uint64_t n, double q, int spp)
@@ -650,7 +651,10 @@ lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
         }
         lt->n++;
         lr__lt_light_emission(&s->materials[geo->material], l);
-        footprint(c, l);
+        if (!footprint(c, l)) {
+            lr__lt_free(lt);
+            return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+        }
         l->paths = n;
         l->first = lt->paths;
         lt->paths += n;
