@@ -76,29 +76,48 @@ class LensrayRenderEngine(bpy.types.RenderEngine):
         url = scene.lensray.daemon_url.strip()
         want_plan = depsgraph.view_layer.lensray_pass_plan
         warn = set()
+
+        def report_warnings():
+            # One warning, for the export's findings and the depth's.
+            if warn:
+                self.report({"WARNING"}, "lensray: not drawn as in Cycles: "
+                            + "; ".join(sorted(warn)))
         with tempfile.TemporaryDirectory(prefix="lensray-blender-") as tmp:
             try:
                 d = export.scene_dict(scene, depsgraph, tmp, warn)
-                if warn:
-                    self.report({"WARNING"}, "lensray: not drawn as in Cycles: "
-                                + "; ".join(sorted(warn)))
                 if url:
                     out = self._render_daemon(url, d, want_plan)
                 else:
                     out = self._render_here(d, tmp, want_plan)
+                if out is not None:
+                    export.clip_warnings(scene, depsgraph, out[1], warn)
             except lensray.CancelledError:
                 # Esc (test_break) says nothing; a job cancelled on the
                 # daemon by someone else is an error, not a silent blank.
+                report_warnings()
                 if not self.test_break():
                     self.report({"ERROR"}, "lensray: the render was cancelled "
                                 "before it finished (on the daemon, by another client)")
                 return
             except (lensray.LensrayError, ValueError) as e:
+                report_warnings()
                 self.report({"ERROR"}, f"lensray: {e}")
                 return
             except OSError as e:
+                report_warnings()
                 self.report({"ERROR"}, f"lensray: Daemon URL {url}: {e}")
                 return
+            except Exception as e:  # noqa: BLE001
+                # A defect of the add-on: reported, not escaping (an
+                # exception out of render() left Blender writing a frame
+                # that was never begun, and it crashed writing an EXR).
+                import traceback
+                traceback.print_exc()
+                report_warnings()
+                self.report({"ERROR"}, f"lensray: internal error, please report: "
+                            f"{type(e).__name__}: {e}")
+                return
+        report_warnings()
         if out is None:
             return
         if want_plan:
@@ -229,6 +248,12 @@ class LENSRAY_OT_export_scene(bpy.types.Operator):
                                             context.evaluated_depsgraph_get(), outdir)
         except (OSError, ValueError) as e:
             self.report({"ERROR"}, f"lensray: export to {outdir}: {e}")
+            return {"CANCELLED"}
+        except Exception as e:  # noqa: BLE001  (a defect of the add-on: reported)
+            import traceback
+            traceback.print_exc()
+            self.report({"ERROR"}, f"lensray: export to {outdir}: internal error, "
+                        f"please report: {type(e).__name__}: {e}")
             return {"CANCELLED"}
         if warn:
             self.report({"WARNING"}, "lensray: not drawn as in Cycles: "

@@ -272,8 +272,13 @@ def _tri_arrays(mesh, mw):
         a = a.astype(np.float64) @ N.T
         ln = np.linalg.norm(a, axis=-1, keepdims=True)
         return np.where(ln > 0, a / np.where(ln > 0, ln, 1), a) @ turn.T
-    return (pos, normals(fn.reshape(n_t, 3)), normals(sn.reshape(n_t, 3, 3)),
-            mat, smooth, loops.reshape(n_t, 3))
+    sn, loops = normals(sn.reshape(n_t, 3, 3)), loops.reshape(n_t, 3)
+    if np.linalg.det(M[:3, :3]) < 0:
+        # A mirroring transform turns the corners clockwise: lensray's
+        # front (its emitting side) would be the other one.  Reversed, the
+        # front stays the side the normals (through N) point to.
+        pos, sn, loops = pos[:, ::-1], sn[:, ::-1], loops[:, ::-1]
+    return pos, normals(fn.reshape(n_t, 3)), sn, mat, smooth, loops
 
 
 def _mesh_objects(depsgraph, outdir, materials, objects, warn):
@@ -359,6 +364,32 @@ def _in_view(scene, centre, r):
     return False
 
 
+def _emitter(materials, name, m):
+    """materials[name] = m, or under "name #2", "#3", ... when name holds
+    another emission: instances of one light at different scales (area
+    lights) are emitters of different radiance."""
+    key, i = name, 1
+    while key in materials and materials[key] != m:
+        i += 1
+        key = f"{name} #{i}"
+    materials[key] = m
+    return key
+
+
+# Cycles' spot blend is smoothstep(t), t = (cos theta - cos outer) /
+# ((1 - cos outer) blend); lensray's falloff is a^2 (docs/scene-format.md)
+# over its own span in cos theta.  A span of 0.75 of Cycles' gives the
+# same power in the blend and is within 0.16 of smoothstep everywhere
+# (over the whole span, 0.30 off at t = 2/3).
+SPOT_BLEND_SPAN = 0.75
+
+
+def _cast_shadow(L):
+    # Cycles' Cast Shadow: Light.use_shadow since 4.0, light.cycles.cast_shadow in 3.x.
+    cs = getattr(getattr(L, "cycles", None), "cast_shadow", None)
+    return bool(getattr(L, "use_shadow", True) if cs is None else cs)
+
+
 def _lights(scene, depsgraph, outdir, materials, objects, warn):
     lights = []
     whitted = scene.lensray.integrator == "whitted"
@@ -368,6 +399,8 @@ def _lights(scene, depsgraph, outdir, materials, objects, warn):
             continue
         L = ob.data
         mw = inst.matrix_world
+        if not _cast_shadow(L) and L.energy != 0:
+            warn.add(f"light {ob.name!r}: Cast Shadow off, drawn casting shadows")
         pos = _vec(mw.translation)
         axis = (mw.to_3x3() @ Vector((0, 0, -1))).normalized()
         col = L.color
@@ -380,8 +413,8 @@ def _lights(scene, depsgraph, outdir, materials, objects, warn):
             # sphere of radiance P / (4 pi) / (pi r^2) (intensity P / (4 pi)
             # seen from afar).  lensray's is an emitting sphere, which the
             # camera sees; Cycles' light only if its camera visibility is on.
-            name = "__light_" + ob.name
-            materials[name] = {"emission": _col(col, L.energy / (4 * math.pi * math.pi * r * r))}
+            name = _emitter(materials, "__light_" + ob.name,
+                            {"emission": _col(col, L.energy / (4 * math.pi * math.pi * r * r))})
             objects.append({"type": "sphere", "center": pos, "radius": r, "material": name})
             if not ob.visible_camera and _in_view(scene, mw.translation, r):
                 warn.add(f"light {ob.name!r}: its sphere (radius {r:g} m) is seen by the camera "
@@ -393,12 +426,20 @@ def _lights(scene, depsgraph, outdir, materials, objects, warn):
             if r > 0:
                 warn.add(f"light {ob.name!r}: spot radius {r:g} m drawn as a point (hard shadows)")
             outer = math.degrees(L.spot_size) / 2
-            inner = outer * (1 - L.spot_blend)
+            co = math.cos(math.radians(min(90.0, outer)))
+            inner = math.degrees(math.acos(min(1.0, co + SPOT_BLEND_SPAN * (1 - co) * L.spot_blend)))
+            if L.spot_blend > 0:
+                warn.add(f"light {ob.name!r}: spot blend {L.spot_blend:g} drawn with lensray's "
+                         "falloff, a^2 over 0.75 of the blend, not Cycles' smoothstep "
+                         "(the same power, within 0.16 of the full intensity)")
             lights.append({"type": "spot", "position": pos, "direction": _vec(axis),
                            "intensity": _col(col, L.energy / (4 * math.pi)),
                            "inner_angle": min(inner, outer - 1e-3) if inner < outer else max(0.0, outer - 1e-3),
                            "outer_angle": min(90.0, outer)})
         elif L.type == "SUN":
+            if L.angle > 0:
+                warn.add(f"light {ob.name!r}: sun angle {math.degrees(L.angle):.3g} degrees "
+                         "drawn as 0 (hard shadows)")
             lights.append({"type": "directional", "direction": _vec(axis),
                            "irradiance": _col(col, L.energy)})
         elif L.type == "AREA":
@@ -412,13 +453,22 @@ def _lights(scene, depsgraph, outdir, materials, objects, warn):
                 sx, sy = sx * math.sqrt(math.pi) / 2, sy * math.sqrt(math.pi) / 2
             corners = [mw @ Vector((x * sx / 2, y * sy / 2, 0))
                        for x, y in ((-1, -1), (-1, 1), (1, 1), (1, -1))]
-            # world area (object scale included)
-            area = (corners[1] - corners[0]).length * (corners[3] - corners[0]).length
-            name = "__light_" + ob.name
-            materials[name] = {"emission": _col(col, L.energy / (math.pi * area))}
+            # world area (object scale included; a parallelogram under shear)
+            area = (corners[1] - corners[0]).cross(corners[3] - corners[0]).length
+            if not area > 0:
+                warn.add(f"light {ob.name!r}: area light of zero area (size or scale 0) "
+                         "left out: it gives no light, as in Cycles")
+                continue
+            name = _emitter(materials, "__light_" + ob.name,
+                            {"emission": _col(col, L.energy / (math.pi * area))})
             path = os.path.join(outdir, "light_%d.obj" % len(objects))
-            # counter-clockwise seen from -Z local (the side Blender's area light faces)
-            _write_obj(path, [_vec(c) for c in corners], [[0, 1, 2], [0, 2, 3]])
+            # counter-clockwise seen from -Z local (the side Blender's area
+            # light faces); a mirroring transform turns them clockwise, so
+            # they are reversed, and the quad emits along mw's -Z, as Cycles'.
+            tris = [[0, 1, 2], [0, 2, 3]]
+            if mw.to_3x3().determinant() < 0:
+                tris = [[0, 2, 1], [0, 3, 2]]
+            _write_obj(path, [_vec(c) for c in corners], tris)
             objects.append({"type": "mesh", "file": path, "material": name})
     return lights
 
@@ -463,6 +513,9 @@ def camera_dict(scene, depsgraph, warn):
     cam_ob = cam_ob.evaluated_get(depsgraph)
     cam = cam_ob.data
     mw = cam_ob.matrix_world
+    if mw.to_3x3().determinant() == 0:
+        raise ValueError(f"camera {cam_ob.name!r}: its scale is 0 on an axis "
+                         "(it has no view direction)")
     pos = mw.translation
     fwd = (mw.to_3x3() @ Vector((0, 0, -1))).normalized()
     up = (mw.to_3x3() @ Vector((0, 1, 0))).normalized()
@@ -525,6 +578,11 @@ def camera_dict(scene, depsgraph, warn):
         return d, FW, FH, region
     dof = cam.dof
     focus = dof.focus_distance
+    if dof.use_dof and dof.focus_object is None and not focus > 0:
+        # Cycles draws a focus distance of 0 (which Blender allows) as
+        # everything blurred, not as depth of field off.
+        raise ValueError(f"camera {cam_ob.name!r}: Focus Distance must be > 0 "
+                         "(depth of field is on and there is no focus object)")
     if dof.focus_object is not None:
         fo = dof.focus_object.evaluated_get(depsgraph)
         focus = max(1e-3, (fo.matrix_world.translation - pos).dot(fwd))
@@ -554,11 +612,33 @@ def camera_dict(scene, depsgraph, warn):
     return d, FW, FH, region
 
 
+def clip_warnings(scene, depsgraph, z, warn):
+    """Cycles draws nothing nearer than the camera's Clip Start or farther
+    than its Clip End (along the view axis); lensray has no clipping.
+    Warns when the render's depth z (lensray's Z, along the view axis,
+    1e10 for the sky) shows a surface outside that range."""
+    import numpy as np
+    cam = scene.camera.evaluated_get(depsgraph).data
+    hit = z[z < 1e10]
+    if hit.size == 0:
+        return
+    if (hit > cam.clip_end).any():
+        warn.add(f"camera {cam.name!r}: Clip End {cam.clip_end:g} m: surfaces beyond it "
+                 f"(to {float(hit.max()):.3g} m) drawn, Cycles clips them")
+    if (hit < cam.clip_start).any():
+        warn.add(f"camera {cam.name!r}: Clip Start {cam.clip_start:g} m: surfaces nearer "
+                 f"(from {float(np.min(hit)):.3g} m) drawn, Cycles clips them")
+
+
 def scene_dict(scene, depsgraph, outdir, warn):
     materials, objects = {}, []
+    # The camera first: an unusable one is the error, before the lights
+    # look through it (_in_view).
+    cam, W, H, region = camera_dict(scene, depsgraph, warn)
+    if scene.render.use_motion_blur:
+        warn.add("render: motion blur not drawn (the frame's instant is)")
     _mesh_objects(depsgraph, outdir, materials, objects, warn)
     lights = _lights(scene, depsgraph, outdir, materials, objects, warn)
-    cam, W, H, region = camera_dict(scene, depsgraph, warn)
     p = scene.lensray
     d = {"camera": cam,
          "render": {"width": W, "height": H, "spp": int(p.samples),
