@@ -778,7 +778,8 @@ assert s["rays"] >= s["samples"], s
         --set render.width=2048 --set render.height=2048 --set render.spp=1 \
         --set render.threads=1 2>"$T/err" &
     local pid=$! i
-    for i in $(seq 1 1500); do
+    # (Up to two minutes: a sanitizer build renders slowly.)
+    for i in $(seq 1 6000); do
         [ -n "$(find "$T" -maxdepth 1 -name 'race.exr.tmp.*' -size +0 2>/dev/null)" ] && break
         sleep 0.02
     done
