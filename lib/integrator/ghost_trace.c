@@ -148,7 +148,7 @@ static void ghost_guide(const lr__cam *c, lr__lt_light *l, lr__v3 w0,
     double *gd = guides(l);
     gd[GUIDE * l->ghosts] = rho * rho;
     int fine = 0;
-    if (l->grid == 0 && main_cells(c, w0, GRID, rho) < MAIN_FEW)
+    if (main_cells(c, w0, GRID, rho) < MAIN_FEW)
         for (fine = 2 * GRID;
              fine < FINE && main_cells(c, w0, fine, rho) < MAIN_FEW;)
             fine *= 2;
@@ -158,7 +158,7 @@ static void ghost_guide(const lr__cam *c, lr__lt_light *l, lr__v3 w0,
         int n = l->grid == 0               ? GRID
                 : gd[GUIDE * g + 5] == 0.0 ? 0
                                            : LR__GT_GUIDE_MESH;
-        if (guide_path(c, l, w0, g, n, rho, own) < FEW && fine > 0)
+        if (guide_path(c, l, w0, g, n, rho, own) < FEW && fine > n && n > 0)
             guide_path(c, l, w0, g, fine, rho, own);
     }
 }
