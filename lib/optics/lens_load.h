@@ -46,7 +46,7 @@ typedef struct lr__pupil_entry {
 } lr__pupil_entry;
 
 #define LR__PUPIL_CACHE 64
-#define LR__BLUR_CACHE 32
+#define LR__BLUR_CACHE 64
 
 struct lr_lens {
     lr__rx rx;
@@ -65,7 +65,10 @@ struct lr_lens {
     /* The planner's blur tables (camera.h, lr__lens_blur), made by
      * lens_blur.c on first use under mu and kept for the lens's life
      * (lenses are never freed: lens_load.c's table), so every job of a
-     * daemon shares them.  Opaque here: the camera layer's type. */
+     * daemon shares them.  Opaque here: the camera layer's type.  Past
+     * LR__BLUR_CACHE of them a new focus or f-number gets no table, and
+     * the plan samples the lens everywhere (right, slower): 32 filled
+     * within the unit tests' one process. */
     int n_blur;
     void *blur[LR__BLUR_CACHE];
 };
