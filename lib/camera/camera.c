@@ -580,8 +580,7 @@ void lr__cam_wl_table(const lr__cam *c, lr__wl_table *t)
 static int land_at(const lr__cam *c, lr__landing *ld, double imp, double fx,
                    double fy, const double W[3])
 {
-    if (!(imp > 0.0) ||
-        !(fx >= 0.0 && fx < c->width && fy >= 0.0 && fy < c->height))
+    if (!(imp > 0.0) || !lr__cam_on_film(c, fx, fy))
         return 0;
     int j = ld->n++;
     ld->at[j].ix = (int)fx;

@@ -571,6 +571,13 @@ int lr__cam_land_colour(const lr__cam *c, const lr__wl_table *wl, double u_wl,
  * wavelengths with. */
 void lr__cam_wl_table(const lr__cam *c, lr__wl_table *t);
 
+/* Whether film point (fx, fy), in pixels, lies on c's film (the full
+ * frame); NaN does not. */
+static inline int lr__cam_on_film(const lr__cam *c, double fx, double fy)
+{
+    return fx >= 0.0 && fx < c->width && fy >= 0.0 && fy < c->height;
+}
+
 /* Where the camera ray from lens point P along unit d starts (the light
  * side traces from there, so that it sees what the camera's ray sees):
  * P, or past it by the model's film_near. */

@@ -313,11 +313,7 @@ static int rename_refused(const char *dest)
     char dir[4096];
     const char *slash = strrchr(dest, '/');
     const char *base = slash ? slash + 1 : dest;
-    if (slash == NULL)
-        snprintf(dir, sizeof dir, ".");
-    else
-        snprintf(dir, sizeof dir, "%.*s",
-                 slash == dest ? 1 : (int)(slash - dest), dest);
+    lr__dir_of(dest, dir, sizeof dir);
     long max = pathconf(dir, _PC_NAME_MAX);
     if (max > 0 && strlen(base) > (size_t)max)
         return ENAMETOOLONG;

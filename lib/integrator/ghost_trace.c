@@ -73,8 +73,9 @@ const double *lr__gt_box(const lr__lt_light *l, int g)
 #define GRID 16
 /* Where the main beam reaches fewer than MAIN_FEW of GRID's offsets (a
  * stopped-down lens's sliver, which GRID stepped over: docs/lenses.md),
- * a path of a light drawn by paths landing on fewer than FEW is looked
- * for on a grid doubled until the main beam reaches MAIN_FEW (<= FINE). */
+ * a ghost landing on fewer than FEW of its guide's offsets (paths' or
+ * meshes') is looked for on a grid doubled until the main beam reaches
+ * MAIN_FEW (<= FINE). */
 #define MAIN_FEW 16
 #define FEW 4
 #define FINE 128
@@ -87,8 +88,8 @@ static int main_cells(const lr__cam *c, lr__v3 w0, int n, double rho)
     for (int q = 0; q < n * n; q++) {
         double x = (q / n + 0.5) * h - rho, y = (q % n + 0.5) * h - rho, fx, fy;
         main += x * x + y * y <= rho * rho &&
-                c->model->film(c, x, y, w0, &fx, &fy) > 0.0 && fx >= 0.0 &&
-                fx < c->width && fy >= 0.0 && fy < c->height;
+                c->model->film(c, x, y, w0, &fx, &fy) > 0.0 &&
+                lr__cam_on_film(c, fx, fy);
     }
     return main;
 }
@@ -119,8 +120,7 @@ static int guide_path(const lr__cam *c, lr__lt_light *l, lr__v3 w0, int g,
         double W[LR__GHOST_LANES], fx[LR__GHOST_LANES], fy[LR__GHOST_LANES];
         c->model->ghost_film_n(c, g, -1, u, ox, oy, ws, NULL, fx, fy, W);
         for (int a = 0; a < u; a++) {
-            if (!(W[a] > 0.0) || !(fx[a] >= 0.0 && fx[a] < c->width &&
-                                   fy[a] >= 0.0 && fy[a] < c->height))
+            if (!(W[a] > 0.0) || !lr__cam_on_film(c, fx[a], fy[a]))
                 continue;
             land++, flux += W[a];
             x0 = fmin(x0, ox[a]), x1 = fmax(x1, ox[a]);
@@ -662,8 +662,7 @@ void lr__gt_path(const lr_scene *s, const lr__cam *c, const lr__lt_light *l,
     for (int k = k0; k < k1; k++) {
         double fx, fy;
         double W = c->model->ghost_film(c, g, k, ox, oy, w, NULL, &fx, &fy);
-        if (!(W > 0.0) ||
-            !(fx >= 0.0 && fx < c->width && fy >= 0.0 && fy < c->height))
+        if (!(W > 0.0) || !lr__cam_on_film(c, fx, fy))
             continue;
         lr__v3 ek = v3_scale(v, W);
         if (k >= 0)

@@ -205,21 +205,20 @@ static lr__v3 lens_point_of(const lr__cam *c, const lr__lt_light *l,
     if (!(l->fp_r > 0.0))
         return c->model->lens_point(c, u, ox, oy);
     double rho = c->model->ghost_disk(c), v[2] = {2.0 * u[0], u[1]};
+    /* The ratio inside the footprint (the whole front's density over the
+     * mixture's); outside it, 2. */
+    double in_fp = 1.0 / (0.5 + 0.5 * rho * rho / (l->fp_r * l->fp_r));
     if (v[0] < 1.0) {
         lr__v3 P = c->model->lens_point(c, v, ox, oy);
         double dx = *ox - l->fp_x, dy = *oy - l->fp_y;
-        int in = dx * dx + dy * dy <= l->fp_r * l->fp_r;
-        *lw = 1.0 / (0.5 + 0.5 * (in ? rho * rho / (l->fp_r * l->fp_r) : 0.0));
+        *lw = dx * dx + dy * dy <= l->fp_r * l->fp_r ? in_fp : 1.0 / 0.5;
         return P;
     }
     /* Uniform in the footprint's disk: radius sqrt(v0), angle 2 pi v1. */
     double r = l->fp_r * sqrt(v[0] - 1.0), sn, cs;
     lr__sincos_2pi(v[1], &sn, &cs);
     *ox = l->fp_x + r * cs, *oy = l->fp_y + r * sn;
-    if (*ox * *ox + *oy * *oy > rho * rho)
-        *lw = 0.0;
-    else
-        *lw = 1.0 / (0.5 + 0.5 * rho * rho / (l->fp_r * l->fp_r));
+    *lw = *ox * *ox + *oy * *oy > rho * rho ? 0.0 : in_fp;
     return c->model->lens_at(c, *ox, *oy);
 }
 

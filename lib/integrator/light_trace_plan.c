@@ -209,12 +209,6 @@ lr__lt *lr__lt_new(const lr_scene *s)
     return lt_new_n(s, s->n_geoms);
 }
 
-/* The MIS coefficient kappa (integrator.h's lr__lt_rho) of a light with
- * n paths whose directions' density seen from the eye is q: n q over
- * spp fpx^2, the camera's density on the axis.  0 (no mix) where rho
- * passes the cutoff for every camera ray of the frame (its smallest
- * cos, at a corner, gives the smallest rho), and for a model whose
- * camera samples carry weights (a real lens: light_trace.h). */
 /* Light l's footprint on a real lens's front (light_trace.h: fp_x,
  * fp_y, fp_r): of a 64 x 64 grid over the disk lens_point draws on, the
  * offsets whose rays from the light's centre land on the film, in a disk
@@ -254,7 +248,7 @@ static int footprint(const lr__cam *c, lr__lt_light *l)
                 continue;
             if (!(m->film(c, ox, oy, v3_scale(dv, 1.0 / len), &fx, &fy) >
                   0.0) ||
-                !(fx >= 0.0 && fx < c->width && fy >= 0.0 && fy < c->height))
+                !lr__cam_on_film(c, fx, fy))
                 continue;
             at[n][0] = ox, at[n][1] = oy, n++;
             mx += ox, my += oy;
@@ -276,6 +270,12 @@ static int footprint(const lr__cam *c, lr__lt_light *l)
     return 1;
 }
 
+/* The MIS coefficient kappa (integrator.h's lr__lt_rho) of a light with
+ * n paths whose directions' density seen from the eye is q: n q over
+ * spp fpx^2, the camera's density on the axis.  0 (no mix) where rho
+ * passes the cutoff for every camera ray of the frame (its smallest
+ * cos, at a corner, gives the smallest rho), and for a model whose
+ * camera samples carry weights (a real lens: light_trace.h). */
 static double mis_kappa(const lr__cam *c, uint64_t n, double q, int spp)
 {
     if (c->weighted || !(q > 0.0) || spp <= 0)

@@ -79,29 +79,13 @@ static lr_status read_exr(lr__envmap *e, const char *path, const char *file,
     if (st != LR_OK)
         return st;
     lr__exr_planes px;
-    /* At most what the scene may still hold (lr__texel_room, set by the
+    /* Within what the scene may still hold (lr__texel_room, set by the
      * scene's loader): refused from the header, before the planes. */
-    uint64_t room = lr__texel_room();
-    size_t most = room < LR__ENV_MAX_TEXELS ? (size_t)room : LR__ENV_MAX_TEXELS;
-    st = lr__exr_read(buf, len, shown, blame, "an environment map",
-                      LR__ENV_MAX_DIM, most ? most : 1, &px, err);
+    st = lr__exr_read_room(buf, len, shown, blame, "an environment map",
+                           LR__ENV_MAX_DIM, LR__ENV_MAX_TEXELS, &px, err);
     free(buf);
-    if (st == LR_ERR_LIMIT && most < LR__ENV_MAX_TEXELS) {
-        lr__texel_room_check(UINT64_MAX, shown, err);
-        if (err != NULL && blame != NULL)
-            snprintf(err->path, sizeof err->path, "%s", blame);
-        return LR_ERR_LIMIT;
-    }
     if (st != LR_OK)
         return st;
-    /* (most is at least 1: room 0 refuses even one texel here.) */
-    if ((uint64_t)px.w * (uint64_t)px.h > room) {
-        lr__exr_planes_free(&px);
-        lr__texel_room_check(UINT64_MAX, shown, err);
-        if (err != NULL && blame != NULL)
-            snprintf(err->path, sizeof err->path, "%s", blame);
-        return LR_ERR_LIMIT;
-    }
     static const char *const names[3] = {"R", "G", "B"};
     if (px.plane[LR__EXR_R] == NULL || px.plane[LR__EXR_G] == NULL ||
         px.plane[LR__EXR_B] == NULL) {

@@ -51,26 +51,38 @@ void lr__texture_free(lr__texture *t)
 
 /* An OpenEXR texture: R, G, B (or Y, grey) and A if present; every value
  * finite and >= 0. */
+lr_status lr__exr_read_room(const void *data, size_t n, const char *name,
+                            const char *blame, const char *what, int max_dim,
+                            size_t max_texels, lr__exr_planes *px,
+                            lr_error *err)
+{
+    uint64_t room = lr__texel_room();
+    size_t most = room < max_texels ? (size_t)room : max_texels;
+    /* (At least one texel asked for: room 0 refuses it below.) */
+    lr_status st = lr__exr_read(data, n, name, blame, what, max_dim,
+                                most ? most : 1, px, err);
+    int over = st == LR_ERR_LIMIT && most < max_texels;
+    if (st == LR_OK && (uint64_t)px->w * (uint64_t)px->h > room) {
+        lr__exr_planes_free(px);
+        over = 1;
+    }
+    if (!over)
+        return st;
+    lr__texel_room_check(UINT64_MAX, name, err);
+    if (err != NULL && blame != NULL)
+        snprintf(err->path, sizeof err->path, "%s", blame);
+    return LR_ERR_LIMIT;
+}
+
 static lr_status texture_exr(const void *data, size_t n, const char *name,
                              lr__texture *t, lr_error *err)
 {
     lr__exr_planes px;
-    /* At most what the scene loading it may still hold (no more is
-     * allocated). */
-    uint64_t room = lr__texel_room();
-    size_t most = room < LR__TEX_MAX_TEXELS ? (size_t)room : LR__TEX_MAX_TEXELS;
-    lr_status st = lr__exr_read(data, n, name, NULL, "a texture",
-                                LR__TEX_MAX_DIM, most ? most : 1, &px, err);
-    if (st == LR_ERR_LIMIT && most < LR__TEX_MAX_TEXELS)
-        return lr__texel_room_check(UINT64_MAX, name, err);
+    lr_status st = lr__exr_read_room(data, n, name, NULL, "a texture",
+                                     LR__TEX_MAX_DIM, LR__TEX_MAX_TEXELS, &px,
+                                     err);
     if (st != LR_OK)
         return st;
-    /* (most is at least 1: room 0 refuses even one texel here.) */
-    st = lr__texel_room_check((uint64_t)px.w * (uint64_t)px.h, name, err);
-    if (st != LR_OK) {
-        lr__exr_planes_free(&px);
-        return st;
-    }
     /* (lr__exr_read has refused sizes beyond lr__texture_check_size's.) */
     int rgb = px.plane[LR__EXR_R] && px.plane[LR__EXR_G] && px.plane[LR__EXR_B];
     if (!rgb && px.plane[LR__EXR_Y] == NULL)

@@ -10,6 +10,7 @@
 #ifndef LR_TEXTURE_H
 #define LR_TEXTURE_H
 
+#include "image/exr_read.h"
 #include "util/internal.h"
 
 #include <stdint.h>
@@ -72,6 +73,13 @@ void lr__texture_table8(float table[256], int srgb);
  * fails with LR_ERR_LIMIT, headed by `name`, when n is more. */
 uint64_t lr__texel_room(void);
 lr_status lr__texel_room_check(uint64_t n, const char *name, lr_error *err);
+/* lr__exr_read (its arguments) within lr__texel_room too: no plane past
+ * it is allocated (the header is refused), and an image past it is
+ * lr__texel_room_check's LR_ERR_LIMIT, on `blame`'s path if not NULL. */
+lr_status lr__exr_read_room(const void *data, size_t n, const char *name,
+                            const char *blame, const char *what, int max_dim,
+                            size_t max_texels, lr__exr_planes *px,
+                            lr_error *err);
 
 /* Checks a decoder's w x h against the limits (and lr__texel_room)
  * before it allocates. */

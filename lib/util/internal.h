@@ -49,14 +49,13 @@ void lr__trim_partial_utf8(char *s, size_t cap, int wanted);
  * file there anyway).  Errors: LR_ERR_IO (cannot open or read, with the
  * system's reason), LR_ERR_LIMIT (larger than `max` bytes),
  * LR_ERR_NOMEM; then *out is NULL. */
-/* The directory part of `path` into dir (capacity cap): "." for a bare
- * name, "/" for a file in the root. */
-void lr__dir_of(const char *path, char *dir, size_t cap);
-
 lr_status lr__read_file(const char *file, const char *shown,
                         const char *json_path, size_t max, const char *what,
                         int (*stop)(const char *chunk, size_t n), char **out,
                         size_t *out_len, lr_error *err);
+/* The directory part of `path` into dir (capacity cap): "." for a bare
+ * name, "/" for a file in the root. */
+void lr__dir_of(const char *path, char *dir, size_t cap);
 
 /* The files a scene was loaded from (its meshes, textures, glTF files,
  * environment map, lens file), each as lr__read_file found it: for

@@ -107,8 +107,6 @@ int lr__file_log_changed(const lr__file_log *log)
     return 0;
 }
 
-/* Reading in a loop rather than trusting the size from fstat also copes
- * with pipes and with files that change while we read them. */
 void lr__dir_of(const char *path, char *dir, size_t cap)
 {
     snprintf(dir, cap, "%s", path);
@@ -121,6 +119,8 @@ void lr__dir_of(const char *path, char *dir, size_t cap)
         *slash = '\0';
 }
 
+/* Reading in a loop rather than trusting the size from fstat also copes
+ * with pipes and with files that change while we read them. */
 lr_status lr__read_file(const char *file, const char *shown,
                         const char *json_path, size_t max, const char *what,
                         int (*stop)(const char *chunk, size_t n), char **out,
