@@ -16,6 +16,7 @@
 #include <string.h>
 #include <zlib.h>
 #include <jpeglib.h>
+#include <openexr.h>
 
 /* ---- an independent PNG writer (PNG specification, ISO/IEC 15948) ---- */
 
@@ -529,11 +530,127 @@ static void garbage_and_huge(void **state)
     assert_non_null(strstr(err.message, "/nonexistent/t.png"));
 }
 
+/* A 4 x 4 uncompressed OpenEXR file written by OpenEXRCore itself:
+ * `parts` parts, each with float B, G, R (texel value 1, 2, 3) and, if
+ * sub, a half channel `sub` sampled every 2 x 2 pixels (as RY and BY are
+ * in a luminance/chroma file); if moved, its data window at (10, 20) and
+ * its R -1 at the window's (1, 2). */
+static void core_exr(const char *name, int parts, const char *sub, int moved,
+                     char *path, size_t cap)
+{
+    int n = snprintf(path, cap, "%s/%s", lr_test_tmpdir(), name);
+    assert_true(n > 0 && (size_t)n < cap);
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    exr_context_t ctxt = NULL;
+    assert_int_equal(
+        exr_start_write(&ctxt, path, EXR_WRITE_FILE_DIRECTLY, &init),
+        EXR_ERR_SUCCESS);
+    static const char *const part_names[2] = {"first", "second"};
+    for (int p = 0; p < parts; p++) {
+        int part = 0;
+        assert_int_equal(exr_add_part(ctxt, parts > 1 ? part_names[p] : NULL,
+                                      EXR_STORAGE_SCANLINE, &part),
+                         EXR_ERR_SUCCESS);
+        assert_int_equal(exr_initialize_required_attr_simple(
+                             ctxt, part, 4, 4, EXR_COMPRESSION_NONE),
+                         EXR_ERR_SUCCESS);
+        exr_attr_box2i_t dw;
+        dw.min.x = 10, dw.min.y = 20, dw.max.x = 13, dw.max.y = 23;
+        if (moved)
+            assert_int_equal(exr_set_data_window(ctxt, part, &dw),
+                             EXR_ERR_SUCCESS);
+        for (int c = 0; c < 3; c++)
+            assert_int_equal(exr_add_channel(ctxt, part, &"B\0G\0R"[2 * c],
+                                             EXR_PIXEL_FLOAT,
+                                             EXR_PERCEPTUALLY_LINEAR, 1, 1),
+                             EXR_ERR_SUCCESS);
+        if (sub != NULL)
+            assert_int_equal(exr_add_channel(ctxt, part, sub, EXR_PIXEL_HALF,
+                                             EXR_PERCEPTUALLY_LINEAR, 2, 2),
+                             EXR_ERR_SUCCESS);
+    }
+    assert_int_equal(exr_write_header(ctxt), EXR_ERR_SUCCESS);
+    float plane[3][4];
+    uint16_t halves[2] = {0x3c00, 0x3c00}; /* 1.0 */
+    for (int c = 0; c < 3; c++)
+        for (int x = 0; x < 4; x++)
+            plane[c][x] = (float)(3 - c);
+    float minus[4] = {3.0f, -1.0f, 3.0f, 3.0f};
+    for (int p = 0; p < parts; p++)
+        for (int y = 0; y < 4; y++) {
+            exr_chunk_info_t ci;
+            exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
+            assert_int_equal(exr_write_scanline_chunk_info(
+                                 ctxt, p, y + (moved ? 20 : 0), &ci),
+                             EXR_ERR_SUCCESS);
+            assert_int_equal(exr_encoding_initialize(ctxt, p, &ci, &enc),
+                             EXR_ERR_SUCCESS);
+            for (int i = 0; i < enc.channel_count; i++) {
+                exr_coding_channel_info_t *ch = &enc.channels[i];
+                int half = ch->data_type == EXR_PIXEL_HALF;
+                ch->encode_from_ptr = half ? (const uint8_t *)halves
+                                      : moved && y == 2 && i == 2
+                                          ? (const uint8_t *)minus
+                                          : (const uint8_t *)plane[i];
+                ch->user_pixel_stride = half ? 2 : 4;
+                ch->user_line_stride = half ? 4 : 16;
+                ch->user_bytes_per_element = half ? 2 : 4;
+                ch->user_data_type = ch->data_type;
+            }
+            assert_int_equal(
+                exr_encoding_choose_default_routines(ctxt, p, &enc),
+                EXR_ERR_SUCCESS);
+            assert_int_equal(exr_encoding_run(ctxt, p, &enc), EXR_ERR_SUCCESS);
+            exr_encoding_destroy(ctxt, &enc);
+        }
+    assert_int_equal(exr_finish(&ctxt), EXR_ERR_SUCCESS);
+}
+
+/* Files OpenEXRCore 3.1 reads wrongly or crashes on are refused with a
+ * message that says why: a subsampled channel (a luminance/chroma file,
+ * or any extra channel: reading one crashed the CLI and the daemon, or
+ * shifted R, G and B by up to 4.0), and a multi-part file (read as its
+ * first part, silently).  The same file with full channels loads. */
+static void exr_refused_layouts(void **state)
+{
+    (void)state;
+    char path[512];
+    lr_error err;
+    core_exr("plain.exr", 1, NULL, 0, path, sizeof path);
+    lr__texture *t = lr__texture_load(path, 0, &err);
+    if (t == NULL)
+        fail_msg("%s", err.message);
+    assert_int_equal(t->w, 4);
+    for (int c = 0; c < 3; c++)
+        assert_true(t->rgba[4 * 5 + c] == (float)(c + 1));
+    lr__texture_free(t);
+    static const char *const subs[3] = {"A", "X", "RY"};
+    for (int i = 0; i < 3; i++) {
+        core_exr("sub.exr", 1, subs[i], 0, path, sizeof path);
+        assert_null(lr__texture_load(path, 0, &err));
+        assert_int_equal(err.status, LR_ERR_INVALID);
+        if (strstr(err.message, "is subsampled (2 x 2)") == NULL ||
+            strstr(err.message, subs[i]) == NULL)
+            fail_msg("%s: %s", subs[i], err.message);
+    }
+    core_exr("parts.exr", 2, NULL, 0, path, sizeof path);
+    assert_null(lr__texture_load(path, 0, &err));
+    assert_int_equal(err.status, LR_ERR_INVALID);
+    assert_non_null(strstr(err.message, "has 2 parts"));
+    /* A bad texel is named in the file's own coordinates, not the data
+     * window's (it said (1, 2) for the file's (11, 22)). */
+    core_exr("moved.exr", 1, NULL, 1, path, sizeof path);
+    assert_null(lr__texture_load(path, 0, &err));
+    if (strstr(err.message, "pixel (11, 22) channel R is -1") == NULL)
+        fail_msg("%s", err.message);
+}
+
 static const struct CMUnitTest tests[] = {
-    cmocka_unit_test(srgb_decode_values), cmocka_unit_test(png_8bit_layouts),
-    cmocka_unit_test(png_16bit),          cmocka_unit_test(jpeg_levels),
-    cmocka_unit_test(exr_exact),          cmocka_unit_test(bilinear_and_wrap),
-    cmocka_unit_test(truncated_files),    cmocka_unit_test(garbage_and_huge),
+    cmocka_unit_test(srgb_decode_values),  cmocka_unit_test(png_8bit_layouts),
+    cmocka_unit_test(png_16bit),           cmocka_unit_test(jpeg_levels),
+    cmocka_unit_test(exr_exact),           cmocka_unit_test(bilinear_and_wrap),
+    cmocka_unit_test(truncated_files),     cmocka_unit_test(garbage_and_huge),
+    cmocka_unit_test(exr_refused_layouts),
 };
 
 LR_TEST_GROUP(texture, tests)

@@ -66,6 +66,55 @@ static int channel_index(const char *name)
     return -1;
 }
 
+/* The layouts OpenEXRCore 3.1 cannot read, or reads wrongly, refused
+ * with a message that says why and how to save the file instead. */
+static lr_status layout_refused(exr_context_t ctxt,
+                                const exr_attr_chlist_t *chl, const char *shown,
+                                const char *blame, lr_error *err)
+{
+    /* OpenEXRCore 3.1 (Debian 12) reads every compression but the DWA
+     * ones, whose decoders exist only in the C++ library; say so rather
+     * than fail on the first chunk. */
+    exr_compression_t comp = EXR_COMPRESSION_NONE;
+    if (exr_get_compression(ctxt, 0, &comp) == EXR_ERR_SUCCESS &&
+        (comp == EXR_COMPRESSION_DWAA || comp == EXR_COMPRESSION_DWAB)) {
+        return lr__fail(err, LR_ERR_INVALID, blame,
+                        "%s is %s-compressed, which OpenEXRCore cannot "
+                        "decode; save it with ZIP, PIZ or no compression",
+                        shown, comp == EXR_COMPRESSION_DWAA ? "DWAA" : "DWAB");
+    }
+    /* OpenEXRCore 3.1 reads B44 and B44A files whose channels are not
+     * all half wrong, without an error: rows shifted, channels mixed
+     * (a float ramp read back up to 4.95 off; OpenEXR's C++ library and
+     * Mitsuba read the same files right).  Refused like DWA. */
+    int b44 = comp == EXR_COMPRESSION_B44 || comp == EXR_COMPRESSION_B44A;
+    for (int i = 0; b44 && i < chl->num_channels; i++)
+        if (chl->entries[i].pixel_type != EXR_PIXEL_HALF) {
+            return lr__fail(err, LR_ERR_INVALID, blame,
+                            "%s is %s-compressed with 32-bit channels, "
+                            "which OpenEXRCore 3.1 decodes wrongly; save it "
+                            "with ZIP, PIZ or no compression, or as half",
+                            shown,
+                            comp == EXR_COMPRESSION_B44 ? "B44" : "B44A");
+        }
+    /* Subsampled channels (luminance/chroma files: RY and BY at 2 x 2)
+     * crashed OpenEXRCore 3.1's default unpacker, or shifted the full
+     * channels' values, even when lensray reads none of them; refused,
+     * whatever their name. */
+    for (int i = 0; i < chl->num_channels; i++) {
+        const exr_attr_chlist_entry_t *e = &chl->entries[i];
+        if (e->x_sampling != 1 || e->y_sampling != 1) {
+            return lr__fail(err, LR_ERR_INVALID, blame,
+                            "%s: channel %s is subsampled (%d x %d), which "
+                            "lensray does not read; save the image with "
+                            "every channel at full resolution (RGB, not "
+                            "luminance/chroma)",
+                            shown, e->name.str, e->x_sampling, e->y_sampling);
+        }
+    }
+    return LR_OK;
+}
+
 lr_status lr__exr_read(const void *data, size_t n, const char *shown,
                        const char *blame, const char *what, int max_dim,
                        size_t max_texels, lr__exr_planes *out, lr_error *err)
@@ -85,6 +134,16 @@ lr_status lr__exr_read(const void *data, size_t n, const char *shown,
                         "%s cannot be read as OpenEXR", shown);
     }
     lr_status st = LR_OK;
+    /* A multi-part file was read as its first part, silently (a grey
+     * texture where the colour was in the second). */
+    int parts = 0;
+    if (exr_get_count(ctxt, &parts) != EXR_ERR_SUCCESS || parts != 1) {
+        st = lr__fail(err, LR_ERR_INVALID, blame,
+                      "%s has %d parts; lensray reads single-part OpenEXR "
+                      "images (save the part you want on its own)",
+                      shown, parts);
+        goto done;
+    }
     exr_storage_t storage;
     exr_attr_box2i_t dw;
     const exr_attr_chlist_t *chl = NULL;
@@ -99,32 +158,9 @@ lr_status lr__exr_read(const void *data, size_t n, const char *shown,
                       "%s is not a scanline OpenEXR image", shown);
         goto done;
     }
-    /* OpenEXRCore 3.1 (Debian 12) reads every compression but the DWA
-     * ones, whose decoders exist only in the C++ library; say so rather
-     * than fail on the first chunk. */
-    exr_compression_t comp;
-    if (exr_get_compression(ctxt, 0, &comp) == EXR_ERR_SUCCESS &&
-        (comp == EXR_COMPRESSION_DWAA || comp == EXR_COMPRESSION_DWAB)) {
-        st = lr__fail(err, LR_ERR_INVALID, blame,
-                      "%s is %s-compressed, which OpenEXRCore cannot "
-                      "decode; save it with ZIP, PIZ or no compression",
-                      shown, comp == EXR_COMPRESSION_DWAA ? "DWAA" : "DWAB");
+    st = layout_refused(ctxt, chl, shown, blame, err);
+    if (st != LR_OK)
         goto done;
-    }
-    /* OpenEXRCore 3.1 reads B44 and B44A files whose channels are not
-     * all half wrong, without an error: rows shifted, channels mixed
-     * (a float ramp read back up to 4.95 off; OpenEXR's C++ library and
-     * Mitsuba read the same files right).  Refused like DWA. */
-    int b44 = comp == EXR_COMPRESSION_B44 || comp == EXR_COMPRESSION_B44A;
-    for (int i = 0; b44 && i < chl->num_channels; i++)
-        if (chl->entries[i].pixel_type != EXR_PIXEL_HALF) {
-            st = lr__fail(err, LR_ERR_INVALID, blame,
-                          "%s is %s-compressed with 32-bit channels, "
-                          "which OpenEXRCore 3.1 decodes wrongly; save it "
-                          "with ZIP, PIZ or no compression, or as half",
-                          shown, comp == EXR_COMPRESSION_B44 ? "B44" : "B44A");
-            goto done;
-        }
     long long w = (long long)dw.max.x - dw.min.x + 1;
     long long h = (long long)dw.max.y - dw.min.y + 1;
     if (w < 1 || h < 1 || w > max_dim || h > max_dim) {
@@ -142,6 +178,7 @@ lr_status lr__exr_read(const void *data, size_t n, const char *shown,
         goto done;
     }
     out->w = (int)w, out->h = (int)h;
+    out->x0 = dw.min.x, out->y0 = dw.min.y;
     size_t npx = (size_t)w * (size_t)h;
     for (int i = 0; i < chl->num_channels; i++) {
         int c = channel_index(chl->entries[i].name.str);

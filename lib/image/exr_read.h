@@ -13,6 +13,9 @@ enum { LR__EXR_R, LR__EXR_G, LR__EXR_B, LR__EXR_A, LR__EXR_Y, LR__EXR_NCH };
 
 typedef struct lr__exr_planes {
     int w, h;
+    /* The data window's first pixel, in the file's own coordinates (for
+     * messages that name a pixel). */
+    int x0, y0;
     /* plane[c]: w * h floats, row 0 at the top, or NULL when the image
      * has no channel named "R", "G", "B", "A" or "Y" (in that order);
      * owned, freed by lr__exr_planes_free. */
@@ -23,7 +26,8 @@ typedef struct lr__exr_planes {
  * "environment.file: sky.exr") and say what is wrong: not OpenEXR, not
  * scanline, larger than max_dim on a side ("`what` must be 1 to max_dim
  * on each side") or than max_texels in all (both checked from the header,
- * before anything is decoded), a bad or undecodable chunk; err->path is
+ * before anything is decoded), more than one part, a subsampled channel,
+ * a bad or undecodable chunk; err->path is
  * `blame` (may be NULL).  Other channels are ignored.  On error *out
  * holds nothing. */
 lr_status lr__exr_read(const void *data, size_t n, const char *shown,

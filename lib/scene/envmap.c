@@ -104,11 +104,12 @@ static lr_status read_exr(lr__envmap *e, const char *path, const char *file,
         for (int c = 0; c < 3; c++) {
             float v = px.plane[c][i];
             if (!isfinite(v) || v < 0.0f) {
-                st = lr__fail(err, LR_ERR_INVALID, blame,
-                              "%s: %s: pixel (%zu, %zu) channel %s is %g; "
-                              "radiance must be finite and >= 0",
-                              blame, file, i % (size_t)px.w, i / (size_t)px.w,
-                              names[c], (double)v);
+                st = lr__fail(
+                    err, LR_ERR_INVALID, blame,
+                    "%s: %s: pixel (%lld, %lld) channel %s is %g; "
+                    "radiance must be finite and >= 0",
+                    blame, file, px.x0 + (long long)(i % (size_t)px.w),
+                    px.y0 + (long long)(i / (size_t)px.w), names[c], (double)v);
                 goto done;
             }
             e->rgb[3 * i + c] = v;

@@ -103,10 +103,11 @@ static lr_status texture_exr(const void *data, size_t n, const char *name,
             float v = pl != NULL ? pl[i] : 1.0f;
             if (!isfinite(v) || v < 0.0f) {
                 st = lr__fail(err, LR_ERR_INVALID, NULL,
-                              "%s: pixel (%zu, %zu) channel %c is %g; a "
+                              "%s: pixel (%lld, %lld) channel %c is %g; a "
                               "texture's values must be finite and >= 0",
-                              name, i % (size_t)px.w, i / (size_t)px.w,
-                              "RGBA"[c], (double)v);
+                              name, px.x0 + (long long)(i % (size_t)px.w),
+                              px.y0 + (long long)(i / (size_t)px.w), "RGBA"[c],
+                              (double)v);
                 break;
             }
             t->rgba[4 * i + (size_t)c] = v;
