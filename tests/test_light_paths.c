@@ -130,35 +130,43 @@ static void test_light_env_sun(void **state)
     lr_image_free(ci);
 }
 
-/* A closed box of albedo 0.5 whose walls emit 1, seen from inside: with
- * max_depth n, Le (1 - a^(n+2)) / (1 - a). */
-static void test_light_emitting_box(void **state)
+/* A closed box of six planes, each emitting 1 with diffuse albedo a,
+ * seen from inside by the light integrator at spp and max_depth d: its
+ * radiance is the geometric sum of the bounces, sum_{k <= d + 1} a^k. */
+static void emitting_box(char *json, size_t cap, double a, int d, int spp)
 {
-    (void)state;
     static const char *const walls[6] = {"[0, -1, 0], \"normal\": [0, 1, 0]",
                                          "[0, 1, 0], \"normal\": [0, -1, 0]",
                                          "[-1, 0, 0], \"normal\": [1, 0, 0]",
                                          "[1, 0, 0], \"normal\": [-1, 0, 0]",
                                          "[0, 0, -1], \"normal\": [0, 0, 1]",
                                          "[0, 0, 1], \"normal\": [0, 0, -1]"};
+    int k = snprintf(json, cap,
+                     "{\"render\": {\"width\": 8, \"height\": 8, \"spp\": %d,"
+                     "  \"integrator\": \"light\", \"max_depth\": %d},"
+                     " \"camera\": {\"position\": [0.1, 0.2, 0.3],"
+                     "  \"look_at\": [1, 0.5, -1], \"fov\": 90},"
+                     " \"materials\": {\"w\": {\"diffuse\": %g, "
+                     "\"emission\": 1}},"
+                     " \"objects\": [",
+                     spp, d, a);
+    for (int i = 0; i < 6; i++)
+        k += snprintf(json + k, cap - (size_t)k,
+                      "%s{\"type\": \"plane\", \"point\": %s, \"size\": 2,"
+                      " \"material\": \"w\"}",
+                      i ? ", " : "", walls[i]);
+    snprintf(json + k, cap - (size_t)k, "]}");
+}
+
+/* A closed box of albedo 0.5 whose walls emit 1, seen from inside: with
+ * max_depth n, Le (1 - a^(n+2)) / (1 - a). */
+static void test_light_emitting_box(void **state)
+{
+    (void)state;
     const int depths[] = {0, 1, 3};
     for (int d = 0; d < 3; d++) {
         char json[2048];
-        int k = snprintf(
-            json, sizeof json,
-            "{\"render\": {\"width\": 8, \"height\": 8, \"spp\": 4096,"
-            "  \"integrator\": \"light\", \"max_depth\": %d},"
-            " \"camera\": {\"position\": [0.1, 0.2, 0.3],"
-            "  \"look_at\": [1, 0.5, -1], \"fov\": 90},"
-            " \"materials\": {\"w\": {\"diffuse\": 0.5, \"emission\": 1}},"
-            " \"objects\": [",
-            depths[d]);
-        for (int i = 0; i < 6; i++)
-            k += snprintf(json + k, sizeof json - (size_t)k,
-                          "%s{\"type\": \"plane\", \"point\": %s, \"size\": 2,"
-                          " \"material\": \"w\"}",
-                          i ? ", " : "", walls[i]);
-        snprintf(json + k, sizeof json - (size_t)k, "]}");
+        emitting_box(json, sizeof json, 0.5, depths[d], 4096);
         lr_image *img = lr_test_render(json, NULL, 0, NULL);
         double want = (1.0 - pow(0.5, depths[d] + 2)) / 0.5;
         double m = box_mean(img, 0, 0, 8, 8);
@@ -167,6 +175,47 @@ static void test_light_emitting_box(void **state)
         assert_true(fabs(m / want - 1.0) < 0.01);
         lr_image_free(img);
     }
+}
+
+/* Light far brighter than the film's scale expects: the scale comes
+ * from the lights' radiance over the scene's bounds (I / R^2 for a point
+ * light), and its sums had 2^23 of headroom.  A lamp 0.5 m over a 20 km
+ * ground (its pool of light 4e8 times the estimate: splats clipped at
+ * 2^52 units, then sums wrapped past 2^63, pixels negative down to -44
+ * where the path tracer has 60), and an emitting box of albedo 1.5 at
+ * max depth 40 (the geometric sum (1.5^42 - 1) / 0.5 = 5.0e7 times the
+ * emission; an independent check had 1.7e6 against 7.8e11 at depth 64).
+ * Both now agree, and no pixel is negative. */
+static void test_light_bright_beyond_scale(void **state)
+{
+    (void)state;
+    const char *lamp =
+        "{\"render\": {\"width\": 32, \"height\": 32, \"max_depth\": 2},"
+        " \"camera\": {\"position\": [0, 1.5, 3], \"look_at\": [0, 0, 0],"
+        "  \"fov\": 40},"
+        " \"background\": 0,"
+        " \"materials\": {\"d\": {\"diffuse\": 0.5}},"
+        " \"lights\": [{\"type\": \"point\", \"position\": [0, 0.5, 0],"
+        "  \"intensity\": 100}],"
+        " \"objects\": [{\"type\": \"plane\", \"point\": [0, 0, 0],"
+        "  \"normal\": [0, 1, 0], \"size\": 20000, \"material\": \"d\"}]}";
+    agrees_with_path(lamp, "render.spp=256", "render.spp=256", NULL, 0.02, 0.03,
+                     "lamp over a wide ground");
+    const char *sets[] = {"render.integrator=light", "render.spp=1024"};
+    lr_render_stats st;
+    lr_image *img = lr_test_render(lamp, sets, 2, &st);
+    for (size_t i = 0; i < 3 * (size_t)32 * 32; i++)
+        assert_true(img->rgb[i] >= 0.0f);
+    lr_image_free(img);
+    char json[2048];
+    emitting_box(json, sizeof json, 1.5, 40, 1024);
+    img = lr_test_render(json, NULL, 0, &st);
+    lr_test_check_finite(img, &st, "albedo 1.5 box");
+    double want = (pow(1.5, 42) - 1.0) / 0.5, m = box_mean(img, 0, 0, 8, 8);
+    print_message("box of albedo 1.5, max_depth 40: %.6g, want %.6g (%.4f)\n",
+                  m, want, m / want);
+    assert_true(fabs(m / want - 1.0) < 0.05);
+    lr_image_free(img);
 }
 
 /* A box lit by a spot, a point light and a small sphere lamp, holding
@@ -440,6 +489,7 @@ static const struct CMUnitTest light_path_tests[] = {
     cmocka_unit_test(test_light_furnace),
     cmocka_unit_test(test_light_env_sun),
     cmocka_unit_test(test_light_emitting_box),
+    cmocka_unit_test(test_light_bright_beyond_scale),
     cmocka_unit_test(test_light_agrees_in_a_box),
     cmocka_unit_test(test_light_agrees_under_sky),
     cmocka_unit_test(test_light_agrees_in_cornell_box),

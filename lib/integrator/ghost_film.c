@@ -32,7 +32,7 @@ int64_t lr__gt_splat(lr__lt_film *f, int ix, int iy, lr__v3 v, double u)
         if (!(y >= 1.0))
             continue;
         int64_t q = (int64_t)y;
-        __atomic_fetch_add(&f->sum[k + (size_t)j], q, __ATOMIC_RELAXED);
+        lr__lt_film_add(f->sum, f->sum_hi, k + (size_t)j, (double)q);
         sum += q;
     }
     return sum;

@@ -62,42 +62,6 @@
 /* Sampler "pixels" of the light paths: past any frame's pixel index. */
 #define LT_PIXEL_BASE ((uint64_t)1 << 48)
 
-
-lr_status lr__lt_film_init(lr__lt_film *f, const lr__lt *lt, int x0, int y0,
-                           int x1, int y1, lr_error *err)
-{
-    f->x0 = x0, f->y0 = y0, f->x1 = x1, f->y1 = y1;
-    f->ghost_sum = 0;
-    f->ghost_traced = 0;
-    f->nomem = 0;
-    size_t n = 3 * (size_t)(x1 - x0) * (size_t)(y1 - y0);
-    f->sum = calloc(n, sizeof *f->sum);
-    f->fine = calloc(n, sizeof *f->fine);
-    if (f->sum == NULL || f->fine == NULL) {
-        lr__lt_film_free(f);
-        return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
-    }
-    /* A pixel's value is a mean of radiance, at most the brightest
-     * light's in expectation; a scale of 2^40 over it leaves 2^23 of
-     * headroom in an int64 and resolves 1e-12 of that light. */
-    double Lmax = lt->lmax_frame;
-    for (int k = 0; k < lt->n; k++)
-        Lmax = fmax(Lmax, v3_maxc(lt->lights[k].L));
-    f->scale = ldexp(1.0, 40) / (Lmax > 0.0 ? Lmax : 1.0);
-    f->dark = lt->dark;
-    f->dark_bw = lt->dark_bw;
-    f->dark_block = lt->dark_block;
-    return LR_OK;
-}
-
-void lr__lt_film_free(lr__lt_film *f)
-{
-    free(f->sum);
-    free(f->fine);
-    f->sum = NULL;
-    f->fine = NULL;
-}
-
 uint64_t lr__lt_units(const lr__lt *lt)
 {
     return (lt->paths + LR__LT_CHUNK - 1) / LR__LT_CHUNK + lt->grid_tasks;
@@ -115,33 +79,6 @@ static int light_of(const lr__lt *lt, uint64_t i)
             hi = mid - 1;
     }
     return lo;
-}
-
-void lr__lt_splat(lr__lt_film *f, int ix, int iy, lr__v3 v)
-{
-    if (ix < f->x0 || ix >= f->x1 || iy < f->y0 || iy >= f->y1)
-        return;
-    size_t k = 3 * ((size_t)(iy - f->y0) * (size_t)(f->x1 - f->x0) +
-                    (size_t)(ix - f->x0));
-    const double cap = ldexp(1.0, 52);
-    double c[3] = {v.x, v.y, v.z};
-    for (int j = 0; j < 3; j++) {
-        double q = c[j] * f->scale;
-        if (!(q != 0.0) || isnan(q))
-            continue;
-        /* A splat of under 2^12 units (4e-9 of the brightest light) goes
-         * to the fine sum, 2^24 times finer: in sum's units it rounded
-         * to a whole unit, and a dim light's splats beside a light 1e6
-         * times brighter rounded to 0 at 16384 spp (its disc was lost).
-         * Fine splats are under 2^36 units: 2^27 of them a pixel fit. */
-        if (fabs(q) < LR__LT_FINE) {
-            int64_t qf = (int64_t)llrint(q * 0x1p24);
-            __atomic_fetch_add(&f->fine[k + (size_t)j], qf, __ATOMIC_RELAXED);
-            continue;
-        }
-        int64_t qi = (int64_t)llrint(q < -cap ? -cap : q < cap ? q : cap);
-        __atomic_fetch_add(&f->sum[k + (size_t)j], qi, __ATOMIC_RELAXED);
-    }
 }
 
 /* Adds v times each channel's importance at each place ld lands it,
@@ -679,18 +616,5 @@ void lr__lt_unit(const lr__lt *lt, const lr_scene *s, const lr__cam *c,
             else
                 sphere_path(s, c, l, P, ox, oy, ud, &col, f, rays, landed);
         }
-    }
-}
-
-void lr__lt_film_resolve(const lr__lt_film *f, float *rgb)
-{
-    size_t n = 3 * (size_t)(f->x1 - f->x0) * (size_t)(f->y1 - f->y0);
-    for (size_t k = 0; k < n; k++) {
-        if (f->fine[k] != 0)
-            rgb[k] = (float)((double)rgb[k] + ((double)f->sum[k] +
-                                               (double)f->fine[k] * 0x1p-24) /
-                                                  f->scale);
-        else if (f->sum[k] != 0)
-            rgb[k] = (float)((double)rgb[k] + (double)f->sum[k] / f->scale);
     }
 }

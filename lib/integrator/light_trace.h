@@ -69,6 +69,7 @@
 #include "sampling/sampler.h"
 #include "scene/scene.h"
 
+#include <math.h>
 #include <stdint.h>
 
 /* One light traced from its side: a sphere of the scene, or a mesh of
@@ -217,15 +218,58 @@ void lr__lt_keep(lr__lt *lt, const unsigned char *keep);
 /* Splats under this many of the film's units go to its fine sum. */
 #define LR__LT_FINE 4096.0
 
+/* Adds q units, rounded to the nearest integer (a magnitude of at most
+ * 2^94; NaN adds nothing), to the 96-bit sum hi[k] 2^64 +
+ * (uint64_t)lo[k], atomically: the low word's carry (or borrow) goes to
+ * the high word.  Integer adds commute, so the sum is the same in any
+ * order, whatever the threads (a float sum would not be). */
+static inline void lr__lt_film_add(int64_t *lo, int32_t *hi, size_t k, double q)
+{
+    const double lim = 0x1p94;
+    if (!(q == q))
+        return;
+    q = q < -lim ? -lim : q < lim ? q : lim;
+    int64_t h = 0;
+    uint64_t l;
+    if (q > -0x1p62 && q < 0x1p62) {
+        int64_t qi = (int64_t)llrint(q);
+        l = (uint64_t)qi;
+        h = qi < 0 ? -1 : 0;
+    } else {
+        /* floor(q / 2^64) and the rest, both exact in double. */
+        double fh = floor(q * 0x1p-64);
+        h = (int64_t)fh;
+        l = (uint64_t)(q - fh * 0x1p64);
+    }
+    uint64_t old = __atomic_fetch_add((uint64_t *)&lo[k], l, __ATOMIC_RELAXED);
+    h += old + l < old; /* the carry */
+    if (h != 0)
+        __atomic_fetch_add(&hi[k], (int32_t)h, __ATOMIC_RELAXED);
+}
+
+/* The sum hi 2^64 + (uint64_t)lo as a double, correctly rounded. */
+static inline double lr__lt_film_value(int64_t lo, int32_t hi)
+{
+    return (double)(((__int128)hi << 64) | (__int128)(uint64_t)lo);
+}
+
 /* The light pass's film: fixed-point sums over region [x0, x1) x [y0, y1)
  * of the frame. */
 typedef struct lr__lt_film {
     int x0, y0, x1, y1;
-    int64_t *sum; /* 3 per pixel, in units of 1 / scale */
+    /* 3 per pixel, in units of 1 / scale: each the 96-bit integer
+     * sum_hi 2^64 + (uint64_t)sum (lr__lt_film_add), so that no pixel's
+     * sum wraps or is clipped however bright it is against the scale's
+     * light (a lamp 0.5 m over a 20 km ground: the light's radiance
+     * estimate I / R^2 over the scene was 4e8 times too low, splats
+     * were clipped at 2^52 units and the sums wrapped negative). */
+    int64_t *sum;
+    int32_t *sum_hi;
     /* The splats under LR__LT_FINE units, 3 per pixel, in units of
-     * 2^-24 / scale: a dim light's splats beside a light 1e8 times
-     * brighter round to 0 in sum's units. */
+     * 2^-24 / scale, as wide: a dim light's splats beside a light 1e8
+     * times brighter round to 0 in sum's units. */
     int64_t *fine;
+    int32_t *fine_hi;
     double scale;
     const unsigned char *dark; /* the light side's (lr__lt.dark) */
     int dark_bw, dark_block;
@@ -265,6 +309,12 @@ int lr__lt_mesh_cdf(const lr_scene *s, const lr__geom *g, lr__lt_light *l);
  * emission texture, the largest the texture gives (each path then looks
  * its own up where it meets the light: lr__lt_emission_at). */
 void lr__lt_light_emission(const lr__material *m, lr__lt_light *l);
+
+/* Light l's footprint on a real lens's front, where half its paths
+ * start (fp_x, fp_y, fp_r above; light_footprint.c): fp_r is left 0 for
+ * other cameras, and where no small disk holds the rays that land.
+ * Returns 0 when out of memory. */
+int lr__lt_footprint(const lr__cam *c, lr__lt_light *l);
 /* Light l's emission where a path meets it (h): l->L, or for a textured
  * light the texture looked up there, as the camera's hit does
  * (lr__hit_material). */

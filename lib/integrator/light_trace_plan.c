@@ -209,67 +209,6 @@ lr__lt *lr__lt_new(const lr_scene *s)
     return lt_new_n(s, s->n_geoms);
 }
 
-/* Light l's footprint on a real lens's front (light_trace.h: fp_x,
- * fp_y, fp_r): of a 64 x 64 grid over the disk lens_point draws on, the
- * offsets whose rays from the light's centre land on the film, in a disk
- * about their mean, widened by two cells and by the light's angular
- * radius over the front's.  The front is wide and a stopped-down lens's
- * pupil small: a light path drawn over the whole front reached the film
- * 1 time in 65 at f/16 (the double Gauss), 1 in 250 wide open for the
- * Nikkor Z 14-30 at 14 mm, so a small light's image was empty at 1024
- * spp; the footprint's half of the paths land.  Left at 0 where fewer
- * than 4 offsets land (the whole front then, as before) or the disk
- * would cover half the front anyway.  A proposal only: the whole front's
- * half keeps every lens point drawable, so a footprint that misses rays
- * costs noise, never light.  0 when out of memory. */
-static int footprint(const lr__cam *c, lr__lt_light *l)
-{
-    const lr__camera_model *m = c->model;
-    enum { N = 64 };
-    l->fp_r = 0.0;
-    if (m->ghost_disk == NULL || m->lens_at == NULL || m->film == NULL)
-        return 1;
-    double rho = m->ghost_disk(c), cell = 2.0 * rho / N;
-    if (!(rho > 0.0))
-        return 1;
-    double(*at)[2] = malloc((size_t)N * N * sizeof *at);
-    if (at == NULL)
-        return 0;
-    int n = 0;
-    double mx = 0.0, my = 0.0;
-    for (int iy = 0; iy < N; iy++)
-        for (int ix = 0; ix < N; ix++) {
-            double ox = (ix + 0.5) * cell - rho, oy = (iy + 0.5) * cell - rho;
-            if (ox * ox + oy * oy > rho * rho)
-                continue;
-            lr__v3 P = m->lens_at(c, ox, oy), dv = v3_sub(l->center, P);
-            double len = sqrt(v3_dot(dv, dv)), fx, fy;
-            if (!(len > l->radius))
-                continue;
-            if (!(m->film(c, ox, oy, v3_scale(dv, 1.0 / len), &fx, &fy) >
-                  0.0) ||
-                !lr__cam_on_film(c, fx, fy))
-                continue;
-            at[n][0] = ox, at[n][1] = oy, n++;
-            mx += ox, my += oy;
-        }
-    if (n >= 4) {
-        mx /= n, my /= n;
-        double r2 = 0.0;
-        for (int k = 0; k < n; k++) {
-            double dx = at[k][0] - mx, dy = at[k][1] - my;
-            r2 = fmax(r2, dx * dx + dy * dy);
-        }
-        lr__v3 dv = v3_sub(l->center, c->origin);
-        double ang = l->radius / sqrt(fmax(v3_dot(dv, dv), 1e-300));
-        double r = sqrt(r2) + 2.0 * cell + 2.0 * rho * fmin(ang, 1.0);
-        if (r * r < 0.5 * rho * rho)
-            l->fp_x = mx, l->fp_y = my, l->fp_r = r;
-    }
-    free(at);
-    return 1;
-}
-
 /* The MIS coefficient kappa (integrator.h's lr__lt_rho) of a light with
  * n paths whose directions' density seen from the eye is q: n q over
  * spp fpx^2, the camera's density on the axis.  0 (no mix) where rho
@@ -651,7 +590,7 @@ lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
         }
         lt->n++;
         lr__lt_light_emission(&s->materials[geo->material], l);
-        if (!footprint(c, l)) {
+        if (!lr__lt_footprint(c, l)) {
             lr__lt_free(lt);
             return lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
         }
