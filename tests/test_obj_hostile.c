@@ -8,6 +8,7 @@
  */
 #include "test.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -91,6 +92,31 @@ static void test_obj_hostile(void **state)
     assert_int_equal(lr__obj_load(path, NULL, &m, &err), LR_OK);
     assert_int_equal(m.n_triangles, 199998);
     lr__mesh_free(&m);
+    /* Concave faces: a star of 8192 corners is ear-clipped into 8190
+     * triangles; one of 8193 is refused, naming the limit (a star of
+     * 100000 corners, 5 MB, had taken 30 s to load). */
+    for (int k = 0; k < 2; k++) {
+        int corners = 8192 + k;
+        n = 0;
+        for (int i = 0; i < corners; i++) {
+            double a = 2.0 * M_PI * i / corners, r = i % 2 ? 0.5 : 1.0;
+            n += (size_t)snprintf(big + n, cap - n, "v %.9f %.9f 0\n",
+                                  r * cos(a), r * sin(a));
+        }
+        n += (size_t)snprintf(big + n, cap - n, "f");
+        for (int i = 0; i < corners; i++)
+            n += (size_t)snprintf(big + n, cap - n, " %d", i + 1);
+        big[n++] = '\n';
+        if (k == 0) {
+            lr_test_write_file("star.obj", big, n, path, sizeof path);
+            assert_int_equal(lr__obj_load(path, NULL, &m, &err), LR_OK);
+            assert_int_equal(m.n_triangles, 8190);
+            lr__mesh_free(&m);
+        } else {
+            obj_fails_at("star-big.obj", big, n, corners + 1,
+                         "a concave face of 8193 corners; at most 8192");
+        }
+    }
     /* A million-digit index. */
     n = (size_t)snprintf(big, cap, "%sf 1 2 ", tri);
     memset(big + n, '7', 1000000);

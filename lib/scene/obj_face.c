@@ -201,7 +201,10 @@ static int inside(const double *a, const double *b, const double *c,
  * every convex polygon's triangles unchanged), else by ear clipping
  * (Eberly, "Triangulation by Ear Clipping", 2002): a fan of a concave
  * polygon covered area outside it (an L-shaped face filled its notch).
- * Each triangle keeps the polygon's winding.  0: out of memory. */
+ * Each triangle keeps the polygon's winding.  0: out of memory; -1: a
+ * concave polygon of more than LR__OBJ_MAX_EAR corners, which ear
+ * clipping would take too long over (its time goes as the square of the
+ * corners: a 100000-corner star, 5 MB, took 30 s to load). */
 static int triangulate(const parser *ps, const corner *c, size_t n, size_t *tri)
 {
     /* On the stack for the usual few corners (an allocation a face cost
@@ -221,6 +224,10 @@ static int triangulate(const parser *ps, const corner *c, size_t n, size_t *tri)
         for (size_t i = 0; i < n && convex; i++)
             convex = turn(&xy[2 * i], &xy[2 * ((i + 1) % n)],
                           &xy[2 * ((i + 2) % n)]) >= 0;
+    }
+    if (!convex && n > LR__OBJ_MAX_EAR) {
+        free(heap ? xy : NULL), free(heap ? live : NULL);
+        return -1;
     }
     if (convex) {
         for (size_t k = 1; k + 1 < n; k++)
@@ -323,9 +330,17 @@ lr_status lr__obj_parse_face(parser *ps, const char *rest)
     const corner *cs = ps->corners;
     size_t order_small[3 * 14];
     size_t *order = add > 14 ? malloc(3 * add * sizeof *order) : order_small;
-    if (order == NULL || !triangulate(ps, cs, n, order)) {
+    int tr = order != NULL ? triangulate(ps, cs, n, order) : 0;
+    if (tr <= 0) {
         if (order != order_small)
             free(order);
+        if (tr < 0)
+            return lr__obj_fail_at(
+                ps, LR_ERR_LIMIT,
+                "a concave face of %zu corners; at most %d are "
+                "triangulated (the time goes as the square of the corners): "
+                "split it into smaller faces",
+                n, LR__OBJ_MAX_EAR);
         return lr__obj_nomem(ps);
     }
     for (size_t k = 0; k < add; k++) {
