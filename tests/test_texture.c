@@ -496,6 +496,7 @@ static void garbage_and_huge(void **state)
                       sizeof path);
     assert_null(lr__texture_load(path, 0, &err));
     assert_non_null(strstr(err.message, "wide.exr is 16385 x 1 pixels"));
+    assert_int_equal(err.status, LR_ERR_LIMIT); /* as PNG's (it was INVALID) */
     /* DWAA and DWAB, which Debian 12's OpenEXRCore cannot decode, are
      * named as such (the header's compression byte patched: the check
      * comes before any chunk is read). */
@@ -637,6 +638,33 @@ static void exr_refused_layouts(void **state)
     assert_null(lr__texture_load(path, 0, &err));
     assert_int_equal(err.status, LR_ERR_INVALID);
     assert_non_null(strstr(err.message, "has 2 parts"));
+    /* lensray's own --half --depth output: half R, G, B and a float Z,
+     * which it does not read.  OpenEXRCore 3.1 crashed on the mixed
+     * types while Z was left out of the decode (the CLI and lensrayd
+     * exited on SIGSEGV); it now loads, R, G, B as written. */
+    lr_image *img = NULL;
+    assert_int_equal(lr_image_create(4, 3, 1, &img, &err), LR_OK);
+    float *rgb = lr_image_rgb_mut(img), *z = lr_image_depth_mut(img);
+    for (int i = 0; i < 12; i++) {
+        for (int c = 0; c < 3; c++)
+            rgb[3 * i + c] = 0.25f * (float)(c + 1) + (float)i;
+        z[i] = 1.0f + (float)i;
+    }
+    lr_output_options o;
+    lr_output_options_default(&o);
+    o.exr_half = 1, o.exr_depth = 1;
+    int n = snprintf(path, sizeof path, "%s/halfz.exr", lr_test_tmpdir());
+    assert_true(n > 0 && (size_t)n < sizeof path);
+    assert_int_equal(lr_image_write(img, path, &o, &err), LR_OK);
+    lr_image_free(img);
+    t = lr__texture_load(path, 0, &err);
+    if (t == NULL)
+        fail_msg("%s", err.message);
+    for (int i = 0; i < 12; i++)
+        for (int c = 0; c < 3; c++)
+            assert_true(t->rgba[4 * i + c] ==
+                        0.25f * (float)(c + 1) + (float)i);
+    lr__texture_free(t);
     /* A bad texel is named in the file's own coordinates, not the data
      * window's (it said (1, 2) for the file's (11, 22)). */
     core_exr("moved.exr", 1, NULL, 1, path, sizeof path);

@@ -134,6 +134,7 @@ lr_status lr__exr_read(const void *data, size_t n, const char *shown,
                         "%s cannot be read as OpenEXR", shown);
     }
     lr_status st = LR_OK;
+    float *scratch = NULL;
     /* A multi-part file was read as its first part, silently (a grey
      * texture where the colour was in the second). */
     int parts = 0;
@@ -164,7 +165,9 @@ lr_status lr__exr_read(const void *data, size_t n, const char *shown,
     long long w = (long long)dw.max.x - dw.min.x + 1;
     long long h = (long long)dw.max.y - dw.min.y + 1;
     if (w < 1 || h < 1 || w > max_dim || h > max_dim) {
-        st = lr__fail(err, LR_ERR_INVALID, blame,
+        /* (Too large is a limit, as for PNG and JPEG.) */
+        st = lr__fail(err, w < 1 || h < 1 ? LR_ERR_INVALID : LR_ERR_LIMIT,
+                      blame,
                       "%s is %lld x %lld pixels; %s must be 1 to %d on "
                       "each side",
                       shown, w, h, what, max_dim);
@@ -190,6 +193,12 @@ lr_status lr__exr_read(const void *data, size_t n, const char *shown,
             goto done;
         }
     }
+    /* A chunk's lines of one channel, for the channels not read. */
+    scratch = calloc((size_t)w * (size_t)spc, sizeof(float));
+    if (scratch == NULL) {
+        st = lr__fail(err, LR_ERR_NOMEM, NULL, "out of memory");
+        goto done;
+    }
     for (long long y = dw.min.y; y <= dw.max.y; y += spc) {
         exr_chunk_info_t ci;
         exr_decode_pipeline_t dec = EXR_DECODE_PIPELINE_INITIALIZER;
@@ -204,11 +213,16 @@ lr_status lr__exr_read(const void *data, size_t n, const char *shown,
         for (int i = 0; i < dec.channel_count; i++) {
             exr_coding_channel_info_t *ch = &dec.channels[i];
             int c = channel_index(ch->channel_name);
-            if (c < 0 || ch->height < 1 || out->plane[c] == NULL) {
+            if (ch->height < 1) {
                 ch->decode_to_ptr = NULL;
                 continue;
             }
-            ch->decode_to_ptr = (uint8_t *)(out->plane[c] + first);
+            /* A channel not read is decoded into scratch all the same:
+             * left out (NULL), OpenEXRCore 3.1's unpacker crashed on
+             * files mixing half and float channels (lensray's own
+             * --half --depth output, its Z float) when it was one. */
+            ch->decode_to_ptr = c < 0 ? (uint8_t *)scratch
+                                      : (uint8_t *)(out->plane[c] + first);
             ch->user_bytes_per_element = 4;
             ch->user_data_type = EXR_PIXEL_FLOAT;
             ch->user_pixel_stride = 4;
@@ -225,6 +239,7 @@ lr_status lr__exr_read(const void *data, size_t n, const char *shown,
         }
     }
 done:
+    free(scratch);
     if (st != LR_OK)
         lr__exr_planes_free(out);
     exr_finish(&ctxt);
