@@ -94,9 +94,11 @@ typedef enum lr_camera_model {
 
 /* A real lens prescription, loaded by lr_lens_load (or by a scene whose
  * camera names one).  Loaded lenses are immutable, shared and never
- * freed: they live as long as the process (one per distinct
- * prescription, at most LR_MAX_LENSES), so an lr_camera that points to
- * one can be copied freely. */
+ * freed: they live as long as the process (one per distinct name and
+ * prescription: "double-gauss-50", "double-gauss-50.json" and its
+ * absolute path are three; at most LR_MAX_LENSES, past which loading a
+ * new one is LR_ERR_LIMIT), so an lr_camera that points to one can be
+ * copied freely. */
 typedef struct lr_lens lr_lens;
 #define LR_MAX_LENSES 256
 
@@ -232,8 +234,9 @@ typedef struct lr_camera {
 /* Loads the lens `lens`: a prescription file (lensray JSON, pbrt-v4's
  * .dat, Zemax .zmx) relative to `base_dir` (NULL: the working
  * directory), or a shipped lens by name ("double-gauss-50").  *out is
- * shared and never freed (see lr_lens).  Errors name the file, line,
- * surface and field. */
+ * shared and never freed (see lr_lens), NULL on error.  Errors name the
+ * file, line, surface and field: LR_ERR_INVALID, LR_ERR_IO,
+ * LR_ERR_LIMIT (LR_MAX_LENSES), LR_ERR_NOMEM. */
 LR_API lr_status lr_lens_load(const char *lens, const char *base_dir,
                               const lr_lens **out, lr_error *err);
 /* The lens's name as given to lr_lens_load or in the scene, or "" for
@@ -286,8 +289,12 @@ typedef enum lr_integrator_kind {
     LR_INTEGRATOR_LIGHT = 2
 } lr_integrator_kind;
 
-/* Called from render threads, serialised by the library, after each tile:
- * `done` of `total` pixels are finished.  Must not call back into lr_render. */
+/* Called from render threads, serialised by the library, after each tile
+ * and as the light side's paths run (light tracing, bokeh's light paths):
+ * `done` of `total` is the render's work done, counted in pixels, the
+ * camera's tiles and the light side each weighted by its estimated share
+ * of the work.  `done` only grows; the last call has done == total ==
+ * the pixels rendered.  Must not call back into lr_render. */
 typedef void (*lr_progress_fn)(void *user, uint64_t done, uint64_t total);
 
 /* A ready-made lr_progress_fn for callers that poll rather than be called:
@@ -302,7 +309,7 @@ typedef struct lr_render_settings {
     int height;              /* pixels; default 480 */
     int spp;                 /* samples per pixel; default 16 */
     lr_sampler_kind sampler; /* default LR_SAMPLER_SOBOL */
-    uint64_t seed;           /* default 0 */
+    uint64_t seed; /* default 0; at most 2^53 (JSON's exact integers) */
     /* Bounces after the first hit: mirror/glass rays (whitted), any
      * scattering (path; Mitsuba's max_depth is this + 2); default 8 */
     int max_depth;
@@ -378,7 +385,8 @@ LR_API lr_status lr_render_settings_validate(const lr_render_settings *s,
  * leaves out keep their current values.  The keys and rules are those of
  * the scene format's "camera" and "render" objects, and errors name the
  * field as "camera.fov" / "render.spp".  On error *cam / *s is unchanged.
- * Errors: LR_ERR_INVALID, LR_ERR_NOMEM. */
+ * Errors: LR_ERR_INVALID, LR_ERR_NOMEM; for the camera also LR_ERR_IO
+ * and LR_ERR_LIMIT from loading its lens (lr_lens_load). */
 LR_API lr_status lr_camera_apply_json(lr_camera *cam, const char *json,
                                       size_t len, lr_error *err);
 LR_API lr_status lr_render_settings_apply_json(lr_render_settings *s,
@@ -477,7 +485,8 @@ LR_API int lr_scene_file_key(const char *key);
 LR_API void lr_scene_free(lr_scene *scene);
 
 /* The camera and render settings the scene file specified (defaults for
- * what it left out).  The scene keeps no reference to them. */
+ * what it left out; all defaults for a NULL scene).  The scene keeps no
+ * reference to them. */
 LR_API void lr_scene_camera(const lr_scene *scene, lr_camera *cam);
 LR_API void lr_scene_settings(const lr_scene *scene, lr_render_settings *s);
 

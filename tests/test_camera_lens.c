@@ -412,6 +412,11 @@ static void test_override_opens_no_working_directory_file(void **state)
     assert_string_equal(err.path, "camera.lens");
     assert_non_null(strstr(err.message, "no shipped lens of that name"));
     assert_null(strstr(err.message, "no such file"));
+    /* A failed load leaves *out NULL, as every constructor does (it was
+     * left as it was). */
+    L = (const lr_lens *)&cam;
+    assert_int_not_equal(lr_lens_load("no-such-lens", NULL, &L, NULL), LR_OK);
+    assert_null(L);
 }
 
 /* The exit-pupil bounds lose no light: at film points from the centre

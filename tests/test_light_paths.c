@@ -485,6 +485,57 @@ static void test_light_deterministic(void **state)
     lr_image_free(c);
 }
 
+/* Records the calls (user: their count, the total, the first and the
+ * last done). */
+static void record_progress(void *user, uint64_t done, uint64_t total)
+{
+    uint64_t *rec = user;
+    assert_true(done <= total);
+    assert_true(rec[0] == 0 || done > rec[3]);
+    if (rec[0]++ == 0)
+        rec[2] = done;
+    rec[1] = total;
+    rec[3] = done;
+}
+
+/* The light side counts in the progress: a light-integrator render of
+ * one tile said done == total after its tile, at 0.002 s of 8.4, and
+ * nothing while its light paths ran (an independent check).  Now the
+ * calls climb through the light units and end at the total. */
+static void test_progress_light_side(void **state)
+{
+    (void)state;
+    lr_scene *s = lr_test_load_json(
+        "{\"render\": {\"width\": 32, \"height\": 32, \"spp\": 64,"
+        "  \"integrator\": \"light\", \"tile_size\": 64,"
+        "  \"threads\": 1},"
+        " \"materials\": {\"d\": {\"diffuse\": 0.5}},"
+        " \"lights\": [{\"type\": \"point\", \"position\": [0, 2, 0],"
+        "  \"intensity\": 10}],"
+        " \"objects\": [{\"type\": \"sphere\", \"center\": [0, 0, -4],"
+        "  \"radius\": 1, \"material\": \"d\"}]}");
+    lr_camera cam;
+    lr_render_settings rs;
+    lr_scene_camera(s, &cam);
+    lr_scene_settings(s, &rs);
+    uint64_t rec[4] = {0};
+    rs.progress = record_progress;
+    rs.progress_user = rec;
+    lr_image *img = NULL;
+    lr_render_stats st;
+    assert_int_equal(lr_render(s, &cam, &rs, &img, &st, NULL), LR_OK);
+    print_message("%llu calls, the first %llu of %llu; %llu light paths\n",
+                  (unsigned long long)rec[0], (unsigned long long)rec[2],
+                  (unsigned long long)rec[1],
+                  (unsigned long long)st.light_paths);
+    assert_true(rec[0] >= 10);
+    assert_true(2 * rec[2] < rec[1]);
+    assert_int_equal(rec[1], 32 * 32);
+    assert_int_equal(rec[3], 32 * 32);
+    lr_image_free(img);
+    lr_scene_free(s);
+}
+
 static const struct CMUnitTest light_path_tests[] = {
     cmocka_unit_test(test_light_furnace),
     cmocka_unit_test(test_light_env_sun),
@@ -497,5 +548,6 @@ static const struct CMUnitTest light_path_tests[] = {
     cmocka_unit_test(test_light_refuses),
     cmocka_unit_test(test_light_closed_sphere),
     cmocka_unit_test(test_light_deterministic),
+    cmocka_unit_test(test_progress_light_side),
 };
 LR_TEST_GROUP(light_paths, light_path_tests)

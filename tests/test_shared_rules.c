@@ -295,6 +295,17 @@ static void test_render_settings_json(void **state)
         assert_memory_equal(&back, &s, sizeof s);
         lr_free(a);
     }
+    /* Past 2^53 the JSON cannot carry the seed: 2^53 + 1 was written as
+     * 2^53 (another image) and 2^64 - 1 as 1.8446744073709552e+19, which
+     * apply_json refuses.  The struct's check refuses them too. */
+    lr_error err;
+    s.seed = (1ull << 53) + 1;
+    assert_int_equal(lr_render_settings_validate(&s, &err), LR_ERR_INVALID);
+    assert_string_equal(err.path, "render.seed");
+    s.seed = UINT64_MAX;
+    assert_int_equal(lr_render_settings_validate(&s, &err), LR_ERR_INVALID);
+    s.seed = 1ull << 53;
+    assert_int_equal(lr_render_settings_validate(&s, &err), LR_OK);
 }
 
 /* A camera from lr_camera_new (the bindings' camera, python/) is the
@@ -778,6 +789,53 @@ static void test_job_apply_depth(void **state)
     assert_string_equal(err.path, "render.region");
 }
 
+/* NULL where the header allows nothing else gives the defaults, 0, ""
+ * or an error, never a crash (an independent check found nine calls
+ * that dereferenced it): reliability.md's "every public call checks its
+ * input". */
+static void test_null_arguments(void **state)
+{
+    (void)state;
+    lr_camera_default(NULL);
+    lr_render_settings_default(NULL);
+    lr_progress_store(NULL, 1, 2);
+    lr_camera cam, dcam;
+    lr_camera_default(&dcam);
+    memset(&cam, 0x5a, sizeof cam);
+    lr_scene_camera(NULL, &cam);
+    assert_memory_equal(&cam, &dcam, sizeof cam);
+    lr_scene_camera(NULL, NULL);
+    lr_render_settings rs, drs;
+    lr_render_settings_default(&drs);
+    memset(&rs, 0x5a, sizeof rs);
+    lr_scene_settings(NULL, &rs);
+    assert_memory_equal(&rs, &drs, sizeof rs);
+    lr_scene_settings(NULL, NULL);
+    assert_int_equal(lr_scene_primitive_count(NULL), 0);
+    assert_string_equal(lr_scene_description(NULL), "");
+    const char *json = "{\"objects\": []}";
+    const char *ov[2] = {"render.spp=4", NULL};
+    lr_scene *sc = (lr_scene *)&cam;
+    lr_error err;
+    assert_int_equal(
+        lr_scene_load_json(json, strlen(json), NULL, NULL, 2, &sc, &err),
+        LR_ERR_INVALID);
+    assert_null(sc);
+    assert_int_equal(
+        lr_scene_load_json(json, strlen(json), NULL, ov, 2, &sc, &err),
+        LR_ERR_INVALID);
+    assert_string_equal(err.message, "override 1 of 2 is NULL");
+    char path[512];
+    lr_test_write_text("null-ov.json", json, path, sizeof path);
+    assert_int_equal(lr_scene_load_file(path, ov, 2, &sc, &err),
+                     LR_ERR_INVALID);
+    assert_int_equal(lr_scene_read_settings(path, NULL, 1, &cam, &rs, &err),
+                     LR_ERR_INVALID);
+    assert_int_equal(lr_scene_load_file(path, ov, 1, &sc, &err), LR_OK);
+    assert_int_equal(lr_scene_primitive_count(sc), 0);
+    lr_scene_free(sc);
+}
+
 static const struct CMUnitTest tests[] = {
     cmocka_unit_test(test_format_table),
     cmocka_unit_test(test_output_json),
@@ -788,6 +846,7 @@ static const struct CMUnitTest tests[] = {
     cmocka_unit_test(test_camera_model_registry),
     cmocka_unit_test(test_integrator_registry),
     cmocka_unit_test(test_scene_description),
+    cmocka_unit_test(test_null_arguments),
     cmocka_unit_test(test_job_parse_errors),
     cmocka_unit_test(test_job_scene_and_meshes),
     cmocka_unit_test(test_job_files_every_key),

@@ -16,6 +16,8 @@
 
 void lr_camera_default(lr_camera *cam)
 {
+    if (cam == NULL)
+        return;
     *cam = (lr_camera){0};
     cam->model = LR_CAMERA_PINHOLE;
     cam->look_at[2] = -1.0;

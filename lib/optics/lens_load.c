@@ -208,6 +208,8 @@ static lr_status load_named(const char *name, const char *base_dir,
 lr_status lr_lens_load(const char *lens, const char *base_dir,
                        const lr_lens **out, lr_error *err)
 {
+    if (out != NULL)
+        *out = NULL; /* (as every constructor leaves it on error) */
     if (lens == NULL || out == NULL)
         return lr__fail(err, LR_ERR_INVALID, NULL,
                         "lr_lens_load: NULL argument");

@@ -24,10 +24,24 @@ static lr_status prepared(lr_status st, lr_scene **out, lr_error *err)
     return st;
 }
 
+/* LR_ERR_INVALID if the list of n overrides, or one of them, is NULL
+ * (they were read through, a crash). */
+static lr_status overrides_bad(const char *const *ov, size_t n, lr_error *err)
+{
+    for (size_t i = 0; i < n; i++)
+        if (ov == NULL || ov[i] == NULL)
+            return lr__fail(err, LR_ERR_INVALID, NULL,
+                            "override %zu of %zu is NULL", i, n);
+    return LR_OK;
+}
+
 lr_status lr_scene_load_json(const char *json, size_t len, const char *base_dir,
                              const char *const *overrides, size_t n_overrides,
                              lr_scene **out, lr_error *err)
 {
+    if (out != NULL)
+        *out = NULL;
+    LR_TRY(overrides_bad(overrides, n_overrides, err));
     unsigned fp = lr__fp_enter();
     lr_status st = prepared(
         lr__scene_load_json(json, len, base_dir, overrides, n_overrides,
@@ -40,6 +54,9 @@ lr_status lr_scene_load_json(const char *json, size_t len, const char *base_dir,
 lr_status lr_scene_load_file(const char *path, const char *const *overrides,
                              size_t n_overrides, lr_scene **out, lr_error *err)
 {
+    if (out != NULL)
+        *out = NULL;
+    LR_TRY(overrides_bad(overrides, n_overrides, err));
     unsigned fp = lr__fp_enter();
     lr_status st = prepared(lr__scene_load_file(path, overrides, n_overrides,
                                                 lr__settings_from_json, out,
@@ -53,6 +70,7 @@ lr_status lr_scene_read_settings(const char *path, const char *const *overrides,
                                  size_t n_overrides, lr_camera *cam,
                                  lr_render_settings *rs, lr_error *err)
 {
+    LR_TRY(overrides_bad(overrides, n_overrides, err));
     return lr__scene_read_settings(path, overrides, n_overrides,
                                    lr__settings_from_json, cam, rs, err);
 }

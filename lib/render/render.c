@@ -46,7 +46,11 @@ typedef struct render {
     atomic_int next_tile;
     atomic_int cancelled;
     pthread_mutex_t progress_lock;
-    uint64_t pixels_done;
+    uint64_t pixels_done; /* camera tiles' pixels finished */
+    uint64_t light_done;  /* light units finished, of n_light */
+    uint64_t n_light;
+    double light_share; /* of the render's work (progress_share) */
+    uint64_t shown;     /* the last `done` given to the callback */
 } render;
 
 typedef struct worker {
@@ -123,6 +127,62 @@ static int stopped(render *j)
     return atomic_load(&j->cancelled);
 }
 
+/* The light side's share of the render's work, for progress: its units'
+ * paths against the camera's samples in the blocks where it traces any
+ * (a dark block traces none; the light integrator's camera only looks
+ * for what is seen directly, a sample a pixel).  An estimate: a path
+ * and a camera sample cost about alike. */
+static double progress_share(const render *j)
+{
+    const lr__lt *lt = j->plan.lt;
+    if (lt == NULL || j->n_light == 0)
+        return 0.0;
+    const lr_render_settings *set = j->set;
+    double per = set->integrator == LR_INTEGRATOR_LIGHT ? 1.0 : set->spp;
+    double cam = 0.0;
+    for (int y = j->y0; y < j->y1; y++)
+        for (int x = j->x0; x < j->x1; x++)
+            cam += lt->dark == NULL ||
+                           !lt->dark[(y / lt->dark_block) * lt->dark_bw +
+                                     x / lt->dark_block]
+                       ? per
+                       : 0.0;
+    double light = (double)j->n_light * LR__LT_CHUNK;
+    return light / (light + cam);
+}
+
+/* Adds a finished tile's pixels or light units and tells the caller's
+ * callback: `done` is the pixels' count weighted by the work done of
+ * both sides (the tiles' (1 - share), the light units' share), so that
+ * it reaches `total` when the light side ends, not with the last tile
+ * (a light-integrator render said 100% at 0.002 s of 8.4).  Called after
+ * every tile, and for light units when `done` grows by a thousandth;
+ * the last call is done == total. */
+static void progress(render *j, uint64_t pixels, uint64_t light)
+{
+    const lr_render_settings *set = j->set;
+    uint64_t total = (uint64_t)(j->x1 - j->x0) * (uint64_t)(j->y1 - j->y0);
+    pthread_mutex_lock(&j->progress_lock);
+    j->pixels_done += pixels;
+    j->light_done += light;
+    uint64_t v = total;
+    if (j->pixels_done < total || j->light_done < j->n_light) {
+        double f = (1.0 - j->light_share) * (double)j->pixels_done /
+                   (double)total;
+        if (j->n_light > 0)
+            f += j->light_share * (double)j->light_done / (double)j->n_light;
+        v = (uint64_t)(f * (double)total);
+        v = v < total ? v : total - 1;
+    }
+    uint64_t step = light > 0 ? total / 1000 + 1 : 1;
+    if (set->progress != NULL && v > j->shown &&
+        (v - j->shown >= step || v == total)) {
+        j->shown = v;
+        set->progress(set->progress_user, v, total);
+    }
+    pthread_mutex_unlock(&j->progress_lock);
+}
+
 static void *worker_main(void *arg)
 {
     worker *w = arg;
@@ -154,13 +214,7 @@ static void *worker_main(void *arg)
             render_tile(w, x0, y0, x1, y1);
             done = (uint64_t)(x1 - x0) * (uint64_t)(y1 - y0);
         }
-        pthread_mutex_lock(&j->progress_lock);
-        j->pixels_done += done;
-        if (set->progress != NULL)
-            set->progress(set->progress_user, j->pixels_done,
-                          (uint64_t)(j->x1 - j->x0) *
-                              (uint64_t)(j->y1 - j->y0));
-        pthread_mutex_unlock(&j->progress_lock);
+        progress(j, done, 0);
     }
     /* The light side, once every camera tile is taken: units of light
      * paths, in any order (their splats add as integers). */
@@ -174,6 +228,7 @@ static void *worker_main(void *arg)
             break;
         lr__lt_unit(lt, j->shot.scene, &j->cam, u, &j->light, &w->counts.rays,
                     &w->light_landed, &w->ghost_landed);
+        progress(j, 0, 1);
     }
     _mm_setcsr(csr);
     w->cpu = thread_cpu_seconds() - cpu0;
@@ -346,6 +401,8 @@ static lr_status render_in_mode(const lr_scene *scene, const lr_camera *cam,
         }
     }
     atomic_init(&j.next_light, 0);
+    j.n_light = j.plan.lt != NULL ? lr__lt_units(j.plan.lt) : 0;
+    j.light_share = progress_share(&j);
     lr__sampler_init(&j.sampler, set->sampler, set->seed, set->spp);
     j.shot = (lr__shot){.scene = scene,
                         .cam = &j.cam,
@@ -367,8 +424,11 @@ static lr_status render_in_mode(const lr_scene *scene, const lr_camera *cam,
         long cores = sysconf(_SC_NPROCESSORS_ONLN);
         n = cores > 0 ? (int)cores : 1;
     }
-    if (n > j.tiles_x * j.tiles_y && !j.plan.splat)
-        n = j.tiles_x * j.tiles_y;
+    /* No more threads than tiles and light units: a light-integrator
+     * render of one tile ran its light paths on one thread. */
+    if ((uint64_t)n > (uint64_t)j.tiles_x * (uint64_t)j.tiles_y + j.n_light &&
+        !j.plan.splat)
+        n = j.tiles_x * j.tiles_y + (int)j.n_light;
     st = LR_OK;
     if (j.plan.splat) {
         st = lr__splat_new(&j.shot, set->spp, j.x0, j.y0, j.x1, j.y1, n, img,

@@ -9,6 +9,8 @@
 
 void lr_render_settings_default(lr_render_settings *s)
 {
+    if (s == NULL)
+        return;
     memset(s, 0, sizeof *s);
     s->width = 640;
     s->height = 480;
@@ -50,6 +52,13 @@ lr_status lr_render_settings_validate(const lr_render_settings *s,
         return lr__fail(err, LR_ERR_INVALID, "render.spp",
                         "render.spp must be between 1 and %d, got %d",
                         LR__MAX_SPP, s->spp);
+    /* JSON carries integers exactly up to 2^53, and the settings' JSON
+     * must give them back (lr_render_settings_json): a seed of 2^53 + 1
+     * was written as 2^53, another image. */
+    if (s->seed > ((uint64_t)1 << 53))
+        return lr__fail(err, LR_ERR_INVALID, "render.seed",
+                        "render.seed must be between 0 and %llu, got %llu",
+                        1ull << 53, (unsigned long long)s->seed);
     if ((int)s->sampler < 0 || (int)s->sampler >= lr__sampler_count())
         return lr__fail(err, LR_ERR_INVALID, "render.sampler",
                         "render.sampler is not a known sampler (%d)",

@@ -384,17 +384,27 @@ const char *lr_scene_warnings(const lr_scene *s)
 
 void lr_scene_camera(const lr_scene *s, lr_camera *cam)
 {
-    *cam = s->camera;
+    if (cam == NULL)
+        return;
+    if (s == NULL)
+        lr_camera_default(cam);
+    else
+        *cam = s->camera;
 }
 
 void lr_scene_settings(const lr_scene *s, lr_render_settings *rs)
 {
-    *rs = s->settings;
+    if (rs == NULL)
+        return;
+    if (s == NULL)
+        lr_render_settings_default(rs);
+    else
+        *rs = s->settings;
 }
 
 size_t lr_scene_primitive_count(const lr_scene *s)
 {
-    return s->n_primitives;
+    return s != NULL ? s->n_primitives : 0;
 }
 
 int lr_scene_files_changed(const lr_scene *s)
@@ -404,5 +414,5 @@ int lr_scene_files_changed(const lr_scene *s)
 
 const char *lr_scene_description(const lr_scene *s)
 {
-    return s->description ? s->description : "";
+    return s != NULL && s->description ? s->description : "";
 }
