@@ -65,9 +65,49 @@ static void test_chromatic_bracket_paper(void **state)
     lr_image_free(img);
 }
 
+/* With aperture 0 the bracket is the pinhole, bit for bit, whatever
+ * the image plane's distance: also for a light nearer than the plane,
+ * which the light side (on by default; and the light integrator) traced
+ * from the image plane and lost (an independent check: 0 against the
+ * pinhole's 0.041). */
+static void test_bracket_zero_aperture_is_pinhole(void **state)
+{
+    (void)state;
+    const char *scene =
+        "{\"camera\": {\"position\": [0, 0, 0], \"look_at\": [0, 0, -1],"
+        "  \"fov\": 40},"
+        " \"render\": {\"width\": 64, \"height\": 48, \"spp\": 16},"
+        " \"background\": 0,"
+        " \"materials\": {\"l\": {\"emission\": 100}},"
+        " \"objects\": [{\"type\": \"sphere\", \"center\": [0.5, 0.2, "
+        "-20], \"radius\": 0.02, \"material\": \"l\"}]}";
+    const char *integrators[3] = {"render.integrator=whitted",
+                                  "render.integrator=path",
+                                  "render.integrator=light"};
+    for (int k = 0; k < 3; k++) {
+        const char *pin_sets[] = {integrators[k]};
+        const char *br_sets[] = {integrators[k], "camera.model=bracket",
+                                 "camera.aperture=0",
+                                 "camera.image_plane_distance=30"};
+        lr_image *pin = lr_test_render(scene, pin_sets, 1, NULL);
+        lr_image *br = lr_test_render(scene, br_sets, 4, NULL);
+        size_t n = 3 * (size_t)64 * 48;
+        double sum = 0.0;
+        for (size_t i = 0; i < n; i++)
+            sum += pin->rgb[i];
+        assert_true(sum > 0.0);
+        if (memcmp(pin->rgb, br->rgb, n * sizeof(float)) != 0)
+            fail_msg("%s: the bracket with aperture 0 is not the pinhole",
+                     integrators[k]);
+        lr_image_free(pin);
+        lr_image_free(br);
+    }
+}
+
 static const struct CMUnitTest camera_bracket_tests[] = {
     cmocka_unit_test(test_bracket_blur),
     cmocka_unit_test(test_chromatic_bracket_paper),
+    cmocka_unit_test(test_bracket_zero_aperture_is_pinhole),
 };
 
 LR_TEST_GROUP(camera_bracket, camera_bracket_tests)

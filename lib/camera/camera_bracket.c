@@ -128,7 +128,10 @@ static double film_wl(const lr__cam *c, double w, double nm, double ox,
 
 static double film_near(const lr__cam *c, lr__v3 d)
 {
-    return c->base_di / v3_dot(d, c->forward);
+    /* With no aperture the rays start at the eye, as the pinhole's (the
+     * light side had started them on the image plane all the same, and
+     * lost a light nearer than it). */
+    return c->has_lens ? c->base_di / v3_dot(d, c->forward) : 0.0;
 }
 
 const lr__camera_model lr__camera_bracket = {
