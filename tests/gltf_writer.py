@@ -334,6 +334,23 @@ def scene_normal_map():
     return g
 
 
+def scene_normal_map_moved(xf):
+    """scene_normal_map's quad with a uniform normal map tilted towards +u
+    and up the image (204, 160, 230), under KHR_texture_transform xf."""
+    g = Gltf()
+    g.use_extension("KHR_texture_transform")
+    tex = g.image_png(png_rgb(2, 2, lambda x, y: (204, 160, 230)))
+    pos, idx, nrm, uv = quad(2)
+    m = g.mesh(pos, idx, nrm, uv, g.material({
+        "name": "bumpy", "normalTexture": {
+            "index": tex, "scale": 0.8,
+            "extensions": {"KHR_texture_transform": xf}},
+        "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1],
+                                 "metallicFactor": 0}}))
+    g.node(mesh=m)
+    return g
+
+
 def scene_spot_light():
     """scene_camera_light's floor and camera under a spot light of 20 cd
     at (0, 2, 0) shining straight down (its node turned -90 degrees about
@@ -733,6 +750,10 @@ SCENES = {"tri": scene_tri, "sparse": scene_sparse, "morph": scene_morph,
           "metal-no-uv": scene_metal_no_uv,
           "spot-light": scene_spot_light,
           "normal-map": scene_normal_map,
+          "normal-map-mirrored":
+              lambda: scene_normal_map_moved({"scale": [-1, 1]}),
+          "normal-map-turned":
+              lambda: scene_normal_map_moved({"rotation": math.pi}),
           "texture-transform": scene_texture_transform,
           "camera-floor": lambda: scene_camera_light(light=False),
           "camera-light": scene_camera_light,

@@ -690,10 +690,13 @@ static void test_metal_texture(void **state)
 
 /* KHR_texture_transform: for each texel centre (x + 0.5, y + 0.5) / 2
  * (plus a whole repeat, to check wrapping), this test inverts the
- * extension's map (translation x rotation x scale, its GLSL read column by
- * column: g' = R S g + o, R = [[cos, -sin], [sin, cos]]) to find the glTF
- * coordinates g that land there, turns them into lensray's (v = 1 -
- * glTF's), and expects that texel's colour. */
+ * extension's map (translation x rotation x scale: g' = R S g + o, R =
+ * [[cos, sin], [-sin, cos]] as the Khronos sample viewer, three.js and
+ * Cesium turn it; glTF issue #1563: the spec's GLSL listing, read column
+ * by column, has the transpose, which lensray had followed and an
+ * independent check caught) to find the glTF coordinates g that land
+ * there, turns them into lensray's (v = 1 - glTF's), and expects that
+ * texel's colour. */
 static void test_texture_transform(void **state)
 {
     (void)state;
@@ -709,8 +712,8 @@ static void test_texture_transform(void **state)
         for (int x = 0; x < 2; x++) {
             double gx = (x + 0.5) / 2 + 1 - ox, gy = (y + 0.5) / 2 - 1 - oy;
             /* S^-1 R^-1 (g' - o); R^-1 is R of -r. */
-            double px = (cos(r) * gx + sin(r) * gy) / sx;
-            double py = (-sin(r) * gx + cos(r) * gy) / sy;
+            double px = (cos(r) * gx - sin(r) * gy) / sx;
+            double py = (sin(r) * gx + cos(r) * gy) / sy;
             double uv[2] = {px, 1 - py};
             lr__material tmp;
             const lr__material *at = lr__material_textures(m, uv, &tmp);
@@ -777,6 +780,47 @@ static void test_normal_map(void **state)
         lr_image_free(img);
     }
     lr_scene_free(s);
+}
+
+/* A normal map under KHR_texture_transform bends along the frame of its
+ * own coordinates (glTF 2.0, 3.9.3): mirrored in u (scale [-1, 1]) the
+ * tilt towards +u leans to -x on the quad; turned half round (rotation
+ * pi) both tilts turn over.  The frame had been the untransformed
+ * coordinates', and the normal leaned the wrong way (an independent
+ * check).  Radiance albedo / pi E n.l at the quad's centre. */
+static void test_normal_map_transformed(void **state)
+{
+    (void)state;
+    static const double lt[3] = {0.5, 0.4, 0.7681145747868608}; /* unit */
+    const char *scenes[2] = {"normal-map-mirrored", "normal-map-turned"};
+    const double sign[2][2] = {{-1, 1}, {-1, -1}};
+    for (int k = 0; k < 2; k++) {
+        make(scenes[k], "moved-bump.glb");
+        char json[640];
+        snprintf(json, sizeof json,
+                 "{\"camera\": {\"position\": [0, 0, 10], \"look_at\": "
+                 "[0, 0, 0], \"fov\": %.17g}, \"render\": {\"width\": 41, "
+                 "\"height\": 41, \"spp\": 1, \"sampler\": \"grid\"},"
+                 " \"lights\": [{\"type\": \"directional\", \"direction\":"
+                 " [%.17g, %.17g, %.17g], \"irradiance\": 2}],"
+                 " \"objects\": [{\"type\": \"gltf\", \"file\": "
+                 "\"moved-bump.glb\"}]}",
+                 2 * atan(0.205) * 180 / PI, -lt[0], -lt[1], -lt[2]);
+        lr_scene *s = lr_test_load_json(json);
+        lr_image *img = render(s);
+        double n[3] = {sign[k][0] * (2 * 204 / 255.0 - 1) * 0.8,
+                       sign[k][1] * (2 * 160 / 255.0 - 1) * 0.8,
+                       2 * 230 / 255.0 - 1};
+        double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+        double want = 0.5 / PI * 2 *
+                      (n[0] * lt[0] + n[1] * lt[1] + n[2] * lt[2]) / len;
+        double got = lr_image_rgb(img)[3 * (20 * 41 + 20)];
+        if (!(fabs(got - want) < 1e-4 * want))
+            fail_msg("%s: %.7g, the bent normal says %.7g", scenes[k], got,
+                     want);
+        lr_image_free(img);
+        lr_scene_free(s);
+    }
 }
 
 /* ---- hostile files ---------------------------------------------------------- */
@@ -1386,6 +1430,7 @@ static const struct CMUnitTest tests[] = {
     cmocka_unit_test(test_spot_light),
     cmocka_unit_test(test_texture_transform),
     cmocka_unit_test(test_normal_map),
+    cmocka_unit_test(test_normal_map_transformed),
     cmocka_unit_test(test_hostile),
     cmocka_unit_test(test_deep_hierarchy),
     cmocka_unit_test(test_overrides_win_over_gltf_camera),

@@ -109,6 +109,22 @@ lr__v3 lr__normal_mapped(const lr__geom *g, const lr__material *m,
 {
     const float *tb = &g->tangents[6 * (size_t)prim];
     lr__v3 T = v3(tb[0], tb[1], tb[2]), B = v3(tb[3], tb[4], tb[5]);
+    const lr__uv_xf *xf = &m->xf_normal;
+    if (xf->on) {
+        /* The frame of the map's own coordinates (glTF 2.0, 3.9.3: the
+         * tangents of the normal texture's coordinates): (u', v') = M
+         * (u, v) + o, so d/du' = (m4 d/du - m3 d/dv) / det and d/dv' =
+         * (m0 d/dv - m1 d/du) / det.  A mirrored or turned map bent the
+         * normal the wrong way. */
+        double det = xf->m[0] * xf->m[4] - xf->m[1] * xf->m[3];
+        if (!(det != 0.0))
+            return ns_front;
+        lr__v3 Tm = v3_scale(
+            v3_sub(v3_scale(T, xf->m[4]), v3_scale(B, xf->m[3])), 1.0 / det);
+        B = v3_scale(v3_sub(v3_scale(B, xf->m[0]), v3_scale(T, xf->m[1])),
+                     1.0 / det);
+        T = Tm;
+    }
     /* Gram-Schmidt against the shading normal; B's side of N x T keeps
      * the map's handedness where the uvs are mirrored. */
     T = v3_sub(T, v3_scale(ns_front, v3_dot(ns_front, T)));

@@ -100,8 +100,11 @@ static lr_status numbers(const lr__gltf_doc *d, const cJSON *o, const char *p,
 
 /* KHR_texture_transform of a textureInfo at `p` as lensray's map.  The
  * extension maps glTF's coordinates (v down the image) by translation x
- * rotation x scale, its GLSL read column by column:
- *   u' = cos r sx u - sin r sy v + ox,  v' = sin r sx u + cos r sy v + oy;
+ * rotation x scale, the rotation as every implementation turns it (the
+ * Khronos sample viewer, three.js, Babylon, Cesium, Blender's importer;
+ * the spec's GLSL listing, read column by column, turns it the other way,
+ * glTF issue #1563, and lensray had followed the listing):
+ *   u' = cos r sx u + sin r sy v + ox,  v' = -sin r sx u + cos r sy v + oy;
  * lensray's v is 1 - glTF's on both sides, which the constants absorb. */
 static lr_status uv_transform(const lr__gltf_doc *d, const cJSON *ext,
                               const char *p, lr__uv_xf *xf, lr_error *err)
@@ -115,7 +118,7 @@ static lr_status uv_transform(const lr__gltf_doc *d, const cJSON *ext,
     LR_TRY(numbers(d, ext, q, "scale", 2, sc, err));
     LR_TRY(numbers(d, ext, q, "rotation", 1, &rot, err));
     double c = cos(rot), s = sin(rot);
-    double a = c * sc[0], b = -s * sc[1], e = s * sc[0], f = c * sc[1];
+    double a = c * sc[0], b = s * sc[1], e = -s * sc[0], f = c * sc[1];
     /* With v = 1 - w (w glTF's): u' = a u + b (1 - v) + ox, and
      * v' = 1 - (e u + f (1 - v) + oy). */
     xf->on = 1;
