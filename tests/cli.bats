@@ -930,3 +930,19 @@ assert s["rays"] >= s["samples"], s
     run -3 "$LENSRAY" render "$T/count.gltf" -o "$T/count.png"
     [[ "$output" == *"count.gltf: accessors["*"elements reach byte"* ]]
 }
+
+@test "a light render whose paths all miss the film is black with a warning" {
+    # A field of view of 0.01 degrees: none of 1024 light paths joins the
+    # lens inside the frame, and the picture was black without a word
+    # (an independent check); the path integrator lights it.
+    scene tinyfov '{"camera": {"position": [0, 0, 0], "look_at": [0, 0, -1], "fov": 0.01},
+                    "render": {"width": 16, "height": 16, "spp": 4, "integrator": "light"},
+                    "materials": {"d": {"diffuse": 0.8}},
+                    "lights": [{"type": "point", "position": [0, 5, 0], "intensity": 10}],
+                    "objects": [{"type": "sphere", "center": [0, 0, -5], "radius": 1, "material": "d"}]}'
+    run -0 --separate-stderr "$LENSRAY" render "$T/tinyfov.json" -o "$T/a.png" -q
+    [[ "$stderr" == *"none of the 1024 light paths reached the film, so the picture is black"* ]]
+    run -0 --separate-stderr "$LENSRAY" render "$T/tinyfov.json" -o "$T/b.png" -q \
+        --set 'render.integrator="path"'
+    [ -z "$stderr" ]
+}

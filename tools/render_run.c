@@ -237,6 +237,18 @@ static int render_local(const render_job *r, int frame, const char *out_path)
                 "lensray: warning: the lens stopped every camera ray, so the "
                 "picture is black: its image circle misses the film (see "
                 "camera.sensor_width_mm and render.region)\n");
+    /* The light integrator, or the light side's lights, with paths
+     * traced and none landing: a black picture (or black bokeh) that the
+     * camera alone would have lit, at this spp; rarely meant (a sensor a
+     * millimetre wide, a tiny field of view, a light only a mirror
+     * shows). */
+    if (rst.light_paths > 0 && rst.light_landed == 0 && all_black(img))
+        fprintf(stderr,
+                "lensray: warning: none of the %llu light paths reached the "
+                "film, so the picture is black; more samples (render.spp), "
+                "or the path integrator (render.integrator), may show "
+                "it\n",
+                (unsigned long long)rst.light_paths);
     lr_image_free(img);
     lr_scene_free(scene);
     return rc;
