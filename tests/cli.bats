@@ -767,6 +767,11 @@ assert s["rays"] >= s["samples"], s
     # ... and nothing else is left in the directory.
     run ! has_temp_files "$T/outdir"
     [ "$(ls -A "$T/outdir")" = "out.png" ]
+    # The file replaced keeps its permission bits (0664 had become the
+    # umask's 0644).
+    chmod 0604 "$T/outdir/out.png"
+    run -0 "$LENSRAY" render "$T/scene.json" -o "$T/outdir/out.png"
+    [ "$(stat -c %a "$T/outdir/out.png")" = 604 ]
 }
 
 @test "Ctrl-C while the image is written keeps the file there before; a second Ctrl-C is not ignored" {

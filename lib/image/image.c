@@ -385,6 +385,11 @@ static lr_status write_at(const lr_image *img, lr_format fmt,
                         "cannot create a temporary file for '%s': %s", path,
                         strerror(saved));
     }
+    /* A file replaced keeps its permission bits (as sed -i keeps them):
+     * a 0664 image had become 0644, the umask's.  Best effort. */
+    struct stat old;
+    if (stat(dest, &old) == 0 && S_ISREG(old.st_mode))
+        (void)fchmod(fd, old.st_mode & 0777);
 
     void *buf = NULL;
     size_t len = 0;
