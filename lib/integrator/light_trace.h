@@ -250,7 +250,9 @@ static inline void lr__lt_film_add(int64_t *lo, int32_t *hi, size_t k, double q)
 /* The sum hi 2^64 + (uint64_t)lo as a double, correctly rounded. */
 static inline double lr__lt_film_value(int64_t lo, int32_t hi)
 {
-    return (double)(((__int128)hi << 64) | (__int128)(uint64_t)lo);
+    /* (A multiplication: shifting a negative value is undefined.) */
+    return (double)((__int128)hi * ((__int128)1 << 64) +
+                    (__int128)(uint64_t)lo);
 }
 
 /* The light pass's film: fixed-point sums over region [x0, x1) x [y0, y1)
