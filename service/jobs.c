@@ -507,6 +507,21 @@ long lrd_jobs_running(void)
     return n;
 }
 
+void lrd_jobs_enforce_time(void)
+{
+    if (!(lrd_cfg.max_render_seconds > 0))
+        return;
+    double now = lrd_monotonic();
+    pthread_mutex_lock(&lrd_jobs.mu);
+    for (lrd_job *j = lrd_jobs.head; j != NULL; j = j->next)
+        if (j->state == LRD_RUNNING && !j->cancel &&
+            now - j->started > lrd_cfg.max_render_seconds) {
+            j->cancel_reason = LRD_CANCEL_TIMEOUT;
+            lrd_job_set_cancel(j);
+        }
+    pthread_mutex_unlock(&lrd_jobs.mu);
+}
+
 void lrd_jobs_cancel_running(lrd_cancel_reason why)
 {
     pthread_mutex_lock(&lrd_jobs.mu);

@@ -360,6 +360,11 @@ void lrd_jobs_stats_get(lrd_jobs_stats *out);
 void lrd_jobs_begin_shutdown(void);
 long lrd_jobs_running(void);
 void lrd_jobs_cancel_running(lrd_cancel_reason why);
+/* Cancels, as timed out, each running job past --max-render-seconds: the
+ * main thread calls it four times a second, so that a render's set-up,
+ * which reports no progress (where on_progress checks the clock), is
+ * held to the limit too. */
+void lrd_jobs_enforce_time(void);
 void lrd_jobs_stop(void);
 void lrd_jobs_free_all(void);
 

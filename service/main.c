@@ -498,9 +498,8 @@ int main(int argc, char **argv)
 
     int sig = 0;
     while (sig == 0) {
-        int got = 0;
-        if (sigwait(&set, &got) == 0)
-            sig = got;
+        sig = wait_signal(&set, 0.25);
+        lrd_jobs_enforce_time();
     }
 
     /* Shutdown: stop accepting, refuse new work with 503, cancel what is

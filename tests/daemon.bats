@@ -1604,3 +1604,42 @@ PY
     echo "$output"
     stop_pid "$DPID"
 }
+
+@test "render time limit: a render's set-up is held to it too" {
+    # 1500 small lights through a real lens: the light side's plan took
+    # seconds, on the worker, reporting no progress, where the time limit
+    # was checked; a 2-s limit answered after 15 s, and DELETE and
+    # shutdown waited too (an independent check).  The main thread now
+    # cancels overdue jobs four times a second, and the plan heeds a
+    # cancel between lights.  The answer must come well before the plan
+    # alone would end (its time measured here with the CLI).
+    local dir="$BATS_TEST_TMPDIR"
+    DIR="$dir" python3 -c '
+import json, os
+objs = [{"type": "sphere", "center": [-6 + 0.004 * i, 0.002 * (i % 50) - 0.05, -20],
+         "radius": 0.01, "material": "l"} for i in range(1500)]
+scene = {"camera": {"model": "lens", "lens": "double-gauss-50", "focus_distance": 0.5},
+         "render": {"width": 32, "height": 24, "spp": 1, "threads": 1},
+         "background": 0, "materials": {"l": {"emission": 50}}, "objects": objs}
+d = os.environ["DIR"]
+json.dump({"scene": scene}, open(d + "/lights-job.json", "w"))
+json.dump(scene, open(d + "/lights.json", "w"))'
+    local t0 t1 plan took
+    t0=$(date +%s.%N)
+    run -0 "${LENSRAYD%d}" render "$dir/lights.json" -o "$dir/lights.exr" -q
+    t1=$(date +%s.%N)
+    plan=$(awk "BEGIN {print $t1 - $t0}")
+    start_daemon setup_timeout --workers 1 --max-render-seconds 0.3
+    t0=$(date +%s.%N)
+    # (The body is too long for an argument: curl reads the file.)
+    local code
+    code=$(curl -s -o "$dir/answer.json" -w '%{http_code}' \
+        -H 'Content-Type: application/json' \
+        --data-binary @"$dir/lights-job.json" "$DURL/v1/render")
+    t1=$(date +%s.%N)
+    took=$(awk "BEGIN {print $t1 - $t0}")
+    echo "CLI $plan s, the daemon's answer after $took s: $code $(cat "$dir/answer.json")"
+    [ "$code" = 504 ]
+    grep -q '"code": *"timeout"' "$dir/answer.json"
+    awk "BEGIN {exit !($took < 0.5 * $plan)}"
+}

@@ -373,6 +373,52 @@ static void test_mis_deterministic(void **state)
     lr_image_free(c);
 }
 
+/* A cancel is heeded while the light side is planned, between lights:
+ * a scene of many small lights through a real lens spent seconds there
+ * (each light's footprint), past lensrayd's DELETE, time limit and
+ * shutdown (an independent check: a 2-s limit answered after 15 s).
+ * With the flag already set the render stops before the plan has taken
+ * a light: its stats count none (they counted every one). */
+static void test_cancel_while_planning(void **state)
+{
+    (void)state;
+    char json[16384];
+    int k = snprintf(json, sizeof json,
+                     "{\"camera\": {\"model\": \"lens\", \"lens\": "
+                     "\"double-gauss-50\", \"position\": [0, 0, 0],"
+                     " \"look_at\": [0, 0, -1], \"focus_distance\": 0.5},"
+                     " \"render\": {\"width\": 32, \"height\": 24, "
+                     "\"spp\": 1},"
+                     " \"background\": 0,"
+                     " \"materials\": {\"l\": {\"emission\": 50}},"
+                     " \"objects\": [");
+    for (int i = 0; i < 40; i++)
+        k += snprintf(json + k, sizeof json - (size_t)k,
+                      "%s{\"type\": \"sphere\", \"center\": [%g, %g, -20],"
+                      " \"radius\": 0.05, \"material\": \"l\"}",
+                      i ? ", " : "", -4.0 + 0.2 * i, 0.1 * (i % 7) - 0.3);
+    snprintf(json + k, sizeof json - (size_t)k, "]}");
+    lr_scene *s = lr_test_load_json(json);
+    lr_camera cam;
+    lr_render_settings rs;
+    lr_scene_camera(s, &cam);
+    lr_scene_settings(s, &rs);
+    lr_render_stats st;
+    lr_image *img = NULL;
+    assert_int_equal(lr_render(s, &cam, &rs, &img, &st, NULL), LR_OK);
+    assert_true(st.light_lights >= 20);
+    lr_image_free(img);
+    volatile int cancel = 1;
+    rs.cancel = &cancel;
+    lr_error err;
+    assert_int_equal(lr_render(s, &cam, &rs, &img, &st, &err),
+                     LR_ERR_CANCELLED);
+    assert_null(img);
+    assert_int_equal(st.light_lights, 0);
+    assert_int_equal(st.rays, 0);
+    lr_scene_free(s);
+}
+
 static const struct CMUnitTest light_mis_tests[] = {
     cmocka_unit_test(test_mis_lights_mix),
     cmocka_unit_test(test_mis_importance_is_density),
@@ -381,5 +427,6 @@ static const struct CMUnitTest light_mis_tests[] = {
     cmocka_unit_test(test_mis_dark_blocks),
     cmocka_unit_test(test_mis_adaptive),
     cmocka_unit_test(test_mis_deterministic),
+    cmocka_unit_test(test_cancel_while_planning),
 };
 LR_TEST_GROUP(light_mis, light_mis_tests)

@@ -569,6 +569,14 @@ lr_status lr__lt_plan(const lr_scene *s, const lr__cam *c,
         double radius;
         if (!lr__lt_light_sphere(s, geo, &center, &radius))
             continue;
+        /* A scene of many lights takes a while here (a real lens's
+         * footprints): a cancel (lensrayd's DELETE, time limit and
+         * shutdown) is heeded between lights, not only between tiles. */
+        if (set->cancel != NULL &&
+            __atomic_load_n(set->cancel, __ATOMIC_RELAXED)) {
+            lr__lt_free(lt);
+            return lr__fail(err, LR_ERR_CANCELLED, NULL, "render cancelled");
+        }
         uint64_t n = paths_for(c, &lb, m->bound == NULL, center, radius,
                                set->spp, 0);
         if (n == 0)

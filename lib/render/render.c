@@ -140,13 +140,12 @@ static double progress_share(const render *j)
     const lr_render_settings *set = j->set;
     double per = set->integrator == LR_INTEGRATOR_LIGHT ? 1.0 : set->spp;
     double cam = 0.0;
+    /* The plan's own dark blocks (the light side keeps a copy only where
+     * a light mixes: night.json's camera had been priced at every
+     * sample, and progress said 0.89 at 0.02 s of 4.9). */
     for (int y = j->y0; y < j->y1; y++)
         for (int x = j->x0; x < j->x1; x++)
-            cam += lt->dark == NULL ||
-                           !lt->dark[(y / lt->dark_block) * lt->dark_bw +
-                                     x / lt->dark_block]
-                       ? per
-                       : 0.0;
+            cam += lr__plan_at(&j->plan, x, y)->dark ? 0.0 : per;
     double light = (double)j->n_light * LR__LT_CHUNK;
     return light / (light + cam);
 }
@@ -349,6 +348,8 @@ static lr_status render_in_mode(const lr_scene *scene, const lr_camera *cam,
         return lr__fail(err, LR_ERR_INVALID, NULL,
                         "lr_render: NULL scene or output");
     *out = NULL;
+    if (stats != NULL) /* (zero if it ends before the workers start) */
+        memset(stats, 0, sizeof *stats);
     lr_status st = lr_camera_validate(cam, err);
     if (st != LR_OK)
         return st;
