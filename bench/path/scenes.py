@@ -6,8 +6,10 @@ Conventions that make the two the same picture:
   * Mitsuba's max_depth counts path segments: ours (bounces after the
     first hit) + 2.
   * Our diffuse surfaces are two-sided: Mitsuba's get 'twosided'.  Our
-    glass and metal need no wrapper (Mitsuba's dielectric and conductor
-    are two-sided already).
+    glass needs no wrapper (Mitsuba's dielectric is two-sided).  Our
+    metal is two-sided but Mitsuba's conductor is not (black from
+    behind): no scene here shows a metal from behind; one that does
+    needs 'twosided' around it.
   * Rough metal {"reflect": R, "roughness": a} is Mitsuba's roughconductor
     with material 'none' (Fresnel 1), specular_reflectance R, GGX alpha a,
     visible-normal sampling; rough glass {"transmit": T, "ior": n,
