@@ -33,6 +33,7 @@ typedef struct query_check {
     size_t n_known;
     unsigned seen; /* a bit per known parameter */
     int twice;     /* the bad one came twice, rather than being unknown */
+    int bare;      /* the bad one came without a value (?wait) */
     char bad[64];
 } query_check;
 
@@ -40,7 +41,6 @@ static enum MHD_Result check_arg(void *cls, enum MHD_ValueKind kind,
                                  const char *key, const char *value)
 {
     (void)kind;
-    (void)value;
     query_check *q = cls;
     if (q->bad[0] != '\0')
         return MHD_YES;
@@ -48,7 +48,10 @@ static enum MHD_Result check_arg(void *cls, enum MHD_ValueKind kind,
         if (key != NULL && strcmp(key, q->known[i]) == 0) {
             q->twice = (q->seen >> i) & 1u;
             q->seen |= 1u << i;
-            if (q->twice)
+            /* (libmicrohttpd gives a bare ?wait no value: it was read as
+             * absent, and a long poll answered at once.) */
+            q->bare = !q->twice && value == NULL;
+            if (q->twice || q->bare)
                 snprintf(q->bad, sizeof q->bad, "%s", key);
             return MHD_YES;
         }
@@ -58,14 +61,20 @@ static enum MHD_Result check_arg(void *cls, enum MHD_ValueKind kind,
 }
 
 /* Refuses (422) a query parameter that is not one of `known` (`list`
- * names them for the message), or one given twice, rather than ignoring
+ * names them for the message), one given twice, or one without a value
+ * (?wait, not ?wait=10), rather than ignoring
  * it: a misspelt filter would list everything, a misspelt ?wait would
  * answer at once.  0, or -1 with *e filled. */
 int lrd_check_query(struct MHD_Connection *c, const char *const *known,
                     size_t n_known, const char *list, lrd_err *e)
 {
-    query_check q = {known, n_known, 0, 0, ""};
+    query_check q = {known, n_known, 0, 0, 0, ""};
     MHD_get_connection_values(c, MHD_GET_ARGUMENT_KIND, check_arg, &q);
+    if (q.bare)
+        return lrd_fail(e, 422, "invalid_value", q.bad,
+                        "the query parameter \"%s\" has no value; give one "
+                        "(%s=...)",
+                        q.bad, q.bad);
     if (q.twice)
         return lrd_fail(e, 422, "invalid_value", q.bad,
                         "the query parameter \"%s\" is given twice; give it "

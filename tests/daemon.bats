@@ -1145,6 +1145,32 @@ print("\n".join(sorted(s["properties"])))' "$spec" "$schema") \
     [ "$(metric "$DURL" lensrayd_workers_busy)" = 0 ]
 }
 
+@test "a full queue's Retry-After is when a place frees, not when the queue drains" {
+    # It was the mean job time x (queued + 1) / workers: 12 s where a
+    # place freed in 3 (an independent check), and --remote clients
+    # waited as asked while workers sat idle.  Now the mean job time over
+    # the workers: here about the one job timed first.
+    start_daemon full_wait --workers 1 --queue 2
+    local t0 t1 took ids="" i
+    t0=$(date +%s.%N)
+    req POST "$DURL/v1/render" "$(slow_job 10000)"
+    t1=$(date +%s.%N)
+    expect 200
+    took=$(awk "BEGIN {print $t1 - $t0}")
+    for i in 1 2 3; do
+        req POST "$DURL/v1/jobs" "$(slow_job)"
+        expect 202
+        ids="$ids $(json o.id)"
+    done
+    req POST "$DURL/v1/jobs" "$(slow_job)"
+    expect_error 429 queue_full
+    echo "one job $took s; Retry-After $(header Retry-After)"
+    awk "BEGIN {exit !($(header Retry-After) <= int($took) + 2)}"
+    for i in $ids; do
+        req DELETE "$DURL/v1/jobs/$i"
+    done
+}
+
 @test "a full queue answers 429 with Retry-After" {
     start_daemon full --workers 1 --queue 2
     local ids="" i
@@ -1405,6 +1431,13 @@ sys.stdout.buffer.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBB
     expect_error 422 invalid_value limit
     req GET "$URL/v1/jobs?limit=2&status=done"
     expect 200
+    # A parameter without a value is refused too: a bare ?wait was read as
+    # absent and answered at once, a bare ?status listed every job.
+    req GET "$URL/v1/jobs?status"
+    expect_error 422 invalid_value status
+    [[ "$(json o.error.message)" == *'"status" has no value'* ]]
+    req GET "$URL/v1/jobs/0123456789abcdef0123456789abcdef?wait"
+    expect_error 422 invalid_value wait
     # Bytes of the request that are not UTF-8 are not echoed into the
     # JSON (a %ff came back raw, and no UTF-8 decoder read the answer).
     local q
