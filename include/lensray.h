@@ -694,12 +694,12 @@ LR_API lr_status lr_format_from_name(const char *name, const char *field,
  * rendered images; NONE costs a sixth of ZIP's time for about 3.5x the
  * bytes (a farm's parts on a local network: bench/README.md). */
 typedef enum lr_exr_compression {
-    LR_EXR_ZIP = 0, /* "zip": zlib over 16 scanlines */
-    LR_EXR_NONE,    /* "none" */
-    LR_EXR_ZIPS,    /* "zips": zlib per scanline */
-    LR_EXR_RLE,     /* "rle": run lengths */
-    LR_EXR_PIZ      /* "piz": wavelet and Huffman, for grainy images */
-} lr_exr_compression;
+    LR_EXR_ZIP = 0,   /* "zip": zlib over 16 scanlines */
+    LR_EXR_NONE,      /* "none" */
+    LR_EXR_ZIPS,      /* "zips": zlib per scanline */
+    LR_EXR_RLE,       /* "rle": run lengths */
+    LR_EXR_PIZ        /* "piz": wavelet and Huffman, for grainy images */
+} lr_exr_compression; /* another value: LR_ERR_INVALID when encoding */
 
 /* The name of an EXR compression ("zip"), and the compression of a name;
  * an unknown name is LR_ERR_INVALID naming `field` (default
@@ -801,7 +801,8 @@ typedef struct lr_job lr_job;
  * referenced after the call) and checks its shape: an object with the
  * keys above and no others, none twice, "scene" a string or an object,
  * "camera", "render" and "output" objects.  Nesting deeper than
- * `max_depth` (capped at LR_MAX_JSON_DEPTH) is refused before parsing.
+ * `max_depth` (capped at LR_MAX_JSON_DEPTH; 0 or less means that cap)
+ * is refused before parsing.
  * On success *out owns a new job: free it with lr_job_free.
  * Errors: LR_ERR_SYNTAX (empty, not UTF-8, not JSON, or text after the
  * value; the message gives the place), LR_ERR_LIMIT (too deep),

@@ -981,6 +981,14 @@ static void test_encode_bad_arguments(void **state)
     assert_int_equal(
         lr_image_encode(img, LR_FORMAT_PNG, NULL, NULL, &len, &err),
         LR_ERR_INVALID);
+    /* An unknown EXR compression is refused (it was written as ZIP). */
+    lr_output_options o;
+    lr_output_options_default(&o);
+    o.exr_compression = (lr_exr_compression)99;
+    assert_int_equal(lr_image_encode(img, LR_FORMAT_EXR, &o, &buf, &len, &err),
+                     LR_ERR_INVALID);
+    assert_null(buf);
+    assert_non_null(strstr(err.message, "exr_compression"));
     lr_image_free(img);
 }
 

@@ -186,6 +186,12 @@ lr_status lr__encode_exr(const lr_image *img, const lr_output_options *opts,
 {
     *buf = NULL;
     *len = 0;
+    /* (An unknown value was written as ZIP without a word.) */
+    if ((int)opts->exr_compression < (int)LR_EXR_ZIP ||
+        (int)opts->exr_compression > (int)LR_EXR_PIZ)
+        return lr__fail(err, LR_ERR_INVALID, NULL,
+                        "exr_compression is not a known compression (%d)",
+                        (int)opts->exr_compression);
 
     const int half = opts->exr_half != 0;
     const int want_z = opts->exr_depth && img->depth != NULL;
