@@ -694,12 +694,13 @@ LR_API lr_status lr_format_from_name(const char *name, const char *field,
  * rendered images; NONE costs a sixth of ZIP's time for about 3.5x the
  * bytes (a farm's parts on a local network: bench/README.md). */
 typedef enum lr_exr_compression {
-    LR_EXR_ZIP = 0,   /* "zip": zlib over 16 scanlines */
-    LR_EXR_NONE,      /* "none" */
-    LR_EXR_ZIPS,      /* "zips": zlib per scanline */
-    LR_EXR_RLE,       /* "rle": run lengths */
-    LR_EXR_PIZ        /* "piz": wavelet and Huffman, for grainy images */
-} lr_exr_compression; /* another value: LR_ERR_INVALID when encoding */
+    LR_EXR_ZIP = 0, /* "zip": zlib over 16 scanlines */
+    LR_EXR_NONE,    /* "none" */
+    LR_EXR_ZIPS,    /* "zips": zlib per scanline */
+    LR_EXR_RLE,     /* "rle": run lengths */
+    LR_EXR_PIZ      /* "piz": wavelet and Huffman, for grainy images; any
+                       other value is LR_ERR_INVALID when encoding */
+} lr_exr_compression;
 
 /* The name of an EXR compression ("zip"), and the compression of a name;
  * an unknown name is LR_ERR_INVALID naming `field` (default
