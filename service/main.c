@@ -514,8 +514,10 @@ int main(int argc, char **argv)
     lrd_jobs_begin_shutdown();
     double deadline = lrd_monotonic() + lrd_cfg.shutdown_grace;
     int again = 0;
-    while (lrd_jobs_running() > 0 && lrd_monotonic() < deadline && !again)
+    while (lrd_jobs_running() > 0 && lrd_monotonic() < deadline && !again) {
         again = wait_signal(&set, 0.05);
+        lrd_jobs_enforce_time();
+    }
     long left = lrd_jobs_running();
     if (left > 0) {
         fprintf(stderr, "lensrayd: cancelling %ld running job%s\n", left,

@@ -117,6 +117,27 @@ static void test_obj_hostile(void **state)
                          "a concave face of 8193 corners; at most 8192");
         }
     }
+    /* A self-crossing face of 8192 random corners: ear clipping found
+     * few ears and walked the ring for each cut (15 s alone, and a file
+     * may hold many).  The file's steps are budgeted (about 2 s): past
+     * them, a named limit. */
+    n = 0;
+    unsigned long long lcg = 5;
+    for (int i = 0; i < 8192; i++) {
+        double xy[2];
+        for (int a = 0; a < 2; a++) {
+            lcg = lcg * 6364136223846793005ull + 1442695040888963407ull;
+            xy[a] = (double)(lcg >> 11) * 0x1p-53;
+        }
+        n += (size_t)snprintf(big + n, cap - n, "v %.9f %.9f 0\n", xy[0],
+                              xy[1]);
+    }
+    n += (size_t)snprintf(big + n, cap - n, "f");
+    for (int i = 0; i < 8192; i++)
+        n += (size_t)snprintf(big + n, cap - n, " %d", i + 1);
+    big[n++] = '\n';
+    obj_fails_at("tangle.obj", big, n, 8193,
+                 "the file's concave faces take too long to triangulate");
     /* A million-digit index. */
     n = (size_t)snprintf(big, cap, "%sf 1 2 ", tri);
     memset(big + n, '7', 1000000);

@@ -72,6 +72,10 @@ void lr__lens_ghost_film_n(const lr__cam *c, int g, int k, int n,
                            const double *ox, const double *oy, const lr__v3 *w,
                            double *rel, double *fx, double *fy, double *W);
 double lr__lens_ghost_disk(const lr__cam *c);
+/* The entrance pupil's paraxial radius at the camera's f-number, in the
+ * same millimetres (light_footprint.c: whether a finer search can find
+ * a pupil the coarse grid stepped over). */
+double lr__lens_pupil_radius(const lr__cam *c);
 
 /* The chief ray out of the front by film radius (lens_chief.c), for the
  * packet rays of the blocks whose plan skips the lens: nodes every

@@ -123,6 +123,11 @@ double lr__lens_ghost_disk(const lr__cam *c)
     return front_disk(&c->lens);
 }
 
+double lr__lens_pupil_radius(const lr__cam *c)
+{
+    return c->lens.L->first.enp_radius * c->lens.stop_scale;
+}
+
 static double lens_film_n(const lr__cam *c, const double *n, double nm,
                           double ox, double oy, lr__v3 w, double *fx,
                           double *fy);

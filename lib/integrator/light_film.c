@@ -35,7 +35,7 @@ lr_status lr__lt_film_init(lr__lt_film *f, const lr__lt *lt, int x0, int y0,
     double Lmax = lt->lmax_frame;
     for (int k = 0; k < lt->n; k++)
         Lmax = fmax(Lmax, v3_maxc(lt->lights[k].L));
-    Lmax = fmin(Lmax, FLT_MAX);
+    Lmax = fmax(fmin(Lmax, FLT_MAX), 1e-30); /* (a finite scale) */
     f->scale = ldexp(1.0, 40) / (Lmax > 0.0 ? Lmax : 1.0);
     f->dark = lt->dark;
     f->dark_bw = lt->dark_bw;

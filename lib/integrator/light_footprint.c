@@ -6,6 +6,7 @@
 #include "integrator/light_trace.h"
 
 #include "camera/camera.h"
+#include "camera/camera_lens.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -40,21 +41,22 @@ static int footprint_grid(const lr__cam *c, const lr__lt_light *l, double rho,
     return k;
 }
 
-/* Whether the direction to p lies within the frame's field of view
- * widened by a tenth (a real lens's mapping is not the pinhole's): the
- * 256 x 256 search below is for a light the camera sees through a small
- * pupil, and lights out of view (most of a night scene's, for a long
- * lens, and night-lens.json's 16 lights beyond the frame's edges) had
- * each cost it 65536 traces, 20 ms a light, outside any time limit (an
- * independent check: 720 lights, 15 s before a 2-s limit took hold). */
+/* Whether the direction to p lies within the frame's field of view, by
+ * its angle from the axis against the frame's corner's paraxial angle
+ * widened by a quarter (a real lens's barrel distortion images beyond
+ * the paraxial frame; fisheyes, which image far beyond, have no light
+ * side): the 256 x 256 search below is for a light the camera sees
+ * through a small pupil, and lights out of view (night-lens.json's 16
+ * beyond the frame's edges) had each cost it 65536 traces, 20 ms a
+ * light, outside any time limit (an independent check: 720 lights, 15 s
+ * before a 2-s limit took hold). */
 static int in_view(const lr__cam *c, lr__v3 p)
 {
     lr__v3 d = v3_sub(p, c->origin);
     double z = v3_dot(d, c->forward);
-    if (!(z > 0.0))
-        return 0;
-    double x = v3_dot(d, c->right) / z, y = v3_dot(d, c->up) / z;
-    return fabs(x) <= 1.1 * c->half_w && fabs(y) <= 1.1 * c->half_h;
+    double x = v3_dot(d, c->right), y = v3_dot(d, c->up);
+    double corner = atan(sqrt(c->half_w * c->half_w + c->half_h * c->half_h));
+    return atan2(sqrt(x * x + y * y), z) <= fmin(1.25 * corner, 0.499 * M_PI);
 }
 
 /* Light l's footprint (light_trace.h: fp_x, fp_y, fp_r): of a 64 x 64 grid over the disk lens_point draws on, the
@@ -66,9 +68,9 @@ static int in_view(const lr__cam *c, lr__v3 p)
  * Nikkor Z 14-30 at 14 mm, so a small light's image was empty at 1024
  * spp; the footprint's half of the paths land.  Where fewer than 4
  * offsets land the grid is refined: 16 x 16 over the 3 x 3 cells about
- * those that did (the cells shrink 8 times), or, where none did and the
- * light is in view, 256 x 256 over the whole disk and then that window
- * again.  The pupil of the
+ * those that did (the cells shrink 8 times), or, where none did, the
+ * light is in view and the entrance pupil is under two cells wide, 256 x
+ * 256 over the whole disk and then that window again.  The pupil of the
  * Zoom-Nikkor 25 mm at f/22, or the Nikkor Z 14-30 at f/16, is smaller
  * than two cells of the 64 x 64 grid: none of its points landed, no
  * footprint was made, and 0 of 386 paths landed at 256 spp (an
@@ -110,7 +112,9 @@ int lr__lt_footprint(const lr__cam *c, lr__lt_light *l)
         return 1;
     }
     n = footprint_grid(c, l, rho, 0.0, 0.0, rho, N, at);
-    if (n == 0 && seen) {
+    /* (A pupil of two cells or more, the grid would have found: its
+     * light lands nowhere.) */
+    if (n == 0 && seen && lr__lens_pupil_radius(c) < 2.0 * cell) {
         cell = 2.0 * rho / FINE;
         n = footprint_grid(c, l, rho, 0.0, 0.0, rho, FINE, at);
     }

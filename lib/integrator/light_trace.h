@@ -219,19 +219,20 @@ void lr__lt_keep(lr__lt *lt, const unsigned char *keep);
 #define LR__LT_FINE 4096.0
 
 /* Adds q units, rounded to the nearest integer (a magnitude of at most
- * 2^94; NaN adds nothing), to the 96-bit sum hi[k] 2^64 +
+ * 2^80, 2^40 times the scale's light: 2^14 such splats a pixel fit in
+ * the 96 bits; NaN adds nothing), to the 96-bit sum hi[k] 2^64 +
  * (uint64_t)lo[k], atomically: the low word's carry (or borrow) goes to
  * the high word.  Integer adds commute, so the sum is the same in any
  * order, whatever the threads (a float sum would not be). */
 static inline void lr__lt_film_add(int64_t *lo, int32_t *hi, size_t k, double q)
 {
-    const double lim = 0x1p94;
+    const double lim = 0x1p80;
     if (!(q == q))
         return;
     q = q < -lim ? -lim : q < lim ? q : lim;
     int64_t h = 0;
     uint64_t l;
-    if (q > -0x1p62 && q < 0x1p62) {
+    if (q > -0x1p63 && q < 0x1p63) {
         int64_t qi = (int64_t)llrint(q);
         l = (uint64_t)qi;
         h = qi < 0 ? -1 : 0;

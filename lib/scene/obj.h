@@ -11,6 +11,7 @@
 
 #include <locale.h>
 #include <stddef.h>
+#include <stdint.h>
 
 /* How much of an offending token an error message quotes. */
 #define TOKEN_QUOTE_MAX 40
@@ -19,6 +20,11 @@
  * ear clipping's time goes as the square of the corners: 8192 take
  * about 0.15 s, 100000 took 30 s (obj_face.c). */
 #define LR__OBJ_MAX_EAR 8192
+/* And the most steps of ear clipping (corners tested against a candidate
+ * ear) in one file, about 2 s: a self-crossing face of 8192 random
+ * corners took 15 s alone, and a file can hold many (a reviewer's
+ * measurement). */
+#define LR__OBJ_EAR_BUDGET 200000000ull
 
 /* A face corner after its indices were resolved to 0-based positions. */
 typedef struct corner {
@@ -46,6 +52,8 @@ typedef struct parser {
 
     unsigned *idx; /* 3 per triangle */
     size_t n_tri, cap_idx;
+    /* Ear clipping's steps so far in this file (LR__OBJ_EAR_BUDGET). */
+    uint64_t ear_steps;
     float *cn; /* 9 per triangle while every corner so far had a normal */
     size_t cap_cn;
     int all_normals;

@@ -204,8 +204,9 @@ static int inside(const double *a, const double *b, const double *c,
  * Each triangle keeps the polygon's winding.  0: out of memory; -1: a
  * concave polygon of more than LR__OBJ_MAX_EAR corners, which ear
  * clipping would take too long over (its time goes as the square of the
- * corners: a 100000-corner star, 5 MB, took 30 s to load). */
-static int triangulate(const parser *ps, const corner *c, size_t n, size_t *tri)
+ * corners: a 100000-corner star, 5 MB, took 30 s to load); -2: the
+ * file's concave faces past LR__OBJ_EAR_BUDGET steps in all. */
+static int triangulate(parser *ps, const corner *c, size_t n, size_t *tri)
 {
     /* On the stack for the usual few corners (an allocation a face cost
      * time in meshes of millions of quads). */
@@ -244,12 +245,18 @@ static int triangulate(const parser *ps, const corner *c, size_t n, size_t *tri)
                d = live[(i + 1) % m];
         const double *A = &xy[2 * a], *B = &xy[2 * b], *D = &xy[2 * d];
         int ear = turn(A, B, D) > 0;
-        for (size_t k = 0; k < m && ear; k++) {
+        size_t k = 0;
+        for (; k < m && ear; k++) {
             size_t q = live[k];
             if (q != a && q != b && q != d &&
                 turn(&xy[2 * live[(k + m - 1) % m]], &xy[2 * q],
                      &xy[2 * live[(k + 1) % m]]) <= 0)
                 ear = !inside(A, B, D, &xy[2 * q]);
+        }
+        ps->ear_steps += k + 1;
+        if (ps->ear_steps > LR__OBJ_EAR_BUDGET) {
+            free(heap ? xy : NULL), free(heap ? live : NULL);
+            return -2;
         }
         /* A self-crossing or degenerate rest has no ear: cut anyway. */
         if (ear || misses > m) {
@@ -334,13 +341,20 @@ lr_status lr__obj_parse_face(parser *ps, const char *rest)
     if (tr <= 0) {
         if (order != order_small)
             free(order);
-        if (tr < 0)
+        if (tr == -1)
             return lr__obj_fail_at(
                 ps, LR_ERR_LIMIT,
                 "a concave face of %zu corners; at most %d are "
                 "triangulated (the time goes as the square of the corners): "
                 "split it into smaller faces",
                 n, LR__OBJ_MAX_EAR);
+        if (tr == -2)
+            return lr__obj_fail_at(
+                ps, LR_ERR_LIMIT,
+                "the file's concave faces take too long to triangulate "
+                "(over %llu steps of ear clipping, about 2 s; this face has "
+                "%zu corners): split them into triangles or smaller faces",
+                (unsigned long long)LR__OBJ_EAR_BUDGET, n);
         return lr__obj_nomem(ps);
     }
     for (size_t k = 0; k < add; k++) {
