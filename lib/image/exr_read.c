@@ -5,6 +5,7 @@
  * path.
  */
 #include "image/exr_read.h"
+#include "json/json_util.h"
 
 #include <openexr.h>
 #include <stdlib.h>
@@ -104,12 +105,15 @@ static lr_status layout_refused(exr_context_t ctxt,
     for (int i = 0; i < chl->num_channels; i++) {
         const exr_attr_chlist_entry_t *e = &chl->entries[i];
         if (e->x_sampling != 1 || e->y_sampling != 1) {
+            /* (The name as valid UTF-8: a file's bytes are anything.) */
+            char name[64];
+            lr__utf8_escape(e->name.str, name, sizeof name);
             return lr__fail(err, LR_ERR_INVALID, blame,
                             "%s: channel %s is subsampled (%d x %d), which "
                             "lensray does not read; save the image with "
                             "every channel at full resolution (RGB, not "
                             "luminance/chroma)",
-                            shown, e->name.str, e->x_sampling, e->y_sampling);
+                            shown, name, e->x_sampling, e->y_sampling);
         }
     }
     return LR_OK;
