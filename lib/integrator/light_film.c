@@ -30,13 +30,13 @@ lr_status lr__lt_film_init(lr__lt_film *f, const lr__lt *lt, int x0, int y0,
     /* A pixel's value is a mean of radiance, about the brightest
      * light's in expectation; a scale of 2^40 over it resolves 1e-12 of
      * that light, and the sums' 96 bits leave 2^55 of headroom (an
-     * estimate too low costs nothing else).  At most FLT_MAX: an
-     * infinite one made the scale 0 and the picture black. */
+     * estimate too low costs nothing else).  Between 1e-30 and FLT_MAX,
+     * so that the scale is finite and not 0: an infinite estimate made
+     * it 0 and the picture black. */
     double Lmax = lt->lmax_frame;
     for (int k = 0; k < lt->n; k++)
         Lmax = fmax(Lmax, v3_maxc(lt->lights[k].L));
-    Lmax = fmax(fmin(Lmax, FLT_MAX), 1e-30); /* (a finite scale) */
-    f->scale = ldexp(1.0, 40) / (Lmax > 0.0 ? Lmax : 1.0);
+    f->scale = ldexp(1.0, 40) / fmax(fmin(Lmax, FLT_MAX), 1e-30);
     f->dark = lt->dark;
     f->dark_bw = lt->dark_bw;
     f->dark_block = lt->dark_block;

@@ -59,8 +59,9 @@ static int in_view(const lr__cam *c, lr__v3 p)
     return atan2(sqrt(x * x + y * y), z) <= fmin(1.25 * corner, 0.499 * M_PI);
 }
 
-/* Light l's footprint (light_trace.h: fp_x, fp_y, fp_r): of a 64 x 64 grid over the disk lens_point draws on, the
- * offsets whose rays from the light's centre land on the film, in a disk
+/* Light l's footprint (light_trace.h: fp_x, fp_y, fp_r): of a 64 x 64
+ * grid over the disk lens_point draws on, the offsets whose rays from
+ * the light's centre land on the film, in a disk
  * about their mean, widened by two cells and by the light's angular
  * radius over the front's.  The front is wide and a stopped-down lens's
  * pupil small: a light path drawn over the whole front reached the film

@@ -318,6 +318,7 @@ void lr__lt_light_emission(const lr__material *m, lr__lt_light *l);
  * other cameras, and where no small disk holds the rays that land.
  * Returns 0 when out of memory. */
 int lr__lt_footprint(const lr__cam *c, lr__lt_light *l);
+
 /* Light l's emission where a path meets it (h): l->L, or for a textured
  * light the texture looked up there, as the camera's hit does
  * (lr__hit_material). */

@@ -142,10 +142,16 @@ static double progress_share(const render *j)
     double cam = 0.0;
     /* The plan's own dark blocks (the light side keeps a copy only where
      * a light mixes: night.json's camera had been priced at every
-     * sample, and progress said 0.89 at 0.02 s of 4.9). */
-    for (int y = j->y0; y < j->y1; y++)
-        for (int x = j->x0; x < j->x1; x++)
-            cam += lr__plan_at(&j->plan, x, y)->dark ? 0.0 : per;
+     * sample, and progress said 0.89 at 0.02 s of 4.9), block by block:
+     * each the part of it inside the region. */
+    const int B = LR__PLAN_BLOCK;
+    for (int y = j->y0; y < j->y1; y = (y / B + 1) * B) {
+        int h = ((y / B + 1) * B < j->y1 ? (y / B + 1) * B : j->y1) - y;
+        for (int x = j->x0; x < j->x1; x = (x / B + 1) * B) {
+            int w = ((x / B + 1) * B < j->x1 ? (x / B + 1) * B : j->x1) - x;
+            cam += lr__plan_at(&j->plan, x, y)->dark ? 0.0 : per * w * h;
+        }
+    }
     double light = (double)j->n_light * LR__LT_CHUNK;
     return light / (light + cam);
 }

@@ -196,6 +196,48 @@ static int inside(const double *a, const double *b, const double *c,
     return turn(a, b, p) >= 0 && turn(b, c, p) >= 0 && turn(c, a, p) >= 0;
 }
 
+/* Ear clipping of the polygon xy (n corners, 2n numbers) into tri, with
+ * live (n) for its scratch (Eberly, "Triangulation by Ear Clipping",
+ * 2002).  Its steps count into ps->ear_steps: 1, or -2 once they pass
+ * LR__OBJ_EAR_BUDGET. */
+static int ear_clip(parser *ps, const double *xy, size_t n, size_t *live,
+                    size_t *tri)
+{
+    size_t m = n, t = 0, i = 0, misses = 0;
+    for (size_t k = 0; k < n; k++)
+        live[k] = k;
+    while (m > 3) {
+        size_t a = live[(i + m - 1) % m], b = live[i % m],
+               d = live[(i + 1) % m];
+        const double *A = &xy[2 * a], *B = &xy[2 * b], *D = &xy[2 * d];
+        int ear = turn(A, B, D) > 0;
+        size_t k = 0;
+        for (; k < m && ear; k++) {
+            size_t q = live[k];
+            if (q != a && q != b && q != d &&
+                turn(&xy[2 * live[(k + m - 1) % m]], &xy[2 * q],
+                     &xy[2 * live[(k + 1) % m]]) <= 0)
+                ear = !inside(A, B, D, &xy[2 * q]);
+        }
+        ps->ear_steps += k + 1;
+        if (ps->ear_steps > LR__OBJ_EAR_BUDGET)
+            return -2;
+        /* A self-crossing or degenerate rest has no ear: cut anyway. */
+        if (ear || misses > m) {
+            tri[3 * t] = a, tri[3 * t + 1] = b, tri[3 * t + 2] = d, t++;
+            memmove(&live[i % m], &live[i % m + 1],
+                    (m - i % m - 1) * sizeof *live);
+            m--;
+            misses = 0;
+        } else {
+            i++, misses++;
+        }
+        i %= m;
+    }
+    tri[3 * t] = live[0], tri[3 * t + 1] = live[1], tri[3 * t + 2] = live[2];
+    return 1;
+}
+
 /* The polygon's n - 2 triangles as corner numbers, 3 each, into tri: a
  * fan about corner 0 when the polygon is convex (as it always was:
  * every convex polygon's triangles unchanged), else by ear clipping
@@ -215,64 +257,26 @@ static int triangulate(parser *ps, const corner *c, size_t n, size_t *tri)
     int heap = n > 16;
     double *xy = heap ? malloc(2 * n * sizeof *xy) : xy_small;
     size_t *live = heap ? malloc(n * sizeof *live) : live_small;
-    int convex = 1;
+    int convex = 1, rc = 1;
     if (xy == NULL || live == NULL) {
-        free(heap ? xy : NULL), free(heap ? live : NULL);
-        return 0;
-    }
-    if (n > 3) {
-        project(ps, c, n, xy);
-        for (size_t i = 0; i < n && convex; i++)
-            convex = turn(&xy[2 * i], &xy[2 * ((i + 1) % n)],
-                          &xy[2 * ((i + 2) % n)]) >= 0;
-    }
-    if (!convex && n > LR__OBJ_MAX_EAR) {
-        free(heap ? xy : NULL), free(heap ? live : NULL);
-        return -1;
-    }
-    if (convex) {
-        for (size_t k = 1; k + 1 < n; k++)
-            tri[3 * (k - 1)] = 0, tri[3 * (k - 1) + 1] = k,
-                         tri[3 * (k - 1) + 2] = k + 1;
-        free(heap ? xy : NULL), free(heap ? live : NULL);
-        return 1;
-    }
-    size_t m = n, t = 0, i = 0, misses = 0;
-    for (size_t k = 0; k < n; k++)
-        live[k] = k;
-    while (m > 3) {
-        size_t a = live[(i + m - 1) % m], b = live[i % m],
-               d = live[(i + 1) % m];
-        const double *A = &xy[2 * a], *B = &xy[2 * b], *D = &xy[2 * d];
-        int ear = turn(A, B, D) > 0;
-        size_t k = 0;
-        for (; k < m && ear; k++) {
-            size_t q = live[k];
-            if (q != a && q != b && q != d &&
-                turn(&xy[2 * live[(k + m - 1) % m]], &xy[2 * q],
-                     &xy[2 * live[(k + 1) % m]]) <= 0)
-                ear = !inside(A, B, D, &xy[2 * q]);
+        rc = 0;
+    } else {
+        if (n > 3) {
+            project(ps, c, n, xy);
+            for (size_t i = 0; i < n && convex; i++)
+                convex = turn(&xy[2 * i], &xy[2 * ((i + 1) % n)],
+                              &xy[2 * ((i + 2) % n)]) >= 0;
         }
-        ps->ear_steps += k + 1;
-        if (ps->ear_steps > LR__OBJ_EAR_BUDGET) {
-            free(heap ? xy : NULL), free(heap ? live : NULL);
-            return -2;
-        }
-        /* A self-crossing or degenerate rest has no ear: cut anyway. */
-        if (ear || misses > m) {
-            tri[3 * t] = a, tri[3 * t + 1] = b, tri[3 * t + 2] = d, t++;
-            memmove(&live[i % m], &live[i % m + 1],
-                    (m - i % m - 1) * sizeof *live);
-            m--;
-            misses = 0;
-        } else {
-            i++, misses++;
-        }
-        i %= m;
+        if (convex)
+            for (size_t k = 1; k + 1 < n; k++)
+                tri[3 * (k - 1)] = 0, tri[3 * (k - 1) + 1] = k,
+                             tri[3 * (k - 1) + 2] = k + 1;
+        else
+            rc = n > LR__OBJ_MAX_EAR ? -1 : ear_clip(ps, xy, n, live, tri);
     }
-    tri[3 * t] = live[0], tri[3 * t + 1] = live[1], tri[3 * t + 2] = live[2];
-    free(heap ? xy : NULL), free(heap ? live : NULL);
-    return 1;
+    if (heap)
+        free(xy), free(live);
+    return rc;
 }
 
 lr_status lr__obj_parse_face(parser *ps, const char *rest)
