@@ -726,6 +726,26 @@ static void test_texture_transform(void **state)
     lr_scene_free(s);
 }
 
+/* The normal-map tests' light, unit, and their scene: glTF `file` (its
+ * 2 x 2 quad facing +z) seen 41 x 41 from 10 away, one grid sample a
+ * pixel, under a directional light of irradiance 2 along -bump_lt. */
+static const double bump_lt[3] = {0.5, 0.4, 0.7681145747868608};
+
+static lr_scene *bump_scene(const char *file)
+{
+    char json[640];
+    snprintf(json, sizeof json,
+             "{\"camera\": {\"position\": [0, 0, 10], \"look_at\": [0, 0, 0],"
+             " \"fov\": %.17g}, \"render\": {\"width\": 41, \"height\": 41,"
+             " \"spp\": 1, \"sampler\": \"grid\"},"
+             " \"lights\": [{\"type\": \"directional\", \"direction\":"
+             " [%.17g, %.17g, %.17g], \"irradiance\": 2}],"
+             " \"objects\": [{\"type\": \"gltf\", \"file\": \"%s\"}]}",
+             2 * atan(0.205) * 180 / PI, -bump_lt[0], -bump_lt[1], -bump_lt[2],
+             file);
+    return lr_test_load_json(json);
+}
+
 /* A normal map bends the shading normal as glTF 2.0 (3.9.3) defines it:
  * n = normalize(T x + B y + N z) with (x, y, z) = 2 texel - 1, x and y
  * times normalTexture.scale, T along increasing u (+x on this quad), B
@@ -737,17 +757,7 @@ static void test_normal_map(void **state)
 {
     (void)state;
     make("normal-map", "bumpy.glb");
-    static const double lt[3] = {0.5, 0.4, 0.7681145747868608}; /* unit */
-    char json[640];
-    snprintf(json, sizeof json,
-             "{\"camera\": {\"position\": [0, 0, 10], \"look_at\": [0, 0, 0],"
-             " \"fov\": %.17g}, \"render\": {\"width\": 41, \"height\": 41,"
-             " \"spp\": 1, \"sampler\": \"grid\"},"
-             " \"lights\": [{\"type\": \"directional\", \"direction\":"
-             " [%.17g, %.17g, %.17g], \"irradiance\": 2}],"
-             " \"objects\": [{\"type\": \"gltf\", \"file\": \"bumpy.glb\"}]}",
-             2 * atan(0.205) * 180 / PI, -lt[0], -lt[1], -lt[2]);
-    lr_scene *s = lr_test_load_json(json);
+    lr_scene *s = bump_scene("bumpy.glb");
     assert_null(strstr(lr_scene_warnings(s), "normalTexture"));
     static const int bytes[2][2][3] = {{{204, 128, 230}, {128, 204, 230}},
                                        {{128, 128, 255}, {60, 70, 230}}};
@@ -767,7 +777,8 @@ static void test_normal_map(void **state)
                                (2 * b[1] / 255.0 - 1) * 0.8,
                                2 * b[2] / 255.0 - 1};
                 double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-                double cosl = (n[0] * lt[0] + n[1] * lt[1] + n[2] * lt[2]) /
+                double cosl = (n[0] * bump_lt[0] + n[1] * bump_lt[1] +
+                               n[2] * bump_lt[2]) /
                               len;
                 double want = 0.5 / PI * 2 * cosl;
                 double got = rgb[3 * ((15 + 10 * y) * 41 + 15 + 10 * x)];
@@ -775,7 +786,7 @@ static void test_normal_map(void **state)
                     fail_msg("%s, texel (%d, %d): %.7g, the bent normal says "
                              "%.7g (unbent %.7g)",
                              pass ? "path" : "whitted", x, y, got, want,
-                             0.5 / PI * 2 * lt[2]);
+                             0.5 / PI * 2 * bump_lt[2]);
             }
         lr_image_free(img);
     }
@@ -791,29 +802,20 @@ static void test_normal_map(void **state)
 static void test_normal_map_transformed(void **state)
 {
     (void)state;
-    static const double lt[3] = {0.5, 0.4, 0.7681145747868608}; /* unit */
     const char *scenes[2] = {"normal-map-mirrored", "normal-map-turned"};
     const double sign[2][2] = {{-1, 1}, {-1, -1}};
     for (int k = 0; k < 2; k++) {
         make(scenes[k], "moved-bump.glb");
-        char json[640];
-        snprintf(json, sizeof json,
-                 "{\"camera\": {\"position\": [0, 0, 10], \"look_at\": "
-                 "[0, 0, 0], \"fov\": %.17g}, \"render\": {\"width\": 41, "
-                 "\"height\": 41, \"spp\": 1, \"sampler\": \"grid\"},"
-                 " \"lights\": [{\"type\": \"directional\", \"direction\":"
-                 " [%.17g, %.17g, %.17g], \"irradiance\": 2}],"
-                 " \"objects\": [{\"type\": \"gltf\", \"file\": "
-                 "\"moved-bump.glb\"}]}",
-                 2 * atan(0.205) * 180 / PI, -lt[0], -lt[1], -lt[2]);
-        lr_scene *s = lr_test_load_json(json);
+        lr_scene *s = bump_scene("moved-bump.glb");
         lr_image *img = render(s);
         double n[3] = {sign[k][0] * (2 * 204 / 255.0 - 1) * 0.8,
                        sign[k][1] * (2 * 160 / 255.0 - 1) * 0.8,
                        2 * 230 / 255.0 - 1};
         double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
         double want = 0.5 / PI * 2 *
-                      (n[0] * lt[0] + n[1] * lt[1] + n[2] * lt[2]) / len;
+                      (n[0] * bump_lt[0] + n[1] * bump_lt[1] +
+                       n[2] * bump_lt[2]) /
+                      len;
         double got = lr_image_rgb(img)[3 * (20 * 41 + 20)];
         if (!(fabs(got - want) < 1e-4 * want))
             fail_msg("%s: %.7g, the bent normal says %.7g", scenes[k], got,
